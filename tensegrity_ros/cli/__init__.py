@@ -1,0 +1,67 @@
+"""The ``tensegrity`` command line.
+
+Subcommands live in modules named ``cmd_*.py`` in this package. Each defines
+``register(subparsers)``, which adds its subcommands with ``set_defaults(func=...)``;
+a handler returns the process exit code. Handlers import heavy modules (numpy, scipy,
+rclpy) inside their bodies so that ``tensegrity --help`` stays fast and so that the core
+commands work in an environment without the ROS wheels.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import pkgutil
+import sys
+
+from tensegrity_ros.cli._common import CliError, fail
+
+# DDS stays on loopback unless the user set another range (shared/ros2-jazzy-from-pypi.md).
+os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+
+def _command_modules():
+    pkg = sys.modules[__name__]
+    names = sorted(m.name for m in pkgutil.iter_modules(pkg.__path__) if m.name.startswith("cmd_"))
+    mods = [importlib.import_module(f"{__name__}.{n}") for n in names]
+    return sorted(mods, key=lambda m: getattr(m, "ORDER", 100))
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="tensegrity",
+        description="Simulate, analyse and drive tensegrity mechanisms "
+        "(numerical core + ROS 2 Jazzy node suite).",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for mod in _command_modules():
+        mod.register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    if argv is None:
+        argv = sys.argv[1:]
+    # Let `--ros-args ...` through to rclpy untouched (remapping, namespaces, parameters).
+    ros_args: list[str] = []
+    if "--ros-args" in argv:
+        i = argv.index("--ros-args")
+        argv, ros_args = argv[:i], argv[i:]
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    args.ros_args = ros_args
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 0 if not argv else 2
+    try:
+        return int(args.func(args) or 0)
+    except CliError as err:
+        return fail(str(err), err.code)
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

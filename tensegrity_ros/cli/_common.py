@@ -1,0 +1,64 @@
+"""Helpers shared by the CLI subcommands: one-line errors, JSON output, parameters."""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from typing import Any
+
+
+class CliError(Exception):
+    """A user-facing failure: printed as one ``error:`` line, exit code ``code``."""
+
+    def __init__(self, message: str, code: int = 2):
+        super().__init__(message)
+        self.code = code
+
+
+def fail(message: str, code: int = 2) -> int:
+    print(f"error: {message}", file=sys.stderr)
+    return code
+
+
+def _jsonable(obj: Any) -> Any:
+    try:
+        import numpy as np
+    except ImportError:  # pragma: no cover
+        np = None
+    if np is not None:
+        if isinstance(obj, np.ndarray):
+            return [_jsonable(v) for v in obj.tolist()]
+        if isinstance(obj, np.generic):
+            return _jsonable(obj.item())
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None if math.isnan(obj) else ("inf" if obj > 0 else "-inf")
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    return obj
+
+
+def print_json(data: Any) -> None:
+    """Print ``data`` as JSON (numpy arrays become lists, NaN becomes null)."""
+    json.dump(_jsonable(data), sys.stdout, indent=2)
+    sys.stdout.write("\n")
+
+
+def parse_param_overrides(items: list[str] | None) -> dict[str, float]:
+    """Parse repeated ``--param NAME=VALUE`` options into a dict of floats."""
+    out: dict[str, float] = {}
+    for item in items or []:
+        name, sep, value = item.partition("=")
+        if not sep or not name.strip():
+            raise CliError(f"--param expects NAME=VALUE, got {item!r}")
+        try:
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise CliError(f"--param {name.strip()}: {value!r} is not a number") from None
+    return out
+
+
+def add_json_flag(p) -> None:
+    p.add_argument("--json", action="store_true", help="machine-readable JSON output")
