@@ -1,0 +1,58 @@
+"""Potential energy of the class-2 mechanism and the stability of its equilibria.
+
+Springs are linear with zero free length, so the potential energy is
+``U = 1/2 (k1 L7^2 + k2 L4^2 + k3 L3^2 + k4 L8^2)`` [J], which expands to the paper's
+Eq. (9) (verified in tests). Struts and actuators are rigid here (their stiffnesses
+ka, kb enter only the stiffness analysis). With the actuators locked, ``U`` depends on
+beta only through::
+
+    U(beta) = const + (L/2) (a cos beta + b sin beta),
+    a = k2 rho1 - (2 k3 + k2) rho2,   b = -k2 lambda1,
+
+so ``dU/dbeta = (L/2)(-a sin beta + b cos beta)`` and
+``d2U/dbeta2 = -(L/2)(a cos beta + b sin beta)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tensegrity_core.class2.geometry import SPRINGS, lambdas, member_lengths
+from tensegrity_core.class2.params import Class2Params
+
+_SPRING_IDX = np.array([m.number - 1 for m in SPRINGS])
+
+
+def spring_stiffnesses(params: Class2Params) -> np.ndarray:
+    """Stiffness of each spring in :data:`SPRINGS` order (CD, DE, EF, BE) [N/m]."""
+    return np.array([getattr(params, m.stiffness) for m in SPRINGS])
+
+
+def potential_energy(q, params: Class2Params):
+    """Elastic potential energy ``U(q)`` [J]; ``q = (rho1, rho2, beta)``, broadcastable."""
+    lengths = member_lengths(q, params)[..., _SPRING_IDX]
+    return 0.5 * np.sum(spring_stiffnesses(params) * lengths**2, axis=-1)
+
+
+def beta_coefficients(rho1, rho2, params: Class2Params):
+    """``(a, b)`` of ``U(beta) = const + (L/2)(a cos beta + b sin beta)``."""
+    lam1, _ = lambdas(rho1, rho2, params.L)
+    a = params.k2 * np.asarray(rho1) - (2.0 * params.k3 + params.k2) * np.asarray(rho2)
+    b = -params.k2 * lam1
+    return a, b
+
+
+def dU_dbeta(q, params: Class2Params):
+    """Partial derivative of ``U`` with respect to beta at fixed actuator lengths [J/rad]."""
+    q = np.asarray(q, dtype=float)
+    a, b = beta_coefficients(q[..., 0], q[..., 1], params)
+    beta = q[..., 2]
+    return 0.5 * params.L * (-a * np.sin(beta) + b * np.cos(beta))
+
+
+def d2U_dbeta2(q, params: Class2Params):
+    """Second derivative of ``U`` in beta [J/rad^2]; > 0 at a stable equilibrium."""
+    q = np.asarray(q, dtype=float)
+    a, b = beta_coefficients(q[..., 0], q[..., 1], params)
+    beta = q[..., 2]
+    return -0.5 * params.L * (a * np.cos(beta) + b * np.sin(beta))
