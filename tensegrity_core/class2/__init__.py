@@ -3,7 +3,7 @@
 See ``docs/class2.md`` for the verified formulas and the errata of the paper.
 """
 
-from tensegrity_core.class2.energy import d2U_dbeta2, dU_dbeta, potential_energy
+from tensegrity_core.class2.energy import d2U_dbeta2, dU_dbeta, equilibrium_beta, potential_energy
 from tensegrity_core.class2.geometry import (
     MEMBERS,
     NODE_NAMES,
@@ -28,4 +28,5 @@ __all__ = [
     "potential_energy",
     "dU_dbeta",
     "d2U_dbeta2",
+    "equilibrium_beta",
 ]

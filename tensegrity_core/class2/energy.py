@@ -56,3 +56,18 @@ def d2U_dbeta2(q, params: Class2Params):
     a, b = beta_coefficients(q[..., 0], q[..., 1], params)
     beta = q[..., 2]
     return -0.5 * params.L * (a * np.cos(beta) + b * np.sin(beta))
+
+
+def equilibrium_beta(rho1, rho2, params: Class2Params):
+    """The energy-minimising beta for locked actuators [rad], in [0, pi].
+
+    ``U(beta)`` is a sinusoid; its minimum is at ``atan2(-b, -a) =
+    atan2(k2 lambda1, (2 k3 + k2) rho2 - k2 rho1)``. This is the root of the paper's Eq. (10)
+    that is a minimum; the plain ``arctan`` of Eq. (10) returns the maximum (beta - pi)
+    whenever the denominator is negative. The result exceeds the paper's range
+    [0, pi/2] exactly when ``(2 k3 + k2) rho2 < k2 rho1``. When ``a = b = 0``
+    (``lambda1 = 0`` and ``(2k3+k2) rho2 = k2 rho1``) every beta is an equilibrium and 0
+    is returned; callers check :func:`d2U_dbeta2`.
+    """
+    a, b = beta_coefficients(rho1, rho2, params)
+    return np.arctan2(-b, -a)
