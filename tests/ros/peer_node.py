@@ -1,0 +1,54 @@
+"""A small real node run as a separate process by the ROS smoke test.
+
+It echoes ``ping`` (tensegrity_msgs/ActuatorForces) to ``pong`` with every force doubled,
+and serves ``solve_ik`` (tensegrity_msgs/SolveIK) answering one solution whose rho1, rho2
+are the request's x, y (a transport check, not kinematics).
+"""
+
+from __future__ import annotations
+
+import sys
+
+from tensegrity_ros.ros_env import require_rclpy
+
+rclpy = require_rclpy()
+from rclpy.executors import ExternalShutdownException  # noqa: E402
+from rclpy.node import Node  # noqa: E402
+from tensegrity_msgs.msg import ActuatorForces, IKSolution  # noqa: E402
+from tensegrity_msgs.srv import SolveIK  # noqa: E402
+
+
+class Peer(Node):
+    def __init__(self) -> None:
+        super().__init__("smoke_peer")
+        self.pub = self.create_publisher(ActuatorForces, "pong", 10)
+        self.create_subscription(ActuatorForces, "ping", self.on_ping, 10)
+        self.create_service(SolveIK, "solve_ik", self.on_ik)
+
+    def on_ping(self, msg: ActuatorForces) -> None:
+        out = ActuatorForces(header=msg.header, name=list(msg.name), force=[2.0 * f for f in msg.force])
+        self.pub.publish(out)
+
+    def on_ik(self, req: SolveIK.Request, res: SolveIK.Response) -> SolveIK.Response:
+        res.success = True
+        res.message = "echo"
+        res.solutions = [IKSolution(rho1=req.x, rho2=req.y)]
+        return res
+
+
+def main() -> int:
+    rclpy.init()
+    node = Peer()
+    print("ready", flush=True)
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

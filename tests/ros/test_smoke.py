@@ -1,0 +1,81 @@
+"""Foundation smoke test: two real nodes in two processes exchange a tensegrity_msgs
+message and a service call over DDS on loopback."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.ros
+
+
+def _discovery_range_seen_by_a_new_process(env_value: str | None) -> str:
+    env = {k: v for k, v in os.environ.items() if k != "ROS_AUTOMATIC_DISCOVERY_RANGE"}
+    if env_value is not None:
+        env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = env_value
+    code = (
+        "import os; from tensegrity_ros.ros_env import require_rclpy; require_rclpy(); "
+        "print(os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'])"
+    )
+    return subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                          text=True, check=True).stdout.strip()
+
+
+def test_discovery_defaults_to_localhost_and_a_user_choice_wins():
+    assert _discovery_range_seen_by_a_new_process(None) == "LOCALHOST"
+    assert _discovery_range_seen_by_a_new_process("SUBNET") == "SUBNET"
+
+
+def test_tests_run_in_their_own_domain():
+    assert os.environ.get("ROS_DOMAIN_ID", "0") not in {"", "0"}
+
+
+def test_message_and_service_between_two_processes():
+    from tensegrity_ros.ros_env import require_rclpy
+
+    rclpy = require_rclpy()
+    from rclpy.node import Node
+    from tensegrity_msgs.msg import ActuatorForces
+    from tensegrity_msgs.srv import SolveIK
+
+    peer = subprocess.Popen(
+        [sys.executable, str(Path(__file__).with_name("peer_node.py"))],
+        stdout=subprocess.PIPE, text=True, env=dict(os.environ),
+    )
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx)
+    try:
+        assert peer.stdout.readline().strip() == "ready"
+        node = Node("smoke_client", context=ctx)
+        got: list[ActuatorForces] = []
+        node.create_subscription(ActuatorForces, "pong", got.append, 10)
+        pub = node.create_publisher(ActuatorForces, "ping", 10)
+        client = node.create_client(SolveIK, "solve_ik")
+        executor = rclpy.executors.SingleThreadedExecutor(context=ctx)
+        executor.add_node(node)
+
+        assert client.wait_for_service(timeout_sec=20.0), "service never appeared"
+        deadline = time.monotonic() + 20.0
+        while not got and time.monotonic() < deadline:
+            pub.publish(ActuatorForces(name=["f1", "f2"], force=[1.5, -2.0]))
+            executor.spin_once(timeout_sec=0.1)
+        assert got, "no echo received"
+        assert list(got[0].name) == ["f1", "f2"]
+        assert list(got[0].force) == [3.0, -4.0]
+
+        future = client.call_async(SolveIK.Request(x=0.25, y=0.5))
+        executor.spin_until_future_complete(future, timeout_sec=20.0)
+        res = future.result()
+        assert res is not None and res.success
+        assert (res.solutions[0].rho1, res.solutions[0].rho2) == (0.25, 0.5)
+        executor.shutdown()
+        node.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=ctx)
+        peer.terminate()
+        peer.wait(timeout=10)
