@@ -1,0 +1,244 @@
+"""ROS subcommands: run nodes, bring the suite up, and talk to it without the ros2 CLI."""
+
+from __future__ import annotations
+
+import sys
+
+from tensegrity_ros.cli._common import CliError, add_json_flag
+
+ORDER = 50
+
+NODES = {
+    "sim": "tensegrity_ros.nodes.sim",
+    "ik": "tensegrity_ros.nodes.ik",
+    "formfind": "tensegrity_ros.nodes.formfind",
+}
+
+
+def register(sub) -> None:
+    p = sub.add_parser("node", help="run one node of the suite (sim, ik or formfind)",
+                       description="Run one node. ROS arguments follow --ros-args, e.g. "
+                       "`tensegrity node sim --ros-args -r __ns:=/robot1 -p publish_rate:=500.0`.")
+    p.add_argument("name", choices=sorted(NODES))
+    p.set_defaults(func=_node)
+
+    p = sub.add_parser("up", help="start the suite (sim + IK + form-finding [+ recorder]); Ctrl-C stops it")
+    p.add_argument("--scene", default=None, help="scene file or shipped scene name for the simulator")
+    p.add_argument("--namespace", "-n", default=None, help="ROS namespace for every node, e.g. /robot1")
+    p.add_argument("--params-file", default=None, help="ROS parameter YAML file applied to every node")
+    p.add_argument("--record", metavar="DIR", default=None, help="also record the suite's topics to this bag folder")
+    p.add_argument("--no-formfind", action="store_true", help="do not start the form-finding node")
+    p.set_defaults(func=_up)
+
+    p = sub.add_parser("send-forces", help="publish actuator forces (positive = tensile) on actuator_forces")
+    p.add_argument("forces", nargs="+", type=float, metavar="F", help="forces [N] for f1 f2 (or those named)")
+    p.add_argument("--name", action="append", default=None, help="actuator name per force (f1, f2)")
+    p.add_argument("--rate", type=float, default=0.0, help="repeat at this rate [Hz] until Ctrl-C (0 = once)")
+    p.add_argument("--topic", default="actuator_forces")
+    p.set_defaults(func=_send_forces)
+
+    p = sub.add_parser("call-ik", help="call the solve_ik service for the end-effector target (X, Y)")
+    p.add_argument("x", type=float)
+    p.add_argument("y", type=float)
+    p.add_argument("--seed", nargs=2, type=float, metavar=("RHO1", "RHO2"), default=None)
+    p.add_argument("--service", default="solve_ik")
+    p.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for the service")
+    add_json_flag(p)
+    p.set_defaults(func=_call_ik)
+
+    p = sub.add_parser("call-formfind", help="call the find_form service with a structure file")
+    p.add_argument("file", help="structure description (YAML)")
+    p.add_argument("--tol", type=float, default=0.0, help="residual tolerance [N] (0 = default)")
+    p.add_argument("--max-iter", type=int, default=0, help="iteration limit (0 = default)")
+    p.add_argument("--service", default="find_form")
+    p.add_argument("--timeout", type=float, default=120.0)
+    add_json_flag(p)
+    p.set_defaults(func=_call_formfind)
+
+    p = sub.add_parser("echo", help="print the messages arriving on a topic")
+    p.add_argument("topic")
+    p.add_argument("--count", "-c", type=int, default=0, help="stop after this many messages (0 = never)")
+    p.add_argument("--timeout", type=float, default=0.0, help="give up after this many seconds (0 = never)")
+    add_json_flag(p)
+    p.set_defaults(func=_echo)
+
+
+def _node(args) -> int:
+    import importlib
+
+    module = importlib.import_module(NODES[args.name])
+    return module.main([f"tensegrity-{args.name}", *args.ros_args])
+
+
+def _up(args) -> int:
+    from tensegrity_ros.launch import Launcher, ProcessSpec
+
+    exe = [sys.executable, "-m", "tensegrity_ros.cli"]
+    ros = ["--ros-args"]
+    if args.namespace:
+        ros += ["-r", f"__ns:={args.namespace if args.namespace.startswith('/') else '/' + args.namespace}"]
+    if args.params_file:
+        ros += ["--params-file", args.params_file]
+    ros += args.ros_args[1:] if args.ros_args else []
+    sim_ros = ros + (["-p", f"scene:={args.scene}"] if args.scene else [])
+    specs = [ProcessSpec("sim", exe + ["node", "sim"] + sim_ros), ProcessSpec("ik", exe + ["node", "ik"] + ros)]
+    if not args.no_formfind:
+        specs.append(ProcessSpec("formfind", exe + ["node", "formfind"] + ros))
+    if args.record:
+        specs.append(ProcessSpec("record", exe + ["record", "-o", args.record] + ros))
+    print(f"starting {', '.join(s.name for s in specs)} (Ctrl-C stops all)", flush=True)
+    return Launcher(specs).run()
+
+
+def _client_node(name: str, ros_args: list[str]):
+    from tensegrity_ros.ros_env import require_rclpy
+
+    rclpy = require_rclpy()
+    rclpy.init(args=["tensegrity", *ros_args])
+    return rclpy, rclpy.create_node(name)
+
+
+def _send_forces(args) -> int:
+    from tensegrity_ros.actuator_commands import CommandError, parse_command
+
+    names = args.name or []
+    try:
+        parse_command(names, args.forces, max_abs_force=float("inf"))
+    except CommandError as err:
+        raise CliError(str(err)) from None
+    rclpy, node = _client_node("tensegrity_send_forces", args.ros_args)
+    from tensegrity_msgs.msg import ActuatorForces
+
+    pub = node.create_publisher(ActuatorForces, args.topic, 10)
+    try:
+        # wait briefly for the subscriber so a one-shot command is not lost
+        for _ in range(50):
+            if pub.get_subscription_count() > 0:
+                break
+            rclpy.spin_once(node, timeout_sec=0.1)
+        period = 1.0 / args.rate if args.rate > 0 else None
+        while True:
+            msg = ActuatorForces(name=names, force=args.forces)
+            msg.header.stamp = node.get_clock().now().to_msg()
+            pub.publish(msg)
+            if period is None:
+                rclpy.spin_once(node, timeout_sec=0.2)
+                break
+            rclpy.spin_once(node, timeout_sec=period)
+        if pub.get_subscription_count() == 0:
+            print(f"warning: nobody subscribes to {node.resolve_topic_name(args.topic)}", file=sys.stderr)
+        return 0
+    except KeyboardInterrupt:
+        return 0
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+
+
+def _call(rclpy, node, srv_type, service: str, request, timeout: float):
+    client = node.create_client(srv_type, service)
+    if not client.wait_for_service(timeout_sec=timeout):
+        raise CliError(f"service {node.resolve_service_name(service)} not available after {timeout:g} s "
+                       "(is the suite up? `tensegrity up`)", code=3)
+    future = client.call_async(request)
+    rclpy.spin_until_future_complete(node, future, timeout_sec=timeout)
+    if not future.done():
+        raise CliError(f"no answer from {service} within {timeout:g} s", code=3)
+    return future.result()
+
+
+def _call_ik(args) -> int:
+    from tensegrity_ros.cli._common import print_json
+    from tensegrity_ros.msg_utils import message_to_dict
+
+    rclpy, node = _client_node("tensegrity_call_ik", args.ros_args)
+    from tensegrity_msgs.srv import SolveIK
+
+    try:
+        req = SolveIK.Request(x=args.x, y=args.y, seed=list(args.seed or []))
+        res = _call(rclpy, node, SolveIK, args.service, req, args.timeout)
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    if args.json:
+        print_json(message_to_dict(res))
+    else:
+        print(f"{'ok' if res.success else 'failed'}: {res.message}")
+        for s in res.solutions:
+            print(f"  rho1 = {s.rho1:.9f} m  rho2 = {s.rho2:.9f} m  beta = {s.beta:.9f} rad  "
+                  f"(delta1 {s.delta1:+d}, delta2 {s.delta2:+d}, d2U/dbeta2 = {s.stiffness_beta:.4g})")
+    return 0 if res.success else 1
+
+
+def _call_formfind(args) -> int:
+    from pathlib import Path
+
+    from tensegrity_ros.cli._common import print_json
+    from tensegrity_ros.msg_utils import message_to_dict
+
+    try:
+        text = Path(args.file).read_text()
+    except OSError as err:
+        raise CliError(f"cannot read {args.file}: {err.strerror}") from None
+    rclpy, node = _client_node("tensegrity_call_formfind", args.ros_args)
+    from tensegrity_msgs.srv import FindForm
+
+    try:
+        req = FindForm.Request(structure=text, tolerance=args.tol, max_iterations=args.max_iter)
+        res = _call(rclpy, node, FindForm, args.service, req, args.timeout)
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    if args.json:
+        print_json(message_to_dict(res))
+    else:
+        print(f"{'ok' if res.success else 'failed'}: {res.message}")
+        print(f"  iterations {res.iterations}, residual {res.residual:.3g}, "
+              f"min stiffness eigenvalue {res.min_stiffness_eigenvalue:.4g}")
+        for i, t in enumerate(res.member_forces):
+            print(f"  member {i}: {t:.6g} N")
+    return 0 if res.success else 1
+
+
+def _echo(args) -> int:
+    import json
+    import time
+
+    import yaml
+
+    from tensegrity_ros.msg_utils import message_class, message_to_dict
+
+    rclpy, node = _client_node("tensegrity_echo", args.ros_args)
+    try:
+        topic = node.resolve_topic_name(args.topic)
+        deadline = time.monotonic() + (args.timeout or float("inf"))
+        types: list[str] = []
+        while not types:
+            types = dict(node.get_topic_names_and_types()).get(topic, [])
+            if time.monotonic() > deadline:
+                raise CliError(f"topic {topic} not found within {args.timeout:g} s", code=3)
+            rclpy.spin_once(node, timeout_sec=0.1)
+        cls = message_class(types[0])
+        received = []
+
+        def show(msg):
+            received.append(1)
+            data = message_to_dict(msg)
+            if args.json:
+                print(json.dumps(data), flush=True)
+            else:
+                print(yaml.safe_dump(data, sort_keys=False).rstrip() + "\n---", flush=True)
+
+        from rclpy.qos import qos_profile_sensor_data
+
+        node.create_subscription(cls, topic, show, qos_profile_sensor_data)
+        while rclpy.ok() and (not args.count or len(received) < args.count):
+            if time.monotonic() > deadline:
+                break
+            rclpy.spin_once(node, timeout_sec=0.1)
+        return 0
+    except KeyboardInterrupt:
+        return 0
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()

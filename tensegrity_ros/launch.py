@@ -1,0 +1,110 @@
+"""Start several suite processes together and stop them together (``tensegrity up``).
+
+There is no ``ros2 launch`` on these machines, so this is the suite's own small launcher:
+each node runs in its own process (``tensegrity node <name> --ros-args ...``), so the
+1 kHz simulator never shares an interpreter lock with service handlers. Output of every
+child is prefixed with its name. Ctrl-C / SIGTERM stop every child: SIGINT first (clean
+rclpy shutdown, bags finished), SIGTERM after a grace period, SIGKILL last.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from dataclasses import dataclass, field
+
+
+@dataclass
+class ProcessSpec:
+    name: str
+    argv: list[str]
+    env: dict[str, str] = field(default_factory=dict)
+
+
+class Launcher:
+    """Runs :class:`ProcessSpec` children until one is asked to stop or all have exited."""
+
+    def __init__(self, specs: list[ProcessSpec], *, grace: float = 5.0, out=sys.stdout):
+        self.specs = specs
+        self.grace = grace
+        self.out = out
+        self.procs: dict[str, subprocess.Popen] = {}
+        self._stop = threading.Event()
+        self._lock = threading.Lock()
+
+    def _pump(self, name: str, stream) -> None:
+        for line in iter(stream.readline, ""):
+            with self._lock:
+                self.out.write(f"[{name}] {line}")
+                self.out.flush()
+        stream.close()
+
+    def start(self) -> None:
+        env = dict(os.environ)
+        env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+        env["PYTHONUNBUFFERED"] = "1"
+        for spec in self.specs:
+            proc = subprocess.Popen(
+                spec.argv, env={**env, **spec.env}, stdout=subprocess.PIPE,
+                stderr=subprocess.STDOUT, text=True, start_new_session=True,
+            )
+            self.procs[spec.name] = proc
+            threading.Thread(target=self._pump, args=(spec.name, proc.stdout), daemon=True).start()
+
+    def request_stop(self, *_args) -> None:
+        self._stop.set()
+
+    def wait(self) -> int:
+        """Block until stop is requested or every child has exited; return an exit code."""
+        reported: set[str] = set()
+        while not self._stop.is_set():
+            alive = False
+            for name, proc in self.procs.items():
+                rc = proc.poll()
+                if rc is None:
+                    alive = True
+                elif name not in reported:
+                    reported.add(name)
+                    with self._lock:
+                        self.out.write(f"[launch] {name} exited with code {rc}\n")
+                        self.out.flush()
+            if not alive:
+                break
+            self._stop.wait(0.2)
+        return self.stop()
+
+    def stop(self) -> int:
+        """Stop every child (SIGINT, then SIGTERM, then SIGKILL); the worst exit code."""
+        for sig, wait in ((signal.SIGINT, self.grace), (signal.SIGTERM, 2.0), (signal.SIGKILL, 2.0)):
+            running = [p for p in self.procs.values() if p.poll() is None]
+            if not running:
+                break
+            for p in running:
+                try:
+                    os.killpg(p.pid, sig)
+                except ProcessLookupError:
+                    pass
+            deadline = time.monotonic() + wait
+            for p in running:
+                try:
+                    p.wait(timeout=max(0.0, deadline - time.monotonic()))
+                except subprocess.TimeoutExpired:
+                    pass
+        codes = [p.returncode for p in self.procs.values()]
+        # A child stopped by our SIGINT exits 0 (clean) or -2/130; neither is a failure.
+        bad = [c for c in codes if c not in (0, -signal.SIGINT, 130, None)]
+        return bad[0] if bad else 0
+
+    def run(self) -> int:
+        old_int = signal.signal(signal.SIGINT, self.request_stop)
+        old_term = signal.signal(signal.SIGTERM, self.request_stop)
+        try:
+            self.start()
+            return self.wait()
+        finally:
+            signal.signal(signal.SIGINT, old_int)
+            signal.signal(signal.SIGTERM, old_term)

@@ -1,0 +1,39 @@
+"""Message-type helpers that the missing ``rosidl_runtime_py`` would otherwise provide."""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+import numpy as np
+
+
+def message_class(type_name: str):
+    """The Python class of a ROS interface type such as ``sensor_msgs/msg/JointState``.
+
+    Accepts ``pkg/msg/Name``, ``pkg/Name`` (message assumed) and ``pkg/srv/Name``.
+    Raises ``ValueError`` naming the type when it cannot be imported.
+    """
+    parts = type_name.strip("/").split("/")
+    if len(parts) == 2:
+        parts = [parts[0], "msg", parts[1]]
+    if len(parts) != 3 or parts[1] not in {"msg", "srv", "action"}:
+        raise ValueError(f"not a ROS interface type name: {type_name!r} (expected pkg/msg/Name)")
+    pkg, kind, name = parts
+    try:
+        return getattr(importlib.import_module(f"{pkg}.{kind}"), name)
+    except (ImportError, AttributeError) as err:
+        raise ValueError(f"interface type {type_name!r} is not installed ({err})") from None
+
+
+def message_to_dict(msg: Any) -> Any:
+    """A plain-Python (YAML/JSON-friendly) copy of a message, recursively."""
+    if hasattr(msg, "get_fields_and_field_types"):
+        return {f: message_to_dict(getattr(msg, f)) for f in msg.get_fields_and_field_types()}
+    if isinstance(msg, np.ndarray):
+        return msg.tolist()
+    if isinstance(msg, (list, tuple)):
+        return [message_to_dict(v) for v in msg]
+    if isinstance(msg, (bytes, bytearray)):
+        return list(msg)
+    return msg

@@ -1,0 +1,86 @@
+"""Shared node plumbing: typed parameter declaration, mechanism parameters, main loop."""
+
+from __future__ import annotations
+
+import math
+from typing import Callable, Sequence
+
+from tensegrity_ros.ros_env import require_rclpy
+
+rclpy = require_rclpy()
+from rcl_interfaces.msg import (  # noqa: E402
+    FloatingPointRange,
+    IntegerRange,
+    ParameterDescriptor,
+    SetParametersResult,
+)
+from rclpy.executors import ExternalShutdownException  # noqa: E402
+from rclpy.node import Node  # noqa: E402
+
+from tensegrity_core.class2 import Class2Params  # noqa: E402
+from tensegrity_core.errors import ParameterError  # noqa: E402
+
+#: Mechanism parameters every node that models the class-2 mechanism declares.
+MECHANISM_PARAMETERS = {
+    "L": "strut length [m]",
+    "k1": "stiffness of spring EF [N/m]",
+    "k2": "stiffness of spring DE [N/m]",
+    "k3": "stiffness of spring CD [N/m]",
+    "k4": "stiffness of spring BE [N/m]",
+}
+
+
+def declare(node: Node, name: str, default, description: str, *, lo=None, hi=None, read_only=False):
+    """Declare a typed parameter with a description and an optional range; return its value."""
+    desc = ParameterDescriptor(description=description, read_only=read_only)
+    if isinstance(default, float) and (lo is not None or hi is not None):
+        desc.floating_point_range = [FloatingPointRange(
+            from_value=float(-math.inf if lo is None else lo),
+            to_value=float(math.inf if hi is None else hi), step=0.0)]
+    elif isinstance(default, int) and not isinstance(default, bool) and (lo is not None or hi is not None):
+        desc.integer_range = [IntegerRange(from_value=int(lo or 0), to_value=int(hi or 2**31 - 1), step=1)]
+    return node.declare_parameter(name, default, desc).value
+
+
+def declare_mechanism(node: Node, defaults: Class2Params) -> Class2Params:
+    """Declare L, k1..k4 (defaults from ``defaults``) and return the resulting parameters."""
+    values = {n: declare(node, n, float(getattr(defaults, n)), d, read_only=True)
+              for n, d in MECHANISM_PARAMETERS.items()}
+    try:
+        return defaults.with_overrides(values)
+    except ParameterError as err:
+        raise SystemExit(f"{node.get_name()}: invalid mechanism parameter: {err}") from None
+
+
+def reject_changes_of(names: Sequence[str]) -> Callable:
+    """A set-parameters callback refusing changes to ``names`` at run time."""
+    frozen = set(names)
+
+    def callback(params) -> SetParametersResult:
+        for p in params:
+            if p.name in frozen:
+                return SetParametersResult(successful=False, reason=f"{p.name} cannot change while running")
+        return SetParametersResult(successful=True)
+
+    return callback
+
+
+def spin_node(make_node: Callable[[], Node], args: Sequence[str] | None, executor_factory=None) -> int:
+    """The Jazzy main shape: init, spin until Ctrl-C/shutdown, destroy, shut down."""
+    rclpy.init(args=list(args) if args is not None else None)
+    node = None
+    try:
+        node = make_node()
+        if executor_factory is None:
+            rclpy.spin(node)
+        else:
+            executor = executor_factory()
+            executor.add_node(node)
+            executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
