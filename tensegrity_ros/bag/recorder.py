@@ -11,20 +11,21 @@ wire (what rosbag2 stores) and the rmw message info. The log time is the rmw rec
 timestamp, the publish time the sender's source timestamp, the MCAP sequence the
 publication sequence number (mod 2**32); all times are system time in ns since the epoch.
 
-Stopping: SIGINT and SIGTERM (rclpy's signal handlers shut the context down), or
-``max_duration``; either way the bag is closed properly (summary + ``metadata.yaml``) with
-counts equal to the messages received.
+Stopping: SIGINT or SIGTERM (handled by :func:`record`, not by rclpy, so that messages
+already delivered are written first), or ``max_duration``; either way the bag is closed
+properly (summary + ``metadata.yaml``) with counts equal to the messages received.
 """
 
 from __future__ import annotations
 
 import importlib
+import signal
 import sys
 import time
 from typing import Callable, Iterable
 
 import rclpy
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.topic_or_service_is_hidden import topic_or_service_is_hidden
@@ -121,12 +122,26 @@ class RecorderNode(Node):
         return on_message
 
 
+def _drain(executor, node: RecorderNode) -> None:
+    """Run callbacks until the queues are empty: two idle 20 ms waits in a row."""
+    idle = 0
+    while idle < 2:
+        before = sum(node.received.values())
+        executor.spin_once(timeout_sec=0.02)
+        idle = idle + 1 if sum(node.received.values()) == before else 0
+
+
 def record(folder: str, topics: Iterable[str] | None = None, *, record_all: bool = False,
            max_duration: float | None = None, chunk_size: int | None = None,
            compression: str = "zstd", flush_interval: float | None = None,
            ros_args: list[str] | None = None,
            log: Callable[[str], None] | None = None) -> BagMetadata:
-    """Record until SIGINT/SIGTERM or ``max_duration`` s; return the closed bag's metadata."""
+    """Record until SIGINT/SIGTERM or ``max_duration`` s; return the closed bag's metadata.
+
+    On a stop request the recorder first writes every message already delivered to its
+    subscriptions (it keeps running callbacks until two 20 ms waits bring nothing), then
+    closes the bag.
+    """
     if max_duration is not None and not max_duration > 0:
         raise BagError(f"max_duration must be > 0 s, got {max_duration!r}")
     kwargs = {"compression": compression}
@@ -137,19 +152,24 @@ def record(folder: str, topics: Iterable[str] | None = None, *, record_all: bool
     writer = BagWriter(folder, **kwargs)
     log = log or (lambda text: print(text, file=sys.stderr, flush=True))
     topics = list(topics or []) or list(SUITE_TOPICS)
+    stop = []
+    previous = {sig: signal.signal(sig, lambda signum, frame: stop.append(signum))
+                for sig in (signal.SIGINT, signal.SIGTERM)}
     node = None
     try:
-        rclpy.init(args=list(ros_args or []), signal_handler_options=SignalHandlerOptions.ALL)
+        rclpy.init(args=list(ros_args or []), signal_handler_options=SignalHandlerOptions.NO)
         node = RecorderNode(writer, topics, record_all=record_all, log=log)
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         log(f"recording to {writer.folder} (stop with Ctrl-C)")
         deadline = None if max_duration is None else time.monotonic() + max_duration
-        while rclpy.ok() and (deadline is None or time.monotonic() < deadline):
+        while not stop and rclpy.ok() and (deadline is None or time.monotonic() < deadline):
             executor.spin_once(timeout_sec=0.05)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+        if rclpy.ok():
+            _drain(executor, node)
     finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
         if node is not None:
             node.destroy_node()
         meta = writer.close()
