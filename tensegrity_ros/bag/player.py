@@ -13,6 +13,7 @@ clock, so events leave within a few microseconds of their due time on an idle ma
 
 from __future__ import annotations
 
+import signal
 import statistics
 import sys
 import time
@@ -35,11 +36,14 @@ CLOCK_TOPIC = "/clock"
 _SPIN_NS = 1_000_000  # poll the clock for the last 1 ms before an event
 
 
-def sleep_until(deadline_ns: int, now_ns: Callable[[], int] = time.monotonic_ns) -> None:
-    """Return at ``deadline_ns`` (monotonic): sleep, then poll for the last millisecond."""
-    remaining = deadline_ns - now_ns()
-    if remaining > _SPIN_NS:
-        time.sleep((remaining - _SPIN_NS) / 1e9)
+def sleep_until(deadline_ns: int, now_ns: Callable[[], int] = time.monotonic_ns,
+                should_stop: Callable[[], bool] = lambda: False) -> None:
+    """Return at ``deadline_ns`` (monotonic): sleep in slices of at most 50 ms (returning
+    early once ``should_stop()``), then poll the clock for the last millisecond."""
+    while (remaining := deadline_ns - now_ns()) > _SPIN_NS:
+        if should_stop():
+            return
+        time.sleep(min(remaining - _SPIN_NS, 50_000_000) / 1e9)
     while now_ns() < deadline_ns:
         pass
 
@@ -59,8 +63,8 @@ class PlayerNode(Node):
 
     def __init__(self, reader: BagReader, opts: PlaybackOptions = PlaybackOptions(),
                  topics: Iterable[str] | None = None, *, node_name: str = "tensegrity_player",
-                 log: Callable[[str], None] | None = None):
-        super().__init__(node_name)
+                 context=None, log: Callable[[str], None] | None = None):
+        super().__init__(node_name, context=context)
         self.reader = reader
         self.opts = opts
         self._log = log or (lambda text: print(text, file=sys.stderr, flush=True))
@@ -114,7 +118,7 @@ class PlayerNode(Node):
         ``now_ns`` and ``wait`` (sleep until a ``now_ns`` instant) default to the
         monotonic clock and :func:`sleep_until`.
         """
-        wait = wait or (lambda deadline: sleep_until(deadline, now_ns))
+        wait = wait or (lambda deadline: sleep_until(deadline, now_ns, should_stop))
         result = PlaybackResult(published={t: 0 for t in self.publishers_by_topic})
         start, end = self.reader.start_ns, self.reader.end_ns
         if start is None or (not self.publishers_by_topic and self.clock_publisher is None):
@@ -150,18 +154,25 @@ def play(bag: str, topics: Iterable[str] | None = None, opts: PlaybackOptions = 
          *, delay_s: float = 0.0, wait_for_subscribers_s: float | None = None,
          ros_args: list[str] | None = None,
          log: Callable[[str], None] | None = None) -> PlaybackResult:
-    """Open ``bag`` and play it until the end (or forever with loop) or SIGINT/SIGTERM."""
+    """Open ``bag`` and play it until the end (or forever with loop) or SIGINT/SIGTERM
+    (handled here: the player stops between two messages and exits cleanly)."""
     if not delay_s >= 0:
         raise BagError(f"delay must be >= 0 s, got {delay_s!r}")
     log = log or (lambda text: print(text, file=sys.stderr, flush=True))
     reader = BagReader(bag)
     if reader.recovered:
         log(f"warning: {bag} was not closed properly; playing what the recovery scan found")
-    rclpy.init(args=list(ros_args or []), signal_handler_options=SignalHandlerOptions.ALL)
+    stop_requests = []
+    previous = {sig: signal.signal(sig, lambda signum, frame: stop_requests.append(signum))
+                for sig in (signal.SIGINT, signal.SIGTERM)}
     node = None
     try:
+        rclpy.init(args=list(ros_args or []), signal_handler_options=SignalHandlerOptions.NO)
         node = PlayerNode(reader, opts, topics, log=log)
-        stop = lambda: not rclpy.ok()  # noqa: E731 - rclpy's handlers shut the context down
+
+        def stop() -> bool:
+            return bool(stop_requests) or not rclpy.ok()
+
         if wait_for_subscribers_s is not None and not node.wait_for_subscribers(
                 wait_for_subscribers_s, stop):
             log(f"warning: not every topic had a subscriber after {wait_for_subscribers_s} s")
@@ -169,9 +180,10 @@ def play(bag: str, topics: Iterable[str] | None = None, opts: PlaybackOptions = 
         while time.monotonic() < deadline and not stop():
             time.sleep(0.01)
         result = node.play(should_stop=stop)
-    except KeyboardInterrupt:
-        result = PlaybackResult(stopped=True)
+        result.stopped = result.stopped or bool(stop_requests)
     finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()

@@ -213,7 +213,7 @@ class BagReader:
             reader = make_reader(f)
             for _schema, ch, m in reader.iter_messages(
                     topics=None if topics is None else sorted(topics),
-                    start_time=start_ns, log_time_order=True):
+                    starting_at=start_ns, log_time_order=True):
                 yield make(ch, m)
 
     def messages(self, topics: Iterable[str] | None = None,

@@ -58,9 +58,9 @@ class RecorderNode(Node):
 
     def __init__(self, writer: BagWriter, topics: Iterable[str] = SUITE_TOPICS, *,
                  record_all: bool = False, depth: int = DEFAULT_DEPTH,
-                 node_name: str = "tensegrity_recorder",
+                 node_name: str = "tensegrity_recorder", context=None,
                  log: Callable[[str], None] | None = None):
-        super().__init__(node_name)
+        super().__init__(node_name, context=context)
         self.writer = writer
         self.record_all = record_all
         self.depth = int(depth)
