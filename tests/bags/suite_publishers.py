@@ -52,15 +52,13 @@ TYPE_NAMES = {"joint_states": "sensor_msgs/msg/JointState",
               "/clock": "rosgraph_msgs/msg/Clock"}
 
 
-def q_of(t: float) -> np.ndarray:
-    """A smooth path inside the workspace: q = (rho1, rho2, beta) at time t [s]."""
-    return np.array([0.6 + 0.2 * math.sin(0.7 * t), 0.5 + 0.2 * math.cos(0.5 * t),
-                     0.8 + 0.3 * math.sin(0.9 * t)])
-
-
-def qdot_of(t: float) -> np.ndarray:
-    return np.array([0.14 * math.cos(0.7 * t), -0.1 * math.sin(0.5 * t),
+def wavy_path(t: float) -> tuple[np.ndarray, np.ndarray]:
+    """A smooth path inside the workspace: (q, qdot) at time t [s], q = (rho1, rho2, beta)."""
+    q = np.array([0.6 + 0.2 * math.sin(0.7 * t), 0.5 + 0.2 * math.cos(0.5 * t),
+                  0.8 + 0.3 * math.sin(0.9 * t)])
+    qdot = np.array([0.14 * math.cos(0.7 * t), -0.1 * math.sin(0.5 * t),
                      0.27 * math.cos(0.9 * t)])
+    return q, qdot
 
 
 def _stamp(msg, t_ns: int, frame: str = "base") -> None:
@@ -135,11 +133,11 @@ def markers(t_ns: int, q) -> MarkerArray:
     return MarkerArray(markers=[members, joints, label])
 
 
-def make_message(topic: str, index: int, rate_hz: float):
-    """Message number ``index`` of ``topic`` published at ``rate_hz`` (pure function)."""
+def make_message(topic: str, index: int, rate_hz: float, path=wavy_path):
+    """Message number ``index`` of ``topic`` published at ``rate_hz`` while the mechanism
+    follows ``path`` (t -> (q, qdot)); a pure function of its arguments."""
     t_ns = STAMP0_NS + round(index * 1e9 / rate_hz)
-    t = (t_ns - STAMP0_NS) / 1e9
-    q, qdot = q_of(t), qdot_of(t)
+    q, qdot = path((t_ns - STAMP0_NS) / 1e9)
     if topic == "joint_states":
         return joint_state(t_ns, q, qdot)
     if topic == "end_effector":
@@ -159,9 +157,10 @@ class SuitePublisher(Node):
     """Publishes the suite's topics at given rates (Hz); keeps count of what it published."""
 
     def __init__(self, rates: dict[str, float], *, context: Context | None = None,
-                 depth: int = 1000, name: str = "suite_publisher"):
+                 depth: int = 1000, name: str = "suite_publisher", path=wavy_path):
         super().__init__(name, context=context)
         self.rates = dict(rates)
+        self.path = path
         self.pubs = {t: self.create_publisher(TYPES[t], t, QoSProfile(depth=depth))
                      for t in self.rates}
         self.published = {t: 0 for t in self.rates}
@@ -183,7 +182,7 @@ class SuitePublisher(Node):
         queue = sorted((k / self.rates[t], t, k) for t in counts for k in range(counts[t]))
         start = time.monotonic()
         for due, topic, k in queue:
-            msg = make_message(topic, k, self.rates[topic])
+            msg = make_message(topic, k, self.rates[topic], self.path)
             delay = start + due - time.monotonic()
             if delay > 0:
                 time.sleep(delay)
