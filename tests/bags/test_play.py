@@ -12,7 +12,6 @@ import signal
 import time
 from pathlib import Path
 
-import numpy as np
 import pytest
 from rclpy.context import Context
 from rclpy.duration import Duration
@@ -27,7 +26,7 @@ from tensegrity_ros.bag.reader import BagReader
 from tensegrity_ros.bag.recorder import message_class
 from tensegrity_ros.bag.schedule import PlaybackOptions
 from tests.bags.compare import plain
-from tests.bags.conftest import Proc
+from tests.bags.conftest import Proc, rosbags_cdr_samples
 from tests.bags.suite_publishers import TYPE_NAMES, SuitePublisher, make_message
 
 pytestmark = pytest.mark.ros
@@ -219,33 +218,22 @@ def test_bag_written_by_rosbags_plays(tmp_path, ros_context, cli):
     from rosbags.typesys import Stores, get_typestore
 
     store = get_typestore(Stores.ROS2_JAZZY)
-    JointState = store.types["sensor_msgs/msg/JointState"]
-    PointStamped = store.types["geometry_msgs/msg/PointStamped"]
-    Header = store.types["std_msgs/msg/Header"]
-    Time = store.types["builtin_interfaces/msg/Time"]
-    Point = store.types["geometry_msgs/msg/Point"]
+    samples = rosbags_cdr_samples(30)
     folder = tmp_path / "from_rosbags"
-    start = 1_700_000_000_000_000_000
     with Writer(folder, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
-        js = writer.add_connection("/joint_states", JointState.__msgtype__, typestore=store)
-        ee = writer.add_connection("/end_effector", PointStamped.__msgtype__, typestore=store)
-        for k in range(30):
-            stamp = Time(sec=1_700_000_000, nanosec=k * 10_000_000)
-            writer.write(js, start + k * 10_000_000, store.serialize_cdr(JointState(
-                header=Header(stamp=stamp, frame_id=""), name=["rho1", "rho2"],
-                position=np.array([0.5 + k / 100, 0.25]), velocity=np.array([], dtype=float),
-                effort=np.array([], dtype=float)), JointState.__msgtype__))
-            writer.write(ee, start + k * 10_000_000 + 5, store.serialize_cdr(PointStamped(
-                header=Header(stamp=stamp, frame_id="base"),
-                point=Point(x=k / 10, y=-k / 10, z=0.0)), PointStamped.__msgtype__))
+        connections = {}
+        for topic, type_name, t, data, _ in samples:
+            if topic not in connections:
+                connections[topic] = writer.add_connection(topic, type_name, typestore=store)
+            writer.write(connections[topic], t, data)
     sink = Collector(ros_context, {"/joint_states": "sensor_msgs/msg/JointState",
                                    "/end_effector": "geometry_msgs/msg/PointStamped"})
     play = cli("play", str(folder), "--wait-for-subscribers", "60")
     sink.spin_until(lambda: all(len(v) >= 30 for v in sink.got.values()))
     assert play.popen.wait(60) == 0, play.stderr()
     assert [list(m.position) for m in sink.got["/joint_states"]] == \
-        [[0.5 + k / 100, 0.25] for k in range(30)]
-    assert [(m.point.x, m.point.y, m.header.frame_id) for m in sink.got["/end_effector"]] == \
-        [(k / 10, -k / 10, "base") for k in range(30)]
+        [v for topic, *_, v in samples if topic == "/joint_states"]
+    assert [(m.point.x, m.point.y, m.point.z) for m in sink.got["/end_effector"]] == \
+        [v for topic, *_, v in samples if topic == "/end_effector"]
     assert [m.header.stamp.nanosec for m in sink.got["/end_effector"]] == \
         [k * 10_000_000 for k in range(30)]
