@@ -61,12 +61,12 @@ class PlaybackResult:
 class PlayerNode(Node):
     """Publishes the messages of ``reader`` (only ``topics`` if given) per ``opts``."""
 
-    def __init__(self, reader: BagReader, opts: PlaybackOptions = PlaybackOptions(),
+    def __init__(self, reader: BagReader, opts: PlaybackOptions | None = None,
                  topics: Iterable[str] | None = None, *, node_name: str = "tensegrity_player",
                  context=None, log: Callable[[str], None] | None = None):
         super().__init__(node_name, context=context)
         self.reader = reader
-        self.opts = opts
+        self.opts = opts = opts or PlaybackOptions()
         self._log = log or (lambda text: print(text, file=sys.stderr, flush=True))
         bag_topics = {t.name: t for t in reader.topics()}
         if topics:
@@ -86,12 +86,18 @@ class PlayerNode(Node):
         self.publishers_by_topic = {}
         for name in selected:
             info = bag_topics[name]
-            if info.serialization_format != "cdr":
-                raise BagError(f"topic {name} is stored as {info.serialization_format!r};"
-                               " only 'cdr' can be replayed")
+            try:
+                if info.serialization_format != "cdr":
+                    raise BagError(f"topic {name} is stored as {info.serialization_format!r};"
+                                   " only 'cdr' can be replayed")
+                cls = message_class(info.type)
+            except BagError as err:
+                if topics:      # asked for by name: an error; otherwise skip it, as rosbag2 does
+                    raise
+                self._log(f"warning: not playing {name}: {err}")
+                continue
             qos = dict_to_profile(offer_for_replay(info.offered_qos_profiles))
-            self.publishers_by_topic[name] = self.create_publisher(
-                message_class(info.type), name, qos)
+            self.publishers_by_topic[name] = self.create_publisher(cls, name, qos)
         self.clock_publisher = None
         if opts.clock_hz:
             self.clock_publisher = self.create_publisher(
@@ -150,12 +156,13 @@ class PlayerNode(Node):
         return result
 
 
-def play(bag: str, topics: Iterable[str] | None = None, opts: PlaybackOptions = PlaybackOptions(),
+def play(bag: str, topics: Iterable[str] | None = None, opts: PlaybackOptions | None = None,
          *, delay_s: float = 0.0, wait_for_subscribers_s: float | None = None,
          ros_args: list[str] | None = None,
          log: Callable[[str], None] | None = None) -> PlaybackResult:
     """Open ``bag`` and play it until the end (or forever with loop) or SIGINT/SIGTERM
     (handled here: the player stops between two messages and exits cleanly)."""
+    opts = opts or PlaybackOptions()
     if not delay_s >= 0:
         raise BagError(f"delay must be >= 0 s, got {delay_s!r}")
     log = log or (lambda text: print(text, file=sys.stderr, flush=True))

@@ -23,7 +23,7 @@ def _bag_errors(fn):
 def _record(args) -> int:
     from tensegrity_ros.bag.recorder import record
 
-    meta = record(args.output, args.topics, record_all=args.all,
+    record(args.output, args.topics, record_all=args.all,
                   max_duration=args.max_duration, chunk_size=args.chunk_size,
                   compression=args.compression, flush_interval=args.flush_interval,
                   ros_args=args.ros_args)

@@ -19,7 +19,6 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile
-from rosgraph_msgs.msg import Clock
 
 from tensegrity_ros.bag.player import PlayerNode
 from tensegrity_ros.bag.reader import BagReader
