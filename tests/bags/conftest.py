@@ -20,12 +20,21 @@ TENSEGRITY = str(Path(sys.executable).with_name("tensegrity"))
 
 @pytest.fixture
 def ros_context():
+    """A private rclpy context. At teardown every node still alive in it is destroyed, so
+    its endpoints leave the graph before the next test's processes look for matches (a
+    lingering subscription would satisfy a player's --wait-for-subscribers)."""
+    import gc
+
     import rclpy
     from rclpy.context import Context
+    from rclpy.node import Node
 
     ctx = Context()
     rclpy.init(args=[], context=ctx)
     yield ctx
+    for obj in gc.get_objects():
+        if isinstance(obj, Node) and obj.context is ctx:
+            obj.destroy_node()
     rclpy.try_shutdown(context=ctx)
 
 

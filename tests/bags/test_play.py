@@ -182,7 +182,8 @@ def test_clock_drives_a_use_sim_time_node(recorded_bag, ros_context, cli):
     sink.create_subscription(message_class(TYPE_NAMES["joint_states"]), "/joint_states",
                              lambda _m: seen_at.append(sink.get_clock().now().nanoseconds),
                              QoSProfile(depth=1000))
-    play = cli("play", str(recorded_bag), "--clock", "200", "--wait-for-subscribers", "60")
+    play = cli("play", str(recorded_bag), "--topics", "joint_states", "/clock", "--clock", "200",
+               "--wait-for-subscribers", "60")
     sink.spin_until(lambda: len(sink.got["/joint_states"]) >= COUNTS["joint_states"]
                     and play.popen.poll() is not None)
     assert play.popen.returncode == 0, play.stderr()
