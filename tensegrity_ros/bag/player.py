@@ -1,0 +1,200 @@
+"""The playback node: publishes a bag's recorded CDR bytes with the recorded timing.
+
+One publisher per played topic, with the message type stored in the bag and the QoS
+rosbag2 would offer (:func:`tensegrity_ros.bag.qos.offer_for_replay`; history
+``keep_last(100)``); messages are published as serialized bytes (``publish(bytes)``), so
+what subscribers receive is byte for byte what was recorded. Timing, rate, start offset,
+looping and ``/clock`` follow :mod:`tensegrity_ros.bag.schedule`. With ``clock_hz`` set a
+``/clock`` topic stored in the bag is not replayed (there would be two time sources).
+
+Waiting: the player sleeps until 1 ms before an event is due and then polls the monotonic
+clock, so events leave within a few microseconds of their due time on an idle machine.
+"""
+
+from __future__ import annotations
+
+import signal
+import statistics
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Iterable
+
+import rclpy
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
+from rosgraph_msgs.msg import Clock
+
+from tensegrity_ros.bag.errors import BagError
+from tensegrity_ros.bag.qos import dict_to_profile, offer_for_replay
+from tensegrity_ros.bag.reader import BagReader
+from tensegrity_ros.bag.recorder import message_class
+from tensegrity_ros.bag.schedule import PlaybackOptions, timeline
+
+CLOCK_TOPIC = "/clock"
+_SPIN_NS = 1_000_000  # poll the clock for the last 1 ms before an event
+
+
+def sleep_until(deadline_ns: int, now_ns: Callable[[], int] = time.monotonic_ns,
+                should_stop: Callable[[], bool] = lambda: False) -> None:
+    """Return at ``deadline_ns`` (monotonic): sleep in slices of at most 50 ms (returning
+    early once ``should_stop()``), then poll the clock for the last millisecond."""
+    while (remaining := deadline_ns - now_ns()) > _SPIN_NS:
+        if should_stop():
+            return
+        time.sleep(min(remaining - _SPIN_NS, 50_000_000) / 1e9)
+    while now_ns() < deadline_ns:
+        pass
+
+
+@dataclass
+class PlaybackResult:
+    """What :meth:`PlayerNode.play` published."""
+
+    published: dict[str, int] = field(default_factory=dict)
+    clock_ticks: int = 0
+    loops: int = 0
+    stopped: bool = False          # interrupted before the end (signal or should_stop)
+
+
+class PlayerNode(Node):
+    """Publishes the messages of ``reader`` (only ``topics`` if given) per ``opts``."""
+
+    def __init__(self, reader: BagReader, opts: PlaybackOptions | None = None,
+                 topics: Iterable[str] | None = None, *, node_name: str = "tensegrity_player",
+                 context=None, log: Callable[[str], None] | None = None):
+        super().__init__(node_name, context=context)
+        self.reader = reader
+        self.opts = opts = opts or PlaybackOptions()
+        self._log = log or (lambda text: print(text, file=sys.stderr, flush=True))
+        bag_topics = {t.name: t for t in reader.topics()}
+        if topics:
+            selected = []
+            for name in topics:
+                resolved = name if name in bag_topics else self.resolve_topic_name(name)
+                if resolved not in bag_topics:
+                    raise BagError(f"topic {name} is not in bag {reader.folder} "
+                                   f"(it has {', '.join(sorted(bag_topics)) or 'no topics'})")
+                selected.append(resolved)
+        else:
+            selected = list(bag_topics)
+        if opts.clock_hz and CLOCK_TOPIC in selected:
+            selected.remove(CLOCK_TOPIC)
+            self._log(f"note: the bag's {CLOCK_TOPIC} is not replayed; /clock comes from "
+                      "the recorded times (--clock)")
+        self.publishers_by_topic = {}
+        for name in selected:
+            info = bag_topics[name]
+            try:
+                if info.serialization_format != "cdr":
+                    raise BagError(f"topic {name} is stored as {info.serialization_format!r};"
+                                   " only 'cdr' can be replayed")
+                cls = message_class(info.type)
+            except BagError as err:
+                if topics:      # asked for by name: an error; otherwise skip it, as rosbag2 does
+                    raise
+                self._log(f"warning: not playing {name}: {err}")
+                continue
+            qos = dict_to_profile(offer_for_replay(info.offered_qos_profiles))
+            self.publishers_by_topic[name] = self.create_publisher(cls, name, qos)
+        self.clock_publisher = None
+        if opts.clock_hz:
+            self.clock_publisher = self.create_publisher(
+                Clock, CLOCK_TOPIC, QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE))
+
+    def wait_for_subscribers(self, timeout_s: float, should_stop: Callable[[], bool] = lambda: False
+                             ) -> bool:
+        """Wait until every publisher has a matched subscription; False on timeout."""
+        pubs = list(self.publishers_by_topic.values())
+        if self.clock_publisher is not None:
+            pubs.append(self.clock_publisher)
+        deadline = time.monotonic() + timeout_s
+        while not all(p.get_subscription_count() > 0 for p in pubs):
+            if time.monotonic() > deadline or should_stop():
+                return False
+            time.sleep(0.01)
+        return True
+
+    def play(self, should_stop: Callable[[], bool] = lambda: False,
+             now_ns: Callable[[], int] = time.monotonic_ns,
+             wait: Callable[[int], None] | None = None) -> PlaybackResult:
+        """Publish everything due, in order, on time; return what was published.
+
+        ``now_ns`` and ``wait`` (sleep until a ``now_ns`` instant) default to the
+        monotonic clock and :func:`sleep_until`.
+        """
+        wait = wait or (lambda deadline: sleep_until(deadline, now_ns, should_stop))
+        result = PlaybackResult(published={t: 0 for t in self.publishers_by_topic})
+        start, end = self.reader.start_ns, self.reader.end_ns
+        if start is None or (not self.publishers_by_topic and self.clock_publisher is None):
+            return result
+        topics = list(self.publishers_by_topic)
+        t0 = start + round(self.opts.start_offset_s * 1e9)
+        spacing = None
+        if self.opts.loop:
+            times = [m.log_time_ns for m in self.reader.messages(topics, t0)]
+            gaps = [b - a for a, b in zip(times, times[1:]) if b > a]
+            spacing = int(statistics.median(gaps)) if gaps else None
+        events = timeline(lambda: self.reader.messages(topics, t0), start, end, self.opts,
+                          spacing)
+        begin = now_ns()
+        clock_msg = Clock()
+        for event in events:
+            wait(begin + event.wall_ns)
+            if should_stop():
+                result.stopped = True
+                break
+            result.loops = event.loop + 1
+            if event.message is None:
+                clock_msg.clock.sec, clock_msg.clock.nanosec = divmod(event.clock_ns, 1_000_000_000)
+                self.clock_publisher.publish(clock_msg)
+                result.clock_ticks += 1
+            else:
+                self.publishers_by_topic[event.message.topic].publish(event.message.data)
+                result.published[event.message.topic] += 1
+        return result
+
+
+def play(bag: str, topics: Iterable[str] | None = None, opts: PlaybackOptions | None = None,
+         *, delay_s: float = 0.0, wait_for_subscribers_s: float | None = None,
+         ros_args: list[str] | None = None,
+         log: Callable[[str], None] | None = None) -> PlaybackResult:
+    """Open ``bag`` and play it until the end (or forever with loop) or SIGINT/SIGTERM
+    (handled here: the player stops between two messages and exits cleanly)."""
+    opts = opts or PlaybackOptions()
+    if not delay_s >= 0:
+        raise BagError(f"delay must be >= 0 s, got {delay_s!r}")
+    log = log or (lambda text: print(text, file=sys.stderr, flush=True))
+    reader = BagReader(bag)
+    if reader.recovered:
+        log(f"warning: {bag} was not closed properly; playing what the recovery scan found")
+    stop_requests = []
+    previous = {sig: signal.signal(sig, lambda signum, frame: stop_requests.append(signum))
+                for sig in (signal.SIGINT, signal.SIGTERM)}
+    node = None
+    try:
+        rclpy.init(args=list(ros_args or []), signal_handler_options=SignalHandlerOptions.NO)
+        node = PlayerNode(reader, opts, topics, log=log)
+
+        def stop() -> bool:
+            return bool(stop_requests) or not rclpy.ok()
+
+        if wait_for_subscribers_s is not None and not node.wait_for_subscribers(
+                wait_for_subscribers_s, stop):
+            log(f"warning: not every topic had a subscriber after {wait_for_subscribers_s} s")
+        deadline = time.monotonic() + delay_s
+        while time.monotonic() < deadline and not stop():
+            time.sleep(0.01)
+        result = node.play(should_stop=stop)
+        result.stopped = result.stopped or bool(stop_requests)
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    log("played " + ", ".join(f"{t} {n}" for t, n in result.published.items())
+        + (f", /clock {result.clock_ticks} ticks" if opts.clock_hz else "")
+        + (" (stopped)" if result.stopped else ""))
+    return result

@@ -1,0 +1,88 @@
+"""``bag plot``: joint positions and the end effector against time, as a PNG.
+
+Messages are decoded without ROS, by ``mcap-ros2-support`` from the ``ros2msg`` schemas
+stored in the bag. Every ``sensor_msgs/msg/JointState`` topic gives one line per joint
+(position: m for the actuators, rad for angles, as the publisher sends them); every
+``geometry_msgs/msg/PointStamped`` topic gives x, y, z [m]. Time is the log (receive) time
+in seconds from the bag's first message.
+"""
+
+from __future__ import annotations
+
+import os
+from collections import defaultdict
+from pathlib import Path
+
+from mcap.records import Schema
+from mcap_ros2.decoder import DecoderFactory
+
+from tensegrity_ros.bag.errors import BagError
+from tensegrity_ros.bag.reader import BagReader
+
+JOINT_STATE = "sensor_msgs/msg/JointState"
+POINT_STAMPED = "geometry_msgs/msg/PointStamped"
+
+
+def decoded_messages(reader: BagReader, topics: list[str]):
+    """(topic, log_time_ns, decoded object) of ``topics``, decoded by mcap-ros2-support."""
+    factory = DecoderFactory()
+    schemas = {name: Schema(id=i + 1, name=name, encoding=enc, data=text.encode("utf-8"))
+               for i, (name, (enc, text)) in enumerate(sorted(reader.definitions().items()))}
+    decoders = {}
+    for m in reader.messages(topics):
+        if m.type not in decoders:
+            decoder = factory.decoder_for("cdr", schemas.get(m.type))
+            if decoder is None:
+                raise BagError(f"topic {m.topic}: no ros2msg schema for {m.type!r} in the bag")
+            decoders[m.type] = decoder
+        yield m.topic, m.log_time_ns, decoders[m.type](m.data)
+
+
+def plot_bag(bag: str | os.PathLike, out: str | os.PathLike) -> Path:
+    """Write the plot of ``bag`` to ``out`` (PNG); return its path."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    reader = BagReader(bag)
+    joint_topics = [t.name for t in reader.topics() if t.type == JOINT_STATE]
+    point_topics = [t.name for t in reader.topics() if t.type == POINT_STAMPED]
+    if not joint_topics and not point_topics:
+        raise BagError(f"bag {reader.folder} has no {JOINT_STATE} or {POINT_STAMPED} topic to plot")
+    start = reader.start_ns or 0
+    joints = defaultdict(lambda: ([], []))
+    points = defaultdict(lambda: ([], [], [], []))
+    for topic, t_ns, msg in decoded_messages(reader, joint_topics + point_topics):
+        t = (t_ns - start) / 1e9
+        if topic in joint_topics:
+            for name, pos in zip(msg.name, msg.position):
+                series = joints[f"{topic}: {name}"]
+                series[0].append(t)
+                series[1].append(pos)
+        else:
+            series = points[topic]
+            for column, value in zip(series, (t, msg.point.x, msg.point.y, msg.point.z)):
+                column.append(value)
+
+    fig, axes = plt.subplots(2, 1, sharex=True, figsize=(9, 6.5))
+    for label, (t, y) in joints.items():
+        axes[0].plot(t, y, label=label)
+    axes[0].set_ylabel("joint position [m or rad]")
+    axes[0].set_title(f"{reader.folder.name}: joint positions")
+    for topic, (t, x, y, z) in points.items():
+        for values, axis in ((x, "x"), (y, "y"), (z, "z")):
+            axes[1].plot(t, values, label=f"{topic} {axis}")
+    axes[1].set_ylabel("end effector [m]")
+    axes[1].set_title("end effector")
+    axes[1].set_xlabel("time since first message [s]")
+    for ax in axes:
+        ax.grid(True, alpha=0.3)
+        if ax.lines:
+            ax.legend(fontsize=8, loc="best")
+        else:
+            ax.text(0.5, 0.5, "no data", ha="center", va="center", transform=ax.transAxes)
+    fig.tight_layout()
+    out = Path(out)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out

@@ -1,0 +1,179 @@
+"""The recording node: raw subscriptions to the wanted topics, written to a :class:`BagWriter`.
+
+Topics are found through the ROS graph as they appear (checked every
+``discovery_period`` s): a wanted topic is subscribed as soon as it has a publisher, with
+the message type the graph reports and a QoS adapted to the publishers' offered QoS
+(:func:`tensegrity_ros.bag.qos.request_for_offers`, rosbag2's rule). Relative topic names
+are resolved against the recorder's namespace (``--ros-args -r __ns:=/robot1`` works).
+
+Subscriptions are ``raw=True``: the callback gets the exact CDR bytes that arrived on the
+wire (what rosbag2 stores) and the rmw message info. The log time is the rmw receive
+timestamp, the publish time the sender's source timestamp, the MCAP sequence the
+publication sequence number (mod 2**32); all times are system time in ns since the epoch.
+
+Stopping: SIGINT or SIGTERM (handled by :func:`record`, not by rclpy, so that messages
+already delivered are written first), or ``max_duration``; either way the bag is closed
+properly (summary + ``metadata.yaml``) with counts equal to the messages received.
+"""
+
+from __future__ import annotations
+
+import importlib
+import signal
+import sys
+import time
+from typing import Callable, Iterable
+
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+from rclpy.topic_or_service_is_hidden import topic_or_service_is_hidden
+
+from tensegrity_ros.bag.errors import BagError
+from tensegrity_ros.bag.metadata import BagMetadata, TopicInfo
+from tensegrity_ros.bag.msgdefs import split_type_name
+from tensegrity_ros.bag.qos import dict_to_profile, profile_to_dict, request_for_offers
+from tensegrity_ros.bag.writer import BagWriter
+
+# The suite's topics, as the nodes name them (relative names follow the namespace).
+SUITE_TOPICS = ("joint_states", "end_effector", "mechanism_state", "markers", "/clock",
+                "actuator_forces")
+DEFAULT_DEPTH = 1000       # subscription history: 1 s of backlog at 1 kHz before a drop
+DISCOVERY_PERIOD = 0.1     # s
+
+
+def message_class(type_name: str):
+    """The rclpy message class of ``pkg/msg/Name``; :class:`BagError` if not importable."""
+    package, namespace, name = split_type_name(type_name)
+    try:
+        return getattr(importlib.import_module(f"{package}.{namespace}"), name)
+    except (ImportError, AttributeError):
+        raise BagError(f"message type {type_name} is not installed (no module "
+                       f"{package}.{namespace} with class {name})") from None
+
+
+class RecorderNode(Node):
+    """Subscribe to ``topics`` (or every topic if ``record_all``) and write to ``writer``."""
+
+    def __init__(self, writer: BagWriter, topics: Iterable[str] = SUITE_TOPICS, *,
+                 record_all: bool = False, depth: int = DEFAULT_DEPTH,
+                 node_name: str = "tensegrity_recorder", context=None,
+                 log: Callable[[str], None] | None = None):
+        super().__init__(node_name, context=context)
+        self.writer = writer
+        self.record_all = record_all
+        self.depth = int(depth)
+        self.wanted = {self.resolve_topic_name(t) for t in topics}
+        self.received: dict[str, int] = {}
+        self._skipped: set[str] = set()
+        self._subscriptions_by_topic: dict[str, object] = {}
+        self._log = log or (lambda text: print(text, file=sys.stderr, flush=True))
+        self._discover()
+        self.create_timer(DISCOVERY_PERIOD, self._discover)
+        self.create_timer(0.1, self.writer.maybe_flush)
+
+    def _wants(self, name: str) -> bool:
+        if self.record_all:
+            return not topic_or_service_is_hidden(name)
+        return name in self.wanted
+
+    def _discover(self) -> None:
+        for name, types in self.get_topic_names_and_types():
+            if name in self._subscriptions_by_topic or name in self._skipped or not self._wants(name):
+                continue
+            if len(types) != 1:
+                self._skip(name, f"has several types {types}")
+                continue
+            infos = self.get_publishers_info_by_topic(name)
+            if not infos:
+                continue  # only subscribers so far: the offered QoS is not known yet
+            try:
+                cls = message_class(types[0])
+            except BagError as err:
+                self._skip(name, str(err))
+                continue
+            self._subscribe(name, types[0], cls, infos)
+
+    def _skip(self, name: str, why: str) -> None:
+        self._skipped.add(name)
+        self._log(f"warning: not recording {name}: {why}")
+
+    def _subscribe(self, name: str, type_name: str, cls, infos) -> None:
+        offers = [profile_to_dict(i.qos_profile) for i in infos]
+        hashes = {str(i.topic_type_hash) for i in infos}
+        request = request_for_offers(offers, self.depth)
+        self.writer.add_topic(TopicInfo(
+            name=name, type=type_name, offered_qos_profiles=offers,
+            type_description_hash=hashes.pop() if len(hashes) == 1 else ""))
+        self.received[name] = 0
+        self._subscriptions_by_topic[name] = self.create_subscription(
+            cls, name, self._callback_for(name), dict_to_profile(request), raw=True)
+        self._log(f"recording {name} [{type_name}] {request['reliability']} "
+                  f"{request['durability']}")
+
+    def _callback_for(self, topic: str):
+        writer, received = self.writer, self.received
+
+        def on_message(data, info):
+            writer.write(topic, data, info["received_timestamp"], info["source_timestamp"],
+                         info.get("publication_sequence_number") or 0)
+            received[topic] += 1
+        return on_message
+
+
+def _drain(executor, node: RecorderNode) -> None:
+    """Run callbacks until the queues are empty: two idle 20 ms waits in a row."""
+    idle = 0
+    while idle < 2:
+        before = sum(node.received.values())
+        executor.spin_once(timeout_sec=0.02)
+        idle = idle + 1 if sum(node.received.values()) == before else 0
+
+
+def record(folder: str, topics: Iterable[str] | None = None, *, record_all: bool = False,
+           max_duration: float | None = None, chunk_size: int | None = None,
+           compression: str = "zstd", flush_interval: float | None = None,
+           ros_args: list[str] | None = None,
+           log: Callable[[str], None] | None = None) -> BagMetadata:
+    """Record until SIGINT/SIGTERM or ``max_duration`` s; return the closed bag's metadata.
+
+    On a stop request the recorder first writes every message already delivered to its
+    subscriptions (it keeps running callbacks until two 20 ms waits bring nothing), then
+    closes the bag.
+    """
+    if max_duration is not None and not max_duration > 0:
+        raise BagError(f"max_duration must be > 0 s, got {max_duration!r}")
+    kwargs = {"compression": compression}
+    if chunk_size is not None:
+        kwargs["chunk_size"] = chunk_size
+    if flush_interval is not None:
+        kwargs["flush_interval"] = flush_interval
+    writer = BagWriter(folder, **kwargs)
+    log = log or (lambda text: print(text, file=sys.stderr, flush=True))
+    topics = list(topics or []) or list(SUITE_TOPICS)
+    stop = []
+    previous = {sig: signal.signal(sig, lambda signum, frame: stop.append(signum))
+                for sig in (signal.SIGINT, signal.SIGTERM)}
+    node = None
+    try:
+        rclpy.init(args=list(ros_args or []), signal_handler_options=SignalHandlerOptions.NO)
+        node = RecorderNode(writer, topics, record_all=record_all, log=log)
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        log(f"recording to {writer.folder} (stop with Ctrl-C)")
+        deadline = None if max_duration is None else time.monotonic() + max_duration
+        while not stop and rclpy.ok() and (deadline is None or time.monotonic() < deadline):
+            executor.spin_once(timeout_sec=0.05)
+        if rclpy.ok():
+            _drain(executor, node)
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        if node is not None:
+            node.destroy_node()
+        meta = writer.close()
+        rclpy.try_shutdown()
+    log(f"recorded {meta.message_count} messages to {writer.folder}: " + ", ".join(
+        f"{t.name} {t.message_count}" for t in meta.topics))
+    return meta

@@ -1,0 +1,91 @@
+"""Repair a bag whose recording was killed: recover every complete chunk, rewrite, re-index.
+
+A recorder killed with SIGKILL leaves an MCAP file without summary or footer (and no
+``metadata.yaml``, or a stale one). :func:`repair_bag` reads everything the recovery scan
+of :class:`~tensegrity_ros.bag.reader.BagReader` finds (all chunks written completely),
+writes it into a new, valid MCAP file with the same schemas, channels, QoS metadata, log
+and publish times and sequence numbers, and writes a ``metadata.yaml`` whose counts are
+those of the recovered messages. The damaged file is kept as ``<file>.orig`` unless
+``keep_original=False``. An intact bag only gets its ``metadata.yaml`` regenerated.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from tensegrity_ros.bag.errors import BagError
+from tensegrity_ros.bag.metadata import BagMetadata, FileInfo, write_metadata
+from tensegrity_ros.bag.reader import BagReader
+from tensegrity_ros.bag.writer import BagWriter, mcap_file_name
+
+
+@dataclass
+class RepairResult:
+    """What :func:`repair_bag` did."""
+
+    folder: Path
+    rewritten: bool                  # False: storage was intact, only metadata.yaml rewritten
+    message_count: int
+    topic_counts: dict[str, int]
+    damage: list[str] = field(default_factory=list)   # where the scan stopped, per file
+    originals: list[Path] = field(default_factory=list)  # kept damaged files
+
+
+def _metadata_from_reader(reader: BagReader, files: list[FileInfo]) -> BagMetadata:
+    topics = reader.topics()
+    count = sum(t.message_count for t in topics)
+    start = reader.start_ns or 0
+    duration = (reader.end_ns - start) if reader.end_ns is not None else 0
+    custom = reader.metadata.custom_data if reader.metadata else None
+    return BagMetadata(topics=topics, files=files, starting_time_ns=start,
+                       duration_ns=duration, message_count=count, custom_data=custom)
+
+
+def repair_bag(folder: str | os.PathLike, *, keep_original: bool = True,
+               compression: str = "zstd") -> RepairResult:
+    """Recover and re-index the bag in ``folder`` (see the module docstring)."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise BagError(f"bag folder {folder} does not exist")
+    reader = BagReader(folder)
+    if not reader.recovered:
+        meta = _metadata_from_reader(reader, reader.file_infos())
+        write_metadata(folder, meta)
+        return RepairResult(folder, False, meta.message_count,
+                            {t.name: t.message_count for t in meta.topics})
+
+    tmp = folder.parent / f".{folder.name}.repairing"
+    if tmp.exists():
+        shutil.rmtree(tmp)
+    target = mcap_file_name(folder)
+    definitions = reader.definitions()
+    try:
+        with BagWriter(tmp, compression=compression, file_name=target) as writer:
+            for topic in reader.topics():
+                topic.message_count = 0
+                encoding, text = definitions.get(topic.type, ("ros2msg", None))
+                writer.add_topic(topic, definition=text, encoding=encoding)
+            for m in reader.messages():
+                writer.write(m.topic, m.data, m.log_time_ns, m.publish_time_ns, m.sequence)
+            meta = writer.metadata()
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    originals = []
+    for path in reader.files:
+        if keep_original:
+            kept = path.with_name(path.name + ".orig")
+            os.replace(path, kept)
+            originals.append(kept)
+        else:
+            path.unlink()
+    os.replace(tmp / target, folder / target)
+    meta.custom_data = reader.metadata.custom_data if reader.metadata else None
+    write_metadata(folder, meta)
+    shutil.rmtree(tmp)
+    return RepairResult(folder, True, meta.message_count,
+                        {t.name: t.message_count for t in meta.topics},
+                        reader.damage, originals)

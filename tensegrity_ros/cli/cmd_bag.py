@@ -1,0 +1,150 @@
+"""``tensegrity record``, ``tensegrity play`` and ``tensegrity bag info|plot|repair``."""
+
+from __future__ import annotations
+
+import argparse
+
+from tensegrity_ros.cli._common import CliError, add_json_flag, print_json
+
+ORDER = 70
+
+
+def _bag_errors(fn):
+    def run(args):
+        from tensegrity_ros.bag.errors import BagError
+        try:
+            return fn(args)
+        except BagError as err:
+            raise CliError(str(err), 1) from None
+    return run
+
+
+@_bag_errors
+def _record(args) -> int:
+    from tensegrity_ros.bag.recorder import record
+
+    record(args.output, args.topics, record_all=args.all,
+                  max_duration=args.max_duration, chunk_size=args.chunk_size,
+                  compression=args.compression, flush_interval=args.flush_interval,
+                  ros_args=args.ros_args)
+    return 0
+
+
+def _clock_rate(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--clock expects a rate in Hz, got {text!r}") from None
+
+
+@_bag_errors
+def _play(args) -> int:
+    from tensegrity_ros.bag.player import play
+    from tensegrity_ros.bag.schedule import PlaybackOptions
+
+    opts = PlaybackOptions(rate=args.rate, start_offset_s=args.start_offset, loop=args.loop,
+                           clock_hz=args.clock)
+    result = play(args.bag, args.topics, opts, delay_s=args.delay,
+                  wait_for_subscribers_s=args.wait_for_subscribers, ros_args=args.ros_args)
+    return 130 if result.stopped else 0
+
+
+@_bag_errors
+def _info(args) -> int:
+    from tensegrity_ros.bag.info import bag_info, format_info
+
+    info = bag_info(args.bag)
+    if args.json:
+        print_json(info)
+    else:
+        print(format_info(info))
+    return 0
+
+
+@_bag_errors
+def _plot(args) -> int:
+    from tensegrity_ros.bag.plot import plot_bag
+
+    print(plot_bag(args.bag, args.output))
+    return 0
+
+
+@_bag_errors
+def _repair(args) -> int:
+    from tensegrity_ros.bag.repair import repair_bag
+
+    result = repair_bag(args.bag, keep_original=not args.no_backup)
+    if args.json:
+        print_json({"folder": str(result.folder), "rewritten": result.rewritten,
+                    "message_count": result.message_count, "topics": result.topic_counts,
+                    "damage": result.damage, "originals": [str(p) for p in result.originals]})
+        return 0
+    if result.rewritten:
+        print(f"recovered {result.message_count} messages into {result.folder}"
+              f" ({', '.join(f'{t} {n}' for t, n in result.topic_counts.items())})")
+        for line in result.damage:
+            print(f"  damaged tail dropped: {line}")
+        for path in result.originals:
+            print(f"  original kept as {path}")
+    else:
+        print(f"storage of {result.folder} is intact ({result.message_count} messages); "
+              "metadata.yaml regenerated")
+    return 0
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "record", help="record topics to a rosbag2 MCAP bag folder",
+        description="Record topics to a rosbag2-compatible bag folder (metadata.yaml + MCAP). "
+        "Default topics: the suite's (joint_states, end_effector, mechanism_state, markers, "
+        "/clock, actuator_forces), subscribed as they appear. Stop with Ctrl-C or SIGTERM.")
+    p.add_argument("topics", nargs="*", metavar="TOPIC", help="topics to record (relative names "
+                   "follow the namespace)")
+    p.add_argument("-o", "--output", required=True, metavar="DIR",
+                   help="bag folder to create (must not exist)")
+    p.add_argument("-a", "--all", action="store_true", help="record every (non-hidden) topic")
+    p.add_argument("--max-duration", type=float, default=None, metavar="S",
+                   help="stop after S seconds")
+    p.add_argument("--chunk-size", type=int, default=None, metavar="BYTES",
+                   help="MCAP chunk size (default 786432)")
+    p.add_argument("--flush-interval", type=float, default=None, metavar="S",
+                   help="close a chunk at the latest S seconds after its first message (default 1)")
+    p.add_argument("--compression", choices=("zstd", "lz4", "none"), default="zstd",
+                   help="MCAP chunk compression (default zstd)")
+    p.set_defaults(func=_record)
+
+    p = sub.add_parser("play", help="replay a bag with its recorded timing",
+                       description="Publish a bag's messages on their topics with the recorded "
+                       "timing (bags written by rosbag2 or rosbags too).")
+    p.add_argument("bag", metavar="DIR", help="bag folder (or .mcap file)")
+    p.add_argument("-r", "--rate", type=float, default=1.0, help="rate factor (default 1)")
+    p.add_argument("--start-offset", type=float, default=0.0, metavar="S",
+                   help="start S seconds into the bag")
+    p.add_argument("--topics", nargs="+", default=None, metavar="TOPIC",
+                   help="play only these topics")
+    p.add_argument("-l", "--loop", action="store_true", help="play again and again")
+    p.add_argument("--clock", type=_clock_rate, nargs="?", const=40.0, default=None,
+                   metavar="HZ", help="publish /clock from the recorded times at HZ "
+                   "(default 40 Hz)")
+    p.add_argument("-d", "--delay", type=float, default=0.0, metavar="S",
+                   help="wait S seconds after creating the publishers")
+    p.add_argument("--wait-for-subscribers", type=float, default=None, metavar="S",
+                   help="first wait up to S seconds until every topic has a subscriber")
+    p.set_defaults(func=_play)
+
+    p = sub.add_parser("bag", help="inspect, plot or repair a bag")
+    bag_sub = p.add_subparsers(dest="bag_command", metavar="BAG_COMMAND", required=True)
+    q = bag_sub.add_parser("info", help="topics, types, counts, duration, size")
+    q.add_argument("bag", metavar="DIR")
+    add_json_flag(q)
+    q.set_defaults(func=_info)
+    q = bag_sub.add_parser("plot", help="joint positions and end effector against time (PNG)")
+    q.add_argument("bag", metavar="DIR")
+    q.add_argument("-o", "--output", required=True, metavar="FILE.png")
+    q.set_defaults(func=_plot)
+    q = bag_sub.add_parser("repair", help="recover a killed recording and regenerate metadata.yaml")
+    q.add_argument("bag", metavar="DIR")
+    q.add_argument("--no-backup", action="store_true",
+                   help="do not keep the damaged file as <file>.orig")
+    add_json_flag(q)
+    q.set_defaults(func=_repair)

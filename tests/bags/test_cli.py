@@ -1,0 +1,69 @@
+"""``tensegrity bag info|plot|repair`` and the CLI's error lines (subprocesses)."""
+
+from __future__ import annotations
+
+import json
+
+from tensegrity_ros.bag.plot import decoded_messages
+from tensegrity_ros.bag.reader import BagReader
+from tests.bags.conftest import run_cli
+
+
+def test_info_text_and_json(small_bag):
+    folder, samples = small_bag
+    text = run_cli("bag", "info", str(folder))
+    assert text.returncode == 0, text.stderr
+    assert "Messages:          80" in text.stdout
+    assert "Topic: /joint_states | Type: sensor_msgs/msg/JointState" in text.stdout
+    assert "Count: 40" in text.stdout and "Serialization Format: cdr" in text.stdout
+    info = json.loads(run_cli("bag", "info", str(folder), "--json").stdout)
+    start = min(t for _, _, t, _, _ in samples)
+    end = max(t for _, _, t, _, _ in samples)
+    assert (info["start_ns"], info["end_ns"]) == (start, end)
+    assert info["duration_s"] == (end - start) / 1e9
+    assert {t["name"]: (t["type"], t["count"]) for t in info["topics"]} == {
+        "/joint_states": ("sensor_msgs/msg/JointState", 40),
+        "/end_effector": ("geometry_msgs/msg/PointStamped", 40)}
+    assert info["size_bytes"] == (folder / "small_0.mcap").stat().st_size
+    assert info["notes"] == [] and info["recovered"] is False
+
+
+def test_plot_decodes_without_ros_and_writes_png(small_bag, tmp_path):
+    folder, samples = small_bag
+    decoded = list(decoded_messages(BagReader(folder), ["/joint_states", "/end_effector"]))
+    assert [list(m.position) for t, _, m in decoded if t == "/joint_states"] == \
+        [v for topic, *_, v in samples if topic == "/joint_states"]
+    assert [(m.point.x, m.point.y, m.point.z) for t, _, m in decoded if t == "/end_effector"] == \
+        [v for topic, *_, v in samples if topic == "/end_effector"]
+    out = tmp_path / "plot.png"
+    done = run_cli("bag", "plot", str(folder), "-o", str(out))
+    assert done.returncode == 0, done.stderr
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 10_000
+
+
+def test_repair_cli_and_info_on_a_killed_bag(small_bag):
+    folder, _ = small_bag
+    data = (folder / "small_0.mcap").read_bytes()
+    (folder / "small_0.mcap").write_bytes(data[: len(data) // 2])
+    (folder / "metadata.yaml").unlink()
+    info = json.loads(run_cli("bag", "info", str(folder), "--json").stdout)
+    assert info["recovered"] is True and len(info["notes"]) == 2
+    done = run_cli("bag", "repair", str(folder), "--json")
+    assert done.returncode == 0, done.stderr
+    result = json.loads(done.stdout)
+    assert result["rewritten"] and result["message_count"] == info["message_count"]
+    assert json.loads(run_cli("bag", "info", str(folder), "--json").stdout)["notes"] == []
+
+
+def test_errors_are_one_line(tmp_path):
+    for args, needle in (
+        (("bag", "info", str(tmp_path / "missing")), "does not exist"),
+        (("play", str(tmp_path / "missing")), "does not exist"),
+        (("play", str(tmp_path), "--rate", "0"), "rate must be a finite number > 0"),
+        (("record", "-o", str(tmp_path)), "exists already"),
+        (("bag", "plot", str(tmp_path / "missing"), "-o", str(tmp_path / "x.png")), "does not exist"),
+    ):
+        done = run_cli(*args)
+        assert done.returncode != 0
+        lines = done.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("error: ") and needle in lines[0], done.stderr

@@ -1,0 +1,239 @@
+"""The player: real publishers over DDS, checked by real subscribers.
+
+A bag is recorded once per module by the real recorder from the suite publishers; the
+tests replay it with ``tensegrity play`` (a subprocess) or with :class:`PlayerNode` driven
+by a virtual clock (to check the schedule exactly without timed assertions), and compare
+what arrives with what was published when recording.
+"""
+
+from __future__ import annotations
+
+import signal
+import time
+from pathlib import Path
+
+import pytest
+from rclpy.context import Context
+from rclpy.duration import Duration
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import QoSProfile
+
+from tensegrity_ros.bag.player import PlayerNode
+from tensegrity_ros.bag.reader import BagReader
+from tensegrity_ros.bag.recorder import message_class
+from tensegrity_ros.bag.schedule import PlaybackOptions
+from tests.bags.compare import plain
+from tests.bags.conftest import Proc, rosbags_cdr_samples
+from tests.bags.suite_publishers import TYPE_NAMES, SuitePublisher, make_message
+
+pytestmark = pytest.mark.ros
+
+RATES = {"joint_states": 200.0, "end_effector": 100.0, "mechanism_state": 50.0,
+         "markers": 20.0, "/clock": 100.0}
+COUNTS = {"joint_states": 100, "end_effector": 50, "mechanism_state": 25, "markers": 10,
+          "/clock": 50}
+
+
+def absolute(topic: str) -> str:
+    return topic if topic.startswith("/") else f"/{topic}"
+
+
+@pytest.fixture(scope="module")
+def recorded_bag(tmp_path_factory) -> Path:
+    import rclpy
+
+    folder = tmp_path_factory.mktemp("play") / "source"
+    rec = Proc(["record", "-o", str(folder)], folder.parent / "record.log")
+    ctx = Context()
+    rclpy.init(args=[], context=ctx)
+    try:
+        rec.wait_for("recording to")
+        node = SuitePublisher(RATES, context=ctx, name="source_publisher")
+        assert node.wait_for_subscribers(60)
+        node.run(counts=COUNTS)
+        for pub in node.pubs.values():
+            assert pub.wait_for_all_acked(Duration(seconds=30))
+        assert rec.stop() == 0
+    finally:
+        rec.kill()
+        rclpy.try_shutdown(context=ctx)
+    return folder
+
+
+class Collector(Node):
+    """Subscribes to topics and keeps every message received, in order."""
+
+    def __init__(self, context, topics: dict[str, str], **kwargs):
+        super().__init__("collector", context=context, **kwargs)
+        self.got = {t: [] for t in topics}
+        for topic, type_name in topics.items():
+            self.create_subscription(message_class(type_name), topic,
+                                     lambda msg, t=topic: self.got[t].append(msg),
+                                     QoSProfile(depth=1000))
+
+    def spin_until(self, done, timeout: float = 60.0) -> None:
+        executor = SingleThreadedExecutor(context=self.context)
+        executor.add_node(self)
+        deadline = time.monotonic() + timeout
+        while not done():
+            assert time.monotonic() < deadline, {t: len(v) for t, v in self.got.items()}
+            executor.spin_once(timeout_sec=0.05)
+        executor.remove_node(self)
+
+
+def all_topics() -> dict[str, str]:
+    return {absolute(t): name for t, name in TYPE_NAMES.items()}
+
+
+def expected(topic: str, indices) -> list:
+    return [plain(make_message(topic, k, RATES[topic])) for k in indices]
+
+
+def test_replay_delivers_every_message_in_order(recorded_bag, ros_context, cli):
+    sink = Collector(ros_context, all_topics())
+    play = cli("play", str(recorded_bag), "--wait-for-subscribers", "60")
+    sink.spin_until(lambda: all(len(sink.got[absolute(t)]) >= n for t, n in COUNTS.items()))
+    assert play.popen.wait(60) == 0, play.stderr()
+    for topic, n in COUNTS.items():
+        assert [plain(m) for m in sink.got[absolute(topic)]] == expected(topic, range(n)), topic
+    assert "played /clock 50" in play.stderr()
+
+
+def test_topic_filter_and_start_offset(recorded_bag, ros_context, cli):
+    reader = BagReader(recorded_bag)
+    t0 = reader.start_ns + 250_000_000
+    want = {}
+    for topic in ("joint_states", "end_effector"):
+        times = [m.log_time_ns for m in reader.messages([absolute(topic)])]
+        want[topic] = [k for k, t in enumerate(times) if t >= t0]
+    sink = Collector(ros_context, all_topics())
+    play = cli("play", str(recorded_bag), "--topics", "joint_states", "/end_effector",
+               "--start-offset", "0.25", "--wait-for-subscribers", "60")
+    assert play.popen.wait(60) == 0, play.stderr()
+    sink.spin_until(lambda: all(len(sink.got[absolute(t)]) >= len(v) for t, v in want.items()))
+    for topic, indices in want.items():
+        assert 0 < len(indices) < COUNTS[topic]
+        assert [plain(m) for m in sink.got[absolute(topic)]] == expected(topic, indices)
+    for other in ("/markers", "/mechanism_state", "/clock"):
+        assert sink.got[other] == []
+
+
+class _Timed:
+    """Wraps a real publisher; notes the virtual time of each publish."""
+
+    def __init__(self, pub, log, clock, topic):
+        self.pub, self.log, self.clock, self.topic = pub, log, clock, topic
+
+    def publish(self, msg):
+        # the player reuses its Clock message: note the time it carries now
+        noted = msg if isinstance(msg, bytes) else msg.clock.sec * 10**9 + msg.clock.nanosec
+        self.log.append((self.clock[0], self.topic, noted))
+        self.pub.publish(msg)
+
+
+@pytest.mark.parametrize("rate", [2.0, 0.5])
+def test_schedule_rate_offset_and_clock_on_a_virtual_clock(recorded_bag, ros_context, rate):
+    """Every message leaves at (t - t0)/rate after start, /clock ticks at k/hz carrying
+    t0 + rate*k/hz, a tick precedes a message due at the same instant."""
+    reader = BagReader(recorded_bag)
+    opts = PlaybackOptions(rate=rate, start_offset_s=0.1, clock_hz=50.0)
+    player = PlayerNode(reader, opts, ["joint_states", "markers"], log=lambda _: None,
+                        node_name="virtual_player", context=ros_context)
+    virtual = [10_000]
+    log: list = []
+    for topic, pub in list(player.publishers_by_topic.items()):
+        player.publishers_by_topic[topic] = _Timed(pub, log, virtual, topic)
+    player.clock_publisher = _Timed(player.clock_publisher, log, virtual, "/clock")
+
+    def wait(deadline):
+        assert deadline >= virtual[0]          # the player never waits into the past
+        virtual[0] = deadline
+
+    result = player.play(now_ns=lambda: virtual[0], wait=wait)
+    player.destroy_node()
+    t0 = reader.start_ns + 100_000_000
+    msgs = [m for m in reader.messages(["/joint_states", "/markers"]) if m.log_time_ns >= t0]
+    sent = [(t, topic, data) for t, topic, data in log if topic != "/clock"]
+    assert [(topic, data) for _, topic, data in sent] == [(m.topic, m.data) for m in msgs]
+    assert [t - 10_000 for t, _, _ in sent] == [round((m.log_time_ns - t0) / rate) for m in msgs]
+    ticks = [(t - 10_000, ns) for t, topic, ns in log if topic == "/clock"]
+    end = reader.end_ns
+    regular = [(round(k * 1e9 / 50.0), t0 + round(rate * k * 1e9 / 50.0))
+               for k in range(len(ticks)) if t0 + round(rate * k * 1e9 / 50.0) <= end]
+    assert ticks[:len(regular)] == regular
+    assert ticks[-1] == (round((end - t0) / rate), end)
+    assert result.clock_ticks == len(ticks) and result.published == {
+        "/joint_states": sum(m.topic == "/joint_states" for m in msgs),
+        "/markers": sum(m.topic == "/markers" for m in msgs)}
+    first_msg = log.index(sent[0])
+    assert log[first_msg - 1][1] == "/clock" and log[first_msg - 1][0] <= sent[0][0]
+
+
+def test_clock_drives_a_use_sim_time_node(recorded_bag, ros_context, cli):
+    """With --clock, a node using sim time reads the recorded times while messages arrive;
+    the recorded /clock topic is not replayed on top."""
+    reader = BagReader(recorded_bag)
+    sink = Collector(ros_context, {"/joint_states": TYPE_NAMES["joint_states"],
+                                   "/clock": "rosgraph_msgs/msg/Clock"},
+                     parameter_overrides=[Parameter("use_sim_time", value=True)])
+    seen_at: list[int] = []
+    sink.create_subscription(message_class(TYPE_NAMES["joint_states"]), "/joint_states",
+                             lambda _m: seen_at.append(sink.get_clock().now().nanoseconds),
+                             QoSProfile(depth=1000))
+    play = cli("play", str(recorded_bag), "--topics", "joint_states", "/clock", "--clock", "200",
+               "--wait-for-subscribers", "60")
+    sink.spin_until(lambda: len(sink.got["/joint_states"]) >= COUNTS["joint_states"]
+                    and play.popen.poll() is not None)
+    assert play.popen.returncode == 0, play.stderr()
+    sink.spin_until(lambda: any(c.clock.sec * 10**9 + c.clock.nanosec == reader.end_ns
+                                for c in sink.got["/clock"]))
+    clock = [c.clock.sec * 10**9 + c.clock.nanosec for c in sink.got["/clock"]]
+    assert clock == sorted(clock)
+    assert clock[0] == reader.start_ns and clock[-1] == reader.end_ns
+    # the recorded /clock carried 1.7e18-ns stamps; none of those was replayed
+    assert all(reader.start_ns <= c <= reader.end_ns for c in clock)
+    assert len(seen_at) == COUNTS["joint_states"]
+    assert all(reader.start_ns <= t <= reader.end_ns for t in seen_at)
+    assert seen_at == sorted(seen_at) and seen_at[-1] > seen_at[0]
+    assert "is not replayed" in play.stderr()
+
+
+def test_loop_replays_the_bag_again(recorded_bag, ros_context, cli):
+    sink = Collector(ros_context, {"/end_effector": TYPE_NAMES["end_effector"]})
+    n = COUNTS["end_effector"]
+    play = cli("play", str(recorded_bag), "--topics", "end_effector", "--loop", "--rate", "4",
+               "--wait-for-subscribers", "60")
+    sink.spin_until(lambda: len(sink.got["/end_effector"]) >= 2 * n + 1)
+    assert play.stop(signal.SIGINT) == 130
+    got = [plain(m) for m in sink.got["/end_effector"]]
+    assert got[:2 * n] == expected("end_effector", range(n)) * 2
+    assert got[2 * n] == expected("end_effector", [0])[0]
+
+
+def test_bag_written_by_rosbags_plays(tmp_path, ros_context, cli):
+    """A rosbag2 MCAP bag from another writer (rosbags) replays with its content."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_JAZZY)
+    samples = rosbags_cdr_samples(30)
+    folder = tmp_path / "from_rosbags"
+    with Writer(folder, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        connections = {}
+        for topic, type_name, t, data, _ in samples:
+            if topic not in connections:
+                connections[topic] = writer.add_connection(topic, type_name, typestore=store)
+            writer.write(connections[topic], t, data)
+    sink = Collector(ros_context, {"/joint_states": "sensor_msgs/msg/JointState",
+                                   "/end_effector": "geometry_msgs/msg/PointStamped"})
+    play = cli("play", str(folder), "--wait-for-subscribers", "60")
+    sink.spin_until(lambda: all(len(v) >= 30 for v in sink.got.values()))
+    assert play.popen.wait(60) == 0, play.stderr()
+    assert [list(m.position) for m in sink.got["/joint_states"]] == \
+        [v for topic, *_, v in samples if topic == "/joint_states"]
+    assert [(m.point.x, m.point.y, m.point.z) for m in sink.got["/end_effector"]] == \
+        [v for topic, *_, v in samples if topic == "/end_effector"]
+    assert [m.header.stamp.nanosec for m in sink.got["/end_effector"]] == \
+        [k * 10_000_000 for k in range(30)]
