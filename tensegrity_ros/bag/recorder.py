@@ -18,7 +18,6 @@ properly (summary + ``metadata.yaml``) with counts equal to the messages receive
 
 from __future__ import annotations
 
-import importlib
 import signal
 import sys
 import time
@@ -30,9 +29,10 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.topic_or_service_is_hidden import topic_or_service_is_hidden
 
+from tensegrity_ros import msg_utils
 from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.metadata import BagMetadata, TopicInfo
-from tensegrity_ros.bag.msgdefs import split_type_name
+
 from tensegrity_ros.bag.qos import dict_to_profile, profile_to_dict, request_for_offers
 from tensegrity_ros.bag.writer import BagWriter
 
@@ -45,12 +45,10 @@ DISCOVERY_PERIOD = 0.1     # s
 
 def message_class(type_name: str):
     """The rclpy message class of ``pkg/msg/Name``; :class:`BagError` if not importable."""
-    package, namespace, name = split_type_name(type_name)
     try:
-        return getattr(importlib.import_module(f"{package}.{namespace}"), name)
-    except (ImportError, AttributeError):
-        raise BagError(f"message type {type_name} is not installed (no module "
-                       f"{package}.{namespace} with class {name})") from None
+        return msg_utils.message_class(type_name)
+    except ValueError as err:
+        raise BagError(str(err)) from None
 
 
 class RecorderNode(Node):

@@ -1,0 +1,218 @@
+"""``tensegrity_sim``: the simulated mechanism.
+
+Subscribes ``actuator_forces`` (tensegrity_msgs/ActuatorForces; positive = tensile, pulls
+the actuator's nodes together). Publishes, stamped with simulation time:
+
+- ``joint_states`` (sensor_msgs/JointState): joints ``rho1``, ``rho2`` [m] and ``beta``
+  [rad]; position, velocity, and effort = the applied actuator force [N] (0 for beta);
+- ``end_effector`` (geometry_msgs/PointStamped): node D [m];
+- ``mechanism_state`` (tensegrity_msgs/MechanismState): nodes, member lengths and
+  forces, energies;
+- ``markers`` (visualization_msgs/MarkerArray): members coloured by force (red tension,
+  blue compression), nodes as spheres; at ``marker_rate``;
+- ``/clock`` (rosgraph_msgs/Clock): simulation time, so other nodes can use_sim_time.
+
+The node runs on wall (steady) time and owns the simulation clock: each tick advances the
+core simulator to ``real_time_factor`` x elapsed wall time (0 = as fast as possible, one
+publish period of simulated time per tick). Bad commands (wrong lengths, unknown names,
+NaN/inf, over ``max_force``) are rejected with a throttled warning naming the problem;
+publishing never stops and NaN is never integrated. After ``command_timeout`` seconds
+without a valid command the forces drop to ``safe_force``.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+
+from tensegrity_ros.nodes.common import declare, rclpy, spin_node
+from builtin_interfaces.msg import Time as TimeMsg
+from geometry_msgs.msg import Point, PointStamped
+from rclpy.clock import Clock, ClockType
+from rclpy.node import Node
+from rclpy.qos import QoSProfile
+from rosgraph_msgs.msg import Clock as ClockMsg
+from sensor_msgs.msg import JointState
+from std_msgs.msg import ColorRGBA, Header
+from tensegrity_msgs.msg import ActuatorForces, MechanismState
+from visualization_msgs.msg import Marker, MarkerArray
+
+from tensegrity_core.errors import TensegrityError
+from tensegrity_core.sim import Simulator, load_scene
+from tensegrity_ros.actuator_commands import CommandError, parse_command
+
+JOINT_NAMES = ["rho1", "rho2", "beta"]
+#: Catch-up limit: if ticks fall this far behind wall time, the simulation slips instead.
+MAX_LAG = 0.25
+
+
+def sim_time_msg(t: float) -> TimeMsg:
+    sec = math.floor(t)
+    return TimeMsg(sec=int(sec), nanosec=min(int(round((t - sec) * 1e9)), 999_999_999))
+
+
+def force_color(t: float, scale: float) -> ColorRGBA:
+    """Red for tension, blue for compression, grey near zero; saturates at ``scale`` [N]."""
+    a = max(-1.0, min(1.0, t / scale)) if scale > 0 else 0.0
+    if a >= 0:
+        return ColorRGBA(r=0.6 + 0.4 * a, g=0.6 - 0.5 * a, b=0.6 - 0.5 * a, a=1.0)
+    return ColorRGBA(r=0.6 + 0.5 * a, g=0.6 + 0.5 * a, b=0.6 - 0.4 * a, a=1.0)
+
+
+class SimNode(Node):
+    def __init__(self, **kwargs) -> None:
+        super().__init__("tensegrity_sim", **kwargs)
+        scene_name = declare(self, "scene", "class2_at_rest",
+                             "scene file or shipped scene name (tensegrity scenes lists them)", read_only=True)
+        self.rate = declare(self, "publish_rate", 100.0, "publish rate of the state topics [Hz]", lo=1.0, hi=1000.0,
+                            read_only=True)
+        self.rtf = declare(self, "real_time_factor", 1.0,
+                           "simulated seconds per wall second; 0 = as fast as possible", lo=0.0, hi=1000.0,
+                           read_only=True)
+        self.command_timeout = declare(self, "command_timeout", 0.5,
+                                       "after this many seconds without a valid command the forces drop "
+                                       "to safe_force [s]; 0 = never", lo=0.0)
+        self.safe_force = declare(self, "safe_force", 0.0, "force applied after a command timeout [N]")
+        self.max_force = declare(self, "max_force", 1000.0, "commands with |f| above this are rejected [N]", lo=0.0)
+        self.frame_id = declare(self, "frame_id", "world", "frame of the published positions")
+        self.marker_rate = declare(self, "marker_rate", 30.0, "publish rate of the markers [Hz]", lo=0.0, hi=1000.0)
+        self.publish_clock = declare(self, "publish_clock", True, "publish /clock from the simulation time")
+
+        try:
+            self.scene = load_scene(scene_name)
+            self.sim = Simulator(self.scene)
+        except TensegrityError as err:
+            raise SystemExit(f"tensegrity_sim: cannot load scene {scene_name!r}: {err}") from None
+
+        qos = QoSProfile(depth=100)
+        self.pub_joints = self.create_publisher(JointState, "joint_states", qos)
+        self.pub_ee = self.create_publisher(PointStamped, "end_effector", qos)
+        self.pub_state = self.create_publisher(MechanismState, "mechanism_state", qos)
+        self.pub_markers = self.create_publisher(MarkerArray, "markers", 10)
+        self.pub_clock = self.create_publisher(ClockMsg, "/clock", qos)
+        self.create_subscription(ActuatorForces, "actuator_forces", self.on_command, 100)
+
+        self.command = [0.0, 0.0]
+        self.rejected = 0
+        self.fault: str | None = None
+        self._last_valid = None          # wall time of the last valid command
+        self._timed_out = False
+        self._wall0 = time.monotonic()
+        self._sim0 = self.sim.t
+        self._last_marker = -math.inf
+        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self._timer = None
+        self._make_timer()
+        self.get_logger().info(
+            f"scene {scene_name!r}: publishing at {self.rate:g} Hz, real-time factor "
+            f"{self.rtf:g}{' (as fast as possible)' if self.rtf == 0 else ''}")
+
+    def _make_timer(self) -> None:
+        if self._timer is not None:
+            self.destroy_timer(self._timer)
+        period = 0.0 if self.rtf == 0 else 1.0 / self.rate
+        self._timer = self.create_timer(period, self.tick, clock=self._steady)
+
+    # -- commands ------------------------------------------------------------------------
+    def on_command(self, msg: ActuatorForces) -> None:
+        try:
+            update = parse_command(list(msg.name), list(msg.force), max_abs_force=self.max_force)
+        except CommandError as err:
+            self.rejected += 1
+            self.get_logger().warning(f"rejected actuator command: {err} ({self.rejected} rejected so far)",
+                                      throttle_duration_sec=1.0)
+            return
+        self.command = update.apply(self.command)
+        self._last_valid = time.monotonic()
+        if self._timed_out:
+            self._timed_out = False
+            self.get_logger().info("commands resumed")
+
+    def _effective_command(self, now: float) -> list[float]:
+        if (self.command_timeout > 0 and self._last_valid is not None
+                and now - self._last_valid > self.command_timeout):
+            if not self._timed_out:
+                self._timed_out = True
+                self.get_logger().warning(
+                    f"no valid command for {self.command_timeout:g} s: forces drop to {self.safe_force:g} N")
+            return [self.safe_force] * len(self.command)
+        return self.command
+
+    # -- simulation tick -----------------------------------------------------------------
+    def tick(self) -> None:
+        now = time.monotonic()
+        if self.fault is None:
+            if self.rtf == 0:
+                target = self.sim.t + 1.0 / self.rate
+            else:
+                target = self._sim0 + (now - self._wall0) * self.rtf
+                if target - self.sim.t > MAX_LAG * self.rtf:   # fell behind: slip, do not burst
+                    self._sim0, self._wall0 = self.sim.t + 1.0 / self.rate, now
+                    target = self._sim0
+            try:
+                self.sim.set_command(self._effective_command(now))
+                self.sim.advance(target)
+            except TensegrityError as err:
+                self.fault = str(err)
+                self.get_logger().error(f"simulation stopped, state held: {err}")
+        self.publish(self.sim.observe())
+
+    def publish(self, obs) -> None:
+        stamp = sim_time_msg(obs.t)
+        header = Header(stamp=stamp, frame_id=self.frame_id)
+        if self.publish_clock:
+            self.pub_clock.publish(ClockMsg(clock=stamp))
+        js = JointState(header=header, name=JOINT_NAMES)
+        js.position = [float(v) for v in obs.q]
+        js.velocity = [float(v) for v in obs.qdot]
+        js.effort = [float(obs.applied_forces[0]), float(obs.applied_forces[1]), 0.0]
+        self.pub_joints.publish(js)
+        ee = obs.end_effector
+        self.pub_ee.publish(PointStamped(header=header, point=Point(x=float(ee[0]), y=float(ee[1]), z=float(ee[2]))))
+        self.pub_state.publish(self._state_msg(header, obs))
+        if self.marker_rate > 0 and obs.t - self._last_marker >= 1.0 / self.marker_rate:
+            self._last_marker = obs.t
+            self.pub_markers.publish(self._markers(header, obs))
+
+    def _state_msg(self, header: Header, obs) -> MechanismState:
+        m = MechanismState(header=header)
+        m.q = [float(v) for v in obs.q]
+        m.qdot = [float(v) for v in obs.qdot]
+        m.actuator_force = [float(v) for v in obs.applied_forces]
+        m.node_names = list(obs.node_names)
+        m.nodes = [Point(x=float(p[0]), y=float(p[1]), z=float(p[2])) for p in obs.nodes]
+        m.member_names = list(obs.member_names)
+        m.member_lengths = [float(v) for v in obs.member_lengths]
+        m.member_forces = [float(v) for v in obs.member_forces]
+        m.end_effector = Point(x=float(obs.end_effector[0]), y=float(obs.end_effector[1]),
+                               z=float(obs.end_effector[2]))
+        m.potential_energy = float(obs.potential_energy)
+        m.kinetic_energy = float(obs.kinetic_energy)
+        m.folded = bool(obs.folded)
+        return m
+
+    def _markers(self, header: Header, obs) -> MarkerArray:
+        scale = max(1e-9, max(abs(float(t)) for t in obs.member_forces))
+        members = Marker(header=header, ns="members", id=0, type=Marker.LINE_LIST, action=Marker.ADD)
+        members.scale.x = 0.02
+        members.pose.orientation.w = 1.0
+        for (i, j), t in zip(obs.member_nodes, obs.member_forces):
+            for n in (i, j):
+                p = obs.nodes[n]
+                members.points.append(Point(x=float(p[0]), y=float(p[1]), z=float(p[2])))
+                members.colors.append(force_color(float(t), scale))
+        nodes = Marker(header=header, ns="nodes", id=1, type=Marker.SPHERE_LIST, action=Marker.ADD)
+        nodes.scale.x = nodes.scale.y = nodes.scale.z = 0.05
+        nodes.pose.orientation.w = 1.0
+        nodes.color = ColorRGBA(r=0.9, g=0.9, b=0.9, a=1.0)
+        nodes.points = [Point(x=float(p[0]), y=float(p[1]), z=float(p[2])) for p in obs.nodes]
+        return MarkerArray(markers=[members, nodes])
+
+
+def main(argv=None) -> int:
+    return spin_node(SimNode, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
