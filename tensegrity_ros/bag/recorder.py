@@ -32,7 +32,6 @@ from rclpy.topic_or_service_is_hidden import topic_or_service_is_hidden
 from tensegrity_ros import msg_utils
 from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.metadata import BagMetadata, TopicInfo
-
 from tensegrity_ros.bag.qos import dict_to_profile, profile_to_dict, request_for_offers
 from tensegrity_ros.bag.writer import BagWriter
 
