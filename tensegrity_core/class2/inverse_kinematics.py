@@ -1,0 +1,372 @@
+"""Inverse kinematics of the class-2 mechanism: actuator lengths that hold D at (x, y).
+
+The paper's route (Sect. 3.2): ``rho1 = x + delta1 sqrt(L^2 - y^2)`` (Eq. 13), then the
+quadratic ``xi2 rho2^2 + xi1 rho2 + xi0 = 0`` (Eqs. 14-17) obtained by squaring
+``y ((2 k3 + k2) rho2 - k2 rho1) = (x - rho1) k2 lambda1`` (Eq. 10 combined with Eq. 12),
+solved by Eq. 18 with ``delta2 = +-1``. With ``c = x - rho1 = L cos beta`` and
+``K = 2 k3 + k2`` the discriminant factors exactly (docs/class2.md)::
+
+    xi1^2 - 4 xi2 xi0 = 4 k2^2 c^2 Q^2,   Q^2 = 4 L^2 xi2 - (K + k2)^2 rho1^2 y^2,
+    rho2 = k2 (-rho1 (k2 c^2 - K y^2) + delta2 |c| Q) / xi2,
+
+which is how the roots are computed here (no cancellation as ``c -> 0``).
+
+Squaring admits roots that are not equilibria. ``dU/dbeta`` at the target equals
+``(y d - c k2 lambda1) / 2`` (``d = K rho2 - k2 rho1``) and ``d2U/dbeta2 = (c d + k2 lambda1 y) / 2``,
+so each root is classified exactly: genuine (stationary, minimum), energy maximum
+(stationary, ``d2U/dbeta2 < 0``; the only stationary root when y < 0) or not stationary
+(the root of the sign-flipped equation, ``|dU/dbeta| = |c k2 lambda1|``). For ``0 < y < L``
+and ``0 <= rho1 <= L`` each ``delta1`` has exactly one genuine root, the one with
+``delta2 = -delta1``: at most two equilibria, at most one (``delta1 = -1``) in the paper's
+range. Each candidate also carries ``fk_residual``, the distance between the target and
+the closed-form FK of its lengths, as the independent check.
+
+Lengths in metres, angles in radians from +X, counter-clockwise.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import NamedTuple, Sequence
+
+import numpy as np
+
+from tensegrity_core.class2.full_workspace import distance_to_full_workspace
+from tensegrity_core.class2.kinematics import as_real, in_paper_range
+from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
+from tensegrity_core.class2.singularities import nearest_singularity
+from tensegrity_core.errors import DomainError
+
+#: Relative tolerance (times L) within which a length on a domain limit is snapped onto it.
+DOMAIN_TOL = 1e-12
+
+REASON_RHO1 = "rho1 outside [0, L]"
+REASON_RHO2 = "negative length rho2"
+REASON_SUM = "rho1+rho2 > 2L"
+REASON_MAXIMUM = "spurious root of the squared equation (energy maximum, not an equilibrium)"
+REASON_NOT_STATIONARY = "spurious root of the squared equation (not an equilibrium: dU/dbeta != 0)"
+REASON_RANGE = "outside the paper's angle range"
+REASON_DUPLICATE = "duplicate of an earlier candidate (double root)"
+
+
+@dataclass(frozen=True)
+class IKCandidate:
+    """One real root of the paper's quartic route, with its verdict.
+
+    Attributes
+    ----------
+    rho1, rho2 : actuator lengths [m] (Eqs. 13 and 18).
+    beta : angle of BD [rad] that puts D at the target, ``atan2(y, x - rho1)``.
+    alpha : angle of AE [rad] (Eq. 1); NaN when ``|rho1 + rho2| > 2L``.
+    delta1, delta2 : branch signs of Eqs. 13 and 18.
+    valid : a genuine stable equilibrium in the configuration domain (and in the paper's
+        range when the solve asked for it).
+    reason : '' when valid, else every failed test joined by '; '.
+    in_paper_range : ``0 <= alpha, beta <= pi/2``.
+    stiffness_beta : d2U/dbeta2 at the target [J/rad^2] (> 0 for a minimum).
+    singularity_distance : distance to the nearest singular set (dimensionless; NaN outside
+        the configuration domain).
+    fk_residual : ``|FK(rho1, rho2) - (x, y)|`` [m]; NaN outside the configuration domain.
+    """
+
+    rho1: float
+    rho2: float
+    beta: float
+    alpha: float
+    delta1: int
+    delta2: int
+    valid: bool
+    reason: str
+    in_paper_range: bool
+    stiffness_beta: float
+    singularity_distance: float
+    fk_residual: float
+
+    def as_dict(self) -> dict:
+        return dict(self.__dict__)
+
+
+@dataclass(frozen=True)
+class IKResult:
+    """All real candidates for the target D = (x, y) and the summary ``message``.
+
+    ``outside_distance`` [m] is the distance from the target to the workspace of the full
+    actuator range (0 inside; :mod:`tensegrity_core.class2.full_workspace`).
+    """
+
+    x: float
+    y: float
+    paper_range: bool
+    candidates: tuple[IKCandidate, ...]
+    message: str
+    outside_distance: float
+
+    @property
+    def valid(self) -> tuple[IKCandidate, ...]:
+        """The valid candidates only (what the ROS service returns)."""
+        return tuple(c for c in self.candidates if c.valid)
+
+    @property
+    def success(self) -> bool:
+        return any(c.valid for c in self.candidates)
+
+    def nearest(self, seed: Sequence[float]) -> IKCandidate:
+        """The valid candidate nearest ``seed = (rho1, rho2)`` in the actuator plane."""
+        s1, s2 = as_real("seed rho1", seed[0]), as_real("seed rho2", seed[1])
+        valid = self.valid
+        if not valid:
+            raise DomainError(self.message, distance=self.outside_distance)
+        return min(valid, key=lambda c: math.hypot(c.rho1 - s1, c.rho2 - s2))
+
+    def as_dict(self) -> dict:
+        return {
+            "x": self.x, "y": self.y, "paper_range": self.paper_range,
+            "success": self.success, "message": self.message,
+            "outside_distance": self.outside_distance,
+            "solutions": [c.as_dict() for c in self.candidates],
+        }
+
+
+def _snap(v: float, lo: float, hi: float, tol: float) -> float:
+    if lo - tol <= v < lo:
+        return lo
+    if hi < v <= hi + tol:
+        return hi
+    return v
+
+
+def _candidate(x, y, rho1, rho2, c, d1, d2, params, paper_range) -> IKCandidate:
+    L, k2 = params.L, params.k2
+    K = 2.0 * params.k3 + k2
+    tol = DOMAIN_TOL * L
+    rho1 = _snap(rho1, 0.0, L, tol)
+    rho2 = _snap(rho2, 0.0, math.inf, tol)
+    if 2.0 * L < rho1 + rho2 <= 2.0 * L + tol:
+        rho2 = 2.0 * L - rho1
+    s = rho1 + rho2
+    reasons = []
+    if not 0.0 <= rho1 <= L:
+        reasons.append(REASON_RHO1)
+    if rho2 < 0.0:
+        reasons.append(REASON_RHO2)
+    if s > 2.0 * L:
+        reasons.append(REASON_SUM)
+    beta = math.atan2(y, c)
+    lam_sq = (2.0 * L - s) * (2.0 * L + s)
+    alpha = stiffness = math.nan
+    if lam_sq >= -tol * L:
+        lam1 = math.sqrt(max(lam_sq, 0.0))
+        alpha = math.atan2(lam1, s)
+        d = K * rho2 - k2 * rho1
+        grad2 = y * d - c * k2 * lam1          # = 2 dU/dbeta at the target
+        stiffness = 0.5 * (c * d + k2 * lam1 * y)
+        if abs(grad2) > 0.5 * (abs(y * d) + abs(c * k2 * lam1)):
+            reasons.append(REASON_NOT_STATIONARY)
+        elif stiffness < 0.0:
+            reasons.append(REASON_MAXIMUM)
+    in_range = in_paper_range(beta) and 0.0 <= alpha <= 0.5 * math.pi
+    if paper_range and not in_range:
+        reasons.append(REASON_RANGE)
+    dist = fk_res = math.nan
+    if 0.0 <= rho1 <= L and rho2 >= 0.0 and s <= 2.0 * L:
+        dist = nearest_singularity(rho1, rho2, params)[1]
+        lam1 = math.sqrt((2.0 * L - s) * (2.0 * L + s))
+        dd, e = K * rho2 - k2 * rho1, k2 * lam1
+        R = math.hypot(dd, e)
+        if R > 0.0:
+            fk_res = math.hypot(rho1 + L * dd / R - x, L * e / R - y)
+    return IKCandidate(
+        rho1, rho2, beta, alpha, d1, d2, not reasons, "; ".join(reasons), in_range,
+        stiffness, dist, fk_res,
+    )
+
+
+def inverse_kinematics(
+    x: float, y: float, params: Class2Params = PAPER_PARAMS, *, paper_range: bool = True
+) -> IKResult:
+    """Every real candidate of the paper's IK route for D = (x, y), each with its verdict.
+
+    ``paper_range=True`` (default) makes candidates outside ``0 <= alpha, beta <= pi/2``
+    invalid (the paper's restriction, Sect. 2); with ``False`` they stay valid and are only
+    flagged by ``in_paper_range``. Candidates are listed in the order
+    ``(delta1, delta2) = (-1, +1), (-1, -1), (+1, -1), (+1, +1)`` (genuine roots first); a
+    root identical to an earlier one (at ``|y| = L``) is kept but marked invalid as a
+    duplicate, so ``.valid`` lists distinct solutions. Raises :class:`DomainError` only for
+    non-finite input; an unreachable target gives an empty or all-invalid result.
+    """
+    x = as_real("x", x)
+    y = as_real("y", y)
+    L, k2 = params.L, params.k2
+    K = 2.0 * params.k3 + k2
+    tol = DOMAIN_TOL * L
+    if L < abs(y) <= L + tol:
+        y = math.copysign(L, y)
+    candidates: list[IKCandidate] = []
+    if abs(y) <= L:
+        w = math.sqrt((L - y) * (L + y))
+        for d1 in (-1, 1):
+            rho1 = x + d1 * w
+            c = -d1 * w
+            xi2 = K * K * y * y + k2 * k2 * c * c
+            q_sq = 4.0 * L * L * xi2 - (K + k2) ** 2 * rho1 * rho1 * y * y
+            if q_sq < 0.0:
+                continue
+            mid = -k2 * rho1 * (k2 * c * c - K * y * y)
+            spread = k2 * w * math.sqrt(q_sq)
+            for d2 in (-d1, d1):
+                rho2 = (mid + d2 * spread) / xi2
+                cand = _candidate(x, y, rho1, rho2, c, d1, d2, params, paper_range)
+                if any(p.rho1 == cand.rho1 and p.rho2 == cand.rho2 for p in candidates):
+                    reason = REASON_DUPLICATE if cand.valid else f"{cand.reason}; {REASON_DUPLICATE}"
+                    cand = replace(cand, valid=False, reason=reason)
+                candidates.append(cand)
+    n_valid = sum(c.valid for c in candidates)
+    outside = 0.0 if n_valid else max(0.0, distance_to_full_workspace(x, y, L))
+    message = _message(x, y, L, candidates, n_valid, outside, paper_range)
+    return IKResult(x, y, paper_range, tuple(candidates), message, outside)
+
+
+def _message(x, y, L, candidates, n_valid, outside, paper_range) -> str:
+    if n_valid:
+        return f"{n_valid} valid solution{'s' if n_valid > 1 else ''} of {len(candidates)} candidates"
+    where = f"D = ({x:g}, {y:g})"
+    if abs(y) > L:
+        return f"no real solution for {where}: |y| > L = {L:g} m (outside the workspace by {outside:.3g} m)"
+    if outside > 0.0:
+        return f"no valid solution for {where}: outside the workspace by {outside:.3g} m"
+    if paper_range:
+        return f"no valid solution for {where} within the paper's angle range"
+    return f"no valid solution for {where}"
+
+
+def nearest_solution(
+    x: float, y: float, seed: Sequence[float], params: Class2Params = PAPER_PARAMS,
+    *, paper_range: bool = True,
+) -> IKCandidate:
+    """The valid IK solution nearest ``seed = (rho1, rho2)`` [m] (Euclidean, actuator plane).
+
+    Feeding each answer back as the next seed keeps a trajectory on one branch. With
+    ``paper_range=True`` at most one solution is valid, so the seed matters only with
+    ``paper_range=False`` (the ``delta1 = +1`` branch, beta > pi/2). Raises
+    :class:`DomainError` (``distance`` = how far the target is outside the workspace)
+    when no candidate is valid.
+    """
+    return inverse_kinematics(x, y, params, paper_range=paper_range).nearest(seed)
+
+
+#: ``(delta1, delta2)`` of the columns of :func:`ik_array_all`.
+IK_BRANCHES = ((-1, 1), (-1, -1), (1, -1), (1, 1))
+#: Meaning of the codes of :func:`ik_array_all` (index = code); the first failed test wins.
+IK_CODES = (
+    "",                                  # 0 valid, in the paper's range
+    "valid, " + REASON_RANGE,            # 1 genuine equilibrium with beta > pi/2 (or y < 0)
+    "no real root",                      # 2
+    REASON_RHO1,                         # 3
+    REASON_RHO2,                         # 4
+    REASON_SUM,                          # 5
+    REASON_NOT_STATIONARY,               # 6
+    REASON_MAXIMUM,                      # 7
+    REASON_DUPLICATE,                    # 8
+)
+
+
+class IKArrays(NamedTuple):
+    """Vectorised IK of the paper-range branch; NaN exactly where ``valid`` is False."""
+
+    rho1: np.ndarray
+    rho2: np.ndarray
+    beta: np.ndarray
+    valid: np.ndarray
+
+
+class IKAllArrays(NamedTuple):
+    """All four branches: arrays of shape ``target_shape + (4,)``, columns :data:`IK_BRANCHES`.
+
+    ``code`` indexes :data:`IK_CODES`; 0 and 1 are genuine stable equilibria in the
+    configuration domain (1: outside the paper's angle range).
+    """
+
+    rho1: np.ndarray
+    rho2: np.ndarray
+    beta: np.ndarray
+    code: np.ndarray
+
+
+def _snap_array(v: np.ndarray, lo: float, hi: float, tol: float) -> np.ndarray:
+    v = np.where((v < lo) & (v >= lo - tol), lo, v)
+    return np.where((v > hi) & (v <= hi + tol), hi, v)
+
+
+def ik_array(x, y, params: Class2Params = PAPER_PARAMS) -> IKArrays:
+    """IK of the paper-range branch (``delta1 = -1, delta2 = +1``) over arrays, no Python loop.
+
+    For ``0 <= y <= L`` and ``0 <= rho1 <= L`` this root is the unique equilibrium with
+    ``0 <= beta <= pi/2`` (module docstring); ``valid`` adds the configuration domain.
+    Same snapping of limits as :func:`inverse_kinematics`.
+    """
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    L, k2 = params.L, params.k2
+    K = 2.0 * params.k3 + k2
+    tol = DOMAIN_TOL * L
+    with np.errstate(invalid="ignore", divide="ignore"):
+        y = np.where((y > L) & (y <= L + tol), L, y)
+        c = np.sqrt((L - y) * (L + y))
+        rho1 = _snap_array(x - c, 0.0, L, tol)
+        cc, yy = c * c, y * y
+        xi2 = K * K * yy + k2 * k2 * cc
+        q = np.sqrt(4.0 * L * L * xi2 - ((K + k2) * rho1) ** 2 * yy)
+        rho2 = k2 * (c * q - rho1 * (k2 * cc - K * yy)) / xi2
+        rho2 = np.where((rho2 < 0.0) & (rho2 >= -tol), 0.0, rho2)
+        over = rho1 + rho2 - 2.0 * L
+        rho2 = np.where((over > 0.0) & (over <= tol), 2.0 * L - rho1, rho2)
+        valid = (
+            (y >= 0.0) & (y <= L) & np.isfinite(x) & (rho1 >= 0.0) & (rho1 <= L)
+            & (rho2 >= 0.0) & (rho1 + rho2 <= 2.0 * L)
+        )
+        beta = np.where(valid, np.arctan2(y, c), np.nan)
+    return IKArrays(np.where(valid, rho1, np.nan), np.where(valid, rho2, np.nan), beta, valid)
+
+
+def ik_array_all(x, y, params: Class2Params = PAPER_PARAMS) -> IKAllArrays:
+    """Every candidate of the paper's route over arrays of targets, classified, no Python loop.
+
+    The vectorised counterpart of :func:`inverse_kinematics` (same formulas and tests).
+    """
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    x, y = np.broadcast_arrays(x, y)
+    L, k2 = params.L, params.k2
+    K = 2.0 * params.k3 + k2
+    tol = DOMAIN_TOL * L
+    d1 = np.array([b[0] for b in IK_BRANCHES], dtype=float)
+    d2 = np.array([b[1] for b in IK_BRANCHES], dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        y = np.where((np.abs(y) > L) & (np.abs(y) <= L + tol), np.copysign(L, y), y)[..., None]
+        w = np.sqrt((L - y) * (L + y))
+        rho1 = _snap_array(x[..., None] + d1 * w, 0.0, L, tol)
+        c = -d1 * w
+        xi2 = K * K * y * y + k2 * k2 * c * c
+        q = np.sqrt(4.0 * L * L * xi2 - ((K + k2) * rho1 * y) ** 2)
+        rho2 = k2 * (-rho1 * (k2 * c * c - K * y * y) + d2 * w * q) / xi2
+        rho2 = np.where((rho2 < 0.0) & (rho2 >= -tol), 0.0, rho2)
+        over = rho1 + rho2 - 2.0 * L
+        rho2 = np.where((over > 0.0) & (over <= tol), 2.0 * L - rho1, rho2)
+        s = rho1 + rho2
+        lam1 = np.sqrt(np.maximum((2.0 * L - s) * (2.0 * L + s), 0.0))
+        d = K * rho2 - k2 * rho1
+        grad2 = y * d - c * k2 * lam1
+        curv = c * d + k2 * lam1 * y
+        beta = np.arctan2(y, c)
+        code = np.where(beta > 0.5 * np.pi + 1e-12, 1, 0)
+        code = np.where(beta < -1e-12, 1, code)
+        code = np.where(curv < 0.0, 7, code)
+        code = np.where(np.abs(grad2) > 0.5 * (np.abs(y * d) + np.abs(c * k2 * lam1)), 6, code)
+        code = np.where(s > 2.0 * L, 5, code)
+        code = np.where(rho2 < 0.0, 4, code)
+        code = np.where((rho1 < 0.0) | (rho1 > L), 3, code)
+        code = np.where(~(np.isfinite(rho2) & np.isfinite(x[..., None])), 2, code)
+        dup = (w == 0.0) & (np.arange(4) > 0)
+        code = np.where(dup & (code != 2), 8, code)
+    return IKAllArrays(rho1, rho2, beta, code.astype(np.int8))
