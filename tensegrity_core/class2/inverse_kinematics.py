@@ -27,7 +27,7 @@ Lengths in metres, angles in radians from +X, counter-clockwise.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import NamedTuple, Sequence
 
 import numpy as np
@@ -38,8 +38,32 @@ from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 from tensegrity_core.class2.singularities import nearest_singularity
 from tensegrity_core.errors import DomainError
 
-#: Relative tolerance (times L) within which a length on a domain limit is snapped onto it.
+#: Relative tolerance (times L) within which a length on a domain limit is snapped onto
+#: it, and a target with ``|y|`` that close to L onto the fold ``|y| = L`` (there
+#: ``c = sqrt(L^2 - y^2)`` turns a rounding error of y into sqrt of it in rho1). The
+#: snapped answer reproduces the target to within this tolerance. The snapping of lengths
+#: also allows for the rounding of the target amplified by ``d rho1 / d y = y / c``
+#: (:func:`snap_tolerance`).
 DOMAIN_TOL = 1e-12
+_EPS = float(np.finfo(float).eps)
+
+
+def snap_tolerance(c: float, L: float) -> float:
+    """Snap tolerance [m] for lengths of a target with ``c = |x - rho1| = sqrt(L^2 - y^2)``.
+
+    ``DOMAIN_TOL L`` plus eight roundings of the target carried through ``rho1 = x -+ c``
+    (``|d c / d y| = |y| / c <= L / c``) and, as ``det(dD/drho) = c dbeta/drho2``, into
+    rho2 alike; ``c = 0`` only after the fold snap, where y is exact. FK of snapped lengths
+    reproduces the target to within this tolerance (``fk_residual``).
+    """
+    return DOMAIN_TOL * L + (8.0 * _EPS * L * L / c if c > 0.0 else 0.0)
+
+
+def _snap_tolerance_array(c: np.ndarray, L: float) -> np.ndarray:
+    """Vectorised :func:`snap_tolerance` (``c >= 0``)."""
+    with np.errstate(divide="ignore"):
+        return DOMAIN_TOL * L + np.where(c > 0.0, 8.0 * _EPS * L * L / c, 0.0)
+
 
 REASON_RHO1 = "rho1 outside [0, L]"
 REASON_RHO2 = "negative length rho2"
@@ -50,9 +74,8 @@ REASON_RANGE = "outside the paper's angle range"
 REASON_DUPLICATE = "duplicate of an earlier candidate (double root)"
 
 
-@dataclass(frozen=True)
-class IKCandidate:
-    """One real root of the paper's quartic route, with its verdict.
+class IKCandidate(NamedTuple):
+    """One real root of the paper's quartic route, with its verdict (an immutable record).
 
     Attributes
     ----------
@@ -84,7 +107,7 @@ class IKCandidate:
     fk_residual: float
 
     def as_dict(self) -> dict:
-        return dict(self.__dict__)
+        return self._asdict()
 
 
 @dataclass(frozen=True)
@@ -136,11 +159,44 @@ def _snap(v: float, lo: float, hi: float, tol: float) -> float:
     return v
 
 
-def _candidate(x, y, rho1, rho2, c, d1, d2, params, paper_range) -> IKCandidate:
+def _spurious_reason(y, c, d, lam1, rho1, d1, d2, K, k2, L) -> str:
+    """'' for an energy minimum, else which kind of spurious root (module docstring).
+
+    Inside the ellipse range ``|rho1| < 2 K L / (K + k2)`` (which contains [0, L]) the
+    verdict follows from the branch signs alone (docs/class2.md): ``delta2 = -delta1`` is the
+    minimum for ``y >= 0``; ``delta2 = delta1`` is not stationary for ``y > 0`` and the
+    maximum for ``y <= 0``; for ``y < 0`` the ``delta2 = -delta1`` root is not stationary;
+    at ``c = 0`` (``y = L``) the two roots coincide.
+    This is exact where the numeric test is not (near lambda1 = 0 or c = 0 the rounding of
+    rho2 dominates dU/dbeta). Outside that range ``dU/dbeta = (y d - c k2 lambda1) / 2`` and
+    ``d2U/dbeta2 = (c d + k2 lambda1 y) / 2`` decide.
+    """
+    if abs(rho1) * (K + k2) < 2.0 * K * L:
+        if d2 == -d1 or (c == 0.0 and y > 0.0):   # c = 0: a double root, both signs agree
+            return "" if y >= 0.0 else REASON_NOT_STATIONARY
+        return REASON_NOT_STATIONARY if y > 0.0 else REASON_MAXIMUM
+    if abs(y * d - c * k2 * lam1) > 0.5 * (abs(y * d) + abs(c * k2 * lam1)):
+        return REASON_NOT_STATIONARY
+    return REASON_MAXIMUM if c * d + k2 * lam1 * y < 0.0 else ""
+
+
+def _branch(x: float, y: float, w: float, d1: int, L: float) -> tuple[float, float, float]:
+    """``(rho1, c, y)`` of branch ``delta1`` (Eq. 13), rho1 snapped onto [0, L] when within
+    :func:`snap_tolerance`; a snapped rho1 gets its own consistent ``c = x - rho1`` and
+    ``y = +-sqrt(L^2 - c^2)`` (which moves y by only ~ c * snap / y)."""
+    rho1 = x + d1 * w
+    snapped = _snap(rho1, 0.0, L, snap_tolerance(w, L))
+    if snapped == rho1:
+        return rho1, -d1 * w, y
+    c = x - snapped
+    return snapped, c, math.copysign(math.sqrt(max(0.0, (L - c) * (L + c))), y)
+
+
+def _candidate(x, y, yb, rho1, rho2, c, d1, d2, params, paper_range) -> IKCandidate:
+    """Verdict on one root; ``(x, y)`` is the target, ``yb`` the branch's (snapped) y."""
     L, k2 = params.L, params.k2
     K = 2.0 * params.k3 + k2
-    tol = DOMAIN_TOL * L
-    rho1 = _snap(rho1, 0.0, L, tol)
+    tol = snap_tolerance(abs(c), L)   # det(dD/drho) ~ c: rho2 inherits the L / c too
     rho2 = _snap(rho2, 0.0, math.inf, tol)
     if 2.0 * L < rho1 + rho2 <= 2.0 * L + tol:
         rho2 = 2.0 * L - rho1
@@ -152,19 +208,17 @@ def _candidate(x, y, rho1, rho2, c, d1, d2, params, paper_range) -> IKCandidate:
         reasons.append(REASON_RHO2)
     if s > 2.0 * L:
         reasons.append(REASON_SUM)
-    beta = math.atan2(y, c)
+    beta = math.atan2(yb, c)
     lam_sq = (2.0 * L - s) * (2.0 * L + s)
     alpha = stiffness = math.nan
-    if lam_sq >= -tol * L:
+    if lam_sq >= -4.0 * tol * L:
         lam1 = math.sqrt(max(lam_sq, 0.0))
         alpha = math.atan2(lam1, s)
         d = K * rho2 - k2 * rho1
-        grad2 = y * d - c * k2 * lam1          # = 2 dU/dbeta at the target
-        stiffness = 0.5 * (c * d + k2 * lam1 * y)
-        if abs(grad2) > 0.5 * (abs(y * d) + abs(c * k2 * lam1)):
-            reasons.append(REASON_NOT_STATIONARY)
-        elif stiffness < 0.0:
-            reasons.append(REASON_MAXIMUM)
+        stiffness = 0.5 * (c * d + k2 * lam1 * yb)
+        spurious = _spurious_reason(yb, c, d, lam1, rho1, d1, d2, K, k2, L)
+        if spurious:
+            reasons.append(spurious)
     in_range = in_paper_range(beta) and 0.0 <= alpha <= 0.5 * math.pi
     if paper_range and not in_range:
         reasons.append(REASON_RANGE)
@@ -200,26 +254,25 @@ def inverse_kinematics(
     L, k2 = params.L, params.k2
     K = 2.0 * params.k3 + k2
     tol = DOMAIN_TOL * L
-    if L < abs(y) <= L + tol:
-        y = math.copysign(L, y)
+    if L - tol <= abs(y) <= L + tol:
+        y = math.copysign(L, y)   # the fold: c = sqrt(L^2 - y^2) would amplify rounding to sqrt(tol)
     candidates: list[IKCandidate] = []
     if abs(y) <= L:
         w = math.sqrt((L - y) * (L + y))
         for d1 in (-1, 1):
-            rho1 = x + d1 * w
-            c = -d1 * w
-            xi2 = K * K * y * y + k2 * k2 * c * c
-            q_sq = 4.0 * L * L * xi2 - (K + k2) ** 2 * rho1 * rho1 * y * y
+            rho1, c, yb = _branch(x, y, w, d1, L)
+            xi2 = K * K * yb * yb + k2 * k2 * c * c
+            q_sq = 4.0 * L * L * xi2 - (K + k2) ** 2 * rho1 * rho1 * yb * yb
             if q_sq < 0.0:
                 continue
-            mid = -k2 * rho1 * (k2 * c * c - K * y * y)
-            spread = k2 * w * math.sqrt(q_sq)
+            mid = -k2 * rho1 * (k2 * c * c - K * yb * yb)
+            spread = k2 * abs(c) * math.sqrt(q_sq)
             for d2 in (-d1, d1):
                 rho2 = (mid + d2 * spread) / xi2
-                cand = _candidate(x, y, rho1, rho2, c, d1, d2, params, paper_range)
-                if any(p.rho1 == cand.rho1 and p.rho2 == cand.rho2 for p in candidates):
+                cand = _candidate(x, y, yb, rho1, rho2, c, d1, d2, params, paper_range)
+                if c == 0.0 and candidates:   # y = +-L: every root is the same double root
                     reason = REASON_DUPLICATE if cand.valid else f"{cand.reason}; {REASON_DUPLICATE}"
-                    cand = replace(cand, valid=False, reason=reason)
+                    cand = cand._replace(valid=False, reason=reason)
                 candidates.append(cand)
     n_valid = sum(c.valid for c in candidates)
     outside = 0.0 if n_valid else max(0.0, distance_to_full_workspace(x, y, L))
@@ -298,35 +351,102 @@ def _snap_array(v: np.ndarray, lo: float, hi: float, tol: float) -> np.ndarray:
     return np.where((v > hi) & (v <= hi + tol), hi, v)
 
 
+def _branch_array(x, y, w, d1, L: float):
+    """Vectorised :func:`_branch`."""
+    raw = x + d1 * w
+    rho1 = _snap_array(raw, 0.0, L, _snap_tolerance_array(w, L))
+    moved = rho1 != raw
+    c = np.where(moved, x - rho1, -d1 * w)
+    y = np.where(moved, np.copysign(np.sqrt(np.maximum(0.0, (L - c) * (L + c))), y), y)
+    return rho1, c, y
+
+
+def _paper_branch(x: np.ndarray, y: np.ndarray, params: Class2Params):
+    """``(rho1, rho2, c)`` of the paper branch without any snapping (the fast path).
+
+    Written with in-place operations on three scratch arrays: at a million targets the
+    cost of the formulas is dominated by allocating and touching fresh arrays.
+    """
+    L, k2 = params.L, params.k2
+    K = 2.0 * params.k3 + k2
+    yy = np.multiply(y, y)
+    cc = np.subtract(L, y)
+    t = np.add(L, y)
+    cc *= t                                   # c^2 = (L - y)(L + y)
+    c = np.sqrt(cc)
+    rho1 = np.subtract(x, c)
+    xi2 = np.multiply(yy, K * K)
+    np.multiply(cc, k2 * k2, out=t)
+    xi2 += t                                  # xi2 = K^2 y^2 + k2^2 c^2
+    q = np.multiply(rho1, K + k2)
+    q *= q
+    q *= yy
+    np.multiply(xi2, 4.0 * L * L, out=t)
+    np.subtract(t, q, out=q)
+    np.sqrt(q, out=q)                         # Q
+    q *= c
+    np.multiply(cc, k2, out=t)
+    np.multiply(yy, K, out=cc)
+    t -= cc
+    t *= rho1                                 # rho1 (k2 c^2 - K y^2)
+    q -= t
+    q *= k2
+    q /= xi2                                  # rho2 = k2 (c Q - rho1 (k2 c^2 - K y^2)) / xi2
+    return rho1, q, c
+
+
+def _paper_branch_snapped(x: np.ndarray, y: np.ndarray, params: Class2Params):
+    """:func:`_paper_branch` with the snapping of :func:`inverse_kinematics`."""
+    L, k2 = params.L, params.k2
+    K = 2.0 * params.k3 + k2
+    y = np.where(np.abs(y - L) <= DOMAIN_TOL * L, L, y)
+    w = np.sqrt((L - y) * (L + y))
+    rho1, c, y = _branch_array(x, y, w, -1.0, L)
+    tol = _snap_tolerance_array(c, L)
+    cc, yy = c * c, y * y
+    xi2 = K * K * yy + k2 * k2 * cc
+    q = np.sqrt(4.0 * L * L * xi2 - ((K + k2) * rho1) ** 2 * yy)
+    rho2 = k2 * (c * q - rho1 * (k2 * cc - K * yy)) / xi2
+    rho2 = np.where((rho2 < 0.0) & (rho2 >= -tol), 0.0, rho2)
+    over = rho1 + rho2 - 2.0 * L
+    rho2 = np.where((over > 0.0) & (over <= tol), 2.0 * L - rho1, rho2)
+    return rho1, rho2, c, y
+
+
 def ik_array(x, y, params: Class2Params = PAPER_PARAMS) -> IKArrays:
     """IK of the paper-range branch (``delta1 = -1, delta2 = +1``) over arrays, no Python loop.
 
     For ``0 <= y <= L`` and ``0 <= rho1 <= L`` this root is the unique equilibrium with
     ``0 <= beta <= pi/2`` (module docstring); ``valid`` adds the configuration domain.
-    Same snapping of limits as :func:`inverse_kinematics`.
+    Same snapping of limits as :func:`inverse_kinematics`: the formulas run unsnapped on
+    every target, then the few targets within snapping distance of a limit (at most
+    ``2e-9 L`` for lengths, :func:`snap_tolerance`) are recomputed with snapping.
     """
-    x = np.asarray(x, dtype=float)
-    y = np.asarray(y, dtype=float)
-    L, k2 = params.L, params.k2
-    K = 2.0 * params.k3 + k2
-    tol = DOMAIN_TOL * L
+    x, y = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+    shape = x.shape
+    x, y = x.reshape(-1), y.reshape(-1)
+    L = params.L
+    band = 2e-9 * L   # > snap_tolerance for every c not snapped to 0 (c >= sqrt(2 DOMAIN_TOL) L)
+    fold = DOMAIN_TOL * L
     with np.errstate(invalid="ignore", divide="ignore"):
-        y = np.where((y > L) & (y <= L + tol), L, y)
-        c = np.sqrt((L - y) * (L + y))
-        rho1 = _snap_array(x - c, 0.0, L, tol)
-        cc, yy = c * c, y * y
-        xi2 = K * K * yy + k2 * k2 * cc
-        q = np.sqrt(4.0 * L * L * xi2 - ((K + k2) * rho1) ** 2 * yy)
-        rho2 = k2 * (c * q - rho1 * (k2 * cc - K * yy)) / xi2
-        rho2 = np.where((rho2 < 0.0) & (rho2 >= -tol), 0.0, rho2)
-        over = rho1 + rho2 - 2.0 * L
-        rho2 = np.where((over > 0.0) & (over <= tol), 2.0 * L - rho1, rho2)
-        valid = (
-            (y >= 0.0) & (y <= L) & np.isfinite(x) & (rho1 >= 0.0) & (rho1 <= L)
-            & (rho2 >= 0.0) & (rho1 + rho2 <= 2.0 * L)
-        )
-        beta = np.where(valid, np.arctan2(y, c), np.nan)
-    return IKArrays(np.where(valid, rho1, np.nan), np.where(valid, rho2, np.nan), beta, valid)
+        rho1, rho2, c = _paper_branch(x, y, params)
+        s = rho1 + rho2
+        valid = (y >= 0.0) & (rho1 >= 0.0) & (rho1 <= L) & (rho2 >= 0.0) & (s <= 2.0 * L)
+        edge = ((y >= L - fold) & (y <= L + fold)) | (
+            ~valid & (y >= 0.0) & (rho1 >= -band) & (rho1 <= L + band) & (rho2 >= -band)
+            & (s <= 2.0 * L + band))
+        yb = y
+        if edge.any():
+            idx = np.nonzero(edge)
+            yb = np.array(y, copy=True)
+            rho1[idx], rho2[idx], c[idx], yb[idx] = _paper_branch_snapped(x[idx], y[idx], params)
+            valid = (yb >= 0.0) & (yb <= L) & (rho1 >= 0.0) & (rho1 <= L) & (rho2 >= 0.0) & (
+                rho1 + rho2 <= 2.0 * L)
+        beta = np.arctan2(yb, c)
+    invalid = ~valid
+    for a in (rho1, rho2, beta):
+        np.copyto(a, np.nan, where=invalid)
+    return IKArrays(rho1.reshape(shape), rho2.reshape(shape), beta.reshape(shape), valid.reshape(shape))
 
 
 def ik_array_all(x, y, params: Class2Params = PAPER_PARAMS) -> IKAllArrays:
@@ -343,26 +463,31 @@ def ik_array_all(x, y, params: Class2Params = PAPER_PARAMS) -> IKAllArrays:
     d1 = np.array([b[0] for b in IK_BRANCHES], dtype=float)
     d2 = np.array([b[1] for b in IK_BRANCHES], dtype=float)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        y = np.where((np.abs(y) > L) & (np.abs(y) <= L + tol), np.copysign(L, y), y)[..., None]
+        y = np.where(np.abs(np.abs(y) - L) <= tol, np.copysign(L, y), y)[..., None]
         w = np.sqrt((L - y) * (L + y))
-        rho1 = _snap_array(x[..., None] + d1 * w, 0.0, L, tol)
-        c = -d1 * w
+        rho1, c, y = _branch_array(x[..., None], y, w, d1, L)
+        tol = _snap_tolerance_array(np.abs(c), L)
         xi2 = K * K * y * y + k2 * k2 * c * c
         q = np.sqrt(4.0 * L * L * xi2 - ((K + k2) * rho1 * y) ** 2)
-        rho2 = k2 * (-rho1 * (k2 * c * c - K * y * y) + d2 * w * q) / xi2
+        rho2 = k2 * (-rho1 * (k2 * c * c - K * y * y) + d2 * np.abs(c) * q) / xi2
         rho2 = np.where((rho2 < 0.0) & (rho2 >= -tol), 0.0, rho2)
         over = rho1 + rho2 - 2.0 * L
         rho2 = np.where((over > 0.0) & (over <= tol), 2.0 * L - rho1, rho2)
         s = rho1 + rho2
         lam1 = np.sqrt(np.maximum((2.0 * L - s) * (2.0 * L + s), 0.0))
         d = K * rho2 - k2 * rho1
-        grad2 = y * d - c * k2 * lam1
-        curv = c * d + k2 * lam1 * y
         beta = np.arctan2(y, c)
         code = np.where(beta > 0.5 * np.pi + 1e-12, 1, 0)
         code = np.where(beta < -1e-12, 1, code)
-        code = np.where(curv < 0.0, 7, code)
-        code = np.where(np.abs(grad2) > 0.5 * (np.abs(y * d) + np.abs(c * k2 * lam1)), 6, code)
+        # root verdicts as _spurious_reason: by branch inside the ellipse range, else numeric
+        genuine_branch = (d2 == -d1) | ((c == 0.0) & (y > 0.0))
+        by_branch = np.where(genuine_branch, np.where(y >= 0.0, 0, 6), np.where(y > 0.0, 6, 7))
+        grad2 = y * d - c * k2 * lam1
+        numeric = np.where(
+            np.abs(grad2) > 0.5 * (np.abs(y * d) + np.abs(c * k2 * lam1)), 6,
+            np.where(c * d + k2 * lam1 * y < 0.0, 7, 0))
+        verdict = np.where(np.abs(rho1) * (K + k2) < 2.0 * K * L, by_branch, numeric)
+        code = np.where(verdict != 0, verdict, code)
         code = np.where(s > 2.0 * L, 5, code)
         code = np.where(rho2 < 0.0, 4, code)
         code = np.where((rho1 < 0.0) | (rho1 > L), 3, code)
