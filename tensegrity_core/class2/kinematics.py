@@ -25,7 +25,6 @@ from functools import cached_property
 from typing import NamedTuple
 
 import numpy as np
-from scipy import optimize
 
 from tensegrity_core.class2.energy import potential_energy
 from tensegrity_core.class2.geometry import check_actuator_lengths, node_positions
@@ -201,6 +200,8 @@ def forward_kinematics_numeric(
     the geometric ``dU/dbeta``. ``stiffness_beta`` is a central difference of that gradient.
     Domain errors as :func:`forward_kinematics`.
     """
+    from scipy import optimize
+
     rho1 = as_real("rho1", rho1)
     rho2 = as_real("rho2", rho2)
     L = params.L

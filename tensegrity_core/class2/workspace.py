@@ -21,7 +21,6 @@ from dataclasses import dataclass, field
 from typing import Sequence
 
 import numpy as np
-from scipy import integrate
 
 from tensegrity_core.class2.inverse_kinematics import ik_array_all
 from tensegrity_core.class2.kinematics import as_real, fk_array, forward_kinematics, jacobian_D_rho
@@ -235,6 +234,8 @@ class Workspace:
         return (lo, hi) if lo <= hi else None
 
     def _area_paper(self) -> float:
+        from scipy import integrate
+
         L = self.params.L
         a1, b1 = float(self.polygon[:, 0].min()), float(self.polygon[:, 0].max())
         if b1 - a1 <= 1e-15 * L:
