@@ -199,3 +199,19 @@ def test_stiffness_does_not_exist_on_singular_sets(rho1, rho2, kind):
     with pytest.raises(SingularityError) as err:
         stiffness_along_coordinates(rho1, rho2, 0.0)
     assert err.value.kind == kind
+
+
+@given(configurations(margin=0.1), st.floats(0.0, 5.0))
+def test_rigid_limit_stiffness_of_D_is_the_fkp_rotational_stiffness(rho, f):
+    # With ka, kb -> infinity every node but D is fixed and D turns about B against
+    # U''(beta) = d2U/dbeta2 (the FKP stiffness). A force along y acts with arm L cos(beta):
+    # K_Dy -> U'' / (L cos beta)^2, and along x: K_Dx -> U'' / (L sin beta)^2 (error O(1/scale)).
+    scale = 1e6
+    params = P.with_overrides(ka=10 * scale, kb=1000 * scale)
+    fk = forward_kinematics(*rho, params)
+    res = stiffness_along_coordinates(*rho, f, params)
+    u2, L = fk.stiffness_beta, params.L
+    if abs(math.sin(fk.beta)) > 0.05:
+        assert res.K_i[2] == pytest.approx(u2 / (L * math.sin(fk.beta)) ** 2, rel=1e-3)
+    if abs(math.cos(fk.beta)) > 0.05:
+        assert res.K_i[3] == pytest.approx(u2 / (L * math.cos(fk.beta)) ** 2, rel=1e-3)
