@@ -196,42 +196,43 @@ def _candidate(x, y, yb, rho1, rho2, c, d1, d2, params, paper_range) -> IKCandid
     """Verdict on one root; ``(x, y)`` is the target, ``yb`` the branch's (snapped) y."""
     L, k2 = params.L, params.k2
     K = 2.0 * params.k3 + k2
+    two_l = 2.0 * L
     tol = snap_tolerance(abs(c), L)   # det(dD/drho) ~ c: rho2 inherits the L / c too
     rho2 = _snap(rho2, 0.0, math.inf, tol)
-    if 2.0 * L < rho1 + rho2 <= 2.0 * L + tol:
-        rho2 = 2.0 * L - rho1
+    if two_l < rho1 + rho2 <= two_l + tol:
+        rho2 = two_l - rho1
     s = rho1 + rho2
+    in_domain = 0.0 <= rho1 <= L and rho2 >= 0.0 and s <= two_l
     reasons = []
-    if not 0.0 <= rho1 <= L:
-        reasons.append(REASON_RHO1)
-    if rho2 < 0.0:
-        reasons.append(REASON_RHO2)
-    if s > 2.0 * L:
-        reasons.append(REASON_SUM)
+    if not in_domain:
+        if not 0.0 <= rho1 <= L:
+            reasons.append(REASON_RHO1)
+        if rho2 < 0.0:
+            reasons.append(REASON_RHO2)
+        if s > two_l:
+            reasons.append(REASON_SUM)
     beta = math.atan2(yb, c)
-    lam_sq = (2.0 * L - s) * (2.0 * L + s)
-    alpha = stiffness = math.nan
+    lam_sq = (two_l - s) * (two_l + s)
+    alpha = stiffness = dist = fk_res = math.nan
     if lam_sq >= -4.0 * tol * L:
-        lam1 = math.sqrt(max(lam_sq, 0.0))
+        lam1 = math.sqrt(lam_sq) if lam_sq > 0.0 else 0.0
         alpha = math.atan2(lam1, s)
         d = K * rho2 - k2 * rho1
-        stiffness = 0.5 * (c * d + k2 * lam1 * yb)
+        e = k2 * lam1
+        stiffness = 0.5 * (c * d + e * yb)
         spurious = _spurious_reason(yb, c, d, lam1, rho1, d1, d2, K, k2, L)
         if spurious:
             reasons.append(spurious)
+        if in_domain:
+            dist = nearest_singularity(rho1, rho2, params)[1]
+            R = math.hypot(d, e)
+            if R > 0.0:
+                fk_res = math.hypot(rho1 + L * d / R - x, L * e / R - y)
     in_range = in_paper_range(beta) and 0.0 <= alpha <= 0.5 * math.pi
     if paper_range and not in_range:
         reasons.append(REASON_RANGE)
-    dist = fk_res = math.nan
-    if 0.0 <= rho1 <= L and rho2 >= 0.0 and s <= 2.0 * L:
-        dist = nearest_singularity(rho1, rho2, params)[1]
-        lam1 = math.sqrt((2.0 * L - s) * (2.0 * L + s))
-        dd, e = K * rho2 - k2 * rho1, k2 * lam1
-        R = math.hypot(dd, e)
-        if R > 0.0:
-            fk_res = math.hypot(rho1 + L * dd / R - x, L * e / R - y)
     return IKCandidate(
-        rho1, rho2, beta, alpha, d1, d2, not reasons, "; ".join(reasons), in_range,
+        rho1, rho2, beta, alpha, d1, d2, not reasons, "; ".join(reasons) if reasons else "", in_range,
         stiffness, dist, fk_res,
     )
 

@@ -31,6 +31,15 @@ def _figure(ncols: int, width: float, height: float):
     return plt, *plt.subplots(1, ncols, figsize=(width, height))
 
 
+def _save(plt, fig, path: str | Path, title: str) -> Path:
+    fig.suptitle(title)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
 def plot_workspace(ws: Workspace, path: str | Path, *, resolution: int = 300) -> Path:
     """Write a two-panel PNG of ``ws`` to ``path`` and return the path."""
     plt, fig, (ax_rho, ax_xy) = _figure(2, 12.5, 5.4)
@@ -70,14 +79,9 @@ def plot_workspace(ws: Workspace, path: str | Path, *, resolution: int = 300) ->
     handles, labels = ax_xy.get_legend_handles_labels()
     seen = dict(zip(labels, handles))
     ax_xy.legend(seen.values(), seen.keys(), loc="upper right", fontsize=7)
-    fig.suptitle(
-        f"class-2 workspace: rho1 in [{ws.rho1_range[0]:g}, {ws.rho1_range[1]:g}] m, "
-        f"rho2 in [{ws.rho2_range[0]:g}, {ws.rho2_range[1]:g}] m, L = {L:g} m")
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return _save(plt, fig, path,
+                 f"class-2 workspace: rho1 in [{ws.rho1_range[0]:g}, {ws.rho1_range[1]:g}] m, "
+                 f"rho2 in [{ws.rho2_range[0]:g}, {ws.rho2_range[1]:g}] m, L = {L:g} m")
 
 
 def plot_stiffness_sweep(sweep: dict, path: str | Path) -> Path:
@@ -92,11 +96,6 @@ def plot_stiffness_sweep(sweep: dict, path: str | Path) -> Path:
         ax.set(xlabel="f on F along +Y [N]", ylabel="stiffness [N/m]", title=f"({tag})")
         ax.legend(fontsize=8)
         ax.grid(alpha=0.3)
-    fig.suptitle(
-        f"stiffness along the nodal coordinates at rho1 = {sweep['rho1']:g} m, rho2 = {sweep['rho2']:g} m "
-        f"(beta = {sweep['beta']:.4g} rad)")
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return _save(plt, fig, path,
+                 f"stiffness along the nodal coordinates at rho1 = {sweep['rho1']:g} m, "
+                 f"rho2 = {sweep['rho2']:g} m (beta = {sweep['beta']:.4g} rad)")

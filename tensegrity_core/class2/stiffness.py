@@ -189,7 +189,18 @@ class StiffnessResult:
 def stiffness_matrix_paper(rho1: float, rho2: float, f: float = 0.0, beta: float | None = None,
                            params: Class2Params = PAPER_PARAMS) -> np.ndarray:
     """Route (a): ``K = A_r G^ A_r^T + S_r`` [N/m] (Eqs. 36-40), 7 x 7 over :data:`COORDINATES`."""
-    return stiffness_along_coordinates(rho1, rho2, f, params, beta=beta).K
+    return _paper_procedure(*_configuration(rho1, rho2, beta, params), as_real("f", f), params)[0]
+
+
+def _paper_procedure(rho1, rho2, beta, f, params):
+    """``(K, t, lengths, g_hat, residual)`` of the paper's procedure at a validated configuration."""
+    _, lengths, n = _geometry(rho1, rho2, beta, params)
+    A_r = _assemble_A(n)[FREE]
+    t, residual = _forces(A_r, lengths, f, params)
+    t_hat = t / lengths
+    g_hat = axial_stiffnesses(params) - t_hat
+    S_r = _stress_matrix(t_hat)[np.ix_(FREE, FREE)]
+    return A_r @ np.diag(g_hat) @ A_r.T + S_r, t, lengths, g_hat, residual
 
 
 def stiffness_matrix_assembled(rho1: float, rho2: float, f: float = 0.0, beta: float | None = None,
@@ -261,17 +272,12 @@ def stiffness_along_coordinates(rho1: float, rho2: float, f: float = 0.0,
     gives the stiffness of a configuration that is not in equilibrium, and the residual says
     by how much. Raises :class:`SingularityError` where the matrix does not exist (a zero
     actuator length, ``rho1 = L``, ``rho1 + rho2 = 2L``) and :class:`DomainError` outside the
-    configuration domain.
+    configuration domain; :class:`SingularityError` (kind ``"K_r_singular"``) when some
+    ``K_ri`` is singular to working precision, where Eq. (43) is undefined.
     """
     rho1, rho2, beta = _configuration(rho1, rho2, beta, params)
     f = as_real("f", f)
-    _, lengths, n = _geometry(rho1, rho2, beta, params)
-    A_r = _assemble_A(n)[FREE]
-    t, residual = _forces(A_r, lengths, f, params)
-    t_hat = t / lengths
-    g_hat = axial_stiffnesses(params) - t_hat
-    S_r = _stress_matrix(t_hat)[np.ix_(FREE, FREE)]
-    K = A_r @ np.diag(g_hat) @ A_r.T + S_r
+    K, t, lengths, g_hat, residual = _paper_procedure(rho1, rho2, beta, f, params)
     K_i, cond = _along_coordinates(K)
     return StiffnessResult(rho1, rho2, beta, f, COORDINATES, K, K_i, cond, t, lengths, g_hat,
                            float(np.max(np.abs(residual))))
@@ -320,8 +326,8 @@ def critical_forces(rho1: float, rho2: float, params: Class2Params = PAPER_PARAM
     """
     from scipy import linalg
 
-    K0 = stiffness_along_coordinates(rho1, rho2, 0.0, params).K
-    K1 = stiffness_along_coordinates(rho1, rho2, 1.0, params).K - K0
+    K0 = stiffness_matrix_paper(rho1, rho2, 0.0, None, params)
+    K1 = stiffness_matrix_paper(rho1, rho2, 1.0, None, params) - K0
     ev = linalg.eigvals(K0, -K1)
     real = ev[np.isfinite(ev) & (np.abs(ev.imag) <= 1e-9 * np.maximum(1.0, np.abs(ev.real)))].real
     return np.sort(real[np.abs(real) < 1e12])

@@ -54,16 +54,22 @@ def scalar_calls(ctx):
     ]
 
 
+def _best_time(fn, repeat: int) -> float:
+    """Best wall time [s] of ``repeat`` calls of ``fn`` (each call is long: no inner loop)."""
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
 @benchmark
 def vectorised(ctx):
     n = 1_000_000
+    repeat = 3 if ctx.quick else 7
     x, y = _targets(n)
-    best = float("inf")
-    for _ in range(3 if ctx.quick else 7):
-        t0 = time.perf_counter()
-        ik_array(x, y)
-        best = min(best, time.perf_counter() - t0)
-    ik_ns = best / n * 1e9
+    ik_ns = _best_time(lambda: ik_array(x, y), repeat) / n * 1e9
     m = 2000 if ctx.quick else 20000
     t0 = time.perf_counter()
     for xi, yi in zip(x[:m], y[:m]):
@@ -71,12 +77,7 @@ def vectorised(ctx):
     loop_ns = (time.perf_counter() - t0) / m * 1e9
     r1 = np.random.default_rng(3).uniform(0, 1, n)
     r2 = np.random.default_rng(4).uniform(0, 1, n)
-    best = float("inf")
-    for _ in range(3 if ctx.quick else 7):
-        t0 = time.perf_counter()
-        fk_array(r1, r2)
-        best = min(best, time.perf_counter() - t0)
-    fk_ns = best / n * 1e9
+    fk_ns = _best_time(lambda: fk_array(r1, r2), repeat) / n * 1e9
     return [
         Row("class2_kin", "ik_scalar_loop", loop_ns, "ns/target", note=f"baseline: loop of inverse_kinematics over {m}"),
         Row("class2_kin", "ik_array_1e6", ik_ns, "ns/target", baseline="ik_scalar_loop",
