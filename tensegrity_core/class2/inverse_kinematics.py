@@ -136,6 +136,8 @@ class IKResult:
 
     def nearest(self, seed: Sequence[float]) -> IKCandidate:
         """The valid candidate nearest ``seed = (rho1, rho2)`` in the actuator plane."""
+        if len(seed) != 2:
+            raise DomainError(f"seed must be (rho1, rho2), got {seed!r}")
         s1, s2 = as_real("seed rho1", seed[0]), as_real("seed rho2", seed[1])
         valid = self.valid
         if not valid:

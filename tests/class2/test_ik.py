@@ -198,6 +198,10 @@ def test_unreachable_targets_report_the_distance(x, y, distance):
 def test_non_finite_target_is_a_domain_error(bad):
     with pytest.raises(DomainError, match="y"):
         inverse_kinematics(1.0, bad)
+    with pytest.raises(DomainError, match="seed"):
+        nearest_solution(1.4, 0.7, (0.7, bad))
+    with pytest.raises(DomainError, match="seed"):
+        nearest_solution(1.4, 0.7, (0.7,))
 
 
 def test_ik_array_matches_scalar_paper_branch():
