@@ -15,6 +15,54 @@ from tensegrity_core.class2.geometry import (
 )
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 
+# kinematics, workspace, singularities, stiffness
+from tensegrity_core.class2.full_workspace import distance_to_full_workspace, in_full_workspace
+from tensegrity_core.class2.inverse_kinematics import (
+    IK_BRANCHES,
+    IK_CODES,
+    IKAllArrays,
+    IKArrays,
+    IKCandidate,
+    IKResult,
+    ik_array,
+    ik_array_all,
+    inverse_kinematics,
+    nearest_solution,
+)
+from tensegrity_core.class2.kinematics import (
+    FKArrays,
+    FKResult,
+    fk_array,
+    forward_kinematics,
+    forward_kinematics_numeric,
+    jacobian_D_rho,
+)
+from tensegrity_core.class2.singularities import (
+    SINGULAR_SETS,
+    nearest_singularity,
+    singularity_distance_array,
+    singularity_distances,
+)
+from tensegrity_core.class2.stiffness import (
+    COORDINATES,
+    StiffnessResult,
+    critical_forces,
+    equilibrium_matrix,
+    member_forces,
+    stiffness_along_coordinates,
+    stiffness_matrix_assembled,
+    stiffness_matrix_energy_fd,
+    stiffness_matrix_paper,
+    stiffness_sweep,
+)
+from tensegrity_core.class2.workspace import (
+    SingularityReport,
+    SingularSet,
+    Workspace,
+    classify_singularities,
+    workspace,
+)
+
 __all__ = [
     "Class2Params",
     "PAPER_PARAMS",
@@ -29,4 +77,42 @@ __all__ = [
     "dU_dbeta",
     "d2U_dbeta2",
     "equilibrium_beta",
+    # kinematics, workspace, singularities, stiffness
+    "FKResult",
+    "FKArrays",
+    "forward_kinematics",
+    "forward_kinematics_numeric",
+    "fk_array",
+    "jacobian_D_rho",
+    "IKCandidate",
+    "IKResult",
+    "IKArrays",
+    "IKAllArrays",
+    "IK_BRANCHES",
+    "IK_CODES",
+    "inverse_kinematics",
+    "nearest_solution",
+    "ik_array",
+    "ik_array_all",
+    "in_full_workspace",
+    "distance_to_full_workspace",
+    "SINGULAR_SETS",
+    "singularity_distances",
+    "nearest_singularity",
+    "singularity_distance_array",
+    "Workspace",
+    "workspace",
+    "SingularSet",
+    "SingularityReport",
+    "classify_singularities",
+    "COORDINATES",
+    "StiffnessResult",
+    "stiffness_along_coordinates",
+    "stiffness_matrix_paper",
+    "stiffness_matrix_assembled",
+    "stiffness_matrix_energy_fd",
+    "stiffness_sweep",
+    "member_forces",
+    "equilibrium_matrix",
+    "critical_forces",
 ]

@@ -1,0 +1,115 @@
+"""The class-2 subcommands of the ``tensegrity`` CLI, run as a user runs them."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tensegrity_ros.cli import main
+
+EXE = Path(sys.executable).with_name("tensegrity")
+
+
+def run(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([str(EXE), *args], capture_output=True, text=True, timeout=120)
+
+
+def test_fk_json_subprocess_matches_the_paper_and_derivation():
+    out = run("fk", "0.7", "0.7", "--json")
+    assert out.returncode == 0, out.stderr
+    data = json.loads(out.stdout)
+    assert data["beta"] == pytest.approx(math.atan2(math.sqrt(4 - 1.4**2), 1.4), abs=1e-15)
+    assert data["beta"] == pytest.approx(0.8, abs=0.005)            # Sect. 5.3
+    assert data["x"] == pytest.approx(1.4) and data["stable"] and data["in_paper_range"]
+    assert set(data) >= {"rho1", "rho2", "beta", "alpha", "x", "y", "stable", "in_paper_range", "nodes"}
+
+
+def test_out_of_domain_exits_non_zero_with_one_line_reason_subprocess():
+    out = run("fk", "1.2", "0.1")
+    assert out.returncode != 0
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error:") and "rho1" in lines[0]
+    out = run("ik", "3", "0.5", "--json")
+    assert out.returncode != 0
+    assert out.stderr.strip().splitlines() == ["error: no valid solution for D = (3, 0.5): outside the workspace by 1.06 m"]
+    assert json.loads(out.stdout)["solutions"] == []
+
+
+def test_workspace_plot_subprocess(tmp_path):
+    png = tmp_path / "ws.png"
+    out = run("workspace", "--plot", str(png), "--rho1-range", "0.2", "0.8", "--rho2-range", "0", "0.3")
+    assert out.returncode == 0, out.stderr
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "area =" in out.stdout
+
+
+def test_fk_human_readable_note_outside_the_paper_range(capsys):
+    assert main(["fk", "0.9", "0.1"]) == 0
+    text = capsys.readouterr().out
+    assert "no stable equilibrium in the paper's range [0, pi/2]" in text and "1.90427" in text
+
+
+def test_fk_numeric_and_param_override(capsys):
+    assert main(["fk", "0.5", "0.5", "--param", "k=2", "--param", "L=1.5", "--numeric", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["params"]["k3"] == 2.0 and data["params"]["L"] == 1.5
+    # with k2 = k3 and rho1 = rho2: tan(beta) = lambda1 / (2 rho) = tan(alpha)
+    assert data["beta"] == pytest.approx(data["alpha"], abs=1e-10)
+
+
+def test_ik_all_lists_every_candidate_with_reasons(capsys):
+    assert main(["ik", "1.4", "0.7141428428542851", "--all", "--json"]) == 0
+    sols = json.loads(capsys.readouterr().out)["solutions"]
+    assert [s["valid"] for s in sols] == [True, False]
+    assert sols[0]["rho1"] == pytest.approx(0.7) and sols[0]["rho2"] == pytest.approx(0.7)
+    assert "negative length rho2" in sols[1]["reason"] and "spurious" in sols[1]["reason"]
+
+
+def test_ik_seed_orders_branches_nearest_first(capsys):
+    args = ["ik", "0.5726731646460115", "0.944911182523068", "--no-paper-range", "--json"]
+    assert main(args + ["--seed", "0.85", "0.15"]) == 0
+    first = json.loads(capsys.readouterr().out)["solutions"][0]
+    assert (first["delta1"], first["delta2"]) == (1, -1) and not first["in_paper_range"]
+    assert main(args + ["--seed", "0.2", "0.3"]) == 0
+    first = json.loads(capsys.readouterr().out)["solutions"][0]
+    assert first["delta1"] == -1 and first["in_paper_range"]
+
+
+def test_stiffness_single_and_sweep_with_plot(capsys, tmp_path):
+    assert main(["stiffness", "0.7", "0.7", "--f", "1", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert set(data["K_i"]) == {"Bx", "Cx", "Dx", "Dy", "Ex", "Ey", "Fy"}
+    assert data["equilibrium_residual"] < 1e-12
+    png = tmp_path / "fig2.png"
+    assert main(["stiffness", "0.7", "0.7", "--sweep", "0", "5", "--points", "5", "--plot", str(png)]) == 0
+    assert "K4 Dy" in capsys.readouterr().out and png.stat().st_size > 10_000
+
+
+@pytest.mark.parametrize(
+    ("argv", "fragment"),
+    [
+        (["stiffness", "0", "0.5"], "zero length"),
+        (["stiffness", "0.5", "0.5", "--sweep", "3", "1"], "FMIN < FMAX"),
+        (["stiffness", "0.5", "0.5", "--plot", "x.png"], "--plot needs --sweep"),
+        (["workspace", "--rho1-range", "2", "3"], "does not meet"),
+        (["fk", "0.5", "nan"], "finite"),
+        (["fk", "0.5", "0.5", "--param", "kb=-1"], "kb must be > 0"),
+        (["singularities", "0.5", "1.6"], "exceeds 2L"),
+    ],
+)
+def test_bad_input_one_line_errors(argv, fragment, capsys):
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error:") and fragment in err[0]
+
+
+def test_singularities_table(capsys):
+    assert main(["singularities", "0.6", "0.2", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["sets"][0]["kind"] in {"beta_half_pi", "ik_discriminant", "det_jacobian"}
+    assert data["sets"][0]["distance"] < 1e-15
