@@ -16,6 +16,7 @@ from rcl_interfaces.msg import (  # noqa: E402
 )
 from rclpy.executors import ExternalShutdownException  # noqa: E402
 from rclpy.node import Node  # noqa: E402
+from rclpy.qos import QoSProfile, qos_profile_services_default  # noqa: E402
 
 from tensegrity_core.class2 import Class2Params  # noqa: E402
 from tensegrity_core.errors import ParameterError  # noqa: E402
@@ -28,6 +29,16 @@ MECHANISM_PARAMETERS = {
     "k3": "stiffness of spring CD [N/m]",
     "k4": "stiffness of spring BE [N/m]",
 }
+
+
+#: Service QoS with a deep request queue: the default keeps only the last 10 requests,
+#: so a burst of concurrent callers would silently lose requests.
+SERVICE_QOS = QoSProfile(
+    depth=1000,
+    reliability=qos_profile_services_default.reliability,
+    durability=qos_profile_services_default.durability,
+    history=qos_profile_services_default.history,
+)
 
 
 def declare(node: Node, name: str, default, description: str, *, lo=None, hi=None, read_only=False):

@@ -14,7 +14,7 @@ import multiprocessing
 import sys
 import threading
 
-from tensegrity_ros.nodes.common import declare, rclpy, spin_node
+from tensegrity_ros.nodes.common import SERVICE_QOS, declare, rclpy, spin_node
 from geometry_msgs.msg import Point
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.executors import MultiThreadedExecutor
@@ -44,7 +44,8 @@ class FormFindNode(Node):
                                          "largest structure description accepted [bytes]", lo=1)
         self.max_members = declare(self, "max_members", 50_000, "largest structure accepted [members]", lo=1)
         self._slots = threading.BoundedSemaphore(self.max_workers)
-        self.create_service(FindForm, "find_form", self.on_request, callback_group=ReentrantCallbackGroup())
+        self.create_service(FindForm, "find_form", self.on_request, qos_profile=SERVICE_QOS,
+                            callback_group=ReentrantCallbackGroup())
         self.get_logger().info(f"find_form ready ({self.max_workers} workers, time limit {self.time_limit:g} s)")
 
     def on_request(self, req: FindForm.Request, res: FindForm.Response) -> FindForm.Response:

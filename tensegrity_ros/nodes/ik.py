@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import sys
 
-from tensegrity_ros.nodes.common import declare, declare_mechanism, rclpy, spin_node
+from tensegrity_ros.nodes.common import SERVICE_QOS, declare, declare_mechanism, rclpy, spin_node
 from rclpy.node import Node
 from tensegrity_msgs.msg import IKSolution
 from tensegrity_msgs.srv import SolveIK
@@ -28,7 +28,7 @@ class IKNode(Node):
             self, "paper_range", True,
             "only solutions with 0 <= alpha, beta <= pi/2 (the paper's range) are valid",
             read_only=True)
-        self.create_service(SolveIK, "solve_ik", self.on_request)
+        self.create_service(SolveIK, "solve_ik", self.on_request, qos_profile=SERVICE_QOS)
         self.get_logger().info(
             f"solve_ik ready (L = {self.params.L:g} m, paper_range = {self.paper_range})")
 

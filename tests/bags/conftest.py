@@ -1,94 +1,10 @@
-"""Fixtures of the bag tests: a private rclpy context, the CLI executable, subprocess runs.
-
-Every test talks over real DDS on loopback (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, set
-by the top-level conftest) in the run's own ROS_DOMAIN_ID.
-"""
+"""Fixtures of the bag tests (the shared ROS fixtures live in tests/ros_support.py)."""
 
 from __future__ import annotations
 
-import os
-import signal
-import subprocess
-import sys
-import time
-from pathlib import Path
-
 import pytest
 
-TENSEGRITY = str(Path(sys.executable).with_name("tensegrity"))
-
-
-@pytest.fixture
-def ros_context():
-    """A private rclpy context. At teardown every node still alive in it is destroyed, so
-    its endpoints leave the graph before the next test's processes look for matches (a
-    lingering subscription would satisfy a player's --wait-for-subscribers)."""
-    import gc
-
-    import rclpy
-    from rclpy.context import Context
-    from rclpy.node import Node
-
-    ctx = Context()
-    rclpy.init(args=[], context=ctx)
-    yield ctx
-    for obj in gc.get_objects():
-        if isinstance(obj, Node) and obj.context is ctx:
-            obj.destroy_node()
-    rclpy.try_shutdown(context=ctx)
-
-
-class Proc:
-    """A CLI subprocess whose stderr is collected in a file."""
-
-    def __init__(self, args: list[str], log: Path):
-        self.log = log
-        self._f = open(log, "w")
-        self.popen = subprocess.Popen([TENSEGRITY, *args], stdout=subprocess.PIPE,
-                                      stderr=self._f, text=True, env=dict(os.environ))
-
-    def stderr(self) -> str:
-        return self.log.read_text()
-
-    def wait_for(self, text: str, timeout: float = 30.0) -> None:
-        deadline = time.monotonic() + timeout
-        while text not in self.stderr():
-            if self.popen.poll() is not None or time.monotonic() > deadline:
-                raise AssertionError(f"never saw {text!r}; stderr:\n{self.stderr()}")
-            time.sleep(0.05)
-
-    def stop(self, sig=signal.SIGINT, timeout: float = 60.0) -> int:
-        if self.popen.poll() is None:
-            self.popen.send_signal(sig)
-        try:
-            rc = self.popen.wait(timeout)
-        finally:
-            self._f.close()
-        return rc
-
-    def kill(self) -> None:
-        if self.popen.poll() is None:
-            self.popen.kill()
-            self.popen.wait(30)
-        self._f.close()
-
-
-@pytest.fixture
-def cli(tmp_path):
-    procs: list[Proc] = []
-
-    def start(*args: str, log_name: str = "proc") -> Proc:
-        proc = Proc(list(args), tmp_path / f"{log_name}{len(procs)}.log")
-        procs.append(proc)
-        return proc
-
-    yield start
-    for p in procs:
-        p.kill()
-
-
-def run_cli(*args: str, timeout: float = 120.0) -> subprocess.CompletedProcess:
-    return subprocess.run([TENSEGRITY, *args], capture_output=True, text=True, timeout=timeout)
+from tests.ros_support import Proc, cli, ros_context, run_cli  # noqa: F401  (fixtures and helpers)
 
 
 def rosbags_cdr_samples(n: int):

@@ -1,0 +1,118 @@
+"""The solve_ik service of a real tensegrity_ik node, over DDS (issues 6 and 9)."""
+
+from __future__ import annotations
+
+import math
+from concurrent.futures import wait
+
+import pytest
+
+pytestmark = pytest.mark.ros
+
+
+@pytest.fixture(scope="module")
+def ik_service(tmp_path_factory):
+    """A running `tensegrity node ik` process and a client in this process."""
+    from tests.ros_support import Proc
+
+    log = tmp_path_factory.mktemp("ik") / "ik.log"
+    proc = Proc(["node", "ik"], log)
+    proc.wait_for("solve_ik ready")
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+    from tensegrity_msgs.srv import SolveIK
+
+    ctx = Context()
+    rclpy.init(args=[], context=ctx)
+    node = rclpy.create_node("ik_test_client", context=ctx)
+    from rclpy.qos import QoSProfile
+
+    # A burst of concurrent calls needs a response history as deep as the burst: rclpy's
+    # default keeps the last 10 responses, and the server answers faster than a client
+    # takes them (measured: 60-80 of 100 arrive with the default). The server's own queue
+    # is deep (SERVICE_QOS), so it never loses a request.
+    client = node.create_client(SolveIK, "solve_ik", qos_profile=QoSProfile(depth=1000))
+    executor = SingleThreadedExecutor(context=ctx)
+    executor.add_node(node)
+    assert client.wait_for_service(timeout_sec=30)
+
+    def call(x, y, seed=()):
+        future = client.call_async(SolveIK.Request(x=x, y=y, seed=list(seed)))
+        executor.spin_until_future_complete(future, timeout_sec=30)
+        assert future.done(), "no answer"
+        return future.result()
+
+    call.client, call.executor = client, executor
+    yield call
+    node.destroy_node()
+    rclpy.try_shutdown(context=ctx)
+    proc.stop()
+
+
+def _fk(rho1, rho2):
+    """Independent forward kinematics (paper parameters): energy-minimising beta."""
+    lam1 = math.sqrt(4 - (rho1 + rho2) ** 2)
+    beta = math.atan2(lam1, 3 * rho2 - rho1)
+    return rho1 + math.cos(beta), math.sin(beta), beta
+
+
+def test_answers_reach_the_target_and_match_the_core(ik_service):
+    from tensegrity_core.class2 import inverse_kinematics
+
+    x0, y0, _ = _fk(0.7, 0.7)
+    res = ik_service(x0, y0)
+    assert res.success, res.message
+    assert len(res.solutions) == 1
+    s = res.solutions[0]
+    assert (s.rho1, s.rho2) == pytest.approx((0.7, 0.7), abs=1e-10)
+    core = inverse_kinematics(x0, y0).valid
+    assert [(c.rho1, c.rho2, c.beta) for c in core] == [(s.rho1, s.rho2, s.beta)]
+    assert s.in_paper_range and s.stiffness_beta > 0
+    assert (s.delta1, s.delta2) == (core[0].delta1, core[0].delta2)
+
+
+def test_seed_orders_and_measures_distance(ik_service):
+    x, y, _ = _fk(0.3, 0.9)
+    res = ik_service(x, y, seed=(0.0, 0.0))
+    assert res.success
+    s = res.solutions[0]
+    assert s.distance_to_seed == pytest.approx(math.hypot(s.rho1, s.rho2), rel=1e-12)
+
+
+@pytest.mark.parametrize("x, y, why", [
+    (5.0, 0.5, "outside the workspace"),
+    (0.5, 1.5, "|y| > L"),
+    (0.5, -0.3, "no valid solution"),
+])
+def test_unreachable_targets_fail_with_a_reason(ik_service, x, y, why):
+    res = ik_service(x, y)
+    assert not res.success and not res.solutions
+    assert why in res.message
+
+
+@pytest.mark.parametrize("x, y, seed", [
+    (math.nan, 0.5, ()), (0.5, math.inf, ()), (1.0, 0.5, (0.1,)), (1.0, 0.5, (0.1, 0.2, 0.3)),
+    (1.0, 0.5, (math.nan, 0.2)),
+])
+def test_malformed_requests_fail_cleanly(ik_service, x, y, seed):
+    res = ik_service(x, y, seed)
+    assert not res.success and res.message
+    # the node is still alive and answering
+    x0, y0, _ = _fk(0.5, 0.5)
+    assert ik_service(x0, y0).success
+
+
+def test_one_hundred_concurrent_calls_all_answered(ik_service):
+    from tensegrity_msgs.srv import SolveIK
+
+    targets = [(_fk(0.2 + 0.005 * k, 0.6)[:2]) for k in range(100)]
+    futures = [ik_service.client.call_async(SolveIK.Request(x=x, y=y)) for x, y in targets]
+    for f in futures:
+        ik_service.executor.spin_until_future_complete(f, timeout_sec=60)
+    assert all(f.done() for f in futures)
+    for k, f in enumerate(futures):
+        res = f.result()
+        assert res.success, res.message
+        assert res.solutions[0].rho1 == pytest.approx(0.2 + 0.005 * k, abs=1e-9)
+        assert res.solutions[0].rho2 == pytest.approx(0.6, abs=1e-9)
