@@ -1,0 +1,1 @@
+"""General tensegrity with rigid bodies (placeholder)."""
