@@ -114,7 +114,7 @@ class Configuration:
                    np.broadcast_to(np.eye(3), (nb, 3, 3)).copy())
 
     @classmethod
-    def from_coords(cls, structure: Structure, coords, *, rigid_tol: float = 1e-6) -> "Configuration":
+    def from_coords(cls, structure: Structure, coords, *, rigid_tol: float = 1e-5) -> "Configuration":
         """The configuration with node coordinates ``coords`` (n, 3) [m].
 
         Each moving body's orientation is the best-fit rotation of its reference shape; the

@@ -204,11 +204,8 @@ def newton(structure: Structure, config: Configuration, *, tol: float, max_iter:
         if status != 0 or not check_stability:
             return _result(structure, config, status, it, history, "newton", dense, check_stability)
         low = lowest_mode(tangent_stiffness(structure, config, sparse=not dense), config, dense=dense)
-        if low.scaled > NEUTRAL_TOL:
-            return _result(structure, config, 0, it, history, "newton", dense, True, low)
         if low.scaled >= -NEUTRAL_TOL or escapes >= max_escapes:
-            st = 4 if low.scaled >= -NEUTRAL_TOL else 3
-            return _result(structure, config, st, it, history, "newton", dense, True, low)
+            return _result(structure, config, 0, it, history, "newton", dense, True, low)
         escapes += 1
         config = _escape_saddle(structure, config, low.vector)
 
@@ -307,17 +304,19 @@ def _escape_saddle(structure: Structure, config: Configuration, v: np.ndarray) -
 
 
 def _result(structure, config, status, it, history, method, dense, checked, low=None) -> FormFindResult:
-    """Build the result: forces, lengths, residual, stability (computed if not given)."""
+    """Build the result: forces, lengths, residual and stability (computed if not given; a
+    converged but unstable or neutral equilibrium becomes status 3 or 4)."""
     ob = out_of_balance(structure, config)
     lengths = member_lengths(structure, config.coords)
     if low is None and checked and status == 0:
         low = lowest_mode(tangent_stiffness(structure, config, sparse=not dense), config, dense=dense)
-    min_eig = low.value if low is not None else float("nan")
     stable = bool(low is not None and low.scaled > NEUTRAL_TOL)
+    if status == 0 and checked and not stable:
+        status = 4 if low.scaled >= -NEUTRAL_TOL else 3
     message = STATUS[status]
     if status == 0 and not checked:
         message = "converged (stability not checked)"
-    if status in (3, 4) and low is not None:
+    if status in (3, 4):
         message += f" (smallest scaled eigenvalue {low.scaled:.3g})"
     if status == 1:
         message += f" ({it}); residual {ob.residual:.3g} N"
@@ -326,7 +325,8 @@ def _result(structure, config, status, it, history, method, dense, checked, low=
     return FormFindResult(
         success=status == 0, status=status, message=message, nodes=config.coords.copy(),
         member_forces=forces_from_lengths(structure, lengths), member_lengths=lengths,
-        iterations=it, residual=ob.residual, min_eigenvalue=min_eig, stable=stable,
+        iterations=it, residual=ob.residual,
+        min_eigenvalue=low.value if low is not None else float("nan"), stable=stable,
         history=history, method=method, force_residual=ob.force_residual,
         moment_residual=ob.moment_residual, energy=potential_energy(structure, config.coords),
         rigid_body_modes=low.rigid_body_modes if low is not None else 0,

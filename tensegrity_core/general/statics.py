@@ -26,13 +26,27 @@ import numpy as np
 import scipy.sparse as sp
 
 from tensegrity_core.general.configuration import Configuration, node_jacobians
-from tensegrity_core.general.structure import Structure
+from tensegrity_core.general.structure import Structure, StructureError
 
 
 def as_configuration(structure: Structure, state) -> Configuration:
-    """Accept a :class:`Configuration`, ``None`` (the reference drawing) or ``(n, 3)`` coordinates."""
+    """Accept a :class:`Configuration`, ``None`` (the reference drawing) or ``(n, 3)`` coordinates.
+
+    A configuration of another structure with the same nodes and rigid bodies (e.g. before
+    a change of rest lengths or loads) is re-bound to ``structure``.
+    """
     if isinstance(state, Configuration):
-        return state
+        if state.structure is structure:
+            return state
+        old, new = state.structure.layout, structure.layout
+        same = (state.structure.n_nodes == structure.n_nodes
+                and np.array_equal(old.free_index, new.free_index)
+                and np.array_equal(old.node_body, new.node_body)
+                and np.allclose(old.offsets, new.offsets, rtol=0, atol=1e-12))
+        if not same:
+            raise StructureError("the configuration belongs to a structure with other nodes, "
+                                 "supports or rigid bodies")
+        return Configuration(structure, state.coords, state.centres, state.rotations)
     if state is None:
         return Configuration.initial(structure)
     return Configuration.from_coords(structure, state)
