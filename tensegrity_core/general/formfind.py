@@ -58,7 +58,15 @@ STATUS = {
     4: "converged to an equilibrium with an unstiffened mechanism (zero stiffness)",
     5: "stopped by the callback",
     6: "the iteration produced non-finite values",
+    7: "diverged: the potential energy falls without bound (no equilibrium, e.g. unbalanced "
+       "loads on a structure free to move)",
 }
+
+
+def diverged(config: Configuration, size: float) -> bool:
+    """Whether a node has moved farther than 1e6 structure sizes from the origin of the
+    drawing (the sign of a potential unbounded below)."""
+    return bool(np.abs(config.coords).max() > 1e6 * size)
 
 
 @dataclass
@@ -114,7 +122,7 @@ class FormFindResult:
     def to_dict(self) -> dict:
         """Plain data for YAML/JSON: nodes and members by name, in description order."""
         s = self.structure
-        slack = s.is_string & (self.member_lengths <= s.rest_lengths)
+        slack = s.is_string & (self.member_lengths < s.rest_lengths)
         return {
             "structure": s.name,
             "success": bool(self.success),
@@ -137,6 +145,11 @@ class FormFindResult:
                                               self.member_lengths, s.rest_lengths, slack)
             },
         }
+
+
+def structure_size(structure: Structure) -> float:
+    """Largest extent of the drawing [m] (1 for a single point)."""
+    return float(np.ptp(structure.nodes, axis=0).max()) or 1.0
 
 
 def default_tolerance(structure: Structure) -> float:
@@ -181,7 +194,7 @@ def form_find(structure: Structure, *, method: str = "newton", x0=None, tol: flo
 # --------------------------------------------------------------------------- Newton
 def newton(structure: Structure, config: Configuration, *, tol: float, max_iter: int | None,
            callback=None, linear_solver: str = "auto", shift: float = 1e-10,
-           max_escapes: int = 3, check_stability: bool = True) -> FormFindResult:
+           max_step: float = 1.0, max_escapes: int = 3, check_stability: bool = True) -> FormFindResult:
     """Shifted Newton with an energy line search (the paper's Sect. 5.1).
 
     ``shift`` is ``u`` of Eq. 81, applied to the Jacobi-scaled ``K_T`` (unit diagonal), so
@@ -189,18 +202,24 @@ def newton(structure: Structure, config: Configuration, *, tol: float, max_iter:
     about 1e-8 relative; the default 1e-10 keeps the convergence along soft
     prestress-stiffened modes quadratic for practical purposes. ``linear_solver``: ``"dense"`` (full eigenvalues each step, the
     paper's), ``"sparse"`` (Cholesky attempts with increasing shift) or ``"auto"``.
+    ``max_step`` caps the first-order node displacement of a Newton step at that many
+    structure sizes before the line search (a guard against near-singular directions; the
+    paper's [0, 1] interval alone does not bound the step). ``max_escapes`` saddles are left
+    along their unstable mode before an unstable result is reported.
     """
     if linear_solver not in ("auto", "dense", "sparse"):
         raise StructureError(f"linear_solver must be 'auto', 'dense' or 'sparse', got {linear_solver!r}")
     if not (np.isfinite(shift) and shift > 0):
         raise StructureError(f"shift must be a positive number, got {shift!r}")
+    if not (np.isfinite(max_step) and max_step > 0):
+        raise StructureError(f"max_step must be a positive number of structure sizes, got {max_step!r}")
     max_iter = 200 if max_iter is None else int(max_iter)
     dense = linear_solver == "dense" or (linear_solver == "auto" and structure.layout.n_dof <= DENSE_LIMIT)
     history: list[dict] = []
     it, escapes = 0, 0
     while True:
         config, it, status = _newton_iterations(structure, config, tol, max_iter, it, callback,
-                                                dense, shift, history)
+                                                dense, shift, max_step, history)
         if status != 0 or not check_stability:
             return _result(structure, config, status, it, history, "newton", dense, check_stability)
         low = lowest_mode(tangent_stiffness(structure, config, sparse=not dense), config, dense=dense)
@@ -210,11 +229,26 @@ def newton(structure: Structure, config: Configuration, *, tol: float, max_iter:
         config = _escape_saddle(structure, config, low.vector)
 
 
-def _newton_iterations(structure, config, tol, max_iter, it, callback, dense, u, history):
+def capped_step(structure: Structure, dU: np.ndarray, limit: float) -> np.ndarray:
+    """``dU`` scaled down so that no node moves (to first order) more than ``limit`` [m]:
+    a free coordinate by ``|dU_i|``, a body node by at most ``|dc| + radius |dtheta|``."""
+    lay = structure.layout
+    bound = float(np.abs(dU[:lay.n_free]).max(initial=0.0))
+    if lay.body_dof.size:
+        d = dU[lay.body_dof[:, None] + np.arange(6)[None, :]]
+        bound = max(bound, float((np.linalg.norm(d[:, :3], axis=1)
+                                  + lay.body_radii * np.linalg.norm(d[:, 3:], axis=1)).max()))
+    return dU * (limit / bound) if bound > limit else dU
+
+
+def _newton_iterations(structure, config, tol, max_iter, it, callback, dense, u, max_step, history):
     """Iterate until the residual is below ``tol``; returns (config, iterations, status)."""
     V = potential_energy(structure, config.coords)
+    size = structure_size(structure)
     while True:
         ob = out_of_balance(structure, config)
+        if diverged(config, size):
+            return config, it, 7
         if not np.isfinite(ob.residual) or not np.isfinite(V):
             return config, it, 6
         if ob.residual <= tol:
@@ -224,13 +258,14 @@ def _newton_iterations(structure, config, tol, max_iter, it, callback, dense, u,
         K = tangent_stiffness(structure, config, sparse=not dense)
         step = shifted_step_dense(K, ob.generalized, u) if dense else \
             shifted_step_sparse(K, ob.generalized, u)
-        x, V_new, config_new = line_search(structure, config, step.dU, V, ob.generalized)
+        dU = capped_step(structure, step.dU, max_step * size)
+        x, V_new, config_new = line_search(structure, config, dU, V, ob.generalized)
         if x == 0.0:
             return config, it, 2
         it += 1
         config, V = config_new, V_new
         info = IterationInfo(it, float(out_of_balance(structure, config).residual), V, x,
-                             float(x * np.linalg.norm(step.dU)), step.shift, step.min_eigenvalue)
+                             float(x * np.linalg.norm(dU)), step.shift, step.min_eigenvalue)
         history.append(asdict(info))
         if callback is not None and callback(info) is True:
             return config, it, 5
@@ -318,6 +353,8 @@ def _result(structure, config, status, it, history, method, dense, checked, low=
         message = "converged (stability not checked)"
     if status in (3, 4):
         message += f" (smallest scaled eigenvalue {low.scaled:.3g})"
+    if status in (6, 7):
+        message += f" after {it} iterations"
     if status == 1:
         message += f" ({it}); residual {ob.residual:.3g} N"
     if status == 2:

@@ -34,10 +34,13 @@ NEUTRAL_TOL = 1e-11
 
 def jacobi_scaling(K) -> np.ndarray:
     """``d`` with ``diag(d) K diag(d)`` of unit diagonal (``d_i = |K_ii|^-1/2``; tiny or
-    zero diagonals are floored at 1e-12 of the largest, so no entry blows up)."""
+    zero diagonals are floored at 1e-12 of the largest, so no entry blows up; all ones for a
+    zero matrix)."""
     diag = np.abs(K.diagonal() if sp.issparse(K) else np.diag(K))
-    floor = max(diag.max(initial=0.0), 1e-300) * 1e-12
-    return 1.0 / np.sqrt(np.maximum(diag, floor))
+    top = diag.max(initial=0.0)
+    if not top > 0:
+        return np.ones_like(diag)
+    return 1.0 / np.sqrt(np.maximum(diag, 1e-12 * top))
 
 
 def factor_if_positive_definite(A):

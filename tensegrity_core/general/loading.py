@@ -67,7 +67,8 @@ def _construct_map(loader, node):
         except TypeError:
             raise StructureError(f"unhashable mapping key at line {line}", line=line) from None
         if key in out:
-            raise StructureError(f"duplicate key {key!r} (lines {out.key_lines[key]} and {line})", line=line)
+            raise StructureError(f"duplicate key {key!r} at line {line} (first at line {out.key_lines[key]})",
+                                 line=line)
         out[key] = loader.construct_object(value_node, deep=True)
         out.key_lines[key] = line
     return out

@@ -55,7 +55,7 @@ def tangent_displacement(structure: Structure, result: FormFindResult, dl0_dp) -
     """Largest first-order node displacement per unit parameter, ``max |G dU/dp|`` [m]."""
     config = result.configuration
     lengths = member_lengths(structure, config.coords)
-    taut = ~(structure.is_string & (lengths <= structure.rest_lengths))
+    taut = ~(structure.is_string & (lengths < structure.rest_lengths))
     dt_dp = np.where(taut, -structure.EA * lengths / structure.rest_lengths**2, 0.0) * dl0_dp
     dP = -(equilibrium_matrix(structure, config, sparse=True) @ dt_dp)
     K = tangent_stiffness(structure, config, sparse=True)

@@ -29,7 +29,7 @@ def dynamic_relaxation(structure: Structure, config: Configuration, *, tol: floa
     """Form-finding by dynamic relaxation; see the module docstring and
     :func:`tensegrity_core.general.formfind.form_find`. ``history`` holds one entry per
     kinetic-energy peak (velocity reset), ``callback`` runs every step."""
-    from tensegrity_core.general.formfind import DENSE_LIMIT, IterationInfo, _result
+    from tensegrity_core.general.formfind import DENSE_LIMIT, IterationInfo, _result, diverged, structure_size
 
     if not (np.isfinite(mass_factor) and mass_factor >= 1.0):
         raise StructureError(f"mass_factor must be >= 1 for a stable explicit scheme, got {mass_factor!r}")
@@ -40,8 +40,12 @@ def dynamic_relaxation(structure: Structure, config: Configuration, *, tol: floa
     kinetic = 0.0
     M = None
     status, it = 1, 0
+    size = structure_size(structure)
     while True:
         ob = out_of_balance(structure, config)
+        if diverged(config, size):
+            status = 7
+            break
         if not np.isfinite(ob.residual):
             status = 6
             break

@@ -88,9 +88,10 @@ def member_forces(structure: Structure, coords, rest_lengths=None) -> np.ndarray
 
 
 def axial_stiffness(structure: Structure, lengths) -> np.ndarray:
-    """``dt/dl`` [N/m]: ``EA/l0`` for taut members, 0 for slack strings (``l <= l0``)."""
+    """``dt/dl`` [N/m]: ``EA/l0`` for taut members, 0 for slack strings (``l < l0``; a string
+    exactly at its rest length counts as taut, the stiffness it has when pulled)."""
     k = structure.EA / structure.rest_lengths
-    slack = structure.is_string & (np.asarray(lengths) <= structure.rest_lengths)
+    slack = structure.is_string & (np.asarray(lengths) < structure.rest_lengths)
     return np.where(slack, 0.0, k)
 
 
