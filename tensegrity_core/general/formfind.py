@@ -26,6 +26,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Callable
 
 import numpy as np
+from scipy.linalg import qr
 from scipy.optimize import brentq, minimize_scalar
 
 from tensegrity_core.errors import ConvergenceError
@@ -33,6 +34,7 @@ from tensegrity_core.general.configuration import Configuration
 from tensegrity_core.general.linalg import (
     NEUTRAL_TOL,
     lowest_mode,
+    zero_energy_rigid_modes,
     shifted_step_dense,
     shifted_step_sparse,
 )
@@ -229,6 +231,19 @@ def newton(structure: Structure, config: Configuration, *, tol: float, max_iter:
         config = _escape_saddle(structure, config, low.vector)
 
 
+def _moving_coordinates(config: Configuration) -> np.ndarray:
+    """Indices of ``U`` that Newton moves: all but one coordinate per zero-energy rigid-body
+    motion of an unsupported structure (chosen by pivoted QR, so the rest is transversal to
+    those motions). Off equilibrium ``K_T`` is not singular along rigid motions, only nearly
+    so and possibly negative; left in, they swamp the shifted Newton step."""
+    n = config.structure.layout.n_dof
+    Z = zero_energy_rigid_modes(config)
+    if Z.shape[1] == 0:
+        return np.arange(n)
+    _, _, piv = qr(Z.T, pivoting=True, mode="economic")
+    return np.setdiff1d(np.arange(n), piv[:Z.shape[1]])
+
+
 def capped_step(structure: Structure, dU: np.ndarray, limit: float) -> np.ndarray:
     """``dU`` scaled down so that no node moves (to first order) more than ``limit`` [m]:
     a free coordinate by ``|dU_i|``, a body node by at most ``|dc| + radius |dtheta|``."""
@@ -256,9 +271,13 @@ def _newton_iterations(structure, config, tol, max_iter, it, callback, dense, u,
         if it >= max_iter:
             return config, it, 1
         K = tangent_stiffness(structure, config, sparse=not dense)
-        step = shifted_step_dense(K, ob.generalized, u) if dense else \
-            shifted_step_sparse(K, ob.generalized, u)
-        dU = capped_step(structure, step.dU, max_step * size)
+        keep = _moving_coordinates(config)
+        P = ob.generalized[keep]
+        Kk = K[np.ix_(keep, keep)] if dense else K[keep][:, keep]
+        step = shifted_step_dense(Kk, P, u) if dense else shifted_step_sparse(Kk, P, u)
+        dU = np.zeros(structure.layout.n_dof)
+        dU[keep] = step.dU
+        dU = capped_step(structure, dU, max_step * size)
         x, V_new, config_new = line_search(structure, config, dU, V, ob.generalized)
         if x == 0.0:
             return config, it, 2
