@@ -219,14 +219,15 @@ def newton(structure: Structure, config: Configuration, *, tol: float, max_iter:
     dense = linear_solver == "dense" or (linear_solver == "auto" and structure.layout.n_dof <= DENSE_LIMIT)
     history: list[dict] = []
     it, escapes = 0, 0
+    label = f"newton ({'dense' if dense else 'sparse'})"
     while True:
         config, it, status = _newton_iterations(structure, config, tol, max_iter, it, callback,
                                                 dense, shift, max_step, history)
         if status != 0 or not check_stability:
-            return _result(structure, config, status, it, history, "newton", dense, check_stability)
+            return _result(structure, config, status, it, history, label, dense, check_stability)
         low = lowest_mode(tangent_stiffness(structure, config, sparse=not dense), config, dense=dense)
         if low.scaled >= -NEUTRAL_TOL or escapes >= max_escapes:
-            return _result(structure, config, 0, it, history, "newton", dense, True, low)
+            return _result(structure, config, 0, it, history, label, dense, True, low)
         escapes += 1
         config = _escape_saddle(structure, config, low.vector)
 

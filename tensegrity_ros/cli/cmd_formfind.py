@@ -61,7 +61,8 @@ def _progress(quiet: bool):
         return None, None
     from tqdm import tqdm
 
-    bar = tqdm(desc="form-finding", unit="it", file=sys.stderr, leave=False, dynamic_ncols=True)
+    bar = tqdm(desc="form-finding", unit="it", file=sys.stderr, leave=False, dynamic_ncols=True,
+               mininterval=0)
 
     def callback(info):
         shift = "" if info.shift is None else f" shift {info.shift:.1e}"
