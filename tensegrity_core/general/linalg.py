@@ -26,6 +26,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import LinearOperator, eigsh, splu
 
 from tensegrity_core.general.configuration import Configuration
+from tensegrity_core.general.rotation import hat
 from tensegrity_core.general.stiffness import sym_rotation_hessian
 
 #: Scaled eigenvalues at or below this count as zero (unstiffened mechanism).
@@ -87,51 +88,68 @@ def shifted_step_dense(K, P, u: float) -> ShiftedStep:
     return ShiftedStep(d * la.cho_solve(c, d * P), tau, lam, 1)
 
 
-def shifted_step_sparse(K, P, u: float, *, growth: float = 4.0, first_jump: float = 1e-3) -> ShiftedStep:
-    """Sparse Eq. 81: Cholesky attempts on the scaled ``K_T + tau I`` with ``tau = u``, then
-    ``max(first_jump, growth * tau)``, ... until positive definite; solve with that factor."""
+def shifted_step_sparse(K, P, u: float, *, growth: float = 10.0, policy: str = "eq81") -> ShiftedStep:
+    """Sparse Eq. 81 on the scaled ``K_T``.
+
+    A Cholesky (``L D L^T``) attempt on ``K_s + u I`` decides definiteness. If it fails,
+    shifts ``10 u, 100 u, ...`` are tried until one succeeds (``tau_ok``); then the
+    smallest eigenvalue is the one nearest ``-tau_ok`` (all lie above it), found by
+    shift-invert Lanczos with that very factor, and the shift is the paper's
+    ``u + |lambda_min|`` (``policy="eq81"``) or ``tau_ok`` itself (``policy="bracket"``).
+    """
     K = sp.csr_matrix(K)
     d = jacobi_scaling(K)
     D = sp.diags(d)
     Ks = (D @ K @ D).tocsc()
-    eye = sp.identity(K.shape[0], format="csc")
-    tau, tries = u, 0
-    while True:
+    n = K.shape[0]
+    eye = sp.identity(n, format="csc")
+    lu = factor_if_positive_definite(Ks + u * eye)
+    if lu is not None:
+        return ShiftedStep(d * lu.solve(d * P), u, None, 1)
+    tau, tries = u, 1
+    while lu is None:
+        if tries > 40:
+            raise FloatingPointError("no positive shift makes the scaled stiffness positive definite")
+        tau *= growth
         tries += 1
         lu = factor_if_positive_definite(Ks + tau * eye)
-        if lu is not None:
-            return ShiftedStep(d * lu.solve(d * P), tau, None, tries)
-        if tries > 60:
-            raise FloatingPointError("no positive shift makes the scaled stiffness positive definite")
-        tau = max(first_jump, growth * tau)
+    lam = None
+    if policy == "eq81":
+        OPinv = LinearOperator((n, n), matvec=lambda x: lu.solve(np.asarray(x, dtype=float).ravel()),
+                               dtype=float)
+        v0 = np.random.default_rng(0).standard_normal(n)
+        lam = float(eigsh(Ks, k=1, sigma=-tau, which="LM", OPinv=OPinv, v0=v0, tol=1e-6,
+                          return_eigenvectors=False)[0])
+        shift = u + max(0.0, -lam)
+        lu2 = factor_if_positive_definite(Ks + shift * eye)
+        tries += 1
+        if lu2 is not None:
+            lu, tau = lu2, shift
+    return ShiftedStep(d * lu.solve(d * P), tau, lam, tries)
 
 
 def rigid_motions(config: Configuration) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Infinitesimal rigid motions of the whole structure in ``U``.
 
     Returns ``T`` (n_dof, 6): columns are translations x, y, z and rotations about x, y, z
-    through the centroid ``o`` of all nodes; ``F`` (n_fixed, 6): the motion each motion
-    would impose on the fixed coordinates; ``o``.
+    through the centroid ``o`` of all nodes; ``F`` (n_fixed, 6): the motion each would
+    impose on the fixed coordinates; ``o``.
     """
     s = config.structure
     lay = s.layout
     o = config.coords.mean(axis=0)
-    d = config.coords - o
     E = np.eye(3)
     node_motion = np.zeros((s.n_nodes, 3, 6))        # displacement of node i, axis j, motion k
     node_motion[:, :, :3] = E[None]
-    for k in range(3):
-        node_motion[:, :, 3 + k] = np.cross(E[k][None, :], d)
+    node_motion[:, :, 3:] = -hat(config.coords - o)     # e_k x d = -hat(d) e_k
     T = np.zeros((lay.n_dof, 6))
     free = lay.free_index >= 0
     T[lay.free_index[free]] = node_motion[free]
-    for slot in range(len(lay.moving_bodies)):
-        b = lay.body_dof[slot]
-        dc = config.centres[slot] - o
-        T[b:b + 3, :3] = E
-        for k in range(3):
-            T[b:b + 3, 3 + k] = np.cross(E[k], dc)
-            T[b + 3 + k, 3 + k] = 1.0
+    if lay.body_dof.size:
+        rows = lay.body_dof[:, None] + np.arange(3)[None, :]
+        T[rows.ravel(), :3] = np.tile(E, (len(lay.body_dof), 1))
+        T[rows.ravel(), 3:] = (-hat(config.centres - o)).reshape(-1, 3)
+        T[(rows + 3).ravel(), 3:] = np.tile(E, (len(lay.body_dof), 1))
     F = node_motion[lay.fixed_mask]
     return T, F, o
 

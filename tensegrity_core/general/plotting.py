@@ -44,7 +44,8 @@ def draw_structure(ax, structure: Structure, coords, *, faint: bool = False, lab
 
 def plot_shapes(structure: Structure, final, initial=None, *, path=None, title: str | None = None):
     """Figure of the ``final`` shape (solid) over the ``initial`` one (dashed); saved to
-    ``path`` (PNG) when given. Returns the figure."""
+    ``path`` (PNG) when given; a structure lying in a coordinate plane is seen face on.
+    Returns the figure."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -63,6 +64,11 @@ def plot_shapes(structure: Structure, final, initial=None, *, path=None, title: 
     for set_lim, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre):
         set_lim(c - half, c + half)
     ax.set_box_aspect((1, 1, 1))
+    flat = np.ptp(pts, axis=0) <= 1e-9 * 2 * half
+    if flat[2]:
+        ax.view_init(elev=90, azim=-90)          # planar in x-y: seen from above
+    elif flat[1]:
+        ax.view_init(elev=0, azim=-90)           # planar in x-z: seen from the front
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_zlabel("z [m]")

@@ -100,9 +100,16 @@ def body_centres(structure: Structure, coords) -> np.ndarray:
     lay = structure.layout
     coords = np.asarray(coords, dtype=float)
     on = lay.node_body >= 0
-    sums = np.zeros((len(lay.moving_bodies), 3))
-    np.add.at(sums, lay.node_body[on], coords[on])
-    return sums / lay.body_sizes[:, None]
+    return group_sum(lay.node_body[on], coords[on], len(lay.moving_bodies)) / lay.body_sizes[:, None]
+
+
+def group_sum(index, values, n: int) -> np.ndarray:
+    """``out[k] = sum of values[i] with index[i] == k`` for (N, d) values (bincount per column;
+    much faster than ``np.add.at``)."""
+    values = np.asarray(values, dtype=float)
+    flat = values.reshape(len(values), -1)
+    out = np.stack([np.bincount(index, weights=flat[:, j], minlength=n) for j in range(flat.shape[1])], axis=1)
+    return out.reshape((n,) + values.shape[1:])
 
 
 def potential_energy(structure: Structure, coords) -> float:
@@ -126,19 +133,25 @@ def internal_nodal_forces(structure: Structure, coords, forces=None) -> np.ndarr
     lengths = np.linalg.norm(h, axis=1)
     t = forces_from_lengths(structure, lengths) if forces is None else forces
     ft = (t / lengths)[:, None] * h
-    out = np.zeros_like(coords)
-    np.add.at(out, structure.members[:, 0], ft)
-    np.add.at(out, structure.members[:, 1], -ft)
-    return out
+    return group_sum(structure.members.T.ravel(), np.concatenate([ft, -ft]), len(coords))
 
 
-def scatter_to_dofs(config: Configuration, node_vectors, J=None) -> np.ndarray:
-    """``G^T v`` for a nodal vector field ``v`` (n, 3): the generalised force of nodal forces."""
+def scatter_to_dofs(config: Configuration, node_vectors) -> np.ndarray:
+    """``G^T v`` for a nodal vector field ``v`` (n, 3): the generalised force of nodal forces
+    (free coordinates take their component; a body takes the sum and the moment about its
+    centre)."""
     lay = config.structure.layout
-    J = node_jacobians(config) if J is None else J
-    local = np.einsum("nia,ni->na", J, node_vectors)     # (n, 6)
-    keep = lay.node_dofs >= 0
-    return np.bincount(lay.node_dofs[keep], weights=local[keep], minlength=lay.n_dof)
+    v = np.asarray(node_vectors, dtype=float)
+    out = np.zeros(lay.n_dof)
+    free = lay.free_index >= 0
+    out[lay.free_index[free]] = v[free]
+    nb = len(lay.moving_bodies)
+    if nb:
+        on = lay.node_body >= 0
+        slot = lay.node_body[on]
+        sums = group_sum(slot, np.concatenate([v[on], np.cross(config.arms()[on], v[on])], axis=1), nb)
+        out[lay.body_dof[:, None] + np.arange(6)[None, :]] = sums
+    return out
 
 
 @dataclass

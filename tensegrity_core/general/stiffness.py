@@ -34,6 +34,7 @@ import scipy.sparse as sp
 from tensegrity_core.general.configuration import Configuration, node_jacobians
 from tensegrity_core.general.statics import (
     as_configuration,
+    group_sum,
     axial_stiffness,
     forces_from_lengths,
     internal_nodal_forces,
@@ -118,11 +119,10 @@ def _body_blocks(config: Configuration, node_gradient: np.ndarray) -> np.ndarray
     """(nb, 3, 3) rotation blocks ``sum_j S(g_j, r_j)`` for a nodal gradient field ``g``."""
     lay = config.structure.layout
     nb = len(lay.moving_bodies)
-    out = np.zeros((nb, 3, 3))
     on = lay.node_body >= 0
-    if nb and on.any():
-        np.add.at(out, lay.node_body[on], sym_rotation_hessian(node_gradient[on], config.arms()[on]))
-    return out
+    if not (nb and on.any()):
+        return np.zeros((nb, 3, 3))
+    return group_sum(lay.node_body[on], sym_rotation_hessian(node_gradient[on], config.arms()[on]), nb)
 
 
 def stiffness_parts(structure: Structure, coords, *, sparse: bool = False) -> dict:

@@ -245,3 +245,18 @@ def test_python_construction_validates_too():
         Structure.from_arrays(nodes, [[0, 2]], EA=1.0, bodies=[RigidBody("r", (0, 1))])
     s = Structure.from_arrays(nodes, [[0, 1], [1, 2]], EA=1.0, pinned=[True, False, True])
     assert s.layout.n_dof == 3 and s.member_names == ("m0", "m1")
+
+
+def test_the_examples_in_docs_structures_md_load_and_form_find():
+    import re
+    from pathlib import Path
+
+    from tensegrity_core.general import form_find
+
+    text = (Path(__file__).parents[2] / "docs" / "structures.md").read_text()
+    blocks = re.findall(r"```(yaml|toml)\n(.*?)```", text, re.S)
+    descriptions = [b for _, b in blocks if not b.startswith("structure:") and ("nodes:" in b or "[nodes]" in b)]
+    assert len(descriptions) == 2
+    for text in descriptions:
+        r = form_find(load_structure(text))
+        assert r.success, r.message
