@@ -1,5 +1,5 @@
 """Pictures of structures (matplotlib, Agg backend): bars black, strings red (slack strings
-dotted), rigid bodies as grey spokes from their centre (planar ones filled); an optional
+dotted), rigid bodies as grey spokes from their centre (planar ones as filled polygons); an optional
 second shape drawn dashed and faint."""
 
 from __future__ import annotations
@@ -31,12 +31,13 @@ def draw_structure(ax, structure: Structure, coords, *, faint: bool = False, lab
     for body in structure.bodies:
         pts = coords[list(body.nodes)]
         c = pts.mean(axis=0)
-        for p in pts:
-            ax.plot(*np.c_[c, p], ls=style, color="0.45", lw=3.0, alpha=alpha, solid_capstyle="round")
         sv = np.linalg.svd(pts - c, compute_uv=False)
-        if len(pts) >= 3 and sv[-1] <= 1e-9 * sv[0]:     # planar polygon: fill it
-            ax.add_collection3d(Poly3DCollection([pts], facecolor="0.6", edgecolor="0.3",
-                                                 alpha=0.25 * alpha, linewidths=0.5))
+        if sv[-1] <= 1e-9 * sv[0]:                         # planar polygon: fill it
+            ax.add_collection3d(Poly3DCollection([pts], facecolor="0.55", edgecolor="0.3",
+                                                 alpha=0.35 * alpha, linewidths=0.8))
+        else:                                              # solid body: spokes from the centre
+            for p in pts:
+                ax.plot(*np.c_[c, p], ls=style, color="0.45", lw=3.0, alpha=alpha, solid_capstyle="round")
     fixed = structure.layout.fixed_mask.all(axis=1)
     if fixed.any() and not faint:
         ax.scatter(*coords[fixed].T, marker="^", color="green", s=25, depthshade=False)
@@ -64,14 +65,18 @@ def plot_shapes(structure: Structure, final, initial=None, *, path=None, title: 
     for set_lim, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre):
         set_lim(c - half, c + half)
     ax.set_box_aspect((1, 1, 1))
-    flat = np.ptp(pts, axis=0) <= 1e-9 * 2 * half
-    if flat[2]:
-        ax.view_init(elev=90, azim=-90)          # planar in x-y: seen from above
-    elif flat[1]:
-        ax.view_init(elev=0, azim=-90)           # planar in x-z: seen from the front
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_zlabel("z [m]")
+    flat = np.ptp(pts, axis=0) <= 1e-9 * 2 * half
+    if flat[2]:
+        ax.view_init(elev=90, azim=-90)          # planar in x-y: seen from above
+        ax.set_zticks([])
+        ax.set_zlabel("")
+    elif flat[1]:
+        ax.view_init(elev=0, azim=-90)           # planar in x-z: seen from the front
+        ax.set_yticks([])
+        ax.set_ylabel("")
     ax.set_title(title or structure.name)
     if initial is not None:
         ax.legend(loc="upper left")
