@@ -25,6 +25,12 @@ def loaded_structure() -> Structure:
     return make_loaded_structure()
 
 
+@pytest.fixture
+def loaded_structures():
+    """The factory :func:`make_loaded_structure` (seed -> structure)."""
+    return make_loaded_structure
+
+
 def make_loaded_structure(seed: int = 3) -> Structure:
     """A small irregular structure with everything at once: a rigid body with a point
     load on one of its nodes, bars and strings, a node pinned on one axis, a fully pinned
