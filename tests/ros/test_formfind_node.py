@@ -1,0 +1,133 @@
+"""The find_form service of a real tensegrity_formfind node, over DDS (issues 6 and 9)."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from tensegrity_core.general import example_path
+
+pytestmark = pytest.mark.ros
+
+TABLE = example_path("tensegrity_table").read_text()
+
+
+@pytest.fixture(scope="module")
+def formfind(tmp_path_factory):
+    """A running `tensegrity node formfind` process (time limit 5 s) and a client here."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.executors import MultiThreadedExecutor
+    from rclpy.qos import QoSProfile
+    from tensegrity_msgs.srv import FindForm, SolveIK
+
+    from tests.ros_support import Proc
+
+    log = tmp_path_factory.mktemp("ff") / "ff.log"
+    proc = Proc(["node", "formfind", "--ros-args", "-p", "time_limit:=5.0",
+                 "-p", "max_request_bytes:=1000000"], log)
+    proc.wait_for("find_form ready")
+    ctx = Context()
+    rclpy.init(args=[], context=ctx)
+    node = rclpy.create_node("ff_test_client", context=ctx)
+    client = node.create_client(FindForm, "find_form", qos_profile=QoSProfile(depth=100))
+    executor = MultiThreadedExecutor(context=ctx)
+    executor.add_node(node)
+    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner.start()
+    assert client.wait_for_service(timeout_sec=30)
+
+    def call(text, tol=0.0, max_iter=0, timeout=60.0):
+        future = client.call_async(FindForm.Request(structure=text, tolerance=tol, max_iterations=max_iter))
+        deadline = time.monotonic() + timeout
+        while not future.done() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert future.done(), "no answer"
+        return future.result()
+
+    call.client = client
+    call.log = proc.stderr
+    yield call
+    executor.shutdown()
+    node.destroy_node()
+    rclpy.try_shutdown(context=ctx)
+    proc.stop()
+
+
+def test_table_example_gives_the_papers_self_stress(formfind):
+    res = formfind(TABLE)
+    assert res.success, res.message
+    t = np.array(res.member_forces)
+    # Ma et al. Eq. 91: forces proportional to [1, 1, 1, 3] (three long strings, one short)
+    np.testing.assert_allclose(t / t[0], [1, 1, 1, 3], rtol=1e-8)
+    assert res.min_stiffness_eigenvalue > 0
+    assert len(res.nodes) == 8 and res.residual >= 0
+
+
+@pytest.mark.parametrize("text, why", [
+    ("nodes: [[0, 0, 0]\n  members: oops", "line"),                       # malformed YAML
+    ("nodes: {a: [0,0,0], b: [1,0,0]}\nmembers:\n  - {nodes: [a, zz], EA: 1, rest_length: 1}", "zz"),
+    ("nodes: {a: [0,0,0], b: [1,0]}\nmembers:\n  - {nodes: [a, b], EA: 1, rest_length: 1}", "b"),
+    ("", "empty"),
+])
+def test_bad_descriptions_are_refused_with_a_reason(formfind, text, why):
+    res = formfind(text)
+    assert not res.success
+    assert why in res.message
+
+
+def test_negative_tolerance_is_refused(formfind):
+    res = formfind(TABLE, tol=-1.0)
+    assert not res.success and "tolerance" in res.message
+
+
+def test_very_large_request_is_refused_before_parsing(formfind):
+    res = formfind("# " + "x" * 1_100_000 + "\n" + TABLE)
+    assert not res.success and "max_request_bytes" in res.message
+
+
+def test_structure_without_equilibrium_is_a_failure(formfind):
+    # The free-floating table (no supports) with a net external load: nothing can balance
+    # the load, so there is no equilibrium at all; the service must say so, not "converge".
+    res = formfind(TABLE + "loads: {c1: [0, 0, -10]}\n")
+    assert not res.success, res.message
+    assert res.message
+
+
+def test_ten_concurrent_calls_complete_while_another_caller_is_served(formfind):
+    from tensegrity_msgs.srv import FindForm
+
+    futures = [formfind.client.call_async(FindForm.Request(structure=TABLE)) for _ in range(10)]
+    quick = formfind("nodes: {a: [0,0,0]}\nmembers: []")      # another caller, answered meanwhile
+    assert not quick.success or quick.message
+    deadline = time.monotonic() + 120
+    while not all(f.done() for f in futures) and time.monotonic() < deadline:
+        time.sleep(0.02)
+    assert all(f.done() for f in futures)
+    assert all(f.result().success for f in futures)
+
+
+def test_a_long_request_neither_blocks_others_nor_runs_past_its_time_limit(formfind):
+    from tensegrity_msgs.srv import FindForm
+
+    from tensegrity_core.general import dump_structure, tensegrity_spine
+
+    # A 4,800-member spine with 100000 iterations allowed takes longer than the node's
+    # time_limit (5 s here), which must stop it.
+    spine = dump_structure(tensegrity_spine(600, shape="C"))
+    slow = formfind.client.call_async(FindForm.Request(structure=spine, max_iterations=100000))
+    time.sleep(0.5)
+    t0 = time.monotonic()
+    quick = formfind(TABLE)
+    quick_done = time.monotonic()
+    assert quick.success
+    assert not slow.done(), "the slow request should still be running"
+    deadline = time.monotonic() + 60
+    while not slow.done() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    res = slow.result()
+    assert not res.success and "time limit of 5 s" in res.message
+    assert quick_done - t0 < time.monotonic() - t0  # the quick answer came first
