@@ -395,9 +395,12 @@ class _Constants:
         s = r1 + r2
         lam1 = _check_lambda_sq("lambda1", (2.0 * L - s) * (2.0 * L + s), self._limit, r1, r2, L)
         lam2 = _check_lambda_sq("lambda2", (L - r1) * (L + r1), self._limit, r1, r2, L)
-        out = self.core(r1, r2, math.sin(beta), math.cos(beta), v1, v2, vb, f1, f2, lam1, lam2)
-        if math.isfinite(out[0] + out[1] + out[2]):
-            return out
+        try:
+            out = self.core(r1, r2, math.sin(beta), math.cos(beta), v1, v2, vb, f1, f2, lam1, lam2)
+            if math.isfinite(out[0] + out[1] + out[2]):
+                return out
+        except (ValueError, OverflowError):   # math.sin(inf), float overflow
+            pass
         raise DomainError(
             "acceleration: non-finite input in "
             f"(rho1, rho2, beta, rho1_dot, rho2_dot, beta_dot, f1, f2) = {(r1, r2, beta, v1, v2, vb, f1, f2)!r}")
@@ -405,8 +408,9 @@ class _Constants:
     def acceleration_array(self, q, qdot, f1, f2):
         lam1, lam2 = _lambdas_checked(q, self.params, self.lambda_min)
         beta = q[..., 2]
-        a = self.core(q[..., 0], q[..., 1], np.sin(beta), np.cos(beta), qdot[..., 0], qdot[..., 1],
-                      qdot[..., 2], np.asarray(f1, dtype=float), np.asarray(f2, dtype=float), lam1, lam2)
+        with np.errstate(invalid="ignore", over="ignore"):   # non-finite input is reported below
+            a = self.core(q[..., 0], q[..., 1], np.sin(beta), np.cos(beta), qdot[..., 0], qdot[..., 1],
+                          qdot[..., 2], np.asarray(f1, dtype=float), np.asarray(f2, dtype=float), lam1, lam2)
         out = np.stack(np.broadcast_arrays(*a), -1)
         return _require_finite("acceleration", out, {"q": q, "qdot": qdot, "f1": f1, "f2": f2})
 
