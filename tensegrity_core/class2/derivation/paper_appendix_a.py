@@ -174,11 +174,11 @@ def correct_model():
 
 @dataclass(frozen=True)
 class EntryCheck:
-    entry: str          # e.g. "H12 (A.7)"
-    reading: str        # "" or one of READINGS
-    equal: bool         # identical to the derivation (40-digit check at random points)
-    printed: float      # value at the reference point
-    correct: float      # derived value at the reference point
+    entry: str                      # e.g. "H12 (A.7)"
+    reading: str                    # "" or one of READINGS
+    equal: bool                     # identical to the derivation (30-digit check at random points)
+    printed: tuple[float, ...]      # values at REFERENCE_POINTS
+    correct: tuple[float, ...]      # derived values at REFERENCE_POINTS
 
 
 _EQS = {"M": ("A.1", "A.1", "A.2", "A.2", "A.2", "A.2", "A.2", "A.2", "A.2"),
@@ -187,17 +187,20 @@ _EQS = {"M": ("A.1", "A.1", "A.2", "A.2", "A.2", "A.2", "A.2", "A.2", "A.2"),
         "H": ("A.6", "A.7", "A.8", "A.9", "A.10", "A.11", "A.12", "A.13", "A.14"),
         "W": ("A.16", "A.17", "A.18")}
 
-#: The reference point of the printed table: the paper's initial state with a velocity.
-REFERENCE_POINT = dict(L=1.0, m=2.0, k1=1.0, k2=1.0, k3=1.0, k4=1.0, c1=0.01, c2=0.02, c3=0.03, c4=0.04,
-                       q=(0.7, 0.7, 0.8), qd=(0.3, -0.2, 0.5), f=(1.0, 2.0))
+#: Where the table shows values: the paper's initial state and a state near the fold,
+#: both with a velocity and actuator forces; L = 1, m = 2, k = 1, distinct c_j.
+REFERENCE_POINTS = (
+    dict(q=(0.7, 0.7, 0.8), qd=(0.3, -0.2, 0.5), f=(1.0, 2.0)),
+    dict(q=(0.2, 0.3, 1.2), qd=(-0.4, 0.1, 0.6), f=(0.5, -1.0)),
+)
+REFERENCE_PARAMS = dict(L=1.0, m=2.0, k1=1.0, k2=1.0, k3=1.0, k4=1.0, c1=0.01, c2=0.02, c3=0.03, c4=0.04)
 
 
-def _reference_subs(sd) -> dict:
-    rp = REFERENCE_POINT
-    subs = {sd.p[n]: rp[n] for n in sd.p}
-    subs.update(dict(zip(sd.q, rp["q"])))
-    subs.update(dict(zip(sd.qd, rp["qd"])))
-    subs.update(dict(zip(sd.f, rp["f"])))
+def _reference_subs(sd, point) -> dict:
+    subs = {sd.p[n]: v for n, v in REFERENCE_PARAMS.items()}
+    subs.update(dict(zip(sd.q, point["q"])))
+    subs.update(dict(zip(sd.qd, point["qd"])))
+    subs.update(dict(zip(sd.f, point["f"])))
     return subs
 
 
@@ -215,12 +218,13 @@ def compare(seed: int = 0) -> list[EntryCheck]:
     sd = derive()
     pm = printed()
     good = correct_model()
-    ref = _reference_subs(sd)
+    refs = [_reference_subs(sd, pt) for pt in REFERENCE_POINTS]
     rows: list[EntryCheck] = []
 
     def add(entry, reading, a, b):
         rng = random.Random(seed)
-        rows.append(EntryCheck(entry, reading, _same(a, b, rng), float(a.evalf(subs=ref)), float(b.evalf(subs=ref))))
+        rows.append(EntryCheck(entry, reading, _same(a, b, rng), tuple(float(a.evalf(subs=r)) for r in refs),
+                               tuple(float(b.evalf(subs=r)) for r in refs)))
 
     add("T (Eq. 46)", "", pm.T, good["T"])
     for name in ("M", "F", "G"):
@@ -266,17 +270,20 @@ def printed_eom(reading: str = "literal"):
 
 
 def markdown_table(rows: list[EntryCheck]) -> str:
-    out = ["| entry | reading | printed | correct | verdict |", "|---|---|---:|---:|---|"]
+    head = " | ".join(f"printed P{k + 1} | correct P{k + 1}" for k in range(len(REFERENCE_POINTS)))
+    out = [f"| entry | reading | {head} | verdict |",
+           "|---|---|" + "---:|" * (2 * len(REFERENCE_POINTS)) + "---|"]
     for r in rows:
         verdict = "agrees" if r.equal else "**wrong**"
-        out.append(f"| {r.entry} | {r.reading or '-'} | {r.printed:.6g} | {r.correct:.6g} | {verdict} |")
+        vals = " | ".join(f"{p:.6g} | {c:.6g}" for p, c in zip(r.printed, r.correct))
+        out.append(f"| {r.entry} | {r.reading or '-'} | {vals} | {verdict} |")
     return "\n".join(out)
 
 
 def main() -> int:
-    rp = REFERENCE_POINT
-    print(f"Reference point: q = {rp['q']}, qdot = {rp['qd']}, f = {rp['f']}, L = 1, m = 2, k = 1, "
-          f"c = (0.01, 0.02, 0.03, 0.04)\n")
+    for k, pt in enumerate(REFERENCE_POINTS):
+        print(f"P{k + 1}: q = {pt['q']}, qdot = {pt['qd']}, (f1, f2) = {pt['f']}")
+    print("parameters:", ", ".join(f"{n} = {v:g}" for n, v in REFERENCE_PARAMS.items()), "\n")
     print(markdown_table(compare()))
     return 0
 
