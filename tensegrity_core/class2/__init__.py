@@ -15,6 +15,23 @@ from tensegrity_core.class2.geometry import (
 )
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 
+# --- dynamics (Lagrangian equations of motion, Sect. 5) -------------------------------
+from tensegrity_core.class2.dynamics import (
+    LAMBDA_MIN_REL,
+    Class2Dynamics,
+    acceleration,
+    damping_matrix,
+    generalized_forces,
+    kinetic_energy,
+    mass_matrix,
+    mechanical_energy,
+    potential_gradient,
+    spring_vectors,
+    velocity_terms,
+)
+from tensegrity_core.class2.dynamics_events import ActuatorLengthEvent, SingularityApproachEvent
+from tensegrity_core.class2.dynamics_jacobian import potential_hessian, rhs_jacobian
+
 __all__ = [
     "Class2Params",
     "PAPER_PARAMS",
@@ -29,4 +46,22 @@ __all__ = [
     "dU_dbeta",
     "d2U_dbeta2",
     "equilibrium_beta",
+]
+
+__all__ += [  # dynamics
+    "LAMBDA_MIN_REL",
+    "Class2Dynamics",
+    "mass_matrix",
+    "velocity_terms",
+    "damping_matrix",
+    "potential_gradient",
+    "potential_hessian",
+    "generalized_forces",
+    "acceleration",
+    "kinetic_energy",
+    "mechanical_energy",
+    "spring_vectors",
+    "rhs_jacobian",
+    "ActuatorLengthEvent",
+    "SingularityApproachEvent",
 ]
