@@ -12,7 +12,7 @@ massless, linear, zero free length, with axial dampers (``c_j`` on the spring of
     M(q) qddot + C(q, qdot) + H(q) qdot + grad U(q) + (f1, f2, 0) = 0
 
 were derived from first principles in
-:mod:`tensegrity_core.class2.derivation.derive_dynamics` (sympy), which also proves the
+:mod:`tensegrity_core.class2.derivation.derive_dynamics` (sympy), which also checks the
 closed forms below. With ``s = rho1 + rho2``, ``lambda1 = sqrt(4L^2 - s^2)``,
 ``lambda2 = sqrt(L^2 - rho1^2)``::
 
