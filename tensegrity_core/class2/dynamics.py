@@ -84,7 +84,8 @@ def _absent_message(kind: str, rho1: float, rho2: float, L: float) -> str:
     if kind == "lambda1":
         return (f"configuration does not exist: |rho1 + rho2| = {abs(rho1 + rho2):.9g} m exceeds 2L = "
                 f"{2 * L:g} m (struts AE and CE cannot meet at E)")
-    return f"configuration does not exist: |rho1| = {abs(rho1):.9g} m exceeds L = {L:g} m (node F cannot reach the Y axis)"
+    return (f"configuration does not exist: |rho1| = {abs(rho1):.9g} m exceeds L = {L:g} m "
+            f"(node F cannot reach the Y axis)")
 
 
 def _check_lambda_sq(kind: str, lam_sq: float, limit: float, rho1: float, rho2: float, L: float) -> float:
@@ -124,8 +125,15 @@ def _as_state(name: str, value) -> np.ndarray:
     return arr
 
 
+def _check_lambda_min(lambda_min) -> float:
+    if isinstance(lambda_min, bool) or not isinstance(lambda_min, (int, float)) or not 0.0 < lambda_min < 1.0:
+        raise ParameterError(f"lambda_min must be a number in (0, 1) (relative to L), got {lambda_min!r}")
+    return float(lambda_min)
+
+
 def _lambdas_checked(q: np.ndarray, params: Class2Params, lambda_min: float):
     """``(lambda1, lambda2)`` for an array of states, after the singularity checks."""
+    _check_lambda_min(lambda_min)
     L = params.L
     rho1, rho2 = q[..., 0], q[..., 1]
     s = rho1 + rho2
@@ -166,21 +174,23 @@ def _spring_vectors(q, lam1, lam2, L):
     e1 = s / lam1                      # -d lambda1 / d rho_i
     g2 = rho1 / lam2                   # -d lambda2 / d rho1
     lsb, lcb = L * np.sin(beta), L * np.cos(beta)
-    zero, half = np.zeros_like(s), np.full_like(s, 0.5)
-    ef_dy = (rho2 - rho1) * (3.0 * rho1 + rho2) / (4.0 * lam2 + 2.0 * lam1)
-    d = np.stack([
-        np.stack([lcb - rho2, lsb], -1),                   # CD
-        np.stack([h - lcb, 0.5 * lam1 - lsb], -1),         # DE
-        np.stack([-0.5 * s, ef_dy], -1),                   # EF
-        np.stack([h, 0.5 * lam1], -1),                     # BE
-    ], -2)
-    rows = [
-        ((zero, -1.0 + zero, -lsb), (zero, zero, lcb)),
-        ((-half, half, lsb), (-0.5 * e1, -0.5 * e1, -lcb)),
-        ((-half, -half, zero), (0.5 * e1 - g2, 0.5 * e1, zero)),
-        ((-half, half, zero), (-0.5 * e1, -0.5 * e1, zero)),
-    ]
-    J = np.stack([np.stack([np.stack(r, -1) for r in spring], -2) for spring in rows], -3)
+    d = np.empty(np.shape(s) + (4, 2))
+    d[..., 0, 0], d[..., 0, 1] = lcb - rho2, lsb                                  # CD
+    d[..., 1, 0], d[..., 1, 1] = h - lcb, 0.5 * lam1 - lsb                        # DE
+    d[..., 2, 0] = -0.5 * s                                                       # EF
+    d[..., 2, 1] = (rho2 - rho1) * (3.0 * rho1 + rho2) / (4.0 * lam2 + 2.0 * lam1)
+    d[..., 3, 0], d[..., 3, 1] = h, 0.5 * lam1                                    # BE
+    J = np.zeros(np.shape(s) + (4, 2, 3))
+    J[..., 0, 0, 1] = -1.0                                                        # CD
+    J[..., 0, 0, 2], J[..., 0, 1, 2] = -lsb, lcb
+    J[..., 1, 0, :2] = (-0.5, 0.5)                                                # DE
+    J[..., 1, 0, 2] = lsb
+    J[..., 1, 1, 0] = J[..., 1, 1, 1] = -0.5 * e1
+    J[..., 1, 1, 2] = -lcb
+    J[..., 2, 0, :2] = -0.5                                                       # EF
+    J[..., 2, 1, 0], J[..., 2, 1, 1] = 0.5 * e1 - g2, 0.5 * e1
+    J[..., 3, 0, :2] = (-0.5, 0.5)                                                # BE
+    J[..., 3, 1, 0] = J[..., 3, 1, 1] = -0.5 * e1
     return d, J
 
 
@@ -325,8 +335,7 @@ class _Constants:
     lambda_min: float
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.lambda_min, (int, float)) and 0.0 < self.lambda_min < 1.0):
-            raise ParameterError(f"lambda_min must be a number in (0, 1) (relative to L), got {self.lambda_min!r}")
+        _check_lambda_min(self.lambda_min)
         p = self.params
         m, L = p.m, p.L
         values = dict(

@@ -123,4 +123,5 @@ def rhs_jacobian(q, qdot, f1=0.0, f2=0.0, params: Class2Params = PAPER_PARAMS, *
     jac[:3, 3:] = np.eye(3)
     jac[3:, :3] = -Minv @ (dM_qdd + dC_dq + dHq_dq + hess_U + dF_dq)
     jac[3:, 3:] = -Minv @ (dC_dqd + H + dF_dqd)
-    return _require_finite("rhs_jacobian", jac, {"q": q, "qdot": qdot, "f1": f1, "f2": f2, "dforce_dy": dforce_dy if dforce_dy is not None else 0.0})
+    inputs = {"q": q, "qdot": qdot, "f1": f1, "f2": f2, "dforce_dy": dF_dq[:2]}
+    return _require_finite("rhs_jacobian", jac, inputs)

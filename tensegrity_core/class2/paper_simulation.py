@@ -130,7 +130,8 @@ def _mark_zeros(ax, sim: PaperSimulation) -> None:
     ax.axvline(PAPER_FOLD_TIME, color="0.5", lw=0.8, label=f"paper: folded at {PAPER_FOLD_TIME} s")
 
 
-def plot_paper_figures(outdir, sim: PaperSimulation | None = None, *, long_sim: PaperSimulation | None = None) -> list[Path]:
+def plot_paper_figures(outdir, sim: PaperSimulation | None = None, *,
+                       long_sim: PaperSimulation | None = None) -> list[Path]:
     """Write the paper's Figs. 3-7 (and a long-run overview) as PNGs into ``outdir``.
 
     ``sim`` defaults to :func:`simulate_paper` on 0-5 s; ``long_sim`` to 0-60 s. Returns

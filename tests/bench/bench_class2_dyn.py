@@ -37,8 +37,10 @@ def numpy_straightforward(q: np.ndarray, qdot: np.ndarray, f1: float, f2: float,
     e1, h = s / lam1, (rho2 - rho1) / 2
     springs = [  # (d, J, k, c) for CD, DE, EF, BE
         (np.array([L * cb - rho2, L * sb]), np.array([[0, -1, -L * sb], [0, 0, L * cb]]), p.k3, p.c3),
-        (np.array([h - L * cb, lam1 / 2 - L * sb]), np.array([[-0.5, 0.5, L * sb], [-e1 / 2, -e1 / 2, -L * cb]]), p.k2, p.c2),
-        (np.array([-s / 2, lam2 - lam1 / 2]), np.array([[-0.5, -0.5, 0], [e1 / 2 - rho1 / lam2, e1 / 2, 0]]), p.k1, p.c1),
+        (np.array([h - L * cb, lam1 / 2 - L * sb]),
+         np.array([[-0.5, 0.5, L * sb], [-e1 / 2, -e1 / 2, -L * cb]]), p.k2, p.c2),
+        (np.array([-s / 2, lam2 - lam1 / 2]),
+         np.array([[-0.5, -0.5, 0], [e1 / 2 - rho1 / lam2, e1 / 2, 0]]), p.k1, p.c1),
         (np.array([h, lam1 / 2]), np.array([[-0.5, 0.5, 0], [-e1 / 2, -e1 / 2, 0]]), p.k4, p.c4),
     ]
     Q = np.zeros(3)

@@ -32,7 +32,8 @@ def static_forces(rho1, rho2, params):
     beta = float(equilibrium_beta(rho1, rho2, params))
     h = 1e-6
     q = np.array([rho1, rho2, beta])
-    grad = [(potential_energy(q + h * e, params) - potential_energy(q - h * e, params)) / (2 * h) for e in np.eye(3)[:2]]
+    grad = [(potential_energy(q + h * e, params) - potential_energy(q - h * e, params)) / (2 * h)
+            for e in np.eye(3)[:2]]
     return beta, -grad[0], -grad[1]
 
 
@@ -49,7 +50,8 @@ def test_energy_is_conserved_without_damping_and_forces(y0):
     ts = np.linspace(0, 10, 201)
     ys = sol.sol(ts).T
     E = dyn.mechanical_energy(ys[:, :3], ys[:, 3:], params)
-    scale = np.abs(dyn.kinetic_energy(ys[:, :3], ys[:, 3:], params)).max() + np.abs(potential_energy(ys[:, :3], params)).max()
+    scale = (np.abs(dyn.kinetic_energy(ys[:, :3], ys[:, 3:], params)).max()
+             + np.abs(potential_energy(ys[:, :3], params)).max())
     assert np.abs(E - E[0]).max() < 1e-8 * scale
     # The trajectory really moves (the check is not on a resting state).
     assert np.ptp(ys[:, 2]) > 0.1

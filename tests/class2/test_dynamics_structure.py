@@ -224,9 +224,11 @@ def test_batch_error_names_the_offending_state():
 def test_lambda_min_is_configurable_and_validated():
     q = [0.5, 1.5 - 1e-9, 0.3]
     assert np.all(np.isfinite(dyn.Class2Dynamics(PAPER_PARAMS, lambda_min=1e-6).acceleration_scalar(*q, 0, 0, 0)))
-    for bad in (0.0, -1.0, 1.0, float("nan"), "x"):
+    for bad in (0.0, -1.0, 1.0, float("nan"), "x", True):
         with pytest.raises(ParameterError, match="lambda_min"):
             dyn.Class2Dynamics(PAPER_PARAMS, lambda_min=bad)
+        with pytest.raises(ParameterError, match="lambda_min"):
+            dyn.mass_matrix([0.3, 0.3, 0.0], PAPER_PARAMS, lambda_min=bad)
 
 
 @pytest.mark.parametrize("q", [[1.2, 0.1, 0.0], [0.9, 1.2, 0.0], [-0.9, -1.2, 0.0]])
