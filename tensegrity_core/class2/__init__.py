@@ -62,6 +62,22 @@ from tensegrity_core.class2.workspace import (
     classify_singularities,
     workspace,
 )
+# --- dynamics (Lagrangian equations of motion, Sect. 5) -------------------------------
+from tensegrity_core.class2.dynamics import (
+    LAMBDA_MIN_REL,
+    Class2Dynamics,
+    acceleration,
+    damping_matrix,
+    generalized_forces,
+    kinetic_energy,
+    mass_matrix,
+    mechanical_energy,
+    potential_gradient,
+    spring_vectors,
+    velocity_terms,
+)
+from tensegrity_core.class2.dynamics_events import ActuatorLengthEvent, SingularityApproachEvent
+from tensegrity_core.class2.dynamics_jacobian import potential_hessian, rhs_jacobian
 
 __all__ = [
     "Class2Params",
@@ -115,4 +131,22 @@ __all__ = [
     "member_forces",
     "equilibrium_matrix",
     "critical_forces",
+]
+
+__all__ += [  # dynamics
+    "LAMBDA_MIN_REL",
+    "Class2Dynamics",
+    "mass_matrix",
+    "velocity_terms",
+    "damping_matrix",
+    "potential_gradient",
+    "potential_hessian",
+    "generalized_forces",
+    "acceleration",
+    "kinetic_energy",
+    "mechanical_energy",
+    "spring_vectors",
+    "rhs_jacobian",
+    "ActuatorLengthEvent",
+    "SingularityApproachEvent",
 ]
