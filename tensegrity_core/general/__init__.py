@@ -1,0 +1,61 @@
+"""General tensegrity structures with rigid bodies (Ma, Chen, Peng, Yuan & Skelton 2022).
+
+Statics, the exact tangent stiffness and form-finding in minimal coordinates (free node
+coordinates, rigid-body centres and rotation-vector increments), dense or sparse. See
+``docs/general.md`` for the formulas and the paper's errata, ``docs/structures.md`` for the
+structure file format.
+
+Typical use::
+
+    from tensegrity_core.general import load_structure, form_find
+    s = load_structure("table.yaml")
+    r = form_find(s)                 # r.success, r.nodes, r.member_forces, r.min_eigenvalue
+"""
+
+from tensegrity_core.general.configuration import Configuration, DofLayout, transformation_matrix
+from tensegrity_core.general.examples import example_names, example_path, load_example
+from tensegrity_core.general.formfind import (
+    METHODS,
+    FormFindResult,
+    IterationInfo,
+    default_tolerance,
+    form_find,
+)
+from tensegrity_core.general.generators import (
+    polyhedron,
+    spherical_tensegrity,
+    t_bar,
+    tensegrity_spine,
+    tensegrity_table,
+)
+from tensegrity_core.general.loading import dump_structure, load_structure, structure_to_dict
+from tensegrity_core.general.path import PathResult, rest_length_path
+from tensegrity_core.general.statics import (
+    Modes,
+    OutOfBalance,
+    equilibrium_matrix,
+    generalized_force,
+    member_forces,
+    member_lengths,
+    modes,
+    out_of_balance,
+    potential_energy,
+)
+from tensegrity_core.general.stiffness import (
+    ModalAnalysis,
+    modal_analysis,
+    stiffness_parts,
+    tangent_stiffness,
+)
+from tensegrity_core.general.structure import RigidBody, Structure, StructureError
+
+__all__ = [
+    "Configuration", "DofLayout", "FormFindResult", "IterationInfo", "METHODS", "ModalAnalysis",
+    "Modes", "OutOfBalance", "PathResult", "RigidBody", "Structure", "StructureError",
+    "default_tolerance", "dump_structure", "equilibrium_matrix", "example_names", "example_path",
+    "form_find", "generalized_force", "load_example", "load_structure", "member_forces",
+    "member_lengths", "modal_analysis", "modes", "out_of_balance", "polyhedron",
+    "potential_energy", "rest_length_path", "spherical_tensegrity", "stiffness_parts",
+    "structure_to_dict", "t_bar", "tangent_stiffness", "tensegrity_spine", "tensegrity_table",
+    "transformation_matrix",
+]

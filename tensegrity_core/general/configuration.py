@@ -1,0 +1,199 @@
+"""Degrees of freedom and configurations: minimal coordinates with rotation-vector increments.
+
+The minimal coordinate ``U`` (the paper's Eq. 30) stacks
+
+1. the free coordinates of the nodes that are not on a moving rigid body (node order, then
+   x, y, z; pinned axes are left out), then
+2. for each moving rigid body, in description order, its centre ``c`` (mean of its nodes,
+   Eq. 25) [m] and a rotation-vector *increment* ``dtheta`` [rad] about world axes through
+   ``c``.
+
+A configuration stores the free coordinates, each body's centre and its orientation matrix
+``R`` (active, body frame = the reference drawing). A body node is ``n_j = c + R p_j`` with
+``p_j`` its offset from the centroid in the reference coordinates. An increment ``dU`` is
+applied by :meth:`Configuration.retract`: free coordinates and centres add,
+``R <- exp(hat(dtheta)) R``. Derivatives are taken at ``dtheta = 0``, so the transformation
+``G = dn/dU`` (Eq. 43) has the blocks ``[I, -hat(r_j)]`` with ``r_j = R p_j`` for body nodes
+and is never singular -- unlike the Euler 1-2-3 angles of the paper, whose ``B_i`` (Eq. 37)
+loses rank at ``beta = +-pi/2``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from tensegrity_core.general.rotation import best_fit_rotation, exp_so3, hat
+from tensegrity_core.general.structure import Structure, StructureError
+
+
+class DofLayout:
+    """Index bookkeeping of the minimal coordinate ``U`` of a structure (built once per structure).
+
+    Attributes: ``n_dof``; ``free_index`` (n, 3) int, the ``U`` index of each free node
+    coordinate or -1; ``node_body`` (n,) int, the moving-body slot of each node or -1;
+    ``body_dof`` (nb,) int, the ``U`` index of each moving body's centre (its rotation
+    follows at +3); ``moving_bodies`` the structure's body indices that move;
+    ``offsets`` (n, 3) body-frame offsets ``p_j`` of body nodes (zero elsewhere);
+    ``fixed_mask`` (n, 3) bool, coordinates that never move; ``body_radii`` (nb,) the
+    largest node distance from each body's centre [m].
+    """
+
+    def __init__(self, structure: Structure):
+        n = structure.n_nodes
+        self.moving_bodies = tuple(k for k, b in enumerate(structure.bodies) if not b.fixed)
+        node_body = np.full(n, -1, dtype=np.int64)
+        fixed_mask = structure.pinned.copy()
+        for k, body in enumerate(structure.bodies):
+            if body.fixed:
+                fixed_mask[list(body.nodes)] = True
+        for slot, k in enumerate(self.moving_bodies):
+            node_body[list(structure.bodies[k].nodes)] = slot
+        free = (node_body[:, None] < 0) & ~fixed_mask
+        free_index = np.full((n, 3), -1, dtype=np.int64)
+        n_free = int(free.sum())
+        free_index[free] = np.arange(n_free)
+        nb = len(self.moving_bodies)
+        self.body_dof = n_free + 6 * np.arange(nb, dtype=np.int64)
+        self.n_free = n_free
+        self.n_dof = n_free + 6 * nb
+        self.free_index = free_index
+        self.node_body = node_body
+        self.fixed_mask = fixed_mask
+        self.body_nodes = tuple(np.asarray(structure.bodies[k].nodes, dtype=np.int64)
+                                for k in self.moving_bodies)
+        offsets = np.zeros((n, 3))
+        ref_centres = np.zeros((nb, 3))
+        for slot, idx in enumerate(self.body_nodes):
+            ref_centres[slot] = structure.nodes[idx].mean(axis=0)
+            offsets[idx] = structure.nodes[idx] - ref_centres[slot]
+        self.offsets = offsets
+        self.ref_centres = ref_centres
+        self.body_radii = np.array([np.linalg.norm(offsets[idx], axis=1).max() for idx in self.body_nodes])
+        self.body_sizes = np.array([len(idx) for idx in self.body_nodes], dtype=float)
+        self.body_masses = np.array([structure.bodies[k].mass for k in self.moving_bodies])
+        # U indices touched by each node: 6 slots (x, y, z, tx, ty, tz) with -1 where unused.
+        node_dofs = np.full((n, 6), -1, dtype=np.int64)
+        node_dofs[:, :3] = free_index
+        on_body = node_body >= 0
+        base = self.body_dof[node_body[on_body]]
+        node_dofs[on_body] = base[:, None] + np.arange(6)[None, :]
+        self.node_dofs = node_dofs
+        self.names = structure.node_names
+        self.body_names = tuple(structure.bodies[k].name for k in self.moving_bodies)
+
+    def labels(self) -> list[str]:
+        """Human-readable name of every entry of ``U`` (e.g. ``"t1.z"``, ``"top.rx"``)."""
+        out = [""] * self.n_dof
+        for i, j in zip(*np.nonzero(self.free_index >= 0)):
+            out[self.free_index[i, j]] = f"{self.names[i]}.{'xyz'[j]}"
+        for slot, name in enumerate(self.body_names):
+            for j, s in enumerate(("cx", "cy", "cz", "rx", "ry", "rz")):
+                out[self.body_dof[slot] + j] = f"{name}.{s}"
+        return out
+
+
+@dataclass(frozen=True, eq=False)
+class Configuration:
+    """A placement of a structure: node coordinates plus each moving body's centre and
+    orientation. Immutable; :meth:`retract` returns a new configuration."""
+
+    structure: Structure
+    coords: np.ndarray      # (n, 3) node coordinates [m]
+    centres: np.ndarray     # (nb, 3) moving-body centres [m]
+    rotations: np.ndarray   # (nb, 3, 3) active rotation from the reference drawing
+
+    @classmethod
+    def initial(cls, structure: Structure) -> "Configuration":
+        """The reference drawing itself (every body at its reference orientation)."""
+        lay = structure.layout
+        nb = len(lay.moving_bodies)
+        return cls(structure, structure.nodes.copy(), lay.ref_centres.copy(),
+                   np.broadcast_to(np.eye(3), (nb, 3, 3)).copy())
+
+    @classmethod
+    def from_coords(cls, structure: Structure, coords, *, rigid_tol: float = 1e-5) -> "Configuration":
+        """The configuration with node coordinates ``coords`` (n, 3) [m].
+
+        Each moving body's orientation is the best-fit rotation of its reference shape; the
+        body nodes must be a rigid motion of the reference shape within ``rigid_tol`` times
+        the body size (else :class:`StructureError`), and are then placed exactly. Fixed
+        coordinates (pinned axes, fixed bodies) keep the values given in ``coords``.
+        """
+        coords = np.array(coords, dtype=float)
+        if coords.shape != (structure.n_nodes, 3):
+            raise StructureError(f"coords must have shape ({structure.n_nodes}, 3), got {coords.shape}")
+        if not np.isfinite(coords).all():
+            raise StructureError("coords contain non-finite values")
+        lay = structure.layout
+        nb = len(lay.moving_bodies)
+        centres = np.zeros((nb, 3))
+        rotations = np.zeros((nb, 3, 3))
+        for slot, idx in enumerate(lay.body_nodes):
+            c = coords[idx].mean(axis=0)
+            R, misfit = best_fit_rotation(lay.offsets[idx], coords[idx] - c)
+            size = np.sqrt(np.mean(np.sum(lay.offsets[idx] ** 2, axis=1)))
+            if misfit > rigid_tol * size:
+                raise StructureError(
+                    f"coords deform rigid body {lay.body_names[slot]!r}: its nodes are "
+                    f"{misfit:.3g} m (RMS) from a rigid placement of its reference shape")
+            centres[slot], rotations[slot] = c, R
+            coords[idx] = c + lay.offsets[idx] @ R.T
+        return cls(structure, coords, centres, rotations)
+
+    def retract(self, dU) -> "Configuration":
+        """The configuration moved by the increment ``dU`` (n_dof,): free coordinates and
+        centres add, orientations turn by ``exp(hat(dtheta))`` on the left."""
+        lay = self.structure.layout
+        dU = np.asarray(dU, dtype=float)
+        coords = self.coords.copy()
+        free = lay.free_index >= 0
+        coords[free] += dU[lay.free_index[free]]
+        if lay.body_dof.size:
+            d = dU[lay.body_dof[:, None] + np.arange(6)[None, :]]
+            centres = self.centres + d[:, :3]
+            rotations = exp_so3(d[:, 3:]) @ self.rotations
+            on = lay.node_body >= 0
+            slot = lay.node_body[on]
+            coords[on] = centres[slot] + np.einsum("kij,kj->ki", rotations[slot], lay.offsets[on])
+        else:
+            centres, rotations = self.centres, self.rotations
+        return Configuration(self.structure, coords, centres, rotations)
+
+    def arms(self) -> np.ndarray:
+        """(n, 3) world-frame offsets ``r_j = n_j - c`` of body nodes from their body centre
+        (zero for other nodes)."""
+        lay = self.structure.layout
+        r = np.zeros_like(self.coords)
+        on = lay.node_body >= 0
+        r[on] = self.coords[on] - self.centres[lay.node_body[on]]
+        return r
+
+
+def transformation_matrix(config: Configuration) -> sp.csr_matrix:
+    """``G = dn/dU`` (3n, n_dof) at ``dtheta = 0`` (Eq. 43 with the rotation-vector increment):
+    identity rows for free coordinates, ``[I, -hat(r_j)]`` for body nodes, zero rows for
+    fixed coordinates. Rows are ordered node by node (x, y, z), like ``n = vec(N)``."""
+    lay = config.structure.layout
+    n = config.structure.n_nodes
+    J = node_jacobians(config)                      # (n, 3, 6)
+    rows = np.repeat(np.arange(3 * n).reshape(n, 3, 1), 6, axis=2)
+    cols = np.broadcast_to(lay.node_dofs[:, None, :], (n, 3, 6))
+    keep = (cols >= 0) & (J != 0)
+    return sp.csr_matrix((J[keep], (rows[keep], cols[keep])), shape=(3 * n, lay.n_dof))
+
+
+def node_jacobians(config: Configuration) -> np.ndarray:
+    """(n, 3, 6) local Jacobians ``dn_j / d(local dofs)`` matching ``layout.node_dofs``:
+    ``[I, 0]`` restricted to free axes for tensegrity nodes, ``[I, -hat(r_j)]`` for body nodes."""
+    lay = config.structure.layout
+    n = config.structure.n_nodes
+    J = np.zeros((n, 3, 6))
+    free = lay.free_index >= 0
+    J[:, :3, :3] = np.eye(3)[None] * free[:, None, :]
+    on = lay.node_body >= 0
+    J[on, :3, :3] = np.eye(3)
+    J[on, :, 3:] = -hat(config.arms()[on])
+    return J

@@ -1,0 +1,86 @@
+"""Pictures of structures (matplotlib, Agg backend): bars black, strings red (slack strings
+dotted), rigid bodies as grey spokes from their centre (planar ones as filled polygons); an optional
+second shape drawn dashed and faint."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tensegrity_core.general.statics import member_lengths
+from tensegrity_core.general.structure import Structure
+
+
+def draw_structure(ax, structure: Structure, coords, *, faint: bool = False, label: str | None = None) -> None:
+    """Draw ``structure`` at ``coords`` (n, 3) [m] on a 3-D matplotlib axes."""
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    coords = np.asarray(coords, dtype=float)
+    alpha = 0.35 if faint else 1.0
+    style = "--" if faint else "-"
+    slack = structure.is_string & (member_lengths(structure, coords) < structure.rest_lengths)
+    first = True
+    for i, (a, b) in enumerate(structure.members):
+        seg = coords[[a, b]]
+        kind = structure.member_kinds[i]
+        color = "red" if kind == "string" else ("tab:blue" if kind == "actuator" else "black")
+        width = 1.0 if kind == "string" else 2.5
+        ls = ":" if slack[i] else style
+        ax.plot(seg[:, 0], seg[:, 1], seg[:, 2], ls, color=color, lw=width, alpha=alpha,
+                label=label if first else None)
+        first = False
+    for body in structure.bodies:
+        pts = coords[list(body.nodes)]
+        c = pts.mean(axis=0)
+        sv = np.linalg.svd(pts - c, compute_uv=False)
+        if sv[-1] <= 1e-9 * sv[0]:                         # planar polygon: fill it
+            ax.add_collection3d(Poly3DCollection([pts], facecolor="0.55", edgecolor="0.3",
+                                                 alpha=0.35 * alpha, linewidths=0.8))
+        else:                                              # solid body: spokes from the centre
+            for p in pts:
+                ax.plot(*np.c_[c, p], ls=style, color="0.45", lw=3.0, alpha=alpha, solid_capstyle="round")
+    fixed = structure.layout.fixed_mask.all(axis=1)
+    if fixed.any() and not faint:
+        ax.scatter(*coords[fixed].T, marker="^", color="green", s=25, depthshade=False)
+
+
+def plot_shapes(structure: Structure, final, initial=None, *, path=None, title: str | None = None):
+    """Figure of the ``final`` shape (solid) over the ``initial`` one (dashed); saved to
+    ``path`` (PNG) when given; a structure lying in a coordinate plane is seen face on.
+    Returns the figure."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    fig = plt.figure(figsize=(7, 6))
+    ax = fig.add_subplot(projection="3d")
+    shapes = [np.asarray(final, dtype=float)]
+    if initial is not None:
+        draw_structure(ax, structure, initial, faint=True, label="initial")
+        shapes.append(np.asarray(initial, dtype=float))
+    draw_structure(ax, structure, final, label="equilibrium" if initial is not None else None)
+    pts = np.vstack(shapes)
+    centre = 0.5 * (pts.max(axis=0) + pts.min(axis=0))
+    half = 0.5 * max(float(np.ptp(pts, axis=0).max()), 1e-9)
+    for set_lim, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre):
+        set_lim(c - half, c + half)
+    ax.set_box_aspect((1, 1, 1))
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_zlabel("z [m]")
+    flat = np.ptp(pts, axis=0) <= 1e-9 * 2 * half
+    if flat[2]:
+        ax.view_init(elev=90, azim=-90)          # planar in x-y: seen from above
+        ax.set_zticks([])
+        ax.set_zlabel("")
+    elif flat[1]:
+        ax.view_init(elev=0, azim=-90)           # planar in x-z: seen from the front
+        ax.set_yticks([])
+        ax.set_ylabel("")
+    ax.set_title(title or structure.name)
+    if initial is not None:
+        ax.legend(loc="upper left")
+    if path is not None:
+        fig.savefig(path, dpi=120, bbox_inches="tight")
+        plt.close(fig)
+    return fig

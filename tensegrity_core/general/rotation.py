@@ -1,0 +1,58 @@
+"""Rotations: skew matrices, the exponential map and the best-fit rotation of a point set.
+
+Conventions: rotation matrices are *active* (``x_world = R @ x_body``); a rotation vector
+``theta`` [rad] has direction = axis (right-hand rule) and norm = angle. Orientation
+increments are applied on the left, ``R_new = exp(hat(dtheta)) @ R`` (spatial frame), so
+``dtheta`` is an infinitesimal rotation about world axes through the body centre.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def hat(v) -> np.ndarray:
+    """Skew-symmetric matrix of ``v`` (shape ``(..., 3)`` -> ``(..., 3, 3)``): ``hat(a) b = a x b``."""
+    v = np.asarray(v, dtype=float)
+    out = np.zeros(v.shape + (3,))
+    out[..., 0, 1] = -v[..., 2]
+    out[..., 0, 2] = v[..., 1]
+    out[..., 1, 0] = v[..., 2]
+    out[..., 1, 2] = -v[..., 0]
+    out[..., 2, 0] = -v[..., 1]
+    out[..., 2, 1] = v[..., 0]
+    return out
+
+
+def exp_so3(theta) -> np.ndarray:
+    """Rotation matrix ``exp(hat(theta))`` by Rodrigues' formula, vectorised over ``(..., 3)``.
+
+    Uses the Taylor series of ``sin(a)/a`` and ``(1 - cos a)/a^2`` below ``a = 1e-4`` rad so
+    the result is accurate to rounding for every angle, including zero.
+    """
+    theta = np.asarray(theta, dtype=float)
+    a2 = np.sum(theta * theta, axis=-1)
+    a = np.sqrt(a2)
+    small = a < 1e-4
+    safe = np.where(small, 1.0, a)
+    s = np.where(small, 1.0 - a2 / 6.0 + a2 * a2 / 120.0, np.sin(safe) / safe)
+    c = np.where(small, 0.5 - a2 / 24.0 + a2 * a2 / 720.0, (1.0 - np.cos(safe)) / (safe * safe))
+    K = hat(theta)
+    eye = np.broadcast_to(np.eye(3), K.shape)
+    return eye + s[..., None, None] * K + c[..., None, None] * (K @ K)
+
+
+def best_fit_rotation(reference, current) -> tuple[np.ndarray, float]:
+    """Proper rotation ``R`` minimising ``sum |R p_j - q_j|^2`` (Kabsch), and the RMS misfit [m].
+
+    ``reference`` and ``current`` are ``(k, 3)`` point sets, each already centred on its
+    mean. The misfit is zero when ``current`` is an exact rotation of ``reference``.
+    """
+    P = np.asarray(reference, dtype=float)
+    Q = np.asarray(current, dtype=float)
+    U, _, Vt = np.linalg.svd(Q.T @ P)
+    d = np.sign(np.linalg.det(U @ Vt))
+    D = np.diag([1.0, 1.0, d if d != 0 else 1.0])
+    R = U @ D @ Vt
+    misfit = float(np.sqrt(np.mean(np.sum((P @ R.T - Q) ** 2, axis=1))))
+    return R, misfit

@@ -1,0 +1,195 @@
+"""The exact tangent stiffness ``K_T = d^2 V / dU^2`` (dense or sparse) and modal analysis.
+
+With the rotation-vector increment at ``dtheta = 0`` (see :mod:`.configuration`), a body
+node is ``n_j = c + exp(hat(dtheta)) r_j``, whose second derivative contracted with a
+vector ``g`` is the *symmetric* matrix::
+
+    d^2 (g . n_j) / d dtheta^2 = 1/2 (hat(g) hat(r_j) + hat(r_j) hat(g))
+                               = 1/2 (g r_j^T + r_j g^T) - (g . r_j) I.
+
+Hence, with ``g_j = dV/dn_j`` split into member and load parts::
+
+    K_T = K_E + K_G + K_L
+    K_E = G^T [sum_i k_i (C_i^T C_i) (x) u_i u_i^T] G          = A_r diag(k) A_r^T   (Eq. 72)
+    K_G = G^T [sum_i t_i/l_i (C_i^T C_i) (x) (I - u_i u_i^T)] G
+          + sum_bodies sum_j S(-f_int,j, r_j)                   (members' forces)
+    K_L = sum_bodies sum_j S(-f_ext,j, r_j)                     (dead loads on body nodes)
+
+where ``S(g, r) = 1/2 (g r^T + r g^T) - (g . r) I`` sits in the body's rotation block,
+``k_i = EA_i / l0_i`` for taut members and 0 for slack strings, and ``t_i`` is the member
+force. The paper's K_G (Eqs. 73-80) has ``hat(z) hat(r)`` in place of ``S`` (not
+symmetric; equal to ``S`` only where the body moment of the member forces vanishes) and
+no ``K_L``. ``K_T`` is the exact Jacobian of ``-P`` with respect to the increment ``dU``
+at any configuration, in or out of equilibrium, with or without loads (tests check it
+against finite differences).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from tensegrity_core.general.configuration import Configuration, node_jacobians
+from tensegrity_core.general.statics import (
+    as_configuration,
+    group_sum,
+    axial_stiffness,
+    forces_from_lengths,
+    internal_nodal_forces,
+    member_vectors,
+)
+from tensegrity_core.general.structure import Structure
+
+
+def sym_rotation_hessian(g, r) -> np.ndarray:
+    """``S(g, r) = 1/2 (g r^T + r g^T) - (g . r) I``, vectorised over leading dims."""
+    g = np.asarray(g, dtype=float)
+    r = np.asarray(r, dtype=float)
+    outer = 0.5 * (g[..., :, None] * r[..., None, :] + r[..., :, None] * g[..., None, :])
+    return outer - np.sum(g * r, axis=-1)[..., None, None] * np.eye(3)
+
+
+class StiffnessPattern:
+    """Sparsity pattern of ``K_T`` (fixed by the topology) and a fast scatter-add assembly.
+
+    Element entries (12 x 12 per member, 3 x 3 per moving body) are summed into CSR storage
+    with one ``bincount`` per assembly; the pattern is built once per structure.
+    """
+
+    def __init__(self, structure: Structure):
+        lay = structure.layout
+        n = lay.n_dof
+        a, b = structure.members[:, 0], structure.members[:, 1]
+        dofs = np.concatenate([lay.node_dofs[a], lay.node_dofs[b]], axis=1)      # (m, 12)
+        self.elem_keep = (dofs[:, :, None] >= 0) & (dofs[:, None, :] >= 0)
+        rows = np.broadcast_to(dofs[:, :, None], self.elem_keep.shape)[self.elem_keep]
+        cols = np.broadcast_to(dofs[:, None, :], self.elem_keep.shape)[self.elem_keep]
+        tdofs = lay.body_dof[:, None] + 3 + np.arange(3)[None, :]                  # (nb, 3)
+        brows = np.broadcast_to(tdofs[:, :, None], (len(tdofs), 3, 3)).ravel()
+        bcols = np.broadcast_to(tdofs[:, None, :], (len(tdofs), 3, 3)).ravel()
+        keys = np.concatenate([rows, brows]).astype(np.int64) * n + np.concatenate([cols, bcols])
+        uniq, self.inverse = np.unique(keys, return_inverse=True)
+        self.indices = (uniq % n).astype(np.int32)
+        self.indptr = np.searchsorted(uniq // n, np.arange(n + 1)).astype(np.int32)
+        self.shape = (n, n)
+        self.nnz = uniq.size
+
+    def assemble(self, elements: np.ndarray, body_blocks: np.ndarray) -> sp.csr_matrix:
+        """CSR matrix from member element matrices (m, 12, 12) and body rotation blocks (nb, 3, 3)."""
+        w = np.concatenate([elements[self.elem_keep], body_blocks.ravel()])
+        data = np.bincount(self.inverse, weights=w, minlength=self.nnz)
+        return sp.csr_matrix((data, self.indices, self.indptr), shape=self.shape)
+
+
+@dataclass
+class _MemberState:
+    J: np.ndarray        # (n, 3, 6) node Jacobians
+    uu: np.ndarray       # (m, 3, 3) u u^T
+    lengths: np.ndarray  # (m,)
+    k: np.ndarray        # (m,) dt/dl
+    t: np.ndarray        # (m,) forces
+
+
+def _member_state(structure: Structure, config: Configuration) -> _MemberState:
+    h = member_vectors(structure, config.coords)
+    lengths = np.linalg.norm(h, axis=1)
+    u = h / lengths[:, None]
+    return _MemberState(node_jacobians(config), u[:, :, None] * u[:, None, :], lengths,
+                        axial_stiffness(structure, lengths), forces_from_lengths(structure, lengths))
+
+
+def _element_matrices(config: Configuration, node_blocks: np.ndarray, J: np.ndarray) -> np.ndarray:
+    """(m, 12, 12) ``J_e^T [[k, -k], [-k, k]] J_e`` for node-space member blocks ``k`` (m, 3, 3)."""
+    s = config.structure
+    Ja, Jb = J[s.members[:, 0]], J[s.members[:, 1]]
+    kJa = node_blocks @ Ja                       # (m, 3, 6)
+    kJb = node_blocks @ Jb
+    Jat, Jbt = np.swapaxes(Ja, 1, 2), np.swapaxes(Jb, 1, 2)
+    out = np.empty((len(node_blocks), 12, 12))
+    out[:, :6, :6] = Jat @ kJa
+    out[:, :6, 6:] = -(Jat @ kJb)
+    out[:, 6:, :6] = -(Jbt @ kJa)
+    out[:, 6:, 6:] = Jbt @ kJb
+    return out
+
+
+def _body_blocks(config: Configuration, node_gradient: np.ndarray) -> np.ndarray:
+    """(nb, 3, 3) rotation blocks ``sum_j S(g_j, r_j)`` for a nodal gradient field ``g``."""
+    lay = config.structure.layout
+    nb = len(lay.moving_bodies)
+    on = lay.node_body >= 0
+    if not (nb and on.any()):
+        return np.zeros((nb, 3, 3))
+    return group_sum(lay.node_body[on], sym_rotation_hessian(node_gradient[on], config.arms()[on]), nb)
+
+
+def stiffness_parts(structure: Structure, coords, *, sparse: bool = False) -> dict:
+    """``{"KE", "KG", "KL"}``: material, geometric (members' forces, exact) and load stiffness.
+
+    ``K_T = KE + KG + KL``; see the module docstring. Dense unless ``sparse=True`` (CSR).
+    """
+    config = as_configuration(structure, coords)
+    pat = structure.stiffness_pattern
+    ms = _member_state(structure, config)
+    nb = len(structure.layout.moving_bodies)
+    KE = pat.assemble(_element_matrices(config, ms.k[:, None, None] * ms.uu, ms.J), np.zeros((nb, 3, 3)))
+    geo = (ms.t / ms.lengths)[:, None, None] * (np.eye(3) - ms.uu)
+    f_int = internal_nodal_forces(structure, config.coords, ms.t)
+    KG = pat.assemble(_element_matrices(config, geo, ms.J), _body_blocks(config, -f_int))
+    KL = pat.assemble(np.zeros((structure.n_members, 12, 12)),
+                      _body_blocks(config, -structure.external_forces))
+    parts = {"KE": KE, "KG": KG, "KL": KL}
+    return parts if sparse else {key: M.toarray() for key, M in parts.items()}
+
+
+def tangent_stiffness(structure: Structure, coords, *, sparse: bool = False):
+    """Exact tangent stiffness ``K_T = d^2V/dU^2`` (n_dof, n_dof) at ``coords``.
+
+    ``coords`` is an (n, 3) array [m], a :class:`Configuration` or ``None`` (reference).
+    Units follow ``U``: N/m between translations, N (= N m/m) between a translation and a
+    rotation, N m/rad between rotations. Dense ``ndarray`` unless ``sparse=True`` (CSR).
+    """
+    config = as_configuration(structure, coords)
+    ms = _member_state(structure, config)
+    blocks = ms.k[:, None, None] * ms.uu + (ms.t / ms.lengths)[:, None, None] * (np.eye(3) - ms.uu)
+    g = -(internal_nodal_forces(structure, config.coords, ms.t) + structure.external_forces)
+    K = structure.stiffness_pattern.assemble(_element_matrices(config, blocks, ms.J), _body_blocks(config, g))
+    return K if sparse else K.toarray()
+
+
+@dataclass
+class ModalAnalysis:
+    """Eigenvalues (ascending) and mode shapes of ``K_T``.
+
+    ``eigenvalues`` (k,) in the mixed units of ``U`` (see :func:`tangent_stiffness`);
+    ``modes`` (n_dof, k) orthonormal eigenvectors in ``U``; ``displacements`` (k, n, 3)
+    the nodal displacement field ``G phi`` of each mode (first order); ``labels`` the
+    names of the entries of ``U``.
+    """
+
+    eigenvalues: np.ndarray
+    modes: np.ndarray
+    displacements: np.ndarray
+    labels: list
+
+
+def modal_analysis(structure: Structure, coords=None, *, n_modes: int | None = None) -> ModalAnalysis:
+    """Eigen-decomposition of the exact ``K_T`` at ``coords`` (default: reference drawing).
+
+    ``n_modes`` limits the result to the lowest ``n_modes`` modes. Note that eigenvalues of a
+    matrix mixing N/m and N m/rad depend on the length unit; compare modes of the same kind.
+    """
+    from scipy.linalg import eigh
+
+    from tensegrity_core.general.configuration import transformation_matrix
+
+    config = as_configuration(structure, coords)
+    K = tangent_stiffness(structure, config)
+    n = K.shape[0]
+    k = n if n_modes is None else max(1, min(int(n_modes), n))
+    w, V = eigh(K, subset_by_index=[0, k - 1])
+    G = transformation_matrix(config)
+    disp = (G @ V).T.reshape(k, structure.n_nodes, 3)
+    return ModalAnalysis(w, V, disp, structure.layout.labels())

@@ -1,0 +1,393 @@
+"""The immutable description of a general tensegrity structure (topology, stiffness, supports).
+
+A :class:`Structure` holds everything that does not change while the structure deforms:
+node names and the reference coordinates [m] (the drawn shape: the start of form-finding
+and the body-fixed shape of every rigid body), members (node pairs, kind, axial stiffness
+EA [N], rest length [m], mass [kg]), per-axis supports, rigid bodies, external nodal loads
+[N], point masses [kg] and gravity [m/s^2]. The changing state (node coordinates) lives
+apart, in :class:`tensegrity_core.general.configuration.Configuration` or plain ``(n, 3)``
+arrays -- the MuJoCo model/data split.
+
+Member kinds: ``"bar"`` carries tension and compression; ``"string"`` carries tension only
+(slack, zero force and zero stiffness, when shorter than its rest length); ``"actuator"``
+is a bar whose rest length is the control input. Member ``i`` runs from node
+``members[i, 0]`` to node ``members[i, 1]``; its force is tension-positive,
+``t = EA (l - l0) / l0``.
+
+Rigid bodies need at least three non-collinear nodes (two nodes cannot fix an orientation:
+model a two-node rigid link as a stiff bar). A body with ``fixed=True`` does not move; its
+nodes act as fully pinned nodes. Individual nodes of a moving body cannot be pinned.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from tensegrity_core.errors import TensegrityError
+
+MEMBER_KINDS = ("bar", "string", "actuator")
+KIND_ALIASES = {"bar": "bar", "strut": "bar", "string": "string", "cable": "string",
+                "tendon": "string", "actuator": "actuator"}
+
+
+class StructureError(TensegrityError, ValueError):
+    """A structure description is invalid.
+
+    ``entry`` locates the offending entry as a path (e.g. ``("members", 3)``), ``line`` is
+    the 1-based line of the description file when the parser knows it.
+    """
+
+    def __init__(self, message: str, *, entry: tuple = (), line: int | None = None):
+        super().__init__(message)
+        self.entry = tuple(entry)
+        self.line = line
+
+
+def suggest(word: str, choices) -> str:
+    """``" (did you mean 'x'?)"`` for the closest of ``choices``, or ``""``."""
+    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+@dataclass(frozen=True)
+class RigidBody:
+    """A rigid body: the indices of its nodes, its mass [kg] (acting at the centroid of its
+    nodes, the paper's Eq. 25) and whether it is fixed in space."""
+
+    name: str
+    nodes: tuple[int, ...]
+    mass: float = 0.0
+    fixed: bool = False
+
+
+def _readonly(a, dtype=float) -> np.ndarray:
+    a = np.array(a, dtype=dtype, copy=True)
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Structure:
+    """Immutable structure description; build it with :meth:`from_arrays`,
+    :func:`tensegrity_core.general.load_structure` or a generator.
+
+    Array attributes are read-only. ``nodes`` (n, 3) are the reference coordinates [m].
+    """
+
+    name: str
+    node_names: tuple[str, ...]
+    nodes: np.ndarray
+    member_names: tuple[str, ...]
+    members: np.ndarray
+    member_kinds: tuple[str, ...]
+    EA: np.ndarray
+    rest_lengths: np.ndarray
+    member_masses: np.ndarray
+    pinned: np.ndarray
+    bodies: tuple[RigidBody, ...] = ()
+    loads: np.ndarray = field(default=None)
+    node_masses: np.ndarray = field(default=None)
+    gravity: np.ndarray = field(default=None)
+
+    def __post_init__(self):
+        n = len(self.node_names)
+        m = len(self.member_names)
+        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 (frozen dataclass)
+        set_("nodes", _readonly(self.nodes))
+        set_("members", _readonly(self.members, dtype=np.int64))
+        set_("EA", _readonly(self.EA))
+        set_("rest_lengths", _readonly(self.rest_lengths))
+        set_("member_masses", _readonly(self.member_masses))
+        set_("pinned", _readonly(self.pinned, dtype=bool))
+        set_("loads", _readonly(np.zeros((n, 3)) if self.loads is None else self.loads))
+        set_("node_masses", _readonly(np.zeros(n) if self.node_masses is None else self.node_masses))
+        set_("gravity", _readonly(np.zeros(3) if self.gravity is None else self.gravity))
+        set_("member_kinds", tuple(self.member_kinds))
+        set_("bodies", tuple(self.bodies))
+        _validate(self, n, m)
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_arrays(cls, nodes, members, *, EA, rest_lengths=None, rest_length_ratio=None,
+                    kinds="string", node_names=None, member_names=None, pinned=None,
+                    bodies=(), loads=None, node_masses=None, member_masses=None,
+                    gravity=None, name: str = "") -> "Structure":
+        """Build a structure from arrays (the fast path for generators).
+
+        ``nodes`` (n, 3) [m]; ``members`` (m, 2) node indices; ``EA`` scalar or (m,) [N];
+        either ``rest_lengths`` (m,) [m] or ``rest_length_ratio`` (scalar or (m,), times the
+        member length in ``nodes``; default 1: stress-free as drawn); ``kinds`` one kind or
+        (m,) kinds; ``pinned`` (n, 3) bool (or (n,) bool for fully pinned nodes); ``bodies``
+        a sequence of :class:`RigidBody` or dicts ``{"name", "nodes", "mass", "fixed"}``.
+        """
+        nodes = np.asarray(nodes, dtype=float)
+        members = np.asarray(members)
+        if nodes.ndim != 2 or nodes.shape[1] != 3:
+            raise StructureError(f"nodes must have shape (n, 3), got {nodes.shape}", entry=("nodes",))
+        if members.ndim != 2 or members.shape[1] != 2 or members.dtype.kind not in "iu":
+            raise StructureError(f"members must be an (m, 2) array of node indices, got shape "
+                                 f"{members.shape} dtype {members.dtype}", entry=("members",))
+        n, m = len(nodes), len(members)
+        bad = (members < 0) | (members >= n)
+        if bad.any():
+            i = int(np.argwhere(bad.any(axis=1))[0, 0])
+            raise StructureError(f"member #{i} refers to node index {members[i].tolist()}, "
+                                 f"but there are {n} nodes", entry=("members", i))
+        if isinstance(kinds, str):
+            kinds = [kinds] * m
+        kinds = [_kind(k, ("members", i)) for i, k in enumerate(kinds)]
+        if len(kinds) != m:
+            raise StructureError(f"kinds has {len(kinds)} entries for {m} members", entry=("members",))
+        lengths = np.linalg.norm(nodes[members[:, 1]] - nodes[members[:, 0]], axis=1)
+        if rest_lengths is not None and rest_length_ratio is not None:
+            raise StructureError("give rest_lengths or rest_length_ratio, not both", entry=("members",))
+        if rest_lengths is None:
+            ratio = 1.0 if rest_length_ratio is None else rest_length_ratio
+            rest_lengths = np.broadcast_to(np.asarray(ratio, dtype=float), (m,)) * lengths
+        if pinned is None:
+            pinned = np.zeros((n, 3), dtype=bool)
+        pinned = np.asarray(pinned, dtype=bool)
+        if pinned.shape == (n,):
+            pinned = np.repeat(pinned[:, None], 3, axis=1)
+        body_objs = []
+        for b, body in enumerate(bodies):
+            if isinstance(body, dict):
+                body = RigidBody(name=str(body.get("name", f"body{b}")),
+                                 nodes=tuple(int(i) for i in body["nodes"]),
+                                 mass=float(body.get("mass", 0.0)),
+                                 fixed=bool(body.get("fixed", False)))
+            body_objs.append(body)
+        return cls(
+            name=name,
+            node_names=tuple(node_names) if node_names is not None else tuple(str(i) for i in range(n)),
+            nodes=nodes,
+            member_names=tuple(member_names) if member_names is not None else tuple(f"m{i}" for i in range(m)),
+            members=members,
+            member_kinds=tuple(kinds),
+            EA=np.broadcast_to(np.asarray(EA, dtype=float), (m,)),
+            rest_lengths=np.asarray(rest_lengths, dtype=float),
+            member_masses=np.zeros(m) if member_masses is None else np.broadcast_to(
+                np.asarray(member_masses, dtype=float), (m,)),
+            pinned=pinned,
+            bodies=tuple(body_objs),
+            loads=loads,
+            node_masses=node_masses,
+            gravity=gravity,
+        )
+
+    def replace(self, **changes) -> "Structure":
+        """A copy with some fields changed (validated again), e.g. new ``rest_lengths``."""
+        return dataclasses.replace(self, **changes)
+
+    def with_rest_lengths(self, rest_lengths) -> "Structure":
+        """A copy with new rest lengths [m] (actuation, prestress design, continuation)."""
+        return self.replace(rest_lengths=np.asarray(rest_lengths, dtype=float))
+
+    def with_nodes(self, nodes) -> "Structure":
+        """A copy whose reference coordinates (start of form-finding, body shapes) are ``nodes``."""
+        return self.replace(nodes=np.asarray(nodes, dtype=float))
+
+    # ------------------------------------------------------------------ derived data
+    @property
+    def n_nodes(self) -> int:
+        return len(self.node_names)
+
+    @property
+    def n_members(self) -> int:
+        return len(self.member_names)
+
+    @cached_property
+    def is_string(self) -> np.ndarray:
+        """(m,) bool: members that go slack in compression."""
+        return _readonly([k == "string" for k in self.member_kinds], dtype=bool)
+
+    @cached_property
+    def initial_lengths(self) -> np.ndarray:
+        """(m,) member lengths in the reference coordinates [m]."""
+        h = self.nodes[self.members[:, 1]] - self.nodes[self.members[:, 0]]
+        return _readonly(np.linalg.norm(h, axis=1))
+
+    @cached_property
+    def external_forces(self) -> np.ndarray:
+        """(n, 3) dead loads on the nodes [N]: applied loads plus the weight of point masses
+        and of half of each member's mass (lumped at its ends)."""
+        mass = self.node_masses.copy()
+        np.add.at(mass, self.members[:, 0], 0.5 * self.member_masses)
+        np.add.at(mass, self.members[:, 1], 0.5 * self.member_masses)
+        return _readonly(self.loads + mass[:, None] * self.gravity[None, :])
+
+    @cached_property
+    def layout(self):
+        """The degrees of freedom (see :class:`tensegrity_core.general.configuration.DofLayout`)."""
+        from tensegrity_core.general.configuration import DofLayout
+        return DofLayout(self)
+
+    @cached_property
+    def stiffness_pattern(self):
+        """Sparsity pattern of the tangent stiffness (see :class:`.stiffness.StiffnessPattern`)."""
+        from tensegrity_core.general.stiffness import StiffnessPattern
+        return StiffnessPattern(self)
+
+    def node_index(self, name: str) -> int:
+        """Index of the node called ``name``."""
+        try:
+            return self.node_names.index(name)
+        except ValueError:
+            raise StructureError(f"unknown node {name!r}{suggest(name, self.node_names)}") from None
+
+    def member_index(self, name: str) -> int:
+        """Index of the member called ``name``."""
+        try:
+            return self.member_names.index(name)
+        except ValueError:
+            raise StructureError(f"unknown member {name!r}{suggest(name, self.member_names)}") from None
+
+    def __repr__(self) -> str:
+        return (f"Structure({self.name!r}: {self.n_nodes} nodes, {self.n_members} members, "
+                f"{len(self.bodies)} rigid bodies, {self.layout.n_dof} DOF)")
+
+
+def _kind(kind, entry) -> str:
+    key = str(kind).lower()
+    if key not in KIND_ALIASES:
+        raise StructureError(f"unknown member type {kind!r}; use one of bar, strut, string, "
+                             f"cable, actuator{suggest(key, KIND_ALIASES)}", entry=entry)
+    return KIND_ALIASES[key]
+
+
+def _validate(s: Structure, n: int, m: int) -> None:
+    """Numeric invariants of a structure; each failure names the offending entry."""
+    if n == 0:
+        raise StructureError("the structure has no nodes", entry=("nodes",))
+    if m == 0:
+        raise StructureError("the structure has no members", entry=("members",))
+    if len(set(s.node_names)) != n:
+        dup = next(x for x in s.node_names if s.node_names.count(x) > 1)
+        raise StructureError(f"node name {dup!r} is used twice", entry=("nodes", dup))
+    if len(set(s.member_names)) != m:
+        dup = next(x for x in s.member_names if s.member_names.count(x) > 1)
+        raise StructureError(f"member name {dup!r} is used twice", entry=("members",))
+    shapes = {"nodes": (n, 3), "members": (m, 2), "EA": (m,), "rest_lengths": (m,),
+              "member_masses": (m,), "pinned": (n, 3), "loads": (n, 3), "node_masses": (n,),
+              "gravity": (3,)}
+    for key, shape in shapes.items():
+        if getattr(s, key).shape != shape:
+            raise StructureError(f"{key} must have shape {shape}, got {getattr(s, key).shape}",
+                                 entry=(key,))
+    if len(s.member_kinds) != m or any(k not in MEMBER_KINDS for k in s.member_kinds):
+        raise StructureError(f"member_kinds must be {m} of {MEMBER_KINDS}", entry=("members",))
+    for key, arr, names in (("nodes", s.nodes, s.node_names), ("loads", s.loads, s.node_names)):
+        bad = ~np.isfinite(arr).all(axis=1)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise StructureError(f"{key[:-1]} of node {names[i]!r} is not finite: {arr[i].tolist()}",
+                                 entry=(key, names[i]))
+    if not np.isfinite(s.gravity).all():
+        raise StructureError(f"gravity is not finite: {s.gravity.tolist()}", entry=("gravity",))
+    a, b = s.members[:, 0], s.members[:, 1]
+    if ((s.members < 0) | (s.members >= n)).any():
+        i = int(np.flatnonzero(((s.members < 0) | (s.members >= n)).any(axis=1))[0])
+        raise StructureError(f"member {s.member_names[i]!r} refers to node index "
+                             f"{s.members[i].tolist()}, but there are {n} nodes", entry=("members", i))
+    same = np.flatnonzero(a == b)
+    if same.size:
+        i = int(same[0])
+        raise StructureError(f"member {s.member_names[i]!r} joins node {s.node_names[a[i]]!r} to itself",
+                             entry=("members", i))
+    scale = max(float(np.ptp(s.nodes, axis=0).max()), 1e-300) if n > 1 else 1.0
+    lengths = np.linalg.norm(s.nodes[b] - s.nodes[a], axis=1)
+    short = np.flatnonzero(lengths <= 1e-12 * scale)
+    if short.size:
+        i = int(short[0])
+        raise StructureError(
+            f"member {s.member_names[i]!r} has zero length: nodes {s.node_names[a[i]]!r} and "
+            f"{s.node_names[b[i]]!r} are both at {s.nodes[a[i]].tolist()}", entry=("members", i))
+    for key, arr, what in (("EA", s.EA, "axial stiffness EA"), ("rest_lengths", s.rest_lengths, "rest length")):
+        bad = np.flatnonzero(~np.isfinite(arr) | (arr <= 0))
+        if bad.size:
+            i = int(bad[0])
+            raise StructureError(f"member {s.member_names[i]!r}: {what} must be finite and "
+                                 f"positive, got {arr[i]!r}", entry=("members", i))
+    bad = np.flatnonzero(~np.isfinite(s.member_masses) | (s.member_masses < 0))
+    if bad.size:
+        i = int(bad[0])
+        raise StructureError(f"member {s.member_names[i]!r}: mass must be finite and >= 0, "
+                             f"got {s.member_masses[i]!r}", entry=("members", i))
+    bad = np.flatnonzero(~np.isfinite(s.node_masses) | (s.node_masses < 0))
+    if bad.size:
+        i = int(bad[0])
+        raise StructureError(f"point mass of node {s.node_names[i]!r} must be finite and >= 0, "
+                             f"got {s.node_masses[i]!r}", entry=("masses", s.node_names[i]))
+    _validate_bodies(s, n, scale)
+    _validate_free_nodes(s, n)
+
+
+def _validate_bodies(s: Structure, n: int, scale: float) -> None:
+    owner = np.full(n, -1)
+    names = [b.name for b in s.bodies]
+    for k, body in enumerate(s.bodies):
+        entry = ("rigid_bodies", k)
+        if names.count(body.name) > 1:
+            raise StructureError(f"rigid body name {body.name!r} is used twice", entry=entry)
+        if not np.isfinite(body.mass) or body.mass < 0:
+            raise StructureError(f"rigid body {body.name!r}: mass must be finite and >= 0, "
+                                 f"got {body.mass!r}", entry=entry)
+        idx = np.asarray(body.nodes, dtype=np.int64)
+        if ((idx < 0) | (idx >= n)).any():
+            raise StructureError(f"rigid body {body.name!r} refers to node index {list(body.nodes)}, "
+                                 f"but there are {n} nodes", entry=entry)
+        if len(set(body.nodes)) != len(body.nodes):
+            raise StructureError(f"rigid body {body.name!r} lists a node twice", entry=entry)
+        for i in idx:
+            if owner[i] >= 0:
+                raise StructureError(
+                    f"node {s.node_names[i]!r} is in two rigid bodies: {s.bodies[owner[i]].name!r} "
+                    f"and {body.name!r}", entry=entry)
+            owner[i] = k
+        if len(idx) < 3:
+            raise StructureError(
+                f"rigid body {body.name!r} has {len(idx)} node(s); a rigid body needs at least 3 "
+                f"non-collinear nodes to fix its orientation (model a 2-node rigid link as a stiff bar)",
+                entry=entry)
+        pts = s.nodes[idx] - s.nodes[idx].mean(axis=0)
+        sv = np.linalg.svd(pts, compute_uv=False)
+        if sv[1] <= 1e-9 * max(sv[0], 1e-300) or sv[0] <= 1e-12 * scale:
+            raise StructureError(
+                f"rigid body {body.name!r}: its nodes are collinear, so they cannot fix an "
+                f"orientation; a rigid body needs at least 3 non-collinear nodes", entry=entry)
+        if not body.fixed:
+            pinned = [s.node_names[i] for i in idx if s.pinned[i].any()]
+            if pinned:
+                raise StructureError(
+                    f"node {pinned[0]!r} belongs to rigid body {body.name!r} and is pinned; pin "
+                    f"the whole body instead (fixed: true)", entry=entry)
+    a, b = s.members[:, 0], s.members[:, 1]
+    inside = np.flatnonzero((owner[a] >= 0) & (owner[a] == owner[b]))
+    if inside.size:
+        i = int(inside[0])
+        raise StructureError(
+            f"member {s.member_names[i]!r} joins nodes {s.node_names[a[i]]!r} and "
+            f"{s.node_names[b[i]]!r} of the same rigid body {s.bodies[owner[a[i]]].name!r}: its "
+            f"length cannot change, so it carries nothing; remove it", entry=("members", i))
+
+
+def _validate_free_nodes(s: Structure, n: int) -> None:
+    in_body = np.zeros(n, dtype=bool)
+    for body in s.bodies:
+        in_body[list(body.nodes)] = True
+    connected = np.zeros(n, dtype=bool)
+    connected[s.members.ravel()] = True
+    loose = np.flatnonzero(~in_body & ~connected & ~s.pinned.all(axis=1))
+    if loose.size:
+        i = int(loose[0])
+        raise StructureError(f"node {s.node_names[i]!r} is free but no member is attached to it",
+                             entry=("nodes", s.node_names[i]))
+    for k, body in enumerate(s.bodies):
+        if not body.fixed and not connected[list(body.nodes)].any():
+            raise StructureError(f"rigid body {body.name!r} is free but no member is attached to it",
+                                 entry=("rigid_bodies", k))

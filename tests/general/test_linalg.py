@@ -1,0 +1,109 @@
+"""Sparse definiteness test, shifted solves, rigid-body modes and the stability eigenvalue."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tensegrity_core.general import Configuration, form_find, load_example, tangent_stiffness
+from tensegrity_core.general.linalg import (
+    factor_if_positive_definite,
+    jacobi_scaling,
+    lowest_mode,
+    shifted_step_dense,
+    shifted_step_sparse,
+    zero_energy_rigid_modes,
+)
+
+
+def random_symmetric(seed: int, n: int, shift: float) -> sp.csc_matrix:
+    A = sp.random(n, n, density=0.05, random_state=seed)
+    A = A + A.T
+    d = np.asarray(abs(A).sum(axis=1)).ravel()
+    return (A + sp.diags(d * shift + 1e-3)).tocsc()
+
+
+@settings(max_examples=60)
+@given(st.integers(0, 10_000), st.integers(5, 60), st.floats(-0.9, 1.5))
+def test_ldl_attempt_decides_positive_definiteness_like_eigenvalues(seed, n, shift):
+    A = random_symmetric(seed, n, shift)
+    lam = np.linalg.eigvalsh(A.toarray()).min()
+    if abs(lam) < 1e-9:                      # too close to call either way
+        return
+    lu = factor_if_positive_definite(A)
+    assert (lu is not None) == (lam > 0)
+    if lu is not None:
+        b = np.arange(n, dtype=float)
+        np.testing.assert_allclose(A @ lu.solve(b), b, atol=1e-8 * np.abs(b).max())
+
+
+def test_shifted_steps_match_eq81_and_descend():
+    A = random_symmetric(3, 40, -0.5).toarray()
+    P = np.random.default_rng(0).normal(size=40)
+    dense = shifted_step_dense(A, P, 1e-10)
+    d = jacobi_scaling(A)
+    lam = np.linalg.eigvalsh(d[:, None] * A * d[None, :]).min()
+    assert lam < 0 and dense.shift == pytest.approx(1e-10 - lam)           # Eq. 81, lambda < 0
+    sparse = shifted_step_sparse(sp.csr_matrix(A), P, 1e-10)
+    assert sparse.shift >= -lam and sparse.shift <= 4 * max(-lam, 1e-3)   # Cholesky attempts
+    for step in (dense, sparse):
+        assert P @ step.dU > 0                                             # descent for V
+    pd = random_symmetric(4, 40, 1.0).toarray()
+    a, b = shifted_step_dense(pd, P, 1e-10), shifted_step_sparse(sp.csr_matrix(pd), P, 1e-10)
+    assert a.shift == 1e-10 and b.shift == 1e-10 and b.factorizations == 1
+    np.testing.assert_allclose(a.dU, b.dU, rtol=1e-8)
+    np.testing.assert_allclose(pd @ a.dU, P, rtol=1e-6, atol=1e-6)
+
+
+@pytest.mark.parametrize("name, count", [
+    ("tensegrity_table", 6), ("spherical_octahedron", 6), ("patio_shade", 0), ("t_bar", 0), ("spine_c", 0)])
+def test_zero_energy_rigid_modes(name, count):
+    s = load_example(name)
+    r = form_find(s)
+    Z = zero_energy_rigid_modes(r.configuration)
+    assert Z.shape[1] == count == r.rigid_body_modes
+    if count:
+        np.testing.assert_allclose(Z.T @ Z, np.eye(count), atol=1e-12)
+        K = tangent_stiffness(s, r.configuration)
+        assert np.abs(K @ Z).max() < 1e-6 * np.abs(K).max()
+
+
+def test_loaded_rotations_are_not_excluded():
+    """A free table under balanced dead loads: translations are still free, but the loads
+    make rotations change the potential, so those stay in the stability question."""
+    s = load_example("tensegrity_table")
+    loads = np.zeros((8, 3))
+    loads[4], loads[0] = [0, 0, -1e4], [0, 0, 1e4]
+    Z = zero_energy_rigid_modes(Configuration.initial(s.replace(loads=loads)))
+    assert Z.shape[1] == 3 + 1         # three translations, and the rotation about the load line
+
+
+@pytest.mark.parametrize("name", ["tensegrity_table", "spine_s", "spherical_icosahedron"])
+def test_sparse_and_dense_stability_eigenvalues_agree(name):
+    s = load_example(name)
+    c = form_find(s).configuration
+    K = tangent_stiffness(s, c, sparse=True)
+    a, b = lowest_mode(K, c, dense=True), lowest_mode(K, c, dense=False)
+    assert a.value == pytest.approx(b.value, rel=1e-7)
+    assert a.scaled == pytest.approx(b.scaled, rel=1e-7)
+    assert a.rigid_body_modes == b.rigid_body_modes
+    Kd = K.toarray()
+    v = b.vector / np.linalg.norm(b.vector)
+    d = jacobi_scaling(Kd)
+    vs = v / d
+    assert (vs @ (d[:, None] * Kd * d[None, :]) @ vs) / (vs @ vs) == pytest.approx(b.scaled, rel=1e-6)
+
+
+def test_stability_eigenvalue_of_an_unstable_state_is_negative():
+    from tensegrity_core.general import tensegrity_table
+
+    narrow = tensegrity_table(radius=0.5)
+    x = narrow.nodes.copy()
+    x[4:] += [0, 0, -0.28]                   # the symmetric equilibrium, a saddle
+    c = Configuration.from_coords(narrow, x)
+    K = tangent_stiffness(narrow, c, sparse=True)
+    a, b = lowest_mode(K, c, dense=True), lowest_mode(K, c, dense=False)
+    assert a.scaled < 0 and b.scaled == pytest.approx(a.scaled, rel=1e-7)
