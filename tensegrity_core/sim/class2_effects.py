@@ -176,16 +176,34 @@ class Springs:
         d = spring_vectors(self.L, k)
         return tuple(kj * _hypot(dx, dy) for kj, (dx, dy) in zip(self.k, d))
 
+    def stiffness(self, k) -> tuple:
+        """Unique entries ``(K11, K12, K13, K22, K23, K33)`` of ``d2U/dq2`` (floats or arrays).
+
+        ``d2U/dq2 = sum k_j (J_j^T J_j + sum_a d_ja d2d_ja/dq2)``, with ``eta1 = -4L^2/lambda1^3``
+        and ``eta2 = -L^2/lambda2^3`` the second derivatives of lambda1 (in s) and lambda2."""
+        r1, r2, sb, cb, _, _, _, s, lam1, lam2, e1, g2 = k
+        L = self.L
+        k3, k2, k1, k4 = self.k
+        eta1 = -4.0 * L * L / lam1**3
+        eta2 = -L * L / lam2**3
+        h = 0.5 * (r2 - r1)
+        sym = 0.25 + 0.25 * e1 * e1            # (J^T J)_11 = (J^T J)_22 of DE and BE
+        anti = -0.25 + 0.25 * e1 * e1          # (J^T J)_12 of DE and BE
+        de = k2 * 0.5 * eta1 * (0.5 * lam1 - L * sb)
+        ey = 0.5 * e1 - g2
+        dy7 = (r2 - r1) * (3.0 * r1 + r2) / (4.0 * lam2 + 2.0 * lam1)
+        ef = -k1 * 0.5 * eta1 * dy7
+        be = k4 * 0.25 * eta1 * lam1
+        K11 = k2 * sym + de + k1 * (0.25 + ey * ey + eta2 * dy7) + ef + k4 * sym + be
+        K12 = k2 * anti + de + k1 * (0.25 + 0.5 * ey * e1) + ef + k4 * anti + be
+        K22 = k3 + k2 * sym + de + k1 * (0.25 + 0.25 * e1 * e1) + ef + k4 * sym + be
+        K13 = k2 * 0.5 * L * (e1 * cb - sb)
+        K23 = k3 * L * sb + k2 * 0.5 * L * (e1 * cb + sb)
+        K33 = k3 * r2 * L * cb + k2 * L * (h * cb + 0.5 * lam1 * sb)
+        return K11, K12, K13, K22, K23, K33
+
     def jacobian(self, q, qdot):
-        from tensegrity_core.class2.dynamics_jacobian import potential_hessian
-
-        return -potential_hessian(np.asarray(q, dtype=float), self.params), np.zeros((3, 3))
-
-    def hessian_array(self, q) -> np.ndarray:
-        """``d2U/dq2`` for an array of configurations (..., 3) -> (..., 3, 3)."""
-        from tensegrity_core.class2.dynamics_jacobian import potential_hessian
-
-        return potential_hessian(np.asarray(q, dtype=float), self.params)
+        return _minus_matrix(self.stiffness(context(self.L, (q[0], q[1], q[2], 0.0, 0.0, 0.0)))), np.zeros((3, 3))
 
 
 class Damping:
@@ -267,20 +285,19 @@ class Gravity:
         Y = 0.5 * (lam1 + lam2 + self.L * sb)
         return -self.m * (self.gx * X + self.gy * Y)
 
+    def stiffness(self, k) -> tuple:
+        """Unique entries of ``d2V/dq2`` (floats or arrays)."""
+        _, _, sb, cb, _, _, _, _, lam1, lam2, _, _ = k
+        L = self.L
+        eta1 = -4.0 * L * L / lam1**3
+        eta2 = -L * L / lam2**3
+        mgx, mgy = self.m * self.gx, self.m * self.gy
+        zero = 0.0 * lam1
+        rho = -0.5 * mgy * eta1
+        return rho - 0.5 * mgy * eta2, rho, zero, rho, zero, 0.5 * L * (mgx * cb + mgy * sb)
+
     def jacobian(self, q, qdot):
-        L, m = self.L, self.m
-        r1, r2, b = float(q[0]), float(q[1]), float(q[2])
-        s = r1 + r2
-        lam1 = math.sqrt((2 * L - s) * (2 * L + s))
-        lam2 = math.sqrt((L - r1) * (L + r1))
-        eta1, eta2 = -4.0 * L * L / lam1**3, -L * L / lam2**3
-        hX = np.zeros((3, 3))
-        hX[2, 2] = -0.5 * L * math.cos(b)
-        hY = np.zeros((3, 3))
-        hY[:2, :2] = 0.5 * eta1
-        hY[0, 0] += 0.5 * eta2
-        hY[2, 2] = -0.5 * L * math.sin(b)
-        return m * (self.gx * hX + self.gy * hY), np.zeros((3, 3))
+        return _minus_matrix(self.stiffness(context(self.L, (q[0], q[1], q[2], 0.0, 0.0, 0.0)))), np.zeros((3, 3))
 
 
 def node_positions_and_jacobians(L: float, k) -> tuple:
@@ -324,17 +341,27 @@ class Loads:
         P, _ = node_positions_and_jacobians(self.L, k)
         return -float(np.sum(self.F * P))
 
-    def jacobian(self, q, qdot):
+    def stiffness(self, k) -> tuple:
+        """Unique entries of ``d2V/dq2`` (floats or arrays)."""
+        _, _, sb, cb, _, _, _, _, lam1, lam2, _, _ = k
         L = self.L
-        r1, r2, b = float(q[0]), float(q[1]), float(q[2])
-        s = r1 + r2
-        lam1 = math.sqrt((2 * L - s) * (2 * L + s))
-        lam2 = math.sqrt((L - r1) * (L + r1))
-        out = np.zeros((3, 3))
-        out[2, 2] = -L * (math.cos(b) * self.fdx + math.sin(b) * self.fdy)
-        out[:2, :2] += 0.5 * self.fey * (-4.0 * L * L / lam1**3)
-        out[0, 0] += self.ffy * (-L * L / lam2**3)
-        return out, np.zeros((3, 3))
+        zero = 0.0 * lam1
+        rho = 0.5 * self.fey * 4.0 * L * L / lam1**3
+        return rho + self.ffy * L * L / lam2**3, rho, zero, rho, zero, L * (cb * self.fdx + sb * self.fdy)
+
+    def jacobian(self, q, qdot):
+        return _minus_matrix(self.stiffness(context(self.L, (q[0], q[1], q[2], 0.0, 0.0, 0.0)))), np.zeros((3, 3))
+
+
+def stiffness_matrix(entries) -> np.ndarray:
+    """Symmetric (..., 3, 3) matrix from unique entries ``(K11, K12, K13, K22, K23, K33)``."""
+    K11, K12, K13, K22, K23, K33 = np.broadcast_arrays(*[np.asarray(e, dtype=float) for e in entries])
+    return np.stack([np.stack([K11, K12, K13], -1), np.stack([K12, K22, K23], -1),
+                     np.stack([K13, K23, K33], -1)], -2)
+
+
+def _minus_matrix(entries) -> np.ndarray:
+    return -stiffness_matrix(entries)
 
 
 def _hypot(x, y):

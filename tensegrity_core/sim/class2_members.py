@@ -2,20 +2,29 @@
 
 Springs carry ``k_j L_j`` (plus ``c_j dL_j/dt`` with damping), actuators the transmitted
 force minus the fold-limit contact force. The struts are rigid rods with mass, so their
-end forces are not axial in motion. They follow from d'Alembert's principle: with ``P_sa``
-the force node ``a`` exerts on strut ``s`` (ends ``a, b``, centre ``c``)::
+end forces are not axial in motion. With ``P_sa`` the force node ``a`` exerts on strut ``s``
+(ends ``a, b``, centre ``c``, ``r_b = -r_a = (L/2) u``, ``u = (b - a)/L``)::
 
-    P_sa + P_sb = m (a_c - g)                        (strut s, 2 equations)
-    r_a x P_sa + r_b x P_sb = I alpha_s              (about its centre, I = m L^2/12)
-    sum_members t_j u_nj + F_n + R_n - sum_struts P_sn = 0    (massless node n, 2 equations)
+    P_sa + P_sb = m (a_c - g)                        (Newton)
+    r_a x P_sa + r_b x P_sb = I alpha                (Euler about the centre, I = m L^2/12)
+    =>  r_b x P_sb = tau := (I alpha + r_b x m (a_c - g)) / 2
 
-with ``u_nj`` the unit vector from node ``n`` along member ``j``, ``F_n`` the dead loads and
-``R_n`` the support reactions (A: x, y; B, C: y; F: x). Actuators act along +X (their
-signed length is ``rho_i``), also at zero length. That is 24 equations for 21 unknowns;
-the three extra ones hold exactly when the state satisfies the Lagrangian equations of
-motion, so the least-squares residual checks the equations of motion independently. The
-reported strut force is the axial force at mid-span, ``(-P_sa.u + P_sb.u)/2`` with
-``u = (b - a)/L`` (tension +), which is exact for the linear variation along a uniform rod.
+and every node is massless (its forces balance). The far ends are leaves of the structure,
+which gives the struts one at a time:
+
+- BD: node D joins only springs CD, DE (and loads): ``P_BD,D`` = their force on D;
+- BF: node F joins spring EF and the X reaction ``R``: ``P_BF,F = F_EF + R e_x`` with ``R``
+  from the moment equation (``r_F x e_x = -lambda2/2 != 0``);
+- AE, CE: both end at E with springs DE, EF, BE: ``P_sE = N_s u_s + (2 tau_s / L) n_s``
+  (``n_s`` the left normal of ``u_s``); E's balance gives a 2 x 2 system for the axial
+  parts ``N_AE, N_CE`` with determinant ``u_AE x u_CE``, which vanishes at the full fold
+  ``rho1 + rho2 = 0``: there AE and CE are collinear and their forces are not determined
+  (they grow like 1/(rho1 + rho2) near it); the minimum-norm split (equal halves) is reported.
+
+The reported strut force is the axial force at mid-span, ``N = P_sb . u - m (a_c - g) . u / 2``
+(tension +; exact for the linear variation of the axial force along a uniform rod).
+``tests/sim/test_class2_members.py`` checks these against a least-squares solution of all
+24 Newton-Euler equations (which also checks the Lagrangian equations of motion).
 """
 
 from __future__ import annotations
@@ -23,14 +32,13 @@ from __future__ import annotations
 import numpy as np
 
 from tensegrity_core.class2.geometry import MEMBERS, NODE_NAMES
-from tensegrity_core.sim.class2_effects import context_array, spring_rates, spring_vectors
+from tensegrity_core.sim.class2_effects import ZERO_LENGTH_REL, context_array, spring_rates, spring_vectors
 
 #: The struts (member index, end node a, end node b) in MEMBERS order.
 STRUTS = tuple((i, *m.nodes) for i, m in enumerate(MEMBERS) if m.kind == "strut")
 #: Member indices of the springs in CD, DE, EF, BE order (the order of class2_effects).
 SPRING_ORDER = tuple(next(i for i, m in enumerate(MEMBERS) if m.name == n) for n in ("CD", "DE", "EF", "BE"))
 ACTUATORS = (0, 1)
-_REACTIONS = ((0, 0), (0, 1), (1, 1), (2, 1), (5, 0))   # (node, axis)
 
 
 def node_positions(L: float, k) -> np.ndarray:
@@ -69,13 +77,12 @@ def member_lengths(L: float, q) -> np.ndarray:
 
 
 def member_forces(params, q, qdot, qdd, actuator_forces, *, springs: bool, damping: bool,
-                  gravity=None, loads=None, inertia: bool = True) -> tuple:
-    """Tension-positive forces (N, 10) [N] of all members and the residual (N,) [N] of the
-    d'Alembert system (zero when the state satisfies the equations of motion).
+                  gravity=None, loads=None, inertia: bool = True) -> np.ndarray:
+    """Tension-positive forces (N, 10) [N] of all members, MEMBERS order.
 
     ``q, qdot, qdd`` (N, 3); ``actuator_forces`` (N, 2) the actuators' member forces (transmitted
-    force minus contact force); ``gravity`` an in-plane vector (2,) or None; ``loads`` (6, 2)
-    or None; ``inertia`` False for massless struts (quasi-static: accelerations ignored)."""
+    force minus contact force); ``gravity`` a vector (>= 2 components, in-plane ones used) or
+    None; ``loads`` (6, 2) or None; ``inertia`` False for massless struts (quasi-static)."""
     L, m = params.L, params.m
     q = np.atleast_2d(np.asarray(q, dtype=float))
     qdot = np.atleast_2d(np.asarray(qdot, dtype=float))
@@ -85,73 +92,60 @@ def member_forces(params, q, qdot, qdd, actuator_forces, *, springs: bool, dampi
     P = node_positions(L, k)
     t = np.zeros((N, 10))
     t[:, 0:2] = actuator_forces
-    if springs or damping:
-        d = np.array(spring_vectors(L, k))                  # (4, 2, N)
-        lengths = np.sqrt(np.sum(d * d, axis=1))            # (4, N)
-        if springs:
-            kk = np.array([params.k3, params.k2, params.k1, params.k4])
-            t[:, SPRING_ORDER] += (kk[:, None] * lengths).T
-        if damping:
-            dd = np.array(spring_rates(L, k))
-            cc = np.array([params.c3, params.c2, params.c1, params.c4])
-            rate = np.sum(d * dd, axis=1) / np.maximum(lengths, 1e-300)
-            t[:, SPRING_ORDER] += (cc[:, None] * rate).T
-    if inertia:
-        acc = node_accelerations(L, k, qdd)
-        mass = m
-    else:
-        acc = np.zeros_like(P)
-        mass = m if gravity is not None else 0.0
-    g = np.zeros(2) if gravity is None else np.asarray(gravity, dtype=float)[:2]
-    A = np.zeros((N, 24, 21))
-    rhs = np.zeros((N, 24))
-    inertia_rot = m * L * L / 12.0 if inertia else 0.0
-    for s_i, (member, a, b) in enumerate(STRUTS):
-        col = 4 * s_i
-        row = 3 * s_i
-        ra = P[:, a] - 0.5 * (P[:, a] + P[:, b])
-        rb = -ra
-        ac = 0.5 * (acc[:, a] + acc[:, b])
-        rvec = P[:, b] - P[:, a]
-        rel = acc[:, b] - acc[:, a]
-        alpha = (rvec[:, 0] * rel[:, 1] - rvec[:, 1] * rel[:, 0]) / (L * L)
-        A[:, row, col] = A[:, row, col + 2] = 1.0
-        A[:, row + 1, col + 1] = A[:, row + 1, col + 3] = 1.0
-        rhs[:, row:row + 2] = mass * (ac - g)
-        A[:, row + 2, col] = -ra[:, 1]
-        A[:, row + 2, col + 1] = ra[:, 0]
-        A[:, row + 2, col + 2] = -rb[:, 1]
-        A[:, row + 2, col + 3] = rb[:, 0]
-        rhs[:, row + 2] = inertia_rot * alpha
-        for end, node in ((0, a), (1, b)):
-            A[:, 12 + 2 * node, col + 2 * end] = -1.0
-            A[:, 12 + 2 * node + 1, col + 2 * end + 1] = -1.0
-    for j, (node, axis) in enumerate(_REACTIONS):
-        A[:, 12 + 2 * node + axis, 16 + j] = 1.0
-    for i, mem in enumerate(MEMBERS):
-        if mem.kind == "strut":
-            continue
-        a, b = mem.nodes
-        if mem.kind == "actuator":
-            # a prismatic actuator along +X: its signed length is rho_i, so its line of action
-            # stays +X even at (and, in the unconstrained model, beyond) zero length
-            u = np.broadcast_to(np.array([1.0, 0.0]), P[:, a].shape)
-        else:
-            u = P[:, b] - P[:, a]
-            u = u / np.maximum(np.linalg.norm(u, axis=-1, keepdims=True), 1e-300)
-        # tension pulls node a toward b and node b toward a; moved to the right-hand side
-        rhs[:, 12 + 2 * a:12 + 2 * a + 2] -= t[:, i:i + 1] * u
-        rhs[:, 12 + 2 * b:12 + 2 * b + 2] += t[:, i:i + 1] * u
+    # spring force vectors phi_j d_j (j in CD, DE, EF, BE order), tension + along d_j
+    d = np.array(spring_vectors(L, k))                         # (4, 2, N)
+    phi = np.zeros((4, N))
+    length = np.sqrt(np.sum(d * d, axis=1))
+    if springs:
+        phi += np.array([params.k3, params.k2, params.k1, params.k4])[:, None]
+    if damping:
+        dd = np.array(spring_rates(L, k))
+        c = np.array([params.c3, params.c2, params.c1, params.c4])[:, None]
+        phi += c * np.sum(d * dd, axis=1) / (length**2 + (ZERO_LENGTH_REL * L) ** 2)
+    t[:, SPRING_ORDER] = (phi * length).T
+    f = np.transpose(phi[:, None, :] * d, (2, 0, 1))           # (N, 4, 2)
+    F_D = -f[:, 0] + f[:, 1]                                   # CD ends at D, DE starts at D
+    F_E = -f[:, 1] + f[:, 2] - f[:, 3]                         # DE, BE end at E, EF starts at E
+    F_F = -f[:, 2]                                             # EF ends at F
     if loads is not None:
-        rhs[:, 12:] -= np.asarray(loads, dtype=float).reshape(1, 12)
-    x = np.linalg.pinv(A) @ rhs[..., None]
-    residual = np.linalg.norm(A @ x - rhs[..., None], axis=(-2, -1))
-    x = x[..., 0]
-    for s_i, (member, a, b) in enumerate(STRUTS):
+        loads = np.asarray(loads, dtype=float)
+        F_D, F_E, F_F = F_D + loads[3], F_E + loads[4], F_F + loads[5]
+    acc = node_accelerations(L, k, qdd) if inertia else np.zeros_like(P)
+    g = np.zeros(2) if gravity is None else np.asarray(gravity, dtype=float)[:2]
+    mass = m if (inertia or gravity is not None) else 0.0
+    I_rot = m * L * L / 12.0 if inertia else 0.0
+
+    def strut(a, b):
         u = (P[:, b] - P[:, a]) / L
-        col = 4 * s_i
-        t[:, member] = 0.5 * (-np.sum(x[:, col:col + 2] * u, -1) + np.sum(x[:, col + 2:col + 4] * u, -1))
-    return t, residual
+        rel = acc[:, b] - acc[:, a]
+        alpha = (u[:, 0] * rel[:, 1] - u[:, 1] * rel[:, 0]) / L
+        w = mass * (0.5 * (acc[:, a] + acc[:, b]) - g)          # m (a_c - g)
+        tau = 0.5 * (I_rot * alpha + 0.5 * L * (u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0]))
+        return u, w, tau
+
+    def mid(Pb, u, w):
+        return np.sum(Pb * u, -1) - 0.5 * np.sum(w * u, -1)
+
+    A_, B_, C_, D_, E_, F_ = range(6)
+    u, w, _ = strut(B_, D_)
+    t[:, 8] = mid(F_D, u, w)                                   # BD
+    u, w, tau = strut(B_, F_)
+    r_cross_F = 0.5 * L * (u[:, 0] * F_F[:, 1] - u[:, 1] * F_F[:, 0])
+    R = (tau - r_cross_F) / (-0.5 * L * u[:, 1])
+    t[:, 5] = mid(F_F + R[:, None] * np.array([1.0, 0.0]), u, w)   # BF
+    u1, w1, tau1 = strut(A_, E_)
+    u2, w2, tau2 = strut(C_, E_)
+    n1 = np.stack([-u1[:, 1], u1[:, 0]], -1)
+    n2 = np.stack([-u2[:, 1], u2[:, 0]], -1)
+    W = F_E - (2.0 / L) * (tau1[:, None] * n1 + tau2[:, None] * n2)
+    det = u1[:, 0] * u2[:, 1] - u1[:, 1] * u2[:, 0]
+    safe = np.abs(det) > 1e-300
+    den = np.where(safe, det, 1.0)
+    N1 = np.where(safe, (W[:, 0] * u2[:, 1] - W[:, 1] * u2[:, 0]) / den, 0.5 * np.sum(W * u1, -1))
+    N2 = np.where(safe, (u1[:, 0] * W[:, 1] - u1[:, 1] * W[:, 0]) / den, 0.5 * np.sum(W * u1, -1))
+    t[:, 4] = N1 - 0.5 * np.sum(w1 * u1, -1)                   # AE
+    t[:, 9] = N2 - 0.5 * np.sum(w2 * u2, -1)                   # CE
+    return t
 
 
 def node_names() -> tuple:

@@ -157,6 +157,15 @@ class Class2Dynamic:
         T = self.model.drive.forces(st.t, y.tolist())
         return st.t, y.copy(), self.model._bits, T
 
+    def record(self, times, out: list) -> None:
+        """Append samples at increasing ``times`` to ``out``."""
+        states: list = []
+        try:
+            self.stepper.record(times, states)
+        finally:
+            bits, forces = self.model._bits, self.model.drive.forces
+            out.extend((t, y, bits, forces(t, y.tolist())) for t, y in states)
+
     def observe(self, samples) -> dict:
         return observe_class2(self.scene, self.model.effects, samples, inertia=True)
 
@@ -205,7 +214,7 @@ def observe_class2(scene, effects, samples, *, inertia: bool, contact=None) -> d
         loads = np.zeros((6, 2))
         for node, vec in scene.effects["loads"].forces.items():
             loads[node] += vec[:2]
-    forces, residual = class2_members.member_forces(
+    forces = class2_members.member_forces(
         params, q, qd, qdd, T - lam, springs="springs" in scene.effects, damping="damping" in scene.effects,
         gravity=gravity, loads=loads, inertia=inertia)
     P = class2_members.node_positions(L, k)
@@ -215,5 +224,5 @@ def observe_class2(scene, effects, samples, *, inertia: bool, contact=None) -> d
         "t": t, "state": Y, "q": q.copy(), "qdot": qd.copy(), "qddot": qdd, "applied_forces": T,
         "contact_forces": lam, "nodes": nodes, "member_lengths": lengths, "member_forces": forces,
         "end_effector": nodes[:, END_EFFECTOR].copy(), "potential_energy": potential,
-        "kinetic_energy": kinetic, "folded": bits != 0, "balance_residual": residual,
+        "kinetic_energy": kinetic, "folded": bits != 0,
     }

@@ -4,21 +4,24 @@ For the class-2 mechanism an input is the actuator *force* [N], positive = tensi
 generalised force on ``rho_i`` is ``-f_i``, the paper's Eq. 48). For a general structure it
 is the *rest length* [m] of an actuator member. Each law gives
 
-- ``value(t, length)``: the input at time ``t`` [s] when the actuator has length ``length`` [m];
+- ``value_at(t, length)``: the input at time ``t`` [s] when the actuator has length ``length`` [m];
+- ``potential(t, length)``: ``int_0^length value_at(t, l) dl``, the actuator's potential at
+  frozen ``t`` (its generalised force ``-value`` is conservative in the length; the
+  quasi-static model minimises it together with the springs' energy);
 - ``d_length(t, length)`` and ``d_time(t, length)``: its partial derivatives (for the
   integrator's Jacobian and the quasi-static path tangent);
+- ``arrays(t, length)``: value and both derivatives for arrays of samples;
 - ``breakpoints``: times where the law is not smooth; integrators stop and restart there so
   that no step straddles a kink or jump.
 
 Laws: :class:`Constant`, :class:`Ramp` (linear between two times, constant outside),
 :class:`Proportional` (``gain * length * t``, the paper's ``f_i = 10 rho_i t``),
-:class:`Series` (a time series read from CSV, interpolated) and :class:`Commanded`
-(zero-order hold of the last command given to the simulator).
+:class:`Series` (a time series read from CSV, interpolated) and :class:`Commanded` (the scene's
+"commanded": the simulator holds the last command given to it, as a :class:`HeldCommand`).
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -26,27 +29,39 @@ import numpy as np
 INTERPOLATIONS = ("linear", "previous", "cubic")
 
 
+class _TimeLaw:
+    """Shared parts of the laws that depend on time only."""
+
+    state_dependent = False
+
+    def potential(self, t: float, length: float) -> float:
+        return self.value_at(t, length) * length
+
+    def d_length(self, t: float, length: float) -> float:
+        return 0.0
+
+
 @dataclass(frozen=True)
-class Constant:
+class Constant(_TimeLaw):
     """``u(t) = value``."""
 
     value: float
     law = "constant"
     breakpoints = ()
-    state_dependent = False
 
     def value_at(self, t: float, length: float) -> float:
         return self.value
 
-    def d_length(self, t: float, length: float) -> float:
-        return 0.0
-
     def d_time(self, t: float, length: float) -> float:
         return 0.0
 
+    def arrays(self, t, length) -> tuple:
+        z = np.zeros(np.broadcast(t, length).shape)
+        return z + self.value, z, z
+
 
 @dataclass(frozen=True)
-class Ramp:
+class Ramp(_TimeLaw):
     """``u = start_value`` before ``t0``, linear to ``end_value`` at ``t1``, constant after."""
 
     start_value: float
@@ -54,7 +69,6 @@ class Ramp:
     t0: float
     t1: float
     law = "ramp"
-    state_dependent = False
 
     @property
     def breakpoints(self) -> tuple:
@@ -67,13 +81,16 @@ class Ramp:
             return self.end_value
         return self.start_value + (self.end_value - self.start_value) * (t - self.t0) / (self.t1 - self.t0)
 
-    def d_length(self, t: float, length: float) -> float:
-        return 0.0
-
     def d_time(self, t: float, length: float) -> float:
         if self.t0 <= t < self.t1:
             return (self.end_value - self.start_value) / (self.t1 - self.t0)
         return 0.0
+
+    def arrays(self, t, length) -> tuple:
+        t = np.broadcast_to(np.asarray(t, dtype=float), np.broadcast(t, length).shape)
+        slope = (self.end_value - self.start_value) / (self.t1 - self.t0)
+        u = self.start_value + slope * (np.clip(t, self.t0, self.t1) - self.t0)
+        return u, np.zeros_like(u), np.where((t >= self.t0) & (t < self.t1), slope, 0.0)
 
 
 @dataclass(frozen=True)
@@ -88,24 +105,31 @@ class Proportional:
     def value_at(self, t: float, length: float) -> float:
         return self.gain * length * t
 
+    def potential(self, t: float, length: float) -> float:
+        return 0.5 * self.gain * t * length * length
+
     def d_length(self, t: float, length: float) -> float:
         return self.gain * t
 
     def d_time(self, t: float, length: float) -> float:
         return self.gain * length
 
+    def arrays(self, t, length) -> tuple:
+        t, length = np.broadcast_arrays(np.asarray(t, dtype=float), np.asarray(length, dtype=float))
+        return self.gain * length * t, self.gain * t, self.gain * length
+
 
 @dataclass(frozen=True)
-class Series:
+class Series(_TimeLaw):
     """A time series ``(times, values)`` with ``interpolation`` "linear", "previous" (zero-order
-    hold) or "cubic" (C2 spline); held constant before the first and after the last sample."""
+    hold) or "cubic" (natural C2 spline); held constant before the first and after the last
+    sample."""
 
     times: tuple
     values: tuple
     interpolation: str = "linear"
     source: str = ""
     law = "series"
-    state_dependent = False
     _t: np.ndarray = field(init=False, repr=False, compare=False)
     _v: np.ndarray = field(init=False, repr=False, compare=False)
     _spline: object = field(init=False, repr=False, compare=False)
@@ -116,7 +140,7 @@ class Series:
         object.__setattr__(self, "_t", t)
         object.__setattr__(self, "_v", v)
         spline = None
-        if self.interpolation == "cubic" and len(t) >= 2:
+        if self.interpolation == "cubic":
             from scipy.interpolate import CubicSpline
 
             spline = CubicSpline(t, v, bc_type="natural")
@@ -129,64 +153,46 @@ class Series:
         return tuple(float(x) for x in self._t)
 
     def value_at(self, t: float, length: float) -> float:
-        ts = self._t
-        if t <= ts[0]:
-            return float(self._v[0])
-        if t >= ts[-1]:
-            return float(self._v[-1])
-        if self.interpolation == "previous":
-            return float(self._v[np.searchsorted(ts, t, side="right") - 1])
-        if self._spline is not None:
-            return float(self._spline(t))
-        return float(np.interp(t, ts, self._v))
-
-    def d_length(self, t: float, length: float) -> float:
-        return 0.0
+        return float(self.arrays(t, length)[0])
 
     def d_time(self, t: float, length: float) -> float:
-        ts = self._t
-        if t < ts[0] or t >= ts[-1] or self.interpolation == "previous":
-            return 0.0
+        return float(self.arrays(t, length)[2])
+
+    def arrays(self, t, length) -> tuple:
+        ts, vs = self._t, self._v
+        t = np.broadcast_to(np.asarray(t, dtype=float), np.broadcast(t, length).shape)
+        inside = (t >= ts[0]) & (t < ts[-1])
+        if self.interpolation == "previous":
+            i = np.clip(np.searchsorted(ts, t, side="right") - 1, 0, len(ts) - 1)
+            return vs[i], np.zeros(t.shape), np.zeros(t.shape)
         if self._spline is not None:
-            return float(self._spline(t, 1))
-        i = int(np.searchsorted(ts, t, side="right")) - 1
-        return float((self._v[i + 1] - self._v[i]) / (ts[i + 1] - ts[i]))
+            tc = np.clip(t, ts[0], ts[-1])
+            return self._spline(tc), np.zeros(t.shape), np.where(inside, self._spline(tc, 1), 0.0)
+        i = np.clip(np.searchsorted(ts, t, side="right") - 1, 0, max(len(ts) - 2, 0))
+        slope = np.diff(vs) / np.diff(ts) if len(ts) > 1 else np.zeros(1)
+        return np.interp(t, ts, vs), np.zeros(t.shape), np.where(inside, slope[i], 0.0)
 
 
 @dataclass(frozen=True)
 class Commanded:
-    """Zero-order hold of the last value given to :meth:`Simulator.set_command`.
-
-    ``initial`` is the value before the first command; ``None`` means "hold": the input
-    that keeps the initial state at rest (class-2: ``f_i = -dU/drho_i``; general: the
-    member's rest length)."""
+    """The scene's "commanded" input: the value before the first command is ``initial``, or
+    (``None``) the one that keeps the initial state at rest (class-2: ``f_i = -dU/drho_i``;
+    general: the member's rest length)."""
 
     initial: float | None = None
     law = "commanded"
-    breakpoints = ()
-    state_dependent = False
-
-    def value_at(self, t: float, length: float) -> float:  # pragma: no cover - replaced at run time
-        raise TypeError("a commanded input has no law; the simulator holds the last command")
-
-    def d_length(self, t: float, length: float) -> float:
-        return 0.0
-
-    def d_time(self, t: float, length: float) -> float:
-        return 0.0
 
 
 LAWS = {"constant": Constant, "ramp": Ramp, "proportional": Proportional, "series": Series,
         "commanded": Commanded}
 
 
-class HeldCommand:
-    """The run-time form of a :class:`Commanded` input: a value that only changes when the
-    simulator is given a new command (then the integrator restarts)."""
+class HeldCommand(_TimeLaw):
+    """The run-time form of a commanded input: a value that only changes when the simulator
+    is given a new command (then the integrator restarts)."""
 
     law = "commanded"
     breakpoints = ()
-    state_dependent = False
 
     def __init__(self, value: float):
         self.value = float(value)
@@ -194,11 +200,12 @@ class HeldCommand:
     def value_at(self, t: float, length: float) -> float:
         return self.value
 
-    def d_length(self, t: float, length: float) -> float:
-        return 0.0
-
     def d_time(self, t: float, length: float) -> float:
         return 0.0
+
+    def arrays(self, t, length) -> tuple:
+        z = np.zeros(np.broadcast(t, length).shape)
+        return z + self.value, z, z
 
 
 def next_breakpoint(laws, t: float, t_end: float) -> float:
@@ -210,7 +217,3 @@ def next_breakpoint(laws, t: float, t_end: float) -> float:
             if t + margin < b < best:
                 best = b
     return best
-
-
-def is_finite_number(x) -> bool:
-    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)

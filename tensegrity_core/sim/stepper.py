@@ -38,12 +38,14 @@ MAX_RETRIES = 30
 
 
 class _Constant:
-    """Dense output of a zero-length segment."""
+    """Dense output of a zero-length segment (scalar ``t`` -> (n,), array -> (n, k))."""
 
     def __init__(self, y):
         self.y = np.array(y, dtype=float)
 
     def __call__(self, t):
+        if np.ndim(t):
+            return np.repeat(self.y[:, None], len(t), axis=1)
         return self.y.copy()
 
 
@@ -190,11 +192,23 @@ class Stepper:
         y_new = self.model.handle_event(ev, te, y_e)
         self.restart(te, y_new)
 
-    def state_at(self, t: float):
-        """The state at ``t`` within the current segment (after :meth:`advance`)."""
-        if not (self._seg[0] - 1e-12 <= t <= self._seg[1] + 1e-12):
-            raise SimulationError(f"t = {t!r} s is outside the current step [{self._seg[0]!r}, {self._seg[1]!r}]")
-        return self._dense(t)
+    def record(self, times, out: list) -> None:
+        """Append ``(t, y)`` for increasing ``times`` to ``out``: advance to each time, and
+        interpolate every time the current step covers in one vectorised call."""
+        i, n = 0, len(times)
+        while i < n:
+            self.advance(float(times[i]))
+            j = i + 1
+            while j < n and times[j] <= self._seg[1]:
+                j += 1
+            ts = np.asarray(times[i:j], dtype=float)
+            if j - i == 1:
+                out.append((float(ts[0]), self.y.copy()))
+            else:
+                Y = self._dense(ts)
+                out.extend((float(t), Y[:, k].copy()) for k, t in enumerate(ts))
+                self.t, self.y = float(ts[-1]), Y[:, -1].copy()
+            i = j
 
 
 class _LazyDense:
@@ -207,7 +221,7 @@ class _LazyDense:
         self._fn = None
 
     def __call__(self, t):
-        if t == self.t_end:
+        if np.ndim(t) == 0 and t == self.t_end:
             return self.y.copy()
         if self._fn is None:
             if self.solver.t != self.t_end:
