@@ -430,7 +430,7 @@ class _Reader:
                         f"effect {name!r} needs 'inertia' (without it the model is quasi-static: "
                         f"{NEEDS_INERTIA[name]})", path + (list(out).index(name),), value, list(out).index(name))
         if model.kind == "general":
-            for name in ("fold_limit", "actuator_compliance"):
+            for name in ("fold_limit", "actuator_compliance", "actuator_lag"):
                 if name in out:
                     raise self.error(f"effect {name!r} applies to the class-2 mechanism only",
                                      path + (list(out).index(name),), value, list(out).index(name))
