@@ -300,21 +300,6 @@ class Gravity:
         return _minus_matrix(self.stiffness(context(self.L, (q[0], q[1], q[2], 0.0, 0.0, 0.0)))), np.zeros((3, 3))
 
 
-def node_positions_and_jacobians(L: float, k) -> tuple:
-    """Node positions (6, 2) and Jacobians (6, 2, 3) from a scalar context (A..F order)."""
-    r1, _, sb, cb, _, _, _, s, lam1, lam2, e1, g2 = k
-    P = np.array([[0.0, 0.0], [r1, 0.0], [s, 0.0], [r1 + L * cb, L * sb], [0.5 * s, 0.5 * lam1], [0.0, lam2]])
-    J = np.zeros((6, 2, 3))
-    J[1, 0, 0] = 1.0
-    J[2, 0, :2] = 1.0
-    J[3, 0] = (1.0, 0.0, -L * sb)
-    J[3, 1, 2] = L * cb
-    J[4, 0, :2] = 0.5
-    J[4, 1, :2] = -0.5 * e1
-    J[5, 1, 0] = -g2
-    return P, J
-
-
 class Loads:
     """Dead forces ``F_n`` [N] on nodes (in-plane components act): ``Q = sum J_n^T F_n``,
     ``V = -sum F_n . P_n``."""
@@ -338,8 +323,11 @@ class Loads:
         return q1, q2, q3
 
     def energy(self, k):
-        P, _ = node_positions_and_jacobians(self.L, k)
-        return -float(np.sum(self.F * P))
+        """``V = -sum F_n . P_n`` (floats or arrays); A is fixed and B, C, F have a zero coordinate."""
+        r1, _, sb, cb, _, _, _, s, lam1, lam2, _, _ = k
+        L = self.L
+        return -(self.fbx * r1 + self.fcx * s + self.fdx * (r1 + L * cb) + self.fdy * L * sb
+                 + 0.5 * (self.fex * s + self.fey * lam1) + self.ffy * lam2)
 
     def stiffness(self, k) -> tuple:
         """Unique entries of ``d2V/dq2`` (floats or arrays)."""

@@ -161,10 +161,10 @@ class Class2Dynamic:
         """Append samples at increasing ``times`` to ``out``."""
         states: list = []
         try:
-            self.stepper.record(times, states)
+            self.stepper.record(times, states, lambda: self.model._bits)
         finally:
-            bits, forces = self.model._bits, self.model.drive.forces
-            out.extend((t, y, bits, forces(t, y.tolist())) for t, y in states)
+            forces = self.model.drive.forces
+            out.extend((t, y, bits, forces(t, y.tolist())) for t, y, bits in states)
 
     def observe(self, samples) -> dict:
         return observe_class2(self.scene, self.model.effects, samples, inertia=True)

@@ -181,11 +181,7 @@ class GeneralDynamic:
         return self.stepper.t, self.stepper.y.copy(), self.model.R_ref.copy()
 
     def record(self, times, out: list) -> None:
-        states: list = []
-        try:
-            self.stepper.record(times, states)
-        finally:
-            out.extend((t, y, self.model.R_ref.copy()) for t, y in states)
+        self.stepper.record(times, out, lambda: self.model.R_ref.copy())
 
     def names(self) -> dict:
         s = self.structure

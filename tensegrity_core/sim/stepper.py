@@ -192,9 +192,10 @@ class Stepper:
         y_new = self.model.handle_event(ev, te, y_e)
         self.restart(te, y_new)
 
-    def record(self, times, out: list) -> None:
-        """Append ``(t, y)`` for increasing ``times`` to ``out``: advance to each time, and
-        interpolate every time the current step covers in one vectorised call."""
+    def record(self, times, out: list, tag=lambda: None) -> None:
+        """Append ``(t, y, tag())`` for increasing ``times`` to ``out``: advance to each time,
+        and interpolate every time the current step covers in one vectorised call. ``tag`` is
+        evaluated per step (e.g. the model's contact mode, constant within a step)."""
         i, n = 0, len(times)
         while i < n:
             self.advance(float(times[i]))
@@ -202,11 +203,12 @@ class Stepper:
             while j < n and times[j] <= self._seg[1]:
                 j += 1
             ts = np.asarray(times[i:j], dtype=float)
+            label = tag()
             if j - i == 1:
-                out.append((float(ts[0]), self.y.copy()))
+                out.append((float(ts[0]), self.y.copy(), label))
             else:
                 Y = self._dense(ts)
-                out.extend((float(t), Y[:, k].copy()) for k, t in enumerate(ts))
+                out.extend((float(t), Y[:, k].copy(), label) for k, t in enumerate(ts))
                 self.t, self.y = float(ts[-1]), Y[:, -1].copy()
             i = j
 
