@@ -70,6 +70,9 @@ FOLD_NEAR = 1e-3
 #: Newton iterations per trial point when locating an event; a trial that needs more (the
 #: stiffness nearly singular) counts as past the event.
 LOCATE_ITER = 6
+#: A path that cannot continue within this distance (relative to L) of lambda1 = 0 or
+#: lambda2 = 0 has reached the singular configuration rather than a limit point.
+SINGULAR_NEAR = 0.05
 #: Polishing steps larger than this (relative to L) are not taken (K nearly singular there).
 POLISH_LIMIT = 0.05
 
@@ -221,6 +224,11 @@ class Class2QuasiStatic:
             else:
                 scale = max(max(abs(K[a][a]) for a in free), 1e-12)
                 d = [-G[a] / scale for a in free]
+                if max(abs(x) for x in d) < 1e-6 * self.L:
+                    # (nearly) an unstable equilibrium: leave it along the most negative curvature
+                    w, V = np.linalg.eigh(np.array([[K[a][b] for b in free] for a in free]))
+                    sign = 1.0 if sum(G[a] * V[j, 0] for j, a in enumerate(free)) <= 0 else -1.0
+                    d = [sign * 1e-2 * self.L * V[j, 0] for j in range(len(free))]
             step = [0.0, 0.0, 0.0]
             for j, a in enumerate(free):
                 step[a] = d[j]
@@ -486,6 +494,15 @@ class Class2QuasiStatic:
         return q
 
     def _limit(self, t, q, why: str) -> None:
+        L = self.L
+        s = q[0] + q[1]
+        lam1, lam2 = math.sqrt(max((2 * L - s) * (2 * L + s), 0.0)), math.sqrt(max((L - q[0]) * (L + q[0]), 0.0))
+        if min(lam1, lam2) < SINGULAR_NEAR * L:
+            where = "rho1 + rho2 -> 2L: struts AE and CE flat" if lam1 < lam2 else "rho1 -> L: strut BF flat"
+            self.events.append((t, "singular", 0 if lam1 < lam2 else 1))
+            raise SimulationError(f"t = {t:.9g} s: the equilibrium path reaches the singular configuration "
+                                  f"({where}) at q = {np.array2string(np.asarray(q), precision=6)}, where the "
+                                  f"coordinates break down; the simulation stops here", t=t)
         self.events.append((t, "limit", 0))
         raise SimulationError(
             f"t = {t:.9g} s: no stable equilibrium continues the path beyond q = "
