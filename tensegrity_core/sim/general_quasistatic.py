@@ -5,8 +5,9 @@ actuators' current rest lengths), the dead loads and the weights, found by the s
 Newton form-finding restarted from the previous configuration (an increment, usually a
 few iterations, or none when nothing changed). When no stable equilibrium continues the
 path (a limit point: the structure would snap or collapse), the run stops with a
-:class:`SimulationError`. The rate ``dU/dt`` of the path follows from
-``K_T dU/dt = A_r diag(-EA l / l0^2) dl0/dt`` (differentiating the balance ``P = 0``).
+:class:`SimulationError`. The rate ``dU/dt`` of the path follows from differentiating the
+balance ``P = G^T f + w - A_r t = 0`` (the statics' Eq. 64) in time:
+``K_T dU/dt = -A_r diag(dt/dl0) dl0/dt`` with ``dt/dl0 = -EA l / l0^2`` for taut members.
 """
 
 from __future__ import annotations
@@ -121,7 +122,7 @@ class GeneralQuasiStatic:
         dt_dl0 = np.where(taut, -static.EA * lengths / static.rest_lengths**2, 0.0)
         A = equilibrium_matrix(static, config, sparse=True)
         K = tangent_stiffness(static, config, sparse=True)
-        return np.atleast_1d(spsolve(K.tocsc(), A @ (dt_dl0 * dl0)))
+        return np.atleast_1d(spsolve(K.tocsc(), -(A @ (dt_dl0 * dl0))))
 
     def observe(self, samples) -> dict:
         from tensegrity_core.sim.general_sim import minimal_coordinates
