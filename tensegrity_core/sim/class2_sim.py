@@ -130,6 +130,10 @@ class Class2Dynamic:
         return self.stepper.t
 
     @property
+    def state_names(self) -> tuple:
+        return self.model.state_names
+
+    @property
     def events(self) -> list:
         return self.stepper.event_log
 
