@@ -31,14 +31,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from tensegrity_core.class2.geometry import MEMBERS, NODE_NAMES
+from tensegrity_core.class2.geometry import MEMBERS
 from tensegrity_core.sim.class2_effects import ZERO_LENGTH_REL, context_array, spring_rates, spring_vectors
 
-#: The struts (member index, end node a, end node b) in MEMBERS order.
-STRUTS = tuple((i, *m.nodes) for i, m in enumerate(MEMBERS) if m.kind == "strut")
 #: Member indices of the springs in CD, DE, EF, BE order (the order of class2_effects).
 SPRING_ORDER = tuple(next(i for i, m in enumerate(MEMBERS) if m.name == n) for n in ("CD", "DE", "EF", "BE"))
-ACTUATORS = (0, 1)
 
 
 def node_positions(L: float, k) -> np.ndarray:
@@ -66,14 +63,6 @@ def node_accelerations(L: float, k, qdd) -> np.ndarray:
         np.stack([0.5 * sdd, -0.5 * e1 * sdd + 0.5 * eta1 * sd**2], -1),
         np.stack([z, -g2 * a1 + eta2 * v1**2], -1),
     ], -2)
-
-
-def member_lengths(L: float, q) -> np.ndarray:
-    """(N, 10) member lengths [m] in MEMBERS order."""
-    P = node_positions(L, context_array(L, q, np.zeros_like(q)))
-    a = np.array([m.nodes[0] for m in MEMBERS])
-    b = np.array([m.nodes[1] for m in MEMBERS])
-    return np.linalg.norm(P[:, b] - P[:, a], axis=-1)
 
 
 def member_forces(params, q, qdot, qdd, actuator_forces, *, springs: bool, damping: bool,
@@ -146,7 +135,3 @@ def member_forces(params, q, qdot, qdd, actuator_forces, *, springs: bool, dampi
     t[:, 4] = N1 - 0.5 * np.sum(w1 * u1, -1)                   # AE
     t[:, 9] = N2 - 0.5 * np.sum(w2 * u2, -1)                   # CE
     return t
-
-
-def node_names() -> tuple:
-    return NODE_NAMES

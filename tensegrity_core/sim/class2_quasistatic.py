@@ -46,15 +46,15 @@ import numpy as np
 
 from tensegrity_core.sim import class2_effects as fx
 from tensegrity_core.sim.class2_model import build_force_effects
+from tensegrity_core.sim.backend import Commands
 from tensegrity_core.sim.class2_sim import (
-    check_command,
     generalized_static_force,
     initial_configuration,
     observe_class2,
     runtime_laws,
 )
 from tensegrity_core.sim.errors import SimulationError
-from tensegrity_core.sim.inputs import HeldCommand, next_breakpoint
+from tensegrity_core.sim.inputs import next_breakpoint
 
 #: Coordinates not held, per contact mode (bit i set: actuator i held at zero length).
 MODE_FREE = {0: (0, 1, 2), 1: (1, 2), 2: (0, 2), 3: (2,)}
@@ -116,7 +116,7 @@ def _det3(K) -> float:
             + K[0][2] * (K[1][0] * K[2][1] - K[1][1] * K[2][0]))
 
 
-class Class2QuasiStatic:
+class Class2QuasiStatic(Commands):
     """Back end: the equilibrium path of a class-2 scene without inertia."""
 
     kind = "class2"
@@ -510,18 +510,8 @@ class Class2QuasiStatic:
             f"exceed what the springs can resist); the mechanism would snap, which needs inertia", t=t)
 
     # -- simulator interface ---------------------------------------------------------------------------
-    @property
-    def command(self) -> list:
-        return [law.value if isinstance(law, HeldCommand) else math.nan for law in self.laws]
-
     def set_command(self, values) -> None:
-        vals = check_command(values, self.laws, self.actuator_names)
-        changed = False
-        for law, v in zip(self.laws, vals):
-            if isinstance(law, HeldCommand) and law.value != v:
-                law.value = v
-                changed = True
-        if changed:
+        if self.take_command(values):
             q, bits = self._state_at(self.t)
             q_new, new_bits = self._minimise(q, self.t, bits)
             if max(abs(a - b) for a, b in zip(q_new, q)) > 1e-9 * self.L:

@@ -18,9 +18,9 @@ from tensegrity_core.sim import class2_effects as fx
 from tensegrity_core.sim import class2_members
 from tensegrity_core.sim.class2_inertia import Inertia
 from tensegrity_core.sim.class2_model import Class2Model, build_force_effects
-from tensegrity_core.sim.errors import SceneError, SimulationError
+from tensegrity_core.sim.backend import Integrated
+from tensegrity_core.sim.errors import SceneError
 from tensegrity_core.sim.inputs import HeldCommand, next_breakpoint
-from tensegrity_core.sim.stepper import Stepper
 
 MEMBER_NAMES = tuple(m.name for m in MEMBERS)
 MEMBER_NODES = np.array([m.nodes for m in MEMBERS])
@@ -84,21 +84,7 @@ def runtime_laws(scene, hold) -> list:
     return laws
 
 
-def check_command(values, laws, names) -> list:
-    """Validate a command vector (one value per actuator); returns the floats."""
-    try:
-        vals = [float(v) for v in values]
-    except (TypeError, ValueError):
-        raise SimulationError(f"command must be {len(laws)} numbers ({', '.join(names)}), got {values!r}") from None
-    if len(vals) != len(laws):
-        raise SimulationError(f"command must have {len(laws)} values ({', '.join(names)}), got {len(vals)}")
-    for name, v in zip(names, vals):
-        if not math.isfinite(v):
-            raise SimulationError(f"command for {name} must be finite, got {v!r}")
-    return vals
-
-
-class Class2Dynamic:
+class Class2Dynamic(Integrated):
     """Back end: the class-2 equations of motion with the scene's effects."""
 
     kind = "class2"
@@ -122,37 +108,7 @@ class Class2Dynamic:
         if method == "auto":
             method = "Radau" if "actuator_compliance" in scene.effects else "DOP853"
         self.method = method
-        self.stepper = Stepper(self.model, 0.0, y0, method=method, rtol=scene.integrator.rtol,
-                               atol=scene.integrator.atol, max_step=scene.integrator.max_step, t_end=t_end)
-
-    @property
-    def t(self) -> float:
-        return self.stepper.t
-
-    @property
-    def state_names(self) -> tuple:
-        return self.model.state_names
-
-    @property
-    def events(self) -> list:
-        return self.stepper.event_log
-
-    @property
-    def command(self) -> list:
-        return [law.value if isinstance(law, HeldCommand) else math.nan for law in self.laws]
-
-    def set_command(self, values) -> None:
-        vals = check_command(values, self.laws, self.actuator_names)
-        changed = False
-        for law, v in zip(self.laws, vals):
-            if isinstance(law, HeldCommand) and law.value != v:
-                law.value = v
-                changed = True
-        if changed:
-            self.stepper.restart(self.stepper.t, self.stepper.y)
-
-    def advance(self, t: float) -> None:
-        self.stepper.advance(t)
+        self.start_stepper(y0, t_end=t_end)
 
     def sample(self) -> tuple:
         """What an observation needs at the current time: ``(t, y, mode bits, T (2,))``."""
@@ -172,11 +128,6 @@ class Class2Dynamic:
 
     def observe(self, samples) -> dict:
         return observe_class2(self.scene, self.model.effects, samples, inertia=True)
-
-    def stats(self) -> dict:
-        st = self.stepper
-        return {"method": self.method, "steps": st.n_steps, "nfev": st.nfev, "restarts": st.n_restarts - 1,
-                "events": st.n_events}
 
 
 def observe_class2(scene, effects, samples, *, inertia: bool, contact=None) -> dict:

@@ -64,29 +64,28 @@ def cross(a, b) -> np.ndarray:
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], -1)
 
 
-def left_jacobian_inverse(theta) -> np.ndarray:
-    """``J_l(theta)^-1`` (..., 3, 3): ``dtheta/dt = J_l^-1 omega`` for ``R = exp(hat(theta)) R_ref``."""
+def _angle(theta) -> tuple:
+    """``(|theta|^2, |theta|, small-angle mask, safe |theta|, hat(theta))`` over ``(..., 3)``."""
     theta = np.asarray(theta, dtype=float)
     a2 = np.sum(theta * theta, axis=-1)
     a = np.sqrt(a2)
     small = a < 1e-4
-    safe = np.where(small, 1.0, a)
-    coef = np.where(small, 1.0 / 12.0 + a2 / 720.0,
-                    (1.0 / safe**2) - (1.0 + np.cos(safe)) / (2.0 * safe * np.sin(np.where(small, 1.0, safe))))
-    K = hat(theta)
+    return a2, a, small, np.where(small, 1.0, a), hat(theta)
+
+
+def left_jacobian_inverse(theta) -> np.ndarray:
+    """``J_l(theta)^-1`` (..., 3, 3): ``dtheta/dt = J_l^-1 omega`` for ``R = exp(hat(theta)) R_ref``
+    (series below 1e-4 rad)."""
+    a2, _, small, safe, K = _angle(theta)
+    coef = np.where(small, 1.0 / 12.0 + a2 / 720.0, 1.0 / safe**2 - (1.0 + np.cos(safe)) / (2.0 * safe * np.sin(safe)))
     return np.eye(3) - 0.5 * K + coef[..., None, None] * (K @ K)
 
 
 def left_jacobian(theta) -> np.ndarray:
     """``J_l(theta)`` (..., 3, 3): ``omega = J_l dtheta/dt``."""
-    theta = np.asarray(theta, dtype=float)
-    a2 = np.sum(theta * theta, axis=-1)
-    a = np.sqrt(a2)
-    small = a < 1e-4
-    safe = np.where(small, 1.0, a)
+    a2, _, small, safe, K = _angle(theta)
     c1 = np.where(small, 0.5 - a2 / 24.0, (1.0 - np.cos(safe)) / safe**2)
     c2 = np.where(small, 1.0 / 6.0 - a2 / 120.0, (safe - np.sin(safe)) / safe**3)
-    K = hat(theta)
     return np.eye(3) + c1[..., None, None] * K + c2[..., None, None] * (K @ K)
 
 

@@ -12,40 +12,35 @@ balance ``P = G^T f + w - A_r t = 0`` (the statics' Eq. 64) in time:
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from scipy.sparse.linalg import spsolve
 
 from tensegrity_core.general.statics import equilibrium_matrix, member_forces, member_lengths, potential_energy
 from tensegrity_core.general.stiffness import tangent_stiffness
-from tensegrity_core.sim.errors import SceneError, SimulationError
+from tensegrity_core.sim.errors import SimulationError
 from tensegrity_core.sim.general_sim import (
+    coordinates,
     equilibrium,
     finish_observations,
     initial_configuration,
+    prepare_inputs,
     rest_lengths_function,
-    runtime_laws,
     scene_loads,
     static_structure,
 )
-from tensegrity_core.sim.inputs import HeldCommand
+from tensegrity_core.sim.backend import Commands
 
 
-class GeneralQuasiStatic:
+class GeneralQuasiStatic(Commands):
     """Back end: the equilibrium path of a general structure."""
 
     kind = "general"
     quasi_static = True
+    positive = True
 
     def __init__(self, scene):
-        self.scene = scene
-        s = scene.model.structure
-        self.structure = s
-        if "springs" not in scene.effects:
-            raise SceneError("a general structure needs 'springs' (its members' elastic forces)", key=("effects",))
-        self.laws = runtime_laws(scene)
-        self.actuator_names = tuple(scene.inputs)
+        prepare_inputs(self, scene)
+        s = self.structure
         self.rest_of = rest_lengths_function(scene, self.laws)
         self.loads = scene_loads(scene)
         self.events: list = []
@@ -66,20 +61,9 @@ class GeneralQuasiStatic:
         self.n_solves += 1
         return equilibrium(self._static, x0, what=what, t=t)
 
-    @property
-    def command(self) -> list:
-        return [law.value if isinstance(law, HeldCommand) else math.nan for law in self.laws]
-
     def set_command(self, values) -> None:
-        from tensegrity_core.sim.class2_sim import check_command
-
-        vals = check_command(values, self.laws, self.actuator_names)
-        for law, v in zip(self.laws, vals):
-            if isinstance(law, HeldCommand):
-                if not v > 0:
-                    raise SimulationError(f"commanded rest length must be > 0, got {v!r}")
-                law.value = v
-        self._update(self.t)
+        if self.take_command(values):
+            self._update(self.t)
 
     def _update(self, t: float) -> None:
         l0 = self._rest(t)
@@ -131,12 +115,7 @@ class GeneralQuasiStatic:
                                 "member_forces", "potential_energy", "kinetic_energy")}
         lay = self.structure.layout
         for t, config, static in samples:
-            x = np.zeros(lay.n_dof)
-            free = lay.free_index >= 0
-            x[lay.free_index[free]] = config.coords[free]
-            if lay.body_dof.size:
-                x[lay.body_dof[:, None] + np.arange(3)[None, :]] = config.centres
-            q = minimal_coordinates(lay, x, config.rotations)
+            q = minimal_coordinates(lay, coordinates(config), config.rotations)
             rows["t"].append(t)
             rows["state"].append(q)
             rows["q"].append(q)

@@ -18,10 +18,10 @@ from scipy.spatial.transform import Rotation
 from tensegrity_core.general.configuration import Configuration
 from tensegrity_core.general.formfind import form_find
 from tensegrity_core.general.statics import potential_energy
+from tensegrity_core.sim.backend import Integrated
 from tensegrity_core.sim.errors import SceneError, SimulationError
 from tensegrity_core.sim.general_model import GeneralModel, NodalMasses
 from tensegrity_core.sim.inputs import HeldCommand, next_breakpoint
-from tensegrity_core.sim.stepper import Stepper
 
 
 def scene_loads(scene):
@@ -103,6 +103,29 @@ def rest_lengths_function(scene, laws):
     return rest_lengths
 
 
+def prepare_inputs(backend, scene) -> None:
+    """Set ``structure``, ``laws`` and ``actuator_names`` of a general back end (and check that
+    the members are simulated at all)."""
+    if "springs" not in scene.effects:
+        raise SceneError("a general structure needs 'springs' (its members' elastic forces)", key=("effects",))
+    backend.scene = scene
+    backend.structure = scene.model.structure
+    backend.laws = runtime_laws(scene)
+    backend.actuator_names = tuple(scene.inputs)
+
+
+def coordinates(config) -> np.ndarray:
+    """The minimal coordinate ``U`` of a configuration with every body's rotation vector 0
+    (free node coordinates and body centres)."""
+    lay = config.structure.layout
+    x = np.zeros(lay.n_dof)
+    free = lay.free_index >= 0
+    x[lay.free_index[free]] = config.coords[free]
+    if lay.body_dof.size:
+        x[lay.body_dof[:, None] + np.arange(3)[None, :]] = config.centres
+    return x
+
+
 def initial_configuration(scene) -> Configuration:
     s = scene.model.structure
     if scene.initial.kind == "drawn":
@@ -114,67 +137,26 @@ def initial_configuration(scene) -> Configuration:
                        "preload)")
 
 
-class GeneralDynamic:
+class GeneralDynamic(Integrated):
     """Back end: nodal / rigid-body dynamics of a general structure."""
 
     kind = "general"
     quasi_static = False
+    positive = True
 
     def __init__(self, scene, *, t_end: float = math.inf):
-        self.scene = scene
-        s = scene.model.structure
-        self.structure = s
-        if "springs" not in scene.effects:
-            raise SceneError("a general structure needs 'springs' (its members' elastic forces)", key=("effects",))
-        self.laws = runtime_laws(scene)
-        self.actuator_names = tuple(scene.inputs)
+        prepare_inputs(self, scene)
+        s = self.structure
         config = initial_configuration(scene)
-        lay = s.layout
-        x0 = np.zeros(lay.n_dof)
-        free = lay.free_index >= 0
-        x0[lay.free_index[free]] = config.coords[free]
-        if lay.body_dof.size:
-            x0[lay.body_dof[:, None] + np.arange(3)[None, :]] = config.centres
+        x0 = coordinates(config)
         rest = rest_lengths_function(scene, self.laws)
         self.model = GeneralModel(s, masses=NodalMasses(s), damping=member_damping(scene),
                                   gravity=scene_gravity(scene), loads=scene_loads(scene), rest_lengths_of=rest,
                                   actuators=scene.model.actuators, x0=x0, R_ref=config.rotations)
         self.model.next_breakpoint = lambda t: next_breakpoint(self.laws, t, math.inf)
-        self.state_names = self.model.state_names
         method = scene.integrator.method
         self.method = "Radau" if method == "auto" else method
-        y0 = np.concatenate([x0, np.zeros(lay.n_dof)])
-        self.stepper = Stepper(self.model, 0.0, y0, method=self.method, rtol=scene.integrator.rtol,
-                               atol=scene.integrator.atol, max_step=scene.integrator.max_step, t_end=t_end)
-
-    @property
-    def t(self) -> float:
-        return self.stepper.t
-
-    @property
-    def events(self) -> list:
-        return self.stepper.event_log
-
-    @property
-    def command(self) -> list:
-        return [law.value if isinstance(law, HeldCommand) else math.nan for law in self.laws]
-
-    def set_command(self, values) -> None:
-        from tensegrity_core.sim.class2_sim import check_command
-
-        vals = check_command(values, self.laws, self.actuator_names)
-        changed = False
-        for law, v in zip(self.laws, vals):
-            if isinstance(law, HeldCommand) and law.value != v:
-                if not v > 0:
-                    raise SimulationError(f"commanded rest length must be > 0, got {v!r}")
-                law.value = v
-                changed = True
-        if changed:
-            self.stepper.restart(self.stepper.t, self.stepper.y)
-
-    def advance(self, t: float) -> None:
-        self.stepper.advance(t)
+        self.start_stepper(np.concatenate([x0, np.zeros(len(x0))]), t_end=t_end)
 
     def sample(self) -> tuple:
         # the rotation chart may be re-anchored later: keep this sample's reference orientation
@@ -217,10 +199,6 @@ class GeneralDynamic:
             model.R_ref = saved
         return finish_observations(rows, self.scene)
 
-    def stats(self) -> dict:
-        st = self.stepper
-        return {"method": self.method, "steps": st.n_steps, "nfev": st.nfev, "restarts": st.n_restarts - 1,
-                "events": st.n_events}
 
 
 def minimal_coordinates(layout, x, R) -> np.ndarray:

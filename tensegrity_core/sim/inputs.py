@@ -32,8 +32,6 @@ INTERPOLATIONS = ("linear", "previous", "cubic")
 class _TimeLaw:
     """Shared parts of the laws that depend on time only."""
 
-    state_dependent = False
-
     def potential(self, t: float, length: float) -> float:
         return self.value_at(t, length) * length
 
@@ -41,12 +39,9 @@ class _TimeLaw:
         return 0.0
 
 
-@dataclass(frozen=True)
-class Constant(_TimeLaw):
-    """``u(t) = value``."""
+class _ConstantValue(_TimeLaw):
+    """A law whose value is the attribute ``value``."""
 
-    value: float
-    law = "constant"
     breakpoints = ()
 
     def value_at(self, t: float, length: float) -> float:
@@ -58,6 +53,14 @@ class Constant(_TimeLaw):
     def arrays(self, t, length) -> tuple:
         z = np.zeros(np.broadcast(t, length).shape)
         return z + self.value, z, z
+
+
+@dataclass(frozen=True)
+class Constant(_ConstantValue):
+    """``u(t) = value``."""
+
+    value: float
+    law = "constant"
 
 
 @dataclass(frozen=True)
@@ -100,7 +103,6 @@ class Proportional:
     gain: float
     law = "proportional"
     breakpoints = ()
-    state_dependent = True
 
     def value_at(self, t: float, length: float) -> float:
         return self.gain * length * t
@@ -183,29 +185,14 @@ class Commanded:
     law = "commanded"
 
 
-LAWS = {"constant": Constant, "ramp": Ramp, "proportional": Proportional, "series": Series,
-        "commanded": Commanded}
-
-
-class HeldCommand(_TimeLaw):
+class HeldCommand(_ConstantValue):
     """The run-time form of a commanded input: a value that only changes when the simulator
     is given a new command (then the integrator restarts)."""
 
     law = "commanded"
-    breakpoints = ()
 
     def __init__(self, value: float):
         self.value = float(value)
-
-    def value_at(self, t: float, length: float) -> float:
-        return self.value
-
-    def d_time(self, t: float, length: float) -> float:
-        return 0.0
-
-    def arrays(self, t, length) -> tuple:
-        z = np.zeros(np.broadcast(t, length).shape)
-        return z + self.value, z, z
 
 
 def next_breakpoint(laws, t: float, t_end: float) -> float:
