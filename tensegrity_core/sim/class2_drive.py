@@ -7,11 +7,13 @@ Signal chain of actuator ``i`` (forces in N, tension positive):
    ``df_i/dt = (u_i - f_i) / tau``; without it ``f_i = u_i``;
 3. with **actuator compliance** the source drives the mechanism through a stiff spring
    ``k_a`` in series: the drive of length ``x_i`` has viscous loss ``c_d`` (a force source
-   with back-EMF damping), the spring's elongation ``e_i = rho_i - x_i`` is a state and
-   carries ``T_i = k_a e_i``. Massless junction: ``f_i - c_d dx_i/dt = T_i``, so
-   ``de_i/dt = drho_i/dt - (f_i - k_a e_i) / c_d``. Its eigenvalue ``-k_a/c_d`` makes the
-   system stiff; for ``k_a -> inf`` the mechanism sees ``f_i - c_d drho_i/dt``.
-   Without compliance ``T_i = f_i``.
+   with back-EMF damping: its friction resists its own extension and contraction), the
+   spring's elongation ``e_i = rho_i - x_i`` is a state and carries ``T_i = k_a e_i``. The
+   junction is massless, so the tension is the same along the chain:
+   ``T_i = f_i + c_d dx_i/dt``, hence ``de_i/dt = drho_i/dt + (f_i - k_a e_i) / c_d``. Its
+   eigenvalue ``-k_a/c_d`` makes the system stiff; for ``k_a -> inf`` the mechanism sees
+   ``f_i + c_d drho_i/dt`` (the drive's loss damps the actuator's motion). Without
+   compliance ``T_i = f_i``.
 
 ``T_i`` is the force the actuator applies to the mechanism (generalised force ``-T_i`` on
 ``rho_i``). Extra states follow ``q, qdot`` in the state vector: lag forces, then elongations.
@@ -65,7 +67,7 @@ class Drive:
             src = self.sources
             def elongation_rates(t, y):
                 f1, f2 = src(t, y)
-                return (y[3] - (f1 - ka * y[ie]) * inv_cd, y[4] - (f2 - ka * y[ie + 1]) * inv_cd)
+                return (y[3] + (f1 - ka * y[ie]) * inv_cd, y[4] + (f2 - ka * y[ie + 1]) * inv_cd)
             parts.append(elongation_rates)
         if not parts:
             return lambda t, y: ()
@@ -103,11 +105,11 @@ class Drive:
             lag = (du - dsrc) / self.tau
             rows.append(lag)
         if self.i_el is not None:
-            el = -dsrc / self.cd
+            el = dsrc / self.cd
             el[0, 3] += 1.0
             el[1, 4] += 1.0
-            el[0, self.i_el] += self.ka / self.cd
-            el[1, self.i_el + 1] += self.ka / self.cd
+            el[0, self.i_el] -= self.ka / self.cd
+            el[1, self.i_el + 1] -= self.ka / self.cd
             rows.append(el)
             dT = np.zeros((2, n))
             dT[0, self.i_el] = dT[1, self.i_el + 1] = self.ka

@@ -67,6 +67,9 @@ FOLD_EPS = 1e-12
 #: A branch that ends (limit point) this close to an actuator's zero length (relative to L)
 #: ends at the fold.
 FOLD_NEAR = 1e-3
+#: Events are located to this fraction of the continuation step (a step is at most a quarter
+#: of the run in scaled arc length, so event times are exact to ~1e-8 of the duration).
+LOCATE_TOL = 1e-7
 #: Newton iterations per trial point when locating an event; a trial that needs more (the
 #: stiffness nearly singular) counts as past the event.
 LOCATE_ITER = 6
@@ -410,7 +413,7 @@ class Class2QuasiStatic(Commands):
         g_hi, p_hi = g(out), out
         side = 0
         for _ in range(60):
-            if hi - lo <= 1e-10 * ds:
+            if hi - lo <= LOCATE_TOL * ds:
                 break
             if g_hi == -1.0 or g_lo <= 0.0:
                 x = 0.5 * (lo + hi)
@@ -574,8 +577,8 @@ class Class2QuasiStatic(Commands):
         """:meth:`_state_at` for an array of times in the current segment (vectorised)."""
         t0, t1, q1, z0, z1, v0, v1, ds = self._seg
         q = np.tile(np.asarray(q1, dtype=float), (len(times), 1))
-        if t1 <= t0:
-            return q
+        if t1 <= t0 or (z0[:-1] == z1[:-1] and not any(v0[:-1]) and not any(v1[:-1])):
+            return q                                       # a point, or a path standing still
         z0, z1, v0, v1 = (np.asarray(a, dtype=float) for a in (z0, z1, v0, v1))
         tau = np.minimum(times, t1) / self.T
         c = np.array([z0[-1], ds * v0[-1], z1[-1], ds * v1[-1]])

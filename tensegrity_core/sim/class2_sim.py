@@ -37,13 +37,14 @@ def generalized_static_force(effects, L: float, q) -> np.ndarray:
 
 
 def equilibrium_angle(effects, params, rho1: float, rho2: float) -> float:
-    """The stable ``beta`` for locked actuators under the listed conservative effects.
+    """The stable ``beta`` for locked actuators under the springs and gravity (the scene's
+    loads act from ``t = 0`` on, they are not part of the initial equilibrium).
 
     Starts at the springs' closed-form minimum (:func:`equilibrium_beta`) and runs Newton on
-    ``Q3(beta) = 0`` when gravity or loads also act on beta."""
+    ``Q3(beta) = 0`` when gravity also acts on beta."""
     beta = float(equilibrium_beta(rho1, rho2, params))
-    conservative = [e for e in effects if e.name != "damping"]
-    if not any(e.name in ("gravity", "loads") for e in conservative):
+    conservative = [e for e in effects if e.name in ("springs", "gravity")]
+    if not any(e.name == "gravity" for e in conservative):
         return beta
     zero = np.zeros(3)
     for _ in range(50):
@@ -52,7 +53,8 @@ def equilibrium_angle(effects, params, rho1: float, rho2: float) -> float:
         K = -sum(e.jacobian(q, zero)[0] for e in conservative)[2, 2]
         if K <= 0:
             raise SceneError(f"no stable equilibrium angle beta near {beta:.6g} rad for rho1 = {rho1:g} m, "
-                             f"rho2 = {rho2:g} m under the listed loads (d2V/dbeta2 = {K:.3g})", key=("initial",))
+                             f"rho2 = {rho2:g} m under the springs and gravity (d2V/dbeta2 = {K:.3g} <= 0: the "
+                             f"springs cannot hold the struts' weight)", key=("initial",))
         step = Q3 / K
         beta += step
         if abs(step) < 1e-14:

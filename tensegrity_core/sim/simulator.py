@@ -150,7 +150,8 @@ class Simulator:
 
 
 def simulate(scene, *, duration: float | None = None, progress=None) -> Trajectory:
-    """Run a whole scene and return its :class:`Trajectory` at the scene's output rate.
+    """Run a whole scene and return its :class:`Trajectory` at the scene's output rate (and at
+    the end time when that is not on the output grid).
 
     ``duration`` overrides the scene's; ``progress(t, duration)`` is called after every
     output sample (e.g. to update a progress bar). Commanded inputs hold their initial value.
@@ -162,6 +163,9 @@ def simulate(scene, *, duration: float | None = None, progress=None) -> Trajecto
     sim = Simulator(scene, t_end=scene.duration)
     n = int(math.floor(scene.duration * scene.output_rate * (1 + 1e-12))) + 1
     times = np.arange(n) / scene.output_rate
+    if times[-1] < scene.duration * (1 - 1e-12):         # the run always ends at its duration
+        times = np.append(times, scene.duration)
+        n += 1
     samples = []
     error = None
     chunk = max(1, n // 50)                             # progress in 2 % steps

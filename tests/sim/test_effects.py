@@ -165,8 +165,9 @@ def test_actuator_lag_follows_the_command_with_its_time_constant(tmp_path):
     np.testing.assert_allclose(traj.states[:, 6], expected, atol=1e-9)
 
 
-def test_stiff_actuator_compliance_tends_to_the_force_minus_the_drive_damping():
-    """With k_a -> inf the compliant drive transmits f - c_d drho/dt (singular perturbation)."""
+def test_stiff_actuator_compliance_tends_to_the_force_plus_the_drive_damping():
+    """With k_a -> inf the compliant drive transmits f + c_d drho/dt (singular perturbation:
+    the drive's friction resists the actuator's motion, so it damps the mechanism)."""
     cd = 0.5
     scene = class2_scene(effects=["inertia", "springs", "damping",
                                   {"actuator_compliance": {"stiffness": 1e7, "drive_damping": cd}}],
@@ -175,12 +176,30 @@ def test_stiff_actuator_compliance_tends_to_the_force_minus_the_drive_damping():
     p = scene.model.params
     dyn = Class2Dynamics(p)
     b = float(equilibrium_beta(0.7, 0.7, p))
-    ref = solve_ivp(lambda t, y: dyn.rhs(t, y, 10 * y[0] * t - cd * y[3], 10 * y[1] * t - cd * y[4]), (0, 1.2),
+    ref = solve_ivp(lambda t, y: dyn.rhs(t, y, 10 * y[0] * t + cd * y[3], 10 * y[1] * t + cd * y[4]), (0, 1.2),
                     [0.7, 0.7, b, 0, 0, 0], method="DOP853", rtol=1e-12, atol=1e-14, dense_output=True)
     deviation = np.abs(traj.states[:, :6] - ref.sol(traj.times).T).max()
     assert deviation < 1e-5                       # O(c_d / k_a) with k_a / c_d = 2e7 1/s
     plain = simulate(class2_scene(duration=1.2))
     assert np.abs(plain.states[:, :6] - traj.states[:, :6]).max() > 1e-2   # the drive damping matters
+
+
+def test_the_compliant_drive_is_stable_for_an_explicit_method_too():
+    """The elongation's own eigenvalue is -k_a/c_d: an explicit method with steps inside its
+    stability region follows the implicit solution (a sign error would make it blow up)."""
+    effects = ["inertia", "springs", "damping", {"actuator_compliance": {"stiffness": 1e4, "drive_damping": 1.0}}]
+    implicit = simulate(class2_scene(effects=effects, duration=0.5,
+                                     integrator={"method": "Radau", "rtol": 1e-9, "atol": 1e-12}))
+    explicit = simulate(class2_scene(effects=effects, duration=0.5,
+                                     integrator={"method": "RK45", "rtol": 1e-9, "atol": 1e-12, "max_step": 1e-4}))
+    assert explicit.success and np.abs(explicit.states - implicit.states).max() < 1e-6
+    from tensegrity_core.sim.class2_model import Class2Model
+    from tensegrity_core.sim.class2_sim import runtime_laws
+
+    scene = class2_scene(effects=effects)
+    model = Class2Model(scene, runtime_laws(scene, (0.0, 0.0)))
+    J = model.jac(0.3, np.array([0.6, 0.6, 0.8, 0.1, -0.1, 0.2, 0.01, 0.02]))
+    assert J[6, 6] == J[7, 7] == pytest.approx(-1e4)
 
 
 def test_sensor_noise_has_the_listed_sigma_and_is_reproducible():
