@@ -46,6 +46,8 @@ def plot_trajectory(traj, path) -> Path:
             for k in range(traj.contact_forces.shape[1]):
                 ax.plot(t, traj.contact_forces[:, k], "--", label=f"contact force {k + 1} [N]")
         ax.legend(loc="best", fontsize=8)
+    else:
+        ax.text(0.5, 0.5, "no actuators", ha="center", va="center", transform=ax.transAxes)
     ax.set_title("actuator inputs" + (" and fold-limit contact forces" if class2 else " (rest lengths)"))
     ax = axes[3]
     names = list(traj.member_names)
