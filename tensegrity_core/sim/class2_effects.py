@@ -171,11 +171,6 @@ class Springs:
         d = spring_vectors(self.L, k)
         return 0.5 * sum(kj * (dx * dx + dy * dy) for kj, (dx, dy) in zip(self.k, d))
 
-    def tensions(self, k) -> tuple:
-        """Spring forces [N] (tension +) in CD, DE, EF, BE order."""
-        d = spring_vectors(self.L, k)
-        return tuple(kj * _hypot(dx, dy) for kj, (dx, dy) in zip(self.k, d))
-
     def stiffness(self, k) -> tuple:
         """Unique entries ``(K11, K12, K13, K22, K23, K33)`` of ``d2U/dq2`` (floats or arrays).
 
@@ -226,13 +221,6 @@ class Damping:
             F.append((phi * dx, phi * dy))
         q1, q2, q3 = map_spring_forces(L, k, F)
         return -q1, -q2, -q3
-
-    def tensions(self, k) -> tuple:
-        """Damper forces ``c_j dL_j/dt`` [N] (tension +) in CD, DE, EF, BE order."""
-        d = spring_vectors(self.L, k)
-        dd = spring_rates(self.L, k)
-        return tuple(cj * (dx * ux + dy * uy) / math.sqrt(dx * dx + dy * dy + self.eps2)
-                     for cj, (dx, dy), (ux, uy) in zip(self.c, d, dd))
 
     def jacobian(self, q, qdot):
         """``(dQ/dq, dQ/dqdot)``: ``Q = -H(q) qdot`` with ``H = sum c_j g_j g_j^T / n_j``,
@@ -350,7 +338,3 @@ def stiffness_matrix(entries) -> np.ndarray:
 
 def _minus_matrix(entries) -> np.ndarray:
     return -stiffness_matrix(entries)
-
-
-def _hypot(x, y):
-    return np.sqrt(x * x + y * y) if isinstance(x, np.ndarray) else math.sqrt(x * x + y * y)

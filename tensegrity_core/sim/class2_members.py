@@ -41,28 +41,31 @@ SPRING_ORDER = tuple(next(i for i, m in enumerate(MEMBERS) if m.name == n) for n
 def node_positions(L: float, k) -> np.ndarray:
     """(N, 6, 2) node positions from an array context."""
     r1, _, sb, cb, _, _, _, s, lam1, lam2, _, _ = k
-    z = np.zeros_like(r1)
-    return np.stack([np.stack([z, z], -1), np.stack([r1, z], -1), np.stack([s, z], -1),
-                     np.stack([r1 + L * cb, L * sb], -1), np.stack([0.5 * s, 0.5 * lam1], -1),
-                     np.stack([z, lam2], -1)], -2)
+    P = np.zeros((np.size(r1), 6, 2))
+    P[:, 1, 0] = r1
+    P[:, 2, 0] = s
+    P[:, 3, 0] = r1 + L * cb
+    P[:, 3, 1] = L * sb
+    P[:, 4, 0] = 0.5 * s
+    P[:, 4, 1] = 0.5 * lam1
+    P[:, 5, 1] = lam2
+    return P
 
 
 def node_accelerations(L: float, k, qdd) -> np.ndarray:
     """(N, 6, 2) node accelerations ``J qddot + qdot^T H qdot`` for accelerations ``qdd`` (N, 3)."""
     r1, _, sb, cb, v1, v2, vb, _, lam1, lam2, e1, g2 = k
     a1, a2, ab = qdd[:, 0], qdd[:, 1], qdd[:, 2]
-    eta1 = -4.0 * L * L / lam1**3
-    eta2 = -L * L / lam2**3
     sdd, sd = a1 + a2, v1 + v2
-    z = np.zeros_like(a1)
-    return np.stack([
-        np.stack([z, z], -1),
-        np.stack([a1, z], -1),
-        np.stack([sdd, z], -1),
-        np.stack([a1 - L * sb * ab - L * cb * vb**2, L * cb * ab - L * sb * vb**2], -1),
-        np.stack([0.5 * sdd, -0.5 * e1 * sdd + 0.5 * eta1 * sd**2], -1),
-        np.stack([z, -g2 * a1 + eta2 * v1**2], -1),
-    ], -2)
+    acc = np.zeros((len(a1), 6, 2))
+    acc[:, 1, 0] = a1
+    acc[:, 2, 0] = sdd
+    acc[:, 3, 0] = a1 - L * sb * ab - L * cb * vb**2
+    acc[:, 3, 1] = L * cb * ab - L * sb * vb**2
+    acc[:, 4, 0] = 0.5 * sdd
+    acc[:, 4, 1] = -0.5 * e1 * sdd + 0.5 * (-4.0 * L * L / lam1**3) * sd**2     # d2 lambda1/ds2 = -4L^2/lambda1^3
+    acc[:, 5, 1] = -g2 * a1 + (-L * L / lam2**3) * v1**2                      # d2 lambda2/drho1^2 = -L^2/lambda2^3
+    return acc
 
 
 def member_forces(params, q, qdot, qdd, actuator_forces, *, springs: bool, damping: bool,

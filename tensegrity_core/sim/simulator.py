@@ -90,7 +90,6 @@ class Simulator:
         self._noise = SensorNoise(noise.sigmas, self.scene.seed) if noise is not None else None
         self.kind = self._backend.kind
         self.quasi_static = self._backend.quasi_static
-        self.names = self._backend.names() if hasattr(self._backend, "names") else None
 
     @property
     def t(self) -> float:
