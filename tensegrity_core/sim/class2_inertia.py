@@ -1,0 +1,114 @@
+"""Inertia of the class-2 mechanism's struts, and the solve for accelerations in each contact mode.
+
+Four struts of mass ``m``, ``I = m L^2/12`` (the model of
+:mod:`tensegrity_core.class2.dynamics`, derived there with sympy)::
+
+    M = [[m + mu + b_F, mu, m13], [mu, mu, 0], [m13, 0, m L^2/3]]
+    mu = m/2 + 2 m L^2 / (3 lambda1^2),  b_F = m L^2 / (3 lambda2^2),  m13 = -(m L/2) sin b
+    C = (kappa1 sdot^2 + kappa2 rho1dot^2 - (m L/2) cos(b) bdot^2,  kappa1 sdot^2,  0)
+    kappa1 = 2 m L^2 s / (3 lambda1^4),  kappa2 = m L^2 rho1 / (3 lambda2^4)
+
+and ``M qddot + C = Q``. A *contact mode* is a bit set of actuators held at zero length by
+the fold limit (bit 0: rho1, bit 1: rho2). In a mode the held coordinates have zero
+acceleration and the contact force ``lambda_i`` [N] (pushing ``rho_i`` apart, compressive
+in the actuator) is the residual of their rows: ``lambda_S = (M qddot - Q + C)_S``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tensegrity_core.class2.params import Class2Params
+
+FREE, HOLD1, HOLD2, HOLD12 = 0, 1, 2, 3
+
+
+class Inertia:
+    """Mass matrix, velocity terms and the structured solves of the struts' inertia."""
+
+    name = "inertia"
+
+    def __init__(self, params: Class2Params):
+        m, L = params.m, params.L
+        self.m, self.L = m, L
+        self.half_m = 0.5 * m
+        self.half_mL = 0.5 * m * L
+        self.tt_mL2 = 2.0 * m * L * L / 3.0
+        self.t_mL2 = m * L * L / 3.0
+        self.inv_I3 = 3.0 / (m * L * L)
+        self.tq_m = 0.75 * m
+
+    def terms(self, k) -> tuple:
+        """``(M11, mu, m13, C1, C2)`` from a kinematic context (``M33 = m L^2/3`` is constant)."""
+        r1, _, sb, cb, v1, v2, vb, s, lam1, lam2, _, _ = k
+        il1 = 1.0 / (lam1 * lam1)
+        il2 = 1.0 / (lam2 * lam2)
+        mu = self.half_m + self.tt_mL2 * il1
+        sd = v1 + v2
+        c2 = self.tt_mL2 * s * il1 * il1 * sd * sd
+        c1 = c2 + self.t_mL2 * r1 * il2 * il2 * v1 * v1 - self.half_mL * cb * vb * vb
+        return self.m + mu + self.t_mL2 * il2, mu, -self.half_mL * sb, c1, c2
+
+    def solve(self, k, Q1: float, Q2: float, Q3: float, mode: int) -> tuple:
+        """Accelerations ``(a1, a2, a3)`` and contact forces ``(l1, l2)`` for generalised
+        forces ``Q`` in contact ``mode``."""
+        M11, mu, m13, c1, c2 = self.terms(k)
+        R1, R2, R3 = Q1 - c1, Q2 - c2, Q3
+        inv_I3 = self.inv_I3
+        if mode == FREE:
+            # M22 = M12 = mu, M23 = 0: the Schur complement of the rho1 row is >= m/4.
+            sb = k[2]
+            a1 = (R1 - R2 - m13 * R3 * inv_I3) / (M11 - mu - self.tq_m * sb * sb)
+            return a1, R2 / mu - a1, (R3 - m13 * a1) * inv_I3, 0.0, 0.0
+        if mode == HOLD1:
+            a2, a3 = R2 / mu, R3 * inv_I3
+            return 0.0, a2, a3, mu * a2 + m13 * a3 - R1, 0.0
+        if mode == HOLD2:
+            I3 = 1.0 / inv_I3
+            det = M11 * I3 - m13 * m13
+            a1 = (R1 * I3 - m13 * R3) / det
+            a3 = (M11 * R3 - m13 * R1) / det
+            return a1, 0.0, a3, 0.0, mu * a1 - R2
+        a3 = R3 * inv_I3
+        return 0.0, 0.0, a3, m13 * a3 - R1, -R2
+
+    def mass_matrix(self, k) -> np.ndarray:
+        M11, mu, m13, _, _ = self.terms(k)
+        return np.array([[M11, mu, m13], [mu, mu, 0.0], [m13, 0.0, 1.0 / self.inv_I3]])
+
+    def velocity_terms(self, k) -> np.ndarray:
+        _, _, _, c1, c2 = self.terms(k)
+        return np.array([c1, c2, 0.0])
+
+    def kinetic_energy(self, k):
+        """``T = 1/2 qdot^T M qdot`` [J] (floats or arrays)."""
+        _, _, sb, _, v1, v2, vb, _, lam1, lam2, _, _ = k
+        mu = self.half_m + self.tt_mL2 / (lam1 * lam1)
+        b_f = self.t_mL2 / (lam2 * lam2)
+        return 0.5 * (mu * (v1 + v2) ** 2 + (self.m + b_f) * v1 * v1 + self.t_mL2 * vb * vb) \
+            - self.half_mL * sb * v1 * vb
+
+    def jacobian_terms(self, k, a) -> tuple:
+        """``(dM/dq . a, dC/dq, dC/dqdot)``, each (3, 3), for accelerations ``a`` (3,):
+        column ``i`` of the first is ``(dM/dq_i) a``."""
+        r1, _, sb, cb, v1, v2, vb, s, lam1, lam2, _, _ = k
+        m, L = self.m, self.L
+        dmu = 4.0 * m * L * L * s / (3.0 * lam1**4)
+        dbf = 2.0 * m * L * L * r1 / (3.0 * lam2**4)
+        dm13 = -0.5 * m * L * cb
+        sa = a[0] + a[1]
+        dMa = np.array([[dmu * sa + dbf * a[0], dmu * sa, dm13 * a[2]],
+                        [dmu * sa, dmu * sa, 0.0],
+                        [0.0, 0.0, dm13 * a[0]]])
+        sd = v1 + v2
+        kappa1 = 2.0 * m * L * L * s / (3.0 * lam1**4)
+        kappa2 = m * L * L * r1 / (3.0 * lam2**4)
+        dk1 = 2.0 * m * L * L * (lam1**2 + 4.0 * s * s) / (3.0 * lam1**6)
+        dk2 = m * L * L * (lam2**2 + 4.0 * r1 * r1) / (3.0 * lam2**6)
+        dC_dq = np.array([[dk1 * sd * sd + dk2 * v1 * v1, dk1 * sd * sd, 0.5 * m * L * sb * vb * vb],
+                          [dk1 * sd * sd, dk1 * sd * sd, 0.0],
+                          [0.0, 0.0, 0.0]])
+        dC_dqd = np.array([[2.0 * (kappa1 * sd + kappa2 * v1), 2.0 * kappa1 * sd, -m * L * cb * vb],
+                           [2.0 * kappa1 * sd, 2.0 * kappa1 * sd, 0.0],
+                           [0.0, 0.0, 0.0]])
+        return dMa, dC_dq, dC_dqd

@@ -1,0 +1,206 @@
+"""Input laws of the actuators: what the scene's ``inputs`` section builds.
+
+For the class-2 mechanism an input is the actuator *force* [N], positive = tensile (the
+generalised force on ``rho_i`` is ``-f_i``, the paper's Eq. 48). For a general structure it
+is the *rest length* [m] of an actuator member. Each law gives
+
+- ``value_at(t, length)``: the input at time ``t`` [s] when the actuator has length ``length`` [m];
+- ``potential(t, length)``: ``int_0^length value_at(t, l) dl``, the actuator's potential at
+  frozen ``t`` (its generalised force ``-value`` is conservative in the length; the
+  quasi-static model minimises it together with the springs' energy);
+- ``d_length(t, length)`` and ``d_time(t, length)``: its partial derivatives (for the
+  integrator's Jacobian and the quasi-static path tangent);
+- ``arrays(t, length)``: value and both derivatives for arrays of samples;
+- ``breakpoints``: times where the law is not smooth; integrators stop and restart there so
+  that no step straddles a kink or jump.
+
+Laws: :class:`Constant`, :class:`Ramp` (linear between two times, constant outside),
+:class:`Proportional` (``gain * length * t``, the paper's ``f_i = 10 rho_i t``),
+:class:`Series` (a time series read from CSV, interpolated) and :class:`Commanded` (the scene's
+"commanded": the simulator holds the last command given to it, as a :class:`HeldCommand`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+INTERPOLATIONS = ("linear", "previous", "cubic")
+
+
+class _TimeLaw:
+    """Shared parts of the laws that depend on time only."""
+
+    def potential(self, t: float, length: float) -> float:
+        return self.value_at(t, length) * length
+
+    def d_length(self, t: float, length: float) -> float:
+        return 0.0
+
+
+class _ConstantValue(_TimeLaw):
+    """A law whose value is the attribute ``value``."""
+
+    breakpoints = ()
+
+    def value_at(self, t: float, length: float) -> float:
+        return self.value
+
+    def d_time(self, t: float, length: float) -> float:
+        return 0.0
+
+    def arrays(self, t, length) -> tuple:
+        z = np.zeros(np.broadcast(t, length).shape)
+        return z + self.value, z, z
+
+
+@dataclass(frozen=True)
+class Constant(_ConstantValue):
+    """``u(t) = value``."""
+
+    value: float
+    law = "constant"
+
+
+@dataclass(frozen=True)
+class Ramp(_TimeLaw):
+    """``u = start_value`` before ``t0``, linear to ``end_value`` at ``t1``, constant after."""
+
+    start_value: float
+    end_value: float
+    t0: float
+    t1: float
+    law = "ramp"
+
+    @property
+    def breakpoints(self) -> tuple:
+        return (self.t0, self.t1)
+
+    def value_at(self, t: float, length: float) -> float:
+        if t <= self.t0:
+            return self.start_value
+        if t >= self.t1:
+            return self.end_value
+        return self.start_value + (self.end_value - self.start_value) * (t - self.t0) / (self.t1 - self.t0)
+
+    def d_time(self, t: float, length: float) -> float:
+        if self.t0 <= t < self.t1:
+            return (self.end_value - self.start_value) / (self.t1 - self.t0)
+        return 0.0
+
+    def arrays(self, t, length) -> tuple:
+        t = np.broadcast_to(np.asarray(t, dtype=float), np.broadcast(t, length).shape)
+        slope = (self.end_value - self.start_value) / (self.t1 - self.t0)
+        u = self.start_value + slope * (np.clip(t, self.t0, self.t1) - self.t0)
+        return u, np.zeros_like(u), np.where((t >= self.t0) & (t < self.t1), slope, 0.0)
+
+
+@dataclass(frozen=True)
+class Proportional:
+    """``u = gain * length * t``: the paper's ``f_i = 10 rho_i t`` (gain 10 N/(m s))."""
+
+    gain: float
+    law = "proportional"
+    breakpoints = ()
+
+    def value_at(self, t: float, length: float) -> float:
+        return self.gain * length * t
+
+    def potential(self, t: float, length: float) -> float:
+        return 0.5 * self.gain * t * length * length
+
+    def d_length(self, t: float, length: float) -> float:
+        return self.gain * t
+
+    def d_time(self, t: float, length: float) -> float:
+        return self.gain * length
+
+    def arrays(self, t, length) -> tuple:
+        t, length = np.broadcast_arrays(np.asarray(t, dtype=float), np.asarray(length, dtype=float))
+        return self.gain * length * t, self.gain * t, self.gain * length
+
+
+@dataclass(frozen=True)
+class Series(_TimeLaw):
+    """A time series ``(times, values)`` with ``interpolation`` "linear", "previous" (zero-order
+    hold) or "cubic" (natural C2 spline); held constant before the first and after the last
+    sample."""
+
+    times: tuple
+    values: tuple
+    interpolation: str = "linear"
+    source: str = ""
+    law = "series"
+    _t: np.ndarray = field(init=False, repr=False, compare=False)
+    _v: np.ndarray = field(init=False, repr=False, compare=False)
+    _spline: object = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        t = np.asarray(self.times, dtype=float)
+        v = np.asarray(self.values, dtype=float)
+        object.__setattr__(self, "_t", t)
+        object.__setattr__(self, "_v", v)
+        spline = None
+        if self.interpolation == "cubic":
+            from scipy.interpolate import CubicSpline
+
+            spline = CubicSpline(t, v, bc_type="natural")
+        object.__setattr__(self, "_spline", spline)
+
+    @property
+    def breakpoints(self) -> tuple:
+        if self.interpolation == "cubic":
+            return (float(self._t[0]), float(self._t[-1]))
+        return tuple(float(x) for x in self._t)
+
+    def value_at(self, t: float, length: float) -> float:
+        return float(self.arrays(t, length)[0])
+
+    def d_time(self, t: float, length: float) -> float:
+        return float(self.arrays(t, length)[2])
+
+    def arrays(self, t, length) -> tuple:
+        ts, vs = self._t, self._v
+        t = np.broadcast_to(np.asarray(t, dtype=float), np.broadcast(t, length).shape)
+        inside = (t >= ts[0]) & (t < ts[-1])
+        if self.interpolation == "previous":
+            i = np.clip(np.searchsorted(ts, t, side="right") - 1, 0, len(ts) - 1)
+            return vs[i], np.zeros(t.shape), np.zeros(t.shape)
+        if self._spline is not None:
+            tc = np.clip(t, ts[0], ts[-1])
+            return self._spline(tc), np.zeros(t.shape), np.where(inside, self._spline(tc, 1), 0.0)
+        i = np.clip(np.searchsorted(ts, t, side="right") - 1, 0, max(len(ts) - 2, 0))
+        slope = np.diff(vs) / np.diff(ts) if len(ts) > 1 else np.zeros(1)
+        return np.interp(t, ts, vs), np.zeros(t.shape), np.where(inside, slope[i], 0.0)
+
+
+@dataclass(frozen=True)
+class Commanded:
+    """The scene's "commanded" input: the value before the first command is ``initial``, or
+    (``None``) the one that keeps the initial state at rest (class-2: ``f_i = -dU/drho_i``;
+    general: the member's rest length)."""
+
+    initial: float | None = None
+    law = "commanded"
+
+
+class HeldCommand(_ConstantValue):
+    """The run-time form of a commanded input: a value that only changes when the simulator
+    is given a new command (then the integrator restarts)."""
+
+    law = "commanded"
+
+    def __init__(self, value: float):
+        self.value = float(value)
+
+
+def next_breakpoint(laws, t: float, t_end: float) -> float:
+    """The first breakpoint of any law strictly after ``t`` (with a relative margin), or ``t_end``."""
+    margin = 1e-12 * max(1.0, abs(t))
+    best = t_end
+    for law in laws:
+        for b in law.breakpoints:
+            if t + margin < b < best:
+                best = b
+    return best

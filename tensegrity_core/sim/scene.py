@@ -1,0 +1,661 @@
+"""Scenes: what to simulate, read from YAML (or a dict) and checked before anything runs.
+
+The format is documented in ``docs/scenes.md``. :func:`load_scene` accepts a shipped
+scene's name (``scene_names()``), a path, YAML text or a dict and returns a frozen
+:class:`Scene`. Every problem raises :class:`~tensegrity_core.sim.errors.SceneError` naming
+the key path and, for YAML, the line: unknown keys (with a suggestion), missing required
+keys, wrong types, impossible values (negative durations, restitution above 1, initial
+states outside the mechanism's domain, unknown node names) and effect combinations that
+cannot mean anything (damping without inertia, the fold limit on a general structure).
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from tensegrity_core.errors import TensegrityError
+from tensegrity_core.sim.errors import SceneError
+from tensegrity_core.sim.inputs import INTERPOLATIONS, Commanded, Constant, Proportional, Ramp, Series
+
+SCENES_DIR = Path(__file__).parent / "scenes"
+
+#: Effects a scene may list, in the order the simulator composes them.
+EFFECTS = ("inertia", "springs", "damping", "gravity", "loads", "actuator_lag",
+           "actuator_compliance", "fold_limit", "sensor_noise")
+#: Effects that need inertia, and why (without inertia the model is quasi-static).
+NEEDS_INERTIA = {
+    "damping": "rates vanish in a quasi-static model, so dampers carry no force",
+    "actuator_compliance": "at equilibrium the compliant drive transmits exactly the commanded force",
+    "actuator_lag": "a lagging force is a dynamic state; the quasi-static model tracks equilibrium "
+                    "for the commanded forces",
+}
+#: Integration methods: scipy's solve_ivp set, and "auto".
+METHODS = ("auto", "RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA")
+#: Observed quantities that sensor noise may perturb.
+NOISY_QUANTITIES = ("q", "qdot", "applied_forces", "nodes", "member_lengths", "member_forces",
+                    "end_effector")
+STANDARD_GRAVITY = 9.80665
+CLASS2_ACTUATORS = ("f1", "f2")
+
+
+# ------------------------------------------------------------------------------ data
+@dataclass(frozen=True)
+class Class2Model:
+    """The planar class-2 mechanism with parameters ``params``."""
+
+    params: object            # Class2Params
+    kind = "class2"
+
+
+@dataclass(frozen=True)
+class GeneralModel:
+    """A general structure (bars, strings, actuator members, rigid bodies).
+
+    ``end_effector`` is the index of the node reported as the end effector; ``actuators``
+    the member indices of kind ``"actuator"`` (their rest lengths are the inputs)."""
+
+    structure: object         # tensegrity_core.general.Structure
+    source: str
+    end_effector: int
+    actuators: tuple
+    kind = "general"
+
+
+@dataclass(frozen=True)
+class Initial:
+    """Initial state. ``kind``: "state" (explicit ``q``, ``qdot``), "equilibrium" (class-2:
+    ``q = (rho1, rho2, beta*)`` with ``lengths = (rho1, rho2)``; general: form-found under the
+    scene's static effects plus ``preload`` {node index: force [N]}) or "drawn" (general: the
+    reference coordinates). Velocities are zero unless ``qdot`` is given."""
+
+    kind: str
+    q: tuple | None = None
+    qdot: tuple | None = None
+    lengths: tuple | None = None
+    preload: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Damping:
+    """Class-2: the springs' dampers ``c1..c4`` of the parameters. General: an axial damper
+    on every taut member, ``c`` [N s/m] or stiffness-proportional ``beta`` [s] (``c_i = beta EA_i / l0_i``)."""
+
+    c: float | None = None
+    beta: float | None = None
+
+
+@dataclass(frozen=True)
+class Gravity:
+    vector: tuple             # [m/s^2], 3 components
+
+
+@dataclass(frozen=True)
+class Loads:
+    forces: dict              # node index -> (fx, fy, fz) [N], dead loads
+
+
+@dataclass(frozen=True)
+class ActuatorLag:
+    tau: float                # [s]
+
+
+@dataclass(frozen=True)
+class ActuatorCompliance:
+    stiffness: float          # [N/m]
+    drive_damping: float      # [N s/m]
+
+
+@dataclass(frozen=True)
+class FoldLimit:
+    restitution: float = 0.0
+    rest_velocity: float = 1e-6   # [m/s]: rebounds slower than this stick
+
+
+@dataclass(frozen=True)
+class SensorNoise:
+    sigmas: dict              # quantity -> standard deviation (units of the quantity)
+
+
+@dataclass(frozen=True)
+class Flag:
+    """An effect without options (inertia, springs)."""
+
+
+@dataclass(frozen=True)
+class Integrator:
+    method: str = "auto"
+    rtol: float = 1e-8
+    atol: float = 1e-10
+    max_step: float = math.inf
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A checked scene. ``effects`` maps each listed effect name to its options; ``inputs``
+    maps each actuator (class-2: ``"f1"``, ``"f2"``; general: actuator member names) to its law."""
+
+    name: str
+    model: Class2Model | GeneralModel
+    initial: Initial
+    inputs: dict
+    effects: dict
+    duration: float
+    output_rate: float = 100.0
+    integrator: Integrator = Integrator()
+    seed: int = 0
+    description: str = ""
+    source: str | None = None
+    data: dict = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def quasi_static(self) -> bool:
+        """True when the scene has no inertia: the configuration tracks equilibrium."""
+        return "inertia" not in self.effects
+
+    def has(self, effect: str) -> bool:
+        return effect in self.effects
+
+    def with_duration(self, duration: float) -> "Scene":
+        from dataclasses import replace
+
+        if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
+            raise SceneError(f"must be a positive number of seconds, got {duration!r}", key=("duration",))
+        return replace(self, duration=float(duration))
+
+
+# ------------------------------------------------------------------------------ loading
+def scene_names() -> list[str]:
+    """Names of the shipped scenes (file stems in the package's ``scenes`` folder)."""
+    return sorted(p.stem for p in SCENES_DIR.glob("*.yaml"))
+
+
+def scene_path(name: str) -> Path:
+    """Path of the shipped scene ``name``."""
+    path = SCENES_DIR / f"{name}.yaml"
+    if not path.is_file():
+        raise SceneError(f"unknown scene {name!r}{_suggest(name, scene_names())}; shipped scenes: "
+                         f"{', '.join(scene_names())}")
+    return path
+
+
+def load_scene(source) -> Scene:
+    """Read and check a scene: a :class:`Scene` (returned as is), a shipped scene name, a path
+    (``str`` or ``Path`` to a ``.yaml``/``.yml`` file), YAML text, or a dict.
+
+    Relative paths inside the scene (structure files, CSV series) are resolved against the
+    scene file's folder (the current folder for text and dicts)."""
+    if isinstance(source, Scene):
+        return source
+    if isinstance(source, dict):
+        return _Reader(None, Path.cwd()).scene(source)
+    if isinstance(source, str) and "\n" not in source and source in scene_names():
+        source = scene_path(source)
+    if isinstance(source, Path) or (isinstance(source, str) and "\n" not in source and (
+            source.lower().endswith((".yaml", ".yml")) or Path(source).is_file())):
+        path = Path(source)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            raise SceneError(f"scene file not found: {str(path)!r}"
+                             f"{_suggest(path.stem, scene_names(), ' (a shipped scene: {!r}?)')}") from None
+        except OSError as err:
+            raise SceneError(f"cannot read scene file {str(path)!r}: {err.strerror}") from None
+        return _Reader(path.name, path.parent.resolve(), str(path)).scene(_parse(text, path.name))
+    if isinstance(source, str):
+        if ":" not in source:
+            raise SceneError(f"{source!r} is neither a shipped scene ({', '.join(scene_names())}), "
+                             f"an existing scene file nor YAML text")
+        return _Reader(None, Path.cwd()).scene(_parse(source, None))
+    raise SceneError(f"cannot load a scene from a {type(source).__name__}; give a name, a path, "
+                     f"YAML text or a dict")
+
+
+def _parse(text: str, file: str | None) -> dict:
+    from tensegrity_core.general.loading import parse_text
+    from tensegrity_core.general.structure import StructureError
+
+    try:
+        data = parse_text(text, "yaml")
+    except StructureError as err:
+        raise SceneError(str(err).replace("structure description", "scene"), line=err.line, file=file) from None
+    return data
+
+
+def _suggest(word, choices, template=" (did you mean {!r}?)") -> str:
+    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1)
+    return template.format(close[0]) if close else ""
+
+
+def _line(container, key) -> int | None:
+    lines = getattr(container, "key_lines", None)
+    if lines is not None and key in lines:
+        return lines[key]
+    items = getattr(container, "item_lines", None)
+    if items is not None and isinstance(key, int) and key < len(items):
+        return items[key]
+    return getattr(container, "line", None)
+
+
+def _type_name(value) -> str:
+    for kind, name in ((bool, "a boolean"), (dict, "a mapping"), (list, "a list"), (str, "a string"),
+                       (int, "an integer"), (float, "a number"), (type(None), "nothing (null)")):
+        if isinstance(value, kind):
+            return name
+    return type(value).__name__
+
+
+class _Reader:
+    """Walks the parsed scene, keeping key paths and lines for the error messages."""
+
+    def __init__(self, file: str | None, base: Path, source: str | None = None):
+        self.file = file
+        self.base = base
+        self.source = source
+
+    # -- primitives ----------------------------------------------------------------------
+    def error(self, message: str, path: tuple, container=None, key=None) -> SceneError:
+        line = _line(container, key) if container is not None else None
+        return SceneError(message, key=path, line=line, file=self.file)
+
+    def mapping(self, value, path, parent=None, key=None) -> dict:
+        if not isinstance(value, dict):
+            raise self.error(f"must be a mapping, got {_type_name(value)} ({value!r})", path, parent, key)
+        return value
+
+    def keys(self, d: dict, path: tuple, allowed, required=()) -> None:
+        for k in d:
+            if k not in allowed:
+                raise self.error(f"unknown key {k!r}{_suggest(k, allowed)}; allowed: {', '.join(allowed)}",
+                                 path + (k,), d, k)
+        for k in required:
+            if k not in d:
+                raise self.error(f"missing required key {k!r}", path, d, None)
+
+    def number(self, d: dict, key, path, *, default=None, lo=None, hi=None, lo_open=False, hi_open=False,
+               allow_inf=False) -> float:
+        if key not in d:
+            if default is None:
+                raise self.error(f"missing required key {key!r}", path, d, None)
+            return default
+        return self.value_number(d[key], path + (key,), d, key, lo=lo, hi=hi, lo_open=lo_open, hi_open=hi_open,
+                                 allow_inf=allow_inf)
+
+    def value_number(self, v, path, container, key, *, lo=None, hi=None, lo_open=False, hi_open=False,
+                     allow_inf=False) -> float:
+        if isinstance(v, str) and allow_inf and v.strip().lower() in ("inf", "infinity", ".inf"):
+            v = math.inf
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise self.error(f"must be a number, got {_type_name(v)} ({v!r})", path, container, key)
+        x = float(v)
+        if math.isnan(x) or (math.isinf(x) and not allow_inf):
+            raise self.error(f"must be finite, got {v!r}", path, container, key)
+        if lo is not None and (x < lo or (lo_open and x == lo)):
+            raise self.error(f"must be {'>' if lo_open else '>='} {lo:g}, got {v!r}", path, container, key)
+        if hi is not None and (x > hi or (hi_open and x == hi)):
+            raise self.error(f"must be {'<' if hi_open else '<='} {hi:g}, got {v!r}", path, container, key)
+        return x
+
+    def vector(self, v, n: int, path, container, key, *, what="numbers") -> tuple:
+        if not isinstance(v, list) or len(v) != n:
+            raise self.error(f"must be a list of {n} {what}, got {_type_name(v)} ({v!r})", path, container, key)
+        return tuple(self.value_number(x, path + (i,), v, i) for i, x in enumerate(v))
+
+    def string(self, d: dict, key, path, *, default=None, choices=None) -> str:
+        if key not in d:
+            if default is None:
+                raise self.error(f"missing required key {key!r}", path, d, None)
+            return default
+        v = d[key]
+        if not isinstance(v, str):
+            raise self.error(f"must be a string, got {_type_name(v)} ({v!r})", path + (key,), d, key)
+        if choices is not None and v not in choices:
+            raise self.error(f"must be one of {', '.join(choices)}, got {v!r}{_suggest(v, choices)}",
+                             path + (key,), d, key)
+        return v
+
+    # -- the scene -----------------------------------------------------------------------
+    TOP = ("name", "description", "model", "initial", "inputs", "effects", "output", "duration",
+           "integrator", "seed")
+
+    def scene(self, data) -> Scene:
+        d = self.mapping(data, ())
+        self.keys(d, (), self.TOP, required=("model", "initial", "effects", "duration"))
+        name = self.string(d, "name", (), default=Path(self.file).stem if self.file else "scene")
+        description = self.string(d, "description", (), default="") if "description" in d else ""
+        model = self.model(d["model"], ("model",), d)
+        effects = self.effects(d["effects"], ("effects",), d, model)
+        initial = self.initial(d["initial"], ("initial",), d, model, effects)
+        inputs = self.inputs(d.get("inputs"), ("inputs",), d, model, effects)
+        duration = self.number(d, "duration", (), lo=0.0, lo_open=True)
+        output_rate = 100.0
+        if "output" in d:
+            out = self.mapping(d["output"], ("output",), d, "output")
+            self.keys(out, ("output",), ("rate",), required=("rate",))
+            output_rate = self.number(out, "rate", ("output",), lo=0.0, lo_open=True)
+        integrator = self.integrator(d.get("integrator"), ("integrator",), d)
+        seed = 0
+        if "seed" in d:
+            seed = d["seed"]
+            if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+                raise self.error(f"must be a non-negative integer, got {seed!r}", ("seed",), d, "seed")
+        return Scene(name=name, model=model, initial=initial, inputs=inputs, effects=effects,
+                     duration=duration, output_rate=output_rate, integrator=integrator, seed=seed,
+                     description=description, source=self.source, data=_plain(d))
+
+    # -- model ---------------------------------------------------------------------------
+    def model(self, value, path, parent) -> Class2Model | GeneralModel:
+        d = self.mapping(value, path, parent, "model")
+        kind = self.string(d, "kind", path, choices=("class2", "general"))
+        if kind == "class2":
+            self.keys(d, path, ("kind", "params"))
+            from tensegrity_core.class2.params import PAPER_PARAMS
+
+            overrides = {}
+            if "params" in d:
+                p = self.mapping(d["params"], path + ("params",), d, "params")
+                allowed = tuple(PAPER_PARAMS.as_dict()) + ("k", "c")
+                self.keys(p, path + ("params",), allowed)
+                for k in p:
+                    overrides[k] = self.number(p, k, path + ("params",))
+            try:
+                params = PAPER_PARAMS.with_overrides(overrides)
+            except TensegrityError as err:
+                raise self.error(str(err), path + ("params",), d, "params") from None
+            return Class2Model(params)
+        self.keys(d, path, ("kind", "structure", "end_effector"), required=("structure",))
+        structure, source = self.structure(d["structure"], path + ("structure",), d)
+        if "end_effector" in d:
+            ee = self.string(d, "end_effector", path)
+            if ee not in structure.node_names:
+                raise self.error(f"unknown node {ee!r}{_suggest(ee, structure.node_names)}",
+                                 path + ("end_effector",), d, "end_effector")
+            end_effector = structure.node_names.index(ee)
+        else:
+            end_effector = int(structure.n_nodes - 1)
+        actuators = tuple(i for i, k in enumerate(structure.member_kinds) if k == "actuator")
+        return GeneralModel(structure, source, end_effector, actuators)
+
+    def structure(self, value, path, parent):
+        from tensegrity_core.general import StructureError, example_names, load_example, load_structure
+
+        try:
+            if isinstance(value, dict):
+                return load_structure(dict(value)), "inline"
+            if not isinstance(value, str):
+                raise self.error(f"must be a shipped example name, a file path or a mapping, got "
+                                 f"{_type_name(value)}", path, parent, "structure")
+            candidate = self.base / value
+            if candidate.is_file():
+                return load_structure(candidate), str(candidate)
+            if value in example_names():
+                return load_example(value), value
+            raise self.error(f"no structure file {str(candidate)!r} and no shipped example {value!r}"
+                             f"{_suggest(value, example_names())}", path, parent, "structure")
+        except StructureError as err:
+            raise self.error(f"invalid structure: {err}", path, parent, "structure") from None
+
+    # -- effects ---------------------------------------------------------------------------
+    def effects(self, value, path, parent, model) -> dict:
+        if not isinstance(value, list):
+            raise self.error(f"must be a list of effects, got {_type_name(value)} ({value!r})", path, parent,
+                             "effects")
+        out: dict = {}
+        for i, item in enumerate(value):
+            p = path + (i,)
+            if isinstance(item, str):
+                name, options, opath, holder = item, {}, p, value
+            elif isinstance(item, dict) and len(item) == 1:
+                name = next(iter(item))
+                options = item[name] if item[name] is not None else {}
+                opath, holder = p + (name,), item
+            else:
+                raise self.error(f"each effect is a name or a one-key mapping {{name: {{options}}}}, got "
+                                 f"{item!r}", p, value, i)
+            if name not in EFFECTS:
+                raise self.error(f"unknown effect {name!r}{_suggest(name, EFFECTS)}; effects: {', '.join(EFFECTS)}",
+                                 p, value, i)
+            if name in out:
+                raise self.error(f"effect {name!r} is listed twice", p, value, i)
+            options = self.mapping(options, opath, holder, name if holder is item else i)
+            out[name] = self.effect_options(name, options, opath, model)
+        if "inertia" not in out:
+            for name in NEEDS_INERTIA:
+                if name in out:
+                    raise self.error(
+                        f"effect {name!r} needs 'inertia' (without it the model is quasi-static: "
+                        f"{NEEDS_INERTIA[name]})", path + (list(out).index(name),), value, list(out).index(name))
+        if model.kind == "general":
+            for name in ("fold_limit", "actuator_compliance", "actuator_lag"):
+                if name in out:
+                    raise self.error(f"effect {name!r} applies to the class-2 mechanism only",
+                                     path + (list(out).index(name),), value, list(out).index(name))
+        if "springs" not in out and "inertia" not in out:
+            raise self.error("a scene without inertia (quasi-static) needs 'springs': nothing else holds the "
+                             "configuration in equilibrium", path, parent, "effects")
+        # Order of composition is fixed, not the order of the list.
+        return {name: out[name] for name in EFFECTS if name in out}
+
+    def effect_options(self, name: str, d: dict, path, model):
+        if name in ("inertia", "springs"):
+            self.keys(d, path, ())
+            return Flag()
+        if name == "damping":
+            if model.kind == "class2":
+                self.keys(d, path, ())
+                return Damping()
+            self.keys(d, path, ("c", "beta"))
+            if ("c" in d) == ("beta" in d):
+                raise self.error("give exactly one of 'c' [N s/m] (every member) or 'beta' [s] (c_i = beta EA_i/l0_i)",
+                                 path, d, None)
+            if "c" in d:
+                return Damping(c=self.number(d, "c", path, lo=0.0))
+            return Damping(beta=self.number(d, "beta", path, lo=0.0))
+        if name == "gravity":
+            self.keys(d, path, ("vector",))
+            if "vector" in d:
+                return Gravity(self.vector(d["vector"], 3, path + ("vector",), d, "vector"))
+            if model.kind == "general" and np.any(model.structure.gravity != 0):
+                return Gravity(tuple(float(g) for g in model.structure.gravity))
+            return Gravity((0.0, 0.0, -STANDARD_GRAVITY))
+        if name == "loads":
+            names = _node_names(model)
+            forces = {}
+            for node, vec in d.items():
+                if node not in names:
+                    raise self.error(f"unknown node {node!r}{_suggest(node, names)}; nodes: {', '.join(names)}",
+                                     path + (node,), d, node)
+                forces[names.index(node)] = self.vector(vec, 3, path + (node,), d, node)
+            if not forces:
+                raise self.error("lists no node: give node: [fx, fy, fz] [N]", path, d, None)
+            return Loads(forces)
+        if name == "actuator_lag":
+            self.keys(d, path, ("tau",), required=("tau",))
+            return ActuatorLag(self.number(d, "tau", path, lo=0.0, lo_open=True))
+        if name == "actuator_compliance":
+            self.keys(d, path, ("stiffness", "drive_damping"), required=("drive_damping",))
+            stiffness = self.number(d, "stiffness", path, default=model.params.ka, lo=0.0, lo_open=True)
+            return ActuatorCompliance(stiffness, self.number(d, "drive_damping", path, lo=0.0, lo_open=True))
+        if name == "fold_limit":
+            self.keys(d, path, ("restitution", "rest_velocity"))
+            return FoldLimit(self.number(d, "restitution", path, default=0.0, lo=0.0, hi=1.0),
+                             self.number(d, "rest_velocity", path, default=1e-6, lo=0.0, lo_open=True))
+        # sensor_noise
+        self.keys(d, path, NOISY_QUANTITIES)
+        if not d:
+            raise self.error(f"lists no quantity; give sigma for some of {', '.join(NOISY_QUANTITIES)}", path, d, None)
+        return SensorNoise({k: self.number(d, k, path, lo=0.0) for k in d})
+
+    # -- initial state -----------------------------------------------------------------------
+    def initial(self, value, path, parent, model, effects) -> Initial:
+        d = self.mapping(value, path, parent, "initial")
+        if model.kind == "class2":
+            self.keys(d, path, ("q", "qdot", "equilibrium"))
+            if ("q" in d) == ("equilibrium" in d):
+                raise self.error("give exactly one of 'q: [rho1, rho2, beta]' or 'equilibrium: {rho1, rho2}'",
+                                 path, d, None)
+            qdot = self.vector(d["qdot"], 3, path + ("qdot",), d, "qdot") if "qdot" in d else (0.0, 0.0, 0.0)
+            if "q" in d:
+                q = self.vector(d["q"], 3, path + ("q",), d, "q")
+                self.class2_domain(q[0], q[1], model, effects, path + ("q",), d, "q")
+                return Initial("state", q=q, qdot=qdot)
+            if "qdot" in d:
+                raise self.error("'qdot' goes with 'q'; an equilibrium starts at rest", path + ("qdot",), d, "qdot")
+            e = self.mapping(d["equilibrium"], path + ("equilibrium",), d, "equilibrium")
+            self.keys(e, path + ("equilibrium",), ("rho1", "rho2"), required=("rho1", "rho2"))
+            r1 = self.number(e, "rho1", path + ("equilibrium",))
+            r2 = self.number(e, "rho2", path + ("equilibrium",))
+            self.class2_domain(r1, r2, model, effects, path + ("equilibrium",), d, "equilibrium")
+            return Initial("equilibrium", lengths=(r1, r2))
+        self.keys(d, path, ("equilibrium", "drawn"))
+        if len(d) != 1:
+            raise self.error("give exactly one of 'equilibrium: true | {preload: {node: [fx, fy, fz]}}' or "
+                             "'drawn: true'", path, d, None)
+        if "drawn" in d:
+            if d["drawn"] is not True:
+                raise self.error(f"must be true, got {d['drawn']!r}", path + ("drawn",), d, "drawn")
+            return Initial("drawn")
+        e = d["equilibrium"]
+        if e is True:
+            return Initial("equilibrium")
+        e = self.mapping(e, path + ("equilibrium",), d, "equilibrium")
+        self.keys(e, path + ("equilibrium",), ("preload",))
+        preload = {}
+        if "preload" in e:
+            pl = self.mapping(e["preload"], path + ("equilibrium", "preload"), e, "preload")
+            names = model.structure.node_names
+            for node, vec in pl.items():
+                p = path + ("equilibrium", "preload", node)
+                if node not in names:
+                    raise self.error(f"unknown node {node!r}{_suggest(node, names)}", p, pl, node)
+                preload[names.index(node)] = self.vector(vec, 3, p, pl, node)
+        return Initial("equilibrium", preload=preload)
+
+    def class2_domain(self, r1, r2, model, effects, path, container, key) -> None:
+        L = model.params.L
+        if "fold_limit" in effects and min(r1, r2) < 0:
+            raise self.error(f"actuator lengths must be >= 0 with the fold limit, got rho1 = {r1:g}, rho2 = {r2:g}",
+                             path, container, key)
+        lam1_sq = (2 * L - (r1 + r2)) * (2 * L + (r1 + r2))
+        lam2_sq = (L - r1) * (L + r1)
+        limit = (1e-3 * L) ** 2
+        if lam1_sq <= limit:
+            raise self.error(f"|rho1 + rho2| = {abs(r1 + r2):g} m must be below 2L = {2 * L:g} m (struts AE and CE "
+                             f"meet at E only then; the coordinates are singular at 2L)", path, container, key)
+        if lam2_sq <= limit:
+            raise self.error(f"|rho1| = {abs(r1):g} m must be below L = {L:g} m (node F reaches the Y axis only "
+                             f"then; the coordinates are singular at L)", path, container, key)
+
+    # -- inputs ----------------------------------------------------------------------------------
+    def inputs(self, value, path, parent, model, effects) -> dict:
+        if model.kind == "class2":
+            names = CLASS2_ACTUATORS
+        else:
+            names = tuple(model.structure.member_names[i] for i in model.actuators)
+        if value is None:
+            if names:
+                raise self.error(f"missing required key 'inputs' (one law per actuator: {', '.join(names)})",
+                                 (), parent, None)
+            return {}
+        d = self.mapping(value, path, parent, "inputs")
+        self.keys(d, path, names, required=names)
+        return {n: self.law(d[n], path + (n,), d, n, model) for n in names}
+
+    LAW_KEYS = {"constant": ("law", "value"), "ramp": ("law", "from", "to", "t0", "t1"),
+                "proportional": ("law", "gain"),
+                "series": ("law", "file", "time", "column", "interpolation"),
+                "commanded": ("law", "initial")}
+
+    def law(self, value, path, parent, key, model):
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            return Constant(self.value_number(value, path, parent, key))
+        d = self.mapping(value, path, parent, key)
+        law = self.string(d, "law", path, choices=tuple(self.LAW_KEYS))
+        self.keys(d, path, self.LAW_KEYS[law])
+        if law == "constant":
+            return Constant(self.number(d, "value", path))
+        if law == "ramp":
+            t0 = self.number(d, "t0", path, default=0.0, lo=0.0)
+            t1 = self.number(d, "t1", path)
+            if t1 <= t0:
+                raise self.error(f"must be after t0 = {t0:g} s, got {t1:g}", path + ("t1",), d, "t1")
+            return Ramp(self.number(d, "from", path), self.number(d, "to", path), t0, t1)
+        if law == "proportional":
+            if model.kind != "class2":
+                raise self.error("law 'proportional' (gain * length * t) is a force law of the class-2 mechanism; "
+                                 "general structures take rest lengths", path + ("law",), d, "law")
+            return Proportional(self.number(d, "gain", path))
+        if law == "commanded":
+            if "initial" not in d or d["initial"] == "hold":
+                return Commanded(None)
+            return Commanded(self.number(d, "initial", path))
+        return self.series(d, path)
+
+    def series(self, d, path) -> Series:
+        file = self.string(d, "file", path)
+        column = self.string(d, "column", path)
+        interpolation = self.string(d, "interpolation", path, default="linear", choices=INTERPOLATIONS)
+        csv = self.base / file
+        try:
+            with open(csv, encoding="utf-8") as fh:
+                header = fh.readline().strip().split(",")
+                table = np.loadtxt(fh, delimiter=",", ndmin=2)
+        except FileNotFoundError:
+            raise self.error(f"CSV file not found: {str(csv)!r}", path + ("file",), d, "file") from None
+        except ValueError as err:
+            raise self.error(f"cannot read {str(csv)!r} as numbers after a header row: {err}",
+                             path + ("file",), d, "file") from None
+        header = [h.strip() for h in header]
+        time_col = self.string(d, "time", path, default=header[0])
+        for k, col in (("time", time_col), ("column", column)):
+            if col not in header:
+                raise self.error(f"{str(csv)!r} has no column {col!r}{_suggest(col, header)}; columns: "
+                                 f"{', '.join(header)}", path + (k,), d, k)
+        if table.shape[1] != len(header) or table.shape[0] < 1:
+            raise self.error(f"{str(csv)!r}: {table.shape[0]} rows of {table.shape[1]} numbers for "
+                             f"{len(header)} header columns", path + ("file",), d, "file")
+        t = table[:, header.index(time_col)]
+        v = table[:, header.index(column)]
+        if not (np.isfinite(t).all() and np.isfinite(v).all()):
+            raise self.error(f"{str(csv)!r} contains non-finite values", path + ("file",), d, "file")
+        if np.any(np.diff(t) <= 0):
+            i = int(np.flatnonzero(np.diff(t) <= 0)[0])
+            raise self.error(f"{str(csv)!r}: times must increase, but row {i + 3} ({t[i + 1]:g} s) does not "
+                             f"follow row {i + 2} ({t[i]:g} s)", path + ("file",), d, "file")
+        if interpolation == "cubic" and len(t) < 3:
+            raise self.error("cubic interpolation needs at least 3 samples", path + ("interpolation",), d,
+                             "interpolation")
+        return Series(tuple(t.tolist()), tuple(v.tolist()), interpolation, str(csv))
+
+    # -- integrator --------------------------------------------------------------------------------
+    def integrator(self, value, path, parent) -> Integrator:
+        if value is None:
+            return Integrator()
+        d = self.mapping(value, path, parent, "integrator")
+        self.keys(d, path, ("method", "rtol", "atol", "max_step"))
+        method = self.string(d, "method", path, default="auto", choices=METHODS)
+        rtol = self.number(d, "rtol", path, default=1e-8, lo=1e-13, hi=0.1)
+        atol = self.number(d, "atol", path, default=1e-10, lo=0.0, lo_open=True)
+        max_step = self.number(d, "max_step", path, default=math.inf, lo=0.0, lo_open=True, allow_inf=True)
+        return Integrator(method, rtol, atol, max_step)
+
+
+def _node_names(model) -> tuple:
+    if model.kind == "class2":
+        from tensegrity_core.class2.geometry import NODE_NAMES
+
+        return NODE_NAMES
+    return model.structure.node_names
+
+
+def _plain(value):
+    """The parsed scene as plain dicts and lists (for saving with a trajectory)."""
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_plain(v) for v in value]
+    return value

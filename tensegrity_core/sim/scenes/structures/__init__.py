@@ -1,0 +1,1 @@
+"""Structure files used by the shipped scenes (package data)."""

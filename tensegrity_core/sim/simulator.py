@@ -1,0 +1,186 @@
+"""The scene-driven simulator: the stepping API the ROS node uses, and whole runs.
+
+::
+
+    sim = Simulator(load_scene("paper_fold"))
+    sim.set_command([f1, f2])      # commanded inputs (zero-order hold) [N]
+    sim.advance(t)                 # integrate up to t [s]
+    obs = sim.observe()            # Observation at sim.t (sensor noise applied if listed)
+    traj = simulate("paper_fold")  # the whole scene -> Trajectory
+
+The back end is chosen by the scene: class-2 or general structure, with inertia (equations
+of motion) or without (quasi-static: the configuration tracks equilibrium).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tensegrity_core.sim.errors import SimulationError
+from tensegrity_core.sim.noise import SensorNoise
+from tensegrity_core.sim.scene import Scene, load_scene
+from tensegrity_core.sim.trajectory import Trajectory
+
+
+@dataclass
+class Observation:
+    """The observed state at time ``t`` [s] (SI units; forces tension-positive).
+
+    ``q, qdot``: class-2 ``(rho1, rho2, beta)`` and rates; general structures the minimal
+    coordinates (free node coordinates, body centres, body rotation vectors) and their rates
+    (body angular velocities in the world frame). ``applied_forces``: class-2 the actuator
+    forces acting on the mechanism [N]; general the actuators' rest lengths [m].
+    ``nodes`` (n, 3) [m]; ``member_nodes`` (m, 2) node indices; ``member_forces`` [N];
+    ``end_effector`` (3,) [m] (class-2: node D); energies [J]; ``folded``: an actuator is
+    held at zero length by the fold limit; ``contact_forces`` the fold limit's contact
+    forces [N] (compressive, >= 0). ``state`` is the model's full state vector.
+    """
+
+    t: float
+    q: np.ndarray
+    qdot: np.ndarray
+    applied_forces: np.ndarray
+    node_names: tuple
+    nodes: np.ndarray
+    member_names: tuple
+    member_nodes: np.ndarray
+    member_lengths: np.ndarray
+    member_forces: np.ndarray
+    end_effector: np.ndarray
+    potential_energy: float
+    kinetic_energy: float
+    folded: bool
+    contact_forces: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    state: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+
+def _backend(scene: Scene, t_end: float):
+    if scene.model.kind == "class2":
+        if scene.quasi_static:
+            from tensegrity_core.sim.class2_quasistatic import Class2QuasiStatic
+
+            return Class2QuasiStatic(scene)
+        from tensegrity_core.sim.class2_sim import Class2Dynamic
+
+        return Class2Dynamic(scene, t_end=t_end)
+    if scene.quasi_static:
+        from tensegrity_core.sim.general_quasistatic import GeneralQuasiStatic
+
+        return GeneralQuasiStatic(scene)
+    from tensegrity_core.sim.general_sim import GeneralDynamic
+
+    return GeneralDynamic(scene, t_end=t_end)
+
+
+class Simulator:
+    """A running simulation of one scene; builds only the effects the scene lists.
+
+    ``t_end`` bounds the integration (default: open-ended, for the ROS node); the stepping
+    integrator never steps past it.
+    """
+
+    def __init__(self, scene, *, t_end: float = math.inf):
+        self.scene = load_scene(scene)
+        self._backend = _backend(self.scene, t_end)
+        noise = self.scene.effects.get("sensor_noise")
+        self._noise = SensorNoise(noise.sigmas, self.scene.seed) if noise is not None else None
+        self.kind = self._backend.kind
+        self.quasi_static = self._backend.quasi_static
+
+    @property
+    def t(self) -> float:
+        """Current simulation time [s]."""
+        return self._backend.t
+
+    @property
+    def command(self) -> list:
+        """Current values of the commanded inputs (``nan`` for inputs with a law)."""
+        return self._backend.command
+
+    @property
+    def events(self) -> list:
+        """``(t, kind, index)`` of every event so far (fold, release, limit, ...)."""
+        return list(self._backend.events)
+
+    def set_command(self, values) -> None:
+        """Set the commanded inputs (one value per actuator, in the scene's input order; values
+        for inputs with a law are ignored). Zero-order hold from the current time on."""
+        self._backend.set_command(values)
+
+    def advance(self, t_target: float) -> None:
+        """Integrate up to ``t_target`` [s] (>= ``t``)."""
+        if not (isinstance(t_target, (int, float)) and math.isfinite(t_target)):
+            raise SimulationError(f"advance: t_target must be a finite number of seconds, got {t_target!r}")
+        self._backend.advance(float(t_target))
+
+    def observe(self) -> Observation:
+        """The state at ``t`` (with sensor noise if the scene lists it)."""
+        data = self._backend.observe([self._backend.sample()])
+        obs = self._observation(data, 0)
+        if self._noise is not None:
+            self._noise.perturb(obs)
+        return obs
+
+    def _observation(self, data: dict, i: int) -> Observation:
+        names = self._backend_names()
+        return Observation(
+            t=float(data["t"][i]), q=data["q"][i], qdot=data["qdot"][i], applied_forces=data["applied_forces"][i],
+            node_names=names["node_names"], nodes=data["nodes"][i], member_names=names["member_names"],
+            member_nodes=names["member_nodes"], member_lengths=data["member_lengths"][i],
+            member_forces=data["member_forces"][i], end_effector=data["end_effector"][i],
+            potential_energy=float(data["potential_energy"][i]), kinetic_energy=float(data["kinetic_energy"][i]),
+            folded=bool(data["folded"][i]), contact_forces=data["contact_forces"][i], state=data["state"][i])
+
+    def _backend_names(self) -> dict:
+        if self.kind == "class2":
+            from tensegrity_core.class2.geometry import NODE_NAMES
+            from tensegrity_core.sim.class2_sim import MEMBER_NAMES, MEMBER_NODES
+
+            return {"node_names": NODE_NAMES, "member_names": MEMBER_NAMES, "member_nodes": MEMBER_NODES}
+        return self._backend.names()
+
+    def stats(self) -> dict:
+        """Integrator statistics (steps, function evaluations, restarts, events)."""
+        return self._backend.stats()
+
+
+def simulate(scene, *, duration: float | None = None, progress=None) -> Trajectory:
+    """Run a whole scene and return its :class:`Trajectory` at the scene's output rate (and at
+    the end time when that is not on the output grid).
+
+    ``duration`` overrides the scene's; ``progress(t, duration)`` is called after every
+    output sample (e.g. to update a progress bar). Commanded inputs hold their initial value.
+    """
+    scene = load_scene(scene)
+    if duration is not None:
+        scene = scene.with_duration(duration)
+    wall0 = time.perf_counter()
+    sim = Simulator(scene, t_end=scene.duration)
+    n = int(math.floor(scene.duration * scene.output_rate * (1 + 1e-12))) + 1
+    times = np.arange(n) / scene.output_rate
+    if times[-1] < scene.duration * (1 - 1e-12):         # the run always ends at its duration
+        times = np.append(times, scene.duration)
+        n += 1
+    samples = []
+    error = None
+    chunk = max(1, n // 50)                             # progress in 2 % steps
+    for start in range(0, n, chunk):
+        try:
+            sim._backend.record(times[start:start + chunk], samples)
+        except SimulationError as err:
+            error = err
+            break
+        if progress is not None:
+            progress(float(times[min(start + chunk, n) - 1]), scene.duration)
+    data = sim._backend.observe(samples)
+    measurements = sim._noise.perturb_arrays(data) if sim._noise is not None else {}
+    names = sim._backend_names()
+    stats = sim.stats()
+    stats["wall_time"] = time.perf_counter() - wall0
+    return Trajectory.from_observations(scene, data, names, sim.events, measurements, stats,
+                                        error=str(error) if error else "",
+                                        state_names=getattr(sim._backend, "state_names", ()))

@@ -1,0 +1,232 @@
+"""A long-lived integrator: scipy's ``OdeSolver`` stepped directly, with events and restarts.
+
+``solve_ivp`` starts a solver per call; the simulator advances in small slices (the ROS
+node: 1 ms at up to 1 kHz) with inputs that change between slices, so it keeps one solver
+alive and steps it itself:
+
+- :meth:`Stepper.advance` steps until the current step covers the target time, then
+  interpolates with the step's dense output (built only when needed: DOP853's costs three
+  extra evaluations);
+- after every step the model's event functions are evaluated at the step's end; a sign
+  change in the event's direction is located with Brent's method on the dense output
+  (as ``solve_ivp`` does), the step is cut there, and at the event the model updates its
+  state and mode and the solver restarts;
+- the solver restarts at input breakpoints (its ``t_bound`` is the next one), when an input
+  changed (:meth:`restart`) and after the model re-charts its coordinates. A restart keeps
+  the last step size, so it costs no initial-step search.
+
+The state at any time between the last restart and the end of the current step is
+available; the solver never steps past a pending event.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
+from scipy.optimize import brentq
+
+from tensegrity_core.errors import TensegrityError
+from tensegrity_core.sim.errors import SimulationError
+
+SOLVERS = {"RK23": RK23, "RK45": RK45, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA}
+#: Methods that use a Jacobian.
+IMPLICIT = ("Radau", "BDF", "LSODA")
+#: How many times a failing step is retried with a smaller first step.
+MAX_RETRIES = 30
+
+
+class _Constant:
+    """Dense output of a zero-length segment (scalar ``t`` -> (n,), array -> (n, k))."""
+
+    def __init__(self, y):
+        self.y = np.array(y, dtype=float)
+
+    def __call__(self, t):
+        if np.ndim(t):
+            return np.repeat(self.y[:, None], len(t), axis=1)
+        return self.y.copy()
+
+
+class Stepper:
+    """Integrates ``model.fun`` from ``(t0, y0)`` on demand.
+
+    ``model`` provides ``fun(t, y)``, ``jac(t, y)`` (implicit methods), ``events()``,
+    ``handle_event(event, t, y) -> y``, ``after_step(t, y) -> y or None`` and
+    ``next_breakpoint(t) -> float``. ``t_end`` bounds the integration (``inf``: open-ended).
+    """
+
+    def __init__(self, model, t0: float, y0, *, method: str, rtol: float, atol: float,
+                 max_step: float = math.inf, t_end: float = math.inf):
+        if method not in SOLVERS:
+            raise SimulationError(f"unknown integration method {method!r}; use one of {', '.join(SOLVERS)}")
+        self.model = model
+        self.method = method
+        self.options = dict(rtol=rtol, atol=atol, max_step=max_step)
+        if method in IMPLICIT and getattr(model, "jac", None) is not None:
+            self.options["jac"] = model.jac
+        self.t_end = t_end
+        self.solver = None
+        self._nfev_done = 0
+        self.n_steps = 0
+        self.n_restarts = 0
+        self.n_events = 0
+        self.event_log: list[tuple[float, str, int]] = []
+        self._h = None
+        self.restart(t0, y0)
+
+    # -- state ------------------------------------------------------------------------------
+    @property
+    def nfev(self) -> int:
+        return self._nfev_done + (self.solver.nfev if self.solver is not None else 0)
+
+    def restart(self, t: float, y) -> None:
+        """Start a fresh solver at ``(t, y)`` (after an input change or an event)."""
+        y = np.array(y, dtype=float)
+        if self.solver is not None:
+            self._nfev_done += self.solver.nfev
+        self.t = t
+        self.y = y
+        self._seg = (t, t)
+        self._dense = _Constant(y)
+        self._pending = None
+        self.solver = None
+        self.n_restarts += 1
+        self._events = self.model.events()
+        self._g = [ev.g(t, y) for ev in self._events]
+
+    def _new_solver(self) -> None:
+        t0, y0 = self._seg[1], self._dense.y
+        bound = min(self.model.next_breakpoint(t0), self.t_end)
+        if not bound > t0:
+            bound = self.t_end
+        first = None
+        if self._h is not None:
+            first = min(self._h, bound - t0, self.options["max_step"])
+        self.solver = SOLVERS[self.method](self.model.fun, t0, y0, bound, first_step=first, **self.options)
+
+    # -- stepping ------------------------------------------------------------------------------
+    def advance(self, t_target: float) -> None:
+        """Integrate until ``t_target`` is covered; then ``self.t, self.y`` are the state there."""
+        if t_target < self.t:
+            raise SimulationError(f"cannot advance backwards: t = {self.t!r} s, target {t_target!r} s", t=self.t)
+        if t_target > self.t_end * (1 + 1e-12) + 1e-12:
+            raise SimulationError(f"target {t_target!r} s is beyond the end {self.t_end!r} s", t=self.t)
+        while self._seg[1] < t_target:
+            if self._pending is not None:
+                self._fire()
+                continue
+            if self.solver is None or self.solver.status != "running":
+                if self.solver is not None and self.solver.status == "failed":
+                    raise SimulationError(f"integrator failed at t = {self.solver.t!r} s: {self.solver.message}",
+                                          t=self.solver.t)
+                if self.solver is not None:                # reached its bound (a breakpoint)
+                    self.restart(self.solver.t, self.solver.y)
+                self._new_solver()
+            self._step()
+        self.t = t_target
+        self.y = self._dense(t_target) if t_target < self._seg[1] or self._pending is not None \
+            else self._end_state()
+        return None
+
+    def _end_state(self):
+        if self.solver is not None and self.solver.t == self._seg[1]:
+            return self.solver.y.copy()
+        return self._dense(self._seg[1])
+
+    def _step(self) -> None:
+        solver = self.solver
+        t_old, y_old = solver.t, solver.y.copy()
+        for attempt in range(MAX_RETRIES + 1):
+            try:
+                message = solver.step()
+                break
+            except TensegrityError as err:
+                # A trial stage left the model's domain: retry from the last accepted state
+                # with a smaller step (events stop the integration before real trouble).
+                if attempt == MAX_RETRIES:
+                    raise SimulationError(f"integration cannot continue past t = {t_old:.9g} s: {err}",
+                                          t=t_old) from None
+                h = (self._h or abs(self.t_end - t_old) or 1e-3) / 8.0
+                self._h = h
+                self._seg = (t_old, t_old)
+                self._dense = _Constant(y_old)
+                self._new_solver()
+                solver = self.solver
+        if solver.status == "failed":
+            raise SimulationError(f"integrator failed at t = {solver.t:.9g} s: {message}", t=solver.t)
+        self.n_steps += 1
+        self._h = solver.step_size if solver.step_size else self._h
+        t_new, y_new = solver.t, solver.y
+        dense = None
+        g_new = [ev.g(t_new, y_new) for ev in self._events]
+        hit = None
+        for ev, g0, g1 in zip(self._events, self._g, g_new):
+            if (ev.direction < 0 and g0 > 0 >= g1) or (ev.direction > 0 and g0 < 0 <= g1) or \
+                    (ev.direction == 0 and (g0 > 0 >= g1 or g0 < 0 <= g1)):
+                if dense is None:
+                    dense = solver.dense_output()
+                te = brentq(lambda t: ev.g(t, dense(t)), t_old, t_new, xtol=4 * np.finfo(float).eps * max(1.0, abs(t_new)),
+                            rtol=4 * np.finfo(float).eps)
+                if hit is None or te < hit[0]:
+                    hit = (te, ev)
+        self._g = g_new
+        if hit is not None:
+            te, ev = hit
+            self._seg = (t_old, te)
+            self._dense = dense
+            self._pending = (te, ev)
+            return
+        self._seg = (t_old, t_new)
+        self._dense = _LazyDense(solver) if dense is None else dense
+        moved = self.model.after_step(t_new, y_new)
+        if moved is not None:
+            self.restart(t_new, moved)
+
+    def _fire(self) -> None:
+        te, ev = self._pending
+        y_e = self._dense(te)
+        self.n_events += 1
+        self.event_log.append((te, ev.kind, ev.index))
+        y_new = self.model.handle_event(ev, te, y_e)
+        self.restart(te, y_new)
+
+    def record(self, times, out: list, tag=lambda: None) -> None:
+        """Append ``(t, y, tag())`` for increasing ``times`` to ``out``: advance to each time,
+        and interpolate every time the current step covers in one vectorised call. ``tag`` is
+        evaluated per step (e.g. the model's contact mode, constant within a step)."""
+        i, n = 0, len(times)
+        while i < n:
+            self.advance(float(times[i]))
+            j = i + 1
+            while j < n and times[j] <= self._seg[1]:
+                j += 1
+            ts = np.asarray(times[i:j], dtype=float)
+            label = tag()
+            if j - i == 1:
+                out.append((float(ts[0]), self.y.copy(), label))
+            else:
+                Y = self._dense(ts)
+                out.extend((float(t), Y[:, k].copy(), label) for k, t in enumerate(ts))
+                self.t, self.y = float(ts[-1]), Y[:, -1].copy()
+            i = j
+
+
+class _LazyDense:
+    """The solver's dense output for its last step, built on first use (before the next step)."""
+
+    def __init__(self, solver):
+        self.solver = solver
+        self.t_end = solver.t
+        self.y = solver.y.copy()
+        self._fn = None
+
+    def __call__(self, t):
+        if np.ndim(t) == 0 and t == self.t_end:
+            return self.y.copy()
+        if self._fn is None:
+            if self.solver.t != self.t_end:
+                raise RuntimeError("dense output requested after the solver moved on")
+            self._fn = self.solver.dense_output()
+        return self._fn(t)

@@ -1,0 +1,126 @@
+"""A simulated run at the output rate: arrays over time, events, and NPZ / CSV files.
+
+Arrays (``N`` output samples): ``times`` (N,) [s]; ``states`` (N, n) the model's state
+vector (names in ``state_names``); ``q``, ``qdot``; ``applied_forces`` (N, a);
+``member_forces``, ``member_lengths`` (N, m); ``nodes`` (N, n_nodes, 3); ``end_effector``
+(N, 3); ``potential_energy``, ``kinetic_energy`` (N,); ``folded`` (N,) bool;
+``contact_forces``. ``events`` lists ``(t, kind, index)``. With sensor noise,
+``measurements`` holds the noisy copies of the listed quantities. ``success`` is False when
+the run stopped early (``message`` says why; the arrays end at the last good sample).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+ARRAYS = ("times", "states", "q", "qdot", "applied_forces", "contact_forces", "member_forces",
+          "member_lengths", "nodes", "end_effector", "potential_energy", "kinetic_energy", "folded")
+
+
+@dataclass
+class Trajectory:
+    scene_name: str
+    times: np.ndarray
+    states: np.ndarray
+    q: np.ndarray
+    qdot: np.ndarray
+    applied_forces: np.ndarray
+    contact_forces: np.ndarray
+    member_forces: np.ndarray
+    member_lengths: np.ndarray
+    nodes: np.ndarray
+    end_effector: np.ndarray
+    potential_energy: np.ndarray
+    kinetic_energy: np.ndarray
+    folded: np.ndarray
+    node_names: tuple = ()
+    member_names: tuple = ()
+    member_nodes: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=int))
+    state_names: tuple = ()
+    actuator_names: tuple = ()
+    events: list = field(default_factory=list)
+    measurements: dict = field(default_factory=dict)
+    stats: dict = field(default_factory=dict)
+    success: bool = True
+    message: str = ""
+    scene: dict = field(default_factory=dict, repr=False)
+
+    @classmethod
+    def from_observations(cls, scene, data: dict, names: dict, events, measurements, stats, *,
+                          error: str = "", state_names=()) -> "Trajectory":
+        return cls(
+            scene_name=scene.name, times=data["t"], states=data["state"], q=data["q"], qdot=data["qdot"],
+            applied_forces=data["applied_forces"], contact_forces=data["contact_forces"],
+            member_forces=data["member_forces"], member_lengths=data["member_lengths"], nodes=data["nodes"],
+            end_effector=data["end_effector"], potential_energy=data["potential_energy"],
+            kinetic_energy=data["kinetic_energy"], folded=data["folded"], node_names=tuple(names["node_names"]),
+            member_names=tuple(names["member_names"]), member_nodes=np.asarray(names["member_nodes"]),
+            state_names=tuple(state_names), actuator_names=tuple(scene.inputs), events=list(events),
+            measurements=measurements, stats=stats, success=not error,
+            message=error or f"simulated {scene.duration:g} s", scene=scene.data)
+
+    def __len__(self) -> int:
+        return len(self.times)
+
+    # -- files -------------------------------------------------------------------------------
+    def to_npz(self, path) -> Path:
+        """Write every array, the names, events, statistics and the scene to ``path`` (.npz)."""
+        path = Path(path)
+        arrays = {k: np.asarray(getattr(self, k)) for k in ARRAYS}
+        arrays["member_nodes"] = np.asarray(self.member_nodes)
+        for k, v in self.measurements.items():
+            arrays[f"measured_{k}"] = np.asarray(v)
+        meta = {"scene_name": self.scene_name, "node_names": list(self.node_names),
+                "member_names": list(self.member_names), "state_names": list(self.state_names),
+                "actuator_names": list(self.actuator_names),
+                "events": [[float(t), str(kind), int(i)] for t, kind, i in self.events],
+                "stats": self.stats, "success": self.success, "message": self.message, "scene": self.scene}
+        arrays["meta"] = np.array(json.dumps(meta, default=float))
+        with open(path, "wb") as fh:
+            np.savez_compressed(fh, **arrays)
+        return path
+
+    @classmethod
+    def from_npz(cls, path) -> "Trajectory":
+        with np.load(Path(path), allow_pickle=False) as z:
+            meta = json.loads(str(z["meta"]))
+            arrays = {k: z[k] for k in ARRAYS}
+            measured = {k[len("measured_"):]: z[k] for k in z.files if k.startswith("measured_")}
+            member_nodes = z["member_nodes"]
+        return cls(scene_name=meta["scene_name"], **arrays, node_names=tuple(meta["node_names"]),
+                   member_names=tuple(meta["member_names"]), member_nodes=member_nodes,
+                   state_names=tuple(meta["state_names"]), actuator_names=tuple(meta["actuator_names"]),
+                   events=[tuple(e) for e in meta["events"]], measurements=measured, stats=meta["stats"],
+                   success=meta["success"], message=meta["message"], scene=meta["scene"])
+
+    def csv_columns(self) -> tuple[list[str], np.ndarray]:
+        """Column names and the (N, k) table written by :meth:`to_csv`."""
+        cols = ["t"] + list(self.state_names or [f"y{i}" for i in range(self.states.shape[1])])
+        parts = [self.times[:, None], self.states]
+        cols += [f"applied_{a}" for a in self.actuator_names] or \
+            [f"applied_{i}" for i in range(self.applied_forces.shape[1])]
+        parts.append(self.applied_forces)
+        cols += ["end_effector_x", "end_effector_y", "end_effector_z"]
+        parts.append(self.end_effector)
+        cols += [f"force_{m}" for m in self.member_names]
+        parts.append(self.member_forces)
+        cols += ["potential_energy", "kinetic_energy", "folded"]
+        parts += [self.potential_energy[:, None], self.kinetic_energy[:, None], self.folded[:, None].astype(float)]
+        return cols, np.hstack([np.asarray(p, dtype=float).reshape(len(self.times), -1) for p in parts])
+
+    def to_csv(self, path) -> Path:
+        """One row per output sample; comment lines (``#``) carry the scene name and the events."""
+        path = Path(path)
+        cols, table = self.csv_columns()
+        header = [f"scene: {self.scene_name}", f"status: {'ok' if self.success else 'stopped'}: {self.message}"]
+        header += [f"event: t={t:.12g} {kind} {i}" for t, kind, i in self.events]
+        with open(path, "w", encoding="utf-8") as fh:
+            for line in header:
+                fh.write(f"# {line}\n")
+            fh.write(",".join(cols) + "\n")
+            np.savetxt(fh, table, delimiter=",", fmt="%.17g")
+        return path

@@ -1,0 +1,107 @@
+"""``tensegrity simulate`` and ``tensegrity scenes``; trajectory files."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+from tensegrity_core.sim import Trajectory, scene_names, simulate
+from tensegrity_ros.cli import main
+
+SHORT = {"paper_fold": 0.2, "paper_fold_quasistatic": 0.2, "stiff_fold": 0.2, "class2_at_rest": 0.2,
+         "table_gravity": 0.005, "spine_release": 0.02}
+
+
+def read_csv(path) -> np.ndarray:
+    rows = [line for line in path.read_text().splitlines() if not line.startswith("#")][1:]
+    return np.array([[float(v) for v in row.split(",")] for row in rows])
+
+
+@pytest.mark.parametrize("name", sorted(SHORT))
+def test_every_shipped_scene_runs_from_the_cli(name, tmp_path, capsys):
+    out, plot = tmp_path / f"{name}.npz", tmp_path / f"{name}.png"
+    code = main(["simulate", name, "--duration", str(SHORT[name]), "-o", str(out), "--plot", str(plot), "--json"])
+    summary = json.loads(capsys.readouterr().out)
+    assert code == 0 and summary["success"] and summary["scene"] == name
+    assert summary["t_end"] == pytest.approx(SHORT[name]) and plot.stat().st_size > 10_000
+    traj = Trajectory.from_npz(out)
+    assert len(traj) == summary["samples"] and np.all(np.isfinite(traj.states))
+
+
+def test_all_shipped_scenes_are_covered():
+    assert set(SHORT) == set(scene_names())
+
+
+def test_the_scenes_command_lists_them(capsys):
+    assert main(["scenes", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert {r["name"] for r in rows} == set(scene_names())
+    assert main(["scenes"]) == 0
+    assert "paper_fold_quasistatic" in capsys.readouterr().out
+
+
+def test_scene_errors_are_one_line_with_exit_2(tmp_path, capsys):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(textwrap.dedent("""\
+        model: {kind: class2}
+        initial: {q: [0.5, 0.5, 1.0]}
+        inputs: {f1: 0.0, f2: 0.0}
+        effects: [inertia, springs, dampin]
+        duration: 1.0
+        """))
+    assert main(["simulate", str(bad)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: bad.yaml: effects[2]: unknown effect 'dampin'")
+    assert err[0].endswith("(line 4)")
+    assert main(["simulate", "paper_fold", "-o", str(tmp_path / "x.txt")]) == 2
+    assert main(["simulate", "no_such_scene"]) == 2
+    assert main(["simulate", "paper_fold", "--duration", "-1"]) == 2
+
+
+def test_a_run_that_stops_early_writes_what_it_has_and_exits_1(tmp_path, capsys):
+    scene = tmp_path / "push.yaml"
+    scene.write_text(textwrap.dedent("""\
+        model: {kind: class2}
+        initial: {equilibrium: {rho1: 0.7, rho2: 0.7}}
+        inputs: {f1: -20.0, f2: -20.0}
+        effects: [inertia, springs]
+        duration: 5.0
+        """))
+    out = tmp_path / "push.csv"
+    assert main(["simulate", str(scene), "-o", str(out), "--quiet"]) == 1
+    captured = capsys.readouterr()
+    assert captured.err.strip().splitlines()[-1].startswith("error: simulation stopped early: t = ")
+    table = read_csv(out)
+    assert 0 < len(table) < 501
+
+
+def test_csv_and_npz_hold_the_same_run(tmp_path):
+    traj = simulate("paper_fold", duration=2.0)
+    traj.to_csv(tmp_path / "t.csv")
+    traj.to_npz(tmp_path / "t.npz")
+    lines = (tmp_path / "t.csv").read_text().splitlines()
+    assert lines[0] == "# scene: paper_fold" and any(line.startswith("# event: t=1.38") for line in lines)
+    header = next(line for line in lines if not line.startswith("#")).split(",")
+    table = read_csv(tmp_path / "t.csv")
+    cols, expected = traj.csv_columns()
+    assert header == cols and header[:4] == ["t", "rho1", "rho2", "beta"] and "force_AE" in header
+    np.testing.assert_array_equal(table, expected)
+    back = Trajectory.from_npz(tmp_path / "t.npz")
+    for name in ("times", "states", "member_forces", "end_effector", "applied_forces", "folded"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(traj, name))
+    assert back.events == [tuple(e) for e in traj.events] and back.scene == traj.scene
+
+
+def test_the_console_script_runs():
+    env = dict(os.environ, MPLBACKEND="Agg")
+    exe = os.path.join(os.path.dirname(sys.executable), "tensegrity")
+    result = subprocess.run([exe, "simulate", "paper_fold", "--duration", "0.5"], capture_output=True, text=True,
+                            env=env, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert "scene paper_fold" in result.stdout and "simulated 0.5 s" in result.stdout

@@ -1,0 +1,206 @@
+"""General structures: nodal and rigid-body dynamics, the implicit Jacobian, incremental form-finding.
+
+Oracles: closed-form oscillation of a mass between two bars, energy and momentum balances
+computed from node positions and point masses in the test, central finite differences of
+the right-hand side, and the statics' form-finding called directly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tensegrity_core.general import form_find
+from tensegrity_core.sim import Simulator, load_scene, simulate
+from tensegrity_core.sim.general_model import left_jacobian, left_jacobian_inverse
+
+from .helpers import central_jacobian
+
+LINE = {
+    "name": "mass between two bars",
+    "nodes": {"a": [-1.0, 0, 0], "m": [0.0, 0, 0], "b": [1.0, 0, 0]},
+    "members": [{"nodes": ["a", "m"], "type": "bar", "EA": 100.0, "rest_length": 1.0},
+                {"nodes": ["m", "b"], "type": "bar", "EA": 100.0, "rest_length": 1.0}],
+    "pinned": {"a": "xyz", "b": "xyz", "m": "yz"},
+    "masses": {"m": 2.0},
+}
+
+BODIES = {
+    "name": "two floating triangles",
+    "nodes": {"p1": [0, 0, 0], "p2": [1, 0, 0], "p3": [0, 1, 0],
+              "q1": [0.2, 0.1, 1], "q2": [1.1, 0.3, 1.2], "q3": [0.1, 1.2, 0.9], "n": [0.5, 0.5, 2.0]},
+    "members": [{"nodes": ["p1", "q1"], "EA": 50.0, "rest_length_ratio": 0.8},
+                {"nodes": ["p2", "q2"], "EA": 60.0, "rest_length_ratio": 0.7},
+                {"nodes": ["p3", "q3"], "EA": 40.0, "rest_length_ratio": 0.9},
+                {"nodes": ["p1", "q3"], "type": "bar", "EA": 80.0},
+                {"nodes": ["q2", "n"], "EA": 30.0, "rest_length_ratio": 0.9},
+                {"nodes": ["p3", "n"], "EA": 30.0, "rest_length_ratio": 0.9}],
+    "rigid_bodies": [{"name": "low", "nodes": ["p1", "p2", "p3"], "mass": 1.5},
+                     {"name": "high", "nodes": ["q1", "q2", "q3"], "mass": 2.0}],
+    "masses": {"n": 0.3, "q2": 0.4},
+}
+
+
+def general_scene(structure, effects, **extra):
+    d = {"model": {"kind": "general", "structure": structure}, "initial": {"drawn": True},
+         "effects": effects, "duration": 1.0, "output": {"rate": 200},
+         "integrator": {"method": "DOP853", "rtol": 1e-10, "atol": 1e-12}}
+    d.update(extra)
+    return load_scene(d)
+
+
+def test_a_mass_between_two_bars_oscillates_at_sqrt_2k_over_m():
+    x0 = 0.05
+    structure = dict(LINE, nodes={"a": [-1.0, 0, 0], "m": [x0, 0, 0], "b": [1.0, 0, 0]})
+    traj = simulate(general_scene(structure, ["inertia", "springs"], duration=2.0))
+    omega = np.sqrt(2 * 100.0 / 1.0 / 2.0)
+    np.testing.assert_allclose(traj.nodes[:, 1, 0], x0 * np.cos(omega * traj.times), atol=1e-9)
+    np.testing.assert_allclose(traj.member_forces[:, 0], 100.0 * traj.nodes[:, 1, 0], atol=1e-7)
+
+
+def test_left_jacobian_and_its_inverse():
+    rng = np.random.default_rng(0)
+    for theta in list(rng.normal(size=(5, 3))) + [np.array([1e-6, 0, 0]), np.zeros(3)]:
+        np.testing.assert_allclose(left_jacobian(theta) @ left_jacobian_inverse(theta), np.eye(3), atol=1e-12)
+        # omega from d/dt exp(hat(theta)): hat(omega) = dR/dt R^T
+        from tensegrity_core.general.rotation import exp_so3
+
+        v = rng.normal(size=3)
+        h = 1e-6
+        dR = (exp_so3(theta + h * v) - exp_so3(theta - h * v)) / (2 * h)
+        W = dR @ exp_so3(theta).T
+        np.testing.assert_allclose([W[2, 1], W[0, 2], W[1, 0]], left_jacobian(theta) @ v, atol=1e-8)
+
+
+def _lumped(structure):
+    """Point masses per node, as the docs define them (independent of the simulator code)."""
+    s = structure
+    m = s.node_masses.copy()
+    for body in s.bodies:
+        m[list(body.nodes)] += body.mass / len(body.nodes)
+    return m
+
+
+def _node_velocities(traj, structure):
+    """Node velocities from q, qdot: free coordinates directly, body nodes v_c + omega x r."""
+    lay = structure.layout
+    vel = np.zeros_like(traj.nodes)
+    free = np.argwhere(lay.free_index >= 0)
+    for node, axis in free:
+        vel[:, node, axis] = traj.qdot[:, lay.free_index[node, axis]]
+    for slot, idx in enumerate(lay.body_nodes):
+        base = lay.body_dof[slot]
+        c, vc, w = traj.q[:, base:base + 3], traj.qdot[:, base:base + 3], traj.qdot[:, base + 3:base + 6]
+        for k in idx:
+            vel[:, k] = vc + np.cross(w, traj.nodes[:, k] - c)
+    return vel
+
+
+def _spin(scene, seed=1):
+    """A simulator of ``scene`` restarted from the drawing with random velocities."""
+    sim = Simulator(scene, t_end=scene.duration)
+    st = sim._backend.stepper
+    y = st.y.copy()
+    n = len(y) // 2
+    y[n:] = np.random.default_rng(seed).normal(0, 1.5, n)
+    st.restart(0.0, y)
+    return sim
+
+
+def _run(sim, times):
+    samples = []
+    sim._backend.record(times, samples)
+    return sim._backend.observe(samples)
+
+
+def test_free_bodies_conserve_energy_momentum_and_angular_momentum_through_rechartings():
+    scene = general_scene(BODIES, ["inertia", "springs"], duration=1.5)
+    s = scene.model.structure
+    sim = _spin(scene)
+    data = _run(sim, np.linspace(0, 1.5, 151))
+
+    class T:                                           # the arrays _node_velocities reads
+        q, qdot, nodes = data["q"], data["qdot"], data["nodes"]
+    m = _lumped(s)
+    vel = _node_velocities(T, s)
+    momentum = np.einsum("k,tki->ti", m, vel)
+    angular = np.einsum("k,tki->ti", m, np.cross(data["nodes"], vel))
+    np.testing.assert_allclose(momentum - momentum[0], 0.0, atol=1e-8)
+    np.testing.assert_allclose(angular - angular[0], 0.0, atol=1e-8)
+    kinetic = 0.5 * np.einsum("k,tki,tki->t", m, vel, vel)
+    np.testing.assert_allclose(kinetic, data["kinetic_energy"], rtol=1e-10)
+    l = data["member_lengths"]
+    taut = (l >= s.rest_lengths) | ~s.is_string
+    strain = 0.5 * np.sum(np.where(taut, s.EA * (l - s.rest_lengths) ** 2 / s.rest_lengths, 0.0), axis=1)
+    E = kinetic + strain
+    assert np.ptp(E) < 1e-8 * E[0]
+    assert sim._backend.stepper.n_restarts > 2           # the rotation charts were re-anchored
+    assert np.abs(data["q"][:, 9:12]).max() <= np.pi + 1e-9
+
+
+def test_gravity_and_loads_do_their_work():
+    g = np.array([0.0, 0.0, -9.81])
+    load = np.array([1.0, -2.0, 0.5])
+    scene = general_scene(BODIES, ["inertia", "springs", {"gravity": {"vector": g.tolist()}},
+                                   {"loads": {"n": load.tolist()}}], duration=1.0)
+    s = scene.model.structure
+    sim = _spin(scene, seed=3)
+    data = _run(sim, np.linspace(0, 1.0, 101))
+    m = _lumped(s)
+    l = data["member_lengths"]
+    taut = (l >= s.rest_lengths) | ~s.is_string
+    strain = 0.5 * np.sum(np.where(taut, s.EA * (l - s.rest_lengths) ** 2 / s.rest_lengths, 0.0), axis=1)
+    heights = np.einsum("k,tk->t", m, data["nodes"] @ g)
+    n = s.node_names.index("n")
+    E = data["kinetic_energy"] + strain - heights - data["nodes"][:, n] @ load
+    assert np.ptp(E) < 1e-8 * np.abs(E).max()
+    np.testing.assert_allclose(data["potential_energy"], strain - heights - data["nodes"][:, n] @ load,
+                               rtol=1e-9, atol=1e-9)
+
+
+@pytest.mark.parametrize("name", ["table_gravity", "spine_release"])
+def test_the_sparse_jacobian_is_exact_at_rest_in_equilibrium(name):
+    scene = load_scene(name)
+    sim = Simulator(scene)
+    model = sim._backend.model
+    y = sim._backend.stepper.y.copy()
+    J = model.jac(0.0, y).toarray()
+    fd = central_jacobian(lambda z: model.fun(0.0, z), y, h=1e-7)
+    n = model.n
+    if name == "spine_release":          # the released preload leaves it at rest out of balance:
+        J, fd = J[:, n:], fd[:, n:]      # only the velocity columns are exact there
+    scale = np.abs(fd).max()
+    np.testing.assert_allclose(J, fd, atol=1e-5 * scale)
+
+
+def test_quasi_static_general_equals_form_finding_and_the_damped_dynamics_settle_there():
+    scene = load_scene("table_gravity")
+    d = dict(scene.data)
+    d["effects"] = ["springs", "gravity", {"loads": {"c1": [0.0, 0.0, -500.0]}}]
+    d["model"] = dict(d["model"], structure=str(scene.model.source))
+    qs = simulate(load_scene(d), duration=0.05)
+    s = scene.model.structure
+    loads = s.loads.copy()
+    loads[s.node_names.index("c1")] += [0, 0, -500.0]
+    ref = form_find(s.replace(gravity=np.array([0, 0, -9.80665]), loads=loads))
+    assert qs.success and ref.success
+    np.testing.assert_allclose(qs.nodes[-1], ref.nodes, atol=1e-9)
+    np.testing.assert_allclose(qs.member_forces[-1], ref.member_forces, rtol=1e-9)
+    assert np.all(qs.kinetic_energy == 0.0) and np.all(qs.qdot == 0.0)
+    dyn = simulate(scene, duration=0.2)
+    np.testing.assert_allclose(dyn.nodes[-1], ref.nodes, atol=2e-8)
+
+
+def test_quasi_static_actuator_members_follow_their_rest_lengths():
+    structure = dict(LINE, members=[{"nodes": ["a", "m"], "type": "actuator", "EA": 100.0, "rest_length": 1.0,
+                                     "name": "act"},
+                                    {"nodes": ["m", "b"], "type": "bar", "EA": 100.0, "rest_length": 1.0}])
+    scene = general_scene(structure, ["springs"], inputs={"act": {"law": "ramp", "from": 1.0, "to": 0.8, "t1": 1.0}})
+    traj = simulate(scene)
+    # equilibrium: EA (x + 1 - l0)/l0 = EA (1 - x - 1)/1 ... solved for the node's x
+    l0 = traj.applied_forces[:, 0]
+    x = traj.nodes[:, 1, 0]
+    np.testing.assert_allclose((x + 1 - l0) / l0, (1 - x - 1.0), atol=1e-9)
+    np.testing.assert_allclose(l0, np.clip(1.0 - 0.2 * traj.times, 0.8, 1.0), atol=1e-12)
+    dxdt = traj.qdot[:, 0]
+    np.testing.assert_allclose(dxdt[1:-1], np.gradient(x, traj.times)[1:-1], atol=1e-4)

@@ -1,0 +1,135 @@
+"""The quasi-static class-2 model: stable equilibria, fold events, limit points, slow loading.
+
+Oracles: the closed-form potential gradient and Hessian of :mod:`tensegrity_core.class2`
+(independent of the simulator's effects), scipy's minimiser and root finder, the analytic
+time at which the paper's full fold becomes stable, and the dynamic model under slowly
+changing forces.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq, minimize, root
+
+from tensegrity_core.class2.dynamics import potential_gradient
+from tensegrity_core.class2.dynamics_jacobian import potential_hessian
+from tensegrity_core.class2.energy import equilibrium_beta, potential_energy
+from tensegrity_core.sim import simulate
+
+from .helpers import class2_scene
+
+PAPER = {"f1": {"law": "proportional", "gain": 10.0}, "f2": {"law": "proportional", "gain": 10.0}}
+
+
+def paper_qs(**kw):
+    return simulate(class2_scene(effects=["springs", "fold_limit"], inputs=PAPER, duration=1.0, **kw))
+
+
+def test_every_sample_is_a_stable_constrained_equilibrium():
+    traj = paper_qs()
+    p = class2_scene().model.params
+    assert traj.success and traj.q[:, :2].min() >= 0.0
+    for t, q, lam in zip(traj.times, traj.q, traj.contact_forces):
+        G = potential_gradient(q, p) + np.array([10 * q[0] * t, 10 * q[1] * t, 0.0])
+        held = [i for i in (0, 1) if q[i] == 0.0]
+        free = [i for i in range(3) if i not in held]
+        assert np.abs(G[free]).max() < 1e-9
+        for i in held:
+            assert G[i] == pytest.approx(lam[i], abs=1e-12) and lam[i] >= -1e-9
+        K = potential_hessian(q, p) + np.diag([10 * t, 10 * t, 0.0])
+        assert np.linalg.eigvalsh(K[np.ix_(free, free)]).min() > -1e-9
+
+
+def test_the_start_is_the_springs_minimum_reached_from_the_paper_state():
+    traj = paper_qs()
+    p = class2_scene().model.params
+    b = float(equilibrium_beta(0.7, 0.7, p))
+    ref = minimize(lambda q: float(potential_energy(q, p)), [0.7, 0.7, b], jac=lambda q: potential_gradient(q, p),
+                   bounds=[(0, 0.99), (0, 1.0), (None, None)], method="L-BFGS-B",
+                   options={"ftol": 1e-15, "gtol": 1e-12})
+    np.testing.assert_allclose(traj.q[0], ref.x, atol=1e-6)
+    assert traj.events[0][:2] == (0.0, "jump")
+
+
+def test_the_fold_events_happen_where_the_equilibrium_reaches_zero_length():
+    traj = paper_qs()
+    p = class2_scene().model.params
+    (t1, k1, i1), (t2, k2, i2) = traj.events[1:3]
+    assert (k1, i1, k2, i2) == ("fold", 0, "fold", 1)
+
+    def rho1_at(t, guess=[0.2, 0.8, 0.6]):
+        sol = root(lambda q: potential_gradient(q, p) + np.array([10 * q[0] * t, 10 * q[1] * t, 0]),
+                   rho1_at.last, tol=1e-14)
+        rho1_at.last = sol.x
+        return sol.x[0]
+
+    rho1_at.last = np.array(traj.q[0])
+    for t in np.linspace(0, t1 - 1e-3, 30):       # follow the branch, then bracket its zero
+        rho1_at(t)
+    t_zero = brentq(rho1_at, t1 - 1e-3, t1 + 1e-4, xtol=1e-14)
+    assert t1 == pytest.approx(t_zero, abs=1e-9)
+    # With rho1 held, the full fold (0, 0, pi/2) -- an equilibrium for every t -- becomes stable
+    # when det([[1.5 + 10 t, 1.5], [1.5, 1]]) = 0, i.e. t = 0.075 (the Hessian at the fold plus
+    # the actuator stiffness 10 t); there the stable branch ends on it.
+    assert t2 == pytest.approx(0.075, abs=1e-8)
+    assert np.all(traj.q[traj.times > 0.076, :2] == 0.0)
+    np.testing.assert_allclose(traj.q[traj.times > 0.076, 2], np.pi / 2, atol=1e-12)
+
+
+def test_slow_loading_makes_the_dynamics_quasi_static():
+    """Ramped forces from the holding forces: the dynamic response follows the quasi-static
+    path with an error that falls like the loading rate (about 4x per 4x slower ramp)."""
+    params = {"kind": "class2", "params": {"k": 5.0, "m": 0.5, "c": 3.0}}
+    p = class2_scene(model=params).model.params
+    q0 = np.array([0.4, 0.8, float(equilibrium_beta(0.4, 0.8, p))])
+    hold = -potential_gradient(q0, p)[:2]
+    errors = []
+    for T in (20.0, 80.0, 320.0):
+        inputs = {"f1": {"law": "ramp", "from": float(hold[0]), "to": float(hold[0]) + 1.0, "t1": T},
+                  "f2": {"law": "ramp", "from": float(hold[1]), "to": float(hold[1]) - 0.5, "t1": T}}
+        common = dict(model=params, inputs=inputs, initial={"equilibrium": {"rho1": 0.4, "rho2": 0.8}},
+                      duration=T, output={"rate": 1.0})
+        dyn = simulate(class2_scene(effects=["inertia", "springs", "damping"],
+                                    integrator={"method": "DOP853", "rtol": 1e-9, "atol": 1e-11}, **common))
+        qs = simulate(class2_scene(effects=["springs"], **common))
+        errors.append(np.abs(dyn.q - qs.q).max())
+    assert errors[0] / errors[1] > 2.5 and errors[1] / errors[2] > 3.0 and errors[2] < 0.01
+
+
+def test_a_limit_point_stops_the_run_instead_of_producing_garbage():
+    p = class2_scene().model.params
+    q0 = np.array([0.4, 0.8, float(equilibrium_beta(0.4, 0.8, p))])
+    hold = -potential_gradient(q0, p)[:2]
+    inputs = {"f1": {"law": "ramp", "from": float(hold[0]), "to": 2.0, "t1": 1.0}, "f2": float(hold[1])}
+    common = dict(inputs=inputs, initial={"equilibrium": {"rho1": 0.4, "rho2": 0.8}}, duration=1.0)
+    traj = simulate(class2_scene(effects=["springs"], **common))
+    assert not traj.success and "limit point" in traj.message and traj.events[-1][1] == "limit"
+    assert traj.times[-1] < 0.1 and np.all(np.isfinite(traj.q))
+    folded = simulate(class2_scene(effects=["springs", "fold_limit"], **common))
+    assert folded.success and folded.events[0][1] == "fold" and folded.q[-1, 0] == 0.0
+
+
+def test_reaching_a_singular_configuration_is_reported_as_such():
+    p = class2_scene().model.params
+    q0 = np.array([0.4, 0.8, float(equilibrium_beta(0.4, 0.8, p))])
+    hold = -potential_gradient(q0, p)[:2]
+    inputs = {"f1": {"law": "ramp", "from": float(hold[0]), "to": -2.0, "t1": 1.0}, "f2": float(hold[1])}
+    traj = simulate(class2_scene(effects=["springs"], inputs=inputs, duration=1.0,
+                                 initial={"equilibrium": {"rho1": 0.4, "rho2": 0.8}}))
+    assert not traj.success and "singular configuration" in traj.message and "strut BF flat" in traj.message
+
+
+def test_commands_move_the_equilibrium_at_once():
+    from tensegrity_core.sim import Simulator
+
+    sim = Simulator(class2_scene(effects=["springs"], inputs={"f1": {"law": "commanded"}, "f2": {"law": "commanded"}},
+                                 initial={"equilibrium": {"rho1": 0.4, "rho2": 0.8}}))
+    start = sim.observe().q
+    p = class2_scene().model.params
+    f = np.array(sim.command) + np.array([0.05, -0.05])
+    sim.set_command(f)
+    sim.advance(0.1)
+    q = sim.observe().q
+    assert np.abs(q - start).max() > 1e-3
+    np.testing.assert_allclose(potential_gradient(q, p)[:2] + f, 0.0, atol=1e-10)

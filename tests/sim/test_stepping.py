@@ -1,0 +1,118 @@
+"""The stepping API the ROS node uses: advance / set_command / observe."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from tensegrity_core.errors import TensegrityError
+from tensegrity_core.sim import Observation, SimulationError, Simulator, load_scene, simulate
+
+from .helpers import class2_scene
+
+
+def test_advancing_in_1ms_steps_equals_one_long_run():
+    scene = load_scene("paper_fold").with_duration(2.0)
+    traj = simulate(scene)
+    sim = Simulator(scene)
+    rows = {0: sim.observe().state}
+    for k in range(1, 2001):
+        sim.advance(k * 1e-3)
+        if k % 10 == 0:
+            rows[k // 10] = sim.observe().state
+    stepped = np.array([rows[i] for i in range(len(traj.times))])
+    tol = scene.integrator.rtol * np.abs(traj.states).max(axis=0) + scene.integrator.atol
+    assert np.all(np.abs(stepped - traj.states) <= 10 * tol)
+    assert [e[1:] for e in sim.events] == [e[1:] for e in traj.events]
+    np.testing.assert_allclose([e[0] for e in sim.events], [e[0] for e in traj.events], atol=1e-9)
+
+
+def test_the_observation_has_the_contract_fields():
+    sim = Simulator("class2_at_rest")
+    obs = sim.observe()
+    assert isinstance(obs, Observation) and obs.t == 0.0
+    assert obs.q.shape == obs.qdot.shape == (3,) and obs.applied_forces.shape == (2,)
+    assert obs.nodes.shape == (6, 3) and obs.node_names == ("A", "B", "C", "D", "E", "F")
+    assert obs.member_nodes.shape == (10, 2) and len(obs.member_names) == 10
+    assert obs.member_lengths.shape == obs.member_forces.shape == (10,)
+    np.testing.assert_allclose(obs.end_effector, obs.nodes[3])
+    assert isinstance(obs.folded, bool) and not obs.folded
+    assert obs.kinetic_energy == 0.0 and obs.potential_energy > 0
+
+
+def test_commanded_inputs_hold_the_initial_state_until_a_command_arrives():
+    sim = Simulator("class2_at_rest")
+    np.testing.assert_allclose(sim.command, [-0.35, 0.35], atol=1e-12)
+    for k in range(1, 201):
+        sim.set_command(sim.command)
+        sim.advance(k * 1e-3)
+    obs = sim.observe()
+    np.testing.assert_allclose(obs.q[:2], [0.7, 0.7], atol=1e-12)
+    np.testing.assert_allclose(obs.applied_forces, [-0.35, 0.35])
+
+
+def test_a_command_is_a_zero_order_hold_from_the_current_time():
+    """Commands changing every millisecond equal an integration with the piecewise-constant
+    forces, restarted at each change (solve_ivp per interval as the oracle)."""
+    from scipy.integrate import solve_ivp
+
+    from tensegrity_core.class2.dynamics import Class2Dynamics
+
+    scene = class2_scene(inputs={"f1": {"law": "commanded"}, "f2": {"law": "commanded"}})
+    sim = Simulator(scene)
+    dyn = Class2Dynamics(scene.model.params)
+    y = sim.observe().state.copy()
+    for k in range(50):
+        f = (2.0 * math.sin(0.3 * k), -1.0 + 0.05 * k)
+        sim.set_command(f)
+        sim.advance((k + 1) * 1e-3)
+        y = solve_ivp(lambda t, z: dyn.rhs(t, z, *f), (k * 1e-3, (k + 1) * 1e-3), y, method="DOP853", rtol=1e-12,
+                      atol=1e-14).y[:, -1]
+    np.testing.assert_allclose(sim.observe().state, y, atol=1e-9)
+    np.testing.assert_allclose(sim.observe().applied_forces, f)
+
+
+def test_an_unchanged_command_does_not_restart_the_integrator():
+    sim = Simulator("class2_at_rest")
+    sim.set_command([0.5, 0.5])
+    sim.advance(1e-3)
+    restarts = sim._backend.stepper.n_restarts
+    for k in range(2, 100):
+        sim.set_command([0.5, 0.5])
+        sim.advance(k * 1e-3)
+    assert sim._backend.stepper.n_restarts == restarts
+
+
+@pytest.mark.parametrize("command, words", [([1.0], "must have 2 values"), ([math.nan, 0.0], "must be finite"),
+                                            (["a", 1.0], "must be 2 numbers")])
+def test_bad_commands_are_rejected_and_leave_the_state(command, words):
+    sim = Simulator("class2_at_rest")
+    with pytest.raises(SimulationError, match=words):
+        sim.set_command(command)
+    np.testing.assert_allclose(sim.command, [-0.35, 0.35], atol=1e-12)
+
+
+def test_advance_rejects_going_back_and_non_finite_times():
+    sim = Simulator("class2_at_rest")
+    sim.advance(0.01)
+    with pytest.raises(SimulationError, match="backwards"):
+        sim.advance(0.005)
+    with pytest.raises(SimulationError, match="finite"):
+        sim.advance(math.nan)
+
+
+def test_reaching_a_singular_configuration_stops_with_an_error_and_keeps_the_state():
+    """A large compressive force pushes rho1 + rho2 towards 2L (struts AE, CE flat)."""
+    sim = Simulator(class2_scene(inputs={"f1": -20.0, "f2": -20.0}, duration=5.0))
+    with pytest.raises(TensegrityError, match="struts AE and CE flat"):
+        sim.advance(5.0)
+    obs = sim.observe()
+    assert np.all(np.isfinite(obs.state)) and obs.q[0] + obs.q[1] < 2.0
+
+
+def test_simulate_returns_a_partial_trajectory_when_the_run_stops():
+    traj = simulate(class2_scene(inputs={"f1": -20.0, "f2": -20.0}, duration=5.0))
+    assert not traj.success and "struts AE and CE flat" in traj.message
+    assert 0 < len(traj) < 501 and np.all(np.isfinite(traj.states))
