@@ -9,6 +9,7 @@ rclpy shutdown, bags finished), SIGTERM after a grace period, SIGKILL last.
 
 from __future__ import annotations
 
+import ctypes
 import os
 import signal
 import subprocess
@@ -23,6 +24,18 @@ class ProcessSpec:
     name: str
     argv: list[str]
     env: dict[str, str] = field(default_factory=dict)
+
+
+_PR_SET_PDEATHSIG = 1
+
+
+def _die_with_parent() -> None:
+    """In the child before exec: get SIGTERM when the launcher dies, however it dies, so a
+    killed launcher never leaves orphaned nodes behind (Linux)."""
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+    except (OSError, AttributeError):
+        pass
 
 
 class Launcher:
@@ -51,6 +64,7 @@ class Launcher:
             proc = subprocess.Popen(
                 spec.argv, env={**env, **spec.env}, stdout=subprocess.PIPE,
                 stderr=subprocess.STDOUT, text=True, start_new_session=True,
+                preexec_fn=_die_with_parent,
             )
             self.procs[spec.name] = proc
             threading.Thread(target=self._pump, args=(spec.name, proc.stdout), daemon=True).start()

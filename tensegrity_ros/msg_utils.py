@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import array
 import importlib
 from typing import Any
 
@@ -30,7 +31,7 @@ def message_to_dict(msg: Any) -> Any:
     """A plain-Python (YAML/JSON-friendly) copy of a message, recursively."""
     if hasattr(msg, "get_fields_and_field_types"):
         return {f: message_to_dict(getattr(msg, f)) for f in msg.get_fields_and_field_types()}
-    if isinstance(msg, np.ndarray):
+    if isinstance(msg, (np.ndarray, array.array)):
         return msg.tolist()
     if isinstance(msg, (list, tuple)):
         return [message_to_dict(v) for v in msg]

@@ -32,6 +32,7 @@ from tensegrity_core.class2.inverse_kinematics import (
 from tensegrity_core.class2.kinematics import (
     FKArrays,
     FKResult,
+    dbeta_drho,
     fk_array,
     forward_kinematics,
     forward_kinematics_numeric,
@@ -100,6 +101,7 @@ __all__ = [
     "forward_kinematics_numeric",
     "fk_array",
     "jacobian_D_rho",
+    "dbeta_drho",
     "IKCandidate",
     "IKResult",
     "IKArrays",

@@ -275,18 +275,16 @@ def fk_array(rho1, rho2, params: Class2Params = PAPER_PARAMS) -> FKArrays:
     return FKArrays(beta, x, y, valid)
 
 
-def jacobian_D_rho(rho1: float, rho2: float, params: Class2Params = PAPER_PARAMS) -> np.ndarray:
-    """Analytic ``dD/drho`` at the equilibrium (2x2; rows x, y; columns rho1, rho2).
+def dbeta_drho(rho1: float, rho2: float, params: Class2Params = PAPER_PARAMS) -> tuple[float, float, float]:
+    """``(beta, dbeta/drho1, dbeta/drho2)`` of the equilibrium beta [rad, rad/m].
 
     Implicit function theorem on ``G(rho, beta) = dU/dbeta = (L/2)(-a sin beta + b cos beta) = 0``::
 
         dbeta/drho_i = -G_rho_i / G_beta = (a_i sin beta - b_i cos beta) / R,
         a_1 = k2, a_2 = -(2 k3 + k2), b_i = k2 (rho1 + rho2) / lambda1,
 
-    (``G_beta = d2U/dbeta2 = L R / 2``), then ``D = (rho1 + L cos beta, L sin beta)`` gives
-    ``J = [[1 - L sin(beta) beta_1, -L sin(beta) beta_2], [L cos(beta) beta_1, L cos(beta) beta_2]]``
-    and ``det J = L cos(beta) beta_2``. Raises :class:`SingularityError` (kind ``"lambda1"``)
-    where ``lambda1 = 0`` (the derivatives are unbounded there).
+    (``G_beta = d2U/dbeta2 = L R / 2``). Raises :class:`SingularityError` (kind
+    ``"lambda1"``) where ``lambda1 = 0`` (the derivatives are unbounded there).
     """
     rho1 = as_real("rho1", rho1)
     rho2 = as_real("rho2", rho2)
@@ -295,13 +293,26 @@ def jacobian_D_rho(rho1: float, rho2: float, params: Class2Params = PAPER_PARAMS
     d, e, lam1 = _beta_terms(rho1, rho2, params)
     if lam1 == 0.0:
         raise SingularityError(
-            f"dD/drho is unbounded at rho1 + rho2 = 2L = {2 * L:g} m (lambda1 = 0)",
+            f"dbeta/drho is unbounded at rho1 + rho2 = 2L = {2 * L:g} m (lambda1 = 0)",
             kind="lambda1", distance=0.0,
         )
     R = math.hypot(d, e)
     _check_determinate(R, rho1, rho2, params)
     sb, cb = e / R, d / R
     b_i = k2 * (rho1 + rho2) / lam1
-    beta1 = (k2 * sb - b_i * cb) / R
-    beta2 = (-(2.0 * params.k3 + k2) * sb - b_i * cb) / R
+    return math.atan2(e, d), (k2 * sb - b_i * cb) / R, (-(2.0 * params.k3 + k2) * sb - b_i * cb) / R
+
+
+def jacobian_D_rho(rho1: float, rho2: float, params: Class2Params = PAPER_PARAMS) -> np.ndarray:
+    """Analytic ``dD/drho`` at the equilibrium (2x2; rows x, y; columns rho1, rho2).
+
+    With ``beta_i = dbeta/drho_i`` from :func:`dbeta_drho` and
+    ``D = (rho1 + L cos beta, L sin beta)``:
+    ``J = [[1 - L sin(beta) beta_1, -L sin(beta) beta_2], [L cos(beta) beta_1, L cos(beta) beta_2]]``
+    and ``det J = L cos(beta) beta_2``. Raises :class:`SingularityError` (kind ``"lambda1"``)
+    where ``lambda1 = 0``.
+    """
+    beta, beta1, beta2 = dbeta_drho(rho1, rho2, params)
+    L = params.L
+    sb, cb = math.sin(beta), math.cos(beta)
     return np.array([[1.0 - L * sb * beta1, -L * sb * beta2], [L * cb * beta1, L * cb * beta2]])

@@ -13,8 +13,8 @@ See ``docs/scenes.md`` for the scene format, the models and the benchmarks.
 
 from tensegrity_core.sim.errors import SceneError, SimulationError
 from tensegrity_core.sim.scene import EFFECTS, Scene, load_scene, scene_names, scene_path
-from tensegrity_core.sim.simulator import Observation, Simulator, simulate
+from tensegrity_core.sim.simulator import JointSample, Observation, Simulator, simulate
 from tensegrity_core.sim.trajectory import Trajectory
 
-__all__ = ["EFFECTS", "Observation", "Scene", "SceneError", "SimulationError", "Simulator", "Trajectory",
+__all__ = ["EFFECTS", "JointSample", "Observation", "Scene", "SceneError", "SimulationError", "Simulator", "Trajectory",
            "load_scene", "scene_names", "scene_path", "simulate"]

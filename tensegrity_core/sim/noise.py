@@ -21,8 +21,11 @@ class SensorNoise:
         self.rng = np.random.default_rng(seed)
 
     def perturb(self, obs) -> None:
-        """Add noise in place to an :class:`~tensegrity_core.sim.simulator.Observation`."""
+        """Add noise in place to an :class:`~tensegrity_core.sim.simulator.Observation` (or
+        any object with some of the noisy quantities as attributes)."""
         for name, sigma in self.sigmas.items():
+            if not hasattr(obs, name):
+                continue
             value = np.array(getattr(obs, name), dtype=float)
             setattr(obs, name, value + self.rng.normal(0.0, sigma, value.shape))
 

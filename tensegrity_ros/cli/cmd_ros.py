@@ -237,7 +237,7 @@ def _echo(args) -> int:
                 break
             rclpy.spin_once(node, timeout_sec=0.1)
         return 0
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, BrokenPipeError):
         return 0
     finally:
         node.destroy_node()

@@ -7,10 +7,13 @@ the actuator's nodes together). Publishes, stamped with simulation time:
   [rad]; position, velocity, and effort = the applied actuator force [N] (0 for beta);
 - ``end_effector`` (geometry_msgs/PointStamped): node D [m];
 - ``mechanism_state`` (tensegrity_msgs/MechanismState): nodes, member lengths and
-  forces, energies;
+  forces, energies; at ``state_rate``;
 - ``markers`` (visualization_msgs/MarkerArray): members coloured by force (red tension,
   blue compression), nodes as spheres; at ``marker_rate``;
 - ``/clock`` (rosgraph_msgs/Clock): simulation time, so other nodes can use_sim_time.
+
+Service ``reset`` (std_srvs/Trigger): back to the scene's initial state (and out of a
+stopped simulation); the clock keeps running forward, so stamps stay monotonic.
 
 The node runs on wall (steady) time and owns the simulation clock: each tick advances the
 core simulator to ``real_time_factor`` x elapsed wall time (0 = as fast as possible, one
@@ -35,6 +38,7 @@ from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState
 from std_msgs.msg import ColorRGBA, Header
+from std_srvs.srv import Trigger
 from tensegrity_msgs.msg import ActuatorForces, MechanismState
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -76,6 +80,9 @@ class SimNode(Node):
         self.safe_force = declare(self, "safe_force", 0.0, "force applied after a command timeout [N]")
         self.max_force = declare(self, "max_force", 1000.0, "commands with |f| above this are rejected [N]", lo=0.0)
         self.frame_id = declare(self, "frame_id", "world", "frame of the published positions")
+        self.state_rate = declare(self, "state_rate", 100.0,
+                                  "publish rate of mechanism_state [Hz] (member forces, energies)",
+                                  lo=0.0, hi=1000.0)
         self.marker_rate = declare(self, "marker_rate", 30.0, "publish rate of the markers [Hz]", lo=0.0, hi=1000.0)
         self.publish_clock = declare(self, "publish_clock", True, "publish /clock from the simulation time")
 
@@ -84,6 +91,9 @@ class SimNode(Node):
             self.sim = Simulator(self.scene)
         except TensegrityError as err:
             raise SystemExit(f"tensegrity_sim: cannot load scene {scene_name!r}: {err}") from None
+        if self.sim.kind != "class2":
+            raise SystemExit(f"tensegrity_sim: scene {scene_name!r} models a general structure; this node "
+                             "drives the class-2 mechanism (use `tensegrity simulate` for general scenes)")
 
         qos = QoSProfile(depth=100)
         self.pub_joints = self.create_publisher(JointState, "joint_states", qos)
@@ -91,22 +101,41 @@ class SimNode(Node):
         self.pub_state = self.create_publisher(MechanismState, "mechanism_state", qos)
         self.pub_markers = self.create_publisher(MarkerArray, "markers", 10)
         self.pub_clock = self.create_publisher(ClockMsg, "/clock", qos)
-        self.create_subscription(ActuatorForces, "actuator_forces", self.on_command, 100)
+        # Latest command wins: a history of one means a burst or flood of commands can never
+        # build a backlog that the simulation would apply late.
+        self.create_subscription(ActuatorForces, "actuator_forces", self.on_command, 1)
+        self.create_service(Trigger, "reset", self.on_reset)
 
-        self.command = [0.0, 0.0]
         self.rejected = 0
-        self.fault: str | None = None
-        self._last_valid = None          # wall time of the last valid command
-        self._timed_out = False
-        self._wall0 = time.monotonic()
-        self._sim0 = self.sim.t
-        self._last_marker = -math.inf
+        self._offset = 0.0               # published time = offset + core simulator time
+        self._start(time.monotonic())
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._timer = None
         self._make_timer()
         self.get_logger().info(
             f"scene {scene_name!r}: publishing at {self.rate:g} Hz, real-time factor "
             f"{self.rtf:g}{' (as fast as possible)' if self.rtf == 0 else ''}")
+
+    def _start(self, now: float) -> None:
+        """(Re)start the simulation clock bookkeeping for the current ``self.sim``."""
+        # Until the first command the actuators hold what the scene starts with (for the
+        # default scene: the forces that keep the mechanism at rest).
+        self.command = [float(f) for f in self.sim.command]
+        self.fault: str | None = None
+        self._last_valid = None          # wall time of the last valid command
+        self._timed_out = False
+        self._wall0 = now
+        self._sim0 = self.sim.t
+        self._last_marker = -math.inf
+        self._last_state = -math.inf
+
+    def on_reset(self, req: Trigger.Request, res: Trigger.Response) -> Trigger.Response:
+        self._offset += self.sim.t
+        self.sim = Simulator(self.scene)
+        self._start(time.monotonic())
+        res.success, res.message = True, f"reset to the initial state of scene {self.scene.name!r}"
+        self.get_logger().info(res.message)
+        return res
 
     def _make_timer(self) -> None:
         if self._timer is not None:
@@ -156,24 +185,34 @@ class SimNode(Node):
             except TensegrityError as err:
                 self.fault = str(err)
                 self.get_logger().error(f"simulation stopped, state held: {err}")
-        self.publish(self.sim.observe())
+        self.publish()
 
-    def publish(self, obs) -> None:
-        stamp = sim_time_msg(obs.t)
+    def publish(self) -> None:
+        """Joint states, end-effector and clock every tick; the full state and the markers
+        (member forces: the expensive part of an observation) at their own rates."""
+        js = self.sim.joint_sample()
+        t = self._offset + js.t
+        stamp = sim_time_msg(t)
         header = Header(stamp=stamp, frame_id=self.frame_id)
         if self.publish_clock:
             self.pub_clock.publish(ClockMsg(clock=stamp))
-        js = JointState(header=header, name=JOINT_NAMES)
-        js.position = [float(v) for v in obs.q]
-        js.velocity = [float(v) for v in obs.qdot]
-        js.effort = [float(obs.applied_forces[0]), float(obs.applied_forces[1]), 0.0]
-        self.pub_joints.publish(js)
-        ee = obs.end_effector
+        msg = JointState(header=header, name=JOINT_NAMES)
+        msg.position = [float(v) for v in js.q]
+        msg.velocity = [float(v) for v in js.qdot]
+        msg.effort = [float(js.applied_forces[0]), float(js.applied_forces[1]), 0.0]
+        self.pub_joints.publish(msg)
+        ee = js.end_effector
         self.pub_ee.publish(PointStamped(header=header, point=Point(x=float(ee[0]), y=float(ee[1]), z=float(ee[2]))))
-        self.pub_state.publish(self._state_msg(header, obs))
-        if self.marker_rate > 0 and obs.t - self._last_marker >= 1.0 / self.marker_rate:
-            self._last_marker = obs.t
-            self.pub_markers.publish(self._markers(header, obs))
+        want_state = self.state_rate > 0 and t - self._last_state >= 1.0 / self.state_rate - 1e-9
+        want_markers = self.marker_rate > 0 and t - self._last_marker >= 1.0 / self.marker_rate - 1e-9
+        if want_state or want_markers:
+            obs = self.sim.observe()
+            if want_state:
+                self._last_state = t
+                self.pub_state.publish(self._state_msg(header, obs))
+            if want_markers:
+                self._last_marker = t
+                self.pub_markers.publish(self._markers(header, obs))
 
     def _state_msg(self, header: Header, obs) -> MechanismState:
         m = MechanismState(header=header)

@@ -116,3 +116,18 @@ def test_simulate_returns_a_partial_trajectory_when_the_run_stops():
     traj = simulate(class2_scene(inputs={"f1": -20.0, "f2": -20.0}, duration=5.0))
     assert not traj.success and "struts AE and CE flat" in traj.message
     assert 0 < len(traj) < 501 and np.all(np.isfinite(traj.states))
+
+
+def test_joint_sample_is_the_cheap_part_of_observe():
+    import numpy as np
+
+    from tensegrity_core.sim import Simulator, load_scene
+
+    sim = Simulator(load_scene("class2_at_rest"))
+    sim.set_command([0.5, -0.2])
+    sim.advance(0.37)
+    js, obs = sim.joint_sample(), sim.observe()
+    assert js.t == obs.t
+    for name in ("q", "qdot", "applied_forces", "end_effector"):
+        np.testing.assert_allclose(getattr(js, name), getattr(obs, name), rtol=0, atol=1e-14)
+    assert js.folded == obs.folded
