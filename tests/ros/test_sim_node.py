@@ -1,0 +1,208 @@
+"""The tensegrity_sim node over real DDS (issue 6): commands in, joint states out, as the
+core simulator predicts; parameters from a YAML file; timeout, reset, bad commands."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.ros
+
+
+class Listener:
+    """A node in the test process collecting the sim's output and publishing commands."""
+
+    def __init__(self, ctx, namespace: str = ""):
+        import rclpy
+        from geometry_msgs.msg import PointStamped
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.qos import QoSProfile
+        from rosgraph_msgs.msg import Clock
+        from sensor_msgs.msg import JointState
+        from std_srvs.srv import Trigger
+        from tensegrity_msgs.msg import ActuatorForces, MechanismState
+        from visualization_msgs.msg import MarkerArray
+
+        self.node = rclpy.create_node("sim_test_listener", namespace=namespace, context=ctx)
+        self.joints: list = []
+        self.states: list = []
+        self.markers: list = []
+        self.ee: list = []
+        self.clock: list = []
+        qos = QoSProfile(depth=1000)
+        self.node.create_subscription(JointState, "joint_states", self.joints.append, qos)
+        self.node.create_subscription(MechanismState, "mechanism_state", self.states.append, qos)
+        self.node.create_subscription(MarkerArray, "markers", self.markers.append, qos)
+        self.node.create_subscription(PointStamped, "end_effector", self.ee.append, qos)
+        self.node.create_subscription(Clock, "/clock", self.clock.append, qos)
+        self.pub = self.node.create_publisher(ActuatorForces, "actuator_forces", 10)
+        self.reset = self.node.create_client(Trigger, "reset")
+        self.ActuatorForces, self.Trigger = ActuatorForces, Trigger
+        self.executor = SingleThreadedExecutor(context=ctx)
+        self.executor.add_node(self.node)
+
+    def spin(self, seconds: float) -> None:
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            self.executor.spin_once(timeout_sec=0.01)
+
+    def spin_until(self, cond, timeout: float = 30.0) -> None:
+        end = time.monotonic() + timeout
+        while not cond():
+            assert time.monotonic() < end, "condition not met in time"
+            self.executor.spin_once(timeout_sec=0.01)
+
+    def send(self, forces, names=("f1", "f2")) -> None:
+        self.pub.publish(self.ActuatorForces(name=list(names), force=list(forces)))
+
+    def close(self) -> None:
+        self.node.destroy_node()
+
+
+def _t(msg) -> float:
+    return msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+
+
+@pytest.fixture
+def sim_node(cli, ros_context):
+    """Start `tensegrity node sim` with extra ROS arguments; yields (proc, listener)."""
+    started = []
+
+    def start(*ros_args: str, namespace: str = ""):
+        args = ["node", "sim", "--ros-args", *ros_args]
+        if namespace:
+            args += ["-r", f"__ns:={namespace}"]
+        proc = cli(*args, log_name="sim")
+        proc.wait_for("publishing at")
+        listener = Listener(ros_context, namespace)
+        started.append(listener)
+        listener.spin_until(lambda: len(listener.joints) > 3)
+        return proc, listener
+
+    yield start
+    for listener in started:
+        listener.close()
+
+
+def test_joint_states_follow_the_core_simulator_for_the_same_forces(sim_node):
+    from tensegrity_core.sim import load_scene, simulate
+
+    proc, ros = sim_node("-p", "publish_rate:=200.0", "-p", "state_rate:=50.0")
+    command = (0.6, -0.1)
+    # keep commanding the same forces (the node's command timeout would drop them)
+    deadline = time.monotonic() + 30
+    while not any(tuple(m.effort[:2]) == command for m in ros.joints):
+        ros.send(command)
+        ros.spin(0.05)
+        assert time.monotonic() < deadline
+    k = next(i for i, m in enumerate(ros.joints) if tuple(m.effort[:2]) == command)
+    start = ros.joints[k - 1]        # last state before the command acted: the command holds from here
+    for _ in range(30):
+        ros.send(command)
+        ros.spin(0.05)
+    t0 = _t(start)
+    later = [m for m in ros.joints[k:] if tuple(m.effort[:2]) == command and _t(m) - t0 < 1.2]
+    assert len(later) > 50
+
+    scene = {
+        "model": {"kind": "class2", "params": {"L": 1.0, "k": 1.0, "c": 0.01, "m": 2.0}},
+        "initial": {"q": list(start.position), "qdot": list(start.velocity)},
+        "inputs": {"f1": command[0], "f2": command[1]},
+        "effects": ["inertia", "springs", "damping", "fold_limit"],
+        "output": {"rate": 1000},
+        "duration": _t(later[-1]) - t0 + 0.01,
+        "integrator": {"method": "DOP853", "rtol": 1e-10, "atol": 1e-12},
+    }
+    traj = simulate(load_scene(scene))
+    for m in later:
+        expected = np.array([np.interp(_t(m) - t0, traj.times, traj.q[:, j]) for j in range(3)])
+        # node: DOP853 rtol 1e-8 restarted per tick; reference: 1 kHz samples, linear interpolation
+        np.testing.assert_allclose(m.position, expected, atol=2e-6)
+
+
+def test_parameters_from_a_yaml_file_take_effect(sim_node, tmp_path):
+    params = tmp_path / "params.yaml"
+    params.write_text(
+        "tensegrity_sim:\n  ros__parameters:\n    frame_id: lab\n    publish_rate: 250.0\n"
+        "    state_rate: 25.0\n    marker_rate: 5.0\n    real_time_factor: 2.0\n")
+    proc, ros = sim_node("--params-file", str(params))
+    ros.spin(1.5)
+    assert {m.header.frame_id for m in ros.joints} == {"lab"}
+    span = _t(ros.joints[-1]) - _t(ros.joints[0])
+    # simulated time runs at twice the wall time; state topics at their own (lower) rates
+    assert len(ros.states) < len(ros.joints) / 5
+    assert len(ros.markers) <= span * 5 + 2
+    assert "real-time factor 2" in proc.stderr()
+
+
+def test_every_output_topic_and_clock_are_consistent(sim_node):
+    proc, ros = sim_node()
+    ros.spin_until(lambda: ros.states and ros.markers and ros.ee and ros.clock)
+    ros.spin(0.5)
+    s = ros.states[-1]
+    q = np.array(s.q)
+    L = 1.0
+    d = next(p for n, p in zip(s.node_names, s.nodes) if n == "D")
+    assert (d.x, d.y) == pytest.approx((q[0] + L * math.cos(q[2]), L * math.sin(q[2])), abs=1e-12)
+    lengths = dict(zip(s.member_names, s.member_lengths))
+    assert lengths["BD"] == pytest.approx(1.0, abs=1e-12) and lengths["AB"] == pytest.approx(q[0])
+    # springs: tension = k * length (zero free length, k = 1)
+    forces = dict(zip(s.member_names, s.member_forces))
+    for spring in ("CD", "DE", "EF", "BE"):
+        assert forces[spring] == pytest.approx(lengths[spring], rel=1e-9)
+    members = ros.markers[-1].markers[0]
+    assert len(members.points) == 2 * len(s.member_names) == len(members.colors)
+    stamps = [c.clock.sec + 1e-9 * c.clock.nanosec for c in ros.clock]
+    assert stamps == sorted(stamps)
+    assert set(stamps[-20:]) <= {_t(m) for m in ros.joints}   # /clock ticks with the states
+
+
+def test_command_timeout_drops_forces_to_the_safe_value(sim_node):
+    proc, ros = sim_node("-p", "command_timeout:=0.3", "-p", "safe_force:=0.0")
+    ros.send((0.2, 0.3))
+    ros.spin_until(lambda: tuple(ros.joints[-1].effort[:2]) == (0.2, 0.3))
+    ros.spin_until(lambda: tuple(ros.joints[-1].effort[:2]) == (0.0, 0.0), timeout=10)
+    assert "forces drop to 0 N" in proc.stderr()
+
+
+def test_bad_commands_are_rejected_and_publishing_goes_on(sim_node):
+    proc, ros = sim_node()
+    n = len(ros.joints)
+    # one bad command per warning period (warnings are throttled to one per second)
+    for forces, names in (((float("nan"), 0.0), ("f1", "f2")), ((1.0,), ("f9",)),
+                          ((1.0, 2.0, 3.0), ("f1", "f2"))):
+        ros.send(forces, names)
+        ros.spin(1.1)
+    assert len(ros.joints) > n + 250           # 100 Hz publishing went on throughout
+    assert all(np.all(np.isfinite(m.position)) for m in ros.joints)
+    assert all(tuple(m.effort[:2]) == pytest.approx((-0.35, 0.35)) for m in ros.joints)
+    log = proc.stderr()
+    for reason in ("not finite", "unknown actuator name 'f9'", "2 names but 3 forces"):
+        assert reason in log, log
+
+
+def test_reset_returns_to_rest_and_time_keeps_running(sim_node):
+    proc, ros = sim_node("-p", "real_time_factor:=4.0")
+    for _ in range(20):
+        ros.send((2.0, 2.0))
+        ros.spin(0.05)
+    assert abs(ros.joints[-1].position[0] - 0.7) > 1e-3
+    future = ros.reset.call_async(ros.Trigger.Request())
+    ros.spin_until(future.done)
+    assert future.result().success
+    t_reset = _t(ros.joints[-1])
+    ros.spin(0.5)
+    after = [m for m in ros.joints if _t(m) > t_reset + 0.05]
+    assert after and np.allclose(after[-1].position[:2], (0.7, 0.7), atol=1e-6)
+    stamps = [_t(m) for m in ros.joints]
+    assert stamps == sorted(stamps)
+
+
+def test_relative_names_follow_the_namespace(sim_node):
+    proc, ros = sim_node(namespace="/robot7")
+    names = dict(ros.node.get_topic_names_and_types())
+    assert "/robot7/joint_states" in names and "/robot7/actuator_forces" in names
+    assert "/clock" in names

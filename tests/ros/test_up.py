@@ -1,0 +1,49 @@
+"""`tensegrity up` brings the suite up in a namespace and Ctrl-C stops every node (issue 6)."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import time
+
+import pytest
+
+pytestmark = pytest.mark.ros
+
+
+def _children(pid: int) -> set[int]:
+    out = subprocess.run(["ps", "-o", "pid=", "--ppid", str(pid)], capture_output=True, text=True)
+    return {int(p) for p in out.stdout.split()}
+
+
+def _alive(pid: int) -> bool:
+    return subprocess.run(["ps", "-p", str(pid)], capture_output=True).returncode == 0
+
+
+def test_up_starts_every_node_and_ctrl_c_stops_them(cli, ros_context, tmp_path):
+    import rclpy
+
+    up = cli("up", "--namespace", "/suite_test", "--record", str(tmp_path / "bag"), log_name="up")
+    node = rclpy.create_node("up_probe", context=ros_context)
+    expected_services = {"/suite_test/solve_ik", "/suite_test/find_form", "/suite_test/reset"}
+    deadline = time.monotonic() + 60
+    while True:
+        services = {name for name, _ in node.get_service_names_and_types()}
+        topics = {name for name, _ in node.get_topic_names_and_types()}
+        if expected_services <= services and "/suite_test/joint_states" in topics:
+            break
+        assert time.monotonic() < deadline, (services, topics)
+        time.sleep(0.2)
+    children = _children(up.popen.pid)
+    assert len(children) == 4          # sim, ik, formfind, recorder
+    time.sleep(1.0)
+    up.popen.send_signal(signal.SIGINT)
+    assert up.popen.wait(60) == 0, up.stderr()
+    assert not any(_alive(pid) for pid in children)
+    # the recorder was stopped cleanly too: its bag is complete
+    from tensegrity_ros.bag.reader import BagReader
+
+    reader = BagReader(tmp_path / "bag")
+    assert not reader.recovered
+    assert any(t.name == "/suite_test/joint_states" and t.message_count > 0 for t in reader.topics())
+    node.destroy_node()
