@@ -9,7 +9,6 @@ from tensegrity_ros.ros_env import require_rclpy
 
 rclpy = require_rclpy()
 from rcl_interfaces.msg import (  # noqa: E402
-    FloatingPointRange,
     IntegerRange,
     ParameterDescriptor,
     SetParametersResult,
@@ -41,16 +40,37 @@ SERVICE_QOS = QoSProfile(
 )
 
 
+class ParameterValueError(SystemExit):
+    """A node parameter has the wrong type or is out of range (the node does not start)."""
+
+
 def declare(node: Node, name: str, default, description: str, *, lo=None, hi=None, read_only=False):
-    """Declare a typed parameter with a description and an optional range; return its value."""
+    """Declare a typed parameter with a description and an optional range; return its value.
+
+    Floating-point parameters also accept integers (``-p publish_rate:=500`` works) and
+    are returned as float; a wrong type or an out-of-range value stops the node with a
+    message naming the parameter.
+    """
     desc = ParameterDescriptor(description=description, read_only=read_only)
-    if isinstance(default, float) and (lo is not None or hi is not None):
-        desc.floating_point_range = [FloatingPointRange(
-            from_value=float(-math.inf if lo is None else lo),
-            to_value=float(math.inf if hi is None else hi), step=0.0)]
+    is_float = isinstance(default, float)
+    if is_float:
+        desc.dynamic_typing = True
+        if lo is not None or hi is not None:
+            desc.additional_constraints = f"range [{-math.inf if lo is None else lo}, {math.inf if hi is None else hi}]"
     elif isinstance(default, int) and not isinstance(default, bool) and (lo is not None or hi is not None):
         desc.integer_range = [IntegerRange(from_value=int(lo or 0), to_value=int(hi or 2**31 - 1), step=1)]
-    return node.declare_parameter(name, default, desc).value
+    try:
+        value = node.declare_parameter(name, default, desc).value
+    except Exception as err:  # rclpy raises several types for bad overrides
+        raise ParameterValueError(f"{node.get_name()}: parameter {name}: {err}") from None
+    if is_float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ParameterValueError(f"{node.get_name()}: parameter {name} must be a number, got {value!r}")
+        value = float(value)
+        if not math.isfinite(value) or (lo is not None and value < lo) or (hi is not None and value > hi):
+            raise ParameterValueError(
+                f"{node.get_name()}: parameter {name} = {value!r} is outside [{lo}, {hi}]")
+    return value
 
 
 def declare_mechanism(node: Node, defaults: Class2Params) -> Class2Params:

@@ -39,10 +39,10 @@ class FormFindNode(Node):
         super().__init__("tensegrity_formfind", **kwargs)
         self.max_workers = declare(self, "max_workers", 2, "form-findings run at once (processes)",
                                    lo=1, hi=64, read_only=True)
-        self.time_limit = declare(self, "time_limit", 60.0, "wall-time limit per request [s]", lo=0.1)
+        self.time_limit = declare(self, "time_limit", 60.0, "wall-time limit per request [s]", lo=0.1, read_only=True)
         self.max_request_bytes = declare(self, "max_request_bytes", 4_000_000,
-                                         "largest structure description accepted [bytes]", lo=1)
-        self.max_members = declare(self, "max_members", 50_000, "largest structure accepted [members]", lo=1)
+                                         "largest structure description accepted [bytes]", lo=1, read_only=True)
+        self.max_members = declare(self, "max_members", 50_000, "largest structure accepted [members]", lo=1, read_only=True)
         self._slots = threading.BoundedSemaphore(self.max_workers)
         self.create_service(FindForm, "find_form", self.on_request, qos_profile=SERVICE_QOS,
                             callback_group=ReentrantCallbackGroup())
@@ -61,8 +61,7 @@ class FormFindNode(Node):
         if req.tolerance < 0 or req.tolerance != req.tolerance:
             res.message = f"tolerance must be >= 0 (0 = default), got {req.tolerance}"
             return res
-        time_limit = float(self.get_parameter("time_limit").value)
-        max_members = int(self.get_parameter("max_members").value)
+        time_limit, max_members = self.time_limit, self.max_members
         with self._slots:
             out = self._run(req.structure, float(req.tolerance), int(req.max_iterations), time_limit, max_members)
         res.success = bool(out["success"])

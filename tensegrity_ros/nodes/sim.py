@@ -27,12 +27,12 @@ from __future__ import annotations
 
 import math
 import sys
+import threading
 import time
 
 from tensegrity_ros.nodes.common import declare, rclpy, spin_node
 from builtin_interfaces.msg import Time as TimeMsg
 from geometry_msgs.msg import Point, PointStamped
-from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock as ClockMsg
@@ -76,15 +76,15 @@ class SimNode(Node):
                            read_only=True)
         self.command_timeout = declare(self, "command_timeout", 0.5,
                                        "after this many seconds without a valid command the forces drop "
-                                       "to safe_force [s]; 0 = never", lo=0.0)
-        self.safe_force = declare(self, "safe_force", 0.0, "force applied after a command timeout [N]")
-        self.max_force = declare(self, "max_force", 1000.0, "commands with |f| above this are rejected [N]", lo=0.0)
-        self.frame_id = declare(self, "frame_id", "world", "frame of the published positions")
+                                       "to safe_force [s]; 0 = never", lo=0.0, read_only=True)
+        self.safe_force = declare(self, "safe_force", 0.0, "force applied after a command timeout [N]", read_only=True)
+        self.max_force = declare(self, "max_force", 1000.0, "commands with |f| above this are rejected [N]", lo=0.0, read_only=True)
+        self.frame_id = declare(self, "frame_id", "world", "frame of the published positions", read_only=True)
         self.state_rate = declare(self, "state_rate", 100.0,
                                   "publish rate of mechanism_state [Hz] (member forces, energies)",
-                                  lo=0.0, hi=1000.0)
-        self.marker_rate = declare(self, "marker_rate", 30.0, "publish rate of the markers [Hz]", lo=0.0, hi=1000.0)
-        self.publish_clock = declare(self, "publish_clock", True, "publish /clock from the simulation time")
+                                  lo=0.0, hi=1000.0, read_only=True)
+        self.marker_rate = declare(self, "marker_rate", 30.0, "publish rate of the markers [Hz]", lo=0.0, hi=1000.0, read_only=True)
+        self.publish_clock = declare(self, "publish_clock", True, "publish /clock from the simulation time", read_only=True)
 
         try:
             self.scene = load_scene(scene_name)
@@ -107,11 +107,13 @@ class SimNode(Node):
         self.create_service(Trigger, "reset", self.on_reset)
 
         self.rejected = 0
+        self.published = dict.fromkeys(("joint_states", "end_effector", "mechanism_state", "markers", "/clock"), 0)
         self._offset = 0.0               # published time = offset + core simulator time
         self._start(time.monotonic())
-        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self._timer = None
-        self._make_timer()
+        self._lock = threading.Lock()        # the loop thread vs. reset and shutdown
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._loop, name="tensegrity_sim_loop", daemon=True)
+        self._thread.start()
         self.get_logger().info(
             f"scene {scene_name!r}: publishing at {self.rate:g} Hz, real-time factor "
             f"{self.rtf:g}{' (as fast as possible)' if self.rtf == 0 else ''}")
@@ -130,18 +132,37 @@ class SimNode(Node):
         self._last_state = -math.inf
 
     def on_reset(self, req: Trigger.Request, res: Trigger.Response) -> Trigger.Response:
-        self._offset += self.sim.t
-        self.sim = Simulator(self.scene)
-        self._start(time.monotonic())
+        with self._lock:
+            self._offset += self.sim.t
+            self.sim = Simulator(self.scene)
+            self._start(time.monotonic())
         res.success, res.message = True, f"reset to the initial state of scene {self.scene.name!r}"
         self.get_logger().info(res.message)
         return res
 
-    def _make_timer(self) -> None:
-        if self._timer is not None:
-            self.destroy_timer(self._timer)
-        period = 0.0 if self.rtf == 0 else 1.0 / self.rate
-        self._timer = self.create_timer(period, self.tick, clock=self._steady)
+    def _loop(self) -> None:
+        """The simulation loop, in its own thread: one tick per publish period of wall
+        (steady) time, or back to back in as-fast-as-possible mode. A thread with its own
+        deadline keeps 1 kHz where an executor timer's per-callback overhead does not."""
+        period = 1.0 / self.rate
+        deadline = time.monotonic()
+        while not self._stop.is_set():
+            with self._lock:
+                try:
+                    self.tick()
+                except Exception as err:  # a failing tick must never kill publishing silently
+                    if not rclpy.ok(context=self.context):
+                        return                  # shutting down: publishers are gone
+                    self.get_logger().error(f"tick failed: {type(err).__name__}: {err}",
+                                            throttle_duration_sec=1.0)
+            if self.rtf == 0:
+                continue
+            deadline += period
+            delay = deadline - time.monotonic()
+            if delay > 0:
+                self._stop.wait(delay)
+            elif delay < -MAX_LAG:
+                deadline = time.monotonic()     # fell far behind: resynchronise, do not burst
 
     # -- commands ------------------------------------------------------------------------
     def on_command(self, msg: ActuatorForces) -> None:
@@ -196,6 +217,7 @@ class SimNode(Node):
         header = Header(stamp=stamp, frame_id=self.frame_id)
         if self.publish_clock:
             self.pub_clock.publish(ClockMsg(clock=stamp))
+            self.published["/clock"] += 1
         msg = JointState(header=header, name=JOINT_NAMES)
         msg.position = [float(v) for v in js.q]
         msg.velocity = [float(v) for v in js.qdot]
@@ -203,16 +225,31 @@ class SimNode(Node):
         self.pub_joints.publish(msg)
         ee = js.end_effector
         self.pub_ee.publish(PointStamped(header=header, point=Point(x=float(ee[0]), y=float(ee[1]), z=float(ee[2]))))
-        want_state = self.state_rate > 0 and t - self._last_state >= 1.0 / self.state_rate - 1e-9
-        want_markers = self.marker_rate > 0 and t - self._last_marker >= 1.0 / self.marker_rate - 1e-9
+        self.published["joint_states"] += 1
+        self.published["end_effector"] += 1
+        # due when a period has passed, to within half a tick (ticks follow wall time, so their
+        # simulated spacing wobbles around 1/publish_rate)
+        slack = 0.5 * self.rtf / self.rate if self.rtf > 0 else 0.5 / self.rate
+        want_state = self.state_rate > 0 and t - self._last_state >= 1.0 / self.state_rate - slack
+        want_markers = self.marker_rate > 0 and t - self._last_marker >= 1.0 / self.marker_rate - slack
         if want_state or want_markers:
             obs = self.sim.observe()
             if want_state:
                 self._last_state = t
                 self.pub_state.publish(self._state_msg(header, obs))
+                self.published["mechanism_state"] += 1
             if want_markers:
                 self._last_marker = t
                 self.pub_markers.publish(self._markers(header, obs))
+                self.published["markers"] += 1
+
+    def destroy_node(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=5.0)
+        counts = ", ".join(f"{k} {v}" for k, v in self.published.items())
+        # the context may already be shut down (Ctrl-C): log without /rosout
+        rclpy.logging.get_logger(f"{self.get_name()}_summary").info(f"published: {counts}; rejected commands: {self.rejected}")
+        super().destroy_node()
 
     def _state_msg(self, header: Header, obs) -> MechanismState:
         m = MechanismState(header=header)

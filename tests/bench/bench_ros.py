@@ -1,0 +1,166 @@
+"""Benchmarks of the ROS nodes (``python -m tests.bench --only ros [--full]``).
+
+1. Simulator publishing: ``tensegrity node sim`` at publish_rate 1000 Hz, real time, the
+   paper's mechanism; a subscriber process-side notes the arrival time of every joint state.
+   Reported: achieved rate against the requested one (ratio), arrival jitter (std and 99th
+   percentile of the inter-arrival deviation from 1 ms), and the simulated-time spacing.
+2. The recorder at that load: ``tensegrity record`` beside the 1 kHz simulator (with the
+   full state at 1 kHz and markers at 30 Hz); the recorder's counts against the counts the
+   simulator reports on shutdown. Claim: equal (no message dropped).
+3. ``solve_ik`` round trip over DDS: 1,000 sequential calls from a client in this process;
+   median and 99th percentile, against the same IK evaluated in-process (baseline).
+
+Quick mode: 2 s of publishing, 200 calls; full mode: 10 s, 1,000 calls.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from tests.bench.harness import Context, Row, benchmark, time_per_call
+
+TENSEGRITY = str(Path(sys.executable).with_name("tensegrity"))
+
+
+def _env() -> dict:
+    env = dict(os.environ)
+    env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    env.setdefault("ROS_DOMAIN_ID", "77")
+    return env
+
+
+def _start(args: list[str], env: dict, ready: str) -> subprocess.Popen:
+    proc = subprocess.Popen([TENSEGRITY, *args], env=env, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    for line in proc.stderr:
+        if ready in line:
+            return proc
+        if time.monotonic() > deadline:
+            break
+    raise RuntimeError(f"{args} did not become ready")
+
+
+def _stop(proc: subprocess.Popen) -> str:
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    return err
+
+
+@benchmark
+def sim_publishing_and_recorder(ctx: Context) -> list[Row]:
+    import rclpy
+    from rclpy.context import Context as RosContext
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import QoSProfile
+    from sensor_msgs.msg import JointState
+
+    env = _env()
+    duration = 2.0 if ctx.quick else 10.0
+    sim = _start(["node", "sim", "--ros-args", "-p", "publish_rate:=1000.0", "-p", "state_rate:=1000.0",
+                  "-p", "marker_rate:=30.0"], env, "publishing at")
+    folder = Path(tempfile.mkdtemp(prefix="bench_ros_")) / "bag"
+    rec = _start(["record", "-o", str(folder)], env, "recording /joint_states")
+    os.environ.update({k: env[k] for k in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID")})
+    rctx = RosContext()
+    rclpy.init(args=[], context=rctx)
+    node = rclpy.create_node("bench_rate_probe", context=rctx)
+    arrivals: list[int] = []
+    stamps: list[float] = []
+
+    def on_joint(msg: JointState) -> None:
+        arrivals.append(time.monotonic_ns())
+        stamps.append(msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec)
+
+    node.create_subscription(JointState, "joint_states", on_joint, QoSProfile(depth=1000))
+    ex = SingleThreadedExecutor(context=rctx)
+    ex.add_node(node)
+    end = time.monotonic() + duration + 1.0
+    while time.monotonic() < end:
+        ex.spin_once(timeout_sec=0.01)
+    node.destroy_node()
+    rclpy.try_shutdown(context=rctx)
+    sim_log = _stop(sim)
+    time.sleep(0.5)
+    _stop(rec)
+
+    a = np.array(arrivals[len(arrivals) // 10:], dtype=float) * 1e-9   # skip the discovery transient
+    gaps = np.diff(a)
+    rate = (len(a) - 1) / (a[-1] - a[0])
+    dev = np.abs(gaps - 1e-3)
+    sim_gaps = np.diff(np.array(stamps[len(stamps) // 10:]))
+    rows = [
+        Row("ros", "sim requested joint_states rate", 1000.0, "Hz"),
+        Row("ros", "sim achieved joint_states rate", rate, "Hz", baseline="sim requested joint_states rate",
+            target="ratio ~1.0 (sustains 1 kHz)"),
+        Row("ros", "sim arrival jitter std", float(np.std(gaps)) * 1e3, "ms"),
+        Row("ros", "sim arrival |gap - 1 ms| p99", float(np.percentile(dev, 99)) * 1e3, "ms"),
+        Row("ros", "sim simulated-time gap median", float(np.median(sim_gaps)) * 1e3, "ms"),
+    ]
+    published = {}
+    m = re.search(r"published: (.*?); rejected", sim_log)
+    if m:
+        for part in m.group(1).split(", "):
+            name, count = part.rsplit(" ", 1)
+            published[name] = int(count)
+    from tensegrity_ros.bag.metadata import read_metadata
+
+    received = {t.name.lstrip("/") if t.name != "/clock" else t.name: t.message_count
+                for t in read_metadata(folder).topics}
+    for topic in ("joint_states", "mechanism_state", "markers"):
+        dropped = published.get(topic, -1) - received.get(topic, 0)
+        rows.append(Row("ros", f"recorder dropped {topic}", float(dropped), "msgs", target="0",
+                        note=f"published {published.get(topic)} received {received.get(topic)}"))
+    return rows
+
+
+@benchmark
+def ik_round_trip(ctx: Context) -> list[Row]:
+    import rclpy
+    from rclpy.context import Context as RosContext
+    from rclpy.executors import SingleThreadedExecutor
+    from tensegrity_msgs.srv import SolveIK
+
+    from tensegrity_core.class2 import forward_kinematics, inverse_kinematics
+
+    env = _env()
+    n = 200 if ctx.quick else 1000
+    ik = _start(["node", "ik"], env, "solve_ik ready")
+    os.environ.update({k: env[k] for k in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID")})
+    rctx = RosContext()
+    rclpy.init(args=[], context=rctx)
+    node = rclpy.create_node("bench_ik_client", context=rctx)
+    client = node.create_client(SolveIK, "solve_ik")
+    ex = SingleThreadedExecutor(context=rctx)
+    ex.add_node(node)
+    client.wait_for_service(timeout_sec=30)
+    targets = [forward_kinematics(0.3 + 0.4 * k / n, 0.6) for k in range(n)]
+    for fk in targets[:20]:                                  # warm-up
+        f = client.call_async(SolveIK.Request(x=fk.x, y=fk.y))
+        ex.spin_until_future_complete(f, timeout_sec=10)
+    times = []
+    for fk in targets:
+        t0 = time.perf_counter()
+        f = client.call_async(SolveIK.Request(x=fk.x, y=fk.y))
+        ex.spin_until_future_complete(f, timeout_sec=10)
+        times.append(time.perf_counter() - t0)
+        assert f.result().success
+    node.destroy_node()
+    rclpy.try_shutdown(context=rctx)
+    _stop(ik)
+    local = time_per_call(lambda: inverse_kinematics(targets[0].x, targets[0].y), min_time=0.1)
+    return [
+        Row("ros", "IK in-process (core)", local * 1e3, "ms"),
+        Row("ros", "solve_ik round trip median", statistics.median(times) * 1e3, "ms",
+            baseline="IK in-process (core)", target="< 2 ms", note=f"{n} sequential calls"),
+        Row("ros", "solve_ik round trip p99", float(np.percentile(times, 99)) * 1e3, "ms", target="< 10 ms"),
+    ]
