@@ -81,9 +81,11 @@ class SimNode(Node):
         self.max_force = declare(self, "max_force", 1000.0, "commands with |f| above this are rejected [N]", lo=0.0, read_only=True)
         self.frame_id = declare(self, "frame_id", "world", "frame of the published positions", read_only=True)
         self.state_rate = declare(self, "state_rate", 100.0,
-                                  "publish rate of mechanism_state [Hz] (member forces, energies)",
+                                  "publish rate of mechanism_state [Hz] (member forces, energies); a divisor of publish_rate is exact",
                                   lo=0.0, hi=1000.0, read_only=True)
         self.marker_rate = declare(self, "marker_rate", 30.0, "publish rate of the markers [Hz]", lo=0.0, hi=1000.0, read_only=True)
+        self._state_every = max(1, round(self.rate / self.state_rate)) if self.state_rate > 0 else 0
+        self._marker_every = max(1, round(self.rate / self.marker_rate)) if self.marker_rate > 0 else 0
         self.publish_clock = declare(self, "publish_clock", True, "publish /clock from the simulation time", read_only=True)
 
         try:
@@ -128,8 +130,7 @@ class SimNode(Node):
         self._timed_out = False
         self._wall0 = now
         self._sim0 = self.sim.t
-        self._last_marker = -math.inf
-        self._last_state = -math.inf
+        self._ticks = 0
 
     def on_reset(self, req: Trigger.Request, res: Trigger.Response) -> Trigger.Response:
         with self._lock:
@@ -227,19 +228,16 @@ class SimNode(Node):
         self.pub_ee.publish(PointStamped(header=header, point=Point(x=float(ee[0]), y=float(ee[1]), z=float(ee[2]))))
         self.published["joint_states"] += 1
         self.published["end_effector"] += 1
-        # due when a period has passed, to within half a tick (ticks follow wall time, so their
-        # simulated spacing wobbles around 1/publish_rate)
-        slack = 0.5 * self.rtf / self.rate if self.rtf > 0 else 0.5 / self.rate
-        want_state = self.state_rate > 0 and t - self._last_state >= 1.0 / self.state_rate - slack
-        want_markers = self.marker_rate > 0 and t - self._last_marker >= 1.0 / self.marker_rate - slack
+        # the slower topics: every n-th tick (all rates are per wall-clock second)
+        want_state = self._state_every > 0 and self._ticks % self._state_every == 0
+        want_markers = self._marker_every > 0 and self._ticks % self._marker_every == 0
+        self._ticks += 1
         if want_state or want_markers:
             obs = self.sim.observe()
             if want_state:
-                self._last_state = t
                 self.pub_state.publish(self._state_msg(header, obs))
                 self.published["mechanism_state"] += 1
             if want_markers:
-                self._last_marker = t
                 self.pub_markers.publish(self._markers(header, obs))
                 self.published["markers"] += 1
 
