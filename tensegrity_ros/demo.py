@@ -7,9 +7,12 @@
    and drive the actuators there through ``actuator_forces`` with
    :class:`~tensegrity_core.class2.control.ActuatorTracker` (holding forces + PD, with
    beta damped through the springs); report where D settles against the target;
-3. the paper's fold scenario, recorded to ``OUT/fold``: reset the simulator to rest at
-   rho = (0.7, 0.7), then ``f_i = 10 rho_i t`` from the measured lengths (Sect. 5.3);
+3. the paper's fold scenario: reset the simulator to rest at rho = (0.7, 0.7), then,
+   recorded to ``OUT/fold``, ``f_i = 10 rho_i t`` from the measured lengths (Sect. 5.3);
    report when each actuator reaches the fold limit;
+
+The sample bags in ``bags/`` are these two recordings (``tensegrity demo -o OUT`` and
+copy ``OUT/fold`` and ``OUT/ik_motion``).
 4. call ``find_form`` with the tensegrity-table example;
 5. print a summary (tracking errors, fold times, form-finding, bag contents).
 
@@ -196,12 +199,16 @@ def _ik_motion(client: DemoClient, tracker: ActuatorTracker, results: dict) -> N
     results["ik_errors_m"] = errors
 
 
-def _fold(client: DemoClient, results: dict) -> None:
+def _reset(client: DemoClient) -> None:
+    """Back to rest at rho = (0.7, 0.7): the simulator's reset service, then hold."""
     client.set_law(None)
     res = client.call(client.reset, client.Trigger.Request())
     if not res.success:
         raise RuntimeError(f"reset failed: {res.message}")
     client.wait_sample()
+
+
+def _fold(client: DemoClient, results: dict) -> None:
     t0 = client.wait_sample()[0]
     folded_at: dict[int, float] = {}
 
@@ -248,10 +255,13 @@ def run_demo(out: Path, *, real_time_factor: float = 2.0, record: bool = True) -
     try:
         client.wait_sample(timeout=60)
         tracker = ActuatorTracker(PAPER_PARAMS, kp=100.0, kd=20.0, kbeta=0.3)
-        for name, phase, title in (("ik_motion", lambda: _ik_motion(client, tracker, results),
-                                    "IK-driven motion through end-effector waypoints"),
-                                   ("fold", lambda: _fold(client, results),
-                                    "the paper's fold scenario, f_i = 10 rho_i t")):
+        phases = (("ik_motion", None, lambda: _ik_motion(client, tracker, results),
+                   "IK-driven motion through end-effector waypoints"),
+                  ("fold", lambda: _reset(client), lambda: _fold(client, results),
+                   "the paper's fold scenario from rest, f_i = 10 rho_i t"))
+        for name, prepare, phase, title in phases:
+            if prepare is not None:
+                prepare()
             rec = None
             if record:
                 folder = out / name

@@ -1,9 +1,12 @@
-"""The sample bags in ``bags/``: each is small, replays completely, and shows its scenario.
+"""The sample bags in ``bags/`` (recorded by ``tensegrity demo``): each is small, replays
+completely, and shows its scenario.
 
-What arrives at real subscribers is compared byte for byte with the bag; the scenario
-checks use only the scenario's definition (fold: actuators retract monotonically to zero
-and the mechanism ends folded with D on the Y axis at (0, L); IK: every end-effector
-point lies on the commanded circle).
+What arrives at real subscribers is compared byte for byte with the bag. The scenario
+checks use only the scenario's definition: fold — starts at rest at rho = (0.7, 0.7),
+every command obeys the paper's law f_i = 10 rho_i t (Sect. 5.3) for one start time, no
+actuator length ever goes negative (the fold limit), and the mechanism ends folded with
+both lengths zero; IK motion — D comes within 15 mm of every demo waypoint (the waypoints
+are defined from the forward kinematics at rest), and every published state is finite.
 """
 
 from __future__ import annotations
@@ -20,7 +23,8 @@ from rclpy.serialization import deserialize_message
 
 from tensegrity_ros.bag.reader import BagReader
 from tensegrity_ros.bag.recorder import message_class
-from tests.bags.sample_scenarios import CIRCLE_CENTER, CIRCLE_RADIUS
+from tensegrity_core.class2 import forward_kinematics
+from tensegrity_ros.demo import FOLD_GAIN, WAYPOINT_OFFSETS
 
 pytestmark = pytest.mark.ros
 
@@ -47,7 +51,7 @@ def replay(folder: Path, ros_context, cli) -> dict[str, list[bytes]]:
     return got
 
 
-@pytest.mark.parametrize("name", ["fold", "ik_circle"])
+@pytest.mark.parametrize("name", ["fold", "ik_motion"])
 def test_sample_bag_is_small_and_replays_exactly(name, ros_context, cli):
     folder = BAGS / name
     assert sum(p.stat().st_size for p in folder.iterdir()) < 2 * 1024 * 1024
@@ -64,17 +68,26 @@ def test_sample_bag_is_small_and_replays_exactly(name, ros_context, cli):
     joints = [deserialize_message(b, js_type) for b in got["/joint_states"]]
     points = [deserialize_message(b, ee_type).point for b in got["/end_effector"]]
     states = [deserialize_message(b, ms_type) for b in got["/mechanism_state"]]
+    stamp = lambda m: m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec  # noqa: E731
+    assert all(math.isfinite(v) for j in joints for v in j.position)
     if name == "fold":
-        rho1 = [j.position[0] for j in joints]
-        rho2 = [j.position[1] for j in joints]
-        assert rho1[0] == pytest.approx(0.7) and rho2[0] == pytest.approx(0.7)
-        assert all(b <= a for a, b in zip(rho1, rho1[1:]))
-        assert all(b <= a for a, b in zip(rho2, rho2[1:]))
-        assert not states[0].folded and states[-1].folded
-        assert (points[-1].x, points[-1].y) == pytest.approx((0.0, 1.0), abs=1e-12)
+        cmd_type = message_class("tensegrity_msgs/msg/ActuatorForces")
+        commands = [deserialize_message(b, cmd_type) for b in got["/actuator_forces"]]
+        assert joints[0].position[:2] == pytest.approx((0.7, 0.7), abs=1e-9)
+        assert min(min(j.position[0], j.position[1]) for j in joints) >= 0.0
+        assert joints[-1].position[0] == 0.0 and joints[-1].position[1] == 0.0
+        assert states[-1].folded
+        # each command is f_i = 10 rho_i (t - t0), with rho from the joint state it answers
+        by_stamp = {stamp(j): j for j in joints}
+        pairs = [(c, by_stamp[stamp(c)]) for c in commands if stamp(c) in by_stamp]
+        assert len(pairs) > 100
+        c, j = next((c, j) for c, j in pairs if j.position[0] > 0.1 and c.force[0] > 0.1)
+        t0 = stamp(c) - c.force[0] / (FOLD_GAIN * j.position[0])
+        for c, j in pairs:
+            for i in (0, 1):
+                assert c.force[i] == pytest.approx(FOLD_GAIN * j.position[i] * (stamp(c) - t0), abs=1e-6)
     else:
-        radii = [math.hypot(p.x - CIRCLE_CENTER[0], p.y - CIRCLE_CENTER[1]) for p in points]
-        assert max(abs(r - CIRCLE_RADIUS) for r in radii) < 1e-9
-        angles = sorted(math.atan2(p.y - CIRCLE_CENTER[1], p.x - CIRCLE_CENTER[0])
-                        for p in points)
-        assert angles[-1] - angles[0] > 1.9 * math.pi        # the whole circle is covered
+        rest = forward_kinematics(0.7, 0.7)
+        for dx, dy in WAYPOINT_OFFSETS:
+            gap = min(math.hypot(p.x - rest.x - dx, p.y - rest.y - dy) for p in points)
+            assert gap < 0.015, (dx, dy, gap)
