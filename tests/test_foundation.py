@@ -61,3 +61,15 @@ def test_cli_help_lists_subcommands():
 def test_second_setup_rebuilds_nothing():
     out = subprocess.run([str(ROOT / "run"), "setup"], capture_output=True, text=True, check=True)
     assert "installing" not in out.stderr and "building" not in out.stderr, out.stderr
+
+
+def test_ros_commands_say_what_is_missing_without_ros(tmp_path):
+    """In an environment without the ROS wheels every ROS command fails with one line."""
+    site = _site_without_ros(tmp_path)
+    (site / "tensegrity_ros").symlink_to(ROOT / "tensegrity_ros")
+    env = {"PATH": os.environ["PATH"], "PYTHONPATH": str(site), "PYTHONNOUSERSITE": "1"}
+    for argv in (["node", "sim"], ["up"], ["record", "-o", str(tmp_path / "b")], ["call-ik", "1", "1"]):
+        out = subprocess.run([sys.executable, "-S", "-m", "tensegrity_ros.cli", *argv], env=env,
+                             capture_output=True, text=True, timeout=60)
+        assert out.returncode == 3, (argv, out.stderr)
+        assert out.stderr.startswith("error: ROS 2 is not available") and "Traceback" not in out.stderr

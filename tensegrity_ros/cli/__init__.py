@@ -55,12 +55,19 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 0 if not argv else 2
+    from tensegrity_ros.ros_env import RosUnavailableError
+
     try:
         return int(args.func(args) or 0)
     except CliError as err:
         return fail(str(err), err.code)
+    except RosUnavailableError as err:
+        return fail(str(err), 3)
     except KeyboardInterrupt:
         return 130
+    except BrokenPipeError:            # output piped into `head` and the like
+        sys.stdout = open(os.devnull, "w")
+        return 0
 
 
 if __name__ == "__main__":  # pragma: no cover

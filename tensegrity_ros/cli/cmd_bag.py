@@ -21,12 +21,15 @@ def _bag_errors(fn):
 
 @_bag_errors
 def _record(args) -> int:
+    from tensegrity_ros.ros_env import require_rclpy
+
+    require_rclpy()
     from tensegrity_ros.bag.recorder import record
 
     record(args.output, args.topics, record_all=args.all,
-                  max_duration=args.max_duration, chunk_size=args.chunk_size,
-                  compression=args.compression, flush_interval=args.flush_interval,
-                  ros_args=args.ros_args)
+           max_duration=args.max_duration, chunk_size=args.chunk_size,
+           compression=args.compression, flush_interval=args.flush_interval,
+           ros_args=args.ros_args)
     return 0
 
 
@@ -39,6 +42,9 @@ def _clock_rate(text: str) -> float:
 
 @_bag_errors
 def _play(args) -> int:
+    from tensegrity_ros.ros_env import require_rclpy
+
+    require_rclpy()
     from tensegrity_ros.bag.player import play
     from tensegrity_ros.bag.schedule import PlaybackOptions
 

@@ -66,12 +66,19 @@ def register(sub) -> None:
 def _node(args) -> int:
     import importlib
 
+    from tensegrity_ros.ros_env import require_rclpy
+
+    require_rclpy()
+
     module = importlib.import_module(NODES[args.name])
     return module.main([f"tensegrity-{args.name}", *args.ros_args])
 
 
 def _up(args) -> int:
     from tensegrity_ros.launch import Launcher, ProcessSpec
+    from tensegrity_ros.ros_env import require_rclpy
+
+    require_rclpy()      # fail here, once, if ROS is missing
 
     exe = [sys.executable, "-m", "tensegrity_ros.cli"]
     ros = ["--ros-args"]
