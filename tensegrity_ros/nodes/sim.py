@@ -86,6 +86,10 @@ class SimNode(Node):
         self.marker_rate = declare(self, "marker_rate", 30.0, "publish rate of the markers [Hz]", lo=0.0, hi=1000.0, read_only=True)
         self._state_every = max(1, round(self.rate / self.state_rate)) if self.state_rate > 0 else 0
         self._marker_every = max(1, round(self.rate / self.marker_rate)) if self.marker_rate > 0 else 0
+        self.wait_for_subscribers = declare(
+            self, "wait_for_subscribers", 0,
+            "do not start the clock until every output topic has this many subscribers "
+            "(e.g. 1 for a recorder that must see the run from t = 0)", lo=0, hi=1000, read_only=True)
         self.publish_clock = declare(self, "publish_clock", True, "publish /clock from the simulation time", read_only=True)
 
         try:
@@ -146,6 +150,14 @@ class SimNode(Node):
         (steady) time, or back to back in as-fast-as-possible mode. A thread with its own
         deadline keeps 1 kHz where an executor timer's per-callback overhead does not."""
         period = 1.0 / self.rate
+        if self.wait_for_subscribers > 0:
+            publishers = (self.pub_joints, self.pub_ee, self.pub_state, self.pub_markers, self.pub_clock)
+            self.get_logger().info(f"waiting for {self.wait_for_subscribers} subscriber(s) on every output topic")
+            while not self._stop.is_set() and any(
+                    p.get_subscription_count() < self.wait_for_subscribers for p in publishers):
+                self._stop.wait(0.02)
+            with self._lock:
+                self._start(time.monotonic())
         deadline = time.monotonic()
         while not self._stop.is_set():
             with self._lock:
