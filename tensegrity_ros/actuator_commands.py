@@ -13,7 +13,8 @@ import math
 from dataclasses import dataclass
 from typing import Sequence
 
-#: Accepted names of each actuator (case-insensitive).
+#: Accepted names of each actuator (case, spaces, '_', '-' and '/' ignored: "Actuator_1"
+#: and "rho 1" are accepted too).
 ACTUATOR_ALIASES: dict[str, int] = {
     **{n: 0 for n in ("f1", "rho1", "actuator1", "ab", "1")},
     **{n: 1 for n in ("f2", "rho2", "actuator2", "bc", "2")},
@@ -58,7 +59,7 @@ def parse_command(names: Sequence[str], forces: Sequence[float], *, max_abs_forc
             raise CommandError(f"{len(names)} names but {len(forces)} forces")
         idx = []
         for n in names:
-            key = str(n).strip().lower()
+            key = "".join(ch for ch in str(n).lower() if ch not in " _-/")
             if key not in ACTUATOR_ALIASES:
                 raise CommandError(
                     f"unknown actuator name {n!r} (known: f1, f2; aliases rho1/rho2, actuator1/2, AB/BC)"
