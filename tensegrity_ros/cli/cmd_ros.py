@@ -47,7 +47,7 @@ def register(sub) -> None:
     p.set_defaults(func=_call_ik)
 
     p = sub.add_parser("call-formfind", help="call the find_form service with a structure file")
-    p.add_argument("file", help="structure description (YAML)")
+    p.add_argument("file", help="structure description (YAML file) or a shipped example name")
     p.add_argument("--tol", type=float, default=0.0, help="residual tolerance [N] (0 = default)")
     p.add_argument("--max-iter", type=int, default=0, help="iteration limit (0 = default)")
     p.add_argument("--service", default="find_form")
@@ -142,69 +142,76 @@ def _send_forces(args) -> int:
         rclpy.try_shutdown()
 
 
-def _call(rclpy, node, srv_type, service: str, request, timeout: float):
-    client = node.create_client(srv_type, service)
-    if not client.wait_for_service(timeout_sec=timeout):
-        raise CliError(f"service {node.resolve_service_name(service)} not available after {timeout:g} s "
-                       "(is the suite up? `tensegrity up`)", code=3)
-    future = client.call_async(request)
-    rclpy.spin_until_future_complete(node, future, timeout_sec=timeout)
-    if not future.done():
-        raise CliError(f"no answer from {service} within {timeout:g} s", code=3)
-    return future.result()
-
-
-def _call_ik(args) -> int:
-    from tensegrity_ros.cli._common import print_json
-    from tensegrity_ros.msg_utils import message_to_dict
-
-    rclpy, node = _client_node("tensegrity_call_ik", args.ros_args)
-    from tensegrity_msgs.srv import SolveIK
-
+def _call_service(args, node_name: str, srv_type, request):
+    """One service call from a short-lived client node; the response, or a CliError."""
+    rclpy, node = _client_node(node_name, args.ros_args)
     try:
-        req = SolveIK.Request(x=args.x, y=args.y, seed=list(args.seed or []))
-        res = _call(rclpy, node, SolveIK, args.service, req, args.timeout)
+        client = node.create_client(srv_type, args.service)
+        if not client.wait_for_service(timeout_sec=args.timeout):
+            raise CliError(f"service {node.resolve_service_name(args.service)} not available after "
+                           f"{args.timeout:g} s (is the suite up? `tensegrity up`)", code=3)
+        future = client.call_async(request)
+        rclpy.spin_until_future_complete(node, future, timeout_sec=args.timeout)
+        if not future.done():
+            raise CliError(f"no answer from {args.service} within {args.timeout:g} s", code=3)
+        return future.result()
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
+
+
+def _show(args, res, lines) -> int:
+    """Print a response as JSON or as the given human-readable lines; exit code by success."""
+    from tensegrity_ros.cli._common import print_json
+    from tensegrity_ros.msg_utils import message_to_dict
+
     if args.json:
         print_json(message_to_dict(res))
     else:
         print(f"{'ok' if res.success else 'failed'}: {res.message}")
-        for s in res.solutions:
-            print(f"  rho1 = {s.rho1:.9f} m  rho2 = {s.rho2:.9f} m  beta = {s.beta:.9f} rad  "
-                  f"(delta1 {s.delta1:+d}, delta2 {s.delta2:+d}, d2U/dbeta2 = {s.stiffness_beta:.4g})")
+        for line in lines:
+            print(f"  {line}")
     return 0 if res.success else 1
+
+
+def _call_ik(args) -> int:
+    from tensegrity_ros.ros_env import require_rclpy
+
+    require_rclpy()
+    from tensegrity_msgs.srv import SolveIK
+
+    res = _call_service(args, "tensegrity_call_ik", SolveIK,
+                        SolveIK.Request(x=args.x, y=args.y, seed=list(args.seed or [])))
+    return _show(args, res, [
+        f"rho1 = {s.rho1:.9f} m  rho2 = {s.rho2:.9f} m  beta = {s.beta:.9f} rad  (delta1 {s.delta1:+d}, "
+        f"delta2 {s.delta2:+d}, d2U/dbeta2 = {s.stiffness_beta:.4g})" for s in res.solutions])
 
 
 def _call_formfind(args) -> int:
     from pathlib import Path
 
-    from tensegrity_ros.cli._common import print_json
-    from tensegrity_ros.msg_utils import message_to_dict
+    from tensegrity_ros.ros_env import require_rclpy
 
+    path = Path(args.file)
+    if not path.exists():
+        from tensegrity_core.general import example_names, example_path
+
+        if args.file not in example_names():
+            raise CliError(f"cannot read {args.file}: no such file or shipped example")
+        path = example_path(args.file)
     try:
-        text = Path(args.file).read_text()
+        text = path.read_text()
     except OSError as err:
         raise CliError(f"cannot read {args.file}: {err.strerror}") from None
-    rclpy, node = _client_node("tensegrity_call_formfind", args.ros_args)
+    require_rclpy()
     from tensegrity_msgs.srv import FindForm
 
-    try:
-        req = FindForm.Request(structure=text, tolerance=args.tol, max_iterations=args.max_iter)
-        res = _call(rclpy, node, FindForm, args.service, req, args.timeout)
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    if args.json:
-        print_json(message_to_dict(res))
-    else:
-        print(f"{'ok' if res.success else 'failed'}: {res.message}")
-        print(f"  iterations {res.iterations}, residual {res.residual:.3g}, "
-              f"min stiffness eigenvalue {res.min_stiffness_eigenvalue:.4g}")
-        for i, t in enumerate(res.member_forces):
-            print(f"  member {i}: {t:.6g} N")
-    return 0 if res.success else 1
+    res = _call_service(args, "tensegrity_call_formfind", FindForm,
+                        FindForm.Request(structure=text, tolerance=args.tol, max_iterations=args.max_iter))
+    return _show(args, res, [
+        f"iterations {res.iterations}, residual {res.residual:.3g}, "
+        f"min stiffness eigenvalue {res.min_stiffness_eigenvalue:.4g}",
+        *(f"member {i}: {t:.6g} N" for i, t in enumerate(res.member_forces))])
 
 
 def _echo(args) -> int:
