@@ -137,8 +137,7 @@ class Simulator:
 
     def observe(self) -> Observation:
         """The state at ``t`` (with sensor noise if the scene lists it)."""
-        data = self._backend.observe([self._backend.sample()])
-        obs = self._observation(data, 0)
+        obs = self._observation(self._backend.observe_now())
         if self._noise is not None:
             self._noise.perturb(obs)
         return obs
@@ -159,15 +158,16 @@ class Simulator:
             self._noise.perturb(sample)
         return sample
 
-    def _observation(self, data: dict, i: int) -> Observation:
+    def _observation(self, data: dict) -> Observation:
+        """The :class:`Observation` of one sample's values (``observe_now``)."""
         names = self._backend_names()
         return Observation(
-            t=float(data["t"][i]), q=data["q"][i], qdot=data["qdot"][i], applied_forces=data["applied_forces"][i],
-            node_names=names["node_names"], nodes=data["nodes"][i], member_names=names["member_names"],
-            member_nodes=names["member_nodes"], member_lengths=data["member_lengths"][i],
-            member_forces=data["member_forces"][i], end_effector=data["end_effector"][i],
-            potential_energy=float(data["potential_energy"][i]), kinetic_energy=float(data["kinetic_energy"][i]),
-            folded=bool(data["folded"][i]), contact_forces=data["contact_forces"][i], state=data["state"][i])
+            t=float(data["t"]), q=data["q"], qdot=data["qdot"], applied_forces=data["applied_forces"],
+            node_names=names["node_names"], nodes=data["nodes"], member_names=names["member_names"],
+            member_nodes=names["member_nodes"], member_lengths=data["member_lengths"],
+            member_forces=data["member_forces"], end_effector=data["end_effector"],
+            potential_energy=float(data["potential_energy"]), kinetic_energy=float(data["kinetic_energy"]),
+            folded=bool(data["folded"]), contact_forces=data["contact_forces"], state=data["state"])
 
     def _backend_names(self) -> dict:
         if self.kind == "class2":

@@ -1,0 +1,204 @@
+"""Equilibria at given times from the pieces of a quasi-static class-2 path.
+
+The path follower (:mod:`.class2_quasistatic`) stores its path as :class:`Segment` s: cubic
+Hermite pieces in the scaled arc length between accepted equilibria. An observed state at
+time ``t`` starts from the segment's interpolant at ``t`` (the cubic ``tau(u) = t / T`` is
+inverted for the segment parameter ``u``) and is polished by Newton at fixed ``t`` into an
+exact equilibrium; the rate is the path's ``dq/dt = -K_FF^-1 dG_F/dt``. Segments where the
+path stands still (a held fold, constant forces) give their end point, an exact equilibrium
+already, without Newton.
+
+:func:`states_at` and :func:`polish` do this for all the samples of a run at once (numpy,
+one pass per Newton iteration over the samples not yet converged); :func:`state_at` and
+:func:`polish_one` for one sample (floats: the ROS node's observations). They agree to
+rounding (tested).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from tensegrity_core.sim.small_dense import solve_small
+
+#: Coordinates not held, per contact mode (bit i set: actuator i held at zero length).
+MODE_FREE = {0: (0, 1, 2), 1: (1, 2), 2: (0, 2), 3: (2,)}
+#: ``FREE_MASK[bits][a]``: coordinate ``a`` is free in mode ``bits``.
+FREE_MASK = np.array([[a in MODE_FREE[bits] for a in range(3)] for bits in range(4)])
+#: Newton iterations at most when polishing a sample.
+POLISH_ITER = 6
+#: A polishing step below this (relative to L) ends the iteration: the error left is of its
+#: square, i.e. rounding.
+POLISH_TOL = 1e-9
+#: Polishing steps larger than this (relative to L) are not taken (K nearly singular there).
+POLISH_LIMIT = 0.05
+#: Newton iterations on the segment parameter ``u`` (vectorised inversion of ``tau(u)``).
+INVERT_ITER = 8
+
+
+class Segment(NamedTuple):
+    """A piece of the path in scaled coordinates ``z = (q_free / L, t / T)`` between
+    ``(t0, z0)`` and ``(t1, z1)`` with unit tangents ``v0, v1`` and arc length ``ds``; ``q1``
+    the end configuration (held coordinates included) and ``bits`` the contact mode. A
+    segment with ``t1 == t0`` is a single point."""
+
+    t0: float
+    t1: float
+    q1: list
+    z0: list
+    z1: list
+    v0: list
+    v1: list
+    ds: float
+    bits: int
+
+    @property
+    def stationary(self) -> bool:
+        """A point, or a path standing still: every state on it is ``q1``."""
+        return self.t1 <= self.t0 or (self.z0[:-1] == self.z1[:-1] and not any(self.v0[:-1])
+                                      and not any(self.v1[:-1]))
+
+    def full(self, L: float) -> tuple:
+        """``(Z0, Z1, V0, V1)``: ends and tangents over all of ``(q / L, t / T)`` as
+        4-vectors (held coordinates constant), tangents scaled by ``ds``."""
+        free = MODE_FREE[self.bits]
+        Z0, Z1, V0, V1 = [x / L for x in self.q1] + [0.0], [x / L for x in self.q1] + [0.0], [0.0] * 4, [0.0] * 4
+        for j, a in enumerate(free + (3,)):
+            Z0[a], Z1[a] = self.z0[j], self.z1[j]
+            V0[a], V1[a] = self.ds * self.v0[j], self.ds * self.v1[j]
+        return Z0, Z1, V0, V1
+
+
+def _hermite_weights(u):
+    u2 = u * u
+    u3 = u2 * u
+    return 2 * u3 - 3 * u2 + 1, u3 - 2 * u2 + u, -2 * u3 + 3 * u2, u3 - u2
+
+
+def _hermite_slopes(u):
+    u2 = u * u
+    return 6 * u2 - 6 * u, 3 * u2 - 4 * u + 1, -6 * u2 + 6 * u, 3 * u2 - 2 * u
+
+
+def state_at(seg: Segment, t: float, L: float, T: float) -> list:
+    """The segment's interpolant at time ``t`` [s] (``q`` as a list; ``q1`` past its end)."""
+    if seg.stationary or t >= seg.t1:
+        return list(seg.q1)
+    z0, z1, v0, v1, ds = seg.z0, seg.z1, seg.v0, seg.v1, seg.ds
+    c = (z0[-1], ds * v0[-1], z1[-1], ds * v1[-1])
+    tau = t / T
+    lo, hi = 0.0, 1.0
+    u = (t - seg.t0) / (seg.t1 - seg.t0)
+    for _ in range(60):                      # safeguarded Newton on tau(u) = t / T
+        f = sum(w * ci for w, ci in zip(_hermite_weights(u), c)) - tau
+        if f < 0:
+            lo = u
+        else:
+            hi = u
+        if abs(f) <= 1e-15 * max(1.0, abs(tau)) or hi - lo < 1e-15:
+            break
+        df = sum(w * ci for w, ci in zip(_hermite_slopes(u), c))
+        nxt = u - f / df if df > 0 else 0.5 * (lo + hi)
+        u = nxt if lo < nxt < hi else 0.5 * (lo + hi)
+    h00, h10, h01, h11 = _hermite_weights(u)
+    q = list(seg.q1)
+    for j, a in enumerate(MODE_FREE[seg.bits]):
+        q[a] = (h00 * z0[j] + h10 * ds * v0[j] + h01 * z1[j] + h11 * ds * v1[j]) * L
+    return q
+
+
+def states_at(blocks, L: float, T: float) -> tuple:
+    """Interpolated states of ``blocks`` ``[(times (k,), Segment), ...]`` (the times inside
+    their segment): ``(t (N,), q (N, 3), bits (N,), moving (N,) bool)`` with ``moving`` False
+    for samples on stationary segments (exact equilibria)."""
+    t = np.concatenate([np.asarray(b[0], dtype=float) for b in blocks]) if blocks else np.zeros(0)
+    counts = [len(b[0]) for b in blocks]
+    segs = [b[1] for b in blocks]
+    q = np.repeat(np.array([s.q1 for s in segs], dtype=float).reshape(-1, 3), counts, axis=0)
+    bits = np.repeat(np.array([s.bits for s in segs], dtype=int), counts)
+    moving = np.repeat(np.array([not s.stationary for s in segs], dtype=bool), counts)
+    if not moving.any():
+        return t, q, bits, moving
+    rows = np.flatnonzero(moving)
+    moving_segs = [(s, n) for s, n in zip(segs, counts) if not s.stationary]
+    Z0, Z1, V0, V1 = (np.repeat(np.array(parts, dtype=float), [n for _, n in moving_segs], axis=0)
+                      for parts in zip(*(s.full(L) for s, _ in moving_segs)))
+    tau = np.minimum(t[rows], np.repeat([s.t1 for s, _ in moving_segs], [n for _, n in moving_segs])) / T
+    c = [Z0[:, 3], V0[:, 3], Z1[:, 3], V1[:, 3]]
+    # tau(u) increases on a segment: safeguarded Newton from the linear estimate
+    lo, hi = np.zeros(len(rows)), np.ones(len(rows))
+    with np.errstate(all="ignore"):
+        u = np.clip((tau - c[0]) / (c[2] - c[0]), 0.0, 1.0)
+        for _ in range(INVERT_ITER):
+            f = sum(w * ci for w, ci in zip(_hermite_weights(u), c)) - tau
+            lo = np.where(f < 0, u, lo)
+            hi = np.where(f < 0, hi, u)
+            df = sum(w * ci for w, ci in zip(_hermite_slopes(u), c))
+            nxt = u - f / df
+            u = np.where((df > 0) & (nxt > lo) & (nxt < hi), nxt, 0.5 * (lo + hi))
+    h00, h10, h01, h11 = _hermite_weights(u)
+    Z = h00[:, None] * Z0 + h10[:, None] * V0 + h01[:, None] * Z1 + h11[:, None] * V1
+    free = FREE_MASK[bits[rows]]
+    q[rows] = np.where(free, Z[:, :3] * L, q[rows])
+    return t, q, bits, moving
+
+
+def masked_solve(K, b, free) -> np.ndarray:
+    """Solve ``K_FF x_F = b_F`` per sample (``K`` (N, 3, 3), ``b`` (N, 3), ``free`` (N, 3)
+    bool), ``x = 0`` on the held coordinates."""
+    both = free[:, :, None] & free[:, None, :]
+    Km = np.where(both, K, np.eye(3))
+    return np.linalg.solve(Km, np.where(free, b, 0.0)[..., None])[..., 0]
+
+
+def polish(potential, t, q, bits, moving, L: float) -> tuple:
+    """Newton at fixed ``t`` for the ``moving`` samples (vectorised over the samples not yet
+    converged); returns ``(q, dq/dt, contact forces (N, 2), actuator forces (N, 2))``.
+
+    ``potential`` a :class:`~tensegrity_core.sim.class2_potential.TotalPotential`; ``t``
+    (N,), ``q`` (N, 3) start states, ``bits`` (N,) contact modes, ``moving`` (N,) bool."""
+    q = np.array(q, dtype=float)
+    free = FREE_MASK[bits]
+    active = np.flatnonzero(moving)
+    for _ in range(POLISH_ITER):
+        if active.size == 0:
+            break
+        G, K, _, _ = potential.evaluate_array(t[active], q[active])
+        with np.errstate(all="ignore"):
+            d = masked_solve(K, -G, free[active])
+        ok = np.all(np.isfinite(d) & (np.abs(d) < POLISH_LIMIT * L), axis=1)
+        q[active[ok]] += d[ok]
+        active = active[ok & (np.abs(d).max(axis=1) > POLISH_TOL * L)]
+    G, K, Gt, u = potential.evaluate_array(t, q)
+    with np.errstate(all="ignore"):
+        qd = masked_solve(K, -Gt, free)
+    lam = np.where(free[:, :2], 0.0, G[:, :2])
+    return q, qd, lam, u
+
+
+def polish_one(potential, t: float, q, bits: int, moving: bool, L: float) -> tuple:
+    """:func:`polish` for one sample: ``(q, dq/dt, contact forces, actuator forces)`` as
+    lists."""
+    q = list(q)
+    free = MODE_FREE[bits]
+    for _ in range(POLISH_ITER if moving else 0):
+        G, K, _ = potential.evaluate(q, t)
+        try:
+            d = solve_small([[K[a][b] for b in free] for a in free], [-G[a] for a in free])
+        except ZeroDivisionError:
+            break
+        if not all(math.isfinite(x) and abs(x) < POLISH_LIMIT * L for x in d):
+            break
+        for j, a in enumerate(free):
+            q[a] += d[j]
+        if max(abs(x) for x in d) <= POLISH_TOL * L:
+            break
+    G, K, Gt = potential.evaluate(q, t)
+    qd = [0.0, 0.0, 0.0]
+    for j, x in enumerate(solve_small([[K[a][b] for b in free] for a in free], [-Gt[a] for a in free])):
+        qd[free[j]] = x
+    lam = [0.0 if a in free else G[a] for a in (0, 1)]
+    u = [law.value_at(t, q[a]) for a, law in enumerate(potential.laws)]
+    return q, qd, lam, u
