@@ -84,7 +84,7 @@ class Integrated(Commands):
 
     def set_command(self, values) -> None:
         if self.take_command(values):
-            self.stepper.restart(self.stepper.t, self.stepper.y)
+            self.stepper.restart(self.stepper.t, self.stepper.y, input_changed=True)
 
     def advance(self, t: float) -> None:
         self.stepper.advance(t)

@@ -331,9 +331,12 @@ class Loads:
 
 def stiffness_matrix(entries) -> np.ndarray:
     """Symmetric (..., 3, 3) matrix from unique entries ``(K11, K12, K13, K22, K23, K33)``."""
-    K11, K12, K13, K22, K23, K33 = np.broadcast_arrays(*[np.asarray(e, dtype=float) for e in entries])
-    return np.stack([np.stack([K11, K12, K13], -1), np.stack([K12, K22, K23], -1),
-                     np.stack([K13, K23, K33], -1)], -2)
+    K11, K12, K13, K22, K23, K33 = entries
+    K = np.empty(np.broadcast_shapes(*(np.shape(e) for e in entries)) + (3, 3))
+    K[..., 0, 0], K[..., 0, 1], K[..., 0, 2] = K11, K12, K13
+    K[..., 1, 0], K[..., 1, 1], K[..., 1, 2] = K12, K22, K23
+    K[..., 2, 0], K[..., 2, 1], K[..., 2, 2] = K13, K23, K33
+    return K
 
 
 def _minus_matrix(entries) -> np.ndarray:

@@ -122,34 +122,44 @@ def member_values(params, k, qdd, actuator_forces, *, springs: bool, damping: bo
     I_rot = m * L * L / 12.0 if inertia else 0.0
 
     def strut(ux, uy, aax, aay, abx, aby):
-        """``(w = m (a_c - g), tau = r_b x P_b)`` of a strut along ``u`` with end accelerations."""
+        """``(w = m (a_c - g), tau = r_b x P_b)`` of a strut along ``u`` with end accelerations
+        (zeros for massless struts)."""
+        if not mass:
+            return 0.0, 0.0, 0.0
         wx, wy = mass * (0.5 * (aax + abx) - gx), mass * (0.5 * (aay + aby) - gy)
         alpha = (ux * (aby - aay) - uy * (abx - aax)) / L
         return wx, wy, 0.5 * (I_rot * alpha + 0.5 * L * (ux * wy - uy * wx))
 
+    def mid_span(Fx, Fy, ux, uy, wx, wy):
+        """Axial force at mid-span from the end force ``F`` on the far end."""
+        N = Fx * ux + Fy * uy
+        return N - 0.5 * (wx * ux + wy * uy) if mass else N
+
     # BD: D joins only the springs CD, DE (and loads); u = (cos b, sin b)
     _, _, sb, cb, _, _, _, s, lam1, lam2, _, _ = k
     wx, wy, _ = strut(cb, sb, aB, 0.0, aDx, aDy)
-    t_bd = FDx * cb + FDy * sb - 0.5 * (wx * cb + wy * sb)
+    t_bd = mid_span(FDx, FDy, cb, sb, wx, wy)
     # BF: F joins the spring EF and the X reaction R, from the moment equation
     ux, uy = -Bx / L, Fy / L
     wx, wy, tau = strut(ux, uy, aB, 0.0, 0.0, aFy)
     R = (tau - 0.5 * L * (ux * FFy - uy * FFx)) / (-0.5 * L * uy)
-    t_bf = (FFx + R) * ux + FFy * uy - 0.5 * (wx * ux + wy * uy)
+    t_bf = mid_span(FFx + R, FFy, ux, uy, wx, wy)
     # AE, CE: E's balance, a 2 x 2 system in their axial parts
     u1x, u1y, u2x, u2y = Ex / L, Ey / L, (Ex - Cx) / L, Ey / L
     w1x, w1y, tau1 = strut(u1x, u1y, 0.0, 0.0, aEx, aEy)
     w2x, w2y, tau2 = strut(u2x, u2y, aC, 0.0, aEx, aEy)
-    Wx = FEx + (2.0 / L) * (tau1 * u1y + tau2 * u2y)
-    Wy = FEy - (2.0 / L) * (tau1 * u1x + tau2 * u2x)
+    Wx, Wy = FEx, FEy
+    if mass:
+        Wx = Wx + (2.0 / L) * (tau1 * u1y + tau2 * u2y)
+        Wy = Wy - (2.0 / L) * (tau1 * u1x + tau2 * u2x)
     det = u1x * u2y - u1y * u2x
     safe = abs(det) > 1e-300
     den = _where(safe, det, 1.0)
     split = 0.5 * (Wx * u1x + Wy * u1y)
     N1 = _where(safe, (Wx * u2y - Wy * u2x) / den, split)
     N2 = _where(safe, (u1x * Wy - u1y * Wx) / den, split)
-    t_ae = N1 - 0.5 * (w1x * u1x + w1y * u1y)
-    t_ce = N2 - 0.5 * (w2x * u2x + w2y * u2y)
+    t_ae = N1 - 0.5 * (w1x * u1x + w1y * u1y) if mass else N1
+    t_ce = N2 - 0.5 * (w2x * u2x + w2y * u2y) if mass else N2
     l3, l4, l7, l8 = (n ** 0.5 for n in sq)
     t1, t2 = actuator_forces
     r1, r2 = k[0], k[1]

@@ -11,7 +11,9 @@ already, without Newton.
 :func:`states_at` and :func:`polish` do this for all the samples of a run at once (numpy,
 one pass per Newton iteration over the samples not yet converged); :func:`state_at` and
 :func:`polish_one` for one sample (floats: the ROS node's observations). They agree to
-rounding (tested).
+rounding (tested). A run with only a few samples off stationary segments (:data:`FEW`)
+interpolates and polishes those one by one: below that count numpy's per-call overhead
+costs more than the work.
 """
 
 from __future__ import annotations
@@ -29,20 +31,23 @@ MODE_FREE = {0: (0, 1, 2), 1: (1, 2), 2: (0, 2), 3: (2,)}
 FREE_MASK = np.array([[a in MODE_FREE[bits] for a in range(3)] for bits in range(4)])
 #: Newton iterations at most when polishing a sample.
 POLISH_ITER = 6
-#: A polishing step below this (relative to L) ends the iteration: the error left is of its
-#: square, i.e. rounding.
-POLISH_TOL = 1e-9
+#: A polishing step below this (relative to L) ends the iteration: Newton converges
+#: quadratically, the error left is of its square, i.e. rounding.
+POLISH_TOL = 1e-8
 #: Polishing steps larger than this (relative to L) are not taken (K nearly singular there).
 POLISH_LIMIT = 0.05
 #: Newton iterations on the segment parameter ``u`` (vectorised inversion of ``tau(u)``).
 INVERT_ITER = 8
+#: Up to this many samples off stationary segments are interpolated and polished one by one.
+FEW = 16
 
 
 class Segment(NamedTuple):
     """A piece of the path in scaled coordinates ``z = (q_free / L, t / T)`` between
     ``(t0, z0)`` and ``(t1, z1)`` with unit tangents ``v0, v1`` and arc length ``ds``; ``q1``
     the end configuration (held coordinates included) and ``bits`` the contact mode. A
-    segment with ``t1 == t0`` is a single point."""
+    segment with ``t1 == t0`` is a single point. ``stationary``: a point, or a path standing
+    still (every state on it is ``q1``); :meth:`of` works it out."""
 
     t0: float
     t1: float
@@ -53,12 +58,12 @@ class Segment(NamedTuple):
     v1: list
     ds: float
     bits: int
+    stationary: bool
 
-    @property
-    def stationary(self) -> bool:
-        """A point, or a path standing still: every state on it is ``q1``."""
-        return self.t1 <= self.t0 or (self.z0[:-1] == self.z1[:-1] and not any(self.v0[:-1])
-                                      and not any(self.v1[:-1]))
+    @classmethod
+    def of(cls, t0, t1, q1, z0, z1, v0, v1, ds, bits) -> "Segment":
+        still = t1 <= t0 or (z0[:-1] == z1[:-1] and not any(v0[:-1]) and not any(v1[:-1]))
+        return cls(t0, t1, q1, z0, z1, v0, v1, ds, bits, still)
 
     def full(self, L: float) -> tuple:
         """``(Z0, Z1, V0, V1)``: ends and tangents over all of ``(q / L, t / T)`` as
@@ -119,13 +124,18 @@ def states_at(blocks, L: float, T: float) -> tuple:
     q = np.repeat(np.array([s.q1 for s in segs], dtype=float).reshape(-1, 3), counts, axis=0)
     bits = np.repeat(np.array([s.bits for s in segs], dtype=int), counts)
     moving = np.repeat(np.array([not s.stationary for s in segs], dtype=bool), counts)
-    if not moving.any():
-        return t, q, bits, moving
     rows = np.flatnonzero(moving)
+    if len(rows) <= FEW:
+        moving_times = [(s, tt) for s, times in zip(segs, (b[0] for b in blocks)) if not s.stationary
+                        for tt in times]
+        for r, (s, tt) in zip(rows, moving_times):
+            q[r] = state_at(s, float(tt), L, T)
+        return t, q, bits, moving
     moving_segs = [(s, n) for s, n in zip(segs, counts) if not s.stationary]
-    Z0, Z1, V0, V1 = (np.repeat(np.array(parts, dtype=float), [n for _, n in moving_segs], axis=0)
+    counts = [n for _, n in moving_segs]
+    Z0, Z1, V0, V1 = (np.repeat(np.array(parts, dtype=float), counts, axis=0)
                       for parts in zip(*(s.full(L) for s, _ in moving_segs)))
-    tau = np.minimum(t[rows], np.repeat([s.t1 for s, _ in moving_segs], [n for _, n in moving_segs])) / T
+    tau = np.minimum(t[rows], np.repeat([s.t1 for s, _ in moving_segs], counts)) / T
     c = [Z0[:, 3], V0[:, 3], Z1[:, 3], V1[:, 3]]
     # tau(u) increases on a segment: safeguarded Newton from the linear estimate
     lo, hi = np.zeros(len(rows)), np.ones(len(rows))
@@ -155,13 +165,18 @@ def masked_solve(K, b, free) -> np.ndarray:
 
 def polish(potential, t, q, bits, moving, L: float) -> tuple:
     """Newton at fixed ``t`` for the ``moving`` samples (vectorised over the samples not yet
-    converged); returns ``(q, dq/dt, contact forces (N, 2), actuator forces (N, 2))``.
+    converged, or one by one when they are few); returns ``(q, dq/dt, contact forces (N, 2),
+    actuator forces (N, 2))``.
 
     ``potential`` a :class:`~tensegrity_core.sim.class2_potential.TotalPotential`; ``t``
     (N,), ``q`` (N, 3) start states, ``bits`` (N,) contact modes, ``moving`` (N,) bool."""
     q = np.array(q, dtype=float)
     free = FREE_MASK[bits]
     active = np.flatnonzero(moving)
+    if len(active) <= FEW:
+        for r in active:
+            q[r] = _newton_one(potential, float(t[r]), q[r].tolist(), int(bits[r]), L)
+        active = active[:0]
     for _ in range(POLISH_ITER):
         if active.size == 0:
             break
@@ -178,12 +193,10 @@ def polish(potential, t, q, bits, moving, L: float) -> tuple:
     return q, qd, lam, u
 
 
-def polish_one(potential, t: float, q, bits: int, moving: bool, L: float) -> tuple:
-    """:func:`polish` for one sample: ``(q, dq/dt, contact forces, actuator forces)`` as
-    lists."""
-    q = list(q)
+def _newton_one(potential, t: float, q: list, bits: int, L: float) -> list:
+    """The Newton iterations of :func:`polish` for one sample."""
     free = MODE_FREE[bits]
-    for _ in range(POLISH_ITER if moving else 0):
+    for _ in range(POLISH_ITER):
         G, K, _ = potential.evaluate(q, t)
         try:
             d = solve_small([[K[a][b] for b in free] for a in free], [-G[a] for a in free])
@@ -195,6 +208,14 @@ def polish_one(potential, t: float, q, bits: int, moving: bool, L: float) -> tup
             q[a] += d[j]
         if max(abs(x) for x in d) <= POLISH_TOL * L:
             break
+    return q
+
+
+def polish_one(potential, t: float, q, bits: int, moving: bool, L: float) -> tuple:
+    """:func:`polish` for one sample: ``(q, dq/dt, contact forces, actuator forces)`` as
+    lists."""
+    q = _newton_one(potential, t, list(q), bits, L) if moving else list(q)
+    free = MODE_FREE[bits]
     G, K, Gt = potential.evaluate(q, t)
     qd = [0.0, 0.0, 0.0]
     for j, x in enumerate(solve_small([[K[a][b] for b in free] for a in free], [-Gt[a] for a in free])):

@@ -68,6 +68,13 @@ FOLD_EPS = 1e-12
 #: A branch that ends (limit point) this close to an actuator's zero length (relative to L)
 #: ends at the fold.
 FOLD_NEAR = 1e-3
+#: The corrector stops once its scaled step is below this: Newton converges quadratically
+#: there (the next step would be ~1e-12), and the path's points only need to be that good
+#: (samples are polished; a stationary path's corrector is exact at once).
+CORRECT_TOL = 1e-6
+#: Near a minimum the potential's decrease falls below its rounding and the line search
+#: cannot judge a step: a Newton step shorter than this (relative to L) is taken as it is.
+NEWTON_ZONE = 1e-6
 #: Events bracketed by regula falsi are located to this fraction of the continuation step (a
 #: step is at most a quarter of the run in scaled arc length).
 LOCATE_TOL = 1e-7
@@ -107,6 +114,15 @@ class Event(NamedTuple):
     actuators: frozenset
     tangent: list
     ds: float
+
+
+def _stepped(q, t: float, G, K, Gt, dq, dt: float) -> Point:
+    """The point ``(q + dq, t + dt)`` after a last, converged Newton step from ``(q, t)`` where
+    ``G, K, Gt`` were evaluated: ``G`` updated to first order (its error is of the step's
+    square, i.e. rounding once the step is small), ``K`` and ``Gt`` kept (off by the step)."""
+    return Point([x + d for x, d in zip(q, dq)], t + dt,
+                 [g + Kr[0] * dq[0] + Kr[1] * dq[1] + Kr[2] * dq[2] + gt * dt for g, Kr, gt in zip(G, K, Gt)],
+                 K, Gt)
 
 
 def _bits(held) -> int:
@@ -231,6 +247,11 @@ class Class2QuasiStatic(Commands):
                         a = -q[i] / step[i]
                         if a < a_max:
                             a_max, hit = a, i
+            if pd and hit is None and big <= NEWTON_ZONE * self.L:
+                trial = [x + s for x, s in zip(q, step)]
+                if self._in_domain(trial):
+                    q = trial
+                    continue
             pi0 = potential.value(q, t)
             slope = sum(g * s for g, s in zip(G, step))
             a = a_max
@@ -263,16 +284,19 @@ class Class2QuasiStatic(Commands):
         for _ in range(40):
             if not self._regular(q):
                 return None
-            G, K, _ = self.potential.evaluate(q, t)
+            G, K, Gt = self.potential.evaluate(q, t)
             self.n_newton += 1
             try:
                 d = solve_small([[K[a][b] for b in free] for a in free], [-G[a] for a in free])
             except ZeroDivisionError:
                 return None
+            dq = [0.0, 0.0, 0.0]
             for j, a in enumerate(free):
-                q[a] += d[j]
+                dq[a] = d[j]
             if max(abs(x) for x in d) <= 1e-13 * self.L:
-                return self._point(q, t) if self._regular(q) else None
+                p = _stepped(q, t, G, K, Gt, dq, 0.0)
+                return p if self._regular(p.q) else None
+            q = [x + y for x, y in zip(q, dq)]
         return None
 
     # -- pseudo-arclength continuation in z = (q_free / L, t / T) ---------------------------------
@@ -286,28 +310,36 @@ class Class2QuasiStatic(Commands):
         norm = math.sqrt(sum(x * x for x in v))
         return [x / norm for x in v]
 
-    def _correct(self, q, t, bits, z_pred, v, max_iter: int = 12, tol: float = 1e-9):
+    def _correct(self, q, t, bits, z_pred, v, max_iter: int = 12, tol: float = CORRECT_TOL):
         """Newton on ``G_F = 0``, ``v . (z - z_pred) = 0`` until the scaled step is below
-        ``tol``; the :class:`Point` reached, or ``None``."""
+        ``tol``; the :class:`Point` reached (see :func:`_stepped`), or ``None``."""
         free = MODE_FREE[bits]
+        n = len(free)
         L, T = self.L, self.T
+        evaluate = self.potential.evaluate
         q = list(q)
         for _ in range(max_iter):
             if not self._regular(q):
                 return None
-            p = self._point(q, t)
+            G, K, Gt = evaluate(q, t)
             self.n_newton += 1
-            z = self._z(q, t, free)
+            c = v[n] * (t / T - z_pred[n])
+            for j, a in enumerate(free):
+                c += v[j] * (q[a] / L - z_pred[j])
+            A = [[K[a][b] * L for b in free] + [Gt[a] * T] for a in free]
+            A.append(v)
             try:
-                dz = solve_small(self._bordered(p, free, v),
-                                 [-p.G[a] for a in free] + [-sum(vi * (zi - zp) for vi, zi, zp in zip(v, z, z_pred))])
+                dz = solve_small(A, [-G[a] for a in free] + [-c])
             except ZeroDivisionError:
                 return None
+            dq = [0.0, 0.0, 0.0]
             for j, a in enumerate(free):
-                q[a] += dz[j] * L
-            t += dz[-1] * T
+                dq[a] = dz[j] * L
             if max(abs(x) for x in dz) <= tol:
-                return self._point(q, t) if self._regular(q) else None
+                p = _stepped(q, t, G, K, Gt, dq, dz[n] * T)
+                return p if self._regular(p.q) else None
+            q = [x + d for x, d in zip(q, dq)]
+            t += dz[n] * T
         return None
 
     def _start(self, t: float, q, bits: int) -> None:
@@ -317,7 +349,7 @@ class Class2QuasiStatic(Commands):
         self._head = self._point(list(q), t)
         v = self._tangent(self._head, bits)
         z = self._z(q, t, free)
-        self._seg = Segment(t, t, list(q), z, z, v, v, 0.0, bits)
+        self._seg = Segment.of(t, t, list(q), z, z, v, v, 0.0, bits)
         self._pending = None
 
     def advance(self, t_target: float) -> None:
@@ -332,7 +364,7 @@ class Class2QuasiStatic(Commands):
             self._path_step()
         self.t = t_target
 
-    def _at(self, z0, v0, h, template, bits, tol=1e-9, max_iter=12):
+    def _at(self, z0, v0, h, template, bits, tol=CORRECT_TOL, max_iter=12):
         free = MODE_FREE[bits]
         zp = [a + h * b for a, b in zip(z0, v0)]
         q, t = self._q_t(zp, template, free)
@@ -344,6 +376,27 @@ class Class2QuasiStatic(Commands):
         bits = self.bits
         free = MODE_FREE[bits]
         t_stop = next_breakpoint(self.laws, head.t, math.inf)
+        if free == (2,):
+            # Both actuators held: beta's balance -Q3(q) = 0 does not involve t, so the
+            # configuration stands still; only the contact forces change (release events).
+            ds, err = self.ds_max, None
+            end = self._point(list(head.q), head.t + ds * self.T)
+        else:
+            ds, end, err = self._corrected_step(head, z0, v0, bits)
+        self.n_steps += 1
+        kind = self._event_kind(end, bits, t_stop)
+        if kind is not None:
+            self._locate(v0, ds, end, kind, t_stop)
+            return
+        v1 = self._tangent(end, bits, v0)
+        self._seg = Segment.of(head.t, end.t, end.q, z0, self._z(end.q, end.t, free), v0, v1, ds, bits)
+        self._head = end
+        if err is not None:
+            self.ds = ds * min(4.0, 0.9 / math.sqrt(max(err, 1e-12)))
+
+    def _corrected_step(self, head: Point, z0, v0, bits: int) -> tuple:
+        """Predictor and corrector with step control: ``(ds, end point, error ratio)``."""
+        free = MODE_FREE[bits]
         while True:
             ds = min(self.ds, self.ds_max)
             end, zp = self._at(z0, v0, ds, head.q, bits)
@@ -352,21 +405,11 @@ class Class2QuasiStatic(Commands):
                     self._limit(head.t, head.q, "the corrector does not converge")
                 self.ds = ds / 4
                 continue
-            z1 = self._z(end.q, end.t, free)
-            err = max(abs(a - b) for a, b in zip(z1, zp)) / PATH_TOL
+            err = max(abs(a - b) for a, b in zip(self._z(end.q, end.t, free), zp)) / PATH_TOL
             if err > 1.0 and ds > 1e-14:
                 self.ds = ds * max(0.2, 0.9 / math.sqrt(err))
                 continue
-            break
-        self.n_steps += 1
-        kind = self._event_kind(end, bits, t_stop)
-        if kind is not None:
-            self._locate(v0, ds, end, kind, t_stop)
-            return
-        v1 = self._tangent(end, bits, v0)
-        self._seg = Segment(head.t, end.t, end.q, z0, z1, v0, v1, ds, bits)
-        self._head = end
-        self.ds = ds * min(4.0, 0.9 / math.sqrt(max(err, 1e-12)))
+            return ds, end, err
 
     # -- events ---------------------------------------------------------------------------------------
     def _event_kind(self, p: Point, bits: int, t_stop: float):
@@ -404,7 +447,7 @@ class Class2QuasiStatic(Commands):
             event = self._bracket_event(v0, ds, kind, t_stop)
         head, p = self._head, event.at
         free = MODE_FREE[bits]
-        self._seg = Segment(head.t, p.t, p.q, self._z(head.q, head.t, free), self._z(p.q, p.t, free), v0,
+        self._seg = Segment.of(head.t, p.t, p.q, self._z(head.q, head.t, free), self._z(p.q, p.t, free), v0,
                             event.tangent, event.ds, bits)
         if event.kind == "limit":
             self._limit(p.t, p.q, "the stiffness d2Pi/dq2 stops being positive definite")

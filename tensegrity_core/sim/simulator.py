@@ -201,7 +201,7 @@ def simulate(scene, *, duration: float | None = None, progress=None) -> Trajecto
         n += 1
     samples = []
     error = None
-    chunk = max(1, n // 50)                             # progress in 2 % steps
+    chunk = max(1, n // 50) if progress is not None else n     # progress in 2 % steps, if watched
     for start in range(0, n, chunk):
         try:
             sim._backend.record(times[start:start + chunk], samples)
