@@ -110,13 +110,16 @@ class Class2Observer:
         acting = T - lam
         forces, lengths = member_values(self.params, k, (qdd[:, 0], qdd[:, 1], qdd[:, 2]),
                                         (acting[:, 0], acting[:, 1]), **self._members)
+        member_forces, member_lengths = np.empty((n, 10)), np.empty((n, 10))
+        for j in range(10):
+            member_forces[:, j], member_lengths[:, j] = forces[j], lengths[j]
         nodes = np.zeros((n, 6, 3))
         Bx, Cx, Dx, Dy, Ex, Ey, Fy = node_coordinates(self.L, k)
         nodes[:, 1, 0], nodes[:, 2, 0], nodes[:, 3, 0], nodes[:, 3, 1] = Bx, Cx, Dx, Dy
         nodes[:, 4, 0], nodes[:, 4, 1], nodes[:, 5, 1] = Ex, Ey, Fy
         return {
             "t": t, "state": Y, "q": q.copy(), "qdot": qd.copy(), "qddot": qdd, "applied_forces": T,
-            "contact_forces": lam, "nodes": nodes, "member_lengths": np.stack(np.broadcast_arrays(*lengths), -1),
-            "member_forces": np.stack(np.broadcast_arrays(*forces), -1), "end_effector": nodes[:, END_EFFECTOR].copy(),
-            "potential_energy": potential, "kinetic_energy": kinetic, "folded": bits != 0,
+            "contact_forces": lam, "nodes": nodes, "member_lengths": member_lengths, "member_forces": member_forces,
+            "end_effector": nodes[:, END_EFFECTOR].copy(), "potential_energy": potential, "kinetic_energy": kinetic,
+            "folded": bits != 0,
         }

@@ -23,7 +23,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from tensegrity_core.sim.small_dense import solve_small
+from tensegrity_core.sim.errors import SimulationError
+from tensegrity_core.sim.small_dense import solve_symmetric
 
 #: Coordinates not held, per contact mode (bit i set: actuator i held at zero length).
 MODE_FREE = {0: (0, 1, 2), 1: (1, 2), 2: (0, 2), 3: (2,)}
@@ -155,12 +156,27 @@ def states_at(blocks, L: float, T: float) -> tuple:
     return t, q, bits, moving
 
 
-def masked_solve(K, b, free) -> np.ndarray:
-    """Solve ``K_FF x_F = b_F`` per sample (``K`` (N, 3, 3), ``b`` (N, 3), ``free`` (N, 3)
-    bool), ``x = 0`` on the held coordinates."""
-    both = free[:, :, None] & free[:, None, :]
-    Km = np.where(both, K, np.eye(3))
-    return np.linalg.solve(Km, np.where(free, b, 0.0)[..., None])[..., 0]
+def masked_solve(K, b, bits) -> np.ndarray:
+    """Solve ``K_FF x_F = b_F`` per sample for the free coordinates ``F`` of each sample's
+    mode (``K`` the unique entries ``(K11, K12, K13, K22, K23, K33)`` of symmetric 3 x 3
+    matrices, arrays (N,); ``b`` (N, 3); ``bits`` (N,)), ``x = 0`` on the held ones: the held
+    rows and columns are replaced by the identity's, and the 3 x 3 systems solved by the
+    symmetric adjugate (numpy's batched LU costs several times more for 3 x 3). A singular
+    ``K_FF`` gives non-finite entries."""
+    K11, K12, K13, K22, K23, K33 = K
+    free = FREE_MASK[bits]
+    f0, f1, f2 = free.T
+    a, d, f = np.where(f0, K11, 1.0), np.where(f1, K22, 1.0), np.where(f2, K33, 1.0)
+    bb, c, e = np.where(f0 & f1, K12, 0.0), np.where(f0 & f2, K13, 0.0), np.where(f1 & f2, K23, 0.0)
+    r0, r1, r2 = np.where(free, b, 0.0).T
+    A00, A01, A02 = d * f - e * e, c * e - bb * f, bb * e - c * d
+    A11, A12, A22 = a * f - c * c, bb * c - a * e, a * d - bb * bb
+    inv = 1.0 / (a * A00 + bb * A01 + c * A02)
+    x = np.empty((len(a), 3))
+    x[:, 0] = (A00 * r0 + A01 * r1 + A02 * r2) * inv
+    x[:, 1] = (A01 * r0 + A11 * r1 + A12 * r2) * inv
+    x[:, 2] = (A02 * r0 + A12 * r1 + A22 * r2) * inv
+    return x
 
 
 def polish(potential, t, q, bits, moving, L: float) -> tuple:
@@ -171,7 +187,6 @@ def polish(potential, t, q, bits, moving, L: float) -> tuple:
     ``potential`` a :class:`~tensegrity_core.sim.class2_potential.TotalPotential`; ``t``
     (N,), ``q`` (N, 3) start states, ``bits`` (N,) contact modes, ``moving`` (N,) bool."""
     q = np.array(q, dtype=float)
-    free = FREE_MASK[bits]
     active = np.flatnonzero(moving)
     if len(active) <= FEW:
         for r in active:
@@ -182,15 +197,24 @@ def polish(potential, t, q, bits, moving, L: float) -> tuple:
             break
         G, K, _, _ = potential.evaluate_array(t[active], q[active])
         with np.errstate(all="ignore"):
-            d = masked_solve(K, -G, free[active])
+            d = masked_solve(K, -G, bits[active])
         ok = np.all(np.isfinite(d) & (np.abs(d) < POLISH_LIMIT * L), axis=1)
         q[active[ok]] += d[ok]
         active = active[ok & (np.abs(d).max(axis=1) > POLISH_TOL * L)]
     G, K, Gt, u = potential.evaluate_array(t, q)
     with np.errstate(all="ignore"):
-        qd = masked_solve(K, -Gt, free)
-    lam = np.where(free[:, :2], 0.0, G[:, :2])
+        qd = masked_solve(K, -Gt, bits)
+    bad = ~np.all(np.isfinite(qd), axis=1)
+    if bad.any():
+        _undefined_rate(float(t[bad][0]), q[bad][0])
+    lam = np.where(FREE_MASK[bits, :2], 0.0, G[:, :2])
     return q, qd, lam, u
+
+
+def _undefined_rate(t: float, q) -> None:
+    raise SimulationError(f"t = {t:.9g} s: the equilibrium path's rate dq/dt is undefined at q = "
+                          f"{np.array2string(np.asarray(q), precision=6)} (the stiffness d2Pi/dq2 is singular "
+                          f"there: a limit or branch point at a sample time)", t=t)
 
 
 def _newton_one(potential, t: float, q: list, bits: int, L: float) -> list:
@@ -199,7 +223,7 @@ def _newton_one(potential, t: float, q: list, bits: int, L: float) -> list:
     for _ in range(POLISH_ITER):
         G, K, _ = potential.evaluate(q, t)
         try:
-            d = solve_small([[K[a][b] for b in free] for a in free], [-G[a] for a in free])
+            d = solve_symmetric(K, free, [-G[a] for a in free])
         except ZeroDivisionError:
             break
         if not all(math.isfinite(x) and abs(x) < POLISH_LIMIT * L for x in d):
@@ -218,7 +242,11 @@ def polish_one(potential, t: float, q, bits: int, moving: bool, L: float) -> tup
     free = MODE_FREE[bits]
     G, K, Gt = potential.evaluate(q, t)
     qd = [0.0, 0.0, 0.0]
-    for j, x in enumerate(solve_small([[K[a][b] for b in free] for a in free], [-Gt[a] for a in free])):
+    try:
+        rate = solve_symmetric(K, free, [-Gt[a] for a in free])
+    except ZeroDivisionError:
+        _undefined_rate(t, q)
+    for j, x in enumerate(rate):
         qd[free[j]] = x
     lam = [0.0 if a in free else G[a] for a in (0, 1)]
     u = [law.value_at(t, q[a]) for a, law in enumerate(potential.laws)]

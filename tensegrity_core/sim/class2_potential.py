@@ -40,9 +40,10 @@ class TotalPotential:
         :class:`~tensegrity_core.errors.DomainError` outside the mechanism's domain."""
         r1, r2 = q[0], q[1]
         k = fx.context(self.L, (r1, r2, q[2], 0.0, 0.0, 0.0))
-        Q1 = Q2 = Q3 = 0.0
-        K11 = K12 = K13 = K22 = K23 = K33 = 0.0
-        for force, stiffness in self._force_stiffness:
+        (force, stiffness), *others = self._force_stiffness      # a quasi-static scene has springs
+        Q1, Q2, Q3 = force(k)
+        K11, K12, K13, K22, K23, K33 = stiffness(k)
+        for force, stiffness in others:
             a, b, c = force(k)
             Q1 += a
             Q2 += b
@@ -68,8 +69,9 @@ class TotalPotential:
         return sum(e.energy(k) for e in self.effects) + l1.potential(t, q[0]) + l2.potential(t, q[1])
 
     def evaluate_array(self, t, q) -> tuple:
-        """``(G (N, 3), K (N, 3, 3), Gt (N, 3), u (N, 2))`` at times ``t`` (N,) and
-        configurations ``q`` (N, 3), with ``u`` the input laws' values (the actuator forces)."""
+        """``(G (N, 3), K, Gt (N, 3), u (N, 2))`` at times ``t`` (N,) and configurations ``q``
+        (N, 3): ``K`` as its unique entries ``(K11, K12, K13, K22, K23, K33)`` (arrays), ``u``
+        the input laws' values (the actuator forces)."""
         k = fx.context_array(self.L, q, np.zeros_like(q))
         Q1 = Q2 = Q3 = 0.0
         entries = [0.0] * 6
@@ -88,4 +90,4 @@ class TotalPotential:
         Gt = np.zeros((n, 3))
         Gt[:, 0] = dt1
         Gt[:, 1] = dt2
-        return G, fx.stiffness_matrix(entries), Gt, np.stack([u1, u2], -1)
+        return G, tuple(entries), Gt, np.stack([u1, u2], -1)

@@ -57,12 +57,19 @@ from tensegrity_core.sim.class2_potential import TotalPotential
 from tensegrity_core.sim.class2_sim import generalized_static_force, initial_configuration, runtime_laws
 from tensegrity_core.sim.errors import SimulationError
 from tensegrity_core.sim.inputs import next_breakpoint
-from tensegrity_core.sim.small_dense import positive_definite, principal_det, solve_small
+from tensegrity_core.sim.small_dense import (
+    positive_definite,
+    principal_det,
+    solve_bordered,
+    solve_small,
+    solve_symmetric,
+)
 
 #: Predictor error allowed per continuation step (scaled variables). The path only needs to
 #: stay on the branch and start each sample's polishing Newton close enough: the observed
 #: samples are then equilibria to rounding, whatever this tolerance.
 PATH_TOL = 1e-2
+GROWTH = 4.0
 #: An actuator within this distance of zero (relative to L) has reached the fold.
 FOLD_EPS = 1e-12
 #: A branch that ends (limit point) this close to an actuator's zero length (relative to L)
@@ -123,6 +130,11 @@ def _stepped(q, t: float, G, K, Gt, dq, dt: float) -> Point:
     return Point([x + d for x, d in zip(q, dq)], t + dt,
                  [g + Kr[0] * dq[0] + Kr[1] * dq[1] + Kr[2] * dq[2] + gt * dt for g, Kr, gt in zip(G, K, Gt)],
                  K, Gt)
+
+
+def _after(t):
+    """``t`` plus a few units of rounding: an event this close to a time counts as at it."""
+    return t + 8 * np.finfo(float).eps * np.maximum(1.0, np.abs(t))
 
 
 def _bits(held) -> int:
@@ -195,11 +207,6 @@ class Class2QuasiStatic(Commands):
             q[a] = z[j] * self.L
         return q, z[-1] * self.T
 
-    def _bordered(self, p: Point, free, last_row) -> list:
-        """``[[K_FF L, dG_F/dt T], [last_row]]`` at ``p``."""
-        L, T = self.L, self.T
-        return [[p.K[a][b] * L for b in free] + [p.Gt[a] * T] for a in free] + [list(last_row)]
-
     # -- equilibria at fixed t --------------------------------------------------------------------
     def _minimise(self, q, t: float, bits: int, max_iter: int = 500) -> tuple:
         """A stable local minimum of ``Pi(., t)`` reached from ``q`` (projected Newton with a
@@ -215,7 +222,7 @@ class Class2QuasiStatic(Commands):
             free = [j for j in range(3) if j not in held]
             pd = positive_definite(K, free)
             if pd:
-                d = solve_small([[K[a][b] for b in free] for a in free], [-G[a] for a in free])
+                d = solve_symmetric(K, free, [-G[a] for a in free])
                 if max(abs(G[a]) for a in free) <= 10 * self.tol:
                     # a minimum with these actuators held: let go of the most tensile stop, if any
                     pulling = [i for i in held if G[i] < -self.release_tol]
@@ -287,7 +294,7 @@ class Class2QuasiStatic(Commands):
             G, K, Gt = self.potential.evaluate(q, t)
             self.n_newton += 1
             try:
-                d = solve_small([[K[a][b] for b in free] for a in free], [-G[a] for a in free])
+                d = solve_symmetric(K, free, [-G[a] for a in free])
             except ZeroDivisionError:
                 return None
             dq = [0.0, 0.0, 0.0]
@@ -305,8 +312,11 @@ class Class2QuasiStatic(Commands):
         ``[K_FF L, dG_F/dt T]`` from the bordered system with the previous tangent (forward in
         time at a start). Raises :class:`ZeroDivisionError` where it is not unique."""
         free = MODE_FREE[bits]
-        prev = previous if previous is not None else [0.0] * len(free) + [1.0]
-        v = solve_small(self._bordered(p, free, prev), [0.0] * len(free) + [1.0])
+        n = len(free)
+        prev = previous if previous is not None else [0.0] * n + [1.0]
+        L, T = self.L, self.T
+        d = solve_bordered(p.K, free, [p.Gt[a] for a in free], [x / L for x in prev[:n]], prev[n] / T, [0.0] * n, 1.0)
+        v = [d[j] / L for j in range(n)] + [d[n] / T]
         norm = math.sqrt(sum(x * x for x in v))
         return [x / norm for x in v]
 
@@ -317,6 +327,7 @@ class Class2QuasiStatic(Commands):
         n = len(free)
         L, T = self.L, self.T
         evaluate = self.potential.evaluate
+        w, wt = [x / L for x in v[:n]], v[n] / T
         q = list(q)
         for _ in range(max_iter):
             if not self._regular(q):
@@ -326,20 +337,19 @@ class Class2QuasiStatic(Commands):
             c = v[n] * (t / T - z_pred[n])
             for j, a in enumerate(free):
                 c += v[j] * (q[a] / L - z_pred[j])
-            A = [[K[a][b] * L for b in free] + [Gt[a] * T] for a in free]
-            A.append(v)
-            try:
-                dz = solve_small(A, [-G[a] for a in free] + [-c])
+            try:         # in (dq, dt): [K_FF, dG_F/dt; v_F / L, v_t / T] (dq, dt) = -(G_F, c)
+                step = solve_bordered(K, free, [Gt[a] for a in free], w, wt, [-G[a] for a in free], -c)
             except ZeroDivisionError:
                 return None
             dq = [0.0, 0.0, 0.0]
             for j, a in enumerate(free):
-                dq[a] = dz[j] * L
-            if max(abs(x) for x in dz) <= tol:
-                p = _stepped(q, t, G, K, Gt, dq, dz[n] * T)
+                dq[a] = step[j]
+            dt = step[n]
+            if max(max(map(abs, step[:n])) / L, abs(dt) / T) <= tol:
+                p = _stepped(q, t, G, K, Gt, dq, dt)
                 return p if self._regular(p.q) else None
             q = [x + d for x, d in zip(q, dq)]
-            t += dz[n] * T
+            t += dt
         return None
 
     def _start(self, t: float, q, bits: int) -> None:
@@ -355,7 +365,8 @@ class Class2QuasiStatic(Commands):
     def advance(self, t_target: float) -> None:
         if t_target < self.t:
             raise SimulationError(f"cannot advance backwards: t = {self.t!r} s, target {t_target!r} s", t=self.t)
-        while self._seg.t1 < t_target:
+        # an event at t_target (to rounding) happens before the state there is seen
+        while self._seg.t1 < t_target or (self._pending is not None and self._seg.t1 <= _after(t_target)):
             if self._pending is not None:
                 t_e, q_e, bits_e, fired = self._pending
                 self.events.extend(fired)
@@ -392,7 +403,7 @@ class Class2QuasiStatic(Commands):
         self._seg = Segment.of(head.t, end.t, end.q, z0, self._z(end.q, end.t, free), v0, v1, ds, bits)
         self._head = end
         if err is not None:
-            self.ds = ds * min(4.0, 0.9 / math.sqrt(max(err, 1e-12)))
+            self.ds = ds * min(GROWTH, 0.9 / math.sqrt(max(err, 1e-12)))
 
     def _corrected_step(self, head: Point, z0, v0, bits: int) -> tuple:
         """Predictor and corrector with step control: ``(ds, end point, error ratio)``."""
@@ -694,7 +705,11 @@ class Class2QuasiStatic(Commands):
         i, n = 0, len(times)
         while i < n:
             self.advance(float(times[i]))
-            j = max(i + int(np.searchsorted(times[i:], self._seg.t1, side="right")), i + 1)
+            if self._pending is None:
+                j = i + int(np.searchsorted(times[i:], self._seg.t1, side="right"))
+            else:                                   # a sample at an event's time is after it
+                j = i + int(np.searchsorted(_after(times[i:]), self._seg.t1, side="left"))
+            j = max(j, i + 1)
             out.append((times[i:j], self._seg))
             self.t = float(times[j - 1])
             i = j
