@@ -8,12 +8,13 @@ exact equilibrium; the rate is the path's ``dq/dt = -K_FF^-1 dG_F/dt``. Segments
 path stands still (a held fold, constant forces) give their end point, an exact equilibrium
 already, without Newton.
 
-:func:`states_at` and :func:`polish` do this for all the samples of a run at once (numpy,
-one pass per Newton iteration over the samples not yet converged); :func:`state_at` and
-:func:`polish_one` for one sample (floats: the ROS node's observations). They agree to
-rounding (tested). A run with only a few samples off stationary segments (:data:`FEW`)
-interpolates and polishes those one by one: below that count numpy's per-call overhead
-costs more than the work.
+:func:`equilibria` does this for all the samples of a run: on a stationary segment every
+sample is its end point with zero rate (only the actuator and contact forces follow the
+input laws in time, evaluated together); off them it interpolates and polishes one sample
+at a time when they are few (:data:`FEW`: numpy's per-call overhead costs more than the
+work below that), else vectorised (one pass per Newton iteration over the samples not yet
+converged). :func:`state_at` and :func:`polish_one` do it for one sample (the ROS node's
+observations). The paths agree to rounding (tested).
 """
 
 from __future__ import annotations
@@ -93,19 +94,21 @@ def state_at(seg: Segment, t: float, L: float, T: float) -> list:
     if seg.stationary or t >= seg.t1:
         return list(seg.q1)
     z0, z1, v0, v1, ds = seg.z0, seg.z1, seg.v0, seg.v1, seg.ds
-    c = (z0[-1], ds * v0[-1], z1[-1], ds * v1[-1])
+    # tau(u) = a0 + a1 u + a2 u^2 + a3 u^3, the Hermite cubic of the scaled time
+    c0, c1, c2, c3 = z0[-1], ds * v0[-1], z1[-1], ds * v1[-1]
+    a2, a3 = -3.0 * c0 - 2.0 * c1 + 3.0 * c2 - c3, 2.0 * c0 + c1 - 2.0 * c2 + c3
     tau = t / T
     lo, hi = 0.0, 1.0
     u = (t - seg.t0) / (seg.t1 - seg.t0)
     for _ in range(60):                      # safeguarded Newton on tau(u) = t / T
-        f = sum(w * ci for w, ci in zip(_hermite_weights(u), c)) - tau
+        f = ((a3 * u + a2) * u + c1) * u + c0 - tau
         if f < 0:
             lo = u
         else:
             hi = u
         if abs(f) <= 1e-15 * max(1.0, abs(tau)) or hi - lo < 1e-15:
             break
-        df = sum(w * ci for w, ci in zip(_hermite_slopes(u), c))
+        df = (3.0 * a3 * u + 2.0 * a2) * u + c1
         nxt = u - f / df if df > 0 else 0.5 * (lo + hi)
         u = nxt if lo < nxt < hi else 0.5 * (lo + hi)
     h00, h10, h01, h11 = _hermite_weights(u)
@@ -115,31 +118,52 @@ def state_at(seg: Segment, t: float, L: float, T: float) -> list:
     return q
 
 
-def states_at(blocks, L: float, T: float) -> tuple:
-    """Interpolated states of ``blocks`` ``[(times (k,), Segment), ...]`` (the times inside
-    their segment): ``(t (N,), q (N, 3), bits (N,), moving (N,) bool)`` with ``moving`` False
-    for samples on stationary segments (exact equilibria)."""
-    t = np.concatenate([np.asarray(b[0], dtype=float) for b in blocks]) if blocks else np.zeros(0)
+def equilibria(potential, blocks, L: float, T: float) -> tuple:
+    """The equilibria at the times of ``blocks`` ``[(times (k,), Segment), ...]`` (each time
+    inside its segment): ``(t, q, dq/dt, contact forces, actuator forces, bits)``, arrays
+    over the N samples ((N,), (N, 3), (N, 3), (N, 2), (N, 2), (N,)).
+
+    ``potential`` a :class:`~tensegrity_core.sim.class2_potential.TotalPotential`."""
     counts = [len(b[0]) for b in blocks]
     segs = [b[1] for b in blocks]
-    q = np.repeat(np.array([s.q1 for s in segs], dtype=float).reshape(-1, 3), counts, axis=0)
-    bits = np.repeat(np.array([s.bits for s in segs], dtype=int), counts)
-    moving = np.repeat(np.array([not s.stationary for s in segs], dtype=bool), counts)
-    rows = np.flatnonzero(moving)
+    n = sum(counts)
+    t = np.concatenate([np.asarray(b[0], dtype=float) for b in blocks]) if blocks else np.zeros(0)
+    which = np.repeat(np.arange(len(blocks)), counts)
+    bits = np.array([s.bits for s in segs], dtype=int).reshape(-1)[which]
+    q = np.array([s.q1 for s in segs], dtype=float).reshape(-1, 3)[which]
+    qd, lam, u = np.zeros((n, 3)), np.zeros((n, 2)), np.zeros((n, 2))
+    still = np.array([s.stationary for s in segs], dtype=bool).reshape(-1)[which]
+    rows = np.flatnonzero(still)
+    if rows.size:
+        # q = q1 and dq/dt = 0; u(t, q1) from the laws, contact forces u_i - Q_i with the
+        # springs' (and loads') force Q of the segment's configuration
+        for a, law in enumerate(potential.laws):
+            u[rows, a] = law.arrays(t[rows], q[rows, a])[0]
+        Q = np.zeros((len(segs), 2))
+        for b in np.unique(which[rows]):
+            G, _, _ = potential.evaluate(segs[b].q1, segs[b].t1)
+            Q[b] = [law.value_at(segs[b].t1, segs[b].q1[a]) - G[a] for a, law in enumerate(potential.laws)]
+        held = ~FREE_MASK[bits[rows], :2]
+        lam[rows] = np.where(held, u[rows] - Q[which[rows]], 0.0)
+    rows = np.flatnonzero(~still)
     if len(rows) <= FEW:
-        moving_times = [(s, tt) for s, times in zip(segs, (b[0] for b in blocks)) if not s.stationary
-                        for tt in times]
-        for r, (s, tt) in zip(rows, moving_times):
-            q[r] = state_at(s, float(tt), L, T)
-        return t, q, bits, moving
-    moving_segs = [(s, n) for s, n in zip(segs, counts) if not s.stationary]
-    counts = [n for _, n in moving_segs]
-    Z0, Z1, V0, V1 = (np.repeat(np.array(parts, dtype=float), counts, axis=0)
-                      for parts in zip(*(s.full(L) for s, _ in moving_segs)))
-    tau = np.minimum(t[rows], np.repeat([s.t1 for s, _ in moving_segs], counts)) / T
+        for r in rows:
+            seg, tr = segs[which[r]], float(t[r])
+            q[r], qd[r], lam[r], u[r] = polish_one(potential, tr, state_at(seg, tr, L, T), seg.bits, True, L)
+    else:
+        q[rows] = _interpolate(segs, which[rows], t[rows], L, T)
+        q[rows], qd[rows], lam[rows], u[rows] = polish(potential, t[rows], q[rows], bits[rows], L)
+    return t, q, qd, lam, u, bits
+
+
+def _interpolate(segs, which, t, L: float, T: float) -> np.ndarray:
+    """:func:`state_at` vectorised over samples at times ``t`` on moving segments
+    ``segs[which]``."""
+    Z0, Z1, V0, V1 = (np.array(parts, dtype=float)[which] for parts in zip(*(s.full(L) for s in segs)))
+    tau = np.minimum(t, np.array([s.t1 for s in segs])[which]) / T
     c = [Z0[:, 3], V0[:, 3], Z1[:, 3], V1[:, 3]]
     # tau(u) increases on a segment: safeguarded Newton from the linear estimate
-    lo, hi = np.zeros(len(rows)), np.ones(len(rows))
+    lo, hi = np.zeros(len(t)), np.ones(len(t))
     with np.errstate(all="ignore"):
         u = np.clip((tau - c[0]) / (c[2] - c[0]), 0.0, 1.0)
         for _ in range(INVERT_ITER):
@@ -151,9 +175,8 @@ def states_at(blocks, L: float, T: float) -> tuple:
             u = np.where((df > 0) & (nxt > lo) & (nxt < hi), nxt, 0.5 * (lo + hi))
     h00, h10, h01, h11 = _hermite_weights(u)
     Z = h00[:, None] * Z0 + h10[:, None] * V0 + h01[:, None] * Z1 + h11[:, None] * V1
-    free = FREE_MASK[bits[rows]]
-    q[rows] = np.where(free, Z[:, :3] * L, q[rows])
-    return t, q, bits, moving
+    free = FREE_MASK[np.array([s.bits for s in segs], dtype=int)[which]]
+    return np.where(free, Z[:, :3] * L, Z0[:, :3] * L)
 
 
 def masked_solve(K, b, bits) -> np.ndarray:
@@ -179,19 +202,12 @@ def masked_solve(K, b, bits) -> np.ndarray:
     return x
 
 
-def polish(potential, t, q, bits, moving, L: float) -> tuple:
-    """Newton at fixed ``t`` for the ``moving`` samples (vectorised over the samples not yet
-    converged, or one by one when they are few); returns ``(q, dq/dt, contact forces (N, 2),
-    actuator forces (N, 2))``.
-
-    ``potential`` a :class:`~tensegrity_core.sim.class2_potential.TotalPotential`; ``t``
-    (N,), ``q`` (N, 3) start states, ``bits`` (N,) contact modes, ``moving`` (N,) bool."""
+def polish(potential, t, q, bits, L: float) -> tuple:
+    """Newton at fixed ``t`` from the states ``q`` (N, 3) in contact modes ``bits``,
+    vectorised over the samples not yet converged; returns ``(q, dq/dt, contact forces
+    (N, 2), actuator forces (N, 2))``."""
     q = np.array(q, dtype=float)
-    active = np.flatnonzero(moving)
-    if len(active) <= FEW:
-        for r in active:
-            q[r] = _newton_one(potential, float(t[r]), q[r].tolist(), int(bits[r]), L)
-        active = active[:0]
+    active = np.arange(len(t))
     for _ in range(POLISH_ITER):
         if active.size == 0:
             break
@@ -217,37 +233,33 @@ def _undefined_rate(t: float, q) -> None:
                           f"there: a limit or branch point at a sample time)", t=t)
 
 
-def _newton_one(potential, t: float, q: list, bits: int, L: float) -> list:
-    """The Newton iterations of :func:`polish` for one sample."""
+def polish_one(potential, t: float, q, bits: int, moving: bool, L: float) -> tuple:
+    """:func:`polish` for one sample (Newton only if ``moving``): ``(q, dq/dt, contact
+    forces, actuator forces)`` as lists."""
+    q = list(q)
     free = MODE_FREE[bits]
-    for _ in range(POLISH_ITER):
-        G, K, _ = potential.evaluate(q, t)
+    evaluate = potential.evaluate
+    for _ in range(POLISH_ITER if moving else 0):
+        G, K, _ = evaluate(q, t)
         try:
             d = solve_symmetric(K, free, [-G[a] for a in free])
         except ZeroDivisionError:
             break
-        if not all(math.isfinite(x) and abs(x) < POLISH_LIMIT * L for x in d):
+        size = max(map(abs, d))
+        if not size < POLISH_LIMIT * L:            # too far, or not finite
             break
         for j, a in enumerate(free):
             q[a] += d[j]
-        if max(abs(x) for x in d) <= POLISH_TOL * L:
+        if size <= POLISH_TOL * L:
             break
-    return q
-
-
-def polish_one(potential, t: float, q, bits: int, moving: bool, L: float) -> tuple:
-    """:func:`polish` for one sample: ``(q, dq/dt, contact forces, actuator forces)`` as
-    lists."""
-    q = _newton_one(potential, t, list(q), bits, L) if moving else list(q)
-    free = MODE_FREE[bits]
-    G, K, Gt = potential.evaluate(q, t)
+    G, K, Gt = evaluate(q, t)
     qd = [0.0, 0.0, 0.0]
     try:
         rate = solve_symmetric(K, free, [-Gt[a] for a in free])
     except ZeroDivisionError:
         _undefined_rate(t, q)
-    for j, x in enumerate(rate):
-        qd[free[j]] = x
-    lam = [0.0 if a in free else G[a] for a in (0, 1)]
-    u = [law.value_at(t, q[a]) for a, law in enumerate(potential.laws)]
-    return q, qd, lam, u
+    for j, a in enumerate(free):
+        qd[a] = rate[j]
+    l1, l2 = potential.laws
+    u = [l1.value_at(t, q[0]), l2.value_at(t, q[1])]
+    return q, qd, [0.0 if 0 in free else G[0], 0.0 if 1 in free else G[1]], u

@@ -13,8 +13,9 @@ actuator carries the contact force ``lambda_i = dPi/drho_i >= 0`` (KKT).
 **Path following.** ``G = dPi/dq`` restricted to the coordinates not held (``F``) defines a
 curve ``G_F(q, t) = 0``. It is followed by pseudo-arclength continuation in the scaled
 variables ``z = (q/L, t/T)`` (``T`` the scene's duration): the tangent ``v`` spans the null
-space of ``[K_FF L, dG_F/dt T]`` (``K = d2Pi/dq2``), the predictor is ``z + ds v`` and Newton
-corrects on ``G_F = 0`` plus ``v . (z - z_pred) = 0``. Unlike stepping in ``t``, this stays
+space of ``[K_FF L, dG_F/dt T]`` (``K = d2Pi/dq2``), the predictor is ``z + ds v`` plus the
+curvature term from the tangents' change over the last step, and Newton corrects on
+``G_F = 0`` plus ``v . (z - z_pred) = 0``. Unlike stepping in ``t``, this stays
 regular where ``dq/dt`` is infinite -- which happens in the paper's scenario, where the
 stable branch meets the fold with a vertical tangent. The step ``ds`` is controlled by the
 predictor's error (:data:`PATH_TOL`). An accepted point must be a stable equilibrium
@@ -44,6 +45,8 @@ it (event ``jump``); a changed command does the same at its time.
 from __future__ import annotations
 
 import math
+import sys
+from bisect import bisect_left, bisect_right
 from typing import NamedTuple
 
 import numpy as np
@@ -89,9 +92,9 @@ LOCATE_TOL = 1e-7
 #: stiffness nearly singular) counts as past the event.
 LOCATE_ITER = 6
 #: Newton iterations at most when solving for an event point, and the scaled step that ends
-#: them (quadratic convergence: the error left is rounding).
+#: them (quadratic convergence: the error left is of its square, i.e. rounding).
 EVENT_ITER = 12
-EVENT_TOL = 1e-12
+EVENT_TOL = 1e-9
 #: Secant iterations at most for a degenerate contact's bifurcation time, and their end
 #: (relative to the duration).
 BRANCH_ITER = 30
@@ -132,9 +135,9 @@ def _stepped(q, t: float, G, K, Gt, dq, dt: float) -> Point:
                  K, Gt)
 
 
-def _after(t):
+def _after(t: float) -> float:
     """``t`` plus a few units of rounding: an event this close to a time counts as at it."""
-    return t + 8 * np.finfo(float).eps * np.maximum(1.0, np.abs(t))
+    return t + 8 * sys.float_info.epsilon * max(1.0, abs(t))
 
 
 def _bits(held) -> int:
@@ -406,11 +409,17 @@ class Class2QuasiStatic(Commands):
             self.ds = ds * min(GROWTH, 0.9 / math.sqrt(max(err, 1e-12)))
 
     def _corrected_step(self, head: Point, z0, v0, bits: int) -> tuple:
-        """Predictor and corrector with step control: ``(ds, end point, error ratio)``."""
+        """Predictor and corrector with step control: ``(ds, end point, error ratio)``. The
+        predictor is ``z + ds v + ds^2 / 2 kappa`` with the curvature ``kappa`` estimated from
+        the tangents' change over the last step (none at a path's start)."""
         free = MODE_FREE[bits]
+        seg = self._seg
+        kappa = [(a - b) / seg.ds for a, b in zip(seg.v1, seg.v0)] if seg.ds > 0 else [0.0] * len(v0)
         while True:
             ds = min(self.ds, self.ds_max)
-            end, zp = self._at(z0, v0, ds, head.q, bits)
+            zp = [a + ds * (b + 0.5 * ds * c) for a, b, c in zip(z0, v0, kappa)]
+            q, t = self._q_t(zp, head.q, free)
+            end = self._correct(q, t, bits, zp, v0)
             if end is None:
                 if ds < 1e-14:
                     self._limit(head.t, head.q, "the corrector does not converge")
@@ -520,6 +529,7 @@ class Class2QuasiStatic(Commands):
         z_head = self._z(head.q, head.t, free)
         z = [a + theta * (b - a) for a, b in zip(z_head, self._z(end.q, end.t, free))]
         q, t = self._q_t(z, head.q, free)
+        last = math.inf
         for _ in range(EVENT_ITER):
             if not self._regular(q):
                 return None
@@ -540,10 +550,14 @@ class Class2QuasiStatic(Commands):
                 dz = solve_small(A, rhs)
             except ZeroDivisionError:
                 return None
+            size = max(map(abs, dz))
+            if size > last:           # not converging: a singular system (a degenerate contact)
+                return None
+            last = size
             for j, a in enumerate(free):
                 q[a] += dz[j] * L
             t += dz[-1] * T
-            if max(abs(x) for x in dz) <= EVENT_TOL:
+            if size <= EVENT_TOL:
                 break
         else:
             return None
@@ -702,22 +716,22 @@ class Class2QuasiStatic(Commands):
         """Append blocks ``(times inside one segment, segment)`` for increasing ``times`` to
         ``out``: the path is advanced segment by segment; :meth:`observe` evaluates them."""
         times = np.asarray(times, dtype=float)
-        i, n = 0, len(times)
+        listed = times.tolist()
+        i, n = 0, len(listed)
         while i < n:
-            self.advance(float(times[i]))
+            self.advance(listed[i])
             if self._pending is None:
-                j = i + int(np.searchsorted(times[i:], self._seg.t1, side="right"))
+                j = bisect_right(listed, self._seg.t1, i)
             else:                                   # a sample at an event's time is after it
-                j = i + int(np.searchsorted(_after(times[i:]), self._seg.t1, side="left"))
+                j = bisect_left(listed, self._seg.t1, i, key=_after)
             j = max(j, i + 1)
             out.append((times[i:j], self._seg))
-            self.t = float(times[j - 1])
+            self.t = listed[j - 1]
             i = j
 
     def observe(self, blocks) -> dict:
         """Observed quantities of recorded blocks (arrays over their samples)."""
-        t, q, bits, moving = samples.states_at(blocks, self.L, self.T)
-        q, qd, lam, u = samples.polish(self.potential, t, q, bits, moving, self.L)
+        t, q, qd, lam, u, bits = samples.equilibria(self.potential, blocks, self.L, self.T)
         return self.observer.many(t, np.concatenate([q, qd], axis=1), bits, u, contact=lam)
 
     def observe_now(self) -> dict:
