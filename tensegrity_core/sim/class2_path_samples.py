@@ -19,7 +19,6 @@ observations). The paths agree to rounding (tested).
 
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
 import numpy as np
