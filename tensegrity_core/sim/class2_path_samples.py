@@ -47,8 +47,8 @@ class Segment(NamedTuple):
     """A piece of the path in scaled coordinates ``z = (q_free / L, t / T)`` between
     ``(t0, z0)`` and ``(t1, z1)`` with unit tangents ``v0, v1`` and arc length ``ds``; ``q1``
     the end configuration (held coordinates included) and ``bits`` the contact mode. A
-    segment with ``t1 == t0`` is a single point. ``stationary``: a point, or a path standing
-    still (every state on it is ``q1``); :meth:`of` works it out."""
+    segment with ``t1 == t0`` is a single point. ``stationary``: the path stands still on it
+    (every state is ``q1``, the rate zero); :meth:`of` works it out."""
 
     t0: float
     t1: float
@@ -63,7 +63,7 @@ class Segment(NamedTuple):
 
     @classmethod
     def of(cls, t0, t1, q1, z0, z1, v0, v1, ds, bits) -> "Segment":
-        still = t1 <= t0 or (z0[:-1] == z1[:-1] and not any(v0[:-1]) and not any(v1[:-1]))
+        still = t1 > t0 and z0[:-1] == z1[:-1] and not any(v0[:-1]) and not any(v1[:-1])
         return cls(t0, t1, q1, z0, z1, v0, v1, ds, bits, still)
 
     def full(self, L: float) -> tuple:
@@ -89,7 +89,8 @@ def _hermite_slopes(u):
 
 
 def state_at(seg: Segment, t: float, L: float, T: float) -> list:
-    """The segment's interpolant at time ``t`` [s] (``q`` as a list; ``q1`` past its end)."""
+    """The segment's interpolant at time ``t`` [s] (``q`` as a list; ``q1`` at and past its
+    end)."""
     if seg.stationary or t >= seg.t1:
         return list(seg.q1)
     z0, z1, v0, v1, ds = seg.z0, seg.z1, seg.v0, seg.v1, seg.ds
@@ -175,7 +176,9 @@ def _interpolate(segs, which, t, L: float, T: float) -> np.ndarray:
     h00, h10, h01, h11 = _hermite_weights(u)
     Z = h00[:, None] * Z0 + h10[:, None] * V0 + h01[:, None] * Z1 + h11[:, None] * V1
     free = FREE_MASK[np.array([s.bits for s in segs], dtype=int)[which]]
-    return np.where(free, Z[:, :3] * L, Z0[:, :3] * L)
+    q1 = np.array([s.q1 for s in segs], dtype=float).reshape(-1, 3)[which]
+    end = (t >= np.array([s.t1 for s in segs])[which])[:, None]
+    return np.where(free & ~end, Z[:, :3] * L, q1)
 
 
 def masked_solve(K, b, bits) -> np.ndarray:
