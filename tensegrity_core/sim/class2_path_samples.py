@@ -83,20 +83,20 @@ def _hermite_weights(u):
     return 2 * u3 - 3 * u2 + 1, u3 - 2 * u2 + u, -2 * u3 + 3 * u2, u3 - u2
 
 
-def _hermite_slopes(u):
-    u2 = u * u
-    return 6 * u2 - 6 * u, 3 * u2 - 4 * u + 1, -6 * u2 + 6 * u, 3 * u2 - 2 * u
+def _time_cubic(c0, c1, c2, c3) -> tuple:
+    """``(a2, a3)`` of ``tau(u) = c0 + c1 u + a2 u^2 + a3 u^3``, the Hermite cubic with end
+    values ``c0, c2`` and end slopes ``c1, c3`` (floats or arrays)."""
+    return -3.0 * c0 - 2.0 * c1 + 3.0 * c2 - c3, 2.0 * c0 + c1 - 2.0 * c2 + c3
 
 
 def state_at(seg: Segment, t: float, L: float, T: float) -> list:
     """The segment's interpolant at time ``t`` [s] (``q`` as a list; ``q1`` at and past its
-    end)."""
-    if seg.stationary or t >= seg.t1:
+    end, and on a single point)."""
+    if seg.stationary or t >= seg.t1 or seg.t1 <= seg.t0:
         return list(seg.q1)
     z0, z1, v0, v1, ds = seg.z0, seg.z1, seg.v0, seg.v1, seg.ds
-    # tau(u) = a0 + a1 u + a2 u^2 + a3 u^3, the Hermite cubic of the scaled time
     c0, c1, c2, c3 = z0[-1], ds * v0[-1], z1[-1], ds * v1[-1]
-    a2, a3 = -3.0 * c0 - 2.0 * c1 + 3.0 * c2 - c3, 2.0 * c0 + c1 - 2.0 * c2 + c3
+    a2, a3 = _time_cubic(c0, c1, c2, c3)
     tau = t / T
     lo, hi = 0.0, 1.0
     u = (t - seg.t0) / (seg.t1 - seg.t0)
@@ -160,24 +160,26 @@ def _interpolate(segs, which, t, L: float, T: float) -> np.ndarray:
     """:func:`state_at` vectorised over samples at times ``t`` on moving segments
     ``segs[which]``."""
     Z0, Z1, V0, V1 = (np.array(parts, dtype=float)[which] for parts in zip(*(s.full(L) for s in segs)))
-    tau = np.minimum(t, np.array([s.t1 for s in segs])[which]) / T
-    c = [Z0[:, 3], V0[:, 3], Z1[:, 3], V1[:, 3]]
+    t0, t1 = np.array([s.t0 for s in segs])[which], np.array([s.t1 for s in segs])[which]
+    tau = np.minimum(t, t1) / T
+    c0, c1, c2, c3 = Z0[:, 3], V0[:, 3], Z1[:, 3], V1[:, 3]
+    a2, a3 = _time_cubic(c0, c1, c2, c3)
     # tau(u) increases on a segment: safeguarded Newton from the linear estimate
     lo, hi = np.zeros(len(t)), np.ones(len(t))
     with np.errstate(all="ignore"):
-        u = np.clip((tau - c[0]) / (c[2] - c[0]), 0.0, 1.0)
+        u = np.clip((tau - c0) / (c2 - c0), 0.0, 1.0)
         for _ in range(INVERT_ITER):
-            f = sum(w * ci for w, ci in zip(_hermite_weights(u), c)) - tau
+            f = ((a3 * u + a2) * u + c1) * u + c0 - tau
             lo = np.where(f < 0, u, lo)
             hi = np.where(f < 0, hi, u)
-            df = sum(w * ci for w, ci in zip(_hermite_slopes(u), c))
+            df = (3.0 * a3 * u + 2.0 * a2) * u + c1
             nxt = u - f / df
             u = np.where((df > 0) & (nxt > lo) & (nxt < hi), nxt, 0.5 * (lo + hi))
     h00, h10, h01, h11 = _hermite_weights(u)
     Z = h00[:, None] * Z0 + h10[:, None] * V0 + h01[:, None] * Z1 + h11[:, None] * V1
     free = FREE_MASK[np.array([s.bits for s in segs], dtype=int)[which]]
     q1 = np.array([s.q1 for s in segs], dtype=float).reshape(-1, 3)[which]
-    end = (t >= np.array([s.t1 for s in segs])[which])[:, None]
+    end = ((t >= t1) | (t1 <= t0))[:, None]          # at or past the end, or a single point
     return np.where(free & ~end, Z[:, :3] * L, q1)
 
 
