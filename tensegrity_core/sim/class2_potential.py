@@ -56,11 +56,11 @@ class TotalPotential:
             K23 += s23
             K33 += s33
         l1, l2 = self.laws
-        K11 += l1.d_length(t, r1)
-        K22 += l2.d_length(t, r2)
-        return ([l1.value_at(t, r1) - Q1, l2.value_at(t, r2) - Q2, -Q3],
-                [[K11, K12, K13], [K12, K22, K23], [K13, K23, K33]],
-                [l1.d_time(t, r1), l2.d_time(t, r2), 0.0])
+        u1, du1, dt1 = l1.local(t, r1)
+        u2, du2, dt2 = l2.local(t, r2)
+        K11 += du1
+        K22 += du2
+        return [u1 - Q1, u2 - Q2, -Q3], [[K11, K12, K13], [K12, K22, K23], [K13, K23, K33]], [dt1, dt2, 0.0]
 
     def value(self, q, t: float) -> float:
         """``Pi(q, t)`` [J] at one configuration."""

@@ -61,7 +61,7 @@ from tensegrity_core.sim.small_dense import positive_definite, solve_bordered, s
 #: Predictor error allowed per continuation step (scaled variables). The path only needs to
 #: stay on the branch and start each sample's polishing Newton close enough: the observed
 #: samples are then equilibria to rounding, whatever this tolerance.
-PATH_TOL = 1e-2
+PATH_TOL = 2e-2
 #: The step grows by at most this factor after an accepted step.
 GROWTH = 4.0
 #: The corrector stops once its scaled step is below this: Newton converges quadratically
@@ -114,7 +114,7 @@ class Class2QuasiStatic(PathEvents, Commands):
         # (lambda = 0, as at the paper's full fold) rounding must not make the stop chatter.
         self.release_tol = 1e-9 * force_scale
         self.ds_max = min(scene.integrator.max_step, scene.duration) / (4.0 * scene.duration)
-        self.ds = self.ds_max / 16
+        self.ds = self.ds_max / 4
         self.events: list = []
         self.n_steps = 0
         self.n_newton = 0

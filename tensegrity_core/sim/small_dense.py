@@ -103,8 +103,8 @@ def solve_bordered(K, idx, g, w, wt: float, r, s: float) -> list:
     ``g, w, r`` lists over ``idx``) by block elimination with the adjugate of ``K_FF``:
     ``y = (s det - w adj r) / (wt det - w adj g)``, ``x = (adj r - adj g y) / det``; near a
     singular ``K_FF`` (limit and branch points, where the bordered matrix stays regular) by
-    :func:`solve_small` on the whole matrix. Returns ``x + [y]``; raises
-    :class:`ZeroDivisionError` when singular."""
+    :func:`solve_small` on the whole matrix; a 2 x 2 bordered system by Cramer's rule. Returns
+    ``x + [y]``; raises :class:`ZeroDivisionError` when singular."""
     n = len(idx)
     if n == 3:
         (a, b, c), (_, d, e), (_, _, f) = K
@@ -131,6 +131,10 @@ def solve_bordered(K, idx, g, w, wt: float, r, s: float) -> list:
             if den != 0.0:
                 y = (s * det - (w0 * p0 + w1 * p1)) / den
                 return [(p0 - h0 * y) / det, (p1 - h1 * y) / det, y]
+    else:                                        # 2 x 2: Cramer's rule
+        k, det = K[idx[0]][idx[0]], K[idx[0]][idx[0]] * wt - g[0] * w[0]
+        if det != 0.0:
+            return [(r[0] * wt - g[0] * s) / det, (k * s - w[0] * r[0]) / det]
     A = [[K[a][b] for b in idx] + [g[j]] for j, a in enumerate(idx)]
     A.append(list(w) + [wt])
     return solve_small(A, list(r) + [s])
