@@ -32,12 +32,15 @@ from threadpoolctl import threadpool_limits
 from tests.bench.harness import Context, Row, benchmark, time_per_call
 
 
-def _best(fn, repeat: int):
-    best, out = float("inf"), None
-    for _ in range(repeat):
+def _best(fn, repeat: int, min_time: float = 0.2):
+    """Best wall time of ``fn()`` over at least ``repeat`` runs and ``min_time`` seconds (a
+    millisecond run gets as fair a chance at a quiet moment as a long one), and its result."""
+    best, out, spent, n = float("inf"), None, 0.0, 0
+    while n < repeat or spent < min_time:
         t0 = time.perf_counter()
         out = fn()
-        best = min(best, time.perf_counter() - t0)
+        dt = time.perf_counter() - t0
+        best, spent, n = min(best, dt), spent + dt, n + 1
     return best, out
 
 
