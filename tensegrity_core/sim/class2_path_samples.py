@@ -140,9 +140,14 @@ def equilibria(potential, blocks, L: float, T: float) -> tuple:
         for a, law in enumerate(potential.laws):
             u[rows, a] = law.arrays(t[rows], q[rows, a])[0]
         Q = np.zeros((len(segs), 2))
-        for b in np.unique(which[rows]):
-            G, _, _ = potential.evaluate(segs[b].q1, segs[b].t1)
-            Q[b] = [law.value_at(segs[b].t1, segs[b].q1[a]) - G[a] for a, law in enumerate(potential.laws)]
+        known = {}                                  # Q = u - G depends on q only
+        for b, seg in enumerate(segs):
+            if seg.stationary:
+                key = tuple(seg.q1)
+                if key not in known:
+                    G, _, _ = potential.evaluate(seg.q1, seg.t1)
+                    known[key] = [law.value_at(seg.t1, seg.q1[a]) - G[a] for a, law in enumerate(potential.laws)]
+                Q[b] = known[key]
         held = ~FREE_MASK[bits[rows], :2]
         lam[rows] = np.where(held, u[rows] - Q[which[rows]], 0.0)
     rows = np.flatnonzero(~still)

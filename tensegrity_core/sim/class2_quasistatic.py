@@ -162,11 +162,11 @@ class Class2QuasiStatic(PathEvents, Commands):
         for _ in range(max_iter):
             G, K, _ = potential.evaluate(q, t)
             self.n_newton += 1
-            free = [j for j in range(3) if j not in held]
+            free = MODE_FREE[bits_of(held)]
             pd = positive_definite(K, free)
             if pd:
                 d = solve_symmetric(K, free, [-G[a] for a in free])
-                if max(abs(G[a]) for a in free) <= 10 * self.tol:
+                if max(map(abs, (G[a] for a in free))) <= 10 * self.tol:
                     # a minimum with these actuators held: let go of the most tensile stop, if any
                     pulling = [i for i in held if G[i] < -self.release_tol]
                     if not pulling:
@@ -187,7 +187,7 @@ class Class2QuasiStatic(PathEvents, Commands):
             step = [0.0, 0.0, 0.0]
             for j, a in enumerate(free):
                 step[a] = d[j]
-            big = max(abs(x) for x in step)
+            big = max(map(abs, step))
             if big > 0.1 * self.L:
                 step = [x * 0.1 * self.L / big for x in step]
             a_max, hit = 1.0, None
@@ -339,11 +339,18 @@ class Class2QuasiStatic(PathEvents, Commands):
             ds, err = self.ds_max, None
             end = self._point(list(head.q), head.t + ds * self.T)
         else:
-            ds, end, err = self._corrected_step(head, z0, v0, bits)
+            ds, end, err = self._corrected_step(head, z0, v0, bits, t_stop)
         self.n_steps += 1
         kind = self._event_kind(end, bits, t_stop)
         if kind is not None:
             self._locate(v0, ds, end, kind, t_stop)
+            return
+        if end.t == t_stop:
+            # landed on an input law's breakpoint: the path goes on from there with the
+            # law's new piece (a fresh start: tangent and curvature change at the kink)
+            tangent, ds = self._closing_tangent(end, z0, v0)
+            self._seg = Segment.of(head.t, end.t, end.q, z0, self._z(end.q, end.t, free), v0, tangent, ds, bits)
+            self._pending = (end.t, end.q, bits, [])
             return
         v1 = self._tangent(end, bits, v0)
         self._seg = Segment.of(head.t, end.t, end.q, z0, self._z(end.q, end.t, free), v0, v1, ds, bits)
@@ -351,16 +358,27 @@ class Class2QuasiStatic(PathEvents, Commands):
         if err is not None:
             self.ds = ds * min(GROWTH, 0.9 / math.sqrt(max(err, 1e-12)))
 
-    def _corrected_step(self, head: Point, z0, v0, bits: int) -> tuple:
+    def _corrected_step(self, head: Point, z0, v0, bits: int, t_stop: float) -> tuple:
         """Predictor and corrector with step control: ``(ds, end point, error ratio)``. The
         predictor is ``z + ds v + ds^2 / 2 kappa`` with the curvature ``kappa`` estimated from
-        the tangents' change over the last step (none at a path's start)."""
+        the tangents' change over the last step (none at a path's start). A prediction past
+        the next breakpoint ``t_stop`` of an input law is cut there and corrected at that
+        fixed time (Newton would not converge across the kink), the step ending exactly on it
+        (error ratio ``None``)."""
         free = MODE_FREE[bits]
         seg = self._seg
         kappa = [(a - b) / seg.ds for a, b in zip(seg.v1, seg.v0)] if seg.ds > 0 else [0.0] * len(v0)
         while True:
             ds = min(self.ds, self.ds_max)
             zp = [a + ds * (b + 0.5 * ds * c) for a, b, c in zip(z0, v0, kappa)]
+            if zp[-1] * self.T > t_stop > head.t:
+                cut = (t_stop / self.T - z0[-1]) / (zp[-1] - z0[-1])
+                q, _ = self._q_t([a + cut * (b - a) for a, b in zip(z0, zp)], head.q, free)
+                end = self._equilibrium_at(q, t_stop, bits)
+                if end is not None:
+                    return ds * cut, end, None
+                self.ds = ds * cut / 2
+                continue
             q, t = self._q_t(zp, head.q, free)
             end = self._correct(q, t, bits, zp, v0)
             if end is None:

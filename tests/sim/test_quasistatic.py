@@ -174,3 +174,23 @@ def test_a_held_actuator_lets_go_where_its_contact_force_would_pull():
     for t, q in zip(traj.times[~held], traj.q[~held]):
         np.testing.assert_allclose(potential_gradient(q, p) + np.array([u0 - t, -g[1], 0.0]), 0.0, atol=1e-11)
     assert traj.q[-1, 0] > 0.1
+
+
+def test_a_ramp_starting_mid_run_is_followed_across_its_corners():
+    """A law's breakpoint is a kink in t: Newton does not converge across it, so a step that
+    would cross is cut there (the old path follower reported a limit point at the corner)."""
+    params = {"kind": "class2", "params": {"k": 5.0}}
+    p = class2_scene(model=params).model.params
+    q0 = np.array([0.4, 0.8, float(equilibrium_beta(0.4, 0.8, p))])
+    hold = -potential_gradient(q0, p)[:2]
+    inputs = {"f1": {"law": "ramp", "from": float(hold[0]), "to": float(hold[0]) + 1.0, "t0": 5.0, "t1": 12.0},
+              "f2": {"law": "ramp", "from": float(hold[1]), "to": float(hold[1]) - 0.5, "t1": 16.0}}
+    traj = simulate(class2_scene(model=params, effects=["springs"], inputs=inputs, duration=20.0,
+                                 initial={"equilibrium": {"rho1": 0.4, "rho2": 0.8}}, output={"rate": 2.0}))
+    assert traj.success and traj.events == []
+    for t, q, u in zip(traj.times, traj.q, traj.applied_forces):
+        expected = [float(np.clip(hold[0] + (t - 5.0) / 7.0, hold[0], hold[0] + 1.0)),
+                    float(np.clip(hold[1] - 0.5 * t / 16.0, hold[1] - 0.5, hold[1]))]
+        np.testing.assert_allclose(u, expected, atol=1e-14)
+        np.testing.assert_allclose(potential_gradient(q, p) + np.r_[u, 0.0], 0.0, atol=1e-11)
+    np.testing.assert_allclose(traj.qdot[traj.times > 16.0], 0.0, atol=1e-14)
