@@ -79,6 +79,12 @@ class Event(NamedTuple):
     ds: float
 
 
+def just_before(t: float) -> float:
+    """The float before ``t``: an input law's last value before its breakpoint ``t`` (the laws
+    take their new piece at the breakpoint itself)."""
+    return math.nextafter(t, -math.inf)
+
+
 def bits_of(held) -> int:
     """The contact mode (bit i: actuator i held) of a set of held actuators."""
     return sum(1 << i for i in held)
@@ -119,7 +125,6 @@ class PathEvents:
     def _locate(self, v0, ds: float, end: Point, kind: str, t_stop: float) -> None:
         """Locate the first event of the step from the current head to ``end``, end the
         segment there and queue the path's new start (or stop at a limit point)."""
-        bits = self.bits
         event = None
         if kind != "limit":
             event = self._solve_event(kind, end, ds, t_stop)
@@ -127,6 +132,14 @@ class PathEvents:
                 event = self._branch_point(end, ds)
         if event is None:
             event = self._bracket_event(v0, ds, kind, t_stop)
+        self._close(event, v0, t_stop)
+
+    def _close(self, event: Event, v0, t_stop: float) -> None:
+        """End the segment at ``event`` and queue the path's new start (or stop at a limit
+        point). At a breakpoint the path ends just before it and restarts from the minimum
+        reached under the law's new piece (event ``jump`` if the state moved: a law that jumps,
+        like a series held between samples)."""
+        bits = self.bits
         head, p = self._head, event.at
         free = MODE_FREE[bits]
         self._seg = Segment.of(head.t, p.t, p.q, self._z(head.q, head.t, free), self._z(p.q, p.t, free), v0,
@@ -135,7 +148,7 @@ class PathEvents:
             self._limit(p.t, p.q, "the stiffness d2Pi/dq2 stops being positive definite")
         held = {i for i in (0, 1) if bits >> i & 1}
         fired = []
-        q_new = list(p.q)
+        q_new, t_new = list(p.q), p.t
         if event.kind == "fold":
             for i in event.actuators:
                 q_new[i] = 0.0
@@ -144,8 +157,12 @@ class PathEvents:
         elif event.kind == "release":
             held -= event.actuators
             fired = [(p.t, "release", i) for i in sorted(event.actuators)]
-        q_new, new_bits = self._minimise(q_new, p.t, bits_of(held))
-        self._pending = (p.t, q_new, new_bits, fired)
+        elif event.kind == "breakpoint":
+            t_new = t_stop
+        q_min, new_bits = self._minimise(q_new, t_new, bits_of(held))
+        if event.kind == "breakpoint" and max(abs(a - b) for a, b in zip(q_min, q_new)) > 1e-9 * self.L:
+            fired = [(t_new, "jump", 0)]
+        self._pending = (t_new, q_min, new_bits, fired)
 
     def _closing_tangent(self, p: Point, z_head, v0) -> tuple:
         """Tangent and arc length (chord) of the last segment ending at ``p``; the chord's
@@ -207,7 +224,7 @@ class PathEvents:
                 rhs.append(-(G[i] + rtol))
             else:
                 A.append([0.0] * len(free) + [1.0])
-                rhs.append((t_stop - t) / T)
+                rhs.append((just_before(t_stop) - t) / T)
             try:
                 dz = solve_small(A, rhs)
             except ZeroDivisionError:
@@ -226,7 +243,7 @@ class PathEvents:
         if kind == "fold":
             q[i] = 0.0
         elif kind == "breakpoint":
-            t = t_stop
+            t = just_before(t_stop)
         if not (self._regular(q) and head.t <= t):
             return None
         p = self._point(q, t)
@@ -337,7 +354,8 @@ class PathEvents:
             kind, past = "fold", p_lo
         at = p_lo
         if kind == "breakpoint":
-            at = self._equilibrium_at(p_lo.q, t_stop, bits) or self._point(p_lo.q, t_stop)
+            t_b = just_before(t_stop)
+            at = self._equilibrium_at(p_lo.q, t_b, bits) or self._point(p_lo.q, t_b)
         actuators = frozenset()
         if kind == "fold":
             actuators = frozenset(i for i in (0, 1) if not bits >> i & 1 and past.q[i] < FOLD_NEAR * self.L)

@@ -50,7 +50,7 @@ from tensegrity_core.sim import class2_path_samples as samples
 from tensegrity_core.sim.backend import Commands
 from tensegrity_core.sim.class2_model import build_force_effects
 from tensegrity_core.sim.class2_observe import Class2Observer
-from tensegrity_core.sim.class2_path_events import Point, PathEvents, bits_of
+from tensegrity_core.sim.class2_path_events import Event, PathEvents, Point, bits_of, just_before
 from tensegrity_core.sim.class2_path_samples import MODE_FREE, Segment
 from tensegrity_core.sim.class2_potential import TotalPotential
 from tensegrity_core.sim.class2_sim import generalized_static_force, initial_configuration, runtime_laws
@@ -345,12 +345,10 @@ class Class2QuasiStatic(PathEvents, Commands):
         if kind is not None:
             self._locate(v0, ds, end, kind, t_stop)
             return
-        if end.t == t_stop:
-            # landed on an input law's breakpoint: the path goes on from there with the
-            # law's new piece (a fresh start: tangent and curvature change at the kink)
-            tangent, ds = self._closing_tangent(end, z0, v0)
-            self._seg = Segment.of(head.t, end.t, end.q, z0, self._z(end.q, end.t, free), v0, tangent, ds, bits)
-            self._pending = (end.t, end.q, bits, [])
+        if end.t == just_before(t_stop):
+            # landed at an input law's breakpoint: the path goes on from there with the law's
+            # new piece (a fresh start: tangent and curvature change at the kink)
+            self._close(Event("breakpoint", end, frozenset(), *self._closing_tangent(end, z0, v0)), v0, t_stop)
             return
         v1 = self._tangent(end, bits, v0)
         self._seg = Segment.of(head.t, end.t, end.q, z0, self._z(end.q, end.t, free), v0, v1, ds, bits)
@@ -362,8 +360,8 @@ class Class2QuasiStatic(PathEvents, Commands):
         """Predictor and corrector with step control: ``(ds, end point, error ratio)``. The
         predictor is ``z + ds v + ds^2 / 2 kappa`` with the curvature ``kappa`` estimated from
         the tangents' change over the last step (none at a path's start). A prediction past
-        the next breakpoint ``t_stop`` of an input law is cut there and corrected at that
-        fixed time (Newton would not converge across the kink), the step ending exactly on it
+        the next breakpoint ``t_stop`` of an input law is cut there and corrected at the time
+        just before it (Newton would not converge across the kink), the step ending there
         (error ratio ``None``)."""
         free = MODE_FREE[bits]
         seg = self._seg
@@ -374,7 +372,7 @@ class Class2QuasiStatic(PathEvents, Commands):
             if zp[-1] * self.T > t_stop > head.t:
                 cut = (t_stop / self.T - z0[-1]) / (zp[-1] - z0[-1])
                 q, _ = self._q_t([a + cut * (b - a) for a, b in zip(z0, zp)], head.q, free)
-                end = self._equilibrium_at(q, t_stop, bits)
+                end = self._equilibrium_at(q, just_before(t_stop), bits)
                 if end is not None:
                     return ds * cut, end, None
                 self.ds = ds * cut / 2

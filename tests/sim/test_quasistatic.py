@@ -194,3 +194,22 @@ def test_a_ramp_starting_mid_run_is_followed_across_its_corners():
         np.testing.assert_allclose(u, expected, atol=1e-14)
         np.testing.assert_allclose(potential_gradient(q, p) + np.r_[u, 0.0], 0.0, atol=1e-11)
     np.testing.assert_allclose(traj.qdot[traj.times > 16.0], 0.0, atol=1e-14)
+
+
+def test_a_force_that_jumps_moves_the_equilibrium_at_once(tmp_path):
+    """A series held between samples jumps at each: the path stops just before, and restarts
+    from the minimum under the new value (event jump), like a changed command."""
+    params = {"kind": "class2", "params": {"k": 5.0}}
+    p = class2_scene(model=params).model.params
+    q0 = np.array([0.4, 0.8, float(equilibrium_beta(0.4, 0.8, p))])
+    hold = [float(x) for x in -potential_gradient(q0, p)[:2]]
+    csv = tmp_path / "f1.csv"
+    csv.write_text(f"t,f1\n0,{hold[0]!r}\n1,{hold[0] + 0.5!r}\n2,{hold[0] + 1.0!r}\n")
+    inputs = {"f1": {"law": "series", "file": str(csv), "column": "f1", "interpolation": "previous"}, "f2": hold[1]}
+    traj = simulate(class2_scene(model=params, effects=["springs"], inputs=inputs, duration=3.0,
+                                 initial={"equilibrium": {"rho1": 0.4, "rho2": 0.8}}, output={"rate": 4.0}))
+    assert traj.success and [e[:2] for e in traj.events] == [(1.0, "jump"), (2.0, "jump")]
+    for t, q in zip(traj.times, traj.q):
+        f1 = hold[0] + 0.5 * min(np.floor(t), 2.0)
+        np.testing.assert_allclose(potential_gradient(q, p) + np.array([f1, hold[1], 0.0]), 0.0, atol=1e-11)
+    assert np.abs(traj.qdot).max() < 1e-12                 # constant forces between the jumps
