@@ -6,6 +6,8 @@ a numpy call costs several microseconds of overhead each, these a fraction of th
 
 from __future__ import annotations
 
+from operator import mul
+
 
 def solve_small(A, b) -> list:
     """Solve ``A x = b`` (``A`` a list of rows, ``b`` a list) by Gaussian elimination with
@@ -71,30 +73,50 @@ def positive_definite(K, idx) -> bool:
 WELL_CONDITIONED = 1e-6
 
 
-def solve_symmetric(K, idx, r) -> list:
-    """Solve ``K[idx][:, idx] x = r`` for symmetric ``K`` (3 x 3 lists, ``idx`` 1 to 3 sorted
-    indices, ``r`` a list over ``idx``) with the explicit adjugate -- a few multiplications
-    where elimination loops cost microseconds -- or :func:`solve_small` near singular.
-    Raises :class:`ZeroDivisionError` when singular."""
-    n = len(idx)
-    if n == 3:
+def _adjugate(K, idx):
+    """``(rows of adj(K_FF), det(K_FF))`` of the symmetric principal submatrix for 2 or 3
+    indices, or ``None`` near singular (:data:`WELL_CONDITIONED`)."""
+    if len(idx) == 3:
         (a, b, c), (_, d, e), (_, _, f) = K
         A00, A01, A02 = d * f - e * e, c * e - b * f, b * e - c * d
         A11, A12, A22 = a * f - c * c, b * c - a * e, a * d - b * b
         det = a * A00 + b * A01 + c * A02
         if abs(det) > WELL_CONDITIONED * max(abs(a), abs(d), abs(f)) ** 3:
-            r0, r1, r2 = r
-            return [(A00 * r0 + A01 * r1 + A02 * r2) / det, (A01 * r0 + A11 * r1 + A12 * r2) / det,
-                    (A02 * r0 + A12 * r1 + A22 * r2) / det]
-    elif n == 2:
-        i, j = idx
-        a, b, d = K[i][i], K[i][j], K[j][j]
-        det = a * d - b * b
-        if abs(det) > WELL_CONDITIONED * max(abs(a), abs(d)) ** 2:
-            r0, r1 = r
-            return [(d * r0 - b * r1) / det, (a * r1 - b * r0) / det]
-    elif K[idx[0]][idx[0]] != 0.0:
-        return [r[0] / K[idx[0]][idx[0]]]
+            return ((A00, A01, A02), (A01, A11, A12), (A02, A12, A22)), det
+        return None
+    i, j = idx
+    a, b, d = K[i][i], K[i][j], K[j][j]
+    det = a * d - b * b
+    if abs(det) > WELL_CONDITIONED * max(abs(a), abs(d)) ** 2:
+        return ((d, -b), (-b, a)), det
+    return None
+
+
+def _times(rows, x) -> list:
+    """The matrix ``rows`` (2 x 2 or 3 x 3) times the vector ``x``."""
+    if len(x) == 3:
+        (a, b, c), (d, e, f), (g, h, i) = rows
+        x0, x1, x2 = x
+        return [a * x0 + b * x1 + c * x2, d * x0 + e * x1 + f * x2, g * x0 + h * x1 + i * x2]
+    (a, b), (c, d) = rows
+    x0, x1 = x
+    return [a * x0 + b * x1, c * x0 + d * x1]
+
+
+def solve_symmetric(K, idx, r) -> list:
+    """Solve ``K[idx][:, idx] x = r`` for symmetric ``K`` (3 x 3 lists, ``idx`` 1 to 3 sorted
+    indices, ``r`` a list over ``idx``) with the explicit adjugate -- a few multiplications
+    where elimination loops cost microseconds -- or :func:`solve_small` near singular.
+    Raises :class:`ZeroDivisionError` when singular."""
+    if len(idx) == 1:
+        k = K[idx[0]][idx[0]]
+        if k != 0.0:
+            return [r[0] / k]
+    else:
+        found = _adjugate(K, idx)
+        if found is not None:
+            adj, det = found
+            return [x / det for x in _times(adj, r)]
     return solve_small([[K[a][b] for b in idx] for a in idx], list(r))
 
 
@@ -105,36 +127,20 @@ def solve_bordered(K, idx, g, w, wt: float, r, s: float) -> list:
     singular ``K_FF`` (limit and branch points, where the bordered matrix stays regular) by
     :func:`solve_small` on the whole matrix; a 2 x 2 bordered system by Cramer's rule. Returns
     ``x + [y]``; raises :class:`ZeroDivisionError` when singular."""
-    n = len(idx)
-    if n == 3:
-        (a, b, c), (_, d, e), (_, _, f) = K
-        A00, A01, A02 = d * f - e * e, c * e - b * f, b * e - c * d
-        A11, A12, A22 = a * f - c * c, b * c - a * e, a * d - b * b
-        det = a * A00 + b * A01 + c * A02
-        if abs(det) > WELL_CONDITIONED * max(abs(a), abs(d), abs(f)) ** 3:
-            (r0, r1, r2), (g0, g1, g2), (w0, w1, w2) = r, g, w
-            p0, p1, p2 = A00 * r0 + A01 * r1 + A02 * r2, A01 * r0 + A11 * r1 + A12 * r2, A02 * r0 + A12 * r1 + A22 * r2
-            h0, h1, h2 = A00 * g0 + A01 * g1 + A02 * g2, A01 * g0 + A11 * g1 + A12 * g2, A02 * g0 + A12 * g1 + A22 * g2
-            den = wt * det - (w0 * h0 + w1 * h1 + w2 * h2)
-            if den != 0.0:
-                y = (s * det - (w0 * p0 + w1 * p1 + w2 * p2)) / den
-                return [(p0 - h0 * y) / det, (p1 - h1 * y) / det, (p2 - h2 * y) / det, y]
-    elif n == 2:
-        i, j = idx
-        a, b, d = K[i][i], K[i][j], K[j][j]
-        det = a * d - b * b
-        if abs(det) > WELL_CONDITIONED * max(abs(a), abs(d)) ** 2:
-            (r0, r1), (g0, g1), (w0, w1) = r, g, w
-            p0, p1 = d * r0 - b * r1, a * r1 - b * r0
-            h0, h1 = d * g0 - b * g1, a * g1 - b * g0
-            den = wt * det - (w0 * h0 + w1 * h1)
-            if den != 0.0:
-                y = (s * det - (w0 * p0 + w1 * p1)) / den
-                return [(p0 - h0 * y) / det, (p1 - h1 * y) / det, y]
-    else:                                        # 2 x 2: Cramer's rule
-        k, det = K[idx[0]][idx[0]], K[idx[0]][idx[0]] * wt - g[0] * w[0]
+    if len(idx) == 1:
+        k = K[idx[0]][idx[0]]
+        det = k * wt - g[0] * w[0]
         if det != 0.0:
             return [(r[0] * wt - g[0] * s) / det, (k * s - w[0] * r[0]) / det]
+    else:
+        found = _adjugate(K, idx)
+        if found is not None:
+            adj, det = found
+            p, h = _times(adj, r), _times(adj, g)
+            den = wt * det - sum(map(mul, w, h))
+            if den != 0.0:
+                y = (s * det - sum(map(mul, w, p))) / den
+                return [(a - b * y) / det for a, b in zip(p, h)] + [y]
     A = [[K[a][b] for b in idx] + [g[j]] for j, a in enumerate(idx)]
     A.append(list(w) + [wt])
     return solve_small(A, list(r) + [s])
