@@ -2,8 +2,10 @@
 
 A back end (class-2 or general, dynamic or quasi-static) provides ``t``, ``events``,
 ``command``, ``set_command(values)``, ``advance(t)``, ``sample()``, ``record(times, out)``,
-``observe(samples)`` and ``stats()``; :class:`~tensegrity_core.sim.simulator.Simulator`
-talks to it only through these.
+``observe(samples)``, ``observe_now()`` and ``stats()``;
+:class:`~tensegrity_core.sim.simulator.Simulator` talks to it only through these. What
+``sample`` and ``record`` put into a list of samples is the back end's own business: only its
+``observe`` reads them.
 """
 
 from __future__ import annotations
@@ -22,6 +24,11 @@ class Commands:
     laws: list
     actuator_names: tuple
     positive = False
+
+    def observe_now(self) -> dict:
+        """The observation at the current time: the values of ``observe([sample()])`` without
+        the sample axis (class-2 back ends evaluate one sample directly, much faster)."""
+        return {k: v[0] for k, v in self.observe([self.sample()]).items()}
 
     @property
     def command(self) -> list:
@@ -77,7 +84,7 @@ class Integrated(Commands):
 
     def set_command(self, values) -> None:
         if self.take_command(values):
-            self.stepper.restart(self.stepper.t, self.stepper.y)
+            self.stepper.restart(self.stepper.t, self.stepper.y, input_changed=True)
 
     def advance(self, t: float) -> None:
         self.stepper.advance(t)

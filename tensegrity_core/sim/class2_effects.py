@@ -181,20 +181,19 @@ class Springs:
         k3, k2, k1, k4 = self.k
         eta1 = -4.0 * L * L / lam1**3
         eta2 = -L * L / lam2**3
-        h = 0.5 * (r2 - r1)
-        sym = 0.25 + 0.25 * e1 * e1            # (J^T J)_11 = (J^T J)_22 of DE and BE
-        anti = -0.25 + 0.25 * e1 * e1          # (J^T J)_12 of DE and BE
-        de = k2 * 0.5 * eta1 * (0.5 * lam1 - L * sb)
+        e1sq = e1 * e1
+        sym = 0.25 + 0.25 * e1sq               # (J^T J)_11 = (J^T J)_22 of DE and BE; _12 is sym - 0.5
         ey = 0.5 * e1 - g2
         dy7 = (r2 - r1) * (3.0 * r1 + r2) / (4.0 * lam2 + 2.0 * lam1)
-        ef = -k1 * 0.5 * eta1 * dy7
-        be = k4 * 0.25 * eta1 * lam1
-        K11 = k2 * sym + de + k1 * (0.25 + ey * ey + eta2 * dy7) + ef + k4 * sym + be
-        K12 = k2 * anti + de + k1 * (0.25 + 0.5 * ey * e1) + ef + k4 * anti + be
-        K22 = k3 + k2 * sym + de + k1 * (0.25 + 0.25 * e1 * e1) + ef + k4 * sym + be
-        K13 = k2 * 0.5 * L * (e1 * cb - sb)
-        K23 = k3 * L * sb + k2 * 0.5 * L * (e1 * cb + sb)
-        K33 = k3 * r2 * L * cb + k2 * L * (h * cb + 0.5 * lam1 * sb)
+        # the curvature terms sum_a d_ja d2d_ja/dq2 of DE, EF and BE, alike in K11, K12, K22
+        curv = eta1 * ((0.5 * k2) * (0.5 * lam1 - L * sb) - (0.5 * k1) * dy7 + (0.25 * k4) * lam1)
+        k24sym = (k2 + k4) * sym
+        K11 = k24sym + k1 * (0.25 + ey * ey + eta2 * dy7) + curv
+        K12 = k24sym - 0.5 * (k2 + k4) + k1 * (0.25 + 0.5 * ey * e1) + curv
+        K22 = k3 + k24sym + k1 * (0.25 + 0.25 * e1sq) + curv
+        K13 = (0.5 * k2 * L) * (e1 * cb - sb)
+        K23 = (k3 * L) * sb + (0.5 * k2 * L) * (e1 * cb + sb)
+        K33 = (k3 * L) * r2 * cb + (k2 * L) * (0.5 * (r2 - r1) * cb + 0.5 * lam1 * sb)
         return K11, K12, K13, K22, K23, K33
 
     def jacobian(self, q, qdot):
@@ -331,9 +330,12 @@ class Loads:
 
 def stiffness_matrix(entries) -> np.ndarray:
     """Symmetric (..., 3, 3) matrix from unique entries ``(K11, K12, K13, K22, K23, K33)``."""
-    K11, K12, K13, K22, K23, K33 = np.broadcast_arrays(*[np.asarray(e, dtype=float) for e in entries])
-    return np.stack([np.stack([K11, K12, K13], -1), np.stack([K12, K22, K23], -1),
-                     np.stack([K13, K23, K33], -1)], -2)
+    K11, K12, K13, K22, K23, K33 = entries
+    K = np.empty(np.broadcast_shapes(*(np.shape(e) for e in entries)) + (3, 3))
+    K[..., 0, 0], K[..., 0, 1], K[..., 0, 2] = K11, K12, K13
+    K[..., 1, 0], K[..., 1, 1], K[..., 1, 2] = K12, K22, K23
+    K[..., 2, 0], K[..., 2, 1], K[..., 2, 2] = K13, K23, K33
+    return K
 
 
 def _minus_matrix(entries) -> np.ndarray:

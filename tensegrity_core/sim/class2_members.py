@@ -23,8 +23,13 @@ which gives the struts one at a time:
 
 The reported strut force is the axial force at mid-span, ``N = P_sb . u - m (a_c - g) . u / 2``
 (tension +; exact for the linear variation of the axial force along a uniform rod).
-``tests/sim/test_class2_members.py`` checks these against a least-squares solution of all
+``tests/sim/test_class2_effects.py`` checks these against a least-squares solution of all
 24 Newton-Euler equations (which also checks the Lagrangian equations of motion).
+
+:func:`member_values` and :func:`node_coordinates` are written with arithmetic only,
+so the same formulas run on floats (one observation, a few microseconds) and on arrays (the
+samples of a run); :func:`member_forces`, :func:`node_positions` and
+:func:`node_accelerations` are their array forms.
 """
 
 from __future__ import annotations
@@ -38,103 +43,139 @@ from tensegrity_core.sim.class2_effects import ZERO_LENGTH_REL, context_array, s
 SPRING_ORDER = tuple(next(i for i, m in enumerate(MEMBERS) if m.name == n) for n in ("CD", "DE", "EF", "BE"))
 
 
+def _where(cond, a, b):
+    """``a`` where ``cond`` holds, else ``b`` (floats or arrays)."""
+    if isinstance(cond, np.ndarray):
+        return np.where(cond, a, b)
+    return a if cond else b
+
+
+def node_coordinates(L: float, k) -> tuple:
+    """``(Bx, Cx, Dx, Dy, Ex, Ey, Fy)`` [m] from a kinematic context (floats or arrays);
+    ``A`` is the origin and ``By = Cy = Fx = 0``."""
+    r1, _, sb, cb, _, _, _, s, lam1, lam2, _, _ = k
+    return r1, s, r1 + L * cb, L * sb, 0.5 * s, 0.5 * lam1, lam2
+
+
+def node_acceleration_values(L: float, k, qdd) -> tuple:
+    """``(aBx, aCx, aDx, aDy, aEx, aEy, aFy)`` [m/s^2]: ``J qddot + qdot^T H qdot`` for
+    accelerations ``qdd = (a1, a2, ab)`` (floats or arrays); ``A`` is fixed and
+    ``aBy = aCy = aFx = 0``."""
+    _, _, sb, cb, v1, v2, vb, _, lam1, lam2, e1, g2 = k
+    a1, a2, ab = qdd
+    sdd, sd = a1 + a2, v1 + v2
+    return (a1, sdd, a1 - L * sb * ab - L * cb * vb * vb, L * cb * ab - L * sb * vb * vb, 0.5 * sdd,
+            -0.5 * e1 * sdd - 2.0 * L * L * sd * sd / lam1**3,     # d2 lambda1/ds2 = -4L^2/lambda1^3
+            -g2 * a1 - L * L * v1 * v1 / lam2**3)                   # d2 lambda2/drho1^2 = -L^2/lambda2^3
+
+
 def node_positions(L: float, k) -> np.ndarray:
     """(N, 6, 2) node positions from an array context."""
-    r1, _, sb, cb, _, _, _, s, lam1, lam2, _, _ = k
-    P = np.zeros((np.size(r1), 6, 2))
-    P[:, 1, 0] = r1
-    P[:, 2, 0] = s
-    P[:, 3, 0] = r1 + L * cb
-    P[:, 3, 1] = L * sb
-    P[:, 4, 0] = 0.5 * s
-    P[:, 4, 1] = 0.5 * lam1
-    P[:, 5, 1] = lam2
-    return P
+    Bx, Cx, Dx, Dy, Ex, Ey, Fy = node_coordinates(L, k)
+    z = np.zeros(np.shape(Bx))
+    return np.stack([np.stack([z, z], -1), np.stack([Bx, z], -1), np.stack([Cx, z], -1), np.stack([Dx, Dy], -1),
+                     np.stack([Ex, Ey], -1), np.stack([z, Fy], -1)], -2)
 
 
 def node_accelerations(L: float, k, qdd) -> np.ndarray:
-    """(N, 6, 2) node accelerations ``J qddot + qdot^T H qdot`` for accelerations ``qdd`` (N, 3)."""
-    r1, _, sb, cb, v1, v2, vb, _, lam1, lam2, e1, g2 = k
-    a1, a2, ab = qdd[:, 0], qdd[:, 1], qdd[:, 2]
-    sdd, sd = a1 + a2, v1 + v2
-    acc = np.zeros((len(a1), 6, 2))
-    acc[:, 1, 0] = a1
-    acc[:, 2, 0] = sdd
-    acc[:, 3, 0] = a1 - L * sb * ab - L * cb * vb**2
-    acc[:, 3, 1] = L * cb * ab - L * sb * vb**2
-    acc[:, 4, 0] = 0.5 * sdd
-    acc[:, 4, 1] = -0.5 * e1 * sdd + 0.5 * (-4.0 * L * L / lam1**3) * sd**2     # d2 lambda1/ds2 = -4L^2/lambda1^3
-    acc[:, 5, 1] = -g2 * a1 + (-L * L / lam2**3) * v1**2                      # d2 lambda2/drho1^2 = -L^2/lambda2^3
-    return acc
+    """(N, 6, 2) node accelerations for accelerations ``qdd`` (N, 3)."""
+    aB, aC, aDx, aDy, aEx, aEy, aFy = node_acceleration_values(L, k, (qdd[:, 0], qdd[:, 1], qdd[:, 2]))
+    z = np.zeros(np.shape(aB))
+    return np.stack([np.stack([z, z], -1), np.stack([aB, z], -1), np.stack([aC, z], -1), np.stack([aDx, aDy], -1),
+                     np.stack([aEx, aEy], -1), np.stack([z, aFy], -1)], -2)
+
+
+def member_values(params, k, qdd, actuator_forces, *, springs: bool, damping: bool, gravity=None,
+                  loads=None, inertia: bool = True) -> tuple:
+    """``(forces, lengths)``: tension-positive forces [N] and lengths [m] of the 10 members
+    in MEMBERS order (tuples of floats or arrays).
+
+    ``k`` a kinematic context, ``qdd = (a1, a2, ab)`` the accelerations, ``actuator_forces``
+    ``(t1, t2)`` the actuators' member forces (transmitted force minus contact force);
+    ``gravity`` a vector (>= 2 components, in-plane ones used) or None; ``loads`` (6, 2) or
+    None; ``inertia`` False for massless struts (quasi-static)."""
+    L, m = params.L, params.m
+    (x3, y3), (x4, y4), (x7, y7), (x8, y8) = spring_vectors(L, k)        # CD, DE, EF, BE
+    sq = (x3 * x3 + y3 * y3, x4 * x4 + y4 * y4, x7 * x7 + y7 * y7, x8 * x8 + y8 * y8)
+    phi = [params.k3, params.k2, params.k1, params.k4] if springs else [0.0] * 4
+    if damping:
+        eps2 = (ZERO_LENGTH_REL * L) ** 2
+        rates = spring_rates(L, k)
+        phi = [p + c * (dx * ux + dy * uy) / (n + eps2) for p, c, (dx, dy), (ux, uy), n in
+               zip(phi, (params.c3, params.c2, params.c1, params.c4), ((x3, y3), (x4, y4), (x7, y7), (x8, y8)),
+                   rates, sq)]
+    p3, p4, p7, p8 = phi
+    # forces of the springs on the nodes D, E, F (tension + along CD, DE, EF, BE), plus loads
+    FDx, FDy = p4 * x4 - p3 * x3, p4 * y4 - p3 * y3
+    FEx, FEy = p7 * x7 - p4 * x4 - p8 * x8, p7 * y7 - p4 * y4 - p8 * y8
+    FFx, FFy = -p7 * x7, -p7 * y7
+    if loads is not None:
+        (dx, dy), (ex, ey), (fx_, fy_) = np.asarray(loads, dtype=float)[3:].tolist()
+        FDx, FDy, FEx, FEy, FFx, FFy = FDx + dx, FDy + dy, FEx + ex, FEy + ey, FFx + fx_, FFy + fy_
+    Bx, Cx, Dx, Dy, Ex, Ey, Fy = node_coordinates(L, k)
+    if inertia:
+        aB, aC, aDx, aDy, aEx, aEy, aFy = node_acceleration_values(L, k, qdd)
+    else:
+        aB = aC = aDx = aDy = aEx = aEy = aFy = 0.0
+    gx, gy = (0.0, 0.0) if gravity is None else (float(gravity[0]), float(gravity[1]))
+    mass = m if (inertia or gravity is not None) else 0.0
+    I_rot = m * L * L / 12.0 if inertia else 0.0
+
+    def strut(ux, uy, aax, aay, abx, aby):
+        """``(w = m (a_c - g), tau = r_b x P_b)`` of a strut along ``u`` with end accelerations
+        (zeros for massless struts)."""
+        if not mass:
+            return 0.0, 0.0, 0.0
+        wx, wy = mass * (0.5 * (aax + abx) - gx), mass * (0.5 * (aay + aby) - gy)
+        alpha = (ux * (aby - aay) - uy * (abx - aax)) / L
+        return wx, wy, 0.5 * (I_rot * alpha + 0.5 * L * (ux * wy - uy * wx))
+
+    def mid_span(Fx, Fy, ux, uy, wx, wy):
+        """Axial force at mid-span from the end force ``F`` on the far end."""
+        N = Fx * ux + Fy * uy
+        return N - 0.5 * (wx * ux + wy * uy) if mass else N
+
+    # BD: D joins only the springs CD, DE (and loads); u = (cos b, sin b)
+    _, _, sb, cb, _, _, _, s, lam1, lam2, _, _ = k
+    wx, wy, _ = strut(cb, sb, aB, 0.0, aDx, aDy)
+    t_bd = mid_span(FDx, FDy, cb, sb, wx, wy)
+    # BF: F joins the spring EF and the X reaction R, from the moment equation
+    ux, uy = -Bx / L, Fy / L
+    wx, wy, tau = strut(ux, uy, aB, 0.0, 0.0, aFy)
+    R = (tau - 0.5 * L * (ux * FFy - uy * FFx)) / (-0.5 * L * uy)
+    t_bf = mid_span(FFx + R, FFy, ux, uy, wx, wy)
+    # AE, CE: E's balance, a 2 x 2 system in their axial parts
+    u1x, u1y, u2x, u2y = Ex / L, Ey / L, (Ex - Cx) / L, Ey / L
+    w1x, w1y, tau1 = strut(u1x, u1y, 0.0, 0.0, aEx, aEy)
+    w2x, w2y, tau2 = strut(u2x, u2y, aC, 0.0, aEx, aEy)
+    Wx, Wy = FEx, FEy
+    if mass:
+        Wx = Wx + (2.0 / L) * (tau1 * u1y + tau2 * u2y)
+        Wy = Wy - (2.0 / L) * (tau1 * u1x + tau2 * u2x)
+    det = u1x * u2y - u1y * u2x
+    safe = abs(det) > 1e-300
+    den = _where(safe, det, 1.0)
+    split = 0.5 * (Wx * u1x + Wy * u1y)
+    N1 = _where(safe, (Wx * u2y - Wy * u2x) / den, split)
+    N2 = _where(safe, (u1x * Wy - u1y * Wx) / den, split)
+    t_ae = N1 - 0.5 * (w1x * u1x + w1y * u1y) if mass else N1
+    t_ce = N2 - 0.5 * (w2x * u2x + w2y * u2y) if mass else N2
+    l3, l4, l7, l8 = (n ** 0.5 for n in sq)
+    t1, t2 = actuator_forces
+    r1, r2 = k[0], k[1]
+    return ((t1, t2, p3 * l3, p4 * l4, t_ae, t_bf, p7 * l7, p8 * l8, t_bd, t_ce),
+            (abs(r1), abs(r2), l3, l4, L, L, l7, l8, L, L))
 
 
 def member_forces(params, q, qdot, qdd, actuator_forces, *, springs: bool, damping: bool,
                   gravity=None, loads=None, inertia: bool = True) -> np.ndarray:
-    """Tension-positive forces (N, 10) [N] of all members, MEMBERS order.
-
-    ``q, qdot, qdd`` (N, 3); ``actuator_forces`` (N, 2) the actuators' member forces (transmitted
-    force minus contact force); ``gravity`` a vector (>= 2 components, in-plane ones used) or
-    None; ``loads`` (6, 2) or None; ``inertia`` False for massless struts (quasi-static)."""
-    L, m = params.L, params.m
+    """Tension-positive forces (N, 10) [N] of all members, MEMBERS order: the array form of
+    :func:`member_values` for ``q, qdot, qdd`` (N, 3) and ``actuator_forces`` (N, 2)."""
     q = np.atleast_2d(np.asarray(q, dtype=float))
-    qdot = np.atleast_2d(np.asarray(qdot, dtype=float))
     qdd = np.atleast_2d(np.asarray(qdd, dtype=float))
-    N = len(q)
-    k = context_array(L, q, qdot)
-    P = node_positions(L, k)
-    t = np.zeros((N, 10))
-    t[:, 0:2] = actuator_forces
-    # spring force vectors phi_j d_j (j in CD, DE, EF, BE order), tension + along d_j
-    d = np.array(spring_vectors(L, k))                         # (4, 2, N)
-    phi = np.zeros((4, N))
-    length = np.sqrt(np.sum(d * d, axis=1))
-    if springs:
-        phi += np.array([params.k3, params.k2, params.k1, params.k4])[:, None]
-    if damping:
-        dd = np.array(spring_rates(L, k))
-        c = np.array([params.c3, params.c2, params.c1, params.c4])[:, None]
-        phi += c * np.sum(d * dd, axis=1) / (length**2 + (ZERO_LENGTH_REL * L) ** 2)
-    t[:, SPRING_ORDER] = (phi * length).T
-    f = np.transpose(phi[:, None, :] * d, (2, 0, 1))           # (N, 4, 2)
-    F_D = -f[:, 0] + f[:, 1]                                   # CD ends at D, DE starts at D
-    F_E = -f[:, 1] + f[:, 2] - f[:, 3]                         # DE, BE end at E, EF starts at E
-    F_F = -f[:, 2]                                             # EF ends at F
-    if loads is not None:
-        loads = np.asarray(loads, dtype=float)
-        F_D, F_E, F_F = F_D + loads[3], F_E + loads[4], F_F + loads[5]
-    acc = node_accelerations(L, k, qdd) if inertia else np.zeros_like(P)
-    g = np.zeros(2) if gravity is None else np.asarray(gravity, dtype=float)[:2]
-    mass = m if (inertia or gravity is not None) else 0.0
-    I_rot = m * L * L / 12.0 if inertia else 0.0
-
-    def strut(a, b):
-        u = (P[:, b] - P[:, a]) / L
-        rel = acc[:, b] - acc[:, a]
-        alpha = (u[:, 0] * rel[:, 1] - u[:, 1] * rel[:, 0]) / L
-        w = mass * (0.5 * (acc[:, a] + acc[:, b]) - g)          # m (a_c - g)
-        tau = 0.5 * (I_rot * alpha + 0.5 * L * (u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0]))
-        return u, w, tau
-
-    def mid(Pb, u, w):
-        return np.sum(Pb * u, -1) - 0.5 * np.sum(w * u, -1)
-
-    A_, B_, C_, D_, E_, F_ = range(6)
-    u, w, _ = strut(B_, D_)
-    t[:, 8] = mid(F_D, u, w)                                   # BD
-    u, w, tau = strut(B_, F_)
-    r_cross_F = 0.5 * L * (u[:, 0] * F_F[:, 1] - u[:, 1] * F_F[:, 0])
-    R = (tau - r_cross_F) / (-0.5 * L * u[:, 1])
-    t[:, 5] = mid(F_F + R[:, None] * np.array([1.0, 0.0]), u, w)   # BF
-    u1, w1, tau1 = strut(A_, E_)
-    u2, w2, tau2 = strut(C_, E_)
-    n1 = np.stack([-u1[:, 1], u1[:, 0]], -1)
-    n2 = np.stack([-u2[:, 1], u2[:, 0]], -1)
-    W = F_E - (2.0 / L) * (tau1[:, None] * n1 + tau2[:, None] * n2)
-    det = u1[:, 0] * u2[:, 1] - u1[:, 1] * u2[:, 0]
-    safe = np.abs(det) > 1e-300
-    den = np.where(safe, det, 1.0)
-    N1 = np.where(safe, (W[:, 0] * u2[:, 1] - W[:, 1] * u2[:, 0]) / den, 0.5 * np.sum(W * u1, -1))
-    N2 = np.where(safe, (u1[:, 0] * W[:, 1] - u1[:, 1] * W[:, 0]) / den, 0.5 * np.sum(W * u1, -1))
-    t[:, 4] = N1 - 0.5 * np.sum(w1 * u1, -1)                   # AE
-    t[:, 9] = N2 - 0.5 * np.sum(w2 * u2, -1)                   # CE
-    return t
+    actuator_forces = np.atleast_2d(np.asarray(actuator_forces, dtype=float))
+    k = context_array(params.L, q, np.atleast_2d(np.asarray(qdot, dtype=float)))
+    forces, _ = member_values(params, k, (qdd[:, 0], qdd[:, 1], qdd[:, 2]),
+                              (actuator_forces[:, 0], actuator_forces[:, 1]), springs=springs, damping=damping,
+                              gravity=gravity, loads=loads, inertia=inertia)
+    return np.stack(np.broadcast_arrays(*forces), -1)

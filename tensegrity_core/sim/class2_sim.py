@@ -1,9 +1,10 @@
-"""Class-2 scenes with inertia: initial state, run-time inputs, and what an observation reports.
+"""Class-2 scenes with inertia: initial state, run-time inputs, and the dynamic back end.
 
 :class:`Class2Dynamic` is the simulator's back end for a class-2 scene that lists
 ``inertia``: a :class:`~tensegrity_core.sim.class2_model.Class2Model` integrated by a
-:class:`~tensegrity_core.sim.stepper.Stepper`. :func:`observe_class2` turns recorded states
-into the observed quantities (shared with the quasi-static back end).
+:class:`~tensegrity_core.sim.stepper.Stepper`; a
+:class:`~tensegrity_core.sim.class2_observe.Class2Observer` turns its states into the
+observed quantities.
 """
 
 from __future__ import annotations
@@ -13,18 +14,16 @@ import math
 import numpy as np
 
 from tensegrity_core.class2.energy import equilibrium_beta
-from tensegrity_core.class2.geometry import MEMBERS, NODE_NAMES
+from tensegrity_core.class2.geometry import MEMBERS
 from tensegrity_core.sim import class2_effects as fx
-from tensegrity_core.sim import class2_members
-from tensegrity_core.sim.class2_inertia import Inertia
 from tensegrity_core.sim.class2_model import Class2Model, build_force_effects
+from tensegrity_core.sim.class2_observe import Class2Observer
 from tensegrity_core.sim.backend import Integrated
 from tensegrity_core.sim.errors import SceneError
 from tensegrity_core.sim.inputs import HeldCommand, next_breakpoint
 
 MEMBER_NAMES = tuple(m.name for m in MEMBERS)
 MEMBER_NODES = np.array([m.nodes for m in MEMBERS])
-END_EFFECTOR = NODE_NAMES.index("D")
 
 
 def generalized_static_force(effects, L: float, q) -> np.ndarray:
@@ -102,6 +101,7 @@ class Class2Dynamic(Integrated):
         self.laws = runtime_laws(scene, hold)
         self.actuator_names = tuple(scene.inputs)
         self.model = Class2Model(scene, self.laws)
+        self.observer = Class2Observer(scene, self.model.effects, inertia=True)
         self.model.next_breakpoint = lambda t: next_breakpoint(self.laws, t, math.inf)
         y0 = np.concatenate([q0, qd0, self.model.drive.initial_states(0.0, q0)])
         self.model.check_state(y0)
@@ -129,57 +129,10 @@ class Class2Dynamic(Integrated):
             out.extend((t, y, bits, forces(t, y.tolist())) for t, y, bits in states)
 
     def observe(self, samples) -> dict:
-        return observe_class2(self.scene, self.model.effects, samples, inertia=True)
+        """Observed quantities of recorded samples ``[(t, y, mode bits, T), ...]`` (arrays)."""
+        return self.observer.many([s[0] for s in samples], [s[1] for s in samples], [s[2] for s in samples],
+                                  [s[3] for s in samples])
 
-
-def observe_class2(scene, effects, samples, *, inertia: bool, contact=None) -> dict:
-    """Observed quantities for recorded samples ``[(t, y, mode bits, T), ...]``.
-
-    ``contact`` (N, 2): contact forces when known (quasi-static); otherwise they are
-    computed with the accelerations in each sample's mode."""
-    params = scene.model.params
-    L = params.L
-    t = np.array([s[0] for s in samples])
-    Y = np.array([s[1] for s in samples])
-    bits = np.array([s[2] for s in samples])
-    T = np.array([s[3] for s in samples], dtype=float).reshape(len(samples), 2)
-    q, qd = Y[:, :3], Y[:, 3:6] if Y.shape[1] >= 6 else np.zeros_like(Y[:, :3])
-    k = fx.context_array(L, q, qd)
-    potential = np.zeros(len(t))
-    for e in effects:
-        if hasattr(e, "energy"):
-            potential = potential + e.energy(k)
-    qdd = np.zeros_like(q)
-    lam = np.zeros((len(t), 2)) if contact is None else np.asarray(contact, dtype=float)
-    kinetic = np.zeros(len(t))
-    if inertia:
-        Q = np.zeros((3, len(t)))
-        for e in effects:
-            Q += np.array(e.force(k))
-        Q[:2] -= T.T
-        inert = Inertia(params)
-        for mode in np.unique(bits):
-            sel = bits == mode
-            ks = tuple(np.asarray(v)[sel] for v in k)
-            a1, a2, a3, l1, l2 = inert.solve(ks, Q[0, sel], Q[1, sel], Q[2, sel], int(mode))
-            qdd[sel] = np.stack(np.broadcast_arrays(a1, a2, a3), -1)
-            lam[sel] = np.stack(np.broadcast_arrays(l1, l2), -1)
-        kinetic = inert.kinetic_energy(k)
-    gravity = scene.effects["gravity"].vector if "gravity" in scene.effects else None
-    loads = None
-    if "loads" in scene.effects:
-        loads = np.zeros((6, 2))
-        for node, vec in scene.effects["loads"].forces.items():
-            loads[node] += vec[:2]
-    forces = class2_members.member_forces(
-        params, q, qd, qdd, T - lam, springs="springs" in scene.effects, damping="damping" in scene.effects,
-        gravity=gravity, loads=loads, inertia=inertia)
-    P = class2_members.node_positions(L, k)
-    nodes = np.concatenate([P, np.zeros(P.shape[:-1] + (1,))], axis=-1)
-    lengths = np.linalg.norm(nodes[:, MEMBER_NODES[:, 1]] - nodes[:, MEMBER_NODES[:, 0]], axis=-1)
-    return {
-        "t": t, "state": Y, "q": q.copy(), "qdot": qd.copy(), "qddot": qdd, "applied_forces": T,
-        "contact_forces": lam, "nodes": nodes, "member_lengths": lengths, "member_forces": forces,
-        "end_effector": nodes[:, END_EFFECTOR].copy(), "potential_energy": potential,
-        "kinetic_energy": kinetic, "folded": bits != 0,
-    }
+    def observe_now(self) -> dict:
+        """The observation at the current time (one sample)."""
+        return self.observer.one(*self.sample())

@@ -94,7 +94,6 @@ class NodalMasses:
 
     def __init__(self, structure):
         lay = structure.layout
-        n = structure.n_nodes
         m = structure.node_masses.copy()
         np.add.at(m, structure.members[:, 0], 0.5 * structure.member_masses)
         np.add.at(m, structure.members[:, 1], 0.5 * structure.member_masses)

@@ -10,6 +10,7 @@ is the *rest length* [m] of an actuator member. Each law gives
   quasi-static model minimises it together with the springs' energy);
 - ``d_length(t, length)`` and ``d_time(t, length)``: its partial derivatives (for the
   integrator's Jacobian and the quasi-static path tangent);
+- ``local(t, length)``: value and both derivatives at one point (floats);
 - ``arrays(t, length)``: value and both derivatives for arrays of samples;
 - ``breakpoints``: times where the law is not smooth; integrators stop and restart there so
   that no step straddles a kink or jump.
@@ -37,6 +38,9 @@ class _TimeLaw:
 
     def d_length(self, t: float, length: float) -> float:
         return 0.0
+
+    def local(self, t: float, length: float) -> tuple:
+        return self.value_at(t, length), 0.0, self.d_time(t, length)
 
 
 class _ConstantValue(_TimeLaw):
@@ -115,6 +119,9 @@ class Proportional:
 
     def d_time(self, t: float, length: float) -> float:
         return self.gain * length
+
+    def local(self, t: float, length: float) -> tuple:
+        return self.gain * length * t, self.gain * t, self.gain * length
 
     def arrays(self, t, length) -> tuple:
         t, length = np.broadcast_arrays(np.asarray(t, dtype=float), np.asarray(length, dtype=float))

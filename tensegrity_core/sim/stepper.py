@@ -13,7 +13,10 @@ alive and steps it itself:
   state and mode and the solver restarts;
 - the solver restarts at input breakpoints (its ``t_bound`` is the next one), when an input
   changed (:meth:`restart`) and after the model re-charts its coordinates. A restart keeps
-  the last step size, so it costs no initial-step search.
+  the last step size, so it costs no initial-step search. After an input change the first
+  solver ends at the target of the next :meth:`advance` (the ROS node's pattern: a new
+  command every tick): a step past it would be thrown away at the next change, after paying
+  for its dense output to interpolate the target.
 
 The state at any time between the last restart and the end of the current step is
 available; the solver never steps past a pending event.
@@ -74,6 +77,8 @@ class Stepper:
         self.n_events = 0
         self.event_log: list[tuple[float, str, int]] = []
         self._h = None
+        self._to_target = False       # the next solver ends at the advance target
+        self._cut_short = False       # the current solver's bound is an advance target
         self.restart(t0, y0)
 
     # -- state ------------------------------------------------------------------------------
@@ -81,8 +86,9 @@ class Stepper:
     def nfev(self) -> int:
         return self._nfev_done + (self.solver.nfev if self.solver is not None else 0)
 
-    def restart(self, t: float, y) -> None:
-        """Start a fresh solver at ``(t, y)`` (after an input change or an event)."""
+    def restart(self, t: float, y, *, input_changed: bool = False) -> None:
+        """Start a fresh solver at ``(t, y)`` (after an event, or an input change: then the
+        first solver ends at the next :meth:`advance` target)."""
         y = np.array(y, dtype=float)
         if self.solver is not None:
             self._nfev_done += self.solver.nfev
@@ -95,12 +101,17 @@ class Stepper:
         self.n_restarts += 1
         self._events = self.model.events()
         self._g = [ev.g(t, y) for ev in self._events]
+        self._to_target = input_changed
 
-    def _new_solver(self) -> None:
+    def _new_solver(self, t_target: float) -> None:
         t0, y0 = self._seg[1], self._dense.y
         bound = min(self.model.next_breakpoint(t0), self.t_end)
         if not bound > t0:
             bound = self.t_end
+        self._cut_short = self._to_target and t0 < t_target < bound
+        if self._cut_short:
+            bound = t_target
+        self._to_target = False
         first = None
         if self._h is not None:
             first = min(self._h, bound - t0, self.options["max_step"])
@@ -121,9 +132,11 @@ class Stepper:
                 if self.solver is not None and self.solver.status == "failed":
                     raise SimulationError(f"integrator failed at t = {self.solver.t!r} s: {self.solver.message}",
                                           t=self.solver.t)
-                if self.solver is not None:                # reached its bound (a breakpoint)
+                if self.solver is not None and self._cut_short:    # ended at the last target: go on
+                    self._nfev_done += self.solver.nfev
+                elif self.solver is not None:                      # reached a breakpoint
                     self.restart(self.solver.t, self.solver.y)
-                self._new_solver()
+                self._new_solver(t_target)
             self._step()
         self.t = t_target
         self.y = self._dense(t_target) if t_target < self._seg[1] or self._pending is not None \
@@ -152,12 +165,16 @@ class Stepper:
                 self._h = h
                 self._seg = (t_old, t_old)
                 self._dense = _Constant(y_old)
-                self._new_solver()
+                self._new_solver(self.t_end)
                 solver = self.solver
         if solver.status == "failed":
             raise SimulationError(f"integrator failed at t = {solver.t:.9g} s: {message}", t=solver.t)
         self.n_steps += 1
-        self._h = solver.step_size if solver.step_size else self._h
+        size = solver.step_size
+        if self._cut_short and solver.t == solver.t_bound:
+            # cut at the target: keep the step-size controller's own proposal, not the cut
+            size = getattr(solver, "h_abs", size)
+        self._h = size if size else self._h
         t_new, y_new = solver.t, solver.y
         dense = None
         g_new = [ev.g(t_new, y_new) for ev in self._events]

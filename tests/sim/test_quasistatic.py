@@ -133,3 +133,83 @@ def test_commands_move_the_equilibrium_at_once():
     q = sim.observe().q
     assert np.abs(q - start).max() > 1e-3
     np.testing.assert_allclose(potential_gradient(q, p)[:2] + f, 0.0, atol=1e-10)
+
+
+def test_the_full_fold_is_located_to_rounding():
+    """The branch meets the fold at a branch point (the bordered Newton converges only
+    linearly there): located as the held branch's bifurcation, det K_FF = 0 at t = 0.075 s."""
+    traj = paper_qs()
+    (t1, kind1, _), (t2, kind2, _) = traj.events[1:3]
+    assert (kind1, kind2) == ("fold", "fold") and abs(t2 - 0.075) < 1e-14
+    assert traj.stats["newton_iterations"] < 100         # the old regula falsi needed ~180
+
+
+def test_an_event_at_a_sample_time_comes_before_the_sample():
+    """At 40 Hz the full fold (t = 0.075 s) falls on a sample: it reports the folded rest (the
+    branch's own rate is unbounded there)."""
+    traj = paper_qs(output={"rate": 40.0})
+    k = int(np.flatnonzero(np.isclose(traj.times, 0.075))[0])
+    assert traj.success and traj.folded[k]
+    np.testing.assert_allclose(traj.q[k], [0.0, 0.0, np.pi / 2], atol=1e-15)
+    np.testing.assert_array_equal(traj.qdot[k], 0.0)
+
+
+def test_a_held_actuator_lets_go_where_its_contact_force_would_pull():
+    """rho1 starts held at the stop and f1 falls linearly: while held the configuration stands
+    still and the contact force is f1 + dU/drho1 (closed-form gradient); the release happens
+    where that reaches -1e-9 N (the release threshold), after it the samples are free
+    equilibria."""
+    p = class2_scene().model.params
+    q0 = np.array([0.0, 0.7, float(equilibrium_beta(0.0, 0.7, p))])
+    g = potential_gradient(q0, p)
+    u0 = 0.5 - g[0]                                    # contact force 0.5 N at t = 0, falling 1 N/s
+    inputs = {"f1": {"law": "ramp", "from": float(u0), "to": float(u0 - 1.0), "t1": 1.0}, "f2": float(-g[1])}
+    traj = simulate(class2_scene(effects=["springs", "fold_limit"], inputs=inputs, duration=0.8,
+                                 initial={"equilibrium": {"rho1": 0.0, "rho2": 0.7}}, output={"rate": 50.0}))
+    assert traj.success and [e[1:] for e in traj.events] == [("release", 0)]
+    assert traj.events[0][0] == pytest.approx(0.5 + 1e-9, abs=1e-13)
+    held = traj.times < 0.5
+    np.testing.assert_allclose(traj.q[held], np.broadcast_to(q0, traj.q[held].shape), atol=1e-14)
+    np.testing.assert_allclose(traj.contact_forces[held, 0], u0 - traj.times[held] + g[0], atol=1e-13)
+    for t, q in zip(traj.times[~held], traj.q[~held]):
+        np.testing.assert_allclose(potential_gradient(q, p) + np.array([u0 - t, -g[1], 0.0]), 0.0, atol=1e-11)
+    assert traj.q[-1, 0] > 0.1
+
+
+def test_a_ramp_starting_mid_run_is_followed_across_its_corners():
+    """A law's breakpoint is a kink in t: Newton does not converge across it, so a step that
+    would cross is cut there (the old path follower reported a limit point at the corner)."""
+    params = {"kind": "class2", "params": {"k": 5.0}}
+    p = class2_scene(model=params).model.params
+    q0 = np.array([0.4, 0.8, float(equilibrium_beta(0.4, 0.8, p))])
+    hold = -potential_gradient(q0, p)[:2]
+    inputs = {"f1": {"law": "ramp", "from": float(hold[0]), "to": float(hold[0]) + 1.0, "t0": 5.0, "t1": 12.0},
+              "f2": {"law": "ramp", "from": float(hold[1]), "to": float(hold[1]) - 0.5, "t1": 16.0}}
+    traj = simulate(class2_scene(model=params, effects=["springs"], inputs=inputs, duration=20.0,
+                                 initial={"equilibrium": {"rho1": 0.4, "rho2": 0.8}}, output={"rate": 2.0}))
+    assert traj.success and traj.events == []
+    for t, q, u in zip(traj.times, traj.q, traj.applied_forces):
+        expected = [float(np.clip(hold[0] + (t - 5.0) / 7.0, hold[0], hold[0] + 1.0)),
+                    float(np.clip(hold[1] - 0.5 * t / 16.0, hold[1] - 0.5, hold[1]))]
+        np.testing.assert_allclose(u, expected, atol=1e-14)
+        np.testing.assert_allclose(potential_gradient(q, p) + np.r_[u, 0.0], 0.0, atol=1e-11)
+    np.testing.assert_allclose(traj.qdot[traj.times > 16.0], 0.0, atol=1e-14)
+
+
+def test_a_force_that_jumps_moves_the_equilibrium_at_once(tmp_path):
+    """A series held between samples jumps at each: the path stops just before, and restarts
+    from the minimum under the new value (event jump), like a changed command."""
+    params = {"kind": "class2", "params": {"k": 5.0}}
+    p = class2_scene(model=params).model.params
+    q0 = np.array([0.4, 0.8, float(equilibrium_beta(0.4, 0.8, p))])
+    hold = [float(x) for x in -potential_gradient(q0, p)[:2]]
+    csv = tmp_path / "f1.csv"
+    csv.write_text(f"t,f1\n0,{hold[0]!r}\n1,{hold[0] + 0.5!r}\n2,{hold[0] + 1.0!r}\n")
+    inputs = {"f1": {"law": "series", "file": str(csv), "column": "f1", "interpolation": "previous"}, "f2": hold[1]}
+    traj = simulate(class2_scene(model=params, effects=["springs"], inputs=inputs, duration=3.0,
+                                 initial={"equilibrium": {"rho1": 0.4, "rho2": 0.8}}, output={"rate": 4.0}))
+    assert traj.success and [e[:2] for e in traj.events] == [(1.0, "jump"), (2.0, "jump")]
+    for t, q in zip(traj.times, traj.q):
+        f1 = hold[0] + 0.5 * min(np.floor(t), 2.0)
+        np.testing.assert_allclose(potential_gradient(q, p) + np.array([f1, hold[1], 0.0]), 0.0, atol=1e-11)
+    assert np.abs(traj.qdot).max() < 1e-12                 # constant forces between the jumps

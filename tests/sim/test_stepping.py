@@ -131,3 +131,32 @@ def test_joint_sample_is_the_cheap_part_of_observe():
     for name in ("q", "qdot", "applied_forces", "end_effector"):
         np.testing.assert_allclose(getattr(js, name), getattr(obs, name), rtol=0, atol=1e-14)
     assert js.folded == obs.folded
+
+
+def test_a_new_command_every_call_costs_one_step_and_no_interpolation():
+    """The ROS node's pattern: set_command then advance by 1 ms. After a command change the
+    solver ends at the advance target, so each call is one DOP853 step (12 stages) plus the
+    first-same-as-last evaluation under the new forces: 13 evaluations, never the dense
+    output's 3 more, and the step-size proposal survives the cut (no shrinking to 2 steps)."""
+    sim = Simulator("class2_at_rest")
+    st = sim._backend.stepper
+    hold = sim.command
+    for k in range(1, 301):
+        n_steps, nfev = st.n_steps, st.nfev
+        sim.set_command([hold[0] + 0.05 * math.sin(0.1 * k), hold[1] - 0.05 * math.cos(0.1 * k)])
+        sim.advance(k * 1e-3)
+        if k > 1:                    # the first call also chooses the initial step size
+            assert (st.n_steps - n_steps, st.nfev - nfev) == (1, 13)
+    assert st.t == st.solver.t == 0.3
+
+
+def test_after_the_last_command_change_the_steps_grow_again_without_restarts():
+    sim = Simulator("class2_at_rest")
+    st = sim._backend.stepper
+    sim.set_command([-0.3, 0.3])
+    sim.advance(1e-3)
+    restarts, steps = st.n_restarts, st.n_steps
+    for k in range(2, 1001):
+        sim.set_command([-0.3, 0.3])
+        sim.advance(k * 1e-3)
+    assert st.n_restarts == restarts and st.n_steps - steps < 100      # steps of several milliseconds

@@ -1,0 +1,380 @@
+"""Events along the quasi-static class-2 path: what a continuation step went past, and where.
+
+:class:`PathEvents` is the event half of
+:class:`~tensegrity_core.sim.class2_quasistatic.Class2QuasiStatic`: after each step it
+checks the step's end for a **fold** (a free actuator length below zero), a **release** (a
+held actuator's contact force below ``-tol``: it would have to pull), a **limit point** (the
+stiffness ``K_FF`` no longer positive definite) and an input law's **breakpoint**, and
+locates the first one inside the step:
+
+- by Newton on the path's equations ``G_F = 0`` plus the event's own (``rho_i = 0``,
+  ``lambda_i = -tol``, ``t = t_b``) in ``(q_F, t)``, from the chord's estimate -- quadratically
+  convergent where the event is regular;
+- where a branch meets the stop at a *degenerate* contact (``lambda_i`` vanishes along the
+  held branch too, as at the paper's full fold, an equilibrium for every ``t``), that system
+  is singular: the two branches of ``G_F = 0`` cross there, so the meeting point is where the
+  free mode's ``K_FF`` on the held branch is singular, found by the secant method in ``t``;
+- limit points, and anything these two cannot settle, by regula falsi on the step length
+  (each trial corrected onto the path).
+
+At the event the segment is closed and the path's new start queued (the fold's actuator
+held, the released one let go, then the minimum of the new mode); at a limit point the run
+stops with a :class:`~tensegrity_core.sim.errors.SimulationError`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from tensegrity_core.sim.class2_path_samples import MODE_FREE, Segment
+from tensegrity_core.sim.errors import SimulationError
+from tensegrity_core.sim.small_dense import positive_definite, principal_det, solve_small
+
+#: An actuator within this distance of zero (relative to L) has reached the fold.
+FOLD_EPS = 1e-12
+#: A branch that ends (limit point) this close to an actuator's zero length (relative to L)
+#: ends at the fold.
+FOLD_NEAR = 1e-3
+#: Events bracketed by regula falsi are located to this fraction of the continuation step (a
+#: step is at most a quarter of the run in scaled arc length).
+LOCATE_TOL = 1e-7
+#: Newton iterations per trial point when bracketing an event; a trial that needs more (the
+#: stiffness nearly singular) counts as past the event.
+LOCATE_ITER = 6
+#: Newton iterations at most when solving for an event point, and the scaled step that ends
+#: them (quadratic convergence: the error left is of its square, i.e. rounding).
+EVENT_ITER = 12
+EVENT_TOL = 1e-9
+#: Secant iterations at most for a degenerate contact's bifurcation time, and their end
+#: (relative to the duration).
+BRANCH_ITER = 30
+BRANCH_TOL = 1e-14
+#: A path that cannot continue within this distance (relative to L) of lambda1 = 0 or
+#: lambda2 = 0 has reached the singular configuration rather than a limit point.
+SINGULAR_NEAR = 0.05
+
+
+class Point(NamedTuple):
+    """A configuration ``q`` (list of 3) at time ``t`` [s] with ``G, K, Gt`` of
+    :meth:`~tensegrity_core.sim.class2_potential.TotalPotential.evaluate` there."""
+
+    q: list
+    t: float
+    G: list
+    K: list
+    Gt: list
+
+
+class Event(NamedTuple):
+    """A located event: ``kind``, the point ``at`` (last state of the branch), the
+    actuators it concerns, and the closing tangent and arc length of the last segment."""
+
+    kind: str
+    at: Point
+    actuators: frozenset
+    tangent: list
+    ds: float
+
+
+def just_before(t: float) -> float:
+    """The float before ``t``: an input law's last value before its breakpoint ``t`` (the laws
+    take their new piece at the breakpoint itself)."""
+    return math.nextafter(t, -math.inf)
+
+
+def bits_of(held) -> int:
+    """The contact mode (bit i: actuator i held) of a set of held actuators."""
+    return sum(1 << i for i in held)
+
+
+def _distance(a, b) -> float:
+    return math.sqrt(sum((x - y) ** 2 for x, y in zip(a, b)))
+
+
+class PathEvents:
+    """Event detection and location for the quasi-static path follower (a mixin: the host
+    provides the path state ``bits``, ``_head``, ``_seg``, the ``potential``, the scales
+    ``L, T``, ``fold``, ``release_tol`` and the path methods ``_point``, ``_regular``, ``_z``,
+    ``_q_t``, ``_tangent``, ``_at``, ``_equilibrium_at``, ``_minimise``)."""
+
+    def _event_kind(self, p: Point, bits: int, t_stop: float):
+        """What the path went past at ``p``, if anything."""
+        if self.fold and any(not bits >> i & 1 and p.q[i] < FOLD_EPS * self.L for i in (0, 1)):
+            return "fold"
+        if self.fold and any(bits >> i & 1 and p.G[i] < -self.release_tol for i in (0, 1)):
+            return "release"
+        if not positive_definite(p.K, MODE_FREE[bits]):
+            return "limit"
+        if p.t > t_stop:
+            return "breakpoint"
+        return None
+
+    def _event_value(self, kind: str, p: Point, bits: int, t_stop: float) -> float:
+        """A continuous function of the path that changes sign at the event ``kind``."""
+        if kind == "fold":
+            return min(p.q[i] - FOLD_EPS * self.L for i in (0, 1) if not bits >> i & 1) / self.L
+        if kind == "release":
+            return min(p.G[i] + self.release_tol for i in (0, 1) if bits >> i & 1)
+        if kind == "breakpoint":
+            return (t_stop - p.t) / self.T
+        return principal_det(p.K, MODE_FREE[bits])
+
+    def _locate(self, v0, ds: float, end: Point, kind: str, t_stop: float) -> None:
+        """Locate the first event of the step from the current head to ``end``, end the
+        segment there and queue the path's new start (or stop at a limit point)."""
+        event = None
+        if kind != "limit":
+            event = self._solve_event(kind, end, ds, t_stop)
+            if event is None and kind == "fold":
+                event = self._branch_point(end, ds)
+        if event is None:
+            event = self._bracket_event(v0, ds, kind, t_stop)
+        self._close(event, v0, t_stop)
+
+    def _close(self, event: Event, v0, t_stop: float) -> None:
+        """End the segment at ``event`` and queue the path's new start (or stop at a limit
+        point). At a breakpoint the path ends just before it and restarts from the minimum
+        reached under the law's new piece (event ``jump`` if the state moved: a law that jumps,
+        like a series held between samples)."""
+        bits = self.bits
+        head, p = self._head, event.at
+        free = MODE_FREE[bits]
+        self._seg = Segment.of(head.t, p.t, p.q, self._z(head.q, head.t, free), self._z(p.q, p.t, free), v0,
+                               event.tangent, event.ds, bits)
+        if event.kind == "limit":
+            self._limit(p.t, p.q, "the stiffness d2Pi/dq2 stops being positive definite")
+        held = {i for i in (0, 1) if bits >> i & 1}
+        fired = []
+        q_new, t_new = list(p.q), p.t
+        if event.kind == "fold":
+            for i in event.actuators:
+                q_new[i] = 0.0
+            held |= event.actuators
+            fired = [(p.t, "fold", i) for i in sorted(event.actuators)]
+        elif event.kind == "release":
+            held -= event.actuators
+            fired = [(p.t, "release", i) for i in sorted(event.actuators)]
+        elif event.kind == "breakpoint":
+            t_new = t_stop
+        q_min, new_bits = self._minimise(q_new, t_new, bits_of(held))
+        if event.kind == "breakpoint" and max(abs(a - b) for a, b in zip(q_min, q_new)) > 1e-9 * self.L:
+            fired = [(t_new, "jump", 0)]
+        self._pending = (t_new, q_min, new_bits, fired)
+
+    def _closing_tangent(self, p: Point, z_head, v0) -> tuple:
+        """Tangent and arc length (chord) of the last segment ending at ``p``; the chord's
+        direction where the tangent is not unique (a bifurcation)."""
+        free = MODE_FREE[self.bits]
+        z = self._z(p.q, p.t, free)
+        chord = _distance(z, z_head)
+        try:
+            return self._tangent(p, self.bits, v0), chord
+        except ZeroDivisionError:
+            return [(a - b) / chord for a, b in zip(z, z_head)] if chord > 0 else list(v0), chord
+
+    def _before_other_events(self, p: Point, bits: int, t_stop: float, kind: str, i: int) -> bool:
+        """Whether ``p`` (where event ``kind`` of actuator ``i`` happens) is still before every
+        other event: stable, no other actuator past the fold or pulling, not past a breakpoint."""
+        free = MODE_FREE[bits]
+        if not positive_definite(p.K, free):
+            return False
+        if self.fold and any(j != i and not bits >> j & 1 and p.q[j] < 0.0 for j in (0, 1)):
+            return False
+        if self.fold and any(j != i and bits >> j & 1 and p.G[j] < -self.release_tol for j in (0, 1)):
+            return False
+        return kind == "breakpoint" or p.t <= t_stop
+
+    def _solve_event(self, kind: str, end: Point, ds: float, t_stop: float):
+        """The event point by Newton on ``G_F = 0`` plus the event's equation, in the scaled
+        unknowns ``z = (q_F / L, t / T)``, from the chord's estimate; ``None`` if it does not
+        converge to a point of this step before every other event."""
+        head, bits = self._head, self.bits
+        free = MODE_FREE[bits]
+        L, T, rtol = self.L, self.T, self.release_tol
+        if kind == "fold":
+            crossings = [(head.q[i] / (head.q[i] - end.q[i]), i) for i in (0, 1)
+                         if not bits >> i & 1 and end.q[i] < FOLD_EPS * L < head.q[i]]
+        elif kind == "release":
+            crossings = [((head.G[i] + rtol) / (head.G[i] - end.G[i]), i) for i in (0, 1)
+                         if bits >> i & 1 and end.G[i] < -rtol < head.G[i]]
+        else:
+            crossings = [((t_stop - head.t) / (end.t - head.t), -1)] if end.t > t_stop >= head.t else []
+        if not crossings:
+            return None
+        theta, i = min(crossings)
+        z_head = self._z(head.q, head.t, free)
+        z = [a + theta * (b - a) for a, b in zip(z_head, self._z(end.q, end.t, free))]
+        q, t = self._q_t(z, head.q, free)
+        last = math.inf
+        for _ in range(EVENT_ITER):
+            if not self._regular(q):
+                return None
+            G, K, Gt = self.potential.evaluate(q, t)
+            self.n_newton += 1
+            A = [[K[a][b] * L for b in free] + [Gt[a] * T] for a in free]
+            rhs = [-G[a] for a in free]
+            if kind == "fold":
+                A.append([1.0 if b == i else 0.0 for b in free] + [0.0])
+                rhs.append(-q[i] / L)
+            elif kind == "release":
+                A.append([K[i][b] * L for b in free] + [Gt[i] * T])
+                rhs.append(-(G[i] + rtol))
+            else:
+                A.append([0.0] * len(free) + [1.0])
+                rhs.append((just_before(t_stop) - t) / T)
+            try:
+                dz = solve_small(A, rhs)
+            except ZeroDivisionError:
+                return None
+            size = max(map(abs, dz))
+            if size > last:           # not converging: a singular system (a degenerate contact)
+                return None
+            last = size
+            for j, a in enumerate(free):
+                q[a] += dz[j] * L
+            t += dz[-1] * T
+            if size <= EVENT_TOL:
+                break
+        else:
+            return None
+        if kind == "fold":
+            q[i] = 0.0
+        elif kind == "breakpoint":
+            t = just_before(t_stop)
+        if not (self._regular(q) and head.t <= t):
+            return None
+        p = self._point(q, t)
+        reach = 1.5 * max(ds, _distance(self._z(end.q, end.t, free), z_head))
+        if _distance(self._z(q, t, free), z_head) > reach or not self._before_other_events(p, bits, t_stop, kind, i):
+            return None
+        if kind == "fold":
+            actuators = frozenset(j for j in (0, 1) if not bits >> j & 1 and q[j] < FOLD_NEAR * L)
+        elif kind == "release":
+            actuators = frozenset({i} | {j for j in (0, 1) if bits >> j & 1 and p.G[j] < -rtol})
+        else:
+            actuators = frozenset()
+        return Event(kind, p, actuators, *self._closing_tangent(p, z_head, self._seg.v1))
+
+    def _branch_point(self, end: Point, ds: float):
+        """Where the free branch meets the stop of an actuator at a degenerate contact: the
+        time ``t`` at which the stiffness ``K_FF`` of the free mode, on the branch held at the
+        stop, becomes singular (two branches of ``G_F = 0`` cross there), by the secant method
+        from the chord's estimate; ``None`` if that does not settle it."""
+        head, bits = self._head, self.bits
+        free = MODE_FREE[bits]
+        L, T = self.L, self.T
+        crossings = [(head.q[i] / (head.q[i] - end.q[i]), i) for i in (0, 1)
+                     if not bits >> i & 1 and end.q[i] < FOLD_EPS * L < head.q[i]]
+        if not crossings:
+            return None
+        theta, i = min(crossings)
+        held = bits | 1 << i
+        t_lo = head.t
+        t_hi = t_lo + 1.5 * max(ds, _distance(self._z(end.q, end.t, free), self._z(head.q, head.t, free))) * T
+
+        def det_on_held_branch(t, q):
+            p = self._equilibrium_at(q, t, held)
+            return (math.nan, None) if p is None else (principal_det(p.K, free), p)
+
+        start = list(head.q)
+        start[i] = 0.0
+        f_b, p_b = det_on_held_branch(t_lo, start)
+        if p_b is None:
+            return None
+        t_a, t_b = head.t + theta * (end.t - head.t), t_lo
+        f_a, p_a = det_on_held_branch(t_a, p_b.q)
+        for _ in range(BRANCH_ITER):
+            if p_a is None or f_a == f_b:
+                return None
+            t_new = t_a - f_a * (t_a - t_b) / (f_a - f_b)
+            if not t_lo <= t_new <= t_hi:
+                return None
+            f_new, p_new = det_on_held_branch(t_new, p_a.q)
+            t_b, f_b, t_a, f_a, p_a = t_a, f_a, t_new, f_new, p_new
+            if abs(t_a - t_b) <= BRANCH_TOL * T:
+                break
+        else:
+            return None
+        if p_a is None or abs(p_a.G[i]) > self.release_tol:
+            return None            # not a degenerate contact after all
+        actuators = frozenset(j for j in (0, 1) if not bits >> j & 1 and p_a.q[j] < FOLD_NEAR * L)
+        return Event("fold", p_a, actuators, *self._closing_tangent(p_a, self._z(head.q, head.t, free),
+                                                                     self._seg.v1))
+
+    def _bracket_event(self, v0, ds: float, kind: str, t_stop: float) -> Event:
+        """The first point of the step where ``kind`` happens, by regula falsi (Illinois
+        variant) on the event's function of the step length, each trial corrected onto the
+        path: slow but it needs nothing regular (limit points)."""
+        head, bits = self._head, self.bits
+        free = MODE_FREE[bits]
+        z0, template = self._z(head.q, head.t, free), head.q
+
+        def g(point) -> float:
+            """> 0 before the event, <= 0 past it (a failed corrector counts as past)."""
+            if point is None:
+                return -1.0
+            if self._event_kind(point, bits, t_stop) is None:
+                return max(self._event_value(kind, point, bits, t_stop), 1e-300)
+            return min(self._event_value(kind, point, bits, t_stop), 0.0)
+
+        lo, hi, p_lo = 0.0, ds, head
+        g_lo = self._event_value(kind, head, bits, t_stop)
+        p_hi, _ = self._at(z0, v0, hi, template, bits, tol=1e-11, max_iter=LOCATE_ITER)
+        g_hi = g(p_hi)
+        side = 0
+        for _ in range(60):
+            if hi - lo <= LOCATE_TOL * ds:
+                break
+            if g_hi == -1.0 or g_lo <= 0.0:
+                x = 0.5 * (lo + hi)
+            else:
+                x = lo + (hi - lo) * g_lo / (g_lo - g_hi)
+                x = min(max(x, lo + 1e-3 * (hi - lo)), hi - 1e-3 * (hi - lo))
+            out, _ = self._at(z0, v0, x, template, bits, tol=1e-11, max_iter=LOCATE_ITER)
+            gx = g(out)
+            if gx > 0.0:
+                lo, g_lo, p_lo = x, gx, out
+                if side == 1 and g_hi != -1.0:
+                    g_hi *= 0.5
+                side = 1
+            else:
+                hi, g_hi, p_hi = x, gx, out
+                if side == -1:
+                    g_lo *= 0.5
+                side = -1
+        kind = self._event_kind(p_hi, bits, t_stop) if p_hi is not None else "limit"
+        past = p_hi
+        near = [i for i in (0, 1) if not bits >> i & 1 and p_lo.q[i] < FOLD_NEAR * self.L]
+        if kind == "limit" and self.fold and near:
+            # The branch ends where it meets the fold (its stiffness vanishes there): the held
+            # actuator continues it.
+            kind, past = "fold", p_lo
+        at = p_lo
+        if kind == "breakpoint":
+            t_b = just_before(t_stop)
+            at = self._equilibrium_at(p_lo.q, t_b, bits) or self._point(p_lo.q, t_b)
+        actuators = frozenset()
+        if kind == "fold":
+            actuators = frozenset(i for i in (0, 1) if not bits >> i & 1 and past.q[i] < FOLD_NEAR * self.L)
+        elif kind == "release":
+            actuators = frozenset(i for i in (0, 1) if bits >> i & 1 and past.G[i] < -self.release_tol)
+        return Event(kind, at, actuators, self._tangent(at, bits, v0), lo)
+
+    def _limit(self, t, q, why: str) -> None:
+        L = self.L
+        s = q[0] + q[1]
+        lam1, lam2 = math.sqrt(max((2 * L - s) * (2 * L + s), 0.0)), math.sqrt(max((L - q[0]) * (L + q[0]), 0.0))
+        if min(lam1, lam2) < SINGULAR_NEAR * L:
+            where = "rho1 + rho2 -> 2L: struts AE and CE flat" if lam1 < lam2 else "rho1 -> L: strut BF flat"
+            self.events.append((t, "singular", 0 if lam1 < lam2 else 1))
+            raise SimulationError(f"t = {t:.9g} s: the equilibrium path reaches the singular configuration "
+                                  f"({where}) at q = {np.array2string(np.asarray(q), precision=6)}, where the "
+                                  f"coordinates break down; the simulation stops here", t=t)
+        self.events.append((t, "limit", 0))
+        raise SimulationError(
+            f"t = {t:.9g} s: no stable equilibrium continues the path beyond q = "
+            f"{np.array2string(np.asarray(q), precision=6)} ({why}: a limit point -- the actuator forces "
+            f"exceed what the springs can resist); the mechanism would snap, which needs inertia", t=t)
