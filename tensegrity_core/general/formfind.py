@@ -196,7 +196,8 @@ def form_find(structure: Structure, *, method: str = "newton", x0=None, tol: flo
 # --------------------------------------------------------------------------- Newton
 def newton(structure: Structure, config: Configuration, *, tol: float, max_iter: int | None,
            callback=None, linear_solver: str = "auto", shift: float = 1e-10,
-           max_step: float = 1.0, max_escapes: int = 3, check_stability: bool = True) -> FormFindResult:
+           max_step: float = 1.0, max_escapes: int = 3, check_stability: bool = True,
+           slack_stiffness: bool = True) -> FormFindResult:
     """Shifted Newton with an energy line search (the paper's Sect. 5.1).
 
     ``shift`` is ``u`` of Eq. 81, applied to the Jacobi-scaled ``K_T`` (unit diagonal), so
@@ -207,7 +208,14 @@ def newton(structure: Structure, config: Configuration, *, tol: float, max_iter:
     ``max_step`` caps the first-order node displacement of a Newton step at that many
     structure sizes before the line search (a guard against near-singular directions; the
     paper's [0, 1] interval alone does not bound the step). ``max_escapes`` saddles are left
-    along their unstable mode before an unstable result is reported.
+    along their unstable mode before an unstable result is reported. ``slack_stiffness``
+    keeps the elastic stiffness of slack strings in the Newton matrix (not in the energy, the
+    forces or the stability check) while the set of slack strings is still changing: without
+    it every slack string leaves a mechanism in ``K_T``, the shift of Eq. 81 grows to the
+    size of the negative curvature and the steps shrink to ~1e-4 of their length while the
+    strings re-tension one by one (a C-shaped spine of 100 vertebrae spent 110 of its 164
+    iterations there). Once the slack set is settled the exact ``K_T`` is used again, so
+    convergence onto an equilibrium with slack strings stays quadratic.
     """
     if linear_solver not in ("auto", "dense", "sparse"):
         raise StructureError(f"linear_solver must be 'auto', 'dense' or 'sparse', got {linear_solver!r}")
@@ -222,7 +230,7 @@ def newton(structure: Structure, config: Configuration, *, tol: float, max_iter:
     label = f"newton ({'dense' if dense else 'sparse'})"
     while True:
         config, it, status = _newton_iterations(structure, config, tol, max_iter, it, callback,
-                                                dense, shift, max_step, history)
+                                                dense, shift, max_step, history, slack_stiffness)
         if status != 0 or not check_stability:
             return _result(structure, config, status, it, history, label, dense, check_stability)
         low = lowest_mode(tangent_stiffness(structure, config, sparse=not dense), config, dense=dense)
@@ -257,10 +265,12 @@ def capped_step(structure: Structure, dU: np.ndarray, limit: float) -> np.ndarra
     return dU * (limit / bound) if bound > limit else dU
 
 
-def _newton_iterations(structure, config, tol, max_iter, it, callback, dense, u, max_step, history):
+def _newton_iterations(structure, config, tol, max_iter, it, callback, dense, u, max_step, history,
+                       slack_stiffness=True):
     """Iterate until the residual is below ``tol``; returns (config, iterations, status)."""
     V = potential_energy(structure, config.coords)
     size = structure_size(structure)
+    slack_before = None
     while True:
         ob = out_of_balance(structure, config)
         if diverged(config, size):
@@ -271,7 +281,11 @@ def _newton_iterations(structure, config, tol, max_iter, it, callback, dense, u,
             return config, it, 0
         if it >= max_iter:
             return config, it, 1
-        K = tangent_stiffness(structure, config, sparse=not dense)
+        slack = structure.is_string & (member_lengths(structure, config.coords) < structure.rest_lengths)
+        changing = slack_before is None or not np.array_equal(slack, slack_before)
+        slack_before = slack
+        K = tangent_stiffness(structure, config, sparse=not dense,
+                              slack_elastic=slack_stiffness and changing and bool(slack.any()))
         keep = _moving_coordinates(config)
         P = ob.generalized[keep]
         Kk = K[np.ix_(keep, keep)] if dense else K[keep][:, keep]
