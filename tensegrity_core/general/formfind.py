@@ -26,6 +26,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Callable
 
 import numpy as np
+import scipy.linalg as la
 from scipy.linalg import qr
 from scipy.optimize import brentq, minimize_scalar
 
@@ -185,12 +186,62 @@ def form_find(structure: Structure, *, method: str = "newton", x0=None, tol: flo
     if max_iter is not None and int(max_iter) < 0:
         raise StructureError(f"max_iter must be >= 0, got {max_iter!r}")
     config = as_configuration(structure, x0)
-    result = METHODS[key](structure, config, tol=float(tol), max_iter=max_iter,
-                          callback=callback, **options)
+    unbalanced = unbalanced_load(structure)
+    if unbalanced is not None:
+        result = _result(structure, config, 7, 0, [], key, False, False, reason=unbalanced.message)
+    else:
+            result = METHODS[key](structure, config, tol=float(tol), max_iter=max_iter,
+                              callback=callback, **options)
     if strict and not result.success:
         raise ConvergenceError(f"form-finding of {structure.name or 'the structure'} failed: "
                                f"{result.message}", result=result)
     return result
+
+
+@dataclass
+class UnbalancedLoad:
+    """A net external force along a translation that no support resists: ``force`` [N] is
+    the resultant of all dead loads and weights projected on the free translations
+    ``directions`` (k, 3 orthonormal rows); along them ``V`` falls without bound."""
+
+    force: np.ndarray
+    directions: np.ndarray
+    total_load: float
+
+    @property
+    def message(self) -> str:
+        f = self.force
+        free = {1: "the one free translation", 2: "the plane of free translations",
+                3: "the free translations (no support at all)"}[len(self.directions)]
+        return (f"no equilibrium exists: the external loads and weights have a net force of "
+                f"[{f[0]:.6g}, {f[1]:.6g}, {f[2]:.6g}] N ({np.linalg.norm(f):.6g} N) in {free} of "
+                f"the structure, which nothing balances (the potential energy falls without bound "
+                f"along it); support the structure in that direction or balance the loads")
+
+
+def unbalanced_load(structure: Structure, *, rtol: float = 1e-9) -> UnbalancedLoad | None:
+    """The net load along the rigid translations the supports leave free, if it is not zero.
+
+    A translation ``d`` that no pinned coordinate or fixed body stops stays allowed at any
+    distance, and the potential changes along it by ``-F . d`` (``F`` the resultant of the
+    dead loads and all weights): a structure with ``F . d != 0`` has no equilibrium at all,
+    whatever the members. Rotations are not tested: a dead-load moment turns the structure
+    until the loads line up, which is an equilibrium. ``None`` when balanced to within
+    ``rtol`` of the total load magnitude (rounding of loads meant to cancel).
+    """
+    lay = structure.layout
+    blocked = np.eye(3)[np.nonzero(lay.fixed_mask)[1]]
+    free = la.null_space(blocked) if blocked.size else np.eye(3)
+    if free.shape[1] == 0:
+        return None
+    f = structure.external_forces
+    w = lay.body_masses[:, None] * structure.gravity[None, :] if lay.body_masses.size else np.zeros((0, 3))
+    total = float(np.linalg.norm(f, axis=1).sum() + np.linalg.norm(w, axis=1).sum())
+    F = f.sum(axis=0) + w.sum(axis=0)
+    F_free = free @ (free.T @ F)
+    if total == 0.0 or np.linalg.norm(F_free) <= rtol * total:
+        return None
+    return UnbalancedLoad(F_free, free.T, total)
 
 
 # --------------------------------------------------------------------------- Newton
@@ -372,7 +423,8 @@ def _escape_saddle(structure: Structure, config: Configuration, v: np.ndarray) -
     return best
 
 
-def _result(structure, config, status, it, history, method, dense, checked, low=None) -> FormFindResult:
+def _result(structure, config, status, it, history, method, dense, checked, low=None,
+            reason: str | None = None) -> FormFindResult:
     """Build the result: forces, lengths, residual and stability (computed if not given; a
     converged but unstable or neutral equilibrium becomes status 3 or 4)."""
     ob = out_of_balance(structure, config)
@@ -387,7 +439,9 @@ def _result(structure, config, status, it, history, method, dense, checked, low=
         message = "converged (stability not checked)"
     if status in (3, 4):
         message += f" (smallest scaled eigenvalue {low.scaled:.3g})"
-    if status in (6, 7):
+    if reason is not None:
+        message = reason
+    elif status in (6, 7):
         message += f" after {it} iterations"
     if status == 1:
         message += f" ({it}); residual {ob.residual:.3g} N"
