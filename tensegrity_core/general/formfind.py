@@ -447,6 +447,7 @@ def _result(structure, config, status, it, history, method, dense, checked, low=
         message += f" ({it}); residual {ob.residual:.3g} N"
     if status == 2:
         message += f" after {it} iterations; residual {ob.residual:.3g} N"
+        message += rounding_floor_note(structure, config.coords, ob.residual)
     return FormFindResult(
         success=status == 0, status=status, message=message, nodes=config.coords.copy(),
         member_forces=forces_from_lengths(structure, lengths), member_lengths=lengths,
@@ -456,6 +457,22 @@ def _result(structure, config, status, it, history, method, dense, checked, low=
         moment_residual=ob.moment_residual, energy=potential_energy(structure, config.coords),
         rigid_body_modes=low.rigid_body_modes if low is not None else 0,
         configuration=config, structure=structure)
+
+
+def rounding_floor_note(structure: Structure, coords: np.ndarray, residual: float) -> str:
+    """Why a residual cannot fall further: a member of axial stiffness ``EA/l0`` turns the
+    rounding of node coordinates (``eps |x|``) into a force error ``EA/l0 eps |x|`` [N].
+    Very short (nearly coincident nodes) or very stiff members raise that floor above the
+    tolerance. Returns '' when the residual is well above the floor."""
+    k = structure.EA / structure.rest_lengths
+    i = int(np.argmax(k))
+    floor = float(k[i] * np.finfo(float).eps * max(np.abs(coords).max(), structure_size(structure)))
+    if residual > 10.0 * floor:
+        return ""
+    return (f"; that is the rounding floor of member {structure.member_names[i]!r} (EA/l0 = {k[i]:.3g} N/m "
+            f"times eps times the coordinates: {floor:.3g} N; rest length {structure.rest_lengths[i]:.3g} m = "
+            f"{structure.rest_lengths[i] / structure_size(structure):.3g} of the structure size): raise tol "
+            f"above it or make the member longer or softer")
 
 
 def _dynamic_relaxation(structure, config, **kw):
