@@ -461,12 +461,14 @@ def _result(structure, config, status, it, history, method, dense, checked, low=
 
 def rounding_floor_note(structure: Structure, coords: np.ndarray, residual: float) -> str:
     """Why a residual cannot fall further: a member of axial stiffness ``EA/l0`` turns the
-    rounding of node coordinates (``eps |x|``) into a force error ``EA/l0 eps |x|`` [N].
+    rounding of its end coordinates (``eps |x|``) into a force error ``EA/l0 eps |x|`` [N].
     Very short (nearly coincident nodes) or very stiff members raise that floor above the
     tolerance. Returns '' when the residual is well above the floor."""
-    k = structure.EA / structure.rest_lengths
-    i = int(np.argmax(k))
-    floor = float(k[i] * np.finfo(float).eps * max(np.abs(coords).max(), structure_size(structure)))
+    reach = np.abs(coords).max(axis=1)
+    floors = (structure.EA / structure.rest_lengths) * np.finfo(float).eps * np.maximum(
+        reach[structure.members[:, 0]], reach[structure.members[:, 1]])
+    i = int(np.argmax(floors))
+    k, floor = structure.EA / structure.rest_lengths, float(floors[i])
     if residual > 10.0 * floor:
         return ""
     return (f"; that is the rounding floor of member {structure.member_names[i]!r} (EA/l0 = {k[i]:.3g} N/m "
