@@ -254,3 +254,21 @@ def test_case_stiffness_next_to_a_singular_set_refused_with_distance(rho1, rho2,
     with pytest.raises(SingularityError) as err:
         stiffness_along_coordinates(rho1, rho2)
     assert err.value.kind == kind and err.value.distance <= 1e-12 and err.value.limit == 1e-12 * L
+
+
+# ------------------------------------------------------------------ dynamics conditioning measure
+@pytest.mark.parametrize("rho1, rho2", [(0.7, 0.7), (0.6, 1.4 - 1e-6), (1.0 - 1e-7, 0.3), (-0.5, -0.9),
+                                        (-1.0, 0.2), (0.6, 1.4)])
+def test_case_dynamics_singularity_measure_is_lambda_over_L(rho1, rho2):
+    """lambda1/L, lambda2/L (50 digits; the nearer one), also for the negative lengths the
+    unconstrained dynamics reach; 0 on a set. The dynamics refuse below 1e-4 of it.
+    Absolute error <= sqrt(4 eps) = 3e-8: rounding of s = rho1 + rho2 (0.6 + 1.4 is 2.0 in
+    doubles, 2 - 1.1e-16 exactly, where lambda1/L = 2.1e-8)."""
+    from tensegrity_core.class2 import dynamics_singularity
+
+    r1, r2 = mp.mpf(rho1), mp.mpf(rho2)
+    lam1 = mp.sqrt(max(mp.mpf(0), 4 * L**2 - (r1 + r2) ** 2)) / L
+    lam2 = mp.sqrt(max(mp.mpf(0), L**2 - r1**2)) / L
+    name, d = dynamics_singularity(rho1, rho2, PAPER_PARAMS)
+    assert name == ("lambda1" if lam1 <= lam2 else "lambda2")
+    assert d == pytest.approx(float(min(lam1, lam2)), rel=1e-9, abs=3e-8)
