@@ -64,7 +64,7 @@ def test_case_lambda1_on_the_set_fk_is_exact_and_the_jacobian_is_refused():
     assert err.value.kind == "lambda1"
 
 
-@pytest.mark.parametrize("gap", [1e-2, 1e-4, 1e-6, 1e-8])
+@pytest.mark.parametrize("gap", [1e-2, 1e-4, 1e-6, 1e-8, 1e-9, 1e-12])
 def test_case_lambda1_mass_matrix_accurate_until_lambda_min_then_refused(gap):
     """M grows like 1/lambda1^2 (mu = m/2 + 2 m L^2 / (3 lambda1^2)); relative error
     against 50 digits <= 1e-13 * (L/lambda1)^2 * eps-level, and below lambda_min = 1e-4 L
@@ -74,11 +74,13 @@ def test_case_lambda1_mass_matrix_accurate_until_lambda_min_then_refused(gap):
     s = mp.mpf(rho1) + mp.mpf(rho2)
     lam1 = mp.sqrt((2 * L - s) * (2 * L + s))
     q = np.array([rho1, rho2, beta])
+    assert (float(lam1) < 1e-4 * L) == (gap <= 1e-9)       # lambda1 = 2 sqrt(gap L) roughly
     if float(lam1) < 1e-4 * L:
         with pytest.raises(SingularityError) as err:
             mass_matrix(q, PAPER_PARAMS)
         assert err.value.kind == "lambda1"
-        assert err.value.distance == pytest.approx(float(lam1), rel=1e-6)
+        # the reported lambda1 carries the rounding of 4L^2 - s^2: relative eps (2L/lambda1)^2
+        assert err.value.distance == pytest.approx(float(lam1), rel=1e-6 + 8e-16 * float(L**2 / lam1**2))
         assert "lambda1" in str(err.value)
         return
     m = mp.mpf(PAPER_PARAMS.m)
@@ -97,10 +99,11 @@ def test_case_lambda2_fk_is_unaffected_as_rho1_tends_to_L(gap):
     assert fk.singularity_distance == pytest.approx(gap / L, rel=1e-3)
 
 
-@pytest.mark.parametrize("gap", [1e-3, 1e-5, 1e-7])
+@pytest.mark.parametrize("gap", [1e-3, 1e-5, 1e-7, 1e-9, 1e-12])
 def test_case_lambda2_dynamics_refused_below_lambda_min_with_distance(gap):
     q = np.array([L - gap, 0.5, 0.8])
     lam2 = math.sqrt((L - q[0]) * (L + q[0]))
+    assert (lam2 < 1e-4 * L) == (gap <= 1e-9)             # lambda2 = sqrt(2 gap L) roughly
     if lam2 < 1e-4 * L:
         with pytest.raises(SingularityError) as err:
             mass_matrix(q, PAPER_PARAMS)
