@@ -40,6 +40,7 @@ from tensegrity_core.class2.kinematics import (
 )
 from tensegrity_core.class2.singularities import (
     SINGULAR_SETS,
+    dynamics_singularity,
     nearest_singularity,
     singularity_distance_array,
     singularity_distances,
@@ -117,6 +118,7 @@ __all__ = [
     "SINGULAR_SETS",
     "singularity_distances",
     "nearest_singularity",
+    "dynamics_singularity",
     "singularity_distance_array",
     "Workspace",
     "workspace",

@@ -69,6 +69,23 @@ def nearest_singularity(rho1: float, rho2: float, params: Class2Params) -> tuple
     return best_name, best
 
 
+def dynamics_singularity(rho1: float, rho2: float, params: Class2Params) -> tuple[str, float]:
+    """``(name, lambda / L)`` of the nearer of the two sets where the equations of motion
+    break down: ``lambda1 = sqrt(4L^2 - (rho1 + rho2)^2)`` and ``lambda2 = sqrt(L^2 - rho1^2)``
+    (the mass matrix grows like ``1/lambda^2``; :mod:`~tensegrity_core.class2.dynamics`
+    refuses below ``LAMBDA_MIN_REL = 1e-4``, the scene simulator stops at 1e-3).
+
+    Unlike the actuator-plane distances above it is defined for negative lengths too (the
+    unconstrained dynamics cross zero length) and is 0 on or beyond a set. The conditioning
+    measure for running simulations: relative rounding error of ``M`` ~ ``eps (L/lambda)^2``.
+    """
+    L = params.L
+    s = rho1 + rho2
+    lam1 = math.sqrt(max(0.0, (2.0 * L - abs(s)) * (2.0 * L + abs(s)))) / L
+    lam2 = math.sqrt(max(0.0, (L - abs(rho1)) * (L + abs(rho1)))) / L
+    return ("lambda1", lam1) if lam1 <= lam2 else ("lambda2", lam2)
+
+
 def singularity_distance_array(rho1, rho2, params: Class2Params) -> np.ndarray:
     """Vectorised minimum distance to the singular sets (the value of :func:`nearest_singularity`)."""
     L, k2 = params.L, params.k2

@@ -26,6 +26,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Callable
 
 import numpy as np
+import scipy.linalg as la
 from scipy.linalg import qr
 from scipy.optimize import brentq, minimize_scalar
 
@@ -185,18 +186,69 @@ def form_find(structure: Structure, *, method: str = "newton", x0=None, tol: flo
     if max_iter is not None and int(max_iter) < 0:
         raise StructureError(f"max_iter must be >= 0, got {max_iter!r}")
     config = as_configuration(structure, x0)
-    result = METHODS[key](structure, config, tol=float(tol), max_iter=max_iter,
-                          callback=callback, **options)
+    unbalanced = unbalanced_load(structure)
+    if unbalanced is not None:
+        result = _result(structure, config, 7, 0, [], key, False, False, reason=unbalanced.message)
+    else:
+            result = METHODS[key](structure, config, tol=float(tol), max_iter=max_iter,
+                              callback=callback, **options)
     if strict and not result.success:
         raise ConvergenceError(f"form-finding of {structure.name or 'the structure'} failed: "
                                f"{result.message}", result=result)
     return result
 
 
+@dataclass
+class UnbalancedLoad:
+    """A net external force along a translation that no support resists: ``force`` [N] is
+    the resultant of all dead loads and weights projected on the free translations
+    ``directions`` (k, 3 orthonormal rows); along them ``V`` falls without bound."""
+
+    force: np.ndarray
+    directions: np.ndarray
+    total_load: float
+
+    @property
+    def message(self) -> str:
+        f = self.force
+        free = {1: "the one free translation", 2: "the plane of free translations",
+                3: "the free translations (no support at all)"}[len(self.directions)]
+        return (f"no equilibrium exists: the external loads and weights have a net force of "
+                f"[{f[0]:.6g}, {f[1]:.6g}, {f[2]:.6g}] N ({np.linalg.norm(f):.6g} N) in {free} of "
+                f"the structure, which nothing balances (the potential energy falls without bound "
+                f"along it); support the structure in that direction or balance the loads")
+
+
+def unbalanced_load(structure: Structure, *, rtol: float = 1e-9) -> UnbalancedLoad | None:
+    """The net load along the rigid translations the supports leave free, if it is not zero.
+
+    A translation ``d`` that no pinned coordinate or fixed body stops stays allowed at any
+    distance, and the potential changes along it by ``-F . d`` (``F`` the resultant of the
+    dead loads and all weights): a structure with ``F . d != 0`` has no equilibrium at all,
+    whatever the members. Rotations are not tested: a dead-load moment turns the structure
+    until the loads line up, which is an equilibrium. ``None`` when balanced to within
+    ``rtol`` of the total load magnitude (rounding of loads meant to cancel).
+    """
+    lay = structure.layout
+    blocked = np.eye(3)[np.nonzero(lay.fixed_mask)[1]]
+    free = la.null_space(blocked) if blocked.size else np.eye(3)
+    if free.shape[1] == 0:
+        return None
+    f = structure.external_forces
+    w = lay.body_masses[:, None] * structure.gravity[None, :] if lay.body_masses.size else np.zeros((0, 3))
+    total = float(np.linalg.norm(f, axis=1).sum() + np.linalg.norm(w, axis=1).sum())
+    F = f.sum(axis=0) + w.sum(axis=0)
+    F_free = free @ (free.T @ F)
+    if total == 0.0 or np.linalg.norm(F_free) <= rtol * total:
+        return None
+    return UnbalancedLoad(F_free, free.T, total)
+
+
 # --------------------------------------------------------------------------- Newton
 def newton(structure: Structure, config: Configuration, *, tol: float, max_iter: int | None,
            callback=None, linear_solver: str = "auto", shift: float = 1e-10,
-           max_step: float = 1.0, max_escapes: int = 3, check_stability: bool = True) -> FormFindResult:
+           max_step: float = 1.0, max_escapes: int = 3, check_stability: bool = True,
+           slack_stiffness: bool = True) -> FormFindResult:
     """Shifted Newton with an energy line search (the paper's Sect. 5.1).
 
     ``shift`` is ``u`` of Eq. 81, applied to the Jacobi-scaled ``K_T`` (unit diagonal), so
@@ -207,7 +259,14 @@ def newton(structure: Structure, config: Configuration, *, tol: float, max_iter:
     ``max_step`` caps the first-order node displacement of a Newton step at that many
     structure sizes before the line search (a guard against near-singular directions; the
     paper's [0, 1] interval alone does not bound the step). ``max_escapes`` saddles are left
-    along their unstable mode before an unstable result is reported.
+    along their unstable mode before an unstable result is reported. ``slack_stiffness``
+    keeps the elastic stiffness of slack strings in the Newton matrix (not in the energy, the
+    forces or the stability check) while the set of slack strings is still changing: without
+    it every slack string leaves a mechanism in ``K_T``, the shift of Eq. 81 grows to the
+    size of the negative curvature and the steps shrink to ~1e-4 of their length while the
+    strings re-tension one by one (a C-shaped spine of 100 vertebrae spent 110 of its 164
+    iterations there). Once the slack set is settled the exact ``K_T`` is used again, so
+    convergence onto an equilibrium with slack strings stays quadratic.
     """
     if linear_solver not in ("auto", "dense", "sparse"):
         raise StructureError(f"linear_solver must be 'auto', 'dense' or 'sparse', got {linear_solver!r}")
@@ -222,7 +281,7 @@ def newton(structure: Structure, config: Configuration, *, tol: float, max_iter:
     label = f"newton ({'dense' if dense else 'sparse'})"
     while True:
         config, it, status = _newton_iterations(structure, config, tol, max_iter, it, callback,
-                                                dense, shift, max_step, history)
+                                                dense, shift, max_step, history, slack_stiffness)
         if status != 0 or not check_stability:
             return _result(structure, config, status, it, history, label, dense, check_stability)
         low = lowest_mode(tangent_stiffness(structure, config, sparse=not dense), config, dense=dense)
@@ -257,10 +316,12 @@ def capped_step(structure: Structure, dU: np.ndarray, limit: float) -> np.ndarra
     return dU * (limit / bound) if bound > limit else dU
 
 
-def _newton_iterations(structure, config, tol, max_iter, it, callback, dense, u, max_step, history):
+def _newton_iterations(structure, config, tol, max_iter, it, callback, dense, u, max_step, history,
+                       slack_stiffness=True):
     """Iterate until the residual is below ``tol``; returns (config, iterations, status)."""
     V = potential_energy(structure, config.coords)
     size = structure_size(structure)
+    slack_before = None
     while True:
         ob = out_of_balance(structure, config)
         if diverged(config, size):
@@ -271,7 +332,11 @@ def _newton_iterations(structure, config, tol, max_iter, it, callback, dense, u,
             return config, it, 0
         if it >= max_iter:
             return config, it, 1
-        K = tangent_stiffness(structure, config, sparse=not dense)
+        slack = structure.is_string & (member_lengths(structure, config.coords) < structure.rest_lengths)
+        changing = slack_before is None or not np.array_equal(slack, slack_before)
+        slack_before = slack
+        K = tangent_stiffness(structure, config, sparse=not dense,
+                              slack_elastic=slack_stiffness and changing and bool(slack.any()))
         keep = _moving_coordinates(config)
         P = ob.generalized[keep]
         Kk = K[np.ix_(keep, keep)] if dense else K[keep][:, keep]
@@ -358,7 +423,8 @@ def _escape_saddle(structure: Structure, config: Configuration, v: np.ndarray) -
     return best
 
 
-def _result(structure, config, status, it, history, method, dense, checked, low=None) -> FormFindResult:
+def _result(structure, config, status, it, history, method, dense, checked, low=None,
+            reason: str | None = None) -> FormFindResult:
     """Build the result: forces, lengths, residual and stability (computed if not given; a
     converged but unstable or neutral equilibrium becomes status 3 or 4)."""
     ob = out_of_balance(structure, config)
@@ -373,12 +439,15 @@ def _result(structure, config, status, it, history, method, dense, checked, low=
         message = "converged (stability not checked)"
     if status in (3, 4):
         message += f" (smallest scaled eigenvalue {low.scaled:.3g})"
-    if status in (6, 7):
+    if reason is not None:
+        message = reason
+    elif status in (6, 7):
         message += f" after {it} iterations"
     if status == 1:
         message += f" ({it}); residual {ob.residual:.3g} N"
     if status == 2:
         message += f" after {it} iterations; residual {ob.residual:.3g} N"
+        message += rounding_floor_note(structure, config.coords, ob.residual)
     return FormFindResult(
         success=status == 0, status=status, message=message, nodes=config.coords.copy(),
         member_forces=forces_from_lengths(structure, lengths), member_lengths=lengths,
@@ -388,6 +457,24 @@ def _result(structure, config, status, it, history, method, dense, checked, low=
         moment_residual=ob.moment_residual, energy=potential_energy(structure, config.coords),
         rigid_body_modes=low.rigid_body_modes if low is not None else 0,
         configuration=config, structure=structure)
+
+
+def rounding_floor_note(structure: Structure, coords: np.ndarray, residual: float) -> str:
+    """Why a residual cannot fall further: a member of axial stiffness ``EA/l0`` turns the
+    rounding of its end coordinates (``eps |x|``) into a force error ``EA/l0 eps |x|`` [N].
+    Very short (nearly coincident nodes) or very stiff members raise that floor above the
+    tolerance. Returns '' when the residual is well above the floor."""
+    reach = np.abs(coords).max(axis=1)
+    floors = (structure.EA / structure.rest_lengths) * np.finfo(float).eps * np.maximum(
+        reach[structure.members[:, 0]], reach[structure.members[:, 1]])
+    i = int(np.argmax(floors))
+    k, floor = structure.EA / structure.rest_lengths, float(floors[i])
+    if residual > 10.0 * floor:
+        return ""
+    return (f"; that is the rounding floor of member {structure.member_names[i]!r} (EA/l0 = {k[i]:.3g} N/m "
+            f"times eps times the coordinates: {floor:.3g} N; rest length {structure.rest_lengths[i]:.3g} m = "
+            f"{structure.rest_lengths[i] / structure_size(structure):.3g} of the structure size): raise tol "
+            f"above it or make the member longer or softer")
 
 
 def _dynamic_relaxation(structure, config, **kw):

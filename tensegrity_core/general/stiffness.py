@@ -92,12 +92,13 @@ class _MemberState:
     t: np.ndarray        # (m,) forces
 
 
-def _member_state(structure: Structure, config: Configuration) -> _MemberState:
+def _member_state(structure: Structure, config: Configuration, slack_elastic: bool = False) -> _MemberState:
     h = member_vectors(structure, config.coords)
     lengths = np.linalg.norm(h, axis=1)
     u = h / lengths[:, None]
+    k = structure.EA / structure.rest_lengths if slack_elastic else axial_stiffness(structure, lengths)
     return _MemberState(node_jacobians(config), u[:, :, None] * u[:, None, :], lengths,
-                        axial_stiffness(structure, lengths), forces_from_lengths(structure, lengths))
+                        k, forces_from_lengths(structure, lengths))
 
 
 def _element_matrices(config: Configuration, node_blocks: np.ndarray, J: np.ndarray) -> np.ndarray:
@@ -144,15 +145,19 @@ def stiffness_parts(structure: Structure, coords, *, sparse: bool = False) -> di
     return parts if sparse else {key: M.toarray() for key, M in parts.items()}
 
 
-def tangent_stiffness(structure: Structure, coords, *, sparse: bool = False):
+def tangent_stiffness(structure: Structure, coords, *, sparse: bool = False, slack_elastic: bool = False):
     """Exact tangent stiffness ``K_T = d^2V/dU^2`` (n_dof, n_dof) at ``coords``.
 
     ``coords`` is an (n, 3) array [m], a :class:`Configuration` or ``None`` (reference).
     Units follow ``U``: N/m between translations, N (= N m/m) between a translation and a
     rotation, N m/rad between rotations. Dense ``ndarray`` unless ``sparse=True`` (CSR).
+
+    ``slack_elastic=True`` gives slack strings their elastic stiffness ``EA/l0`` (as if they
+    could push): not the Hessian of ``V`` where a string is slack, but a better-conditioned
+    Newton matrix while strings are slack (see :func:`~.formfind.newton`).
     """
     config = as_configuration(structure, coords)
-    ms = _member_state(structure, config)
+    ms = _member_state(structure, config, slack_elastic)
     blocks = ms.k[:, None, None] * ms.uu + (ms.t / ms.lengths)[:, None, None] * (np.eye(3) - ms.uu)
     g = -(internal_nodal_forces(structure, config.coords, ms.t) + structure.external_forces)
     K = structure.stiffness_pattern.assemble(_element_matrices(config, blocks, ms.J), _body_blocks(config, g))

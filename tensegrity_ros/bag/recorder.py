@@ -100,6 +100,11 @@ class RecorderNode(Node):
         offers = [profile_to_dict(i.qos_profile) for i in infos]
         hashes = {str(i.topic_type_hash) for i in infos}
         request = request_for_offers(offers, self.depth)
+        if request["reliability"] == "reliable":
+            # keep_all: a reader that falls behind makes reliable writers hold and resend
+            # instead of overwriting its oldest unread sample (a 10 kHz command flood lost
+            # ~40 % with keep_last 1000); best-effort topics cannot be made lossless anyway.
+            request["history"] = "keep_all"
         self.writer.add_topic(TopicInfo(
             name=name, type=type_name, offered_qos_profiles=offers,
             type_description_hash=hashes.pop() if len(hashes) == 1 else ""))

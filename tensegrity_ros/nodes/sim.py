@@ -20,7 +20,9 @@ core simulator to ``real_time_factor`` x elapsed wall time (0 = as fast as possi
 publish period of simulated time per tick). Bad commands (wrong lengths, unknown names,
 NaN/inf, over ``max_force``) are rejected with a throttled warning naming the problem;
 publishing never stops and NaN is never integrated. After ``command_timeout`` seconds
-without a valid command the forces drop to ``safe_force``.
+without a valid command the forces drop to ``safe_force``. When ``lambda1/L`` or
+``lambda2/L`` falls below ``singularity_warning`` a throttled warning says which set is
+near and how near, before the simulation has to stop there.
 """
 
 from __future__ import annotations
@@ -42,8 +44,10 @@ from std_srvs.srv import Trigger
 from tensegrity_msgs.msg import ActuatorForces, MechanismState
 from visualization_msgs.msg import Marker, MarkerArray
 
+from tensegrity_core.class2 import dynamics_singularity
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.sim import Simulator, load_scene
+from tensegrity_core.sim.simulator import JointSample
 from tensegrity_ros.actuator_commands import CommandError, parse_command
 
 JOINT_NAMES = ["rho1", "rho2", "beta"]
@@ -91,6 +95,10 @@ class SimNode(Node):
             "do not start the clock until every output topic has this many subscribers "
             "(e.g. 1 for a recorder that must see the run from t = 0)", lo=0, hi=1000, read_only=True)
         self.publish_clock = declare(self, "publish_clock", True, "publish /clock from the simulation time", read_only=True)
+        self.singularity_warning = declare(
+            self, "singularity_warning", 0.05,
+            "warn (throttled) when lambda1/L or lambda2/L falls below this: the mass matrix grows like "
+            "1/lambda^2 and the simulation stops at 1e-3; 0 = never", lo=0.0, hi=1.0, read_only=True)
 
         try:
             self.scene = load_scene(scene_name)
@@ -219,11 +227,21 @@ class SimNode(Node):
             except TensegrityError as err:
                 self.fault = str(err)
                 self.get_logger().error(f"simulation stopped, state held: {err}")
-        self.publish()
+        js = self.publish()
+        self._warn_near_singular(js.q)
 
-    def publish(self) -> None:
+    def _warn_near_singular(self, q) -> None:
+        name, distance = dynamics_singularity(float(q[0]), float(q[1]), self.sim.scene.model.params)
+        if distance < self.singularity_warning:
+            self.get_logger().warning(
+                f"state near the singular set {name}: {name}/L = {distance:.3g} (rho1 = {q[0]:.4g} m, "
+                f"rho2 = {q[1]:.4g} m); accelerations lose accuracy like 1/{name}^2 and the simulation "
+                "stops at 1e-3", throttle_duration_sec=2.0)
+
+    def publish(self) -> JointSample:
         """Joint states, end-effector and clock every tick; the full state and the markers
-        (member forces: the expensive part of an observation) at their own rates."""
+        (member forces: the expensive part of an observation) at their own rates. Returns
+        the joint sample published."""
         js = self.sim.joint_sample()
         t = self._offset + js.t
         stamp = sim_time_msg(t)
@@ -252,6 +270,7 @@ class SimNode(Node):
             if want_markers:
                 self.pub_markers.publish(self._markers(header, obs))
                 self.published["markers"] += 1
+        return js
 
     def destroy_node(self) -> None:
         self._stop.set()

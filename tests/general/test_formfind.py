@@ -178,10 +178,17 @@ def test_no_equilibrium_reports_failure_without_raising():
 
 def test_runaway_is_reported_as_divergence():
     """Two free nodes on a string, one pushed by a load: the whole structure runs away
-    (the potential falls without bound); dynamic relaxation follows it and says so."""
+    (the potential falls without bound). form_find says so before iterating; dynamic
+    relaxation itself, run past that check, follows the runaway and says so too."""
+    from tensegrity_core.general.relaxation import dynamic_relaxation
+    from tensegrity_core.general.statics import as_configuration
+
     nodes = np.array([[0, 0, 0], [0, 0, 1.0]])
     s = Structure.from_arrays(nodes, [[0, 1]], EA=10.0, loads=[[0, 0, 0], [1.0, 0, 0]])
     r = form_find(s, method="dynamic_relaxation")
+    assert not r.success and r.status == 7 and r.iterations == 0
+    assert "no equilibrium exists" in r.message and "[1, 0, 0] N" in r.message
+    r = dynamic_relaxation(s, as_configuration(s, None), tol=1e-9)
     assert not r.success and r.status == 7 and "diverged" in r.message
 
 

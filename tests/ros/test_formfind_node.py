@@ -131,3 +131,34 @@ def test_a_long_request_neither_blocks_others_nor_runs_past_its_time_limit(formf
     res = slow.result()
     assert not res.success and "time limit of 5 s" in res.message
     assert quick_done - t0 < time.monotonic() - t0  # the quick answer came first
+
+
+def test_unbalanced_structure_says_there_is_no_equilibrium(formfind):
+    res = formfind(TABLE + "loads: {c1: [0, 0, -10]}\n")
+    assert not res.success and res.iterations == 0
+    assert "no equilibrium exists" in res.message and "[0, 0, -10] N" in res.message
+
+
+def test_bad_requests_among_concurrent_good_ones_each_get_their_own_answer(formfind):
+    """Ten calls in flight: valid tables, malformed YAML, an unknown node, inconsistent
+    sizes and an unbalanced table; every one answered, each with its own verdict."""
+    from tensegrity_msgs.srv import FindForm
+
+    cases = [(TABLE, None), ("nodes: [[0, 0, 0]\n  members: oops", "line"), (TABLE, None),
+             ("nodes: {a: [0,0,0], b: [1,0,0]}\nmembers:\n  - {nodes: [a, zz], EA: 1, rest_length: 1}", "zz"),
+             (TABLE, None), ("nodes: {a: [0,0,0], b: [1,0]}\nmembers:\n  - {nodes: [a, b], EA: 1, rest_length: 1}",
+                             "list of 3 numbers"),
+             (TABLE + "loads: {c1: [0, 0, -10]}\n", "no equilibrium exists"), (TABLE, None), (TABLE, None),
+             (TABLE, None)]
+    futures = [formfind.client.call_async(FindForm.Request(structure=text)) for text, _ in cases]
+    deadline = time.monotonic() + 120
+    while not all(f.done() for f in futures) and time.monotonic() < deadline:
+        time.sleep(0.02)
+    assert all(f.done() for f in futures)
+    for (_, why), f in zip(cases, futures):
+        res = f.result()
+        if why is None:
+            assert res.success, res.message
+            np.testing.assert_allclose(np.array(res.member_forces) / res.member_forces[0], [1, 1, 1, 3], rtol=1e-8)
+        else:
+            assert not res.success and why in res.message

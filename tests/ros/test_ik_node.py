@@ -116,3 +116,32 @@ def test_one_hundred_concurrent_calls_all_answered(ik_service):
         assert res.success, res.message
         assert res.solutions[0].rho1 == pytest.approx(0.2 + 0.005 * k, abs=1e-9)
         assert res.solutions[0].rho2 == pytest.approx(0.6, abs=1e-9)
+
+
+def test_bad_and_good_calls_interleaved_concurrently_all_answered(ik_service):
+    """100 calls in flight at once, every third malformed (NaN, seed of the wrong length,
+    unreachable): each gets its own answer, the bad ones success = false with a reason,
+    the good ones the right lengths (issue 9: services keep answering other callers)."""
+    from tensegrity_msgs.srv import SolveIK
+
+    requests = []
+    for k in range(100):
+        x, y = _fk(0.2 + 0.005 * k, 0.6)[:2]
+        kind = ("good", "nan", "seed", "unreachable")[k % 4] if k % 3 == 0 else "good"
+        if kind == "nan":
+            x = math.nan
+        seed = [0.1] if kind == "seed" else []
+        if kind == "unreachable":
+            y = 1.5
+        requests.append((kind, k, SolveIK.Request(x=x, y=y, seed=seed)))
+    futures = [ik_service.client.call_async(req) for _, _, req in requests]
+    for f in futures:
+        ik_service.executor.spin_until_future_complete(f, timeout_sec=60)
+    assert all(f.done() for f in futures)
+    for (kind, k, _), f in zip(requests, futures):
+        res = f.result()
+        if kind == "good":
+            assert res.success and res.solutions[0].rho1 == pytest.approx(0.2 + 0.005 * k, abs=1e-9)
+        else:
+            assert not res.success and res.message and not res.solutions
+            assert {"nan": "non-finite", "seed": "seed must be", "unreachable": "|y| > L"}[kind] in res.message

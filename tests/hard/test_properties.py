@@ -1,0 +1,117 @@
+"""Property-based tests over the workspace and over random structures (issue 9).
+
+Complements the hypothesis tests that exist (FK/IK round trips and Jacobians in
+tests/class2/test_ik.py, test_kinematics.py; M, C, H, grad U and the EOM Jacobian in
+tests/class2/test_dynamics_structure.py): here the general statics over random
+structures, the form-finding line search, conservation laws of the class-2 dynamics, and
+the conditioning measures near the singular sets.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+from scipy.integrate import solve_ivp
+
+from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics, inverse_kinematics
+from tensegrity_core.class2.dynamics import Class2Dynamics
+from tensegrity_core.general import Configuration, form_find, generalized_force, potential_energy, tangent_stiffness
+from tensegrity_core.general.formfind import line_search
+from tensegrity_core.general.statics import member_lengths, out_of_balance
+from tests.class2.strategies import configurations, parameter_sets, scaled
+from tests.hard.oracles import fk_residual
+from tests.hard.strategies import displacements, structures
+
+
+def _slack_switch(s, config, d, h) -> bool:
+    """Whether a string changes between slack and taut within +-h along d (a kink of V)."""
+    l0 = s.rest_lengths
+    signs = [np.sign(member_lengths(s, config.retract(t * d).coords) - l0) for t in (-h, 0.0, h)]
+    return bool(np.any(s.is_string & ((signs[0] != signs[1]) | (signs[1] != signs[2]))))
+
+
+@settings(max_examples=60)
+@given(structures(), st.integers(0, 2**31))
+def test_property_tangent_stiffness_symmetric_and_the_jacobian_of_the_force(s, seed):
+    """At a random configuration (off equilibrium), K_T is symmetric and, with the body
+    rotation rows corrected by 1/2 hat(M) (docs/general.md: -dM/dtheta = K_T + 1/2 hat(M),
+    the skew part a symmetric Hessian cannot carry), K_T d equals the central difference
+    -(P(U + h d) - P(U - h d)) / 2h to 1e-6 of |K_T| |d|."""
+    config = Configuration.initial(s).retract(displacements(s, seed))
+    K = tangent_stiffness(s, config)
+    scale = np.abs(K).max()
+    assert np.abs(K - K.T).max() <= 1e-12 * scale
+    d = displacements(s, seed + 1, 1.0)
+    d /= np.linalg.norm(d)
+    h = 1e-6
+    assume(not _slack_switch(s, config, d, h))
+    fd = -(generalized_force(s, config.retract(h * d)) - generalized_force(s, config.retract(-h * d))) / (2 * h)
+    P = generalized_force(s, config)
+    expected = K @ d
+    for slot in s.layout.body_dof:
+        rot = slot + 3 + np.arange(3)
+        expected[rot] += 0.5 * np.cross(P[rot], d[rot])
+    assert np.abs(fd - expected).max() <= 1e-6 * scale
+
+
+@settings(max_examples=40)
+@given(structures(bodies=False))
+def test_property_form_finding_line_search_never_raises_the_energy(s):
+    """Every accepted Newton step lowers the total potential energy (Eqs. 83-84), recomputed
+    here from the recorded iterates' energies and from V of the start."""
+    energies = []
+    r = form_find(s, max_iter=30, check_stability=False, callback=lambda info: energies.append(info.energy) and None)
+    V0 = potential_energy(s, s.nodes)
+    seq = np.array([V0] + energies)
+    assert np.all(np.diff(seq) <= 1e-12 * np.abs(seq).max() + 1e-300)
+    assert np.isfinite(r.nodes).all()
+
+
+@settings(max_examples=40)
+@given(structures(), st.integers(0, 2**31))
+def test_property_line_search_step_is_a_decrease_or_nothing(s, seed):
+    """Along any descent direction the line search returns x in [0, 1] with V(x) <= V(0)."""
+    config = Configuration.initial(s).retract(displacements(s, seed))
+    P = generalized_force(s, config)
+    assume(np.linalg.norm(P) > 0)
+    V0 = potential_energy(s, config.coords)
+    x, V1, c1 = line_search(s, config, 0.01 * P / np.abs(P).max(), V0, P)
+    assert 0.0 <= x <= 1.0 and V1 <= V0
+    assert V1 == potential_energy(s, c1.coords)
+
+
+@settings(max_examples=15)
+@given(st.floats(0.1, 0.8), st.floats(0.1, 0.8), st.floats(0.2, 1.4),
+       st.floats(-0.5, 0.5), st.floats(-0.5, 0.5), st.floats(-1.0, 1.0))
+def test_property_class2_energy_conserved_without_damping_or_forces(r1, r2, b, v1, v2, w):
+    """T + U is a first integral of the undamped, unforced equations (DOP853, rtol 1e-10):
+    relative drift over 3 s below 1e-8 from any state inside the domain."""
+    p = PAPER_PARAMS.with_overrides(c1=0.0, c2=0.0, c3=0.0, c4=0.0)
+    dyn = Class2Dynamics(p)
+    y0 = np.array([r1, r2, b, v1, v2, w])
+
+    def near_singular(t, y):
+        return min(4 - (y[0] + y[1]) ** 2, 1 - y[0] ** 2) - 1e-2
+    near_singular.terminal = True
+    sol = solve_ivp(lambda t, y: dyn.rhs(t, y, 0.0, 0.0), (0, 3.0), y0, method="DOP853", rtol=1e-10,
+                    atol=1e-12, events=near_singular)
+    E = np.array([dyn.energy(y) for y in sol.y.T])
+    assert np.abs(E - E[0]).max() <= 1e-8 * max(abs(E[0]), 1e-3)
+
+
+@given(configurations(margin=1e-3), parameter_sets())
+def test_property_conditioning_measures_are_consistent_with_the_error(rho, params):
+    """The conditioning measures bound the numerical error: FK of IK of FK is back within
+    1e-15 (1 + jacobian_cond) L of the target (50-digit check), and the reported distance
+    is the smallest of the documented set distances."""
+    fk = forward_kinematics(*scaled(rho, params), params)
+    assume(fk.in_paper_range and fk.y > 1e-9 * params.L)
+    res = inverse_kinematics(fk.x, fk.y, params)
+    assert res.success
+    c = res.valid[0]
+    err = fk_residual(c.rho1, c.rho2, fk.x, fk.y, params)
+    assert err <= 1e-14 * (1 + min(fk.jacobian_cond, 1e8)) * params.L
+    assert 0.0 <= fk.singularity_distance <= math.sqrt(2)

@@ -1,0 +1,53 @@
+"""The simulator node warns before the state reaches a singular set, then stops there with
+the state held and keeps publishing (issue 9), over DDS on loopback."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import pytest
+
+from tensegrity_core.class2 import PAPER_PARAMS, dynamics_singularity
+
+pytestmark = pytest.mark.ros
+
+
+def test_pushing_the_actuators_apart_warns_near_lambda1_then_stops_and_keeps_publishing(cli, ros_context):
+    """f = -3 N on both actuators (compressive) opens rho1 + rho2 towards 2L: the core run
+    reaches lambda1 = 1e-3 L at t = 1.036 s. The node warns (lambda1/L below 0.05) before
+    the stop, stops with the state held, and joint_states keep coming, finite."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from sensor_msgs.msg import JointState
+    from tensegrity_msgs.msg import ActuatorForces
+
+    sim = cli("node", "sim", "--ros-args", "-p", "command_timeout:=0.0", log_name="sim")
+    sim.wait_for("publishing at")
+    node = rclpy.create_node("singular_test", context=ros_context)
+    got: list[JointState] = []
+    node.create_subscription(JointState, "joint_states", got.append, 100)
+    pub = node.create_publisher(ActuatorForces, "actuator_forces", 10)
+    ex = SingleThreadedExecutor(context=ros_context)
+    ex.add_node(node)
+    deadline = time.monotonic() + 30
+    while pub.get_subscription_count() < 1 and time.monotonic() < deadline:
+        ex.spin_once(timeout_sec=0.05)
+    pub.publish(ActuatorForces(name=["f1", "f2"], force=[-3.0, -3.0]))
+    deadline = time.monotonic() + 30
+    while "simulation stopped" not in sim.stderr() and time.monotonic() < deadline:
+        ex.spin_once(timeout_sec=0.05)
+    log = sim.stderr()
+    assert "state near the singular set lambda1" in log
+    assert log.index("state near the singular set lambda1") < log.index("simulation stopped")
+    n_before = len(got)
+    end = time.monotonic() + 1.0
+    while time.monotonic() < end:
+        ex.spin_once(timeout_sec=0.05)
+    assert len(got) - n_before >= 50                      # still publishing at ~100 Hz
+    last = got[-1].position
+    assert all(math.isfinite(v) for v in last)
+    name, distance = dynamics_singularity(last[0], last[1], PAPER_PARAMS)
+    assert name == "lambda1" and 1e-3 <= distance < 0.05     # held at the last good sample
+    assert [list(m.position) for m in got[-20:]] == [list(last)] * 20
+    assert sim.stop() == 0
