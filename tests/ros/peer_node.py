@@ -37,7 +37,7 @@ class Peer(Node):
 
 
 def main() -> int:
-    rclpy.init()
+    rclpy.init(args=sys.argv)
     node = Peer()
     print("ready", flush=True)
     try:

@@ -43,15 +43,17 @@ def test_message_and_service_between_two_processes():
     from tensegrity_msgs.msg import ActuatorForces
     from tensegrity_msgs.srv import SolveIK
 
+    # a namespace of its own, so nodes of other tests in this domain cannot answer instead
+    namespace = f"/smoke_{os.getpid()}"
     peer = subprocess.Popen(
-        [sys.executable, str(Path(__file__).with_name("peer_node.py"))],
+        [sys.executable, str(Path(__file__).with_name("peer_node.py")), "--ros-args", "-r", f"__ns:={namespace}"],
         stdout=subprocess.PIPE, text=True, env=dict(os.environ),
     )
     ctx = rclpy.Context()
     rclpy.init(context=ctx)
     try:
         assert peer.stdout.readline().strip() == "ready"
-        node = Node("smoke_client", context=ctx)
+        node = Node("smoke_client", namespace=namespace, context=ctx)
         got: list[ActuatorForces] = []
         node.create_subscription(ActuatorForces, "pong", got.append, 10)
         pub = node.create_publisher(ActuatorForces, "ping", 10)
