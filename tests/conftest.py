@@ -13,8 +13,10 @@ import random
 
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 os.environ.setdefault("ROS_DOMAIN_ID", str(100 + random.randrange(100)))
+_BASE_DOMAIN = int(os.environ["ROS_DOMAIN_ID"])
 os.environ.setdefault("MPLBACKEND", "Agg")
 
+import pytest  # noqa: E402
 from hypothesis import HealthCheck, settings  # noqa: E402
 
 settings.register_profile(
@@ -27,3 +29,16 @@ settings.register_profile(
 )
 settings.register_profile("dev", deadline=None, max_examples=2000)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _ros_domain_per_module(request):
+    """Each test module talks in its own ROS domain (the run's base + a per-module offset),
+    so a node that another module left shutting down can never answer in its place."""
+    import zlib
+
+    offset = zlib.crc32(request.module.__name__.encode()) % 29
+    previous = os.environ["ROS_DOMAIN_ID"]
+    os.environ["ROS_DOMAIN_ID"] = str((_BASE_DOMAIN + offset) % 230 + 1)
+    yield
+    os.environ["ROS_DOMAIN_ID"] = previous
