@@ -31,6 +31,7 @@ from tensegrity_ros.bag.qos import dict_to_profile, offer_for_replay
 from tensegrity_ros.bag.reader import BagReader
 from tensegrity_ros.bag.recorder import message_class
 from tensegrity_ros.bag.schedule import PlaybackOptions, timeline
+from tensegrity_ros.matching import wait_for_matches
 
 CLOCK_TOPIC = "/clock"
 _SPIN_NS = 1_000_000  # poll the clock for the last 1 ms before an event
@@ -105,16 +106,12 @@ class PlayerNode(Node):
 
     def wait_for_subscribers(self, timeout_s: float, should_stop: Callable[[], bool] = lambda: False
                              ) -> bool:
-        """Wait until every publisher has a matched subscription; False on timeout."""
+        """Wait until every publisher has a matched subscription, matched on both sides
+        (:func:`tensegrity_ros.matching.wait_for_matches`); False on timeout."""
         pubs = list(self.publishers_by_topic.values())
         if self.clock_publisher is not None:
             pubs.append(self.clock_publisher)
-        deadline = time.monotonic() + timeout_s
-        while not all(p.get_subscription_count() > 0 for p in pubs):
-            if time.monotonic() > deadline or should_stop():
-                return False
-            time.sleep(0.01)
-        return True
+        return wait_for_matches(pubs, 1, timeout_s, should_stop=should_stop)
 
     def play(self, should_stop: Callable[[], bool] = lambda: False,
              now_ns: Callable[[], int] = time.monotonic_ns,

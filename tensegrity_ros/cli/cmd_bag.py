@@ -135,7 +135,8 @@ def register(sub) -> None:
     p.add_argument("-d", "--delay", type=float, default=0.0, metavar="S",
                    help="wait S seconds after creating the publishers")
     p.add_argument("--wait-for-subscribers", type=float, default=None, metavar="S",
-                   help="first wait up to S seconds until every topic has a subscriber")
+                   help="first wait up to S seconds until every topic has a subscriber "
+                   "(matched for 0.25 s, so that the subscriber's side has matched too)")
     p.set_defaults(func=_play)
 
     p = sub.add_parser("bag", help="inspect, plot or repair a bag")

@@ -115,14 +115,12 @@ def _send_forces(args) -> int:
         raise CliError(str(err)) from None
     rclpy, node = _client_node("tensegrity_send_forces", args.ros_args)
     from tensegrity_msgs.msg import ActuatorForces
+    from tensegrity_ros.matching import wait_for_matches
 
     pub = node.create_publisher(ActuatorForces, args.topic, 10)
     try:
         # wait briefly for the subscriber so a one-shot command is not lost
-        for _ in range(50):
-            if pub.get_subscription_count() > 0:
-                break
-            rclpy.spin_once(node, timeout_sec=0.1)
+        wait_for_matches([pub], 1, 5.0, poll=lambda s: rclpy.spin_once(node, timeout_sec=s))
         period = 1.0 / args.rate if args.rate > 0 else None
         while True:
             msg = ActuatorForces(name=names, force=args.forces)

@@ -49,6 +49,7 @@ from tensegrity_core.errors import TensegrityError
 from tensegrity_core.sim import Simulator, load_scene
 from tensegrity_core.sim.simulator import JointSample
 from tensegrity_ros.actuator_commands import CommandError, parse_command
+from tensegrity_ros.matching import wait_for_matches
 
 JOINT_NAMES = ["rho1", "rho2", "beta"]
 #: Catch-up limit: if ticks fall this far behind wall time, the simulation slips instead.
@@ -161,9 +162,8 @@ class SimNode(Node):
         if self.wait_for_subscribers > 0:
             publishers = (self.pub_joints, self.pub_ee, self.pub_state, self.pub_markers, self.pub_clock)
             self.get_logger().info(f"waiting for {self.wait_for_subscribers} subscriber(s) on every output topic")
-            while not self._stop.is_set() and any(
-                    p.get_subscription_count() < self.wait_for_subscribers for p in publishers):
-                self._stop.wait(0.02)
+            wait_for_matches(publishers, self.wait_for_subscribers,
+                             should_stop=self._stop.is_set, poll=self._stop.wait)
             with self._lock:
                 self._start(time.monotonic())
         deadline = time.monotonic()

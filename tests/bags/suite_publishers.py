@@ -38,6 +38,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from tensegrity_core.class2.geometry import MEMBERS, NODE_NAMES, member_lengths, node_positions
 from tensegrity_core.class2.params import Class2Params
+from tensegrity_ros.matching import wait_for_matches
 
 PARAMS = Class2Params()
 STAMP0_NS = 1_700_000_000_000_000_000   # header stamp of message 0 of every topic
@@ -166,12 +167,7 @@ class SuitePublisher(Node):
         self.published = {t: 0 for t in self.rates}
 
     def wait_for_subscribers(self, timeout_s: float) -> bool:
-        deadline = time.monotonic() + timeout_s
-        while not all(p.get_subscription_count() > 0 for p in self.pubs.values()):
-            if time.monotonic() > deadline:
-                return False
-            time.sleep(0.01)
-        return True
+        return wait_for_matches(self.pubs.values(), 1, timeout_s)
 
     def run(self, *, counts: dict[str, int] | None = None, duration_s: float | None = None
             ) -> dict[str, int]:

@@ -22,6 +22,7 @@ from tensegrity_ros.bag.metadata import read_metadata
 from tensegrity_ros.bag.reader import BagReader
 from tensegrity_ros.bag.recorder import message_class
 from tensegrity_ros.bag.repair import repair_bag
+from tensegrity_ros.matching import wait_for_matches
 from tests.bags.compare import plain, read_with_mcap_ros2, read_with_rosbags
 from tests.bags.conftest import run_cli
 from tests.bags.suite_publishers import TYPE_NAMES, SuitePublisher, make_message
@@ -108,11 +109,7 @@ def test_named_topics_only_and_namespace(cli, ros_context, tmp_path):
     pubs = {"joint_states": node.create_publisher(JointState, "joint_states", QoSProfile(depth=100)),
             "end_effector": node.create_publisher(PointStamped, "end_effector", QoSProfile(depth=100)),
             "markers": node.create_publisher(message_class(TYPE_NAMES["markers"]), "markers", 10)}
-    deadline = time.monotonic() + 60
-    while not (pubs["joint_states"].get_subscription_count() and
-               pubs["end_effector"].get_subscription_count()):
-        assert time.monotonic() < deadline
-        time.sleep(0.02)
+    assert wait_for_matches([pubs["joint_states"], pubs["end_effector"]], 1, 60)
     for k in range(20):
         pubs["joint_states"].publish(make_message("joint_states", k, RATES["joint_states"]))
         pubs["end_effector"].publish(make_message("end_effector", k, RATES["end_effector"]))

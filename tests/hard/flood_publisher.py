@@ -46,13 +46,12 @@ def main(argv=None) -> int:
     from rclpy.qos import QoSProfile
     from tensegrity_msgs.msg import ActuatorForces
 
+    from tensegrity_ros.matching import wait_for_matches
+
     rclpy.init()
     node = rclpy.create_node("flood_publisher")
     pub = node.create_publisher(ActuatorForces, "actuator_forces", QoSProfile(depth=args.count))
-    deadline = time.monotonic() + 60
-    while pub.get_subscription_count() < args.subscribers and time.monotonic() < deadline:
-        time.sleep(0.05)
-    time.sleep(0.5)                                   # let discovery settle on both sides
+    wait_for_matches([pub], args.subscribers, 60, settle_s=0.5)
     msgs = []
     for k in range(args.count):
         _, names, forces = PATTERN[k % len(PATTERN)]

@@ -9,6 +9,7 @@ import time
 import pytest
 
 from tensegrity_core.class2 import PAPER_PARAMS, dynamics_singularity
+from tensegrity_ros.matching import wait_for_matches
 
 pytestmark = pytest.mark.ros
 
@@ -30,9 +31,7 @@ def test_pushing_the_actuators_apart_warns_near_lambda1_then_stops_and_keeps_pub
     pub = node.create_publisher(ActuatorForces, "actuator_forces", 10)
     ex = SingleThreadedExecutor(context=ros_context)
     ex.add_node(node)
-    deadline = time.monotonic() + 30
-    while pub.get_subscription_count() < 1 and time.monotonic() < deadline:
-        ex.spin_once(timeout_sec=0.05)
+    wait_for_matches([pub], 1, 30, poll=lambda s: ex.spin_once(timeout_sec=s))
     pub.publish(ActuatorForces(name=["f1", "f2"], force=[-3.0, -3.0]))
     deadline = time.monotonic() + 30
     while "simulation stopped" not in sim.stderr() and time.monotonic() < deadline:
