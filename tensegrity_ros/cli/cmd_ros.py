@@ -148,9 +148,14 @@ def _call_service(args, node_name: str, srv_type, request):
         if not client.wait_for_service(timeout_sec=args.timeout):
             raise CliError(f"service {node.resolve_service_name(args.service)} not available after "
                            f"{args.timeout:g} s (is the suite up? `tensegrity up`)", code=3)
+        from rclpy.executors import SingleThreadedExecutor
+
+        from tensegrity_ros.futures import spin_until_done
+
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
         future = client.call_async(request)
-        rclpy.spin_until_future_complete(node, future, timeout_sec=args.timeout)
-        if not future.done():
+        if not spin_until_done(executor, future, args.timeout):
             raise CliError(f"no answer from {args.service} within {args.timeout:g} s", code=3)
         return future.result()
     finally:

@@ -7,6 +7,8 @@ from concurrent.futures import wait
 
 import pytest
 
+from tensegrity_ros.futures import spin_until_done
+
 pytestmark = pytest.mark.ros
 
 
@@ -39,8 +41,7 @@ def ik_service(tmp_path_factory):
 
     def call(x, y, seed=()):
         future = client.call_async(SolveIK.Request(x=x, y=y, seed=list(seed)))
-        executor.spin_until_future_complete(future, timeout_sec=30)
-        assert future.done(), "no answer"
+        assert spin_until_done(executor, future, 30), "no answer"
         return future.result()
 
     call.client, call.executor = client, executor
@@ -109,7 +110,7 @@ def test_one_hundred_concurrent_calls_all_answered(ik_service):
     targets = [(_fk(0.2 + 0.005 * k, 0.6)[:2]) for k in range(100)]
     futures = [ik_service.client.call_async(SolveIK.Request(x=x, y=y)) for x, y in targets]
     for f in futures:
-        ik_service.executor.spin_until_future_complete(f, timeout_sec=60)
+        spin_until_done(ik_service.executor, f, 60)
     assert all(f.done() for f in futures)
     for k, f in enumerate(futures):
         res = f.result()
@@ -136,7 +137,7 @@ def test_bad_and_good_calls_interleaved_concurrently_all_answered(ik_service):
         requests.append((kind, k, SolveIK.Request(x=x, y=y, seed=seed)))
     futures = [ik_service.client.call_async(req) for _, _, req in requests]
     for f in futures:
-        ik_service.executor.spin_until_future_complete(f, timeout_sec=60)
+        spin_until_done(ik_service.executor, f, 60)
     assert all(f.done() for f in futures)
     for (kind, k, _), f in zip(requests, futures):
         res = f.result()

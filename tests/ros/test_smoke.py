@@ -42,6 +42,7 @@ def test_message_and_service_between_two_processes():
     from rclpy.node import Node
     from tensegrity_msgs.msg import ActuatorForces
     from tensegrity_msgs.srv import SolveIK
+    from tensegrity_ros.futures import spin_until_done
 
     # a namespace of its own, so nodes of other tests in this domain cannot answer instead
     namespace = f"/smoke_{os.getpid()}"
@@ -71,7 +72,7 @@ def test_message_and_service_between_two_processes():
         assert list(got[0].force) == [3.0, -4.0]
 
         future = client.call_async(SolveIK.Request(x=0.25, y=0.5))
-        executor.spin_until_future_complete(future, timeout_sec=20.0)
+        assert spin_until_done(executor, future, 20.0)
         res = future.result()
         assert res is not None and res.success
         assert (res.solutions[0].rho1, res.solutions[0].rho2) == (0.25, 0.5)
