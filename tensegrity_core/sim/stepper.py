@@ -52,6 +52,15 @@ class _Constant:
         return self.y.copy()
 
 
+def _dense_jacobian(jac):
+    """LSODA (ODEPACK) takes only dense Jacobians; the general models return sparse ones
+    (a sparse Jacobian crashed LSODA as soon as it switched to its stiff method)."""
+    def dense(t, y):
+        J = jac(t, y)
+        return J.toarray() if hasattr(J, "toarray") else J
+    return dense
+
+
 class Stepper:
     """Integrates ``model.fun`` from ``(t0, y0)`` on demand.
 
@@ -68,7 +77,7 @@ class Stepper:
         self.method = method
         self.options = dict(rtol=rtol, atol=atol, max_step=max_step)
         if method in IMPLICIT and getattr(model, "jac", None) is not None:
-            self.options["jac"] = model.jac
+            self.options["jac"] = _dense_jacobian(model.jac) if method == "LSODA" else model.jac
         self.t_end = t_end
         self.solver = None
         self._nfev_done = 0
