@@ -13,7 +13,8 @@ alive and steps it itself:
   state and mode and the solver restarts;
 - the solver restarts at input breakpoints (its ``t_bound`` is the next one), when an input
   changed (:meth:`restart`) and after the model re-charts its coordinates. A restart keeps
-  the last step size, so it costs no initial-step search. After an input change the first
+  the last step size, so it costs no initial-step search (except LSODA, see
+  ``FRESH_START``). After an input change the first
   solver ends at the target of the next :meth:`advance` (the ROS node's pattern: a new
   command every tick): a step past it would be thrown away at the next change, after paying
   for its dense output to interpolate the target.
@@ -36,6 +37,10 @@ from tensegrity_core.sim.errors import SimulationError
 SOLVERS = {"RK23": RK23, "RK45": RK45, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA}
 #: Methods that use a Jacobian.
 IMPLICIT = ("Radau", "BDF", "LSODA")
+#: Methods that choose their own first step after a restart: LSODA restarts in its
+#: non-stiff (Adams) mode, which cannot take the step its stiff mode had reached (the stiff
+#: fold failed with "repeated convergence failures" right after its first fold event).
+FRESH_START = ("LSODA",)
 #: How many times a failing step is retried with a smaller first step.
 MAX_RETRIES = 30
 
@@ -122,7 +127,7 @@ class Stepper:
             bound = t_target
         self._to_target = False
         first = None
-        if self._h is not None:
+        if self._h is not None and self.method not in FRESH_START:
             first = min(self._h, bound - t0, self.options["max_step"])
         self.solver = SOLVERS[self.method](self.model.fun, t0, y0, bound, first_step=first, **self.options)
 

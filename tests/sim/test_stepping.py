@@ -203,3 +203,18 @@ def test_implicit_methods_take_a_sparse_model_jacobian(method):
     stepper.advance(2.0)
     assert model.jac_calls > 0
     np.testing.assert_allclose(stepper.y, [math.exp(-2.0), 0.0], rtol=1e-6, atol=1e-12)
+
+
+def test_lsoda_runs_the_stiff_fold_through_its_events():
+    """LSODA restarted after an event with the step its stiff mode had reached used to fail
+    at the first fold (t = 1.411 s, "repeated convergence failures"); it now chooses its own
+    first step and agrees with Radau."""
+    d = dict(load_scene("stiff_fold").data)
+    d["duration"] = 2.0
+    d["integrator"] = {"method": "LSODA", "rtol": 1e-8, "atol": 1e-11}
+    lsoda = simulate(load_scene(d))
+    assert lsoda.success, lsoda.message
+    assert any(kind == "fold" for _, kind, _ in lsoda.events)
+    d["integrator"] = {"method": "Radau", "rtol": 1e-10, "atol": 1e-13}
+    radau = simulate(load_scene(d))
+    assert np.abs(lsoda.nodes - radau.nodes).max() < 1e-6
