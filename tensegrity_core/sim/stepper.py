@@ -177,6 +177,7 @@ class Stepper:
                                           t=t_old) from None
                 h = (self._h or abs(self.t_end - t_old) or 1e-3) / 8.0
                 self._h = h
+                self._nfev_done += solver.nfev
                 self._seg = (t_old, t_old)
                 self._dense = _Constant(y_old)
                 self._new_solver(self.t_end)

@@ -218,3 +218,15 @@ def test_lsoda_runs_the_stiff_fold_through_its_events():
     d["integrator"] = {"method": "Radau", "rtol": 1e-10, "atol": 1e-13}
     radau = simulate(load_scene(d))
     assert np.abs(lsoda.nodes - radau.nodes).max() < 1e-6
+
+
+def test_evaluations_are_counted_across_step_retries():
+    """Near a singular set trial stages leave the domain and steps are retried with a fresh
+    solver; the evaluations of the abandoned solvers count too (they were dropped:
+    64 evaluations reported for 393 DOP853 steps, which take 12 each)."""
+    traj = simulate(class2_scene(effects=["inertia", "springs"], inputs={"f1": 0.0, "f2": 0.0},
+                                 initial={"q": [0.6, 0.5, 1.0], "qdot": [0.3, -0.2, 0.5]}, duration=195.0,
+                                 model={"kind": "class2", "params": {"L": 1.0, "k": 1.0, "c": 0.0, "m": 2.0}},
+                                 integrator={"method": "DOP853", "rtol": 1e-6, "atol": 1e-8}, output={"rate": 1}))
+    assert not traj.success and "lambda1" in traj.message          # the motion reaches s = 2L at ~191.5 s
+    assert traj.stats["nfev"] >= 12 * traj.stats["steps"]
