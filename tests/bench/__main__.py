@@ -1,8 +1,18 @@
-"""``python -m tests.bench [--full] [--only GROUP] [--json FILE] [--plot-dir DIR]``"""
+"""``python -m tests.bench [--full] [--only GROUP[:FUNCTION]] [--json FILE] [--plot-dir DIR] [--data-dir DIR]``
+
+Runs every benchmark (``tests/bench/bench_*.py``), prints one table, and compares each row
+with its baseline measured in the same run (ratios: these machines are shared and noisy).
+Quick mode (default) is the CI smoke run, seconds per group, and writes files only where
+asked; ``--full`` is the docs run and by default writes the table as
+``docs/bench/results.json``, the raw data behind the plots into ``docs/bench/`` and the
+plots into ``docs/img/performance/`` (see ``docs/performance.md``); rows of groups not
+run keep their earlier values in that JSON file.
+"""
 
 from __future__ import annotations
 
 import argparse
+import gc
 import importlib
 import json
 import pkgutil
@@ -16,22 +26,40 @@ from tests.bench import harness
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m tests.bench")
     ap.add_argument("--full", action="store_true", help="full mode (docs figures); default quick")
-    ap.add_argument("--only", action="append", default=[], help="run only these groups")
+    ap.add_argument("--only", action="append", default=[], help="run only these groups (or GROUP:FUNCTION)")
     ap.add_argument("--json", default=None, help="write the rows as JSON to this file")
     ap.add_argument("--plot-dir", default=None, help="write plots (PNG) into this folder")
+    ap.add_argument("--data-dir", default=None, help="write the data behind the plots (JSON) here")
     args = ap.parse_args(argv)
+    if args.full:
+        docs = Path(__file__).resolve().parents[2] / "docs"
+        args.json = args.json or str(docs / "bench" / "results.json")
+        args.plot_dir = args.plot_dir or str(docs / "img" / "performance")
+        args.data_dir = args.data_dir or str(docs / "bench")
 
     pkg_path = Path(__file__).parent
     for m in sorted(pkgutil.iter_modules([str(pkg_path)])):
         if m.name.startswith("bench_"):
             importlib.import_module(f"tests.bench.{m.name}")
-    ctx = harness.Context(quick=not args.full, plot_dir=args.plot_dir)
+    groups = {group for group, _ in harness.REGISTRY}
+    names = {f"{group}:{fn.__name__}" for group, fn in harness.REGISTRY}
+    unknown = sorted(set(args.only) - groups - names)
+    if unknown:
+        ap.error(f"unknown group(s) {', '.join(unknown)}; the groups are {', '.join(sorted(groups))} "
+                 "(GROUP:FUNCTION picks one benchmark)")
+    ctx = harness.Context(quick=not args.full, plot_dir=args.plot_dir, data_dir=args.data_dir)
     rows: list[harness.Row] = []
+    ran = set()
     for group, fn in harness.REGISTRY:
-        if args.only and group not in args.only:
+        if args.only and group not in args.only and f"{group}:{fn.__name__}" not in args.only:
             continue
         print(f"== {group}: {fn.__name__}", file=sys.stderr, flush=True)
-        rows.extend(fn(ctx))
+        gc.collect()                 # the last benchmark's garbage is not the next one's cost
+        new_rows = fn(ctx)
+        for r in new_rows:
+            r.bench = fn.__name__
+        rows.extend(new_rows)
+        ran.add((group, fn.__name__))
     by_name = {(r.group, r.name): r for r in rows}
     for r in rows:
         if r.baseline and (r.group, r.baseline) in by_name and r.value:
@@ -42,9 +70,25 @@ def main(argv=None) -> int:
         ratio = f"{r.ratio:10.2f}x" if r.ratio is not None else ""
         print(f"{r.group:10} {r.name:{w}} {r.value:12.4g} {r.unit:8} {ratio:>12}  {r.target} {r.note}".rstrip())
     if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps([asdict(r) for r in rows], indent=2))
+        whole = {g for g in groups if all((g, fn.__name__) in ran for gg, fn in harness.REGISTRY if gg == g)}
+        _write_rows(Path(args.json), rows, ran, whole)
     return 0
+
+
+def _write_rows(path: Path, rows, ran: set, whole_groups: set) -> None:
+    """Write the rows as JSON; rows of benchmarks not run this time are kept from the file,
+    so ``--full --only GROUP[:FUNCTION]`` refreshes part of the docs' table (rows that do not
+    name their benchmark go only when their whole group ran)."""
+    kept = []
+    if path.exists():
+        try:
+            kept = [r for r in json.loads(path.read_text())
+                    if (r.get("group"), r.get("bench")) not in ran
+                    and not (not r.get("bench") and r.get("group") in whole_groups)]
+        except (ValueError, AttributeError):
+            kept = []
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(kept + [asdict(r) for r in rows], indent=2, default=str))
 
 
 if __name__ == "__main__":

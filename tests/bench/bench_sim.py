@@ -29,19 +29,7 @@ import time
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from tests.bench.harness import Context, Row, benchmark, time_per_call
-
-
-def _best(fn, repeat: int, min_time: float = 0.2):
-    """Best wall time of ``fn()`` over at least ``repeat`` runs and ``min_time`` seconds (a
-    millisecond run gets as fair a chance at a quiet moment as a long one), and its result."""
-    best, out, spent, n = float("inf"), None, 0.0, 0
-    while n < repeat or spent < min_time:
-        t0 = time.perf_counter()
-        out = fn()
-        dt = time.perf_counter() - t0
-        best, spent, n = min(best, dt), spent + dt, n + 1
-    return best, out
+from tests.bench.harness import Context, Row, benchmark, best_run, time_per_call
 
 
 def _scene_dict(name: str = "paper_fold") -> dict:
@@ -118,12 +106,12 @@ def effect_cost(ctx: Context) -> list[Row]:
                 rows.append(Row("sim", f"rhs: {k}", rhs[k] * 1e6, "us"))
             else:
                 rows.append(Row("sim", f"rhs: {k}", rhs[k] * 1e6, "us", baseline=base_rhs, note=note))
-        run_base, _ = _best(lambda: simulate(scene), repeat)
+        run_base, _ = best_run(lambda: simulate(scene), repeat)
         rows.append(Row("sim", "run 5 s: inertia + springs + fold limit", run_base, "s"))
         for k, (sc, _, _) in variants.items():
             if sc is None or sc is scene:
                 continue
-            run_e, traj = _best(lambda: simulate(sc), repeat)
+            run_e, traj = best_run(lambda: simulate(sc), repeat)
             rows.append(Row("sim", f"run 5 s: {k}", run_e, "s", baseline="run 5 s: inertia + springs + fold limit",
                             note=f"{traj.stats.get('nfev', 0)} evaluations, {len(traj.events)} events"))
     return rows
@@ -144,7 +132,7 @@ def paper_real_time(ctx: Context) -> list[Row]:
         for method in ("DOP853", "LSODA", "RK45"):
             d["integrator"]["method"] = method
             scene = load_scene(d)
-            wall, traj = _best(lambda: simulate(scene), repeat)
+            wall, traj = best_run(lambda: simulate(scene), repeat)
             err = float((np.abs(traj.states - ref.states) / scale).max())
             name = f"paper fold, 5 s, {method} rtol {scene.integrator.rtol:g}"
             rows.append(Row("sim", name, wall, "s", target="< 0.25 s (>= 20x real time)" if method == "DOP853" else "",
@@ -190,8 +178,8 @@ def quasi_static_speed(ctx: Context) -> list[Row]:
         d["model"]["structure"] = str(table.model.source)
         pairs.append(("table under load, 0.2 s", table, load_scene(d)))
         for label, dyn, qs in pairs:
-            t_dyn, traj_d = _best(lambda: simulate(dyn), repeat)
-            t_qs, traj_q = _best(lambda: simulate(qs), repeat)
+            t_dyn, traj_d = best_run(lambda: simulate(dyn), repeat)
+            t_qs, traj_q = best_run(lambda: simulate(qs), repeat)
             rows.append(Row("sim", f"{label}: dynamic", t_dyn, "s", note=f"{len(traj_d)} samples"))
             rows.append(Row("sim", f"{label}: quasi-static", t_qs, "s", baseline=f"{label}: dynamic", target=">= 10x",
                             note=f"{traj_q.stats}"))
@@ -262,8 +250,9 @@ def stiff(ctx: Context) -> list[Row]:
     rows = []
     with threadpool_limits(1):
         d = _scene_dict("stiff_fold")
+        d["integrator"] = {"method": "Radau", "rtol": 1e-6, "atol": 1e-9}
         scene = load_scene(d)
-        wall, traj = _best(lambda: simulate(scene), 1 if ctx.quick else 3)
+        wall, traj = best_run(lambda: simulate(scene), 1 if ctx.quick else 3)
         rows.append(Row("sim", "stiff fold 5 s, Radau + analytic Jacobian", wall, "s",
                         note=f"{traj.stats['steps']} steps, {traj.stats['nfev']} evaluations"))
         from tensegrity_core.sim.class2_model import Class2Model
@@ -271,7 +260,7 @@ def stiff(ctx: Context) -> list[Row]:
         jac = Class2Model.jac
         try:
             Class2Model.jac = None                     # Radau then estimates Jacobians by differences
-            wall_fd, traj_fd = _best(lambda: simulate(scene), 1)
+            wall_fd, traj_fd = best_run(lambda: simulate(scene), 1)
         finally:
             Class2Model.jac = jac
         rows.append(Row("sim", "stiff fold 5 s, Radau + finite-difference Jacobian", wall_fd, "s",
@@ -281,7 +270,7 @@ def stiff(ctx: Context) -> list[Row]:
         short = 0.01
         d["integrator"]["method"] = "DOP853"
         explicit = load_scene(d).with_duration(short)
-        wall_ex, traj_ex = _best(lambda: simulate(explicit), 1)
+        wall_ex, traj_ex = best_run(lambda: simulate(explicit), 1)
         rows.append(Row("sim", "stiff fold 5 s, DOP853 (extrapolated)", wall_ex * 5.0 / short, "s",
                         baseline="stiff fold 5 s, Radau + analytic Jacobian",
                         note=f"{traj_ex.stats['steps']} steps for the first {short:g} s: the step is held at the "

@@ -8,8 +8,13 @@ and noisy), so a row may name its ``baseline`` row; the harness then reports the
 
 from __future__ import annotations
 
+import gc
+import json
+import math
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Callable
 
 REGISTRY: list[tuple[str, Callable]] = []
@@ -18,8 +23,32 @@ REGISTRY: list[tuple[str, Callable]] = []
 @dataclass
 class Context:
     quick: bool = True           # CI smoke mode (seconds) vs full mode (docs figures)
-    plot_dir: str | None = None  # where full mode writes PNGs
+    plot_dir: str | None = None  # where plots (PNG) go; None: no plots
+    data_dir: str | None = None  # where raw data (JSON) goes; None: not written
     extra: dict = field(default_factory=dict)
+
+    def plot_path(self, name: str) -> Path | None:
+        """``plot_dir/name`` (folder created), or None when no plots are wanted."""
+        if self.plot_dir is None:
+            return None
+        Path(self.plot_dir).mkdir(parents=True, exist_ok=True)
+        return Path(self.plot_dir) / name
+
+    def save_json(self, name: str, data) -> Path | None:
+        """Write ``data`` as ``data_dir/name`` (JSON); None when no data dir is set."""
+        if self.data_dir is None:
+            return None
+        Path(self.data_dir).mkdir(parents=True, exist_ok=True)
+        path = Path(self.data_dir) / name
+        path.write_text(json.dumps(data, indent=1, default=_jsonable))
+        return path
+
+
+def _jsonable(value):
+    """numpy scalars and arrays, and non-finite floats, for json.dumps."""
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
 
 
 @dataclass
@@ -32,6 +61,7 @@ class Row:
     target: str = ""              # the claim, e.g. "< 20 us" or ">= 50x"
     note: str = ""
     ratio: float | None = None    # filled in by the harness: baseline.value / value
+    bench: str = ""               # filled in by the harness: the benchmark function's name
 
 
 def benchmark(fn: Callable) -> Callable:
@@ -40,8 +70,40 @@ def benchmark(fn: Callable) -> Callable:
     return fn
 
 
+@contextmanager
+def no_gc():
+    """The garbage collector off while timing (as ``timeit`` does): a collection that an
+    earlier benchmark's garbage triggers would otherwise land on whoever runs next."""
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was:
+            gc.enable()
+
+
+def best_run(fn: Callable[[], object], repeat: int, min_time: float = 0.2, max_time: float = math.inf):
+    """``(best wall time, result)`` of ``fn()`` over at least ``repeat`` runs and
+    ``min_time`` s, a millisecond run getting as fair a chance at a quiet moment as a long
+    one; no repeat once ``max_time`` s are spent (noise matters little to a run that long)."""
+    best, out, spent, n = math.inf, None, 0.0, 0
+    while (n < repeat or spent < min_time) and not (n and spent > max_time):
+        with no_gc():
+            t0 = time.perf_counter()
+            out = fn()
+            dt = time.perf_counter() - t0
+        best, spent, n = min(best, dt), spent + dt, n + 1
+    return best, out
+
+
 def time_per_call(fn: Callable[[], object], *, min_time: float = 0.2, repeat: int = 5) -> float:
     """Best-of-``repeat`` seconds per call of ``fn``, each repeat running >= ``min_time``."""
+    with no_gc():
+        return _time_per_call(fn, min_time, repeat)
+
+
+def _time_per_call(fn, min_time: float, repeat: int) -> float:
     n = 1
     while True:
         t0 = time.perf_counter()
