@@ -17,6 +17,7 @@ import importlib
 import json
 import pkgutil
 import sys
+import time
 from dataclasses import asdict
 from pathlib import Path
 
@@ -55,7 +56,9 @@ def main(argv=None) -> int:
             continue
         print(f"== {group}: {fn.__name__}", file=sys.stderr, flush=True)
         gc.collect()                 # the last benchmark's garbage is not the next one's cost
+        started = time.perf_counter()
         new_rows = fn(ctx)
+        print(f"   {group}: {fn.__name__} took {time.perf_counter() - started:.1f} s", file=sys.stderr, flush=True)
         for r in new_rows:
             r.bench = fn.__name__
         rows.extend(new_rows)

@@ -218,7 +218,8 @@ def dynamics_class2(ctx: Context) -> list[Row]:
                             node[0].seconds, "s", target="on the front",
                             note=f"error {node[0].error:.1e}; " + ("on the front" if not beaten else
                                                                     f"beaten by {beaten[0].method} {beaten[0].setting:g}")))
-        points, info = scene_study(ctx, "stiff_fold", reference=("Radau", "BDF"), explicit_horizon=0.01,
+        points, info = scene_study(ctx, "stiff_fold", reference=("Radau", "BDF"),
+                                   explicit_horizon=0.001 if ctx.quick else 0.01,
                                    duration=1.0 if ctx.quick else None)
         _save(ctx, "stiff_fold", f"stiff fold (k_a/k = 1e6), {info['duration']:g} s (node-position error / L)",
               points, info)
