@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Iterable
 
 import rclpy
+from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
@@ -152,13 +153,30 @@ class PlayerNode(Node):
                 result.published[event.message.topic] += 1
         return result
 
+    def wait_for_all_acked(self, timeout_s: float) -> bool:
+        """Wait until every reliable subscriber acknowledged everything published (at most
+        ``timeout_s`` s in all); False if some did not. A writer that goes away first
+        cannot resend what its readers missed: the last messages of a replay were lost
+        that way under load."""
+        deadline = time.monotonic() + timeout_s
+        pubs = list(self.publishers_by_topic.values())
+        if self.clock_publisher is not None:
+            pubs.append(self.clock_publisher)
+        ok = True
+        for pub in pubs:
+            left = max(0.0, deadline - time.monotonic())
+            ok = pub.wait_for_all_acked(Duration(nanoseconds=int(left * 1e9))) and ok
+        return ok
+
 
 def play(bag: str, topics: Iterable[str] | None = None, opts: PlaybackOptions | None = None,
          *, delay_s: float = 0.0, wait_for_subscribers_s: float | None = None,
-         ros_args: list[str] | None = None,
+         wait_for_all_acked_s: float = 10.0, ros_args: list[str] | None = None,
          log: Callable[[str], None] | None = None) -> PlaybackResult:
     """Open ``bag`` and play it until the end (or forever with loop) or SIGINT/SIGTERM
-    (handled here: the player stops between two messages and exits cleanly)."""
+    (handled here: the player stops between two messages and exits cleanly). Before its
+    publishers go away it waits up to ``wait_for_all_acked_s`` s (0: not at all) until
+    every reliable subscriber acknowledged every message."""
     opts = opts or PlaybackOptions()
     if not delay_s >= 0:
         raise BagError(f"delay must be >= 0 s, got {delay_s!r}")
@@ -185,6 +203,9 @@ def play(bag: str, topics: Iterable[str] | None = None, opts: PlaybackOptions | 
             time.sleep(0.01)
         result = node.play(should_stop=stop)
         result.stopped = result.stopped or bool(stop_requests)
+        if wait_for_all_acked_s > 0 and not node.wait_for_all_acked(wait_for_all_acked_s):
+            log(f"warning: not every subscriber acknowledged every message within "
+                f"{wait_for_all_acked_s:g} s")
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)

@@ -51,7 +51,8 @@ def _play(args) -> int:
     opts = PlaybackOptions(rate=args.rate, start_offset_s=args.start_offset, loop=args.loop,
                            clock_hz=args.clock)
     result = play(args.bag, args.topics, opts, delay_s=args.delay,
-                  wait_for_subscribers_s=args.wait_for_subscribers, ros_args=args.ros_args)
+                  wait_for_subscribers_s=args.wait_for_subscribers,
+                  wait_for_all_acked_s=args.wait_for_all_acked, ros_args=args.ros_args)
     return 130 if result.stopped else 0
 
 
@@ -137,6 +138,9 @@ def register(sub) -> None:
     p.add_argument("--wait-for-subscribers", type=float, default=None, metavar="S",
                    help="first wait up to S seconds until every topic has a subscriber "
                    "(matched for 0.25 s, so that the subscriber's side has matched too)")
+    p.add_argument("--wait-for-all-acked", type=float, default=10.0, metavar="S",
+                   help="at the end wait up to S seconds until every reliable subscriber "
+                   "acknowledged every message (default 10; 0: exit at once)")
     p.set_defaults(func=_play)
 
     p = sub.add_parser("bag", help="inspect, plot or repair a bag")

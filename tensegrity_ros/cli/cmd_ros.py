@@ -132,6 +132,10 @@ def _send_forces(args) -> int:
             rclpy.spin_once(node, timeout_sec=period)
         if pub.get_subscription_count() == 0:
             print(f"warning: nobody subscribes to {node.resolve_topic_name(args.topic)}", file=sys.stderr)
+        else:   # a writer that goes away first cannot resend what a subscriber missed
+            from rclpy.duration import Duration
+
+            pub.wait_for_all_acked(Duration(seconds=2))
         return 0
     except KeyboardInterrupt:
         return 0
