@@ -59,6 +59,14 @@ def _history(structure, method: str, budget: float, **options):
     return np.array(its), np.array(res), np.array(secs), r
 
 
+def _thinned(history: dict, keep: int = 300) -> dict:
+    """A history with at most ~``keep`` iterations (log-spaced, the last one kept) for the
+    JSON file: dynamic relaxation runs tens of thousands of steps."""
+    n = len(history["iterations"])
+    idx = np.unique(np.r_[np.geomspace(1, max(n, 1), keep).astype(int) - 1, n - 1]) if n else np.array([], int)
+    return {k: (v[idx] if isinstance(v, np.ndarray) else v) for k, v in history.items()}
+
+
 @benchmark
 def formfind_work_precision(ctx: Context) -> list[Row]:
     from tensegrity_core.general import tensegrity_spine
@@ -90,7 +98,7 @@ def formfind_work_precision(ctx: Context) -> list[Row]:
                 rows.append(Row("precision_static", f"form-finding {sname}, {mname}",
                                 float(secs[-1]) if secs.size else math.nan, "s",
                                 note="residual/EA -> " + "; ".join(reached)))
-    ctx.save_json("precision_formfind.json", data)
+    ctx.save_json("precision_formfind.json", {s: {m: _thinned(h) for m, h in by.items()} for s, by in data.items()})
     path = ctx.plot_path("wp_formfind.png")
     if path is not None:
         import matplotlib
