@@ -80,14 +80,17 @@ def main(argv=None) -> int:
 
 def _write_rows(path: Path, rows, ran: set, whole_groups: set) -> None:
     """Write the rows as JSON; rows of benchmarks not run this time are kept from the file,
-    so ``--full --only GROUP[:FUNCTION]`` refreshes part of the docs' table (rows that do not
-    name their benchmark go only when their whole group ran)."""
+    so ``--full --only GROUP[:FUNCTION]`` refreshes part of the docs' table (an older row
+    that does not name its benchmark goes when its whole group ran or a new row has its
+    name)."""
     kept = []
+    new_names = {(r.group, r.name) for r in rows}
     if path.exists():
         try:
             kept = [r for r in json.loads(path.read_text())
                     if (r.get("group"), r.get("bench")) not in ran
-                    and not (not r.get("bench") and r.get("group") in whole_groups)]
+                    and not (not r.get("bench") and (r.get("group") in whole_groups
+                                                     or (r.get("group"), r.get("name")) in new_names))]
         except (ValueError, AttributeError):
             kept = []
     path.parent.mkdir(parents=True, exist_ok=True)

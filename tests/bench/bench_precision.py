@@ -45,7 +45,7 @@ from tests.bench.precision_tools import (
     cost_per_digit,
     dominating,
     pareto_front,
-    plot_work_precision,
+    save_study,
     time_at_error,
     usable,
 )
@@ -189,13 +189,6 @@ def _front_rows(group: str, label: str, points, info, *, baseline_method: str = 
     return rows
 
 
-def _save(ctx: Context, key: str, title: str, points, info, **plot_kw) -> None:
-    ctx.save_json(f"precision_{key}.json", {"info": info, "points": [p.as_dict() for p in points]})
-    path = ctx.plot_path(f"wp_{key}.png")
-    if path is not None:
-        plot_work_precision(path, points, title, vlines=info.get("vlines", ()), **plot_kw)
-
-
 @benchmark
 def dynamics_class2(ctx: Context) -> list[Row]:
     """The paper's fold scenario and the stiff fold (k_a = k_b = 1e6 N/m)."""
@@ -208,7 +201,7 @@ def dynamics_class2(ctx: Context) -> list[Row]:
         for p in points:
             p.extra["class2_at_rest_default"] = (p.method == at_rest["method"]
                                                  and p.setting == float(at_rest["rtol"]))
-        _save(ctx, "paper_fold", f"paper's fold scenario, {info['duration']:g} s (node-position error / L)",
+        save_study(ctx, "paper_fold", f"paper's fold scenario, {info['duration']:g} s (node-position error / L)",
               points, info)
         rows += _front_rows("precision", "paper fold", points, info)
         node = [p for p in points if p.extra.get("class2_at_rest_default")]
@@ -221,7 +214,7 @@ def dynamics_class2(ctx: Context) -> list[Row]:
         points, info = scene_study(ctx, "stiff_fold", reference=("Radau", "BDF"),
                                    explicit_horizon=0.001 if ctx.quick else 0.01,
                                    duration=1.0 if ctx.quick else None)
-        _save(ctx, "stiff_fold", f"stiff fold (k_a/k = 1e6), {info['duration']:g} s (node-position error / L)",
+        save_study(ctx, "stiff_fold", f"stiff fold (k_a/k = 1e6), {info['duration']:g} s (node-position error / L)",
               points, info)
         rows += _front_rows("precision", "stiff fold", points, info, baseline_method="BDF")
     return rows
@@ -240,7 +233,7 @@ def dynamics_general(ctx: Context) -> list[Row]:
                                        duration=quick_duration if ctx.quick else None,
                                        rtols=[1e-3, 1e-6] if ctx.quick else None,
                                        budget=2.0 if ctx.quick else 60.0)
-            _save(ctx, name, f"{label}, {info['duration']:g} s (node-position error / structure size)",
+            save_study(ctx, name, f"{label}, {info['duration']:g} s (node-position error / structure size)",
                   points, info)
             rows += _front_rows("precision", label, points, info, baseline_method="BDF")
     return rows

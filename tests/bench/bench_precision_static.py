@@ -24,7 +24,7 @@ from scipy import optimize
 from threadpoolctl import threadpool_limits
 
 from tests.bench.harness import Context, Row, benchmark, time_per_call
-from tests.bench.precision_tools import Point, plot_work_precision
+from tests.bench.precision_tools import Point, save_study
 
 LEVELS = [10.0 ** -k for k in range(4, 15, 2)]      # residual / EA_max
 
@@ -173,11 +173,7 @@ def ik_work_precision(ctx: Context) -> list[Row]:
                             per_call * 1e6, "us/call", baseline=None if setting is None else "IK closed form",
                             note=f"max |FK(IK(p)) - p| / L = {err:.1e} over {n} targets; {failed} failed"))
     # a ratio < 1 in the table is how much slower the root finder is than the closed form
-    ctx.save_json("precision_ik.json", [p.as_dict() for p in points])
-    path = ctx.plot_path("wp_ik.png")
-    if path is not None:
-        plot_work_precision(path, points, "inverse kinematics: max |FK(IK(p)) - p| / L",
-                            setting_label="xtol")
+    save_study(ctx, "ik", "inverse kinematics: max |FK(IK(p)) - p| / L", points, setting_label="xtol")
     return rows
 
 
@@ -213,9 +209,6 @@ def stiffness_work_precision(ctx: Context) -> list[Row]:
             rows.append(Row("precision_static", f"stiffness: energy differences, step {h:g} L", t * 1e6, "us",
                             baseline="stiffness: paper's procedure (analytic)",
                             note=f"max |K_h - K| / max |K| = {err:.1e} over {len(configs)} configurations"))
-    ctx.save_json("precision_stiffness.json", [p.as_dict() for p in points])
-    path = ctx.plot_path("wp_stiffness.png")
-    if path is not None:
-        plot_work_precision(path, points, "stiffness matrix: max |K - K_ref| / max |K_ref|",
-                            evaluations_label="energy evaluations", setting_label="step / L")
+    save_study(ctx, "stiffness", "stiffness matrix: max |K - K_ref| / max |K_ref|", points,
+               evaluations_label="energy evaluations", setting_label="step / L")
     return rows

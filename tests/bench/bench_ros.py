@@ -67,6 +67,8 @@ def sim_publishing_and_recorder(ctx: Context) -> list[Row]:
     from rclpy.serialization import deserialize_message
     from sensor_msgs.msg import JointState
 
+    from tensegrity_ros.raw_take import take_all
+
     env = _env()
     duration = 2.0 if ctx.quick else 10.0
     folder = Path(tempfile.mkdtemp(prefix="bench_ros_")) / "bag"
@@ -89,12 +91,10 @@ def sim_publishing_and_recorder(ctx: Context) -> list[Row]:
     while time.monotonic() < end:
         if arrivals and not started:
             end, started = time.monotonic() + duration, True
-        with sub.handle:
-            while (taken := sub.handle.take_message(sub.msg_type, True)) is not None:
-                data, info = taken
-                arrivals.append(info["received_timestamp"])
-                stamp = deserialize_message(data, JointState).header.stamp
-                stamps.append(stamp.sec + 1e-9 * stamp.nanosec)
+        for data, info in take_all(sub):
+            arrivals.append(info["received_timestamp"])
+            stamp = deserialize_message(data, JointState).header.stamp
+            stamps.append(stamp.sec + 1e-9 * stamp.nanosec)
         time.sleep(0.005)
     node.destroy_node()
     rclpy.try_shutdown(context=rctx)

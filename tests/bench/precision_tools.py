@@ -140,3 +140,13 @@ def plot_work_precision(path, points, title: str, *, evaluations_label: str = "f
     fig.suptitle(f"{title}  (star: shipped default; points: {setting_label} from loose to tight)")
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def save_study(ctx, key: str, title: str, points, info: dict | None = None, **plot_kw) -> None:
+    """``precision_<key>.json`` (the info and every point) into the context's data dir and
+    the work-precision plot ``wp_<key>.png`` into its plot dir, where those are set."""
+    info = info or {}
+    ctx.save_json(f"precision_{key}.json", {"info": info, "points": [p.as_dict() for p in points]})
+    path = ctx.plot_path(f"wp_{key}.png")
+    if path is not None:
+        plot_work_precision(path, points, title, vlines=info.get("vlines", ()), **plot_kw)

@@ -1,0 +1,20 @@
+"""Taking raw messages straight from a subscription, without an executor.
+
+One executor ``spin_once`` per message costs about 0.5 ms of CPU here (rclpy rebuilds its
+wait set each time); a take costs ~40 us (measured with a backlog: 680 against 20,800
+messages/s). The recorder and the 1 kHz benchmark probe therefore poll their
+subscriptions with :func:`take_all`. The subscription must be created with ``raw=True``;
+its callback is never called.
+"""
+
+from __future__ import annotations
+
+
+def take_all(subscription) -> list[tuple[bytes, dict]]:
+    """Every message queued on ``subscription`` now, oldest first: ``(CDR bytes, rmw
+    message info)`` with ``received_timestamp`` and ``source_timestamp`` [ns]."""
+    taken = []
+    with subscription.handle:
+        while (item := subscription.handle.take_message(subscription.msg_type, True)) is not None:
+            taken.append(item)
+    return taken
