@@ -68,9 +68,12 @@ FOLLOW_PLANNING_CODES = {INVALID_JOINTS: _FOLLOW.INVALID_JOINTS}
 
 
 class _Job:
-    """A running goal: its handle, the core's supervisor, and the event its execute waits on."""
+    """A running goal: its handle, the core's supervisor, and the event its execute waits on.
+    ``seq`` orders goals by the start of their execution: planning takes a while, and a goal
+    whose planning finishes after a newer goal's must not take over from it."""
 
-    def __init__(self, handle, goal):
+    def __init__(self, handle, goal, seq: int):
+        self.seq = seq
         self.handle = handle
         self.goal = goal
         self.finished = threading.Event()
@@ -114,6 +117,8 @@ class ControllerNode(Node):
         self.ctrl = TrackingController(self.params, dt=1.0 / rate, max_force=self.max_force)
         self._lock = threading.Lock()        # the controller, the job, the latest state
         self._job: _Job | None = None
+        self._seq = 0                        # goals started so far (execution order)
+        self._active_seq = 0                 # seq of the goal the controller last took on
         self._latest = None                  # (t, q, qdot) of the last new joint state
         self._advanced_at = None             # wall time the joint states' time last advanced
         self._holding = False
@@ -205,6 +210,7 @@ class ControllerNode(Node):
 
     # -- goals ---------------------------------------------------------------------------
     def _execute_move(self, handle):
+        seq = self._next_seq()
         req = handle.request
         result = _MOVE()
         try:
@@ -220,7 +226,7 @@ class ControllerNode(Node):
             return self._refuse(handle, result, _MOVE.SIMULATOR_STOPPED, str(err))
         goal = G.MoveGoal(ref, 0.0, tolerance=tol, settle_timeout=self.settle_timeout,
                           settle_window=self.settle_window)
-        job = self._run(handle, ref, goal, None)
+        job = self._run(handle, ref, goal, None, seq)
         tick = job.last_tick
         if tick is not None:
             result.end_effector = Point(x=float(tick.end_effector[0]), y=float(tick.end_effector[1]))
@@ -230,6 +236,7 @@ class ControllerNode(Node):
         return self._finish(handle, result, goal.outcome)
 
     def _execute_follow(self, handle):
+        seq = self._next_seq()
         req = handle.request
         result = _FOLLOW(joint_names=list(JOINTS))
         traj = req.trajectory
@@ -256,7 +263,7 @@ class ControllerNode(Node):
             return self._refuse(handle, result, _FOLLOW.SIMULATOR_STOPPED, str(err))
         goal = G.TrajectoryGoal(ref, 0.0, path_position=path[0], path_velocity=path[1],
                                 goal_position=goal_tol[0], goal_velocity=goal_tol[1], goal_time=goal_time)
-        job = self._run(handle, ref, goal, start)
+        job = self._run(handle, ref, goal, start, seq)
         final = ref.final()
         if job.last_state is not None:
             t, q, _ = job.last_state
@@ -271,14 +278,23 @@ class ControllerNode(Node):
         t, q, qdot = self._latest
         return (q, qdot, t) if with_rate else q
 
-    def _run(self, handle, ref, goal, start: float | None) -> _Job:
+    def _next_seq(self) -> int:
+        with self._lock:
+            self._seq += 1
+            return self._seq
+
+    def _run(self, handle, ref, goal, start: float | None, seq: int) -> _Job:
         """Make ``goal`` the running one (preempting the last), then wait until it ends."""
         gains = self.ctrl.schedule(ref)                 # the costly part, outside the lock
-        job = _Job(handle, goal)
+        job = _Job(handle, goal, seq)
         with self._lock:
+            old = self._job
+            if self._active_seq > seq:                  # a newer goal took over while this one planned
+                job.end(G.Outcome(G.PREEMPTED, "preempted by a newer goal before it started"))
+                return job
             t0 = self._latest[0] if start is None else start
             goal.t_start = t0
-            old, self._job = self._job, job
+            self._job, self._active_seq = job, seq
             self.ctrl.follow(ref, t0, gains)
         if old is not None:
             old.end(G.Outcome(G.PREEMPTED, "preempted by a newer goal"))

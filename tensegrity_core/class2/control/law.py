@@ -29,8 +29,15 @@ import numpy as np
 
 from tensegrity_core.class2.control.lqr import Gain, LQRWeights, design_gain
 from tensegrity_core.class2.control.reference import Reference, ReferenceSample, hold_reference
+from tensegrity_core.class2.inverse_kinematics import nearest_solution
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
-from tensegrity_core.errors import ParameterError
+from tensegrity_core.errors import ParameterError, TensegrityError
+
+
+#: Largest number of gain-schedule knots per reference (each is one Riccati solve, ~1-3 ms).
+MAX_KNOTS = 40
+#: Weights while an actuator trajectory runs: the lengths' errors dominate (1 mm, 1 cm/s).
+ACTUATOR_WEIGHTS = LQRWeights(position=0.05, velocity=0.5, length=0.001, rate=0.01)
 
 
 @dataclass(frozen=True)
@@ -54,15 +61,19 @@ class ScheduledGains:
 
 
 def schedule_gains(reference: Reference, params: Class2Params, weights: LQRWeights, dt: float,
-                   spacing: float) -> ScheduledGains:
-    """Design the gains along ``reference`` at knots at most ``spacing`` [s] apart."""
+                   spacing: float, motion_weights: LQRWeights | None = None) -> ScheduledGains:
+    """Design the gains along ``reference`` at knots at most ``spacing`` [s] apart (at most
+    :data:`MAX_KNOTS` of them: a slow reference moves little between knots);
+    ``motion_weights`` (default ``weights``) for the knots before the end, ``weights`` at
+    the end, where the reference rests."""
     T = reference.duration
-    n = max(1, int(math.ceil(T / spacing - 1e-9))) if T > 0 else 0
+    n = min(MAX_KNOTS, max(1, int(math.ceil(T / spacing - 1e-9)))) if T > 0 else 0
     times = np.linspace(0.0, T, n + 1)
     designs = []
-    for tau in times:
+    for k, tau in enumerate(times):
         s = reference.sample(float(tau))
-        designs.append(design_gain(s.q, s.qdot, s.force, params, weights, dt))
+        w = weights if (k == n or motion_weights is None) else motion_weights
+        designs.append(design_gain(s.q, s.qdot, s.force, params, w, dt))
     return ScheduledGains(times, np.array([g.K for g in designs]), tuple(designs))
 
 
@@ -88,7 +99,8 @@ class TrackingController:
     """
 
     def __init__(self, params: Class2Params = PAPER_PARAMS, *, dt: float = 0.01, max_force: float = 5.0,
-                 weights: LQRWeights = LQRWeights(), gain_spacing: float = 0.1, integral_band: float = 0.01):
+                 weights: LQRWeights = LQRWeights(), gain_spacing: float = 0.1, integral_band: float = 0.01,
+                 actuator_weights: LQRWeights | None = None):
         for name, v in (("dt", dt), ("max_force", max_force), ("gain_spacing", gain_spacing),
                         ("integral_band", integral_band)):
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v > 0):
@@ -97,6 +109,7 @@ class TrackingController:
         self.dt = float(dt)
         self.max_force = float(max_force)
         self.weights = weights
+        self.actuator_weights = ACTUATOR_WEIGHTS if actuator_weights is None else actuator_weights
         self.gain_spacing = float(gain_spacing)
         self.integral_band = float(integral_band)
         self.reference: Reference | None = None
@@ -107,8 +120,12 @@ class TrackingController:
 
     # -- references -------------------------------------------------------------------
     def schedule(self, reference: Reference) -> ScheduledGains:
-        """The gain schedule for ``reference`` (the costly part of starting one: ~1-3 ms per knot)."""
-        return schedule_gains(reference, self.params, self.weights, self.dt, self.gain_spacing)
+        """The gain schedule for ``reference`` (the costly part of starting one: ~1-3 ms per knot).
+        While an actuator trajectory runs the lengths are weighed (:data:`ACTUATOR_WEIGHTS`):
+        its reference is quasi-static (beta on its equilibrium), not a trajectory of the
+        dynamics, and the default weights would bend the lengths far off it to hold D."""
+        motion = self.actuator_weights if reference.kind == "actuator" else None
+        return schedule_gains(reference, self.params, self.weights, self.dt, self.gain_spacing, motion)
 
     def follow(self, reference: Reference, t_start: float, gains: ScheduledGains | None = None) -> None:
         """Track ``reference`` from the time ``t_start`` [s] on (gains designed here unless given)."""
@@ -121,11 +138,20 @@ class TrackingController:
         self.follow(hold_reference(rho1, rho2, self.params), t)
 
     def hold_here(self, t: float) -> None:
-        """Hold the reference's configuration at ``t`` (cancel: stop where the reference is)."""
+        """Hold rest where the reference is at ``t`` (cancel: stop there). For an end-effector
+        reference that is the IK solution of its D at ``t`` (its rho2 is the dynamic one, off
+        the static solution while D accelerates); otherwise its lengths."""
         if self.reference is None:
             raise ParameterError("hold_here: no reference to stop on")
-        q = self.reference.sample(t - self.t_start).q
-        self.hold(float(q[0]), float(q[1]), t)
+        s = self.reference.sample(t - self.t_start)
+        rho = (float(s.q[0]), float(s.q[1]))
+        if self.reference.kind == "end_effector":
+            try:
+                c = nearest_solution(float(s.end_effector[0]), float(s.end_effector[1]), rho, self.params)
+                rho = (c.rho1, c.rho2)
+            except TensegrityError:
+                pass                     # keep the lengths: the reference's D stays reachable in practice
+        self.hold(*rho, t)
 
     def done(self, t: float) -> bool:
         """True once ``t`` is past the reference's end."""

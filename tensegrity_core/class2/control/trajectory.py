@@ -48,8 +48,9 @@ MAX_DURATION = 3600.0
 
 
 def _array(name: str, value, n: int) -> np.ndarray | None:
-    """``value`` as an (n, 2) finite array, or None when empty."""
-    if value is None or len(value) == 0:
+    """``value`` as an (n, 2) finite array, or None when empty (no rows, or only empty rows:
+    trajectory_msgs leaves a point's velocities empty when it has none)."""
+    if value is None or len(value) == 0 or all(len(row) == 0 for row in value):
         return None
     if len(value) != n:
         raise PlanningError(f"{name}: {len(value)} rows for {n} points (give all points or none)")
