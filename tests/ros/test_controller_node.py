@@ -70,12 +70,23 @@ class Client:
         status, result = self.result(handle, timeout)
         return status, result, feedback
 
+    def wait_sim(self, seconds: float) -> None:
+        """Spin until the joint states' (simulated) time has advanced by ``seconds``."""
+        self.joints.clear()
+        self.spin_until(lambda: self.joints)
+        t0 = _stamp(self.joints[-1])
+        self.spin_until(lambda: _stamp(self.joints[-1]) >= t0 + seconds)
+
     def end_effector(self):
         self.joints.clear()
         self.spin_until(lambda: self.joints)
         js = self.joints[-1]
         r1, b = js.position[0], js.position[2]
         return r1 + math.cos(b), math.sin(b), js
+
+
+def _stamp(js) -> float:
+    return js.header.stamp.sec + 1e-9 * js.header.stamp.nanosec
 
 
 def _start(cli, namespace: str, *controller_args: str, scene: str | None = None):
@@ -242,16 +253,16 @@ def test_path_and_goal_tolerance_violations_abort_with_their_codes(suite):
 def test_cancel_holds_where_the_reference_was(suite):
     client, _ = suite
     x0, y0, _ = client.end_effector()
-    handle, _ = client.send(client.move, client.Move.Goal(x=x0 - 0.04, y=y0, duration=4.0))
-    time.sleep(1.0)                                         # ~2 s simulated: half way
+    handle, feedback = client.send(client.move, client.Move.Goal(x=x0 - 0.04, y=y0, duration=4.0))
+    client.spin_until(lambda: feedback and feedback[-1].time_from_start >= 2.0)    # half way
     cancel = handle.cancel_goal_async()
     client.spin_until(cancel.done)
     status, res = client.result(handle)
     assert status == 5 and res.error_code == client.Move.Result.CANCELED   # GoalStatus.STATUS_CANCELED
-    time.sleep(2.5)                                         # stopping from full speed takes a few seconds
+    client.wait_sim(5.0)                                    # stopping from full speed takes a few seconds
     x1, y1, _ = client.end_effector()
     assert 5e-3 < abs(x1 - x0) < 0.035                     # stopped part of the way
-    time.sleep(1.0)
+    client.wait_sim(2.0)
     x2, y2, _ = client.end_effector()
     assert math.hypot(x2 - x1, y2 - y1) < 2e-4              # and holds
 
@@ -259,8 +270,8 @@ def test_cancel_holds_where_the_reference_was(suite):
 def test_a_new_goal_preempts_the_running_one(suite):
     client, _ = suite
     x0, y0, _ = client.end_effector()
-    first, _ = client.send(client.move, client.Move.Goal(x=x0 + 0.04, y=y0, duration=6.0))
-    time.sleep(0.3)
+    first, feedback = client.send(client.move, client.Move.Goal(x=x0 + 0.04, y=y0, duration=6.0))
+    client.spin_until(lambda: feedback)                     # it runs
     status, res, _ = client.run(client.move, client.Move.Goal(x=x0, y=y0 + 0.03, duration=1.5,
                                                               goal_tolerance=1e-4))
     assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
@@ -273,8 +284,8 @@ def test_a_stopped_simulator_aborts_the_running_goal(cli, ros_context):
     sim, ctl = _start(cli, "/ctl_stop")
     client = Client(ros_context, "/ctl_stop")
     x0, y0, _ = client.end_effector()
-    handle, _ = client.send(client.move, client.Move.Goal(x=x0 + 0.03, y=y0, duration=8.0))
-    time.sleep(0.5)
+    handle, feedback = client.send(client.move, client.Move.Goal(x=x0 + 0.03, y=y0, duration=8.0))
+    client.spin_until(lambda: feedback)                     # it runs
     sim.kill()
     status, res = client.result(handle, 30)
     assert status == 6 and res.error_code == client.Move.Result.SIMULATOR_STOPPED
