@@ -24,13 +24,13 @@ from scipy.interpolate import make_interp_spline
 
 from tensegrity_core.class2.control.errors import OUTSIDE_WORKSPACE, SINGULAR_PATH, PlanningError
 from tensegrity_core.class2.control.reference import Reference
-from tensegrity_core.class2.dynamics import (
+from tensegrity_core.class2 import (  # the model's public names (its modules may move)
     damping_matrix,
     mass_matrix,
     potential_gradient,
+    potential_hessian,
     velocity_terms,
 )
-from tensegrity_core.class2.dynamics_jacobian import potential_hessian
 from tensegrity_core.class2.params import Class2Params
 from tensegrity_core.errors import TensegrityError
 

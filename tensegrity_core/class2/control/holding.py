@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tensegrity_core.class2.dynamics import potential_gradient
+from tensegrity_core.class2 import potential_gradient
 from tensegrity_core.class2.energy import equilibrium_beta
 from tensegrity_core.class2.geometry import check_actuator_lengths
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params

@@ -25,8 +25,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 import scipy.linalg
 
-from tensegrity_core.class2.dynamics import mass_matrix
-from tensegrity_core.class2.dynamics_jacobian import rhs_jacobian
+from tensegrity_core.class2 import mass_matrix, rhs_jacobian
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 from tensegrity_core.errors import ParameterError
 

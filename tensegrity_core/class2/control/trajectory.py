@@ -35,7 +35,7 @@ from tensegrity_core.class2.control.errors import (
 from tensegrity_core.class2.control.flat import grid
 from tensegrity_core.class2.control.planner import SINGULAR_MARGIN
 from tensegrity_core.class2.control.reference import Reference
-from tensegrity_core.class2.dynamics import damping_matrix, mass_matrix, potential_gradient, velocity_terms
+from tensegrity_core.class2 import damping_matrix, mass_matrix, potential_gradient, velocity_terms
 from tensegrity_core.class2.energy import equilibrium_beta
 from tensegrity_core.class2.params import Class2Params
 from tensegrity_core.class2.singularities import nearest_singularity, singularity_distance_array
