@@ -169,8 +169,11 @@ def _run_goal(args, node_name: str, action, goal, total, progress, summary) -> i
             pass
         handle = None
         res = result.result().result
-        bar.close()
         ok = res.error_code == 0
+        if ok and total:                  # feedback may stop short of the end: the goal is done
+            bar.n = total
+            bar.refresh()
+        bar.close()
         if args.json:
             from tensegrity_ros.cli._common import print_json
             from tensegrity_ros.msg_utils import message_to_dict

@@ -22,7 +22,7 @@ def suite(tmp_path_factory):
     from tests.ros_support import Proc
 
     folder = tmp_path_factory.mktemp("ctl_cli")
-    sim = Proc(["node", "sim", *NS, "-p", "publish_rate:=200.0", "-p", "real_time_factor:=2.0"], folder / "sim.log")
+    sim = Proc(["node", "sim", *NS], folder / "sim.log")      # 100 Hz in real time, as the controller
     ctl = Proc(["node", "controller", *NS], folder / "ctl.log")
     sim.wait_for("publishing at")
     ctl.wait_for("holding rho")
@@ -33,11 +33,11 @@ def suite(tmp_path_factory):
 
 def test_move_prints_the_result_and_exits_0(suite):
     d = forward_kinematics(0.7, 0.7)
-    out = run_cli("move", f"{d.x + 0.02}", f"{d.y}", "--duration", "1.5", "--tolerance", "5e-5", "--json", *NS)
+    out = run_cli("move", f"{d.x + 0.02}", f"{d.y}", "--duration", "1.5", "--tolerance", "1e-4", "--json", *NS)
     assert out.returncode == 0, out.stderr
     res = json.loads(out.stdout)
-    assert res["status"] == "SUCCESSFUL" and res["settled_error"] < 5e-5
-    assert math.hypot(res["end_effector"]["x"] - d.x - 0.02, res["end_effector"]["y"] - d.y) < 5e-5
+    assert res["status"] == "SUCCESSFUL" and res["settled_error"] < 1e-4
+    assert math.hypot(res["end_effector"]["x"] - d.x - 0.02, res["end_effector"]["y"] - d.y) < 1e-4
 
 
 def test_move_outside_the_workspace_fails_with_the_reason(suite):
