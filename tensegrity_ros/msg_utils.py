@@ -38,3 +38,13 @@ def message_to_dict(msg: Any) -> Any:
     if isinstance(msg, (bytes, bytearray)):
         return list(msg)
     return msg
+
+
+def stamp_to_s(stamp) -> float:
+    """A ``builtin_interfaces/Time`` as seconds."""
+    return stamp.sec + 1e-9 * stamp.nanosec
+
+
+def duration_to_s(duration) -> float:
+    """A ``builtin_interfaces/Duration`` as seconds (its ``sec`` may be negative)."""
+    return duration.sec + 1e-9 * duration.nanosec

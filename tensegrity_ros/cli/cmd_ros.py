@@ -12,22 +12,27 @@ NODES = {
     "sim": "tensegrity_ros.nodes.sim",
     "ik": "tensegrity_ros.nodes.ik",
     "formfind": "tensegrity_ros.nodes.formfind",
+    "controller": "tensegrity_ros.nodes.controller",
 }
 
 
 def register(sub) -> None:
-    p = sub.add_parser("node", help="run one node of the suite (sim, ik or formfind)",
+    p = sub.add_parser("node", help="run one node of the suite (sim, ik, formfind or controller)",
                        description="Run one node. ROS arguments follow --ros-args, e.g. "
                        "`tensegrity node sim --ros-args -r __ns:=/robot1 -p publish_rate:=500.0`.")
     p.add_argument("name", choices=sorted(NODES))
     p.set_defaults(func=_node)
 
-    p = sub.add_parser("up", help="start the suite (sim + IK + form-finding [+ recorder]); Ctrl-C stops it")
-    p.add_argument("--scene", default=None, help="scene file or shipped scene name for the simulator")
+    p = sub.add_parser("up", help="start the suite (sim + IK + controller + form-finding [+ recorder]); "
+                       "Ctrl-C stops it")
+    p.add_argument("--scene", default=None, help="scene file or shipped scene name (the simulator, the IK node "
+                   "and the controller all take the mechanism from it)")
     p.add_argument("--namespace", "-n", default=None, help="ROS namespace for every node, e.g. /robot1")
     p.add_argument("--params-file", default=None, help="ROS parameter YAML file applied to every node")
     p.add_argument("--record", metavar="DIR", default=None, help="also record the suite's topics to this bag folder")
     p.add_argument("--no-formfind", action="store_true", help="do not start the form-finding node")
+    p.add_argument("--no-controller", action="store_true",
+                   help="do not start the controller (actuator_forces then come only from you)")
     p.set_defaults(func=_up)
 
     p = sub.add_parser("send-forces", help="publish actuator forces (positive = tensile) on actuator_forces")
@@ -87,8 +92,10 @@ def _up(args) -> int:
     if args.params_file:
         ros += ["--params-file", args.params_file]
     ros += args.ros_args[1:] if args.ros_args else []
-    sim_ros = ros + (["-p", f"scene:={args.scene}"] if args.scene else [])
-    specs = [ProcessSpec("sim", exe + ["node", "sim"] + sim_ros), ProcessSpec("ik", exe + ["node", "ik"] + ros)]
+    mech = ros + (["-p", f"scene:={args.scene}"] if args.scene else [])    # one source of the mechanism
+    specs = [ProcessSpec("sim", exe + ["node", "sim"] + mech), ProcessSpec("ik", exe + ["node", "ik"] + mech)]
+    if not args.no_controller:
+        specs.append(ProcessSpec("controller", exe + ["node", "controller"] + mech))
     if not args.no_formfind:
         specs.append(ProcessSpec("formfind", exe + ["node", "formfind"] + ros))
     if args.record:

@@ -1,4 +1,4 @@
-"""Shared node plumbing: typed parameter declaration, mechanism parameters, main loop."""
+"""Shared node plumbing: typed parameter declaration, the mechanism from the scene, main loop."""
 
 from __future__ import annotations
 
@@ -18,16 +18,9 @@ from rclpy.node import Node  # noqa: E402
 from rclpy.qos import QoSProfile, qos_profile_services_default  # noqa: E402
 
 from tensegrity_core.class2 import Class2Params  # noqa: E402
-from tensegrity_core.errors import ParameterError  # noqa: E402
 
-#: Mechanism parameters every node that models the class-2 mechanism declares.
-MECHANISM_PARAMETERS = {
-    "L": "strut length [m]",
-    "k1": "stiffness of spring EF [N/m]",
-    "k2": "stiffness of spring DE [N/m]",
-    "k3": "stiffness of spring CD [N/m]",
-    "k4": "stiffness of spring BE [N/m]",
-}
+#: The scene every node that models the class-2 mechanism reads it from (one source).
+DEFAULT_SCENE = "class2_at_rest"
 
 
 #: Service QoS with a deep request queue: the default keeps only the last 10 requests,
@@ -73,14 +66,33 @@ def declare(node: Node, name: str, default, description: str, *, lo=None, hi=Non
     return value
 
 
-def declare_mechanism(node: Node, defaults: Class2Params) -> Class2Params:
-    """Declare L, k1..k4 (defaults from ``defaults``) and return the resulting parameters."""
-    values = {n: declare(node, n, float(getattr(defaults, n)), d, read_only=True)
-              for n, d in MECHANISM_PARAMETERS.items()}
+def declare_scene(node: Node):
+    """Declare the read-only ``scene`` parameter and load it: ``(name, Scene)``.
+
+    The simulator, the IK node and the controller all take the mechanism (L, k1..k4, masses,
+    dampers) from this one parameter, so none can disagree with the simulated mechanism.
+    A scene that cannot be loaded or is not of the class-2 mechanism stops the node with a
+    message naming it.
+    """
+    from tensegrity_core.errors import TensegrityError
+    from tensegrity_core.sim import load_scene
+
+    name = declare(node, "scene", DEFAULT_SCENE,
+                   "scene file or shipped scene name (tensegrity scenes lists them); the mechanism's "
+                   "parameters come from it", read_only=True)
     try:
-        return defaults.with_overrides(values)
-    except ParameterError as err:
-        raise SystemExit(f"{node.get_name()}: invalid mechanism parameter: {err}") from None
+        scene = load_scene(name)
+    except TensegrityError as err:
+        raise SystemExit(f"{node.get_name()}: cannot load scene {name!r}: {err}") from None
+    if scene.model.kind != "class2":
+        raise SystemExit(f"{node.get_name()}: scene {name!r} models a general structure; this node works "
+                         "on the class-2 mechanism")
+    return name, scene
+
+
+def scene_mechanism(node: Node) -> Class2Params:
+    """The class-2 parameters of the node's ``scene`` parameter (declared here)."""
+    return declare_scene(node)[1].model.params
 
 
 def reject_changes_of(names: Sequence[str]) -> Callable:

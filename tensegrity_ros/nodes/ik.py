@@ -3,7 +3,8 @@
 Request ``(x, y, seed)``: the end-effector target D [m] and optionally the current
 actuator lengths ``[rho1, rho2]`` [m]. Response: the valid solutions only, nearest the
 seed first; ``success = false`` with a reason for unreachable, non-finite or malformed
-requests. Parameters: the mechanism (``L``, ``k1``..``k4``) and ``paper_range``.
+requests. Parameters: ``scene`` (the mechanism's L, k1..k4 come from it, as for the
+simulator and the controller) and ``paper_range``.
 """
 
 from __future__ import annotations
@@ -11,19 +12,19 @@ from __future__ import annotations
 import math
 import sys
 
-from tensegrity_ros.nodes.common import SERVICE_QOS, declare, declare_mechanism, rclpy, spin_node
+from tensegrity_ros.nodes.common import SERVICE_QOS, declare, rclpy, scene_mechanism, spin_node
 from rclpy.node import Node
 from tensegrity_msgs.msg import IKSolution
 from tensegrity_msgs.srv import SolveIK
 
-from tensegrity_core.class2 import PAPER_PARAMS, inverse_kinematics
+from tensegrity_core.class2 import inverse_kinematics
 from tensegrity_core.errors import TensegrityError
 
 
 class IKNode(Node):
     def __init__(self, **kwargs) -> None:
         super().__init__("tensegrity_ik", **kwargs)
-        self.params = declare_mechanism(self, PAPER_PARAMS)
+        self.params = scene_mechanism(self)
         self.paper_range = declare(
             self, "paper_range", True,
             "only solutions with 0 <= alpha, beta <= pi/2 (the paper's range) are valid",

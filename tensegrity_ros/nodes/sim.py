@@ -32,7 +32,7 @@ import sys
 import threading
 import time
 
-from tensegrity_ros.nodes.common import declare, rclpy, spin_node
+from tensegrity_ros.nodes.common import declare, declare_scene, rclpy, spin_node
 from builtin_interfaces.msg import Time as TimeMsg
 from geometry_msgs.msg import Point, PointStamped
 from rclpy.node import Node
@@ -46,7 +46,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from tensegrity_core.class2 import dynamics_singularity
 from tensegrity_core.errors import TensegrityError
-from tensegrity_core.sim import Simulator, load_scene
+from tensegrity_core.sim import Simulator
 from tensegrity_core.sim.simulator import JointSample
 from tensegrity_ros.actuator_commands import CommandError, parse_command
 from tensegrity_ros.matching import wait_for_matches
@@ -72,8 +72,7 @@ def force_color(t: float, scale: float) -> ColorRGBA:
 class SimNode(Node):
     def __init__(self, **kwargs) -> None:
         super().__init__("tensegrity_sim", **kwargs)
-        scene_name = declare(self, "scene", "class2_at_rest",
-                             "scene file or shipped scene name (tensegrity scenes lists them)", read_only=True)
+        scene_name, self.scene = declare_scene(self)
         self.rate = declare(self, "publish_rate", 100.0, "publish rate of the state topics [Hz]", lo=1.0, hi=1000.0,
                             read_only=True)
         self.rtf = declare(self, "real_time_factor", 1.0,
@@ -102,13 +101,9 @@ class SimNode(Node):
             "1/lambda^2 and the simulation stops at 1e-3; 0 = never", lo=0.0, hi=1.0, read_only=True)
 
         try:
-            self.scene = load_scene(scene_name)
             self.sim = Simulator(self.scene)
         except TensegrityError as err:
-            raise SystemExit(f"tensegrity_sim: cannot load scene {scene_name!r}: {err}") from None
-        if self.sim.kind != "class2":
-            raise SystemExit(f"tensegrity_sim: scene {scene_name!r} models a general structure; this node "
-                             "drives the class-2 mechanism (use `tensegrity simulate` for general scenes)")
+            raise SystemExit(f"tensegrity_sim: cannot start scene {scene_name!r}: {err}") from None
 
         qos = QoSProfile(depth=100)
         self.pub_joints = self.create_publisher(JointState, "joint_states", qos)

@@ -25,7 +25,9 @@ def test_up_starts_every_node_and_ctrl_c_stops_them(cli, ros_context, tmp_path):
 
     up = cli("up", "--namespace", "/suite_test", "--record", str(tmp_path / "bag"), log_name="up")
     node = rclpy.create_node("up_probe", context=ros_context)
-    expected_services = {"/suite_test/solve_ik", "/suite_test/find_form", "/suite_test/reset"}
+    expected_services = {"/suite_test/solve_ik", "/suite_test/find_form", "/suite_test/reset",
+                         "/suite_test/move_end_effector/_action/send_goal",
+                         "/suite_test/follow_actuator_trajectory/_action/send_goal"}
     deadline = time.monotonic() + 60
     while True:
         services = {name for name, _ in node.get_service_names_and_types()}
@@ -35,7 +37,7 @@ def test_up_starts_every_node_and_ctrl_c_stops_them(cli, ros_context, tmp_path):
         assert time.monotonic() < deadline, (services, topics)
         time.sleep(0.2)
     children = _children(up.popen.pid)
-    assert len(children) == 4          # sim, ik, formfind, recorder
+    assert len(children) == 5          # sim, ik, controller, formfind, recorder
     time.sleep(1.0)
     up.popen.send_signal(signal.SIGINT)
     assert up.popen.wait(60) == 0, up.stderr()

@@ -1,18 +1,13 @@
-"""Actuator-force control of the class-2 mechanism: holding forces and a tracking law.
+"""The demo's present law, kept as the baseline of the controller benchmarks.
 
-The mechanism is driven by forces, not lengths. At rest in the configuration
-``(rho1, rho2, beta*(rho))`` the equations of motion reduce to ``dU/dq + (f1, f2, 0) = 0``
-(``beta*`` makes ``dU/dbeta`` vanish), so the holding forces are
-``f_i = -dU/drho_i`` [N] (positive = tensile, pulls the actuator's nodes together).
-Under constant forces that equilibrium can be unstable (the paper's start at
-rho = (0.7, 0.7) is: see docs/class2_dynamics.md), so tracking needs feedback:
-:class:`ActuatorTracker` adds a proportional-derivative term on the actuator lengths.
-
-beta is not actuated: it follows the actuators only through the springs, as a lightly
-damped oscillator (natural period about 5 s with the paper's parameters, damping from
-c = 0.01 only). The tracker damps it through that same coupling: it shifts the length
-reference by ``-kbeta * betadot * grad(beta*)`` so that the springs' equilibrium beta*
-moves against beta's motion and the springs' torque acts as a damper on beta.
+:class:`ActuatorTracker`: holding forces plus a proportional-derivative term on the
+actuator lengths. beta is not actuated: it follows the actuators only through the
+springs, as a lightly damped oscillator (natural period about 5 s with the paper's
+parameters, damping from c = 0.01 only). The tracker damps it through that same
+coupling: it shifts the length reference by ``-kbeta * betadot * grad(beta*)`` so that the
+springs' equilibrium beta* moves against beta's motion and the springs' torque acts as a
+damper on beta. Hand-tuned gains; it leaves millimetres of settled error after seconds
+(docs/control.md compares it with :class:`~tensegrity_core.class2.control.TrackingController`).
 """
 
 from __future__ import annotations
@@ -21,20 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tensegrity_core.class2.dynamics import potential_gradient
-from tensegrity_core.class2.energy import equilibrium_beta
-from tensegrity_core.class2.geometry import check_actuator_lengths
+from tensegrity_core.class2.control.holding import holding_forces
 from tensegrity_core.class2.kinematics import dbeta_drho
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 from tensegrity_core.errors import ParameterError
-
-
-def holding_forces(rho1: float, rho2: float, params: Class2Params = PAPER_PARAMS) -> np.ndarray:
-    """Actuator forces ``(f1, f2)`` [N] that keep the mechanism at rest at ``(rho1, rho2)``."""
-    check_actuator_lengths(rho1, rho2, params.L)
-    beta = float(equilibrium_beta(rho1, rho2, params))
-    g = potential_gradient(np.array([rho1, rho2, beta]), params)
-    return -g[:2]
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,147 @@
+"""Planning an end-effector move: a straight line for D, checked by IK along it.
+
+``plan_move(q_start, (x, y), params, duration=..., max_speed=...)``:
+
+1. the target must be reachable (:func:`~tensegrity_core.class2.inverse_kinematics`);
+2. D moves from where it is to the target along a straight line with the rest-to-rest
+   scaling of :mod:`~tensegrity_core.class2.control.paths`; its duration is the given one,
+   or the one that keeps D's peak speed at ``max_speed`` (the longer when both are given);
+3. IK along the line at least every ``ik_spacing`` metres, each solve seeded with the
+   previous solution (:func:`~tensegrity_core.class2.nearest_solution`, branch continuity):
+   a sample outside the workspace, a jump of branch, or one nearer than
+   ``singular_margin`` (actuator plane, relative to L) to a singular set refuses the move
+   with the place and the set;
+4. the dynamically consistent reference (:mod:`~tensegrity_core.class2.control.flat`),
+   whose feedforward must stay within ``force_budget`` [N].
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from tensegrity_core.class2.control.errors import INVALID_GOAL, OUTSIDE_WORKSPACE, SINGULAR_PATH, PlanningError
+from tensegrity_core.class2.control.flat import end_effector_reference
+from tensegrity_core.class2.control.paths import PEAK_SPEED_FACTOR, LinePath
+from tensegrity_core.class2.control.reference import Reference, hold_reference
+from tensegrity_core.class2.inverse_kinematics import inverse_kinematics, nearest_solution
+from tensegrity_core.class2.kinematics import jacobian_D_rho
+from tensegrity_core.class2.params import Class2Params
+from tensegrity_core.class2.singularities import nearest_singularity
+from tensegrity_core.errors import TensegrityError
+
+#: Default margin to the singular sets [L]: the IK node reports distances in the same measure.
+SINGULAR_MARGIN = 0.02
+#: IK samples at least this often along a path [m].
+IK_SPACING = 0.001
+#: A branch jump: consecutive IK solutions further apart than this many times what the
+#: local gain |drho/dD| allows for the step (the genuine branch moves smoothly).
+_BRANCH_JUMP = 10.0
+
+
+def _finite(name: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise PlanningError(f"{name} must be a finite number, got {value!r}")
+    return float(value)
+
+
+def move_duration(length: float, duration: float | None, max_speed: float | None) -> float:
+    """The move's duration [s] from a duration and/or a peak-speed limit [m/s] (see the
+    module docstring); both ``None`` or ``<= 0`` is refused."""
+    given = []
+    if duration is not None:
+        duration = _finite("duration", duration)
+        if duration <= 0.0:
+            raise PlanningError(f"duration must be > 0 s, got {duration:g}")
+        given.append(duration)
+    if max_speed is not None:
+        max_speed = _finite("max_speed", max_speed)
+        if max_speed <= 0.0:
+            raise PlanningError(f"max_speed must be > 0 m/s, got {max_speed:g}")
+        given.append(PEAK_SPEED_FACTOR * length / max_speed)
+    if not given:
+        raise PlanningError("give a duration (> 0 s) or a speed limit max_speed (> 0 m/s)")
+    return max(given)
+
+
+def check_path_ik(path, rho_seed, params: Class2Params, *, singular_margin: float = SINGULAR_MARGIN,
+                  spacing: float = IK_SPACING) -> tuple[np.ndarray, np.ndarray]:
+    """IK along ``path.point(sigma)`` with branch continuity from ``rho_seed``; returns the
+    path parameters and the solutions (n, 2), or raises :class:`PlanningError` naming the
+    first bad sample."""
+    n = max(2, int(math.ceil(path.length / spacing)) + 1)
+    sigma = np.linspace(0.0, 1.0, n)
+    points = path.point(sigma)
+    rho = np.empty((n, 2))
+    seed = tuple(float(v) for v in rho_seed)
+    for i, (x, y) in enumerate(points):
+        try:
+            c = nearest_solution(float(x), float(y), seed, params)
+        except TensegrityError as err:
+            raise PlanningError(f"the path leaves the workspace at D = ({x:.4f}, {y:.4f}) m: {err}",
+                                code=OUTSIDE_WORKSPACE) from None
+        name, dist = nearest_singularity(c.rho1, c.rho2, params)
+        if dist < singular_margin:
+            raise PlanningError(
+                f"the path passes within {dist:.3g} L of the singular set {name} at D = ({x:.4f}, {y:.4f}) m "
+                f"(rho = ({c.rho1:.4f}, {c.rho2:.4f}) m; the margin is {singular_margin:g} L)",
+                code=SINGULAR_PATH)
+        if i > 0:
+            step = math.dist(points[i], points[i - 1])
+            jump = math.dist((c.rho1, c.rho2), seed)
+            gain = np.linalg.norm(np.linalg.inv(jacobian_D_rho(*seed, params)), 2)   # |drho/dD|
+            if jump > _BRANCH_JUMP * gain * step + 1e-9 * params.L:
+                raise PlanningError(f"the IK solution jumps by {jump:.3g} m between neighbouring path points "
+                                    f"at D = ({x:.4f}, {y:.4f}) m (a change of branch)", code=SINGULAR_PATH)
+        rho[i] = (c.rho1, c.rho2)
+        seed = (c.rho1, c.rho2)
+    return sigma, rho
+
+
+def plan_move(q_start, target, params: Class2Params, *, duration: float | None = None,
+              max_speed: float | None = None, force_budget: float = math.inf,
+              singular_margin: float = SINGULAR_MARGIN, step: float = 0.002) -> Reference:
+    """The reference for moving D from its place at ``q_start`` (rho1, rho2, beta) to
+    ``target`` (x, y) [m]; see the module docstring. Raises :class:`PlanningError`."""
+    x, y = _finite("x", target[0]), _finite("y", target[1])
+    q_start = [float(v) for v in q_start]
+    L = params.L
+    ik = inverse_kinematics(x, y, params)
+    if not ik.success:
+        raise PlanningError(f"target D = ({x:g}, {y:g}) m is not reachable: {ik.message}", code=OUTSIDE_WORKSPACE)
+    goal = ik.valid[0]
+    name, dist = nearest_singularity(goal.rho1, goal.rho2, params)
+    if dist < singular_margin:
+        raise PlanningError(f"target D = ({x:g}, {y:g}) m lies within {dist:.3g} L of the singular set {name} "
+                            f"(the margin is {singular_margin:g} L)", code=SINGULAR_PATH)
+    start = (q_start[0] + L * math.cos(q_start[2]), L * math.sin(q_start[2]))
+    length = math.dist(start, (x, y))
+    T = move_duration(length, duration, max_speed)
+    if length < 1e-9 * L:
+        return _hold_for(goal.rho1, goal.rho2, T, params, (x, y))
+    return plan_path(LinePath(start, (x, y), T), q_start, params, force_budget=force_budget,
+                     singular_margin=singular_margin, step=step, target=(x, y))
+
+
+def plan_path(path, q_start, params: Class2Params, *, force_budget: float = math.inf,
+              singular_margin: float = SINGULAR_MARGIN, step: float = 0.002, target=None) -> Reference:
+    """The reference for D along ``path`` (a :class:`LinePath`, :class:`CirclePath`, ...)
+    starting where ``q_start`` puts D: IK along it (steps 3-4 of the module docstring)."""
+    sigma, rho = check_path_ik(path, q_start[:2], params, singular_margin=singular_margin)
+    guess = lambda t: np.interp(path.sigma(t), sigma, rho[:, 1])     # noqa: E731  (static IK along the path)
+    ref = end_effector_reference(path, params, guess, step=step, target=target)
+    peak = float(np.max(np.abs(ref.force)))
+    if peak > force_budget:
+        raise PlanningError(f"the move needs feedforward forces up to {peak:.3g} N, over the budget of "
+                            f"{force_budget:g} N: allow more time (duration > {path.duration:g} s)",
+                            code=INVALID_GOAL)
+    return ref
+
+
+def _hold_for(rho1: float, rho2: float, duration: float, params: Class2Params, target) -> Reference:
+    """Rest at ``(rho1, rho2)`` for ``duration`` [s] (a move of zero length)."""
+    h = hold_reference(rho1, rho2, params)
+    n = 2
+    return Reference(duration, np.repeat(h.q, n, 0), np.zeros((n, 3)), np.repeat(h.force, n, 0), params,
+                     kind="end_effector", target=target)

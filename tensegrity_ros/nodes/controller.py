@@ -1,0 +1,424 @@
+"""``tensegrity_controller``: the class-2 mechanism's controller, with two actions.
+
+Subscribes ``joint_states`` (rho1, rho2 [m], beta [rad]; positions and velocities) and, on
+every new sample, publishes ``actuator_forces`` (tensegrity_msgs/ActuatorForces; positive
+= tensile), stamped with the sample's time. The law is the core's
+:class:`~tensegrity_core.class2.control.TrackingController` (feedforward along the goal's
+reference plus gain-scheduled LQR feedback; docs/control.md). When no goal runs it holds
+the last reference (at start: rest where the first joint state finds the mechanism).
+
+Actions (tensegrity_msgs/action):
+
+- ``move_end_effector`` (MoveEndEffector): D to (x, y) along a straight line, IK along it;
+- ``follow_actuator_trajectory`` (FollowActuatorTrajectory): a JointTrajectory of rho1, rho2.
+
+A new goal of either action preempts the running one (aborted with ``PREEMPTED``); a
+cancelled goal stops where its reference is and holds there. A goal that cannot be
+planned (bad numbers, unknown joints, out of the workspace, through a singular set, over
+the force budget) is accepted and aborted at once with its reason in the result
+(``error_code``, ``error_string``: ROS 2's goal response has no field for a reason); the
+running goal and the hold are not disturbed. A goal aborts with ``SIMULATOR_STOPPED`` when
+the joint states' time has not advanced for ``state_timeout`` seconds (wall time) and
+with ``SINGULAR_STATE`` when the measured state comes within ``singular_abort`` of the
+lambda1/lambda2 sets.
+
+Parameters: ``scene`` (the mechanism's parameters, shared with the simulator and the IK
+node), ``rate`` (the sampling rate the gains are designed for: the simulator's
+``publish_rate``), ``max_force``, ``force_budget``, tolerances and timeouts (declared
+below with their units).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import threading
+import time
+
+from tensegrity_ros.nodes.common import declare, declare_scene, rclpy, spin_node
+from builtin_interfaces.msg import Duration as DurationMsg
+from geometry_msgs.msg import Point
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
+from rclpy.executors import MultiThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import QoSProfile
+from sensor_msgs.msg import JointState
+from tensegrity_msgs.action import FollowActuatorTrajectory, MoveEndEffector
+from tensegrity_msgs.msg import ActuatorForces
+from trajectory_msgs.msg import JointTrajectoryPoint
+
+from tensegrity_core.class2 import dynamics_singularity
+from tensegrity_core.class2.control import PlanningError, TrackingController, plan_move
+from tensegrity_core.class2.control import goals as G
+from tensegrity_core.class2.control.errors import INVALID_JOINTS, OUTSIDE_WORKSPACE, SINGULAR_PATH
+from tensegrity_core.class2.control.trajectory import JOINTS, actuator_reference
+from tensegrity_core.errors import TensegrityError
+from tensegrity_ros.msg_utils import duration_to_s, stamp_to_s
+
+_MOVE = MoveEndEffector.Result
+_FOLLOW = FollowActuatorTrajectory.Result
+#: Outcome codes of the core's goals -> result codes (the same numbers in both actions).
+OUTCOME_CODES = {G.SUCCEEDED: 0, G.PATH_TOLERANCE_VIOLATED: _FOLLOW.PATH_TOLERANCE_VIOLATED,
+                 G.GOAL_TOLERANCE_VIOLATED: _FOLLOW.GOAL_TOLERANCE_VIOLATED,
+                 G.SIMULATOR_STOPPED: _FOLLOW.SIMULATOR_STOPPED, G.SINGULAR_STATE: _FOLLOW.SINGULAR_STATE,
+                 G.PREEMPTED: _FOLLOW.PREEMPTED, G.CANCELED: _FOLLOW.CANCELED}
+MOVE_PLANNING_CODES = {OUTSIDE_WORKSPACE: _MOVE.OUTSIDE_WORKSPACE, SINGULAR_PATH: _MOVE.SINGULAR_PATH}
+FOLLOW_PLANNING_CODES = {INVALID_JOINTS: _FOLLOW.INVALID_JOINTS}
+
+
+class _Job:
+    """A running goal: its handle, the core's supervisor, and the event its execute waits on.
+    ``seq`` orders goals by the start of their execution: planning takes a while, and a goal
+    whose planning finishes after a newer goal's must not take over from it."""
+
+    def __init__(self, handle, goal, seq: int):
+        self.seq = seq
+        self.handle = handle
+        self.goal = goal
+        self.finished = threading.Event()
+        self.last_tick = None
+        self.last_state = None
+
+    def end(self, outcome: G.Outcome) -> None:
+        self.goal.end(outcome)
+        self.finished.set()
+
+
+class ControllerNode(Node):
+    def __init__(self, **kwargs) -> None:
+        super().__init__("tensegrity_controller", **kwargs)
+        self.scene_name, scene = declare_scene(self)
+        self.params = scene.model.params
+        rate = declare(self, "rate", 100.0, "sampling rate the gains are designed for [Hz]: the simulator's "
+                       "publish_rate", lo=1.0, hi=10000.0, read_only=True)
+        self.max_force = declare(self, "max_force", 5.0, "actuator force limit, |f1|, |f2| <= max_force [N]",
+                                 lo=1e-6, read_only=True)
+        self.force_budget = declare(self, "force_budget", 0.8, "share of max_force a goal's feedforward may "
+                                    "use (the rest is the feedback's room)", lo=0.01, hi=1.0, read_only=True)
+        self.goal_tolerance = declare(self, "goal_tolerance", 1e-4, "default goal tolerance: of D for "
+                                      "move_end_effector, of each length for follow_actuator_trajectory [m]",
+                                      lo=1e-9, read_only=True)
+        self.path_tolerance = declare(self, "path_tolerance", 0.0, "default path tolerance of each length "
+                                      "during a trajectory [m]; 0 = not checked", lo=0.0, read_only=True)
+        self.goal_time_tolerance = declare(self, "goal_time_tolerance", 3.0, "default time after a trajectory's "
+                                           "last point to meet the goal tolerance [s]", lo=0.0, read_only=True)
+        self.settle_timeout = declare(self, "settle_timeout", 5.0, "time after a move's end to come within "
+                                      "its goal tolerance [s]", lo=0.0, read_only=True)
+        self.settle_window = declare(self, "settle_window", 0.2, "how long D must stay within the goal "
+                                     "tolerance for a move to succeed [s]", lo=0.0, read_only=True)
+        self.state_timeout = declare(self, "state_timeout", 0.5, "a goal aborts when the joint states' time "
+                                     "has not advanced for this long [s, wall time]", lo=0.01, read_only=True)
+        self.singular_abort = declare(self, "singular_abort", 0.01, "a goal aborts when lambda1/L or "
+                                      "lambda2/L of the measured state falls below this", lo=0.0, hi=1.0,
+                                      read_only=True)
+        self.singular_margin = declare(self, "singular_margin", 0.02, "planned paths keep this distance "
+                                       "from every singular set [L]", lo=0.0, hi=1.0, read_only=True)
+        self.ctrl = TrackingController(self.params, dt=1.0 / rate, max_force=self.max_force)
+        self._lock = threading.Lock()        # the controller, the job, the latest state
+        self._job: _Job | None = None
+        self._seq = 0                        # goals started so far (execution order)
+        self._active_seq = 0                 # seq of the goal the controller last took on
+        self._latest = None                  # (t, q, qdot) of the last new joint state
+        self._advanced_at = None             # wall time the joint states' time last advanced
+        self._holding = False
+
+        control = MutuallyExclusiveCallbackGroup()
+        goals = ReentrantCallbackGroup()
+        self.pub = self.create_publisher(ActuatorForces, "actuator_forces", 10)
+        # latest state wins: a controller that fell behind acts on the newest sample, never a backlog
+        self.create_subscription(JointState, "joint_states", self.on_joints, QoSProfile(depth=1),
+                                 callback_group=control)
+        self.create_timer(0.05, self._watch_time, callback_group=control)
+        for action, name, execute in ((MoveEndEffector, "move_end_effector", self._execute_move),
+                                      (FollowActuatorTrajectory, "follow_actuator_trajectory", self._execute_follow)):
+            ActionServer(self, action, name, execute, callback_group=goals,
+                         goal_callback=lambda _req: GoalResponse.ACCEPT,
+                         cancel_callback=lambda _handle: CancelResponse.ACCEPT)
+        self.get_logger().info(f"controller ready (scene {self.scene_name!r}, {rate:g} Hz, max_force "
+                               f"{self.max_force:g} N)")
+
+    # -- the control loop ----------------------------------------------------------------
+    def on_joints(self, msg: JointState) -> None:
+        state = _parse_joint_state(msg)
+        if state is None:
+            self.get_logger().warning("joint_states without finite rho1, rho2, beta positions and velocities "
+                                      "ignored", throttle_duration_sec=2.0)
+            return
+        t, q, qdot = state
+        with self._lock:
+            if self._latest is not None and t <= self._latest[0]:
+                return                          # not a new sample (a stopped simulator repeats its state)
+            self._latest = state
+            self._advanced_at = time.monotonic()
+            if self.ctrl.reference is None and not self._start_holding(t, q):
+                return
+            tick = self.ctrl.update(t, q, qdot)
+            job = self._job
+            if job is not None:
+                self._supervise(job, t, q, qdot, tick)
+        cmd = ActuatorForces(name=["f1", "f2"], force=[float(tick.forces[0]), float(tick.forces[1])])
+        cmd.header.stamp = msg.header.stamp
+        self.pub.publish(cmd)
+        if job is not None and not job.finished.is_set():
+            job.handle.publish_feedback(self._feedback(job, msg, tick, q, qdot))
+
+    def _start_holding(self, t: float, q) -> bool:
+        try:
+            self.ctrl.hold(float(q[0]), float(q[1]), t)
+        except TensegrityError as err:
+            self.get_logger().error(f"cannot hold the measured configuration: {err}", throttle_duration_sec=2.0)
+            return False
+        self.get_logger().info(f"holding rho = ({q[0]:.4f}, {q[1]:.4f}) m")
+        return True
+
+    def _supervise(self, job: _Job, t: float, q, qdot, tick) -> None:
+        job.last_tick, job.last_state = tick, (t, q, qdot)
+        if job.handle.is_cancel_requested:
+            self.ctrl.hold_here(t)
+            return self._end(job, G.Outcome(G.CANCELED, "cancelled: holding where the reference was"))
+        name, lam = dynamics_singularity(float(q[0]), float(q[1]), self.params)
+        if lam < self.singular_abort:
+            self.ctrl.hold_here(t)
+            return self._end(job, G.Outcome(G.SINGULAR_STATE, f"the measured state is at {name}/L = {lam:.3g} "
+                                            f"(below {self.singular_abort:g}): rho = ({q[0]:.4f}, {q[1]:.4f}) m"))
+        if isinstance(job.goal, G.MoveGoal):
+            outcome = job.goal.step(t, tick)
+        else:
+            outcome = job.goal.step(t, q, qdot, tick)
+        if outcome is not None:
+            if not outcome.succeeded:
+                self.ctrl.hold_here(t)
+            self._end(job, outcome)
+
+    def _end(self, job: _Job, outcome: G.Outcome) -> None:
+        job.end(outcome)
+        if self._job is job:
+            self._job = None
+
+    def _watch_time(self) -> None:
+        """Wall-time watchdog: a goal cannot wait for a simulator that has stopped."""
+        with self._lock:
+            job, since = self._job, self._advanced_at
+            if job is None:
+                return
+            idle = math.inf if since is None else time.monotonic() - since
+            if idle > self.state_timeout:
+                last = "none received" if self._latest is None else f"the last at t = {self._latest[0]:.3f} s"
+                self._end(job, G.Outcome(G.SIMULATOR_STOPPED, f"the joint states' time has not advanced for "
+                                         f"{min(idle, 1e9):.2f} s ({last}): the simulator stopped or is gone"))
+
+    # -- goals ---------------------------------------------------------------------------
+    def _execute_move(self, handle):
+        seq = self._next_seq()
+        req = handle.request
+        result = _MOVE()
+        try:
+            with self._lock:
+                q = self._require_state()
+            ref = plan_move(q, (req.x, req.y), self.params, duration=_given(req.duration),
+                            max_speed=_given(req.max_speed), force_budget=self.force_budget * self.max_force,
+                            singular_margin=self.singular_margin)
+            tol = self._tolerance(req.goal_tolerance, "goal_tolerance")
+        except PlanningError as err:
+            return self._refuse(handle, result, MOVE_PLANNING_CODES.get(err.code, _MOVE.INVALID_GOAL), str(err))
+        except _NoState as err:
+            return self._refuse(handle, result, _MOVE.SIMULATOR_STOPPED, str(err))
+        goal = G.MoveGoal(ref, 0.0, tolerance=tol, settle_timeout=self.settle_timeout,
+                          settle_window=self.settle_window)
+        job = self._run(handle, ref, goal, None, seq)
+        tick = job.last_tick
+        if tick is not None:
+            result.end_effector = Point(x=float(tick.end_effector[0]), y=float(tick.end_effector[1]))
+        result.settled_error = float(goal.distance)
+        result.settling_time = float(goal.settling_time)
+        result.max_force = float(goal.max_force)
+        return self._finish(handle, result, goal.outcome)
+
+    def _execute_follow(self, handle):
+        seq = self._next_seq()
+        req = handle.request
+        result = _FOLLOW(joint_names=list(JOINTS))
+        traj = req.trajectory
+        try:
+            with self._lock:
+                q, qdot, now = self._require_state(with_rate=True)
+            if any(len(p.effort) for p in traj.points):
+                raise PlanningError("points with effort are not accepted: the controller computes the forces")
+            start = _stamp_start(traj.header.stamp, now)
+            ref = actuator_reference(
+                traj.joint_names, [duration_to_s(p.time_from_start) for p in traj.points],
+                [list(p.positions) for p in traj.points], [list(p.velocities) for p in traj.points],
+                [list(p.accelerations) for p in traj.points], start_rho=q[:2], start_rate=qdot[:2],
+                params=self.params, singular_margin=self.singular_margin,
+                force_budget=self.force_budget * self.max_force)
+            path = self._joint_tolerances(req.path_tolerance, self.path_tolerance)
+            goal_tol = self._joint_tolerances(req.goal_tolerance, self.goal_tolerance)
+            goal_time = duration_to_s(req.goal_time_tolerance) or self.goal_time_tolerance
+        except PlanningError as err:
+            return self._refuse(handle, result, FOLLOW_PLANNING_CODES.get(err.code, _FOLLOW.INVALID_GOAL), str(err))
+        except _OldStamp as err:
+            return self._refuse(handle, result, _FOLLOW.OLD_HEADER_TIMESTAMP, str(err))
+        except _NoState as err:
+            return self._refuse(handle, result, _FOLLOW.SIMULATOR_STOPPED, str(err))
+        goal = G.TrajectoryGoal(ref, 0.0, path_position=path[0], path_velocity=path[1],
+                                goal_position=goal_tol[0], goal_velocity=goal_tol[1], goal_time=goal_time)
+        job = self._run(handle, ref, goal, start, seq)
+        final = ref.final()
+        if job.last_state is not None:
+            t, q, _ = job.last_state
+            result.final_error = [float(q[0] - final.q[0]), float(q[1] - final.q[1])]
+            result.end_effector_error = float(math.hypot(*(job.last_tick.end_effector - final.end_effector)))
+        result.max_force = float(goal.max_force)
+        return self._finish(handle, result, goal.outcome)
+
+    def _require_state(self, with_rate: bool = False):
+        if self._latest is None or self.ctrl.reference is None:
+            raise _NoState("no joint_states received yet: is the simulator running?")
+        t, q, qdot = self._latest
+        return (q, qdot, t) if with_rate else q
+
+    def _next_seq(self) -> int:
+        with self._lock:
+            self._seq += 1
+            return self._seq
+
+    def _run(self, handle, ref, goal, start: float | None, seq: int) -> _Job:
+        """Make ``goal`` the running one (preempting the last), then wait until it ends."""
+        gains = self.ctrl.schedule(ref)                 # the costly part, outside the lock
+        job = _Job(handle, goal, seq)
+        with self._lock:
+            old = self._job
+            if self._active_seq > seq:                  # a newer goal took over while this one planned
+                job.end(G.Outcome(G.PREEMPTED, "preempted by a newer goal before it started"))
+                return job
+            t0 = self._latest[0] if start is None else start
+            goal.t_start = t0
+            self._job, self._active_seq = job, seq
+            self.ctrl.follow(ref, t0, gains)
+        if old is not None:
+            old.end(G.Outcome(G.PREEMPTED, "preempted by a newer goal"))
+        while not job.finished.wait(0.05):
+            if not rclpy.ok(context=self.context):
+                job.end(G.Outcome(G.SIMULATOR_STOPPED, "the controller is shutting down"))
+        return job
+
+    def _refuse(self, handle, result, code: int, reason: str):
+        self.get_logger().warning(f"goal refused: {reason}")
+        result.error_code, result.error_string = code, reason
+        handle.abort()
+        return result
+
+    def _finish(self, handle, result, outcome: G.Outcome):
+        result.error_code = OUTCOME_CODES[outcome.code]
+        result.error_string = outcome.message
+        if outcome.succeeded:
+            handle.succeed()
+        elif outcome.code == G.CANCELED:
+            handle.canceled()
+        else:
+            handle.abort()
+        return result
+
+    def _tolerance(self, value: float, name: str) -> float:
+        if not math.isfinite(value):
+            raise PlanningError(f"{name} must be a finite number, got {value!r}")
+        return self.goal_tolerance if value == 0.0 else (value if value > 0.0 else math.inf)
+
+    def _joint_tolerances(self, items, default: float) -> tuple:
+        """``((pos1, pos2), (vel1, vel2))`` from JointTolerance messages (0: default, < 0: off)."""
+        pos, vel = [default, default], [0.0, 0.0]
+        for item in items:
+            if item.name not in JOINTS:
+                raise PlanningError(f"tolerance for unknown joint {item.name!r}; the joints are rho1, rho2",
+                                    code=INVALID_JOINTS)
+            for values, v, d in ((pos, item.position, default), (vel, item.velocity, 0.0)):
+                if not math.isfinite(v):
+                    raise PlanningError(f"tolerance of {item.name} must be finite, got {v!r}")
+                values[JOINTS.index(item.name)] = d if v == 0.0 else (v if v > 0.0 else 0.0)
+        return tuple(pos), tuple(vel)
+
+    def _feedback(self, job: _Job, msg: JointState, tick, q, qdot):
+        if isinstance(job.goal, G.MoveGoal):
+            fb = MoveEndEffector.Feedback(header=msg.header, phase=job.goal.phase)
+            fb.end_effector = Point(x=float(tick.end_effector[0]), y=float(tick.end_effector[1]))
+            fb.desired = Point(x=float(tick.desired.end_effector[0]), y=float(tick.desired.end_effector[1]))
+            fb.tracking_error = float(math.hypot(*(tick.end_effector - tick.desired.end_effector)))
+            fb.distance_to_target = float(job.goal.distance)
+            fb.time_from_start = float(tick.tau)
+            return fb
+        fb = FollowActuatorTrajectory.Feedback(header=msg.header, joint_names=list(JOINTS))
+        when = _duration_msg(tick.tau)
+        fb.desired = JointTrajectoryPoint(positions=[float(v) for v in tick.desired.q[:2]],
+                                          velocities=[float(v) for v in tick.desired.qdot[:2]], time_from_start=when)
+        fb.actual = JointTrajectoryPoint(positions=[float(v) for v in q[:2]],
+                                         velocities=[float(v) for v in qdot[:2]], time_from_start=when)
+        fb.error = JointTrajectoryPoint(positions=[float(v) for v in job.goal.error],
+                                        velocities=[float(v) for v in job.goal.rate_error], time_from_start=when)
+        return fb
+
+    def destroy_node(self) -> None:
+        with self._lock:
+            job, self._job = self._job, None
+        if job is not None:
+            job.end(G.Outcome(G.SIMULATOR_STOPPED, "the controller is shutting down"))
+        super().destroy_node()
+
+
+class _NoState(Exception):
+    """No joint state yet: nothing to plan from."""
+
+
+class _OldStamp(Exception):
+    """A trajectory's start stamp lies in the past."""
+
+
+def _given(value: float) -> float | None:
+    """0 means "not given" in the MoveEndEffector goal; anything else is checked by the planner."""
+    return None if value == 0.0 else value
+
+
+def _stamp_start(stamp, now: float) -> float | None:
+    """The start time of a trajectory: None (now) for a zero stamp, else the stamp [s]."""
+    t = stamp_to_s(stamp)
+    if t == 0.0:
+        return None
+    if t < now:
+        raise _OldStamp(f"header.stamp {t:.6f} s is before the controller's current time {now:.6f} s "
+                        "(zero starts the trajectory at once)")
+    return t
+
+
+def _parse_joint_state(msg: JointState):
+    """``(t, q, qdot)`` of a joint state naming rho1, rho2, beta, or None when unusable."""
+    names = list(msg.name)
+    try:
+        idx = [names.index(n) for n in ("rho1", "rho2", "beta")]
+        q = [float(msg.position[i]) for i in idx]
+        qdot = [float(msg.velocity[i]) for i in idx]
+    except (ValueError, IndexError):
+        return None
+    if not all(math.isfinite(v) for v in q + qdot):
+        return None
+    import numpy as np
+
+    return stamp_to_s(msg.header.stamp), np.array(q), np.array(qdot)
+
+
+def _duration_msg(seconds: float) -> DurationMsg:
+    seconds = max(0.0, seconds)
+    sec = math.floor(seconds)
+    return DurationMsg(sec=int(sec), nanosec=min(int(round((seconds - sec) * 1e9)), 999_999_999))
+
+
+def main(argv=None) -> int:
+    from threadpoolctl import threadpool_limits
+
+    # The law's matrices are 8 x 8: a multi-threaded BLAS only adds hand-over costs (5x slower
+    # gain design measured on a loaded 2-core machine), and it competes with the control loop.
+    threadpool_limits(1)
+    return spin_node(ControllerNode, argv, executor_factory=lambda: MultiThreadedExecutor(num_threads=4))
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))

@@ -1,0 +1,310 @@
+"""The tensegrity_controller node and its two actions over real DDS (issue 15).
+
+A real ``tensegrity node sim`` (100 Hz in real time: the controller's design rate) and a
+real ``tensegrity node controller`` in their own namespace; the goals come from action
+clients in this process. The simulator runs free (wall-clock ticks): on a loaded machine a
+late tick integrates a longer step with the last command, so the accuracy over ROS is
+checked against the goals' default tolerance (0.1 mm); the 0.05 mm target of issue 15 is
+the sampled-data loop's (tests/class2/test_control_closed_loop.py).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import pytest
+
+from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics
+
+pytestmark = pytest.mark.ros
+
+D0 = forward_kinematics(0.7, 0.7, PAPER_PARAMS)
+SIM_ARGS = ("-p", "publish_rate:=100.0", "-p", "real_time_factor:=1.0", "-p", "command_timeout:=0.0")
+
+
+class Client:
+    """Action clients and a joint-state listener in this process."""
+
+    def __init__(self, ctx, namespace: str):
+        import rclpy
+        from rclpy.action import ActionClient
+        from rclpy.executors import SingleThreadedExecutor
+        from sensor_msgs.msg import JointState
+        from tensegrity_msgs.action import FollowActuatorTrajectory, MoveEndEffector
+        from tensegrity_msgs.msg import ActuatorForces
+
+        self.node = rclpy.create_node("controller_test_client", namespace=namespace, context=ctx)
+        self.executor = SingleThreadedExecutor(context=ctx)
+        self.executor.add_node(self.node)
+        self.move = ActionClient(self.node, MoveEndEffector, "move_end_effector")
+        self.follow = ActionClient(self.node, FollowActuatorTrajectory, "follow_actuator_trajectory")
+        self.joints: list = []
+        self.commands: list = []
+        self.node.create_subscription(JointState, "joint_states", self.joints.append, 10)
+        self.node.create_subscription(ActuatorForces, "actuator_forces", self.commands.append, 100)
+        self.Move, self.Follow = MoveEndEffector, FollowActuatorTrajectory
+        for client in (self.move, self.follow):
+            assert client.wait_for_server(timeout_sec=60), "no action server"
+
+    def spin_until(self, cond, timeout: float = 60.0) -> None:
+        end = time.monotonic() + timeout
+        while not cond():
+            assert time.monotonic() < end, "condition not met in time"
+            self.executor.spin_once(timeout_sec=0.02)
+
+    def send(self, client, goal):
+        """Send ``goal``; returns (goal handle, feedback list)."""
+        feedback: list = []
+        sent = client.send_goal_async(goal, feedback_callback=lambda m: feedback.append(m.feedback))
+        self.spin_until(sent.done, 30)
+        handle = sent.result()
+        assert handle.accepted
+        return handle, feedback
+
+    def result(self, handle, timeout: float = 60.0):
+        fut = handle.get_result_async()
+        self.spin_until(fut.done, timeout)
+        return fut.result().status, fut.result().result
+
+    def run(self, client, goal, timeout: float = 60.0):
+        handle, feedback = self.send(client, goal)
+        status, result = self.result(handle, timeout)
+        return status, result, feedback
+
+    def wait_sim(self, seconds: float) -> None:
+        """Spin until the joint states' (simulated) time has advanced by ``seconds``."""
+        self.joints.clear()
+        self.spin_until(lambda: self.joints)
+        t0 = _stamp(self.joints[-1])
+        self.spin_until(lambda: _stamp(self.joints[-1]) >= t0 + seconds)
+
+    def end_effector(self):
+        self.joints.clear()
+        self.spin_until(lambda: self.joints)
+        js = self.joints[-1]
+        r1, b = js.position[0], js.position[2]
+        return r1 + math.cos(b), math.sin(b), js
+
+
+def _stamp(js) -> float:
+    return js.header.stamp.sec + 1e-9 * js.header.stamp.nanosec
+
+
+def _start(cli, namespace: str, *controller_args: str, scene: str | None = None):
+    scene_args = ("-p", f"scene:={scene}") if scene else ()
+    sim = cli("node", "sim", "--ros-args", "-r", f"__ns:={namespace}", *SIM_ARGS, *scene_args, log_name="sim")
+    ctl = cli("node", "controller", "--ros-args", "-r", f"__ns:={namespace}", *scene_args, *controller_args,
+              log_name="controller")
+    sim.wait_for("publishing at")
+    ctl.wait_for("holding rho")
+    return sim, ctl
+
+
+@pytest.fixture(scope="module")
+def suite(tmp_path_factory):
+    """One simulator + controller for the module's goals, and a client."""
+    import rclpy
+    from rclpy.context import Context
+
+    from tests.ros_support import Proc
+
+    folder = tmp_path_factory.mktemp("controller")
+    procs = []
+
+    def cli(*args, log_name="proc"):
+        procs.append(Proc(list(args), folder / f"{log_name}.log"))
+        return procs[-1]
+
+    sim, ctl = _start(cli, "/ctl")
+    ctx = Context()
+    rclpy.init(args=[], context=ctx)
+    client = Client(ctx, "/ctl")
+    yield client, ctl
+    client.node.destroy_node()
+    rclpy.try_shutdown(context=ctx)
+    for p in procs:
+        p.stop()
+
+
+def _traj(names=("rho1", "rho2"), points=((1.0, (0.71, 0.69)), (2.0, (0.72, 0.7)))):
+    from builtin_interfaces.msg import Duration
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+    traj = JointTrajectory(joint_names=list(names))
+    for t, pos in points:
+        sec = math.floor(t)
+        traj.points.append(JointTrajectoryPoint(positions=list(pos),
+                                                time_from_start=Duration(sec=int(sec), nanosec=int((t - sec) * 1e9))))
+    return traj
+
+
+def test_move_reaches_the_target_within_its_tolerance_with_feedback(suite):
+    client, _ = suite
+    x0, y0, _ = client.end_effector()
+    target = (x0 + 0.03, y0 + 0.02)
+    goal = client.Move.Goal(x=target[0], y=target[1], duration=1.5)       # default tolerance 0.1 mm
+    status, res, feedback = client.run(client.move, goal)
+    assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
+    assert status == 4                                      # GoalStatus.STATUS_SUCCEEDED
+    assert res.settled_error < 1e-4
+    assert math.hypot(res.end_effector.x - target[0], res.end_effector.y - target[1]) < 1e-4
+    assert 0 < res.max_force <= 5.0
+    phases = [f.phase for f in feedback]
+    assert phases[0] == "moving" and phases[-1] == "settling"
+    times = [f.time_from_start for f in feedback]
+    assert times == sorted(times) and len(feedback) > 50   # ~100 per simulated second
+    x, y, _ = client.end_effector()                         # and it holds there
+    assert math.hypot(x - target[0], y - target[1]) < 2e-4
+
+
+def test_follow_reaches_the_last_point_with_desired_actual_error_feedback(suite):
+    client, _ = suite
+    _, _, js = client.end_effector()
+    r1, r2 = js.position[0], js.position[1]
+    from builtin_interfaces.msg import Duration
+    from tensegrity_msgs.msg import JointTolerance
+
+    x0, y0, _ = client.end_effector()
+    mm = [JointTolerance(name=n, position=1e-3) for n in ("rho1", "rho2")]
+    goal = client.Follow.Goal(trajectory=_traj(points=((1.0, (r1 + 0.01, r2 - 0.01)), (2.0, (r1 + 0.02, r2)))),
+                              goal_tolerance=mm, goal_time_tolerance=Duration(sec=8))
+    status, res, feedback = client.run(client.follow, goal)
+    assert res.error_code == client.Follow.Result.SUCCESSFUL, res.error_string
+    assert all(abs(e) <= 1e-3 for e in res.final_error)
+    fb = feedback[len(feedback) // 2]
+    assert list(fb.joint_names) == ["rho1", "rho2"]
+    for k in (0, 1):
+        assert fb.error.positions[k] == pytest.approx(fb.actual.positions[k] - fb.desired.positions[k], abs=1e-12)
+    # back to rest where it started, for the tests after this one
+    _, res, _ = client.run(client.move, client.Move.Goal(x=x0, y=y0, duration=3.0))
+    assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
+
+
+@pytest.mark.parametrize("goal, code, words", [
+    (dict(x=3.0, y=0.5, duration=2.0), "OUTSIDE_WORKSPACE", "not reachable"),
+    (dict(x=math.nan, y=0.5, duration=2.0), "INVALID_GOAL", "x must be a finite number"),
+    (dict(x=1.3, y=0.7, duration=-1.0), "INVALID_GOAL", "duration must be > 0"),
+    (dict(x=1.3, y=0.7), "INVALID_GOAL", "give a duration"),
+    (dict(x=1.3, y=0.7, max_speed=math.inf), "INVALID_GOAL", "max_speed must be a finite number"),
+    (dict(x=0.9, y=0.9999, duration=2.0), "SINGULAR_PATH", "beta_half_pi"),
+    (dict(x=1.3, y=0.8, duration=1.5), "INVALID_GOAL", "allow more time"),
+])
+def test_bad_moves_are_refused_with_the_reason_and_the_hold_continues(suite, goal, code, words):
+    client, _ = suite
+    before = client.end_effector()
+    status, res, feedback = client.run(client.move, client.Move.Goal(**goal))
+    assert res.error_code == getattr(client.Move.Result, code), res.error_string
+    assert words in res.error_string
+    assert status == 6 and not feedback                     # aborted at once
+    client.commands.clear()                                 # the hold goes on: commands keep coming
+    client.spin_until(lambda: len(client.commands) >= 50, 30)
+    after = client.end_effector()
+    assert math.hypot(after[0] - before[0], after[1] - before[1]) < 5e-4
+
+
+@pytest.mark.parametrize("traj, code, words", [
+    (dict(names=("rho1", "theta")), "INVALID_JOINTS", "unknown joint"),
+    (dict(points=((2.0, (0.71, 0.69)), (1.0, (0.72, 0.7)))), "INVALID_GOAL", "increase strictly"),
+    (dict(points=((1.0, (0.71, math.nan)),)), "INVALID_GOAL", "non-finite"),
+    (dict(points=((1.0, (0.71, math.inf)),)), "INVALID_GOAL", "non-finite"),
+    (dict(points=((3.0, (0.99, 0.7)),)), "INVALID_GOAL", "singular set lambda2"),
+    (dict(points=((3.0, (1.2, 0.7)),)), "INVALID_GOAL", "outside the mechanism's domain"),
+])
+def test_bad_trajectories_are_refused_with_the_reason(suite, traj, code, words):
+    client, _ = suite
+    status, res, _ = client.run(client.follow, client.Follow.Goal(trajectory=_traj(**traj)))
+    assert res.error_code == getattr(client.Follow.Result, code), res.error_string
+    assert words in res.error_string and status == 6
+
+
+def test_unknown_tolerance_joints_and_efforts_are_refused(suite):
+    from tensegrity_msgs.msg import JointTolerance
+
+    client, _ = suite
+    goal = client.Follow.Goal(trajectory=_traj(), path_tolerance=[JointTolerance(name="beta", position=0.1)])
+    _, res, _ = client.run(client.follow, goal)
+    assert res.error_code == client.Follow.Result.INVALID_JOINTS and "beta" in res.error_string
+    traj = _traj()
+    traj.points[0].effort = [1.0, 1.0]
+    _, res, _ = client.run(client.follow, client.Follow.Goal(trajectory=traj))
+    assert res.error_code == client.Follow.Result.INVALID_GOAL and "effort" in res.error_string
+
+
+def test_path_and_goal_tolerance_violations_abort_with_their_codes(suite):
+    from builtin_interfaces.msg import Duration
+    from tensegrity_msgs.msg import JointTolerance
+
+    client, _ = suite
+    _, _, js = client.end_effector()
+    r1, r2 = js.position[0], js.position[1]
+    moving = _traj(points=((1.0, (r1 + 0.02, r2)),))
+    tight = [JointTolerance(name=n, position=1e-7) for n in ("rho1", "rho2")]
+    _, res, _ = client.run(client.follow, client.Follow.Goal(trajectory=moving, path_tolerance=tight))
+    assert res.error_code == client.Follow.Result.PATH_TOLERANCE_VIOLATED, res.error_string
+    assert "path tolerance" in res.error_string
+    _, _, js = client.end_effector()
+    back = _traj(points=((1.0, (js.position[0] - 0.02, js.position[1])),))
+    impossible = [JointTolerance(name=n, position=1e-12) for n in ("rho1", "rho2")]
+    goal = client.Follow.Goal(trajectory=back, goal_tolerance=impossible,
+                              goal_time_tolerance=Duration(sec=0, nanosec=200_000_000))
+    _, res, _ = client.run(client.follow, goal)
+    assert res.error_code == client.Follow.Result.GOAL_TOLERANCE_VIOLATED, res.error_string
+
+
+def test_cancel_holds_where_the_reference_was(suite):
+    client, _ = suite
+    x0, y0, _ = client.end_effector()
+    handle, feedback = client.send(client.move, client.Move.Goal(x=x0 - 0.04, y=y0, duration=8.0))
+    client.spin_until(lambda: feedback and feedback[-1].time_from_start >= 2.0)    # a quarter of the time
+    cancel = handle.cancel_goal_async()
+    client.spin_until(cancel.done)
+    status, res = client.result(handle)
+    assert status == 5 and res.error_code == client.Move.Result.CANCELED   # GoalStatus.STATUS_CANCELED
+    client.wait_sim(5.0)                                    # stopping from full speed takes a few seconds
+    x1, y1, _ = client.end_effector()
+    assert 2e-3 < abs(x1 - x0) < 0.03                      # stopped part of the way (6.5 mm at 2 s)
+    client.wait_sim(2.0)
+    x2, y2, _ = client.end_effector()
+    assert math.hypot(x2 - x1, y2 - y1) < 2e-4              # and holds
+
+
+def test_a_new_goal_preempts_the_running_one(suite):
+    client, _ = suite
+    x0, y0, _ = client.end_effector()
+    first, feedback = client.send(client.move, client.Move.Goal(x=x0 + 0.04, y=y0, duration=6.0))
+    client.spin_until(lambda: feedback)                     # it runs
+    status, res, _ = client.run(client.move, client.Move.Goal(x=x0, y=y0 + 0.03, duration=1.5))
+    assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
+    status_first, res_first = client.result(first)
+    assert status_first == 6 and res_first.error_code == client.Move.Result.PREEMPTED
+    assert "preempted" in res_first.error_string
+
+
+def test_a_stopped_simulator_aborts_the_running_goal(cli, ros_context):
+    sim, ctl = _start(cli, "/ctl_stop")
+    client = Client(ros_context, "/ctl_stop")
+    x0, y0, _ = client.end_effector()
+    handle, feedback = client.send(client.move, client.Move.Goal(x=x0 + 0.03, y=y0, duration=8.0))
+    client.spin_until(lambda: feedback)                     # it runs
+    sim.kill()
+    status, res = client.result(handle, 30)
+    assert status == 6 and res.error_code == client.Move.Result.SIMULATOR_STOPPED
+    assert "has not advanced" in res.error_string
+    assert ctl.popen.poll() is None                          # the controller keeps running
+
+
+def test_a_simulator_driven_into_a_singular_set_aborts_the_running_goal(cli, ros_context):
+    """Another publisher pushes both actuators apart (-3 N, compressive) faster than a
+    0.5 N controller can resist: rho1 + rho2 runs to 2L, the simulator stops there."""
+    sim, ctl = _start(cli, "/ctl_sing", "-p", "max_force:=0.5")
+    client = Client(ros_context, "/ctl_sing")
+    x0, y0, _ = client.end_effector()
+    handle, _ = client.send(client.move, client.Move.Goal(x=x0 + 0.01, y=y0, duration=20.0))
+    rogue = cli("send-forces", "-3", "-3", "--rate", "1000", "--ros-args", "-r", "__ns:=/ctl_sing", log_name="rogue")
+    status, res = client.result(handle, 60)
+    rogue.stop()
+    assert status == 6
+    assert res.error_code in (client.Move.Result.SINGULAR_STATE, client.Move.Result.SIMULATOR_STOPPED)
+    assert "lambda1" in res.error_string or "has not advanced" in res.error_string
+    assert ctl.popen.poll() is None
