@@ -14,7 +14,7 @@ generalised force; a linear zero-free-length spring has ``phi_j = k_j``, its dam
 ``c_j (d_j . ddot_j) / (|d_j|^2 + eps^2)`` (the damper force along the spring is
 ``c_j dL_j/dt``; ``eps = ZERO_LENGTH_REL L``).
 
-The arithmetic functions (:func:`spring_vectors`, :func:`damper_coefficients`,
+The arithmetic functions (:func:`spring_tensions`, :func:`spring_vectors`,
 :func:`spring_forces`) take a
 :class:`~tensegrity_core.class2.dynamics.kinematics.Kinematics` of floats or of arrays;
 vectors are flat ``(x_CD, y_CD, x_DE, y_DE, x_EF, y_EF, x_BE, y_BE)``. The array functions
@@ -40,49 +40,51 @@ def dampings(params: Class2Params) -> tuple[float, float, float, float]:
     return tuple(float(getattr(params, m.damping)) for m in SPRINGS)
 
 
-def spring_vectors(L: float, k) -> tuple:
-    """Node-difference vectors of the springs, flat ``(x_CD, y_CD, ..., x_BE, y_BE)`` [m]."""
-    r1, r2, sb, cb, _, _, _, s, lam1, lam2, _, _ = k
+def spring_tensions(L: float, stiffness, damping, eps2: float, k) -> tuple:
+    """The springs' vectors and axial force coefficients at context ``k``:
+    ``(x_CD, y_CD, x_DE, y_DE, x_EF, y_EF, x_BE, y_BE, phi_CD, phi_DE, phi_EF, phi_BE)``.
+
+    ``phi_j`` [N/m] (force ``phi_j d_j`` on the second node, tension positive) is the
+    stiffness (``stiffness``, four values) plus, when ``damping`` (four values) is not None,
+    the damper's ``c_j (d_j . ddot_j)/(|d_j|^2 + eps2)`` with the rates ``ddot_j = J_j qdot``
+    written out. The parameters come first so that ``functools.partial`` binds them."""
+    r1, r2, sb, cb, v1, v2, vb, s, lam1, lam2, e1, g2 = k
     lsb = L * sb
     lcb = L * cb
     h = 0.5 * (r2 - r1)
     y_e = 0.5 * lam1
-    return (lcb - r2, lsb, h - lcb, y_e - lsb, -0.5 * s, (r2 - r1) * (3.0 * r1 + r2) / (4.0 * lam2 + 2.0 * lam1),
-            h, y_e)
+    x3, y3, x4, y4 = lcb - r2, lsb, h - lcb, y_e - lsb
+    x7, y7 = -0.5 * s, (r2 - r1) * (3.0 * r1 + r2) / (4.0 * lam2 + 2.0 * lam1)
+    p3, p4, p7, p8 = stiffness
+    if damping is not None:
+        c3, c4, c7, c8 = damping
+        sd = v1 + v2
+        hd = 0.5 * (v2 - v1)
+        y_ed = -0.5 * e1 * sd
+        lsb_vb = lsb * vb
+        lcb_vb = lcb * vb
+        p3 = p3 + c3 * (x3 * (-v2 - lsb_vb) + y3 * lcb_vb) / (x3 * x3 + y3 * y3 + eps2)
+        p4 = p4 + c4 * (x4 * (hd + lsb_vb) + y4 * (y_ed - lcb_vb)) / (x4 * x4 + y4 * y4 + eps2)
+        p7 = p7 + c7 * (-0.5 * x7 * sd + y7 * (0.5 * e1 * sd - g2 * v1)) / (x7 * x7 + y7 * y7 + eps2)
+        p8 = p8 + c8 * (h * hd + y_e * y_ed) / (h * h + y_e * y_e + eps2)
+    return x3, y3, x4, y4, x7, y7, h, y_e, p3, p4, p7, p8
 
 
-def damper_coefficients(L: float, k, d, damping, eps2: float) -> tuple:
-    """The dampers' share ``c_j (d_j . ddot_j)/(|d_j|^2 + eps2)`` [N/m] of the axial force
-    coefficients, for the springs' vectors ``d`` (:func:`spring_vectors`) and ``damping``
-    ``(c_CD, c_DE, c_EF, c_BE)``; the rates ``ddot_j = J_j qdot`` are written out (this is on
-    the hot path of every damped right-hand side)."""
-    _, _, sb, cb, v1, v2, vb, _, _, _, e1, g2 = k
-    x3, y3, x4, y4, x7, y7, x8, y8 = d
-    c3, c4, c7, c8 = damping
-    sd = v1 + v2
-    hd = 0.5 * (v2 - v1)
-    y_ed = -0.5 * e1 * sd
-    lsb_vb = L * sb * vb
-    lcb_vb = L * cb * vb
-    return (c3 * (x3 * (-v2 - lsb_vb) + y3 * lcb_vb) / (x3 * x3 + y3 * y3 + eps2),
-            c4 * (x4 * (hd + lsb_vb) + y4 * (y_ed - lcb_vb)) / (x4 * x4 + y4 * y4 + eps2),
-            c7 * (-0.5 * x7 * sd + y7 * (0.5 * e1 * sd - g2 * v1)) / (x7 * x7 + y7 * y7 + eps2),
-            c8 * (x8 * hd + y8 * y_ed) / (x8 * x8 + y8 * y8 + eps2))
+_NO_STIFFNESS = (0.0, 0.0, 0.0, 0.0)
+
+
+def spring_vectors(L: float, k) -> tuple:
+    """Node-difference vectors of the springs, flat ``(x_CD, y_CD, ..., x_BE, y_BE)`` [m]."""
+    return spring_tensions(L, _NO_STIFFNESS, None, 0.0, k)[:8]
 
 
 def spring_forces(L: float, stiffness, damping, eps2: float, k) -> tuple:
     """Generalised force ``Q = -sum_j J_j^T (phi_j d_j)`` [N, N, N m] of the springs
-    (``stiffness`` (4)) and their dampers (``damping`` (4) or None) at context ``k``, in one
-    pass: the hot path of every right-hand side (floats or arrays). The parameters come first
-    so that ``functools.partial`` binds them. DE and BE share the rho-columns of their
-    Jacobians."""
-    _, _, sb, cb, _, _, _, _, _, _, e1, g2 = k
-    d = spring_vectors(L, k)
-    x3, y3, x4, y4, x7, y7, x8, y8 = d
-    p3, p4, p7, p8 = stiffness
-    if damping is not None:
-        b3, b4, b7, b8 = damper_coefficients(L, k, d, damping, eps2)
-        p3, p4, p7, p8 = p3 + b3, p4 + b4, p7 + b7, p8 + b8
+    (``stiffness``) and their dampers (``damping`` or None) at context ``k``
+    (:func:`spring_tensions`): the hot path of every right-hand side (floats or arrays).
+    DE and BE share the rho-columns of their Jacobians."""
+    x3, y3, x4, y4, x7, y7, x8, y8, p3, p4, p7, p8 = spring_tensions(L, stiffness, damping, eps2, k)
+    sb, cb, e1, g2 = k[2], k[3], k[10], k[11]
     fx4, fy4 = p4 * x4, p4 * y4
     fx = fx4 + p8 * x8
     fy = fy4 + p8 * y8

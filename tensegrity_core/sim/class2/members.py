@@ -38,7 +38,7 @@ import numpy as np
 
 from tensegrity_core.class2.dynamics.kinematics import kinematics_array
 from tensegrity_core.class2.dynamics.limits import ZERO_LENGTH_REL
-from tensegrity_core.class2.dynamics.springs import damper_coefficients, dampings, spring_vectors, stiffnesses
+from tensegrity_core.class2.dynamics.springs import dampings, spring_tensions, stiffnesses
 
 
 def _where(cond, a, b):
@@ -93,14 +93,10 @@ def member_values(params, k, qdd, actuator_forces, *, springs: bool, damping: bo
     ``gravity`` a vector (>= 2 components, in-plane ones used) or None; ``loads`` (6, 2) or
     None; ``inertia`` False for massless struts (quasi-static)."""
     L, m = params.L, params.m
-    d = spring_vectors(L, k)                                           # CD, DE, EF, BE
-    x3, y3, x4, y4, x7, y7, x8, y8 = d
+    x3, y3, x4, y4, x7, y7, x8, y8, p3, p4, p7, p8 = spring_tensions(      # CD, DE, EF, BE
+        L, stiffnesses(params) if springs else (0.0,) * 4, dampings(params) if damping else None,
+        (ZERO_LENGTH_REL * L) ** 2, k)
     sq = (x3 * x3 + y3 * y3, x4 * x4 + y4 * y4, x7 * x7 + y7 * y7, x8 * x8 + y8 * y8)
-    phi = stiffnesses(params) if springs else (0.0,) * 4
-    if damping:
-        dampers = damper_coefficients(L, k, d, dampings(params), (ZERO_LENGTH_REL * L) ** 2)
-        phi = tuple(p + b for p, b in zip(phi, dampers))
-    p3, p4, p7, p8 = phi
     # forces of the springs on the nodes D, E, F (tension + along CD, DE, EF, BE), plus loads
     FDx, FDy = p4 * x4 - p3 * x3, p4 * y4 - p3 * y3
     FEx, FEy = p7 * x7 - p4 * x4 - p8 * x8, p7 * y7 - p4 * y4 - p8 * y8
