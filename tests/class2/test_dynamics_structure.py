@@ -252,6 +252,8 @@ def test_non_finite_input_raises_instead_of_returning_nan(bad):
         model.acceleration_scalar(*bad)
     with pytest.raises(DomainError):
         model.acceleration_batch(np.array([bad[:6]]), bad[6], bad[7])
+    with pytest.raises(DomainError):
+        model.rhs(0.0, np.array(bad[:6]), bad[6], bad[7])
 
 
 def test_shape_validation_messages():

@@ -36,6 +36,11 @@ def require_finite(name: str, result: np.ndarray, inputs: dict[str, object]) -> 
     raise DomainError(f"{name}: non-finite input {', '.join(bad) or '(overflow)'}")
 
 
+def _non_finite(y, f1, f2) -> DomainError:
+    return DomainError("acceleration: non-finite input in (rho1, rho2, beta, rho1_dot, rho2_dot, beta_dot, f1, f2) "
+                       f"= {(*y, f1, f2)!r}")
+
+
 class EquationsOfMotion:
     """``M qddot + C = sum Q_e - (T1, T2, 0)`` for the force ``effects`` (in composition
     order) of one parameter set; states with lambda1 or lambda2 below ``lambda_min L`` are
@@ -126,14 +131,13 @@ class Class2Dynamics:
     def acceleration_scalar(self, rho1: float, rho2: float, beta: float, rho1_dot: float, rho2_dot: float,
                             beta_dot: float, f1: float = 0.0, f2: float = 0.0) -> tuple[float, float, float]:
         """``qddot`` for one state from plain floats (pure ``math``, no numpy)."""
-        k = kinematics(self._L, (rho1, rho2, beta, rho1_dot, rho2_dot, beta_dot), self._limit)
+        y = (rho1, rho2, beta, rho1_dot, rho2_dot, beta_dot)
+        k = kinematics(self._L, y, self._limit)
         Q1, Q2, Q3 = self._force(k)
         out = self._solve(k, Q1 - f1, Q2 - f2, Q3)
         if math.isfinite(out[0] + out[1] + out[2]):
             return out
-        raise DomainError(
-            "acceleration: non-finite input in (rho1, rho2, beta, rho1_dot, rho2_dot, beta_dot, f1, f2) = "
-            f"{(rho1, rho2, beta, rho1_dot, rho2_dot, beta_dot, f1, f2)!r}")
+        raise _non_finite(y, f1, f2)
 
     def rhs(self, t: float, y, f1: float = 0.0, f2: float = 0.0) -> np.ndarray:
         """``dy/dt`` for ``scipy.integrate.solve_ivp``: ``y`` of shape (6,), constant forces.
@@ -146,7 +150,7 @@ class Class2Dynamics:
         a1, a2, a3 = self._solve(k, Q1 - f1, Q2 - f2, Q3)
         if math.isfinite(a1 + a2 + a3):
             return np.array((yl[3], yl[4], yl[5], a1, a2, a3))
-        return np.array((yl[3], yl[4], yl[5]) + self.acceleration_scalar(*yl, f1, f2))   # raises
+        raise _non_finite(tuple(yl), f1, f2)
 
     def acceleration_array(self, q, qdot, f1=0.0, f2=0.0) -> np.ndarray:
         """``qddot`` (..., 3) for arrays ``q, qdot`` (trailing dimension 3) and forces
