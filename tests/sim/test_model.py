@@ -48,6 +48,10 @@ def test_every_shipped_scene_compiles_to_a_registered_back_end_with_the_whole_pr
     missing = sorted(n for n in wanted if not hasattr(model, n))
     assert not missing, f"{key} lacks {missing}"
     assert model.kind == scene.model.kind and model.quasi_static == scene.quasi_static
+    state = model.initial_state(t_end=scene.duration)
+    assert state.t == 0.0 and len(state.y) == len(model.state_names) and np.all(np.isfinite(state.y))
+    assert isinstance(state.mode, frozenset) and (model.kind == "class2" or state.mode == frozenset())
+    assert len(state.commands) == len(model.actuator_names) == len(scene.inputs)
 
 
 def test_the_registry_names_each_model_kind_and_regime_once():

@@ -43,7 +43,10 @@ OBSERVED = ("t", "state", "q", "qdot", "applied_forces", "nodes", "member_length
 
 class FormFindingPath:
     """The workspace of a quasi-static general state: the equilibrium ``config`` at ``t`` of
-    the ``static`` structure (rest lengths ``l0`` from ``rest_of``, or the drawn ones)."""
+    the ``static`` structure (rest lengths ``l0`` from ``rest_of``, or the drawn ones). A
+    general structure has no contacts: its mode is always empty."""
+
+    mode: frozenset = frozenset()
 
     def __init__(self, t: float, config, static, rest_of, n_solves: int = 0):
         self.t = t
@@ -60,8 +63,6 @@ class FormFindingPath:
     def y(self) -> np.ndarray:
         lay = self.static.layout
         return minimal_coordinates(lay, coordinates(self.config), self.config.rotations)
-
-    mode: frozenset = frozenset()
 
     def copy(self, events: list) -> "FormFindingPath":
         """An exact copy (configurations and structures are immutable)."""
