@@ -67,7 +67,9 @@ from tensegrity_core.class2.workspace import (
 # --- dynamics (Lagrangian equations of motion, Sect. 5) -------------------------------
 from tensegrity_core.class2.dynamics import (
     LAMBDA_MIN_REL,
+    ActuatorLengthEvent,
     Class2Dynamics,
+    SingularityApproachEvent,
     acceleration,
     damping_matrix,
     generalized_forces,
@@ -75,11 +77,11 @@ from tensegrity_core.class2.dynamics import (
     mass_matrix,
     mechanical_energy,
     potential_gradient,
+    potential_hessian,
+    rhs_jacobian,
     spring_vectors,
     velocity_terms,
 )
-from tensegrity_core.class2.dynamics_events import ActuatorLengthEvent, SingularityApproachEvent
-from tensegrity_core.class2.dynamics_jacobian import potential_hessian, rhs_jacobian
 
 __all__ = [
     "Class2Params",

@@ -23,8 +23,7 @@ from pathlib import Path
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from tensegrity_core.class2.dynamics import Class2Dynamics, mechanical_energy
-from tensegrity_core.class2.dynamics_events import ActuatorLengthEvent
+from tensegrity_core.class2.dynamics import ActuatorLengthEvent, Class2Dynamics, mechanical_energy
 from tensegrity_core.class2.energy import equilibrium_beta
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 from tensegrity_core.errors import ConvergenceError, ParameterError

@@ -8,13 +8,20 @@
     sim.set_command([f1, f2]); sim.advance(t); obs = sim.observe()
     traj = simulate(scene)               # whole run -> Trajectory (.to_npz, .to_csv)
 
+    model = compile_scene(scene)         # the frozen Model (tensegrity_core.sim.model)
+    state = model.initial_state()        # a State: t, y, mode, commands, events; .copy()
+    model.set_command(state, [f1, f2]); model.advance(state, t)
+
 See ``docs/scenes.md`` for the scene format, the models and the benchmarks.
 """
 
+from tensegrity_core.sim.backends import BACKENDS, compile_scene
 from tensegrity_core.sim.errors import SceneError, SimulationError
+from tensegrity_core.sim.model import DynamicModel, Model, Names, State
 from tensegrity_core.sim.scene import EFFECTS, Scene, load_scene, scene_names, scene_path
 from tensegrity_core.sim.simulator import JointSample, Observation, Simulator, simulate
 from tensegrity_core.sim.trajectory import Trajectory
 
-__all__ = ["EFFECTS", "JointSample", "Observation", "Scene", "SceneError", "SimulationError", "Simulator", "Trajectory",
-           "load_scene", "scene_names", "scene_path", "simulate"]
+__all__ = ["BACKENDS", "EFFECTS", "DynamicModel", "JointSample", "Model", "Names", "Observation", "Scene",
+           "SceneError", "SimulationError", "Simulator", "State", "Trajectory", "compile_scene", "load_scene",
+           "scene_names", "scene_path", "simulate"]

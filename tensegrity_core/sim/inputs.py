@@ -18,7 +18,10 @@ is the *rest length* [m] of an actuator member. Each law gives
 Laws: :class:`Constant`, :class:`Ramp` (linear between two times, constant outside),
 :class:`Proportional` (``gain * length * t``, the paper's ``f_i = 10 rho_i t``),
 :class:`Series` (a time series read from CSV, interpolated) and :class:`Commanded` (the scene's
-"commanded": the simulator holds the last command given to it, as a :class:`HeldCommand`).
+"commanded": the simulator holds the last command given to it; :func:`held` turns the laws
+and a state's commands into laws a model evaluates, a command becoming a :class:`Constant`).
+
+Every law is immutable: a new command is a new set of laws, never a changed one.
 """
 
 from __future__ import annotations
@@ -192,14 +195,10 @@ class Commanded:
     law = "commanded"
 
 
-class HeldCommand(_ConstantValue):
-    """The run-time form of a commanded input: a value that only changes when the simulator
-    is given a new command (then the integrator restarts)."""
-
-    law = "commanded"
-
-    def __init__(self, value: float):
-        self.value = float(value)
+def held(laws, commands) -> tuple:
+    """``laws`` with each commanded input held at its command: a :class:`Constant` of
+    ``commands[i]`` in place of a :class:`Commanded` (other laws unchanged)."""
+    return tuple(Constant(float(c)) if law.law == "commanded" else law for law, c in zip(laws, commands))
 
 
 def next_breakpoint(laws, t: float, t_end: float) -> float:

@@ -6,9 +6,13 @@
     sim.set_command([f1, f2])      # commanded inputs (zero-order hold) [N]
     sim.advance(t)                 # integrate up to t [s]
     obs = sim.observe()            # Observation at sim.t (sensor noise applied if listed)
+    sim.reset()                    # a new State at t = 0 (the model is not compiled again)
     traj = simulate("paper_fold")  # the whole scene -> Trajectory
 
-The back end is chosen by the scene: class-2 or general structure, with inertia (equations
+A :class:`Simulator` is a convenience over a compiled :class:`~tensegrity_core.sim.model.Model`
+(``sim.model``) and one :class:`~tensegrity_core.sim.model.State` (``sim.state``), plus the
+scene's sensor noise on what it observes. The back end is chosen by the scene (see
+:mod:`tensegrity_core.sim.backends`): class-2 or general structure, with inertia (equations
 of motion) or without (quasi-static: the configuration tracks equilibrium).
 """
 
@@ -20,9 +24,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tensegrity_core.sim.backends import compile_scene
 from tensegrity_core.sim.errors import SimulationError
+from tensegrity_core.sim.model import Model, State
 from tensegrity_core.sim.noise import SensorNoise
-from tensegrity_core.sim.scene import Scene, load_scene
+from tensegrity_core.sim.scene import load_scene
 from tensegrity_core.sim.trajectory import Trajectory
 
 
@@ -76,70 +82,66 @@ class JointSample:
     folded: bool
 
 
-def _backend(scene: Scene, t_end: float):
-    if scene.model.kind == "class2":
-        if scene.quasi_static:
-            from tensegrity_core.sim.class2_quasistatic import Class2QuasiStatic
-
-            return Class2QuasiStatic(scene)
-        from tensegrity_core.sim.class2_sim import Class2Dynamic
-
-        return Class2Dynamic(scene, t_end=t_end)
-    if scene.quasi_static:
-        from tensegrity_core.sim.general_quasistatic import GeneralQuasiStatic
-
-        return GeneralQuasiStatic(scene)
-    from tensegrity_core.sim.general_sim import GeneralDynamic
-
-    return GeneralDynamic(scene, t_end=t_end)
-
-
 class Simulator:
-    """A running simulation of one scene; builds only the effects the scene lists.
+    """A running simulation of one scene: a compiled model and its current state.
 
-    ``t_end`` bounds the integration (default: open-ended, for the ROS node); the stepping
-    integrator never steps past it.
+    ``scene`` is anything :func:`~tensegrity_core.sim.scene.load_scene` reads, or a compiled
+    :class:`~tensegrity_core.sim.model.Model`. ``t_end`` bounds the integration (default:
+    open-ended, for the ROS node); the stepping integrator never steps past it. ``model`` and
+    ``scene`` are fixed; ``state`` is the current :class:`~tensegrity_core.sim.model.State`
+    (assign another of the same model to continue from it).
     """
 
     def __init__(self, scene, *, t_end: float = math.inf):
-        self.scene = load_scene(scene)
-        self._backend = _backend(self.scene, t_end)
+        self.model: Model = scene if _is_model(scene) else compile_scene(load_scene(scene))
+        self.scene = self.model.scene
+        self.kind = self.model.kind
+        self.quasi_static = self.model.quasi_static
+        self.t_end = t_end
+        self.state: State = self.model.initial_state(t_end=t_end)
+        self._noise = self._new_noise()
+
+    def _new_noise(self) -> SensorNoise | None:
         noise = self.scene.effects.get("sensor_noise")
-        self._noise = SensorNoise(noise.sigmas, self.scene.seed) if noise is not None else None
-        self.kind = self._backend.kind
-        self.quasi_static = self._backend.quasi_static
+        return SensorNoise(noise.sigmas, self.scene.seed) if noise is not None else None
+
+    def reset(self) -> None:
+        """Back to the scene's initial state at ``t = 0`` (a new state; the sensor noise starts
+        its sequence again): the same as a new simulator of the scene, without compiling it."""
+        self.state = self.model.initial_state(t_end=self.t_end)
+        self._noise = self._new_noise()
 
     @property
     def t(self) -> float:
         """Current simulation time [s]."""
-        return self._backend.t
+        return self.state.t
 
     @property
     def command(self) -> list:
         """Current values of the commanded inputs (``nan`` for inputs with a law)."""
-        return self._backend.command
+        return list(self.state.commands)
 
     @property
     def events(self) -> list:
         """``(t, kind, index)`` of every event so far (fold, release, limit, ...)."""
-        return list(self._backend.events)
+        return list(self.state.events)
 
     def set_command(self, values) -> None:
         """Set the commanded inputs (one value per actuator, in the scene's input order; values
         for inputs with a law are ignored). Zero-order hold from the current time on."""
-        self._backend.set_command(values)
+        self.model.set_command(self.state, values)
 
     def advance(self, t_target: float) -> None:
         """Integrate up to ``t_target`` [s] (>= ``t``)."""
         if not (isinstance(t_target, (int, float)) and math.isfinite(t_target)):
             raise SimulationError(f"advance: t_target must be a finite number of seconds, got {t_target!r}")
-        self._backend.advance(float(t_target))
+        self.model.advance(self.state, float(t_target))
 
     def observe(self) -> Observation:
         """The state at ``t`` (with sensor noise if the scene lists it). Class-2 scenes evaluate
         the one sample on floats (tens of microseconds); the result equals the vectorised
         observations of :func:`simulate` to rounding."""
-        obs = self._observation(self._backend.observe_now())
+        obs = observation(self.model, self.model.observe_now(self.state))
         if self._noise is not None:
             self._noise.perturb(obs)
         return obs
@@ -147,41 +149,33 @@ class Simulator:
     def joint_sample(self) -> JointSample:
         """Joint positions, rates, applied forces and end-effector at ``t``, without member
         forces or energies: ~2 us where :meth:`observe` takes ~30 us (dynamic class-2 scenes;
-        other scenes fall back to :meth:`observe`)."""
-        if self.kind != "class2" or self.quasi_static:
-            o = self.observe()
-            return JointSample(o.t, o.q, o.qdot, o.applied_forces, o.end_effector, o.folded)
-        t, y, bits, T = self._backend.sample()
-        L = self.scene.model.params.L
-        q, qd = y[:3], y[3:6]
-        ee = np.array([q[0] + L * math.cos(q[2]), L * math.sin(q[2]), 0.0])
-        sample = JointSample(float(t), q, qd, np.asarray(T, dtype=float), ee, bool(bits))
+        other scenes evaluate an observation)."""
+        d = self.model.joint_sample(self.state)
+        sample = JointSample(float(d["t"]), d["q"], d["qdot"], np.asarray(d["applied_forces"], dtype=float),
+                             d["end_effector"], bool(d["folded"]))
         if self._noise is not None:
             self._noise.perturb(sample)
         return sample
 
-    def _observation(self, data: dict) -> Observation:
-        """The :class:`Observation` of one sample's values (``observe_now``)."""
-        names = self._backend_names()
-        return Observation(
-            t=float(data["t"]), q=data["q"], qdot=data["qdot"], applied_forces=data["applied_forces"],
-            node_names=names["node_names"], nodes=data["nodes"], member_names=names["member_names"],
-            member_nodes=names["member_nodes"], member_lengths=data["member_lengths"],
-            member_forces=data["member_forces"], end_effector=data["end_effector"],
-            potential_energy=float(data["potential_energy"]), kinetic_energy=float(data["kinetic_energy"]),
-            folded=bool(data["folded"]), contact_forces=data["contact_forces"], state=data["state"])
-
-    def _backend_names(self) -> dict:
-        if self.kind == "class2":
-            from tensegrity_core.class2.geometry import NODE_NAMES
-            from tensegrity_core.sim.class2_sim import MEMBER_NAMES, MEMBER_NODES
-
-            return {"node_names": NODE_NAMES, "member_names": MEMBER_NAMES, "member_nodes": MEMBER_NODES}
-        return self._backend.names()
-
     def stats(self) -> dict:
         """Integrator statistics (steps, function evaluations, restarts, events)."""
-        return self._backend.stats()
+        return self.model.stats(self.state)
+
+
+def _is_model(value) -> bool:
+    return hasattr(value, "initial_state") and hasattr(value, "observe_now")
+
+
+def observation(model: Model, data: dict) -> Observation:
+    """The :class:`Observation` of one sample's values (``model.observe_now``)."""
+    names = model.names
+    return Observation(
+        t=float(data["t"]), q=data["q"], qdot=data["qdot"], applied_forces=data["applied_forces"],
+        node_names=names.node_names, nodes=data["nodes"], member_names=names.member_names,
+        member_nodes=names.member_nodes, member_lengths=data["member_lengths"],
+        member_forces=data["member_forces"], end_effector=data["end_effector"],
+        potential_energy=float(data["potential_energy"]), kinetic_energy=float(data["kinetic_energy"]),
+        folded=bool(data["folded"]), contact_forces=data["contact_forces"], state=data["state"])
 
 
 def simulate(scene, *, duration: float | None = None, progress=None) -> Trajectory:
@@ -195,28 +189,28 @@ def simulate(scene, *, duration: float | None = None, progress=None) -> Trajecto
     if duration is not None:
         scene = scene.with_duration(duration)
     wall0 = time.perf_counter()
-    sim = Simulator(scene, t_end=scene.duration)
+    model = compile_scene(scene)
+    state = model.initial_state(t_end=scene.duration)
     n = int(math.floor(scene.duration * scene.output_rate * (1 + 1e-12))) + 1
     times = np.arange(n) / scene.output_rate
     if times[-1] < scene.duration * (1 - 1e-12):         # the run always ends at its duration
         times = np.append(times, scene.duration)
         n += 1
-    samples = []
+    samples: list = []
     error = None
     chunk = max(1, n // 50) if progress is not None else n     # progress in 2 % steps, if watched
     for start in range(0, n, chunk):
         try:
-            sim._backend.record(times[start:start + chunk], samples)
+            model.record(state, times[start:start + chunk], samples)
         except SimulationError as err:
             error = err
             break
         if progress is not None:
             progress(float(times[min(start + chunk, n) - 1]), scene.duration)
-    data = sim._backend.observe(samples)
-    measurements = sim._noise.perturb_arrays(data) if sim._noise is not None else {}
-    names = sim._backend_names()
-    stats = sim.stats()
+    data = model.observe(samples)
+    noise = scene.effects.get("sensor_noise")
+    measurements = SensorNoise(noise.sigmas, scene.seed).perturb_arrays(data) if noise is not None else {}
+    stats = model.stats(state)
     stats["wall_time"] = time.perf_counter() - wall0
-    return Trajectory.from_observations(scene, data, names, sim.events, measurements, stats,
-                                        error=str(error) if error else "",
-                                        state_names=getattr(sim._backend, "state_names", ()))
+    return Trajectory.from_observations(scene, data, model.names, list(state.events), measurements, stats,
+                                        error=str(error) if error else "", state_names=model.state_names)

@@ -21,11 +21,18 @@ alive and steps it itself:
 
 The state at any time between the last restart and the end of the current step is
 available; the solver never steps past a pending event.
+
+What is integrated is an :class:`OdeSystem`: a model's equations with its discrete state
+(contact mode, rotation charts) and its input laws fixed. An event or a re-charting returns
+the system of the new discrete state; a changed command is a new system. The stepper is the
+integration workspace of a :class:`~tensegrity_core.sim.model.State`: it writes the located
+events into the state's event log.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Callable, Protocol, Sequence
 
 import numpy as np
 from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
@@ -43,6 +50,43 @@ IMPLICIT = ("Radau", "BDF", "LSODA")
 FRESH_START = ("LSODA",)
 #: How many times a failing step is retried with a smaller first step.
 MAX_RETRIES = 30
+
+
+class StateEvent(Protocol):
+    """A state event: ``g(t, y)`` crosses zero in ``direction`` (-1 falling, +1 rising, 0 both);
+    ``kind`` and ``index`` name it in the event log."""
+
+    kind: str
+    index: int
+    direction: float
+
+    def g(self, t: float, y: np.ndarray) -> float: ...
+
+
+class OdeSystem(Protocol):
+    """What :class:`Stepper` integrates between restarts: ``dy/dt = fun(t, y)`` with its
+    discrete state and input laws fixed.
+
+    ``mode`` is the contact mode (the actuators held at zero length; empty without contacts);
+    ``jac`` is ``jac(t, y)`` (dense or sparse) or None (implicit methods then difference);
+    ``events()`` the state events to watch; ``handle_event`` applies one at ``(t, y)`` and
+    returns the state to restart from with the system of the new discrete state;
+    ``after_step`` may re-chart the coordinates after an accepted step (returning the same
+    pair) or return None; ``next_breakpoint(t)`` is the first time after ``t`` where an input
+    law is not smooth (the solver restarts there)."""
+
+    mode: frozenset[int]
+    jac: Callable | None
+
+    def fun(self, t: float, y: np.ndarray) -> np.ndarray: ...
+
+    def events(self) -> Sequence[StateEvent]: ...
+
+    def handle_event(self, event: StateEvent, t: float, y: np.ndarray) -> tuple[np.ndarray, "OdeSystem"]: ...
+
+    def after_step(self, t: float, y: np.ndarray) -> tuple[np.ndarray, "OdeSystem"] | None: ...
+
+    def next_breakpoint(self, t: float) -> float: ...
 
 
 class _Constant:
@@ -67,45 +111,68 @@ def _dense_jacobian(jac):
 
 
 class Stepper:
-    """Integrates ``model.fun`` from ``(t0, y0)`` on demand.
+    """Integrates ``system.fun`` from ``(t0, y0)`` on demand.
 
-    ``model`` provides ``fun(t, y)``, ``jac(t, y)`` (implicit methods), ``events()``,
-    ``handle_event(event, t, y) -> y``, ``after_step(t, y) -> y or None`` and
-    ``next_breakpoint(t) -> float``. ``t_end`` bounds the integration (``inf``: open-ended).
+    ``system`` is an :class:`OdeSystem`; ``t_end`` bounds the integration (``inf``:
+    open-ended); located events are appended to ``log`` as ``(t, kind, index)``.
     """
 
-    def __init__(self, model, t0: float, y0, *, method: str, rtol: float, atol: float,
-                 max_step: float = math.inf, t_end: float = math.inf):
+    def __init__(self, system: OdeSystem, t0: float, y0, *, method: str, rtol: float, atol: float,
+                 max_step: float = math.inf, t_end: float = math.inf, log: list | None = None):
         if method not in SOLVERS:
             raise SimulationError(f"unknown integration method {method!r}; use one of {', '.join(SOLVERS)}")
-        self.model = model
+        self.system = system
         self.method = method
         self.options = dict(rtol=rtol, atol=atol, max_step=max_step)
-        if method in IMPLICIT and getattr(model, "jac", None) is not None:
-            self.options["jac"] = _dense_jacobian(model.jac) if method == "LSODA" else model.jac
         self.t_end = t_end
         self.solver = None
         self._nfev_done = 0
         self.n_steps = 0
         self.n_restarts = 0
         self.n_events = 0
-        self.event_log: list[tuple[float, str, int]] = []
+        self.event_log: list[tuple[float, str, int]] = [] if log is None else log
         self._h = None
         self._to_target = False       # the next solver ends at the advance target
         self._cut_short = False       # the current solver's bound is an advance target
         self.restart(t0, y0)
+
+    def copy(self, log: list) -> "Stepper":
+        """A stepper at the same ``(t, y)`` with the same system, counters and step size,
+        logging into ``log``. It starts a fresh solver at ``t`` (as after an event), so it
+        agrees with this one to the integration tolerance, not bit for bit; an event located
+        but not yet fired is kept (it fires at the copy's next advance, as here)."""
+        new = Stepper.__new__(Stepper)
+        new.__dict__.update(self.__dict__)
+        new.event_log = log
+        new.solver = None
+        new._nfev_done = self.nfev
+        if self._pending is None:
+            new.restart(self.t, self.y, input_changed=self._to_target)
+        return new
 
     # -- state ------------------------------------------------------------------------------
     @property
     def nfev(self) -> int:
         return self._nfev_done + (self.solver.nfev if self.solver is not None else 0)
 
-    def restart(self, t: float, y, *, input_changed: bool = False) -> None:
-        """Start a fresh solver at ``(t, y)`` (after an event, or an input change: then the
-        first solver ends at the next :meth:`advance` target)."""
+    @property
+    def mode(self) -> frozenset[int]:
+        """The contact mode of the system being integrated."""
+        return self.system.mode
+
+    @property
+    def t_integrated(self) -> float:
+        """How far the integration has gone [s] (``>= t``: the current step may reach past it)."""
+        return self._seg[1]
+
+    def restart(self, t: float, y, *, system: OdeSystem | None = None, input_changed: bool = False) -> None:
+        """Start a fresh solver at ``(t, y)``, with a new ``system`` if given (after an event,
+        or an input change: then the first solver ends at the next :meth:`advance` target)."""
         y = np.array(y, dtype=float)
         if self.solver is not None:
             self._nfev_done += self.solver.nfev
+        if system is not None:
+            self.system = system
         self.t = t
         self.y = y
         self._seg = (t, t)
@@ -113,13 +180,14 @@ class Stepper:
         self._pending = None
         self.solver = None
         self.n_restarts += 1
-        self._events = self.model.events()
+        self._events = self.system.events()
         self._g = [ev.g(t, y) for ev in self._events]
         self._to_target = input_changed
 
     def _new_solver(self, t_target: float) -> None:
         t0, y0 = self._seg[1], self._dense.y
-        bound = min(self.model.next_breakpoint(t0), self.t_end)
+        system = self.system
+        bound = min(system.next_breakpoint(t0), self.t_end)
         if not bound > t0:
             bound = self.t_end
         self._cut_short = self._to_target and t0 < t_target < bound
@@ -129,11 +197,17 @@ class Stepper:
         first = None
         if self._h is not None and self.method not in FRESH_START:
             first = min(self._h, bound - t0, self.options["max_step"])
-        self.solver = SOLVERS[self.method](self.model.fun, t0, y0, bound, first_step=first, **self.options)
+        options = dict(self.options)
+        if self.method in IMPLICIT and system.jac is not None:
+            options["jac"] = _dense_jacobian(system.jac) if self.method == "LSODA" else system.jac
+        self.solver = SOLVERS[self.method](system.fun, t0, y0, bound, first_step=first, **options)
 
     # -- stepping ------------------------------------------------------------------------------
     def advance(self, t_target: float) -> None:
         """Integrate until ``t_target`` is covered; then ``self.t, self.y`` are the state there."""
+        if not math.isfinite(t_target):
+            raise SimulationError(f"advance: the target time must be a finite number of seconds, got {t_target!r}",
+                                  t=self.t)
         if t_target < self.t:
             raise SimulationError(f"cannot advance backwards: t = {self.t!r} s, target {t_target!r} s", t=self.t)
         if t_target > self.t_end * (1 + 1e-12) + 1e-12:
@@ -199,8 +273,8 @@ class Stepper:
                     (ev.direction == 0 and (g0 > 0 >= g1 or g0 < 0 <= g1)):
                 if dense is None:
                     dense = solver.dense_output()
-                te = brentq(lambda t: ev.g(t, dense(t)), t_old, t_new, xtol=4 * np.finfo(float).eps * max(1.0, abs(t_new)),
-                            rtol=4 * np.finfo(float).eps)
+                te = brentq(lambda t: ev.g(t, dense(t)), t_old, t_new,
+                            xtol=4 * np.finfo(float).eps * max(1.0, abs(t_new)), rtol=4 * np.finfo(float).eps)
                 if hit is None or te < hit[0]:
                     hit = (te, ev)
         self._g = g_new
@@ -212,22 +286,22 @@ class Stepper:
             return
         self._seg = (t_old, t_new)
         self._dense = _LazyDense(solver) if dense is None else dense
-        moved = self.model.after_step(t_new, y_new)
+        moved = self.system.after_step(t_new, y_new)
         if moved is not None:
-            self.restart(t_new, moved)
+            self.restart(t_new, moved[0], system=moved[1])
 
     def _fire(self) -> None:
         te, ev = self._pending
         y_e = self._dense(te)
         self.n_events += 1
         self.event_log.append((te, ev.kind, ev.index))
-        y_new = self.model.handle_event(ev, te, y_e)
-        self.restart(te, y_new)
+        y_new, system = self.system.handle_event(ev, te, y_e)
+        self.restart(te, y_new, system=system)
 
-    def record(self, times, out: list, tag=lambda: None) -> None:
-        """Append ``(t, y, tag())`` for increasing ``times`` to ``out``: advance to each time,
-        and interpolate every time the current step covers in one vectorised call. ``tag`` is
-        evaluated per step (e.g. the model's contact mode, constant within a step)."""
+    def record(self, times, out: list) -> None:
+        """Append ``(t, y, system)`` for increasing ``times`` to ``out``: advance to each time,
+        and interpolate every time the current step covers in one vectorised call (the system
+        -- its contact mode, its charts -- is constant within a step)."""
         i, n = 0, len(times)
         while i < n:
             self.advance(float(times[i]))
@@ -235,12 +309,12 @@ class Stepper:
             while j < n and times[j] <= self._seg[1]:
                 j += 1
             ts = np.asarray(times[i:j], dtype=float)
-            label = tag()
+            system = self.system
             if j - i == 1:
-                out.append((float(ts[0]), self.y.copy(), label))
+                out.append((float(ts[0]), self.y.copy(), system))
             else:
                 Y = self._dense(ts)
-                out.extend((float(t), Y[:, k].copy(), label) for k, t in enumerate(ts))
+                out.extend((float(t), Y[:, k].copy(), system) for k, t in enumerate(ts))
                 self.t, self.y = float(ts[-1]), Y[:, -1].copy()
             i = j
 

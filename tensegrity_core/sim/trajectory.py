@@ -50,15 +50,17 @@ class Trajectory:
     scene: dict = field(default_factory=dict, repr=False)
 
     @classmethod
-    def from_observations(cls, scene, data: dict, names: dict, events, measurements, stats, *,
+    def from_observations(cls, scene, data: dict, names, events, measurements, stats, *,
                           error: str = "", state_names=()) -> "Trajectory":
+        """The trajectory of a run: ``data`` the model's observations (arrays over the samples),
+        ``names`` its :class:`~tensegrity_core.sim.model.Names`."""
         return cls(
             scene_name=scene.name, times=data["t"], states=data["state"], q=data["q"], qdot=data["qdot"],
             applied_forces=data["applied_forces"], contact_forces=data["contact_forces"],
             member_forces=data["member_forces"], member_lengths=data["member_lengths"], nodes=data["nodes"],
             end_effector=data["end_effector"], potential_energy=data["potential_energy"],
-            kinetic_energy=data["kinetic_energy"], folded=data["folded"], node_names=tuple(names["node_names"]),
-            member_names=tuple(names["member_names"]), member_nodes=np.asarray(names["member_nodes"]),
+            kinetic_energy=data["kinetic_energy"], folded=data["folded"], node_names=tuple(names.node_names),
+            member_names=tuple(names.member_names), member_nodes=np.asarray(names.member_nodes),
             state_names=tuple(state_names), actuator_names=tuple(scene.inputs), events=list(events),
             measurements=measurements, stats=stats, success=not error,
             message=error or f"simulated {scene.duration:g} s", scene=scene.data)

@@ -50,10 +50,8 @@ EFFECTS = {
 
 @benchmark
 def effect_cost(ctx: Context) -> list[Row]:
-    from tensegrity_core.sim import load_scene, simulate
-    from tensegrity_core.sim import class2_effects as fx
-    from tensegrity_core.sim.class2_model import Class2Model
-    from tensegrity_core.sim.class2_sim import runtime_laws
+    from tensegrity_core.class2.dynamics.kinematics import kinematics
+    from tensegrity_core.sim import compile_scene, load_scene, simulate
 
     base = _scene_dict()
     base["effects"] = ["inertia", "springs", "fold_limit"]
@@ -64,31 +62,33 @@ def effect_cost(ctx: Context) -> list[Row]:
 
     def model_of(d):
         scene = load_scene(d)
-        return scene, Class2Model(scene, runtime_laws(scene, (0.0, 0.0)))
+        model = compile_scene(scene)
+        return scene, model, model.equations(model.initial_state())
 
     with threadpool_limits(1):
-        scene, model = model_of(base)
-        springs, inertia, L = model.effects[0], model.inertia, model.L
+        scene, model, equations = model_of(base)
+        eom = model.plant.eom
+        (springs,), inertia, L, limit = eom.forces, eom.inertia, eom.L, eom.limit
 
         def hand_written(t, yy):
             yl = yy.tolist()
-            k = fx.context(L, yl)
-            Q1, Q2, Q3 = springs.force(k)
-            a1, a2, a3, _, _ = inertia.solve(k, Q1 - 10 * yl[0] * t, Q2 - 10 * yl[1] * t, Q3, 0)
+            k = kinematics(L, yl, limit)
+            Q1, Q2, Q3 = springs(k)
+            a1, a2, a3 = inertia.solve_free(k, Q1 - 10 * yl[0] * t, Q2 - 10 * yl[1] * t, Q3)
             return np.array((yl[3], yl[4], yl[5], a1, a2, a3))
 
         variants = {"springs + inertia only, hand-written": (None, hand_written, y),
-                    "inertia + springs + fold limit (others unlisted)": (scene, model.fun, y)}
+                    "inertia + springs + fold limit (others unlisted)": (scene, equations.fun, y)}
         for label, effect in EFFECTS.items():
             d = copy.deepcopy(base)
             d["effects"] = base["effects"] + [effect]
-            scene_e, model_e = model_of(d)
-            variants[f"+ {label}"] = (scene_e, model_e.fun, np.concatenate([y, np.zeros(model_e.n - 6)]))
+            scene_e, model_e, equations_e = model_of(d)
+            variants[f"+ {label}"] = (scene_e, equations_e.fun, np.concatenate([y, np.zeros(model_e.plant.n - 6)]))
         listed = copy.deepcopy(base)
         listed["effects"] = ["inertia", "springs", "fold_limit", "damping"]
         listed["model"]["params"]["c"] = 0.0
-        scene_c0, model_c0 = model_of(listed)
-        variants["+ damping listed with c = 0"] = (scene_c0, model_c0.fun, y)
+        scene_c0, _, equations_c0 = model_of(listed)
+        variants["+ damping listed with c = 0"] = (scene_c0, equations_c0.fun, y)
         # interleaved rounds, best of each: the machine's noise hits every variant alike
         rhs = {k: float("inf") for k in variants}
         for _ in range(repeat):
@@ -192,14 +192,13 @@ def _advance_calls(sim, n: int, change: bool, *, cut: bool = True) -> float:
     as an event does (its first step may run past the target and is interpolated): the
     behaviour before commands cut the first step at the target, for comparison."""
     hold = sim.command
-    backend = sim._backend
+    stepper = sim.state.work
     t0 = time.perf_counter()
     for k in range(1, n + 1):
         f = [hold[0] + (0.01 * np.sin(k) if change else 0.0), hold[1]]
-        if cut:
-            sim.set_command(f)
-        elif backend.take_command(f):
-            backend.stepper.restart(backend.stepper.t, backend.stepper.y)
+        sim.set_command(f)
+        if not cut:
+            stepper.restart(stepper.t, stepper.y)
         sim.advance(k * 1e-3)
     return (time.perf_counter() - t0) / n
 
@@ -207,8 +206,10 @@ def _advance_calls(sim, n: int, change: bool, *, cut: bool = True) -> float:
 def _observe_vectorised(sim):
     """An observation through the arrays a whole run uses (one row): what observe() did before
     its one-sample path."""
-    data = sim._backend.observe([sim._backend.sample()])
-    return sim._observation({k: v[0] for k, v in data.items()})
+    from tensegrity_core.sim.simulator import observation
+
+    data = sim.model.observe([sim.model.sample(sim.state)])
+    return observation(sim.model, {k: v[0] for k, v in data.items()})
 
 
 @benchmark
@@ -256,14 +257,14 @@ def stiff(ctx: Context) -> list[Row]:
         wall, traj = best_run(lambda: simulate(scene), 1 if ctx.quick else 3)
         rows.append(Row("sim", "stiff fold 5 s, Radau + analytic Jacobian", wall, "s",
                         note=f"{traj.stats['steps']} steps, {traj.stats['nfev']} evaluations"))
-        from tensegrity_core.sim.class2_model import Class2Model
+        from tensegrity_core.sim.class2.plant import Class2Segment
 
-        jac = Class2Model.jac
+        jac = Class2Segment.jac
         try:
-            Class2Model.jac = None                     # Radau then estimates Jacobians by differences
+            Class2Segment.jac = None                   # Radau then estimates Jacobians by differences
             wall_fd, traj_fd = best_run(lambda: simulate(scene), 1)
         finally:
-            Class2Model.jac = jac
+            Class2Segment.jac = jac
         rows.append(Row("sim", "stiff fold 5 s, Radau + finite-difference Jacobian", wall_fd, "s",
                         baseline="stiff fold 5 s, Radau + analytic Jacobian",
                         note=f"{traj_fd.stats['steps']} steps, {traj_fd.stats['nfev']} evaluations; max difference "

@@ -51,7 +51,10 @@ def test_workspace_plot_subprocess(tmp_path):
 def test_fk_human_readable_note_outside_the_paper_range(capsys):
     assert main(["fk", "0.9", "0.1"]) == 0
     text = capsys.readouterr().out
-    assert "no stable equilibrium in the paper's range [0, pi/2]" in text and "1.90427" in text
+    # the minimum of U(beta) = const + (a cos beta + b sin beta) L/2 (Eq. 9 at locked actuators,
+    # k = L = 1): a = rho1 - 3 rho2 = 0.6, b = -lambda1 = -sqrt(4 - (rho1 + rho2)^2); (cos, sin) || -(a, b)
+    minimum = math.atan2(math.sqrt(4 - (0.9 + 0.1) ** 2), -(0.9 - 3 * 0.1))
+    assert "no stable equilibrium in the paper's range [0, pi/2]" in text and f"beta = {minimum:.6g} rad" in text
 
 
 def test_fk_numeric_and_param_override(capsys):

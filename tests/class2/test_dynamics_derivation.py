@@ -49,7 +49,7 @@ def test_symbolic_nodes_match_geometry_module():
 def test_runtime_matches_derivation_at_random_states():
     errors = dd.check_runtime(n_points=30, seed=11)
     assert set(errors) >= {"kinetic_energy", "mass_matrix", "velocity_terms", "damping_matrix", "potential_energy",
-                           "potential_gradient", "generalized_forces", "acceleration",
+                           "potential_gradient", "potential_hessian", "generalized_forces", "acceleration",
                            "Class2Dynamics.acceleration_scalar"}
     worst = max(errors, key=errors.get)
     assert errors[worst] < 1e-11, f"{worst}: {errors[worst]:.3g}"

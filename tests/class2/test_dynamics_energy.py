@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
 from tensegrity_core.class2 import dynamics as dyn
-from tensegrity_core.class2.dynamics_jacobian import potential_hessian
+from tensegrity_core.class2.dynamics import potential_hessian
 from tensegrity_core.class2.energy import equilibrium_beta, potential_energy
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 

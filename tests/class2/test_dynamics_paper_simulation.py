@@ -14,8 +14,12 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from tensegrity_core.class2.dynamics import Class2Dynamics, damping_matrix
-from tensegrity_core.class2.dynamics_events import ActuatorLengthEvent, SingularityApproachEvent
+from tensegrity_core.class2.dynamics import (
+    ActuatorLengthEvent,
+    Class2Dynamics,
+    SingularityApproachEvent,
+    damping_matrix,
+)
 from tensegrity_core.class2.energy import equilibrium_beta
 from tensegrity_core.class2.paper_simulation import PAPER_FOLD_TIME, plot_paper_figures, simulate_paper
 from tensegrity_core.class2.params import PAPER_PARAMS

@@ -16,7 +16,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from tensegrity_core.class2 import dynamics as dyn
-from tensegrity_core.class2.dynamics_jacobian import potential_hessian, rhs_jacobian
+from tensegrity_core.class2.dynamics import potential_hessian, rhs_jacobian
 from tensegrity_core.class2.energy import potential_energy
 from tensegrity_core.class2.geometry import MEMBERS, SPRINGS, member_lengths, node_positions
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
@@ -252,6 +252,8 @@ def test_non_finite_input_raises_instead_of_returning_nan(bad):
         model.acceleration_scalar(*bad)
     with pytest.raises(DomainError):
         model.acceleration_batch(np.array([bad[:6]]), bad[6], bad[7])
+    with pytest.raises(DomainError):
+        model.rhs(0.0, np.array(bad[:6]), bad[6], bad[7])
 
 
 def test_shape_validation_messages():

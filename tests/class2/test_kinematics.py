@@ -71,7 +71,12 @@ def test_energy_root_choice_beyond_pi_over_2():
     u = lambda b: float(potential_energy((0.9, 0.1, b), P))  # noqa: E731
     assert u(fk.beta) < u(plain)
     assert not fk.in_paper_range and fk.stable
-    assert fk.note == "no stable equilibrium in the paper's range [0, pi/2]: the minimum is at beta = 1.90427 rad"
+    # Eq. 9 at locked actuators (k = L = 1): U(beta) = const + (a cos beta + b sin beta)/2 with
+    # a = k2 rho1 - (k2 + 2 k3) rho2 = 0.6, b = -k2 lambda1 = -sqrt(3); the sinusoid's minimum
+    # is where (cos beta, sin beta) points along -(a, b).
+    minimum = math.atan2(lam1, -0.6)
+    assert fk.beta == pytest.approx(minimum, abs=1e-14)
+    assert fk.note == f"no stable equilibrium in the paper's range [0, pi/2]: the minimum is at beta = {minimum:.6g} rad"
 
 
 @given(configurations(), parameter_sets())

@@ -1,9 +1,11 @@
-"""The class-2 effects checked against independent computations.
+"""The class-2 effects and their composition checked against independent computations.
 
-Oracles: the closed-form dynamics of :mod:`tensegrity_core.class2.dynamics` (derived there
-with sympy; an independent implementation), central finite differences of energies and
-right-hand sides, and a least-squares solution of all 24 Newton-Euler equations of the
-struts and nodes for the member forces.
+Oracles: the first-principles sympy derivation of
+:mod:`tensegrity_core.class2.derivation.derive_dynamics` (lambdified: M, C, H, grad U, its
+Hessian, the accelerations; it derives them from the strut kinematics and the spring table,
+independently of the kernel), central finite differences of energies and right-hand sides,
+and a least-squares solution of all 24 Newton-Euler equations of the struts and nodes for
+the member forces.
 """
 
 from __future__ import annotations
@@ -11,23 +13,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tensegrity_core.class2.dynamics import (
-    Class2Dynamics,
-    damping_matrix,
-    kinetic_energy,
-    mass_matrix,
-    velocity_terms,
-)
-from tensegrity_core.class2.dynamics_jacobian import potential_hessian
+from tensegrity_core.class2.dynamics import effects as fx
+from tensegrity_core.class2.dynamics.inertia import Inertia
+from tensegrity_core.class2.dynamics.kinematics import kinematics, kinematics_array
+from tensegrity_core.class2.dynamics.limits import LAMBDA_MIN_REL
 from tensegrity_core.class2.geometry import MEMBERS
 from tensegrity_core.class2.params import PAPER_PARAMS
-from tensegrity_core.sim import class2_effects as fx
-from tensegrity_core.sim import class2_members
-from tensegrity_core.sim.class2_inertia import Inertia
-from tensegrity_core.sim.class2_model import Class2Model
-from tensegrity_core.sim.class2_sim import runtime_laws
+from tensegrity_core.sim import compile_scene
+from tensegrity_core.sim.class2 import members
 
 from .helpers import central_jacobian, class2_scene, random_states
+
+sp = pytest.importorskip("sympy")
+
+from tensegrity_core.class2.derivation import derive_dynamics as dd  # noqa: E402
 
 PARAMS = PAPER_PARAMS.with_overrides(k1=1.3, k2=0.7, k3=2.1, k4=0.4, c1=0.02, c2=0.05, c3=0.03, c4=0.01, m=1.7)
 GRAVITY = (1.2, -9.8, 3.0)
@@ -35,57 +34,77 @@ LOADS = {1: (1.0, 2.0, 3.0), 2: (0.4, 0.1, 0.0), 3: (0.3, -0.7, 0.0), 4: (1.1, 0
 
 
 def ctx(y):
-    return fx.context(PARAMS.L, (y[0], y[1], y[2], y[3], y[4], y[5]))
+    return kinematics(PARAMS.L, (y[0], y[1], y[2], y[3], y[4], y[5]), LAMBDA_MIN_REL * PARAMS.L)
 
 
-def test_springs_damping_and_inertia_compose_to_the_reference_equations_of_motion():
+def derived(name, params, y, f=(0.0, 0.0)):
+    """The lambdified first-principles expression ``name`` at state ``y`` and forces ``f``."""
+    args = [getattr(params, n) for n in dd.PARAM_NAMES] + list(y[:6]) + list(f)
+    return np.asarray(dd.lambdified()[name](*args), dtype=float)
+
+
+def test_springs_damping_and_inertia_compose_to_the_derived_equations_of_motion():
     scene = class2_scene()
-    model = Class2Model(scene, runtime_laws(scene, (0.0, 0.0)))
-    dyn = Class2Dynamics(scene.model.params)
+    model = compile_scene(scene)
+    fun = model.equations(model.initial_state()).fun
     for y in random_states(25, seed=1):
         t = 0.37
-        expected = dyn.rhs(t, y, 10 * y[0] * t, 10 * y[1] * t)
-        np.testing.assert_allclose(model.fun(t, y), expected, rtol=1e-12, atol=1e-12)
+        f = (10 * y[0] * t, 10 * y[1] * t)           # the scene's f_i = 10 rho_i t
+        expected = np.concatenate([y[3:6], np.ravel(derived("qdd", scene.model.params, y, f))])
+        np.testing.assert_allclose(fun(t, y), expected, rtol=1e-11, atol=1e-11)
 
 
-def test_inertia_terms_equal_the_reference():
+def test_inertia_terms_equal_the_derived_ones():
     inertia = Inertia(PARAMS)
     for y in random_states(10, seed=2):
         k = ctx(y)
-        np.testing.assert_allclose(inertia.mass_matrix(k), mass_matrix(y[:3], PARAMS), rtol=1e-13)
-        np.testing.assert_allclose(inertia.velocity_terms(k), velocity_terms(y[:3], y[3:6], PARAMS), atol=1e-12)
-        assert inertia.kinetic_energy(k) == pytest.approx(float(kinetic_energy(y[:3], y[3:6], PARAMS)), rel=1e-13)
+        np.testing.assert_allclose(inertia.mass_matrix(k), derived("M", PARAMS, y), rtol=1e-13)
+        np.testing.assert_allclose(inertia.velocity_terms(k), np.ravel(derived("C", PARAMS, y)), atol=1e-12)
+        assert inertia.kinetic_energy(k) == pytest.approx(float(derived("T", PARAMS, y)), rel=1e-13)
 
 
 @pytest.mark.parametrize("effect", [fx.Springs(PARAMS), fx.Gravity(PARAMS, GRAVITY), fx.Loads(PARAMS, LOADS)],
                          ids=["springs", "gravity", "loads"])
 def test_conservative_forces_are_minus_the_gradient_of_their_energy(effect):
     for y in random_states(10, seed=3):
-        grad = central_jacobian(lambda q: np.array([effect.energy(fx.context(PARAMS.L, (*q, 0, 0, 0)))]), y[:3])[0]
+        grad = central_jacobian(lambda q: np.array([effect.energy(ctx((*q, 0, 0, 0)))]), y[:3])[0]
         np.testing.assert_allclose(effect.force(ctx(y)), -grad, atol=1e-8)
 
 
-def test_spring_stiffness_equals_the_reference_hessian():
+def test_spring_forces_and_stiffness_equal_the_derived_gradient_and_hessian():
     springs = fx.Springs(PARAMS)
     for y in random_states(10, seed=4):
-        np.testing.assert_allclose(fx.stiffness_matrix(springs.stiffness(ctx(y))), potential_hessian(y[:3], PARAMS),
+        np.testing.assert_allclose(springs.force(ctx(y)), -np.ravel(derived("grad_U", PARAMS, y)), atol=1e-13)
+        np.testing.assert_allclose(fx.stiffness_matrix(springs.stiffness(ctx(y))), derived("hess_U", PARAMS, y),
                                    atol=1e-12)
 
 
-@pytest.mark.parametrize("effect", [fx.Gravity(PARAMS, GRAVITY), fx.Loads(PARAMS, LOADS), fx.Damping(PARAMS)],
-                         ids=["gravity", "loads", "damping"])
+@pytest.mark.parametrize("effect", [fx.Springs(PARAMS), fx.Gravity(PARAMS, GRAVITY), fx.Loads(PARAMS, LOADS),
+                                    fx.Damping(PARAMS)], ids=["springs", "gravity", "loads", "damping"])
 def test_force_jacobians_match_finite_differences(effect):
     for y in random_states(8, seed=5):
-        dq, dqd = effect.jacobian(y[:3], y[3:6])
-        fd = central_jacobian(lambda z: np.array(effect.force(fx.context(PARAMS.L, z))), y[:6])
+        dq, dqd = effect.jacobian(ctx(y))
+        fd = central_jacobian(lambda z: np.array(effect.force(ctx(z))), y[:6])
         np.testing.assert_allclose(dq, fd[:, :3], atol=1e-7)
         np.testing.assert_allclose(dqd, fd[:, 3:], atol=1e-7)
 
 
-def test_damping_force_is_minus_the_damping_matrix_times_the_rates():
+def test_damping_force_is_minus_the_derived_damping_matrix_times_the_rates():
     damping = fx.Damping(PARAMS)
     for y in random_states(8, seed=6):
-        np.testing.assert_allclose(damping.force(ctx(y)), -damping_matrix(y[:3], PARAMS) @ y[3:6], atol=1e-13)
+        H = derived("H", PARAMS, y)
+        np.testing.assert_allclose(damping.force(ctx(y)), -H @ y[3:6], atol=1e-13)
+        np.testing.assert_allclose(damping.matrix(ctx(y)), H, atol=1e-13)
+
+
+def test_springs_and_dampers_in_one_pass_equal_their_sum():
+    """Listed together, springs and dampers are evaluated as one term: the same force."""
+    terms = fx.force_terms((fx.Springs(PARAMS), fx.Damping(PARAMS)))
+    assert len(terms) == 1
+    for y in random_states(8, seed=9):
+        k = ctx(y)
+        np.testing.assert_allclose(terms[0](k), np.add(fx.Springs(PARAMS).force(k), fx.Damping(PARAMS).force(k)),
+                                   rtol=1e-14, atol=1e-14)
 
 
 ALL_EFFECTS = ["inertia", "springs", "damping", {"gravity": {"vector": list(GRAVITY)}},
@@ -96,23 +115,24 @@ ALL_EFFECTS = ["inertia", "springs", "damping", {"gravity": {"vector": list(GRAV
 @pytest.mark.parametrize("mode", [frozenset(), frozenset({0}), frozenset({1}), frozenset({0, 1})])
 def test_the_analytic_jacobian_matches_finite_differences_in_every_contact_mode(mode):
     scene = class2_scene(effects=ALL_EFFECTS, inputs={"f1": {"law": "proportional", "gain": 10.0},
-                                                       "f2": {"law": "ramp", "from": 0, "to": 2, "t1": 3}})
-    model = Class2Model(scene, runtime_laws(scene, (0.0, 0.0)))
-    model.set_mode(mode)
+                                                       "f2": {"law": "ramp", "from": 0, "to": 2, "t1": 3}},
+                         initial={"q": [0.5, 0.6, 0.8]})      # the springs cannot hold this weight at rest
+    model = compile_scene(scene)
+    segment = model.equations(model.initial_state()).with_mode(mode)
     for y in random_states(5, seed=7, extra=4):
         for i in mode:
             y[i] = y[3 + i] = 0.0
-        fd = central_jacobian(lambda z: model.fun(1.3, z), y)
-        np.testing.assert_allclose(model.jac(1.3, y), fd, rtol=1e-6, atol=1e-6)
+        fd = central_jacobian(lambda z: segment.fun(1.3, z), y)
+        np.testing.assert_allclose(segment.jac(1.3, y), fd, rtol=1e-6, atol=1e-6)
 
 
 def _newton_euler_lstsq(params, q, qd, qdd, T, gravity=None):
     """All 24 Newton-Euler equations (4 struts x 3, 6 massless nodes x 2) in the 16 strut end
     forces and 5 support reactions, solved by least squares: (mid-span strut forces, residual)."""
     L, m = params.L, params.m
-    k = fx.context_array(L, q[None], qd[None])
-    P = class2_members.node_positions(L, k)[0]
-    acc = class2_members.node_accelerations(L, k, qdd[None])[0]
+    k = kinematics_array(L, q[None], qd[None])
+    P = members.node_positions(L, k)[0]
+    acc = members.node_accelerations(L, k, qdd[None])[0]
     g = np.zeros(2) if gravity is None else np.asarray(gravity[:2])
     struts = [(i, *mm.nodes) for i, mm in enumerate(MEMBERS) if mm.kind == "strut"]
     A = np.zeros((24, 21))
@@ -155,15 +175,16 @@ def test_strut_forces_solve_all_newton_euler_equations(gravity):
     """The closed-form strut forces equal the least-squares solution of every Newton-Euler
     equation, whose residual vanishes: the Lagrangian accelerations satisfy Newton-Euler."""
     effects = ["inertia", "springs"] + ([{"gravity": {"vector": list(gravity)}}] if gravity else [])
-    scene = class2_scene(effects=effects)
+    scene = class2_scene(effects=effects, initial={"q": [0.5, 0.6, 0.8]})   # any start: states are drawn below
     params = scene.model.params
-    model = Class2Model(scene, runtime_laws(scene, (0.0, 0.0)))
+    model = compile_scene(scene)
+    segment = model.equations(model.initial_state())
     for y in random_states(10, seed=8):
         t = 0.8
-        qdd, _ = model.accelerations(t, y)
+        qdd, _ = segment.accelerations(t, y)
         T = np.array([10 * y[0] * t, 10 * y[1] * t])
-        ours = class2_members.member_forces(params, y[:3], y[3:6], qdd, T[None], springs=True, damping=False,
-                                            gravity=gravity)[0]
+        ours = members.member_forces(params, y[:3], y[3:6], qdd, T[None], springs=True, damping=False,
+                                     gravity=gravity)[0]
         strut_forces, residual = _newton_euler_lstsq(params, y[:3], y[3:6], qdd, T, gravity)
         assert residual < 1e-10
         np.testing.assert_allclose(ours[[4, 5, 8, 9]], strut_forces, rtol=1e-9, atol=1e-9)

@@ -13,10 +13,13 @@ from scipy.integrate import simpson, solve_ivp
 
 from tensegrity_core.class2.dynamics import Class2Dynamics
 from tensegrity_core.class2.energy import equilibrium_beta
-from tensegrity_core.sim import Simulator, simulate
-from tensegrity_core.sim import class2_effects as fx
-from tensegrity_core.sim.class2_inertia import Inertia
-from tensegrity_core.sim.contact import impact
+from tensegrity_core.class2.dynamics import effects as fx
+from tensegrity_core.class2.dynamics import springs as spring_members
+from tensegrity_core.class2.dynamics.inertia import Inertia
+from tensegrity_core.class2.dynamics.kinematics import kinematics
+from tensegrity_core.class2.geometry import SPRINGS, node_positions
+from tensegrity_core.sim import Simulator, compile_scene, simulate
+from tensegrity_core.sim.class2.contact import impact
 
 from .helpers import class2_scene
 
@@ -59,11 +62,16 @@ def test_damping_dissipates_exactly_the_dampers_work():
     p = scene.model.params
     E = spring_energy(traj, p) + traj.kinetic_energy
     assert np.all(np.diff(E) <= 1e-12)
-    k = fx.context_array(p.L, traj.q, traj.qdot)
-    d = np.array(fx.spring_vectors(p.L, k))
-    dd = np.array(fx.spring_rates(p.L, k))
-    Ldot = np.sum(d * dd, axis=1) / np.sqrt(np.sum(d * d, axis=1))
-    power = (np.array([p.c3, p.c2, p.c1, p.c4])[:, None] * Ldot**2).sum(axis=0)
+    # spring rates from the geometry's node positions, differentiated along qdot
+    h = 1e-6
+    P = node_positions(traj.q, p)
+    V = (node_positions(traj.q + h * traj.qdot, p) - node_positions(traj.q - h * traj.qdot, p)) / (2 * h)
+    power = np.zeros(len(traj))
+    for member in SPRINGS:
+        a, b = member.nodes
+        d, dv = P[:, b] - P[:, a], V[:, b] - V[:, a]
+        Ldot = np.sum(d * dv, axis=1) / np.sqrt(np.sum(d * d, axis=1))
+        power += getattr(p, member.damping) * Ldot**2
     dissipated = simpson(power, x=traj.times)
     assert E[0] - E[-1] == pytest.approx(dissipated, rel=1e-7)
 
@@ -126,7 +134,7 @@ def test_the_impact_law_against_the_single_contact_formulas():
     inertia = Inertia(traj_params())
     for restitution in (0.0, 0.5, 1.0):
         q = [0.0, 0.4, 1.1]
-        M = inertia.mass_matrix(fx.context(1.0, (*q, 0.0, 0.0, 0.0)))
+        M = inertia.mass_matrix(kinematics(1.0, (*q, 0.0, 0.0, 0.0), 1e-4))
         v = np.array([-0.8, rng.normal(), rng.normal()])
         new, kept = impact(M, v, 0, frozenset(), restitution)
         assert new[0] == pytest.approx(-restitution * v[0]) and kept == frozenset()
@@ -193,12 +201,8 @@ def test_the_compliant_drive_is_stable_for_an_explicit_method_too():
     explicit = simulate(class2_scene(effects=effects, duration=0.5,
                                      integrator={"method": "RK45", "rtol": 1e-9, "atol": 1e-12, "max_step": 1e-4}))
     assert explicit.success and np.abs(explicit.states - implicit.states).max() < 1e-6
-    from tensegrity_core.sim.class2_model import Class2Model
-    from tensegrity_core.sim.class2_sim import runtime_laws
-
-    scene = class2_scene(effects=effects)
-    model = Class2Model(scene, runtime_laws(scene, (0.0, 0.0)))
-    J = model.jac(0.3, np.array([0.6, 0.6, 0.8, 0.1, -0.1, 0.2, 0.01, 0.02]))
+    model = compile_scene(class2_scene(effects=effects))
+    J = model.equations(model.initial_state()).jac(0.3, np.array([0.6, 0.6, 0.8, 0.1, -0.1, 0.2, 0.01, 0.02]))
     assert J[6, 6] == J[7, 7] == pytest.approx(-1e4)
 
 
@@ -229,11 +233,23 @@ def test_noise_never_touches_the_simulated_state():
     assert np.std(noisy.measurements["q"] - clean.q) == pytest.approx(0.1, rel=0.1)
 
 
-def test_an_unlisted_effect_is_never_evaluated(monkeypatch):
-    def boom(self, k):
-        raise RuntimeError("evaluated")
+def test_an_unlisted_effect_is_never_built_nor_evaluated(monkeypatch):
+    def boom(*args, **kwargs):
+        raise RuntimeError("dampers built or evaluated")
 
-    monkeypatch.setattr(fx.Damping, "force", boom)
+    tensions = spring_members.spring_tensions
+
+    def tensions_without_dampers(L, stiffness, damping, eps2, k):
+        if damping is not None:
+            boom()
+        return tensions(L, stiffness, damping, eps2, k)
+
+    monkeypatch.setattr(fx.Damping, "__init__", boom)
     simulate(class2_scene(effects=["inertia", "springs"], duration=0.2))
-    with pytest.raises(RuntimeError, match="evaluated"):
+    with pytest.raises(RuntimeError, match="built or evaluated"):
+        simulate(class2_scene(effects=["inertia", "springs", "damping"], duration=0.2))
+    monkeypatch.undo()
+    monkeypatch.setattr(spring_members, "spring_tensions", tensions_without_dampers)
+    simulate(class2_scene(effects=["inertia", "springs"], duration=0.2))
+    with pytest.raises(RuntimeError, match="built or evaluated"):
         simulate(class2_scene(effects=["inertia", "springs", "damping"], duration=0.2))

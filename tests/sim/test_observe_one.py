@@ -7,11 +7,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tensegrity_core.sim import Simulator, load_scene
-from tensegrity_core.sim import class2_path_samples
-from tensegrity_core.sim.class2_model import build_force_effects
-from tensegrity_core.sim.class2_observe import Class2Observer
-from tensegrity_core.sim.class2_sim import Class2Dynamic
+from tensegrity_core.sim import Simulator, compile_scene, load_scene
+from tensegrity_core.sim.class2 import path_samples
+from tensegrity_core.sim.class2.observe import Class2Observer
+from tensegrity_core.sim.class2.setup import force_effects
 
 from .helpers import class2_scene, random_states
 
@@ -33,13 +32,14 @@ def assert_same_observation(one: dict, many: dict, row: int = 0):
 def test_one_dynamic_sample_equals_the_vectorised_observation(bits):
     scene = class2_scene(effects=EVERYTHING, model={"kind": "class2", "params": {"k": 1.3, "c": 0.05, "m": 1.7}},
                          initial={"q": [0.5, 0.6, 0.8]})
-    backend = Class2Dynamic(scene)
-    observer = backend.observer
+    model = compile_scene(scene)
+    observer = model.observer
+    transmitted = model.equations(model.initial_state()).drive.forces
     for y in random_states(6, seed=11 + bits, extra=4):
         for i in (0, 1):
             if bits >> i & 1:
                 y[i] = y[3 + i] = 0.0
-        T = backend.model.drive.forces(0.4, y.tolist())
+        T = transmitted(0.4, y.tolist())
         one = observer.one(0.4, y, bits, T)
         many = observer.many([0.4], [y], [bits], [T])
         assert_same_observation(one, many)
@@ -48,7 +48,7 @@ def test_one_dynamic_sample_equals_the_vectorised_observation(bits):
 @pytest.mark.parametrize("bits", [0, 1, 2, 3])
 def test_one_quasi_static_sample_equals_the_vectorised_observation(bits):
     scene = class2_scene(effects=["springs", EVERYTHING[3], EVERYTHING[4], "fold_limit"])
-    observer = Class2Observer(scene, build_force_effects(scene, scene.model.params), inertia=False)
+    observer = Class2Observer(scene, force_effects(scene), inertia=False)
     rng = np.random.default_rng(bits)
     for y in random_states(6, seed=21 + bits):
         y[3:] = rng.normal(0, 0.3, 3)
@@ -64,14 +64,14 @@ def test_one_quasi_static_sample_equals_the_vectorised_observation(bits):
 @pytest.mark.parametrize("name, times", [("paper_fold", (0.0, 0.37, 1.2, 1.381, 2.5)),
                                          ("stiff_fold", (0.0, 0.05, 0.2)),
                                          ("class2_at_rest", (0.0, 0.3))])
-def test_simulator_observe_equals_the_backends_vectorised_path_dynamic(name, times):
+def test_simulator_observe_equals_the_models_vectorised_path_dynamic(name, times):
     sim = Simulator(name)
     if name == "class2_at_rest":
         sim.set_command([0.4, -0.3])
     for t in times:
         sim.advance(t)
-        one = sim._backend.observe_now()
-        assert_same_observation(one, sim._backend.observe([sim._backend.sample()]))
+        one = sim.model.observe_now(sim.state)
+        assert_same_observation(one, sim.model.observe([sim.model.sample(sim.state)]))
         obs = sim.observe()
         np.testing.assert_array_equal(obs.member_forces, one["member_forces"])
 
@@ -82,9 +82,9 @@ def test_simulator_observe_equals_the_vectorised_path_quasi_static(t, monkeypatc
     resting folded; the vectorised path forced (no sample taken one by one)."""
     sim = Simulator("paper_fold_quasistatic")
     sim.advance(t)
-    one = sim._backend.observe_now()
-    monkeypatch.setattr(class2_path_samples, "FEW", -1)
-    assert_same_observation(one, sim._backend.observe([sim._backend.sample()]))
+    one = sim.model.observe_now(sim.state)
+    monkeypatch.setattr(path_samples, "FEW", -1)
+    assert_same_observation(one, sim.model.observe([sim.model.sample(sim.state)]))
 
 
 def test_joint_sample_and_observe_agree_for_quasi_static_scenes():

@@ -8,8 +8,8 @@ import pytest
 
 from tensegrity_core.class2.dynamics import potential_gradient
 from tensegrity_core.class2.energy import equilibrium_beta
-from tensegrity_core.sim import Simulator, load_scene
-from tensegrity_core.sim import class2_path_samples as samples
+from tensegrity_core.sim import compile_scene, load_scene
+from tensegrity_core.sim.class2 import path_samples as samples
 
 from .helpers import class2_scene
 
@@ -25,21 +25,24 @@ def ramp_scene(T: float = 20.0, rate: float = 5.0):
 
 
 def recorded(scene):
-    sim = Simulator(scene)
-    backend = sim._backend
+    """``(potential, blocks (times, segment))`` of a whole run at the output rate, and the
+    model (its strut length L and duration T scale the path)."""
+    model = compile_scene(scene)
+    state = model.initial_state()
     n = int(round(scene.duration * scene.output_rate)) + 1
     blocks = []
-    backend.record(np.arange(n) / scene.output_rate, blocks)
-    return backend, blocks
+    model.record(state, np.arange(n) / scene.output_rate, blocks)
+    assert all(b[2] is model.potential(state) for b in blocks)      # no command changed on the way
+    return model.potential(state), [(t, seg) for t, seg, _ in blocks], model
 
 
 @pytest.mark.parametrize("scene", [load_scene("paper_fold_quasistatic"), ramp_scene()], ids=["paper", "ramps"])
 def test_one_by_one_and_vectorised_samples_agree(scene, monkeypatch):
-    backend, blocks = recorded(scene)
+    potential, blocks, model = recorded(scene)
     monkeypatch.setattr(samples, "FEW", 10**9)
-    one_by_one = samples.equilibria(backend.potential, blocks, backend.L, backend.T)
+    one_by_one = samples.equilibria(potential, blocks, model.L, model.T)
     monkeypatch.setattr(samples, "FEW", -1)
-    vectorised = samples.equilibria(backend.potential, blocks, backend.L, backend.T)
+    vectorised = samples.equilibria(potential, blocks, model.L, model.T)
     for a, b, name in zip(one_by_one, vectorised, ("t", "q", "qdot", "contact", "forces", "bits")):
         np.testing.assert_allclose(a, b, rtol=1e-11, atol=1e-12, err_msg=name)
 
@@ -48,13 +51,13 @@ def test_samples_are_equilibria_and_their_rates_the_paths():
     """Oracles: the closed-form gradient of the springs' energy plus the ramped forces, and
     central differences of the samples in time for the rates."""
     scene = ramp_scene(rate=50.0)
-    backend, blocks = recorded(scene)
-    t, q, qd, lam, u, bits = samples.equilibria(backend.potential, blocks, backend.L, backend.T)
+    potential, blocks, model = recorded(scene)
+    t, q, qd, lam, u, bits = samples.equilibria(potential, blocks, model.L, model.T)
     p = scene.model.params
     assert np.all(bits == 0) and np.all(lam == 0.0)
     for tk, qk, uk in zip(t, q, u):
         np.testing.assert_allclose(potential_gradient(qk, p) + np.r_[uk, 0.0], 0.0, atol=1e-12)
-        np.testing.assert_allclose(uk, [law.value_at(tk, x) for law, x in zip(backend.laws, qk[:2])], rtol=1e-13)
+        np.testing.assert_allclose(uk, [law.value_at(tk, x) for law, x in zip(model.laws, qk[:2])], rtol=1e-13)
     h = t[1] - t[0]
     inner = (t > 2.1) & (t < 9.9)             # both ramps on, away from their corners
     fd = (q[2:] - q[:-2]) / (2 * h)
@@ -66,9 +69,9 @@ def test_a_standing_stretch_is_its_end_point_with_zero_rate_and_the_laws_forces(
     the fold (0, 0, pi/2) at rest; the forces follow f = 10 rho t = 0 and the contact forces
     are dU/drho there (the closed-form gradient)."""
     scene = load_scene("paper_fold_quasistatic")
-    backend, blocks = recorded(scene)
+    potential, blocks, model = recorded(scene)
     assert any(seg.stationary for _, seg in blocks)
-    t, q, qd, lam, u, bits = samples.equilibria(backend.potential, blocks, backend.L, backend.T)
+    t, q, qd, lam, u, bits = samples.equilibria(potential, blocks, model.L, model.T)
     rest = t > 0.076
     fold = np.array([0.0, 0.0, np.pi / 2])
     assert np.all(bits[rest] == 3) and np.all(qd[rest] == 0.0) and np.all(u[rest] == 0.0)

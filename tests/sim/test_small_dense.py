@@ -7,7 +7,7 @@ import itertools
 import numpy as np
 import pytest
 
-from tensegrity_core.sim.small_dense import (
+from tensegrity_core.sim.class2.small_dense import (
     positive_definite,
     principal_det,
     solve_bordered,

@@ -289,7 +289,7 @@ def lambdified():
     args = [sd.p[n] for n in PARAM_NAMES] + list(sd.q) + list(sd.qd) + list(sd.f)
     qdd = sd.M.LUsolve(-(sd.C + sd.H * sp.Matrix(sd.qd) + sd.grad_U + sp.Matrix([sd.f[0], sd.f[1], 0])))
     exprs = {"T": sd.T, "M": sd.M, "C": sd.C, "H": sd.H, "U": sd.U, "grad_U": sd.grad_U,
-             "f_e": sd.f_e, "qdd": qdd}
+             "hess_U": sp.hessian(sd.U, sd.q), "f_e": sd.f_e, "qdd": qdd}
     return {k: sp.lambdify(args, v, "numpy") for k, v in exprs.items()}
 
 
@@ -327,6 +327,7 @@ def check_runtime(n_points: int = 50, seed: int = 1) -> dict[str, float]:
         record("damping_matrix", dyn.damping_matrix(q, params), fns["H"](*args))
         record("potential_energy", potential_energy(q, params), fns["U"](*args))
         record("potential_gradient", dyn.potential_gradient(q, params), np.ravel(fns["grad_U"](*args)))
+        record("potential_hessian", dyn.potential_hessian(q, params), fns["hess_U"](*args))
         record("generalized_forces", dyn.generalized_forces(q, qd, f1, f2, params), np.ravel(fns["f_e"](*args)))
         record("acceleration", dyn.acceleration(q, qd, f1, f2, params), np.ravel(fns["qdd"](*args)))
         model = dyn.Class2Dynamics(params)

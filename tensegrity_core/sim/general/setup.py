@@ -1,4 +1,5 @@
-"""General-structure scenes with inertia: set-up, the integrator, and what an observation reports.
+"""Set-up shared by the general-structure back ends: loads, weights, dampers, rest lengths,
+the initial equilibrium, and the coordinates and observations of a configuration.
 
 Effects map to the model as follows: ``springs`` the members' elastic forces (required: they
 are the structure), ``damping`` an axial damper on every taut member (``c`` or
@@ -10,18 +11,13 @@ from the scene's inputs. The initial equilibrium is form-found under the springs
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from tensegrity_core.general.configuration import Configuration
 from tensegrity_core.general.formfind import form_find
-from tensegrity_core.general.statics import potential_energy
-from tensegrity_core.sim.backend import Integrated
 from tensegrity_core.sim.errors import SceneError, SimulationError
-from tensegrity_core.sim.general_model import GeneralModel, NodalMasses
-from tensegrity_core.sim.inputs import HeldCommand, next_breakpoint
+from tensegrity_core.sim.model import Names
 
 
 def scene_loads(scene):
@@ -69,49 +65,49 @@ def equilibrium(structure, x0=None, *, what: str, t: float = 0.0) -> Configurati
     return result.configuration
 
 
-def runtime_laws(scene) -> list:
-    """Rest-length laws of the actuator members (commanded inputs start at the drawn rest length)."""
+def drawn_rest_lengths(scene) -> np.ndarray:
+    """The actuators' drawn rest lengths [m] (the commanded inputs' values before a command)."""
     s = scene.model.structure
-    laws = []
-    for name in scene.inputs:
-        law = scene.inputs[name]
-        if law.law == "commanded":
-            i = s.member_names.index(name)
-            laws.append(HeldCommand(s.rest_lengths[i] if law.initial is None else law.initial))
-        else:
-            laws.append(law)
-    return laws
+    return np.array([s.rest_lengths[s.member_names.index(name)] for name in scene.inputs])
 
 
-def rest_lengths_function(scene, laws):
-    """``t -> rest lengths (m,)`` with the actuators' laws, or None without actuators."""
-    s = scene.model.structure
-    act = np.asarray(scene.model.actuators, dtype=int)
-    if not len(act):
-        return None
-    base = s.rest_lengths.copy()
+class RestLengths:
+    """``t -> rest lengths (m,)`` [m] of all members: the drawn ones, the actuators' from their
+    input ``laws`` (which must keep them > 0)."""
 
-    def rest_lengths(t):
-        out = base.copy()
-        out[act] = [law.value_at(t, 0.0) for law in laws]
+    def __init__(self, structure, actuators, laws):
+        self.structure = structure
+        self.actuators = np.asarray(actuators, dtype=int)
+        self.laws = tuple(laws)
+        self.base = structure.rest_lengths.copy()
+
+    def __call__(self, t: float) -> np.ndarray:
+        act = self.actuators
+        out = self.base.copy()
+        out[act] = [law.value_at(t, 0.0) for law in self.laws]
         bad = np.flatnonzero(~(out[act] > 0))
         if bad.size:
             raise SimulationError(f"t = {t:.9g} s: rest length of actuator "
-                                  f"{s.member_names[act[bad[0]]]!r} must be > 0, got {out[act[bad[0]]]!r}", t=t)
+                                  f"{self.structure.member_names[act[bad[0]]]!r} must be > 0, got "
+                                  f"{out[act[bad[0]]]!r}", t=t)
         return out
 
-    return rest_lengths
+
+def rest_lengths_function(scene, laws) -> RestLengths | None:
+    """The members' rest lengths under the actuators' ``laws``, or None without actuators."""
+    if not len(scene.model.actuators):
+        return None
+    return RestLengths(scene.model.structure, scene.model.actuators, laws)
 
 
-def prepare_inputs(backend, scene) -> None:
-    """Set ``structure``, ``laws`` and ``actuator_names`` of a general back end (and check that
-    the members are simulated at all)."""
+def check_springs(scene) -> None:
+    """A general structure is simulated through its members: the scene must list ``springs``."""
     if "springs" not in scene.effects:
         raise SceneError("a general structure needs 'springs' (its members' elastic forces)", key=("effects",))
-    backend.scene = scene
-    backend.structure = scene.model.structure
-    backend.laws = runtime_laws(scene)
-    backend.actuator_names = tuple(scene.inputs)
+
+
+def names_of(structure) -> Names:
+    return Names(structure.node_names, structure.member_names, structure.members)
 
 
 def coordinates(config) -> np.ndarray:
@@ -135,70 +131,6 @@ def initial_configuration(scene) -> Configuration:
         preload[node] += vec
     return equilibrium(static_structure(scene, loads=preload), what="for the initial state (springs, gravity, "
                        "preload)")
-
-
-class GeneralDynamic(Integrated):
-    """Back end: nodal / rigid-body dynamics of a general structure."""
-
-    kind = "general"
-    quasi_static = False
-    positive = True
-
-    def __init__(self, scene, *, t_end: float = math.inf):
-        prepare_inputs(self, scene)
-        s = self.structure
-        config = initial_configuration(scene)
-        x0 = coordinates(config)
-        rest = rest_lengths_function(scene, self.laws)
-        self.model = GeneralModel(s, masses=NodalMasses(s), damping=member_damping(scene),
-                                  gravity=scene_gravity(scene), loads=scene_loads(scene), rest_lengths_of=rest,
-                                  actuators=scene.model.actuators, x0=x0, R_ref=config.rotations)
-        self.model.next_breakpoint = lambda t: next_breakpoint(self.laws, t, math.inf)
-        method = scene.integrator.method
-        self.method = "Radau" if method == "auto" else method
-        self.start_stepper(np.concatenate([x0, np.zeros(len(x0))]), t_end=t_end)
-
-    def sample(self) -> tuple:
-        # the rotation chart may be re-anchored later: keep this sample's reference orientation
-        return self.stepper.t, self.stepper.y.copy(), self.model.R_ref.copy()
-
-    def record(self, times, out: list) -> None:
-        self.stepper.record(times, out, lambda: self.model.R_ref.copy())
-
-    def names(self) -> dict:
-        s = self.structure
-        return {"node_names": s.node_names, "member_names": s.member_names, "member_nodes": s.members}
-
-    def observe(self, samples) -> dict:
-        model = self.model
-        n = model.n
-        rows = {k: [] for k in ("t", "state", "q", "qdot", "applied_forces", "nodes", "member_lengths",
-                                "member_forces", "potential_energy", "kinetic_energy")}
-        twin = model.statics_twin(0.0)
-        saved = model.R_ref
-        try:
-            for t, y, R_ref in samples:
-                model.R_ref = R_ref
-                x, v = y[:n], y[n:]
-                coords, r, R = model.placement(x)
-                vel = model.velocities(v, r)
-                force, _, lengths, _ = model.member_state(t, coords, vel)
-                if model.rest_lengths_of is not None:
-                    twin = model.statics_twin(t)
-                rows["t"].append(t)
-                rows["state"].append(y)
-                rows["q"].append(minimal_coordinates(model.lay, x, R))
-                rows["qdot"].append(v)
-                rows["applied_forces"].append(model.rest_lengths(t)[model.actuators])
-                rows["nodes"].append(coords)
-                rows["member_lengths"].append(lengths)
-                rows["member_forces"].append(force)
-                rows["potential_energy"].append(potential_energy(twin, coords))
-                rows["kinetic_energy"].append(model.kinetic_energy(x, v))
-        finally:
-            model.R_ref = saved
-        return finish_observations(rows, self.scene)
-
 
 
 def minimal_coordinates(layout, x, R) -> np.ndarray:

@@ -1,6 +1,6 @@
 """Equilibria at given times from the pieces of a quasi-static class-2 path.
 
-The path follower (:mod:`.class2_quasistatic`) stores its path as :class:`Segment` s: cubic
+The path follower (:mod:`.path`) stores its path as :class:`Segment` s: cubic
 Hermite pieces in the scaled arc length between accepted equilibria. An observed state at
 time ``t`` starts from the segment's interpolant at ``t`` (the cubic ``tau(u) = t / T`` is
 inverted for the segment parameter ``u``) and is polished by Newton at fixed ``t`` into an
@@ -24,7 +24,7 @@ from typing import NamedTuple
 import numpy as np
 
 from tensegrity_core.sim.errors import SimulationError
-from tensegrity_core.sim.small_dense import solve_symmetric
+from tensegrity_core.sim.class2.small_dense import solve_symmetric
 
 #: Coordinates not held, per contact mode (bit i set: actuator i held at zero length).
 MODE_FREE = {0: (0, 1, 2), 1: (1, 2), 2: (0, 2), 3: (2,)}
@@ -123,7 +123,7 @@ def equilibria(potential, blocks, L: float, T: float) -> tuple:
     inside its segment): ``(t, q, dq/dt, contact forces, actuator forces, bits)``, arrays
     over the N samples ((N,), (N, 3), (N, 3), (N, 2), (N, 2), (N,)).
 
-    ``potential`` a :class:`~tensegrity_core.sim.class2_potential.TotalPotential`."""
+    ``potential`` a :class:`~tensegrity_core.sim.class2.potential.TotalPotential`."""
     counts = [len(b[0]) for b in blocks]
     segs = [b[1] for b in blocks]
     n = sum(counts)

@@ -36,11 +36,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from tensegrity_core.class2.geometry import MEMBERS
-from tensegrity_core.sim.class2_effects import ZERO_LENGTH_REL, context_array, spring_rates, spring_vectors
-
-#: Member indices of the springs in CD, DE, EF, BE order (the order of class2_effects).
-SPRING_ORDER = tuple(next(i for i, m in enumerate(MEMBERS) if m.name == n) for n in ("CD", "DE", "EF", "BE"))
+from tensegrity_core.class2.dynamics.kinematics import kinematics_array
+from tensegrity_core.class2.dynamics.limits import ZERO_LENGTH_REL
+from tensegrity_core.class2.dynamics.springs import dampings, spring_tensions, stiffnesses
 
 
 def _where(cond, a, b):
@@ -95,16 +93,10 @@ def member_values(params, k, qdd, actuator_forces, *, springs: bool, damping: bo
     ``gravity`` a vector (>= 2 components, in-plane ones used) or None; ``loads`` (6, 2) or
     None; ``inertia`` False for massless struts (quasi-static)."""
     L, m = params.L, params.m
-    (x3, y3), (x4, y4), (x7, y7), (x8, y8) = spring_vectors(L, k)        # CD, DE, EF, BE
+    x3, y3, x4, y4, x7, y7, x8, y8, p3, p4, p7, p8 = spring_tensions(      # CD, DE, EF, BE
+        L, stiffnesses(params) if springs else (0.0,) * 4, dampings(params) if damping else None,
+        (ZERO_LENGTH_REL * L) ** 2, k)
     sq = (x3 * x3 + y3 * y3, x4 * x4 + y4 * y4, x7 * x7 + y7 * y7, x8 * x8 + y8 * y8)
-    phi = [params.k3, params.k2, params.k1, params.k4] if springs else [0.0] * 4
-    if damping:
-        eps2 = (ZERO_LENGTH_REL * L) ** 2
-        rates = spring_rates(L, k)
-        phi = [p + c * (dx * ux + dy * uy) / (n + eps2) for p, c, (dx, dy), (ux, uy), n in
-               zip(phi, (params.c3, params.c2, params.c1, params.c4), ((x3, y3), (x4, y4), (x7, y7), (x8, y8)),
-                   rates, sq)]
-    p3, p4, p7, p8 = phi
     # forces of the springs on the nodes D, E, F (tension + along CD, DE, EF, BE), plus loads
     FDx, FDy = p4 * x4 - p3 * x3, p4 * y4 - p3 * y3
     FEx, FEy = p7 * x7 - p4 * x4 - p8 * x8, p7 * y7 - p4 * y4 - p8 * y8
@@ -174,7 +166,7 @@ def member_forces(params, q, qdot, qdd, actuator_forces, *, springs: bool, dampi
     q = np.atleast_2d(np.asarray(q, dtype=float))
     qdd = np.atleast_2d(np.asarray(qdd, dtype=float))
     actuator_forces = np.atleast_2d(np.asarray(actuator_forces, dtype=float))
-    k = context_array(params.L, q, np.atleast_2d(np.asarray(qdot, dtype=float)))
+    k = kinematics_array(params.L, q, np.atleast_2d(np.asarray(qdot, dtype=float)))
     forces, _ = member_values(params, k, (qdd[:, 0], qdd[:, 1], qdd[:, 2]),
                               (actuator_forces[:, 0], actuator_forces[:, 1]), springs=springs, damping=damping,
                               gravity=gravity, loads=loads, inertia=inertia)

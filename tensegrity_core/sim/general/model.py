@@ -44,6 +44,9 @@ slows the Newton iterations of the implicit method, never changes the solution.
 
 from __future__ import annotations
 
+import copy
+import math
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -52,6 +55,7 @@ from tensegrity_core.general.rotation import exp_so3, hat
 from tensegrity_core.general.statics import equilibrium_matrix, group_sum
 from tensegrity_core.general.stiffness import tangent_stiffness
 from tensegrity_core.sim.errors import SceneError
+from tensegrity_core.sim.inputs import next_breakpoint
 
 #: Re-anchor a body's rotation chart when its rotation vector exceeds this angle [rad].
 RECHART_ANGLE = 1.0
@@ -132,12 +136,18 @@ class NodalMasses:
 
 
 class GeneralModel:
-    """Equations of motion of a general structure for one scene (the stepper's model)."""
+    """Equations of motion of a general structure for one scene, with the rotation charts
+    ``R_ref`` (nb, 3, 3) and the rest lengths ``rest_lengths_of`` (``t -> (m,)`` under the
+    input ``laws``, or None without actuators) of one stretch of integration: an
+    :class:`~tensegrity_core.sim.stepper.OdeSystem`. Immutable: a re-charting or a new command
+    gives a new instance (:meth:`with_chart`, :meth:`with_inputs`)."""
 
     kind = "general"
+    #: No contacts: the contact mode is always empty.
+    mode: frozenset = frozenset()
 
     def __init__(self, structure, *, masses: NodalMasses, damping=None, gravity=None, loads=None,
-                 rest_lengths_of=None, actuators=(), x0, R_ref):
+                 rest_lengths_of=None, laws=(), actuators=(), R_ref):
         self.structure = structure
         lay = structure.layout
         self.lay = lay
@@ -155,6 +165,7 @@ class GeneralModel:
         self.is_string = structure.is_string
         self.actuators = np.asarray(actuators, dtype=int)
         self.rest_lengths_of = rest_lengths_of          # t -> rest lengths (m,)
+        self.laws = tuple(laws)
         self.base = structure.nodes.copy()
         self.R_ref = np.array(R_ref, dtype=float)
         self.c_damp = damping                            # (m,) axial damping [N s/m] or None
@@ -169,7 +180,22 @@ class GeneralModel:
             ext += weights
         self.external = ext if (loads is not None or weights is not None) else None
         self.state_names = tuple(f"x_{s}" for s in lay.labels()) + tuple(f"v_{s}" for s in lay.labels())
-        self.x0 = np.asarray(x0, dtype=float)
+        self._twin = self._statics_twin(0.0) if rest_lengths_of is None else None
+
+    def with_chart(self, R_ref) -> "GeneralModel":
+        """The same equations with other rotation charts."""
+        new = copy.copy(self)
+        new.R_ref = np.array(R_ref, dtype=float)
+        return new
+
+    def with_inputs(self, rest_lengths_of, laws) -> "GeneralModel":
+        """The same equations under other input laws (a new command)."""
+        new = copy.copy(self)
+        new.rest_lengths_of, new.laws = rest_lengths_of, tuple(laws)
+        return new
+
+    def next_breakpoint(self, t: float) -> float:
+        return next_breakpoint(self.laws, t, math.inf)
 
     # -- kinematics -----------------------------------------------------------------------
     def placement(self, x) -> tuple:
@@ -267,16 +293,15 @@ class GeneralModel:
     # -- Jacobian --------------------------------------------------------------------------------
     def statics_twin(self, t: float):
         """The same members (current rest lengths), loads and weights as a static structure."""
-        if self.rest_lengths_of is None and getattr(self, "_twin", None) is not None:
-            return self._twin
+        return self._twin if self._twin is not None else self._statics_twin(t)
+
+    def _statics_twin(self, t: float):
         s = self.structure
         loads = np.zeros((s.n_nodes, 3)) if self.external is None else self.external
         twin = s.replace(rest_lengths=np.asarray(self.rest_lengths(t), dtype=float), loads=loads,
                          node_masses=np.zeros(s.n_nodes), member_masses=np.zeros(s.n_members),
                          gravity=np.zeros(3),
                          bodies=tuple(b.__class__(b.name, b.nodes, 0.0, b.fixed) for b in s.bodies))
-        if self.rest_lengths_of is None:
-            self._twin = twin
         return twin
 
     def configuration(self, x, twin) -> Configuration:
@@ -340,8 +365,13 @@ class GeneralModel:
         step control resolves)."""
         return []
 
+    def handle_event(self, event, t, y):
+        """There are no state events (:meth:`events`): the state and the model as they are."""
+        return np.asarray(y, dtype=float), self
+
     def after_step(self, t, y):
-        """Re-anchor rotation charts whose angle exceeds :data:`RECHART_ANGLE`."""
+        """Re-anchor rotation charts whose angle exceeds :data:`RECHART_ANGLE`: the state and the
+        model of the new charts, or None."""
         if not self.nb:
             return None
         rot = self.lay.body_dof[:, None] + 3 + np.arange(3)[None, :]
@@ -350,9 +380,10 @@ class GeneralModel:
         if not big.any():
             return None
         y = y.copy()
-        self.R_ref[big] = exp_so3(theta[big]) @ self.R_ref[big]
+        R_ref = self.R_ref.copy()
+        R_ref[big] = exp_so3(theta[big]) @ R_ref[big]
         y[rot[big]] = 0.0
-        return y
+        return y, self.with_chart(R_ref)
 
     def kinetic_energy(self, x, v) -> float:
         T = 0.5 * float(np.sum(self.masses.free * v[:self.n_free] ** 2))

@@ -1,8 +1,8 @@
 """Events along the quasi-static class-2 path: what a continuation step went past, and where.
 
-:class:`PathEvents` is the event half of
-:class:`~tensegrity_core.sim.class2_quasistatic.Class2QuasiStatic`: after each step it
-checks the step's end for a **fold** (a free actuator length below zero), a **release** (a
+:class:`EventLocator` is the path follower's collaborator for events
+(:class:`~tensegrity_core.sim.class2.path.PathFollower`): after each step the follower asks
+it what the step's end went past --  a **fold** (a free actuator length below zero), a **release** (a
 held actuator's contact force below ``-tol``: it would have to pull), a **limit point** (the
 stiffness ``K_FF`` no longer positive definite) and an input law's **breakpoint**, and
 locates the first one inside the step:
@@ -17,9 +17,11 @@ locates the first one inside the step:
 - limit points, and anything these two cannot settle, by regula falsi on the step length
   (each trial corrected onto the path).
 
-At the event the segment is closed and the path's new start queued (the fold's actuator
-held, the released one let go, then the minimum of the new mode); at a limit point the run
-stops with a :class:`~tensegrity_core.sim.errors.SimulationError`.
+The locator returns the located :class:`Event`; the follower closes its segment there and
+queues the path's new start (the fold's actuator held, the released one let go, then the
+minimum of the new mode), or stops the run at a limit point. It reads the path only through
+the arguments of its calls and the :class:`~tensegrity_core.sim.class2.equilibria.Equilibria`
+it is given.
 """
 
 from __future__ import annotations
@@ -29,9 +31,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from tensegrity_core.sim.class2_path_samples import MODE_FREE, Segment
-from tensegrity_core.sim.errors import SimulationError
-from tensegrity_core.sim.small_dense import positive_definite, principal_det, solve_small
+from tensegrity_core.sim.class2.equilibria import Equilibria, Point
+from tensegrity_core.sim.class2.path_samples import MODE_FREE
+from tensegrity_core.sim.class2.small_dense import positive_definite, principal_det, solve_small
 
 #: An actuator within this distance of zero (relative to L) has reached the fold.
 FOLD_EPS = 1e-12
@@ -52,20 +54,6 @@ EVENT_TOL = 1e-9
 #: (relative to the duration).
 BRANCH_ITER = 30
 BRANCH_TOL = 1e-14
-#: A path that cannot continue within this distance (relative to L) of lambda1 = 0 or
-#: lambda2 = 0 has reached the singular configuration rather than a limit point.
-SINGULAR_NEAR = 0.05
-
-
-class Point(NamedTuple):
-    """A configuration ``q`` (list of 3) at time ``t`` [s] with ``G, K, Gt`` of
-    :meth:`~tensegrity_core.sim.class2_potential.TotalPotential.evaluate` there."""
-
-    q: list
-    t: float
-    G: list
-    K: list
-    Gt: list
 
 
 class Event(NamedTuple):
@@ -85,22 +73,21 @@ def just_before(t: float) -> float:
     return math.nextafter(t, -math.inf)
 
 
-def bits_of(held) -> int:
-    """The contact mode (bit i: actuator i held) of a set of held actuators."""
-    return sum(1 << i for i in held)
-
-
 def _distance(a, b) -> float:
     return math.sqrt(sum((x - y) ** 2 for x, y in zip(a, b)))
 
 
-class PathEvents:
-    """Event detection and location for the quasi-static path follower (a mixin: the host
-    provides the path state ``bits``, ``_head``, ``_seg``, the ``potential``, the scales
-    ``L, T``, ``fold``, ``release_tol`` and the path methods ``_point``, ``_regular``, ``_z``,
-    ``_q_t``, ``_tangent``, ``_at``, ``_equilibrium_at``, ``_minimise``)."""
+class EventLocator:
+    """Detection and location of the events of a quasi-static path, on the path's
+    :class:`~tensegrity_core.sim.class2.equilibria.Equilibria` ``eq``. A step goes from the
+    path's current end ``head`` (a :class:`Point`) in contact mode ``bits`` along tangent
+    ``v0``; ``t_stop`` is the next breakpoint of an input law."""
 
-    def _event_kind(self, p: Point, bits: int, t_stop: float):
+    def __init__(self, eq: Equilibria):
+        self.eq = eq
+        self.L, self.T, self.fold, self.release_tol = eq.L, eq.T, eq.fold, eq.release_tol
+
+    def kind(self, p: Point, bits: int, t_stop: float):
         """What the path went past at ``p``, if anything."""
         if self.fold and any(not bits >> i & 1 and p.q[i] < FOLD_EPS * self.L for i in (0, 1)):
             return "fold"
@@ -112,7 +99,7 @@ class PathEvents:
             return "breakpoint"
         return None
 
-    def _event_value(self, kind: str, p: Point, bits: int, t_stop: float) -> float:
+    def value(self, kind: str, p: Point, bits: int, t_stop: float) -> float:
         """A continuous function of the path that changes sign at the event ``kind``."""
         if kind == "fold":
             return min(p.q[i] - FOLD_EPS * self.L for i in (0, 1) if not bits >> i & 1) / self.L
@@ -122,56 +109,25 @@ class PathEvents:
             return (t_stop - p.t) / self.T
         return principal_det(p.K, MODE_FREE[bits])
 
-    def _locate(self, v0, ds: float, end: Point, kind: str, t_stop: float) -> None:
-        """Locate the first event of the step from the current head to ``end``, end the
-        segment there and queue the path's new start (or stop at a limit point)."""
+    def locate(self, head: Point, bits: int, v0, ds: float, end: Point, kind: str, t_stop: float) -> Event:
+        """The first event ``kind`` of the step of arc length ``ds`` from ``head`` to ``end``."""
         event = None
         if kind != "limit":
-            event = self._solve_event(kind, end, ds, t_stop)
+            event = self._solve_event(head, bits, v0, kind, end, ds, t_stop)
             if event is None and kind == "fold":
-                event = self._branch_point(end, ds)
+                event = self._branch_point(head, bits, v0, end, ds)
         if event is None:
-            event = self._bracket_event(v0, ds, kind, t_stop)
-        self._close(event, v0, t_stop)
+            event = self._bracket_event(head, bits, v0, ds, kind, t_stop)
+        return event
 
-    def _close(self, event: Event, v0, t_stop: float) -> None:
-        """End the segment at ``event`` and queue the path's new start (or stop at a limit
-        point). At a breakpoint the path ends just before it and restarts from the minimum
-        reached under the law's new piece (event ``jump`` if the state moved: a law that jumps,
-        like a series held between samples)."""
-        bits = self.bits
-        head, p = self._head, event.at
-        free = MODE_FREE[bits]
-        self._seg = Segment.of(head.t, p.t, p.q, self._z(head.q, head.t, free), self._z(p.q, p.t, free), v0,
-                               event.tangent, event.ds, bits)
-        if event.kind == "limit":
-            self._limit(p.t, p.q, "the stiffness d2Pi/dq2 stops being positive definite")
-        held = {i for i in (0, 1) if bits >> i & 1}
-        fired = []
-        q_new, t_new = list(p.q), p.t
-        if event.kind == "fold":
-            for i in event.actuators:
-                q_new[i] = 0.0
-            held |= event.actuators
-            fired = [(p.t, "fold", i) for i in sorted(event.actuators)]
-        elif event.kind == "release":
-            held -= event.actuators
-            fired = [(p.t, "release", i) for i in sorted(event.actuators)]
-        elif event.kind == "breakpoint":
-            t_new = t_stop
-        q_min, new_bits = self._minimise(q_new, t_new, bits_of(held))
-        if event.kind == "breakpoint" and max(abs(a - b) for a, b in zip(q_min, q_new)) > 1e-9 * self.L:
-            fired = [(t_new, "jump", 0)]
-        self._pending = (t_new, q_min, new_bits, fired)
-
-    def _closing_tangent(self, p: Point, z_head, v0) -> tuple:
+    def closing_tangent(self, p: Point, bits: int, z_head, v0) -> tuple:
         """Tangent and arc length (chord) of the last segment ending at ``p``; the chord's
         direction where the tangent is not unique (a bifurcation)."""
-        free = MODE_FREE[self.bits]
-        z = self._z(p.q, p.t, free)
+        free = MODE_FREE[bits]
+        z = self.eq.z(p.q, p.t, free)
         chord = _distance(z, z_head)
         try:
-            return self._tangent(p, self.bits, v0), chord
+            return self.eq.tangent(p, bits, v0), chord
         except ZeroDivisionError:
             return [(a - b) / chord for a, b in zip(z, z_head)] if chord > 0 else list(v0), chord
 
@@ -187,11 +143,10 @@ class PathEvents:
             return False
         return kind == "breakpoint" or p.t <= t_stop
 
-    def _solve_event(self, kind: str, end: Point, ds: float, t_stop: float):
+    def _solve_event(self, head: Point, bits: int, v0, kind: str, end: Point, ds: float, t_stop: float):
         """The event point by Newton on ``G_F = 0`` plus the event's equation, in the scaled
         unknowns ``z = (q_F / L, t / T)``, from the chord's estimate; ``None`` if it does not
         converge to a point of this step before every other event."""
-        head, bits = self._head, self.bits
         free = MODE_FREE[bits]
         L, T, rtol = self.L, self.T, self.release_tol
         if kind == "fold":
@@ -205,15 +160,15 @@ class PathEvents:
         if not crossings:
             return None
         theta, i = min(crossings)
-        z_head = self._z(head.q, head.t, free)
-        z = [a + theta * (b - a) for a, b in zip(z_head, self._z(end.q, end.t, free))]
-        q, t = self._q_t(z, head.q, free)
+        z_head = self.eq.z(head.q, head.t, free)
+        z = [a + theta * (b - a) for a, b in zip(z_head, self.eq.z(end.q, end.t, free))]
+        q, t = self.eq.q_t(z, head.q, free)
         last = math.inf
         for _ in range(EVENT_ITER):
-            if not self._regular(q):
+            if not self.eq.regular(q):
                 return None
-            G, K, Gt = self.potential.evaluate(q, t)
-            self.n_newton += 1
+            G, K, Gt = self.eq.potential.evaluate(q, t)
+            self.eq.counts.newton += 1
             A = [[K[a][b] * L for b in free] + [Gt[a] * T] for a in free]
             rhs = [-G[a] for a in free]
             if kind == "fold":
@@ -244,11 +199,11 @@ class PathEvents:
             q[i] = 0.0
         elif kind == "breakpoint":
             t = just_before(t_stop)
-        if not (self._regular(q) and head.t <= t):
+        if not (self.eq.regular(q) and head.t <= t):
             return None
-        p = self._point(q, t)
-        reach = 1.5 * max(ds, _distance(self._z(end.q, end.t, free), z_head))
-        if _distance(self._z(q, t, free), z_head) > reach or not self._before_other_events(p, bits, t_stop, kind, i):
+        p = self.eq.point(q, t)
+        reach = 1.5 * max(ds, _distance(self.eq.z(end.q, end.t, free), z_head))
+        if _distance(self.eq.z(q, t, free), z_head) > reach or not self._before_other_events(p, bits, t_stop, kind, i):
             return None
         if kind == "fold":
             actuators = frozenset(j for j in (0, 1) if not bits >> j & 1 and q[j] < FOLD_NEAR * L)
@@ -256,14 +211,13 @@ class PathEvents:
             actuators = frozenset({i} | {j for j in (0, 1) if bits >> j & 1 and p.G[j] < -rtol})
         else:
             actuators = frozenset()
-        return Event(kind, p, actuators, *self._closing_tangent(p, z_head, self._seg.v1))
+        return Event(kind, p, actuators, *self.closing_tangent(p, bits, z_head, v0))
 
-    def _branch_point(self, end: Point, ds: float):
+    def _branch_point(self, head: Point, bits: int, v0, end: Point, ds: float):
         """Where the free branch meets the stop of an actuator at a degenerate contact: the
         time ``t`` at which the stiffness ``K_FF`` of the free mode, on the branch held at the
         stop, becomes singular (two branches of ``G_F = 0`` cross there), by the secant method
         from the chord's estimate; ``None`` if that does not settle it."""
-        head, bits = self._head, self.bits
         free = MODE_FREE[bits]
         L, T = self.L, self.T
         crossings = [(head.q[i] / (head.q[i] - end.q[i]), i) for i in (0, 1)
@@ -273,10 +227,10 @@ class PathEvents:
         theta, i = min(crossings)
         held = bits | 1 << i
         t_lo = head.t
-        t_hi = t_lo + 1.5 * max(ds, _distance(self._z(end.q, end.t, free), self._z(head.q, head.t, free))) * T
+        t_hi = t_lo + 1.5 * max(ds, _distance(self.eq.z(end.q, end.t, free), self.eq.z(head.q, head.t, free))) * T
 
         def det_on_held_branch(t, q):
-            p = self._equilibrium_at(q, t, held)
+            p = self.eq.equilibrium_at(q, t, held)
             return (math.nan, None) if p is None else (principal_det(p.K, free), p)
 
         start = list(head.q)
@@ -301,28 +255,26 @@ class PathEvents:
         if p_a is None or abs(p_a.G[i]) > self.release_tol:
             return None            # not a degenerate contact after all
         actuators = frozenset(j for j in (0, 1) if not bits >> j & 1 and p_a.q[j] < FOLD_NEAR * L)
-        return Event("fold", p_a, actuators, *self._closing_tangent(p_a, self._z(head.q, head.t, free),
-                                                                     self._seg.v1))
+        return Event("fold", p_a, actuators, *self.closing_tangent(p_a, bits, self.eq.z(head.q, head.t, free), v0))
 
-    def _bracket_event(self, v0, ds: float, kind: str, t_stop: float) -> Event:
+    def _bracket_event(self, head: Point, bits: int, v0, ds: float, kind: str, t_stop: float) -> Event:
         """The first point of the step where ``kind`` happens, by regula falsi (Illinois
         variant) on the event's function of the step length, each trial corrected onto the
         path: slow but it needs nothing regular (limit points)."""
-        head, bits = self._head, self.bits
         free = MODE_FREE[bits]
-        z0, template = self._z(head.q, head.t, free), head.q
+        z0, template = self.eq.z(head.q, head.t, free), head.q
 
         def g(point) -> float:
             """> 0 before the event, <= 0 past it (a failed corrector counts as past)."""
             if point is None:
                 return -1.0
-            if self._event_kind(point, bits, t_stop) is None:
-                return max(self._event_value(kind, point, bits, t_stop), 1e-300)
-            return min(self._event_value(kind, point, bits, t_stop), 0.0)
+            if self.kind(point, bits, t_stop) is None:
+                return max(self.value(kind, point, bits, t_stop), 1e-300)
+            return min(self.value(kind, point, bits, t_stop), 0.0)
 
         lo, hi, p_lo = 0.0, ds, head
-        g_lo = self._event_value(kind, head, bits, t_stop)
-        p_hi, _ = self._at(z0, v0, hi, template, bits, tol=1e-11, max_iter=LOCATE_ITER)
+        g_lo = self.value(kind, head, bits, t_stop)
+        p_hi, _ = self.eq.at(z0, v0, hi, template, bits, tol=1e-11, max_iter=LOCATE_ITER)
         g_hi = g(p_hi)
         side = 0
         for _ in range(60):
@@ -333,7 +285,7 @@ class PathEvents:
             else:
                 x = lo + (hi - lo) * g_lo / (g_lo - g_hi)
                 x = min(max(x, lo + 1e-3 * (hi - lo)), hi - 1e-3 * (hi - lo))
-            out, _ = self._at(z0, v0, x, template, bits, tol=1e-11, max_iter=LOCATE_ITER)
+            out, _ = self.eq.at(z0, v0, x, template, bits, tol=1e-11, max_iter=LOCATE_ITER)
             gx = g(out)
             if gx > 0.0:
                 lo, g_lo, p_lo = x, gx, out
@@ -345,7 +297,7 @@ class PathEvents:
                 if side == -1:
                     g_lo *= 0.5
                 side = -1
-        kind = self._event_kind(p_hi, bits, t_stop) if p_hi is not None else "limit"
+        kind = self.kind(p_hi, bits, t_stop) if p_hi is not None else "limit"
         past = p_hi
         near = [i for i in (0, 1) if not bits >> i & 1 and p_lo.q[i] < FOLD_NEAR * self.L]
         if kind == "limit" and self.fold and near:
@@ -355,26 +307,10 @@ class PathEvents:
         at = p_lo
         if kind == "breakpoint":
             t_b = just_before(t_stop)
-            at = self._equilibrium_at(p_lo.q, t_b, bits) or self._point(p_lo.q, t_b)
+            at = self.eq.equilibrium_at(p_lo.q, t_b, bits) or self.eq.point(p_lo.q, t_b)
         actuators = frozenset()
         if kind == "fold":
             actuators = frozenset(i for i in (0, 1) if not bits >> i & 1 and past.q[i] < FOLD_NEAR * self.L)
         elif kind == "release":
             actuators = frozenset(i for i in (0, 1) if bits >> i & 1 and past.G[i] < -self.release_tol)
-        return Event(kind, at, actuators, self._tangent(at, bits, v0), lo)
-
-    def _limit(self, t, q, why: str) -> None:
-        L = self.L
-        s = q[0] + q[1]
-        lam1, lam2 = math.sqrt(max((2 * L - s) * (2 * L + s), 0.0)), math.sqrt(max((L - q[0]) * (L + q[0]), 0.0))
-        if min(lam1, lam2) < SINGULAR_NEAR * L:
-            where = "rho1 + rho2 -> 2L: struts AE and CE flat" if lam1 < lam2 else "rho1 -> L: strut BF flat"
-            self.events.append((t, "singular", 0 if lam1 < lam2 else 1))
-            raise SimulationError(f"t = {t:.9g} s: the equilibrium path reaches the singular configuration "
-                                  f"({where}) at q = {np.array2string(np.asarray(q), precision=6)}, where the "
-                                  f"coordinates break down; the simulation stops here", t=t)
-        self.events.append((t, "limit", 0))
-        raise SimulationError(
-            f"t = {t:.9g} s: no stable equilibrium continues the path beyond q = "
-            f"{np.array2string(np.asarray(q), precision=6)} ({why}: a limit point -- the actuator forces "
-            f"exceed what the springs can resist); the mechanism would snap, which needs inertia", t=t)
+        return Event(kind, at, actuators, self.eq.tangent(at, bits, v0), lo)

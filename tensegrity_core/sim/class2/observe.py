@@ -1,8 +1,9 @@
 """What an observation of the class-2 mechanism reports, for one sample or for a whole run.
 
 :class:`Class2Observer` turns states into the observed quantities: node positions, member
-lengths and forces (:mod:`.class2_members`), end effector (node D), energies, contact
-forces and, with inertia, the accelerations of each sample's contact mode.
+lengths and forces (:mod:`.members`), end effector (node D), energies, contact
+forces and, with inertia, the accelerations of each sample's contact mode (the kernel's
+:class:`~tensegrity_core.class2.dynamics.inertia.Inertia`).
 :meth:`Class2Observer.many` takes arrays over the samples of a run;
 :meth:`Class2Observer.one` takes one sample and evaluates the same formulas on floats (the
 effects, the inertia and the member forces are written with arithmetic only), which costs a
@@ -13,10 +14,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from tensegrity_core.class2.dynamics.effects import force_terms
+from tensegrity_core.class2.dynamics.inertia import Inertia
+from tensegrity_core.class2.dynamics.kinematics import kinematics, kinematics_array
+from tensegrity_core.class2.dynamics.limits import LAMBDA_MIN_REL
 from tensegrity_core.class2.geometry import NODE_NAMES
-from tensegrity_core.sim import class2_effects as fx
-from tensegrity_core.sim.class2_inertia import Inertia
-from tensegrity_core.sim.class2_members import member_values, node_coordinates
+from tensegrity_core.sim.class2.members import member_values, node_coordinates
 
 END_EFFECTOR = NODE_NAMES.index("D")
 
@@ -31,7 +34,7 @@ class Class2Observer:
         self.L = self.params.L
         self.effects = tuple(effects)
         self._energies = tuple(e.energy for e in self.effects if hasattr(e, "energy"))
-        self._forces = tuple(e.force for e in self.effects)
+        self._forces = force_terms(self.effects)
         self.inertia = Inertia(self.params) if inertia else None
         eff = scene.effects
         self.gravity = tuple(eff["gravity"].vector) if "gravity" in eff else None
@@ -49,7 +52,7 @@ class Class2Observer:
         known (quasi-static). Values as :meth:`many` gives them, without the sample axis."""
         y = np.asarray(y, dtype=float)
         yl = y.tolist()
-        k = fx.context(self.L, yl)
+        k = kinematics(self.L, yl, LAMBDA_MIN_REL * self.L)
         T1, T2 = float(T[0]), float(T[1])
         potential = 0.0
         for energy in self._energies:
@@ -88,7 +91,7 @@ class Class2Observer:
         T = np.asarray(T, dtype=float).reshape(len(t), 2)
         n = len(t)
         q, qd = Y[:, :3], Y[:, 3:6]
-        k = fx.context_array(self.L, q, qd)
+        k = kinematics_array(self.L, q, qd)
         potential = np.zeros(n)
         for energy in self._energies:
             potential = potential + energy(k)

@@ -4,7 +4,7 @@ The equations of motion alone let an actuator length pass through zero and becom
 negative (the mirrored, non-physical configuration), and they break down where lambda1 or
 lambda2 vanishes. These events locate those moments; a simulator decides what happens
 there (stop, clamp, impact law). State layout ``y = (rho1, rho2, beta, rho1_dot,
-rho2_dot, beta_dot)`` as in :class:`tensegrity_core.class2.dynamics.Class2Dynamics`.
+rho2_dot, beta_dot)`` as in :class:`~tensegrity_core.class2.dynamics.Class2Dynamics`.
 """
 
 from __future__ import annotations

@@ -21,7 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from tensegrity_core.sim import class2_effects as fx
+from tensegrity_core.class2.dynamics.kinematics import kinematics, kinematics_array
+from tensegrity_core.class2.dynamics.limits import LAMBDA_MIN_REL
 
 
 class TotalPotential:
@@ -32,14 +33,19 @@ class TotalPotential:
         self.effects = tuple(effects)
         self.laws = tuple(laws)
         self.L = L
+        self.limit = LAMBDA_MIN_REL * L
         self._force_stiffness = tuple((e.force, e.stiffness) for e in self.effects)
+
+    def with_laws(self, laws) -> "TotalPotential":
+        """The same effects under other input laws (a new command)."""
+        return TotalPotential(self.effects, laws, self.L)
 
     def evaluate(self, q, t: float) -> tuple:
         """``(G, K, Gt)`` at one configuration: lists of 3, 3 x 3 and 3 floats. Raises the
         kinematic context's :class:`~tensegrity_core.errors.SingularityError` or
         :class:`~tensegrity_core.errors.DomainError` outside the mechanism's domain."""
         r1, r2 = q[0], q[1]
-        k = fx.context(self.L, (r1, r2, q[2], 0.0, 0.0, 0.0))
+        k = kinematics(self.L, (r1, r2, q[2], 0.0, 0.0, 0.0), self.limit)
         (force, stiffness), *others = self._force_stiffness      # a quasi-static scene has springs
         Q1, Q2, Q3 = force(k)
         K11, K12, K13, K22, K23, K33 = stiffness(k)
@@ -64,7 +70,7 @@ class TotalPotential:
 
     def value(self, q, t: float) -> float:
         """``Pi(q, t)`` [J] at one configuration."""
-        k = fx.context(self.L, (q[0], q[1], q[2], 0.0, 0.0, 0.0))
+        k = kinematics(self.L, (q[0], q[1], q[2], 0.0, 0.0, 0.0), self.limit)
         l1, l2 = self.laws
         return sum(e.energy(k) for e in self.effects) + l1.potential(t, q[0]) + l2.potential(t, q[1])
 
@@ -72,7 +78,7 @@ class TotalPotential:
         """``(G (N, 3), K, Gt (N, 3), u (N, 2))`` at times ``t`` (N,) and configurations ``q``
         (N, 3): ``K`` as its unique entries ``(K11, K12, K13, K22, K23, K33)`` (arrays), ``u``
         the input laws' values (the actuator forces)."""
-        k = fx.context_array(self.L, q, np.zeros_like(q))
+        k = kinematics_array(self.L, q, np.zeros_like(q))
         Q1 = Q2 = Q3 = 0.0
         entries = [0.0] * 6
         for e in self.effects:

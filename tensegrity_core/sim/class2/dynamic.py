@@ -1,0 +1,125 @@
+"""The class-2 back end with inertia: the kernel's equations of motion, integrated by a stepper.
+
+:class:`Class2Dynamic` compiles a class-2 scene that lists ``inertia`` into a frozen model:
+the :class:`~tensegrity_core.sim.class2.plant.Class2Plant` (listed effects, drive, fold
+limit), the input laws, the commands that hold the initial state at rest, the initial state
+with its contacts resolved, and a :class:`~tensegrity_core.sim.class2.observe.Class2Observer`.
+A state's workspace is a :class:`~tensegrity_core.sim.stepper.Stepper` integrating the
+plant's segment of the current contact mode and commands.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from tensegrity_core.sim.class2.observe import Class2Observer
+from tensegrity_core.sim.class2.plant import Class2Plant, Class2Segment
+from tensegrity_core.sim.class2.setup import NAMES, force_effects, initial_configuration, static_force
+from tensegrity_core.sim.commands import changed, check_command, initial_commands
+from tensegrity_core.sim.inputs import held
+from tensegrity_core.sim.model import State
+from tensegrity_core.sim.stepper import Stepper
+
+
+class Class2Dynamic:
+    """Back end ``class2/dynamic``: the class-2 equations of motion with the scene's effects
+    (implements :class:`~tensegrity_core.sim.model.DynamicModel`)."""
+
+    kind = "class2"
+    quasi_static = False
+    names = NAMES
+
+    def __init__(self, scene):
+        params = scene.model.params
+        self.scene = scene
+        self.params = params
+        effects = force_effects(scene)
+        q0, qd0 = initial_configuration(scene, effects)
+        self.laws = tuple(scene.inputs.values())
+        self.actuator_names = tuple(scene.inputs)
+        self.initial_commands = initial_commands(self.laws, static_force(effects, params.L, q0)[:2])
+        self.plant = Class2Plant(scene, effects)
+        self.state_names = self.plant.state_names
+        self.observer = Class2Observer(scene, effects, inertia=True)
+        method = scene.integrator.method
+        if method == "auto":
+            method = "Radau" if "actuator_compliance" in scene.effects else "DOP853"
+        self.method = method
+        laws0 = held(self.laws, self.initial_commands)
+        y0 = np.concatenate([q0, qd0, self.plant.drive.initial_states(0.0, q0, laws0)])
+        self.plant.check_state(y0)
+        self.y0, self.mode0 = self.plant.segment((), laws0).resolve_contacts(0.0, y0)
+
+    # -- states ---------------------------------------------------------------------------------
+    def initial_state(self, *, t_end: float = math.inf) -> State:
+        """The scene's initial state at ``t = 0`` (resolved once, at compile time)."""
+        return self._state(self.y0, self.mode0, t_end)
+
+    def state_from(self, y, *, t_end: float = math.inf) -> State:
+        """A state at ``t = 0`` from the state vector ``y`` (``state_names``), its contacts resolved."""
+        y = np.array(y, dtype=float).ravel()
+        self.plant.check_state(y)
+        y, mode = self.plant.segment((), held(self.laws, self.initial_commands)).resolve_contacts(0.0, y)
+        return self._state(y, mode, t_end)
+
+    def _state(self, y, mode, t_end: float) -> State:
+        events: list = []
+        s = self.scene.integrator
+        segment = self.plant.segment(mode, held(self.laws, self.initial_commands))
+        stepper = Stepper(segment, 0.0, y, method=self.method, rtol=s.rtol, atol=s.atol, max_step=s.max_step,
+                          t_end=t_end, log=events)
+        return State(self.initial_commands, events, stepper)
+
+    def equations(self, state: State) -> Class2Segment:
+        """The segment (contact mode, commands) the integrator sees at ``state``."""
+        return state.work.system
+
+    # -- running ------------------------------------------------------------------------------
+    def set_command(self, state: State, values) -> None:
+        commands = check_command(values, self.laws, self.actuator_names)
+        if not changed(state.commands, commands):
+            return
+        state.commands = commands
+        st = state.work
+        st.restart(st.t, st.y, system=st.system.with_laws(held(self.laws, commands)), input_changed=True)
+
+    def advance(self, state: State, t: float) -> None:
+        state.work.advance(t)
+
+    def sample(self, state: State) -> tuple:
+        """What an observation needs at ``state.t``: ``(t, y, mode bits, T (2,))``."""
+        st = state.work
+        y = st.y
+        return st.t, y.copy(), st.system.bits, st.system.drive.forces(st.t, y.tolist())
+
+    def record(self, state: State, times, out: list) -> None:
+        """Append samples at increasing ``times`` to ``out``."""
+        states: list = []
+        try:
+            state.work.record(times, states)
+        finally:
+            out.extend((t, y, seg.bits, seg.drive.forces(t, y.tolist())) for t, y, seg in states)
+
+    def observe(self, samples) -> dict:
+        """Observed quantities of recorded samples ``[(t, y, mode bits, T), ...]`` (arrays)."""
+        return self.observer.many([s[0] for s in samples], [s[1] for s in samples], [s[2] for s in samples],
+                                  [s[3] for s in samples])
+
+    def observe_now(self, state: State) -> dict:
+        """The observation at ``state.t`` (one sample, on floats)."""
+        return self.observer.one(*self.sample(state))
+
+    def joint_sample(self, state: State) -> dict:
+        """Joint positions, rates, transmitted forces, node D and the fold flag at ``state.t``."""
+        t, y, bits, T = self.sample(state)
+        L = self.params.L
+        ee = np.array([y[0] + L * math.cos(y[2]), L * math.sin(y[2]), 0.0])
+        return {"t": float(t), "q": y[:3], "qdot": y[3:6], "applied_forces": np.asarray(T, dtype=float),
+                "end_effector": ee, "folded": bool(bits)}
+
+    def stats(self, state: State) -> dict:
+        st = state.work
+        return {"method": self.method, "steps": st.n_steps, "nfev": st.nfev, "restarts": st.n_restarts - 1,
+                "events": st.n_events}

@@ -1,0 +1,94 @@
+"""Set-up shared by the class-2 back ends: the listed force effects, the initial configuration
+and the names of what they observe.
+
+Both back ends (with inertia, :mod:`.dynamic`; without, :mod:`.quasistatic`) build the
+effects a scene lists from the physics kernel :mod:`tensegrity_core.class2.dynamics` and
+start from the same configuration: the scene's state, or the equilibrium for the given
+actuator lengths (springs and gravity; loads act from ``t = 0`` on).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tensegrity_core.class2.dynamics.effects import Damping, Gravity, Loads, Springs
+from tensegrity_core.class2.dynamics.kinematics import kinematics
+from tensegrity_core.class2.dynamics.limits import LAMBDA_MIN_REL
+from tensegrity_core.class2.energy import equilibrium_beta
+from tensegrity_core.class2.geometry import MEMBERS, NODE_NAMES
+from tensegrity_core.sim.errors import SceneError
+from tensegrity_core.sim.model import Names
+
+#: What a class-2 observation names: the six nodes and the ten members (MEMBERS order).
+NAMES = Names(NODE_NAMES, tuple(m.name for m in MEMBERS), np.array([m.nodes for m in MEMBERS]))
+#: The state vector's first six entries (the drive's states follow with inertia).
+STATE_NAMES = ("rho1", "rho2", "beta", "rho1_dot", "rho2_dot", "beta_dot")
+
+
+def force_effects(scene) -> tuple:
+    """The generalised-force effects the scene lists, in composition order (springs, damping,
+    gravity, loads); an effect the scene does not list is not built."""
+    params = scene.model.params
+    eff = scene.effects
+    out = []
+    if "springs" in eff:
+        out.append(Springs(params))
+    if "damping" in eff:
+        out.append(Damping(params))
+    if "gravity" in eff:
+        out.append(Gravity(params, eff["gravity"].vector))
+    if "loads" in eff:
+        out.append(Loads(params, eff["loads"].forces))
+    return tuple(out)
+
+
+def rest_context(L: float, q):
+    """The kinematic context of configuration ``q`` at rest."""
+    return kinematics(L, (q[0], q[1], q[2], 0.0, 0.0, 0.0), LAMBDA_MIN_REL * L)
+
+
+def static_force(effects, L: float, q) -> np.ndarray:
+    """Sum of the effects' generalised forces at ``q`` at rest (3,); its first two entries are
+    the actuator forces that hold ``q`` at rest."""
+    k = rest_context(L, q)
+    Q = np.zeros(3)
+    for e in effects:
+        Q += e.force(k)
+    return Q
+
+
+def equilibrium_angle(effects, params, rho1: float, rho2: float) -> float:
+    """The stable ``beta`` for locked actuators under the springs and gravity (the scene's
+    loads act from ``t = 0`` on, they are not part of the initial equilibrium).
+
+    Starts at the springs' closed-form minimum (:func:`equilibrium_beta`) and runs Newton on
+    ``Q3(beta) = 0`` when gravity also acts on beta."""
+    beta = float(equilibrium_beta(rho1, rho2, params))
+    conservative = [e for e in effects if e.name in ("springs", "gravity")]
+    if not any(e.name == "gravity" for e in conservative):
+        return beta
+    for _ in range(50):
+        q = (rho1, rho2, beta)
+        k = rest_context(params.L, q)
+        Q3 = static_force(conservative, params.L, q)[2]
+        K = -sum(e.jacobian(k)[0] for e in conservative)[2, 2]
+        if K <= 0:
+            raise SceneError(f"no stable equilibrium angle beta near {beta:.6g} rad for rho1 = {rho1:g} m, "
+                             f"rho2 = {rho2:g} m under the springs and gravity (d2V/dbeta2 = {K:.3g} <= 0: the "
+                             f"springs cannot hold the struts' weight)", key=("initial",))
+        step = Q3 / K
+        beta += step
+        if abs(step) < 1e-14:
+            return beta
+    raise SceneError(f"the equilibrium angle for rho1 = {rho1:g} m, rho2 = {rho2:g} m did not converge",
+                     key=("initial",))
+
+
+def initial_configuration(scene, effects) -> tuple[np.ndarray, np.ndarray]:
+    """``(q0, qdot0)`` of a class-2 scene."""
+    init = scene.initial
+    params = scene.model.params
+    if init.kind == "state":
+        return np.array(init.q, dtype=float), np.array(init.qdot, dtype=float)
+    r1, r2 = init.lengths
+    return np.array([r1, r2, equilibrium_angle(effects, params, r1, r2)]), np.zeros(3)

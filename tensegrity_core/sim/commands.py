@@ -1,0 +1,44 @@
+"""Commanded inputs: their values before the first command, and the check of a new command.
+
+An input whose law is "commanded" holds the last value given to the simulator (zero-order
+hold); its value before the first command is the scene's ``initial`` or, without one, the
+back end's *hold value* (class-2: the force that keeps the initial state at rest; general:
+the member's drawn rest length). A state's ``commands`` lists the current values in input
+order, ``nan`` for inputs with a law.
+"""
+
+from __future__ import annotations
+
+import math
+
+from tensegrity_core.sim.errors import SimulationError
+
+
+def initial_commands(laws, hold) -> tuple[float, ...]:
+    """The commands before the first one: ``law.initial`` or ``hold[i]`` for commanded inputs,
+    ``nan`` for the others."""
+    return tuple((float(hold[i]) if law.initial is None else float(law.initial)) if law.law == "commanded"
+                 else math.nan for i, law in enumerate(laws))
+
+
+def check_command(values, laws, names, *, positive: bool = False) -> tuple[float, ...]:
+    """``values`` (one finite number per input, in input order) as the new commands: floats
+    for commanded inputs, ``nan`` for inputs with a law (their values are ignored).
+    ``positive``: commanded values must be > 0 (rest lengths). Raises :class:`SimulationError`."""
+    try:
+        vals = [float(v) for v in values]
+    except (TypeError, ValueError):
+        raise SimulationError(f"command must be {len(laws)} numbers ({', '.join(names)}), got {values!r}") from None
+    if len(vals) != len(laws):
+        raise SimulationError(f"command must have {len(laws)} values ({', '.join(names)}), got {len(vals)}")
+    for name, law, v in zip(names, laws, vals):
+        if not math.isfinite(v):
+            raise SimulationError(f"command for {name} must be finite, got {v!r}")
+        if positive and law.law == "commanded" and not v > 0:
+            raise SimulationError(f"commanded rest length of {name} must be > 0, got {v!r}")
+    return tuple(v if law.law == "commanded" else math.nan for law, v in zip(laws, vals))
+
+
+def changed(old: tuple[float, ...], new: tuple[float, ...]) -> bool:
+    """Whether any commanded value differs (``nan`` entries, inputs with a law, never do)."""
+    return any(a != b for a, b in zip(old, new) if not (math.isnan(a) and math.isnan(b)))

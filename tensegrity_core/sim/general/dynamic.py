@@ -1,0 +1,144 @@
+"""The general-structure back end with inertia: nodal and rigid-body dynamics, integrated by a stepper.
+
+:class:`GeneralDynamic` compiles a general scene that lists ``inertia`` into a frozen model:
+the :class:`~tensegrity_core.sim.general.model.GeneralModel` of the initial equilibrium's
+rotation charts under the initial commands, the input laws and the initial coordinates. A
+state's workspace is a :class:`~tensegrity_core.sim.stepper.Stepper`; its system is the
+general model of the current charts and commands (each sample keeps the model it was taken
+under, so an observation sees the charts of its own time).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from tensegrity_core.general.statics import potential_energy
+from tensegrity_core.sim.commands import changed, check_command, initial_commands
+from tensegrity_core.sim.errors import SimulationError
+from tensegrity_core.sim.general.model import GeneralModel, NodalMasses
+from tensegrity_core.sim.general.setup import (
+    check_springs,
+    coordinates,
+    drawn_rest_lengths,
+    finish_observations,
+    initial_configuration,
+    member_damping,
+    minimal_coordinates,
+    names_of,
+    rest_lengths_function,
+    scene_gravity,
+    scene_loads,
+)
+from tensegrity_core.sim.inputs import held
+from tensegrity_core.sim.model import State
+from tensegrity_core.sim.stepper import Stepper
+
+OBSERVED = ("t", "state", "q", "qdot", "applied_forces", "nodes", "member_lengths", "member_forces",
+            "potential_energy", "kinetic_energy")
+
+
+class GeneralDynamic:
+    """Back end ``general/dynamic``: nodal / rigid-body dynamics of a general structure
+    (implements :class:`~tensegrity_core.sim.model.DynamicModel`)."""
+
+    kind = "general"
+    quasi_static = False
+
+    def __init__(self, scene):
+        check_springs(scene)
+        self.scene = scene
+        s = scene.model.structure
+        self.structure = s
+        self.laws = tuple(scene.inputs.values())
+        self.actuator_names = tuple(scene.inputs)
+        self.initial_commands = initial_commands(self.laws, drawn_rest_lengths(scene))
+        self.names = names_of(s)
+        config = initial_configuration(scene)
+        self.x0 = coordinates(config)
+        laws0 = held(self.laws, self.initial_commands)
+        self.plant = GeneralModel(s, masses=NodalMasses(s), damping=member_damping(scene),
+                                  gravity=scene_gravity(scene), loads=scene_loads(scene),
+                                  rest_lengths_of=rest_lengths_function(scene, laws0), laws=laws0,
+                                  actuators=scene.model.actuators, R_ref=config.rotations)
+        self.state_names = self.plant.state_names
+        method = scene.integrator.method
+        self.method = "Radau" if method == "auto" else method
+
+    # -- states ---------------------------------------------------------------------------------
+    def initial_state(self, *, t_end: float = math.inf) -> State:
+        """The initial equilibrium at rest (found once, at compile time)."""
+        return self._state(np.concatenate([self.x0, np.zeros(len(self.x0))]), t_end)
+
+    def state_from(self, y, *, t_end: float = math.inf) -> State:
+        """A state at ``t = 0`` from the state vector ``y`` (``state_names``: coordinates in the
+        initial rotation charts, then rates)."""
+        y = np.array(y, dtype=float).ravel()
+        if len(y) != 2 * self.plant.n or not np.all(np.isfinite(y)):
+            raise SimulationError(f"a state of this model is {2 * self.plant.n} finite numbers, got {y!r}")
+        return self._state(y, t_end)
+
+    def _state(self, y, t_end: float) -> State:
+        events: list = []
+        s = self.scene.integrator
+        stepper = Stepper(self.plant, 0.0, y, method=self.method, rtol=s.rtol, atol=s.atol, max_step=s.max_step,
+                          t_end=t_end, log=events)
+        return State(self.initial_commands, events, stepper)
+
+    def equations(self, state: State) -> GeneralModel:
+        """The model (charts, commands) the integrator sees at ``state``."""
+        return state.work.system
+
+    # -- running ------------------------------------------------------------------------------
+    def set_command(self, state: State, values) -> None:
+        commands = check_command(values, self.laws, self.actuator_names, positive=True)
+        if not changed(state.commands, commands):
+            return
+        state.commands = commands
+        laws = held(self.laws, commands)
+        st = state.work
+        st.restart(st.t, st.y, system=st.system.with_inputs(rest_lengths_function(self.scene, laws), laws),
+                   input_changed=True)
+
+    def advance(self, state: State, t: float) -> None:
+        state.work.advance(t)
+
+    def sample(self, state: State) -> tuple:
+        """``(t, y, model)``: the model keeps this sample's rotation charts and rest lengths."""
+        st = state.work
+        return st.t, st.y.copy(), st.system
+
+    def record(self, state: State, times, out: list) -> None:
+        state.work.record(times, out)
+
+    def observe(self, samples) -> dict:
+        rows: dict = {k: [] for k in OBSERVED}
+        for t, y, model in samples:
+            n = model.n
+            x, v = y[:n], y[n:]
+            coords, r, R = model.placement(x)
+            force, _, lengths, _ = model.member_state(t, coords, model.velocities(v, r))
+            rows["t"].append(t)
+            rows["state"].append(y)
+            rows["q"].append(minimal_coordinates(model.lay, x, R))
+            rows["qdot"].append(v)
+            rows["applied_forces"].append(model.rest_lengths(t)[model.actuators])
+            rows["nodes"].append(coords)
+            rows["member_lengths"].append(lengths)
+            rows["member_forces"].append(force)
+            rows["potential_energy"].append(potential_energy(model.statics_twin(t), coords))
+            rows["kinetic_energy"].append(model.kinetic_energy(x, v))
+        return finish_observations(rows, self.scene)
+
+    def observe_now(self, state: State) -> dict:
+        return {k: v[0] for k, v in self.observe([self.sample(state)]).items()}
+
+    def joint_sample(self, state: State) -> dict:
+        obs = self.observe_now(state)
+        return {k: obs[k] for k in ("t", "q", "qdot", "applied_forces", "end_effector", "folded")}
+
+    def stats(self, state: State) -> dict:
+        st = state.work
+        return {"method": self.method, "steps": st.n_steps, "nfev": st.nfev, "restarts": st.n_restarts - 1,
+                "events": st.n_events}

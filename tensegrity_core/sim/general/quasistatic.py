@@ -1,0 +1,197 @@
+"""General structures without inertia: incremental form-finding along the scene's inputs.
+
+At each time the configuration is the stable equilibrium of the members (with the
+actuators' current rest lengths), the dead loads and the weights, found by the statics'
+Newton form-finding restarted from the previous configuration (an increment, usually a
+few iterations, or none when nothing changed). When no stable equilibrium continues the
+path (a limit point: the structure would snap or collapse), the run stops with a
+:class:`SimulationError`. The rate ``dU/dt`` of the path follows from differentiating the
+balance ``P = G^T f + w - A_r t = 0`` (the statics' Eq. 64) in time:
+``K_T dU/dt = -A_r diag(dt/dl0) dl0/dt`` with ``dt/dl0 = -EA l / l0^2`` for taut members.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.sparse.linalg import spsolve
+
+from tensegrity_core.general.statics import equilibrium_matrix, member_forces, member_lengths, potential_energy
+from tensegrity_core.general.stiffness import tangent_stiffness
+from tensegrity_core.sim.commands import changed, check_command, initial_commands
+from tensegrity_core.sim.errors import SimulationError
+from tensegrity_core.sim.general.setup import (
+    check_springs,
+    coordinates,
+    drawn_rest_lengths,
+    equilibrium,
+    finish_observations,
+    initial_configuration,
+    minimal_coordinates,
+    names_of,
+    rest_lengths_function,
+    scene_loads,
+    static_structure,
+)
+from tensegrity_core.sim.inputs import held
+from tensegrity_core.sim.model import State
+
+OBSERVED = ("t", "state", "q", "qdot", "applied_forces", "nodes", "member_lengths", "member_forces",
+            "potential_energy", "kinetic_energy")
+
+
+class FormFindingPath:
+    """The workspace of a quasi-static general state: the equilibrium ``config`` at ``t`` of
+    the ``static`` structure (rest lengths ``l0`` from ``rest_of``, or the drawn ones). A
+    general structure has no contacts: its mode is always empty."""
+
+    mode: frozenset = frozenset()
+
+    def __init__(self, t: float, config, static, rest_of, n_solves: int = 0):
+        self.t = t
+        self.config = config
+        self.static = static
+        self.rest_of = rest_of
+        self.n_solves = n_solves
+
+    @property
+    def l0(self) -> np.ndarray:
+        return self.static.rest_lengths
+
+    @property
+    def y(self) -> np.ndarray:
+        lay = self.static.layout
+        return minimal_coordinates(lay, coordinates(self.config), self.config.rotations)
+
+    def copy(self, events: list) -> "FormFindingPath":
+        """An exact copy (configurations and structures are immutable)."""
+        return FormFindingPath(self.t, self.config, self.static, self.rest_of, self.n_solves)
+
+    def rest(self, t: float) -> np.ndarray:
+        return self.static.rest_lengths if self.rest_of is None else self.rest_of(t)
+
+    def solve(self, x0, t: float, what: str):
+        self.n_solves += 1
+        return equilibrium(self.static, x0, what=what, t=t)
+
+    def update(self, t: float) -> None:
+        """The equilibrium at ``t`` (a new form-finding only when the rest lengths changed)."""
+        l0 = self.rest(t)
+        if np.array_equal(l0, self.l0):
+            return
+        self.static = self.static.with_rest_lengths(l0)
+        self.config = self.solve(self.config, t, f"at t = {t:.9g} s for the actuators' rest lengths (a limit "
+                                 f"point: the structure would snap, which needs inertia)")
+
+
+class GeneralQuasiStatic:
+    """Back end ``general/quasi-static``: the equilibrium path of a general structure
+    (implements :class:`~tensegrity_core.sim.model.Model`); the equilibrium at ``t = 0`` is
+    found once, at compile time."""
+
+    kind = "general"
+    quasi_static = True
+    method = "quasi-static (incremental form-finding)"
+
+    def __init__(self, scene):
+        check_springs(scene)
+        self.scene = scene
+        s = scene.model.structure
+        self.structure = s
+        self.laws = tuple(scene.inputs.values())
+        self.actuator_names = tuple(scene.inputs)
+        self.initial_commands = initial_commands(self.laws, drawn_rest_lengths(scene))
+        self.names = names_of(s)
+        self.state_names = tuple(f"x_{v}" for v in s.layout.labels())
+        self.actuators = list(scene.model.actuators)
+        rest_of = rest_lengths_function(scene, held(self.laws, self.initial_commands))
+        l0 = s.rest_lengths if rest_of is None else rest_of(0.0)
+        start = initial_configuration(scene)
+        path = FormFindingPath(0.0, start, static_structure(scene, loads=scene_loads(scene), rest_lengths=l0),
+                               rest_of)
+        path.config = path.solve(start, 0.0, "at t = 0 under the scene's loads")
+        self._jumped = bool(np.max(np.abs(path.config.coords - start.coords)) > 1e-9 * _size(s))
+        self._start = path
+
+    # -- states ---------------------------------------------------------------------------------
+    def initial_state(self, *, t_end: float = math.inf) -> State:
+        """The equilibrium at ``t = 0`` under the scene's loads (event ``jump`` when it is not
+        the initial configuration)."""
+        return State(self.initial_commands, [(0.0, "jump", 0)] if self._jumped else [], self._start.copy([]))
+
+    # -- running ------------------------------------------------------------------------------
+    def set_command(self, state: State, values) -> None:
+        commands = check_command(values, self.laws, self.actuator_names, positive=True)
+        if not changed(state.commands, commands):
+            return
+        state.commands = commands
+        state.work.rest_of = rest_lengths_function(self.scene, held(self.laws, commands))
+        state.work.update(state.t)
+
+    def advance(self, state: State, t: float) -> None:
+        path = state.work
+        if not math.isfinite(t):
+            raise SimulationError(f"advance: the target time must be a finite number of seconds, got {t!r}",
+                                  t=path.t)
+        if t < path.t:
+            raise SimulationError(f"cannot advance backwards: t = {path.t!r} s, target {t!r} s", t=path.t)
+        path.update(t)
+        path.t = t
+
+    def sample(self, state: State) -> tuple:
+        """``(t, configuration, static structure, rest-lengths law)`` at ``state.t``."""
+        path = state.work
+        return path.t, path.config, path.static, path.rest_of
+
+    def record(self, state: State, times, out: list) -> None:
+        for t in times:
+            self.advance(state, float(t))
+            out.append(self.sample(state))
+
+    def _rate(self, t: float, config, static, rest_of) -> np.ndarray:
+        """``dU/dt`` of the equilibrium path (zero when the rest lengths do not change)."""
+        n = self.structure.layout.n_dof
+        if rest_of is None:
+            return np.zeros(n)
+        dl0 = np.zeros(self.structure.n_members)
+        dl0[self.actuators] = [law.d_time(t, 0.0) for law in rest_of.laws]
+        if not np.any(dl0):
+            return np.zeros(n)
+        lengths = member_lengths(static, config.coords)
+        taut = ~(static.is_string & (lengths < static.rest_lengths))
+        dt_dl0 = np.where(taut, -static.EA * lengths / static.rest_lengths**2, 0.0)
+        A = equilibrium_matrix(static, config, sparse=True)
+        K = tangent_stiffness(static, config, sparse=True)
+        return np.atleast_1d(spsolve(K.tocsc(), -(A @ (dt_dl0 * dl0))))
+
+    def observe(self, samples) -> dict:
+        rows: dict = {k: [] for k in OBSERVED}
+        lay = self.structure.layout
+        for t, config, static, rest_of in samples:
+            q = minimal_coordinates(lay, coordinates(config), config.rotations)
+            rows["t"].append(t)
+            rows["state"].append(q)
+            rows["q"].append(q)
+            rows["qdot"].append(self._rate(t, config, static, rest_of))
+            rows["applied_forces"].append(static.rest_lengths[self.actuators])
+            rows["nodes"].append(config.coords)
+            rows["member_lengths"].append(member_lengths(static, config.coords))
+            rows["member_forces"].append(member_forces(static, config.coords))
+            rows["potential_energy"].append(potential_energy(static, config.coords))
+            rows["kinetic_energy"].append(0.0)
+        return finish_observations(rows, self.scene)
+
+    def observe_now(self, state: State) -> dict:
+        return {k: v[0] for k, v in self.observe([self.sample(state)]).items()}
+
+    def joint_sample(self, state: State) -> dict:
+        obs = self.observe_now(state)
+        return {k: obs[k] for k in ("t", "q", "qdot", "applied_forces", "end_effector", "folded")}
+
+    def stats(self, state: State) -> dict:
+        return {"method": self.method, "form_finds": state.work.n_solves, "events": len(state.events)}
+
+
+def _size(structure) -> float:
+    return max(float(np.ptp(structure.nodes, axis=0).max()), 1e-300)

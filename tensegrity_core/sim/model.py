@@ -1,0 +1,170 @@
+"""The seam between the simulator and its back ends: a compiled :class:`Model` and a running :class:`State`.
+
+::
+
+    model = compile_scene(load_scene("paper_fold"))   # tensegrity_core.sim.backends
+    state = model.initial_state()                     # reset = a new State
+    model.set_command(state, [f1, f2])                # zero-order hold from state.t on
+    model.advance(state, 0.25)                        # integrate to exactly t = 0.25 s
+    state.t, state.y, state.mode, state.commands, state.events
+    snapshot = state.copy()
+
+A **model** is what a back end compiles from a scene once: the effects it lists, the drive,
+the input laws, the names, the resolved initial state (initial equilibrium, contacts). It is
+frozen: nothing is patched onto it and nothing in it changes while a scene runs, so one model
+serves any number of states (MuJoCo's ``mjModel``/``mjData`` split; Drake's system/context).
+
+A **state** is what changes: the time, the state vector, the contact mode, the held
+commands, the located events ``(t, kind, index)`` and the back end's integration workspace
+(its integrator or path follower, which owns ``t``, ``y`` and ``mode``). Back ends read and
+write a state only through the model's methods; everything else reads it.
+
+Every back end implements :class:`Model` (the dynamic ones also :class:`DynamicModel`) and is
+registered in :data:`tensegrity_core.sim.backends.BACKENDS` under ``"<kind>/<regime>"``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+
+from tensegrity_core.sim.scene import Scene
+from tensegrity_core.sim.stepper import OdeSystem
+
+#: A located event: ``(t [s], kind, index)``, kind one of "fold", "release", "singular",
+#: "limit", "jump" (index: the actuator, 0 or 1, or the singular set, 0 for lambda1, 1 for
+#: lambda2; 0 where nothing is indexed).
+Event = tuple[float, str, int]
+
+
+class Workspace(Protocol):
+    """A back end's integration workspace inside a :class:`State`: the integrator of a dynamic
+    model, the path follower of a quasi-static one. It owns the time, the state vector and the
+    contact mode; ``copy(events)`` gives an independent workspace that logs into ``events``."""
+
+    @property
+    def t(self) -> float: ...
+
+    @property
+    def y(self) -> np.ndarray: ...
+
+    @property
+    def mode(self) -> frozenset[int]: ...
+
+    def copy(self, events: list[Event]) -> "Workspace": ...
+
+
+@dataclass(eq=False)
+class State:
+    """The changing part of a simulation (see the module docstring).
+
+    ``commands`` holds the commanded inputs' current values in input order (``nan`` for inputs
+    with a law); ``events`` the located events so far; ``work`` the back end's workspace.
+    ``t`` [s], ``y`` (the model's state vector, ``model.state_names``) and ``mode`` (the
+    actuators held at zero length by the fold limit, 0 for rho1 and 1 for rho2; empty for
+    general structures) are the workspace's. Treat all of them as read-only: the model's
+    ``set_command`` and ``advance`` change a state.
+    """
+
+    commands: tuple[float, ...]
+    events: list[Event]
+    work: Workspace
+
+    @property
+    def t(self) -> float:
+        return self.work.t
+
+    @property
+    def y(self) -> np.ndarray:
+        return self.work.y
+
+    @property
+    def mode(self) -> frozenset[int]:
+        return self.work.mode
+
+    def copy(self) -> "State":
+        """An independent snapshot: advancing either leaves the other unchanged. A dynamic
+        model's copy restarts its integrator at ``t`` (as after an event), so the two agree to
+        the integration tolerance, not bit for bit; a quasi-static copy is exact."""
+        events = list(self.events)
+        return State(self.commands, events, self.work.copy(events))
+
+
+@dataclass(frozen=True)
+class Names:
+    """Names of what a model observes: nodes, members (``member_nodes`` (m, 2) node indices)."""
+
+    node_names: tuple[str, ...]
+    member_names: tuple[str, ...]
+    member_nodes: np.ndarray
+
+
+class Model(Protocol):
+    """What every back end implements: a compiled scene (frozen) and the operations on its states.
+
+    Attributes: ``kind`` ("class2" or "general"), ``quasi_static``, ``scene`` (the checked
+    :class:`~tensegrity_core.sim.scene.Scene` it was compiled from), ``names``,
+    ``state_names`` (of the state vector), ``actuator_names`` (of the inputs, in order).
+
+    - ``initial_state(t_end=inf)``: a new state at ``t = 0`` (``t_end`` bounds the
+      integration: an integrator never steps past it).
+    - ``set_command(state, values)``: hold new values of the commanded inputs from ``state.t``
+      on (one value per input, in input order; values for inputs with a law are ignored);
+      raises :class:`~tensegrity_core.sim.errors.SimulationError` for bad values, leaving the
+      state unchanged.
+    - ``advance(state, t)``: to exactly time ``t >= state.t`` [s], events located and applied
+      on the way.
+    - ``sample(state)`` and ``record(state, times, out)``: what an observation needs, at
+      ``state.t`` or at increasing ``times`` (advancing the state); only ``observe`` reads them.
+    - ``observe(samples)``: the observed quantities of samples as arrays over them (the keys
+      of :class:`~tensegrity_core.sim.simulator.Observation` plus ``"qddot"``);
+      ``observe_now(state)``: the same for ``state.t`` without the sample axis, evaluated on
+      floats where that is faster; ``joint_sample(state)``: its cheap part (``t, q, qdot,
+      applied_forces, end_effector, folded``).
+    - ``stats(state)``: integrator statistics (``method``, ``steps``, ``events``, ...).
+    """
+
+    kind: str
+    quasi_static: bool
+    scene: Scene
+    names: Names
+    state_names: tuple[str, ...]
+    actuator_names: tuple[str, ...]
+
+    def initial_state(self, *, t_end: float = math.inf) -> State: ...
+
+    def set_command(self, state: State, values) -> None: ...
+
+    def advance(self, state: State, t: float) -> None: ...
+
+    def sample(self, state: State) -> Any: ...
+
+    def record(self, state: State, times, out: list) -> None: ...
+
+    def observe(self, samples: list) -> dict[str, np.ndarray]: ...
+
+    def observe_now(self, state: State) -> dict[str, Any]: ...
+
+    def joint_sample(self, state: State) -> dict[str, Any]: ...
+
+    def stats(self, state: State) -> dict[str, Any]: ...
+
+
+class DynamicModel(Model, Protocol):
+    """A model with inertia, integrated by a :class:`~tensegrity_core.sim.stepper.Stepper`
+    (a state's ``work``: its ``t_integrated`` says how far the integration has gone).
+
+    - ``state_from(y, t_end=inf)``: a new state at ``t = 0`` from the state vector ``y``
+      instead of the scene's initial state (contacts resolved as at compile time);
+    - ``equations(state)``: the :class:`~tensegrity_core.sim.stepper.OdeSystem` the
+      integrator sees at the state (its right-hand side ``fun(t, y)`` and Jacobian ``jac``).
+    """
+
+    method: str
+
+    def state_from(self, y, *, t_end: float = math.inf) -> State: ...
+
+    def equations(self, state: State) -> OdeSystem: ...
