@@ -245,7 +245,7 @@ class _DaskEngine:
                 batches[fut.key] = chunk
                 seq.add(fut)
 
-        seq = as_completed()
+        seq = as_completed(loop=client.loop)     # not the default client's loop: another client may be first
         submit(TASKS_PER_THREAD * self._threads(), seq)
         for fut in seq:
             chunk = batches.pop(fut.key)

@@ -98,8 +98,7 @@ def plot_sweep(table, sweep, path, columns=None) -> Path:
             grid = np.full((len(qa.values), len(qb.values)), np.nan)
             for a, b, v in zip(table[qa.column], table[qb.column], values):
                 grid[ia[_label(a)], ib[_label(b)]] = v
-            cmap = matplotlib.colormaps["viridis"].copy()
-            cmap.set_bad("0.85")
+            cmap = matplotlib.colormaps["viridis"].with_extremes(bad="0.85")
             im = ax.imshow(np.ma.masked_invalid(grid), origin="lower", aspect="auto", cmap=cmap,
                            interpolation="nearest")
             fig.colorbar(im, ax=ax, label=column)

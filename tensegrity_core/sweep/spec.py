@@ -197,8 +197,8 @@ def load_sweep(source) -> Sweep:
         return _Reader(path.name, path.parent.resolve(), str(path)).sweep(_parse(text, path.name))
     if isinstance(source, str):
         if ":" not in source:
-            raise SweepError(f"{source!r} is neither a shipped sweep ({', '.join(sweep_names())}), an existing "
-                             f"sweep file nor YAML text")
+            raise SweepError(f"{source!r} is neither a shipped sweep{_suggest(source, sweep_names())} "
+                             f"({', '.join(sweep_names())}), an existing sweep file nor YAML text")
         if len(source) > MAX_FILE_BYTES:
             raise SweepError(f"sweep text is larger than {MAX_FILE_BYTES} bytes")
         return _Reader(None, Path.cwd()).sweep(_parse(source, None))

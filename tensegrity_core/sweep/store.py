@@ -121,7 +121,8 @@ class Store:
             if path.suffix.lower() == ".parquet":
                 df = pd.read_parquet(path)
             else:
-                df = pd.read_csv(path, float_precision="round_trip", keep_default_na=False,
+                exact = {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
+                df = pd.read_csv(path, keep_default_na=False, **exact,    # pandas 3 reads floats exactly
                                  na_values={c: ["", "NaN", "nan", "<NA>"] for c, _ in self.columns
                                             if c not in ("message", "status")})
         except Exception as err:  # noqa: BLE001 - any unreadable file: say which and why

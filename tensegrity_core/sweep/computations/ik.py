@@ -1,6 +1,7 @@
 """``ik``: the class-2 mechanism's inverse kinematics over a set of targets, per point.
 
-The point's scene (a class-2 scene) gives the mechanism's parameters (``model.params``);
+The point's scene (a class-2 scene) gives the mechanism's parameters (``model.params``;
+nothing else of the scene is used);
 ``inverse_kinematics`` solves every target D = (x, y) [m] of ``targets``: a list of
 ``[x, y]`` pairs or a grid ``{x: {from, to, num}, y: {from, to, num}}``; ``paper_range``
 (default true) restricts the solutions to the paper's angle range. Results: ``reachable``
@@ -93,9 +94,15 @@ class InverseKinematics:
     uses_seed = False
 
     def load(self, document):
-        from tensegrity_core.sim import load_scene
+        """The mechanism's parameters from the scene's ``model.params`` (the rest of the scene,
+        its initial state and inputs, plays no part in the IK)."""
+        from tensegrity_core.class2.params import PAPER_PARAMS
+        from tensegrity_core.errors import ParameterError
 
-        return load_scene(document).model.params
+        params = (document.get("model") or {}).get("params", {})
+        if not isinstance(params, dict):
+            raise ParameterError(f"model.params must be a mapping, got {params!r}")
+        return PAPER_PARAMS.with_overrides(params)
 
     def run(self, params, options):
         from tensegrity_core.class2 import inverse_kinematics
