@@ -35,8 +35,9 @@ from tensegrity_core.sweep.spec import load_sweep
 from tensegrity_core.sweep.store import Store, check_output_path
 from tensegrity_core.sweep.task import inputs, missing, run_batch
 
-#: Target wall time of one task [s]: the scheduler's cost per task is a few milliseconds.
-TASK_SECONDS = 0.25
+#: Target wall time of one task [s]: the scheduler and client spend a few to ~10 ms of CPU per task
+#: (more on a loaded machine), so a task holds enough points to make that a few per cent.
+TASK_SECONDS = 0.5
 MAX_BATCH = 500
 TASKS_PER_THREAD = 2
 THREADS_REFRESH = 2.0               # s
@@ -51,6 +52,19 @@ def default_workers() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # pragma: no cover - not Linux
         return max(1, os.cpu_count() or 1)
+
+
+def start_local_cluster(workers: int):
+    """The embedded cluster: a ``distributed.LocalCluster`` of ``workers`` worker processes
+    with one thread each, on 127.0.0.1 only, without a dashboard, one BLAS thread per worker.
+    Close it (``with start_local_cluster(2) as cluster: run_sweep(..., scheduler=cluster.scheduler_address)``)
+    to reuse one cluster for several sweeps."""
+    require("distributed")
+    from distributed import LocalCluster
+
+    return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+                        dashboard_address=None, scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+                        silence_logs=logging.ERROR, env=WORKER_ENV)
 
 
 def columns_of(sweep, plan) -> tuple[list, list]:
@@ -179,14 +193,11 @@ class _DaskEngine:
 
     def __enter__(self):
         require("distributed")
-        from distributed import Client, LocalCluster
+        from distributed import Client
 
         if self.address is None:
             try:
-                self.cluster = LocalCluster(
-                    n_workers=self.workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                    dashboard_address=None, scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
-                    silence_logs=logging.ERROR, env=WORKER_ENV)
+                self.cluster = start_local_cluster(self.workers)
                 self.client = Client(self.cluster, timeout=self.timeout)
             except Exception as err:  # noqa: BLE001 - any start-up failure: say so, clean up
                 self._close()

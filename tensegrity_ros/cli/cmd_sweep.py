@@ -41,7 +41,7 @@ def register(subparsers) -> None:
     p.add_argument("--connect-timeout", type=float, default=10.0, metavar="S",
                    help="seconds to wait for the scheduler and its first worker (default 10)")
     p.add_argument("--batch", type=int, default=None, metavar="N",
-                   help="points per task (default: adaptive, ~0.25 s of work per task)")
+                   help="points per task (default: adaptive, ~0.5 s of work per task)")
     p.add_argument("--plot", default=None, metavar="PNG", help="draw the results against the varied quantities")
     p.add_argument("--plot-result", action="append", default=None, metavar="COLUMN",
                    help="a result column to plot (repeatable; default: the numeric results, up to 6)")
