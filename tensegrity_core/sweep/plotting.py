@@ -61,6 +61,7 @@ def plot_sweep(table, sweep, path, columns=None) -> Path:
     else:
         raise SweepError(f"--plot draws results over one or two varied quantities (or histograms of random "
                          f"samples); this sweep varies {len(axes_q)} with several values: plot its table yourself")
+    kinds = dict(plan.result_columns)
     n = len(columns)
     ncols = min(n, 3)
     nrows = math.ceil(n / ncols)
@@ -72,7 +73,11 @@ def plot_sweep(table, sweep, path, columns=None) -> Path:
         note = f" ({failed} of {len(table)} points not ok)" if failed else ""
         if mode == "hist":
             data = values[np.isfinite(values)]
-            ax.hist(data, bins=max(10, min(50, int(math.sqrt(max(len(data), 1))) * 2)), color="tab:blue")
+            if kinds[column] in ("int", "bool") and len(data):     # one bar per integer
+                bins = np.arange(data.min() - 0.5, data.max() + 1.5)
+            else:
+                bins = max(10, min(50, int(math.sqrt(max(len(data), 1))) * 2))
+            ax.hist(data, bins=bins, color="tab:blue")
             if len(data):
                 ax.axvline(float(np.mean(data)), color="k", lw=1, label=f"mean {np.mean(data):.4g}, "
                                                                           f"std {np.std(data):.2g}")
