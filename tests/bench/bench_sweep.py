@@ -147,7 +147,7 @@ def scaling(ctx: Context) -> list[Row]:
     rows, table = [], []
     with _Cluster() as c:
         for n in sizes:
-            r = _compare(_simulate_sweep(n), c.cluster, 1 if n >= 1000 else 2)
+            r = _compare(_simulate_sweep(n), c.cluster, 1 if ctx.quick or n >= 1000 else 2)
             table.append(r)
             rows.append(Row("sweep", f"scaling: {n} simulations, speed-up", r["serial"] / r["cluster"], "x",
                             note=f"serial {r['serial']:.2f} s, cluster {r['cluster']:.2f} s; "

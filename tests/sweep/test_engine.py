@@ -43,13 +43,14 @@ def listening(processes) -> set:
 def test_the_embedded_cluster_gives_the_serial_results_and_listens_on_loopback_only():
     sweep = load_sweep(monte_carlo_sweep(samples=8))
     serial = run_sweep(sweep, workers=0, progress=False)
+    me = psutil.Process()
+    before = listening([me, *me.children(recursive=True)])     # not the cluster's
     seen: dict = {}
 
     def watch(done, failed, total):
         if "sockets" not in seen:
-            me = psutil.Process()
             workers = me.children(recursive=True)
-            seen["sockets"] = listening([me, *workers])
+            seen["sockets"] = listening([me, *workers]) - before
             seen["workers"] = len([p for p in workers if "python" in p.name().lower()])
 
     table = run_sweep(sweep, workers=2, progress=watch)
@@ -73,10 +74,19 @@ def test_a_killed_workers_points_run_elsewhere_and_every_point_is_in_the_output_
     started, finished = threading.Event(), threading.Event()
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                       dashboard_address=None, silence_logs=50) as cluster, Client(cluster) as watcher:
-        scheduler = cluster.scheduler
+        def on_scheduler(fn):
+            """``fn(scheduler)`` on the scheduler's own event loop (its state is not thread-safe)."""
+            return watcher.run_on_scheduler(lambda dask_scheduler: fn(dask_scheduler))
 
         def rerun_after(keys, t_kill) -> list:
-            return [t.key for t in scheduler.story(*keys) if t.finish == "processing" and t.timestamp > t_kill]
+            return on_scheduler(lambda s: [t.key for t in s.story(*keys)
+                                           if t.finish == "processing" and t.timestamp > t_kill])
+
+        def all_done(keys) -> bool:
+            return on_scheduler(lambda s: all(s.tasks.get(k) is None or s.tasks[k].state == "memory" for k in keys))
+
+        def known(address) -> bool:
+            return on_scheduler(lambda s: address in s.workers)
 
         def kill_busy_workers():
             """Once 2 points are in, SIGKILL a worker that runs a task, until one of the tasks it
@@ -91,11 +101,11 @@ def test_a_killed_workers_points_run_elsewhere_and_every_point_is_in_the_output_
                 address, keys, t_kill = nanny.worker_address, list(busy[nanny.worker_address]), time.time()
                 os.kill(nanny.pid, signal.SIGKILL)
                 state["kills"] += 1
-                while not finished.is_set() and address in scheduler.workers:
+                while not finished.is_set() and known(address):
                     finished.wait(0.01)                        # the scheduler drops the dead worker
                 while not finished.is_set() and not state["rerun"]:
                     state["rerun"] = rerun_after(keys, t_kill)
-                    if all(scheduler.tasks.get(k) is None or scheduler.tasks[k].state == "memory" for k in keys):
+                    if all_done(keys):
                         state["rerun"] = state["rerun"] or rerun_after(keys, t_kill)
                         break                                  # they had finished before the kill
                     finished.wait(0.01)
