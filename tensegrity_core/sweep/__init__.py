@@ -15,7 +15,7 @@ sweep files needs only the core; running them needs ``dask[distributed]``, ``pan
 """
 
 from tensegrity_core.sweep.errors import MissingDependencyError, SweepError
-from tensegrity_core.sweep.spec import Sweep, load_sweep, sweep_names, sweep_path
+from tensegrity_core.sweep.spec import Plan, Sweep, load_sweep, prepare, sweep_names, sweep_path
 
 
 def run_sweep(sweep, **kwargs):
@@ -25,4 +25,5 @@ def run_sweep(sweep, **kwargs):
     return run(sweep, **kwargs)
 
 
-__all__ = ["MissingDependencyError", "Sweep", "SweepError", "load_sweep", "run_sweep", "sweep_names", "sweep_path"]
+__all__ = ["MissingDependencyError", "Plan", "Sweep", "SweepError", "load_sweep", "prepare", "run_sweep",
+           "sweep_names", "sweep_path"]

@@ -27,7 +27,9 @@ class BaseError(ValueError):
 @dataclass(frozen=True)
 class Base:
     """``kind`` "scene" or "structure"; ``source`` as the sweep file named it; ``path`` the
-    file read; ``document`` the parsed, self-contained document."""
+    file read; ``document`` the parsed, self-contained document (normalised once while the
+    sweep is read: an effect that a key path selects gets its options mapping, the same
+    effect; never changed afterwards)."""
 
     kind: str
     source: str

@@ -71,9 +71,3 @@ def boolean(v):
         raise OptionError(f"must be true or false, got {_type_name(v)} ({v!r})")
     return v
 
-
-def name_or_index(v):
-    """A position (integer >= 0) or a name (string)."""
-    if isinstance(v, bool) or not isinstance(v, (int, str)) or (isinstance(v, int) and v < 0):
-        raise OptionError(f"must be a position (integer >= 0) or a name, got {_type_name(v)} ({v!r})")
-    return v

@@ -31,7 +31,7 @@ from collections import deque
 from pathlib import Path
 
 from tensegrity_core.sweep.errors import SweepError, require
-from tensegrity_core.sweep.spec import load_sweep
+from tensegrity_core.sweep.spec import load_sweep, prepare
 from tensegrity_core.sweep.store import Store, check_output_path
 from tensegrity_core.sweep.task import inputs, missing, run_batch
 
@@ -78,7 +78,7 @@ def columns_of(sweep, plan) -> tuple[list, list]:
 
 def run_sweep(sweep, *, output=None, resume: bool = False, workers: int | None = None,
               scheduler: str | None = None, connect_timeout: float = DEFAULT_CONNECT_TIMEOUT,
-              batch: int | None = None, progress=True):
+              batch: int | None = None, progress=True, plan=None):
     """Run ``sweep`` (anything :func:`~tensegrity_core.sweep.spec.load_sweep` takes) and return
     its table (a pandas DataFrame, one row per point, sorted by point; ``table.attrs["ran"]``
     and ``["kept"]`` count the points run now and those kept from earlier runs).
@@ -89,7 +89,8 @@ def run_sweep(sweep, *, output=None, resume: bool = False, workers: int | None =
     the number of cores; 0: in this process). ``scheduler``: address of an existing Dask
     scheduler (``tcp://host:8786``) instead. ``batch``: points per task (default: adaptive).
     ``progress``: True for a progress bar on stderr, False for none, or a callable
-    ``progress(done, failed, total)`` called after each finished batch.
+    ``progress(done, failed, total)`` called after each finished batch. ``plan``: the sweep's
+    :func:`~tensegrity_core.sweep.spec.prepare` result when the caller has it already.
     Raises :class:`~tensegrity_core.sweep.errors.SweepError` when the sweep cannot run (nothing
     is written then); points that fail are rows, never exceptions."""
     require("pandas")
@@ -104,7 +105,7 @@ def run_sweep(sweep, *, output=None, resume: bool = False, workers: int | None =
     if not (isinstance(connect_timeout, (int, float)) and connect_timeout > 0):
         raise SweepError(f"connect_timeout must be a positive number of seconds, got {connect_timeout!r}")
     points = sweep.points()
-    plan = sweep.plan()
+    plan = plan if plan is not None else prepare(sweep)
     columns, point_cols = columns_of(sweep, plan)
     store = Store(output, sweep.sweep_id, columns, point_cols)
     done = store.previous(points) if resume else {}

@@ -40,14 +40,18 @@ def _label(v) -> str:
     return f"{v:.3g}" if isinstance(v, float) else str(v)
 
 
-def plot_sweep(table, sweep, path, columns=None) -> Path:
-    """Write a PNG of ``table`` (from ``run_sweep(sweep)``) to ``path``; see the module docstring."""
+def plot_sweep(table, sweep, path, columns=None, plan=None) -> Path:
+    """Write a PNG of ``table`` (from ``run_sweep(sweep)``) to ``path``; see the module docstring.
+    ``plan``: the sweep's prepared plan, if the caller has it (else prepared here)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    plan = sweep.plan()
+    if plan is None:
+        from tensegrity_core.sweep.spec import prepare
+
+        plan = prepare(sweep)
     columns = plotted_columns(plan, columns)
     if not columns:
         raise SweepError("the sweep keeps no numeric result to plot")

@@ -30,7 +30,7 @@ import difflib
 import hashlib
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 from tensegrity_core.sweep.base import BASE_KINDS, Base, BaseError, load_base, plain
@@ -52,8 +52,8 @@ MAX_VALUES = 100_000
 # ------------------------------------------------------------------------------ the sweep
 @dataclass(frozen=True)
 class Sweep:
-    """A checked sweep. ``points()`` lists its points; ``plan()`` prepares the results (runs
-    the base once where a result needs it: names and sizes of components, references)."""
+    """A checked sweep (immutable). ``points()`` lists its points; :func:`prepare` makes its
+    :class:`Plan` (running the base once where a result needs it)."""
 
     name: str
     description: str
@@ -66,7 +66,6 @@ class Sweep:
     results: tuple                 # ((name, options, line), ...) as read
     source: str | None = None
     folder: str = "."
-    _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def n_points(self) -> int:
@@ -96,12 +95,6 @@ class Sweep:
         text = json.dumps(data, sort_keys=True, default=repr)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
-    def plan(self):
-        """The results prepared (once; cached) and the computation's final options."""
-        if "plan" not in self._cache:
-            self._cache["plan"] = _prepare(self)
-        return self._cache["plan"]
-
 
 @dataclass(frozen=True)
 class Plan:
@@ -120,7 +113,11 @@ class Plan:
         return [c for r in self.results for c in r.columns]
 
 
-def _prepare(sweep: Sweep) -> Plan:
+def prepare(sweep: Sweep) -> Plan:
+    """The sweep's :class:`Plan`: its results prepared (names and sizes of components from a
+    short run of the base, references from a whole one, checked node names) and the
+    computation's final options. Raises :class:`SweepError` when the base itself cannot be
+    computed or a result's option does not fit it."""
     comp = COMPUTATIONS[sweep.computation]
     probes: dict = {}
 
@@ -348,9 +345,9 @@ class _Reader:
         if comp.model is not None and base.model_kind != comp.model:
             raise self.error(f"computation {name!r} needs a {comp.model} scene, {base.source!r} is "
                              f"{base.model_kind!r}", path, parent, "compute")
-        return name, self.options(options, opath, comp.options, comp.required_options, value, "compute")
+        return name, self.options(options, opath, comp.options, comp.required_options)
 
-    def options(self, options: dict, path, checks: dict, required, holder, key) -> dict:
+    def options(self, options: dict, path, checks: dict, required) -> dict:
         self.keys(options, path, tuple(checks), required=required)
         out = {}
         for k, v in options.items():
@@ -455,7 +452,7 @@ class _Reader:
                 raise self.error(f"unknown result {name!r} of {computation!r}{_suggest(name, comp.results)}; "
                                  f"results: {', '.join(comp.results)}", path + (i,), value, i)
             rdef = comp.results[name]
-            checked = self.options(options, opath, rdef.options, comp.required.get(name, ()), value, i)
+            checked = self.options(options, opath, rdef.options, comp.required.get(name, ()))
             key = (name, json.dumps(checked, sort_keys=True, default=repr))
             if key in seen:
                 raise self.error(f"result {name!r} is listed twice with the same options", path + (i,), value, i)

@@ -77,6 +77,7 @@ def run_sweeps(args) -> int:
 def run_sweep_command(args) -> int:
     from tensegrity_core.sweep import SweepError, load_sweep
     from tensegrity_core.sweep.engine import run_sweep
+    from tensegrity_core.sweep.spec import prepare
     from tensegrity_core.sweep.store import check_output_path, journal_path
 
     if args.plot is not None and not args.plot.lower().endswith(".png"):
@@ -95,17 +96,18 @@ def run_sweep_command(args) -> int:
         sweep = load_sweep(args.file)
         if args.output is not None:
             check_output_path(Path(args.output))
+        plan = prepare(sweep)
         if args.plot:
             from tensegrity_core.sweep.plotting import plotted_columns
 
-            plotted_columns(sweep.plan(), args.plot_result)
+            plotted_columns(plan, args.plot_result)
     except SweepError as err:
         raise CliError(str(err)) from None
     t0 = time.perf_counter()
     try:
         table = run_sweep(sweep, output=args.output, resume=args.resume, workers=args.workers,
                           scheduler=args.scheduler, connect_timeout=args.connect_timeout, batch=args.batch,
-                          progress=not (args.quiet or args.json))
+                          progress=not (args.quiet or args.json), plan=plan)
     except SweepError as err:
         raise CliError(str(err), code=1) from None
     except KeyboardInterrupt:
@@ -118,7 +120,7 @@ def run_sweep_command(args) -> int:
         from tensegrity_core.sweep.plotting import plot_sweep
 
         try:
-            plot_sweep(table, sweep, args.plot, args.plot_result)
+            plot_sweep(table, sweep, args.plot, args.plot_result, plan=plan)
         except SweepError as err:
             raise CliError(str(err), code=1) from None
     statuses = Counter(table["status"])

@@ -139,7 +139,9 @@ def test_the_shipped_spine_sweep_computes_what_form_finding_does():
     points = [p for p in sweep.points() if p.values in ((1.0, 1.0), (0.6, 1.1))]
     from tensegrity_core.sweep.task import run_point
 
-    plan = sweep.plan()
+    from tensegrity_core.sweep.spec import prepare
+
+    plan = prepare(sweep)
     base = load_example("spine_c")
     for p in points:
         row = run_point(plan, p)
