@@ -133,7 +133,8 @@ def resolve(document, text: str, *, need_number: bool = False) -> list[Location]
                     nxt.append((item[named[1]], prefix + (j, named[1])))
             if not nxt:
                 shown = ", ".join(names[:12]) + (", ..." if len(names) > 12 else "")
-                raise KeyPathError(f"no entry of {where} matches [{arg}]{_suggest(arg, names)}; "
+                groups = sorted({re.sub(r"[_\d]+$", "", n) + "*" for n in names} - set(names))
+                raise KeyPathError(f"no entry of {where} matches [{arg}]{_suggest(arg, names + groups)}; "
                                    f"entries: {shown or '(none with a name)'}")
         for child, loc in nxt:
             if last:

@@ -139,7 +139,8 @@ def run_sweep_command(args) -> int:
         return 0
     counts = ", ".join(f"{n} {s}" for s, n in sorted(statuses.items()))
     ran = table.attrs.get("ran", len(table))
-    where = f"{ran} run in {wall:.1f} s on {summary['engine']}" if ran else "all kept from the earlier run"
+    where = f"{ran} run in {wall:.1f} s {'in' if args.workers == 0 and not args.scheduler else 'on'} " \
+            f"{summary['engine']}" if ran else "all kept from the earlier run"
     kept = table.attrs.get("kept", 0)
     print(f"{sweep.name}: {len(table)} points ({counts}); {where}" + (f", {kept} kept" if ran and kept else ""))
     for f in summary["failures"]:
@@ -154,7 +155,7 @@ def _engine(args) -> str:
     if args.scheduler:
         return f"the Dask cluster at {args.scheduler}"
     if args.workers == 0:
-        return "this process (no cluster)"
+        return "this process, one point after another (no cluster)"
     from tensegrity_core.sweep.engine import default_workers
 
     n = args.workers if args.workers is not None else default_workers()

@@ -112,7 +112,7 @@ def test_key_paths_select_groups_and_effects():
     assert resolve(doc, "effects[gravity].vector") == [("effects", 2, "gravity", "vector")]
     assert doc["effects"][2] == {"gravity": {}}       # the same effect, now with (empty) options
     assert parse("loads.c1[2]") == (("key", "loads"), ("key", "c1"), ("index", 2))
-    with pytest.raises(KeyPathError, match=r"no entry of members matches \[sied\*\]"):
+    with pytest.raises(KeyPathError, match=r"no entry of members matches \[sied\*\] \(did you mean 'side\*'\?\)"):
         resolve(doc, "members[sied*].l0")
     with pytest.raises(KeyPathError, match="say which key"):
         resolve(doc, "members[side*]")
@@ -174,3 +174,13 @@ def test_every_shipped_sweep_loads():
     for name in sweep_names():
         sweep = load_sweep(name)
         assert sweep.n_points > 50 and sweep.description
+
+
+def test_the_example_in_the_docs_is_a_valid_sweep():
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[2] / "docs" / "sweeps.md").read_text()
+    block = text.split("## A sweep file", 1)[1].split("```yaml\n", 1)[1].split("```", 1)[0]
+    sweep = load_sweep(block)
+    assert sweep.name == "fold_time_kc" and sweep.n_points == 17 * 8
+    assert [p.values for p in sweep.points()] == [p.values for p in load_sweep("fold_time_kc").points()]
