@@ -1,0 +1,73 @@
+"""Small value checks for the options of computations and results in a sweep file.
+
+Each check takes the raw YAML value and returns the checked value or raises
+:class:`OptionError` with a message that shows the value; the sweep file reader adds the
+key path and the line.
+"""
+
+from __future__ import annotations
+
+import math
+
+
+class OptionError(ValueError):
+    """An option's value is not allowed."""
+
+
+def _type_name(value) -> str:
+    for kind, name in ((bool, "a boolean"), (dict, "a mapping"), (list, "a list"), (str, "a string"),
+                       (int, "an integer"), (float, "a number"), (type(None), "nothing (null)")):
+        if isinstance(value, kind):
+            return name
+    return type(value).__name__
+
+
+def number(*, lo: float | None = None, lo_open: bool = False):
+    """A finite number (``> lo`` when ``lo_open``, else ``>= lo``)."""
+    def check(v):
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise OptionError(f"must be a number, got {_type_name(v)} ({v!r})")
+        if not math.isfinite(v):
+            raise OptionError(f"must be finite, got {v!r}")
+        if lo is not None and (v < lo or (lo_open and v == lo)):
+            raise OptionError(f"must be {'>' if lo_open else '>='} {lo:g}, got {v!r}")
+        return float(v)
+    return check
+
+
+def integer(*, lo: int = 0):
+    """An integer ``>= lo``."""
+    def check(v):
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise OptionError(f"must be an integer, got {_type_name(v)} ({v!r})")
+        if v < lo:
+            raise OptionError(f"must be >= {lo}, got {v!r}")
+        return int(v)
+    return check
+
+
+def choice(*options: str):
+    """One of ``options``."""
+    def check(v):
+        if v not in options:
+            import difflib
+
+            close = difflib.get_close_matches(str(v), options, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise OptionError(f"must be one of {', '.join(options)}, got {v!r}{hint}")
+        return v
+    return check
+
+
+def text(v):
+    """A non-empty string."""
+    if not isinstance(v, str) or not v.strip():
+        raise OptionError(f"must be a non-empty string, got {_type_name(v)} ({v!r})")
+    return v
+
+
+def boolean(v):
+    if not isinstance(v, bool):
+        raise OptionError(f"must be true or false, got {_type_name(v)} ({v!r})")
+    return v
+

@@ -1,0 +1,201 @@
+"""``simulate``: run the point's scene (``tensegrity_core.sim.simulate``) and keep scalars.
+
+Results (column names in brackets; times in s, other quantities in the scene's units):
+
+- ``first_event_time`` {kind, actuator}: time of the first event of that kind (``fold``,
+  ``release``, ``jump``, ``limit``, ``singular``; default any) [``first_<kind>_time``], NaN if none;
+- ``event_count`` {kind, actuator}: number of such events [``<kind>_count``];
+- ``t_end``: time of the last sample (below the duration when the run stopped early);
+- ``final`` {of}: the last sample of ``q``, ``qdot``, ``end_effector``, ``applied_forces``,
+  ``member_forces``, ``member_lengths``, ``kinetic_energy`` or ``potential_energy``, one column
+  per component named after it (``final_rho1``, ``final_force_AB``, ``final_end_effector_x``);
+- ``peak`` {of, stat}: the largest (``stat: max``) or smallest value over the run and the
+  components of ``kinetic_energy``, ``potential_energy``, ``member_forces``, ``applied_forces``,
+  ``q`` or ``end_effector`` [``max_<of>``];
+- ``error_vs_reference`` {reference, of}: the largest ``|x(t) - x_ref(t)|`` over the reference's
+  samples within the point's run, ``x`` = ``q`` (default) or ``end_effector``, the point's
+  samples interpolated linearly; ``reference: base`` (default) is the unvaried base scene's
+  run, or a trajectory file (``.npz`` of ``tensegrity simulate -o``) relative to the sweep file;
+- ``steps``, ``evaluations``: the integrator's steps and right-hand-side evaluations.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from tensegrity_core.sweep.checks import OptionError, choice, integer, number, text
+from tensegrity_core.sweep.computations import ResultDef, scalar
+
+EVENT_KINDS = ("any", "fold", "release", "jump", "limit", "singular")
+FINAL_OF = ("q", "qdot", "end_effector", "applied_forces", "member_forces", "member_lengths",
+            "kinetic_energy", "potential_energy")
+PEAK_OF = ("kinetic_energy", "potential_energy", "member_forces", "applied_forces", "q", "end_effector")
+XYZ = ("x", "y", "z")
+
+
+def _events(traj, options) -> list[float]:
+    kind, actuator = options.get("kind", "any"), options.get("actuator")
+    return [t for t, k, i in traj.events if kind in ("any", k) and actuator in (None, i)]
+
+
+def _event_column(stem: str, options) -> str:
+    kind = options.get("kind", "any")
+    name = stem.format(kind="event" if kind == "any" else kind)
+    return name if options.get("actuator") is None else f"{name}_{options['actuator']}"
+
+
+def _first_event(traj, options, data):
+    times = _events(traj, options)
+    return [min(times) if times else math.nan]
+
+
+def _component_names(traj, of: str) -> list[str]:
+    """Column names of the components of ``of`` in trajectory ``traj``."""
+    if of in ("kinetic_energy", "potential_energy"):
+        return [f"final_{of}"]
+    if of == "end_effector":
+        return [f"final_end_effector_{a}" for a in XYZ]
+    if of in ("q", "qdot"):
+        nq = traj.q.shape[1]
+        names = list(traj.state_names)
+        names = names[:nq] if of == "q" else names[nq:2 * nq]
+        if len(names) != nq:
+            names = [f"{of}_{i}" for i in range(nq)]
+        return [f"final_{n}" for n in names]
+    if of == "applied_forces":
+        names = list(traj.actuator_names) or [str(i) for i in range(traj.applied_forces.shape[1])]
+        return [f"final_applied_{n}" for n in names]
+    prefix = "force" if of == "member_forces" else "length"
+    return [f"final_{prefix}_{n}" for n in traj.member_names]
+
+
+def _final_values(traj, options, data):
+    n = len(data)
+    if not len(traj):
+        return [math.nan] * n
+    values = np.asarray(getattr(traj, options["of"])[-1], dtype=float).ravel()
+    if values.size != n:      # a point whose model differs in size from the base's
+        return [math.nan] * n
+    return [float(v) for v in values]
+
+
+def _peak(traj, options, data):
+    values = np.asarray(getattr(traj, options["of"]), dtype=float)
+    if not values.size or not np.isfinite(values).any():
+        return [math.nan]
+    return [float(np.nanmax(values) if options.get("stat", "max") == "max" else np.nanmin(values))]
+
+
+def _reference(options, probe, folder):
+    """(times, values) of the reference run for ``error_vs_reference``."""
+    of = options.get("of", "q")
+    ref = options.get("reference", "base")
+    if ref == "base":
+        traj = probe(full=True)
+        if not traj.success:
+            raise OptionError(f"the base scene's own run (the reference) stopped early: {traj.message}")
+    else:
+        from tensegrity_core.sim import Trajectory
+
+        path = (Path(folder) / ref)
+        if path.suffix.lower() != ".npz":
+            raise OptionError(f"must be 'base' or a trajectory file (.npz), got {ref!r}")
+        try:
+            traj = Trajectory.from_npz(path)
+        except (OSError, KeyError, ValueError) as err:
+            raise OptionError(f"cannot read the reference trajectory {str(path)!r}: {err}") from None
+    return np.asarray(traj.times, dtype=float), np.asarray(getattr(traj, of), dtype=float)
+
+
+def _error_vs_reference(traj, options, data):
+    t_ref, x_ref = data
+    x = np.asarray(getattr(traj, options.get("of", "q")), dtype=float)
+    if len(traj) < 2 or x.shape[1:] != x_ref.shape[1:]:
+        return [math.nan]
+    t = np.asarray(traj.times, dtype=float)
+    inside = (t_ref >= t[0]) & (t_ref <= t[-1])
+    if not inside.any():
+        return [math.nan]
+    x = x.reshape(len(t), -1)
+    xr = x_ref.reshape(len(t_ref), -1)[inside]
+    err = max(float(np.max(np.abs(np.interp(t_ref[inside], t, x[:, j]) - xr[:, j]))) for j in range(x.shape[1]))
+    return [err]
+
+
+def _stat(key):
+    def read(traj):
+        v = traj.stats.get(key)
+        return None if v is None else int(v)
+    return read
+
+
+RESULTS = {
+    "first_event_time": ResultDef(
+        doc="time of the first event of a kind [s]",
+        columns=lambda o, d: [(_event_column("first_{kind}_time", o), "float")],
+        extract=_first_event, options={"kind": choice(*EVENT_KINDS), "actuator": integer()}),
+    "event_count": ResultDef(
+        doc="number of events of a kind",
+        columns=lambda o, d: [(_event_column("{kind}_count", o), "int")],
+        extract=lambda traj, o, d: [len(_events(traj, o))],
+        options={"kind": choice(*EVENT_KINDS), "actuator": integer()}),
+    "t_end": scalar("t_end", "float", lambda traj: float(traj.times[-1]) if len(traj) else math.nan,
+                    "time of the last sample [s]"),
+    "final": ResultDef(
+        doc="the last sample of a quantity, one column per component",
+        columns=lambda o, d: [(c, "float") for c in d], extract=_final_values,
+        options={"of": choice(*FINAL_OF)},
+        prepare=lambda o, probe, folder: _component_names(probe(full=False), o["of"])),
+    "peak": ResultDef(
+        doc="largest or smallest value over the run and the components",
+        columns=lambda o, d: [(f"{o.get('stat', 'max')}_{o['of']}", "float")], extract=_peak,
+        options={"of": choice(*PEAK_OF), "stat": choice("max", "min")}),
+    "error_vs_reference": ResultDef(
+        doc="largest deviation from a reference run",
+        columns=lambda o, d: [("error_vs_reference" if o.get("of", "q") == "q"
+                               else f"error_vs_reference_{o['of']}", "float")],
+        extract=_error_vs_reference, options={"reference": text, "of": choice("q", "end_effector")},
+        prepare=_reference),
+    "steps": scalar("steps", "int", _stat("steps"), "integrator steps"),
+    "evaluations": scalar("evaluations", "int", _stat("nfev"), "right-hand-side evaluations"),
+}
+REQUIRED_OPTIONS = {"final": ("of",), "peak": ("of",)}
+
+
+class Simulate:
+    name = "simulate"
+    base = "scene"
+    model = None
+    options = {"duration": number(lo=0.0, lo_open=True)}
+    results = RESULTS
+    required = REQUIRED_OPTIONS
+    uses_seed = True
+    required_options: tuple = ()
+
+    def load(self, document):
+        from tensegrity_core.sim import load_scene
+
+        return load_scene(document)
+
+    def run(self, scene, options):
+        from tensegrity_core.sim import simulate
+
+        traj = simulate(scene, duration=options.get("duration"))
+        return traj.success, traj.message, traj
+
+    def probe(self, document, options, *, full: bool):
+        """The base scene's run: whole (a reference) or its first output interval (names, sizes)."""
+        scene = self.load(document)
+        duration = options.get("duration", scene.duration)
+        if not full:
+            duration = min(duration, 1.0 / scene.output_rate)
+        return self.run(scene, {"duration": duration})[2]
+
+    def finish_options(self, options: dict, results) -> dict:
+        return options
+
+
+SIMULATE = Simulate()

@@ -1,0 +1,175 @@
+"""``form_find`` and ``stiffness``: the equilibrium of the point's structure, and its modes.
+
+``form_find`` runs ``tensegrity_core.general.form_find`` (options ``method``, ``tol`` [N],
+``max_iter``). Results: ``iterations``, ``residual`` [N], ``min_eigenvalue`` (smallest
+eigenvalue of K_T, rigid-body modes excluded), ``stable``, ``energy`` [J],
+``max_member_force`` / ``min_member_force`` [N, tension +], ``slack_members`` (strings
+shorter than their rest length), ``node`` {name} (its equilibrium position,
+``<name>_x/_y/_z`` [m]) and ``error_vs_reference`` (the largest distance of a node from its
+place in the unvaried base structure's equilibrium [m]). A form-finding that does not reach a
+stable equilibrium makes the point *failed*, with these results as far as they exist.
+
+``stiffness`` form-finds first, then adds the modes at the equilibrium: ``eigenvalues`` {n}
+(the ``n`` lowest eigenvalues of K_T, rigid-body modes included, ``eigenvalue_0`` ...),
+``rank`` of the equilibrium matrix, ``self_stress_modes`` and ``mechanism_modes``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from tensegrity_core.sweep.checks import OptionError, choice, integer, number, text
+from tensegrity_core.sweep.computations import ResultDef, scalar
+
+
+@dataclass
+class Equilibrium:
+    """A form-finding result with the structure, and (``stiffness``) its modes."""
+
+    structure: object
+    result: object
+    modes: object = None
+    eigenvalues: np.ndarray | None = None
+
+
+def _forces(out, pick):
+    t = out.result.member_forces
+    return float(pick(t)) if t.size and np.isfinite(t).all() else math.nan
+
+
+def _node_columns(options, data):
+    return [(f"{options['name']}_{a}", "float") for a in "xyz"]
+
+
+def _node_position(out, options, data):
+    names = out.structure.node_names
+    if options["name"] not in names:
+        return [math.nan] * 3
+    return [float(v) for v in out.result.nodes[names.index(options["name"])]]
+
+
+def _check_node(options, probe, folder):
+    names = probe().structure.node_names
+    if options["name"] not in names:
+        from tensegrity_core.general.structure import suggest
+
+        raise OptionError(f"the structure has no node {options['name']!r}{suggest(options['name'], names)}")
+    return None
+
+
+def _reference_nodes(options, probe, folder):
+    base = probe()
+    if not base.result.success:
+        raise OptionError(f"the base structure's own form-finding (the reference) failed: {base.result.message}")
+    return np.asarray(base.result.nodes, dtype=float)
+
+
+def _node_error(out, options, data):
+    nodes = np.asarray(out.result.nodes, dtype=float)
+    if nodes.shape != data.shape:
+        return [math.nan]
+    return [float(np.max(np.linalg.norm(nodes - data, axis=1)))]
+
+
+def _slack(out):
+    s, r = out.structure, out.result
+    return int(np.sum(s.is_string & (r.member_lengths < s.rest_lengths)))
+
+
+FORM_FIND_RESULTS = {
+    "iterations": scalar("iterations", "int", lambda o: int(o.result.iterations), "Newton iterations"),
+    "residual": scalar("residual", "float", lambda o: float(o.result.residual), "out-of-balance force [N]"),
+    "min_eigenvalue": scalar("min_eigenvalue", "float", lambda o: float(o.result.min_eigenvalue),
+                             "smallest eigenvalue of K_T (rigid-body modes excluded)"),
+    "stable": scalar("stable", "bool", lambda o: bool(o.result.stable), "stable equilibrium"),
+    "energy": scalar("energy", "float", lambda o: float(o.result.energy), "potential energy [J]"),
+    "max_member_force": scalar("max_member_force", "float", lambda o: _forces(o, np.max), "[N]"),
+    "min_member_force": scalar("min_member_force", "float", lambda o: _forces(o, np.min), "[N]"),
+    "slack_members": scalar("slack_members", "int", _slack, "slack strings"),
+    "node": ResultDef(doc="equilibrium position of a node [m]", columns=_node_columns, extract=_node_position,
+                      options={"name": text}, prepare=_check_node),
+    "error_vs_reference": ResultDef(
+        doc="largest node distance from the base structure's equilibrium [m]",
+        columns=lambda o, d: [("error_vs_reference", "float")], extract=_node_error,
+        prepare=_reference_nodes),
+}
+
+
+class FormFind:
+    name = "form_find"
+    base = "structure"
+    model = None
+    options = {"method": choice("newton", "dynamic_relaxation"), "tol": number(lo=0.0, lo_open=True),
+               "max_iter": integer()}
+    results = FORM_FIND_RESULTS
+    required = {"node": ("name",)}
+    uses_seed = False
+    required_options: tuple = ()
+
+    def load(self, document):
+        from tensegrity_core.general import load_structure
+
+        return load_structure(document)
+
+    def run(self, structure, options):
+        from tensegrity_core.general import form_find
+
+        result = form_find(structure, method=options.get("method", "newton"), tol=options.get("tol"),
+                           max_iter=options.get("max_iter"))
+        return result.success, result.message, Equilibrium(structure, result)
+
+    def probe(self, document, options, *, full: bool = True):
+        return self.run(self.load(document), options)[2]
+
+    def finish_options(self, options: dict, results) -> dict:
+        return options
+
+
+def _eigen_columns(options, data):
+    return [(f"eigenvalue_{i}", "float") for i in range(options.get("n", 1))]
+
+
+def _eigenvalues(out, options, data):
+    n = options.get("n", 1)
+    w = out.eigenvalues if out.eigenvalues is not None else np.array([])
+    return [float(w[i]) if i < len(w) else math.nan for i in range(n)]
+
+
+def _modes_count(read):
+    return lambda o: None if o.modes is None else int(read(o.modes))
+
+
+class Stiffness(FormFind):
+    name = "stiffness"
+    results = {
+        **FORM_FIND_RESULTS,
+        "eigenvalues": ResultDef(doc="lowest eigenvalues of K_T", columns=_eigen_columns, extract=_eigenvalues,
+                                 options={"n": integer(lo=1)}),
+        "rank": scalar("rank", "int", _modes_count(lambda m: m.rank), "rank of the equilibrium matrix"),
+        "self_stress_modes": scalar("self_stress_modes", "int", _modes_count(lambda m: m.self_stress.shape[1]),
+                                    "self-stress modes"),
+        "mechanism_modes": scalar("mechanism_modes", "int", _modes_count(lambda m: m.mechanisms.shape[1]),
+                                  "mechanism modes (rigid-body motions included)"),
+    }
+
+    def run(self, structure, options):
+        from tensegrity_core.general import modal_analysis, modes
+
+        ok, message, out = super().run(structure, options)
+        if out.result.configuration is not None and np.isfinite(out.result.nodes).all():
+            config = out.result.configuration
+            out.modes = modes(structure, config)
+            out.eigenvalues = modal_analysis(structure, config, n_modes=options.get("modes", 1)).eigenvalues
+        return ok, message, out
+
+    def finish_options(self, options: dict, results) -> dict:
+        """Compute as many eigenvalues as the ``eigenvalues`` results ask for."""
+        n = max([r.options.get("n", 1) for r in results if r.name == "eigenvalues"], default=1)
+        return {**options, "modes": n}
+
+
+FORM_FIND = FormFind()
+STIFFNESS = Stiffness()

@@ -1,0 +1,295 @@
+"""Running a sweep on Dask distributed: an embedded local cluster or an existing one.
+
+Default: an embedded ``LocalCluster`` of ``workers`` worker *processes* (one thread each, so
+a point's BLAS calls never share a core with another point's), listening on 127.0.0.1 only,
+no dashboard (the scheduler's small HTTP server is bound to a random loopback port). With
+``scheduler=ADDRESS`` the sweep runs on an existing cluster instead (``dask scheduler`` and
+``dask worker ADDRESS`` on each machine, or the same workers started by dask-jobqueue or
+dask-kubernetes); its workers need this package installed. ``workers=0`` runs the points in
+this process, one after another (the baseline of the benchmarks; no Dask needed).
+
+The base document, computation and prepared results (the :class:`~tensegrity_core.sweep.spec.Plan`)
+go to every worker once; tasks carry batches of points. Batches are sized as results come in:
+the first tasks hold one point each, later ones as many as take about
+``TASK_SECONDS`` at the points' measured mean cost (at most ``MAX_BATCH``, and small enough
+near the end that every worker stays busy), and about two tasks per worker thread are in
+flight. Results stream back in the order they finish (``as_completed``) and go to the
+journal at once (:mod:`tensegrity_core.sweep.store`). A worker that dies takes its running
+batch with it; the scheduler runs that batch again on another worker, and the client
+receives each batch's result once, so every point ends in the output exactly once. A batch
+whose workers die ``distributed.scheduler.allowed-failures`` times (default 3) becomes rows of
+status ``lost`` (``--resume`` runs them again).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import time
+from collections import deque
+from pathlib import Path
+
+from tensegrity_core.sweep.errors import SweepError, require
+from tensegrity_core.sweep.spec import load_sweep, prepare
+from tensegrity_core.sweep.store import Store, check_output_path
+from tensegrity_core.sweep.task import inputs, missing, run_batch
+
+#: Target wall time of one task [s]: the scheduler and client spend a few to ~10 ms of CPU per task
+#: (more on a loaded machine), so a task holds enough points to make that a few per cent.
+TASK_SECONDS = 0.5
+MAX_BATCH = 500
+TASKS_PER_THREAD = 2
+THREADS_REFRESH = 2.0               # s
+#: Environment of the embedded cluster's worker processes: one BLAS / OpenMP thread.
+WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+DEFAULT_CONNECT_TIMEOUT = 10.0
+
+
+def default_workers() -> int:
+    """The number of cores this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def start_local_cluster(workers: int):
+    """The embedded cluster: a ``distributed.LocalCluster`` of ``workers`` worker processes
+    with one thread each, on 127.0.0.1 only, without a dashboard, one BLAS thread per worker.
+    Close it (``with start_local_cluster(2) as cluster: run_sweep(..., scheduler=cluster.scheduler_address)``)
+    to reuse one cluster for several sweeps."""
+    require("distributed")
+    from distributed import LocalCluster
+
+    return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+                        dashboard_address=None, scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+                        silence_logs=logging.ERROR, env=WORKER_ENV)
+
+
+def columns_of(sweep, plan) -> tuple[list, list]:
+    """Every column of a row with its dtype, and the columns that define a point."""
+    point_cols = ["point", *(q.column for q in sweep.quantities), "seed"]
+    cols = [(c, None) for c in point_cols]
+    cols += list(plan.result_columns)
+    cols += [("status", "str"), ("message", "str"), ("run_time", "float"), ("sweep_id", "str")]
+    return cols, point_cols
+
+
+def run_sweep(sweep, *, output=None, resume: bool = False, workers: int | None = None,
+              scheduler: str | None = None, connect_timeout: float = DEFAULT_CONNECT_TIMEOUT,
+              batch: int | None = None, progress=True, plan=None):
+    """Run ``sweep`` (anything :func:`~tensegrity_core.sweep.spec.load_sweep` takes) and return
+    its table (a pandas DataFrame, one row per point, sorted by point; ``table.attrs["ran"]``
+    and ``["kept"]`` count the points run now and those kept from earlier runs).
+
+    ``output``: a ``.parquet`` or ``.csv`` path (written at the end; the journal next to it
+    while running). ``resume``: keep the rows of this sweep already in ``output`` or its
+    journal and run only the others. ``workers``: size of the embedded cluster (default:
+    the number of cores; 0: in this process). ``scheduler``: address of an existing Dask
+    scheduler (``tcp://host:8786``) instead. ``batch``: points per task (default: adaptive).
+    ``progress``: True for a progress bar on stderr, False for none, or a callable
+    ``progress(done, failed, total)`` called after each finished batch. ``plan``: the sweep's
+    :func:`~tensegrity_core.sweep.spec.prepare` result when the caller has it already.
+    Raises :class:`~tensegrity_core.sweep.errors.SweepError` when the sweep cannot run (nothing
+    is written then); points that fail are rows, never exceptions."""
+    require("pandas")
+    sweep = load_sweep(sweep)
+    output = Path(output) if output is not None else None
+    if output is not None:
+        check_output_path(output)
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 0):
+        raise SweepError(f"workers must be an integer >= 0, got {workers!r}")
+    if batch is not None and (isinstance(batch, bool) or not isinstance(batch, int) or batch < 1):
+        raise SweepError(f"batch must be an integer >= 1, got {batch!r}")
+    if not (isinstance(connect_timeout, (int, float)) and connect_timeout > 0):
+        raise SweepError(f"connect_timeout must be a positive number of seconds, got {connect_timeout!r}")
+    points = sweep.points()
+    plan = plan if plan is not None else prepare(sweep)
+    columns, point_cols = columns_of(sweep, plan)
+    store = Store(output, sweep.sweep_id, columns, point_cols)
+    done = store.previous(points) if resume else {}
+    todo = [p for p in points if p.index not in done]
+    rows = list(done.values())
+    if not todo:
+        return _with_counts(store.finish(rows), 0, len(done))
+    engine = _SerialEngine() if workers == 0 and scheduler is None else _DaskEngine(
+        workers if workers is not None else default_workers(), scheduler, connect_timeout)
+    with engine:                       # connects first: nothing is written if that fails
+        store.open(rows)
+        bar = _Progress(progress, total=len(points), done=len(done),
+                        failed=sum(r["status"] != "ok" for r in rows), name=sweep.name)
+        try:
+            for got in engine.run(plan, todo, batch):
+                store.append(got)
+                rows.extend(got)
+                bar.update(got)
+        finally:
+            bar.close()
+            store.close()
+    return _with_counts(store.finish(rows), len(todo), len(done))
+
+
+def _with_counts(table, ran: int, kept: int):
+    """``table.attrs``: how many points this call ran and how many it kept from earlier runs."""
+    table.attrs.update(ran=ran, kept=kept)
+    return table
+
+
+class _Progress:
+    """Points done and failed, and the time left (tqdm's estimate), or a callback."""
+
+    def __init__(self, progress, *, total: int, done: int, failed: int, name: str):
+        self.callback = progress if callable(progress) else None
+        self.total, self.done, self.failed = total, done, failed
+        self.bar = None
+        if progress is True:
+            import sys
+
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, initial=done, desc=name, unit="pt", file=sys.stderr, leave=False,
+                            dynamic_ncols=True, smoothing=0.1)
+            self.bar.set_postfix_str(f"failed {failed}", refresh=False)
+
+    def update(self, rows: list[dict]) -> None:
+        self.done += len(rows)
+        self.failed += sum(r["status"] != "ok" for r in rows)
+        if self.bar is not None:
+            self.bar.set_postfix_str(f"failed {self.failed}", refresh=False)
+            self.bar.update(len(rows))
+        if self.callback is not None:
+            self.callback(self.done, self.failed, self.total)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+class _SerialEngine:
+    """The points one after another in this process."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def run(self, plan, points, batch):
+        for p in points:
+            yield run_batch(plan, [p])
+
+
+class _DaskEngine:
+    """An embedded LocalCluster (``scheduler=None``) or a client of an existing scheduler."""
+
+    def __init__(self, workers: int, scheduler: str | None, connect_timeout: float):
+        self.workers = max(1, workers)
+        self.address = scheduler
+        self.timeout = float(connect_timeout)
+        self.cluster = None
+        self.client = None
+        self._nthreads = None
+        self._asked = 0.0
+
+    def __enter__(self):
+        require("distributed")
+        from distributed import Client
+
+        if self.address is None:
+            try:
+                self.cluster = start_local_cluster(self.workers)
+                self.client = Client(self.cluster, timeout=self.timeout)
+            except Exception as err:  # noqa: BLE001 - any start-up failure: say so, clean up
+                self._close()
+                raise SweepError(f"cannot start the local Dask cluster: {err}") from None
+            return self
+        try:
+            self.client = Client(self.address, timeout=self.timeout)
+        except (OSError, TimeoutError, ValueError) as err:
+            self._close()
+            raise SweepError(f"cannot reach the Dask scheduler at {self.address!r} within "
+                             f"{self.timeout:g} s: {err}") from None
+        try:
+            self.client.wait_for_workers(1, timeout=self.timeout)
+        except (TimeoutError, OSError) as err:
+            self._close()
+            raise SweepError(f"the Dask scheduler at {self.address!r} has no workers "
+                             f"(waited {self.timeout:g} s): {err}") from None
+        return self
+
+    def __exit__(self, *exc):
+        self._close()
+        return False
+
+    def _close(self) -> None:
+        if self.client is not None:
+            self.client.close()
+            self.client = None
+        if self.cluster is not None:
+            self.cluster.close()
+            self.cluster = None
+
+    def _threads(self) -> int:
+        """Worker threads in the cluster (asked again every few seconds: workers may come and go)."""
+        now = time.monotonic()
+        if self._nthreads is None or now - self._asked > THREADS_REFRESH:
+            self._nthreads = max(1, sum(self.client.nthreads().values()))
+            self._asked = now
+        return self._nthreads
+
+    def run(self, plan, points, batch):
+        from distributed import as_completed
+
+        client = self.client
+        plan_ref = client.scatter(plan, broadcast=True, hash=False)
+        pending = deque(points)
+        batches: dict = {}
+        costs = [0.0, 0]                       # sum of run times, points
+
+        def submit(n_tasks: int, seq):
+            for _ in range(n_tasks):
+                if not pending:
+                    return
+                size = batch or self._batch_size(costs, len(pending))
+                chunk = [pending.popleft() for _ in range(min(size, len(pending)))]
+                fut = client.submit(run_batch, plan_ref, chunk, pure=False)
+                batches[fut.key] = chunk
+                seq.add(fut)
+
+        seq = as_completed(loop=client.loop)     # not the default client's loop: another client may be first
+        submit(TASKS_PER_THREAD * self._threads(), seq)
+        for fut in seq:
+            chunk = batches.pop(fut.key)
+            if fut.status == "finished":
+                got = fut.result()
+                costs[0] += sum(r["run_time"] for r in got)
+                costs[1] += len(got)
+            else:
+                got = [_lost(plan, p, fut) for p in chunk]
+            fut.release()
+            yield got
+            submit(max(0, TASKS_PER_THREAD * self._threads() - len(batches)), seq)
+
+    def _batch_size(self, costs, remaining: int) -> int:
+        if costs[1] == 0:
+            return 1
+        mean = costs[0] / costs[1]
+        size = int(TASK_SECONDS / mean) if mean > 0 else MAX_BATCH
+        tail = math.ceil(remaining / (TASKS_PER_THREAD * self._threads()))
+        return max(1, min(size, MAX_BATCH, tail))
+
+
+def _lost(plan, point, future) -> dict:
+    """The row of a point whose batch the engine could not get run."""
+    try:
+        err = future.exception()
+        reason = f"{type(err).__name__}: {err}"
+    except Exception as exc:  # noqa: BLE001 - the future itself is gone
+        reason = f"{type(exc).__name__}: {exc}"
+    row = inputs(plan, point)
+    row.update({c: missing(t) for c, t in plan.result_columns})
+    row.update(status="lost", message=f"the engine could not run this point ({reason}); --resume runs it again",
+               run_time=math.nan)
+    return row
+

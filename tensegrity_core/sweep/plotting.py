@@ -1,0 +1,128 @@
+"""Plots of a sweep's table against its varied quantities (matplotlib, Agg backend).
+
+One panel per numeric result (at most :data:`MAX_PANELS`, in the sweep's order):
+
+- one varied quantity with several values: the result over it (a line with markers; a log
+  axis for a log grid);
+- two: a heat map over both (rows the first quantity, columns the second; cells without a
+  value are grey);
+- random samples: a histogram of the result over the points that have it.
+
+Every point with a finite value is drawn, whatever its status (a failed form-finding still
+has its smallest eigenvalue and its ``stable: false``); the panel's title counts the points
+that are not ``ok``.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from tensegrity_core.sweep.errors import SweepError
+
+MAX_PANELS = 6
+
+
+def plotted_columns(plan, wanted=None) -> list[str]:
+    """The result columns to plot: ``wanted`` (checked), else every numeric one."""
+    numeric = [c for c, t in plan.result_columns if t in ("float", "int", "bool")]
+    if wanted:
+        for c in wanted:
+            if c not in numeric:
+                raise SweepError(f"no numeric result column {c!r} to plot; columns: {', '.join(numeric)}")
+        return list(wanted)
+    return numeric[:MAX_PANELS]
+
+
+def _label(v) -> str:
+    return f"{v:.3g}" if isinstance(v, float) else str(v)
+
+
+def plot_sweep(table, sweep, path, columns=None, plan=None) -> Path:
+    """Write a PNG of ``table`` (from ``run_sweep(sweep)``) to ``path``; see the module docstring.
+    ``plan``: the sweep's prepared plan, if the caller has it (else prepared here)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    if plan is None:
+        from tensegrity_core.sweep.spec import prepare
+
+        plan = prepare(sweep)
+    columns = plotted_columns(plan, columns)
+    if not columns:
+        raise SweepError("the sweep keeps no numeric result to plot")
+    axes_q = [q for q in sweep.quantities if not q.random and len(q.values) > 1]
+    if sweep.random:
+        mode = "hist"
+    elif len(axes_q) == 1:
+        mode = "line"
+    elif len(axes_q) == 2:
+        mode = "heat"
+    else:
+        raise SweepError(f"--plot draws results over one or two varied quantities (or histograms of random "
+                         f"samples); this sweep varies {len(axes_q)} with several values: plot its table yourself")
+    kinds = dict(plan.result_columns)
+    n = len(columns)
+    ncols = min(n, 3)
+    nrows = math.ceil(n / ncols)
+    fig, axs = plt.subplots(nrows, ncols, figsize=(5.2 * ncols, 4.2 * nrows), squeeze=False)
+    ok = table["status"] == "ok"
+    for ax, column in zip(axs.flat, columns):
+        values = table[column].astype("float64").to_numpy(na_value=np.nan)
+        failed = int((~ok).sum())
+        note = f" ({failed} of {len(table)} points not ok)" if failed else ""
+        if mode == "hist":
+            data = values[np.isfinite(values)]
+            if kinds[column] in ("int", "bool") and len(data):     # one bar per integer
+                bins = np.arange(data.min() - 0.5, data.max() + 1.5)
+            else:
+                bins = max(10, min(50, int(math.sqrt(max(len(data), 1))) * 2))
+            ax.hist(data, bins=bins, color="tab:blue")
+            if len(data):
+                ax.axvline(float(np.mean(data)), color="k", lw=1, label=f"mean {np.mean(data):.4g}, "
+                                                                          f"std {np.std(data):.2g}")
+                ax.legend(fontsize=8)
+            ax.set_xlabel(column)
+            ax.set_ylabel("points")
+        elif mode == "line":
+            q = axes_q[0]
+            x = table[q.column].to_numpy()
+            keep = np.isfinite(values)
+            numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in q.values)
+            xs = x[keep].astype(float) if numeric else [str(v) for v in x[keep]]
+            ax.plot(xs, values[keep], "o-", ms=3)
+            if q.log:
+                ax.set_xscale("log")
+            ax.set_xlabel(q.column)
+            ax.set_ylabel(column)
+            ax.grid(alpha=0.3)
+        else:
+            qa, qb = axes_q
+            ia = {_label(v): i for i, v in enumerate(qa.values)}
+            ib = {_label(v): i for i, v in enumerate(qb.values)}
+            grid = np.full((len(qa.values), len(qb.values)), np.nan)
+            for a, b, v in zip(table[qa.column], table[qb.column], values):
+                grid[ia[_label(a)], ib[_label(b)]] = v
+            cmap = matplotlib.colormaps["viridis"].with_extremes(bad="0.85")
+            im = ax.imshow(np.ma.masked_invalid(grid), origin="lower", aspect="auto", cmap=cmap,
+                           interpolation="nearest")
+            fig.colorbar(im, ax=ax, label=column)
+            for q, setter, labels in ((qb, ax.set_xticks, ax.set_xlabel), (qa, ax.set_yticks, ax.set_ylabel)):
+                step = max(1, math.ceil(len(q.values) / 6))
+                ticks = list(range(0, len(q.values), step))
+                setter(ticks, [_label(q.values[i]) for i in ticks])
+                labels(q.column)
+        ax.set_title(f"{column}{note}", fontsize=9)
+    for ax in list(axs.flat)[n:]:
+        ax.set_visible(False)
+    kind = {"hist": f"{len(table)} random samples", "line": "over one quantity", "heat": "over two quantities"}[mode]
+    fig.suptitle(f"{sweep.name}: {sweep.computation}, {kind}", fontsize=11)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

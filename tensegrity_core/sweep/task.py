@@ -1,0 +1,91 @@
+"""What a worker does: run a batch of points, one row each, whatever happens to a point.
+
+A row is a plain dict: ``point``, the varied quantities (by column name), ``seed``, the
+result columns, ``status``, ``message`` and ``run_time`` [s, wall time of the point on its
+worker]. Status:
+
+- ``ok``: the computation succeeded;
+- ``failed``: it ran and did not succeed (no stable equilibrium, a run stopped early), or the
+  core refused it on the way (a ``TensegrityError``); results are kept as far as they exist;
+- ``invalid``: the core's loader rejected the point's document (a bad value); the message is
+  the loader's;
+- ``error``: anything else went wrong in the point (an unexpected exception, named);
+- ``lost``: the engine could not get the point's batch run (its workers kept dying); written
+  by the engine, not here, and run again by ``--resume``.
+
+BLAS is limited to one thread in every worker process (besides the environment the Dask
+nanny sets), so a point's floating-point result does not depend on its worker's load.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+from tensegrity_core.errors import TensegrityError
+from tensegrity_core.sweep.computations import COMPUTATIONS
+from tensegrity_core.sweep.points import apply
+
+STATUSES = ("ok", "failed", "invalid", "error", "lost")
+#: Statuses that a rerun would give again (``--resume`` keeps them); ``lost`` is rerun.
+FINAL_STATUSES = ("ok", "failed", "invalid", "error")
+_blas_limit = None
+
+
+def pin_blas() -> None:
+    """Limit BLAS/OpenMP thread pools of this process to one thread (once per process)."""
+    global _blas_limit
+    if _blas_limit is None:
+        try:
+            from threadpoolctl import threadpool_limits
+        except ImportError:   # the environment variables of the nanny still apply
+            _blas_limit = False
+            return
+        _blas_limit = threadpool_limits(limits=1)
+
+
+def missing(dtype: str):
+    return math.nan if dtype == "float" else None
+
+
+def inputs(plan, point) -> dict:
+    """The leading columns of a point's row: index, varied values, seed."""
+    row = {"point": point.index}
+    row.update({q.column: v for q, v in zip(plan.quantities, point.values)})
+    row["seed"] = point.seed
+    return row
+
+
+def run_point(plan, point) -> dict:
+    """The row of one point (never raises for the point's own reasons)."""
+    comp = COMPUTATIONS[plan.computation]
+    row = inputs(plan, point)
+    values = {c: missing(t) for c, t in plan.result_columns}
+    t0 = time.perf_counter()
+    try:
+        document = apply(plan.document, plan.quantities, point.values)
+        if plan.sets_seed:
+            document["seed"] = point.seed
+        try:
+            loaded = comp.load(document)
+        except TensegrityError as err:
+            status, message = "invalid", str(err)
+        else:
+            ok, message, outcome = comp.run(loaded, plan.options)
+            status = "ok" if ok else "failed"
+            for spec in plan.results:
+                got = COMPUTATIONS[plan.computation].results[spec.name].extract(outcome, spec.options, spec.data)
+                values.update({c: v for (c, _), v in zip(spec.columns, got)})
+    except TensegrityError as err:
+        status, message = "failed", str(err)
+    except Exception as err:  # noqa: BLE001 - a point's failure is its row, never the sweep's end
+        status, message = "error", f"{type(err).__name__}: {err}"
+    row.update(values)
+    row.update(status=status, message=message, run_time=time.perf_counter() - t0)
+    return row
+
+
+def run_batch(plan, points) -> list[dict]:
+    """Rows of a batch of points (the task a worker runs)."""
+    pin_blas()
+    return [run_point(plan, p) for p in points]

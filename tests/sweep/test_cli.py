@@ -1,0 +1,102 @@
+"""``tensegrity sweep`` and ``tensegrity sweeps``: tables, plots, one-line errors, and the
+core without the sweep's dependencies."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from tensegrity_ros.cli import main
+
+from tests.sweep.conftest import fold_sweep, monte_carlo_sweep
+
+pd = pytest.importorskip("pandas")
+
+
+def write(tmp_path, doc, name="s.yaml"):
+    path = tmp_path / name
+    path.write_text(json.dumps(doc))
+    return str(path)
+
+
+def test_sweeps_lists_the_shipped_examples(capsys):
+    assert main(["sweeps", "--json"]) == 0
+    rows = {r["name"]: r for r in json.loads(capsys.readouterr().out)}
+    assert set(rows) == {"fold_time_kc", "fold_monte_carlo", "spine_stability"}
+    assert rows["fold_time_kc"]["vary"] == ["model.params.k", "model.params.c"]
+    assert rows["fold_monte_carlo"]["points"] == 400 and rows["spine_stability"]["compute"] == "stiffness"
+
+
+@pytest.mark.parametrize("doc, panels", [
+    (fold_sweep(), "line"),
+    (fold_sweep(vary={"inputs.f1.gain": [8.0, 10.0], "model.params.c": [0.0, 0.01, 0.1]}), "heat"),
+    (monte_carlo_sweep(samples=6), "hist"),
+])
+def test_a_sweep_writes_its_table_and_plot(tmp_path, capsys, doc, panels):
+    out, plot = tmp_path / "r.parquet", tmp_path / "r.png"
+    code = main(["sweep", write(tmp_path, doc), "-o", str(out), "--plot", str(plot), "--workers", "0", "--json"])
+    summary = json.loads(capsys.readouterr().out)
+    table = pd.read_parquet(out)
+    assert code == 0 and summary["status"] == {"ok": len(table)} and summary["ran"] == len(table)
+    assert plot.stat().st_size > 20_000 and plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert list(table.columns[:2]) == ["point", next(iter(doc["vary"])) if panels != "hist" else "k_factor"]
+
+
+def test_failures_are_summarised_and_do_not_fail_the_command(tmp_path, capsys):
+    doc = fold_sweep(vary={"model.params.k": [1.0, -1.0, -2.0]})
+    assert main(["sweep", write(tmp_path, doc), "--workers", "0", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "3 points (2 invalid, 1 ok)" in out
+    assert "2 invalid, e.g.: model.params: parameter k1 must be > 0, got -1" in out
+
+
+@pytest.mark.parametrize("args, message", [
+    (["nofile.yaml"], "sweep file not found: 'nofile.yaml'"),
+    (["fold_time_kx"], "neither a shipped sweep (did you mean 'fold_time_kc'?)"),
+    (["fold_time_kc", "-o", "r.xlsx"], "the output must end in .parquet or .csv"),
+    (["fold_time_kc", "--resume"], "--resume needs the output (-o)"),
+    (["fold_time_kc", "--plot", "x.pdf"], "--plot must end in .png"),
+    (["fold_time_kc", "--plot", "x.png", "--plot-result", "nope"], "no numeric result column 'nope' to plot"),
+    (["fold_time_kc", "--workers", "2", "--scheduler", "tcp://127.0.0.1:8786"], "--workers sizes the embedded"),
+])
+def test_bad_invocations_are_one_error_line_and_exit_2(tmp_path, capsys, monkeypatch, args, message):
+    monkeypatch.chdir(tmp_path)
+    assert main(["sweep", *args]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: ") and message in err[0], err
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_a_bad_sweep_file_names_the_line(tmp_path, capsys):
+    path = tmp_path / "bad.yaml"
+    path.write_text("base: {scene: paper_fold}\nvary:\n  model.params.kk.x: [1]\ncompute: simulate\nresults: [t_end]\n")
+    assert main(["sweep", str(path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: bad.yaml: vary.model.params.kk.x: model.params has no key 'kk' (did you mean 'k'?)")
+    assert err.endswith("(line 3)")
+
+
+def test_the_core_reads_sweeps_and_runs_everything_else_without_dask_pandas_or_pyarrow():
+    code = """
+import sys
+for name in ("dask", "distributed", "pandas", "pyarrow"):
+    sys.modules[name] = None                  # as if not installed
+from tensegrity_core.sweep import MissingDependencyError, load_sweep, run_sweep
+from tensegrity_core.class2 import forward_kinematics
+from tensegrity_ros.cli import main
+assert load_sweep("fold_time_kc").n_points == 136
+forward_kinematics(0.7, 0.7)
+try:
+    run_sweep("fold_time_kc", workers=0)
+except MissingDependencyError as err:
+    print(err)
+sys.exit(main(["sweep", "fold_time_kc", "--workers", "0"]))
+"""
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 1, proc.stderr
+    assert "sweeps need the packages dask[distributed], pandas and pyarrow" in proc.stdout
+    assert "pip install 'tensegrity-ros[sweep]'" in proc.stdout
+    assert proc.stderr.strip().startswith("error: sweeps need the packages") and "Traceback" not in proc.stderr

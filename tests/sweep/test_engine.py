@@ -1,0 +1,249 @@
+"""The Dask engine on real local clusters (loopback only): results independent of the worker,
+a worker killed mid-sweep, a sweep killed mid-run and resumed, an unreachable scheduler."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+
+import pytest
+
+from tensegrity_core.sweep import SweepError, load_sweep, run_sweep
+
+from tests.sweep.conftest import fold_sweep, monte_carlo_sweep
+
+pd = pytest.importorskip("pandas")
+distributed = pytest.importorskip("distributed")
+psutil = pytest.importorskip("psutil")
+
+pytestmark = [pytest.mark.slow, pytest.mark.timeout(300)]
+
+
+def same_rows(a, b) -> None:
+    """Equal tables apart from the run times (NaN equal to NaN)."""
+    pd.testing.assert_frame_equal(a.drop(columns=["run_time"]).reset_index(drop=True),
+                                  b.drop(columns=["run_time"]).reset_index(drop=True))
+
+
+def listening(processes) -> set:
+    out = set()
+    for p in processes:
+        try:
+            out |= {(c.laddr.ip, c.laddr.port) for c in p.net_connections(kind="inet") if c.status == psutil.CONN_LISTEN}
+        except psutil.NoSuchProcess:
+            pass
+    return out
+
+
+def test_the_embedded_cluster_gives_the_serial_results_and_listens_on_loopback_only():
+    sweep = load_sweep(monte_carlo_sweep(samples=8))
+    serial = run_sweep(sweep, workers=0, progress=False)
+    me = psutil.Process()
+    before = listening([me, *me.children(recursive=True)])     # not the cluster's
+    seen: dict = {}
+
+    def watch(done, failed, total):
+        if "sockets" not in seen:
+            workers = me.children(recursive=True)
+            seen["sockets"] = listening([me, *workers]) - before
+            seen["workers"] = len([p for p in workers if "python" in p.name().lower()])
+
+    table = run_sweep(sweep, workers=2, progress=watch)
+    same_rows(serial, table)
+    assert table.attrs["ran"] == 8 and list(table["status"]) == ["ok"] * 8
+    assert seen["sockets"] and {ip for ip, _ in seen["sockets"]} == {"127.0.0.1"}, seen
+    assert 8787 not in {port for _, port in seen["sockets"]}          # no dashboard
+    assert seen["workers"] >= 2
+
+
+def test_a_killed_workers_points_run_elsewhere_and_every_point_is_in_the_output_once(tmp_path):
+    import threading
+
+    from distributed import Client, LocalCluster
+
+    # 12 runs of 20 s of the paper's fold, a few tenths of a second each
+    sweep = load_sweep(fold_sweep(vary={"inputs.f1.gain": {"grid": {"from": 6.0, "to": 14.0, "num": 12}}},
+                                  compute={"simulate": {"duration": 20.0}}))
+    out = tmp_path / "r.parquet"
+    state: dict = {"kills": 0, "rerun": []}
+    started, finished = threading.Event(), threading.Event()
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=None, silence_logs=50) as cluster, Client(cluster) as watcher:
+        def on_scheduler(fn):
+            """``fn(scheduler)`` on the scheduler's own event loop (its state is not thread-safe)."""
+            return watcher.run_on_scheduler(lambda dask_scheduler: fn(dask_scheduler))
+
+        def rerun_after(keys, t_kill) -> list:
+            return on_scheduler(lambda s: [t.key for t in s.story(*keys)
+                                           if t.finish == "processing" and t.timestamp > t_kill])
+
+        def all_done(keys) -> bool:
+            return on_scheduler(lambda s: all(s.tasks.get(k) is None or s.tasks[k].state == "memory" for k in keys))
+
+        def known(address) -> bool:
+            return on_scheduler(lambda s: address in s.workers)
+
+        def kill_busy_workers():
+            """Once 2 points are in, SIGKILL a worker that runs a task, until one of the tasks it
+            had is seen running again (a kill can land just after its task finished: try again)."""
+            started.wait()
+            while not finished.is_set() and not state["rerun"] and state["kills"] < 5:
+                busy = {w: keys for w, keys in watcher.processing().items() if keys}
+                nanny = next((n for n in cluster.workers.values() if n.worker_address in busy and n.pid), None)
+                if nanny is None:
+                    finished.wait(0.005)
+                    continue
+                address, keys, t_kill = nanny.worker_address, list(busy[nanny.worker_address]), time.time()
+                os.kill(nanny.pid, signal.SIGKILL)
+                state["kills"] += 1
+                while not finished.is_set() and known(address):
+                    finished.wait(0.01)                        # the scheduler drops the dead worker
+                while not finished.is_set() and not state["rerun"]:
+                    state["rerun"] = rerun_after(keys, t_kill)
+                    if all_done(keys):
+                        state["rerun"] = state["rerun"] or rerun_after(keys, t_kill)
+                        break                                  # they had finished before the kill
+                    finished.wait(0.01)
+
+        killer = threading.Thread(target=kill_busy_workers)
+        killer.start()
+        try:
+            table = run_sweep(sweep, scheduler=cluster.scheduler_address, batch=1, output=out,
+                              progress=lambda done, failed, total: done >= 2 and started.set())
+        finally:
+            started.set()
+            finished.set()
+            killer.join()
+    assert state["kills"] >= 1 and state["rerun"], f"no killed task was seen running again: {state}"
+    back = pd.read_parquet(out)
+    assert sorted(back["point"]) == list(range(12)) and list(table["point"]) == list(range(12))
+    assert set(back["status"]) == {"ok"}
+    same_rows(run_sweep(sweep, workers=0, progress=False), table)
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def cli(*args, **kw):
+    return subprocess.Popen([sys.executable, "-m", "tensegrity_ros.cli", *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True, **kw)
+
+
+def kill_session(proc) -> None:
+    """Kill the CLI and every process of its session (its cluster's workers) by pid."""
+    sid = proc.pid
+    try:
+        os.killpg(sid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    proc.wait(timeout=30)
+    deadline = time.monotonic() + 30
+    while True:
+        left = []
+        for p in psutil.process_iter():
+            try:
+                if os.getsid(p.pid) == sid:
+                    left.append(p)
+            except (ProcessLookupError, PermissionError, psutil.NoSuchProcess):
+                pass
+        for p in left:
+            try:
+                p.kill()
+            except psutil.NoSuchProcess:
+                pass
+        if not left or time.monotonic() > deadline:
+            break
+        time.sleep(0.1)
+    assert not left, f"processes of the killed sweep left: {left}"
+
+
+def test_an_unreachable_scheduler_is_one_error_line_naming_it_and_nothing_is_written(tmp_path):
+    sweep = tmp_path / "s.yaml"
+    sweep.write_text(json.dumps(fold_sweep()))
+    address = f"tcp://127.0.0.1:{free_port()}"
+    proc = cli("sweep", str(sweep), "-o", str(tmp_path / "r.parquet"), "--scheduler", address,
+               "--connect-timeout", "2", "--plot", str(tmp_path / "r.png"), cwd=tmp_path)
+    try:
+        out, err = proc.communicate(timeout=120)
+    finally:
+        kill_session(proc)
+    assert proc.returncode == 1, err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: cannot reach the Dask scheduler at "), err
+    assert address in lines[0] and "Traceback" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.yaml"]
+
+
+def test_a_killed_sweep_keeps_its_finished_points_and_resume_runs_only_the_others(tmp_path):
+    doc = fold_sweep(vary={"inputs.f1.gain": {"grid": {"from": 6.0, "to": 14.0, "num": 40}}},
+                     compute="simulate")
+    (tmp_path / "s.yaml").write_text(json.dumps(doc))
+    out = tmp_path / "r.csv"
+    journal = tmp_path / "r.csv.partial.jsonl"
+    proc = cli("sweep", "s.yaml", "-o", "r.csv", "--workers", "1", "--batch", "1", "--quiet", cwd=tmp_path)
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and proc.poll() is None:
+            if journal.exists() and len(journal.read_text().splitlines()) >= 1 + 5:
+                break
+            time.sleep(0.02)
+        assert proc.poll() is None, proc.communicate()
+    finally:
+        kill_session(proc)
+    assert not out.exists()
+    lines = journal.read_text().splitlines()
+    kept = {}
+    for line in lines[1:]:
+        try:
+            row = json.loads(line)
+        except json.JSONDecodeError:     # a line the kill cut short
+            continue
+        kept[row["point"]] = row
+    assert 5 <= len(kept) < 40
+    sweep = load_sweep(str(tmp_path / "s.yaml"))
+    table = run_sweep(sweep, output=out, resume=True, workers=0, progress=False)
+    assert table.attrs == {"ran": 40 - len(kept), "kept": len(kept)}
+    assert list(table["point"]) == list(range(40)) and set(table["status"]) == {"ok"}
+    for index, row in kept.items():        # the finished points were kept, not run again
+        assert table["run_time"][index] == row["run_time"]
+    assert not journal.exists()
+    fresh = run_sweep(sweep, workers=0, progress=False)
+    same_rows(fresh, table)
+    back = pd.read_csv(out)
+    assert list(back["point"]) == list(range(40))
+
+
+def test_resume_drops_a_line_cut_short_and_refuses_another_sweeps_output(tmp_path):
+    out = tmp_path / "r.parquet"
+    sweep = fold_sweep(vary={"inputs.f1.gain": [8.0, 9.0, 10.0, 11.0]})
+
+    def stop_after_two(done, failed, total):
+        if done == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(sweep, output=out, workers=0, progress=stop_after_two)
+    journal = tmp_path / "r.parquet.partial.jsonl"
+    with open(journal, "a") as fh:
+        fh.write('{"point": 2, "inputs.f1.ga')         # what a kill in mid-write leaves
+    table = run_sweep(sweep, output=out, resume=True, workers=0, progress=False)
+    assert table.attrs == {"ran": 2, "kept": 2} and list(table["point"]) == [0, 1, 2, 3]
+    again = run_sweep(sweep, output=out, resume=True, workers=0, progress=False)
+    assert again.attrs == {"ran": 0, "kept": 4}
+    same_rows(table, again)
+    with pytest.raises(SweepError, match="comes from another sweep"):
+        run_sweep({**sweep, "seed": 1}, output=out, resume=True, workers=0, progress=False)
+    with pytest.raises(SweepError, match="has inputs.f1.gain = 9.0, this sweep 9.5"):
+        run_sweep({**sweep, "vary": {"inputs.f1.gain": [8.0, 9.5, 10.0, 11.0]}}, output=out, resume=True,
+                  workers=0, progress=False)
+    more = run_sweep({**sweep, "vary": {"inputs.f1.gain": [8.0, 9.0, 10.0, 11.0, 12.0]}}, output=out,
+                     resume=True, workers=0, progress=False)       # one more value: one more point run
+    assert more.attrs == {"ran": 1, "kept": 4}
