@@ -62,7 +62,7 @@ def _build(data, text: str, fmt: str | None, limits: Limits, max_members: int | 
     try:
         return structure_from_dict(data, default_name=name, max_members=max_members)
     except StructureError as err:
-        if err.line is None and fmt == "json":
+        if err.line is None and fmt == "json" and "\n" in text.strip():     # one line: nothing to locate
             err = _located_by_yaml(text, limits, max_members, name) or err
         raise err.located(file=file) from None
 

@@ -282,7 +282,7 @@ def _validate(s: Structure, n: int, m: int) -> None:
         if getattr(s, key).shape != shape:
             raise StructureError(f"{key} must have shape {shape}, got {getattr(s, key).shape}",
                                  entry=(key,))
-    if len(s.member_kinds) != m or any(k not in MEMBER_KINDS for k in s.member_kinds):
+    if len(s.member_kinds) != m or not set(s.member_kinds) <= set(MEMBER_KINDS):
         raise StructureError(f"member_kinds must be {m} of {MEMBER_KINDS}", entry=("members",))
     for key, arr, what in (("nodes", s.nodes, "coordinates"), ("loads", s.loads, "load")):
         bad = ~_bounded(arr).all(axis=1)
@@ -327,8 +327,9 @@ def _validate(s: Structure, n: int, m: int) -> None:
         i = int(bad[0])
         raise StructureError(f"point mass of node {s.node_names[i]!r} must be finite and >= 0, "
                              f"got {float(s.node_masses[i])!r}", entry=("masses", s.node_names[i]))
-    _validate_bodies(s, n, scale)
-    _validate_free_nodes(s, n)
+    bodies = _body_nodes(s)
+    _validate_bodies(s, n, scale, bodies)
+    _validate_free_nodes(s, n, bodies)
 
 
 def _bounded(arr: np.ndarray) -> np.ndarray:
@@ -343,7 +344,7 @@ def _first_repeat(names) -> str:
     return next(x for x in names if counts[x] > 1)
 
 
-def _validate_bodies(s: Structure, n: int, scale: float) -> None:
+def _validate_bodies(s: Structure, n: int, scale: float, bodies: tuple) -> None:
     """The rigid bodies' invariants, checked on all bodies at once (a 60,000-member spine
     has 7,500 bodies); each failure names the first offending body."""
     if not s.bodies:
@@ -353,13 +354,13 @@ def _validate_bodies(s: Structure, n: int, scale: float) -> None:
         dup = _first_repeat(names)
         k = names.index(dup)
         raise StructureError(f"rigid body name {dup!r} is used twice", entry=("rigid_bodies", k))
-    sizes = np.array([len(b.nodes) for b in s.bodies])
-    flat = np.fromiter((i for b in s.bodies for i in b.nodes), dtype=np.int64, count=int(sizes.sum()))
-    body_of = np.repeat(np.arange(len(s.bodies)), sizes)
-    for k, body in enumerate(s.bodies):
-        if not np.isfinite(body.mass) or body.mass < 0:
-            raise StructureError(f"rigid body {body.name!r}: mass must be finite and >= 0, "
-                                 f"got {body.mass!r}", entry=("rigid_bodies", k))
+    sizes, flat, body_of = bodies
+    masses = np.array([b.mass for b in s.bodies], dtype=float)
+    bad = np.flatnonzero(~_bounded(masses) | (masses < 0))
+    if bad.size:
+        k = int(bad[0])
+        raise StructureError(f"rigid body {s.bodies[k].name!r}: mass must be finite and >= 0, "
+                             f"got {s.bodies[k].mass!r}", entry=("rigid_bodies", k))
     bad = np.flatnonzero((flat < 0) | (flat >= n))
     if bad.size:
         body = s.bodies[body_of[bad[0]]]
@@ -427,10 +428,10 @@ def _first_collinear_body(s: Structure, sizes: np.ndarray, scale: float) -> None
             f"orientation; a rigid body needs at least 3 non-collinear nodes", entry=("rigid_bodies", k))
 
 
-def _validate_free_nodes(s: Structure, n: int) -> None:
+def _validate_free_nodes(s: Structure, n: int, bodies: tuple) -> None:
+    _, flat, body_of = bodies
     in_body = np.zeros(n, dtype=bool)
-    for body in s.bodies:
-        in_body[list(body.nodes)] = True
+    in_body[flat] = True
     connected = np.zeros(n, dtype=bool)
     connected[s.members.ravel()] = True
     loose = np.flatnonzero(~in_body & ~connected & ~s.pinned.all(axis=1))
@@ -438,7 +439,20 @@ def _validate_free_nodes(s: Structure, n: int) -> None:
         i = int(loose[0])
         raise StructureError(f"node {s.node_names[i]!r} is free but no member is attached to it",
                              entry=("nodes", s.node_names[i]))
-    for k, body in enumerate(s.bodies):
-        if not body.fixed and not connected[list(body.nodes)].any():
-            raise StructureError(f"rigid body {body.name!r} is free but no member is attached to it",
+    if s.bodies:
+        attached = np.zeros(len(s.bodies), dtype=bool)
+        attached[body_of[connected[flat]]] = True
+        fixed = np.array([b.fixed for b in s.bodies])
+        bad = np.flatnonzero(~fixed & ~attached)
+        if bad.size:
+            k = int(bad[0])
+            raise StructureError(f"rigid body {s.bodies[k].name!r} is free but no member is attached to it",
                                  entry=("rigid_bodies", k))
+
+
+def _body_nodes(s: Structure) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(sizes, flat, body_of)``: each body's node count, all bodies' nodes one after the
+    other, and the body of each entry of ``flat``."""
+    sizes = np.array([len(b.nodes) for b in s.bodies], dtype=np.int64)
+    flat = np.fromiter((i for b in s.bodies for i in b.nodes), dtype=np.int64, count=int(sizes.sum()))
+    return sizes, flat, np.repeat(np.arange(len(s.bodies)), sizes)

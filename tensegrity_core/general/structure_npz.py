@@ -150,6 +150,8 @@ def _headers(path: Path, limits: Limits) -> dict:
                     raise StructureError(f"array {excerpt(key)} of shape {shape} is larger than its file entry "
                                          f"or than the limit of {limits.max_bytes} bytes")
                 out[key] = (shape, dtype)
+    except StructureError:
+        raise
     except (zipfile.BadZipFile, ValueError, EOFError, OSError) as err:
         raise StructureError(f"not a readable .npz file: {excerpt(str(err))}") from None
     return out
@@ -185,6 +187,6 @@ def _bodies(a: dict, n: int) -> tuple:
     if (sizes < 0).any() or int(sizes.sum()) != a["body_nodes"].size:
         raise StructureError("body_sizes must add up to the length of body_nodes", entry=("rigid_bodies",))
     _shape(a, "body_nodes", (int(sizes.sum()),), "i")
-    nodes = np.split(a["body_nodes"].astype(np.int64), np.cumsum(sizes)[:-1])
-    return tuple(RigidBody(str(name), tuple(idx.tolist()), float(mass), bool(fixed))
-                 for name, idx, mass, fixed in zip(a["body_names"].tolist(), nodes, a["body_masses"], a["body_fixed"]))
+    flat, ends = a["body_nodes"].tolist(), np.cumsum(sizes).tolist()
+    return tuple(RigidBody(name, tuple(flat[end - size:end]), mass, fixed) for name, end, size, mass, fixed in zip(
+        a["body_names"].tolist(), ends, sizes.tolist(), a["body_masses"].tolist(), a["body_fixed"].tolist()))

@@ -141,7 +141,7 @@ def structure_from_dict(data: dict, *, default_name: str = "", max_members: int 
             members=pairs, member_kinds=tuple(kinds), EA=EA, rest_lengths=l0, member_masses=mass,
             pinned=pinned, bodies=tuple(bodies), loads=loads, node_masses=masses, gravity=gravity)
     except StructureError as err:
-        raise _locate(err, data, keys) from None
+        raise _locate(err, data, keys, node_names) from None
 
 
 def _member_count(raw) -> int:
@@ -151,7 +151,7 @@ def _member_count(raw) -> int:
     return len(raw) if isinstance(raw, list) else 0
 
 
-def _locate(err: StructureError, data: dict, keys: dict) -> StructureError:
+def _locate(err: StructureError, data: dict, keys: dict, node_names: list) -> StructureError:
     """A :class:`Structure` validation error with the line of the entry it names."""
     if err.line is not None or not err.key or err.key[0] not in keys:
         return err
@@ -159,6 +159,8 @@ def _locate(err: StructureError, data: dict, keys: dict) -> StructureError:
     key = err.key[1] if len(err.key) > 1 else None
     if err.key[0] == "members" and isinstance(container, dict):        # the array form
         container = container.get("nodes", container.get("ends"))
+    if err.key[0] == "nodes" and isinstance(container, list) and key in node_names:
+        key = node_names.index(key)                                      # nodes as a list
     return err.located(line=line_of(container, key))
 
 
@@ -560,22 +562,43 @@ def _read_bodies(data, keys, index) -> list[RigidBody]:
         raise _err("rigid_bodies must be a list of {name, nodes, mass, fixed}", data, keys["rigid_bodies"])
     out = []
     for k, item in enumerate(raw):
-        if not isinstance(item, dict):
-            raise _err(f"rigid_bodies[{k}] must be a mapping {{name, nodes, mass, fixed}}", raw, k)
-        bk = _check_keys(item, BODY_KEYS, {}, f"rigid_bodies[{k}]")
-        name = item[bk["name"]] if "name" in bk else f"body{k}"
-        if isinstance(name, bool) or not isinstance(name, (str, int)):
-            raise _err(f"rigid_bodies[{k}]: name must be a string, got {excerpt(name)}", raw, k)
-        what = f"rigid body {excerpt(str(name))}"
-        if "nodes" not in bk or not isinstance(item[bk["nodes"]], list):
-            raise _err(f"{what}: nodes must be a list of node names", raw, k)
-        nodes = tuple(_node_ref(n, index, what, raw, k) for n in item[bk["nodes"]])
-        mass = _number(item[bk["mass"]], f"{what}: mass", raw, k, nonneg=True) if "mass" in bk else 0.0
-        fixed = item.get(bk.get("fixed", "fixed"), False)
-        if not isinstance(fixed, bool):
-            raise _err(f"{what}: fixed must be true or false, got {excerpt(fixed)}", raw, k)
-        out.append(RigidBody(str(name), nodes, mass, fixed))
+        body = _body_inline(k, item, index)
+        out.append(body if body is not None else _body_entry(k, item, raw, index))
     return out
+
+
+def _body_inline(k: int, item, index: dict) -> RigidBody | None:
+    """A body entry of the common shape read without wording anything, or None."""
+    if not isinstance(item, dict) or not item.keys() <= BODY_KEYS:
+        return None
+    name, nodes = item.get("name", f"body{k}"), item.get("nodes")
+    mass, fixed = item.get("mass", 0.0), item.get("fixed", False)
+    if type(name) is not str or not isinstance(nodes, list) or type(mass) not in _NUMBER_TYPES \
+            or type(fixed) is not bool or not 0 <= mass <= MAX_MAGNITUDE:
+        return None
+    idx = [index.get(n) if type(n) is str else None for n in nodes]
+    if None in idx:
+        return None
+    return RigidBody(name, tuple(idx), float(mass), fixed)
+
+
+def _body_entry(k: int, item, raw: list, index: dict) -> RigidBody:
+    """One body entry read with every check, worded."""
+    if not isinstance(item, dict):
+        raise _err(f"rigid_bodies[{k}] must be a mapping {{name, nodes, mass, fixed}}", raw, k)
+    bk = _check_keys(item, BODY_KEYS, {}, f"rigid_bodies[{k}]")
+    name = item[bk["name"]] if "name" in bk else f"body{k}"
+    if isinstance(name, bool) or not isinstance(name, (str, int)):
+        raise _err(f"rigid_bodies[{k}]: name must be a string, got {excerpt(name)}", raw, k)
+    what = f"rigid body {excerpt(str(name))}"
+    if "nodes" not in bk or not isinstance(item[bk["nodes"]], list):
+        raise _err(f"{what}: nodes must be a list of node names", raw, k)
+    nodes = tuple(_node_ref(n, index, what, raw, k) for n in item[bk["nodes"]])
+    mass = _number(item[bk["mass"]], f"{what}: mass", raw, k, nonneg=True) if "mass" in bk else 0.0
+    fixed = item.get(bk.get("fixed", "fixed"), False)
+    if not isinstance(fixed, bool):
+        raise _err(f"{what}: fixed must be true or false, got {excerpt(fixed)}", raw, k)
+    return RigidBody(str(name), nodes, mass, fixed)
 
 
 def _read_gravity(data, keys) -> np.ndarray:

@@ -194,8 +194,10 @@ def _parse_toml(text: str, error, file):
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         where = _TOML_WHERE.search(str(err))
+        line = None
+        if where:
+            line = int(where.group(1)) if where.group(1) else text.count("\n") + 1
         reason = _TOML_WHERE.sub("", str(err)).strip()
-        raise error(f"invalid TOML: {clip(reason)}", line=int(where.group(1)) if where and where.group(1) else None,
-                    file=file) from None
+        raise error(f"invalid TOML: {clip(reason)}", line=line, file=file) from None
     except RecursionError:
         raise error("invalid TOML: nested too deeply", file=file) from None

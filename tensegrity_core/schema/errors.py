@@ -79,9 +79,9 @@ def excerpt(value: Any) -> str:
     if hasattr(value, "item") and getattr(value, "ndim", None) == 0:
         value = value.item()
     text = _REPR.repr(value)
-    if isinstance(value, (str, bytes)) and len(value) > EXCERPT_CHARS:
-        text += f" ({len(value)} characters)"
-    return text
+    if isinstance(value, (str, bytes)):
+        return text + (f" ({len(value)} characters)" if len(value) > EXCERPT_CHARS else "")
+    return clip(text, EXCERPT_CHARS + 20)
 
 
 def clip(text: str, limit: int = 200) -> str:

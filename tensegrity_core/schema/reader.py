@@ -43,7 +43,7 @@ def number_reason(value: Any, *, lo: float | None = None, hi: float | None = Non
     try:
         x = float(value)
     except OverflowError:
-        x = math.copysign(math.inf, value)
+        x = math.inf if value > 0 else -math.inf
     if math.isnan(x) or (math.isinf(x) and not allow_inf):
         return math.nan, f"must be finite, got {excerpt(value)}"
     if math.isfinite(x) and abs(x) > MAX_MAGNITUDE:
