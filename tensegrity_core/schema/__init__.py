@@ -27,6 +27,6 @@ from tensegrity_core.schema.yaml_reader import parse_yaml
 __all__ = [
     "DEFAULT_LIMITS", "Limits", "LocatedDict", "LocatedList", "MAX_MAGNITUDE", "Reader", "SchemaError",
     "check_size", "clip", "excerpt", "format_key_path", "get_at", "guess_format", "is_number", "line_of",
-    "number_reason", "parse_key_path", "parse_text", "parse_text_format", "parse_yaml", "read_file", "set_at", "suggest",
-    "type_name",
+    "number_reason", "parse_key_path", "parse_text", "parse_text_format", "parse_yaml", "read_file", "set_at",
+    "suggest", "type_name",
 ]

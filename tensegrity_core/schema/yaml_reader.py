@@ -105,6 +105,7 @@ def parse_yaml(text: str, *, limits: Limits = DEFAULT_LIMITS, error: type[Schema
         except yaml.YAMLError as err:
             raise _syntax_error(err, text, error, file) from None
         kind = event.__class__
+        line = event.start_mark.line + 1
         is_start = False
         if kind is ScalarEvent:
             count += 1
@@ -114,23 +115,22 @@ def parse_yaml(text: str, *, limits: Limits = DEFAULT_LIMITS, error: type[Schema
                     value = event.value
                     obj = cache.get(value, _MISSING)
                     if obj is _MISSING:
-                        obj = cache[value] = _plain(value, event, fail)
+                        obj = cache[value] = _plain(value, line, fail)
                 else:
                     obj = event.value
             elif tag in _SCALAR_TAGS:
-                obj = _construct(tag, event, fail)
+                obj = _construct(tag, event.value, line, fail)
             else:
-                raise fail(f"unsupported tag {excerpt(tag)} (only plain data is read)", event.start_mark.line + 1)
+                raise fail(f"unsupported tag {excerpt(tag)} (only plain data is read)", line)
             if event.anchor is not None:
                 anchors[event.anchor] = (obj, 1)
         elif kind is MappingStartEvent or kind is SequenceStartEvent:
             count += 1
             if len(stack) >= max_depth:
-                raise fail(f"nested deeper than {max_depth} levels", event.start_mark.line + 1)
+                raise fail(f"nested deeper than {max_depth} levels", line)
             if event.tag not in _COLLECTION_TAGS:
                 raise fail(f"unsupported tag {excerpt(event.tag)} (only plain mappings and lists are read)",
-                           event.start_mark.line + 1)
-            line = event.start_mark.line + 1
+                           line)
             obj = LocatedDict(line) if kind is MappingStartEvent else LocatedList(line)
             if event.anchor is not None:
                 anchors[event.anchor] = (obj, None)      # open: an alias to it now is recursive
@@ -145,22 +145,22 @@ def parse_yaml(text: str, *, limits: Limits = DEFAULT_LIMITS, error: type[Schema
         elif kind is AliasEvent:
             entry = anchors.get(event.anchor)
             if entry is None:
-                raise fail(f"undefined alias {excerpt(event.anchor)}", event.start_mark.line + 1)
+                raise fail(f"undefined alias {excerpt(event.anchor)}", line)
             obj, size = entry
             if size is None:
                 raise fail(f"alias {excerpt(event.anchor)} inside its own anchor (a recursive value)",
-                           event.start_mark.line + 1)
+                           line)
             aliases += 1
             alias_values += size
             if aliases > max_aliases:
-                raise fail(f"more than {max_aliases} aliases", event.start_mark.line + 1)
+                raise fail(f"more than {max_aliases} aliases", line)
             if alias_values > max_alias_values:
-                raise fail(f"aliases expand to more than {max_alias_values} values", event.start_mark.line + 1)
+                raise fail(f"aliases expand to more than {max_alias_values} values", line)
             count += size
         elif kind is DocumentStartEvent:
             documents += 1
             if documents > 1:
-                raise fail("more than one YAML document ('---' starts a second one)", event.start_mark.line + 1)
+                raise fail("more than one YAML document ('---' starts a second one)", line)
             continue
         elif kind is StreamEndEvent:
             return root
@@ -168,7 +168,6 @@ def parse_yaml(text: str, *, limits: Limits = DEFAULT_LIMITS, error: type[Schema
             continue
 
         # Put obj where it belongs: the root, a list item, a mapping key or a mapping value.
-        line = event.start_mark.line + 1
         if not stack:
             root = obj
         else:
@@ -185,15 +184,15 @@ def parse_yaml(text: str, *, limits: Limits = DEFAULT_LIMITS, error: type[Schema
                     container[frame[2]] = obj
             else:
                 if is_start or isinstance(obj, (dict, list)):
-                    raise fail("a mapping key must be a single value, not a mapping or a list", event.start_mark.line + 1)
+                    raise fail("a mapping key must be a single value, not a mapping or a list", line)
                 if obj is not MERGE:
                     try:
                         first = container.key_lines.get(obj)
                     except TypeError:
                         raise fail(f"a mapping key must be a single value, got {excerpt(obj)}",
-                                   event.start_mark.line + 1) from None
+                                   line) from None
                     if first is not None:
-                        raise fail(f"duplicate key {excerpt(obj)} (first at line {first})", event.start_mark.line + 1)
+                        raise fail(f"duplicate key {excerpt(obj)} (first at line {first})", line)
                     container.key_lines[obj] = line
                 frame[2] = obj
                 frame[3] = True
@@ -201,7 +200,7 @@ def parse_yaml(text: str, *, limits: Limits = DEFAULT_LIMITS, error: type[Schema
             stack.append([obj, kind is MappingStartEvent, None, False, event.anchor, count - 1, []])
 
 
-def _plain(value: str, event, fail):
+def _plain(value: str, line: int, fail):
     """A plain (unquoted, untagged) scalar's value."""
     if _FLOAT.match(value):
         return float(value)
@@ -209,18 +208,18 @@ def _plain(value: str, event, fail):
         try:
             return int(value)
         except ValueError:
-            raise fail(f"the integer {excerpt(value)} has too many digits", event.start_mark.line + 1) from None
+            raise fail(f"the integer {excerpt(value)} has too many digits", line) from None
     tag = _RESOLVER.resolve(ScalarNode, value, (True, False))
     if tag == _MERGE_TAG:
         return MERGE
-    return _construct(tag, event, fail)
+    return _construct(tag, value, line, fail)
 
 
-def _construct(tag: str, event, fail):
+def _construct(tag: str, value: str, line: int, fail):
     try:
-        return _CONSTRUCTOR.yaml_constructors[tag](_CONSTRUCTOR, ScalarNode(tag, event.value))
+        return _CONSTRUCTOR.yaml_constructors[tag](_CONSTRUCTOR, ScalarNode(tag, value))
     except (ValueError, TypeError, OverflowError, yaml.YAMLError):
-        raise fail(f"cannot read {excerpt(event.value)} as {tag.rsplit(':', 1)[-1]}", event.start_mark.line + 1) from None
+        raise fail(f"cannot read {excerpt(value)} as {tag.rsplit(':', 1)[-1]}", line) from None
 
 
 def _merge(container: LocatedDict, merges: list, fail) -> None:

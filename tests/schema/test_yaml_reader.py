@@ -101,7 +101,8 @@ def test_alias_count_recursion_and_undefined_aliases_are_refused():
     assert "undefined alias" in str(_error("a: *nothing\n"))
 
 
-@pytest.mark.parametrize("text", ["[" * 100_000 + "]" * 100_000, "x:\n" + "".join(" " * i + "- \n" for i in range(5000)),
+@pytest.mark.parametrize("text", ["[" * 100_000 + "]" * 100_000,
+                                  "x:\n" + "".join(" " * i + "- \n" for i in range(5000)),
                                   "".join("  " * i + f"k{i}:\n" for i in range(100)) + "  " * 100 + "1\n"])
 def test_deep_nesting_is_refused_without_recursion(text):
     err = _error(text)
