@@ -8,9 +8,10 @@ others. The request's ``structure`` is description *text* and only text: it is p
 size, nesting and aliases (:class:`tensegrity_core.schema.Limits`) and in members
 (``max_members``) before the structure is built.
 
-The worker tells the node which phase it is in (``("phase", name)`` on its pipe) and ends
-with ``("result", dict)``; the node stops a worker that overruns the time limit, which
-counts from the worker's start, parsing included, and names the phase in its answer.
+The worker tells the node which phase it is in (``("phase", name)`` on its pipe, the
+first as soon as it runs) and ends with ``("result", dict)``; the node stops a worker that
+overruns the time limit, which counts from that first report, parsing included, and names
+the phase in its answer.
 """
 
 from __future__ import annotations

@@ -287,7 +287,8 @@ def _member_list(raw: list, index: dict, defaults: dict, coords: np.ndarray):
     l0 = np.full(m, np.nan)                   # nan: from the ratio and the drawn length
     ratio = np.ones(m)
     kind_of = dict(KIND_ALIASES)
-    default_kind = kind_of.get(defaults.get("type", "string")) if isinstance(defaults.get("type", ""), str) else None
+    default_type = defaults.get("type", "string")
+    default_kind = kind_of.get(default_type.lower()) if isinstance(default_type, str) else None
     default_EA = _default_stiffness(defaults)
     default_ratio = defaults.get("rest_length_ratio", 1.0)
     default_mass = defaults.get("mass", 0.0)
@@ -299,10 +300,14 @@ def _member_list(raw: list, index: dict, defaults: dict, coords: np.ndarray):
         return index.get(str(ref)) if i is None and type(ref) is int else i
 
     for i, item in enumerate(raw):
+        if not isinstance(item, list) and not (isinstance(item, dict) and item.keys() <= inline_keys):
+            names[i], ends[i], kinds[i], EA[i], l0[i], ratio[i], mass[i] = _member_entry(
+                i, item, raw, index, defaults)
+            continue
         if isinstance(item, list):
             pair, item_kind, stiffness, length, r, w, name = item, default_kind, default_EA, None, \
                 default_ratio, default_mass, f"m{i}"
-        elif isinstance(item, dict) and item.keys() <= inline_keys:
+        else:
             get = item.get
             pair = get("nodes")
             kind = get("type", _ABSENT)
@@ -318,10 +323,8 @@ def _member_list(raw: list, index: dict, defaults: dict, coords: np.ndarray):
                 length = None
             elif type(length) not in numbers or "rest_length_ratio" in item:
                 name = None                   # the careful reader words it
-        else:
-            pair = None
         a = b = None
-        if pair is not None and isinstance(pair, list) and len(pair) == 2:
+        if isinstance(pair, list) and len(pair) == 2:
             a, b = node(pair[0]), node(pair[1])
         if (a is None or b is None or item_kind is None or name is None or type(stiffness) not in numbers
                 or type(r) not in numbers or type(w) not in numbers):

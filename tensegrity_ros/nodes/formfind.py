@@ -20,7 +20,6 @@ import multiprocessing
 import sys
 import threading
 import time
-from multiprocessing import forkserver
 
 from tensegrity_ros.nodes.common import SERVICE_QOS, declare, rclpy, spin_node
 from geometry_msgs.msg import Point
@@ -37,6 +36,9 @@ _CTX.set_forkserver_preload(["tensegrity_ros.formfind_worker", "tensegrity_core.
 #: How long a form-finding worker may run past the time limit to stop itself at its next
 #: iteration and send what it has (a parsing worker is stopped at the limit itself) [s].
 GRACE = 2.0
+#: How long a worker may take to start (the first one also starts the forkserver, which
+#: imports the core) before the time limit starts counting [s].
+STARTUP_LIMIT = 60.0
 #: How much of a worker's failure message goes into the node's log (characters).
 LOG_CHARS = 200
 
@@ -57,7 +59,6 @@ class FormFindNode(Node):
                                             read_only=True)
         self.limits = Limits(max_bytes=self.max_request_bytes)
         self._slots = threading.BoundedSemaphore(self.max_workers)
-        forkserver.ensure_running()            # the first request does not wait for the core's import
         self.create_service(FindForm, "find_form", self.on_request, qos_profile=SERVICE_QOS,
                             callback_group=ReentrantCallbackGroup())
         self.get_logger().info(f"find_form ready ({self.max_workers} workers, time limit {self.time_limit:g} s)")
@@ -90,27 +91,31 @@ class FormFindNode(Node):
         return res
 
     def _run(self, text: str, tol: float, max_iter: int) -> dict:
-        """Solve in a worker; stop it at the time limit (form-finding: after a short grace
-        for its own stop) and say in which phase."""
+        """Solve in a worker; stop it at the time limit, which counts from the worker's first
+        report (form-finding: after a short grace for its own stop), and say in which phase."""
         time_limit = self.time_limit
         parent, child = _CTX.Pipe(duplex=False)
         proc = _CTX.Process(target=formfind_worker.run, daemon=True,
                             args=(child, text, tol, max_iter, time_limit, self.max_members, self.limits,
                                   self.max_worker_memory_mb * 2**20))
-        start = time.monotonic()
         proc.start()
         child.close()
-        phase = "starting the worker"
+        phase, start = "starting the worker", None
         try:
             while True:
-                end = start + time_limit + (GRACE if phase == formfind_worker.FORM_FINDING else 0.0)
+                if start is None:
+                    end = time.monotonic() + STARTUP_LIMIT
+                else:
+                    end = start + time_limit + (GRACE if phase == formfind_worker.FORM_FINDING else 0.0)
                 if not parent.poll(max(0.0, end - time.monotonic())):
+                    limit = time_limit if start is not None else STARTUP_LIMIT
                     return formfind_worker.empty_answer(
-                        f"time limit of {time_limit:g} s reached while {phase}; the worker was stopped")
+                        f"time limit of {limit:g} s reached while {phase}; the worker was stopped")
                 kind, value = parent.recv()
                 if kind == "result":
                     return value
                 phase = value
+                start = time.monotonic() if start is None else start
         except EOFError:
             proc.join(timeout=5)
             return formfind_worker.empty_answer(

@@ -10,6 +10,9 @@ import zipfile
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from yaml import safe_dump
 
 from tensegrity_core.general import (
     StructureError,
@@ -183,3 +186,60 @@ def test_dump_is_fast_yaml_that_any_yaml_reader_reads_the_same():
     plain = yaml.safe_load(text)                                           # PyYAML's own reader, YAML 1.1
     assert plain["name"] == "yes" and all(isinstance(m["EA"], float) for m in plain["members"])
     _same(load_structure(plain), s)
+
+
+@st.composite
+def _descriptions(draw):
+    """A valid per-member description in a random mix of entry shapes, with the arrays it
+    means computed here from the format's rules (docs/structures.md)."""
+    n = draw(st.integers(3, 6))
+    coords = [[float(i), float(i * i % 5), float(i % 2)] for i in range(n)]       # distinct points
+    d_EA = draw(st.sampled_from([None, 500.0]))
+    d_ratio = draw(st.sampled_from([None, 0.8]))
+    defaults = {k: v for k, v in (("EA", d_EA), ("rest_length_ratio", d_ratio)) if v is not None}
+    if d_EA is None:
+        defaults.update(E=2.0e9, A=1.0e-6)
+    members, expect = [], []
+    for i in range(draw(st.integers(1, 8))):
+        a, b = draw(st.sampled_from([(p, q) for p in range(n) for q in range(n) if p != q]))
+        length = float(np.linalg.norm(np.subtract(coords[b], coords[a])))
+        shape = draw(st.sampled_from(["pair", "map", "aliases", "EA", "E and A", "l0", "ratio", "named"]))
+        kind = draw(st.sampled_from(["string", "Cable", "bar", "strut", "actuator"]))
+        entry: object = {"nodes": [f"n{a}", f"n{b}"], "type": kind}
+        EA, l0 = (d_EA or 2.0e9 * 1.0e-6), (d_ratio or 1.0) * length
+        name = f"m{i}"
+        if shape == "pair":
+            entry, kind = [f"n{a}", f"n{b}"], "string"
+        elif shape == "aliases":
+            entry = {"ends": [f"n{a}", f"n{b}"], "kind": kind, "l0": 0.5}
+            l0 = 0.5
+        elif shape == "EA":
+            entry["EA"] = EA = 123.0
+        elif shape == "E and A":
+            entry.update(E=1.0e9, A=3.0e-6)
+            EA = 1.0e9 * 3.0e-6
+        elif shape == "l0":
+            entry["rest_length"] = l0 = 0.25
+        elif shape == "ratio":
+            entry["rest_length_ratio"] = 0.5
+            l0 = 0.5 * length
+        elif shape == "named":
+            entry["name"] = name = f"member_{i}"
+        members.append(entry)
+        canon = {"cable": "string", "strut": "bar"}.get(kind.lower(), kind.lower())
+        expect.append((name, (a, b), canon, EA, l0))
+    data = {"defaults": defaults, "nodes": {f"n{i}": c for i, c in enumerate(coords)}, "members": members,
+            "pinned": [f"n{i}" for i in range(n)]}
+    return data, expect
+
+
+@given(_descriptions())
+def test_every_entry_shape_means_what_the_format_says(case):
+    data, expect = case
+    text = safe_dump(data, default_flow_style=None)
+    for s in (structure_from_text(text), structure_from_text(json.dumps(data)), load_structure(data)):
+        assert s.member_names == tuple(e[0] for e in expect)
+        np.testing.assert_array_equal(s.members, np.array([e[1] for e in expect]))
+        assert s.member_kinds == tuple(e[2] for e in expect)
+        np.testing.assert_allclose(s.EA, [e[3] for e in expect], rtol=1e-15)
+        np.testing.assert_allclose(s.rest_lengths, [e[4] for e in expect], rtol=1e-15)
