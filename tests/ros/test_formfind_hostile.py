@@ -192,6 +192,29 @@ def test_the_time_limit_covers_parsing_and_names_the_phase(quick):
                              "the worker was stopped")
 
 
+def _tower_yaml(members: int) -> str:
+    """A generated tower of cubes as a compact per-member description (list nodes, pairs)."""
+    levels = members // 12 + 2
+    lines = ["defaults: {EA: 1000.0, rest_length_ratio: 0.99}", "nodes:"]
+    lines += [f"  - [{x}, {y}, {z}]" for z in range(levels) for y in (0, 1) for x in (0, 1)]
+    edges = ((0, 1), (1, 3), (3, 2), (2, 0), (0, 4), (1, 5), (2, 6), (3, 7), (0, 5), (1, 7), (3, 6), (2, 4))
+    pairs = [(4 * z + a, 4 * z + b) for z in range(levels - 1) for a, b in edges][:members]
+    return "\n".join(lines + ["members:"] + [f"  - [{a}, {b}]" for a, b in pairs] + ["pinned: [0, 1, 2, 3]"]) + "\n"
+
+
+def test_a_60k_member_request_ends_within_its_limit_while_a_good_caller_is_served(quick):
+    # the issue's request: 60,000 members in 1.4 MB took 18-20 s to parse, past any limit
+    big = quick.send(_tower_yaml(60_000))
+    good = quick(TABLE)
+    assert good.success, good.message
+    deadline = time.monotonic() + 60
+    while not big.done() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    message = _refused(big.result())
+    assert message in ("the structure has 60000 members, more than the limit of 50000 (line 20011)",
+                       "time limit of 5 s reached while parsing the structure description; the worker was stopped")
+
+
 def test_two_slow_requests_hold_the_workers_only_up_to_the_limit(quick):
     slow_text = "nodes: [" + "0," * 12_000_000 + "0]\n"
     slow = [quick.send(slow_text) for _ in range(2)]
