@@ -28,7 +28,7 @@ from functools import cached_property
 
 import numpy as np
 
-from tensegrity_core.schema import MAX_MAGNITUDE, SchemaError, suggest
+from tensegrity_core.schema import MAX_MAGNITUDE, SchemaError, excerpt, suggest
 
 MEMBER_KINDS = ("bar", "string", "actuator")
 #: Standard gravity [m/s^2] (``gravity: true`` in a structure, the scenes' default).
@@ -241,24 +241,24 @@ class Structure:
         try:
             return self.node_names.index(name)
         except ValueError:
-            raise StructureError(f"unknown node {name!r}{suggest(name, self.node_names)}") from None
+            raise StructureError(f"unknown node {excerpt(name)}{suggest(name, self.node_names)}") from None
 
     def member_index(self, name: str) -> int:
         """Index of the member called ``name``."""
         try:
             return self.member_names.index(name)
         except ValueError:
-            raise StructureError(f"unknown member {name!r}{suggest(name, self.member_names)}") from None
+            raise StructureError(f"unknown member {excerpt(name)}{suggest(name, self.member_names)}") from None
 
     def __repr__(self) -> str:
-        return (f"Structure({self.name!r}: {self.n_nodes} nodes, {self.n_members} members, "
+        return (f"Structure({excerpt(self.name)}: {self.n_nodes} nodes, {self.n_members} members, "
                 f"{len(self.bodies)} rigid bodies, {self.layout.n_dof} DOF)")
 
 
 def _kind(kind, entry) -> str:
     key = str(kind).lower()
     if key not in KIND_ALIASES:
-        raise StructureError(f"unknown member type {kind!r}; use one of bar, strut, string, "
+        raise StructureError(f"unknown member type {excerpt(kind)}; use one of bar, strut, string, "
                              f"cable, actuator{suggest(key, KIND_ALIASES)}", entry=entry)
     return KIND_ALIASES[key]
 
@@ -271,10 +271,10 @@ def _validate(s: Structure, n: int, m: int) -> None:
         raise StructureError("the structure has no members", entry=("members",))
     if len(set(s.node_names)) != n:
         dup = _first_repeat(s.node_names)
-        raise StructureError(f"node name {dup!r} is used twice", entry=("nodes", dup))
+        raise StructureError(f"node name {excerpt(dup)} is used twice", entry=("nodes", dup))
     if len(set(s.member_names)) != m:
         dup = _first_repeat(s.member_names)
-        raise StructureError(f"member name {dup!r} is used twice", entry=("members", s.member_names.index(dup)))
+        raise StructureError(f"member name {excerpt(dup)} is used twice", entry=("members", s.member_names.index(dup)))
     shapes = {"nodes": (n, 3), "members": (m, 2), "EA": (m,), "rest_lengths": (m,),
               "member_masses": (m,), "pinned": (n, 3), "loads": (n, 3), "node_masses": (n,),
               "gravity": (3,)}
@@ -288,7 +288,7 @@ def _validate(s: Structure, n: int, m: int) -> None:
         bad = ~_bounded(arr).all(axis=1)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            raise StructureError(f"{what} of node {s.node_names[i]!r} must be finite and at most "
+            raise StructureError(f"{what} of node {excerpt(s.node_names[i])} must be finite and at most "
                                  f"{MAX_MAGNITUDE:g} in magnitude, got {arr[i].tolist()}", entry=(key, s.node_names[i]))
     if not _bounded(s.gravity).all():
         raise StructureError(f"gravity must be finite and at most {MAX_MAGNITUDE:g} in magnitude, got "
@@ -296,12 +296,12 @@ def _validate(s: Structure, n: int, m: int) -> None:
     a, b = s.members[:, 0], s.members[:, 1]
     if ((s.members < 0) | (s.members >= n)).any():
         i = int(np.flatnonzero(((s.members < 0) | (s.members >= n)).any(axis=1))[0])
-        raise StructureError(f"member {s.member_names[i]!r} refers to node index "
+        raise StructureError(f"member {excerpt(s.member_names[i])} refers to node index "
                              f"{s.members[i].tolist()}, but there are {n} nodes", entry=("members", i))
     same = np.flatnonzero(a == b)
     if same.size:
         i = int(same[0])
-        raise StructureError(f"member {s.member_names[i]!r} joins node {s.node_names[a[i]]!r} to itself",
+        raise StructureError(f"member {excerpt(s.member_names[i])} joins node {excerpt(s.node_names[a[i]])} to itself",
                              entry=("members", i))
     scale = max(float(np.ptp(s.nodes, axis=0).max()), 1e-300) if n > 1 else 1.0
     lengths = np.linalg.norm(s.nodes[b] - s.nodes[a], axis=1)
@@ -309,24 +309,24 @@ def _validate(s: Structure, n: int, m: int) -> None:
     if short.size:
         i = int(short[0])
         raise StructureError(
-            f"member {s.member_names[i]!r} has zero length: nodes {s.node_names[a[i]]!r} and "
-            f"{s.node_names[b[i]]!r} are both at {s.nodes[a[i]].tolist()}", entry=("members", i))
+            f"member {excerpt(s.member_names[i])} has zero length: nodes {excerpt(s.node_names[a[i]])} and "
+            f"{excerpt(s.node_names[b[i]])} are both at {s.nodes[a[i]].tolist()}", entry=("members", i))
     for key, arr, what in (("EA", s.EA, "axial stiffness EA"), ("rest_lengths", s.rest_lengths, "rest length")):
         bad = np.flatnonzero(~_bounded(arr) | (arr <= 0))
         if bad.size:
             i = int(bad[0])
-            raise StructureError(f"member {s.member_names[i]!r}: {what} must be finite and "
-                                 f"positive, got {float(arr[i])!r}", entry=("members", i))
+            raise StructureError(f"member {excerpt(s.member_names[i])}: {what} must be finite and "
+                                 f"positive, got {excerpt(float(arr[i]))}", entry=("members", i))
     bad = np.flatnonzero(~_bounded(s.member_masses) | (s.member_masses < 0))
     if bad.size:
         i = int(bad[0])
-        raise StructureError(f"member {s.member_names[i]!r}: mass must be finite and >= 0, "
-                             f"got {float(s.member_masses[i])!r}", entry=("members", i))
+        raise StructureError(f"member {excerpt(s.member_names[i])}: mass must be finite and >= 0, "
+                             f"got {excerpt(float(s.member_masses[i]))}", entry=("members", i))
     bad = np.flatnonzero(~_bounded(s.node_masses) | (s.node_masses < 0))
     if bad.size:
         i = int(bad[0])
-        raise StructureError(f"point mass of node {s.node_names[i]!r} must be finite and >= 0, "
-                             f"got {float(s.node_masses[i])!r}", entry=("masses", s.node_names[i]))
+        raise StructureError(f"point mass of node {excerpt(s.node_names[i])} must be finite and >= 0, "
+                             f"got {excerpt(float(s.node_masses[i]))}", entry=("masses", s.node_names[i]))
     bodies = _body_nodes(s)
     _validate_bodies(s, n, scale, bodies)
     _validate_free_nodes(s, n, bodies)
@@ -353,25 +353,25 @@ def _validate_bodies(s: Structure, n: int, scale: float, bodies: tuple) -> None:
     if len(set(names)) != len(names):
         dup = _first_repeat(names)
         k = names.index(dup)
-        raise StructureError(f"rigid body name {dup!r} is used twice", entry=("rigid_bodies", k))
+        raise StructureError(f"rigid body name {excerpt(dup)} is used twice", entry=("rigid_bodies", k))
     sizes, flat, body_of = bodies
     masses = np.array([b.mass for b in s.bodies], dtype=float)
     bad = np.flatnonzero(~_bounded(masses) | (masses < 0))
     if bad.size:
         k = int(bad[0])
-        raise StructureError(f"rigid body {s.bodies[k].name!r}: mass must be finite and >= 0, "
-                             f"got {s.bodies[k].mass!r}", entry=("rigid_bodies", k))
+        raise StructureError(f"rigid body {excerpt(s.bodies[k].name)}: mass must be finite and >= 0, "
+                             f"got {excerpt(s.bodies[k].mass)}", entry=("rigid_bodies", k))
     bad = np.flatnonzero((flat < 0) | (flat >= n))
     if bad.size:
         body = s.bodies[body_of[bad[0]]]
-        raise StructureError(f"rigid body {body.name!r} refers to node index {list(body.nodes)}, "
+        raise StructureError(f"rigid body {excerpt(body.name)} refers to node index {list(body.nodes)}, "
                              f"but there are {n} nodes", entry=("rigid_bodies", int(body_of[bad[0]])))
     _first_shared_node(s, flat, body_of)
     few = np.flatnonzero(sizes < 3)
     if few.size:
         k = int(few[0])
         raise StructureError(
-            f"rigid body {s.bodies[k].name!r} has {sizes[k]} node(s); a rigid body needs at least 3 "
+            f"rigid body {excerpt(s.bodies[k].name)} has {sizes[k]} node(s); a rigid body needs at least 3 "
             f"non-collinear nodes to fix its orientation (model a 2-node rigid link as a stiff bar)",
             entry=("rigid_bodies", k))
     _first_collinear_body(s, sizes, scale)
@@ -381,7 +381,7 @@ def _validate_bodies(s: Structure, n: int, scale: float, bodies: tuple) -> None:
         j = int(pinned_in_moving[0])
         body = s.bodies[body_of[j]]
         raise StructureError(
-            f"node {s.node_names[flat[j]]!r} belongs to rigid body {body.name!r} and is pinned; pin "
+            f"node {excerpt(s.node_names[flat[j]])} belongs to rigid body {excerpt(body.name)} and is pinned; pin "
             f"the whole body instead (fixed: true)", entry=("rigid_bodies", int(body_of[j])))
     owner = np.full(n, -1)
     owner[flat] = body_of
@@ -390,8 +390,8 @@ def _validate_bodies(s: Structure, n: int, scale: float, bodies: tuple) -> None:
     if inside.size:
         i = int(inside[0])
         raise StructureError(
-            f"member {s.member_names[i]!r} joins nodes {s.node_names[a[i]]!r} and "
-            f"{s.node_names[b[i]]!r} of the same rigid body {s.bodies[owner[a[i]]].name!r}: its "
+            f"member {excerpt(s.member_names[i])} joins nodes {excerpt(s.node_names[a[i]])} and "
+            f"{excerpt(s.node_names[b[i]])} of the same rigid body {excerpt(s.bodies[owner[a[i]]].name)}: its "
             f"length cannot change, so it carries nothing; remove it", entry=("members", i))
 
 
@@ -406,9 +406,9 @@ def _first_shared_node(s: Structure, flat: np.ndarray, body_of: np.ndarray) -> N
     first, second = min(pairs, key=lambda p: p[1])
     k1, k2 = int(body_of[first]), int(body_of[second])
     if k1 == k2:
-        raise StructureError(f"rigid body {s.bodies[k2].name!r} lists a node twice", entry=("rigid_bodies", k2))
-    raise StructureError(f"node {s.node_names[flat[second]]!r} is in two rigid bodies: {s.bodies[k1].name!r} "
-                         f"and {s.bodies[k2].name!r}", entry=("rigid_bodies", k2))
+        raise StructureError(f"rigid body {excerpt(s.bodies[k2].name)} lists a node twice", entry=("rigid_bodies", k2))
+    raise StructureError(f"node {excerpt(s.node_names[flat[second]])} is in two rigid bodies: "
+                         f"{excerpt(s.bodies[k1].name)} and {excerpt(s.bodies[k2].name)}", entry=("rigid_bodies", k2))
 
 
 def _first_collinear_body(s: Structure, sizes: np.ndarray, scale: float) -> None:
@@ -424,7 +424,7 @@ def _first_collinear_body(s: Structure, sizes: np.ndarray, scale: float) -> None
     if bad:
         k = min(bad)
         raise StructureError(
-            f"rigid body {s.bodies[k].name!r}: its nodes are collinear, so they cannot fix an "
+            f"rigid body {excerpt(s.bodies[k].name)}: its nodes are collinear, so they cannot fix an "
             f"orientation; a rigid body needs at least 3 non-collinear nodes", entry=("rigid_bodies", k))
 
 
@@ -437,7 +437,7 @@ def _validate_free_nodes(s: Structure, n: int, bodies: tuple) -> None:
     loose = np.flatnonzero(~in_body & ~connected & ~s.pinned.all(axis=1))
     if loose.size:
         i = int(loose[0])
-        raise StructureError(f"node {s.node_names[i]!r} is free but no member is attached to it",
+        raise StructureError(f"node {excerpt(s.node_names[i])} is free but no member is attached to it",
                              entry=("nodes", s.node_names[i]))
     if s.bodies:
         attached = np.zeros(len(s.bodies), dtype=bool)
@@ -446,7 +446,7 @@ def _validate_free_nodes(s: Structure, n: int, bodies: tuple) -> None:
         bad = np.flatnonzero(~fixed & ~attached)
         if bad.size:
             k = int(bad[0])
-            raise StructureError(f"rigid body {s.bodies[k].name!r} is free but no member is attached to it",
+            raise StructureError(f"rigid body {excerpt(s.bodies[k].name)} is free but no member is attached to it",
                                  entry=("rigid_bodies", k))
 
 
