@@ -2,37 +2,72 @@
 
 Each request runs in a process forked from a forkserver that has the numerical core
 preloaded, so a long request neither holds the node's interpreter lock nor delays other
-callers, and a request over its time limit is stopped without touching the others.
+callers, and a request over its time limit or its memory is stopped without touching the
+others. The request's ``structure`` is description *text* and only text: it is parsed by
+:func:`tensegrity_core.general.structure_from_text`, which never opens a file, bounded in
+size, nesting and aliases (:class:`tensegrity_core.schema.Limits`) and in members
+(``max_members``) before the structure is built.
+
+The worker tells the node which phase it is in (``("phase", name)`` on its pipe, the
+first as soon as it runs) and ends with ``("result", dict)``; the node stops a worker that
+overruns the time limit, which counts from that first report, parsing included, and names
+the phase in its answer.
 """
 
 from __future__ import annotations
 
 import math
+import resource
+import sys
 import time
 import traceback
-from typing import Any
+from typing import Any, Callable
 
 from tensegrity_core.errors import TensegrityError
+from tensegrity_core.schema import Limits, clip
+
+#: The phases a worker reports, in order (the node names the one a time limit hit).
+PARSING = "parsing the structure description"
+FORM_FINDING = "form-finding"
+#: The longest message an answer carries (characters).
+MAX_MESSAGE = 2000
 
 
-def solve(text: str, tol: float, max_iter: int, time_limit: float, max_members: int) -> dict[str, Any]:
-    """Parse a structure description and form-find it; always returns a plain dict.
+def empty_answer(message: str = "") -> dict[str, Any]:
+    """An unsuccessful answer with ``message``."""
+    return {"success": False, "message": clip(message, MAX_MESSAGE), "nodes": [], "member_forces": [],
+            "iterations": 0, "residual": math.nan, "min_stiffness_eigenvalue": math.nan}
+
+
+def cap_memory(extra_bytes: int) -> int:
+    """Limit this process's address space to what it uses now plus ``extra_bytes``
+    (RLIMIT_AS: allocations beyond it fail with MemoryError instead of growing the machine's
+    memory); returns the cap [bytes]. The forked worker already maps the preloaded core."""
+    with open("/proc/self/statm") as fh:
+        pages = int(fh.read().split()[0])
+    cap = pages * resource.getpagesize() + int(extra_bytes)
+    resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
+    return cap
+
+
+def solve(text: str, tol: float, max_iter: int, time_limit: float, max_members: int, limits: Limits,
+          report: Callable[[str], None] = lambda phase: None) -> dict[str, Any]:
+    """Parse a structure description (text) and form-find it; always returns a plain dict.
 
     Keys: success, message, nodes (list of [x, y, z]), member_forces, iterations, residual,
     min_stiffness_eigenvalue. ``tol`` <= 0 and ``max_iter`` == 0 mean the core's defaults.
+    ``time_limit`` [s] counts from this call: form-finding stops at the first iteration
+    past it (the node stops a worker whose parsing runs past it). ``report(phase)`` is
+    called as each phase starts.
     """
-    from tensegrity_core.general import form_find, load_structure
+    from tensegrity_core.general import form_find, structure_from_text
 
-    out: dict[str, Any] = {"success": False, "message": "", "nodes": [], "member_forces": [],
-                           "iterations": 0, "residual": math.nan, "min_stiffness_eigenvalue": math.nan}
+    start = time.monotonic()
+    out = empty_answer()
     try:
-        structure = load_structure(text)
-        n_members = len(structure.member_names)
-        if n_members > max_members:
-            out["message"] = (f"structure has {n_members} members, more than this service's "
-                              f"limit max_members = {max_members}")
-            return out
-        start = time.monotonic()
+        report(PARSING)
+        structure = structure_from_text(text, limits=limits, max_members=max_members)
+        report(FORM_FINDING)
         timed_out = []
 
         def stop_when_late(info) -> bool:
@@ -44,21 +79,33 @@ def solve(text: str, tol: float, max_iter: int, time_limit: float, max_members: 
         result = form_find(structure, tol=tol if tol > 0 else None,
                            max_iter=max_iter if max_iter > 0 else None, callback=stop_when_late)
     except TensegrityError as err:
-        out["message"] = str(err)
-        return out
+        return empty_answer(str(err))
+    except MemoryError:
+        return empty_answer("the request needs more memory than this service allows a worker")
     except Exception as err:  # a bug must become an answer, never a dead service
-        out["message"] = f"internal error: {type(err).__name__}: {err}\n{traceback.format_exc(limit=3)}"
-        return out
+        traceback.print_exc(file=sys.stderr)            # the server's log, not the caller's answer
+        return empty_answer(f"internal error: {type(err).__name__}")
     out.update(
-        success=bool(result.success),
-        message=(f"time limit of {time_limit:g} s reached after {timed_out[0]} iterations; "
-                 + result.message) if timed_out else result.message,
-        nodes=[[float(v) for v in xyz] for xyz in result.nodes],
-        member_forces=[float(t) for t in result.member_forces],
+        success=bool(result.success) and not timed_out,
+        message=clip((f"time limit of {time_limit:g} s reached after {timed_out[0]} iterations; "
+                      + result.message) if timed_out else result.message, MAX_MESSAGE),
+        nodes=result.nodes.tolist(),
+        member_forces=result.member_forces.tolist(),
         iterations=int(result.iterations),
         residual=float(result.residual),
         min_stiffness_eigenvalue=float(result.min_eigenvalue),
     )
-    if timed_out:
-        out["success"] = False
     return out
+
+
+def run(conn, text: str, tol: float, max_iter: int, time_limit: float, max_members: int, limits: Limits,
+        memory_bytes: int) -> None:
+    """The worker process's body: cap the memory, solve, send phases and the result on ``conn``."""
+    try:
+        cap_memory(memory_bytes)
+        conn.send(("result", solve(text, tol, max_iter, time_limit, max_members, limits,
+                                   report=lambda phase: conn.send(("phase", phase)))))
+    except MemoryError:
+        conn.send(("result", empty_answer("the request needs more memory than this service allows a worker")))
+    finally:
+        conn.close()

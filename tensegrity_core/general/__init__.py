@@ -8,7 +8,7 @@ structure file format.
 Typical use::
 
     from tensegrity_core.general import load_structure, form_find
-    s = load_structure("table.yaml")
+    s = load_structure("table.yaml")         # local files; structure_from_text for text from elsewhere
     r = form_find(s)                 # r.success, r.nodes, r.member_forces, r.min_eigenvalue
 """
 
@@ -28,7 +28,7 @@ from tensegrity_core.general.generators import (
     tensegrity_spine,
     tensegrity_table,
 )
-from tensegrity_core.general.loading import dump_structure, load_structure, structure_to_dict
+from tensegrity_core.general.loading import load_structure, structure_from_file, structure_from_text
 from tensegrity_core.general.path import PathResult, rest_length_path
 from tensegrity_core.general.statics import (
     Modes,
@@ -48,6 +48,8 @@ from tensegrity_core.general.stiffness import (
     tangent_stiffness,
 )
 from tensegrity_core.general.structure import RigidBody, Structure, StructureError
+from tensegrity_core.general.structure_schema import structure_from_dict
+from tensegrity_core.general.writing import dump_structure, save_structure, structure_to_arrays, structure_to_dict
 
 __all__ = [
     "Configuration", "DofLayout", "FormFindResult", "IterationInfo", "METHODS", "ModalAnalysis",
@@ -55,7 +57,8 @@ __all__ = [
     "default_tolerance", "dump_structure", "equilibrium_matrix", "example_names", "example_path",
     "form_find", "generalized_force", "load_example", "load_structure", "member_forces",
     "member_lengths", "modal_analysis", "modes", "out_of_balance", "polyhedron",
-    "potential_energy", "rest_length_path", "spherical_tensegrity", "stiffness_parts",
+    "potential_energy", "rest_length_path", "save_structure", "spherical_tensegrity", "stiffness_parts",
+    "structure_from_dict", "structure_from_file", "structure_from_text", "structure_to_arrays",
     "structure_to_dict", "t_bar", "tangent_stiffness", "tensegrity_spine", "tensegrity_table",
     "transformation_matrix",
 ]

@@ -22,36 +22,39 @@ nodes act as fully pinned nodes. Individual nodes of a moving body cannot be pin
 from __future__ import annotations
 
 import dataclasses
-import difflib
+from collections import Counter
 from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
 
-from tensegrity_core.errors import TensegrityError
+from tensegrity_core.schema import MAX_MAGNITUDE, SchemaError, excerpt, suggest
 
 MEMBER_KINDS = ("bar", "string", "actuator")
+#: Standard gravity [m/s^2] (``gravity: true`` in a structure, the scenes' default).
+STANDARD_GRAVITY = 9.80665
 KIND_ALIASES = {"bar": "bar", "strut": "bar", "string": "string", "cable": "string",
                 "tendon": "string", "actuator": "actuator"}
 
 
-class StructureError(TensegrityError, ValueError):
+class StructureError(SchemaError):
     """A structure description is invalid.
 
-    ``entry`` locates the offending entry as a path (e.g. ``("members", 3)``), ``line`` is
-    the 1-based line of the description file when the parser knows it.
+    ``entry`` (also ``key``) locates the offending entry as a path (e.g. ``("members",
+    3)``), ``line`` is the 1-based line of the description file when the parser knows it,
+    ``file`` the file's name. Messages name members and nodes in words (``member 's3':
+    ...``), so ``str()`` does not repeat the key path.
     """
 
-    def __init__(self, message: str, *, entry: tuple = (), line: int | None = None):
-        super().__init__(message)
-        self.entry = tuple(entry)
-        self.line = line
+    show_key = False
 
+    def __init__(self, message: str, *, entry: tuple = (), key: tuple | None = None, line: int | None = None,
+                 file: str | None = None):
+        super().__init__(message, key=entry if key is None else key, line=line, file=file)
 
-def suggest(word: str, choices) -> str:
-    """``" (did you mean 'x'?)"`` for the closest of ``choices``, or ``""``."""
-    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""
+    @property
+    def entry(self) -> tuple:
+        return self.key
 
 
 @dataclass(frozen=True)
@@ -238,24 +241,24 @@ class Structure:
         try:
             return self.node_names.index(name)
         except ValueError:
-            raise StructureError(f"unknown node {name!r}{suggest(name, self.node_names)}") from None
+            raise StructureError(f"unknown node {excerpt(name)}{suggest(name, self.node_names)}") from None
 
     def member_index(self, name: str) -> int:
         """Index of the member called ``name``."""
         try:
             return self.member_names.index(name)
         except ValueError:
-            raise StructureError(f"unknown member {name!r}{suggest(name, self.member_names)}") from None
+            raise StructureError(f"unknown member {excerpt(name)}{suggest(name, self.member_names)}") from None
 
     def __repr__(self) -> str:
-        return (f"Structure({self.name!r}: {self.n_nodes} nodes, {self.n_members} members, "
+        return (f"Structure({excerpt(self.name)}: {self.n_nodes} nodes, {self.n_members} members, "
                 f"{len(self.bodies)} rigid bodies, {self.layout.n_dof} DOF)")
 
 
 def _kind(kind, entry) -> str:
     key = str(kind).lower()
     if key not in KIND_ALIASES:
-        raise StructureError(f"unknown member type {kind!r}; use one of bar, strut, string, "
+        raise StructureError(f"unknown member type {excerpt(kind)}; use one of bar, strut, string, "
                              f"cable, actuator{suggest(key, KIND_ALIASES)}", entry=entry)
     return KIND_ALIASES[key]
 
@@ -267,11 +270,11 @@ def _validate(s: Structure, n: int, m: int) -> None:
     if m == 0:
         raise StructureError("the structure has no members", entry=("members",))
     if len(set(s.node_names)) != n:
-        dup = next(x for x in s.node_names if s.node_names.count(x) > 1)
-        raise StructureError(f"node name {dup!r} is used twice", entry=("nodes", dup))
+        dup = _first_repeat(s.node_names)
+        raise StructureError(f"node name {excerpt(dup)} is used twice", entry=("nodes", dup))
     if len(set(s.member_names)) != m:
-        dup = next(x for x in s.member_names if s.member_names.count(x) > 1)
-        raise StructureError(f"member name {dup!r} is used twice", entry=("members",))
+        dup = _first_repeat(s.member_names)
+        raise StructureError(f"member name {excerpt(dup)} is used twice", entry=("members", s.member_names.index(dup)))
     shapes = {"nodes": (n, 3), "members": (m, 2), "EA": (m,), "rest_lengths": (m,),
               "member_masses": (m,), "pinned": (n, 3), "loads": (n, 3), "node_masses": (n,),
               "gravity": (3,)}
@@ -279,25 +282,26 @@ def _validate(s: Structure, n: int, m: int) -> None:
         if getattr(s, key).shape != shape:
             raise StructureError(f"{key} must have shape {shape}, got {getattr(s, key).shape}",
                                  entry=(key,))
-    if len(s.member_kinds) != m or any(k not in MEMBER_KINDS for k in s.member_kinds):
+    if len(s.member_kinds) != m or not set(s.member_kinds) <= set(MEMBER_KINDS):
         raise StructureError(f"member_kinds must be {m} of {MEMBER_KINDS}", entry=("members",))
-    for key, arr, names in (("nodes", s.nodes, s.node_names), ("loads", s.loads, s.node_names)):
-        bad = ~np.isfinite(arr).all(axis=1)
+    for key, arr, what in (("nodes", s.nodes, "coordinates"), ("loads", s.loads, "load")):
+        bad = ~_bounded(arr).all(axis=1)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            raise StructureError(f"{key[:-1]} of node {names[i]!r} is not finite: {arr[i].tolist()}",
-                                 entry=(key, names[i]))
-    if not np.isfinite(s.gravity).all():
-        raise StructureError(f"gravity is not finite: {s.gravity.tolist()}", entry=("gravity",))
+            raise StructureError(f"{what} of node {excerpt(s.node_names[i])} must be finite and at most "
+                                 f"{MAX_MAGNITUDE:g} in magnitude, got {arr[i].tolist()}", entry=(key, s.node_names[i]))
+    if not _bounded(s.gravity).all():
+        raise StructureError(f"gravity must be finite and at most {MAX_MAGNITUDE:g} in magnitude, got "
+                             f"{s.gravity.tolist()}", entry=("gravity",))
     a, b = s.members[:, 0], s.members[:, 1]
     if ((s.members < 0) | (s.members >= n)).any():
         i = int(np.flatnonzero(((s.members < 0) | (s.members >= n)).any(axis=1))[0])
-        raise StructureError(f"member {s.member_names[i]!r} refers to node index "
+        raise StructureError(f"member {excerpt(s.member_names[i])} refers to node index "
                              f"{s.members[i].tolist()}, but there are {n} nodes", entry=("members", i))
     same = np.flatnonzero(a == b)
     if same.size:
         i = int(same[0])
-        raise StructureError(f"member {s.member_names[i]!r} joins node {s.node_names[a[i]]!r} to itself",
+        raise StructureError(f"member {excerpt(s.member_names[i])} joins node {excerpt(s.node_names[a[i]])} to itself",
                              entry=("members", i))
     scale = max(float(np.ptp(s.nodes, axis=0).max()), 1e-300) if n > 1 else 1.0
     lengths = np.linalg.norm(s.nodes[b] - s.nodes[a], axis=1)
@@ -305,89 +309,150 @@ def _validate(s: Structure, n: int, m: int) -> None:
     if short.size:
         i = int(short[0])
         raise StructureError(
-            f"member {s.member_names[i]!r} has zero length: nodes {s.node_names[a[i]]!r} and "
-            f"{s.node_names[b[i]]!r} are both at {s.nodes[a[i]].tolist()}", entry=("members", i))
+            f"member {excerpt(s.member_names[i])} has zero length: nodes {excerpt(s.node_names[a[i]])} and "
+            f"{excerpt(s.node_names[b[i]])} are both at {s.nodes[a[i]].tolist()}", entry=("members", i))
     for key, arr, what in (("EA", s.EA, "axial stiffness EA"), ("rest_lengths", s.rest_lengths, "rest length")):
-        bad = np.flatnonzero(~np.isfinite(arr) | (arr <= 0))
+        bad = np.flatnonzero(~_bounded(arr) | (arr <= 0))
         if bad.size:
             i = int(bad[0])
-            raise StructureError(f"member {s.member_names[i]!r}: {what} must be finite and "
-                                 f"positive, got {arr[i]!r}", entry=("members", i))
-    bad = np.flatnonzero(~np.isfinite(s.member_masses) | (s.member_masses < 0))
+            raise StructureError(f"member {excerpt(s.member_names[i])}: {what} must be finite and "
+                                 f"positive, got {excerpt(float(arr[i]))}", entry=("members", i))
+    bad = np.flatnonzero(~_bounded(s.member_masses) | (s.member_masses < 0))
     if bad.size:
         i = int(bad[0])
-        raise StructureError(f"member {s.member_names[i]!r}: mass must be finite and >= 0, "
-                             f"got {s.member_masses[i]!r}", entry=("members", i))
-    bad = np.flatnonzero(~np.isfinite(s.node_masses) | (s.node_masses < 0))
+        raise StructureError(f"member {excerpt(s.member_names[i])}: mass must be finite and >= 0, "
+                             f"got {excerpt(float(s.member_masses[i]))}", entry=("members", i))
+    bad = np.flatnonzero(~_bounded(s.node_masses) | (s.node_masses < 0))
     if bad.size:
         i = int(bad[0])
-        raise StructureError(f"point mass of node {s.node_names[i]!r} must be finite and >= 0, "
-                             f"got {s.node_masses[i]!r}", entry=("masses", s.node_names[i]))
-    _validate_bodies(s, n, scale)
-    _validate_free_nodes(s, n)
+        raise StructureError(f"point mass of node {excerpt(s.node_names[i])} must be finite and >= 0, "
+                             f"got {excerpt(float(s.node_masses[i]))}", entry=("masses", s.node_names[i]))
+    bodies = _body_nodes(s)
+    _validate_bodies(s, n, scale, bodies)
+    _validate_free_nodes(s, n, bodies)
 
 
-def _validate_bodies(s: Structure, n: int, scale: float) -> None:
-    owner = np.full(n, -1)
+def _bounded(arr: np.ndarray) -> np.ndarray:
+    """Elementwise: finite and at most MAX_MAGNITUDE in magnitude (larger values overflow
+    the squares the solvers form)."""
+    return np.isfinite(arr) & (np.abs(arr) <= MAX_MAGNITUDE)
+
+
+def _first_repeat(names) -> str:
+    """The first of ``names`` that occurs more than once."""
+    counts = Counter(names)
+    return next(x for x in names if counts[x] > 1)
+
+
+def _validate_bodies(s: Structure, n: int, scale: float, bodies: tuple) -> None:
+    """The rigid bodies' invariants, checked on all bodies at once (a 60,000-member spine
+    has 7,500 bodies); each failure names the first offending body."""
+    if not s.bodies:
+        return
     names = [b.name for b in s.bodies]
-    for k, body in enumerate(s.bodies):
-        entry = ("rigid_bodies", k)
-        if names.count(body.name) > 1:
-            raise StructureError(f"rigid body name {body.name!r} is used twice", entry=entry)
-        if not np.isfinite(body.mass) or body.mass < 0:
-            raise StructureError(f"rigid body {body.name!r}: mass must be finite and >= 0, "
-                                 f"got {body.mass!r}", entry=entry)
-        idx = np.asarray(body.nodes, dtype=np.int64)
-        if ((idx < 0) | (idx >= n)).any():
-            raise StructureError(f"rigid body {body.name!r} refers to node index {list(body.nodes)}, "
-                                 f"but there are {n} nodes", entry=entry)
-        if len(set(body.nodes)) != len(body.nodes):
-            raise StructureError(f"rigid body {body.name!r} lists a node twice", entry=entry)
-        for i in idx:
-            if owner[i] >= 0:
-                raise StructureError(
-                    f"node {s.node_names[i]!r} is in two rigid bodies: {s.bodies[owner[i]].name!r} "
-                    f"and {body.name!r}", entry=entry)
-            owner[i] = k
-        if len(idx) < 3:
-            raise StructureError(
-                f"rigid body {body.name!r} has {len(idx)} node(s); a rigid body needs at least 3 "
-                f"non-collinear nodes to fix its orientation (model a 2-node rigid link as a stiff bar)",
-                entry=entry)
-        pts = s.nodes[idx] - s.nodes[idx].mean(axis=0)
-        sv = np.linalg.svd(pts, compute_uv=False)
-        if sv[1] <= 1e-9 * max(sv[0], 1e-300) or sv[0] <= 1e-12 * scale:
-            raise StructureError(
-                f"rigid body {body.name!r}: its nodes are collinear, so they cannot fix an "
-                f"orientation; a rigid body needs at least 3 non-collinear nodes", entry=entry)
-        if not body.fixed:
-            pinned = [s.node_names[i] for i in idx if s.pinned[i].any()]
-            if pinned:
-                raise StructureError(
-                    f"node {pinned[0]!r} belongs to rigid body {body.name!r} and is pinned; pin "
-                    f"the whole body instead (fixed: true)", entry=entry)
+    if len(set(names)) != len(names):
+        dup = _first_repeat(names)
+        k = names.index(dup)
+        raise StructureError(f"rigid body name {excerpt(dup)} is used twice", entry=("rigid_bodies", k))
+    sizes, flat, body_of = bodies
+    masses = np.array([b.mass for b in s.bodies], dtype=float)
+    bad = np.flatnonzero(~_bounded(masses) | (masses < 0))
+    if bad.size:
+        k = int(bad[0])
+        raise StructureError(f"rigid body {excerpt(s.bodies[k].name)}: mass must be finite and >= 0, "
+                             f"got {excerpt(s.bodies[k].mass)}", entry=("rigid_bodies", k))
+    bad = np.flatnonzero((flat < 0) | (flat >= n))
+    if bad.size:
+        body = s.bodies[body_of[bad[0]]]
+        raise StructureError(f"rigid body {excerpt(body.name)} refers to node index {list(body.nodes)}, "
+                             f"but there are {n} nodes", entry=("rigid_bodies", int(body_of[bad[0]])))
+    _first_shared_node(s, flat, body_of)
+    few = np.flatnonzero(sizes < 3)
+    if few.size:
+        k = int(few[0])
+        raise StructureError(
+            f"rigid body {excerpt(s.bodies[k].name)} has {sizes[k]} node(s); a rigid body needs at least 3 "
+            f"non-collinear nodes to fix its orientation (model a 2-node rigid link as a stiff bar)",
+            entry=("rigid_bodies", k))
+    _first_collinear_body(s, sizes, scale)
+    moving = ~np.array([b.fixed for b in s.bodies])
+    pinned_in_moving = np.flatnonzero(moving[body_of] & s.pinned[flat].any(axis=1))
+    if pinned_in_moving.size:
+        j = int(pinned_in_moving[0])
+        body = s.bodies[body_of[j]]
+        raise StructureError(
+            f"node {excerpt(s.node_names[flat[j]])} belongs to rigid body {excerpt(body.name)} and is pinned; pin "
+            f"the whole body instead (fixed: true)", entry=("rigid_bodies", int(body_of[j])))
+    owner = np.full(n, -1)
+    owner[flat] = body_of
     a, b = s.members[:, 0], s.members[:, 1]
     inside = np.flatnonzero((owner[a] >= 0) & (owner[a] == owner[b]))
     if inside.size:
         i = int(inside[0])
         raise StructureError(
-            f"member {s.member_names[i]!r} joins nodes {s.node_names[a[i]]!r} and "
-            f"{s.node_names[b[i]]!r} of the same rigid body {s.bodies[owner[a[i]]].name!r}: its "
+            f"member {excerpt(s.member_names[i])} joins nodes {excerpt(s.node_names[a[i]])} and "
+            f"{excerpt(s.node_names[b[i]])} of the same rigid body {excerpt(s.bodies[owner[a[i]]].name)}: its "
             f"length cannot change, so it carries nothing; remove it", entry=("members", i))
 
 
-def _validate_free_nodes(s: Structure, n: int) -> None:
+def _first_shared_node(s: Structure, flat: np.ndarray, body_of: np.ndarray) -> None:
+    """A node listed twice by one body, or by two bodies."""
+    order = np.argsort(flat, kind="stable")
+    repeats = np.flatnonzero(flat[order][1:] == flat[order][:-1])
+    if not repeats.size:
+        return
+    # the repeat that comes last in description order is where the old loop stopped first
+    pairs = [(int(order[r]), int(order[r + 1])) for r in repeats]
+    first, second = min(pairs, key=lambda p: p[1])
+    k1, k2 = int(body_of[first]), int(body_of[second])
+    if k1 == k2:
+        raise StructureError(f"rigid body {excerpt(s.bodies[k2].name)} lists a node twice", entry=("rigid_bodies", k2))
+    raise StructureError(f"node {excerpt(s.node_names[flat[second]])} is in two rigid bodies: "
+                         f"{excerpt(s.bodies[k1].name)} and {excerpt(s.bodies[k2].name)}", entry=("rigid_bodies", k2))
+
+
+def _first_collinear_body(s: Structure, sizes: np.ndarray, scale: float) -> None:
+    """A body whose nodes lie on a line (checked per group of bodies of one size, batched)."""
+    bad = []
+    for size in np.unique(sizes):
+        ks = np.flatnonzero(sizes == size)
+        pts = s.nodes[np.array([s.bodies[k].nodes for k in ks])]            # (bodies, size, 3)
+        pts = pts - pts.mean(axis=1, keepdims=True)
+        sv = np.linalg.svd(pts, compute_uv=False)
+        flat = (sv[:, 1] <= 1e-9 * np.maximum(sv[:, 0], 1e-300)) | (sv[:, 0] <= 1e-12 * scale)
+        bad.extend(ks[flat].tolist())
+    if bad:
+        k = min(bad)
+        raise StructureError(
+            f"rigid body {excerpt(s.bodies[k].name)}: its nodes are collinear, so they cannot fix an "
+            f"orientation; a rigid body needs at least 3 non-collinear nodes", entry=("rigid_bodies", k))
+
+
+def _validate_free_nodes(s: Structure, n: int, bodies: tuple) -> None:
+    _, flat, body_of = bodies
     in_body = np.zeros(n, dtype=bool)
-    for body in s.bodies:
-        in_body[list(body.nodes)] = True
+    in_body[flat] = True
     connected = np.zeros(n, dtype=bool)
     connected[s.members.ravel()] = True
     loose = np.flatnonzero(~in_body & ~connected & ~s.pinned.all(axis=1))
     if loose.size:
         i = int(loose[0])
-        raise StructureError(f"node {s.node_names[i]!r} is free but no member is attached to it",
+        raise StructureError(f"node {excerpt(s.node_names[i])} is free but no member is attached to it",
                              entry=("nodes", s.node_names[i]))
-    for k, body in enumerate(s.bodies):
-        if not body.fixed and not connected[list(body.nodes)].any():
-            raise StructureError(f"rigid body {body.name!r} is free but no member is attached to it",
+    if s.bodies:
+        attached = np.zeros(len(s.bodies), dtype=bool)
+        attached[body_of[connected[flat]]] = True
+        fixed = np.array([b.fixed for b in s.bodies])
+        bad = np.flatnonzero(~fixed & ~attached)
+        if bad.size:
+            k = int(bad[0])
+            raise StructureError(f"rigid body {excerpt(s.bodies[k].name)} is free but no member is attached to it",
                                  entry=("rigid_bodies", k))
+
+
+def _body_nodes(s: Structure) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(sizes, flat, body_of)``: each body's node count, all bodies' nodes one after the
+    other, and the body of each entry of ``flat``."""
+    sizes = np.array([len(b.nodes) for b in s.bodies], dtype=np.int64)
+    flat = np.fromiter((i for b in s.bodies for i in b.nodes), dtype=np.int64, count=int(sizes.sum()))
+    return sizes, flat, np.repeat(np.arange(len(s.bodies)), sizes)

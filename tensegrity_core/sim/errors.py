@@ -10,35 +10,13 @@ good state.
 from __future__ import annotations
 
 from tensegrity_core.errors import TensegrityError
+from tensegrity_core.schema import SchemaError
 
 
-def format_path(path: tuple) -> str:
-    """``("effects", 2, "fold_limit")`` -> ``"effects[2].fold_limit"``."""
-    out = ""
-    for part in path:
-        if isinstance(part, int):
-            out += f"[{part}]"
-        else:
-            out += ("." if out else "") + str(part)
-    return out
-
-
-class SceneError(TensegrityError, ValueError):
+class SceneError(SchemaError):
     """A scene is invalid. ``key`` is the key path (tuple), ``line`` the 1-based YAML line
-    or ``None``, ``file`` the scene file or ``None``. The message already contains all three."""
-
-    def __init__(self, message: str, *, key: tuple = (), line: int | None = None, file: str | None = None):
-        where = format_path(key)
-        text = f"{where}: {message}" if where else message
-        if line is not None:
-            text += f" (line {line})"
-        if file:
-            text = f"{file}: {text}"
-        super().__init__(text)
-        self.key = tuple(key)
-        self.line = line
-        self.file = file
-        self.reason = message
+    or ``None``, ``file`` the scene file or ``None``; ``str()`` shows all three
+    (``scene.yaml: effects[2].fold_limit: ... (line 14)``), ``reason`` the bare message."""
 
 
 class SimulationError(TensegrityError, RuntimeError):

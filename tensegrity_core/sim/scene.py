@@ -1,24 +1,34 @@
 """Scenes: what to simulate, read from YAML (or a dict) and checked before anything runs.
 
-The format is documented in ``docs/scenes.md``. :func:`load_scene` accepts a shipped
-scene's name (``scene_names()``), a path, YAML text or a dict and returns a frozen
-:class:`Scene`. Every problem raises :class:`~tensegrity_core.sim.errors.SceneError` naming
-the key path and, for YAML, the line: unknown keys (with a suggestion), missing required
-keys, wrong types, impossible values (negative durations, restitution above 1, initial
-states outside the mechanism's domain, unknown node names) and effect combinations that
-cannot mean anything (damping without inertia, the fold limit on a general structure).
+The format is documented in ``docs/scenes.md``. Entry points, one per kind of source:
+:func:`scene_from_text` (YAML text; never opens the file a one-line text might name, except
+the structure and CSV files the scene lists, relative to ``base``), :func:`scene_from_file`
+(a ``.yaml``/``.yml`` file), :func:`scene_from_dict` (parsed data), a shipped scene by
+:func:`scene_path`; and :func:`load_scene`, the convenience for local use that accepts a
+shipped scene's name, a path, YAML text or a dict. Each returns a frozen :class:`Scene`.
+
+Every problem raises :class:`~tensegrity_core.sim.errors.SceneError` naming the key path
+and, for YAML, the line: unknown keys (with a suggestion), missing required keys, wrong
+types, impossible values (negative durations, restitution above 1, initial states outside
+the mechanism's domain, unknown node names), effect combinations that cannot mean anything
+(damping without inertia, the fold limit on a general structure) and output that would
+not fit in memory (``duration`` times ``output.rate`` samples). The checks themselves are
+the shared ones of :class:`tensegrity_core.schema.Reader`; this module holds only the
+scene's schema.
 """
 
 from __future__ import annotations
 
-import difflib
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
+from tensegrity_core.class2.dynamics.limits import SINGULAR_GUARD_REL
 from tensegrity_core.errors import TensegrityError
+from tensegrity_core.general.structure import STANDARD_GRAVITY
+from tensegrity_core.schema import DEFAULT_LIMITS, Limits, Reader, excerpt, parse_text, read_file, suggest, type_name
 from tensegrity_core.sim.errors import SceneError
 from tensegrity_core.sim.inputs import INTERPOLATIONS, Commanded, Constant, Proportional, Ramp, Series
 
@@ -39,8 +49,9 @@ METHODS = ("auto", "RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA")
 #: Observed quantities that sensor noise may perturb.
 NOISY_QUANTITIES = ("q", "qdot", "applied_forces", "nodes", "member_lengths", "member_forces",
                     "end_effector")
-STANDARD_GRAVITY = 9.80665
 CLASS2_ACTUATORS = ("f1", "f2")
+#: The most memory the output of one run may take (its arrays of 8-byte floats) [bytes].
+MAX_OUTPUT_BYTES = 2 * 2**30
 
 
 # ------------------------------------------------------------------------------ data
@@ -161,11 +172,39 @@ class Scene:
         return effect in self.effects
 
     def with_duration(self, duration: float) -> "Scene":
-        from dataclasses import replace
+        """A copy that runs for ``duration`` [s] (checked like the scene's own)."""
+        reader = Reader(SceneError)
+        duration = reader.value_number(duration, ("duration",), None, None, lo=0.0, lo_open=True)
+        reason = output_size_reason(duration, self.output_rate, self.model)
+        if reason:
+            raise SceneError(reason, key=("duration",))
+        return replace(self, duration=duration)
 
-        if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
-            raise SceneError(f"must be a positive number of seconds, got {duration!r}", key=("duration",))
-        return replace(self, duration=float(duration))
+
+def output_size_reason(duration: float, rate: float, model) -> str | None:
+    """Why ``duration`` [s] at ``rate`` [Hz] is too much output for ``model``, or None: the
+    run's arrays (``duration * rate + 2`` samples of every recorded value) must fit in
+    :data:`MAX_OUTPUT_BYTES`; they are allocated as the run goes, so the bound is checked
+    before it starts."""
+    samples = math.floor(duration * rate) + 2
+    values = values_per_sample(model)
+    size = samples * values * 8
+    if size <= MAX_OUTPUT_BYTES:
+        return None
+    return (f"duration x output.rate = {duration:g} s x {rate:g} Hz gives {samples:.3g} samples of "
+            f"{values} values, {size:.3g} bytes, more than the {MAX_OUTPUT_BYTES / 2**30:g} GiB a run's "
+            f"output may take; shorten the duration or lower output.rate")
+
+
+def values_per_sample(model) -> int:
+    """Floats recorded per output sample (an upper bound): states, coordinates, rates,
+    inputs, member forces and lengths, node positions, energies."""
+    if model.kind == "class2":
+        return 64
+    s = model.structure
+    return 4 * s.layout.n_dof + 2 * s.n_members + 3 * s.n_nodes + len(model.actuators) + 16
+
+
 
 
 # ------------------------------------------------------------------------------ loading
@@ -176,147 +215,68 @@ def scene_names() -> list[str]:
 
 def scene_path(name: str) -> Path:
     """Path of the shipped scene ``name``."""
-    path = SCENES_DIR / f"{name}.yaml"
-    if not path.is_file():
-        raise SceneError(f"unknown scene {name!r}{_suggest(name, scene_names())}; shipped scenes: "
+    if not isinstance(name, str) or name not in scene_names():
+        raise SceneError(f"unknown scene {excerpt(name)}{suggest(name, scene_names())}; shipped scenes: "
                          f"{', '.join(scene_names())}")
-    return path
+    return SCENES_DIR / f"{name}.yaml"
+
+
+def scene_from_text(text: str, *, base=None, limits: Limits = DEFAULT_LIMITS) -> Scene:
+    """The scene in YAML ``text``; files it lists are relative to ``base`` (default: the
+    current folder)."""
+    data = parse_text(text, "yaml", limits=limits, error=SceneError)
+    return _SceneReader(None, Path(base) if base is not None else Path.cwd()).scene(data)
+
+
+def scene_from_file(path, *, limits: Limits = DEFAULT_LIMITS) -> Scene:
+    """The scene in the file ``path`` (``.yaml``/``.yml``); files it lists are relative to
+    its folder, errors name it."""
+    path = Path(path)
+    data, _, _ = read_file(path, limits=limits, error=SceneError, fmt="yaml", what="scene file")
+    return _SceneReader(path.name, path.parent.resolve(), str(path)).scene(data)
+
+
+def scene_from_dict(data: dict, *, base=None) -> Scene:
+    """The scene in parsed data ``data``; files it lists are relative to ``base``."""
+    return _SceneReader(None, Path(base) if base is not None else Path.cwd()).scene(data)
 
 
 def load_scene(source) -> Scene:
     """Read and check a scene: a :class:`Scene` (returned as is), a shipped scene name, a path
-    (``str`` or ``Path`` to a ``.yaml``/``.yml`` file), YAML text, or a dict.
+    (``str`` or ``Path`` to a ``.yaml``/``.yml`` file), YAML text, or a dict. For local use
+    (a Python session, the CLI): text from elsewhere goes to :func:`scene_from_text`.
 
     Relative paths inside the scene (structure files, CSV series) are resolved against the
     scene file's folder (the current folder for text and dicts)."""
     if isinstance(source, Scene):
         return source
     if isinstance(source, dict):
-        return _Reader(None, Path.cwd()).scene(source)
+        return scene_from_dict(source)
     if isinstance(source, str) and "\n" not in source and source in scene_names():
-        source = scene_path(source)
+        return scene_from_file(scene_path(source))
     if isinstance(source, Path) or (isinstance(source, str) and "\n" not in source and (
             source.lower().endswith((".yaml", ".yml")) or Path(source).is_file())):
         path = Path(source)
-        try:
-            text = path.read_text(encoding="utf-8")
-        except FileNotFoundError:
-            raise SceneError(f"scene file not found: {str(path)!r}"
-                             f"{_suggest(path.stem, scene_names(), ' (a shipped scene: {!r}?)')}") from None
-        except OSError as err:
-            raise SceneError(f"cannot read scene file {str(path)!r}: {err.strerror}") from None
-        return _Reader(path.name, path.parent.resolve(), str(path)).scene(_parse(text, path.name))
+        if not path.exists():
+            raise SceneError(f"scene file not found: {excerpt(str(path))}"
+                             f"{suggest(path.stem, scene_names(), ' (a shipped scene: {!r}?)')}")
+        return scene_from_file(path)
     if isinstance(source, str):
         if ":" not in source:
-            raise SceneError(f"{source!r} is neither a shipped scene ({', '.join(scene_names())}), "
+            raise SceneError(f"{excerpt(source)} is neither a shipped scene ({', '.join(scene_names())}), "
                              f"an existing scene file nor YAML text")
-        return _Reader(None, Path.cwd()).scene(_parse(source, None))
+        return scene_from_text(source)
     raise SceneError(f"cannot load a scene from a {type(source).__name__}; give a name, a path, "
                      f"YAML text or a dict")
 
 
-def _parse(text: str, file: str | None) -> dict:
-    from tensegrity_core.general.loading import parse_text
-    from tensegrity_core.general.structure import StructureError
-
-    try:
-        data = parse_text(text, "yaml")
-    except StructureError as err:
-        raise SceneError(str(err).replace("structure description", "scene"), line=err.line, file=file) from None
-    return data
-
-
-def _suggest(word, choices, template=" (did you mean {!r}?)") -> str:
-    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1)
-    return template.format(close[0]) if close else ""
-
-
-def _line(container, key) -> int | None:
-    lines = getattr(container, "key_lines", None)
-    if lines is not None and key in lines:
-        return lines[key]
-    items = getattr(container, "item_lines", None)
-    if items is not None and isinstance(key, int) and key < len(items):
-        return items[key]
-    return getattr(container, "line", None)
-
-
-def _type_name(value) -> str:
-    for kind, name in ((bool, "a boolean"), (dict, "a mapping"), (list, "a list"), (str, "a string"),
-                       (int, "an integer"), (float, "a number"), (type(None), "nothing (null)")):
-        if isinstance(value, kind):
-            return name
-    return type(value).__name__
-
-
-class _Reader:
-    """Walks the parsed scene, keeping key paths and lines for the error messages."""
+class _SceneReader(Reader):
+    """The scene's schema over the shared checks; ``base`` is the folder of relative paths."""
 
     def __init__(self, file: str | None, base: Path, source: str | None = None):
-        self.file = file
+        super().__init__(SceneError, file)
         self.base = base
         self.source = source
-
-    # -- primitives ----------------------------------------------------------------------
-    def error(self, message: str, path: tuple, container=None, key=None) -> SceneError:
-        line = _line(container, key) if container is not None else None
-        return SceneError(message, key=path, line=line, file=self.file)
-
-    def mapping(self, value, path, parent=None, key=None) -> dict:
-        if not isinstance(value, dict):
-            raise self.error(f"must be a mapping, got {_type_name(value)} ({value!r})", path, parent, key)
-        return value
-
-    def keys(self, d: dict, path: tuple, allowed, required=()) -> None:
-        for k in d:
-            if k not in allowed:
-                raise self.error(f"unknown key {k!r}{_suggest(k, allowed)}; allowed: {', '.join(allowed)}",
-                                 path + (k,), d, k)
-        for k in required:
-            if k not in d:
-                raise self.error(f"missing required key {k!r}", path, d, None)
-
-    def number(self, d: dict, key, path, *, default=None, lo=None, hi=None, lo_open=False, hi_open=False,
-               allow_inf=False) -> float:
-        if key not in d:
-            if default is None:
-                raise self.error(f"missing required key {key!r}", path, d, None)
-            return default
-        return self.value_number(d[key], path + (key,), d, key, lo=lo, hi=hi, lo_open=lo_open, hi_open=hi_open,
-                                 allow_inf=allow_inf)
-
-    def value_number(self, v, path, container, key, *, lo=None, hi=None, lo_open=False, hi_open=False,
-                     allow_inf=False) -> float:
-        if isinstance(v, str) and allow_inf and v.strip().lower() in ("inf", "infinity", ".inf"):
-            v = math.inf
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise self.error(f"must be a number, got {_type_name(v)} ({v!r})", path, container, key)
-        x = float(v)
-        if math.isnan(x) or (math.isinf(x) and not allow_inf):
-            raise self.error(f"must be finite, got {v!r}", path, container, key)
-        if lo is not None and (x < lo or (lo_open and x == lo)):
-            raise self.error(f"must be {'>' if lo_open else '>='} {lo:g}, got {v!r}", path, container, key)
-        if hi is not None and (x > hi or (hi_open and x == hi)):
-            raise self.error(f"must be {'<' if hi_open else '<='} {hi:g}, got {v!r}", path, container, key)
-        return x
-
-    def vector(self, v, n: int, path, container, key, *, what="numbers") -> tuple:
-        if not isinstance(v, list) or len(v) != n:
-            raise self.error(f"must be a list of {n} {what}, got {_type_name(v)} ({v!r})", path, container, key)
-        return tuple(self.value_number(x, path + (i,), v, i) for i, x in enumerate(v))
-
-    def string(self, d: dict, key, path, *, default=None, choices=None) -> str:
-        if key not in d:
-            if default is None:
-                raise self.error(f"missing required key {key!r}", path, d, None)
-            return default
-        v = d[key]
-        if not isinstance(v, str):
-            raise self.error(f"must be a string, got {_type_name(v)} ({v!r})", path + (key,), d, key)
-        if choices is not None and v not in choices:
-            raise self.error(f"must be one of {', '.join(choices)}, got {v!r}{_suggest(v, choices)}",
-                             path + (key,), d, key)
-        return v
 
     # -- the scene -----------------------------------------------------------------------
     TOP = ("name", "description", "model", "initial", "inputs", "effects", "output", "duration",
@@ -337,12 +297,12 @@ class _Reader:
             out = self.mapping(d["output"], ("output",), d, "output")
             self.keys(out, ("output",), ("rate",), required=("rate",))
             output_rate = self.number(out, "rate", ("output",), lo=0.0, lo_open=True)
+        reason = output_size_reason(duration, output_rate, model)
+        if reason:
+            where = ("output", "rate") if "output" in d else ("duration",)
+            raise self.error(reason, where, d["output"] if "output" in d else d, where[-1])
         integrator = self.integrator(d.get("integrator"), ("integrator",), d)
-        seed = 0
-        if "seed" in d:
-            seed = d["seed"]
-            if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-                raise self.error(f"must be a non-negative integer, got {seed!r}", ("seed",), d, "seed")
+        seed = self.integer(d, "seed", (), default=0, lo=0)
         return Scene(name=name, model=model, initial=initial, inputs=inputs, effects=effects,
                      duration=duration, output_rate=output_rate, integrator=integrator, seed=seed,
                      description=description, source=self.source, data=_plain(d))
@@ -372,7 +332,7 @@ class _Reader:
         if "end_effector" in d:
             ee = self.string(d, "end_effector", path)
             if ee not in structure.node_names:
-                raise self.error(f"unknown node {ee!r}{_suggest(ee, structure.node_names)}",
+                raise self.error(f"unknown node {excerpt(ee)}{suggest(ee, structure.node_names)}",
                                  path + ("end_effector",), d, "end_effector")
             end_effector = structure.node_names.index(ee)
         else:
@@ -381,28 +341,34 @@ class _Reader:
         return GeneralModel(structure, source, end_effector, actuators)
 
     def structure(self, value, path, parent):
-        from tensegrity_core.general import StructureError, example_names, load_example, load_structure
+        from tensegrity_core.general import (
+            StructureError,
+            example_names,
+            load_example,
+            structure_from_dict,
+            structure_from_file,
+        )
 
         try:
             if isinstance(value, dict):
-                return load_structure(dict(value)), "inline"
+                return structure_from_dict(value), "inline"
             if not isinstance(value, str):
                 raise self.error(f"must be a shipped example name, a file path or a mapping, got "
-                                 f"{_type_name(value)}", path, parent, "structure")
+                                 f"{type_name(value)}", path, parent, "structure")
             candidate = self.base / value
             if candidate.is_file():
-                return load_structure(candidate), str(candidate)
+                return structure_from_file(candidate), str(candidate)
             if value in example_names():
                 return load_example(value), value
-            raise self.error(f"no structure file {str(candidate)!r} and no shipped example {value!r}"
-                             f"{_suggest(value, example_names())}", path, parent, "structure")
+            raise self.error(f"no structure file {excerpt(str(candidate))} and no shipped example "
+                             f"{excerpt(value)}{suggest(value, example_names())}", path, parent, "structure")
         except StructureError as err:
             raise self.error(f"invalid structure: {err}", path, parent, "structure") from None
 
     # -- effects ---------------------------------------------------------------------------
     def effects(self, value, path, parent, model) -> dict:
         if not isinstance(value, list):
-            raise self.error(f"must be a list of effects, got {_type_name(value)} ({value!r})", path, parent,
+            raise self.error(f"must be a list of effects, got {type_name(value)} ({excerpt(value)})", path, parent,
                              "effects")
         out: dict = {}
         for i, item in enumerate(value):
@@ -415,10 +381,10 @@ class _Reader:
                 opath, holder = p + (name,), item
             else:
                 raise self.error(f"each effect is a name or a one-key mapping {{name: {{options}}}}, got "
-                                 f"{item!r}", p, value, i)
+                                 f"{excerpt(item)}", p, value, i)
             if name not in EFFECTS:
-                raise self.error(f"unknown effect {name!r}{_suggest(name, EFFECTS)}; effects: {', '.join(EFFECTS)}",
-                                 p, value, i)
+                raise self.error(f"unknown effect {excerpt(name)}{suggest(name, EFFECTS)}; effects: "
+                                 f"{', '.join(EFFECTS)}", p, value, i)
             if name in out:
                 raise self.error(f"effect {name!r} is listed twice", p, value, i)
             options = self.mapping(options, opath, holder, name if holder is item else i)
@@ -426,14 +392,14 @@ class _Reader:
         if "inertia" not in out:
             for name in NEEDS_INERTIA:
                 if name in out:
-                    raise self.error(
-                        f"effect {name!r} needs 'inertia' (without it the model is quasi-static: "
-                        f"{NEEDS_INERTIA[name]})", path + (list(out).index(name),), value, list(out).index(name))
+                    i = list(out).index(name)
+                    raise self.error(f"effect {name!r} needs 'inertia' (without it the model is quasi-static: "
+                                     f"{NEEDS_INERTIA[name]})", path + (i,), value, i)
         if model.kind == "general":
             for name in ("fold_limit", "actuator_compliance", "actuator_lag"):
                 if name in out:
-                    raise self.error(f"effect {name!r} applies to the class-2 mechanism only",
-                                     path + (list(out).index(name),), value, list(out).index(name))
+                    i = list(out).index(name)
+                    raise self.error(f"effect {name!r} applies to the class-2 mechanism only", path + (i,), value, i)
         if "springs" not in out and "inertia" not in out:
             raise self.error("a scene without inertia (quasi-static) needs 'springs': nothing else holds the "
                              "configuration in equilibrium", path, parent, "effects")
@@ -467,8 +433,8 @@ class _Reader:
             forces = {}
             for node, vec in d.items():
                 if node not in names:
-                    raise self.error(f"unknown node {node!r}{_suggest(node, names)}; nodes: {', '.join(names)}",
-                                     path + (node,), d, node)
+                    raise self.error(f"unknown node {excerpt(node)}{suggest(node, names)}; nodes: "
+                                     f"{', '.join(names[:40])}", path + (node,), d, node)
                 forces[names.index(node)] = self.vector(vec, 3, path + (node,), d, node)
             if not forces:
                 raise self.error("lists no node: give node: [fx, fy, fz] [N]", path, d, None)
@@ -517,7 +483,7 @@ class _Reader:
                              "'drawn: true'", path, d, None)
         if "drawn" in d:
             if d["drawn"] is not True:
-                raise self.error(f"must be true, got {d['drawn']!r}", path + ("drawn",), d, "drawn")
+                raise self.error(f"must be true, got {excerpt(d['drawn'])}", path + ("drawn",), d, "drawn")
             return Initial("drawn")
         e = d["equilibrium"]
         if e is True:
@@ -531,7 +497,7 @@ class _Reader:
             for node, vec in pl.items():
                 p = path + ("equilibrium", "preload", node)
                 if node not in names:
-                    raise self.error(f"unknown node {node!r}{_suggest(node, names)}", p, pl, node)
+                    raise self.error(f"unknown node {excerpt(node)}{suggest(node, names)}", p, pl, node)
                 preload[names.index(node)] = self.vector(vec, 3, p, pl, node)
         return Initial("equilibrium", preload=preload)
 
@@ -542,7 +508,7 @@ class _Reader:
                              path, container, key)
         lam1_sq = (2 * L - (r1 + r2)) * (2 * L + (r1 + r2))
         lam2_sq = (L - r1) * (L + r1)
-        limit = (1e-3 * L) ** 2
+        limit = (SINGULAR_GUARD_REL * L) ** 2
         if lam1_sq <= limit:
             raise self.error(f"|rho1 + rho2| = {abs(r1 + r2):g} m must be below 2L = {2 * L:g} m (struts AE and CE "
                              f"meet at E only then; the coordinates are singular at 2L)", path, container, key)
@@ -600,31 +566,32 @@ class _Reader:
         column = self.string(d, "column", path)
         interpolation = self.string(d, "interpolation", path, default="linear", choices=INTERPOLATIONS)
         csv = self.base / file
+        shown = excerpt(str(csv))
         try:
             with open(csv, encoding="utf-8") as fh:
-                header = fh.readline().strip().split(",")
+                header = fh.readline(10_000).strip().split(",")
                 table = np.loadtxt(fh, delimiter=",", ndmin=2)
         except FileNotFoundError:
-            raise self.error(f"CSV file not found: {str(csv)!r}", path + ("file",), d, "file") from None
-        except ValueError as err:
-            raise self.error(f"cannot read {str(csv)!r} as numbers after a header row: {err}",
+            raise self.error(f"CSV file not found: {shown}", path + ("file",), d, "file") from None
+        except (ValueError, OSError) as err:          # UnicodeDecodeError is a ValueError
+            raise self.error(f"cannot read {shown} as numbers after a header row: {excerpt(str(err))}",
                              path + ("file",), d, "file") from None
         header = [h.strip() for h in header]
         time_col = self.string(d, "time", path, default=header[0])
         for k, col in (("time", time_col), ("column", column)):
             if col not in header:
-                raise self.error(f"{str(csv)!r} has no column {col!r}{_suggest(col, header)}; columns: "
-                                 f"{', '.join(header)}", path + (k,), d, k)
+                raise self.error(f"{shown} has no column {excerpt(col)}{suggest(col, header)}; columns: "
+                                 f"{', '.join(header[:40])}", path + (k,), d, k)
         if table.shape[1] != len(header) or table.shape[0] < 1:
-            raise self.error(f"{str(csv)!r}: {table.shape[0]} rows of {table.shape[1]} numbers for "
+            raise self.error(f"{shown}: {table.shape[0]} rows of {table.shape[1]} numbers for "
                              f"{len(header)} header columns", path + ("file",), d, "file")
         t = table[:, header.index(time_col)]
         v = table[:, header.index(column)]
         if not (np.isfinite(t).all() and np.isfinite(v).all()):
-            raise self.error(f"{str(csv)!r} contains non-finite values", path + ("file",), d, "file")
+            raise self.error(f"{shown} contains non-finite values", path + ("file",), d, "file")
         if np.any(np.diff(t) <= 0):
             i = int(np.flatnonzero(np.diff(t) <= 0)[0])
-            raise self.error(f"{str(csv)!r}: times must increase, but row {i + 3} ({t[i + 1]:g} s) does not "
+            raise self.error(f"{shown}: times must increase, but row {i + 3} ({t[i + 1]:g} s) does not "
                              f"follow row {i + 2} ({t[i]:g} s)", path + ("file",), d, "file")
         if interpolation == "cubic" and len(t) < 3:
             raise self.error("cubic interpolation needs at least 3 samples", path + ("interpolation",), d,

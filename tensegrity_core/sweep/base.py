@@ -54,8 +54,7 @@ def plain(value):
 
 def parse_file(path: Path) -> dict:
     """A YAML or TOML file as a plain dict (the parser the core's loaders use)."""
-    from tensegrity_core.general.loading import parse_text
-    from tensegrity_core.general.structure import StructureError
+    from tensegrity_core.schema import SchemaError, parse_text
 
     try:
         text = path.read_text(encoding="utf-8")
@@ -63,7 +62,7 @@ def parse_file(path: Path) -> dict:
         raise BaseError(f"cannot read {str(path)!r}: {err.strerror}") from None
     try:
         data = parse_text(text, "toml" if path.suffix.lower() == ".toml" else "yaml")
-    except StructureError as err:
+    except SchemaError as err:
         raise BaseError(f"{path.name}: {err}") from None
     return plain(data)
 

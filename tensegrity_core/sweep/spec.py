@@ -203,14 +203,12 @@ def load_sweep(source) -> Sweep:
 
 
 def _parse(text: str, file: str | None) -> dict:
-    from tensegrity_core.general.loading import parse_text
-    from tensegrity_core.general.structure import StructureError
+    from tensegrity_core.schema import SchemaError, parse_text
 
     try:
         data = parse_text(text, "yaml")
-    except StructureError as err:
-        message = str(err).replace("a structure description", "a sweep")
-        raise SweepError(message, file=file) from None
+    except SchemaError as err:
+        raise SweepError(err.reason, line=err.line, file=file) from None
     return data
 
 

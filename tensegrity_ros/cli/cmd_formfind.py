@@ -45,14 +45,27 @@ def register(subparsers) -> None:
 
 
 def _load(file: str):
-    from tensegrity_core.general import StructureError, example_names, load_example, load_structure
+    """The structure in ``file``, or the shipped example of that name."""
+    from tensegrity_core.general import StructureError, example_names, load_example, structure_from_file
+    from tensegrity_core.general.loading import SUFFIXES
+    from tensegrity_core.schema import excerpt, suggest
 
     try:
-        if not Path(file).exists() and file in example_names():
+        if file in example_names() and not _exists(file):
             return load_example(file)
-        return load_structure(Path(file))
+        if not file.lower().endswith(SUFFIXES) and not _exists(file):
+            raise CliError(f"no structure file or shipped example {excerpt(file)}"
+                           f"{suggest(file, example_names())}; shipped examples: {', '.join(example_names())}")
+        return structure_from_file(file)
     except StructureError as err:
         raise CliError(str(err)) from None
+
+
+def _exists(file: str) -> bool:
+    try:
+        return Path(file).exists()
+    except OSError:                          # e.g. a name longer than the system allows
+        return False
 
 
 def _progress(quiet: bool):
@@ -74,7 +87,8 @@ def _progress(quiet: bool):
 
 
 def run_formfind(args) -> int:
-    from tensegrity_core.general import StructureError, form_find
+    from tensegrity_core.errors import TensegrityError
+    from tensegrity_core.general import form_find
 
     structure = _load(args.file)
     out_path = Path(args.output) if args.output else None
@@ -87,7 +101,7 @@ def run_formfind(args) -> int:
     try:
         result = form_find(structure, method=args.method, tol=args.tol, max_iter=args.max_iter,
                            callback=callback, **options)
-    except StructureError as err:
+    except TensegrityError as err:
         raise CliError(str(err)) from None
     finally:
         if bar is not None:

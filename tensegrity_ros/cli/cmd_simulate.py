@@ -57,6 +57,7 @@ def run_scenes(args) -> int:
 
 def run_simulate(args) -> int:
     from tensegrity_core.errors import TensegrityError
+    from tensegrity_core.schema import excerpt
     from tensegrity_core.sim import SceneError, load_scene, simulate
 
     out = Path(args.output) if args.output else None
@@ -70,6 +71,8 @@ def run_simulate(args) -> int:
             scene = scene.with_duration(args.duration)
     except SceneError as err:
         raise CliError(str(err)) from None
+    except OSError as err:                   # e.g. a name longer than the system allows
+        raise CliError(f"cannot read the scene {excerpt(args.scene)}: {err.strerror}") from None
     bar = None
     if not (args.quiet or args.json):
         from tqdm import tqdm
@@ -88,7 +91,10 @@ def run_simulate(args) -> int:
         if bar is not None:
             bar.close()
     if out is not None:
-        traj.to_npz(out) if out.suffix.lower() == ".npz" else traj.to_csv(out)
+        try:
+            traj.to_npz(out) if out.suffix.lower() == ".npz" else traj.to_csv(out)
+        except OSError as err:
+            raise CliError(f"cannot write {str(out)!r}: {err.strerror}") from None
     if args.plot:
         from tensegrity_core.sim.plotting import plot_trajectory
 

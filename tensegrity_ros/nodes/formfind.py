@@ -1,11 +1,17 @@
 """``tensegrity_formfind``: the ``find_form`` service over the core's form-finding.
 
-The request carries a structure description (YAML, the structure-file format of
-``docs/structures.md``). Each request is solved in its own worker process (forked from a
+The request carries a structure description as *text* (YAML or JSON, the structure-file
+format of ``docs/structures.md``); the service never reads a file or a shipped example,
+whatever the text says. Each request is solved in its own worker process (forked from a
 forkserver with the numerical core preloaded), at most ``max_workers`` at once; the
 service callbacks run in a reentrant callback group on a multi-threaded executor, so a
-long request never blocks other callers, and a request over ``time_limit`` is stopped.
-Malformed, oversized or non-converging requests get ``success = false`` and a reason.
+long request never blocks other callers. Every request is bounded: its size
+(``max_request_bytes``) before anything else, its nesting, aliases and members
+(``max_members``) while it is parsed, its time (``time_limit``, from the worker's start,
+parsing included) and its memory (``max_worker_memory_mb``, the worker's address space).
+Malformed, oversized, over-limit or non-converging requests get ``success = false`` and a
+short reason (values quoted in a few dozen characters at most) that says which phase a
+time limit hit.
 """
 
 from __future__ import annotations
@@ -13,6 +19,7 @@ from __future__ import annotations
 import multiprocessing
 import sys
 import threading
+import time
 
 from tensegrity_ros.nodes.common import SERVICE_QOS, declare, rclpy, spin_node
 from geometry_msgs.msg import Point
@@ -21,17 +28,19 @@ from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 from tensegrity_msgs.srv import FindForm
 
+from tensegrity_core.schema import Limits, clip
 from tensegrity_ros import formfind_worker
 
 _CTX = multiprocessing.get_context("forkserver")
 _CTX.set_forkserver_preload(["tensegrity_ros.formfind_worker", "tensegrity_core.general"])
-
-
-def _child(conn, *args) -> None:
-    try:
-        conn.send(formfind_worker.solve(*args))
-    finally:
-        conn.close()
+#: How long a form-finding worker may run past the time limit to stop itself at its next
+#: iteration and send what it has (a parsing worker is stopped at the limit itself) [s].
+GRACE = 2.0
+#: How long a worker may take to start (the first one also starts the forkserver, which
+#: imports the core) before the time limit starts counting [s].
+STARTUP_LIMIT = 60.0
+#: How much of a worker's failure message goes into the node's log (characters).
+LOG_CHARS = 200
 
 
 class FormFindNode(Node):
@@ -39,10 +48,16 @@ class FormFindNode(Node):
         super().__init__("tensegrity_formfind", **kwargs)
         self.max_workers = declare(self, "max_workers", 2, "form-findings run at once (processes)",
                                    lo=1, hi=64, read_only=True)
-        self.time_limit = declare(self, "time_limit", 60.0, "wall-time limit per request [s]", lo=0.1, read_only=True)
+        self.time_limit = declare(self, "time_limit", 60.0, "wall-time limit per request, parsing included [s]",
+                                  lo=0.1, read_only=True)
         self.max_request_bytes = declare(self, "max_request_bytes", 4_000_000,
                                          "largest structure description accepted [bytes]", lo=1, read_only=True)
-        self.max_members = declare(self, "max_members", 50_000, "largest structure accepted [members]", lo=1, read_only=True)
+        self.max_members = declare(self, "max_members", 50_000, "largest structure accepted [members]", lo=1,
+                                   read_only=True)
+        self.max_worker_memory_mb = declare(self, "max_worker_memory_mb", 2048,
+                                            "memory a worker may take beyond the preloaded core [MiB]", lo=64,
+                                            read_only=True)
+        self.limits = Limits(max_bytes=self.max_request_bytes)
         self._slots = threading.BoundedSemaphore(self.max_workers)
         self.create_service(FindForm, "find_form", self.on_request, qos_profile=SERVICE_QOS,
                             callback_group=ReentrantCallbackGroup())
@@ -50,7 +65,7 @@ class FormFindNode(Node):
 
     def on_request(self, req: FindForm.Request, res: FindForm.Response) -> FindForm.Response:
         res.success = False
-        size = len(req.structure.encode())
+        size = len(req.structure.encode("utf-8", "surrogatepass"))
         if size > self.max_request_bytes:
             res.message = (f"structure description is {size} bytes, more than max_request_bytes = "
                            f"{self.max_request_bytes}")
@@ -61,9 +76,8 @@ class FormFindNode(Node):
         if req.tolerance < 0 or req.tolerance != req.tolerance:
             res.message = f"tolerance must be >= 0 (0 = default), got {req.tolerance}"
             return res
-        time_limit, max_members = self.time_limit, self.max_members
         with self._slots:
-            out = self._run(req.structure, float(req.tolerance), int(req.max_iterations), time_limit, max_members)
+            out = self._run(req.structure, float(req.tolerance), int(req.max_iterations))
         res.success = bool(out["success"])
         res.message = out["message"]
         res.nodes = [Point(x=p[0], y=p[1], z=p[2]) for p in out["nodes"]]
@@ -72,32 +86,46 @@ class FormFindNode(Node):
         res.residual = out["residual"]
         res.min_stiffness_eigenvalue = out["min_stiffness_eigenvalue"]
         if not res.success:
-            self.get_logger().warning(f"find_form failed: {res.message.splitlines()[0] if res.message else ''}")
+            first = res.message.splitlines()[0] if res.message else ""
+            self.get_logger().warning(f"find_form failed: {clip(first, LOG_CHARS)}")
         return res
 
-    def _run(self, text: str, tol: float, max_iter: int, time_limit: float, max_members: int) -> dict:
+    def _run(self, text: str, tol: float, max_iter: int) -> dict:
+        """Solve in a worker; stop it at the time limit, which counts from the worker's first
+        report (form-finding: after a short grace for its own stop), and say in which phase."""
+        time_limit = self.time_limit
         parent, child = _CTX.Pipe(duplex=False)
-        proc = _CTX.Process(target=_child, args=(child, text, tol, max_iter, time_limit, max_members), daemon=True)
+        proc = _CTX.Process(target=formfind_worker.run, daemon=True,
+                            args=(child, text, tol, max_iter, time_limit, self.max_members, self.limits,
+                                  self.max_worker_memory_mb * 2**20))
         proc.start()
         child.close()
-        grace = time_limit + 10.0  # the worker stops itself at time_limit; this is the backstop
+        phase, start = "starting the worker", None
         try:
-            if parent.poll(grace):
-                return parent.recv()
-            return _failure(f"form-finding exceeded the time limit of {time_limit:g} s and was stopped")
+            while True:
+                if start is None:
+                    end = time.monotonic() + STARTUP_LIMIT
+                else:
+                    end = start + time_limit + (GRACE if phase == formfind_worker.FORM_FINDING else 0.0)
+                if not parent.poll(max(0.0, end - time.monotonic())):
+                    limit = time_limit if start is not None else STARTUP_LIMIT
+                    return formfind_worker.empty_answer(
+                        f"time limit of {limit:g} s reached while {phase}; the worker was stopped")
+                kind, value = parent.recv()
+                if kind == "result":
+                    return value
+                phase = value
+                start = time.monotonic() if start is None else start
         except EOFError:
-            return _failure(f"form-finding worker died (exit code {proc.exitcode})")
+            proc.join(timeout=5)
+            return formfind_worker.empty_answer(
+                f"the form-finding worker died while {phase} (exit code {proc.exitcode}; its memory is capped "
+                f"at max_worker_memory_mb = {self.max_worker_memory_mb})")
         finally:
             parent.close()
             if proc.is_alive():
                 proc.kill()
             proc.join(timeout=5)
-
-
-def _failure(message: str) -> dict:
-    nan = float("nan")
-    return {"success": False, "message": message, "nodes": [], "member_forces": [],
-            "iterations": 0, "residual": nan, "min_stiffness_eigenvalue": nan}
 
 
 def main(argv=None) -> int:

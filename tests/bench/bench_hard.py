@@ -1,8 +1,6 @@
 """Benchmarks of the issue-9 fixes (``--only hard``), each against its baseline in the same run.
 
-- ``yaml_load``: ``load_structure`` of a C spine description (quick: 300 vertebrae,
-  ~0.34 MB; full: 600, ~0.7 MB) with the libyaml fast path against the line-tracking
-  parser alone (the old path; still used to locate errors).
+(Structure loading, once ``yaml_load`` here, has its own group: ``--only load``.)
 - ``slack_newton``: form-finding of the C spine drawn straight (strings go slack in the
   first steps) with the slack-string Newton matrix against the exact K_T throughout
   (quick: 100 vertebrae; full: 100 and 300).
@@ -21,21 +19,6 @@ def _timed(fn):
     t0 = time.perf_counter()
     out = fn()
     return out, time.perf_counter() - t0
-
-
-@benchmark
-def yaml_load(ctx: Context) -> list[Row]:
-    from tensegrity_core.general import dump_structure, load_structure, tensegrity_spine
-    from tensegrity_core.general.loading import parse_text, structure_from_dict
-
-    n = 300 if ctx.quick else 600
-    text = dump_structure(tensegrity_spine(n, shape="C"))
-    _, t_slow = _timed(lambda: structure_from_dict(parse_text(text)))
-    _, t_fast = _timed(lambda: load_structure(text))
-    tag = f"{len(text) / 1e6:.2f} MB"
-    return [Row("hard", f"line-tracking YAML parser, {tag}", t_slow, "s"),
-            Row("hard", f"load_structure (libyaml first), {tag}", t_fast, "s",
-                baseline=f"line-tracking YAML parser, {tag}", target=">= 3x")]
 
 
 @benchmark

@@ -179,3 +179,38 @@ def test_general_scenes_check_their_structure_and_effects():
 def test_commanded_inputs_hold_by_default():
     scene = load_scene(GOOD.replace("f1: {law: proportional, gain: 10.0}", "f1: {law: commanded}"))
     assert isinstance(scene.inputs["f1"], Commanded) and scene.inputs["f1"].initial is None
+
+
+def test_output_that_would_not_fit_in_memory_is_refused_before_the_run():
+    # 1e9 Hz for 2 s: 2e9 samples of 64 values (class-2) = 1.0e12 bytes, beyond the 2 GiB bound
+    err = error(GOOD.replace("output: {rate: 50}", "output: {rate: 1.0e9}"))
+    assert err.key == ("output", "rate") and err.line == 15
+    assert "gives 2e+09 samples of 64 values, 1.02e+12 bytes, more than the 2 GiB" in str(err)
+    err = error(GOOD.replace("output: {rate: 50}\n", "").replace("duration: 2.0", "duration: 1.0e9"))
+    assert err.key == ("duration",) and "samples" in str(err)
+    scene = load_scene(GOOD)
+    with pytest.raises(SceneError, match="samples of 64 values"):
+        scene.with_duration(1e12)
+    with pytest.raises(SceneError, match=r"duration: must be at most 1e\+15 in magnitude, got 1e\+300"):
+        scene.with_duration(1e300)
+    assert scene.with_duration(3.0).duration == 3.0
+
+
+@pytest.mark.parametrize("old, new, key", [
+    ("params: {k: 1.0, c: 0.01}", "params: {k: 1.0, c: 0.01, L: 1.0e300}", "model.params.L"),
+    ("duration: 2.0", "duration: 1.0e300", "duration"),
+    ("gain: 10.0", "gain: -1.0e16", "inputs.f1.gain"),
+])
+def test_extreme_numbers_are_refused_by_name(old, new, key):
+    err = error(GOOD.replace(old, new))
+    assert str(err).startswith(f"{key}: must be ") and len(str(err)) < 120
+
+
+def test_scene_text_is_never_taken_for_a_file_name(tmp_path):
+    from tensegrity_core.sim import scene_from_text
+
+    path = tmp_path / "s.yaml"
+    path.write_text(GOOD)
+    with pytest.raises(SceneError, match="must be a mapping, got a string"):
+        scene_from_text(str(path))
+    assert scene_from_text(GOOD).name == "test scene"

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from tensegrity_core.general.structure import StructureError, suggest
+from tensegrity_core.general.structure import StructureError
+from tensegrity_core.schema import excerpt, suggest
 
 _DIR = Path(__file__).parent
 
@@ -20,15 +21,14 @@ def example_names() -> list[str]:
 
 def example_path(name: str) -> Path:
     """Path of the example ``name`` (e.g. ``"tensegrity_table"``)."""
-    path = _DIR / f"{name}.yaml"
-    if not path.is_file():
-        raise StructureError(f"unknown example {name!r}{suggest(name, example_names())}; "
+    if not isinstance(name, str) or name not in example_names():
+        raise StructureError(f"unknown example {excerpt(name)}{suggest(name, example_names())}; "
                              f"available: {', '.join(example_names())}")
-    return path
+    return _DIR / f"{name}.yaml"
 
 
 def load_example(name: str):
     """The example ``name`` as a structure."""
-    from tensegrity_core.general.loading import load_structure
+    from tensegrity_core.general.loading import structure_from_file
 
-    return load_structure(example_path(name))
+    return structure_from_file(example_path(name))

@@ -1,0 +1,117 @@
+"""The one error class of every description format, and the pieces its messages are made of.
+
+:class:`SchemaError` carries where the problem is: ``key`` (the key path, e.g.
+``("effects", 2, "fold_limit")``), ``line`` (1-based, when the text had lines) and ``file``
+(the file's name, when there was a file). Each format subclasses it
+(:class:`~tensegrity_core.sim.errors.SceneError`,
+:class:`~tensegrity_core.general.structure.StructureError`), so callers catch the format's
+class or this one. Messages quote offending values through :func:`excerpt`, which never
+renders more than a short, bounded piece of a value, however large or deep the value is.
+"""
+
+from __future__ import annotations
+
+import difflib
+import reprlib
+from typing import Any, ClassVar
+
+from tensegrity_core.errors import TensegrityError
+from tensegrity_core.schema.keypath import format_key_path
+
+#: The longest quoted value in a message (characters).
+EXCERPT_CHARS = 60
+
+_REPR = reprlib.Repr()
+_REPR.maxlevel, _REPR.maxdict, _REPR.maxlist, _REPR.maxtuple, _REPR.maxset = 2, 4, 6, 6, 4
+_REPR.maxstring, _REPR.maxother, _REPR.maxlong = EXCERPT_CHARS, EXCERPT_CHARS, 40
+
+
+class SchemaError(TensegrityError, ValueError):
+    """A description is invalid.
+
+    ``reason`` is the message without location, ``key`` the key path (tuple of str and
+    int), ``line`` the 1-based line or ``None``, ``file`` the file name or ``None``.
+    ``str(err)`` reads ``file: key.path: reason (line N)`` with the parts that are known.
+    """
+
+    #: Whether ``str()`` starts with the key path. Formats whose reasons name the entry in
+    #: words (``member 's3': ...``) turn it off; ``key`` is set either way.
+    show_key: ClassVar[bool] = True
+
+    def __init__(self, reason: str, *, key: tuple = (), line: int | None = None, file: str | None = None):
+        super().__init__(reason)
+        self.reason = reason
+        self.key = tuple(key)
+        self.line = line
+        self.file = file
+
+    def __str__(self) -> str:
+        text = self.reason
+        if self.show_key and self.key:
+            text = f"{format_key_path(self.key)}: {text}"
+        if self.line is not None:
+            text += f" (line {self.line})"
+        if self.file:
+            text = f"{self.file}: {text}"
+        return text
+
+    def located(self, *, line: int | None = None, file: str | None = None) -> "SchemaError":
+        """The same error (same class) with ``line`` and ``file`` filled in where unknown."""
+        err = type(self).__new__(type(self))
+        SchemaError.__init__(err, self.reason, key=self.key, line=self.line if self.line is not None else line,
+                             file=self.file or file)
+        return err
+
+    def __reduce__(self):
+        return _rebuild, (type(self), self.reason, self.key, self.line, self.file)
+
+
+def _rebuild(cls, reason, key, line, file):
+    err = cls.__new__(cls)
+    SchemaError.__init__(err, reason, key=key, line=line, file=file)
+    return err
+
+
+def excerpt(value: Any) -> str:
+    """A short rendering of ``value`` for a message: ``repr`` for small values; for large
+    ones a bounded piece (``'aaaa...aaaa' (70000 characters)``, ``[[...], [...], ...]``),
+    computed without rendering the whole value. numpy scalars show as plain numbers."""
+    if hasattr(value, "item") and getattr(value, "ndim", None) == 0:
+        value = value.item()
+    text = _REPR.repr(value)
+    if isinstance(value, (str, bytes)):
+        return text + (f" ({len(value)} characters)" if len(value) > EXCERPT_CHARS else "")
+    return clip(text, EXCERPT_CHARS + 20)
+
+
+def clip(text: str, limit: int = 200) -> str:
+    """``text`` cut to ``limit`` characters (for messages that come from a library)."""
+    text = str(text)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def type_name(value: Any) -> str:
+    """``"a number"``, ``"a string"``, ... : what a value is, in words."""
+    for kind, name in ((bool, "a boolean"), (dict, "a mapping"), (list, "a list"), (str, "a string"),
+                       (int, "an integer"), (float, "a number"), (type(None), "nothing (null)")):
+        if isinstance(value, kind):
+            return name
+    return type(value).__name__
+
+
+#: Suggestions are searched among at most this many choices of similar length (difflib
+#: compares every candidate; a 100,000-name structure would make an error take seconds).
+_MAX_SUGGESTION_CANDIDATES = 2_000
+_MAX_SUGGESTION_WORD = 100
+
+
+def suggest(word: Any, choices, template: str = " (did you mean {!r}?)") -> str:
+    """``template`` filled with the closest of ``choices`` to ``word`` (difflib), or ``""``."""
+    word = str(word)
+    if len(word) > _MAX_SUGGESTION_WORD:
+        return ""
+    names = [str(c) for c in choices]
+    if len(names) > _MAX_SUGGESTION_CANDIDATES:
+        names = [c for c in names if abs(len(c) - len(word)) <= 2][:_MAX_SUGGESTION_CANDIDATES]
+    close = difflib.get_close_matches(word, names, n=1)
+    return template.format(close[0]) if close else ""

@@ -1,0 +1,45 @@
+"""Parsed containers that remember where they came from.
+
+The YAML reader builds :class:`LocatedDict` and :class:`LocatedList` (plain ``dict`` and
+``list`` subclasses, so schemas read them like any parsed data) that carry the 1-based line
+of themselves and of each key or item. :func:`line_of` asks any container for a line and
+gets ``None`` from containers without lines (dicts built in Python, JSON, TOML).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+class LocatedDict(dict):
+    """A mapping with ``line`` (its own) and ``key_lines`` (key -> line of the key)."""
+
+    __slots__ = ("line", "key_lines")
+
+    def __init__(self, line: int | None = None):
+        super().__init__()
+        self.line = line
+        self.key_lines: dict = {}
+
+
+class LocatedList(list):
+    """A sequence with ``line`` (its own) and ``item_lines`` (line of each item)."""
+
+    __slots__ = ("line", "item_lines")
+
+    def __init__(self, line: int | None = None):
+        super().__init__()
+        self.line = line
+        self.item_lines: list = []
+
+
+def line_of(container: Any, key: Any = None) -> int | None:
+    """The line of ``container[key]`` (of the key, for a mapping), else of ``container``
+    itself, else ``None``."""
+    if isinstance(container, LocatedDict):
+        return container.key_lines.get(key, container.line)
+    if isinstance(container, LocatedList):
+        if isinstance(key, int) and 0 <= key < len(container.item_lines):
+            return container.item_lines[key]
+        return container.line
+    return None
