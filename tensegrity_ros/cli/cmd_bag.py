@@ -21,7 +21,7 @@ def _bag_errors(fn):
 
 @_bag_errors
 def _record(args) -> int:
-    from tensegrity_ros.ros_env import require_rclpy
+    from tensegrity_ros.rclpy_utils.env import require_rclpy
 
     require_rclpy()
     from tensegrity_ros.bag.recorder import record
@@ -42,7 +42,7 @@ def _clock_rate(text: str) -> float:
 
 @_bag_errors
 def _play(args) -> int:
-    from tensegrity_ros.ros_env import require_rclpy
+    from tensegrity_ros.rclpy_utils.env import require_rclpy
 
     require_rclpy()
     from tensegrity_ros.bag.player import play

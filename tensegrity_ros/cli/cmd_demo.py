@@ -1,4 +1,4 @@
-"""``tensegrity demo``: the suite end to end (see :mod:`tensegrity_ros.demo`)."""
+"""``tensegrity demo``: the suite end to end (see :mod:`tensegrity_ros.apps.demo`)."""
 
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ def register(sub) -> None:
 
 def _demo(args) -> int:
     from tensegrity_ros.cli._common import CliError
-    from tensegrity_ros.demo import run_demo
+    from tensegrity_ros.apps.demo import run_demo
 
     if not args.real_time_factor > 0:
         raise CliError(f"--real-time-factor must be > 0, got {args.real_time_factor}")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from typing import Callable, Sequence
 
-from tensegrity_ros.ros_env import require_rclpy
+from tensegrity_ros.rclpy_utils.env import require_rclpy
 
 rclpy = require_rclpy()
 from rcl_interfaces.msg import (  # noqa: E402

@@ -21,10 +21,10 @@ from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 from tensegrity_msgs.srv import FindForm
 
-from tensegrity_ros import formfind_worker
+from tensegrity_ros.nodes import formfind_worker
 
 _CTX = multiprocessing.get_context("forkserver")
-_CTX.set_forkserver_preload(["tensegrity_ros.formfind_worker", "tensegrity_core.general"])
+_CTX.set_forkserver_preload(["tensegrity_ros.nodes.formfind_worker", "tensegrity_core.general"])
 
 
 def _child(conn, *args) -> None:

@@ -34,8 +34,8 @@ import numpy as np
 
 from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics
 from tensegrity_core.class2.control import ActuatorTracker
-from tensegrity_ros.launch import Launcher, ProcessSpec
-from tensegrity_ros.ros_env import require_rclpy
+from tensegrity_ros.apps.launch import Launcher, ProcessSpec
+from tensegrity_ros.rclpy_utils.env import require_rclpy
 
 #: End-effector waypoints, offsets [m] from D at rho1 = rho2 = 0.7 (the scene's rest).
 WAYPOINT_OFFSETS = ((0.08, 0.0), (0.08, 0.06), (-0.04, 0.06), (0.0, 0.0))

@@ -48,8 +48,8 @@ from tensegrity_core.class2 import dynamics_singularity
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.sim import Simulator, load_scene
 from tensegrity_core.sim.simulator import JointSample
-from tensegrity_ros.actuator_commands import CommandError, parse_command
-from tensegrity_ros.matching import wait_for_matches
+from tensegrity_ros.nodes.actuator_commands import CommandError, parse_command
+from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
 JOINT_NAMES = ["rho1", "rho2", "beta"]
 #: Catch-up limit: if ticks fall this far behind wall time, the simulation slips instead.
