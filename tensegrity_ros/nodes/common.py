@@ -8,11 +8,7 @@ from typing import Callable, Sequence
 from tensegrity_ros.rclpy_utils.env import require_rclpy
 
 rclpy = require_rclpy()
-from rcl_interfaces.msg import (  # noqa: E402
-    IntegerRange,
-    ParameterDescriptor,
-    SetParametersResult,
-)
+from rcl_interfaces.msg import IntegerRange, ParameterDescriptor  # noqa: E402
 from rclpy.executors import ExternalShutdownException  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from rclpy.qos import QoSProfile, qos_profile_services_default  # noqa: E402
@@ -81,19 +77,6 @@ def declare_mechanism(node: Node, defaults: Class2Params) -> Class2Params:
         return defaults.with_overrides(values)
     except ParameterError as err:
         raise SystemExit(f"{node.get_name()}: invalid mechanism parameter: {err}") from None
-
-
-def reject_changes_of(names: Sequence[str]) -> Callable:
-    """A set-parameters callback refusing changes to ``names`` at run time."""
-    frozen = set(names)
-
-    def callback(params) -> SetParametersResult:
-        for p in params:
-            if p.name in frozen:
-                return SetParametersResult(successful=False, reason=f"{p.name} cannot change while running")
-        return SetParametersResult(successful=True)
-
-    return callback
 
 
 def spin_node(make_node: Callable[[], Node], args: Sequence[str] | None, executor_factory=None) -> int:

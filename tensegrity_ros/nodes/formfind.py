@@ -22,6 +22,7 @@ from rclpy.node import Node
 from tensegrity_msgs.srv import FindForm
 
 from tensegrity_ros.nodes import formfind_worker
+from tensegrity_ros.nodes.formfind_worker import FormFindReply
 
 _CTX = multiprocessing.get_context("forkserver")
 _CTX.set_forkserver_preload(["tensegrity_ros.nodes.formfind_worker", "tensegrity_core.general"])
@@ -64,18 +65,18 @@ class FormFindNode(Node):
         time_limit, max_members = self.time_limit, self.max_members
         with self._slots:
             out = self._run(req.structure, float(req.tolerance), int(req.max_iterations), time_limit, max_members)
-        res.success = bool(out["success"])
-        res.message = out["message"]
-        res.nodes = [Point(x=p[0], y=p[1], z=p[2]) for p in out["nodes"]]
-        res.member_forces = out["member_forces"]
-        res.iterations = out["iterations"]
-        res.residual = out["residual"]
-        res.min_stiffness_eigenvalue = out["min_stiffness_eigenvalue"]
+        res.success = out.success
+        res.message = out.message
+        res.nodes = [Point(x=p[0], y=p[1], z=p[2]) for p in out.nodes]
+        res.member_forces = out.member_forces
+        res.iterations = out.iterations
+        res.residual = out.residual
+        res.min_stiffness_eigenvalue = out.min_stiffness_eigenvalue
         if not res.success:
             self.get_logger().warning(f"find_form failed: {res.message.splitlines()[0] if res.message else ''}")
         return res
 
-    def _run(self, text: str, tol: float, max_iter: int, time_limit: float, max_members: int) -> dict:
+    def _run(self, text: str, tol: float, max_iter: int, time_limit: float, max_members: int) -> FormFindReply:
         parent, child = _CTX.Pipe(duplex=False)
         proc = _CTX.Process(target=_child, args=(child, text, tol, max_iter, time_limit, max_members), daemon=True)
         proc.start()
@@ -84,20 +85,14 @@ class FormFindNode(Node):
         try:
             if parent.poll(grace):
                 return parent.recv()
-            return _failure(f"form-finding exceeded the time limit of {time_limit:g} s and was stopped")
+            return FormFindReply(message=f"form-finding exceeded the time limit of {time_limit:g} s and was stopped")
         except EOFError:
-            return _failure(f"form-finding worker died (exit code {proc.exitcode})")
+            return FormFindReply(message=f"form-finding worker died (exit code {proc.exitcode})")
         finally:
             parent.close()
             if proc.is_alive():
                 proc.kill()
             proc.join(timeout=5)
-
-
-def _failure(message: str) -> dict:
-    nan = float("nan")
-    return {"success": False, "message": message, "nodes": [], "member_forces": [],
-            "iterations": 0, "residual": nan, "min_stiffness_eigenvalue": nan}
 
 
 def main(argv=None) -> int:
