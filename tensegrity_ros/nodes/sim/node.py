@@ -7,22 +7,34 @@ the actuator's nodes together). Publishes, stamped with simulation time:
   [rad]; position, velocity, and effort = the applied actuator force [N] (0 for beta);
 - ``end_effector`` (geometry_msgs/PointStamped): node D [m];
 - ``mechanism_state`` (tensegrity_msgs/MechanismState): nodes, member lengths and
-  forces, energies; at ``state_rate``;
+  forces, energies, active contacts; at ``state_rate``;
 - ``markers`` (visualization_msgs/MarkerArray): members coloured by force (red tension,
   blue compression), nodes as spheres; at ``marker_rate``;
+- ``events`` (tensegrity_msgs/SimulationEvent): every fold, release, singular stop and
+  limit, at the time the integrator located it;
 - ``/clock`` (rosgraph_msgs/Clock): simulation time, so other nodes can use_sim_time.
 
-Service ``reset`` (std_srvs/Trigger): back to the scene's initial state (and out of a
-stopped simulation); the clock keeps running forward, so stamps stay monotonic.
+Services: ``reset`` (std_srvs/Trigger: back to the initial state, the clock keeps
+running forward) and the ``simulation_interfaces`` standard: ``get_simulator_features``,
+``get_simulation_state``, ``set_simulation_state``, ``step_simulation``,
+``reset_simulation``, and the action ``simulate_steps``.
 
-The node runs on wall (steady) time and owns the simulation clock: each tick advances the
-core simulator to ``real_time_factor`` x elapsed wall time (0 = as fast as possible, one
-publish period of simulated time per tick). Bad commands (wrong lengths, unknown names,
-NaN/inf, over ``max_force``) are rejected with a throttled warning naming the problem;
-publishing never stops and NaN is never integrated. After ``command_timeout`` seconds
-without a valid command the forces drop to ``safe_force``. When ``lambda1/L`` or
-``lambda2/L`` falls below ``singularity_warning`` a throttled warning says which set is
-near and how near, before the simulation has to stop there.
+Time advances in whole steps of ``step_size``; ``/clock`` reads exactly ``k * step_size``
+(integer nanoseconds) after ``k`` steps. States (:mod:`.control`): playing, paused
+(time stands; stepping requests step it), stopped. Playing is free-running on the wall
+clock (``real_time_factor``; a pause or a slow machine never causes catch-up steps), or
+lockstep (``lockstep: true``): after publishing the state at t_k the node waits for a
+command stamped t_k and integrates [t_k, t_k+1] under it held, or under ``safe_force``
+after ``lockstep_timeout``. The node is three parts: a receiver (:mod:`.receiver`:
+validates a command once), the plant (:mod:`.plant`: the core simulator and the clock)
+and a sender (:mod:`.sender`: pure functions from samples to messages).
+
+Bad commands (wrong lengths, unknown names, NaN/inf, over ``max_force``, stamped for
+another step in lockstep) are rejected with a throttled warning naming the problem;
+publishing never stops and NaN is never integrated. Free-running, after
+``command_timeout`` seconds without a valid command the forces drop to ``safe_force``.
+When ``lambda1/L`` or ``lambda2/L`` falls below ``singularity_warning`` a throttled
+warning says which set is near and how near, before the simulation has to stop there.
 """
 
 from __future__ import annotations
@@ -32,287 +44,488 @@ import sys
 import threading
 import time
 
-from tensegrity_ros.nodes.common import declare, rclpy, spin_node
-from builtin_interfaces.msg import Time as TimeMsg
-from geometry_msgs.msg import Point, PointStamped
+from tensegrity_ros.nodes.common import SERVICE_QOS, rclpy, spin_node
+from rclpy.action import ActionServer, CancelResponse
+from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
+from rclpy.task import Future
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState
-from std_msgs.msg import ColorRGBA, Header
+from geometry_msgs.msg import PointStamped
+from simulation_interfaces.action import SimulateSteps
+from simulation_interfaces.msg import Result, SimulationState, SimulatorFeatures
+from simulation_interfaces.srv import (GetSimulationState, GetSimulatorFeatures, ResetSimulation,
+                                       SetSimulationState, StepSimulation)
 from std_srvs.srv import Trigger
-from tensegrity_msgs.msg import ActuatorForces, MechanismState
-from visualization_msgs.msg import Marker, MarkerArray
+from tensegrity_msgs.msg import ActuatorForces, MechanismState, SimulationEvent
+from visualization_msgs.msg import MarkerArray
 
-from tensegrity_core.class2 import dynamics_singularity
 from tensegrity_core.errors import TensegrityError
-from tensegrity_core.sim import Simulator, load_scene
-from tensegrity_core.sim.simulator import JointSample
-from tensegrity_ros.nodes.actuator_commands import CommandError, parse_command
+from tensegrity_core.sim import load_scene
+from tensegrity_ros.nodes.actuator_commands import CommandError
+from tensegrity_ros.nodes.sim import control, sender
+from tensegrity_ros.nodes.sim.control import PAUSED, PLAYING, STATE_NAMES, STOPPED, Answer, StepRequest
+from tensegrity_ros.nodes.sim.parameters import declare_sim_parameters
+from tensegrity_ros.nodes.sim.plant import SimPlant
+from tensegrity_ros.nodes.sim.receiver import check_step, receive
 from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
-JOINT_NAMES = ["rho1", "rho2", "beta"]
-#: Catch-up limit: if ticks fall this far behind wall time, the simulation slips instead.
+#: Free-running catch-up limit [s of wall time]: a tick this late resynchronises instead
+#: of bursting steps.
 MAX_LAG = 0.25
-
-
-def sim_time_msg(t: float) -> TimeMsg:
-    sec = math.floor(t)
-    return TimeMsg(sec=int(sec), nanosec=min(int(round((t - sec) * 1e9)), 999_999_999))
-
-
-def force_color(t: float, scale: float) -> ColorRGBA:
-    """Red for tension, blue for compression, grey near zero; saturates at ``scale`` [N]."""
-    a = max(-1.0, min(1.0, t / scale)) if scale > 0 else 0.0
-    if a >= 0:
-        return ColorRGBA(r=0.6 + 0.4 * a, g=0.6 - 0.5 * a, b=0.6 - 0.5 * a, a=1.0)
-    return ColorRGBA(r=0.6 + 0.5 * a, g=0.6 + 0.5 * a, b=0.6 - 0.4 * a, a=1.0)
 
 
 class SimNode(Node):
     def __init__(self, **kwargs) -> None:
         super().__init__("tensegrity_sim", **kwargs)
-        scene_name = declare(self, "scene", "class2_at_rest",
-                             "scene file or shipped scene name (tensegrity scenes lists them)", read_only=True)
-        self.rate = declare(self, "publish_rate", 100.0, "publish rate of the state topics [Hz]", lo=1.0, hi=1000.0,
-                            read_only=True)
-        self.rtf = declare(self, "real_time_factor", 1.0,
-                           "simulated seconds per wall second; 0 = as fast as possible", lo=0.0, hi=1000.0,
-                           read_only=True)
-        self.command_timeout = declare(self, "command_timeout", 0.5,
-                                       "after this many seconds without a valid command the forces drop "
-                                       "to safe_force [s]; 0 = never", lo=0.0, read_only=True)
-        self.safe_force = declare(self, "safe_force", 0.0, "force applied after a command timeout [N]", read_only=True)
-        self.max_force = declare(self, "max_force", 1000.0, "commands with |f| above this are rejected [N]", lo=0.0, read_only=True)
-        self.frame_id = declare(self, "frame_id", "world", "frame of the published positions", read_only=True)
-        self.state_rate = declare(self, "state_rate", 100.0,
-                                  "publish rate of mechanism_state [Hz] (member forces, energies); a divisor of publish_rate is exact",
-                                  lo=0.0, hi=1000.0, read_only=True)
-        self.marker_rate = declare(self, "marker_rate", 30.0, "publish rate of the markers [Hz]", lo=0.0, hi=1000.0, read_only=True)
-        self._state_every = max(1, round(self.rate / self.state_rate)) if self.state_rate > 0 else 0
-        self._marker_every = max(1, round(self.rate / self.marker_rate)) if self.marker_rate > 0 else 0
-        self.wait_for_subscribers = declare(
-            self, "wait_for_subscribers", 0,
-            "do not start the clock until every output topic has this many subscribers "
-            "(e.g. 1 for a recorder that must see the run from t = 0)", lo=0, hi=1000, read_only=True)
-        self.publish_clock = declare(self, "publish_clock", True, "publish /clock from the simulation time", read_only=True)
-        self.singularity_warning = declare(
-            self, "singularity_warning", 0.05,
-            "warn (throttled) when lambda1/L or lambda2/L falls below this: the mass matrix grows like "
-            "1/lambda^2 and the simulation stops at 1e-3; 0 = never", lo=0.0, hi=1.0, read_only=True)
-
+        self.p = p = declare_sim_parameters(self)
         try:
-            self.scene = load_scene(scene_name)
-            self.sim = Simulator(self.scene)
+            scene = load_scene(p.scene)
+            self.plant = SimPlant(scene, p.step_ns)
         except TensegrityError as err:
-            raise SystemExit(f"tensegrity_sim: cannot load scene {scene_name!r}: {err}") from None
-        if self.sim.kind != "class2":
-            raise SystemExit(f"tensegrity_sim: scene {scene_name!r} models a general structure; this node "
+            raise SystemExit(f"tensegrity_sim: cannot load scene {p.scene!r}: {err}") from None
+        if self.plant.sim.kind != "class2":
+            raise SystemExit(f"tensegrity_sim: scene {p.scene!r} models a general structure; this node "
                              "drives the class-2 mechanism (use `tensegrity simulate` for general scenes)")
+        self._state_every = max(1, round(p.publish_rate / p.state_rate)) if p.state_rate > 0 else 0
+        self._marker_every = max(1, round(p.publish_rate / p.marker_rate)) if p.marker_rate > 0 else 0
 
         qos = QoSProfile(depth=100)
         self.pub_joints = self.create_publisher(JointState, "joint_states", qos)
         self.pub_ee = self.create_publisher(PointStamped, "end_effector", qos)
         self.pub_state = self.create_publisher(MechanismState, "mechanism_state", qos)
         self.pub_markers = self.create_publisher(MarkerArray, "markers", 10)
+        self.pub_events = self.create_publisher(SimulationEvent, "events", qos)
         self.pub_clock = self.create_publisher(ClockMsg, "/clock", qos)
-        # Latest command wins: a history of one means a burst or flood of commands can never
-        # build a backlog that the simulation would apply late.
+        # Free-running, the latest command wins: a history of one means a burst or flood of
+        # commands can never build a backlog that the simulation would apply late. In
+        # lockstep exactly one command per step is expected, so the depth does not matter.
         self.create_subscription(ActuatorForces, "actuator_forces", self.on_command, 1)
         self.create_service(Trigger, "reset", self.on_reset)
+        self.create_service(GetSimulatorFeatures, "get_simulator_features", self.on_get_features)
+        self.create_service(GetSimulationState, "get_simulation_state", self.on_get_state)
+        self.create_service(SetSimulationState, "set_simulation_state", self.on_set_state)
+        self.create_service(ResetSimulation, "reset_simulation", self.on_reset_simulation)
+        # The stepping requests await their end: in a group of their own (a mutually exclusive
+        # group stays busy while a callback of it awaits, which would starve the commands).
+        waiting = ReentrantCallbackGroup()
+        self.create_service(StepSimulation, "step_simulation", self.on_step_simulation, qos_profile=SERVICE_QOS,
+                            callback_group=waiting)
+        self._action = ActionServer(self, SimulateSteps, "simulate_steps", self.on_simulate_steps,
+                                    cancel_callback=self._on_cancel, callback_group=waiting)
 
         self.rejected = 0
-        self.published = dict.fromkeys(("joint_states", "end_effector", "mechanism_state", "markers", "/clock"), 0)
-        self._offset = 0.0               # published time = offset + core simulator time
-        self._start(time.monotonic())
-        self._lock = threading.Lock()        # the loop thread vs. reset and shutdown
+        self.lockstep_timeouts = 0
+        self.published = dict.fromkeys(("joint_states", "end_effector", "mechanism_state", "markers",
+                                        "events", "/clock"), 0)
+        self._lock = threading.Lock()        # plant, run state and publishing: loop thread vs. callbacks
+        self.state = p.initial_state
+        self.request: StepRequest | None = None
+        self._command = list(self.plant.initial_command)   # held (free-running) / last applied
+        self._lockstep_command = None        # the receiver's command for the current step (lockstep)
+        self._waiting_since = time.monotonic()
+        self._last_valid: float | None = None     # wall time of the last valid command (free-running)
+        self._timed_out = False
+        self._publications = 0
+        self._resync = True                  # free-running: restart the tick schedule from here
         self._stop = threading.Event()
+        self._wake = threading.Event()
+        if p.lockstep:
+            self.create_timer(min(0.05, p.lockstep_timeout / 5), self._on_lockstep_timer)
         self._thread = threading.Thread(target=self._loop, name="tensegrity_sim_loop", daemon=True)
         self._thread.start()
+        mode = (f"lockstep (timeout {p.lockstep_timeout:g} s)" if p.lockstep else
+                f"free-running at real-time factor {p.real_time_factor:g}"
+                + (" (as fast as possible)" if p.real_time_factor == 0 else ""))
         self.get_logger().info(
-            f"scene {scene_name!r}: publishing at {self.rate:g} Hz, real-time factor "
-            f"{self.rtf:g}{' (as fast as possible)' if self.rtf == 0 else ''}")
+            f"scene {p.scene!r}: publishing at {p.publish_rate:g} Hz, step {p.step_size:.9g} s, {mode}, "
+            f"{STATE_NAMES[self.state]}")
 
-    def _start(self, now: float) -> None:
-        """(Re)start the simulation clock bookkeeping for the current ``self.sim``."""
-        # Until the first command the actuators hold what the scene starts with (for the
-        # default scene: the forces that keep the mechanism at rest).
-        self.command = [float(f) for f in self.sim.command]
-        self.fault: str | None = None
-        self._last_valid = None          # wall time of the last valid command
-        self._timed_out = False
-        self._wall0 = now
-        self._sim0 = self.sim.t
-        self._ticks = 0
-
-    def on_reset(self, req: Trigger.Request, res: Trigger.Response) -> Trigger.Response:
-        with self._lock:
-            self._offset += self.sim.t
-            self.sim = Simulator(self.scene)
-            self._start(time.monotonic())
-        res.success, res.message = True, f"reset to the initial state of scene {self.scene.name!r}"
-        self.get_logger().info(res.message)
-        return res
-
+    # -- the loop thread: free-running ticks, free-running stepping requests, paused republishing
     def _loop(self) -> None:
-        """The simulation loop, in its own thread: one tick per publish period of wall
-        (steady) time, or back to back in as-fast-as-possible mode. A thread with its own
-        deadline keeps 1 kHz where an executor timer's per-callback overhead does not."""
-        period = 1.0 / self.rate
-        if self.wait_for_subscribers > 0:
+        """One tick per publish period of wall (steady) time, or back to back in
+        as-fast-as-possible mode. A thread with its own deadline keeps 1 kHz where an
+        executor timer's per-callback overhead does not."""
+        p = self.p
+        if p.wait_for_subscribers > 0:
             publishers = (self.pub_joints, self.pub_ee, self.pub_state, self.pub_markers, self.pub_clock)
-            self.get_logger().info(f"waiting for {self.wait_for_subscribers} subscriber(s) on every output topic")
-            wait_for_matches(publishers, self.wait_for_subscribers,
-                             should_stop=self._stop.is_set, poll=self._stop.wait)
-            with self._lock:
-                self._start(time.monotonic())
-        deadline = time.monotonic()
+            self.get_logger().info(f"waiting for {p.wait_for_subscribers} subscriber(s) on every output topic")
+            wait_for_matches(publishers, p.wait_for_subscribers, should_stop=self._stop.is_set, poll=self._stop.wait)
+        with self._lock:
+            self._publish()                  # the state at t_0
+            self._waiting_since = time.monotonic()
+            self._last_valid = None
+        period = 1.0 / p.publish_rate
+        idle_period = 1.0 / p.paused_publish_rate if p.paused_publish_rate > 0 else math.inf
+        deadline = next_idle = time.monotonic()
         while not self._stop.is_set():
+            now = time.monotonic()
             with self._lock:
                 try:
-                    self.tick()
+                    work = self._loop_work(now)
                 except Exception as err:  # a failing tick must never kill publishing silently
                     if not rclpy.ok(context=self.context):
                         return                  # shutting down: publishers are gone
-                    self.get_logger().error(f"tick failed: {type(err).__name__}: {err}",
-                                            throttle_duration_sec=1.0)
-            if self.rtf == 0:
+                    self.get_logger().error(f"tick failed: {type(err).__name__}: {err}", throttle_duration_sec=1.0)
+                    work = "idle"
+            if work == "step":
                 continue
-            deadline += period
-            delay = deadline - time.monotonic()
-            if delay > 0:
-                self._stop.wait(delay)
-            elif delay < -MAX_LAG:
-                deadline = time.monotonic()     # fell far behind: resynchronise, do not burst
+            if work == "tick":
+                if p.real_time_factor == 0:
+                    continue
+                deadline += period
+                delay = deadline - time.monotonic()
+                if delay > 0:
+                    self._stop.wait(delay)
+                elif delay < -MAX_LAG:
+                    deadline = time.monotonic()     # fell far behind: resynchronise, do not burst
+                    with self._lock:
+                        self._resync = True
+                continue
+            deadline = time.monotonic()
+            if now >= next_idle:
+                if work == "idle" and idle_period < math.inf:
+                    with self._lock:
+                        self._publish()
+                next_idle = now + idle_period
+            self._wake.wait(min(0.05, max(0.0, next_idle - now)))
+            self._wake.clear()
 
-    # -- commands ------------------------------------------------------------------------
+    def _loop_work(self, now: float) -> str:
+        """One unit of the loop thread's work (lock held): ``"tick"`` (free-running play),
+        ``"step"`` (one step of a free-running stepping request), ``"idle"`` (paused or stopped:
+        republish at the slow rate) or ``"wait"`` (lockstep: the callbacks drive)."""
+        if self.p.lockstep:
+            return "idle" if self.state != PLAYING and self.request is None else "wait"
+        if self.request is not None:
+            self._request_step(self._effective_command(now))
+            return "step"
+        if self.state != PLAYING:
+            return "idle"
+        self._tick(now)
+        return "tick"
+
+    def _tick(self, now: float) -> None:
+        """Free-running: the whole steps due by this tick of the schedule, then publish."""
+        p = self.p
+        if self._resync:
+            self._resync = False
+            self._tick_base = (self.plant.k, 0)
+            self._ticks = 0
+        self._ticks += 1
+        base_k, base_ticks = self._tick_base
+        if p.real_time_factor == 0:
+            target = self.plant.k + 1
+        else:
+            sim_ns = (self._ticks - base_ticks) * (1e9 / p.publish_rate) * p.real_time_factor
+            target = base_k + math.floor(sim_ns / p.step_ns + 1e-9)
+            if (target - self.plant.k) * p.step_ns > MAX_LAG * p.real_time_factor * 1e9:
+                self._tick_base = (self.plant.k + 1, self._ticks)     # fell behind: slip, do not burst
+                target = self.plant.k + 1
+        if target <= self.plant.k:
+            return
+        command = self._effective_command(now)
+        while self.plant.k < target:
+            self._step(command)
+        self._publish()
+
+    # -- stepping -------------------------------------------------------------------------------
+    def _step(self, command) -> None:
+        """One step of the plant under ``command``; publish what it located (lock held)."""
+        outcome = self.plant.step(command)
+        for event in outcome.events:
+            self.pub_events.publish(sender.event_msg(event, self.plant.offset_ns, self.p.frame_id))
+            self.published["events"] += 1
+        if outcome.fault is not None:
+            self.get_logger().error(f"simulation stopped, state held: {outcome.fault}")
+
+    def _request_step(self, command) -> None:
+        """One step of the current stepping request, then publish, feedback, and finish it
+        when done or cancelled (lock held)."""
+        req = self.request
+        if req.cancel_requested:
+            self._end_request(Answer(Result.RESULT_OK, f"cancelled after {req.completed} of {req.steps} steps"))
+            return
+        self._step(command)
+        self._publish()
+        req.completed += 1
+        if req.feedback is not None:
+            req.feedback(req.completed, req.remaining)
+        if req.remaining == 0:
+            self._end_request(Answer(Result.RESULT_OK, f"{req.steps} steps done, t = {self._now_text()}"))
+
+    def _end_request(self, answer: Answer) -> None:
+        req, self.request = self.request, None
+        if req is not None:
+            req.finish(answer)
+
+    def _start_request(self, req: StepRequest) -> Answer | None:
+        """Start a stepping request, or the answer why not (lock held)."""
+        refusal = control.check_step_request(req.steps, self.state, self.request, self.p.max_steps_per_request)
+        if refusal is not None:
+            return refusal
+        self.request = req
+        if self.p.lockstep:
+            self._lockstep_begin()
+        else:
+            self._wake.set()
+        return None
+
+    # -- lockstep ---------------------------------------------------------------------------------
+    def _may_step(self) -> bool:
+        return self.state == PLAYING or self.request is not None
+
+    def _lockstep_begin(self) -> None:
+        """Stepping becomes allowed: step at once if the command for t_k is here, otherwise
+        (re)publish the state at t_k for a controller that may have missed it and wait."""
+        self._waiting_since = time.monotonic()
+        if self._lockstep_command is not None:
+            self._lockstep_advance()
+        else:
+            self._publish()
+
+    def _lockstep_advance(self, command=None) -> None:
+        """Integrate the step the simulator waits at, under the received command (or
+        ``command``, the safe force after a timeout), when stepping is allowed (lock held)."""
+        if self.request is not None and self.request.cancel_requested:
+            req = self.request
+            self._end_request(Answer(Result.RESULT_OK, f"cancelled after {req.completed} of {req.steps} steps"))
+            return
+        if not self._may_step():
+            return
+        if command is None:
+            if self._lockstep_command is None:
+                return
+            command = self._command = self._lockstep_command.update.apply(self._command)
+            self._lockstep_command = None
+        if self.request is not None:
+            self._request_step(command)
+        else:
+            self._step(command)
+            self._publish()
+        self._waiting_since = time.monotonic()
+
+    def _on_lockstep_timer(self) -> None:
+        with self._lock:
+            if self.request is not None and self.request.cancel_requested:
+                self._lockstep_advance()
+                return
+            if not self._may_step() or time.monotonic() - self._waiting_since < self.p.lockstep_timeout:
+                return
+            self.lockstep_timeouts += 1
+            self.get_logger().warning(
+                f"lockstep: no command for step {self.plant.k} (t = {self._now_text()}) within "
+                f"{self.p.lockstep_timeout:g} s: this step runs under safe_force = {self.p.safe_force:g} N "
+                f"({self.lockstep_timeouts} timed-out steps so far)", throttle_duration_sec=2.0)
+            self._lockstep_advance([self.p.safe_force] * len(self._command))
+
+    # -- commands -----------------------------------------------------------------------------------
     def on_command(self, msg: ActuatorForces) -> None:
         try:
-            update = parse_command(list(msg.name), list(msg.force), max_abs_force=self.max_force)
+            command = receive(msg, max_force=self.p.max_force)
+            with self._lock:
+                if self.p.lockstep:
+                    check_step(command, self.plant.time_ns, self.plant.k)
+                    self._lockstep_command = command
+                    self._lockstep_advance()
+                    return
+                self._command = command.update.apply(self._command)
+                self._last_valid = time.monotonic()
+                if self._timed_out:
+                    self._timed_out = False
+                    self.get_logger().info("commands resumed")
         except CommandError as err:
             self.rejected += 1
             self.get_logger().warning(f"rejected actuator command: {err} ({self.rejected} rejected so far)",
                                       throttle_duration_sec=1.0)
-            return
-        self.command = update.apply(self.command)
-        self._last_valid = time.monotonic()
-        if self._timed_out:
-            self._timed_out = False
-            self.get_logger().info("commands resumed")
 
     def _effective_command(self, now: float) -> list[float]:
-        if (self.command_timeout > 0 and self._last_valid is not None
-                and now - self._last_valid > self.command_timeout):
+        p = self.p
+        if p.command_timeout > 0 and self._last_valid is not None and now - self._last_valid > p.command_timeout:
             if not self._timed_out:
                 self._timed_out = True
                 self.get_logger().warning(
-                    f"no valid command for {self.command_timeout:g} s: forces drop to {self.safe_force:g} N")
-            return [self.safe_force] * len(self.command)
-        return self.command
+                    f"no valid command for {p.command_timeout:g} s: forces drop to {p.safe_force:g} N")
+            return [p.safe_force] * len(self._command)
+        return self._command
 
-    # -- simulation tick -----------------------------------------------------------------
-    def tick(self) -> None:
-        now = time.monotonic()
-        if self.fault is None:
-            if self.rtf == 0:
-                target = self.sim.t + 1.0 / self.rate
-            else:
-                target = self._sim0 + (now - self._wall0) * self.rtf
-                if target - self.sim.t > MAX_LAG * self.rtf:   # fell behind: slip, do not burst
-                    self._sim0, self._wall0 = self.sim.t + 1.0 / self.rate, now
-                    target = self._sim0
-            try:
-                self.sim.set_command(self._effective_command(now))
-                self.sim.advance(target)
-            except TensegrityError as err:
-                self.fault = str(err)
-                self.get_logger().error(f"simulation stopped, state held: {err}")
-        js = self.publish()
-        self._warn_near_singular(js.q)
+    # -- publishing -----------------------------------------------------------------------------------
+    def _publish(self) -> None:
+        """Joint states, end-effector and clock; the full state and the markers (member
+        forces: the expensive part of an observation) every n-th publication (lock held)."""
+        ns = self.plant.time_ns
+        hdr = sender.header(ns, self.p.frame_id)
+        sample = self.plant.joint_sample()
+        if self.p.publish_clock:
+            self.pub_clock.publish(sender.clock_msg(ns))
+            self.published["/clock"] += 1
+        self.pub_joints.publish(sender.joint_state_msg(sample, hdr))
+        self.pub_ee.publish(sender.end_effector_msg(sample, hdr))
+        self.published["joint_states"] += 1
+        self.published["end_effector"] += 1
+        n = self._publications
+        self._publications += 1
+        want_state = self._state_every > 0 and n % self._state_every == 0
+        want_markers = self._marker_every > 0 and n % self._marker_every == 0
+        if want_state or want_markers:
+            obs = self.plant.observe()
+            if want_state:
+                self.pub_state.publish(sender.mechanism_state_msg(obs, hdr))
+                self.published["mechanism_state"] += 1
+            if want_markers:
+                self.pub_markers.publish(sender.markers_msg(obs, hdr))
+                self.published["markers"] += 1
+        self._warn_near_singular(sample.q)
 
     def _warn_near_singular(self, q) -> None:
-        name, distance = dynamics_singularity(float(q[0]), float(q[1]), self.sim.scene.model.params)
-        if distance < self.singularity_warning:
+        name, distance = self.plant.near_singular(q)
+        if distance < self.p.singularity_warning:
             self.get_logger().warning(
                 f"state near the singular set {name}: {name}/L = {distance:.3g} (rho1 = {q[0]:.4g} m, "
                 f"rho2 = {q[1]:.4g} m); accelerations lose accuracy like 1/{name}^2 and the simulation "
                 "stops at 1e-3", throttle_duration_sec=2.0)
 
-    def publish(self) -> JointSample:
-        """Joint states, end-effector and clock every tick; the full state and the markers
-        (member forces: the expensive part of an observation) at their own rates. Returns
-        the joint sample published."""
-        js = self.sim.joint_sample()
-        t = self._offset + js.t
-        stamp = sim_time_msg(t)
-        header = Header(stamp=stamp, frame_id=self.frame_id)
-        if self.publish_clock:
-            self.pub_clock.publish(ClockMsg(clock=stamp))
-            self.published["/clock"] += 1
-        msg = JointState(header=header, name=JOINT_NAMES)
-        msg.position = [float(v) for v in js.q]
-        msg.velocity = [float(v) for v in js.qdot]
-        msg.effort = [float(js.applied_forces[0]), float(js.applied_forces[1]), 0.0]
-        self.pub_joints.publish(msg)
-        ee = js.end_effector
-        self.pub_ee.publish(PointStamped(header=header, point=Point(x=float(ee[0]), y=float(ee[1]), z=float(ee[2]))))
-        self.published["joint_states"] += 1
-        self.published["end_effector"] += 1
-        # the slower topics: every n-th tick (all rates are per wall-clock second)
-        want_state = self._state_every > 0 and self._ticks % self._state_every == 0
-        want_markers = self._marker_every > 0 and self._ticks % self._marker_every == 0
-        self._ticks += 1
-        if want_state or want_markers:
-            obs = self.sim.observe()
-            if want_state:
-                self.pub_state.publish(self._state_msg(header, obs))
-                self.published["mechanism_state"] += 1
-            if want_markers:
-                self.pub_markers.publish(self._markers(header, obs))
-                self.published["markers"] += 1
-        return js
+    def _now_text(self) -> str:
+        return f"{self.plant.time_ns / sender.NS_PER_S:.9f} s"
+
+    # -- resets and state changes ---------------------------------------------------------------------
+    def _reset(self, *, keep_time: bool, why: str) -> None:
+        """Back to the initial state (lock held): any stepping request ends, the held
+        command is the scene's again, and the new state is published."""
+        if self.request is not None:
+            req = self.request
+            self._end_request(Answer(Result.RESULT_OPERATION_FAILED,
+                                     f"interrupted by {why} after {req.completed} of {req.steps} steps"))
+        self.plant.reset(keep_time=keep_time)
+        self._command = list(self.plant.initial_command)
+        self._lockstep_command = None
+        self._last_valid = None
+        self._resync = True
+        self._publish()
+        self._waiting_since = time.monotonic()
+
+    def on_reset(self, req: Trigger.Request, res: Trigger.Response) -> Trigger.Response:
+        with self._lock:
+            self._reset(keep_time=True, why="a reset")
+        res.success, res.message = True, f"reset to the initial state of scene {self.plant.scene.name!r}"
+        self.get_logger().info(res.message)
+        return res
+
+    def on_reset_simulation(self, req, res):
+        plan = control.reset_plan(int(req.scope))
+        if plan.answer.ok:
+            with self._lock:
+                self._reset(keep_time=not plan.time, why="ResetSimulation")
+        _fill(res.result, plan.answer)
+        return res
+
+    def on_get_features(self, req, res):
+        res.features.features = list(control.FEATURES)
+        res.features.custom_info = (
+            f"tensegrity_sim: step_size {self.p.step_size:.9g} s, lockstep {str(self.p.lockstep).lower()}; "
+            "located events on 'events'; the stepping contract is in docs/ros.md")
+        return res
+
+    def on_get_state(self, req, res):
+        with self._lock:
+            res.state.state = self.state
+        _fill(res.result, Answer(Result.RESULT_OK, STATE_NAMES[res.state.state]))
+        return res
+
+    def on_set_state(self, req, res):
+        target = int(req.state.state)
+        with self._lock:
+            if self.request is not None and target == PLAYING:
+                answer = Answer(Result.RESULT_INCORRECT_STATE, "a stepping request is running: cancel it or wait")
+            elif self.request is not None and target in (PAUSED, STOPPED):
+                req_ = self.request
+                self._end_request(Answer(Result.RESULT_OPERATION_FAILED,
+                                         f"interrupted by SetSimulationState after {req_.completed} of "
+                                         f"{req_.steps} steps"))
+                answer = self._set_state(target, force=True)
+            else:
+                answer = self._set_state(target)
+        _fill(res.result, answer)
+        if answer.ok:
+            self.get_logger().info(f"simulation {answer.message}")
+        return res
+
+    def _set_state(self, target: int, *, force: bool = False) -> Answer:
+        t = control.transition(self.state, target)
+        if not t.answer.ok and not (force and t.state == target):
+            return t.answer
+        if t.reset:
+            self._reset(keep_time=False, why="stopping")
+        previous, self.state = self.state, target
+        if target == PLAYING:
+            self._resync = True
+            self._last_valid = None if previous == STOPPED else self._last_valid
+            if self.p.lockstep:
+                self._lockstep_begin()
+            self._wake.set()
+        return t.answer if t.answer.ok else Answer(Result.RESULT_OK, f"{STATE_NAMES[target]} (request ended)")
+
+    # -- StepSimulation and SimulateSteps ---------------------------------------------------------------
+    def _wait_future(self) -> Future:
+        future = Future(executor=self.executor)
+        future.add_done_callback(lambda _f: None)   # set_result then wakes the executor (guard condition)
+        return future
+
+    async def on_step_simulation(self, req, res):
+        future = self._wait_future()
+        request = StepRequest(int(req.steps), done=future.set_result)
+        with self._lock:
+            refusal = self._start_request(request)
+        _fill(res.result, refusal if refusal is not None else await future)
+        return res
+
+    def _on_cancel(self, goal_handle) -> CancelResponse:
+        with self._lock:
+            req = self.request
+            if req is not None and req.owner is goal_handle:
+                req.cancel_requested = True
+                self._wake.set()
+        return CancelResponse.ACCEPT
+
+    async def on_simulate_steps(self, goal_handle):
+        future = self._wait_future()
+
+        def feedback(completed: int, remaining: int) -> None:
+            goal_handle.publish_feedback(SimulateSteps.Feedback(completed_steps=completed, remaining_steps=remaining))
+
+        request = StepRequest(int(goal_handle.request.steps), done=future.set_result, feedback=feedback,
+                              owner=goal_handle)
+        with self._lock:
+            refusal = self._start_request(request)
+        answer = refusal if refusal is not None else await future
+        result = SimulateSteps.Result()
+        _fill(result.result, answer)
+        if request.cancel_requested and goal_handle.is_cancel_requested:
+            goal_handle.canceled()
+        elif answer.ok:
+            goal_handle.succeed()
+        else:
+            goal_handle.abort()
+        return result
 
     def destroy_node(self) -> None:
         self._stop.set()
+        self._wake.set()
         self._thread.join(timeout=5.0)
+        with self._lock:
+            self._end_request(Answer(Result.RESULT_OPERATION_FAILED, "the simulator is shutting down"))
         counts = ", ".join(f"{k} {v}" for k, v in self.published.items())
         # the context may already be shut down (Ctrl-C): log without /rosout
-        rclpy.logging.get_logger(f"{self.get_name()}_summary").info(f"published: {counts}; rejected commands: {self.rejected}")
+        rclpy.logging.get_logger(f"{self.get_name()}_summary").info(
+            f"published: {counts}; rejected commands: {self.rejected}; lockstep timeouts: {self.lockstep_timeouts}")
+        self._action.destroy()
         super().destroy_node()
 
-    def _state_msg(self, header: Header, obs) -> MechanismState:
-        m = MechanismState(header=header)
-        m.q = [float(v) for v in obs.q]
-        m.qdot = [float(v) for v in obs.qdot]
-        m.actuator_force = [float(v) for v in obs.applied_forces]
-        m.node_names = list(obs.node_names)
-        m.nodes = [Point(x=float(p[0]), y=float(p[1]), z=float(p[2])) for p in obs.nodes]
-        m.member_names = list(obs.member_names)
-        m.member_lengths = [float(v) for v in obs.member_lengths]
-        m.member_forces = [float(v) for v in obs.member_forces]
-        m.end_effector = Point(x=float(obs.end_effector[0]), y=float(obs.end_effector[1]),
-                               z=float(obs.end_effector[2]))
-        m.potential_energy = float(obs.potential_energy)
-        m.kinetic_energy = float(obs.kinetic_energy)
-        m.folded = bool(obs.folded)
-        return m
 
-    def _markers(self, header: Header, obs) -> MarkerArray:
-        scale = max(1e-9, max(abs(float(t)) for t in obs.member_forces))
-        members = Marker(header=header, ns="members", id=0, type=Marker.LINE_LIST, action=Marker.ADD)
-        members.scale.x = 0.02
-        members.pose.orientation.w = 1.0
-        for (i, j), t in zip(obs.member_nodes, obs.member_forces):
-            for n in (i, j):
-                p = obs.nodes[n]
-                members.points.append(Point(x=float(p[0]), y=float(p[1]), z=float(p[2])))
-                members.colors.append(force_color(float(t), scale))
-        nodes = Marker(header=header, ns="nodes", id=1, type=Marker.SPHERE_LIST, action=Marker.ADD)
-        nodes.scale.x = nodes.scale.y = nodes.scale.z = 0.05
-        nodes.pose.orientation.w = 1.0
-        nodes.color = ColorRGBA(r=0.9, g=0.9, b=0.9, a=1.0)
-        nodes.points = [Point(x=float(p[0]), y=float(p[1]), z=float(p[2])) for p in obs.nodes]
-        return MarkerArray(markers=[members, nodes])
+def _fill(result: Result, answer: Answer) -> None:
+    result.result = answer.code
+    result.error_message = answer.message
 
 
 def main(argv=None) -> int:
