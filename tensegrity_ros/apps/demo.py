@@ -1,142 +1,65 @@
-"""The main job (``./run demo``): the suite end to end, over real DDS on loopback.
+"""The main job (``./run demo``): the suite end to end, over real DDS on loopback, in lockstep.
 
-1. start the suite: ``tensegrity_sim`` (class-2 mechanism at rest, commanded forces),
-   ``tensegrity_ik`` and ``tensegrity_formfind``, each its own process;
-2. IK-driven motion, recorded to ``OUT/ik_motion``: for each waypoint of the end-effector,
-   call ``solve_ik`` (seeded with the current lengths so the motion stays on one branch)
-   and drive the actuators there through ``actuator_forces`` with
-   :class:`~tensegrity_core.class2.control.ActuatorTracker` (holding forces + PD, with
-   beta damped through the springs); report where D settles against the target;
-3. the paper's fold scenario: reset the simulator to rest at rho = (0.7, 0.7), then,
-   recorded to ``OUT/fold``, ``f_i = 10 rho_i t`` from the measured lengths (Sect. 5.3);
-   report when each actuator reaches the fold limit;
-
-The sample bags in ``bags/`` are these two recordings (``tensegrity demo -o OUT`` and
-copy ``OUT/fold`` and ``OUT/ik_motion``).
+1. start the suite: ``tensegrity_sim`` (class-2 mechanism at rest, lockstep, paused,
+   step = the control period), ``tensegrity_ik`` and ``tensegrity_formfind``, each its own
+   process;
+2. IK-driven motion, recorded to ``OUT/ik_motion``: ``solve_ik`` for each end-effector
+   waypoint (seeded with the previous solution so the motion stays on one branch), then one
+   ``StepSimulation`` over the whole motion while this process's controller answers every
+   joint state with :class:`~tensegrity_core.class2.control.ActuatorTracker` forces
+   (holding forces + PD, beta damped through the springs) towards a smoothstep reference
+   that depends on the step's time only; report where D settles against each target;
+3. the paper's fold scenario (Sect. 5.3), recorded to ``OUT/fold``: ``ResetSimulation``
+   (rest at rho = (0.7, 0.7), clock at 0), then ``f_i = 10 rho_i t`` from the sampled
+   lengths, held for each step; report the fold times from the simulator's ``events``;
+   run it a second time and compare the joint states (identical); compare with the
+   core's sampled-data run of the same loop (identical), and with the continuous-time
+   ``paper_fold`` scene at 10, 100 and 1000 Hz (the core's sampled runs);
 4. call ``find_form`` with the tensegrity-table example;
-5. print a summary (tracking errors, fold times, form-finding, bag contents).
+5. print a summary (tracking errors, fold times, the control-period table, bag contents).
 
-Times in the control loop are simulation times (the stamps of ``joint_states``).
+The sample bags in ``bags/`` are the two recordings (``tensegrity demo -o OUT`` and copy
+``OUT/fold`` and ``OUT/ik_motion``). Times are simulation times (integer nanoseconds of
+the stamps).
 """
 
 from __future__ import annotations
 
 import math
+import shutil
 import signal
 import subprocess
 import sys
 import threading
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics
-from tensegrity_core.class2.control import ActuatorTracker
+from tensegrity_core.class2.control import FOLD_GAIN, ActuatorTracker, paper_fold_forces
+from tensegrity_core.sim.sampled import NS_PER_S, run_sampled, step_ns_of
 from tensegrity_ros.apps.launch import Launcher, ProcessSpec
+from tensegrity_ros.apps.sim_client import SimClient
 from tensegrity_ros.rclpy_utils.env import require_rclpy
+
+__all__ = ["FOLD_GAIN", "WAYPOINT_OFFSETS", "run_demo"]
 
 #: End-effector waypoints, offsets [m] from D at rho1 = rho2 = 0.7 (the scene's rest).
 WAYPOINT_OFFSETS = ((0.08, 0.0), (0.08, 0.06), (-0.04, 0.06), (0.0, 0.0))
 MOVE_TIME = 2.0     # s (simulated) per move, smoothstep in the actuator lengths
 DWELL_TIME = 2.5    # s (simulated) at each waypoint before its error is measured
 FOLD_TIME = 4.0     # s (simulated) of the paper's force law
-FOLD_GAIN = 10.0    # N/(m s): f_i = FOLD_GAIN * rho_i * t (Sect. 5.3)
-FOLD_LENGTH = 1e-6  # m: an actuator this short counts as folded (the limit holds it at 0
-                    # only while the contact pushes; it may touch and leave between samples)
+CONTROL_PERIOD = 0.01   # s: the demo's control period (100 Hz)
+TABLE_RATES = (10, 100, 1000)   # Hz: control rates of the table against the continuous run
+SCENE = "class2_at_rest"        # the simulator's scene (commanded forces)
+CONTINUOUS = "paper_fold"       # the same fold with the force law evaluated continuously
+RECORDED_TOPICS = ("joint_states", "end_effector", "mechanism_state", "markers", "/clock", "actuator_forces",
+                   "events")
 
 
 def _say(text: str) -> None:
     print(f"[demo] {text}", flush=True)
-
-
-@dataclass
-class Feedback:
-    """Latest joint state (thread-safe enough: replaced as a whole tuple)."""
-
-    sample: tuple | None = None        # (t, rho(2,), rho_dot(2,), beta, beta_dot)
-    event: threading.Event = field(default_factory=threading.Event)
-
-
-class DemoClient:
-    """The demo's own node: feedback from ``joint_states``, commands on ``actuator_forces``,
-    clients of ``solve_ik`` and ``find_form``. Its executor spins in a background thread;
-    the control law runs in the ``joint_states`` callback."""
-
-    def __init__(self, rclpy) -> None:
-        from rclpy.executors import SingleThreadedExecutor
-        from rclpy.qos import QoSProfile
-        from sensor_msgs.msg import JointState
-        from tensegrity_msgs.msg import ActuatorForces
-        from std_srvs.srv import Trigger
-        from tensegrity_msgs.srv import FindForm, SolveIK
-
-        self.rclpy = rclpy
-        self.node = rclpy.create_node("tensegrity_demo")
-        self.ActuatorForces = ActuatorForces
-        self.SolveIK, self.FindForm, self.Trigger = SolveIK, FindForm, Trigger
-        self.pub = self.node.create_publisher(ActuatorForces, "actuator_forces", 10)
-        self.node.create_subscription(JointState, "joint_states", self._on_joints, QoSProfile(depth=100))
-        self.ik = self.node.create_client(SolveIK, "solve_ik")
-        self.ff = self.node.create_client(FindForm, "find_form")
-        self.reset = self.node.create_client(Trigger, "reset")
-        self.feedback = Feedback()
-        self.law = None                 # callable(t, rho, rho_dot, beta, beta_dot) -> (f1, f2)
-        self._lock = threading.Lock()
-        self.executor = SingleThreadedExecutor()
-        self.executor.add_node(self.node)
-        self._thread = threading.Thread(target=self.executor.spin, daemon=True)
-        self._thread.start()
-
-    def _on_joints(self, msg) -> None:
-        t = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
-        rho, rho_dot = np.array(msg.position[:2]), np.array(msg.velocity[:2])
-        beta, beta_dot = float(msg.position[2]), float(msg.velocity[2])
-        self.feedback.sample = (t, rho, rho_dot, beta, beta_dot)
-        self.feedback.event.set()
-        with self._lock:
-            law = self.law
-        if law is not None:
-            f1, f2 = law(t, rho, rho_dot, beta, beta_dot)
-            cmd = self.ActuatorForces(name=["f1", "f2"], force=[float(f1), float(f2)])
-            cmd.header.stamp = msg.header.stamp
-            self.pub.publish(cmd)
-
-    def set_law(self, law) -> None:
-        with self._lock:
-            self.law = law
-
-    def wait_sample(self, timeout: float = 30.0) -> tuple:
-        self.feedback.event.clear()
-        if not self.feedback.event.wait(timeout):
-            raise RuntimeError(f"no joint_states within {timeout:g} s")
-        return self.feedback.sample
-
-    def run_until(self, t_end: float, timeout: float = 120.0) -> tuple:
-        """Block until the simulation time reaches ``t_end``; return the last sample."""
-        deadline = time.monotonic() + timeout
-        while True:
-            sample = self.wait_sample()
-            if sample[0] >= t_end:
-                return sample
-            if time.monotonic() > deadline:
-                raise RuntimeError(f"simulation time did not reach {t_end:g} s within {timeout:g} s")
-
-    def call(self, client, request, timeout: float = 60.0):
-        if not client.wait_for_service(timeout_sec=timeout):
-            raise RuntimeError(f"service {client.srv_name} not available")
-        future = client.call_async(request)
-        deadline = time.monotonic() + timeout
-        while not future.done():
-            if time.monotonic() > deadline:
-                raise RuntimeError(f"no answer from {client.srv_name} within {timeout:g} s")
-            time.sleep(0.005)
-        return future.result()
-
-    def close(self) -> None:
-        self.executor.shutdown()
-        self.node.destroy_node()
 
 
 class Recorder:
@@ -169,118 +92,260 @@ class Recorder:
         return self.proc.wait(60)
 
 
-def _ik_motion(client: DemoClient, tracker: ActuatorTracker, results: dict) -> None:
-    rest = forward_kinematics(0.7, 0.7, tracker.params)
-    t, rho, _, _, _ = client.wait_sample()
-    current = rho.copy()
-    errors = []
+def _wait_subscribed(node, before: dict, timeout: float = 30.0) -> None:
+    """Wait until the graph shows one more subscription on every topic than ``before``
+    (the recorder's), then ``MATCH_SETTLE_S`` more: the recorder's readers can match the
+    writers a little after the writers see them (see :mod:`tensegrity_ros.rclpy_utils.matching`)."""
+    from tensegrity_ros.rclpy_utils.matching import MATCH_SETTLE_S
+
+    deadline = time.monotonic() + timeout
+    while any(node.count_subscribers(t) <= n for t, n in before.items()):
+        if time.monotonic() > deadline:
+            raise RuntimeError("the recorder did not subscribe to every topic within "
+                               f"{timeout:g} s: {sorted(t for t, n in before.items() if node.count_subscribers(t) <= n)}")
+        time.sleep(0.02)
+    time.sleep(MATCH_SETTLE_S)
+
+
+def ik_law(goals, tracker: ActuatorTracker, start=(0.7, 0.7)):
+    """The IK motion as one controller of the step's time: move ``i`` runs from
+    ``i (MOVE + DWELL)`` for ``MOVE_TIME`` (smoothstep between successive goals), then dwells."""
+    points = [np.array(start, dtype=float)] + [np.array(g, dtype=float) for g in goals]
+    segment = MOVE_TIME + DWELL_TIME
+
+    def law(sample):
+        i = min(int(sample.t // segment), len(goals) - 1)
+        u = min(max((sample.t - i * segment) / MOVE_TIME, 0.0), 1.0)
+        ref = points[i] + (points[i + 1] - points[i]) * (u * u * (3.0 - 2.0 * u))
+        return tracker.forces(ref, sample.q[:2], sample.qdot[:2], float(sample.qdot[2]))
+
+    return law
+
+
+def _ik_goals(client: DemoClient) -> list:
+    """``solve_ik`` for each waypoint, seeded with the previous solution (the first with rest)."""
+    rest = forward_kinematics(0.7, 0.7, PAPER_PARAMS)
+    current, goals = [0.7, 0.7], []
     for dx, dy in WAYPOINT_OFFSETS:
         target = (rest.x + dx, rest.y + dy)
-        res = client.call(client.ik, client.SolveIK.Request(x=target[0], y=target[1], seed=list(current)))
+        res = client.call_ik(target, current)
         if not res.success:
             raise RuntimeError(f"solve_ik({target[0]:.3f}, {target[1]:.3f}) failed: {res.message}")
-        goal = np.array([res.solutions[0].rho1, res.solutions[0].rho2])
-        start, t0 = current.copy(), client.wait_sample()[0]
+        current = [res.solutions[0].rho1, res.solutions[0].rho2]
+        goals.append((target, tuple(current)))
+    return goals
 
-        def law(t, rho, rho_dot, beta, beta_dot, start=start, goal=goal, t0=t0):
-            u = min(max((t - t0) / MOVE_TIME, 0.0), 1.0)
-            ref = start + (goal - start) * (u * u * (3.0 - 2.0 * u))
-            return tracker.forces(ref, rho, rho_dot, beta_dot)
 
-        client.set_law(law)
-        t, rho, _, beta, _ = client.run_until(t0 + MOVE_TIME + DWELL_TIME)
-        L = tracker.params.L
+def _ik_motion(client: DemoClient, step_ns: int, results: dict) -> None:
+    goals = results["ik_goals"]
+    tracker = ActuatorTracker(PAPER_PARAMS, kp=100.0, kd=20.0, kbeta=0.3)
+    segment_ns = round((MOVE_TIME + DWELL_TIME) * NS_PER_S)
+    steps = len(goals) * segment_ns // step_ns
+    joints = client.run(ik_law([g for _, g in goals], tracker), steps)
+    by_stamp = {j.stamp_ns: j for j in joints}
+    errors = []
+    L = PAPER_PARAMS.L
+    for i, (target, goal) in enumerate(goals):
+        j = by_stamp[(i + 1) * segment_ns]
+        rho, beta = j.position[:2], j.position[2]
         d = (rho[0] + L * math.cos(beta), L * math.sin(beta))
         err = math.hypot(d[0] - target[0], d[1] - target[1])
         errors.append(err)
         _say(f"  waypoint D = ({target[0]:.3f}, {target[1]:.3f}) m: IK rho = ({goal[0]:.4f}, {goal[1]:.4f}) m, "
              f"D settled at ({d[0]:.4f}, {d[1]:.4f}) m, error {1000 * err:.1f} mm")
-        current = goal
     results["ik_errors_m"] = errors
 
 
-def _reset(client: DemoClient) -> None:
-    """Back to rest at rho = (0.7, 0.7): the simulator's reset service, then hold."""
-    client.set_law(None)
-    res = client.call(client.reset, client.Trigger.Request())
-    if not res.success:
-        raise RuntimeError(f"reset failed: {res.message}")
-    client.wait_sample()
+def fold_times(events) -> dict:
+    """First fold time [s] of each actuator, from ``(t, kind, index)`` events."""
+    out: dict = {}
+    for t, kind, index in events:
+        if kind == "fold" and index not in out:
+            out[index] = float(t)
+    return {f"rho{i + 1}": out.get(i) for i in (0, 1)}
 
 
-def _fold(client: DemoClient, results: dict) -> None:
-    t0 = client.wait_sample()[0]
-    folded_at: dict[int, float] = {}
+def control_period_table(step_ns_list, duration: float = FOLD_TIME) -> list[dict]:
+    """The fold under the sampled law at each period against the continuous-time scene:
+    first fold times, and the largest length difference at the sampling times before the
+    first contact (after it the runs part: contacts touch and release at other times)."""
+    import dataclasses
 
-    def law(t, rho, rho_dot, beta, beta_dot):
-        for i in (0, 1):
-            if i not in folded_at and rho[i] <= FOLD_LENGTH:
-                folded_at[i] = t - t0
-        tau = max(t - t0, 0.0)
-        return FOLD_GAIN * rho[0] * tau, FOLD_GAIN * rho[1] * tau
+    from tensegrity_core.sim import load_scene, simulate
 
-    client.set_law(law)
-    t, rho, _, beta, _ = client.run_until(t0 + FOLD_TIME)
-    results["fold_times_s"] = {f"rho{i + 1}": folded_at.get(i) for i in (0, 1)}
-    results["fold_final_q"] = (float(rho[0]), float(rho[1]), float(beta))
-    for i in (0, 1):
-        when = folded_at.get(i)
-        _say(f"  rho{i + 1} " + (f"reached the fold limit at t = {when:.3f} s" if when is not None
-                                  else f"did not fold (rho{i + 1} = {rho[i]:.4f} m)"))
-    _say(f"  after {FOLD_TIME:g} s: q = ({rho[0]:.4f} m, {rho[1]:.4f} m, {beta:.4f} rad)")
+    # sampled at 1 kHz: every t_k of the table's rates is on its grid (no interpolation)
+    cont = simulate(dataclasses.replace(load_scene(CONTINUOUS), output_rate=1000.0), duration=duration)
+    cont_folds = fold_times(cont.events)
+    rows = []
+    for step_ns in step_ns_list:
+        run = run_sampled(SCENE, paper_fold_forces, step_ns=step_ns, duration=duration)
+        first_contact = min(t for t in cont_folds.values() if t is not None)
+        smooth = run.times < first_contact
+        rho_c = np.column_stack([np.interp(run.times[smooth], cont.times, cont.q[:, i]) for i in (0, 1)])
+        folds = fold_times(run.events)
+        rows.append({"rate_hz": NS_PER_S / step_ns, "folds": folds, "continuous": cont_folds,
+                     "fold_shift_s": {k: (folds[k] - cont_folds[k]) if folds[k] is not None and cont_folds[k]
+                                      is not None else None for k in folds},
+                     "max_rho_error_m": float(np.max(np.abs(run.q[smooth, :2] - rho_c)))})
+    return rows
 
 
-def run_demo(out: Path, *, real_time_factor: float = 2.0, record: bool = True) -> int:
+def _fold(client: DemoClient, step_ns: int, results: dict, *, label: str) -> list:
+    steps = round(FOLD_TIME * NS_PER_S) // step_ns
+    client.sim.events.clear()
+    joints = client.run(paper_fold_forces, steps)
+    events = [(e.time, e.kind, int(e.index)) for e in client.sim.events]
+    results.setdefault("fold_events", {})[label] = events
+    return joints
+
+
+def _joint_table(joints) -> dict:
+    """Joint states by stamp (a stamp published twice, e.g. at the start of a request, must
+    carry the same values both times)."""
+    out: dict = {}
+    for j in joints:
+        if out.setdefault(j.stamp_ns, j) != j:
+            raise RuntimeError(f"two different joint states stamped {j.stamp_ns} ns")
+    return out
+
+
+class DemoClient:
+    """The demo's node: the stepping client of the simulator, and clients of ``solve_ik``
+    and ``find_form``."""
+
+    def __init__(self, rclpy) -> None:
+        from tensegrity_msgs.srv import FindForm, SolveIK
+
+        self.sim = SimClient(rclpy, "tensegrity_demo")
+        self.SolveIK, self.FindForm = SolveIK, FindForm
+        node = self.sim.node
+        self.ik = node.create_client(SolveIK, "solve_ik")
+        self.ff = node.create_client(FindForm, "find_form")
+
+    def _call(self, client, request, timeout: float = 120.0):
+        if not client.wait_for_service(timeout_sec=timeout):
+            raise RuntimeError(f"service {client.srv_name} not available")
+        done = threading.Event()
+        future = client.call_async(request)
+        future.add_done_callback(lambda _f: done.set())
+        if not done.wait(timeout):
+            raise RuntimeError(f"no answer from {client.srv_name} within {timeout:g} s")
+        return future.result()
+
+    def call_ik(self, target, seed):
+        return self._call(self.ik, self.SolveIK.Request(x=target[0], y=target[1], seed=list(seed)))
+
+    def call_formfind(self, text: str):
+        return self._call(self.ff, self.FindForm.Request(structure=text))
+
+    def run(self, law, steps: int) -> list:
+        """From rest with the clock at 0: ``steps`` lockstep steps under ``law``; the joint
+        states received (one per step and the start)."""
+        self.sim.set_law(None)
+        self.sim.reset_all()
+        self.sim.take_joints()
+        self.sim.set_law(law)
+        self.sim.step(steps)
+        self.sim.set_law(None)
+        last = steps * self.step_ns
+        deadline = time.monotonic() + 30
+        while not any(j.stamp_ns == last for j in self.sim.joints):     # the final state is in flight
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"the joint state at t = {last / NS_PER_S:g} s never arrived")
+            time.sleep(0.005)
+        return self.sim.take_joints()
+
+    def close(self) -> None:
+        self.sim.close()
+
+
+def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool = True) -> int:
     rclpy = require_rclpy()
     from tensegrity_core.general import example_path
     from tensegrity_ros.bag.info import bag_info
 
+    step_ns = step_ns_of(control_period)
     out.mkdir(parents=True, exist_ok=True)
     exe = [sys.executable, "-m", "tensegrity_ros.cli"]
-    sim_args = ["--ros-args", "-p", f"real_time_factor:={real_time_factor}", "-p", "publish_rate:=200.0",
-                "-p", "command_timeout:=1.0"]
+    sim_args = ["--ros-args", "-p", "lockstep:=true", "-p", "initial_state:=paused",
+                "-p", f"step_size:={step_ns / NS_PER_S!r}", "-p", f"publish_rate:={min(1000.0, NS_PER_S / step_ns)!r}",
+                "-p", "paused_publish_rate:=0.0", "-p", "lockstep_timeout:=10.0"]
     launcher = Launcher([
         ProcessSpec("sim", exe + ["node", "sim", *sim_args]),
         ProcessSpec("ik", exe + ["node", "ik"]),
         ProcessSpec("formfind", exe + ["node", "formfind"]),
     ], out=open(out / "suite.log", "w"))
-    _say(f"starting the suite (sim at {real_time_factor:g}x real time, IK, form-finding); logs in {out / 'suite.log'}")
+    _say(f"starting the suite (sim in lockstep, control period {step_ns / 1e6:g} ms; IK; form-finding); "
+         f"logs in {out / 'suite.log'}")
     launcher.start()
     previous_term = signal.signal(signal.SIGTERM, signal.default_int_handler)  # SIGTERM -> clean stop
     rclpy.init()
     client = DemoClient(rclpy)
+    client.step_ns = step_ns
     results: dict = {}
     bags: list[Path] = []
     rec = None
     try:
-        client.wait_sample(timeout=60)
-        tracker = ActuatorTracker(PAPER_PARAMS, kp=100.0, kd=20.0, kbeta=0.3)
-        phases = (("ik_motion", None, lambda: _ik_motion(client, tracker, results),
+        client.sim.wait_for_services()
+        results["ik_goals"] = _ik_goals(client)
+        phases = (("ik_motion", lambda: _ik_motion(client, step_ns, results),
                    "IK-driven motion through end-effector waypoints"),
-                  ("fold", lambda: _reset(client), lambda: _fold(client, results),
-                   "the paper's fold scenario from rest, f_i = 10 rho_i t"))
-        for name, prepare, phase, title in phases:
-            if prepare is not None:
-                prepare()
+                  ("fold", lambda: results.__setitem__("fold_joints", _fold(client, step_ns, results, label="first")),
+                   "the paper's fold scenario from rest, f_i = 10 rho_i t sampled and held"))
+        for name, phase, title in phases:
             rec = None
             if record:
                 folder = out / name
                 if folder.exists():
-                    import shutil
                     shutil.rmtree(folder)
-                rec = Recorder(folder, [])
-                rec.wait_subscribed(topics=5)
+                before = {t: client.sim.node.count_subscribers(t) for t in RECORDED_TOPICS}
+                rec = Recorder(folder, list(RECORDED_TOPICS))
+                rec.wait_subscribed(topics=len(RECORDED_TOPICS))
+                _wait_subscribed(client.sim.node, before)
                 bags.append(folder)
             _say(f"{title}" + (f" (recording {out / name})" if record else ""))
             phase()
             if rec is not None:
                 rec.stop()
                 rec = None
-        client.set_law(None)
+        ft = fold_times(results["fold_events"]["first"])
+        results["fold_times_s"] = ft
+        for key, when in ft.items():
+            _say(f"  {key} " + (f"folds at t = {when:.6f} s (event located by the simulator)" if when is not None
+                                else "does not fold"))
+        last = results["fold_joints"][-1].position
+        _say(f"  after {FOLD_TIME:g} s: q = ({last[0]:.4f} m, {last[1]:.4f} m, {last[2]:.4f} rad)")
+
+        _say("the fold again, not recorded: same lockstep run, compared stamp by stamp")
+        again = _fold(client, step_ns, results, label="second")
+        first_table, second_table = _joint_table(results["fold_joints"]), _joint_table(again)
+        identical = first_table == second_table
+        results["rerun_identical"] = identical
+        _say(f"  second run: {len(second_table)} joint states, "
+             + ("identical to the first (every position, velocity and effort bit for bit)" if identical
+                else "DIFFERENT from the first"))
+        _say("the same loop in the core (tensegrity_core.sim.sampled.run_sampled)")
+        core = run_sampled(SCENE, paper_fold_forces, step_ns=step_ns, duration=FOLD_TIME)
+        ros_q = np.array([first_table[round(t * NS_PER_S)].position for t in core.times])
+        diff = float(np.max(np.abs(ros_q - core.q)))
+        results["core_max_difference"] = diff
+        _say(f"  {len(core.times)} samples; largest difference from the lockstep ROS run: {diff:.3g} "
+             + ("(identical)" if diff == 0.0 else ""))
+
+        _say(f"control period against the continuous-time {CONTINUOUS!r} scene (the core's sampled runs)")
+        table = control_period_table([step_ns_of(1.0 / hz) for hz in TABLE_RATES])
+        results["table"] = table
+        cont = table[0]["continuous"]
+        _say(f"  continuous: rho2 folds at {cont['rho2']:.6f} s, rho1 at {cont['rho1']:.6f} s")
+        _say("  rate [Hz]  rho2 fold [s]  shift [s]   rho1 fold [s]  shift [s]   max |rho - rho_cont| [m] "
+             "before the first fold")
+        for row in table:
+            f, d = row["folds"], row["fold_shift_s"]
+            cells = [f"{f[k]:.6f}    {d[k]:+.2e}" if f[k] is not None else "  none      " for k in ("rho2", "rho1")]
+            _say(f"  {row['rate_hz']:>9g}  {cells[0]}   {cells[1]}   {row['max_rho_error_m']:.3e}")
 
         _say("form-finding the tensegrity table through find_form")
-        text = example_path("tensegrity_table").read_text()
-        res = client.call(client.ff, client.FindForm.Request(structure=text))
+        res = client.call_formfind(example_path("tensegrity_table").read_text())
         forces = np.array(res.member_forces)
         ratio = forces / forces[0] if res.success else []
         _say(f"  {'ok' if res.success else 'FAILED'}: {res.message}; {res.iterations} iterations, residual "
@@ -292,23 +357,21 @@ def run_demo(out: Path, *, real_time_factor: float = 2.0, record: bool = True) -
         errs = results.get("ik_errors_m", [])
         if errs:
             _say(f"  IK motion: {len(errs)} waypoints, settled error max {1000 * max(errs):.1f} mm")
-        ft = results.get("fold_times_s", {})
-        _say("  fold: " + ", ".join(f"{k} at {v:.3f} s" if v is not None else f"{k} not folded"
-                                     for k, v in ft.items())
-             + " (here the force law is sampled at the joint-state rate and acts one tick late; the core's "
-               "continuous-time paper_fold scene has rho2 touch zero at 1.381 s and rho1 at 1.535 s)")
+        _say("  fold (events): " + ", ".join(f"{k} at {v:.6f} s" if v is not None else f"{k} not folded"
+                                            for k, v in ft.items())
+             + f"; rerun identical: {identical}; core sampled run identical: {diff == 0.0}")
         for folder in bags:
             info = bag_info(folder)
             counts = ", ".join(f"{t['name']} {t['count']}" for t in info["topics"])
             _say(f"  bag {folder}: {info['message_count']} messages ({counts}), "
                  f"{info['size_bytes'] / 1024:.0f} KiB")
-        ok = results.get("formfind_success", False) and len(errs) == len(WAYPOINT_OFFSETS)
+        ok = (results.get("formfind_success", False) and len(errs) == len(WAYPOINT_OFFSETS) and identical
+              and diff == 0.0)
         return 0 if ok else 1
     except KeyboardInterrupt:
         _say("interrupted")
         return 130
     finally:
-        client.set_law(None)
         if rec is not None:
             rec.stop()
         client.close()
