@@ -247,12 +247,7 @@ class DemoClient:
         self.sim.set_law(law)
         self.sim.step(steps)
         self.sim.set_law(None)
-        last = steps * self.step_ns
-        deadline = time.monotonic() + 30
-        while not any(j.stamp_ns == last for j in self.sim.joints):     # the final state is in flight
-            if time.monotonic() > deadline:
-                raise RuntimeError(f"the joint state at t = {last / NS_PER_S:g} s never arrived")
-            time.sleep(0.005)
+        self.sim.wait_joint(steps * self.step_ns)          # the final state may still be in flight
         return self.sim.take_joints()
 
     def close(self) -> None:

@@ -46,24 +46,26 @@ def sample_of(record: JointRecord, L: float = 1.0) -> JointSample:
 
 
 class SimClient:
-    """Services of ``tensegrity_sim`` and a lockstep controller, on one node of ``rclpy``'s
-    default context (call ``rclpy.init()`` first). ``law(sample) -> (f1, f2)`` [N] or None
+    """Services of ``tensegrity_sim`` and a lockstep controller, on one node (of ``context``,
+    default: rclpy's default context; call ``rclpy.init()`` first). ``law(sample) -> (f1, f2)`` [N] or None
     (then joint states are only recorded)."""
 
-    def __init__(self, rclpy, name: str = "tensegrity_sim_client", *, record_events: bool = True):
+    def __init__(self, rclpy, name: str = "tensegrity_sim_client", *, record_events: bool = True, context=None,
+                 namespace: str = ""):
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.qos import QoSProfile
         from sensor_msgs.msg import JointState
-        from simulation_interfaces.srv import (GetSimulationState, ResetSimulation, SetSimulationState,
-                                               StepSimulation)
+        from simulation_interfaces.srv import (GetSimulationState, GetSimulatorFeatures, ResetSimulation,
+                                               SetSimulationState, StepSimulation)
         from std_srvs.srv import Trigger
         from tensegrity_msgs.msg import ActuatorForces, SimulationEvent
 
         self.rclpy = rclpy
-        self.node = rclpy.create_node(name)
+        self.node = rclpy.create_node(name, namespace=namespace, context=context)
         self.ActuatorForces = ActuatorForces
         self.srv = {"set_simulation_state": SetSimulationState, "get_simulation_state": GetSimulationState,
-                    "step_simulation": StepSimulation, "reset_simulation": ResetSimulation, "reset": Trigger}
+                    "step_simulation": StepSimulation, "reset_simulation": ResetSimulation, "reset": Trigger,
+                    "get_simulator_features": GetSimulatorFeatures}
         self.clients = {n: self.node.create_client(t, n) for n, t in self.srv.items()}
         self.pub = self.node.create_publisher(ActuatorForces, "actuator_forces", QoSProfile(depth=100))
         self.node.create_subscription(JointState, "joint_states", self._on_joints, QoSProfile(depth=1000))
@@ -72,9 +74,10 @@ class SimClient:
             self.node.create_subscription(SimulationEvent, "events", self.events.append, QoSProfile(depth=1000))
         self.joints: list[JointRecord] = []
         self.law: Callable | None = None
+        self._answered: set = set()
         self._lock = threading.Lock()
         self._new = threading.Condition(self._lock)
-        self.executor = SingleThreadedExecutor()
+        self.executor = SingleThreadedExecutor(context=context)
         self.executor.add_node(self.node)
         self._thread = threading.Thread(target=self.executor.spin, name=f"{name}_spin", daemon=True)
         self._thread.start()
@@ -87,6 +90,10 @@ class SimClient:
             law = self.law
             self.joints.append(rec)
             self._new.notify_all()
+            if law is not None:
+                if rec.stamp_ns in self._answered:   # a state republished: it was answered already
+                    return
+                self._answered.add(rec.stamp_ns)
         if law is not None:
             f1, f2 = law(sample_of(rec))
             cmd = self.ActuatorForces(name=["f1", "f2"], force=[float(f1), float(f2)])
@@ -94,8 +101,13 @@ class SimClient:
             self.pub.publish(cmd)
 
     def set_law(self, law: Callable | None) -> None:
+        """Answer joint states with ``law`` from now on (None: stop answering). Each stamp is
+        answered once per law: a state the simulator republishes (at the start of a stepping
+        request, or while paused) gets no second command, which the simulator would reject
+        as stamped for a past step."""
         with self._lock:
             self.law = law
+            self._answered = set()
 
     def take_joints(self) -> list[JointRecord]:
         """The joint states received so far (and forget them)."""
@@ -103,12 +115,17 @@ class SimClient:
             out, self.joints = self.joints, []
         return out
 
-    def wait_joint(self, timeout: float = 30.0) -> JointRecord:
-        """Wait for a joint state (the next one, if none has come since the last take)."""
+    def wait_joint(self, stamp_ns: int | None = None, timeout: float = 30.0) -> JointRecord:
+        """Wait for a joint state stamped ``stamp_ns`` (None: any, i.e. the first since the
+        last take) and return it."""
+        def found():
+            return next((j for j in self.joints if stamp_ns is None or j.stamp_ns == stamp_ns), None)
+
         with self._lock:
-            if not self._new.wait_for(lambda: self.joints, timeout):
-                raise RuntimeError(f"no joint_states within {timeout:g} s")
-            return self.joints[-1]
+            if not self._new.wait_for(lambda: found() is not None, timeout):
+                raise RuntimeError(f"no joint_states{'' if stamp_ns is None else f' stamped {stamp_ns} ns'} "
+                                   f"within {timeout:g} s")
+            return found()
 
     # -- services ----------------------------------------------------------------------------------
     def wait_for_services(self, timeout: float = 60.0) -> None:
