@@ -141,7 +141,11 @@ def run_sampled(scene, controller: Controller, *, step_size: float | None = None
                                   f"{type(err).__name__}: {err}", t=step_time(k, step_ns)) from err
         try:
             sim.set_command(u)
-            commands.append(u)
+        except TensegrityError as err:
+            raise SimulationError(f"controller output at t = {step_time(k, step_ns):.9g} s (step {k}) is not a "
+                                  f"command: {err}", t=step_time(k, step_ns)) from None
+        commands.append(u)
+        try:
             sim.advance(step_time(k + 1, step_ns))
         except TensegrityError as err:
             success, message = False, str(err)
