@@ -8,6 +8,8 @@ nanoseconds) and returns a message. Units SI; forces tension positive.
 
 from __future__ import annotations
 
+import array
+
 from builtin_interfaces.msg import Time as TimeMsg
 from geometry_msgs.msg import Point, PointStamped
 from rosgraph_msgs.msg import Clock as ClockMsg
@@ -46,12 +48,18 @@ def point(p) -> Point:
     return Point(x=float(p[0]), y=float(p[1]), z=float(p[2]))
 
 
+def _doubles(values) -> array.array:
+    """A float64 sequence field's value (``array('d')`` takes rclpy's fast path: a list is
+    checked element by element on assignment)."""
+    return array.array("d", [float(v) for v in values])
+
+
 def joint_state_msg(sample, hdr: Header) -> JointState:
     """Joints rho1, rho2 [m], beta [rad]: position, velocity, effort = applied force [N] (0 for beta)."""
     msg = JointState(header=hdr, name=list(JOINT_NAMES))
-    msg.position = [float(v) for v in sample.q]
-    msg.velocity = [float(v) for v in sample.qdot]
-    msg.effort = [float(sample.applied_forces[0]), float(sample.applied_forces[1]), 0.0]
+    msg.position = _doubles(sample.q)
+    msg.velocity = _doubles(sample.qdot)
+    msg.effort = _doubles((sample.applied_forces[0], sample.applied_forces[1], 0.0))
     return msg
 
 
