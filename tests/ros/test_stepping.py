@@ -254,21 +254,29 @@ def test_cancelling_simulate_steps_stops_at_a_step_boundary(stepping, ros_contex
     assert spin_until_done(ex, goal_future, 30)
     handle = goal_future.result()
     assert handle.accepted
+    deadline = time.monotonic() + 60
     while len(feedback) < 20:
+        assert time.monotonic() < deadline, (feedback, handle.status, proc.stderr())
         ex.spin_once(timeout_sec=0.01)
     cancel = handle.cancel_goal_async()
     assert spin_until_done(ex, cancel, 30)
     result_future = handle.get_result_async()
     assert spin_until_done(ex, result_future, 60)
     res = result_future.result()
+    spin(0.5)                                                  # the last feedback may still be in flight
+    ex.spin_once(timeout_sec=0.1)
     from action_msgs.msg import GoalStatus
 
     assert res.status == GoalStatus.STATUS_CANCELED
     message = res.result.result.error_message
     assert message.startswith("cancelled after ")
     done = int(message.split()[2])
-    assert feedback[-1].completed_steps == done and feedback[-1].remaining_steps == 1_000_000 - done
-    assert all(b.completed_steps == a.completed_steps + 1 for a, b in zip(feedback, feedback[1:]))
+    # feedback after every step (a keep-last history of 10 may drop some under load, and
+    # rclpy drops feedback that arrives after the result): counts rise, each adds up to the
+    # request, none is past the step where the cancel stopped
+    assert all(f.completed_steps + f.remaining_steps == 1_000_000 for f in feedback)
+    assert all(b.completed_steps > a.completed_steps for a, b in zip(feedback, feedback[1:]))
+    assert 20 <= feedback[-1].completed_steps <= done
     spin(0.5)
     assert clock[-1] == done * STEP_NS                         # stopped on a step boundary
     assert client.call("get_simulation_state").state.state == SimulationState.STATE_PAUSED
