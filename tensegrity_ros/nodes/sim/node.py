@@ -86,7 +86,7 @@ class SimNode(Node):
             self.plant = SimPlant(scene, p.step_ns)
         except TensegrityError as err:
             raise SystemExit(f"tensegrity_sim: cannot load scene {p.scene!r}: {err}") from None
-        if self.plant.sim.kind != "class2":
+        if self.plant.kind != "class2":
             raise SystemExit(f"tensegrity_sim: scene {p.scene!r} models a general structure; this node "
                              "drives the class-2 mechanism (use `tensegrity simulate` for general scenes)")
         self._state_every = max(1, round(p.publish_rate / p.state_rate)) if p.state_rate > 0 else 0
