@@ -90,7 +90,7 @@ def _lockstep_loop(env: dict, n: int) -> float:
     sim = _start(["node", "sim", "--ros-args", "-p", "lockstep:=true", "-p", "initial_state:=paused",
                   "-p", "step_size:=0.001", "-p", "publish_rate:=1000.0", "-p", "state_rate:=0.0",
                   "-p", "marker_rate:=0.0", "-p", "paused_publish_rate:=0.0",
-                  "-p", f"max_steps_per_request:={10 * n}"], env, "publishing at")
+                  "-p", f"max_steps_per_request:={10 * n}", "-p", "lockstep_timeout:=60.0"], env, "publishing at")
     rclpy, rctx, node, ex = _client(env)
     pub = node.create_publisher(ActuatorForces, "actuator_forces", QoSProfile(depth=100))
     hold = [-0.35, 0.35]                     # the forces that keep the mechanism at rest
