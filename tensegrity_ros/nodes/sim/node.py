@@ -49,6 +49,7 @@ from rclpy.action import ActionServer, CancelResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile
 from rclpy.task import Future
 from rosgraph_msgs.msg import Clock as ClockMsg
@@ -75,6 +76,8 @@ from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 #: Free-running catch-up limit [s of wall time]: a tick this late resynchronises instead
 #: of bursting steps.
 MAX_LAG = 0.25
+#: Free-running StepSimulation requests up to this many steps run in the service callback.
+SYNC_STEPS = 100
 
 
 class SimNode(Node):
@@ -106,7 +109,8 @@ class SimNode(Node):
         # commands can never build a backlog that the simulation would apply late. In
         # lockstep exactly one command per step is expected, so the depth does not matter.
         self._command_node = Node(f"{self.get_name()}_commands", namespace=self.get_namespace(),
-                                  context=self.context, start_parameter_services=False)
+                                  context=self.context, start_parameter_services=False,
+                                  parameter_overrides=[Parameter("start_type_description_service", value=False)])
         self._command_node.create_subscription(ActuatorForces, "actuator_forces", self.on_command, 1)
         self.create_service(Trigger, "reset", self.on_reset)
         self.create_service(GetSimulatorFeatures, "get_simulator_features", self.on_get_features)
@@ -137,8 +141,6 @@ class SimNode(Node):
         self._resync = True                  # free-running: restart the tick schedule from here
         self._stop = threading.Event()
         self._wake = threading.Event()
-        if p.lockstep:
-            self._command_node.create_timer(min(0.05, p.lockstep_timeout / 5), self._on_lockstep_timer)
         self._command_executor = SingleThreadedExecutor(context=self.context)
         self._command_executor.add_node(self._command_node)
         self._command_thread = threading.Thread(target=self._spin_commands, name="tensegrity_sim_commands",
@@ -154,8 +156,14 @@ class SimNode(Node):
             f"{STATE_NAMES[self.state]}")
 
     def _spin_commands(self) -> None:
+        """The command thread: take commands; in lockstep also check the step's timeout
+        between waits (a timer would add an entity to every wake-up)."""
+        poll = min(0.05, self.p.lockstep_timeout / 5)
         try:
-            self._command_executor.spin()
+            while rclpy.ok(context=self.context) and not self._stop.is_set():
+                self._command_executor.spin_once(timeout_sec=poll)
+                if self.p.lockstep and time.monotonic() - self._waiting_since >= poll:
+                    self._on_lockstep_timer()
         except (ExternalShutdownException, KeyboardInterrupt):
             pass
 
@@ -495,6 +503,19 @@ class SimNode(Node):
         return future
 
     async def on_step_simulation(self, req, res):
+        if not self.p.lockstep and 0 < req.steps <= SYNC_STEPS:
+            # a short free-running request runs right here: no hand-over to the loop thread
+            # and back (which costs more than the steps)
+            answers: list = []
+            with self._lock:
+                refusal = control.check_step_request(int(req.steps), self.state, self.request,
+                                                     self.p.max_steps_per_request)
+                if refusal is None:
+                    self.request = StepRequest(int(req.steps), done=answers.append)
+                    while self.request is not None:
+                        self._request_step(self._effective_command(time.monotonic()))
+            _fill(res.result, refusal if refusal is not None else answers[0])
+            return res
         future = self._wait_future()
         request = StepRequest(int(req.steps), done=future.set_result)
         with self._lock:
@@ -535,8 +556,8 @@ class SimNode(Node):
         self._stop.set()
         self._wake.set()
         self._thread.join(timeout=5.0)
-        self._command_executor.shutdown(timeout_sec=5.0)
         self._command_thread.join(timeout=5.0)
+        self._command_executor.shutdown(timeout_sec=5.0)
         self._command_node.destroy_node()
         with self._lock:
             self._end_request(Answer(Result.RESULT_OPERATION_FAILED, "the simulator is shutting down"))
