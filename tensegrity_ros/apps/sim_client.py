@@ -129,9 +129,16 @@ class SimClient:
 
     # -- services ----------------------------------------------------------------------------------
     def wait_for_services(self, timeout: float = 60.0) -> None:
+        """Wait for the simulator's services, and for the command publisher to be matched
+        (held :data:`~tensegrity_ros.rclpy_utils.matching.MATCH_SETTLE_S`: a lockstep command
+        lost to a reader that matched late would stall that step until the timeout)."""
+        from tensegrity_ros.rclpy_utils.matching import wait_for_matches
+
         for name, client in self.clients.items():
             if not client.wait_for_service(timeout_sec=timeout):
                 raise RuntimeError(f"service {client.srv_name} not available within {timeout:g} s")
+        if not wait_for_matches([self.pub], 1, timeout):
+            raise RuntimeError(f"nobody subscribes to {self.pub.topic_name} within {timeout:g} s")
 
     def call(self, name: str, request=None, timeout: float = 600.0):
         client = self.clients[name]
