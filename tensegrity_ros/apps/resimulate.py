@@ -26,7 +26,6 @@ import os
 import statistics
 import sys
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 from rclpy.serialization import deserialize_message
@@ -148,8 +147,8 @@ def resimulate(bag, *, scene: str = "class2_at_rest", step_size: float | None = 
         raise BagError(f"step {step_ns} ns is below 1 us")
     steps = -(-(joints[-1][0] - start) // step_ns)
     if steps > MAX_STEPS:
-        raise BagError(f"{bag}: {steps} steps of {step_ns} ns to cover t = {last / NS_PER_S:g} s: more than "
-                       f"the limit {MAX_STEPS}")
+        raise BagError(f"{bag}: {steps} steps of {step_ns} ns to cover {(joints[-1][0] - start) / NS_PER_S:g} s "
+                       f"of joint states: more than the limit {MAX_STEPS}")
     initial = Simulator(load_scene(scene)).command
     schedule, used = command_schedule(commands, steps, step_ns, initial, start)
     resim = _resimulated(schedule, steps, step_ns, scene, lockstep_timeout)

@@ -83,3 +83,21 @@ def test_a_bag_without_joint_states_is_one_error_line(tmp_path):
     r = run_cli("play", str(folder), "--resimulate", timeout=120)
     assert r.returncode == 1
     assert r.stderr.count("\n") == 1 and "no joint states to compare with" in r.stderr
+
+
+def test_a_bag_too_long_to_resimulate_is_refused(tmp_path):
+    """A bag from outside is bounded: joint states 30 days apart at a 1 ms spacing would
+    need 2.6e9 steps; the limit is said in one line, no simulator is started."""
+    from builtin_interfaces.msg import Time
+    from sensor_msgs.msg import JointState
+
+    folder = tmp_path / "long"
+    with BagWriter(folder) as w:
+        w.add_topic(TopicInfo("/joint_states", "sensor_msgs/msg/JointState"))
+        for k, sec in enumerate((0, 0, 30 * 86400)):
+            js = JointState(name=["rho1", "rho2", "beta"], position=[0.7, 0.7, 0.8])
+            js.header.stamp = Time(sec=sec, nanosec=1_000_000 * k if sec == 0 else 0)
+            w.write("/joint_states", serialize_message(js), 1_700_000_000_000_000_000 + k)
+    r = run_cli("play", str(folder), "--resimulate", timeout=120)
+    assert r.returncode == 1
+    assert r.stderr.count("\n") == 1 and "more than the limit 2000000" in r.stderr

@@ -56,7 +56,7 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState
 from geometry_msgs.msg import PointStamped
 from simulation_interfaces.action import SimulateSteps
-from simulation_interfaces.msg import Result, SimulationState, SimulatorFeatures
+from simulation_interfaces.msg import Result
 from simulation_interfaces.srv import (GetSimulationState, GetSimulatorFeatures, ResetSimulation,
                                        SetSimulationState, StepSimulation)
 from std_srvs.srv import Trigger
