@@ -70,16 +70,3 @@ class ActuatorTracker:
             target = rho_ref - self.kbeta * float(beta_dot) * np.array([g1, g2])
         f = holding_forces(rho_ref[0], rho_ref[1], self.params) + self.kp * (rho - target) + self.kd * rho_dot
         return np.clip(f, -self.max_force, self.max_force)
-
-
-#: The paper's fold law (Sect. 5.3): ``f_i = FOLD_GAIN * rho_i * t`` [N], gain in N/(m s).
-FOLD_GAIN = 10.0
-
-
-def paper_fold_forces(sample) -> tuple[float, float]:
-    """The paper's fold law on a sample of the state: ``f_i = 10 rho_i t`` [N] (tension
-    positive) from the sample's lengths ``q[:2]`` [m] and time ``t`` [s]. A controller for
-    :func:`tensegrity_core.sim.sampled.run_sampled` and for ``tensegrity simulate
-    --controller tensegrity_core.class2.control:paper_fold_forces``."""
-    t = sample.t
-    return FOLD_GAIN * float(sample.q[0]) * t, FOLD_GAIN * float(sample.q[1]) * t

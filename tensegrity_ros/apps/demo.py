@@ -37,7 +37,8 @@ from pathlib import Path
 import numpy as np
 
 from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics
-from tensegrity_core.class2.control import FOLD_GAIN, ActuatorTracker, paper_fold_forces
+from tensegrity_core.class2.control import ActuatorTracker
+from tensegrity_core.class2.fold_law import FOLD_GAIN, paper_fold_forces
 from tensegrity_core.sim.sampled import NS_PER_S, run_sampled, step_ns_of
 from tensegrity_ros.apps.launch import Launcher, ProcessSpec
 from tensegrity_ros.apps.sim_client import SimClient

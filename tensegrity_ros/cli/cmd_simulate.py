@@ -33,7 +33,7 @@ def register(subparsers) -> None:
     p.add_argument("--controller", default=None, metavar="MODULE:FUNCTION",
                    help="the controller of a sampled-data run: FUNCTION(sample) -> one force per input [N], "
                    "sample with t [s], q, qdot, applied_forces, end_effector (e.g. "
-                   "tensegrity_core.class2.control:paper_fold_forces)")
+                   "tensegrity_core.class2.fold_law:paper_fold_forces)")
     add_json_flag(p)
     p.set_defaults(func=run_simulate)
 

@@ -28,7 +28,7 @@ def _write_bag(folder, *, perturb: tuple[int, float] | None = None, with_joints:
     from sensor_msgs.msg import JointState
     from tensegrity_msgs.msg import ActuatorForces
 
-    from tensegrity_core.class2.control import paper_fold_forces
+    from tensegrity_core.class2.fold_law import paper_fold_forces
     from tensegrity_core.sim.sampled import run_sampled
 
     run = run_sampled("class2_at_rest", paper_fold_forces, step_ns=STEP_NS, steps=STEPS)

@@ -21,7 +21,7 @@ def test_the_demo_runs_in_lockstep_and_reproduces_itself(tmp_path):
     assert "largest difference from the lockstep ROS run: 0 (identical)" in out
     # the fold times are the simulator's located events: those of the core's sampled run of
     # the same loop (the ROS run equals it bit for bit)
-    from tensegrity_core.class2.control import paper_fold_forces
+    from tensegrity_core.class2.fold_law import paper_fold_forces
     from tensegrity_core.sim.sampled import run_sampled
 
     core = run_sampled("class2_at_rest", paper_fold_forces, step_size=0.01, duration=4.0)

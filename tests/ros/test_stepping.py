@@ -66,7 +66,7 @@ def _result(res):
 
 def _lockstep_fold(client, steps: int) -> list:
     """Reset (clock at 0), then `steps` lockstep steps under the paper's fold law."""
-    from tensegrity_core.class2.control import paper_fold_forces
+    from tensegrity_core.class2.fold_law import paper_fold_forces
 
     client.set_law(None)
     client.reset_all()
@@ -86,7 +86,7 @@ def test_lockstep_runs_equal_the_core_sampled_run_and_each_other(stepping):
     """The paper's fold over ROS in lockstep (controller in this process) against the core's
     run_sampled with the same controller: every joint state equal to the last bit, the
     located events equal, and a second ROS run identical to the first."""
-    from tensegrity_core.class2.control import paper_fold_forces
+    from tensegrity_core.class2.fold_law import paper_fold_forces
     from tensegrity_core.sim.sampled import run_sampled
 
     proc, client = stepping("lockstep:=true", "initial_state:=paused", "paused_publish_rate:=0.0",

@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from tensegrity_core.class2.control import paper_fold_forces
+from tensegrity_core.class2.fold_law import paper_fold_forces
 from tensegrity_core.sim import SimulationError, simulate
 from tensegrity_core.sim.sampled import run_sampled, step_ns_of, step_time, steps_in
 from tensegrity_ros.cli import main
@@ -73,7 +73,7 @@ def test_a_failing_controller_names_the_step():
 def test_cli_sampled_run_matches_the_api(capsys, tmp_path):
     out = tmp_path / "run.npz"
     rc = main(["simulate", "class2_at_rest", "--control-period", "0.01", "--controller",
-               "tensegrity_core.class2.control:paper_fold_forces", "--duration", "2", "--json", "-o", str(out)])
+               "tensegrity_core.class2.fold_law:paper_fold_forces", "--duration", "2", "--json", "-o", str(out)])
     assert rc == 0
     summary = json.loads(capsys.readouterr().out)
     run = run_sampled("class2_at_rest", paper_fold_forces, step_size=0.01, duration=2.0)
