@@ -231,7 +231,8 @@ def test_a_lockstep_command_for_another_step_is_rejected_with_a_reason(stepping)
     assert efforts.get(2 * STEP_NS) == (0.5, 0.5) or efforts.get(STEP_NS) == (0.5, 0.5)
 
 
-def test_cancelling_simulate_steps_stops_at_a_step_boundary(stepping, ros_context):
+@pytest.mark.parametrize("lockstep", [False, True])
+def test_cancelling_simulate_steps_stops_at_a_step_boundary(stepping, ros_context, lockstep):
     from rclpy.action import ActionClient
     from simulation_interfaces.action import SimulateSteps
     from simulation_interfaces.msg import SimulationState
@@ -239,7 +240,9 @@ def test_cancelling_simulate_steps_stops_at_a_step_boundary(stepping, ros_contex
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
 
     clock, spin = _clock_listener(ros_context)
-    proc, client = stepping("initial_state:=paused", "paused_publish_rate:=0.0")
+    proc, client = stepping("initial_state:=paused", "paused_publish_rate:=0.0", f"lockstep:={str(lockstep).lower()}",
+                            "lockstep_timeout:=30.0")
+    client.set_law(lambda sample: (-0.35, 0.35))       # a controller (used in lockstep only)
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
 
@@ -280,4 +283,5 @@ def test_cancelling_simulate_steps_stops_at_a_step_boundary(stepping, ros_contex
     spin(0.5)
     assert clock[-1] == done * STEP_NS                         # stopped on a step boundary
     assert client.call("get_simulation_state").state.state == SimulationState.STATE_PAUSED
+    assert "lockstep: no command" not in proc.stderr()      # lockstep: every step had its command
     node.destroy_node()
