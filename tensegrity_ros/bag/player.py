@@ -32,7 +32,7 @@ from tensegrity_ros.bag.qos import dict_to_profile, offer_for_replay
 from tensegrity_ros.bag.reader import BagReader
 from tensegrity_ros.bag.recorder import message_class
 from tensegrity_ros.bag.schedule import PlaybackOptions, timeline
-from tensegrity_ros.matching import wait_for_matches
+from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
 CLOCK_TOPIC = "/clock"
 _SPIN_NS = 1_000_000  # poll the clock for the last 1 ms before an event
@@ -108,7 +108,7 @@ class PlayerNode(Node):
     def wait_for_subscribers(self, timeout_s: float, should_stop: Callable[[], bool] = lambda: False
                              ) -> bool:
         """Wait until every publisher has a matched subscription, matched on both sides
-        (:func:`tensegrity_ros.matching.wait_for_matches`); False on timeout."""
+        (:func:`tensegrity_ros.rclpy_utils.matching.wait_for_matches`); False on timeout."""
         pubs = list(self.publishers_by_topic.values())
         if self.clock_publisher is not None:
             pubs.append(self.clock_publisher)

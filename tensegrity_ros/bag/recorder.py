@@ -30,12 +30,12 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.topic_or_service_is_hidden import topic_or_service_is_hidden
 
-from tensegrity_ros import msg_utils
+from tensegrity_ros.rclpy_utils import messages as msg_utils
 from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.metadata import BagMetadata, TopicInfo
 from tensegrity_ros.bag.qos import dict_to_profile, profile_to_dict, request_for_offers
 from tensegrity_ros.bag.writer import BagWriter
-from tensegrity_ros.raw_take import take_all
+from tensegrity_ros.rclpy_utils.raw_take import take_all
 
 # The suite's topics, as the nodes name them (relative names follow the namespace).
 SUITE_TOPICS = ("joint_states", "end_effector", "mechanism_state", "markers", "/clock",
@@ -137,7 +137,7 @@ class RecorderNode(Node):
     def take_pending(self) -> list[int]:
         """Write every message already queued on the subscriptions, in receive order;
         return their receive times [ns since the epoch]. Taken straight from the
-        subscriptions (:func:`tensegrity_ros.raw_take.take_all`), not through an executor."""
+        subscriptions (:func:`tensegrity_ros.rclpy_utils.raw_take.take_all`), not through an executor."""
         batch = [(info["received_timestamp"], topic, (data, info))
                  for topic, sub in self._subscriptions_by_topic.items()
                  for data, info in take_all(sub)]

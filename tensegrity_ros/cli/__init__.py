@@ -55,7 +55,7 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 0 if not argv else 2
-    from tensegrity_ros.ros_env import RosUnavailableError
+    from tensegrity_ros.rclpy_utils.env import RosUnavailableError
 
     try:
         return int(args.func(args) or 0)

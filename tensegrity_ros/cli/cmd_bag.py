@@ -21,7 +21,7 @@ def _bag_errors(fn):
 
 @_bag_errors
 def _record(args) -> int:
-    from tensegrity_ros.ros_env import require_rclpy
+    from tensegrity_ros.rclpy_utils.env import require_rclpy
 
     require_rclpy()
     from tensegrity_ros.bag.recorder import record
@@ -42,9 +42,11 @@ def _clock_rate(text: str) -> float:
 
 @_bag_errors
 def _play(args) -> int:
-    from tensegrity_ros.ros_env import require_rclpy
+    from tensegrity_ros.rclpy_utils.env import require_rclpy
 
     require_rclpy()
+    if args.resimulate:
+        return _resimulate(args)
     from tensegrity_ros.bag.player import play
     from tensegrity_ros.bag.schedule import PlaybackOptions
 
@@ -54,6 +56,21 @@ def _play(args) -> int:
                   wait_for_subscribers_s=args.wait_for_subscribers,
                   wait_for_all_acked_s=args.wait_for_all_acked, ros_args=args.ros_args)
     return 130 if result.stopped else 0
+
+
+def _resimulate(args) -> int:
+    from tensegrity_ros.apps.resimulate import resimulate
+
+    if args.step_size is not None and not 1e-6 <= args.step_size <= 10.0:
+        raise CliError(f"--step-size must be in [1e-6, 10] s, got {args.step_size}")
+    report = resimulate(args.bag, scene=args.scene, step_size=args.step_size)
+    if args.json:
+        import dataclasses
+
+        print_json(dataclasses.asdict(report))
+    else:
+        print(report.summary())
+    return 0
 
 
 @_bag_errors
@@ -141,6 +158,15 @@ def register(sub) -> None:
     p.add_argument("--wait-for-all-acked", type=float, default=10.0, metavar="S",
                    help="at the end wait up to S seconds until every reliable subscriber "
                    "acknowledged every message (default 10; 0: exit at once)")
+    p.add_argument("--resimulate", action="store_true",
+                   help="instead of replaying: feed the bag's actuator_forces into a lockstep simulator of "
+                   "its own at their recorded steps and report the largest difference between the recorded "
+                   "and the re-simulated joint states (0 for a lockstep recording)")
+    p.add_argument("--scene", default="class2_at_rest",
+                   help="--resimulate: the simulator's scene (default class2_at_rest, the node's default)")
+    p.add_argument("--step-size", type=float, default=None, metavar="S",
+                   help="--resimulate: the step [s] (default: the joint states' spacing in the bag)")
+    add_json_flag(p)
     p.set_defaults(func=_play)
 
     p = sub.add_parser("bag", help="inspect, plot or repair a bag")

@@ -51,7 +51,7 @@ def _move(args) -> int:
         if not math.isfinite(getattr(args, name)):
             raise CliError(f"{name} must be a finite number, got {getattr(args, name)}")
     speed = args.speed if (args.speed or args.duration) else 0.05
-    from tensegrity_ros.ros_env import require_rclpy
+    from tensegrity_ros.rclpy_utils.env import require_rclpy
 
     require_rclpy()
     from tensegrity_msgs.action import MoveEndEffector
@@ -83,7 +83,7 @@ def _follow(args) -> int:
         v = getattr(args, name)
         if v is not None and not math.isfinite(v):
             raise CliError(f"--{name.replace('_', '-')} must be a finite number, got {v}")
-    from tensegrity_ros.ros_env import require_rclpy
+    from tensegrity_ros.rclpy_utils.env import require_rclpy
 
     require_rclpy()
     from builtin_interfaces.msg import Duration
@@ -145,7 +145,7 @@ def _run_goal(args, node_name: str, action, goal, total, progress, summary) -> i
     from tqdm import tqdm
 
     from tensegrity_ros.cli.cmd_ros import _client_node
-    from tensegrity_ros.futures import spin_until_done
+    from tensegrity_ros.rclpy_utils.futures import spin_until_done
 
     rclpy, node = _client_node(node_name, args.ros_args)
     executor = SingleThreadedExecutor()
@@ -176,7 +176,7 @@ def _run_goal(args, node_name: str, action, goal, total, progress, summary) -> i
         bar.close()
         if args.json:
             from tensegrity_ros.cli._common import print_json
-            from tensegrity_ros.msg_utils import message_to_dict
+            from tensegrity_ros.rclpy_utils.messages import message_to_dict
 
             print_json({"status": _code_name(action, res.error_code), **message_to_dict(res)})
         else:

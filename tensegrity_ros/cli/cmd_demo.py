@@ -1,4 +1,4 @@
-"""``tensegrity demo``: the suite end to end (see :mod:`tensegrity_ros.demo`)."""
+"""``tensegrity demo``: the suite end to end (see :mod:`tensegrity_ros.apps.demo`)."""
 
 from __future__ import annotations
 
@@ -8,21 +8,23 @@ ORDER = 1
 
 
 def register(sub) -> None:
-    p = sub.add_parser("demo", help="start the suite, drive the mechanism, call the services, record bags",
-                       description="Starts sim + IK + form-finding, drives the mechanism through IK "
-                       "waypoints and the paper's fold scenario via actuator_forces (recording a bag of "
-                       "each), calls find_form on the tensegrity table, and prints a summary.")
+    p = sub.add_parser("demo", help="start the suite, drive the mechanism in lockstep, call the services, record bags",
+                       description="Starts sim (lockstep) + IK + form-finding, drives the mechanism through IK "
+                       "waypoints and the paper's fold scenario via actuator_forces, one command per control "
+                       "period (recording a bag of each), shows that a rerun and the core's sampled-data run are "
+                       "identical, tabulates the control period against the continuous-time fold, calls "
+                       "find_form on the tensegrity table, and prints a summary.")
     p.add_argument("--out", "-o", default="demo_out", help="folder for the bags and the suite log")
-    p.add_argument("--real-time-factor", type=float, default=2.0,
-                   help="simulated seconds per wall second (default 2)")
+    p.add_argument("--control-period", type=float, default=0.01, metavar="S",
+                   help="the lockstep control period [s] (default 0.01: 100 Hz)")
     p.add_argument("--no-record", action="store_true", help="do not record bags")
     p.set_defaults(func=_demo)
 
 
 def _demo(args) -> int:
     from tensegrity_ros.cli._common import CliError
-    from tensegrity_ros.demo import run_demo
+    from tensegrity_ros.apps.demo import run_demo
 
-    if not args.real_time_factor > 0:
-        raise CliError(f"--real-time-factor must be > 0, got {args.real_time_factor}")
-    return run_demo(Path(args.out), real_time_factor=args.real_time_factor, record=not args.no_record)
+    if not 1e-4 <= args.control_period <= 0.5:
+        raise CliError(f"--control-period must be in [1e-4, 0.5] s, got {args.control_period}")
+    return run_demo(Path(args.out), control_period=args.control_period, record=not args.no_record)

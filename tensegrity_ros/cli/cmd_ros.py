@@ -71,7 +71,7 @@ def register(sub) -> None:
 def _node(args) -> int:
     import importlib
 
-    from tensegrity_ros.ros_env import require_rclpy
+    from tensegrity_ros.rclpy_utils.env import require_rclpy
 
     require_rclpy()
 
@@ -80,8 +80,8 @@ def _node(args) -> int:
 
 
 def _up(args) -> int:
-    from tensegrity_ros.launch import Launcher, ProcessSpec
-    from tensegrity_ros.ros_env import require_rclpy
+    from tensegrity_ros.apps.launch import Launcher, ProcessSpec
+    from tensegrity_ros.rclpy_utils.env import require_rclpy
 
     require_rclpy()      # fail here, once, if ROS is missing
 
@@ -105,7 +105,7 @@ def _up(args) -> int:
 
 
 def _client_node(name: str, ros_args: list[str]):
-    from tensegrity_ros.ros_env import require_rclpy
+    from tensegrity_ros.rclpy_utils.env import require_rclpy
 
     rclpy = require_rclpy()
     rclpy.init(args=["tensegrity", *ros_args])
@@ -113,7 +113,7 @@ def _client_node(name: str, ros_args: list[str]):
 
 
 def _send_forces(args) -> int:
-    from tensegrity_ros.actuator_commands import CommandError, parse_command
+    from tensegrity_ros.nodes.actuator_commands import CommandError, parse_command
 
     names = args.name or []
     try:
@@ -122,7 +122,7 @@ def _send_forces(args) -> int:
         raise CliError(str(err)) from None
     rclpy, node = _client_node("tensegrity_send_forces", args.ros_args)
     from tensegrity_msgs.msg import ActuatorForces
-    from tensegrity_ros.matching import wait_for_matches
+    from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
     pub = node.create_publisher(ActuatorForces, args.topic, 10)
     try:
@@ -161,7 +161,7 @@ def _call_service(args, node_name: str, srv_type, request):
                            f"{args.timeout:g} s (is the suite up? `tensegrity up`)", code=3)
         from rclpy.executors import SingleThreadedExecutor
 
-        from tensegrity_ros.futures import spin_until_done
+        from tensegrity_ros.rclpy_utils.futures import spin_until_done
 
         executor = SingleThreadedExecutor()
         executor.add_node(node)
@@ -177,7 +177,7 @@ def _call_service(args, node_name: str, srv_type, request):
 def _show(args, res, lines) -> int:
     """Print a response as JSON or as the given human-readable lines; exit code by success."""
     from tensegrity_ros.cli._common import print_json
-    from tensegrity_ros.msg_utils import message_to_dict
+    from tensegrity_ros.rclpy_utils.messages import message_to_dict
 
     if args.json:
         print_json(message_to_dict(res))
@@ -189,7 +189,7 @@ def _show(args, res, lines) -> int:
 
 
 def _call_ik(args) -> int:
-    from tensegrity_ros.ros_env import require_rclpy
+    from tensegrity_ros.rclpy_utils.env import require_rclpy
 
     require_rclpy()
     from tensegrity_msgs.srv import SolveIK
@@ -204,7 +204,7 @@ def _call_ik(args) -> int:
 def _call_formfind(args) -> int:
     from pathlib import Path
 
-    from tensegrity_ros.ros_env import require_rclpy
+    from tensegrity_ros.rclpy_utils.env import require_rclpy
 
     path = Path(args.file)
     if not path.exists():
@@ -234,7 +234,7 @@ def _echo(args) -> int:
 
     import yaml
 
-    from tensegrity_ros.msg_utils import message_class, message_to_dict
+    from tensegrity_ros.rclpy_utils.messages import message_class, message_to_dict
 
     rclpy, node = _client_node("tensegrity_echo", args.ros_args)
     try:

@@ -27,6 +27,13 @@ def register(subparsers) -> None:
     p.add_argument("--plot", default=None, help="write a plot of the run (PNG)")
     p.add_argument("--duration", type=float, default=None, help="simulated time [s] (default: the scene's)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--control-period", type=float, default=None, metavar="DT",
+                   help="sampled-data run: evaluate --controller every DT seconds on the state and hold its "
+                   "output for one period (the loop a lockstep tensegrity_sim closes with a controller)")
+    p.add_argument("--controller", default=None, metavar="MODULE:FUNCTION",
+                   help="the controller of a sampled-data run: FUNCTION(sample) -> one force per input [N], "
+                   "sample with t [s], q, qdot, applied_forces, end_effector (e.g. "
+                   "tensegrity_core.class2.fold_law:paper_fold_forces)")
     add_json_flag(p)
     p.set_defaults(func=run_simulate)
 
@@ -55,10 +62,79 @@ def run_scenes(args) -> int:
     return 0
 
 
+def load_controller(spec: str):
+    """The function named by ``MODULE:FUNCTION``, or a CliError saying what is wrong."""
+    import importlib
+
+    module_name, sep, name = spec.partition(":")
+    if not sep or not module_name or not name:
+        raise CliError(f"--controller expects MODULE:FUNCTION, got {spec!r}")
+    try:
+        module = importlib.import_module(module_name)
+    except Exception as err:   # any import failure of user code is one line
+        raise CliError(f"--controller: cannot import {module_name!r}: {type(err).__name__}: {err}") from None
+    fn = getattr(module, name, None)
+    if not callable(fn):
+        raise CliError(f"--controller: {module_name!r} has no function {name!r}")
+    return fn
+
+
+def run_sampled_cli(args) -> int:
+    """``simulate --control-period DT --controller MODULE:FUNCTION``."""
+    from tensegrity_core.errors import TensegrityError
+    from tensegrity_core.sim import SceneError, load_scene
+    from tensegrity_core.sim.sampled import run_sampled
+
+    if (args.control_period is None) != (args.controller is None):
+        raise CliError("--control-period and --controller go together")
+    if args.plot is not None:
+        raise CliError("--plot is not available for a sampled-data run (write -o OUT.npz and plot that)")
+    out = Path(args.output) if args.output else None
+    if out is not None and out.suffix.lower() not in (".npz", ".csv"):
+        raise CliError(f"-o/--output must end in .npz or .csv, got {str(out)!r}")
+    if not (args.control_period > 0 and args.control_period < 3600):
+        raise CliError(f"--control-period must be in (0, 3600) s, got {args.control_period}")
+    controller = load_controller(args.controller)
+    try:
+        scene = load_scene(args.scene)
+        run = run_sampled(scene, controller, step_size=args.control_period,
+                          duration=scene.duration if args.duration is None else args.duration)
+    except (SceneError, TensegrityError) as err:
+        raise CliError(str(err)) from None
+    if out is not None:
+        run.to_npz(out) if out.suffix.lower() == ".npz" else run.to_csv(out)
+    summary = {"scene": run.scene_name, "success": run.success, "message": run.message,
+               "control_period_ns": run.step_ns, "controller": args.controller, "steps": len(run.commands),
+               "t_end": float(run.times[-1]),
+               "events": [{"t": float(t), "kind": k, "index": int(i)} for t, k, i in run.events],
+               "stats": run.stats, "final": {"q": run.q[-1]}, "output": str(out) if out else None}
+    if args.json:
+        print_json(summary)
+    else:
+        import numpy as np
+
+        print(f"scene {run.scene_name}: sampled-data run, controller {args.controller} every "
+              f"{run.step_ns / 1e9:.9g} s (zero-order hold)")
+        print(f"{run.message}: to t = {summary['t_end']:.9g} s")
+        for e in summary["events"]:
+            print(f"  event at t = {e['t']:.9g} s: {e['kind']} {e['index']}")
+        with np.printoptions(precision=6, suppress=True):
+            print(f"final q = {run.q[-1]}")
+        if out:
+            print(f"trajectory written to {out}")
+    if not run.success:
+        print(f"error: simulation stopped early: {run.message}", file=sys.stderr)
+        return 1
+    return 0
+
+
 def run_simulate(args) -> int:
     from tensegrity_core.errors import TensegrityError
     from tensegrity_core.schema import excerpt
     from tensegrity_core.sim import SceneError, load_scene, simulate
+
+    if args.control_period is not None or args.controller is not None:
+        return run_sampled_cli(args)
 
     out = Path(args.output) if args.output else None
     if out is not None and out.suffix.lower() not in (".npz", ".csv"):

@@ -1,6 +1,10 @@
-"""The suite's rclpy nodes: ``tensegrity_sim``, ``tensegrity_ik``, ``tensegrity_formfind``.
+"""The suite's rclpy nodes and the helpers they use: ``tensegrity_sim`` (package
+:mod:`.sim`: receiver, plant, sender, run control, parameters), ``tensegrity_ik``
+(:mod:`.ik`), ``tensegrity_formfind`` (:mod:`.formfind` and its worker process,
+:mod:`.formfind_worker`); command parsing (:mod:`.actuator_commands`) and parameter
+declaration (:mod:`.common`).
 
-Each node is an importable class wired in ``__init__``; each module has ``main(argv)``
-for ``tensegrity node <name>``. Node files translate messages and delegate to
+Each node is an importable class wired in ``__init__``; each node module has
+``main(argv)`` for ``tensegrity node <name>``. Nodes translate messages and delegate to
 :mod:`tensegrity_core`; they hold no numerics of their own.
 """

@@ -5,14 +5,10 @@ from __future__ import annotations
 import math
 from typing import Callable, Sequence
 
-from tensegrity_ros.ros_env import require_rclpy
+from tensegrity_ros.rclpy_utils.env import require_rclpy
 
 rclpy = require_rclpy()
-from rcl_interfaces.msg import (  # noqa: E402
-    IntegerRange,
-    ParameterDescriptor,
-    SetParametersResult,
-)
+from rcl_interfaces.msg import IntegerRange, ParameterDescriptor  # noqa: E402
 from rclpy.executors import ExternalShutdownException  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from rclpy.qos import QoSProfile, qos_profile_services_default  # noqa: E402
@@ -93,19 +89,6 @@ def declare_scene(node: Node):
 def scene_mechanism(node: Node) -> Class2Params:
     """The class-2 parameters of the node's ``scene`` parameter (declared here)."""
     return declare_scene(node)[1].model.params
-
-
-def reject_changes_of(names: Sequence[str]) -> Callable:
-    """A set-parameters callback refusing changes to ``names`` at run time."""
-    frozen = set(names)
-
-    def callback(params) -> SetParametersResult:
-        for p in params:
-            if p.name in frozen:
-                return SetParametersResult(successful=False, reason=f"{p.name} cannot change while running")
-        return SetParametersResult(successful=True)
-
-    return callback
 
 
 def spin_node(make_node: Callable[[], Node], args: Sequence[str] | None, executor_factory=None) -> int:

@@ -54,7 +54,7 @@ from tensegrity_core.class2.control import goals as G
 from tensegrity_core.class2.control.errors import INVALID_JOINTS, OUTSIDE_WORKSPACE, SINGULAR_PATH
 from tensegrity_core.class2.control.trajectory import JOINTS, actuator_reference
 from tensegrity_core.errors import TensegrityError
-from tensegrity_ros.msg_utils import duration_to_s, stamp_to_s
+from tensegrity_ros.rclpy_utils.messages import duration_to_s, stamp_to_s
 
 _MOVE = MoveEndEffector.Result
 _FOLLOW = FollowActuatorTrajectory.Result

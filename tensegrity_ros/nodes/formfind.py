@@ -29,10 +29,11 @@ from rclpy.node import Node
 from tensegrity_msgs.srv import FindForm
 
 from tensegrity_core.schema import Limits, clip
-from tensegrity_ros import formfind_worker
+from tensegrity_ros.nodes import formfind_worker
+from tensegrity_ros.nodes.formfind_worker import FormFindReply
 
 _CTX = multiprocessing.get_context("forkserver")
-_CTX.set_forkserver_preload(["tensegrity_ros.formfind_worker", "tensegrity_core.general"])
+_CTX.set_forkserver_preload(["tensegrity_ros.nodes.formfind_worker", "tensegrity_core.general"])
 #: How long a form-finding worker may run past the time limit to stop itself at its next
 #: iteration and send what it has (a parsing worker is stopped at the limit itself) [s].
 GRACE = 2.0
@@ -78,19 +79,19 @@ class FormFindNode(Node):
             return res
         with self._slots:
             out = self._run(req.structure, float(req.tolerance), int(req.max_iterations))
-        res.success = bool(out["success"])
-        res.message = out["message"]
-        res.nodes = [Point(x=p[0], y=p[1], z=p[2]) for p in out["nodes"]]
-        res.member_forces = out["member_forces"]
-        res.iterations = out["iterations"]
-        res.residual = out["residual"]
-        res.min_stiffness_eigenvalue = out["min_stiffness_eigenvalue"]
+        res.success = out.success
+        res.message = out.message
+        res.nodes = [Point(x=p[0], y=p[1], z=p[2]) for p in out.nodes]
+        res.member_forces = out.member_forces
+        res.iterations = out.iterations
+        res.residual = out.residual
+        res.min_stiffness_eigenvalue = out.min_stiffness_eigenvalue
         if not res.success:
             first = res.message.splitlines()[0] if res.message else ""
             self.get_logger().warning(f"find_form failed: {clip(first, LOG_CHARS)}")
         return res
 
-    def _run(self, text: str, tol: float, max_iter: int) -> dict:
+    def _run(self, text: str, tol: float, max_iter: int) -> FormFindReply:
         """Solve in a worker; stop it at the time limit, which counts from the worker's first
         report (form-finding: after a short grace for its own stop), and say in which phase."""
         time_limit = self.time_limit
@@ -109,7 +110,7 @@ class FormFindNode(Node):
                     end = start + time_limit + (GRACE if phase == formfind_worker.FORM_FINDING else 0.0)
                 if not parent.poll(max(0.0, end - time.monotonic())):
                     limit = time_limit if start is not None else STARTUP_LIMIT
-                    return formfind_worker.empty_answer(
+                    return FormFindReply.failure(
                         f"time limit of {limit:g} s reached while {phase}; the worker was stopped")
                 kind, value = parent.recv()
                 if kind == "result":
@@ -118,7 +119,7 @@ class FormFindNode(Node):
                 start = time.monotonic() if start is None else start
         except EOFError:
             proc.join(timeout=5)
-            return formfind_worker.empty_answer(
+            return FormFindReply.failure(
                 f"the form-finding worker died while {phase} (exit code {proc.exitcode}; its memory is capped "
                 f"at max_worker_memory_mb = {self.max_worker_memory_mb})")
         finally:

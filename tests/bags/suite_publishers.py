@@ -38,7 +38,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from tensegrity_core.class2.geometry import MEMBERS, NODE_NAMES, member_lengths, node_positions
 from tensegrity_core.class2.params import Class2Params
-from tensegrity_ros.matching import wait_for_matches
+from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
 PARAMS = Class2Params()
 STAMP0_NS = 1_700_000_000_000_000_000   # header stamp of message 0 of every topic

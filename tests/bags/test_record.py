@@ -22,7 +22,7 @@ from tensegrity_ros.bag.metadata import read_metadata
 from tensegrity_ros.bag.reader import BagReader
 from tensegrity_ros.bag.recorder import message_class
 from tensegrity_ros.bag.repair import repair_bag
-from tensegrity_ros.matching import wait_for_matches
+from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 from tests.bags.compare import plain, read_with_mcap_ros2, read_with_rosbags
 from tests.bags.conftest import run_cli
 from tests.bags.suite_publishers import TYPE_NAMES, SuitePublisher, make_message

@@ -24,7 +24,7 @@ from rclpy.serialization import deserialize_message
 from tensegrity_ros.bag.reader import BagReader
 from tensegrity_ros.bag.recorder import message_class
 from tensegrity_core.class2 import forward_kinematics
-from tensegrity_ros.demo import FOLD_GAIN, WAYPOINT_OFFSETS
+from tensegrity_ros.apps.demo import FOLD_GAIN, WAYPOINT_OFFSETS
 
 pytestmark = pytest.mark.ros
 
@@ -61,7 +61,7 @@ def test_sample_bag_is_small_and_replays_exactly(name, ros_context, cli):
     for m in reader.messages():
         stored.setdefault(m.topic, []).append(m.data)
     got = replay(folder, ros_context, cli)
-    assert got == stored
+    assert {n: v for n, v in got.items() if v or n in stored} == stored    # (a topic may have no messages)
     js_type = message_class("sensor_msgs/msg/JointState")
     ee_type = message_class("geometry_msgs/msg/PointStamped")
     ms_type = message_class("tensegrity_msgs/msg/MechanismState")

@@ -67,7 +67,7 @@ def sim_publishing_and_recorder(ctx: Context) -> list[Row]:
     from rclpy.serialization import deserialize_message
     from sensor_msgs.msg import JointState
 
-    from tensegrity_ros.raw_take import take_all
+    from tensegrity_ros.rclpy_utils.raw_take import take_all
 
     env = _env()
     duration = 2.0 if ctx.quick else 10.0
@@ -137,7 +137,7 @@ def _round_trips(srv_type, name: str, requests: list, env: dict) -> list[float]:
     from rclpy.context import Context as RosContext
     from rclpy.executors import SingleThreadedExecutor
 
-    from tensegrity_ros.futures import spin_until_done
+    from tensegrity_ros.rclpy_utils.futures import spin_until_done
 
     os.environ.update({k: env[k] for k in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID")})
     rctx = RosContext()

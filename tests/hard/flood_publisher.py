@@ -46,7 +46,7 @@ def main(argv=None) -> int:
     from rclpy.qos import QoSProfile
     from tensegrity_msgs.msg import ActuatorForces
 
-    from tensegrity_ros.matching import wait_for_matches
+    from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
     rclpy.init()
     node = rclpy.create_node("flood_publisher")

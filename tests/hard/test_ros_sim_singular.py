@@ -9,7 +9,7 @@ import time
 import pytest
 
 from tensegrity_core.class2 import PAPER_PARAMS, dynamics_singularity
-from tensegrity_ros.matching import wait_for_matches
+from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
 pytestmark = pytest.mark.ros
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import sys
 
-from tensegrity_ros.ros_env import require_rclpy
+from tensegrity_ros.rclpy_utils.env import require_rclpy
 
 rclpy = require_rclpy()
 from rclpy.executors import ExternalShutdownException  # noqa: E402

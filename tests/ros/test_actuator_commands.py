@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from tensegrity_ros.actuator_commands import CommandError, parse_command
+from tensegrity_ros.nodes.actuator_commands import CommandError, parse_command
 
 
 @pytest.mark.parametrize("names, forces, expected", [

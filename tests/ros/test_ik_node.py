@@ -7,7 +7,7 @@ from concurrent.futures import wait
 
 import pytest
 
-from tensegrity_ros.futures import spin_until_done
+from tensegrity_ros.rclpy_utils.futures import spin_until_done
 
 pytestmark = pytest.mark.ros
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 
-from tensegrity_ros.matching import wait_for_matches
+from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
 
 class ScriptedPublisher:

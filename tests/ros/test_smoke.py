@@ -19,7 +19,7 @@ def _discovery_range_seen_by_a_new_process(env_value: str | None) -> str:
     if env_value is not None:
         env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = env_value
     code = (
-        "import os; from tensegrity_ros.ros_env import require_rclpy; require_rclpy(); "
+        "import os; from tensegrity_ros.rclpy_utils.env import require_rclpy; require_rclpy(); "
         "print(os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'])"
     )
     return subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
@@ -36,13 +36,13 @@ def test_tests_run_in_their_own_domain():
 
 
 def test_message_and_service_between_two_processes():
-    from tensegrity_ros.ros_env import require_rclpy
+    from tensegrity_ros.rclpy_utils.env import require_rclpy
 
     rclpy = require_rclpy()
     from rclpy.node import Node
     from tensegrity_msgs.msg import ActuatorForces
     from tensegrity_msgs.srv import SolveIK
-    from tensegrity_ros.futures import spin_until_done
+    from tensegrity_ros.rclpy_utils.futures import spin_until_done
 
     # a namespace of its own, so nodes of other tests in this domain cannot answer instead
     namespace = f"/smoke_{os.getpid()}"

@@ -9,7 +9,7 @@ size, nesting and aliases (:class:`tensegrity_core.schema.Limits`) and in member
 (``max_members``) before the structure is built.
 
 The worker tells the node which phase it is in (``("phase", name)`` on its pipe, the
-first as soon as it runs) and ends with ``("result", dict)``; the node stops a worker that
+first as soon as it runs) and ends with ``("result", FormFindReply)``; the node stops a worker that
 overruns the time limit, which counts from that first report, parsing included, and names
 the phase in its answer.
 """
@@ -21,7 +21,8 @@ import resource
 import sys
 import time
 import traceback
-from typing import Any, Callable
+from dataclasses import dataclass, field
+from typing import Callable
 
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.schema import Limits, clip
@@ -33,10 +34,24 @@ FORM_FINDING = "form-finding"
 MAX_MESSAGE = 2000
 
 
-def empty_answer(message: str = "") -> dict[str, Any]:
-    """An unsuccessful answer with ``message``."""
-    return {"success": False, "message": clip(message, MAX_MESSAGE), "nodes": [], "member_forces": [],
-            "iterations": 0, "residual": math.nan, "min_stiffness_eigenvalue": math.nan}
+@dataclass
+class FormFindReply:
+    """What one form-finding request answers (plain values, picklable across the worker's
+    pipe): ``nodes`` [[x, y, z], ...] [m] in the description's order, ``member_forces`` [N]
+    tension positive, ``residual`` the form-finding's residual (see ``FormFindResult``)."""
+
+    success: bool = False
+    message: str = ""
+    nodes: list = field(default_factory=list)
+    member_forces: list = field(default_factory=list)
+    iterations: int = 0
+    residual: float = math.nan
+    min_stiffness_eigenvalue: float = math.nan
+
+    @classmethod
+    def failure(cls, message: str) -> "FormFindReply":
+        """An unsuccessful reply saying ``message`` (at most ``MAX_MESSAGE`` characters)."""
+        return cls(message=clip(message, MAX_MESSAGE))
 
 
 def cap_memory(extra_bytes: int) -> int:
@@ -51,11 +66,9 @@ def cap_memory(extra_bytes: int) -> int:
 
 
 def solve(text: str, tol: float, max_iter: int, time_limit: float, max_members: int, limits: Limits,
-          report: Callable[[str], None] = lambda phase: None) -> dict[str, Any]:
-    """Parse a structure description (text) and form-find it; always returns a plain dict.
-
-    Keys: success, message, nodes (list of [x, y, z]), member_forces, iterations, residual,
-    min_stiffness_eigenvalue. ``tol`` <= 0 and ``max_iter`` == 0 mean the core's defaults.
+          report: Callable[[str], None] = lambda phase: None) -> FormFindReply:
+    """Parse a structure description (text) and form-find it; always returns a reply (failures
+    too). ``tol`` <= 0 and ``max_iter`` == 0 mean the core's defaults.
     ``time_limit`` [s] counts from this call: form-finding stops at the first iteration
     past it (the node stops a worker whose parsing runs past it). ``report(phase)`` is
     called as each phase starts.
@@ -63,7 +76,6 @@ def solve(text: str, tol: float, max_iter: int, time_limit: float, max_members: 
     from tensegrity_core.general import form_find, structure_from_text
 
     start = time.monotonic()
-    out = empty_answer()
     try:
         report(PARSING)
         structure = structure_from_text(text, limits=limits, max_members=max_members)
@@ -79,13 +91,13 @@ def solve(text: str, tol: float, max_iter: int, time_limit: float, max_members: 
         result = form_find(structure, tol=tol if tol > 0 else None,
                            max_iter=max_iter if max_iter > 0 else None, callback=stop_when_late)
     except TensegrityError as err:
-        return empty_answer(str(err))
+        return FormFindReply.failure(str(err))
     except MemoryError:
-        return empty_answer("the request needs more memory than this service allows a worker")
+        return FormFindReply.failure("the request needs more memory than this service allows a worker")
     except Exception as err:  # a bug must become an answer, never a dead service
         traceback.print_exc(file=sys.stderr)            # the server's log, not the caller's answer
-        return empty_answer(f"internal error: {type(err).__name__}")
-    out.update(
+        return FormFindReply.failure(f"internal error: {type(err).__name__}")
+    return FormFindReply(
         success=bool(result.success) and not timed_out,
         message=clip((f"time limit of {time_limit:g} s reached after {timed_out[0]} iterations; "
                       + result.message) if timed_out else result.message, MAX_MESSAGE),
@@ -95,7 +107,6 @@ def solve(text: str, tol: float, max_iter: int, time_limit: float, max_members: 
         residual=float(result.residual),
         min_stiffness_eigenvalue=float(result.min_eigenvalue),
     )
-    return out
 
 
 def run(conn, text: str, tol: float, max_iter: int, time_limit: float, max_members: int, limits: Limits,
@@ -106,6 +117,6 @@ def run(conn, text: str, tol: float, max_iter: int, time_limit: float, max_membe
         conn.send(("result", solve(text, tol, max_iter, time_limit, max_members, limits,
                                    report=lambda phase: conn.send(("phase", phase)))))
     except MemoryError:
-        conn.send(("result", empty_answer("the request needs more memory than this service allows a worker")))
+        conn.send(("result", FormFindReply.failure("the request needs more memory than this service allows a worker")))
     finally:
         conn.close()

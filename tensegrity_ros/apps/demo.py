@@ -1,0 +1,376 @@
+"""The main job (``./run demo``): the suite end to end, over real DDS on loopback, in lockstep.
+
+1. start the suite: ``tensegrity_sim`` (class-2 mechanism at rest, lockstep, paused,
+   step = the control period), ``tensegrity_ik`` and ``tensegrity_formfind``, each its own
+   process;
+2. IK-driven motion, recorded to ``OUT/ik_motion``: ``solve_ik`` for each end-effector
+   waypoint (seeded with the previous solution so the motion stays on one branch), then one
+   ``StepSimulation`` over the whole motion while this process's controller answers every
+   joint state with :class:`~tensegrity_core.class2.control.ActuatorTracker` forces
+   (holding forces + PD, beta damped through the springs) towards a smoothstep reference
+   that depends on the step's time only; report where D settles against each target;
+3. the paper's fold scenario (Sect. 5.3), recorded to ``OUT/fold``: ``ResetSimulation``
+   (rest at rho = (0.7, 0.7), clock at 0), then ``f_i = 10 rho_i t`` from the sampled
+   lengths, held for each step; report the fold times from the simulator's ``events``;
+   run it a second time and compare the joint states (identical); compare with the
+   core's sampled-data run of the same loop (identical), and with the continuous-time
+   ``paper_fold`` scene at 10, 100 and 1000 Hz (the core's sampled runs);
+4. call ``find_form`` with the tensegrity-table example;
+5. print a summary (tracking errors, fold times, the control-period table, bag contents).
+
+The sample bags in ``bags/`` are the two recordings (``tensegrity demo -o OUT`` and copy
+``OUT/fold`` and ``OUT/ik_motion``). Times are simulation times (integer nanoseconds of
+the stamps).
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics
+from tensegrity_core.class2.control import ActuatorTracker
+from tensegrity_core.class2.fold_law import FOLD_GAIN, paper_fold_forces
+from tensegrity_core.sim.sampled import NS_PER_S, run_sampled, step_ns_of
+from tensegrity_ros.apps.launch import Launcher, ProcessSpec
+from tensegrity_ros.apps.sim_client import SimClient
+from tensegrity_ros.rclpy_utils.env import require_rclpy
+
+__all__ = ["FOLD_GAIN", "WAYPOINT_OFFSETS", "run_demo"]
+
+#: End-effector waypoints, offsets [m] from D at rho1 = rho2 = 0.7 (the scene's rest).
+WAYPOINT_OFFSETS = ((0.08, 0.0), (0.08, 0.06), (-0.04, 0.06), (0.0, 0.0))
+MOVE_TIME = 2.0     # s (simulated) per move, smoothstep in the actuator lengths
+DWELL_TIME = 2.5    # s (simulated) at each waypoint before its error is measured
+FOLD_TIME = 4.0     # s (simulated) of the paper's force law
+CONTROL_PERIOD = 0.01   # s: the demo's control period (100 Hz)
+TABLE_RATES = (10, 100, 1000)   # Hz: control rates of the table against the continuous run
+SCENE = "class2_at_rest"        # the simulator's scene (commanded forces)
+CONTINUOUS = "paper_fold"       # the same fold with the force law evaluated continuously
+RECORDED_TOPICS = ("joint_states", "end_effector", "mechanism_state", "markers", "/clock", "actuator_forces",
+                   "events")
+
+
+def _say(text: str) -> None:
+    print(f"[demo] {text}", flush=True)
+
+
+class Recorder:
+    """``tensegrity record`` as a child process, stopped with SIGINT (finishes the bag)."""
+
+    def __init__(self, folder: Path, ros_args: list[str]):
+        self.folder = folder
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "tensegrity_ros.cli", "record", "-o", str(folder), *ros_args],
+            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        self._lines: list[str] = []
+        threading.Thread(target=self._pump, daemon=True).start()
+
+    def _pump(self) -> None:
+        for line in self.proc.stderr:
+            self._lines.append(line.rstrip())
+
+    def wait_subscribed(self, topics: int, timeout: float = 30.0) -> None:
+        """Wait until the recorder reports ``topics`` subscriptions (or times out)."""
+        deadline = time.monotonic() + timeout
+        while sum(line.startswith("recording /") for line in self._lines) < topics:
+            if self.proc.poll() is not None:
+                raise RuntimeError("recorder exited: " + "\n".join(self._lines[-5:]))
+            if time.monotonic() > deadline:
+                return
+            time.sleep(0.05)
+
+    def stop(self) -> int:
+        self.proc.send_signal(signal.SIGINT)
+        return self.proc.wait(60)
+
+
+def _wait_subscribed(node, before: dict, timeout: float = 30.0) -> None:
+    """Wait until the graph shows one more subscription on every topic than ``before``
+    (the recorder's), then ``MATCH_SETTLE_S`` more: the recorder's readers can match the
+    writers a little after the writers see them (see :mod:`tensegrity_ros.rclpy_utils.matching`)."""
+    from tensegrity_ros.rclpy_utils.matching import MATCH_SETTLE_S
+
+    deadline = time.monotonic() + timeout
+    while any(node.count_subscribers(t) <= n for t, n in before.items()):
+        if time.monotonic() > deadline:
+            raise RuntimeError("the recorder did not subscribe to every topic within "
+                               f"{timeout:g} s: {sorted(t for t, n in before.items() if node.count_subscribers(t) <= n)}")
+        time.sleep(0.02)
+    time.sleep(MATCH_SETTLE_S)
+
+
+def ik_law(goals, tracker: ActuatorTracker, start=(0.7, 0.7)):
+    """The IK motion as one controller of the step's time: move ``i`` runs from
+    ``i (MOVE + DWELL)`` for ``MOVE_TIME`` (smoothstep between successive goals), then dwells."""
+    points = [np.array(start, dtype=float)] + [np.array(g, dtype=float) for g in goals]
+    segment = MOVE_TIME + DWELL_TIME
+
+    def law(sample):
+        i = min(int(sample.t // segment), len(goals) - 1)
+        u = min(max((sample.t - i * segment) / MOVE_TIME, 0.0), 1.0)
+        ref = points[i] + (points[i + 1] - points[i]) * (u * u * (3.0 - 2.0 * u))
+        return tracker.forces(ref, sample.q[:2], sample.qdot[:2], float(sample.qdot[2]))
+
+    return law
+
+
+def _ik_goals(client: DemoClient) -> list:
+    """``solve_ik`` for each waypoint, seeded with the previous solution (the first with rest)."""
+    rest = forward_kinematics(0.7, 0.7, PAPER_PARAMS)
+    current, goals = [0.7, 0.7], []
+    for dx, dy in WAYPOINT_OFFSETS:
+        target = (rest.x + dx, rest.y + dy)
+        res = client.call_ik(target, current)
+        if not res.success:
+            raise RuntimeError(f"solve_ik({target[0]:.3f}, {target[1]:.3f}) failed: {res.message}")
+        current = [res.solutions[0].rho1, res.solutions[0].rho2]
+        goals.append((target, tuple(current)))
+    return goals
+
+
+def _ik_motion(client: DemoClient, step_ns: int, results: dict) -> None:
+    goals = results["ik_goals"]
+    tracker = ActuatorTracker(PAPER_PARAMS, kp=100.0, kd=20.0, kbeta=0.3)
+    segment_ns = round((MOVE_TIME + DWELL_TIME) * NS_PER_S)
+    steps = len(goals) * segment_ns // step_ns
+    joints = client.run(ik_law([g for _, g in goals], tracker), steps)
+    by_stamp = {j.stamp_ns: j for j in joints}
+    errors = []
+    L = PAPER_PARAMS.L
+    for i, (target, goal) in enumerate(goals):
+        j = by_stamp[(i + 1) * segment_ns]
+        rho, beta = j.position[:2], j.position[2]
+        d = (rho[0] + L * math.cos(beta), L * math.sin(beta))
+        err = math.hypot(d[0] - target[0], d[1] - target[1])
+        errors.append(err)
+        _say(f"  waypoint D = ({target[0]:.3f}, {target[1]:.3f}) m: IK rho = ({goal[0]:.4f}, {goal[1]:.4f}) m, "
+             f"D settled at ({d[0]:.4f}, {d[1]:.4f}) m, error {1000 * err:.1f} mm")
+    results["ik_errors_m"] = errors
+
+
+def fold_times(events) -> dict:
+    """First fold time [s] of each actuator, from ``(t, kind, index)`` events."""
+    out: dict = {}
+    for t, kind, index in events:
+        if kind == "fold" and index not in out:
+            out[index] = float(t)
+    return {f"rho{i + 1}": out.get(i) for i in (0, 1)}
+
+
+def control_period_table(step_ns_list, duration: float = FOLD_TIME) -> list[dict]:
+    """The fold under the sampled law at each period against the continuous-time scene:
+    first fold times, and the largest length difference at the sampling times before the
+    first contact (after it the runs part: contacts touch and release at other times)."""
+    import dataclasses
+
+    from tensegrity_core.sim import load_scene, simulate
+
+    # sampled at 1 kHz: every t_k of the table's rates is on its grid (no interpolation)
+    cont = simulate(dataclasses.replace(load_scene(CONTINUOUS), output_rate=1000.0), duration=duration)
+    cont_folds = fold_times(cont.events)
+    rows = []
+    for step_ns in step_ns_list:
+        run = run_sampled(SCENE, paper_fold_forces, step_ns=step_ns, duration=duration)
+        first_contact = min(t for t in cont_folds.values() if t is not None)
+        smooth = run.times < first_contact
+        rho_c = np.column_stack([np.interp(run.times[smooth], cont.times, cont.q[:, i]) for i in (0, 1)])
+        folds = fold_times(run.events)
+        rows.append({"rate_hz": NS_PER_S / step_ns, "folds": folds, "continuous": cont_folds,
+                     "fold_shift_s": {k: (folds[k] - cont_folds[k]) if folds[k] is not None and cont_folds[k]
+                                      is not None else None for k in folds},
+                     "max_rho_error_m": float(np.max(np.abs(run.q[smooth, :2] - rho_c)))})
+    return rows
+
+
+def _fold(client: DemoClient, step_ns: int, results: dict, *, label: str) -> list:
+    steps = round(FOLD_TIME * NS_PER_S) // step_ns
+    client.sim.events.clear()
+    joints = client.run(paper_fold_forces, steps)
+    events = [(e.time, e.kind, int(e.index)) for e in client.sim.events]
+    results.setdefault("fold_events", {})[label] = events
+    return joints
+
+
+def _joint_table(joints) -> dict:
+    """Joint states by stamp (a stamp published twice, e.g. at the start of a request, must
+    carry the same values both times)."""
+    out: dict = {}
+    for j in joints:
+        if out.setdefault(j.stamp_ns, j) != j:
+            raise RuntimeError(f"two different joint states stamped {j.stamp_ns} ns")
+    return out
+
+
+class DemoClient:
+    """The demo's node: the stepping client of the simulator, and clients of ``solve_ik``
+    and ``find_form``."""
+
+    def __init__(self, rclpy) -> None:
+        from tensegrity_msgs.srv import FindForm, SolveIK
+
+        self.sim = SimClient(rclpy, "tensegrity_demo")
+        self.SolveIK, self.FindForm = SolveIK, FindForm
+        node = self.sim.node
+        self.ik = node.create_client(SolveIK, "solve_ik")
+        self.ff = node.create_client(FindForm, "find_form")
+
+    def _call(self, client, request, timeout: float = 120.0):
+        if not client.wait_for_service(timeout_sec=timeout):
+            raise RuntimeError(f"service {client.srv_name} not available")
+        done = threading.Event()
+        future = client.call_async(request)
+        future.add_done_callback(lambda _f: done.set())
+        if not done.wait(timeout):
+            raise RuntimeError(f"no answer from {client.srv_name} within {timeout:g} s")
+        return future.result()
+
+    def call_ik(self, target, seed):
+        return self._call(self.ik, self.SolveIK.Request(x=target[0], y=target[1], seed=list(seed)))
+
+    def call_formfind(self, text: str):
+        return self._call(self.ff, self.FindForm.Request(structure=text))
+
+    def run(self, law, steps: int) -> list:
+        """From rest with the clock at 0: ``steps`` lockstep steps under ``law``; the joint
+        states received (one per step and the start)."""
+        self.sim.set_law(None)
+        self.sim.reset_all()
+        self.sim.take_joints()
+        self.sim.set_law(law)
+        self.sim.step(steps)
+        self.sim.set_law(None)
+        self.sim.wait_joint(steps * self.step_ns)          # the final state may still be in flight
+        return self.sim.take_joints()
+
+    def close(self) -> None:
+        self.sim.close()
+
+
+def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool = True) -> int:
+    rclpy = require_rclpy()
+    from tensegrity_core.general import example_path
+    from tensegrity_ros.bag.info import bag_info
+
+    step_ns = step_ns_of(control_period)
+    out.mkdir(parents=True, exist_ok=True)
+    exe = [sys.executable, "-m", "tensegrity_ros.cli"]
+    sim_args = ["--ros-args", "-p", "lockstep:=true", "-p", "initial_state:=paused",
+                "-p", f"step_size:={step_ns / NS_PER_S!r}", "-p", f"publish_rate:={min(1000.0, NS_PER_S / step_ns)!r}",
+                "-p", "paused_publish_rate:=0.0", "-p", "lockstep_timeout:=10.0"]
+    launcher = Launcher([
+        ProcessSpec("sim", exe + ["node", "sim", *sim_args]),
+        ProcessSpec("ik", exe + ["node", "ik"]),
+        ProcessSpec("formfind", exe + ["node", "formfind"]),
+    ], out=open(out / "suite.log", "w"))
+    _say(f"starting the suite (sim in lockstep, control period {step_ns / 1e6:g} ms; IK; form-finding); "
+         f"logs in {out / 'suite.log'}")
+    launcher.start()
+    previous_term = signal.signal(signal.SIGTERM, signal.default_int_handler)  # SIGTERM -> clean stop
+    rclpy.init()
+    client = DemoClient(rclpy)
+    client.step_ns = step_ns
+    results: dict = {}
+    bags: list[Path] = []
+    rec = None
+    try:
+        client.sim.wait_for_services()
+        results["ik_goals"] = _ik_goals(client)
+        phases = (("ik_motion", lambda: _ik_motion(client, step_ns, results),
+                   "IK-driven motion through end-effector waypoints"),
+                  ("fold", lambda: results.__setitem__("fold_joints", _fold(client, step_ns, results, label="first")),
+                   "the paper's fold scenario from rest, f_i = 10 rho_i t sampled and held"))
+        for name, phase, title in phases:
+            rec = None
+            if record:
+                folder = out / name
+                if folder.exists():
+                    shutil.rmtree(folder)
+                before = {t: client.sim.node.count_subscribers(t) for t in RECORDED_TOPICS}
+                rec = Recorder(folder, list(RECORDED_TOPICS))
+                rec.wait_subscribed(topics=len(RECORDED_TOPICS))
+                _wait_subscribed(client.sim.node, before)
+                bags.append(folder)
+            _say(f"{title}" + (f" (recording {out / name})" if record else ""))
+            phase()
+            if rec is not None:
+                rec.stop()
+                rec = None
+        ft = fold_times(results["fold_events"]["first"])
+        results["fold_times_s"] = ft
+        for key, when in ft.items():
+            _say(f"  {key} " + (f"folds at t = {when:.6f} s (event located by the simulator)" if when is not None
+                                else "does not fold"))
+        last = results["fold_joints"][-1].position
+        _say(f"  after {FOLD_TIME:g} s: q = ({last[0]:.4f} m, {last[1]:.4f} m, {last[2]:.4f} rad)")
+
+        _say("the fold again, not recorded: same lockstep run, compared stamp by stamp")
+        again = _fold(client, step_ns, results, label="second")
+        first_table, second_table = _joint_table(results["fold_joints"]), _joint_table(again)
+        identical = first_table == second_table
+        results["rerun_identical"] = identical
+        _say(f"  second run: {len(second_table)} joint states, "
+             + ("identical to the first (every position, velocity and effort bit for bit)" if identical
+                else "DIFFERENT from the first"))
+        _say("the same loop in the core (tensegrity_core.sim.sampled.run_sampled)")
+        core = run_sampled(SCENE, paper_fold_forces, step_ns=step_ns, duration=FOLD_TIME)
+        ros_q = np.array([first_table[round(t * NS_PER_S)].position for t in core.times])
+        diff = float(np.max(np.abs(ros_q - core.q)))
+        results["core_max_difference"] = diff
+        _say(f"  {len(core.times)} samples; largest difference from the lockstep ROS run: {diff:.3g} "
+             + ("(identical)" if diff == 0.0 else ""))
+
+        _say(f"control period against the continuous-time {CONTINUOUS!r} scene (the core's sampled runs)")
+        table = control_period_table([step_ns_of(1.0 / hz) for hz in TABLE_RATES])
+        results["table"] = table
+        cont = table[0]["continuous"]
+        _say(f"  continuous: rho2 folds at {cont['rho2']:.6f} s, rho1 at {cont['rho1']:.6f} s")
+        _say("  rate [Hz]  rho2 fold [s]  shift [s]   rho1 fold [s]  shift [s]   max |rho - rho_cont| [m] "
+             "before the first fold")
+        for row in table:
+            f, d = row["folds"], row["fold_shift_s"]
+            cells = [f"{f[k]:.6f}    {d[k]:+.2e}" if f[k] is not None else "  none      " for k in ("rho2", "rho1")]
+            _say(f"  {row['rate_hz']:>9g}  {cells[0]}   {cells[1]}   {row['max_rho_error_m']:.3e}")
+
+        _say("form-finding the tensegrity table through find_form")
+        res = client.call_formfind(example_path("tensegrity_table").read_text())
+        forces = np.array(res.member_forces)
+        ratio = forces / forces[0] if res.success else []
+        _say(f"  {'ok' if res.success else 'FAILED'}: {res.message}; {res.iterations} iterations, residual "
+             f"{res.residual:.2g} N, min stiffness eigenvalue {res.min_stiffness_eigenvalue:.4g}; "
+             f"forces / first = {np.round(ratio, 6).tolist()} (paper: [1, 1, 1, 3])")
+        results["formfind_success"] = bool(res.success)
+
+        _say("summary")
+        errs = results.get("ik_errors_m", [])
+        if errs:
+            _say(f"  IK motion: {len(errs)} waypoints, settled error max {1000 * max(errs):.1f} mm")
+        _say("  fold (events): " + ", ".join(f"{k} at {v:.6f} s" if v is not None else f"{k} not folded"
+                                            for k, v in ft.items())
+             + f"; rerun identical: {identical}; core sampled run identical: {diff == 0.0}")
+        for folder in bags:
+            info = bag_info(folder)
+            counts = ", ".join(f"{t['name']} {t['count']}" for t in info["topics"])
+            _say(f"  bag {folder}: {info['message_count']} messages ({counts}), "
+                 f"{info['size_bytes'] / 1024:.0f} KiB")
+        ok = (results.get("formfind_success", False) and len(errs) == len(WAYPOINT_OFFSETS) and identical
+              and diff == 0.0)
+        return 0 if ok else 1
+    except KeyboardInterrupt:
+        _say("interrupted")
+        return 130
+    finally:
+        if rec is not None:
+            rec.stop()
+        client.close()
+        rclpy.try_shutdown()
+        launcher.stop()
+        signal.signal(signal.SIGTERM, previous_term)

@@ -1,0 +1,215 @@
+"""Re-simulation of a bag (``tensegrity play BAG --resimulate``): its recorded commands fed
+into a lockstep ``tensegrity_sim`` at their recorded steps, its recorded joint states
+compared with the re-simulated ones.
+
+The bag's ``actuator_forces`` and ``joint_states`` (found by type, any namespace) are
+read; the step is the bag's joint-state spacing (or given). A simulator is started in a
+namespace of its own (lockstep, paused, no ``/clock``, so a running suite is not
+disturbed), reset to the scene's initial state with the clock at 0, and stepped once over
+the whole recording while this process answers each step ``k`` with the command in force
+at ``t_k = t_first + k h`` (``t_first``: the first recorded joint state, the scene's
+initial state): the last recorded command stamped at or before ``t_k`` (what a lockstep
+recording has exactly at ``t_k``; a free-running one has commands between steps, which
+lands each on the next step). A recording whose stamps are not on one grid (free-running)
+is re-simulated at 1 ms unless ``step_size`` is given. Recorded joint states on the grid
+are compared with the re-simulated ones at the same stamps; the others with the
+re-simulated states interpolated linearly to their stamps (counted apart).
+
+For a lockstep recording from the scene's initial state the difference is zero; for a
+free-running one it measures how far the wall clock moved the commands.
+"""
+
+from __future__ import annotations
+
+import bisect
+import os
+import statistics
+import sys
+from dataclasses import dataclass
+
+import numpy as np
+from rclpy.serialization import deserialize_message
+
+from tensegrity_ros.bag.errors import BagError
+from tensegrity_ros.bag.reader import BagReader
+from tensegrity_ros.bag.recorder import message_class
+from tensegrity_ros.nodes.actuator_commands import CommandError, parse_command
+from tensegrity_ros.rclpy_utils.env import require_rclpy
+
+JOINT_TYPE = "sensor_msgs/msg/JointState"
+COMMAND_TYPE = "tensegrity_msgs/msg/ActuatorForces"
+NS_PER_S = 1_000_000_000
+#: Longest re-simulation accepted [steps] (a bag from outside is bounded like any input).
+MAX_STEPS = 2_000_000
+#: Step of a free-running recording's re-simulation [ns]: its commands land within 1 ms.
+FREE_RUNNING_STEP_NS = 1_000_000
+
+
+@dataclass(frozen=True)
+class Resimulation:
+    """What a re-simulation found: ``steps`` of ``step_ns``; ``compared`` recorded joint states
+    at stamps on the step grid and ``off_grid`` others (compared with interpolated states);
+    the largest absolute differences of positions [m, rad] and velocities [m/s, rad/s] over
+    both; ``commands`` fed."""
+
+    steps: int
+    step_ns: int
+    compared: int
+    off_grid: int
+    max_position_difference: float
+    max_velocity_difference: float
+    commands: int
+    first_difference_ns: int | None
+
+    def summary(self) -> str:
+        where = "" if self.first_difference_ns is None else \
+            f"; first difference at t = {self.first_difference_ns / NS_PER_S:.9f} s"
+        return (f"re-simulated {self.steps} steps of {self.step_ns / NS_PER_S:.9g} s in lockstep, fed "
+                f"{self.commands} recorded commands; compared {self.compared} recorded joint states"
+                + (f" ({self.off_grid} off the step grid, against interpolated states)" if self.off_grid else "")
+                + f": largest difference {self.max_position_difference:.3g} in position, "
+                  f"{self.max_velocity_difference:.3g} in velocity{where}")
+
+
+def _stamp(msg) -> int:
+    return int(msg.header.stamp.sec) * NS_PER_S + int(msg.header.stamp.nanosec)
+
+
+def read_recording(bag) -> tuple[list, list]:
+    """``(commands [(stamp_ns, names, forces)], joints [(stamp_ns, position, velocity)])``,
+    each sorted by stamp, from the bag's ActuatorForces and JointState topics."""
+    reader = BagReader(bag)
+    topics = {t.name: t.type for t in reader.topics()}
+    cmd_topics = [n for n, t in topics.items() if t == COMMAND_TYPE]
+    joint_topics = [n for n, t in topics.items() if t == JOINT_TYPE]
+    if len(joint_topics) != 1:
+        raise BagError(f"{bag}: re-simulation needs exactly one {JOINT_TYPE} topic, found {len(joint_topics)}")
+    if len(cmd_topics) > 1:
+        raise BagError(f"{bag}: more than one {COMMAND_TYPE} topic: {', '.join(cmd_topics)}")
+    cmd_cls, joint_cls = message_class(COMMAND_TYPE), message_class(JOINT_TYPE)
+    commands, joints = [], []
+    for m in reader.messages(cmd_topics + joint_topics):
+        if m.type == COMMAND_TYPE:
+            c = deserialize_message(m.data, cmd_cls)
+            commands.append((_stamp(c), list(c.name), list(c.force)))
+        else:
+            j = deserialize_message(m.data, joint_cls)
+            joints.append((_stamp(j), tuple(j.position), tuple(j.velocity)))
+    if not joints:
+        raise BagError(f"{bag}: no joint states to compare with")
+    commands.sort(key=lambda c: c[0])
+    joints.sort(key=lambda j: j[0])
+    return commands, joints
+
+
+def infer_step_ns(joints) -> int:
+    """The most common positive spacing of the joint-state stamps [ns]."""
+    stamps = sorted({j[0] for j in joints})
+    gaps = [b - a for a, b in zip(stamps, stamps[1:]) if b > a]
+    if not gaps:
+        raise BagError("cannot infer the step from a single joint state (give --step-size)")
+    return statistics.mode(gaps)
+
+
+def command_schedule(commands, steps: int, step_ns: int, initial, start_ns: int = 0) -> tuple[list, int]:
+    """The force vector in force at each step ``k < steps`` (last command stamped at or
+    before ``start_ns + k step_ns``, names applied cumulatively from ``initial``), and how
+    many commands were used."""
+    stamps = [c[0] for c in commands]
+    held, applied, schedule = list(initial), 0, []
+    for k in range(steps):
+        n = bisect.bisect_right(stamps, start_ns + k * step_ns)
+        while applied < n:
+            _, names, forces = commands[applied]
+            try:
+                held = parse_command(names, forces, max_abs_force=float("inf")).apply(held)
+            except CommandError as err:
+                raise BagError(f"recorded command {applied} cannot be applied: {err}") from None
+            applied += 1
+        schedule.append(tuple(held))
+    return schedule, applied
+
+
+def resimulate(bag, *, scene: str = "class2_at_rest", step_size: float | None = None,
+               lockstep_timeout: float = 10.0) -> Resimulation:
+    """Re-simulate ``bag`` (see the module note); needs the ROS wheels."""
+    from tensegrity_core.sim import Simulator, load_scene
+
+    commands, joints = read_recording(bag)
+    start = joints[0][0]
+    if step_size is not None:
+        step_ns = round(step_size * NS_PER_S)
+    else:
+        step_ns = infer_step_ns(joints)
+        if sum((j[0] - start) % step_ns == 0 for j in joints) < len(joints) / 2:
+            step_ns = FREE_RUNNING_STEP_NS
+    if step_ns < 1000:
+        raise BagError(f"step {step_ns} ns is below 1 us")
+    steps = -(-(joints[-1][0] - start) // step_ns)
+    if steps > MAX_STEPS:
+        raise BagError(f"{bag}: {steps} steps of {step_ns} ns to cover {(joints[-1][0] - start) / NS_PER_S:g} s "
+                       f"of joint states: more than the limit {MAX_STEPS}")
+    initial = Simulator(load_scene(scene)).command
+    schedule, used = command_schedule(commands, steps, step_ns, initial, start)
+    resim = _resimulated(schedule, steps, step_ns, scene, lockstep_timeout)
+    grid = np.array([start + k * step_ns for k in range(steps + 1)])
+    q = np.array([resim[k * step_ns].position for k in range(steps + 1)])
+    v = np.array([resim[k * step_ns].velocity for k in range(steps + 1)])
+    compared = off_grid = 0
+    dq = dv = 0.0
+    first = None
+    for stamp, position, velocity in joints:
+        k, rest = divmod(stamp - start, step_ns)
+        if rest == 0:
+            compared += 1
+            got_q, got_v = q[k], v[k]
+        else:
+            off_grid += 1
+            got_q = [np.interp(stamp, grid, q[:, i]) for i in range(q.shape[1])]
+            got_v = [np.interp(stamp, grid, v[:, i]) for i in range(v.shape[1])]
+        e_q = max(abs(a - b) for a, b in zip(position, got_q))
+        e_v = max(abs(a - b) for a, b in zip(velocity, got_v))
+        if (e_q or e_v) and first is None:
+            first = stamp
+        dq, dv = max(dq, e_q), max(dv, e_v)
+    return Resimulation(steps, step_ns, compared, off_grid, float(dq), float(dv), used, first)
+
+
+def _resimulated(schedule, steps: int, step_ns: int, scene: str, lockstep_timeout: float) -> dict:
+    """Joint states by stamp from a lockstep simulator stepped under ``schedule``."""
+    rclpy = require_rclpy()
+    from tensegrity_ros.apps.launch import Launcher, ProcessSpec
+    from tensegrity_ros.apps.sim_client import SimClient
+
+    namespace = f"/tensegrity_resimulate_{os.getpid()}"
+    argv = [sys.executable, "-m", "tensegrity_ros.cli", "node", "sim", "--ros-args", "-r", f"__ns:={namespace}",
+            "-p", f"scene:={scene}", "-p", "lockstep:=true", "-p", "initial_state:=paused",
+            "-p", f"step_size:={step_ns / NS_PER_S!r}", "-p", "publish_clock:=false",
+            "-p", "paused_publish_rate:=0.0", "-p", "state_rate:=0.0", "-p", "marker_rate:=0.0",
+            "-p", f"lockstep_timeout:={lockstep_timeout!r}", "-p", "max_steps_per_request:=2000000"]
+    log = open(os.devnull, "w")
+    launcher = Launcher([ProcessSpec("resim", argv)], out=log)
+    launcher.start()
+    rclpy.init()
+    client = None
+    try:
+        client = SimClient(rclpy, "tensegrity_resimulate", namespace=namespace, record_events=False)
+        client.wait_for_services()
+        client.reset_all()
+        client.set_law(lambda sample: schedule[min(round(sample.t * NS_PER_S) // step_ns, steps - 1)])
+        client.step(steps, timeout=max(600.0, steps * 0.05))
+        client.wait_joint(steps * step_ns)
+        client.set_law(None)
+        out: dict = {}
+        for j in client.take_joints():
+            out.setdefault(j.stamp_ns, j)
+        return out
+    finally:
+        if client is not None:
+            client.close()
+        rclpy.try_shutdown()
+        launcher.stop()
+        log.close()
+
+
+__all__ = ["Resimulation", "command_schedule", "infer_step_ns", "read_recording", "resimulate"]

@@ -1,0 +1,175 @@
+"""A client of a stepping ``tensegrity_sim``: its ``simulation_interfaces`` services, and a
+lockstep controller that answers every joint state with a command stamped like it.
+
+The client's node spins on its own executor in a background thread, so that the
+controller answers while the caller waits for a ``StepSimulation`` that needs those
+answers. Calls wait on the response future with an event, never with
+``spin_until_future_complete`` (7-12 ms per call here).
+
+The controller sees each joint state as a :class:`~tensegrity_core.sim.simulator.JointSample`
+whose time is the stamp's integer nanoseconds divided once by 1e9 (the float the core's
+sampled-data runner has at the same step), so a law evaluated here and in
+:func:`tensegrity_core.sim.sampled.run_sampled` gives the same forces bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from tensegrity_core.sim.simulator import JointSample
+
+NS_PER_S = 1_000_000_000
+
+
+@dataclass(frozen=True)
+class JointRecord:
+    """One joint state as received: stamp [ns], position, velocity, effort (tuples of floats)."""
+
+    stamp_ns: int
+    position: tuple
+    velocity: tuple
+    effort: tuple
+
+
+def sample_of(record: JointRecord, L: float = 1.0) -> JointSample:
+    """The :class:`JointSample` a controller sees for a received joint state (``L`` [m]:
+    strut length, for the end effector D)."""
+    q = np.array(record.position[:3], dtype=float)
+    ee = np.array([q[0] + L * math.cos(q[2]), L * math.sin(q[2]), 0.0])
+    return JointSample(record.stamp_ns / NS_PER_S, q, np.array(record.velocity[:3], dtype=float),
+                       np.array(record.effort[:2], dtype=float), ee, False)
+
+
+class SimClient:
+    """Services of ``tensegrity_sim`` and a lockstep controller, on one node (of ``context``,
+    default: rclpy's default context; call ``rclpy.init()`` first). ``law(sample) -> (f1, f2)`` [N] or None
+    (then joint states are only recorded)."""
+
+    def __init__(self, rclpy, name: str = "tensegrity_sim_client", *, record_events: bool = True, context=None,
+                 namespace: str = ""):
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.qos import QoSProfile
+        from sensor_msgs.msg import JointState
+        from simulation_interfaces.srv import (GetSimulationState, GetSimulatorFeatures, ResetSimulation,
+                                               SetSimulationState, StepSimulation)
+        from std_srvs.srv import Trigger
+        from tensegrity_msgs.msg import ActuatorForces, SimulationEvent
+
+        self.rclpy = rclpy
+        self.node = rclpy.create_node(name, namespace=namespace, context=context)
+        self.ActuatorForces = ActuatorForces
+        self.srv = {"set_simulation_state": SetSimulationState, "get_simulation_state": GetSimulationState,
+                    "step_simulation": StepSimulation, "reset_simulation": ResetSimulation, "reset": Trigger,
+                    "get_simulator_features": GetSimulatorFeatures}
+        self.clients = {n: self.node.create_client(t, n) for n, t in self.srv.items()}
+        self.pub = self.node.create_publisher(ActuatorForces, "actuator_forces", QoSProfile(depth=100))
+        self.node.create_subscription(JointState, "joint_states", self._on_joints, QoSProfile(depth=1000))
+        self.events: list = []
+        if record_events:
+            self.node.create_subscription(SimulationEvent, "events", self.events.append, QoSProfile(depth=1000))
+        self.joints: list[JointRecord] = []
+        self.law: Callable | None = None
+        self._answered: set = set()
+        self._lock = threading.Lock()
+        self._new = threading.Condition(self._lock)
+        self.executor = SingleThreadedExecutor(context=context)
+        self.executor.add_node(self.node)
+        self._thread = threading.Thread(target=self.executor.spin, name=f"{name}_spin", daemon=True)
+        self._thread.start()
+
+    # -- the controller ------------------------------------------------------------------------
+    def _on_joints(self, msg) -> None:
+        rec = JointRecord(msg.header.stamp.sec * NS_PER_S + msg.header.stamp.nanosec, tuple(msg.position),
+                          tuple(msg.velocity), tuple(msg.effort))
+        with self._lock:
+            law = self.law
+            self.joints.append(rec)
+            self._new.notify_all()
+            if law is not None:
+                if rec.stamp_ns in self._answered:   # a state republished: it was answered already
+                    return
+                self._answered.add(rec.stamp_ns)
+        if law is not None:
+            f1, f2 = law(sample_of(rec))
+            cmd = self.ActuatorForces(name=["f1", "f2"], force=[float(f1), float(f2)])
+            cmd.header.stamp = msg.header.stamp
+            self.pub.publish(cmd)
+
+    def set_law(self, law: Callable | None) -> None:
+        """Answer joint states with ``law`` from now on (None: stop answering). Each stamp is
+        answered once per law: a state the simulator republishes (at the start of a stepping
+        request, or while paused) gets no second command, which the simulator would reject
+        as stamped for a past step."""
+        with self._lock:
+            self.law = law
+            self._answered = set()
+
+    def take_joints(self) -> list[JointRecord]:
+        """The joint states received so far (and forget them)."""
+        with self._lock:
+            out, self.joints = self.joints, []
+        return out
+
+    def wait_joint(self, stamp_ns: int | None = None, timeout: float = 30.0) -> JointRecord:
+        """Wait for a joint state stamped ``stamp_ns`` (None: any, i.e. the first since the
+        last take) and return it."""
+        def found():
+            return next((j for j in self.joints if stamp_ns is None or j.stamp_ns == stamp_ns), None)
+
+        with self._lock:
+            if not self._new.wait_for(lambda: found() is not None, timeout):
+                raise RuntimeError(f"no joint_states{'' if stamp_ns is None else f' stamped {stamp_ns} ns'} "
+                                   f"within {timeout:g} s")
+            return found()
+
+    # -- services ----------------------------------------------------------------------------------
+    def wait_for_services(self, timeout: float = 60.0) -> None:
+        """Wait for the simulator's services, and for the command publisher to be matched
+        (held :data:`~tensegrity_ros.rclpy_utils.matching.MATCH_SETTLE_S`: a lockstep command
+        lost to a reader that matched late would stall that step until the timeout)."""
+        from tensegrity_ros.rclpy_utils.matching import wait_for_matches
+
+        for name, client in self.clients.items():
+            if not client.wait_for_service(timeout_sec=timeout):
+                raise RuntimeError(f"service {client.srv_name} not available within {timeout:g} s")
+        if not wait_for_matches([self.pub], 1, timeout):
+            raise RuntimeError(f"nobody subscribes to {self.pub.topic_name} within {timeout:g} s")
+
+    def call(self, name: str, request=None, timeout: float = 600.0):
+        client = self.clients[name]
+        done = threading.Event()
+        future = client.call_async(request if request is not None else self.srv[name].Request())
+        future.add_done_callback(lambda _f: done.set())
+        if not done.wait(timeout):
+            raise RuntimeError(f"no answer from {client.srv_name} within {timeout:g} s")
+        return future.result()
+
+    def checked(self, name: str, request=None, timeout: float = 600.0):
+        """``call`` a simulation_interfaces service and raise unless its result is OK."""
+        from simulation_interfaces.msg import Result
+
+        res = self.call(name, request, timeout)
+        if res.result.result != Result.RESULT_OK:
+            raise RuntimeError(f"{name} failed (result {res.result.result}): {res.result.error_message}")
+        return res
+
+    def set_state(self, state: int):
+        req = self.srv["set_simulation_state"].Request()
+        req.state.state = state
+        return self.call("set_simulation_state", req)
+
+    def step(self, steps: int, timeout: float = 600.0):
+        return self.checked("step_simulation", self.srv["step_simulation"].Request(steps=steps), timeout)
+
+    def reset_all(self):
+        req = self.srv["reset_simulation"].Request(scope=self.srv["reset_simulation"].Request.SCOPE_ALL)
+        return self.checked("reset_simulation", req)
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.node.destroy_node()

@@ -1,0 +1,578 @@
+"""``tensegrity_sim``: the simulated mechanism.
+
+Subscribes ``actuator_forces`` (tensegrity_msgs/ActuatorForces; positive = tensile, pulls
+the actuator's nodes together). Publishes, stamped with simulation time:
+
+- ``joint_states`` (sensor_msgs/JointState): joints ``rho1``, ``rho2`` [m] and ``beta``
+  [rad]; position, velocity, and effort = the applied actuator force [N] (0 for beta);
+- ``end_effector`` (geometry_msgs/PointStamped): node D [m];
+- ``mechanism_state`` (tensegrity_msgs/MechanismState): nodes, member lengths and
+  forces, energies, active contacts; at ``state_rate``;
+- ``markers`` (visualization_msgs/MarkerArray): members coloured by force (red tension,
+  blue compression), nodes as spheres; at ``marker_rate``;
+- ``events`` (tensegrity_msgs/SimulationEvent): every fold, release, singular stop and
+  limit, at the time the integrator located it;
+- ``/clock`` (rosgraph_msgs/Clock): simulation time, so other nodes can use_sim_time.
+
+Services: ``reset`` (std_srvs/Trigger: back to the initial state, the clock keeps
+running forward) and the ``simulation_interfaces`` standard: ``get_simulator_features``,
+``get_simulation_state``, ``set_simulation_state``, ``step_simulation``,
+``reset_simulation``, and the action ``simulate_steps``.
+
+Time advances in whole steps of ``step_size``; ``/clock`` reads exactly ``k * step_size``
+(integer nanoseconds) after ``k`` steps. States (:mod:`.control`): playing, paused
+(time stands; stepping requests step it), stopped. Playing is free-running on the wall
+clock (``real_time_factor``; a pause or a slow machine never causes catch-up steps), or
+lockstep (``lockstep: true``): after publishing the state at t_k the node waits for a
+command stamped t_k and integrates [t_k, t_k+1] under it held, or under ``safe_force``
+after ``lockstep_timeout``. The node is three parts: a receiver (:mod:`.receiver`:
+validates a command once), the plant (:mod:`.plant`: the core simulator and the clock)
+and a sender (:mod:`.sender`: pure functions from samples to messages).
+
+Bad commands (wrong lengths, unknown names, NaN/inf, over ``max_force``, stamped for
+another step in lockstep) are rejected with a throttled warning naming the problem;
+publishing never stops and NaN is never integrated. Free-running, after
+``command_timeout`` seconds without a valid command the forces drop to ``safe_force``.
+When ``lambda1/L`` or ``lambda2/L`` falls below ``singularity_warning`` a throttled
+warning says which set is near and how near, before the simulation has to stop there.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import threading
+import time
+
+from tensegrity_ros.nodes.common import SERVICE_QOS, declare_scene, rclpy, spin_node
+from rclpy.action import ActionServer, CancelResponse
+from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import QoSProfile
+from rclpy.task import Future
+from rosgraph_msgs.msg import Clock as ClockMsg
+from sensor_msgs.msg import JointState
+from geometry_msgs.msg import PointStamped
+from simulation_interfaces.action import SimulateSteps
+from simulation_interfaces.msg import Result
+from simulation_interfaces.srv import (GetSimulationState, GetSimulatorFeatures, ResetSimulation,
+                                       SetSimulationState, StepSimulation)
+from std_srvs.srv import Trigger
+from tensegrity_msgs.msg import ActuatorForces, MechanismState, SimulationEvent
+from visualization_msgs.msg import MarkerArray
+
+from tensegrity_core.errors import TensegrityError
+from tensegrity_ros.nodes.actuator_commands import CommandError
+from tensegrity_ros.nodes.sim import control, sender
+from tensegrity_ros.nodes.sim.control import PAUSED, PLAYING, STATE_NAMES, STOPPED, Answer, StepRequest
+from tensegrity_ros.nodes.sim.parameters import declare_sim_parameters
+from tensegrity_ros.nodes.sim.plant import SimPlant
+from tensegrity_ros.nodes.sim.receiver import check_step, receive
+from tensegrity_ros.rclpy_utils.matching import wait_for_matches
+
+#: Free-running catch-up limit [s of wall time]: a tick this late resynchronises instead
+#: of bursting steps.
+MAX_LAG = 0.25
+#: Free-running StepSimulation requests up to this many steps run in the service callback.
+SYNC_STEPS = 100
+
+
+class SimNode(Node):
+    def __init__(self, **kwargs) -> None:
+        super().__init__("tensegrity_sim", **kwargs)
+        scene_name, scene = declare_scene(self)
+        self.p = p = declare_sim_parameters(self, scene_name)
+        try:
+            self.plant = SimPlant(scene, p.step_ns)
+        except TensegrityError as err:
+            raise SystemExit(f"tensegrity_sim: cannot start scene {p.scene!r}: {err}") from None
+        self._state_every = max(1, round(p.publish_rate / p.state_rate)) if p.state_rate > 0 else 0
+        self._marker_every = max(1, round(p.publish_rate / p.marker_rate)) if p.marker_rate > 0 else 0
+
+        qos = QoSProfile(depth=100)
+        self.pub_joints = self.create_publisher(JointState, "joint_states", qos)
+        self.pub_ee = self.create_publisher(PointStamped, "end_effector", qos)
+        self.pub_state = self.create_publisher(MechanismState, "mechanism_state", qos)
+        self.pub_markers = self.create_publisher(MarkerArray, "markers", 10)
+        self.pub_events = self.create_publisher(SimulationEvent, "events", qos)
+        self.pub_clock = self.create_publisher(ClockMsg, "/clock", qos)
+        # Commands arrive on a node and executor of their own: each wake-up of an rclpy
+        # executor walks every entity of its nodes (this node's services, action server and
+        # parameter services: ~1 ms per wake-up here), which would dominate a lockstep step.
+        # Free-running, the latest command wins: a history of one means a burst or flood of
+        # commands can never build a backlog that the simulation would apply late. In
+        # lockstep exactly one command per step is expected, so the depth does not matter.
+        self._command_node = Node(f"{self.get_name()}_commands", namespace=self.get_namespace(),
+                                  context=self.context, start_parameter_services=False,
+                                  parameter_overrides=[Parameter("start_type_description_service", value=False)])
+        self._command_node.create_subscription(ActuatorForces, "actuator_forces", self.on_command, 1)
+        self.create_service(Trigger, "reset", self.on_reset)
+        self.create_service(GetSimulatorFeatures, "get_simulator_features", self.on_get_features)
+        self.create_service(GetSimulationState, "get_simulation_state", self.on_get_state)
+        self.create_service(SetSimulationState, "set_simulation_state", self.on_set_state)
+        self.create_service(ResetSimulation, "reset_simulation", self.on_reset_simulation)
+        # The stepping requests await their end: in a group of their own (a mutually exclusive
+        # group stays busy while a callback of it awaits, which would starve the commands).
+        waiting = ReentrantCallbackGroup()
+        self.create_service(StepSimulation, "step_simulation", self.on_step_simulation, qos_profile=SERVICE_QOS,
+                            callback_group=waiting)
+        self._action = ActionServer(self, SimulateSteps, "simulate_steps", self.on_simulate_steps,
+                                    cancel_callback=self._on_cancel, callback_group=waiting)
+
+        self.rejected = 0
+        self.lockstep_timeouts = 0
+        self.published = dict.fromkeys(("joint_states", "end_effector", "mechanism_state", "markers",
+                                        "events", "/clock"), 0)
+        self._lock = threading.Lock()        # plant, run state and publishing: loop thread vs. callbacks
+        self.state = p.initial_state
+        self.request: StepRequest | None = None
+        self._command = list(self.plant.initial_command)   # held (free-running) / last applied
+        self._lockstep_command = None        # the receiver's command for the current step (lockstep)
+        self._waiting_since = time.monotonic()
+        self._last_valid: float | None = None     # wall time of the last valid command (free-running)
+        self._timed_out = False
+        self._publications = 0
+        self._resync = True                  # free-running: restart the tick schedule from here
+        self._stop = threading.Event()
+        self._wake = threading.Event()
+        self._command_executor = SingleThreadedExecutor(context=self.context)
+        self._command_executor.add_node(self._command_node)
+        self._command_thread = threading.Thread(target=self._spin_commands, name="tensegrity_sim_commands",
+                                                daemon=True)
+        self._command_thread.start()
+        self._thread = threading.Thread(target=self._loop, name="tensegrity_sim_loop", daemon=True)
+        self._thread.start()
+        mode = (f"lockstep (timeout {p.lockstep_timeout:g} s)" if p.lockstep else
+                f"free-running at real-time factor {p.real_time_factor:g}"
+                + (" (as fast as possible)" if p.real_time_factor == 0 else ""))
+        self.get_logger().info(
+            f"scene {p.scene!r}: publishing at {p.publish_rate:g} Hz, step {p.step_size:.9g} s, {mode}, "
+            f"{STATE_NAMES[self.state]}")
+
+    def _spin_commands(self) -> None:
+        """The command thread: take commands; in lockstep also check the step's timeout
+        between waits (a timer would add an entity to every wake-up)."""
+        poll = min(0.05, self.p.lockstep_timeout / 5)
+        try:
+            while rclpy.ok(context=self.context) and not self._stop.is_set():
+                self._command_executor.spin_once(timeout_sec=poll)
+                if self.p.lockstep and time.monotonic() - self._waiting_since >= poll:
+                    self._on_lockstep_timer()
+        except (ExternalShutdownException, KeyboardInterrupt):
+            pass
+
+    # -- the loop thread: free-running ticks, free-running stepping requests, paused republishing
+    def _loop(self) -> None:
+        """One tick per publish period of wall (steady) time, or back to back in
+        as-fast-as-possible mode. A thread with its own deadline keeps 1 kHz where an
+        executor timer's per-callback overhead does not."""
+        p = self.p
+        if p.wait_for_subscribers > 0:
+            publishers = (self.pub_joints, self.pub_ee, self.pub_state, self.pub_markers, self.pub_clock)
+            self.get_logger().info(f"waiting for {p.wait_for_subscribers} subscriber(s) on every output topic")
+            wait_for_matches(publishers, p.wait_for_subscribers, should_stop=self._stop.is_set, poll=self._stop.wait)
+        with self._lock:
+            self._publish()                  # the state at t_0
+            self._waiting_since = time.monotonic()
+            self._last_valid = None
+        period = 1.0 / p.publish_rate
+        idle_period = 1.0 / p.paused_publish_rate if p.paused_publish_rate > 0 else math.inf
+        deadline = next_idle = time.monotonic()
+        while not self._stop.is_set():
+            now = time.monotonic()
+            with self._lock:
+                try:
+                    work = self._loop_work(now)
+                except Exception as err:  # a failing tick must never kill publishing silently
+                    if not rclpy.ok(context=self.context):
+                        return                  # shutting down: publishers are gone
+                    self.get_logger().error(f"tick failed: {type(err).__name__}: {err}", throttle_duration_sec=1.0)
+                    work = "idle"
+            if work == "step":
+                continue
+            if work == "tick":
+                if p.real_time_factor == 0:
+                    continue
+                deadline += period
+                delay = deadline - time.monotonic()
+                if delay > 0:
+                    self._stop.wait(delay)
+                elif delay < -MAX_LAG:
+                    deadline = time.monotonic()     # fell far behind: resynchronise, do not burst
+                    with self._lock:
+                        self._resync = True
+                continue
+            deadline = time.monotonic()
+            if now >= next_idle:
+                if work == "idle" and idle_period < math.inf:
+                    with self._lock:
+                        self._publish()
+                next_idle = now + idle_period
+            self._wake.wait(min(0.05, max(0.0, next_idle - now)))
+            self._wake.clear()
+
+    def _loop_work(self, now: float) -> str:
+        """One unit of the loop thread's work (lock held): ``"tick"`` (free-running play),
+        ``"step"`` (one step of a free-running stepping request), ``"idle"`` (paused or stopped:
+        republish at the slow rate) or ``"wait"`` (lockstep: the callbacks drive)."""
+        if self.p.lockstep:
+            return "idle" if self.state != PLAYING and self.request is None else "wait"
+        if self.request is not None:
+            self._request_step(self._effective_command(now))
+            return "step"
+        if self.state != PLAYING:
+            return "idle"
+        self._tick(now)
+        return "tick"
+
+    def _tick(self, now: float) -> None:
+        """Free-running: the whole steps due by this tick of the schedule, then publish."""
+        p = self.p
+        if self._resync:
+            self._resync = False
+            self._tick_base = (self.plant.k, 0)
+            self._ticks = 0
+        self._ticks += 1
+        base_k, base_ticks = self._tick_base
+        if p.real_time_factor == 0:
+            target = self.plant.k + 1
+        else:
+            sim_ns = (self._ticks - base_ticks) * (1e9 / p.publish_rate) * p.real_time_factor
+            target = base_k + math.floor(sim_ns / p.step_ns + 1e-9)
+            if (target - self.plant.k) * p.step_ns > MAX_LAG * p.real_time_factor * 1e9:
+                self._tick_base = (self.plant.k + 1, self._ticks)     # fell behind: slip, do not burst
+                target = self.plant.k + 1
+        if target <= self.plant.k:
+            return
+        command = self._effective_command(now)
+        while self.plant.k < target:
+            self._step(command)
+        self._publish()
+
+    # -- stepping -------------------------------------------------------------------------------
+    def _step(self, command) -> None:
+        """One step of the plant under ``command``; publish what it located (lock held)."""
+        outcome = self.plant.step(command)
+        for event in outcome.events:
+            self.pub_events.publish(sender.event_msg(event, self.plant.offset_ns, self.p.frame_id))
+            self.published["events"] += 1
+        if outcome.fault is not None:
+            self.get_logger().error(f"simulation stopped, state held: {outcome.fault}")
+
+    def _request_step(self, command) -> None:
+        """One step of the current stepping request, then publish, feedback, and finish it
+        when done or cancelled (lock held)."""
+        req = self.request
+        if req.cancel_requested:
+            self._end_request(Answer(Result.RESULT_OK, f"cancelled after {req.completed} of {req.steps} steps"))
+            return
+        self._step(command)
+        self._publish()
+        req.completed += 1
+        if req.feedback is not None:
+            req.feedback(req.completed, req.remaining)
+        if req.remaining == 0:
+            self._end_request(Answer(Result.RESULT_OK, f"{req.steps} steps done, t = {self._now_text()}"))
+
+    def _end_request(self, answer: Answer) -> None:
+        req, self.request = self.request, None
+        if req is not None:
+            req.finish(answer)
+
+    def _start_request(self, req: StepRequest) -> Answer | None:
+        """Start a stepping request, or the answer why not (lock held)."""
+        refusal = control.check_step_request(req.steps, self.state, self.request, self.p.max_steps_per_request)
+        if refusal is not None:
+            return refusal
+        self.request = req
+        if self.p.lockstep:
+            self._lockstep_begin()
+        else:
+            self._wake.set()
+        return None
+
+    # -- lockstep ---------------------------------------------------------------------------------
+    def _may_step(self) -> bool:
+        return self.state == PLAYING or self.request is not None
+
+    def _lockstep_begin(self) -> None:
+        """Stepping becomes allowed: step at once if the command for t_k is here, otherwise
+        (re)publish the state at t_k for a controller that may have missed it and wait."""
+        self._waiting_since = time.monotonic()
+        if self._lockstep_command is not None:
+            self._lockstep_advance()
+        else:
+            self._publish()
+
+    def _lockstep_advance(self, command=None) -> None:
+        """Integrate the step the simulator waits at, under the received command (or
+        ``command``, the safe force after a timeout), when stepping is allowed (lock held)."""
+        if self.request is not None and self.request.cancel_requested:
+            req = self.request
+            self._end_request(Answer(Result.RESULT_OK, f"cancelled after {req.completed} of {req.steps} steps"))
+            return
+        if not self._may_step():
+            return
+        if command is None:
+            if self._lockstep_command is None:
+                return
+            command = self._command = self._lockstep_command.update.apply(self._command)
+            self._lockstep_command = None
+        if self.request is not None:
+            self._request_step(command)
+        else:
+            self._step(command)
+            self._publish()
+        self._waiting_since = time.monotonic()
+
+    def _on_lockstep_timer(self) -> None:
+        with self._lock:
+            if self.request is not None and self.request.cancel_requested:
+                self._lockstep_advance()
+                return
+            if not self._may_step() or time.monotonic() - self._waiting_since < self.p.lockstep_timeout:
+                return
+            self.lockstep_timeouts += 1
+            self.get_logger().warning(
+                f"lockstep: no command for step {self.plant.k} (t = {self._now_text()}) within "
+                f"{self.p.lockstep_timeout:g} s: this step runs under safe_force = {self.p.safe_force:g} N "
+                f"({self.lockstep_timeouts} timed-out steps so far)", throttle_duration_sec=2.0)
+            self._lockstep_advance([self.p.safe_force] * len(self._command))
+
+    # -- commands -----------------------------------------------------------------------------------
+    def on_command(self, msg: ActuatorForces) -> None:
+        try:
+            command = receive(msg, max_force=self.p.max_force)
+            with self._lock:
+                if self.p.lockstep:
+                    check_step(command, self.plant.time_ns, self.plant.k)
+                    self._lockstep_command = command
+                    self._lockstep_advance()
+                    return
+                self._command = command.update.apply(self._command)
+                self._last_valid = time.monotonic()
+                if self._timed_out:
+                    self._timed_out = False
+                    self.get_logger().info("commands resumed")
+        except CommandError as err:
+            self.rejected += 1
+            self.get_logger().warning(f"rejected actuator command: {err} ({self.rejected} rejected so far)",
+                                      throttle_duration_sec=1.0)
+
+    def _effective_command(self, now: float) -> list[float]:
+        p = self.p
+        if p.command_timeout > 0 and self._last_valid is not None and now - self._last_valid > p.command_timeout:
+            if not self._timed_out:
+                self._timed_out = True
+                self.get_logger().warning(
+                    f"no valid command for {p.command_timeout:g} s: forces drop to {p.safe_force:g} N")
+            return [p.safe_force] * len(self._command)
+        return self._command
+
+    # -- publishing -----------------------------------------------------------------------------------
+    def _publish(self) -> None:
+        """Joint states, end-effector and clock; the full state and the markers (member
+        forces: the expensive part of an observation) every n-th publication (lock held).
+        A topic nobody subscribes to is skipped (there is no reader to deliver to; it saves
+        about a fifth of a lockstep step)."""
+        ns = self.plant.time_ns
+        hdr = sender.header(ns, self.p.frame_id)
+        sample = self.plant.joint_sample()
+        if self.p.publish_clock and self.pub_clock.get_subscription_count():
+            self.pub_clock.publish(sender.clock_msg(ns))
+            self.published["/clock"] += 1
+        if self.pub_joints.get_subscription_count():
+            self.pub_joints.publish(sender.joint_state_msg(sample, hdr))
+            self.published["joint_states"] += 1
+        if self.pub_ee.get_subscription_count():
+            self.pub_ee.publish(sender.end_effector_msg(sample, hdr))
+            self.published["end_effector"] += 1
+        n = self._publications
+        self._publications += 1
+        want_state = self._state_every > 0 and n % self._state_every == 0 and self.pub_state.get_subscription_count()
+        want_markers = (self._marker_every > 0 and n % self._marker_every == 0
+                        and self.pub_markers.get_subscription_count())
+        if want_state or want_markers:
+            obs = self.plant.observe()
+            if want_state:
+                self.pub_state.publish(sender.mechanism_state_msg(obs, hdr))
+                self.published["mechanism_state"] += 1
+            if want_markers:
+                self.pub_markers.publish(sender.markers_msg(obs, hdr))
+                self.published["markers"] += 1
+        self._warn_near_singular(sample.q)
+
+    def _warn_near_singular(self, q) -> None:
+        name, distance = self.plant.near_singular(q)
+        if distance < self.p.singularity_warning:
+            self.get_logger().warning(
+                f"state near the singular set {name}: {name}/L = {distance:.3g} (rho1 = {q[0]:.4g} m, "
+                f"rho2 = {q[1]:.4g} m); accelerations lose accuracy like 1/{name}^2 and the simulation "
+                "stops at 1e-3", throttle_duration_sec=2.0)
+
+    def _now_text(self) -> str:
+        return f"{self.plant.time_ns / sender.NS_PER_S:.9f} s"
+
+    # -- resets and state changes ---------------------------------------------------------------------
+    def _reset(self, *, keep_time: bool, why: str) -> None:
+        """Back to the initial state (lock held): any stepping request ends, the held
+        command is the scene's again, and the new state is published."""
+        if self.request is not None:
+            req = self.request
+            self._end_request(Answer(Result.RESULT_OPERATION_FAILED,
+                                     f"interrupted by {why} after {req.completed} of {req.steps} steps"))
+        self.plant.reset(keep_time=keep_time)
+        self._command = list(self.plant.initial_command)
+        self._lockstep_command = None
+        self._last_valid = None
+        self._resync = True
+        self._publish()
+        self._waiting_since = time.monotonic()
+
+    def on_reset(self, req: Trigger.Request, res: Trigger.Response) -> Trigger.Response:
+        with self._lock:
+            self._reset(keep_time=True, why="a reset")
+        res.success, res.message = True, f"reset to the initial state of scene {self.plant.scene.name!r}"
+        self.get_logger().info(res.message)
+        return res
+
+    def on_reset_simulation(self, req, res):
+        plan = control.reset_plan(int(req.scope))
+        if plan.answer.ok:
+            with self._lock:
+                self._reset(keep_time=not plan.time, why="ResetSimulation")
+        _fill(res.result, plan.answer)
+        return res
+
+    def on_get_features(self, req, res):
+        res.features.features = list(control.FEATURES)
+        res.features.custom_info = (
+            f"tensegrity_sim: step_size {self.p.step_size:.9g} s, lockstep {str(self.p.lockstep).lower()}; "
+            "located events on 'events'; the stepping contract is in docs/ros.md")
+        return res
+
+    def on_get_state(self, req, res):
+        with self._lock:
+            res.state.state = self.state
+        _fill(res.result, Answer(Result.RESULT_OK, STATE_NAMES[res.state.state]))
+        return res
+
+    def on_set_state(self, req, res):
+        target = int(req.state.state)
+        with self._lock:
+            if self.request is not None and target == PLAYING:
+                answer = Answer(Result.RESULT_INCORRECT_STATE, "a stepping request is running: cancel it or wait")
+            elif self.request is not None and target in (PAUSED, STOPPED):
+                req_ = self.request
+                self._end_request(Answer(Result.RESULT_OPERATION_FAILED,
+                                         f"interrupted by SetSimulationState after {req_.completed} of "
+                                         f"{req_.steps} steps"))
+                answer = self._set_state(target, force=True)
+            else:
+                answer = self._set_state(target)
+        _fill(res.result, answer)
+        if answer.ok:
+            self.get_logger().info(f"simulation {answer.message}")
+        return res
+
+    def _set_state(self, target: int, *, force: bool = False) -> Answer:
+        t = control.transition(self.state, target)
+        if not t.answer.ok and not (force and t.state == target):
+            return t.answer
+        if t.reset:
+            self._reset(keep_time=False, why="stopping")
+        previous, self.state = self.state, target
+        if target == PLAYING:
+            self._resync = True
+            self._last_valid = None if previous == STOPPED else self._last_valid
+            if self.p.lockstep:
+                self._lockstep_begin()
+            self._wake.set()
+        return t.answer if t.answer.ok else Answer(Result.RESULT_OK, f"{STATE_NAMES[target]} (request ended)")
+
+    # -- StepSimulation and SimulateSteps ---------------------------------------------------------------
+    def _wait_future(self) -> Future:
+        future = Future(executor=self.executor)
+        future.add_done_callback(lambda _f: None)   # set_result then wakes the executor (guard condition)
+        return future
+
+    async def on_step_simulation(self, req, res):
+        if not self.p.lockstep and 0 < req.steps <= SYNC_STEPS:
+            # a short free-running request runs right here: no hand-over to the loop thread
+            # and back (which costs more than the steps)
+            answers: list = []
+            with self._lock:
+                refusal = control.check_step_request(int(req.steps), self.state, self.request,
+                                                     self.p.max_steps_per_request)
+                if refusal is None:
+                    self.request = StepRequest(int(req.steps), done=answers.append)
+                    while self.request is not None:
+                        self._request_step(self._effective_command(time.monotonic()))
+            _fill(res.result, refusal if refusal is not None else answers[0])
+            return res
+        future = self._wait_future()
+        request = StepRequest(int(req.steps), done=future.set_result)
+        with self._lock:
+            refusal = self._start_request(request)
+        _fill(res.result, refusal if refusal is not None else await future)
+        return res
+
+    def _on_cancel(self, goal_handle) -> CancelResponse:
+        with self._lock:
+            req = self.request
+            if req is not None and req.owner is goal_handle:
+                req.cancel_requested = True
+                self._wake.set()
+        return CancelResponse.ACCEPT
+
+    async def on_simulate_steps(self, goal_handle):
+        future = self._wait_future()
+
+        def feedback(completed: int, remaining: int) -> None:
+            goal_handle.publish_feedback(SimulateSteps.Feedback(completed_steps=completed, remaining_steps=remaining))
+
+        request = StepRequest(int(goal_handle.request.steps), done=future.set_result, feedback=feedback,
+                              owner=goal_handle)
+        with self._lock:
+            refusal = self._start_request(request)
+        answer = refusal if refusal is not None else await future
+        result = SimulateSteps.Result()
+        _fill(result.result, answer)
+        if request.cancel_requested and goal_handle.is_cancel_requested:
+            goal_handle.canceled()
+        elif answer.ok:
+            goal_handle.succeed()
+        else:
+            goal_handle.abort()
+        return result
+
+    def destroy_node(self) -> None:
+        self._stop.set()
+        self._wake.set()
+        self._thread.join(timeout=5.0)
+        self._command_thread.join(timeout=5.0)
+        self._command_executor.shutdown(timeout_sec=5.0)
+        self._command_node.destroy_node()
+        with self._lock:
+            self._end_request(Answer(Result.RESULT_OPERATION_FAILED, "the simulator is shutting down"))
+        counts = ", ".join(f"{k} {v}" for k, v in self.published.items())
+        # the context may already be shut down (Ctrl-C): log without /rosout
+        rclpy.logging.get_logger(f"{self.get_name()}_summary").info(
+            f"published: {counts}; rejected commands: {self.rejected}; lockstep timeouts: {self.lockstep_timeouts}")
+        self._action.destroy()
+        super().destroy_node()
+
+
+def _fill(result: Result, answer: Answer) -> None:
+    result.result = answer.code
+    result.error_message = answer.message
+
+
+def main(argv=None) -> int:
+    return spin_node(SimNode, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))

@@ -1,0 +1,95 @@
+"""The simulator node's parameters: declared once, typed, described, range-checked, and
+handed on as one frozen :class:`SimParameters` (all read-only at run time)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from tensegrity_ros.nodes.common import ParameterValueError, declare
+from tensegrity_ros.nodes.sim.control import STATE_BY_NAME
+from tensegrity_ros.nodes.sim.sender import NS_PER_S
+
+
+@dataclass(frozen=True)
+class SimParameters:
+    scene: str
+    publish_rate: float         # [Hz] free-running ticks
+    real_time_factor: float     # simulated s per wall s; 0 = as fast as possible
+    step_ns: int                # the step (control period) [ns]
+    lockstep: bool
+    lockstep_timeout: float     # [s] wall time per step
+    initial_state: int          # SimulationState value
+    paused_publish_rate: float  # [Hz]; 0 = never
+    max_steps_per_request: int
+    command_timeout: float      # [s]; 0 = never
+    safe_force: float           # [N]
+    max_force: float            # [N]
+    frame_id: str
+    state_rate: float           # [Hz]
+    marker_rate: float          # [Hz]
+    wait_for_subscribers: int
+    publish_clock: bool
+    singularity_warning: float
+
+    @property
+    def step_size(self) -> float:
+        return self.step_ns / NS_PER_S
+
+
+def declare_sim_parameters(node, scene: str) -> SimParameters:
+    """Declare every parameter of ``tensegrity_sim`` on ``node`` but ``scene`` (declared and
+    loaded by :func:`~tensegrity_ros.nodes.common.declare_scene`, as for the IK node and the
+    controller; its name is ``scene``); a bad value stops the node with a message naming
+    the parameter."""
+    def d(name, default, description, **kw):
+        return declare(node, name, default, description, read_only=True, **kw)
+
+    rate = d("publish_rate", 100.0, "free-running: ticks per wall second, each publishing the state [Hz]",
+             lo=1.0, hi=1000.0)
+    rtf = d("real_time_factor", 1.0, "free-running: simulated seconds per wall second; 0 = as fast as possible",
+            lo=0.0, hi=1000.0)
+    step_size = d("step_size", 0.0,
+                  "the simulation step, i.e. the control period [s], rounded to whole nanoseconds: /clock "
+                  "advances by exactly this per step and a lockstep controller answers once per step "
+                  "(the integrator takes its own adaptive steps inside it); 0 = 1 / publish_rate",
+                  lo=0.0, hi=10.0)
+    step_ns = round((step_size if step_size > 0 else 1.0 / rate) * NS_PER_S)
+    if step_ns < 1000:
+        raise ParameterValueError(f"{node.get_name()}: parameter step_size = {step_size!r} s is below 1 us")
+    lockstep = d("lockstep", False,
+                 "after publishing the state at t_k wait for a command stamped t_k, then integrate one step "
+                 "under it (closed loops that reproduce exactly); false = free-running on the wall clock")
+    lockstep_timeout = d("lockstep_timeout", 1.0,
+                         "lockstep: wall time to wait for the command of a step before applying safe_force "
+                         "for that step [s]", lo=1e-3, hi=3600.0)
+    initial = d("initial_state", "playing", "state at start: playing, paused or stopped")
+    if initial not in STATE_BY_NAME:
+        raise ParameterValueError(f"{node.get_name()}: parameter initial_state must be one of "
+                                  f"{', '.join(STATE_BY_NAME)}, got {initial!r}")
+    paused_rate = d("paused_publish_rate", 1.0,
+                    "paused or stopped: republish the (standing) state and clock at this rate [Hz]; 0 = never",
+                    lo=0.0, hi=100.0)
+    max_steps = d("max_steps_per_request", 1_000_000,
+                  "largest StepSimulation / SimulateSteps request accepted [steps]", lo=1, hi=2**31 - 1)
+    command_timeout = d("command_timeout", 0.5,
+                        "free-running: after this many seconds without a valid command the forces drop "
+                        "to safe_force [s]; 0 = never", lo=0.0)
+    safe_force = d("safe_force", 0.0, "force applied after a command timeout or a lockstep timeout [N]")
+    max_force = d("max_force", 1000.0, "commands with |f| above this are rejected [N]", lo=0.0)
+    frame_id = d("frame_id", "world", "frame of the published positions")
+    state_rate = d("state_rate", 100.0,
+                   "publish rate of mechanism_state [Hz] (member forces, energies, contacts), counted in "
+                   "publications of joint_states at publish_rate; a divisor of publish_rate is exact",
+                   lo=0.0, hi=1000.0)
+    marker_rate = d("marker_rate", 30.0, "publish rate of the markers [Hz], counted like state_rate",
+                    lo=0.0, hi=1000.0)
+    wait = d("wait_for_subscribers", 0,
+             "do not start the clock until every output topic has this many subscribers "
+             "(e.g. 1 for a recorder that must see the run from t = 0)", lo=0, hi=1000)
+    clock = d("publish_clock", True, "publish /clock from the simulation time")
+    singular = d("singularity_warning", 0.05,
+                 "warn (throttled) when lambda1/L or lambda2/L falls below this: the mass matrix grows like "
+                 "1/lambda^2 and the simulation stops at 1e-3; 0 = never", lo=0.0, hi=1.0)
+    return SimParameters(scene, rate, rtf, step_ns, bool(lockstep), lockstep_timeout, STATE_BY_NAME[initial],
+                         paused_rate, int(max_steps), command_timeout, safe_force, max_force, frame_id, state_rate,
+                         marker_rate, int(wait), bool(clock), singular)

@@ -1,0 +1,91 @@
+"""The simulator's plant: the core :class:`~tensegrity_core.sim.Simulator` and the
+simulation clock, with no ROS in it.
+
+Time is counted in whole steps of ``step_ns`` nanoseconds: after ``k`` steps the core is at
+``step_time(k, step_ns)`` and the simulation clock (what ``/clock`` and every stamp say)
+reads ``offset_ns + k * step_ns`` exactly. Each step is ``set_command(u)`` then
+``advance(t_k+1)``, the same calls in the same order as the core's sampled-data runner
+(:func:`tensegrity_core.sim.sampled.run_sampled`), so the two agree to the last bit.
+
+A step that the core refuses (singular configuration, integrator failure) sets
+:attr:`fault`: from then on the state is held and the clock still advances by one step
+per step, until a reset.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from tensegrity_core.class2 import dynamics_singularity
+from tensegrity_core.errors import TensegrityError
+from tensegrity_core.sim import Simulator
+from tensegrity_core.sim.sampled import step_time
+
+
+@dataclass(frozen=True)
+class StepOutcome:
+    """What one step did: the events the integrator located in it (``(t [s] on the core's
+    clock, kind, index)``), and the fault that stopped the simulation in it (or None)."""
+
+    events: tuple
+    fault: str | None = None
+
+
+class SimPlant:
+    """The simulation of one scene, stepped ``step_ns`` at a time."""
+
+    def __init__(self, scene, step_ns: int):
+        self.scene = scene
+        self.step_ns = int(step_ns)
+        self._params = scene.model.params
+        self.offset_ns = 0
+        self._start()
+
+    def _start(self) -> None:
+        self.sim = Simulator(self.scene)
+        self.k = 0
+        self.fault: str | None = None
+        self._n_events = 0
+        # Until the first command the actuators hold what the scene starts with (for the
+        # default scene: the forces that keep the mechanism at rest).
+        self.initial_command = [float(f) for f in self.sim.command]
+
+    @property
+    def kind(self) -> str:
+        """The scene's model: ``"class2"`` or ``"general"``."""
+        return self.sim.kind
+
+    @property
+    def time_ns(self) -> int:
+        """The simulation clock [ns]."""
+        return self.offset_ns + self.k * self.step_ns
+
+    def reset(self, *, keep_time: bool) -> None:
+        """Back to the scene's initial state; the clock goes on from where it is
+        (``keep_time``) or back to 0."""
+        self.offset_ns = self.time_ns if keep_time else 0
+        self._start()
+
+    def step(self, command) -> StepOutcome:
+        """Integrate one step under ``command`` (one force per actuator [N]) held."""
+        fault = None
+        if self.fault is None:
+            try:
+                self.sim.set_command(command)
+                self.sim.advance(step_time(self.k + 1, self.step_ns))
+            except TensegrityError as err:
+                self.fault = fault = str(err)
+        self.k += 1
+        events = self.sim.events
+        new, self._n_events = tuple(events[self._n_events:]), len(events)
+        return StepOutcome(new, fault)
+
+    def joint_sample(self):
+        return self.sim.joint_sample()
+
+    def observe(self):
+        return self.sim.observe()
+
+    def near_singular(self, q) -> tuple[str, float]:
+        """``(name, lambda/L)`` of the singular set nearest the lengths ``q[:2]``."""
+        return dynamics_singularity(float(q[0]), float(q[1]), self._params)

@@ -1,0 +1,126 @@
+"""The simulator's sender: small pure functions from the core's samples to messages.
+
+Nothing here holds state or touches a node; each function takes plain values (a
+:class:`~tensegrity_core.sim.simulator.JointSample` or
+:class:`~tensegrity_core.sim.simulator.Observation`, a header, times in integer
+nanoseconds) and returns a message. Units SI; forces tension positive.
+"""
+
+from __future__ import annotations
+
+import array
+
+from builtin_interfaces.msg import Time as TimeMsg
+from geometry_msgs.msg import Point, PointStamped
+from rosgraph_msgs.msg import Clock as ClockMsg
+from sensor_msgs.msg import JointState
+from std_msgs.msg import ColorRGBA, Header
+from tensegrity_msgs.msg import MechanismState, SimulationEvent
+from visualization_msgs.msg import Marker, MarkerArray
+
+JOINT_NAMES = ("rho1", "rho2", "beta")
+NS_PER_S = 1_000_000_000
+#: Names of what an event's index refers to, per kind (the core's event kinds).
+EVENT_SUBJECTS = {"fold": ("rho1", "rho2"), "release": ("rho1", "rho2"),
+                  "singular": ("lambda1", "lambda2")}
+
+
+def time_msg(ns: int) -> TimeMsg:
+    """A stamp of ``ns`` nanoseconds on the simulation clock (exact: no float in between)."""
+    sec, nanosec = divmod(int(ns), NS_PER_S)
+    return TimeMsg(sec=sec, nanosec=nanosec)
+
+
+def stamp_ns(stamp) -> int:
+    """Integer nanoseconds of a ``builtin_interfaces/Time``."""
+    return int(stamp.sec) * NS_PER_S + int(stamp.nanosec)
+
+
+def header(ns: int, frame_id: str) -> Header:
+    return Header(stamp=time_msg(ns), frame_id=frame_id)
+
+
+def clock_msg(ns: int) -> ClockMsg:
+    return ClockMsg(clock=time_msg(ns))
+
+
+def point(p) -> Point:
+    return Point(x=float(p[0]), y=float(p[1]), z=float(p[2]))
+
+
+def _doubles(values) -> array.array:
+    """A float64 sequence field's value (``array('d')`` takes rclpy's fast path: a list is
+    checked element by element on assignment)."""
+    return array.array("d", [float(v) for v in values])
+
+
+def joint_state_msg(sample, hdr: Header) -> JointState:
+    """Joints rho1, rho2 [m], beta [rad]: position, velocity, effort = applied force [N] (0 for beta)."""
+    msg = JointState(header=hdr, name=list(JOINT_NAMES))
+    msg.position = _doubles(sample.q)
+    msg.velocity = _doubles(sample.qdot)
+    msg.effort = _doubles((sample.applied_forces[0], sample.applied_forces[1], 0.0))
+    return msg
+
+
+def end_effector_msg(sample, hdr: Header) -> PointStamped:
+    return PointStamped(header=hdr, point=point(sample.end_effector))
+
+
+def mechanism_state_msg(obs, hdr: Header) -> MechanismState:
+    """The full state; ``contact_active[i]``: the fold limit pushes on actuator i (its
+    contact force [N] is > 0)."""
+    m = MechanismState(header=hdr)
+    m.q = [float(v) for v in obs.q]
+    m.qdot = [float(v) for v in obs.qdot]
+    m.actuator_force = [float(v) for v in obs.applied_forces]
+    m.node_names = list(obs.node_names)
+    m.nodes = [point(p) for p in obs.nodes]
+    m.member_names = list(obs.member_names)
+    m.member_lengths = [float(v) for v in obs.member_lengths]
+    m.member_forces = [float(v) for v in obs.member_forces]
+    m.end_effector = point(obs.end_effector)
+    m.potential_energy = float(obs.potential_energy)
+    m.kinetic_energy = float(obs.kinetic_energy)
+    m.folded = bool(obs.folded)
+    contact = [float(v) for v in obs.contact_forces][:2]
+    contact += [0.0] * (2 - len(contact))
+    m.contact_force = contact
+    m.contact_active = [f > 0.0 for f in contact]
+    return m
+
+
+def force_color(t: float, scale: float) -> ColorRGBA:
+    """Red for tension, blue for compression, grey near zero; saturates at ``scale`` [N]."""
+    a = max(-1.0, min(1.0, t / scale)) if scale > 0 else 0.0
+    if a >= 0:
+        return ColorRGBA(r=0.6 + 0.4 * a, g=0.6 - 0.5 * a, b=0.6 - 0.5 * a, a=1.0)
+    return ColorRGBA(r=0.6 + 0.5 * a, g=0.6 + 0.5 * a, b=0.6 - 0.4 * a, a=1.0)
+
+
+def markers_msg(obs, hdr: Header) -> MarkerArray:
+    """Members as lines coloured by force, nodes as spheres."""
+    scale = max(1e-9, max(abs(float(t)) for t in obs.member_forces))
+    members = Marker(header=hdr, ns="members", id=0, type=Marker.LINE_LIST, action=Marker.ADD)
+    members.scale.x = 0.02
+    members.pose.orientation.w = 1.0
+    for (i, j), t in zip(obs.member_nodes, obs.member_forces):
+        for n in (i, j):
+            members.points.append(point(obs.nodes[n]))
+            members.colors.append(force_color(float(t), scale))
+    nodes = Marker(header=hdr, ns="nodes", id=1, type=Marker.SPHERE_LIST, action=Marker.ADD)
+    nodes.scale.x = nodes.scale.y = nodes.scale.z = 0.05
+    nodes.pose.orientation.w = 1.0
+    nodes.color = ColorRGBA(r=0.9, g=0.9, b=0.9, a=1.0)
+    nodes.points = [point(p) for p in obs.nodes]
+    return MarkerArray(markers=[members, nodes])
+
+
+def event_msg(event, offset_ns: int, frame_id: str) -> SimulationEvent:
+    """One located event ``(t [s] on the core's clock, kind, index)``; the simulation clock
+    reads ``offset_ns`` when the core's clock reads 0."""
+    t, kind, index = event
+    subjects = EVENT_SUBJECTS.get(kind, ())
+    ns = offset_ns + round(t * NS_PER_S)
+    return SimulationEvent(header=header(ns, frame_id), time=offset_ns / NS_PER_S + float(t), kind=str(kind),
+                           index=int(index), name=subjects[index] if 0 <= index < len(subjects) else "")

@@ -1,0 +1,4 @@
+"""rclpy utilities of the suite, none of them tied to a node: the process environment for
+DDS (:mod:`.env`), waiting for matches (:mod:`.matching`) and futures (:mod:`.futures`),
+taking raw messages (:mod:`.raw_take`), message classes and plain copies (:mod:`.messages`).
+"""

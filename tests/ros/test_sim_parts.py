@@ -1,0 +1,105 @@
+"""The simulator node's parts without DDS: the sender's stamps, the receiver's lockstep
+check, the plant's integer clock, the run-control table of the standard."""
+
+from __future__ import annotations
+
+import pytest
+
+pytestmark = pytest.mark.ros
+
+
+def test_stamps_are_exact_integer_nanoseconds():
+    from tensegrity_ros.nodes.sim.sender import stamp_ns, time_msg
+
+    for ns in (0, 1, 999_999_999, 1_000_000_000, 123 * 10**9 + 456, 2**40 + 7):
+        msg = time_msg(ns)
+        assert 0 <= msg.nanosec < 10**9 and stamp_ns(msg) == ns
+    # what a float seconds round trip would lose: 1e9 steps of 1 ns at 2**40 ns
+    assert time_msg(2**40 + 7).nanosec == (2**40 + 7) % 10**9
+
+
+def test_the_plant_clock_is_k_steps_and_a_reset_keeps_or_zeroes_it():
+    from tensegrity_core.sim import load_scene
+    from tensegrity_core.sim.sampled import step_time
+    from tensegrity_ros.nodes.sim.plant import SimPlant
+
+    plant = SimPlant(load_scene("class2_at_rest"), 3_000_000)
+    hold = plant.initial_command
+    for _ in range(7):
+        assert plant.step(hold).fault is None
+    assert plant.time_ns == 21_000_000 and plant.sim.t == step_time(7, 3_000_000)
+    plant.reset(keep_time=True)
+    plant.step(hold)
+    assert plant.time_ns == 24_000_000 and plant.sim.t == step_time(1, 3_000_000)
+    plant.reset(keep_time=False)
+    assert plant.time_ns == 0 and plant.k == 0
+
+
+def test_a_faulted_plant_holds_the_state_and_the_clock_goes_on():
+    from tensegrity_core.sim import load_scene
+    from tensegrity_ros.nodes.sim.plant import SimPlant
+
+    plant = SimPlant(load_scene("class2_at_rest"), 10_000_000)
+    outcome = None
+    for _ in range(300):                 # -3 N on both pushes rho1 + rho2 to 2L (lambda1) in ~1 s
+        outcome = plant.step([-3.0, -3.0])
+        if outcome.fault:
+            break
+    assert outcome.fault and "lambda1" in outcome.fault
+    assert any(kind == "singular" for _, kind, _ in outcome.events)
+    held = plant.joint_sample().q.copy()
+    k = plant.k
+    assert plant.step([0.0, 0.0]) == type(outcome)((), None)
+    assert plant.k == k + 1 and (plant.joint_sample().q == held).all()
+
+
+def test_a_lockstep_command_must_carry_the_stamp_of_the_state_it_answers():
+    from tensegrity_msgs.msg import ActuatorForces
+
+    from tensegrity_ros.nodes.actuator_commands import CommandError
+    from tensegrity_ros.nodes.sim.receiver import check_step, receive
+
+    msg = ActuatorForces(name=["f2"], force=[1.5])
+    msg.header.stamp.sec, msg.header.stamp.nanosec = 2, 500_000_000
+    cmd = receive(msg, max_force=10.0)
+    assert cmd.stamp_ns == 2_500_000_000 and cmd.update.apply([0.0, 0.0]) == [0.0, 1.5]
+    check_step(cmd, 2_500_000_000, 250)
+    with pytest.raises(CommandError, match=r"stamped 2.500000000 s, but the simulator waits at step 251 "
+                                           r"\(t = 2.510000000 s\)"):
+        check_step(cmd, 2_510_000_000, 251)
+
+
+def test_every_transition_of_the_standard():
+    from simulation_interfaces.msg import Result, SimulationState
+    from simulation_interfaces.srv import SetSimulationState
+
+    from tensegrity_ros.nodes.sim.control import PAUSED, PLAYING, STOPPED, transition
+
+    ok, already = Result.RESULT_OK, SetSimulationState.Response.ALREADY_IN_TARGET_STATE
+    table = {(STOPPED, PLAYING): (ok, False), (STOPPED, PAUSED): (ok, False), (PLAYING, PAUSED): (ok, False),
+             (PAUSED, PLAYING): (ok, False), (PLAYING, STOPPED): (ok, True), (PAUSED, STOPPED): (ok, True)}
+    for a in (STOPPED, PLAYING, PAUSED):
+        assert transition(a, a).answer.code == already and transition(a, a).state == a
+        for b in (STOPPED, PLAYING, PAUSED):
+            if a != b:
+                t = transition(a, b)
+                assert (t.answer.code, t.reset) == table[(a, b)] and t.state == b
+        assert transition(a, SimulationState.STATE_QUITTING).answer.code == Result.RESULT_FEATURE_UNSUPPORTED
+        for bad in (SimulationState.STATE_NO_WORLD, SimulationState.STATE_LOADING_WORLD, 17, 255):
+            t = transition(a, bad)
+            assert t.answer.code == SetSimulationState.Response.INCORRECT_TRANSITION and t.state == a
+
+
+def test_reset_scopes():
+    from simulation_interfaces.msg import Result
+    from simulation_interfaces.srv import ResetSimulation
+
+    from tensegrity_ros.nodes.sim.control import reset_plan
+
+    r = ResetSimulation.Request
+    assert (reset_plan(r.SCOPE_DEFAULT).answer.ok, reset_plan(r.SCOPE_DEFAULT).time) == (True, True)
+    assert (reset_plan(r.SCOPE_ALL).answer.ok, reset_plan(r.SCOPE_ALL).time) == (True, True)
+    assert (reset_plan(r.SCOPE_STATE).answer.ok, reset_plan(r.SCOPE_STATE).time) == (True, False)
+    assert reset_plan(r.SCOPE_STATE | r.SCOPE_TIME).time
+    for scope in (r.SCOPE_TIME, r.SCOPE_SPAWNED, r.SCOPE_STATE | r.SCOPE_SPAWNED, 8, 64):
+        assert reset_plan(scope).answer.code == Result.RESULT_FEATURE_UNSUPPORTED

@@ -1,0 +1,287 @@
+"""Stepping tensegrity_sim over ROS 2 (issue 14), with real nodes over DDS on loopback: the
+simulation_interfaces contract, lockstep runs equal to the core's sampled-data run and to
+each other, /clock exact after pause/step/resume, and every bad-input and fault case."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.ros
+
+STEP_NS = 10_000_000          # the tests' step: 10 ms
+
+
+@pytest.fixture
+def stepping(cli, ros_context):
+    """Start `tensegrity node sim` with ROS parameters; yields (proc, client)."""
+    import rclpy
+
+    from tensegrity_ros.apps.sim_client import SimClient
+
+    clients = []
+
+    def start(*params: str):
+        args = ["node", "sim", "--ros-args", "-p", f"step_size:={STEP_NS / 1e9}", "-p", "publish_rate:=100.0"]
+        for p in params:
+            args += ["-p", p]
+        proc = cli(*args, log_name="sim")
+        proc.wait_for("publishing at")
+        client = SimClient(rclpy, "stepping_test", context=ros_context)
+        clients.append(client)
+        client.wait_for_services(30)
+        return proc, client
+
+    yield start
+    for c in clients:
+        c.close()
+
+
+def _clock_listener(ctx):
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import QoSProfile
+    from rosgraph_msgs.msg import Clock
+
+    node = rclpy.create_node("clock_listener", context=ctx)
+    got: list[int] = []
+    node.create_subscription(Clock, "/clock", lambda m: got.append(m.clock.sec * 10**9 + m.clock.nanosec),
+                             QoSProfile(depth=10000))
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+
+    def spin(seconds: float) -> None:
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            ex.spin_once(timeout_sec=0.01)
+
+    return got, spin
+
+
+def _result(res):
+    return res.result.result, res.result.error_message
+
+
+def _lockstep_fold(client, steps: int) -> list:
+    """Reset (clock at 0), then `steps` lockstep steps under the paper's fold law."""
+    from tensegrity_core.class2.fold_law import paper_fold_forces
+
+    client.set_law(None)
+    client.reset_all()
+    client.take_joints()
+    client.events.clear()
+    client.set_law(paper_fold_forces)
+    client.step(steps)
+    client.set_law(None)
+    client.wait_joint(steps * STEP_NS)
+    table = {}
+    for j in client.take_joints():
+        assert table.setdefault(j.stamp_ns, j) == j          # a republished stamp carries the same state
+    return [table[k * STEP_NS] for k in range(steps + 1)]
+
+
+def test_lockstep_runs_equal_the_core_sampled_run_and_each_other(stepping):
+    """The paper's fold over ROS in lockstep (controller in this process) against the core's
+    run_sampled with the same controller: every joint state equal to the last bit, the
+    located events equal, and a second ROS run identical to the first."""
+    from tensegrity_core.class2.fold_law import paper_fold_forces
+    from tensegrity_core.sim.sampled import run_sampled
+
+    proc, client = stepping("lockstep:=true", "initial_state:=paused", "paused_publish_rate:=0.0",
+                            "lockstep_timeout:=30.0")
+    steps = 200                                   # 2 s: through both first folds (1.37 s and 1.54 s)
+    first = _lockstep_fold(client, steps)
+    events = [(e.time, e.kind, e.index) for e in client.events]
+    second = _lockstep_fold(client, steps)
+    assert first == second
+    core = run_sampled("class2_at_rest", paper_fold_forces, step_ns=STEP_NS, steps=steps)
+    assert core.success
+    np.testing.assert_array_equal(np.array([j.position for j in first]), core.q)
+    np.testing.assert_array_equal(np.array([j.velocity for j in first]), core.qdot)
+    assert [j.stamp_ns for j in first] == [k * STEP_NS for k in range(steps + 1)]
+    assert [(k, i) for _, k, i in events] == [(k, i) for _, k, i in core.events]
+    assert [t for t, _, _ in events] == [t for t, _, _ in core.events]
+    assert any(k == "fold" for _, k, _ in events)
+    assert "rejected" not in proc.stderr()
+
+
+def test_clock_is_exact_after_pause_step_resume_and_never_catches_up(stepping, ros_context):
+    from simulation_interfaces.msg import SimulationState
+
+    clock, spin = _clock_listener(ros_context)
+    proc, client = stepping()                       # free-running, real time
+    spin(1.0)
+    assert _result(client.set_state(SimulationState.STATE_PAUSED))[0] == 1
+    spin(0.3)
+    paused_at = clock[-1]
+    spin(1.2)                                       # paused: time stands (republished at 1 Hz)
+    assert clock[-1] == paused_at
+    client.step(3)
+    client.step(1)
+    spin(0.3)
+    assert clock[-1] == paused_at + 4 * STEP_NS     # exactly n * step_size per n steps
+    assert _result(client.set_state(SimulationState.STATE_PLAYING))[0] == 1
+    spin(1.0)
+    assert _result(client.set_state(SimulationState.STATE_PAUSED))[0] == 1
+    spin(0.3)
+    assert all(c % STEP_NS == 0 for c in clock)     # every stamp on the step grid
+    assert clock == sorted(clock)
+    resumed = [c for c in clock if c > paused_at + 4 * STEP_NS]
+    # no catch-up after the pause: the first tick after resuming is one step on, and the
+    # clock then advances at the real-time rate (1 s of wall time is about 100 steps)
+    assert resumed[0] == paused_at + 5 * STEP_NS
+    assert resumed[-1] - resumed[0] < 1.3e9
+
+
+def test_stepping_requests_outside_pause_and_of_bad_size_are_answered(stepping):
+    from simulation_interfaces.msg import Result
+    from simulation_interfaces.srv import StepSimulation
+
+    proc, client = stepping("max_steps_per_request:=1000")
+    res = client.call("step_simulation", StepSimulation.Request(steps=1))
+    code, message = _result(res)
+    assert code == Result.RESULT_INCORRECT_STATE and "paused" in message
+    from simulation_interfaces.msg import SimulationState
+
+    client.set_state(SimulationState.STATE_PAUSED)
+    code, message = _result(client.call("step_simulation", StepSimulation.Request(steps=0)))
+    assert code == Result.RESULT_OPERATION_FAILED and "at least 1" in message
+    code, message = _result(client.call("step_simulation", StepSimulation.Request(steps=2**63)))
+    assert code == Result.RESULT_OPERATION_FAILED and "max_steps_per_request = 1000" in message
+    code, _ = _result(client.call("step_simulation", StepSimulation.Request(steps=1000)))
+    assert code == Result.RESULT_OK
+
+
+def test_state_changes_answer_with_the_standard_codes(stepping):
+    from simulation_interfaces.msg import Result, SimulationState, SimulatorFeatures
+    from simulation_interfaces.srv import ResetSimulation, SetSimulationState
+
+    proc, client = stepping("initial_state:=stopped")
+    assert client.call("get_simulation_state").state.state == SimulationState.STATE_STOPPED
+    assert _result(client.set_state(SimulationState.STATE_STOPPED))[0] == SetSimulationState.Response.ALREADY_IN_TARGET_STATE
+    code, message = _result(client.set_state(42))
+    assert code == SetSimulationState.Response.INCORRECT_TRANSITION and "42" in message
+    assert _result(client.set_state(SimulationState.STATE_QUITTING))[0] == Result.RESULT_FEATURE_UNSUPPORTED
+    assert _result(client.set_state(SimulationState.STATE_NO_WORLD))[0] == SetSimulationState.Response.INCORRECT_TRANSITION
+    assert _result(client.set_state(SimulationState.STATE_PAUSED))[0] == Result.RESULT_OK
+    assert client.call("get_simulation_state").state.state == SimulationState.STATE_PAUSED
+    client.step(5)
+    client.wait_joint(5 * STEP_NS)
+    code, message = _result(client.call("reset_simulation", ResetSimulation.Request(scope=ResetSimulation.Request.SCOPE_TIME)))
+    assert code == Result.RESULT_FEATURE_UNSUPPORTED and "SCOPE_TIME alone" in message
+    assert _result(client.call("reset_simulation", ResetSimulation.Request(scope=ResetSimulation.Request.SCOPE_SPAWNED)))[0] \
+        == Result.RESULT_FEATURE_UNSUPPORTED
+    client.take_joints()
+    assert _result(client.call("reset_simulation", ResetSimulation.Request(scope=ResetSimulation.Request.SCOPE_STATE)))[0] \
+        == Result.RESULT_OK
+    assert client.wait_joint().stamp_ns == 5 * STEP_NS          # state reset, the clock goes on
+    client.step(1)
+    client.wait_joint(6 * STEP_NS)
+    client.take_joints()
+    client.reset_all()
+    assert client.wait_joint().stamp_ns == 0                    # SCOPE_ALL: the clock back at 0 too
+    features = set(client.call("get_simulator_features").features.features)
+    f = SimulatorFeatures
+    assert features == {f.SIMULATION_RESET, f.SIMULATION_RESET_STATE, f.SIMULATION_STATE_GETTING,
+                        f.SIMULATION_STATE_SETTING, f.SIMULATION_STATE_PAUSE, f.STEP_SIMULATION_SINGLE,
+                        f.STEP_SIMULATION_MULTIPLE, f.STEP_SIMULATION_ACTION}
+    assert f.SPAWNING not in features and f.SIMULATION_RESET_TIME not in features
+
+
+def test_lockstep_without_a_controller_keeps_publishing_under_the_safe_force(stepping):
+    """The controller is dead (nobody answers): every step waits lockstep_timeout, warns
+    (throttled) and runs under safe_force; joint states keep coming, one per step."""
+    proc, client = stepping("lockstep:=true", "lockstep_timeout:=0.1", "safe_force:=0.25")
+    time.sleep(2.0)
+    joints = client.take_joints()
+    assert len(joints) >= 5
+    stamps = [j.stamp_ns for j in joints]
+    assert stamps == sorted(stamps) and all(b - a == STEP_NS for a, b in zip(stamps, stamps[1:]))
+    assert all(tuple(j.effort[:2]) == (0.25, 0.25) for j in joints[1:])
+    log = proc.stderr()
+    assert "lockstep: no command for step" in log and "safe_force = 0.25 N" in log
+    import re
+
+    timed_out = int(re.findall(r"\((\d+) timed-out steps so far\)", log)[-1])
+    assert timed_out >= 10 and log.count("lockstep: no command for step") <= timed_out / 5   # throttled
+
+
+def test_a_lockstep_command_for_another_step_is_rejected_with_a_reason(stepping):
+    from tensegrity_msgs.msg import ActuatorForces
+
+    from tensegrity_ros.rclpy_utils.matching import wait_for_matches
+
+    proc, client = stepping("lockstep:=true", "initial_state:=paused", "paused_publish_rate:=0.0")
+    assert wait_for_matches([client.pub], 1, 30)
+    wrong = ActuatorForces(name=["f1", "f2"], force=[1.0, 1.0])
+    wrong.header.stamp.nanosec = 3 * STEP_NS                   # the simulator waits at step 0
+    client.pub.publish(wrong)
+    deadline = time.monotonic() + 30
+    while "rejected actuator command" not in proc.stderr():
+        assert time.monotonic() < deadline, proc.stderr()
+        time.sleep(0.05)
+    log = proc.stderr()
+    assert "stamped 0.030000000 s, but the simulator waits at step 0 (t = 0.000000000 s)" in log
+    client.set_law(lambda s: (0.5, 0.5))
+    client.step(2)                                             # the rejected command was never applied
+    client.set_law(None)
+    efforts = {j.stamp_ns: tuple(j.effort[:2]) for j in client.take_joints()}
+    assert efforts.get(2 * STEP_NS) == (0.5, 0.5) or efforts.get(STEP_NS) == (0.5, 0.5)
+
+
+@pytest.mark.parametrize("lockstep", [False, True])
+def test_cancelling_simulate_steps_stops_at_a_step_boundary(stepping, ros_context, lockstep):
+    from rclpy.action import ActionClient
+    from simulation_interfaces.action import SimulateSteps
+    from simulation_interfaces.msg import SimulationState
+
+    from tensegrity_ros.rclpy_utils.futures import spin_until_done
+
+    clock, spin = _clock_listener(ros_context)
+    proc, client = stepping("initial_state:=paused", "paused_publish_rate:=0.0", f"lockstep:={str(lockstep).lower()}",
+                            "lockstep_timeout:=30.0")
+    client.set_law(lambda sample: (-0.35, 0.35))       # a controller (used in lockstep only)
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+
+    node = rclpy.create_node("action_test", context=ros_context)
+    ex = SingleThreadedExecutor(context=ros_context)
+    ex.add_node(node)
+    action = ActionClient(node, SimulateSteps, "simulate_steps")
+    assert action.wait_for_server(timeout_sec=30)
+    feedback = []
+    goal_future = action.send_goal_async(SimulateSteps.Goal(steps=1_000_000),
+                                         feedback_callback=lambda m: feedback.append(m.feedback))
+    assert spin_until_done(ex, goal_future, 30)
+    handle = goal_future.result()
+    assert handle.accepted
+    deadline = time.monotonic() + 60
+    while len(feedback) < 20:
+        assert time.monotonic() < deadline, (feedback, handle.status, proc.stderr())
+        ex.spin_once(timeout_sec=0.01)
+    cancel = handle.cancel_goal_async()
+    assert spin_until_done(ex, cancel, 30)
+    result_future = handle.get_result_async()
+    assert spin_until_done(ex, result_future, 60)
+    res = result_future.result()
+    spin(0.5)                                                  # the last feedback may still be in flight
+    ex.spin_once(timeout_sec=0.1)
+    from action_msgs.msg import GoalStatus
+
+    assert res.status == GoalStatus.STATUS_CANCELED
+    message = res.result.result.error_message
+    assert message.startswith("cancelled after ")
+    done = int(message.split()[2])
+    # feedback after every step (a keep-last history of 10 may drop some under load, and
+    # rclpy drops feedback that arrives after the result): counts rise, each adds up to the
+    # request, none is past the step where the cancel stopped
+    assert all(f.completed_steps + f.remaining_steps == 1_000_000 for f in feedback)
+    assert all(b.completed_steps > a.completed_steps for a, b in zip(feedback, feedback[1:]))
+    assert 20 <= feedback[-1].completed_steps <= done
+    spin(0.5)
+    assert clock[-1] == done * STEP_NS                         # stopped on a step boundary
+    assert client.call("get_simulation_state").state.state == SimulationState.STATE_PAUSED
+    assert "lockstep: no command" not in proc.stderr()      # lockstep: every step had its command
+    node.destroy_node()
