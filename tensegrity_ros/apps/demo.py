@@ -245,7 +245,7 @@ class DemoClient:
         self.sim.set_law(None)
         self.sim.reset_all()
         self.sim.take_joints()
-        self.sim.set_law(law)
+        self.sim.set_law(law, until_ns=steps * self.step_ns)
         self.sim.step(steps)
         self.sim.set_law(None)
         self.sim.wait_joint(steps * self.step_ns)          # the final state may still be in flight

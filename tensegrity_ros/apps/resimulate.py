@@ -196,7 +196,7 @@ def _resimulated(schedule, steps: int, step_ns: int, scene: str, lockstep_timeou
         client = SimClient(rclpy, "tensegrity_resimulate", namespace=namespace, record_events=False)
         client.wait_for_services()
         client.reset_all()
-        client.set_law(lambda sample: schedule[min(round(sample.t * NS_PER_S) // step_ns, steps - 1)])
+        client.set_law(lambda sample: schedule[round(sample.t * NS_PER_S) // step_ns], until_ns=steps * step_ns)
         client.step(steps, timeout=max(600.0, steps * 0.05))
         client.wait_joint(steps * step_ns)
         client.set_law(None)

@@ -74,6 +74,7 @@ class SimClient:
             self.node.create_subscription(SimulationEvent, "events", self.events.append, QoSProfile(depth=1000))
         self.joints: list[JointRecord] = []
         self.law: Callable | None = None
+        self._until_ns: int | None = None
         self._answered: set = set()
         self._lock = threading.Lock()
         self._new = threading.Condition(self._lock)
@@ -93,6 +94,8 @@ class SimClient:
             if law is not None:
                 if rec.stamp_ns in self._answered:   # a state republished: it was answered already
                     return
+                if self._until_ns is not None and rec.stamp_ns >= self._until_ns:
+                    return                           # the run's end: no step follows it
                 self._answered.add(rec.stamp_ns)
         if law is not None:
             f1, f2 = law(sample_of(rec))
@@ -100,13 +103,17 @@ class SimClient:
             cmd.header.stamp = msg.header.stamp
             self.pub.publish(cmd)
 
-    def set_law(self, law: Callable | None) -> None:
+    def set_law(self, law: Callable | None, *, until_ns: int | None = None) -> None:
         """Answer joint states with ``law`` from now on (None: stop answering). Each stamp is
         answered once per law: a state the simulator republishes (at the start of a stepping
         request, or while paused) gets no second command, which the simulator would reject
-        as stamped for a past step."""
+        as stamped for a past step. States stamped ``until_ns`` [ns] or later are not answered:
+        a run of ``n`` steps from ``t_0`` answers ``t_0 .. t_(n-1)``; an answer to its final
+        state would reach the simulator after the next reset and be rejected there as stamped
+        for another step."""
         with self._lock:
             self.law = law
+            self._until_ns = until_ns
             self._answered = set()
 
     def take_joints(self) -> list[JointRecord]:

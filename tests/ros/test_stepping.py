@@ -72,7 +72,7 @@ def _lockstep_fold(client, steps: int) -> list:
     client.reset_all()
     client.take_joints()
     client.events.clear()
-    client.set_law(paper_fold_forces)
+    client.set_law(paper_fold_forces, until_ns=steps * STEP_NS)
     client.step(steps)
     client.set_law(None)
     client.wait_joint(steps * STEP_NS)
