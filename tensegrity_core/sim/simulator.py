@@ -196,6 +196,7 @@ def simulate(scene, *, duration: float | None = None, progress=None) -> Trajecto
     if times[-1] < scene.duration * (1 - 1e-12):         # the run always ends at its duration
         times = np.append(times, scene.duration)
         n += 1
+    times[-1] = scene.duration      # a grid point within rounding of it (1.21 for 1.2099999999999997 s)
     samples: list = []
     error = None
     chunk = max(1, n // 50) if progress is not None else n     # progress in 2 % steps, if watched

@@ -212,6 +212,7 @@ class Stepper:
             raise SimulationError(f"cannot advance backwards: t = {self.t!r} s, target {t_target!r} s", t=self.t)
         if t_target > self.t_end * (1 + 1e-12) + 1e-12:
             raise SimulationError(f"target {t_target!r} s is beyond the end {self.t_end!r} s", t=self.t)
+        t_target = min(t_target, self.t_end)      # within rounding of the end: the end itself
         while self._seg[1] < t_target:
             if self._pending is not None:
                 self._fire()

@@ -235,3 +235,13 @@ def test_evaluations_are_counted_across_step_retries():
                                  integrator={"method": "DOP853", "rtol": 1e-6, "atol": 1e-8}, output={"rate": 1}))
     assert not traj.success and "lambda1" in traj.message          # the motion reaches s = 2L at ~191.5 s
     assert traj.stats["nfev"] >= 12 * traj.stats["steps"]
+
+
+@pytest.mark.parametrize("duration", [1.2099999999999997, 0.30000000000000004, 0.29999999999999993])
+def test_a_duration_a_rounding_off_an_output_point_ends_exactly_there(duration):
+    """1.21 * 100 rounds to a grid point above 1.2099999999999997 s: that point is the end
+    itself (it had asked the integrator for a step past its end: "first_step must be positive")."""
+    traj = simulate(load_scene("paper_fold"), duration=duration)
+    assert traj.times[-1] == duration
+    assert len(traj.times) == round(duration * 100) + 1
+    assert np.all(np.diff(traj.times) > 0)
