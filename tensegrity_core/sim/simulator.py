@@ -99,17 +99,15 @@ class Simulator:
         self.quasi_static = self.model.quasi_static
         self.t_end = t_end
         self.state: State = self.model.initial_state(t_end=t_end)
-        self._noise = self._new_noise()
-
-    def _new_noise(self) -> SensorNoise | None:
         noise = self.scene.effects.get("sensor_noise")
-        return SensorNoise(noise.sigmas, self.scene.seed) if noise is not None else None
+        # stateless: the noise of an observation depends on its time only (sim/noise.py)
+        self._noise = SensorNoise(noise.sigmas, self.scene.seed) if noise is not None else None
 
     def reset(self) -> None:
-        """Back to the scene's initial state at ``t = 0`` (a new state; the sensor noise starts
-        its sequence again): the same as a new simulator of the scene, without compiling it."""
+        """Back to the scene's initial state at ``t = 0`` (a new state; sensor noise is a
+        function of the observation time, so it replays too): the same as a new simulator of
+        the scene, without compiling it."""
         self.state = self.model.initial_state(t_end=self.t_end)
-        self._noise = self._new_noise()
 
     @property
     def t(self) -> float:

@@ -208,22 +208,52 @@ def test_the_compliant_drive_is_stable_for_an_explicit_method_too():
 
 def test_sensor_noise_has_the_listed_sigma_and_is_reproducible():
     sigma = {"q": 1e-3, "member_forces": 0.05}
-    scene = class2_scene(effects=["inertia", "springs", "damping", {"sensor_noise": sigma}],
-                         inputs={"f1": {"law": "commanded"}, "f2": {"law": "commanded"}}, seed=11)
+    inputs = {"f1": {"law": "commanded"}, "f2": {"law": "commanded"}}
+    scene = class2_scene(effects=["inertia", "springs", "damping", {"sensor_noise": sigma}], inputs=inputs, seed=11)
     sim = Simulator(scene)
-    true = Simulator(class2_scene(inputs={"f1": {"law": "commanded"}, "f2": {"law": "commanded"}})).observe()
-    obs = [sim.observe() for _ in range(3000)]
-    dq = np.array([o.q for o in obs]) - true.q
-    df = np.array([o.member_forces for o in obs]) - true.member_forces
+    clean = Simulator(class2_scene(effects=["inertia", "springs", "damping"], inputs=inputs))
+    times = np.arange(3000) * 1e-3
+    obs, true = [], []
+    for t in times:
+        sim.advance(t)
+        clean.advance(t)
+        obs.append(sim.observe())
+        true.append(clean.observe())
+    dq = np.array([o.q for o in obs]) - np.array([o.q for o in true])
+    df = np.array([o.member_forces for o in obs]) - np.array([o.member_forces for o in true])
     for dev, s in ((dq, sigma["q"]), (df, sigma["member_forces"])):
         assert abs(dev.mean()) < 5 * s / np.sqrt(dev.size)
         assert dev.std() == pytest.approx(s, rel=0.03)
-    np.testing.assert_array_equal(np.array([o.end_effector for o in obs]), true.end_effector[None].repeat(3000, 0))
+        assert abs(np.corrcoef(dev[:-1, 0], dev[1:, 0])[0, 1]) < 5 / np.sqrt(len(dev))   # white in time
+    np.testing.assert_array_equal(np.array([o.end_effector for o in obs]), np.array([o.end_effector for o in true]))
     again = Simulator(scene).observe()
     np.testing.assert_array_equal(again.q, obs[0].q)
     other = Simulator(class2_scene(effects=["inertia", "springs", "damping", {"sensor_noise": sigma}],
-                                   inputs={"f1": {"law": "commanded"}, "f2": {"law": "commanded"}}, seed=12)).observe()
+                                   inputs=inputs, seed=12)).observe()
     assert not np.array_equal(other.q, obs[0].q)
+
+
+def test_sensor_noise_at_a_time_does_not_depend_on_what_was_observed_before():
+    """A lockstep node observes more often than the core's sampled run: the noise a client
+    sees at t_k must not depend on that (nor on observe vs joint_sample)."""
+    scene = class2_scene(effects=["inertia", "springs", "damping", {"sensor_noise": {"q": 1e-3, "qdot": 1e-2}}],
+                         inputs={"f1": {"law": "commanded"}, "f2": {"law": "commanded"}}, seed=5)
+    busy, quiet = Simulator(scene), Simulator(scene)
+    clean = Simulator(class2_scene(effects=["inertia", "springs", "damping"],
+                                   inputs={"f1": {"law": "commanded"}, "f2": {"law": "commanded"}}))
+    deviations = []
+    for k in range(1, 6):
+        t = k * 0.01
+        for sim in (busy, quiet, clean):
+            sim.advance(t)
+        for _ in range(k):                      # extra observations on one of them
+            busy.observe()
+            busy.joint_sample()
+        a, b = busy.joint_sample(), quiet.observe()
+        np.testing.assert_array_equal(a.q, b.q)
+        np.testing.assert_array_equal(a.qdot, b.qdot)
+        deviations.append(tuple(b.q - clean.observe().q))
+    assert len(set(deviations)) == 5 and all(any(d) for d in deviations)   # new noise at every time
 
 
 def test_noise_never_touches_the_simulated_state():
