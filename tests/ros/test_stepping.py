@@ -107,6 +107,30 @@ def test_lockstep_runs_equal_the_core_sampled_run_and_each_other(stepping):
     assert "rejected" not in proc.stderr()
 
 
+def test_a_noisy_scene_in_lockstep_equals_the_core_sampled_run(stepping, tmp_path):
+    """Sensor noise feeds back through the controller; the node observes more often than the
+    core's run does, and still both see the same noise (it is keyed on the observation time)."""
+    from tensegrity_core.class2.fold_law import paper_fold_forces
+    from tensegrity_core.sim import scene_path
+    from tensegrity_core.sim.sampled import run_sampled
+
+    text = scene_path("class2_at_rest").read_text().replace(
+        "  - fold_limit\n", "  - fold_limit\n  - sensor_noise: {q: 1.0e-3, qdot: 1.0e-2}\n") + "seed: 7\n"
+    assert "sensor_noise" in text
+    scene = tmp_path / "noisy.yaml"
+    scene.write_text(text)
+    proc, client = stepping(f"scene:={scene}", "lockstep:=true", "initial_state:=paused", "paused_publish_rate:=0.0",
+                            "lockstep_timeout:=30.0")
+    steps = 100
+    ros = _lockstep_fold(client, steps)
+    core = run_sampled(str(scene), paper_fold_forces, step_ns=STEP_NS, steps=steps)
+    np.testing.assert_array_equal(np.array([j.position for j in ros]), core.q)
+    np.testing.assert_array_equal(np.array([j.velocity for j in ros]), core.qdot)
+    clean = run_sampled("class2_at_rest", paper_fold_forces, step_ns=STEP_NS, steps=steps)
+    assert 1e-4 < np.abs(core.q - clean.q).max() < 0.05          # the noise is there, and fed back
+    assert "rejected" not in proc.stderr()
+
+
 def test_clock_is_exact_after_pause_step_resume_and_never_catches_up(stepping, ros_context):
     from simulation_interfaces.msg import SimulationState
 
