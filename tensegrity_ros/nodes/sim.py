@@ -46,6 +46,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from tensegrity_core.class2 import dynamics_singularity
 from tensegrity_core.errors import TensegrityError
+from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_core.sim import Simulator, load_scene
 from tensegrity_core.sim.simulator import JointSample
 from tensegrity_ros.actuator_commands import CommandError, parse_command
@@ -105,9 +106,9 @@ class SimNode(Node):
             self.scene = load_scene(scene_name)
             self.sim = Simulator(self.scene)
         except TensegrityError as err:
-            raise SystemExit(f"tensegrity_sim: cannot load scene {scene_name!r}: {err}") from None
+            raise SystemExit(clip(f"tensegrity_sim: cannot load scene {excerpt(scene_name)}: {err}")) from None
         if self.sim.kind != "class2":
-            raise SystemExit(f"tensegrity_sim: scene {scene_name!r} models a general structure; this node "
+            raise SystemExit(f"tensegrity_sim: scene {excerpt(scene_name)} models a general structure; this node "
                              "drives the class-2 mechanism (use `tensegrity simulate` for general scenes)")
 
         qos = QoSProfile(depth=100)
@@ -130,7 +131,7 @@ class SimNode(Node):
         self._thread = threading.Thread(target=self._loop, name="tensegrity_sim_loop", daemon=True)
         self._thread.start()
         self.get_logger().info(
-            f"scene {scene_name!r}: publishing at {self.rate:g} Hz, real-time factor "
+            f"scene {excerpt(scene_name)}: publishing at {self.rate:g} Hz, real-time factor "
             f"{self.rtf:g}{' (as fast as possible)' if self.rtf == 0 else ''}")
 
     def _start(self, now: float) -> None:
@@ -150,7 +151,7 @@ class SimNode(Node):
             self._offset += self.sim.t
             self.sim = Simulator(self.scene)
             self._start(time.monotonic())
-        res.success, res.message = True, f"reset to the initial state of scene {self.scene.name!r}"
+        res.success, res.message = True, f"reset to the initial state of scene {excerpt(self.scene.name)}"
         self.get_logger().info(res.message)
         return res
 
@@ -191,7 +192,7 @@ class SimNode(Node):
             update = parse_command(list(msg.name), list(msg.force), max_abs_force=self.max_force)
         except CommandError as err:
             self.rejected += 1
-            self.get_logger().warning(f"rejected actuator command: {err} ({self.rejected} rejected so far)",
+            self.get_logger().warning(clip(f"rejected actuator command: {err} ({self.rejected} rejected so far)"),
                                       throttle_duration_sec=1.0)
             return
         self.command = update.apply(self.command)
