@@ -13,12 +13,14 @@ from rcl_interfaces.msg import (  # noqa: E402
     ParameterDescriptor,
     SetParametersResult,
 )
-from rclpy.executors import ExternalShutdownException  # noqa: E402
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from rclpy.qos import QoSProfile, qos_profile_services_default  # noqa: E402
+from rclpy.signals import SignalHandlerOptions  # noqa: E402
 
 from tensegrity_core.class2 import Class2Params  # noqa: E402
 from tensegrity_core.errors import ParameterError  # noqa: E402
+from tensegrity_ros.stop_signals import stop_on_signals  # noqa: E402
 
 #: Mechanism parameters every node that models the class-2 mechanism declares.
 MECHANISM_PARAMETERS = {
@@ -97,21 +99,37 @@ def reject_changes_of(names: Sequence[str]) -> Callable:
 
 
 def spin_node(make_node: Callable[[], Node], args: Sequence[str] | None, executor_factory=None) -> int:
-    """The Jazzy main shape: init, spin until Ctrl-C/shutdown, destroy, shut down."""
-    rclpy.init(args=list(args) if args is not None else None)
-    node = None
-    try:
-        node = make_node()
-        if executor_factory is None:
-            rclpy.spin(node)
-        else:
-            executor = executor_factory()
-            executor.add_node(node)
-            executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+    """Init, spin until SIGINT/SIGTERM (or an external shutdown), destroy, shut down; 0.
+
+    Signals are the suite's stop requests (:mod:`tensegrity_ros.stop_signals`), not
+    rclpy's: rclpy installs no handler, so nothing shuts the context down under the node.
+    A stop request triggers a guard condition of the node, after the request is set, so the
+    executor wakes whatever it was doing and the loop, which checks the request after every
+    callback, ends. A signal before the node exists skips straight to shutdown.
+    """
+    with stop_on_signals() as stop:
+        stop.enter_running()
+        rclpy.init(args=list(args) if args is not None else None,
+                   signal_handler_options=SignalHandlerOptions.NO)
+        node = executor = None
+        try:
+            if not stop.is_set():
+                node = make_node()
+                executor = executor_factory() if executor_factory is not None else SingleThreadedExecutor()
+                executor.add_node(node)
+                wake = node.create_guard_condition(lambda: None)
+                forget = stop.on_stop(wake.trigger)
+                try:
+                    while not stop.is_set():
+                        executor.spin_once()
+                finally:
+                    forget()
+        except ExternalShutdownException:
+            pass
+        finally:
+            if executor is not None:
+                executor.shutdown()
+            if node is not None:
+                node.destroy_node()
+            rclpy.try_shutdown()
     return 0

@@ -44,6 +44,8 @@ class FormFindNode(Node):
                                          "largest structure description accepted [bytes]", lo=1, read_only=True)
         self.max_members = declare(self, "max_members", 50_000, "largest structure accepted [members]", lo=1, read_only=True)
         self._slots = threading.BoundedSemaphore(self.max_workers)
+        self._workers_lock = threading.Lock()    # worker start vs. shutdown
+        self._closing = False
         self.create_service(FindForm, "find_form", self.on_request, qos_profile=SERVICE_QOS,
                             callback_group=ReentrantCallbackGroup())
         self.get_logger().info(f"find_form ready ({self.max_workers} workers, time limit {self.time_limit:g} s)")
@@ -78,7 +80,10 @@ class FormFindNode(Node):
     def _run(self, text: str, tol: float, max_iter: int, time_limit: float, max_members: int) -> dict:
         parent, child = _CTX.Pipe(duplex=False)
         proc = _CTX.Process(target=_child, args=(child, text, tol, max_iter, time_limit, max_members), daemon=True)
-        proc.start()
+        if not self._start_worker(proc):
+            parent.close()
+            child.close()
+            return _failure("the form-finding node is shutting down")
         child.close()
         grace = time_limit + 10.0  # the worker stops itself at time_limit; this is the backstop
         try:
@@ -92,6 +97,23 @@ class FormFindNode(Node):
             if proc.is_alive():
                 proc.kill()
             proc.join(timeout=5)
+
+    def _start_worker(self, proc) -> bool:
+        """Start worker process ``proc``, unless the node is shutting down (then False)."""
+        with self._workers_lock:
+            if self._closing:
+                return False
+            proc.start()
+            return True
+
+    def destroy_node(self) -> None:
+        """Kill the running workers first: their requests end at once ("worker died"), so
+        a shutdown never waits for a form-finding to finish, and start no new ones."""
+        with self._workers_lock:
+            self._closing = True
+            for proc in multiprocessing.active_children():
+                proc.kill()
+        super().destroy_node()
 
 
 def _failure(message: str) -> dict:
