@@ -4,20 +4,32 @@
   set here too so a bare ``pytest`` behaves the same).
 - hypothesis: a derandomised profile without deadlines (the machines are shared and
   noisy, so no test may depend on wall time). ``HYPOTHESIS_PROFILE=dev`` explores more.
+- No process outlives the run: every child inherits a mark of this run in its
+  environment; at the end of the session any process still carrying it is killed and the
+  run fails (a node left alive in a test domain could answer later tests' requests).
 """
 
 from __future__ import annotations
 
 import os
 import random
+import signal
+import time
+import uuid
+from pathlib import Path
 
-os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 os.environ.setdefault("ROS_DOMAIN_ID", str(100 + random.randrange(100)))
 _BASE_DOMAIN = int(os.environ["ROS_DOMAIN_ID"])
 os.environ.setdefault("MPLBACKEND", "Agg")
+_RUN_MARK = ("TENSEGRITY_TEST_RUN", f"{os.getpid()}-{uuid.uuid4().hex}")
+os.environ[_RUN_MARK[0]] = _RUN_MARK[1]   # inherited by every process the run starts
 
 import pytest  # noqa: E402
 from hypothesis import HealthCheck, settings  # noqa: E402
+
+from tensegrity_ros.rclpy_utils.env import ensure_ros_environment  # noqa: E402
+
+ensure_ros_environment()   # loopback only, before this process or a child creates a context
 
 settings.register_profile(
     "ci",
@@ -42,3 +54,43 @@ def _ros_domain_per_module(request):
     os.environ["ROS_DOMAIN_ID"] = str((_BASE_DOMAIN + offset) % 230 + 1)
     yield
     os.environ["ROS_DOMAIN_ID"] = previous
+
+
+def _processes_of_this_run() -> dict[int, str]:
+    """pid -> command line of every live process (other than this one) started by this run."""
+    mark = f"{_RUN_MARK[0]}={_RUN_MARK[1]}".encode()
+    found = {}
+    for entry in os.scandir("/proc") if os.path.isdir("/proc") else ():
+        if not entry.name.isdigit() or int(entry.name) == os.getpid():
+            continue
+        try:
+            if mark not in Path(entry.path, "environ").read_bytes().split(b"\0"):
+                continue
+            state, ppid = Path(entry.path, "stat").read_text().rsplit(")", 1)[1].split()[:2]
+            cmd = Path(entry.path, "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+            if state == "Z":
+                continue                  # exited, waiting to be reaped: not alive
+            if int(ppid) == os.getpid() and "from multiprocessing." in cmd:
+                continue                  # this process's own forkserver/resource tracker
+            found[int(entry.name)] = cmd
+        except OSError:
+            continue
+    return found
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """Fail the run if a process it started is still alive (after 10 s for late exits)."""
+    deadline = time.monotonic() + 10.0
+    while (left := _processes_of_this_run()) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    if not left:
+        return
+    for pid in left:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    lines = "\n".join(f"  {pid}: {cmd}" for pid, cmd in sorted(left.items()))
+    print(f"\nerror: {len(left)} process(es) started by this test run were still alive at its "
+          f"end (now killed):\n{lines}")
+    session.exitstatus = pytest.ExitCode.TESTS_FAILED

@@ -38,14 +38,33 @@ def ros_context():
     rclpy.try_shutdown(context=ctx)
 
 
+def spawn(argv: list[str], **kwargs) -> subprocess.Popen:
+    """Start a child as a supervisor does (``tensegrity up``): in a session of its own
+    (so :func:`kill_group` ends it with everything it started) and with SIGINT/SIGTERM
+    blocked until its stop handling is in place (a signal sent at once is not lost)."""
+    from tensegrity_ros.rclpy_utils.stop_signals import signals_blocked
+
+    with signals_blocked():
+        return subprocess.Popen(argv, start_new_session=True, **kwargs)
+
+
+def kill_group(popen: subprocess.Popen) -> None:
+    """SIGKILL the child's whole process group (its nodes, workers, forkserver) and reap it."""
+    try:
+        os.killpg(popen.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    popen.wait(30)
+
+
 class Proc:
     """A CLI subprocess whose stderr is collected in a file."""
 
     def __init__(self, args: list[str], log: Path):
         self.log = log
         self._f = open(log, "w")
-        self.popen = subprocess.Popen([TENSEGRITY, *args], stdout=subprocess.PIPE,
-                                      stderr=self._f, text=True, env=dict(os.environ))
+        self.popen = spawn([TENSEGRITY, *args], stdout=subprocess.PIPE, stderr=self._f,
+                           text=True, env=dict(os.environ))
 
     def stderr(self) -> str:
         return self.log.read_text()
@@ -67,9 +86,8 @@ class Proc:
         return rc
 
     def kill(self) -> None:
-        if self.popen.poll() is None:
-            self.popen.kill()
-            self.popen.wait(30)
+        """End the process and its whole group, whatever state it is in (test teardown)."""
+        kill_group(self.popen)
         self._f.close()
 
 

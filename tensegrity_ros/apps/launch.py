@@ -5,6 +5,11 @@ each node runs in its own process (``tensegrity node <name> --ros-args ...``), s
 1 kHz simulator never shares an interpreter lock with service handlers. Output of every
 child is prefixed with its name. Ctrl-C / SIGTERM stop every child: SIGINT first (clean
 rclpy shutdown, bags finished), SIGTERM after a grace period, SIGKILL last.
+
+Children start with SIGINT and SIGTERM blocked (:func:`tensegrity_ros.rclpy_utils.stop_signals.signals_blocked`
+around the spawn); each unblocks them once its own stop handling is in place, so a stop
+that comes while a child is still starting is carried out by the child, never lost or
+answered with a traceback. The launcher exits 0 only if every child exited 0.
 """
 
 from __future__ import annotations
@@ -17,6 +22,9 @@ import sys
 import threading
 import time
 from dataclasses import dataclass, field
+
+from tensegrity_ros.rclpy_utils.env import ensure_ros_environment
+from tensegrity_ros.rclpy_utils.stop_signals import signals_blocked, stop_on_signals
 
 
 @dataclass
@@ -58,18 +66,19 @@ class Launcher:
 
     def start(self) -> None:
         env = dict(os.environ)
-        env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+        ensure_ros_environment(env)
         env["PYTHONUNBUFFERED"] = "1"
         for spec in self.specs:
-            proc = subprocess.Popen(
-                spec.argv, env={**env, **spec.env}, stdout=subprocess.PIPE,
-                stderr=subprocess.STDOUT, text=True, start_new_session=True,
-                preexec_fn=_die_with_parent,
-            )
+            with signals_blocked():
+                proc = subprocess.Popen(
+                    spec.argv, env={**env, **spec.env}, stdout=subprocess.PIPE,
+                    stderr=subprocess.STDOUT, text=True, start_new_session=True,
+                    preexec_fn=_die_with_parent,
+                )
             self.procs[spec.name] = proc
             threading.Thread(target=self._pump, args=(spec.name, proc.stdout), daemon=True).start()
 
-    def request_stop(self, *_args) -> None:
+    def request_stop(self) -> None:
         self._stop.set()
 
     def wait(self) -> int:
@@ -108,17 +117,21 @@ class Launcher:
                     p.wait(timeout=max(0.0, deadline - time.monotonic()))
                 except subprocess.TimeoutExpired:
                     pass
-        codes = [p.returncode for p in self.procs.values()]
-        # A child stopped by our SIGINT exits 0 (clean) or -2/130; neither is a failure.
-        bad = [c for c in codes if c not in (0, -signal.SIGINT, 130, None)]
+        codes = [1 if p.returncode is None else p.returncode for p in self.procs.values()]
+        bad = [c for c in codes if c != 0]
         return bad[0] if bad else 0
 
     def run(self) -> int:
-        old_int = signal.signal(signal.SIGINT, self.request_stop)
-        old_term = signal.signal(signal.SIGTERM, self.request_stop)
-        try:
-            self.start()
-            return self.wait()
-        finally:
-            signal.signal(signal.SIGINT, old_int)
-            signal.signal(signal.SIGTERM, old_term)
+        """Start every child, wait, stop them all; SIGINT/SIGTERM (stop requests of
+        :mod:`tensegrity_ros.rclpy_utils.stop_signals`) stop them."""
+        with stop_on_signals() as stop:
+            # the stop escalates over grace + 4 s; give the process that long before the
+            # stop deadline calls it hung
+            stop.exit_deadline_s = max(stop.exit_deadline_s, self.grace + 10.0)
+            stop.enter_running()
+            forget = stop.on_stop(self.request_stop)
+            try:
+                self.start()
+                return self.wait()
+            finally:
+                forget()

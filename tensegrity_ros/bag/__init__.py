@@ -2,6 +2,7 @@
 
 One job per module:
 
+- :mod:`.untrusted` what a bag says about itself: its YAML (bounded, safe) and its file names (inside its folder)
 - :mod:`.msgdefs`   full ``ros2msg`` definitions (with dependencies) from the installed .msg files
 - :mod:`.qos`       rosbag2's YAML form of QoS profiles; QoS to request and to offer
 - :mod:`.metadata`  ``metadata.yaml`` (rosbag2 format version 9, as rosbag2 Jazzy writes it)

@@ -25,18 +25,23 @@ Version 8 and older files (QoS profiles as a YAML string with enum integers) are
 from __future__ import annotations
 
 import os
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import yaml
 
+from tensegrity_core.excerpt import excerpt
 from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.qos import parse_profiles
+from tensegrity_ros.bag.untrusted import MAX_YAML_BYTES, load_bag_yaml, path_inside, read_bounded
 
 METADATA_FILE = "metadata.yaml"
 FORMAT_VERSION = 9
 ROS_DISTRO = "jazzy"
+#: Longest string field accepted in metadata (topic and type names, file paths) [characters].
+MAX_TEXT = 4096
 
 
 @dataclass
@@ -119,68 +124,125 @@ class BagMetadata:
 
     @classmethod
     def from_dict(cls, data: Any, source: str = "metadata") -> "BagMetadata":
-        try:
-            info = data["rosbag2_bagfile_information"]
-            version = int(info["version"])
-            topics = []
-            for entry in info.get("topics_with_message_count") or []:
-                tm = entry["topic_metadata"]
-                topics.append(TopicInfo(
-                    name=tm["name"],
-                    type=tm["type"],
-                    serialization_format=tm.get("serialization_format", "cdr"),
-                    offered_qos_profiles=parse_profiles(tm.get("offered_qos_profiles")),
-                    type_description_hash=tm.get("type_description_hash") or "",
-                    message_count=int(entry.get("message_count", 0)),
-                ))
-            paths = list(info.get("relative_file_paths") or [])
-            files = [
-                FileInfo(
-                    path=f["path"],
-                    starting_time_ns=int(f["starting_time"]["nanoseconds_since_epoch"]),
-                    duration_ns=int(f["duration"]["nanoseconds"]),
-                    message_count=int(f["message_count"]),
-                )
-                for f in info.get("files") or []
-            ]
-            if not files:  # version < 5 lists only the paths
-                files = [FileInfo(p, 0, 0, 0) for p in paths]
-            return cls(
-                topics=topics,
-                files=files,
-                starting_time_ns=int(info["starting_time"]["nanoseconds_since_epoch"]),
-                duration_ns=int(info["duration"]["nanoseconds"]),
-                message_count=int(info["message_count"]),
-                storage_identifier=info.get("storage_identifier", ""),
-                compression_format=info.get("compression_format") or "",
-                compression_mode=info.get("compression_mode") or "",
-                custom_data=info.get("custom_data") or None,
-                ros_distro=info.get("ros_distro") or "",
-                version=version,
-            )
-        except (KeyError, TypeError, ValueError) as err:
-            raise BagError(f"{source} is not rosbag2 metadata ({type(err).__name__}: {err})") from None
+        """Metadata from the parsed YAML ``data``; :class:`BagError` naming the first field
+        that is missing or of the wrong type (the data comes from a bag: every field is
+        checked, and values are quoted only as excerpts)."""
+        f = _Fields(source)
+        info = f.mapping(f.mapping(data, "the document").get("rosbag2_bagfile_information"),
+                         "rosbag2_bagfile_information")
+        version = f.integer(info, "version")
+        topics = []
+        for entry in f.sequence(info, "topics_with_message_count"):
+            entry = f.mapping(entry, "topics_with_message_count entry")
+            tm = f.mapping(entry.get("topic_metadata"), "topic_metadata")
+            try:
+                profiles = parse_profiles(tm.get("offered_qos_profiles"))
+            except BagError as err:
+                raise BagError(f"{source}: {err}") from None
+            topics.append(TopicInfo(
+                name=f.text(tm, "name"),
+                type=f.text(tm, "type"),
+                serialization_format=f.text(tm, "serialization_format", "cdr"),
+                offered_qos_profiles=profiles,
+                type_description_hash=f.text(tm, "type_description_hash", ""),
+                message_count=f.integer(entry, "message_count", 0),
+            ))
+        paths = [f.text({"relative_file_paths": p}, "relative_file_paths")
+                 for p in f.sequence(info, "relative_file_paths")]
+        files = []
+        for entry in f.sequence(info, "files"):
+            entry = f.mapping(entry, "files entry")
+            files.append(FileInfo(
+                path=f.text(entry, "path"),
+                starting_time_ns=f.integer(f.mapping(entry.get("starting_time"), "starting_time"),
+                                           "nanoseconds_since_epoch"),
+                duration_ns=f.integer(f.mapping(entry.get("duration"), "duration"), "nanoseconds"),
+                message_count=f.integer(entry, "message_count"),
+            ))
+        if not files:  # version < 5 lists only the paths
+            files = [FileInfo(p, 0, 0, 0) for p in paths]
+        custom = info.get("custom_data") or None
+        if custom is not None:
+            custom = {f.text({"custom_data key": k}, "custom_data key"): f.text(custom, k)
+                      for k in f.mapping(custom, "custom_data")}
+        return cls(
+            topics=topics,
+            files=files,
+            starting_time_ns=f.integer(f.mapping(info.get("starting_time"), "starting_time"),
+                                       "nanoseconds_since_epoch"),
+            duration_ns=f.integer(f.mapping(info.get("duration"), "duration"), "nanoseconds"),
+            message_count=f.integer(info, "message_count"),
+            storage_identifier=f.text(info, "storage_identifier", ""),
+            compression_format=f.text(info, "compression_format", ""),
+            compression_mode=f.text(info, "compression_mode", ""),
+            custom_data=custom,
+            ros_distro=f.text(info, "ros_distro", ""),
+            version=version,
+        )
+
+
+class _Fields:
+    """Typed access to the fields of untrusted metadata; errors name ``source`` and the field."""
+
+    def __init__(self, source: str):
+        self.source = source
+
+    def _fail(self, what: str, wanted: str, value: Any) -> BagError:
+        return BagError(f"{self.source} is not rosbag2 metadata: {what} must be {wanted}, "
+                        f"got {excerpt(value)}")
+
+    def mapping(self, value: Any, what: str) -> dict:
+        if not isinstance(value, dict):
+            raise self._fail(what, "a mapping", value)
+        return value
+
+    def sequence(self, info: dict, key: str) -> list:
+        value = info.get(key)
+        if value is None:
+            return []
+        if not isinstance(value, list):
+            raise self._fail(key, "a list", value)
+        return value
+
+    def text(self, d: dict, key: str, default: str | None = None) -> str:
+        value = d.get(key, default)
+        if value is None and default is not None:
+            return default
+        if not isinstance(value, str):
+            raise self._fail(key, "a string", value)
+        if len(value) > MAX_TEXT:
+            raise self._fail(key, f"at most {MAX_TEXT} characters", value)
+        return value
+
+    def integer(self, d: dict, key: str, default: int | None = None) -> int:
+        value = d.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise self._fail(key, "an integer", value)
+        if not -2**63 <= value < 2**64:
+            raise self._fail(key, "a 64-bit integer", value)
+        return value
 
 
 def read_metadata(folder: str | os.PathLike) -> BagMetadata:
-    """Read ``<folder>/metadata.yaml``; :class:`BagError` if missing or malformed."""
-    path = Path(folder) / METADATA_FILE
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise BagError(f"{path} does not exist") from None
-    except yaml.YAMLError as err:
-        raise BagError(f"{path} is not valid YAML: {err}") from None
-    return BagMetadata.from_dict(data, str(path))
+    """Read ``<folder>/metadata.yaml``; :class:`BagError` if missing, outside the folder
+    (a symbolic link out), too large or malformed."""
+    path = path_inside(folder, METADATA_FILE, "metadata file")
+    data = read_bounded(path, MAX_YAML_BYTES, "metadata file")
+    return BagMetadata.from_dict(load_bag_yaml(data, str(path)), str(path))
 
 
 def write_metadata(folder: str | os.PathLike, meta: BagMetadata) -> Path:
-    """Write ``<folder>/metadata.yaml`` atomically (temporary file, then rename)."""
-    path = Path(folder) / METADATA_FILE
-    tmp = path.with_suffix(".yaml.tmp")
-    tmp.write_text(
-        yaml.safe_dump(meta.to_dict(), default_flow_style=False, sort_keys=False),
-        encoding="utf-8",
-    )
-    os.replace(tmp, path)
+    """Write ``<folder>/metadata.yaml`` atomically: a new temporary file in the folder (a
+    fresh name, never an existing file or link), then a rename over the old one (which
+    replaces a link rather than writing through it)."""
+    folder = Path(folder)
+    path = folder / METADATA_FILE
+    fd, tmp = tempfile.mkstemp(prefix=".metadata-", suffix=".yaml.tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(yaml.safe_dump(meta.to_dict(), default_flow_style=False, sort_keys=False))
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
     return path

@@ -23,6 +23,7 @@ import re
 import sys
 from pathlib import Path
 
+from tensegrity_core.excerpt import excerpt
 from tensegrity_ros.bag.errors import BagError
 
 DELIMITER = "=" * 80
@@ -43,7 +44,7 @@ def split_type_name(type_name: str) -> tuple[str, str, str]:
     m = _TYPE_NAME.match(type_name)
     if not m:
         raise BagError(
-            f"message type {type_name!r} is not of the form 'pkg/msg/Name' or 'pkg/Name'"
+            f"message type {excerpt(type_name)} is not of the form 'pkg/msg/Name' or 'pkg/Name'"
         )
     return m.group(1), m.group(2) or "msg", m.group(3)
 

@@ -1,8 +1,9 @@
 """The playback node: publishes a bag's recorded CDR bytes with the recorded timing.
 
 One publisher per played topic, with the message type stored in the bag and the QoS
-rosbag2 would offer (:func:`tensegrity_ros.bag.qos.offer_for_replay`; history
-``keep_last(100)``); messages are published as serialized bytes (``publish(bytes)``), so
+rosbag2 would offer (:func:`tensegrity_ros.bag.qos.offer_for_replay`), with a history
+deep enough for the whole topic (``keep_last(max(100, count))``, at most
+``REPLAY_HISTORY_CAP``): a reliable writer can resend only what it still holds); messages are published as serialized bytes (``publish(bytes)``), so
 what subscribers receive is byte for byte what was recorded. Timing, rate, start offset,
 looping and ``/clock`` follow :mod:`tensegrity_ros.bag.schedule`. With ``clock_hz`` set a
 ``/clock`` topic stored in the bag is not replayed (there would be two time sources).
@@ -13,7 +14,6 @@ clock, so events leave within a few microseconds of their due time on an idle ma
 
 from __future__ import annotations
 
-import signal
 import statistics
 import sys
 import time
@@ -27,14 +27,18 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 
+from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_ros.bag.errors import BagError
-from tensegrity_ros.bag.qos import dict_to_profile, offer_for_replay
+from tensegrity_ros.bag.qos import DEFAULT_REPLAY_DEPTH, dict_to_profile, offer_for_replay
 from tensegrity_ros.bag.reader import BagReader
 from tensegrity_ros.bag.recorder import message_class
 from tensegrity_ros.bag.schedule import PlaybackOptions, timeline
 from tensegrity_ros.rclpy_utils.matching import wait_for_matches
+from tensegrity_ros.rclpy_utils.stop_signals import stop_on_signals
 
 CLOCK_TOPIC = "/clock"
+#: Largest writer history per replayed topic [messages].
+REPLAY_HISTORY_CAP = 10_000
 _SPIN_NS = 1_000_000  # poll the clock for the last 1 ms before an event
 
 
@@ -76,8 +80,8 @@ class PlayerNode(Node):
             for name in topics:
                 resolved = name if name in bag_topics else self.resolve_topic_name(name)
                 if resolved not in bag_topics:
-                    raise BagError(f"topic {name} is not in bag {reader.folder} "
-                                   f"(it has {', '.join(sorted(bag_topics)) or 'no topics'})")
+                    raise BagError(f"topic {excerpt(name)} is not in bag {reader.folder} (it has "
+                                   f"{excerpt(', '.join(sorted(bag_topics)), 200) if bag_topics else 'no topics'})")
                 selected.append(resolved)
         else:
             selected = list(bag_topics)
@@ -90,16 +94,26 @@ class PlayerNode(Node):
             info = bag_topics[name]
             try:
                 if info.serialization_format != "cdr":
-                    raise BagError(f"topic {name} is stored as {info.serialization_format!r};"
+                    raise BagError(f"topic {excerpt(name)} is stored as {excerpt(info.serialization_format)};"
                                    " only 'cdr' can be replayed")
                 cls = message_class(info.type)
             except BagError as err:
                 if topics:      # asked for by name: an error; otherwise skip it, as rosbag2 does
                     raise
-                self._log(f"warning: not playing {name}: {err}")
+                self._log(f"warning: not playing {excerpt(name)}: {err}")
                 continue
-            qos = dict_to_profile(offer_for_replay(info.offered_qos_profiles))
+            # a writer can resend only what its history still holds: keep the whole topic
+            # (up to REPLAY_HISTORY_CAP), so a reader that missed a stretch under load
+            # gets it again (with 100, stretches of 30-260 messages were lost for good)
+            depth = max(DEFAULT_REPLAY_DEPTH, min(info.message_count, REPLAY_HISTORY_CAP))
+            qos = dict_to_profile(offer_for_replay(info.offered_qos_profiles, depth))
             self.publishers_by_topic[name] = self.create_publisher(cls, name, qos)
+        if not self.publishers_by_topic and not opts.clock_hz:
+            raise BagError(f"nothing to play: no topic of bag {reader.folder} can be replayed")
+        if self.publishers_by_topic and not any(bag_topics[t].message_count
+                                                for t in self.publishers_by_topic):
+            raise BagError(f"nothing to play: bag {reader.folder} has no messages on "
+                           + excerpt(", ".join(self.publishers_by_topic), 200))
         self.clock_publisher = None
         if opts.clock_hz:
             self.clock_publisher = self.create_publisher(
@@ -182,36 +196,40 @@ def play(bag: str, topics: Iterable[str] | None = None, opts: PlaybackOptions | 
         raise BagError(f"delay must be >= 0 s, got {delay_s!r}")
     log = log or (lambda text: print(text, file=sys.stderr, flush=True))
     reader = BagReader(bag)
+    if reader.start_ns is None:
+        raise BagError(f"nothing to play: bag {bag} holds no messages")
+    if opts.start_offset_s * 1e9 > reader.end_ns - reader.start_ns:
+        raise BagError(f"nothing to play: the start offset {opts.start_offset_s:g} s is beyond "
+                       f"the end of bag {bag} ({(reader.end_ns - reader.start_ns) / 1e9:g} s)")
     if reader.recovered:
         log(f"warning: {bag} was not closed properly; playing what the recovery scan found")
-    stop_requests = []
-    previous = {sig: signal.signal(sig, lambda signum, frame: stop_requests.append(signum))
-                for sig in (signal.SIGINT, signal.SIGTERM)}
-    node = None
-    try:
-        rclpy.init(args=list(ros_args or []), signal_handler_options=SignalHandlerOptions.NO)
-        node = PlayerNode(reader, opts, topics, log=log)
+    with stop_on_signals() as stop_request:
+        stop_request.enter_running()
+        node = None
+        try:
+            rclpy.init(args=list(ros_args or []), signal_handler_options=SignalHandlerOptions.NO)
+            node = PlayerNode(reader, opts, topics, log=log)
+            log(f"playing {bag}: {clip(', '.join(node.publishers_by_topic) or '/clock only', 200)} "
+                "(stop with Ctrl-C)")
 
-        def stop() -> bool:
-            return bool(stop_requests) or not rclpy.ok()
+            def stop() -> bool:
+                return stop_request.is_set() or not rclpy.ok()
 
-        if wait_for_subscribers_s is not None and not node.wait_for_subscribers(
-                wait_for_subscribers_s, stop):
-            log(f"warning: not every topic had a subscriber after {wait_for_subscribers_s} s")
-        deadline = time.monotonic() + delay_s
-        while time.monotonic() < deadline and not stop():
-            time.sleep(0.01)
-        result = node.play(should_stop=stop)
-        result.stopped = result.stopped or bool(stop_requests)
-        if wait_for_all_acked_s > 0 and not node.wait_for_all_acked(wait_for_all_acked_s):
-            log(f"warning: not every subscriber acknowledged every message within "
-                f"{wait_for_all_acked_s:g} s")
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+            if wait_for_subscribers_s is not None and not node.wait_for_subscribers(
+                    wait_for_subscribers_s, stop):
+                log(f"warning: not every topic had a subscriber after {wait_for_subscribers_s} s")
+            stop_request.wait(delay_s)
+            result = node.play(should_stop=stop)
+            result.stopped = result.stopped or stop()
+            # asked to stop: go now (a subscriber that never acknowledges must not hold us)
+            if wait_for_all_acked_s > 0 and not result.stopped \
+                    and not node.wait_for_all_acked(wait_for_all_acked_s):
+                log(f"warning: not every subscriber acknowledged every message within "
+                    f"{wait_for_all_acked_s:g} s")
+        finally:
+            if node is not None:
+                node.destroy_node()
+            rclpy.try_shutdown()
     log("played " + ", ".join(f"{t} {n}" for t, n in result.published.items())
         + (f", /clock {result.clock_ticks} ticks" if opts.clock_hz else "")
         + (" (stopped)" if result.stopped else ""))

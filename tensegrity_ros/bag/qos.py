@@ -18,7 +18,9 @@ from typing import Any, Iterable
 
 import yaml
 
+from tensegrity_core.excerpt import excerpt
 from tensegrity_ros.bag.errors import BagError
+from tensegrity_ros.bag.untrusted import load_bag_yaml
 
 INFINITE_NS = 9_223_372_036_854_775_807  # RMW_DURATION_INFINITE as nanoseconds
 
@@ -77,7 +79,7 @@ def profile_to_dict(profile) -> dict[str, Any]:
 def normalize_profile(item: dict) -> dict[str, Any]:
     """A profile dict of any metadata version (names or enum ints) -> version-9 form."""
     if not isinstance(item, dict):
-        raise BagError(f"a QoS profile must be a mapping, got {item!r}")
+        raise BagError(f"a QoS profile must be a mapping, got {excerpt(item)}")
     out = default_profile()
     for key, names in _POLICIES.items():
         if key not in item:
@@ -88,12 +90,19 @@ def normalize_profile(item: dict) -> dict[str, Any]:
         elif isinstance(value, str) and value.lower() in names.values():
             out[key] = value.lower()
         else:
-            raise BagError(f"QoS {key} {value!r} is not one of {sorted(names.values())}")
+            raise BagError(f"QoS {key} {excerpt(value)} is not one of {sorted(names.values())}")
     if "depth" in item:
-        out["depth"] = int(item["depth"])
+        depth = item["depth"]
+        if isinstance(depth, bool) or not isinstance(depth, int) or not 0 <= depth < 2**32:
+            raise BagError(f"QoS depth must be an integer in [0, 2**32), got {excerpt(depth)}")
+        out["depth"] = depth
     for key in _DURATIONS:
         if key in item:
-            out[key] = duration_dict(duration_ns(item[key]))
+            try:
+                out[key] = duration_dict(duration_ns(item[key]))
+            except (KeyError, TypeError, ValueError):
+                raise BagError(f"QoS {key} must be {{sec, nsec}} integers, got "
+                               f"{excerpt(item[key])}") from None
     if "avoid_ros_namespace_conventions" in item:
         out["avoid_ros_namespace_conventions"] = bool(item["avoid_ros_namespace_conventions"])
     return out
@@ -104,14 +113,11 @@ def parse_profiles(value: str | list | None) -> list[dict[str, Any]]:
     if value is None or value == "":
         return []
     if isinstance(value, str):
-        try:
-            value = yaml.safe_load(value)
-        except yaml.YAMLError as err:
-            raise BagError(f"offered_qos_profiles is not valid YAML: {err}") from None
+        value = load_bag_yaml(value, "offered_qos_profiles")
         if value is None:
             return []
     if not isinstance(value, list):
-        raise BagError(f"offered_qos_profiles must be a list of profiles, got {value!r}")
+        raise BagError(f"offered_qos_profiles must be a list of profiles, got {excerpt(value)}")
     return [normalize_profile(item) for item in value]
 
 

@@ -9,24 +9,42 @@ written is recovered, and :attr:`BagReader.recovered` is set.
 
 Messages come out in log-time (receive-time) order, ties in file order, so the order per
 topic is the order of reception.
+
+A bag is data from elsewhere: every file it names is resolved inside its folder
+(:mod:`.untrusted`), records are at most ``MAX_RECORD_BYTES`` and chunks decompress to at
+most ``MAX_CHUNK_BYTES`` (a few kilobytes of zstd can claim gigabytes), and whatever the
+``mcap`` library raises on a malformed file becomes a :class:`BagError` naming the file.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import heapq
+import io
 import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Iterator
 
+import lz4.frame
+import zstandard
+from mcap.data_stream import ReadDataStream
+from mcap.opcode import Opcode
 from mcap.reader import make_reader
-from mcap.records import Channel, Message, Schema
-from mcap.stream_reader import StreamReader
+from mcap.records import Channel, Chunk, ChunkIndex, Header, Message, Schema
+from mcap.stream_reader import StreamReader, breakup_chunk
 
+from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.metadata import (METADATA_FILE, BagMetadata, FileInfo, TopicInfo,
                                          read_metadata)
 from tensegrity_ros.bag.qos import parse_profiles
+from tensegrity_ros.bag.untrusted import open_regular, path_inside
+
+#: Largest MCAP record read from a bag [bytes] (a chunk of rosbag2's default is 768 KiB).
+MAX_RECORD_BYTES = 256 * 1024 * 1024
+#: Largest decompressed chunk [bytes].
+MAX_CHUNK_BYTES = 256 * 1024 * 1024
 
 
 @dataclass(frozen=True)
@@ -52,26 +70,55 @@ class _FileContent:
     recovered: bool
     messages: list[Message] | None  # kept only for scanned (damaged) files
     damage: str = ""
+    chunk_indexes: list[ChunkIndex] = dataclasses.field(default_factory=list)  # complete files
+
+
+def _chunk_records(chunk: Chunk, path: Path) -> list:
+    """The records of ``chunk``, decompressed to at most ``MAX_CHUNK_BYTES`` (zstd frames
+    carry their own content size, which ``zstandard.decompress`` trusts over any limit)."""
+    if chunk.compression == "zstd":
+        with zstandard.ZstdDecompressor().stream_reader(io.BytesIO(chunk.data)) as stream:
+            data = stream.read(MAX_CHUNK_BYTES + 1)
+    elif chunk.compression == "lz4":
+        data = lz4.frame.LZ4FrameDecompressor().decompress(chunk.data, max_length=MAX_CHUNK_BYTES + 1)
+    elif chunk.compression == "":
+        data = chunk.data
+    else:
+        raise BagError(f"{path}: chunk compression {excerpt(chunk.compression)} is not "
+                       "supported (zstd, lz4 or none)")
+    if len(data) > MAX_CHUNK_BYTES:
+        raise BagError(f"{path}: a chunk decompresses to more than {MAX_CHUNK_BYTES} bytes")
+    if len(data) != chunk.uncompressed_size:
+        raise BagError(f"{path}: a chunk decompresses to {len(data)} bytes, its header says "
+                       f"{chunk.uncompressed_size}")
+    return breakup_chunk(dataclasses.replace(chunk, compression="", data=data), validate_crc=True)
 
 
 def _scan(path: Path) -> _FileContent:
-    """Linear scan of a possibly truncated file; stops at the first damaged record."""
+    """Linear scan of a possibly truncated file; stops at the first damaged record.
+    :class:`BagError` if not even the MCAP header can be read (not an MCAP file)."""
     schemas: dict[int, Schema] = {}
     channels: dict[int, Channel] = {}
     messages: list[Message] = []
     damage = ""
-    with open(path, "rb") as f:
+    header = False
+    with open_regular(path, "storage file") as f:
         try:
-            for record in StreamReader(f, validate_crcs=True).records:
-                if isinstance(record, Schema):
-                    schemas[record.id] = record
-                elif isinstance(record, Channel):
-                    channels[record.id] = record
-                elif isinstance(record, Message):
-                    messages.append(record)
+            for record in StreamReader(f, emit_chunks=True, validate_crcs=True,
+                                       record_size_limit=MAX_RECORD_BYTES).records:
+                header = header or isinstance(record, Header)
+                for r in _chunk_records(record, path) if isinstance(record, Chunk) else [record]:
+                    if isinstance(r, Schema):
+                        schemas[r.id] = r
+                    elif isinstance(r, Channel):
+                        channels[r.id] = r
+                    elif isinstance(r, Message):
+                        messages.append(r)
         except Exception as err:  # truncation, CRC, torn compressed chunk: many error types
-            damage = f"{type(err).__name__}: {err}" if str(err) else type(err).__name__
-    # Messages of a torn chunk are never yielded (the chunk is read whole before breakup).
+            damage = clip(f"{type(err).__name__}: {err}" if str(err) else type(err).__name__, 200)
+    if not header:
+        raise BagError(f"storage file {path} is not an MCAP file ({damage or 'no header'})")
+    # Messages of a torn chunk are never kept (the chunk is read whole before breakup).
     messages.sort(key=lambda m: m.log_time)
     counts: dict[int, int] = {}
     for m in messages:
@@ -84,13 +131,15 @@ def _scan(path: Path) -> _FileContent:
 
 
 def _open(path: Path) -> _FileContent:
-    try:
-        with open(path, "rb") as f:
+    with open_regular(path, "storage file") as f:
+        try:
             summary = make_reader(f).get_summary()
-    except FileNotFoundError:
-        raise BagError(f"storage file {path} does not exist") from None
-    except Exception:  # no footer, torn summary: fall back to the scan
-        summary = None
+            if summary is not None:
+                size = os.fstat(f.fileno()).st_size
+                for ci in summary.chunk_indexes:
+                    _check_index(ci, size)
+        except Exception:  # no footer, torn or implausible summary: fall back to the scan
+            summary = None
     if summary is None or summary.statistics is None:
         return _scan(path)
     stats = summary.statistics
@@ -100,7 +149,25 @@ def _open(path: Path) -> _FileContent:
         counts=dict(stats.channel_message_counts),
         start_ns=stats.message_start_time if has_messages else None,
         end_ns=stats.message_end_time if has_messages else None,
-        recovered=False, messages=None)
+        recovered=False, messages=None, chunk_indexes=list(summary.chunk_indexes))
+
+
+def _check_index(ci: ChunkIndex, file_size: int) -> None:
+    if not (0 < ci.chunk_length <= MAX_RECORD_BYTES + 9
+            and ci.chunk_start_offset + ci.chunk_length <= file_size
+            and ci.uncompressed_size <= MAX_CHUNK_BYTES):
+        raise ValueError("chunk index outside the file or over the size limits")
+
+
+def _read_indexed_chunk(f, ci: ChunkIndex, path: Path) -> list:
+    """The records of the chunk that index ``ci`` points to (a complete file's read path)."""
+    f.seek(ci.chunk_start_offset)
+    raw = f.read(ci.chunk_length)
+    stream = ReadDataStream(io.BytesIO(raw))
+    if len(raw) != ci.chunk_length or stream.read1() != Opcode.CHUNK or \
+            stream.read8() != ci.chunk_length - 9:
+        raise BagError(f"{path}: the summary's chunk index does not point to a chunk")
+    return _chunk_records(Chunk.read(stream), path)
 
 
 class BagReader:
@@ -111,19 +178,23 @@ class BagReader:
         if not path.exists():
             raise BagError(f"bag {path} does not exist")
         self.metadata: BagMetadata | None = None
-        if path.is_file():
+        if not path.is_dir():
             self.folder = path.parent
             files = [path]
         else:
             self.folder = path
-            if (path / METADATA_FILE).is_file():
+            if os.path.lexists(path / METADATA_FILE):
                 self.metadata = read_metadata(path)
                 if self.metadata.storage_identifier not in ("mcap", ""):
-                    raise BagError(f"bag {path} uses storage {self.metadata.storage_identifier!r};"
-                                   " only 'mcap' is supported")
-                files = [path / p for p in self.metadata.relative_file_paths]
+                    raise BagError(f"bag {path} uses storage "
+                                   f"{excerpt(self.metadata.storage_identifier)}; only 'mcap' "
+                                   "is supported")
+                files = [path_inside(path, p, "storage file")
+                         for p in self.metadata.relative_file_paths]
+                if len({f.resolve() for f in files}) != len(files):
+                    raise BagError(f"{path / METADATA_FILE} lists a storage file twice")
             else:
-                files = sorted(path.glob("*.mcap"))
+                files = [path_inside(path, p.name, "storage file") for p in sorted(path.glob("*.mcap"))]
             if not files:
                 raise BagError(f"bag {path} has no .mcap storage file")
         self._files = [_open(f) for f in files]
@@ -190,8 +261,15 @@ class BagReader:
 
     def definitions(self) -> dict[str, tuple[str, str]]:
         """Message type -> (schema encoding, schema text) as stored."""
-        return {s.name: (s.encoding, s.data.decode("utf-8"))
-                for c in self._files for s in c.schemas.values()}
+        out = {}
+        for c in self._files:
+            for s in c.schemas.values():
+                try:
+                    out[s.name] = (s.encoding, s.data.decode("utf-8"))
+                except UnicodeDecodeError:
+                    raise BagError(f"{c.path}: the schema of {excerpt(s.name)} is not UTF-8 "
+                                   "text") from None
+        return out
 
     def _iter_file(self, content: _FileContent, topics: set[str] | None,
                    start_ns: int | None) -> Iterator[BagMessage]:
@@ -209,12 +287,40 @@ class BagReader:
                     continue
                 yield make(ch, m)
             return
-        with open(content.path, "rb") as f:
-            reader = make_reader(f)
-            for _schema, ch, m in reader.iter_messages(
-                    topics=None if topics is None else sorted(topics),
-                    starting_at=start_ns, log_time_order=True):
-                yield make(ch, m)
+        try:
+            yield from self._iter_indexed(content, topics, start_ns, make)
+        except BagError:
+            raise
+        except Exception as err:  # a malformed chunk of a file with a valid summary
+            raise BagError(f"storage file {content.path} is damaged: "
+                           f"{clip(f'{type(err).__name__}: {err}', 200)}") from None
+
+    @staticmethod
+    def _iter_indexed(content: _FileContent, topics: set[str] | None, start_ns: int | None,
+                      make) -> Iterator[BagMessage]:
+        """Messages of a complete file in log-time order (ties in file order), read chunk by
+        chunk through the summary's chunk index: chunks are taken in order of their first
+        log time, and a message is yielded once no chunk still to be read can hold an
+        earlier one."""
+        wanted = {cid for cid, ch in content.channels.items()
+                  if topics is None or ch.topic in topics}
+        chunks = sorted((ci for ci in content.chunk_indexes
+                         if (start_ns is None or ci.message_end_time >= start_ns)
+                         and (not ci.message_index_offsets
+                              or wanted & set(ci.message_index_offsets))),
+                        key=lambda ci: (ci.message_start_time, ci.chunk_start_offset))
+        pending: list = []
+        with open_regular(content.path, "storage file") as f:
+            for ci in chunks:
+                while pending and pending[0][0] < ci.message_start_time:
+                    yield heapq.heappop(pending)[3]
+                for k, r in enumerate(_read_indexed_chunk(f, ci, content.path)):
+                    if (isinstance(r, Message) and r.channel_id in wanted
+                            and (start_ns is None or r.log_time >= start_ns)):
+                        heapq.heappush(pending, (r.log_time, ci.chunk_start_offset, k,
+                                                 make(content.channels[r.channel_id], r)))
+            while pending:
+                yield heapq.heappop(pending)[3]
 
     def messages(self, topics: Iterable[str] | None = None,
                  start_ns: int | None = None) -> Iterator[BagMessage]:

@@ -13,14 +13,19 @@ limited the recorder to ~700 messages/s). The log time is the rmw receive
 timestamp, the publish time the sender's source timestamp, the MCAP sequence the
 publication sequence number (mod 2**32); all times are system time in ns since the epoch.
 
-Stopping: SIGINT or SIGTERM (handled by :func:`record`, not by rclpy, so that messages
-already delivered are written first), or ``max_duration``; either way the bag is closed
-properly (summary + ``metadata.yaml``) with counts equal to the messages received.
+Stopping: SIGINT or SIGTERM (stop requests of :mod:`tensegrity_ros.rclpy_utils.stop_signals`, not
+rclpy's, so that messages already delivered are written first), or ``max_duration``;
+either way the bag is closed properly (summary + ``metadata.yaml``) with counts equal to
+the messages received.
+
+Durability while recording: the open chunk is written to the file at the latest
+``flush_interval`` s (default :data:`~tensegrity_ros.bag.writer.DEFAULT_FLUSH_INTERVAL`)
+after its first message (:class:`~tensegrity_ros.bag.writer.BagWriter`); a recorder killed
+outright (SIGKILL) loses at most that, plus the messages it had not taken yet.
 """
 
 from __future__ import annotations
 
-import signal
 import sys
 import time
 from typing import Callable, Iterable
@@ -31,11 +36,13 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.topic_or_service_is_hidden import topic_or_service_is_hidden
 
 from tensegrity_ros.rclpy_utils import messages as msg_utils
+from tensegrity_core.excerpt import excerpt
 from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.metadata import BagMetadata, TopicInfo
 from tensegrity_ros.bag.qos import dict_to_profile, profile_to_dict, request_for_offers
 from tensegrity_ros.bag.writer import BagWriter
 from tensegrity_ros.rclpy_utils.raw_take import take_all
+from tensegrity_ros.rclpy_utils.stop_signals import stop_on_signals
 
 # The suite's topics, as the nodes name them (relative names follow the namespace).
 SUITE_TOPICS = ("joint_states", "end_effector", "mechanism_state", "markers", "/clock",
@@ -95,7 +102,7 @@ class RecorderNode(Node):
             if name in self._subscriptions_by_topic or name in self._skipped or not self._wants(name):
                 continue
             if len(types) != 1:
-                self._skip(name, f"has several types {types}")
+                self._skip(name, f"has several types {excerpt(types, 200)}")
                 continue
             infos = self.get_publishers_info_by_topic(name)
             if not infos:
@@ -175,30 +182,27 @@ def record(folder: str, topics: Iterable[str] | None = None, *, record_all: bool
         kwargs["chunk_size"] = chunk_size
     if flush_interval is not None:
         kwargs["flush_interval"] = flush_interval
-    writer = BagWriter(folder, **kwargs)
     log = log or (lambda text: print(text, file=sys.stderr, flush=True))
     topics = list(topics or []) or list(SUITE_TOPICS)
-    stop = []
-    previous = {sig: signal.signal(sig, lambda signum, frame: stop.append(signum))
-                for sig in (signal.SIGINT, signal.SIGTERM)}
-    node = None
-    try:
-        rclpy.init(args=list(ros_args or []), signal_handler_options=SignalHandlerOptions.NO)
-        node = RecorderNode(writer, topics, record_all=record_all, log=log)
-        log(f"recording to {writer.folder} (stop with Ctrl-C)")
-        deadline = None if max_duration is None else time.monotonic() + max_duration
-        while not stop and rclpy.ok() and (deadline is None or time.monotonic() < deadline):
-            node.poll()
-            time.sleep(POLL_PERIOD)
-        if rclpy.ok():
-            _drain(node, time.time_ns())
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
-        if node is not None:
-            node.destroy_node()
-        meta = writer.close()
-        rclpy.try_shutdown()
+    with stop_on_signals() as stop:
+        stop.enter_running()
+        writer = BagWriter(folder, **kwargs)
+        node = None
+        try:
+            rclpy.init(args=list(ros_args or []), signal_handler_options=SignalHandlerOptions.NO)
+            node = RecorderNode(writer, topics, record_all=record_all, log=log)
+            log(f"recording to {writer.folder} (stop with Ctrl-C)")
+            deadline = None if max_duration is None else time.monotonic() + max_duration
+            while not stop.is_set() and rclpy.ok() and (deadline is None or time.monotonic() < deadline):
+                node.poll()
+                stop.wait(POLL_PERIOD)
+            if rclpy.ok():
+                _drain(node, time.time_ns())
+        finally:
+            if node is not None:
+                node.destroy_node()
+            meta = writer.close()
+            rclpy.try_shutdown()
     log(f"recorded {meta.message_count} messages to {writer.folder}: " + ", ".join(
         f"{t.name} {t.message_count}" for t in meta.topics))
     return meta

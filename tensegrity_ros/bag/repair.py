@@ -7,12 +7,17 @@ writes it into a new, valid MCAP file with the same schemas, channels, QoS metad
 and publish times and sequence numbers, and writes a ``metadata.yaml`` whose counts are
 those of the recovered messages. The damaged file is kept as ``<file>.orig`` unless
 ``keep_original=False``. An intact bag only gets its ``metadata.yaml`` regenerated.
+
+Repair touches nothing outside the bag folder: the storage files it reads, renames or
+deletes are the ones the reader resolved inside the folder (:mod:`.untrusted`), the new
+file is written in a fresh temporary folder inside the bag folder and renamed into place.
 """
 
 from __future__ import annotations
 
 import os
 import shutil
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -57,12 +62,11 @@ def repair_bag(folder: str | os.PathLike, *, keep_original: bool = True,
         return RepairResult(folder, False, meta.message_count,
                             {t.name: t.message_count for t in meta.topics})
 
-    tmp = folder.parent / f".{folder.name}.repairing"
-    if tmp.exists():
-        shutil.rmtree(tmp)
+    work = Path(tempfile.mkdtemp(prefix=".repair-", dir=folder))
+    tmp = work / "bag"
     target = mcap_file_name(folder)
-    definitions = reader.definitions()
     try:
+        definitions = reader.definitions()
         with BagWriter(tmp, compression=compression, file_name=target) as writer:
             for topic in reader.topics():
                 topic.message_count = 0
@@ -71,21 +75,28 @@ def repair_bag(folder: str | os.PathLike, *, keep_original: bool = True,
             for m in reader.messages():
                 writer.write(m.topic, m.data, m.log_time_ns, m.publish_time_ns, m.sequence)
             meta = writer.metadata()
+    except OSError as err:
+        shutil.rmtree(work, ignore_errors=True)
+        raise BagError(f"cannot write the repaired bag in {folder}: {err.strerror}") from None
     except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
+        shutil.rmtree(work, ignore_errors=True)
         raise
     originals = []
-    for path in reader.files:
-        if keep_original:
-            kept = path.with_name(path.name + ".orig")
-            os.replace(path, kept)
-            originals.append(kept)
-        else:
-            path.unlink()
-    os.replace(tmp / target, folder / target)
-    meta.custom_data = reader.metadata.custom_data if reader.metadata else None
-    write_metadata(folder, meta)
-    shutil.rmtree(tmp)
+    try:
+        for path in reader.files:
+            if keep_original:
+                kept = path.with_name(path.name + ".orig")
+                os.replace(path, kept)
+                originals.append(kept)
+            else:
+                path.unlink()
+        os.replace(tmp / target, folder / target)
+        meta.custom_data = reader.metadata.custom_data if reader.metadata else None
+        write_metadata(folder, meta)
+    except OSError as err:  # the repaired storage stays where it was written
+        raise BagError(f"cannot put the repaired storage in place in {folder} "
+                       f"({err.strerror}: {err.filename}); it is in {tmp / target}") from None
+    shutil.rmtree(work, ignore_errors=True)
     return RepairResult(folder, True, meta.message_count,
                         {t.name: t.message_count for t in meta.topics},
                         reader.damage, originals)

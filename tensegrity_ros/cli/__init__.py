@@ -5,6 +5,12 @@ Subcommands live in modules named ``cmd_*.py`` in this package. Each defines
 a handler returns the process exit code. Handlers import heavy modules (numpy, scipy,
 rclpy) inside their bodies so that ``tensegrity --help`` stays fast and so that the core
 commands work in an environment without the ROS wheels.
+
+Long-running ROS commands (``node``, ``up``, ``record``, ``play``) set
+``stop_signals=True``: for them SIGINT and SIGTERM are stop requests
+(:mod:`tensegrity_ros.rclpy_utils.stop_signals`) from the first line of :func:`main` until the process
+has exited, and a clean stop exits with code 0. Every other command gets Python's default
+again once parsed (Ctrl-C raises ``KeyboardInterrupt``: exit code 130).
 """
 
 from __future__ import annotations
@@ -15,6 +21,7 @@ import os
 import pkgutil
 import sys
 
+from tensegrity_ros.rclpy_utils import stop_signals
 from tensegrity_ros.cli._common import CliError, fail
 
 # DDS stays on loopback unless the user set another range (shared/ros2-jazzy-from-pypi.md).
@@ -42,19 +49,34 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    if argv is None:
-        argv = sys.argv[1:]
-    # Let `--ros-args ...` through to rclpy untouched (remapping, namespaces, parameters).
-    ros_args: list[str] = []
-    if "--ros-args" in argv:
-        i = argv.index("--ros-args")
-        argv, ros_args = argv[:i], argv[i:]
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    args.ros_args = ros_args
-    if not getattr(args, "func", None):
-        parser.print_help()
-        return 0 if not argv else 2
+    # Held from the first line: a signal during start-up (imports, argument parsing) ends
+    # the process at once with code 0, never with a traceback or killed mid-import.
+    stop_signals.install()
+    keep = False
+    try:
+        if argv is None:
+            argv = sys.argv[1:]
+        # Let `--ros-args ...` through to rclpy untouched (remapping, namespaces, parameters).
+        ros_args: list[str] = []
+        if "--ros-args" in argv:
+            i = argv.index("--ros-args")
+            argv, ros_args = argv[:i], argv[i:]
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        args.ros_args = ros_args
+        if not getattr(args, "func", None):
+            parser.print_help()
+            return 0 if not argv else 2
+        keep = bool(getattr(args, "stop_signals", False))  # kept until the process exits
+        if not keep:
+            stop_signals.release()    # Python's defaults again: Ctrl-C raises KeyboardInterrupt
+        return _run(args)
+    finally:
+        if not keep:
+            stop_signals.release()
+
+
+def _run(args) -> int:
     from tensegrity_ros.rclpy_utils.env import RosUnavailableError
 
     try:

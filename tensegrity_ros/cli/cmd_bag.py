@@ -52,10 +52,10 @@ def _play(args) -> int:
 
     opts = PlaybackOptions(rate=args.rate, start_offset_s=args.start_offset, loop=args.loop,
                            clock_hz=args.clock)
-    result = play(args.bag, args.topics, opts, delay_s=args.delay,
-                  wait_for_subscribers_s=args.wait_for_subscribers,
-                  wait_for_all_acked_s=args.wait_for_all_acked, ros_args=args.ros_args)
-    return 130 if result.stopped else 0
+    play(args.bag, args.topics, opts, delay_s=args.delay,
+         wait_for_subscribers_s=args.wait_for_subscribers,
+         wait_for_all_acked_s=args.wait_for_all_acked, ros_args=args.ros_args)
+    return 0    # played to the end, or stopped on request (SIGINT/SIGTERM): both clean
 
 
 def _resimulate(args) -> int:
@@ -132,10 +132,12 @@ def register(sub) -> None:
     p.add_argument("--chunk-size", type=int, default=None, metavar="BYTES",
                    help="MCAP chunk size (default 786432)")
     p.add_argument("--flush-interval", type=float, default=None, metavar="S",
-                   help="close a chunk at the latest S seconds after its first message (default 1)")
+                   help="write the open chunk to the file at the latest S seconds after its "
+                   "first message: a recorder killed outright (SIGKILL) loses at most about "
+                   "that (default 0.1)")
     p.add_argument("--compression", choices=("zstd", "lz4", "none"), default="zstd",
                    help="MCAP chunk compression (default zstd)")
-    p.set_defaults(func=_record)
+    p.set_defaults(func=_record, stop_signals=True)
 
     p = sub.add_parser("play", help="replay a bag with its recorded timing",
                        description="Publish a bag's messages on their topics with the recorded "
@@ -167,7 +169,7 @@ def register(sub) -> None:
     p.add_argument("--step-size", type=float, default=None, metavar="S",
                    help="--resimulate: the step [s] (default: the joint states' spacing in the bag)")
     add_json_flag(p)
-    p.set_defaults(func=_play)
+    p.set_defaults(func=_play, stop_signals=True)
 
     p = sub.add_parser("bag", help="inspect, plot or repair a bag")
     bag_sub = p.add_subparsers(dest="bag_command", metavar="BAG_COMMAND", required=True)

@@ -21,7 +21,7 @@ def register(sub) -> None:
                        description="Run one node. ROS arguments follow --ros-args, e.g. "
                        "`tensegrity node sim --ros-args -r __ns:=/robot1 -p publish_rate:=500.0`.")
     p.add_argument("name", choices=sorted(NODES))
-    p.set_defaults(func=_node)
+    p.set_defaults(func=_node, stop_signals=True)
 
     p = sub.add_parser("up", help="start the suite (sim + IK + controller + form-finding [+ recorder]); "
                        "Ctrl-C stops it")
@@ -33,7 +33,7 @@ def register(sub) -> None:
     p.add_argument("--no-formfind", action="store_true", help="do not start the form-finding node")
     p.add_argument("--no-controller", action="store_true",
                    help="do not start the controller (actuator_forces then come only from you)")
-    p.set_defaults(func=_up)
+    p.set_defaults(func=_up, stop_signals=True)
 
     p = sub.add_parser("send-forces", help="publish actuator forces (positive = tensile) on actuator_forces")
     p.add_argument("forces", nargs="+", type=float, metavar="F", help="forces [N] for f1 f2 (or those named)")

@@ -13,6 +13,8 @@ import math
 from dataclasses import dataclass
 from typing import Sequence
 
+from tensegrity_core.excerpt import excerpt
+
 #: Accepted names of each actuator (case, spaces, '_', '-' and '/' ignored: "Actuator_1"
 #: and "rho 1" are accepted too).
 ACTUATOR_ALIASES: dict[str, int] = {
@@ -62,7 +64,7 @@ def parse_command(names: Sequence[str], forces: Sequence[float], *, max_abs_forc
             key = "".join(ch for ch in str(n).lower() if ch not in " _-/")
             if key not in ACTUATOR_ALIASES:
                 raise CommandError(
-                    f"unknown actuator name {n!r} (known: f1, f2; aliases rho1/rho2, actuator1/2, AB/BC)"
+                    f"unknown actuator name {excerpt(n)} (known: f1, f2; aliases rho1/rho2, actuator1/2, AB/BC)"
                 )
             if ACTUATOR_ALIASES[key] in idx:
                 raise CommandError(f"actuator {CANONICAL_NAMES[ACTUATOR_ALIASES[key]]} named twice")
@@ -70,7 +72,7 @@ def parse_command(names: Sequence[str], forces: Sequence[float], *, max_abs_forc
         indices = tuple(idx)
     for i, f in zip(indices, forces):
         if not math.isfinite(f):
-            raise CommandError(f"force for {CANONICAL_NAMES[i]} is not finite ({f!r})")
+            raise CommandError(f"force for {CANONICAL_NAMES[i]} is not finite ({excerpt(f)})")
         if abs(f) > max_abs_force:
             raise CommandError(
                 f"force for {CANONICAL_NAMES[i]} = {f:g} N exceeds the limit max_force = {max_abs_force:g} N"

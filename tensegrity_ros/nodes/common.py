@@ -9,11 +9,13 @@ from tensegrity_ros.rclpy_utils.env import require_rclpy
 
 rclpy = require_rclpy()
 from rcl_interfaces.msg import IntegerRange, ParameterDescriptor  # noqa: E402
-from rclpy.executors import ExternalShutdownException  # noqa: E402
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from rclpy.qos import QoSProfile, qos_profile_services_default  # noqa: E402
+from rclpy.signals import SignalHandlerOptions  # noqa: E402
 
 from tensegrity_core.class2 import Class2Params  # noqa: E402
+from tensegrity_ros.rclpy_utils.stop_signals import stop_on_signals  # noqa: E402
 
 #: The scene every node that models the class-2 mechanism reads it from (one source).
 DEFAULT_SCENE = "class2_at_rest"
@@ -71,6 +73,7 @@ def declare_scene(node: Node):
     message naming it.
     """
     from tensegrity_core.errors import TensegrityError
+    from tensegrity_core.excerpt import clip, excerpt
     from tensegrity_core.sim import load_scene
 
     name = declare(node, "scene", DEFAULT_SCENE,
@@ -79,9 +82,9 @@ def declare_scene(node: Node):
     try:
         scene = load_scene(name)
     except TensegrityError as err:
-        raise SystemExit(f"{node.get_name()}: cannot load scene {name!r}: {err}") from None
+        raise SystemExit(clip(f"{node.get_name()}: cannot load scene {excerpt(name)}: {err}")) from None
     if scene.model.kind != "class2":
-        raise SystemExit(f"{node.get_name()}: scene {name!r} models a general structure; this node works "
+        raise SystemExit(f"{node.get_name()}: scene {excerpt(name)} models a general structure; this node works "
                          "on the class-2 mechanism")
     return name, scene
 
@@ -92,21 +95,37 @@ def scene_mechanism(node: Node) -> Class2Params:
 
 
 def spin_node(make_node: Callable[[], Node], args: Sequence[str] | None, executor_factory=None) -> int:
-    """The Jazzy main shape: init, spin until Ctrl-C/shutdown, destroy, shut down."""
-    rclpy.init(args=list(args) if args is not None else None)
-    node = None
-    try:
-        node = make_node()
-        if executor_factory is None:
-            rclpy.spin(node)
-        else:
-            executor = executor_factory()
-            executor.add_node(node)
-            executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+    """Init, spin until SIGINT/SIGTERM (or an external shutdown), destroy, shut down; 0.
+
+    Signals are the suite's stop requests (:mod:`tensegrity_ros.rclpy_utils.stop_signals`), not
+    rclpy's: rclpy installs no handler, so nothing shuts the context down under the node.
+    A stop request triggers a guard condition of the node, after the request is set, so the
+    executor wakes whatever it was doing and the loop, which checks the request after every
+    callback, ends. A signal before the node exists skips straight to shutdown.
+    """
+    with stop_on_signals() as stop:
+        stop.enter_running()
+        rclpy.init(args=list(args) if args is not None else None,
+                   signal_handler_options=SignalHandlerOptions.NO)
+        node = executor = None
+        try:
+            if not stop.is_set():
+                node = make_node()
+                executor = executor_factory() if executor_factory is not None else SingleThreadedExecutor()
+                executor.add_node(node)
+                wake = node.create_guard_condition(lambda: None)
+                forget = stop.on_stop(wake.trigger)
+                try:
+                    while not stop.is_set():
+                        executor.spin_once()
+                finally:
+                    forget()
+        except ExternalShutdownException:
+            pass
+        finally:
+            if executor is not None:
+                executor.shutdown()
+            if node is not None:
+                node.destroy_node()
+            rclpy.try_shutdown()
     return 0

@@ -60,6 +60,8 @@ class FormFindNode(Node):
                                             read_only=True)
         self.limits = Limits(max_bytes=self.max_request_bytes)
         self._slots = threading.BoundedSemaphore(self.max_workers)
+        self._workers_lock = threading.Lock()    # worker start vs. shutdown
+        self._closing = False
         self.create_service(FindForm, "find_form", self.on_request, qos_profile=SERVICE_QOS,
                             callback_group=ReentrantCallbackGroup())
         self.get_logger().info(f"find_form ready ({self.max_workers} workers, time limit {self.time_limit:g} s)")
@@ -99,7 +101,10 @@ class FormFindNode(Node):
         proc = _CTX.Process(target=formfind_worker.run, daemon=True,
                             args=(child, text, tol, max_iter, time_limit, self.max_members, self.limits,
                                   self.max_worker_memory_mb * 2**20))
-        proc.start()
+        if not self._start_worker(proc):
+            parent.close()
+            child.close()
+            return FormFindReply.failure("the form-finding node is shutting down")
         child.close()
         phase, start = "starting the worker", None
         try:
@@ -127,6 +132,23 @@ class FormFindNode(Node):
             if proc.is_alive():
                 proc.kill()
             proc.join(timeout=5)
+
+    def _start_worker(self, proc) -> bool:
+        """Start worker process ``proc``, unless the node is shutting down (then False)."""
+        with self._workers_lock:
+            if self._closing:
+                return False
+            proc.start()
+            return True
+
+    def destroy_node(self) -> None:
+        """Kill the running workers first: their requests end at once ("worker died"), so
+        a shutdown never waits for a form-finding to finish, and start no new ones."""
+        with self._workers_lock:
+            self._closing = True
+            for proc in multiprocessing.active_children():
+                proc.kill()
+        super().destroy_node()
 
 
 def main(argv=None) -> int:

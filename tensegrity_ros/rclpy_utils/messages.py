@@ -8,6 +8,8 @@ from typing import Any
 
 import numpy as np
 
+from tensegrity_core.excerpt import excerpt
+
 
 def message_class(type_name: str):
     """The Python class of a ROS interface type such as ``sensor_msgs/msg/JointState``.
@@ -18,13 +20,14 @@ def message_class(type_name: str):
     parts = type_name.strip("/").split("/")
     if len(parts) == 2:
         parts = [parts[0], "msg", parts[1]]
-    if len(parts) != 3 or parts[1] not in {"msg", "srv", "action"}:
-        raise ValueError(f"not a ROS interface type name: {type_name!r} (expected pkg/msg/Name)")
+    if (len(parts) != 3 or parts[1] not in {"msg", "srv", "action"}
+            or not parts[0].isidentifier() or not parts[2].isidentifier()):
+        raise ValueError(f"not a ROS interface type name: {excerpt(type_name)} (expected pkg/msg/Name)")
     pkg, kind, name = parts
     try:
         return getattr(importlib.import_module(f"{pkg}.{kind}"), name)
     except (ImportError, AttributeError) as err:
-        raise ValueError(f"interface type {type_name!r} is not installed ({err})") from None
+        raise ValueError(f"interface type {excerpt(type_name)} is not installed ({excerpt(str(err))})") from None
 
 
 def message_to_dict(msg: Any) -> Any:

@@ -37,9 +37,11 @@ def replay(folder: Path, ros_context, cli) -> dict[str, list[bytes]]:
     node = Node("sample_sink", context=ros_context)
     got = {name: [] for name in topics}
     for name, info in topics.items():
+        # a history that holds the whole topic: a test process slowed down by a loaded
+        # machine must not drop the oldest unread messages itself
         node.create_subscription(message_class(info.type), name,
                                  lambda data, n=name: got[n].append(data),
-                                 QoSProfile(depth=1000), raw=True)
+                                 QoSProfile(depth=max(1000, 2 * info.message_count)), raw=True)
     play = cli("play", str(folder), "--rate", "4", "--wait-for-subscribers", "60")
     executor = SingleThreadedExecutor(context=ros_context)
     executor.add_node(node)

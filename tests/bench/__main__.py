@@ -21,10 +21,12 @@ import time
 from dataclasses import asdict
 from pathlib import Path
 
+from tensegrity_ros.rclpy_utils.env import ensure_ros_environment
 from tests.bench import harness
 
 
 def main(argv=None) -> int:
+    ensure_ros_environment()   # the suite's DDS set-up (loopback only) for in-process nodes too
     ap = argparse.ArgumentParser(prog="python -m tests.bench")
     ap.add_argument("--full", action="store_true", help="full mode (docs figures); default quick")
     ap.add_argument("--only", action="append", default=[], help="run only these groups (or GROUP:FUNCTION)")

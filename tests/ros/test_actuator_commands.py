@@ -38,3 +38,12 @@ def test_partial_command_keeps_the_other_actuator():
 def test_rejected_commands_say_why(names, forces, reason):
     with pytest.raises(CommandError, match=reason):
         parse_command(names, forces, max_abs_force=100.0)
+
+
+def test_a_huge_actuator_name_is_quoted_as_an_excerpt():
+    """A 64 KiB name (issue 12) is named by its start and its length, not echoed whole."""
+    name = "x" * 65536
+    with pytest.raises(CommandError) as err:
+        parse_command([name], [1.0], max_abs_force=100.0)
+    message = str(err.value)
+    assert len(message) < 300 and "65536 characters" in message and "x" * 40 in message

@@ -189,6 +189,17 @@ def test_bad_commands_are_rejected_and_publishing_goes_on(sim_node):
         assert reason in log, log
 
 
+def test_a_huge_actuator_name_gives_a_short_warning(sim_node):
+    """A 64 KiB actuator name (issue 12) is rejected with a warning that quotes an excerpt:
+    every log line stays short."""
+    proc, ros = sim_node()
+    ros.send((1.0,), ("n" * 65536,))
+    ros.spin_until(lambda: "unknown actuator name" in proc.stderr())
+    lines = proc.stderr().splitlines()
+    assert max(len(line) for line in lines) < 600, max(len(line) for line in lines)
+    assert any("65536 characters" in line for line in lines)
+
+
 def test_reset_returns_to_rest_and_time_keeps_running(sim_node):
     proc, ros = sim_node("-p", "real_time_factor:=4.0")
     for _ in range(20):

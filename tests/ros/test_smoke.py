@@ -14,21 +14,30 @@ import pytest
 pytestmark = pytest.mark.ros
 
 
-def _discovery_range_seen_by_a_new_process(env_value: str | None) -> str:
-    env = {k: v for k, v in os.environ.items() if k != "ROS_AUTOMATIC_DISCOVERY_RANGE"}
+def _discovery_range_seen_by_a_new_process(env_value: str | None, **extra: str) -> str:
+    """The range a new process asks for (LOCALHOST also when the suite's loopback profile
+    carries it out, see tests/ros/test_loopback.py) and the profile file it uses."""
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "FASTRTPS_DEFAULT_PROFILES_FILE")}
     if env_value is not None:
         env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = env_value
+    env.update(extra)
     code = (
-        "import os; from tensegrity_ros.rclpy_utils.env import require_rclpy; require_rclpy(); "
-        "print(os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'])"
+        "import os; from tensegrity_ros.rclpy_utils.env import discovery_range, require_rclpy; "
+        "require_rclpy(); print(discovery_range(), os.environ.get('FASTRTPS_DEFAULT_PROFILES_FILE'))"
     )
     return subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
                           text=True, check=True).stdout.strip()
 
 
 def test_discovery_defaults_to_localhost_and_a_user_choice_wins():
-    assert _discovery_range_seen_by_a_new_process(None) == "LOCALHOST"
-    assert _discovery_range_seen_by_a_new_process("SUBNET") == "SUBNET"
+    from tensegrity_ros.rclpy_utils.env import LOOPBACK_PROFILE
+
+    assert _discovery_range_seen_by_a_new_process(None) == f"LOCALHOST {LOOPBACK_PROFILE}"
+    assert _discovery_range_seen_by_a_new_process("SUBNET") == "SUBNET None"
+    # a profile of the user's own is respected as it is (the range stays theirs too)
+    assert _discovery_range_seen_by_a_new_process(
+        None, FASTRTPS_DEFAULT_PROFILES_FILE="/their/profile.xml") == "LOCALHOST /their/profile.xml"
 
 
 def test_tests_run_in_their_own_domain():

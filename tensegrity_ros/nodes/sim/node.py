@@ -64,6 +64,7 @@ from tensegrity_msgs.msg import ActuatorForces, MechanismState, SimulationEvent
 from visualization_msgs.msg import MarkerArray
 
 from tensegrity_core.errors import TensegrityError
+from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_ros.nodes.actuator_commands import CommandError
 from tensegrity_ros.nodes.sim import control, sender
 from tensegrity_ros.nodes.sim.control import PAUSED, PLAYING, STATE_NAMES, STOPPED, Answer, StepRequest
@@ -87,7 +88,7 @@ class SimNode(Node):
         try:
             self.plant = SimPlant(scene, p.step_ns)
         except TensegrityError as err:
-            raise SystemExit(f"tensegrity_sim: cannot start scene {p.scene!r}: {err}") from None
+            raise SystemExit(clip(f"tensegrity_sim: cannot start scene {excerpt(p.scene)}: {err}")) from None
         self._state_every = max(1, round(p.publish_rate / p.state_rate)) if p.state_rate > 0 else 0
         self._marker_every = max(1, round(p.publish_rate / p.marker_rate)) if p.marker_rate > 0 else 0
 
@@ -148,7 +149,7 @@ class SimNode(Node):
                 f"free-running at real-time factor {p.real_time_factor:g}"
                 + (" (as fast as possible)" if p.real_time_factor == 0 else ""))
         self.get_logger().info(
-            f"scene {p.scene!r}: publishing at {p.publish_rate:g} Hz, step {p.step_size:.9g} s, {mode}, "
+            f"scene {excerpt(p.scene)}: publishing at {p.publish_rate:g} Hz, step {p.step_size:.9g} s, {mode}, "
             f"{STATE_NAMES[self.state]}")
 
     def _spin_commands(self) -> None:
@@ -358,7 +359,7 @@ class SimNode(Node):
                     self.get_logger().info("commands resumed")
         except CommandError as err:
             self.rejected += 1
-            self.get_logger().warning(f"rejected actuator command: {err} ({self.rejected} rejected so far)",
+            self.get_logger().warning(clip(f"rejected actuator command: {err} ({self.rejected} rejected so far)"),
                                       throttle_duration_sec=1.0)
 
     def _effective_command(self, now: float) -> list[float]:
@@ -434,7 +435,7 @@ class SimNode(Node):
     def on_reset(self, req: Trigger.Request, res: Trigger.Response) -> Trigger.Response:
         with self._lock:
             self._reset(keep_time=True, why="a reset")
-        res.success, res.message = True, f"reset to the initial state of scene {self.plant.scene.name!r}"
+        res.success, res.message = True, f"reset to the initial state of scene {excerpt(self.plant.scene.name)}"
         self.get_logger().info(res.message)
         return res
 

@@ -1,0 +1,87 @@
+"""How fast the suite's processes stop (``python -m tests.bench --only shutdown [--full]``).
+
+Each process is started as ``tensegrity up`` starts its children, waited for until it is
+ready, left running for 0.5 s, and sent SIGINT or SIGTERM (alternating); reported: the
+time from the signal to the process's exit, median and maximum per kind. Claim: every
+stop within 2 s, exit code 0. Baseline, measured in the same run: a bare rclpy service
+node (``tests/bench/ros_echo_server.py``, rclpy's own signal handling) stopped by SIGINT,
+what ROS itself costs to shut down here.
+
+Quick mode: 1 round per kind; full mode: 10.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from tests.bench.harness import Context, Row, benchmark
+
+TENSEGRITY = str(Path(sys.executable).with_name("tensegrity"))
+SAMPLE_BAG = Path(__file__).resolve().parents[2] / "bags" / "ik_motion"
+KINDS = {
+    "node sim": (["node", "sim"], "publishing at"),
+    "node ik": (["node", "ik"], "solve_ik ready"),
+    "node formfind": (["node", "formfind"], "find_form ready"),
+    "record": (["record", "-o", "{tmp}/bag"], "recording to"),
+    "play": (["play", str(SAMPLE_BAG), "--loop"], "playing "),
+    "up": (["up", "--record", "{tmp}/up_bag"], "publishing at"),
+}
+
+
+def _stop_time(argv: list[str], ready: str, sig: int, env: dict, held: bool = True) -> tuple[float, int]:
+    """Seconds from ``sig`` to the exit of ``argv`` (started ``held`` as ``up`` starts its
+    children: signals blocked until the suite's handling is in place), and its exit code."""
+    from tensegrity_ros.rclpy_utils.stop_signals import signals_blocked
+
+    with tempfile.TemporaryDirectory() as tmp:
+        argv = [a.format(tmp=tmp) for a in argv]
+        log = Path(tmp) / "log"
+        with open(log, "w") as out, (signals_blocked() if held else contextlib.nullcontext()):
+            proc = subprocess.Popen(argv, stdout=out, stderr=out, env=env, start_new_session=True)
+        try:
+            deadline = time.monotonic() + 120
+            while ready not in log.read_text(errors="replace"):
+                if proc.poll() is not None or time.monotonic() > deadline:
+                    raise RuntimeError(f"{argv} did not become ready: {log.read_text()[-500:]}")
+                time.sleep(0.01)
+            time.sleep(0.5)
+            t0 = time.monotonic()
+            proc.send_signal(sig)
+            code = proc.wait(60)
+            return time.monotonic() - t0, code
+        finally:
+            try:
+                os.killpg(proc.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+            proc.wait()
+
+
+@benchmark
+def stop_after_a_signal(ctx: Context) -> list[Row]:
+    env = dict(os.environ)
+    env["ROS_DOMAIN_ID"] = str(200 + os.getpid() % 30)
+    rounds = 1 if ctx.quick else 10
+    bare = [_stop_time([sys.executable, "-m", "tests.bench.ros_echo_server"], "echo ready",
+                       signal.SIGINT, env, held=False)[0] for _ in range(rounds)]
+    rows = [Row("shutdown", "bare rclpy node, SIGINT to exit, median", statistics.median(bare), "s")]
+    for name, (args, ready) in KINDS.items():
+        results = [_stop_time([TENSEGRITY, *args], ready, (signal.SIGINT, signal.SIGTERM)[k % 2], env)
+                   for k in range(rounds)]
+        times = [t for t, _ in results]
+        codes = sorted({c for _, c in results})
+        rows += [
+            Row("shutdown", f"{name}: signal to exit, median", statistics.median(times), "s",
+                baseline="bare rclpy node, SIGINT to exit, median", target="< 2 s",
+                note=f"{rounds} rounds, exit codes {codes}"),
+            Row("shutdown", f"{name}: signal to exit, max", max(times), "s", target="< 2 s"),
+        ]
+    return rows

@@ -1,0 +1,152 @@
+"""Shutdown that always works (issue 12): SIGINT or SIGTERM at any moment of a process's
+life ends it cleanly, exit code 0, no traceback, for every node and for ``up``,
+``record`` and ``play``.
+
+Each round starts the process as ``tensegrity up`` starts its children (own session,
+signals held until its handlers are in place: :func:`tests.ros_support.spawn`) and sends
+one signal (SIGINT or SIGTERM, drawn) at a moment drawn from one of four phases:
+
+- ``start``:  0-300 ms after the spawn (interpreter start, imports, argument parsing);
+- ``init``:   before the process says it is ready (ROS context, node construction, rclpy
+  and DDS start-up), uniformly over the time the previous round took to get ready;
+- ``ready``:  the instant it says it is ready (for the simulator: at its first
+  ``joint_states``, seen by a subscriber here: the moment the issue's SIGTERM failed);
+- ``steady``: 0.2-1.2 s after that.
+
+Rounds per process kind: ``TENSEGRITY_STRESS_ROUNDS`` (default 8: two per phase); the
+random draws are seeded by the round number, so a failing round can be rerun. The times
+from signal to exit are printed (``-s``) and judged by the benchmark
+``tests/bench/bench_shutdown.py``, not here: a round fails only on a non-zero exit, a
+traceback or an exception report, or no exit within ``HANG_S`` (then its native stacks
+are in the assertion message when gdb is there).
+"""
+
+from __future__ import annotations
+
+import os
+import random
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+from tests.ros_support import TENSEGRITY, kill_group, spawn
+
+pytestmark = pytest.mark.ros
+
+ROUNDS = int(os.environ.get("TENSEGRITY_STRESS_ROUNDS", "8"))
+PHASES = ("start", "init", "ready", "steady")
+HANG_S = 30.0
+SAMPLE_BAG = Path(__file__).resolve().parents[2] / "bags" / "ik_motion"
+
+#: kind -> (arguments, the stderr line that says it is ready)
+KINDS = {
+    "sim": (["node", "sim"], "publishing at"),
+    "ik": (["node", "ik"], "solve_ik ready"),
+    "formfind": (["node", "formfind"], "find_form ready"),
+    "record": (["record", "-o", "{tmp}/bag"], "recording to"),
+    "play": (["play", str(SAMPLE_BAG), "--loop"], "playing "),
+    "up": (["up", "--record", "{tmp}/up_bag"], "publishing at"),
+}
+
+
+class FirstJointState:
+    """A subscriber in this process that notes the first joint_states of the simulator."""
+
+    def __init__(self, ctx):
+        from rclpy.qos import QoSProfile
+        from sensor_msgs.msg import JointState
+
+        from tensegrity_ros.rclpy_utils.raw_take import take_all
+
+        import rclpy
+
+        self._take_all = take_all
+        self.node = rclpy.create_node("shutdown_probe", context=ctx)
+        self.sub = self.node.create_subscription(JointState, "/joint_states", lambda *_: None,
+                                                 QoSProfile(depth=10), raw=True)
+
+    def seen(self) -> bool:
+        return bool(self._take_all(self.sub))
+
+    def close(self) -> None:
+        self.node.destroy_node()
+
+
+def _wait_ready(proc: subprocess.Popen, log: Path, ready: str, probe, timeout: float = 90.0) -> None:
+    deadline = time.monotonic() + timeout
+    while True:
+        if probe is not None:
+            if probe.seen():
+                return
+        elif ready in log.read_text(errors="replace"):
+            return
+        if proc.poll() is not None:
+            raise AssertionError(f"exited early ({proc.returncode}): {log.read_text()[-2000:]}")
+        if time.monotonic() > deadline:
+            raise AssertionError(f"never ready: {log.read_text()[-2000:]}")
+        time.sleep(0.002)
+
+
+def _native_stacks(pid: int) -> str:
+    try:
+        return subprocess.run(["gdb", "-p", str(pid), "-batch", "-ex", "thread apply all bt 15"],
+                              capture_output=True, text=True, timeout=60).stdout[-6000:]
+    except (OSError, subprocess.TimeoutExpired):
+        return "(no gdb)"
+
+
+def _one_round(kind: str, k: int, tmp: Path, ctx, ready_time: list[float]) -> tuple:
+    rng = random.Random(f"{kind}-{k}")
+    phase = PHASES[k % len(PHASES)]
+    sig = rng.choice((signal.SIGINT, signal.SIGTERM))
+    args, ready = KINDS[kind]
+    folder = tmp / f"{kind}{k}"
+    folder.mkdir()
+    argv = [TENSEGRITY, *(a.format(tmp=folder) for a in args)]
+    log = folder / "stderr.log"
+    probe = FirstJointState(ctx) if kind == "sim" and phase == "ready" else None
+    with open(log, "w") as err:
+        t0 = time.monotonic()
+        proc = spawn(argv, stdout=err, stderr=err, env=dict(os.environ))
+        try:
+            if phase == "start":
+                time.sleep(rng.uniform(0.0, 0.3))
+            elif phase == "init":
+                time.sleep(rng.uniform(0.0, ready_time[0]))
+            else:
+                _wait_ready(proc, log, ready, probe)
+                ready_time[0] = time.monotonic() - t0
+                if phase == "steady":
+                    time.sleep(rng.uniform(0.2, 1.2))
+            t_signal = time.monotonic()
+            proc.send_signal(sig)
+            try:
+                code = proc.wait(HANG_S)
+            except subprocess.TimeoutExpired:
+                code = f"no exit within {HANG_S:g} s; stacks:\n{_native_stacks(proc.pid)}"
+            took = time.monotonic() - t_signal
+        finally:
+            kill_group(proc)
+            if probe is not None:
+                probe.close()
+    text = log.read_text(errors="replace")
+    return phase, signal.Signals(sig).name, round(t_signal - t0, 3), code, round(took, 3), text
+
+
+@pytest.mark.parametrize("kind", sorted(KINDS))
+def test_a_signal_at_any_moment_stops_cleanly(kind, tmp_path, ros_context):
+    ready_time = [1.0]
+    results, bad = [], []
+    for k in range(ROUNDS):
+        phase, sig, at, code, took, text = _one_round(kind, k, tmp_path, ros_context, ready_time)
+        results.append((phase, sig, at, code, took))
+        if code != 0 or "Traceback" in text or "Exception ignored" in text:
+            bad.append(f"round {k} ({phase}, {sig} at {at} s): exit {code}, stderr:\n{text[-3000:]}")
+    times = [r[4] for r in results]
+    print(f"\n{kind}: {len(results)} rounds, exit codes {sorted({str(r[3]) for r in results})}, "
+          f"signal-to-exit max {max(times):.2f} s, median {sorted(times)[len(times) // 2]:.2f} s; "
+          + "; ".join(f"{p}/{s}@{a}s->{c} in {t}s" for p, s, a, c, t in results))
+    assert not bad, "\n\n".join(bad)
