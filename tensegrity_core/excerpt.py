@@ -13,7 +13,7 @@ from __future__ import annotations
 import reprlib
 
 #: Characters of an outside value quoted in a message (the quote marks not counted).
-DEFAULT_LIMIT = 80
+DEFAULT_LIMIT = 60
 
 _REPR = reprlib.Repr()
 _REPR.maxlevel = 3
@@ -29,8 +29,11 @@ def excerpt(value: object, limit: int = DEFAULT_LIMIT) -> str:
     A string or bytes value that was cut also says its full length (``"… (N characters)"``,
     ``"… (N bytes)"``); any other value is rendered by :mod:`reprlib` (at most 3 levels
     deep, 4 items per container) before it is cut. The result is at most about
-    ``limit`` + 25 characters long, whatever the value.
+    ``limit`` + 25 characters long, whatever the value. numpy scalars show as plain numbers
+    (``inf``, not ``np.float64(inf)``).
     """
+    if getattr(value, "ndim", None) == 0 and hasattr(value, "item"):
+        value = value.item()
     if isinstance(value, (str, bytes, bytearray)):
         unit = "characters" if isinstance(value, str) else "bytes"
         text = repr(value[:limit] if isinstance(value, str) else bytes(value[:limit]))
@@ -43,9 +46,13 @@ def excerpt(value: object, limit: int = DEFAULT_LIMIT) -> str:
 
 #: Characters of a whole message (that may embed outside text) kept in a log line.
 MESSAGE_LIMIT = 500
+#: Characters of a library's own complaint (a parser's message) kept inside an error.
+LIBRARY_MESSAGE = 200
 
 
-def clip(message: str, limit: int = MESSAGE_LIMIT) -> str:
-    """``message`` itself if at most ``limit`` characters, else its start and its length:
-    for messages built elsewhere that may embed outside text (an error of another layer)."""
-    return message if len(message) <= limit else f"{message[:limit]}… ({len(message)} characters)"
+def clip(message: object, limit: int = MESSAGE_LIMIT) -> str:
+    """``str(message)`` itself if at most ``limit`` characters, else its start and its length:
+    for messages built elsewhere that may embed outside text (an error of another layer, a
+    library's exception)."""
+    text = str(message)
+    return text if len(text) <= limit else f"{text[:limit]}… ({len(text)} characters)"

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tensegrity_core.excerpt import LIBRARY_MESSAGE
 from tensegrity_core.schema.errors import SchemaError, clip, excerpt
 from tensegrity_core.schema.limits import DEFAULT_LIMITS, Limits
 from tensegrity_core.schema.yaml_reader import parse_yaml
@@ -148,7 +149,7 @@ def _parse_json(text: str, limits: Limits, error, file):
     except _DuplicateKey as err:
         raise error(f"duplicate key {excerpt(err.key)}", file=file) from None
     except (ValueError, RecursionError) as err:       # e.g. an integer of more than 4300 digits
-        raise error(f"invalid JSON: {clip(err)}", file=file) from None
+        raise error(f"invalid JSON: {clip(err, LIBRARY_MESSAGE)}", file=file) from None
 
 
 def _json_depth(raw: bytes) -> int:
@@ -198,6 +199,6 @@ def _parse_toml(text: str, error, file):
         if where:
             line = int(where.group(1)) if where.group(1) else text.count("\n") + 1
         reason = _TOML_WHERE.sub("", str(err)).strip()
-        raise error(f"invalid TOML: {clip(reason)}", line=line, file=file) from None
+        raise error(f"invalid TOML: {clip(reason, LIBRARY_MESSAGE)}", line=line, file=file) from None
     except RecursionError:
         raise error("invalid TOML: nested too deeply", file=file) from None

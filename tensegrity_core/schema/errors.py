@@ -12,18 +12,13 @@ renders more than a short, bounded piece of a value, however large or deep the v
 from __future__ import annotations
 
 import difflib
-import reprlib
 from typing import Any, ClassVar
 
 from tensegrity_core.errors import TensegrityError
+from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_core.schema.keypath import format_key_path
 
-#: The longest quoted value in a message (characters).
-EXCERPT_CHARS = 60
-
-_REPR = reprlib.Repr()
-_REPR.maxlevel, _REPR.maxdict, _REPR.maxlist, _REPR.maxtuple, _REPR.maxset = 2, 4, 6, 6, 4
-_REPR.maxstring, _REPR.maxother, _REPR.maxlong = EXCERPT_CHARS, EXCERPT_CHARS, 40
+__all__ = ["SchemaError", "clip", "excerpt", "suggest", "type_name"]   # excerpt, clip: the core's one helper
 
 
 class SchemaError(TensegrityError, ValueError):
@@ -70,24 +65,6 @@ def _rebuild(cls, reason, key, line, file):
     err = cls.__new__(cls)
     SchemaError.__init__(err, reason, key=key, line=line, file=file)
     return err
-
-
-def excerpt(value: Any) -> str:
-    """A short rendering of ``value`` for a message: ``repr`` for small values; for large
-    ones a bounded piece (``'aaaa...aaaa' (70000 characters)``, ``[[...], [...], ...]``),
-    computed without rendering the whole value. numpy scalars show as plain numbers."""
-    if hasattr(value, "item") and getattr(value, "ndim", None) == 0:
-        value = value.item()
-    text = _REPR.repr(value)
-    if isinstance(value, (str, bytes)):
-        return text + (f" ({len(value)} characters)" if len(value) > EXCERPT_CHARS else "")
-    return clip(text, EXCERPT_CHARS + 20)
-
-
-def clip(text: str, limit: int = 200) -> str:
-    """``text`` cut to ``limit`` characters (for messages that come from a library)."""
-    text = str(text)
-    return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
 def type_name(value: Any) -> str:

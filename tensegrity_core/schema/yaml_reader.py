@@ -36,6 +36,7 @@ from yaml.events import (
 )
 from yaml.nodes import ScalarNode
 
+from tensegrity_core.excerpt import LIBRARY_MESSAGE
 from tensegrity_core.schema.errors import SchemaError, clip, excerpt
 from tensegrity_core.schema.limits import DEFAULT_LIMITS, Limits
 from tensegrity_core.schema.located import LocatedDict, LocatedList
@@ -240,8 +241,8 @@ def _syntax_error(err: yaml.YAMLError, text: str, error, file) -> SchemaError:
     if isinstance(err, yaml.MarkedYAMLError):
         mark = err.problem_mark or err.context_mark
         problem = err.problem or err.context or "syntax error"
-        return error(f"invalid YAML: {clip(problem)}", line=mark.line + 1 if mark else None, file=file)
+        return error(f"invalid YAML: {clip(problem, LIBRARY_MESSAGE)}", line=mark.line + 1 if mark else None, file=file)
     if isinstance(err, yaml.reader.ReaderError):
         line = text.count("\n", 0, max(0, err.position)) + 1 if isinstance(err.position, int) else None
-        return error(f"invalid YAML: {clip(err.reason)}", line=line, file=file)
-    return error(f"invalid YAML: {clip(err)}", file=file)
+        return error(f"invalid YAML: {clip(err.reason, LIBRARY_MESSAGE)}", line=line, file=file)
+    return error(f"invalid YAML: {clip(err, LIBRARY_MESSAGE)}", file=file)
