@@ -19,9 +19,8 @@ import stat
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from tensegrity_core.excerpt import excerpt
+from tensegrity_core.schema import Limits, SchemaError, parse_yaml
 from tensegrity_ros.bag.errors import BagError
 
 #: Largest YAML text taken from a bag [bytes]. rosbag2 metadata is about 1 kB per topic;
@@ -32,9 +31,9 @@ MAX_YAML_BYTES = 4 * 1024 * 1024
 def load_bag_yaml(data: bytes | str, source: str) -> Any:
     """Parse YAML text from a bag (``source`` names it in messages), or :class:`BagError`.
 
-    The size bound comes first, then UTF-8 decoding, then ``yaml.safe_load``. (The single
-    place bag YAML is parsed: a stricter loader, e.g. one that also limits alias expansion
-    and depth, replaces the ``safe_load`` call here.)
+    The size bound comes first, then UTF-8 decoding, then the core's bounded YAML reader
+    (:func:`tensegrity_core.schema.parse_yaml`: nesting depth, aliases and the values they
+    add are bounded while parsing, so a small metadata.yaml cannot expand to gigabytes).
     """
     size = len(data.encode("utf-8") if isinstance(data, str) else data)
     if size > MAX_YAML_BYTES:
@@ -47,14 +46,10 @@ def load_bag_yaml(data: bytes | str, source: str) -> Any:
             raise BagError(f"{source} is not UTF-8 text (byte {err.start} is "
                            f"{excerpt(data[err.start:err.start + 1])})") from None
     try:
-        return yaml.safe_load(data)
-    except yaml.YAMLError as err:
-        where = getattr(err, "problem_mark", None)
-        at = f" at line {where.line + 1}, column {where.column + 1}" if where else ""
-        problem = getattr(err, "problem", None) or type(err).__name__
-        raise BagError(f"{source} is not valid YAML{at}: {excerpt(problem)}") from None
-    except RecursionError:
-        raise BagError(f"{source} is nested too deeply to be bag metadata") from None
+        return parse_yaml(data, limits=Limits(max_bytes=MAX_YAML_BYTES))
+    except SchemaError as err:
+        at = f" at line {err.line}" if err.line is not None else ""
+        raise BagError(f"{source} is not valid YAML{at}: {err.reason}") from None
 
 
 def path_inside(folder: str | os.PathLike, name: Any, what: str = "file") -> Path:
