@@ -213,10 +213,15 @@ def _call_formfind(args) -> int:
         if args.file not in example_names():
             raise CliError(f"cannot read {args.file}: no such file or shipped example")
         path = example_path(args.file)
-    try:
-        text = path.read_text()
-    except OSError as err:
-        raise CliError(f"cannot read {args.file}: {err.strerror}") from None
+    from tensegrity_core.schema import SchemaError
+    from tensegrity_core.schema.documents import decode_utf8, read_bytes
+    from tensegrity_core.schema.limits import Limits
+
+    try:   # the request's bound (the node's default max_request_bytes), UTF-8 named by line
+        text = decode_utf8(read_bytes(path, Limits(max_bytes=4_000_000), SchemaError, "structure file"),
+                           SchemaError, path.name)
+    except SchemaError as err:
+        raise CliError(str(err)) from None
     require_rclpy()
     from tensegrity_msgs.srv import FindForm
 

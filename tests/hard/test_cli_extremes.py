@@ -83,6 +83,7 @@ def _cases(tmp: Path) -> list[tuple[list[str], str]]:
         (ff + [str(tmp / "deep_structure.yaml")], "nested deeper than 64 levels"),
         (ff + [str(tmp / "int.yaml")], "has too many digits"),
         (ff + ["x" * 70_000], "no structure file or shipped example 'xxxxx"),
+        (["call-formfind", str(tmp / "latin1_structure.yaml")], "not UTF-8 text: byte 0xe9 at offset 9 (line 1)"),
     ]
 
 
@@ -96,7 +97,7 @@ def outcomes(tmp_path_factory):
     return list(zip(cases, json.loads(run.stdout.splitlines()[-1])))
 
 
-@pytest.mark.parametrize("index", range(14))
+@pytest.mark.parametrize("index", range(15))
 def test_an_extreme_value_is_one_error_line(outcomes, index):
     (args, words), got = outcomes[index]
     assert not got["crash"], got["crash"]
