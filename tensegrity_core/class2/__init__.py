@@ -3,7 +3,28 @@
 See ``docs/class2.md`` for the verified formulas and the errata of the paper.
 """
 
+# --- dynamics (Lagrangian equations of motion, Sect. 5) -------------------------------
+from tensegrity_core.class2.dynamics import (
+    LAMBDA_MIN_REL,
+    ActuatorLengthEvent,
+    Class2Dynamics,
+    SingularityApproachEvent,
+    acceleration,
+    damping_matrix,
+    generalized_forces,
+    kinetic_energy,
+    mass_matrix,
+    mechanical_energy,
+    potential_gradient,
+    potential_hessian,
+    rhs_jacobian,
+    spring_vectors,
+    velocity_terms,
+)
 from tensegrity_core.class2.energy import d2U_dbeta2, dU_dbeta, equilibrium_beta, potential_energy
+
+# kinematics, workspace, singularities, stiffness
+from tensegrity_core.class2.full_workspace import distance_to_full_workspace, in_full_workspace
 from tensegrity_core.class2.geometry import (
     MEMBERS,
     NODE_NAMES,
@@ -13,10 +34,6 @@ from tensegrity_core.class2.geometry import (
     member_lengths,
     node_positions,
 )
-from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
-
-# kinematics, workspace, singularities, stiffness
-from tensegrity_core.class2.full_workspace import distance_to_full_workspace, in_full_workspace
 from tensegrity_core.class2.inverse_kinematics import (
     IK_BRANCHES,
     IK_CODES,
@@ -38,6 +55,7 @@ from tensegrity_core.class2.kinematics import (
     forward_kinematics_numeric,
     jacobian_D_rho,
 )
+from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 from tensegrity_core.class2.singularities import (
     SINGULAR_SETS,
     dynamics_singularity,
@@ -63,24 +81,6 @@ from tensegrity_core.class2.workspace import (
     Workspace,
     classify_singularities,
     workspace,
-)
-# --- dynamics (Lagrangian equations of motion, Sect. 5) -------------------------------
-from tensegrity_core.class2.dynamics import (
-    LAMBDA_MIN_REL,
-    ActuatorLengthEvent,
-    Class2Dynamics,
-    SingularityApproachEvent,
-    acceleration,
-    damping_matrix,
-    generalized_forces,
-    kinetic_energy,
-    mass_matrix,
-    mechanical_energy,
-    potential_gradient,
-    potential_hessian,
-    rhs_jacobian,
-    spring_vectors,
-    velocity_terms,
 )
 
 __all__ = [

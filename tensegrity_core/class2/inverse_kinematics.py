@@ -27,8 +27,9 @@ Lengths in metres, angles in radians from +X, counter-clockwise.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import NamedTuple, Sequence
+from typing import NamedTuple
 
 import numpy as np
 

@@ -26,8 +26,8 @@ spring of stiffness ``k_j`` (the paper's Appendix A labels them differently, see
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, fields, replace
-from typing import Mapping
 
 from tensegrity_core.errors import ParameterError
 
@@ -85,7 +85,7 @@ class Class2Params:
         """Moment of inertia of one strut about its centroid, m L^2 / 12 [kg m^2]."""
         return self.m * self.L**2 / 12.0
 
-    def with_overrides(self, overrides: Mapping[str, float] | None = None, **kw: float) -> "Class2Params":
+    def with_overrides(self, overrides: Mapping[str, float] | None = None, **kw: float) -> Class2Params:
         """A copy with some parameters changed. ``k=`` sets k1..k4, ``c=`` sets c1..c4."""
         merged = dict(overrides or {}, **kw)
         expanded: dict[str, float] = {}

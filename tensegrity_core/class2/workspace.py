@@ -17,8 +17,8 @@ a genuine equilibrium whose lengths lie in ``P`` (:func:`ik_array_all`).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
 

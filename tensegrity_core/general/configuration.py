@@ -106,7 +106,7 @@ class Configuration:
     rotations: np.ndarray   # (nb, 3, 3) active rotation from the reference drawing
 
     @classmethod
-    def initial(cls, structure: Structure) -> "Configuration":
+    def initial(cls, structure: Structure) -> Configuration:
         """The reference drawing itself (every body at its reference orientation)."""
         lay = structure.layout
         nb = len(lay.moving_bodies)
@@ -114,7 +114,7 @@ class Configuration:
                    np.broadcast_to(np.eye(3), (nb, 3, 3)).copy())
 
     @classmethod
-    def from_coords(cls, structure: Structure, coords, *, rigid_tol: float = 1e-5) -> "Configuration":
+    def from_coords(cls, structure: Structure, coords, *, rigid_tol: float = 1e-5) -> Configuration:
         """The configuration with node coordinates ``coords`` (n, 3) [m].
 
         Each moving body's orientation is the best-fit rotation of its reference shape; the
@@ -143,7 +143,7 @@ class Configuration:
             coords[idx] = c + lay.offsets[idx] @ R.T
         return cls(structure, coords, centres, rotations)
 
-    def retract(self, dU) -> "Configuration":
+    def retract(self, dU) -> Configuration:
         """The configuration moved by the increment ``dU`` (n_dof,): free coordinates and
         centres add, orientations turn by ``exp(hat(dtheta))`` on the left."""
         lay = self.structure.layout

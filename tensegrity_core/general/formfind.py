@@ -22,8 +22,8 @@ result.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
-from typing import Callable
 
 import numpy as np
 import scipy.linalg as la
@@ -35,15 +35,15 @@ from tensegrity_core.general.configuration import Configuration
 from tensegrity_core.general.linalg import (
     NEUTRAL_TOL,
     lowest_mode,
-    zero_energy_rigid_modes,
     shifted_step_dense,
     shifted_step_sparse,
+    zero_energy_rigid_modes,
 )
 from tensegrity_core.general.statics import (
     as_configuration,
-    member_lengths,
     forces_from_lengths,
     generalized_force,
+    member_lengths,
     out_of_balance,
     potential_energy,
 )

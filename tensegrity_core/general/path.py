@@ -16,8 +16,8 @@ returning the collapsed or snapped-through shape the solver may have reached.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 

@@ -34,9 +34,9 @@ import scipy.sparse as sp
 from tensegrity_core.general.configuration import Configuration, node_jacobians
 from tensegrity_core.general.statics import (
     as_configuration,
-    group_sum,
     axial_stiffness,
     forces_from_lengths,
+    group_sum,
     internal_nodal_forces,
     member_vectors,
 )

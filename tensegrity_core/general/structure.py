@@ -119,7 +119,7 @@ class Structure:
     def from_arrays(cls, nodes, members, *, EA, rest_lengths=None, rest_length_ratio=None,
                     kinds="string", node_names=None, member_names=None, pinned=None,
                     bodies=(), loads=None, node_masses=None, member_masses=None,
-                    gravity=None, name: str = "") -> "Structure":
+                    gravity=None, name: str = "") -> Structure:
         """Build a structure from arrays (the fast path for generators).
 
         ``nodes`` (n, 3) [m]; ``members`` (m, 2) node indices; ``EA`` scalar or (m,) [N];
@@ -183,15 +183,15 @@ class Structure:
             gravity=gravity,
         )
 
-    def replace(self, **changes) -> "Structure":
+    def replace(self, **changes) -> Structure:
         """A copy with some fields changed (validated again), e.g. new ``rest_lengths``."""
         return dataclasses.replace(self, **changes)
 
-    def with_rest_lengths(self, rest_lengths) -> "Structure":
+    def with_rest_lengths(self, rest_lengths) -> Structure:
         """A copy with new rest lengths [m] (actuation, prestress design, continuation)."""
         return self.replace(rest_lengths=np.asarray(rest_lengths, dtype=float))
 
-    def with_nodes(self, nodes) -> "Structure":
+    def with_nodes(self, nodes) -> Structure:
         """A copy whose reference coordinates (start of form-finding, body shapes) are ``nodes``."""
         return self.replace(nodes=np.asarray(nodes, dtype=float))
 

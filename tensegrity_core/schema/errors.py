@@ -50,7 +50,7 @@ class SchemaError(TensegrityError, ValueError):
             text = f"{self.file}: {text}"
         return text
 
-    def located(self, *, line: int | None = None, file: str | None = None) -> "SchemaError":
+    def located(self, *, line: int | None = None, file: str | None = None) -> SchemaError:
         """The same error (same class) with ``line`` and ``file`` filled in where unknown."""
         err = type(self).__new__(type(self))
         SchemaError.__init__(err, self.reason, key=self.key, line=self.line if self.line is not None else line,

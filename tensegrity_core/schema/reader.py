@@ -16,7 +16,8 @@ lose all precision in the solvers.
 from __future__ import annotations
 
 import math
-from typing import Any, Iterable
+from collections.abc import Iterable
+from typing import Any
 
 from tensegrity_core.schema.errors import SchemaError, excerpt, suggest, type_name
 from tensegrity_core.schema.located import line_of

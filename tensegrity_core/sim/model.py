@@ -54,7 +54,7 @@ class Workspace(Protocol):
     @property
     def mode(self) -> frozenset[int]: ...
 
-    def copy(self, events: list[Event]) -> "Workspace": ...
+    def copy(self, events: list[Event]) -> Workspace: ...
 
 
 @dataclass(eq=False)
@@ -85,7 +85,7 @@ class State:
     def mode(self) -> frozenset[int]:
         return self.work.mode
 
-    def copy(self) -> "State":
+    def copy(self) -> State:
         """An independent snapshot: advancing either leaves the other unchanged. A dynamic
         model's copy restarts its integrator at ``t`` (as after an event), so the two agree to
         the integration tolerance, not bit for bit; a quasi-static copy is exact."""

@@ -171,7 +171,7 @@ class Scene:
     def has(self, effect: str) -> bool:
         return effect in self.effects
 
-    def with_duration(self, duration: float) -> "Scene":
+    def with_duration(self, duration: float) -> Scene:
         """A copy that runs for ``duration`` [s] (checked like the scene's own)."""
         reader = Reader(SceneError)
         duration = reader.value_number(duration, ("duration",), None, None, lo=0.0, lo_open=True)

@@ -32,7 +32,8 @@ events into the state's event log.
 from __future__ import annotations
 
 import math
-from typing import Callable, Protocol, Sequence
+from collections.abc import Callable, Sequence
+from typing import Protocol
 
 import numpy as np
 from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
@@ -82,9 +83,9 @@ class OdeSystem(Protocol):
 
     def events(self) -> Sequence[StateEvent]: ...
 
-    def handle_event(self, event: StateEvent, t: float, y: np.ndarray) -> tuple[np.ndarray, "OdeSystem"]: ...
+    def handle_event(self, event: StateEvent, t: float, y: np.ndarray) -> tuple[np.ndarray, OdeSystem]: ...
 
-    def after_step(self, t: float, y: np.ndarray) -> tuple[np.ndarray, "OdeSystem"] | None: ...
+    def after_step(self, t: float, y: np.ndarray) -> tuple[np.ndarray, OdeSystem] | None: ...
 
     def next_breakpoint(self, t: float) -> float: ...
 
@@ -136,7 +137,7 @@ class Stepper:
         self._cut_short = False       # the current solver's bound is an advance target
         self.restart(t0, y0)
 
-    def copy(self, log: list) -> "Stepper":
+    def copy(self, log: list) -> Stepper:
         """A stepper at the same ``(t, y)`` with the same system, counters and step size,
         logging into ``log``. It starts a fresh solver at ``t`` (as after an event), so it
         agrees with this one to the integration tolerance, not bit for bit; an event located

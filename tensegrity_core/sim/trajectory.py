@@ -51,7 +51,7 @@ class Trajectory:
 
     @classmethod
     def from_observations(cls, scene, data: dict, names, events, measurements, stats, *,
-                          error: str = "", state_names=()) -> "Trajectory":
+                          error: str = "", state_names=()) -> Trajectory:
         """The trajectory of a run: ``data`` the model's observations (arrays over the samples),
         ``names`` its :class:`~tensegrity_core.sim.model.Names`."""
         return cls(
@@ -87,7 +87,7 @@ class Trajectory:
         return path
 
     @classmethod
-    def from_npz(cls, path) -> "Trajectory":
+    def from_npz(cls, path) -> Trajectory:
         with np.load(Path(path), allow_pickle=False) as z:
             meta = json.loads(str(z["meta"]))
             arrays = {k: z[k] for k in ARRAYS}

@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import math
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -55,8 +55,13 @@ class SimClient:
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.qos import QoSProfile
         from sensor_msgs.msg import JointState
-        from simulation_interfaces.srv import (GetSimulationState, GetSimulatorFeatures, ResetSimulation,
-                                               SetSimulationState, StepSimulation)
+        from simulation_interfaces.srv import (
+            GetSimulationState,
+            GetSimulatorFeatures,
+            ResetSimulation,
+            SetSimulationState,
+            StepSimulation,
+        )
         from std_srvs.srv import Trigger
         from tensegrity_msgs.msg import ActuatorForces, SimulationEvent
 

@@ -8,7 +8,7 @@ storage is reported, since ``bag repair`` regenerates it.
 from __future__ import annotations
 
 import os
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from typing import Any
 
 from tensegrity_ros.bag.reader import BagReader
@@ -67,7 +67,7 @@ def _size(n: int) -> str:
 def _stamp(ns: int | None) -> str:
     if ns is None:
         return "-"
-    dt = datetime.fromtimestamp(ns / 1e9, tz=timezone.utc)
+    dt = datetime.fromtimestamp(ns / 1e9, tz=UTC)
     return f"{dt:%b %d %Y %H:%M:%S}.{(ns // 1_000_000) % 1000:03d} UTC ({ns / 1e9:.9f})"
 
 

@@ -123,7 +123,7 @@ class BagMetadata:
         }}
 
     @classmethod
-    def from_dict(cls, data: Any, source: str = "metadata") -> "BagMetadata":
+    def from_dict(cls, data: Any, source: str = "metadata") -> BagMetadata:
         """Metadata from the parsed YAML ``data``; :class:`BagError` naming the first field
         that is missing or of the wrong type (the data comes from a bag: every field is
         checked, and values are quoted only as excerpts)."""

@@ -59,7 +59,7 @@ def _install_prefixes(package: str) -> list[Path]:
     return prefixes
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def msg_file(type_name: str) -> Path:
     """Path of the installed ``.msg`` file of ``type_name``; :class:`BagError` if absent."""
     package, namespace, name = split_type_name(type_name)
@@ -83,7 +83,7 @@ def msg_dependencies(text: str, package: str) -> list[str]:
     return sorted(deps)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def full_definition(type_name: str) -> str:
     """The complete ``ros2msg`` definition of ``type_name`` (see the module docstring)."""
     seen: set[str] = set()

@@ -14,7 +14,8 @@ all publishers offered the same compatibility-relevant policies, else with the d
 
 from __future__ import annotations
 
-from typing import Any, Iterable
+from collections.abc import Iterable
+from typing import Any
 
 import yaml
 
@@ -160,8 +161,7 @@ def offer_for_replay(recorded: list[dict], depth: int = DEFAULT_REPLAY_DEPTH) ->
 def dict_to_profile(d: dict):
     """rosbag2 dict -> rclpy ``QoSProfile`` (imports rclpy)."""
     from rclpy.duration import Duration
-    from rclpy.qos import (DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile,
-                           ReliabilityPolicy)
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile, ReliabilityPolicy
 
     def enum(cls, names, value):
         return cls({v: k for k, v in names.items()}[value])

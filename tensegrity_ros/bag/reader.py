@@ -22,9 +22,9 @@ import dataclasses
 import heapq
 import io
 import os
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, Iterator
 
 import lz4.frame
 import zstandard
@@ -36,8 +36,7 @@ from mcap.stream_reader import StreamReader, breakup_chunk
 
 from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_ros.bag.errors import BagError
-from tensegrity_ros.bag.metadata import (METADATA_FILE, BagMetadata, FileInfo, TopicInfo,
-                                         read_metadata)
+from tensegrity_ros.bag.metadata import METADATA_FILE, BagMetadata, FileInfo, TopicInfo, read_metadata
 from tensegrity_ros.bag.qos import parse_profiles
 from tensegrity_ros.bag.untrusted import open_regular, path_inside
 

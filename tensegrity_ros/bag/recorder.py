@@ -28,19 +28,19 @@ from __future__ import annotations
 
 import sys
 import time
-from typing import Callable, Iterable
+from collections.abc import Callable, Iterable
 
 import rclpy
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.topic_or_service_is_hidden import topic_or_service_is_hidden
 
-from tensegrity_ros.rclpy_utils import messages as msg_utils
 from tensegrity_core.excerpt import excerpt
 from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.metadata import BagMetadata, TopicInfo
 from tensegrity_ros.bag.qos import dict_to_profile, profile_to_dict, request_for_offers
 from tensegrity_ros.bag.writer import BagWriter
+from tensegrity_ros.rclpy_utils import messages as msg_utils
 from tensegrity_ros.rclpy_utils.raw_take import take_all
 from tensegrity_ros.rclpy_utils.stop_signals import stop_on_signals
 

@@ -22,8 +22,8 @@ from __future__ import annotations
 
 import heapq
 import itertools
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
-from typing import Callable, Iterable, Iterator
 
 from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.reader import BagMessage

@@ -96,7 +96,7 @@ class BagWriter:
         self._end = None
         self._closed = False
 
-    def __enter__(self) -> "BagWriter":
+    def __enter__(self) -> BagWriter:
         return self
 
     def __exit__(self, *exc) -> None:

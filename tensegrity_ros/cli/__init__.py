@@ -21,8 +21,8 @@ import os
 import pkgutil
 import sys
 
-from tensegrity_ros.rclpy_utils import stop_signals
 from tensegrity_ros.cli._common import CliError, fail
+from tensegrity_ros.rclpy_utils import stop_signals
 
 # DDS stays on loopback unless the user set another range (shared/ros2-jazzy-from-pypi.md).
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")

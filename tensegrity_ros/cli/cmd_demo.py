@@ -22,8 +22,8 @@ def register(sub) -> None:
 
 
 def _demo(args) -> int:
-    from tensegrity_ros.cli._common import CliError
     from tensegrity_ros.apps.demo import run_demo
+    from tensegrity_ros.cli._common import CliError
 
     if not 1e-4 <= args.control_period <= 0.5:
         raise CliError(f"--control-period must be in [1e-4, 0.5] s, got {args.control_period}")

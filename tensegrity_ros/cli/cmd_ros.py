@@ -122,6 +122,7 @@ def _send_forces(args) -> int:
         raise CliError(str(err)) from None
     rclpy, node = _client_node("tensegrity_send_forces", args.ros_args)
     from tensegrity_msgs.msg import ActuatorForces
+
     from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
     pub = node.create_publisher(ActuatorForces, args.topic, 10)

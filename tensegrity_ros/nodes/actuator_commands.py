@@ -10,8 +10,8 @@ generalised force -f on rho_i), as the paper's Eq. 48.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 from tensegrity_core.excerpt import excerpt
 

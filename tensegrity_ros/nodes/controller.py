@@ -35,7 +35,6 @@ import sys
 import threading
 import time
 
-from tensegrity_ros.nodes.common import declare, declare_scene, rclpy, spin_node
 from builtin_interfaces.msg import Duration as DurationMsg
 from geometry_msgs.msg import Point
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
@@ -54,6 +53,7 @@ from tensegrity_core.class2.control import goals as G
 from tensegrity_core.class2.control.errors import INVALID_JOINTS, OUTSIDE_WORKSPACE, SINGULAR_PATH
 from tensegrity_core.class2.control.trajectory import JOINTS, actuator_reference
 from tensegrity_core.errors import TensegrityError
+from tensegrity_ros.nodes.common import declare, declare_scene, rclpy, spin_node
 from tensegrity_ros.rclpy_utils.messages import duration_to_s, stamp_to_s
 
 _MOVE = MoveEndEffector.Result

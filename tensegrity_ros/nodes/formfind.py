@@ -21,7 +21,6 @@ import sys
 import threading
 import time
 
-from tensegrity_ros.nodes.common import SERVICE_QOS, declare, rclpy, spin_node
 from geometry_msgs.msg import Point
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.executors import MultiThreadedExecutor
@@ -30,6 +29,7 @@ from tensegrity_msgs.srv import FindForm
 
 from tensegrity_core.schema import Limits, clip
 from tensegrity_ros.nodes import formfind_worker
+from tensegrity_ros.nodes.common import SERVICE_QOS, declare, spin_node
 from tensegrity_ros.nodes.formfind_worker import FormFindReply
 
 _CTX = multiprocessing.get_context("forkserver")

@@ -21,8 +21,8 @@ import resource
 import sys
 import time
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.schema import Limits, clip
@@ -49,7 +49,7 @@ class FormFindReply:
     min_stiffness_eigenvalue: float = math.nan
 
     @classmethod
-    def failure(cls, message: str) -> "FormFindReply":
+    def failure(cls, message: str) -> FormFindReply:
         """An unsuccessful reply saying ``message`` (at most ``MAX_MESSAGE`` characters)."""
         return cls(message=clip(message, MAX_MESSAGE))
 

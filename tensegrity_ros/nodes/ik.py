@@ -12,13 +12,13 @@ from __future__ import annotations
 import math
 import sys
 
-from tensegrity_ros.nodes.common import SERVICE_QOS, declare, rclpy, scene_mechanism, spin_node
 from rclpy.node import Node
 from tensegrity_msgs.msg import IKSolution
 from tensegrity_msgs.srv import SolveIK
 
 from tensegrity_core.class2 import inverse_kinematics
 from tensegrity_core.errors import TensegrityError
+from tensegrity_ros.nodes.common import SERVICE_QOS, declare, scene_mechanism, spin_node
 
 
 class IKNode(Node):

@@ -11,8 +11,8 @@ missing ROS installation into a clear message.
 from __future__ import annotations
 
 import os
+from collections.abc import MutableMapping
 from pathlib import Path
-from typing import MutableMapping
 
 DEFAULT_DISCOVERY_RANGE = "LOCALHOST"
 #: The suite's Fast DDS profile for LOCALHOST: UDP on 127.0.0.1 only, plus shared memory.

@@ -13,7 +13,7 @@ count must stay up for that whole time), which covers that gap many times over.
 from __future__ import annotations
 
 import time
-from typing import Callable, Iterable
+from collections.abc import Callable, Iterable
 
 #: Seconds the matches must hold before sending (about 25x the gap seen under load).
 MATCH_SETTLE_S = 0.25

@@ -54,7 +54,7 @@ def read_with_mcap_ros2(folder: Path) -> dict[str, list]:
 def read_with_rosbags(folder: Path) -> dict[str, list]:
     """{topic: [(log_time, plain message), ...]} via rosbags' rosbag2 reader."""
     from rosbags.rosbag2 import Reader
-    from rosbags.typesys import Stores, get_typestore, get_types_from_msg
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     store = get_typestore(Stores.EMPTY)
     out = defaultdict(list)

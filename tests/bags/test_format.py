@@ -18,8 +18,14 @@ from mcap.reader import make_reader
 from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.metadata import BagMetadata, TopicInfo, read_metadata
 from tensegrity_ros.bag.msgdefs import DELIMITER, full_definition, msg_dependencies, msg_file
-from tensegrity_ros.bag.qos import (INFINITE_NS, dump_profiles, normalize_profile, offer_for_replay,
-                                    parse_profiles, request_for_offers)
+from tensegrity_ros.bag.qos import (
+    INFINITE_NS,
+    dump_profiles,
+    normalize_profile,
+    offer_for_replay,
+    parse_profiles,
+    request_for_offers,
+)
 from tensegrity_ros.bag.reader import BagMessage, BagReader
 from tensegrity_ros.bag.repair import repair_bag
 from tensegrity_ros.bag.schedule import PlaybackOptions, timeline

@@ -21,10 +21,10 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rclpy.serialization import deserialize_message
 
-from tensegrity_ros.bag.reader import BagReader
-from tensegrity_ros.bag.recorder import message_class
 from tensegrity_core.class2 import forward_kinematics
 from tensegrity_ros.apps.demo import FOLD_GAIN, WAYPOINT_OFFSETS
+from tensegrity_ros.bag.reader import BagReader
+from tensegrity_ros.bag.recorder import message_class
 
 pytestmark = pytest.mark.ros
 

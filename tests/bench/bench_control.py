@@ -15,7 +15,6 @@ Quick mode runs everything at 100 Hz with the first two waypoints.
 
 from __future__ import annotations
 
-import numpy as np
 from threadpoolctl import threadpool_limits
 
 from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics

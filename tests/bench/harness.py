@@ -12,10 +12,10 @@ import gc
 import json
 import math
 import time
+from collections.abc import Callable
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 
 REGISTRY: list[tuple[str, Callable]] = []
 

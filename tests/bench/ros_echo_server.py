@@ -9,7 +9,6 @@ so the leanest rclpy answer is the fair baseline."""
 
 import threading
 
-
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.qos import QoSProfile

@@ -15,9 +15,7 @@ import numpy as np
 import pytest
 
 from tensegrity_core.general import (
-    RigidBody,
     Structure,
-    dump_structure,
     example_path,
     form_find,
     load_example,

@@ -20,7 +20,7 @@ from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics, inverse_kin
 from tensegrity_core.class2.dynamics import Class2Dynamics
 from tensegrity_core.general import Configuration, form_find, generalized_force, potential_energy, tangent_stiffness
 from tensegrity_core.general.formfind import line_search
-from tensegrity_core.general.statics import member_lengths, out_of_balance
+from tensegrity_core.general.statics import member_lengths
 from tests.class2.strategies import configurations, parameter_sets, scaled
 from tests.hard.oracles import fk_residual
 from tests.hard.strategies import displacements, structures

@@ -11,7 +11,6 @@ the flood independently of the simulator's own account.
 from __future__ import annotations
 
 import json
-import math
 import re
 import subprocess
 import sys

@@ -22,7 +22,7 @@ def formfind(tmp_path_factory):
     from rclpy.context import Context
     from rclpy.executors import MultiThreadedExecutor
     from rclpy.qos import QoSProfile
-    from tensegrity_msgs.srv import FindForm, SolveIK
+    from tensegrity_msgs.srv import FindForm
 
     from tests.ros_support import Proc
 

@@ -56,12 +56,11 @@ class FirstJointState:
     """A subscriber in this process that notes the first joint_states of the simulator."""
 
     def __init__(self, ctx):
+        import rclpy
         from rclpy.qos import QoSProfile
         from sensor_msgs.msg import JointState
 
         from tensegrity_ros.rclpy_utils.raw_take import take_all
-
-        import rclpy
 
         self._take_all = take_all
         self.node = rclpy.create_node("shutdown_probe", context=ctx)

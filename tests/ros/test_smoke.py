@@ -51,6 +51,7 @@ def test_message_and_service_between_two_processes():
     from rclpy.node import Node
     from tensegrity_msgs.msg import ActuatorForces
     from tensegrity_msgs.srv import SolveIK
+
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
 
     # a namespace of its own, so nodes of other tests in this domain cannot answer instead

@@ -12,11 +12,11 @@ import pytest
 from scipy.integrate import simpson, solve_ivp
 
 from tensegrity_core.class2.dynamics import Class2Dynamics
-from tensegrity_core.class2.energy import equilibrium_beta
 from tensegrity_core.class2.dynamics import effects as fx
 from tensegrity_core.class2.dynamics import springs as spring_members
 from tensegrity_core.class2.dynamics.inertia import Inertia
 from tensegrity_core.class2.dynamics.kinematics import kinematics
+from tensegrity_core.class2.energy import equilibrium_beta
 from tensegrity_core.class2.geometry import SPRINGS, node_positions
 from tensegrity_core.sim import Simulator, compile_scene, simulate
 from tensegrity_core.sim.class2.contact import impact

@@ -12,8 +12,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq, minimize, root
 
-from tensegrity_core.class2.dynamics import potential_gradient
-from tensegrity_core.class2.dynamics import potential_hessian
+from tensegrity_core.class2.dynamics import potential_gradient, potential_hessian
 from tensegrity_core.class2.energy import equilibrium_beta, potential_energy
 from tensegrity_core.sim import simulate
 

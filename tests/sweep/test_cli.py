@@ -10,7 +10,6 @@ import sys
 import pytest
 
 from tensegrity_ros.cli import main
-
 from tests.sweep.conftest import fold_sweep, monte_carlo_sweep
 
 pd = pytest.importorskip("pandas")

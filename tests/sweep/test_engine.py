@@ -14,7 +14,6 @@ import time
 import pytest
 
 from tensegrity_core.sweep import SweepError, load_sweep, run_sweep
-
 from tests.sweep.conftest import fold_sweep, monte_carlo_sweep
 
 pd = pytest.importorskip("pandas")

@@ -12,7 +12,6 @@ import pytest
 from tensegrity_core.class2 import PAPER_PARAMS, inverse_kinematics
 from tensegrity_core.sim import load_scene, simulate
 from tensegrity_core.sweep import load_sweep, run_sweep
-
 from tests.sweep.conftest import fold_sweep
 
 pytest.importorskip("pandas")
@@ -137,9 +136,8 @@ def test_the_shipped_spine_sweep_computes_what_form_finding_does():
 
     sweep = load_sweep("spine_stability")
     points = [p for p in sweep.points() if p.values in ((1.0, 1.0), (0.6, 1.1))]
-    from tensegrity_core.sweep.task import run_point
-
     from tensegrity_core.sweep.spec import prepare
+    from tensegrity_core.sweep.task import run_point
 
     plan = prepare(sweep)
     base = load_example("spine_c")

@@ -12,7 +12,6 @@ import pytest
 from tensegrity_core.sweep import SweepError, load_sweep, sweep_names
 from tensegrity_core.sweep.keypath import KeyPathError, parse, resolve
 from tensegrity_core.sweep.points import apply
-
 from tests.sweep.conftest import fold_sweep, monte_carlo_sweep
 
 GOOD = textwrap.dedent("""\

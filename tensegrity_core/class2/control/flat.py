@@ -22,8 +22,6 @@ from __future__ import annotations
 import numpy as np
 from scipy.interpolate import make_interp_spline
 
-from tensegrity_core.class2.control.errors import OUTSIDE_WORKSPACE, SINGULAR_PATH, PlanningError
-from tensegrity_core.class2.control.reference import Reference
 from tensegrity_core.class2 import (  # the model's public names (its modules may move)
     damping_matrix,
     mass_matrix,
@@ -31,6 +29,8 @@ from tensegrity_core.class2 import (  # the model's public names (its modules ma
     potential_hessian,
     velocity_terms,
 )
+from tensegrity_core.class2.control.errors import OUTSIDE_WORKSPACE, SINGULAR_PATH, PlanningError
+from tensegrity_core.class2.control.reference import Reference
 from tensegrity_core.class2.params import Class2Params
 from tensegrity_core.errors import TensegrityError
 

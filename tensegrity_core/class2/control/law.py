@@ -27,12 +27,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tensegrity_core.class2.control.lqr import Gain, LQRWeights, design_gain
+from tensegrity_core.class2.control.lqr import LQRWeights, design_gain
 from tensegrity_core.class2.control.reference import Reference, ReferenceSample, hold_reference
 from tensegrity_core.class2.inverse_kinematics import nearest_solution
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 from tensegrity_core.errors import ParameterError, TensegrityError
-
 
 #: Largest number of gain-schedule knots per reference (each is one Riccati solve, ~1-3 ms).
 MAX_KNOTS = 40

@@ -25,6 +25,7 @@ import math
 import numpy as np
 from scipy.interpolate import BPoly
 
+from tensegrity_core.class2 import damping_matrix, mass_matrix, potential_gradient, velocity_terms
 from tensegrity_core.class2.control.errors import (
     INVALID_GOAL,
     INVALID_JOINTS,
@@ -35,7 +36,6 @@ from tensegrity_core.class2.control.errors import (
 from tensegrity_core.class2.control.flat import grid
 from tensegrity_core.class2.control.planner import SINGULAR_MARGIN
 from tensegrity_core.class2.control.reference import Reference
-from tensegrity_core.class2 import damping_matrix, mass_matrix, potential_gradient, velocity_terms
 from tensegrity_core.class2.energy import equilibrium_beta
 from tensegrity_core.class2.params import Class2Params
 from tensegrity_core.class2.singularities import nearest_singularity, singularity_distance_array

@@ -25,8 +25,8 @@ once per set, with no branches per call).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 

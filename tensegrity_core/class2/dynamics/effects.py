@@ -21,8 +21,8 @@ together in one pass when both are listed (:func:`spring_force_term`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from functools import partial
-from typing import Callable
 
 import numpy as np
 

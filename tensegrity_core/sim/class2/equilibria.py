@@ -99,7 +99,7 @@ class Equilibria:
         self.L, self.T, self.fold = settings.L, settings.T, settings.fold
         self.tol, self.release_tol = settings.tol, settings.release_tol
 
-    def with_potential(self, potential: TotalPotential) -> "Equilibria":
+    def with_potential(self, potential: TotalPotential) -> Equilibria:
         """The same path under other input laws (a new command), counting into the same counts."""
         return Equilibria(potential, self.settings, self.counts)
 

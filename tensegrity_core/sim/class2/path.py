@@ -74,7 +74,7 @@ class PathFollower:
     def mode(self) -> frozenset[int]:
         return frozenset(i for i in (0, 1) if self.bits >> i & 1)
 
-    def copy(self, log: list) -> "PathFollower":
+    def copy(self, log: list) -> PathFollower:
         """An exact, independent copy logging into ``log`` (the path's pieces are immutable)."""
         new = PathFollower.__new__(PathFollower)
         new.__dict__.update(self.__dict__)

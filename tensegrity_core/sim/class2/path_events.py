@@ -29,8 +29,6 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import numpy as np
-
 from tensegrity_core.sim.class2.equilibria import Equilibria, Point
 from tensegrity_core.sim.class2.path_samples import MODE_FREE
 from tensegrity_core.sim.class2.small_dense import positive_definite, principal_det, solve_small

@@ -23,8 +23,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from tensegrity_core.sim.errors import SimulationError
 from tensegrity_core.sim.class2.small_dense import solve_symmetric
+from tensegrity_core.sim.errors import SimulationError
 
 #: Coordinates not held, per contact mode (bit i set: actuator i held at zero length).
 MODE_FREE = {0: (0, 1, 2), 1: (1, 2), 2: (0, 2), 3: (2,)}
@@ -62,7 +62,7 @@ class Segment(NamedTuple):
     stationary: bool
 
     @classmethod
-    def of(cls, t0, t1, q1, z0, z1, v0, v1, ds, bits) -> "Segment":
+    def of(cls, t0, t1, q1, z0, z1, v0, v1, ds, bits) -> Segment:
         still = t1 > t0 and z0[:-1] == z1[:-1] and not any(v0[:-1]) and not any(v1[:-1])
         return cls(t0, t1, q1, z0, z1, v0, v1, ds, bits, still)
 

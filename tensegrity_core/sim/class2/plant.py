@@ -27,8 +27,8 @@ or a new command gives a new segment; nothing is ever changed in place.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -77,7 +77,7 @@ class Class2Plant:
         self.n = 6 + self.drive.n_states
         self.state_names = STATE_NAMES + self.drive.state_names
 
-    def segment(self, mode, laws) -> "Class2Segment":
+    def segment(self, mode, laws) -> Class2Segment:
         """The plant in contact ``mode`` (held actuators) under input ``laws``."""
         return Class2Segment(self, frozenset(mode), tuple(laws))
 
@@ -107,10 +107,10 @@ class Class2Segment:
         self.drive = plant.drive.bind(laws)
         self.fun = self._right_hand_side()
 
-    def with_mode(self, mode) -> "Class2Segment":
+    def with_mode(self, mode) -> Class2Segment:
         return Class2Segment(self.plant, frozenset(mode), self.laws)
 
-    def with_laws(self, laws) -> "Class2Segment":
+    def with_laws(self, laws) -> Class2Segment:
         return Class2Segment(self.plant, self.mode, tuple(laws))
 
     def next_breakpoint(self, t: float) -> float:
@@ -197,7 +197,7 @@ class Class2Segment:
                     out.append(Event("fold", i, lambda t, y, i=i: y[i]))
         return out
 
-    def handle_event(self, event: Event, t: float, y) -> tuple[np.ndarray, "Class2Segment"]:
+    def handle_event(self, event: Event, t: float, y) -> tuple[np.ndarray, Class2Segment]:
         """Apply an event at ``(t, y)``: the state to restart from, and the segment of the new mode."""
         y = np.array(y, dtype=float)
         if event.kind == "singular":

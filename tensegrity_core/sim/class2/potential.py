@@ -36,7 +36,7 @@ class TotalPotential:
         self.limit = LAMBDA_MIN_REL * L
         self._force_stiffness = tuple((e.force, e.stiffness) for e in self.effects)
 
-    def with_laws(self, laws) -> "TotalPotential":
+    def with_laws(self, laws) -> TotalPotential:
         """The same effects under other input laws (a new command)."""
         return TotalPotential(self.effects, laws, self.L)
 

@@ -182,13 +182,13 @@ class GeneralModel:
         self.state_names = tuple(f"x_{s}" for s in lay.labels()) + tuple(f"v_{s}" for s in lay.labels())
         self._twin = self._statics_twin(0.0) if rest_lengths_of is None else None
 
-    def with_chart(self, R_ref) -> "GeneralModel":
+    def with_chart(self, R_ref) -> GeneralModel:
         """The same equations with other rotation charts."""
         new = copy.copy(self)
         new.R_ref = np.array(R_ref, dtype=float)
         return new
 
-    def with_inputs(self, rest_lengths_of, laws) -> "GeneralModel":
+    def with_inputs(self, rest_lengths_of, laws) -> GeneralModel:
         """The same equations under other input laws (a new command)."""
         new = copy.copy(self)
         new.rest_lengths_of, new.laws = rest_lengths_of, tuple(laws)

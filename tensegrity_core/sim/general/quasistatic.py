@@ -64,7 +64,7 @@ class FormFindingPath:
         lay = self.static.layout
         return minimal_coordinates(lay, coordinates(self.config), self.config.rotations)
 
-    def copy(self, events: list) -> "FormFindingPath":
+    def copy(self, events: list) -> FormFindingPath:
         """An exact copy (configurations and structures are immutable)."""
         return FormFindingPath(self.t, self.config, self.static, self.rest_of, self.n_solves)
 

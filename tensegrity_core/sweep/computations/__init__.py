@@ -20,8 +20,8 @@ run). Columns have a dtype: ``float`` (missing = NaN), ``int``, ``bool``, ``str`
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 
 @dataclass(frozen=True)

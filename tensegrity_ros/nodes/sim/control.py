@@ -21,8 +21,8 @@ LOADING_WORLD and unknown values are INCORRECT_TRANSITION.
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 from simulation_interfaces.msg import Result, SimulationState, SimulatorFeatures
 from simulation_interfaces.srv import ResetSimulation, SetSimulationState

@@ -44,7 +44,7 @@ import sys
 import threading
 import time
 
-from tensegrity_ros.nodes.common import SERVICE_QOS, declare_scene, rclpy, spin_node
+from geometry_msgs.msg import PointStamped
 from rclpy.action import ActionServer, CancelResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -54,11 +54,15 @@ from rclpy.qos import QoSProfile
 from rclpy.task import Future
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState
-from geometry_msgs.msg import PointStamped
 from simulation_interfaces.action import SimulateSteps
 from simulation_interfaces.msg import Result
-from simulation_interfaces.srv import (GetSimulationState, GetSimulatorFeatures, ResetSimulation,
-                                       SetSimulationState, StepSimulation)
+from simulation_interfaces.srv import (
+    GetSimulationState,
+    GetSimulatorFeatures,
+    ResetSimulation,
+    SetSimulationState,
+    StepSimulation,
+)
 from std_srvs.srv import Trigger
 from tensegrity_msgs.msg import ActuatorForces, MechanismState, SimulationEvent
 from visualization_msgs.msg import MarkerArray
@@ -66,6 +70,7 @@ from visualization_msgs.msg import MarkerArray
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_ros.nodes.actuator_commands import CommandError
+from tensegrity_ros.nodes.common import SERVICE_QOS, declare_scene, rclpy, spin_node
 from tensegrity_ros.nodes.sim import control, sender
 from tensegrity_ros.nodes.sim.control import PAUSED, PLAYING, STATE_NAMES, STOPPED, Answer, StepRequest
 from tensegrity_ros.nodes.sim.parameters import declare_sim_parameters
