@@ -309,3 +309,70 @@ def test_cancelling_simulate_steps_stops_at_a_step_boundary(stepping, ros_contex
     assert client.call("get_simulation_state").state.state == SimulationState.STATE_PAUSED
     assert "lockstep: no command" not in proc.stderr()      # lockstep: every step had its command
     node.destroy_node()
+
+
+def test_paced_lockstep_play_never_runs_ahead_of_its_real_time_factor_and_stays_exact(stepping):
+    """Lockstep while playing, paced at twice real time: the state at t_k is published no
+    sooner than k step / 2 after playing began (a controller sees it no sooner), and the run is
+    still the core's sampled-data run to the last bit (pacing only delays publications)."""
+    from simulation_interfaces.msg import SimulationState
+
+    from tensegrity_core.class2.fold_law import paper_fold_forces
+    from tensegrity_core.sim.sampled import run_sampled
+
+    factor, steps = 2.0, 150
+    proc, client = stepping("lockstep:=true", f"lockstep_real_time_factor:={factor}", "initial_state:=paused",
+                            "paused_publish_rate:=0.0", "lockstep_timeout:=30.0")
+    seen: list[tuple[float, float]] = []
+
+    def law(sample):
+        seen.append((time.monotonic(), sample.t))
+        return paper_fold_forces(sample)
+
+    client.set_law(None)
+    client.reset_all()
+    client.take_joints()
+    client.set_law(law, until_ns=steps * STEP_NS)
+    start = time.monotonic()
+    assert _result(client.set_state(SimulationState.STATE_PLAYING))[0] == 1
+    client.wait_joint(steps * STEP_NS, timeout=120)
+    assert _result(client.set_state(SimulationState.STATE_PAUSED))[0] == 1
+    assert [t for _, t in seen] == [k * STEP_NS / 1e9 for k in range(steps)]
+    late = [(t, wall - start) for wall, t in seen if t > (wall - start) * factor + 1e-9]
+    assert not late, late[:5]                                  # (t [s], wall s after play) seen too early
+    table = {}
+    for j in client.take_joints():
+        assert table.setdefault(j.stamp_ns, j) == j
+    core = run_sampled("class2_at_rest", paper_fold_forces, step_ns=STEP_NS, steps=steps)
+    np.testing.assert_array_equal(np.array([table[k * STEP_NS].position for k in range(steps + 1)]), core.q)
+    assert "rejected" not in proc.stderr() and "no command for step" not in proc.stderr()
+
+
+def test_the_sim_command_plays_pauses_and_steps_the_simulator(stepping, ros_context):
+    """`tensegrity sim` calls the simulation_interfaces services from the shell: exit 0 on
+    OK, 1 with the simulator's code and reason, 2 for a bad command line."""
+    import json
+
+    from tests.ros_support import run_cli
+
+    clock, spin = _clock_listener(ros_context)
+    proc, client = stepping()                                  # free-running, real time
+    out = run_cli("sim", "pause")
+    assert out.returncode == 0 and out.stdout.startswith("ok: playing -> paused"), out.stdout + out.stderr
+    spin(0.3)
+    paused_at = clock[-1]
+    out = run_cli("sim", "step", "3")
+    assert out.returncode == 0 and "3 steps done" in out.stdout, out.stdout + out.stderr
+    spin(0.3)
+    assert clock[-1] == paused_at + 3 * STEP_NS
+    from simulation_interfaces.msg import SimulationState
+
+    state = json.loads(run_cli("sim", "state", "--json").stdout)
+    assert state["ok"] and state["state"]["state"] == SimulationState.STATE_PAUSED
+    assert run_cli("sim", "play").returncode == 0
+    out = run_cli("sim", "step", "2")
+    assert out.returncode == 1 and out.stdout.startswith("failed (RESULT_INCORRECT_STATE)"), out.stdout
+    out = run_cli("sim", "play")
+    assert out.returncode == 0 and "already playing" in out.stdout            # ALREADY_IN_TARGET_STATE
+    out = run_cli("sim", "step")
+    assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1 and "Traceback" not in out.stderr

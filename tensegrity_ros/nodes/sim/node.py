@@ -141,6 +141,9 @@ class SimNode(Node):
         self._timed_out = False
         self._publications = 0
         self._resync = True                  # free-running: restart the tick schedule from here
+        self._pace_anchor: tuple[float, int] | None = None   # paced lockstep: (wall time, step) of the schedule
+        self._due: float | None = None       # paced lockstep: wall time the stepped state is due
+        self._pace_wait = 0.0                # paced lockstep: how long the loop thread sleeps
         self._stop = threading.Event()
         self._wake = threading.Event()
         self._command_executor = SingleThreadedExecutor(context=self.context)
@@ -150,7 +153,9 @@ class SimNode(Node):
         self._command_thread.start()
         self._thread = threading.Thread(target=self._loop, name="tensegrity_sim_loop", daemon=True)
         self._thread.start()
-        mode = (f"lockstep (timeout {p.lockstep_timeout:g} s)" if p.lockstep else
+        pace = (f", at most {p.lockstep_real_time_factor:g} x real time" if p.lockstep_real_time_factor > 0
+                else "")
+        mode = (f"lockstep (timeout {p.lockstep_timeout:g} s{pace})" if p.lockstep else
                 f"free-running at real-time factor {p.real_time_factor:g}"
                 + (" (as fast as possible)" if p.real_time_factor == 0 else ""))
         self.get_logger().info(
@@ -198,6 +203,10 @@ class SimNode(Node):
                     work = "idle"
             if work == "step":
                 continue
+            if work == "pace":
+                self._wake.wait(self._pace_wait)
+                self._wake.clear()
+                continue
             if work == "tick":
                 if p.real_time_factor == 0:
                     continue
@@ -221,9 +230,16 @@ class SimNode(Node):
 
     def _loop_work(self, now: float) -> str:
         """One unit of the loop thread's work (lock held): ``"tick"`` (free-running play),
-        ``"step"`` (one step of a free-running stepping request), ``"idle"`` (paused or stopped:
-        republish at the slow rate) or ``"wait"`` (lockstep: the callbacks drive)."""
+        ``"step"`` (one step of a free-running stepping request, or a paced lockstep state
+        published), ``"pace"`` (a paced lockstep state is not due yet), ``"idle"`` (paused or
+        stopped: republish at the slow rate) or ``"wait"`` (lockstep: the callbacks drive)."""
         if self.p.lockstep:
+            if self._due is not None:
+                if now < self._due:
+                    self._pace_wait = self._due - now
+                    return "pace"
+                self._publish_due(now)
+                return "step"
             return "idle" if self.state != PLAYING and self.request is None else "wait"
         if self.request is not None:
             self._request_step(self._effective_command(now))
@@ -301,12 +317,14 @@ class SimNode(Node):
 
     # -- lockstep ---------------------------------------------------------------------------------
     def _may_step(self) -> bool:
-        return self.state == PLAYING or self.request is not None
+        """Stepping is allowed (playing or a request runs) and no paced state is unpublished."""
+        return (self.state == PLAYING or self.request is not None) and self._due is None
 
     def _lockstep_begin(self) -> None:
         """Stepping becomes allowed: step at once if the command for t_k is here, otherwise
         (re)publish the state at t_k for a controller that may have missed it and wait."""
         self._waiting_since = time.monotonic()
+        self._pace_anchor = None
         if self._lockstep_command is not None:
             self._lockstep_advance()
         else:
@@ -330,8 +348,39 @@ class SimNode(Node):
             self._request_step(command)
         else:
             self._step(command)
+            due = self._paced_due()
+            if due is not None:
+                self._due = self._waiting_since = due   # the step's timeout counts from its publication
+                self._wake.set()
+                return
             self._publish()
         self._waiting_since = time.monotonic()
+
+    def _paced_due(self) -> float | None:
+        """Paced lockstep play (``lockstep_real_time_factor`` > 0): the wall time the state
+        just stepped to is due, or None to publish it now. The schedule is anchored where
+        playing began; a controller that fell more than ``MAX_LAG`` behind it moves the anchor
+        (the clock slips, it never hurries to catch up)."""
+        factor = self.p.lockstep_real_time_factor
+        if factor <= 0 or self.state != PLAYING:
+            return None
+        now = time.monotonic()
+        if self._pace_anchor is None:
+            self._pace_anchor = (now, self.plant.k - 1)
+        wall0, k0 = self._pace_anchor
+        due = wall0 + (self.plant.k - k0) * self.p.step_size / factor
+        if due < now - MAX_LAG:
+            self._pace_anchor = (now, self.plant.k)
+            return None
+        return due if due > now else None
+
+    def _publish_due(self, now: float) -> None:
+        """Publish the paced state that is due (lock held); its step now waits for its command."""
+        self._due = None
+        self._publish()
+        self._waiting_since = now
+        if self._lockstep_command is not None:     # sent before it could have seen this state
+            self._lockstep_advance()
 
     def _on_lockstep_timer(self) -> None:
         with self._lock:
@@ -432,6 +481,7 @@ class SimNode(Node):
         self.plant.reset(keep_time=keep_time)
         self._command = list(self.plant.initial_command)
         self._lockstep_command = None
+        self._due = self._pace_anchor = None
         self._last_valid = None
         self._resync = True
         self._publish()
@@ -489,6 +539,9 @@ class SimNode(Node):
             return t.answer
         if t.reset:
             self._reset(keep_time=False, why="stopping")
+        if self._due is not None:            # leaving paced play: the stepped state goes out now
+            self._due = None
+            self._publish()
         previous, self.state = self.state, target
         if target == PLAYING:
             self._resync = True

@@ -18,6 +18,7 @@ class SimParameters:
     step_ns: int                # the step (control period) [ns]
     lockstep: bool
     lockstep_timeout: float     # [s] wall time per step
+    lockstep_real_time_factor: float  # lockstep, playing: at most this many simulated s per wall s; 0 = unpaced
     initial_state: int          # SimulationState value
     paused_publish_rate: float  # [Hz]; 0 = never
     max_steps_per_request: int
@@ -62,6 +63,12 @@ def declare_sim_parameters(node, scene: str) -> SimParameters:
     lockstep_timeout = d("lockstep_timeout", 1.0,
                          "lockstep: wall time to wait for the command of a step before applying safe_force "
                          "for that step [s]", lo=1e-3, hi=3600.0)
+    lockstep_rtf = d("lockstep_real_time_factor", 0.0,
+                     "lockstep while playing: publish the next state no sooner than this many simulated "
+                     "seconds per wall second allow (1 = real time, to watch or to pace a controller that "
+                     "acts on wall time); every step still waits for its command, so a slow controller "
+                     "slows the clock and never loses a step; 0 = as fast as the controller answers",
+                     lo=0.0, hi=1000.0)
     initial = d("initial_state", "playing", "state at start: playing, paused or stopped")
     if initial not in STATE_BY_NAME:
         raise ParameterValueError(f"{node.get_name()}: parameter initial_state must be one of "
@@ -90,6 +97,7 @@ def declare_sim_parameters(node, scene: str) -> SimParameters:
     singular = d("singularity_warning", 0.05,
                  "warn (throttled) when lambda1/L or lambda2/L falls below this: the mass matrix grows like "
                  "1/lambda^2 and the simulation stops at 1e-3; 0 = never", lo=0.0, hi=1.0)
-    return SimParameters(scene, rate, rtf, step_ns, bool(lockstep), lockstep_timeout, STATE_BY_NAME[initial],
+    return SimParameters(scene, rate, rtf, step_ns, bool(lockstep), lockstep_timeout, lockstep_rtf,
+                         STATE_BY_NAME[initial],
                          paused_rate, int(max_steps), command_timeout, safe_force, max_force, frame_id, state_rate,
                          marker_rate, int(wait), bool(clock), singular)
