@@ -29,7 +29,8 @@ def register(sub) -> None:
                    "and the controller all take the mechanism from it)")
     p.add_argument("--namespace", "-n", default=None, help="ROS namespace for every node, e.g. /robot1")
     p.add_argument("--params-file", default=None, help="ROS parameter YAML file applied to every node")
-    p.add_argument("--record", metavar="DIR", default=None, help="also record the suite's topics to this bag folder")
+    p.add_argument("--record", metavar="DIR", default=None, help="also record the suite's topics to this bag folder "
+                   "(the simulator starts its clock once the recorder has subscribed: the bag holds the run from t = 0)")
     p.add_argument("--no-formfind", action="store_true", help="do not start the form-finding node")
     p.add_argument("--no-controller", action="store_true",
                    help="do not start the controller (actuator_forces then come only from you)")
@@ -60,12 +61,70 @@ def register(sub) -> None:
     add_json_flag(p)
     p.set_defaults(func=_call_formfind)
 
+    p = sub.add_parser("sim", help="run control of the simulator: state, play, pause, stop, step N, reset "
+                       "(the simulation_interfaces services)",
+                       description="Call the simulator's simulation_interfaces services: `state` (GetSimulationState), "
+                       "`play`, `pause`, `stop` (SetSimulationState; stop resets, clock at 0), `step N` "
+                       "(StepSimulation: N steps, only while paused; in lockstep each waits for its command) "
+                       "and `reset` (ResetSimulation, scope all). Exit 0 when the simulator answers OK "
+                       "(or is in the asked state already), 1 with its reason otherwise.")
+    p.add_argument("action", choices=SIM_ACTIONS)
+    p.add_argument("steps", nargs="?", type=int, default=None, help="number of steps, for `step`")
+    p.add_argument("--timeout", type=float, default=10.0,
+                   help="seconds to wait for the service (and for `step`, per 1,000 steps beyond that)")
+    add_json_flag(p)
+    p.set_defaults(func=_sim)
+
     p = sub.add_parser("echo", help="print the messages arriving on a topic")
     p.add_argument("topic")
     p.add_argument("--count", "-c", type=int, default=0, help="stop after this many messages (0 = never)")
     p.add_argument("--timeout", type=float, default=0.0, help="give up after this many seconds (0 = never)")
     add_json_flag(p)
     p.set_defaults(func=_echo)
+
+
+#: ``tensegrity sim`` actions -> simulation_interfaces service name.
+SIM_ACTIONS = {"state": "get_simulation_state", "play": "set_simulation_state", "pause": "set_simulation_state",
+               "stop": "set_simulation_state", "step": "step_simulation", "reset": "reset_simulation"}
+
+
+def _sim(args) -> int:
+    from tensegrity_ros.rclpy_utils.env import require_rclpy
+
+    require_rclpy()
+    from simulation_interfaces.msg import Result, SimulationState
+    from simulation_interfaces.srv import GetSimulationState, ResetSimulation, SetSimulationState, StepSimulation
+
+    if (args.action == "step") != (args.steps is not None):
+        raise CliError("give a number of steps with `step` (and only there), e.g. `tensegrity sim step 100`")
+    if args.steps is not None and args.steps < 1:
+        raise CliError(f"steps must be at least 1, got {args.steps}")
+    args.service = SIM_ACTIONS[args.action]
+    states = {"play": SimulationState.STATE_PLAYING, "pause": SimulationState.STATE_PAUSED,
+              "stop": SimulationState.STATE_STOPPED}
+    if args.action == "state":
+        srv, request = GetSimulationState, GetSimulationState.Request()
+    elif args.action in states:
+        srv, request = SetSimulationState, SetSimulationState.Request()
+        request.state.state = states[args.action]
+    elif args.action == "step":
+        srv, request = StepSimulation, StepSimulation.Request(steps=args.steps)
+        args.timeout += args.timeout * args.steps / 1000.0
+    else:
+        srv, request = ResetSimulation, ResetSimulation.Request(scope=ResetSimulation.Request.SCOPE_ALL)
+    res = _call_service(args, "tensegrity_sim_control", srv, request)
+    code = res.result.result
+    ok = code == Result.RESULT_OK or code == SetSimulationState.Response.ALREADY_IN_TARGET_STATE
+    names = {v: k for cls in (Result, SetSimulationState.Response) for k, v in vars(cls).items()
+             if k.isupper() and isinstance(v, int)}
+    if args.json:
+        from tensegrity_ros.cli._common import print_json
+        from tensegrity_ros.rclpy_utils.messages import message_to_dict
+
+        print_json({"ok": ok, "code": names.get(code, str(code)), **message_to_dict(res)})
+    else:
+        print(f"{'ok' if ok else f'failed ({names.get(code, code)})'}: {res.result.error_message}")
+    return 0 if ok else 1
 
 
 def _node(args) -> int:
@@ -93,7 +152,10 @@ def _up(args) -> int:
         ros += ["--params-file", args.params_file]
     ros += args.ros_args[1:] if args.ros_args else []
     mech = ros + (["-p", f"scene:={args.scene}"] if args.scene else [])    # one source of the mechanism
-    specs = [ProcessSpec("sim", exe + ["node", "sim"] + mech), ProcessSpec("ik", exe + ["node", "ik"] + mech)]
+    # recording: the simulator's clock starts once the recorder subscribes to every output topic,
+    # so the bag holds the run from t = 0 (before the user's own arguments, which may override it)
+    sim = ["--ros-args", "-p", "wait_for_subscribers:=1", *mech[1:]] if args.record else mech
+    specs = [ProcessSpec("sim", exe + ["node", "sim"] + sim), ProcessSpec("ik", exe + ["node", "ik"] + mech)]
     if not args.no_controller:
         specs.append(ProcessSpec("controller", exe + ["node", "controller"] + mech))
     if not args.no_formfind:
