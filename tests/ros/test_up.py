@@ -38,7 +38,18 @@ def test_up_starts_every_node_and_ctrl_c_stops_them(cli, ros_context, tmp_path):
         time.sleep(0.2)
     children = _children(up.popen.pid)
     assert len(children) == 5          # sim, ik, controller, formfind, recorder
-    time.sleep(1.0)
+    # with --record the simulator's clock starts only once the recorder subscribed (and its
+    # matches held): a joint state seen here has been sent to the recorder too
+    from rclpy.qos import QoSProfile
+    from sensor_msgs.msg import JointState
+
+    from tensegrity_ros.rclpy_utils.raw_take import take_all
+
+    sub = node.create_subscription(JointState, "/suite_test/joint_states", lambda *_: None, QoSProfile(depth=10),
+                                   raw=True)
+    while not take_all(sub):
+        assert time.monotonic() < deadline + 60, up.stderr()
+        time.sleep(0.05)
     up.popen.send_signal(signal.SIGINT)
     assert up.popen.wait(60) == 0, up.stderr()
     assert not any(_alive(pid) for pid in children)
