@@ -35,6 +35,7 @@ import sys
 import threading
 import time
 
+import numpy as np
 from builtin_interfaces.msg import Duration as DurationMsg
 from geometry_msgs.msg import Point
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
@@ -77,6 +78,7 @@ class _Job:
         self.handle = handle
         self.goal = goal
         self.finished = threading.Event()
+        self.started_at = math.inf          # wall time it took over (the watchdog counts from then)
         self.last_tick = None
         self.last_state = None
 
@@ -120,6 +122,7 @@ class ControllerNode(Node):
         self._seq = 0                        # goals started so far (execution order)
         self._active_seq = 0                 # seq of the goal the controller last took on
         self._latest = None                  # (t, q, qdot) of the last new joint state
+        self._latest_header = None           # its header (stamp and frame)
         self._advanced_at = None             # wall time the joint states' time last advanced
         self._holding = False
 
@@ -150,6 +153,7 @@ class ControllerNode(Node):
             if self._latest is not None and t <= self._latest[0]:
                 return                          # not a new sample (a stopped simulator repeats its state)
             self._latest = state
+            self._latest_header = msg.header
             self._advanced_at = time.monotonic()
             if self.ctrl.reference is None and not self._start_holding(t, q):
                 return
@@ -197,12 +201,14 @@ class ControllerNode(Node):
             self._job = None
 
     def _watch_time(self) -> None:
-        """Wall-time watchdog: a goal cannot wait for a simulator that has stopped."""
+        """Wall-time watchdog: a goal cannot wait for a simulator that has stopped. It counts
+        from the later of the last new joint state and the goal's start (a goal sent to a
+        paused simulator gets ``state_timeout`` for the simulator to resume)."""
         with self._lock:
             job, since = self._job, self._advanced_at
             if job is None:
                 return
-            idle = math.inf if since is None else time.monotonic() - since
+            idle = time.monotonic() - max(job.started_at if since is None else since, job.started_at)
             if idle > self.state_timeout:
                 last = "none received" if self._latest is None else f"the last at t = {self._latest[0]:.3f} s"
                 self._end(job, G.Outcome(G.SIMULATOR_STOPPED, f"the joint states' time has not advanced for "
@@ -295,9 +301,12 @@ class ControllerNode(Node):
             t0 = self._latest[0] if start is None else start
             goal.t_start = t0
             self._job, self._active_seq = job, seq
+            job.started_at = time.monotonic()
             self.ctrl.follow(ref, t0, gains)
+            started = self._start_feedback(job)
         if old is not None:
             old.end(G.Outcome(G.PREEMPTED, "preempted by a newer goal"))
+        job.handle.publish_feedback(started)
         while not job.finished.wait(0.05):
             if not rclpy.ok(context=self.context):
                 job.end(G.Outcome(G.SIMULATOR_STOPPED, "the controller is shutting down"))
@@ -337,6 +346,34 @@ class ControllerNode(Node):
                     raise PlanningError(f"tolerance of {item.name} must be finite, got {v!r}")
                 values[JOINTS.index(item.name)] = d if v == 0.0 else (v if v > 0.0 else 0.0)
         return tuple(pos), tuple(vel)
+
+    def _start_feedback(self, job: _Job):
+        """The feedback of a goal that has just taken over (lock held): the last measured
+        state against the reference at that time, before any tick under the goal. A client
+        that steps a paused simulator waits for it: from then on every step is the goal's."""
+        t, q, qdot = self._latest
+        desired = job.goal.reference.sample(t - job.goal.t_start)
+        L = self.params.L
+        d = np.array([q[0] + L * math.cos(q[2]), L * math.sin(q[2])])
+        if isinstance(job.goal, G.MoveGoal):
+            fb = MoveEndEffector.Feedback(header=self._latest_header, phase=job.goal.phase)
+            target = job.goal.reference.target
+            fb.end_effector = Point(x=float(d[0]), y=float(d[1]))
+            fb.desired = Point(x=float(desired.end_effector[0]), y=float(desired.end_effector[1]))
+            fb.tracking_error = float(math.hypot(*(d - desired.end_effector)))
+            fb.distance_to_target = float(math.hypot(d[0] - target[0], d[1] - target[1]))
+            fb.time_from_start = 0.0
+            return fb
+        fb = FollowActuatorTrajectory.Feedback(header=self._latest_header, joint_names=list(JOINTS))
+        when = _duration_msg(0.0)
+        fb.desired = JointTrajectoryPoint(positions=[float(v) for v in desired.q[:2]],
+                                          velocities=[float(v) for v in desired.qdot[:2]], time_from_start=when)
+        fb.actual = JointTrajectoryPoint(positions=[float(v) for v in q[:2]],
+                                         velocities=[float(v) for v in qdot[:2]], time_from_start=when)
+        fb.error = JointTrajectoryPoint(positions=[float(q[k] - desired.q[k]) for k in (0, 1)],
+                                        velocities=[float(qdot[k] - desired.qdot[k]) for k in (0, 1)],
+                                        time_from_start=when)
+        return fb
 
     def _feedback(self, job: _Job, msg: JointState, tick, q, qdot):
         if isinstance(job.goal, G.MoveGoal):
@@ -400,8 +437,6 @@ def _parse_joint_state(msg: JointState):
         return None
     if not all(math.isfinite(v) for v in q + qdot):
         return None
-    import numpy as np
-
     return stamp_to_s(msg.header.stamp), np.array(q), np.array(qdot)
 
 

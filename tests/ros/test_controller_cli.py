@@ -22,10 +22,15 @@ def suite(tmp_path_factory):
     from tests.ros_support import Proc
 
     folder = tmp_path_factory.mktemp("ctl_cli")
-    sim = Proc(["node", "sim", *NS], folder / "sim.log")      # 100 Hz in real time, as the controller
-    ctl = Proc(["node", "controller", *NS], folder / "ctl.log")
+    # lockstep at 100 Hz (the controller's rate), paced at real time: the loop is the
+    # sampled-data one whatever the load (tests/ros/test_controller_node.py)
+    sim = Proc(["node", "sim", *NS, "-p", "lockstep:=true", "-p", "lockstep_real_time_factor:=1.0",
+                "-p", "initial_state:=paused", "-p", "lockstep_timeout:=30.0"], folder / "sim.log")
+    ctl = Proc(["node", "controller", *NS, "-p", "state_timeout:=2.0"], folder / "ctl.log")
     sim.wait_for("publishing at")
     ctl.wait_for("holding rho")
+    played = run_cli("sim", "play", *NS)
+    assert played.returncode == 0, played.stdout + played.stderr
     yield folder
     for p in (sim, ctl):
         p.stop()
