@@ -151,7 +151,10 @@ class ControllerNode(Node):
         t, q, qdot = state
         with self._lock:
             if self._latest is not None and t <= self._latest[0]:
-                return                          # not a new sample (a stopped simulator repeats its state)
+                t0, q0, qdot0 = self._latest
+                if t == t0 and np.array_equal(q, q0) and np.array_equal(qdot, qdot0):
+                    return                      # not a new sample (a paused or stopped simulator repeats it)
+                self._simulation_reset(t)       # time went back, or another state at the same time
             self._latest = state
             self._latest_header = msg.header
             self._advanced_at = time.monotonic()
@@ -166,6 +169,21 @@ class ControllerNode(Node):
         self.pub.publish(cmd)
         if job is not None and not job.finished.is_set():
             job.handle.publish_feedback(self._feedback(job, msg, tick, q, qdot))
+
+    def _simulation_reset(self, t: float) -> None:
+        """The simulation was reset: a joint state at ``t`` [s] that is not a repeat of the
+        latest and not later than it. The running goal ends, the integral is cleared and
+        the controller holds where it finds the mechanism now (lock held). A repeat (same
+        stamp, same positions and velocities) is not a reset: a lockstep simulator keeps
+        its command for a state it publishes again unchanged."""
+        before = self._latest[0]
+        what = f"its time went back from {before:.3f} s to {t:.3f} s" if t < before else f"its state changed at {t:.3f} s"
+        job = self._job
+        if job is not None:
+            self._end(job, G.Outcome(G.SIMULATOR_STOPPED, f"the simulation was reset: {what}"))
+        self.ctrl.reference = None
+        self.ctrl.reset_integral()
+        self.get_logger().info(f"the simulation was reset ({what}): holding anew")
 
     def _start_holding(self, t: float, q) -> bool:
         try:

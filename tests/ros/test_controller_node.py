@@ -337,3 +337,24 @@ def test_a_simulator_driven_into_a_singular_set_aborts_the_running_goal(cli, ros
     name, distance = dynamics_singularity(last[0], last[1], PAPER_PARAMS)
     assert name == "lambda2" and distance < 0.01 and f"at {name}/L" in res.error_string
     assert ctl.popen.poll() is None
+
+
+def test_a_reset_ends_the_running_goal_and_the_lockstep_loop_goes_on(cli, ros_context):
+    """ResetSimulation (clock back to 0) under a running goal: the goal ends with the reason,
+    the controller holds anew where the reset put the mechanism and answers its state, so the
+    lockstep simulator never waits out a step."""
+    sim, ctl = _start(cli, "/ctl_reset")
+    client = Client(ros_context, "/ctl_reset")
+    x0, y0, _ = client.end_effector()
+    handle, feedback = client.send(client.move, client.Move.Goal(x=x0 + 0.03, y=y0, duration=6.0))
+    client.spin_until(lambda: feedback and feedback[-1].time_from_start >= 1.0)
+    _sim_control("/ctl_reset", "reset")
+    status, res = client.result(handle)
+    assert status == 6 and res.error_code == client.Move.Result.SIMULATOR_STOPPED
+    assert "the simulation was reset: its time went back" in res.error_string
+    client.joints.clear()
+    client.spin_until(lambda: client.joints and _stamp(client.joints[-1]) >= 1.0)   # the clock runs again from 0
+    x, y, _ = client.end_effector()
+    assert math.hypot(x - x0, y - y0) < 2e-4                 # held at the initial state
+    assert "no command for step" not in sim.stderr() and "rejected" not in sim.stderr()
+    assert "holding anew" in ctl.stderr()

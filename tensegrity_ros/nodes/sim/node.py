@@ -478,14 +478,21 @@ class SimNode(Node):
             req = self.request
             self._end_request(Answer(Result.RESULT_OPERATION_FAILED,
                                      f"interrupted by {why} after {req.completed} of {req.steps} steps"))
+        before = self._published_state()
         self.plant.reset(keep_time=keep_time)
         self._command = list(self.plant.initial_command)
-        self._lockstep_command = None
+        if self._published_state() != before:
+            self._lockstep_command = None    # it answered a state that is gone (an unchanged one keeps it)
         self._due = self._pace_anchor = None
         self._last_valid = None
         self._resync = True
         self._publish()
         self._waiting_since = time.monotonic()
+
+    def _published_state(self) -> tuple:
+        """What a controller answers: the time [ns], positions and velocities of the state."""
+        sample = self.plant.joint_sample()
+        return self.plant.time_ns, tuple(map(float, sample.q)), tuple(map(float, sample.qdot))
 
     def on_reset(self, req: Trigger.Request, res: Trigger.Response) -> Trigger.Response:
         with self._lock:
@@ -615,7 +622,12 @@ class SimNode(Node):
         self._command_executor.shutdown(timeout_sec=5.0)
         self._command_node.destroy_node()
         with self._lock:
-            self._end_request(Answer(Result.RESULT_OPERATION_FAILED, "the simulator is shutting down"))
+            # the executor is shut down by now, so a waiting request is not answered (its
+            # client sees the service go away); a future completed now would need the executor
+            req, self.request = self.request, None
+        if req is not None:
+            rclpy.logging.get_logger(f"{self.get_name()}_summary").warning(
+                f"a stepping request was interrupted by the shutdown after {req.completed} of {req.steps} steps")
         counts = ", ".join(f"{k} {v}" for k, v in self.published.items())
         # the context may already be shut down (Ctrl-C): log without /rosout
         rclpy.logging.get_logger(f"{self.get_name()}_summary").info(
