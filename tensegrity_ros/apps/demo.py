@@ -1,14 +1,15 @@
 """The main job (``./run demo``): the suite end to end, over real DDS on loopback, in lockstep.
 
 1. start the suite: ``tensegrity_sim`` (class-2 mechanism at rest, lockstep, paused,
-   step = the control period), ``tensegrity_ik`` and ``tensegrity_formfind``, each its own
-   process;
-2. IK-driven motion, recorded to ``OUT/ik_motion``: ``solve_ik`` for each end-effector
-   waypoint (seeded with the previous solution so the motion stays on one branch), then one
-   ``StepSimulation`` over the whole motion while this process's controller answers every
-   joint state with :class:`~tensegrity_core.class2.control.ActuatorTracker` forces
-   (holding forces + PD, beta damped through the springs) towards a smoothstep reference
-   that depends on the step's time only; report where D settles against each target;
+   step = the control period), ``tensegrity_ik``, ``tensegrity_formfind`` and
+   ``tensegrity_controller``, each its own process;
+2. the end-effector motion, recorded to ``OUT/ik_motion``: ``solve_ik`` for each waypoint
+   (seeded with the previous solution: one branch), then the controller's actions
+   (:mod:`.demo_moves`): ``move_end_effector`` to each waypoint and a timed
+   ``follow_actuator_trajectory``, the simulator stepped by this process while the
+   controller answers every step; report each goal's settled error, settling time,
+   overshoot and largest force; run it a second time and compare the joint states
+   (identical); then the controller is stopped (the fold's law is this process's own);
 3. the paper's fold scenario (Sect. 5.3), recorded to ``OUT/fold``: ``ResetSimulation``
    (rest at rho = (0.7, 0.7), clock at 0), then ``f_i = 10 rho_i t`` from the sampled
    lengths, held for each step; report the fold times from the simulator's ``events``;
@@ -25,7 +26,6 @@ the stamps).
 
 from __future__ import annotations
 
-import math
 import shutil
 import signal
 import subprocess
@@ -37,19 +37,16 @@ from pathlib import Path
 import numpy as np
 
 from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics
-from tensegrity_core.class2.control import ActuatorTracker
 from tensegrity_core.class2.fold_law import FOLD_GAIN, paper_fold_forces
 from tensegrity_core.sim.sampled import NS_PER_S, run_sampled, step_ns_of
+from tensegrity_ros.apps import demo_moves
+from tensegrity_ros.apps.demo_moves import WAYPOINT_OFFSETS, ControllerClient
 from tensegrity_ros.apps.launch import Launcher, ProcessSpec
 from tensegrity_ros.apps.sim_client import SimClient
 from tensegrity_ros.rclpy_utils.env import require_rclpy
 
 __all__ = ["FOLD_GAIN", "WAYPOINT_OFFSETS", "run_demo"]
 
-#: End-effector waypoints, offsets [m] from D at rho1 = rho2 = 0.7 (the scene's rest).
-WAYPOINT_OFFSETS = ((0.08, 0.0), (0.08, 0.06), (-0.04, 0.06), (0.0, 0.0))
-MOVE_TIME = 2.0     # s (simulated) per move, smoothstep in the actuator lengths
-DWELL_TIME = 2.5    # s (simulated) at each waypoint before its error is measured
 FOLD_TIME = 4.0     # s (simulated) of the paper's force law
 CONTROL_PERIOD = 0.01   # s: the demo's control period (100 Hz)
 TABLE_RATES = (10, 100, 1000)   # Hz: control rates of the table against the continuous run
@@ -108,21 +105,6 @@ def _wait_subscribed(node, before: dict, timeout: float = 30.0) -> None:
     time.sleep(MATCH_SETTLE_S)
 
 
-def ik_law(goals, tracker: ActuatorTracker, start=(0.7, 0.7)):
-    """The IK motion as one controller of the step's time: move ``i`` runs from
-    ``i (MOVE + DWELL)`` for ``MOVE_TIME`` (smoothstep between successive goals), then dwells."""
-    points = [np.array(start, dtype=float)] + [np.array(g, dtype=float) for g in goals]
-    segment = MOVE_TIME + DWELL_TIME
-
-    def law(sample):
-        i = min(int(sample.t // segment), len(goals) - 1)
-        u = min(max((sample.t - i * segment) / MOVE_TIME, 0.0), 1.0)
-        ref = points[i] + (points[i + 1] - points[i]) * (u * u * (3.0 - 2.0 * u))
-        return tracker.forces(ref, sample.q[:2], sample.qdot[:2], float(sample.qdot[2]))
-
-    return law
-
-
 def _ik_goals(client: DemoClient) -> list:
     """``solve_ik`` for each waypoint, seeded with the previous solution (the first with rest)."""
     rest = forward_kinematics(0.7, 0.7, PAPER_PARAMS)
@@ -137,24 +119,26 @@ def _ik_goals(client: DemoClient) -> list:
     return goals
 
 
-def _ik_motion(client: DemoClient, step_ns: int, results: dict) -> None:
-    goals = results["ik_goals"]
-    tracker = ActuatorTracker(PAPER_PARAMS, kp=100.0, kd=20.0, kbeta=0.3)
-    segment_ns = round((MOVE_TIME + DWELL_TIME) * NS_PER_S)
-    steps = len(goals) * segment_ns // step_ns
-    joints = client.run(ik_law([g for _, g in goals], tracker), steps)
-    by_stamp = {j.stamp_ns: j for j in joints}
-    errors = []
-    L = PAPER_PARAMS.L
-    for i, (target, goal) in enumerate(goals):
-        j = by_stamp[(i + 1) * segment_ns]
-        rho, beta = j.position[:2], j.position[2]
-        d = (rho[0] + L * math.cos(beta), L * math.sin(beta))
-        err = math.hypot(d[0] - target[0], d[1] - target[1])
-        errors.append(err)
-        _say(f"  waypoint D = ({target[0]:.3f}, {target[1]:.3f}) m: IK rho = ({goal[0]:.4f}, {goal[1]:.4f}) m, "
-             f"D settled at ({d[0]:.4f}, {d[1]:.4f}) m, error {1000 * err:.1f} mm")
-    results["ik_errors_m"] = errors
+def _moves(ctl: ControllerClient, step_ns: int, results: dict, *, label: str) -> list:
+    """The controller phase (:func:`.demo_moves.run_moves`); its report printed the first time."""
+    moves, traj, joints = demo_moves.run_moves(ctl, step_ns)
+    results.setdefault("moves", {})[label] = (moves, traj)
+    if label != "first":
+        return joints
+    for (target, rho), m in zip(results["ik_goals"], moves):
+        status = "ok" if m.code == 0 else f"FAILED ({m.message})"
+        _say(f"  move D to ({target[0]:.3f}, {target[1]:.3f}) m (IK rho = ({rho[0]:.4f}, {rho[1]:.4f}) m) in "
+             f"{demo_moves.MOVE_TIME:g} s: {status}; settled error {m.settled_error * 1e3:.5f} mm, "
+             f"settling {m.settling_time:.2f} s after the move, overshoot {m.overshoot * 1e3:.5f} mm, "
+             f"max |f| {m.max_force:.2f} N; error {demo_moves.CHECK_AFTER:g} s after the move "
+             f"{m.error_after * 1e3:.5f} mm")
+    status = "ok" if traj.code == 0 else f"FAILED ({traj.message})"
+    points = ", ".join(f"{t:g} s: ({r[0]:.2f}, {r[1]:.2f})" for t, r in demo_moves.TRAJECTORY)
+    _say(f"  actuator trajectory rho = [{points}] m: {status}; largest length error while moving "
+         f"{traj.max_path_error * 1e3:.3f} mm, final ({traj.final_error[0] * 1e3:+.4f}, "
+         f"{traj.final_error[1] * 1e3:+.4f}) mm, D {traj.end_effector_error * 1e3:.4f} mm from the last point's, "
+         f"max |f| {traj.max_force:.2f} N")
+    return joints
 
 
 def fold_times(events) -> dict:
@@ -263,47 +247,70 @@ def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool 
     step_ns = step_ns_of(control_period)
     out.mkdir(parents=True, exist_ok=True)
     exe = [sys.executable, "-m", "tensegrity_ros.cli"]
+    rate = min(1000.0, NS_PER_S / step_ns)
     sim_args = ["--ros-args", "-p", "lockstep:=true", "-p", "initial_state:=paused",
-                "-p", f"step_size:={step_ns / NS_PER_S!r}", "-p", f"publish_rate:={min(1000.0, NS_PER_S / step_ns)!r}",
+                "-p", f"step_size:={step_ns / NS_PER_S!r}", "-p", f"publish_rate:={rate!r}",
                 "-p", "paused_publish_rate:=0.0", "-p", "lockstep_timeout:=10.0"]
+    ctl_args = ["--ros-args", "-p", f"rate:={NS_PER_S / step_ns!r}"]
+    for name, value in demo_moves.CONTROLLER_PARAMETERS.items():
+        ctl_args += ["-p", f"{name}:={value!r}"]
+    log = open(out / "suite.log", "w")
     launcher = Launcher([
         ProcessSpec("sim", exe + ["node", "sim", *sim_args]),
         ProcessSpec("ik", exe + ["node", "ik"]),
         ProcessSpec("formfind", exe + ["node", "formfind"]),
-    ], out=open(out / "suite.log", "w"))
-    _say(f"starting the suite (sim in lockstep, control period {step_ns / 1e6:g} ms; IK; form-finding); "
-         f"logs in {out / 'suite.log'}")
+    ], out=log)
+    controller = Launcher([ProcessSpec("controller", exe + ["node", "controller", *ctl_args])], out=log)
+    _say(f"starting the suite (sim in lockstep, control period {step_ns / 1e6:g} ms; IK; form-finding; "
+         f"controller); logs in {out / 'suite.log'}")
     launcher.start()
+    controller.start()
     previous_term = signal.signal(signal.SIGTERM, signal.default_int_handler)  # SIGTERM -> clean stop
     rclpy.init()
     client = DemoClient(rclpy)
     client.step_ns = step_ns
+    ctl = ControllerClient(client.sim)
     results: dict = {}
     bags: list[Path] = []
     rec = None
+
+    def recorded(name: str, title: str, phase):
+        """Run ``phase`` while ``OUT/name`` records the suite's topics (when recording)."""
+        nonlocal rec
+        if record:
+            folder = out / name
+            if folder.exists():
+                shutil.rmtree(folder)
+            before = {t: client.sim.node.count_subscribers(t) for t in RECORDED_TOPICS}
+            rec = Recorder(folder, list(RECORDED_TOPICS))
+            rec.wait_subscribed(topics=len(RECORDED_TOPICS))
+            _wait_subscribed(client.sim.node, before)
+            bags.append(folder)
+        _say(f"{title}" + (f" (recording {out / name})" if record else ""))
+        value = phase()
+        if rec is not None:
+            rec.stop()
+            rec = None
+        return value
+
     try:
         client.sim.wait_for_services()
+        ctl.wait_for_servers()
+        _wait_subscribed(client.sim.node, {"joint_states": 1})      # the controller's subscription
         results["ik_goals"] = _ik_goals(client)
-        phases = (("ik_motion", lambda: _ik_motion(client, step_ns, results),
-                   "IK-driven motion through end-effector waypoints"),
-                  ("fold", lambda: results.__setitem__("fold_joints", _fold(client, step_ns, results, label="first")),
-                   "the paper's fold scenario from rest, f_i = 10 rho_i t sampled and held"))
-        for name, phase, title in phases:
-            rec = None
-            if record:
-                folder = out / name
-                if folder.exists():
-                    shutil.rmtree(folder)
-                before = {t: client.sim.node.count_subscribers(t) for t in RECORDED_TOPICS}
-                rec = Recorder(folder, list(RECORDED_TOPICS))
-                rec.wait_subscribed(topics=len(RECORDED_TOPICS))
-                _wait_subscribed(client.sim.node, before)
-                bags.append(folder)
-            _say(f"{title}" + (f" (recording {out / name})" if record else ""))
-            phase()
-            if rec is not None:
-                rec.stop()
-                rec = None
+        moves_joints = recorded("ik_motion", "end-effector moves through the controller's actions "
+                                "(move_end_effector to each waypoint, then follow_actuator_trajectory)",
+                                lambda: _moves(ctl, step_ns, results, label="first"))
+        _say("the moves again, not recorded: same lockstep run, compared stamp by stamp")
+        moves_again = _moves(ctl, step_ns, results, label="second")
+        moves_identical = _joint_table(moves_joints) == _joint_table(moves_again)
+        _say(f"  second run: {len(_joint_table(moves_again))} joint states, "
+             + ("identical to the first" if moves_identical else "DIFFERENT from the first"))
+        if controller.stop() != 0:
+            _say("  warning: the controller did not exit cleanly (see the log)")
+        results["fold_joints"] = recorded(
+            "fold", "the paper's fold scenario from rest, f_i = 10 rho_i t sampled and held",
+            lambda: _fold(client, step_ns, results, label="first"))
         ft = fold_times(results["fold_events"]["first"])
         results["fold_times_s"] = ft
         for key, when in ft.items():
@@ -345,14 +352,17 @@ def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool 
         forces = np.array(res.member_forces)
         ratio = forces / forces[0] if res.success else []
         _say(f"  {'ok' if res.success else 'FAILED'}: {res.message}; {res.iterations} iterations, residual "
-             f"{res.residual:.2g} N, min stiffness eigenvalue {res.min_stiffness_eigenvalue:.4g}; "
+             f"{res.residual:.2g}, min stiffness eigenvalue {res.min_stiffness_eigenvalue:.4g}; "
              f"forces / first = {np.round(ratio, 6).tolist()} (paper: [1, 1, 1, 3])")
         results["formfind_success"] = bool(res.success)
 
         _say("summary")
-        errs = results.get("ik_errors_m", [])
-        if errs:
-            _say(f"  IK motion: {len(errs)} waypoints, settled error max {1000 * max(errs):.1f} mm")
+        moves, traj = results["moves"]["first"]
+        moves_ok = all(m.code == 0 and m.error_after < demo_moves.GOAL_TOLERANCE for m in moves) and traj.code == 0
+        _say(f"  controller: {len(moves)} moves, settled error max {max(m.settled_error for m in moves) * 1e3:.5f} mm "
+             f"(goal tolerance {demo_moves.GOAL_TOLERANCE * 1e3:g} mm), error {demo_moves.CHECK_AFTER:g} s after each "
+             f"move max {max(m.error_after for m in moves) * 1e3:.5f} mm; trajectory "
+             f"{'succeeded' if traj.code == 0 else 'FAILED'}; rerun identical: {moves_identical}")
         _say("  fold (events): " + ", ".join(f"{k} at {v:.6f} s" if v is not None else f"{k} not folded"
                                             for k, v in ft.items())
              + f"; rerun identical: {identical}; core sampled run identical: {diff == 0.0}")
@@ -361,16 +371,21 @@ def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool 
             counts = ", ".join(f"{t['name']} {t['count']}" for t in info["topics"])
             _say(f"  bag {folder}: {info['message_count']} messages ({counts}), "
                  f"{info['size_bytes'] / 1024:.0f} KiB")
-        ok = (results.get("formfind_success", False) and len(errs) == len(WAYPOINT_OFFSETS) and identical
+        ok = (results.get("formfind_success", False) and moves_ok and moves_identical and identical
               and diff == 0.0)
         return 0 if ok else 1
     except KeyboardInterrupt:
         _say("interrupted")
         return 130
+    except RuntimeError as err:       # a node that did not answer or did not come up
+        _say(f"failed: {err} (logs in {out / 'suite.log'})")
+        return 1
     finally:
         if rec is not None:
             rec.stop()
         client.close()
         rclpy.try_shutdown()
+        controller.stop()
         launcher.stop()
+        log.close()
         signal.signal(signal.SIGTERM, previous_term)

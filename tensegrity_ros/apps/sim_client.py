@@ -146,7 +146,7 @@ class SimClient:
         lost to a reader that matched late would stall that step until the timeout)."""
         from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
-        for name, client in self.clients.items():
+        for client in self.clients.values():
             if not client.wait_for_service(timeout_sec=timeout):
                 raise RuntimeError(f"service {client.srv_name} not available within {timeout:g} s")
         if not wait_for_matches([self.pub], 1, timeout):

@@ -1,6 +1,7 @@
-"""`tensegrity demo` end to end (issue 14): the suite in lockstep, fold times from the
-simulator's events, a rerun and the core's sampled-data run identical, the control-period
-table, form-finding; exit code 0 only when all of it holds."""
+"""`tensegrity demo` end to end (issues 14 and 15): the suite in lockstep; the controller's
+actions move D through the waypoints within the 0.05 mm target and a rerun is identical;
+fold times from the simulator's events, a rerun and the core's sampled-data run identical,
+the control-period table, form-finding; exit code 0 only when all of it holds."""
 
 from __future__ import annotations
 
@@ -17,6 +18,18 @@ def test_the_demo_runs_in_lockstep_and_reproduces_itself(tmp_path):
     r = run_cli("demo", "-o", str(tmp_path / "out"), "--no-record", timeout=600)
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     out = r.stdout
+    from tensegrity_core.class2 import forward_kinematics
+    from tensegrity_ros.apps.demo_moves import WAYPOINT_OFFSETS
+
+    rest = forward_kinematics(0.7, 0.7)
+    moves = re.findall(r"move D to \((\S+), (\S+)\) m .*: ok; settled error (\S+) mm, .* max \|f\| (\S+) N; "
+                       r"error 2 s after the move (\S+) mm", out)
+    assert [(float(x), float(y)) for x, y, *_ in moves] == [
+        (round(rest.x + dx, 3), round(rest.y + dy, 3)) for dx, dy in WAYPOINT_OFFSETS]
+    for *_, settled, force, later in moves:       # issue 15: below 0.05 mm within 2 s, forces within 5 N
+        assert float(settled) < 0.05 and float(later) < 0.05 and float(force) <= 5.0
+    assert re.search(r"actuator trajectory .*: ok;", out)
+    assert re.search(r"the moves again.*\n\[demo\]   second run: \d+ joint states, identical to the first", out)
     assert "second run: 401 joint states, identical to the first" in out
     assert "largest difference from the lockstep ROS run: 0 (identical)" in out
     # the fold times are the simulator's located events: those of the core's sampled run of

@@ -1,0 +1,206 @@
+"""The demo's controller phase: end-effector moves and an actuator trajectory through the
+``tensegrity_controller`` node's actions, with the simulator in lockstep.
+
+Reproducible by construction. The simulator is paused between goals; for each goal the
+client (1) waits until the controller has answered the state the simulator stands at (its
+command for that step is then already with the simulator), (2) sends the goal and waits for
+the feedback the controller sends when the goal takes over (from then on every step is the
+goal's), (3) steps the simulator a fixed number of steps, each of which waits for the
+controller's command, (4) reads the goal's result. No step depends on when a message
+arrived, so two runs give the same joint states bit for bit.
+
+Times are simulation times [s]; positions of D [m] in the mechanism's plane.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass
+
+import numpy as np
+
+from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics
+from tensegrity_ros.apps.sim_client import NS_PER_S, JointRecord, SimClient
+
+#: End-effector waypoints, offsets [m] from D at rho1 = rho2 = 0.7 (the scene's rest).
+WAYPOINT_OFFSETS = ((0.08, 0.0), (0.08, 0.06), (-0.04, 0.06), (0.0, 0.0))
+MOVE_TIME = 2.0          # s: duration of each move (MoveEndEffector.duration)
+GOAL_TOLERANCE = 5e-5    # m: a move succeeds once D stays this close to its target (issue 15: 0.05 mm)
+SETTLE_TIMEOUT = 2.0     # s after a move's end to get there (the controller's settle_timeout)
+SETTLE_WINDOW = 0.2      # s D must stay within the tolerance (the controller's settle_window)
+CHECK_AFTER = 2.0        # s after a move's end at which the error is measured as well
+#: The actuator trajectory after the moves: (time from start [s], (rho1, rho2) [m]).
+TRAJECTORY = ((2.0, (0.71, 0.69)), (4.0, (0.72, 0.70)), (6.0, (0.70, 0.70)))
+TRAJECTORY_GOAL_TIME = 5.0   # s after the last point to come within the goal tolerance
+TRAJECTORY_TOLERANCE = 1e-4  # m, each length at the end
+
+#: ROS parameters of the demo's controller (the simulator is stepped by the demo: between
+#: goals it stands paused, which the controller's watchdog must not read as a stopped one).
+CONTROLLER_PARAMETERS = {"settle_timeout": SETTLE_TIMEOUT, "settle_window": SETTLE_WINDOW,
+                         "state_timeout": 30.0}
+
+
+@dataclass(frozen=True)
+class MoveReport:
+    """One move: its target [m], the action's result and what the joint states show."""
+
+    target: tuple[float, float]
+    code: int
+    message: str
+    settled_error: float        # m, the result's (|D - target| when it succeeded)
+    settling_time: float        # s after the move's end from which D stayed within the tolerance
+    max_force: float            # N, largest commanded |f| during the goal
+    overshoot: float            # m, largest excursion of D past the target along the move
+    error_after: float          # m, |D - target| CHECK_AFTER s after the move's end
+
+
+@dataclass(frozen=True)
+class TrajectoryReport:
+    code: int
+    message: str
+    final_error: tuple[float, float]    # m, lengths at the end against the last point
+    end_effector_error: float           # m
+    max_path_error: float               # m, largest length error while the trajectory ran
+    max_force: float                    # N
+
+
+class ControllerClient:
+    """Action clients of the controller and a listener of its commands, on the node of a
+    :class:`SimClient` (whose executor spins them)."""
+
+    def __init__(self, sim: SimClient) -> None:
+        from rclpy.action import ActionClient
+        from rclpy.qos import QoSProfile
+        from tensegrity_msgs.action import FollowActuatorTrajectory, MoveEndEffector
+        from tensegrity_msgs.msg import ActuatorForces
+
+        self.sim = sim
+        self.Move, self.Follow = MoveEndEffector, FollowActuatorTrajectory
+        self.move = ActionClient(sim.node, MoveEndEffector, "move_end_effector")
+        self.follow = ActionClient(sim.node, FollowActuatorTrajectory, "follow_actuator_trajectory")
+        self._answered: set[int] = set()
+        self._cond = threading.Condition()
+        sim.node.create_subscription(ActuatorForces, "actuator_forces", self._on_command, QoSProfile(depth=1000))
+
+    def _on_command(self, msg) -> None:
+        with self._cond:
+            self._answered.add(msg.header.stamp.sec * NS_PER_S + msg.header.stamp.nanosec)
+            self._cond.notify_all()
+
+    def wait_for_servers(self, timeout: float = 60.0) -> None:
+        for client in (self.move, self.follow):
+            if not client.wait_for_server(timeout_sec=timeout):
+                raise RuntimeError(f"the controller's action {client._action_name} is not available "
+                                   f"within {timeout:g} s")
+
+    def wait_answered(self, stamp_ns: int, timeout: float = 60.0) -> None:
+        """Wait until the controller has answered the state stamped ``stamp_ns``."""
+        with self._cond:
+            if not self._cond.wait_for(lambda: stamp_ns in self._answered, timeout):
+                raise RuntimeError(f"the controller did not answer the state at t = {stamp_ns / NS_PER_S:.9f} s "
+                                   f"within {timeout:g} s")
+
+    def run_goal(self, action, goal, steps: int, timeout: float = 120.0):
+        """Send ``goal``, wait for its takeover feedback, step ``steps`` steps, return
+        ``(status, result, feedback list)``."""
+        feedback: list = []
+        started = threading.Event()
+
+        def on_feedback(msg) -> None:
+            feedback.append(msg.feedback)
+            started.set()
+
+        handle = _wait(self._in_executor(lambda: action.send_goal_async(goal, feedback_callback=on_feedback)),
+                       timeout, "goal response")
+        if not handle.accepted:
+            raise RuntimeError("the controller rejected the goal")
+        result_future = self._in_executor(handle.get_result_async)
+        while not started.wait(0.05):
+            if result_future.done():      # refused at planning time: aborted with its reason, no feedback
+                res = result_future.result()
+                return res.status, res.result, feedback
+        self.sim.step(steps)
+        res = _wait(result_future, timeout, "goal result")
+        return res.status, res.result, feedback
+
+
+    def _in_executor(self, call, timeout: float = 60.0):
+        """``call()`` run by the client's executor thread, its return value (a future).
+        rclpy's ActionClient registers a request's future only after sending it, without a
+        lock (Jazzy): called from another thread while the executor spins, the answer can be
+        taken before the future exists and is dropped ("Ignoring unexpected goal response")."""
+        return _wait(self.sim.executor.create_task(call), timeout, "executor task")
+
+
+def _wait(future, timeout: float, what: str):
+    done = threading.Event()
+    future.add_done_callback(lambda _f: done.set())
+    if not done.wait(timeout):
+        raise RuntimeError(f"no {what} from the controller within {timeout:g} s")
+    return future.result()
+
+
+def _end_effector(record: JointRecord, L: float) -> np.ndarray:
+    rho1, _, beta = record.position[:3]
+    return np.array([rho1 + L * math.cos(beta), L * math.sin(beta)])
+
+
+def _steps(seconds: float, step_ns: int) -> int:
+    return math.ceil(round(seconds * NS_PER_S) / step_ns)
+
+
+def run_moves(ctl: ControllerClient, step_ns: int, *, L: float = PAPER_PARAMS.L):
+    """From rest with the clock at 0: the waypoint moves, then the trajectory. Returns
+    ``(move reports, trajectory report, joint states received)``."""
+    from builtin_interfaces.msg import Duration
+    from tensegrity_msgs.msg import JointTolerance
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+    sim = ctl.sim
+    sim.set_law(None)                  # the controller answers every step, not this client
+    sim.take_joints()
+    sim.reset_all()
+    now = 0
+    ctl.wait_answered(now)
+    rest = forward_kinematics(0.7, 0.7, PAPER_PARAMS)
+    move_steps = _steps(MOVE_TIME + max(SETTLE_TIMEOUT + SETTLE_WINDOW, CHECK_AFTER), step_ns) + 1
+    moves = []
+    for dx, dy in WAYPOINT_OFFSETS:
+        target = (rest.x + dx, rest.y + dy)
+        start = sim.wait_joint(now)               # the goal starts here (the state the controller holds)
+        goal = ctl.Move.Goal(x=target[0], y=target[1], duration=MOVE_TIME, goal_tolerance=GOAL_TOLERANCE)
+        _, res, feedback = ctl.run_goal(ctl.move, goal, move_steps)
+        later = sim.wait_joint(now + round((MOVE_TIME + CHECK_AFTER) * NS_PER_S))
+        now += move_steps * step_ns
+        ctl.wait_answered(now)
+        moves.append(_move_report(target, _end_effector(start, L), res, feedback, later, L))
+    traj = JointTrajectory(joint_names=["rho1", "rho2"])
+    for t, rho in TRAJECTORY:
+        sec = math.floor(t)
+        traj.points.append(JointTrajectoryPoint(positions=list(rho),
+                                                time_from_start=Duration(sec=sec, nanosec=round((t - sec) * 1e9))))
+    sec = math.floor(TRAJECTORY_GOAL_TIME)
+    goal = ctl.Follow.Goal(trajectory=traj,
+                           goal_tolerance=[JointTolerance(name=n, position=TRAJECTORY_TOLERANCE) for n in ("rho1", "rho2")],
+                           goal_time_tolerance=Duration(sec=sec, nanosec=round((TRAJECTORY_GOAL_TIME - sec) * 1e9)))
+    traj_steps = _steps(TRAJECTORY[-1][0] + TRAJECTORY_GOAL_TIME + 0.1, step_ns)
+    _, res, feedback = ctl.run_goal(ctl.follow, goal, traj_steps)
+    now += traj_steps * step_ns
+    ctl.wait_answered(now)
+    path = [max(abs(v) for v in f.error.positions) for f in feedback
+            if f.error.time_from_start.sec + 1e-9 * f.error.time_from_start.nanosec < TRAJECTORY[-1][0]]
+    trajectory = TrajectoryReport(int(res.error_code), res.error_string, tuple(res.final_error),
+                                  float(res.end_effector_error), max(path, default=math.nan), float(res.max_force))
+    sim.wait_joint(now)
+    return moves, trajectory, sim.take_joints()
+
+
+def _move_report(target, start, res, feedback, later: JointRecord, L: float) -> MoveReport:
+    direction = np.asarray(target) - start
+    unit = direction / max(float(np.hypot(*direction)), 1e-12)
+    settling = [np.array([f.end_effector.x, f.end_effector.y]) for f in feedback if f.phase == "settling"]
+    overshoot = max((float((d - np.asarray(target)) @ unit) for d in settling), default=0.0)
+    return MoveReport(target, int(res.error_code), res.error_string, float(res.settled_error),
+                      float(res.settling_time), float(res.max_force), max(0.0, overshoot),
+                      float(np.hypot(*(_end_effector(later, L) - np.asarray(target)))))
