@@ -444,7 +444,9 @@ class _SceneReader(Reader):
             return ActuatorLag(self.number(d, "tau", path, lo=0.0, lo_open=True))
         if name == "actuator_compliance":
             self.keys(d, path, ("stiffness", "drive_damping"), required=("drive_damping",))
-            stiffness = self.number(d, "stiffness", path, default=model.params.ka, lo=0.0, lo_open=True)
+            # (a general scene has no actuator stiffness to default to: effects() refuses the effect)
+            default = model.params.ka if model.kind == "class2" else math.nan
+            stiffness = self.number(d, "stiffness", path, default=default, lo=0.0, lo_open=True)
             return ActuatorCompliance(stiffness, self.number(d, "drive_damping", path, lo=0.0, lo_open=True))
         if name == "fold_limit":
             self.keys(d, path, ("restitution", "rest_velocity"))
