@@ -18,44 +18,12 @@ from an outcome (``extract``); ``prepare`` computes its fixed data once (e.g. a 
 run). Columns have a dtype: ``float`` (missing = NaN), ``int``, ``bool``, ``str``.
 """
 
-from __future__ import annotations
-
-from collections.abc import Callable
-from dataclasses import dataclass, field
-
-
-@dataclass(frozen=True)
-class ResultDef:
-    doc: str
-    columns: Callable          # (options, data) -> [(column, dtype)]
-    extract: Callable          # (outcome, options, data) -> [value per column]
-    options: dict = field(default_factory=dict)
-    prepare: Callable | None = None   # (options, probe, folder) -> data
-
-
-@dataclass(frozen=True)
-class ResultSpec:
-    """A result the sweep keeps: its name, checked options, fixed data and columns."""
-
-    name: str
-    options: dict
-    columns: tuple
-    data: object = None
-
-
-def scalar(column: str, dtype: str, read: Callable, doc: str, **options) -> ResultDef:
-    """A result with one column read by ``read(outcome)``."""
-    return ResultDef(doc=doc, columns=lambda o, d: [(column, dtype)], extract=lambda out, o, d: [read(out)],
-                     options=options)
-
-
-def _registry() -> dict:
-    from tensegrity_core.sweep.computations.ik import IK
-    from tensegrity_core.sweep.computations.simulate import SIMULATE
-    from tensegrity_core.sweep.computations.statics import FORM_FIND, STIFFNESS
-
-    return {c.name: c for c in (SIMULATE, FORM_FIND, STIFFNESS, IK)}
-
+from tensegrity_core.sweep.computations.ik import IK
+from tensegrity_core.sweep.computations.results import ResultDef, ResultSpec, scalar
+from tensegrity_core.sweep.computations.simulate import SIMULATE
+from tensegrity_core.sweep.computations.statics import FORM_FIND, STIFFNESS
 
 #: name -> computation
-COMPUTATIONS = _registry()
+COMPUTATIONS = {c.name: c for c in (SIMULATE, FORM_FIND, STIFFNESS, IK)}
+
+__all__ = ["COMPUTATIONS", "ResultDef", "ResultSpec", "scalar"]

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tensegrity_core.sweep.checks import OptionError, boolean, number
-from tensegrity_core.sweep.computations import scalar
+from tensegrity_core.sweep.computations.results import scalar
 from tensegrity_core.sweep.points import grid_values
 
 MAX_TARGETS = 100_000

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from tensegrity_core.sweep.checks import OptionError, choice, integer, number, text
-from tensegrity_core.sweep.computations import ResultDef, scalar
+from tensegrity_core.sweep.computations.results import ResultDef, scalar
 
 EVENT_KINDS = ("any", "fold", "release", "jump", "limit", "singular")
 FINAL_OF = ("q", "qdot", "end_effector", "applied_forces", "member_forces", "member_lengths",

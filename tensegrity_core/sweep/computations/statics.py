@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tensegrity_core.sweep.checks import OptionError, choice, integer, number, text
-from tensegrity_core.sweep.computations import ResultDef, scalar
+from tensegrity_core.sweep.computations.results import ResultDef, scalar
 
 
 @dataclass
