@@ -11,7 +11,9 @@ Nothing in this package imports ROS. Subpackages:
 Units are SI throughout (metres, newtons, kilograms, seconds, radians).
 """
 
+from typing import Final
+
 from tensegrity_core.errors import TensegrityError
 
 __all__ = ["TensegrityError"]
-__version__ = "0.1.0"
+__version__: Final = "0.1.0"

@@ -11,9 +11,10 @@ deep or shared (YAML alias) structures cheap to render.
 from __future__ import annotations
 
 import reprlib
+from typing import Final
 
 #: Characters of an outside value quoted in a message (the quote marks not counted).
-DEFAULT_LIMIT = 60
+DEFAULT_LIMIT: Final = 60
 
 _REPR = reprlib.Repr()
 _REPR.maxlevel = 3
@@ -45,9 +46,9 @@ def excerpt(value: object, limit: int = DEFAULT_LIMIT) -> str:
 
 
 #: Characters of a whole message (that may embed outside text) kept in a log line.
-MESSAGE_LIMIT = 500
+MESSAGE_LIMIT: Final = 500
 #: Characters of a library's own complaint (a parser's message) kept inside an error.
-LIBRARY_MESSAGE = 200
+LIBRARY_MESSAGE: Final = 200
 
 
 def clip(message: object, limit: int = MESSAGE_LIMIT) -> str:

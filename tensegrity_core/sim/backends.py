@@ -18,6 +18,7 @@ never needs.
 from __future__ import annotations
 
 from importlib import import_module
+from typing import Any
 
 from tensegrity_core.sim.model import Model
 from tensegrity_core.sim.scene import Scene
@@ -35,13 +36,14 @@ def backend_name(scene: Scene) -> str:
     return f"{scene.model.kind}/{'quasi-static' if scene.quasi_static else 'dynamic'}"
 
 
-def backend(name: str) -> type:
+def backend(name: str) -> type[Model[Any, Any]]:
     """The back end class registered as ``name`` (imported on first use)."""
-    module, _, cls = BACKENDS[name].partition(":")
-    return getattr(import_module(module), cls)
+    module, _, cls_name = BACKENDS[name].partition(":")
+    cls: type[Model[Any, Any]] = getattr(import_module(module), cls_name)
+    return cls
 
 
-def compile_scene(scene: Scene) -> Model:
+def compile_scene(scene: Scene) -> Model[Any, Any]:
     """The frozen :class:`~tensegrity_core.sim.model.Model` of a checked scene (see
     :func:`~tensegrity_core.sim.scene.load_scene`): only the effects it lists are built."""
     if not isinstance(scene, Scene):

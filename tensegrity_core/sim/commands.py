@@ -10,18 +10,24 @@ order, ``nan`` for inputs with a law.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
 
 from tensegrity_core.sim.errors import SimulationError
+from tensegrity_core.sim.inputs import Commanded, InputLaw
 
 
-def initial_commands(laws, hold) -> tuple[float, ...]:
+def initial_commands(laws: Iterable[InputLaw], hold: Sequence[float] | NDArray[np.float64]) -> tuple[float, ...]:
     """The commands before the first one: ``law.initial`` or ``hold[i]`` for commanded inputs,
     ``nan`` for the others."""
-    return tuple((float(hold[i]) if law.initial is None else float(law.initial)) if law.law == "commanded"
+    return tuple((float(hold[i]) if law.initial is None else float(law.initial)) if isinstance(law, Commanded)
                  else math.nan for i, law in enumerate(laws))
 
 
-def check_command(values, laws, names, *, positive: bool = False) -> tuple[float, ...]:
+def check_command(values: Iterable[float], laws: Sequence[InputLaw], names: Sequence[str], *,
+                  positive: bool = False) -> tuple[float, ...]:
     """``values`` (one finite number per input, in input order) as the new commands: floats
     for commanded inputs, ``nan`` for inputs with a law (their values are ignored).
     ``positive``: commanded values must be > 0 (rest lengths). Raises :class:`SimulationError`."""
@@ -34,9 +40,9 @@ def check_command(values, laws, names, *, positive: bool = False) -> tuple[float
     for name, law, v in zip(names, laws, vals):
         if not math.isfinite(v):
             raise SimulationError(f"command for {name} must be finite, got {v!r}")
-        if positive and law.law == "commanded" and not v > 0:
+        if positive and isinstance(law, Commanded) and not v > 0:
             raise SimulationError(f"commanded rest length of {name} must be > 0, got {v!r}")
-    return tuple(v if law.law == "commanded" else math.nan for law, v in zip(laws, vals))
+    return tuple(v if isinstance(law, Commanded) else math.nan for law, v in zip(laws, vals))
 
 
 def changed(old: tuple[float, ...], new: tuple[float, ...]) -> bool:

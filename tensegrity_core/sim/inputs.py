@@ -26,30 +26,71 @@ Every law is immutable: a new command is a new set of laws, never a changed one.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
+from typing import ClassVar, Protocol
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 INTERPOLATIONS = ("linear", "previous", "cubic")
+
+FloatArray = NDArray[np.float64]
+#: ``(value, d/dlength, d/dt)`` over samples (arrays of one shape).
+LawArrays = tuple[FloatArray, FloatArray, FloatArray]
+
+
+class Law(Protocol):
+    """What a model evaluates: an input law with a value at every time and length (every law
+    here but :class:`Commanded`, which :func:`held` replaces by a :class:`Constant`)."""
+
+    @property
+    def law(self) -> str:
+        """The law's name in the scene (``"constant"``, ``"ramp"``, ...)."""
+        ...
+
+    @property
+    def breakpoints(self) -> tuple[float, ...]: ...
+
+    def value_at(self, t: float, length: float) -> float: ...
+
+    def potential(self, t: float, length: float) -> float: ...
+
+    def d_length(self, t: float, length: float) -> float: ...
+
+    def d_time(self, t: float, length: float) -> float: ...
+
+    def local(self, t: float, length: float) -> tuple[float, float, float]: ...
+
+    def arrays(self, t: ArrayLike, length: ArrayLike) -> LawArrays: ...
+
+
+class _TimeDependent(Protocol):
+    """What :class:`_TimeLaw` needs of the law it is mixed into."""
+
+    def value_at(self, t: float, length: float) -> float: ...
+
+    def d_time(self, t: float, length: float) -> float: ...
 
 
 class _TimeLaw:
     """Shared parts of the laws that depend on time only."""
 
-    def potential(self, t: float, length: float) -> float:
+    def potential(self: _TimeDependent, t: float, length: float) -> float:
         return self.value_at(t, length) * length
 
     def d_length(self, t: float, length: float) -> float:
         return 0.0
 
-    def local(self, t: float, length: float) -> tuple:
+    def local(self: _TimeDependent, t: float, length: float) -> tuple[float, float, float]:
         return self.value_at(t, length), 0.0, self.d_time(t, length)
 
 
 class _ConstantValue(_TimeLaw):
     """A law whose value is the attribute ``value``."""
 
-    breakpoints = ()
+    value: float
+    breakpoints: ClassVar[tuple[float, ...]] = ()
 
     def value_at(self, t: float, length: float) -> float:
         return self.value
@@ -57,7 +98,7 @@ class _ConstantValue(_TimeLaw):
     def d_time(self, t: float, length: float) -> float:
         return 0.0
 
-    def arrays(self, t, length) -> tuple:
+    def arrays(self, t: ArrayLike, length: ArrayLike) -> LawArrays:
         z = np.zeros(np.broadcast(t, length).shape)
         return z + self.value, z, z
 
@@ -67,7 +108,7 @@ class Constant(_ConstantValue):
     """``u(t) = value``."""
 
     value: float
-    law = "constant"
+    law: ClassVar[str] = "constant"
 
 
 @dataclass(frozen=True)
@@ -78,10 +119,10 @@ class Ramp(_TimeLaw):
     end_value: float
     t0: float
     t1: float
-    law = "ramp"
+    law: ClassVar[str] = "ramp"
 
     @property
-    def breakpoints(self) -> tuple:
+    def breakpoints(self) -> tuple[float, ...]:
         return (self.t0, self.t1)
 
     def value_at(self, t: float, length: float) -> float:
@@ -96,11 +137,11 @@ class Ramp(_TimeLaw):
             return (self.end_value - self.start_value) / (self.t1 - self.t0)
         return 0.0
 
-    def arrays(self, t, length) -> tuple:
-        t = np.broadcast_to(np.asarray(t, dtype=float), np.broadcast(t, length).shape)
+    def arrays(self, t: ArrayLike, length: ArrayLike) -> LawArrays:
+        ts = np.broadcast_to(np.asarray(t, dtype=float), np.broadcast(t, length).shape)
         slope = (self.end_value - self.start_value) / (self.t1 - self.t0)
-        u = self.start_value + slope * (np.clip(t, self.t0, self.t1) - self.t0)
-        return u, np.zeros_like(u), np.where((t >= self.t0) & (t < self.t1), slope, 0.0)
+        u = self.start_value + slope * (np.clip(ts, self.t0, self.t1) - self.t0)
+        return u, np.zeros_like(u), np.where((ts >= self.t0) & (ts < self.t1), slope, 0.0)
 
 
 @dataclass(frozen=True)
@@ -108,8 +149,8 @@ class Proportional:
     """``u = gain * length * t``: the paper's ``f_i = 10 rho_i t`` (gain 10 N/(m s))."""
 
     gain: float
-    law = "proportional"
-    breakpoints = ()
+    law: ClassVar[str] = "proportional"
+    breakpoints: ClassVar[tuple[float, ...]] = ()
 
     def value_at(self, t: float, length: float) -> float:
         return self.gain * length * t
@@ -123,12 +164,12 @@ class Proportional:
     def d_time(self, t: float, length: float) -> float:
         return self.gain * length
 
-    def local(self, t: float, length: float) -> tuple:
+    def local(self, t: float, length: float) -> tuple[float, float, float]:
         return self.gain * length * t, self.gain * t, self.gain * length
 
-    def arrays(self, t, length) -> tuple:
-        t, length = np.broadcast_arrays(np.asarray(t, dtype=float), np.asarray(length, dtype=float))
-        return self.gain * length * t, self.gain * t, self.gain * length
+    def arrays(self, t: ArrayLike, length: ArrayLike) -> LawArrays:
+        ts, ls = np.broadcast_arrays(np.asarray(t, dtype=float), np.asarray(length, dtype=float))
+        return self.gain * ls * ts, self.gain * ts, self.gain * ls
 
 
 @dataclass(frozen=True)
@@ -137,14 +178,15 @@ class Series(_TimeLaw):
     hold) or "cubic" (natural C2 spline); held constant before the first and after the last
     sample."""
 
-    times: tuple
-    values: tuple
+    times: tuple[float, ...]
+    values: tuple[float, ...]
     interpolation: str = "linear"
     source: str = ""
-    law = "series"
-    _t: np.ndarray = field(init=False, repr=False, compare=False)
-    _v: np.ndarray = field(init=False, repr=False, compare=False)
-    _spline: object = field(init=False, repr=False, compare=False)
+    law: ClassVar[str] = "series"
+    _t: FloatArray = field(init=False, repr=False, compare=False)
+    _v: FloatArray = field(init=False, repr=False, compare=False)
+    #: The cubic spline ``(t, derivative order=0) -> values`` or None.
+    _spline: Callable[..., FloatArray] | None = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         t = np.asarray(self.times, dtype=float)
@@ -159,7 +201,7 @@ class Series(_TimeLaw):
         object.__setattr__(self, "_spline", spline)
 
     @property
-    def breakpoints(self) -> tuple:
+    def breakpoints(self) -> tuple[float, ...]:
         if self.interpolation == "cubic":
             return (float(self._t[0]), float(self._t[-1]))
         return tuple(float(x) for x in self._t)
@@ -170,19 +212,19 @@ class Series(_TimeLaw):
     def d_time(self, t: float, length: float) -> float:
         return float(self.arrays(t, length)[2])
 
-    def arrays(self, t, length) -> tuple:
+    def arrays(self, t: ArrayLike, length: ArrayLike) -> LawArrays:
         ts, vs = self._t, self._v
-        t = np.broadcast_to(np.asarray(t, dtype=float), np.broadcast(t, length).shape)
-        inside = (t >= ts[0]) & (t < ts[-1])
+        tt = np.broadcast_to(np.asarray(t, dtype=float), np.broadcast(t, length).shape)
+        inside = (tt >= ts[0]) & (tt < ts[-1])
         if self.interpolation == "previous":
-            i = np.clip(np.searchsorted(ts, t, side="right") - 1, 0, len(ts) - 1)
-            return vs[i], np.zeros(t.shape), np.zeros(t.shape)
+            i = np.clip(np.searchsorted(ts, tt, side="right") - 1, 0, len(ts) - 1)
+            return vs[i], np.zeros(tt.shape), np.zeros(tt.shape)
         if self._spline is not None:
-            tc = np.clip(t, ts[0], ts[-1])
-            return self._spline(tc), np.zeros(t.shape), np.where(inside, self._spline(tc, 1), 0.0)
-        i = np.clip(np.searchsorted(ts, t, side="right") - 1, 0, max(len(ts) - 2, 0))
+            tc = np.clip(tt, ts[0], ts[-1])
+            return self._spline(tc), np.zeros(tt.shape), np.where(inside, self._spline(tc, 1), 0.0)
+        i = np.clip(np.searchsorted(ts, tt, side="right") - 1, 0, max(len(ts) - 2, 0))
         slope = np.diff(vs) / np.diff(ts) if len(ts) > 1 else np.zeros(1)
-        return np.interp(t, ts, vs), np.zeros(t.shape), np.where(inside, slope[i], 0.0)
+        return np.interp(tt, ts, vs), np.zeros(tt.shape), np.where(inside, slope[i], 0.0)
 
 
 @dataclass(frozen=True)
@@ -192,16 +234,20 @@ class Commanded:
     general: the member's rest length)."""
 
     initial: float | None = None
-    law = "commanded"
+    law: ClassVar[str] = "commanded"
 
 
-def held(laws, commands) -> tuple:
+#: An input law as a scene lists it.
+InputLaw = Law | Commanded
+
+
+def held(laws: Iterable[InputLaw], commands: Sequence[float]) -> tuple[Law, ...]:
     """``laws`` with each commanded input held at its command: a :class:`Constant` of
     ``commands[i]`` in place of a :class:`Commanded` (other laws unchanged)."""
-    return tuple(Constant(float(c)) if law.law == "commanded" else law for law, c in zip(laws, commands))
+    return tuple(Constant(float(c)) if isinstance(law, Commanded) else law for law, c in zip(laws, commands))
 
 
-def next_breakpoint(laws, t: float, t_end: float) -> float:
+def next_breakpoint(laws: Iterable[Law], t: float, t_end: float) -> float:
     """The first breakpoint of any law strictly after ``t`` (with a relative margin), or ``t_end``."""
     margin = 1e-12 * max(1.0, abs(t))
     best = t_end

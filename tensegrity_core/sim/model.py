@@ -19,20 +19,25 @@ commands, the located events ``(t, kind, index)`` and the back end's integration
 (its integrator or path follower, which owns ``t``, ``y`` and ``mode``). Back ends read and
 write a state only through the model's methods; everything else reads it.
 
-Every back end implements :class:`Model` (the dynamic ones also :class:`DynamicModel`) and is
-registered in :data:`tensegrity_core.sim.backends.BACKENDS` under ``"<kind>/<regime>"``.
+Every back end implements :class:`Model` (the dynamic ones :class:`DynamicModel`), subclassing
+it so that the type checker holds it to the Protocol, and is registered in
+:data:`tensegrity_core.sim.backends.BACKENDS` under ``"<kind>/<regime>"``. ``Model[W, S]`` is a
+model whose states have workspaces of type ``W`` and whose samples (what ``sample`` and
+``record`` give, only ``observe`` reads) are of type ``S``.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any, Generic, Protocol, Self, TypeVar
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.sim.scene import Scene
-from tensegrity_core.sim.stepper import OdeSystem
+from tensegrity_core.sim.stepper import Stepper, Sys
 
 #: A located event: ``(t [s], kind, index)``, kind one of "fold", "release", "singular",
 #: "limit", "jump" (index: the actuator, 0 or 1, or the singular set, 0 for lambda1, 1 for
@@ -49,16 +54,22 @@ class Workspace(Protocol):
     def t(self) -> float: ...
 
     @property
-    def y(self) -> np.ndarray: ...
+    def y(self) -> NDArray[np.float64]: ...
 
     @property
     def mode(self) -> frozenset[int]: ...
 
-    def copy(self, events: list[Event]) -> Workspace: ...
+    def copy(self, events: list[Event]) -> Self: ...
+
+
+#: The workspace type of a model's states.
+W = TypeVar("W", bound=Workspace)
+#: The sample type of a model (opaque outside it).
+S = TypeVar("S")
 
 
 @dataclass(eq=False)
-class State:
+class State(Generic[W]):
     """The changing part of a simulation (see the module docstring).
 
     ``commands`` holds the commanded inputs' current values in input order (``nan`` for inputs
@@ -71,21 +82,21 @@ class State:
 
     commands: tuple[float, ...]
     events: list[Event]
-    work: Workspace
+    work: W
 
     @property
     def t(self) -> float:
         return self.work.t
 
     @property
-    def y(self) -> np.ndarray:
+    def y(self) -> NDArray[np.float64]:
         return self.work.y
 
     @property
     def mode(self) -> frozenset[int]:
         return self.work.mode
 
-    def copy(self) -> State:
+    def copy(self) -> State[W]:
         """An independent snapshot: advancing either leaves the other unchanged. A dynamic
         model's copy restarts its integrator at ``t`` (as after an event), so the two agree to
         the integration tolerance, not bit for bit; a quasi-static copy is exact."""
@@ -99,15 +110,16 @@ class Names:
 
     node_names: tuple[str, ...]
     member_names: tuple[str, ...]
-    member_nodes: np.ndarray
+    member_nodes: NDArray[np.int64]
 
 
-class Model(Protocol):
+class Model(Protocol[W, S]):
     """What every back end implements: a compiled scene (frozen) and the operations on its states.
 
-    Attributes: ``kind`` ("class2" or "general"), ``quasi_static``, ``scene`` (the checked
-    :class:`~tensegrity_core.sim.scene.Scene` it was compiled from), ``names``,
-    ``state_names`` (of the state vector), ``actuator_names`` (of the inputs, in order).
+    ``Backend(scene)`` compiles a checked :class:`~tensegrity_core.sim.scene.Scene`. Attributes:
+    ``kind`` ("class2" or "general"), ``quasi_static``, ``scene`` (the scene it was compiled
+    from), ``names``, ``state_names`` (of the state vector), ``actuator_names`` (of the
+    inputs, in order).
 
     - ``initial_state(t_end=inf)``: a new state at ``t = 0`` (``t_end`` bounds the
       integration: an integrator never steps past it).
@@ -134,28 +146,31 @@ class Model(Protocol):
     state_names: tuple[str, ...]
     actuator_names: tuple[str, ...]
 
-    def initial_state(self, *, t_end: float = math.inf) -> State: ...
+    def __init__(self, scene: Scene) -> None: ...
 
-    def set_command(self, state: State, values) -> None: ...
+    def initial_state(self, *, t_end: float = math.inf) -> State[W]: ...
 
-    def advance(self, state: State, t: float) -> None: ...
+    def set_command(self, state: State[W], values: Iterable[float]) -> None: ...
 
-    def sample(self, state: State) -> Any: ...
+    def advance(self, state: State[W], t: float) -> None: ...
 
-    def record(self, state: State, times, out: list) -> None: ...
+    def sample(self, state: State[W]) -> S: ...
 
-    def observe(self, samples: list) -> dict[str, np.ndarray]: ...
+    def record(self, state: State[W], times: Sequence[float] | NDArray[np.float64], out: list[S]) -> None: ...
 
-    def observe_now(self, state: State) -> dict[str, Any]: ...
+    def observe(self, samples: Sequence[S]) -> dict[str, NDArray[Any]]: ...
 
-    def joint_sample(self, state: State) -> dict[str, Any]: ...
+    def observe_now(self, state: State[W]) -> dict[str, Any]: ...
 
-    def stats(self, state: State) -> dict[str, Any]: ...
+    def joint_sample(self, state: State[W]) -> dict[str, Any]: ...
+
+    def stats(self, state: State[W]) -> dict[str, Any]: ...
 
 
-class DynamicModel(Model, Protocol):
+class DynamicModel(Model[Stepper[Sys], S], Protocol[Sys, S]):
     """A model with inertia, integrated by a :class:`~tensegrity_core.sim.stepper.Stepper`
-    (a state's ``work``: its ``t_integrated`` says how far the integration has gone).
+    (a state's ``work``: its ``t_integrated`` says how far the integration has gone) of
+    :class:`~tensegrity_core.sim.stepper.OdeSystem` s of type ``Sys``.
 
     - ``state_from(y, t_end=inf)``: a new state at ``t = 0`` from the state vector ``y``
       instead of the scene's initial state (contacts resolved as at compile time);
@@ -165,6 +180,6 @@ class DynamicModel(Model, Protocol):
 
     method: str
 
-    def state_from(self, y, *, t_end: float = math.inf) -> State: ...
+    def state_from(self, y: ArrayLike, *, t_end: float = math.inf) -> State[Stepper[Sys]]: ...
 
-    def equations(self, state: State) -> OdeSystem: ...
+    def equations(self, state: State[Stepper[Sys]]) -> Sys: ...

@@ -13,17 +13,29 @@ and ``observe`` and ``joint_sample`` at one time agree on the quantities they sh
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Any, Protocol
+
 import numpy as np
+from numpy.typing import NDArray
 
 from tensegrity_core.sim.scene import NOISY_QUANTITIES
 
 _MASK64 = (1 << 64) - 1
 
 
+class Observed(Protocol):
+    """What :meth:`SensorNoise.perturb` perturbs: an observation at ``t`` [s] whose noisy
+    quantities are attributes."""
+
+    @property
+    def t(self) -> float: ...
+
+
 class SensorNoise:
     """Adds ``N(0, sigma_k^2)`` to each element of quantity ``k``, keyed on the observation time."""
 
-    def __init__(self, sigmas: dict, seed: int):
+    def __init__(self, sigmas: Mapping[str, float], seed: int):
         self.sigmas = {k: float(sigmas[k]) for k in NOISY_QUANTITIES if k in sigmas}
         self._index = {k: NOISY_QUANTITIES.index(k) for k in self.sigmas}
         self._key = np.array([int(seed) & _MASK64, 0], dtype=np.uint64)
@@ -32,14 +44,14 @@ class SensorNoise:
         self._bits = np.random.Philox(key=int(seed) & _MASK64)
         self._rng = np.random.Generator(self._bits)
 
-    def _normal(self, t: float, name: str, shape) -> np.ndarray:
+    def _normal(self, t: float, name: str, shape: tuple[int, ...]) -> NDArray[np.float64]:
         counter = np.array([round(float(t) * 1e9) & _MASK64, self._index[name], 0, 0], dtype=np.uint64)
         self._bits.state = {"bit_generator": "Philox", "state": {"counter": counter, "key": self._key},
                             "buffer": np.zeros(4, dtype=np.uint64), "buffer_pos": 4, "has_uint32": 0,
                             "uinteger": 0}
         return self._rng.normal(0.0, self.sigmas[name], shape)
 
-    def perturb(self, obs) -> None:
+    def perturb(self, obs: Observed) -> None:
         """Add noise in place to an :class:`~tensegrity_core.sim.simulator.Observation` (or
         any object with ``t`` [s] and some of the noisy quantities as attributes)."""
         for name in self.sigmas:
@@ -48,7 +60,7 @@ class SensorNoise:
             value = np.array(getattr(obs, name), dtype=float)
             setattr(obs, name, value + self._normal(obs.t, name, value.shape))
 
-    def perturb_arrays(self, data: dict) -> dict:
+    def perturb_arrays(self, data: Mapping[str, Any]) -> dict[str, NDArray[np.float64]]:
         """Noisy copies of the arrays ``data[k]`` (leading axis: the samples at ``data["t"]``)
         for every quantity with a sigma; sample ``i`` gets the noise of an observation at ``t[i]``."""
         times = np.asarray(data["t"], dtype=float)

@@ -3,13 +3,17 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from tensegrity_core.sim.trajectory import Trajectory
 
 EVENT_COLORS = {"fold": "tab:red", "release": "tab:green", "limit": "black", "jump": "tab:purple"}
 
 
-def plot_trajectory(traj, path) -> Path:
+def plot_trajectory(traj: Trajectory, path: str | Path) -> Path:
     """Write a PNG with coordinates, end effector, actuator inputs, member forces and energies
     over time; events are marked by vertical lines (fold red, release green, limit black,
     jump purple)."""

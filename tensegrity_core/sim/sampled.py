@@ -22,12 +22,16 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.sim.errors import SimulationError
-from tensegrity_core.sim.scene import load_scene
+from tensegrity_core.sim.model import Event
+from tensegrity_core.sim.scene import SceneSource, load_scene
 from tensegrity_core.sim.simulator import JointSample, Simulator
 
 NS_PER_S = 1_000_000_000
@@ -72,29 +76,29 @@ class SampledRun:
 
     scene_name: str
     step_ns: int
-    times: np.ndarray
-    samples: list
-    commands: np.ndarray
-    events: list
+    times: NDArray[np.float64]
+    samples: list[JointSample]
+    commands: NDArray[np.float64]
+    events: list[Event]
     success: bool = True
     message: str = ""
-    stats: dict = field(default_factory=dict)
+    stats: dict[str, Any] = field(default_factory=dict)
 
     @property
-    def q(self) -> np.ndarray:
+    def q(self) -> NDArray[np.float64]:
         return np.array([s.q for s in self.samples])
 
     @property
-    def qdot(self) -> np.ndarray:
+    def qdot(self) -> NDArray[np.float64]:
         return np.array([s.qdot for s in self.samples])
 
-    def to_npz(self, path) -> None:
+    def to_npz(self, path: str | Path) -> None:
         """Write times, q, qdot, applied forces and commands to an ``.npz`` file."""
         np.savez(path, times=self.times, q=self.q, qdot=self.qdot,
                  applied_forces=np.array([s.applied_forces for s in self.samples]),
                  commands=self.commands, step_ns=self.step_ns)
 
-    def to_csv(self, path) -> None:
+    def to_csv(self, path: str | Path) -> None:
         """One row per ``t_k``: t, q, qdot, applied forces, and the command held from there."""
         n = len(self.samples)
         width = self.commands.shape[1] if self.commands.ndim == 2 else 0
@@ -108,8 +112,8 @@ class SampledRun:
                    header=",".join(cols), comments="")
 
 
-def run_sampled(scene, controller: Controller, *, step_size: float | None = None, step_ns: int | None = None,
-                steps: int | None = None, duration: float | None = None) -> SampledRun:
+def run_sampled(scene: SceneSource, controller: Controller, *, step_size: float | None = None,
+                step_ns: int | None = None, steps: int | None = None, duration: float | None = None) -> SampledRun:
     """Run ``scene`` under ``controller`` sampled every period and held in between.
 
     Give the period as ``step_size`` [s] or ``step_ns``, and the length as ``steps`` or
@@ -121,7 +125,7 @@ def run_sampled(scene, controller: Controller, *, step_size: float | None = None
     scene = load_scene(scene)
     if (step_size is None) == (step_ns is None):
         raise SimulationError("give the control period as step_size [s] or step_ns, not both or neither")
-    if step_ns is None:
+    if step_size is not None:          # (then step_ns is None)
         step_ns = step_ns_of(step_size)
     elif isinstance(step_ns, bool) or not isinstance(step_ns, int) or step_ns < 1:
         raise SimulationError(f"step_ns must be a positive integer, got {step_ns!r}")
@@ -131,7 +135,7 @@ def run_sampled(scene, controller: Controller, *, step_size: float | None = None
         raise SimulationError(f"steps must be an integer in [0, {MAX_STEPS}], got {steps!r}")
     sim = Simulator(scene)
     samples = [sim.joint_sample()]
-    commands: list = []
+    commands: list[list[float]] = []
     success, message = True, f"{steps} steps of {step_ns} ns"
     for k in range(steps):
         try:

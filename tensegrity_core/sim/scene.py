@@ -22,15 +22,22 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, ClassVar, Literal, TypedDict, cast
 
 import numpy as np
 
 from tensegrity_core.class2.dynamics.limits import SINGULAR_GUARD_REL
 from tensegrity_core.errors import TensegrityError
-from tensegrity_core.general.structure import STANDARD_GRAVITY
+from tensegrity_core.general.structure import STANDARD_GRAVITY, Structure
 from tensegrity_core.schema import DEFAULT_LIMITS, Limits, Reader, excerpt, parse_text, read_file, suggest, type_name
 from tensegrity_core.sim.errors import SceneError
-from tensegrity_core.sim.inputs import INTERPOLATIONS, Commanded, Constant, Proportional, Ramp, Series
+from tensegrity_core.sim.inputs import INTERPOLATIONS, Commanded, Constant, InputLaw, Proportional, Ramp, Series
+
+if TYPE_CHECKING:
+    from tensegrity_core.class2.params import Class2Params
+
+#: A key path into the scene (mapping keys and list positions), for error messages.
+KeyPath = tuple[str | int, ...]
 
 SCENES_DIR = Path(__file__).parent / "scenes"
 
@@ -59,8 +66,8 @@ MAX_OUTPUT_BYTES = 2 * 2**30
 class Class2Model:
     """The planar class-2 mechanism with parameters ``params``."""
 
-    params: object            # Class2Params
-    kind = "class2"
+    params: Class2Params
+    kind: ClassVar[Literal["class2"]] = "class2"
 
 
 @dataclass(frozen=True)
@@ -70,11 +77,15 @@ class GeneralModel:
     ``end_effector`` is the index of the node reported as the end effector; ``actuators``
     the member indices of kind ``"actuator"`` (their rest lengths are the inputs)."""
 
-    structure: object         # tensegrity_core.general.Structure
+    structure: Structure
     source: str
     end_effector: int
-    actuators: tuple
-    kind = "general"
+    actuators: tuple[int, ...]
+    kind: ClassVar[Literal["general"]] = "general"
+
+
+#: The mechanism a scene simulates.
+SceneModel = Class2Model | GeneralModel
 
 
 @dataclass(frozen=True)
@@ -85,10 +96,10 @@ class Initial:
     reference coordinates). Velocities are zero unless ``qdot`` is given."""
 
     kind: str
-    q: tuple | None = None
-    qdot: tuple | None = None
-    lengths: tuple | None = None
-    preload: dict = field(default_factory=dict)
+    q: tuple[float, ...] | None = None
+    qdot: tuple[float, ...] | None = None
+    lengths: tuple[float, ...] | None = None
+    preload: dict[int, tuple[float, ...]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -102,12 +113,12 @@ class Damping:
 
 @dataclass(frozen=True)
 class Gravity:
-    vector: tuple             # [m/s^2], 3 components
+    vector: tuple[float, ...]             # [m/s^2], 3 components
 
 
 @dataclass(frozen=True)
 class Loads:
-    forces: dict              # node index -> (fx, fy, fz) [N], dead loads
+    forces: dict[int, tuple[float, ...]]  # node index -> (fx, fy, fz) [N], dead loads
 
 
 @dataclass(frozen=True)
@@ -129,12 +140,30 @@ class FoldLimit:
 
 @dataclass(frozen=True)
 class SensorNoise:
-    sigmas: dict              # quantity -> standard deviation (units of the quantity)
+    sigmas: dict[str, float]  # quantity -> standard deviation (units of the quantity)
 
 
 @dataclass(frozen=True)
 class Flag:
     """An effect without options (inertia, springs)."""
+
+
+class SceneEffects(TypedDict, total=False):
+    """The effects a scene lists, each with its options (a plain dict in :data:`EFFECTS` order)."""
+
+    inertia: Flag
+    springs: Flag
+    damping: Damping
+    gravity: Gravity
+    loads: Loads
+    actuator_lag: ActuatorLag
+    actuator_compliance: ActuatorCompliance
+    fold_limit: FoldLimit
+    sensor_noise: SensorNoise
+
+
+#: The options of one effect.
+EffectOptions = Flag | Damping | Gravity | Loads | ActuatorLag | ActuatorCompliance | FoldLimit | SensorNoise
 
 
 @dataclass(frozen=True)
@@ -151,17 +180,17 @@ class Scene:
     maps each actuator (class-2: ``"f1"``, ``"f2"``; general: actuator member names) to its law."""
 
     name: str
-    model: Class2Model | GeneralModel
+    model: SceneModel
     initial: Initial
-    inputs: dict
-    effects: dict
+    inputs: dict[str, InputLaw]
+    effects: SceneEffects
     duration: float
     output_rate: float = 100.0
     integrator: Integrator = Integrator()
     seed: int = 0
     description: str = ""
     source: str | None = None
-    data: dict = field(default_factory=dict, repr=False, compare=False)
+    data: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def quasi_static(self) -> bool:
@@ -181,7 +210,7 @@ class Scene:
         return replace(self, duration=duration)
 
 
-def output_size_reason(duration: float, rate: float, model) -> str | None:
+def output_size_reason(duration: float, rate: float, model: SceneModel) -> str | None:
     """Why ``duration`` [s] at ``rate`` [Hz] is too much output for ``model``, or None: the
     run's arrays (``duration * rate + 2`` samples of every recorded value) must fit in
     :data:`MAX_OUTPUT_BYTES`; they are allocated as the run goes, so the bound is checked
@@ -196,13 +225,13 @@ def output_size_reason(duration: float, rate: float, model) -> str | None:
             f"output may take; shorten the duration or lower output.rate")
 
 
-def values_per_sample(model) -> int:
+def values_per_sample(model: SceneModel) -> int:
     """Floats recorded per output sample (an upper bound): states, coordinates, rates,
     inputs, member forces and lengths, node positions, energies."""
     if model.kind == "class2":
         return 64
     s = model.structure
-    return 4 * s.layout.n_dof + 2 * s.n_members + 3 * s.n_nodes + len(model.actuators) + 16
+    return int(4 * s.layout.n_dof + 2 * s.n_members + 3 * s.n_nodes + len(model.actuators) + 16)
 
 
 
@@ -221,14 +250,14 @@ def scene_path(name: str) -> Path:
     return SCENES_DIR / f"{name}.yaml"
 
 
-def scene_from_text(text: str, *, base=None, limits: Limits = DEFAULT_LIMITS) -> Scene:
+def scene_from_text(text: str, *, base: str | Path | None = None, limits: Limits = DEFAULT_LIMITS) -> Scene:
     """The scene in YAML ``text``; files it lists are relative to ``base`` (default: the
     current folder)."""
     data = parse_text(text, "yaml", limits=limits, error=SceneError)
     return _SceneReader(None, Path(base) if base is not None else Path.cwd()).scene(data)
 
 
-def scene_from_file(path, *, limits: Limits = DEFAULT_LIMITS) -> Scene:
+def scene_from_file(path: str | Path, *, limits: Limits = DEFAULT_LIMITS) -> Scene:
     """The scene in the file ``path`` (``.yaml``/``.yml``); files it lists are relative to
     its folder, errors name it."""
     path = Path(path)
@@ -236,12 +265,16 @@ def scene_from_file(path, *, limits: Limits = DEFAULT_LIMITS) -> Scene:
     return _SceneReader(path.name, path.parent.resolve(), str(path)).scene(data)
 
 
-def scene_from_dict(data: dict, *, base=None) -> Scene:
+def scene_from_dict(data: dict[str, Any], *, base: str | Path | None = None) -> Scene:
     """The scene in parsed data ``data``; files it lists are relative to ``base``."""
     return _SceneReader(None, Path(base) if base is not None else Path.cwd()).scene(data)
 
 
-def load_scene(source) -> Scene:
+#: What :func:`load_scene` reads: a scene, a shipped scene's name, a path, YAML text or a dict.
+SceneSource = Scene | str | Path | dict[str, Any]
+
+
+def load_scene(source: SceneSource) -> Scene:
     """Read and check a scene: a :class:`Scene` (returned as is), a shipped scene name, a path
     (``str`` or ``Path`` to a ``.yaml``/``.yml`` file), YAML text, or a dict. For local use
     (a Python session, the CLI): text from elsewhere goes to :func:`scene_from_text`.
@@ -282,7 +315,7 @@ class _SceneReader(Reader):
     TOP = ("name", "description", "model", "initial", "inputs", "effects", "output", "duration",
            "integrator", "seed")
 
-    def scene(self, data) -> Scene:
+    def scene(self, data: object) -> Scene:
         d = self.mapping(data, ())
         self.keys(d, (), self.TOP, required=("model", "initial", "effects", "duration"))
         name = self.string(d, "name", (), default=Path(self.file).stem if self.file else "scene")
@@ -308,14 +341,14 @@ class _SceneReader(Reader):
                      description=description, source=self.source, data=_plain(d))
 
     # -- model ---------------------------------------------------------------------------
-    def model(self, value, path, parent) -> Class2Model | GeneralModel:
+    def model(self, value: object, path: KeyPath, parent: dict[str, Any]) -> SceneModel:
         d = self.mapping(value, path, parent, "model")
         kind = self.string(d, "kind", path, choices=("class2", "general"))
         if kind == "class2":
             self.keys(d, path, ("kind", "params"))
             from tensegrity_core.class2.params import PAPER_PARAMS
 
-            overrides = {}
+            overrides: dict[str, float] = {}
             if "params" in d:
                 p = self.mapping(d["params"], path + ("params",), d, "params")
                 allowed = tuple(PAPER_PARAMS.as_dict()) + ("k", "c")
@@ -340,7 +373,7 @@ class _SceneReader(Reader):
         actuators = tuple(i for i, k in enumerate(structure.member_kinds) if k == "actuator")
         return GeneralModel(structure, source, end_effector, actuators)
 
-    def structure(self, value, path, parent):
+    def structure(self, value: object, path: KeyPath, parent: dict[str, Any]) -> tuple[Structure, str]:
         from tensegrity_core.general import (
             StructureError,
             example_names,
@@ -366,13 +399,15 @@ class _SceneReader(Reader):
             raise self.error(f"invalid structure: {err}", path, parent, "structure") from None
 
     # -- effects ---------------------------------------------------------------------------
-    def effects(self, value, path, parent, model) -> dict:
+    def effects(self, value: object, path: KeyPath, parent: dict[str, Any], model: SceneModel) -> SceneEffects:
         if not isinstance(value, list):
             raise self.error(f"must be a list of effects, got {type_name(value)} ({excerpt(value)})", path, parent,
                              "effects")
-        out: dict = {}
+        out: dict[str, EffectOptions] = {}
         for i, item in enumerate(value):
             p = path + (i,)
+            options: object
+            holder: object
             if isinstance(item, str):
                 name, options, opath, holder = item, {}, p, value
             elif isinstance(item, dict) and len(item) == 1:
@@ -403,10 +438,11 @@ class _SceneReader(Reader):
         if "springs" not in out and "inertia" not in out:
             raise self.error("a scene without inertia (quasi-static) needs 'springs': nothing else holds the "
                              "configuration in equilibrium", path, parent, "effects")
-        # Order of composition is fixed, not the order of the list.
-        return {name: out[name] for name in EFFECTS if name in out}
+        # Order of composition is fixed, not the order of the list; every name is one of EFFECTS
+        # with the options effect_options gives it, so the dict is the TypedDict.
+        return cast(SceneEffects, {name: out[name] for name in EFFECTS if name in out})
 
-    def effect_options(self, name: str, d: dict, path, model):
+    def effect_options(self, name: str, d: dict[str, Any], path: KeyPath, model: SceneModel) -> EffectOptions:
         if name in ("inertia", "springs"):
             self.keys(d, path, ())
             return Flag()
@@ -430,7 +466,7 @@ class _SceneReader(Reader):
             return Gravity((0.0, 0.0, -STANDARD_GRAVITY))
         if name == "loads":
             names = _node_names(model)
-            forces = {}
+            forces: dict[int, tuple[float, ...]] = {}
             for node, vec in d.items():
                 if node not in names:
                     raise self.error(f"unknown node {excerpt(node)}{suggest(node, names)}; nodes: "
@@ -444,7 +480,9 @@ class _SceneReader(Reader):
             return ActuatorLag(self.number(d, "tau", path, lo=0.0, lo_open=True))
         if name == "actuator_compliance":
             self.keys(d, path, ("stiffness", "drive_damping"), required=("drive_damping",))
-            stiffness = self.number(d, "stiffness", path, default=model.params.ka, lo=0.0, lo_open=True)
+            # (a general scene has no actuator stiffness to default to: effects() refuses the effect)
+            default = model.params.ka if model.kind == "class2" else math.nan
+            stiffness = self.number(d, "stiffness", path, default=default, lo=0.0, lo_open=True)
             return ActuatorCompliance(stiffness, self.number(d, "drive_damping", path, lo=0.0, lo_open=True))
         if name == "fold_limit":
             self.keys(d, path, ("restitution", "rest_velocity"))
@@ -457,7 +495,8 @@ class _SceneReader(Reader):
         return SensorNoise({k: self.number(d, k, path, lo=0.0) for k in d})
 
     # -- initial state -----------------------------------------------------------------------
-    def initial(self, value, path, parent, model, effects) -> Initial:
+    def initial(self, value: object, path: KeyPath, parent: dict[str, Any], model: SceneModel,
+                effects: SceneEffects) -> Initial:
         d = self.mapping(value, path, parent, "initial")
         if model.kind == "class2":
             self.keys(d, path, ("q", "qdot", "equilibrium"))
@@ -490,7 +529,7 @@ class _SceneReader(Reader):
             return Initial("equilibrium")
         e = self.mapping(e, path + ("equilibrium",), d, "equilibrium")
         self.keys(e, path + ("equilibrium",), ("preload",))
-        preload = {}
+        preload: dict[int, tuple[float, ...]] = {}
         if "preload" in e:
             pl = self.mapping(e["preload"], path + ("equilibrium", "preload"), e, "preload")
             names = model.structure.node_names
@@ -501,7 +540,8 @@ class _SceneReader(Reader):
                 preload[names.index(node)] = self.vector(vec, 3, p, pl, node)
         return Initial("equilibrium", preload=preload)
 
-    def class2_domain(self, r1, r2, model, effects, path, container, key) -> None:
+    def class2_domain(self, r1: float, r2: float, model: Class2Model, effects: SceneEffects, path: KeyPath,
+                      container: dict[str, Any], key: str) -> None:
         L = model.params.L
         if "fold_limit" in effects and min(r1, r2) < 0:
             raise self.error(f"actuator lengths must be >= 0 with the fold limit, got rho1 = {r1:g}, rho2 = {r2:g}",
@@ -517,7 +557,9 @@ class _SceneReader(Reader):
                              f"then; the coordinates are singular at L)", path, container, key)
 
     # -- inputs ----------------------------------------------------------------------------------
-    def inputs(self, value, path, parent, model, effects) -> dict:
+    def inputs(self, value: object, path: KeyPath, parent: dict[str, Any], model: SceneModel,
+               effects: SceneEffects) -> dict[str, InputLaw]:
+        names: tuple[str, ...]
         if model.kind == "class2":
             names = CLASS2_ACTUATORS
         else:
@@ -531,12 +573,11 @@ class _SceneReader(Reader):
         self.keys(d, path, names, required=names)
         return {n: self.law(d[n], path + (n,), d, n, model) for n in names}
 
-    LAW_KEYS = {"constant": ("law", "value"), "ramp": ("law", "from", "to", "t0", "t1"),
-                "proportional": ("law", "gain"),
-                "series": ("law", "file", "time", "column", "interpolation"),
-                "commanded": ("law", "initial")}
+    LAW_KEYS: ClassVar[dict[str, tuple[str, ...]]] = {
+        "constant": ("law", "value"), "ramp": ("law", "from", "to", "t0", "t1"), "proportional": ("law", "gain"),
+        "series": ("law", "file", "time", "column", "interpolation"), "commanded": ("law", "initial")}
 
-    def law(self, value, path, parent, key, model):
+    def law(self, value: object, path: KeyPath, parent: dict[str, Any], key: str, model: SceneModel) -> InputLaw:
         if isinstance(value, (int, float)) and not isinstance(value, bool):
             return Constant(self.value_number(value, path, parent, key))
         d = self.mapping(value, path, parent, key)
@@ -561,7 +602,7 @@ class _SceneReader(Reader):
             return Commanded(self.number(d, "initial", path))
         return self.series(d, path)
 
-    def series(self, d, path) -> Series:
+    def series(self, d: dict[str, Any], path: KeyPath) -> Series:
         file = self.string(d, "file", path)
         column = self.string(d, "column", path)
         interpolation = self.string(d, "interpolation", path, default="linear", choices=INTERPOLATIONS)
@@ -569,14 +610,14 @@ class _SceneReader(Reader):
         shown = excerpt(str(csv))
         try:
             with open(csv, encoding="utf-8") as fh:
-                header = fh.readline(10_000).strip().split(",")
+                header_row = fh.readline(10_000).strip().split(",")
                 table = np.loadtxt(fh, delimiter=",", ndmin=2)
         except FileNotFoundError:
             raise self.error(f"CSV file not found: {shown}", path + ("file",), d, "file") from None
         except (ValueError, OSError) as err:          # UnicodeDecodeError is a ValueError
             raise self.error(f"cannot read {shown} as numbers after a header row: {excerpt(str(err))}",
                              path + ("file",), d, "file") from None
-        header = [h.strip() for h in header]
+        header = [h.strip() for h in header_row]
         time_col = self.string(d, "time", path, default=header[0])
         for k, col in (("time", time_col), ("column", column)):
             if col not in header:
@@ -599,7 +640,7 @@ class _SceneReader(Reader):
         return Series(tuple(t.tolist()), tuple(v.tolist()), interpolation, str(csv))
 
     # -- integrator --------------------------------------------------------------------------------
-    def integrator(self, value, path, parent) -> Integrator:
+    def integrator(self, value: object, path: KeyPath, parent: dict[str, Any]) -> Integrator:
         if value is None:
             return Integrator()
         d = self.mapping(value, path, parent, "integrator")
@@ -611,7 +652,7 @@ class _SceneReader(Reader):
         return Integrator(method, rtol, atol, max_step)
 
 
-def _node_names(model) -> tuple:
+def _node_names(model: SceneModel) -> tuple[str, ...]:
     if model.kind == "class2":
         from tensegrity_core.class2.geometry import NODE_NAMES
 
@@ -619,7 +660,7 @@ def _node_names(model) -> tuple:
     return model.structure.node_names
 
 
-def _plain(value):
+def _plain(value: Any) -> Any:
     """The parsed scene as plain dicts and lists (for saving with a trajectory)."""
     if isinstance(value, dict):
         return {str(k): _plain(v) for k, v in value.items()}

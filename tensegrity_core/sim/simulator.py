@@ -20,16 +20,24 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from tensegrity_core.sim.backends import compile_scene
 from tensegrity_core.sim.errors import SimulationError
-from tensegrity_core.sim.model import Model, State
+from tensegrity_core.sim.model import Event, Model, State
 from tensegrity_core.sim.noise import SensorNoise
-from tensegrity_core.sim.scene import load_scene
+from tensegrity_core.sim.scene import SceneSource, load_scene
 from tensegrity_core.sim.trajectory import Trajectory
+
+if TYPE_CHECKING:
+    from typing_extensions import TypeIs
+
+FloatArray = NDArray[np.float64]
 
 
 @dataclass
@@ -47,21 +55,21 @@ class Observation:
     """
 
     t: float
-    q: np.ndarray
-    qdot: np.ndarray
-    applied_forces: np.ndarray
-    node_names: tuple
-    nodes: np.ndarray
-    member_names: tuple
-    member_nodes: np.ndarray
-    member_lengths: np.ndarray
-    member_forces: np.ndarray
-    end_effector: np.ndarray
+    q: FloatArray
+    qdot: FloatArray
+    applied_forces: FloatArray
+    node_names: tuple[str, ...]
+    nodes: FloatArray
+    member_names: tuple[str, ...]
+    member_nodes: NDArray[np.int64]
+    member_lengths: FloatArray
+    member_forces: FloatArray
+    end_effector: FloatArray
     potential_energy: float
     kinetic_energy: float
     folded: bool
-    contact_forces: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    state: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    contact_forces: FloatArray = field(default_factory=lambda: np.zeros(0))
+    state: FloatArray = field(default_factory=lambda: np.zeros(0))
 
 
 @dataclass
@@ -75,10 +83,10 @@ class JointSample:
     """
 
     t: float
-    q: np.ndarray
-    qdot: np.ndarray
-    applied_forces: np.ndarray
-    end_effector: np.ndarray
+    q: FloatArray
+    qdot: FloatArray
+    applied_forces: FloatArray
+    end_effector: FloatArray
     folded: bool
 
 
@@ -92,13 +100,13 @@ class Simulator:
     (assign another of the same model to continue from it).
     """
 
-    def __init__(self, scene, *, t_end: float = math.inf):
-        self.model: Model = scene if _is_model(scene) else compile_scene(load_scene(scene))
+    def __init__(self, scene: SceneSource | Model[Any, Any], *, t_end: float = math.inf):
+        self.model: Model[Any, Any] = scene if _is_model(scene) else compile_scene(load_scene(scene))
         self.scene = self.model.scene
         self.kind = self.model.kind
         self.quasi_static = self.model.quasi_static
         self.t_end = t_end
-        self.state: State = self.model.initial_state(t_end=t_end)
+        self.state: State[Any] = self.model.initial_state(t_end=t_end)
         noise = self.scene.effects.get("sensor_noise")
         # stateless: the noise of an observation depends on its time only (sim/noise.py)
         self._noise = SensorNoise(noise.sigmas, self.scene.seed) if noise is not None else None
@@ -115,16 +123,16 @@ class Simulator:
         return self.state.t
 
     @property
-    def command(self) -> list:
+    def command(self) -> list[float]:
         """Current values of the commanded inputs (``nan`` for inputs with a law)."""
         return list(self.state.commands)
 
     @property
-    def events(self) -> list:
+    def events(self) -> list[Event]:
         """``(t, kind, index)`` of every event so far (fold, release, limit, ...)."""
         return list(self.state.events)
 
-    def set_command(self, values) -> None:
+    def set_command(self, values: Iterable[float]) -> None:
         """Set the commanded inputs (one value per actuator, in the scene's input order; values
         for inputs with a law are ignored). Zero-order hold from the current time on."""
         self.model.set_command(self.state, values)
@@ -155,16 +163,16 @@ class Simulator:
             self._noise.perturb(sample)
         return sample
 
-    def stats(self) -> dict:
+    def stats(self) -> dict[str, Any]:
         """Integrator statistics (steps, function evaluations, restarts, events)."""
         return self.model.stats(self.state)
 
 
-def _is_model(value) -> bool:
+def _is_model(value: object) -> TypeIs[Model[Any, Any]]:
     return hasattr(value, "initial_state") and hasattr(value, "observe_now")
 
 
-def observation(model: Model, data: dict) -> Observation:
+def observation(model: Model[Any, Any], data: Mapping[str, Any]) -> Observation:
     """The :class:`Observation` of one sample's values (``model.observe_now``)."""
     names = model.names
     return Observation(
@@ -176,7 +184,8 @@ def observation(model: Model, data: dict) -> Observation:
         folded=bool(data["folded"]), contact_forces=data["contact_forces"], state=data["state"])
 
 
-def simulate(scene, *, duration: float | None = None, progress=None) -> Trajectory:
+def simulate(scene: SceneSource, *, duration: float | None = None,
+             progress: Callable[[float, float], object] | None = None) -> Trajectory:
     """Run a whole scene and return its :class:`Trajectory` at the scene's output rate (and at
     the end time when that is not on the output grid).
 
@@ -195,8 +204,8 @@ def simulate(scene, *, duration: float | None = None, progress=None) -> Trajecto
         times = np.append(times, scene.duration)
         n += 1
     times[-1] = scene.duration      # a grid point within rounding of it (1.21 for 1.2099999999999997 s)
-    samples: list = []
-    error = None
+    samples: list[Any] = []
+    error: SimulationError | None = None
     chunk = max(1, n // 50) if progress is not None else n     # progress in 2 % steps, if watched
     for start in range(0, n, chunk):
         try:

@@ -33,16 +33,24 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import Protocol
+from typing import Any, Generic, Protocol, Self, TypeVar
 
 import numpy as np
-from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
+from numpy.typing import ArrayLike, NDArray
+from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, OdeSolver, Radau
 from scipy.optimize import brentq
 
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.sim.errors import SimulationError
 
-SOLVERS = {"RK23": RK23, "RK45": RK45, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA}
+FloatArray = NDArray[np.float64]
+#: ``jac(t, y)``: a dense (n, n) array or a scipy.sparse matrix (which has no type information).
+Jacobian = Callable[[float, FloatArray], Any]
+#: A located event in the log: ``(t [s], kind, index)``.
+LoggedEvent = tuple[float, str, int]
+
+SOLVERS: dict[str, type[OdeSolver]] = {"RK23": RK23, "RK45": RK45, "DOP853": DOP853, "Radau": Radau, "BDF": BDF,
+                                       "LSODA": LSODA}
 #: Methods that use a Jacobian.
 IMPLICIT = ("Radau", "BDF", "LSODA")
 #: Methods that choose their own first step after a restart: LSODA restarts in its
@@ -57,11 +65,16 @@ class StateEvent(Protocol):
     """A state event: ``g(t, y)`` crosses zero in ``direction`` (-1 falling, +1 rising, 0 both);
     ``kind`` and ``index`` name it in the event log."""
 
-    kind: str
-    index: int
-    direction: float
+    @property
+    def kind(self) -> str: ...
 
-    def g(self, t: float, y: np.ndarray) -> float: ...
+    @property
+    def index(self) -> int: ...
+
+    @property
+    def direction(self) -> float: ...
+
+    def g(self, t: float, y: FloatArray) -> float: ...
 
 
 class OdeSystem(Protocol):
@@ -76,68 +89,92 @@ class OdeSystem(Protocol):
     pair) or return None; ``next_breakpoint(t)`` is the first time after ``t`` where an input
     law is not smooth (the solver restarts there)."""
 
-    mode: frozenset[int]
-    jac: Callable | None
+    @property
+    def mode(self) -> frozenset[int]: ...
 
-    def fun(self, t: float, y: np.ndarray) -> np.ndarray: ...
+    @property
+    def jac(self) -> Jacobian | None: ...
+
+    def fun(self, t: float, y: FloatArray) -> FloatArray: ...
 
     def events(self) -> Sequence[StateEvent]: ...
 
-    def handle_event(self, event: StateEvent, t: float, y: np.ndarray) -> tuple[np.ndarray, OdeSystem]: ...
+    def handle_event(self, event: StateEvent, t: float, y: FloatArray) -> tuple[FloatArray, Self]: ...
 
-    def after_step(self, t: float, y: np.ndarray) -> tuple[np.ndarray, OdeSystem] | None: ...
+    def after_step(self, t: float, y: FloatArray) -> tuple[FloatArray, Self] | None: ...
 
     def next_breakpoint(self, t: float) -> float: ...
+
+
+#: The system a stepper integrates (each event or restart gives another of the same type).
+Sys = TypeVar("Sys", bound=OdeSystem)
+
+
+class _Interpolant(Protocol):
+    """The solution over the current step (scipy's ``DenseOutput``, :class:`_Constant`,
+    :class:`_LazyDense`): scalar ``t`` -> (n,), array (k,) -> (n, k)."""
+
+    def __call__(self, t: float | FloatArray) -> FloatArray: ...
 
 
 class _Constant:
     """Dense output of a zero-length segment (scalar ``t`` -> (n,), array -> (n, k))."""
 
-    def __init__(self, y):
+    def __init__(self, y: ArrayLike):
         self.y = np.array(y, dtype=float)
 
-    def __call__(self, t):
+    def __call__(self, t: float | FloatArray) -> FloatArray:
         if np.ndim(t):
-            return np.repeat(self.y[:, None], len(t), axis=1)
+            return np.repeat(self.y[:, None], np.size(t), axis=1)
         return self.y.copy()
 
 
-def _dense_jacobian(jac):
+def _dense_jacobian(jac: Jacobian) -> Jacobian:
     """LSODA (ODEPACK) takes only dense Jacobians; the general models return sparse ones
     (a sparse Jacobian crashed LSODA as soon as it switched to its stiff method)."""
-    def dense(t, y):
+    def dense(t: float, y: FloatArray) -> Any:
         J = jac(t, y)
         return J.toarray() if hasattr(J, "toarray") else J
     return dense
 
 
-class Stepper:
+class Stepper(Generic[Sys]):
     """Integrates ``system.fun`` from ``(t0, y0)`` on demand.
 
-    ``system`` is an :class:`OdeSystem`; ``t_end`` bounds the integration (``inf``:
-    open-ended); located events are appended to ``log`` as ``(t, kind, index)``.
+    ``system`` is an :class:`OdeSystem` (of type ``Sys`` in ``Stepper[Sys]``); ``t_end`` bounds
+    the integration (``inf``: open-ended); located events are appended to ``log`` as
+    ``(t, kind, index)``.
     """
 
-    def __init__(self, system: OdeSystem, t0: float, y0, *, method: str, rtol: float, atol: float,
-                 max_step: float = math.inf, t_end: float = math.inf, log: list | None = None):
+    def __init__(self, system: Sys, t0: float, y0: ArrayLike, *, method: str, rtol: float, atol: float,
+                 max_step: float = math.inf, t_end: float = math.inf, log: list[LoggedEvent] | None = None):
         if method not in SOLVERS:
             raise SimulationError(f"unknown integration method {method!r}; use one of {', '.join(SOLVERS)}")
         self.system = system
         self.method = method
         self.options = dict(rtol=rtol, atol=atol, max_step=max_step)
         self.t_end = t_end
-        self.solver = None
+        self.solver: OdeSolver | None = None
         self._nfev_done = 0
         self.n_steps = 0
         self.n_restarts = 0
         self.n_events = 0
-        self.event_log: list[tuple[float, str, int]] = [] if log is None else log
-        self._h = None
+        self.event_log: list[LoggedEvent] = [] if log is None else log
+        self._h: float | None = None
         self._to_target = False       # the next solver ends at the advance target
         self._cut_short = False       # the current solver's bound is an advance target
+        # set by restart: the state at t, the current step [t0, t1] and its dense output, the
+        # event located in it (fired at the next advance), the events watched and their values
+        self.t: float
+        self.y: FloatArray
+        self._seg: tuple[float, float]
+        self._dense: _Interpolant
+        self._pending: tuple[float, StateEvent] | None
+        self._events: Sequence[StateEvent]
+        self._g: list[float]
         self.restart(t0, y0)
 
-    def copy(self, log: list) -> Stepper:
+    def copy(self, log: list[LoggedEvent]) -> Stepper[Sys]:
         """A stepper at the same ``(t, y)`` with the same system, counters and step size,
         logging into ``log``. It starts a fresh solver at ``t`` (as after an event), so it
         agrees with this one to the integration tolerance, not bit for bit; an event located
@@ -154,7 +191,7 @@ class Stepper:
     # -- state ------------------------------------------------------------------------------
     @property
     def nfev(self) -> int:
-        return self._nfev_done + (self.solver.nfev if self.solver is not None else 0)
+        return self._nfev_done + (int(self.solver.nfev) if self.solver is not None else 0)
 
     @property
     def mode(self) -> frozenset[int]:
@@ -166,7 +203,8 @@ class Stepper:
         """How far the integration has gone [s] (``>= t``: the current step may reach past it)."""
         return self._seg[1]
 
-    def restart(self, t: float, y, *, system: OdeSystem | None = None, input_changed: bool = False) -> None:
+    def restart(self, t: float, y: ArrayLike, *, system: Sys | None = None,
+                input_changed: bool = False) -> None:
         """Start a fresh solver at ``(t, y)``, with a new ``system`` if given (after an event,
         or an input change: then the first solver ends at the next :meth:`advance` target)."""
         y = np.array(y, dtype=float)
@@ -185,8 +223,9 @@ class Stepper:
         self._g = [ev.g(t, y) for ev in self._events]
         self._to_target = input_changed
 
-    def _new_solver(self, t_target: float) -> None:
-        t0, y0 = self._seg[1], self._dense.y
+    def _new_solver(self, t_target: float) -> OdeSolver:
+        t0 = self._seg[1]
+        y0 = self._dense(t0)
         system = self.system
         bound = min(system.next_breakpoint(t0), self.t_end)
         if not bound > t0:
@@ -198,10 +237,12 @@ class Stepper:
         first = None
         if self._h is not None and self.method not in FRESH_START:
             first = min(self._h, bound - t0, self.options["max_step"])
-        options = dict(self.options)
+        options: dict[str, Any] = dict(self.options)
         if self.method in IMPLICIT and system.jac is not None:
             options["jac"] = _dense_jacobian(system.jac) if self.method == "LSODA" else system.jac
-        self.solver = SOLVERS[self.method](system.fun, t0, y0, bound, first_step=first, **options)
+        solver = SOLVERS[self.method](system.fun, t0, y0, bound, first_step=first, **options)
+        self.solver = solver
+        return solver
 
     # -- stepping ------------------------------------------------------------------------------
     def advance(self, t_target: float) -> None:
@@ -216,30 +257,30 @@ class Stepper:
         t_target = min(t_target, self.t_end)      # within rounding of the end: the end itself
         while self._seg[1] < t_target:
             if self._pending is not None:
-                self._fire()
+                self._fire(*self._pending)
                 continue
-            if self.solver is None or self.solver.status != "running":
-                if self.solver is not None and self.solver.status == "failed":
-                    raise SimulationError(f"integrator failed at t = {self.solver.t!r} s: {self.solver.message}",
-                                          t=self.solver.t)
-                if self.solver is not None and self._cut_short:    # ended at the last target: go on
-                    self._nfev_done += self.solver.nfev
-                elif self.solver is not None:                      # reached a breakpoint
-                    self.restart(self.solver.t, self.solver.y)
-                self._new_solver(t_target)
-            self._step()
+            solver = self.solver
+            if solver is None or solver.status != "running":
+                if solver is not None and solver.status == "failed":
+                    raise SimulationError(f"integrator failed at t = {solver.t!r} s: {solver.message}", t=solver.t)
+                if solver is not None and self._cut_short:    # ended at the last target: go on
+                    self._nfev_done += solver.nfev
+                elif solver is not None:                      # reached a breakpoint
+                    self.restart(solver.t, solver.y)
+                solver = self._new_solver(t_target)
+            self._step(solver)
         self.t = t_target
         self.y = self._dense(t_target) if t_target < self._seg[1] or self._pending is not None \
             else self._end_state()
         return None
 
-    def _end_state(self):
+    def _end_state(self) -> FloatArray:
         if self.solver is not None and self.solver.t == self._seg[1]:
-            return self.solver.y.copy()
+            y: FloatArray = self.solver.y.copy()
+            return y
         return self._dense(self._seg[1])
 
-    def _step(self) -> None:
-        solver = self.solver
+    def _step(self, solver: OdeSolver) -> None:
         t_old, y_old = solver.t, solver.y.copy()
         for attempt in range(MAX_RETRIES + 1):
             try:
@@ -256,8 +297,7 @@ class Stepper:
                 self._nfev_done += solver.nfev
                 self._seg = (t_old, t_old)
                 self._dense = _Constant(y_old)
-                self._new_solver(self.t_end)
-                solver = self.solver
+                solver = self._new_solver(self.t_end)
         if solver.status == "failed":
             raise SimulationError(f"integrator failed at t = {solver.t:.9g} s: {message}", t=solver.t)
         self.n_steps += 1
@@ -267,24 +307,22 @@ class Stepper:
             size = getattr(solver, "h_abs", size)
         self._h = size if size else self._h
         t_new, y_new = solver.t, solver.y
-        dense = None
+        dense: _Interpolant | None = None
         g_new = [ev.g(t_new, y_new) for ev in self._events]
-        hit = None
+        hit: tuple[float, StateEvent] | None = None
         for ev, g0, g1 in zip(self._events, self._g, g_new):
             if (ev.direction < 0 and g0 > 0 >= g1) or (ev.direction > 0 and g0 < 0 <= g1) or \
                     (ev.direction == 0 and (g0 > 0 >= g1 or g0 < 0 <= g1)):
                 if dense is None:
                     dense = solver.dense_output()
-                te = brentq(lambda t: ev.g(t, dense(t)), t_old, t_new,
-                            xtol=4 * np.finfo(float).eps * max(1.0, abs(t_new)), rtol=4 * np.finfo(float).eps)
+                te = _crossing(ev, dense, t_old, t_new)
                 if hit is None or te < hit[0]:
                     hit = (te, ev)
         self._g = g_new
-        if hit is not None:
-            te, ev = hit
-            self._seg = (t_old, te)
+        if hit is not None and dense is not None:       # (a hit has computed the dense output)
+            self._seg = (t_old, hit[0])
             self._dense = dense
-            self._pending = (te, ev)
+            self._pending = hit
             return
         self._seg = (t_old, t_new)
         self._dense = _LazyDense(solver) if dense is None else dense
@@ -292,15 +330,14 @@ class Stepper:
         if moved is not None:
             self.restart(t_new, moved[0], system=moved[1])
 
-    def _fire(self) -> None:
-        te, ev = self._pending
+    def _fire(self, te: float, ev: StateEvent) -> None:
         y_e = self._dense(te)
         self.n_events += 1
         self.event_log.append((te, ev.kind, ev.index))
         y_new, system = self.system.handle_event(ev, te, y_e)
         self.restart(te, y_new, system=system)
 
-    def record(self, times, out: list) -> None:
+    def record(self, times: Sequence[float] | FloatArray, out: list[tuple[float, FloatArray, Sys]]) -> None:
         """Append ``(t, y, system)`` for increasing ``times`` to ``out``: advance to each time,
         and interpolate every time the current step covers in one vectorised call (the system
         -- its contact mode, its charts -- is constant within a step)."""
@@ -321,16 +358,23 @@ class Stepper:
             i = j
 
 
+def _crossing(ev: StateEvent, dense: _Interpolant, t0: float, t1: float) -> float:
+    """Where ``ev.g`` crosses zero in the step ``[t0, t1]`` on its dense output (Brent's method,
+    as ``solve_ivp`` locates events)."""
+    eps = np.finfo(float).eps
+    return float(brentq(lambda t: ev.g(t, dense(t)), t0, t1, xtol=4 * eps * max(1.0, abs(t1)), rtol=4 * eps))
+
+
 class _LazyDense:
     """The solver's dense output for its last step, built on first use (before the next step)."""
 
-    def __init__(self, solver):
+    def __init__(self, solver: OdeSolver):
         self.solver = solver
-        self.t_end = solver.t
-        self.y = solver.y.copy()
-        self._fn = None
+        self.t_end: float = solver.t
+        self.y: FloatArray = solver.y.copy()
+        self._fn: _Interpolant | None = None
 
-    def __call__(self, t):
+    def __call__(self, t: float | FloatArray) -> FloatArray:
         if np.ndim(t) == 0 and t == self.t_end:
             return self.y.copy()
         if self._fn is None:

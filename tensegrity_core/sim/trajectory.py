@@ -12,10 +12,19 @@ the run stopped early (``message`` says why; the arrays end at the last good sam
 from __future__ import annotations
 
 import json
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from tensegrity_core.sim.model import Event, Names
+    from tensegrity_core.sim.scene import Scene
+
+FloatArray = NDArray[np.float64]
 
 ARRAYS = ("times", "states", "q", "qdot", "applied_forces", "contact_forces", "member_forces",
           "member_lengths", "nodes", "end_effector", "potential_energy", "kinetic_energy", "folded")
@@ -24,34 +33,35 @@ ARRAYS = ("times", "states", "q", "qdot", "applied_forces", "contact_forces", "m
 @dataclass
 class Trajectory:
     scene_name: str
-    times: np.ndarray
-    states: np.ndarray
-    q: np.ndarray
-    qdot: np.ndarray
-    applied_forces: np.ndarray
-    contact_forces: np.ndarray
-    member_forces: np.ndarray
-    member_lengths: np.ndarray
-    nodes: np.ndarray
-    end_effector: np.ndarray
-    potential_energy: np.ndarray
-    kinetic_energy: np.ndarray
-    folded: np.ndarray
-    node_names: tuple = ()
-    member_names: tuple = ()
-    member_nodes: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=int))
-    state_names: tuple = ()
-    actuator_names: tuple = ()
-    events: list = field(default_factory=list)
-    measurements: dict = field(default_factory=dict)
-    stats: dict = field(default_factory=dict)
+    times: FloatArray
+    states: FloatArray
+    q: FloatArray
+    qdot: FloatArray
+    applied_forces: FloatArray
+    contact_forces: FloatArray
+    member_forces: FloatArray
+    member_lengths: FloatArray
+    nodes: FloatArray
+    end_effector: FloatArray
+    potential_energy: FloatArray
+    kinetic_energy: FloatArray
+    folded: NDArray[np.bool_]
+    node_names: tuple[str, ...] = ()
+    member_names: tuple[str, ...] = ()
+    member_nodes: NDArray[np.int_] = field(default_factory=lambda: np.zeros((0, 2), dtype=int))
+    state_names: tuple[str, ...] = ()
+    actuator_names: tuple[str, ...] = ()
+    events: list[Event] = field(default_factory=list)
+    measurements: dict[str, FloatArray] = field(default_factory=dict)
+    stats: dict[str, Any] = field(default_factory=dict)
     success: bool = True
     message: str = ""
-    scene: dict = field(default_factory=dict, repr=False)
+    scene: dict[str, Any] = field(default_factory=dict, repr=False)
 
     @classmethod
-    def from_observations(cls, scene, data: dict, names, events, measurements, stats, *,
-                          error: str = "", state_names=()) -> Trajectory:
+    def from_observations(cls, scene: Scene, data: Mapping[str, np.ndarray], names: Names, events: Iterable[Event],
+                          measurements: dict[str, FloatArray], stats: dict[str, Any], *,
+                          error: str = "", state_names: Iterable[str] = ()) -> Trajectory:
         """The trajectory of a run: ``data`` the model's observations (arrays over the samples),
         ``names`` its :class:`~tensegrity_core.sim.model.Names`."""
         return cls(
@@ -69,10 +79,11 @@ class Trajectory:
         return len(self.times)
 
     # -- files -------------------------------------------------------------------------------
-    def to_npz(self, path) -> Path:
+    def to_npz(self, path: str | Path) -> Path:
         """Write every array, the names, events, statistics and the scene to ``path`` (.npz)."""
         path = Path(path)
-        arrays = {k: np.asarray(getattr(self, k)) for k in ARRAYS}
+        # (values Any: numpy's stub types the arrays passed as **kwds like its allow_pickle flag)
+        arrays: dict[str, Any] = {k: np.asarray(getattr(self, k)) for k in ARRAYS}
         arrays["member_nodes"] = np.asarray(self.member_nodes)
         for k, v in self.measurements.items():
             arrays[f"measured_{k}"] = np.asarray(v)
@@ -87,7 +98,7 @@ class Trajectory:
         return path
 
     @classmethod
-    def from_npz(cls, path) -> Trajectory:
+    def from_npz(cls, path: str | Path) -> Trajectory:
         with np.load(Path(path), allow_pickle=False) as z:
             meta = json.loads(str(z["meta"]))
             arrays = {k: z[k] for k in ARRAYS}
@@ -96,10 +107,10 @@ class Trajectory:
         return cls(scene_name=meta["scene_name"], **arrays, node_names=tuple(meta["node_names"]),
                    member_names=tuple(meta["member_names"]), member_nodes=member_nodes,
                    state_names=tuple(meta["state_names"]), actuator_names=tuple(meta["actuator_names"]),
-                   events=[tuple(e) for e in meta["events"]], measurements=measured, stats=meta["stats"],
-                   success=meta["success"], message=meta["message"], scene=meta["scene"])
+                   events=[(float(t), str(kind), int(i)) for t, kind, i in meta["events"]], measurements=measured,
+                   stats=meta["stats"], success=meta["success"], message=meta["message"], scene=meta["scene"])
 
-    def csv_columns(self) -> tuple[list[str], np.ndarray]:
+    def csv_columns(self) -> tuple[list[str], FloatArray]:
         """Column names and the (N, k) table written by :meth:`to_csv`."""
         cols = ["t"] + list(self.state_names or [f"y{i}" for i in range(self.states.shape[1])])
         parts = [self.times[:, None], self.states]
@@ -114,7 +125,7 @@ class Trajectory:
         parts += [self.potential_energy[:, None], self.kinetic_energy[:, None], self.folded[:, None].astype(float)]
         return cols, np.hstack([np.asarray(p, dtype=float).reshape(len(self.times), -1) for p in parts])
 
-    def to_csv(self, path) -> Path:
+    def to_csv(self, path: str | Path) -> Path:
         """One row per output sample; comment lines (``#``) carry the scene name and the events."""
         path = Path(path)
         cols, table = self.csv_columns()

@@ -14,11 +14,13 @@ sweep files needs only the core; running them needs ``dask[distributed]``, ``pan
 ``docs/sweeps.md``.
 """
 
+from typing import Any
+
 from tensegrity_core.sweep.errors import MissingDependencyError, SweepError
-from tensegrity_core.sweep.spec import Plan, Sweep, load_sweep, prepare, sweep_names, sweep_path
+from tensegrity_core.sweep.spec import Plan, Sweep, SweepSource, load_sweep, prepare, sweep_names, sweep_path
 
 
-def run_sweep(sweep, **kwargs):
+def run_sweep(sweep: SweepSource, **kwargs: Any) -> Any:
     """Run a sweep and return its table; see :func:`tensegrity_core.sweep.engine.run_sweep`."""
     from tensegrity_core.sweep.engine import run_sweep as run
 

@@ -14,8 +14,10 @@ files and a document means the same wherever it is loaded:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 BASE_KINDS = ("scene", "structure")
 
@@ -34,16 +36,17 @@ class Base:
     kind: str
     source: str
     path: str
-    document: dict
+    document: dict[str, Any]
 
     @property
-    def model_kind(self) -> str | None:
-        """A scene's ``model.kind`` (``class2`` / ``general``), else None."""
+    def model_kind(self) -> object:
+        """A scene's ``model.kind`` as the document gives it (``class2`` / ``general`` in a valid
+        scene), else None."""
         model = self.document.get("model") if self.kind == "scene" else None
         return model.get("kind") if isinstance(model, dict) else None
 
 
-def plain(value):
+def plain(value: Any) -> Any:
     """Parsed YAML (mappings and lists that remember their lines) as plain dicts and lists."""
     if isinstance(value, dict):
         return {k: plain(v) for k, v in value.items()}
@@ -52,7 +55,7 @@ def plain(value):
     return value
 
 
-def parse_file(path: Path) -> dict:
+def parse_file(path: Path) -> dict[str, Any]:
     """A YAML or TOML file as a plain dict (the parser the core's loaders use)."""
     from tensegrity_core.schema import SchemaError, parse_text
 
@@ -64,16 +67,18 @@ def parse_file(path: Path) -> dict:
         data = parse_text(text, "toml" if path.suffix.lower() == ".toml" else "yaml")
     except SchemaError as err:
         raise BaseError(f"{path.name}: {err}") from None
-    return plain(data)
+    document: dict[str, Any] = plain(data)
+    return document
 
 
-def _find(value: str, folder: Path, names, shipped_path, what: str) -> Path:
+def _find(value: str, folder: Path, names: Callable[[], list[str]], shipped_path: Callable[[str], Path],
+          what: str) -> Path:
     candidate = folder / value
     if candidate.is_file():
         return candidate
     if value in names():
         return shipped_path(value)
-    from tensegrity_core.general.structure import suggest
+    from tensegrity_core.schema import suggest
 
     raise BaseError(f"no {what} file {str(candidate)!r} and no shipped {what} {value!r}"
                     f"{suggest(value, names())}; shipped: {', '.join(names())}")
@@ -99,7 +104,7 @@ def load_base(kind: str, value: str, folder: Path) -> Base:
     return Base(kind, value, str(path), document)
 
 
-def _inline_files(scene: dict, folder: Path) -> None:
+def _inline_files(scene: dict[str, Any], folder: Path) -> None:
     """Make a scene document self-contained (see the module docstring)."""
     model = scene.get("model")
     if isinstance(model, dict) and model.get("kind") == "general" and isinstance(model.get("structure"), str):

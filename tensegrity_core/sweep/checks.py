@@ -8,13 +8,18 @@ key path and the line.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any
+
+#: A check of one option: the raw YAML value -> the checked value (or :class:`OptionError`).
+Check = Callable[[Any], Any]
 
 
 class OptionError(ValueError):
     """An option's value is not allowed."""
 
 
-def _type_name(value) -> str:
+def _type_name(value: object) -> str:
     for kind, name in ((bool, "a boolean"), (dict, "a mapping"), (list, "a list"), (str, "a string"),
                        (int, "an integer"), (float, "a number"), (type(None), "nothing (null)")):
         if isinstance(value, kind):
@@ -22,9 +27,9 @@ def _type_name(value) -> str:
     return type(value).__name__
 
 
-def number(*, lo: float | None = None, lo_open: bool = False):
+def number(*, lo: float | None = None, lo_open: bool = False) -> Callable[[object], float]:
     """A finite number (``> lo`` when ``lo_open``, else ``>= lo``)."""
-    def check(v):
+    def check(v: object) -> float:
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise OptionError(f"must be a number, got {_type_name(v)} ({v!r})")
         if not math.isfinite(v):
@@ -35,9 +40,9 @@ def number(*, lo: float | None = None, lo_open: bool = False):
     return check
 
 
-def integer(*, lo: int = 0):
+def integer(*, lo: int = 0) -> Callable[[object], int]:
     """An integer ``>= lo``."""
-    def check(v):
+    def check(v: object) -> int:
         if isinstance(v, bool) or not isinstance(v, int):
             raise OptionError(f"must be an integer, got {_type_name(v)} ({v!r})")
         if v < lo:
@@ -46,9 +51,9 @@ def integer(*, lo: int = 0):
     return check
 
 
-def choice(*options: str):
+def choice(*options: str) -> Callable[[object], str]:
     """One of ``options``."""
-    def check(v):
+    def check(v: object) -> str:
         if v not in options:
             import difflib
 
@@ -59,14 +64,14 @@ def choice(*options: str):
     return check
 
 
-def text(v):
+def text(v: object) -> str:
     """A non-empty string."""
     if not isinstance(v, str) or not v.strip():
         raise OptionError(f"must be a non-empty string, got {_type_name(v)} ({v!r})")
     return v
 
 
-def boolean(v):
+def boolean(v: object) -> bool:
     if not isinstance(v, bool):
         raise OptionError(f"must be true or false, got {_type_name(v)} ({v!r})")
     return v

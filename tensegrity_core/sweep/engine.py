@@ -28,12 +28,21 @@ import math
 import os
 import time
 from collections import deque
+from collections.abc import Callable, Hashable, Iterator, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal
 
 from tensegrity_core.sweep.errors import SweepError, require
-from tensegrity_core.sweep.spec import load_sweep, prepare
-from tensegrity_core.sweep.store import Store, check_output_path
-from tensegrity_core.sweep.task import inputs, missing, run_batch
+from tensegrity_core.sweep.points import Point
+from tensegrity_core.sweep.spec import Plan, Sweep, SweepSource, load_sweep, prepare
+from tensegrity_core.sweep.store import Store, TableColumn, check_output_path
+from tensegrity_core.sweep.task import Row, inputs, missing, run_batch
+
+if TYPE_CHECKING:
+    from distributed import Client, Future, LocalCluster
+
+#: ``progress(done, failed, total)`` after each finished batch.
+ProgressCallback = Callable[[int, int, int], object]
 
 #: Target wall time of one task [s]: the scheduler and client spend a few to ~10 ms of CPU per task
 #: (more on a loaded machine), so a task holds enough points to make that a few per cent.
@@ -54,7 +63,7 @@ def default_workers() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-def start_local_cluster(workers: int):
+def start_local_cluster(workers: int) -> LocalCluster:
     """The embedded cluster: a ``distributed.LocalCluster`` of ``workers`` worker processes
     with one thread each, on 127.0.0.1 only, without a dashboard, one BLAS thread per worker.
     Close it (``with start_local_cluster(2) as cluster: run_sweep(..., scheduler=cluster.scheduler_address)``)
@@ -67,18 +76,19 @@ def start_local_cluster(workers: int):
                         silence_logs=logging.ERROR, env=WORKER_ENV)
 
 
-def columns_of(sweep, plan) -> tuple[list, list]:
+def columns_of(sweep: Sweep, plan: Plan) -> tuple[list[TableColumn], list[str]]:
     """Every column of a row with its dtype, and the columns that define a point."""
     point_cols = ["point", *(q.column for q in sweep.quantities), "seed"]
-    cols = [(c, None) for c in point_cols]
+    cols: list[TableColumn] = [(c, None) for c in point_cols]
     cols += list(plan.result_columns)
     cols += [("status", "str"), ("message", "str"), ("run_time", "float"), ("sweep_id", "str")]
     return cols, point_cols
 
 
-def run_sweep(sweep, *, output=None, resume: bool = False, workers: int | None = None,
-              scheduler: str | None = None, connect_timeout: float = DEFAULT_CONNECT_TIMEOUT,
-              batch: int | None = None, progress=True, plan=None):
+def run_sweep(sweep: SweepSource, *, output: str | Path | None = None, resume: bool = False,
+              workers: int | None = None, scheduler: str | None = None,
+              connect_timeout: float = DEFAULT_CONNECT_TIMEOUT, batch: int | None = None,
+              progress: bool | ProgressCallback = True, plan: Plan | None = None) -> Any:
     """Run ``sweep`` (anything :func:`~tensegrity_core.sweep.spec.load_sweep` takes) and return
     its table (a pandas DataFrame, one row per point, sorted by point; ``table.attrs["ran"]``
     and ``["kept"]`` count the points run now and those kept from earlier runs).
@@ -130,7 +140,7 @@ def run_sweep(sweep, *, output=None, resume: bool = False, workers: int | None =
     return _with_counts(store.finish(rows), len(todo), len(done))
 
 
-def _with_counts(table, ran: int, kept: int):
+def _with_counts(table: Any, ran: int, kept: int) -> Any:
     """``table.attrs``: how many points this call ran and how many it kept from earlier runs."""
     table.attrs.update(ran=ran, kept=kept)
     return table
@@ -139,10 +149,10 @@ def _with_counts(table, ran: int, kept: int):
 class _Progress:
     """Points done and failed, and the time left (tqdm's estimate), or a callback."""
 
-    def __init__(self, progress, *, total: int, done: int, failed: int, name: str):
+    def __init__(self, progress: bool | ProgressCallback, *, total: int, done: int, failed: int, name: str):
         self.callback = progress if callable(progress) else None
         self.total, self.done, self.failed = total, done, failed
-        self.bar = None
+        self.bar: Any = None                   # a tqdm bar
         if progress is True:
             import sys
 
@@ -152,7 +162,7 @@ class _Progress:
                             dynamic_ncols=True, smoothing=0.1)
             self.bar.set_postfix_str(f"failed {failed}", refresh=False)
 
-    def update(self, rows: list[dict]) -> None:
+    def update(self, rows: list[Row]) -> None:
         self.done += len(rows)
         self.failed += sum(r["status"] != "ok" for r in rows)
         if self.bar is not None:
@@ -169,13 +179,13 @@ class _Progress:
 class _SerialEngine:
     """The points one after another in this process."""
 
-    def __enter__(self):
+    def __enter__(self) -> _SerialEngine:
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, *exc: object) -> Literal[False]:
         return False
 
-    def run(self, plan, points, batch):
+    def run(self, plan: Plan, points: Sequence[Point], batch: int | None) -> Iterator[list[Row]]:
         for p in points:
             yield run_batch(plan, [p])
 
@@ -187,12 +197,12 @@ class _DaskEngine:
         self.workers = max(1, workers)
         self.address = scheduler
         self.timeout = float(connect_timeout)
-        self.cluster = None
-        self.client = None
-        self._nthreads = None
+        self.cluster: LocalCluster | None = None
+        self.client: Client | None = None
+        self._nthreads: int | None = None
         self._asked = 0.0
 
-    def __enter__(self):
+    def __enter__(self) -> _DaskEngine:
         require("distributed")
         from distributed import Client
 
@@ -205,20 +215,21 @@ class _DaskEngine:
                 raise SweepError(f"cannot start the local Dask cluster: {err}") from None
             return self
         try:
-            self.client = Client(self.address, timeout=self.timeout)
+            client = Client(self.address, timeout=self.timeout)
         except (OSError, TimeoutError, ValueError) as err:
             self._close()
             raise SweepError(f"cannot reach the Dask scheduler at {self.address!r} within "
                              f"{self.timeout:g} s: {err}") from None
+        self.client = client
         try:
-            self.client.wait_for_workers(1, timeout=self.timeout)
+            client.wait_for_workers(1, timeout=self.timeout)
         except (TimeoutError, OSError) as err:
             self._close()
             raise SweepError(f"the Dask scheduler at {self.address!r} has no workers "
                              f"(waited {self.timeout:g} s): {err}") from None
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, *exc: object) -> Literal[False]:
         self._close()
         return False
 
@@ -230,35 +241,37 @@ class _DaskEngine:
             self.cluster.close()
             self.cluster = None
 
-    def _threads(self) -> int:
+    def _threads(self, client: Client) -> int:
         """Worker threads in the cluster (asked again every few seconds: workers may come and go)."""
         now = time.monotonic()
         if self._nthreads is None or now - self._asked > THREADS_REFRESH:
-            self._nthreads = max(1, sum(self.client.nthreads().values()))
+            self._nthreads = max(1, sum(client.nthreads().values()))
             self._asked = now
         return self._nthreads
 
-    def run(self, plan, points, batch):
+    def run(self, plan: Plan, points: Sequence[Point], batch: int | None) -> Iterator[list[Row]]:
         from distributed import as_completed
 
         client = self.client
+        if client is None:
+            raise SweepError("the Dask engine runs inside its with block (connected)")
         plan_ref = client.scatter(plan, broadcast=True, hash=False)
         pending = deque(points)
-        batches: dict = {}
+        batches: dict[Hashable, list[Point]] = {}
         costs = [0.0, 0]                       # sum of run times, points
 
-        def submit(n_tasks: int, seq):
+        def submit(n_tasks: int, seq: as_completed) -> None:
             for _ in range(n_tasks):
                 if not pending:
                     return
-                size = batch or self._batch_size(costs, len(pending))
+                size = batch or self._batch_size(client, costs, len(pending))
                 chunk = [pending.popleft() for _ in range(min(size, len(pending)))]
                 fut = client.submit(run_batch, plan_ref, chunk, pure=False)
                 batches[fut.key] = chunk
                 seq.add(fut)
 
         seq = as_completed(loop=client.loop)     # not the default client's loop: another client may be first
-        submit(TASKS_PER_THREAD * self._threads(), seq)
+        submit(TASKS_PER_THREAD * self._threads(client), seq)
         for fut in seq:
             chunk = batches.pop(fut.key)
             if fut.status == "finished":
@@ -269,18 +282,18 @@ class _DaskEngine:
                 got = [_lost(plan, p, fut) for p in chunk]
             fut.release()
             yield got
-            submit(max(0, TASKS_PER_THREAD * self._threads() - len(batches)), seq)
+            submit(max(0, TASKS_PER_THREAD * self._threads(client) - len(batches)), seq)
 
-    def _batch_size(self, costs, remaining: int) -> int:
+    def _batch_size(self, client: Client, costs: list[float], remaining: int) -> int:
         if costs[1] == 0:
             return 1
         mean = costs[0] / costs[1]
         size = int(TASK_SECONDS / mean) if mean > 0 else MAX_BATCH
-        tail = math.ceil(remaining / (TASKS_PER_THREAD * self._threads()))
+        tail = math.ceil(remaining / (TASKS_PER_THREAD * self._threads(client)))
         return max(1, min(size, MAX_BATCH, tail))
 
 
-def _lost(plan, point, future) -> dict:
+def _lost(plan: Plan, point: Point, future: Future[list[Row]]) -> Row:
     """The row of a point whose batch the engine could not get run."""
     try:
         err = future.exception()

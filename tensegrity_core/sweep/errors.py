@@ -8,10 +8,15 @@ A point that fails never raises: it becomes a row of the results with its status
 
 from __future__ import annotations
 
+from types import ModuleType
+
 from tensegrity_core.errors import TensegrityError
 
+#: A key path into the sweep file: mapping keys and list positions.
+KeyPath = tuple[str | int, ...]
 
-def format_path(path: tuple) -> str:
+
+def format_path(path: KeyPath) -> str:
     """``("vary", "model.params.k", "grid")`` -> ``"vary.model.params.k.grid"``; ints as ``[i]``."""
     out = ""
     for part in path:
@@ -27,7 +32,7 @@ class SweepError(TensegrityError, ValueError):
     ``line`` the 1-based line or ``None``, ``file`` the sweep file's name or ``None``; the
     message already contains all three."""
 
-    def __init__(self, message: str, *, key: tuple = (), line: int | None = None, file: str | None = None):
+    def __init__(self, message: str, *, key: KeyPath = (), line: int | None = None, file: str | None = None):
         where = format_path(key)
         text = f"{where}: {message}" if where else message
         if line is not None:
@@ -45,7 +50,7 @@ class MissingDependencyError(SweepError):
     """Running a sweep needs packages the core does not (Dask distributed, pandas, pyarrow)."""
 
 
-def require(module: str):
+def require(module: str) -> ModuleType:
     """Import ``module`` for the sweep engine, or say what to install."""
     import importlib
 

@@ -22,9 +22,13 @@ from __future__ import annotations
 import difflib
 import fnmatch
 import re
+from collections.abc import Iterable
+from typing import Any
 
 #: A concrete location: mapping keys (str) and list positions (int) from the root.
-Location = tuple
+Location = tuple[str | int, ...]
+#: A parsed key path step: ``("key", name)``, ``("index", n)`` or ``("select", glob)``.
+Token = tuple[str, Any]
 
 _SEGMENT = re.compile(r"([^.\[\]]+)((?:\[[^\[\]]*\])*)")
 
@@ -33,17 +37,17 @@ class KeyPathError(ValueError):
     """A key path is malformed or does not lead anywhere in the document."""
 
 
-def _suggest(word, choices) -> str:
+def _suggest(word: object, choices: Iterable[object]) -> str:
     close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1)
     return f" (did you mean {close[0]!r}?)" if close else ""
 
 
-def parse(text: str) -> tuple:
+def parse(text: str) -> tuple[Token, ...]:
     """``"members[side*].rest_length"`` -> ``(("key", "members"), ("select", "side*"),
     ("key", "rest_length"))``; positions give ``("index", n)``."""
     if not isinstance(text, str) or not text.strip():
         raise KeyPathError(f"a key path must be a non-empty string, got {text!r}")
-    tokens: list = []
+    tokens: list[Token] = []
     for part in text.split("."):
         m = _SEGMENT.fullmatch(part)
         if m is None:
@@ -70,7 +74,7 @@ def format_location(loc: Location) -> str:
     return out
 
 
-def _item_name(item):
+def _item_name(item: object) -> tuple[str, Any] | None:
     """(name, child key or None) of a list item for name selectors, or None."""
     if isinstance(item, dict) and isinstance(item.get("name"), str):
         return item["name"], None
@@ -82,7 +86,7 @@ def _item_name(item):
     return None
 
 
-def resolve(document, text: str, *, need_number: bool = False) -> list[Location]:
+def resolve(document: Any, text: str, *, need_number: bool = False) -> list[Location]:
     """The concrete locations of key path ``text`` in ``document``.
 
     Every step but the last must exist; the last key may be new in a mapping (a parameter the
@@ -92,7 +96,7 @@ def resolve(document, text: str, *, need_number: bool = False) -> list[Location]
     tokens = parse(text)
     out: list[Location] = []
 
-    def walk(node, i: int, prefix: tuple) -> None:
+    def walk(node: Any, i: int, prefix: Location) -> None:
         kind, arg = tokens[i]
         last = i == len(tokens) - 1
         where = format_location(prefix) or "the document"
@@ -115,7 +119,8 @@ def resolve(document, text: str, *, need_number: bool = False) -> list[Location]
             if last:
                 raise KeyPathError(f"[{arg}] selects entries; say which key of them to vary "
                                    f"(e.g. {text}.rest_length)")
-            names, nxt = [], []
+            names: list[str] = []
+            nxt = []
             for j, item in enumerate(node):
                 named = _item_name(item)
                 if named is None:
@@ -148,7 +153,7 @@ def resolve(document, text: str, *, need_number: bool = False) -> list[Location]
     return out
 
 
-def get_at(document, loc: Location):
+def get_at(document: Any, loc: Location) -> Any:
     """The value at ``loc``."""
     node = document
     for part in loc:
@@ -156,6 +161,6 @@ def get_at(document, loc: Location):
     return node
 
 
-def set_at(document, loc: Location, value) -> None:
+def set_at(document: Any, loc: Location, value: Any) -> None:
     """Write ``value`` at ``loc`` (the parent must exist)."""
     get_at(document, loc[:-1])[loc[-1]] = value

@@ -16,16 +16,22 @@ that are not ``ok``.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from tensegrity_core.sweep.errors import SweepError
+
+if TYPE_CHECKING:
+    from tensegrity_core.sweep.spec import Plan, Sweep
 
 MAX_PANELS = 6
 
 
-def plotted_columns(plan, wanted=None) -> list[str]:
+def plotted_columns(plan: Plan, wanted: Sequence[str] | None = None) -> list[str]:
     """The result columns to plot: ``wanted`` (checked), else every numeric one."""
     numeric = [c for c, t in plan.result_columns if t in ("float", "int", "bool")]
     if wanted:
@@ -36,11 +42,12 @@ def plotted_columns(plan, wanted=None) -> list[str]:
     return numeric[:MAX_PANELS]
 
 
-def _label(v) -> str:
+def _label(v: object) -> str:
     return f"{v:.3g}" if isinstance(v, float) else str(v)
 
 
-def plot_sweep(table, sweep, path, columns=None, plan=None) -> Path:
+def plot_sweep(table: Any, sweep: Sweep, path: str | Path, columns: Sequence[str] | None = None,
+               plan: Plan | None = None) -> Path:
     """Write a PNG of ``table`` (from ``run_sweep(sweep)``) to ``path``; see the module docstring.
     ``plan``: the sweep's prepared plan, if the caller has it (else prepared here)."""
     import matplotlib
@@ -77,6 +84,7 @@ def plot_sweep(table, sweep, path, columns=None, plan=None) -> Path:
         note = f" ({failed} of {len(table)} points not ok)" if failed else ""
         if mode == "hist":
             data = values[np.isfinite(values)]
+            bins: NDArray[np.float64] | int
             if kinds[column] in ("int", "bool") and len(data):     # one bar per integer
                 bins = np.arange(data.min() - 0.5, data.max() + 1.5)
             else:

@@ -17,11 +17,13 @@ from __future__ import annotations
 import copy
 import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from tensegrity_core.sweep.keypath import get_at, set_at
+from tensegrity_core.sweep.keypath import Location, get_at, set_at
 
 FIXED = ("values", "grid")
 RANDOM = ("uniform", "normal", "log_uniform")
@@ -36,10 +38,10 @@ class Quantity:
     path: str
     column: str
     kind: str
-    values: tuple = ()
-    params: tuple = ()
+    values: tuple[Any, ...] = ()
+    params: tuple[float, ...] = ()
     scale: bool = False
-    locations: tuple = ()
+    locations: tuple[Location, ...] = ()
     log: bool = False          # a log-spaced grid or a log-uniform distribution (plots)
 
     @property
@@ -61,11 +63,11 @@ class Point:
     point's own seed (a non-negative integer)."""
 
     index: int
-    values: tuple
+    values: tuple[Any, ...]
     seed: int
 
 
-def grid_values(start: float, stop: float, num: int, spacing: str = "linear") -> tuple:
+def grid_values(start: float, stop: float, num: int, spacing: str = "linear") -> tuple[float, ...]:
     """``num`` values from ``start`` to ``stop`` (both included), linear or logarithmic."""
     if spacing == "log":
         return tuple(float(v) for v in np.geomspace(start, stop, num))
@@ -77,13 +79,13 @@ def point_seed(seed: int, index: int) -> int:
     return int(np.random.SeedSequence(seed, spawn_key=(index, 1)).generate_state(1)[0])
 
 
-def count(quantities, samples: int) -> int:
+def count(quantities: Sequence[Quantity], samples: int) -> int:
     fixed = [len(q.values) for q in quantities if not q.random]
     n = math.prod(fixed) if fixed else 1
     return n * (samples if any(q.random for q in quantities) else 1)
 
 
-def build_points(quantities, samples: int, seed: int) -> list[Point]:
+def build_points(quantities: Sequence[Quantity], samples: int, seed: int) -> list[Point]:
     """Every point of the sweep, in index order."""
     fixed = [q for q in quantities if not q.random]
     random = any(q.random for q in quantities)
@@ -93,14 +95,16 @@ def build_points(quantities, samples: int, seed: int) -> list[Point]:
     for c, combo in enumerate(combos):
         for r in range(repeats):
             index = c * repeats + r
-            rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(index, 0))) if random else None
-            it = iter(combo)
-            values = tuple(q.draw(rng) if q.random else next(it) for q in quantities)
+            values: tuple[Any, ...] = combo          # every quantity fixed
+            if random:
+                rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(index, 0)))
+                it = iter(combo)
+                values = tuple(q.draw(rng) if q.random else next(it) for q in quantities)
             points.append(Point(index, values, point_seed(seed, index)))
     return points
 
 
-def apply(document: dict, quantities, values) -> dict:
+def apply(document: dict[str, Any], quantities: Sequence[Quantity], values: Sequence[Any]) -> dict[str, Any]:
     """A copy of ``document`` with the point's ``values`` written at every location."""
     out = copy.deepcopy(document)
     for q, value in zip(quantities, values):

@@ -30,15 +30,18 @@ import difflib
 import hashlib
 import json
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from tensegrity_core.sweep.base import BASE_KINDS, Base, BaseError, load_base, plain
-from tensegrity_core.sweep.checks import OptionError
+from tensegrity_core.sweep.checks import Check, OptionError
 from tensegrity_core.sweep.computations import COMPUTATIONS, ResultSpec
-from tensegrity_core.sweep.errors import SweepError
-from tensegrity_core.sweep.keypath import KeyPathError, format_location, resolve
-from tensegrity_core.sweep.points import FIXED, RANDOM, Quantity, build_points, count, grid_values
+from tensegrity_core.sweep.computations.results import Column, Options
+from tensegrity_core.sweep.errors import KeyPath, SweepError
+from tensegrity_core.sweep.keypath import KeyPathError, Location, format_location, resolve
+from tensegrity_core.sweep.points import FIXED, RANDOM, Point, Quantity, build_points, count, grid_values
 
 EXAMPLES_DIR = Path(__file__).parent / "examples"
 TOP = ("name", "description", "base", "vary", "samples", "seed", "compute", "results")
@@ -47,6 +50,9 @@ RESERVED = ("point", "seed", "status", "message", "run_time", "sweep_id")
 MAX_FILE_BYTES = 1 << 20
 MAX_POINTS = 1_000_000
 MAX_VALUES = 100_000
+
+#: A result as the sweep file lists it: ``(name, checked options, line)``.
+ListedResult = tuple[str, Options, int | None]
 
 
 # ------------------------------------------------------------------------------ the sweep
@@ -59,11 +65,11 @@ class Sweep:
     description: str
     base: Base
     computation: str
-    options: dict
-    quantities: tuple
+    options: Options
+    quantities: tuple[Quantity, ...]
     samples: int
     seed: int
-    results: tuple                 # ((name, options, line), ...) as read
+    results: tuple[ListedResult, ...]     # as read
     source: str | None = None
     folder: str = "."
 
@@ -81,7 +87,7 @@ class Sweep:
         """Each point's seed goes into the scene's ``seed`` (sensor noise), unless varied."""
         return COMPUTATIONS[self.computation].uses_seed and not any(q.path == "seed" for q in self.quantities)
 
-    def points(self):
+    def points(self) -> list[Point]:
         return build_points(self.quantities, self.samples, self.seed)
 
     @property
@@ -101,15 +107,15 @@ class Plan:
     """Everything a worker needs besides the points: the base document, the computation,
     its options and the prepared results. Small and picklable; sent to each worker once."""
 
-    document: dict
+    document: dict[str, Any]
     computation: str
-    options: dict
-    quantities: tuple
-    results: tuple                 # ResultSpec
+    options: Options
+    quantities: tuple[Quantity, ...]
+    results: tuple[ResultSpec, ...]
     sets_seed: bool
 
     @property
-    def result_columns(self) -> list:
+    def result_columns(self) -> list[Column]:
         return [c for r in self.results for c in r.columns]
 
 
@@ -119,9 +125,9 @@ def prepare(sweep: Sweep) -> Plan:
     computation's final options. Raises :class:`SweepError` when the base itself cannot be
     computed or a result's option does not fit it."""
     comp = COMPUTATIONS[sweep.computation]
-    probes: dict = {}
+    probes: dict[bool, Any] = {}
 
-    def probe(full: bool = True):
+    def probe(full: bool = True) -> Any:
         if full not in probes:
             try:
                 probes[full] = comp.probe(sweep.base.document, sweep.options, full=full)
@@ -169,7 +175,11 @@ def sweep_path(name: str) -> Path:
     return path
 
 
-def load_sweep(source) -> Sweep:
+#: What :func:`load_sweep` reads: a sweep, a shipped sweep's name, a path, YAML text or a dict.
+SweepSource = Sweep | str | Path | dict[str, Any]
+
+
+def load_sweep(source: SweepSource) -> Sweep:
     """Read and check a sweep: a :class:`Sweep` (returned as is), a shipped sweep's name, a
     path to a YAML file, YAML text or a dict. Relative paths in it (the base, reference
     files) are resolved against the sweep file's folder (the current folder otherwise)."""
@@ -202,7 +212,7 @@ def load_sweep(source) -> Sweep:
     raise SweepError(f"cannot load a sweep from a {type(source).__name__}; give a name, a path, YAML text or a dict")
 
 
-def _parse(text: str, file: str | None) -> dict:
+def _parse(text: str, file: str | None) -> object:
     from tensegrity_core.schema import SchemaError, parse_text
 
     try:
@@ -212,22 +222,23 @@ def _parse(text: str, file: str | None) -> dict:
     return data
 
 
-def _suggest(word, choices, template=" (did you mean {!r}?)") -> str:
+def _suggest(word: object, choices: Iterable[object], template: str = " (did you mean {!r}?)") -> str:
     close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1)
     return template.format(close[0]) if close else ""
 
 
-def _line(container, key) -> int | None:
-    lines = getattr(container, "key_lines", None)
+def _line(container: object, key: object) -> int | None:
+    lines: dict[object, int] | None = getattr(container, "key_lines", None)
     if lines is not None and key in lines:
         return lines[key]
-    items = getattr(container, "item_lines", None)
+    items: list[int] | None = getattr(container, "item_lines", None)
     if items is not None and isinstance(key, int) and key < len(items):
         return items[key]
-    return getattr(container, "line", None)
+    line: int | None = getattr(container, "line", None)
+    return line
 
 
-def _type_name(value) -> str:
+def _type_name(value: object) -> str:
     for kind, name in ((bool, "a boolean"), (dict, "a mapping"), (list, "a list"), (str, "a string"),
                        (int, "an integer"), (float, "a number"), (type(None), "nothing (null)")):
         if isinstance(value, kind):
@@ -243,16 +254,17 @@ class _Reader:
         self.folder = folder
         self.source = source
 
-    def error(self, message: str, path: tuple, container=None, key=None) -> SweepError:
+    def error(self, message: str, path: KeyPath, container: object = None, key: object = None) -> SweepError:
         line = _line(container, key) if container is not None else None
         return SweepError(message, key=path, line=line, file=self.file)
 
-    def mapping(self, value, path, parent=None, key=None) -> dict:
+    def mapping(self, value: object, path: KeyPath, parent: object = None, key: object = None) -> dict[Any, Any]:
         if not isinstance(value, dict):
             raise self.error(f"must be a mapping, got {_type_name(value)} ({value!r})", path, parent, key)
         return value
 
-    def keys(self, d: dict, path: tuple, allowed, required=()) -> None:
+    def keys(self, d: dict[Any, Any], path: KeyPath, allowed: tuple[str, ...],
+             required: Iterable[str] = ()) -> None:
         for k in d:
             if k not in allowed:
                 raise self.error(f"unknown key {k!r}{_suggest(k, allowed)}; allowed: {', '.join(allowed)}",
@@ -261,7 +273,8 @@ class _Reader:
             if k not in d:
                 raise self.error(f"missing required key {k!r}", path, d, None)
 
-    def number(self, d: dict, key, path, *, lo=None, lo_open=False) -> float:
+    def number(self, d: dict[str, Any], key: str, path: KeyPath, *, lo: float | None = None,
+               lo_open: bool = False) -> float:
         v = d[key]
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise self.error(f"must be a number, got {_type_name(v)} ({v!r})", path + (key,), d, key)
@@ -271,20 +284,21 @@ class _Reader:
             raise self.error(f"must be {'>' if lo_open else '>='} {lo:g}, got {v!r}", path + (key,), d, key)
         return float(v)
 
-    def integer(self, d: dict, key, path, *, lo=0, hi=None) -> int:
+    def integer(self, d: dict[str, Any], key: str, path: KeyPath, *, lo: int = 0, hi: int | None = None) -> int:
         v = d[key]
         if isinstance(v, bool) or not isinstance(v, int) or v < lo or (hi is not None and v > hi):
             bound = f">= {lo}" + (f" and <= {hi}" if hi is not None else "")
             raise self.error(f"must be an integer {bound}, got {v!r}", path + (key,), d, key)
         return int(v)
 
-    def string(self, d: dict, key, path) -> str:
+    def string(self, d: dict[str, Any], key: str, path: KeyPath) -> str:
         v = d[key]
         if not isinstance(v, str):
             raise self.error(f"must be a string, got {_type_name(v)} ({v!r})", path + (key,), d, key)
         return v
 
-    def named(self, item, path, holder, index, what: str):
+    def named(self, item: object, path: KeyPath, holder: object, index: object,
+              what: str) -> tuple[str, dict[str, Any], KeyPath]:
         """``name`` or ``{name: {options}}`` -> (name, options mapping, path of the options)."""
         if isinstance(item, str):
             return item, {}, path
@@ -296,7 +310,7 @@ class _Reader:
                          path, holder, index)
 
     # -- the sweep ---------------------------------------------------------------------------
-    def sweep(self, data) -> Sweep:
+    def sweep(self, data: object) -> Sweep:
         d = self.mapping(data, ())
         self.keys(d, (), TOP, required=("base", "vary", "compute", "results"))
         name = self.string(d, "name", ()) if "name" in d else (Path(self.file).stem if self.file else "sweep")
@@ -320,7 +334,7 @@ class _Reader:
                      quantities=tuple(quantities), samples=samples, seed=seed, results=tuple(results),
                      source=self.source, folder=str(self.folder))
 
-    def base(self, value, path, parent) -> Base:
+    def base(self, value: object, path: KeyPath, parent: dict[str, Any]) -> Base:
         d = self.mapping(value, path, parent, "base")
         self.keys(d, path, BASE_KINDS)
         if len(d) != 1:
@@ -331,7 +345,7 @@ class _Reader:
         except BaseError as err:
             raise self.error(str(err), path + (kind,), d, kind) from None
 
-    def compute(self, value, path, parent, base: Base):
+    def compute(self, value: object, path: KeyPath, parent: dict[str, Any], base: Base) -> tuple[str, Options]:
         name, options, opath = self.named(value, path, parent, "compute", "computation")
         if name not in COMPUTATIONS:
             raise self.error(f"unknown computation {name!r}{_suggest(name, COMPUTATIONS)}; computations: "
@@ -345,9 +359,10 @@ class _Reader:
                              f"{base.model_kind!r}", path, parent, "compute")
         return name, self.options(options, opath, comp.options, comp.required_options)
 
-    def options(self, options: dict, path, checks: dict, required) -> dict:
+    def options(self, options: dict[str, Any], path: KeyPath, checks: dict[str, Check],
+                required: Iterable[str]) -> Options:
         self.keys(options, path, tuple(checks), required=required)
-        out = {}
+        out: Options = {}
         for k, v in options.items():
             try:
                 out[k] = checks[k](plain(v))
@@ -355,12 +370,12 @@ class _Reader:
                 raise self.error(str(err), path + (k,), options, k) from None
         return out
 
-    def vary(self, value, path, parent, base: Base) -> list[Quantity]:
+    def vary(self, value: object, path: KeyPath, parent: dict[str, Any], base: Base) -> list[Quantity]:
         d = self.mapping(value, path, parent, "vary")
         if not d:
             raise self.error("list at least one quantity to vary", path, parent, "vary")
         out: list[Quantity] = []
-        taken: dict = {}
+        taken: dict[Location, str] = {}
         for key_path, spec in d.items():
             qpath = path + (key_path,)
             if not isinstance(key_path, str):
@@ -376,7 +391,8 @@ class _Reader:
             out.append(q)
         return out
 
-    def quantity(self, key_path: str, spec, path, parent, base: Base) -> Quantity:
+    def quantity(self, key_path: str, spec: object, path: KeyPath, parent: dict[str, Any],
+                 base: Base) -> Quantity:
         if not isinstance(spec, dict):     # a bare list of values or a single value
             spec_values = spec if isinstance(spec, list) else [spec]
             spec = {"values": spec_values}
@@ -395,7 +411,8 @@ class _Reader:
                 raise self.error(f"must be true or false, got {spec['scale']!r}", path + ("scale",), spec, "scale")
             scale = spec["scale"]
         column = self.string(spec, "name", path) if "name" in spec else key_path
-        values, params = (), ()
+        values: tuple[Any, ...] = ()
+        params: tuple[float, ...] = ()
         kpath = path + (kind,)
         if kind == "values":
             v = spec["values"]
@@ -438,12 +455,13 @@ class _Reader:
         log = kind == "log_uniform" or (kind == "grid" and spacing == "log")
         return Quantity(key_path, column, kind, values, params, scale, locations, log)
 
-    def results(self, value, path, parent, computation: str) -> list:
+    def results(self, value: object, path: KeyPath, parent: dict[str, Any], computation: str) -> list[ListedResult]:
         if not isinstance(value, list) or not value:
             raise self.error(f"must be a non-empty list of results, got {_type_name(value)} ({value!r})",
                              path, parent, "results")
         comp = COMPUTATIONS[computation]
-        out, seen = [], set()
+        out: list[ListedResult] = []
+        seen: set[tuple[str, str]] = set()
         for i, item in enumerate(value):
             name, options, opath = self.named(item, path + (i,), value, i, "result")
             if name not in comp.results:

@@ -19,10 +19,16 @@ from __future__ import annotations
 import json
 import math
 import os
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any, TextIO
 
 from tensegrity_core.sweep.errors import SweepError, require
-from tensegrity_core.sweep.task import FINAL_STATUSES
+from tensegrity_core.sweep.points import Point
+from tensegrity_core.sweep.task import FINAL_STATUSES, Row
+
+#: A column of the table: ``(name, dtype)``, dtype None for inferred (the varied quantities).
+TableColumn = tuple[str, str | None]
 
 FORMATS = (".parquet", ".csv")
 DTYPES = {"float": "float64", "int": "Int64", "bool": "boolean", "str": "string"}
@@ -42,7 +48,7 @@ def check_output_path(output: Path) -> None:
         raise SweepError(f"the output {str(output)!r} is a folder")
 
 
-def _same(a, b) -> bool:
+def _same(a: object, b: object) -> bool:
     if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
         return True
     try:
@@ -53,12 +59,12 @@ def _same(a, b) -> bool:
     return str(a) == str(b)
 
 
-def _clean(value):
+def _clean(value: Any) -> Any:
     """A table cell as a plain Python value (pandas' NA -> None, numpy scalars -> Python)."""
     if value is None:
         return None
     try:
-        import pandas as pd
+        import pandas as pd  # type: ignore[import-untyped]  # (pandas-stubs is not a dependency)
 
         if value is pd.NA:
             return None
@@ -73,30 +79,31 @@ class Store:
     ``columns``: every column of a row, in order, with its dtype (``None`` for inferred).
     ``inputs``: the columns that define a point (checked against earlier rows on resume)."""
 
-    def __init__(self, output: Path | None, sweep_id: str, columns: list, inputs: list[str]):
+    def __init__(self, output: Path | None, sweep_id: str, columns: list[TableColumn], inputs: list[str]):
         self.output = Path(output) if output is not None else None
         self.sweep_id = sweep_id
         self.columns = columns
         self.inputs = inputs
-        self.journal = journal_path(self.output) if self.output is not None else None
-        self._fh = None
+        self.journal = journal_path(self.output) if self.output is not None else None    # None iff output is
+        self._fh: TextIO | None = None
 
     # -- earlier rows ----------------------------------------------------------------------
-    def previous(self, points) -> dict:
+    def previous(self, points: Sequence[Point]) -> dict[int, Row]:
         """Rows of this sweep already in the output or the journal, by point (resume)."""
-        if self.output is None:
+        output, journal = self.output, self.journal
+        if output is None or journal is None:
             raise SweepError("--resume needs an output (-o) to resume from")
-        rows: dict = {}
-        if self.output.exists():
-            for row in self._read_table(self.output):
+        rows: dict[int, Row] = {}
+        if output.exists():
+            for row in self._read_table(output):
                 rows.setdefault(int(row["point"]), row)
-        if self.journal.exists():
-            for row in self._read_journal():
+        if journal.exists():
+            for row in self._read_journal(journal):
                 rows.setdefault(int(row["point"]), row)
         by_index = {p.index: p for p in points}
         names = [c for c, _ in self.columns]
         for index, row in rows.items():
-            where = f"{self.output.name}: point {index}"
+            where = f"{output.name}: point {index}"
             if index not in by_index:
                 raise SweepError(f"{where} is not a point of this sweep (it has {len(points)}); "
                                  f"the output belongs to another sweep: choose another -o or remove it")
@@ -112,10 +119,10 @@ class Store:
                                      f"belongs to another sweep; choose another -o or remove it")
         return {i: r for i, r in rows.items() if r.get("status") in FINAL_STATUSES}
 
-    def _point_inputs(self, point):
+    def _point_inputs(self, point: Point) -> tuple[Any, ...]:
         return (point.index, *point.values, point.seed)
 
-    def _read_table(self, path: Path) -> list[dict]:
+    def _read_table(self, path: Path) -> list[Row]:
         pd = require("pandas")
         try:
             if path.suffix.lower() == ".parquet":
@@ -129,16 +136,16 @@ class Store:
             raise SweepError(f"cannot read the earlier results {str(path)!r}: {err}") from None
         return [{k: _clean(v) for k, v in rec.items()} for rec in df.to_dict("records")]
 
-    def _read_journal(self) -> list[dict]:
-        rows = []
-        with open(self.journal, encoding="utf-8") as fh:
+    def _read_journal(self, journal: Path) -> list[Row]:
+        rows: list[Row] = []
+        with open(journal, encoding="utf-8") as fh:
             header = fh.readline()
             try:
                 head = json.loads(header)
             except json.JSONDecodeError:
                 return rows          # killed before its header was complete
             if head.get("sweep_id") != self.sweep_id:
-                raise SweepError(f"{self.journal.name} comes from another sweep (sweep_id "
+                raise SweepError(f"{journal.name} comes from another sweep (sweep_id "
                                  f"{head.get('sweep_id')!r}, this sweep {self.sweep_id!r}); remove it or run "
                                  f"without --resume")
             for line in fh:
@@ -151,22 +158,23 @@ class Store:
         return rows
 
     # -- this run --------------------------------------------------------------------------
-    def open(self, keep: list[dict]) -> None:
+    def open(self, keep: list[Row]) -> None:
         """Start the journal with its header and the rows kept from earlier runs (rewritten
         cleanly, so a line cut short by a kill is not continued)."""
-        if self.output is None:
+        journal = self.journal
+        if journal is None:                     # no output
             return
-        tmp = self.journal.with_name(self.journal.name + ".tmp")
+        tmp = journal.with_name(journal.name + ".tmp")
         with open(tmp, "w", encoding="utf-8") as fh:
             fh.write(json.dumps({"sweep_id": self.sweep_id, "columns": [c for c, _ in self.columns]}) + "\n")
             for row in keep:
                 fh.write(json.dumps(row) + "\n")
             fh.flush()
             os.fsync(fh.fileno())
-        os.replace(tmp, self.journal)
-        self._fh = open(self.journal, "a", encoding="utf-8")
+        os.replace(tmp, journal)
+        self._fh = open(journal, "a", encoding="utf-8")
 
-    def append(self, rows: list[dict]) -> None:
+    def append(self, rows: list[Row]) -> None:
         if self._fh is None:
             return
         self._fh.write("".join(json.dumps({**r, "sweep_id": self.sweep_id}) + "\n" for r in rows))
@@ -178,11 +186,11 @@ class Store:
             self._fh.close()
             self._fh = None
 
-    def table(self, rows: list[dict]):
+    def table(self, rows: list[Row]) -> Any:
         """The rows as a pandas DataFrame in the sweep's column order and dtypes."""
         pd = require("pandas")
         rows = sorted(rows, key=lambda r: r["point"])
-        data = {}
+        data: dict[str, Any] = {}
         for column, dtype in self.columns:
             values = [r.get(column, self.sweep_id if column == "sweep_id" else None) for r in rows]
             if dtype is None:
@@ -193,21 +201,23 @@ class Store:
                 data[column] = pd.Series(values, dtype=DTYPES[dtype])
         return pd.DataFrame(data)
 
-    def finish(self, rows: list[dict]):
-        """Write the combined table (atomically) and remove the journal; the table."""
+    def finish(self, rows: list[Row]) -> Any:
+        """Write the combined table (atomically) and remove the journal; the table (a pandas
+        DataFrame)."""
         self.close()
         df = self.table(rows)
-        if self.output is None:
+        output, journal = self.output, self.journal
+        if output is None or journal is None:
             return df
-        require("pyarrow") if self.output.suffix.lower() == ".parquet" else None
-        tmp = self.output.with_name(self.output.name + ".tmp")
+        require("pyarrow") if output.suffix.lower() == ".parquet" else None
+        tmp = output.with_name(output.name + ".tmp")
         try:
-            if self.output.suffix.lower() == ".parquet":
+            if output.suffix.lower() == ".parquet":
                 df.to_parquet(tmp, index=False)
             else:
                 df.to_csv(tmp, index=False)
-            os.replace(tmp, self.output)
+            os.replace(tmp, output)
         except OSError as err:
-            raise SweepError(f"cannot write {str(self.output)!r}: {err.strerror}") from None
-        self.journal.unlink(missing_ok=True)
+            raise SweepError(f"cannot write {str(output)!r}: {err.strerror}") from None
+        journal.unlink(missing_ok=True)
         return df

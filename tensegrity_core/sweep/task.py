@@ -21,15 +21,24 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
 
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.sweep.computations import COMPUTATIONS
-from tensegrity_core.sweep.points import apply
+from tensegrity_core.sweep.points import Point, apply
+
+if TYPE_CHECKING:
+    from tensegrity_core.sweep.spec import Plan
+
+#: A row of the results: column -> plain value.
+Row = dict[str, Any]
 
 STATUSES = ("ok", "failed", "invalid", "error", "lost")
 #: Statuses that a rerun would give again (``--resume`` keeps them); ``lost`` is rerun.
 FINAL_STATUSES = ("ok", "failed", "invalid", "error")
-_blas_limit = None
+#: The thread-pool limit of this process (False: threadpoolctl missing), once pinned.
+_blas_limit: object = None
 
 
 def pin_blas() -> None:
@@ -44,23 +53,23 @@ def pin_blas() -> None:
         _blas_limit = threadpool_limits(limits=1)
 
 
-def missing(dtype: str):
+def missing(dtype: str) -> float | None:
     return math.nan if dtype == "float" else None
 
 
-def inputs(plan, point) -> dict:
+def inputs(plan: Plan, point: Point) -> Row:
     """The leading columns of a point's row: index, varied values, seed."""
-    row = {"point": point.index}
+    row: Row = {"point": point.index}
     row.update({q.column: v for q, v in zip(plan.quantities, point.values)})
     row["seed"] = point.seed
     return row
 
 
-def run_point(plan, point) -> dict:
+def run_point(plan: Plan, point: Point) -> Row:
     """The row of one point (never raises for the point's own reasons)."""
     comp = COMPUTATIONS[plan.computation]
     row = inputs(plan, point)
-    values = {c: missing(t) for c, t in plan.result_columns}
+    values: Row = {c: missing(t) for c, t in plan.result_columns}
     t0 = time.perf_counter()
     try:
         document = apply(plan.document, plan.quantities, point.values)
@@ -85,7 +94,7 @@ def run_point(plan, point) -> dict:
     return row
 
 
-def run_batch(plan, points) -> list[dict]:
+def run_batch(plan: Plan, points: Sequence[Point]) -> list[Row]:
     """Rows of a batch of points (the task a worker runs)."""
     pin_blas()
     return [run_point(plan, p) for p in points]

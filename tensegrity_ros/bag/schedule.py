@@ -102,7 +102,8 @@ def timeline(messages: Callable[[], Iterable[BagMessage]], start_ns: int, end_ns
         else:
             events = msgs
         count = 0
-        for count, event in enumerate(events, 1):
+        for event in events:
+            count += 1
             yield event
         if not opts.loop or count == 0:
             return

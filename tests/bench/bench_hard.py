@@ -28,8 +28,8 @@ def slack_newton(ctx: Context) -> list[Row]:
     rows = []
     for n in ([100] if ctx.quick else [100, 300]):
         s = tensegrity_spine(n, shape="C")
-        exact, t_exact = _timed(lambda: form_find(s, slack_stiffness=False, max_iter=400))
-        slack, t_slack = _timed(lambda: form_find(s, max_iter=400))
+        exact, t_exact = _timed(lambda s=s: form_find(s, slack_stiffness=False, max_iter=400))
+        slack, t_slack = _timed(lambda s=s: form_find(s, max_iter=400))
         assert exact.success and slack.success
         rows += [Row("hard", f"exact K_T Newton, C spine {n}", t_exact, "s", note=f"{exact.iterations} it"),
                  Row("hard", f"slack-string Newton matrix, C spine {n}", t_slack, "s",

@@ -88,13 +88,13 @@ def structure_files(ctx: Context) -> list[Row]:
             sizes_mb = {fmt: p.stat().st_size / 1e6 for fmt, p in paths.items()}
             baseline = None
             if old is not None:
-                t_old, loaded = _best_cpu(lambda: old(paths["yaml"]), 3 if s.n_members < 50_000 else 1)
+                t_old, loaded = _best_cpu(lambda paths=paths: old(paths["yaml"]), 3 if s.n_members < 50_000 else 1)
                 assert loaded.n_members == s.n_members
                 baseline = f"old loader, YAML, {tag}"
                 rows.append(Row("load", baseline, t_old, "s CPU",
                                 note=f"{sizes_mb['yaml']:.1f} MB, commit {OLD_COMMIT}"))
             for fmt, label in (("yaml", "YAML per member"), ("json", "JSON array form"), ("npz", ".npz")):
-                t, loaded = _best_cpu(lambda: structure_from_file(paths[fmt]), 3)
+                t, loaded = _best_cpu(lambda path=paths[fmt]: structure_from_file(path), 3)
                 assert loaded.n_members == s.n_members and loaded.bodies == s.bodies
                 target = "< 1 s" if s.n_members >= 100_000 and fmt != "yaml" else ""
                 rows.append(Row("load", f"{label}, {tag}", t, "s CPU", baseline=baseline, target=target,

@@ -121,7 +121,7 @@ def scene_study(ctx: Context, name: str, methods=METHODS, *, reference=("DOP853"
         if explicit_horizon is not None and m in EXPLICIT:
             # cost set by stability: a short run, its time scaled to the scene's duration
             scale = float(data["duration"]) / explicit_horizon
-            wall, traj = best_run(lambda: _run_scene(data, m, 1e-6, 1e-6 * ratio, explicit_horizon), 1, 0.0)
+            wall, traj = best_run(lambda m=m: _run_scene(data, m, 1e-6, 1e-6 * ratio, explicit_horizon), 1, 0.0)
             vlines.append((wall * scale, f"{m}, any rtol: {traj.stats['nfev'] * scale:.2g} evaluations "
                                          f"(extrapolated from {explicit_horizon:g} s)"))
             points.append(Point(name, m, math.nan, math.inf, wall * scale, int(traj.stats["nfev"] * scale),
@@ -135,7 +135,8 @@ def scene_study(ctx: Context, name: str, methods=METHODS, *, reference=("DOP853"
                 continue
             atol = rtol * ratio
             try:
-                wall, traj = best_run(lambda: _run_scene(data, m, rtol, atol), repeat, min_time, max_time=3.0)
+                wall, traj = best_run(lambda m=m, rtol=rtol, atol=atol: _run_scene(data, m, rtol, atol), repeat,
+                                      min_time, max_time=3.0)
             except Exception as err:  # a method that cannot do this scene: reported, not fatal
                 points.append(Point(name, m, rtol, math.inf, math.nan, ok=False, default=is_default,
                                     note=f"{type(err).__name__}: {err}"[:200]))

@@ -163,7 +163,7 @@ def ik_work_precision(ctx: Context) -> list[Row]:
                     failed += 1
                     continue
                 errors.append(float(np.hypot(*(fk(rho) - (x, y)))))
-            per_call = time_per_call(lambda: solve(xs[0], ys[0]), min_time=0.05, repeat=3)
+            per_call = time_per_call(lambda solve=solve: solve(xs[0], ys[0]), min_time=0.05, repeat=3)
             err = max(errors) if errors else math.inf
             points.append(Point("ik", label, setting if setting is not None else math.nan, max(err, 1e-17),
                                 per_call, ok=bool(errors), default=setting is None,
@@ -204,7 +204,7 @@ def stiffness_work_precision(ctx: Context) -> list[Row]:
         for h in steps:
             err = max(float(np.abs(stiffness_matrix_energy_fd(*c, step=h) - Ks[c]).max() / np.abs(Ks[c]).max())
                       for c in configs)
-            t = time_per_call(lambda: stiffness_matrix_energy_fd(*configs[0], step=h), min_time=0.1, repeat=3)
+            t = time_per_call(lambda h=h: stiffness_matrix_energy_fd(*configs[0], step=h), min_time=0.1, repeat=3)
             points.append(Point("stiffness", "central differences of U", h, err, t, evaluations=4 * 28))
             rows.append(Row("precision_static", f"stiffness: energy differences, step {h:g} L", t * 1e6, "us",
                             baseline="stiffness: paper's procedure (analytic)",

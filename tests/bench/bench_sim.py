@@ -93,9 +93,9 @@ def effect_cost(ctx: Context) -> list[Row]:
         rhs = {k: float("inf") for k in variants}
         for _ in range(repeat):
             for k, (_, fun, yy) in variants.items():
-                rhs[k] = min(rhs[k], time_per_call(lambda: fun(0.5, yy), min_time=0.05, repeat=1))
+                rhs[k] = min(rhs[k], time_per_call(lambda fun=fun, yy=yy: fun(0.5, yy), min_time=0.05, repeat=1))
         base_rhs = "rhs: inertia + springs + fold limit (others unlisted)"
-        for k, (sc, _, _) in variants.items():
+        for k in variants:
             note = {"+ damping listed with c = 0": "a zero-valued effect is still evaluated; an unlisted one is not",
                     "+ sensor noise": "observations only: the right-hand side is the base's"}.get(k, "")
             if k == "inertia + springs + fold limit (others unlisted)":
@@ -111,7 +111,7 @@ def effect_cost(ctx: Context) -> list[Row]:
         for k, (sc, _, _) in variants.items():
             if sc is None or sc is scene:
                 continue
-            run_e, traj = best_run(lambda: simulate(sc), repeat)
+            run_e, traj = best_run(lambda sc=sc: simulate(sc), repeat)
             rows.append(Row("sim", f"run 5 s: {k}", run_e, "s", baseline="run 5 s: inertia + springs + fold limit",
                             note=f"{traj.stats.get('nfev', 0)} evaluations, {len(traj.events)} events"))
     return rows
@@ -132,7 +132,7 @@ def paper_real_time(ctx: Context) -> list[Row]:
         for method in ("DOP853", "LSODA", "RK45"):
             d["integrator"]["method"] = method
             scene = load_scene(d)
-            wall, traj = best_run(lambda: simulate(scene), repeat)
+            wall, traj = best_run(lambda scene=scene: simulate(scene), repeat)
             err = float((np.abs(traj.states - ref.states) / scale).max())
             name = f"paper fold, 5 s, {method} rtol {scene.integrator.rtol:g}"
             rows.append(Row("sim", name, wall, "s", target="< 0.25 s (>= 20x real time)" if method == "DOP853" else "",
@@ -179,8 +179,9 @@ def quasi_static_speed(ctx: Context) -> list[Row]:
         pairs.append(("table under load, 0.2 s", table, load_scene(d)))
         for label, dyn, qs in pairs:
             # the table's dynamic run takes seconds: once is enough in quick mode
-            t_dyn, traj_d = best_run(lambda: simulate(dyn), 1 if ctx.quick and label.startswith("table") else repeat)
-            t_qs, traj_q = best_run(lambda: simulate(qs), repeat)
+            t_dyn, traj_d = best_run(lambda dyn=dyn: simulate(dyn),
+                                     1 if ctx.quick and label.startswith("table") else repeat)
+            t_qs, traj_q = best_run(lambda qs=qs: simulate(qs), repeat)
             rows.append(Row("sim", f"{label}: dynamic", t_dyn, "s", note=f"{len(traj_d)} samples"))
             rows.append(Row("sim", f"{label}: quasi-static", t_qs, "s", baseline=f"{label}: dynamic", target=">= 10x",
                             note=f"{traj_q.stats}"))
@@ -235,8 +236,8 @@ def advance_cost(ctx: Context) -> list[Row]:
                 sim.set_command([-0.3, 0.3])
             sim.advance(t)
             label = f"{scene} at t = {t:g} s"
-            vec = time_per_call(lambda: _observe_vectorised(sim))
-            one = time_per_call(lambda: sim.observe())
+            vec = time_per_call(lambda sim=sim: _observe_vectorised(sim))
+            one = time_per_call(lambda sim=sim: sim.observe())
             rows.append(Row("sim", f"observe() through the run's arrays, {label}", vec * 1e6, "us"))
             rows.append(Row("sim", f"observe(), {label}", one * 1e6, "us", target="well under 100 us",
                             baseline=f"observe() through the run's arrays, {label}"))

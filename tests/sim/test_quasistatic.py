@@ -57,7 +57,7 @@ def test_the_fold_events_happen_where_the_equilibrium_reaches_zero_length():
     (t1, k1, i1), (t2, k2, i2) = traj.events[1:3]
     assert (k1, i1, k2, i2) == ("fold", 0, "fold", 1)
 
-    def rho1_at(t, guess=[0.2, 0.8, 0.6]):
+    def rho1_at(t):
         sol = root(lambda q: potential_gradient(q, p) + np.array([10 * q[0] * t, 10 * q[1] * t, 0]),
                    rho1_at.last, tol=1e-14)
         rho1_at.last = sol.x

@@ -168,6 +168,9 @@ def test_general_scenes_check_their_structure_and_effects():
     assert err.key == ("model", "end_effector") and "did you mean 'c1'" in str(err) and err.line == 1
     err = error(text.replace("[springs, gravity,", "[springs, fold_limit,"))
     assert err.key == ("effects", 1) and "class-2 mechanism only" in str(err)
+    # its options are not read as the class-2 drive's (it has no default stiffness here)
+    err = error(text.replace("[springs, gravity,", "[inertia, springs, {actuator_compliance: {drive_damping: 1}},"))
+    assert err.key == ("effects", 2) and "class-2 mechanism only" in str(err)
     err = error(text.replace("structure: tensegrity_table", "structure: tensegrity_tabel"))
     assert "did you mean 'tensegrity_table'" in str(err)
     err = error(text.replace("{c1: [0, 0, -10]}", "{c0: [0, 0, -10]}"))

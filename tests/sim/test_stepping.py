@@ -68,8 +68,8 @@ def test_a_command_is_a_zero_order_hold_from_the_current_time():
         f = (2.0 * math.sin(0.3 * k), -1.0 + 0.05 * k)
         sim.set_command(f)
         sim.advance((k + 1) * 1e-3)
-        y = solve_ivp(lambda t, z: dyn.rhs(t, z, *f), (k * 1e-3, (k + 1) * 1e-3), y, method="DOP853", rtol=1e-12,
-                      atol=1e-14).y[:, -1]
+        y = solve_ivp(lambda t, z, f=f: dyn.rhs(t, z, *f), (k * 1e-3, (k + 1) * 1e-3), y, method="DOP853",
+                      rtol=1e-12, atol=1e-14).y[:, -1]
     np.testing.assert_allclose(sim.observe().state, y, atol=1e-9)
     np.testing.assert_allclose(sim.observe().applied_forces, f)
 

@@ -20,17 +20,22 @@ problem has exactly one solution; with two coordinates the four sets are simply 
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable, Collection, Iterable, Iterator
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+FloatArray = NDArray[np.float64]
 
 
-def _subsets(items):
-    items = sorted(items)
-    for r in range(len(items), -1, -1):
-        yield from itertools.combinations(items, r)
+def _subsets(items: Iterable[int]) -> Iterator[tuple[int, ...]]:
+    ordered = sorted(items)
+    for r in range(len(ordered), -1, -1):
+        yield from itertools.combinations(ordered, r)
 
 
-def select_mode(solve, candidates, tol: float) -> tuple:
+def select_mode(solve: Callable[[Collection[int]], tuple[FloatArray, FloatArray]],
+                candidates: Collection[int], tol: float) -> tuple[frozenset[int], FloatArray, FloatArray]:
     """The held set among ``candidates`` (indices) satisfying the complementarity conditions.
 
     ``solve(S)`` returns ``(a, lam)``: accelerations (all coordinates) and contact forces
@@ -38,7 +43,7 @@ def select_mode(solve, candidates, tol: float) -> tuple:
     ``tol`` absorbs rounding in the sign tests. Returns ``(S, a, lam)``; when rounding
     leaves no exact solution, the set with the least violation.
     """
-    best = None
+    best: tuple[float, frozenset[int], FloatArray, FloatArray] | None = None
     for S in _subsets(candidates):
         a, lam = solve(S)
         violation = max([-lam[i] for i in S] + [-a[j] for j in candidates if j not in S] + [0.0])
@@ -46,10 +51,12 @@ def select_mode(solve, candidates, tol: float) -> tuple:
             return frozenset(S), a, lam
         if best is None or violation < best[0]:
             best = (violation, frozenset(S), a, lam)
+    assert best is not None           # the empty set is always tried
     return best[1], best[2], best[3]
 
 
-def impact(M, qdot, hit: int, held, restitution: float) -> tuple:
+def impact(M: ArrayLike, qdot: ArrayLike, hit: int, held: Collection[int],
+           restitution: float) -> tuple[FloatArray, frozenset[int]]:
     """Post-impact velocities when coordinate ``hit`` reaches its limit with ``qdot[hit] < 0``
     while the coordinates in ``held`` are at rest on theirs.
 
@@ -62,7 +69,7 @@ def impact(M, qdot, hit: int, held, restitution: float) -> tuple:
     qdot = np.asarray(qdot, dtype=float)
     Minv = np.linalg.inv(M)
     target_hit = -restitution * qdot[hit]
-    best = None
+    best: tuple[float, FloatArray, frozenset[int]] | None = None
     for kept in _subsets(held):
         idx = [hit, *kept]
         want = np.array([target_hit] + [0.0] * len(kept))
@@ -76,5 +83,5 @@ def impact(M, qdot, hit: int, held, restitution: float) -> tuple:
             return new, frozenset(kept)
         if best is None or violation < best[0]:
             best = (violation, new, frozenset(kept))
-    _, new, kept = best
-    return new, kept
+    assert best is not None           # the empty set is always tried
+    return best[1], best[2]

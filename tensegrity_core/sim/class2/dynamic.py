@@ -11,19 +11,27 @@ plant's segment of the current contact mode and commands.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.sim.class2.observe import Class2Observer
 from tensegrity_core.sim.class2.plant import Class2Plant, Class2Segment
-from tensegrity_core.sim.class2.setup import NAMES, force_effects, initial_configuration, static_force
+from tensegrity_core.sim.class2.setup import NAMES, class2_params, force_effects, initial_configuration, static_force
 from tensegrity_core.sim.commands import changed, check_command, initial_commands
 from tensegrity_core.sim.inputs import held
-from tensegrity_core.sim.model import State
+from tensegrity_core.sim.model import DynamicModel, State
+from tensegrity_core.sim.scene import Scene
 from tensegrity_core.sim.stepper import Stepper
 
+FloatArray = NDArray[np.float64]
+#: What an observation needs of one state: ``(t [s], y, contact mode bits, transmitted forces (T1, T2) [N])``.
+Class2Sample = tuple[float, FloatArray, int, tuple[float, float]]
 
-class Class2Dynamic:
+
+class Class2Dynamic(DynamicModel[Class2Segment, Class2Sample]):
     """Back end ``class2/dynamic``: the class-2 equations of motion with the scene's effects
     (implements :class:`~tensegrity_core.sim.model.DynamicModel`)."""
 
@@ -31,8 +39,8 @@ class Class2Dynamic:
     quasi_static = False
     names = NAMES
 
-    def __init__(self, scene):
-        params = scene.model.params
+    def __init__(self, scene: Scene):
+        params = class2_params(scene)
         self.scene = scene
         self.params = params
         effects = force_effects(scene)
@@ -53,31 +61,31 @@ class Class2Dynamic:
         self.y0, self.mode0 = self.plant.segment((), laws0).resolve_contacts(0.0, y0)
 
     # -- states ---------------------------------------------------------------------------------
-    def initial_state(self, *, t_end: float = math.inf) -> State:
+    def initial_state(self, *, t_end: float = math.inf) -> State[Stepper[Class2Segment]]:
         """The scene's initial state at ``t = 0`` (resolved once, at compile time)."""
         return self._state(self.y0, self.mode0, t_end)
 
-    def state_from(self, y, *, t_end: float = math.inf) -> State:
+    def state_from(self, y: ArrayLike, *, t_end: float = math.inf) -> State[Stepper[Class2Segment]]:
         """A state at ``t = 0`` from the state vector ``y`` (``state_names``), its contacts resolved."""
-        y = np.array(y, dtype=float).ravel()
-        self.plant.check_state(y)
-        y, mode = self.plant.segment((), held(self.laws, self.initial_commands)).resolve_contacts(0.0, y)
-        return self._state(y, mode, t_end)
+        y0 = np.array(y, dtype=float).ravel()
+        self.plant.check_state(y0)
+        y0, mode = self.plant.segment((), held(self.laws, self.initial_commands)).resolve_contacts(0.0, y0)
+        return self._state(y0, mode, t_end)
 
-    def _state(self, y, mode, t_end: float) -> State:
-        events: list = []
+    def _state(self, y: FloatArray, mode: frozenset[int], t_end: float) -> State[Stepper[Class2Segment]]:
+        events: list[tuple[float, str, int]] = []
         s = self.scene.integrator
         segment = self.plant.segment(mode, held(self.laws, self.initial_commands))
         stepper = Stepper(segment, 0.0, y, method=self.method, rtol=s.rtol, atol=s.atol, max_step=s.max_step,
                           t_end=t_end, log=events)
         return State(self.initial_commands, events, stepper)
 
-    def equations(self, state: State) -> Class2Segment:
+    def equations(self, state: State[Stepper[Class2Segment]]) -> Class2Segment:
         """The segment (contact mode, commands) the integrator sees at ``state``."""
         return state.work.system
 
     # -- running ------------------------------------------------------------------------------
-    def set_command(self, state: State, values) -> None:
+    def set_command(self, state: State[Stepper[Class2Segment]], values: Iterable[float]) -> None:
         commands = check_command(values, self.laws, self.actuator_names)
         if not changed(state.commands, commands):
             return
@@ -85,33 +93,34 @@ class Class2Dynamic:
         st = state.work
         st.restart(st.t, st.y, system=st.system.with_laws(held(self.laws, commands)), input_changed=True)
 
-    def advance(self, state: State, t: float) -> None:
+    def advance(self, state: State[Stepper[Class2Segment]], t: float) -> None:
         state.work.advance(t)
 
-    def sample(self, state: State) -> tuple:
+    def sample(self, state: State[Stepper[Class2Segment]]) -> Class2Sample:
         """What an observation needs at ``state.t``: ``(t, y, mode bits, T (2,))``."""
         st = state.work
         y = st.y
         return st.t, y.copy(), st.system.bits, st.system.drive.forces(st.t, y.tolist())
 
-    def record(self, state: State, times, out: list) -> None:
+    def record(self, state: State[Stepper[Class2Segment]], times: Sequence[float] | FloatArray,
+               out: list[Class2Sample]) -> None:
         """Append samples at increasing ``times`` to ``out``."""
-        states: list = []
+        states: list[tuple[float, FloatArray, Class2Segment]] = []
         try:
             state.work.record(times, states)
         finally:
             out.extend((t, y, seg.bits, seg.drive.forces(t, y.tolist())) for t, y, seg in states)
 
-    def observe(self, samples) -> dict:
+    def observe(self, samples: Sequence[Class2Sample]) -> dict[str, NDArray[Any]]:
         """Observed quantities of recorded samples ``[(t, y, mode bits, T), ...]`` (arrays)."""
         return self.observer.many([s[0] for s in samples], [s[1] for s in samples], [s[2] for s in samples],
                                   [s[3] for s in samples])
 
-    def observe_now(self, state: State) -> dict:
+    def observe_now(self, state: State[Stepper[Class2Segment]]) -> dict[str, Any]:
         """The observation at ``state.t`` (one sample, on floats)."""
         return self.observer.one(*self.sample(state))
 
-    def joint_sample(self, state: State) -> dict:
+    def joint_sample(self, state: State[Stepper[Class2Segment]]) -> dict[str, Any]:
         """Joint positions, rates, transmitted forces, node D and the fold flag at ``state.t``."""
         t, y, bits, T = self.sample(state)
         L = self.params.L
@@ -119,7 +128,7 @@ class Class2Dynamic:
         return {"t": float(t), "q": y[:3], "qdot": y[3:6], "applied_forces": np.asarray(T, dtype=float),
                 "end_effector": ee, "folded": bool(bits)}
 
-    def stats(self, state: State) -> dict:
+    def stats(self, state: State[Stepper[Class2Segment]]) -> dict[str, Any]:
         st = state.work
         return {"method": self.method, "steps": st.n_steps, "nfev": st.nfev, "restarts": st.n_restarts - 1,
                 "events": st.n_events}

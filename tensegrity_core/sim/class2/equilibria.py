@@ -19,6 +19,7 @@ Points are :class:`Point`: a configuration with ``G, K, Gt`` evaluated there.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -43,14 +44,14 @@ class Point(NamedTuple):
     """A configuration ``q`` (list of 3) at time ``t`` [s] with ``G, K, Gt`` of
     :meth:`~tensegrity_core.sim.class2.potential.TotalPotential.evaluate` there."""
 
-    q: list
+    q: list[float]
     t: float
-    G: list
-    K: list
-    Gt: list
+    G: list[float]
+    K: list[list[float]]
+    Gt: list[float]
 
 
-def bits_of(held) -> int:
+def bits_of(held: Iterable[int]) -> int:
     """The contact mode (bit i: actuator i held) of a set of held actuators."""
     return sum(1 << i for i in held)
 
@@ -78,7 +79,8 @@ class PathCounts:
     newton: int = 0
 
 
-def _stepped(q, t: float, G, K, Gt, dq, dt: float) -> Point:
+def _stepped(q: Sequence[float], t: float, G: Sequence[float], K: list[list[float]], Gt: list[float],
+             dq: Sequence[float], dt: float) -> Point:
     """The point ``(q + dq, t + dt)`` after a last, converged Newton step from ``(q, t)`` where
     ``G, K, Gt`` were evaluated: ``G`` updated to first order (its error is of the step's
     square, i.e. rounding once the step is small), ``K`` and ``Gt`` kept (off by the step)."""
@@ -103,31 +105,31 @@ class Equilibria:
         """The same path under other input laws (a new command), counting into the same counts."""
         return Equilibria(potential, self.settings, self.counts)
 
-    def point(self, q, t: float) -> Point:
+    def point(self, q: list[float], t: float) -> Point:
         return Point(q, t, *self.potential.evaluate(q, t))
 
-    def regular(self, q) -> bool:
+    def regular(self, q: Sequence[float]) -> bool:
         """Whether the formulas hold at ``q`` (lambda1, lambda2 above ``SINGULAR_GUARD_REL L``)."""
         L = self.L
         s = q[0] + q[1]
         lim = (SINGULAR_GUARD_REL * L) ** 2
         return (2 * L - s) * (2 * L + s) > lim and (L - q[0]) * (L + q[0]) > lim
 
-    def in_domain(self, q) -> bool:
+    def in_domain(self, q: Sequence[float]) -> bool:
         """Regular, and the actuator lengths >= 0 when the fold limit holds."""
         return self.regular(q) and (not self.fold or min(q[0], q[1]) >= 0.0)
 
-    def z(self, q, t, free) -> list:
+    def z(self, q: Sequence[float], t: float, free: Sequence[int]) -> list[float]:
         return [q[a] / self.L for a in free] + [t / self.T]
 
-    def q_t(self, z, template, free) -> tuple:
+    def q_t(self, z: Sequence[float], template: Sequence[float], free: Sequence[int]) -> tuple[list[float], float]:
         q = list(template)
         for j, a in enumerate(free):
             q[a] = z[j] * self.L
         return q, z[-1] * self.T
 
     # -- equilibria at fixed t --------------------------------------------------------------------
-    def minimise(self, q, t: float, bits: int, max_iter: int = 500) -> tuple:
+    def minimise(self, q: Iterable[float], t: float, bits: int, max_iter: int = 500) -> tuple[list[float], int]:
         """A stable local minimum of ``Pi(., t)`` reached from ``q`` (projected Newton with a
         backtracking line search; scaled steepest descent where ``K`` is not positive definite;
         a held actuator whose contact force would be tensile is let go). At the minimum the
@@ -171,9 +173,9 @@ class Equilibria:
             if self.fold:
                 for i in (0, 1):
                     if i not in held and step[i] < 0 and q[i] + step[i] < 0:
-                        a = -q[i] / step[i]
-                        if a < a_max:
-                            a_max, hit = a, i
+                        alpha = -q[i] / step[i]
+                        if alpha < a_max:
+                            a_max, hit = alpha, i
             if pd and hit is None and big <= NEWTON_ZONE * self.L:
                 trial = [x + s for x, s in zip(q, step)]
                 if self.in_domain(trial):
@@ -182,16 +184,16 @@ class Equilibria:
             if pi_q is None:
                 pi_q = potential.value(q, t)
             slope = sum(g * s for g, s in zip(G, step))
-            a = a_max
-            while a > 1e-14:
-                trial = [x + a * s for x, s in zip(q, step)]
-                if hit is not None and a == a_max:
+            alpha = a_max
+            while alpha > 1e-14:
+                trial = [x + alpha * s for x, s in zip(q, step)]
+                if hit is not None and alpha == a_max:
                     trial[hit] = 0.0
                 if self.in_domain(trial):
                     pi_trial = potential.value(trial, t)
-                    if pi_trial <= pi_q + 1e-4 * a * slope:
+                    if pi_trial <= pi_q + 1e-4 * alpha * slope:
                         break
-                a *= 0.5
+                alpha *= 0.5
             else:
                 if pd:     # no decrease left within rounding: converged as far as it goes
                     pulling = [i for i in held if G[i] < -self.release_tol]
@@ -201,12 +203,12 @@ class Equilibria:
                     continue
                 break
             q, pi_q = trial, pi_trial
-            if hit is not None and a == a_max:
+            if hit is not None and alpha == a_max:
                 held.add(hit)
         raise SimulationError(f"t = {t:.9g} s: no stable equilibrium found from q = {np.array2string(np.array(q), precision=6)} "
                               f"(the springs cannot balance the actuator forces there)", t=t)
 
-    def equilibrium_at(self, q, t: float, bits: int):
+    def equilibrium_at(self, q: Iterable[float], t: float, bits: int) -> Point | None:
         """Newton on ``G_F = 0`` at fixed ``t`` from ``q``: the :class:`Point`, or ``None``
         when it leaves the domain, meets a singular stiffness or does not converge."""
         free = MODE_FREE[bits]
@@ -230,7 +232,7 @@ class Equilibria:
         return None
 
     # -- pseudo-arclength continuation in z = (q_free / L, t / T) ---------------------------------
-    def tangent(self, p: Point, bits: int, previous=None) -> list:
+    def tangent(self, p: Point, bits: int, previous: Sequence[float] | None = None) -> list[float]:
         """Unit tangent ``dz/ds`` (n_free + 1) at ``p``: the null vector of
         ``[K_FF L, dG_F/dt T]`` from the bordered system with the previous tangent (forward in
         time at a start). Raises :class:`ZeroDivisionError` where it is not unique."""
@@ -243,7 +245,8 @@ class Equilibria:
         norm = math.sqrt(sum(x * x for x in v))
         return [x / norm for x in v]
 
-    def correct(self, q, t, bits, z_pred, v, max_iter: int = 12, tol: float = CORRECT_TOL):
+    def correct(self, q: Iterable[float], t: float, bits: int, z_pred: Sequence[float], v: Sequence[float],
+                max_iter: int = 12, tol: float = CORRECT_TOL) -> Point | None:
         """Newton on ``G_F = 0``, ``v . (z - z_pred) = 0`` until the scaled step is below
         ``tol``; the :class:`Point` reached (see :func:`_stepped`), or ``None``."""
         free = MODE_FREE[bits]
@@ -275,7 +278,8 @@ class Equilibria:
             t += dt
         return None
 
-    def at(self, z0, v0, h, template, bits, tol=CORRECT_TOL, max_iter=12):
+    def at(self, z0: Sequence[float], v0: Sequence[float], h: float, template: Sequence[float], bits: int,
+           tol: float = CORRECT_TOL, max_iter: int = 12) -> tuple[Point | None, list[float]]:
         """The corrected point ``h`` along tangent ``v0`` from ``z0`` (``None`` if the corrector
         fails), with the prediction."""
         free = MODE_FREE[bits]

@@ -34,28 +34,38 @@ samples of a run); :func:`member_forces`, :func:`node_positions` and
 
 from __future__ import annotations
 
-import numpy as np
+from collections.abc import Sequence
 
-from tensegrity_core.class2.dynamics.kinematics import kinematics_array
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from tensegrity_core.class2.dynamics.kinematics import Kinematics, kinematics_array
 from tensegrity_core.class2.dynamics.limits import ZERO_LENGTH_REL
 from tensegrity_core.class2.dynamics.springs import dampings, spring_tensions, stiffnesses
+from tensegrity_core.class2.params import Class2Params
+
+FloatArray = NDArray[np.float64]
+#: A quantity of one state (a float) or of many (an array): the formulas are arithmetic only.
+Value = float | FloatArray
+#: Quantities in a fixed order (nodes' coordinates, members), each a :data:`Value`.
+Values = tuple[Value, ...]
 
 
-def _where(cond, a, b):
+def _where(cond: bool | NDArray[np.bool_], a: Value, b: Value) -> Value:
     """``a`` where ``cond`` holds, else ``b`` (floats or arrays)."""
     if isinstance(cond, np.ndarray):
         return np.where(cond, a, b)
     return a if cond else b
 
 
-def node_coordinates(L: float, k) -> tuple:
+def node_coordinates(L: float, k: Kinematics) -> Values:
     """``(Bx, Cx, Dx, Dy, Ex, Ey, Fy)`` [m] from a kinematic context (floats or arrays);
     ``A`` is the origin and ``By = Cy = Fx = 0``."""
     r1, _, sb, cb, _, _, _, s, lam1, lam2, _, _ = k
     return r1, s, r1 + L * cb, L * sb, 0.5 * s, 0.5 * lam1, lam2
 
 
-def node_acceleration_values(L: float, k, qdd) -> tuple:
+def node_acceleration_values(L: float, k: Kinematics, qdd: tuple[Value, Value, Value]) -> Values:
     """``(aBx, aCx, aDx, aDy, aEx, aEy, aFy)`` [m/s^2]: ``J qddot + qdot^T H qdot`` for
     accelerations ``qdd = (a1, a2, ab)`` (floats or arrays); ``A`` is fixed and
     ``aBy = aCy = aFx = 0``."""
@@ -67,7 +77,7 @@ def node_acceleration_values(L: float, k, qdd) -> tuple:
             -g2 * a1 - L * L * v1 * v1 / lam2**3)                   # d2 lambda2/drho1^2 = -L^2/lambda2^3
 
 
-def node_positions(L: float, k) -> np.ndarray:
+def node_positions(L: float, k: Kinematics) -> FloatArray:
     """(N, 6, 2) node positions from an array context."""
     Bx, Cx, Dx, Dy, Ex, Ey, Fy = node_coordinates(L, k)
     z = np.zeros(np.shape(Bx))
@@ -75,7 +85,7 @@ def node_positions(L: float, k) -> np.ndarray:
                      np.stack([Ex, Ey], -1), np.stack([z, Fy], -1)], -2)
 
 
-def node_accelerations(L: float, k, qdd) -> np.ndarray:
+def node_accelerations(L: float, k: Kinematics, qdd: FloatArray) -> FloatArray:
     """(N, 6, 2) node accelerations for accelerations ``qdd`` (N, 3)."""
     aB, aC, aDx, aDy, aEx, aEy, aFy = node_acceleration_values(L, k, (qdd[:, 0], qdd[:, 1], qdd[:, 2]))
     z = np.zeros(np.shape(aB))
@@ -83,8 +93,10 @@ def node_accelerations(L: float, k, qdd) -> np.ndarray:
                      np.stack([aEx, aEy], -1), np.stack([z, aFy], -1)], -2)
 
 
-def member_values(params, k, qdd, actuator_forces, *, springs: bool, damping: bool, gravity=None,
-                  loads=None, inertia: bool = True) -> tuple:
+def member_values(params: Class2Params, k: Kinematics, qdd: tuple[Value, Value, Value],
+                  actuator_forces: tuple[Value, Value], *, springs: bool, damping: bool,
+                  gravity: Sequence[float] | None = None, loads: ArrayLike | None = None,
+                  inertia: bool = True) -> tuple[Values, Values]:
     """``(forces, lengths)``: tension-positive forces [N] and lengths [m] of the 10 members
     in MEMBERS order (tuples of floats or arrays).
 
@@ -113,7 +125,7 @@ def member_values(params, k, qdd, actuator_forces, *, springs: bool, damping: bo
     mass = m if (inertia or gravity is not None) else 0.0
     I_rot = m * L * L / 12.0 if inertia else 0.0
 
-    def strut(ux, uy, aax, aay, abx, aby):
+    def strut(ux: Value, uy: Value, aax: Value, aay: Value, abx: Value, aby: Value) -> tuple[Value, Value, Value]:
         """``(w = m (a_c - g), tau = r_b x P_b)`` of a strut along ``u`` with end accelerations
         (zeros for massless struts)."""
         if not mass:
@@ -122,7 +134,7 @@ def member_values(params, k, qdd, actuator_forces, *, springs: bool, damping: bo
         alpha = (ux * (aby - aay) - uy * (abx - aax)) / L
         return wx, wy, 0.5 * (I_rot * alpha + 0.5 * L * (ux * wy - uy * wx))
 
-    def mid_span(Fx, Fy, ux, uy, wx, wy):
+    def mid_span(Fx: Value, Fy: Value, ux: Value, uy: Value, wx: Value, wy: Value) -> Value:
         """Axial force at mid-span from the end force ``F`` on the far end."""
         N = Fx * ux + Fy * uy
         return N - 0.5 * (wx * ux + wy * uy) if mass else N
@@ -145,7 +157,7 @@ def member_values(params, k, qdd, actuator_forces, *, springs: bool, damping: bo
         Wx = Wx + (2.0 / L) * (tau1 * u1y + tau2 * u2y)
         Wy = Wy - (2.0 / L) * (tau1 * u1x + tau2 * u2x)
     det = u1x * u2y - u1y * u2x
-    safe = abs(det) > 1e-300
+    safe = (det > 1e-300) | (det < -1e-300)      # |det| > 1e-300, for a float and an array alike
     den = _where(safe, det, 1.0)
     split = 0.5 * (Wx * u1x + Wy * u1y)
     N1 = _where(safe, (Wx * u2y - Wy * u2x) / den, split)
@@ -159,8 +171,9 @@ def member_values(params, k, qdd, actuator_forces, *, springs: bool, damping: bo
             (abs(r1), abs(r2), l3, l4, L, L, l7, l8, L, L))
 
 
-def member_forces(params, q, qdot, qdd, actuator_forces, *, springs: bool, damping: bool,
-                  gravity=None, loads=None, inertia: bool = True) -> np.ndarray:
+def member_forces(params: Class2Params, q: ArrayLike, qdot: ArrayLike, qdd: ArrayLike, actuator_forces: ArrayLike, *,
+                  springs: bool, damping: bool, gravity: Sequence[float] | None = None,
+                  loads: ArrayLike | None = None, inertia: bool = True) -> FloatArray:
     """Tension-positive forces (N, 10) [N] of all members, MEMBERS order: the array form of
     :func:`member_values` for ``q, qdot, qdd`` (N, 3) and ``actuator_forces`` (N, 2)."""
     q = np.atleast_2d(np.asarray(q, dtype=float))

@@ -12,7 +12,11 @@ few tens of microseconds instead of a few hundred: the ROS node observes at up t
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
+from typing import Any, TypedDict
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.class2.dynamics.effects import force_terms
 from tensegrity_core.class2.dynamics.inertia import Inertia
@@ -20,8 +24,20 @@ from tensegrity_core.class2.dynamics.kinematics import kinematics, kinematics_ar
 from tensegrity_core.class2.dynamics.limits import LAMBDA_MIN_REL
 from tensegrity_core.class2.geometry import NODE_NAMES
 from tensegrity_core.sim.class2.members import member_values, node_coordinates
+from tensegrity_core.sim.class2.setup import ForceEffect, class2_params
+from tensegrity_core.sim.scene import Scene
 
 END_EFFECTOR = NODE_NAMES.index("D")
+
+
+class _MemberOptions(TypedDict):
+    """The scene's options of :func:`~tensegrity_core.sim.class2.members.member_values`."""
+
+    springs: bool
+    damping: bool
+    gravity: tuple[float, ...] | None
+    loads: NDArray[np.float64] | None
+    inertia: bool
 
 
 class Class2Observer:
@@ -29,8 +45,8 @@ class Class2Observer:
     composition order); ``inertia`` False for the quasi-static model (massless struts: no
     accelerations, kinetic energy 0, contact forces given by the caller)."""
 
-    def __init__(self, scene, effects, *, inertia: bool):
-        self.params = scene.model.params
+    def __init__(self, scene: Scene, effects: Iterable[ForceEffect], *, inertia: bool):
+        self.params = class2_params(scene)
         self.L = self.params.L
         self.effects = tuple(effects)
         self._energies = tuple(e.energy for e in self.effects if hasattr(e, "energy"))
@@ -38,15 +54,16 @@ class Class2Observer:
         self.inertia = Inertia(self.params) if inertia else None
         eff = scene.effects
         self.gravity = tuple(eff["gravity"].vector) if "gravity" in eff else None
-        self.loads = None
+        self.loads: NDArray[np.float64] | None = None
         if "loads" in eff:
             self.loads = np.zeros((6, 2))
             for node, vec in eff["loads"].forces.items():
                 self.loads[node] += vec[:2]
-        self._members = dict(springs="springs" in eff, damping="damping" in eff, gravity=self.gravity,
-                             loads=self.loads, inertia=inertia)
+        self._members = _MemberOptions(springs="springs" in eff, damping="damping" in eff, gravity=self.gravity,
+                                       loads=self.loads, inertia=inertia)
 
-    def one(self, t: float, y, bits: int, T, contact=None) -> dict:
+    def one(self, t: float, y: ArrayLike, bits: int, T: Sequence[float] | NDArray[np.float64],
+            contact: Sequence[float] | None = None) -> dict[str, Any]:
         """The observation of one state ``y`` (q, qdot, ...) at ``t`` in contact mode ``bits``
         with transmitted actuator forces ``T`` (2,); ``contact`` (2,) the contact forces when
         known (quasi-static). Values as :meth:`many` gives them, without the sample axis."""
@@ -80,7 +97,8 @@ class Class2Observer:
             "potential_energy": float(potential), "kinetic_energy": float(kinetic), "folded": bits != 0,
         }
 
-    def many(self, t, Y, bits, T, contact=None) -> dict:
+    def many(self, t: ArrayLike, Y: ArrayLike, bits: ArrayLike, T: ArrayLike,
+             contact: ArrayLike | None = None) -> dict[str, NDArray[Any]]:
         """Observed quantities of N samples: times ``t`` (N,), states ``Y`` (N, n), contact
         modes ``bits`` (N,), transmitted actuator forces ``T`` (N, 2), and ``contact`` (N, 2)
         the contact forces when known (quasi-static; otherwise they come with the

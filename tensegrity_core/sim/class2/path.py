@@ -23,8 +23,11 @@ from __future__ import annotations
 import math
 import sys
 from bisect import bisect_left, bisect_right
+from collections.abc import Iterable, Sequence
+from typing import NoReturn
 
 import numpy as np
+from numpy.typing import NDArray
 
 from tensegrity_core.sim.class2 import path_samples as samples
 from tensegrity_core.sim.class2.equilibria import Equilibria, PathCounts, Point, bits_of
@@ -32,7 +35,12 @@ from tensegrity_core.sim.class2.path_events import Event, EventLocator, just_bef
 from tensegrity_core.sim.class2.path_samples import MODE_FREE, Segment
 from tensegrity_core.sim.class2.potential import TotalPotential
 from tensegrity_core.sim.errors import SimulationError
-from tensegrity_core.sim.inputs import next_breakpoint
+from tensegrity_core.sim.inputs import Law, next_breakpoint
+
+#: A located event in the log: ``(t [s], kind, index)``.
+LoggedEvent = tuple[float, str, int]
+#: The path's queued new start: ``(t, q, contact mode bits, the events fired there)``.
+Pending = tuple[float, list[float], int, list[LoggedEvent]]
 
 #: Predictor error allowed per continuation step (scaled variables). The path only needs to
 #: stay on the branch and start each sample's polishing Newton close enough: the observed
@@ -55,17 +63,23 @@ class PathFollower:
     equilibria ``eq``; events go into ``log`` as ``(t, kind, index)``. Call :meth:`start`
     (or :meth:`jump`) before advancing."""
 
-    def __init__(self, eq: Equilibria, log: list):
+    def __init__(self, eq: Equilibria, log: list[LoggedEvent]):
         self.eq = eq
         self.locator = EventLocator(eq)
         self.events = log
         self.counts = eq.counts
         self.ds = eq.settings.ds_max / 4
         self.t = 0.0
+        # set by start: the contact mode, the path's head point, the segment that ends there and
+        # the new start queued at an event
+        self.bits: int
+        self.head: Point
+        self.seg: Segment
+        self.pending: Pending | None
 
     # -- the workspace's view ---------------------------------------------------------------------
     @property
-    def y(self) -> np.ndarray:
+    def y(self) -> NDArray[np.float64]:
         """``(q, dq/dt)`` at ``t``: the segment's interpolant polished into an equilibrium."""
         q, qd, _, _ = self.equilibrium_now()
         return np.array(q + qd)
@@ -74,7 +88,7 @@ class PathFollower:
     def mode(self) -> frozenset[int]:
         return frozenset(i for i in (0, 1) if self.bits >> i & 1)
 
-    def copy(self, log: list) -> PathFollower:
+    def copy(self, log: list[LoggedEvent]) -> PathFollower:
         """An exact, independent copy logging into ``log`` (the path's pieces are immutable)."""
         new = PathFollower.__new__(PathFollower)
         new.__dict__.update(self.__dict__)
@@ -84,7 +98,7 @@ class PathFollower:
         new.locator = EventLocator(new.eq)
         return new
 
-    def with_laws(self, laws) -> None:
+    def with_laws(self, laws: Iterable[Law]) -> None:
         """Follow the path under other input laws from now on (a new command)."""
         self.eq = self.eq.with_potential(self.eq.potential.with_laws(laws))
         self.locator = EventLocator(self.eq)
@@ -94,7 +108,7 @@ class PathFollower:
         return self.eq.potential
 
     # -- pieces -------------------------------------------------------------------------------------
-    def start(self, t: float, q, bits: int) -> None:
+    def start(self, t: float, q: Sequence[float], bits: int) -> None:
         """Begin a path piece at ``(t, q)`` (a zero-length segment)."""
         self.bits = bits
         free = MODE_FREE[bits]
@@ -104,7 +118,7 @@ class PathFollower:
         self.seg = Segment.of(t, t, list(q), z, z, v, v, 0.0, bits)
         self.pending = None
 
-    def jump(self, t: float, q, bits: int) -> None:
+    def jump(self, t: float, q: Iterable[float], bits: int) -> None:
         """Start at the minimum reached from ``q`` at ``t`` (event ``jump`` if it moved)."""
         q = [float(v) for v in q]
         q_new, new_bits = self.eq.minimise(q, t, bits)
@@ -117,7 +131,7 @@ class PathFollower:
         current state."""
         self.jump(self.t, samples.state_at(self.seg, self.t, self.eq.L, self.eq.T), self.bits)
 
-    def equilibrium_now(self) -> tuple:
+    def equilibrium_now(self) -> tuple[list[float], list[float], list[float], list[float]]:
         """``(q, dq/dt, contact forces, actuator forces)`` at ``t`` (lists)."""
         seg = self.seg
         q = samples.state_at(seg, self.t, self.eq.L, self.eq.T)
@@ -140,11 +154,11 @@ class PathFollower:
             self._path_step()
         self.t = t_target
 
-    def record(self, times, out: list) -> None:
+    def record(self, times: Sequence[float] | NDArray[np.float64], out: list[samples.Block]) -> None:
         """Append blocks ``(times inside one segment, segment)`` for increasing ``times`` to
         ``out``, advancing segment by segment."""
         times = np.asarray(times, dtype=float)
-        listed = times.tolist()
+        listed: list[float] = times.tolist()
         i, n = 0, len(listed)
         while i < n:
             self.advance(listed[i])
@@ -187,7 +201,8 @@ class PathFollower:
         if err is not None:
             self.ds = ds * min(GROWTH, 0.9 / math.sqrt(max(err, 1e-12)))
 
-    def _corrected_step(self, head: Point, z0, v0, bits: int, t_stop: float) -> tuple:
+    def _corrected_step(self, head: Point, z0: Sequence[float], v0: Sequence[float], bits: int,
+                        t_stop: float) -> tuple[float, Point, float | None]:
         """Predictor and corrector with step control: ``(ds, end point, error ratio)``. The
         predictor is ``z + ds v + ds^2 / 2 kappa`` with the curvature ``kappa`` estimated from
         the tangents' change over the last step (none at a path's start). A prediction past
@@ -223,7 +238,7 @@ class PathFollower:
                 continue
             return ds, end, err
 
-    def _close(self, event: Event, v0, t_stop: float) -> None:
+    def _close(self, event: Event, v0: list[float], t_stop: float) -> None:
         """End the segment at ``event`` and queue the path's new start (or stop at a limit
         point). At a breakpoint the path ends just before it and restarts from the minimum
         reached under the law's new piece (event ``jump`` if the state moved: a law that jumps,
@@ -237,7 +252,7 @@ class PathFollower:
         if event.kind == "limit":
             self._limit(p.t, p.q, "the stiffness d2Pi/dq2 stops being positive definite")
         held = {i for i in (0, 1) if bits >> i & 1}
-        fired = []
+        fired: list[LoggedEvent] = []
         q_new, t_new = list(p.q), p.t
         if event.kind == "fold":
             for i in event.actuators:
@@ -254,7 +269,7 @@ class PathFollower:
             fired = [(t_new, "jump", 0)]
         self.pending = (t_new, q_min, new_bits, fired)
 
-    def _limit(self, t, q, why: str) -> None:
+    def _limit(self, t: float, q: Sequence[float], why: str) -> NoReturn:
         """Stop the path at ``(t, q)``: the singular configuration when near it, else a limit point."""
         L = self.eq.L
         s = q[0] + q[1]

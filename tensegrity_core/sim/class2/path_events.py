@@ -27,6 +27,7 @@ it is given.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import NamedTuple
 
 from tensegrity_core.sim.class2.equilibria import Equilibria, Point
@@ -56,12 +57,13 @@ BRANCH_TOL = 1e-14
 
 class Event(NamedTuple):
     """A located event: ``kind``, the point ``at`` (last state of the branch), the
-    actuators it concerns, and the closing tangent and arc length of the last segment."""
+    actuators it concerns, and the closing tangent and arc length of the last segment.
+    ``kind`` None: bracketing found nothing past ``at`` after all (the path starts afresh there)."""
 
-    kind: str
+    kind: str | None
     at: Point
-    actuators: frozenset
-    tangent: list
+    actuators: frozenset[int]
+    tangent: list[float]
     ds: float
 
 
@@ -71,7 +73,7 @@ def just_before(t: float) -> float:
     return math.nextafter(t, -math.inf)
 
 
-def _distance(a, b) -> float:
+def _distance(a: Sequence[float], b: Sequence[float]) -> float:
     return math.sqrt(sum((x - y) ** 2 for x, y in zip(a, b)))
 
 
@@ -85,7 +87,7 @@ class EventLocator:
         self.eq = eq
         self.L, self.T, self.fold, self.release_tol = eq.L, eq.T, eq.fold, eq.release_tol
 
-    def kind(self, p: Point, bits: int, t_stop: float):
+    def kind(self, p: Point, bits: int, t_stop: float) -> str | None:
         """What the path went past at ``p``, if anything."""
         if self.fold and any(not bits >> i & 1 and p.q[i] < FOLD_EPS * self.L for i in (0, 1)):
             return "fold"
@@ -107,7 +109,8 @@ class EventLocator:
             return (t_stop - p.t) / self.T
         return principal_det(p.K, MODE_FREE[bits])
 
-    def locate(self, head: Point, bits: int, v0, ds: float, end: Point, kind: str, t_stop: float) -> Event:
+    def locate(self, head: Point, bits: int, v0: Sequence[float], ds: float, end: Point, kind: str,
+               t_stop: float) -> Event:
         """The first event ``kind`` of the step of arc length ``ds`` from ``head`` to ``end``."""
         event = None
         if kind != "limit":
@@ -118,7 +121,8 @@ class EventLocator:
             event = self._bracket_event(head, bits, v0, ds, kind, t_stop)
         return event
 
-    def closing_tangent(self, p: Point, bits: int, z_head, v0) -> tuple:
+    def closing_tangent(self, p: Point, bits: int, z_head: Sequence[float],
+                        v0: Sequence[float]) -> tuple[list[float], float]:
         """Tangent and arc length (chord) of the last segment ending at ``p``; the chord's
         direction where the tangent is not unique (a bifurcation)."""
         free = MODE_FREE[bits]
@@ -141,7 +145,8 @@ class EventLocator:
             return False
         return kind == "breakpoint" or p.t <= t_stop
 
-    def _solve_event(self, head: Point, bits: int, v0, kind: str, end: Point, ds: float, t_stop: float):
+    def _solve_event(self, head: Point, bits: int, v0: Sequence[float], kind: str, end: Point, ds: float,
+                     t_stop: float) -> Event | None:
         """The event point by Newton on ``G_F = 0`` plus the event's equation, in the scaled
         unknowns ``z = (q_F / L, t / T)``, from the chord's estimate; ``None`` if it does not
         converge to a point of this step before every other event."""
@@ -211,7 +216,7 @@ class EventLocator:
             actuators = frozenset()
         return Event(kind, p, actuators, *self.closing_tangent(p, bits, z_head, v0))
 
-    def _branch_point(self, head: Point, bits: int, v0, end: Point, ds: float):
+    def _branch_point(self, head: Point, bits: int, v0: Sequence[float], end: Point, ds: float) -> Event | None:
         """Where the free branch meets the stop of an actuator at a degenerate contact: the
         time ``t`` at which the stiffness ``K_FF`` of the free mode, on the branch held at the
         stop, becomes singular (two branches of ``G_F = 0`` cross there), by the secant method
@@ -227,7 +232,7 @@ class EventLocator:
         t_lo = head.t
         t_hi = t_lo + 1.5 * max(ds, _distance(self.eq.z(end.q, end.t, free), self.eq.z(head.q, head.t, free))) * T
 
-        def det_on_held_branch(t, q):
+        def det_on_held_branch(t: float, q: Sequence[float]) -> tuple[float, Point | None]:
             p = self.eq.equilibrium_at(q, t, held)
             return (math.nan, None) if p is None else (principal_det(p.K, free), p)
 
@@ -255,14 +260,15 @@ class EventLocator:
         actuators = frozenset(j for j in (0, 1) if not bits >> j & 1 and p_a.q[j] < FOLD_NEAR * L)
         return Event("fold", p_a, actuators, *self.closing_tangent(p_a, bits, self.eq.z(head.q, head.t, free), v0))
 
-    def _bracket_event(self, head: Point, bits: int, v0, ds: float, kind: str, t_stop: float) -> Event:
+    def _bracket_event(self, head: Point, bits: int, v0: Sequence[float], ds: float, kind: str,
+                       t_stop: float) -> Event:
         """The first point of the step where ``kind`` happens, by regula falsi (Illinois
         variant) on the event's function of the step length, each trial corrected onto the
         path: slow but it needs nothing regular (limit points)."""
         free = MODE_FREE[bits]
         z0, template = self.eq.z(head.q, head.t, free), head.q
 
-        def g(point) -> float:
+        def g(point: Point | None) -> float:
             """> 0 before the event, <= 0 past it (a failed corrector counts as past)."""
             if point is None:
                 return -1.0
@@ -285,7 +291,7 @@ class EventLocator:
                 x = min(max(x, lo + 1e-3 * (hi - lo)), hi - 1e-3 * (hi - lo))
             out, _ = self.eq.at(z0, v0, x, template, bits, tol=1e-11, max_iter=LOCATE_ITER)
             gx = g(out)
-            if gx > 0.0:
+            if gx > 0.0 and out is not None:          # (g is -1 without a point)
                 lo, g_lo, p_lo = x, gx, out
                 if side == 1 and g_hi != -1.0:
                     g_hi *= 0.5
@@ -295,20 +301,22 @@ class EventLocator:
                 if side == -1:
                     g_lo *= 0.5
                 side = -1
-        kind = self.kind(p_hi, bits, t_stop) if p_hi is not None else "limit"
-        past = p_hi
+        located: str | None = "limit"          # a failed corrector past the event: a limit point
+        past = p_lo
+        if p_hi is not None:
+            located, past = self.kind(p_hi, bits, t_stop), p_hi
         near = [i for i in (0, 1) if not bits >> i & 1 and p_lo.q[i] < FOLD_NEAR * self.L]
-        if kind == "limit" and self.fold and near:
+        if located == "limit" and self.fold and near:
             # The branch ends where it meets the fold (its stiffness vanishes there): the held
             # actuator continues it.
-            kind, past = "fold", p_lo
+            located, past = "fold", p_lo
         at = p_lo
-        if kind == "breakpoint":
+        if located == "breakpoint":
             t_b = just_before(t_stop)
             at = self.eq.equilibrium_at(p_lo.q, t_b, bits) or self.eq.point(p_lo.q, t_b)
-        actuators = frozenset()
-        if kind == "fold":
+        actuators: frozenset[int] = frozenset()
+        if located == "fold":
             actuators = frozenset(i for i in (0, 1) if not bits >> i & 1 and past.q[i] < FOLD_NEAR * self.L)
-        elif kind == "release":
+        elif located == "release":
             actuators = frozenset(i for i in (0, 1) if bits >> i & 1 and past.G[i] < -self.release_tol)
-        return Event(kind, at, actuators, self.eq.tangent(at, bits, v0), lo)
+        return Event(located, at, actuators, self.eq.tangent(at, bits, v0), lo)

@@ -19,12 +19,21 @@ observations). The paths agree to rounding (tested).
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, NamedTuple, NoReturn, TypeVar
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.sim.class2.small_dense import solve_symmetric
 from tensegrity_core.sim.errors import SimulationError
+
+if TYPE_CHECKING:
+    from tensegrity_core.sim.class2.potential import TotalPotential
+
+FloatArray = NDArray[np.float64]
+#: A float (one sample) or an array (many): the formulas are arithmetic only.
+Value = TypeVar("Value", float, FloatArray)
 
 #: Coordinates not held, per contact mode (bit i set: actuator i held at zero length).
 MODE_FREE = {0: (0, 1, 2), 1: (1, 2), 2: (0, 2), 3: (2,)}
@@ -52,21 +61,22 @@ class Segment(NamedTuple):
 
     t0: float
     t1: float
-    q1: list
-    z0: list
-    z1: list
-    v0: list
-    v1: list
+    q1: list[float]
+    z0: list[float]
+    z1: list[float]
+    v0: list[float]
+    v1: list[float]
     ds: float
     bits: int
     stationary: bool
 
     @classmethod
-    def of(cls, t0, t1, q1, z0, z1, v0, v1, ds, bits) -> Segment:
+    def of(cls, t0: float, t1: float, q1: list[float], z0: list[float], z1: list[float], v0: list[float],
+           v1: list[float], ds: float, bits: int) -> Segment:
         still = t1 > t0 and z0[:-1] == z1[:-1] and not any(v0[:-1]) and not any(v1[:-1])
         return cls(t0, t1, q1, z0, z1, v0, v1, ds, bits, still)
 
-    def full(self, L: float) -> tuple:
+    def full(self, L: float) -> tuple[list[float], list[float], list[float], list[float]]:
         """``(Z0, Z1, V0, V1)``: ends and tangents over all of ``(q / L, t / T)`` as
         4-vectors (held coordinates constant), tangents scaled by ``ds``."""
         free = MODE_FREE[self.bits]
@@ -77,19 +87,23 @@ class Segment(NamedTuple):
         return Z0, Z1, V0, V1
 
 
-def _hermite_weights(u):
+#: Samples at some times of one segment: ``(times (k,), segment)``.
+Block = tuple[FloatArray, Segment]
+
+
+def _hermite_weights(u: Value) -> tuple[Value, Value, Value, Value]:
     u2 = u * u
     u3 = u2 * u
     return 2 * u3 - 3 * u2 + 1, u3 - 2 * u2 + u, -2 * u3 + 3 * u2, u3 - u2
 
 
-def _time_cubic(c0, c1, c2, c3) -> tuple:
+def _time_cubic(c0: Value, c1: Value, c2: Value, c3: Value) -> tuple[Value, Value]:
     """``(a2, a3)`` of ``tau(u) = c0 + c1 u + a2 u^2 + a3 u^3``, the Hermite cubic with end
     values ``c0, c2`` and end slopes ``c1, c3`` (floats or arrays)."""
     return -3.0 * c0 - 2.0 * c1 + 3.0 * c2 - c3, 2.0 * c0 + c1 - 2.0 * c2 + c3
 
 
-def state_at(seg: Segment, t: float, L: float, T: float) -> list:
+def state_at(seg: Segment, t: float, L: float, T: float) -> list[float]:
     """The segment's interpolant at time ``t`` [s] (``q`` as a list; ``q1`` at and past its
     end, and on a single point)."""
     if seg.stationary or t >= seg.t1 or seg.t1 <= seg.t0:
@@ -118,7 +132,8 @@ def state_at(seg: Segment, t: float, L: float, T: float) -> list:
     return q
 
 
-def equilibria(potential, blocks, L: float, T: float) -> tuple:
+def equilibria(potential: TotalPotential, blocks: Sequence[Block], L: float,
+               T: float) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.int_]]:
     """The equilibria at the times of ``blocks`` ``[(times (k,), Segment), ...]`` (each time
     inside its segment): ``(t, q, dq/dt, contact forces, actuator forces, bits)``, arrays
     over the N samples ((N,), (N, 3), (N, 3), (N, 2), (N, 2), (N,)).
@@ -161,7 +176,8 @@ def equilibria(potential, blocks, L: float, T: float) -> tuple:
     return t, q, qd, lam, u, bits
 
 
-def _interpolate(segs, which, t, L: float, T: float) -> np.ndarray:
+def _interpolate(segs: Sequence[Segment], which: NDArray[np.intp], t: FloatArray, L: float,
+                 T: float) -> FloatArray:
     """:func:`state_at` vectorised over samples at times ``t`` on moving segments
     ``segs[which]``."""
     Z0, Z1, V0, V1 = (np.array(parts, dtype=float)[which] for parts in zip(*(s.full(L) for s in segs)))
@@ -188,7 +204,7 @@ def _interpolate(segs, which, t, L: float, T: float) -> np.ndarray:
     return np.where(free & ~end, Z[:, :3] * L, q1)
 
 
-def masked_solve(K, b, bits) -> np.ndarray:
+def masked_solve(K: Sequence[float | FloatArray], b: FloatArray, bits: NDArray[np.int_]) -> FloatArray:
     """Solve ``K_FF x_F = b_F`` per sample for the free coordinates ``F`` of each sample's
     mode (``K`` the unique entries ``(K11, K12, K13, K22, K23, K33)`` of symmetric 3 x 3
     matrices, arrays (N,); ``b`` (N, 3); ``bits`` (N,)), ``x = 0`` on the held ones: the held
@@ -211,7 +227,8 @@ def masked_solve(K, b, bits) -> np.ndarray:
     return x
 
 
-def polish(potential, t, q, bits, L: float) -> tuple:
+def polish(potential: TotalPotential, t: FloatArray, q: ArrayLike, bits: NDArray[np.int_],
+           L: float) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """Newton at fixed ``t`` from the states ``q`` (N, 3) in contact modes ``bits``,
     vectorised over the samples not yet converged; returns ``(q, dq/dt, contact forces
     (N, 2), actuator forces (N, 2))``."""
@@ -236,13 +253,14 @@ def polish(potential, t, q, bits, L: float) -> tuple:
     return q, qd, lam, u
 
 
-def _undefined_rate(t: float, q) -> None:
+def _undefined_rate(t: float, q: ArrayLike) -> NoReturn:
     raise SimulationError(f"t = {t:.9g} s: the equilibrium path's rate dq/dt is undefined at q = "
                           f"{np.array2string(np.asarray(q), precision=6)} (the stiffness d2Pi/dq2 is singular "
                           f"there: a limit or branch point at a sample time)", t=t)
 
 
-def polish_one(potential, t: float, q, bits: int, moving: bool, L: float) -> tuple:
+def polish_one(potential: TotalPotential, t: float, q: Sequence[float], bits: int, moving: bool,
+               L: float) -> tuple[list[float], list[float], list[float], list[float]]:
     """:func:`polish` for one sample (Newton only if ``moving``): ``(q, dq/dt, contact
     forces, actuator forces)`` as lists."""
     q = list(q)

@@ -27,21 +27,26 @@ or a new command gives a new segment; nothing is ever changed in place.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.class2.dynamics.drive import Drive
 from tensegrity_core.class2.dynamics.equations import EquationsOfMotion
 from tensegrity_core.class2.dynamics.inertia import FREE
-from tensegrity_core.class2.dynamics.kinematics import kinematics
+from tensegrity_core.class2.dynamics.kinematics import Kinematics, kinematics
 from tensegrity_core.class2.dynamics.limits import SINGULAR_GUARD_REL
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.sim.class2.contact import impact, select_mode
-from tensegrity_core.sim.class2.setup import STATE_NAMES
+from tensegrity_core.sim.class2.setup import STATE_NAMES, ForceEffect, class2_params
 from tensegrity_core.sim.errors import SimulationError
-from tensegrity_core.sim.inputs import next_breakpoint
+from tensegrity_core.sim.inputs import Law, next_breakpoint
+from tensegrity_core.sim.scene import Scene
+from tensegrity_core.sim.stepper import StateEvent
+
+FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -50,21 +55,26 @@ class Event:
 
     kind: str            # "fold" | "release" | "singular"
     index: int           # actuator (0, 1) or 0/1 for lambda1/lambda2
-    g: Callable
+    g: Callable[[float, FloatArray], float]
     direction: float = -1.0
 
 
-def bits_of(mode) -> int:
+def bits_of(mode: Iterable[int]) -> int:
     """The contact mode as bits (bit i: actuator i held)."""
     return sum(1 << i for i in mode)
+
+
+def _fold_event(i: int) -> Event:
+    """Free actuator ``i`` folds: its length falls through 0."""
+    return Event("fold", i, lambda t, y: y[i])
 
 
 class Class2Plant:
     """Equations of motion of one scene: the listed ``effects`` (kernel effects), the drive and
     the fold limit. Frozen."""
 
-    def __init__(self, scene, effects):
-        params = scene.model.params
+    def __init__(self, scene: Scene, effects: Sequence[ForceEffect]):
+        params = class2_params(scene)
         self.params = params
         self.L = params.L
         self.eom = EquationsOfMotion(params, effects)
@@ -77,11 +87,11 @@ class Class2Plant:
         self.n = 6 + self.drive.n_states
         self.state_names = STATE_NAMES + self.drive.state_names
 
-    def segment(self, mode, laws) -> Class2Segment:
+    def segment(self, mode: Iterable[int], laws: Iterable[Law]) -> Class2Segment:
         """The plant in contact ``mode`` (held actuators) under input ``laws``."""
         return Class2Segment(self, frozenset(mode), tuple(laws))
 
-    def check_state(self, y) -> None:
+    def check_state(self, y: Sequence[float] | FloatArray) -> None:
         """Raise :class:`SimulationError` if ``y`` is not a state of the model's domain."""
         if len(y) != self.n:
             raise SimulationError(f"a state of this model has {self.n} entries ({', '.join(self.state_names)}), "
@@ -99,7 +109,7 @@ class Class2Segment:
     :class:`~tensegrity_core.sim.stepper.OdeSystem`). ``fun`` is built once per segment with
     everything it reads bound as locals (the right-hand side costs a few microseconds)."""
 
-    def __init__(self, plant: Class2Plant, mode: frozenset, laws: tuple):
+    def __init__(self, plant: Class2Plant, mode: frozenset[int], laws: tuple[Law, ...]):
         self.plant = plant
         self.mode = mode
         self.laws = laws
@@ -107,36 +117,38 @@ class Class2Segment:
         self.drive = plant.drive.bind(laws)
         self.fun = self._right_hand_side()
 
-    def with_mode(self, mode) -> Class2Segment:
+    def with_mode(self, mode: Iterable[int]) -> Class2Segment:
         return Class2Segment(self.plant, frozenset(mode), self.laws)
 
-    def with_laws(self, laws) -> Class2Segment:
+    def with_laws(self, laws: Iterable[Law]) -> Class2Segment:
         return Class2Segment(self.plant, self.mode, tuple(laws))
 
     def next_breakpoint(self, t: float) -> float:
         return next_breakpoint(self.laws, t, math.inf)
 
     # -- right-hand side ------------------------------------------------------------------
-    def _right_hand_side(self) -> Callable:
+    def _right_hand_side(self) -> Callable[[float, FloatArray], FloatArray]:
         eom = self.plant.eom
         L, limit, forces, inertia = eom.L, eom.limit, eom.forces, eom.inertia
         transmitted, rates, bits = self.drive.forces, self.drive.rates, self.bits
+        solve: Callable[[Kinematics, float, float, float], tuple[float, ...]]
         if bits == FREE:
             solve = inertia.solve_free
         else:
-            def solve(k, Q1, Q2, Q3):
+            def solve(k: Kinematics, Q1: float, Q2: float, Q3: float) -> tuple[float, ...]:
                 return inertia.solve(k, Q1, Q2, Q3, bits)[:3]
+        fun: Callable[[float, FloatArray], FloatArray]
         if len(forces) == 1:
             (force,) = forces
 
-            def fun(t, y):
+            def fun(t: float, y: FloatArray) -> FloatArray:
                 yl = y.tolist()
                 k = kinematics(L, yl, limit)
                 Q1, Q2, Q3 = force(k)
                 T1, T2 = transmitted(t, yl)
                 return np.array((yl[3], yl[4], yl[5]) + solve(k, Q1 - T1, Q2 - T2, Q3) + rates(t, yl))
         else:
-            def fun(t, y):
+            def fun(t: float, y: FloatArray) -> FloatArray:
                 yl = y.tolist()
                 k = kinematics(L, yl, limit)
                 Q1 = Q2 = Q3 = 0.0
@@ -149,7 +161,8 @@ class Class2Segment:
                 return np.array((yl[3], yl[4], yl[5]) + solve(k, Q1 - T1, Q2 - T2, Q3) + rates(t, yl))
         return fun
 
-    def generalized_force(self, t, y) -> tuple:
+    def generalized_force(self, t: float,
+                          y: Sequence[float] | FloatArray) -> tuple[Kinematics, tuple[float, float, float]]:
         """``(k, (Q1 - T1, Q2 - T2, Q3))``: the context and every generalised force except
         inertia and contact."""
         yl = list(y)
@@ -159,7 +172,8 @@ class Class2Segment:
         T1, T2 = self.drive.forces(t, yl)
         return k, (Q1 - T1, Q2 - T2, Q3)
 
-    def accelerations(self, t, y, mode=None) -> tuple[np.ndarray, np.ndarray]:
+    def accelerations(self, t: float, y: Sequence[float] | FloatArray,
+                      mode: Collection[int] | None = None) -> tuple[FloatArray, FloatArray]:
         """``(qddot (3,), contact forces (2,))`` at ``(t, y)`` in ``mode`` (default: the segment's)."""
         bits = self.bits if mode is None else bits_of(mode)
         k, (R1, R2, R3) = self.generalized_force(t, y)
@@ -167,13 +181,13 @@ class Class2Segment:
         return np.array((a1, a2, a3)), np.array((l1, l2))
 
     # -- Jacobian -----------------------------------------------------------------------------
-    def jac(self, t, y) -> np.ndarray:
+    def jac(self, t: float, y: ArrayLike) -> FloatArray:
         """Analytic ``d(dy/dt)/dy`` in the segment's mode, from the kernel's derivatives."""
-        y = np.asarray(y, dtype=float)
+        state = np.asarray(y, dtype=float)
         plant = self.plant
-        a, _ = self.accelerations(t, y)
-        k = plant.eom.kinematics(y.tolist())
-        dT, extra = plant.drive.jacobian(t, y, self.laws)
+        a, _ = self.accelerations(t, state)
+        k = plant.eom.kinematics(state.tolist())
+        dT, extra = plant.drive.jacobian(t, state, self.laws)
         free = [i for i in range(3) if i not in self.mode]
         n = plant.n
         J = np.zeros((n, n))
@@ -190,14 +204,14 @@ class Class2Segment:
         out = [Event("singular", 0, lambda t, y: (2 * L - y[0] - y[1]) * (2 * L + y[0] + y[1]) - lim),
                Event("singular", 1, lambda t, y: (L - y[0]) * (L + y[0]) - lim)]
         if self.plant.fold is not None:
-            for i in (0, 1):
-                if i in self.mode:
-                    out.append(Event("release", i, lambda t, y, i=i: self.accelerations(t, y)[1][i]))
-                else:
-                    out.append(Event("fold", i, lambda t, y, i=i: y[i]))
+            out += [self._release_event(i) if i in self.mode else _fold_event(i) for i in (0, 1)]
         return out
 
-    def handle_event(self, event: Event, t: float, y) -> tuple[np.ndarray, Class2Segment]:
+    def _release_event(self, i: int) -> Event:
+        """Held actuator ``i`` lets go: its contact force falls through 0."""
+        return Event("release", i, lambda t, y: self.accelerations(t, y)[1][i])
+
+    def handle_event(self, event: StateEvent, t: float, y: ArrayLike) -> tuple[FloatArray, Class2Segment]:
         """Apply an event at ``(t, y)``: the state to restart from, and the segment of the new mode."""
         y = np.array(y, dtype=float)
         if event.kind == "singular":
@@ -212,13 +226,14 @@ class Class2Segment:
             mode = self._select(t, y, set(self.mode) - {event.index})
         return y, self.with_mode(mode)
 
-    def after_step(self, t, y):
+    def after_step(self, t: float, y: FloatArray) -> None:
         """Nothing to re-chart for the class-2 coordinates."""
         return None
 
-    def _fold(self, i: int, t: float, y: np.ndarray) -> frozenset:
+    def _fold(self, i: int, t: float, y: FloatArray) -> frozenset[int]:
         """Actuator ``i`` reaches zero length: impact, then the contact mode (``y`` updated in place)."""
         fold = self.plant.fold
+        assert fold is not None               # fold events exist with the fold limit only
         y[i] = 0.0
         eom = self.plant.eom
         M = eom.inertia.mass_matrix(eom.kinematics(y.tolist()))
@@ -229,9 +244,9 @@ class Class2Segment:
         candidates = set(kept) | ({i} if qd[i] == 0.0 else set())
         return self._select(t, y, candidates)
 
-    def _select(self, t: float, y: np.ndarray, candidates) -> frozenset:
+    def _select(self, t: float, y: FloatArray, candidates: Collection[int]) -> frozenset[int]:
         """The contact mode among ``candidates`` (``y``'s held entries zeroed in place)."""
-        def solve(S):
+        def solve(S: Collection[int]) -> tuple[FloatArray, FloatArray]:
             return self.accelerations(t, y, S)
         a, lam = solve(candidates)
         tol = 1e-9 * (1.0 + float(np.abs(a).max()) + float(np.abs(lam).max()))
@@ -241,7 +256,7 @@ class Class2Segment:
             y[3 + j] = 0.0
         return frozenset(mode)
 
-    def resolve_contacts(self, t0: float, y0) -> tuple[np.ndarray, frozenset]:
+    def resolve_contacts(self, t0: float, y0: ArrayLike) -> tuple[FloatArray, frozenset[int]]:
         """``(y, mode)`` after resolving the contacts of a starting state (impacts at ``t0``,
         then the contact mode); ``(y0, mode)`` without the fold limit."""
         y = np.array(y0, dtype=float)

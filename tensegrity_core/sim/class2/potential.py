@@ -19,28 +19,37 @@ samples of a run).
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
+
 import numpy as np
+from numpy.typing import NDArray
 
 from tensegrity_core.class2.dynamics.kinematics import kinematics, kinematics_array
 from tensegrity_core.class2.dynamics.limits import LAMBDA_MIN_REL
+from tensegrity_core.sim.class2.setup import ConservativeEffect
+from tensegrity_core.sim.inputs import Law
+
+FloatArray = NDArray[np.float64]
+#: ``(G, K, Gt)`` at one configuration: lists of 3, 3 x 3 and 3 floats.
+Derivatives = tuple[list[float], list[list[float]], list[float]]
 
 
 class TotalPotential:
     """``Pi`` and its derivatives for the force ``effects`` (springs, gravity, loads) and the
     input ``laws`` (two, one per actuator) of a mechanism with strut length ``L`` [m]."""
 
-    def __init__(self, effects, laws, L: float):
+    def __init__(self, effects: Iterable[ConservativeEffect], laws: Iterable[Law], L: float):
         self.effects = tuple(effects)
         self.laws = tuple(laws)
         self.L = L
         self.limit = LAMBDA_MIN_REL * L
         self._force_stiffness = tuple((e.force, e.stiffness) for e in self.effects)
 
-    def with_laws(self, laws) -> TotalPotential:
+    def with_laws(self, laws: Iterable[Law]) -> TotalPotential:
         """The same effects under other input laws (a new command)."""
         return TotalPotential(self.effects, laws, self.L)
 
-    def evaluate(self, q, t: float) -> tuple:
+    def evaluate(self, q: Sequence[float], t: float) -> Derivatives:
         """``(G, K, Gt)`` at one configuration: lists of 3, 3 x 3 and 3 floats. Raises the
         kinematic context's :class:`~tensegrity_core.errors.SingularityError` or
         :class:`~tensegrity_core.errors.DomainError` outside the mechanism's domain."""
@@ -68,19 +77,21 @@ class TotalPotential:
         K22 += du2
         return [u1 - Q1, u2 - Q2, -Q3], [[K11, K12, K13], [K12, K22, K23], [K13, K23, K33]], [dt1, dt2, 0.0]
 
-    def value(self, q, t: float) -> float:
+    def value(self, q: Sequence[float], t: float) -> float:
         """``Pi(q, t)`` [J] at one configuration."""
         k = kinematics(self.L, (q[0], q[1], q[2], 0.0, 0.0, 0.0), self.limit)
         l1, l2 = self.laws
-        return sum(e.energy(k) for e in self.effects) + l1.potential(t, q[0]) + l2.potential(t, q[1])
+        pi: float = sum(e.energy(k) for e in self.effects) + l1.potential(t, q[0]) + l2.potential(t, q[1])
+        return pi
 
-    def evaluate_array(self, t, q) -> tuple:
+    def evaluate_array(self, t: FloatArray,
+                       q: FloatArray) -> tuple[FloatArray, tuple[float | FloatArray, ...], FloatArray, FloatArray]:
         """``(G (N, 3), K, Gt (N, 3), u (N, 2))`` at times ``t`` (N,) and configurations ``q``
         (N, 3): ``K`` as its unique entries ``(K11, K12, K13, K22, K23, K33)`` (arrays), ``u``
         the input laws' values (the actuator forces)."""
         k = kinematics_array(self.L, q, np.zeros_like(q))
         Q1 = Q2 = Q3 = 0.0
-        entries = [0.0] * 6
+        entries: list[float | FloatArray] = [0.0] * 6
         for e in self.effects:
             a, b, c = e.force(k)
             Q1, Q2, Q3 = Q1 + a, Q2 + b, Q3 + c

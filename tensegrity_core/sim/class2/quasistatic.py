@@ -41,21 +41,37 @@ it (event ``jump``); a changed command does the same at its time.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from tensegrity_core.sim.class2 import path_samples as samples
 from tensegrity_core.sim.class2.equilibria import Equilibria, PathCounts, PathSettings, bits_of
 from tensegrity_core.sim.class2.observe import Class2Observer
 from tensegrity_core.sim.class2.path import PathFollower
+from tensegrity_core.sim.class2.path_samples import Segment
 from tensegrity_core.sim.class2.potential import TotalPotential
-from tensegrity_core.sim.class2.setup import NAMES, STATE_NAMES, force_effects, initial_configuration, static_force
+from tensegrity_core.sim.class2.setup import (
+    NAMES,
+    STATE_NAMES,
+    class2_params,
+    conservative,
+    force_effects,
+    initial_configuration,
+    static_force,
+)
 from tensegrity_core.sim.commands import changed, check_command, initial_commands
 from tensegrity_core.sim.inputs import held
-from tensegrity_core.sim.model import State
+from tensegrity_core.sim.model import Model, State
+from tensegrity_core.sim.scene import Scene
+
+#: Samples of one segment under one potential: ``(times (k,) [s], segment, total potential)``.
+Class2Block = tuple[NDArray[np.float64], Segment, TotalPotential]
 
 
-class Class2QuasiStatic:
+class Class2QuasiStatic(Model[PathFollower, Class2Block]):
     """Back end ``class2/quasi-static``: the equilibrium path of a class-2 scene without
     inertia (implements :class:`~tensegrity_core.sim.model.Model`). The path's start at
     ``t = 0`` is found once, at compile time; a state's workspace is a
@@ -67,13 +83,13 @@ class Class2QuasiStatic:
     names = NAMES
     state_names = STATE_NAMES
 
-    def __init__(self, scene):
-        params = scene.model.params
+    def __init__(self, scene: Scene):
+        params = class2_params(scene)
         self.scene = scene
         self.params = params
         self.L = params.L
         self.T = scene.duration
-        self.effects = force_effects(scene)
+        self.effects = conservative(force_effects(scene))
         q0, _ = initial_configuration(scene, self.effects)
         self.laws = tuple(scene.inputs.values())
         self.actuator_names = tuple(scene.inputs)
@@ -90,22 +106,22 @@ class Class2QuasiStatic:
         start.jump(0.0, q0, bits_of(i for i in (0, 1) if fold and q0[i] <= 0.0))
         self._start = start
 
-    def _equilibria(self, commands, counts: PathCounts) -> Equilibria:
+    def _equilibria(self, commands: Sequence[float], counts: PathCounts) -> Equilibria:
         return Equilibria(TotalPotential(self.effects, held(self.laws, commands), self.L), self.settings, counts)
 
     # -- states ---------------------------------------------------------------------------------
-    def initial_state(self, *, t_end: float = math.inf) -> State:
+    def initial_state(self, *, t_end: float = math.inf) -> State[PathFollower]:
         """The path's start at ``t = 0`` (the minimum reached from the scene's initial state,
         found once at compile time; ``t_end`` is not needed: the path never runs ahead)."""
         events = list(self._start.events)
         return State(self.initial_commands, events, self._start.copy(events))
 
-    def potential(self, state: State) -> TotalPotential:
+    def potential(self, state: State[PathFollower]) -> TotalPotential:
         """The total potential the state's path follows (its effects under its commands)."""
         return state.work.potential
 
     # -- running ------------------------------------------------------------------------------
-    def set_command(self, state: State, values) -> None:
+    def set_command(self, state: State[PathFollower], values: Iterable[float]) -> None:
         commands = check_command(values, self.laws, self.actuator_names)
         if not changed(state.commands, commands):
             return
@@ -113,28 +129,29 @@ class Class2QuasiStatic:
         state.work.with_laws(held(self.laws, commands))
         state.work.jump_here()
 
-    def advance(self, state: State, t: float) -> None:
+    def advance(self, state: State[PathFollower], t: float) -> None:
         state.work.advance(t)
 
-    def sample(self, state: State) -> tuple:
+    def sample(self, state: State[PathFollower]) -> Class2Block:
         """The current time with its segment and potential: a block of one sample for :meth:`observe`."""
         return np.array([state.t]), state.work.seg, state.work.potential
 
-    def record(self, state: State, times, out: list) -> None:
+    def record(self, state: State[PathFollower], times: Sequence[float] | NDArray[np.float64],
+               out: list[Class2Block]) -> None:
         """Append blocks ``(times inside one segment, segment, potential)`` for increasing
         ``times`` to ``out``: the path is advanced segment by segment; :meth:`observe`
         evaluates them."""
-        blocks: list = []
+        blocks: list[samples.Block] = []
         try:
             state.work.record(times, blocks)
         finally:
             potential = state.work.potential
             out.extend((t, seg, potential) for t, seg in blocks)
 
-    def observe(self, blocks) -> dict:
+    def observe(self, blocks: Sequence[Class2Block]) -> dict[str, NDArray[Any]]:
         """Observed quantities of recorded blocks (arrays over their samples): the segments'
         equilibria at the blocks' times under the potential each was recorded with."""
-        runs: list = []
+        runs: list[tuple[TotalPotential, list[samples.Block]]] = []
         for t, seg, potential in blocks:
             if runs and runs[-1][0] is potential:
                 runs[-1][1].append((t, seg))
@@ -146,16 +163,16 @@ class Class2QuasiStatic:
         t, q, qd, lam, u, bits = (np.concatenate(arrays) for arrays in zip(*parts))
         return self.observer.many(t, np.concatenate([q, qd], axis=1), bits, u, contact=lam)
 
-    def observe_now(self, state: State) -> dict:
+    def observe_now(self, state: State[PathFollower]) -> dict[str, Any]:
         """The observation at ``state.t`` (one sample, evaluated on floats)."""
         q, qd, lam, u = state.work.equilibrium_now()
         return self.observer.one(state.t, q + qd, state.work.seg.bits, u, contact=lam)
 
-    def joint_sample(self, state: State) -> dict:
+    def joint_sample(self, state: State[PathFollower]) -> dict[str, Any]:
         obs = self.observe_now(state)
         return {k: obs[k] for k in ("t", "q", "qdot", "applied_forces", "end_effector", "folded")}
 
-    def stats(self, state: State) -> dict:
+    def stats(self, state: State[PathFollower]) -> dict[str, Any]:
         counts = state.work.counts
         return {"method": self.method, "steps": counts.steps, "newton_iterations": counts.newton,
                 "events": len(state.events)}

@@ -9,15 +9,26 @@ actuator lengths (springs and gravity; loads act from ``t = 0`` on).
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
+
 import numpy as np
+from numpy.typing import NDArray
 
 from tensegrity_core.class2.dynamics.effects import Damping, Gravity, Loads, Springs
-from tensegrity_core.class2.dynamics.kinematics import kinematics
+from tensegrity_core.class2.dynamics.kinematics import Kinematics, kinematics
 from tensegrity_core.class2.dynamics.limits import LAMBDA_MIN_REL
 from tensegrity_core.class2.energy import equilibrium_beta
 from tensegrity_core.class2.geometry import MEMBERS, NODE_NAMES
+from tensegrity_core.class2.params import Class2Params
 from tensegrity_core.sim.errors import SceneError
 from tensegrity_core.sim.model import Names
+from tensegrity_core.sim.scene import Class2Model, Scene
+
+FloatArray = NDArray[np.float64]
+#: A generalised-force effect of the kernel.
+ForceEffect = Springs | Damping | Gravity | Loads
+#: An effect with a potential (every one but damping).
+ConservativeEffect = Springs | Gravity | Loads
 
 #: What a class-2 observation names: the six nodes and the ten members (MEMBERS order).
 NAMES = Names(NODE_NAMES, tuple(m.name for m in MEMBERS), np.array([m.nodes for m in MEMBERS]))
@@ -25,12 +36,20 @@ NAMES = Names(NODE_NAMES, tuple(m.name for m in MEMBERS), np.array([m.nodes for 
 STATE_NAMES = ("rho1", "rho2", "beta", "rho1_dot", "rho2_dot", "beta_dot")
 
 
-def force_effects(scene) -> tuple:
+def class2_params(scene: Scene) -> Class2Params:
+    """The mechanism's parameters of a class-2 scene (the only scenes the class-2 back ends take)."""
+    model = scene.model
+    if not isinstance(model, Class2Model):
+        raise TypeError(f"a class-2 back end compiles class-2 scenes, not {model.kind} ones")
+    return model.params
+
+
+def force_effects(scene: Scene) -> tuple[ForceEffect, ...]:
     """The generalised-force effects the scene lists, in composition order (springs, damping,
     gravity, loads); an effect the scene does not list is not built."""
-    params = scene.model.params
+    params = class2_params(scene)
     eff = scene.effects
-    out = []
+    out: list[ForceEffect] = []
     if "springs" in eff:
         out.append(Springs(params))
     if "damping" in eff:
@@ -42,12 +61,18 @@ def force_effects(scene) -> tuple:
     return tuple(out)
 
 
-def rest_context(L: float, q):
+def conservative(effects: Iterable[ForceEffect]) -> tuple[ConservativeEffect, ...]:
+    """The effects with a potential among ``effects`` (all but damping, which a scene without
+    inertia cannot list): what the total potential of the quasi-static model composes."""
+    return tuple(e for e in effects if not isinstance(e, Damping))
+
+
+def rest_context(L: float, q: Sequence[float] | FloatArray) -> Kinematics:
     """The kinematic context of configuration ``q`` at rest."""
     return kinematics(L, (q[0], q[1], q[2], 0.0, 0.0, 0.0), LAMBDA_MIN_REL * L)
 
 
-def static_force(effects, L: float, q) -> np.ndarray:
+def static_force(effects: Iterable[ForceEffect], L: float, q: Sequence[float] | FloatArray) -> FloatArray:
     """Sum of the effects' generalised forces at ``q`` at rest (3,); its first two entries are
     the actuator forces that hold ``q`` at rest."""
     k = rest_context(L, q)
@@ -57,21 +82,21 @@ def static_force(effects, L: float, q) -> np.ndarray:
     return Q
 
 
-def equilibrium_angle(effects, params, rho1: float, rho2: float) -> float:
+def equilibrium_angle(effects: Iterable[ForceEffect], params: Class2Params, rho1: float, rho2: float) -> float:
     """The stable ``beta`` for locked actuators under the springs and gravity (the scene's
     loads act from ``t = 0`` on, they are not part of the initial equilibrium).
 
     Starts at the springs' closed-form minimum (:func:`equilibrium_beta`) and runs Newton on
     ``Q3(beta) = 0`` when gravity also acts on beta."""
     beta = float(equilibrium_beta(rho1, rho2, params))
-    conservative = [e for e in effects if e.name in ("springs", "gravity")]
-    if not any(e.name == "gravity" for e in conservative):
+    acting = [e for e in effects if e.name in ("springs", "gravity")]
+    if not any(e.name == "gravity" for e in acting):
         return beta
     for _ in range(50):
         q = (rho1, rho2, beta)
         k = rest_context(params.L, q)
-        Q3 = static_force(conservative, params.L, q)[2]
-        K = -sum(e.jacobian(k)[0] for e in conservative)[2, 2]
+        Q3 = float(static_force(acting, params.L, q)[2])
+        K = -sum(float(e.jacobian(k)[0][2, 2]) for e in acting)
         if K <= 0:
             raise SceneError(f"no stable equilibrium angle beta near {beta:.6g} rad for rho1 = {rho1:g} m, "
                              f"rho2 = {rho2:g} m under the springs and gravity (d2V/dbeta2 = {K:.3g} <= 0: the "
@@ -84,11 +109,12 @@ def equilibrium_angle(effects, params, rho1: float, rho2: float) -> float:
                      key=("initial",))
 
 
-def initial_configuration(scene, effects) -> tuple[np.ndarray, np.ndarray]:
+def initial_configuration(scene: Scene, effects: Iterable[ForceEffect]) -> tuple[FloatArray, FloatArray]:
     """``(q0, qdot0)`` of a class-2 scene."""
     init = scene.initial
-    params = scene.model.params
+    params = class2_params(scene)
     if init.kind == "state":
         return np.array(init.q, dtype=float), np.array(init.qdot, dtype=float)
+    assert init.lengths is not None           # an "equilibrium" initial state of a class-2 scene
     r1, r2 = init.lengths
     return np.array([r1, r2, equilibrium_angle(effects, params, r1, r2)]), np.zeros(3)

@@ -6,10 +6,15 @@ a numpy call costs several microseconds of overhead each, these a fraction of th
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from operator import mul
 
+#: A small matrix as its rows.
+Matrix = Sequence[Sequence[float]]
+Vector = Sequence[float]
 
-def solve_small(A, b) -> list:
+
+def solve_small(A: Matrix, b: Vector) -> list[float]:
     """Solve ``A x = b`` (``A`` a list of rows, ``b`` a list) by Gaussian elimination with
     partial pivoting. Raises :class:`ZeroDivisionError` when a pivot is exactly zero."""
     n = len(b)
@@ -42,7 +47,7 @@ def solve_small(A, b) -> list:
     return x
 
 
-def principal_det(K, idx) -> float:
+def principal_det(K: Matrix, idx: Sequence[int]) -> float:
     """Determinant of the principal submatrix ``K[idx][:, idx]`` (``K`` 3 x 3 lists, ``idx``
     1 to 3 sorted indices)."""
     if len(idx) == 1:
@@ -54,7 +59,7 @@ def principal_det(K, idx) -> float:
             + K[0][2] * (K[1][0] * K[2][1] - K[1][1] * K[2][0]))
 
 
-def positive_definite(K, idx) -> bool:
+def positive_definite(K: Matrix, idx: Sequence[int]) -> bool:
     """Sylvester's criterion on the symmetric principal submatrix ``K[idx][:, idx]`` (size <= 3)."""
     a = idx[0]
     if K[a][a] <= 0.0:
@@ -73,7 +78,7 @@ def positive_definite(K, idx) -> bool:
 WELL_CONDITIONED = 1e-6
 
 
-def _adjugate(K, idx):
+def _adjugate(K: Matrix, idx: Sequence[int]) -> tuple[Matrix, float] | None:
     """``(rows of adj(K_FF), det(K_FF))`` of the symmetric principal submatrix for 2 or 3
     indices, or ``None`` near singular (:data:`WELL_CONDITIONED`)."""
     if len(idx) == 3:
@@ -92,7 +97,7 @@ def _adjugate(K, idx):
     return None
 
 
-def _times(rows, x) -> list:
+def _times(rows: Matrix, x: Vector) -> list[float]:
     """The matrix ``rows`` (2 x 2 or 3 x 3) times the vector ``x``."""
     if len(x) == 3:
         (a, b, c), (d, e, f), (g, h, i) = rows
@@ -103,7 +108,7 @@ def _times(rows, x) -> list:
     return [a * x0 + b * x1, c * x0 + d * x1]
 
 
-def solve_symmetric(K, idx, r) -> list:
+def solve_symmetric(K: Matrix, idx: Sequence[int], r: Vector) -> list[float]:
     """Solve ``K[idx][:, idx] x = r`` for symmetric ``K`` (3 x 3 lists, ``idx`` 1 to 3 sorted
     indices, ``r`` a list over ``idx``) with the explicit adjugate -- a few multiplications
     where elimination loops cost microseconds -- or :func:`solve_small` near singular.
@@ -120,7 +125,8 @@ def solve_symmetric(K, idx, r) -> list:
     return solve_small([[K[a][b] for b in idx] for a in idx], list(r))
 
 
-def solve_bordered(K, idx, g, w, wt: float, r, s: float) -> list:
+def solve_bordered(K: Matrix, idx: Sequence[int], g: Vector, w: Vector, wt: float, r: Vector,
+                   s: float) -> list[float]:
     """Solve ``[[K_FF, g], [w, wt]] [x; y] = [r; s]`` (``K_FF = K[idx][:, idx]`` symmetric,
     ``g, w, r`` lists over ``idx``) by block elimination with the adjugate of ``K_FF``:
     ``y = (s det - w adj r) / (wt det - w adj g)``, ``x = (adj r - adj g y) / det``; near a

@@ -11,8 +11,11 @@ under, so an observation sees the charts of its own time).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.general.statics import potential_energy
 from tensegrity_core.sim.commands import changed, check_command, initial_commands
@@ -23,6 +26,7 @@ from tensegrity_core.sim.general.setup import (
     coordinates,
     drawn_rest_lengths,
     finish_observations,
+    general_model,
     initial_configuration,
     member_damping,
     minimal_coordinates,
@@ -32,24 +36,30 @@ from tensegrity_core.sim.general.setup import (
     scene_loads,
 )
 from tensegrity_core.sim.inputs import held
-from tensegrity_core.sim.model import State
+from tensegrity_core.sim.model import DynamicModel, Event, State
+from tensegrity_core.sim.scene import Scene
 from tensegrity_core.sim.stepper import Stepper
+
+FloatArray = NDArray[np.float64]
+#: What an observation needs of one state: ``(t [s], y, the equations of its charts and commands)``.
+GeneralSample = tuple[float, FloatArray, GeneralModel]
 
 OBSERVED = ("t", "state", "q", "qdot", "applied_forces", "nodes", "member_lengths", "member_forces",
             "potential_energy", "kinetic_energy")
 
 
-class GeneralDynamic:
+class GeneralDynamic(DynamicModel[GeneralModel, GeneralSample]):
     """Back end ``general/dynamic``: nodal / rigid-body dynamics of a general structure
     (implements :class:`~tensegrity_core.sim.model.DynamicModel`)."""
 
     kind = "general"
     quasi_static = False
 
-    def __init__(self, scene):
+    def __init__(self, scene: Scene):
         check_springs(scene)
         self.scene = scene
-        s = scene.model.structure
+        model = general_model(scene)
+        s = model.structure
         self.structure = s
         self.laws = tuple(scene.inputs.values())
         self.actuator_names = tuple(scene.inputs)
@@ -61,17 +71,17 @@ class GeneralDynamic:
         self.plant = GeneralModel(s, masses=NodalMasses(s), damping=member_damping(scene),
                                   gravity=scene_gravity(scene), loads=scene_loads(scene),
                                   rest_lengths_of=rest_lengths_function(scene, laws0), laws=laws0,
-                                  actuators=scene.model.actuators, R_ref=config.rotations)
+                                  actuators=model.actuators, R_ref=config.rotations)
         self.state_names = self.plant.state_names
         method = scene.integrator.method
         self.method = "Radau" if method == "auto" else method
 
     # -- states ---------------------------------------------------------------------------------
-    def initial_state(self, *, t_end: float = math.inf) -> State:
+    def initial_state(self, *, t_end: float = math.inf) -> State[Stepper[GeneralModel]]:
         """The initial equilibrium at rest (found once, at compile time)."""
         return self._state(np.concatenate([self.x0, np.zeros(len(self.x0))]), t_end)
 
-    def state_from(self, y, *, t_end: float = math.inf) -> State:
+    def state_from(self, y: ArrayLike, *, t_end: float = math.inf) -> State[Stepper[GeneralModel]]:
         """A state at ``t = 0`` from the state vector ``y`` (``state_names``: coordinates in the
         initial rotation charts, then rates)."""
         y = np.array(y, dtype=float).ravel()
@@ -79,19 +89,19 @@ class GeneralDynamic:
             raise SimulationError(f"a state of this model is {2 * self.plant.n} finite numbers, got {y!r}")
         return self._state(y, t_end)
 
-    def _state(self, y, t_end: float) -> State:
-        events: list = []
+    def _state(self, y: FloatArray, t_end: float) -> State[Stepper[GeneralModel]]:
+        events: list[Event] = []
         s = self.scene.integrator
         stepper = Stepper(self.plant, 0.0, y, method=self.method, rtol=s.rtol, atol=s.atol, max_step=s.max_step,
                           t_end=t_end, log=events)
         return State(self.initial_commands, events, stepper)
 
-    def equations(self, state: State) -> GeneralModel:
+    def equations(self, state: State[Stepper[GeneralModel]]) -> GeneralModel:
         """The model (charts, commands) the integrator sees at ``state``."""
         return state.work.system
 
     # -- running ------------------------------------------------------------------------------
-    def set_command(self, state: State, values) -> None:
+    def set_command(self, state: State[Stepper[GeneralModel]], values: Iterable[float]) -> None:
         commands = check_command(values, self.laws, self.actuator_names, positive=True)
         if not changed(state.commands, commands):
             return
@@ -101,19 +111,20 @@ class GeneralDynamic:
         st.restart(st.t, st.y, system=st.system.with_inputs(rest_lengths_function(self.scene, laws), laws),
                    input_changed=True)
 
-    def advance(self, state: State, t: float) -> None:
+    def advance(self, state: State[Stepper[GeneralModel]], t: float) -> None:
         state.work.advance(t)
 
-    def sample(self, state: State) -> tuple:
+    def sample(self, state: State[Stepper[GeneralModel]]) -> GeneralSample:
         """``(t, y, model)``: the model keeps this sample's rotation charts and rest lengths."""
         st = state.work
         return st.t, st.y.copy(), st.system
 
-    def record(self, state: State, times, out: list) -> None:
+    def record(self, state: State[Stepper[GeneralModel]], times: Sequence[float] | FloatArray,
+               out: list[GeneralSample]) -> None:
         state.work.record(times, out)
 
-    def observe(self, samples) -> dict:
-        rows: dict = {k: [] for k in OBSERVED}
+    def observe(self, samples: Sequence[GeneralSample]) -> dict[str, NDArray[Any]]:
+        rows: dict[str, list[Any]] = {k: [] for k in OBSERVED}
         for t, y, model in samples:
             n = model.n
             x, v = y[:n], y[n:]
@@ -131,14 +142,14 @@ class GeneralDynamic:
             rows["kinetic_energy"].append(model.kinetic_energy(x, v))
         return finish_observations(rows, self.scene)
 
-    def observe_now(self, state: State) -> dict:
+    def observe_now(self, state: State[Stepper[GeneralModel]]) -> dict[str, Any]:
         return {k: v[0] for k, v in self.observe([self.sample(state)]).items()}
 
-    def joint_sample(self, state: State) -> dict:
+    def joint_sample(self, state: State[Stepper[GeneralModel]]) -> dict[str, Any]:
         obs = self.observe_now(state)
         return {k: obs[k] for k in ("t", "q", "qdot", "applied_forces", "end_effector", "folded")}
 
-    def stats(self, state: State) -> dict:
+    def stats(self, state: State[Stepper[GeneralModel]]) -> dict[str, Any]:
         st = state.work
         return {"method": self.method, "steps": st.n_steps, "nfev": st.nfev, "restarts": st.n_restarts - 1,
                 "events": st.n_events}

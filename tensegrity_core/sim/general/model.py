@@ -46,64 +46,72 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Callable, Iterable
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.general.configuration import Configuration
 from tensegrity_core.general.rotation import exp_so3, hat
 from tensegrity_core.general.statics import equilibrium_matrix, group_sum
 from tensegrity_core.general.stiffness import tangent_stiffness
+from tensegrity_core.general.structure import Structure
 from tensegrity_core.sim.errors import SceneError
-from tensegrity_core.sim.inputs import next_breakpoint
+from tensegrity_core.sim.inputs import Law, next_breakpoint
+from tensegrity_core.sim.stepper import StateEvent
+
+FloatArray = NDArray[np.float64]
 
 #: Re-anchor a body's rotation chart when its rotation vector exceeds this angle [rad].
 RECHART_ANGLE = 1.0
 
 
-def cross(a, b) -> np.ndarray:
+def cross(a: FloatArray, b: FloatArray) -> FloatArray:
     """``a x b`` over the last axis (numpy's ``cross`` costs ~20 us per call in overhead)."""
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], -1)
 
 
-def _angle(theta) -> tuple:
+def _angle(theta: ArrayLike) -> tuple[FloatArray, FloatArray, NDArray[np.bool_], FloatArray, FloatArray]:
     """``(|theta|^2, |theta|, small-angle mask, safe |theta|, hat(theta))`` over ``(..., 3)``."""
     theta = np.asarray(theta, dtype=float)
-    a2 = np.sum(theta * theta, axis=-1)
+    a2: FloatArray = np.sum(theta * theta, axis=-1)
     a = np.sqrt(a2)
     small = a < 1e-4
     return a2, a, small, np.where(small, 1.0, a), hat(theta)
 
 
-def left_jacobian_inverse(theta) -> np.ndarray:
+def left_jacobian_inverse(theta: ArrayLike) -> FloatArray:
     """``J_l(theta)^-1`` (..., 3, 3): ``dtheta/dt = J_l^-1 omega`` for ``R = exp(hat(theta)) R_ref``
     (series below 1e-4 rad)."""
     a2, _, small, safe, K = _angle(theta)
-    coef = np.where(small, 1.0 / 12.0 + a2 / 720.0, 1.0 / safe**2 - (1.0 + np.cos(safe)) / (2.0 * safe * np.sin(safe)))
+    coef: FloatArray = np.where(small, 1.0 / 12.0 + a2 / 720.0,
+                                1.0 / safe**2 - (1.0 + np.cos(safe)) / (2.0 * safe * np.sin(safe)))
     return np.eye(3) - 0.5 * K + coef[..., None, None] * (K @ K)
 
 
-def left_jacobian(theta) -> np.ndarray:
+def left_jacobian(theta: ArrayLike) -> FloatArray:
     """``J_l(theta)`` (..., 3, 3): ``omega = J_l dtheta/dt``."""
     a2, _, small, safe, K = _angle(theta)
-    c1 = np.where(small, 0.5 - a2 / 24.0, (1.0 - np.cos(safe)) / safe**2)
-    c2 = np.where(small, 1.0 / 6.0 - a2 / 120.0, (safe - np.sin(safe)) / safe**3)
+    c1: FloatArray = np.where(small, 0.5 - a2 / 24.0, (1.0 - np.cos(safe)) / safe**2)
+    c2: FloatArray = np.where(small, 1.0 / 6.0 - a2 / 120.0, (safe - np.sin(safe)) / safe**3)
     return np.eye(3) + c1[..., None, None] * K + c2[..., None, None] * (K @ K)
 
 
 class NodalMasses:
     """Lumped masses of a structure and its rigid bodies' inertia in their reference frames."""
 
-    def __init__(self, structure):
+    def __init__(self, structure: Structure):
         lay = structure.layout
-        m = structure.node_masses.copy()
+        m: FloatArray = structure.node_masses.copy()
         np.add.at(m, structure.members[:, 0], 0.5 * structure.member_masses)
         np.add.at(m, structure.members[:, 1], 0.5 * structure.member_masses)
         for slot, idx in enumerate(lay.body_nodes):
             m[idx] += lay.body_masses[slot] / len(idx)
-        for k, body in enumerate(structure.bodies):
+        for body in structure.bodies:
             if body.fixed:
                 m[list(body.nodes)] += body.mass / len(body.nodes)
         self.node = m
@@ -114,17 +122,19 @@ class NodalMasses:
                              f"{'have' if len(light) > 1 else 'has'} none (give point masses, member masses or "
                              f"body masses in the structure)", key=("effects",))
         self.free = m[np.nonzero(lay.free_index >= 0)[0]]          # per free coordinate
-        on = lay.node_body >= 0
+        on: NDArray[np.bool_] = lay.node_body >= 0
         self.on = on
-        self.slot = lay.node_body[on]
-        self.p = lay.offsets[on]                                     # body-frame offsets
+        self.slot: NDArray[np.int64] = lay.node_body[on]
+        self.p: FloatArray = lay.offsets[on]                         # body-frame offsets
         self.m_on = m[on]
         nb = len(lay.moving_bodies)
-        self.body = group_sum(self.slot, self.m_on[:, None], nb)[:, 0] if nb else np.zeros(0)
+        self.body: FloatArray = group_sum(self.slot, self.m_on[:, None], nb)[:, 0] if nb else np.zeros(0)
         bad = [lay.body_names[b] for b in range(nb) if self.body[b] <= 0.0]
         if bad:
             raise SceneError(f"inertia needs mass on every moving rigid body; {', '.join(map(repr, bad))} "
                              f"has none", key=("effects",))
+        self.s_body: FloatArray
+        self.I_body: FloatArray
         if nb:
             self.s_body = group_sum(self.slot, self.m_on[:, None] * self.p, nb)
             pp = np.einsum("ki,kj->kij", self.p, self.p)
@@ -144,10 +154,12 @@ class GeneralModel:
 
     kind = "general"
     #: No contacts: the contact mode is always empty.
-    mode: frozenset = frozenset()
+    mode: frozenset[int] = frozenset()
 
-    def __init__(self, structure, *, masses: NodalMasses, damping=None, gravity=None, loads=None,
-                 rest_lengths_of=None, laws=(), actuators=(), R_ref):
+    def __init__(self, structure: Structure, *, masses: NodalMasses, damping: FloatArray | None = None,
+                 gravity: ArrayLike | None = None, loads: FloatArray | None = None,
+                 rest_lengths_of: Callable[[float], FloatArray] | None = None, laws: Iterable[Law] = (),
+                 actuators: ArrayLike = (), R_ref: ArrayLike):
         self.structure = structure
         lay = structure.layout
         self.lay = lay
@@ -182,13 +194,13 @@ class GeneralModel:
         self.state_names = tuple(f"x_{s}" for s in lay.labels()) + tuple(f"v_{s}" for s in lay.labels())
         self._twin = self._statics_twin(0.0) if rest_lengths_of is None else None
 
-    def with_chart(self, R_ref) -> GeneralModel:
+    def with_chart(self, R_ref: ArrayLike) -> GeneralModel:
         """The same equations with other rotation charts."""
         new = copy.copy(self)
         new.R_ref = np.array(R_ref, dtype=float)
         return new
 
-    def with_inputs(self, rest_lengths_of, laws) -> GeneralModel:
+    def with_inputs(self, rest_lengths_of: Callable[[float], FloatArray] | None, laws: Iterable[Law]) -> GeneralModel:
         """The same equations under other input laws (a new command)."""
         new = copy.copy(self)
         new.rest_lengths_of, new.laws = rest_lengths_of, tuple(laws)
@@ -198,7 +210,7 @@ class GeneralModel:
         return next_breakpoint(self.laws, t, math.inf)
 
     # -- kinematics -----------------------------------------------------------------------
-    def placement(self, x) -> tuple:
+    def placement(self, x: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
         """``(coords (n, 3), arms r (n_on, 3), R (nb, 3, 3))`` for coordinates ``x``."""
         coords = self.base.copy()
         coords[self.free_nodes, self.free_axes] = x[:self.n_free]
@@ -210,7 +222,7 @@ class GeneralModel:
         coords[self.masses.on] = d[self.masses.slot, :3] + r
         return coords, r, R
 
-    def velocities(self, v, r) -> np.ndarray:
+    def velocities(self, v: FloatArray, r: FloatArray) -> FloatArray:
         vel = np.zeros_like(self.base)
         vel[self.free_nodes, self.free_axes] = v[:self.n_free]
         if self.nb:
@@ -219,12 +231,14 @@ class GeneralModel:
             vel[self.masses.on] = d[slot, :3] + cross(d[slot, 3:], r)
         return vel
 
-    def rest_lengths(self, t: float) -> np.ndarray:
+    def rest_lengths(self, t: float) -> FloatArray:
         if self.rest_lengths_of is None:
-            return self.structure.rest_lengths
+            l0: FloatArray = self.structure.rest_lengths
+            return l0
         return self.rest_lengths_of(t)
 
-    def member_state(self, t, coords, vel) -> tuple:
+    def member_state(self, t: float, coords: FloatArray,
+                     vel: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.bool_]]:
         """``(forces (m,), unit vectors (m, 3), lengths (m,), taut (m,))``; forces include dampers."""
         h = coords[self.b] - coords[self.a]
         lengths = np.sqrt(np.einsum("ij,ij->i", h, h))
@@ -238,7 +252,8 @@ class GeneralModel:
         return np.where(taut, force, 0.0), u, lengths, taut
 
     # -- right-hand side ------------------------------------------------------------------------
-    def generalized_force(self, t, x, v) -> tuple:
+    def generalized_force(self, t: float, x: FloatArray,
+                          v: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
         """``(P (n_dof,), coords, arms, R, member forces)``: the generalised force of members,
         dampers, loads and weights."""
         coords, r, R = self.placement(x)
@@ -256,7 +271,8 @@ class GeneralModel:
             P[self.lay.body_dof[:, None] + np.arange(6)[None, :]] = FM
         return P, coords, r, R, force
 
-    def body_matrices(self, R, v) -> tuple:
+    def body_matrices(self, R: FloatArray,
+                      v: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
         """Per moving body: the 6 x 6 mass matrices and the velocity terms (nb, 6)."""
         ms = self.masses
         s = np.einsum("kij,kj->ki", R, ms.s_body)
@@ -270,7 +286,7 @@ class GeneralModel:
         gyro = np.concatenate([cross(w, cross(w, s)), cross(w, np.einsum("kij,kj->ki", Ic, w))], axis=1)
         return Mb, gyro, s, Ic, w
 
-    def accelerations(self, t, x, v) -> np.ndarray:
+    def accelerations(self, t: float, x: FloatArray, v: FloatArray) -> FloatArray:
         P, _, _, R, _ = self.generalized_force(t, x, v)
         a = np.empty(self.n)
         a[:self.n_free] = P[:self.n_free] / self.masses.free
@@ -280,7 +296,7 @@ class GeneralModel:
             a[cols] = np.linalg.solve(Mb, (P[cols] - gyro)[..., None])[..., 0]
         return a
 
-    def fun(self, t, y):
+    def fun(self, t: float, y: FloatArray) -> FloatArray:
         n = self.n
         x, v = y[:n], y[n:]
         a = self.accelerations(t, x, v)
@@ -291,11 +307,11 @@ class GeneralModel:
         return np.concatenate([xdot, a])
 
     # -- Jacobian --------------------------------------------------------------------------------
-    def statics_twin(self, t: float):
+    def statics_twin(self, t: float) -> Structure:
         """The same members (current rest lengths), loads and weights as a static structure."""
         return self._twin if self._twin is not None else self._statics_twin(t)
 
-    def _statics_twin(self, t: float):
+    def _statics_twin(self, t: float) -> Structure:
         s = self.structure
         loads = np.zeros((s.n_nodes, 3)) if self.external is None else self.external
         twin = s.replace(rest_lengths=np.asarray(self.rest_lengths(t), dtype=float), loads=loads,
@@ -304,12 +320,13 @@ class GeneralModel:
                          bodies=tuple(b.__class__(b.name, b.nodes, 0.0, b.fixed) for b in s.bodies))
         return twin
 
-    def configuration(self, x, twin) -> Configuration:
+    def configuration(self, x: FloatArray, twin: Structure) -> Configuration:
         coords, _, R = self.placement(x)
         centres = x[self.lay.body_dof[:, None] + np.arange(3)[None, :]] if self.nb else np.zeros((0, 3))
         return Configuration(twin, coords, centres, R)
 
-    def jac(self, t, y):
+    def jac(self, t: float, y: FloatArray) -> Any:
+        """The Jacobian ``d(dy/dt)/dy`` as a scipy.sparse CSC matrix (untyped: Any; see the module docstring)."""
         n = self.n
         x, v = y[:n], y[n:]
         twin = self.statics_twin(t)
@@ -337,7 +354,8 @@ class GeneralModel:
         Jvv = -(Minv @ (D + G))
         return sp.bmat([[None, Jxv], [Jvx, Jvv]], format="csc")
 
-    def _inverse_mass_and_gyro(self, x, v) -> tuple:
+    def _inverse_mass_and_gyro(self, x: FloatArray, v: FloatArray) -> tuple[Any, Any]:
+        """``(M^-1, G_gyro)`` as scipy.sparse CSR matrices (untyped: Any)."""
         n = self.n
         blocks_inv = sp.lil_matrix((n, n))
         G = sp.lil_matrix((n, n))
@@ -360,16 +378,16 @@ class GeneralModel:
         return blocks_inv.tocsr(), G.tocsr()
 
     # -- stepper hooks ------------------------------------------------------------------------------
-    def events(self) -> list:
+    def events(self) -> list[StateEvent]:
         """No state events: members are smooth (strings' slackening is a kink the adaptive
         step control resolves)."""
         return []
 
-    def handle_event(self, event, t, y):
+    def handle_event(self, event: StateEvent, t: float, y: FloatArray) -> tuple[FloatArray, GeneralModel]:
         """There are no state events (:meth:`events`): the state and the model as they are."""
         return np.asarray(y, dtype=float), self
 
-    def after_step(self, t, y):
+    def after_step(self, t: float, y: FloatArray) -> tuple[FloatArray, GeneralModel] | None:
         """Re-anchor rotation charts whose angle exceeds :data:`RECHART_ANGLE`: the state and the
         model of the new charts, or None."""
         if not self.nb:
@@ -385,7 +403,7 @@ class GeneralModel:
         y[rot[big]] = 0.0
         return y, self.with_chart(R_ref)
 
-    def kinetic_energy(self, x, v) -> float:
+    def kinetic_energy(self, x: FloatArray, v: FloatArray) -> float:
         T = 0.5 * float(np.sum(self.masses.free * v[:self.n_free] ** 2))
         if self.nb:
             _, _, R = self.placement(x)

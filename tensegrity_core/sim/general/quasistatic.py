@@ -13,20 +13,27 @@ balance ``P = G^T f + w - A_r t = 0`` (the statics' Eq. 64) in time:
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 from scipy.sparse.linalg import spsolve
 
+from tensegrity_core.general.configuration import Configuration
 from tensegrity_core.general.statics import equilibrium_matrix, member_forces, member_lengths, potential_energy
 from tensegrity_core.general.stiffness import tangent_stiffness
+from tensegrity_core.general.structure import Structure
 from tensegrity_core.sim.commands import changed, check_command, initial_commands
 from tensegrity_core.sim.errors import SimulationError
 from tensegrity_core.sim.general.setup import (
+    RestLengths,
     check_springs,
     coordinates,
     drawn_rest_lengths,
     equilibrium,
     finish_observations,
+    general_model,
     initial_configuration,
     minimal_coordinates,
     names_of,
@@ -35,7 +42,12 @@ from tensegrity_core.sim.general.setup import (
     static_structure,
 )
 from tensegrity_core.sim.inputs import held
-from tensegrity_core.sim.model import State
+from tensegrity_core.sim.model import Event, Model, State
+from tensegrity_core.sim.scene import Scene
+
+FloatArray = NDArray[np.float64]
+#: What an observation needs at one time: ``(t [s], equilibrium, static structure, rest-lengths law)``.
+GeneralQuasiStaticSample = tuple[float, Configuration, Structure, RestLengths | None]
 
 OBSERVED = ("t", "state", "q", "qdot", "applied_forces", "nodes", "member_lengths", "member_forces",
             "potential_energy", "kinetic_energy")
@@ -46,9 +58,10 @@ class FormFindingPath:
     the ``static`` structure (rest lengths ``l0`` from ``rest_of``, or the drawn ones). A
     general structure has no contacts: its mode is always empty."""
 
-    mode: frozenset = frozenset()
+    mode: frozenset[int] = frozenset()
 
-    def __init__(self, t: float, config, static, rest_of, n_solves: int = 0):
+    def __init__(self, t: float, config: Configuration, static: Structure, rest_of: RestLengths | None,
+                 n_solves: int = 0):
         self.t = t
         self.config = config
         self.static = static
@@ -56,22 +69,23 @@ class FormFindingPath:
         self.n_solves = n_solves
 
     @property
-    def l0(self) -> np.ndarray:
-        return self.static.rest_lengths
+    def l0(self) -> FloatArray:
+        l0: FloatArray = self.static.rest_lengths
+        return l0
 
     @property
-    def y(self) -> np.ndarray:
+    def y(self) -> FloatArray:
         lay = self.static.layout
         return minimal_coordinates(lay, coordinates(self.config), self.config.rotations)
 
-    def copy(self, events: list) -> FormFindingPath:
+    def copy(self, events: list[Event]) -> FormFindingPath:
         """An exact copy (configurations and structures are immutable)."""
         return FormFindingPath(self.t, self.config, self.static, self.rest_of, self.n_solves)
 
-    def rest(self, t: float) -> np.ndarray:
-        return self.static.rest_lengths if self.rest_of is None else self.rest_of(t)
+    def rest(self, t: float) -> FloatArray:
+        return self.l0 if self.rest_of is None else self.rest_of(t)
 
-    def solve(self, x0, t: float, what: str):
+    def solve(self, x0: Configuration, t: float, what: str) -> Configuration:
         self.n_solves += 1
         return equilibrium(self.static, x0, what=what, t=t)
 
@@ -85,7 +99,7 @@ class FormFindingPath:
                                  f"point: the structure would snap, which needs inertia)")
 
 
-class GeneralQuasiStatic:
+class GeneralQuasiStatic(Model[FormFindingPath, GeneralQuasiStaticSample]):
     """Back end ``general/quasi-static``: the equilibrium path of a general structure
     (implements :class:`~tensegrity_core.sim.model.Model`); the equilibrium at ``t = 0`` is
     found once, at compile time."""
@@ -94,17 +108,18 @@ class GeneralQuasiStatic:
     quasi_static = True
     method = "quasi-static (incremental form-finding)"
 
-    def __init__(self, scene):
+    def __init__(self, scene: Scene):
         check_springs(scene)
         self.scene = scene
-        s = scene.model.structure
+        model = general_model(scene)
+        s = model.structure
         self.structure = s
         self.laws = tuple(scene.inputs.values())
         self.actuator_names = tuple(scene.inputs)
         self.initial_commands = initial_commands(self.laws, drawn_rest_lengths(scene))
         self.names = names_of(s)
         self.state_names = tuple(f"x_{v}" for v in s.layout.labels())
-        self.actuators = list(scene.model.actuators)
+        self.actuators = list(model.actuators)
         rest_of = rest_lengths_function(scene, held(self.laws, self.initial_commands))
         l0 = s.rest_lengths if rest_of is None else rest_of(0.0)
         start = initial_configuration(scene)
@@ -115,13 +130,13 @@ class GeneralQuasiStatic:
         self._start = path
 
     # -- states ---------------------------------------------------------------------------------
-    def initial_state(self, *, t_end: float = math.inf) -> State:
+    def initial_state(self, *, t_end: float = math.inf) -> State[FormFindingPath]:
         """The equilibrium at ``t = 0`` under the scene's loads (event ``jump`` when it is not
         the initial configuration)."""
         return State(self.initial_commands, [(0.0, "jump", 0)] if self._jumped else [], self._start.copy([]))
 
     # -- running ------------------------------------------------------------------------------
-    def set_command(self, state: State, values) -> None:
+    def set_command(self, state: State[FormFindingPath], values: Iterable[float]) -> None:
         commands = check_command(values, self.laws, self.actuator_names, positive=True)
         if not changed(state.commands, commands):
             return
@@ -129,7 +144,7 @@ class GeneralQuasiStatic:
         state.work.rest_of = rest_lengths_function(self.scene, held(self.laws, commands))
         state.work.update(state.t)
 
-    def advance(self, state: State, t: float) -> None:
+    def advance(self, state: State[FormFindingPath], t: float) -> None:
         path = state.work
         if not math.isfinite(t):
             raise SimulationError(f"advance: the target time must be a finite number of seconds, got {t!r}",
@@ -139,17 +154,18 @@ class GeneralQuasiStatic:
         path.update(t)
         path.t = t
 
-    def sample(self, state: State) -> tuple:
+    def sample(self, state: State[FormFindingPath]) -> GeneralQuasiStaticSample:
         """``(t, configuration, static structure, rest-lengths law)`` at ``state.t``."""
         path = state.work
         return path.t, path.config, path.static, path.rest_of
 
-    def record(self, state: State, times, out: list) -> None:
+    def record(self, state: State[FormFindingPath], times: Sequence[float] | FloatArray,
+               out: list[GeneralQuasiStaticSample]) -> None:
         for t in times:
             self.advance(state, float(t))
             out.append(self.sample(state))
 
-    def _rate(self, t: float, config, static, rest_of) -> np.ndarray:
+    def _rate(self, t: float, config: Configuration, static: Structure, rest_of: RestLengths | None) -> FloatArray:
         """``dU/dt`` of the equilibrium path (zero when the rest lengths do not change)."""
         n = self.structure.layout.n_dof
         if rest_of is None:
@@ -163,10 +179,11 @@ class GeneralQuasiStatic:
         dt_dl0 = np.where(taut, -static.EA * lengths / static.rest_lengths**2, 0.0)
         A = equilibrium_matrix(static, config, sparse=True)
         K = tangent_stiffness(static, config, sparse=True)
-        return np.atleast_1d(spsolve(K.tocsc(), -(A @ (dt_dl0 * dl0))))
+        rate: FloatArray = np.atleast_1d(spsolve(K.tocsc(), -(A @ (dt_dl0 * dl0))))
+        return rate
 
-    def observe(self, samples) -> dict:
-        rows: dict = {k: [] for k in OBSERVED}
+    def observe(self, samples: Sequence[GeneralQuasiStaticSample]) -> dict[str, NDArray[Any]]:
+        rows: dict[str, list[Any]] = {k: [] for k in OBSERVED}
         lay = self.structure.layout
         for t, config, static, rest_of in samples:
             q = minimal_coordinates(lay, coordinates(config), config.rotations)
@@ -182,16 +199,16 @@ class GeneralQuasiStatic:
             rows["kinetic_energy"].append(0.0)
         return finish_observations(rows, self.scene)
 
-    def observe_now(self, state: State) -> dict:
+    def observe_now(self, state: State[FormFindingPath]) -> dict[str, Any]:
         return {k: v[0] for k, v in self.observe([self.sample(state)]).items()}
 
-    def joint_sample(self, state: State) -> dict:
+    def joint_sample(self, state: State[FormFindingPath]) -> dict[str, Any]:
         obs = self.observe_now(state)
         return {k: obs[k] for k in ("t", "q", "qdot", "applied_forces", "end_effector", "folded")}
 
-    def stats(self, state: State) -> dict:
+    def stats(self, state: State[FormFindingPath]) -> dict[str, Any]:
         return {"method": self.method, "form_finds": state.work.n_solves, "events": len(state.events)}
 
 
-def _size(structure) -> float:
+def _size(structure: Structure) -> float:
     return max(float(np.ptp(structure.nodes, axis=0).max()), 1e-300)

@@ -1,61 +1,23 @@
 """What a sweep computes at each point, and the scalar results it can keep.
 
-A computation (``COMPUTATIONS[name]``) is an object with:
-
-- ``name``, ``base`` (``"scene"`` or ``"structure"``: the base it needs), ``model`` (``"class2"``
-  when only class-2 scenes will do, else ``None``), ``options`` (option name -> check) and
-  ``results`` (result name -> :class:`ResultDef`);
-- ``load(document)``: the core's loader on the point's document; its errors
-  (``SceneError``, ``StructureError``) make the point *invalid*;
-- ``run(loaded, options) -> (ok, message, outcome)``: the computation; ``ok`` False makes the
-  point *failed* (no equilibrium, a run stopped early) with its results still extracted
-  from ``outcome`` where they exist;
-- ``probe(document, options)``: run once on the machine that reads the sweep file, for what
-  result columns and references need (names, sizes, the base's own result).
+:data:`COMPUTATIONS` maps each computation's name to it: an object that implements
+:class:`~tensegrity_core.sweep.computations.computation.Computation` (``load`` a point's
+document, ``run`` it, ``probe`` the base, the ``results`` it offers).
 
 A :class:`ResultDef` says which columns a result gives (``columns``) and how to read them
 from an outcome (``extract``); ``prepare`` computes its fixed data once (e.g. a reference
 run). Columns have a dtype: ``float`` (missing = NaN), ``int``, ``bool``, ``str``.
 """
 
-from __future__ import annotations
+from typing import Any
 
-from collections.abc import Callable
-from dataclasses import dataclass, field
-
-
-@dataclass(frozen=True)
-class ResultDef:
-    doc: str
-    columns: Callable          # (options, data) -> [(column, dtype)]
-    extract: Callable          # (outcome, options, data) -> [value per column]
-    options: dict = field(default_factory=dict)
-    prepare: Callable | None = None   # (options, probe, folder) -> data
-
-
-@dataclass(frozen=True)
-class ResultSpec:
-    """A result the sweep keeps: its name, checked options, fixed data and columns."""
-
-    name: str
-    options: dict
-    columns: tuple
-    data: object = None
-
-
-def scalar(column: str, dtype: str, read: Callable, doc: str, **options) -> ResultDef:
-    """A result with one column read by ``read(outcome)``."""
-    return ResultDef(doc=doc, columns=lambda o, d: [(column, dtype)], extract=lambda out, o, d: [read(out)],
-                     options=options)
-
-
-def _registry() -> dict:
-    from tensegrity_core.sweep.computations.ik import IK
-    from tensegrity_core.sweep.computations.simulate import SIMULATE
-    from tensegrity_core.sweep.computations.statics import FORM_FIND, STIFFNESS
-
-    return {c.name: c for c in (SIMULATE, FORM_FIND, STIFFNESS, IK)}
-
+from tensegrity_core.sweep.computations.computation import Computation
+from tensegrity_core.sweep.computations.ik import IK
+from tensegrity_core.sweep.computations.results import ResultDef, ResultSpec, scalar
+from tensegrity_core.sweep.computations.simulate import SIMULATE
+from tensegrity_core.sweep.computations.statics import FORM_FIND, STIFFNESS
 
 #: name -> computation
-COMPUTATIONS = _registry()
+COMPUTATIONS: dict[str, Computation[Any, Any]] = {c.name: c for c in (SIMULATE, FORM_FIND, STIFFNESS, IK)}
+
+__all__ = ["COMPUTATIONS", "Computation", "ResultDef", "ResultSpec", "scalar"]

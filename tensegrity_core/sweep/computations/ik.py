@@ -14,20 +14,28 @@ solutions.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from tensegrity_core.sweep.checks import OptionError, boolean, number
-from tensegrity_core.sweep.computations import scalar
+from tensegrity_core.sweep.checks import Check, OptionError, boolean, number
+from tensegrity_core.sweep.computations.computation import Computation
+from tensegrity_core.sweep.computations.results import Options, ResultDef, ResultSpec, scalar
 from tensegrity_core.sweep.points import grid_values
+
+if TYPE_CHECKING:
+    from tensegrity_core.class2.inverse_kinematics import IKCandidate
+    from tensegrity_core.class2.params import Class2Params
 
 MAX_TARGETS = 100_000
 
 
-def targets(value) -> tuple:
+def targets(value: object) -> tuple[tuple[float, float], ...]:
     """``[[x, y], ...]`` or ``{x: {from, to, num}, y: {from, to, num}}`` -> ((x, y), ...)."""
     finite = number()
+    out: list[tuple[float, float]]
     if isinstance(value, list):
         out = []
         for i, pair in enumerate(value):
@@ -61,9 +69,9 @@ def targets(value) -> tuple:
 class Solved:
     """Per target: the valid solutions of the IK."""
 
-    valid: list
+    valid: list[list[IKCandidate]]
 
-    def over_valid(self, field: str, pick) -> float:
+    def over_valid(self, field: str, pick: Callable[[list[float]], Any]) -> float:
         values = [getattr(c, field) for sols in self.valid for c in sols]
         return float(pick(values)) if values else math.nan
 
@@ -73,12 +81,12 @@ def _min_singularity_distance(s: Solved) -> float:
     return float(min(best)) if best else math.nan
 
 
-class InverseKinematics:
+class InverseKinematics(Computation["Class2Params", Solved]):
     name = "ik"
     base = "scene"
     model = "class2"
-    options = {"targets": targets, "paper_range": boolean}
-    results = {
+    options: dict[str, Check] = {"targets": targets, "paper_range": boolean}
+    results: dict[str, ResultDef[Solved]] = {
         "reachable": scalar("reachable", "int", lambda s: sum(1 for v in s.valid if v), "targets solved"),
         "reachable_fraction": scalar("reachable_fraction", "float",
                                      lambda s: sum(1 for v in s.valid if v) / len(s.valid), "fraction solved"),
@@ -89,11 +97,11 @@ class InverseKinematics:
         "min_stiffness_beta": scalar("min_stiffness_beta", "float", lambda s: s.over_valid("stiffness_beta", np.min),
                                      "d2U/dbeta2 [J/rad^2]"),
     }
-    required: dict = {}
+    required: dict[str, tuple[str, ...]] = {}
     required_options = ("targets",)
     uses_seed = False
 
-    def load(self, document):
+    def load(self, document: dict[str, Any]) -> Class2Params:
         """The mechanism's parameters from the scene's ``model.params`` (the rest of the scene,
         its initial state and inputs, plays no part in the IK)."""
         from tensegrity_core.class2.params import PAPER_PARAMS
@@ -104,7 +112,7 @@ class InverseKinematics:
             raise ParameterError(f"model.params must be a mapping, got {params!r}")
         return PAPER_PARAMS.with_overrides(params)
 
-    def run(self, params, options):
+    def run(self, params: Class2Params, options: Options) -> tuple[bool, str, Solved]:
         from tensegrity_core.class2 import inverse_kinematics
 
         paper_range = options.get("paper_range", True)
@@ -113,10 +121,10 @@ class InverseKinematics:
         n = sum(1 for v in valid if v)
         return True, f"{n} of {len(valid)} targets reachable", Solved(valid)
 
-    def probe(self, document, options, *, full: bool = True):
+    def probe(self, document: dict[str, Any], options: Options, *, full: bool = True) -> Solved:
         return self.run(self.load(document), options)[2]
 
-    def finish_options(self, options: dict, results) -> dict:
+    def finish_options(self, options: Options, results: Sequence[ResultSpec]) -> Options:
         return options
 
 

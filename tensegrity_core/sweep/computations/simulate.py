@@ -22,12 +22,19 @@ Results (column names in brackets; times in s, other quantities in the scene's u
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import NDArray
 
-from tensegrity_core.sweep.checks import OptionError, choice, integer, number, text
-from tensegrity_core.sweep.computations import ResultDef, scalar
+from tensegrity_core.sweep.checks import Check, OptionError, choice, integer, number, text
+from tensegrity_core.sweep.computations.computation import Computation
+from tensegrity_core.sweep.computations.results import Options, Probe, ResultDef, ResultSpec, scalar
+
+if TYPE_CHECKING:
+    from tensegrity_core.sim import Scene, Trajectory
 
 EVENT_KINDS = ("any", "fold", "release", "jump", "limit", "singular")
 FINAL_OF = ("q", "qdot", "end_effector", "applied_forces", "member_forces", "member_lengths",
@@ -36,23 +43,23 @@ PEAK_OF = ("kinetic_energy", "potential_energy", "member_forces", "applied_force
 XYZ = ("x", "y", "z")
 
 
-def _events(traj, options) -> list[float]:
+def _events(traj: Trajectory, options: Options) -> list[float]:
     kind, actuator = options.get("kind", "any"), options.get("actuator")
     return [t for t, k, i in traj.events if kind in ("any", k) and actuator in (None, i)]
 
 
-def _event_column(stem: str, options) -> str:
+def _event_column(stem: str, options: Options) -> str:
     kind = options.get("kind", "any")
     name = stem.format(kind="event" if kind == "any" else kind)
     return name if options.get("actuator") is None else f"{name}_{options['actuator']}"
 
 
-def _first_event(traj, options, data):
+def _first_event(traj: Trajectory, options: Options, data: object) -> list[float]:
     times = _events(traj, options)
     return [min(times) if times else math.nan]
 
 
-def _component_names(traj, of: str) -> list[str]:
+def _component_names(traj: Trajectory, of: str) -> list[str]:
     """Column names of the components of ``of`` in trajectory ``traj``."""
     if of in ("kinetic_energy", "potential_energy"):
         return [f"final_{of}"]
@@ -72,7 +79,7 @@ def _component_names(traj, of: str) -> list[str]:
     return [f"final_{prefix}_{n}" for n in traj.member_names]
 
 
-def _final_values(traj, options, data):
+def _final_values(traj: Trajectory, options: Options, data: list[str]) -> list[float]:
     n = len(data)
     if not len(traj):
         return [math.nan] * n
@@ -82,14 +89,15 @@ def _final_values(traj, options, data):
     return [float(v) for v in values]
 
 
-def _peak(traj, options, data):
+def _peak(traj: Trajectory, options: Options, data: object) -> list[float]:
     values = np.asarray(getattr(traj, options["of"]), dtype=float)
     if not values.size or not np.isfinite(values).any():
         return [math.nan]
     return [float(np.nanmax(values) if options.get("stat", "max") == "max" else np.nanmin(values))]
 
 
-def _reference(options, probe, folder):
+def _reference(options: Options, probe: Probe[Trajectory],
+               folder: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(times, values) of the reference run for ``error_vs_reference``."""
     of = options.get("of", "q")
     ref = options.get("reference", "base")
@@ -110,7 +118,8 @@ def _reference(options, probe, folder):
     return np.asarray(traj.times, dtype=float), np.asarray(getattr(traj, of), dtype=float)
 
 
-def _error_vs_reference(traj, options, data):
+def _error_vs_reference(traj: Trajectory, options: Options,
+                        data: tuple[NDArray[np.float64], NDArray[np.float64]]) -> list[float]:
     t_ref, x_ref = data
     x = np.asarray(getattr(traj, options.get("of", "q")), dtype=float)
     if len(traj) < 2 or x.shape[1:] != x_ref.shape[1:]:
@@ -125,14 +134,14 @@ def _error_vs_reference(traj, options, data):
     return [err]
 
 
-def _stat(key):
-    def read(traj):
+def _stat(key: str) -> Callable[[Trajectory], int | None]:
+    def read(traj: Trajectory) -> int | None:
         v = traj.stats.get(key)
         return None if v is None else int(v)
     return read
 
 
-RESULTS = {
+RESULTS: dict[str, ResultDef[Trajectory]] = {
     "first_event_time": ResultDef(
         doc="time of the first event of a kind [s]",
         columns=lambda o, d: [(_event_column("first_{kind}_time", o), "float")],
@@ -162,31 +171,31 @@ RESULTS = {
     "steps": scalar("steps", "int", _stat("steps"), "integrator steps"),
     "evaluations": scalar("evaluations", "int", _stat("nfev"), "right-hand-side evaluations"),
 }
-REQUIRED_OPTIONS = {"final": ("of",), "peak": ("of",)}
+REQUIRED_OPTIONS: dict[str, tuple[str, ...]] = {"final": ("of",), "peak": ("of",)}
 
 
-class Simulate:
+class Simulate(Computation["Scene", "Trajectory"]):
     name = "simulate"
     base = "scene"
     model = None
-    options = {"duration": number(lo=0.0, lo_open=True)}
+    options: dict[str, Check] = {"duration": number(lo=0.0, lo_open=True)}
     results = RESULTS
     required = REQUIRED_OPTIONS
     uses_seed = True
-    required_options: tuple = ()
+    required_options: tuple[str, ...] = ()
 
-    def load(self, document):
+    def load(self, document: dict[str, Any]) -> Scene:
         from tensegrity_core.sim import load_scene
 
         return load_scene(document)
 
-    def run(self, scene, options):
+    def run(self, scene: Scene, options: Options) -> tuple[bool, str, Trajectory]:
         from tensegrity_core.sim import simulate
 
         traj = simulate(scene, duration=options.get("duration"))
         return traj.success, traj.message, traj
 
-    def probe(self, document, options, *, full: bool):
+    def probe(self, document: dict[str, Any], options: Options, *, full: bool) -> Trajectory:
         """The base scene's run: whole (a reference) or its first output interval (names, sizes)."""
         scene = self.load(document)
         duration = options.get("duration", scene.duration)
@@ -194,7 +203,7 @@ class Simulate:
             duration = min(duration, 1.0 / scene.output_rate)
         return self.run(scene, {"duration": duration})[2]
 
-    def finish_options(self, options: dict, results) -> dict:
+    def finish_options(self, options: Options, results: Sequence[ResultSpec]) -> Options:
         return options
 
 

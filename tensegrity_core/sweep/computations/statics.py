@@ -17,69 +17,76 @@ stable equilibrium makes the point *failed*, with these results as far as they e
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import NDArray
 
-from tensegrity_core.sweep.checks import OptionError, choice, integer, number, text
-from tensegrity_core.sweep.computations import ResultDef, scalar
+from tensegrity_core.sweep.checks import Check, OptionError, choice, integer, number, text
+from tensegrity_core.sweep.computations.computation import Computation
+from tensegrity_core.sweep.computations.results import Column, Options, Probe, ResultDef, ResultSpec, scalar
+
+if TYPE_CHECKING:
+    from tensegrity_core.general import FormFindResult, Modes, Structure
 
 
 @dataclass
 class Equilibrium:
     """A form-finding result with the structure, and (``stiffness``) its modes."""
 
-    structure: object
-    result: object
-    modes: object = None
-    eigenvalues: np.ndarray | None = None
+    structure: Structure
+    result: FormFindResult
+    modes: Modes | None = None
+    eigenvalues: NDArray[np.float64] | None = None
 
 
-def _forces(out, pick):
+def _forces(out: Equilibrium, pick: Callable[[NDArray[np.float64]], Any]) -> float:
     t = out.result.member_forces
     return float(pick(t)) if t.size and np.isfinite(t).all() else math.nan
 
 
-def _node_columns(options, data):
+def _node_columns(options: Options, data: object) -> list[Column]:
     return [(f"{options['name']}_{a}", "float") for a in "xyz"]
 
 
-def _node_position(out, options, data):
+def _node_position(out: Equilibrium, options: Options, data: object) -> list[float]:
     names = out.structure.node_names
     if options["name"] not in names:
         return [math.nan] * 3
     return [float(v) for v in out.result.nodes[names.index(options["name"])]]
 
 
-def _check_node(options, probe, folder):
+def _check_node(options: Options, probe: Probe[Equilibrium], folder: str) -> None:
     names = probe().structure.node_names
     if options["name"] not in names:
-        from tensegrity_core.general.structure import suggest
+        from tensegrity_core.schema import suggest
 
         raise OptionError(f"the structure has no node {options['name']!r}{suggest(options['name'], names)}")
     return None
 
 
-def _reference_nodes(options, probe, folder):
+def _reference_nodes(options: Options, probe: Probe[Equilibrium], folder: str) -> NDArray[np.float64]:
     base = probe()
     if not base.result.success:
         raise OptionError(f"the base structure's own form-finding (the reference) failed: {base.result.message}")
     return np.asarray(base.result.nodes, dtype=float)
 
 
-def _node_error(out, options, data):
+def _node_error(out: Equilibrium, options: Options, data: NDArray[np.float64]) -> list[float]:
     nodes = np.asarray(out.result.nodes, dtype=float)
     if nodes.shape != data.shape:
         return [math.nan]
     return [float(np.max(np.linalg.norm(nodes - data, axis=1)))]
 
 
-def _slack(out):
+def _slack(out: Equilibrium) -> int:
     s, r = out.structure, out.result
     return int(np.sum(s.is_string & (r.member_lengths < s.rest_lengths)))
 
 
-FORM_FIND_RESULTS = {
+FORM_FIND_RESULTS: dict[str, ResultDef[Equilibrium]] = {
     "iterations": scalar("iterations", "int", lambda o: int(o.result.iterations), "Newton iterations"),
     "residual": scalar("residual", "float", lambda o: float(o.result.residual), "out-of-balance force [N]"),
     "min_eigenvalue": scalar("min_eigenvalue", "float", lambda o: float(o.result.min_eigenvalue),
@@ -98,47 +105,47 @@ FORM_FIND_RESULTS = {
 }
 
 
-class FormFind:
+class FormFind(Computation["Structure", Equilibrium]):
     name = "form_find"
     base = "structure"
     model = None
-    options = {"method": choice("newton", "dynamic_relaxation"), "tol": number(lo=0.0, lo_open=True),
-               "max_iter": integer()}
+    options: dict[str, Check] = {"method": choice("newton", "dynamic_relaxation"),
+                                 "tol": number(lo=0.0, lo_open=True), "max_iter": integer()}
     results = FORM_FIND_RESULTS
     required = {"node": ("name",)}
     uses_seed = False
-    required_options: tuple = ()
+    required_options: tuple[str, ...] = ()
 
-    def load(self, document):
+    def load(self, document: dict[str, Any]) -> Structure:
         from tensegrity_core.general import load_structure
 
         return load_structure(document)
 
-    def run(self, structure, options):
+    def run(self, structure: Structure, options: Options) -> tuple[bool, str, Equilibrium]:
         from tensegrity_core.general import form_find
 
         result = form_find(structure, method=options.get("method", "newton"), tol=options.get("tol"),
                            max_iter=options.get("max_iter"))
         return result.success, result.message, Equilibrium(structure, result)
 
-    def probe(self, document, options, *, full: bool = True):
+    def probe(self, document: dict[str, Any], options: Options, *, full: bool = True) -> Equilibrium:
         return self.run(self.load(document), options)[2]
 
-    def finish_options(self, options: dict, results) -> dict:
+    def finish_options(self, options: Options, results: Sequence[ResultSpec]) -> Options:
         return options
 
 
-def _eigen_columns(options, data):
+def _eigen_columns(options: Options, data: object) -> list[Column]:
     return [(f"eigenvalue_{i}", "float") for i in range(options.get("n", 1))]
 
 
-def _eigenvalues(out, options, data):
+def _eigenvalues(out: Equilibrium, options: Options, data: object) -> list[float]:
     n = options.get("n", 1)
     w = out.eigenvalues if out.eigenvalues is not None else np.array([])
     return [float(w[i]) if i < len(w) else math.nan for i in range(n)]
 
 
-def _modes_count(read):
+def _modes_count(read: Callable[[Modes], Any]) -> Callable[[Equilibrium], int | None]:
     return lambda o: None if o.modes is None else int(read(o.modes))
 
 
@@ -155,7 +162,7 @@ class Stiffness(FormFind):
                                   "mechanism modes (rigid-body motions included)"),
     }
 
-    def run(self, structure, options):
+    def run(self, structure: Structure, options: Options) -> tuple[bool, str, Equilibrium]:
         from tensegrity_core.general import modal_analysis, modes
 
         ok, message, out = super().run(structure, options)
@@ -165,7 +172,7 @@ class Stiffness(FormFind):
             out.eigenvalues = modal_analysis(structure, config, n_modes=options.get("modes", 1)).eigenvalues
         return ok, message, out
 
-    def finish_options(self, options: dict, results) -> dict:
+    def finish_options(self, options: Options, results: Sequence[ResultSpec]) -> Options:
         """Compute as many eigenvalues as the ``eigenvalues`` results ask for."""
         n = max([r.options.get("n", 1) for r in results if r.name == "eigenvalues"], default=1)
         return {**options, "modes": n}
