@@ -12,13 +12,18 @@ renders more than a short, bounded piece of a value, however large or deep the v
 from __future__ import annotations
 
 import difflib
-from typing import Any, ClassVar
+from collections.abc import Callable, Iterable
+from typing import Any, ClassVar, Final, TypeAlias
 
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_core.schema.keypath import format_key_path
 
-__all__ = ["SchemaError", "clip", "excerpt", "suggest", "type_name"]   # excerpt, clip: the core's one helper
+__all__ = ["KeyPath", "SchemaError", "clip", "excerpt", "suggest", "type_name"]   # excerpt, clip: the core's one helper
+
+#: Where a value sits in a nested description: mapping keys (str, or any scalar key a
+#: document may have) and list positions (int), outermost first.
+KeyPath: TypeAlias = tuple[object, ...]
 
 
 class SchemaError(TensegrityError, ValueError):
@@ -33,7 +38,8 @@ class SchemaError(TensegrityError, ValueError):
     #: words (``member 's3': ...``) turn it off; ``key`` is set either way.
     show_key: ClassVar[bool] = True
 
-    def __init__(self, reason: str, *, key: tuple = (), line: int | None = None, file: str | None = None):
+    def __init__(self, reason: str, *, key: KeyPath = (), line: int | None = None,
+                 file: str | None = None) -> None:
         super().__init__(reason)
         self.reason = reason
         self.key = tuple(key)
@@ -57,11 +63,11 @@ class SchemaError(TensegrityError, ValueError):
                              file=self.file or file)
         return err
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[Callable[..., SchemaError], tuple[Any, ...]]:
         return _rebuild, (type(self), self.reason, self.key, self.line, self.file)
 
 
-def _rebuild(cls, reason, key, line, file):
+def _rebuild(cls: type[SchemaError], reason: str, key: KeyPath, line: int | None, file: str | None) -> SchemaError:
     err = cls.__new__(cls)
     SchemaError.__init__(err, reason, key=key, line=line, file=file)
     return err
@@ -78,11 +84,11 @@ def type_name(value: Any) -> str:
 
 #: Suggestions are searched among at most this many choices of similar length (difflib
 #: compares every candidate; a 100,000-name structure would make an error take seconds).
-_MAX_SUGGESTION_CANDIDATES = 2_000
-_MAX_SUGGESTION_WORD = 100
+_MAX_SUGGESTION_CANDIDATES: Final = 2_000
+_MAX_SUGGESTION_WORD: Final = 100
 
 
-def suggest(word: Any, choices, template: str = " (did you mean {!r}?)") -> str:
+def suggest(word: object, choices: Iterable[object], template: str = " (did you mean {!r}?)") -> str:
     """``template`` filled with the closest of ``choices`` to ``word`` (difflib), or ``""``."""
     word = str(word)
     if len(word) > _MAX_SUGGESTION_WORD:
