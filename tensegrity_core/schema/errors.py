@@ -6,7 +6,8 @@
 (:class:`~tensegrity_core.sim.errors.SceneError`,
 :class:`~tensegrity_core.general.structure.StructureError`), so callers catch the format's
 class or this one. Messages quote offending values through :func:`excerpt`, which never
-renders more than a short, bounded piece of a value, however large or deep the value is.
+renders more than a short, bounded piece of a value, however large or deep the value is,
+and name places by key path (:func:`format_key_path`).
 """
 
 from __future__ import annotations
@@ -17,13 +18,24 @@ from typing import Any, ClassVar, Final, TypeAlias
 
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import clip, excerpt
-from tensegrity_core.schema.keypath import format_key_path
 
-__all__ = ["KeyPath", "SchemaError", "clip", "excerpt", "suggest", "type_name"]   # excerpt, clip: the core's one helper
+__all__ = ["KeyPath", "SchemaError", "clip", "excerpt", "format_key_path", "suggest",
+           "type_name"]   # excerpt, clip: the core's one helper
 
 #: Where a value sits in a nested description: mapping keys (str, or any scalar key a
 #: document may have) and list positions (int), outermost first.
 KeyPath: TypeAlias = tuple[object, ...]
+
+
+def format_key_path(path: KeyPath) -> str:
+    """``("effects", 2, "fold_limit")`` -> ``"effects[2].fold_limit"``."""
+    out = ""
+    for part in path:
+        if isinstance(part, int) and not isinstance(part, bool):
+            out += f"[{part}]"
+        else:
+            out += ("." if out else "") + str(part)
+    return out
 
 
 class SchemaError(TensegrityError, ValueError):

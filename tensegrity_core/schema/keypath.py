@@ -10,29 +10,17 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable
-from typing import TYPE_CHECKING, Any, Final
+from typing import Any, Final
 
-if TYPE_CHECKING:
-    from tensegrity_core.schema.errors import KeyPath, SchemaError
+from tensegrity_core.schema.errors import KeyPath, SchemaError, excerpt, suggest, type_name
+from tensegrity_core.schema.located import line_of
 
 _PART: Final = re.compile(r"([^.\[\]]+)|\[(-?[0-9]+)\]")
 
 
-def format_key_path(path: KeyPath) -> str:
-    """``("effects", 2, "fold_limit")`` -> ``"effects[2].fold_limit"``."""
-    out = ""
-    for part in path:
-        if isinstance(part, int) and not isinstance(part, bool):
-            out += f"[{part}]"
-        else:
-            out += ("." if out else "") + str(part)
-    return out
-
-
 def parse_key_path(text: object) -> tuple[str | int, ...]:
-    """``"effects[2].fold_limit"`` -> ``("effects", 2, "fold_limit")``; ``""`` -> ``()``."""
-    from tensegrity_core.schema.errors import SchemaError, excerpt
-
+    """``"effects[2].fold_limit"`` -> ``("effects", 2, "fold_limit")``; ``""`` -> ``()``
+    (:func:`~tensegrity_core.schema.errors.format_key_path` writes it back)."""
     if not isinstance(text, str):
         raise SchemaError(f"a key path must be a string like 'model.params.k', got {excerpt(text)}")
     out: list[str | int] = []
@@ -85,9 +73,6 @@ def set_at(doc: Any, path: str | Iterable[object], value: Any, *, error: type[Sc
 
 
 def _step(value: Any, part: object, where: KeyPath, error: type[SchemaError] | None) -> Any:
-    from tensegrity_core.schema.errors import SchemaError, suggest, type_name
-    from tensegrity_core.schema.located import line_of
-
     error = error or SchemaError
     parent = where[:-1]
     if isinstance(value, dict):
