@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.general.rotation import best_fit_rotation, exp_so3, hat
 from tensegrity_core.general.structure import Structure, StructureError
@@ -41,12 +42,12 @@ class DofLayout:
     largest node distance from each body's centre [m].
     """
 
-    def __init__(self, structure: Structure):
+    def __init__(self, structure: Structure) -> None:
         n = structure.n_nodes
         self.moving_bodies = tuple(k for k, b in enumerate(structure.bodies) if not b.fixed)
         node_body = np.full(n, -1, dtype=np.int64)
         fixed_mask = structure.pinned.copy()
-        for k, body in enumerate(structure.bodies):
+        for body in structure.bodies:
             if body.fixed:
                 fixed_mask[list(body.nodes)] = True
         for slot, k in enumerate(self.moving_bodies):
@@ -101,9 +102,9 @@ class Configuration:
     orientation. Immutable; :meth:`retract` returns a new configuration."""
 
     structure: Structure
-    coords: np.ndarray      # (n, 3) node coordinates [m]
-    centres: np.ndarray     # (nb, 3) moving-body centres [m]
-    rotations: np.ndarray   # (nb, 3, 3) active rotation from the reference drawing
+    coords: NDArray[np.float64]      # (n, 3) node coordinates [m]
+    centres: NDArray[np.float64]     # (nb, 3) moving-body centres [m]
+    rotations: NDArray[np.float64]   # (nb, 3, 3) active rotation from the reference drawing
 
     @classmethod
     def initial(cls, structure: Structure) -> Configuration:
@@ -114,7 +115,7 @@ class Configuration:
                    np.broadcast_to(np.eye(3), (nb, 3, 3)).copy())
 
     @classmethod
-    def from_coords(cls, structure: Structure, coords, *, rigid_tol: float = 1e-5) -> Configuration:
+    def from_coords(cls, structure: Structure, coords: ArrayLike, *, rigid_tol: float = 1e-5) -> Configuration:
         """The configuration with node coordinates ``coords`` (n, 3) [m].
 
         Each moving body's orientation is the best-fit rotation of its reference shape; the
@@ -122,28 +123,28 @@ class Configuration:
         the body size (else :class:`StructureError`), and are then placed exactly. Fixed
         coordinates (pinned axes, fixed bodies) keep the values given in ``coords``.
         """
-        coords = np.array(coords, dtype=float)
-        if coords.shape != (structure.n_nodes, 3):
-            raise StructureError(f"coords must have shape ({structure.n_nodes}, 3), got {coords.shape}")
-        if not np.isfinite(coords).all():
+        xyz = np.array(coords, dtype=np.float64)
+        if xyz.shape != (structure.n_nodes, 3):
+            raise StructureError(f"coords must have shape ({structure.n_nodes}, 3), got {xyz.shape}")
+        if not np.isfinite(xyz).all():
             raise StructureError("coords contain non-finite values")
         lay = structure.layout
         nb = len(lay.moving_bodies)
         centres = np.zeros((nb, 3))
         rotations = np.zeros((nb, 3, 3))
         for slot, idx in enumerate(lay.body_nodes):
-            c = coords[idx].mean(axis=0)
-            R, misfit = best_fit_rotation(lay.offsets[idx], coords[idx] - c)
+            c = xyz[idx].mean(axis=0)
+            R, misfit = best_fit_rotation(lay.offsets[idx], xyz[idx] - c)
             size = np.sqrt(np.mean(np.sum(lay.offsets[idx] ** 2, axis=1)))
             if misfit > rigid_tol * size:
                 raise StructureError(
                     f"coords deform rigid body {lay.body_names[slot]!r}: its nodes are "
                     f"{misfit:.3g} m (RMS) from a rigid placement of its reference shape")
             centres[slot], rotations[slot] = c, R
-            coords[idx] = c + lay.offsets[idx] @ R.T
-        return cls(structure, coords, centres, rotations)
+            xyz[idx] = c + lay.offsets[idx] @ R.T
+        return cls(structure, xyz, centres, rotations)
 
-    def retract(self, dU) -> Configuration:
+    def retract(self, dU: ArrayLike) -> Configuration:
         """The configuration moved by the increment ``dU`` (n_dof,): free coordinates and
         centres add, orientations turn by ``exp(hat(dtheta))`` on the left."""
         lay = self.structure.layout
@@ -162,7 +163,7 @@ class Configuration:
             centres, rotations = self.centres, self.rotations
         return Configuration(self.structure, coords, centres, rotations)
 
-    def arms(self) -> np.ndarray:
+    def arms(self) -> NDArray[np.float64]:
         """(n, 3) world-frame offsets ``r_j = n_j - c`` of body nodes from their body centre
         (zero for other nodes)."""
         lay = self.structure.layout
@@ -185,7 +186,7 @@ def transformation_matrix(config: Configuration) -> sp.csr_matrix:
     return sp.csr_matrix((J[keep], (rows[keep], cols[keep])), shape=(3 * n, lay.n_dof))
 
 
-def node_jacobians(config: Configuration) -> np.ndarray:
+def node_jacobians(config: Configuration) -> NDArray[np.float64]:
     """(n, 3, 6) local Jacobians ``dn_j / d(local dofs)`` matching ``layout.node_dofs``:
     ``[I, 0]`` restricted to free axes for tensegrity nodes, ``[I, -hat(r_j)]`` for body nodes."""
     lay = config.structure.layout

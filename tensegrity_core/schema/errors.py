@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Callable, Iterable
-from typing import Any, ClassVar, Final, TypeAlias
+from typing import Any, ClassVar, Final, Self, TypeAlias
 
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import clip, excerpt
@@ -68,7 +68,7 @@ class SchemaError(TensegrityError, ValueError):
             text = f"{self.file}: {text}"
         return text
 
-    def located(self, *, line: int | None = None, file: str | None = None) -> SchemaError:
+    def located(self, *, line: int | None = None, file: str | None = None) -> Self:
         """The same error (same class) with ``line`` and ``file`` filled in where unknown."""
         err = type(self).__new__(type(self))
         SchemaError.__init__(err, self.reason, key=self.key, line=self.line if self.line is not None else line,

@@ -216,10 +216,18 @@ def _plain(value: str, line: int, fail: Fail) -> Any:
             return int(value)
         except ValueError:
             raise fail(f"the integer {excerpt(value)} has too many digits", line) from None
-    tag: str = _RESOLVER.resolve(ScalarNode, value, (True, False))  # type: ignore[no-untyped-call]  # unannotated in types-PyYAML
+    tag = plain_scalar_tag(value)
     if tag == _MERGE_TAG:
         return MERGE
     return _construct(tag, value, line, fail)
+
+
+def plain_scalar_tag(value: str) -> str:
+    """The tag PyYAML's resolver (``SafeLoader``'s rules) gives the plain scalar ``value``,
+    e.g. ``"tag:yaml.org,2002:str"`` (the writer keeps a string plain only when it reads back
+    as one)."""
+    tag: str = _RESOLVER.resolve(ScalarNode, value, (True, False))  # type: ignore[no-untyped-call]  # unannotated in types-PyYAML
+    return tag
 
 
 def _construct(tag: str, value: str, line: int, fail: Fail) -> Any:
