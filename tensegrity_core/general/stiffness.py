@@ -33,7 +33,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from tensegrity_core.general.configuration import Configuration, node_jacobians
+from tensegrity_core.general.configuration import Configuration, node_jacobians, transformation_matrix
 from tensegrity_core.general.statics import (
     StateLike,
     as_configuration,
@@ -53,38 +53,6 @@ def sym_rotation_hessian(g: ArrayLike, r: ArrayLike) -> NDArray[np.float64]:
     outer = 0.5 * (ga[..., :, None] * ra[..., None, :] + ra[..., :, None] * ga[..., None, :])
     S: NDArray[np.float64] = outer - np.sum(ga * ra, axis=-1)[..., None, None] * np.eye(3)
     return S
-
-
-class StiffnessPattern:
-    """Sparsity pattern of ``K_T`` (fixed by the topology) and a fast scatter-add assembly.
-
-    Element entries (12 x 12 per member, 3 x 3 per moving body) are summed into CSR storage
-    with one ``bincount`` per assembly; the pattern is built once per structure.
-    """
-
-    def __init__(self, structure: Structure) -> None:
-        lay = structure.layout
-        n = lay.n_dof
-        a, b = structure.members[:, 0], structure.members[:, 1]
-        dofs = np.concatenate([lay.node_dofs[a], lay.node_dofs[b]], axis=1)      # (m, 12)
-        self.elem_keep = (dofs[:, :, None] >= 0) & (dofs[:, None, :] >= 0)
-        rows = np.broadcast_to(dofs[:, :, None], self.elem_keep.shape)[self.elem_keep]
-        cols = np.broadcast_to(dofs[:, None, :], self.elem_keep.shape)[self.elem_keep]
-        tdofs = lay.body_dof[:, None] + 3 + np.arange(3)[None, :]                  # (nb, 3)
-        brows = np.broadcast_to(tdofs[:, :, None], (len(tdofs), 3, 3)).ravel()
-        bcols = np.broadcast_to(tdofs[:, None, :], (len(tdofs), 3, 3)).ravel()
-        keys = np.concatenate([rows, brows]).astype(np.int64) * n + np.concatenate([cols, bcols])
-        uniq, self.inverse = np.unique(keys, return_inverse=True)
-        self.indices = (uniq % n).astype(np.int32)
-        self.indptr = np.searchsorted(uniq // n, np.arange(n + 1)).astype(np.int32)
-        self.shape = (n, n)
-        self.nnz = uniq.size
-
-    def assemble(self, elements: NDArray[np.float64], body_blocks: NDArray[np.float64]) -> sp.csr_matrix:
-        """CSR matrix from member element matrices (m, 12, 12) and body rotation blocks (nb, 3, 3)."""
-        w = np.concatenate([elements[self.elem_keep], body_blocks.ravel()])
-        data = np.bincount(self.inverse, weights=w, minlength=self.nnz)
-        return sp.csr_matrix((data, self.indices, self.indptr), shape=self.shape)
 
 
 @dataclass
@@ -211,8 +179,6 @@ def modal_analysis(structure: Structure, coords: StateLike = None, *, n_modes: i
     matrix mixing N/m and N m/rad depend on the length unit; compare modes of the same kind.
     """
     from scipy.linalg import eigh
-
-    from tensegrity_core.general.configuration import transformation_matrix
 
     config = as_configuration(structure, coords)
     K = tangent_stiffness(structure, config)

@@ -26,16 +26,13 @@ from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import TYPE_CHECKING, Any, Final, TypeAlias
+from typing import Any, Final, TypeAlias
 
 import numpy as np
 from numpy.typing import ArrayLike, DTypeLike, NDArray
 
+from tensegrity_core.general.dofs import DofLayout, StiffnessPattern
 from tensegrity_core.schema import MAX_MAGNITUDE, KeyPath, SchemaError, excerpt, suggest
-
-if TYPE_CHECKING:
-    from tensegrity_core.general.configuration import DofLayout
-    from tensegrity_core.general.stiffness import StiffnessPattern
 
 MEMBER_KINDS: Final = ("bar", "string", "actuator")
 #: Standard gravity [m/s^2] (``gravity: true`` in a structure, the scenes' default).
@@ -238,14 +235,12 @@ class Structure:
 
     @cached_property
     def layout(self) -> DofLayout:
-        """The degrees of freedom (see :class:`tensegrity_core.general.configuration.DofLayout`)."""
-        from tensegrity_core.general.configuration import DofLayout
+        """The degrees of freedom (see :class:`tensegrity_core.general.dofs.DofLayout`)."""
         return DofLayout(self)
 
     @cached_property
     def stiffness_pattern(self) -> StiffnessPattern:
-        """Sparsity pattern of the tangent stiffness (see :class:`.stiffness.StiffnessPattern`)."""
-        from tensegrity_core.general.stiffness import StiffnessPattern
+        """Sparsity pattern of the tangent stiffness (see :class:`tensegrity_core.general.dofs.StiffnessPattern`)."""
         return StiffnessPattern(self)
 
     def node_index(self, name: str) -> int:
