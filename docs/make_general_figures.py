@@ -31,7 +31,7 @@ def t_bar_forces() -> None:
     for ax, supports in zip(axes, ("roller", "pinned")):
         s = t_bar(0.8, supports=supports)
         L = s.initial_lengths
-        path = rest_length_path(s, lambda p: np.array([1, 1, 1, 1, p, p, 0.8, 0.8]) * L,
+        path = rest_length_path(s, lambda p, L=L: np.array([1, 1, 1, 1, p, p, 0.8, 0.8]) * L,
                                 np.linspace(0.8, 0.5, 25))
         t = path.member_forces / 1e3
         for j, name in enumerate(s.member_names):

@@ -15,26 +15,32 @@ so ``dU/dbeta = (L/2)(-a sin beta + b cos beta)`` and
 
 from __future__ import annotations
 
+from typing import Final
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.class2.geometry import SPRINGS, lambdas, member_lengths
 from tensegrity_core.class2.params import Class2Params
 
-_SPRING_IDX = np.array([m.number - 1 for m in SPRINGS])
+_SPRING_IDX: Final = np.array([m.number - 1 for m in SPRINGS])
 
 
-def spring_stiffnesses(params: Class2Params) -> np.ndarray:
+def spring_stiffnesses(params: Class2Params) -> NDArray[np.float64]:
     """Stiffness of each spring in :data:`SPRINGS` order (CD, DE, EF, BE) [N/m]."""
-    return np.array([getattr(params, m.stiffness) for m in SPRINGS])
+    return np.array([getattr(params, m.stiffness) for m in SPRINGS], dtype=np.float64)
 
 
-def potential_energy(q, params: Class2Params):
+def potential_energy(q: ArrayLike, params: Class2Params) -> NDArray[np.float64]:
     """Elastic potential energy ``U(q)`` [J]; ``q = (rho1, rho2, beta)``, broadcastable."""
     lengths = member_lengths(q, params)[..., _SPRING_IDX]
-    return 0.5 * np.sum(spring_stiffnesses(params) * lengths**2, axis=-1)
+    energy: NDArray[np.float64] = 0.5 * np.sum(spring_stiffnesses(params) * lengths**2, axis=-1)
+    return energy
 
 
-def beta_coefficients(rho1, rho2, params: Class2Params):
+def beta_coefficients(
+    rho1: ArrayLike, rho2: ArrayLike, params: Class2Params
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``(a, b)`` of ``U(beta) = const + (L/2)(a cos beta + b sin beta)``."""
     lam1, _ = lambdas(rho1, rho2, params.L)
     a = params.k2 * np.asarray(rho1) - (2.0 * params.k3 + params.k2) * np.asarray(rho2)
@@ -42,23 +48,23 @@ def beta_coefficients(rho1, rho2, params: Class2Params):
     return a, b
 
 
-def dU_dbeta(q, params: Class2Params):
+def dU_dbeta(q: ArrayLike, params: Class2Params) -> NDArray[np.float64]:
     """Partial derivative of ``U`` with respect to beta at fixed actuator lengths [J/rad]."""
-    q = np.asarray(q, dtype=float)
-    a, b = beta_coefficients(q[..., 0], q[..., 1], params)
-    beta = q[..., 2]
+    qa = np.asarray(q, dtype=np.float64)
+    a, b = beta_coefficients(qa[..., 0], qa[..., 1], params)
+    beta = qa[..., 2]
     return 0.5 * params.L * (-a * np.sin(beta) + b * np.cos(beta))
 
 
-def d2U_dbeta2(q, params: Class2Params):
+def d2U_dbeta2(q: ArrayLike, params: Class2Params) -> NDArray[np.float64]:
     """Second derivative of ``U`` in beta [J/rad^2]; > 0 at a stable equilibrium."""
-    q = np.asarray(q, dtype=float)
-    a, b = beta_coefficients(q[..., 0], q[..., 1], params)
-    beta = q[..., 2]
+    qa = np.asarray(q, dtype=np.float64)
+    a, b = beta_coefficients(qa[..., 0], qa[..., 1], params)
+    beta = qa[..., 2]
     return -0.5 * params.L * (a * np.cos(beta) + b * np.sin(beta))
 
 
-def equilibrium_beta(rho1, rho2, params: Class2Params):
+def equilibrium_beta(rho1: ArrayLike, rho2: ArrayLike, params: Class2Params) -> NDArray[np.float64]:
     """The energy-minimising beta for locked actuators [rad], in [0, pi].
 
     ``U(beta)`` is a sinusoid; its minimum is at ``atan2(-b, -a) =

@@ -10,11 +10,30 @@ is the ``proportional`` input of the ``paper_fold`` scene.)
 
 from __future__ import annotations
 
+from typing import Final, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
 #: Gain of the paper's fold law [N/(m s)].
-FOLD_GAIN = 10.0
+FOLD_GAIN: Final = 10.0
 
 
-def paper_fold_forces(sample) -> tuple[float, float]:
+class StateSample(Protocol):
+    """What the law reads of a sample (e.g. :class:`tensegrity_core.sim.simulator.JointSample`)."""
+
+    @property
+    def t(self) -> float:
+        """Sample time [s]."""
+        ...
+
+    @property
+    def q(self) -> NDArray[np.float64]:
+        """``(rho1, rho2, beta)`` [m, m, rad]."""
+        ...
+
+
+def paper_fold_forces(sample: StateSample) -> tuple[float, float]:
     """``(f1, f2)`` [N] from the sample's lengths ``q[:2]`` [m] and time ``t`` [s]."""
     t = sample.t
     return FOLD_GAIN * float(sample.q[0]) * t, FOLD_GAIN * float(sample.q[1]) * t

@@ -24,13 +24,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Final
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.class2.params import Class2Params
 from tensegrity_core.errors import DomainError
 
-NODE_NAMES = ("A", "B", "C", "D", "E", "F")
+NODE_NAMES: Final = ("A", "B", "C", "D", "E", "F")
 
 
 @dataclass(frozen=True)
@@ -53,7 +55,7 @@ class Member:
         return f"{self.number}_{self.name}"
 
 
-MEMBERS: tuple[Member, ...] = (
+MEMBERS: Final[tuple[Member, ...]] = (
     Member(1, "AB", "actuator", "ka", None),
     Member(2, "BC", "actuator", "ka", None),
     Member(3, "CD", "spring", "k3", "c3"),
@@ -65,7 +67,7 @@ MEMBERS: tuple[Member, ...] = (
     Member(9, "BD", "strut", "kb", None),
     Member(10, "CE", "strut", "kb", None),
 )
-SPRINGS = tuple(m for m in MEMBERS if m.kind == "spring")
+SPRINGS: Final = tuple(m for m in MEMBERS if m.kind == "spring")
 
 
 def check_actuator_lengths(rho1: float, rho2: float, L: float) -> None:
@@ -89,25 +91,25 @@ def check_actuator_lengths(rho1: float, rho2: float, L: float) -> None:
         )
 
 
-def lambdas(rho1, rho2, L):
+def lambdas(rho1: ArrayLike, rho2: ArrayLike, L: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``(lambda1, lambda2) = (sqrt(4L^2 - (rho1+rho2)^2), sqrt(L^2 - rho1^2))`` (Eq. A.15).
 
     Written as products of sums and differences to avoid cancellation near the singular
     sets ``rho1 + rho2 = 2L`` (lambda1 = 0) and ``rho1 = L`` (lambda2 = 0).
     """
-    s = np.add(rho1, rho2)
+    s: NDArray[np.float64] = np.add(rho1, rho2)
     lam1 = np.sqrt((2.0 * L - s) * (2.0 * L + s))
     lam2 = np.sqrt((L - np.asarray(rho1)) * (L + np.asarray(rho1)))
     return lam1, lam2
 
 
-def node_positions(q, params: Class2Params) -> np.ndarray:
+def node_positions(q: ArrayLike, params: Class2Params) -> NDArray[np.float64]:
     """Node coordinates, shape ``q.shape[:-1] + (6, 2)``, rows in the order A..F [m].
 
     ``q`` is ``(rho1, rho2, beta)`` or an array with that trailing dimension.
     """
-    q = np.asarray(q, dtype=float)
-    rho1, rho2, beta = q[..., 0], q[..., 1], q[..., 2]
+    qa = np.asarray(q, dtype=np.float64)
+    rho1, rho2, beta = qa[..., 0], qa[..., 1], qa[..., 2]
     L = params.L
     lam1, lam2 = lambdas(rho1, rho2, L)
     zero = np.zeros_like(rho1)
@@ -116,26 +118,27 @@ def node_positions(q, params: Class2Params) -> np.ndarray:
     return np.stack([xs, ys], -1)
 
 
-_I = np.array([m.nodes[0] for m in MEMBERS])
-_J = np.array([m.nodes[1] for m in MEMBERS])
+_I: Final = np.array([m.nodes[0] for m in MEMBERS])
+_J: Final = np.array([m.nodes[1] for m in MEMBERS])
 
 
-def member_vectors(q, params: Class2Params) -> np.ndarray:
+def member_vectors(q: ArrayLike, params: Class2Params) -> NDArray[np.float64]:
     """Vectors from the first to the second node of each member, shape ``(..., 10, 2)``."""
     p = node_positions(q, params)
     return p[..., _J, :] - p[..., _I, :]
 
 
-def member_lengths(q, params: Class2Params) -> np.ndarray:
+def member_lengths(q: ArrayLike, params: Class2Params) -> NDArray[np.float64]:
     """Lengths L_1..L_10 of the members [m], shape ``(..., 10)`` (Eqs. 5-8, corrected Eq. 7).
 
     Computed from node differences, which stays accurate where the printed closed forms
     cancel (e.g. L_7 near the folded configuration).
     """
-    return np.linalg.norm(member_vectors(q, params), axis=-1)
+    lengths: NDArray[np.float64] = np.linalg.norm(member_vectors(q, params), axis=-1)
+    return lengths
 
 
-def alpha_of(rho1, rho2, L):
+def alpha_of(rho1: ArrayLike, rho2: ArrayLike, L: float) -> NDArray[np.float64]:
     """Angle alpha of strut AE from +X [rad] (Eq. 1), in [0, pi/2]."""
     s = np.add(rho1, rho2)
     lam1, _ = lambdas(rho1, rho2, L)

@@ -29,9 +29,10 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Any, Final, NamedTuple
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.class2.full_workspace import distance_to_full_workspace
 from tensegrity_core.class2.kinematics import as_real, in_paper_range
@@ -45,8 +46,8 @@ from tensegrity_core.errors import DomainError
 #: snapped answer reproduces the target to within this tolerance. The snapping of lengths
 #: also allows for the rounding of the target amplified by ``d rho1 / d y = y / c``
 #: (:func:`snap_tolerance`).
-DOMAIN_TOL = 1e-12
-_EPS = float(np.finfo(float).eps)
+DOMAIN_TOL: Final = 1e-12
+_EPS: Final = float(np.finfo(float).eps)
 
 
 def snap_tolerance(c: float, L: float) -> float:
@@ -60,19 +61,19 @@ def snap_tolerance(c: float, L: float) -> float:
     return DOMAIN_TOL * L + (8.0 * _EPS * L * L / c if c > 0.0 else 0.0)
 
 
-def _snap_tolerance_array(c: np.ndarray, L: float) -> np.ndarray:
+def _snap_tolerance_array(c: NDArray[np.float64], L: float) -> NDArray[np.float64]:
     """Vectorised :func:`snap_tolerance` (``c >= 0``)."""
     with np.errstate(divide="ignore"):
         return DOMAIN_TOL * L + np.where(c > 0.0, 8.0 * _EPS * L * L / c, 0.0)
 
 
-REASON_RHO1 = "rho1 outside [0, L]"
-REASON_RHO2 = "negative length rho2"
-REASON_SUM = "rho1+rho2 > 2L"
-REASON_MAXIMUM = "spurious root of the squared equation (energy maximum, not an equilibrium)"
-REASON_NOT_STATIONARY = "spurious root of the squared equation (not an equilibrium: dU/dbeta != 0)"
-REASON_RANGE = "outside the paper's angle range"
-REASON_DUPLICATE = "duplicate of an earlier candidate (double root)"
+REASON_RHO1: Final = "rho1 outside [0, L]"
+REASON_RHO2: Final = "negative length rho2"
+REASON_SUM: Final = "rho1+rho2 > 2L"
+REASON_MAXIMUM: Final = "spurious root of the squared equation (energy maximum, not an equilibrium)"
+REASON_NOT_STATIONARY: Final = "spurious root of the squared equation (not an equilibrium: dU/dbeta != 0)"
+REASON_RANGE: Final = "outside the paper's angle range"
+REASON_DUPLICATE: Final = "duplicate of an earlier candidate (double root)"
 
 
 class IKCandidate(NamedTuple):
@@ -107,7 +108,7 @@ class IKCandidate(NamedTuple):
     singularity_distance: float
     fk_residual: float
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         return self._asdict()
 
 
@@ -145,7 +146,7 @@ class IKResult:
             raise DomainError(self.message, distance=self.outside_distance)
         return min(valid, key=lambda c: math.hypot(c.rho1 - s1, c.rho2 - s2))
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         return {
             "x": self.x, "y": self.y, "paper_range": self.paper_range,
             "success": self.success, "message": self.message,
@@ -162,7 +163,8 @@ def _snap(v: float, lo: float, hi: float, tol: float) -> float:
     return v
 
 
-def _spurious_reason(y, c, d, lam1, rho1, d1, d2, K, k2, L) -> str:
+def _spurious_reason(y: float, c: float, d: float, lam1: float, rho1: float, d1: int, d2: int, K: float,
+                     k2: float, L: float) -> str:
     """'' for an energy minimum, else which kind of spurious root (module docstring).
 
     Inside the ellipse range ``|rho1| < 2 K L / (K + k2)`` (which contains [0, L]) the
@@ -195,7 +197,8 @@ def _branch(x: float, y: float, w: float, d1: int, L: float) -> tuple[float, flo
     return snapped, c, math.copysign(math.sqrt(max(0.0, (L - c) * (L + c))), y)
 
 
-def _candidate(x, y, yb, rho1, rho2, c, d1, d2, params, paper_range) -> IKCandidate:
+def _candidate(x: float, y: float, yb: float, rho1: float, rho2: float, c: float, d1: int, d2: int,
+               params: Class2Params, paper_range: bool) -> IKCandidate:
     """Verdict on one root; ``(x, y)`` is the target, ``yb`` the branch's (snapped) y."""
     L, k2 = params.L, params.k2
     K = 2.0 * params.k3 + k2
@@ -206,7 +209,7 @@ def _candidate(x, y, yb, rho1, rho2, c, d1, d2, params, paper_range) -> IKCandid
         rho2 = two_l - rho1
     s = rho1 + rho2
     in_domain = 0.0 <= rho1 <= L and rho2 >= 0.0 and s <= two_l
-    reasons = []
+    reasons: list[str] = []
     if not in_domain:
         if not 0.0 <= rho1 <= L:
             reasons.append(REASON_RHO1)
@@ -284,7 +287,8 @@ def inverse_kinematics(
     return IKResult(x, y, paper_range, tuple(candidates), message, outside)
 
 
-def _message(x, y, L, candidates, n_valid, outside, paper_range) -> str:
+def _message(x: float, y: float, L: float, candidates: Sequence[IKCandidate], n_valid: int, outside: float,
+             paper_range: bool) -> str:
     if n_valid:
         return f"{n_valid} valid solution{'s' if n_valid > 1 else ''} of {len(candidates)} candidates"
     where = f"D = ({x:g}, {y:g})"
@@ -313,9 +317,9 @@ def nearest_solution(
 
 
 #: ``(delta1, delta2)`` of the columns of :func:`ik_array_all`.
-IK_BRANCHES = ((-1, 1), (-1, -1), (1, -1), (1, 1))
+IK_BRANCHES: Final = ((-1, 1), (-1, -1), (1, -1), (1, 1))
 #: Meaning of the codes of :func:`ik_array_all` (index = code); the first failed test wins.
-IK_CODES = (
+IK_CODES: Final = (
     "",                                  # 0 valid, in the paper's range
     "valid, " + REASON_RANGE,            # 1 genuine equilibrium with beta > pi/2 (or y < 0)
     "no real root",                      # 2
@@ -331,10 +335,10 @@ IK_CODES = (
 class IKArrays(NamedTuple):
     """Vectorised IK of the paper-range branch; NaN exactly where ``valid`` is False."""
 
-    rho1: np.ndarray
-    rho2: np.ndarray
-    beta: np.ndarray
-    valid: np.ndarray
+    rho1: NDArray[np.float64]
+    rho2: NDArray[np.float64]
+    beta: NDArray[np.float64]
+    valid: NDArray[np.bool_]
 
 
 class IKAllArrays(NamedTuple):
@@ -344,18 +348,20 @@ class IKAllArrays(NamedTuple):
     configuration domain (1: outside the paper's angle range).
     """
 
-    rho1: np.ndarray
-    rho2: np.ndarray
-    beta: np.ndarray
-    code: np.ndarray
+    rho1: NDArray[np.float64]
+    rho2: NDArray[np.float64]
+    beta: NDArray[np.float64]
+    code: NDArray[np.int8]
 
 
-def _snap_array(v: np.ndarray, lo: float, hi: float, tol: float) -> np.ndarray:
+def _snap_array(v: NDArray[np.float64], lo: float, hi: float, tol: float | NDArray[np.float64]) -> NDArray[np.float64]:
     v = np.where((v < lo) & (v >= lo - tol), lo, v)
     return np.where((v > hi) & (v <= hi + tol), hi, v)
 
 
-def _branch_array(x, y, w, d1, L: float):
+def _branch_array(
+    x: NDArray[np.float64], y: NDArray[np.float64], w: NDArray[np.float64], d1: float | NDArray[np.float64], L: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Vectorised :func:`_branch`."""
     raw = x + d1 * w
     rho1 = _snap_array(raw, 0.0, L, _snap_tolerance_array(w, L))
@@ -365,7 +371,9 @@ def _branch_array(x, y, w, d1, L: float):
     return rho1, c, y
 
 
-def _paper_branch(x: np.ndarray, y: np.ndarray, params: Class2Params):
+def _paper_branch(
+    x: NDArray[np.float64], y: NDArray[np.float64], params: Class2Params
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """``(rho1, rho2, c)`` of the paper branch without any snapping (the fast path).
 
     Written with in-place operations on three scratch arrays: at a million targets the
@@ -399,7 +407,9 @@ def _paper_branch(x: np.ndarray, y: np.ndarray, params: Class2Params):
     return rho1, q, c
 
 
-def _paper_branch_snapped(x: np.ndarray, y: np.ndarray, params: Class2Params):
+def _paper_branch_snapped(
+    x: NDArray[np.float64], y: NDArray[np.float64], params: Class2Params
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """:func:`_paper_branch` with the snapping of :func:`inverse_kinematics`."""
     L, k2 = params.L, params.k2
     K = 2.0 * params.k3 + k2
@@ -417,7 +427,7 @@ def _paper_branch_snapped(x: np.ndarray, y: np.ndarray, params: Class2Params):
     return rho1, rho2, c, y
 
 
-def ik_array(x, y, params: Class2Params = PAPER_PARAMS) -> IKArrays:
+def ik_array(x: ArrayLike, y: ArrayLike, params: Class2Params = PAPER_PARAMS) -> IKArrays:
     """IK of the paper-range branch (``delta1 = -1, delta2 = +1``) over arrays, no Python loop.
 
     For ``0 <= y <= L`` and ``0 <= rho1 <= L`` this root is the unique equilibrium with
@@ -453,7 +463,7 @@ def ik_array(x, y, params: Class2Params = PAPER_PARAMS) -> IKArrays:
     return IKArrays(rho1.reshape(shape), rho2.reshape(shape), beta.reshape(shape), valid.reshape(shape))
 
 
-def ik_array_all(x, y, params: Class2Params = PAPER_PARAMS) -> IKAllArrays:
+def ik_array_all(x: ArrayLike, y: ArrayLike, params: Class2Params = PAPER_PARAMS) -> IKAllArrays:
     """Every candidate of the paper's route over arrays of targets, classified, no Python loop.
 
     The vectorised counterpart of :func:`inverse_kinematics` (same formulas and tests).
@@ -463,11 +473,11 @@ def ik_array_all(x, y, params: Class2Params = PAPER_PARAMS) -> IKAllArrays:
     x, y = np.broadcast_arrays(x, y)
     L, k2 = params.L, params.k2
     K = 2.0 * params.k3 + k2
-    tol = DOMAIN_TOL * L
+    fold = DOMAIN_TOL * L
     d1 = np.array([b[0] for b in IK_BRANCHES], dtype=float)
     d2 = np.array([b[1] for b in IK_BRANCHES], dtype=float)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        y = np.where(np.abs(np.abs(y) - L) <= tol, np.copysign(L, y), y)[..., None]
+        y = np.where(np.abs(np.abs(y) - L) <= fold, np.copysign(L, y), y)[..., None]
         w = np.sqrt((L - y) * (L + y))
         rho1, c, y = _branch_array(x[..., None], y, w, d1, L)
         tol = _snap_tolerance_array(np.abs(c), L)

@@ -8,13 +8,19 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
+from types import ModuleType
+from typing import TYPE_CHECKING, Any, Final
 
 import numpy as np
 
 from tensegrity_core.class2.workspace import Workspace
 
-_SINGULAR_STYLE = {
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+_SINGULAR_STYLE: Final = {
     "lambda1": ("tab:red", "lambda1 = 0 (rho1 + rho2 = 2L)"),
     "lambda2": ("tab:purple", "lambda2 = 0 (rho1 = L)"),
     "beta_half_pi": ("tab:orange", "beta = pi/2 (det dD/drho = 0, IK discriminant = 0)"),
@@ -22,7 +28,8 @@ _SINGULAR_STYLE = {
 }
 
 
-def _figure(ncols: int, width: float, height: float):
+def _figure(ncols: int, width: float, height: float) -> tuple[ModuleType, Figure, Any]:
+    """``(pyplot, figure, axes)`` of a new figure with ``ncols`` panels (Agg backend)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -31,7 +38,7 @@ def _figure(ncols: int, width: float, height: float):
     return plt, *plt.subplots(1, ncols, figsize=(width, height))
 
 
-def _save(plt, fig, path: str | Path, title: str) -> Path:
+def _save(plt: ModuleType, fig: Figure, path: str | Path, title: str) -> Path:
     fig.suptitle(title)
     fig.tight_layout()
     path = Path(path)
@@ -84,7 +91,7 @@ def plot_workspace(ws: Workspace, path: str | Path, *, resolution: int = 300) ->
                  f"rho2 in [{ws.rho2_range[0]:g}, {ws.rho2_range[1]:g}] m, L = {L:g} m")
 
 
-def plot_stiffness_sweep(sweep: dict, path: str | Path) -> Path:
+def plot_stiffness_sweep(sweep: Mapping[str, Any], path: str | Path) -> Path:
     """Write the K_i(f) curves of :func:`~tensegrity_core.class2.stiffness.stiffness_sweep` to ``path``."""
     plt, fig, axes = _figure(3, 14.0, 4.2)
     f = sweep["f"]

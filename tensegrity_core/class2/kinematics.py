@@ -22,9 +22,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, Final, NamedTuple
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.class2.energy import potential_energy
 from tensegrity_core.class2.geometry import check_actuator_lengths, node_positions
@@ -32,15 +33,18 @@ from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 from tensegrity_core.class2.singularities import nearest_singularity
 from tensegrity_core.errors import DomainError, SingularityError
 
+if TYPE_CHECKING:
+    from _typeshed import ConvertibleToFloat
+
 #: Angular tolerance [rad] of the range test ``0 <= beta <= pi/2`` (round-off on the fold).
-BETA_RANGE_TOL = 1e-12
+BETA_RANGE_TOL: Final = 1e-12
 #: ``R / ((2 k3 + 2 k2) L)`` below which beta is reported indeterminate (a = b = 0).
-DEGENERATE_LIMIT = 1e-12
+DEGENERATE_LIMIT: Final = 1e-12
 
-_HALF_PI = 0.5 * math.pi
+_HALF_PI: Final = 0.5 * math.pi
 
 
-def as_real(name: str, value) -> float:
+def as_real(name: str, value: ConvertibleToFloat) -> float:
     """``value`` as a finite float, or :class:`DomainError` naming ``name``."""
     try:
         v = float(value)
@@ -106,12 +110,12 @@ class FKResult:
         return (self.rho1, self.rho2, self.beta)
 
     @cached_property
-    def nodes(self) -> np.ndarray:
+    def nodes(self) -> NDArray[np.float64]:
         """Node positions A..F, shape (6, 2) [m]."""
         return node_positions(self.q, self.params)
 
     @cached_property
-    def jacobian(self) -> np.ndarray:
+    def jacobian(self) -> NDArray[np.float64]:
         """``dD/drho`` (2x2, rows x, y; columns rho1, rho2); raises on the lambda1 set."""
         return jacobian_D_rho(self.rho1, self.rho2, self.params)
 
@@ -123,7 +127,7 @@ class FKResult:
         except SingularityError:
             return math.inf
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         """Plain-data view (for JSON): every field but ``params``, plus ``nodes``."""
         return {
             "rho1": self.rho1, "rho2": self.rho2, "beta": self.beta, "alpha": self.alpha,
@@ -186,7 +190,7 @@ def _energy_gradient_beta(rho1: float, rho2: float, beta: float, params: Class2P
     """
     p = node_positions((rho1, rho2, beta), params)
     pull = params.k3 * (p[3] - p[2]) + params.k2 * (p[3] - p[4])
-    return params.L * (-pull[0] * math.sin(beta) + pull[1] * math.cos(beta))
+    return float(params.L * (-pull[0] * math.sin(beta) + pull[1] * math.cos(beta)))
 
 
 def forward_kinematics_numeric(
@@ -243,34 +247,34 @@ def forward_kinematics_numeric(
 class FKArrays(NamedTuple):
     """Vectorised FK: arrays broadcast from the inputs; NaN exactly where ``valid`` is False."""
 
-    beta: np.ndarray
-    x: np.ndarray
-    y: np.ndarray
-    valid: np.ndarray
+    beta: NDArray[np.float64]
+    x: NDArray[np.float64]
+    y: NDArray[np.float64]
+    valid: NDArray[np.bool_]
 
 
-def fk_array(rho1, rho2, params: Class2Params = PAPER_PARAMS) -> FKArrays:
+def fk_array(rho1: ArrayLike, rho2: ArrayLike, params: Class2Params = PAPER_PARAMS) -> FKArrays:
     """:func:`forward_kinematics` over broadcastable arrays, without a Python loop.
 
     ``valid`` is False where the scalar function would raise (non-finite, negative length,
     ``rho1 > L``, ``rho1 + rho2 > 2L``, indeterminate beta); those entries are NaN.
     """
-    rho1 = np.asarray(rho1, dtype=float)
-    rho2 = np.asarray(rho2, dtype=float)
+    r1 = np.asarray(rho1, dtype=np.float64)
+    r2 = np.asarray(rho2, dtype=np.float64)
     L, k2 = params.L, params.k2
-    s = rho1 + rho2
+    s = r1 + r2
     with np.errstate(invalid="ignore", divide="ignore"):
         lam1 = np.sqrt((2.0 * L - s) * (2.0 * L + s))
-        d = (2.0 * params.k3 + k2) * rho2 - k2 * rho1
+        d = (2.0 * params.k3 + k2) * r2 - k2 * r1
         e = k2 * lam1
         R = np.hypot(d, e)
         valid = (
-            np.isfinite(rho1) & np.isfinite(rho2) & (rho1 >= 0.0) & (rho2 >= 0.0)
-            & (rho1 <= L) & (s <= 2.0 * L)
+            np.isfinite(r1) & np.isfinite(r2) & (r1 >= 0.0) & (r2 >= 0.0)
+            & (r1 <= L) & (s <= 2.0 * L)
             & (R > DEGENERATE_LIMIT * (2.0 * params.k3 + 2.0 * k2) * L)
         )
         beta = np.where(valid, np.arctan2(e, d), np.nan)
-        x = np.where(valid, rho1 + L * d / R, np.nan)
+        x = np.where(valid, r1 + L * d / R, np.nan)
         y = np.where(valid, L * e / R, np.nan)
     return FKArrays(beta, x, y, valid)
 
@@ -303,7 +307,7 @@ def dbeta_drho(rho1: float, rho2: float, params: Class2Params = PAPER_PARAMS) ->
     return math.atan2(e, d), (k2 * sb - b_i * cb) / R, (-(2.0 * params.k3 + k2) * sb - b_i * cb) / R
 
 
-def jacobian_D_rho(rho1: float, rho2: float, params: Class2Params = PAPER_PARAMS) -> np.ndarray:
+def jacobian_D_rho(rho1: float, rho2: float, params: Class2Params = PAPER_PARAMS) -> NDArray[np.float64]:
     """Analytic ``dD/drho`` at the equilibrium (2x2; rows x, y; columns rho1, rho2).
 
     With ``beta_i = dbeta/drho_i`` from :func:`dbeta_drho` and
@@ -315,4 +319,4 @@ def jacobian_D_rho(rho1: float, rho2: float, params: Class2Params = PAPER_PARAMS
     beta, beta1, beta2 = dbeta_drho(rho1, rho2, params)
     L = params.L
     sb, cb = math.sin(beta), math.cos(beta)
-    return np.array([[1.0 - L * sb * beta1, -L * sb * beta2], [L * cb * beta1, L * cb * beta2]])
+    return np.array([[1.0 - L * sb * beta1, -L * sb * beta2], [L * cb * beta1, L * cb * beta2]], dtype=np.float64)

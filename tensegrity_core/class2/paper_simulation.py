@@ -19,8 +19,10 @@ from __future__ import annotations
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Final
 
 import numpy as np
+from numpy.typing import NDArray
 from scipy.integrate import solve_ivp
 
 from tensegrity_core.class2.dynamics import ActuatorLengthEvent, Class2Dynamics, mechanical_energy
@@ -28,10 +30,13 @@ from tensegrity_core.class2.energy import equilibrium_beta
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 from tensegrity_core.errors import ConvergenceError, ParameterError
 
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
 #: The paper's force-law gain [N/(m s)]: f_i = GAIN * rho_i * t.
-PAPER_GAIN = 10.0
+PAPER_GAIN: Final = 10.0
 #: The paper's claim: folded configuration q_F reached at about this time [s].
-PAPER_FOLD_TIME = 2.5
+PAPER_FOLD_TIME: Final = 2.5
 
 
 @dataclass(frozen=True)
@@ -45,16 +50,16 @@ class PaperSimulation:
     (either direction); ``first_zero``: the first such time per actuator (None if never).
     """
 
-    t: np.ndarray
-    y: np.ndarray
-    f: np.ndarray
-    x: np.ndarray
-    y_d: np.ndarray
-    x0: np.ndarray
-    y0: np.ndarray
-    energy: np.ndarray
+    t: NDArray[np.float64]
+    y: NDArray[np.float64]
+    f: NDArray[np.float64]
+    x: NDArray[np.float64]
+    y_d: NDArray[np.float64]
+    x0: NDArray[np.float64]
+    y0: NDArray[np.float64]
+    energy: NDArray[np.float64]
     beta0: float
-    zero_crossings: dict[str, np.ndarray]
+    zero_crossings: dict[str, NDArray[np.float64]]
     first_zero: dict[str, float | None]
     params: Class2Params
     gain: float
@@ -83,11 +88,11 @@ def simulate_paper(t_end: float = 5.0, *, params: Class2Params = PAPER_PARAMS, r
     r10, r20 = (float(v) for v in rho0)
     b0 = float(equilibrium_beta(r10, r20, params)) if beta0 is None else float(beta0)
 
-    def rhs(t, y):
+    def rhs(t: float, y: NDArray[np.float64]) -> NDArray[np.float64]:
         f1, f2 = paper_forces(t, y[0], y[1], gain)
         return dyn.rhs(t, y, f1, f2)
 
-    def jac(t, y):
+    def jac(t: float, y: NDArray[np.float64]) -> NDArray[np.float64]:
         dfy = np.zeros((2, 6))
         dfy[0, 0] = dfy[1, 1] = gain * t
         f1, f2 = paper_forces(t, y[0], y[1], gain)
@@ -121,7 +126,7 @@ def simulate_paper(t_end: float = 5.0, *, params: Class2Params = PAPER_PARAMS, r
     )
 
 
-def _mark_zeros(ax, sim: PaperSimulation) -> None:
+def _mark_zeros(ax: Axes, sim: PaperSimulation) -> None:
     for name, style in (("rho1", ":"), ("rho2", "--")):
         t0 = sim.first_zero[name]
         if t0 is not None:
@@ -129,7 +134,7 @@ def _mark_zeros(ax, sim: PaperSimulation) -> None:
     ax.axvline(PAPER_FOLD_TIME, color="0.5", lw=0.8, label=f"paper: folded at {PAPER_FOLD_TIME} s")
 
 
-def plot_paper_figures(outdir, sim: PaperSimulation | None = None, *,
+def plot_paper_figures(outdir: str | Path, sim: PaperSimulation | None = None, *,
                        long_sim: PaperSimulation | None = None) -> list[Path]:
     """Write the paper's Figs. 3-7 (and a long-run overview) as PNGs into ``outdir``.
 

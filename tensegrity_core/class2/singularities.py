@@ -22,15 +22,17 @@ of beta, the Jacobian and the IK discriminant is :func:`~tensegrity_core.class2.
 from __future__ import annotations
 
 import math
+from typing import Final
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.class2.params import Class2Params
 
 #: Names of the singular sets, in the order used by :func:`singularity_distances`.
-SINGULAR_SETS = ("lambda1", "lambda2", "beta_half_pi", "folded")
+SINGULAR_SETS: Final = ("lambda1", "lambda2", "beta_half_pi", "folded")
 
-_SQRT2 = math.sqrt(2.0)
+_SQRT2: Final = math.sqrt(2.0)
 
 
 def singularity_distances(rho1: float, rho2: float, params: Class2Params) -> dict[str, float]:
@@ -86,13 +88,13 @@ def dynamics_singularity(rho1: float, rho2: float, params: Class2Params) -> tupl
     return ("lambda1", lam1) if lam1 <= lam2 else ("lambda2", lam2)
 
 
-def singularity_distance_array(rho1, rho2, params: Class2Params) -> np.ndarray:
+def singularity_distance_array(rho1: ArrayLike, rho2: ArrayLike, params: Class2Params) -> NDArray[np.float64]:
     """Vectorised minimum distance to the singular sets (the value of :func:`nearest_singularity`)."""
     L, k2 = params.L, params.k2
     K = 2.0 * params.k3 + k2
-    rho1 = np.asarray(rho1, dtype=float)
-    rho2 = np.asarray(rho2, dtype=float)
-    d1 = (2.0 * L - rho1 - rho2) / (_SQRT2 * L)
-    d2 = (L - rho1) / L
-    d3 = np.abs(K * rho2 - k2 * rho1) / (math.hypot(K, k2) * L)
+    r1 = np.asarray(rho1, dtype=np.float64)
+    r2 = np.asarray(rho2, dtype=np.float64)
+    d1 = (2.0 * L - r1 - r2) / (_SQRT2 * L)
+    d2 = (L - r1) / L
+    d3 = np.abs(K * r2 - k2 * r1) / (math.hypot(K, k2) * L)
     return np.minimum(np.minimum(d1, d2), d3)

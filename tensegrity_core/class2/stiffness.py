@@ -37,8 +37,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any, Final
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.class2.geometry import MEMBERS, check_actuator_lengths, node_positions
 from tensegrity_core.class2.kinematics import as_real, forward_kinematics
@@ -46,24 +48,24 @@ from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 from tensegrity_core.errors import SingularityError
 
 #: Names of the reduced coordinates x_r (the paper's Eq. 30 without the duplicate a_Ex).
-COORDINATES = ("Bx", "Cx", "Dx", "Dy", "Ex", "Ey", "Fy")
+COORDINATES: Final = ("Bx", "Cx", "Dx", "Dy", "Ex", "Ey", "Fy")
 #: Indices of x_r in the 12 nodal coordinates [Ax, Ay, Bx, By, ..., Fx, Fy].
-FREE = np.array([2, 4, 6, 7, 8, 9, 11])
+FREE: Final = np.array([2, 4, 6, 7, 8, 9, 11])
 #: Indices of the supported coordinates Ax, Ay, By, Cy, Fx (Eq. 29).
-SUPPORTED = np.array([0, 1, 3, 5, 10])
+SUPPORTED: Final = np.array([0, 1, 3, 5, 10])
 
-_SPRINGS = np.array([m.number - 1 for m in MEMBERS if m.kind == "spring"])          # 3, 4, 7, 8
-_RIGID = np.array([m.number - 1 for m in MEMBERS if m.kind != "spring"])            # 1, 2, 5, 6, 9, 10
-_I = np.array([m.nodes[0] for m in MEMBERS])
-_J = np.array([m.nodes[1] for m in MEMBERS])
+_SPRINGS: Final = np.array([m.number - 1 for m in MEMBERS if m.kind == "spring"])          # 3, 4, 7, 8
+_RIGID: Final = np.array([m.number - 1 for m in MEMBERS if m.kind != "spring"])            # 1, 2, 5, 6, 9, 10
+_I: Final = np.array([m.nodes[0] for m in MEMBERS])
+_J: Final = np.array([m.nodes[1] for m in MEMBERS])
 
 
-def axial_stiffnesses(params: Class2Params) -> np.ndarray:
+def axial_stiffnesses(params: Class2Params) -> NDArray[np.float64]:
     """Axial stiffness g_i [N/m] of members 1..10 (Eq. 36): ka, kb or the spring's k."""
-    return np.array([getattr(params, m.stiffness) for m in MEMBERS])
+    return np.array([getattr(params, m.stiffness) for m in MEMBERS], dtype=np.float64)
 
 
-def _configuration(rho1, rho2, beta, params):
+def _configuration(rho1: float, rho2: float, beta: float | None, params: Class2Params) -> tuple[float, float, float]:
     rho1 = as_real("rho1", rho1)
     rho2 = as_real("rho2", rho2)
     L = params.L
@@ -85,7 +87,8 @@ def _configuration(rho1, rho2, beta, params):
     return rho1, rho2, beta
 
 
-def _geometry(rho1, rho2, beta, params):
+def _geometry(rho1: float, rho2: float, beta: float, params: Class2Params
+              ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Node positions (6, 2), member lengths (10,) and unit vectors n_i = (P - Q)/l (10, 2)."""
     p = node_positions((rho1, rho2, beta), params)
     vec = p[_I] - p[_J]
@@ -94,14 +97,14 @@ def _geometry(rho1, rho2, beta, params):
 
 
 def equilibrium_matrix(rho1: float, rho2: float, beta: float | None = None,
-                       params: Class2Params = PAPER_PARAMS) -> np.ndarray:
+                       params: Class2Params = PAPER_PARAMS) -> NDArray[np.float64]:
     """The 12 x 10 equilibrium matrix A (Eq. 28, corrected): ``A t = f``."""
     rho1, rho2, beta = _configuration(rho1, rho2, beta, params)
     _, _, n = _geometry(rho1, rho2, beta, params)
     return _assemble_A(n)
 
 
-def _assemble_A(n: np.ndarray) -> np.ndarray:
+def _assemble_A(n: NDArray[np.float64]) -> NDArray[np.float64]:
     A = np.zeros((12, 10))
     cols = np.arange(10)
     for k in range(2):
@@ -111,7 +114,7 @@ def _assemble_A(n: np.ndarray) -> np.ndarray:
 
 
 def member_forces(rho1: float, rho2: float, f: float = 0.0, beta: float | None = None,
-                  params: Class2Params = PAPER_PARAMS) -> tuple[np.ndarray, np.ndarray]:
+                  params: Class2Params = PAPER_PARAMS) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Tensions ``t`` [N] of members 1..10 and the equilibrium residual ``A_r t - f_r`` [N] (7,).
 
     Springs by Hooke's law, the rest by least squares on the seven reduced equilibrium
@@ -124,7 +127,8 @@ def member_forces(rho1: float, rho2: float, f: float = 0.0, beta: float | None =
     return _forces(_assemble_A(n)[FREE], lengths, f, params)
 
 
-def _forces(A_r, lengths, f, params):
+def _forces(A_r: NDArray[np.float64], lengths: NDArray[np.float64], f: float,
+            params: Class2Params) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     t = np.zeros(10)
     t[_SPRINGS] = axial_stiffnesses(params)[_SPRINGS] * lengths[_SPRINGS]
     f_r = np.zeros(7)
@@ -134,7 +138,7 @@ def _forces(A_r, lengths, f, params):
     return t, A_r @ t - f_r
 
 
-def _stress_matrix(t_hat: np.ndarray) -> np.ndarray:
+def _stress_matrix(t_hat: NDArray[np.float64]) -> NDArray[np.float64]:
     """Omega kron I_2 (12 x 12), Eqs. (23)-(24)."""
     omega = np.zeros((6, 6))
     for i, j, th in zip(_I, _J, t_hat):
@@ -142,7 +146,7 @@ def _stress_matrix(t_hat: np.ndarray) -> np.ndarray:
         omega[j, i] -= th
         omega[i, i] += th
         omega[j, j] += th
-    return np.kron(omega, np.eye(2))
+    return np.kron(omega, np.eye(2))  # type: ignore[return-value]  # numpy's stubs: kron of float64 is floating[Any]
 
 
 @dataclass(frozen=True)
@@ -167,15 +171,15 @@ class StiffnessResult:
     beta: float
     f: float
     coordinates: tuple[str, ...]
-    K: np.ndarray
-    K_i: np.ndarray
-    cond_K_r: np.ndarray
-    t: np.ndarray
-    lengths: np.ndarray
-    g_hat: np.ndarray
+    K: NDArray[np.float64]
+    K_i: NDArray[np.float64]
+    cond_K_r: NDArray[np.float64]
+    t: NDArray[np.float64]
+    lengths: NDArray[np.float64]
+    g_hat: NDArray[np.float64]
     equilibrium_residual: float
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         return {
             "rho1": self.rho1, "rho2": self.rho2, "beta": self.beta, "f": self.f,
             "coordinates": list(self.coordinates), "K": self.K, "K_i": dict(zip(self.coordinates, self.K_i)),
@@ -187,12 +191,14 @@ class StiffnessResult:
 
 
 def stiffness_matrix_paper(rho1: float, rho2: float, f: float = 0.0, beta: float | None = None,
-                           params: Class2Params = PAPER_PARAMS) -> np.ndarray:
+                           params: Class2Params = PAPER_PARAMS) -> NDArray[np.float64]:
     """Route (a): ``K = A_r G^ A_r^T + S_r`` [N/m] (Eqs. 36-40), 7 x 7 over :data:`COORDINATES`."""
     return _paper_procedure(*_configuration(rho1, rho2, beta, params), as_real("f", f), params)[0]
 
 
-def _paper_procedure(rho1, rho2, beta, f, params):
+def _paper_procedure(
+    rho1: float, rho2: float, beta: float, f: float, params: Class2Params
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """``(K, t, lengths, g_hat, residual)`` of the paper's procedure at a validated configuration."""
     _, lengths, n = _geometry(rho1, rho2, beta, params)
     A_r = _assemble_A(n)[FREE]
@@ -204,7 +210,7 @@ def _paper_procedure(rho1, rho2, beta, f, params):
 
 
 def stiffness_matrix_assembled(rho1: float, rho2: float, f: float = 0.0, beta: float | None = None,
-                               params: Class2Params = PAPER_PARAMS) -> np.ndarray:
+                               params: Class2Params = PAPER_PARAMS) -> NDArray[np.float64]:
     """Route (b): element tangent stiffnesses ``g n n^T + (t/l)(I - n n^T)`` summed over the
     nodes (12 x 12), supports deleted; same member forces as :func:`member_forces`."""
     rho1, rho2, beta = _configuration(rho1, rho2, beta, params)
@@ -220,10 +226,12 @@ def stiffness_matrix_assembled(rho1: float, rho2: float, f: float = 0.0, beta: f
         K[Q:Q + 2, Q:Q + 2] += ke
         K[P:P + 2, Q:Q + 2] -= ke
         K[Q:Q + 2, P:P + 2] -= ke
-    return K[np.ix_(FREE, FREE)]
+    K_r: NDArray[np.float64] = K[np.ix_(FREE, FREE)]
+    return K_r
 
 
-def total_potential_energy(X: np.ndarray, rest: np.ndarray, f: float, params: Class2Params) -> float:
+def total_potential_energy(X: NDArray[np.float64], rest: NDArray[np.float64], f: float,
+                           params: Class2Params) -> float:
     """Total potential energy [J] of nodal coordinates X (12,): springs ``k l^2 / 2``, struts and
     actuators ``g (l - rest)^2 / 2``, minus the work ``f Fy`` of the load on F."""
     p = X.reshape(6, 2)
@@ -234,7 +242,8 @@ def total_potential_energy(X: np.ndarray, rest: np.ndarray, f: float, params: Cl
 
 
 def stiffness_matrix_energy_fd(rho1: float, rho2: float, f: float = 0.0, beta: float | None = None,
-                               params: Class2Params = PAPER_PARAMS, *, step: float | None = None) -> np.ndarray:
+                               params: Class2Params = PAPER_PARAMS, *,
+                               step: float | None = None) -> NDArray[np.float64]:
     """Route (c): Hessian of :func:`total_potential_energy` over x_r by central differences.
 
     Rest lengths ``l0 = l - t / g`` make the elastic forces equal the member forces of
@@ -250,7 +259,7 @@ def stiffness_matrix_energy_fd(rho1: float, rho2: float, f: float = 0.0, beta: f
     X0 = p.reshape(-1)
     h = 1e-4 * params.L if step is None else float(step)
 
-    def energy(di, si, dj, sj):
+    def energy(di: int, si: int, dj: int, sj: int) -> float:
         X = X0.copy()
         X[FREE[di]] += si * h
         X[FREE[dj]] += sj * h
@@ -283,7 +292,7 @@ def stiffness_along_coordinates(rho1: float, rho2: float, f: float = 0.0,
                            float(np.max(np.abs(residual))))
 
 
-def _along_coordinates(K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _along_coordinates(K: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Eq. (43) for every coordinate: ``K_ii - u_i K_ri^-1 v_i`` and ``cond(K_ri)``."""
     m = K.shape[0]
     K_i = np.empty(m)
@@ -301,7 +310,8 @@ def _along_coordinates(K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return K_i, cond
 
 
-def stiffness_sweep(rho1: float, rho2: float, forces, params: Class2Params = PAPER_PARAMS) -> dict:
+def stiffness_sweep(rho1: float, rho2: float, forces: ArrayLike,
+                    params: Class2Params = PAPER_PARAMS) -> dict[str, Any]:
     """``K_i(f)`` over the forces ``forces`` [N] (the paper's Fig. 2): a dict with ``f`` (m,),
     ``K_i`` (m, 7), ``cond_K_r`` (m, 7), ``coordinates`` and the configuration."""
     fs = np.asarray(forces, dtype=float)
@@ -315,7 +325,7 @@ def stiffness_sweep(rho1: float, rho2: float, forces, params: Class2Params = PAP
 
 
 
-def critical_forces(rho1: float, rho2: float, params: Class2Params = PAPER_PARAMS) -> np.ndarray:
+def critical_forces(rho1: float, rho2: float, params: Class2Params = PAPER_PARAMS) -> NDArray[np.float64]:
     """Real forces f [N] on F (+Y) at which ``det K(f) = 0``, ascending.
 
     The member forces, hence ``K``, are affine in f: ``K(f) = K(0) + f (K(1) - K(0))``, so

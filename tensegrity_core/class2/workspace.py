@@ -19,8 +19,10 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any, Final, TypeAlias
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.class2.inverse_kinematics import ik_array_all
 from tensegrity_core.class2.kinematics import as_real, fk_array, forward_kinematics, jacobian_D_rho
@@ -29,7 +31,7 @@ from tensegrity_core.class2.singularities import singularity_distances
 from tensegrity_core.errors import DomainError, SingularityError
 
 #: Tolerance (times L) for lengths on a limit of the polygon.
-LIMIT_TOL = 1e-12
+LIMIT_TOL: Final = 1e-12
 
 
 @dataclass(frozen=True)
@@ -52,15 +54,20 @@ class Curve:
 
     kind: str
     label: str
-    rho: np.ndarray
-    xy: np.ndarray
-    on_boundary: np.ndarray
+    rho: NDArray[np.float64]
+    xy: NDArray[np.float64]
+    on_boundary: NDArray[np.bool_]
 
 
-def actuator_ranges(params: Class2Params, rho1_range=None, rho2_range=None):
+#: Lower and upper limit of an actuator length [m].
+Range: TypeAlias = tuple[float, float]
+
+
+def actuator_ranges(params: Class2Params, rho1_range: Sequence[float] | None = None,
+                    rho2_range: Sequence[float] | None = None) -> tuple[Range, Range]:
     """Validated limits ``((lo1, hi1), (lo2, hi2))`` [m], intersected with [0, L] and [0, 2L]."""
     L = params.L
-    out = []
+    out: list[Range] = []
     for name, rng, cap in (("rho1", rho1_range, L), ("rho2", rho2_range, 2.0 * L)):
         if rng is None:
             out.append((0.0, cap))
@@ -76,10 +83,10 @@ def actuator_ranges(params: Class2Params, rho1_range=None, rho2_range=None):
                 distance=max(-hi, lo - cap),
             )
         out.append((max(lo, 0.0), min(hi, cap)))
-    return tuple(out)
+    return out[0], out[1]
 
 
-def _constraints(params: Class2Params, r1, r2, paper_range: bool) -> list[Constraint]:
+def _constraints(params: Class2Params, r1: Range, r2: Range, paper_range: bool) -> list[Constraint]:
     L, k2 = params.L, params.k2
     K = 2.0 * params.k3 + k2
     cons = [
@@ -96,7 +103,7 @@ def _constraints(params: Class2Params, r1, r2, paper_range: bool) -> list[Constr
     return cons
 
 
-def _clip_polygon(cons: list[Constraint], L: float) -> list[tuple[np.ndarray, int]]:
+def _clip_polygon(cons: list[Constraint], L: float) -> list[tuple[NDArray[np.float64], int]]:
     """Vertices of the polygon ``{all constraints}`` in order, each with the index of the
     constraint carrying the edge that ARRIVES at it (Sutherland-Hodgman on the 4 box sides)."""
     big = 10.0 * L
@@ -104,10 +111,10 @@ def _clip_polygon(cons: list[Constraint], L: float) -> list[tuple[np.ndarray, in
     for ci, con in enumerate(cons):
         n = np.array([con.a, con.b])
 
-        def inside(p, n=n, c=con.c):
-            return n @ p <= c + 1e-15 * L
+        def inside(p: NDArray[np.float64], n: NDArray[np.float64] = n, c: float = con.c) -> bool:
+            return bool(n @ p <= c + 1e-15 * L)
 
-        out = []
+        out: list[tuple[NDArray[np.float64], int]] = []
         for k in range(len(poly)):
             (p, _), (q, lab) = poly[k - 1], poly[k]
             pin, qin = inside(p), inside(q)
@@ -121,7 +128,7 @@ def _clip_polygon(cons: list[Constraint], L: float) -> list[tuple[np.ndarray, in
                 else:
                     out.append((ipt, ci))
                     out.append((q, lab))
-        dedup = []
+        dedup: list[tuple[NDArray[np.float64], int]] = []
         for v in out:
             if not dedup or np.linalg.norm(v[0] - dedup[-1][0]) > 1e-14 * L:
                 dedup.append(v)
@@ -134,7 +141,8 @@ def _clip_polygon(cons: list[Constraint], L: float) -> list[tuple[np.ndarray, in
     return poly
 
 
-def _line_in_polygon(cons: list[Constraint], point, direction, skip: str) -> tuple[np.ndarray, np.ndarray] | None:
+def _line_in_polygon(cons: list[Constraint], point: ArrayLike, direction: ArrayLike,
+                     skip: str) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
     """Part of the line ``point + t direction`` inside every constraint but ``skip`` (Cyrus-Beck)."""
     p, d = np.asarray(point, float), np.asarray(direction, float)
     lo, hi = -np.inf, np.inf
@@ -153,7 +161,7 @@ def _line_in_polygon(cons: list[Constraint], point, direction, skip: str) -> tup
     return p + lo * d, p + hi * d
 
 
-def _sample(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
+def _sample(a: NDArray[np.float64], b: NDArray[np.float64], n: int) -> NDArray[np.float64]:
     """``n`` points from a to b, clustered at the ends (where the FK map has sqrt behaviour)."""
     t = 0.5 - 0.5 * np.cos(np.linspace(0.0, np.pi, n))
     return a[None, :] + t[:, None] * (b - a)[None, :]
@@ -177,21 +185,21 @@ class Workspace:
     rho1_range: tuple[float, float]
     rho2_range: tuple[float, float]
     paper_range: bool
-    polygon: np.ndarray
+    polygon: NDArray[np.float64]
     edges: tuple[Curve, ...]
     singular_curves: tuple[Curve, ...]
     constraints: tuple[Constraint, ...] = field(repr=False)
 
-    def contains(self, x, y) -> np.ndarray:
+    def contains(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.bool_]:
         """Whether each target D = (x, y) is reachable (broadcast boolean array)."""
         return _reachable(x, y, self.params, self.constraints, self.paper_range)
 
-    def boundary_xy(self) -> list[np.ndarray]:
+    def boundary_xy(self) -> list[NDArray[np.float64]]:
         """The boundary of the reachable set as ordered polylines (runs of on-boundary points)."""
-        runs = []
+        runs: list[NDArray[np.float64]] = []
         for curve in self.edges + tuple(c for c in self.singular_curves if c.kind == "beta_half_pi"):
             mask = curve.on_boundary
-            start = None
+            start: int | None = None
             for j in range(len(mask) + 1):
                 if j < len(mask) and mask[j]:
                     start = j if start is None else start
@@ -253,19 +261,22 @@ class Workspace:
         return float(val)
 
 
-def _reachable(x, y, params: Class2Params, cons, paper_range: bool) -> np.ndarray:
+def _reachable(x: ArrayLike, y: ArrayLike, params: Class2Params, cons: Sequence[Constraint],
+               paper_range: bool) -> NDArray[np.bool_]:
     res = ik_array_all(x, y, params)
     ok = (res.code == 0) | ((res.code == 1) & (not paper_range))
     tol = LIMIT_TOL * params.L
     for con in cons:
         ok &= con.a * res.rho1 + con.b * res.rho2 <= con.c + tol
-    return ok.any(axis=-1)
+    reachable: NDArray[np.bool_] = ok.any(axis=-1)
+    return reachable
 
 
-_RING = np.exp(1j * np.linspace(0.0, 2.0 * np.pi, 16, endpoint=False))
+_RING: Final = np.exp(1j * np.linspace(0.0, 2.0 * np.pi, 16, endpoint=False))
 
 
-def _image(kind, label, a, b, params: Class2Params, n: int, cons, paper_range: bool) -> Curve:
+def _image(kind: str, label: str, a: NDArray[np.float64], b: NDArray[np.float64], params: Class2Params, n: int,
+           cons: Sequence[Constraint], paper_range: bool) -> Curve:
     """The curve from a to b in the actuator plane, its FK image, and which image points are
     on the boundary of the reachable set (a circle of radius 1e-6 L around them leaves it)."""
     rho = _sample(a, b, n)
@@ -304,13 +315,13 @@ def workspace(
             f"no admissible configuration for rho1 in [{r1[0]:g}, {r1[1]:g}] m, rho2 in "
             f"[{r2[0]:g}, {r2[1]:g}] m with rho1 + rho2 <= 2L{hint}"
         )
-    edges = []
+    edges: list[Curve] = []
     for k in range(len(poly)):
         (p, _), (q, lab) = poly[k - 1], poly[k]
         if lab < 0 or np.linalg.norm(q - p) <= 1e-14 * L:
             continue
         edges.append(_image(cons[lab].kind, cons[lab].label, p, q, params, n, cons, paper_range))
-    singular = []
+    singular: list[Curve] = []
     for kind, label, point, direction in (
         ("lambda1", "rho1 + rho2 = 2L (lambda1 = 0)", (2.0 * L, 0.0), (-1.0, 1.0)),
         ("lambda2", "rho1 = L (lambda2 = 0)", (L, 0.0), (0.0, 1.0)),
@@ -355,7 +366,7 @@ class SingularityReport:
     x: float
     y: float
     sets: tuple[SingularSet, ...]
-    jacobian: np.ndarray | None
+    jacobian: NDArray[np.float64] | None
     jacobian_det: float
     jacobian_cond: float
 
@@ -372,7 +383,7 @@ class SingularityReport:
         """The sets closer than ``threshold`` (dimensionless)."""
         return tuple(s for s in self.sets if s.distance <= threshold)
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         return {
             "rho1": self.rho1, "rho2": self.rho2, "beta": self.beta, "x": self.x, "y": self.y,
             "sets": [s.__dict__ for s in self.sets],

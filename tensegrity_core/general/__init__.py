@@ -12,7 +12,8 @@ Typical use::
     r = form_find(s)                 # r.success, r.nodes, r.member_forces, r.min_eigenvalue
 """
 
-from tensegrity_core.general.configuration import Configuration, DofLayout, transformation_matrix
+from tensegrity_core.general.configuration import Configuration, transformation_matrix
+from tensegrity_core.general.dofs import DofLayout
 from tensegrity_core.general.examples import example_names, example_path, load_example
 from tensegrity_core.general.formfind import (
     METHODS,

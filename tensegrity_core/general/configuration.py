@@ -24,75 +24,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.general.rotation import best_fit_rotation, exp_so3, hat
 from tensegrity_core.general.structure import Structure, StructureError
-
-
-class DofLayout:
-    """Index bookkeeping of the minimal coordinate ``U`` of a structure (built once per structure).
-
-    Attributes: ``n_dof``; ``free_index`` (n, 3) int, the ``U`` index of each free node
-    coordinate or -1; ``node_body`` (n,) int, the moving-body slot of each node or -1;
-    ``body_dof`` (nb,) int, the ``U`` index of each moving body's centre (its rotation
-    follows at +3); ``moving_bodies`` the structure's body indices that move;
-    ``offsets`` (n, 3) body-frame offsets ``p_j`` of body nodes (zero elsewhere);
-    ``fixed_mask`` (n, 3) bool, coordinates that never move; ``body_radii`` (nb,) the
-    largest node distance from each body's centre [m].
-    """
-
-    def __init__(self, structure: Structure):
-        n = structure.n_nodes
-        self.moving_bodies = tuple(k for k, b in enumerate(structure.bodies) if not b.fixed)
-        node_body = np.full(n, -1, dtype=np.int64)
-        fixed_mask = structure.pinned.copy()
-        for k, body in enumerate(structure.bodies):
-            if body.fixed:
-                fixed_mask[list(body.nodes)] = True
-        for slot, k in enumerate(self.moving_bodies):
-            node_body[list(structure.bodies[k].nodes)] = slot
-        free = (node_body[:, None] < 0) & ~fixed_mask
-        free_index = np.full((n, 3), -1, dtype=np.int64)
-        n_free = int(free.sum())
-        free_index[free] = np.arange(n_free)
-        nb = len(self.moving_bodies)
-        self.body_dof = n_free + 6 * np.arange(nb, dtype=np.int64)
-        self.n_free = n_free
-        self.n_dof = n_free + 6 * nb
-        self.free_index = free_index
-        self.node_body = node_body
-        self.fixed_mask = fixed_mask
-        self.body_nodes = tuple(np.asarray(structure.bodies[k].nodes, dtype=np.int64)
-                                for k in self.moving_bodies)
-        offsets = np.zeros((n, 3))
-        ref_centres = np.zeros((nb, 3))
-        for slot, idx in enumerate(self.body_nodes):
-            ref_centres[slot] = structure.nodes[idx].mean(axis=0)
-            offsets[idx] = structure.nodes[idx] - ref_centres[slot]
-        self.offsets = offsets
-        self.ref_centres = ref_centres
-        self.body_radii = np.array([np.linalg.norm(offsets[idx], axis=1).max() for idx in self.body_nodes])
-        self.body_sizes = np.array([len(idx) for idx in self.body_nodes], dtype=float)
-        self.body_masses = np.array([structure.bodies[k].mass for k in self.moving_bodies])
-        # U indices touched by each node: 6 slots (x, y, z, tx, ty, tz) with -1 where unused.
-        node_dofs = np.full((n, 6), -1, dtype=np.int64)
-        node_dofs[:, :3] = free_index
-        on_body = node_body >= 0
-        base = self.body_dof[node_body[on_body]]
-        node_dofs[on_body] = base[:, None] + np.arange(6)[None, :]
-        self.node_dofs = node_dofs
-        self.names = structure.node_names
-        self.body_names = tuple(structure.bodies[k].name for k in self.moving_bodies)
-
-    def labels(self) -> list[str]:
-        """Human-readable name of every entry of ``U`` (e.g. ``"t1.z"``, ``"top.rx"``)."""
-        out = [""] * self.n_dof
-        for i, j in zip(*np.nonzero(self.free_index >= 0)):
-            out[self.free_index[i, j]] = f"{self.names[i]}.{'xyz'[j]}"
-        for slot, name in enumerate(self.body_names):
-            for j, s in enumerate(("cx", "cy", "cz", "rx", "ry", "rz")):
-                out[self.body_dof[slot] + j] = f"{name}.{s}"
-        return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,9 +36,9 @@ class Configuration:
     orientation. Immutable; :meth:`retract` returns a new configuration."""
 
     structure: Structure
-    coords: np.ndarray      # (n, 3) node coordinates [m]
-    centres: np.ndarray     # (nb, 3) moving-body centres [m]
-    rotations: np.ndarray   # (nb, 3, 3) active rotation from the reference drawing
+    coords: NDArray[np.float64]      # (n, 3) node coordinates [m]
+    centres: NDArray[np.float64]     # (nb, 3) moving-body centres [m]
+    rotations: NDArray[np.float64]   # (nb, 3, 3) active rotation from the reference drawing
 
     @classmethod
     def initial(cls, structure: Structure) -> Configuration:
@@ -114,7 +49,7 @@ class Configuration:
                    np.broadcast_to(np.eye(3), (nb, 3, 3)).copy())
 
     @classmethod
-    def from_coords(cls, structure: Structure, coords, *, rigid_tol: float = 1e-5) -> Configuration:
+    def from_coords(cls, structure: Structure, coords: ArrayLike, *, rigid_tol: float = 1e-5) -> Configuration:
         """The configuration with node coordinates ``coords`` (n, 3) [m].
 
         Each moving body's orientation is the best-fit rotation of its reference shape; the
@@ -122,28 +57,28 @@ class Configuration:
         the body size (else :class:`StructureError`), and are then placed exactly. Fixed
         coordinates (pinned axes, fixed bodies) keep the values given in ``coords``.
         """
-        coords = np.array(coords, dtype=float)
-        if coords.shape != (structure.n_nodes, 3):
-            raise StructureError(f"coords must have shape ({structure.n_nodes}, 3), got {coords.shape}")
-        if not np.isfinite(coords).all():
+        xyz = np.array(coords, dtype=np.float64)
+        if xyz.shape != (structure.n_nodes, 3):
+            raise StructureError(f"coords must have shape ({structure.n_nodes}, 3), got {xyz.shape}")
+        if not np.isfinite(xyz).all():
             raise StructureError("coords contain non-finite values")
         lay = structure.layout
         nb = len(lay.moving_bodies)
         centres = np.zeros((nb, 3))
         rotations = np.zeros((nb, 3, 3))
         for slot, idx in enumerate(lay.body_nodes):
-            c = coords[idx].mean(axis=0)
-            R, misfit = best_fit_rotation(lay.offsets[idx], coords[idx] - c)
+            c = xyz[idx].mean(axis=0)
+            R, misfit = best_fit_rotation(lay.offsets[idx], xyz[idx] - c)
             size = np.sqrt(np.mean(np.sum(lay.offsets[idx] ** 2, axis=1)))
             if misfit > rigid_tol * size:
                 raise StructureError(
                     f"coords deform rigid body {lay.body_names[slot]!r}: its nodes are "
                     f"{misfit:.3g} m (RMS) from a rigid placement of its reference shape")
             centres[slot], rotations[slot] = c, R
-            coords[idx] = c + lay.offsets[idx] @ R.T
-        return cls(structure, coords, centres, rotations)
+            xyz[idx] = c + lay.offsets[idx] @ R.T
+        return cls(structure, xyz, centres, rotations)
 
-    def retract(self, dU) -> Configuration:
+    def retract(self, dU: ArrayLike) -> Configuration:
         """The configuration moved by the increment ``dU`` (n_dof,): free coordinates and
         centres add, orientations turn by ``exp(hat(dtheta))`` on the left."""
         lay = self.structure.layout
@@ -162,7 +97,7 @@ class Configuration:
             centres, rotations = self.centres, self.rotations
         return Configuration(self.structure, coords, centres, rotations)
 
-    def arms(self) -> np.ndarray:
+    def arms(self) -> NDArray[np.float64]:
         """(n, 3) world-frame offsets ``r_j = n_j - c`` of body nodes from their body centre
         (zero for other nodes)."""
         lay = self.structure.layout
@@ -185,7 +120,7 @@ def transformation_matrix(config: Configuration) -> sp.csr_matrix:
     return sp.csr_matrix((J[keep], (rows[keep], cols[keep])), shape=(3 * n, lay.n_dof))
 
 
-def node_jacobians(config: Configuration) -> np.ndarray:
+def node_jacobians(config: Configuration) -> NDArray[np.float64]:
     """(n, 3, 6) local Jacobians ``dn_j / d(local dofs)`` matching ``layout.node_dofs``:
     ``[I, 0]`` restricted to free axes for tensegrity nodes, ``[I, -hat(r_j)]`` for body nodes."""
     lay = config.structure.layout

@@ -21,14 +21,16 @@ by reading the text again as YAML, which JSON is) and the file's name.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
+from typing import Any, Final
 
 from tensegrity_core.general.structure import Structure, StructureError
 from tensegrity_core.general.structure_schema import structure_from_dict
 from tensegrity_core.schema import DEFAULT_LIMITS, Limits, parse_text_format, parse_yaml, read_file
 
 #: File suffixes of structure descriptions.
-SUFFIXES = (".yaml", ".yml", ".json", ".toml", ".npz")
+SUFFIXES: Final = (".yaml", ".yml", ".json", ".toml", ".npz")
 
 
 def structure_from_text(text: str, fmt: str | None = None, *, limits: Limits = DEFAULT_LIMITS,
@@ -40,7 +42,7 @@ def structure_from_text(text: str, fmt: str | None = None, *, limits: Limits = D
     return _build(data, text, fmt, limits, max_members, name, file=None)
 
 
-def structure_from_file(path, *, limits: Limits = DEFAULT_LIMITS, max_members: int | None = None) -> Structure:
+def structure_from_file(path: str | os.PathLike[str], *, limits: Limits = DEFAULT_LIMITS, max_members: int | None = None) -> Structure:
     """The structure in the file ``path``: a description (``.yaml``, ``.yml``, ``.json``,
     ``.toml``) or the array file ``.npz`` (see :mod:`~tensegrity_core.general.structure_npz`).
     Its name defaults to the file's stem; errors name the file."""
@@ -57,7 +59,7 @@ def structure_from_file(path, *, limits: Limits = DEFAULT_LIMITS, max_members: i
     return _build(data, text, fmt, limits, max_members, path.stem, file=path.name)
 
 
-def _build(data, text: str, fmt: str | None, limits: Limits, max_members: int | None, name: str,
+def _build(data: Any, text: str, fmt: str | None, limits: Limits, max_members: int | None, name: str,
            file: str | None) -> Structure:
     try:
         return structure_from_dict(data, default_name=name, max_members=max_members)
@@ -77,7 +79,7 @@ def _located_by_yaml(text: str, limits: Limits, max_members: int | None, name: s
     return None
 
 
-def load_structure(source) -> Structure:
+def load_structure(source: object) -> Structure:
     """A :class:`Structure` from a Structure (returned as is), a dict, a path (``Path``, or a
     ``str`` without a line break that ends in a structure suffix or names an existing file)
     or description text. For local use only: see the module's docstring."""

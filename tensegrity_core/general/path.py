@@ -16,10 +16,12 @@ returning the collapsed or snapped-through shape the solver may have reached.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from tensegrity_core.general.configuration import transformation_matrix
 from tensegrity_core.general.formfind import FormFindResult, form_find
@@ -39,21 +41,24 @@ class PathResult:
     bracketing the end of the branch, or ``None``; ``message``.
     """
 
-    parameters: list = field(default_factory=list)
-    results: list = field(default_factory=list)
+    parameters: list[float] = field(default_factory=list)
+    results: list[FormFindResult] = field(default_factory=list)
     completed: bool = False
-    limit_point: tuple | None = None
+    limit_point: tuple[float, float] | None = None
     message: str = ""
 
     @property
-    def member_forces(self) -> np.ndarray:
+    def member_forces(self) -> NDArray[np.float64]:
         """(steps, m) member forces [N] along the path."""
         return np.array([r.member_forces for r in self.results])
 
 
-def tangent_displacement(structure: Structure, result: FormFindResult, dl0_dp) -> float:
-    """Largest first-order node displacement per unit parameter, ``max |G dU/dp|`` [m]."""
+def tangent_displacement(structure: Structure, result: FormFindResult, dl0_dp: NDArray[np.float64]) -> float:
+    """Largest first-order node displacement per unit parameter, ``max |G dU/dp|`` [m]
+    at the equilibrium of a successful ``result``."""
     config = result.configuration
+    if config is None:
+        raise StructureError(f"no equilibrium to linearise about: {result.message}")
     lengths = member_lengths(structure, config.coords)
     taut = ~(structure.is_string & (lengths < structure.rest_lengths))
     dt_dp = np.where(taut, -structure.EA * lengths / structure.rest_lengths**2, 0.0) * dl0_dp
@@ -63,9 +68,9 @@ def tangent_displacement(structure: Structure, result: FormFindResult, dl0_dp) -
     return float(np.abs(transformation_matrix(config) @ dU).max())
 
 
-def rest_length_path(structure: Structure, rest_lengths_of: Callable[[float], np.ndarray], parameters,
-                     *, min_step: float | None = None, jump_factor: float = 4.0,
-                     **form_find_options) -> PathResult:
+def rest_length_path(structure: Structure, rest_lengths_of: Callable[[float], NDArray[np.float64]],
+                     parameters: Iterable[float], *, min_step: float | None = None, jump_factor: float = 4.0,
+                     **form_find_options: Any) -> PathResult:
     """Follow the stable equilibrium branch as ``rest_lengths_of(p)`` (m,) [m] changes with
     ``p`` over ``parameters`` (monotonic sequence). ``min_step`` defaults to 1e-3 of the
     first parameter step. Extra keyword arguments go to :func:`form_find`."""
@@ -122,7 +127,7 @@ def rest_length_path(structure: Structure, rest_lengths_of: Callable[[float], np
 
 
 
-def _eigenvalue_crosses(lams: list, p: float) -> bool:
+def _eigenvalue_crosses(lams: list[tuple[float, float]], p: float) -> bool:
     """Whether the smallest eigenvalue, extrapolated linearly from the last two accepted
     points, reaches zero by parameter ``p``."""
     (p0, l0), (p1, l1) = lams[-2], lams[-1]

@@ -4,17 +4,26 @@ second shape drawn dashed and faint."""
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from tensegrity_core.general.statics import member_lengths
 from tensegrity_core.general.structure import Structure
 
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+    from mpl_toolkits.mplot3d import Axes3D  # type: ignore[import-untyped]  # ships without type information
 
-def draw_structure(ax, structure: Structure, coords, *, faint: bool = False, label: str | None = None) -> None:
+
+def draw_structure(ax: Axes3D, structure: Structure, coords: ArrayLike, *, faint: bool = False,
+                   label: str | None = None) -> None:
     """Draw ``structure`` at ``coords`` (n, 3) [m] on a 3-D matplotlib axes."""
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # type: ignore[import-untyped]  # as above
 
-    coords = np.asarray(coords, dtype=float)
+    coords = np.asarray(coords, dtype=np.float64)
     alpha = 0.35 if faint else 1.0
     style = "--" if faint else "-"
     slack = structure.is_string & (member_lengths(structure, coords) < structure.rest_lengths)
@@ -43,7 +52,8 @@ def draw_structure(ax, structure: Structure, coords, *, faint: bool = False, lab
         ax.scatter(*coords[fixed].T, marker="^", color="green", s=25, depthshade=False)
 
 
-def plot_shapes(structure: Structure, final, initial=None, *, path=None, title: str | None = None):
+def plot_shapes(structure: Structure, final: ArrayLike, initial: ArrayLike | None = None, *,
+                path: str | Path | None = None, title: str | None = None) -> Figure:
     """Figure of the ``final`` shape (solid) over the ``initial`` one (dashed); saved to
     ``path`` (PNG) when given; a structure lying in a coordinate plane is seen face on.
     Returns the figure."""

@@ -9,11 +9,12 @@ increments are applied on the left, ``R_new = exp(hat(dtheta)) @ R`` (spatial fr
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 
-def hat(v) -> np.ndarray:
+def hat(v: ArrayLike) -> NDArray[np.float64]:
     """Skew-symmetric matrix of ``v`` (shape ``(..., 3)`` -> ``(..., 3, 3)``): ``hat(a) b = a x b``."""
-    v = np.asarray(v, dtype=float)
+    v = np.asarray(v, dtype=np.float64)
     out = np.zeros(v.shape + (3,))
     out[..., 0, 1] = -v[..., 2]
     out[..., 0, 2] = v[..., 1]
@@ -24,13 +25,13 @@ def hat(v) -> np.ndarray:
     return out
 
 
-def exp_so3(theta) -> np.ndarray:
+def exp_so3(theta: ArrayLike) -> NDArray[np.float64]:
     """Rotation matrix ``exp(hat(theta))`` by Rodrigues' formula, vectorised over ``(..., 3)``.
 
     Uses the Taylor series of ``sin(a)/a`` and ``(1 - cos a)/a^2`` below ``a = 1e-4`` rad so
     the result is accurate to rounding for every angle, including zero.
     """
-    theta = np.asarray(theta, dtype=float)
+    theta = np.asarray(theta, dtype=np.float64)
     a2 = np.sum(theta * theta, axis=-1)
     a = np.sqrt(a2)
     small = a < 1e-4
@@ -39,10 +40,11 @@ def exp_so3(theta) -> np.ndarray:
     c = np.where(small, 0.5 - a2 / 24.0 + a2 * a2 / 720.0, (1.0 - np.cos(safe)) / (safe * safe))
     K = hat(theta)
     eye = np.broadcast_to(np.eye(3), K.shape)
-    return eye + s[..., None, None] * K + c[..., None, None] * (K @ K)
+    R: NDArray[np.float64] = eye + s[..., None, None] * K + c[..., None, None] * (K @ K)
+    return R
 
 
-def best_fit_rotation(reference, current) -> tuple[np.ndarray, float]:
+def best_fit_rotation(reference: ArrayLike, current: ArrayLike) -> tuple[NDArray[np.float64], float]:
     """Proper rotation ``R`` minimising ``sum |R p_j - q_j|^2`` (Kabsch), and the RMS misfit [m].
 
     ``reference`` and ``current`` are ``(k, 3)`` point sets, each already centred on its

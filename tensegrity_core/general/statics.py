@@ -21,15 +21,21 @@ rotation-vector increments at ``dtheta = 0``) -- i.e. exactly the physical resid
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal, TypeAlias, overload
 
 import numpy as np
 import scipy.sparse as sp
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.general.configuration import Configuration, node_jacobians
 from tensegrity_core.general.structure import Structure, StructureError
 
+#: Where a structure is: a :class:`Configuration`, node coordinates (n, 3) [m], or
+#: ``None`` for the reference drawing.
+StateLike: TypeAlias = Configuration | ArrayLike | None
 
-def as_configuration(structure: Structure, state) -> Configuration:
+
+def as_configuration(structure: Structure, state: StateLike) -> Configuration:
     """Accept a :class:`Configuration`, ``None`` (the reference drawing) or ``(n, 3)`` coordinates.
 
     A configuration of another structure with the same nodes and rigid bodies (e.g. before
@@ -52,7 +58,7 @@ def as_configuration(structure: Structure, state) -> Configuration:
     return Configuration.from_coords(structure, state)
 
 
-def _coords(structure: Structure, state) -> np.ndarray:
+def _coords(structure: Structure, state: StateLike) -> NDArray[np.float64]:
     if isinstance(state, Configuration):
         return state.coords
     if state is None:
@@ -60,25 +66,28 @@ def _coords(structure: Structure, state) -> np.ndarray:
     return np.asarray(state, dtype=float)
 
 
-def member_vectors(structure: Structure, coords) -> np.ndarray:
+def member_vectors(structure: Structure, coords: ArrayLike) -> NDArray[np.float64]:
     """``h_i = n_b - n_a`` [m], shape ``(..., m, 3)`` for coords ``(..., n, 3)``."""
-    coords = np.asarray(coords, dtype=float)
-    return coords[..., structure.members[:, 1], :] - coords[..., structure.members[:, 0], :]
+    xyz = np.asarray(coords, dtype=np.float64)
+    h: NDArray[np.float64] = xyz[..., structure.members[:, 1], :] - xyz[..., structure.members[:, 0], :]
+    return h
 
 
-def member_lengths(structure: Structure, coords) -> np.ndarray:
+def member_lengths(structure: Structure, coords: StateLike) -> NDArray[np.float64]:
     """Member lengths [m], shape ``(..., m)`` for coords ``(..., n, 3)`` (batch dims allowed)."""
-    return np.linalg.norm(member_vectors(structure, _coords(structure, coords)), axis=-1)
+    lengths: NDArray[np.float64] = np.linalg.norm(member_vectors(structure, _coords(structure, coords)), axis=-1)
+    return lengths
 
 
-def forces_from_lengths(structure: Structure, lengths, rest_lengths=None) -> np.ndarray:
+def forces_from_lengths(structure: Structure, lengths: ArrayLike,
+                        rest_lengths: ArrayLike | None = None) -> NDArray[np.float64]:
     """Tension-positive member forces [N] for member lengths ``(..., m)`` [m]; strings go slack."""
     l0 = structure.rest_lengths if rest_lengths is None else np.asarray(rest_lengths, dtype=float)
     t = structure.EA * (np.asarray(lengths, dtype=float) - l0) / l0
     return np.where(structure.is_string & (t < 0.0), 0.0, t)
 
 
-def member_forces(structure: Structure, coords, rest_lengths=None) -> np.ndarray:
+def member_forces(structure: Structure, coords: StateLike, rest_lengths: ArrayLike | None = None) -> NDArray[np.float64]:
     """Tension-positive member forces [N], shape ``(..., m)``, for coords ``(..., n, 3)`` [m].
 
     ``rest_lengths`` overrides the structure's rest lengths (broadcastable to ``(..., m)``),
@@ -87,7 +96,7 @@ def member_forces(structure: Structure, coords, rest_lengths=None) -> np.ndarray
     return forces_from_lengths(structure, member_lengths(structure, coords), rest_lengths)
 
 
-def axial_stiffness(structure: Structure, lengths) -> np.ndarray:
+def axial_stiffness(structure: Structure, lengths: ArrayLike) -> NDArray[np.float64]:
     """``dt/dl`` [N/m]: ``EA/l0`` for taut members, 0 for slack strings (``l < l0``; a string
     exactly at its rest length counts as taut, the stiffness it has when pulled)."""
     k = structure.EA / structure.rest_lengths
@@ -95,48 +104,51 @@ def axial_stiffness(structure: Structure, lengths) -> np.ndarray:
     return np.where(slack, 0.0, k)
 
 
-def body_centres(structure: Structure, coords) -> np.ndarray:
+def body_centres(structure: Structure, coords: ArrayLike) -> NDArray[np.float64]:
     """(nb, 3) centroids of the moving rigid bodies' nodes [m]."""
     lay = structure.layout
-    coords = np.asarray(coords, dtype=float)
+    xyz = np.asarray(coords, dtype=np.float64)
     on = lay.node_body >= 0
-    return group_sum(lay.node_body[on], coords[on], len(lay.moving_bodies)) / lay.body_sizes[:, None]
+    centres: NDArray[np.float64] = group_sum(lay.node_body[on], xyz[on], len(lay.moving_bodies)) \
+        / lay.body_sizes[:, None]
+    return centres
 
 
-def group_sum(index, values, n: int) -> np.ndarray:
+def group_sum(index: NDArray[np.integer], values: ArrayLike, n: int) -> NDArray[np.float64]:
     """``out[k] = sum of values[i] with index[i] == k`` for (N, d) values (bincount per column;
     much faster than ``np.add.at``)."""
-    values = np.asarray(values, dtype=float)
-    flat = values.reshape(len(values), -1)
+    v = np.asarray(values, dtype=np.float64)
+    flat = v.reshape(len(v), -1)
     out = np.stack([np.bincount(index, weights=flat[:, j], minlength=n) for j in range(flat.shape[1])], axis=1)
-    return out.reshape((n,) + values.shape[1:])
+    return out.reshape((n,) + v.shape[1:])  # type: ignore[return-value]  # numpy's stubs: bincount with weights is typed intp, is float64
 
 
-def potential_energy(structure: Structure, coords) -> float:
+def potential_energy(structure: Structure, coords: StateLike) -> float:
     """Total potential energy ``V`` [J] (strain - work of dead loads and gravity)."""
-    coords = _coords(structure, coords)
-    lengths = member_lengths(structure, coords)
+    xyz = _coords(structure, coords)
+    lengths = member_lengths(structure, xyz)
     stretch = lengths - structure.rest_lengths
     taut = ~(structure.is_string & (stretch < 0.0))
     strain = 0.5 * np.sum(np.where(taut, structure.EA * stretch**2 / structure.rest_lengths, 0.0))
-    work = np.sum(structure.external_forces * coords)
+    work = np.sum(structure.external_forces * xyz)
     lay = structure.layout
     if lay.body_masses.size:
-        work += float(lay.body_masses @ (body_centres(structure, coords) @ structure.gravity))
+        work += float(lay.body_masses @ (body_centres(structure, xyz) @ structure.gravity))
     return float(strain - work)
 
 
-def internal_nodal_forces(structure: Structure, coords, forces=None) -> np.ndarray:
+def internal_nodal_forces(structure: Structure, coords: ArrayLike,
+                          forces: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
     """(n, 3) forces [N] that the members exert on the nodes."""
-    coords = np.asarray(coords, dtype=float)
-    h = member_vectors(structure, coords)
+    xyz = np.asarray(coords, dtype=np.float64)
+    h = member_vectors(structure, xyz)
     lengths = np.linalg.norm(h, axis=1)
     t = forces_from_lengths(structure, lengths) if forces is None else forces
     ft = (t / lengths)[:, None] * h
-    return group_sum(structure.members.T.ravel(), np.concatenate([ft, -ft]), len(coords))
+    return group_sum(structure.members.T.ravel(), np.concatenate([ft, -ft]), len(xyz))
 
 
-def scatter_to_dofs(config: Configuration, node_vectors) -> np.ndarray:
+def scatter_to_dofs(config: Configuration, node_vectors: ArrayLike) -> NDArray[np.float64]:
     """``G^T v`` for a nodal vector field ``v`` (n, 3): the generalised force of nodal forces
     (free coordinates take their component; a body takes the sum and the moment about its
     centre)."""
@@ -168,21 +180,22 @@ class OutOfBalance:
     node distance from the centre) -- the convergence measure of form-finding.
     """
 
-    generalized: np.ndarray
-    node_forces: np.ndarray
-    body_forces: np.ndarray
-    body_moments: np.ndarray
+    generalized: NDArray[np.float64]
+    node_forces: NDArray[np.float64]
+    body_forces: NDArray[np.float64]
+    body_moments: NDArray[np.float64]
     force_residual: float
     moment_residual: float
     residual: float
 
     @property
-    def reactions(self) -> np.ndarray:
+    def reactions(self) -> NDArray[np.float64]:
         """(n, 3) support reactions [N] on fixed coordinates (zero elsewhere)."""
         return -self.node_forces
 
 
-def generalized_force(structure: Structure, config: Configuration, nodal_forces=None) -> np.ndarray:
+def generalized_force(structure: Structure, config: Configuration,
+                      nodal_forces: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
     """``P = -dV/dU`` (n_dof,) at ``config``; ``nodal_forces`` (n, 3) if already computed."""
     lay = structure.layout
     f = internal_nodal_forces(structure, config.coords) + structure.external_forces \
@@ -193,7 +206,7 @@ def generalized_force(structure: Structure, config: Configuration, nodal_forces=
     return P
 
 
-def out_of_balance(structure: Structure, coords) -> OutOfBalance:
+def out_of_balance(structure: Structure, coords: StateLike) -> OutOfBalance:
     """The physical residual at ``coords`` ((n, 3) array or :class:`Configuration`)."""
     config = as_configuration(structure, coords)
     lay = structure.layout
@@ -214,7 +227,16 @@ def out_of_balance(structure: Structure, coords) -> OutOfBalance:
                         max(force_res, eq))
 
 
-def equilibrium_matrix(structure: Structure, coords, *, sparse: bool = False):
+@overload
+def equilibrium_matrix(structure: Structure, coords: StateLike,
+                       *, sparse: Literal[False] = False) -> NDArray[np.float64]: ...
+@overload
+def equilibrium_matrix(structure: Structure, coords: StateLike, *, sparse: Literal[True]) -> sp.csc_matrix: ...
+@overload
+def equilibrium_matrix(structure: Structure, coords: StateLike,
+                       *, sparse: bool) -> NDArray[np.float64] | sp.csc_matrix: ...
+def equilibrium_matrix(structure: Structure, coords: StateLike,
+                       *, sparse: bool = False) -> NDArray[np.float64] | sp.csc_matrix:
     """``A_r = G^T A_2`` (n_dof, m), Eqs. 65-66: ``A_r t`` is the generalised force that
     member forces ``t`` take from the nodes, so equilibrium reads ``A_r t = G^T f_ext + w``
     (Eq. 64) and ``B_r = A_r^T`` is the compatibility matrix (``dl = B_r dU``, Eqs. 68-70).
@@ -245,13 +267,13 @@ class Modes:
     """
 
     rank: int
-    singular_values: np.ndarray
-    self_stress: np.ndarray
-    mechanisms: np.ndarray
+    singular_values: NDArray[np.float64]
+    self_stress: NDArray[np.float64]
+    mechanisms: NDArray[np.float64]
     tol: float
 
 
-def modes(structure: Structure, coords=None, *, rtol: float = 1e-8) -> Modes:
+def modes(structure: Structure, coords: StateLike = None, *, rtol: float = 1e-8) -> Modes:
     """Rank, self-stress and mechanism modes of ``A_r`` at ``coords`` (default: reference).
 
     Singular values below ``rtol`` times the largest count as zero (configurations from

@@ -27,12 +27,15 @@ against finite differences).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal, overload
 
 import numpy as np
 import scipy.sparse as sp
+from numpy.typing import ArrayLike, NDArray
 
-from tensegrity_core.general.configuration import Configuration, node_jacobians
+from tensegrity_core.general.configuration import Configuration, node_jacobians, transformation_matrix
 from tensegrity_core.general.statics import (
+    StateLike,
     as_configuration,
     axial_stiffness,
     forces_from_lengths,
@@ -43,53 +46,22 @@ from tensegrity_core.general.statics import (
 from tensegrity_core.general.structure import Structure
 
 
-def sym_rotation_hessian(g, r) -> np.ndarray:
+def sym_rotation_hessian(g: ArrayLike, r: ArrayLike) -> NDArray[np.float64]:
     """``S(g, r) = 1/2 (g r^T + r g^T) - (g . r) I``, vectorised over leading dims."""
-    g = np.asarray(g, dtype=float)
-    r = np.asarray(r, dtype=float)
-    outer = 0.5 * (g[..., :, None] * r[..., None, :] + r[..., :, None] * g[..., None, :])
-    return outer - np.sum(g * r, axis=-1)[..., None, None] * np.eye(3)
-
-
-class StiffnessPattern:
-    """Sparsity pattern of ``K_T`` (fixed by the topology) and a fast scatter-add assembly.
-
-    Element entries (12 x 12 per member, 3 x 3 per moving body) are summed into CSR storage
-    with one ``bincount`` per assembly; the pattern is built once per structure.
-    """
-
-    def __init__(self, structure: Structure):
-        lay = structure.layout
-        n = lay.n_dof
-        a, b = structure.members[:, 0], structure.members[:, 1]
-        dofs = np.concatenate([lay.node_dofs[a], lay.node_dofs[b]], axis=1)      # (m, 12)
-        self.elem_keep = (dofs[:, :, None] >= 0) & (dofs[:, None, :] >= 0)
-        rows = np.broadcast_to(dofs[:, :, None], self.elem_keep.shape)[self.elem_keep]
-        cols = np.broadcast_to(dofs[:, None, :], self.elem_keep.shape)[self.elem_keep]
-        tdofs = lay.body_dof[:, None] + 3 + np.arange(3)[None, :]                  # (nb, 3)
-        brows = np.broadcast_to(tdofs[:, :, None], (len(tdofs), 3, 3)).ravel()
-        bcols = np.broadcast_to(tdofs[:, None, :], (len(tdofs), 3, 3)).ravel()
-        keys = np.concatenate([rows, brows]).astype(np.int64) * n + np.concatenate([cols, bcols])
-        uniq, self.inverse = np.unique(keys, return_inverse=True)
-        self.indices = (uniq % n).astype(np.int32)
-        self.indptr = np.searchsorted(uniq // n, np.arange(n + 1)).astype(np.int32)
-        self.shape = (n, n)
-        self.nnz = uniq.size
-
-    def assemble(self, elements: np.ndarray, body_blocks: np.ndarray) -> sp.csr_matrix:
-        """CSR matrix from member element matrices (m, 12, 12) and body rotation blocks (nb, 3, 3)."""
-        w = np.concatenate([elements[self.elem_keep], body_blocks.ravel()])
-        data = np.bincount(self.inverse, weights=w, minlength=self.nnz)
-        return sp.csr_matrix((data, self.indices, self.indptr), shape=self.shape)
+    ga = np.asarray(g, dtype=np.float64)
+    ra = np.asarray(r, dtype=np.float64)
+    outer = 0.5 * (ga[..., :, None] * ra[..., None, :] + ra[..., :, None] * ga[..., None, :])
+    S: NDArray[np.float64] = outer - np.sum(ga * ra, axis=-1)[..., None, None] * np.eye(3)
+    return S
 
 
 @dataclass
 class _MemberState:
-    J: np.ndarray        # (n, 3, 6) node Jacobians
-    uu: np.ndarray       # (m, 3, 3) u u^T
-    lengths: np.ndarray  # (m,)
-    k: np.ndarray        # (m,) dt/dl
-    t: np.ndarray        # (m,) forces
+    J: NDArray[np.float64]        # (n, 3, 6) node Jacobians
+    uu: NDArray[np.float64]       # (m, 3, 3) u u^T
+    lengths: NDArray[np.float64]  # (m,)
+    k: NDArray[np.float64]        # (m,) dt/dl
+    t: NDArray[np.float64]        # (m,) forces
 
 
 def _member_state(structure: Structure, config: Configuration, slack_elastic: bool = False) -> _MemberState:
@@ -101,7 +73,8 @@ def _member_state(structure: Structure, config: Configuration, slack_elastic: bo
                         k, forces_from_lengths(structure, lengths))
 
 
-def _element_matrices(config: Configuration, node_blocks: np.ndarray, J: np.ndarray) -> np.ndarray:
+def _element_matrices(config: Configuration, node_blocks: NDArray[np.float64],
+                      J: NDArray[np.float64]) -> NDArray[np.float64]:
     """(m, 12, 12) ``J_e^T [[k, -k], [-k, k]] J_e`` for node-space member blocks ``k`` (m, 3, 3)."""
     s = config.structure
     Ja, Jb = J[s.members[:, 0]], J[s.members[:, 1]]
@@ -116,7 +89,7 @@ def _element_matrices(config: Configuration, node_blocks: np.ndarray, J: np.ndar
     return out
 
 
-def _body_blocks(config: Configuration, node_gradient: np.ndarray) -> np.ndarray:
+def _body_blocks(config: Configuration, node_gradient: NDArray[np.float64]) -> NDArray[np.float64]:
     """(nb, 3, 3) rotation blocks ``sum_j S(g_j, r_j)`` for a nodal gradient field ``g``."""
     lay = config.structure.layout
     nb = len(lay.moving_bodies)
@@ -126,7 +99,16 @@ def _body_blocks(config: Configuration, node_gradient: np.ndarray) -> np.ndarray
     return group_sum(lay.node_body[on], sym_rotation_hessian(node_gradient[on], config.arms()[on]), nb)
 
 
-def stiffness_parts(structure: Structure, coords, *, sparse: bool = False) -> dict:
+@overload
+def stiffness_parts(structure: Structure, coords: StateLike,
+                    *, sparse: Literal[False] = False) -> dict[str, NDArray[np.float64]]: ...
+@overload
+def stiffness_parts(structure: Structure, coords: StateLike, *, sparse: Literal[True]) -> dict[str, sp.csr_matrix]: ...
+@overload
+def stiffness_parts(structure: Structure, coords: StateLike,
+                    *, sparse: bool) -> dict[str, NDArray[np.float64]] | dict[str, sp.csr_matrix]: ...
+def stiffness_parts(structure: Structure, coords: StateLike,
+                    *, sparse: bool = False) -> dict[str, NDArray[np.float64]] | dict[str, sp.csr_matrix]:
     """``{"KE", "KG", "KL"}``: material, geometric (members' forces, exact) and load stiffness.
 
     ``K_T = KE + KG + KL``; see the module docstring. Dense unless ``sparse=True`` (CSR).
@@ -145,7 +127,17 @@ def stiffness_parts(structure: Structure, coords, *, sparse: bool = False) -> di
     return parts if sparse else {key: M.toarray() for key, M in parts.items()}
 
 
-def tangent_stiffness(structure: Structure, coords, *, sparse: bool = False, slack_elastic: bool = False):
+@overload
+def tangent_stiffness(structure: Structure, coords: StateLike, *, sparse: Literal[False] = False,
+                      slack_elastic: bool = False) -> NDArray[np.float64]: ...
+@overload
+def tangent_stiffness(structure: Structure, coords: StateLike, *, sparse: Literal[True],
+                      slack_elastic: bool = False) -> sp.csr_matrix: ...
+@overload
+def tangent_stiffness(structure: Structure, coords: StateLike, *, sparse: bool,
+                      slack_elastic: bool = False) -> NDArray[np.float64] | sp.csr_matrix: ...
+def tangent_stiffness(structure: Structure, coords: StateLike, *, sparse: bool = False,
+                      slack_elastic: bool = False) -> NDArray[np.float64] | sp.csr_matrix:
     """Exact tangent stiffness ``K_T = d^2V/dU^2`` (n_dof, n_dof) at ``coords``.
 
     ``coords`` is an (n, 3) array [m], a :class:`Configuration` or ``None`` (reference).
@@ -174,21 +166,19 @@ class ModalAnalysis:
     names of the entries of ``U``.
     """
 
-    eigenvalues: np.ndarray
-    modes: np.ndarray
-    displacements: np.ndarray
-    labels: list
+    eigenvalues: NDArray[np.float64]
+    modes: NDArray[np.float64]
+    displacements: NDArray[np.float64]
+    labels: list[str]
 
 
-def modal_analysis(structure: Structure, coords=None, *, n_modes: int | None = None) -> ModalAnalysis:
+def modal_analysis(structure: Structure, coords: StateLike = None, *, n_modes: int | None = None) -> ModalAnalysis:
     """Eigen-decomposition of the exact ``K_T`` at ``coords`` (default: reference drawing).
 
     ``n_modes`` limits the result to the lowest ``n_modes`` modes. Note that eigenvalues of a
     matrix mixing N/m and N m/rad depend on the length unit; compare modes of the same kind.
     """
     from scipy.linalg import eigh
-
-    from tensegrity_core.general.configuration import transformation_matrix
 
     config = as_configuration(structure, coords)
     K = tangent_stiffness(structure, config)

@@ -23,17 +23,21 @@ from __future__ import annotations
 
 import dataclasses
 from collections import Counter
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import Any, Final, TypeAlias
 
 import numpy as np
+from numpy.typing import ArrayLike, DTypeLike, NDArray
 
-from tensegrity_core.schema import MAX_MAGNITUDE, SchemaError, excerpt, suggest
+from tensegrity_core.general.dofs import DofLayout, StiffnessPattern
+from tensegrity_core.schema import MAX_MAGNITUDE, KeyPath, SchemaError, excerpt, suggest
 
-MEMBER_KINDS = ("bar", "string", "actuator")
+MEMBER_KINDS: Final = ("bar", "string", "actuator")
 #: Standard gravity [m/s^2] (``gravity: true`` in a structure, the scenes' default).
-STANDARD_GRAVITY = 9.80665
-KIND_ALIASES = {"bar": "bar", "strut": "bar", "string": "string", "cable": "string",
+STANDARD_GRAVITY: Final = 9.80665
+KIND_ALIASES: Final = {"bar": "bar", "strut": "bar", "string": "string", "cable": "string",
                 "tendon": "string", "actuator": "actuator"}
 
 
@@ -48,12 +52,12 @@ class StructureError(SchemaError):
 
     show_key = False
 
-    def __init__(self, message: str, *, entry: tuple = (), key: tuple | None = None, line: int | None = None,
-                 file: str | None = None):
+    def __init__(self, message: str, *, entry: KeyPath = (), key: KeyPath | None = None, line: int | None = None,
+                 file: str | None = None) -> None:
         super().__init__(message, key=entry if key is None else key, line=line, file=file)
 
     @property
-    def entry(self) -> tuple:
+    def entry(self) -> KeyPath:
         return self.key
 
 
@@ -68,7 +72,7 @@ class RigidBody:
     fixed: bool = False
 
 
-def _readonly(a, dtype=float) -> np.ndarray:
+def _readonly(a: ArrayLike, dtype: DTypeLike = float) -> NDArray[Any]:
     a = np.array(a, dtype=dtype, copy=True)
     a.setflags(write=False)
     return a
@@ -79,47 +83,55 @@ class Structure:
     """Immutable structure description; build it with :meth:`from_arrays`,
     :func:`tensegrity_core.general.load_structure` or a generator.
 
-    Array attributes are read-only. ``nodes`` (n, 3) are the reference coordinates [m].
+    Array attributes are read-only. ``nodes`` (n, 3) are the reference coordinates [m];
+    ``loads`` (n, 3) [N], ``node_masses`` (n,) [kg] and ``gravity`` (3,) [m/s^2] are given
+    by keyword (:meth:`from_arrays` fills in zeros).
     """
 
     name: str
     node_names: tuple[str, ...]
-    nodes: np.ndarray
+    nodes: NDArray[np.float64]
     member_names: tuple[str, ...]
-    members: np.ndarray
+    members: NDArray[np.int64]
     member_kinds: tuple[str, ...]
-    EA: np.ndarray
-    rest_lengths: np.ndarray
-    member_masses: np.ndarray
-    pinned: np.ndarray
+    EA: NDArray[np.float64]
+    rest_lengths: NDArray[np.float64]
+    member_masses: NDArray[np.float64]
+    pinned: NDArray[np.bool_]
     bodies: tuple[RigidBody, ...] = ()
-    loads: np.ndarray = field(default=None)
-    node_masses: np.ndarray = field(default=None)
-    gravity: np.ndarray = field(default=None)
+    loads: NDArray[np.float64] = field(kw_only=True)
+    node_masses: NDArray[np.float64] = field(kw_only=True)
+    gravity: NDArray[np.float64] = field(kw_only=True)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         n = len(self.node_names)
         m = len(self.member_names)
-        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 (frozen dataclass)
+
+        def set_(k: str, v: object) -> None:      # a frozen dataclass
+            object.__setattr__(self, k, v)
+
         set_("nodes", _readonly(self.nodes))
         set_("members", _readonly(self.members, dtype=np.int64))
         set_("EA", _readonly(self.EA))
         set_("rest_lengths", _readonly(self.rest_lengths))
         set_("member_masses", _readonly(self.member_masses))
         set_("pinned", _readonly(self.pinned, dtype=bool))
-        set_("loads", _readonly(np.zeros((n, 3)) if self.loads is None else self.loads))
-        set_("node_masses", _readonly(np.zeros(n) if self.node_masses is None else self.node_masses))
-        set_("gravity", _readonly(np.zeros(3) if self.gravity is None else self.gravity))
+        set_("loads", _readonly(self.loads))
+        set_("node_masses", _readonly(self.node_masses))
+        set_("gravity", _readonly(self.gravity))
         set_("member_kinds", tuple(self.member_kinds))
         set_("bodies", tuple(self.bodies))
         _validate(self, n, m)
 
     # ------------------------------------------------------------------ construction
     @classmethod
-    def from_arrays(cls, nodes, members, *, EA, rest_lengths=None, rest_length_ratio=None,
-                    kinds="string", node_names=None, member_names=None, pinned=None,
-                    bodies=(), loads=None, node_masses=None, member_masses=None,
-                    gravity=None, name: str = "") -> Structure:
+    def from_arrays(cls, nodes: ArrayLike, members: ArrayLike, *, EA: ArrayLike,
+                    rest_lengths: ArrayLike | None = None, rest_length_ratio: ArrayLike | None = None,
+                    kinds: str | Sequence[str] = "string", node_names: Iterable[str] | None = None,
+                    member_names: Iterable[str] | None = None, pinned: ArrayLike | None = None,
+                    bodies: Iterable[RigidBody | dict[str, Any]] = (), loads: ArrayLike | None = None,
+                    node_masses: ArrayLike | None = None, member_masses: ArrayLike | None = None,
+                    gravity: ArrayLike | None = None, name: str = "") -> Structure:
         """Build a structure from arrays (the fast path for generators).
 
         ``nodes`` (n, 3) [m]; ``members`` (m, 2) node indices; ``EA`` scalar or (m,) [N];
@@ -128,36 +140,33 @@ class Structure:
         (m,) kinds; ``pinned`` (n, 3) bool (or (n,) bool for fully pinned nodes); ``bodies``
         a sequence of :class:`RigidBody` or dicts ``{"name", "nodes", "mass", "fixed"}``.
         """
-        nodes = np.asarray(nodes, dtype=float)
-        members = np.asarray(members)
-        if nodes.ndim != 2 or nodes.shape[1] != 3:
-            raise StructureError(f"nodes must have shape (n, 3), got {nodes.shape}", entry=("nodes",))
-        if members.ndim != 2 or members.shape[1] != 2 or members.dtype.kind not in "iu":
+        xyz = np.asarray(nodes, dtype=np.float64)
+        pairs = np.asarray(members)
+        if xyz.ndim != 2 or xyz.shape[1] != 3:
+            raise StructureError(f"nodes must have shape (n, 3), got {xyz.shape}", entry=("nodes",))
+        if pairs.ndim != 2 or pairs.shape[1] != 2 or pairs.dtype.kind not in "iu":
             raise StructureError(f"members must be an (m, 2) array of node indices, got shape "
-                                 f"{members.shape} dtype {members.dtype}", entry=("members",))
-        n, m = len(nodes), len(members)
-        bad = (members < 0) | (members >= n)
+                                 f"{pairs.shape} dtype {pairs.dtype}", entry=("members",))
+        n, m = len(xyz), len(pairs)
+        bad = (pairs < 0) | (pairs >= n)
         if bad.any():
             i = int(np.argwhere(bad.any(axis=1))[0, 0])
-            raise StructureError(f"member #{i} refers to node index {members[i].tolist()}, "
+            raise StructureError(f"member #{i} refers to node index {pairs[i].tolist()}, "
                                  f"but there are {n} nodes", entry=("members", i))
-        if isinstance(kinds, str):
-            kinds = [kinds] * m
-        kinds = [_kind(k, ("members", i)) for i, k in enumerate(kinds)]
-        if len(kinds) != m:
-            raise StructureError(f"kinds has {len(kinds)} entries for {m} members", entry=("members",))
-        lengths = np.linalg.norm(nodes[members[:, 1]] - nodes[members[:, 0]], axis=1)
+        kind_list = [kinds] * m if isinstance(kinds, str) else kinds
+        canonical = [_kind(k, ("members", i)) for i, k in enumerate(kind_list)]
+        if len(canonical) != m:
+            raise StructureError(f"kinds has {len(canonical)} entries for {m} members", entry=("members",))
+        lengths = np.linalg.norm(xyz[pairs[:, 1]] - xyz[pairs[:, 0]], axis=1)
         if rest_lengths is not None and rest_length_ratio is not None:
             raise StructureError("give rest_lengths or rest_length_ratio, not both", entry=("members",))
         if rest_lengths is None:
             ratio = 1.0 if rest_length_ratio is None else rest_length_ratio
             rest_lengths = np.broadcast_to(np.asarray(ratio, dtype=float), (m,)) * lengths
-        if pinned is None:
-            pinned = np.zeros((n, 3), dtype=bool)
-        pinned = np.asarray(pinned, dtype=bool)
-        if pinned.shape == (n,):
-            pinned = np.repeat(pinned[:, None], 3, axis=1)
-        body_objs = []
+        supports = np.zeros((n, 3), dtype=bool) if pinned is None else np.asarray(pinned, dtype=bool)
+        if supports.shape == (n,):
+            supports = np.repeat(supports[:, None], 3, axis=1)
+        body_objs: list[RigidBody] = []
         for b, body in enumerate(bodies):
             if isinstance(body, dict):
                 body = RigidBody(name=str(body.get("name", f"body{b}")),
@@ -168,30 +177,30 @@ class Structure:
         return cls(
             name=name,
             node_names=tuple(node_names) if node_names is not None else tuple(str(i) for i in range(n)),
-            nodes=nodes,
+            nodes=xyz,
             member_names=tuple(member_names) if member_names is not None else tuple(f"m{i}" for i in range(m)),
-            members=members,
-            member_kinds=tuple(kinds),
+            members=pairs,
+            member_kinds=tuple(canonical),
             EA=np.broadcast_to(np.asarray(EA, dtype=float), (m,)),
             rest_lengths=np.asarray(rest_lengths, dtype=float),
             member_masses=np.zeros(m) if member_masses is None else np.broadcast_to(
                 np.asarray(member_masses, dtype=float), (m,)),
-            pinned=pinned,
+            pinned=supports,
             bodies=tuple(body_objs),
-            loads=loads,
-            node_masses=node_masses,
-            gravity=gravity,
+            loads=np.zeros((n, 3)) if loads is None else np.asarray(loads, dtype=np.float64),
+            node_masses=np.zeros(n) if node_masses is None else np.asarray(node_masses, dtype=np.float64),
+            gravity=np.zeros(3) if gravity is None else np.asarray(gravity, dtype=np.float64),
         )
 
-    def replace(self, **changes) -> Structure:
+    def replace(self, **changes: Any) -> Structure:
         """A copy with some fields changed (validated again), e.g. new ``rest_lengths``."""
         return dataclasses.replace(self, **changes)
 
-    def with_rest_lengths(self, rest_lengths) -> Structure:
+    def with_rest_lengths(self, rest_lengths: ArrayLike) -> Structure:
         """A copy with new rest lengths [m] (actuation, prestress design, continuation)."""
         return self.replace(rest_lengths=np.asarray(rest_lengths, dtype=float))
 
-    def with_nodes(self, nodes) -> Structure:
+    def with_nodes(self, nodes: ArrayLike) -> Structure:
         """A copy whose reference coordinates (start of form-finding, body shapes) are ``nodes``."""
         return self.replace(nodes=np.asarray(nodes, dtype=float))
 
@@ -205,18 +214,18 @@ class Structure:
         return len(self.member_names)
 
     @cached_property
-    def is_string(self) -> np.ndarray:
+    def is_string(self) -> NDArray[np.bool_]:
         """(m,) bool: members that go slack in compression."""
         return _readonly([k == "string" for k in self.member_kinds], dtype=bool)
 
     @cached_property
-    def initial_lengths(self) -> np.ndarray:
+    def initial_lengths(self) -> NDArray[np.float64]:
         """(m,) member lengths in the reference coordinates [m]."""
         h = self.nodes[self.members[:, 1]] - self.nodes[self.members[:, 0]]
         return _readonly(np.linalg.norm(h, axis=1))
 
     @cached_property
-    def external_forces(self) -> np.ndarray:
+    def external_forces(self) -> NDArray[np.float64]:
         """(n, 3) dead loads on the nodes [N]: applied loads plus the weight of point masses
         and of half of each member's mass (lumped at its ends)."""
         mass = self.node_masses.copy()
@@ -225,15 +234,13 @@ class Structure:
         return _readonly(self.loads + mass[:, None] * self.gravity[None, :])
 
     @cached_property
-    def layout(self):
-        """The degrees of freedom (see :class:`tensegrity_core.general.configuration.DofLayout`)."""
-        from tensegrity_core.general.configuration import DofLayout
+    def layout(self) -> DofLayout:
+        """The degrees of freedom (see :class:`tensegrity_core.general.dofs.DofLayout`)."""
         return DofLayout(self)
 
     @cached_property
-    def stiffness_pattern(self):
-        """Sparsity pattern of the tangent stiffness (see :class:`.stiffness.StiffnessPattern`)."""
-        from tensegrity_core.general.stiffness import StiffnessPattern
+    def stiffness_pattern(self) -> StiffnessPattern:
+        """Sparsity pattern of the tangent stiffness (see :class:`tensegrity_core.general.dofs.StiffnessPattern`)."""
         return StiffnessPattern(self)
 
     def node_index(self, name: str) -> int:
@@ -255,7 +262,7 @@ class Structure:
                 f"{len(self.bodies)} rigid bodies, {self.layout.n_dof} DOF)")
 
 
-def _kind(kind, entry) -> str:
+def _kind(kind: object, entry: KeyPath) -> str:
     key = str(kind).lower()
     if key not in KIND_ALIASES:
         raise StructureError(f"unknown member type {excerpt(kind)}; use one of bar, strut, string, "
@@ -285,9 +292,9 @@ def _validate(s: Structure, n: int, m: int) -> None:
     if len(s.member_kinds) != m or not set(s.member_kinds) <= set(MEMBER_KINDS):
         raise StructureError(f"member_kinds must be {m} of {MEMBER_KINDS}", entry=("members",))
     for key, arr, what in (("nodes", s.nodes, "coordinates"), ("loads", s.loads, "load")):
-        bad = ~_bounded(arr).all(axis=1)
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
+        bad_rows = ~_bounded(arr).all(axis=1)
+        if bad_rows.any():
+            i = int(np.flatnonzero(bad_rows)[0])
             raise StructureError(f"{what} of node {excerpt(s.node_names[i])} must be finite and at most "
                                  f"{MAX_MAGNITUDE:g} in magnitude, got {arr[i].tolist()}", entry=(key, s.node_names[i]))
     if not _bounded(s.gravity).all():
@@ -311,7 +318,7 @@ def _validate(s: Structure, n: int, m: int) -> None:
         raise StructureError(
             f"member {excerpt(s.member_names[i])} has zero length: nodes {excerpt(s.node_names[a[i]])} and "
             f"{excerpt(s.node_names[b[i]])} are both at {s.nodes[a[i]].tolist()}", entry=("members", i))
-    for key, arr, what in (("EA", s.EA, "axial stiffness EA"), ("rest_lengths", s.rest_lengths, "rest length")):
+    for arr, what in ((s.EA, "axial stiffness EA"), (s.rest_lengths, "rest length")):
         bad = np.flatnonzero(~_bounded(arr) | (arr <= 0))
         if bad.size:
             i = int(bad[0])
@@ -332,19 +339,23 @@ def _validate(s: Structure, n: int, m: int) -> None:
     _validate_free_nodes(s, n, bodies)
 
 
-def _bounded(arr: np.ndarray) -> np.ndarray:
+def _bounded(arr: NDArray[np.float64]) -> NDArray[np.bool_]:
     """Elementwise: finite and at most MAX_MAGNITUDE in magnitude (larger values overflow
     the squares the solvers form)."""
     return np.isfinite(arr) & (np.abs(arr) <= MAX_MAGNITUDE)
 
 
-def _first_repeat(names) -> str:
+def _first_repeat(names: Sequence[str]) -> str:
     """The first of ``names`` that occurs more than once."""
     counts = Counter(names)
     return next(x for x in names if counts[x] > 1)
 
 
-def _validate_bodies(s: Structure, n: int, scale: float, bodies: tuple) -> None:
+#: ``(sizes, flat, body_of)`` of :func:`_body_nodes`.
+BodyNodes: TypeAlias = tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]
+
+
+def _validate_bodies(s: Structure, n: int, scale: float, bodies: BodyNodes) -> None:
     """The rigid bodies' invariants, checked on all bodies at once (a 60,000-member spine
     has 7,500 bodies); each failure names the first offending body."""
     if not s.bodies:
@@ -395,7 +406,7 @@ def _validate_bodies(s: Structure, n: int, scale: float, bodies: tuple) -> None:
             f"length cannot change, so it carries nothing; remove it", entry=("members", i))
 
 
-def _first_shared_node(s: Structure, flat: np.ndarray, body_of: np.ndarray) -> None:
+def _first_shared_node(s: Structure, flat: NDArray[np.int64], body_of: NDArray[np.int64]) -> None:
     """A node listed twice by one body, or by two bodies."""
     order = np.argsort(flat, kind="stable")
     repeats = np.flatnonzero(flat[order][1:] == flat[order][:-1])
@@ -411,9 +422,9 @@ def _first_shared_node(s: Structure, flat: np.ndarray, body_of: np.ndarray) -> N
                          f"{excerpt(s.bodies[k1].name)} and {excerpt(s.bodies[k2].name)}", entry=("rigid_bodies", k2))
 
 
-def _first_collinear_body(s: Structure, sizes: np.ndarray, scale: float) -> None:
+def _first_collinear_body(s: Structure, sizes: NDArray[np.int64], scale: float) -> None:
     """A body whose nodes lie on a line (checked per group of bodies of one size, batched)."""
-    bad = []
+    bad: list[int] = []
     for size in np.unique(sizes):
         ks = np.flatnonzero(sizes == size)
         pts = s.nodes[np.array([s.bodies[k].nodes for k in ks])]            # (bodies, size, 3)
@@ -428,7 +439,7 @@ def _first_collinear_body(s: Structure, sizes: np.ndarray, scale: float) -> None
             f"orientation; a rigid body needs at least 3 non-collinear nodes", entry=("rigid_bodies", k))
 
 
-def _validate_free_nodes(s: Structure, n: int, bodies: tuple) -> None:
+def _validate_free_nodes(s: Structure, n: int, bodies: BodyNodes) -> None:
     _, flat, body_of = bodies
     in_body = np.zeros(n, dtype=bool)
     in_body[flat] = True
@@ -450,7 +461,7 @@ def _validate_free_nodes(s: Structure, n: int, bodies: tuple) -> None:
                                  entry=("rigid_bodies", k))
 
 
-def _body_nodes(s: Structure) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _body_nodes(s: Structure) -> BodyNodes:
     """``(sizes, flat, body_of)``: each body's node count, all bodies' nodes one after the
     other, and the body of each entry of ``flat``."""
     sizes = np.array([len(b.nodes) for b in s.bodies], dtype=np.int64)

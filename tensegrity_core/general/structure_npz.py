@@ -32,26 +32,33 @@ allocate more than ``Limits.max_bytes`` or read anything but plain numbers and s
 
 from __future__ import annotations
 
+import os
 import zipfile
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any, Final, TypeAlias
 
 import numpy as np
+from numpy.typing import NDArray
 
 from tensegrity_core.general.structure import MEMBER_KINDS, RigidBody, Structure, StructureError
 from tensegrity_core.schema import DEFAULT_LIMITS, Limits, excerpt
 
-FORMAT = "tensegrity-structure/1"
-REQUIRED = ("format", "nodes", "members", "member_kinds", "EA", "rest_lengths")
-OPTIONAL = ("name", "node_names", "member_names", "member_masses", "pinned", "loads", "node_masses",
+FORMAT: Final = "tensegrity-structure/1"
+REQUIRED: Final = ("format", "nodes", "members", "member_kinds", "EA", "rest_lengths")
+OPTIONAL: Final = ("name", "node_names", "member_names", "member_masses", "pinned", "loads", "node_masses",
             "gravity", "body_names", "body_sizes", "body_nodes", "body_masses", "body_fixed")
-_BODY = ("body_names", "body_sizes", "body_nodes", "body_masses", "body_fixed")
-_KINDS = {"f": "a float", "i": "an integer", "u": "an integer", "b": "a boolean", "U": "a string"}
+_BODY: Final = ("body_names", "body_sizes", "body_nodes", "body_masses", "body_fixed")
+_KINDS: Final = {"f": "a float", "i": "an integer", "u": "an integer", "b": "a boolean", "U": "a string"}
+
+#: The arrays of a file by name.
+Arrays: TypeAlias = Mapping[str, NDArray[Any]]
 
 
-def write_npz(structure: Structure, path) -> None:
+def write_npz(structure: Structure, path: str | os.PathLike[str]) -> None:
     """Write ``structure`` to ``path`` (.npz)."""
     s = structure
-    arrays = {"format": np.array(FORMAT), "name": np.array(s.name), "nodes": s.nodes, "members": s.members,
+    arrays: dict[str, NDArray[Any]] = {"format": np.array(FORMAT), "name": np.array(s.name), "nodes": s.nodes, "members": s.members,
               "member_kinds": np.array([MEMBER_KINDS.index(k) for k in s.member_kinds], dtype=np.uint8),
               "EA": s.EA, "rest_lengths": s.rest_lengths}
     if s.node_names != tuple(str(i) for i in range(s.n_nodes)):
@@ -68,16 +75,16 @@ def write_npz(structure: Structure, path) -> None:
                       body_masses=np.array([b.mass for b in s.bodies], dtype=float),
                       body_fixed=np.array([b.fixed for b in s.bodies], dtype=bool))
     with open(path, "wb") as fh:
-        np.savez(fh, **arrays)
+        np.savez(fh, **arrays)  # type: ignore[arg-type]  # numpy's stubs: a **mapping might fill allow_pickle
 
 
-def read_npz(path, *, limits: Limits = DEFAULT_LIMITS, max_members: int | None = None) -> Structure:
+def read_npz(path: str | os.PathLike[str], *, limits: Limits = DEFAULT_LIMITS, max_members: int | None = None) -> Structure:
     """The structure in the ``.npz`` file ``path``; errors name the file and the array."""
-    path = Path(path)
+    file = Path(path)
     try:
-        return _read(path, limits, max_members)
+        return _read(file, limits, max_members)
     except StructureError as err:
-        raise err.located(file=path.name) from None
+        raise err.located(file=file.name) from None
 
 
 def _read(path: Path, limits: Limits, max_members: int | None) -> Structure:
@@ -119,10 +126,15 @@ def _read(path: Path, limits: Limits, max_members: int | None) -> Structure:
         member_names=tuple(a["member_names"].tolist()) if "member_names" in a else tuple(f"m{i}" for i in range(m)),
         member_kinds=tuple(kind_names.tolist()), EA=a["EA"], rest_lengths=a["rest_lengths"],
         member_masses=a.get("member_masses", np.zeros(m)), pinned=a.get("pinned", np.zeros((n, 3), dtype=bool)),
-        bodies=_bodies(a, n), loads=a.get("loads"), node_masses=a.get("node_masses"), gravity=a.get("gravity"))
+        bodies=_bodies(a, n), loads=a.get("loads", np.zeros((n, 3))), node_masses=a.get("node_masses", np.zeros(n)),
+        gravity=a.get("gravity", np.zeros(3)))
 
 
-def _headers(path: Path, limits: Limits) -> dict:
+#: Shape and dtype of an array, from its header.
+Header: TypeAlias = tuple[tuple[int, ...], np.dtype[Any]]
+
+
+def _headers(path: Path, limits: Limits) -> dict[str, Header]:
     """Array name -> (shape, dtype) from each member's header, without reading the data;
     the file and the total of the arrays are bounded by ``limits.max_bytes``."""
     try:
@@ -133,7 +145,8 @@ def _headers(path: Path, limits: Limits) -> dict:
         raise StructureError(f"cannot read {excerpt(str(path))}: {err.strerror}") from None
     if size > limits.max_bytes:
         raise StructureError(f"the file is {size} bytes, more than the limit of {limits.max_bytes}")
-    out, total = {}, 0
+    out: dict[str, Header] = {}
+    total = 0
     try:
         with zipfile.ZipFile(path) as zf:
             for info in zf.infolist():
@@ -157,7 +170,7 @@ def _headers(path: Path, limits: Limits) -> dict:
     return out
 
 
-def _array(a: dict, key: str, kind: str, ndim: int) -> np.ndarray:
+def _array(a: Arrays, key: str, kind: str, ndim: int) -> NDArray[Any]:
     arr = a[key]
     if arr.dtype.kind not in (kind + "iu" if kind == "f" else kind) or arr.ndim != ndim:
         raise StructureError(f"array {key} must be {ndim}-dimensional, {_KINDS[kind]}; got shape {arr.shape} "
@@ -165,7 +178,7 @@ def _array(a: dict, key: str, kind: str, ndim: int) -> np.ndarray:
     return arr
 
 
-def _shape(a: dict, key: str, shape: tuple, kind: str = "f") -> None:
+def _shape(a: Arrays, key: str, shape: tuple[int, ...], kind: str = "f") -> None:
     arr = a[key]
     ok_kind = arr.dtype.kind in {"f": "fiu", "i": "iu", "u": "u", "b": "b", "U": "U"}[kind]
     if arr.shape != shape or not ok_kind:
@@ -173,7 +186,7 @@ def _shape(a: dict, key: str, shape: tuple, kind: str = "f") -> None:
                              f"{arr.shape} of {arr.dtype}", entry=(key,))
 
 
-def _bodies(a: dict, n: int) -> tuple:
+def _bodies(a: Arrays, n: int) -> tuple[RigidBody, ...]:
     present = [k for k in _BODY if k in a]
     if not present:
         return ()

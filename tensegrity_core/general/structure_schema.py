@@ -14,8 +14,11 @@ for YAML, the line.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Set
+from typing import Any, Final, Literal, TypeAlias, cast, overload
 
 import numpy as np
+from numpy.typing import NDArray
 
 from tensegrity_core.general.structure import (
     KIND_ALIASES,
@@ -24,28 +27,44 @@ from tensegrity_core.general.structure import (
     Structure,
     StructureError,
 )
-from tensegrity_core.schema import MAX_MAGNITUDE, excerpt, is_number, line_of, number_reason, suggest, type_name
+from tensegrity_core.schema import (
+    MAX_MAGNITUDE,
+    KeyPath,
+    excerpt,
+    is_number,
+    line_of,
+    number_reason,
+    suggest,
+    type_name,
+)
 
-TOP_KEYS = {"name", "units", "description", "defaults", "nodes", "node_names", "members", "pinned",
+TOP_KEYS: Final = {"name", "units", "description", "defaults", "nodes", "node_names", "members", "pinned",
             "rigid_bodies", "loads", "masses", "gravity"}
-TOP_ALIASES = {"supports": "pinned", "bodies": "rigid_bodies", "point_masses": "masses"}
-MEMBER_KEYS = {"name", "nodes", "type", "EA", "E", "A", "rest_length", "rest_length_ratio", "mass"}
-MEMBER_ALIASES = {"ends": "nodes", "kind": "type", "l0": "rest_length", "l0_ratio": "rest_length_ratio"}
-DEFAULT_KEYS = {"EA", "E", "A", "type", "rest_length_ratio", "mass"}
-DEFAULT_ALIASES = {"kind": "type", "l0_ratio": "rest_length_ratio"}
-BODY_KEYS = {"name", "nodes", "mass", "fixed"}
-_KIND_NAMES = "bar, strut, string, cable, actuator"
-_NUMBER_TYPES = {int, float}
-_ABSENT = object()
+TOP_ALIASES: Final = {"supports": "pinned", "bodies": "rigid_bodies", "point_masses": "masses"}
+MEMBER_KEYS: Final = {"name", "nodes", "type", "EA", "E", "A", "rest_length", "rest_length_ratio", "mass"}
+MEMBER_ALIASES: Final = {"ends": "nodes", "kind": "type", "l0": "rest_length", "l0_ratio": "rest_length_ratio"}
+DEFAULT_KEYS: Final = {"EA", "E", "A", "type", "rest_length_ratio", "mass"}
+DEFAULT_ALIASES: Final = {"kind": "type", "l0_ratio": "rest_length_ratio"}
+BODY_KEYS: Final = {"name", "nodes", "mass", "fixed"}
+_KIND_NAMES: Final = "bar, strut, string, cable, actuator"
+_NUMBER_TYPES: Final = {int, float}
+_ABSENT: Final = object()
+
+#: Canonical key -> the key as written in the description.
+Keys: TypeAlias = Mapping[str, Any]
+#: The members read from either form: ``(names, node pairs (m, 2), kinds, EA [N],
+#: rest lengths [m], masses [kg])``.
+MemberColumns: TypeAlias = tuple[list[str], NDArray[np.int64], list[str], NDArray[np.float64],
+                                 NDArray[np.float64], NDArray[np.float64]]
 
 
-def _err(message: str, container=None, key=None, entry=()) -> StructureError:
+def _err(message: str, container: Any = None, key: Any = None, entry: KeyPath = ()) -> StructureError:
     return StructureError(message, entry=entry, line=line_of(container, key))
 
 
-def _check_keys(d: dict, allowed: set, aliases: dict, what: str) -> dict:
+def _check_keys(d: Mapping[Any, Any], allowed: Set[str], aliases: Mapping[Any, str], what: str) -> dict[str, Any]:
     """Canonical key -> key as written; unknown keys named with a suggestion."""
-    out = {}
+    out: dict[str, Any] = {}
     for key in d:
         canon = aliases.get(key, key)
         if canon not in allowed:
@@ -57,27 +76,28 @@ def _check_keys(d: dict, allowed: set, aliases: dict, what: str) -> dict:
     return out
 
 
-def _number(value, what: str, container=None, key=None, *, positive=False, nonneg=False) -> float:
+def _number(value: object, what: str, container: Any = None, key: Any = None, *, positive: bool = False,
+            nonneg: bool = False) -> float:
     x, reason = number_reason(value, lo=0.0 if positive or nonneg else None, lo_open=positive)
     if reason is not None:
         raise _err(f"{what} {reason}", container, key)
     return x
 
 
-def _vector(value, what: str, container=None, key=None) -> list[float]:
+def _vector(value: object, what: str, container: Any = None, key: Any = None) -> list[float]:
     if not isinstance(value, (list, tuple)) or len(value) != 3:
         raise _err(f"{what} must be a list of 3 numbers [x, y, z], got {type_name(value)} ({excerpt(value)})",
                    container, key)
     return [_number(v, what, container, key) for v in value]
 
 
-def _mapping(value, what: str, container, key) -> dict:
+def _mapping(value: object, what: str, container: Any, key: Any) -> dict[Any, Any]:
     if not isinstance(value, dict):
         raise _err(f"{what} must be a mapping, got {type_name(value)} ({excerpt(value)})", container, key)
     return value
 
 
-def _node_ref(ref, names: dict, what: str, container, key) -> int:
+def _node_ref(ref: object, names: Mapping[str, int], what: str, container: Any, key: Any) -> int:
     if isinstance(ref, bool) or not isinstance(ref, (str, int)):
         raise _err(f"{what}: a node reference must be a node name, got {excerpt(ref)}", container, key)
     name = str(ref)
@@ -86,7 +106,7 @@ def _node_ref(ref, names: dict, what: str, container, key) -> int:
     return names[name]
 
 
-def _kind(kind, what: str, container, key) -> str:
+def _kind(kind: object, what: str, container: Any, key: Any) -> str:
     canon = KIND_ALIASES.get(kind.lower()) if isinstance(kind, str) else None
     if canon is None:
         raise _err(f"{what}: unknown type {excerpt(kind)}; use one of {_KIND_NAMES}"
@@ -94,7 +114,7 @@ def _kind(kind, what: str, container, key) -> str:
     return canon
 
 
-def structure_from_dict(data: dict, *, default_name: str = "", max_members: int | None = None) -> Structure:
+def structure_from_dict(data: object, *, default_name: str = "", max_members: int | None = None) -> Structure:
     """Validate a description dict (see ``docs/structures.md``) and build the structure.
 
     ``max_members``: refuse descriptions with more members, before reading them."""
@@ -102,7 +122,11 @@ def structure_from_dict(data: dict, *, default_name: str = "", max_members: int 
         raise StructureError(f"a structure description must be a mapping, got {type_name(data)} "
                              f"({excerpt(data)})")
     keys = _check_keys(data, TOP_KEYS, TOP_ALIASES, "structure")
-    get = lambda k, default=None: data.get(keys[k], default) if k in keys else default  # noqa: E731
+    d = data
+
+    def get(k: str, default: Any = None) -> Any:
+        return d.get(keys[k], default) if k in keys else default
+
     if max_members is not None and "members" in keys:
         count = _member_count(data[keys["members"]])
         if count > max_members:
@@ -144,18 +168,21 @@ def structure_from_dict(data: dict, *, default_name: str = "", max_members: int 
         raise _locate(err, data, keys, node_names) from None
 
 
-def _member_count(raw) -> int:
+def _member_count(raw: object) -> int:
     if isinstance(raw, dict):
         ends = raw.get("nodes", raw.get("ends"))
         return len(ends) if isinstance(ends, list) else 0
     return len(raw) if isinstance(raw, list) else 0
 
 
-def _locate(err: StructureError, data: dict, keys: dict, node_names: list) -> StructureError:
+def _locate(err: StructureError, data: Mapping[Any, Any], keys: Keys, node_names: list[str]) -> StructureError:
     """A :class:`Structure` validation error with the line of the entry it names."""
-    if err.line is not None or not err.key or err.key[0] not in keys:
+    if err.line is not None or not err.key:
         return err
-    container = data[keys[err.key[0]]]
+    head = err.key[0]
+    if not isinstance(head, str) or head not in keys:
+        return err
+    container = data[keys[head]]
     key = err.key[1] if len(err.key) > 1 else None
     if err.key[0] == "members" and isinstance(container, dict):        # the array form
         container = container.get("nodes", container.get("ends"))
@@ -165,7 +192,7 @@ def _locate(err: StructureError, data: dict, keys: dict, node_names: list) -> St
 
 
 # ------------------------------------------------------------------------------ nodes
-def _read_nodes(data, keys) -> tuple[list[str], np.ndarray]:
+def _read_nodes(data: Mapping[Any, Any], keys: Keys) -> tuple[list[str], NDArray[np.float64]]:
     if "nodes" not in keys:
         raise StructureError("the description has no 'nodes'")
     raw = data[keys["nodes"]]
@@ -173,12 +200,13 @@ def _read_nodes(data, keys) -> tuple[list[str], np.ndarray]:
         if "node_names" in keys:
             raise _err("node_names goes with nodes as a list of [x, y, z]; here nodes are named already",
                        data, keys["node_names"])
-        names = []
+        names: list[str] = []
         for name in raw:
             if isinstance(name, bool) or not isinstance(name, (str, int)):
                 raise _err(f"node name must be a string, got {excerpt(name)}", raw, name)
             names.append(str(name))
-        rows, labels = list(raw.values()), list(raw)
+        rows: list[Any] = list(raw.values())
+        labels: list[Any] = list(raw)
     elif isinstance(raw, list):
         names = _node_names(data, keys, len(raw))
         rows, labels = raw, list(range(len(raw)))
@@ -193,7 +221,7 @@ def _read_nodes(data, keys) -> tuple[list[str], np.ndarray]:
     return names, coords
 
 
-def _node_names(data, keys, n: int) -> list[str]:
+def _node_names(data: Mapping[Any, Any], keys: Keys, n: int) -> list[str]:
     """``node_names`` (with nodes as a list of coordinates), or "0", "1", ..."""
     if "node_names" not in keys:
         return [str(i) for i in range(n)]
@@ -207,7 +235,7 @@ def _node_names(data, keys, n: int) -> list[str]:
     return [str(name) for name in raw]
 
 
-def _number_rows(rows: list, width: int) -> np.ndarray | None:
+def _number_rows(rows: list[Any], width: int) -> NDArray[np.float64] | None:
     """``rows`` (a list of lists of ``width`` numbers) as an (n, width) array, or None if any
     row is not such a list of finite numbers of at most MAX_MAGNITUDE (numpy checks the
     whole column; the caller words the first bad row)."""
@@ -222,7 +250,7 @@ def _number_rows(rows: list, width: int) -> np.ndarray | None:
     return arr
 
 
-def _plain_numbers(values: list, nested: bool = False) -> bool:
+def _plain_numbers(values: list[Any], nested: bool = False) -> bool:
     """Every value is an int or float (numpy would also take booleans and numeric strings)."""
     try:
         if nested:
@@ -232,18 +260,22 @@ def _plain_numbers(values: list, nested: bool = False) -> bool:
         return False
 
 
-def _within_bounds(arr: np.ndarray, each: bool = False):
+@overload
+def _within_bounds(arr: NDArray[np.float64], each: Literal[False] = False) -> bool: ...
+@overload
+def _within_bounds(arr: NDArray[np.float64], each: Literal[True]) -> NDArray[np.bool_]: ...
+def _within_bounds(arr: NDArray[np.float64], each: bool = False) -> bool | NDArray[np.bool_]:
     """All (or, with ``each``, elementwise) finite and at most MAX_MAGNITUDE in magnitude."""
     ok = np.isfinite(arr) & (np.abs(arr) <= MAX_MAGNITUDE)
     return ok if each else bool(ok.all())
 
 
 # ------------------------------------------------------------------------------ defaults
-def _read_defaults(data, keys) -> dict:
-    raw = data.get(keys["defaults"], {}) if "defaults" in keys else {}
-    raw = _mapping(raw, "defaults", data, keys.get("defaults"))
+def _read_defaults(data: Mapping[Any, Any], keys: Keys) -> dict[str, Any]:
+    raw = _mapping(data.get(keys["defaults"], {}) if "defaults" in keys else {}, "defaults", data,
+                   keys.get("defaults"))
     _check_keys(raw, DEFAULT_KEYS, DEFAULT_ALIASES, "defaults")
-    out = {}
+    out: dict[str, Any] = {}
     for key, value in raw.items():
         canon = DEFAULT_ALIASES.get(key, key)
         if canon == "type":
@@ -254,7 +286,8 @@ def _read_defaults(data, keys) -> dict:
 
 
 # ------------------------------------------------------------------------------ members
-def _read_members(data, keys, index, defaults, coords):
+def _read_members(data: Mapping[Any, Any], keys: Keys, index: dict[str, int], defaults: Mapping[str, Any],
+                  coords: NDArray[np.float64]) -> MemberColumns:
     """``(names, pairs (m, 2), kinds, EA, rest lengths, masses)`` of either member form."""
     if "members" not in keys:
         raise StructureError("the description has no 'members'")
@@ -266,23 +299,25 @@ def _read_members(data, keys, index, defaults, coords):
     return _member_list(raw, index, defaults, coords)
 
 
-def _default_stiffness(defaults: dict) -> float | None:
+def _default_stiffness(defaults: Mapping[str, Any]) -> float | None:
+    """EA [N] of the defaults (read by :func:`_read_defaults`: numbers), or None."""
     if "EA" in defaults:
-        return defaults["EA"]
+        return float(defaults["EA"])
     if "E" in defaults and "A" in defaults:
-        return defaults["E"] * defaults["A"]
+        return float(defaults["E"] * defaults["A"])
     return None
 
 
-def _member_list(raw: list, index: dict, defaults: dict, coords: np.ndarray):
+def _member_list(raw: list[Any], index: dict[str, int], defaults: Mapping[str, Any],
+                 coords: NDArray[np.float64]) -> MemberColumns:
     """The per-member form in one pass. Entries of the common shapes (a pair ``[a, b]``, or a
     mapping of canonical keys with values of the right types) are read inline; every other
     entry (aliases, E and A, anything wrong) by :func:`_member_entry`, which words errors.
     Numeric bounds are checked afterwards on whole columns."""
     m = len(raw)
-    names: list = [None] * m
+    names: list[str] = [""] * m               # every entry is set below
     ends = np.empty((m, 2), dtype=np.int64)
-    kinds: list = [None] * m
+    kinds: list[str] = [""] * m
     EA, mass = np.empty(m), np.empty(m)
     l0 = np.full(m, np.nan)                   # nan: from the ratio and the drawn length
     ratio = np.ones(m)
@@ -295,10 +330,18 @@ def _member_list(raw: list, index: dict, defaults: dict, coords: np.ndarray):
     inline_keys = MEMBER_KEYS - {"E", "A"}
     numbers = _NUMBER_TYPES
 
-    def node(ref):
+    def node(ref: object) -> int | None:
         i = index.get(ref) if type(ref) is str else None
         return index.get(str(ref)) if i is None and type(ref) is int else i
 
+    # the values as written (checked below, or by _member_entry)
+    pair: Any
+    item_kind: str | None
+    stiffness: Any
+    length: Any
+    r: Any
+    w: Any
+    name: Any
     for i, item in enumerate(raw):
         if not isinstance(item, list) and not (isinstance(item, dict) and item.keys() <= inline_keys):
             names[i], ends[i], kinds[i], EA[i], l0[i], ratio[i], mass[i] = _member_entry(
@@ -342,8 +385,9 @@ def _member_list(raw: list, index: dict, defaults: dict, coords: np.ndarray):
     return names, ends, kinds, EA, _rest_lengths(l0, ratio, ends, coords), mass
 
 
-def _first_bad_member(EA, l0, ratio, mass) -> int | None:
-    def bad(x, positive=True):
+def _first_bad_member(EA: NDArray[np.float64], l0: NDArray[np.float64], ratio: NDArray[np.float64],
+                      mass: NDArray[np.float64]) -> int | None:
+    def bad(x: NDArray[np.float64], positive: bool = True) -> NDArray[np.bool_]:
         return ~np.isfinite(x) | (np.abs(x) > MAX_MAGNITUDE) | ((x <= 0) if positive else (x < 0))
 
     flags = bad(EA) | (bad(l0) & ~np.isnan(l0)) | bad(ratio) | bad(mass, positive=False)
@@ -351,23 +395,25 @@ def _first_bad_member(EA, l0, ratio, mass) -> int | None:
     return int(hits[0]) if hits.size else None
 
 
-def _rest_lengths(l0, ratio, ends, coords) -> np.ndarray:
+def _rest_lengths(l0: NDArray[np.float64], ratio: NDArray[np.float64], ends: NDArray[np.int64],
+                  coords: NDArray[np.float64]) -> NDArray[np.float64]:
     length = np.linalg.norm(coords[ends[:, 1]] - coords[ends[:, 0]], axis=1)
     from_ratio = np.where(length > 0, ratio * length, 1.0)
     return np.where(np.isnan(l0), from_ratio, l0)
 
 
-def _check_unique_names(names: list, raw) -> None:
+def _check_unique_names(names: list[str], raw: Any) -> None:
     if len(set(names)) == len(names):
         return
-    first: dict = {}
+    first: dict[str, int] = {}
     for i, name in enumerate(names):
         if name in first:
             raise _err(f"member {excerpt(name)}: name used twice (members[{first[name]}] and members[{i}])", raw, i)
         first[name] = i
 
 
-def _member_entry(i: int, item, raw: list, index: dict, defaults: dict) -> tuple:
+def _member_entry(i: int, item: object, raw: list[Any], index: Mapping[str, int], defaults: Mapping[str, Any]
+                  ) -> tuple[str, tuple[int, int], str, float, float, float, float]:
     """One member entry read with every check, in order:
     ``(name, (a, b), kind, EA, rest length or nan, ratio, mass)``."""
     if isinstance(item, (list, tuple)):
@@ -376,11 +422,15 @@ def _member_entry(i: int, item, raw: list, index: dict, defaults: dict) -> tuple
         raise _err(f"members[{i}] must be a mapping like {{nodes: [a, b], type: string}} or a "
                    f"pair [a, b], got {excerpt(item)}", raw, i)
     mk = _check_keys(item, MEMBER_KEYS, MEMBER_ALIASES, f"members[{i}]")
-    val = lambda k: item[mk[k]] if k in mk else defaults.get(k)  # noqa: E731
-    name = item[mk["name"]] if "name" in mk else f"m{i}"
-    if isinstance(name, bool) or not isinstance(name, (str, int)):
-        raise _err(f"members[{i}]: name must be a string, got {excerpt(name)}", raw, i)
-    name = str(name)
+    entry = item
+
+    def val(k: str) -> Any:
+        return entry[mk[k]] if k in mk else defaults.get(k)
+
+    written = item[mk["name"]] if "name" in mk else f"m{i}"
+    if isinstance(written, bool) or not isinstance(written, (str, int)):
+        raise _err(f"members[{i}]: name must be a string, got {excerpt(written)}", raw, i)
+    name = str(written)
     what = f"member {excerpt(name)}"
     if "nodes" not in mk:
         raise _err(f"{what}: missing 'nodes: [a, b]'", raw, i)
@@ -388,8 +438,7 @@ def _member_entry(i: int, item, raw: list, index: dict, defaults: dict) -> tuple
     if not isinstance(ends, (list, tuple)) or len(ends) != 2:
         raise _err(f"{what}: nodes must be a pair [a, b], got {excerpt(ends)}", raw, i)
     a, b = (_node_ref(e, index, what, raw, i) for e in ends)
-    kind = val("type") if val("type") is not None else "string"
-    kind = _kind(kind, what, raw, i)
+    kind = _kind(val("type") if val("type") is not None else "string", what, raw, i)
     EA = _member_stiffness(item, mk, defaults, what, raw, i)
     if "rest_length" in mk and "rest_length_ratio" in mk:
         raise _err(f"{what}: give rest_length or rest_length_ratio, not both", raw, i)
@@ -404,8 +453,11 @@ def _member_entry(i: int, item, raw: list, index: dict, defaults: dict) -> tuple
     return name, (a, b), kind, EA, l0, ratio, w
 
 
-def _member_stiffness(item, mk, defaults, what, raw, i) -> float:
-    has = lambda k: k in mk  # noqa: E731
+def _member_stiffness(item: Mapping[Any, Any], mk: Keys, defaults: Mapping[str, Any], what: str, raw: list[Any],
+                      i: int) -> float:
+    def has(k: str) -> bool:
+        return k in mk
+
     if has("EA") and (has("E") or has("A")):
         raise _err(f"{what}: give EA, or E and A, not both", raw, i)
     if has("EA"):
@@ -425,7 +477,8 @@ def _member_stiffness(item, mk, defaults, what, raw, i) -> float:
 
 
 # ------------------------------------------------------------------------------ array form
-def _member_columns(raw: dict, n: int, defaults: dict, coords: np.ndarray):
+def _member_columns(raw: dict[Any, Any], n: int, defaults: Mapping[str, Any],
+                    coords: NDArray[np.float64]) -> MemberColumns:
     """The array form: ``members`` is a mapping of columns, each a list with one value per
     member or (all but ``nodes`` and ``name``) one value for every member."""
     mk = _check_keys(raw, MEMBER_KEYS, MEMBER_ALIASES, "members")
@@ -436,16 +489,19 @@ def _member_columns(raw: dict, n: int, defaults: dict, coords: np.ndarray):
         raise _err("members.nodes must be a non-empty list of node position pairs [[a, b], ...]", raw, mk["nodes"])
     m = len(ends_raw)
     ends = _index_pairs(ends_raw, n)
-    col = lambda key, default: _column(raw, mk, key, m, default)  # noqa: E731
+
+    def col(key: str, default: float | None) -> NDArray[np.float64]:
+        return _column(raw, mk, key, m, default)
+
     if "name" in mk:
-        names = raw[mk["name"]]
-        if not isinstance(names, list) or len(names) != m:
-            raise _err(f"members.name must be a list of {m} names, got {type_name(names)} ({excerpt(names)})",
+        written = raw[mk["name"]]
+        if not isinstance(written, list) or len(written) != m:
+            raise _err(f"members.name must be a list of {m} names, got {type_name(written)} ({excerpt(written)})",
                        raw, mk["name"])
-        for i, name in enumerate(names):
+        for i, name in enumerate(written):
             if isinstance(name, bool) or not isinstance(name, (str, int)):
-                raise _err(f"members.name[{i}] must be a string, got {excerpt(name)}", names, i)
-        names = [str(x) for x in names]
+                raise _err(f"members.name[{i}] must be a string, got {excerpt(name)}", written, i)
+        names = [str(x) for x in written]
         _check_unique_names(names, ends_raw)
     else:
         names = [f"m{i}" for i in range(m)]
@@ -471,16 +527,15 @@ def _member_columns(raw: dict, n: int, defaults: dict, coords: np.ndarray):
     return names, ends, kinds, EA, l0, mass
 
 
-def _index_pairs(rows: list, n: int) -> np.ndarray:
+def _index_pairs(rows: list[Any], n: int) -> NDArray[np.int64]:
+    arr: NDArray[Any] | None
     try:
         arr = np.array(rows)
     except (ValueError, TypeError):
         arr = None
-    ok = (arr is not None and arr.shape == (len(rows), 2) and arr.dtype.kind in "iu"
-          and all(type(a) is int and type(b) is int for a, b in rows))
-    if ok and ((arr < 0) | (arr >= n)).any():
-        ok = False
-    if ok:
+    if (arr is not None and arr.shape == (len(rows), 2) and arr.dtype.kind in "iu"
+            and all(type(a) is int and type(b) is int for a, b in rows)
+            and not ((arr < 0) | (arr >= n)).any()):
         return arr.astype(np.int64, copy=False)
     for i, row in enumerate(rows):           # an unusual row (numpy integers, tuples) or a bad one
         if (not isinstance(row, (list, tuple)) or len(row) != 2
@@ -491,7 +546,7 @@ def _index_pairs(rows: list, n: int) -> np.ndarray:
     return np.array(rows, dtype=np.int64)
 
 
-def _column(raw: dict, mk: dict, key: str, m: int, default) -> np.ndarray:
+def _column(raw: Mapping[Any, Any], mk: Keys, key: str, m: int, default: float | None) -> NDArray[np.float64]:
     """Column ``key`` (one number for all or a list of ``m``), checked as a whole; positive
     except ``mass`` (>= 0). ``default`` when absent (None: required)."""
     nonneg = key == "mass"
@@ -512,7 +567,7 @@ def _column(raw: dict, mk: dict, key: str, m: int, default) -> np.ndarray:
     return np.full(m, _number(value, f"members.{key}", raw, mk[key], positive=not nonneg, nonneg=nonneg))
 
 
-def _kind_column(raw: dict, mk: dict, m: int, default) -> list:
+def _kind_column(raw: Mapping[Any, Any], mk: Keys, m: int, default: object) -> list[str]:
     value = raw[mk["type"]] if "type" in mk else default
     if not isinstance(value, list):
         return [_kind(value, "members", raw, mk.get("type"))] * m
@@ -523,15 +578,16 @@ def _kind_column(raw: dict, mk: dict, m: int, default) -> list:
     if None in out:
         i = out.index(None)
         _kind(value[i], f"members.type[{i}]", value, i)          # raises, worded
-    return out
+    return cast(list[str], out)                                  # no None left: refused above
 
 
 # ------------------------------------------------------------------------------ supports, bodies, gravity
-def _read_pinned(data, keys, index) -> np.ndarray:
+def _read_pinned(data: Mapping[Any, Any], keys: Keys, index: Mapping[str, int]) -> NDArray[np.bool_]:
     pinned = np.zeros((len(index), 3), dtype=bool)
     if "pinned" not in keys:
         return pinned
     raw = data[keys["pinned"]]
+    raw_items: list[tuple[Any, Any]]
     if isinstance(raw, list):
         raw_items = [(node, "xyz") for node in raw]
     elif isinstance(raw, dict):
@@ -557,20 +613,20 @@ def _read_pinned(data, keys, index) -> np.ndarray:
     return pinned
 
 
-def _read_bodies(data, keys, index) -> list[RigidBody]:
+def _read_bodies(data: Mapping[Any, Any], keys: Keys, index: Mapping[str, int]) -> list[RigidBody]:
     if "rigid_bodies" not in keys:
         return []
     raw = data[keys["rigid_bodies"]]
     if not isinstance(raw, list):
         raise _err("rigid_bodies must be a list of {name, nodes, mass, fixed}", data, keys["rigid_bodies"])
-    out = []
+    out: list[RigidBody] = []
     for k, item in enumerate(raw):
         body = _body_inline(k, item, index)
         out.append(body if body is not None else _body_entry(k, item, raw, index))
     return out
 
 
-def _body_inline(k: int, item, index: dict) -> RigidBody | None:
+def _body_inline(k: int, item: object, index: Mapping[str, int]) -> RigidBody | None:
     """A body entry of the common shape read without wording anything, or None."""
     if not isinstance(item, dict) or not item.keys() <= BODY_KEYS:
         return None
@@ -582,10 +638,10 @@ def _body_inline(k: int, item, index: dict) -> RigidBody | None:
     idx = [index.get(n) if type(n) is str else None for n in nodes]
     if None in idx:
         return None
-    return RigidBody(name, tuple(idx), float(mass), fixed)
+    return RigidBody(name, tuple(cast(list[int], idx)), float(mass), fixed)   # no None: refused above
 
 
-def _body_entry(k: int, item, raw: list, index: dict) -> RigidBody:
+def _body_entry(k: int, item: object, raw: list[Any], index: Mapping[str, int]) -> RigidBody:
     """One body entry read with every check, worded."""
     if not isinstance(item, dict):
         raise _err(f"rigid_bodies[{k}] must be a mapping {{name, nodes, mass, fixed}}", raw, k)
@@ -604,7 +660,7 @@ def _body_entry(k: int, item, raw: list, index: dict) -> RigidBody:
     return RigidBody(str(name), nodes, mass, fixed)
 
 
-def _read_gravity(data, keys) -> np.ndarray:
+def _read_gravity(data: Mapping[Any, Any], keys: Keys) -> NDArray[np.float64]:
     if "gravity" not in keys:
         return np.zeros(3)
     raw = data[keys["gravity"]]

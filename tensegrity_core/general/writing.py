@@ -18,30 +18,32 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
 from pathlib import Path
+from typing import Any, Final
 
 import numpy as np
-import yaml
+from numpy.typing import NDArray
 
 from tensegrity_core.general.structure import Structure, StructureError
+from tensegrity_core.schema.yaml_reader import plain_scalar_tag
 
-_PLAIN = re.compile(r"[A-Za-z_][A-Za-z0-9_.\-]*\Z")
-_RESOLVER = yaml.resolver.Resolver()
+_PLAIN: Final = re.compile(r"[A-Za-z_][A-Za-z0-9_.\-]*\Z")
 
 
-def structure_to_dict(structure: Structure) -> dict:
+def structure_to_dict(structure: Structure) -> dict[str, Any]:
     """The description of ``structure`` as plain data (absolute rest lengths, EA per member);
     ``load_structure(structure_to_dict(s))`` rebuilds an equal structure."""
     s = structure
     names = s.node_names
-    out: dict = {"name": s.name, "units": "SI",
-                 "nodes": {n: xyz for n, xyz in zip(names, s.nodes.tolist())}}
+    out: dict[str, Any] = {"name": s.name, "units": "SI",
+                           "nodes": {n: xyz for n, xyz in zip(names, s.nodes.tolist())}}
     ends, EA, l0, mass = s.members.tolist(), s.EA.tolist(), s.rest_lengths.tolist(), s.member_masses.tolist()
-    members = []
+    members: list[dict[str, Any]] = []
     for i, name in enumerate(s.member_names):
         a, b = ends[i]
-        m = {"name": name, "nodes": [names[a], names[b]], "type": s.member_kinds[i], "EA": EA[i],
+        m: dict[str, Any] = {"name": name, "nodes": [names[a], names[b]], "type": s.member_kinds[i], "EA": EA[i],
              "rest_length": l0[i]}
         if mass[i]:
             m["mass"] = mass[i]
@@ -51,16 +53,16 @@ def structure_to_dict(structure: Structure) -> dict:
     return out
 
 
-def structure_to_arrays(structure: Structure) -> dict:
+def structure_to_arrays(structure: Structure) -> dict[str, Any]:
     """The array form of ``structure`` (``docs/structures.md``): node coordinates as a list
     (with ``node_names`` unless they are "0", "1", ...), members as columns of node
     positions, kinds, EA, rest lengths (and names and masses where they are not defaults)."""
     s = structure
-    out: dict = {"name": s.name, "units": "SI", "nodes": s.nodes.tolist()}
+    out: dict[str, Any] = {"name": s.name, "units": "SI", "nodes": s.nodes.tolist()}
     if s.node_names != tuple(str(i) for i in range(s.n_nodes)):
         out["node_names"] = list(s.node_names)
     kinds = set(s.member_kinds)
-    members: dict = {"nodes": s.members.tolist(),
+    members: dict[str, Any] = {"nodes": s.members.tolist(),
                      "type": s.member_kinds[0] if len(kinds) == 1 else list(s.member_kinds),
                      "EA": _column(s.EA), "rest_length": s.rest_lengths.tolist()}
     if s.member_names != tuple(f"m{i}" for i in range(s.n_members)):
@@ -72,12 +74,12 @@ def structure_to_arrays(structure: Structure) -> dict:
     return out
 
 
-def _column(values: np.ndarray):
+def _column(values: NDArray[np.float64]) -> float | list[float]:
     return float(values[0]) if (values == values[0]).all() else values.tolist()
 
 
-def _supports_and_loads(s: Structure) -> dict:
-    out: dict = {}
+def _supports_and_loads(s: Structure) -> dict[str, Any]:
+    out: dict[str, Any] = {}
     names = s.node_names
     pinned_rows = np.flatnonzero(s.pinned.any(axis=1))
     if pinned_rows.size:
@@ -85,7 +87,7 @@ def _supports_and_loads(s: Structure) -> dict:
     if s.bodies:
         out["rigid_bodies"] = []
         for body in s.bodies:
-            entry = {"name": body.name, "nodes": [names[i] for i in body.nodes]}
+            entry: dict[str, Any] = {"name": body.name, "nodes": [names[i] for i in body.nodes]}
             if body.mass:
                 entry["mass"] = float(body.mass)
             if body.fixed:
@@ -119,7 +121,7 @@ def dump_structure(structure: Structure, header: str = "") -> str:
     return "\n".join(lines) + "\n"
 
 
-def _flow(value) -> str:
+def _flow(value: object) -> str:
     """``value`` (str, number, bool, None, list, dict) as one line of YAML flow style."""
     if isinstance(value, str):
         return _string(value)
@@ -139,7 +141,7 @@ def _flow(value) -> str:
 
 
 def _string(text: str) -> str:
-    if _PLAIN.match(text) and _RESOLVER.resolve(yaml.ScalarNode, text, (True, False)) == "tag:yaml.org,2002:str":
+    if _PLAIN.match(text) and plain_scalar_tag(text) == "tag:yaml.org,2002:str":
         return text
     return json.dumps(text, ensure_ascii=False)
 
@@ -154,7 +156,7 @@ def _float(x: float) -> str:
     return text
 
 
-def save_structure(structure: Structure, path) -> Path:
+def save_structure(structure: Structure, path: str | os.PathLike[str]) -> Path:
     """Write ``structure`` to ``path`` in the format of its suffix (``.yaml``/``.yml``,
     ``.json``, ``.npz``) and return the path."""
     path = Path(path)

@@ -17,15 +17,15 @@ Each format keeps only its own schema: ``tensegrity_core.sim.scene`` (scenes),
 """
 
 from tensegrity_core.schema.documents import check_size, guess_format, parse_text, parse_text_format, read_file
-from tensegrity_core.schema.errors import SchemaError, clip, excerpt, suggest, type_name
-from tensegrity_core.schema.keypath import format_key_path, get_at, parse_key_path, set_at
+from tensegrity_core.schema.errors import KeyPath, SchemaError, clip, excerpt, format_key_path, suggest, type_name
+from tensegrity_core.schema.keypath import get_at, parse_key_path, set_at
 from tensegrity_core.schema.limits import DEFAULT_LIMITS, Limits
 from tensegrity_core.schema.located import LocatedDict, LocatedList, line_of
 from tensegrity_core.schema.reader import MAX_MAGNITUDE, Reader, is_number, number_reason
 from tensegrity_core.schema.yaml_reader import parse_yaml
 
 __all__ = [
-    "DEFAULT_LIMITS", "Limits", "LocatedDict", "LocatedList", "MAX_MAGNITUDE", "Reader", "SchemaError",
+    "DEFAULT_LIMITS", "KeyPath", "Limits", "LocatedDict", "LocatedList", "MAX_MAGNITUDE", "Reader", "SchemaError",
     "check_size", "clip", "excerpt", "format_key_path", "get_at", "guess_format", "is_number", "line_of",
     "number_reason", "parse_key_path", "parse_text", "parse_text_format", "parse_yaml", "read_file", "set_at",
     "suggest", "type_name",

@@ -20,6 +20,7 @@ import re
 import stat
 import tomllib
 from pathlib import Path
+from typing import Any, Final
 
 import numpy as np
 
@@ -28,10 +29,10 @@ from tensegrity_core.schema.errors import SchemaError, clip, excerpt
 from tensegrity_core.schema.limits import DEFAULT_LIMITS, Limits
 from tensegrity_core.schema.yaml_reader import parse_yaml
 
-FORMATS = ("yaml", "json", "toml")
-SUFFIXES = {".yaml": "yaml", ".yml": "yaml", ".json": "json", ".toml": "toml"}
-_JSON_STRING = re.compile(rb'"(?:[^"\\]|\\.)*"', re.S)
-_TOML_WHERE = re.compile(r"\(at line ([0-9]+), column [0-9]+\)|\(at end of document\)")
+FORMATS: Final = ("yaml", "json", "toml")
+SUFFIXES: Final = {".yaml": "yaml", ".yml": "yaml", ".json": "json", ".toml": "toml"}
+_JSON_STRING: Final = re.compile(rb'"(?:[^"\\]|\\.)*"', re.S)
+_TOML_WHERE: Final = re.compile(r"\(at line ([0-9]+), column [0-9]+\)|\(at end of document\)")
 
 
 def check_size(text: str, limits: Limits, error: type[SchemaError] = SchemaError, file: str | None = None,
@@ -57,16 +58,16 @@ def guess_format(text: str) -> str:
     return "yaml"
 
 
-def parse_text(text: str, fmt: str | None = None, *, limits: Limits = DEFAULT_LIMITS,
-               error: type[SchemaError] = SchemaError, file: str | None = None):
+def parse_text(text: object, fmt: str | None = None, *, limits: Limits = DEFAULT_LIMITS,
+               error: type[SchemaError] = SchemaError, file: str | None = None) -> Any:
     """Parse ``text`` as ``fmt`` (``"yaml"``, ``"json"``, ``"toml"``; ``None`` guesses with
     :func:`guess_format`, and JSON-looking text that is not JSON is read as YAML)."""
     return parse_text_format(text, fmt, limits=limits, error=error, file=file)[0]
 
 
-def parse_text_format(text: str, fmt: str | None = None, *, limits: Limits = DEFAULT_LIMITS,
-                      error: type[SchemaError] = SchemaError, file: str | None = None):
-    """``(data, format read)`` of ``text``, as :func:`parse_text`."""
+def parse_text_format(text: object, fmt: str | None = None, *, limits: Limits = DEFAULT_LIMITS,
+                      error: type[SchemaError] = SchemaError, file: str | None = None) -> tuple[Any, str]:
+    """``(data, format read)`` of ``text``, as :func:`parse_text` (anything but a string is refused)."""
     if not isinstance(text, str):
         raise error(f"a description must be text, got {type(text).__name__}", file=file)
     check_size(text, limits, error, file)
@@ -86,8 +87,9 @@ def parse_text_format(text: str, fmt: str | None = None, *, limits: Limits = DEF
     raise error(f"unknown format {excerpt(fmt)}; formats: {', '.join(FORMATS)}", file=file)
 
 
-def read_file(path, *, limits: Limits = DEFAULT_LIMITS, error: type[SchemaError] = SchemaError,
-              fmt: str | None = None, what: str = "file"):
+def read_file(path: str | os.PathLike[str], *, limits: Limits = DEFAULT_LIMITS,
+              error: type[SchemaError] = SchemaError, fmt: str | None = None,
+              what: str = "file") -> tuple[Any, str, str]:
     """``(data, text, fmt)`` of the description file ``path``: a regular file of at most
     ``limits.max_bytes`` bytes of UTF-8 text, its format from the suffix (``.yaml``,
     ``.yml``, ``.json``, ``.toml``) unless ``fmt`` is given. Errors name the file (as
@@ -137,7 +139,7 @@ def decode_utf8(data: bytes, error: type[SchemaError], file: str | None) -> str:
                     file=file) from None
 
 
-def _parse_json(text: str, limits: Limits, error, file):
+def _parse_json(text: str, limits: Limits, error: type[SchemaError], file: str | None) -> Any:
     raw = text.encode("utf-8", "surrogatepass")
     depth = _json_depth(raw)
     if depth > limits.max_depth:
@@ -168,21 +170,21 @@ def _json_depth(raw: bytes) -> int:
     return int(np.cumsum(steps).max(initial=0))
 
 
-_BRACKET_STEP = np.zeros(256, dtype=np.int8)
+_BRACKET_STEP: Final = np.zeros(256, dtype=np.int8)
 _BRACKET_STEP[[ord("["), ord("{")]] = 1
 _BRACKET_STEP[[ord("]"), ord("}")]] = -1
 
 
 class _DuplicateKey(Exception):
-    def __init__(self, key):
+    def __init__(self, key: str) -> None:
         super().__init__(key)
         self.key = key
 
 
-def _unique_keys(pairs):
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     out = dict(pairs)
     if len(out) != len(pairs):
-        seen = set()
+        seen: set[str] = set()
         for key, _ in pairs:
             if key in seen:
                 raise _DuplicateKey(key)
@@ -190,7 +192,7 @@ def _unique_keys(pairs):
     return out
 
 
-def _parse_toml(text: str, error, file):
+def _parse_toml(text: str, error: type[SchemaError], file: str | None) -> dict[str, Any]:
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:

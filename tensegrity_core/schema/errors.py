@@ -6,19 +6,36 @@
 (:class:`~tensegrity_core.sim.errors.SceneError`,
 :class:`~tensegrity_core.general.structure.StructureError`), so callers catch the format's
 class or this one. Messages quote offending values through :func:`excerpt`, which never
-renders more than a short, bounded piece of a value, however large or deep the value is.
+renders more than a short, bounded piece of a value, however large or deep the value is,
+and name places by key path (:func:`format_key_path`).
 """
 
 from __future__ import annotations
 
 import difflib
-from typing import Any, ClassVar
+from collections.abc import Callable, Iterable
+from typing import Any, ClassVar, Final, Self, TypeAlias
 
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import clip, excerpt
-from tensegrity_core.schema.keypath import format_key_path
 
-__all__ = ["SchemaError", "clip", "excerpt", "suggest", "type_name"]   # excerpt, clip: the core's one helper
+__all__ = ["KeyPath", "SchemaError", "clip", "excerpt", "format_key_path", "suggest",
+           "type_name"]   # excerpt, clip: the core's one helper
+
+#: Where a value sits in a nested description: mapping keys (str, or any scalar key a
+#: document may have) and list positions (int), outermost first.
+KeyPath: TypeAlias = tuple[object, ...]
+
+
+def format_key_path(path: KeyPath) -> str:
+    """``("effects", 2, "fold_limit")`` -> ``"effects[2].fold_limit"``."""
+    out = ""
+    for part in path:
+        if isinstance(part, int) and not isinstance(part, bool):
+            out += f"[{part}]"
+        else:
+            out += ("." if out else "") + str(part)
+    return out
 
 
 class SchemaError(TensegrityError, ValueError):
@@ -33,7 +50,8 @@ class SchemaError(TensegrityError, ValueError):
     #: words (``member 's3': ...``) turn it off; ``key`` is set either way.
     show_key: ClassVar[bool] = True
 
-    def __init__(self, reason: str, *, key: tuple = (), line: int | None = None, file: str | None = None):
+    def __init__(self, reason: str, *, key: KeyPath = (), line: int | None = None,
+                 file: str | None = None) -> None:
         super().__init__(reason)
         self.reason = reason
         self.key = tuple(key)
@@ -50,18 +68,18 @@ class SchemaError(TensegrityError, ValueError):
             text = f"{self.file}: {text}"
         return text
 
-    def located(self, *, line: int | None = None, file: str | None = None) -> SchemaError:
+    def located(self, *, line: int | None = None, file: str | None = None) -> Self:
         """The same error (same class) with ``line`` and ``file`` filled in where unknown."""
         err = type(self).__new__(type(self))
         SchemaError.__init__(err, self.reason, key=self.key, line=self.line if self.line is not None else line,
                              file=self.file or file)
         return err
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[Callable[..., SchemaError], tuple[Any, ...]]:
         return _rebuild, (type(self), self.reason, self.key, self.line, self.file)
 
 
-def _rebuild(cls, reason, key, line, file):
+def _rebuild(cls: type[SchemaError], reason: str, key: KeyPath, line: int | None, file: str | None) -> SchemaError:
     err = cls.__new__(cls)
     SchemaError.__init__(err, reason, key=key, line=line, file=file)
     return err
@@ -78,11 +96,11 @@ def type_name(value: Any) -> str:
 
 #: Suggestions are searched among at most this many choices of similar length (difflib
 #: compares every candidate; a 100,000-name structure would make an error take seconds).
-_MAX_SUGGESTION_CANDIDATES = 2_000
-_MAX_SUGGESTION_WORD = 100
+_MAX_SUGGESTION_CANDIDATES: Final = 2_000
+_MAX_SUGGESTION_WORD: Final = 100
 
 
-def suggest(word: Any, choices, template: str = " (did you mean {!r}?)") -> str:
+def suggest(word: object, choices: Iterable[object], template: str = " (did you mean {!r}?)") -> str:
     """``template`` filled with the closest of ``choices`` to ``word`` (difflib), or ``""``."""
     word = str(word)
     if len(word) > _MAX_SUGGESTION_WORD:

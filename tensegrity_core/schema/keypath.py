@@ -9,29 +9,21 @@ Keys containing ``.`` or ``[`` cannot be written in the text form.
 from __future__ import annotations
 
 import re
-from typing import Any
+from collections.abc import Iterable
+from typing import Any, Final
 
-_PART = re.compile(r"([^.\[\]]+)|\[(-?[0-9]+)\]")
+from tensegrity_core.schema.errors import KeyPath, SchemaError, excerpt, suggest, type_name
+from tensegrity_core.schema.located import line_of
 
-
-def format_key_path(path: tuple) -> str:
-    """``("effects", 2, "fold_limit")`` -> ``"effects[2].fold_limit"``."""
-    out = ""
-    for part in path:
-        if isinstance(part, int) and not isinstance(part, bool):
-            out += f"[{part}]"
-        else:
-            out += ("." if out else "") + str(part)
-    return out
+_PART: Final = re.compile(r"([^.\[\]]+)|\[(-?[0-9]+)\]")
 
 
-def parse_key_path(text: str) -> tuple:
-    """``"effects[2].fold_limit"`` -> ``("effects", 2, "fold_limit")``; ``""`` -> ``()``."""
-    from tensegrity_core.schema.errors import SchemaError, excerpt
-
+def parse_key_path(text: object) -> tuple[str | int, ...]:
+    """``"effects[2].fold_limit"`` -> ``("effects", 2, "fold_limit")``; ``""`` -> ``()``
+    (:func:`~tensegrity_core.schema.errors.format_key_path` writes it back)."""
     if not isinstance(text, str):
         raise SchemaError(f"a key path must be a string like 'model.params.k', got {excerpt(text)}")
-    out: list = []
+    out: list[str | int] = []
     pos = 0
     while pos < len(text):
         if out and text[pos] == ".":
@@ -47,7 +39,7 @@ def parse_key_path(text: str) -> tuple:
     return tuple(out)
 
 
-def get_at(doc: Any, path, *, error=None) -> Any:
+def get_at(doc: Any, path: str | Iterable[object], *, error: type[SchemaError] | None = None) -> Any:
     """The value at ``path`` (a tuple or its text form) in ``doc``; a missing key raises
     ``error`` (default :class:`SchemaError`) naming the path, the closest key and the line."""
     parts = parse_key_path(path) if isinstance(path, str) else tuple(path)
@@ -57,7 +49,7 @@ def get_at(doc: Any, path, *, error=None) -> Any:
     return value
 
 
-def set_at(doc: Any, path, value: Any, *, error=None) -> Any:
+def set_at(doc: Any, path: str | Iterable[object], value: Any, *, error: type[SchemaError] | None = None) -> Any:
     """A copy of ``doc`` with the value at ``path`` replaced by ``value`` (only the
     containers on the path are copied; ``doc`` is not changed). The last key of a mapping
     may be new; every key before it must exist."""
@@ -70,19 +62,17 @@ def set_at(doc: Any, path, value: Any, *, error=None) -> Any:
             inner = set_at(_step(doc, head, (head,), error), rest, value, error=error) if rest else value
         else:
             inner = value
-        out = dict(doc)
-        out[head] = inner
-        return out
+        mapping = dict(doc)
+        mapping[head] = inner
+        return mapping
     child = _step(doc, head, (head,), error)
-    out = list(doc)
-    out[head] = set_at(child, rest, value, error=error)
-    return out
+    assert isinstance(head, int)              # _step accepts only a position in a list here
+    items = list(doc)
+    items[head] = set_at(child, rest, value, error=error)
+    return items
 
 
-def _step(value: Any, part, where: tuple, error) -> Any:
-    from tensegrity_core.schema.errors import SchemaError, suggest, type_name
-    from tensegrity_core.schema.located import line_of
-
+def _step(value: Any, part: object, where: KeyPath, error: type[SchemaError] | None) -> Any:
     error = error or SchemaError
     parent = where[:-1]
     if isinstance(value, dict):

@@ -11,6 +11,7 @@ to 10^9 values), so both their number and the number of values they add are boun
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Final
 
 
 @dataclass(frozen=True)
@@ -26,4 +27,4 @@ class Limits:
 
 
 #: What local files get unless a caller asks for less.
-DEFAULT_LIMITS = Limits()
+DEFAULT_LIMITS: Final = Limits()

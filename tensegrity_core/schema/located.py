@@ -11,26 +11,26 @@ from __future__ import annotations
 from typing import Any
 
 
-class LocatedDict(dict):
+class LocatedDict(dict[Any, Any]):
     """A mapping with ``line`` (its own) and ``key_lines`` (key -> line of the key)."""
 
     __slots__ = ("line", "key_lines")
 
-    def __init__(self, line: int | None = None):
+    def __init__(self, line: int | None = None) -> None:
         super().__init__()
         self.line = line
-        self.key_lines: dict = {}
+        self.key_lines: dict[Any, int] = {}
 
 
-class LocatedList(list):
+class LocatedList(list[Any]):
     """A sequence with ``line`` (its own) and ``item_lines`` (line of each item)."""
 
     __slots__ = ("line", "item_lines")
 
-    def __init__(self, line: int | None = None):
+    def __init__(self, line: int | None = None) -> None:
         super().__init__()
         self.line = line
-        self.item_lines: list = []
+        self.item_lines: list[int] = []
 
 
 def line_of(container: Any, key: Any = None) -> int | None:

@@ -16,14 +16,24 @@ lose all precision in the solvers.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
-from typing import Any
+from collections.abc import Collection, Iterable, Mapping
+from typing import Any, Final, TypedDict, Unpack
 
-from tensegrity_core.schema.errors import SchemaError, excerpt, suggest, type_name
+from tensegrity_core.schema.errors import KeyPath, SchemaError, excerpt, suggest, type_name
 from tensegrity_core.schema.located import line_of
 
 #: The largest magnitude any number of a description may have (SI units).
-MAX_MAGNITUDE = 1e15
+MAX_MAGNITUDE: Final = 1e15
+
+
+class Bounds(TypedDict, total=False):
+    """Bounds of a number (the keyword arguments of :func:`number_reason`)."""
+
+    lo: float | None
+    hi: float | None
+    lo_open: bool
+    hi_open: bool
+    allow_inf: bool
 
 
 def is_number(value: Any) -> bool:
@@ -61,21 +71,22 @@ class Reader:
     key path, line and ``file``. ``path`` arguments are key-path tuples of the value being
     read; ``container``/``key`` say where it sits, for its line."""
 
-    def __init__(self, error: type[SchemaError] = SchemaError, file: str | None = None):
+    def __init__(self, error: type[SchemaError] = SchemaError, file: str | None = None) -> None:
         self.error_class = error
         self.file = file
 
-    def error(self, reason: str, path: tuple, container: Any = None, key: Any = None) -> SchemaError:
+    def error(self, reason: str, path: KeyPath, container: Any = None, key: Any = None) -> SchemaError:
         """The error ``reason`` at key path ``path``, on the line of ``container[key]``."""
         return self.error_class(reason, key=path, line=line_of(container, key), file=self.file)
 
-    def mapping(self, value: Any, path: tuple, parent: Any = None, key: Any = None) -> dict:
+    def mapping(self, value: Any, path: KeyPath, parent: Any = None, key: Any = None) -> dict[Any, Any]:
         """``value`` if it is a mapping."""
         if not isinstance(value, dict):
             raise self.error(f"must be a mapping, got {type_name(value)} ({excerpt(value)})", path, parent, key)
         return value
 
-    def keys(self, d: dict, path: tuple, allowed: Iterable, required: Iterable = ()) -> None:
+    def keys(self, d: Mapping[Any, Any], path: KeyPath, allowed: Iterable[object],
+             required: Iterable[object] = ()) -> None:
         """Every key of ``d`` is in ``allowed`` (an unknown one is named with the closest
         allowed key) and every key of ``required`` is there."""
         allowed = tuple(allowed)
@@ -87,7 +98,8 @@ class Reader:
             if k not in d:
                 raise self.error(f"missing required key {k!r}", path, d, None)
 
-    def number(self, d: dict, key: Any, path: tuple, *, default: float | None = None, **bounds) -> float:
+    def number(self, d: Mapping[Any, Any], key: Any, path: KeyPath, *, default: float | None = None,
+               **bounds: Unpack[Bounds]) -> float:
         """``d[key]`` as a float within ``bounds`` (see :func:`number_reason`), or
         ``default`` when the key is absent (required when ``default`` is None)."""
         if key not in d:
@@ -96,21 +108,23 @@ class Reader:
             return default
         return self.value_number(d[key], path + (key,), d, key, **bounds)
 
-    def value_number(self, value: Any, path: tuple, container: Any, key: Any, **bounds) -> float:
+    def value_number(self, value: Any, path: KeyPath, container: Any, key: Any, **bounds: Unpack[Bounds]) -> float:
         """``value`` (at ``path``) as a float within ``bounds``."""
         x, reason = number_reason(value, **bounds)
         if reason is not None:
             raise self.error(reason, path, container, key)
         return x
 
-    def vector(self, value: Any, n: int, path: tuple, container: Any, key: Any, *, what: str = "numbers") -> tuple:
+    def vector(self, value: Any, n: int, path: KeyPath, container: Any, key: Any, *,
+               what: str = "numbers") -> tuple[float, ...]:
         """``value`` as a tuple of ``n`` numbers."""
         if not isinstance(value, (list, tuple)) or len(value) != n:
             raise self.error(f"must be a list of {n} {what}, got {type_name(value)} ({excerpt(value)})", path,
                              container, key)
         return tuple(self.value_number(x, path + (i,), value, i) for i, x in enumerate(value))
 
-    def string(self, d: dict, key: Any, path: tuple, *, default: str | None = None, choices=None) -> str:
+    def string(self, d: Mapping[Any, Any], key: Any, path: KeyPath, *, default: str | None = None,
+               choices: Collection[str] | None = None) -> str:
         """``d[key]`` as a string (one of ``choices`` if given), or ``default``."""
         if key not in d:
             if default is None:
@@ -124,7 +138,8 @@ class Reader:
                              path + (key,), d, key)
         return value
 
-    def integer(self, d: dict, key: Any, path: tuple, *, default: int | None = None, lo: int | None = None) -> int:
+    def integer(self, d: Mapping[Any, Any], key: Any, path: KeyPath, *, default: int | None = None,
+                lo: int | None = None) -> int:
         """``d[key]`` as an int (>= ``lo`` if given), or ``default``."""
         if key not in d:
             if default is None:

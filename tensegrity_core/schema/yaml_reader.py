@@ -22,6 +22,8 @@ scalar ones and ``!!seq``/``!!map`` are refused. Merge keys (``<<: *defaults``) 
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
+from typing import Any, Final, TypeAlias
 
 import yaml
 from yaml.events import (
@@ -42,25 +44,28 @@ from tensegrity_core.schema.limits import DEFAULT_LIMITS, Limits
 from tensegrity_core.schema.located import LocatedDict, LocatedList
 
 try:
-    from yaml.cyaml import CParser as _Parser
+    from yaml._yaml import CParser as _Parser
 except ImportError:  # pragma: no cover (PyYAML built without libyaml)
     from yaml.parser import Parser
     from yaml.reader import Reader
     from yaml.scanner import Scanner
 
-    class _Parser(Reader, Scanner, Parser):  # type: ignore[no-redef]
-        def __init__(self, stream):
+    class _Parser(Reader, Scanner, Parser):  # type: ignore[no-redef]  # the same parser in Python
+        def __init__(self, stream: str) -> None:
             Reader.__init__(self, stream)
             Scanner.__init__(self)
             Parser.__init__(self)
 
-_INT = re.compile(r"[-+]?(?:0|[1-9][0-9]*)\Z")
-_FLOAT = re.compile(r"[-+]?(?:(?:[0-9]+\.[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?|[0-9]+[eE][-+]?[0-9]+)\Z")
-_RESOLVER = yaml.resolver.Resolver()
-_CONSTRUCTOR = yaml.constructor.SafeConstructor()
-_SCALAR_TAGS = {f"tag:yaml.org,2002:{t}" for t in ("str", "int", "float", "bool", "null", "timestamp", "binary")}
-_COLLECTION_TAGS = {None, "!", "tag:yaml.org,2002:seq", "tag:yaml.org,2002:map"}
-_MERGE_TAG = "tag:yaml.org,2002:merge"
+_INT: Final = re.compile(r"[-+]?(?:0|[1-9][0-9]*)\Z")
+_FLOAT: Final = re.compile(r"[-+]?(?:(?:[0-9]+\.[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?|[0-9]+[eE][-+]?[0-9]+)\Z")
+_RESOLVER: Final = yaml.resolver.Resolver()
+_CONSTRUCTOR: Final = yaml.constructor.SafeConstructor()
+_SCALAR_TAGS: Final = {f"tag:yaml.org,2002:{t}" for t in ("str", "int", "float", "bool", "null", "timestamp", "binary")}
+_COLLECTION_TAGS: Final = {None, "!", "tag:yaml.org,2002:seq", "tag:yaml.org,2002:map"}
+_MERGE_TAG: Final = "tag:yaml.org,2002:merge"
+
+#: ``(reason, line) -> error`` to raise: the caller's error class, located in its file.
+Fail: TypeAlias = Callable[[str, "int | None"], SchemaError]
 
 
 class _Merge:
@@ -70,12 +75,12 @@ class _Merge:
         return "'<<'"
 
 
-MERGE = _Merge()
-_MISSING = object()
+MERGE: Final = _Merge()
+_MISSING: Final = object()
 
 
 def parse_yaml(text: str, *, limits: Limits = DEFAULT_LIMITS, error: type[SchemaError] = SchemaError,
-               file: str | None = None):
+               file: str | None = None) -> Any:
     """Parse one YAML document into dicts, lists and scalars (mappings and lists located).
 
     Raises ``error`` (a :class:`SchemaError` class) for invalid YAML, more than one document,
@@ -93,11 +98,12 @@ def parse_yaml(text: str, *, limits: Limits = DEFAULT_LIMITS, error: type[Schema
         get_event = _Parser(text).get_event
     except (TypeError, UnicodeError) as err:
         raise error(f"cannot read the text as YAML: {err}", file=file) from None
-    cache: dict = {}
-    anchors: dict = {}
+    cache: dict[str, Any] = {}
+    anchors: dict[str, tuple[Any, int | None]] = {}
     # A frame per open container: [container, is_mapping, key, key_seen, anchor, count_at_start, merges]
-    stack: list = []
-    root = None
+    stack: list[list[Any]] = []
+    root: Any = None
+    obj: Any
     count = aliases = alias_values = documents = 0
     max_depth, max_aliases, max_alias_values = limits.max_depth, limits.max_aliases, limits.max_alias_values
     while True:
@@ -105,10 +111,10 @@ def parse_yaml(text: str, *, limits: Limits = DEFAULT_LIMITS, error: type[Schema
             event = get_event()
         except yaml.YAMLError as err:
             raise _syntax_error(err, text, error, file) from None
-        kind = event.__class__
-        line = event.start_mark.line + 1
+        # get_event() gives None only after the stream's end (returned below); both parsers set start_mark
+        line = event.start_mark.line + 1  # type: ignore[union-attr]
         is_start = False
-        if kind is ScalarEvent:
+        if isinstance(event, ScalarEvent):
             count += 1
             tag = event.tag
             if tag is None or tag == "!":
@@ -125,26 +131,26 @@ def parse_yaml(text: str, *, limits: Limits = DEFAULT_LIMITS, error: type[Schema
                 raise fail(f"unsupported tag {excerpt(tag)} (only plain data is read)", line)
             if event.anchor is not None:
                 anchors[event.anchor] = (obj, 1)
-        elif kind is MappingStartEvent or kind is SequenceStartEvent:
+        elif isinstance(event, (MappingStartEvent, SequenceStartEvent)):
             count += 1
             if len(stack) >= max_depth:
                 raise fail(f"nested deeper than {max_depth} levels", line)
             if event.tag not in _COLLECTION_TAGS:
                 raise fail(f"unsupported tag {excerpt(event.tag)} (only plain mappings and lists are read)",
                            line)
-            obj = LocatedDict(line) if kind is MappingStartEvent else LocatedList(line)
+            obj = LocatedDict(line) if isinstance(event, MappingStartEvent) else LocatedList(line)
             if event.anchor is not None:
                 anchors[event.anchor] = (obj, None)      # open: an alias to it now is recursive
             is_start = True
-        elif kind is MappingEndEvent or kind is SequenceEndEvent:
+        elif isinstance(event, (MappingEndEvent, SequenceEndEvent)):
             container, is_map, _, _, anchor, start, merges = stack.pop()
             if merges:
                 _merge(container, merges, fail)
             if anchor is not None:
                 anchors[anchor] = (container, count - start)
             continue
-        elif kind is AliasEvent:
-            entry = anchors.get(event.anchor)
+        elif isinstance(event, AliasEvent):
+            entry = None if event.anchor is None else anchors.get(event.anchor)
             if entry is None:
                 raise fail(f"undefined alias {excerpt(event.anchor)}", line)
             obj, size = entry
@@ -158,12 +164,12 @@ def parse_yaml(text: str, *, limits: Limits = DEFAULT_LIMITS, error: type[Schema
             if alias_values > max_alias_values:
                 raise fail(f"aliases expand to more than {max_alias_values} values", line)
             count += size
-        elif kind is DocumentStartEvent:
+        elif isinstance(event, DocumentStartEvent):
             documents += 1
             if documents > 1:
                 raise fail("more than one YAML document ('---' starts a second one)", line)
             continue
-        elif kind is StreamEndEvent:
+        elif isinstance(event, StreamEndEvent):
             return root
         else:                                           # stream start, document end
             continue
@@ -198,10 +204,10 @@ def parse_yaml(text: str, *, limits: Limits = DEFAULT_LIMITS, error: type[Schema
                 frame[2] = obj
                 frame[3] = True
         if is_start:
-            stack.append([obj, kind is MappingStartEvent, None, False, event.anchor, count - 1, []])
+            stack.append([obj, isinstance(obj, LocatedDict), None, False, event.anchor, count - 1, []])
 
 
-def _plain(value: str, line: int, fail):
+def _plain(value: str, line: int, fail: Fail) -> Any:
     """A plain (unquoted, untagged) scalar's value."""
     if _FLOAT.match(value):
         return float(value)
@@ -210,20 +216,28 @@ def _plain(value: str, line: int, fail):
             return int(value)
         except ValueError:
             raise fail(f"the integer {excerpt(value)} has too many digits", line) from None
-    tag = _RESOLVER.resolve(ScalarNode, value, (True, False))
+    tag = plain_scalar_tag(value)
     if tag == _MERGE_TAG:
         return MERGE
     return _construct(tag, value, line, fail)
 
 
-def _construct(tag: str, value: str, line: int, fail):
+def plain_scalar_tag(value: str) -> str:
+    """The tag PyYAML's resolver (``SafeLoader``'s rules) gives the plain scalar ``value``,
+    e.g. ``"tag:yaml.org,2002:str"`` (the writer keeps a string plain only when it reads back
+    as one)."""
+    tag: str = _RESOLVER.resolve(ScalarNode, value, (True, False))  # type: ignore[no-untyped-call]  # unannotated in types-PyYAML
+    return tag
+
+
+def _construct(tag: str, value: str, line: int, fail: Fail) -> Any:
     try:
         return _CONSTRUCTOR.yaml_constructors[tag](_CONSTRUCTOR, ScalarNode(tag, value))
     except (ValueError, TypeError, OverflowError, yaml.YAMLError):
         raise fail(f"cannot read {excerpt(value)} as {tag.rsplit(':', 1)[-1]}", line) from None
 
 
-def _merge(container: LocatedDict, merges: list, fail) -> None:
+def _merge(container: LocatedDict, merges: list[tuple[Any, int]], fail: Fail) -> None:
     """``<<: mapping`` or ``<<: [mapping, ...]``: keys the mapping lacks are taken from
     them, earlier mappings first (YAML's merge key)."""
     for value, line in merges:
@@ -237,7 +251,7 @@ def _merge(container: LocatedDict, merges: list, fail) -> None:
                     container.key_lines[key] = line
 
 
-def _syntax_error(err: yaml.YAMLError, text: str, error, file) -> SchemaError:
+def _syntax_error(err: yaml.YAMLError, text: str, error: type[SchemaError], file: str | None) -> SchemaError:
     if isinstance(err, yaml.MarkedYAMLError):
         mark = err.problem_mark or err.context_mark
         problem = err.problem or err.context or "syntax error"

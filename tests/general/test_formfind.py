@@ -18,7 +18,7 @@ from tensegrity_core.general import (
     load_example,
     out_of_balance,
 )
-from tensegrity_core.general.paper import euler_matrix
+from tests.general.paper_oracle import euler_matrix
 
 
 def prism(twist_deg=20.0, ratio=0.9):

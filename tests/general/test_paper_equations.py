@@ -17,12 +17,14 @@ from tensegrity_core.general import (
     equilibrium_matrix,
     form_find,
     load_example,
+    modes,
     out_of_balance,
     potential_energy,
     tangent_stiffness,
     transformation_matrix,
 )
-from tensegrity_core.general.paper import (
+from tensegrity_core.general.rotation import hat
+from tests.general.paper_oracle import (
     euler_configuration,
     euler_generalized_force,
     euler_matrix,
@@ -30,7 +32,6 @@ from tensegrity_core.general.paper import (
     euler_transform,
     paper_tangent_stiffness,
 )
-from tensegrity_core.general.rotation import hat
 
 angles = st.lists(st.floats(-3.0, 3.0), min_size=3, max_size=3).map(np.array)
 
@@ -246,5 +247,18 @@ def test_eq86_connectivity_has_one_column_too_many():
     np.testing.assert_array_equal(C, printed[:, :8])
 
 
+PRINTED_V2_TABLE = np.array([0.2887, 0.2887, 0.2887, 0.8660])                # Eq. 91
+
+
 def test_eq91_is_one_one_one_three():
-    np.testing.assert_allclose([0.2887, 0.8660], np.array([1, 3]) / np.sqrt(12), atol=5e-5)
+    """Eq. 91: the tensegrity table's one self-stress mode at its equilibrium. The core's
+    mode (SVD of A_r at the form-found shape) matches the printed digits and is exactly
+    [1, 1, 1, 3] / sqrt(12): the three long strings equally taut, the short one three times."""
+    s = load_example("tensegrity_table")
+    r = form_find(s)
+    assert r.success
+    m = modes(s, r.configuration)
+    assert m.self_stress.shape == (4, 1)
+    v = m.self_stress[:, 0]
+    np.testing.assert_allclose(v, PRINTED_V2_TABLE, atol=5e-5)
+    np.testing.assert_allclose(v, np.array([1, 1, 1, 3]) / np.sqrt(12), atol=1e-12)

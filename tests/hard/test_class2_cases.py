@@ -60,7 +60,7 @@ def test_case_lambda1_on_the_set_fk_is_exact_and_the_jacobian_is_refused():
     assert fk.beta == 0.0 and fk.y == 0.0 and fk.x == pytest.approx(1.6, abs=1e-15)
     assert fk.singularity_distance == 0.0 and fk.jacobian_cond == math.inf
     with pytest.raises(SingularityError) as err:
-        fk.jacobian
+        _ = fk.jacobian
     assert err.value.kind == "lambda1"
 
 

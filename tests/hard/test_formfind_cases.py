@@ -237,7 +237,6 @@ def test_case_large_structure_with_a_few_very_short_members():
     links stretch by t l0 / EA (1e-3 under the strings' pull)."""
     base = tensegrity_spine(300, shape="straight", perturbation=0.03)
     x = base.nodes.copy()
-    names = list(base.node_names)
     members = base.members.tolist()
     kinds = list(base.member_kinds)
     EA = list(base.EA)

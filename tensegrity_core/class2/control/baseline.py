@@ -15,6 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.class2.control.holding import holding_forces
 from tensegrity_core.class2.kinematics import dbeta_drho
@@ -45,13 +46,15 @@ class ActuatorTracker:
             if not (np.isfinite(v) and v >= 0):
                 raise ParameterError(f"{name} must be finite and >= 0, got {v!r}")
 
-    def forces(self, rho_ref, rho, rho_dot, beta_dot: float = 0.0) -> np.ndarray:
+    def forces(self, rho_ref: ArrayLike, rho: ArrayLike, rho_dot: ArrayLike,
+               beta_dot: float = 0.0) -> NDArray[np.float64]:
         """Forces ``(f1, f2)`` [N] for references ``rho_ref`` [m], lengths ``rho`` [m], their
         rates ``rho_dot`` [m/s] and beta's rate ``beta_dot`` [rad/s]."""
-        rho_ref, rho, rho_dot = (np.asarray(v, dtype=float) for v in (rho_ref, rho, rho_dot))
-        target = rho_ref
+        ref, length, rate = (np.asarray(v, dtype=np.float64) for v in (rho_ref, rho, rho_dot))
+        target = ref
         if self.kbeta and beta_dot:
-            _, g1, g2 = dbeta_drho(float(rho_ref[0]), float(rho_ref[1]), self.params)
-            target = rho_ref - self.kbeta * float(beta_dot) * np.array([g1, g2])
-        f = holding_forces(rho_ref[0], rho_ref[1], self.params) + self.kp * (rho - target) + self.kd * rho_dot
-        return np.clip(f, -self.max_force, self.max_force)
+            _, g1, g2 = dbeta_drho(float(ref[0]), float(ref[1]), self.params)
+            target = ref - self.kbeta * float(beta_dot) * np.array([g1, g2])
+        f = holding_forces(ref[0], ref[1], self.params) + self.kp * (length - target) + self.kd * rate
+        clipped: NDArray[np.float64] = np.clip(f, -self.max_force, self.max_force)
+        return clipped

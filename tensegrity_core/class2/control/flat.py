@@ -19,7 +19,11 @@ solutions, and ends at the static one with the holding forces.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Final
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import make_interp_spline
 
 from tensegrity_core.class2 import (  # the model's public names (its modules may move)
@@ -30,31 +34,33 @@ from tensegrity_core.class2 import (  # the model's public names (its modules ma
     velocity_terms,
 )
 from tensegrity_core.class2.control.errors import OUTSIDE_WORKSPACE, SINGULAR_PATH, PlanningError
+from tensegrity_core.class2.control.paths import EndEffectorPath
 from tensegrity_core.class2.control.reference import Reference
 from tensegrity_core.class2.params import Class2Params
 from tensegrity_core.errors import TensegrityError
 
 #: Newton's method stops below this change of rho2 (relative to L).
-_NEWTON_TOL = 1e-13
-_NEWTON_ITER = 30
+_NEWTON_TOL: Final = 1e-13
+_NEWTON_ITER: Final = 30
 #: Sweeps for the damping term: the first solves without rho2' (the damping row is ~c small),
 #: the second with the first's rho2' (the first-order correction of a singular perturbation;
 #: its residual in the unactuated row is ~c^2 small, 1e-5 N m on the demo's moves). More
 #: sweeps do not converge: differentiating the previous sweep amplifies grid-scale noise
 #: by ~c/(slope * step).
-_DAMPING_SWEEPS = 2
+_DAMPING_SWEEPS: Final = 2
 #: The paths start and end at rest with D's derivatives 1..4 zero, so rho2' = rho2'' = 0 there.
-_AT_REST = ([(1, 0.0), (2, 0.0)], [(1, 0.0), (2, 0.0)])
+_AT_REST: Final = ([(1, 0.0), (2, 0.0)], [(1, 0.0), (2, 0.0)])
 
 
-def grid(duration: float, step: float) -> np.ndarray:
+def grid(duration: float, step: float) -> NDArray[np.float64]:
     """Uniform times from 0 to ``duration`` with a spacing of at most ``step`` [s]."""
     n = max(2, int(np.ceil(duration / step - 1e-9)) + 1)
     return np.linspace(0.0, duration, n)
 
 
-def end_effector_reference(path, params: Class2Params, rho2_guess, *, step: float = 0.002,
-                           target=None) -> Reference:
+def end_effector_reference(path: EndEffectorPath, params: Class2Params,
+                           rho2_guess: Callable[[NDArray[np.float64]], ArrayLike], *, step: float = 0.002,
+                           target: tuple[float, float] | None = None) -> Reference:
     """The reference that makes D follow ``path`` exactly (see the module docstring).
 
     ``path.sample(t)`` gives ``(D, D', D'')``; ``rho2_guess(t)`` [m] starts Newton's method
@@ -95,7 +101,9 @@ def end_effector_reference(path, params: Class2Params, rho2_guess, *, step: floa
     return Reference(t[1] - t[0], q, qd, -rows[:, :2], params, kind="end_effector", target=target)
 
 
-def _solve_rho2(r1, r2, beta, r1d, r2d, bd, inertial, params: Class2Params) -> np.ndarray:
+def _solve_rho2(r1: NDArray[np.float64], r2: NDArray[np.float64], beta: NDArray[np.float64],
+                r1d: NDArray[np.float64], r2d: NDArray[np.float64], bd: NDArray[np.float64],
+                inertial: NDArray[np.float64], params: Class2Params) -> NDArray[np.float64]:
     """Newton's method on the unactuated row for rho2 on every grid point at once."""
     L = params.L
     for _ in range(_NEWTON_ITER):

@@ -19,20 +19,23 @@ Tolerances: a value > 0 is checked, ``<= 0`` (or ``inf``) is not.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Final
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.class2.control.law import Tick
 from tensegrity_core.class2.control.reference import Reference
 
-SUCCEEDED = "succeeded"
-PATH_TOLERANCE_VIOLATED = "path_tolerance_violated"
-GOAL_TOLERANCE_VIOLATED = "goal_tolerance_violated"
-SIMULATOR_STOPPED = "simulator_stopped"
-SINGULAR_STATE = "singular_state"
-PREEMPTED = "preempted"
-CANCELED = "canceled"
+SUCCEEDED: Final = "succeeded"
+PATH_TOLERANCE_VIOLATED: Final = "path_tolerance_violated"
+GOAL_TOLERANCE_VIOLATED: Final = "goal_tolerance_violated"
+SIMULATOR_STOPPED: Final = "simulator_stopped"
+SINGULAR_STATE: Final = "singular_state"
+PREEMPTED: Final = "preempted"
+CANCELED: Final = "canceled"
 
 
 @dataclass(frozen=True)
@@ -47,9 +50,9 @@ class Outcome:
         return self.code == SUCCEEDED
 
 
-def _checked(tol) -> np.ndarray:
-    tol = np.asarray(tol, dtype=float)
-    return np.where(tol > 0.0, tol, math.inf)
+def _checked(tol: ArrayLike) -> NDArray[np.float64]:
+    t = np.asarray(tol, dtype=np.float64)
+    return np.where(t > 0.0, t, math.inf)
 
 
 @dataclass
@@ -115,15 +118,16 @@ class MoveGoal(_Goal):
 class TrajectoryGoal(_Goal):
     """An actuator trajectory; tolerances per joint (rho1, rho2) [m, m/s], ``goal_time`` [s]."""
 
-    path_position: tuple = (0.0, 0.0)
-    path_velocity: tuple = (0.0, 0.0)
-    goal_position: tuple = (1e-4, 1e-4)
-    goal_velocity: tuple = (0.0, 0.0)
+    path_position: tuple[float, float] = (0.0, 0.0)
+    path_velocity: tuple[float, float] = (0.0, 0.0)
+    goal_position: tuple[float, float] = (1e-4, 1e-4)
+    goal_velocity: tuple[float, float] = (0.0, 0.0)
     goal_time: float = 3.0
-    error: np.ndarray = field(default_factory=lambda: np.zeros(2))
-    rate_error: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    error: NDArray[np.float64] = field(default_factory=lambda: np.zeros(2))
+    rate_error: NDArray[np.float64] = field(default_factory=lambda: np.zeros(2))
 
-    def step(self, t: float, q, qdot, tick: Tick) -> Outcome | None:
+    def step(self, t: float, q: Sequence[float] | NDArray[np.float64], qdot: Sequence[float] | NDArray[np.float64],
+             tick: Tick) -> Outcome | None:
         if self.outcome is not None:
             return self.outcome
         self._forces(tick)

@@ -10,6 +10,7 @@ rho = (0.7, 0.7) is: see docs/class2_dynamics.md), so a controller adds feedback
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import NDArray
 
 from tensegrity_core.class2 import potential_gradient
 from tensegrity_core.class2.energy import equilibrium_beta
@@ -17,12 +18,12 @@ from tensegrity_core.class2.geometry import check_actuator_lengths
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 
 
-def rest_state(rho1: float, rho2: float, params: Class2Params = PAPER_PARAMS) -> np.ndarray:
+def rest_state(rho1: float, rho2: float, params: Class2Params = PAPER_PARAMS) -> NDArray[np.float64]:
     """``q = (rho1, rho2, beta*)`` [m, m, rad] at rest with the actuators at ``(rho1, rho2)``."""
     check_actuator_lengths(rho1, rho2, params.L)
     return np.array([float(rho1), float(rho2), float(equilibrium_beta(rho1, rho2, params))])
 
 
-def holding_forces(rho1: float, rho2: float, params: Class2Params = PAPER_PARAMS) -> np.ndarray:
+def holding_forces(rho1: float, rho2: float, params: Class2Params = PAPER_PARAMS) -> NDArray[np.float64]:
     """Actuator forces ``(f1, f2)`` [N] that keep the mechanism at rest at ``(rho1, rho2)``."""
     return -potential_gradient(rest_state(rho1, rho2, params), params)[:2]

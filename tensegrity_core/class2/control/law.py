@@ -24,39 +24,45 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Final
 
 import numpy as np
+from numpy.typing import NDArray
 
-from tensegrity_core.class2.control.lqr import LQRWeights, design_gain
+from tensegrity_core.class2.control.lqr import DEFAULT_WEIGHTS, Gain, LQRWeights, Vector, design_gain
 from tensegrity_core.class2.control.reference import Reference, ReferenceSample, hold_reference
 from tensegrity_core.class2.inverse_kinematics import nearest_solution
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 from tensegrity_core.errors import ParameterError, TensegrityError
 
 #: Largest number of gain-schedule knots per reference (each is one Riccati solve, ~1-3 ms).
-MAX_KNOTS = 40
+MAX_KNOTS: Final = 40
 #: Weights while an actuator trajectory runs: the lengths' errors dominate (1 mm, 1 cm/s).
-ACTUATOR_WEIGHTS = LQRWeights(position=0.05, velocity=0.5, length=0.001, rate=0.01)
+ACTUATOR_WEIGHTS: Final = LQRWeights(position=0.05, velocity=0.5, length=0.001, rate=0.01)
 
 
 @dataclass(frozen=True)
 class ScheduledGains:
     """Gains at the reference times ``times`` [s] (uniform), interpolated linearly."""
 
-    times: np.ndarray
-    K: np.ndarray          # (n, 2, 8)
-    designs: tuple         # the Gain of each knot (poles for reports)
+    times: NDArray[np.float64]
+    K: NDArray[np.float64]          # (n, 2, 8)
+    designs: tuple[Gain, ...]       # the Gain of each knot (poles for reports)
 
-    def at(self, tau: float) -> np.ndarray:
+    def at(self, tau: float) -> NDArray[np.float64]:
         n = len(self.times) - 1
+        K: NDArray[np.float64]
         if n == 0 or tau <= 0.0:
-            return self.K[0]
+            K = self.K[0]
+            return K
         x = tau / self.times[1]
         if x >= n:
-            return self.K[n]
+            K = self.K[n]
+            return K
         i = int(x)
         w = x - i
-        return self.K[i] + w * (self.K[i + 1] - self.K[i])
+        K = self.K[i] + w * (self.K[i + 1] - self.K[i])
+        return K
 
 
 def schedule_gains(reference: Reference, params: Class2Params, weights: LQRWeights, dt: float,
@@ -68,7 +74,7 @@ def schedule_gains(reference: Reference, params: Class2Params, weights: LQRWeigh
     T = reference.duration
     n = min(MAX_KNOTS, max(1, int(math.ceil(T / spacing - 1e-9)))) if T > 0 else 0
     times = np.linspace(0.0, T, n + 1)
-    designs = []
+    designs: list[Gain] = []
     for k, tau in enumerate(times):
         s = reference.sample(float(tau))
         w = weights if (k == n or motion_weights is None) else motion_weights
@@ -80,10 +86,10 @@ def schedule_gains(reference: Reference, params: Class2Params, weights: LQRWeigh
 class Tick:
     """What one tick computed: the forces and what they were computed from."""
 
-    forces: np.ndarray          # commanded (f1, f2) [N], within the limit
-    unsaturated: np.ndarray     # before clipping [N]
-    desired: ReferenceSample    # the reference at the tick
-    end_effector: np.ndarray    # measured D [m]
+    forces: NDArray[np.float64]          # commanded (f1, f2) [N], within the limit
+    unsaturated: NDArray[np.float64]     # before clipping [N]
+    desired: ReferenceSample             # the reference at the tick
+    end_effector: NDArray[np.float64]    # measured D [m]
     tau: float                  # time along the reference [s]
 
 
@@ -98,8 +104,8 @@ class TrackingController:
     """
 
     def __init__(self, params: Class2Params = PAPER_PARAMS, *, dt: float = 0.01, max_force: float = 5.0,
-                 weights: LQRWeights = LQRWeights(), gain_spacing: float = 0.1, integral_band: float = 0.01,
-                 actuator_weights: LQRWeights | None = None):
+                 weights: LQRWeights = DEFAULT_WEIGHTS, gain_spacing: float = 0.1, integral_band: float = 0.01,
+                 actuator_weights: LQRWeights | None = None) -> None:
         for name, v in (("dt", dt), ("max_force", max_force), ("gain_spacing", gain_spacing),
                         ("integral_band", integral_band)):
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v > 0):
@@ -157,7 +163,7 @@ class TrackingController:
         return self.reference is not None and t - self.t_start >= self.reference.duration
 
     # -- one tick ---------------------------------------------------------------------
-    def update(self, t: float, q, qdot) -> Tick:
+    def update(self, t: float, q: Vector, qdot: Vector) -> Tick:
         """The forces for the state ``(q, qdot)`` measured at ``t`` [s]; advances the integral."""
         ref, gains = self.reference, self.gains
         if ref is None or gains is None:
@@ -181,7 +187,7 @@ class TrackingController:
             self._integrate(d * h, K[:, 6:])
         return Tick(f, u, ReferenceSample(row[:3], row[3:6], u_ff, row[8:10]), d + row[8:10], tau)
 
-    def _integrate(self, dz: np.ndarray, Kz: np.ndarray) -> None:
+    def _integrate(self, dz: NDArray[np.float64], Kz: NDArray[np.float64]) -> None:
         z = self.z + dz
         demand = float(np.max(np.abs(Kz @ z)))
         if demand > self.max_force:

@@ -20,21 +20,29 @@ force scale.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, fields
+from typing import Any, Final, TypeAlias
 
 import numpy as np
 import scipy.linalg
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.class2 import mass_matrix, rhs_jacobian
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 from tensegrity_core.errors import ParameterError
 
 #: Size of the augmented state ``(q, qdot, z)``.
-AUGMENTED = 8
-_E = np.array([[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]])
+AUGMENTED: Final = 8
+_E: Final = np.array([[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]])
+
+#: A short vector of floats: ``q`` (rho1, rho2, beta) or forces ``(f1, f2)``.
+Vector: TypeAlias = Sequence[float] | NDArray[np.float64]
+#: A pair of matrices, e.g. ``(A, B)`` of ``x' = A x + B u``.
+MatrixPair: TypeAlias = tuple[NDArray[np.float64], NDArray[np.float64]]
 
 
-def linearize(q, qdot, f, params: Class2Params = PAPER_PARAMS) -> tuple[np.ndarray, np.ndarray]:
+def linearize(q: ArrayLike, qdot: ArrayLike, f: Vector, params: Class2Params = PAPER_PARAMS) -> MatrixPair:
     """``(A, B)`` of ``x' = A x + B u`` about the state ``(q, qdot)`` and forces ``f`` [N]:
     ``A`` (6, 6) from the model's analytic Jacobian, ``B`` (6, 2) = ``[0; -M^-1 E]``."""
     q, qdot = np.asarray(q, dtype=float), np.asarray(qdot, dtype=float)
@@ -44,13 +52,13 @@ def linearize(q, qdot, f, params: Class2Params = PAPER_PARAMS) -> tuple[np.ndarr
     return A, B
 
 
-def end_effector_jacobian(q, L: float) -> np.ndarray:
+def end_effector_jacobian(q: Vector, L: float) -> NDArray[np.float64]:
     """``dD/dq`` (2, 3) of ``D = (rho1 + L cos beta, L sin beta)`` [m/m, m/rad]."""
     sb, cb = math.sin(float(q[2])), math.cos(float(q[2]))
     return np.array([[1.0, 0.0, -L * sb], [0.0, 0.0, L * cb]])
 
 
-def augment(A: np.ndarray, B: np.ndarray, q, L: float) -> tuple[np.ndarray, np.ndarray]:
+def augment(A: NDArray[np.float64], B: NDArray[np.float64], q: Vector, L: float) -> MatrixPair:
     """The pair with the integral of the end-effector error appended (8 states)."""
     Aa = np.zeros((AUGMENTED, AUGMENTED))
     Aa[:6, :6] = A
@@ -60,7 +68,7 @@ def augment(A: np.ndarray, B: np.ndarray, q, L: float) -> tuple[np.ndarray, np.n
     return Aa, Ba
 
 
-def discretize(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+def discretize(A: NDArray[np.float64], B: NDArray[np.float64], dt: float) -> MatrixPair:
     """Exact zero-order-hold discretisation ``(Ad, Bd)`` of ``x' = A x + B u`` over ``dt`` [s]."""
     n, m = B.shape
     block = np.zeros((n + m, n + m))
@@ -95,7 +103,7 @@ class LQRWeights:
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v > 0):
                 raise ParameterError(f"LQR weight scale {f.name} must be a finite number > 0, got {v!r}")
 
-    def matrices(self, q, L: float) -> tuple[np.ndarray, np.ndarray]:
+    def matrices(self, q: Vector, L: float) -> MatrixPair:
         """``(Q, R)``, (8, 8) and (2, 2), at the configuration ``q``."""
         JD = end_effector_jacobian(q, L)
         DtD = JD.T @ JD
@@ -112,17 +120,22 @@ class Gain:
     """A designed gain: ``u = u_r - K (x - x_r, z)``; ``poles`` the eigenvalues of the
     closed discrete loop ``Ad - Bd K`` (all inside the unit circle)."""
 
-    K: np.ndarray
-    poles: np.ndarray
+    K: NDArray[np.float64]
+    poles: NDArray[np.inexact[Any]]
     dt: float
 
     @property
-    def continuous_poles(self) -> np.ndarray:
+    def continuous_poles(self) -> NDArray[np.complex128]:
         """The poles as continuous-time rates ``log(z)/dt`` [1/s] (real part < 0: decaying)."""
-        return np.log(self.poles.astype(complex)) / self.dt
+        rates: NDArray[np.complex128] = np.log(self.poles.astype(complex)) / self.dt
+        return rates
 
 
-def design_gain(q, qdot, f, params: Class2Params, weights: LQRWeights, dt: float) -> Gain:
+#: The default scales (a module-level instance: a frozen value shared as a default argument).
+DEFAULT_WEIGHTS: Final = LQRWeights()
+
+
+def design_gain(q: Vector, qdot: Vector, f: Vector, params: Class2Params, weights: LQRWeights, dt: float) -> Gain:
     """The discrete LQR gain (2, 8) for the loop sampled every ``dt`` [s], linearised about
     the reference state ``(q, qdot)`` with reference forces ``f`` [N]."""
     A, B = linearize(q, qdot, f, params)

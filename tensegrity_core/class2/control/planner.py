@@ -18,12 +18,15 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import Final
 
 import numpy as np
+from numpy.typing import NDArray
 
 from tensegrity_core.class2.control.errors import INVALID_GOAL, OUTSIDE_WORKSPACE, SINGULAR_PATH, PlanningError
 from tensegrity_core.class2.control.flat import end_effector_reference
-from tensegrity_core.class2.control.paths import PEAK_SPEED_FACTOR, LinePath
+from tensegrity_core.class2.control.paths import PEAK_SPEED_FACTOR, LinePath, MeasuredPath
 from tensegrity_core.class2.control.reference import Reference, hold_reference
 from tensegrity_core.class2.inverse_kinematics import inverse_kinematics, nearest_solution
 from tensegrity_core.class2.kinematics import jacobian_D_rho
@@ -32,15 +35,15 @@ from tensegrity_core.class2.singularities import nearest_singularity
 from tensegrity_core.errors import TensegrityError
 
 #: Default margin to the singular sets [L]: the IK node reports distances in the same measure.
-SINGULAR_MARGIN = 0.02
+SINGULAR_MARGIN: Final = 0.02
 #: IK samples at least this often along a path [m].
-IK_SPACING = 0.001
+IK_SPACING: Final = 0.001
 #: A branch jump: consecutive IK solutions further apart than this many times what the
 #: local gain |drho/dD| allows for the step (the genuine branch moves smoothly).
-_BRANCH_JUMP = 10.0
+_BRANCH_JUMP: Final = 10.0
 
 
-def _finite(name: str, value) -> float:
+def _finite(name: str, value: object) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise PlanningError(f"{name} must be a finite number, got {value!r}")
     return float(value)
@@ -49,7 +52,7 @@ def _finite(name: str, value) -> float:
 def move_duration(length: float, duration: float | None, max_speed: float | None) -> float:
     """The move's duration [s] from a duration and/or a peak-speed limit [m/s] (see the
     module docstring); both ``None`` or ``<= 0`` is refused."""
-    given = []
+    given: list[float] = []
     if duration is not None:
         duration = _finite("duration", duration)
         if duration <= 0.0:
@@ -65,8 +68,9 @@ def move_duration(length: float, duration: float | None, max_speed: float | None
     return max(given)
 
 
-def check_path_ik(path, rho_seed, params: Class2Params, *, singular_margin: float = SINGULAR_MARGIN,
-                  spacing: float = IK_SPACING) -> tuple[np.ndarray, np.ndarray]:
+def check_path_ik(path: MeasuredPath, rho_seed: Sequence[float] | NDArray[np.float64], params: Class2Params, *,
+                  singular_margin: float = SINGULAR_MARGIN,
+                  spacing: float = IK_SPACING) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """IK along ``path.point(sigma)`` with branch continuity from ``rho_seed``; returns the
     path parameters and the solutions (n, 2), or raises :class:`PlanningError` naming the
     first bad sample."""
@@ -74,7 +78,7 @@ def check_path_ik(path, rho_seed, params: Class2Params, *, singular_margin: floa
     sigma = np.linspace(0.0, 1.0, n)
     points = path.point(sigma)
     rho = np.empty((n, 2))
-    seed = tuple(float(v) for v in rho_seed)
+    seed: tuple[float, float] = (float(rho_seed[0]), float(rho_seed[1]))
     for i, (x, y) in enumerate(points):
         try:
             c = nearest_solution(float(x), float(y), seed, params)
@@ -99,13 +103,14 @@ def check_path_ik(path, rho_seed, params: Class2Params, *, singular_margin: floa
     return sigma, rho
 
 
-def plan_move(q_start, target, params: Class2Params, *, duration: float | None = None,
+def plan_move(q_start: Sequence[float] | NDArray[np.float64], target: Sequence[float], params: Class2Params, *,
+              duration: float | None = None,
               max_speed: float | None = None, force_budget: float = math.inf,
               singular_margin: float = SINGULAR_MARGIN, step: float = 0.002) -> Reference:
     """The reference for moving D from its place at ``q_start`` (rho1, rho2, beta) to
     ``target`` (x, y) [m]; see the module docstring. Raises :class:`PlanningError`."""
     x, y = _finite("x", target[0]), _finite("y", target[1])
-    q_start = [float(v) for v in q_start]
+    q0 = [float(v) for v in q_start]
     L = params.L
     ik = inverse_kinematics(x, y, params)
     if not ik.success:
@@ -115,21 +120,24 @@ def plan_move(q_start, target, params: Class2Params, *, duration: float | None =
     if dist < singular_margin:
         raise PlanningError(f"target D = ({x:g}, {y:g}) m lies within {dist:.3g} L of the singular set {name} "
                             f"(the margin is {singular_margin:g} L)", code=SINGULAR_PATH)
-    start = (q_start[0] + L * math.cos(q_start[2]), L * math.sin(q_start[2]))
+    start = (q0[0] + L * math.cos(q0[2]), L * math.sin(q0[2]))
     length = math.dist(start, (x, y))
     T = move_duration(length, duration, max_speed)
     if length < 1e-9 * L:
         return _hold_for(goal.rho1, goal.rho2, T, params, (x, y))
-    return plan_path(LinePath(start, (x, y), T), q_start, params, force_budget=force_budget,
+    return plan_path(LinePath(start, (x, y), T), q0, params, force_budget=force_budget,
                      singular_margin=singular_margin, step=step, target=(x, y))
 
 
-def plan_path(path, q_start, params: Class2Params, *, force_budget: float = math.inf,
-              singular_margin: float = SINGULAR_MARGIN, step: float = 0.002, target=None) -> Reference:
+def plan_path(path: MeasuredPath, q_start: Sequence[float] | NDArray[np.float64], params: Class2Params, *,
+              force_budget: float = math.inf, singular_margin: float = SINGULAR_MARGIN, step: float = 0.002,
+              target: tuple[float, float] | None = None) -> Reference:
     """The reference for D along ``path`` (a :class:`LinePath`, :class:`CirclePath`, ...)
     starting where ``q_start`` puts D: IK along it (steps 3-4 of the module docstring)."""
     sigma, rho = check_path_ik(path, q_start[:2], params, singular_margin=singular_margin)
-    guess = lambda t: np.interp(path.sigma(t), sigma, rho[:, 1])     # noqa: E731  (static IK along the path)
+    def guess(t: NDArray[np.float64]) -> NDArray[np.float64]:   # static IK along the path
+        return np.interp(path.sigma(t), sigma, rho[:, 1])
+
     ref = end_effector_reference(path, params, guess, step=step, target=target)
     peak = float(np.max(np.abs(ref.force)))
     if peak > force_budget:
@@ -139,7 +147,8 @@ def plan_path(path, q_start, params: Class2Params, *, force_budget: float = math
     return ref
 
 
-def _hold_for(rho1: float, rho2: float, duration: float, params: Class2Params, target) -> Reference:
+def _hold_for(rho1: float, rho2: float, duration: float, params: Class2Params,
+              target: tuple[float, float]) -> Reference:
     """Rest at ``(rho1, rho2)`` for ``duration`` [s] (a move of zero length)."""
     h = hold_reference(rho1, rho2, params)
     n = 2

@@ -3,18 +3,27 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from types import ModuleType
+from typing import TYPE_CHECKING, Any, Final
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.class2.control.holding import holding_forces, rest_state
-from tensegrity_core.class2.control.lqr import LQRWeights, design_gain, linearize
+from tensegrity_core.class2.control.lqr import DEFAULT_WEIGHTS, LQRWeights, design_gain, linearize
+from tensegrity_core.class2.control.paths import CirclePath
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 from tensegrity_core.class2.singularities import singularity_distance_array
 
-TOLERANCE = 5e-5
+if TYPE_CHECKING:
+    from tensegrity_core.class2.control.study import StudyResult
+
+TOLERANCE: Final = 5e-5
 
 
-def _plt():
+def _plt() -> ModuleType:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -23,7 +32,7 @@ def _plt():
     return plt
 
 
-def plot_waypoints(studies, path, hold: float = 2.0) -> None:
+def plot_waypoints(studies: Sequence[StudyResult], path: str | Path, hold: float = 2.0) -> None:
     """Distance of D to the current waypoint (log) and the forces, for each
     :class:`~tensegrity_core.class2.control.study.StudyResult` of ``studies``."""
     plt = _plt()
@@ -51,7 +60,7 @@ def plot_waypoints(studies, path, hold: float = 2.0) -> None:
     plt.close(fig)
 
 
-def plot_circle(studies, circle, path) -> None:
+def plot_circle(studies: Sequence[StudyResult], circle: CirclePath, path: str | Path) -> None:
     """D in the plane and its error against the circle's point, per study."""
     plt = _plt()
     fig, ax = plt.subplots(1, 2, figsize=(11, 4.5))
@@ -79,16 +88,16 @@ def plot_circle(studies, circle, path) -> None:
 
 
 def poles_across_workspace(params: Class2Params = PAPER_PARAMS, *, dt: float = 0.01, n: int = 25,
-                           weights: LQRWeights = LQRWeights(), margin: float = 0.02) -> dict:
+                           weights: LQRWeights = DEFAULT_WEIGHTS, margin: float = 0.02) -> dict[str, Any]:
     """Open- and closed-loop poles at rest on a grid of the actuator plane (points at least
     ``margin`` from every singular set, paper's range): ``rho1, rho2`` (m,), the open loop's
     largest real part, the closed loop's slowest decay rate ``-max Re`` and smallest damping
     ratio, and every closed-loop pole [1/s]."""
     L, k2, K = params.L, params.k2, 2 * params.k3 + params.k2
-    r1, r2 = np.meshgrid(np.linspace(0.02, 0.98, n) * L, np.linspace(0.02, 1.6, n) * L)
-    r1, r2 = r1.ravel(), r2.ravel()
+    g1, g2 = np.meshgrid(np.linspace(0.02, 0.98, n) * L, np.linspace(0.02, 1.6, n) * L)
+    r1, r2 = g1.ravel(), g2.ravel()
     ok = (singularity_distance_array(r1, r2, params) > margin) & (K * r2 > k2 * r1) & (r1 + r2 < 2 * L)
-    out = {"rho1": [], "rho2": [], "open_max_real": [], "decay": [], "damping": [], "poles": []}
+    out: dict[str, list[Any]] = {"rho1": [], "rho2": [], "open_max_real": [], "decay": [], "damping": [], "poles": []}
     for a, b in zip(r1[ok], r2[ok]):
         q, f = rest_state(a, b, params), holding_forces(a, b, params)
         A, _ = linearize(q, np.zeros(3), f, params)
@@ -103,7 +112,7 @@ def poles_across_workspace(params: Class2Params = PAPER_PARAMS, *, dt: float = 0
     return {k: (np.array(v) if k != "poles" else v) for k, v in out.items()}
 
 
-def plot_poles(data: dict, path, waypoints=None) -> None:
+def plot_poles(data: Mapping[str, Any], path: str | Path, waypoints: ArrayLike | None = None) -> None:
     plt = _plt()
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.6))
     for axis, key, title, cmap in ((ax[0], "open_max_real", "open loop, constant forces: largest Re [1/s]", "coolwarm"),
@@ -127,14 +136,16 @@ def plot_poles(data: dict, path, waypoints=None) -> None:
     plt.close(fig)
 
 
-def waypoint_configurations(params: Class2Params = PAPER_PARAMS, offsets=None) -> np.ndarray:
+def waypoint_configurations(params: Class2Params = PAPER_PARAMS,
+                            offsets: Sequence[tuple[float, float]] | None = None) -> NDArray[np.float64]:
     """``(rho1, rho2)`` of the demo's waypoints (IK, branch followed from rho = (0.7, 0.7))."""
     from tensegrity_core.class2.control.study import WAYPOINT_OFFSETS
     from tensegrity_core.class2.inverse_kinematics import nearest_solution
     from tensegrity_core.class2.kinematics import forward_kinematics
 
     d = forward_kinematics(0.7, 0.7, params)
-    seed, out = (0.7, 0.7), []
+    seed = (0.7, 0.7)
+    out: list[tuple[float, float]] = []
     for dx, dy in offsets or WAYPOINT_OFFSETS:
         c = nearest_solution(d.x + dx, d.y + dy, seed, params)
         seed = (c.rho1, c.rho2)

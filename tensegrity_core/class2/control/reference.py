@@ -10,24 +10,29 @@ ending at rest (``qdot = 0``, holding forces) can be held indefinitely.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Final
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.class2.control.holding import holding_forces, rest_state
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 
 #: Columns of the packed sample array: q (3), qdot (3), force (2), D (2).
-_Q, _QD, _F, _D = slice(0, 3), slice(3, 6), slice(6, 8), slice(8, 10)
+_Q: Final = slice(0, 3)
+_QD: Final = slice(3, 6)
+_F: Final = slice(6, 8)
+_D: Final = slice(8, 10)
 
 
 @dataclass(frozen=True)
 class ReferenceSample:
     """The reference at one instant: ``q``, ``qdot``, feedforward ``force``, end-effector ``D``."""
 
-    q: np.ndarray
-    qdot: np.ndarray
-    force: np.ndarray
-    end_effector: np.ndarray
+    q: NDArray[np.float64]
+    qdot: NDArray[np.float64]
+    force: NDArray[np.float64]
+    end_effector: NDArray[np.float64]
 
 
 class Reference:
@@ -38,18 +43,18 @@ class Reference:
     is one.
     """
 
-    def __init__(self, step: float, q, qdot, force, params: Class2Params, *, kind: str,
-                 target: tuple[float, float] | None = None):
-        q, qdot, force = (np.atleast_2d(np.asarray(v, dtype=float)) for v in (q, qdot, force))
+    def __init__(self, step: float, q: ArrayLike, qdot: ArrayLike, force: ArrayLike, params: Class2Params, *,
+                 kind: str, target: tuple[float, float] | None = None) -> None:
+        qa, qdota, forcea = (np.atleast_2d(np.asarray(v, dtype=np.float64)) for v in (q, qdot, force))
         L = params.L
-        D = np.stack([q[:, 0] + L * np.cos(q[:, 2]), L * np.sin(q[:, 2])], -1)
-        self._data = np.hstack([q, qdot, force, D])
+        D = np.stack([qa[:, 0] + L * np.cos(qa[:, 2]), L * np.sin(qa[:, 2])], -1)
+        self._data: NDArray[np.float64] = np.hstack([qa, qdota, forcea, D])
         self._data.setflags(write=False)
-        self.step = float(step) if len(q) > 1 else 1.0
+        self.step = float(step) if len(qa) > 1 else 1.0
         self.params = params
         self.kind = kind
         self.target = target if target is not None else (float(D[-1, 0]), float(D[-1, 1]))
-        self._last = len(q) - 1
+        self._last = len(qa) - 1
 
     @property
     def duration(self) -> float:
@@ -57,35 +62,38 @@ class Reference:
         return self._last * self.step
 
     @property
-    def times(self) -> np.ndarray:
-        return np.arange(self._last + 1) * self.step
+    def times(self) -> NDArray[np.float64]:
+        return np.arange(self._last + 1, dtype=np.float64) * self.step
 
     @property
-    def q(self) -> np.ndarray:
+    def q(self) -> NDArray[np.float64]:
         return self._data[:, _Q]
 
     @property
-    def qdot(self) -> np.ndarray:
+    def qdot(self) -> NDArray[np.float64]:
         return self._data[:, _QD]
 
     @property
-    def force(self) -> np.ndarray:
+    def force(self) -> NDArray[np.float64]:
         return self._data[:, _F]
 
     @property
-    def end_effector(self) -> np.ndarray:
+    def end_effector(self) -> NDArray[np.float64]:
         return self._data[:, _D]
 
-    def packed(self, tau: float) -> np.ndarray:
+    def packed(self, tau: float) -> NDArray[np.float64]:
         """The interpolated row (q, qdot, force, D) at relative time ``tau`` [s]."""
         x = tau / self.step
+        row: NDArray[np.float64]
         if x <= 0.0:
-            return self._data[0]
-        if x >= self._last:
-            return self._data[self._last]
-        i = int(x)
-        w = x - i
-        return self._data[i] + w * (self._data[i + 1] - self._data[i])
+            row = self._data[0]
+        elif x >= self._last:
+            row = self._data[self._last]
+        else:
+            i = int(x)
+            w = x - i
+            row = self._data[i] + w * (self._data[i + 1] - self._data[i])
+        return row
 
     def sample(self, tau: float) -> ReferenceSample:
         row = self.packed(tau)

@@ -20,14 +20,17 @@ solutions; on the circle, the IK of D's path at each tick) (``law="baseline"``).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Final, TypeAlias
 
 import numpy as np
 import yaml
+from numpy.typing import NDArray
 
 from tensegrity_core.class2.control.baseline import ActuatorTracker
 from tensegrity_core.class2.control.law import TrackingController
-from tensegrity_core.class2.control.lqr import LQRWeights
+from tensegrity_core.class2.control.lqr import DEFAULT_WEIGHTS, LQRWeights
 from tensegrity_core.class2.control.paths import CirclePath
 from tensegrity_core.class2.control.planner import plan_move, plan_path
 from tensegrity_core.class2.inverse_kinematics import nearest_solution
@@ -35,23 +38,31 @@ from tensegrity_core.class2.kinematics import forward_kinematics
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 from tensegrity_core.errors import ParameterError
 
+if TYPE_CHECKING:
+    from tensegrity_core.sim.simulator import JointSample
+
 #: The demo's end-effector waypoints: offsets [m] from D at rho = (0.7, 0.7).
-WAYPOINT_OFFSETS = ((0.08, 0.0), (0.08, 0.06), (-0.04, 0.06), (0.0, 0.0))
+WAYPOINT_OFFSETS: Final = ((0.08, 0.0), (0.08, 0.06), (-0.04, 0.06), (0.0, 0.0))
 #: The demo's present law and gains (tensegrity_ros/demo.py).
-BASELINE_GAINS = dict(kp=100.0, kd=20.0, kbeta=0.3)
-LAWS = ("lqr", "baseline")
+BASELINE_GAINS: Final = dict(kp=100.0, kd=20.0, kbeta=0.3)
+LAWS: Final = ("lqr", "baseline")
+
+#: Two floats: forces (f1, f2) [N] or a point (x, y) [m].
+Pair: TypeAlias = Sequence[float] | NDArray[np.float64]
+#: A law of the loop: the sample at ``t_k`` -> (forces (f1, f2) [N], desired D (x, y) [m]).
+Law: TypeAlias = "Callable[[JointSample], tuple[Pair, Pair]]"
 
 
 @dataclass
 class Trace:
     """Per tick: time [s], measured D (x, y) [m], desired D [m], commanded forces [N]."""
 
-    t: list = field(default_factory=list)
-    D: list = field(default_factory=list)
-    desired: list = field(default_factory=list)
-    forces: list = field(default_factory=list)
+    t: list[float] = field(default_factory=list)
+    D: list[NDArray[np.float64]] = field(default_factory=list)
+    desired: list[NDArray[np.float64]] = field(default_factory=list)
+    forces: list[NDArray[np.float64]] = field(default_factory=list)
 
-    def arrays(self) -> dict:
+    def arrays(self) -> dict[str, NDArray[np.float64]]:
         return {k: np.asarray(getattr(self, k)) for k in ("t", "D", "desired", "forces")}
 
 
@@ -59,8 +70,8 @@ class Trace:
 class MoveResult:
     """One move of :func:`waypoint_study` (lengths in m, times in s, forces in N)."""
 
-    target: tuple
-    start: tuple
+    target: tuple[float, ...]
+    start: tuple[float, ...]
     move_end: float              # time the move's reference reaches the target
     settled_error: float         # |D - target| settle_time after the move's end
     settling_time: float         # after the move's end until |D - target| stays below tolerance (inf: never)
@@ -74,16 +85,16 @@ class MoveResult:
 class StudyResult:
     law: str
     rate: float
-    moves: list
+    moves: list[MoveResult]
     trace: Trace
-    extra: dict = field(default_factory=dict)
+    extra: dict[str, float] = field(default_factory=dict)
 
 
-def at_rest_scene(rho1: float, rho2: float, params: Class2Params) -> dict:
+def at_rest_scene(rho1: float, rho2: float, params: Class2Params) -> dict[str, Any]:
     """The ``class2_at_rest`` scene started at rest at ``(rho1, rho2)`` with ``params``."""
     from tensegrity_core.sim import scene_path
 
-    data = yaml.safe_load(scene_path("class2_at_rest").read_text())
+    data: dict[str, Any] = yaml.safe_load(scene_path("class2_at_rest").read_text())
     data["model"]["params"] = params.as_dict()
     data["initial"] = {"equilibrium": {"rho1": float(rho1), "rho2": float(rho2)}}
     return data
@@ -92,7 +103,7 @@ def at_rest_scene(rho1: float, rho2: float, params: Class2Params) -> dict:
 class _Loop:
     """The sampled-data loop: law at t_k on the simulator's state, output held one period."""
 
-    def __init__(self, scene, rate: float):
+    def __init__(self, scene: Mapping[str, Any], rate: float) -> None:
         from tensegrity_core.sim import Simulator
 
         if not (math.isfinite(rate) and rate > 0):
@@ -102,10 +113,10 @@ class _Loop:
         self.k = 0
         self.trace = Trace()
 
-    def sample(self):
+    def sample(self) -> JointSample:
         return self.sim.joint_sample()
 
-    def run(self, t_end: float, law) -> None:
+    def run(self, t_end: float, law: Law) -> None:
         """``law(sample) -> (forces, desired D)`` every period until ``t_end`` [s]."""
         while self.k * self.dt < t_end - 1e-9:
             s = self.sim.joint_sample()
@@ -119,15 +130,31 @@ class _Loop:
             self.sim.advance(self.k * self.dt)
 
 
-def _lqr_law(ctrl: TrackingController):
-    def law(s):
+def _lqr_law(ctrl: TrackingController) -> Law:
+    def law(s: JointSample) -> tuple[Pair, Pair]:
         tick = ctrl.update(s.t, s.q, s.qdot)
         return tick.forces, tick.desired.end_effector
     return law
 
 
-def _baseline_law(tracker: ActuatorTracker, rho_ref_of_t, params: Class2Params):
-    def law(s):
+@dataclass(frozen=True)
+class _Smoothstep:
+    """The baseline's length reference of one move: a smoothstep from ``start`` to ``goal``
+    (rho1, rho2) [m] taking ``duration`` [s] from ``t0`` [s]."""
+
+    start: NDArray[np.float64]
+    goal: NDArray[np.float64]
+    t0: float
+    duration: float
+
+    def __call__(self, t: float) -> NDArray[np.float64]:
+        u = min(max((t - self.t0) / self.duration, 0.0), 1.0)
+        return self.start + (self.goal - self.start) * (u * u * (3.0 - 2.0 * u))
+
+
+def _baseline_law(tracker: ActuatorTracker, rho_ref_of_t: Callable[[float], NDArray[np.float64]],
+                  params: Class2Params) -> Law:
+    def law(s: JointSample) -> tuple[Pair, Pair]:
         rho_ref = rho_ref_of_t(s.t)
         f = tracker.forces(rho_ref, s.q[:2], s.qdot[:2], float(s.qdot[2]))
         fk = forward_kinematics(float(rho_ref[0]), float(rho_ref[1]), params)
@@ -135,10 +162,11 @@ def _baseline_law(tracker: ActuatorTracker, rho_ref_of_t, params: Class2Params):
     return law
 
 
-def waypoint_study(law: str = "lqr", *, params: Class2Params = PAPER_PARAMS, offsets=WAYPOINT_OFFSETS,
+def waypoint_study(law: str = "lqr", *, params: Class2Params = PAPER_PARAMS,
+                   offsets: Sequence[tuple[float, float]] = WAYPOINT_OFFSETS,
                    move_time: float = 2.0, settle_time: float = 2.0, rate: float = 100.0,
-                   tolerance: float = 5e-5, max_force: float = 5.0, start=(0.7, 0.7),
-                   weights: LQRWeights = LQRWeights()) -> StudyResult:
+                   tolerance: float = 5e-5, max_force: float = 5.0, start: tuple[float, float] = (0.7, 0.7),
+                   weights: LQRWeights = DEFAULT_WEIGHTS) -> StudyResult:
     """The demo's waypoints (``offsets`` [m] from D at rest at ``start``), each a move of
     ``move_time`` [s] and a hold of ``settle_time`` [s], under ``law`` sampled at ``rate`` [Hz].
     ``tolerance`` [m] is the settling band; ``max_force`` [N] the actuator limit of both laws."""
@@ -151,7 +179,7 @@ def waypoint_study(law: str = "lqr", *, params: Class2Params = PAPER_PARAMS, off
         ctrl.hold(*start, 0.0)
     else:
         tracker = ActuatorTracker(params, max_force=max_force, **BASELINE_GAINS)
-    moves = []
+    moves: list[MoveResult] = []
     current = np.array(start, dtype=float)
     for dx, dy in offsets:
         target = (rest.x + dx, rest.y + dy)
@@ -164,18 +192,15 @@ def waypoint_study(law: str = "lqr", *, params: Class2Params = PAPER_PARAMS, off
         else:
             c = nearest_solution(*target, tuple(current), params)
             goal = np.array([c.rho1, c.rho2])
-
-            def rho_ref(t, a=current.copy(), b=goal, t0=t0):
-                u = min(max((t - t0) / move_time, 0.0), 1.0)
-                return a + (b - a) * (u * u * (3.0 - 2.0 * u))
-            fn = _baseline_law(tracker, rho_ref, params)
+            fn = _baseline_law(tracker, _Smoothstep(current.copy(), goal, t0, move_time), params)
             current = goal
         loop.run(t0 + move_time + settle_time, fn)
         moves.append(_move_metrics(loop.trace, first, s.end_effector[:2], target, t0 + move_time, tolerance))
     return StudyResult(law, rate, moves, loop.trace)
 
 
-def _move_metrics(trace: Trace, first: int, start, target, move_end: float, tolerance: float) -> MoveResult:
+def _move_metrics(trace: Trace, first: int, start: Pair, target: tuple[float, float], move_end: float,
+                  tolerance: float) -> MoveResult:
     t = np.asarray(trace.t[first:])
     D = np.asarray(trace.D[first:])
     err = np.hypot(D[:, 0] - target[0], D[:, 1] - target[1])
@@ -195,7 +220,7 @@ def _move_metrics(trace: Trace, first: int, start, target, move_end: float, tole
         max_tracking_error=float(np.max(np.hypot(*(D - np.asarray(trace.desired[first:])).T))))
 
 
-def _settling(t: np.ndarray, err: np.ndarray, band: float, t0: float) -> float:
+def _settling(t: NDArray[np.float64], err: NDArray[np.float64], band: float, t0: float) -> float:
     """Time after ``t0`` from which ``err`` stays below ``band`` to the end (inf: it never does)."""
     outside = np.nonzero(err >= band)[0]
     if len(outside) == 0:
@@ -206,8 +231,9 @@ def _settling(t: np.ndarray, err: np.ndarray, band: float, t0: float) -> float:
 
 
 def circle_study(law: str = "lqr", *, params: Class2Params = PAPER_PARAMS, radius: float = 0.05,
-                 period: float = 4.0, ramp: float = 2.0, center=None, rate: float = 100.0,
-                 max_force: float = 5.0, settle_time: float = 1.0, weights: LQRWeights = LQRWeights()) -> StudyResult:
+                 period: float = 4.0, ramp: float = 2.0, center: Sequence[float] | None = None, rate: float = 100.0,
+                 max_force: float = 5.0, settle_time: float = 1.0,
+                 weights: LQRWeights = DEFAULT_WEIGHTS) -> StudyResult:
     """D traces a circle of ``radius`` [m] round ``center`` (default: D at rest at
     rho = (0.7, 0.7)) at one turn per ``period`` [s], from its rightmost point, where the
     mechanism starts at rest: ``ramp`` seconds speeding up, one full turn at constant rate,
@@ -219,7 +245,7 @@ def circle_study(law: str = "lqr", *, params: Class2Params = PAPER_PARAMS, radiu
     if center is None:
         rest = forward_kinematics(0.7, 0.7, params)
         center = (rest.x, rest.y)
-    path = CirclePath(tuple(center), radius, period, ramp=ramp)
+    path = CirclePath((center[0], center[1]), radius, period, ramp=ramp)
     duration = path.duration
     x0, y0 = path.point(np.array([0.0]))[0]
     c = nearest_solution(float(x0), float(y0), (0.7, 0.7), params)
@@ -234,7 +260,7 @@ def circle_study(law: str = "lqr", *, params: Class2Params = PAPER_PARAMS, radiu
         tracker = ActuatorTracker(params, max_force=max_force, **BASELINE_GAINS)
         seed = [(c.rho1, c.rho2)]
 
-        def rho_ref(t):
+        def rho_ref(t: float) -> NDArray[np.float64]:
             x, y = path.sample(np.array([min(max(t, 0.0), duration)]))[0][0]
             sol = nearest_solution(float(x), float(y), seed[0], params)
             seed[0] = (sol.rho1, sol.rho2)

@@ -21,8 +21,11 @@ its equilibrium), so the feedback trades a little length error for a beta that s
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
+from typing import Final, TypeAlias
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import BPoly
 
 from tensegrity_core.class2 import damping_matrix, mass_matrix, potential_gradient, velocity_terms
@@ -41,13 +44,16 @@ from tensegrity_core.class2.params import Class2Params
 from tensegrity_core.class2.singularities import nearest_singularity, singularity_distance_array
 
 #: The joints a trajectory may name (each exactly once).
-JOINTS = ("rho1", "rho2")
+JOINTS: Final = ("rho1", "rho2")
 #: Bounds on what a trajectory may hold (input from outside is bounded).
-MAX_POINTS = 100_000
-MAX_DURATION = 3600.0
+MAX_POINTS: Final = 100_000
+MAX_DURATION: Final = 3600.0
+
+#: Rows of two values per trajectory point (positions, velocities or accelerations), as received.
+Rows: TypeAlias = Sequence[Sequence[float]]
 
 
-def _array(name: str, value, n: int) -> np.ndarray | None:
+def _array(name: str, value: Rows | None, n: int) -> NDArray[np.float64] | None:
     """``value`` as an (n, 2) finite array, or None when empty (no rows, or only empty rows:
     trajectory_msgs leaves a point's velocities empty when it has none)."""
     if value is None or len(value) == 0 or all(len(row) == 0 for row in value):
@@ -67,9 +73,9 @@ def _array(name: str, value, n: int) -> np.ndarray | None:
     return arr
 
 
-def joint_order(names) -> list[int]:
-    """Column of each of :data:`JOINTS` in a trajectory naming the joints ``names``."""
-    names = list(names)
+def joint_order(joint_names: Iterable[str]) -> list[int]:
+    """Column of each of :data:`JOINTS` in a trajectory naming the joints ``joint_names``."""
+    names = list(joint_names)
     unknown = [n for n in names if n not in JOINTS]
     if unknown:
         raise PlanningError(f"unknown joint(s) {', '.join(map(repr, unknown))}; the joints are rho1, rho2",
@@ -81,8 +87,9 @@ def joint_order(names) -> list[int]:
     return [names.index(j) for j in JOINTS]
 
 
-def actuator_reference(names, times, positions, velocities=None, accelerations=None, *, start_rho,
-                       start_rate=(0.0, 0.0), params: Class2Params,
+def actuator_reference(names: Iterable[str], times: Sequence[float], positions: Rows, velocities: Rows | None = None,
+                       accelerations: Rows | None = None, *, start_rho: ArrayLike,
+                       start_rate: ArrayLike = (0.0, 0.0), params: Class2Params,
                        singular_margin: float = SINGULAR_MARGIN, force_budget: float = math.inf,
                        step: float = 0.002) -> Reference:
     """The reference of a trajectory (see the module docstring); raises :class:`PlanningError`.
@@ -115,7 +122,8 @@ def actuator_reference(names, times, positions, velocities=None, accelerations=N
     a = _array("accelerations", accelerations, n)
     if a is not None and v is None:
         raise PlanningError("accelerations need velocities too")
-    p, v, a = (None if x is None else x[:, cols] for x in (p, v, a))
+    p = p[:, cols]
+    v, a = (None if x is None else x[:, cols] for x in (v, a))
     _check_points(p, params)
 
     knots, derivs = [t], [p] + [x for x in (v, a) if x is not None]
@@ -134,7 +142,7 @@ def actuator_reference(names, times, positions, velocities=None, accelerations=N
     return _reference(tg, rho, rhod, rhodd, params, singular_margin, force_budget)
 
 
-def _check_points(p: np.ndarray, params: Class2Params) -> None:
+def _check_points(p: NDArray[np.float64], params: Class2Params) -> None:
     L = params.L
     for i, (r1, r2) in enumerate(p):
         if r1 < 0.0 or r2 < 0.0 or r1 >= L or r1 + r2 >= 2.0 * L:
@@ -142,7 +150,7 @@ def _check_points(p: np.ndarray, params: Class2Params) -> None:
                                 f"(0 <= rho1 < L = {L:g} m, rho2 >= 0, rho1 + rho2 < 2L)", code=OUTSIDE_WORKSPACE)
 
 
-def _beta_gradient(rho1, rho2, params: Class2Params) -> np.ndarray:
+def _beta_gradient(rho1: NDArray[np.float64], rho2: NDArray[np.float64], params: Class2Params) -> NDArray[np.float64]:
     """``d beta*/d rho`` (N, 2) on the paper's branch (implicit function theorem on
     ``dU/dbeta = 0``, as :func:`~tensegrity_core.class2.dbeta_drho`, vectorised)."""
     L, k2 = params.L, params.k2
@@ -156,7 +164,9 @@ def _beta_gradient(rho1, rho2, params: Class2Params) -> np.ndarray:
     return np.stack([(k2 * sb - b_i * cb) / R, (-K * sb - b_i * cb) / R], -1)
 
 
-def _reference(t, rho, rhod, rhodd, params, singular_margin, force_budget) -> Reference:
+def _reference(t: NDArray[np.float64], rho: NDArray[np.float64], rhod: NDArray[np.float64],
+               rhodd: NDArray[np.float64], params: Class2Params, singular_margin: float,
+               force_budget: float) -> Reference:
     L, k2, K = params.L, params.k2, 2.0 * params.k3 + params.k2
     r1, r2 = rho[:, 0], rho[:, 1]
     outside = (r1 < 0.0) | (r2 < 0.0) | (r1 >= L) | (r1 + r2 >= 2.0 * L)

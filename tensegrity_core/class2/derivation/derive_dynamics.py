@@ -32,15 +32,18 @@ from __future__ import annotations
 
 import math
 import random
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import Any, Final
 
 import numpy as np
 import sympy as sp
+from numpy.typing import ArrayLike
 
 from tensegrity_core.class2.geometry import MEMBERS, SPRINGS
 
-PARAM_NAMES = ("L", "m", "k1", "k2", "k3", "k4", "c1", "c2", "c3", "c4")
+PARAM_NAMES: Final = ("L", "m", "k1", "k2", "k3", "k4", "c1", "c2", "c3", "c4")
 
 
 @dataclass(frozen=True)
@@ -64,12 +67,12 @@ class SymbolicDynamics:
     residual: sp.Matrix                              # M qdd + C + grad U - f_e (zero on solutions)
 
 
-def _lambdas(q, L):
+def _lambdas(q: Sequence[sp.Expr], L: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
     rho1, rho2, _ = q
     return sp.sqrt(4 * L**2 - (rho1 + rho2) ** 2), sp.sqrt(L**2 - rho1**2)
 
 
-def _node_positions(q, L) -> dict[str, sp.Matrix]:
+def _node_positions(q: Sequence[sp.Expr], L: sp.Expr) -> dict[str, sp.Matrix]:
     rho1, rho2, beta = q
     lam1, lam2 = _lambdas(q, L)
     return {
@@ -82,7 +85,7 @@ def _node_positions(q, L) -> dict[str, sp.Matrix]:
     }
 
 
-def _rate(expr, q, qd):
+def _rate(expr: sp.Expr, q: Sequence[sp.Symbol], qd: Sequence[sp.Symbol]) -> sp.Expr:
     """Time derivative of ``expr(q)`` along ``qdot = qd``."""
     return sum(sp.diff(expr, qi) * qdi for qi, qdi in zip(q, qd))
 
@@ -122,7 +125,8 @@ def derive() -> SymbolicDynamics:
         a, b = (nodes[nm] for nm in member.name)
         d = b - a
         length = sp.sqrt(d.dot(d))
-        R += p[member.damping] * _rate(length, q, qd) ** 2 / 2
+        if member.damping is not None:
+            R += p[member.damping] * _rate(length, q, qd) ** 2 / 2
         U += p[member.stiffness] * d.dot(d) / 2
     H = sp.hessian(R, qd)
     grad_U = sp.Matrix([sp.diff(U, qi) for qi in q])
@@ -235,7 +239,7 @@ def euler_lagrange_residual(sd: SymbolicDynamics) -> sp.Matrix:
     funcs = [sp.Function(f"x{i}")(t) for i in range(3)]
     to_t = {**dict(zip(sd.q, funcs)), **{qd: sp.diff(fn, t) for qd, fn in zip(sd.qd, funcs)}}
     back = {}
-    for fn, qi, qdi, qddi in zip(funcs, sd.q, sd.qd, sd.qdd):
+    for fn, qddi in zip(funcs, sd.qdd):
         back[sp.diff(fn, t, 2)] = qddi
     for fn, qdi in zip(funcs, sd.qd):
         back[sp.diff(fn, t)] = qdi
@@ -270,7 +274,8 @@ def check_derivation(seed: int = 0) -> dict[str, bool]:
         a, b = (sd.nodes[n] for n in member.name)
         length = sp.sqrt((b - a).dot(b - a))
         g = sp.Matrix([sp.diff(length, qi) for qi in sd.q])
-        h_sum += sd.p[member.damping] * g * g.T
+        if member.damping is not None:
+            h_sum += sd.p[member.damping] * g * g.T
     out["H_is_sum_c_grad_grad"] = all(_equal(h_sum[i, j], sd.H[i, j], rng) for i in range(3) for j in range(3))
     derived = derived_counterparts(sd)
     for name, expr in closed_forms(sd).items():
@@ -283,7 +288,7 @@ def check_derivation(seed: int = 0) -> dict[str, bool]:
 # ---------------------------------------------------------------------------------------
 
 @lru_cache(maxsize=1)
-def lambdified():
+def lambdified() -> dict[str, Callable[..., Any]]:
     """Numeric functions ``(params..., q..., qd..., f...) -> value`` of the derived model."""
     sd = derive()
     args = [sd.p[n] for n in PARAM_NAMES] + list(sd.q) + list(sd.qd) + list(sd.f)
@@ -308,9 +313,9 @@ def check_runtime(n_points: int = 50, seed: int = 1) -> dict[str, float]:
     rng = random.Random(seed)
     worst: dict[str, float] = {}
 
-    def record(name, got, want):
-        got, want = np.asarray(got, float), np.asarray(want, float)
-        err = float(np.max(np.abs(got - want)) / (1.0 + np.max(np.abs(want))))
+    def record(name: str, got: ArrayLike, want: ArrayLike) -> None:
+        g, w = np.asarray(got, float), np.asarray(want, float)
+        err = float(np.max(np.abs(g - w)) / (1.0 + np.max(np.abs(w))))
         worst[name] = max(worst.get(name, 0.0), err)
 
     for _ in range(n_points):
@@ -331,8 +336,11 @@ def check_runtime(n_points: int = 50, seed: int = 1) -> dict[str, float]:
         record("generalized_forces", dyn.generalized_forces(q, qd, f1, f2, params), np.ravel(fns["f_e"](*args)))
         record("acceleration", dyn.acceleration(q, qd, f1, f2, params), np.ravel(fns["qdd"](*args)))
         model = dyn.Class2Dynamics(params)
+        rho1, rho2, beta = q.tolist()
+        rho1_dot, rho2_dot, beta_dot = qd.tolist()
         record("Class2Dynamics.acceleration_scalar",
-               model.acceleration_scalar(*q.tolist(), *qd.tolist(), f1, f2), np.ravel(fns["qdd"](*args)))
+               model.acceleration_scalar(rho1, rho2, beta, rho1_dot, rho2_dot, beta_dot, f1, f2),
+               np.ravel(fns["qdd"](*args)))
     return worst
 
 

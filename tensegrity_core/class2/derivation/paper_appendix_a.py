@@ -22,15 +22,23 @@ name lengths ``L_1..L_4`` and coefficients ``c_1..c_4``; two readings are provid
 from __future__ import annotations
 
 import random
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import Final, TypeAlias
 
 import numpy as np
 import sympy as sp
+from numpy.typing import NDArray
 
-from tensegrity_core.class2.derivation.derive_dynamics import PARAM_NAMES, derive, random_state
+from tensegrity_core.class2.derivation.derive_dynamics import (
+    PARAM_NAMES,
+    SymbolicDynamics,
+    derive,
+    random_state,
+)
 
-READINGS = ("literal", "relabelled")
+READINGS: Final = ("literal", "relabelled")
 
 
 @dataclass(frozen=True)
@@ -47,9 +55,10 @@ class PrintedModel:
     c: sp.Symbol
 
 
-def _spring_lengths(sd):
+def _spring_lengths(sd: SymbolicDynamics) -> dict[str, sp.Expr]:
     nodes = sd.nodes
-    def length(a, b):
+
+    def length(a: str, b: str) -> sp.Expr:
         d = nodes[b] - nodes[a]
         return sp.sqrt(d.dot(d))
     return {"L3": length("C", "D"), "L4": length("D", "E"), "L7": length("E", "F"), "L8": length("B", "E")}
@@ -122,7 +131,7 @@ def printed() -> PrintedModel:
     return PrintedModel(T, M, F, G, H, W, sp.Matrix(fe), c)
 
 
-def _printed_H(sd, n) -> sp.Matrix:
+def _printed_H(sd: SymbolicDynamics, n: Mapping[str, sp.Expr]) -> sp.Matrix:
     """(A.6)-(A.14) with the symbols named in ``n`` for ``c_1..c_4`` and ``L_1..L_4``."""
     rho1, rho2, beta = sd.q
     L, m = sd.p["L"], sd.p["m"]
@@ -154,7 +163,7 @@ def _printed_H(sd, n) -> sp.Matrix:
     return sp.Matrix([[h11, h12, h13], [h21, h22, h23], [h31, h32, h33]])
 
 
-def correct_model():
+def correct_model() -> dict[str, sp.Expr]:
     """The derived counterparts: ``F``, ``G`` split of the Christoffel terms and ``W``."""
     sd = derive()
     v1, v2, vb = sd.qd
@@ -181,7 +190,7 @@ class EntryCheck:
     correct: tuple[float, ...]      # derived values at REFERENCE_POINTS
 
 
-_EQS = {"M": ("A.1", "A.1", "A.2", "A.2", "A.2", "A.2", "A.2", "A.2", "A.2"),
+_EQS: Final = {"M": ("A.1", "A.1", "A.2", "A.2", "A.2", "A.2", "A.2", "A.2", "A.2"),
         "F": ("A.3", "A.3", "A.4", "A.4", "A.4", "A.4", "A.4", "A.4", "A.4"),
         "G": ("A.5",) * 9,
         "H": ("A.6", "A.7", "A.8", "A.9", "A.10", "A.11", "A.12", "A.13", "A.14"),
@@ -189,14 +198,14 @@ _EQS = {"M": ("A.1", "A.1", "A.2", "A.2", "A.2", "A.2", "A.2", "A.2", "A.2"),
 
 #: Where the table shows values: the paper's initial state and a state near the fold,
 #: both with a velocity and actuator forces; L = 1, m = 2, k = 1, distinct c_j.
-REFERENCE_POINTS = (
+REFERENCE_POINTS: Final = (
     dict(q=(0.7, 0.7, 0.8), qd=(0.3, -0.2, 0.5), f=(1.0, 2.0)),
     dict(q=(0.2, 0.3, 1.2), qd=(-0.4, 0.1, 0.6), f=(0.5, -1.0)),
 )
-REFERENCE_PARAMS = dict(L=1.0, m=2.0, k1=1.0, k2=1.0, k3=1.0, k4=1.0, c1=0.01, c2=0.02, c3=0.03, c4=0.04)
+REFERENCE_PARAMS: Final = dict(L=1.0, m=2.0, k1=1.0, k2=1.0, k3=1.0, k4=1.0, c1=0.01, c2=0.02, c3=0.03, c4=0.04)
 
 
-def _reference_subs(sd, point) -> dict:
+def _reference_subs(sd: SymbolicDynamics, point: Mapping[str, Sequence[float]]) -> dict[sp.Symbol, float]:
     subs = {sd.p[n]: v for n, v in REFERENCE_PARAMS.items()}
     subs.update(dict(zip(sd.q, point["q"])))
     subs.update(dict(zip(sd.qd, point["qd"])))
@@ -221,7 +230,7 @@ def compare(seed: int = 0) -> list[EntryCheck]:
     refs = [_reference_subs(sd, pt) for pt in REFERENCE_POINTS]
     rows: list[EntryCheck] = []
 
-    def add(entry, reading, a, b):
+    def add(entry: str, reading: str, a: sp.Expr, b: sp.Expr) -> None:
         rng = random.Random(seed)
         rows.append(EntryCheck(entry, reading, _same(a, b, rng), tuple(float(a.evalf(subs=r)) for r in refs),
                                tuple(float(b.evalf(subs=r)) for r in refs)))
@@ -246,8 +255,13 @@ def compare(seed: int = 0) -> list[EntryCheck]:
     return rows
 
 
+#: ``(params, q, qd, f1, f2) -> qddot`` (3,) of a model.
+Acceleration: TypeAlias = Callable[[Mapping[str, float], Sequence[float], Sequence[float], float, float],
+                                   NDArray[np.float64]]
+
+
 @lru_cache(maxsize=2)
-def printed_eom(reading: str = "literal"):
+def printed_eom(reading: str = "literal") -> Acceleration:
     """Numeric ``qddot`` of the printed Eq. (51): ``(params dict, q, qd, f1, f2) -> (3,)``.
 
     For experiments only (what would a simulation of the printed equations do?).
@@ -262,7 +276,8 @@ def printed_eom(reading: str = "literal"):
     m_fn = sp.lambdify(args, pm.M, "numpy")
     r_fn = sp.lambdify(args, rest, "numpy")
 
-    def qdd(params: dict, q, qd, f1, f2):
+    def qdd(params: Mapping[str, float], q: Sequence[float], qd: Sequence[float], f1: float,
+            f2: float) -> NDArray[np.float64]:
         a = [params[n] for n in PARAM_NAMES] + list(q) + list(qd) + [f1, f2]
         return np.linalg.solve(np.asarray(m_fn(*a), float), -np.ravel(np.asarray(r_fn(*a), float)))
 

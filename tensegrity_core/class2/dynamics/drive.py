@@ -25,10 +25,28 @@ once per set, with no branches per call).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Protocol, TypeAlias
 
 import numpy as np
+from numpy.typing import NDArray
+
+
+class InputLaw(Protocol):
+    """What the drive reads of an actuator's input law
+    (:mod:`tensegrity_core.sim.inputs`): the commanded force [N] at time ``t`` [s] and
+    actuator length ``length`` [m], and its derivative in the length [N/m]."""
+
+    def value_at(self, t: float, length: float) -> float: ...
+
+    def d_length(self, t: float, length: float) -> float: ...
+
+
+#: ``(t, y) -> (T1, T2)``: the forces the actuators apply [N] at state ``y`` (a sequence of floats).
+ForceFunction: TypeAlias = Callable[[float, Sequence[float]], tuple[float, float]]
+#: ``(t, y) ->`` rates of the drive's own states (empty without lag and compliance).
+RateFunction: TypeAlias = Callable[[float, Sequence[float]], tuple[float, ...]]
 
 
 @dataclass(frozen=True)
@@ -36,8 +54,8 @@ class DriveFunctions:
     """The drive evaluated for one set of input laws: ``forces(t, y) -> (T1, T2)`` [N] and
     ``rates(t, y)`` of the drive's own states (a tuple, empty without lag and compliance)."""
 
-    forces: Callable
-    rates: Callable
+    forces: ForceFunction
+    rates: RateFunction
 
 
 @dataclass(frozen=True)
@@ -67,39 +85,46 @@ class Drive:
         return (("f1_lag", "f2_lag") if self.lag_tau is not None else ()) + \
             (("e1", "e2") if self.compliance is not None else ())
 
-    def sources(self, t, y, laws) -> tuple:
+    def sources(self, t: float, y: Sequence[float], laws: Sequence[InputLaw]) -> tuple[float, float]:
         """Source forces ``f_i`` (after the lag, before the compliance) [N]."""
         if self.i_lag is not None:
             return y[self.i_lag], y[self.i_lag + 1]
         return laws[0].value_at(t, y[0]), laws[1].value_at(t, y[1])
 
-    def bind(self, laws) -> DriveFunctions:
+    def bind(self, laws: Sequence[InputLaw]) -> DriveFunctions:
         """The evaluation path for input ``laws`` (two, one per actuator)."""
         u1, u2 = laws[0].value_at, laws[1].value_at
         i_lag, i_el = self.i_lag, self.i_el
+        lag_tau, compliance = self.lag_tau, self.compliance
+        forces: ForceFunction
         if i_el is not None:
-            ka = self.compliance[0]
+            assert compliance is not None                   # i_el is set exactly with compliance
+            ka = compliance[0]
             forces = lambda t, y: (ka * y[i_el], ka * y[i_el + 1])                     # noqa: E731
         elif i_lag is not None:
             forces = lambda t, y: (y[i_lag], y[i_lag + 1])                             # noqa: E731
         else:
             forces = lambda t, y: (u1(t, y[0]), u2(t, y[1]))                           # noqa: E731
-        parts = []
+        parts: list[RateFunction] = []
         if i_lag is not None:
-            inv_tau = 1.0 / self.lag_tau
+            assert lag_tau is not None                      # i_lag is set exactly with a lag
+            inv_tau = 1.0 / lag_tau
             parts.append(lambda t, y: ((u1(t, y[0]) - y[i_lag]) * inv_tau, (u2(t, y[1]) - y[i_lag + 1]) * inv_tau))
         if i_el is not None:
-            ka, inv_cd = self.compliance[0], 1.0 / self.compliance[1]
+            assert compliance is not None
+            ka, inv_cd = compliance[0], 1.0 / compliance[1]
 
+            elongation_rates: RateFunction
             if i_lag is not None:
-                def elongation_rates(t, y):
+                def elongation_rates(t: float, y: Sequence[float]) -> tuple[float, float]:
                     return (y[3] + (y[i_lag] - ka * y[i_el]) * inv_cd,
                             y[4] + (y[i_lag + 1] - ka * y[i_el + 1]) * inv_cd)
             else:
-                def elongation_rates(t, y):
+                def elongation_rates(t: float, y: Sequence[float]) -> tuple[float, float]:
                     return (y[3] + (u1(t, y[0]) - ka * y[i_el]) * inv_cd,
                             y[4] + (u2(t, y[1]) - ka * y[i_el + 1]) * inv_cd)
             parts.append(elongation_rates)
+        rates: RateFunction
         if not parts:
             rates = lambda t, y: ()                                                     # noqa: E731
         elif len(parts) == 1:
@@ -109,20 +134,22 @@ class Drive:
             rates = lambda t, y: a(t, y) + b(t, y)                                      # noqa: E731
         return DriveFunctions(forces, rates)
 
-    def initial_states(self, t0: float, q0, laws, sources0=None) -> list:
+    def initial_states(self, t0: float, q0: Sequence[float] | NDArray[np.float64], laws: Sequence[InputLaw],
+                       sources0: Sequence[float] | None = None) -> list[float]:
         """Extra states at ``t0``: lag forces equal to the commanded forces (or ``sources0``), the
         elongations those of the source forces at rest (``e = f / k_a``)."""
         if sources0 is None:
             sources0 = (laws[0].value_at(t0, q0[0]), laws[1].value_at(t0, q0[1]))
-        out = []
+        out: list[float] = []
         if self.i_lag is not None:
             out += list(sources0)
-        if self.i_el is not None:
+        if self.compliance is not None:
             ka = self.compliance[0]
             out += [sources0[0] / ka, sources0[1] / ka]
         return out
 
-    def jacobian(self, t: float, y, laws) -> tuple[np.ndarray, np.ndarray]:
+    def jacobian(self, t: float, y: NDArray[np.float64], laws: Sequence[InputLaw]
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``(dT/dy (2, n), d(extra rates)/dy (n_states, n))`` for state ``y`` of length ``n``."""
         n = len(y)
         du = np.zeros((2, n))
@@ -134,10 +161,11 @@ class Drive:
             dsrc[0, i_lag] = dsrc[1, i_lag + 1] = 1.0
         else:
             dsrc = du
-        rows = []
-        if i_lag is not None:
+        rows: list[NDArray[np.float64]] = []
+        if self.lag_tau is not None:
             rows.append((du - dsrc) / self.lag_tau)
         if i_el is not None:
+            assert self.compliance is not None
             ka, cd = self.compliance
             el = dsrc / cd
             el[0, 3] += 1.0

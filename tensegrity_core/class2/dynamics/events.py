@@ -11,6 +11,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+from numpy.typing import NDArray
+
 from tensegrity_core.class2.params import Class2Params
 from tensegrity_core.errors import ParameterError
 
@@ -32,7 +35,7 @@ class ActuatorLengthEvent:
         if self.index not in (1, 2):
             raise ParameterError(f"actuator index must be 1 or 2, got {self.index!r}")
 
-    def __call__(self, t: float, y) -> float:
+    def __call__(self, t: float, y: NDArray[np.float64]) -> float:
         return float(y[self.index - 1]) - self.length
 
 
@@ -56,7 +59,7 @@ class SingularityApproachEvent:
         if not 0.0 < self.margin < 1.0:
             raise ParameterError(f"margin must be in (0, 1) (relative to L), got {self.margin!r}")
 
-    def __call__(self, t: float, y) -> float:
+    def __call__(self, t: float, y: NDArray[np.float64]) -> float:
         L = self.params.L
         rho1 = float(y[0])
         if self.kind == "lambda1":

@@ -23,12 +23,20 @@ or of arrays (the matrices broadcast over its shape).
 
 from __future__ import annotations
 
-import numpy as np
+from collections.abc import Sequence
+from typing import Final
 
+import numpy as np
+from numpy.typing import NDArray
+
+from tensegrity_core.class2.dynamics.kinematics import Kinematics, Real
 from tensegrity_core.class2.params import Class2Params
 
 #: Contact modes: no actuator held, rho1 held, rho2 held, both held.
-FREE, HOLD1, HOLD2, HOLD12 = 0, 1, 2, 3
+FREE: Final = 0
+HOLD1: Final = 1
+HOLD2: Final = 2
+HOLD12: Final = 3
 
 
 class Inertia:
@@ -36,7 +44,7 @@ class Inertia:
 
     name = "inertia"
 
-    def __init__(self, params: Class2Params):
+    def __init__(self, params: Class2Params) -> None:
         m, L = params.m, params.L
         self.m, self.L = m, L
         self.half_m = 0.5 * m
@@ -46,7 +54,7 @@ class Inertia:
         self.inv_I3 = 3.0 / (m * L * L)
         self.tq_m = 0.75 * m
 
-    def terms(self, k) -> tuple:
+    def terms(self, k: Kinematics[Real]) -> tuple[Real, Real, Real, Real, Real]:
         """``(M11, mu, m13, C1, C2)`` (``M22 = M12 = mu``, ``M33 = m L^2/3``, ``C3 = 0``)."""
         r1, _, sb, cb, v1, v2, vb, s, lam1, lam2, _, _ = k
         il1 = 1.0 / (lam1 * lam1)
@@ -57,7 +65,8 @@ class Inertia:
         c1 = c2 + self.t_mL2 * r1 * il2 * il2 * v1 * v1 - self.half_mL * cb * vb * vb
         return self.m + mu + self.t_mL2 * il2, mu, -self.half_mL * sb, c1, c2
 
-    def solve_free(self, k, Q1, Q2, Q3) -> tuple:
+    def solve_free(self, k: Kinematics[Real], Q1: Real | float, Q2: Real | float,
+                   Q3: Real | float) -> tuple[Real, Real, Real]:
         """Accelerations ``(a1, a2, a3)`` with no actuator held, for generalised forces ``Q``."""
         M11, mu, m13, c1, c2 = self.terms(k)
         R1, R2 = Q1 - c1, Q2 - c2
@@ -66,9 +75,13 @@ class Inertia:
         a1 = (R1 - R2 - m13 * Q3 * inv_I3) / (M11 - mu - self.tq_m * sb * sb)
         return a1, R2 / mu - a1, (Q3 - m13 * a1) * inv_I3
 
-    def solve(self, k, Q1, Q2, Q3, mode: int) -> tuple:
+    def solve(self, k: Kinematics[Real], Q1: Real | float, Q2: Real | float, Q3: Real | float,
+              mode: int) -> tuple[Real | float, Real | float, Real | float, Real | float, Real | float]:
         """Accelerations ``(a1, a2, a3)`` and contact forces ``(l1, l2)`` for generalised
         forces ``Q`` in contact ``mode``."""
+        a1: Real | float
+        a2: Real | float
+        a3: Real | float
         if mode == FREE:
             a1, a2, a3 = self.solve_free(k, Q1, Q2, Q3)
             return a1, a2, a3, 0.0, 0.0
@@ -87,23 +100,21 @@ class Inertia:
         a3 = R3 * inv_I3
         return 0.0, 0.0, a3, m13 * a3 - R1, -R2
 
-    def mass_matrix(self, k) -> np.ndarray:
+    def mass_matrix(self, k: Kinematics[Real]) -> NDArray[np.float64]:
         """``M(q)``, shape ``(..., 3, 3)`` [kg, kg m, kg m^2]; symmetric positive definite."""
-        M11, mu, m13, _, _ = self.terms(k)
-        M11, mu, m13 = np.broadcast_arrays(M11, mu, m13)
+        M11, mu, m13 = np.broadcast_arrays(*self.terms(k)[:3])
         M = np.zeros(np.shape(mu) + (3, 3))
         M[..., 0, 0], M[..., 0, 1], M[..., 0, 2] = M11, mu, m13
         M[..., 1, 0], M[..., 1, 1] = mu, mu
         M[..., 2, 0], M[..., 2, 2] = m13, 1.0 / self.inv_I3
         return M
 
-    def velocity_terms(self, k) -> np.ndarray:
+    def velocity_terms(self, k: Kinematics[Real]) -> NDArray[np.float64]:
         """``C(q, qdot)`` [N, N, N m], shape ``(..., 3)``."""
-        _, _, _, c1, c2 = self.terms(k)
-        c1, c2 = np.broadcast_arrays(c1, c2)
+        c1, c2 = np.broadcast_arrays(*self.terms(k)[3:])
         return np.stack([c1, c2, np.zeros_like(c1)], -1)
 
-    def kinetic_energy(self, k):
+    def kinetic_energy(self, k: Kinematics[Real]) -> Real:
         """``T = 1/2 qdot^T M qdot`` [J] (floats or arrays)."""
         _, _, sb, _, v1, v2, vb, _, lam1, lam2, _, _ = k
         mu = self.half_m + self.tt_mL2 / (lam1 * lam1)
@@ -111,7 +122,9 @@ class Inertia:
         return 0.5 * (mu * (v1 + v2) ** 2 + (self.m + b_f) * v1 * v1 + self.t_mL2 * vb * vb) \
             - self.half_mL * sb * v1 * vb
 
-    def jacobian_terms(self, k, a) -> tuple:
+    def jacobian_terms(
+        self, k: Kinematics[float], a: Sequence[float]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """``(dM/dq . a, dC/dq, dC/dqdot)``, each (3, 3), at one state for accelerations ``a``
         (3,): column ``i`` of the first is ``(dM/dq_i) a``; ``mu' = 4 m L^2 s / (3 lambda1^4)``,
         ``b_F' = 2 m L^2 rho1 / (3 lambda2^4)`` (derivatives of the closed forms above)."""

@@ -11,41 +11,47 @@ With ``q = (rho1, rho2, beta)`` [m, m, rad], ``qdot`` their rates, ``s = rho1 + 
 :class:`Kinematics` is a named tuple, so the hot paths unpack it positionally like a plain
 tuple; its fields are floats for one state (:func:`kinematics`, checked, a fraction of a
 microsecond) or arrays for many (:func:`kinematics_array`). Every formula that reads it is
-written with arithmetic only, so the same code runs on both.
+written with arithmetic only, so the same code runs on both: such functions are generic in
+:data:`Real` (``Kinematics[float]`` or ``Kinematics[NDArray[np.float64]]``).
 """
 
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from collections.abc import Sequence
+from typing import Generic, NamedTuple, TypeVar
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.class2.dynamics.limits import checked_lambda, refuse_pair
 from tensegrity_core.errors import DomainError
 
+#: One state's float or an array over many states: the kernel's arithmetic runs on either.
+Real = TypeVar("Real", float, NDArray[np.float64])
 
-class Kinematics(NamedTuple):
+
+class Kinematics(NamedTuple, Generic[Real]):
     """Kinematic context of one state (floats) or of many (arrays of one shape)."""
 
-    rho1: float
-    rho2: float
-    sin_beta: float
-    cos_beta: float
-    rho1_dot: float
-    rho2_dot: float
-    beta_dot: float
-    s: float
-    lambda1: float
-    lambda2: float
-    e1: float
-    g2: float
+    rho1: Real
+    rho2: Real
+    sin_beta: Real
+    cos_beta: Real
+    rho1_dot: Real
+    rho2_dot: Real
+    beta_dot: Real
+    s: Real
+    lambda1: Real
+    lambda2: Real
+    e1: Real
+    g2: Real
 
 
 _new = tuple.__new__          # a third of the cost of Kinematics(...) with twelve arguments
 
 
-def kinematics(L: float, y, limit: float) -> Kinematics:
+def kinematics(L: float, y: Sequence[float], limit: float) -> Kinematics[float]:
     """Context of one state ``y = (rho1, rho2, beta, rho1_dot, rho2_dot, beta_dot, ...)`` (a
     sequence of floats; extra entries are ignored).
 
@@ -68,14 +74,16 @@ def kinematics(L: float, y, limit: float) -> Kinematics:
     return _new(Kinematics, (r1, r2, sb, cb, v1, v2, vb, s, lam1, lam2, s / lam1, r1 / lam2))
 
 
-def kinematics_array(L: float, q, qdot, limit: float | None = None) -> Kinematics:
+def kinematics_array(
+    L: float, q: ArrayLike, qdot: ArrayLike, limit: float | None = None
+) -> Kinematics[NDArray[np.float64]]:
     """Context of arrays of states ``q, qdot`` (trailing dimension 3, broadcast together).
 
     With ``limit`` [m] the states are checked as by :func:`kinematics` (the message names the
     first offending state); without it the caller guarantees valid states."""
-    q = np.asarray(q, dtype=float)
-    qdot = np.asarray(qdot, dtype=float)
-    r1, r2, b = q[..., 0], q[..., 1], q[..., 2]
+    qa = np.asarray(q, dtype=np.float64)
+    qdota = np.asarray(qdot, dtype=np.float64)
+    r1, r2, b = qa[..., 0], qa[..., 1], qa[..., 2]
     s = r1 + r2
     lam1_sq = (2.0 * L - s) * (2.0 * L + s)
     lam2_sq = (L - r1) * (L + r1)
@@ -86,5 +94,5 @@ def kinematics_array(L: float, q, qdot, limit: float | None = None) -> Kinematic
         lam2 = checked_lambda("lambda2", lam2_sq, limit, r1, r2, L)
     with np.errstate(invalid="ignore"):           # sin(inf): the callers report non-finite results
         sb, cb = np.sin(b), np.cos(b)
-    return _new(Kinematics, (r1, r2, sb, cb, qdot[..., 0], qdot[..., 1], qdot[..., 2], s, lam1, lam2, s / lam1,
+    return _new(Kinematics, (r1, r2, sb, cb, qdota[..., 0], qdota[..., 1], qdota[..., 2], s, lam1, lam2, s / lam1,
                              r1 / lam2))

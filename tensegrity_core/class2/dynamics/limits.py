@@ -22,20 +22,22 @@ A configuration with ``lambda^2 < 0`` does not exist
 from __future__ import annotations
 
 import math
+from typing import Final
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.errors import DomainError, ParameterError, SingularityError
 
 #: The equations refuse states with lambda1 or lambda2 below this (relative to L).
-LAMBDA_MIN_REL = 1e-4
+LAMBDA_MIN_REL: Final = 1e-4
 #: The scene simulators stop where lambda1 or lambda2 falls to this (relative to L).
-SINGULAR_GUARD_REL = 1e-3
+SINGULAR_GUARD_REL: Final = 1e-3
 #: Regularisation of the damper direction at zero spring length (relative to L).
-ZERO_LENGTH_REL = 1e-12
+ZERO_LENGTH_REL: Final = 1e-12
 
 
-def check_lambda_min(lambda_min) -> float:
+def check_lambda_min(lambda_min: object) -> float:
     """``lambda_min`` as a float, or :class:`ParameterError` unless it is a number in (0, 1)."""
     if isinstance(lambda_min, bool) or not isinstance(lambda_min, (int, float)) or not 0.0 < lambda_min < 1.0:
         raise ParameterError(f"lambda_min must be a number in (0, 1) (relative to L), got {lambda_min!r}")
@@ -81,7 +83,8 @@ def refuse_pair(lam1_sq: float, lam2_sq: float, limit: float, rho1: float, rho2:
     refuse("lambda2", lam2_sq, limit, rho1, rho2, L)
 
 
-def checked_lambda(kind: str, lam_sq: np.ndarray, limit: float, rho1, rho2, L: float) -> np.ndarray:
+def checked_lambda(kind: str, lam_sq: NDArray[np.float64], limit: float, rho1: ArrayLike, rho2: ArrayLike,
+                   L: float) -> NDArray[np.float64]:
     """``sqrt(lam_sq)`` for arrays of states; the error of the first offending state otherwise
     (its index appended to the message)."""
     ok = lam_sq >= limit * limit

@@ -24,23 +24,43 @@ Jacobians of the equations of motion.
 
 from __future__ import annotations
 
-import numpy as np
+from collections.abc import Iterable
+from typing import Final, TypeAlias
 
+import numpy as np
+from numpy.typing import NDArray
+
+from tensegrity_core.class2.dynamics.kinematics import Kinematics, Real
 from tensegrity_core.class2.geometry import SPRINGS
 from tensegrity_core.class2.params import Class2Params
 
+#: One coefficient per spring, in CD, DE, EF, BE order.
+Coefficients: TypeAlias = tuple[float, float, float, float]
+#: The springs' vectors ``(x_CD, y_CD, ..., x_BE, y_BE)`` [m].
+SpringVectors: TypeAlias = tuple[Real, Real, Real, Real, Real, Real, Real, Real]
+#: :data:`SpringVectors` followed by the axial force coefficients ``(phi_CD, ..., phi_BE)``
+#: [N/m] (plain floats where no damper adds a state-dependent part).
+SpringTensions: TypeAlias = tuple[Real, Real, Real, Real, Real, Real, Real, Real,
+                                  Real | float, Real | float, Real | float, Real | float]
 
-def stiffnesses(params: Class2Params) -> tuple[float, float, float, float]:
+
+def _per_spring(values: Iterable[float]) -> Coefficients:
+    a, b, c, d = values
+    return a, b, c, d
+
+
+def stiffnesses(params: Class2Params) -> Coefficients:
     """``(k_CD, k_DE, k_EF, k_BE) = (k3, k2, k1, k4)`` [N/m]."""
-    return tuple(float(getattr(params, m.stiffness)) for m in SPRINGS)
+    return _per_spring(float(getattr(params, m.stiffness)) for m in SPRINGS)
 
 
-def dampings(params: Class2Params) -> tuple[float, float, float, float]:
+def dampings(params: Class2Params) -> Coefficients:
     """``(c_CD, c_DE, c_EF, c_BE) = (c3, c2, c1, c4)`` [N s/m]."""
-    return tuple(float(getattr(params, m.damping)) for m in SPRINGS)
+    return _per_spring(0.0 if m.damping is None else float(getattr(params, m.damping)) for m in SPRINGS)
 
 
-def spring_tensions(L: float, stiffness, damping, eps2: float, k) -> tuple:
+def spring_tensions(L: float, stiffness: Coefficients, damping: Coefficients | None, eps2: float,
+                    k: Kinematics[Real]) -> SpringTensions[Real]:
     """The springs' vectors and axial force coefficients at context ``k``:
     ``(x_CD, y_CD, x_DE, y_DE, x_EF, y_EF, x_BE, y_BE, phi_CD, phi_DE, phi_EF, phi_BE)``.
 
@@ -55,6 +75,10 @@ def spring_tensions(L: float, stiffness, damping, eps2: float, k) -> tuple:
     y_e = 0.5 * lam1
     x3, y3, x4, y4 = lcb - r2, lsb, h - lcb, y_e - lsb
     x7, y7 = -0.5 * s, (r2 - r1) * (3.0 * r1 + r2) / (4.0 * lam2 + 2.0 * lam1)
+    p3: Real | float
+    p4: Real | float
+    p7: Real | float
+    p8: Real | float
     p3, p4, p7, p8 = stiffness
     if damping is not None:
         c3, c4, c7, c8 = damping
@@ -70,15 +94,16 @@ def spring_tensions(L: float, stiffness, damping, eps2: float, k) -> tuple:
     return x3, y3, x4, y4, x7, y7, h, y_e, p3, p4, p7, p8
 
 
-_NO_STIFFNESS = (0.0, 0.0, 0.0, 0.0)
+_NO_STIFFNESS: Final[Coefficients] = (0.0, 0.0, 0.0, 0.0)
 
 
-def spring_vectors(L: float, k) -> tuple:
+def spring_vectors(L: float, k: Kinematics[Real]) -> SpringVectors[Real]:
     """Node-difference vectors of the springs, flat ``(x_CD, y_CD, ..., x_BE, y_BE)`` [m]."""
     return spring_tensions(L, _NO_STIFFNESS, None, 0.0, k)[:8]
 
 
-def spring_forces(L: float, stiffness, damping, eps2: float, k) -> tuple:
+def spring_forces(L: float, stiffness: Coefficients, damping: Coefficients | None, eps2: float,
+                  k: Kinematics[Real]) -> tuple[Real, Real, Real]:
     """Generalised force ``Q = -sum_j J_j^T (phi_j d_j)`` [N, N, N m] of the springs
     (``stiffness``) and their dampers (``damping`` or None) at context ``k``
     (:func:`spring_tensions`): the hot path of every right-hand side (floats or arrays).
@@ -96,11 +121,11 @@ def spring_forces(L: float, stiffness, damping, eps2: float, k) -> tuple:
     return -q1, -q2, -q3
 
 
-def spring_jacobians(L: float, k) -> np.ndarray:
+def spring_jacobians(L: float, k: Kinematics[Real]) -> NDArray[np.float64]:
     """``J_j = dd_j/dq``, shape ``(..., 4, 2, 3)`` over the context's shape."""
-    _, _, sb, cb, _, _, _, s, _, _, e1, g2 = k
+    _, _, sb, cb, _, _, _, s, _, _, e1_, g2 = k
     lsb, lcb = L * np.asarray(sb), L * np.asarray(cb)
-    e1 = np.asarray(e1)
+    e1 = np.asarray(e1_)
     J = np.zeros(np.shape(s) + (4, 2, 3))
     J[..., 0, 0, 1] = -1.0                                                        # CD
     J[..., 0, 0, 2], J[..., 0, 1, 2] = -lsb, lcb
@@ -115,7 +140,7 @@ def spring_jacobians(L: float, k) -> np.ndarray:
     return J
 
 
-def spring_second_derivatives(L: float, k) -> np.ndarray:
+def spring_second_derivatives(L: float, k: Kinematics[Real]) -> NDArray[np.float64]:
     """Second derivatives of the components of each ``d_j``, shape ``(..., 4, 2, 3, 3)``;
     ``eta1 = -4L^2/lambda1^3`` and ``eta2 = -L^2/lambda2^3`` are those of lambda1 (in s) and
     lambda2 (in rho1)."""
@@ -135,7 +160,9 @@ def spring_second_derivatives(L: float, k) -> np.ndarray:
     return out
 
 
-def squared_length_derivatives(L: float, k) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def squared_length_derivatives(
+    L: float, k: Kinematics[Real]
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """``(d (..., 4, 2), g (..., 4, 3), G (..., 4, 3, 3))``: the vectors, and the gradient
     ``g_j = J_j^T d_j`` and Hessian ``G_j = J_j^T J_j + sum_a d_ja D_ja`` of ``|d_j|^2 / 2``."""
     d = np.moveaxis(np.array(np.broadcast_arrays(*spring_vectors(L, k)), dtype=float), 0, -1)

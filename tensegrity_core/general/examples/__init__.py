@@ -7,11 +7,12 @@ the :class:`~tensegrity_core.general.structure.Structure`.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Final
 
-from tensegrity_core.general.structure import StructureError
+from tensegrity_core.general.structure import Structure, StructureError
 from tensegrity_core.schema import excerpt, suggest
 
-_DIR = Path(__file__).parent
+_DIR: Final = Path(__file__).parent
 
 
 def example_names() -> list[str]:
@@ -19,7 +20,7 @@ def example_names() -> list[str]:
     return sorted(p.stem for p in _DIR.glob("*.yaml"))
 
 
-def example_path(name: str) -> Path:
+def example_path(name: object) -> Path:
     """Path of the example ``name`` (e.g. ``"tensegrity_table"``)."""
     if not isinstance(name, str) or name not in example_names():
         raise StructureError(f"unknown example {excerpt(name)}{suggest(name, example_names())}; "
@@ -27,7 +28,7 @@ def example_path(name: str) -> Path:
     return _DIR / f"{name}.yaml"
 
 
-def load_example(name: str):
+def load_example(name: str) -> Structure:
     """The example ``name`` as a structure."""
     from tensegrity_core.general.loading import structure_from_file
 

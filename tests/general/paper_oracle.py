@@ -1,7 +1,8 @@
-"""The paper's Euler 1-2-3 formulation, implemented as printed (corrected where noted), to
-check its equations and to show where it differs from the exact formulation.
+"""Test oracle: the paper's Euler 1-2-3 formulation, implemented as printed (corrected where
+noted), to check its equations and to show where it differs from the exact formulation of
+:mod:`tensegrity_core.general`.
 
-Not used by form-finding. Conventions (verified in ``tests/general/test_paper_equations.py``):
+Nothing in the package uses it. Conventions (verified in ``tests/general/test_paper_equations.py``):
 ``R(phi)`` of Eq. 24 equals ``R3(gamma) R2(beta) R1(alpha)`` with *passive* elementary
 matrices, a body node is ``n = c + R^T p`` (Eq. 29, ``p`` the offset in the reference
 drawing, which is the body frame at ``phi = 0``), and ``B`` of Eq. 37 maps Euler-angle
