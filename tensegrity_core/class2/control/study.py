@@ -20,7 +20,7 @@ solutions; on the circle, the IK of D's path at each tick) (``law="baseline"``).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Final, TypeAlias
 
@@ -103,7 +103,7 @@ def at_rest_scene(rho1: float, rho2: float, params: Class2Params) -> dict[str, A
 class _Loop:
     """The sampled-data loop: law at t_k on the simulator's state, output held one period."""
 
-    def __init__(self, scene: Mapping[str, Any], rate: float) -> None:
+    def __init__(self, scene: dict[str, Any], rate: float) -> None:
         from tensegrity_core.sim import Simulator
 
         if not (math.isfinite(rate) and rate > 0):

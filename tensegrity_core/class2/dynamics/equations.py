@@ -88,7 +88,7 @@ class EquationsOfMotion:
             dQ_dqd += B
         return dQ_dq, dQ_dqd
 
-    def acceleration_jacobian(self, k: Kinematics[float], a: Sequence[float], dT: NDArray[np.float64],
+    def acceleration_jacobian(self, k: Kinematics[float], a: Sequence[float] | NDArray[np.float64], dT: NDArray[np.float64],
                               free: Iterable[int]) -> NDArray[np.float64]:
         """Rows ``d qddot_F / dy`` (len(free), n) at one state with accelerations ``a`` (3,),
         for the free coordinates ``free`` of a contact mode (held ones have ``qddot = 0``);

@@ -123,7 +123,7 @@ class Inertia:
             - self.half_mL * sb * v1 * vb
 
     def jacobian_terms(
-        self, k: Kinematics[float], a: Sequence[float]
+        self, k: Kinematics[float], a: Sequence[float] | NDArray[np.float64]
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """``(dM/dq . a, dC/dq, dC/dqdot)``, each (3, 3), at one state for accelerations ``a``
         (3,): column ``i`` of the first is ``(dM/dq_i) a``; ``mu' = 4 m L^2 s / (3 lambda1^4)``,

@@ -35,6 +35,7 @@ samples of a run); :func:`member_forces`, :func:`node_positions` and
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -58,14 +59,14 @@ def _where(cond: bool | NDArray[np.bool_], a: Value, b: Value) -> Value:
     return a if cond else b
 
 
-def node_coordinates(L: float, k: Kinematics) -> Values:
+def node_coordinates(L: float, k: Kinematics[Any]) -> Values:
     """``(Bx, Cx, Dx, Dy, Ex, Ey, Fy)`` [m] from a kinematic context (floats or arrays);
     ``A`` is the origin and ``By = Cy = Fx = 0``."""
     r1, _, sb, cb, _, _, _, s, lam1, lam2, _, _ = k
     return r1, s, r1 + L * cb, L * sb, 0.5 * s, 0.5 * lam1, lam2
 
 
-def node_acceleration_values(L: float, k: Kinematics, qdd: tuple[Value, Value, Value]) -> Values:
+def node_acceleration_values(L: float, k: Kinematics[Any], qdd: tuple[Value, Value, Value]) -> Values:
     """``(aBx, aCx, aDx, aDy, aEx, aEy, aFy)`` [m/s^2]: ``J qddot + qdot^T H qdot`` for
     accelerations ``qdd = (a1, a2, ab)`` (floats or arrays); ``A`` is fixed and
     ``aBy = aCy = aFx = 0``."""
@@ -77,7 +78,7 @@ def node_acceleration_values(L: float, k: Kinematics, qdd: tuple[Value, Value, V
             -g2 * a1 - L * L * v1 * v1 / lam2**3)                   # d2 lambda2/drho1^2 = -L^2/lambda2^3
 
 
-def node_positions(L: float, k: Kinematics) -> FloatArray:
+def node_positions(L: float, k: Kinematics[Any]) -> FloatArray:
     """(N, 6, 2) node positions from an array context."""
     Bx, Cx, Dx, Dy, Ex, Ey, Fy = node_coordinates(L, k)
     z = np.zeros(np.shape(Bx))
@@ -85,7 +86,7 @@ def node_positions(L: float, k: Kinematics) -> FloatArray:
                      np.stack([Ex, Ey], -1), np.stack([z, Fy], -1)], -2)
 
 
-def node_accelerations(L: float, k: Kinematics, qdd: FloatArray) -> FloatArray:
+def node_accelerations(L: float, k: Kinematics[Any], qdd: FloatArray) -> FloatArray:
     """(N, 6, 2) node accelerations for accelerations ``qdd`` (N, 3)."""
     aB, aC, aDx, aDy, aEx, aEy, aFy = node_acceleration_values(L, k, (qdd[:, 0], qdd[:, 1], qdd[:, 2]))
     z = np.zeros(np.shape(aB))
@@ -93,7 +94,7 @@ def node_accelerations(L: float, k: Kinematics, qdd: FloatArray) -> FloatArray:
                      np.stack([aEx, aEy], -1), np.stack([z, aFy], -1)], -2)
 
 
-def member_values(params: Class2Params, k: Kinematics, qdd: tuple[Value, Value, Value],
+def member_values(params: Class2Params, k: Kinematics[Any], qdd: tuple[Value, Value, Value],
                   actuator_forces: tuple[Value, Value], *, springs: bool, damping: bool,
                   gravity: Sequence[float] | None = None, loads: ArrayLike | None = None,
                   inertia: bool = True) -> tuple[Values, Values]:

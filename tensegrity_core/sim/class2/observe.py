@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.class2.dynamics.effects import force_terms
 from tensegrity_core.class2.dynamics.inertia import Inertia
-from tensegrity_core.class2.dynamics.kinematics import kinematics, kinematics_array
+from tensegrity_core.class2.dynamics.kinematics import Kinematics, kinematics, kinematics_array
 from tensegrity_core.class2.dynamics.limits import LAMBDA_MIN_REL
 from tensegrity_core.class2.geometry import NODE_NAMES
 from tensegrity_core.sim.class2.members import member_values, node_coordinates
@@ -123,7 +123,7 @@ class Class2Observer:
             Q[:2] -= T.T
             for mode in np.unique(bits):
                 sel = bits == mode
-                ks = tuple(np.asarray(v)[sel] for v in k)
+                ks = Kinematics(*(np.asarray(v)[sel] for v in k))
                 a1, a2, a3, l1, l2 = self.inertia.solve(ks, Q[0, sel], Q[1, sel], Q[2, sel], int(mode))
                 qdd[sel] = np.stack(np.broadcast_arrays(a1, a2, a3), -1)
                 lam[sel] = np.stack(np.broadcast_arrays(l1, l2), -1)

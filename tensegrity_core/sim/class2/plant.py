@@ -131,11 +131,11 @@ class Class2Segment:
         eom = self.plant.eom
         L, limit, forces, inertia = eom.L, eom.limit, eom.forces, eom.inertia
         transmitted, rates, bits = self.drive.forces, self.drive.rates, self.bits
-        solve: Callable[[Kinematics, float, float, float], tuple[float, ...]]
+        solve: Callable[[Kinematics[float], float, float, float], tuple[float, ...]]
         if bits == FREE:
             solve = inertia.solve_free
         else:
-            def solve(k: Kinematics, Q1: float, Q2: float, Q3: float) -> tuple[float, ...]:
+            def solve(k: Kinematics[float], Q1: float, Q2: float, Q3: float) -> tuple[float, ...]:
                 return inertia.solve(k, Q1, Q2, Q3, bits)[:3]
         fun: Callable[[float, FloatArray], FloatArray]
         if len(forces) == 1:
@@ -162,7 +162,7 @@ class Class2Segment:
         return fun
 
     def generalized_force(self, t: float,
-                          y: Sequence[float] | FloatArray) -> tuple[Kinematics, tuple[float, float, float]]:
+                          y: Sequence[float] | FloatArray) -> tuple[Kinematics[float], tuple[float, float, float]]:
         """``(k, (Q1 - T1, Q2 - T2, Q3))``: the context and every generalised force except
         inertia and contact."""
         yl = list(y)

@@ -90,7 +90,9 @@ class TotalPotential:
         (N, 3): ``K`` as its unique entries ``(K11, K12, K13, K22, K23, K33)`` (arrays), ``u``
         the input laws' values (the actuator forces)."""
         k = kinematics_array(self.L, q, np.zeros_like(q))
-        Q1 = Q2 = Q3 = 0.0
+        Q1: float | FloatArray = 0.0
+        Q2: float | FloatArray = 0.0
+        Q3: float | FloatArray = 0.0
         entries: list[float | FloatArray] = [0.0] * 6
         for e in self.effects:
             a, b, c = e.force(k)

@@ -10,6 +10,7 @@ actuator lengths (springs and gravity; loads act from ``t = 0`` on).
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -67,7 +68,7 @@ def conservative(effects: Iterable[ForceEffect]) -> tuple[ConservativeEffect, ..
     return tuple(e for e in effects if not isinstance(e, Damping))
 
 
-def rest_context(L: float, q: Sequence[float] | FloatArray) -> Kinematics:
+def rest_context(L: float, q: Sequence[float] | FloatArray) -> Kinematics[Any]:
     """The kinematic context of configuration ``q`` at rest."""
     return kinematics(L, (q[0], q[1], q[2], 0.0, 0.0, 0.0), LAMBDA_MIN_REL * L)
 

@@ -18,7 +18,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
-from tensegrity_core.general.configuration import Configuration, DofLayout
+from tensegrity_core.general.configuration import Configuration
+from tensegrity_core.general.dofs import DofLayout
 from tensegrity_core.general.formfind import form_find
 from tensegrity_core.general.structure import Structure
 from tensegrity_core.sim.errors import SceneError, SimulationError
