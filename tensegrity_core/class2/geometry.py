@@ -103,6 +103,13 @@ def lambdas(rho1: ArrayLike, rho2: ArrayLike, L: float) -> tuple[NDArray[np.floa
     return lam1, lam2
 
 
+def end_effector_of(q: ArrayLike, L: float) -> tuple[float, float]:
+    """Node D = B + L (cos beta, sin beta) [m] of one configuration ``q = (rho1, rho2, beta)``
+    (the measured state's D: beta as given, not re-solved from the lengths)."""
+    rho1, beta = float(np.asarray(q, dtype=float)[0]), float(np.asarray(q, dtype=float)[2])
+    return rho1 + L * math.cos(beta), L * math.sin(beta)
+
+
 def node_positions(q: ArrayLike, params: Class2Params) -> NDArray[np.float64]:
     """Node coordinates, shape ``q.shape[:-1] + (6, 2)``, rows in the order A..F [m].
 

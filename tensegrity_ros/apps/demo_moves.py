@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics
+from tensegrity_core.class2 import PAPER_PARAMS, end_effector_of, forward_kinematics
 from tensegrity_ros.apps.sim_client import NS_PER_S, JointRecord, SimClient
 
 #: End-effector waypoints, offsets [m] from D at rho1 = rho2 = 0.7 (the scene's rest).
@@ -142,8 +142,7 @@ def _wait(future, timeout: float, what: str):
 
 
 def _end_effector(record: JointRecord, L: float) -> np.ndarray:
-    rho1, _, beta = record.position[:3]
-    return np.array([rho1 + L * math.cos(beta), L * math.sin(beta)])
+    return np.array(end_effector_of(record.position[:3], L))
 
 
 def _steps(seconds: float, step_ns: int) -> int:

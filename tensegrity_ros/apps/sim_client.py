@@ -14,13 +14,13 @@ sampled-data runner has at the same step), so a law evaluated here and in
 
 from __future__ import annotations
 
-import math
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from tensegrity_core.class2 import end_effector_of
 from tensegrity_core.sim.simulator import JointSample
 
 NS_PER_S = 1_000_000_000
@@ -40,7 +40,7 @@ def sample_of(record: JointRecord, L: float = 1.0) -> JointSample:
     """The :class:`JointSample` a controller sees for a received joint state (``L`` [m]:
     strut length, for the end effector D)."""
     q = np.array(record.position[:3], dtype=float)
-    ee = np.array([q[0] + L * math.cos(q[2]), L * math.sin(q[2]), 0.0])
+    ee = np.array([*end_effector_of(q, L), 0.0])
     return JointSample(record.stamp_ns / NS_PER_S, q, np.array(record.velocity[:3], dtype=float),
                        np.array(record.effort[:2], dtype=float), ee, False)
 

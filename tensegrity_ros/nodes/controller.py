@@ -48,7 +48,7 @@ from tensegrity_msgs.action import FollowActuatorTrajectory, MoveEndEffector
 from tensegrity_msgs.msg import ActuatorForces
 from trajectory_msgs.msg import JointTrajectoryPoint
 
-from tensegrity_core.class2 import dynamics_singularity
+from tensegrity_core.class2 import dynamics_singularity, end_effector_of
 from tensegrity_core.class2.control import PlanningError, TrackingController, plan_move
 from tensegrity_core.class2.control import goals as G
 from tensegrity_core.class2.control.errors import INVALID_JOINTS, OUTSIDE_WORKSPACE, SINGULAR_PATH
@@ -371,8 +371,7 @@ class ControllerNode(Node):
         that steps a paused simulator waits for it: from then on every step is the goal's."""
         t, q, qdot = self._latest
         desired = job.goal.reference.sample(t - job.goal.t_start)
-        L = self.params.L
-        d = np.array([q[0] + L * math.cos(q[2]), L * math.sin(q[2])])
+        d = np.array(end_effector_of(q, self.params.L))
         if isinstance(job.goal, G.MoveGoal):
             fb = MoveEndEffector.Feedback(header=self._latest_header, phase=job.goal.phase)
             target = job.goal.reference.target

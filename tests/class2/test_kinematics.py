@@ -207,3 +207,11 @@ def test_fk_in_paper_range_iff_above_fold_line(u, v):
     d = 3 * r2 - r1
     if abs(d) > 1e-12:
         assert fk.in_paper_range == (d > 0)
+
+
+@pytest.mark.parametrize("rho1, rho2", [(0.7, 0.7), (0.3, 1.1), (0.95, 0.2)])
+def test_end_effector_of_a_state_is_the_forward_kinematics_d(rho1, rho2):
+    from tensegrity_core.class2 import end_effector_of
+
+    fk = forward_kinematics(rho1, rho2)
+    assert end_effector_of((rho1, rho2, fk.beta), 1.0) == pytest.approx((fk.x, fk.y), abs=1e-15)
