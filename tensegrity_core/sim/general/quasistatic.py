@@ -25,7 +25,7 @@ from tensegrity_core.general.statics import equilibrium_matrix, member_forces, m
 from tensegrity_core.general.stiffness import tangent_stiffness
 from tensegrity_core.general.structure import Structure
 from tensegrity_core.sim.commands import changed, check_command, initial_commands
-from tensegrity_core.sim.errors import SimulationError
+from tensegrity_core.sim.errors import check_advance_target
 from tensegrity_core.sim.general.setup import (
     RestLengths,
     check_springs,
@@ -146,11 +146,7 @@ class GeneralQuasiStatic(Model[FormFindingPath, GeneralQuasiStaticSample]):
 
     def advance(self, state: State[FormFindingPath], t: float) -> None:
         path = state.work
-        if not math.isfinite(t):
-            raise SimulationError(f"advance: the target time must be a finite number of seconds, got {t!r}",
-                                  t=path.t)
-        if t < path.t:
-            raise SimulationError(f"cannot advance backwards: t = {path.t!r} s, target {t!r} s", t=path.t)
+        check_advance_target(path.t, t)
         path.update(t)
         path.t = t
 
