@@ -34,7 +34,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from tensegrity_core.schema.errors import suggest, type_name
+from tensegrity_core.schema import ShippedFiles, suggest, type_name
 from tensegrity_core.sweep.base import BASE_KINDS, Base, BaseError, load_base, plain
 from tensegrity_core.sweep.checks import Check, OptionError
 from tensegrity_core.sweep.checks import number as number_check
@@ -45,6 +45,7 @@ from tensegrity_core.sweep.keypath import KeyPathError, Location, format_locatio
 from tensegrity_core.sweep.points import FIXED, RANDOM, Point, Quantity, build_points, count, grid_values
 
 EXAMPLES_DIR = Path(__file__).parent / "examples"
+_SHIPPED = ShippedFiles(EXAMPLES_DIR, "sweep", "shipped sweeps", SweepError)
 TOP = ("name", "description", "base", "vary", "samples", "seed", "compute", "results")
 #: Columns every row has besides the varied quantities and the results.
 RESERVED = ("point", "seed", "status", "message", "run_time", "sweep_id")
@@ -165,15 +166,12 @@ def prepare(sweep: Sweep) -> Plan:
 # ------------------------------------------------------------------------------ loading
 def sweep_names() -> list[str]:
     """Names of the shipped example sweeps."""
-    return sorted(p.stem for p in EXAMPLES_DIR.glob("*.yaml"))
+    return _SHIPPED.names()
 
 
 def sweep_path(name: str) -> Path:
-    path = EXAMPLES_DIR / f"{name}.yaml"
-    if not path.is_file():
-        raise SweepError(f"unknown sweep {name!r}{suggest(name, sweep_names())}; shipped sweeps: "
-                         f"{', '.join(sweep_names())}")
-    return path
+    """Path of the shipped sweep ``name``."""
+    return _SHIPPED.path(name)
 
 
 #: What :func:`load_sweep` reads: a sweep, a shipped sweep's name, a path, YAML text or a dict.
