@@ -12,7 +12,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from tensegrity_ros.cli._common import CliError, add_json_flag, print_json
+from tensegrity_ros.cli._common import CliError, Row, add_json_flag, add_listing, print_json
 
 ORDER = 50
 
@@ -37,13 +37,12 @@ def register(subparsers) -> None:
     add_json_flag(p)
     p.set_defaults(func=run_simulate)
 
-    q = subparsers.add_parser("scenes", help="list the shipped simulation scenes",
-                              description="The scenes shipped with tensegrity_core.sim, with their descriptions.")
-    add_json_flag(q)
-    q.set_defaults(func=run_scenes)
+    add_listing(subparsers, "scenes", help="list the shipped simulation scenes",
+                description="The scenes shipped with tensegrity_core.sim, with their descriptions.",
+                rows=_scene_rows, details=_scene_details)
 
 
-def run_scenes(args) -> int:
+def _scene_rows() -> list[Row]:
     from tensegrity_core.sim import load_scene, scene_names, scene_path
 
     rows = []
@@ -51,15 +50,12 @@ def run_scenes(args) -> int:
         scene = load_scene(scene_path(name))
         rows.append({"name": name, "model": scene.model.kind, "quasi_static": scene.quasi_static,
                      "effects": list(scene.effects), "duration": scene.duration, "description": scene.description})
-    if args.json:
-        print_json(rows)
-        return 0
-    width = max(len(r["name"]) for r in rows)
-    for r in rows:
-        print(f"{r['name']:<{width}}  {r['description']}")
-        print(f"{'':<{width}}  {r['model']}, {'quasi-static' if r['quasi_static'] else 'dynamic'}, "
-              f"{r['duration']:g} s; effects: {', '.join(r['effects'])}")
-    return 0
+    return rows
+
+
+def _scene_details(r: Row) -> str:
+    return (f"{r['model']}, {'quasi-static' if r['quasi_static'] else 'dynamic'}, {r['duration']:g} s; "
+            f"effects: {', '.join(r['effects'])}")
 
 
 def load_controller(spec: str):
