@@ -11,6 +11,7 @@
 - :func:`parse_key_path`, :func:`format_key_path`, :func:`get_at`, :func:`set_at`: key
   paths such as ``effects[2].fold_limit.restitution`` in parsed descriptions.
 - :func:`excerpt`, :func:`suggest`: bounded quotes of values and suggestions for messages.
+- :class:`ShippedFiles`: description files shipped as package data, by name.
 
 Each format keeps only its own schema: ``tensegrity_core.sim.scene`` (scenes),
 ``tensegrity_core.general.structure_schema`` (structures).
@@ -22,10 +23,11 @@ from tensegrity_core.schema.keypath import get_at, parse_key_path, set_at
 from tensegrity_core.schema.limits import DEFAULT_LIMITS, Limits
 from tensegrity_core.schema.located import LocatedDict, LocatedList, line_of
 from tensegrity_core.schema.reader import MAX_MAGNITUDE, Reader, is_number, number_reason
+from tensegrity_core.schema.shipped import ShippedFiles
 from tensegrity_core.schema.yaml_reader import parse_yaml
 
 __all__ = [
-    "DEFAULT_LIMITS", "KeyPath", "Limits", "LocatedDict", "LocatedList", "MAX_MAGNITUDE", "Reader", "SchemaError",
+    "DEFAULT_LIMITS", "KeyPath", "Limits", "LocatedDict", "LocatedList", "MAX_MAGNITUDE", "Reader", "SchemaError", "ShippedFiles",
     "check_size", "clip", "excerpt", "format_key_path", "get_at", "guess_format", "is_number", "line_of",
     "number_reason", "parse_key_path", "parse_text", "parse_text_format", "parse_yaml", "read_file", "set_at",
     "suggest", "type_name",

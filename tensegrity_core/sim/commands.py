@@ -10,7 +10,7 @@ order, ``nan`` for inputs with a law.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,6 +24,14 @@ def initial_commands(laws: Iterable[InputLaw], hold: Sequence[float] | NDArray[n
     ``nan`` for the others."""
     return tuple((float(hold[i]) if law.initial is None else float(law.initial)) if isinstance(law, Commanded)
                  else math.nan for i, law in enumerate(laws))
+
+
+def compile_inputs(inputs: Mapping[str, InputLaw], hold: Sequence[float] | NDArray[np.float64]
+                   ) -> tuple[tuple[InputLaw, ...], tuple[str, ...], tuple[float, ...]]:
+    """A scene's ``inputs`` as a back end keeps them, in input order: ``(laws, names, the
+    commands before the first one)`` (``hold`` as in :func:`initial_commands`)."""
+    laws = tuple(inputs.values())
+    return laws, tuple(inputs), initial_commands(laws, hold)
 
 
 def check_command(values: Iterable[float], laws: Sequence[InputLaw], names: Sequence[str], *,

@@ -9,6 +9,8 @@ good state.
 
 from __future__ import annotations
 
+import math
+
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.schema import SchemaError
 
@@ -25,3 +27,12 @@ class SimulationError(TensegrityError, RuntimeError):
     def __init__(self, message: str, *, t: float = float("nan")):
         super().__init__(message)
         self.t = t
+
+
+def check_advance_target(t: float, t_target: float) -> None:
+    """Raise :class:`SimulationError` unless ``t_target`` [s] is where a state at ``t`` [s]
+    may advance to: a finite time, not before ``t``."""
+    if not math.isfinite(t_target):
+        raise SimulationError(f"advance: the target time must be a finite number of seconds, got {t_target!r}", t=t)
+    if t_target < t:
+        raise SimulationError(f"cannot advance backwards: t = {t!r} s, target {t_target!r} s", t=t)

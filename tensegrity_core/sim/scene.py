@@ -29,7 +29,17 @@ import numpy as np
 from tensegrity_core.class2.dynamics.limits import SINGULAR_GUARD_REL
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.general.structure import STANDARD_GRAVITY, Structure
-from tensegrity_core.schema import DEFAULT_LIMITS, Limits, Reader, excerpt, parse_text, read_file, suggest, type_name
+from tensegrity_core.schema import (
+    DEFAULT_LIMITS,
+    Limits,
+    Reader,
+    ShippedFiles,
+    excerpt,
+    parse_text,
+    read_file,
+    suggest,
+    type_name,
+)
 from tensegrity_core.sim.errors import SceneError
 from tensegrity_core.sim.inputs import INTERPOLATIONS, Commanded, Constant, InputLaw, Proportional, Ramp, Series
 
@@ -40,6 +50,7 @@ if TYPE_CHECKING:
 KeyPath = tuple[str | int, ...]
 
 SCENES_DIR = Path(__file__).parent / "scenes"
+_SHIPPED = ShippedFiles(SCENES_DIR, "scene", "shipped scenes", SceneError)
 
 #: Effects a scene may list, in the order the simulator composes them.
 EFFECTS = ("inertia", "springs", "damping", "gravity", "loads", "actuator_lag",
@@ -239,15 +250,12 @@ def values_per_sample(model: SceneModel) -> int:
 # ------------------------------------------------------------------------------ loading
 def scene_names() -> list[str]:
     """Names of the shipped scenes (file stems in the package's ``scenes`` folder)."""
-    return sorted(p.stem for p in SCENES_DIR.glob("*.yaml"))
+    return _SHIPPED.names()
 
 
 def scene_path(name: str) -> Path:
     """Path of the shipped scene ``name``."""
-    if not isinstance(name, str) or name not in scene_names():
-        raise SceneError(f"unknown scene {excerpt(name)}{suggest(name, scene_names())}; shipped scenes: "
-                         f"{', '.join(scene_names())}")
-    return SCENES_DIR / f"{name}.yaml"
+    return _SHIPPED.path(name)
 
 
 def scene_from_text(text: str, *, base: str | Path | None = None, limits: Limits = DEFAULT_LIMITS) -> Scene:

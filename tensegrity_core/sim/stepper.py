@@ -41,7 +41,7 @@ from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, OdeSolver, Radau
 from scipy.optimize import brentq
 
 from tensegrity_core.errors import TensegrityError
-from tensegrity_core.sim.errors import SimulationError
+from tensegrity_core.sim.errors import SimulationError, check_advance_target
 
 FloatArray = NDArray[np.float64]
 #: ``jac(t, y)``: a dense (n, n) array or a scipy.sparse matrix (which has no type information).
@@ -247,11 +247,7 @@ class Stepper(Generic[Sys]):
     # -- stepping ------------------------------------------------------------------------------
     def advance(self, t_target: float) -> None:
         """Integrate until ``t_target`` is covered; then ``self.t, self.y`` are the state there."""
-        if not math.isfinite(t_target):
-            raise SimulationError(f"advance: the target time must be a finite number of seconds, got {t_target!r}",
-                                  t=self.t)
-        if t_target < self.t:
-            raise SimulationError(f"cannot advance backwards: t = {self.t!r} s, target {t_target!r} s", t=self.t)
+        check_advance_target(self.t, t_target)
         if t_target > self.t_end * (1 + 1e-12) + 1e-12:
             raise SimulationError(f"target {t_target!r} s is beyond the end {self.t_end!r} s", t=self.t)
         t_target = min(t_target, self.t_end)      # within rounding of the end: the end itself

@@ -11,6 +11,8 @@ import math
 from collections.abc import Callable
 from typing import Any
 
+from tensegrity_core.schema.errors import suggest, type_name
+
 #: A check of one option: the raw YAML value -> the checked value (or :class:`OptionError`).
 Check = Callable[[Any], Any]
 
@@ -19,19 +21,11 @@ class OptionError(ValueError):
     """An option's value is not allowed."""
 
 
-def _type_name(value: object) -> str:
-    for kind, name in ((bool, "a boolean"), (dict, "a mapping"), (list, "a list"), (str, "a string"),
-                       (int, "an integer"), (float, "a number"), (type(None), "nothing (null)")):
-        if isinstance(value, kind):
-            return name
-    return type(value).__name__
-
-
 def number(*, lo: float | None = None, lo_open: bool = False) -> Callable[[object], float]:
     """A finite number (``> lo`` when ``lo_open``, else ``>= lo``)."""
     def check(v: object) -> float:
         if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise OptionError(f"must be a number, got {_type_name(v)} ({v!r})")
+            raise OptionError(f"must be a number, got {type_name(v)} ({v!r})")
         if not math.isfinite(v):
             raise OptionError(f"must be finite, got {v!r}")
         if lo is not None and (v < lo or (lo_open and v == lo)):
@@ -44,7 +38,7 @@ def integer(*, lo: int = 0) -> Callable[[object], int]:
     """An integer ``>= lo``."""
     def check(v: object) -> int:
         if isinstance(v, bool) or not isinstance(v, int):
-            raise OptionError(f"must be an integer, got {_type_name(v)} ({v!r})")
+            raise OptionError(f"must be an integer, got {type_name(v)} ({v!r})")
         if v < lo:
             raise OptionError(f"must be >= {lo}, got {v!r}")
         return int(v)
@@ -55,11 +49,7 @@ def choice(*options: str) -> Callable[[object], str]:
     """One of ``options``."""
     def check(v: object) -> str:
         if v not in options:
-            import difflib
-
-            close = difflib.get_close_matches(str(v), options, n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise OptionError(f"must be one of {', '.join(options)}, got {v!r}{hint}")
+            raise OptionError(f"must be one of {', '.join(options)}, got {v!r}{suggest(v, options)}")
         return v
     return check
 
@@ -67,12 +57,12 @@ def choice(*options: str) -> Callable[[object], str]:
 def text(v: object) -> str:
     """A non-empty string."""
     if not isinstance(v, str) or not v.strip():
-        raise OptionError(f"must be a non-empty string, got {_type_name(v)} ({v!r})")
+        raise OptionError(f"must be a non-empty string, got {type_name(v)} ({v!r})")
     return v
 
 
 def boolean(v: object) -> bool:
     if not isinstance(v, bool):
-        raise OptionError(f"must be true or false, got {_type_name(v)} ({v!r})")
+        raise OptionError(f"must be true or false, got {type_name(v)} ({v!r})")
     return v
 

@@ -11,20 +11,10 @@ from __future__ import annotations
 from types import ModuleType
 
 from tensegrity_core.errors import TensegrityError
+from tensegrity_core.schema.errors import format_key_path
 
 #: A key path into the sweep file: mapping keys and list positions.
 KeyPath = tuple[str | int, ...]
-
-
-def format_path(path: KeyPath) -> str:
-    """``("vary", "model.params.k", "grid")`` -> ``"vary.model.params.k.grid"``; ints as ``[i]``."""
-    out = ""
-    for part in path:
-        if isinstance(part, int):
-            out += f"[{part}]"
-        else:
-            out += ("." if out else "") + str(part)
-    return out
 
 
 class SweepError(TensegrityError, ValueError):
@@ -33,7 +23,7 @@ class SweepError(TensegrityError, ValueError):
     message already contains all three."""
 
     def __init__(self, message: str, *, key: KeyPath = (), line: int | None = None, file: str | None = None):
-        where = format_path(key)
+        where = format_key_path(key)
         text = f"{where}: {message}" if where else message
         if line is not None:
             text += f" (line {line})"

@@ -19,11 +19,11 @@ checking every step (with a suggestion for a misspelt key); :func:`get_at` and
 
 from __future__ import annotations
 
-import difflib
 import fnmatch
 import re
-from collections.abc import Iterable
 from typing import Any
+
+from tensegrity_core.schema.errors import suggest
 
 #: A concrete location: mapping keys (str) and list positions (int) from the root.
 Location = tuple[str | int, ...]
@@ -35,11 +35,6 @@ _SEGMENT = re.compile(r"([^.\[\]]+)((?:\[[^\[\]]*\])*)")
 
 class KeyPathError(ValueError):
     """A key path is malformed or does not lead anywhere in the document."""
-
-
-def _suggest(word: object, choices: Iterable[object]) -> str:
-    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""
 
 
 def parse(text: str) -> tuple[Token, ...]:
@@ -104,7 +99,7 @@ def resolve(document: Any, text: str, *, need_number: bool = False) -> list[Loca
             if not isinstance(node, dict):
                 raise KeyPathError(f"{where} is not a mapping, so it has no key {arg!r}")
             if arg not in node and (not last or need_number):
-                raise KeyPathError(f"{where} has no key {arg!r}{_suggest(arg, node)}; keys: "
+                raise KeyPathError(f"{where} has no key {arg!r}{suggest(arg, node)}; keys: "
                                    f"{', '.join(map(str, node)) or '(none)'}")
             nxt = [(node.get(arg), prefix + (arg,))]
         elif kind == "index":
@@ -139,7 +134,7 @@ def resolve(document: Any, text: str, *, need_number: bool = False) -> list[Loca
             if not nxt:
                 shown = ", ".join(names[:12]) + (", ..." if len(names) > 12 else "")
                 groups = sorted({re.sub(r"[_\d]+$", "", n) + "*" for n in names} - set(names))
-                raise KeyPathError(f"no entry of {where} matches [{arg}]{_suggest(arg, names + groups)}; "
+                raise KeyPathError(f"no entry of {where} matches [{arg}]{suggest(arg, names + groups)}; "
                                    f"entries: {shown or '(none with a name)'}")
         for child, loc in nxt:
             if last:

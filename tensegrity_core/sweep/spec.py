@@ -26,7 +26,6 @@ have theirs); it reads YAML with the structure loader's line-keeping parser.
 
 from __future__ import annotations
 
-import difflib
 import hashlib
 import json
 import math
@@ -35,8 +34,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from tensegrity_core.schema import ShippedFiles, suggest, type_name
 from tensegrity_core.sweep.base import BASE_KINDS, Base, BaseError, load_base, plain
 from tensegrity_core.sweep.checks import Check, OptionError
+from tensegrity_core.sweep.checks import number as number_check
 from tensegrity_core.sweep.computations import COMPUTATIONS, ResultSpec
 from tensegrity_core.sweep.computations.results import Column, Options
 from tensegrity_core.sweep.errors import KeyPath, SweepError
@@ -44,6 +45,7 @@ from tensegrity_core.sweep.keypath import KeyPathError, Location, format_locatio
 from tensegrity_core.sweep.points import FIXED, RANDOM, Point, Quantity, build_points, count, grid_values
 
 EXAMPLES_DIR = Path(__file__).parent / "examples"
+_SHIPPED = ShippedFiles(EXAMPLES_DIR, "sweep", "shipped sweeps", SweepError)
 TOP = ("name", "description", "base", "vary", "samples", "seed", "compute", "results")
 #: Columns every row has besides the varied quantities and the results.
 RESERVED = ("point", "seed", "status", "message", "run_time", "sweep_id")
@@ -164,15 +166,12 @@ def prepare(sweep: Sweep) -> Plan:
 # ------------------------------------------------------------------------------ loading
 def sweep_names() -> list[str]:
     """Names of the shipped example sweeps."""
-    return sorted(p.stem for p in EXAMPLES_DIR.glob("*.yaml"))
+    return _SHIPPED.names()
 
 
 def sweep_path(name: str) -> Path:
-    path = EXAMPLES_DIR / f"{name}.yaml"
-    if not path.is_file():
-        raise SweepError(f"unknown sweep {name!r}{_suggest(name, sweep_names())}; shipped sweeps: "
-                         f"{', '.join(sweep_names())}")
-    return path
+    """Path of the shipped sweep ``name``."""
+    return _SHIPPED.path(name)
 
 
 #: What :func:`load_sweep` reads: a sweep, a shipped sweep's name, a path, YAML text or a dict.
@@ -198,13 +197,13 @@ def load_sweep(source: SweepSource) -> Sweep:
             text = path.read_text(encoding="utf-8")
         except FileNotFoundError:
             raise SweepError(f"sweep file not found: {str(path)!r}"
-                             f"{_suggest(path.stem, sweep_names(), ' (a shipped sweep: {!r}?)')}") from None
+                             f"{suggest(path.stem, sweep_names(), ' (a shipped sweep: {!r}?)')}") from None
         except (OSError, UnicodeDecodeError) as err:
             raise SweepError(f"cannot read sweep file {str(path)!r}: {getattr(err, 'strerror', None) or err}") from None
         return _Reader(path.name, path.parent.resolve(), str(path)).sweep(_parse(text, path.name))
     if isinstance(source, str):
         if ":" not in source:
-            raise SweepError(f"{source!r} is neither a shipped sweep{_suggest(source, sweep_names())} "
+            raise SweepError(f"{source!r} is neither a shipped sweep{suggest(source, sweep_names())} "
                              f"({', '.join(sweep_names())}), an existing sweep file nor YAML text")
         if len(source) > MAX_FILE_BYTES:
             raise SweepError(f"sweep text is larger than {MAX_FILE_BYTES} bytes")
@@ -222,11 +221,6 @@ def _parse(text: str, file: str | None) -> object:
     return data
 
 
-def _suggest(word: object, choices: Iterable[object], template: str = " (did you mean {!r}?)") -> str:
-    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1)
-    return template.format(close[0]) if close else ""
-
-
 def _line(container: object, key: object) -> int | None:
     lines: dict[object, int] | None = getattr(container, "key_lines", None)
     if lines is not None and key in lines:
@@ -236,14 +230,6 @@ def _line(container: object, key: object) -> int | None:
         return items[key]
     line: int | None = getattr(container, "line", None)
     return line
-
-
-def _type_name(value: object) -> str:
-    for kind, name in ((bool, "a boolean"), (dict, "a mapping"), (list, "a list"), (str, "a string"),
-                       (int, "an integer"), (float, "a number"), (type(None), "nothing (null)")):
-        if isinstance(value, kind):
-            return name
-    return type(value).__name__
 
 
 class _Reader:
@@ -260,29 +246,31 @@ class _Reader:
 
     def mapping(self, value: object, path: KeyPath, parent: object = None, key: object = None) -> dict[Any, Any]:
         if not isinstance(value, dict):
-            raise self.error(f"must be a mapping, got {_type_name(value)} ({value!r})", path, parent, key)
+            raise self.error(f"must be a mapping, got {type_name(value)} ({value!r})", path, parent, key)
         return value
 
     def keys(self, d: dict[Any, Any], path: KeyPath, allowed: tuple[str, ...],
              required: Iterable[str] = ()) -> None:
         for k in d:
             if k not in allowed:
-                raise self.error(f"unknown key {k!r}{_suggest(k, allowed)}; allowed: {', '.join(allowed)}",
+                raise self.error(f"unknown key {k!r}{suggest(k, allowed)}; allowed: {', '.join(allowed)}",
                                  path + (k,), d, k)
         for k in required:
             if k not in d:
                 raise self.error(f"missing required key {k!r}", path, d, None)
 
+    def checked(self, d: dict[str, Any], key: str, path: KeyPath, check: Check) -> Any:
+        """``check`` of ``d[key]`` (as plain data); its :class:`OptionError` is raised as the
+        error at ``path + (key,)``."""
+        try:
+            return check(plain(d[key]))
+        except OptionError as err:
+            raise self.error(str(err), path + (key,), d, key) from None
+
     def number(self, d: dict[str, Any], key: str, path: KeyPath, *, lo: float | None = None,
                lo_open: bool = False) -> float:
-        v = d[key]
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise self.error(f"must be a number, got {_type_name(v)} ({v!r})", path + (key,), d, key)
-        if not math.isfinite(v):
-            raise self.error(f"must be finite, got {v!r}", path + (key,), d, key)
-        if lo is not None and (v < lo or (lo_open and v == lo)):
-            raise self.error(f"must be {'>' if lo_open else '>='} {lo:g}, got {v!r}", path + (key,), d, key)
-        return float(v)
+        value: float = self.checked(d, key, path, number_check(lo=lo, lo_open=lo_open))
+        return value
 
     def integer(self, d: dict[str, Any], key: str, path: KeyPath, *, lo: int = 0, hi: int | None = None) -> int:
         v = d[key]
@@ -294,7 +282,7 @@ class _Reader:
     def string(self, d: dict[str, Any], key: str, path: KeyPath) -> str:
         v = d[key]
         if not isinstance(v, str):
-            raise self.error(f"must be a string, got {_type_name(v)} ({v!r})", path + (key,), d, key)
+            raise self.error(f"must be a string, got {type_name(v)} ({v!r})", path + (key,), d, key)
         return v
 
     def named(self, item: object, path: KeyPath, holder: object, index: object,
@@ -348,7 +336,7 @@ class _Reader:
     def compute(self, value: object, path: KeyPath, parent: dict[str, Any], base: Base) -> tuple[str, Options]:
         name, options, opath = self.named(value, path, parent, "compute", "computation")
         if name not in COMPUTATIONS:
-            raise self.error(f"unknown computation {name!r}{_suggest(name, COMPUTATIONS)}; computations: "
+            raise self.error(f"unknown computation {name!r}{suggest(name, COMPUTATIONS)}; computations: "
                              f"{', '.join(COMPUTATIONS)}", path, parent, "compute")
         comp = COMPUTATIONS[name]
         if comp.base != base.kind:
@@ -363,11 +351,8 @@ class _Reader:
                 required: Iterable[str]) -> Options:
         self.keys(options, path, tuple(checks), required=required)
         out: Options = {}
-        for k, v in options.items():
-            try:
-                out[k] = checks[k](plain(v))
-            except OptionError as err:
-                raise self.error(str(err), path + (k,), options, k) from None
+        for k in options:
+            out[k] = self.checked(options, k, path, checks[k])
         return out
 
     def vary(self, value: object, path: KeyPath, parent: dict[str, Any], base: Base) -> list[Quantity]:
@@ -417,7 +402,7 @@ class _Reader:
         if kind == "values":
             v = spec["values"]
             if not isinstance(v, list) or not v:
-                raise self.error(f"must be a non-empty list, got {_type_name(v)} ({v!r})", kpath, holder, "values")
+                raise self.error(f"must be a non-empty list, got {type_name(v)} ({v!r})", kpath, holder, "values")
             if len(v) > MAX_VALUES:
                 raise self.error(f"at most {MAX_VALUES} values, got {len(v)}", kpath, holder, "values")
             for i, x in enumerate(v):
@@ -433,7 +418,7 @@ class _Reader:
             num = self.integer(g, "num", kpath, lo=1, hi=MAX_VALUES)
             spacing = self.string(g, "spacing", kpath) if "spacing" in g else "linear"
             if spacing not in ("linear", "log"):
-                raise self.error(f"must be linear or log, got {spacing!r}{_suggest(spacing, ('linear', 'log'))}",
+                raise self.error(f"must be linear or log, got {spacing!r}{suggest(spacing, ('linear', 'log'))}",
                                  kpath + ("spacing",), g, "spacing")
             if spacing == "log" and (lo <= 0 or hi <= 0):
                 raise self.error(f"a log grid needs from, to > 0, got {lo:g}, {hi:g}", kpath, spec, "grid")
@@ -457,7 +442,7 @@ class _Reader:
 
     def results(self, value: object, path: KeyPath, parent: dict[str, Any], computation: str) -> list[ListedResult]:
         if not isinstance(value, list) or not value:
-            raise self.error(f"must be a non-empty list of results, got {_type_name(value)} ({value!r})",
+            raise self.error(f"must be a non-empty list of results, got {type_name(value)} ({value!r})",
                              path, parent, "results")
         comp = COMPUTATIONS[computation]
         out: list[ListedResult] = []
@@ -465,7 +450,7 @@ class _Reader:
         for i, item in enumerate(value):
             name, options, opath = self.named(item, path + (i,), value, i, "result")
             if name not in comp.results:
-                raise self.error(f"unknown result {name!r} of {computation!r}{_suggest(name, comp.results)}; "
+                raise self.error(f"unknown result {name!r} of {computation!r}{suggest(name, comp.results)}; "
                                  f"results: {', '.join(comp.results)}", path + (i,), value, i)
             rdef = comp.results[name]
             checked = self.options(options, opath, rdef.options, comp.required.get(name, ()))

@@ -1,10 +1,11 @@
-"""Helpers shared by the CLI subcommands: one-line errors, JSON output, parameters."""
+"""Helpers shared by the CLI subcommands: one-line errors, JSON output, parameters, listings."""
 
 from __future__ import annotations
 
 import json
 import math
 import sys
+from collections.abc import Callable
 from typing import Any
 
 
@@ -62,3 +63,28 @@ def parse_param_overrides(items: list[str] | None) -> dict[str, float]:
 
 def add_json_flag(p) -> None:
     p.add_argument("--json", action="store_true", help="machine-readable JSON output")
+
+
+#: A row of a listing: ``name`` and ``description`` first, then what the listing adds.
+Row = dict[str, Any]
+
+
+def add_listing(subparsers, name: str, *, help: str, description: str, rows: Callable[[], list[Row]],
+                details: Callable[[Row], str]) -> None:
+    """Add the subcommand ``name`` that lists what the package ships (scenes, sweeps): each
+    row of ``rows()`` as its name and description, ``details(row)`` on the line below; with
+    ``--json`` the rows themselves."""
+    def run(args) -> int:
+        listed = rows()
+        if args.json:
+            print_json(listed)
+            return 0
+        width = max(len(r["name"]) for r in listed)
+        for r in listed:
+            print(f"{r['name']:<{width}}  {r['description']}")
+            print(f"{'':<{width}}  {details(r)}")
+        return 0
+
+    p = subparsers.add_parser(name, help=help, description=description)
+    add_json_flag(p)
+    p.set_defaults(func=run)

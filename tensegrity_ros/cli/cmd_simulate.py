@@ -12,7 +12,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from tensegrity_ros.cli._common import CliError, add_json_flag, print_json
+from tensegrity_ros.cli._common import CliError, Row, add_json_flag, add_listing, print_json
 
 ORDER = 50
 
@@ -37,13 +37,12 @@ def register(subparsers) -> None:
     add_json_flag(p)
     p.set_defaults(func=run_simulate)
 
-    q = subparsers.add_parser("scenes", help="list the shipped simulation scenes",
-                              description="The scenes shipped with tensegrity_core.sim, with their descriptions.")
-    add_json_flag(q)
-    q.set_defaults(func=run_scenes)
+    add_listing(subparsers, "scenes", help="list the shipped simulation scenes",
+                description="The scenes shipped with tensegrity_core.sim, with their descriptions.",
+                rows=_scene_rows, details=_scene_details)
 
 
-def run_scenes(args) -> int:
+def _scene_rows() -> list[Row]:
     from tensegrity_core.sim import load_scene, scene_names, scene_path
 
     rows = []
@@ -51,15 +50,12 @@ def run_scenes(args) -> int:
         scene = load_scene(scene_path(name))
         rows.append({"name": name, "model": scene.model.kind, "quasi_static": scene.quasi_static,
                      "effects": list(scene.effects), "duration": scene.duration, "description": scene.description})
-    if args.json:
-        print_json(rows)
-        return 0
-    width = max(len(r["name"]) for r in rows)
-    for r in rows:
-        print(f"{r['name']:<{width}}  {r['description']}")
-        print(f"{'':<{width}}  {r['model']}, {'quasi-static' if r['quasi_static'] else 'dynamic'}, "
-              f"{r['duration']:g} s; effects: {', '.join(r['effects'])}")
-    return 0
+    return rows
+
+
+def _scene_details(r: Row) -> str:
+    return (f"{r['model']}, {'quasi-static' if r['quasi_static'] else 'dynamic'}, {r['duration']:g} s; "
+            f"effects: {', '.join(r['effects'])}")
 
 
 def load_controller(spec: str):
@@ -79,6 +75,22 @@ def load_controller(spec: str):
     return fn
 
 
+def _output_path(args) -> Path | None:
+    """The trajectory file of ``-o`` (``.npz`` or ``.csv``), or None."""
+    out = Path(args.output) if args.output else None
+    if out is not None and out.suffix.lower() not in (".npz", ".csv"):
+        raise CliError(f"-o/--output must end in .npz or .csv, got {str(out)!r}")
+    return out
+
+
+def _write(run, out: Path) -> None:
+    """Write a run (a trajectory or a sampled-data run) to ``out``, NPZ or CSV by its suffix."""
+    try:
+        run.to_npz(out) if out.suffix.lower() == ".npz" else run.to_csv(out)
+    except OSError as err:
+        raise CliError(f"cannot write {str(out)!r}: {err.strerror}") from None
+
+
 def run_sampled_cli(args) -> int:
     """``simulate --control-period DT --controller MODULE:FUNCTION``."""
     from tensegrity_core.errors import TensegrityError
@@ -89,9 +101,7 @@ def run_sampled_cli(args) -> int:
         raise CliError("--control-period and --controller go together")
     if args.plot is not None:
         raise CliError("--plot is not available for a sampled-data run (write -o OUT.npz and plot that)")
-    out = Path(args.output) if args.output else None
-    if out is not None and out.suffix.lower() not in (".npz", ".csv"):
-        raise CliError(f"-o/--output must end in .npz or .csv, got {str(out)!r}")
+    out = _output_path(args)
     if not (args.control_period > 0 and args.control_period < 3600):
         raise CliError(f"--control-period must be in (0, 3600) s, got {args.control_period}")
     controller = load_controller(args.controller)
@@ -102,7 +112,7 @@ def run_sampled_cli(args) -> int:
     except (SceneError, TensegrityError) as err:
         raise CliError(str(err)) from None
     if out is not None:
-        run.to_npz(out) if out.suffix.lower() == ".npz" else run.to_csv(out)
+        _write(run, out)
     summary = {"scene": run.scene_name, "success": run.success, "message": run.message,
                "control_period_ns": run.step_ns, "controller": args.controller, "steps": len(run.commands),
                "t_end": float(run.times[-1]),
@@ -136,9 +146,7 @@ def run_simulate(args) -> int:
     if args.control_period is not None or args.controller is not None:
         return run_sampled_cli(args)
 
-    out = Path(args.output) if args.output else None
-    if out is not None and out.suffix.lower() not in (".npz", ".csv"):
-        raise CliError(f"-o/--output must end in .npz or .csv, got {str(out)!r}")
+    out = _output_path(args)
     if args.plot is not None and not args.plot.lower().endswith(".png"):
         raise CliError(f"--plot must end in .png, got {args.plot!r}")
     try:
@@ -167,10 +175,7 @@ def run_simulate(args) -> int:
         if bar is not None:
             bar.close()
     if out is not None:
-        try:
-            traj.to_npz(out) if out.suffix.lower() == ".npz" else traj.to_csv(out)
-        except OSError as err:
-            raise CliError(f"cannot write {str(out)!r}: {err.strerror}") from None
+        _write(traj, out)
     if args.plot:
         from tensegrity_core.sim.plotting import plot_trajectory
 

@@ -19,7 +19,7 @@ import time
 from collections import Counter
 from pathlib import Path
 
-from tensegrity_ros.cli._common import CliError, add_json_flag, print_json
+from tensegrity_ros.cli._common import CliError, Row, add_json_flag, add_listing, print_json
 
 ORDER = 55
 
@@ -49,13 +49,12 @@ def register(subparsers) -> None:
     add_json_flag(p)
     p.set_defaults(func=run_sweep_command)
 
-    q = subparsers.add_parser("sweeps", help="list the shipped example sweeps",
-                              description="The sweeps shipped with tensegrity_core.sweep, with their descriptions.")
-    add_json_flag(q)
-    q.set_defaults(func=run_sweeps)
+    add_listing(subparsers, "sweeps", help="list the shipped example sweeps",
+                description="The sweeps shipped with tensegrity_core.sweep, with their descriptions.",
+                rows=_sweep_rows, details=_sweep_details)
 
 
-def run_sweeps(args) -> int:
+def _sweep_rows() -> list[Row]:
     from tensegrity_core.sweep import load_sweep, sweep_names, sweep_path
 
     rows = []
@@ -64,14 +63,11 @@ def run_sweeps(args) -> int:
         rows.append({"name": name, "description": s.description, "base": f"{s.base.kind} {s.base.source}",
                      "compute": s.computation, "points": s.n_points,
                      "vary": [q.column for q in s.quantities], "file": str(sweep_path(name))})
-    if args.json:
-        print_json(rows)
-        return 0
-    width = max(len(r["name"]) for r in rows)
-    for r in rows:
-        print(f"{r['name']:<{width}}  {r['description']}")
-        print(f"{'':<{width}}  {r['base']}, {r['compute']}, {r['points']} points; varies {', '.join(r['vary'])}")
-    return 0
+    return rows
+
+
+def _sweep_details(r: Row) -> str:
+    return f"{r['base']}, {r['compute']}, {r['points']} points; varies {', '.join(r['vary'])}"
 
 
 def run_sweep_command(args) -> int:

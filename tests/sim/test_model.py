@@ -100,6 +100,36 @@ def test_states_of_one_model_are_independent_and_running_them_leaves_the_model_u
     assert third.t == 0.0 and third.events == events0 and third.mode == frozenset()
 
 
+def _quasi_static_table():
+    """table_gravity without inertia: the general quasi-static back end."""
+    scene = load_scene("table_gravity")
+    d = dict(scene.data)
+    d["effects"] = ["springs", "gravity"]
+    d["model"] = dict(d["model"], structure=str(scene.model.source))
+    return load_scene(d)
+
+
+@pytest.mark.parametrize("key, scene", [("class2/dynamic", lambda: load_scene("paper_fold")),
+                                        ("class2/quasi-static", lambda: load_scene("paper_fold_quasistatic")),
+                                        ("general/dynamic", lambda: load_scene("table_gravity")),
+                                        ("general/quasi-static", _quasi_static_table)])
+def test_every_back_end_advances_only_forwards_to_a_finite_time_and_keeps_its_state(key, scene):
+    scene = scene()
+    assert backend_name(scene) == key
+    model = compile_scene(scene)
+    state = model.initial_state(t_end=1.0)
+    model.advance(state, 0.01)
+    y = state.y.copy()
+    for target, words in ((math.inf, "target time must be a finite number of seconds, got inf"),
+                          (math.nan, "target time must be a finite number of seconds, got nan"),
+                          (0.005, "cannot advance backwards: t = 0.01 s, target 0.005 s")):
+        with pytest.raises(SimulationError, match=words) as err:
+            model.advance(state, target)
+        assert err.value.t == 0.01
+        assert state.t == 0.01
+        np.testing.assert_array_equal(state.y, y)
+
+
 def test_the_state_shows_time_contact_mode_commands_and_located_events():
     model = compile_scene(load_scene("paper_fold"))
     state = model.initial_state()

@@ -94,3 +94,14 @@ def test_cli_sampled_run_errors_are_one_line(argv, message, capsys):
     assert main(["simulate", "class2_at_rest", *argv]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err
+
+
+@pytest.mark.parametrize("sampled", [
+    [],
+    ["--control-period", "0.01", "--controller", "tensegrity_core.class2.fold_law:paper_fold_forces"],
+])
+def test_an_output_that_cannot_be_written_is_one_error_line(sampled, tmp_path, capsys):
+    out = tmp_path / "no_such_folder" / "run.npz"
+    assert main(["simulate", "class2_at_rest", "--duration", "0.05", "--quiet", "-o", str(out), *sampled]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"error: cannot write {str(out)!r}: No such file or directory")

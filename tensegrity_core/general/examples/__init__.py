@@ -10,22 +10,19 @@ from pathlib import Path
 from typing import Final
 
 from tensegrity_core.general.structure import Structure, StructureError
-from tensegrity_core.schema import excerpt, suggest
+from tensegrity_core.schema import ShippedFiles
 
-_DIR: Final = Path(__file__).parent
+_SHIPPED: Final = ShippedFiles(Path(__file__).parent, "example", "available", StructureError)
 
 
 def example_names() -> list[str]:
     """Names of the shipped examples (file stems)."""
-    return sorted(p.stem for p in _DIR.glob("*.yaml"))
+    return _SHIPPED.names()
 
 
 def example_path(name: object) -> Path:
     """Path of the example ``name`` (e.g. ``"tensegrity_table"``)."""
-    if not isinstance(name, str) or name not in example_names():
-        raise StructureError(f"unknown example {excerpt(name)}{suggest(name, example_names())}; "
-                             f"available: {', '.join(example_names())}")
-    return _DIR / f"{name}.yaml"
+    return _SHIPPED.path(name)
 
 
 def load_example(name: str) -> Structure:

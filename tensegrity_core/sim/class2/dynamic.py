@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from tensegrity_core.sim.class2.observe import Class2Observer
 from tensegrity_core.sim.class2.plant import Class2Plant, Class2Segment
 from tensegrity_core.sim.class2.setup import NAMES, class2_params, force_effects, initial_configuration, static_force
-from tensegrity_core.sim.commands import changed, check_command, initial_commands
+from tensegrity_core.sim.commands import changed, check_command, compile_inputs
 from tensegrity_core.sim.inputs import held
 from tensegrity_core.sim.model import DynamicModel, State
 from tensegrity_core.sim.scene import Scene
@@ -45,9 +45,8 @@ class Class2Dynamic(DynamicModel[Class2Segment, Class2Sample]):
         self.params = params
         effects = force_effects(scene)
         q0, qd0 = initial_configuration(scene, effects)
-        self.laws = tuple(scene.inputs.values())
-        self.actuator_names = tuple(scene.inputs)
-        self.initial_commands = initial_commands(self.laws, static_force(effects, params.L, q0)[:2])
+        self.laws, self.actuator_names, self.initial_commands = compile_inputs(
+            scene.inputs, static_force(effects, params.L, q0)[:2])
         self.plant = Class2Plant(scene, effects)
         self.state_names = self.plant.state_names
         self.observer = Class2Observer(scene, effects, inertia=True)

@@ -34,7 +34,7 @@ from tensegrity_core.sim.class2.equilibria import Equilibria, PathCounts, Point,
 from tensegrity_core.sim.class2.path_events import Event, EventLocator, just_before
 from tensegrity_core.sim.class2.path_samples import MODE_FREE, Segment
 from tensegrity_core.sim.class2.potential import TotalPotential
-from tensegrity_core.sim.errors import SimulationError
+from tensegrity_core.sim.errors import SimulationError, check_advance_target
 from tensegrity_core.sim.inputs import Law, next_breakpoint
 
 #: A located event in the log: ``(t [s], kind, index)``.
@@ -139,11 +139,7 @@ class PathFollower:
 
     # -- following the path --------------------------------------------------------------------------
     def advance(self, t_target: float) -> None:
-        if not math.isfinite(t_target):
-            raise SimulationError(f"advance: the target time must be a finite number of seconds, got {t_target!r}",
-                                  t=self.t)
-        if t_target < self.t:
-            raise SimulationError(f"cannot advance backwards: t = {self.t!r} s, target {t_target!r} s", t=self.t)
+        check_advance_target(self.t, t_target)
         # an event at t_target (to rounding) happens before the state there is seen
         while self.seg.t1 < t_target or (self.pending is not None and self.seg.t1 <= _after(t_target)):
             if self.pending is not None:

@@ -62,7 +62,7 @@ from tensegrity_core.sim.class2.setup import (
     initial_configuration,
     static_force,
 )
-from tensegrity_core.sim.commands import changed, check_command, initial_commands
+from tensegrity_core.sim.commands import changed, check_command, compile_inputs
 from tensegrity_core.sim.inputs import held
 from tensegrity_core.sim.model import Model, State
 from tensegrity_core.sim.scene import Scene
@@ -91,9 +91,8 @@ class Class2QuasiStatic(Model[PathFollower, Class2Block]):
         self.T = scene.duration
         self.effects = conservative(force_effects(scene))
         q0, _ = initial_configuration(scene, self.effects)
-        self.laws = tuple(scene.inputs.values())
-        self.actuator_names = tuple(scene.inputs)
-        self.initial_commands = initial_commands(self.laws, static_force(self.effects, self.L, q0)[:2])
+        self.laws, self.actuator_names, self.initial_commands = compile_inputs(
+            scene.inputs, static_force(self.effects, self.L, q0)[:2])
         self.observer = Class2Observer(scene, self.effects, inertia=False)
         fold = "fold_limit" in scene.effects
         force_scale = max(params.k1, params.k2, params.k3, params.k4) * params.L

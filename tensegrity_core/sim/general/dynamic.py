@@ -18,19 +18,18 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.general.statics import potential_energy
-from tensegrity_core.sim.commands import changed, check_command, initial_commands
+from tensegrity_core.sim.commands import changed, check_command
 from tensegrity_core.sim.errors import SimulationError
 from tensegrity_core.sim.general.model import GeneralModel, NodalMasses
 from tensegrity_core.sim.general.setup import (
-    check_springs,
+    OBSERVED,
+    GeneralBackEnd,
     coordinates,
-    drawn_rest_lengths,
     finish_observations,
     general_model,
     initial_configuration,
     member_damping,
     minimal_coordinates,
-    names_of,
     rest_lengths_function,
     scene_gravity,
     scene_loads,
@@ -44,34 +43,23 @@ FloatArray = NDArray[np.float64]
 #: What an observation needs of one state: ``(t [s], y, the equations of its charts and commands)``.
 GeneralSample = tuple[float, FloatArray, GeneralModel]
 
-OBSERVED = ("t", "state", "q", "qdot", "applied_forces", "nodes", "member_lengths", "member_forces",
-            "potential_energy", "kinetic_energy")
 
-
-class GeneralDynamic(DynamicModel[GeneralModel, GeneralSample]):
+class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralModel, GeneralSample]):
     """Back end ``general/dynamic``: nodal / rigid-body dynamics of a general structure
     (implements :class:`~tensegrity_core.sim.model.DynamicModel`)."""
 
-    kind = "general"
     quasi_static = False
 
     def __init__(self, scene: Scene):
-        check_springs(scene)
-        self.scene = scene
-        model = general_model(scene)
-        s = model.structure
-        self.structure = s
-        self.laws = tuple(scene.inputs.values())
-        self.actuator_names = tuple(scene.inputs)
-        self.initial_commands = initial_commands(self.laws, drawn_rest_lengths(scene))
-        self.names = names_of(s)
+        super().__init__(scene)
+        s = self.structure
         config = initial_configuration(scene)
         self.x0 = coordinates(config)
         laws0 = held(self.laws, self.initial_commands)
         self.plant = GeneralModel(s, masses=NodalMasses(s), damping=member_damping(scene),
                                   gravity=scene_gravity(scene), loads=scene_loads(scene),
                                   rest_lengths_of=rest_lengths_function(scene, laws0), laws=laws0,
-                                  actuators=model.actuators, R_ref=config.rotations)
+                                  actuators=general_model(scene).actuators, R_ref=config.rotations)
         self.state_names = self.plant.state_names
         method = scene.integrator.method
         self.method = "Radau" if method == "auto" else method

@@ -24,19 +24,18 @@ from tensegrity_core.general.configuration import Configuration
 from tensegrity_core.general.statics import equilibrium_matrix, member_forces, member_lengths, potential_energy
 from tensegrity_core.general.stiffness import tangent_stiffness
 from tensegrity_core.general.structure import Structure
-from tensegrity_core.sim.commands import changed, check_command, initial_commands
-from tensegrity_core.sim.errors import SimulationError
+from tensegrity_core.sim.commands import changed, check_command
+from tensegrity_core.sim.errors import check_advance_target
 from tensegrity_core.sim.general.setup import (
+    OBSERVED,
+    GeneralBackEnd,
     RestLengths,
-    check_springs,
     coordinates,
-    drawn_rest_lengths,
     equilibrium,
     finish_observations,
     general_model,
     initial_configuration,
     minimal_coordinates,
-    names_of,
     rest_lengths_function,
     scene_loads,
     static_structure,
@@ -48,9 +47,6 @@ from tensegrity_core.sim.scene import Scene
 FloatArray = NDArray[np.float64]
 #: What an observation needs at one time: ``(t [s], equilibrium, static structure, rest-lengths law)``.
 GeneralQuasiStaticSample = tuple[float, Configuration, Structure, RestLengths | None]
-
-OBSERVED = ("t", "state", "q", "qdot", "applied_forces", "nodes", "member_lengths", "member_forces",
-            "potential_energy", "kinetic_energy")
 
 
 class FormFindingPath:
@@ -99,27 +95,19 @@ class FormFindingPath:
                                  f"point: the structure would snap, which needs inertia)")
 
 
-class GeneralQuasiStatic(Model[FormFindingPath, GeneralQuasiStaticSample]):
+class GeneralQuasiStatic(GeneralBackEnd, Model[FormFindingPath, GeneralQuasiStaticSample]):
     """Back end ``general/quasi-static``: the equilibrium path of a general structure
     (implements :class:`~tensegrity_core.sim.model.Model`); the equilibrium at ``t = 0`` is
     found once, at compile time."""
 
-    kind = "general"
     quasi_static = True
     method = "quasi-static (incremental form-finding)"
 
     def __init__(self, scene: Scene):
-        check_springs(scene)
-        self.scene = scene
-        model = general_model(scene)
-        s = model.structure
-        self.structure = s
-        self.laws = tuple(scene.inputs.values())
-        self.actuator_names = tuple(scene.inputs)
-        self.initial_commands = initial_commands(self.laws, drawn_rest_lengths(scene))
-        self.names = names_of(s)
+        super().__init__(scene)
+        s = self.structure
         self.state_names = tuple(f"x_{v}" for v in s.layout.labels())
-        self.actuators = list(model.actuators)
+        self.actuators = list(general_model(scene).actuators)
         rest_of = rest_lengths_function(scene, held(self.laws, self.initial_commands))
         l0 = s.rest_lengths if rest_of is None else rest_of(0.0)
         start = initial_configuration(scene)
@@ -146,11 +134,7 @@ class GeneralQuasiStatic(Model[FormFindingPath, GeneralQuasiStaticSample]):
 
     def advance(self, state: State[FormFindingPath], t: float) -> None:
         path = state.work
-        if not math.isfinite(t):
-            raise SimulationError(f"advance: the target time must be a finite number of seconds, got {t!r}",
-                                  t=path.t)
-        if t < path.t:
-            raise SimulationError(f"cannot advance backwards: t = {path.t!r} s, target {t!r} s", t=path.t)
+        check_advance_target(path.t, t)
         path.update(t)
         path.t = t
 

@@ -1,5 +1,6 @@
-"""Set-up shared by the general-structure back ends: loads, weights, dampers, rest lengths,
-the initial equilibrium, and the coordinates and observations of a configuration.
+"""Set-up shared by the general-structure back ends: what both compile alike (their base
+:class:`GeneralBackEnd`), loads, weights, dampers, rest lengths, the initial equilibrium, and
+the coordinates and observations of a configuration.
 
 Effects map to the model as follows: ``springs`` the members' elastic forces (required: they
 are the structure), ``damping`` an axial damper on every taut member (``c`` or
@@ -22,6 +23,7 @@ from tensegrity_core.general.configuration import Configuration
 from tensegrity_core.general.dofs import DofLayout
 from tensegrity_core.general.formfind import form_find
 from tensegrity_core.general.structure import Structure
+from tensegrity_core.sim.commands import compile_inputs
 from tensegrity_core.sim.errors import SceneError, SimulationError
 from tensegrity_core.sim.inputs import Law
 from tensegrity_core.sim.model import Names
@@ -29,6 +31,9 @@ from tensegrity_core.sim.scene import GeneralModel as GeneralSceneModel
 from tensegrity_core.sim.scene import Scene
 
 FloatArray = NDArray[np.float64]
+#: The quantities both general back ends observe (:func:`finish_observations` adds the constant ones).
+OBSERVED = ("t", "state", "q", "qdot", "applied_forces", "nodes", "member_lengths", "member_forces",
+            "potential_energy", "kinetic_energy")
 
 
 def general_model(scene: Scene) -> GeneralSceneModel:
@@ -135,6 +140,22 @@ def check_springs(scene: Scene) -> None:
 
 def names_of(structure: Structure) -> Names:
     return Names(structure.node_names, structure.member_names, structure.members)
+
+
+class GeneralBackEnd:
+    """The base of both general back ends: what they compile alike from a general scene that
+    lists ``springs``. ``scene``; its ``structure``; the input ``laws`` and ``actuator_names``
+    in input order with the ``initial_commands`` (commanded rest lengths [m] hold the drawn
+    ones); the ``names`` of the nodes and members."""
+
+    kind = "general"
+
+    def __init__(self, scene: Scene):
+        check_springs(scene)
+        self.scene = scene
+        self.structure = general_model(scene).structure
+        self.laws, self.actuator_names, self.initial_commands = compile_inputs(scene.inputs, drawn_rest_lengths(scene))
+        self.names = names_of(self.structure)
 
 
 def coordinates(config: Configuration) -> FloatArray:
