@@ -3,10 +3,12 @@
 Every ``import`` statement of the product code is read with :mod:`ast`, wherever it stands
 (module level or inside a function), so lazy imports count too. A ``from package import
 name`` is an import of the submodule ``package.name`` when there is one, else of
-``package``; the implicit import of a module's parent packages is not counted (as in
-import-linter), otherwise every package ``__init__`` that re-exports its submodules would
-be a cycle. Imports that only ``importlib.import_module`` makes (the back-end registry,
-the CLI's command discovery) are invisible here by design.
+``package``. The implicit import of a module's parent packages is not counted: a package
+``__init__`` that re-exports its submodules would otherwise be a cycle with each of them,
+although Python runs a package being initialised only once; an explicit import of the
+package (``from tensegrity_core.general import ...``) counts. Imports that only
+``importlib.import_module`` makes (the back-end registry, the CLI's command discovery) are
+invisible here by design; ``tests/test_foundation.py`` imports the core without ROS.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from scipy.sparse.csgraph import connected_components
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("tensegrity_core", "tensegrity_ros")
 
-#: ROS client libraries and interface (message) packages: none may be imported by the core.
+#: ROS client libraries, interface (message) packages and the ROS layer: the core imports none.
 ROS_PACKAGES = frozenset({
     "rclpy", "rosbag2_py", "builtin_interfaces", "std_msgs", "sensor_msgs", "geometry_msgs",
     "visualization_msgs", "trajectory_msgs", "rosgraph_msgs", "tensegrity_msgs",
