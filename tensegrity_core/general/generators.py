@@ -212,7 +212,8 @@ def spherical_tensegrity(kind: str = "tetrahedron", *, phi_deg: float = 20.0, ra
 
 # --------------------------------------------------------------------------- prism tower
 def prism_tower(n_stages: int, *, sides: int = 6, radius: float = 1.0, stage_height: float = 1.0,
-                prestrain: float = 0.01, EA: float = PAPER_EA, bar_EA: float | None = None) -> Structure:
+                prestrain: float = 0.01, EA: float = PAPER_EA, bar_EA: float | None = None,
+                free: bool = False) -> Structure:
     """A tower of ``n_stages`` stacked ``sides``-prisms, drawn in its prestressed equilibrium.
 
     ``n_stages + 1`` horizontal rings of ``sides`` nodes on a circle of ``radius``, ring
@@ -222,7 +223,8 @@ def prism_tower(n_stages: int, *, sides: int = 6, radius: float = 1.0, stage_hei
     lower ring to node ``i - 1`` of the upper one on odd stages, to ``i + 1`` on even ones:
     each stage is the mirror image of the one below), and ring ``k`` has
     ``sides`` ring strings; ring 0 is pinned. ``3 sides n_stages`` members,
-    ``3 sides n_stages`` free coordinates.
+    ``3 sides n_stages`` free coordinates. ``free=True``: no supports, and ring 0 has its
+    ring strings too (``3 sides n_stages + sides`` members, six rigid-body modes).
 
     Equilibrium (derived in docs/general.md): with force density ``q`` in the vertical strings
     and ``-q`` in the bars, a top-ring node is balanced along the axis and tangentially
@@ -255,19 +257,24 @@ def prism_tower(n_stages: int, *, sides: int = 6, radius: float = 1.0, stage_hei
     vertical = np.stack(np.broadcast_arrays(low + i, high + np.where(odd, (i - 1) % p, (i + 1) % p)), axis=-1)
     rings = np.stack(np.broadcast_arrays(high + i, high + (i + 1) % p), axis=-1)
     members = np.concatenate([bars, vertical, rings], axis=1).reshape(-1, 2)       # stage by stage
+    if free:
+        members = np.concatenate([np.c_[i, (i + 1) % p], members])                   # ring 0 first
     h = nodes[members[:, 1]] - nodes[members[:, 0]]
     length = np.linalg.norm(h, axis=1)
     c = -np.cos(alpha) / (1 - np.cos(2 * np.pi / p))
-    l_vertical = length[p]                                              # one vertical string
+    l_vertical = length[p * (2 if free else 1)]                        # one vertical string
     q = prestrain * EA / l_vertical
     ring_q = np.where(np.arange(1, n + 1) < n, 2 * c * q, c * q)       # the top ring: one stage
     density = np.concatenate(np.broadcast_arrays(np.full((n, p), -q), np.full((n, p), q),
                                                  np.repeat(ring_q[:, None], p, axis=1)), axis=1).ravel()
     kinds = np.tile(np.repeat(np.array(["bar", "string", "string"]), p), n)
+    if free:
+        density = np.concatenate([np.full(p, c * q), density])
+        kinds = np.concatenate([np.full(p, "string"), kinds])
     ea = np.where(kinds == "bar", bar_ea, EA)
     t = density * length
     pinned = np.zeros((n + 1) * p, dtype=bool)
-    pinned[:p] = True
+    pinned[:p] = not free
     return Structure.from_arrays(
         nodes, members, EA=ea, rest_lengths=ea * length / (ea + t), kinds=kinds.tolist(), pinned=pinned,
         name=f"prism tower ({n} stages of {p}-prisms, prestrain {prestrain:g})")
