@@ -24,15 +24,17 @@ it succeeds that is Newton's own step (the shift is below anything the matrix re
 convergence stays quadratic however soft the structure: a fixed shift ``u`` turns it
 linear with rate ``u / (lambda + u)`` along modes with ``lambda ~ u``; 22 of the 83
 iterations of a 10,000-member spine at ``u = 1e-10``). If it fails the matrix is
-indefinite: the smallest shift ``tau`` that makes it positive definite is bracketed to a
-decade by a few more attempts (:func:`smallest_definite_shift`), and the step uses ``2 tau
-+ rho``, which lifts the most negative curvature to between ``|lambda_min|`` and ``19
-|lambda_min|``, instead of the paper's ``u + |lambda_min|`` (Eq. 81), whose smallest
-eigenvalue ``u`` made steps of ~1/u along the negative mode that the line search then cut
-to 1e-6 (a 9,000-member tower: 15 iterations, now 6). Bracketing replaces the Lanczos
-solve for ``lambda_min``, which about a shift far from it needed hundreds of solves near
-a solution (a 100,000-member tower: 17 of 28 s). A fixed ``u`` (the paper's Eq. 81 on the
-scaled matrix, with that Lanczos solve) remains as an option.
+indefinite: the smallest shift that makes it positive definite is bracketed to a decade by
+a few more attempts (:func:`smallest_definite_shift`), ``lambda_min`` found by
+shift-invert Lanczos about that bracket (a Lanczos solve about a fixed shift far from it
+needed hundreds of solves near a solution: 17 of 28 s on a 100,000-member tower), and two
+steps are offered: the reflection, shift ``2 |lambda_min| + rho`` (the most negative
+curvature becomes ``+|lambda_min|``), and the paper's ``u + |lambda_min|`` (Eq. 81) with
+``u = rho``, mostly along the negative curvature. Form-finding keeps the one whose line
+search ends lower (:mod:`.formfind`): the second alone made steps of ~1/u along a negative
+curvature that was local and that the line search then cut to 1e-6 (a 9,000-member
+tower: 15 iterations, now 6). A fixed ``u`` (the paper's Eq. 81 on the scaled matrix)
+remains as an option.
 """
 
 from __future__ import annotations
@@ -122,7 +124,9 @@ class ShiftedStep:
     indefinite sparse matrix) else ``None``; ``factorizations`` how many were needed;
     ``solve`` applies the same shifted inverse to another right-hand side; ``indefinite``
     whether the scaled ``K_T`` had to be lifted above its rounding level (the step then
-    follows negative curvature).
+    follows negative curvature); ``alternative`` on an indefinite matrix, the step with the
+    smallest definite shift ``|lambda_min| + rho`` (Eq. 81 with ``u = rho``: mostly along the
+    negative curvature), for the caller to try as well.
     """
 
     dU: FloatArray
@@ -131,6 +135,7 @@ class ShiftedStep:
     factorizations: int
     solve: Callable[[FloatArray], FloatArray]
     indefinite: bool = False
+    alternative: ShiftedStep | None = None
 
 
 def shifted_step_dense(K: Matrix, P: FloatArray, u: float | None = None) -> ShiftedStep:
@@ -142,16 +147,20 @@ def shifted_step_dense(K: Matrix, P: FloatArray, u: float | None = None) -> Shif
     Ks = d[:, None] * Kd * d[None, :]
     lam = float(la.eigvalsh(Ks)[0])
     rho = rounding_level(Ks)
+
+    def step(tau: float, indefinite: bool, alternative: ShiftedStep | None = None) -> ShiftedStep:
+        c = la.cho_factor(Ks + tau * np.eye(len(d)))
+
+        def solve(x: FloatArray) -> FloatArray:
+            return np.asarray(d * la.cho_solve(c, d * x), dtype=float)
+
+        return ShiftedStep(solve(P), tau, lam, 1, solve, indefinite, alternative)
+
     if u is not None:
-        tau = u + max(0.0, -lam)
-    else:
-        tau = rho if lam > rho else 2.0 * max(0.0, -lam) + rho
-    c = la.cho_factor(Ks + tau * np.eye(len(d)))
-
-    def solve(x: FloatArray) -> FloatArray:
-        return np.asarray(d * la.cho_solve(c, d * x), dtype=float)
-
-    return ShiftedStep(solve(P), tau, lam, 1, solve, indefinite=lam <= rho)
+        return step(u + max(0.0, -lam), lam <= 0.0)
+    if lam > rho:
+        return step(rho, False)
+    return step(2.0 * abs(lam) + rho, True, step(abs(lam) + rho, True))
 
 
 def shifted_step_sparse(K: Matrix, P: FloatArray, u: float | None = None, *, growth: float = 10.0) -> ShiftedStep:
@@ -180,13 +189,19 @@ def shifted_step_sparse(K: Matrix, P: FloatArray, u: float | None = None, *, gro
         if lu is not None:
             dU, solve = _scaled_solution(lu, d, P)
             return ShiftedStep(dU, rho, None, 1, solve)
-        tau, lu, tries = smallest_definite_shift(attempt, rho)
-        shift = 2.0 * tau + rho
-        lifted = attempt(shift)
-        if lifted is not None:
-            lu, tau = lifted, shift
-        dU, solve = _scaled_solution(lu, d, P)
-        return ShiftedStep(dU, tau, None, tries + 2, solve, indefinite=True)
+        tau, lu_tau, tries = smallest_definite_shift(attempt, rho)
+        lam = _nearest_eigenvalue(Ks, tau, lu_tau)
+        candidates = []
+        for shift in (2.0 * abs(lam) + rho, abs(lam) + rho):
+            lu = attempt(shift)
+            tries += 1
+            if lu is None:            # lam's last digits put it just short: the bracket's factor
+                shift, lu = tau, lu_tau
+            dU, solve = _scaled_solution(lu, d, P)
+            candidates.append(ShiftedStep(dU, shift, lam, tries, solve, indefinite=True))
+        reflection, along = candidates
+        reflection.alternative = along
+        return reflection
     lu = attempt(u)
     if lu is not None:
         dU, solve = _scaled_solution(lu, d, P)
@@ -198,9 +213,7 @@ def shifted_step_sparse(K: Matrix, P: FloatArray, u: float | None = None, *, gro
         tau *= growth
         tries += 1
         lu = attempt(tau)
-    v0 = np.random.default_rng(0).standard_normal(n)
-    lam = float(eigsh(Ks, k=1, sigma=-tau, which="LM", OPinv=solver(lu, n), v0=v0, tol=1e-6,
-                      return_eigenvectors=False)[0])
+    lam = _nearest_eigenvalue(Ks, tau, lu)
     shift = u + max(0.0, -lam)
     better = attempt(shift)
     tries += 1
@@ -208,6 +221,15 @@ def shifted_step_sparse(K: Matrix, P: FloatArray, u: float | None = None, *, gro
         lu, tau = better, shift
     dU, solve = _scaled_solution(lu, d, P)
     return ShiftedStep(dU, tau, lam, tries, solve, indefinite=True)
+
+
+def _nearest_eigenvalue(Ks: sp.spmatrix, tau: float, lu: SuperLU) -> float:
+    """The eigenvalue of ``Ks`` nearest ``-tau`` (its smallest when ``Ks + tau I`` is positive
+    definite, factor ``lu``), by shift-invert Lanczos, to 1e-6."""
+    n = Ks.shape[0]
+    v0 = np.random.default_rng(0).standard_normal(n)
+    return float(eigsh(Ks, k=1, sigma=-tau, which="LM", OPinv=solver(lu, n), v0=v0, tol=1e-6,
+                       return_eigenvectors=False)[0])
 
 
 def smallest_definite_shift(attempt: Callable[[float], T | None], failed: float) -> tuple[float, T, int]:
