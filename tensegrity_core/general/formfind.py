@@ -337,7 +337,10 @@ def _newton_iterations(structure: Structure, config: Configuration, state: _Iter
                               slack_elastic=state.slack_stiffness and changing and bool(slack.any()))
         keep = moving_coordinates(config)
         P = bal.physical.generalized[keep]
-        Kk = K[np.ix_(keep, keep)] if state.dense else K[keep][:, keep]
+        if len(keep) == K.shape[0]:
+            Kk = K
+        else:
+            Kk = K[np.ix_(keep, keep)] if state.dense else K[keep][:, keep]
         step = shifted_step_dense(Kk, P, state.shift) if state.dense else shifted_step_sparse(Kk, P, state.shift)
         dU = _direction(structure, step, keep, state.max_step * size)
         if watch is not None:               # the second step of a relaxed pair
