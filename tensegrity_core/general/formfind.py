@@ -222,15 +222,20 @@ def newton(structure: Structure, config: Configuration, *, tol: float, max_iter:
         started = time.perf_counter()
         config, status = _newton_iterations(structure, config, state)
         timings["iterations"] += time.perf_counter() - started
-        if status != 0 or not check_stability:
+        if status not in (0, 2) or not check_stability:
             return make_result(structure, config, status, state.iterations, state.history, label, tol=tol,
                                dense=dense, check_stability=check_stability, timings=timings)
         started = time.perf_counter()
         low = lowest_mode(tangent_stiffness(structure, config, sparse=not dense), config, dense=dense)
         timings["stability"] += time.perf_counter() - started
+        # a line search stalls where the energy is flat: along an unstiffened mechanism, or on
+        # a saddle; such a stall is reported as what it is (status 4 or 3), or left (a saddle)
+        if status == 2 and low.verdict == "stable":
+            return make_result(structure, config, 2, state.iterations, state.history, label, tol=tol, dense=dense,
+                               check_stability=True, low=low, timings=timings)
         if low.verdict != "unstable" or escapes >= max_escapes:
             return make_result(structure, config, 0, state.iterations, state.history, label, tol=tol, dense=dense,
-                               check_stability=True, low=low, timings=timings)
+                               check_stability=True, low=low, timings=timings, stalled=status == 2)
         escapes += 1
         config = _escape_saddle(structure, config, low.vector)
 

@@ -147,10 +147,12 @@ class FormFindResult:
 def make_result(structure: Structure, config: Configuration, status: int, iterations: int,
                 history: list[dict[str, Any]], method: str, *, tol: float, dense: bool, check_stability: bool,
                 low: LowestMode | None = None, reason: str | None = None,
-                timings: dict[str, float] | None = None) -> FormFindResult:
+                timings: dict[str, float] | None = None, stalled: bool = False) -> FormFindResult:
     """Build the result: forces, lengths, residual and stability (computed here when
     ``check_stability`` and converged and not given as ``low``; a converged but unstable or
-    neutral equilibrium becomes status 3 or 4). ``reason`` replaces the message."""
+    neutral equilibrium becomes status 3 or 4). ``reason`` replaces the message;
+    ``stalled``: status 0 means the line search stopped there (the result can only be 3 or
+    4: a state where the energy does not fall, not balanced to ``tol``)."""
     timings = dict(timings or {})
     bal = balance(structure, config)
     lengths = member_lengths(structure, config.coords)
@@ -163,7 +165,7 @@ def make_result(structure: Structure, config: Configuration, status: int, iterat
         status = 4 if low.verdict == "neutral" else 3
     return FormFindResult(
         success=status == 0, status=status, message=_message(structure, config, status, iterations, bal, tol, low,
-                                                              checked=check_stability, reason=reason),
+                                                              checked=check_stability, reason=reason, stalled=stalled),
         nodes=config.coords.copy(), member_forces=forces_from_lengths(structure, lengths), member_lengths=lengths,
         iterations=iterations, residual=bal.residual,
         min_eigenvalue=low.value if low is not None else float("nan"), stable=stable,
@@ -176,14 +178,19 @@ def make_result(structure: Structure, config: Configuration, status: int, iterat
 
 
 def _message(structure: Structure, config: Configuration, status: int, iterations: int, bal: Balance, tol: float,
-             low: LowestMode | None, *, checked: bool, reason: str | None) -> str:
+             low: LowestMode | None, *, checked: bool, reason: str | None, stalled: bool) -> str:
     if reason is not None:
         return reason
     message = STATUS[status]
     if status == 0 and not checked:
         message = "converged (stability not checked)"
+    if stalled:
+        message = {3: "stopped where the structure is unstable",
+                   4: "stopped at an unstiffened mechanism (zero stiffness)"}[status]
+        message += (f": the line search found no lower energy along the Newton step after {iterations} "
+                    f"iterations, residual {bal.residual:.3g}")
     row = bal.at_rounding_level(tol)
-    if status in (0, 3, 4) and row is not None:
+    if status in (0, 3, 4) and row is not None and not stalled:
         message += (f" (residual {bal.residual:.3g} above tol {tol:.3g} at {bal.row_name(row)}: within the "
                     f"rounding level of the forces there{_floor_member(structure, config, bal, row)})")
     if status in (3, 4) and low is not None:
