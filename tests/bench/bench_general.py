@@ -70,7 +70,7 @@ def scaling(ctx: Context) -> list[Row]:
     with threadpool_limits(1):
         for m in sizes:
             s = _spine(m)
-            r, t = _timed(lambda: form_find(s, linear_solver="sparse"))
+            r, t = _timed(lambda s=s: form_find(s, linear_solver="sparse"))
             assert r.success, r.message
             members.append(s.n_members)
             times.append(t)
@@ -121,8 +121,8 @@ def methods(ctx: Context) -> list[Row]:
     with threadpool_limits(1):
         for name in ("t_bar", "spherical_tetrahedron"):
             s = load_example(name)
-            n, t_n = _timed(lambda: form_find(s))
-            d, t_d = _timed(lambda: form_find(s, method="dynamic_relaxation"))
+            n, t_n = _timed(lambda s=s: form_find(s))
+            d, t_d = _timed(lambda s=s: form_find(s, method="dynamic_relaxation"))
             assert n.success and d.success
             rows.append(Row("general", f"dynamic relaxation, {name}", t_d, "s",
                             note=f"{d.iterations} it"))
