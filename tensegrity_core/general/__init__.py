@@ -24,6 +24,8 @@ from tensegrity_core.general.formfind import (
 )
 from tensegrity_core.general.generators import (
     polyhedron,
+    prism_grid,
+    prism_tower,
     spherical_tensegrity,
     t_bar,
     tensegrity_spine,
@@ -57,7 +59,7 @@ __all__ = [
     "Modes", "OutOfBalance", "PathResult", "RigidBody", "Structure", "StructureError",
     "default_tolerance", "dump_structure", "equilibrium_matrix", "example_names", "example_path",
     "form_find", "generalized_force", "load_example", "load_structure", "member_forces",
-    "member_lengths", "modal_analysis", "modes", "out_of_balance", "polyhedron",
+    "member_lengths", "modal_analysis", "modes", "out_of_balance", "polyhedron", "prism_grid", "prism_tower",
     "potential_energy", "rest_length_path", "save_structure", "spherical_tensegrity", "stiffness_parts",
     "structure_from_dict", "structure_from_file", "structure_from_text", "structure_to_arrays",
     "structure_to_dict", "t_bar", "tangent_stiffness", "tensegrity_spine", "tensegrity_table",

@@ -352,7 +352,8 @@ def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool 
         forces = np.array(res.member_forces)
         ratio = forces / forces[0] if res.success else []
         _say(f"  {'ok' if res.success else 'FAILED'}: {res.message}; {res.iterations} iterations, residual "
-             f"{res.residual:.2g}, min stiffness eigenvalue {res.min_stiffness_eigenvalue:.4g}; "
+             f"{res.residual:.2g} (relative; norm {res.residual_norm:.2g} N), min stiffness eigenvalue "
+             f"{res.min_stiffness_eigenvalue:.4g}, stability margin {res.stability_margin:.2g}; "
              f"forces / first = {np.round(ratio, 6).tolist()} (paper: [1, 1, 1, 3])")
         results["formfind_success"] = bool(res.success)
 

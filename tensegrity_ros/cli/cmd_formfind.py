@@ -20,7 +20,9 @@ def register(subparsers) -> None:
         description="Form-finding (shifted Newton with an energy line search, Ma et al. 2022). "
                     "Prints the result; exit code 1 if no stable equilibrium was found.")
     p.add_argument("file", help="structure file (.yaml/.toml) or the name of a shipped example")
-    p.add_argument("--tol", type=float, default=None, help="residual tolerance [N] (default 1e-10 max EA)")
+    p.add_argument("--tol", type=float, default=None,
+                   help="tolerance on the relative residual: out-of-balance force at a node over the forces "
+                        "that meet there (dimensionless; default 1e-10)")
     p.add_argument("--max-iter", type=int, default=None, help="iteration limit")
     p.add_argument("--method", default="newton", help="newton (default) or dynamic_relaxation")
     p.add_argument("--linear-solver", choices=("auto", "dense", "sparse"), default="auto",
@@ -79,8 +81,8 @@ def _progress(quiet: bool):
 
     def callback(info):
         shift = "" if info.shift is None else f" shift {info.shift:.1e}"
-        bar.set_postfix_str(f"residual {info.residual:.3e} N, step {info.step_length:.3g}{shift}",
-                            refresh=False)
+        bar.set_postfix_str(f"residual {info.residual:.3e} ({info.residual_norm:.3e} N), "
+                            f"step {info.step_length:.3g}{shift}", refresh=False)
         bar.update(1)
 
     return bar, callback
@@ -140,9 +142,9 @@ def _write(path: Path, data: dict) -> None:
 
 def _print_summary(structure, result) -> None:
     print(f"{structure.name}: {result.message}")
-    print(f"  iterations {result.iterations}, residual {result.residual:.3e} N, "
-          f"min eigenvalue of K_T {result.min_eigenvalue:.6g} "
-          f"({result.rigid_body_modes} rigid-body modes excluded)")
+    print(f"  iterations {result.iterations}, residual {result.residual:.3e} (relative; norm "
+          f"{result.residual_norm:.3e} N), min eigenvalue of K_T {result.min_eigenvalue:.6g} "
+          f"({result.rigid_body_modes} rigid-body modes excluded), stability margin {result.stability_margin:.3g}")
     if structure.n_members <= 60:
         print(f"  {'member':>12} {'force [N]':>14} {'length [m]':>12}")
         for name, t, length in zip(structure.member_names, result.member_forces, result.member_lengths):

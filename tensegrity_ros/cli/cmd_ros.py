@@ -54,7 +54,8 @@ def register(sub) -> None:
 
     p = sub.add_parser("call-formfind", help="call the find_form service with a structure file")
     p.add_argument("file", help="structure description (YAML file) or a shipped example name")
-    p.add_argument("--tol", type=float, default=0.0, help="residual tolerance [N] (0 = default)")
+    p.add_argument("--tol", type=float, default=0.0,
+                   help="tolerance on the relative residual (dimensionless; 0 = default, docs/general.md)")
     p.add_argument("--max-iter", type=int, default=0, help="iteration limit (0 = default)")
     p.add_argument("--service", default="find_form")
     p.add_argument("--timeout", type=float, default=120.0)
@@ -291,8 +292,8 @@ def _call_formfind(args) -> int:
     res = _call_service(args, "tensegrity_call_formfind", FindForm,
                         FindForm.Request(structure=text, tolerance=args.tol, max_iterations=args.max_iter))
     return _show(args, res, [
-        f"iterations {res.iterations}, residual {res.residual:.3g}, "
-        f"min stiffness eigenvalue {res.min_stiffness_eigenvalue:.4g}",
+        f"iterations {res.iterations}, residual {res.residual:.3g} (relative; norm {res.residual_norm:.3g} N), "
+        f"min stiffness eigenvalue {res.min_stiffness_eigenvalue:.4g}, stability margin {res.stability_margin:.3g}",
         *(f"member {i}: {t:.6g} N" for i, t in enumerate(res.member_forces))])
 
 

@@ -87,7 +87,9 @@ class FormFindNode(Node):
         res.member_forces = out.member_forces
         res.iterations = out.iterations
         res.residual = out.residual
+        res.residual_norm = out.residual_norm
         res.min_stiffness_eigenvalue = out.min_stiffness_eigenvalue
+        res.stability_margin = out.stability_margin
         if not res.success:
             first = res.message.splitlines()[0] if res.message else ""
             self.get_logger().warning(f"find_form failed: {clip(first, LOG_CHARS)}")

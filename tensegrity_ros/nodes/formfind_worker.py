@@ -38,15 +38,21 @@ MAX_MESSAGE = 2000
 class FormFindReply:
     """What one form-finding request answers (plain values, picklable across the worker's
     pipe): ``nodes`` [[x, y, z], ...] [m] in the description's order, ``member_forces`` [N]
-    tension positive, ``residual`` the form-finding's residual (see ``FormFindResult``)."""
+    tension positive, ``residual`` the relative residual (dimensionless: out-of-balance
+    force at a node over the forces that meet there), ``residual_norm`` the Euclidean norm
+    of all out-of-balance forces and moments [N, N m], ``min_stiffness_eigenvalue`` [N/m]
+    and ``stability_margin`` (its scaled value over its rounding level; NaN when not
+    computed): see ``FormFindResult``."""
 
     success: bool = False
     message: str = ""
-    nodes: list = field(default_factory=list)
-    member_forces: list = field(default_factory=list)
+    nodes: list[list[float]] = field(default_factory=list)
+    member_forces: list[float] = field(default_factory=list)
     iterations: int = 0
     residual: float = math.nan
+    residual_norm: float = math.nan
     min_stiffness_eigenvalue: float = math.nan
+    stability_margin: float = math.nan
 
     @classmethod
     def failure(cls, message: str) -> FormFindReply:
@@ -68,7 +74,8 @@ def cap_memory(extra_bytes: int) -> int:
 def solve(text: str, tol: float, max_iter: int, time_limit: float, max_members: int, limits: Limits,
           report: Callable[[str], None] = lambda phase: None) -> FormFindReply:
     """Parse a structure description (text) and form-find it; always returns a reply (failures
-    too). ``tol`` <= 0 and ``max_iter`` == 0 mean the core's defaults.
+    too). ``tol`` (on the relative residual) <= 0 and ``max_iter`` == 0 mean the core's
+    defaults.
     ``time_limit`` [s] counts from this call: form-finding stops at the first iteration
     past it (the node stops a worker whose parsing runs past it). ``report(phase)`` is
     called as each phase starts.
@@ -105,7 +112,9 @@ def solve(text: str, tol: float, max_iter: int, time_limit: float, max_members: 
         member_forces=result.member_forces.tolist(),
         iterations=int(result.iterations),
         residual=float(result.residual),
+        residual_norm=float(result.residual_norm),
         min_stiffness_eigenvalue=float(result.min_eigenvalue),
+        stability_margin=float(result.stability_margin),
     )
 
 

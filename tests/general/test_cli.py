@@ -17,9 +17,11 @@ def test_formfind_writes_yaml_and_json_results_and_a_plot(tmp_path, capsys):
     assert main(["formfind", str(example_path("patio_shade")), "-o", str(out_yaml), "--plot", str(png)]) == 0
     printed = capsys.readouterr()
     assert "converged to a stable equilibrium" in printed.out and "s1" in printed.out
+    assert "(relative; norm " in printed.out and "stability margin " in printed.out
     assert main(["formfind", "patio_shade", "-o", str(out_json), "--quiet"]) == 0
     a, b = yaml.safe_load(out_yaml.read_text()), json.loads(out_json.read_text())
     assert a == b
+    assert a["residual"] <= 1e-10 and 0 <= a["residual_norm"] <= 1e-10 * 7.6e6 and a["stability_margin"] > 1
     ref = form_find(load_example("patio_shade"))
     np.testing.assert_allclose(np.array(list(a["nodes"].values())), ref.nodes, atol=1e-12)
     np.testing.assert_allclose([m["force"] for m in a["members"].values()], ref.member_forces, rtol=1e-12)
@@ -36,7 +38,7 @@ def test_formfind_json_on_stdout_and_progress_on_stderr(capsys):
 def test_progress_line_shows_residual_and_shift(capsys):
     assert main(["formfind", "spine_s"]) == 0
     err = capsys.readouterr().err
-    assert "residual" in err and "shift" in err
+    assert "residual" in err and "shift" in err and " N), step " in err
 
 
 def test_failure_exits_non_zero_with_one_line(tmp_path, capsys):

@@ -12,11 +12,11 @@ from tensegrity_core.general import Configuration, form_find, load_example, tang
 from tensegrity_core.general.linalg import (
     factor_if_positive_definite,
     jacobi_scaling,
-    lowest_mode,
     shifted_step_dense,
     shifted_step_sparse,
     zero_energy_rigid_modes,
 )
+from tensegrity_core.general.stability import lowest_mode
 
 
 def random_symmetric(seed: int, n: int, shift: float) -> sp.csc_matrix:

@@ -159,8 +159,9 @@ def test_eq66_kronecker_form_equals_the_assembled_equilibrium_matrix(loaded_stru
 
 
 def _platform_equilibrium(s, phi_eq):
-    """The platform's equilibrium redrawn so that its Euler angles there are ``phi_eq``."""
-    ref = form_find(s).configuration
+    """The platform's equilibrium (net forces below 1e-6 N: tol 1e-12 of the forces at the
+    body) redrawn so that its Euler angles there are ``phi_eq``."""
+    ref = form_find(s, tol=1e-12).configuration
     Q = euler_matrix(phi_eq).T
     drawn = s.nodes.copy()
     drawn[:4] = ref.centres[0] + (ref.coords[:4] - ref.centres[0]) @ Q

@@ -59,14 +59,20 @@ def test_property_tangent_stiffness_symmetric_and_the_jacobian_of_the_force(s, s
 
 @settings(max_examples=40)
 @given(structures(bodies=False))
-def test_property_form_finding_line_search_never_raises_the_energy(s):
-    """Every accepted Newton step lowers the total potential energy (Eqs. 83-84), recomputed
-    here from the recorded iterates' energies and from V of the start."""
+def test_property_form_finding_energy_rises_only_in_a_relaxed_step_that_the_next_undoes(s):
+    """Every Newton step lowers the total potential energy (Eqs. 83-84), except a relaxed
+    full step (the watchdog of docs/general.md), which the next iterate brings below where
+    it started; never two rises in a row. Recomputed here from the recorded iterates'
+    energies and from V of the start."""
     energies = []
     r = form_find(s, max_iter=30, check_stability=False, callback=lambda info: energies.append(info.energy) and None)
     V0 = potential_energy(s, s.nodes)
     seq = np.array([V0] + energies)
-    assert np.all(np.diff(seq) <= 1e-12 * np.abs(seq).max() + 1e-300)
+    noise = 1e-12 * np.abs(seq).max() + 1e-300
+    rises = np.diff(seq) > noise
+    assert not np.any(rises[:-1] & rises[1:])
+    for k in np.flatnonzero(rises[:-1]):
+        assert seq[k + 2] <= seq[k] + noise
     assert np.isfinite(r.nodes).all()
 
 

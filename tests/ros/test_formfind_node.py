@@ -63,8 +63,31 @@ def test_table_example_gives_the_papers_self_stress(formfind):
     t = np.array(res.member_forces)
     # Ma et al. Eq. 91: forces proportional to [1, 1, 1, 3] (three long strings, one short)
     np.testing.assert_allclose(t / t[0], [1, 1, 1, 3], rtol=1e-8)
-    assert res.min_stiffness_eigenvalue > 0
-    assert len(res.nodes) == 8 and res.residual >= 0
+    assert res.min_stiffness_eigenvalue > 0 and res.stability_margin > 1
+    assert len(res.nodes) == 8
+    # the residual is relative (out-of-balance force over the forces at a node), its norm in N
+    assert 0 <= res.residual <= 1e-10 and 0 <= res.residual_norm <= 1e-10 * 7.6e6
+
+
+def test_the_tolerance_is_on_the_relative_residual(formfind):
+    """A loose tolerance stops early: the answer's residual lies between the tolerance of the
+    request and a tight run's, and its norm says how many newtons that is."""
+    shorter = TABLE.replace("- {name: long1, nodes: [f1, c1]}", "- {name: long1, nodes: [f1, c1], rest_length_ratio: 0.25}")
+    tight, loose = formfind(shorter), formfind(shorter, tol=1e-3)
+    assert tight.success and loose.success, (tight.message, loose.message)
+    assert tight.residual <= 1e-10 < loose.residual <= 1e-3
+    assert loose.residual_norm > tight.residual_norm and loose.iterations < tight.iterations
+
+
+def test_call_formfind_prints_the_relative_residual_its_norm_and_the_margin(formfind):
+    from tests.ros_support import run_cli
+
+    out = run_cli("call-formfind", "tensegrity_table", timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith("ok: converged to a stable equilibrium")
+    assert "(relative; norm " in out.stdout and " N), min stiffness eigenvalue " in out.stdout
+    margin = float(out.stdout.split("stability margin ")[1].split()[0])
+    assert margin > 1
 
 
 @pytest.mark.parametrize("text, why", [
