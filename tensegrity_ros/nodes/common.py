@@ -1,4 +1,5 @@
-"""Shared node plumbing: typed parameter declaration, the mechanism from the scene, main loop."""
+"""Shared node plumbing: typed parameter declaration, service QoS, main loop (the mechanism
+from the scene: :mod:`tensegrity_ros.nodes.scene_param`)."""
 
 from __future__ import annotations
 
@@ -14,12 +15,7 @@ from rclpy.node import Node  # noqa: E402
 from rclpy.qos import QoSProfile, qos_profile_services_default  # noqa: E402
 from rclpy.signals import SignalHandlerOptions  # noqa: E402
 
-from tensegrity_core.class2 import Class2Params  # noqa: E402
 from tensegrity_ros.rclpy_utils.stop_signals import stop_on_signals  # noqa: E402
-
-#: The scene every node that models the class-2 mechanism reads it from (one source).
-DEFAULT_SCENE = "class2_at_rest"
-
 
 #: Service QoS with a deep request queue: the default keeps only the last 10 requests,
 #: so a burst of concurrent callers would silently lose requests.
@@ -62,36 +58,6 @@ def declare(node: Node, name: str, default, description: str, *, lo=None, hi=Non
             raise ParameterValueError(
                 f"{node.get_name()}: parameter {name} = {value!r} is outside [{lo}, {hi}]")
     return value
-
-
-def declare_scene(node: Node):
-    """Declare the read-only ``scene`` parameter and load it: ``(name, Scene)``.
-
-    The simulator, the IK node and the controller all take the mechanism (L, k1..k4, masses,
-    dampers) from this one parameter, so none can disagree with the simulated mechanism.
-    A scene that cannot be loaded or is not of the class-2 mechanism stops the node with a
-    message naming it.
-    """
-    from tensegrity_core.errors import TensegrityError
-    from tensegrity_core.excerpt import clip, excerpt
-    from tensegrity_core.sim import load_scene
-
-    name = declare(node, "scene", DEFAULT_SCENE,
-                   "scene file or shipped scene name (tensegrity scenes lists them); the mechanism's "
-                   "parameters come from it", read_only=True)
-    try:
-        scene = load_scene(name)
-    except TensegrityError as err:
-        raise SystemExit(clip(f"{node.get_name()}: cannot load scene {excerpt(name)}: {err}")) from None
-    if scene.model.kind != "class2":
-        raise SystemExit(f"{node.get_name()}: scene {excerpt(name)} models a general structure; this node works "
-                         "on the class-2 mechanism")
-    return name, scene
-
-
-def scene_mechanism(node: Node) -> Class2Params:
-    """The class-2 parameters of the node's ``scene`` parameter (declared here)."""
-    return declare_scene(node)[1].model.params
 
 
 def spin_node(make_node: Callable[[], Node], args: Sequence[str] | None, executor_factory=None) -> int:

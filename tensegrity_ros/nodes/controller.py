@@ -54,7 +54,8 @@ from tensegrity_core.class2.control import goals as G
 from tensegrity_core.class2.control.errors import INVALID_JOINTS, OUTSIDE_WORKSPACE, SINGULAR_PATH
 from tensegrity_core.class2.control.trajectory import JOINTS, actuator_reference
 from tensegrity_core.errors import TensegrityError
-from tensegrity_ros.nodes.common import declare, declare_scene, rclpy, spin_node
+from tensegrity_ros.nodes.common import declare, rclpy, spin_node
+from tensegrity_ros.nodes.scene_param import declare_scene
 from tensegrity_ros.rclpy_utils.messages import duration_to_s, stamp_to_s
 
 _MOVE = MoveEndEffector.Result

@@ -18,7 +18,8 @@ from tensegrity_msgs.srv import SolveIK
 
 from tensegrity_core.class2 import inverse_kinematics
 from tensegrity_core.errors import TensegrityError
-from tensegrity_ros.nodes.common import SERVICE_QOS, declare, scene_mechanism, spin_node
+from tensegrity_ros.nodes.common import SERVICE_QOS, declare, spin_node
+from tensegrity_ros.nodes.scene_param import scene_mechanism
 
 
 class IKNode(Node):

@@ -19,11 +19,11 @@ from contextlib import contextmanager
 import numpy as np
 import pytest
 
-from tensegrity_core.general import example_path, form_find, load_example
+from tensegrity_core.general import form_find, load_example
+from tests.hostile_requests import TABLE, alias_bomb, deep_flow_nesting, huge_value, memory_mib, tower_yaml
 
 pytestmark = pytest.mark.ros
 
-TABLE = example_path("tensegrity_table").read_text()
 MARKER = "env-marker-5b1e0c"                     # in the nodes' environment, must never come back
 
 
@@ -98,27 +98,11 @@ def small(tmp_path_factory):
         yield call
 
 
-def _vm_rss_mb(pid: int) -> float:
-    with open(f"/proc/{pid}/status") as fh:
-        for line in fh:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) / 1024
-    raise AssertionError("no VmRSS")
-
-
 def _refused(res) -> str:
     assert not res.success and not res.nodes and not res.member_forces and res.iterations == 0, res.message
     assert MARKER not in res.message and "root:" not in res.message and "Traceback" not in res.message
     assert len(res.message) < 300, res.message[:500]
     return res.message
-
-
-def _bomb() -> str:
-    """343 bytes that stand for 9**8 = 43 million values in the structure's name."""
-    names = "abcdefgh"
-    parts = ["&a [" + ",".join(['"lol"'] * 9) + "]"]
-    parts += [f"&{names[k]} [" + ",".join([f"*{names[k - 1]}"] * 9) + "]" for k in range(1, 8)]
-    return f"name: [{', '.join(parts)}, *h]\n"
 
 
 def test_requests_naming_files_are_parsed_as_text_and_tell_nothing(service, tmp_path):
@@ -136,12 +120,12 @@ def test_requests_naming_files_are_parsed_as_text_and_tell_nothing(service, tmp_
 
 
 def test_an_alias_bomb_is_refused_while_parsing(service):
-    text = _bomb()
+    text = alias_bomb()
     assert len(text) < 400
     assert _refused(service(text)) == "aliases expand to more than 10000 values (line 1)"
 
 
-@pytest.mark.parametrize("text", ["nodes: " + "[" * 100_000 + "]" * 100_000 + "\n",
+@pytest.mark.parametrize("text", [deep_flow_nesting(100_000),
                                   "nodes:\n" + "".join("  " * (i + 1) + f"k{i}:\n" for i in range(1000))])
 def test_deep_nesting_is_refused_without_recursion_or_server_paths(service, text):
     message = _refused(service(text))
@@ -150,7 +134,7 @@ def test_deep_nesting_is_refused_without_recursion_or_server_paths(service, text
 
 
 def test_errors_quote_a_short_excerpt_of_a_huge_value(service):
-    message = _refused(service(TABLE.replace("units: SI", "units: " + "k" * 65536)))
+    message = _refused(service(huge_value(65536)))
     assert message.startswith("units: only SI (m, N, kg, s) is supported, got 'kkkk")
     assert "(65536 characters)" in message
 
@@ -166,12 +150,12 @@ def test_members_beyond_max_members_are_refused_by_count(service):
 def test_the_node_returns_to_its_memory_baseline_after_bad_requests(service):
     for _ in range(3):
         assert service(TABLE).success
-    baseline = _vm_rss_mb(service.pid)
-    for text in (_bomb(), "nodes: " + "[" * 100_000 + "]" * 100_000, "/proc/self/environ",
-                 TABLE.replace("units: SI", "units: " + "k" * 65536)):
+    baseline = memory_mib(service.pid)["VmRSS"]
+    for text in (alias_bomb(), deep_flow_nesting(100_000), "/proc/self/environ",
+                 huge_value(65536)):
         _refused(service(text))
     time.sleep(0.5)
-    after = _vm_rss_mb(service.pid)
+    after = memory_mib(service.pid)["VmRSS"]
     assert after - baseline < 30.0, (baseline, after)
     assert service(TABLE).success
 
@@ -192,19 +176,9 @@ def test_the_time_limit_covers_parsing_and_names_the_phase(quick):
                              "the worker was stopped")
 
 
-def _tower_yaml(members: int) -> str:
-    """A generated tower of cubes as a compact per-member description (list nodes, pairs)."""
-    levels = members // 12 + 2
-    lines = ["defaults: {EA: 1000.0, rest_length_ratio: 0.99}", "nodes:"]
-    lines += [f"  - [{x}, {y}, {z}]" for z in range(levels) for y in (0, 1) for x in (0, 1)]
-    edges = ((0, 1), (1, 3), (3, 2), (2, 0), (0, 4), (1, 5), (2, 6), (3, 7), (0, 5), (1, 7), (3, 6), (2, 4))
-    pairs = [(4 * z + a, 4 * z + b) for z in range(levels - 1) for a, b in edges][:members]
-    return "\n".join(lines + ["members:"] + [f"  - [{a}, {b}]" for a, b in pairs] + ["pinned: [0, 1, 2, 3]"]) + "\n"
-
-
 def test_a_60k_member_request_ends_within_its_limit_while_a_good_caller_is_served(quick):
     # the issue's request: 60,000 members in 1.4 MB took 18-20 s to parse, past any limit
-    big = quick.send(_tower_yaml(60_000))
+    big = quick.send(tower_yaml(60_000))
     good = quick(TABLE)
     assert good.success, good.message
     deadline = time.monotonic() + 60

@@ -81,7 +81,15 @@ def _peer_segments() -> set[str]:
 
 
 def _cmd(pid: int) -> str:
-    return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()[:200]
+    """The ``tensegrity`` subcommand of process ``pid`` without its ROS arguments (``up``,
+    ``node sim``; ``pytest`` for this process), or its command line."""
+    if pid == os.getpid():
+        return "pytest"
+    cmd = Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
+    for program in ("tensegrity_ros.cli ", "bin/tensegrity "):
+        if program in cmd:
+            return cmd.split(program, 1)[1].split(" --ros-args")[0][:200]
+    return cmd[:200]
 
 
 def test_every_socket_of_the_suite_is_on_loopback_and_the_nodes_still_meet(tmp_path, ros_context):
@@ -122,6 +130,7 @@ def test_every_socket_of_the_suite_is_on_loopback_and_the_nodes_still_meet(tmp_p
             assert _peer_segments() - segments_before, "no shared-memory segment of a peer"
             pids = _processes_marked(mark) + [os.getpid()]
             found = {pid: sockets_of(pid) for pid in pids}
+            names = {pid: _cmd(pid) for pid in pids}       # while they live
             probe.destroy_node()
         finally:
             for p in procs:
@@ -133,7 +142,10 @@ def test_every_socket_of_the_suite_is_on_loopback_and_the_nodes_still_meet(tmp_p
                     kill_group(p)
     participants = {pid: socks for pid, socks in found.items() if socks}
     # sim, ik, formfind, recorder, player and this process hold DDS sockets
-    assert len(participants) >= 6, {_cmd(p) if p != os.getpid() else "pytest": s for p, s in found.items()}
+    print("\nIP sockets per process: " + "; ".join(
+        f"{names[pid]}: {len(socks)} ({', '.join(sorted({f'{proto} {addr}' for proto, addr, _ in socks}))})"
+        for pid, socks in sorted(found.items(), key=lambda item: names[item[0]])))
+    assert len(participants) >= 6, {names[p]: s for p, s in found.items()}
     outside = {(pid, proto, addr, port) for pid, socks in participants.items()
                for proto, addr, port in socks if not ipaddress.ip_address(addr).is_loopback}
     assert not outside, sorted(outside)

@@ -13,6 +13,11 @@ one signal (SIGINT or SIGTERM, drawn) at a moment drawn from one of four phases:
   ``joint_states``, seen by a subscriber here: the moment the issue's SIGTERM failed);
 - ``steady``: 0.2-1.2 s after that.
 
+A stop that comes while a node is being built waits for the build (the process holds a ROS
+context by then), so building a node must not import libraries: the last test checks that
+for the nodes that read the scene (the IK node imported the simulator package and scipy
+there: 0.7 s idle, about 3 s at load average 10; a SIGINT then took up to 4.7 s).
+
 Rounds per process kind: ``TENSEGRITY_STRESS_ROUNDS`` (default 8: two per phase); the
 random draws are seeded by the round number, so a failing round can be rerun. The times
 from signal to exit are printed (``-s``) and judged by the benchmark
@@ -27,6 +32,7 @@ import os
 import random
 import signal
 import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -149,3 +155,43 @@ def test_a_signal_at_any_moment_stops_cleanly(kind, tmp_path, ros_context):
           f"signal-to-exit max {max(times):.2f} s, median {sorted(times)[len(times) // 2]:.2f} s; "
           + "; ".join(f"{p}/{s}@{a}s->{c} in {t}s" for p, s, a, c, t in results))
     assert not bad, "\n\n".join(bad)
+
+
+@pytest.mark.parametrize("module, node_class", [("tensegrity_ros.nodes.ik", "IKNode"),
+                                                ("tensegrity_ros.nodes.controller", "ControllerNode")])
+def test_building_a_node_imports_no_library(module, node_class):
+    """In a fresh interpreter: import the node's module (what the process does before it
+    runs, where a stop ends it at once), then build the node and list the modules that the
+    build imported: no numpy, scipy, matplotlib nor numerical core. (The simulator node is
+    not here: building it imports the simulation backend its scene names, a few modules of
+    ``tensegrity_core.sim.class2``, by design.)"""
+    code = (f"import sys, importlib, rclpy\n"
+            f"from rclpy.signals import SignalHandlerOptions\n"
+            f"module = importlib.import_module({module!r})\n"
+            f"rclpy.init(signal_handler_options=SignalHandlerOptions.NO)\n"
+            f"before = set(sys.modules)\n"
+            f"node = module.{node_class}()\n"
+            f"print(' '.join(sorted(set(sys.modules) - before)))\n"
+            f"node.destroy_node(); rclpy.try_shutdown()\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
+                         env=dict(os.environ))
+    assert out.returncode == 0, out.stderr[-3000:]
+    imported = out.stdout.split()
+    libraries = [m for m in imported if m.split(".")[0] in ("scipy", "numpy", "matplotlib", "tensegrity_core")]
+    assert not libraries, libraries
+
+
+def test_a_long_running_command_leaves_no_objects_for_the_exit_collection(tmp_path):
+    """When a long-running command (``node``, ``up``, ``record``, ``play``) returns, its
+    process exits: the interpreter's final garbage collection would walk every object it
+    holds (0.1-0.3 s of CPU per node process, about 1 CPU-s for ``up`` and its children),
+    so the command line freezes them out of the collector first."""
+    code = ("import gc\n"
+            "from tensegrity_ros.cli import main\n"
+            f"main(['play', {str(tmp_path / 'no_such_bag')!r}])\n"
+            "print(len(gc.get_objects()))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
+                         env=dict(os.environ))
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert "does not exist" in out.stderr
+    assert int(out.stdout) < 100, out.stdout

@@ -70,7 +70,8 @@ from visualization_msgs.msg import MarkerArray
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_ros.nodes.actuator_commands import CommandError
-from tensegrity_ros.nodes.common import SERVICE_QOS, declare_scene, rclpy, spin_node
+from tensegrity_ros.nodes.common import SERVICE_QOS, rclpy, spin_node
+from tensegrity_ros.nodes.scene_param import declare_scene
 from tensegrity_ros.nodes.sim import control, sender
 from tensegrity_ros.nodes.sim.control import PAUSED, PLAYING, STATE_NAMES, STOPPED, Answer, StepRequest
 from tensegrity_ros.nodes.sim.parameters import declare_sim_parameters

@@ -39,7 +39,7 @@ class SimParameters:
 
 def declare_sim_parameters(node, scene: str) -> SimParameters:
     """Declare every parameter of ``tensegrity_sim`` on ``node`` but ``scene`` (declared and
-    loaded by :func:`~tensegrity_ros.nodes.common.declare_scene`, as for the IK node and the
+    loaded by :func:`~tensegrity_ros.nodes.scene_param.declare_scene`, as for the IK node and the
     controller; its name is ``scene``); a bad value stops the node with a message naming
     the parameter."""
     def d(name, default, description, **kw):
