@@ -90,7 +90,7 @@ def equilibrium(structure: Structure, x0: Configuration | None = None, *, what: 
     result = form_find(structure, x0=x0)
     if not result.success:
         raise SimulationError(f"t = {t:.9g} s: no stable equilibrium {what}: {result.message} "
-                              f"(residual {result.residual:.3g} N)", t=t)
+                              f"(relative residual {result.residual:.3g}, norm {result.residual_norm:.3g} N)", t=t)
     config = result.configuration
     assert config is not None                # form_find's results carry their configuration
     return config

@@ -1,7 +1,8 @@
 """``form_find`` and ``stiffness``: the equilibrium of the point's structure, and its modes.
 
-``form_find`` runs ``tensegrity_core.general.form_find`` (options ``method``, ``tol`` [N],
-``max_iter``). Results: ``iterations``, ``residual`` [N], ``min_eigenvalue`` (smallest
+``form_find`` runs ``tensegrity_core.general.form_find`` (options ``method``, ``tol`` (on the
+relative residual, docs/general.md), ``max_iter``). Results: ``iterations``, ``residual``
+(relative: out-of-balance force over the forces meeting at the node, largest), ``min_eigenvalue`` (smallest
 eigenvalue of K_T, rigid-body modes excluded), ``stable``, ``energy`` [J],
 ``max_member_force`` / ``min_member_force`` [N, tension +], ``slack_members`` (strings
 shorter than their rest length), ``node`` {name} (its equilibrium position,
@@ -88,7 +89,8 @@ def _slack(out: Equilibrium) -> int:
 
 FORM_FIND_RESULTS: dict[str, ResultDef[Equilibrium]] = {
     "iterations": scalar("iterations", "int", lambda o: int(o.result.iterations), "Newton iterations"),
-    "residual": scalar("residual", "float", lambda o: float(o.result.residual), "out-of-balance force [N]"),
+    "residual": scalar("residual", "float", lambda o: float(o.result.residual),
+                       "relative out-of-balance force (largest over nodes) [-]"),
     "min_eigenvalue": scalar("min_eigenvalue", "float", lambda o: float(o.result.min_eigenvalue),
                              "smallest eigenvalue of K_T (rigid-body modes excluded)"),
     "stable": scalar("stable", "bool", lambda o: bool(o.result.stable), "stable equilibrium"),
