@@ -39,6 +39,7 @@ from pathlib import Path
 
 from tests.bench.harness import Context, Row, benchmark
 from tests.hostile_requests import TABLE, alias_bomb, deep_flow_nesting, huge_value, memory_mib, tower_yaml
+from tests.ros_support import kill_group
 
 TENSEGRITY = str(Path(sys.executable).with_name("tensegrity"))
 BASELINE = "good request (tensegrity_table)"
@@ -205,8 +206,4 @@ def hostile_requests(ctx: Context) -> list[Row]:
             try:
                 proc.wait(30)
             finally:
-                try:
-                    os.killpg(proc.pid, signal.SIGKILL)
-                except ProcessLookupError:
-                    pass
-                proc.wait()
+                kill_group(proc)

@@ -23,6 +23,7 @@ import time
 from pathlib import Path
 
 from tests.bench.harness import Context, Row, benchmark
+from tests.ros_support import kill_group
 
 TENSEGRITY = str(Path(sys.executable).with_name("tensegrity"))
 SAMPLE_BAG = Path(__file__).resolve().parents[2] / "bags" / "ik_motion"
@@ -58,11 +59,7 @@ def _stop_time(argv: list[str], ready: str, sig: int, env: dict, held: bool = Tr
             code = proc.wait(60)
             return time.monotonic() - t0, code
         finally:
-            try:
-                os.killpg(proc.pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
-            proc.wait()
+            kill_group(proc)
 
 
 @benchmark
