@@ -85,12 +85,6 @@ class Drive:
         return (("f1_lag", "f2_lag") if self.lag_tau is not None else ()) + \
             (("e1", "e2") if self.compliance is not None else ())
 
-    def sources(self, t: float, y: Sequence[float], laws: Sequence[InputLaw]) -> tuple[float, float]:
-        """Source forces ``f_i`` (after the lag, before the compliance) [N]."""
-        if self.i_lag is not None:
-            return y[self.i_lag], y[self.i_lag + 1]
-        return laws[0].value_at(t, y[0]), laws[1].value_at(t, y[1])
-
     def bind(self, laws: Sequence[InputLaw]) -> DriveFunctions:
         """The evaluation path for input ``laws`` (two, one per actuator)."""
         u1, u2 = laws[0].value_at, laws[1].value_at
