@@ -32,17 +32,17 @@ from __future__ import annotations
 
 import math
 import sys
-import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from builtin_interfaces.msg import Duration as DurationMsg
 from geometry_msgs.msg import Point
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
-from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
-from rclpy.executors import MultiThreadedExecutor
+from rclpy.exceptions import InvalidHandle
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
+from rclpy.task import Future
 from sensor_msgs.msg import JointState
 from tensegrity_msgs.action import FollowActuatorTrajectory, MoveEndEffector
 from tensegrity_msgs.msg import ActuatorForces
@@ -54,7 +54,7 @@ from tensegrity_core.class2.control import goals as G
 from tensegrity_core.class2.control.errors import INVALID_JOINTS, OUTSIDE_WORKSPACE, SINGULAR_PATH
 from tensegrity_core.class2.control.trajectory import JOINTS, actuator_reference
 from tensegrity_core.errors import TensegrityError
-from tensegrity_ros.nodes.common import declare, rclpy, spin_node
+from tensegrity_ros.nodes.common import declare, spin_node
 from tensegrity_ros.nodes.scene_param import declare_scene
 from tensegrity_ros.rclpy_utils.messages import duration_to_s, stamp_to_s
 
@@ -70,22 +70,19 @@ FOLLOW_PLANNING_CODES = {INVALID_JOINTS: _FOLLOW.INVALID_JOINTS}
 
 
 class _Job:
-    """A running goal: its handle, the core's supervisor, and the event its execute waits on.
-    ``seq`` orders goals by the start of their execution: planning takes a while, and a goal
-    whose planning finishes after a newer goal's must not take over from it."""
+    """A running goal: its handle, the core's supervisor, and the future its execute awaits."""
 
-    def __init__(self, handle, goal, seq: int):
-        self.seq = seq
+    def __init__(self, handle, goal):
         self.handle = handle
         self.goal = goal
-        self.finished = threading.Event()
+        self.finished = Future()            # done once the goal has ended (its outcome)
         self.started_at = math.inf          # wall time it took over (the watchdog counts from then)
         self.last_tick = None
         self.last_state = None
 
     def end(self, outcome: G.Outcome) -> None:
-        self.goal.end(outcome)
-        self.finished.set()
+        if not self.finished.done():
+            self.finished.set_result(self.goal.end(outcome))
 
 
 class ControllerNode(Node):
@@ -118,25 +115,26 @@ class ControllerNode(Node):
         self.singular_margin = declare(self, "singular_margin", 0.02, "planned paths keep this distance "
                                        "from every singular set [L]", lo=0.0, hi=1.0, read_only=True)
         self.ctrl = TrackingController(self.params, dt=1.0 / rate, max_force=self.max_force)
-        self._lock = threading.Lock()        # the controller, the job, the latest state
+        # Threads: every callback of this node runs on one executor thread (the control loop,
+        # the watchdog and the goals' execute coroutines), so the state below needs no lock.
+        # Planning a goal (tens of ms) runs on one planning thread on copies of the state
+        # and is awaited, so the loop goes on holding or tracking meanwhile; one thread
+        # keeps goals in the order they arrived. (rclpy's MultiThreadedExecutor is not used:
+        # in Jazzy it re-submits tasks waiting in its pool and spun at 80 % CPU, 75 ms per
+        # lockstep step, in the demo.)
+        self._planner = ThreadPoolExecutor(max_workers=1, thread_name_prefix="planner")
         self._job: _Job | None = None
-        self._seq = 0                        # goals started so far (execution order)
-        self._active_seq = 0                 # seq of the goal the controller last took on
         self._latest = None                  # (t, q, qdot) of the last new joint state
         self._latest_header = None           # its header (stamp and frame)
         self._advanced_at = None             # wall time the joint states' time last advanced
-        self._holding = False
 
-        control = MutuallyExclusiveCallbackGroup()
-        goals = ReentrantCallbackGroup()
         self.pub = self.create_publisher(ActuatorForces, "actuator_forces", 10)
         # latest state wins: a controller that fell behind acts on the newest sample, never a backlog
-        self.create_subscription(JointState, "joint_states", self.on_joints, QoSProfile(depth=1),
-                                 callback_group=control)
-        self.create_timer(0.05, self._watch_time, callback_group=control)
+        self.create_subscription(JointState, "joint_states", self.on_joints, QoSProfile(depth=1))
+        self.create_timer(0.05, self._watch_time)
         for action, name, execute in ((MoveEndEffector, "move_end_effector", self._execute_move),
                                       (FollowActuatorTrajectory, "follow_actuator_trajectory", self._execute_follow)):
-            ActionServer(self, action, name, execute, callback_group=goals,
+            ActionServer(self, action, name, execute,
                          goal_callback=lambda _req: GoalResponse.ACCEPT,
                          cancel_callback=lambda _handle: CancelResponse.ACCEPT)
         self.get_logger().info(f"controller ready (scene {self.scene_name!r}, {rate:g} Hz, max_force "
@@ -150,31 +148,30 @@ class ControllerNode(Node):
                                       "ignored", throttle_duration_sec=2.0)
             return
         t, q, qdot = state
-        with self._lock:
-            if self._latest is not None and t <= self._latest[0]:
-                t0, q0, qdot0 = self._latest
-                if t == t0 and np.array_equal(q, q0) and np.array_equal(qdot, qdot0):
-                    return                      # not a new sample (a paused or stopped simulator repeats it)
-                self._simulation_reset(t)       # time went back, or another state at the same time
-            self._latest = state
-            self._latest_header = msg.header
-            self._advanced_at = time.monotonic()
-            if self.ctrl.reference is None and not self._start_holding(t, q):
-                return
-            tick = self.ctrl.update(t, q, qdot)
-            job = self._job
-            if job is not None:
-                self._supervise(job, t, q, qdot, tick)
+        if self._latest is not None and t <= self._latest[0]:
+            t0, q0, qdot0 = self._latest
+            if t == t0 and np.array_equal(q, q0) and np.array_equal(qdot, qdot0):
+                return                      # not a new sample (a paused or stopped simulator repeats it)
+            self._simulation_reset(t)       # time went back, or another state at the same time
+        self._latest = state
+        self._latest_header = msg.header
+        self._advanced_at = time.monotonic()
+        if self.ctrl.reference is None and not self._start_holding(t, q):
+            return
+        tick = self.ctrl.update(t, q, qdot)
+        job = self._job
+        if job is not None:
+            self._supervise(job, t, q, qdot, tick)
         cmd = ActuatorForces(name=["f1", "f2"], force=[float(tick.forces[0]), float(tick.forces[1])])
         cmd.header.stamp = msg.header.stamp
         self.pub.publish(cmd)
-        if job is not None and not job.finished.is_set():
+        if job is not None and not job.finished.done():
             job.handle.publish_feedback(self._feedback(job, msg, tick, q, qdot))
 
     def _simulation_reset(self, t: float) -> None:
         """The simulation was reset: a joint state at ``t`` [s] that is not a repeat of the
         latest and not later than it. The running goal ends, the integral is cleared and
-        the controller holds where it finds the mechanism now (lock held). A repeat (same
+        the controller holds where it finds the mechanism now. A repeat (same
         stamp, same positions and velocities) is not a reset: a lockstep simulator keeps
         its command for a state it publishes again unchanged."""
         before = self._latest[0]
@@ -223,35 +220,32 @@ class ControllerNode(Node):
         """Wall-time watchdog: a goal cannot wait for a simulator that has stopped. It counts
         from the later of the last new joint state and the goal's start (a goal sent to a
         paused simulator gets ``state_timeout`` for the simulator to resume)."""
-        with self._lock:
-            job, since = self._job, self._advanced_at
-            if job is None:
-                return
-            idle = time.monotonic() - max(job.started_at if since is None else since, job.started_at)
-            if idle > self.state_timeout:
-                last = "none received" if self._latest is None else f"the last at t = {self._latest[0]:.3f} s"
-                self._end(job, G.Outcome(G.SIMULATOR_STOPPED, f"the joint states' time has not advanced for "
-                                         f"{min(idle, 1e9):.2f} s ({last}): the simulator stopped or is gone"))
+        job, since = self._job, self._advanced_at
+        if job is None:
+            return
+        idle = time.monotonic() - max(job.started_at if since is None else since, job.started_at)
+        if idle > self.state_timeout:
+            last = "none received" if self._latest is None else f"the last at t = {self._latest[0]:.3f} s"
+            self._end(job, G.Outcome(G.SIMULATOR_STOPPED, f"the joint states' time has not advanced for "
+                                     f"{min(idle, 1e9):.2f} s ({last}): the simulator stopped or is gone"))
 
     # -- goals ---------------------------------------------------------------------------
-    def _execute_move(self, handle):
-        seq = self._next_seq()
+    async def _execute_move(self, handle):
         req = handle.request
         result = _MOVE()
         try:
-            with self._lock:
-                q = self._require_state()
-            ref = plan_move(q, (req.x, req.y), self.params, duration=_given(req.duration),
-                            max_speed=_given(req.max_speed), force_budget=self.force_budget * self.max_force,
-                            singular_margin=self.singular_margin)
+            q = self._require_state()
             tol = self._tolerance(req.goal_tolerance, "goal_tolerance")
+            ref, gains = await self._plan(lambda: plan_move(
+                q, (req.x, req.y), self.params, duration=_given(req.duration), max_speed=_given(req.max_speed),
+                force_budget=self.force_budget * self.max_force, singular_margin=self.singular_margin))
         except PlanningError as err:
             return self._refuse(handle, result, MOVE_PLANNING_CODES.get(err.code, _MOVE.INVALID_GOAL), str(err))
         except _NoState as err:
             return self._refuse(handle, result, _MOVE.SIMULATOR_STOPPED, str(err))
         goal = G.MoveGoal(ref, 0.0, tolerance=tol, settle_timeout=self.settle_timeout,
                           settle_window=self.settle_window)
-        job = self._run(handle, ref, goal, None, seq)
+        job = await self._run(handle, ref, gains, goal, None)
         tick = job.last_tick
         if tick is not None:
             result.end_effector = Point(x=float(tick.end_effector[0]), y=float(tick.end_effector[1]))
@@ -260,26 +254,24 @@ class ControllerNode(Node):
         result.max_force = float(goal.max_force)
         return self._finish(handle, result, goal.outcome)
 
-    def _execute_follow(self, handle):
-        seq = self._next_seq()
+    async def _execute_follow(self, handle):
         req = handle.request
         result = _FOLLOW(joint_names=list(JOINTS))
         traj = req.trajectory
         try:
-            with self._lock:
-                q, qdot, now = self._require_state(with_rate=True)
+            q, qdot, now = self._require_state(with_rate=True)
             if any(len(p.effort) for p in traj.points):
                 raise PlanningError("points with effort are not accepted: the controller computes the forces")
             start = _stamp_start(traj.header.stamp, now)
-            ref = actuator_reference(
+            path = self._joint_tolerances(req.path_tolerance, self.path_tolerance)
+            goal_tol = self._joint_tolerances(req.goal_tolerance, self.goal_tolerance)
+            goal_time = duration_to_s(req.goal_time_tolerance) or self.goal_time_tolerance
+            ref, gains = await self._plan(lambda: actuator_reference(
                 traj.joint_names, [duration_to_s(p.time_from_start) for p in traj.points],
                 [list(p.positions) for p in traj.points], [list(p.velocities) for p in traj.points],
                 [list(p.accelerations) for p in traj.points], start_rho=q[:2], start_rate=qdot[:2],
                 params=self.params, singular_margin=self.singular_margin,
-                force_budget=self.force_budget * self.max_force)
-            path = self._joint_tolerances(req.path_tolerance, self.path_tolerance)
-            goal_tol = self._joint_tolerances(req.goal_tolerance, self.goal_tolerance)
-            goal_time = duration_to_s(req.goal_time_tolerance) or self.goal_time_tolerance
+                force_budget=self.force_budget * self.max_force))
         except PlanningError as err:
             return self._refuse(handle, result, FOLLOW_PLANNING_CODES.get(err.code, _FOLLOW.INVALID_GOAL), str(err))
         except _OldStamp as err:
@@ -288,7 +280,7 @@ class ControllerNode(Node):
             return self._refuse(handle, result, _FOLLOW.SIMULATOR_STOPPED, str(err))
         goal = G.TrajectoryGoal(ref, 0.0, path_position=path[0], path_velocity=path[1],
                                 goal_position=goal_tol[0], goal_velocity=goal_tol[1], goal_time=goal_time)
-        job = self._run(handle, ref, goal, start, seq)
+        job = await self._run(handle, ref, gains, goal, start)
         final = ref.final()
         if job.last_state is not None:
             t, q, _ = job.last_state
@@ -303,32 +295,39 @@ class ControllerNode(Node):
         t, q, qdot = self._latest
         return (q, qdot, t) if with_rate else q
 
-    def _next_seq(self) -> int:
-        with self._lock:
-            self._seq += 1
-            return self._seq
+    async def _plan(self, make_reference):
+        """``(reference, gains)``: ``make_reference()`` and the gain schedule along it, on the
+        planning thread (the costly part of a goal: tens of ms), awaited here."""
+        planned = Future()
+        executor = self.executor
 
-    def _run(self, handle, ref, goal, start: float | None, seq: int) -> _Job:
+        def plan() -> None:
+            try:
+                ref = make_reference()
+                planned.set_result((ref, self.ctrl.schedule(ref)))
+            except Exception as err:        # re-raised by the await below
+                planned.set_exception(err)
+            try:
+                executor.wake()             # the awaiting coroutine runs when the executor wakes
+            except InvalidHandle:
+                pass                        # the node is shutting down: nobody awaits any more
+
+        self._planner.submit(plan)
+        return await planned
+
+    async def _run(self, handle, ref, gains, goal, start: float | None) -> _Job:
         """Make ``goal`` the running one (preempting the last), then wait until it ends."""
-        gains = self.ctrl.schedule(ref)                 # the costly part, outside the lock
-        job = _Job(handle, goal, seq)
-        with self._lock:
-            old = self._job
-            if self._active_seq > seq:                  # a newer goal took over while this one planned
-                job.end(G.Outcome(G.PREEMPTED, "preempted by a newer goal before it started"))
-                return job
-            t0 = self._latest[0] if start is None else start
-            goal.t_start = t0
-            self._job, self._active_seq = job, seq
-            job.started_at = time.monotonic()
-            self.ctrl.follow(ref, t0, gains)
-            started = self._start_feedback(job)
+        job = _Job(handle, goal)
+        old = self._job
+        t0 = self._latest[0] if start is None else start
+        goal.t_start = t0
+        self._job = job
+        job.started_at = time.monotonic()
+        self.ctrl.follow(ref, t0, gains)
         if old is not None:
             old.end(G.Outcome(G.PREEMPTED, "preempted by a newer goal"))
-        job.handle.publish_feedback(started)
-        while not job.finished.wait(0.05):
-            if not rclpy.ok(context=self.context):
-                job.end(G.Outcome(G.SIMULATOR_STOPPED, "the controller is shutting down"))
+        job.handle.publish_feedback(self._start_feedback(job))
+        await job.finished
         return job
 
     def _refuse(self, handle, result, code: int, reason: str):
@@ -367,7 +366,7 @@ class ControllerNode(Node):
         return tuple(pos), tuple(vel)
 
     def _start_feedback(self, job: _Job):
-        """The feedback of a goal that has just taken over (lock held): the last measured
+        """The feedback of a goal that has just taken over: the last measured
         state against the reference at that time, before any tick under the goal. A client
         that steps a paused simulator waits for it: from then on every step is the goal's."""
         t, q, qdot = self._latest
@@ -413,10 +412,10 @@ class ControllerNode(Node):
         return fb
 
     def destroy_node(self) -> None:
-        with self._lock:
-            job, self._job = self._job, None
+        job, self._job = self._job, None
         if job is not None:
             job.end(G.Outcome(G.SIMULATOR_STOPPED, "the controller is shutting down"))
+        self._planner.shutdown(wait=True, cancel_futures=True)
         super().destroy_node()
 
 
@@ -470,7 +469,7 @@ def main(argv=None) -> int:
     # The law's matrices are 8 x 8: a multi-threaded BLAS only adds hand-over costs (5x slower
     # gain design measured on a loaded 2-core machine), and it competes with the control loop.
     threadpool_limits(1)
-    return spin_node(ControllerNode, argv, executor_factory=lambda: MultiThreadedExecutor(num_threads=4))
+    return spin_node(ControllerNode, argv)
 
 
 if __name__ == "__main__":
