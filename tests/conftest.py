@@ -43,15 +43,25 @@ settings.register_profile("dev", deadline=None, max_examples=2000)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 
-@pytest.fixture(autouse=True, scope="module")
-def _ros_domain_per_module(request):
-    """Each test module talks in its own ROS domain (the run's base + a per-module offset),
-    so a node that another module left shutting down can never answer in its place."""
+def module_domain(module: str, worker: int, workers: int) -> int:
+    """The ROS domain of a test module: the run's base + a per-module offset, interleaved
+    between the run's parallel workers (worker ``w`` of ``n`` uses offsets ``w mod n``), so
+    two modules running at once never share a domain. Valid domains are 0..232."""
     import zlib
 
-    offset = zlib.crc32(request.module.__name__.encode()) % 29
+    offset = zlib.crc32(module.encode()) % 29
+    return (_BASE_DOMAIN + offset * workers + worker) % 230 + 1
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _ros_domain_per_module(request):
+    """Each test module talks in its own ROS domain, so a node that another module left
+    shutting down, or another worker's module running at the same time, can never answer
+    in its place."""
+    worker = int(os.environ.get("PYTEST_XDIST_WORKER", "gw0").removeprefix("gw"))
+    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
     previous = os.environ["ROS_DOMAIN_ID"]
-    os.environ["ROS_DOMAIN_ID"] = str((_BASE_DOMAIN + offset) % 230 + 1)
+    os.environ["ROS_DOMAIN_ID"] = str(module_domain(request.module.__name__, worker, workers))
     yield
     os.environ["ROS_DOMAIN_ID"] = previous
 
@@ -78,8 +88,13 @@ def _processes_of_this_run() -> dict[int, str]:
     return found
 
 
+@pytest.hookimpl(trylast=True)     # after pytest-xdist has shut its workers down
 def pytest_sessionfinish(session, exitstatus):
-    """Fail the run if a process it started is still alive (after 10 s for late exits)."""
+    """Fail the run if a process it started is still alive (after 10 s for late exits).
+    With parallel workers the check runs once, in the controlling process after every
+    worker has finished (a worker would see the others' running nodes)."""
+    if hasattr(session.config, "workerinput"):
+        return
     deadline = time.monotonic() + 10.0
     while (left := _processes_of_this_run()) and time.monotonic() < deadline:
         time.sleep(0.2)
