@@ -2,43 +2,67 @@
 project runs, the table is printed, the rows are written as JSON and the plots as PNG.
 
 Nothing here asserts a timing (these machines are shared and noisy); it checks that the
-harness works end to end and that what it reports is well formed.
+harness works end to end and that what it reports is well formed. The harness runs once
+(a module fixture, ~2 minutes); each group's rows are a test of their own, so a broken
+benchmark is named by its group.
 """
 
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
 pytestmark = [pytest.mark.slow, pytest.mark.ros]
 
 ROOT = Path(__file__).resolve().parents[2]
+GROUPS = sorted(p.stem.removeprefix("bench_") for p in (ROOT / "tests" / "bench").glob("bench_*.py"))
 
 
-def test_every_benchmark_runs_in_quick_mode(tmp_path):
-    rows_file = tmp_path / "rows.json"
+@pytest.fixture(scope="module")
+def quick_run(tmp_path_factory):
+    """One quick run of every benchmark: its stdout, rows and the folders it wrote."""
+    tmp = tmp_path_factory.mktemp("bench")
+    rows_file = tmp / "rows.json"
     out = subprocess.run([sys.executable, "-m", "tests.bench", "--json", str(rows_file),
-                          "--plot-dir", str(tmp_path / "img"), "--data-dir", str(tmp_path / "data")],
+                          "--plot-dir", str(tmp / "img"), "--data-dir", str(tmp / "data")],
                          cwd=ROOT, capture_output=True, text=True, timeout=900)
     assert out.returncode == 0, out.stderr[-3000:]
-    rows = json.loads(rows_file.read_text())
-    groups = {r["group"] for r in rows}
-    modules = {p.stem.removeprefix("bench_") for p in (ROOT / "tests" / "bench").glob("bench_*.py")}
-    assert groups == modules
-    header = next(line for line in out.stdout.splitlines() if line.startswith("group"))
-    assert "vs baseline" in header
+    return SimpleNamespace(stdout=out.stdout, rows=json.loads(rows_file.read_text()),
+                           img=tmp / "img", data=tmp / "data")
+
+
+def test_the_groups_reported_are_the_bench_modules(quick_run):
+    assert {r["group"] for r in quick_run.rows} == set(GROUPS)
+
+
+@pytest.mark.parametrize("group", GROUPS)
+def test_each_group_reports_numbers_and_baselines_of_its_own(quick_run, group):
+    rows = [r for r in quick_run.rows if r["group"] == group]
+    assert rows, f"group {group} reported no rows"
+    names = {r["name"] for r in rows}
     for r in rows:
         assert isinstance(r["value"], (int, float)), r
         if r["baseline"]:
-            assert any(b["name"] == r["baseline"] and b["group"] == r["group"] for b in rows), r
-    pngs = {p.name for p in (tmp_path / "img").glob("*.png")}
+            assert r["baseline"] in names, r
+
+
+def test_the_table_compares_with_baselines(quick_run):
+    header = next(line for line in quick_run.stdout.splitlines() if line.startswith("group"))
+    assert "vs baseline" in header
+    assert re.search(r" \d+\.\d\dx(  |$)", quick_run.stdout, re.M), "no row shows a ratio to its baseline"
+
+
+def test_the_plots_and_their_data_are_written(quick_run):
+    pngs = {p.name for p in quick_run.img.glob("*.png")}
     assert {"wp_paper_fold.png", "wp_stiff_fold.png", "energy_drift.png", "wp_formfind.png",
             "wp_ik.png", "wp_stiffness.png"} <= pngs
-    data = json.loads((tmp_path / "data" / "precision_paper_fold.json").read_text())
+    data = json.loads((quick_run.data / "precision_paper_fold.json").read_text())
     assert data["info"]["reference_agreement"] <= 1e-11
     assert any(p["default"] for p in data["points"])
 
