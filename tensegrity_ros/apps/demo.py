@@ -194,6 +194,14 @@ def _joint_table(joints) -> dict:
     return out
 
 
+def _difference(first: dict, second: dict) -> str:
+    """How two joint tables (by stamp) differ: their sizes and the first stamp that differs."""
+    stamps = sorted(set(first) | set(second))
+    at = next(t for t in stamps if first.get(t) != second.get(t))
+    return (f"DIFFERENT from the first ({len(first)} states there; first difference at t = "
+            f"{at / NS_PER_S:.3f} s: {'missing in one run' if at not in first or at not in second else 'values'})")
+
+
 class DemoClient:
     """The demo's node: the stepping client of the simulator, and clients of ``solve_ik``
     and ``find_form``."""
@@ -303,9 +311,10 @@ def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool 
                                 lambda: _moves(ctl, step_ns, results, label="first"))
         _say("the moves again, not recorded: same lockstep run, compared stamp by stamp")
         moves_again = _moves(ctl, step_ns, results, label="second")
-        moves_identical = _joint_table(moves_joints) == _joint_table(moves_again)
-        _say(f"  second run: {len(_joint_table(moves_again))} joint states, "
-             + ("identical to the first" if moves_identical else "DIFFERENT from the first"))
+        first_moves, second_moves = _joint_table(moves_joints), _joint_table(moves_again)
+        moves_identical = first_moves == second_moves
+        _say(f"  second run: {len(second_moves)} joint states, "
+             + ("identical to the first" if moves_identical else _difference(first_moves, second_moves)))
         if controller.stop() != 0:
             _say("  warning: the controller did not exit cleanly (see the log)")
         results["fold_joints"] = recorded(
@@ -326,7 +335,7 @@ def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool 
         results["rerun_identical"] = identical
         _say(f"  second run: {len(second_table)} joint states, "
              + ("identical to the first (every position, velocity and effort bit for bit)" if identical
-                else "DIFFERENT from the first"))
+                else _difference(first_table, second_table)))
         _say("the same loop in the core (tensegrity_core.sim.sampled.run_sampled)")
         core = run_sampled(SCENE, paper_fold_forces, step_ns=step_ns, duration=FOLD_TIME)
         ros_q = np.array([first_table[round(t * NS_PER_S)].position for t in core.times])

@@ -51,7 +51,8 @@ class MoveReport:
     settled_error: float        # m, the result's (|D - target| when it succeeded)
     settling_time: float        # s after the move's end from which D stayed within the tolerance
     max_force: float            # N, largest commanded |f| during the goal
-    overshoot: float            # m, largest excursion of D past the target along the move
+    overshoot: float            # m, largest excursion of D past the target along the move (from
+                                #    its start to CHECK_AFTER s after its end)
     error_after: float          # m, |D - target| CHECK_AFTER s after the move's end
 
 
@@ -77,8 +78,11 @@ class ControllerClient:
 
         self.sim = sim
         self.Move, self.Follow = MoveEndEffector, FollowActuatorTrajectory
-        self.move = ActionClient(sim.node, MoveEndEffector, "move_end_effector")
-        self.follow = ActionClient(sim.node, FollowActuatorTrajectory, "follow_actuator_trajectory")
+        # every feedback kept while the client takes a chunk of steps (SimClient.step_received)
+        feedback_qos = QoSProfile(depth=1000)
+        self.move = ActionClient(sim.node, MoveEndEffector, "move_end_effector", feedback_sub_qos_profile=feedback_qos)
+        self.follow = ActionClient(sim.node, FollowActuatorTrajectory, "follow_actuator_trajectory",
+                                   feedback_sub_qos_profile=feedback_qos)
         self._answered: set[int] = set()
         self._cond = threading.Condition()
         sim.node.create_subscription(ActuatorForces, "actuator_forces", self._on_command, QoSProfile(depth=1000))
@@ -101,9 +105,9 @@ class ControllerClient:
                 raise RuntimeError(f"the controller did not answer the state at t = {stamp_ns / NS_PER_S:.9f} s "
                                    f"within {timeout:g} s")
 
-    def run_goal(self, action, goal, steps: int, timeout: float = 120.0):
-        """Send ``goal``, wait for its takeover feedback, step ``steps`` steps, return
-        ``(status, result, feedback list)``."""
+    def run_goal(self, action, goal, steps: int, from_ns: int, step_ns: int, timeout: float = 120.0):
+        """Send ``goal``, wait for its takeover feedback, step ``steps`` steps from the state
+        stamped ``from_ns``, return ``(status, result, feedback list)``."""
         feedback: list = []
         started = threading.Event()
 
@@ -120,7 +124,7 @@ class ControllerClient:
             if result_future.done():      # refused at planning time: aborted with its reason, no feedback
                 res = result_future.result()
                 return res.status, res.result, feedback
-        self.sim.step(steps)
+        self.sim.step_received(steps, from_ns, step_ns)
         res = _wait(result_future, timeout, "goal result")
         return res.status, res.result, feedback
 
@@ -169,11 +173,13 @@ def run_moves(ctl: ControllerClient, step_ns: int, *, L: float = PAPER_PARAMS.L)
         target = (rest.x + dx, rest.y + dy)
         start = sim.wait_joint(now)               # the goal starts here (the state the controller holds)
         goal = ctl.Move.Goal(x=target[0], y=target[1], duration=MOVE_TIME, goal_tolerance=GOAL_TOLERANCE)
-        _, res, feedback = ctl.run_goal(ctl.move, goal, move_steps)
-        later = sim.wait_joint(now + round((MOVE_TIME + CHECK_AFTER) * NS_PER_S))
+        _, res, _ = ctl.run_goal(ctl.move, goal, move_steps, now, step_ns)
+        later_ns = now + round((MOVE_TIME + CHECK_AFTER) * NS_PER_S)
+        sim.wait_joint(later_ns)
+        window = [j for j in sim.joints_since(now) if j.stamp_ns <= later_ns]
         now += move_steps * step_ns
         ctl.wait_answered(now)
-        moves.append(_move_report(target, _end_effector(start, L), res, feedback, later, L))
+        moves.append(_move_report(target, _end_effector(start, L), res, window, L))
     traj = JointTrajectory(joint_names=["rho1", "rho2"])
     for t, rho in TRAJECTORY:
         sec = math.floor(t)
@@ -184,7 +190,7 @@ def run_moves(ctl: ControllerClient, step_ns: int, *, L: float = PAPER_PARAMS.L)
                            goal_tolerance=[JointTolerance(name=n, position=TRAJECTORY_TOLERANCE) for n in ("rho1", "rho2")],
                            goal_time_tolerance=Duration(sec=sec, nanosec=round((TRAJECTORY_GOAL_TIME - sec) * 1e9)))
     traj_steps = _steps(TRAJECTORY[-1][0] + TRAJECTORY_GOAL_TIME + 0.1, step_ns)
-    _, res, feedback = ctl.run_goal(ctl.follow, goal, traj_steps)
+    _, res, feedback = ctl.run_goal(ctl.follow, goal, traj_steps, now, step_ns)
     now += traj_steps * step_ns
     ctl.wait_answered(now)
     path = [max(abs(v) for v in f.error.positions) for f in feedback
@@ -195,11 +201,12 @@ def run_moves(ctl: ControllerClient, step_ns: int, *, L: float = PAPER_PARAMS.L)
     return moves, trajectory, sim.take_joints()
 
 
-def _move_report(target, start, res, feedback, later: JointRecord, L: float) -> MoveReport:
+def _move_report(target, start, res, window: list[JointRecord], L: float) -> MoveReport:
+    """The report of a move from the joint states of its window (its start to CHECK_AFTER s
+    after its end) and the action's result."""
     direction = np.asarray(target) - start
     unit = direction / max(float(np.hypot(*direction)), 1e-12)
-    settling = [np.array([f.end_effector.x, f.end_effector.y]) for f in feedback if f.phase == "settling"]
-    overshoot = max((float((d - np.asarray(target)) @ unit) for d in settling), default=0.0)
+    overshoot = max(float((_end_effector(j, L) - np.asarray(target)) @ unit) for j in window)
     return MoveReport(target, int(res.error_code), res.error_string, float(res.settled_error),
                       float(res.settling_time), float(res.max_force), max(0.0, overshoot),
-                      float(np.hypot(*(_end_effector(later, L) - np.asarray(target)))))
+                      float(np.hypot(*(_end_effector(window[-1], L) - np.asarray(target)))))

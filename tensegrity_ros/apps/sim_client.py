@@ -127,6 +127,13 @@ class SimClient:
             out, self.joints = self.joints, []
         return out
 
+    def joints_since(self, stamp_ns: int) -> list[JointRecord]:
+        """The joint states received since the last take stamped ``stamp_ns`` or later, in
+        stamp order (a state published twice appears once)."""
+        with self._lock:
+            by_stamp = {j.stamp_ns: j for j in self.joints if j.stamp_ns >= stamp_ns}
+        return [by_stamp[k] for k in sorted(by_stamp)]
+
     def wait_joint(self, stamp_ns: int | None = None, timeout: float = 30.0) -> JointRecord:
         """Wait for a joint state stamped ``stamp_ns`` (None: any, i.e. the first since the
         last take) and return it."""
@@ -177,6 +184,19 @@ class SimClient:
 
     def step(self, steps: int, timeout: float = 600.0):
         return self.checked("step_simulation", self.srv["step_simulation"].Request(steps=steps), timeout)
+
+    def step_received(self, steps: int, from_ns: int, step_ns: int, chunk: int = 50) -> None:
+        """Step ``steps`` steps from the state stamped ``from_ns``, at most ``chunk`` at a
+        time, each chunk only once this client has received the state the last one ended
+        at. The simulator's publishers keep the last 100 samples for a reader that has not
+        taken them yet; a lockstep loop runs ~1,000 steps/s, so a client on a loaded machine
+        could fall further behind and lose joint states. Here it stays within ``chunk``."""
+        done = 0
+        while done < steps:
+            n = min(chunk, steps - done)
+            self.step(n)
+            done += n
+            self.wait_joint(from_ns + done * step_ns)
 
     def reset_all(self):
         req = self.srv["reset_simulation"].Request(scope=self.srv["reset_simulation"].Request.SCOPE_ALL)

@@ -134,7 +134,9 @@ class ControllerNode(Node):
         self.create_timer(0.05, self._watch_time)
         for action, name, execute in ((MoveEndEffector, "move_end_effector", self._execute_move),
                                       (FollowActuatorTrajectory, "follow_actuator_trajectory", self._execute_follow)):
-            ActionServer(self, action, name, execute,
+            # feedback goes out on every tick: a history of 100 (1 s at 100 Hz) instead of
+            # rclpy's 10 keeps every one for a client that falls behind on a loaded machine
+            ActionServer(self, action, name, execute, feedback_pub_qos_profile=QoSProfile(depth=100),
                          goal_callback=lambda _req: GoalResponse.ACCEPT,
                          cancel_callback=lambda _handle: CancelResponse.ACCEPT)
         self.get_logger().info(f"controller ready (scene {self.scene_name!r}, {rate:g} Hz, max_force "
