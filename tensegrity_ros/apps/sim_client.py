@@ -85,8 +85,13 @@ class SimClient:
         self._new = threading.Condition(self._lock)
         self.executor = SingleThreadedExecutor(context=context)
         self.executor.add_node(self.node)
-        self._thread = threading.Thread(target=self.executor.spin, name=f"{name}_spin", daemon=True)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._spin, name=f"{name}_spin", daemon=True)
         self._thread.start()
+
+    def _spin(self) -> None:
+        while not self._stop.is_set():
+            self.executor.spin_once(timeout_sec=0.05)
 
     # -- the controller ------------------------------------------------------------------------
     def _on_joints(self, msg) -> None:
@@ -203,5 +208,9 @@ class SimClient:
         return self.checked("reset_simulation", req)
 
     def close(self) -> None:
+        # the spinning thread ends first: shutting the executor down under a callback that
+        # is running destroys the guard condition that callback triggers (InvalidHandle)
+        self._stop.set()
+        self._thread.join()
         self.executor.shutdown()
         self.node.destroy_node()
