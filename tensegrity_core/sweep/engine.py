@@ -5,14 +5,17 @@ a point's BLAS calls never share a core with another point's), listening on 127.
 no dashboard (the scheduler's small HTTP server is bound to a random loopback port). With
 ``scheduler=ADDRESS`` the sweep runs on an existing cluster instead (``dask scheduler`` and
 ``dask worker ADDRESS`` on each machine, or the same workers started by dask-jobqueue or
-dask-kubernetes); its workers need this package installed. ``workers=0`` runs the points in
-this process, one after another (the baseline of the benchmarks; no Dask needed).
+dask-kubernetes); its workers need this package installed. ``scheduler=client`` (a connected
+``distributed.Client``) runs on that client's cluster and leaves the client open, for several
+sweeps in one session without a connection each. ``workers=0`` runs the points in this
+process, one after another (the baseline of the benchmarks; no Dask needed).
 
 The base document, computation and prepared results (the :class:`~tensegrity_core.sweep.spec.Plan`)
 go to every worker once; tasks carry batches of points. Batches are sized as results come in:
-the first tasks hold one point each, later ones as many as take about
-``TASK_SECONDS`` at the points' measured mean cost (at most ``MAX_BATCH``, and small enough
-near the end that every worker stays busy), and about two tasks per worker thread are in
+the first task of each worker thread holds one point, the one queued behind it a few
+(``BLIND_BATCH``); later ones as many as take about ``TASK_SECONDS`` at the points' measured
+mean cost (at most ``MAX_BATCH``), fewer near the end so that the workers finish together,
+but never less than ``MIN_TASK_SECONDS`` of work. About two tasks per worker thread are in
 flight. Results stream back in the order they finish (``as_completed``) and go to the
 journal at once (:mod:`tensegrity_core.sweep.store`). A worker that dies takes its running
 batch with it; the scheduler runs that batch again on another worker, and the client
@@ -44,20 +47,37 @@ if TYPE_CHECKING:
 #: ``progress(done, failed, total)`` after each finished batch.
 ProgressCallback = Callable[[int, int, int], object]
 
-#: Target wall time of one task [s]: the scheduler and client spend a few to ~10 ms of CPU per task
-#: (more on a loaded machine), so a task holds enough points to make that a few per cent.
+#: Target wall time of one task [s]: long enough that the engine's cost per task is a few per
+#: cent, short enough that results stream back and a lost worker loses little.
 TASK_SECONDS = 0.5
+#: Least work of a task [s] once the points' cost is known, also near the end of a sweep. The
+#: client and scheduler spend 3-4 ms of CPU per task, which on a 2-core machine comes out of
+#: the workers' cores, while the workers' finishing times differ by up to one last task:
+#: smaller last tasks cost more tasks, larger ones more waiting. Alternating A/B runs of 200
+#: points of ~5 ms on 2 cores put floors of 5 .. 200 ms within the machine's noise of each
+#: other (engine efficiency 0.8 .. 0.98 of two plain processes); 40 ms was among the best.
+MIN_TASK_SECONDS = 0.04
 MAX_BATCH = 500
+#: Points of the tasks sent with the first ones, before any point's cost is known: the first
+#: task of each worker thread holds one point (its time sizes the tasks after it), the one
+#: queued behind it this many, so the worker is not idle while the client sizes the next.
+BLIND_BATCH = 8
 TASKS_PER_THREAD = 2
 THREADS_REFRESH = 2.0               # s
 #: Environment of the embedded cluster's worker processes: one BLAS / OpenMP thread.
 WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 #: Dask settings of the embedded cluster, whose processes exist only to run points: no
 #: statistical profiler (a stack sample every 10 ms in every worker, for a dashboard it does
-#: not have) and the event-loop watchdog every second instead of every 20 ms. Idle, the two
-#: cost the scheduler and two workers 0.16 CPU s per second (8 % of a 2-core machine; 0.04
-#: without them), which a short sweep pays out of its own cores.
-EMBEDDED_CONFIG: Final = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "1s"}
+#: not have), the event-loop watchdog every second instead of every 20 ms, the system monitor
+#: (CPU, memory and network figures for the dashboard) every 2 s instead of 0.5 s, and the
+#: memory limits checked every 0.5 s instead of 0.1 s (a worker over its limit is still
+#: paused, and restarted by its nanny, within half a second). Idle, the scheduler, nannies and
+#: two workers cost 0.16 CPU s per second with Dask's defaults (8 % of a 2-core machine),
+#: 0.037 without the profiler and watchdog, 0.018 with all four, which a short sweep would
+#: otherwise pay out of its own cores.
+EMBEDDED_CONFIG: Final = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "1s",
+                          "distributed.admin.system-monitor.interval": "2s",
+                          "distributed.worker.memory.monitor-interval": "0.5s"}
 DEFAULT_CONNECT_TIMEOUT = 10.0
 
 
@@ -94,7 +114,7 @@ def columns_of(sweep: Sweep, plan: Plan) -> tuple[list[TableColumn], list[str]]:
 
 
 def run_sweep(sweep: SweepSource, *, output: str | Path | None = None, resume: bool = False,
-              workers: int | None = None, scheduler: str | None = None,
+              workers: int | None = None, scheduler: str | Client | None = None,
               connect_timeout: float = DEFAULT_CONNECT_TIMEOUT, batch: int | None = None,
               progress: bool | ProgressCallback = True, plan: Plan | None = None) -> Any:
     """Run ``sweep`` (anything :func:`~tensegrity_core.sweep.spec.load_sweep` takes) and return
@@ -105,7 +125,8 @@ def run_sweep(sweep: SweepSource, *, output: str | Path | None = None, resume: b
     while running). ``resume``: keep the rows of this sweep already in ``output`` or its
     journal and run only the others. ``workers``: size of the embedded cluster (default:
     the number of cores; 0: in this process). ``scheduler``: address of an existing Dask
-    scheduler (``tcp://host:8786``) instead. ``batch``: points per task (default: adaptive).
+    scheduler (``tcp://host:8786``) instead, or a connected ``distributed.Client`` (used, and
+    left open for the caller to close). ``batch``: points per task (default: adaptive).
     ``progress``: True for a progress bar on stderr, False for none, or a callable
     ``progress(done, failed, total)`` called after each finished batch. ``plan``: the sweep's
     :func:`~tensegrity_core.sweep.spec.prepare` result when the caller has it already.
@@ -201,12 +222,13 @@ class _SerialEngine:
 class _DaskEngine:
     """An embedded LocalCluster (``scheduler=None``) or a client of an existing scheduler."""
 
-    def __init__(self, workers: int, scheduler: str | None, connect_timeout: float):
+    def __init__(self, workers: int, scheduler: str | Client | None, connect_timeout: float):
         self.workers = max(1, workers)
         self.address = scheduler
         self.timeout = float(connect_timeout)
         self.cluster: LocalCluster | None = None
         self.client: Client | None = None
+        self._owns_client = True
         self._nthreads: int | None = None
         self._asked = 0.0
 
@@ -214,6 +236,11 @@ class _DaskEngine:
         require("distributed")
         from distributed import Client
 
+        if isinstance(self.address, Client):
+            if self.address.status != "running":
+                raise SweepError(f"the Dask client given as the scheduler is {self.address.status}, not running")
+            self.client, self._owns_client = self.address, False
+            return self
         if self.address is None:
             try:
                 self.cluster = start_local_cluster(self.workers)
@@ -242,9 +269,9 @@ class _DaskEngine:
         return False
 
     def _close(self) -> None:
-        if self.client is not None:
+        if self.client is not None and self._owns_client:
             self.client.close()
-            self.client = None
+        self.client = None
         if self.cluster is not None:
             self.cluster.close()
             self.cluster = None
@@ -267,23 +294,28 @@ class _DaskEngine:
         pending = deque(points)
         batches: dict[Hashable, list[Point]] = {}
         costs = [0.0, 0]                       # sum of run times, points
+        blind = [0]                            # tasks sent before any cost was known
 
         def submit(n_tasks: int, seq: as_completed) -> None:
             for _ in range(n_tasks):
                 if not pending:
                     return
-                size = batch or self._batch_size(client, costs, len(pending))
+                size = batch or self._batch_size(client, costs, len(pending), blind[0])
+                blind[0] += costs[1] == 0
                 chunk = [pending.popleft() for _ in range(min(size, len(pending)))]
                 fut = client.submit(run_batch, plan_ref, chunk, pure=False)
                 batches[fut.key] = chunk
                 seq.add(fut)
 
-        seq = as_completed(loop=client.loop)     # not the default client's loop: another client may be first
+        # results fetched on the event loop as tasks finish (a blocking ``result()`` per task
+        # costs the client another ~1 ms of CPU); a failed task's "result" is its error.
+        # ``loop``: not the default client's loop, another client may be first.
+        seq = as_completed(loop=client.loop, with_results=True, raise_errors=False)
         submit(TASKS_PER_THREAD * self._threads(client), seq)
-        for fut in seq:
+        for fut, result in seq:
             chunk = batches.pop(fut.key)
             if fut.status == "finished":
-                got = fut.result()
+                got = result
                 costs[0] += sum(r["run_time"] for r in got)
                 costs[1] += len(got)
             else:
@@ -292,13 +324,16 @@ class _DaskEngine:
             yield got
             submit(max(0, TASKS_PER_THREAD * self._threads(client) - len(batches)), seq)
 
-    def _batch_size(self, client: Client, costs: list[float], remaining: int) -> int:
-        if costs[1] == 0:
-            return 1
+    def _batch_size(self, client: Client, costs: list[float], remaining: int, blind: int) -> int:
+        """Points of the next task: ``costs`` = [sum of run times, points] measured so far,
+        ``remaining`` points not yet sent, ``blind`` tasks sent before any cost was known."""
+        tail = math.ceil(remaining / (TASKS_PER_THREAD * self._threads(client)))
+        if costs[1] == 0:      # one point per worker thread measures the cost, a few more keep it busy
+            return 1 if blind < self._threads(client) else max(1, min(BLIND_BATCH, tail))
         mean = costs[0] / costs[1]
         size = int(TASK_SECONDS / mean) if mean > 0 else MAX_BATCH
-        tail = math.ceil(remaining / (TASKS_PER_THREAD * self._threads(client)))
-        return max(1, min(size, MAX_BATCH, tail))
+        least = math.ceil(MIN_TASK_SECONDS / mean) if mean > 0 else 1
+        return max(1, min(size, MAX_BATCH, max(tail, least)))
 
 
 def _lost(plan: Plan, point: Point, future: Future[list[Row]]) -> Row:

@@ -1,20 +1,24 @@
 """Benchmarks of parameter sweeps on Dask distributed (``--only sweep``).
 
-Every sweep runs twice in the same run: the points one after another in this process
-(``workers=0``, the serial loop; BLAS pinned to one thread as in the workers) and on the
-embedded 2-worker cluster (``start_local_cluster(2)``, loopback), started and warmed once
-before the timing (its start-up is a row of its own). The same task function runs every
-point both ways, so the difference is the engine: scheduling, transfers, the client's
-journal and the table.
+Every sweep runs three ways in the same run, alternating: the points one after another in
+this process (``workers=0``, the serial loop; BLAS pinned to one thread as in the workers);
+on the embedded 2-worker cluster (``start_local_cluster(2)``, loopback, one client), started
+and warmed once before the timing (its start-up is a row of its own); and, as the machine's
+ceiling, in two plain processes without any engine, each running every other point in one
+loop (``concurrent.futures`` on the same task function, which pins BLAS to one thread; no
+journal, no table). The first two
+give the same rows (checked). The ceiling says what these two cores gave two processes at
+that time: the engine's efficiency is ``T_ceiling / T_cluster``.
 
 - ``formfind_points``: form-findings of the T-bar (8 members, a few milliseconds each) over
   its top strings' rest-length ratio (0.6 .. 0.95 of the drawn length); ``simulate_points``: the paper's fold for 1.6 s
-  (~20 ms each) over the gain. 200 points each (quick: 40).
+  (~6 ms each) over the gain. 200 points each (quick: 40).
 - Overhead per point (target < 5 ms), two ways: wall, ``(W T_cluster - T_serial) / n`` with
   ``W = 2`` workers (the worker time each point costs beyond its own computation; it also
   takes in how the other sessions' load shares the cores between our processes), and CPU,
   the CPU seconds of client, scheduler and workers beyond the serial loop's, per point.
-- Best of 2 (quick) or 3 alternating serial / cluster runs.
+- Times are the best of 2 (quick) or 7 alternating runs each (``timeit``'s rule: the
+  fastest run is the one the other sessions on these shared cores disturbed least).
 - ``scaling``: speed-up and overhead per point for 50 .. 2,000 short simulations
   (quick: 50).
 
@@ -26,6 +30,8 @@ from __future__ import annotations
 
 import os
 import time
+from concurrent.futures import ProcessPoolExecutor
+from multiprocessing import get_context
 
 from threadpoolctl import threadpool_limits
 
@@ -61,34 +67,47 @@ def _cpu(pids) -> float:
     return total
 
 
-def _compare(sweep: dict, cluster, repeat: int) -> dict:
-    """Serial and cluster wall times of one sweep, best of ``repeat`` alternating runs (a burst
-    of the other sessions' load then hits one run, not one side), their CPU time, and a check
-    that both give the same rows."""
+def _compare(sweep: dict, bench: _Cluster, repeat: int) -> dict:
+    """Serial, cluster and two-process (no engine) wall times of one sweep, each the best of
+    ``repeat`` alternating runs (a burst of the other sessions' load then hits one run, not
+    one side), their CPU time, and a check that serial and cluster give the same rows."""
     from tensegrity_core.sweep import load_sweep, run_sweep
+    from tensegrity_core.sweep.spec import prepare
+    from tensegrity_core.sweep.task import run_batch
 
     s = load_sweep(sweep)
-    address = cluster.scheduler_address
-    workers = [n.pid for n in cluster.workers.values()]
+    plan, points = prepare(s), s.points()
+    halves = [points[0::2], points[1::2]]
+    workers = [n.pid for n in bench.cluster.workers.values()]
     load0 = _load()
-    best = {"serial": float("inf"), "cluster": float("inf"), "cpu_serial": float("inf"), "cpu_cluster": float("inf")}
+    best = {k: float("inf") for k in ("serial", "cluster", "ceiling", "cpu_serial", "cpu_cluster")}
+    pairs = []                                           # serial / cluster of each repetition
     for _ in range(repeat):
         with threadpool_limits(1):
             c0, t0 = time.process_time(), time.perf_counter()
             serial = run_sweep(s, workers=0, progress=False)
-            best["serial"] = min(best["serial"], time.perf_counter() - t0)
+            serial_time = time.perf_counter() - t0
+            best["serial"] = min(best["serial"], serial_time)
             best["cpu_serial"] = min(best["cpu_serial"], time.process_time() - c0)
         c0, w0, t0 = time.process_time(), _cpu(workers), time.perf_counter()
-        table = run_sweep(s, scheduler=address, progress=False)
+        table = run_sweep(s, scheduler=bench.client, progress=False)
+        pairs.append(serial_time / (time.perf_counter() - t0))
         best["cluster"] = min(best["cluster"], time.perf_counter() - t0)
         best["cpu_cluster"] = min(best["cpu_cluster"], time.process_time() - c0 + _cpu(workers) - w0)
+        t0 = time.perf_counter()
+        list(bench.pool.map(run_batch, [plan, plan], halves))
+        best["ceiling"] = min(best["ceiling"], time.perf_counter() - t0)
         assert serial.drop(columns="run_time").equals(table.drop(columns="run_time")), \
             "the cluster's rows differ from the serial loop's"
         assert set(serial["status"]) == {"ok"}, serial["message"].unique()    # every point a real computation
     n = len(serial)
-    return {"n": n, **best, "point": float(serial["run_time"].mean()),
+    return {"n": n, **best, "point": float(serial["run_time"].mean()), "pairs": sorted(pairs),
             "overhead": (WORKERS * best["cluster"] - best["serial"]) / n,
             "overhead_cpu": (best["cpu_cluster"] - best["cpu_serial"]) / n, "load": (load0, _load())}
+
+
+def _ratios(pairs: list[float]) -> str:
+    return " ".join(f"{x:.2f}" for x in pairs) + "x"
 
 
 def _rows(name: str, r: dict) -> list[Row]:
@@ -96,7 +115,13 @@ def _rows(name: str, r: dict) -> list[Row]:
     return [
         Row("sweep", f"{name}: serial loop, {r['n']} points", r["serial"], "s", note=note),
         Row("sweep", f"{name}: embedded {WORKERS}-worker cluster, {r['n']} points", r["cluster"], "s",
-            baseline=f"{name}: serial loop, {r['n']} points", target=">= 1.7x", note=note),
+            baseline=f"{name}: serial loop, {r['n']} points", target=">= 1.7x",
+            note=f"{note}; each repetition's serial / cluster: {_ratios(r['pairs'])}"),
+        Row("sweep", f"{name}: {WORKERS} processes without an engine (the machine's ceiling), {r['n']} points",
+            r["ceiling"], "s", baseline=f"{name}: serial loop, {r['n']} points",
+            note="every other point in each process, one loop, nothing collected"),
+        Row("sweep", f"{name}: engine efficiency, {r['n']} points", r["ceiling"] / r["cluster"], "",
+            note=f"T_ceiling / T_cluster = {r['ceiling']:.3f} / {r['cluster']:.3f} s"),
         Row("sweep", f"{name}: engine overhead per point (wall), {r['n']} points", 1e3 * r["overhead"], "ms",
             target="< 5 ms", note="(W T_cluster - T_serial) / n, W = 2 workers"),
         Row("sweep", f"{name}: engine overhead per point (CPU), {r['n']} points", 1e3 * r["overhead_cpu"], "ms",
@@ -107,21 +132,38 @@ def _rows(name: str, r: dict) -> list[Row]:
 
 
 class _Cluster:
-    """The embedded cluster, started (timed) and warmed once for a benchmark."""
+    """The embedded cluster with one client, and two plain worker processes for the ceiling,
+    started (the cluster timed) and warmed once for a benchmark."""
 
     def __enter__(self):
+        from distributed import Client
+
         from tensegrity_core.sweep import run_sweep
         from tensegrity_core.sweep.engine import start_local_cluster
 
         t0 = time.perf_counter()
         self.cluster = start_local_cluster(WORKERS)
         self.startup = time.perf_counter() - t0
-        # import the core and touch both computations in every worker before timing
-        run_sweep(_simulate_sweep(4), scheduler=self.cluster.scheduler_address, batch=1, progress=False)
-        run_sweep(_formfind_sweep(4), scheduler=self.cluster.scheduler_address, batch=1, progress=False)
+        self.client = Client(self.cluster)
+        self.pool = ProcessPoolExecutor(WORKERS, mp_context=get_context("spawn"))
+        # import the core and touch both computations in every process before timing
+        for sweep in (_simulate_sweep(4), _formfind_sweep(4)):
+            run_sweep(sweep, scheduler=self.client, batch=1, progress=False)
+            self._warm_pool(sweep)
         return self
 
+    def _warm_pool(self, sweep: dict) -> None:
+        from tensegrity_core.sweep import load_sweep
+        from tensegrity_core.sweep.spec import prepare
+        from tensegrity_core.sweep.task import run_batch
+
+        s = load_sweep(sweep)
+        plan, points = prepare(s), s.points()
+        list(self.pool.map(run_batch, [plan] * len(points), [[p] for p in points]))
+
     def __exit__(self, *exc):
+        self.pool.shutdown()
+        self.client.close()
         self.cluster.close()
         return False
 
@@ -130,7 +172,7 @@ class _Cluster:
 def formfind_points(ctx: Context) -> list[Row]:
     n = 40 if ctx.quick else 200
     with _Cluster() as c:
-        r = _compare(_formfind_sweep(n), c.cluster, 2 if ctx.quick else 3)
+        r = _compare(_formfind_sweep(n), c, 2 if ctx.quick else 7)
     return [Row("sweep", "embedded cluster start-up (2 workers)", c.startup, "s",
                 note="LocalCluster of 2 processes on 127.0.0.1")] + _rows("form-finding (T-bar)", r)
 
@@ -139,7 +181,7 @@ def formfind_points(ctx: Context) -> list[Row]:
 def simulate_points(ctx: Context) -> list[Row]:
     n = 40 if ctx.quick else 200
     with _Cluster() as c:
-        r = _compare(_simulate_sweep(n), c.cluster, 2 if ctx.quick else 3)
+        r = _compare(_simulate_sweep(n), c, 2 if ctx.quick else 7)
     return _rows("simulation (paper fold, 1.6 s)", r)
 
 
@@ -149,10 +191,11 @@ def scaling(ctx: Context) -> list[Row]:
     rows, table = [], []
     with _Cluster() as c:
         for n in sizes:
-            r = _compare(_simulate_sweep(n), c.cluster, 1 if ctx.quick or n >= 1000 else 2)
+            r = _compare(_simulate_sweep(n), c, 1 if ctx.quick or n >= 1000 else 3)
             table.append(r)
             rows.append(Row("sweep", f"scaling: {n} simulations, speed-up", r["serial"] / r["cluster"], "x",
-                            note=f"serial {r['serial']:.2f} s, cluster {r['cluster']:.2f} s; "
+                            note=f"serial {r['serial']:.2f} s, cluster {r['cluster']:.2f} s, "
+                                 f"no engine {r['ceiling']:.2f} s ({r['serial'] / r['ceiling']:.2f}x); "
                                  f"load {r['load'][0]:.1f} -> {r['load'][1]:.1f}"))
             rows.append(Row("sweep", f"scaling: {n} simulations, overhead per point (wall / CPU)",
                             1e3 * r["overhead"], "ms", target="< 5 ms",
