@@ -6,8 +6,7 @@ on the embedded 2-worker cluster (``start_local_cluster(2)``, loopback, one clie
 and warmed once before the timing (its start-up is a row of its own); and, as the machine's
 ceiling, in two plain processes without any engine, each running every other point in one
 loop (``concurrent.futures`` on the same task function, which pins BLAS to one thread; no
-journal, no table). The first two
-give the same rows (checked). The ceiling says what these two cores gave two processes at
+journal, no table). The first two give the same rows (checked). The ceiling says what these two cores gave two processes at
 that time: the engine's efficiency is ``T_ceiling / T_cluster``.
 
 - ``formfind_points``: form-findings of the T-bar (8 members, a few milliseconds each) over
@@ -91,8 +90,9 @@ def _compare(sweep: dict, bench: _Cluster, repeat: int) -> dict:
             best["cpu_serial"] = min(best["cpu_serial"], time.process_time() - c0)
         c0, w0, t0 = time.process_time(), _cpu(workers), time.perf_counter()
         table = run_sweep(s, scheduler=bench.client, progress=False)
-        pairs.append(serial_time / (time.perf_counter() - t0))
-        best["cluster"] = min(best["cluster"], time.perf_counter() - t0)
+        cluster_time = time.perf_counter() - t0
+        pairs.append(serial_time / cluster_time)
+        best["cluster"] = min(best["cluster"], cluster_time)
         best["cpu_cluster"] = min(best["cpu_cluster"], time.process_time() - c0 + _cpu(workers) - w0)
         t0 = time.perf_counter()
         list(bench.pool.map(run_batch, [plan, plan], halves))
