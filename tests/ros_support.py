@@ -15,6 +15,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.process_groups import exited, kill_group, wait_group
+
 TENSEGRITY = str(Path(sys.executable).with_name("tensegrity"))
 
 
@@ -48,15 +50,6 @@ def spawn(argv: list[str], **kwargs) -> subprocess.Popen:
         return subprocess.Popen(argv, start_new_session=True, **kwargs)
 
 
-def kill_group(popen: subprocess.Popen) -> None:
-    """SIGKILL the child's whole process group (its nodes, workers, forkserver) and reap it."""
-    try:
-        os.killpg(popen.pid, signal.SIGKILL)
-    except ProcessLookupError:
-        pass
-    popen.wait(30)
-
-
 class Proc:
     """A CLI subprocess whose stderr is collected in a file."""
 
@@ -72,18 +65,17 @@ class Proc:
     def wait_for(self, text: str, timeout: float = 30.0) -> None:
         deadline = time.monotonic() + timeout
         while text not in self.stderr():
-            if self.popen.poll() is not None or time.monotonic() > deadline:
+            if exited(self.popen) or time.monotonic() > deadline:
                 raise AssertionError(f"never saw {text!r}; stderr:\n{self.stderr()}")
             time.sleep(0.05)
 
     def stop(self, sig=signal.SIGINT, timeout: float = 60.0) -> int:
-        if self.popen.poll() is None:
+        if not exited(self.popen):
             self.popen.send_signal(sig)
         try:
-            rc = self.popen.wait(timeout)
+            return wait_group(self.popen, timeout)
         finally:
             self._f.close()
-        return rc
 
     def kill(self) -> None:
         """End the process and its whole group, whatever state it is in (test teardown)."""

@@ -39,7 +39,7 @@ from pathlib import Path
 
 from tests.bench.harness import Context, Row, benchmark
 from tests.hostile_requests import TABLE, alias_bomb, deep_flow_nesting, huge_value, memory_mib, tower_yaml
-from tests.ros_support import kill_group
+from tests.process_groups import exited, kill_group, wait_exited
 
 TENSEGRITY = str(Path(sys.executable).with_name("tensegrity"))
 BASELINE = "good request (tensegrity_table)"
@@ -151,7 +151,7 @@ def _start_node(namespace: str, log: Path) -> subprocess.Popen:
                                 stdout=out, stderr=out, env=dict(os.environ), start_new_session=True)
     deadline = time.monotonic() + 120
     while "find_form ready" not in log.read_text(errors="replace"):
-        if proc.poll() is not None or time.monotonic() > deadline:
+        if exited(proc) or time.monotonic() > deadline:
             raise RuntimeError(f"the formfind node did not become ready: {log.read_text()[-500:]}")
         time.sleep(0.05)
     return proc
@@ -204,6 +204,6 @@ def hostile_requests(ctx: Context) -> list[Row]:
                 caller.close()
             proc.send_signal(signal.SIGINT)
             try:
-                proc.wait(30)
+                wait_exited(proc, 30)
             finally:
                 kill_group(proc)

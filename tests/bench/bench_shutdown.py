@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 
 from tests.bench.harness import Context, Row, benchmark
-from tests.ros_support import kill_group
+from tests.process_groups import exited, kill_group, wait_group
 
 TENSEGRITY = str(Path(sys.executable).with_name("tensegrity"))
 SAMPLE_BAG = Path(__file__).resolve().parents[2] / "bags" / "ik_motion"
@@ -50,13 +50,13 @@ def _stop_time(argv: list[str], ready: str, sig: int, env: dict, held: bool = Tr
         try:
             deadline = time.monotonic() + 120
             while ready not in log.read_text(errors="replace"):
-                if proc.poll() is not None or time.monotonic() > deadline:
+                if exited(proc) or time.monotonic() > deadline:
                     raise RuntimeError(f"{argv} did not become ready: {log.read_text()[-500:]}")
                 time.sleep(0.01)
             time.sleep(0.5)
             t0 = time.monotonic()
             proc.send_signal(sig)
-            code = proc.wait(60)
+            code = wait_group(proc, 60)
             return time.monotonic() - t0, code
         finally:
             kill_group(proc)

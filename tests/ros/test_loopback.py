@@ -24,7 +24,8 @@ from pathlib import Path
 
 import pytest
 
-from tests.ros_support import TENSEGRITY, kill_group, spawn
+from tests.process_groups import kill_group, wait_exited
+from tests.ros_support import TENSEGRITY, spawn
 
 pytestmark = [pytest.mark.ros,
               pytest.mark.skipif(not Path("/proc/self/net/udp").exists(), reason="needs Linux /proc")]
@@ -137,7 +138,7 @@ def test_every_socket_of_the_suite_is_on_loopback_and_the_nodes_still_meet(tmp_p
                 p.send_signal(2)
             for p in procs:
                 try:
-                    p.wait(30)
+                    wait_exited(p, 30)
                 finally:
                     kill_group(p)
     participants = {pid: socks for pid, socks in found.items() if socks}
@@ -176,7 +177,7 @@ def test_the_suite_meets_a_plain_localhost_ros_process(tmp_path):
         finally:
             sim.send_signal(2)
             try:
-                sim.wait(30)
+                wait_exited(sim, 30)
             finally:
                 kill_group(sim)
     assert listener.stdout.strip() == "received", listener.stderr[-2000:]

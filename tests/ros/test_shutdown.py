@@ -38,7 +38,8 @@ from pathlib import Path
 
 import pytest
 
-from tests.ros_support import TENSEGRITY, kill_group, spawn
+from tests.process_groups import exited, kill_group, wait_group
+from tests.ros_support import TENSEGRITY, spawn
 
 pytestmark = pytest.mark.ros
 
@@ -88,8 +89,8 @@ def _wait_ready(proc: subprocess.Popen, log: Path, ready: str, probe, timeout: f
                 return
         elif ready in log.read_text(errors="replace"):
             return
-        if proc.poll() is not None:
-            raise AssertionError(f"exited early ({proc.returncode}): {log.read_text()[-2000:]}")
+        if exited(proc):
+            raise AssertionError(f"exited early: {log.read_text()[-2000:]}")
         if time.monotonic() > deadline:
             raise AssertionError(f"never ready: {log.read_text()[-2000:]}")
         time.sleep(0.002)
@@ -129,7 +130,7 @@ def _one_round(kind: str, k: int, tmp: Path, ctx, ready_time: list[float]) -> tu
             t_signal = time.monotonic()
             proc.send_signal(sig)
             try:
-                code = proc.wait(HANG_S)
+                code = wait_group(proc, HANG_S)
             except subprocess.TimeoutExpired:
                 code = f"no exit within {HANG_S:g} s; stacks:\n{_native_stacks(proc.pid)}"
             took = time.monotonic() - t_signal

@@ -14,6 +14,7 @@ import time
 import pytest
 
 from tensegrity_core.sweep import SweepError, load_sweep, run_sweep
+from tests.process_groups import exited, kill_session, wait_exited
 from tests.sweep.conftest import fold_sweep, monte_carlo_sweep
 
 pd = pytest.importorskip("pandas")
@@ -171,34 +172,6 @@ def cli(*args, **kw):
                             stderr=subprocess.PIPE, text=True, start_new_session=True, **kw)
 
 
-def kill_session(proc) -> None:
-    """Kill the CLI and every process of its session (its cluster's workers) by pid."""
-    sid = proc.pid
-    try:
-        os.killpg(sid, signal.SIGKILL)
-    except ProcessLookupError:
-        pass
-    proc.wait(timeout=30)
-    deadline = time.monotonic() + 30
-    while True:
-        left = []
-        for p in psutil.process_iter():
-            try:
-                if os.getsid(p.pid) == sid:
-                    left.append(p)
-            except (ProcessLookupError, PermissionError, psutil.NoSuchProcess):
-                pass
-        for p in left:
-            try:
-                p.kill()
-            except psutil.NoSuchProcess:
-                pass
-        if not left or time.monotonic() > deadline:
-            break
-        time.sleep(0.1)
-    assert not left, f"processes of the killed sweep left: {left}"
-
-
 def test_an_unreachable_scheduler_is_one_error_line_naming_it_and_nothing_is_written(tmp_path):
     sweep = tmp_path / "s.yaml"
     sweep.write_text(json.dumps(fold_sweep()))
@@ -206,9 +179,10 @@ def test_an_unreachable_scheduler_is_one_error_line_naming_it_and_nothing_is_wri
     proc = cli("sweep", str(sweep), "-o", str(tmp_path / "r.parquet"), "--scheduler", address,
                "--connect-timeout", "2", "--plot", str(tmp_path / "r.png"), cwd=tmp_path)
     try:
-        out, err = proc.communicate(timeout=120)
+        wait_exited(proc, 120)       # its one error line fits in the pipe: no need to read first
     finally:
         kill_session(proc)
+    out, err = proc.communicate()
     assert proc.returncode == 1, err
     lines = [line for line in err.splitlines() if line.strip()]
     assert len(lines) == 1 and lines[0].startswith("error: cannot reach the Dask scheduler at "), err
@@ -225,11 +199,11 @@ def test_a_killed_sweep_keeps_its_finished_points_and_resume_runs_only_the_other
     proc = cli("sweep", "s.yaml", "-o", "r.csv", "--workers", "1", "--batch", "1", "--quiet", cwd=tmp_path)
     try:
         deadline = time.monotonic() + 120
-        while time.monotonic() < deadline and proc.poll() is None:
+        while time.monotonic() < deadline and not exited(proc):
             if journal.exists() and len(journal.read_text().splitlines()) >= 1 + 5:
                 break
             time.sleep(0.02)
-        assert proc.poll() is None, proc.communicate()
+        assert not exited(proc), "the sweep ended before it could be killed"
     finally:
         kill_session(proc)
     assert not out.exists()
