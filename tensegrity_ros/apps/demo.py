@@ -304,7 +304,7 @@ def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool 
     try:
         client.sim.wait_for_services()
         ctl.wait_for_servers()
-        _wait_subscribed(client.sim.node, {"joint_states": 1})      # the controller's subscription
+        ctl.connect()
         results["ik_goals"] = _ik_goals(client)
         moves_joints = recorded("ik_motion", "end-effector moves through the controller's actions "
                                 "(move_end_effector to each waypoint, then follow_actuator_trajectory)",

@@ -98,6 +98,30 @@ class ControllerClient:
                 raise RuntimeError(f"the controller's action {client._action_name} is not available "
                                    f"within {timeout:g} s")
 
+    def connect(self, timeout: float = 60.0, ask_every: float = 2.0) -> None:
+        """Return once the loop is known to be closed: the simulator reset to its state at
+        t = 0 and the controller's answer to it received here. Discovery is per participant:
+        that this process sees the controller's subscription says nothing of whether the
+        simulator's writer has matched it, and a volatile state published before that match
+        is lost (the simulator publishes it once, seen under load). So the state is published
+        again (another reset: unchanged, the simulator keeps any command for it and the
+        controller answers it again without advancing) every ``ask_every`` s until answered."""
+        import time
+
+        deadline = time.monotonic() + timeout
+        self.sim.set_law(None)
+        while True:
+            self.sim.reset_all()
+            try:
+                self.wait_answered(0, min(ask_every, max(0.0, deadline - time.monotonic())))
+                with self._cond:
+                    self._answered.clear()    # the next wait for t = 0 waits for the next answer
+                return
+            except RuntimeError:
+                if time.monotonic() >= deadline:
+                    raise RuntimeError(f"the controller did not answer the simulator's state within {timeout:g} s "
+                                       "(is its joint_states subscription connected?)") from None
+
     def wait_answered(self, stamp_ns: int, timeout: float = 60.0) -> None:
         """Wait until the controller has answered the state stamped ``stamp_ns``."""
         with self._cond:

@@ -2,7 +2,10 @@
 
 Subscribes ``joint_states`` (rho1, rho2 [m], beta [rad]; positions and velocities) and, on
 every new sample, publishes ``actuator_forces`` (tensegrity_msgs/ActuatorForces; positive
-= tensile), stamped with the sample's time. The law is the core's
+= tensile), stamped with the sample's time. A sample repeated unchanged (same stamp,
+positions and velocities) gets the same command again and does not advance the law: a
+client that lost the first answer (or whose state the controller never saw: a
+volatile message sent before discovery matched the two ends) asks again by publishing it again. The law is the core's
 :class:`~tensegrity_core.class2.control.TrackingController` (feedforward along the goal's
 reference plus gain-scheduled LQR feedback; docs/control.md). When no goal runs it holds
 the last reference (at start: rest where the first joint state finds the mechanism).
@@ -126,6 +129,7 @@ class ControllerNode(Node):
         self._job: _Job | None = None
         self._latest = None                  # (t, q, qdot) of the last new joint state
         self._latest_header = None           # its header (stamp and frame)
+        self._answer = None                  # the command published for it (sent again for a repeat)
         self._advanced_at = None             # wall time the joint states' time last advanced
 
         self.pub = self.create_publisher(ActuatorForces, "actuator_forces", 10)
@@ -153,10 +157,15 @@ class ControllerNode(Node):
         if self._latest is not None and t <= self._latest[0]:
             t0, q0, qdot0 = self._latest
             if t == t0 and np.array_equal(q, q0) and np.array_equal(qdot, qdot0):
-                return                      # not a new sample (a paused or stopped simulator repeats it)
+                # not a new sample (a paused simulator repeats it, a client re-publishes it when
+                # the answer did not come): the same answer again, the controller not advanced
+                if self._answer is not None:
+                    self.pub.publish(self._answer)
+                return
             self._simulation_reset(t)       # time went back, or another state at the same time
         self._latest = state
         self._latest_header = msg.header
+        self._answer = None
         self._advanced_at = time.monotonic()
         if self.ctrl.reference is None and not self._start_holding(t, q):
             return
@@ -167,6 +176,7 @@ class ControllerNode(Node):
         cmd = ActuatorForces(name=["f1", "f2"], force=[float(tick.forces[0]), float(tick.forces[1])])
         cmd.header.stamp = msg.header.stamp
         self.pub.publish(cmd)
+        self._answer = cmd
         if job is not None and not job.finished.done():
             job.handle.publish_feedback(self._feedback(job, msg, tick, q, qdot))
 

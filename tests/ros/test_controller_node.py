@@ -374,3 +374,100 @@ def test_a_reset_ends_the_running_goal_and_the_lockstep_loop_goes_on(cli, ros_co
 
     assert all(float(t) > 0.5 for t in re.findall(r"command stamped (\S+) s, but", log)), log
     assert "holding anew" in ctl.stderr()
+
+
+def test_a_repeated_state_gets_the_same_answer_and_does_not_advance_the_law(cli, ros_context):
+    """The states come from this test, not a simulator. Two controllers see the same three
+    samples (rest; 2 mm off in rho1; 4 mm off, 10 ms apart); one of them gets the second sample
+    four times. Each repeat is answered with that sample's answer (same stamp, same forces), and
+    the third sample's answer is the same from both: the repeats did not advance the law (its
+    integral of the 2 mm error would otherwise have grown three more steps)."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from sensor_msgs.msg import JointState
+    from tensegrity_msgs.msg import ActuatorForces
+
+    node = rclpy.create_node("repeat_test", context=ros_context)
+    executor = SingleThreadedExecutor(context=ros_context)
+    executor.add_node(node)
+    answers: dict[str, list] = {"a": [], "b": []}
+    pubs = {}
+    for ns in answers:
+        cli("node", "controller", "--ros-args", "-r", f"__ns:=/rep_{ns}", log_name=f"controller_{ns}")
+        pubs[ns] = node.create_publisher(JointState, f"/rep_{ns}/joint_states", 10)
+        node.create_subscription(ActuatorForces, f"/rep_{ns}/actuator_forces", answers[ns].append, 100)
+
+    def state(t_ns: int, rho1: float) -> JointState:
+        msg = JointState(name=["rho1", "rho2", "beta"], position=[rho1, 0.7, D0.beta], velocity=[0.0, 0.0, 0.0])
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(t_ns, 10**9)
+        return msg
+
+    def answered(ns: str, msg: JointState) -> list:
+        return [a for a in answers[ns] if a.header.stamp == msg.header.stamp]
+
+    def ask(ns: str, msg: JointState) -> ActuatorForces:
+        """Publish ``msg`` until one more answer stamped with its time comes (every second: the
+        first copies may go out before discovery has matched the two ends)."""
+        n = len(answered(ns, msg))
+        end = time.monotonic() + 60.0
+        while len(answered(ns, msg)) == n:
+            assert time.monotonic() < end, f"controller {ns} did not answer"
+            pubs[ns].publish(msg)
+            again = time.monotonic() + 1.0
+            while len(answered(ns, msg)) == n and time.monotonic() < again:
+                executor.spin_once(timeout_sec=0.02)
+        return answered(ns, msg)[-1]
+
+    samples = [state(0, 0.7), state(10_000_000, 0.702), state(20_000_000, 0.704)]
+    last = {}
+    for ns in answers:
+        ask(ns, samples[0])
+        first = ask(ns, samples[1])
+        if ns == "a":
+            for _ in range(3):
+                assert list(ask(ns, samples[1]).force) == list(first.force)
+        last[ns] = ask(ns, samples[2])
+    assert list(last["a"].force) == list(last["b"].force)
+    assert list(last["a"].force) != list(answered("a", samples[0])[0].force)   # the samples moved the law
+
+
+def test_the_demo_client_connects_to_a_controller_that_missed_the_first_state(cli, ros_context):
+    """The demo's loop check (``ControllerClient.connect``) against the race that stopped the
+    demo once under load: the simulator (paused, lockstep, no republishing) publishes its state
+    at t = 0 once, before the controller can receive it. Here the controller is started only
+    after that first state was seen, so it cannot have it; ``connect`` publishes it again until
+    answered, and then a lockstep step runs on the controller's command (no step timed out)."""
+    import threading
+
+    import rclpy
+
+    from tensegrity_ros.apps.demo_moves import ControllerClient
+    from tensegrity_ros.apps.sim_client import SimClient
+
+    sim = cli("node", "sim", "--ros-args", "-r", "__ns:=/conn", "-p", "lockstep:=true", "-p", "initial_state:=paused",
+              "-p", "paused_publish_rate:=0.0", "-p", "lockstep_timeout:=30.0", log_name="sim")
+    sim.wait_for("publishing at")
+    client = SimClient(rclpy, "conn_client", context=ros_context, namespace="/conn")
+    try:
+        ctl = ControllerClient(client)
+        client.wait_for_services()
+        failure: list = []
+
+        def connect() -> None:
+            try:
+                ctl.connect(timeout=90.0, ask_every=2.0)
+            except Exception as err:  # noqa: BLE001 - reported by the test
+                failure.append(err)
+
+        thread = threading.Thread(target=connect)
+        thread.start()
+        client.wait_joint(0)                        # the first state went out: nobody answers it
+        controller = cli("node", "controller", "--ros-args", "-r", "__ns:=/conn", log_name="controller")
+        thread.join(120)
+        assert not thread.is_alive() and not failure, failure
+        assert "holding rho" in controller.stderr()
+        client.step(1)
+        client.wait_joint(10_000_000)
+        assert "no command for step" not in sim.stderr()
+    finally:
+        client.close()
