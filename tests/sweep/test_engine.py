@@ -61,9 +61,10 @@ def test_the_embedded_cluster_gives_the_serial_results_and_listens_on_loopback_o
     assert seen["workers"] >= 2
 
 
-def test_a_connected_client_runs_several_sweeps_and_is_left_open_for_its_owner():
+def test_a_connected_client_runs_several_sweeps_and_is_left_open_for_its_owner(monkeypatch):
     from distributed import Client
 
+    from tensegrity_core.sweep import engine
     from tensegrity_core.sweep.engine import start_local_cluster
 
     sweep = load_sweep(fold_sweep())
@@ -72,6 +73,19 @@ def test_a_connected_client_runs_several_sweeps_and_is_left_open_for_its_owner()
         for _ in range(2):
             same_rows(serial, run_sweep(sweep, scheduler=client, progress=False))
         assert client.status == "running"
+        # the plan (3 KB) travelled inside the tasks; one over INLINE_PLAN_BYTES is scattered
+        # to the workers once, with the same rows
+        scattered = []
+        scatter = client.scatter
+        client.scatter = lambda data, **kw: scattered.append(data) or scatter(data, **kw)
+        try:
+            same_rows(serial, run_sweep(sweep, scheduler=client, progress=False))
+            assert scattered == []
+            monkeypatch.setattr(engine, "INLINE_PLAN_BYTES", 1000)
+            same_rows(serial, run_sweep(sweep, scheduler=client, progress=False))
+            assert len(scattered) == 1
+        finally:
+            del client.scatter
         assert client.run(lambda: 1) == {w: 1 for w in client.scheduler_info()["workers"]}
     with pytest.raises(SweepError, match="the Dask client given as the scheduler is closed, not running"):
         run_sweep(sweep, scheduler=client, progress=False)
