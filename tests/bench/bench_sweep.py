@@ -6,8 +6,14 @@ on the embedded 2-worker cluster (``start_local_cluster(2)``, loopback, one clie
 and warmed once before the timing (its start-up is a row of its own); and, as the machine's
 ceiling, in two plain processes without any engine, each running every other point in one
 loop (``concurrent.futures`` on the same task function, which pins BLAS to one thread; no
-journal, no table). The first two give the same rows (checked). The ceiling says what these two cores gave two processes at
-that time: the engine's efficiency is ``T_ceiling / T_cluster``.
+journal, no table). The first two give the same rows (checked). The ceiling says what these
+two cores gave two static halves of the points at that time.
+- Where the cluster's time goes, from the points' own (wall) times measured where they ran:
+  the fraction of the workers' wall time spent in points, ``sum(t_point) / (W T_cluster)``
+  (the rest: the first tasks on their way, gaps between tasks, the workers finishing apart),
+  and how much longer a point took on the cluster than in the serial loop, against the same
+  figure for the two plain processes: both take in how the two shared cores slow each other
+  down, the cluster's also the CPU its client and scheduler take from the workers.
 
 - ``formfind_points``: form-findings of the T-bar (8 members, a few milliseconds each) over
   its top strings' rest-length ratio (0.6 .. 0.95 of the drawn length); ``simulate_points``: the paper's fold for 1.6 s
@@ -28,6 +34,7 @@ machines are shared, and a load above 2 takes cores from the cluster and the ser
 from __future__ import annotations
 
 import os
+import statistics
 import time
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
@@ -81,6 +88,7 @@ def _compare(sweep: dict, bench: _Cluster, repeat: int) -> dict:
     load0 = _load()
     best = {k: float("inf") for k in ("serial", "cluster", "ceiling", "cpu_serial", "cpu_cluster")}
     pairs = []                                           # serial / cluster of each repetition
+    busy, slower, slower_plain = [], [], []              # where the time went (module docstring)
     for _ in range(repeat):
         with threadpool_limits(1):
             c0, t0 = time.process_time(), time.perf_counter()
@@ -92,22 +100,27 @@ def _compare(sweep: dict, bench: _Cluster, repeat: int) -> dict:
         table = run_sweep(s, scheduler=bench.client, progress=False)
         cluster_time = time.perf_counter() - t0
         pairs.append(serial_time / cluster_time)
+        worked, alone = float(table["run_time"].sum()), float(serial["run_time"].sum())
+        busy.append(worked / (WORKERS * cluster_time))
+        slower.append(worked / alone)
         best["cluster"] = min(best["cluster"], cluster_time)
         best["cpu_cluster"] = min(best["cpu_cluster"], time.process_time() - c0 + _cpu(workers) - w0)
         t0 = time.perf_counter()
-        list(bench.pool.map(run_batch, [plan, plan], halves))
+        plain = list(bench.pool.map(run_batch, [plan, plan], halves))
         best["ceiling"] = min(best["ceiling"], time.perf_counter() - t0)
+        slower_plain.append(sum(row["run_time"] for rows in plain for row in rows) / alone)
         assert serial.drop(columns="run_time").equals(table.drop(columns="run_time")), \
             "the cluster's rows differ from the serial loop's"
         assert set(serial["status"]) == {"ok"}, serial["message"].unique()    # every point a real computation
     n = len(serial)
     return {"n": n, **best, "point": float(serial["run_time"].mean()), "pairs": sorted(pairs),
+            "busy": sorted(busy), "slower": sorted(slower), "slower_plain": sorted(slower_plain),
             "overhead": (WORKERS * best["cluster"] - best["serial"]) / n,
             "overhead_cpu": (best["cpu_cluster"] - best["cpu_serial"]) / n, "load": (load0, _load())}
 
 
-def _ratios(pairs: list[float]) -> str:
-    return " ".join(f"{x:.2f}" for x in pairs) + "x"
+def _ratios(values: list[float], unit: str = "x") -> str:
+    return " ".join(f"{x:.2f}" for x in values) + unit
 
 
 def _rows(name: str, r: dict) -> list[Row]:
@@ -120,8 +133,13 @@ def _rows(name: str, r: dict) -> list[Row]:
         Row("sweep", f"{name}: {WORKERS} processes without an engine (the machine's ceiling), {r['n']} points",
             r["ceiling"], "s", baseline=f"{name}: serial loop, {r['n']} points",
             note="every other point in each process, one loop, nothing collected"),
-        Row("sweep", f"{name}: engine efficiency, {r['n']} points", r["ceiling"] / r["cluster"], "",
-            note=f"T_ceiling / T_cluster = {r['ceiling']:.3f} / {r['cluster']:.3f} s"),
+        Row("sweep", f"{name}: workers busy in the points, {r['n']} points", statistics.median(r["busy"]), "",
+            note=f"median of each repetition's sum of point times / (W T_cluster): {_ratios(r['busy'], '')}; "
+                 f"the rest of the workers' time is the engine's (sending, waiting, the tail)"),
+        Row("sweep", f"{name}: point time on the cluster / in the serial loop, {r['n']} points",
+            statistics.median(r["slower"]), "",
+            note=f"median of each repetition's: {_ratios(r['slower'], '')}; in the 2 plain processes "
+                 f"{_ratios(r['slower_plain'], '')} (median {statistics.median(r['slower_plain']):.2f})"),
         Row("sweep", f"{name}: engine overhead per point (wall), {r['n']} points", 1e3 * r["overhead"], "ms",
             target="< 5 ms", note="(W T_cluster - T_serial) / n, W = 2 workers"),
         Row("sweep", f"{name}: engine overhead per point (CPU), {r['n']} points", 1e3 * r["overhead_cpu"], "ms",
@@ -196,6 +214,9 @@ def scaling(ctx: Context) -> list[Row]:
             rows.append(Row("sweep", f"scaling: {n} simulations, speed-up", r["serial"] / r["cluster"], "x",
                             note=f"serial {r['serial']:.2f} s, cluster {r['cluster']:.2f} s, "
                                  f"no engine {r['ceiling']:.2f} s ({r['serial'] / r['ceiling']:.2f}x); "
+                                 f"workers busy {statistics.median(r['busy']):.2f}, point time x"
+                                 f"{statistics.median(r['slower']):.2f} of the serial loop's (plain processes "
+                                 f"x{statistics.median(r['slower_plain']):.2f}); "
                                  f"load {r['load'][0]:.1f} -> {r['load'][1]:.1f}"))
             rows.append(Row("sweep", f"scaling: {n} simulations, overhead per point (wall / CPU)",
                             1e3 * r["overhead"], "ms", target="< 5 ms",
