@@ -382,3 +382,32 @@ def test_the_sim_command_plays_pauses_and_steps_the_simulator(stepping, ros_cont
     assert out.returncode == 0 and "already playing" in out.stdout            # ALREADY_IN_TARGET_STATE
     out = run_cli("sim", "step")
     assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1 and "Traceback" not in out.stderr
+
+
+def test_the_answer_the_last_step_ran_under_sent_again_is_dropped_not_rejected(stepping):
+    """In lockstep a controller answers a republished state again (tensegrity_controller does),
+    so the answer of the step just taken can arrive twice: the copy is dropped without a
+    warning. A different command with that stamp is still rejected as stamped for another step."""
+    from tensegrity_msgs.msg import ActuatorForces
+
+    from tensegrity_ros.rclpy_utils.matching import wait_for_matches
+
+    proc, client = stepping("lockstep:=true", "initial_state:=paused", "paused_publish_rate:=0.0",
+                            "lockstep_timeout:=30.0")
+    assert wait_for_matches([client.pub], 1, 30)
+    client.set_law(None)
+    client.reset_all()
+    answer = ActuatorForces(name=["f1", "f2"], force=[0.5, 0.5])   # stamped 0: the state at t = 0
+    client.pub.publish(answer)
+    client.step(1)                                    # runs under it
+    client.wait_joint(STEP_NS)
+    client.pub.publish(answer)                        # the same answer again
+    other = ActuatorForces(name=["f1", "f2"], force=[0.75, 0.5])
+    client.pub.publish(other)                         # a different one for the same, past, state
+    deadline = time.monotonic() + 30
+    while "rejected actuator command" not in proc.stderr():
+        assert time.monotonic() < deadline, proc.stderr()
+        time.sleep(0.05)
+    assert "stamped 0.000000000 s, but the simulator waits at step 1" in proc.stderr()
+    assert proc.stop() == 0
+    assert "rejected commands: 1;" in proc.stderr()      # the copy was not counted (nor warned of)

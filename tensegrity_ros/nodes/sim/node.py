@@ -30,7 +30,9 @@ validates a command once), the plant (:mod:`.plant`: the core simulator and the 
 and a sender (:mod:`.sender`: pure functions from samples to messages).
 
 Bad commands (wrong lengths, unknown names, NaN/inf, over ``max_force``, stamped for
-another step in lockstep) are rejected with a throttled warning naming the problem;
+another step in lockstep) are rejected with a throttled warning naming the problem (in
+lockstep, the command the last step ran under arriving again is a duplicate, dropped
+silently: a controller answers a republished state again);
 publishing never stops and NaN is never integrated. Free-running, after
 ``command_timeout`` seconds without a valid command the forces drop to ``safe_force``.
 When ``lambda1/L`` or ``lambda2/L`` falls below ``singularity_warning`` a throttled
@@ -137,6 +139,7 @@ class SimNode(Node):
         self.request: StepRequest | None = None
         self._command = list(self.plant.initial_command)   # held (free-running) / last applied
         self._lockstep_command = None        # the receiver's command for the current step (lockstep)
+        self._applied_command = None         # lockstep: the command the last step ran under
         self._waiting_since = time.monotonic()
         self._last_valid: float | None = None     # wall time of the last valid command (free-running)
         self._timed_out = False
@@ -344,7 +347,7 @@ class SimNode(Node):
             if self._lockstep_command is None:
                 return
             command = self._command = self._lockstep_command.update.apply(self._command)
-            self._lockstep_command = None
+            self._applied_command, self._lockstep_command = self._lockstep_command, None
         if self.request is not None:
             self._request_step(command)
         else:
@@ -403,6 +406,9 @@ class SimNode(Node):
             command = receive(msg, max_force=self.p.max_force)
             with self._lock:
                 if self.p.lockstep:
+                    if command == self._applied_command and command.stamp_ns != self.plant.time_ns:
+                        return      # the answer the last step ran under, sent again (a controller
+                                    # answers a state republished to it again): already applied
                     check_step(command, self.plant.time_ns, self.plant.k)
                     self._lockstep_command = command
                     self._lockstep_advance()
@@ -481,6 +487,7 @@ class SimNode(Node):
                                      f"interrupted by {why} after {req.completed} of {req.steps} steps"))
         before = self._published_state()
         self.plant.reset(keep_time=keep_time)
+        self._applied_command = None
         self._command = list(self.plant.initial_command)
         if self._published_state() != before:
             self._lockstep_command = None    # it answered a state that is gone (an unchanged one keeps it)
