@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -106,8 +107,6 @@ class ControllerClient:
         is lost (the simulator publishes it once, seen under load). So the state is published
         again (another reset: unchanged, the simulator keeps any command for it and the
         controller answers it again without advancing) every ``ask_every`` s until answered."""
-        import time
-
         deadline = time.monotonic() + timeout
         self.sim.set_law(None)
         while True:

@@ -4,10 +4,10 @@ Subscribes ``joint_states`` (rho1, rho2 [m], beta [rad]; positions and velocitie
 every new sample, publishes ``actuator_forces`` (tensegrity_msgs/ActuatorForces; positive
 = tensile), stamped with the sample's time. A sample repeated unchanged (same stamp,
 positions and velocities) gets the same command again and does not advance the law: a
-client that lost the first answer (or whose state the controller never saw: a
-volatile message sent before discovery matched the two ends) asks again by publishing it again. The law is the core's
-:class:`~tensegrity_core.class2.control.TrackingController` (feedforward along the goal's
-reference plus gain-scheduled LQR feedback; docs/control.md). When no goal runs it holds
+client that lost the answer, or whose state never arrived (a volatile message sent before
+discovery matched the two ends), asks again by publishing the state again. The law is the
+core's :class:`~tensegrity_core.class2.control.TrackingController` (feedforward along the
+goal's reference plus gain-scheduled LQR feedback; docs/control.md). When no goal runs it holds
 the last reference (at start: rest where the first joint state finds the mechanism).
 
 Actions (tensegrity_msgs/action):
