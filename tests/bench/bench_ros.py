@@ -61,6 +61,11 @@ def _stop(proc: subprocess.Popen) -> str:
 
 @benchmark
 def sim_publishing_and_recorder(ctx: Context) -> list[Row]:
+    with tempfile.TemporaryDirectory(prefix="bench_ros_") as tmp:
+        return _measure_publishing_and_recording(ctx, Path(tmp) / "bag")
+
+
+def _measure_publishing_and_recording(ctx: Context, folder: Path) -> list[Row]:
     import rclpy
     from rclpy.context import Context as RosContext
     from rclpy.qos import QoSProfile
@@ -71,7 +76,6 @@ def sim_publishing_and_recorder(ctx: Context) -> list[Row]:
 
     env = _env()
     duration = 2.0 if ctx.quick else 10.0
-    folder = Path(tempfile.mkdtemp(prefix="bench_ros_")) / "bag"
     rec = _start(["record", "-o", str(folder)], env, "recording to")
     # the simulator starts its clock only once the recorder (and the probe below) listen,
     # so every message it publishes can be counted at the recorder
