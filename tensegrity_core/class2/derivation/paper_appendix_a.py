@@ -35,7 +35,7 @@ from tensegrity_core.class2.derivation.derive_dynamics import (
     PARAM_NAMES,
     SymbolicDynamics,
     derive,
-    random_state,
+    identical,
 )
 
 READINGS: Final = ("literal", "relabelled")
@@ -214,12 +214,9 @@ def _reference_subs(sd: SymbolicDynamics, point: Mapping[str, Sequence[float]]) 
 
 
 def _same(a: sp.Expr, b: sp.Expr, rng: random.Random, points: int = 6) -> bool:
-    diff = a - b
-    for _ in range(points):
-        exact = {k: sp.Rational(v) for k, v in random_state(rng, margin=0.2).items()}
-        if abs(diff.evalf(30, subs=exact)) > 1e-20 * (1 + abs(b.evalf(30, subs=exact))):
-            return False
-    return True
+    """``a == b`` identically, to 30 digits at ``points`` random states (margin 0.2 from the
+    workspace boundary)."""
+    return identical(a, b, rng, points=points, digits=30, rel_tol=1e-20, margin=0.2)
 
 
 def compare(seed: int = 0) -> list[EntryCheck]:
