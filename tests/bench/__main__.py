@@ -51,6 +51,7 @@ def main(argv=None) -> int:
         ap.error(f"unknown group(s) {', '.join(unknown)}; the groups are {', '.join(sorted(groups))} "
                  "(GROUP:FUNCTION picks one benchmark)")
     ctx = harness.Context(quick=not args.full, plot_dir=args.plot_dir, data_dir=args.data_dir)
+    harness.use_timing(harness.QUICK_TIMING if ctx.quick else harness.FULL_TIMING)
     rows: list[harness.Row] = []
     ran = set()
     for group, fn in harness.REGISTRY:

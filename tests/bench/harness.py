@@ -16,6 +16,7 @@ from collections.abc import Callable
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Final
 
 REGISTRY: list[tuple[str, Callable]] = []
 
@@ -83,10 +84,35 @@ def no_gc():
             gc.enable()
 
 
-def best_run(fn: Callable[[], object], repeat: int, min_time: float = 0.2, max_time: float = math.inf):
+@dataclass(frozen=True)
+class Timing:
+    """The default length of a measurement: each timing runs for at least ``min_time`` s,
+    :func:`time_per_call` takes the best of ``repeat`` such runs."""
+
+    min_time: float
+    repeat: int
+
+
+#: Full mode (the docs' figures), and quick mode (CI's smoke run: it checks that every
+#: benchmark runs and reports, over some thirty benchmarks and ~200 timings in all).
+FULL_TIMING: Final = Timing(min_time=0.2, repeat=5)
+QUICK_TIMING: Final = Timing(min_time=0.05, repeat=3)
+_timing = FULL_TIMING
+
+
+def use_timing(timing: Timing) -> None:
+    """Make ``timing`` the default of :func:`best_run` and :func:`time_per_call` (the runner
+    sets it from the mode; arguments given to a call still win)."""
+    global _timing
+    _timing = timing
+
+
+def best_run(fn: Callable[[], object], repeat: int, min_time: float | None = None, max_time: float = math.inf):
     """``(best wall time, result)`` of ``fn()`` over at least ``repeat`` runs and
-    ``min_time`` s, a millisecond run getting as fair a chance at a quiet moment as a long
-    one; no repeat once ``max_time`` s are spent (noise matters little to a run that long)."""
+    ``min_time`` s (default: the mode's, :func:`use_timing`), a millisecond run getting as
+    fair a chance at a quiet moment as a long one; no repeat once ``max_time`` s are spent
+    (noise matters little to a run that long)."""
+    min_time = _timing.min_time if min_time is None else min_time
     best, out, spent, n = math.inf, None, 0.0, 0
     while (n < repeat or spent < min_time) and not (n and spent > max_time):
         with no_gc():
@@ -97,10 +123,12 @@ def best_run(fn: Callable[[], object], repeat: int, min_time: float = 0.2, max_t
     return best, out
 
 
-def time_per_call(fn: Callable[[], object], *, min_time: float = 0.2, repeat: int = 5) -> float:
-    """Best-of-``repeat`` seconds per call of ``fn``, each repeat running >= ``min_time``."""
+def time_per_call(fn: Callable[[], object], *, min_time: float | None = None, repeat: int | None = None) -> float:
+    """Best-of-``repeat`` seconds per call of ``fn``, each repeat running >= ``min_time``
+    (defaults: the mode's, :func:`use_timing`)."""
     with no_gc():
-        return _time_per_call(fn, min_time, repeat)
+        return _time_per_call(fn, _timing.min_time if min_time is None else min_time,
+                              _timing.repeat if repeat is None else repeat)
 
 
 def _time_per_call(fn, min_time: float, repeat: int) -> float:
