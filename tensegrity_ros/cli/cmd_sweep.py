@@ -6,7 +6,7 @@ an existing one (``--scheduler ADDRESS``); a progress bar on stderr shows the po
 failed and the time left. ``-o OUT.parquet`` (or ``.csv``) writes one row per point; while
 it runs the finished rows are in ``OUT.parquet.partial.jsonl``, and ``--resume`` runs only
 the points not there yet. ``--plot OUT.png`` draws the results against the varied
-quantities. Exit codes: 0 when the sweep ran (failed points are rows of the table), 2 for a
+quantities (``--plot`` alone: beside the output, ``OUT.png``). Exit codes: 0 when the sweep ran (failed points are rows of the table), 2 for a
 bad sweep file or option, 1 when the sweep cannot run (e.g. the scheduler cannot be
 reached; nothing is written then), 130 when interrupted (finished rows kept).
 """
@@ -42,7 +42,9 @@ def register(subparsers) -> None:
                    help="seconds to wait for the scheduler and its first worker (default 10)")
     p.add_argument("--batch", type=int, default=None, metavar="N",
                    help="points per task (default: adaptive, ~0.5 s of work per task)")
-    p.add_argument("--plot", default=None, metavar="PNG", help="draw the results against the varied quantities")
+    p.add_argument("--plot", nargs="?", const="", default=None, metavar="PNG",
+                   help="draw the results against the varied quantities (default file: the output's name "
+                        "with .png, or SWEEP_NAME.png here without -o)")
     p.add_argument("--plot-result", action="append", default=None, metavar="COLUMN",
                    help="a result column to plot (repeatable; default: the numeric results, up to 6)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -76,7 +78,7 @@ def run_sweep_command(args) -> int:
     from tensegrity_core.sweep.spec import prepare
     from tensegrity_core.sweep.store import check_output_path, journal_path
 
-    if args.plot is not None and not args.plot.lower().endswith(".png"):
+    if args.plot is not None and args.plot and not args.plot.lower().endswith(".png"):
         raise CliError(f"--plot must end in .png, got {args.plot!r}")
     if args.workers is not None and args.workers < 0:
         raise CliError(f"--workers must be >= 0, got {args.workers}")
@@ -92,6 +94,8 @@ def run_sweep_command(args) -> int:
         sweep = load_sweep(args.file)
         if args.output is not None:
             check_output_path(Path(args.output))
+        if args.plot == "":
+            args.plot = str(default_plot_path(sweep.name, args.output))
         plan = prepare(sweep)
         if args.plot:
             from tensegrity_core.sweep.plotting import plotted_columns
@@ -145,6 +149,12 @@ def run_sweep_command(args) -> int:
         if summary[key]:
             print(f"{label} written to {summary[key]}")
     return 0
+
+
+def default_plot_path(sweep_name: str, output: str | None) -> Path:
+    """Where ``--plot`` without a file draws: beside the output (``fold.parquet`` ->
+    ``fold.png``), or ``SWEEP_NAME.png`` in the current directory without ``-o``."""
+    return Path(output).with_suffix(".png") if output is not None else Path(f"{sweep_name}.png")
 
 
 def _engine(args) -> str:

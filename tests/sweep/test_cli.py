@@ -44,6 +44,16 @@ def test_a_sweep_writes_its_table_and_plot(tmp_path, capsys, doc, panels):
     assert list(table.columns[:2]) == ["point", next(iter(doc["vary"])) if panels != "hist" else "k_factor"]
 
 
+@pytest.mark.parametrize("output, expected", [("r.parquet", "r.png"), ("r.csv", "r.png"), (None, "fold.png")])
+def test_plot_without_a_file_draws_beside_the_output(tmp_path, capsys, monkeypatch, output, expected):
+    monkeypatch.chdir(tmp_path)
+    sweep = write(tmp_path, fold_sweep(name="fold"))
+    args = ["sweep", sweep, *(["-o", output] if output else []), "--workers", "0", "--quiet", "--plot"]
+    assert main(args) == 0
+    assert (tmp_path / expected).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert f"plot written to {expected}" in capsys.readouterr().out
+
+
 def test_failures_are_summarised_and_do_not_fail_the_command(tmp_path, capsys):
     doc = fold_sweep(vary={"model.params.k": [1.0, -1.0, -2.0]})
     assert main(["sweep", write(tmp_path, doc), "--workers", "0", "--quiet"]) == 0
