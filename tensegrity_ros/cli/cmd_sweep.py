@@ -153,8 +153,13 @@ def run_sweep_command(args) -> int:
 
 def default_plot_path(sweep_name: str, output: str | None) -> Path:
     """Where ``--plot`` without a file draws: beside the output (``fold.parquet`` ->
-    ``fold.png``), or ``SWEEP_NAME.png`` in the current directory without ``-o``."""
-    return Path(output).with_suffix(".png") if output is not None else Path(f"{sweep_name}.png")
+    ``fold.png``), or ``SWEEP_NAME.png`` in the current directory without ``-o``. The name
+    is the sweep file's free text: only its letters, digits, ``.``, ``_`` and ``-`` (others
+    become ``_``, at most 100) make the file name, so it never leaves the directory."""
+    if output is not None:
+        return Path(output).with_suffix(".png")
+    stem = re.sub(r"[^A-Za-z0-9._-]", "_", sweep_name)[:100].lstrip(".")
+    return Path(f"{stem or 'sweep'}.png")
 
 
 def _engine(args) -> str:

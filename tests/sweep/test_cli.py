@@ -54,6 +54,16 @@ def test_plot_without_a_file_draws_beside_the_output(tmp_path, capsys, monkeypat
     assert f"plot written to {expected}" in capsys.readouterr().out
 
 
+def test_plot_named_after_the_sweep_stays_in_the_current_folder(tmp_path, capsys, monkeypatch):
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    sweep = write(tmp_path, fold_sweep(name="../up/" + "x" * 300, vary={"inputs.f1.gain": [9.0, 10.0]}))
+    assert main(["sweep", sweep, "--workers", "0", "--quiet", "--plot"]) == 0
+    assert [p.name for p in work.iterdir()] == ["_up_" + "x" * 94 + ".png"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.yaml", "work"]
+
+
 def test_failures_are_summarised_and_do_not_fail_the_command(tmp_path, capsys):
     doc = fold_sweep(vary={"model.params.k": [1.0, -1.0, -2.0]})
     assert main(["sweep", write(tmp_path, doc), "--workers", "0", "--quiet"]) == 0
