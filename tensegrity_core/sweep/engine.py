@@ -53,8 +53,9 @@ ProgressCallback = Callable[[int, int, int], object]
 #: cent, short enough that results stream back and a lost worker loses little.
 TASK_SECONDS = 0.5
 #: Least work of a task [s] once the points' cost is known, also near the end of a sweep. The
-#: client and scheduler spend 3-4 ms of CPU per task, which on a 2-core machine comes out of
-#: the workers' cores, while the workers' finishing times differ by up to one last task:
+#: client and scheduler spend 3-4 ms of CPU per task and the workers about as much again
+#: (``./run bench --only sweep:task_cost``), which on a 2-core machine comes out of the
+#: points' cores, while the workers' finishing times differ by up to one last task:
 #: smaller last tasks cost more tasks, larger ones more waiting. Alternating A/B runs of 200
 #: points of ~5 ms on 2 cores put floors of 5 .. 200 ms within the machine's noise of each
 #: other (engine efficiency 0.8 .. 0.98 of two plain processes); 40 ms was among the best.

@@ -1,13 +1,14 @@
 """Benchmarks of parameter sweeps on Dask distributed (``--only sweep``).
 
-Every sweep runs three ways in the same run, alternating: the points one after another in
-this process (``workers=0``, the serial loop; BLAS pinned to one thread as in the workers);
-on the embedded 2-worker cluster (``start_local_cluster(2)``, loopback, one client), started
-and warmed once before the timing (its start-up is a row of its own); and, as the machine's
-ceiling, in two plain processes without any engine, each running every other point in one
-loop (``concurrent.futures`` on the same task function, which pins BLAS to one thread; no
-journal, no table). The first two give the same rows (checked). The ceiling says what these
-two cores gave two static halves of the points at that time.
+Every sweep runs three ways in the same run, alternating (four with the fixed halves below):
+the points one after another in this process (``workers=0``, the serial loop; BLAS pinned to
+one thread as in the workers); on the embedded 2-worker cluster (``start_local_cluster(2)``,
+loopback, one client), started and warmed once before the timing (its start-up is a row of
+its own); and, as the machine's ceiling, in two plain processes without any engine, each
+running every other point in one loop (``concurrent.futures`` on the same task function,
+which pins BLAS to one thread; no journal, no table). The first two give the same rows
+(checked). The ceiling says what these two cores gave two static halves of the points at
+that time.
 - Where the cluster's time goes, from the points' own (wall) times measured where they ran:
   the fraction of the workers' wall time spent in points, ``sum(t_point) / (W T_cluster)``
   (the rest: the first tasks on their way, gaps between tasks, the workers finishing apart),
@@ -26,6 +27,12 @@ two cores gave two static halves of the points at that time.
   fastest run is the one the other sessions on these shared cores disturbed least).
 - ``scaling``: speed-up and overhead per point for 50 .. 2,000 short simulations
   (quick: 50).
+- ``task_cost``: what one Dask task costs on this machine, whatever it computes: 200 tasks
+  that return at once (with 5 rows each, like a batch's), sent and collected the engine's way
+  (two per worker in flight, results fetched with ``as_completed``): the sweep process's CPU
+  (client and scheduler), the workers' CPU and the wall time, per task. The sweep benchmarks
+  also run the cluster with two fixed batches of half the points (``--batch n/2``: the fewest
+  tasks, no cost measurement, no balancing) beside the adaptive batches.
 
 The machine's load average (1 min) before and after is in each row's note: these 2-core
 machines are shared, and a load above 2 takes cores from the cluster and the serial loop alike.
@@ -73,10 +80,11 @@ def _cpu(pids) -> float:
     return total
 
 
-def _compare(sweep: dict, bench: _Cluster, repeat: int) -> dict:
+def _compare(sweep: dict, bench: _Cluster, repeat: int, halves_too: bool = False) -> dict:
     """Serial, cluster and two-process (no engine) wall times of one sweep, each the best of
     ``repeat`` alternating runs (a burst of the other sessions' load then hits one run, not
-    one side), their CPU time, and a check that serial and cluster give the same rows."""
+    one side), their CPU time, and a check that serial and cluster give the same rows.
+    ``halves_too``: also the cluster with two fixed batches of half the points each."""
     from tensegrity_core.sweep import load_sweep, run_sweep
     from tensegrity_core.sweep.spec import prepare
     from tensegrity_core.sweep.task import run_batch
@@ -86,8 +94,8 @@ def _compare(sweep: dict, bench: _Cluster, repeat: int) -> dict:
     halves = [points[0::2], points[1::2]]
     workers = [n.pid for n in bench.cluster.workers.values()]
     load0 = _load()
-    best = {k: float("inf") for k in ("serial", "cluster", "ceiling", "cpu_serial", "cpu_cluster")}
-    pairs = []                                           # serial / cluster of each repetition
+    best = {k: float("inf") for k in ("serial", "cluster", "halves", "ceiling", "cpu_serial", "cpu_cluster")}
+    pairs, pairs_halves = [], []                         # serial / cluster of each repetition
     busy, slower, slower_plain = [], [], []              # where the time went (module docstring)
     for _ in range(repeat):
         with threadpool_limits(1):
@@ -105,6 +113,12 @@ def _compare(sweep: dict, bench: _Cluster, repeat: int) -> dict:
         slower.append(worked / alone)
         best["cluster"] = min(best["cluster"], cluster_time)
         best["cpu_cluster"] = min(best["cpu_cluster"], time.process_time() - c0 + _cpu(workers) - w0)
+        if halves_too:
+            t0 = time.perf_counter()
+            run_sweep(s, scheduler=bench.client, batch=-(-len(points) // WORKERS), progress=False)
+            halves_time = time.perf_counter() - t0
+            pairs_halves.append(serial_time / halves_time)
+            best["halves"] = min(best["halves"], halves_time)
         t0 = time.perf_counter()
         plain = list(bench.pool.map(run_batch, [plan, plan], halves))
         best["ceiling"] = min(best["ceiling"], time.perf_counter() - t0)
@@ -114,6 +128,7 @@ def _compare(sweep: dict, bench: _Cluster, repeat: int) -> dict:
         assert set(serial["status"]) == {"ok"}, serial["message"].unique()    # every point a real computation
     n = len(serial)
     return {"n": n, **best, "point": float(serial["run_time"].mean()), "pairs": sorted(pairs),
+            "pairs_halves": sorted(pairs_halves),
             "busy": sorted(busy), "slower": sorted(slower), "slower_plain": sorted(slower_plain),
             "overhead": (WORKERS * best["cluster"] - best["serial"]) / n,
             "overhead_cpu": (best["cpu_cluster"] - best["cpu_serial"]) / n, "load": (load0, _load())}
@@ -130,6 +145,10 @@ def _rows(name: str, r: dict) -> list[Row]:
         Row("sweep", f"{name}: embedded {WORKERS}-worker cluster, {r['n']} points", r["cluster"], "s",
             baseline=f"{name}: serial loop, {r['n']} points", target=">= 1.7x",
             note=f"{note}; each repetition's serial / cluster: {_ratios(r['pairs'])}"),
+        Row("sweep", f"{name}: embedded cluster, 2 fixed batches of n/2 points, {r['n']} points", r["halves"], "s",
+            baseline=f"{name}: serial loop, {r['n']} points",
+            note=f"--batch {-(-r['n'] // WORKERS)}: no cost measurement, no balancing, the fewest tasks; each "
+                 f"repetition's serial / cluster: {_ratios(r['pairs_halves'])}"),
         Row("sweep", f"{name}: {WORKERS} processes without an engine (the machine's ceiling), {r['n']} points",
             r["ceiling"], "s", baseline=f"{name}: serial loop, {r['n']} points",
             note="every other point in each process, one loop, nothing collected"),
@@ -190,7 +209,7 @@ class _Cluster:
 def formfind_points(ctx: Context) -> list[Row]:
     n = 40 if ctx.quick else 200
     with _Cluster() as c:
-        r = _compare(_formfind_sweep(n), c, 2 if ctx.quick else 7)
+        r = _compare(_formfind_sweep(n), c, 2 if ctx.quick else 7, halves_too=True)
     return [Row("sweep", "embedded cluster start-up (2 workers)", c.startup, "s",
                 note="LocalCluster of 2 processes on 127.0.0.1")] + _rows("form-finding (T-bar)", r)
 
@@ -199,8 +218,46 @@ def formfind_points(ctx: Context) -> list[Row]:
 def simulate_points(ctx: Context) -> list[Row]:
     n = 40 if ctx.quick else 200
     with _Cluster() as c:
-        r = _compare(_simulate_sweep(n), c, 2 if ctx.quick else 7)
+        r = _compare(_simulate_sweep(n), c, 2 if ctx.quick else 7, halves_too=True)
     return _rows("simulation (paper fold, 1.6 s)", r)
+
+
+def _empty_batch(plan: object, size: int) -> list[dict]:
+    """A task that computes nothing and returns ``size`` rows of a point's shape."""
+    return [{"point": i, "value": 1.0, "status": "ok", "message": "", "run_time": 0.0} for i in range(size)]
+
+
+@benchmark
+def task_cost(ctx: Context) -> list[Row]:
+    from distributed import as_completed
+
+    from tensegrity_core.sweep import load_sweep
+    from tensegrity_core.sweep.spec import prepare
+
+    n = 40 if ctx.quick else 200
+    plan = prepare(load_sweep(_formfind_sweep(4)))      # the 3 KB plan every task carries
+    with _Cluster() as c:
+        workers = [w.pid for w in c.cluster.workers.values()]
+        best = None
+        for _ in range(2 if ctx.quick else 5):
+            c0, w0, t0 = time.process_time(), _cpu(workers), time.perf_counter()
+            seq = as_completed(loop=c.client.loop, with_results=True, raise_errors=False)
+            for _ in range(2 * WORKERS):
+                seq.add(c.client.submit(_empty_batch, plan, 5, pure=False))
+            sent = 2 * WORKERS
+            for fut, _rows in seq:
+                fut.release()
+                if sent < n:
+                    seq.add(c.client.submit(_empty_batch, plan, 5, pure=False))
+                    sent += 1
+            got = (time.perf_counter() - t0, time.process_time() - c0, _cpu(workers) - w0)
+            best = got if best is None or got[0] < best[0] else best
+    wall, client_cpu, worker_cpu = (1e3 * x / n for x in best)
+    note = f"{n} empty tasks, two per worker in flight, as the engine sends them; fastest of the repetitions"
+    return [Row("sweep", "Dask task cost: wall per task (2 workers)", wall, "ms", note=note),
+            Row("sweep", "Dask task cost: sweep process's CPU per task (client and scheduler)", client_cpu, "ms",
+                note=note),
+            Row("sweep", "Dask task cost: workers' CPU per task", worker_cpu, "ms", note=note)]
 
 
 @benchmark
