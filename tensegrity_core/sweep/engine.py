@@ -87,6 +87,9 @@ EMBEDDED_CONFIG: Final = {"distributed.worker.profile.enabled": False, "distribu
                           "distributed.admin.system-monitor.interval": "2s",
                           "distributed.worker.memory.monitor-interval": "0.5s"}
 DEFAULT_CONNECT_TIMEOUT = 10.0
+#: Run by each embedded worker process as it starts: it ignores Ctrl-C (the sweep's process
+#: handles it and closes the cluster).
+WORKER_PRELOAD = "tensegrity_core.sweep.worker_setup"
 
 
 def default_workers() -> int:
@@ -99,7 +102,8 @@ def default_workers() -> int:
 
 def start_local_cluster(workers: int) -> LocalCluster:
     """The embedded cluster: a ``distributed.LocalCluster`` of ``workers`` worker processes
-    with one thread each, on 127.0.0.1 only, without a dashboard, one BLAS thread per worker.
+    with one thread each, on 127.0.0.1 only, without a dashboard, one BLAS thread per worker,
+    ignoring SIGINT (:mod:`~tensegrity_core.sweep.worker_setup`).
     Close it (``with start_local_cluster(2) as cluster: run_sweep(..., scheduler=cluster.scheduler_address)``)
     to reuse one cluster for several sweeps."""
     require("distributed")
@@ -109,7 +113,7 @@ def start_local_cluster(workers: int) -> LocalCluster:
     with dask.config.set(EMBEDDED_CONFIG):    # read as the scheduler and the workers start
         return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
                             dashboard_address=None, scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
-                            silence_logs=logging.ERROR, env=WORKER_ENV)
+                            silence_logs=logging.ERROR, env=WORKER_ENV, preload=[WORKER_PRELOAD])
 
 
 def columns_of(sweep: Sweep, plan: Plan) -> tuple[list[TableColumn], list[str]]:
@@ -166,12 +170,14 @@ def run_sweep(sweep: SweepSource, *, output: str | Path | None = None, resume: b
         store.open(rows)
         bar = _Progress(progress, total=len(points), done=len(done),
                         failed=sum(r["status"] != "ok" for r in rows), name=sweep.name)
+        results = engine.run(plan, todo, batch)
         try:
-            for got in engine.run(plan, todo, batch):
+            for got in results:
                 store.append(got)
                 rows.extend(got)
                 bar.update(got)
         finally:
+            results.close()            # stopped early: the engine cancels what is still running
             bar.close()
             store.close()
     return _with_counts(store.finish(rows), len(todo), len(done))
@@ -320,18 +326,22 @@ class _DaskEngine:
         # costs the client another ~1 ms of CPU); a failed task's "result" is its error.
         # ``loop``: not the default client's loop, another client may be first.
         seq = as_completed(loop=client.loop, with_results=True, raise_errors=False)
-        submit(TASKS_PER_THREAD * self._threads(client), seq)
-        for fut, result in seq:
-            chunk = batches.pop(fut.key)
-            if fut.status == "finished":
-                got = result
-                costs[0] += sum(r["run_time"] for r in got)
-                costs[1] += len(got)
-            else:
-                got = [_lost(plan, p, fut) for p in chunk]
-            fut.release()
-            yield got
-            submit(max(0, TASKS_PER_THREAD * self._threads(client) - len(batches)), seq)
+        try:
+            submit(TASKS_PER_THREAD * self._threads(client), seq)
+            for fut, result in seq:
+                chunk = batches.pop(fut.key)
+                if fut.status == "finished":
+                    got = result
+                    costs[0] += sum(r["run_time"] for r in got)
+                    costs[1] += len(got)
+                else:
+                    got = [_lost(plan, p, fut) for p in chunk]
+                fut.release()
+                yield got
+                submit(max(0, TASKS_PER_THREAD * self._threads(client) - len(batches)), seq)
+        finally:
+            if batches:         # abandoned (interrupted, or the caller failed): stop the rest
+                _abandon(client, seq)
 
     def _batch_size(self, client: Client, costs: list[float], remaining: int, blind: int) -> int:
         """Points of the next task: ``costs`` = [sum of run times, points] measured so far,
@@ -343,6 +353,18 @@ class _DaskEngine:
         size = int(TASK_SECONDS / mean) if mean > 0 else MAX_BATCH
         least = math.ceil(MIN_TASK_SECONDS / mean) if mean > 0 else 1
         return max(1, min(size, MAX_BATCH, max(tail, least)))
+
+
+def _abandon(client: Client, seq: Any) -> None:
+    """Cancel the tasks still queued or running and stop collecting their results, so that
+    closing the client does not cut a result's transfer short (Dask would log that as an
+    error on the terminal); their points are not in the output (``--resume`` runs them)."""
+    futures = list(seq.futures)
+    seq.clear()
+    try:
+        client.cancel(futures)
+    except Exception:  # noqa: BLE001 - the cluster is already gone: nothing left to stop
+        pass
 
 
 def _lost(plan: Plan, point: Point, future: Future[list[Row]]) -> Row:

@@ -72,6 +72,48 @@ def test_failures_are_summarised_and_do_not_fail_the_command(tmp_path, capsys):
     assert "2 invalid, e.g.: model.params: parameter k1 must be > 0, got -1" in out
 
 
+def test_ctrl_c_ends_the_sweep_with_one_line_and_resume_runs_the_rest_once(tmp_path):
+    """Ctrl-C in a terminal is SIGINT to the command's whole process group, the embedded
+    cluster's workers included: exit 130, one line (no worker's traceback, no Dask error),
+    no process left, the finished points in the journal; ``--resume`` runs only the others."""
+    import os
+    import signal
+    import time
+
+    psutil = pytest.importorskip("psutil")
+    n = 60                                   # 20 s of the fold: ~0.1 s a point, ~3 s on 2 workers
+    sweep = write(tmp_path, fold_sweep(vary={"inputs.f1.gain": {"grid": {"from": 6.0, "to": 14.0, "num": n}}},
+                                       compute={"simulate": {"duration": 20.0}}))
+    out = tmp_path / "r.parquet"
+    journal = tmp_path / "r.parquet.partial.jsonl"
+    proc = subprocess.Popen([sys.executable, "-m", "tensegrity_ros.cli", "sweep", sweep, "-o", str(out),
+                             "--workers", "2", "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 120     # a guard against a hang, not a timing
+        while not (journal.exists() and len(journal.read_text().splitlines()) >= 3):  # header + 2 rows
+            assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+            time.sleep(0.02)
+        family = [proc.pid] + [c.pid for c in psutil.Process(proc.pid).children(recursive=True)]
+        os.killpg(proc.pid, signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 130, stderr
+    assert stderr.strip().splitlines() == [f"interrupted: the finished points are in {journal}; --resume continues"]
+    assert not out.exists() and stdout == ""
+    assert not [pid for pid in family if psutil.pid_exists(pid) and psutil.Process(pid).status() != "zombie"]
+    finished = [json.loads(line) for line in journal.read_text().splitlines()[1:]]
+    assert 2 <= len(finished) < n
+    assert main(["sweep", sweep, "-o", str(out), "--resume", "--workers", "2", "--quiet"]) == 0
+    table = pd.read_parquet(out)
+    assert list(table["point"]) == list(range(n)) and set(table["status"]) == {"ok"}
+    for row in finished:                     # kept, not run again
+        assert table["run_time"][row["point"]] == row["run_time"]
+
+
 @pytest.mark.parametrize("args, message", [
     (["nofile.yaml"], "sweep file not found: 'nofile.yaml'"),
     (["fold_time_kx"], "neither a shipped sweep (did you mean 'fold_time_kc'?)"),

@@ -91,6 +91,45 @@ def test_a_connected_client_runs_several_sweeps_and_is_left_open_for_its_owner(m
         run_sweep(sweep, scheduler=client, progress=False)
 
 
+@pytest.mark.parametrize("how", ["ctrl-c", "callback raises"])
+def test_a_sweep_stopped_early_cancels_its_tasks_and_leaves_a_kept_client_free(caplog, how):
+    """A sweep that stops early (Ctrl-C while it waits for results, or the caller's progress
+    callback raising) cancels its tasks still queued or running, even while the traceback
+    (which holds the engine's futures) is kept, as an interactive session keeps the last one:
+    nothing of it is left on the cluster of a client the caller keeps, the next sweep runs
+    there, and nothing is logged as an error."""
+    import _thread
+    import logging
+    import threading
+
+    from distributed import Client
+
+    from tensegrity_core.sweep.engine import start_local_cluster
+
+    slow = fold_sweep(vary={"inputs.f1.gain": {"grid": {"from": 6.0, "to": 14.0, "num": 40}}},
+                      compute={"simulate": {"duration": 20.0}})      # ~0.1 s a point, ~2 s in all
+
+    def stop(done, failed, total):
+        if how == "callback raises":
+            raise KeyboardInterrupt
+        if done == 1:                        # Ctrl-C a moment later, in whatever the sweep then does
+            threading.Timer(0.05, _thread.interrupt_main).start()
+
+    def tasks_on_the_scheduler() -> int:
+        return client.run_on_scheduler(lambda dask_scheduler: len(dask_scheduler.tasks))
+
+    with start_local_cluster(2) as cluster, Client(cluster) as client:
+        with pytest.raises(KeyboardInterrupt) as kept:
+            run_sweep(slow, scheduler=client, progress=stop)
+        deadline = time.monotonic() + 60          # a guard against a hang, not a timing
+        while tasks_on_the_scheduler():
+            assert time.monotonic() < deadline, "the stopped sweep's tasks are still on the cluster"
+            time.sleep(0.02)
+        assert set(run_sweep(fold_sweep(), scheduler=client, progress=False)["status"]) == {"ok"}
+        assert kept.tb is not None
+    assert not [r.getMessage() for r in caplog.records if r.levelno >= logging.ERROR]
+
+
 def test_tasks_grow_from_one_probe_point_to_the_measured_cost_and_never_below_the_least_work():
     """The batch-size rule (engine.py): while no cost is known, one point for the first task of
     each worker thread and BLIND_BATCH for the next; then about TASK_SECONDS of work, at most
