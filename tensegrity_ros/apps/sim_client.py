@@ -90,8 +90,15 @@ class SimClient:
         self._thread.start()
 
     def _spin(self) -> None:
-        while not self._stop.is_set():
-            self.executor.spin_once(timeout_sec=0.05)
+        """Spin until closed, or until the context shuts down (on Ctrl-C rclpy's signal
+        handler shuts it down; the caller's main thread reports the interruption)."""
+        from rclpy.executors import ExternalShutdownException
+
+        try:
+            while not self._stop.is_set():
+                self.executor.spin_once(timeout_sec=0.05)
+        except ExternalShutdownException:
+            pass
 
     # -- the controller ------------------------------------------------------------------------
     def _on_joints(self, msg) -> None:

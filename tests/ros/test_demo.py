@@ -46,3 +46,48 @@ def test_the_demo_runs_in_lockstep_and_reproduces_itself(tmp_path):
     shifts = [abs(float(shift)) for _, _, shift in rows]
     assert shifts[0] > shifts[1] > shifts[2]          # the fold time converges with the rate
     assert "forces / first = [1.0, 1.0, 1.0, 3.0]" in out
+
+
+def test_ctrl_c_stops_the_demo_with_one_line_and_leaves_nothing_running(tmp_path):
+    """Ctrl-C in a terminal (SIGINT to the demo's whole process group) while the controller
+    drives the simulator: exit 130, "[demo] interrupted", no traceback from any thread, and
+    the suite's processes gone."""
+    import os
+    import signal
+    import subprocess
+    import time
+
+    import psutil
+
+    from tests.process_groups import exited, kill_group
+    from tests.ros_support import TENSEGRITY
+
+    log = tmp_path / "stdout.txt"
+    with open(log, "w") as out:
+        proc = subprocess.Popen([TENSEGRITY, "demo", "-o", str(tmp_path / "out"), "--no-record"], stdout=out,
+                                stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 300          # a guard against a hang, not a timing
+        while "move D to" not in log.read_text():  # the lockstep controller is running
+            assert not exited(proc), "the demo ended before it was interrupted"
+            assert time.monotonic() < deadline, "the demo's moves did not start within 300 s"
+            time.sleep(0.05)
+        suite = psutil.Process(proc.pid).children(recursive=True)
+        os.killpg(proc.pid, signal.SIGINT)         # the leader is not reaped yet: the group is its
+        _, stderr = proc.communicate(timeout=120)
+    finally:
+        kill_group(proc)                           # only if it is still there
+    assert proc.returncode == 130, stderr[-3000:]
+    assert "Traceback" not in stderr, stderr[-3000:]
+    assert log.read_text().splitlines()[-1] == "[demo] interrupted"
+
+    def running(process) -> bool:                  # is_running: not a pid reused since
+        try:
+            return process.is_running() and process.status() != psutil.STATUS_ZOMBIE
+        except psutil.NoSuchProcess:
+            return False
+
+    deadline = time.monotonic() + 30
+    while [p for p in suite if running(p)]:
+        assert time.monotonic() < deadline, f"left behind: {[p.pid for p in suite if running(p)]}"
+        time.sleep(0.05)

@@ -80,6 +80,8 @@ def test_ctrl_c_ends_the_sweep_with_one_line_and_resume_runs_the_rest_once(tmp_p
     import signal
     import time
 
+    from tests.process_groups import exited, kill_group
+
     psutil = pytest.importorskip("psutil")
     n = 60                                   # 20 s of the fold: ~0.1 s a point, ~3 s on 2 workers
     sweep = write(tmp_path, fold_sweep(vary={"inputs.f1.gain": {"grid": {"from": 6.0, "to": 14.0, "num": n}}},
@@ -92,19 +94,28 @@ def test_ctrl_c_ends_the_sweep_with_one_line_and_resume_runs_the_rest_once(tmp_p
     try:
         deadline = time.monotonic() + 120     # a guard against a hang, not a timing
         while not (journal.exists() and len(journal.read_text().splitlines()) >= 3):  # header + 2 rows
-            assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+            assert not exited(proc), "the sweep ended before it was interrupted"
+            assert time.monotonic() < deadline, "no finished point in the journal after 120 s"
             time.sleep(0.02)
-        family = [proc.pid] + [c.pid for c in psutil.Process(proc.pid).children(recursive=True)]
-        os.killpg(proc.pid, signal.SIGINT)
+        family = psutil.Process(proc.pid).children(recursive=True)        # the cluster's processes
+        os.killpg(proc.pid, signal.SIGINT)    # the leader is not reaped yet: the group is still its
         stdout, stderr = proc.communicate(timeout=120)
     finally:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
+        kill_group(proc)                      # only if it is still there
     assert proc.returncode == 130, stderr
     assert stderr.strip().splitlines() == [f"interrupted: the finished points are in {journal}; --resume continues"]
     assert not out.exists() and stdout == ""
-    assert not [pid for pid in family if psutil.pid_exists(pid) and psutil.Process(pid).status() != "zombie"]
+
+    def running(process) -> bool:             # is_running: not a pid reused since
+        try:
+            return process.is_running() and process.status() != psutil.STATUS_ZOMBIE
+        except psutil.NoSuchProcess:
+            return False
+
+    deadline = time.monotonic() + 30          # the workers end with the cluster
+    while [c for c in family if running(c)]:
+        assert time.monotonic() < deadline, f"left behind: {[c.pid for c in family if running(c)]}"
+        time.sleep(0.05)
     finished = [json.loads(line) for line in journal.read_text().splitlines()[1:]]
     assert 2 <= len(finished) < n
     assert main(["sweep", sweep, "-o", str(out), "--resume", "--workers", "2", "--quiet"]) == 0
