@@ -33,7 +33,7 @@ import os
 import pickle
 import time
 from collections import deque
-from collections.abc import Callable, Hashable, Iterator, Sequence
+from collections.abc import Callable, Generator, Hashable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Final, Literal
 
@@ -228,7 +228,7 @@ class _SerialEngine:
     def __exit__(self, *exc: object) -> Literal[False]:
         return False
 
-    def run(self, plan: Plan, points: Sequence[Point], batch: int | None) -> Iterator[list[Row]]:
+    def run(self, plan: Plan, points: Sequence[Point], batch: int | None) -> Generator[list[Row], None, None]:
         for p in points:
             yield run_batch(plan, [p])
 
@@ -298,7 +298,7 @@ class _DaskEngine:
             self._asked = now
         return self._nthreads
 
-    def run(self, plan: Plan, points: Sequence[Point], batch: int | None) -> Iterator[list[Row]]:
+    def run(self, plan: Plan, points: Sequence[Point], batch: int | None) -> Generator[list[Row], None, None]:
         from distributed import as_completed
 
         client = self.client
