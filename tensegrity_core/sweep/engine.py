@@ -254,6 +254,7 @@ class _DaskEngine:
             if self.address.status != "running":
                 raise SweepError(f"the Dask client given as the scheduler is {self.address.status}, not running")
             self.client, self._owns_client = self.address, False
+            _check_workers(self.client, "the given Dask client's cluster")
             return self
         if self.address is None:
             try:
@@ -276,6 +277,11 @@ class _DaskEngine:
             self._close()
             raise SweepError(f"the Dask scheduler at {self.address!r} has no workers "
                              f"(waited {self.timeout:g} s): {err}") from None
+        try:
+            _check_workers(client, f"the Dask scheduler at {self.address!r}")
+        except SweepError:
+            self._close()
+            raise
         return self
 
     def __exit__(self, *exc: object) -> Literal[False]:
@@ -353,6 +359,21 @@ class _DaskEngine:
         size = int(TASK_SECONDS / mean) if mean > 0 else MAX_BATCH
         least = math.ceil(MIN_TASK_SECONDS / mean) if mean > 0 else 1
         return max(1, min(size, MAX_BATCH, max(tail, least)))
+
+
+def _check_workers(client: Client, cluster: str) -> None:
+    """Refuse a cluster whose workers cannot import this package, before any task is sent:
+    a Dask worker that cannot unpickle a task closes, and the sweep would then wait for
+    workers that never come. Asks each worker once (a round trip of a few milliseconds);
+    workers that join later are not asked."""
+    # ``exec`` pickles by reference to the builtins, so even a worker without this package
+    # can run the question and answer with its ImportError
+    answers = client.run(exec, f"import {run_batch.__module__}", {}, on_error="return")
+    bad = {worker: err for worker, err in answers.items() if isinstance(err, BaseException)}
+    if bad:
+        worker, err = min(bad.items())
+        raise SweepError(f"{len(bad)} of {len(answers)} workers of {cluster} cannot run sweeps "
+                         f"({worker}: {type(err).__name__}: {err}); install tensegrity-ros[sweep] there")
 
 
 def _abandon(client: Client, seq: Any) -> None:

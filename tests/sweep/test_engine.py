@@ -10,6 +10,7 @@ import socket
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -241,6 +242,43 @@ def test_an_unreachable_scheduler_is_one_error_line_naming_it_and_nothing_is_wri
     assert len(lines) == 1 and lines[0].startswith("error: cannot reach the Dask scheduler at "), err
     assert address in lines[0] and "Traceback" not in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.yaml"]
+
+
+def test_a_cluster_whose_workers_lack_the_package_is_refused_before_any_task(tmp_path):
+    """An existing cluster (``dask scheduler`` and ``dask worker``) whose worker cannot import
+    this package: one error line naming the scheduler, the worker and its ImportError, exit
+    1, nothing written. (Dask would send the tasks anyway; the worker that cannot unpickle
+    one closes, and the sweep waited for workers for ever.)"""
+    shadow = tmp_path / "shadow" / "tensegrity_core"
+    shadow.mkdir(parents=True)
+    (shadow / "__init__.py").write_text('raise ImportError("no tensegrity_core on this worker")\n')
+    work = tmp_path / "work"
+    work.mkdir()
+    sweep = work / "s.yaml"
+    sweep.write_text(json.dumps(fold_sweep()))
+    address = f"tcp://127.0.0.1:{free_port()}"
+    dask = str(Path(sys.executable).with_name("dask"))
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(shadow.parent), os.environ.get("PYTHONPATH")]))}
+    scheduler = subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", address.rsplit(":", 1)[1],
+                                  "--no-dashboard"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                 start_new_session=True)
+    worker = subprocess.Popen([dask, "worker", address, "--nworkers", "1", "--nthreads", "1", "--no-dashboard"],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True, env=env)
+    proc = cli("sweep", str(sweep), "-o", str(work / "r.parquet"), "--scheduler", address,
+               "--connect-timeout", "120", cwd=work)     # waits for the scheduler and its worker
+    try:
+        wait_exited(proc, 240)
+    finally:
+        kill_session(proc)
+        kill_session(worker)
+        kill_session(scheduler)
+    out, err = proc.communicate()
+    assert proc.returncode == 1, err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1, err
+    assert lines[0].startswith(f"error: 1 of 1 workers of the Dask scheduler at {address!r} cannot run sweeps (tcp://")
+    assert "ImportError: no tensegrity_core on this worker); install tensegrity-ros[sweep] there" in lines[0]
+    assert sorted(p.name for p in work.iterdir()) == ["s.yaml"]
 
 
 def test_a_killed_sweep_keeps_its_finished_points_and_resume_runs_only_the_others(tmp_path):
