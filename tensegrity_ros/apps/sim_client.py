@@ -94,11 +94,15 @@ class SimClient:
         handler shuts it down; the caller's main thread reports the interruption)."""
         from rclpy.executors import ExternalShutdownException
 
+        context = self.executor.context
         try:
-            while not self._stop.is_set():
+            while not self._stop.is_set() and context.ok():
                 self.executor.spin_once(timeout_sec=0.05)
         except ExternalShutdownException:
             pass
+        except Exception:
+            if context.ok():    # shut down between the check and the wait: rclpy raises RCLError
+                raise
 
     # -- the controller ------------------------------------------------------------------------
     def _on_joints(self, msg) -> None:
