@@ -194,7 +194,8 @@ class SimNode(Node):
             self._last_valid = None
         period = 1.0 / p.publish_rate
         idle_period = 1.0 / p.paused_publish_rate if p.paused_publish_rate > 0 else math.inf
-        deadline = next_idle = time.monotonic()
+        next_idle = time.monotonic()
+        deadline: float | None = None         # of the next tick; None: the schedule starts at the next tick
         while not self._stop.is_set():
             now = time.monotonic()
             with self._lock:
@@ -206,15 +207,20 @@ class SimNode(Node):
                     self.get_logger().error(f"tick failed: {type(err).__name__}: {err}", throttle_duration_sec=1.0)
                     work = "idle"
             if work == "step":
+                deadline = None
                 continue
             if work == "pace":
+                deadline = None
                 self._wake.wait(self._pace_wait)
                 self._wake.clear()
                 continue
             if work == "tick":
                 if p.real_time_factor == 0:
                     continue
-                deadline += period
+                # a schedule (re)started by this tick runs from its end: a deadline left from
+                # before a pause would be stale by up to the idle wait (the first ticks would
+                # burst), and ``now`` may predate the play request that this tick serves
+                deadline = (time.monotonic() if deadline is None else deadline) + period
                 delay = deadline - time.monotonic()
                 if delay > 0:
                     self._stop.wait(delay)
@@ -223,7 +229,7 @@ class SimNode(Node):
                     with self._lock:
                         self._resync = True
                 continue
-            deadline = time.monotonic()
+            deadline = None
             if now >= next_idle:
                 if work == "idle" and idle_period < math.inf:
                     with self._lock:
