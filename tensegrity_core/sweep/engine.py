@@ -37,6 +37,7 @@ from collections.abc import Callable, Generator, Hashable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Final, Literal
 
+from tensegrity_core.excerpt import LIBRARY_MESSAGE, clip
 from tensegrity_core.sweep.errors import SweepError, require
 from tensegrity_core.sweep.points import Point
 from tensegrity_core.sweep.spec import Plan, Sweep, SweepSource, load_sweep, prepare
@@ -372,8 +373,9 @@ def _check_workers(client: Client, cluster: str) -> None:
     bad = {worker: err for worker, err in answers.items() if isinstance(err, BaseException)}
     if bad:
         worker, err = min(bad.items())
+        said = clip(" ".join(str(err).split()), LIBRARY_MESSAGE)     # a remote text: one bounded line
         raise SweepError(f"{len(bad)} of {len(answers)} workers of {cluster} cannot run sweeps "
-                         f"({worker}: {type(err).__name__}: {err}); install tensegrity-ros[sweep] there")
+                         f"({clip(worker, 100)}: {type(err).__name__}: {said}); install tensegrity-ros[sweep] there")
 
 
 def _abandon(client: Client, seq: Any) -> None:
