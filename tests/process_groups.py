@@ -89,3 +89,21 @@ def kill_session(popen: subprocess.Popen, timeout: float = 30.0) -> None:
         time.sleep(0.1)
     popen.wait()
     assert not left, f"processes of the killed session left: {left}"
+
+
+def assert_all_end(processes: list, timeout: float = 30.0) -> None:
+    """Wait up to ``timeout`` s for every one of ``processes`` (``psutil.Process``, taken
+    while they ran: a pid reused since does not count) to end; a zombie has ended. Fail
+    naming the pids left."""
+    import psutil
+
+    def running(process: psutil.Process) -> bool:
+        try:
+            return process.is_running() and process.status() != psutil.STATUS_ZOMBIE
+        except psutil.NoSuchProcess:
+            return False
+
+    deadline = time.monotonic() + timeout
+    while left := [p.pid for p in processes if running(p)]:
+        assert time.monotonic() < deadline, f"left behind: {left}"
+        time.sleep(0.05)

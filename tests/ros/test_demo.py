@@ -59,7 +59,7 @@ def test_ctrl_c_stops_the_demo_with_one_line_and_leaves_nothing_running(tmp_path
 
     import psutil
 
-    from tests.process_groups import exited, kill_group
+    from tests.process_groups import assert_all_end, exited, kill_group
     from tests.ros_support import TENSEGRITY
 
     log = tmp_path / "stdout.txt"
@@ -81,13 +81,4 @@ def test_ctrl_c_stops_the_demo_with_one_line_and_leaves_nothing_running(tmp_path
     assert "Traceback" not in stderr, stderr[-3000:]
     assert log.read_text().splitlines()[-1] == "[demo] interrupted"
 
-    def running(process) -> bool:                  # is_running: not a pid reused since
-        try:
-            return process.is_running() and process.status() != psutil.STATUS_ZOMBIE
-        except psutil.NoSuchProcess:
-            return False
-
-    deadline = time.monotonic() + 30
-    while [p for p in suite if running(p)]:
-        assert time.monotonic() < deadline, f"left behind: {[p.pid for p in suite if running(p)]}"
-        time.sleep(0.05)
+    assert_all_end(suite)

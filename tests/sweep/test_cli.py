@@ -80,7 +80,7 @@ def test_ctrl_c_ends_the_sweep_with_one_line_and_resume_runs_the_rest_once(tmp_p
     import signal
     import time
 
-    from tests.process_groups import exited, kill_group
+    from tests.process_groups import assert_all_end, exited, kill_group
 
     psutil = pytest.importorskip("psutil")
     n = 60                                   # 20 s of the fold: ~0.1 s a point, ~3 s on 2 workers
@@ -106,16 +106,7 @@ def test_ctrl_c_ends_the_sweep_with_one_line_and_resume_runs_the_rest_once(tmp_p
     assert stderr.strip().splitlines() == [f"interrupted: the finished points are in {journal}; --resume continues"]
     assert not out.exists() and stdout == ""
 
-    def running(process) -> bool:             # is_running: not a pid reused since
-        try:
-            return process.is_running() and process.status() != psutil.STATUS_ZOMBIE
-        except psutil.NoSuchProcess:
-            return False
-
-    deadline = time.monotonic() + 30          # the workers end with the cluster
-    while [c for c in family if running(c)]:
-        assert time.monotonic() < deadline, f"left behind: {[c.pid for c in family if running(c)]}"
-        time.sleep(0.05)
+    assert_all_end(family)  # the workers end with the cluster
     finished = [json.loads(line) for line in journal.read_text().splitlines()[1:]]
     assert 2 <= len(finished) < n
     assert main(["sweep", sweep, "-o", str(out), "--resume", "--workers", "2", "--quiet"]) == 0
