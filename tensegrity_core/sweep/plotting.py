@@ -32,14 +32,15 @@ MAX_PANELS = 6
 
 
 def plotted_columns(plan: Plan, wanted: Sequence[str] | None = None) -> list[str]:
-    """The result columns to plot: ``wanted`` (checked), else every numeric one."""
+    """The result columns to plot: ``wanted`` (checked), else every numeric one, else (a sweep
+    that keeps no result but the one in every row) ``run_time``."""
     numeric = [c for c, t in plan.result_columns if t in ("float", "int", "bool")]
     if wanted:
         for c in wanted:
-            if c not in numeric:
-                raise SweepError(f"no numeric result column {c!r} to plot; columns: {', '.join(numeric)}")
+            if c not in (*numeric, "run_time"):
+                raise SweepError(f"no numeric result column {c!r} to plot; columns: {', '.join([*numeric, 'run_time'])}")
         return list(wanted)
-    return numeric[:MAX_PANELS]
+    return numeric[:MAX_PANELS] or ["run_time"]
 
 
 def _label(v: object) -> str:
@@ -60,8 +61,6 @@ def plot_sweep(table: Any, sweep: Sweep, path: str | Path, columns: Sequence[str
 
         plan = prepare(sweep)
     columns = plotted_columns(plan, columns)
-    if not columns:
-        raise SweepError("the sweep keeps no numeric result to plot")
     axes_q = [q for q in sweep.quantities if not q.random and len(q.values) > 1]
     if sweep.random:
         mode = "hist"
@@ -72,7 +71,7 @@ def plot_sweep(table: Any, sweep: Sweep, path: str | Path, columns: Sequence[str
     else:
         raise SweepError(f"--plot draws results over one or two varied quantities (or histograms of random "
                          f"samples); this sweep varies {len(axes_q)} with several values: plot its table yourself")
-    kinds = dict(plan.result_columns)
+    kinds = {**dict(plan.result_columns), "run_time": "float"}
     n = len(columns)
     ncols = min(n, 3)
     nrows = math.ceil(n / ncols)

@@ -49,6 +49,9 @@ _SHIPPED = ShippedFiles(EXAMPLES_DIR, "sweep", "shipped sweeps", SweepError)
 TOP = ("name", "description", "base", "vary", "samples", "seed", "compute", "results")
 #: Columns every row has besides the varied quantities and the results.
 RESERVED = ("point", "seed", "status", "message", "run_time", "sweep_id")
+#: A result every row has whatever the computation: it may be listed (the issue's list of
+#: results names it) and adds no column.
+ALWAYS_KEPT = "run_time"
 MAX_FILE_BYTES = 1 << 20
 MAX_POINTS = 1_000_000
 MAX_VALUES = 100_000
@@ -449,9 +452,15 @@ class _Reader:
         seen: set[tuple[str, str]] = set()
         for i, item in enumerate(value):
             name, options, opath = self.named(item, path + (i,), value, i, "result")
+            if name == ALWAYS_KEPT:
+                if options:
+                    raise self.error(f"{ALWAYS_KEPT} takes no options (it is the point's wall time on its "
+                                     f"worker, in every row)", path + (i,), value, i)
+                continue
             if name not in comp.results:
-                raise self.error(f"unknown result {name!r} of {computation!r}{suggest(name, comp.results)}; "
-                                 f"results: {', '.join(comp.results)}", path + (i,), value, i)
+                raise self.error(f"unknown result {name!r} of {computation!r}"
+                                 f"{suggest(name, [*comp.results, ALWAYS_KEPT])}; results: {', '.join(comp.results)} "
+                                 f"(and {ALWAYS_KEPT}, in every row)", path + (i,), value, i)
             rdef = comp.results[name]
             checked = self.options(options, opath, rdef.options, comp.required.get(name, ()))
             key = (name, json.dumps(checked, sort_keys=True, default=repr))

@@ -46,7 +46,7 @@ def register(subparsers) -> None:
                    help="draw the results against the varied quantities (default file: the output's name "
                         "with .png, or SWEEP_NAME.png here without -o)")
     p.add_argument("--plot-result", action="append", default=None, metavar="COLUMN",
-                   help="a result column to plot (repeatable; default: the numeric results, up to 6)")
+                   help="a result column (or run_time) to plot (repeatable; default: the numeric results, up to 6)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_json_flag(p)
     p.set_defaults(func=run_sweep_command)

@@ -44,6 +44,22 @@ def test_a_sweep_writes_its_table_and_plot(tmp_path, capsys, doc, panels):
     assert list(table.columns[:2]) == ["point", next(iter(doc["vary"])) if panels != "hist" else "k_factor"]
 
 
+def test_run_time_is_plotted_when_asked_for_or_when_it_is_the_only_result(tmp_path, capsys):
+    from tensegrity_core.sweep import load_sweep
+    from tensegrity_core.sweep.plotting import plotted_columns
+    from tensegrity_core.sweep.spec import prepare
+
+    doc = {**fold_sweep(), "results": ["run_time"]}
+    assert plotted_columns(prepare(load_sweep(doc))) == ["run_time"]
+    assert plotted_columns(prepare(load_sweep(fold_sweep())), ["run_time"]) == ["run_time"]
+    plot = tmp_path / "t.png"
+    assert main(["sweep", write(tmp_path, doc), "-o", str(tmp_path / "t.csv"), "--plot", str(plot),
+                 "--workers", "0", "--quiet"]) == 0
+    assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert list(pd.read_csv(tmp_path / "t.csv").columns) == ["point", "inputs.f1.gain", "seed", "status", "message",
+                                                             "run_time", "sweep_id"]
+
+
 @pytest.mark.parametrize("output, expected", [("r.parquet", "r.png"), ("r.csv", "r.png"), (None, "fold.png")])
 def test_plot_without_a_file_draws_beside_the_output(tmp_path, capsys, monkeypatch, output, expected):
     monkeypatch.chdir(tmp_path)

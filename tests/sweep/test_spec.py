@@ -43,6 +43,8 @@ def error_of(text: str) -> SweepError:
      "model has no key 'param' (did you mean 'params'?)"),
     ("kind: fold", "kind: folds", "kind: folds", "must be one of any, fold, release"),
     ("first_event_time:", "first_event_tim:", "first_event_tim", "unknown result 'first_event_tim' of 'simulate' (did you mean 'first_event_time'?)"),
+    ("first_event_time:", "run_tim:", "run_tim", "unknown result 'run_tim' of 'simulate' (did you mean 'run_time'?)"),
+    ("first_event_time: {kind: fold}", "run_time: {kind: fold}", "run_time", "run_time takes no options"),
     ("compute: simulate", "compute: simulat", "compute:", "unknown computation 'simulat' (did you mean 'simulate'?)"),
     ("compute: simulate", "compute: form_find", "compute:", "needs a structure as its base"),
     ("num: 4", "num: 0", "num: 0", "must be an integer >= 1"),
@@ -62,6 +64,23 @@ def test_bad_sweep_files_name_the_key_the_line_and_a_suggestion(old, new, needle
     if "random quantities" not in expected:   # that one is about the whole file (its vary)
         assert err.line == line_of(text, needle), str(err)
         assert f"(line {err.line})" in str(err)
+
+
+@pytest.mark.parametrize("compute, base, result", [("simulate", {"scene": "paper_fold"}, "t_end"),
+                                                     ("form_find", {"structure": "spine_c"}, "stable"),
+                                                     ("stiffness", {"structure": "spine_c"}, "rank"),
+                                                     ({"ik": {"targets": [[1.0, 0.5]]}}, {"scene": "paper_fold"},
+                                                      "reachable")])
+def test_run_time_may_be_listed_for_every_computation_and_changes_nothing(compute, base, result):
+    """Every row has the point's run time; listing it (as the issue's list of results does)
+    is accepted, alone or with others, and leaves the sweep as it was (same results, same id)."""
+    vary = {"model.params.k": [1.0]} if "scene" in base else {"members[side*].rest_length": [0.03]}
+    doc = {"base": base, "vary": vary, "compute": compute}
+    plain = load_sweep({**doc, "results": [result]})
+    listed = load_sweep({**doc, "results": ["run_time", result]})
+    assert [r[:2] for r in listed.results] == [r[:2] for r in plain.results] == [(result, {})]
+    assert listed.sweep_id == plain.sweep_id
+    assert load_sweep({**doc, "results": ["run_time"]}).results == ()
 
 
 def test_a_duplicate_key_is_refused_with_both_lines():
