@@ -23,7 +23,8 @@ class Computation(Protocol[Loaded, Out]):
       (``"class2"`` when only class-2 scenes will do, else ``None``), ``options`` (option name
       -> check), ``required_options``, ``results`` (result name -> :class:`ResultDef`),
       ``required`` (result name -> its required options) and ``uses_seed`` (each point's seed
-      goes into the scene);
+      goes into the scene), ``modules`` (the core modules its points run on: imported by a
+      worker before it times its first point, so that a point's ``run_time`` is its own);
     - ``load(document)``: the core's loader on the point's document; its errors
       (``SceneError``, ``StructureError``) make the point *invalid*;
     - ``run(loaded, options) -> (ok, message, outcome)``: the computation; ``ok`` False makes the
@@ -42,6 +43,7 @@ class Computation(Protocol[Loaded, Out]):
     results: dict[str, ResultDef[Out]]
     required: dict[str, tuple[str, ...]]
     uses_seed: bool
+    modules: tuple[str, ...]
 
     def load(self, document: dict[str, Any]) -> Loaded: ...
 

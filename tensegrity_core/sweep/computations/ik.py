@@ -100,6 +100,7 @@ class InverseKinematics(Computation["Class2Params", Solved]):
     required: dict[str, tuple[str, ...]] = {}
     required_options = ("targets",)
     uses_seed = False
+    modules = ("tensegrity_core.class2",)
 
     def load(self, document: dict[str, Any]) -> Class2Params:
         """The mechanism's parameters from the scene's ``model.params`` (the rest of the scene,

@@ -183,6 +183,7 @@ class Simulate(Computation["Scene", "Trajectory"]):
     required = REQUIRED_OPTIONS
     uses_seed = True
     required_options: tuple[str, ...] = ()
+    modules = ("tensegrity_core.sim",)
 
     def load(self, document: dict[str, Any]) -> Scene:
         from tensegrity_core.sim import load_scene

@@ -117,6 +117,7 @@ class FormFind(Computation["Structure", Equilibrium]):
     required = {"node": ("name",)}
     uses_seed = False
     required_options: tuple[str, ...] = ()
+    modules = ("tensegrity_core.general",)
 
     def load(self, document: dict[str, Any]) -> Structure:
         from tensegrity_core.general import load_structure
