@@ -354,12 +354,24 @@ def test_a_reset_ends_the_running_goal_and_the_lockstep_loop_goes_on(cli, ros_co
     """ResetSimulation (clock back to 0) under a running goal: the goal ends with the reason,
     the controller holds anew where the reset put the mechanism and answers its state, so the
     lockstep simulator never waits out a step."""
+    import rclpy
+
+    from tensegrity_ros.apps.sim_client import SimClient
+
     sim, ctl = _start(cli, "/ctl_reset")
     client = Client(ros_context, "/ctl_reset")
-    x0, y0, _ = client.end_effector()
-    handle, feedback = client.send(client.move, client.Move.Goal(x=x0 + 0.03, y=y0, duration=6.0))
-    client.spin_until(lambda: feedback and feedback[-1].time_from_start >= 1.0)
-    _sim_control("/ctl_reset", "reset")
+    # the reset goes from this process (what `tensegrity sim reset` sends): a CLI process
+    # started on a loaded machine took longer than the 5 s the move had left, and the move
+    # then succeeded before the reset came
+    sim_client = SimClient(rclpy, "reset_test", record_events=False, context=ros_context, namespace="/ctl_reset")
+    try:
+        sim_client.wait_for_services(30)
+        x0, y0, _ = client.end_effector()
+        handle, feedback = client.send(client.move, client.Move.Goal(x=x0 + 0.03, y=y0, duration=6.0))
+        client.spin_until(lambda: feedback and feedback[-1].time_from_start >= 1.0)
+        sim_client.reset_all()
+    finally:
+        sim_client.close()
     status, res = client.result(handle)
     assert status == 6 and res.error_code == client.Move.Result.SIMULATOR_STOPPED
     assert "the simulation was reset: its time went back" in res.error_string
