@@ -179,7 +179,6 @@ def test_command_timeout_drops_forces_to_the_safe_value(sim_node):
 
 def test_bad_commands_are_rejected_and_publishing_goes_on(sim_node):
     proc, ros = sim_node()
-    n = len(ros.joints)
     # Warnings are throttled to one per second of the node's clock. The next bad command
     # goes out 1.1 s after the last warning is seen here: the node wrote it before that, so
     # the command arrives more than a second after it, however late a loaded machine
@@ -189,8 +188,11 @@ def test_bad_commands_are_rejected_and_publishing_goes_on(sim_node):
                                   ((1.0, 2.0, 3.0), ("f1", "f2"), "2 names but 3 forces")):
         ros.send(forces, names)
         ros.spin_until(lambda reason=reason: reason in proc.stderr())
+        n = len(ros.joints)
         ros.spin(1.1)
-    assert len(ros.joints) > n + 250           # 100 Hz publishing went on throughout
+        # publishing goes on after each bad command: 110 states at 100 Hz; the floor is far
+        # below that (a loaded machine delivered 76 Hz), and only a stalled node misses it
+        assert len(ros.joints) >= n + 20, reason
     assert all(np.all(np.isfinite(m.position)) for m in ros.joints)
     assert all(tuple(m.effort[:2]) == pytest.approx((-0.35, 0.35)) for m in ros.joints)
 
