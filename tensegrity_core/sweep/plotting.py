@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tensegrity_core.sweep.errors import SweepError
+from tensegrity_core.sweep.spec import ALWAYS_KEPT
 
 if TYPE_CHECKING:
     from tensegrity_core.sweep.spec import Plan, Sweep
@@ -33,14 +34,14 @@ MAX_PANELS = 6
 
 def plotted_columns(plan: Plan, wanted: Sequence[str] | None = None) -> list[str]:
     """The result columns to plot: ``wanted`` (checked), else every numeric one, else (a sweep
-    that keeps no result but the one in every row) ``run_time``."""
+    that keeps no result but the one in every row) ``run_time`` (:data:`~tensegrity_core.sweep.spec.ALWAYS_KEPT`)."""
     numeric = [c for c, t in plan.result_columns if t in ("float", "int", "bool")]
     if wanted:
         for c in wanted:
-            if c not in (*numeric, "run_time"):
-                raise SweepError(f"no numeric result column {c!r} to plot; columns: {', '.join([*numeric, 'run_time'])}")
+            if c not in (*numeric, ALWAYS_KEPT):
+                raise SweepError(f"no numeric result column {c!r} to plot; columns: {', '.join([*numeric, ALWAYS_KEPT])}")
         return list(wanted)
-    return numeric[:MAX_PANELS] or ["run_time"]
+    return numeric[:MAX_PANELS] or [ALWAYS_KEPT]
 
 
 def _label(v: object) -> str:
@@ -71,7 +72,7 @@ def plot_sweep(table: Any, sweep: Sweep, path: str | Path, columns: Sequence[str
     else:
         raise SweepError(f"--plot draws results over one or two varied quantities (or histograms of random "
                          f"samples); this sweep varies {len(axes_q)} with several values: plot its table yourself")
-    kinds = {**dict(plan.result_columns), "run_time": "float"}
+    kinds = {**dict(plan.result_columns), ALWAYS_KEPT: "float"}
     n = len(columns)
     ncols = min(n, 3)
     nrows = math.ceil(n / ncols)
