@@ -12,12 +12,12 @@ process, one after another (the baseline of the benchmarks; no Dask needed).
 
 The base document, computation and prepared results (the :class:`~tensegrity_core.sweep.spec.Plan`)
 travel inside each task when small (the shipped sweeps' plans are 3 KB), or go to every
-worker once (``scatter``) when larger; tasks carry batches of points. Batches are sized as results come in:
-the first task of each worker thread holds one point, the one queued behind it a few
-(``BLIND_BATCH``); later ones as many as take about ``TASK_SECONDS`` at the points' measured
-mean cost (at most ``MAX_BATCH``), fewer near the end so that the workers finish together,
-but never less than ``MIN_TASK_SECONDS`` of work. About two tasks per worker thread are in
-flight. Results stream back in the order they finish (``as_completed``) and go to the
+worker once (``scatter``) when larger; tasks carry batches of points. The points go out in a
+spread order and each task is sized for the worker it is sent to (a loose restriction: it
+runs elsewhere if that worker is gone) by :mod:`tensegrity_core.sweep.scheduling`: one
+point first, then the worker's share of the rest as the measured costs allow, so that the
+sweep takes few tasks and the workers finish together. About two tasks per worker thread are
+in flight. Results stream back in the order they finish (``as_completed``) and go to the
 journal at once (:mod:`tensegrity_core.sweep.store`). A worker that dies takes its running
 batch with it; the scheduler runs that batch again on another worker, and the client
 receives each batch's result once, so every point ends in the output exactly once. A batch
@@ -40,6 +40,7 @@ from typing import TYPE_CHECKING, Any, Final, Literal
 from tensegrity_core.excerpt import LIBRARY_MESSAGE, clip
 from tensegrity_core.sweep.errors import SweepError, require
 from tensegrity_core.sweep.points import Point
+from tensegrity_core.sweep.scheduling import BatchPlanner, InFlight, spread_order
 from tensegrity_core.sweep.spec import Plan, Sweep, SweepSource, load_sweep, prepare
 from tensegrity_core.sweep.store import Store, TableColumn, check_output_path
 from tensegrity_core.sweep.task import Row, inputs, missing, run_batch
@@ -50,22 +51,8 @@ if TYPE_CHECKING:
 #: ``progress(done, failed, total)`` after each finished batch.
 ProgressCallback = Callable[[int, int, int], object]
 
-#: Target wall time of one task [s]: long enough that the engine's cost per task is a few per
-#: cent, short enough that results stream back and a lost worker loses little.
-TASK_SECONDS = 0.5
-#: Least work of a task [s] once the points' cost is known, also near the end of a sweep. The
-#: client and scheduler spend 3-4 ms of CPU per task and the workers about as much again
-#: (``./run bench --only sweep:task_cost``), which on a 2-core machine comes out of the
-#: points' cores, while the workers' finishing times differ by up to one last task:
-#: smaller last tasks cost more tasks, larger ones more waiting. Alternating A/B runs of 200
-#: points of ~5 ms on 2 cores put floors of 5 .. 200 ms within the machine's noise of each
-#: other (engine efficiency 0.8 .. 0.98 of two plain processes); 40 ms was among the best.
-MIN_TASK_SECONDS = 0.04
-MAX_BATCH = 500
-#: Points of the tasks sent with the first ones, before any point's cost is known: the first
-#: task of each worker thread holds one point (its time sizes the tasks after it), the one
-#: queued behind it this many, so the worker is not idle while the client sizes the next.
-BLIND_BATCH = 8
+#: Tasks in flight per worker thread: one running, one queued behind it, so that a worker
+#: never waits for the client between tasks.
 TASKS_PER_THREAD = 2
 #: A plan that pickles to fewer bytes than this travels inside every task; a larger one is
 #: scattered to every worker once. Measured on the embedded cluster with a 3 KB plan: the
@@ -244,7 +231,7 @@ class _DaskEngine:
         self.cluster: LocalCluster | None = None
         self.client: Client | None = None
         self._owns_client = True
-        self._nthreads: int | None = None
+        self._threads_of: dict[str, int] | None = None
         self._asked = 0.0
 
     def __enter__(self) -> _DaskEngine:
@@ -297,14 +284,6 @@ class _DaskEngine:
             self.cluster.close()
             self.cluster = None
 
-    def _threads(self, client: Client) -> int:
-        """Worker threads in the cluster (asked again every few seconds: workers may come and go)."""
-        now = time.monotonic()
-        if self._nthreads is None or now - self._asked > THREADS_REFRESH:
-            self._nthreads = max(1, sum(client.nthreads().values()))
-            self._asked = now
-        return self._nthreads
-
     def run(self, plan: Plan, points: Sequence[Point], batch: int | None) -> Generator[list[Row], None, None]:
         from distributed import as_completed
 
@@ -313,20 +292,32 @@ class _DaskEngine:
             raise SweepError("the Dask engine runs inside its with block (connected)")
         plan_ref = plan if len(pickle.dumps(plan)) < INLINE_PLAN_BYTES else client.scatter(
             plan, broadcast=True, hash=False)
-        pending = deque(points)
-        batches: dict[Hashable, list[Point]] = {}
-        costs = [0.0, 0]                       # sum of run times, points
-        blind = [0]                            # tasks sent before any cost was known
+        pending = deque(spread_order(points))
+        planner = BatchPlanner(batch)
+        batches: dict[Hashable, tuple[list[Point], str, InFlight]] = {}   # task -> points, worker, flight
+        flights: dict[str, list[InFlight]] = {}                    # worker -> its tasks, oldest first
+        finished: dict[str, float] = {}                            # worker -> its last task's end
 
-        def submit(n_tasks: int, seq: as_completed) -> None:
-            for _ in range(n_tasks):
-                if not pending:
+        def submit(seq: as_completed) -> None:
+            threads = self._workers(client)
+            waiting: set[str] = set()                 # workers whose share is in flight already
+            while pending:
+                free = {w: TASKS_PER_THREAD * n - len(flights.get(w, ())) for w, n in threads.items() if w not in waiting}
+                worker = max(sorted(free), key=free.__getitem__, default=None)
+                if worker is None or free[worker] <= 0:
                     return
-                size = batch or self._batch_size(client, costs, len(pending), blind[0])
-                blind[0] += costs[1] == 0
-                chunk = [pending.popleft() for _ in range(min(size, len(pending)))]
-                fut = client.submit(run_batch, plan_ref, chunk, pure=False)
-                batches[fut.key] = chunk
+                now = time.monotonic()
+                size = planner.size(worker, threads, flights, finished, len(pending), now)
+                if size == 0:
+                    waiting.add(worker)
+                    continue
+                chunk = [pending.popleft() for _ in range(size)]
+                # a loose restriction: another worker runs it if this one is gone
+                where = {"workers": [worker], "allow_other_workers": True} if worker else {}
+                fut = client.submit(run_batch, plan_ref, chunk, pure=False, **where)
+                flight = InFlight(len(chunk), now)
+                batches[fut.key] = (chunk, worker, flight)
+                flights.setdefault(worker, []).append(flight)
                 seq.add(fut)
 
         # results fetched on the event loop as tasks finish (a blocking ``result()`` per task
@@ -334,32 +325,30 @@ class _DaskEngine:
         # ``loop``: not the default client's loop, another client may be first.
         seq = as_completed(loop=client.loop, with_results=True, raise_errors=False)
         try:
-            submit(TASKS_PER_THREAD * self._threads(client), seq)
+            submit(seq)
             for fut, result in seq:
-                chunk = batches.pop(fut.key)
+                chunk, worker, flight = batches.pop(fut.key)
+                flights[worker] = [f for f in flights[worker] if f is not flight]
+                finished[worker] = time.monotonic()
                 if fut.status == "finished":
                     got = result
-                    costs[0] += sum(r["run_time"] for r in got)
-                    costs[1] += len(got)
+                    planner.record(worker, [r["run_time"] for r in got])
                 else:
                     got = [_lost(plan, p, fut) for p in chunk]
                 fut.release()
                 yield got
-                submit(max(0, TASKS_PER_THREAD * self._threads(client) - len(batches)), seq)
+                submit(seq)
         finally:
             if batches:         # abandoned (interrupted, or the caller failed): stop the rest
                 _abandon(client, seq)
 
-    def _batch_size(self, client: Client, costs: list[float], remaining: int, blind: int) -> int:
-        """Points of the next task: ``costs`` = [sum of run times, points] measured so far,
-        ``remaining`` points not yet sent, ``blind`` tasks sent before any cost was known."""
-        tail = math.ceil(remaining / (TASKS_PER_THREAD * self._threads(client)))
-        if costs[1] == 0:      # one point per worker thread measures the cost, a few more keep it busy
-            return 1 if blind < self._threads(client) else max(1, min(BLIND_BATCH, tail))
-        mean = costs[0] / costs[1]
-        size = int(TASK_SECONDS / mean) if mean > 0 else MAX_BATCH
-        least = math.ceil(MIN_TASK_SECONDS / mean) if mean > 0 else 1
-        return max(1, min(size, MAX_BATCH, max(tail, least)))
+    def _workers(self, client: Client) -> dict[str, int]:
+        """Threads of each worker of the cluster (asked again every few seconds: workers may come and go)."""
+        now = time.monotonic()
+        if self._threads_of is None or now - self._asked > THREADS_REFRESH:
+            self._threads_of = {w: max(1, n) for w, n in client.nthreads().items()} or {"": 1}
+            self._asked = now
+        return self._threads_of
 
 
 def _check_workers(client: Client, cluster: str) -> None:

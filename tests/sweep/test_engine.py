@@ -131,25 +131,6 @@ def test_a_sweep_stopped_early_cancels_its_tasks_and_leaves_a_kept_client_free(c
     assert not [r.getMessage() for r in caplog.records if r.levelno >= logging.ERROR]
 
 
-def test_tasks_grow_from_one_probe_point_to_the_measured_cost_and_never_below_the_least_work():
-    """The batch-size rule (engine.py): while no cost is known, one point for the first task of
-    each worker thread and BLIND_BATCH for the next; then about TASK_SECONDS of work, at most
-    MAX_BATCH, a share of the rest near the end (the remaining points over two tasks per
-    worker thread), but never under MIN_TASK_SECONDS of work."""
-    from tensegrity_core.sweep import engine
-
-    eng = engine._DaskEngine(2, None, 1.0)
-    eng._nthreads, eng._asked = 2, float("inf")           # two worker threads, not asked again
-    size = eng._batch_size
-    assert [size(None, [0.0, 0], 1000, blind) for blind in range(4)] == [1, 1, 8, 8]   # nothing measured
-    assert size(None, [0.0, 0], 12, 3) == 3                              # ... and few points left
-    assert size(None, [0.05, 10], 1000, 4) == 100                        # 5 ms points: 0.5 s / 5 ms
-    assert size(None, [0.05, 10], 200, 4) == 50                         # the end: 200 / (2 x 2)
-    assert size(None, [0.05, 10], 20, 4) == 8                           # not under 40 ms / 5 ms
-    assert size(None, [0.01, 10], 10**6, 4) == engine.MAX_BATCH          # 1 ms points: the cap
-    assert size(None, [20.0, 10], 1000, 4) == 1                          # 2 s points: one a task
-
-
 def test_a_killed_workers_points_run_elsewhere_and_every_point_is_in_the_output_once(tmp_path):
     import threading
 
