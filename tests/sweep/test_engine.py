@@ -71,8 +71,15 @@ def test_a_connected_client_runs_several_sweeps_and_is_left_open_for_its_owner(m
     sweep = load_sweep(fold_sweep())
     serial = run_sweep(sweep, workers=0, progress=False)
     with start_local_cluster(1) as cluster, Client(cluster) as client:
-        for _ in range(2):
-            same_rows(serial, run_sweep(sweep, scheduler=client, progress=False))
+        asked = []                   # the question whether a worker can run sweeps: once per worker
+        run = client.run
+        client.run = lambda fn, *args, **kw: asked.append(kw.get("workers")) or run(fn, *args, **kw)
+        try:
+            for _ in range(2):
+                same_rows(serial, run_sweep(sweep, scheduler=client, progress=False))
+            assert asked == [list(client.nthreads())]
+        finally:
+            del client.run
         assert client.status == "running"
         # the plan (3 KB) travelled inside the tasks; one over INLINE_PLAN_BYTES is scattered
         # to the workers once, with the same rows
