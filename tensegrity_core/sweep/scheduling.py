@@ -20,8 +20,8 @@ stream back, a lost worker loses little), and no knowledge of a point's cost in 
   has in flight. Once ``KNOWN_ENOUGH`` costs are measured and the spread of the point costs
   says that the whole share would end within ``MIN_TASK_SECONDS / 2`` of its estimate
   (``std * sqrt(n) <= MIN_TASK_SECONDS / 2`` for a share of ``n`` points of independent
-  cost), and this worker's own mean cost is close enough to everyone's (a slower machine
-  would end late), the task takes the whole share; otherwise half of it (guided
+  cost), and this worker's own mean cost is as close to everyone's as its noise allows (a
+  slower machine would end late), the task takes the whole share; otherwise half of it (guided
   self-scheduling), so that later tasks correct the estimate. Never more than
   ``TASK_SECONDS`` of work or ``MAX_BATCH`` points, never less than ``MIN_TASK_SECONDS``:
   a share smaller than that (the last points) goes as one task to the worker that will be
@@ -135,13 +135,15 @@ class BatchPlanner:
     def _whole_share_ends_on_time(self, worker: str, share: float) -> bool:
         """Whether ``share`` points on ``worker`` would take their estimated time to within
         MIN_TASK_SECONDS / 2: the spread of independent point costs over the share
-        (``std sqrt(share)``) plus how far this worker's mean cost is from everyone's (a slower
-        machine) times the share. Needs KNOWN_ENOUGH costs in all and on this worker."""
+        (``std sqrt(share)``), plus, times the share, how much further this worker's mean cost
+        is from everyone's than the noise of its own mean allows (two standard errors): a
+        slower machine. Needs KNOWN_ENOUGH costs in all and on this worker."""
         mine = self.by_worker.get(worker)
         if self.costs.n < KNOWN_ENOUGH or mine is None or mine.n < KNOWN_ENOUGH:
             return False
         share = max(share, 1.0)
-        return self.costs.std * math.sqrt(share) + abs(mine.mean - self.costs.mean) * share <= MIN_TASK_SECONDS / 2
+        slower = max(0.0, abs(mine.mean - self.costs.mean) - 2 * mine.std / math.sqrt(mine.n))
+        return self.costs.std * math.sqrt(share) + slower * share <= MIN_TASK_SECONDS / 2
 
     @staticmethod
     def _committed(worker: str, threads: int, flights: list[InFlight], finished: dict[str, float],
