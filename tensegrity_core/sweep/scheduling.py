@@ -10,7 +10,9 @@ stream back, a lost worker loses little), and no knowledge of a point's cost in 
   points in it samples the whole sweep evenly, so the cost measured on the first points
   predicts the rest and two tasks of as many points cost about the same even when the cost
   drifts along a grid (the benchmarks' fold simulations cost a third more at one end of
-  their gain grid than at the other). The journal and the table are in point order whatever the order of running.
+  their gain grid than at the other). The table is in point order whatever the order of
+  running (the journal holds rows as they finish), and a sweep stopped early has points
+  from all over its range.
 - **Size** (:meth:`BatchPlanner.size`), for a worker with a free slot (about two tasks per
   worker thread are in flight, so a worker never waits for the client between tasks):
   while no point's cost is known, one point for the first task of each worker thread (its
@@ -19,10 +21,10 @@ stream back, a lost worker loses little), and no knowledge of a point's cost in 
   worker, from the measured mean cost) split over the worker threads, less what this worker
   has in flight. Once ``KNOWN_ENOUGH`` costs are measured and the spread of the point costs
   says that the whole share would end within ``MIN_TASK_SECONDS / 2`` of its estimate
-  (``std * sqrt(n) <= MIN_TASK_SECONDS / 2`` for a share of ``n`` points of independent
-  cost), and this worker's own mean cost is as close to everyone's as its noise allows (a
-  slower machine would end late), the task takes the whole share; otherwise half of it (guided
-  self-scheduling), so that later tasks correct the estimate. Never more than
+  (``std * sqrt(n)`` for a share of ``n`` points of independent cost), and this worker's
+  own mean cost is as close to everyone's as its noise allows (a slower machine would end
+  late), the task takes the whole share; otherwise half of it (guided self-scheduling), so
+  that later tasks correct the estimate. Never more than
   ``TASK_SECONDS`` of work or ``MAX_BATCH`` points, never less than ``MIN_TASK_SECONDS``:
   a share smaller than that (the last points) goes as one task to the worker that will be
   free first, queued behind its running task; the others get nothing more.
