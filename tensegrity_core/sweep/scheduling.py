@@ -24,10 +24,10 @@ stream back, a lost worker loses little), and no knowledge of a point's cost in 
   (``std * sqrt(n)`` for a share of ``n`` points of independent cost), and this worker's
   own mean cost is as close to everyone's as its noise allows (a slower machine would end
   late), the task takes the whole share; otherwise half of it (guided self-scheduling), so
-  that later tasks correct the estimate. Never more than
-  ``TASK_SECONDS`` of work or ``MAX_BATCH`` points, never less than ``MIN_TASK_SECONDS``:
-  a share smaller than that (the last points) goes as one task to the worker that will be
-  free first, queued behind its running task; the others get nothing more.
+  that later tasks correct the estimate. Never more than ``TASK_SECONDS`` of work or
+  ``MAX_BATCH`` points, never less than ``MIN_TASK_SECONDS``: a share smaller than that (the
+  last points) goes as one task to the worker that will be free first, queued behind its
+  running task; the others get nothing more.
 """
 
 from __future__ import annotations
@@ -45,6 +45,7 @@ TASK_SECONDS: Final = 0.5
 #: Least work of a task once the points' cost is known [s], and twice the imbalance at the
 #: end that a task may risk (see the module docstring).
 MIN_TASK_SECONDS: Final = 0.04
+#: Most points in one task, however cheap.
 MAX_BATCH: Final = 500
 #: Points of the task queued behind each worker thread's one-point first task, sent before any
 #: cost is known (the worker is not idle while the client sizes the next).
@@ -54,9 +55,9 @@ KNOWN_ENOUGH: Final = 8
 
 
 def spread_order(items: Sequence[T]) -> list[T]:
-    """``items`` in van der Corput order (positions sorted by their bit-reversed binary
-    digits: 0, n/2, n/4, 3n/4, ...): every run of consecutive items of the result is spread
-    evenly over the whole sequence."""
+    """``items`` in van der Corput order: positions sorted by their binary digits reversed
+    (for ``n`` a power of two: 0, n/2, n/4, 3n/4, n/8, ...), so that every run of
+    consecutive items of the result is spread evenly over the whole sequence."""
     bits = max(1, (len(items) - 1).bit_length())
     return [items[i] for i in sorted(range(len(items)), key=lambda i: int(f"{i:0{bits}b}"[::-1], 2))]
 

@@ -154,3 +154,18 @@ def test_a_worker_of_two_threads_gets_two_shares():
 def test_a_fixed_batch_is_that_size_whatever_is_known():
     p = BatchPlanner(batch=7)
     assert p.size("A", TWO, {}, {}, 100, 0.0) == 7 and p.size("A", TWO, {}, {}, 5, 0.0) == 5
+
+
+@given(remaining=st.integers(1, 5000), cost=st.floats(1e-5, 30.0), spread=st.floats(0.0, 2.0),
+       a=st.lists(st.integers(1, 400), max_size=3), b=st.lists(st.integers(1, 400), max_size=3),
+       elapsed=st.floats(0.0, 100.0))
+def test_a_task_is_never_empty_nor_larger_than_what_is_left_and_an_idle_worker_always_gets_one(
+        remaining, cost, spread, a, b, elapsed):
+    """Whatever is measured and in flight: 1 .. remaining points, or 0 only for a worker that
+    has work in flight (so a sweep never stalls with points left and nothing running)."""
+    p = planner([cost * (1 + spread), cost * max(0.0, 1 - spread)] * KNOWN_ENOUGH)
+    flights = {"A": [InFlight(n, 0.0) for n in a], "B": [InFlight(n, 0.0) for n in b]}
+    for worker in TWO:
+        got = p.size(worker, TWO, flights, {}, remaining, elapsed)
+        assert 0 <= got <= remaining
+        assert got > 0 or flights[worker]
