@@ -37,6 +37,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Final, TypeVar
 
+import numpy as np
+
 T = TypeVar("T")
 
 #: Target wall time of one task [s]: long enough that Dask's cost per task is a few per cent,
@@ -59,7 +61,11 @@ def spread_order(items: Sequence[T]) -> list[T]:
     (for ``n`` a power of two: 0, n/2, n/4, 3n/4, n/8, ...), so that every run of
     consecutive items of the result is spread evenly over the whole sequence."""
     bits = max(1, (len(items) - 1).bit_length())
-    return [items[i] for i in sorted(range(len(items)), key=lambda i: int(f"{i:0{bits}b}"[::-1], 2))]
+    position = np.arange(len(items), dtype=np.int64)
+    reversed_bits = np.zeros_like(position)
+    for b in range(bits):
+        reversed_bits |= ((position >> b) & 1) << (bits - 1 - b)
+    return [items[i] for i in np.argsort(reversed_bits).tolist()]
 
 
 @dataclass
