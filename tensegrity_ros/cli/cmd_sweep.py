@@ -41,7 +41,7 @@ def register(subparsers) -> None:
     p.add_argument("--connect-timeout", type=float, default=10.0, metavar="S",
                    help="seconds to wait for the scheduler and its first worker (default 10)")
     p.add_argument("--batch", type=int, default=None, metavar="N",
-                   help="points per task (default: adaptive, ~0.5 s of work per task)")
+                   help="points per task (default: adaptive, each worker's share of the rest, at most ~0.5 s of work)")
     p.add_argument("--plot", nargs="?", const="", default=None, metavar="PNG",
                    help="draw the results against the varied quantities (default file: the output's name "
                         "with .png, or SWEEP_NAME.png here without -o)")
