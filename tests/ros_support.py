@@ -22,22 +22,47 @@ TENSEGRITY = str(Path(sys.executable).with_name("tensegrity"))
 
 @pytest.fixture
 def ros_context():
-    """A private rclpy context. At teardown every node still alive in it is destroyed, so
-    its endpoints leave the graph before the next test's processes look for matches (a
-    lingering subscription would satisfy a player's --wait-for-subscribers)."""
-    import gc
-
+    """A private rclpy context, ended by :func:`end_context` at teardown."""
     import rclpy
     from rclpy.context import Context
-    from rclpy.node import Node
 
     ctx = Context()
     rclpy.init(args=[], context=ctx)
     yield ctx
-    for obj in gc.get_objects():
-        if isinstance(obj, Node) and obj.context is ctx:
-            obj.destroy_node()
+    end_context(ctx)
+
+
+def end_context(ctx) -> None:
+    """Shut down every executor still open on ``ctx`` and destroy every node still alive in
+    it, let the garbage collector take what is now unreachable, then shut the context down.
+
+    The nodes' endpoints leave the graph before the next test's processes look for matches
+    (a lingering subscription would satisfy a player's --wait-for-subscribers). The
+    executors go first and are collected while the context lives: an executor left to the
+    collector with its node (a reference cycle) may have its signal guard condition
+    finalized before it (rclpy's ``Executor.__del__`` then reports an ``InvalidHandle``),
+    and one that dies after its context has its shutdown callback removed from a list the
+    context has already emptied (a ``ValueError``), both reported in whatever test runs
+    next."""
+    import gc
+
+    import rclpy
+
+    _close_executors_and_nodes(ctx)       # no reference to them is left here after it returns
+    gc.collect()
     rclpy.try_shutdown(context=ctx)
+
+
+def _close_executors_and_nodes(ctx) -> None:
+    import gc
+
+    from rclpy.executors import Executor
+    from rclpy.node import Node
+
+    for executor in [o for o in gc.get_objects() if isinstance(o, Executor) and o.context is ctx]:
+        executor.shutdown()
+    for node in [o for o in gc.get_objects() if isinstance(o, Node) and o.context is ctx]:
+        node.destroy_node()
 
 
 def spawn(argv: list[str], **kwargs) -> subprocess.Popen:

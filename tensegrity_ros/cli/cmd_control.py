@@ -194,6 +194,7 @@ def _run_goal(args, node_name: str, action, goal, total, progress, summary) -> i
         return 130
     finally:
         bar.close()
+        executor.shutdown()        # before the context: rclpy's finalizers break on a collected cycle
         client.destroy()
         node.destroy_node()
         rclpy.try_shutdown()

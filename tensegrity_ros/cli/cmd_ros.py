@@ -217,23 +217,24 @@ def _send_forces(args) -> int:
 
 def _call_service(args, node_name: str, srv_type, request):
     """One service call from a short-lived client node; the response, or a CliError."""
+    from rclpy.executors import SingleThreadedExecutor
+
+    from tensegrity_ros.rclpy_utils.futures import spin_until_done
+
     rclpy, node = _client_node(node_name, args.ros_args)
+    executor = SingleThreadedExecutor()
     try:
         client = node.create_client(srv_type, args.service)
         if not client.wait_for_service(timeout_sec=args.timeout):
             raise CliError(f"service {node.resolve_service_name(args.service)} not available after "
                            f"{args.timeout:g} s (is the suite up? `tensegrity up`)", code=3)
-        from rclpy.executors import SingleThreadedExecutor
-
-        from tensegrity_ros.rclpy_utils.futures import spin_until_done
-
-        executor = SingleThreadedExecutor()
         executor.add_node(node)
         future = client.call_async(request)
         if not spin_until_done(executor, future, args.timeout):
             raise CliError(f"no answer from {args.service} within {args.timeout:g} s", code=3)
         return future.result()
     finally:
+        executor.shutdown()        # before the context: rclpy's finalizers break on a collected cycle
         node.destroy_node()
         rclpy.try_shutdown()
 

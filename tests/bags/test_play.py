@@ -27,6 +27,7 @@ from tensegrity_ros.bag.schedule import PlaybackOptions
 from tests.bags.compare import plain
 from tests.bags.conftest import Proc, rosbags_cdr_samples
 from tests.bags.suite_publishers import TYPE_NAMES, SuitePublisher, make_message
+from tests.ros_support import end_context
 
 pytestmark = pytest.mark.ros
 
@@ -58,7 +59,7 @@ def recorded_bag(tmp_path_factory) -> Path:
         assert rec.stop() == 0
     finally:
         rec.kill()
-        rclpy.try_shutdown(context=ctx)
+        end_context(ctx)
     return folder
 
 

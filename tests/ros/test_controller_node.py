@@ -18,7 +18,7 @@ import time
 import pytest
 
 from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics
-from tests.ros_support import run_cli
+from tests.ros_support import end_context, run_cli
 
 pytestmark = pytest.mark.ros
 
@@ -138,8 +138,7 @@ def suite(tmp_path_factory):
     rclpy.init(args=[], context=ctx)
     client = Client(ctx, "/ctl")
     yield client, ctl
-    client.node.destroy_node()
-    rclpy.try_shutdown(context=ctx)
+    end_context(ctx)
     for p in procs:
         p.stop()
 

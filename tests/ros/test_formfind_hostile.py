@@ -21,6 +21,7 @@ import pytest
 
 from tensegrity_core.general import form_find, load_example
 from tests.hostile_requests import TABLE, alias_bomb, deep_flow_nesting, huge_value, memory_mib, tower_yaml
+from tests.ros_support import end_context
 
 pytestmark = pytest.mark.ros
 
@@ -73,9 +74,7 @@ def _node(log, namespace: str, *params: str):
         call.pid = proc.popen.pid
         yield call
     finally:
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown(context=ctx)
+        end_context(ctx)
         proc.stop()
 
 

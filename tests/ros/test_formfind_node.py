@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from tensegrity_core.general import example_path
+from tests.ros_support import end_context
 
 pytestmark = pytest.mark.ros
 
@@ -51,9 +52,7 @@ def formfind(tmp_path_factory):
     call.client = client
     call.log = proc.stderr
     yield call
-    executor.shutdown()
-    node.destroy_node()
-    rclpy.try_shutdown(context=ctx)
+    end_context(ctx)
     proc.stop()
 
 

@@ -7,6 +7,7 @@ import math
 import pytest
 
 from tensegrity_ros.rclpy_utils.futures import spin_until_done
+from tests.ros_support import end_context
 
 pytestmark = pytest.mark.ros
 
@@ -45,8 +46,7 @@ def ik_service(tmp_path_factory):
 
     call.client, call.executor = client, executor
     yield call
-    node.destroy_node()
-    rclpy.try_shutdown(context=ctx)
+    end_context(ctx)
     proc.stop()
 
 

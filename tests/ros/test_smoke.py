@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.ros_support import end_context
+
 pytestmark = pytest.mark.ros
 
 
@@ -86,9 +88,7 @@ def test_message_and_service_between_two_processes():
         res = future.result()
         assert res is not None and res.success
         assert (res.solutions[0].rho1, res.solutions[0].rho2) == (0.25, 0.5)
-        executor.shutdown()
-        node.destroy_node()
     finally:
-        rclpy.try_shutdown(context=ctx)
+        end_context(ctx)
         peer.terminate()
         peer.wait(timeout=10)
