@@ -61,6 +61,8 @@ TASKS_PER_THREAD = 2
 #: the scattered plan finished 5-7 ms later than one that carries it (pickling it: 0.1 ms).
 INLINE_PLAN_BYTES = 64 * 1024
 THREADS_REFRESH = 2.0               # s
+#: The worker a task is sized for while the cluster has none (sent without a restriction).
+ANY_WORKER: Final = ""
 #: Environment of the embedded cluster's worker processes: one BLAS / OpenMP thread.
 WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 #: Dask settings of the embedded cluster, whose processes exist only to run points: no
@@ -243,7 +245,7 @@ class _DaskEngine:
             if self.address.status != "running":
                 raise SweepError(f"the Dask client given as the scheduler is {self.address.status}, not running")
             self.client, self._owns_client = self.address, False
-            _check_workers(self.client, "the given Dask client's cluster")
+            self._seen(_check_workers(self.client, "the given Dask client's cluster"))
             return self
         if self.address is None:
             try:
@@ -267,7 +269,7 @@ class _DaskEngine:
             raise SweepError(f"the Dask scheduler at {self.address!r} has no workers "
                              f"(waited {self.timeout:g} s): {err}") from None
         try:
-            _check_workers(client, f"the Dask scheduler at {self.address!r}")
+            self._seen(_check_workers(client, f"the Dask scheduler at {self.address!r}"))
         except SweepError:
             self._close()
             raise
@@ -314,7 +316,7 @@ class _DaskEngine:
                     continue
                 chunk = [pending.popleft() for _ in range(size)]
                 # a loose restriction: another worker runs it if this one is gone
-                where = {"workers": [worker], "allow_other_workers": True} if worker else {}
+                where = {"workers": [worker], "allow_other_workers": True} if worker != ANY_WORKER else {}
                 fut = client.submit(run_batch, plan_ref, chunk, pure=False, **where)
                 flight = InFlight(len(chunk), now)
                 batches[fut.key] = (chunk, worker, flight)
@@ -345,10 +347,14 @@ class _DaskEngine:
 
     def _workers(self, client: Client) -> dict[str, int]:
         """Threads of each worker of the cluster (asked again every few seconds: workers may come and go)."""
-        now = time.monotonic()
-        if self._threads_of is None or now - self._asked > THREADS_REFRESH:
-            self._threads_of = {w: max(1, n) for w, n in client.nthreads().items()} or {"": 1}
-            self._asked = now
+        if self._threads_of is None or time.monotonic() - self._asked > THREADS_REFRESH:
+            return self._seen(client.nthreads())
+        return self._threads_of
+
+    def _seen(self, nthreads: dict[str, int]) -> dict[str, int]:
+        """The cluster's workers and their threads as just asked (ANY_WORKER while it has none)."""
+        self._threads_of = {w: max(1, n) for w, n in nthreads.items()} or {ANY_WORKER: 1}
+        self._asked = time.monotonic()
         return self._threads_of
 
 
@@ -358,15 +364,17 @@ class _DaskEngine:
 _ABLE: weakref.WeakKeyDictionary[Client, set[str]] = weakref.WeakKeyDictionary()
 
 
-def _check_workers(client: Client, cluster: str) -> None:
+def _check_workers(client: Client, cluster: str) -> dict[str, int]:
     """Refuse a cluster whose workers cannot import this package, before any task is sent:
     a Dask worker that cannot unpickle a task closes, and the sweep would then wait for
     workers that never come. Asks each worker not asked before through this client (a round
-    trip of a few milliseconds); workers that join during a sweep are not asked."""
+    trip of a few milliseconds); workers that join during a sweep are not asked. Returns
+    the cluster's workers and their threads, as asked for this check."""
     able = _ABLE.setdefault(client, set())
-    new = sorted(set(client.nthreads()) - able)
+    nthreads = dict(client.nthreads())
+    new = sorted(set(nthreads) - able)
     if not new:
-        return
+        return nthreads
     # ``exec`` pickles by reference to the builtins, so even a worker without this package
     # can run the question and answer with its ImportError
     answers = client.run(exec, f"import {run_batch.__module__}", {}, workers=new, on_error="return")
@@ -377,6 +385,7 @@ def _check_workers(client: Client, cluster: str) -> None:
         raise SweepError(f"{len(bad)} of {len(answers)} workers of {cluster} cannot run sweeps "
                          f"({clip(worker, 100)}: {type(err).__name__}: {said}); install tensegrity-ros[sweep] there")
     able.update(answers)
+    return nthreads
 
 
 def _abandon(client: Client, seq: Any) -> None:
