@@ -1,0 +1,17 @@
+"""Exporters of the project's models to other simulators' formats (no ROS, no simulator import).
+
+::
+
+    from tensegrity_core.export import export_mjcf
+    model = export_mjcf(load_scene("table_gravity"))     # or a Structure
+    model.write("table.xml")                             # model.xml: the MJCF text
+
+``export_mjcf`` writes a MuJoCo model (MJCF) with the physics of the general dynamics
+(:mod:`tensegrity_core.sim.general.model`); ``docs/mujoco.md`` maps every element and lists
+what MuJoCo does differently.
+"""
+
+from tensegrity_core.export.errors import ExportError
+from tensegrity_core.export.mjcf import INTEGRATORS, MjcfModel, export_mjcf
+
+__all__ = ["INTEGRATORS", "ExportError", "MjcfModel", "export_mjcf"]

@@ -1,0 +1,86 @@
+"""``tensegrity export mjcf SOURCE -o model.xml``: a MuJoCo model of a scene or a structure.
+
+SOURCE is a general scene with inertia (a file or a shipped scene's name) or a structure (a
+file or a shipped example's name; exported with its own gravity and loads, no damping, from
+the drawing at rest). The model has the physics of the general dynamics; docs/mujoco.md
+maps every element and lists what MuJoCo does differently. Input errors exit with code 2
+and one ``error:`` line; nothing is written then.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from tensegrity_ros.cli._common import CliError, add_json_flag, print_json
+
+ORDER = 55
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser("export", help="export a scene or structure to another simulator's format (MJCF)",
+                              description="Write a model of a scene or structure for another simulator.")
+    formats = p.add_subparsers(dest="format", metavar="FORMAT", required=True)
+    q = formats.add_parser(
+        "mjcf", help="a MuJoCo model (MJCF) with the same physics as the general dynamics",
+        description="Write a MuJoCo model (MJCF XML) of a general scene with inertia, or of a structure "
+                    "(its own gravity and loads, no damping, from the drawing at rest): nodes as point masses "
+                    "on slide joints, rigid bodies as free bodies, members as spatial tendons (strings with "
+                    "a tension-only dead band), dampers, gravity, dead loads, the initial state as keyframe "
+                    "'initial'. See docs/mujoco.md.")
+    q.add_argument("source", metavar="SCENE_OR_STRUCTURE",
+                   help="scene or structure file, or the name of a shipped scene (tensegrity scenes) or example")
+    q.add_argument("-o", "--output", required=True, help="the model file to write (.xml)")
+    q.add_argument("--timestep", type=float, default=None,
+                   help="MuJoCo's time step [s] (default: 1, 2 or 5 x 10^k s at most 1/(the fastest rate of the "
+                        "linearised dynamics))")
+    q.add_argument("--integrator", default="RK4", help="MuJoCo's integrator: RK4 (default), Euler, implicit, "
+                                                       "implicitfast")
+    add_json_flag(q)
+    q.set_defaults(func=run_export_mjcf)
+
+
+def _output(path: str) -> Path:
+    """``-o``: an ``.xml`` file in an existing folder."""
+    out = Path(path)
+    if out.suffix.lower() != ".xml":
+        raise CliError(f"-o/--output must end in .xml, got {path!r}")
+    folder = out.parent
+    if not folder.is_dir():
+        raise CliError(f"cannot write {path!r}: folder {str(folder)!r} does not exist")
+    if out.is_dir():
+        raise CliError(f"cannot write {path!r}: it is a folder")
+    return out
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}" if n == 1 else f"{n} {noun[:-1] + 'ies' if noun.endswith('y') else noun + 's'}"
+
+
+def run_export_mjcf(args) -> int:
+    from tensegrity_core.errors import TensegrityError
+    from tensegrity_core.export import export_mjcf
+    from tensegrity_core.export.sources import load_source
+
+    out = _output(args.output)
+    try:
+        model = export_mjcf(load_source(args.source), timestep=args.timestep, integrator=args.integrator)
+    except TensegrityError as err:
+        raise CliError(str(err)) from None
+    try:
+        model.write(out)
+    except OSError as err:
+        raise CliError(f"cannot write {str(out)!r}: {err.strerror or err}") from None
+    summary = {"output": str(out), "model": model.name, "timestep": model.timestep, "integrator": model.integrator,
+               "fastest_rate": model.fastest_rate, "node_bodies": model.node_bodies,
+               "rigid_bodies": model.rigid_bodies, "tendons": model.tendons, "loads": model.loads,
+               "actuator_members": model.actuator_members, "nq": model.nq, "nv": model.nv}
+    if args.json:
+        print_json(summary)
+        return 0
+    print(f"wrote {out}: MuJoCo model of {model.name!r}")
+    print(f"  {_count(model.node_bodies, 'free node')} on slide joints, {_count(model.rigid_bodies, 'rigid body')} "
+          f"on free joints, {_count(model.tendons, 'tendon')}, {_count(model.loads, 'dead load')}, "
+          f"{_count(model.actuator_members, 'actuator member')}; nq = {model.nq}, nv = {model.nv}")
+    print(f"  integrator {model.integrator}, time step {model.timestep:g} s (fastest rate of the linearised "
+          f"dynamics {model.fastest_rate:.4g} 1/s); initial state: keyframe 'initial'")
+    return 0

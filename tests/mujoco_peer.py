@@ -1,0 +1,187 @@
+"""MuJoCo as an independent peer of the general dynamics: runs an exported MJCF model.
+
+Needs the ``mujoco`` extra (``./run setup`` installs it). Only MuJoCo computes here: the
+model is the document of ``tensegrity export mjcf`` (:func:`tensegrity_core.export.export_mjcf`),
+read back by MuJoCo's own parser, and every number this module returns comes from
+MuJoCo's state (the project's structure is used only to translate a state vector of the
+general dynamics into MuJoCo's coordinates, :func:`mujoco_state`). Use::
+
+    from tests.mujoco_peer import MujocoPeer
+    peer = MujocoPeer(export_mjcf(scene).xml, timestep=1e-4)   # or a path to model.xml
+    run = peer.rollout(times)              # from the keyframe 'initial' (the scene's initial state)
+    run.nodes        # (N, n, 3) [m] node positions at times[k], nodes in the structure's order
+    run.kinetic      # (N,) [J]
+    run.potential    # (N,) [J] springs, gravity, dead loads, actuator members (see below)
+
+``MujocoPeer(model, *, timestep=None, integrator=None)``
+    ``model``: MJCF text or a path. ``timestep`` [s] and ``integrator`` (``"RK4"``,
+    ``"Euler"``, ``"implicit"``, ``"implicitfast"``) override the model's ``<option>``.
+    ``node_names``: the nodes (the ``node:`` sites, document order = the structure's
+    order for nodes that move with a body, pinned ones first; :meth:`rollout` returns them
+    in the order given by ``nodes=`` or this one).
+``peer.reset(qpos=None, qvel=None)``
+    Back to the keyframe ``initial`` at ``t = 0``, or to the given coordinates.
+``peer.rollout(times, *, nodes=None, controls=None) -> PeerRun``
+    From the current state (``t = 0`` after :meth:`reset`), steps to each of ``times`` [s]
+    (increasing, each a whole number of steps from the last, to 1e-9 of a step) and samples
+    the state there. ``controls(t) -> ctrl`` (the model's ``nu`` values), if given, is
+    applied at the start of every step (zero-order hold over a step; the keyframe's
+    ``ctrl`` otherwise). Returns a :class:`PeerRun`: ``times``, ``nodes`` (N, n, 3),
+    ``kinetic`` and ``potential`` (N,) [J], ``steps`` (MuJoCo steps taken), ``wall``
+    (seconds of ``mj_step`` only, for benchmarks).
+``mujoco_state(peer, structure, y, R_ref) -> (qpos, qvel)``
+    A state ``y = (x, v)`` of the general dynamics (``GeneralDynamic.state_from``'s vector:
+    coordinates in the rotation charts ``R_ref`` (nb, 3, 3), rates with world angular
+    velocities) in MuJoCo's coordinates (slide joints relative to the body's position in
+    the model, free joints: centre, quaternion ``w x y z``, centre velocity, angular
+    velocity in the body frame).
+
+**Energies.** ``kinetic`` is MuJoCo's ``energy[1]``. ``potential`` is MuJoCo's
+``energy[0]`` (gravity on the body masses, ``-m g . x_com``, and the tendon springs, zero
+inside a string's dead band) plus what MuJoCo's energy leaves out: each dead load's
+``-F . x`` at its site, and each actuator member's ``EA (l - l0)^2 / (2 l0)`` (from the
+actuator's gain and bias, its ``ctrl`` and the tendon's length). It equals the general
+dynamics' potential energy up to a constant (MuJoCo leaves out the weights of pinned nodes):
+compare differences over time.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
+
+from tensegrity_core.general.rotation import exp_so3
+from tensegrity_core.general.structure import Structure
+
+FloatArray = NDArray[np.float64]
+NODE = "node:"
+
+
+@dataclass
+class PeerRun:
+    """Samples of a MuJoCo run: ``times`` (N,) [s], ``nodes`` (N, n, 3) [m], ``kinetic`` and
+    ``potential`` (N,) [J]; ``steps`` MuJoCo steps taken, ``wall`` [s] spent in them."""
+
+    times: FloatArray
+    nodes: FloatArray
+    kinetic: FloatArray
+    potential: FloatArray
+    steps: int
+    wall: float
+
+
+class MujocoPeer:
+    """An exported model compiled by MuJoCo, with its data (see the module docstring)."""
+
+    def __init__(self, model: str | Path, *, timestep: float | None = None, integrator: str | None = None):
+        text = Path(model).read_text(encoding="utf-8") if isinstance(model, Path) else model
+        self.model = mujoco.MjModel.from_xml_string(text)
+        m = self.model
+        if timestep is not None:
+            m.opt.timestep = timestep
+        if integrator is not None:
+            m.opt.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator.upper()}")
+        m.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
+        self.data = mujoco.MjData(m)
+        sites = [(m.site(k).name, k) for k in range(m.nsite)]
+        self.site_of = {name.removeprefix(NODE): k for name, k in sites if name.startswith(NODE)}
+        self.node_names = tuple(self.site_of)
+        tendon = m.actuator_trntype == mujoco.mjtTrn.mjTRN_TENDON
+        site = m.actuator_trntype == mujoco.mjtTrn.mjTRN_SITE
+        self._members = np.flatnonzero(tendon)
+        self._loads = np.flatnonzero(site)
+        self.reset()
+
+    @property
+    def timestep(self) -> float:
+        return float(self.model.opt.timestep)
+
+    def reset(self, qpos: ArrayLike | None = None, qvel: ArrayLike | None = None) -> None:
+        """The keyframe ``initial`` at ``t = 0``, or the given coordinates (``ctrl`` from the keyframe)."""
+        m, d = self.model, self.data
+        mujoco.mj_resetDataKeyframe(m, d, m.key("initial").id)
+        if qpos is not None:
+            d.qpos[:] = qpos
+        if qvel is not None:
+            d.qvel[:] = qvel
+        mujoco.mj_forward(m, d)
+
+    def potential(self) -> float:
+        """The potential energy [J] of the current state (after ``mj_forward``; see the module docstring)."""
+        m, d = self.model, self.data
+        V = float(d.energy[0])
+        for a in self._loads:
+            force = m.actuator_biasprm[a, 0] * m.actuator_gear[a, :3]
+            V -= float(force @ d.site_xpos[m.actuator_trnid[a, 0]])
+        for a in self._members:
+            EA, k_ref = m.actuator_biasprm[a, 0], m.actuator_gainprm[a, 1]
+            l0 = EA / k_ref / (1.0 - d.ctrl[a])
+            V += 0.5 * EA * (d.ten_length[m.actuator_trnid[a, 0]] - l0) ** 2 / l0
+        return V
+
+    def rollout(self, times: ArrayLike, *, nodes: Sequence[str] | None = None,
+                controls: Callable[[float], ArrayLike] | None = None) -> PeerRun:
+        m, d = self.model, self.data
+        ts = np.asarray(times, dtype=float)
+        dt = self.timestep
+        sites = np.array([self.site_of[n] for n in (nodes if nodes is not None else self.node_names)])
+        out_nodes = np.empty((len(ts), len(sites), 3))
+        kinetic, potential = np.empty(len(ts)), np.empty(len(ts))
+        steps, wall = 0, 0.0
+        for k, t in enumerate(ts):
+            n = (t - d.time) / dt
+            if abs(n - round(n)) > 1e-9 * max(1.0, abs(n)) or round(n) < 0:
+                raise ValueError(f"t = {t!r} s is not a whole number of {dt!r} s steps after {d.time!r} s")
+            n = round(n)
+            start = time.perf_counter()
+            if controls is None:
+                if n:
+                    mujoco.mj_step(m, d, nstep=n)
+            else:
+                for _ in range(n):
+                    d.ctrl[:] = controls(d.time)
+                    mujoco.mj_step(m, d)
+            wall += time.perf_counter() - start
+            steps += n
+            d.time = t                    # no drift of the clock over many steps
+            mujoco.mj_forward(m, d)
+            out_nodes[k] = d.site_xpos[sites]
+            kinetic[k] = d.energy[1]
+            potential[k] = self.potential()
+        return PeerRun(ts, out_nodes, kinetic, potential, steps, wall)
+
+
+def mujoco_state(peer: MujocoPeer, structure: Structure, y: ArrayLike,
+                 R_ref: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """``(qpos, qvel)`` of the general dynamics' state ``y`` (see the module docstring)."""
+    m = peer.model
+    lay = structure.layout
+    y = np.asarray(y, dtype=float)
+    x, v = y[:lay.n_dof], y[lay.n_dof:]
+    R_ref = np.asarray(R_ref, dtype=float)
+    qpos, qvel = np.zeros(m.nq), np.zeros(m.nv)
+    for j in range(m.njnt):
+        name = m.joint(j).name
+        qa, va = m.jnt_qposadr[j], m.jnt_dofadr[j]
+        if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE:
+            node, axis = name.removeprefix(NODE).rsplit(":", 1)
+            i, a = structure.node_index(node), "xyz".index(axis)
+            u = lay.free_index[i, a]
+            qpos[qa] = x[u] - m.body_pos[m.jnt_bodyid[j], a]
+            qvel[va] = v[u]
+        else:
+            slot = lay.body_names.index(name.removeprefix("body:"))
+            u = lay.body_dof[slot]
+            R = exp_so3(x[u + 3:u + 6]) @ R_ref[slot]
+            qpos[qa:qa + 3] = x[u:u + 3]
+            qpos[qa + 3:qa + 7] = Rotation.from_matrix(R).as_quat(scalar_first=True)
+            qvel[va:va + 3] = v[u:u + 3]
+            qvel[va + 3:va + 6] = R.T @ v[u + 3:u + 6]
+    return qpos, qvel
