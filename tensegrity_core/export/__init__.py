@@ -7,11 +7,12 @@
     model.write("table.xml")                             # model.xml: the MJCF text
 
 ``export_mjcf`` writes a MuJoCo model (MJCF) with the physics of the general dynamics
-(:mod:`tensegrity_core.sim.general.model`); ``docs/mujoco.md`` maps every element and lists
-what MuJoCo does differently.
+(:mod:`tensegrity_core.sim.general.model`) through that back end's writer
+(:data:`MJCF_WRITERS`); ``docs/mujoco.md`` maps every element and lists what MuJoCo does
+differently.
 """
 
 from tensegrity_core.export.errors import ExportError
-from tensegrity_core.export.mjcf import INTEGRATORS, MjcfModel, export_mjcf
+from tensegrity_core.export.mjcf import INTEGRATORS, MJCF_WRITERS, MjcfModel, export_mjcf, structure_scene
 
-__all__ = ["INTEGRATORS", "ExportError", "MjcfModel", "export_mjcf"]
+__all__ = ["INTEGRATORS", "MJCF_WRITERS", "ExportError", "MjcfModel", "export_mjcf", "structure_scene"]

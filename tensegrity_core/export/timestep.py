@@ -10,9 +10,12 @@ eigenvalue of ``(D, M)``: the dampers are passive) and ``|k| <= kappa`` (the lar
     |lambda| <= d/2 + sqrt(d^2/4 + |k|) <= delta + sqrt(kappa)  =: rate  [1/s]
 
 The default step is the largest number of seconds of the form 1, 2 or 5 times a power of
-ten that is at most ``1 / rate``: ``|lambda| dt <= 1``, inside RK4's stability region
-(which reaches 2.8 on both axes) with room for the stiffening of strings under larger
-tensions than at the start.
+ten that is at most :data:`STEP_RATE_PRODUCT` ``/ rate``: ``|lambda| dt <= 0.2``. That is
+far inside RK4's stability region (which reaches 2.8 on both axes), leaving room for strings
+that stiffen under larger tensions than at the start, and accurate on the fastest mode: per
+period of an undamped mode of frequency ``omega`` (``2 pi / (omega dt)`` steps) RK4 loses
+``2 pi (omega dt)^5 / 144`` of its amplitude and ``2 pi (omega dt)^4 / 120`` rad of its
+phase, 1.4e-5 and 8.4e-5 at ``omega dt = 0.2``.
 """
 
 from __future__ import annotations
@@ -25,6 +28,8 @@ import scipy.linalg
 import scipy.sparse as sp
 import scipy.sparse.linalg
 
+#: ``|lambda| dt`` of the default step on the bound of the fastest rate.
+STEP_RATE_PRODUCT = 0.2
 #: Up to this many degrees of freedom the eigenvalues are found densely.
 DENSE_DOF = 600
 
@@ -52,6 +57,11 @@ def fastest_rate(M: Any, K: Any, D: Any | None) -> float:
     if D is not None:
         rate += largest_eigenvalue_magnitude(D, M)
     return rate
+
+
+def default_timestep(rate: float) -> float:
+    """The default step [s] for the bound ``rate`` [1/s] on the fastest rate (module docstring)."""
+    return round_down_125(STEP_RATE_PRODUCT / rate)
 
 
 def round_down_125(x: float) -> float:
