@@ -16,9 +16,9 @@ general dynamics into MuJoCo's coordinates, :func:`mujoco_state`). Use::
 ``MujocoPeer(model, *, timestep=None, integrator=None)``
     ``model``: MJCF text or a path. ``timestep`` [s] and ``integrator`` (``"RK4"``,
     ``"Euler"``, ``"implicit"``, ``"implicitfast"``) override the model's ``<option>``.
-    ``node_names``: the nodes (the ``node:`` sites, document order = the structure's
-    order for nodes that move with a body, pinned ones first; :meth:`rollout` returns them
-    in the order given by ``nodes=`` or this one).
+    ``node_names``: the nodes (the ``node:`` sites) in the document's order (pinned nodes,
+    free nodes, then each body's); :meth:`rollout` returns them in the order of its
+    ``nodes=`` argument (e.g. ``structure.node_names``), or this one.
 ``peer.reset(qpos=None, qvel=None)``
     Back to the keyframe ``initial`` at ``t = 0``, or to the given coordinates.
 ``peer.rollout(times, *, nodes=None, controls=None) -> PeerRun``
