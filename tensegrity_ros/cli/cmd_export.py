@@ -31,7 +31,7 @@ def register(subparsers) -> None:
                    help="scene or structure file, or the name of a shipped scene (tensegrity scenes) or example")
     q.add_argument("-o", "--output", required=True, help="the model file to write (.xml)")
     q.add_argument("--timestep", type=float, default=None,
-                   help="MuJoCo's time step [s] (default: 1, 2 or 5 x 10^k s at most 1/(the fastest rate of the "
+                   help="MuJoCo's time step [s] (default: 1, 2 or 5 x 10^k s at most 0.2/(the fastest rate of the "
                         "linearised dynamics))")
     q.add_argument("--integrator", default="RK4", help="MuJoCo's integrator: RK4 (default), Euler, implicit, "
                                                        "implicitfast")
