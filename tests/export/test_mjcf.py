@@ -9,11 +9,12 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 from hypothesis import given
 from hypothesis import strategies as st
 
 from tensegrity_core.export import ExportError, export_mjcf
-from tensegrity_core.export.timestep import round_down_125
+from tensegrity_core.export.timestep import DENSE_DOF, largest_eigenvalue_magnitude, round_down_125
 from tensegrity_core.general import RigidBody, Structure, load_example
 from tensegrity_core.general.writing import structure_to_dict
 from tensegrity_core.sim import load_scene, scene_from_dict
@@ -201,3 +202,22 @@ def test_write_is_whole_or_nothing(tmp_path):
     with pytest.raises(OSError):
         model.write(blocked)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["blocked.xml", "table.xml"]     # no partial file
+
+
+@pytest.mark.parametrize("n", [50, DENSE_DOF + 200])
+def test_the_largest_eigenvalue_dense_and_sparse(n):
+    """A pencil (Q^T diag(k) Q, Q^T diag(m) Q) with Q a sparse orthogonal matrix (disjoint
+    Givens rotations) has the eigenvalues k_i / m_i when the rotation pairs share m: the
+    largest magnitude is known in closed form, for indefinite K too."""
+    rng = np.random.default_rng(n)
+    k = rng.uniform(-50.0, 100.0, n)
+    m = np.repeat(rng.uniform(0.5, 2.0, n // 2), 2)
+    k[n // 3] = 400.0 * m[n // 3]                     # the largest: 400
+    Q = sp.lil_matrix((n, n))
+    for i in range(0, n, 2):
+        c, s = math.cos(i), math.sin(i)
+        Q[i, i], Q[i, i + 1], Q[i + 1, i], Q[i + 1, i + 1] = c, s, -s, c
+    Q = Q.tocsr()
+    K = Q.T @ sp.diags(k) @ Q
+    M = Q.T @ sp.diags(m) @ Q
+    assert largest_eigenvalue_magnitude(K, M) == pytest.approx(400.0, rel=2e-3)

@@ -40,7 +40,6 @@ from tensegrity_core.general import RigidBody, Structure, form_find, load_exampl
 from tensegrity_core.general.writing import structure_to_dict  # noqa: E402
 from tensegrity_core.sim import Scene, compile_scene, load_scene, scene_from_dict  # noqa: E402
 from tensegrity_core.sim.general.setup import initial_configuration  # noqa: E402
-from tensegrity_core.sim.scene import Integrator  # noqa: E402
 from tests.mujoco_peer import MujocoPeer, mujoco_state  # noqa: E402
 
 #: A second run's tolerances are this fraction of the first's.
@@ -81,7 +80,7 @@ def energies(kinetic: np.ndarray, potential: np.ndarray) -> np.ndarray:
 
 def project_run(scene: Scene, times: np.ndarray, factor: float = 1.0, y0: np.ndarray | None = None) -> Run:
     i = scene.integrator
-    scene = dataclasses.replace(scene, integrator=Integrator(i.method, i.rtol * factor, i.atol * factor, i.max_step))
+    scene = dataclasses.replace(scene, integrator=dataclasses.replace(i, rtol=i.rtol * factor, atol=i.atol * factor))
     model = compile_scene(scene)
     state = model.initial_state() if y0 is None else model.state_from(y0)
     samples: list = []
