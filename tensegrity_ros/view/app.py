@@ -1,0 +1,114 @@
+"""The view: a server, the drawing, the plots, the controls and a source, wired together.
+
+Sources call :meth:`View.submit` from their own threads as often as frames come; a render
+thread sends the page the newest frame at most ``fps`` times a second (frames in between
+only extend the plots' history), so a fast simulator never floods the page. Closing the
+page changes nothing; :meth:`View.close` stops the source and the server, never the suite.
+"""
+
+from __future__ import annotations
+
+import threading
+from typing import Any, Final
+
+import numpy as np
+
+from tensegrity_ros.view.controls import ControlPanel
+from tensegrity_ros.view.drawing import StructureDrawing
+from tensegrity_ros.view.frame import Frame
+from tensegrity_ros.view.plots import PlotPanel, SeriesHistory
+from tensegrity_ros.view.source import Source
+
+#: The plots are sent every this many shown frames.
+PLOT_EVERY: Final = 6
+
+
+def status_line(frame: Frame) -> str:
+    """The page's status: simulation time [s] and run state."""
+    return f"**t = {frame.t:.3f} s** · {frame.run_state}"
+
+
+class View:
+    """A started view of ``source`` on ``server`` (see the module docstring); ``first`` is the
+    source's first frame (the drawing's sizes and the camera come from it)."""
+
+    def __init__(self, server: Any, source: Source, first: Frame, *, fps: float = 30.0):
+        self.server = server
+        self.source = source
+        self.period = 1.0 / fps
+        gui = server.gui
+        gui.add_markdown(f"**{source.label}**")
+        self.status = gui.add_markdown(status_line(first))
+        self.message = gui.add_markdown("")
+        self.controls = ControlPanel(gui, source, self.report)
+        self.history = SeriesHistory()
+        self.plots = PlotPanel(gui, source.topology, self.history)
+        self.drawing = StructureDrawing(server.scene, source.topology, first)
+        self.legend = gui.add_html(self.drawing.legend(), order=-1)
+        self._place_camera(first.nodes)
+        self._latest: Frame | None = first
+        self._t0 = first.t if "timeline" in source.features else 0.0
+        self._cond = threading.Condition()
+        self._closing = False
+        self.frames_shown = 0
+        self._thread = threading.Thread(target=self._render, name="view_render", daemon=True)
+        self._thread.start()
+        source.start(self.submit, self.report)
+
+    def _place_camera(self, nodes: np.ndarray) -> None:
+        """Planar structures (all z equal) seen from above, slightly tilted; others from the front."""
+        centre = 0.5 * (nodes.min(axis=0) + nodes.max(axis=0))
+        planar = float(np.ptp(nodes[:, 2])) < 1e-9 * self.drawing.size
+        offset = np.array([0.0, -0.35, 1.0]) if planar else np.array([0.6, -1.2, 0.7])
+        camera = self.server.initial_camera
+        camera.look_at = tuple(centre)
+        camera.position = tuple(centre + offset * 1.6 * self.drawing.size)
+
+    def report(self, text: str) -> None:
+        """Show one line in the page (a request's answer, a clamped value)."""
+        self.message.content = text
+
+    def submit(self, frame: Frame) -> None:
+        """A new frame (any thread)."""
+        with self._cond:
+            self.history.add(frame)
+            self._latest = frame
+            self._cond.notify()
+
+    def _render(self) -> None:
+        last: Frame | None = None
+        while True:
+            with self._cond:
+                self._cond.wait_for(lambda shown=last: self._closing or self._latest is not shown, timeout=1.0)
+                if self._closing:
+                    return
+                frame = self._latest
+            if frame is None or frame is last:
+                continue
+            if last is not None and frame.t < last.t:
+                self.drawing.clear_trail()
+            with self.server.atomic():
+                self.drawing.show(frame)
+                self.status.content = status_line(frame)
+                self.controls.show_time(frame.t - self._t0)
+                if self.frames_shown % PLOT_EVERY == 0:
+                    with self._cond:
+                        self.plots.refresh()
+                    self.legend.content = self.drawing.legend()
+            self.server.flush()
+            self.frames_shown += 1
+            last = frame
+            self._stop_wait(self.period)
+
+    def _stop_wait(self, seconds: float) -> None:
+        with self._cond:
+            self._cond.wait_for(lambda: self._closing, timeout=seconds)
+
+    def close(self) -> None:
+        """Stop the source, the render thread and the server."""
+        self.source.stop()
+        with self._cond:
+            self._closing = True
+            self._cond.notify_all()
+        self._thread.join()
+        self.server.stop()

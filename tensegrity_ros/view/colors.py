@@ -1,0 +1,78 @@
+"""Colours of the view: strings by tension, the kinds' fixed colours.
+
+Tensions map to matplotlib's ``plasma`` colour map, its part from dark blue (0 N) to orange
+(the scale; the map's pale yellow end would vanish on the page's white);
+a string carrying no tension (slack, force <= 0) is grey and drawn thin. The scale is the
+largest tension seen so far in the session (:class:`TensionScale`), so one colour means one
+tension from frame to frame.
+"""
+
+from __future__ import annotations
+
+from typing import Final
+
+import numpy as np
+from matplotlib import colormaps
+from numpy.typing import NDArray
+
+#: RGB 0..255 of what is not coloured by force.
+BAR: Final = (70, 90, 120)
+ACTUATOR: Final = (230, 120, 30)
+SLACK: Final = (150, 150, 150)
+NODE: Final = (40, 40, 40)
+CONTACT: Final = (220, 20, 60)
+PATH: Final = (20, 150, 90)
+BODY: Final = (120, 160, 200)
+_MAP: Final = colormaps["plasma"]
+#: The part of the map used: 0 N at its start, the scale at this fraction of it.
+MAP_TOP: Final = 0.8
+
+
+class TensionScale:
+    """The largest tension seen so far [N] (at least ``floor``): the top of the colour map."""
+
+    def __init__(self, floor: float = 1e-6):
+        self.value = float(floor)
+
+    def update(self, tensions: NDArray[np.float64]) -> float:
+        if len(tensions):
+            self.value = max(self.value, float(np.max(tensions)))
+        return self.value
+
+
+def tension_colors(tensions: NDArray[np.float64], scale: float) -> NDArray[np.uint8]:
+    """(m, 3) RGB 0..255 of ``tensions`` [N] on a colour map over [0, ``scale``] N; slack
+    (tension <= 0) grey."""
+    t = np.asarray(tensions, dtype=float)
+    rgb = (np.asarray(_MAP(MAP_TOP * np.clip(t / scale, 0.0, 1.0)))[:, :3] * 255).round().astype(np.uint8)
+    rgb[t <= 0.0] = SLACK
+    return rgb.reshape(len(t), 3)
+
+
+def hex_color(rgb: tuple[int, int, int] | NDArray[np.uint8]) -> str:
+    """``#rrggbb`` of an RGB 0..255 colour."""
+    r, g, b = (int(v) for v in rgb)
+    return f"#{r:02x}{g:02x}{b:02x}"
+
+
+def legend_html(scale: float, *, cylinders: bool, strings: bool, bodies: bool, contacts: bool, path: bool) -> str:
+    """The legend of the 3D view: one swatch per kind of mark shown, the tension scale [N]."""
+    low, high = (hex_color(c) for c in tension_colors(np.array([1e-12, scale]), scale))
+    rows = []
+    if cylinders:
+        rows.append((hex_color(BAR), "bar (cylinder)"))
+        rows.append((hex_color(ACTUATOR), "actuator (cylinder)"))
+    if strings:
+        rows.append((f"linear-gradient(90deg, {low}, {high})", f"string: tension 0 to {scale:.3g} N"))
+        rows.append((hex_color(SLACK), "slack string (thin)"))
+    rows.append((hex_color(NODE), "node"))
+    if bodies:
+        rows.append((hex_color(BODY), "rigid body"))
+    if contacts:
+        rows.append((hex_color(CONTACT), "contact"))
+    if path:
+        rows.append((hex_color(PATH), "end effector's path"))
+    cells = "".join(f'<div style="display:flex;align-items:center;gap:6px;font-size:12px">'
+                    f'<span style="display:inline-block;width:28px;height:8px;background:{swatch}"></span>'
+                    f"{text}</div>" for swatch, text in rows)
+    return f'<div class="tensegrity-legend">{cells}</div>'

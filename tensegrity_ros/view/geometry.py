@@ -1,0 +1,32 @@
+"""Poses of the drawn members: a unit cylinder along +Z placed on each segment (numpy only)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+
+def z_to(directions: FloatArray) -> FloatArray:
+    """Unit quaternions ``(w, x, y, z)`` (k, 4) rotating +Z onto each of ``directions`` (k, 3)
+    (any length > 0): about the axis ``Z x d`` by the angle ``atan2(|Z x d|, Z . d)``
+    (half-angle form: no cancellation near -Z, where the axis is taken as X)."""
+    d = np.asarray(directions, dtype=float).reshape(-1, 3)
+    d = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-300)
+    axis = np.stack([-d[:, 1], d[:, 0], np.zeros(len(d))], axis=1)
+    sin = np.linalg.norm(axis, axis=1)
+    half = 0.5 * np.arctan2(sin, d[:, 2])
+    axis = np.where(sin[:, None] > 0, axis / np.maximum(sin, 1e-300)[:, None], [1.0, 0.0, 0.0])
+    return np.hstack([np.cos(half)[:, None], axis * np.sin(half)[:, None]])
+
+
+def segment_poses(a: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Mid-points (k, 3), orientations ``(w, x, y, z)`` (k, 4) and lengths (k,) [m] of the
+    segments from ``a`` to ``b`` (k, 3); a segment of zero length keeps +Z and length 0."""
+    a = np.asarray(a, dtype=float).reshape(-1, 3)
+    b = np.asarray(b, dtype=float).reshape(-1, 3)
+    v = b - a
+    lengths = np.linalg.norm(v, axis=1)
+    v[lengths <= 0.0] = (0.0, 0.0, 1.0)
+    return 0.5 * (a + b), z_to(v), lengths

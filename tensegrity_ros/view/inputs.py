@@ -1,0 +1,47 @@
+"""The inputs a page's sliders set, and the clamping of a value to its limits.
+
+An :class:`InputSpec` is one slider: an actuator force [N] of the class-2 mechanism
+(tension positive) or a rest length [m] of an actuated member of a general structure.
+:func:`clamp` brings a value inside its limits and says so in one line, which the page
+shows; a value that is not a finite number is refused (the input keeps its value).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class InputSpec:
+    """One input: ``name``, ``unit``, limits ``low`` <= ``high`` and the ``initial`` value."""
+
+    name: str
+    unit: str
+    low: float
+    high: float
+    initial: float
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.low) and math.isfinite(self.high) and self.low < self.high):
+            raise ValueError(f"input {self.name}: limits [{self.low}, {self.high}] are not an interval")
+
+
+@dataclass(frozen=True)
+class Clamped:
+    """The value to apply and the note for the page ("" when the value was within limits)."""
+
+    value: float
+    note: str = ""
+
+
+def clamp(spec: InputSpec, value: float, current: float) -> Clamped:
+    """``value`` within ``[spec.low, spec.high]``; ``current`` is kept for a non-finite value."""
+    v = float(value)
+    if not math.isfinite(v):
+        return Clamped(current, f"{spec.name}: {value!r} is not a number; kept {current:g} {spec.unit}")
+    if spec.low <= v <= spec.high:
+        return Clamped(v)
+    limit = spec.high if v > spec.high else spec.low
+    return Clamped(limit, f"{spec.name} = {v:g} {spec.unit} is outside [{spec.low:g}, {spec.high:g}] "
+                          f"{spec.unit}: clamped to {limit:g} {spec.unit}")

@@ -1,0 +1,256 @@
+"""Frames from a running suite over ROS 2: the simulator's ``mechanism_state``, and the page's
+requests as the suite's own interfaces.
+
+One node, ``tensegrity_view``, in the suite's namespace (any: ``--namespace``), on an
+rclpy context and executor of its own spun by a thread. It subscribes to
+``mechanism_state`` (``tensegrity_msgs/MechanismState``); asks ``get_simulation_state``
+twice a second for the run state (``get_simulator_features`` once, whose ``custom_info``
+says whether the simulator runs in lockstep); pauses, plays and steps through
+``set_simulation_state`` and ``step_simulation`` (``simulation_interfaces``); while the
+page drives the inputs, publishes ``actuator_forces`` (``tensegrity_msgs/ActuatorForces``,
+f1 and f2 [N], tension positive) at ``DRIVE_HZ``, inside the simulator's command timeout;
+and sends ``move_end_effector`` goals to the controller. Every request is asynchronous: its
+answer comes back to the page as one line. Stopping the view destroys this node only.
+"""
+
+from __future__ import annotations
+
+import threading
+from typing import Any, Final
+
+from tensegrity_ros.view.frame import Frame
+from tensegrity_ros.view.frames import class2_topology, frame_of_mechanism_state
+from tensegrity_ros.view.inputs import InputSpec
+from tensegrity_ros.view.server import ViewError
+from tensegrity_ros.view.source import Report, Sink
+
+#: Actuator commands per second while the page drives the forces (the simulator drops to its
+#: safe force after ``command_timeout``, 0.5 s by default, without one).
+DRIVE_HZ: Final = 20.0
+#: ``simulation_interfaces/SimulationState`` values -> the view's run states.
+RUN_STATES: Final = {0: "stopped", 1: "playing", 2: "paused", 3: "quitting", 4: "no world", 5: "loading world"}
+#: ``simulation_interfaces/Result`` codes by value, for the page's lines.
+RESULT_NAMES: Final = {0: "FEATURE_UNSUPPORTED", 1: "OK", 2: "NOT_FOUND", 3: "INCORRECT_STATE", 4: "OPERATION_FAILED",
+                       101: "ALREADY_IN_TARGET_STATE", 102: "STATE_TRANSITION_ERROR", 103: "INCORRECT_TRANSITION"}
+
+
+def run_state_name(state: int, lockstep: bool) -> str:
+    """The run state a frame reports: a playing lockstep simulator is ``"lockstep"``."""
+    name = RUN_STATES.get(int(state), "unknown")
+    return "lockstep" if lockstep and name == "playing" else name
+
+
+def _ignore(_text: str) -> None:
+    """A report nobody reads (before :meth:`RosSource.start`)."""
+
+
+class RosSource:
+    """The class-2 simulator of a running suite in ``namespace`` (see the module docstring);
+    ``force_limit`` [N] bounds the force sliders; ``ros_args`` go to rclpy (remapping)."""
+
+    duration = 0.0
+
+    def __init__(self, namespace: str = "", *, force_limit: float = 5.0, ros_args: list[str] | None = None):
+        import rclpy
+        from rclpy.context import Context
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.signals import SignalHandlerOptions
+
+        self.topology = class2_topology()
+        self.features = frozenset({"run", "step", "inputs", "move"})
+        self.inputs = tuple(InputSpec(name, "N", -force_limit, force_limit, 0.0) for name in ("f1", "f2"))
+        self.context = Context()
+        rclpy.init(args=["tensegrity", *(ros_args or [])], context=self.context,
+                   signal_handler_options=SignalHandlerOptions.NO)
+        try:
+            self._make_node(namespace)
+        except BaseException:
+            rclpy.try_shutdown(context=self.context)
+            raise
+        self.label = f"suite {self.node.get_namespace()}: {self.node.resolve_topic_name('mechanism_state')}"
+        self._sink: Sink | None = None
+        self._report: Report = _ignore
+        self._lock = threading.Lock()
+        self._first = threading.Event()
+        self._latest: Frame | None = None
+        self._run_state = "unknown"
+        self._lockstep: bool | None = None
+        self._drive: dict[str, float] | None = None
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._spin, name="view_ros", daemon=True)
+        self._thread.start()
+
+    def _make_node(self, namespace: str) -> None:
+        from rclpy.action import ActionClient
+        from rclpy.node import Node
+        from rclpy.qos import QoSProfile
+        from simulation_interfaces.srv import (
+            GetSimulationState,
+            GetSimulatorFeatures,
+            SetSimulationState,
+            StepSimulation,
+        )
+        from tensegrity_msgs.action import MoveEndEffector
+        from tensegrity_msgs.msg import ActuatorForces, MechanismState
+
+        self.node = Node("tensegrity_view", namespace=namespace or None, context=self.context)
+        node = self.node
+        node.create_subscription(MechanismState, "mechanism_state", self._on_state, QoSProfile(depth=10))
+        self.get_state = node.create_client(GetSimulationState, "get_simulation_state")
+        self.get_features = node.create_client(GetSimulatorFeatures, "get_simulator_features")
+        self.set_state = node.create_client(SetSimulationState, "set_simulation_state")
+        self.step_client = node.create_client(StepSimulation, "step_simulation")
+        self.mover = ActionClient(node, MoveEndEffector, "move_end_effector")
+        self.forces = node.create_publisher(ActuatorForces, "actuator_forces", QoSProfile(depth=10))
+        self.ActuatorForces = ActuatorForces
+        self.srv = {"get": GetSimulationState, "features": GetSimulatorFeatures, "set": SetSimulationState,
+                    "step": StepSimulation}
+        self.MoveEndEffector = MoveEndEffector
+        node.create_timer(0.5, self._poll_state)
+        node.create_timer(1.0 / DRIVE_HZ, self._publish_drive)
+
+    def _spin(self) -> None:
+        from rclpy.executors import ExternalShutdownException
+
+        try:
+            while not self._stop.is_set() and self.context.ok():
+                self.executor.spin_once(timeout_sec=0.1)
+        except ExternalShutdownException:
+            pass
+        except Exception:
+            if self.context.ok() and not self._stop.is_set():
+                raise
+
+    # -- frames ------------------------------------------------------------------------------
+    def _on_state(self, msg: Any) -> None:
+        frame = frame_of_mechanism_state(msg, self._run_state)
+        with self._lock:
+            self._latest = frame
+            sink = self._sink
+        self._first.set()
+        if sink is not None:
+            sink(frame)
+
+    def first_frame(self, timeout: float) -> Frame:
+        if not self._first.wait(timeout):
+            self.stop()
+            raise ViewError(f"no state on {self.node.resolve_topic_name('mechanism_state')} within {timeout:g} s "
+                            "(is the suite up? `tensegrity up`; in a namespace: --namespace)")
+        with self._lock:
+            assert self._latest is not None
+            return self._latest
+
+    def start(self, sink: Sink, report: Report) -> None:
+        with self._lock:
+            self._sink = sink
+            self._report = report
+
+    def stop(self) -> None:
+        import rclpy
+
+        if self._stop.is_set():
+            return
+        self._stop.set()
+        self._thread.join()
+        self.executor.shutdown()
+        self.node.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+
+    # -- the run state ------------------------------------------------------------------------
+    def _poll_state(self) -> None:
+        if self._lockstep is None and self.get_features.service_is_ready():
+            self._lockstep = False
+            future = self.get_features.call_async(self.srv["features"].Request())
+            future.add_done_callback(self._on_features)
+        if self.get_state.service_is_ready():
+            self.get_state.call_async(self.srv["get"].Request()).add_done_callback(self._on_run_state)
+
+    def _on_features(self, future: Any) -> None:
+        res = future.result()
+        self._lockstep = res is not None and "lockstep true" in res.features.custom_info
+
+    def _on_run_state(self, future: Any) -> None:
+        res = future.result()
+        if res is not None:
+            self._run_state = run_state_name(res.state.state, bool(self._lockstep))
+
+    # -- requests ----------------------------------------------------------------------------
+    def _call(self, client: Any, request: Any, what: str) -> None:
+        if not client.service_is_ready():
+            self._report(f"{what}: {client.srv_name} is not available (is the simulator running?)")
+            return
+
+        def done(future: Any) -> None:
+            res = future.result()
+            if res is None:
+                self._report(f"{what}: no answer")
+                return
+            code = int(res.result.result)
+            text = f"{what}: {RESULT_NAMES.get(code, code)}"
+            self._report(f"{text} ({res.result.error_message})" if res.result.error_message else text)
+
+        client.call_async(request).add_done_callback(done)
+
+    def _set_state(self, state: int, what: str) -> None:
+        request = self.srv["set"].Request()
+        request.state.state = state
+        self._call(self.set_state, request, what)
+
+    def play(self) -> None:
+        self._set_state(1, "play")
+
+    def pause(self) -> None:
+        self._set_state(2, "pause")
+
+    def step(self, steps: int) -> None:
+        self._call(self.step_client, self.srv["step"].Request(steps=int(steps)), f"step {steps}")
+
+    def drive(self, values: dict[str, float] | None) -> None:
+        if values is not None and self._lockstep:
+            self._report("the simulator runs in lockstep: it takes one command per step from its controller, "
+                         "not from sliders")
+            return
+        with self._lock:
+            self._drive = None if values is None else dict(values)
+        self._report("the sliders drive f1, f2" if values is not None else "the sliders let go of f1, f2")
+
+    def _publish_drive(self) -> None:
+        with self._lock:
+            values = self._drive
+        if values is None:
+            return
+        msg = self.ActuatorForces(name=list(values), force=[float(v) for v in values.values()])
+        msg.header.stamp = self.node.get_clock().now().to_msg()
+        self.forces.publish(msg)
+
+    def move(self, x: float, y: float, duration: float) -> None:
+        if not self.mover.server_is_ready():
+            self._report("move: no controller answers move_end_effector (is it running? `tensegrity up`)")
+            return
+        goal = self.MoveEndEffector.Goal(x=float(x), y=float(y), duration=float(duration))
+        self._report(f"move: D to ({x:g}, {y:g}) m in {duration:g} s sent")
+
+        def accepted(future: Any) -> None:
+            handle = future.result()
+            if handle is None or not handle.accepted:
+                self._report("move: the controller refused the goal")
+                return
+            handle.get_result_async().add_done_callback(finished)
+
+        def finished(future: Any) -> None:
+            res = future.result().result
+            if res.error_code == 0:
+                p = res.end_effector
+                self._report(f"move: D at ({p.x:.4f}, {p.y:.4f}) m, {res.settled_error * 1e3:.2f} mm from the target")
+            else:
+                self._report(f"move failed ({res.error_code}): {res.error_string}")
+
+        self.mover.send_goal_async(goal).add_done_callback(accepted)
+
+    def seek(self, t: float) -> None:
+        self._report("no timeline: this is the live suite")
+
+    def set_rate(self, rate: float) -> None:
+        self._report("no timeline: this is the live suite")

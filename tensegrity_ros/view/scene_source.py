@@ -1,0 +1,162 @@
+"""Frames from the core simulator run in the view's process (any scene: class-2 or general).
+
+For structures the ROS suite does not simulate, and to watch a scene without starting the
+suite: a thread steps :class:`tensegrity_core.sim.Simulator` in whole steps of ``step`` s at
+real time (the steps due since the last tick, at most ``MAX_CATCH_UP`` s of them: a late
+tick resynchronises instead of racing), and sends a frame per tick. Pause, play, single
+steps and the commanded inputs (class-2 actuator forces [N], tension positive; rest lengths
+[m] of a general structure's actuated members) act on that simulator; it starts paused.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from typing import Final
+
+from tensegrity_core.errors import TensegrityError
+from tensegrity_core.sim import Simulator, load_scene
+from tensegrity_core.sim.sampled import step_time
+from tensegrity_ros.view.frame import Frame
+from tensegrity_ros.view.frames import frame_of_observation, scene_topology
+from tensegrity_ros.view.inputs import InputSpec
+from tensegrity_ros.view.source import Report, Sink
+
+#: Largest simulated time made up in one tick [s].
+MAX_CATCH_UP: Final = 0.25
+#: Rest-length sliders span this fraction of the initial rest length either way.
+REST_LENGTH_SPAN: Final = 0.5
+
+
+def _ignore(_text: str) -> None:
+    """A report nobody reads (before :meth:`SceneSource.start`)."""
+
+
+class SceneSource:
+    """The core simulator of ``scene`` (a shipped scene's name or a file), stepped every
+    ``step`` s, ticking at ``rate`` Hz of wall time; ``force_limit`` [N] bounds the class-2
+    force sliders."""
+
+    def __init__(self, scene: str, *, step: float = 0.01, rate: float = 60.0, force_limit: float = 5.0):
+        self.sim = Simulator(load_scene(scene))
+        self.topology = scene_topology(self.sim.scene)
+        self.label = f"scene {self.sim.scene.name} (core simulator in this process)"
+        self.step_ns = max(1, round(step * 1e9))
+        self.period = 1.0 / rate
+        self.duration = 0.0
+        self.inputs = self._input_specs(force_limit)
+        self.features = frozenset({"run", "step"} | ({"inputs"} if self.inputs else set()))
+        self._k = 0
+        self._playing = False
+        self._steps_wanted = 0
+        self._command = list(self.sim.command)
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._wake = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._report: Report = _ignore
+
+    def _input_specs(self, force_limit: float) -> tuple[InputSpec, ...]:
+        """One slider per commanded input (inputs with a law follow it: no slider)."""
+        names = list(self.sim.scene.inputs)
+        out = []
+        for name, value in zip(names, self.sim.command):
+            if math.isnan(value):
+                continue
+            if self.topology.kind == "class2":
+                out.append(InputSpec(name, "N", -force_limit, force_limit, float(value)))
+            else:
+                span = REST_LENGTH_SPAN * abs(value)
+                out.append(InputSpec(name, "m", max(1e-6, value - span), value + span, float(value)))
+        return tuple(out)
+
+    def first_frame(self, timeout: float = 0.0) -> Frame:
+        return self._frame()
+
+    def _frame(self) -> Frame:
+        state = "playing" if self._playing else "paused"
+        return frame_of_observation(self.sim.observe(), self.topology, state)
+
+    def start(self, sink: Sink, report: Report) -> None:
+        self._report = report
+        self._thread = threading.Thread(target=self._run, args=(sink,), name="view_scene", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._wake.set()
+        if self._thread is not None:
+            self._thread.join()
+
+    def _run(self, sink: Sink) -> None:
+        next_tick = time.monotonic()
+        last = next_tick
+        while not self._stop.is_set():
+            now = time.monotonic()
+            with self._lock:
+                due = 0
+                if self._playing:
+                    elapsed = min(now - last, MAX_CATCH_UP)
+                    due = max(1, round(elapsed * 1e9 / self.step_ns))
+                due += self._steps_wanted
+                self._steps_wanted = 0
+                command = list(self._command)
+            last = now
+            if due:
+                self._advance(due, command)
+            sink(self._frame())
+            next_tick = max(next_tick + self.period, time.monotonic())
+            self._wake.wait(max(0.0, next_tick - time.monotonic()))
+            self._wake.clear()
+
+    def _advance(self, steps: int, command: list[float]) -> None:
+        try:
+            self.sim.set_command(command)
+            for _ in range(steps):
+                self._k += 1
+                self.sim.advance(step_time(self._k, self.step_ns))
+        except TensegrityError as err:
+            with self._lock:
+                self._playing = False
+            self._report(f"the simulation stopped: {err}")
+
+    def play(self) -> None:
+        with self._lock:
+            self._playing = True
+        self._report("playing")
+        self._wake.set()
+
+    def pause(self) -> None:
+        with self._lock:
+            self._playing = False
+        self._report("paused")
+        self._wake.set()
+
+    def step(self, steps: int) -> None:
+        with self._lock:
+            if self._playing:
+                self._report("stepping needs the simulation paused")
+                return
+            self._steps_wanted += int(steps)
+        self._report(f"{steps} step{'s' * (steps != 1)} of {self.step_ns / 1e9:g} s")
+        self._wake.set()
+
+    def drive(self, values: dict[str, float] | None) -> None:
+        names = list(self.sim.scene.inputs)
+        with self._lock:
+            if values is None:
+                self._command = list(self.sim.command)
+                return
+            for name, value in values.items():
+                self._command[names.index(name)] = float(value)
+
+    def move(self, x: float, y: float, duration: float) -> None:
+        self._report("moving node D needs the controller of a running suite (tensegrity up)")
+
+    def seek(self, t: float) -> None:
+        self._report("no timeline: this is a live simulation")
+
+    def set_rate(self, rate: float) -> None:
+        self._report("no timeline: this is a live simulation")
+

@@ -1,0 +1,104 @@
+"""Debian's chromium, headless, driven by Playwright, with every request off loopback blocked.
+
+Playwright (PyPI ``playwright``) drives the machine's ``/usr/bin/chromium`` (never a
+browser of its own). WebGL renders on SwiftShader (``--use-angle=swiftshader
+--enable-unsafe-swiftshader``; without them Chromium >= 144 leaves the canvas blank). The
+network is blocked twice: a host-resolver rule maps every name but 127.0.0.1 to nothing,
+and a route aborts any request whose host is not a loopback address; every request and
+websocket the page opens is listed in :attr:`Browser.requests` (blocked or not), so a test
+can assert that the page asked for nothing off this machine.
+"""
+
+from __future__ import annotations
+
+import io
+import ipaddress
+import shutil
+import tempfile
+from pathlib import Path
+from urllib.parse import urlsplit
+
+import numpy as np
+
+CHROMIUM = "/usr/bin/chromium"
+FLAGS = ["--headless", "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+         "--disable-background-networking", "--disable-component-update", "--disable-sync", "--no-first-run",
+         "--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE 127.0.0.1"]
+
+
+def chromium_available() -> bool:
+    return Path(CHROMIUM).exists() and shutil.which(CHROMIUM) is not None
+
+
+def is_local(url: str) -> bool:
+    """A URL on this machine (loopback), or one that loads nothing (data:, blob:, about:)."""
+    parts = urlsplit(url)
+    if parts.scheme in ("data", "blob", "about"):
+        return True
+    host = parts.hostname or ""
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+class Browser:
+    """One headless chromium with a fresh profile; ``open(url)`` gives a page."""
+
+    def __init__(self, width: int = 1280, height: int = 800):
+        from playwright.sync_api import sync_playwright
+
+        self._profile = tempfile.mkdtemp(prefix="tensegrity_view_chromium_")
+        self._pw = sync_playwright().start()
+        try:
+            self.context = self._pw.chromium.launch_persistent_context(
+                self._profile, executable_path=CHROMIUM, headless=True, args=FLAGS,
+                viewport={"width": width, "height": height}, service_workers="block")
+        except BaseException:
+            self._pw.stop()
+            raise
+        self.requests: list[str] = []
+        self.context.route("**/*", self._route)
+        self.context.on("request", lambda r: self.requests.append(r.url))
+
+    def _route(self, route) -> None:
+        if is_local(route.request.url):
+            route.continue_()
+        else:
+            route.abort("blockedbyclient")
+
+    def open(self, url: str):
+        page = self.context.new_page()
+        page.on("websocket", lambda ws: self.requests.append(ws.url))
+        page.goto(url, wait_until="load")
+        return page
+
+    def outside(self) -> list[str]:
+        """The requests the page made to anything off this machine (blocked, but asked)."""
+        return [u for u in self.requests if not is_local(u)]
+
+    def close(self) -> None:
+        try:
+            self.context.close()
+        finally:
+            self._pw.stop()
+            shutil.rmtree(self._profile, ignore_errors=True)
+
+
+def canvas_pixels(page) -> np.ndarray:
+    """The 3D canvas of a viser page as an (h, w, 3) uint8 array (a screenshot of it)."""
+    from PIL import Image
+
+    png = page.locator("canvas").first.screenshot()
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
+
+
+def wait_for_canvas(page, timeout_ms: float = 60_000) -> None:
+    """Until viser's canvas exists and has drawn something that is not one flat colour."""
+    page.locator("canvas").first.wait_for(state="visible", timeout=timeout_ms)
+    deadline_polls = int(timeout_ms / 250)
+    for _ in range(deadline_polls):
+        if canvas_pixels(page).std() > 1.0:
+            return
+        page.wait_for_timeout(250)
+    raise AssertionError("the 3D canvas stayed one flat colour (is WebGL on SwiftShader working?)")

@@ -1,0 +1,116 @@
+"""The view's frames, geometry, colours, inputs and plot history, without a browser or ROS."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation
+
+pytest.importorskip("viser")
+
+from tensegrity_core.sim import Simulator  # noqa: E402
+from tensegrity_ros.view.colors import SLACK, tension_colors  # noqa: E402
+from tensegrity_ros.view.frame import Frame, Topology  # noqa: E402
+from tensegrity_ros.view.frames import frame_of_observation, scene_topology  # noqa: E402
+from tensegrity_ros.view.geometry import segment_poses, z_to  # noqa: E402
+from tensegrity_ros.view.inputs import InputSpec, clamp  # noqa: E402
+from tensegrity_ros.view.plots import SeriesHistory  # noqa: E402
+
+finite = st.floats(-10.0, 10.0, allow_nan=False)
+
+
+@given(st.tuples(finite, finite, finite).filter(lambda v: math.hypot(*v) > 1e-6))
+def test_z_to_turns_z_onto_every_direction(d):
+    """scipy's rotation of +Z by the quaternion (scipy orders it x, y, z, w) is d / |d|."""
+    w, x, y, z = z_to(np.array([d]))[0]
+    turned = Rotation.from_quat([x, y, z, w]).apply([0.0, 0.0, 1.0])
+    np.testing.assert_allclose(turned, np.array(d) / np.linalg.norm(d), atol=1e-12)
+
+
+def test_z_to_handles_minus_z_and_segments_of_zero_length():
+    w, x, y, z = z_to(np.array([[0.0, 0.0, -2.0]]))[0]
+    np.testing.assert_allclose(Rotation.from_quat([x, y, z, w]).apply([0, 0, 1]), [0, 0, -1], atol=1e-12)
+    mid, wxyz, length = segment_poses(np.array([[1.0, 2.0, 3.0]]), np.array([[1.0, 2.0, 3.0]]))
+    assert length[0] == 0 and np.allclose(mid, [[1, 2, 3]]) and np.allclose(wxyz, [[1, 0, 0, 0]])
+
+
+def test_segment_poses_put_a_unit_cylinder_on_the_segment():
+    a, b = np.array([[0.0, 0.0, 0.0]]), np.array([[3.0, 4.0, 0.0]])
+    mid, wxyz, length = segment_poses(a, b)
+    assert length[0] == pytest.approx(5.0) and np.allclose(mid, [[1.5, 2.0, 0.0]])
+    w, x, y, z = wxyz[0]
+    ends = Rotation.from_quat([x, y, z, w]).apply([[0, 0, -0.5], [0, 0, 0.5]]) * length[0] + mid
+    np.testing.assert_allclose(ends, np.vstack([a, b]), atol=1e-12)
+
+
+@pytest.mark.parametrize("scene", ["class2_at_rest", "spine_release", "table_gravity"])
+def test_a_frame_draws_the_members_the_core_measures(scene):
+    """The topology's node pairs applied to the frame's nodes give the core's member lengths
+    (a wrong pair, an axis lost on the way, a swapped node all change a length)."""
+    sim = Simulator(scene)
+    topology = scene_topology(sim.scene)
+    obs = sim.observe()
+    frame = frame_of_observation(obs, topology, "paused")
+    ends = topology.members
+    lengths = np.linalg.norm(frame.nodes[ends[:, 1]] - frame.nodes[ends[:, 0]], axis=1)
+    np.testing.assert_allclose(lengths, obs.member_lengths, rtol=1e-12, atol=1e-12)
+    assert set(frame.series) == {k for _title, keys in topology.series_groups for k in keys}
+
+
+def test_the_class2_topology_has_the_papers_members():
+    topology = scene_topology(Simulator("class2_at_rest").scene)
+    assert topology.kind == "class2" and topology.node_names[topology.end_effector] == "D"
+    kinds = dict(zip(topology.member_names, topology.member_kinds))
+    assert [n for n, k in kinds.items() if k == "actuator"] == ["1_AB", "2_BC"]
+    assert sorted(n for n, k in kinds.items() if k == "bar") == ["10_CE", "5_AE", "6_BF", "9_BD"]
+
+
+def test_a_general_topology_carries_its_bodies_and_the_floor():
+    topology = scene_topology(Simulator("table_gravity").scene)
+    assert [name for name, _ in topology.bodies] == ["bottom", "top"] and topology.floor
+
+
+def test_a_topology_refuses_pairs_outside_its_nodes():
+    with pytest.raises(ValueError, match="outside"):
+        Topology("general", ("a", "b"), ("m",), np.array([[0, 2]]), ("bar",))
+    with pytest.raises(ValueError, match="unknown member kinds"):
+        Topology("general", ("a", "b"), ("m",), np.array([[0, 1]]), ("rope",))
+
+
+def test_tension_colours_start_at_the_maps_first_colour_and_grey_slack():
+    """plasma starts at #0d0887 (13, 8, 135), matplotlib's published first colour."""
+    rgb = tension_colors(np.array([1e-12, 0.0, -3.0, 2.0]), scale=2.0)
+    assert tuple(rgb[0]) == (13, 8, 135)
+    assert tuple(rgb[1]) == SLACK and tuple(rgb[2]) == SLACK
+    assert tuple(rgb[3]) != tuple(rgb[0])
+
+
+def test_clamp_keeps_values_within_limits_and_says_when_it_clamps():
+    spec = InputSpec("f1", "N", -5.0, 5.0, 0.0)
+    assert clamp(spec, 2.5, 0.0).value == 2.5 and clamp(spec, 2.5, 0.0).note == ""
+    over = clamp(spec, 7.0, 0.0)
+    assert over.value == 5.0 and "clamped to 5 N" in over.note and "outside [-5, 5] N" in over.note
+    assert clamp(spec, -9.0, 0.0).value == -5.0
+    refused = clamp(spec, float("nan"), 1.5)
+    assert refused.value == 1.5 and "not a number" in refused.note
+    with pytest.raises(ValueError):
+        InputSpec("f1", "N", 1.0, 1.0, 1.0)
+
+
+def _frame(t: float, v: float) -> Frame:
+    return Frame(t=t, nodes=np.zeros((1, 3)), member_forces=np.zeros(0), series={"q:a": v})
+
+
+def test_the_history_keeps_its_window_and_restarts_when_time_goes_back():
+    h = SeriesHistory(window=1.0)
+    for k in range(31):
+        h.add(_frame(0.1 * k, float(k)))
+    t, a = h.arrays(("q:a",))
+    assert t[0] == pytest.approx(2.0) and t[-1] == pytest.approx(3.0) and a[-1] == 30.0
+    h.add(_frame(0.5, -1.0))
+    t, a, missing = h.arrays(("q:a", "q:b"))
+    assert list(t) == [0.5] and list(a) == [-1.0] and math.isnan(missing[0])
