@@ -28,6 +28,12 @@ def status_line(frame: Frame) -> str:
     return f"**t = {frame.t:.3f} s** · {frame.run_state}"
 
 
+def _set(handle: Any, content: str) -> None:
+    """Send a GUI text only when it changed (every message re-renders the page's panel)."""
+    if handle.content != content:
+        handle.content = content
+
+
 class View:
     """A started view of ``source`` on ``server`` (see the module docstring); ``first`` is the
     source's first frame (the drawing's sizes and the camera come from it)."""
@@ -89,12 +95,12 @@ class View:
                 self.drawing.clear_trail()
             with self.server.atomic():
                 self.drawing.show(frame)
-                self.status.content = status_line(frame)
+                _set(self.status, status_line(frame))
                 self.controls.show_time(frame.t - self._t0)
                 if self.frames_shown % PLOT_EVERY == 0:
                     with self._cond:
                         self.plots.refresh()
-                    self.legend.content = self.drawing.legend()
+                    _set(self.legend, self.drawing.legend())
             self.server.flush()
             self.frames_shown += 1
             last = frame

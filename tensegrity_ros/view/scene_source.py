@@ -50,6 +50,7 @@ class SceneSource:
         self._k = 0
         self._playing = False
         self._steps_wanted = 0
+        self._frame_due = True      # a frame also when only the run state changed
         self._command = list(self.sim.command)
         self._lock = threading.Lock()
         self._stop = threading.Event()
@@ -105,7 +106,9 @@ class SceneSource:
             last = now
             if due:
                 self._advance(due, command)
-            sink(self._frame())
+            if due or self._frame_due:
+                self._frame_due = False
+                sink(self._frame())
             next_tick = max(next_tick + self.period, time.monotonic())
             self._wake.wait(max(0.0, next_tick - time.monotonic()))
             self._wake.clear()
@@ -124,12 +127,14 @@ class SceneSource:
     def play(self) -> None:
         with self._lock:
             self._playing = True
+            self._frame_due = True
         self._report("playing")
         self._wake.set()
 
     def pause(self) -> None:
         with self._lock:
             self._playing = False
+            self._frame_due = True
         self._report("paused")
         self._wake.set()
 

@@ -51,6 +51,9 @@ def check_port_free(host: str, port: int) -> None:
     for an address that is not this machine's."""
     family = socket.AF_INET6 if ":" in host else socket.AF_INET
     with socket.socket(family, socket.SOCK_STREAM) as s:
+        # as the server binds (asyncio sets it): connections of an earlier run still in
+        # TIME_WAIT do not count, another listener does
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:
             s.bind((host, port))
         except OSError as err:
@@ -82,4 +85,6 @@ def start_server(host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, *, label: s
                              "choose another with --port")
     server.gui.configure_theme(show_share_button=False, show_logo=False, control_width="large",
                                control_layout="fixed")
+    # Plain lights without shadows: the page stays fluid on software WebGL (no GPU) too.
+    server.scene.configure_default_lights(enabled=True, cast_shadow=False)
     return server

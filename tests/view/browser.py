@@ -21,6 +21,8 @@ from urllib.parse import urlsplit
 import numpy as np
 
 CHROMIUM = "/usr/bin/chromium"
+#: viser's 3D canvas (the plots are canvases too).
+CANVAS = 'canvas[data-engine^="three.js"]'
 FLAGS = ["--headless", "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
          "--disable-background-networking", "--disable-component-update", "--disable-sync", "--no-first-run",
          "--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE 127.0.0.1"]
@@ -45,7 +47,7 @@ def is_local(url: str) -> bool:
 class Browser:
     """One headless chromium with a fresh profile; ``open(url)`` gives a page."""
 
-    def __init__(self, width: int = 1280, height: int = 800):
+    def __init__(self, width: int = 800, height: int = 500, timeout_s: float = 180.0):
         from playwright.sync_api import sync_playwright
 
         self._profile = tempfile.mkdtemp(prefix="tensegrity_view_chromium_")
@@ -57,6 +59,7 @@ class Browser:
         except BaseException:
             self._pw.stop()
             raise
+        self.timeout_ms = timeout_s * 1000
         self.requests: list[str] = []
         self.context.route("**/*", self._route)
         self.context.on("request", lambda r: self.requests.append(r.url))
@@ -69,6 +72,7 @@ class Browser:
 
     def open(self, url: str):
         page = self.context.new_page()
+        page.set_default_timeout(self.timeout_ms)    # a busy machine renders software WebGL slowly
         page.on("websocket", lambda ws: self.requests.append(ws.url))
         page.goto(url, wait_until="load")
         return page
@@ -89,16 +93,29 @@ def canvas_pixels(page) -> np.ndarray:
     """The 3D canvas of a viser page as an (h, w, 3) uint8 array (a screenshot of it)."""
     from PIL import Image
 
-    png = page.locator("canvas").first.screenshot()
+    box = page.locator(CANVAS).first.bounding_box()
+    png = page.screenshot(clip=box, animations="allow")    # a canvas never counts as "stable" to Playwright
     return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
 
 
 def wait_for_canvas(page, timeout_ms: float = 60_000) -> None:
     """Until viser's canvas exists and has drawn something that is not one flat colour."""
-    page.locator("canvas").first.wait_for(state="visible", timeout=timeout_ms)
+    page.locator(CANVAS).first.wait_for(state="visible", timeout=timeout_ms)
     deadline_polls = int(timeout_ms / 250)
     for _ in range(deadline_polls):
         if canvas_pixels(page).std() > 1.0:
             return
         page.wait_for_timeout(250)
     raise AssertionError("the 3D canvas stayed one flat colour (is WebGL on SwiftShader working?)")
+
+
+def control(page, label: str):
+    """The row of the GUI control labelled ``label`` (its slider, fields, checkbox)."""
+    return page.locator(f"xpath=//label[normalize-space()='{label}']"
+                        "/ancestor::div[.//input or .//*[@role='slider']][1]")
+
+
+def status_time(page) -> float:
+    """The simulation time [s] the page's status line shows ("t = 1.234 s")."""
+    text = page.get_by_text("t = ").first.inner_text()
+    return float(text.split("=")[1].split("s")[0])

@@ -1,0 +1,213 @@
+"""The view in the browser (``python -m tests.bench --only view [--full]``): frame rate, latency,
+start-up.
+
+Measured in Debian's chromium, headless, on software WebGL (SwiftShader: these machines have
+no GPU), the page open at 800 x 500 px:
+
+- **frame rate**: frames the page draws per second (``requestAnimationFrame`` callbacks) and
+  states it shows per second (changes of its status line), while the simulation runs at
+  real time: the class-2 simulator of the suite over ROS (100 Hz states) and a general
+  structure (the tensegrity spine, ``spine_release``) simulated in the view's process.
+  Baseline, same browser, same run: an empty viser page (what the renderer alone reaches
+  on this machine). Targets: >= 30 fps for the 6-bar and the spine (the robots' scenes,
+  when they land).
+- **latency**: from a ``mechanism_state`` message (received by this process's own
+  subscriber, wall time) to the page showing that state's time in its status line
+  (``performance.timeOrigin + performance.now()``, the same wall clock); median. Target < 50 ms.
+- **ready**: from starting ``tensegrity view --scene class2_at_rest`` to its page answering
+  HTTP; baseline ``tensegrity scenes`` (the command line's own start-up). Target < 3 s.
+
+Quick mode (CI): 3 s windows, one start-up; full mode: 15 s windows, 5 start-ups.
+"""
+
+from __future__ import annotations
+
+import http.client
+import os
+import re
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+from tests.bench.harness import Context, Row, benchmark
+from tests.process_groups import kill_group, wait_group
+
+TENSEGRITY = str(Path(sys.executable).with_name("tensegrity"))
+READY = re.compile(r"view ready: http://127\.0\.0\.1:(\d+)")
+
+#: Page-side probes: frames drawn in a window, and (t shown, wall time [ms]) of each state shown.
+FRAMES = """ms => new Promise(r => { let n = 0; const t0 = performance.now();
+  function f() { n++; if (performance.now() - t0 < ms) requestAnimationFrame(f);
+                 else r(n / ((performance.now() - t0) / 1000)); }
+  requestAnimationFrame(f); })"""
+WATCH = """() => { window.__shown = []; const seen = new Set();
+  new MutationObserver(() => { const m = document.body.innerText.match(/t = ([0-9.]+) s/);
+    if (m && !seen.has(m[1])) { seen.add(m[1]);
+      window.__shown.push([parseFloat(m[1]), performance.timeOrigin + performance.now()]); } })
+  .observe(document.body, {subtree: true, childList: true, characterData: true}); }"""
+
+
+def _start(args: list[str], env: dict) -> tuple[subprocess.Popen, int, float, Path]:
+    """A view process, its port and the seconds until its page answered."""
+    log = Path(tempfile.mkstemp(prefix="bench_view_", suffix=".log")[1])
+    t0 = time.monotonic()
+    with open(log, "w") as out:
+        proc = subprocess.Popen([TENSEGRITY, "view", *args, "--port", "0"], stdout=out, stderr=out, env=env,
+                                start_new_session=True)
+    deadline = t0 + 120
+    while not (m := READY.search(log.read_text(errors="replace"))):
+        if proc.poll() is not None or time.monotonic() > deadline:
+            kill_group(proc)
+            raise RuntimeError(f"the view did not start: {log.read_text()[-500:]}")
+        time.sleep(0.005)
+    port = int(m.group(1))
+    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
+    conn.request("GET", "/")
+    conn.getresponse().read()
+    conn.close()
+    return proc, port, time.monotonic() - t0, log
+
+
+def _stop(proc: subprocess.Popen) -> None:
+    proc.send_signal(2)
+    try:
+        wait_group(proc, 30)
+    finally:
+        kill_group(proc)
+
+
+def _page_rates(browser, url: str, seconds: float) -> tuple[float, float, list]:
+    """(frames drawn per s, states shown per s, [(t shown, wall ms)]) over ``seconds``."""
+    from tests.view.browser import wait_for_canvas
+
+    page = browser.open(url)
+    try:
+        wait_for_canvas(page)
+        page.evaluate(WATCH)
+        fps = page.evaluate(FRAMES, seconds * 1000)
+        shown = page.evaluate("() => window.__shown")
+        span = (shown[-1][1] - shown[0][1]) / 1000 if len(shown) > 1 else 0.0
+        return fps, (len(shown) - 1) / span if span > 0 else 0.0, shown
+    finally:
+        page.close()
+
+
+@benchmark
+def view_in_the_browser(ctx: Context) -> list[Row]:
+    from tests.view.browser import Browser, chromium_available
+
+    if not chromium_available():
+        print("   view: skipped, Debian's chromium is not installed (./run test installs it)", file=sys.stderr)
+        return []
+    import rclpy
+    from rclpy.context import Context as RosContext
+    from tensegrity_msgs.msg import MechanismState
+
+    seconds = 3.0 if ctx.quick else 15.0
+    starts = 1 if ctx.quick else 5
+    env = dict(os.environ)
+    env["ROS_DOMAIN_ID"] = str(170 + os.getpid() % 30)
+    rows: list[Row] = []
+
+    base = []
+    for _ in range(starts):
+        t0 = time.monotonic()
+        subprocess.run([TENSEGRITY, "scenes"], capture_output=True, env=env, check=True)
+        base.append(time.monotonic() - t0)
+    ready = []
+    for _ in range(starts):
+        proc, _port, took, _log = _start(["--scene", "class2_at_rest"], env)
+        ready.append(took)
+        _stop(proc)
+    rows.append(Row("view", "tensegrity scenes: start to exit, median", statistics.median(base), "s"))
+    rows.append(Row("view", "tensegrity view: start to page served, median", statistics.median(ready), "s",
+                    baseline="tensegrity scenes: start to exit, median", target="< 3 s", note=f"{starts} starts"))
+
+    browser = Browser()
+    try:
+        # the renderer alone: an empty viser page
+        bare = subprocess.Popen([sys.executable, "-c", "import time, viser; "
+                                 "s = viser.ViserServer(host='127.0.0.1', port=0, verbose=False); "
+                                 "print('port', s.get_port(), flush=True); time.sleep(600)"],
+                                stdout=subprocess.PIPE, text=True, env=env, start_new_session=True)
+        try:
+            port = int(bare.stdout.readline().split()[-1])
+            bare_fps, _, _ = _page_rates(browser, f"http://127.0.0.1:{port}", seconds)
+        finally:
+            kill_group(bare)
+        rows.append(Row("view", "empty viser page: frames drawn per s", bare_fps, "fps"))
+
+        # the general structure simulated in the view's process, at real time
+        proc, port, _, _log = _start(["--scene", "spine_release"], env)
+        try:
+            page = browser.open(f"http://127.0.0.1:{port}")
+            page.get_by_role("button", name="Play").click()
+            page.close()
+            fps, shown, _ = _page_rates(browser, f"http://127.0.0.1:{port}", seconds)
+        finally:
+            _stop(proc)
+        rows.append(Row("view", "spine (core, in process): frames drawn per s", fps, "fps",
+                        note=f"empty page {bare_fps:.3g} fps"))
+        rows.append(Row("view", "spine (core, in process): states shown per s", shown, "1/s", target=">= 30"))
+
+        # the class-2 simulator of the suite over ROS
+        sim = subprocess.Popen([TENSEGRITY, "node", "sim"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                               env=env, start_new_session=True)
+        received: dict[float, float] = {}
+        lock = threading.Lock()
+        old = os.environ.get("ROS_DOMAIN_ID")
+        os.environ["ROS_DOMAIN_ID"] = env["ROS_DOMAIN_ID"]
+        rctx = RosContext()
+        rclpy.init(args=[], context=rctx)
+        node = rclpy.create_node("bench_view_probe", context=rctx)
+
+        def on_state(msg) -> None:
+            t = round(msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9, 3)
+            with lock:
+                received.setdefault(t, time.time() * 1000)
+
+        node.create_subscription(MechanismState, "mechanism_state", on_state, 100)
+        from rclpy.executors import SingleThreadedExecutor
+
+        executor = SingleThreadedExecutor(context=rctx)
+        executor.add_node(node)
+        stop_spinning = threading.Event()
+
+        def spin_until_stopped() -> None:
+            while not stop_spinning.is_set():
+                executor.spin_once(timeout_sec=0.05)
+
+        spin = threading.Thread(target=spin_until_stopped, daemon=True)
+        spin.start()
+        try:
+            proc, port, _, _log = _start([], env)
+            try:
+                fps, shown, samples = _page_rates(browser, f"http://127.0.0.1:{port}", seconds)
+            finally:
+                _stop(proc)
+        finally:
+            stop_spinning.set()
+            spin.join()
+            executor.shutdown()
+            node.destroy_node()
+            rclpy.try_shutdown(context=rctx)
+            if old is None:
+                os.environ.pop("ROS_DOMAIN_ID", None)
+            else:
+                os.environ["ROS_DOMAIN_ID"] = old
+            _stop(sim)
+        with lock:
+            latencies = [wall - received[t] for t, wall in samples if t in received]
+        rows.append(Row("view", "class-2 (suite over ROS): frames drawn per s", fps, "fps",
+                        note=f"empty page {bare_fps:.3g} fps"))
+        rows.append(Row("view", "class-2 (suite over ROS): states shown per s", shown, "1/s", target=">= 30"))
+        if latencies:
+            rows.append(Row("view", "class-2: state message to page, median", statistics.median(latencies) / 1000, "s",
+                            target="< 50 ms", note=f"{len(latencies)} states"))
+    finally:
+        browser.close()
+    return rows

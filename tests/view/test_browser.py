@@ -1,0 +1,145 @@
+"""The view in a real browser: Debian's chromium, headless, on software WebGL, network blocked.
+
+Pixels are read from screenshots of viser's three.js canvas (the top quarter, where the
+page may show a notice, is left out). Every request and websocket of the page is recorded
+and none may leave 127.0.0.1. The ROS side is checked with the suite's own client: the
+simulator's ``joint_states`` (effort = the applied actuator force) and its
+``simulation_interfaces`` services. Waits are for conditions, with deadlines far beyond
+their usual time; nothing asserts a duration.
+"""
+
+from __future__ import annotations
+
+import signal
+import time
+
+import numpy as np
+import pytest
+
+pytest.importorskip("viser")
+pytest.importorskip("playwright")
+
+from tests.ros.test_loopback import sockets_of  # noqa: E402
+from tests.view.browser import Browser, canvas_pixels, chromium_available, control, status_time, wait_for_canvas  # noqa: E402
+from tests.view.support import start_view  # noqa: E402
+
+pytestmark = [pytest.mark.slow,
+              pytest.mark.skipif(not chromium_available(), reason="needs Debian's chromium (./run test installs it)")]
+
+BAGS = __import__("pathlib").Path(__file__).resolve().parents[2] / "bags"
+WAIT = 120.0   # s: a deadline for conditions that usually hold within a second or two
+
+
+@pytest.fixture(scope="module")
+def browser():
+    b = Browser()
+    yield b
+    b.close()
+
+
+def _changed(a: np.ndarray, b: np.ndarray) -> float:
+    """Fraction of the canvas's pixels (below its top quarter) that differ between a and b."""
+    top = a.shape[0] // 4
+    return float((a[top:] != b[top:]).any(axis=2).mean())
+
+
+def _until(condition, what: str, timeout: float = WAIT, poll=lambda: time.sleep(0.1)) -> None:
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"never saw {what}")
+        poll()
+
+
+def _only_loopback(browser: Browser, port: int) -> None:
+    assert browser.outside() == [], f"the page asked for {browser.outside()}"
+    assert browser.requests and all(f"127.0.0.1:{port}" in u for u in browser.requests
+                                    if u.startswith(("http", "ws"))), browser.requests
+
+
+def test_a_bag_plays_pauses_and_scrubs_on_its_timeline(cli, browser):
+    view, url, port = start_view(cli, str(BAGS / "fold"))
+    page = browser.open(url)
+    try:
+        wait_for_canvas(page)
+        assert status_time(page) == 0.0
+        still = canvas_pixels(page)
+        page.wait_for_timeout(500)
+        assert _changed(still, canvas_pixels(page)) == 0.0      # nothing moves: the same pixels
+        page.get_by_role("button", name="Play").click()
+        _until(lambda: status_time(page) > 2.0, "the bag played past 2 s", poll=lambda: page.wait_for_timeout(200))
+        page.get_by_role("button", name="Pause").click()
+        page.wait_for_timeout(300)
+        folded = canvas_pixels(page)
+        assert _changed(still, folded) > 0.005
+        # scrub back to the start: the first frame's shape again (its strings' colours may
+        # differ: the colour scale is the largest tension seen so far)
+        control(page, "time [s]").get_by_role("slider").focus()
+        page.keyboard.press("Home")
+        _until(lambda: status_time(page) == 0.0, "the timeline back at 0 s", poll=lambda: page.wait_for_timeout(200))
+        page.wait_for_timeout(500)
+        back = canvas_pixels(page)
+        assert _changed(still, back) < 0.5 * _changed(folded, back)
+        _only_loopback(browser, port)
+    finally:
+        page.close()
+    assert view.stop() == 0
+
+
+@pytest.mark.ros
+def test_the_live_view_follows_the_simulator_and_its_controls_drive_it(cli, browser, ros_context):
+    import rclpy
+    from simulation_interfaces.msg import SimulationState
+
+    from tensegrity_ros.apps.sim_client import SimClient
+
+    sim = cli("node", "sim", log_name="sim")
+    client = SimClient(rclpy, "view_test_client", context=ros_context, record_events=False)
+    try:
+        client.wait_for_services()
+        view, url, port = start_view(cli)
+        page = browser.open(url)
+        wait_for_canvas(page)
+        before = canvas_pixels(page)
+        rho1_before = client.wait_joint().position[0]
+
+        # the sliders take the inputs; f1 to its end of the range: +5 N, tension
+        control(page, "drive from the sliders").locator("input[type=checkbox]").check()
+        control(page, "f1 [N]").get_by_role("slider").focus()
+        page.keyboard.press("End")
+        _until(lambda: any(r.effort[0] == 5.0 for r in client.take_joints()), "the simulator apply f1 = 5 N")
+        _until(lambda: abs(client.wait_joint().position[0] - rho1_before) > 0.05, "rho1 move by 5 cm")
+        t_moved = client.wait_joint().stamp_ns / 1e9
+        _until(lambda: status_time(page) >= t_moved, "the page show the moved state",
+               poll=lambda: page.wait_for_timeout(200))
+        assert _changed(before, canvas_pixels(page)) > 0.005
+
+        # a value typed beyond the limit is clamped, and the page says so
+        field = control(page, "f1 [N]").locator("input[type=text]")
+        field.fill("7")
+        field.press("Enter")
+        page.get_by_text("clamped to 5 N").first.wait_for(timeout=WAIT * 1000)
+        client.take_joints()
+        _until(lambda: (rs := client.take_joints()) and rs[-1].effort[0] == 5.0, "f1 stay at 5 N")
+
+        # pause, then one step through the page: the clock moves by exactly one step
+        page.get_by_role("button", name="Pause").click()
+        _until(lambda: client.call("get_simulation_state").state.state == SimulationState.STATE_PAUSED,
+               "the simulator paused")
+        page.get_by_text("pause: OK").first.wait_for(timeout=WAIT * 1000)
+        client.take_joints()
+        paused_at = client.wait_joint().stamp_ns
+        page.get_by_role("button", name="Step").click()
+        client.wait_joint(paused_at + 10_000_000)     # step_size = 1 / publish_rate = 10 ms
+
+        assert all(addr in ("127.0.0.1", "::1") for _proto, addr, _port in sockets_of(view.popen.pid))
+        _only_loopback(browser, port)
+
+        # closing the page, then the view, leaves the simulator running
+        page.close()
+        assert view.stop() == 0
+        assert client.call("get_simulation_state").state.state == SimulationState.STATE_PAUSED
+        assert sim.popen.poll() is None
+    finally:
+        client.close()
+    assert sim.stop(signal.SIGINT) == 0

@@ -1,0 +1,56 @@
+"""``tensegrity view`` as a user runs it: where it listens, its one-line errors, its stop."""
+
+from __future__ import annotations
+
+import http.client
+import socket
+import subprocess
+
+import pytest
+
+pytest.importorskip("viser")
+
+from tests.ros.test_loopback import sockets_of  # noqa: E402
+from tests.ros_support import TENSEGRITY  # noqa: E402
+from tests.view.support import start_view  # noqa: E402
+
+
+def _run(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([TENSEGRITY, "view", *args], capture_output=True, text=True, timeout=120)
+
+
+def test_a_port_in_use_is_one_line_naming_it():
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        res = _run("--scene", "class2_at_rest", "--port", str(port))
+    assert res.returncode == 2
+    assert res.stderr.strip().splitlines() == [f"error: port {port} on 127.0.0.1 is in use (another view or program "
+                                               "listens there); choose another with --port"]
+
+
+@pytest.mark.parametrize("args, message", [
+    (("--scene", "no_such_scene"), "no_such_scene"),
+    (("/nonexistent/bag",), "does not exist"),
+    (("--scene", "class2_at_rest", "--port", "70000"), "must be in 0..65535"),
+])
+def test_bad_input_is_one_line(args, message):
+    res = _run(*args)
+    assert res.returncode != 0 and "Traceback" not in res.stderr
+    last = res.stderr.strip().splitlines()[-1]     # argparse prints its usage above the error line
+    assert "error:" in last and message in last
+
+
+def test_the_view_listens_on_loopback_only_and_serves_its_page_from_itself(cli):
+    view, url, port = start_view(cli, "--scene", "class2_at_rest")
+    listening = [(proto, addr, p) for proto, addr, p in sockets_of(view.popen.pid) if p == port]
+    assert listening and all(addr == "127.0.0.1" for _proto, addr, _p in listening), listening
+    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
+    conn.request("GET", "/")
+    page = conn.getresponse().read().decode()
+    conn.close()
+    assert "<html" in page and '<div id="root">' in page
+    # the page names no address to load from: every src/href is relative or inline data
+    assert "src=\"http" not in page and "href=\"http" not in page
+    assert view.stop() == 0
