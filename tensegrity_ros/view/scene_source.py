@@ -3,7 +3,9 @@
 For structures the ROS suite does not simulate, and to watch a scene without starting the
 suite: a thread steps :class:`tensegrity_core.sim.Simulator` in whole steps of ``step`` s at
 real time (the steps due since the last tick, at most ``MAX_CATCH_UP`` s of them: a late
-tick resynchronises instead of racing), and sends a frame per tick. Pause, play, single
+tick resynchronises instead of racing), and sends a frame per tick. A tick steps for at most
+one tick period of wall time: a scene that computes slower than real time (the spine's
+implicit integration) runs slower, and the page still gets a frame every tick. Pause, play, single
 steps and the commanded inputs (class-2 actuator forces [N], tension positive; rest lengths
 [m] of a general structure's actuated members) act on that simulator; it starts paused.
 """
@@ -100,29 +102,35 @@ class SceneSource:
                 if self._playing:
                     elapsed = min(now - last, MAX_CATCH_UP)
                     due = max(1, round(elapsed * 1e9 / self.step_ns))
-                due += self._steps_wanted
-                self._steps_wanted = 0
+                wanted, self._steps_wanted = self._steps_wanted, 0
                 command = list(self._command)
             last = now
-            if due:
-                self._advance(due, command)
-            if due or self._frame_due:
+            if due + wanted:
+                done = self._advance(due + wanted, command, deadline=now + self.period)
+                with self._lock:     # requested steps not done in this tick: the next ones do them
+                    self._steps_wanted += min(wanted, due + wanted - done)
+            if due + wanted or self._frame_due:
                 self._frame_due = False
                 sink(self._frame())
             next_tick = max(next_tick + self.period, time.monotonic())
             self._wake.wait(max(0.0, next_tick - time.monotonic()))
             self._wake.clear()
 
-    def _advance(self, steps: int, command: list[float]) -> None:
+    def _advance(self, steps: int, command: list[float], deadline: float) -> int:
+        """Up to ``steps`` steps, until the monotonic clock passes ``deadline`` (one at least);
+        the number of steps made (all of them after a failure: the simulation stops)."""
         try:
             self.sim.set_command(command)
-            for _ in range(steps):
+            for done in range(1, steps + 1):
                 self._k += 1
                 self.sim.advance(step_time(self._k, self.step_ns))
+                if time.monotonic() > deadline:
+                    return done
         except TensegrityError as err:
             with self._lock:
                 self._playing = False
             self._report(f"the simulation stopped: {err}")
+        return steps
 
     def play(self) -> None:
         with self._lock:

@@ -51,6 +51,12 @@ def _until(condition, what: str, timeout: float = WAIT, poll=lambda: time.sleep(
         poll()
 
 
+def _next_state(client):
+    """The first joint state the simulator publishes from now on."""
+    client.take_joints()
+    return client.wait_joint(timeout=WAIT)
+
+
 def _only_loopback(browser: Browser, port: int) -> None:
     assert browser.outside() == [], f"the page asked for {browser.outside()}"
     assert browser.requests and all(f"127.0.0.1:{port}" in u for u in browser.requests
@@ -101,15 +107,15 @@ def test_the_live_view_follows_the_simulator_and_its_controls_drive_it(cli, brow
         page = browser.open(url)
         wait_for_canvas(page)
         before = canvas_pixels(page)
-        rho1_before = client.wait_joint().position[0]
+        rho1_before = _next_state(client).position[0]
 
         # the sliders take the inputs; f1 to its end of the range: +5 N, tension
         control(page, "drive from the sliders").locator("input[type=checkbox]").check()
         control(page, "f1 [N]").get_by_role("slider").focus()
         page.keyboard.press("End")
         _until(lambda: any(r.effort[0] == 5.0 for r in client.take_joints()), "the simulator apply f1 = 5 N")
-        _until(lambda: abs(client.wait_joint().position[0] - rho1_before) > 0.05, "rho1 move by 5 cm")
-        t_moved = client.wait_joint().stamp_ns / 1e9
+        _until(lambda: abs(_next_state(client).position[0] - rho1_before) > 0.05, "rho1 move by 5 cm")
+        t_moved = _next_state(client).stamp_ns / 1e9
         _until(lambda: status_time(page) >= t_moved, "the page show the moved state",
                poll=lambda: page.wait_for_timeout(200))
         assert _changed(before, canvas_pixels(page)) > 0.005
@@ -127,8 +133,7 @@ def test_the_live_view_follows_the_simulator_and_its_controls_drive_it(cli, brow
         _until(lambda: client.call("get_simulation_state").state.state == SimulationState.STATE_PAUSED,
                "the simulator paused")
         page.get_by_text("pause: OK").first.wait_for(timeout=WAIT * 1000)
-        client.take_joints()
-        paused_at = client.wait_joint().stamp_ns
+        paused_at = _next_state(client).stamp_ns
         page.get_by_role("button", name="Step").click()
         client.wait_joint(paused_at + 10_000_000)     # step_size = 1 / publish_rate = 10 ms
 

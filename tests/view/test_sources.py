@@ -1,0 +1,101 @@
+"""The sources without a browser: the in-process simulator's run control and inputs, a bag's
+timeline against an independent reader (rosbags)."""
+
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("viser")
+
+from tensegrity_ros.view.frame import Frame  # noqa: E402
+from tensegrity_ros.view.scene_source import SceneSource  # noqa: E402
+
+BAGS = Path(__file__).resolve().parents[2] / "bags"
+
+
+class Frames:
+    """A sink that keeps the frames and lets a test wait for one."""
+
+    def __init__(self) -> None:
+        self.frames: list[Frame] = []
+        self.reports: list[str] = []
+        self._new = threading.Condition()
+
+    def __call__(self, frame: Frame) -> None:
+        with self._new:
+            self.frames.append(frame)
+            self._new.notify_all()
+
+    def report(self, text: str) -> None:
+        self.reports.append(text)
+
+    def wait(self, condition, timeout: float = 120.0) -> Frame:
+        with self._new:
+            assert self._new.wait_for(lambda: any(condition(f) for f in self.frames), timeout), self.reports
+            return next(f for f in self.frames if condition(f))
+
+
+def test_the_scene_source_steps_plays_pauses_and_takes_its_inputs():
+    source = SceneSource("class2_at_rest", step=0.01)
+    assert [s.name for s in source.inputs] == ["f1", "f2"] and source.inputs[0].unit == "N"
+    sink = Frames()
+    source.start(sink, sink.report)
+    try:
+        source.drive({"f1": 2.0})
+        source.step(5)                       # paused at the start: 5 steps of 10 ms
+        stepped = sink.wait(lambda f: f.t > 0)
+        assert stepped.t == pytest.approx(0.05, abs=1e-12) and stepped.run_state == "paused"
+        assert stepped.series["f:f1"] == 2.0 and stepped.series["f:f2"] == pytest.approx(0.35, abs=0.01)
+        source.play()
+        playing = sink.wait(lambda f: f.run_state == "playing" and f.t >= 0.2)
+        source.pause()
+        paused = sink.wait(lambda f: f.run_state == "paused" and f.t >= playing.t)
+        source.step(1)
+        after = sink.wait(lambda f: f.t > paused.t + 1e-9 and f.run_state == "paused")
+        # every state is a whole number of steps from the start
+        assert round(after.t / 0.01) * 0.01 == pytest.approx(after.t, abs=1e-12)
+    finally:
+        source.stop()
+    assert any("stepping" not in r for r in sink.reports)
+
+
+def test_a_bags_timeline_holds_its_states_as_an_independent_reader_decodes_them():
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    from tensegrity_ros.view.bag_source import BagSource
+
+    source = BagSource(BAGS / "fold")
+    with AnyReader([BAGS / "fold"], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as reader:
+        conns = [c for c in reader.connections if c.topic == "/mechanism_state"]
+        decoded = [reader.deserialize(raw, c.msgtype) for c, _t, raw in reader.messages(connections=conns)]
+    stamps = [m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for m in decoded]
+    assert source.duration == pytest.approx(max(stamps) - min(stamps), abs=1e-9)
+    for k in (0, len(decoded) // 2, len(decoded) - 1):
+        frame = source.frame_at(source.index_at(stamps[k] - stamps[0]))
+        assert frame.t == pytest.approx(stamps[k], abs=1e-9) and frame.run_state == "recorded"
+        np.testing.assert_array_equal(frame.nodes, [[p.x, p.y, p.z] for p in decoded[k].nodes])
+        np.testing.assert_array_equal(frame.member_forces, decoded[k].member_forces)
+
+
+def test_a_bag_without_mechanism_states_is_refused_in_one_line(tmp_path):
+    """A bag of the clock only (copied from the fold bag with the suite's writer)."""
+    from tensegrity_ros.bag.errors import BagError
+    from tensegrity_ros.bag.reader import BagReader
+    from tensegrity_ros.bag.writer import BagWriter
+    from tensegrity_ros.view.bag_source import BagSource
+
+    reader = BagReader(BAGS / "fold")
+    clock = next(t for t in reader.topics() if t.name == "/clock")
+    encoding, text = reader.definitions()[clock.type]
+    with BagWriter(tmp_path / "clock_only") as writer:
+        writer.add_topic(clock, text, encoding)
+        for m in reader.messages(["/clock"]):
+            writer.write(m.topic, m.data, m.log_time_ns)
+    with pytest.raises(BagError, match="has no tensegrity_msgs/msg/MechanismState topic to draw") as err:
+        BagSource(tmp_path / "clock_only")
+    assert "\n" not in str(err.value)
