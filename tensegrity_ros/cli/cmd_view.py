@@ -62,7 +62,12 @@ def _view(args) -> int:
     from tensegrity_ros.rclpy_utils import stop_signals
 
     stop = stop_signals.install()
-    from tensegrity_ros.view.server import ViewError, is_loopback, start_server
+    from tensegrity_ros.view.server import ViewError, is_loopback, require_viser, start_server
+
+    try:
+        require_viser()
+    except ViewError as err:
+        raise CliError(str(err), 3) from None
 
     stop.enter_running()
     source = _source(args)
@@ -83,8 +88,8 @@ def _view(args) -> int:
     if not is_loopback(args.host):
         print(f"warning: listening on {args.host}: anyone who can reach this machine can watch and drive the "
               "simulation", file=sys.stderr)
-    print(f"view ready: {url} ({source.label}); Ctrl-C stops the view, the suite keeps running",
-          file=sys.stderr, flush=True)
+    suite = ", the suite keeps running" if not (args.bag or args.scene) else ""
+    print(f"view ready: {url} ({source.label}); Ctrl-C stops the view{suite}", file=sys.stderr, flush=True)
     try:
         stop.wait()
     finally:

@@ -34,6 +34,15 @@ class PortInUseError(ViewError):
     pass
 
 
+def require_viser() -> None:
+    """Raise :class:`ViewError` (one line) unless the ``view`` extra is installed."""
+    try:
+        import viser  # noqa: F401
+    except ImportError as err:
+        raise ViewError(f"the view needs the 'view' extra ({err}): pip install 'tensegrity-ros[view]' "
+                        "(./run installs it)") from None
+
+
 def is_loopback(host: str) -> bool:
     """True for 127.0.0.0/8, ::1 and names that resolve only to them (``localhost``)."""
     try:

@@ -8,8 +8,8 @@ no GPU), the page open at 800 x 500 px:
   states it shows per second (changes of its status line), while the simulation runs at
   real time: the class-2 simulator of the suite over ROS (100 Hz states) and a general
   structure (the tensegrity spine, ``spine_release``) simulated in the view's process.
-  Baseline, same browser, same run: an empty viser page (what the renderer alone reaches
-  on this machine). Targets: >= 30 fps for the 6-bar and the spine (the robots' scenes,
+  Baseline, same browser, same run: an empty page of the view's server (what the renderer
+  alone reaches on this machine). Targets: >= 30 fps for the 6-bar and the spine (the robots' scenes,
   when they land).
 - **latency**: from a ``mechanism_state`` message (received by this process's own
   subscriber, wall time) to the page showing that state's time in its status line
@@ -17,7 +17,8 @@ no GPU), the page open at 800 x 500 px:
 - **ready**: from starting ``tensegrity view --scene class2_at_rest`` to its page answering
   HTTP; baseline ``tensegrity scenes`` (the command line's own start-up). Target < 3 s.
 
-Quick mode (CI): 3 s windows, one start-up; full mode: 15 s windows, 5 start-ups.
+Quick mode (CI): one start-up, 2 s windows, the spine left out; full mode: 5 start-ups,
+15 s windows.
 """
 
 from __future__ import annotations
@@ -80,13 +81,17 @@ def _stop(proc: subprocess.Popen) -> None:
         kill_group(proc)
 
 
-def _page_rates(browser, url: str, seconds: float) -> tuple[float, float, list]:
-    """(frames drawn per s, states shown per s, [(t shown, wall ms)]) over ``seconds``."""
+def _page_rates(browser, url: str, seconds: float, play: bool = False) -> tuple[float, float, list]:
+    """(frames drawn per s, states shown per s, [(t shown, wall ms)]) over ``seconds``;
+    ``play``: press the page's Play first."""
     from tests.view.browser import wait_for_canvas
 
     page = browser.open(url)
     try:
         wait_for_canvas(page)
+        if play:
+            page.get_by_role("button", name="Play").click()
+            page.get_by_text("· playing").first.wait_for()
         page.evaluate(WATCH)
         fps = page.evaluate(FRAMES, seconds * 1000)
         shown = page.evaluate("() => window.__shown")
@@ -107,7 +112,7 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
     from rclpy.context import Context as RosContext
     from tensegrity_msgs.msg import MechanismState
 
-    seconds = 3.0 if ctx.quick else 15.0
+    seconds = 2.0 if ctx.quick else 15.0
     starts = 1 if ctx.quick else 5
     env = dict(os.environ)
     env["ROS_DOMAIN_ID"] = str(170 + os.getpid() % 30)
@@ -130,9 +135,9 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
     browser = Browser()
     try:
         # the renderer alone: an empty viser page
-        bare = subprocess.Popen([sys.executable, "-c", "import time, viser; "
-                                 "s = viser.ViserServer(host='127.0.0.1', port=0, verbose=False); "
-                                 "print('port', s.get_port(), flush=True); time.sleep(600)"],
+        bare = subprocess.Popen([sys.executable, "-c", "import time; from tensegrity_ros.view.server import "
+                                 "start_server; s = start_server(port=0); print('port', s.get_port(), flush=True); "
+                                 "time.sleep(600)"],
                                 stdout=subprocess.PIPE, text=True, env=env, start_new_session=True)
         try:
             port = int(bare.stdout.readline().split()[-1])
@@ -141,18 +146,16 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
             kill_group(bare)
         rows.append(Row("view", "empty viser page: frames drawn per s", bare_fps, "fps"))
 
-        # the general structure simulated in the view's process, at real time
-        proc, port, _, _log = _start(["--scene", "spine_release"], env)
-        try:
-            page = browser.open(f"http://127.0.0.1:{port}")
-            page.get_by_role("button", name="Play").click()
-            page.close()
-            fps, shown, _ = _page_rates(browser, f"http://127.0.0.1:{port}", seconds)
-        finally:
-            _stop(proc)
-        rows.append(Row("view", "spine (core, in process): frames drawn per s", fps, "fps",
-                        note=f"empty page {bare_fps:.3g} fps"))
-        rows.append(Row("view", "spine (core, in process): states shown per s", shown, "1/s", target=">= 30"))
+        if not ctx.quick:       # the general structure simulated in the view's process
+            proc, port, _, _log = _start(["--scene", "spine_release"], env)
+            try:
+                fps, shown, _ = _page_rates(browser, f"http://127.0.0.1:{port}", seconds, play=True)
+            finally:
+                _stop(proc)
+            rows.append(Row("view", "spine (core, in process): frames drawn per s", fps, "fps",
+                            note=f"empty page {bare_fps:.3g} fps"))
+            rows.append(Row("view", "spine (core, in process): states shown per s", shown, "1/s", target=">= 30",
+                            note="as fast as the core integrates it (slower than real time here)"))
 
         # the class-2 simulator of the suite over ROS
         sim = subprocess.Popen([TENSEGRITY, "node", "sim"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
