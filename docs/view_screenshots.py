@@ -47,6 +47,7 @@ def _shot(browser: Browser, url: str, name: str, act) -> None:
     if close.count():
         close.first.click()          # the notice that WebGL runs in software
     act(page)
+    page.wait_for_timeout(3000)      # the plots are sent every few frames
     page.screenshot(path=str(OUT / name))
     page.close()
     print(f"wrote {OUT / name}")

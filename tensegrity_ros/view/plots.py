@@ -49,6 +49,18 @@ class SeriesHistory:
         return (t, *(np.array([v.get(k, np.nan) for v in self._values], dtype=float) for k in keys))
 
 
+def axis_ranges(data: tuple[np.ndarray, ...]) -> tuple[tuple[float, float], tuple[float, float]]:
+    """Ranges of a chart's axes: the times' [s], and the values' with 5 % margins (never of
+    zero width; NaN ignored; (0, 1) without values)."""
+    t, values = data[0], np.concatenate([np.zeros(0), *data[1:]])
+    values = values[np.isfinite(values)]
+    t0 = float(t[0]) if len(t) else 0.0
+    t1 = max(float(t[-1]) if len(t) else 1.0, t0 + 1e-3)
+    lo, hi = (float(values.min()), float(values.max())) if len(values) else (0.0, 1.0)
+    pad = 0.05 * (hi - lo) if hi > lo else 0.05 * max(abs(hi), 1.0)
+    return (t0, t1), (lo - pad, hi + pad)
+
+
 class PlotPanel:
     """Two charts in a GUI folder, each showing one series group chosen in a drop-down."""
 
@@ -64,9 +76,9 @@ class PlotPanel:
         with gui.add_folder("Plots"):
             for k, default in enumerate(titles[:2] + titles[:1] * (2 - len(titles[:2]))):
                 choice = gui.add_dropdown(f"plot {k + 1}", tuple(titles), initial_value=default)
-                chart = gui.add_uplot(self.history.arrays(self.groups[default]), self._series(default),
-                                      title=default, axes=self._axes(default), aspect=1.6,
-                                      scales={"x": uplot.Scale(time=False)})
+                data = self.history.arrays(self.groups[default])
+                chart = gui.add_uplot(data, self._series(default), title=default, axes=self._axes(default),
+                                      aspect=1.6, scales=self._scales(data))
                 choice.on_update(lambda _e, c=choice, h=chart: self._choose(h, c.value))
                 self.charts.append((choice, chart))
 
@@ -80,12 +92,22 @@ class PlotPanel:
         return (self._uplot.Axis(label="simulation time t [s]"), self._uplot.Axis(label=title))
 
     def _choose(self, chart: Any, title: str) -> None:
-        chart.data = self.history.arrays(self.groups[title])
+        chart.data = data = self.history.arrays(self.groups[title])
+        chart.scales = self._scales(data)
         chart.series = self._series(title)
         chart.axes = self._axes(title)
         chart.title = title
 
     def refresh(self) -> None:
-        """Send the charts the history as it is now."""
+        """Send the charts the history as it is now, with their axes' ranges: the page keeps
+        the ranges a chart was first drawn with (one sample: a range of zero width) unless
+        they are sent."""
         for choice, chart in self.charts:
-            chart.data = self.history.arrays(self.groups[choice.value])
+            data = self.history.arrays(self.groups[choice.value])
+            chart.data = data
+            chart.scales = self._scales(data)
+
+    def _scales(self, data: tuple[np.ndarray, ...]) -> dict[str, Any]:
+        (t0, t1), (lo, hi) = axis_ranges(data)
+        return {"x": self._uplot.Scale(time=False, auto=False, range=(t0, t1)),
+                "y": self._uplot.Scale(auto=False, range=(lo, hi))}

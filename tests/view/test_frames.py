@@ -18,7 +18,7 @@ from tensegrity_ros.view.frame import Frame, Topology  # noqa: E402
 from tensegrity_ros.view.frames import frame_of_observation, scene_topology  # noqa: E402
 from tensegrity_ros.view.geometry import segment_poses, z_to  # noqa: E402
 from tensegrity_ros.view.inputs import InputSpec, clamp  # noqa: E402
-from tensegrity_ros.view.plots import SeriesHistory  # noqa: E402
+from tensegrity_ros.view.plots import SeriesHistory, axis_ranges  # noqa: E402
 
 finite = st.floats(-10.0, 10.0, allow_nan=False)
 
@@ -114,3 +114,11 @@ def test_the_history_keeps_its_window_and_restarts_when_time_goes_back():
     h.add(_frame(0.5, -1.0))
     t, a, missing = h.arrays(("q:a", "q:b"))
     assert list(t) == [0.5] and list(a) == [-1.0] and math.isnan(missing[0])
+
+
+def test_axis_ranges_cover_the_data_and_never_collapse():
+    (t0, t1), (lo, hi) = axis_ranges((np.array([1.0, 2.0]), np.array([0.0, 10.0]), np.array([np.nan, -2.0])))
+    assert (t0, t1) == (1.0, 2.0) and lo == pytest.approx(-2.6) and hi == pytest.approx(10.6)
+    (t0, t1), (lo, hi) = axis_ranges((np.array([3.0]), np.array([0.7])))    # one sample: a real range
+    assert t1 > t0 == 3.0 and lo < 0.7 < hi
+    assert axis_ranges((np.zeros(0),)) == ((0.0, 1.0), (-0.05, 1.05))
