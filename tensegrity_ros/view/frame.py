@@ -22,10 +22,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 MEMBER_KINDS: Final = ("bar", "string", "actuator")
-#: Run states a frame reports: the simulator's (``simulation_interfaces``), ``"lockstep"``
-#: for a playing lockstep simulator, ``"recorded"`` for a bag, ``"unknown"`` before the
-#: simulator has answered.
-RUN_STATES: Final = ("playing", "paused", "stopped", "lockstep", "recorded", "unknown")
+#: Run states a frame reports: the simulator's (``simulation_interfaces``: playing, paused,
+#: stopped, quitting, no world, loading world), ``"lockstep"`` for a playing lockstep
+#: simulator, ``"recorded"`` for a bag, ``"unknown"`` before the simulator has answered.
+RUN_STATES: Final = ("playing", "paused", "stopped", "quitting", "no world", "loading world", "lockstep", "recorded",
+                     "unknown")
 
 
 @dataclass(frozen=True, eq=False)
