@@ -42,10 +42,7 @@ def _wait_until(page, condition) -> None:
 
 def _shot(browser: Browser, url: str, name: str, act) -> None:
     page = browser.open(url)
-    wait_for_canvas(page)
-    close = page.locator("button.mantine-Notification-closeButton")
-    if close.count():
-        close.first.click()          # the notice that WebGL runs in software
+    wait_for_canvas(page)            # (closes the notice that WebGL runs in software)
     act(page)
     page.wait_for_timeout(3000)      # the plots are sent every few frames
     page.screenshot(path=str(OUT / name))

@@ -49,7 +49,7 @@ class View:
         self.controls = ControlPanel(gui, source, self.report)
         self.history = SeriesHistory()
         self.plots = PlotPanel(gui, source.topology, self.history)
-        self.drawing = StructureDrawing(server.scene, source.topology, first)
+        self.drawing = StructureDrawing(server.scene, source.topology, first, tension_scale=source.tension_scale)
         self.legend = gui.add_html(self.drawing.legend(), order=-1)
         self._place_camera(first.nodes)
         self._latest: Frame | None = first

@@ -3,7 +3,9 @@
 Reads the bag's own data only (no suite, no ROS at run time): the ``MechanismState``
 messages of the class-2 simulator, decoded by ``mcap-ros2-support`` from the schema stored
 in the bag. Messages stay encoded until shown (a long bag costs its size in memory, not a
-decoded copy); the timeline's time is the messages' header stamps [s] from the first.
+decoded copy); the timeline's time is the messages' header stamps [s] from the first. The
+strings' colour scale is the largest tension of the bag (of up to ``SCALE_SAMPLES`` states
+spread over it), so a state has the same colours however the timeline reached it.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import threading
 import time
 from typing import Final
 
+import numpy as np
 from mcap.records import Schema
 from mcap_ros2.decoder import DecoderFactory
 
@@ -28,6 +31,8 @@ from tensegrity_ros.view.source import Report, Sink
 STATE_TYPE: Final = "tensegrity_msgs/msg/MechanismState"
 #: Timeline ticks per second of wall time while playing.
 TICK_HZ: Final = 60.0
+#: States decoded at most to find the bag's largest string tension (spread over the bag).
+SCALE_SAMPLES: Final = 500
 
 
 def _ignore(_text: str) -> None:
@@ -65,6 +70,10 @@ class BagSource:
         self.t0 = self._times[0]
         self.duration = self._times[-1] - self.t0
         self.topology = class2_topology()
+        strings = self.topology.of_kind("string")
+        every = max(1, len(self._data) // SCALE_SAMPLES)
+        self.tension_scale = max(float(np.max(np.asarray(self._decode(d).member_forces)[strings], initial=0.0))
+                                 for d in [*self._data[::every], self._data[-1]])
         self.label = f"bag {os.fspath(path)}: {self.topic}, {len(self._data)} states over {self.duration:.3f} s"
         self.features = frozenset({"run", "timeline"})
         self._lock = threading.Lock()

@@ -36,12 +36,14 @@ def _hull_faces(points: np.ndarray) -> np.ndarray:
 
 
 class StructureDrawing:
-    """The drawn structure (see the module docstring); ``scene`` is a viser ``SceneApi``."""
+    """The drawn structure (see the module docstring); ``scene`` is a viser ``SceneApi``;
+    ``tension_scale`` [N] the top of the strings' colour scale if known (it still grows with
+    a larger tension)."""
 
-    def __init__(self, scene: Any, topology: Topology, first: Frame):
+    def __init__(self, scene: Any, topology: Topology, first: Frame, *, tension_scale: float = 0.0):
         self.scene = scene
         self.topology = topology
-        self.scale = colors.TensionScale()
+        self.scale = colors.TensionScale(max(tension_scale, 1e-6))
         extent = float(np.ptp(first.nodes, axis=0).max()) if len(first.nodes) else 1.0
         self.size = max(extent, 1e-3)
         self.radius = 0.012 * self.size

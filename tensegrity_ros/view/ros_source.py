@@ -49,6 +49,7 @@ class RosSource:
     ``force_limit`` [N] bounds the force sliders; ``ros_args`` go to rclpy (remapping)."""
 
     duration = 0.0
+    tension_scale = 0.0
 
     def __init__(self, namespace: str = "", *, force_limit: float = 5.0, ros_args: list[str] | None = None):
         import rclpy

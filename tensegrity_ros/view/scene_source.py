@@ -47,6 +47,7 @@ class SceneSource:
         self.step_ns = max(1, round(step * 1e9))
         self.period = 1.0 / rate
         self.duration = 0.0
+        self.tension_scale = 0.0
         self.inputs = self._input_specs(force_limit)
         self.features = frozenset({"run", "step"} | ({"inputs"} if self.inputs else set()))
         self._k = 0

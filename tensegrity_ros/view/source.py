@@ -27,13 +27,15 @@ FEATURES = ("run", "step", "inputs", "move", "timeline")
 class Source(Protocol):
     """``topology``; ``label`` (what the page's title names); ``features`` (of :data:`FEATURES`);
     ``inputs`` (the sliders, empty without the ``"inputs"`` feature); ``duration`` [s] of a
-    timeline (0 without one)."""
+    timeline (0 without one); ``tension_scale`` [N]: the top of the strings' colour scale when
+    known in advance (a bag), else 0 (the largest tension seen so far)."""
 
     topology: Topology
     label: str
     features: frozenset[str]
     inputs: tuple[InputSpec, ...]
     duration: float
+    tension_scale: float
 
     def first_frame(self, timeout: float) -> Frame:
         """The frame to show first (a live source waits up to ``timeout`` s for it and raises

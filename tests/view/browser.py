@@ -99,8 +99,13 @@ def canvas_pixels(page) -> np.ndarray:
 
 
 def wait_for_canvas(page, timeout_ms: float = 60_000) -> None:
-    """Until viser's canvas exists and has drawn something that is not one flat colour."""
+    """Until viser's canvas exists and has drawn something that is not one flat colour; then
+    closes viser's notice over the canvas ("Software WebGL rendering detected")."""
     page.locator(CANVAS).first.wait_for(state="visible", timeout=timeout_ms)
+    notice = page.locator("button.mantine-Notification-closeButton")
+    if notice.count():
+        notice.first.click()
+        notice.first.wait_for(state="detached")
     deadline_polls = int(timeout_ms / 250)
     for _ in range(deadline_polls):
         if canvas_pixels(page).std() > 1.0:

@@ -1,7 +1,6 @@
 """The view in a real browser: Debian's chromium, headless, on software WebGL, network blocked.
 
-Pixels are read from screenshots of viser's three.js canvas (the top quarter, where the
-page may show a notice, is left out). Every request and websocket of the page is recorded
+Pixels are read from screenshots of viser's three.js canvas (viser's notice over it closed). Every request and websocket of the page is recorded
 and none may leave 127.0.0.1. The ROS side is checked with the suite's own client: the
 simulator's ``joint_states`` (effort = the applied actuator force) and its
 ``simulation_interfaces`` services. Waits are for conditions, with deadlines far beyond
@@ -37,10 +36,15 @@ def browser():
     b.close()
 
 
-def _changed(a: np.ndarray, b: np.ndarray) -> float:
-    """Fraction of the canvas's pixels (below its top quarter) that differ between a and b."""
-    top = a.shape[0] // 4
-    return float((a[top:] != b[top:]).any(axis=2).mean())
+def _changed(a: np.ndarray, b: np.ndarray, block: int = 8) -> float:
+    """Fraction of the canvas's 8 x 8 px blocks whose ink (pixels darker than the white
+    background) differs between a and b: the drawing's shape, not its antialiasing (the same
+    state drawn twice differs in a few edge pixels)."""
+    def ink(img: np.ndarray) -> np.ndarray:
+        h, w = (img.shape[0] // block) * block, (img.shape[1] // block) * block
+        dark = (img[:h, :w] < 200).any(axis=2)
+        return dark.reshape(h // block, block, w // block, block).any(axis=(1, 3))
+    return float((ink(a) != ink(b)).mean())
 
 
 def _until(condition, what: str, timeout: float = WAIT, poll=lambda: time.sleep(0.1)) -> None:
@@ -58,9 +62,9 @@ def _next_state(client):
 
 
 def _only_loopback(browser: Browser, port: int) -> None:
+    """Every request of the browser so far went to loopback, and this view's page was loaded."""
     assert browser.outside() == [], f"the page asked for {browser.outside()}"
-    assert browser.requests and all(f"127.0.0.1:{port}" in u for u in browser.requests
-                                    if u.startswith(("http", "ws"))), browser.requests
+    assert {f"http://127.0.0.1:{port}/", f"ws://127.0.0.1:{port}/"} <= set(browser.requests), browser.requests
 
 
 def test_a_bag_plays_pauses_and_scrubs_on_its_timeline(cli, browser):
@@ -77,15 +81,13 @@ def test_a_bag_plays_pauses_and_scrubs_on_its_timeline(cli, browser):
         page.get_by_role("button", name="Pause").click()
         page.wait_for_timeout(300)
         folded = canvas_pixels(page)
-        assert _changed(still, folded) > 0.005
-        # scrub back to the start: the first frame's shape again (its strings' colours may
-        # differ: the colour scale is the largest tension seen so far)
+        assert _changed(still, folded) > 0.02
+        # scrub back to the start: the first frame's pixels again (a bag's colour scale is fixed)
         control(page, "time [s]").get_by_role("slider").focus()
         page.keyboard.press("Home")
         _until(lambda: status_time(page) == 0.0, "the timeline back at 0 s", poll=lambda: page.wait_for_timeout(200))
         page.wait_for_timeout(500)
-        back = canvas_pixels(page)
-        assert _changed(still, back) < 0.5 * _changed(folded, back)
+        assert _changed(still, canvas_pixels(page)) < 0.25 * _changed(still, folded)
         _only_loopback(browser, port)
     finally:
         page.close()
@@ -118,7 +120,7 @@ def test_the_live_view_follows_the_simulator_and_its_controls_drive_it(cli, brow
         t_moved = _next_state(client).stamp_ns / 1e9
         _until(lambda: status_time(page) >= t_moved, "the page show the moved state",
                poll=lambda: page.wait_for_timeout(200))
-        assert _changed(before, canvas_pixels(page)) > 0.005
+        assert _changed(before, canvas_pixels(page)) > 0.01
 
         # a value typed beyond the limit is clamped, and the page says so
         field = control(page, "f1 [N]").locator("input[type=text]")

@@ -74,6 +74,8 @@ def test_a_bags_timeline_holds_its_states_as_an_independent_reader_decodes_them(
         conns = [c for c in reader.connections if c.topic == "/mechanism_state"]
         decoded = [reader.deserialize(raw, c.msgtype) for c, _t, raw in reader.messages(connections=conns)]
     stamps = [m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for m in decoded]
+    strings = source.topology.of_kind("string")       # the colour scale: the bag's largest string tension
+    assert source.tension_scale == max(float(np.max(np.asarray(m.member_forces)[strings])) for m in decoded)
     assert source.duration == pytest.approx(max(stamps) - min(stamps), abs=1e-9)
     for k in (0, len(decoded) // 2, len(decoded) - 1):
         frame = source.frame_at(source.index_at(stamps[k] - stamps[0]))
