@@ -258,14 +258,14 @@ def stiff(ctx: Context) -> list[Row]:
         wall, traj = best_run(lambda: simulate(scene), 1 if ctx.quick else 3)
         rows.append(Row("sim", "stiff fold 5 s, Radau + analytic Jacobian", wall, "s",
                         note=f"{traj.stats['steps']} steps, {traj.stats['nfev']} evaluations"))
-        from tensegrity_core.sim.class2.plant import Class2Segment
+        from tensegrity_core.sim.class2.plant import Class2System
 
-        jac = Class2Segment.jac
+        jac = Class2System.jac
         try:
-            Class2Segment.jac = None                   # Radau then estimates Jacobians by differences
+            Class2System.jac = None                   # Radau then estimates Jacobians by differences
             wall_fd, traj_fd = best_run(lambda: simulate(scene), 1)
         finally:
-            Class2Segment.jac = jac
+            Class2System.jac = jac
         rows.append(Row("sim", "stiff fold 5 s, Radau + finite-difference Jacobian", wall_fd, "s",
                         baseline="stiff fold 5 s, Radau + analytic Jacobian",
                         note=f"{traj_fd.stats['steps']} steps, {traj_fd.stats['nfev']} evaluations; max difference "

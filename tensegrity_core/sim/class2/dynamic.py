@@ -5,7 +5,7 @@ the :class:`~tensegrity_core.sim.class2.plant.Class2Plant` (listed effects, driv
 limit), the input laws, the commands that hold the initial state at rest, the initial state
 with its contacts resolved, and a :class:`~tensegrity_core.sim.class2.observe.Class2Observer`.
 A state's workspace is a :class:`~tensegrity_core.sim.stepper.Stepper` integrating the
-plant's segment of the current contact mode and commands.
+plant's :class:`~tensegrity_core.sim.class2.plant.Class2System` of the current contact mode and commands.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.sim.class2.observe import Class2Observer
-from tensegrity_core.sim.class2.plant import Class2Plant, Class2Segment
+from tensegrity_core.sim.class2.plant import Class2Plant, Class2System
 from tensegrity_core.sim.class2.setup import NAMES, class2_params, force_effects, initial_configuration, static_force
 from tensegrity_core.sim.commands import changed, check_command, compile_inputs
 from tensegrity_core.sim.inputs import held
@@ -31,7 +31,7 @@ FloatArray = NDArray[np.float64]
 Class2Sample = tuple[float, FloatArray, int, tuple[float, float]]
 
 
-class Class2Dynamic(DynamicModel[Class2Segment, Class2Sample]):
+class Class2Dynamic(DynamicModel[Class2System, Class2Sample]):
     """Back end ``class2/dynamic``: the class-2 equations of motion with the scene's effects
     (implements :class:`~tensegrity_core.sim.model.DynamicModel`)."""
 
@@ -57,34 +57,34 @@ class Class2Dynamic(DynamicModel[Class2Segment, Class2Sample]):
         laws0 = held(self.laws, self.initial_commands)
         y0 = np.concatenate([q0, qd0, self.plant.drive.initial_states(0.0, q0, laws0)])
         self.plant.check_state(y0)
-        self.y0, self.mode0 = self.plant.segment((), laws0).resolve_contacts(0.0, y0)
+        self.y0, self.mode0 = self.plant.system((), laws0).resolve_contacts(0.0, y0)
 
     # -- states ---------------------------------------------------------------------------------
-    def initial_state(self, *, t_end: float = math.inf) -> State[Stepper[Class2Segment]]:
+    def initial_state(self, *, t_end: float = math.inf) -> State[Stepper[Class2System]]:
         """The scene's initial state at ``t = 0`` (resolved once, at compile time)."""
         return self._state(self.y0, self.mode0, t_end)
 
-    def state_from(self, y: ArrayLike, *, t_end: float = math.inf) -> State[Stepper[Class2Segment]]:
+    def state_from(self, y: ArrayLike, *, t_end: float = math.inf) -> State[Stepper[Class2System]]:
         """A state at ``t = 0`` from the state vector ``y`` (``state_names``), its contacts resolved."""
         y0 = np.array(y, dtype=float).ravel()
         self.plant.check_state(y0)
-        y0, mode = self.plant.segment((), held(self.laws, self.initial_commands)).resolve_contacts(0.0, y0)
+        y0, mode = self.plant.system((), held(self.laws, self.initial_commands)).resolve_contacts(0.0, y0)
         return self._state(y0, mode, t_end)
 
-    def _state(self, y: FloatArray, mode: frozenset[int], t_end: float) -> State[Stepper[Class2Segment]]:
+    def _state(self, y: FloatArray, mode: frozenset[int], t_end: float) -> State[Stepper[Class2System]]:
         events: list[tuple[float, str, int]] = []
         s = self.scene.integrator
-        segment = self.plant.segment(mode, held(self.laws, self.initial_commands))
-        stepper = Stepper(segment, 0.0, y, method=self.method, rtol=s.rtol, atol=s.atol, max_step=s.max_step,
+        system = self.plant.system(mode, held(self.laws, self.initial_commands))
+        stepper = Stepper(system, 0.0, y, method=self.method, rtol=s.rtol, atol=s.atol, max_step=s.max_step,
                           t_end=t_end, log=events)
         return State(self.initial_commands, events, stepper)
 
-    def equations(self, state: State[Stepper[Class2Segment]]) -> Class2Segment:
-        """The segment (contact mode, commands) the integrator sees at ``state``."""
+    def equations(self, state: State[Stepper[Class2System]]) -> Class2System:
+        """The system (contact mode, commands) the integrator sees at ``state``."""
         return state.work.system
 
     # -- running ------------------------------------------------------------------------------
-    def set_command(self, state: State[Stepper[Class2Segment]], values: Iterable[float]) -> None:
+    def set_command(self, state: State[Stepper[Class2System]], values: Iterable[float]) -> None:
         commands = check_command(values, self.laws, self.actuator_names)
         if not changed(state.commands, commands):
             return
@@ -92,19 +92,19 @@ class Class2Dynamic(DynamicModel[Class2Segment, Class2Sample]):
         st = state.work
         st.restart(st.t, st.y, system=st.system.with_laws(held(self.laws, commands)), input_changed=True)
 
-    def advance(self, state: State[Stepper[Class2Segment]], t: float) -> None:
+    def advance(self, state: State[Stepper[Class2System]], t: float) -> None:
         state.work.advance(t)
 
-    def sample(self, state: State[Stepper[Class2Segment]]) -> Class2Sample:
+    def sample(self, state: State[Stepper[Class2System]]) -> Class2Sample:
         """What an observation needs at ``state.t``: ``(t, y, mode bits, T (2,))``."""
         st = state.work
         y = st.y
         return st.t, y.copy(), st.system.bits, st.system.drive.forces(st.t, y.tolist())
 
-    def record(self, state: State[Stepper[Class2Segment]], times: Sequence[float] | FloatArray,
+    def record(self, state: State[Stepper[Class2System]], times: Sequence[float] | FloatArray,
                out: list[Class2Sample]) -> None:
         """Append samples at increasing ``times`` to ``out``."""
-        states: list[tuple[float, FloatArray, Class2Segment]] = []
+        states: list[tuple[float, FloatArray, Class2System]] = []
         try:
             state.work.record(times, states)
         finally:
@@ -115,11 +115,11 @@ class Class2Dynamic(DynamicModel[Class2Segment, Class2Sample]):
         return self.observer.many([s[0] for s in samples], [s[1] for s in samples], [s[2] for s in samples],
                                   [s[3] for s in samples])
 
-    def observe_now(self, state: State[Stepper[Class2Segment]]) -> dict[str, Any]:
+    def observe_now(self, state: State[Stepper[Class2System]]) -> dict[str, Any]:
         """The observation at ``state.t`` (one sample, on floats)."""
         return self.observer.one(*self.sample(state))
 
-    def joint_sample(self, state: State[Stepper[Class2Segment]]) -> dict[str, Any]:
+    def joint_sample(self, state: State[Stepper[Class2System]]) -> dict[str, Any]:
         """Joint positions, rates, transmitted forces, node D and the fold flag at ``state.t``."""
         t, y, bits, T = self.sample(state)
         L = self.params.L
@@ -127,7 +127,7 @@ class Class2Dynamic(DynamicModel[Class2Segment, Class2Sample]):
         return {"t": float(t), "q": y[:3], "qdot": y[3:6], "applied_forces": np.asarray(T, dtype=float),
                 "end_effector": ee, "folded": bool(bits)}
 
-    def stats(self, state: State[Stepper[Class2Segment]]) -> dict[str, Any]:
+    def stats(self, state: State[Stepper[Class2System]]) -> dict[str, Any]:
         st = state.work
         return {"method": self.method, "steps": st.n_steps, "nfev": st.nfev, "restarts": st.n_restarts - 1,
                 "events": st.n_events}

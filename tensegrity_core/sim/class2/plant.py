@@ -18,10 +18,10 @@ does not list is not built and costs nothing). With the fold limit, the *contact
 - ``singular``: lambda1 or lambda2 reaches ``SINGULAR_GUARD_REL L`` -> the simulation stops
   with an error (the coordinates break down there).
 
-:class:`Class2Plant` is the frozen part (compiled once per scene); a :class:`Class2Segment`
+:class:`Class2Plant` is the frozen part (compiled once per scene); a :class:`Class2System`
 is the plant in one contact mode under one set of input laws: what the stepping integrator
 integrates between two restarts (:class:`~tensegrity_core.sim.stepper.OdeSystem`). An event
-or a new command gives a new segment; nothing is ever changed in place.
+or a new command gives a new system; nothing is ever changed in place.
 """
 
 from __future__ import annotations
@@ -87,9 +87,9 @@ class Class2Plant:
         self.n = 6 + self.drive.n_states
         self.state_names = STATE_NAMES + self.drive.state_names
 
-    def segment(self, mode: Iterable[int], laws: Iterable[Law]) -> Class2Segment:
+    def system(self, mode: Iterable[int], laws: Iterable[Law]) -> Class2System:
         """The plant in contact ``mode`` (held actuators) under input ``laws``."""
-        return Class2Segment(self, frozenset(mode), tuple(laws))
+        return Class2System(self, frozenset(mode), tuple(laws))
 
     def check_state(self, y: Sequence[float] | FloatArray) -> None:
         """Raise :class:`SimulationError` if ``y`` is not a state of the model's domain."""
@@ -104,9 +104,9 @@ class Class2Plant:
             raise SimulationError(f"state outside the mechanism's domain: {err}") from None
 
 
-class Class2Segment:
+class Class2System:
     """The plant in one contact mode under one set of input laws (an
-    :class:`~tensegrity_core.sim.stepper.OdeSystem`). ``fun`` is built once per segment with
+    :class:`~tensegrity_core.sim.stepper.OdeSystem`). ``fun`` is built once per system with
     everything it reads bound as locals (the right-hand side costs a few microseconds)."""
 
     def __init__(self, plant: Class2Plant, mode: frozenset[int], laws: tuple[Law, ...]):
@@ -117,11 +117,11 @@ class Class2Segment:
         self.drive = plant.drive.bind(laws)
         self.fun = self._right_hand_side()
 
-    def with_mode(self, mode: Iterable[int]) -> Class2Segment:
-        return Class2Segment(self.plant, frozenset(mode), self.laws)
+    def with_mode(self, mode: Iterable[int]) -> Class2System:
+        return Class2System(self.plant, frozenset(mode), self.laws)
 
-    def with_laws(self, laws: Iterable[Law]) -> Class2Segment:
-        return Class2Segment(self.plant, self.mode, tuple(laws))
+    def with_laws(self, laws: Iterable[Law]) -> Class2System:
+        return Class2System(self.plant, self.mode, tuple(laws))
 
     def next_breakpoint(self, t: float) -> float:
         return next_breakpoint(self.laws, t, math.inf)
@@ -174,7 +174,7 @@ class Class2Segment:
 
     def accelerations(self, t: float, y: Sequence[float] | FloatArray,
                       mode: Collection[int] | None = None) -> tuple[FloatArray, FloatArray]:
-        """``(qddot (3,), contact forces (2,))`` at ``(t, y)`` in ``mode`` (default: the segment's)."""
+        """``(qddot (3,), contact forces (2,))`` at ``(t, y)`` in ``mode`` (default: the system's)."""
         bits = self.bits if mode is None else bits_of(mode)
         k, (R1, R2, R3) = self.generalized_force(t, y)
         a1, a2, a3, l1, l2 = self.plant.eom.inertia.solve(k, R1, R2, R3, bits)
@@ -182,7 +182,7 @@ class Class2Segment:
 
     # -- Jacobian -----------------------------------------------------------------------------
     def jac(self, t: float, y: ArrayLike) -> FloatArray:
-        """Analytic ``d(dy/dt)/dy`` in the segment's mode, from the kernel's derivatives."""
+        """Analytic ``d(dy/dt)/dy`` in the system's mode, from the kernel's derivatives."""
         state = np.asarray(y, dtype=float)
         plant = self.plant
         a, _ = self.accelerations(t, state)
@@ -198,7 +198,7 @@ class Class2Segment:
 
     # -- events ---------------------------------------------------------------------------------
     def events(self) -> list[Event]:
-        """Event functions in the segment's mode."""
+        """Event functions in the system's mode."""
         L = self.plant.L
         lim = (SINGULAR_GUARD_REL * L) ** 2
         out = [Event("singular", 0, lambda t, y: (2 * L - y[0] - y[1]) * (2 * L + y[0] + y[1]) - lim),
@@ -211,8 +211,8 @@ class Class2Segment:
         """Held actuator ``i`` lets go: its contact force falls through 0."""
         return Event("release", i, lambda t, y: self.accelerations(t, y)[1][i])
 
-    def handle_event(self, event: StateEvent, t: float, y: ArrayLike) -> tuple[FloatArray, Class2Segment]:
-        """Apply an event at ``(t, y)``: the state to restart from, and the segment of the new mode."""
+    def handle_event(self, event: StateEvent, t: float, y: ArrayLike) -> tuple[FloatArray, Class2System]:
+        """Apply an event at ``(t, y)``: the state to restart from, and the system of the new mode."""
         y = np.array(y, dtype=float)
         if event.kind == "singular":
             name = ("lambda1", "lambda2")[event.index]
@@ -262,9 +262,9 @@ class Class2Segment:
         y = np.array(y0, dtype=float)
         if self.plant.fold is None:
             return y, self.mode
-        segment = self
+        system = self
         for i in (0, 1):
             if y[i] == 0.0 and y[3 + i] < 0.0:
-                segment = segment.with_mode(segment._fold(i, t0, y))
-        candidates = {i for i in (0, 1) if y[i] == 0.0 and y[3 + i] == 0.0} | set(segment.mode)
-        return y, segment._select(t0, y, candidates)
+                system = system.with_mode(system._fold(i, t0, y))
+        candidates = {i for i in (0, 1) if y[i] == 0.0 and y[3 + i] == 0.0} | set(system.mode)
+        return y, system._select(t0, y, candidates)

@@ -1,7 +1,7 @@
 """The general-structure back end with inertia: nodal and rigid-body dynamics, integrated by a stepper.
 
 :class:`GeneralDynamic` compiles a general scene that lists ``inertia`` into a frozen model:
-the :class:`~tensegrity_core.sim.general.model.GeneralModel` of the initial equilibrium's
+the :class:`~tensegrity_core.sim.general.model.GeneralSystem` of the initial equilibrium's
 rotation charts under the initial commands, the input laws and the initial coordinates. A
 state's workspace is a :class:`~tensegrity_core.sim.stepper.Stepper`; its system is the
 general model of the current charts and commands (each sample keeps the model it was taken
@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from tensegrity_core.general.statics import potential_energy
 from tensegrity_core.sim.commands import changed, check_command
 from tensegrity_core.sim.errors import SimulationError
-from tensegrity_core.sim.general.model import GeneralModel, NodalMasses
+from tensegrity_core.sim.general.model import GeneralSystem, NodalMasses
 from tensegrity_core.sim.general.setup import (
     OBSERVED,
     GeneralBackEnd,
@@ -41,10 +41,10 @@ from tensegrity_core.sim.stepper import Stepper
 
 FloatArray = NDArray[np.float64]
 #: What an observation needs of one state: ``(t [s], y, the equations of its charts and commands)``.
-GeneralSample = tuple[float, FloatArray, GeneralModel]
+GeneralSample = tuple[float, FloatArray, GeneralSystem]
 
 
-class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralModel, GeneralSample]):
+class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralSystem, GeneralSample]):
     """Back end ``general/dynamic``: nodal / rigid-body dynamics of a general structure
     (implements :class:`~tensegrity_core.sim.model.DynamicModel`)."""
 
@@ -56,7 +56,7 @@ class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralModel, GeneralSample]):
         config = initial_configuration(scene)
         self.x0 = coordinates(config)
         laws0 = held(self.laws, self.initial_commands)
-        self.plant = GeneralModel(s, masses=NodalMasses(s), damping=member_damping(scene),
+        self.plant = GeneralSystem(s, masses=NodalMasses(s), damping=member_damping(scene),
                                   gravity=scene_gravity(scene), loads=scene_loads(scene),
                                   rest_lengths_of=rest_lengths_function(scene, laws0), laws=laws0,
                                   actuators=general_model(scene).actuators, R_ref=config.rotations)
@@ -65,11 +65,11 @@ class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralModel, GeneralSample]):
         self.method = "Radau" if method == "auto" else method
 
     # -- states ---------------------------------------------------------------------------------
-    def initial_state(self, *, t_end: float = math.inf) -> State[Stepper[GeneralModel]]:
+    def initial_state(self, *, t_end: float = math.inf) -> State[Stepper[GeneralSystem]]:
         """The initial equilibrium at rest (found once, at compile time)."""
         return self._state(np.concatenate([self.x0, np.zeros(len(self.x0))]), t_end)
 
-    def state_from(self, y: ArrayLike, *, t_end: float = math.inf) -> State[Stepper[GeneralModel]]:
+    def state_from(self, y: ArrayLike, *, t_end: float = math.inf) -> State[Stepper[GeneralSystem]]:
         """A state at ``t = 0`` from the state vector ``y`` (``state_names``: coordinates in the
         initial rotation charts, then rates)."""
         y = np.array(y, dtype=float).ravel()
@@ -77,19 +77,19 @@ class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralModel, GeneralSample]):
             raise SimulationError(f"a state of this model is {2 * self.plant.n} finite numbers, got {y!r}")
         return self._state(y, t_end)
 
-    def _state(self, y: FloatArray, t_end: float) -> State[Stepper[GeneralModel]]:
+    def _state(self, y: FloatArray, t_end: float) -> State[Stepper[GeneralSystem]]:
         events: list[Event] = []
         s = self.scene.integrator
         stepper = Stepper(self.plant, 0.0, y, method=self.method, rtol=s.rtol, atol=s.atol, max_step=s.max_step,
                           t_end=t_end, log=events)
         return State(self.initial_commands, events, stepper)
 
-    def equations(self, state: State[Stepper[GeneralModel]]) -> GeneralModel:
+    def equations(self, state: State[Stepper[GeneralSystem]]) -> GeneralSystem:
         """The model (charts, commands) the integrator sees at ``state``."""
         return state.work.system
 
     # -- running ------------------------------------------------------------------------------
-    def set_command(self, state: State[Stepper[GeneralModel]], values: Iterable[float]) -> None:
+    def set_command(self, state: State[Stepper[GeneralSystem]], values: Iterable[float]) -> None:
         commands = check_command(values, self.laws, self.actuator_names, positive=True)
         if not changed(state.commands, commands):
             return
@@ -99,15 +99,15 @@ class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralModel, GeneralSample]):
         st.restart(st.t, st.y, system=st.system.with_inputs(rest_lengths_function(self.scene, laws), laws),
                    input_changed=True)
 
-    def advance(self, state: State[Stepper[GeneralModel]], t: float) -> None:
+    def advance(self, state: State[Stepper[GeneralSystem]], t: float) -> None:
         state.work.advance(t)
 
-    def sample(self, state: State[Stepper[GeneralModel]]) -> GeneralSample:
+    def sample(self, state: State[Stepper[GeneralSystem]]) -> GeneralSample:
         """``(t, y, model)``: the model keeps this sample's rotation charts and rest lengths."""
         st = state.work
         return st.t, st.y.copy(), st.system
 
-    def record(self, state: State[Stepper[GeneralModel]], times: Sequence[float] | FloatArray,
+    def record(self, state: State[Stepper[GeneralSystem]], times: Sequence[float] | FloatArray,
                out: list[GeneralSample]) -> None:
         state.work.record(times, out)
 
@@ -130,14 +130,14 @@ class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralModel, GeneralSample]):
             rows["kinetic_energy"].append(model.kinetic_energy(x, v))
         return finish_observations(rows, self.scene)
 
-    def observe_now(self, state: State[Stepper[GeneralModel]]) -> dict[str, Any]:
+    def observe_now(self, state: State[Stepper[GeneralSystem]]) -> dict[str, Any]:
         return {k: v[0] for k, v in self.observe([self.sample(state)]).items()}
 
-    def joint_sample(self, state: State[Stepper[GeneralModel]]) -> dict[str, Any]:
+    def joint_sample(self, state: State[Stepper[GeneralSystem]]) -> dict[str, Any]:
         obs = self.observe_now(state)
         return {k: obs[k] for k in ("t", "q", "qdot", "applied_forces", "end_effector", "folded")}
 
-    def stats(self, state: State[Stepper[GeneralModel]]) -> dict[str, Any]:
+    def stats(self, state: State[Stepper[GeneralSystem]]) -> dict[str, Any]:
         st = state.work
         return {"method": self.method, "steps": st.n_steps, "nfev": st.nfev, "restarts": st.n_restarts - 1,
                 "events": st.n_events}

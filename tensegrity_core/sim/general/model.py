@@ -145,7 +145,7 @@ class NodalMasses:
             self.I_body = np.zeros((0, 3, 3))
 
 
-class GeneralModel:
+class GeneralSystem:
     """Equations of motion of a general structure for one scene, with the rotation charts
     ``R_ref`` (nb, 3, 3) and the rest lengths ``rest_lengths_of`` (``t -> (m,)`` under the
     input ``laws``, or None without actuators) of one stretch of integration: an
@@ -194,13 +194,13 @@ class GeneralModel:
         self.state_names = tuple(f"x_{s}" for s in lay.labels()) + tuple(f"v_{s}" for s in lay.labels())
         self._twin = self._statics_twin(0.0) if rest_lengths_of is None else None
 
-    def with_chart(self, R_ref: ArrayLike) -> GeneralModel:
+    def with_chart(self, R_ref: ArrayLike) -> GeneralSystem:
         """The same equations with other rotation charts."""
         new = copy.copy(self)
         new.R_ref = np.array(R_ref, dtype=float)
         return new
 
-    def with_inputs(self, rest_lengths_of: Callable[[float], FloatArray] | None, laws: Iterable[Law]) -> GeneralModel:
+    def with_inputs(self, rest_lengths_of: Callable[[float], FloatArray] | None, laws: Iterable[Law]) -> GeneralSystem:
         """The same equations under other input laws (a new command)."""
         new = copy.copy(self)
         new.rest_lengths_of, new.laws = rest_lengths_of, tuple(laws)
@@ -383,11 +383,11 @@ class GeneralModel:
         step control resolves)."""
         return []
 
-    def handle_event(self, event: StateEvent, t: float, y: FloatArray) -> tuple[FloatArray, GeneralModel]:
+    def handle_event(self, event: StateEvent, t: float, y: FloatArray) -> tuple[FloatArray, GeneralSystem]:
         """There are no state events (:meth:`events`): the state and the model as they are."""
         return np.asarray(y, dtype=float), self
 
-    def after_step(self, t: float, y: FloatArray) -> tuple[FloatArray, GeneralModel] | None:
+    def after_step(self, t: float, y: FloatArray) -> tuple[FloatArray, GeneralSystem] | None:
         """Re-anchor rotation charts whose angle exceeds :data:`RECHART_ANGLE`: the state and the
         model of the new charts, or None."""
         if not self.nb:
