@@ -74,7 +74,7 @@ MAX_OUTPUT_BYTES = 2 * 2**30
 
 # ------------------------------------------------------------------------------ data
 @dataclass(frozen=True)
-class Class2Model:
+class Class2ModelSpec:
     """The planar class-2 mechanism with parameters ``params``."""
 
     params: Class2Params
@@ -82,7 +82,7 @@ class Class2Model:
 
 
 @dataclass(frozen=True)
-class GeneralModel:
+class GeneralModelSpec:
     """A general structure (bars, strings, actuator members, rigid bodies).
 
     ``end_effector`` is the index of the node reported as the end effector; ``actuators``
@@ -96,11 +96,11 @@ class GeneralModel:
 
 
 #: The mechanism a scene simulates.
-SceneModel = Class2Model | GeneralModel
+ModelSpec = Class2ModelSpec | GeneralModelSpec
 
 
 @dataclass(frozen=True)
-class Initial:
+class InitialSpec:
     """Initial state. ``kind``: "state" (explicit ``q``, ``qdot``), "equilibrium" (class-2:
     ``q = (rho1, rho2, beta*)`` with ``lengths = (rho1, rho2)``; general: form-found under the
     scene's static effects plus ``preload`` {node index: force [N]}) or "drawn" (general: the
@@ -114,7 +114,7 @@ class Initial:
 
 
 @dataclass(frozen=True)
-class Damping:
+class DampingSpec:
     """Class-2: the springs' dampers ``c1..c4`` of the parameters. General: an axial damper
     on every taut member, ``c`` [N s/m] or stiffness-proportional ``beta`` [s] (``c_i = beta EA_i / l0_i``)."""
 
@@ -123,62 +123,63 @@ class Damping:
 
 
 @dataclass(frozen=True)
-class Gravity:
+class GravitySpec:
     vector: tuple[float, ...]             # [m/s^2], 3 components
 
 
 @dataclass(frozen=True)
-class Loads:
+class LoadsSpec:
     forces: dict[int, tuple[float, ...]]  # node index -> (fx, fy, fz) [N], dead loads
 
 
 @dataclass(frozen=True)
-class ActuatorLag:
+class ActuatorLagSpec:
     tau: float                # [s]
 
 
 @dataclass(frozen=True)
-class ActuatorCompliance:
+class ActuatorComplianceSpec:
     stiffness: float          # [N/m]
     drive_damping: float      # [N s/m]
 
 
 @dataclass(frozen=True)
-class FoldLimit:
+class FoldLimitSpec:
     restitution: float = 0.0
     rest_velocity: float = 1e-6   # [m/s]: rebounds slower than this stick
 
 
 @dataclass(frozen=True)
-class SensorNoise:
+class SensorNoiseSpec:
     sigmas: dict[str, float]  # quantity -> standard deviation (units of the quantity)
 
 
 @dataclass(frozen=True)
-class Flag:
+class FlagSpec:
     """An effect without options (inertia, springs)."""
 
 
 class SceneEffects(TypedDict, total=False):
     """The effects a scene lists, each with its options (a plain dict in :data:`EFFECTS` order)."""
 
-    inertia: Flag
-    springs: Flag
-    damping: Damping
-    gravity: Gravity
-    loads: Loads
-    actuator_lag: ActuatorLag
-    actuator_compliance: ActuatorCompliance
-    fold_limit: FoldLimit
-    sensor_noise: SensorNoise
+    inertia: FlagSpec
+    springs: FlagSpec
+    damping: DampingSpec
+    gravity: GravitySpec
+    loads: LoadsSpec
+    actuator_lag: ActuatorLagSpec
+    actuator_compliance: ActuatorComplianceSpec
+    fold_limit: FoldLimitSpec
+    sensor_noise: SensorNoiseSpec
 
 
 #: The options of one effect.
-EffectOptions = Flag | Damping | Gravity | Loads | ActuatorLag | ActuatorCompliance | FoldLimit | SensorNoise
+EffectSpec = (FlagSpec | DampingSpec | GravitySpec | LoadsSpec | ActuatorLagSpec | ActuatorComplianceSpec | FoldLimitSpec
+              | SensorNoiseSpec)
 
 
 @dataclass(frozen=True)
-class Integrator:
+class IntegratorSpec:
     method: str = "auto"
     rtol: float = 1e-8
     atol: float = 1e-10
@@ -191,13 +192,13 @@ class Scene:
     maps each actuator (class-2: ``"f1"``, ``"f2"``; general: actuator member names) to its law."""
 
     name: str
-    model: SceneModel
-    initial: Initial
+    model: ModelSpec
+    initial: InitialSpec
     inputs: dict[str, InputLaw]
     effects: SceneEffects
     duration: float
     output_rate: float = 100.0
-    integrator: Integrator = Integrator()
+    integrator: IntegratorSpec = IntegratorSpec()
     seed: int = 0
     description: str = ""
     source: str | None = None
@@ -221,7 +222,7 @@ class Scene:
         return replace(self, duration=duration)
 
 
-def output_size_reason(duration: float, rate: float, model: SceneModel) -> str | None:
+def output_size_reason(duration: float, rate: float, model: ModelSpec) -> str | None:
     """Why ``duration`` [s] at ``rate`` [Hz] is too much output for ``model``, or None: the
     run's arrays (``duration * rate + 2`` samples of every recorded value) must fit in
     :data:`MAX_OUTPUT_BYTES`; they are allocated as the run goes, so the bound is checked
@@ -236,7 +237,7 @@ def output_size_reason(duration: float, rate: float, model: SceneModel) -> str |
             f"output may take; shorten the duration or lower output.rate")
 
 
-def values_per_sample(model: SceneModel) -> int:
+def values_per_sample(model: ModelSpec) -> int:
     """Floats recorded per output sample (an upper bound): states, coordinates, rates,
     inputs, member forces and lengths, node positions, energies."""
     if model.kind == "class2":
@@ -349,7 +350,7 @@ class _SceneReader(Reader):
                      description=description, source=self.source, data=_plain(d))
 
     # -- model ---------------------------------------------------------------------------
-    def model(self, value: object, path: KeyPath, parent: dict[str, Any]) -> SceneModel:
+    def model(self, value: object, path: KeyPath, parent: dict[str, Any]) -> ModelSpec:
         d = self.mapping(value, path, parent, "model")
         kind = self.string(d, "kind", path, choices=("class2", "general"))
         if kind == "class2":
@@ -367,7 +368,7 @@ class _SceneReader(Reader):
                 params = PAPER_PARAMS.with_overrides(overrides)
             except TensegrityError as err:
                 raise self.error(str(err), path + ("params",), d, "params") from None
-            return Class2Model(params)
+            return Class2ModelSpec(params)
         self.keys(d, path, ("kind", "structure", "end_effector"), required=("structure",))
         structure, source = self.structure(d["structure"], path + ("structure",), d)
         if "end_effector" in d:
@@ -379,7 +380,7 @@ class _SceneReader(Reader):
         else:
             end_effector = int(structure.n_nodes - 1)
         actuators = tuple(i for i, k in enumerate(structure.member_kinds) if k == "actuator")
-        return GeneralModel(structure, source, end_effector, actuators)
+        return GeneralModelSpec(structure, source, end_effector, actuators)
 
     def structure(self, value: object, path: KeyPath, parent: dict[str, Any]) -> tuple[Structure, str]:
         from tensegrity_core.general import (
@@ -407,11 +408,11 @@ class _SceneReader(Reader):
             raise self.error(f"invalid structure: {err}", path, parent, "structure") from None
 
     # -- effects ---------------------------------------------------------------------------
-    def effects(self, value: object, path: KeyPath, parent: dict[str, Any], model: SceneModel) -> SceneEffects:
+    def effects(self, value: object, path: KeyPath, parent: dict[str, Any], model: ModelSpec) -> SceneEffects:
         if not isinstance(value, list):
             raise self.error(f"must be a list of effects, got {type_name(value)} ({excerpt(value)})", path, parent,
                              "effects")
-        out: dict[str, EffectOptions] = {}
+        out: dict[str, EffectSpec] = {}
         for i, item in enumerate(value):
             p = path + (i,)
             options: object
@@ -450,28 +451,28 @@ class _SceneReader(Reader):
         # with the options effect_options gives it, so the dict is the TypedDict.
         return cast(SceneEffects, {name: out[name] for name in EFFECTS if name in out})
 
-    def effect_options(self, name: str, d: dict[str, Any], path: KeyPath, model: SceneModel) -> EffectOptions:
+    def effect_options(self, name: str, d: dict[str, Any], path: KeyPath, model: ModelSpec) -> EffectSpec:
         if name in ("inertia", "springs"):
             self.keys(d, path, ())
-            return Flag()
+            return FlagSpec()
         if name == "damping":
             if model.kind == "class2":
                 self.keys(d, path, ())
-                return Damping()
+                return DampingSpec()
             self.keys(d, path, ("c", "beta"))
             if ("c" in d) == ("beta" in d):
                 raise self.error("give exactly one of 'c' [N s/m] (every member) or 'beta' [s] (c_i = beta EA_i/l0_i)",
                                  path, d, None)
             if "c" in d:
-                return Damping(c=self.number(d, "c", path, lo=0.0))
-            return Damping(beta=self.number(d, "beta", path, lo=0.0))
+                return DampingSpec(c=self.number(d, "c", path, lo=0.0))
+            return DampingSpec(beta=self.number(d, "beta", path, lo=0.0))
         if name == "gravity":
             self.keys(d, path, ("vector",))
             if "vector" in d:
-                return Gravity(self.vector(d["vector"], 3, path + ("vector",), d, "vector"))
+                return GravitySpec(self.vector(d["vector"], 3, path + ("vector",), d, "vector"))
             if model.kind == "general" and np.any(model.structure.gravity != 0):
-                return Gravity(tuple(float(g) for g in model.structure.gravity))
-            return Gravity((0.0, 0.0, -STANDARD_GRAVITY))
+                return GravitySpec(tuple(float(g) for g in model.structure.gravity))
+            return GravitySpec((0.0, 0.0, -STANDARD_GRAVITY))
         if name == "loads":
             names = _node_names(model)
             forces: dict[int, tuple[float, ...]] = {}
@@ -482,29 +483,29 @@ class _SceneReader(Reader):
                 forces[names.index(node)] = self.vector(vec, 3, path + (node,), d, node)
             if not forces:
                 raise self.error("lists no node: give node: [fx, fy, fz] [N]", path, d, None)
-            return Loads(forces)
+            return LoadsSpec(forces)
         if name == "actuator_lag":
             self.keys(d, path, ("tau",), required=("tau",))
-            return ActuatorLag(self.number(d, "tau", path, lo=0.0, lo_open=True))
+            return ActuatorLagSpec(self.number(d, "tau", path, lo=0.0, lo_open=True))
         if name == "actuator_compliance":
             self.keys(d, path, ("stiffness", "drive_damping"), required=("drive_damping",))
             # (a general scene has no actuator stiffness to default to: effects() refuses the effect)
             default = model.params.ka if model.kind == "class2" else math.nan
             stiffness = self.number(d, "stiffness", path, default=default, lo=0.0, lo_open=True)
-            return ActuatorCompliance(stiffness, self.number(d, "drive_damping", path, lo=0.0, lo_open=True))
+            return ActuatorComplianceSpec(stiffness, self.number(d, "drive_damping", path, lo=0.0, lo_open=True))
         if name == "fold_limit":
             self.keys(d, path, ("restitution", "rest_velocity"))
-            return FoldLimit(self.number(d, "restitution", path, default=0.0, lo=0.0, hi=1.0),
+            return FoldLimitSpec(self.number(d, "restitution", path, default=0.0, lo=0.0, hi=1.0),
                              self.number(d, "rest_velocity", path, default=1e-6, lo=0.0, lo_open=True))
         # sensor_noise
         self.keys(d, path, NOISY_QUANTITIES)
         if not d:
             raise self.error(f"lists no quantity; give sigma for some of {', '.join(NOISY_QUANTITIES)}", path, d, None)
-        return SensorNoise({k: self.number(d, k, path, lo=0.0) for k in d})
+        return SensorNoiseSpec({k: self.number(d, k, path, lo=0.0) for k in d})
 
     # -- initial state -----------------------------------------------------------------------
-    def initial(self, value: object, path: KeyPath, parent: dict[str, Any], model: SceneModel,
-                effects: SceneEffects) -> Initial:
+    def initial(self, value: object, path: KeyPath, parent: dict[str, Any], model: ModelSpec,
+                effects: SceneEffects) -> InitialSpec:
         d = self.mapping(value, path, parent, "initial")
         if model.kind == "class2":
             self.keys(d, path, ("q", "qdot", "equilibrium"))
@@ -515,7 +516,7 @@ class _SceneReader(Reader):
             if "q" in d:
                 q = self.vector(d["q"], 3, path + ("q",), d, "q")
                 self.class2_domain(q[0], q[1], model, effects, path + ("q",), d, "q")
-                return Initial("state", q=q, qdot=qdot)
+                return InitialSpec("state", q=q, qdot=qdot)
             if "qdot" in d:
                 raise self.error("'qdot' goes with 'q'; an equilibrium starts at rest", path + ("qdot",), d, "qdot")
             e = self.mapping(d["equilibrium"], path + ("equilibrium",), d, "equilibrium")
@@ -523,7 +524,7 @@ class _SceneReader(Reader):
             r1 = self.number(e, "rho1", path + ("equilibrium",))
             r2 = self.number(e, "rho2", path + ("equilibrium",))
             self.class2_domain(r1, r2, model, effects, path + ("equilibrium",), d, "equilibrium")
-            return Initial("equilibrium", lengths=(r1, r2))
+            return InitialSpec("equilibrium", lengths=(r1, r2))
         self.keys(d, path, ("equilibrium", "drawn"))
         if len(d) != 1:
             raise self.error("give exactly one of 'equilibrium: true | {preload: {node: [fx, fy, fz]}}' or "
@@ -531,10 +532,10 @@ class _SceneReader(Reader):
         if "drawn" in d:
             if d["drawn"] is not True:
                 raise self.error(f"must be true, got {excerpt(d['drawn'])}", path + ("drawn",), d, "drawn")
-            return Initial("drawn")
+            return InitialSpec("drawn")
         e = d["equilibrium"]
         if e is True:
-            return Initial("equilibrium")
+            return InitialSpec("equilibrium")
         e = self.mapping(e, path + ("equilibrium",), d, "equilibrium")
         self.keys(e, path + ("equilibrium",), ("preload",))
         preload: dict[int, tuple[float, ...]] = {}
@@ -546,9 +547,9 @@ class _SceneReader(Reader):
                 if node not in names:
                     raise self.error(f"unknown node {excerpt(node)}{suggest(node, names)}", p, pl, node)
                 preload[names.index(node)] = self.vector(vec, 3, p, pl, node)
-        return Initial("equilibrium", preload=preload)
+        return InitialSpec("equilibrium", preload=preload)
 
-    def class2_domain(self, r1: float, r2: float, model: Class2Model, effects: SceneEffects, path: KeyPath,
+    def class2_domain(self, r1: float, r2: float, model: Class2ModelSpec, effects: SceneEffects, path: KeyPath,
                       container: dict[str, Any], key: str) -> None:
         L = model.params.L
         if "fold_limit" in effects and min(r1, r2) < 0:
@@ -565,7 +566,7 @@ class _SceneReader(Reader):
                              f"then; the coordinates are singular at L)", path, container, key)
 
     # -- inputs ----------------------------------------------------------------------------------
-    def inputs(self, value: object, path: KeyPath, parent: dict[str, Any], model: SceneModel,
+    def inputs(self, value: object, path: KeyPath, parent: dict[str, Any], model: ModelSpec,
                effects: SceneEffects) -> dict[str, InputLaw]:
         names: tuple[str, ...]
         if model.kind == "class2":
@@ -585,7 +586,7 @@ class _SceneReader(Reader):
         "constant": ("law", "value"), "ramp": ("law", "from", "to", "t0", "t1"), "proportional": ("law", "gain"),
         "series": ("law", "file", "time", "column", "interpolation"), "commanded": ("law", "initial")}
 
-    def law(self, value: object, path: KeyPath, parent: dict[str, Any], key: str, model: SceneModel) -> InputLaw:
+    def law(self, value: object, path: KeyPath, parent: dict[str, Any], key: str, model: ModelSpec) -> InputLaw:
         if isinstance(value, (int, float)) and not isinstance(value, bool):
             return Constant(self.value_number(value, path, parent, key))
         d = self.mapping(value, path, parent, key)
@@ -648,19 +649,19 @@ class _SceneReader(Reader):
         return Series(tuple(t.tolist()), tuple(v.tolist()), interpolation, str(csv))
 
     # -- integrator --------------------------------------------------------------------------------
-    def integrator(self, value: object, path: KeyPath, parent: dict[str, Any]) -> Integrator:
+    def integrator(self, value: object, path: KeyPath, parent: dict[str, Any]) -> IntegratorSpec:
         if value is None:
-            return Integrator()
+            return IntegratorSpec()
         d = self.mapping(value, path, parent, "integrator")
         self.keys(d, path, ("method", "rtol", "atol", "max_step"))
         method = self.string(d, "method", path, default="auto", choices=METHODS)
         rtol = self.number(d, "rtol", path, default=1e-8, lo=1e-13, hi=0.1)
         atol = self.number(d, "atol", path, default=1e-10, lo=0.0, lo_open=True)
         max_step = self.number(d, "max_step", path, default=math.inf, lo=0.0, lo_open=True, allow_inf=True)
-        return Integrator(method, rtol, atol, max_step)
+        return IntegratorSpec(method, rtol, atol, max_step)
 
 
-def _node_names(model: SceneModel) -> tuple[str, ...]:
+def _node_names(model: ModelSpec) -> tuple[str, ...]:
     if model.kind == "class2":
         from tensegrity_core.class2.geometry import NODE_NAMES
 

@@ -23,7 +23,7 @@ from tensegrity_core.class2.geometry import MEMBERS, NODE_NAMES
 from tensegrity_core.class2.params import Class2Params
 from tensegrity_core.sim.errors import SceneError
 from tensegrity_core.sim.model import Names
-from tensegrity_core.sim.scene import Class2Model, Scene
+from tensegrity_core.sim.scene import Class2ModelSpec, Scene
 
 FloatArray = NDArray[np.float64]
 #: A generalised-force effect of the kernel.
@@ -40,7 +40,7 @@ STATE_NAMES = ("rho1", "rho2", "beta", "rho1_dot", "rho2_dot", "beta_dot")
 def class2_params(scene: Scene) -> Class2Params:
     """The mechanism's parameters of a class-2 scene (the only scenes the class-2 back ends take)."""
     model = scene.model
-    if not isinstance(model, Class2Model):
+    if not isinstance(model, Class2ModelSpec):
         raise TypeError(f"a class-2 back end compiles class-2 scenes, not {model.kind} ones")
     return model.params
 

@@ -27,8 +27,7 @@ from tensegrity_core.sim.commands import compile_inputs
 from tensegrity_core.sim.errors import SceneError, SimulationError
 from tensegrity_core.sim.inputs import Law
 from tensegrity_core.sim.model import Names
-from tensegrity_core.sim.scene import GeneralModel as GeneralSceneModel
-from tensegrity_core.sim.scene import Scene
+from tensegrity_core.sim.scene import GeneralModelSpec, Scene
 
 FloatArray = NDArray[np.float64]
 #: The quantities both general back ends observe (:func:`finish_observations` adds the constant ones).
@@ -36,10 +35,10 @@ OBSERVED = ("t", "state", "q", "qdot", "applied_forces", "nodes", "member_length
             "potential_energy", "kinetic_energy")
 
 
-def general_model(scene: Scene) -> GeneralSceneModel:
+def general_model(scene: Scene) -> GeneralModelSpec:
     """The structure and its actuators of a general scene (the only scenes the general back ends take)."""
     model = scene.model
-    if not isinstance(model, GeneralSceneModel):
+    if not isinstance(model, GeneralModelSpec):
         raise TypeError(f"a general back end compiles general scenes, not {model.kind} ones")
     return model
 
