@@ -15,14 +15,14 @@ frozen: nothing is patched onto it and nothing in it changes while a scene runs,
 serves any number of states (MuJoCo's ``mjModel``/``mjData`` split; Drake's system/context).
 
 A **state** is what changes: the time, the state vector, the contact mode, the held
-commands, the located events ``(t, kind, index)`` and the back end's integration workspace
-(its integrator or path follower, which owns ``t``, ``y`` and ``mode``). Back ends read and
+commands, the located events ``(t, kind, index)`` and the back end's integrator
+(its stepper or path follower, which owns ``t``, ``y`` and ``mode``). Back ends read and
 write a state only through the model's methods; everything else reads it.
 
 Every back end implements :class:`Model` (the dynamic ones :class:`DynamicModel`), subclassing
 it so that the type checker holds it to the Protocol, and is registered in
 :data:`tensegrity_core.sim.backends.BACKENDS` under ``"<kind>/<regime>"``. ``Model[W, S]`` is a
-model whose states have workspaces of type ``W`` and whose samples (what ``sample`` and
+model whose states have integrators of type ``W`` and whose samples (what ``sample`` and
 ``record`` give, only ``observe`` reads) are of type ``S``.
 """
 
@@ -45,10 +45,10 @@ from tensegrity_core.sim.stepper import Stepper, Sys
 Event = tuple[float, str, int]
 
 
-class Workspace(Protocol):
-    """A back end's integration workspace inside a :class:`State`: the integrator of a dynamic
+class Integrator(Protocol):
+    """What advances a :class:`State` of a back end: the stepper of a dynamic
     model, the path follower of a quasi-static one. It owns the time, the state vector and the
-    contact mode; ``copy(events)`` gives an independent workspace that logs into ``events``."""
+    contact mode; ``copy(events)`` gives an independent integrator that logs into ``events``."""
 
     @property
     def t(self) -> float: ...
@@ -62,8 +62,8 @@ class Workspace(Protocol):
     def copy(self, events: list[Event]) -> Self: ...
 
 
-#: The workspace type of a model's states.
-W = TypeVar("W", bound=Workspace)
+#: The integrator type of a model's states.
+W = TypeVar("W", bound=Integrator)
 #: The sample type of a model (opaque outside it).
 S = TypeVar("S")
 
@@ -73,10 +73,10 @@ class State(Generic[W]):
     """The changing part of a simulation (see the module docstring).
 
     ``commands`` holds the commanded inputs' current values in input order (``nan`` for inputs
-    with a law); ``events`` the located events so far; ``work`` the back end's workspace.
+    with a law); ``events`` the located events so far; ``work`` the back end's integrator.
     ``t`` [s], ``y`` (the model's state vector, ``model.state_names``) and ``mode`` (the
     actuators held at zero length by the fold limit, 0 for rho1 and 1 for rho2; empty for
-    general structures) are the workspace's. Treat all of them as read-only: the model's
+    general structures) are the integrator's. Treat all of them as read-only: the model's
     ``set_command`` and ``advance`` change a state.
     """
 

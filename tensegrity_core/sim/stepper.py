@@ -25,7 +25,7 @@ available; the solver never steps past a pending event.
 What is integrated is an :class:`OdeSystem`: a model's equations with its discrete state
 (contact mode, rotation charts) and its input laws fixed. An event or a re-charting returns
 the system of the new discrete state; a changed command is a new system. The stepper is the
-integration workspace of a :class:`~tensegrity_core.sim.model.State`: it writes the located
+integrator of a :class:`~tensegrity_core.sim.model.State`: it writes the located
 events into the state's event log.
 """
 

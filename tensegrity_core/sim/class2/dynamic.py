@@ -4,7 +4,7 @@
 the :class:`~tensegrity_core.sim.class2.plant.Class2Plant` (listed effects, drive, fold
 limit), the input laws, the commands that hold the initial state at rest, the initial state
 with its contacts resolved, and a :class:`~tensegrity_core.sim.class2.observe.Class2Observer`.
-A state's workspace is a :class:`~tensegrity_core.sim.stepper.Stepper` integrating the
+A state's integrator is a :class:`~tensegrity_core.sim.stepper.Stepper` integrating the
 plant's :class:`~tensegrity_core.sim.class2.plant.Class2System` of the current contact mode and commands.
 """
 

@@ -1,6 +1,6 @@
 """The quasi-static path follower: a stable equilibrium branch followed continuously in time.
 
-:class:`PathFollower` is the integration workspace of a quasi-static class-2 state. It keeps
+:class:`PathFollower` is the integrator of a quasi-static class-2 state. It keeps
 the path's current piece -- the head :class:`~tensegrity_core.sim.class2.equilibria.Point`,
 the :class:`~tensegrity_core.sim.class2.path_samples.Segment` that ends there, the contact
 mode, the continuation step -- and asks two collaborators:
@@ -77,7 +77,7 @@ class PathFollower:
         self.seg: Segment
         self.pending: Pending | None
 
-    # -- the workspace's view ---------------------------------------------------------------------
+    # -- the integrator's view ---------------------------------------------------------------------
     @property
     def y(self) -> NDArray[np.float64]:
         """``(q, dq/dt)`` at ``t``: the segment's interpolant polished into an equilibrium."""

@@ -74,7 +74,7 @@ Class2Block = tuple[NDArray[np.float64], Segment, TotalPotential]
 class Class2QuasiStatic(Model[PathFollower, Class2Block]):
     """Back end ``class2/quasi-static``: the equilibrium path of a class-2 scene without
     inertia (implements :class:`~tensegrity_core.sim.model.Model`). The path's start at
-    ``t = 0`` is found once, at compile time; a state's workspace is a
+    ``t = 0`` is found once, at compile time; a state's integrator is a
     :class:`~tensegrity_core.sim.class2.path.PathFollower`."""
 
     kind = "class2"

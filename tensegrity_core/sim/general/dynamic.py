@@ -3,7 +3,7 @@
 :class:`GeneralDynamic` compiles a general scene that lists ``inertia`` into a frozen model:
 the :class:`~tensegrity_core.sim.general.model.GeneralSystem` of the initial equilibrium's
 rotation charts under the initial commands, the input laws and the initial coordinates. A
-state's workspace is a :class:`~tensegrity_core.sim.stepper.Stepper`; its system is the
+state's integrator is a :class:`~tensegrity_core.sim.stepper.Stepper`; its system is the
 general model of the current charts and commands (each sample keeps the model it was taken
 under, so an observation sees the charts of its own time).
 """

@@ -50,7 +50,7 @@ GeneralQuasiStaticSample = tuple[float, Configuration, Structure, RestLengths | 
 
 
 class FormFindingPath:
-    """The workspace of a quasi-static general state: the equilibrium ``config`` at ``t`` of
+    """The integrator of a quasi-static general state: the equilibrium ``config`` at ``t`` of
     the ``static`` structure (rest lengths ``l0`` from ``rest_of``, or the drawn ones). A
     general structure has no contacts: its mode is always empty."""
 
