@@ -36,13 +36,9 @@ from typing import Any, Generic, Protocol, Self, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from tensegrity_core.events import LoggedEvent
 from tensegrity_core.sim.scene import Scene
 from tensegrity_core.sim.stepper import Stepper, Sys
-
-#: A located event: ``(t [s], kind, index)``, kind one of "fold", "release", "singular",
-#: "limit", "jump" (index: the actuator, 0 or 1, or the singular set, 0 for lambda1, 1 for
-#: lambda2; 0 where nothing is indexed).
-Event = tuple[float, str, int]
 
 
 class Integrator(Protocol):
@@ -59,7 +55,7 @@ class Integrator(Protocol):
     @property
     def mode(self) -> frozenset[int]: ...
 
-    def copy(self, events: list[Event]) -> Self: ...
+    def copy(self, events: list[LoggedEvent]) -> Self: ...
 
 
 #: The integrator type of a model's states.
@@ -81,7 +77,7 @@ class State(Generic[W]):
     """
 
     commands: tuple[float, ...]
-    events: list[Event]
+    events: list[LoggedEvent]
     work: W
 
     @property

@@ -7,10 +7,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from tensegrity_core.events import EventKind
+
 if TYPE_CHECKING:
     from tensegrity_core.sim.trajectory import Trajectory
 
-EVENT_COLORS = {"fold": "tab:red", "release": "tab:green", "limit": "black", "jump": "tab:purple"}
+EVENT_COLORS: dict[EventKind, str] = {"fold": "tab:red", "release": "tab:green", "limit": "black", "jump": "tab:purple"}
 
 
 def plot_trajectory(traj: Trajectory, path: str | Path) -> Path:

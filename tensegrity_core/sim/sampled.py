@@ -29,8 +29,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tensegrity_core.errors import TensegrityError
+from tensegrity_core.events import LoggedEvent
 from tensegrity_core.sim.errors import SimulationError
-from tensegrity_core.sim.model import Event
 from tensegrity_core.sim.scene import SceneSource, load_scene
 from tensegrity_core.sim.simulator import JointSample, Simulator
 
@@ -79,7 +79,7 @@ class SampledRun:
     times: NDArray[np.float64]
     samples: list[JointSample]
     commands: NDArray[np.float64]
-    events: list[Event]
+    events: list[LoggedEvent]
     success: bool = True
     message: str = ""
     stats: dict[str, Any] = field(default_factory=dict)

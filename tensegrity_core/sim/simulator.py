@@ -27,9 +27,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from tensegrity_core.events import LoggedEvent
 from tensegrity_core.sim.backends import compile_scene
 from tensegrity_core.sim.errors import SimulationError
-from tensegrity_core.sim.model import Event, Model, State
+from tensegrity_core.sim.model import Model, State
 from tensegrity_core.sim.noise import SensorNoise
 from tensegrity_core.sim.scene import SceneSource, load_scene
 from tensegrity_core.sim.trajectory import Trajectory
@@ -128,7 +129,7 @@ class Simulator:
         return list(self.state.commands)
 
     @property
-    def events(self) -> list[Event]:
+    def events(self) -> list[LoggedEvent]:
         """``(t, kind, index)`` of every event so far (fold, release, limit, ...)."""
         return list(self.state.events)
 

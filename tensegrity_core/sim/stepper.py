@@ -41,13 +41,12 @@ from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, OdeSolver, Radau
 from scipy.optimize import brentq
 
 from tensegrity_core.errors import TensegrityError
+from tensegrity_core.events import EventKind, LoggedEvent
 from tensegrity_core.sim.errors import SimulationError, check_advance_target
 
 FloatArray = NDArray[np.float64]
 #: ``jac(t, y)``: a dense (n, n) array or a scipy.sparse matrix (which has no type information).
 Jacobian = Callable[[float, FloatArray], Any]
-#: A located event in the log: ``(t [s], kind, index)``.
-LoggedEvent = tuple[float, str, int]
 
 SOLVERS: dict[str, type[OdeSolver]] = {"RK23": RK23, "RK45": RK45, "DOP853": DOP853, "Radau": Radau, "BDF": BDF,
                                        "LSODA": LSODA}
@@ -66,7 +65,7 @@ class StateEvent(Protocol):
     ``kind`` and ``index`` name it in the event log."""
 
     @property
-    def kind(self) -> str: ...
+    def kind(self) -> EventKind: ...
 
     @property
     def index(self) -> int: ...

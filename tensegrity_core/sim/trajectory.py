@@ -20,8 +20,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from tensegrity_core.events import LoggedEvent, as_event_kind
+
 if TYPE_CHECKING:
-    from tensegrity_core.sim.model import Event, Names
+    from tensegrity_core.sim.model import Names
     from tensegrity_core.sim.scene import Scene
 
 FloatArray = NDArray[np.float64]
@@ -51,7 +53,7 @@ class Trajectory:
     member_nodes: NDArray[np.int_] = field(default_factory=lambda: np.zeros((0, 2), dtype=int))
     state_names: tuple[str, ...] = ()
     actuator_names: tuple[str, ...] = ()
-    events: list[Event] = field(default_factory=list)
+    events: list[LoggedEvent] = field(default_factory=list)
     measurements: dict[str, FloatArray] = field(default_factory=dict)
     stats: dict[str, Any] = field(default_factory=dict)
     success: bool = True
@@ -59,8 +61,8 @@ class Trajectory:
     scene: dict[str, Any] = field(default_factory=dict, repr=False)
 
     @classmethod
-    def from_observations(cls, scene: Scene, data: Mapping[str, np.ndarray], names: Names, events: Iterable[Event],
-                          measurements: dict[str, FloatArray], stats: dict[str, Any], *,
+    def from_observations(cls, scene: Scene, data: Mapping[str, np.ndarray], names: Names,
+                          events: Iterable[LoggedEvent], measurements: dict[str, FloatArray], stats: dict[str, Any], *,
                           error: str = "", state_names: Iterable[str] = ()) -> Trajectory:
         """The trajectory of a run: ``data`` the model's observations (arrays over the samples),
         ``names`` its :class:`~tensegrity_core.sim.model.Names`."""
@@ -107,7 +109,8 @@ class Trajectory:
         return cls(scene_name=meta["scene_name"], **arrays, node_names=tuple(meta["node_names"]),
                    member_names=tuple(meta["member_names"]), member_nodes=member_nodes,
                    state_names=tuple(meta["state_names"]), actuator_names=tuple(meta["actuator_names"]),
-                   events=[(float(t), str(kind), int(i)) for t, kind, i in meta["events"]], measurements=measured,
+                   events=[(float(t), as_event_kind(str(kind)), int(i)) for t, kind, i in meta["events"]],
+                   measurements=measured,
                    stats=meta["stats"], success=meta["success"], message=meta["message"], scene=meta["scene"])
 
     def csv_columns(self) -> tuple[list[str], FloatArray]:

@@ -48,7 +48,7 @@ class PlaybackOptions:
 
 
 @dataclass(frozen=True)
-class Event:
+class PlaybackEvent:
     """Something due ``wall_ns`` after playback start: a message, or a clock tick."""
 
     wall_ns: int
@@ -66,20 +66,20 @@ def _due(t_ns: int, t0_ns: int, rate: float) -> int:
 
 
 def _clock_ticks(t0_ns: int, end_ns: int, opts: PlaybackOptions, shift_ns: int,
-                 loop: int) -> Iterator[Event]:
+                 loop: int) -> Iterator[PlaybackEvent]:
     period_wall = 1e9 / opts.clock_hz
     for k in itertools.count():
         bag_ns = t0_ns + round(opts.rate * k * period_wall)
         if bag_ns > end_ns:
             break
-        yield Event(shift_ns + round(k * period_wall), clock_ns=bag_ns, loop=loop)
+        yield PlaybackEvent(shift_ns + round(k * period_wall), clock_ns=bag_ns, loop=loop)
         if bag_ns == end_ns:
             return
-    yield Event(shift_ns + _due(end_ns, t0_ns, opts.rate), clock_ns=end_ns, loop=loop)
+    yield PlaybackEvent(shift_ns + _due(end_ns, t0_ns, opts.rate), clock_ns=end_ns, loop=loop)
 
 
 def timeline(messages: Callable[[], Iterable[BagMessage]], start_ns: int, end_ns: int,
-             opts: PlaybackOptions, median_spacing_ns: int | None = None) -> Iterator[Event]:
+             opts: PlaybackOptions, median_spacing_ns: int | None = None) -> Iterator[PlaybackEvent]:
     """All events in due order. ``messages()`` yields the bag's messages in log-time order
     (it is called once per loop); ``start_ns``/``end_ns`` are the bag's first and last log
     times; ``median_spacing_ns`` sets the gap between loops."""
@@ -91,7 +91,7 @@ def timeline(messages: Callable[[], Iterable[BagMessage]], start_ns: int, end_ns
     period = _due(end_ns, t0, opts.rate) + gap
     for loop in itertools.count():
         shift = loop * period
-        msgs = (Event(shift + _due(m.log_time_ns, t0, opts.rate), message=m, loop=loop)
+        msgs = (PlaybackEvent(shift + _due(m.log_time_ns, t0, opts.rate), message=m, loop=loop)
                 for m in messages() if m.log_time_ns >= t0)
         if opts.clock_hz:
             # clock ticks sort before messages due at the same instant

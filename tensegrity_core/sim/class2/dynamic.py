@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from tensegrity_core.events import LoggedEvent
 from tensegrity_core.sim.class2.observe import Class2Observer
 from tensegrity_core.sim.class2.plant import Class2Plant, Class2System
 from tensegrity_core.sim.class2.setup import NAMES, class2_params, force_effects, initial_configuration, static_force
@@ -72,7 +73,7 @@ class Class2Dynamic(DynamicModel[Class2System, Class2Sample]):
         return self._state(y0, mode, t_end)
 
     def _state(self, y: FloatArray, mode: frozenset[int], t_end: float) -> State[Stepper[Class2System]]:
-        events: list[tuple[float, str, int]] = []
+        events: list[LoggedEvent] = []
         s = self.scene.integrator
         system = self.plant.system(mode, held(self.laws, self.initial_commands))
         stepper = Stepper(system, 0.0, y, method=self.method, rtol=s.rtol, atol=s.atol, max_step=s.max_step,

@@ -29,16 +29,15 @@ from typing import NoReturn
 import numpy as np
 from numpy.typing import NDArray
 
+from tensegrity_core.events import LoggedEvent
 from tensegrity_core.sim.class2 import path_samples as samples
 from tensegrity_core.sim.class2.equilibria import Equilibria, PathCounts, Point, bits_of
-from tensegrity_core.sim.class2.path_events import Event, EventLocator, just_before
+from tensegrity_core.sim.class2.path_events import EventLocator, PathEvent, just_before
 from tensegrity_core.sim.class2.path_samples import MODE_FREE, Segment
 from tensegrity_core.sim.class2.potential import TotalPotential
 from tensegrity_core.sim.errors import SimulationError, check_advance_target
 from tensegrity_core.sim.inputs import Law, next_breakpoint
 
-#: A located event in the log: ``(t [s], kind, index)``.
-LoggedEvent = tuple[float, str, int]
 #: The path's queued new start: ``(t, q, contact mode bits, the events fired there)``.
 Pending = tuple[float, list[float], int, list[LoggedEvent]]
 
@@ -189,7 +188,8 @@ class PathFollower:
         if end.t == just_before(t_stop):
             # landed at an input law's breakpoint: the path goes on from there with the law's
             # new piece (a fresh start: tangent and curvature change at the kink)
-            self._close(Event("breakpoint", end, frozenset(), *locator.closing_tangent(end, bits, z0, v0)), v0, t_stop)
+            self._close(PathEvent("breakpoint", end, frozenset(), *locator.closing_tangent(end, bits, z0, v0)), v0,
+                        t_stop)
             return
         v1 = eq.tangent(end, bits, v0)
         self.seg = Segment.of(head.t, end.t, end.q, z0, eq.z(end.q, end.t, free), v0, v1, ds, bits)
@@ -234,7 +234,7 @@ class PathFollower:
                 continue
             return ds, end, err
 
-    def _close(self, event: Event, v0: list[float], t_stop: float) -> None:
+    def _close(self, event: PathEvent, v0: list[float], t_stop: float) -> None:
         """End the segment at ``event`` and queue the path's new start (or stop at a limit
         point). At a breakpoint the path ends just before it and restarts from the minimum
         reached under the law's new piece (event ``jump`` if the state moved: a law that jumps,

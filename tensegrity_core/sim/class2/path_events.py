@@ -17,7 +17,7 @@ locates the first one inside the step:
 - limit points, and anything these two cannot settle, by regula falsi on the step length
   (each trial corrected onto the path).
 
-The locator returns the located :class:`Event`; the follower closes its segment there and
+The locator returns the located :class:`PathEvent`; the follower closes its segment there and
 queues the path's new start (the fold's actuator held, the released one let go, then the
 minimum of the new mode), or stops the run at a limit point. It reads the path only through
 the arguments of its calls and the :class:`~tensegrity_core.sim.class2.equilibria.Equilibria`
@@ -55,7 +55,7 @@ BRANCH_ITER = 30
 BRANCH_TOL = 1e-14
 
 
-class Event(NamedTuple):
+class PathEvent(NamedTuple):
     """A located event: ``kind``, the point ``at`` (last state of the branch), the
     actuators it concerns, and the closing tangent and arc length of the last segment.
     ``kind`` None: bracketing found nothing past ``at`` after all (the path starts afresh there)."""
@@ -110,7 +110,7 @@ class EventLocator:
         return principal_det(p.K, MODE_FREE[bits])
 
     def locate(self, head: Point, bits: int, v0: Sequence[float], ds: float, end: Point, kind: str,
-               t_stop: float) -> Event:
+               t_stop: float) -> PathEvent:
         """The first event ``kind`` of the step of arc length ``ds`` from ``head`` to ``end``."""
         event = None
         if kind != "limit":
@@ -146,7 +146,7 @@ class EventLocator:
         return kind == "breakpoint" or p.t <= t_stop
 
     def _solve_event(self, head: Point, bits: int, v0: Sequence[float], kind: str, end: Point, ds: float,
-                     t_stop: float) -> Event | None:
+                     t_stop: float) -> PathEvent | None:
         """The event point by Newton on ``G_F = 0`` plus the event's equation, in the scaled
         unknowns ``z = (q_F / L, t / T)``, from the chord's estimate; ``None`` if it does not
         converge to a point of this step before every other event."""
@@ -214,9 +214,9 @@ class EventLocator:
             actuators = frozenset({i} | {j for j in (0, 1) if bits >> j & 1 and p.G[j] < -rtol})
         else:
             actuators = frozenset()
-        return Event(kind, p, actuators, *self.closing_tangent(p, bits, z_head, v0))
+        return PathEvent(kind, p, actuators, *self.closing_tangent(p, bits, z_head, v0))
 
-    def _branch_point(self, head: Point, bits: int, v0: Sequence[float], end: Point, ds: float) -> Event | None:
+    def _branch_point(self, head: Point, bits: int, v0: Sequence[float], end: Point, ds: float) -> PathEvent | None:
         """Where the free branch meets the stop of an actuator at a degenerate contact: the
         time ``t`` at which the stiffness ``K_FF`` of the free mode, on the branch held at the
         stop, becomes singular (two branches of ``G_F = 0`` cross there), by the secant method
@@ -258,10 +258,10 @@ class EventLocator:
         if p_a is None or abs(p_a.G[i]) > self.release_tol:
             return None            # not a degenerate contact after all
         actuators = frozenset(j for j in (0, 1) if not bits >> j & 1 and p_a.q[j] < FOLD_NEAR * L)
-        return Event("fold", p_a, actuators, *self.closing_tangent(p_a, bits, self.eq.z(head.q, head.t, free), v0))
+        return PathEvent("fold", p_a, actuators, *self.closing_tangent(p_a, bits, self.eq.z(head.q, head.t, free), v0))
 
     def _bracket_event(self, head: Point, bits: int, v0: Sequence[float], ds: float, kind: str,
-                       t_stop: float) -> Event:
+                       t_stop: float) -> PathEvent:
         """The first point of the step where ``kind`` happens, by regula falsi (Illinois
         variant) on the event's function of the step length, each trial corrected onto the
         path: slow but it needs nothing regular (limit points)."""
@@ -319,4 +319,4 @@ class EventLocator:
             actuators = frozenset(i for i in (0, 1) if not bits >> i & 1 and past.q[i] < FOLD_NEAR * self.L)
         elif located == "release":
             actuators = frozenset(i for i in (0, 1) if bits >> i & 1 and past.G[i] < -self.release_tol)
-        return Event(located, at, actuators, self.eq.tangent(at, bits, v0), lo)
+        return PathEvent(located, at, actuators, self.eq.tangent(at, bits, v0), lo)

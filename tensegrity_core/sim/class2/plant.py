@@ -39,6 +39,7 @@ from tensegrity_core.class2.dynamics.inertia import FREE
 from tensegrity_core.class2.dynamics.kinematics import Kinematics, kinematics
 from tensegrity_core.class2.dynamics.limits import SINGULAR_GUARD_REL
 from tensegrity_core.errors import TensegrityError
+from tensegrity_core.events import EventKind
 from tensegrity_core.sim.class2.contact import impact, select_mode
 from tensegrity_core.sim.class2.setup import STATE_NAMES, ForceEffect, class2_params
 from tensegrity_core.sim.errors import SimulationError
@@ -50,10 +51,10 @@ FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
-class Event:
+class Class2StateEvent:
     """A state event: ``g(t, y)`` crosses zero in ``direction`` (-1 falling, +1 rising)."""
 
-    kind: str            # "fold" | "release" | "singular"
+    kind: EventKind      # "fold" | "release" | "singular"
     index: int           # actuator (0, 1) or 0/1 for lambda1/lambda2
     g: Callable[[float, FloatArray], float]
     direction: float = -1.0
@@ -64,9 +65,9 @@ def bits_of(mode: Iterable[int]) -> int:
     return sum(1 << i for i in mode)
 
 
-def _fold_event(i: int) -> Event:
+def _fold_event(i: int) -> Class2StateEvent:
     """Free actuator ``i`` folds: its length falls through 0."""
-    return Event("fold", i, lambda t, y: y[i])
+    return Class2StateEvent("fold", i, lambda t, y: y[i])
 
 
 class Class2Plant:
@@ -197,19 +198,19 @@ class Class2System:
         return J
 
     # -- events ---------------------------------------------------------------------------------
-    def events(self) -> list[Event]:
+    def events(self) -> list[Class2StateEvent]:
         """Event functions in the system's mode."""
         L = self.plant.L
         lim = (SINGULAR_GUARD_REL * L) ** 2
-        out = [Event("singular", 0, lambda t, y: (2 * L - y[0] - y[1]) * (2 * L + y[0] + y[1]) - lim),
-               Event("singular", 1, lambda t, y: (L - y[0]) * (L + y[0]) - lim)]
+        out = [Class2StateEvent("singular", 0, lambda t, y: (2 * L - y[0] - y[1]) * (2 * L + y[0] + y[1]) - lim),
+               Class2StateEvent("singular", 1, lambda t, y: (L - y[0]) * (L + y[0]) - lim)]
         if self.plant.fold is not None:
             out += [self._release_event(i) if i in self.mode else _fold_event(i) for i in (0, 1)]
         return out
 
-    def _release_event(self, i: int) -> Event:
+    def _release_event(self, i: int) -> Class2StateEvent:
         """Held actuator ``i`` lets go: its contact force falls through 0."""
-        return Event("release", i, lambda t, y: self.accelerations(t, y)[1][i])
+        return Class2StateEvent("release", i, lambda t, y: self.accelerations(t, y)[1][i])
 
     def handle_event(self, event: StateEvent, t: float, y: ArrayLike) -> tuple[FloatArray, Class2System]:
         """Apply an event at ``(t, y)``: the state to restart from, and the system of the new mode."""

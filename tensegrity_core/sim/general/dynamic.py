@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from tensegrity_core.events import LoggedEvent
 from tensegrity_core.general.statics import potential_energy
 from tensegrity_core.sim.commands import changed, check_command
 from tensegrity_core.sim.errors import SimulationError
@@ -35,7 +36,7 @@ from tensegrity_core.sim.general.setup import (
     scene_loads,
 )
 from tensegrity_core.sim.inputs import held
-from tensegrity_core.sim.model import DynamicModel, Event, State
+from tensegrity_core.sim.model import DynamicModel, State
 from tensegrity_core.sim.scene import Scene
 from tensegrity_core.sim.stepper import Stepper
 
@@ -78,7 +79,7 @@ class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralSystem, GeneralSample])
         return self._state(y, t_end)
 
     def _state(self, y: FloatArray, t_end: float) -> State[Stepper[GeneralSystem]]:
-        events: list[Event] = []
+        events: list[LoggedEvent] = []
         s = self.scene.integrator
         stepper = Stepper(self.plant, 0.0, y, method=self.method, rtol=s.rtol, atol=s.atol, max_step=s.max_step,
                           t_end=t_end, log=events)

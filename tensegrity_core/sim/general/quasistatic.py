@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.sparse.linalg import spsolve
 
+from tensegrity_core.events import LoggedEvent
 from tensegrity_core.general.configuration import Configuration
 from tensegrity_core.general.statics import equilibrium_matrix, member_forces, member_lengths, potential_energy
 from tensegrity_core.general.stiffness import tangent_stiffness
@@ -41,7 +42,7 @@ from tensegrity_core.sim.general.setup import (
     static_structure,
 )
 from tensegrity_core.sim.inputs import held
-from tensegrity_core.sim.model import Event, Model, State
+from tensegrity_core.sim.model import Model, State
 from tensegrity_core.sim.scene import Scene
 
 FloatArray = NDArray[np.float64]
@@ -74,7 +75,7 @@ class FormFindingPath:
         lay = self.static.layout
         return minimal_coordinates(lay, coordinates(self.config), self.config.rotations)
 
-    def copy(self, events: list[Event]) -> FormFindingPath:
+    def copy(self, events: list[LoggedEvent]) -> FormFindingPath:
         """An exact copy (configurations and structures are immutable)."""
         return FormFindingPath(self.t, self.config, self.static, self.rest_of, self.n_solves)
 

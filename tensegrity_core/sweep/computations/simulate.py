@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from tensegrity_core.events import EVENT_KINDS
 from tensegrity_core.sweep.checks import Check, OptionError, choice, integer, number, text
 from tensegrity_core.sweep.computations.computation import Computation
 from tensegrity_core.sweep.computations.results import Options, Probe, ResultDef, ResultSpec, scalar
@@ -36,7 +37,8 @@ from tensegrity_core.sweep.computations.results import Options, Probe, ResultDef
 if TYPE_CHECKING:
     from tensegrity_core.sim import Scene, Trajectory
 
-EVENT_KINDS = ("any", "fold", "release", "jump", "limit", "singular")
+#: What a result about events may ask for: one kind of event, or any.
+KIND_CHOICES = ("any", *EVENT_KINDS)
 FINAL_OF = ("q", "qdot", "end_effector", "applied_forces", "member_forces", "member_lengths",
             "kinetic_energy", "potential_energy")
 PEAK_OF = ("kinetic_energy", "potential_energy", "member_forces", "applied_forces", "q", "end_effector")
@@ -145,12 +147,12 @@ RESULTS: dict[str, ResultDef[Trajectory]] = {
     "first_event_time": ResultDef(
         doc="time of the first event of a kind [s]",
         columns=lambda o, d: [(_event_column("first_{kind}_time", o), "float")],
-        extract=_first_event, options={"kind": choice(*EVENT_KINDS), "actuator": integer()}),
+        extract=_first_event, options={"kind": choice(*KIND_CHOICES), "actuator": integer()}),
     "event_count": ResultDef(
         doc="number of events of a kind",
         columns=lambda o, d: [(_event_column("{kind}_count", o), "int")],
         extract=lambda traj, o, d: [len(_events(traj, o))],
-        options={"kind": choice(*EVENT_KINDS), "actuator": integer()}),
+        options={"kind": choice(*KIND_CHOICES), "actuator": integer()}),
     "t_end": scalar("t_end", "float", lambda traj: float(traj.times[-1]) if len(traj) else math.nan,
                     "time of the last sample [s]"),
     "final": ResultDef(

@@ -18,10 +18,12 @@ from std_msgs.msg import ColorRGBA, Header
 from tensegrity_msgs.msg import MechanismState, SimulationEvent
 from visualization_msgs.msg import Marker, MarkerArray
 
+from tensegrity_core.events import EventKind
+
 JOINT_NAMES = ("rho1", "rho2", "beta")
 NS_PER_S = 1_000_000_000
 #: Names of what an event's index refers to, per kind (the core's event kinds).
-EVENT_SUBJECTS = {"fold": ("rho1", "rho2"), "release": ("rho1", "rho2"),
+EVENT_SUBJECTS: dict[EventKind, tuple[str, str]] = {"fold": ("rho1", "rho2"), "release": ("rho1", "rho2"),
                   "singular": ("lambda1", "lambda2")}
 
 

@@ -1,0 +1,35 @@
+"""Located events of a simulation: their kinds, and the entry each leaves in a state's log.
+
+A module of its own, outside ``sim``, so that what only names event kinds (the sweep's result
+options, plots, the simulator node's messages) does not import the simulator.
+
+Kinds (``index`` in brackets):
+
+- ``fold``: a free actuator's length fell through 0 under the fold limit [the actuator, 0 or 1];
+- ``release``: a held actuator's contact force fell through 0, so it is let go [the actuator];
+- ``singular``: lambda1 or lambda2 reached its guard, where the class-2 coordinates break
+  down; the run stops [the singular set: 0 for lambda1, 1 for lambda2];
+- ``limit``: a quasi-static path reached a limit point (no stable equilibrium continues it);
+  the run stops [0];
+- ``jump``: a quasi-static configuration moved to another minimum (a law that jumps, or an
+  initial state that is no minimum) [0].
+"""
+
+from __future__ import annotations
+
+from typing import Final, Literal, get_args
+
+#: The kind of a located event (see the module docstring).
+EventKind = Literal["fold", "release", "singular", "limit", "jump"]
+#: Every event kind, in the order above.
+EVENT_KINDS: Final[tuple[EventKind, ...]] = get_args(EventKind)
+#: A located event in a state's log: ``(t [s], kind, index)``.
+LoggedEvent = tuple[float, EventKind, int]
+
+
+def as_event_kind(text: str) -> EventKind:
+    """``text`` (an event kind read from a file) as an :data:`EventKind`; ValueError if it names none."""
+    for kind in EVENT_KINDS:
+        if text == kind:
+            return kind
+    raise ValueError(f"unknown event kind {text!r}; kinds: {', '.join(EVENT_KINDS)}")
