@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 
-class InputLaw(Protocol):
+class ForceLaw(Protocol):
     """What the drive reads of an actuator's input law
     (:mod:`tensegrity_core.sim.inputs`): the commanded force [N] at time ``t`` [s] and
     actuator length ``length`` [m], and its derivative in the length [N/m]."""
@@ -85,7 +85,7 @@ class Drive:
         return (("f1_lag", "f2_lag") if self.lag_tau is not None else ()) + \
             (("e1", "e2") if self.compliance is not None else ())
 
-    def bind(self, laws: Sequence[InputLaw]) -> DriveFunctions:
+    def bind(self, laws: Sequence[ForceLaw]) -> DriveFunctions:
         """The evaluation path for input ``laws`` (two, one per actuator)."""
         u1, u2 = laws[0].value_at, laws[1].value_at
         i_lag, i_el = self.i_lag, self.i_el
@@ -128,7 +128,7 @@ class Drive:
             rates = lambda t, y: a(t, y) + b(t, y)                                      # noqa: E731
         return DriveFunctions(forces, rates)
 
-    def initial_states(self, t0: float, q0: Sequence[float] | NDArray[np.float64], laws: Sequence[InputLaw],
+    def initial_states(self, t0: float, q0: Sequence[float] | NDArray[np.float64], laws: Sequence[ForceLaw],
                        sources0: Sequence[float] | None = None) -> list[float]:
         """Extra states at ``t0``: lag forces equal to the commanded forces (or ``sources0``), the
         elongations those of the source forces at rest (``e = f / k_a``)."""
@@ -142,7 +142,7 @@ class Drive:
             out += [sources0[0] / ka, sources0[1] / ka]
         return out
 
-    def jacobian(self, t: float, y: NDArray[np.float64], laws: Sequence[InputLaw]
+    def jacobian(self, t: float, y: NDArray[np.float64], laws: Sequence[ForceLaw]
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``(dT/dy (2, n), d(extra rates)/dy (n_states, n))`` for state ``y`` of length ``n``."""
         n = len(y)
