@@ -31,6 +31,7 @@ from tensegrity_core.errors import TensegrityError
 from tensegrity_core.general.structure import STANDARD_GRAVITY, Structure
 from tensegrity_core.schema import (
     DEFAULT_LIMITS,
+    KeyPath,
     Limits,
     Reader,
     ShippedFiles,
@@ -45,9 +46,6 @@ from tensegrity_core.sim.inputs import INTERPOLATIONS, Commanded, Constant, Inpu
 
 if TYPE_CHECKING:
     from tensegrity_core.class2.params import Class2Params
-
-#: A key path into the scene (mapping keys and list positions), for error messages.
-KeyPath = tuple[str | int, ...]
 
 SCENES_DIR = Path(__file__).parent / "scenes"
 _SHIPPED = ShippedFiles(SCENES_DIR, "scene", "shipped scenes", SceneError)

@@ -11,10 +11,7 @@ from __future__ import annotations
 from types import ModuleType
 
 from tensegrity_core.errors import TensegrityError
-from tensegrity_core.schema.errors import format_key_path
-
-#: A key path into the sweep file: mapping keys and list positions.
-KeyPath = tuple[str | int, ...]
+from tensegrity_core.schema.errors import KeyPath, format_key_path
 
 
 class SweepError(TensegrityError, ValueError):

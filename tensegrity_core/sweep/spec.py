@@ -34,13 +34,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from tensegrity_core.schema import ShippedFiles, suggest, type_name
+from tensegrity_core.schema import KeyPath, ShippedFiles, suggest, type_name
 from tensegrity_core.sweep.base import BASE_KINDS, Base, BaseError, load_base, plain
 from tensegrity_core.sweep.checks import Check, OptionError
 from tensegrity_core.sweep.checks import number as number_check
 from tensegrity_core.sweep.computations import COMPUTATIONS, ResultSpec
 from tensegrity_core.sweep.computations.results import Column, Options
-from tensegrity_core.sweep.errors import KeyPath, SweepError
+from tensegrity_core.sweep.errors import SweepError
 from tensegrity_core.sweep.keypath import KeyPathError, Location, format_location, resolve
 from tensegrity_core.sweep.points import FIXED, RANDOM, Point, Quantity, build_points, count, grid_values
 
