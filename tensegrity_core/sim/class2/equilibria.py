@@ -13,7 +13,7 @@ answers the questions the path follower (:mod:`.path`) and its event locator
   pseudo-arclength continuation in the scaled variables ``z = (q_F / L, t / T)`` (tangent
   from the bordered system, Newton corrector on ``G_F = 0`` plus the arclength condition).
 
-Points are :class:`Point`: a configuration with ``G, K, Gt`` evaluated there.
+Points are :class:`PathPoint`: a configuration with ``G, K, Gt`` evaluated there.
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ CORRECT_TOL = 1e-6
 NEWTON_ZONE = 1e-6
 
 
-class Point(NamedTuple):
+class PathPoint(NamedTuple):
     """A configuration ``q`` (list of 3) at time ``t`` [s] with ``G, K, Gt`` of
     :meth:`~tensegrity_core.sim.class2.potential.TotalPotential.evaluate` there."""
 
@@ -80,11 +80,11 @@ class PathCounts:
 
 
 def _stepped(q: Sequence[float], t: float, G: Sequence[float], K: list[list[float]], Gt: list[float],
-             dq: Sequence[float], dt: float) -> Point:
+             dq: Sequence[float], dt: float) -> PathPoint:
     """The point ``(q + dq, t + dt)`` after a last, converged Newton step from ``(q, t)`` where
     ``G, K, Gt`` were evaluated: ``G`` updated to first order (its error is of the step's
     square, i.e. rounding once the step is small), ``K`` and ``Gt`` kept (off by the step)."""
-    return Point([x + d for x, d in zip(q, dq)], t + dt,
+    return PathPoint([x + d for x, d in zip(q, dq)], t + dt,
                  [g + Kr[0] * dq[0] + Kr[1] * dq[1] + Kr[2] * dq[2] + gt * dt for g, Kr, gt in zip(G, K, Gt)],
                  K, Gt)
 
@@ -105,8 +105,8 @@ class Equilibria:
         """The same path under other input laws (a new command), counting into the same counts."""
         return Equilibria(potential, self.settings, self.counts)
 
-    def point(self, q: list[float], t: float) -> Point:
-        return Point(q, t, *self.potential.evaluate(q, t))
+    def point(self, q: list[float], t: float) -> PathPoint:
+        return PathPoint(q, t, *self.potential.evaluate(q, t))
 
     def regular(self, q: Sequence[float]) -> bool:
         """Whether the formulas hold at ``q`` (lambda1, lambda2 above ``SINGULAR_GUARD_REL L``)."""
@@ -208,8 +208,8 @@ class Equilibria:
         raise SimulationError(f"t = {t:.9g} s: no stable equilibrium found from q = {np.array2string(np.array(q), precision=6)} "
                               f"(the springs cannot balance the actuator forces there)", t=t)
 
-    def equilibrium_at(self, q: Iterable[float], t: float, bits: int) -> Point | None:
-        """Newton on ``G_F = 0`` at fixed ``t`` from ``q``: the :class:`Point`, or ``None``
+    def equilibrium_at(self, q: Iterable[float], t: float, bits: int) -> PathPoint | None:
+        """Newton on ``G_F = 0`` at fixed ``t`` from ``q``: the :class:`PathPoint`, or ``None``
         when it leaves the domain, meets a singular stiffness or does not converge."""
         free = MODE_FREE[bits]
         q = list(q)
@@ -232,7 +232,7 @@ class Equilibria:
         return None
 
     # -- pseudo-arclength continuation in z = (q_free / L, t / T) ---------------------------------
-    def tangent(self, p: Point, bits: int, previous: Sequence[float] | None = None) -> list[float]:
+    def tangent(self, p: PathPoint, bits: int, previous: Sequence[float] | None = None) -> list[float]:
         """Unit tangent ``dz/ds`` (n_free + 1) at ``p``: the null vector of
         ``[K_FF L, dG_F/dt T]`` from the bordered system with the previous tangent (forward in
         time at a start). Raises :class:`ZeroDivisionError` where it is not unique."""
@@ -246,9 +246,9 @@ class Equilibria:
         return [x / norm for x in v]
 
     def correct(self, q: Iterable[float], t: float, bits: int, z_pred: Sequence[float], v: Sequence[float],
-                max_iter: int = 12, tol: float = CORRECT_TOL) -> Point | None:
+                max_iter: int = 12, tol: float = CORRECT_TOL) -> PathPoint | None:
         """Newton on ``G_F = 0``, ``v . (z - z_pred) = 0`` until the scaled step is below
-        ``tol``; the :class:`Point` reached (see :func:`_stepped`), or ``None``."""
+        ``tol``; the :class:`PathPoint` reached (see :func:`_stepped`), or ``None``."""
         free = MODE_FREE[bits]
         n = len(free)
         L, T = self.L, self.T
@@ -279,7 +279,7 @@ class Equilibria:
         return None
 
     def at(self, z0: Sequence[float], v0: Sequence[float], h: float, template: Sequence[float], bits: int,
-           tol: float = CORRECT_TOL, max_iter: int = 12) -> tuple[Point | None, list[float]]:
+           tol: float = CORRECT_TOL, max_iter: int = 12) -> tuple[PathPoint | None, list[float]]:
         """The corrected point ``h`` along tangent ``v0`` from ``z0`` (``None`` if the corrector
         fails), with the prediction."""
         free = MODE_FREE[bits]

@@ -1,7 +1,7 @@
 """The quasi-static path follower: a stable equilibrium branch followed continuously in time.
 
 :class:`PathFollower` is the integrator of a quasi-static class-2 state. It keeps
-the path's current piece -- the head :class:`~tensegrity_core.sim.class2.equilibria.Point`,
+the path's current piece -- the head :class:`~tensegrity_core.sim.class2.equilibria.PathPoint`,
 the :class:`~tensegrity_core.sim.class2.path_samples.Segment` that ends there, the contact
 mode, the continuation step -- and asks two collaborators:
 
@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 
 from tensegrity_core.events import LoggedEvent
 from tensegrity_core.sim.class2 import path_samples as samples
-from tensegrity_core.sim.class2.equilibria import Equilibria, PathCounts, Point, bits_of
+from tensegrity_core.sim.class2.equilibria import Equilibria, PathCounts, PathPoint, bits_of
 from tensegrity_core.sim.class2.path_events import EventLocator, PathEvent, just_before
 from tensegrity_core.sim.class2.path_samples import MODE_FREE, Segment
 from tensegrity_core.sim.class2.potential import TotalPotential
@@ -72,7 +72,7 @@ class PathFollower:
         # set by start: the contact mode, the path's head point, the segment that ends there and
         # the new start queued at an event
         self.bits: int
-        self.head: Point
+        self.head: PathPoint
         self.seg: Segment
         self.pending: Pending | None
 
@@ -197,8 +197,8 @@ class PathFollower:
         if err is not None:
             self.ds = ds * min(GROWTH, 0.9 / math.sqrt(max(err, 1e-12)))
 
-    def _corrected_step(self, head: Point, z0: Sequence[float], v0: Sequence[float], bits: int,
-                        t_stop: float) -> tuple[float, Point, float | None]:
+    def _corrected_step(self, head: PathPoint, z0: Sequence[float], v0: Sequence[float], bits: int,
+                        t_stop: float) -> tuple[float, PathPoint, float | None]:
         """Predictor and corrector with step control: ``(ds, end point, error ratio)``. The
         predictor is ``z + ds v + ds^2 / 2 kappa`` with the curvature ``kappa`` estimated from
         the tangents' change over the last step (none at a path's start). A prediction past

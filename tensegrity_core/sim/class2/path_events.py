@@ -30,7 +30,7 @@ import math
 from collections.abc import Sequence
 from typing import NamedTuple
 
-from tensegrity_core.sim.class2.equilibria import Equilibria, Point
+from tensegrity_core.sim.class2.equilibria import Equilibria, PathPoint
 from tensegrity_core.sim.class2.path_samples import MODE_FREE
 from tensegrity_core.sim.class2.small_dense import positive_definite, principal_det, solve_small
 
@@ -61,7 +61,7 @@ class PathEvent(NamedTuple):
     ``kind`` None: bracketing found nothing past ``at`` after all (the path starts afresh there)."""
 
     kind: str | None
-    at: Point
+    at: PathPoint
     actuators: frozenset[int]
     tangent: list[float]
     ds: float
@@ -80,14 +80,14 @@ def _distance(a: Sequence[float], b: Sequence[float]) -> float:
 class EventLocator:
     """Detection and location of the events of a quasi-static path, on the path's
     :class:`~tensegrity_core.sim.class2.equilibria.Equilibria` ``eq``. A step goes from the
-    path's current end ``head`` (a :class:`Point`) in contact mode ``bits`` along tangent
+    path's current end ``head`` (a :class:`PathPoint`) in contact mode ``bits`` along tangent
     ``v0``; ``t_stop`` is the next breakpoint of an input law."""
 
     def __init__(self, eq: Equilibria):
         self.eq = eq
         self.L, self.T, self.fold, self.release_tol = eq.L, eq.T, eq.fold, eq.release_tol
 
-    def kind(self, p: Point, bits: int, t_stop: float) -> str | None:
+    def kind(self, p: PathPoint, bits: int, t_stop: float) -> str | None:
         """What the path went past at ``p``, if anything."""
         if self.fold and any(not bits >> i & 1 and p.q[i] < FOLD_EPS * self.L for i in (0, 1)):
             return "fold"
@@ -99,7 +99,7 @@ class EventLocator:
             return "breakpoint"
         return None
 
-    def value(self, kind: str, p: Point, bits: int, t_stop: float) -> float:
+    def value(self, kind: str, p: PathPoint, bits: int, t_stop: float) -> float:
         """A continuous function of the path that changes sign at the event ``kind``."""
         if kind == "fold":
             return min(p.q[i] - FOLD_EPS * self.L for i in (0, 1) if not bits >> i & 1) / self.L
@@ -109,7 +109,7 @@ class EventLocator:
             return (t_stop - p.t) / self.T
         return principal_det(p.K, MODE_FREE[bits])
 
-    def locate(self, head: Point, bits: int, v0: Sequence[float], ds: float, end: Point, kind: str,
+    def locate(self, head: PathPoint, bits: int, v0: Sequence[float], ds: float, end: PathPoint, kind: str,
                t_stop: float) -> PathEvent:
         """The first event ``kind`` of the step of arc length ``ds`` from ``head`` to ``end``."""
         event = None
@@ -121,7 +121,7 @@ class EventLocator:
             event = self._bracket_event(head, bits, v0, ds, kind, t_stop)
         return event
 
-    def closing_tangent(self, p: Point, bits: int, z_head: Sequence[float],
+    def closing_tangent(self, p: PathPoint, bits: int, z_head: Sequence[float],
                         v0: Sequence[float]) -> tuple[list[float], float]:
         """Tangent and arc length (chord) of the last segment ending at ``p``; the chord's
         direction where the tangent is not unique (a bifurcation)."""
@@ -133,7 +133,7 @@ class EventLocator:
         except ZeroDivisionError:
             return [(a - b) / chord for a, b in zip(z, z_head)] if chord > 0 else list(v0), chord
 
-    def _before_other_events(self, p: Point, bits: int, t_stop: float, kind: str, i: int) -> bool:
+    def _before_other_events(self, p: PathPoint, bits: int, t_stop: float, kind: str, i: int) -> bool:
         """Whether ``p`` (where event ``kind`` of actuator ``i`` happens) is still before every
         other event: stable, no other actuator past the fold or pulling, not past a breakpoint."""
         free = MODE_FREE[bits]
@@ -145,7 +145,7 @@ class EventLocator:
             return False
         return kind == "breakpoint" or p.t <= t_stop
 
-    def _solve_event(self, head: Point, bits: int, v0: Sequence[float], kind: str, end: Point, ds: float,
+    def _solve_event(self, head: PathPoint, bits: int, v0: Sequence[float], kind: str, end: PathPoint, ds: float,
                      t_stop: float) -> PathEvent | None:
         """The event point by Newton on ``G_F = 0`` plus the event's equation, in the scaled
         unknowns ``z = (q_F / L, t / T)``, from the chord's estimate; ``None`` if it does not
@@ -216,7 +216,8 @@ class EventLocator:
             actuators = frozenset()
         return PathEvent(kind, p, actuators, *self.closing_tangent(p, bits, z_head, v0))
 
-    def _branch_point(self, head: Point, bits: int, v0: Sequence[float], end: Point, ds: float) -> PathEvent | None:
+    def _branch_point(self, head: PathPoint, bits: int, v0: Sequence[float], end: PathPoint,
+                      ds: float) -> PathEvent | None:
         """Where the free branch meets the stop of an actuator at a degenerate contact: the
         time ``t`` at which the stiffness ``K_FF`` of the free mode, on the branch held at the
         stop, becomes singular (two branches of ``G_F = 0`` cross there), by the secant method
@@ -232,7 +233,7 @@ class EventLocator:
         t_lo = head.t
         t_hi = t_lo + 1.5 * max(ds, _distance(self.eq.z(end.q, end.t, free), self.eq.z(head.q, head.t, free))) * T
 
-        def det_on_held_branch(t: float, q: Sequence[float]) -> tuple[float, Point | None]:
+        def det_on_held_branch(t: float, q: Sequence[float]) -> tuple[float, PathPoint | None]:
             p = self.eq.equilibrium_at(q, t, held)
             return (math.nan, None) if p is None else (principal_det(p.K, free), p)
 
@@ -260,7 +261,7 @@ class EventLocator:
         actuators = frozenset(j for j in (0, 1) if not bits >> j & 1 and p_a.q[j] < FOLD_NEAR * L)
         return PathEvent("fold", p_a, actuators, *self.closing_tangent(p_a, bits, self.eq.z(head.q, head.t, free), v0))
 
-    def _bracket_event(self, head: Point, bits: int, v0: Sequence[float], ds: float, kind: str,
+    def _bracket_event(self, head: PathPoint, bits: int, v0: Sequence[float], ds: float, kind: str,
                        t_stop: float) -> PathEvent:
         """The first point of the step where ``kind`` happens, by regula falsi (Illinois
         variant) on the event's function of the step length, each trial corrected onto the
@@ -268,7 +269,7 @@ class EventLocator:
         free = MODE_FREE[bits]
         z0, template = self.eq.z(head.q, head.t, free), head.q
 
-        def g(point: Point | None) -> float:
+        def g(point: PathPoint | None) -> float:
             """> 0 before the event, <= 0 past it (a failed corrector counts as past)."""
             if point is None:
                 return -1.0
