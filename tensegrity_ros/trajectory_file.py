@@ -30,6 +30,8 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from tensegrity_core.class2.names import ACTUATED_JOINTS
+
 #: Largest trajectory file accepted [bytes].
 MAX_BYTES = 8 * 1024 * 1024
 _CSV_PAIRS = (("rho1", "rho2"), ("rho1_velocity", "rho2_velocity"), ("rho1_acceleration", "rho2_acceleration"))
@@ -82,10 +84,10 @@ def _from_csv(path: Path, text: str) -> TrajectoryFile:
     if not rows:
         raise TrajectoryFileError(f"{path}: empty file")
     header = [h.strip() for h in rows[0]]
-    missing = [c for c in ("time", "rho1", "rho2") if c not in header]
+    missing = [c for c in ("time", *ACTUATED_JOINTS) if c not in header]
     if missing:
         raise TrajectoryFileError(f"{path}: header needs the columns time, rho1, rho2 (missing {', '.join(missing)})")
-    out = TrajectoryFile(["rho1", "rho2"], [], [])
+    out = TrajectoryFile(list(ACTUATED_JOINTS), [], [])
     lists = [out.positions, out.velocities, out.accelerations]
     pairs = [p for p in _CSV_PAIRS if p[0] in header or p[1] in header]
     for a, b in pairs:
@@ -116,7 +118,7 @@ def _from_yaml(path: Path, text: str) -> TrajectoryFile:
     unknown = set(data) - {"joint_names", "points", "path_tolerance", "goal_tolerance", "goal_time_tolerance"}
     if unknown:
         raise TrajectoryFileError(f"{path}: unknown key(s) {', '.join(sorted(map(str, unknown)))}")
-    names = data.get("joint_names", ["rho1", "rho2"])
+    names = data.get("joint_names", list(ACTUATED_JOINTS))
     if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
         raise TrajectoryFileError(f"{path}: joint_names must be a list of names")
     out = TrajectoryFile(list(names), [], [])

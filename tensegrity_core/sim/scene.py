@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Literal, TypedDict, cast
 import numpy as np
 
 from tensegrity_core.class2.dynamics.limits import SINGULAR_GUARD_REL
+from tensegrity_core.class2.names import ACTUATORS
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.general.structure import STANDARD_GRAVITY, Structure
 from tensegrity_core.schema import (
@@ -65,7 +66,6 @@ METHODS = ("auto", "RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA")
 #: Observed quantities that sensor noise may perturb.
 NOISY_QUANTITIES = ("q", "qdot", "applied_forces", "nodes", "member_lengths", "member_forces",
                     "end_effector")
-CLASS2_ACTUATORS = ("f1", "f2")
 #: The most memory the output of one run may take (its arrays of 8-byte floats) [bytes].
 MAX_OUTPUT_BYTES = 2 * 2**30
 
@@ -568,7 +568,7 @@ class _SceneReader(Reader):
                effects: SceneEffects) -> dict[str, InputLaw]:
         names: tuple[str, ...]
         if model.kind == "class2":
-            names = CLASS2_ACTUATORS
+            names = ACTUATORS
         else:
             names = tuple(model.structure.member_names[i] for i in model.actuators)
         if value is None:

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tensegrity_core.class2 import PAPER_PARAMS, end_effector_of, forward_kinematics
+from tensegrity_core.class2.names import ACTUATED_JOINTS
 from tensegrity_ros.apps.sim_client import NS_PER_S, JointRecord, SimClient
 
 #: End-effector waypoints, offsets [m] from D at rho1 = rho2 = 0.7 (the scene's rest).
@@ -203,14 +204,14 @@ def run_moves(ctl: ControllerClient, step_ns: int, *, L: float = PAPER_PARAMS.L)
         now += move_steps * step_ns
         ctl.wait_answered(now)
         moves.append(_move_report(target, _end_effector(start, L), res, window, L))
-    traj = JointTrajectory(joint_names=["rho1", "rho2"])
+    traj = JointTrajectory(joint_names=list(ACTUATED_JOINTS))
     for t, rho in TRAJECTORY:
         sec = math.floor(t)
         traj.points.append(JointTrajectoryPoint(positions=list(rho),
                                                 time_from_start=Duration(sec=sec, nanosec=round((t - sec) * 1e9))))
     sec = math.floor(TRAJECTORY_GOAL_TIME)
     goal = ctl.Follow.Goal(trajectory=traj,
-                           goal_tolerance=[JointTolerance(name=n, position=TRAJECTORY_TOLERANCE) for n in ("rho1", "rho2")],
+                           goal_tolerance=[JointTolerance(name=n, position=TRAJECTORY_TOLERANCE) for n in ACTUATED_JOINTS],
                            goal_time_tolerance=Duration(sec=sec, nanosec=round((TRAJECTORY_GOAL_TIME - sec) * 1e9)))
     traj_steps = _steps(TRAJECTORY[-1][0] + TRAJECTORY_GOAL_TIME + 0.1, step_ns)
     _, res, feedback = ctl.run_goal(ctl.follow, goal, traj_steps, now, step_ns)

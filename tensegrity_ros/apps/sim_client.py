@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tensegrity_core.class2 import end_effector_of
+from tensegrity_core.class2.names import ACTUATORS
 from tensegrity_core.sim.simulator import JointSample
 
 NS_PER_S = 1_000_000_000
@@ -120,7 +121,7 @@ class SimClient:
                 self._answered.add(rec.stamp_ns)
         if law is not None:
             f1, f2 = law(sample_of(rec))
-            cmd = self.ActuatorForces(name=["f1", "f2"], force=[float(f1), float(f2)])
+            cmd = self.ActuatorForces(name=list(ACTUATORS), force=[float(f1), float(f2)])
             cmd.header.stamp = msg.header.stamp
             self.pub.publish(cmd)
 

@@ -13,15 +13,15 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from tensegrity_core.class2.names import ACTUATED_JOINTS, ACTUATORS
 from tensegrity_core.excerpt import excerpt
 
 #: Accepted names of each actuator (case, spaces, '_', '-' and '/' ignored: "Actuator_1"
 #: and "rho 1" are accepted too).
 ACTUATOR_ALIASES: dict[str, int] = {
-    **{n: 0 for n in ("f1", "rho1", "actuator1", "ab", "1")},
-    **{n: 1 for n in ("f2", "rho2", "actuator2", "bc", "2")},
+    **{n: 0 for n in (ACTUATORS[0], ACTUATED_JOINTS[0], "actuator1", "ab", "1")},
+    **{n: 1 for n in (ACTUATORS[1], ACTUATED_JOINTS[1], "actuator2", "bc", "2")},
 }
-CANONICAL_NAMES = ("f1", "f2")
 
 
 class CommandError(ValueError):
@@ -51,11 +51,11 @@ def parse_command(names: Sequence[str], forces: Sequence[float], *, max_abs_forc
     """
     forces = list(forces)
     if not names:
-        if len(forces) != len(CANONICAL_NAMES):
+        if len(forces) != len(ACTUATORS):
             raise CommandError(
-                f"unnamed command must give {len(CANONICAL_NAMES)} forces (f1, f2), got {len(forces)}"
+                f"unnamed command must give {len(ACTUATORS)} forces (f1, f2), got {len(forces)}"
             )
-        indices = tuple(range(len(CANONICAL_NAMES)))
+        indices = tuple(range(len(ACTUATORS)))
     else:
         if len(names) != len(forces):
             raise CommandError(f"{len(names)} names but {len(forces)} forces")
@@ -67,14 +67,14 @@ def parse_command(names: Sequence[str], forces: Sequence[float], *, max_abs_forc
                     f"unknown actuator name {excerpt(n)} (known: f1, f2; aliases rho1/rho2, actuator1/2, AB/BC)"
                 )
             if ACTUATOR_ALIASES[key] in idx:
-                raise CommandError(f"actuator {CANONICAL_NAMES[ACTUATOR_ALIASES[key]]} named twice")
+                raise CommandError(f"actuator {ACTUATORS[ACTUATOR_ALIASES[key]]} named twice")
             idx.append(ACTUATOR_ALIASES[key])
         indices = tuple(idx)
     for i, f in zip(indices, forces):
         if not math.isfinite(f):
-            raise CommandError(f"force for {CANONICAL_NAMES[i]} is not finite ({excerpt(f)})")
+            raise CommandError(f"force for {ACTUATORS[i]} is not finite ({excerpt(f)})")
         if abs(f) > max_abs_force:
             raise CommandError(
-                f"force for {CANONICAL_NAMES[i]} = {f:g} N exceeds the limit max_force = {max_abs_force:g} N"
+                f"force for {ACTUATORS[i]} = {f:g} N exceeds the limit max_force = {max_abs_force:g} N"
             )
     return ForceUpdate(indices, tuple(float(f) for f in forces))

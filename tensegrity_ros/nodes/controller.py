@@ -55,7 +55,8 @@ from tensegrity_core.class2 import dynamics_singularity, end_effector_of
 from tensegrity_core.class2.control import PlanningError, TrackingController, plan_move
 from tensegrity_core.class2.control import goals as G
 from tensegrity_core.class2.control.errors import INVALID_JOINTS, OUTSIDE_WORKSPACE, SINGULAR_PATH
-from tensegrity_core.class2.control.trajectory import JOINTS, actuator_reference
+from tensegrity_core.class2.control.trajectory import actuator_reference
+from tensegrity_core.class2.names import ACTUATED_JOINTS, ACTUATORS, JOINTS
 from tensegrity_core.errors import TensegrityError
 from tensegrity_ros.nodes.common import declare, spin_node
 from tensegrity_ros.nodes.scene_param import declare_scene
@@ -173,7 +174,7 @@ class ControllerNode(Node):
         job = self._job
         if job is not None:
             self._supervise(job, t, q, qdot, tick)
-        cmd = ActuatorForces(name=["f1", "f2"], force=[float(tick.forces[0]), float(tick.forces[1])])
+        cmd = ActuatorForces(name=list(ACTUATORS), force=[float(tick.forces[0]), float(tick.forces[1])])
         cmd.header.stamp = msg.header.stamp
         self.pub.publish(cmd)
         self._answer = cmd
@@ -268,7 +269,7 @@ class ControllerNode(Node):
 
     async def _execute_follow(self, handle):
         req = handle.request
-        result = _FOLLOW(joint_names=list(JOINTS))
+        result = _FOLLOW(joint_names=list(ACTUATED_JOINTS))
         traj = req.trajectory
         try:
             q, qdot, now = self._require_state(with_rate=True)
@@ -368,13 +369,13 @@ class ControllerNode(Node):
         """``((pos1, pos2), (vel1, vel2))`` from JointTolerance messages (0: default, < 0: off)."""
         pos, vel = [default, default], [0.0, 0.0]
         for item in items:
-            if item.name not in JOINTS:
+            if item.name not in ACTUATED_JOINTS:
                 raise PlanningError(f"tolerance for unknown joint {item.name!r}; the joints are rho1, rho2",
                                     code=INVALID_JOINTS)
             for values, v, d in ((pos, item.position, default), (vel, item.velocity, 0.0)):
                 if not math.isfinite(v):
                     raise PlanningError(f"tolerance of {item.name} must be finite, got {v!r}")
-                values[JOINTS.index(item.name)] = d if v == 0.0 else (v if v > 0.0 else 0.0)
+                values[ACTUATED_JOINTS.index(item.name)] = d if v == 0.0 else (v if v > 0.0 else 0.0)
         return tuple(pos), tuple(vel)
 
     def _start_feedback(self, job: _Job):
@@ -393,7 +394,7 @@ class ControllerNode(Node):
             fb.distance_to_target = float(math.hypot(d[0] - target[0], d[1] - target[1]))
             fb.time_from_start = 0.0
             return fb
-        fb = FollowActuatorTrajectory.Feedback(header=self._latest_header, joint_names=list(JOINTS))
+        fb = FollowActuatorTrajectory.Feedback(header=self._latest_header, joint_names=list(ACTUATED_JOINTS))
         when = _duration_msg(0.0)
         fb.desired = JointTrajectoryPoint(positions=[float(v) for v in desired.q[:2]],
                                           velocities=[float(v) for v in desired.qdot[:2]], time_from_start=when)
@@ -413,7 +414,7 @@ class ControllerNode(Node):
             fb.distance_to_target = float(job.goal.distance)
             fb.time_from_start = float(tick.tau)
             return fb
-        fb = FollowActuatorTrajectory.Feedback(header=msg.header, joint_names=list(JOINTS))
+        fb = FollowActuatorTrajectory.Feedback(header=msg.header, joint_names=list(ACTUATED_JOINTS))
         when = _duration_msg(tick.tau)
         fb.desired = JointTrajectoryPoint(positions=[float(v) for v in tick.desired.q[:2]],
                                           velocities=[float(v) for v in tick.desired.qdot[:2]], time_from_start=when)
@@ -459,7 +460,7 @@ def _parse_joint_state(msg: JointState):
     """``(t, q, qdot)`` of a joint state naming rho1, rho2, beta, or None when unusable."""
     names = list(msg.name)
     try:
-        idx = [names.index(n) for n in ("rho1", "rho2", "beta")]
+        idx = [names.index(n) for n in JOINTS]
         q = [float(msg.position[i]) for i in idx]
         qdot = [float(msg.velocity[i]) for i in idx]
     except (ValueError, IndexError):

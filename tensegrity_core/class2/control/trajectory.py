@@ -40,11 +40,10 @@ from tensegrity_core.class2.control.flat import grid
 from tensegrity_core.class2.control.planner import SINGULAR_MARGIN
 from tensegrity_core.class2.control.reference import Reference
 from tensegrity_core.class2.energy import equilibrium_beta
+from tensegrity_core.class2.names import ACTUATED_JOINTS
 from tensegrity_core.class2.params import Class2Params
 from tensegrity_core.class2.singularities import nearest_singularity, singularity_distance_array
 
-#: The joints a trajectory may name (each exactly once).
-JOINTS: Final = ("rho1", "rho2")
 #: Bounds on what a trajectory may hold (input from outside is bounded).
 MAX_POINTS: Final = 100_000
 MAX_DURATION: Final = 3600.0
@@ -74,9 +73,10 @@ def _array(name: str, value: Rows | None, n: int) -> NDArray[np.float64] | None:
 
 
 def joint_order(joint_names: Iterable[str]) -> list[int]:
-    """Column of each of :data:`JOINTS` in a trajectory naming the joints ``joint_names``."""
+    """Column of each of :data:`~tensegrity_core.class2.names.ACTUATED_JOINTS` in a trajectory naming the
+    joints ``joint_names``."""
     names = list(joint_names)
-    unknown = [n for n in names if n not in JOINTS]
+    unknown = [n for n in names if n not in ACTUATED_JOINTS]
     if unknown:
         raise PlanningError(f"unknown joint(s) {', '.join(map(repr, unknown))}; the joints are rho1, rho2",
                             code=INVALID_JOINTS)
@@ -84,7 +84,7 @@ def joint_order(joint_names: Iterable[str]) -> list[int]:
         raise PlanningError(f"a joint is named twice in {names}", code=INVALID_JOINTS)
     if len(names) != 2:
         raise PlanningError(f"the trajectory must name both joints rho1, rho2, got {names}", code=INVALID_JOINTS)
-    return [names.index(j) for j in JOINTS]
+    return [names.index(j) for j in ACTUATED_JOINTS]
 
 
 def actuator_reference(names: Iterable[str], times: Sequence[float], positions: Rows, velocities: Rows | None = None,

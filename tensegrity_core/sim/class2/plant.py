@@ -38,10 +38,11 @@ from tensegrity_core.class2.dynamics.equations import EquationsOfMotion
 from tensegrity_core.class2.dynamics.inertia import FREE
 from tensegrity_core.class2.dynamics.kinematics import Kinematics, kinematics
 from tensegrity_core.class2.dynamics.limits import SINGULAR_GUARD_REL
+from tensegrity_core.class2.names import STATE_NAMES
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.events import EventKind
 from tensegrity_core.sim.class2.contact import impact, select_mode
-from tensegrity_core.sim.class2.setup import STATE_NAMES, ForceEffect, class2_params
+from tensegrity_core.sim.class2.setup import ForceEffect, class2_params
 from tensegrity_core.sim.errors import SimulationError
 from tensegrity_core.sim.inputs import Law, next_breakpoint
 from tensegrity_core.sim.scene import Scene

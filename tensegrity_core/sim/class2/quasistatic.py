@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from tensegrity_core.class2.names import STATE_NAMES
 from tensegrity_core.sim.class2 import path_samples as samples
 from tensegrity_core.sim.class2.equilibria import Equilibria, PathCounts, PathSettings, bits_of
 from tensegrity_core.sim.class2.observe import Class2Observer
@@ -55,7 +56,6 @@ from tensegrity_core.sim.class2.path_samples import Segment
 from tensegrity_core.sim.class2.potential import TotalPotential
 from tensegrity_core.sim.class2.setup import (
     NAMES,
-    STATE_NAMES,
     class2_params,
     conservative,
     force_effects,

@@ -33,8 +33,6 @@ ConservativeEffect = Springs | Gravity | Loads
 
 #: What a class-2 observation names: the six nodes and the ten members (MEMBERS order).
 NAMES = Names(NODE_NAMES, tuple(m.name for m in MEMBERS), np.array([m.nodes for m in MEMBERS]))
-#: The state vector's first six entries (the drive's states follow with inertia).
-STATE_NAMES = ("rho1", "rho2", "beta", "rho1_dot", "rho2_dot", "beta_dot")
 
 
 def class2_params(scene: Scene) -> Class2Params:

@@ -28,8 +28,8 @@ from simulation_interfaces.msg import Result, SimulationState, SimulatorFeatures
 from simulation_interfaces.srv import ResetSimulation, SetSimulationState
 
 STOPPED, PLAYING, PAUSED = SimulationState.STATE_STOPPED, SimulationState.STATE_PLAYING, SimulationState.STATE_PAUSED
-STATE_NAMES = {STOPPED: "stopped", PLAYING: "playing", PAUSED: "paused", SimulationState.STATE_QUITTING: "quitting",
-               SimulationState.STATE_NO_WORLD: "no world", SimulationState.STATE_LOADING_WORLD: "loading world"}
+RUN_STATE_NAMES = {STOPPED: "stopped", PLAYING: "playing", PAUSED: "paused", SimulationState.STATE_QUITTING: "quitting",
+                   SimulationState.STATE_NO_WORLD: "no world", SimulationState.STATE_LOADING_WORLD: "loading world"}
 STATE_BY_NAME = {"stopped": STOPPED, "playing": PLAYING, "paused": PAUSED}
 
 #: What this simulator implements (GetSimulatorFeatures); everything else is absent.
@@ -65,16 +65,16 @@ def transition(current: int, target: int) -> Transition:
     """The transition from ``current`` to ``target`` (see the module table)."""
     if target == current:
         return Transition(Answer(SetSimulationState.Response.ALREADY_IN_TARGET_STATE,
-                                 f"already {STATE_NAMES[current]}"), current)
+                                 f"already {RUN_STATE_NAMES[current]}"), current)
     if target == SimulationState.STATE_QUITTING:
         return Transition(Answer(Result.RESULT_FEATURE_UNSUPPORTED,
                                  "quitting is not offered over ROS: stop the tensegrity_sim process"), current)
     if target not in (STOPPED, PLAYING, PAUSED):
-        known = ", ".join(f"{v} {n}" for v, n in sorted(STATE_NAMES.items()))
-        what = STATE_NAMES.get(target, "unknown")
+        known = ", ".join(f"{v} {n}" for v, n in sorted(RUN_STATE_NAMES.items()))
+        what = RUN_STATE_NAMES.get(target, "unknown")
         return Transition(Answer(SetSimulationState.Response.INCORRECT_TRANSITION,
                                  f"cannot set state {target} ({what}); states: {known}"), current)
-    message = f"{STATE_NAMES[current]} -> {STATE_NAMES[target]}"
+    message = f"{RUN_STATE_NAMES[current]} -> {RUN_STATE_NAMES[target]}"
     return Transition(Answer(Result.RESULT_OK, message + (" (reset, clock at 0)" if target == STOPPED else "")),
                       target, reset=target == STOPPED)
 
@@ -142,7 +142,7 @@ def check_step_request(steps: int, state: int, busy: StepRequest | None, max_ste
     """Why a stepping request of ``steps`` cannot start (an :class:`Answer`), or None."""
     if state != PAUSED:
         return Answer(Result.RESULT_INCORRECT_STATE,
-                      f"stepping needs the simulation paused; it is {STATE_NAMES[state]} "
+                      f"stepping needs the simulation paused; it is {RUN_STATE_NAMES[state]} "
                       "(SetSimulationState to STATE_PAUSED first)")
     if busy is not None and not busy.finished:
         return Answer(Result.RESULT_INCORRECT_STATE,

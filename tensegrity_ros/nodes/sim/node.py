@@ -75,7 +75,7 @@ from tensegrity_ros.nodes.actuator_commands import CommandError
 from tensegrity_ros.nodes.common import SERVICE_QOS, rclpy, spin_node
 from tensegrity_ros.nodes.scene_param import declare_scene
 from tensegrity_ros.nodes.sim import control, sender
-from tensegrity_ros.nodes.sim.control import PAUSED, PLAYING, STATE_NAMES, STOPPED, Answer, StepRequest
+from tensegrity_ros.nodes.sim.control import PAUSED, PLAYING, RUN_STATE_NAMES, STOPPED, Answer, StepRequest
 from tensegrity_ros.nodes.sim.parameters import declare_sim_parameters
 from tensegrity_ros.nodes.sim.plant import SimPlant
 from tensegrity_ros.nodes.sim.receiver import check_step, receive
@@ -164,7 +164,7 @@ class SimNode(Node):
                 + (" (as fast as possible)" if p.real_time_factor == 0 else ""))
         self.get_logger().info(
             f"scene {excerpt(p.scene)}: publishing at {p.publish_rate:g} Hz, step {p.step_size:.9g} s, {mode}, "
-            f"{STATE_NAMES[self.state]}")
+            f"{RUN_STATE_NAMES[self.state]}")
 
     def _spin_commands(self) -> None:
         """The command thread: take commands; in lockstep also check the step's timeout
@@ -533,7 +533,7 @@ class SimNode(Node):
     def on_get_state(self, req, res):
         with self._lock:
             res.state.state = self.state
-        _fill(res.result, Answer(Result.RESULT_OK, STATE_NAMES[res.state.state]))
+        _fill(res.result, Answer(Result.RESULT_OK, RUN_STATE_NAMES[res.state.state]))
         return res
 
     def on_set_state(self, req, res):
@@ -570,7 +570,7 @@ class SimNode(Node):
             if self.p.lockstep:
                 self._lockstep_begin()
             self._wake.set()
-        return t.answer if t.answer.ok else Answer(Result.RESULT_OK, f"{STATE_NAMES[target]} (request ended)")
+        return t.answer if t.answer.ok else Answer(Result.RESULT_OK, f"{RUN_STATE_NAMES[target]} (request ended)")
 
     # -- StepSimulation and SimulateSteps ---------------------------------------------------------------
     def _wait_future(self) -> Future:

@@ -18,9 +18,9 @@ from std_msgs.msg import ColorRGBA, Header
 from tensegrity_msgs.msg import MechanismState, SimulationEvent
 from visualization_msgs.msg import Marker, MarkerArray
 
+from tensegrity_core.class2.names import JOINTS
 from tensegrity_core.events import EventKind
 
-JOINT_NAMES = ("rho1", "rho2", "beta")
 NS_PER_S = 1_000_000_000
 #: Names of what an event's index refers to, per kind (the core's event kinds).
 EVENT_SUBJECTS: dict[EventKind, tuple[str, str]] = {"fold": ("rho1", "rho2"), "release": ("rho1", "rho2"),
@@ -58,7 +58,7 @@ def _doubles(values) -> array.array:
 
 def joint_state_msg(sample, hdr: Header) -> JointState:
     """Joints rho1, rho2 [m], beta [rad]: position, velocity, effort = applied force [N] (0 for beta)."""
-    msg = JointState(header=hdr, name=list(JOINT_NAMES))
+    msg = JointState(header=hdr, name=list(JOINTS))
     msg.position = _doubles(sample.q)
     msg.velocity = _doubles(sample.qdot)
     msg.effort = _doubles((sample.applied_forces[0], sample.applied_forces[1], 0.0))
