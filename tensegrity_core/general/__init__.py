@@ -18,6 +18,7 @@ from tensegrity_core.general.examples import example_names, example_path, load_e
 from tensegrity_core.general.formfind import (
     METHODS,
     FormFindResult,
+    FormFindStatus,
     IterationInfo,
     default_tolerance,
     form_find,
@@ -55,7 +56,7 @@ from tensegrity_core.general.structure_schema import structure_from_dict
 from tensegrity_core.general.writing import dump_structure, save_structure, structure_to_arrays, structure_to_dict
 
 __all__ = [
-    "Configuration", "DofLayout", "FormFindResult", "IterationInfo", "METHODS", "ModalAnalysis",
+    "Configuration", "DofLayout", "FormFindResult", "FormFindStatus", "IterationInfo", "METHODS", "ModalAnalysis",
     "Modes", "OutOfBalance", "PathResult", "RigidBody", "Structure", "StructureError",
     "default_tolerance", "dump_structure", "equilibrium_matrix", "example_names", "example_path",
     "form_find", "generalized_force", "load_example", "load_structure", "member_forces",

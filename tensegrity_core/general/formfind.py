@@ -36,8 +36,9 @@ from tensegrity_core.general.configuration import Configuration, transformation_
 from tensegrity_core.general.convergence import DEFAULT_TOLERANCE, Balance, balance
 from tensegrity_core.general.formfind_result import (
     DENSE_LIMIT,
-    STATUS,
+    STATUS_MESSAGES,
     FormFindResult,
+    FormFindStatus,
     IterationInfo,
     diverged,
     make_result,
@@ -65,8 +66,8 @@ FloatArray = NDArray[np.float64]
 #: What the callback receives; returning ``True`` stops form-finding.
 Callback = Callable[[IterationInfo], object]
 
-__all__ = ["DENSE_LIMIT", "DEFAULT_TOLERANCE", "STATUS", "FormFindResult", "IterationInfo", "METHODS",
-           "capped_step", "default_tolerance", "form_find", "line_search", "newton", "unbalanced_load"]
+__all__ = ["DENSE_LIMIT", "DEFAULT_TOLERANCE", "STATUS_MESSAGES", "FormFindResult", "FormFindStatus", "IterationInfo",
+           "METHODS", "capped_step", "default_tolerance", "form_find", "line_search", "newton", "unbalanced_load"]
 
 
 def default_tolerance(structure: Structure) -> float:
@@ -105,8 +106,8 @@ def form_find(structure: Structure, *, method: str = "newton", x0: Configuration
     config = as_configuration(structure, x0)
     unbalanced = unbalanced_load(structure)
     if unbalanced is not None:
-        result = make_result(structure, config, 7, 0, [], key, tol=float(tol), dense=False, check_stability=False,
-                             reason=unbalanced.message)
+        result = make_result(structure, config, FormFindStatus.DIVERGED, 0, [], key, tol=float(tol), dense=False,
+                             check_stability=False, reason=unbalanced.message)
     else:
         result = METHODS[key](structure, config, tol=float(tol), max_iter=max_iter, callback=callback, **options)
     if strict and not result.success:
@@ -222,20 +223,21 @@ def newton(structure: Structure, config: Configuration, *, tol: float, max_iter:
         started = time.perf_counter()
         config, status = _newton_iterations(structure, config, state)
         timings["iterations"] += time.perf_counter() - started
-        if status not in (0, 2) or not check_stability:
+        if status not in (FormFindStatus.STABLE, FormFindStatus.LINE_SEARCH_STALLED) or not check_stability:
             return make_result(structure, config, status, state.iterations, state.history, label, tol=tol,
                                dense=dense, check_stability=check_stability, timings=timings)
         started = time.perf_counter()
         low = lowest_mode(tangent_stiffness(structure, config, sparse=not dense), config, dense=dense)
         timings["stability"] += time.perf_counter() - started
         # a line search stalls where the energy is flat: along an unstiffened mechanism, or on
-        # a saddle; such a stall is reported as what it is (status 4 or 3), or left (a saddle)
-        if status == 2 and low.verdict == "stable":
-            return make_result(structure, config, 2, state.iterations, state.history, label, tol=tol, dense=dense,
+        # a saddle; such a stall is reported as what it is (UNSTIFFENED or UNSTABLE), or left (a saddle)
+        if status == FormFindStatus.LINE_SEARCH_STALLED and low.verdict == "stable":
+            return make_result(structure, config, status, state.iterations, state.history, label, tol=tol, dense=dense,
                                check_stability=True, low=low, timings=timings)
         if low.verdict != "unstable" or escapes >= max_escapes:
-            return make_result(structure, config, 0, state.iterations, state.history, label, tol=tol, dense=dense,
-                               check_stability=True, low=low, timings=timings, stalled=status == 2)
+            return make_result(structure, config, FormFindStatus.STABLE, state.iterations, state.history, label,
+                               tol=tol, dense=dense, check_stability=True, low=low, timings=timings,
+                               stalled=status == FormFindStatus.LINE_SEARCH_STALLED)
         escapes += 1
         config = _escape_saddle(structure, config, low.vector)
 
@@ -305,7 +307,8 @@ def _noise(V: float) -> float:
     return 1e-12 * max(abs(V), 1e-300)
 
 
-def _newton_iterations(structure: Structure, config: Configuration, state: _Iteration) -> tuple[Configuration, int]:
+def _newton_iterations(structure: Structure, config: Configuration,
+                       state: _Iteration) -> tuple[Configuration, FormFindStatus]:
     """Iterate until converged; returns (config, status) and counts ``state.iterations``.
 
     Watchdog (Chamberlain, Powell, Lemarechal & Pedersen 1982; Nocedal & Wright, Sect. 15.6):
@@ -328,13 +331,13 @@ def _newton_iterations(structure: Structure, config: Configuration, state: _Iter
     relax = True
     while True:
         if diverged(config, size):
-            return config, 7
+            return config, FormFindStatus.DIVERGED
         if not np.isfinite(bal.residual_norm) or not np.isfinite(V):
-            return config, 6
+            return config, FormFindStatus.NON_FINITE
         if bal.converged(state.tol):
-            return config, 0
+            return config, FormFindStatus.STABLE
         if state.iterations >= state.max_iter:
-            return config, 1
+            return config, FormFindStatus.MAX_ITERATIONS
         slack = structure.is_string & (member_lengths(structure, config.coords) < structure.rest_lengths)
         changing = slack_before is None or not np.array_equal(slack, slack_before)
         slack_before = slack
@@ -369,7 +372,7 @@ def _newton_iterations(structure: Structure, config: Configuration, state: _Iter
                     watch = _Watchdog(config, V, bal, dU)
                     x, V_new, config_new = 1.0, V_relaxed, relaxed
         if x == 0.0:
-            return config, 2
+            return config, FormFindStatus.LINE_SEARCH_STALLED
         state.iterations += 1
         config, V = config_new, V_new
         bal = balance(structure, config)
@@ -377,7 +380,7 @@ def _newton_iterations(structure: Structure, config: Configuration, state: _Iter
                              step.min_eigenvalue, bal.residual_norm)
         state.history.append(asdict(info))
         if state.callback is not None and state.callback(info) is True:
-            return config, 5
+            return config, FormFindStatus.CALLBACK
 
 
 def line_search(structure: Structure, config: Configuration, dU: FloatArray, V0: float,

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from enum import IntEnum
 from typing import Any, Final
 
 import numpy as np
@@ -28,16 +29,34 @@ FloatArray = NDArray[np.float64]
 #: check use dense linear algebra.
 DENSE_LIMIT: Final = 300
 
-STATUS: Final = {
-    0: "converged to a stable equilibrium",
-    1: "maximum number of iterations reached",
-    2: "line search found no lower potential energy along the step",
-    3: "converged to an unstable equilibrium",
-    4: "converged to an equilibrium with an unstiffened mechanism (zero stiffness)",
-    5: "stopped by the callback",
-    6: "the iteration produced non-finite values",
-    7: "diverged: the potential energy falls without bound (no equilibrium, e.g. unbalanced "
-       "loads on a structure free to move)",
+
+
+class FormFindStatus(IntEnum):
+    """Why form-finding stopped (:data:`STATUS_MESSAGES` says it in words). Integers, numbered
+    as scipy numbers its results' statuses (0 is success): a result's ``status`` compares
+    equal to its number and is written as the number in JSON."""
+
+    STABLE = 0
+    MAX_ITERATIONS = 1
+    LINE_SEARCH_STALLED = 2
+    UNSTABLE = 3
+    UNSTIFFENED = 4
+    CALLBACK = 5
+    NON_FINITE = 6
+    DIVERGED = 7
+
+
+#: What each status means: the start of a result's message.
+STATUS_MESSAGES: Final = {
+    FormFindStatus.STABLE: "converged to a stable equilibrium",
+    FormFindStatus.MAX_ITERATIONS: "maximum number of iterations reached",
+    FormFindStatus.LINE_SEARCH_STALLED: "line search found no lower potential energy along the step",
+    FormFindStatus.UNSTABLE: "converged to an unstable equilibrium",
+    FormFindStatus.UNSTIFFENED: "converged to an equilibrium with an unstiffened mechanism (zero stiffness)",
+    FormFindStatus.CALLBACK: "stopped by the callback",
+    FormFindStatus.NON_FINITE: "the iteration produced non-finite values",
+    FormFindStatus.DIVERGED: "diverged: the potential energy falls without bound (no equilibrium, e.g. unbalanced "
+                             "loads on a structure free to move)",
 }
 
 
@@ -92,7 +111,7 @@ class FormFindResult:
     """
 
     success: bool
-    status: int
+    status: FormFindStatus
     message: str
     nodes: FloatArray
     member_forces: FloatArray
@@ -144,28 +163,29 @@ class FormFindResult:
         }
 
 
-def make_result(structure: Structure, config: Configuration, status: int, iterations: int,
+def make_result(structure: Structure, config: Configuration, status: FormFindStatus, iterations: int,
                 history: list[dict[str, Any]], method: str, *, tol: float, dense: bool, check_stability: bool,
                 low: LowestMode | None = None, reason: str | None = None,
                 timings: dict[str, float] | None = None, stalled: bool = False) -> FormFindResult:
     """Build the result: forces, lengths, residual and stability (computed here when
     ``check_stability`` and converged and not given as ``low``; a converged but unstable or
-    neutral equilibrium becomes status 3 or 4). ``reason`` replaces the message;
-    ``stalled``: status 0 means the line search stopped there (the result can only be 3 or
-    4: a state where the energy does not fall, not balanced to ``tol``)."""
+    neutral equilibrium becomes UNSTABLE or UNSTIFFENED). ``reason`` replaces the message;
+    ``stalled``: STABLE means the line search stopped there (the result can only be UNSTABLE
+    or UNSTIFFENED: a state where the energy does not fall, not balanced to ``tol``)."""
     timings = dict(timings or {})
     bal = balance(structure, config)
     lengths = member_lengths(structure, config.coords)
-    if low is None and check_stability and status == 0:
+    if low is None and check_stability and status == FormFindStatus.STABLE:
         started = time.perf_counter()
         low = lowest_mode(tangent_stiffness(structure, config, sparse=not dense), config, dense=dense)
         timings["stability"] = timings.get("stability", 0.0) + time.perf_counter() - started
     stable = bool(low is not None and low.verdict == "stable")
-    if status == 0 and check_stability and low is not None and not stable:
-        status = 4 if low.verdict == "neutral" else 3
+    if status == FormFindStatus.STABLE and check_stability and low is not None and not stable:
+        status = FormFindStatus.UNSTIFFENED if low.verdict == "neutral" else FormFindStatus.UNSTABLE
     return FormFindResult(
-        success=status == 0, status=status, message=_message(structure, config, status, iterations, bal, tol, low,
-                                                              checked=check_stability, reason=reason, stalled=stalled),
+        success=status == FormFindStatus.STABLE, status=status,
+        message=_message(structure, config, status, iterations, bal, tol, low, checked=check_stability, reason=reason,
+                         stalled=stalled),
         nodes=config.coords.copy(), member_forces=forces_from_lengths(structure, lengths), member_lengths=lengths,
         iterations=iterations, residual=bal.residual,
         min_eigenvalue=low.value if low is not None else float("nan"), stable=stable,
@@ -177,30 +197,31 @@ def make_result(structure: Structure, config: Configuration, status: int, iterat
         configuration=config, structure=structure)
 
 
-def _message(structure: Structure, config: Configuration, status: int, iterations: int, bal: Balance, tol: float,
-             low: LowestMode | None, *, checked: bool, reason: str | None, stalled: bool) -> str:
+def _message(structure: Structure, config: Configuration, status: FormFindStatus, iterations: int, bal: Balance,
+             tol: float, low: LowestMode | None, *, checked: bool, reason: str | None, stalled: bool) -> str:
     if reason is not None:
         return reason
-    message = STATUS[status]
-    if status == 0 and not checked:
+    message = STATUS_MESSAGES[status]
+    if status == FormFindStatus.STABLE and not checked:
         message = "converged (stability not checked)"
     if stalled:
-        message = {3: "stopped where the structure is unstable",
-                   4: "stopped at an unstiffened mechanism (zero stiffness)"}[status]
+        message = {FormFindStatus.UNSTABLE: "stopped where the structure is unstable",
+                   FormFindStatus.UNSTIFFENED: "stopped at an unstiffened mechanism (zero stiffness)"}[status]
         message += (f": the line search found no lower energy along the Newton step after {iterations} "
                     f"iterations, residual {bal.residual:.3g}")
     row = bal.at_rounding_level(tol)
-    if status in (0, 3, 4) and row is not None and not stalled:
+    if status in (FormFindStatus.STABLE, FormFindStatus.UNSTABLE, FormFindStatus.UNSTIFFENED) and row is not None \
+            and not stalled:
         message += (f" (residual {bal.residual:.3g} above tol {tol:.3g} at {bal.row_name(row)}: within the "
                     f"rounding level of the forces there{_floor_member(structure, config, bal, row)})")
-    if status in (3, 4) and low is not None:
+    if status in (FormFindStatus.UNSTABLE, FormFindStatus.UNSTIFFENED) and low is not None:
         message += (f" (smallest scaled stiffness eigenvalue {low.scaled:.3g}, {low.margin:.3g} times its "
                     f"rounding level {low.rounding:.3g})")
-    elif status in (6, 7):
+    elif status in (FormFindStatus.NON_FINITE, FormFindStatus.DIVERGED):
         message += f" after {iterations} iterations"
-    if status == 1:
+    if status == FormFindStatus.MAX_ITERATIONS:
         message += f" ({iterations}); residual {bal.residual:.3g}"
-    if status == 2:
+    if status == FormFindStatus.LINE_SEARCH_STALLED:
         message += f" after {iterations} iterations; residual {bal.residual:.3g}"
         stuck = bal.imbalance > tol * bal.scale + FLOOR_FACTOR * bal.floor
         if np.all(bal.imbalance[stuck] <= 10.0 * FLOOR_FACTOR * bal.floor[stuck]):

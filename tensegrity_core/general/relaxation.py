@@ -28,6 +28,7 @@ from tensegrity_core.general.convergence import FLOOR_FACTOR, balance
 from tensegrity_core.general.formfind_result import (
     DENSE_LIMIT,
     FormFindResult,
+    FormFindStatus,
     IterationInfo,
     diverged,
     make_result,
@@ -52,23 +53,23 @@ def dynamic_relaxation(structure: Structure, config: Configuration, *, tol: floa
     v = np.zeros(structure.layout.n_dof)
     kinetic = 0.0
     M: NDArray[np.float64] | None = None
-    status, it = 1, 0
+    status, it = FormFindStatus.MAX_ITERATIONS, 0
     size = structure_size(structure)
     necessary = np.inf     # |P|_inf above this: not converged (no need for the full measure)
     while True:
         P = generalized_force(structure, config)
         if diverged(config, size):
-            status = 7
+            status = FormFindStatus.DIVERGED
             break
         if not np.all(np.isfinite(P)):
-            status = 6
+            status = FormFindStatus.NON_FINITE
             break
         refresh = M is None or it % mass_update == 0
         bal = None
         if refresh or callback is not None or np.abs(P).max(initial=0.0) <= necessary:
             bal = balance(structure, config)
             if bal.converged(tol):
-                status = 0
+                status = FormFindStatus.STABLE
                 break
         if it >= max_iter:
             break
@@ -96,7 +97,7 @@ def dynamic_relaxation(structure: Structure, config: Configuration, *, tol: floa
             assert bal is not None
             info = IterationInfo(it, bal.residual, float("nan"), 1.0, step, residual_norm=bal.residual_norm)
             if callback(info) is True:
-                status = 5
+                status = FormFindStatus.CALLBACK
                 break
     return make_result(structure, config, status, it, history, "dynamic_relaxation", tol=tol, dense=dense,
                        check_stability=check_stability)

@@ -44,7 +44,7 @@ from tensegrity_core.sweep.points import Point
 from tensegrity_core.sweep.scheduling import BatchPlanner, InFlight, spread_order
 from tensegrity_core.sweep.spec import Plan, Sweep, SweepSource, load_sweep, prepare
 from tensegrity_core.sweep.store import Store, TableColumn, check_output_path
-from tensegrity_core.sweep.task import Row, inputs, missing, run_batch
+from tensegrity_core.sweep.task import Row, RowStatus, inputs, missing, run_batch
 
 if TYPE_CHECKING:
     from distributed import Client, Future, LocalCluster
@@ -160,7 +160,7 @@ def run_sweep(sweep: SweepSource, *, output: str | Path | None = None, resume: b
     with engine:                       # connects first: nothing is written if that fails
         store.open(rows)
         bar = _Progress(progress, total=len(points), done=len(done),
-                        failed=sum(r["status"] != "ok" for r in rows), name=sweep.name)
+                        failed=sum(r["status"] != RowStatus.OK for r in rows), name=sweep.name)
         results = engine.run(plan, todo, batch)
         try:
             for got in results:
@@ -198,7 +198,7 @@ class _Progress:
 
     def update(self, rows: list[Row]) -> None:
         self.done += len(rows)
-        self.failed += sum(r["status"] != "ok" for r in rows)
+        self.failed += sum(r["status"] != RowStatus.OK for r in rows)
         if self.bar is not None:
             self.bar.set_postfix_str(f"failed {self.failed}", refresh=False)
             self.bar.update(len(rows))
@@ -409,7 +409,7 @@ def _lost(plan: Plan, point: Point, future: Future[list[Row]]) -> Row:
         reason = f"{type(exc).__name__}: {exc}"
     row = inputs(plan, point)
     row.update({c: missing(t) for c, t in plan.result_columns})
-    row.update(status="lost", message=f"the engine could not run this point ({reason}); --resume runs it again",
+    row.update(status=RowStatus.LOST, message=f"the engine could not run this point ({reason}); --resume runs it again",
                run_time=math.nan)
     return row
 

@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 
 from tensegrity_core.sweep.errors import SweepError
 from tensegrity_core.sweep.spec import ALWAYS_KEPT
+from tensegrity_core.sweep.task import RowStatus
 
 if TYPE_CHECKING:
     from tensegrity_core.sweep.spec import Plan, Sweep
@@ -77,7 +78,7 @@ def plot_sweep(table: Any, sweep: Sweep, path: str | Path, columns: Sequence[str
     ncols = min(n, 3)
     nrows = math.ceil(n / ncols)
     fig, axs = plt.subplots(nrows, ncols, figsize=(5.2 * ncols, 4.2 * nrows), squeeze=False)
-    ok = table["status"] == "ok"
+    ok = table["status"] == RowStatus.OK
     for ax, column in zip(axs.flat, columns):
         values = table[column].astype("float64").to_numpy(na_value=np.nan)
         failed = int((~ok).sum())

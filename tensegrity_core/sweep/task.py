@@ -23,6 +23,7 @@ import importlib
 import math
 import time
 from collections.abc import Sequence
+from enum import StrEnum
 from typing import TYPE_CHECKING, Any
 
 from tensegrity_core.errors import TensegrityError
@@ -35,9 +36,20 @@ if TYPE_CHECKING:
 #: A row of the results: column -> plain value.
 Row = dict[str, Any]
 
-STATUSES = ("ok", "failed", "invalid", "error", "lost")
+
+
+class RowStatus(StrEnum):
+    """What happened to a row's point (see the module docstring); the table holds its text."""
+
+    OK = "ok"
+    FAILED = "failed"
+    INVALID = "invalid"
+    ERROR = "error"
+    LOST = "lost"
+
+
 #: Statuses that a rerun would give again (``--resume`` keeps them); ``lost`` is rerun.
-FINAL_STATUSES = ("ok", "failed", "invalid", "error")
+FINAL_STATUSES = (RowStatus.OK, RowStatus.FAILED, RowStatus.INVALID, RowStatus.ERROR)
 #: The thread-pool limit of this process (False: threadpoolctl missing), once pinned.
 _blas_limit: object = None
 
@@ -79,17 +91,17 @@ def run_point(plan: Plan, point: Point) -> Row:
         try:
             loaded = comp.load(document)
         except TensegrityError as err:
-            status, message = "invalid", str(err)
+            status, message = RowStatus.INVALID, str(err)
         else:
             ok, message, outcome = comp.run(loaded, plan.options)
-            status = "ok" if ok else "failed"
+            status = RowStatus.OK if ok else RowStatus.FAILED
             for spec in plan.results:
                 got = COMPUTATIONS[plan.computation].results[spec.name].extract(outcome, spec.options, spec.data)
                 values.update({c: v for (c, _), v in zip(spec.columns, got)})
     except TensegrityError as err:
-        status, message = "failed", str(err)
+        status, message = RowStatus.FAILED, str(err)
     except Exception as err:  # noqa: BLE001 - a point's failure is its row, never the sweep's end
-        status, message = "error", f"{type(err).__name__}: {err}"
+        status, message = RowStatus.ERROR, f"{type(err).__name__}: {err}"
     row.update(values)
     row.update(status=status, message=message, run_time=time.perf_counter() - t0)
     return row

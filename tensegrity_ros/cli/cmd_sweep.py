@@ -77,6 +77,7 @@ def run_sweep_command(args) -> int:
     from tensegrity_core.sweep.engine import run_sweep
     from tensegrity_core.sweep.spec import prepare
     from tensegrity_core.sweep.store import check_output_path, journal_path
+    from tensegrity_core.sweep.task import RowStatus
 
     if args.plot is not None and args.plot and not args.plot.lower().endswith(".png"):
         raise CliError(f"--plot must end in .png, got {args.plot!r}")
@@ -126,7 +127,7 @@ def run_sweep_command(args) -> int:
     statuses = Counter(table["status"])
     reasons, example = Counter(), {}
     for status, message in zip(table["status"], table["message"]):
-        if status != "ok":                 # group messages that differ only in their numbers
+        if status != RowStatus.OK:         # group messages that differ only in their numbers
             key = (status, re.sub(r"[-+]?\d[\d.]*(?:e[-+]?\d+)?", "#", str(message)))
             reasons[key] += 1
             example.setdefault(key, str(message))
