@@ -147,6 +147,13 @@ def test_the_core_never_imports_ros():
     assert not bad, "tensegrity_core must run without ROS:\n" + "\n".join(bad)
 
 
+def test_the_product_never_imports_the_studies():
+    """``studies`` (derivations, verification runs, the docs' figures) sits beside the product:
+    nothing in tensegrity_core or tensegrity_ros imports it, not even inside a function."""
+    bad = [f"{i.where}: {i.target}" for m in FILES for i in imports(m) if _inside(i.target, "studies")]
+    assert not bad, "the product must not depend on studies/:\n" + "\n".join(bad)
+
+
 def test_back_ends_are_reached_only_through_the_sim_api():
     """Outside a back end's own package nothing imports it (nodes, apps, CLI, sweeps, the
     other back ends): the registry ``tensegrity_core.sim.backends.BACKENDS`` names them."""

@@ -12,8 +12,8 @@ import pytest
 
 sp = pytest.importorskip("sympy")
 
+from studies.derivation import derive_dynamics as dd  # noqa: E402
 from tensegrity_core.class2 import geometry  # noqa: E402
-from tensegrity_core.class2.derivation import derive_dynamics as dd  # noqa: E402
 from tensegrity_core.class2.params import Class2Params  # noqa: E402
 
 

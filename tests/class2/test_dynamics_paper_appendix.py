@@ -13,8 +13,8 @@ sp = pytest.importorskip("sympy")
 
 from scipy.integrate import solve_ivp  # noqa: E402
 
-from tensegrity_core.class2.derivation import derive_dynamics as dd  # noqa: E402
-from tensegrity_core.class2.derivation import paper_appendix_a as pa  # noqa: E402
+from studies.derivation import derive_dynamics as dd  # noqa: E402
+from studies.derivation import paper_appendix_a as pa  # noqa: E402
 from tensegrity_core.class2.params import PAPER_PARAMS  # noqa: E402
 
 AGREE = {"T (Eq. 46)", *(f"M{i}{j} (A.{1 if (i, j) in ((1, 1), (1, 2)) else 2})" for i in (1, 2, 3) for j in (1, 2, 3)),

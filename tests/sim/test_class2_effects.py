@@ -1,7 +1,7 @@
 """The class-2 effects and their composition checked against independent computations.
 
 Oracles: the first-principles sympy derivation of
-:mod:`tensegrity_core.class2.derivation.derive_dynamics` (lambdified: M, C, H, grad U, its
+:mod:`studies.derivation.derive_dynamics` (lambdified: M, C, H, grad U, its
 Hessian, the accelerations; it derives them from the strut kinematics and the spring table,
 independently of the kernel), central finite differences of energies and right-hand sides,
 and a least-squares solution of all 24 Newton-Euler equations of the struts and nodes for
@@ -26,7 +26,7 @@ from .helpers import central_jacobian, class2_scene, random_states
 
 sp = pytest.importorskip("sympy")
 
-from tensegrity_core.class2.derivation import derive_dynamics as dd  # noqa: E402
+from studies.derivation import derive_dynamics as dd  # noqa: E402
 
 PARAMS = PAPER_PARAMS.with_overrides(k1=1.3, k2=0.7, k3=2.1, k4=0.4, c1=0.02, c2=0.05, c3=0.03, c4=0.01, m=1.7)
 GRAVITY = (1.2, -9.8, 3.0)

@@ -12,7 +12,7 @@ massless, linear, zero free length, with axial dampers (``c_j`` on the spring of
     M(q) qddot + C(q, qdot) + H(q) qdot + grad U(q) + (f1, f2, 0) = 0
 
 were derived from first principles in
-:mod:`tensegrity_core.class2.derivation.derive_dynamics` (sympy), which also checks the
+:mod:`studies.derivation.derive_dynamics` (sympy), which also checks the
 closed forms of this package -- the independent check of the kernel. The kernel, once:
 
 - :mod:`.limits`: the thresholds (``LAMBDA_MIN_REL``, ``SINGULAR_GUARD_REL``,

@@ -1,7 +1,7 @@
 """Inertia of the class-2 mechanism's struts, and the solve for accelerations in each contact mode.
 
 Four struts of mass ``m``, ``I = m L^2/12`` (derived from first principles in
-:mod:`tensegrity_core.class2.derivation.derive_dynamics`, which checks these closed forms)::
+:mod:`studies.derivation.derive_dynamics`, which checks these closed forms)::
 
     M = [[m + mu + b_F, mu, m13], [mu, mu, 0], [m13, 0, m L^2/3]]
     mu = m/2 + 2 m L^2 / (3 lambda1^2),  b_F = m L^2 / (3 lambda2^2),  m13 = -(m L/2) sin b

@@ -16,7 +16,7 @@ name lengths ``L_1..L_4`` and coefficients ``c_1..c_4``; two readings are provid
   of each term): ``(c1, L1) -> EF (c1, L7)``, ``(c2, L2) -> BE (c4, L8)``,
   ``(c3, L3) -> DE (c2, L4)``, ``(c4, L4) -> CD (c3, L3)``.
 
-``python -m tensegrity_core.class2.derivation.paper_appendix_a`` prints the comparison table.
+``python -m studies.derivation.paper_appendix_a`` prints the comparison table.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ import numpy as np
 import sympy as sp
 from numpy.typing import NDArray
 
-from tensegrity_core.class2.derivation.derive_dynamics import (
+from studies.derivation.derive_dynamics import (
     PARAM_NAMES,
     SymbolicDynamics,
     derive,

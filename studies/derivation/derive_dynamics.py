@@ -25,7 +25,7 @@ internal consistencies (strut rigidity, Christoffel form == Euler-Lagrange form,
 hand-simplified closed forms used by the runtime == the derived expressions);
 :func:`check_runtime` compares :mod:`tensegrity_core.class2.dynamics` with the
 lambdified derivation at random states. ``python -m
-tensegrity_core.class2.derivation.derive_dynamics`` runs both and prints the closed forms.
+studies.derivation.derive_dynamics`` runs both and prints the closed forms.
 """
 
 from __future__ import annotations
