@@ -1,4 +1,4 @@
-"""Figures of docs/control.md: ``.venv/bin/python docs/control_figures.py`` (a few minutes).
+"""Figures of docs/control.md: ``.venv/bin/python -m docs.control_figures`` from the repository root (a few minutes).
 
 Writes docs/img/control/*.png and prints the numbers quoted in docs/control.md.
 """
@@ -10,16 +10,16 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics
-from tensegrity_core.class2.control import CirclePath
-from tensegrity_core.class2.control.plots import (
+from studies.closed_loop import circle_study, waypoint_study
+from studies.closed_loop_plots import (
     plot_circle,
     plot_poles,
     plot_waypoints,
     poles_across_workspace,
     waypoint_configurations,
 )
-from tensegrity_core.class2.control.study import circle_study, waypoint_study
+from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics
+from tensegrity_core.class2.control import CirclePath
 
 OUT = Path(__file__).resolve().parent / "img" / "control"
 

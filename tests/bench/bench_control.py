@@ -17,10 +17,10 @@ from __future__ import annotations
 
 from threadpoolctl import threadpool_limits
 
+from studies.closed_loop import BASELINE_GAINS, WAYPOINT_OFFSETS, circle_study, waypoint_study
+from studies.closed_loop_plots import plot_waypoints
 from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics
 from tensegrity_core.class2.control import ActuatorTracker, TrackingController, plan_move, rest_state
-from tensegrity_core.class2.control.plots import plot_waypoints
-from tensegrity_core.class2.control.study import BASELINE_GAINS, WAYPOINT_OFFSETS, circle_study, waypoint_study
 from tests.bench.harness import Context, Row, benchmark, best_run, time_per_call
 
 G = "control"

@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 import yaml
 
+from studies.closed_loop import at_rest_scene, circle_study, waypoint_study
 from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics
 from tensegrity_core.class2.control import LQRWeights, TrackingController, plan_move
-from tensegrity_core.class2.control.study import at_rest_scene, circle_study, waypoint_study
 from tensegrity_core.sim import Simulator
 
 P = PAPER_PARAMS

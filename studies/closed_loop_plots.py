@@ -18,7 +18,7 @@ from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 from tensegrity_core.class2.singularities import singularity_distance_array
 
 if TYPE_CHECKING:
-    from tensegrity_core.class2.control.study import StudyResult
+    from studies.closed_loop import StudyResult
 
 TOLERANCE: Final = 5e-5
 
@@ -34,7 +34,7 @@ def _plt() -> ModuleType:
 
 def plot_waypoints(studies: Sequence[StudyResult], path: str | Path, hold: float = 2.0) -> None:
     """Distance of D to the current waypoint (log) and the forces, for each
-    :class:`~tensegrity_core.class2.control.study.StudyResult` of ``studies``."""
+    :class:`~studies.closed_loop.StudyResult` of ``studies``."""
     plt = _plt()
     fig, ax = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True)
     for study, style in zip(studies, ("-", "--", ":")):
@@ -139,7 +139,7 @@ def plot_poles(data: Mapping[str, Any], path: str | Path, waypoints: ArrayLike |
 def waypoint_configurations(params: Class2Params = PAPER_PARAMS,
                             offsets: Sequence[tuple[float, float]] | None = None) -> NDArray[np.float64]:
     """``(rho1, rho2)`` of the demo's waypoints (IK, branch followed from rho = (0.7, 0.7))."""
-    from tensegrity_core.class2.control.study import WAYPOINT_OFFSETS
+    from studies.closed_loop import WAYPOINT_OFFSETS
     from tensegrity_core.class2.inverse_kinematics import nearest_solution
     from tensegrity_core.class2.kinematics import forward_kinematics
 

@@ -1,4 +1,4 @@
-"""Closed-loop verification in the core: the controller against the scene simulator.
+"""Closed-loop verification: the core's controller against the scene simulator.
 
 The loop is sampled as a real controller is: at ``t_k = k dt`` the law is evaluated on the
 simulator's state, its output is held for one period (``Simulator.set_command``, then
