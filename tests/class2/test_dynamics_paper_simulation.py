@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from studies.paper_simulation import PAPER_FOLD_TIME, plot_paper_figures, simulate_paper
 from tensegrity_core.class2.dynamics import (
     ActuatorLengthEvent,
     Class2Dynamics,
@@ -21,7 +22,6 @@ from tensegrity_core.class2.dynamics import (
     damping_matrix,
 )
 from tensegrity_core.class2.energy import equilibrium_beta
-from tensegrity_core.class2.paper_simulation import PAPER_FOLD_TIME, plot_paper_figures, simulate_paper
 from tensegrity_core.class2.params import PAPER_PARAMS
 from tensegrity_core.errors import ParameterError
 

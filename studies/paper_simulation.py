@@ -10,7 +10,7 @@ The integration is of the *unconstrained* equations of motion: nothing stops an 
 at zero length. :func:`simulate_paper` records when each actuator length first reaches
 zero (solve_ivp events) and keeps integrating, so the figures show what the equations do
 afterwards. :func:`plot_paper_figures` draws the paper's Figs. 3-7 as PNGs;
-``python -m tensegrity_core.class2.paper_simulation [OUTDIR]`` writes them (default
+``python -m studies.paper_simulation [OUTDIR]`` writes them (default
 ``docs/img/class2``). Findings are in ``docs/class2_dynamics.md``.
 """
 
