@@ -22,7 +22,7 @@ from tensegrity_core.class2 import (  # noqa: E402
     stiffness_sweep,
     workspace,
 )
-from tensegrity_core.class2.kin_plots import plot_stiffness_sweep, plot_workspace  # noqa: E402
+from tensegrity_core.class2.plotting import plot_stiffness_sweep, plot_workspace  # noqa: E402
 
 OUT = Path(__file__).parent / "img" / "class2"
 

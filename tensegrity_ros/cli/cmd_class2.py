@@ -117,7 +117,7 @@ def cmd_stiffness(args) -> int:
             raise CliError(f"--points must be >= 2, got {args.points}")
         sweep = _run(lambda: stiffness_sweep(args.rho1, args.rho2, np.linspace(fmin, fmax, args.points), params))
         if args.plot:
-            from tensegrity_core.class2.kin_plots import plot_stiffness_sweep
+            from tensegrity_core.class2.plotting import plot_stiffness_sweep
 
             plot_stiffness_sweep(sweep, args.plot)
         if args.json:
@@ -161,7 +161,7 @@ def cmd_workspace(args) -> int:
                                 paper_range=args.paper_range, n=args.points))
     area = ws.area()
     if args.plot:
-        from tensegrity_core.class2.kin_plots import plot_workspace
+        from tensegrity_core.class2.plotting import plot_workspace
 
         plot_workspace(ws, args.plot)
     if args.json:
