@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from tensegrity_core.general import form_find
+from tensegrity_core.general.rotation import left_jacobian, left_jacobian_inverse
 from tensegrity_core.sim import Simulator, compile_scene, load_scene, simulate
-from tensegrity_core.sim.general.model import left_jacobian, left_jacobian_inverse
 
 from .helpers import central_jacobian
 
