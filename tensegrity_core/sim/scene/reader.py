@@ -1,11 +1,11 @@
-"""Scenes: what to simulate, read from YAML (or a dict) and checked before anything runs.
+"""Reading scenes: from YAML text, a file, parsed data or a shipped scene's name, checked before anything runs.
 
-The format is documented in ``docs/scenes.md``. Entry points, one per kind of source:
-:func:`scene_from_text` (YAML text; never opens the file a one-line text might name, except
-the structure and CSV files the scene lists, relative to ``base``), :func:`scene_from_file`
-(a ``.yaml``/``.yml`` file), :func:`scene_from_dict` (parsed data), a shipped scene by
-:func:`scene_path`; and :func:`load_scene`, the convenience for local use that accepts a
-shipped scene's name, a path, YAML text or a dict. Each returns a frozen :class:`Scene`.
+Entry points, one per kind of source: :func:`scene_from_text` (YAML text; never opens the
+file a one-line text might name, except the structure and CSV files the scene lists,
+relative to ``base``), :func:`scene_from_file` (a ``.yaml``/``.yml`` file),
+:func:`scene_from_dict` (parsed data), a shipped scene by :func:`scene_path`; and
+:func:`load_scene`, the convenience for local use that accepts a shipped scene's name, a
+path, YAML text or a dict. Each returns a frozen :class:`~tensegrity_core.sim.scene.spec.Scene`.
 
 Every problem raises :class:`~tensegrity_core.sim.errors.SceneError` naming the key path
 and, for YAML, the line: unknown keys (with a suggestion), missing required keys, wrong
@@ -20,9 +20,8 @@ scene's schema.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, ClassVar, Literal, TypedDict, cast
+from typing import Any, ClassVar, cast
 
 import numpy as np
 
@@ -43,207 +42,35 @@ from tensegrity_core.schema import (
     type_name,
 )
 from tensegrity_core.sim.errors import SceneError
-from tensegrity_core.sim.inputs import INTERPOLATIONS, Commanded, Constant, InputLaw, Proportional, Ramp, Series
+from tensegrity_core.sim.inputs import Commanded, Constant, InputLaw, Proportional, Ramp
+from tensegrity_core.sim.scene.series import read_series
+from tensegrity_core.sim.scene.spec import (
+    EFFECTS,
+    METHODS,
+    NEEDS_INERTIA,
+    NOISY_QUANTITIES,
+    ActuatorComplianceSpec,
+    ActuatorLagSpec,
+    Class2ModelSpec,
+    DampingSpec,
+    EffectSpec,
+    FlagSpec,
+    FoldLimitSpec,
+    GeneralModelSpec,
+    GravitySpec,
+    InitialSpec,
+    IntegratorSpec,
+    LoadsSpec,
+    ModelSpec,
+    Scene,
+    SceneEffects,
+    SensorNoiseSpec,
+    output_size_reason,
+)
 
-if TYPE_CHECKING:
-    from tensegrity_core.class2.params import Class2Params
-
-SCENES_DIR = Path(__file__).parent / "scenes"
+#: The shipped scenes' folder.
+SCENES_DIR = Path(__file__).parents[1] / "scenes"
 _SHIPPED = ShippedFiles(SCENES_DIR, "scene", "shipped scenes", SceneError)
-
-#: Effects a scene may list, in the order the simulator composes them.
-EFFECTS = ("inertia", "springs", "damping", "gravity", "loads", "actuator_lag",
-           "actuator_compliance", "fold_limit", "sensor_noise")
-#: Effects that need inertia, and why (without inertia the model is quasi-static).
-NEEDS_INERTIA = {
-    "damping": "rates vanish in a quasi-static model, so dampers carry no force",
-    "actuator_compliance": "at equilibrium the compliant drive transmits exactly the commanded force",
-    "actuator_lag": "a lagging force is a dynamic state; the quasi-static model tracks equilibrium "
-                    "for the commanded forces",
-}
-#: Integration methods: scipy's solve_ivp set, and "auto".
-METHODS = ("auto", "RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA")
-#: Observed quantities that sensor noise may perturb.
-NOISY_QUANTITIES = ("q", "qdot", "applied_forces", "nodes", "member_lengths", "member_forces",
-                    "end_effector")
-#: The most memory the output of one run may take (its arrays of 8-byte floats) [bytes].
-MAX_OUTPUT_BYTES = 2 * 2**30
-
-
-# ------------------------------------------------------------------------------ data
-@dataclass(frozen=True)
-class Class2ModelSpec:
-    """The planar class-2 mechanism with parameters ``params``."""
-
-    params: Class2Params
-    kind: ClassVar[Literal["class2"]] = "class2"
-
-
-@dataclass(frozen=True)
-class GeneralModelSpec:
-    """A general structure (bars, strings, actuator members, rigid bodies).
-
-    ``end_effector`` is the index of the node reported as the end effector; ``actuators``
-    the member indices of kind ``"actuator"`` (their rest lengths are the inputs)."""
-
-    structure: Structure
-    source: str
-    end_effector: int
-    actuators: tuple[int, ...]
-    kind: ClassVar[Literal["general"]] = "general"
-
-
-#: The mechanism a scene simulates.
-ModelSpec = Class2ModelSpec | GeneralModelSpec
-
-
-@dataclass(frozen=True)
-class InitialSpec:
-    """Initial state. ``kind``: "state" (explicit ``q``, ``qdot``), "equilibrium" (class-2:
-    ``q = (rho1, rho2, beta*)`` with ``lengths = (rho1, rho2)``; general: form-found under the
-    scene's static effects plus ``preload`` {node index: force [N]}) or "drawn" (general: the
-    reference coordinates). Velocities are zero unless ``qdot`` is given."""
-
-    kind: str
-    q: tuple[float, ...] | None = None
-    qdot: tuple[float, ...] | None = None
-    lengths: tuple[float, ...] | None = None
-    preload: dict[int, tuple[float, ...]] = field(default_factory=dict)
-
-
-@dataclass(frozen=True)
-class DampingSpec:
-    """Class-2: the springs' dampers ``c1..c4`` of the parameters. General: an axial damper
-    on every taut member, ``c`` [N s/m] or stiffness-proportional ``beta`` [s] (``c_i = beta EA_i / l0_i``)."""
-
-    c: float | None = None
-    beta: float | None = None
-
-
-@dataclass(frozen=True)
-class GravitySpec:
-    vector: tuple[float, ...]             # [m/s^2], 3 components
-
-
-@dataclass(frozen=True)
-class LoadsSpec:
-    forces: dict[int, tuple[float, ...]]  # node index -> (fx, fy, fz) [N], dead loads
-
-
-@dataclass(frozen=True)
-class ActuatorLagSpec:
-    tau: float                # [s]
-
-
-@dataclass(frozen=True)
-class ActuatorComplianceSpec:
-    stiffness: float          # [N/m]
-    drive_damping: float      # [N s/m]
-
-
-@dataclass(frozen=True)
-class FoldLimitSpec:
-    restitution: float = 0.0
-    rest_velocity: float = 1e-6   # [m/s]: rebounds slower than this stick
-
-
-@dataclass(frozen=True)
-class SensorNoiseSpec:
-    sigmas: dict[str, float]  # quantity -> standard deviation (units of the quantity)
-
-
-@dataclass(frozen=True)
-class FlagSpec:
-    """An effect without options (inertia, springs)."""
-
-
-class SceneEffects(TypedDict, total=False):
-    """The effects a scene lists, each with its options (a plain dict in :data:`EFFECTS` order)."""
-
-    inertia: FlagSpec
-    springs: FlagSpec
-    damping: DampingSpec
-    gravity: GravitySpec
-    loads: LoadsSpec
-    actuator_lag: ActuatorLagSpec
-    actuator_compliance: ActuatorComplianceSpec
-    fold_limit: FoldLimitSpec
-    sensor_noise: SensorNoiseSpec
-
-
-#: The options of one effect.
-EffectSpec = (FlagSpec | DampingSpec | GravitySpec | LoadsSpec | ActuatorLagSpec | ActuatorComplianceSpec | FoldLimitSpec
-              | SensorNoiseSpec)
-
-
-@dataclass(frozen=True)
-class IntegratorSpec:
-    method: str = "auto"
-    rtol: float = 1e-8
-    atol: float = 1e-10
-    max_step: float = math.inf
-
-
-@dataclass(frozen=True)
-class Scene:
-    """A checked scene. ``effects`` maps each listed effect name to its options; ``inputs``
-    maps each actuator (class-2: ``"f1"``, ``"f2"``; general: actuator member names) to its law."""
-
-    name: str
-    model: ModelSpec
-    initial: InitialSpec
-    inputs: dict[str, InputLaw]
-    effects: SceneEffects
-    duration: float
-    output_rate: float = 100.0
-    integrator: IntegratorSpec = IntegratorSpec()
-    seed: int = 0
-    description: str = ""
-    source: str | None = None
-    data: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
-
-    @property
-    def quasi_static(self) -> bool:
-        """True when the scene has no inertia: the configuration tracks equilibrium."""
-        return "inertia" not in self.effects
-
-    def has(self, effect: str) -> bool:
-        return effect in self.effects
-
-    def with_duration(self, duration: float) -> Scene:
-        """A copy that runs for ``duration`` [s] (checked like the scene's own)."""
-        reader = Reader(SceneError)
-        duration = reader.value_number(duration, ("duration",), None, None, lo=0.0, lo_open=True)
-        reason = output_size_reason(duration, self.output_rate, self.model)
-        if reason:
-            raise SceneError(reason, key=("duration",))
-        return replace(self, duration=duration)
-
-
-def output_size_reason(duration: float, rate: float, model: ModelSpec) -> str | None:
-    """Why ``duration`` [s] at ``rate`` [Hz] is too much output for ``model``, or None: the
-    run's arrays (``duration * rate + 2`` samples of every recorded value) must fit in
-    :data:`MAX_OUTPUT_BYTES`; they are allocated as the run goes, so the bound is checked
-    before it starts."""
-    samples = math.floor(duration * rate) + 2
-    values = values_per_sample(model)
-    size = samples * values * 8
-    if size <= MAX_OUTPUT_BYTES:
-        return None
-    return (f"duration x output.rate = {duration:g} s x {rate:g} Hz gives {samples:.3g} samples of "
-            f"{values} values, {size:.3g} bytes, more than the {MAX_OUTPUT_BYTES / 2**30:g} GiB a run's "
-            f"output may take; shorten the duration or lower output.rate")
-
-
-def values_per_sample(model: ModelSpec) -> int:
-    """Floats recorded per output sample (an upper bound): states, coordinates, rates,
-    inputs, member forces and lengths, node positions, energies."""
-    if model.kind == "class2":
-        return 64
-    s = model.structure
-    return int(4 * s.layout.n_dof + 2 * s.n_members + 3 * s.n_nodes + len(model.actuators) + 16)
-
-
 
 
 # ------------------------------------------------------------------------------ loading
@@ -607,44 +434,7 @@ class _SceneReader(Reader):
             if "initial" not in d or d["initial"] == "hold":
                 return Commanded(None)
             return Commanded(self.number(d, "initial", path))
-        return self.series(d, path)
-
-    def series(self, d: dict[str, Any], path: KeyPath) -> Series:
-        file = self.string(d, "file", path)
-        column = self.string(d, "column", path)
-        interpolation = self.string(d, "interpolation", path, default="linear", choices=INTERPOLATIONS)
-        csv = self.base / file
-        shown = excerpt(str(csv))
-        try:
-            with open(csv, encoding="utf-8") as fh:
-                header_row = fh.readline(10_000).strip().split(",")
-                table = np.loadtxt(fh, delimiter=",", ndmin=2)
-        except FileNotFoundError:
-            raise self.error(f"CSV file not found: {shown}", path + ("file",), d, "file") from None
-        except (ValueError, OSError) as err:          # UnicodeDecodeError is a ValueError
-            raise self.error(f"cannot read {shown} as numbers after a header row: {excerpt(str(err))}",
-                             path + ("file",), d, "file") from None
-        header = [h.strip() for h in header_row]
-        time_col = self.string(d, "time", path, default=header[0])
-        for k, col in (("time", time_col), ("column", column)):
-            if col not in header:
-                raise self.error(f"{shown} has no column {excerpt(col)}{suggest(col, header)}; columns: "
-                                 f"{', '.join(header[:40])}", path + (k,), d, k)
-        if table.shape[1] != len(header) or table.shape[0] < 1:
-            raise self.error(f"{shown}: {table.shape[0]} rows of {table.shape[1]} numbers for "
-                             f"{len(header)} header columns", path + ("file",), d, "file")
-        t = table[:, header.index(time_col)]
-        v = table[:, header.index(column)]
-        if not (np.isfinite(t).all() and np.isfinite(v).all()):
-            raise self.error(f"{shown} contains non-finite values", path + ("file",), d, "file")
-        if np.any(np.diff(t) <= 0):
-            i = int(np.flatnonzero(np.diff(t) <= 0)[0])
-            raise self.error(f"{shown}: times must increase, but row {i + 3} ({t[i + 1]:g} s) does not "
-                             f"follow row {i + 2} ({t[i]:g} s)", path + ("file",), d, "file")
-        if interpolation == "cubic" and len(t) < 3:
-            raise self.error("cubic interpolation needs at least 3 samples", path + ("interpolation",), d,
-                             "interpolation")
-        return Series(tuple(t.tolist()), tuple(v.tolist()), interpolation, str(csv))
+        return read_series(self, d, path, self.base)
 
     # -- integrator --------------------------------------------------------------------------------
     def integrator(self, value: object, path: KeyPath, parent: dict[str, Any]) -> IntegratorSpec:

@@ -1,0 +1,51 @@
+"""Scenes: what to simulate, read from YAML (or a dict) and checked before anything runs.
+
+The format is documented in ``docs/scenes.md``. :mod:`.spec` describes a checked scene (the
+frozen :class:`Scene` and its parts), :mod:`.reader` reads one from text, a file, parsed data
+or a shipped scene's name, :mod:`.series` reads the CSV file of a series input law. The
+names below are the package's public ones.
+"""
+
+from tensegrity_core.sim.scene.reader import (
+    SCENES_DIR,
+    SceneSource,
+    load_scene,
+    scene_from_dict,
+    scene_from_file,
+    scene_from_text,
+    scene_names,
+    scene_path,
+)
+from tensegrity_core.sim.scene.spec import (
+    EFFECTS,
+    MAX_OUTPUT_BYTES,
+    METHODS,
+    NEEDS_INERTIA,
+    NOISY_QUANTITIES,
+    ActuatorComplianceSpec,
+    ActuatorLagSpec,
+    Class2ModelSpec,
+    DampingSpec,
+    EffectSpec,
+    FlagSpec,
+    FoldLimitSpec,
+    GeneralModelSpec,
+    GravitySpec,
+    InitialSpec,
+    IntegratorSpec,
+    LoadsSpec,
+    ModelSpec,
+    Scene,
+    SceneEffects,
+    SensorNoiseSpec,
+    output_size_reason,
+    values_per_sample,
+)
+
+__all__ = [
+    "EFFECTS", "MAX_OUTPUT_BYTES", "METHODS", "NEEDS_INERTIA", "NOISY_QUANTITIES", "SCENES_DIR",
+    "ActuatorComplianceSpec", "ActuatorLagSpec", "Class2ModelSpec", "DampingSpec", "EffectSpec", "FlagSpec",
+    "FoldLimitSpec", "GeneralModelSpec", "GravitySpec", "InitialSpec", "IntegratorSpec", "LoadsSpec", "ModelSpec",
+    "Scene", "SceneEffects", "SceneSource", "SensorNoiseSpec", "load_scene", "output_size_reason",
+    "scene_from_dict", "scene_from_file", "scene_from_text", "scene_names", "scene_path", "values_per_sample",
+]
