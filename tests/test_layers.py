@@ -1,9 +1,9 @@
 """The rules that keep the layers apart (docs/architecture.md), checked on the sources.
 
 Every ``import`` statement of the product code is read with :mod:`ast`, wherever it stands
-(module level or inside a function), so lazy imports count too. A ``from package import
-name`` is an import of the submodule ``package.name`` when there is one, else of
-``package``. The implicit import of a module's parent packages is not counted: a package
+(module level, inside a function or under ``if TYPE_CHECKING:``), so lazy and type-only
+imports count too. A ``from package import name`` is an import of the submodule
+``package.name`` when there is one, else of ``package``. The implicit import of a module's parent packages is not counted: a package
 ``__init__`` that re-exports its submodules would otherwise be a cycle with each of them,
 although Python runs a package being initialised only once; an explicit import of the
 package (``from tensegrity_core.general import ...``) counts. Imports that only
@@ -53,26 +53,13 @@ def _module_name(path: Path) -> str:
 FILES = {_module_name(p): p for pkg in PACKAGES for p in sorted((ROOT / pkg).rglob("*.py"))}
 
 
-def _is_type_checking(node: ast.If) -> bool:
-    test = node.test
-    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
-        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
-
-
 class _Imports(ast.NodeVisitor):
-    def __init__(self, module: str, is_package: bool, where: str, *, type_checking: bool) -> None:
+    def __init__(self, module: str, is_package: bool, where: str) -> None:
         self.module, self.package = module, module if is_package else module.rpartition(".")[0]
-        self.where, self.type_checking, self.found = where, type_checking, list[Import]()
+        self.where, self.found = where, list[Import]()
 
     def _add(self, target: str, node: ast.stmt) -> None:
         self.found.append(Import(self.module, target, f"{self.where}:{node.lineno}"))
-
-    def visit_If(self, node: ast.If) -> None:
-        if _is_type_checking(node) and not self.type_checking:
-            for stmt in node.orelse:
-                self.visit(stmt)
-        else:
-            self.generic_visit(node)
 
     def visit_Import(self, node: ast.Import) -> None:
         for alias in node.names:
@@ -89,20 +76,18 @@ class _Imports(ast.NodeVisitor):
             self._add(sub if sub in FILES else base, node)
 
 
-def imports_in(source: str, module: str, *, is_package: bool = False, where: str = "<text>",
-               type_checking: bool = True) -> list[Import]:
-    """Every import in the source of ``module``; with ``type_checking=False`` not those under
-    ``if TYPE_CHECKING:``."""
-    visitor = _Imports(module, is_package, where, type_checking=type_checking)
+def imports_in(source: str, module: str, *, is_package: bool = False, where: str = "<text>") -> list[Import]:
+    """Every import in the source of ``module``, those under ``if TYPE_CHECKING:`` included."""
+    visitor = _Imports(module, is_package, where)
     visitor.visit(ast.parse(source, where))
     return visitor.found
 
 
-def imports(module: str, *, type_checking: bool = True) -> list[Import]:
+def imports(module: str) -> list[Import]:
     """Every import of the product module ``module`` (see :func:`imports_in`)."""
     path = FILES[module]
     return imports_in(path.read_text(), module, is_package=path.name == "__init__.py",
-                      where=str(path.relative_to(ROOT)), type_checking=type_checking)
+                      where=str(path.relative_to(ROOT)))
 
 
 def _modules(package: str) -> Iterator[str]:
@@ -135,8 +120,6 @@ def test_the_import_reader_sees_lazy_relative_and_type_only_imports():
     every = ["typing", "rclpy.node", "tensegrity_core.sim.model", "tensegrity_core.general.statics",
              "tensegrity_core.general", "tensegrity_core.sim.class2.plant", "math", "tensegrity_core.sim.class2"]
     assert [i.target for i in imports_in(source, "tensegrity_core.sim.x")] == every
-    at_run_time = [i.target for i in imports_in(source, "tensegrity_core.sim.x", type_checking=False)]
-    assert at_run_time == [t for t in every if t != "tensegrity_core.sim.class2.plant"]
     in_package = imports_in("from . import model\nfrom .class2 import plant\n", "tensegrity_core.sim", is_package=True)
     assert [i.target for i in in_package] == ["tensegrity_core.sim.model", "tensegrity_core.sim.class2.plant"]
     assert _is_ros("rclpy.node") and _is_ros("geometry_msgs.msg") and not _is_ros("numpy")
@@ -164,10 +147,12 @@ def test_back_ends_are_reached_only_through_the_sim_api():
 
 def test_the_core_has_no_import_cycle():
     """Every cycle among tensegrity_core's modules, as its strongly connected components
-    (scipy.sparse.csgraph): each is listed with the imports that close it."""
+    (scipy.sparse.csgraph): each is listed with the imports that close it. Imports under
+    ``if TYPE_CHECKING:`` count: a type-only import is still a dependency of the module's
+    meaning, and a circle of them is one a reader has to untangle."""
     names = sorted(_modules("tensegrity_core"))
     index = {name: k for k, name in enumerate(names)}
-    edges = [i for m in names for i in imports(m, type_checking=False) if i.target in index and i.target != m]
+    edges = [i for m in names for i in imports(m) if i.target in index and i.target != m]
     rows, cols = [index[i.source] for i in edges], [index[i.target] for i in edges]
     graph = coo_array((np.ones(len(edges)), (rows, cols)), shape=(len(names), len(names)))
     _, label = connected_components(graph, directed=True, connection="strong")

@@ -10,20 +10,63 @@ use (``structure.layout``, ``structure.stiffness_pattern``):
 - :class:`StiffnessPattern`: the sparsity pattern of the tangent stiffness ``K_T``
   (:mod:`~tensegrity_core.general.stiffness`) and its scatter-add assembly.
 
-This module reads a structure and imports nothing of the package at run time, so the
-structure can hold both without an import circle.
+This module reads a structure through :class:`StructureView` (what it needs of one, as a
+Protocol) and imports nothing of the package, so the structure can hold both without an
+import circle.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Sequence
+from typing import Protocol
 
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-if TYPE_CHECKING:
-    from tensegrity_core.general.structure import Structure
+
+class BodyView(Protocol):
+    """What this module reads of a rigid body (a :class:`~tensegrity_core.general.structure.RigidBody`):
+    its name, node indices, mass [kg] and whether it is fixed."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def nodes(self) -> tuple[int, ...]: ...
+
+    @property
+    def mass(self) -> float: ...
+
+    @property
+    def fixed(self) -> bool: ...
+
+
+class StructureView(Protocol):
+    """What this module reads of a structure (a :class:`~tensegrity_core.general.structure.Structure`):
+    nodes (names, reference coordinates [m], pinned axes), members (node index pairs), rigid
+    bodies and the structure's own :class:`DofLayout`."""
+
+    @property
+    def n_nodes(self) -> int: ...
+
+    @property
+    def node_names(self) -> tuple[str, ...]: ...
+
+    @property
+    def nodes(self) -> NDArray[np.float64]: ...
+
+    @property
+    def pinned(self) -> NDArray[np.bool_]: ...
+
+    @property
+    def members(self) -> NDArray[np.int64]: ...
+
+    @property
+    def bodies(self) -> Sequence[BodyView]: ...
+
+    @property
+    def layout(self) -> DofLayout: ...
 
 
 class DofLayout:
@@ -38,7 +81,7 @@ class DofLayout:
     largest node distance from each body's centre [m].
     """
 
-    def __init__(self, structure: Structure) -> None:
+    def __init__(self, structure: StructureView) -> None:
         n = structure.n_nodes
         self.moving_bodies = tuple(k for k, b in enumerate(structure.bodies) if not b.fixed)
         node_body = np.full(n, -1, dtype=np.int64)
@@ -99,7 +142,7 @@ class StiffnessPattern:
     with one ``bincount`` per assembly; the pattern is built once per structure.
     """
 
-    def __init__(self, structure: Structure) -> None:
+    def __init__(self, structure: StructureView) -> None:
         lay = structure.layout
         n = lay.n_dof
         a, b = structure.members[:, 0], structure.members[:, 1]
