@@ -98,13 +98,6 @@ class Balance:
         """Euclidean norm of all out-of-balance forces and moments [N, N m]."""
         return float(np.linalg.norm(self.physical.generalized))
 
-    @property
-    def rounding_residual(self) -> float:
-        """The relative residual that rounding alone may leave: the largest
-        ``FLOOR_FACTOR floor / scale`` (dimensionless)."""
-        return float(np.divide(FLOOR_FACTOR * self.floor, self.scale, out=np.zeros_like(self.floor),
-                               where=self.scale > 0).max(initial=0.0))
-
     def converged(self, tol: float) -> bool:
         """Every row balanced to ``tol`` of its forces or to its rounding level."""
         return bool(np.all(self.imbalance <= tol * self.scale + FLOOR_FACTOR * self.floor))

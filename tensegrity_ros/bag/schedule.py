@@ -56,10 +56,6 @@ class PlaybackEvent:
     clock_ns: int = 0                   # bag time carried by a clock tick
     loop: int = 0
 
-    @property
-    def is_clock(self) -> bool:
-        return self.message is None
-
 
 def _due(t_ns: int, t0_ns: int, rate: float) -> int:
     return round((t_ns - t0_ns) / rate)

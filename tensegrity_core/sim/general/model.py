@@ -119,7 +119,6 @@ class GeneralSystem:
     :class:`~tensegrity_core.sim.stepper.OdeSystem`. Immutable: a re-charting or a new command
     gives a new instance (:meth:`with_chart`, :meth:`with_inputs`)."""
 
-    kind = "general"
     #: No contacts: the contact mode is always empty.
     mode: frozenset[int] = frozenset()
 

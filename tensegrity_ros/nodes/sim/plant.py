@@ -51,11 +51,6 @@ class SimPlant:
         self.initial_command = [float(f) for f in self.sim.command]
 
     @property
-    def kind(self) -> str:
-        """The scene's model: ``"class2"`` or ``"general"``."""
-        return self.sim.kind
-
-    @property
     def time_ns(self) -> int:
         """The simulation clock [ns]."""
         return self.offset_ns + self.k * self.step_ns
