@@ -31,8 +31,15 @@ from tensegrity_core.general.structure import Structure
 from tensegrity_core.sim.backends import backend_name
 from tensegrity_core.sim.errors import SceneError
 from tensegrity_core.sim.inputs import Commanded
-from tensegrity_core.sim.scene import Flag, Gravity, Initial, Loads, Scene, SceneEffects
-from tensegrity_core.sim.scene import GeneralModel as GeneralSceneModel
+from tensegrity_core.sim.scene import (
+    FlagSpec,
+    GeneralModelSpec,
+    GravitySpec,
+    InitialSpec,
+    LoadsSpec,
+    Scene,
+    SceneEffects,
+)
 
 #: MuJoCo's integrators (``<option integrator>``); RK4 is the default.
 INTEGRATORS = ("RK4", "Euler", "implicit", "implicitfast")
@@ -85,15 +92,15 @@ def structure_scene(structure: Structure, *, source: str = "") -> Scene:
     """The scene a structure is exported as: ``inertia`` and ``springs``, its own gravity and
     loads when it has any, no damping, starting from the drawing at rest; actuator members
     hold their drawn rest lengths. (Write a scene for anything else.)"""
-    effects: SceneEffects = {"inertia": Flag(), "springs": Flag()}
+    effects: SceneEffects = {"inertia": FlagSpec(), "springs": FlagSpec()}
     if np.any(structure.gravity != 0):
-        effects["gravity"] = Gravity(tuple(float(g) for g in structure.gravity))
+        effects["gravity"] = GravitySpec(tuple(float(g) for g in structure.gravity))
     if np.any(structure.loads != 0):
-        effects["loads"] = Loads({})                    # the structure's own loads only
+        effects["loads"] = LoadsSpec({})                    # the structure's own loads only
     actuators = tuple(i for i, k in enumerate(structure.member_kinds) if k == "actuator")
     return Scene(name=structure.name or "structure",
-                 model=GeneralSceneModel(structure, source, structure.n_nodes - 1, actuators),
-                 initial=Initial("drawn"), inputs={structure.member_names[i]: Commanded(None) for i in actuators},
+                 model=GeneralModelSpec(structure, source, structure.n_nodes - 1, actuators),
+                 initial=InitialSpec("drawn"), inputs={structure.member_names[i]: Commanded(None) for i in actuators},
                  effects=effects, duration=1.0, description=f"the structure {structure.name!r} as drawn")
 
 

@@ -84,8 +84,7 @@ from tensegrity_core.sim.general.setup import (
     static_structure,
 )
 from tensegrity_core.sim.inputs import held
-from tensegrity_core.sim.scene import GeneralModel as GeneralSceneModel
-from tensegrity_core.sim.scene import Scene
+from tensegrity_core.sim.scene import GeneralModelSpec, Scene
 
 FloatArray = NDArray[np.float64]
 
@@ -107,7 +106,7 @@ class _Writer:
 
     def __init__(self, scene: Scene, timestep: float | None, integrator: str):
         model = scene.model
-        assert isinstance(model, GeneralSceneModel)        # export_mjcf checked it
+        assert isinstance(model, GeneralModelSpec)        # export_mjcf checked it
         self.scene = scene
         s = self.structure = model.structure
         self.source = model.source
