@@ -18,7 +18,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.events import LoggedEvent
-from tensegrity_core.general.statics import potential_energy
 from tensegrity_core.sim.commands import changed, check_command
 from tensegrity_core.sim.errors import SimulationError
 from tensegrity_core.sim.general.model import GeneralSystem, NodalMasses
@@ -30,7 +29,6 @@ from tensegrity_core.sim.general.setup import (
     general_model,
     initial_configuration,
     member_damping,
-    minimal_coordinates,
     rest_lengths_function,
     scene_gravity,
     scene_loads,
@@ -113,22 +111,22 @@ class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralSystem, GeneralSample])
         state.work.record(times, out)
 
     def observe(self, samples: Sequence[GeneralSample]) -> dict[str, NDArray[Any]]:
+        """The observations of ``samples``, each run of samples taken under one model (one set
+        of charts and laws) evaluated as one batch."""
         rows: dict[str, list[Any]] = {k: [] for k in OBSERVED}
-        for t, y, model in samples:
-            n = model.n
-            x, v = y[:n], y[n:]
-            coords, r, R = model.placement(x)
-            force, _, lengths, _ = model.member_state(t, coords, model.velocities(v, r))
-            rows["t"].append(t)
-            rows["state"].append(y)
-            rows["q"].append(minimal_coordinates(model.lay, x, R))
-            rows["qdot"].append(v)
-            rows["applied_forces"].append(model.rest_lengths(t)[model.actuators])
-            rows["nodes"].append(coords)
-            rows["member_lengths"].append(lengths)
-            rows["member_forces"].append(force)
-            rows["potential_energy"].append(potential_energy(model.statics_twin(t), coords))
-            rows["kinetic_energy"].append(model.kinetic_energy(x, v))
+        i = 0
+        while i < len(samples):
+            model = samples[i][2]
+            j = i + 1
+            while j < len(samples) and samples[j][2] is model:
+                j += 1
+            ts = [t for t, _, _ in samples[i:j]]
+            Y = np.array([y for _, y, _ in samples[i:j]])
+            rows["t"].extend(ts)
+            rows["state"].extend(Y)
+            for key, values in model.observe(ts, Y).items():
+                rows[key].extend(values)
+            i = j
         return finish_observations(rows, self.scene)
 
     def observe_now(self, state: State[Stepper[GeneralSystem]]) -> dict[str, Any]:

@@ -30,7 +30,10 @@ coordinates; per moving body its centre and a rotation vector ``theta`` with
 chart is re-anchored (``R_ref <- R``, ``theta <- 0``, integrator restarted) once
 ``|theta|`` exceeds :data:`RECHART_ANGLE`, so it never nears its singularity at ``2 pi``.
 
-**Jacobian** (for Radau/BDF, sparse)::
+**Evaluation**: the kernels of :mod:`tensegrity_core.sim.general.kernels` (compiled loops
+with numba, or numpy arrays) compute the right-hand side, the Jacobian and the observations.
+
+**Jacobian** (for Radau/BDF, sparse, pattern fixed by the topology)::
 
     d(dx/dt)/dv = blockdiag(I, J_l^-1(theta))
     d(dv/dt)/dx = -M^-1 K_T J_chart,   d(dv/dt)/dv = -M^-1 (A_r diag(c) A_r^T + G_gyro)
@@ -50,15 +53,16 @@ from collections.abc import Callable, Iterable
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
 
-from tensegrity_core.general.configuration import Configuration
-from tensegrity_core.general.rotation import cross, exp_so3, hat, left_jacobian, left_jacobian_inverse
-from tensegrity_core.general.statics import equilibrium_matrix, group_sum
-from tensegrity_core.general.stiffness import tangent_stiffness
+from tensegrity_core.general.rotation import exp_so3
+from tensegrity_core.general.statics import group_sum
 from tensegrity_core.general.structure import Structure
 from tensegrity_core.sim.errors import SceneError
+from tensegrity_core.sim.general.kernels.arrays import cross
+from tensegrity_core.sim.general.kernels.evaluator import Evaluation, Evaluator
+from tensegrity_core.sim.general.kernels.plan import build_plan
 from tensegrity_core.sim.inputs import Law, next_breakpoint
 from tensegrity_core.sim.stepper import StateEvent
 
@@ -125,32 +129,23 @@ class GeneralSystem:
     def __init__(self, structure: Structure, *, masses: NodalMasses, damping: FloatArray | None = None,
                  gravity: ArrayLike | None = None, loads: FloatArray | None = None,
                  rest_lengths_of: Callable[[float], FloatArray] | None = None, laws: Iterable[Law] = (),
-                 actuators: ArrayLike = (), R_ref: ArrayLike):
+                 actuators: ArrayLike = (), R_ref: ArrayLike, kernels: str | None = None):
         self.structure = structure
         lay = structure.layout
         self.lay = lay
         self.n = lay.n_dof
         self.masses = masses
         self.nb = len(lay.moving_bodies)
-        self.free_nodes, self.free_axes = np.nonzero(lay.free_index >= 0)
-        self.free_cols = lay.free_index[self.free_nodes, self.free_axes]
-        order = np.argsort(self.free_cols)
-        self.free_nodes, self.free_axes = self.free_nodes[order], self.free_axes[order]
         self.n_free = lay.n_free
-        self.a = structure.members[:, 0]
-        self.b = structure.members[:, 1]
         self.EA = structure.EA
         self.is_string = structure.is_string
         self.actuators = np.asarray(actuators, dtype=int)
         self.rest_lengths_of = rest_lengths_of          # t -> rest lengths (m,)
         self.laws = tuple(laws)
-        self.base = structure.nodes.copy()
         self.R_ref = np.array(R_ref, dtype=float)
-        self.c_damp = damping                            # (m,) axial damping [N s/m] or None
         weights = None
         if gravity is not None:
             weights = masses.node[:, None] * np.asarray(gravity, dtype=float)[None, :]
-        self.gravity = None if gravity is None else np.asarray(gravity, dtype=float)
         ext = np.zeros((structure.n_nodes, 3))
         if loads is not None:
             ext += loads
@@ -158,7 +153,10 @@ class GeneralSystem:
             ext += weights
         self.external = ext if (loads is not None or weights is not None) else None
         self.state_names = tuple(f"x_{s}" for s in lay.labels()) + tuple(f"v_{s}" for s in lay.labels())
-        self._twin = self._statics_twin(0.0) if rest_lengths_of is None else None
+        self.plan = build_plan(structure, free_masses=masses.free, body_masses=masses.body,
+                               body_first_moments=masses.s_body, body_inertia=masses.I_body, damping=damping,
+                               external=self.external)
+        self.evaluator = Evaluator(self.plan, kernels)
 
     def with_chart(self, R_ref: ArrayLike) -> GeneralSystem:
         """The same equations with other rotation charts."""
@@ -175,173 +173,30 @@ class GeneralSystem:
     def next_breakpoint(self, t: float) -> float:
         return next_breakpoint(self.laws, t, math.inf)
 
-    # -- kinematics -----------------------------------------------------------------------
-    def placement(self, x: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """``(coords (n, 3), arms r (n_on, 3), R (nb, 3, 3))`` for coordinates ``x``."""
-        coords = self.base.copy()
-        coords[self.free_nodes, self.free_axes] = x[:self.n_free]
-        if not self.nb:
-            return coords, np.zeros((0, 3)), np.zeros((0, 3, 3))
-        d = x[self.lay.body_dof[:, None] + np.arange(6)[None, :]]
-        R = exp_so3(d[:, 3:]) @ self.R_ref
-        r = np.einsum("kij,kj->ki", R[self.masses.slot], self.masses.p)
-        coords[self.masses.on] = d[self.masses.slot, :3] + r
-        return coords, r, R
-
-    def velocities(self, v: FloatArray, r: FloatArray) -> FloatArray:
-        vel = np.zeros_like(self.base)
-        vel[self.free_nodes, self.free_axes] = v[:self.n_free]
-        if self.nb:
-            d = v[self.lay.body_dof[:, None] + np.arange(6)[None, :]]
-            slot = self.masses.slot
-            vel[self.masses.on] = d[slot, :3] + cross(d[slot, 3:], r)
-        return vel
-
     def rest_lengths(self, t: float) -> FloatArray:
         if self.rest_lengths_of is None:
             l0: FloatArray = self.structure.rest_lengths
             return l0
         return self.rest_lengths_of(t)
 
-    def member_state(self, t: float, coords: FloatArray,
-                     vel: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.bool_]]:
-        """``(forces (m,), unit vectors (m, 3), lengths (m,), taut (m,))``; forces include dampers."""
-        h = coords[self.b] - coords[self.a]
-        lengths = np.sqrt(np.einsum("ij,ij->i", h, h))
-        u = h / lengths[:, None]
-        l0 = self.rest_lengths(t)
-        force = self.EA * (lengths - l0) / l0
-        taut = ~(self.is_string & (lengths < l0))
-        if self.c_damp is not None:
-            rate = np.einsum("ij,ij->i", u, vel[self.b] - vel[self.a])
-            force = force + self.c_damp * rate
-        return np.where(taut, force, 0.0), u, lengths, taut
-
     # -- right-hand side ------------------------------------------------------------------------
-    def generalized_force(self, t: float, x: FloatArray,
-                          v: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
-        """``(P (n_dof,), coords, arms, R, member forces)``: the generalised force of members,
-        dampers, loads and weights."""
-        coords, r, R = self.placement(x)
-        vel = self.velocities(v, r)
-        force, u, _, _ = self.member_state(t, coords, vel)
-        ft = force[:, None] * u
-        f = group_sum(np.concatenate([self.a, self.b]), np.concatenate([ft, -ft]), len(coords))
-        if self.external is not None:
-            f = f + self.external
-        P = np.empty(self.n)
-        P[:self.n_free] = f[self.free_nodes, self.free_axes]
-        if self.nb:
-            fo = f[self.masses.on]
-            FM = group_sum(self.masses.slot, np.concatenate([fo, cross(r, fo)], axis=1), self.nb)
-            P[self.lay.body_dof[:, None] + np.arange(6)[None, :]] = FM
-        return P, coords, r, R, force
-
-    def body_matrices(self, R: FloatArray,
-                      v: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
-        """Per moving body: the 6 x 6 mass matrices and the velocity terms (nb, 6)."""
-        ms = self.masses
-        s = np.einsum("kij,kj->ki", R, ms.s_body)
-        Ic = R @ ms.I_body @ np.swapaxes(R, 1, 2)
-        Mb = np.zeros((self.nb, 6, 6))
-        Mb[:, :3, :3] = ms.body[:, None, None] * np.eye(3)
-        Mb[:, :3, 3:] = -hat(s)
-        Mb[:, 3:, :3] = hat(s)
-        Mb[:, 3:, 3:] = Ic
-        w = v[self.lay.body_dof[:, None] + 3 + np.arange(3)[None, :]]
-        gyro = np.concatenate([cross(w, cross(w, s)), cross(w, np.einsum("kij,kj->ki", Ic, w))], axis=1)
-        return Mb, gyro, s, Ic, w
-
-    def accelerations(self, t: float, x: FloatArray, v: FloatArray) -> FloatArray:
-        P, _, _, R, _ = self.generalized_force(t, x, v)
-        a = np.empty(self.n)
-        a[:self.n_free] = P[:self.n_free] / self.masses.free
-        if self.nb:
-            Mb, gyro, _, _, _ = self.body_matrices(R, v)
-            cols = self.lay.body_dof[:, None] + np.arange(6)[None, :]
-            a[cols] = np.linalg.solve(Mb, (P[cols] - gyro)[..., None])[..., 0]
-        return a
-
     def fun(self, t: float, y: FloatArray) -> FloatArray:
-        n = self.n
-        x, v = y[:n], y[n:]
-        a = self.accelerations(t, x, v)
-        xdot = v.copy()
-        if self.nb:
-            rot = self.lay.body_dof[:, None] + 3 + np.arange(3)[None, :]
-            xdot[rot] = np.einsum("kij,kj->ki", left_jacobian_inverse(x[rot]), v[rot])
-        return np.concatenate([xdot, a])
+        """``dy/dt`` at ``(t, y)`` (the kernels of :attr:`evaluator`)."""
+        return self.evaluator.derivative(np.asarray(y, dtype=float), self.R_ref, self.rest_lengths(t))
+
+    def evaluate(self, t: ArrayLike, y: ArrayLike) -> Evaluation:
+        """The states ``y`` (B, 2 n_dof) at times ``t`` (B,) [s] evaluated at once (in this
+        model's charts and input laws): rates, node positions, member lengths and forces."""
+        ts = np.atleast_1d(np.asarray(t, dtype=float))
+        Y = np.atleast_2d(np.asarray(y, dtype=float))
+        l0 = np.stack([self.rest_lengths(float(tk)) for tk in ts]) if self.rest_lengths_of is not None \
+            else np.broadcast_to(self.structure.rest_lengths, (len(ts), self.structure.n_members))
+        return self.evaluator.evaluate(Y, np.broadcast_to(self.R_ref, (len(ts),) + self.R_ref.shape), l0)
 
     # -- Jacobian --------------------------------------------------------------------------------
-    def statics_twin(self, t: float) -> Structure:
-        """The same members (current rest lengths), loads and weights as a static structure."""
-        return self._twin if self._twin is not None else self._statics_twin(t)
-
-    def _statics_twin(self, t: float) -> Structure:
-        s = self.structure
-        loads = np.zeros((s.n_nodes, 3)) if self.external is None else self.external
-        twin = s.replace(rest_lengths=np.asarray(self.rest_lengths(t), dtype=float), loads=loads,
-                         node_masses=np.zeros(s.n_nodes), member_masses=np.zeros(s.n_members),
-                         gravity=np.zeros(3),
-                         bodies=tuple(b.__class__(b.name, b.nodes, 0.0, b.fixed) for b in s.bodies))
-        return twin
-
-    def configuration(self, x: FloatArray, twin: Structure) -> Configuration:
-        coords, _, R = self.placement(x)
-        centres = x[self.lay.body_dof[:, None] + np.arange(3)[None, :]] if self.nb else np.zeros((0, 3))
-        return Configuration(twin, coords, centres, R)
-
     def jac(self, t: float, y: FloatArray) -> Any:
         """The Jacobian ``d(dy/dt)/dy`` as a scipy.sparse CSC matrix (untyped: Any; see the module docstring)."""
-        n = self.n
-        x, v = y[:n], y[n:]
-        twin = self.statics_twin(t)
-        config = self.configuration(x, twin)
-        K = tangent_stiffness(twin, config, sparse=True)
-        chart = sp.identity(n, format="lil")
-        Tinv = sp.identity(n, format="lil")
-        if self.nb:
-            rot = self.lay.body_dof[:, None] + 3 + np.arange(3)[None, :]
-            Jl = left_jacobian(x[rot])
-            Jli = left_jacobian_inverse(x[rot])
-            for k in range(self.nb):
-                idx = rot[k]
-                chart[np.ix_(idx, idx)] = Jl[k]
-                Tinv[np.ix_(idx, idx)] = Jli[k]
-        D = sp.csr_matrix((n, n))
-        if self.c_damp is not None:
-            coords = config.coords
-            A = equilibrium_matrix(twin, config, sparse=True)
-            _, _, _, taut = self.member_state(t, coords, np.zeros_like(coords))
-            D = A @ sp.diags(np.where(taut, self.c_damp, 0.0)) @ A.T
-        Minv, G = self._inverse_mass_and_gyro(x, v)
-        Jxv = Tinv.tocsr()
-        Jvx = -(Minv @ K @ chart.tocsr())
-        Jvv = -(Minv @ (D + G))
-        return sp.bmat([[None, Jxv], [Jvx, Jvv]], format="csc")
-
-    def _inverse_mass_and_gyro(self, x: FloatArray, v: FloatArray) -> tuple[Any, Any]:
-        """``(M^-1, G_gyro)`` as scipy.sparse CSR matrices (untyped: Any)."""
-        n = self.n
-        blocks_inv = sp.lil_matrix((n, n))
-        G = sp.lil_matrix((n, n))
-        diag = np.zeros(n)
-        diag[:self.n_free] = 1.0 / self.masses.free
-        blocks_inv.setdiag(diag)
-        if self.nb:
-            _, _, R = self.placement(x)
-            Mb, _, s, Ic, w = self.body_matrices(R, v)
-            Mbi = np.linalg.inv(Mb)
-            for k in range(self.nb):
-                idx = self.lay.body_dof[k] + np.arange(6)
-                blocks_inv[np.ix_(idx, idx)] = Mbi[k]
-                # d/domega of [omega x (omega x s); omega x (I omega)]
-                g = np.zeros((6, 6))
-                ws = cross(w[k], s[k])
-                g[:3, 3:] = -hat(ws) - hat(w[k]) @ hat(s[k])
-                g[3:, 3:] = hat(w[k]) @ Ic[k] - hat(Ic[k] @ w[k])
-                G[np.ix_(idx, idx)] = g
-        return blocks_inv.tocsr(), G.tocsr()
+        return self.evaluator.jacobian(np.asarray(y, dtype=float), self.R_ref, self.rest_lengths(t))
 
     # -- stepper hooks ------------------------------------------------------------------------------
     def events(self) -> list[StateEvent]:
@@ -369,11 +224,41 @@ class GeneralSystem:
         y[rot[big]] = 0.0
         return y, self.with_chart(R_ref)
 
-    def kinetic_energy(self, x: FloatArray, v: FloatArray) -> float:
-        T = 0.5 * float(np.sum(self.masses.free * v[:self.n_free] ** 2))
+    def observe(self, t: ArrayLike, y: ArrayLike) -> dict[str, FloatArray]:
+        """What the back end reports of states ``y`` (B, 2 n_dof) at times ``t`` (B,) [s] in
+        this model's charts and laws, each (B, ...): ``q`` (rotation vectors from the drawing),
+        ``qdot``, ``applied_forces`` (actuators' rest lengths [m]), ``nodes`` [m],
+        ``member_lengths`` [m], ``member_forces`` [N], ``potential_energy`` and
+        ``kinetic_energy`` [J]."""
+        ts = np.atleast_1d(np.asarray(t, dtype=float))
+        Y = np.atleast_2d(np.asarray(y, dtype=float))
+        n, B = self.n, len(ts)
+        ev = self.evaluate(ts, Y)
+        l0 = np.stack([self.rest_lengths(float(tk)) for tk in ts])
+        stretch = ev.lengths - l0
+        taut = ~(self.is_string & (stretch < 0.0))
+        strain = 0.5 * np.sum(np.where(taut, self.EA * stretch**2 / l0, 0.0), axis=1)
+        work = np.zeros(B) if self.external is None else np.einsum("bki,ki->b", ev.positions, self.external)
+        q = Y[:, :n].copy()
         if self.nb:
-            _, _, R = self.placement(x)
-            Mb, _, _, _, _ = self.body_matrices(R, v)
-            vb = v[self.lay.body_dof[:, None] + np.arange(6)[None, :]]
-            T += 0.5 * float(np.einsum("ki,kij,kj->", vb, Mb, vb))
+            rot = self.lay.body_dof[:, None] + 3 + np.arange(3)[None, :]
+            q[:, rot] = Rotation.from_matrix(ev.rotations.reshape(-1, 3, 3)).as_rotvec().reshape(B, self.nb, 3)
+        return {"q": q, "qdot": Y[:, n:].copy(), "applied_forces": l0[:, self.actuators],
+                "nodes": ev.positions, "member_lengths": ev.lengths, "member_forces": ev.forces,
+                "potential_energy": strain - work, "kinetic_energy": self.kinetic_energy(Y, ev.rotations)}
+
+    def kinetic_energy(self, y: FloatArray, R: FloatArray) -> FloatArray:
+        """Kinetic energy [J] (B,) of states ``y`` (B, 2 n_dof) whose bodies have rotations
+        ``R`` (B, nb, 3, 3): ``1/2 sum m v^2`` of the free coordinates plus, per body,
+        ``1/2 (m |v_c|^2 + 2 v_c . (w x s) + w . I_c w)``."""
+        n = self.n
+        v = y[:, n:]
+        T: FloatArray = 0.5 * np.sum(self.masses.free * v[:, :self.n_free] ** 2, axis=1)
+        if self.nb:
+            cols = self.lay.body_dof[:, None] + np.arange(3)[None, :]
+            vc, w = v[:, cols], v[:, cols + 3]
+            s = np.einsum("bkij,kj->bki", R, self.masses.s_body)
+            Iw = np.einsum("bkij,kjl,bkml,bkm->bki", R, self.masses.I_body, R, w)
+            T = T + 0.5 * np.sum(self.masses.body * np.sum(vc * vc, axis=2)
+                                 + 2.0 * np.sum(vc * cross(w, s), axis=2) + np.sum(w * Iw, axis=2), axis=1)
         return T

@@ -1,0 +1,284 @@
+"""The kernels of :mod:`.loops` written with numpy arrays: the same numbers to rounding, numpy alone.
+
+Used where numba is not installed or not wanted (:mod:`.jit`). Every function works on a
+batch of states at once (the leading axis ``B``), so its per-call cost of numpy on small
+arrays is shared by the batch. Arguments and results are those of the loop kernels of the
+same name; the formulas are the same, in the same order where rounding could tell.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tensegrity_core.sim.general.kernels.loops import SMALL_ANGLE
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+BoolArray = NDArray[np.bool_]
+
+
+def cross(a: FloatArray, b: FloatArray) -> FloatArray:
+    """``a x b`` over the last axis (numpy's ``cross`` costs ~20 us per call in overhead)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], -1)
+
+
+def rotations(theta: FloatArray) -> FloatArray:
+    """``exp(hat(theta))`` (..., 3, 3) for rotation vectors (..., 3) [rad], as :func:`.loops.rotate`."""
+    t0, t1, t2 = theta[..., 0], theta[..., 1], theta[..., 2]
+    a2 = t0 * t0 + t1 * t1 + t2 * t2
+    small = a2 < SMALL_ANGLE * SMALL_ANGLE
+    a = np.sqrt(np.where(small, 1.0, a2))
+    s = np.where(small, 1.0 - a2 / 6.0 + a2 * a2 / 120.0, np.sin(a) / a)
+    c = np.where(small, 0.5 - a2 / 24.0 + a2 * a2 / 720.0, (1.0 - np.cos(a)) / np.where(small, 1.0, a2))
+    E = np.empty(theta.shape + (3,))
+    E[..., 0, 0] = 1.0 + c * (t0 * t0 - a2)
+    E[..., 0, 1] = -s * t2 + c * t0 * t1
+    E[..., 0, 2] = s * t1 + c * t0 * t2
+    E[..., 1, 0] = s * t2 + c * t1 * t0
+    E[..., 1, 1] = 1.0 + c * (t1 * t1 - a2)
+    E[..., 1, 2] = -s * t0 + c * t1 * t2
+    E[..., 2, 0] = -s * t1 + c * t2 * t0
+    E[..., 2, 1] = s * t0 + c * t2 * t1
+    E[..., 2, 2] = 1.0 + c * (t2 * t2 - a2)
+    return E
+
+
+def chart_rate_coefficient(a2: FloatArray) -> FloatArray:
+    """:func:`.loops.chart_rate_coefficient` over an array of ``|theta|^2``."""
+    small = a2 < SMALL_ANGLE * SMALL_ANGLE
+    a = np.sqrt(np.where(small, 1.0, a2))
+    k: FloatArray = np.where(small, 1.0 / 12.0 + a2 / 720.0,
+                             1.0 / np.where(small, 1.0, a2) - (1.0 + np.cos(a)) / (2.0 * a * np.sin(a)))
+    return k
+
+
+def _apply(M: FloatArray, v: FloatArray) -> FloatArray:
+    """``M v`` over leading axes (M (..., 3, 3), v (..., 3))."""
+    return M[..., 0] * v[..., 0, None] + M[..., 1] * v[..., 1, None] + M[..., 2] * v[..., 2, None]
+
+
+def _apply_transpose(M: FloatArray, v: FloatArray) -> FloatArray:
+    """``M^T v`` over leading axes."""
+    return M[..., 0, :] * v[..., 0, None] + M[..., 1, :] * v[..., 1, None] + M[..., 2, :] * v[..., 2, None]
+
+
+def scatter(index: IntArray, values: FloatArray, n: int) -> FloatArray:
+    """``out[:, j] = sum of values[:, i] with index[i] == j`` for values (B, k, 3) -> (B, n, 3)."""
+    B, k = values.shape[:2]
+    flat = (np.arange(B)[:, None] * n + index[None, :]).ravel()
+    v = values.reshape(B * k, 3)
+    out: FloatArray = np.stack([np.bincount(flat, weights=v[:, j], minlength=B * n) for j in range(3)], axis=1)
+    return out.reshape(B, n, 3)
+
+
+def place(base: FloatArray, free_node: IntArray, free_axis: IntArray, on_node: IntArray, on_body: IntArray,
+          on_offset: FloatArray, body_dof: IntArray, y: FloatArray, R_ref: FloatArray,
+          X: FloatArray, V: FloatArray, R: FloatArray) -> FloatArray:
+    """Fills ``X``, ``V`` (B, n, 3) and ``R`` (B, nb, 3, 3) of states ``y`` (B, 2 n_dof);
+    returns the arms ``r`` (B, n_on, 3)."""
+    n_dof = y.shape[1] // 2
+    n_free = len(free_node)
+    X[...] = base
+    V[...] = 0.0
+    X[:, free_node, free_axis] = y[:, :n_free]
+    V[:, free_node, free_axis] = y[:, n_dof:n_dof + n_free]
+    if not len(body_dof):
+        return np.zeros((len(y), 0, 3))
+    three = np.arange(3)
+    R[...] = rotations(y[:, body_dof[:, None] + 3 + three]) @ R_ref
+    Ron = R[:, on_body]
+    r = _apply(Ron, np.broadcast_to(on_offset, Ron.shape[:-1]))
+    cols = body_dof[on_body][:, None] + three
+    X[:, on_node] = y[:, cols] + r
+    V[:, on_node] = y[:, n_dof + cols] + cross(y[:, n_dof + 3 + cols], r)
+    return r
+
+
+def member_forces(member_a: IntArray, member_b: IntArray, EA: FloatArray, damping: FloatArray,
+                  is_string: BoolArray, l0: FloatArray, X: FloatArray, V: FloatArray,
+                  lengths: FloatArray, forces: FloatArray) -> FloatArray:
+    """:func:`.loops.member_forces` of a batch; returns the nodal forces (B, n, 3) of the members."""
+    h = X[:, member_b] - X[:, member_a]
+    lengths[...] = np.sqrt(h[..., 0] * h[..., 0] + h[..., 1] * h[..., 1] + h[..., 2] * h[..., 2])
+    u = h / lengths[..., None]
+    dv = V[:, member_b] - V[:, member_a]
+    rate = u[..., 0] * dv[..., 0] + u[..., 1] * dv[..., 1] + u[..., 2] * dv[..., 2]
+    t = EA * (lengths - l0) / l0 + damping * rate
+    forces[...] = np.where(is_string & (lengths < l0), 0.0, t)
+    ft = forces[..., None] * u
+    n = X.shape[1]
+    return scatter(np.concatenate([member_a, member_b]), np.concatenate([ft, -ft], axis=1), n)
+
+
+def accelerate(free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray, on_node: IntArray,
+               on_body: IntArray, body_dof: IntArray, body_mass: FloatArray, body_first_moment: FloatArray,
+               body_inertia: FloatArray, body_inv_inertia_cm: FloatArray, y: FloatArray, R: FloatArray,
+               r: FloatArray, F: FloatArray, out: FloatArray) -> None:
+    """:func:`.loops.accelerate` of a batch (``F`` (B, n, 3) the nodal forces)."""
+    n_dof = y.shape[1] // 2
+    n_free = len(free_node)
+    out[:, :n_free] = y[:, n_dof:n_dof + n_free]
+    out[:, n_dof:n_dof + n_free] = F[:, free_node, free_axis] * free_inv_mass
+    nb = len(body_dof)
+    if not nb:
+        return
+    f = F[:, on_node]
+    wrench = np.concatenate([scatter(on_body, f, nb), scatter(on_body, cross(r, f), nb)], axis=2)
+    three = np.arange(3)
+    cols = body_dof[:, None] + three                                   # (nb, 3) centre columns
+    s = _apply(R, np.broadcast_to(body_first_moment, R.shape[:-1]))
+    w = y[:, n_dof + 3 + cols]
+    L = _apply(R, _apply(np.broadcast_to(body_inertia, R.shape), _apply_transpose(R, w)))
+    Fp = wrench[..., :3] - cross(w, cross(w, s))
+    Mp = wrench[..., 3:] - cross(w, L)
+    g = Mp - cross(s, Fp) / body_mass[:, None]
+    dw = _apply(R, _apply(np.broadcast_to(body_inv_inertia_cm, R.shape), _apply_transpose(R, g)))
+    out[:, n_dof + cols] = (Fp + cross(s, dw)) / body_mass[:, None]
+    out[:, n_dof + 3 + cols] = dw
+    theta = y[:, 3 + cols]
+    k = chart_rate_coefficient(np.sum(theta * theta, axis=-1))
+    x = cross(theta, w)
+    out[:, cols] = y[:, n_dof + cols]
+    out[:, 3 + cols] = w - 0.5 * x + k[..., None] * cross(theta, x)
+
+
+def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
+                on_node: IntArray, on_body: IntArray, on_offset: FloatArray, body_dof: IntArray,
+                body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
+                body_inv_inertia_cm: FloatArray, member_a: IntArray, member_b: IntArray, EA: FloatArray,
+                damping: FloatArray, is_string: BoolArray, external: FloatArray,
+                y: FloatArray, R_ref: FloatArray, l0: FloatArray, out: FloatArray,
+                X: FloatArray, V: FloatArray, R: FloatArray, lengths: FloatArray, forces: FloatArray) -> None:
+    """:func:`.loops.derivatives`: ``out = dy/dt`` of a batch of states, keeping ``X``, ``V``,
+    ``R``, ``lengths`` and ``forces`` per state."""
+    r = place(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, y, R_ref, X, V, R)
+    F = external + member_forces(member_a, member_b, EA, damping, is_string, l0, X, V, lengths, forces)
+    accelerate(free_node, free_axis, free_inv_mass, on_node, on_body, body_dof, body_mass, body_first_moment,
+               body_inertia, body_inv_inertia_cm, y, R, r, F, out)
+
+
+# -- Jacobian --------------------------------------------------------------------------------------
+def hat(v: FloatArray) -> FloatArray:
+    """``hat(v)`` (..., 3, 3) of vectors (..., 3): ``hat(v) b = v x b``."""
+    out = np.zeros(v.shape + (3,))
+    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
+    return out
+
+
+def chart_jacobians(theta: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """:func:`.loops.chart_jacobians` of rotation vectors (k, 3): ``(J_l, J_l^-1)`` (k, 3, 3)."""
+    a2 = np.sum(theta * theta, axis=-1)
+    small = a2 < SMALL_ANGLE * SMALL_ANGLE
+    safe = np.where(small, 1.0, a2)
+    a = np.sqrt(safe)
+    c1 = np.where(small, 0.5 - a2 / 24.0, (1.0 - np.cos(a)) / safe)
+    c2 = np.where(small, 1.0 / 6.0 - a2 / 120.0, (a - np.sin(a)) / (safe * a))
+    k = chart_rate_coefficient(a2)
+    K = hat(theta)
+    K2 = theta[..., :, None] * theta[..., None, :] - a2[..., None, None] * np.eye(3)
+    eye = np.eye(3)
+    Jl = eye + c1[..., None, None] * K + c2[..., None, None] * K2
+    Jl_inv = eye - 0.5 * K + k[..., None, None] * K2
+    return Jl, Jl_inv
+
+
+def group_matrices(free_inv_mass: FloatArray, body_dof: IntArray, body_mass: FloatArray,
+                   body_first_moment: FloatArray, body_inertia: FloatArray, body_inv_inertia_cm: FloatArray,
+                   group_dofs: IntArray, group_size: IntArray, group_body: IntArray, y: FloatArray, R: FloatArray,
+                   M_inv: FloatArray, chart: FloatArray, T: FloatArray, gyro: FloatArray) -> None:
+    """:func:`.loops.group_matrices` with numpy arrays."""
+    n_dof = y.shape[0] // 2
+    for out in (M_inv, chart, T, gyro):
+        out[...] = 0.0
+    free = group_body < 0
+    six = np.arange(6)
+    used = six[None, :] < group_size[:, None]
+    g_free, k_free = np.nonzero(free[:, None] & used)
+    M_inv[g_free, k_free, k_free] = free_inv_mass[group_dofs[g_free, k_free]]
+    chart[g_free, k_free, k_free] = 1.0
+    T[g_free, k_free, k_free] = 1.0
+    gb = np.flatnonzero(~free)
+    if not gb.size:
+        return
+    b = group_body[gb]
+    Rb = R[b]
+    Rt = np.swapaxes(Rb, 1, 2)
+    m = body_mass[b][:, None, None]
+    s = _apply(Rb, body_first_moment[b])
+    W = Rb @ body_inv_inertia_cm[b] @ Rt
+    Ic = Rb @ body_inertia[b] @ Rt
+    S = hat(s)
+    SW = S @ W
+    M_inv[gb, :3, :3] = np.eye(3) / m - (SW @ S) / (m * m)
+    M_inv[gb, :3, 3:] = SW / m
+    M_inv[gb, 3:, :3] = -(W @ S) / m
+    M_inv[gb, 3:, 3:] = W
+    theta = y[body_dof[b][:, None] + 3 + np.arange(3)]
+    Jl, Jl_inv = chart_jacobians(theta)
+    three = np.arange(3)
+    chart[gb[:, None], three, three] = 1.0
+    T[gb[:, None], three, three] = 1.0
+    chart[gb, 3:, 3:] = Jl
+    T[gb, 3:, 3:] = Jl_inv
+    w = y[n_dof + body_dof[b][:, None] + 3 + np.arange(3)]
+    Hw = hat(w)
+    gyro[gb, :3, 3:] = -hat(cross(w, s)) - Hw @ S
+    gyro[gb, 3:, 3:] = Hw @ Ic - hat(_apply(Ic, w))
+
+
+def jacobian_blocks(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
+                    on_node: IntArray, on_body: IntArray, on_offset: FloatArray, body_dof: IntArray,
+                    body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
+                    body_inv_inertia_cm: FloatArray, member_a: IntArray, member_b: IntArray, EA: FloatArray,
+                    damping: FloatArray, is_string: BoolArray, external: FloatArray,
+                    group_dofs: IntArray, group_size: IntArray, group_body: IntArray, node_group: IntArray,
+                    node_selection: FloatArray, member_blocks: IntArray, diagonal_block: IntArray,
+                    block_rows: IntArray, block_cols: IntArray,
+                    y: FloatArray, R_ref: FloatArray, l0: FloatArray,
+                    T: FloatArray, position: FloatArray, velocity: FloatArray) -> None:
+    """:func:`.loops.jacobian_blocks` with numpy arrays."""
+    n = base.shape[0]
+    X, V = np.empty((1, n, 3)), np.empty((1, n, 3))
+    R = np.empty((1, len(body_dof), 3, 3))
+    r = place(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, y[None], R_ref[None], X, V, R)[0]
+    X, R = X[0], R[0]
+    h = X[member_b] - X[member_a]
+    length = np.sqrt(np.sum(h * h, axis=1))
+    taut = ~(is_string & (length < l0))
+    u = h / length[:, None]
+    t = np.where(taut, EA * (length - l0) / l0, 0.0)
+    ft = t[:, None] * u
+    f_el = external + scatter(np.concatenate([member_a, member_b]), np.concatenate([ft, -ft])[None], n)[0]
+    uu = u[:, :, None] * u[:, None, :]
+    kmat = np.where(taut, EA / l0, 0.0)[:, None, None] * uu + (t / length)[:, None, None] * (np.eye(3) - uu)
+    dmat = np.where(taut, damping, 0.0)[:, None, None] * uu
+    Gn = node_selection.copy()
+    Gn[on_node] = 0.0
+    Gn[on_node, :, :3] = np.eye(3)
+    Gn[on_node, :, 3:] = -hat(r)
+    Ga, Gb = Gn[member_a], Gn[member_b]
+    K = np.zeros(position.shape)
+    D = np.zeros(position.shape)
+    for slot, (left, right, sign) in enumerate(((Ga, Ga, 1.0), (Ga, Gb, -1.0), (Gb, Ga, -1.0), (Gb, Gb, 1.0))):
+        keep = (member_blocks[:, slot] >= 0) & taut
+        lt = np.swapaxes(left[keep], 1, 2)
+        np.add.at(K, member_blocks[keep, slot], sign * (lt @ (kmat[keep] @ right[keep])))
+        np.add.at(D, member_blocks[keep, slot], sign * (lt @ (dmat[keep] @ right[keep])))
+    g = -f_el[on_node]
+    gr = np.sum(g * r, axis=1)
+    S = 0.5 * (g[:, :, None] * r[:, None, :] + r[:, :, None] * g[:, None, :]) - gr[:, None, None] * np.eye(3)
+    K_rot = np.zeros((len(K), 3, 3))
+    np.add.at(K_rot, diagonal_block[node_group[on_node]], S)
+    K[:, 3:, 3:] += K_rot
+    G = len(group_size)
+    M_inv, chart, gyro = np.empty((G, 6, 6)), np.empty((G, 6, 6)), np.empty((G, 6, 6))
+    group_matrices(free_inv_mass, body_dof, body_mass, body_first_moment, body_inertia, body_inv_inertia_cm,
+                   group_dofs, group_size, group_body, y, R, M_inv, chart, T, gyro)
+    position[...] = -(M_inv[block_rows] @ K @ chart[block_cols])
+    own = (block_rows == block_cols)[:, None, None]
+    velocity[...] = -(M_inv[block_rows] @ (D + np.where(own, gyro[block_rows], 0.0)))
