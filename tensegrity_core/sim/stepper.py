@@ -42,6 +42,7 @@ from scipy.optimize import brentq
 
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.events import EventKind, LoggedEvent
+from tensegrity_core.sim import integrators
 from tensegrity_core.sim.errors import SimulationError, check_advance_target
 
 FloatArray = NDArray[np.float64]
@@ -49,7 +50,10 @@ FloatArray = NDArray[np.float64]
 Jacobian = Callable[[float, FloatArray], Any]
 
 SOLVERS: dict[str, type[OdeSolver]] = {"RK23": RK23, "RK45": RK45, "DOP853": DOP853, "Radau": Radau, "BDF": BDF,
-                                       "LSODA": LSODA}
+                                       "LSODA": LSODA, "RK4": integrators.RK4}
+#: Solvers that run a whole step in one call of a system's compiled ``stages`` where the
+#: system offers them (:mod:`tensegrity_core.sim.integrators`; the general models with numba).
+COMPILED_SOLVERS: dict[str, type[OdeSolver]] = {"RK4": integrators.RK4, "DOP853": integrators.DOP853}
 #: Methods that use a Jacobian.
 IMPLICIT = ("Radau", "BDF", "LSODA")
 #: Methods that choose their own first step after a restart: LSODA restarts in its
@@ -86,7 +90,9 @@ class OdeSystem(Protocol):
     returns the state to restart from with the system of the new discrete state;
     ``after_step`` may re-chart the coordinates after an accepted step (returning the same
     pair) or return None; ``next_breakpoint(t)`` is the first time after ``t`` where an input
-    law is not smooth (the solver restarts there)."""
+    law is not smooth (the solver restarts there). A system may also offer ``stages``
+    (:class:`~tensegrity_core.sim.integrators.Stages`, or None): whole steps in compiled
+    code, which the methods of :data:`COMPILED_SOLVERS` then use."""
 
     @property
     def mode(self) -> frozenset[int]: ...
@@ -239,7 +245,12 @@ class Stepper(Generic[Sys]):
         options: dict[str, Any] = dict(self.options)
         if self.method in IMPLICIT and system.jac is not None:
             options["jac"] = _dense_jacobian(system.jac) if self.method == "LSODA" else system.jac
-        solver = SOLVERS[self.method](system.fun, t0, y0, bound, first_step=first, **options)
+        cls = SOLVERS[self.method]
+        stages = getattr(system, "stages", None)      # optional: see OdeSystem
+        if stages is not None and self.method in COMPILED_SOLVERS:
+            cls = COMPILED_SOLVERS[self.method]
+            options["stages"] = stages
+        solver = cls(system.fun, t0, y0, bound, first_step=first, **options)
         self.solver = solver
         return solver
 

@@ -63,6 +63,7 @@ from tensegrity_core.sim.errors import SceneError
 from tensegrity_core.sim.general.kernels.arrays import cross
 from tensegrity_core.sim.general.kernels.evaluator import Evaluation, Evaluator
 from tensegrity_core.sim.general.kernels.plan import build_plan
+from tensegrity_core.sim.general.kernels.stages import CompiledStages
 from tensegrity_core.sim.inputs import Law, next_breakpoint
 from tensegrity_core.sim.stepper import StateEvent
 
@@ -192,6 +193,14 @@ class GeneralSystem:
         l0 = np.stack([self.rest_lengths(float(tk)) for tk in ts]) if self.rest_lengths_of is not None \
             else np.broadcast_to(self.structure.rest_lengths, (len(ts), self.structure.n_members))
         return self.evaluator.evaluate(Y, np.broadcast_to(self.R_ref, (len(ts),) + self.R_ref.shape), l0)
+
+    @property
+    def stages(self) -> CompiledStages | None:
+        """Whole compiled steps for the integrators of :mod:`tensegrity_core.sim.integrators`
+        (RK4, DOP853), or None with the numpy kernels."""
+        if self.evaluator.kernels != "numba":
+            return None
+        return CompiledStages(self.plan, self.R_ref, self.rest_lengths, self.rest_lengths_of is None)
 
     # -- Jacobian --------------------------------------------------------------------------------
     def jac(self, t: float, y: FloatArray) -> Any:

@@ -32,8 +32,8 @@ NEEDS_INERTIA = {
     "actuator_lag": "a lagging force is a dynamic state; the quasi-static model tracks equilibrium "
                     "for the commanded forces",
 }
-#: Integration methods: scipy's solve_ivp set, and "auto".
-METHODS = ("auto", "RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA")
+#: Integration methods: scipy's solve_ivp set, fixed-step RK4 (tensegrity_core.sim.integrators) and "auto".
+METHODS = ("auto", "RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA", "RK4")
 #: Observed quantities that sensor noise may perturb.
 NOISY_QUANTITIES = ("q", "qdot", "applied_forces", "nodes", "member_lengths", "member_forces",
                     "end_effector")

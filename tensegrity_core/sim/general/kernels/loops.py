@@ -454,3 +454,105 @@ def jacobian_blocks(base: FloatArray, free_node: IntArray, free_axis: IntArray, 
             velocity[k] = -(M_inv[p] @ (D[k] + gyro[p]))
         else:
             velocity[k] = -(M_inv[p] @ D[k])
+
+
+# -- integration stages ------------------------------------------------------------------------------
+@jit
+def rk4_step(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
+             on_node: IntArray, on_body: IntArray, on_offset: FloatArray, body_dof: IntArray,
+             body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
+             body_inv_inertia_cm: FloatArray, member_a: IntArray, member_b: IntArray, EA: FloatArray,
+             damping: FloatArray, is_string: BoolArray, external: FloatArray,
+             y: FloatArray, f: FloatArray, h: float, R_ref: FloatArray, l0: FloatArray,
+             y_new: FloatArray, f_new: FloatArray) -> None:
+    """One classical Runge-Kutta step of size ``h`` [s] from ``y`` with ``f = dy/dt`` there:
+    ``y_new`` and ``f_new = dy/dt`` at the end (the next step's first stage). ``l0`` (3, m):
+    the rest lengths at ``t``, ``t + h/2`` and ``t + h``."""
+    N = y.shape[0]
+    n = base.shape[0]
+    X, V, F = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
+    R, r = np.empty((body_dof.shape[0], 3, 3)), np.empty((on_node.shape[0], 3))
+    wrench = np.empty((body_dof.shape[0], 6))
+    lengths, forces = np.empty(member_a.shape[0]), np.empty(member_a.shape[0])
+    k2, k3, k4, z = np.empty(N), np.empty(N), np.empty(N), np.empty(N)
+    for i in range(N):
+        z[i] = y[i] + 0.5 * h * f[i]
+    derivative(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
+               body_first_moment, body_inertia, body_inv_inertia_cm, member_a, member_b, EA, damping, is_string,
+               external, z, R_ref, l0[1], k2, X, V, F, R, r, wrench, lengths, forces)
+    for i in range(N):
+        z[i] = y[i] + 0.5 * h * k2[i]
+    derivative(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
+               body_first_moment, body_inertia, body_inv_inertia_cm, member_a, member_b, EA, damping, is_string,
+               external, z, R_ref, l0[1], k3, X, V, F, R, r, wrench, lengths, forces)
+    for i in range(N):
+        z[i] = y[i] + h * k3[i]
+    derivative(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
+               body_first_moment, body_inertia, body_inv_inertia_cm, member_a, member_b, EA, damping, is_string,
+               external, z, R_ref, l0[2], k4, X, V, F, R, r, wrench, lengths, forces)
+    for i in range(N):
+        y_new[i] = y[i] + h / 6.0 * (f[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+    derivative(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
+               body_first_moment, body_inertia, body_inv_inertia_cm, member_a, member_b, EA, damping, is_string,
+               external, y_new, R_ref, l0[2], f_new, X, V, F, R, r, wrench, lengths, forces)
+
+
+@jit
+def rk_stages(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
+              on_node: IntArray, on_body: IntArray, on_offset: FloatArray, body_dof: IntArray,
+              body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
+              body_inv_inertia_cm: FloatArray, member_a: IntArray, member_b: IntArray, EA: FloatArray,
+              damping: FloatArray, is_string: BoolArray, external: FloatArray,
+              y: FloatArray, h: float, R_ref: FloatArray, l0: FloatArray, A: FloatArray,
+              first: int, last: int, K: FloatArray) -> None:
+    """Stages ``first .. last - 1`` of an explicit Runge-Kutta tableau ``A``:
+    ``K[s] = f(y + h sum_j A[s, j] K[j])`` with the rest lengths ``l0[s]`` (one row per stage)."""
+    N = y.shape[0]
+    n = base.shape[0]
+    X, V, F = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
+    R, r = np.empty((body_dof.shape[0], 3, 3)), np.empty((on_node.shape[0], 3))
+    wrench = np.empty((body_dof.shape[0], 6))
+    lengths, forces = np.empty(member_a.shape[0]), np.empty(member_a.shape[0])
+    z = np.empty(N)
+    for s in range(first, last):
+        for i in range(N):
+            acc = 0.0
+            for j in range(s):
+                acc += A[s, j] * K[j, i]
+            z[i] = y[i] + h * acc
+        derivative(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
+                   body_first_moment, body_inertia, body_inv_inertia_cm, member_a, member_b, EA, damping,
+                   is_string, external, z, R_ref, l0[s], K[s], X, V, F, R, r, wrench, lengths, forces)
+
+
+@jit
+def embedded_error(y: FloatArray, y_new: FloatArray, K: FloatArray, E5: FloatArray, E3: FloatArray, h: float,
+                   rtol: float, atol: float) -> float:
+    """DOP853's error norm (Hairer, Norsett & Wanner, Solving ODEs I, Sect. II.10): with the
+    scaled 5th- and 3rd-order estimates ``e5 = sum_j E5_j K_j / sc``, ``e3`` likewise,
+    ``sc = atol + rtol max(|y|, |y_new|)``: ``|h| |e5|^2 / sqrt(N (|e5|^2 + 0.01 |e3|^2))``."""
+    N = y.shape[0]
+    s5 = 0.0
+    s3 = 0.0
+    for i in range(N):
+        sc = atol + rtol * max(abs(y[i]), abs(y_new[i]))
+        e5 = 0.0
+        e3 = 0.0
+        for j in range(E5.shape[0]):
+            e5 += E5[j] * K[j, i]
+            e3 += E3[j] * K[j, i]
+        s5 += (e5 / sc) ** 2
+        s3 += (e3 / sc) ** 2
+    if s5 == 0.0:
+        return 0.0
+    return abs(h) * s5 / math.sqrt(N * (s5 + 0.01 * s3))
+
+
+@jit
+def combine(y: FloatArray, h: float, weights: FloatArray, K: FloatArray, out: FloatArray) -> None:
+    """``out = y + h sum_j weights_j K_j`` (summed as :func:`rk_stages` sums a stage)."""
+    for i in range(y.shape[0]):
+        acc = 0.0
+        for j in range(weights.shape[0]):
+            acc += weights[j] * K[j, i]
+        out[i] = y[i] + h * acc

@@ -1,0 +1,77 @@
+"""A general model's integration steps computed whole in compiled code (:class:`~tensegrity_core.sim.integrators.Stages`).
+
+Each step is one call into :mod:`.loops` that evaluates all its stages; only the rest
+lengths at the stages' times come from Python (input laws are Python objects), one row
+per stage, and only when an actuator's law can change them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.integrate._ivp import dop853_coefficients as dop853
+
+from tensegrity_core.sim.general.kernels import loops
+from tensegrity_core.sim.general.kernels.plan import Plan
+
+FloatArray = NDArray[np.float64]
+
+#: RK4's stage times as fractions of the step (the rows of its rest lengths).
+RK4_TIMES = np.array([0.0, 0.5, 1.0])
+#: DOP853's tableau (scipy's tables of Hairer's coefficients): 12 stages, the rate at the
+#: step's end (row 12 of ``A`` is ``B``), three more for the dense output.
+A = np.ascontiguousarray(dop853.A, dtype=float)
+C = np.ascontiguousarray(dop853.C, dtype=float)
+E3 = np.ascontiguousarray(dop853.E3, dtype=float)
+E5 = np.ascontiguousarray(dop853.E5, dtype=float)
+D = np.ascontiguousarray(dop853.D, dtype=float)
+N_STAGES = dop853.N_STAGES                     # 12
+N_EXTENDED = dop853.N_STAGES_EXTENDED          # 16
+
+
+class CompiledStages:
+    """The steps of the model of ``plan`` in the charts ``R_ref`` (nb, 3, 3) with rest lengths
+    ``rest_lengths(t)`` [m] (``constant``: they do not depend on ``t``)."""
+
+    def __init__(self, plan: Plan, R_ref: FloatArray, rest_lengths: Callable[[float], FloatArray], constant: bool):
+        self.plan = plan
+        self.R_ref = np.ascontiguousarray(R_ref, dtype=float)
+        self.rest_lengths = rest_lengths
+        self.constant = constant
+        fixed = np.ascontiguousarray(rest_lengths(0.0), dtype=float)
+        self._fixed = {k: np.ascontiguousarray(np.tile(fixed, (k, 1))) for k in (len(RK4_TIMES), len(C))} \
+            if constant else None
+
+    def _lengths(self, t: float, h: float, fractions: FloatArray) -> FloatArray:
+        """(len(fractions), m) rest lengths [m] at ``t + fraction h``."""
+        if self._fixed is not None:
+            return self._fixed[len(fractions)]
+        return np.ascontiguousarray([self.rest_lengths(t + c * h) for c in fractions], dtype=float)
+
+    def rk4(self, t: float, y: FloatArray, f: FloatArray, h: float) -> tuple[FloatArray, FloatArray]:
+        y_new, f_new = np.empty_like(y), np.empty_like(y)
+        loops.rk4_step(*self.plan, y, f, h, self.R_ref, self._lengths(t, h, RK4_TIMES), y_new, f_new)
+        return y_new, f_new
+
+    def dop853(self, t: float, y: FloatArray, f: FloatArray, h: float, rtol: float,
+               atol: float) -> tuple[FloatArray, FloatArray, float]:
+        K = np.empty((N_EXTENDED, len(y)))
+        K[0] = f
+        loops.rk_stages(*self.plan, y, h, self.R_ref, self._lengths(t, h, C), A, 1, N_STAGES + 1, K)
+        y_new = np.empty_like(y)
+        loops.combine(y, h, A[N_STAGES, :N_STAGES], K, y_new)
+        error = loops.embedded_error(y, y_new, K, E5, E3, h, rtol, atol)
+        return y_new, K, float(error)
+
+    def dop853_dense(self, t: float, y: FloatArray, y_new: FloatArray, K: FloatArray, h: float) -> FloatArray:
+        loops.rk_stages(*self.plan, y, h, self.R_ref, self._lengths(t, h, C), A, N_STAGES + 1, N_EXTENDED, K)
+        # the interpolant's coefficients (Hairer's DOP853 dense output)
+        dy = y_new - y
+        F = np.empty((7, len(y)))
+        F[0] = dy
+        F[1] = h * K[0] - dy
+        F[2] = 2.0 * dy - h * (K[N_STAGES] + K[0])
+        F[3:] = h * (D @ K)
+        return F
