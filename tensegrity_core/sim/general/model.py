@@ -158,6 +158,7 @@ class GeneralSystem:
                                body_first_moments=masses.s_body, body_inertia=masses.I_body, damping=damping,
                                external=self.external)
         self.evaluator = Evaluator(self.plan, kernels)
+        self._rest_lengths = np.array(structure.rest_lengths, dtype=float)   # writable: the kernels' kind of array
 
     def with_chart(self, R_ref: ArrayLike) -> GeneralSystem:
         """The same equations with other rotation charts."""
@@ -175,9 +176,9 @@ class GeneralSystem:
         return next_breakpoint(self.laws, t, math.inf)
 
     def rest_lengths(self, t: float) -> FloatArray:
+        """The members' rest lengths [m] at ``t`` (do not modify the array)."""
         if self.rest_lengths_of is None:
-            l0: FloatArray = self.structure.rest_lengths
-            return l0
+            return self._rest_lengths
         return self.rest_lengths_of(t)
 
     # -- right-hand side ------------------------------------------------------------------------
@@ -190,8 +191,7 @@ class GeneralSystem:
         model's charts and input laws): rates, node positions, member lengths and forces."""
         ts = np.atleast_1d(np.asarray(t, dtype=float))
         Y = np.atleast_2d(np.asarray(y, dtype=float))
-        l0 = np.stack([self.rest_lengths(float(tk)) for tk in ts]) if self.rest_lengths_of is not None \
-            else np.broadcast_to(self.structure.rest_lengths, (len(ts), self.structure.n_members))
+        l0 = np.stack([self.rest_lengths(float(tk)) for tk in ts])
         return self.evaluator.evaluate(Y, np.broadcast_to(self.R_ref, (len(ts),) + self.R_ref.shape), l0)
 
     @property

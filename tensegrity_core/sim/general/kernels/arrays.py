@@ -145,6 +145,23 @@ def accelerate(free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArr
     out[:, 3 + cols] = w - 0.5 * x + k[..., None] * cross(theta, x)
 
 
+def rate(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
+         on_node: IntArray, on_body: IntArray, on_offset: FloatArray, body_dof: IntArray,
+         body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
+         body_inv_inertia_cm: FloatArray, member_a: IntArray, member_b: IntArray, EA: FloatArray,
+         damping: FloatArray, is_string: BoolArray, external: FloatArray,
+         y: FloatArray, R_ref: FloatArray, l0: FloatArray) -> FloatArray:
+    """:func:`.loops.rate`: ``dy/dt`` of one state."""
+    n, nb, m = base.shape[0], body_dof.shape[0], member_a.shape[0]
+    out = np.empty((1, y.shape[0]))
+    derivatives(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
+                body_first_moment, body_inertia, body_inv_inertia_cm, member_a, member_b, EA, damping, is_string,
+                external, y[None], R_ref[None], l0[None], out, np.empty((1, n, 3)), np.empty((1, n, 3)),
+                np.empty((1, nb, 3, 3)), np.empty((1, m)), np.empty((1, m)))
+    ydot: FloatArray = out[0]
+    return ydot
+
+
 def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
                 on_node: IntArray, on_body: IntArray, on_offset: FloatArray, body_dof: IntArray,
                 body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,

@@ -13,7 +13,7 @@ from types import ModuleType
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.sim.general.kernels import arrays, loops
 from tensegrity_core.sim.general.kernels.jit import choose_kernels
@@ -21,6 +21,14 @@ from tensegrity_core.sim.general.kernels.pattern import JacobianPattern
 from tensegrity_core.sim.general.kernels.plan import Plan
 
 FloatArray = NDArray[np.float64]
+
+
+def _arg(a: ArrayLike) -> FloatArray:
+    """``a`` as a writable C-ordered float64 array (copied only if it is not one): the
+    compiled kernels are compiled once, for that kind of array."""
+    if isinstance(a, np.ndarray) and a.dtype == np.float64 and a.flags.c_contiguous and a.flags.writeable:
+        return a
+    return np.array(a, dtype=np.float64, order="C")
 
 
 @dataclass(frozen=True)
@@ -57,14 +65,13 @@ class Evaluator:
         X, V = np.empty((B, n, 3)), np.empty((B, n, 3))
         R = np.empty((B, nb, 3, 3))
         lengths, forces = np.empty((B, m)), np.empty((B, m))
-        self._module.derivatives(*plan, np.ascontiguousarray(y, dtype=float), np.ascontiguousarray(R_ref, dtype=float),
-                                 np.ascontiguousarray(l0, dtype=float), out, X, V, R, lengths, forces)
+        self._module.derivatives(*plan, _arg(y), _arg(R_ref), _arg(l0), out, X, V, R, lengths, forces)
         return Evaluation(out, X, V, R, lengths, forces)
 
     def derivative(self, y: FloatArray, R_ref: FloatArray, l0: FloatArray) -> FloatArray:
         """``dy/dt`` (2 n_dof,) of one state ``y`` in the charts ``R_ref`` (nb, 3, 3) with rest
         lengths ``l0`` (m,)."""
-        ydot: FloatArray = self.evaluate(y[None], R_ref[None], l0[None]).derivative[0]
+        ydot: FloatArray = self._module.rate(*self.plan, _arg(y), _arg(R_ref), _arg(l0))
         return ydot
 
     @cached_property
@@ -82,8 +89,6 @@ class Evaluator:
         position, velocity = np.empty((pat.n_blocks, 6, 6)), np.empty((pat.n_blocks, 6, 6))
         self._module.jacobian_blocks(*self.plan, pat.group_dofs, pat.group_size, pat.group_body, pat.node_group,
                                      pat.node_selection, pat.member_blocks, pat.diagonal_block, pat.block_rows,
-                                     pat.block_cols, np.ascontiguousarray(y, dtype=float),
-                                     np.ascontiguousarray(R_ref, dtype=float), np.ascontiguousarray(l0, dtype=float),
-                                     T, position, velocity)
+                                     pat.block_cols, _arg(y), _arg(R_ref), _arg(l0), T, position, velocity)
         values = np.concatenate([T.ravel(), position.ravel(), velocity.ravel()])
         return pat.matrix(values[pat.source])

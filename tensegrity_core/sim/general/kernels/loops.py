@@ -248,6 +248,25 @@ def derivative(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_
 
 
 @jit
+def rate(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
+         on_node: IntArray, on_body: IntArray, on_offset: FloatArray, body_dof: IntArray,
+         body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
+         body_inv_inertia_cm: FloatArray, member_a: IntArray, member_b: IntArray, EA: FloatArray,
+         damping: FloatArray, is_string: BoolArray, external: FloatArray,
+         y: FloatArray, R_ref: FloatArray, l0: FloatArray) -> FloatArray:
+    """:func:`derivative` of one state, returning ``dy/dt`` (the work arrays allocated here:
+    the cheapest call from Python, e.g. for scipy's solvers)."""
+    n, nb, m = base.shape[0], body_dof.shape[0], member_a.shape[0]
+    out = np.empty(y.shape[0])
+    derivative(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
+               body_first_moment, body_inertia, body_inv_inertia_cm, member_a, member_b, EA, damping, is_string,
+               external, y, R_ref, l0, out, np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)),
+               np.empty((nb, 3, 3)), np.empty((on_node.shape[0], 3)), np.empty((nb, 6)), np.empty(m),
+               np.empty(m))
+    return out
+
+
+@jit
 def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
                 on_node: IntArray, on_body: IntArray, on_offset: FloatArray, body_dof: IntArray,
                 body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
@@ -300,24 +319,55 @@ def hat_into(v0: float, v1: float, v2: float, out: FloatArray) -> None:
 
 
 @jit
+def multiply(A: FloatArray, B: FloatArray, out: FloatArray) -> None:
+    """``out = A B`` for small matrices (explicit loops: numba's BLAS path costs compile time
+    and call overhead on 3 x 3 and 6 x 6)."""
+    for i in range(A.shape[0]):
+        for j in range(B.shape[1]):
+            acc = 0.0
+            for k in range(A.shape[1]):
+                acc += A[i, k] * B[k, j]
+            out[i, j] = acc
+
+
+@jit
+def multiply_transposed(A: FloatArray, B: FloatArray, out: FloatArray) -> None:
+    """``out = A^T B`` for small matrices."""
+    for i in range(A.shape[1]):
+        for j in range(B.shape[1]):
+            acc = 0.0
+            for k in range(A.shape[0]):
+                acc += A[k, i] * B[k, j]
+            out[i, j] = acc
+
+
+@jit
+def rotate_tensor(R: FloatArray, T: FloatArray, out: FloatArray, work: FloatArray) -> None:
+    """``out = R T R^T`` (3 x 3)."""
+    multiply(R, T, work)
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = work[i, 0] * R[j, 0] + work[i, 1] * R[j, 1] + work[i, 2] * R[j, 2]
+
+
+@jit
 def group_matrices(free_inv_mass: FloatArray, body_dof: IntArray, body_mass: FloatArray,
                    body_first_moment: FloatArray, body_inertia: FloatArray, body_inv_inertia_cm: FloatArray,
                    group_dofs: IntArray, group_size: IntArray, group_body: IntArray, y: FloatArray, R: FloatArray,
                    M_inv: FloatArray, chart: FloatArray, T: FloatArray, gyro: FloatArray) -> None:
     """Per group (G, 6, 6, zero padded): the inverse mass ``M_inv``, ``chart`` = ``d(x
     increment)/dx`` = blockdiag(I, J_l), ``T`` = ``d(dx/dt)/dv`` = blockdiag(I, J_l^-1) and the
-    derivative ``gyro`` of the velocity terms ``[w x (w x s); w x (I_c w)]`` by ``v``."""
+    derivative ``gyro`` of the velocity terms ``[w x (w x s); w x (I_c w)]`` by ``v``.
+    A body's ``M^-1`` (Newton-Euler eliminated as in :func:`accelerate`, ``W = I_cm^-1``,
+    ``S = hat(s)``) is ``[[I/m - S W S/m^2, S W/m], [-W S/m, W]]``."""
     n_dof = y.shape[0] // 2
     M_inv[:] = 0.0
     chart[:] = 0.0
     T[:] = 0.0
     gyro[:] = 0.0
-    S = np.empty((3, 3))
-    W = np.empty((3, 3))
-    Ic = np.empty((3, 3))
-    Hw = np.empty((3, 3))
-    Jl = np.empty((3, 3))
-    Jl_inv = np.empty((3, 3))
+    S, W, Ic, Hw = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
+    SW, WS, SWS, work = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
+    Jl, Jl_inv = np.empty((3, 3)), np.empty((3, 3))
     for g in range(group_size.shape[0]):
         b = group_body[g]
         if b < 0:
@@ -329,33 +379,42 @@ def group_matrices(free_inv_mass: FloatArray, body_dof: IntArray, body_mass: Flo
         d = body_dof[b]
         m = body_mass[b]
         Rb = R[b]
-        s = Rb @ body_first_moment[b]
-        W[:, :] = Rb @ body_inv_inertia_cm[b] @ Rb.T
-        Ic[:, :] = Rb @ body_inertia[b] @ Rb.T
-        hat_into(s[0], s[1], s[2], S)
-        SW = S @ W
-        M_inv[g, :3, :3] = -(SW @ S) / (m * m)
-        for k in range(3):
-            M_inv[g, k, k] += 1.0 / m
-        M_inv[g, :3, 3:] = SW / m
-        M_inv[g, 3:, :3] = -(W @ S) / m
-        M_inv[g, 3:, 3:] = W
+        sb = body_first_moment[b]
+        s0 = Rb[0, 0] * sb[0] + Rb[0, 1] * sb[1] + Rb[0, 2] * sb[2]
+        s1 = Rb[1, 0] * sb[0] + Rb[1, 1] * sb[1] + Rb[1, 2] * sb[2]
+        s2 = Rb[2, 0] * sb[0] + Rb[2, 1] * sb[1] + Rb[2, 2] * sb[2]
+        rotate_tensor(Rb, body_inv_inertia_cm[b], W, work)
+        rotate_tensor(Rb, body_inertia[b], Ic, work)
+        hat_into(s0, s1, s2, S)
+        multiply(S, W, SW)
+        multiply(W, S, WS)
+        multiply(SW, S, SWS)
+        w0, w1, w2 = y[n_dof + d + 3], y[n_dof + d + 4], y[n_dof + d + 5]
+        hat_into(w0, w1, w2, Hw)
         chart_jacobians(y[d + 3], y[d + 4], y[d + 5], Jl, Jl_inv)
-        for k in range(3):
-            chart[g, k, k] = 1.0
-            T[g, k, k] = 1.0
-        chart[g, 3:, 3:] = Jl
-        T[g, 3:, 3:] = Jl_inv
-        w = y[n_dof + d + 3:n_dof + d + 6].copy()
-        hat_into(w[0], w[1], w[2], Hw)
-        ws0, ws1, ws2 = w[1] * s[2] - w[2] * s[1], w[2] * s[0] - w[0] * s[2], w[0] * s[1] - w[1] * s[0]
-        hat_into(ws0, ws1, ws2, S)              # hat(w x s)
-        gyro[g, :3, 3:] = -S
-        hat_into(s[0], s[1], s[2], S)
-        gyro[g, :3, 3:] -= Hw @ S               # - hat(w x s) - hat(w) hat(s)
-        Iw = Ic @ w
-        hat_into(Iw[0], Iw[1], Iw[2], S)        # hat(I_c w)
-        gyro[g, 3:, 3:] = Hw @ Ic - S
+        # gyro: [:3, 3:] = -hat(w x s) - hat(w) hat(s); [3:, 3:] = hat(w) I_c - hat(I_c w)
+        multiply(Hw, S, work)
+        c0, c1, c2 = w1 * s2 - w2 * s1, w2 * s0 - w0 * s2, w0 * s1 - w1 * s0
+        hat_into(c0, c1, c2, S)                               # S now holds hat(w x s)
+        for i in range(3):
+            for j in range(3):
+                gyro[g, i, 3 + j] = -S[i, j] - work[i, j]
+        L0 = Ic[0, 0] * w0 + Ic[0, 1] * w1 + Ic[0, 2] * w2
+        L1 = Ic[1, 0] * w0 + Ic[1, 1] * w1 + Ic[1, 2] * w2
+        L2 = Ic[2, 0] * w0 + Ic[2, 1] * w1 + Ic[2, 2] * w2
+        multiply(Hw, Ic, work)
+        hat_into(L0, L1, L2, S)                               # S now holds hat(I_c w)
+        for i in range(3):
+            chart[g, i, i] = 1.0
+            T[g, i, i] = 1.0
+            for j in range(3):
+                gyro[g, 3 + i, 3 + j] = work[i, j] - S[i, j]
+                M_inv[g, i, j] = (1.0 / m if i == j else 0.0) - SWS[i, j] / (m * m)
+                M_inv[g, i, 3 + j] = SW[i, j] / m
+                M_inv[g, 3 + i, j] = -WS[i, j] / m
+                M_inv[g, 3 + i, 3 + j] = W[i, j]
+                chart[g, 3 + i, 3 + j] = Jl[i, j]
+                T[g, 3 + i, 3 + j] = Jl_inv[i, j]
 
 
 @jit
@@ -389,6 +448,7 @@ def jacobian_blocks(base: FloatArray, free_node: IntArray, free_axis: IntArray, 
     Ga, Gb = np.zeros((3, 6)), np.zeros((3, 6))
     kGa, kGb, dGa, dGb = np.empty((3, 6)), np.empty((3, 6)), np.empty((3, 6)), np.empty((3, 6))
     kmat, dmat = np.empty((3, 3)), np.empty((3, 3))
+    block, block2 = np.empty((6, 6)), np.empty((6, 6))
     for i in range(member_a.shape[0]):
         a, b = member_a[i], member_b[i]
         h0, h1, h2 = X[b, 0] - X[a, 0], X[b, 1] - X[a, 1], X[b, 2] - X[a, 2]
@@ -409,7 +469,9 @@ def jacobian_blocks(base: FloatArray, free_node: IntArray, free_axis: IntArray, 
                 uu = u[p] * u[q]
                 kmat[p, q] = k_axial * uu + geometric * ((1.0 if p == q else 0.0) - uu)
                 dmat[p, q] = c * uu
-        for G_, node in ((Ga, a), (Gb, b)):
+        for end in range(2):
+            node = a if end == 0 else b
+            G_ = Ga if end == 0 else Gb
             g = node_group[node]
             if g >= 0 and group_body[g] >= 0:        # [I, -hat(r)]
                 G_[:, :] = 0.0
@@ -420,20 +482,22 @@ def jacobian_blocks(base: FloatArray, free_node: IntArray, free_axis: IntArray, 
                 G_[2, 3], G_[2, 4] = r1, -r0
             else:
                 G_[:, :] = node_selection[node]
-        kGa[:, :] = kmat @ Ga
-        kGb[:, :] = kmat @ Gb
-        dGa[:, :] = dmat @ Ga
-        dGb[:, :] = dmat @ Gb
+        multiply(kmat, Ga, kGa)
+        multiply(kmat, Gb, kGb)
+        multiply(dmat, Ga, dGa)
+        multiply(dmat, Gb, dGb)
         for slot in range(4):
             blk = blocks[slot]
             if blk < 0:
                 continue
             left = Ga if slot < 2 else Gb
-            kr = kGa if slot % 2 == 0 else kGb
-            dr = dGa if slot % 2 == 0 else dGb
             sign = 1.0 if slot == 0 or slot == 3 else -1.0
-            K[blk] += sign * (left.T @ kr)
-            D[blk] += sign * (left.T @ dr)
+            multiply_transposed(left, kGa if slot % 2 == 0 else kGb, block)
+            multiply_transposed(left, dGa if slot % 2 == 0 else dGb, block2)
+            for p in range(6):
+                for q in range(6):
+                    K[blk, p, q] += sign * block[p, q]
+                    D[blk, p, q] += sign * block2[p, q]
     for k in range(on_node.shape[0]):            # moments' rotation terms S(g, r), g = -f
         j = on_node[k]
         blk = diagonal_block[node_group[j]]
@@ -449,11 +513,17 @@ def jacobian_blocks(base: FloatArray, free_node: IntArray, free_axis: IntArray, 
                    group_dofs, group_size, group_body, y, R, M_inv, chart, T, gyro)
     for k in range(block_rows.shape[0]):
         p, q = block_rows[k], block_cols[k]
-        position[k] = -(M_inv[p] @ K[k] @ chart[q])
+        multiply(M_inv[p], K[k], block)
+        multiply(block, chart[q], block2)
         if p == q:
-            velocity[k] = -(M_inv[p] @ (D[k] + gyro[p]))
-        else:
-            velocity[k] = -(M_inv[p] @ D[k])
+            for i in range(6):
+                for j in range(6):
+                    D[k, i, j] += gyro[p, i, j]
+        multiply(M_inv[p], D[k], block)
+        for i in range(6):
+            for j in range(6):
+                position[k, i, j] = -block2[i, j]
+                velocity[k, i, j] = -block[i, j]
 
 
 # -- integration stages ------------------------------------------------------------------------------

@@ -1,0 +1,72 @@
+"""``python -m tensegrity_core.sim.general.kernels.warm``: compile every numba kernel into its
+on-disk cache, once (``./run setup`` does it after installing numba or changing a kernel).
+
+numba compiles a kernel the first time a process calls it and, with ``cache=True``, keeps
+the machine code next to the sources, where every later process (test workers, the demo,
+the ROS nodes) loads it in a fraction of a second. Compiling all of them takes tens of
+seconds (docs/performance.md gives the measured figures); doing it here keeps that cost out
+of the first simulation a user runs and out of parallel test workers that would each
+compile the same kernels at once.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+
+from tensegrity_core.sim.general.kernels.jit import have_numba
+
+#: A small structure with every kind of part: a free node, a partly pinned node, a rigid
+#: body, strings, a bar, masses (the kernels compile once for all structures).
+WARM_STRUCTURE = {
+    "name": "warm-up",
+    "nodes": {"p1": [0, 0, 0], "p2": [1, 0, 0], "p3": [0, 1, 0], "n": [0.5, 0.5, 1.0], "s": [1.0, 1.0, 0.5]},
+    "members": [{"nodes": ["p1", "n"], "EA": 50.0, "rest_length_ratio": 0.9},
+                {"nodes": ["p2", "n"], "EA": 50.0, "rest_length_ratio": 0.9},
+                {"nodes": ["p3", "n"], "type": "bar", "EA": 80.0},
+                {"nodes": ["n", "s"], "EA": 30.0, "rest_length_ratio": 0.95}],
+    "rigid_bodies": [{"name": "plate", "nodes": ["p1", "p2", "p3"], "mass": 1.0}],
+    "pinned": {"s": "z"},
+    "masses": {"n": 0.3, "s": 0.2},
+}
+
+
+def warm() -> float:
+    """Run every compiled kernel once (compiling or loading it); the seconds it took."""
+    from tensegrity_core.sim import Simulator, scene_from_dict
+    from tensegrity_core.sim.general.model import GeneralModel
+
+    started = time.perf_counter()
+    scene = scene_from_dict({"model": {"kind": "general", "structure": WARM_STRUCTURE}, "initial": {"drawn": True},
+                             "effects": ["inertia", "springs", {"damping": {"c": 0.1}},
+                                         {"gravity": {"vector": [0.0, 0.0, -9.81]}}],
+                             "duration": 0.01, "integrator": {"method": "DOP853", "rtol": 1e-6, "atol": 1e-8}})
+    sim = Simulator(scene, t_end=scene.duration)
+    sim.advance(scene.duration)                      # stepping, interpolation
+    eq = sim.state.work.system
+    assert isinstance(eq, GeneralModel)
+    y = sim.state.y.copy()
+    eq.fun(0.0, y)
+    eq.jac(0.0, y)
+    eq.evaluate([0.0, 0.0], np.array([y, y]))
+    stages = eq.stages
+    assert stages is not None
+    f = eq.fun(0.0, y)
+    stages.rk4(0.0, y, f, 1e-3)
+    y_new, K, _ = stages.dop853(0.0, y, f, 1e-3, 1e-6, 1e-8)
+    stages.dop853_dense(0.0, y, y_new, K, 1e-3)
+    return time.perf_counter() - started
+
+
+def main() -> int:
+    if not have_numba():
+        print("numba is not installed: the numpy kernels need no compiling")
+        return 0
+    print(f"numba kernels ready in {warm():.1f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

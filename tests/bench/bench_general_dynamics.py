@@ -1,0 +1,486 @@
+"""General dynamics at MuJoCo's speed (``--only general_dynamics``): the same structures in
+both simulators, at matched accuracy, in one run.
+
+One BLAS thread throughout. Structures (the issue's table): two stacked 3-prisms under a
+step load (1 s), the 6-bar icosahedron falling and spinning with its strings going slack
+and taut (0.5 s), ``table_gravity`` (0.2 s), ``spine_release`` (2 s) and two rigid bodies
+spinning on strings (1.5 s). MuJoCo runs the model ``tensegrity export mjcf`` writes, from
+the same initial state (``tests/mujoco_peer.py``).
+
+- ``evaluations``: the right-hand side and the Jacobian per evaluation, compiled kernels
+  (numba) against the numpy kernels.
+- ``versus_mujoco``: **error** = the largest node-position difference over the samples
+  (200 per second) from a converged run of the *same* simulator, over the motion (the
+  largest node displacement from the start): the project's converged run is DOP853 at
+  rtol 1e-12; MuJoCo's error at a step is its difference to its run at a quarter of that
+  step (RK4: 256 times more accurate). The project runs its default (DOP853 rtol 1e-7,
+  compiled); MuJoCo runs RK4 at the exported step times 4, 2, 1, 1/2, ... and the
+  **coarsest step at least as accurate** is timed against it (integration only: the
+  project's stepping and sampling, MuJoCo's ``mj_step``). Also the project's RK4 at that
+  same step (the same method and step in both).
+- ``growth``: prism towers of 9 .. 1,998 members, fixed-step RK4 at the exported step in
+  both: time per simulated second against members, the growth exponent above 100 members,
+  and the numpy kernels at the same sizes (the fallback's ratio).
+- ``compile_cache``: numba's cost in a fresh process: compiling every kernel into an empty
+  cache, then loading them from it.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from tests.bench.harness import Context, Row, benchmark, best_run, time_per_call
+
+GROUP = "general_dynamics"
+#: The project's default: compiled DOP853 at this rtol (atol = rtol / 100).
+DEFAULT_RTOL = 1e-7
+#: Samples per simulated second (both sides).
+RATE = 200.0
+
+BODIES = {
+    "name": "two spinning bodies",
+    "nodes": {"p1": [0, 0, 0], "p2": [1, 0, 0], "p3": [0, 1, 0],
+              "q1": [0.2, 0.1, 1], "q2": [1.1, 0.3, 1.2], "q3": [0.1, 1.2, 0.9], "n": [0.5, 0.5, 2.0]},
+    "members": [{"nodes": ["p1", "q1"], "EA": 500.0, "rest_length_ratio": 0.8},
+                {"nodes": ["p2", "q2"], "EA": 600.0, "rest_length_ratio": 0.7},
+                {"nodes": ["p3", "q3"], "EA": 400.0, "rest_length_ratio": 0.9},
+                {"nodes": ["p1", "q3"], "type": "bar", "EA": 800.0},
+                {"nodes": ["q2", "n"], "EA": 300.0, "rest_length_ratio": 0.9},
+                {"nodes": ["p3", "n"], "EA": 300.0, "rest_length_ratio": 0.9}],
+    "rigid_bodies": [{"name": "low", "nodes": ["p1", "p2", "p3"], "mass": 1.5},
+                     {"name": "high", "nodes": ["q1", "q2", "q3"], "mass": 2.0}],
+    "masses": {"n": 0.3, "q2": 0.4},
+}
+
+
+def _icosahedron() -> dict:
+    """The 6-bar tensegrity icosahedron (expanded octahedron: bar pairs along x, y, z, 0.5 m
+    apart, 2 m long), strings 0.5 % shorter than drawn, 0.1 kg per node, no supports."""
+    L, d = 2.0, 0.5
+    nodes = {}
+    for axis in range(3):
+        for side, offset in (("p", d / 2), ("m", -d / 2)):
+            for end, s in (("a", 1.0), ("b", -1.0)):
+                xyz = [0.0, 0.0, 0.0]
+                xyz[axis] = s * L / 2
+                xyz[(axis + 1) % 3] = offset
+                nodes[f"{'xyz'[axis]}{side}{end}"] = xyz
+    names = list(nodes)
+    X = np.array([nodes[k] for k in names])
+    members = [{"nodes": [names[i], names[i + 1]], "type": "bar", "EA": 5e4} for i in range(0, 12, 2)]
+    D = np.linalg.norm(X[:, None] - X[None], axis=2)
+    bars = {(i, i + 1) for i in range(0, 12, 2)}
+    for i in range(12):
+        for j in range(i + 1, 12):
+            if (i, j) not in bars and D[i, j] < 1.4:
+                members.append({"nodes": [names[i], names[j]], "EA": 5e3, "rest_length_ratio": 0.995})
+    return {"name": "icosahedron", "nodes": nodes, "members": members, "masses": {k: 0.1 for k in names}}
+
+
+def _prisms() -> dict:
+    from tensegrity_core.general import prism_tower
+    from tensegrity_core.general.writing import structure_to_dict
+
+    s = prism_tower(2, sides=3, EA=2e4)
+    return structure_to_dict(s.replace(node_masses=np.full(s.n_nodes, 0.2)))
+
+
+@dataclass
+class Case:
+    name: str
+    scene: object              # tensegrity_core.sim.Scene
+    y0: np.ndarray | None      # a start other than the scene's initial state
+
+
+def _general(name: str, structure: dict, effects: list, duration: float, initial: dict | None = None):
+    from tensegrity_core.sim import scene_from_dict
+
+    return scene_from_dict({"name": name, "model": {"kind": "general", "structure": structure},
+                            "initial": initial or {"drawn": True}, "effects": effects, "duration": duration,
+                            "output": {"rate": RATE},
+                            "integrator": {"method": "DOP853", "rtol": DEFAULT_RTOL, "atol": DEFAULT_RTOL / 100}})
+
+
+def _spun(scene, omega, drift, seed: int | None = None) -> np.ndarray:
+    """The scene's initial state with every node moving as a rigid spin ``omega`` [rad/s]
+    about the centroid plus ``drift`` [m/s] (bodies: the same field), or random rates."""
+    from tensegrity_core.sim import compile_scene
+
+    model = compile_scene(scene)
+    y = model.initial_state().y.copy()
+    n = len(y) // 2
+    if seed is not None:
+        y[n:] = np.random.default_rng(seed).normal(0.0, 1.5, n)
+        return y
+    lay = scene.model.structure.layout
+    X = scene.model.structure.nodes
+    c = X.mean(axis=0)
+    vel = np.asarray(drift) + np.cross(omega, X - c)
+    free = lay.free_index >= 0
+    y[n + lay.free_index[free]] = vel[free]
+    for b, d in enumerate(lay.body_dof):
+        y[n + d:n + d + 3] = np.asarray(drift) + np.cross(omega, lay.ref_centres[b] - c)
+        y[n + d + 3:n + d + 6] = omega
+    return y
+
+
+def cases(quick: bool) -> list[Case]:
+    from tensegrity_core.sim import load_scene
+
+    k = 0.05 if quick else 1.0
+    gravity = {"gravity": {"vector": [0.0, 0.0, -9.81]}}
+    out = []
+    prisms = _general("two stacked 3-prisms", _prisms(), ["inertia", "springs", gravity,
+                                                          {"loads": {"6": [20.0, 0.0, 0.0]}}],
+                      1.0 * k, initial={"equilibrium": True})
+    out.append(Case("two stacked 3-prisms", prisms, None))
+    ico = _general("6-bar icosahedron", _icosahedron(), ["inertia", "springs", gravity], 0.5 * k)
+    out.append(Case("6-bar icosahedron falling", ico, _spun(ico, [1.0, 2.0, 3.0], [0.0, 0.0, -1.0])))
+    for name, duration in (("table_gravity", 0.2), ("spine_release", 2.0)):
+        out.append(Case(name, load_scene(name).with_duration(duration * k), None))
+    spin = _general("two spinning bodies", BODIES, ["inertia", "springs"], 1.5 * k)
+    out.append(Case("two spinning bodies", spin, _spun(spin, None, None, seed=1)))
+    return out
+
+
+def _with_integrator(scene, **integrator):
+    import dataclasses
+
+    return dataclasses.replace(scene, integrator=dataclasses.replace(scene.integrator, **integrator))
+
+
+def _times(scene) -> np.ndarray:
+    return np.arange(round(scene.duration * RATE) + 1) / RATE
+
+
+def project_run(case: Case, **integrator) -> tuple[float, np.ndarray, dict]:
+    """(integration wall time [s], node positions (N, n, 3), stats) of the project."""
+    from tensegrity_core.sim import compile_scene
+
+    scene = _with_integrator(case.scene, **integrator)
+    model = compile_scene(scene)
+    times = _times(scene)
+
+    def run():
+        state = model.initial_state(t_end=scene.duration) if case.y0 is None else \
+            model.state_from(case.y0, t_end=scene.duration)
+        samples: list = []
+        model.record(state, times, samples)
+        return state, samples
+
+    wall, (state, samples) = best_run(run, 2 if scene.duration < 0.1 else 3, 0.0, max_time=5.0)  # the first: numba loads
+    nodes = model.observe(samples)["nodes"]
+    return wall, nodes, model.stats(state)
+
+
+def mujoco_run(case: Case, xml: str, dt: float) -> tuple[float, np.ndarray, int]:
+    """(wall time of mj_step [s], node positions (N, n, 3), steps) of MuJoCo's RK4 at ``dt``."""
+    from tensegrity_core.sim.general.setup import initial_configuration
+    from tests.mujoco_peer import MujocoPeer, mujoco_state
+
+    peer = MujocoPeer(xml, timestep=dt, integrator="RK4")
+    structure = case.scene.model.structure
+    times = _times(case.scene)
+    best, run = math.inf, None
+    for _ in range(1 if case.scene.duration < 0.1 else 3):
+        if case.y0 is None:
+            peer.reset()
+        else:
+            peer.reset(*mujoco_state(peer, structure, case.y0, initial_configuration(case.scene).rotations))
+        run = peer.rollout(times, nodes=structure.node_names)
+        best = min(best, run.wall)
+        if run.wall > 5.0:
+            break
+    return best, run.nodes, run.steps
+
+
+def error(nodes: np.ndarray, reference: np.ndarray) -> float:
+    """Largest node-position difference over the motion (the reference's largest displacement)."""
+    if not np.all(np.isfinite(nodes)):
+        return math.inf
+    motion = np.abs(reference - reference[0]).max()
+    return float(np.abs(nodes - reference).max() / motion)
+
+
+def _mujoco_available() -> str:
+    try:
+        import mujoco  # noqa: F401
+        from tensegrity_core.export import export_mjcf  # noqa: F401
+
+        from tests.mujoco_peer import MujocoPeer  # noqa: F401
+    except ImportError as err:
+        return f"MuJoCo side not run: {err}"
+    return ""
+
+
+@benchmark
+def evaluations(ctx: Context) -> list[Row]:
+    from tensegrity_core.sim import compile_scene
+    from tensegrity_core.sim.general.kernels.evaluator import Evaluator
+
+    rows = []
+    with threadpool_limits(1):
+        for case in cases(True):
+            model = compile_scene(case.scene)
+            eq = model.equations(model.initial_state())
+            y = model.initial_state().y if case.y0 is None else case.y0
+            l0 = eq.rest_lengths(0.0)
+            label = case.name
+            for kind in ("numpy", "numba"):
+                ev = Evaluator(eq.plan, kind)
+                ev.derivative(y, eq.R_ref, l0)
+                ev.jacobian(y, eq.R_ref, l0)
+                rhs = time_per_call(lambda ev=ev, y=y, R=eq.R_ref, l0=l0: ev.derivative(y, R, l0))
+                jac = time_per_call(lambda ev=ev, y=y, R=eq.R_ref, l0=l0: ev.jacobian(y, R, l0))
+                rows.append(Row(GROUP, f"{label}: rhs, {kind}", rhs * 1e6, "us",
+                                baseline=None if kind == "numpy" else f"{label}: rhs, numpy",
+                                note=f"{eq.n} DOF, {eq.structure.n_members} members, {eq.nb} bodies"))
+                rows.append(Row(GROUP, f"{label}: Jacobian, {kind}", jac * 1e6, "us",
+                                baseline=None if kind == "numpy" else f"{label}: Jacobian, numpy",
+                                note=f"{ev.jacobian(y, eq.R_ref, l0).nnz} stored entries"))
+    return rows
+
+
+@benchmark
+def versus_mujoco(ctx: Context) -> list[Row]:
+    missing = _mujoco_available()
+    rows: list[Row] = []
+    study = []
+    with threadpool_limits(1):
+        for case in cases(ctx.quick):
+            label = case.name
+            _, reference, _ = project_run(case, method="DOP853", rtol=1e-12, atol=1e-14)
+            wall_p, nodes_p, stats = project_run(case)
+            err_p = error(nodes_p, reference)
+            T = case.scene.duration
+            rows.append(Row(GROUP, f"{label}: project DOP853 rtol {DEFAULT_RTOL:g}", wall_p, "s",
+                            note=f"{T:g} s simulated, error {err_p:.1e} of the motion, {stats['steps']} steps, "
+                                 f"{stats['nfev'] / wall_p:.3g} evaluations/s, {T / wall_p:.3g}x real time"))
+            entry = {"case": label, "duration": T, "project_seconds": wall_p, "project_error": err_p,
+                     "project_steps": stats["steps"], "project_nfev": stats["nfev"]}
+            if missing:
+                study.append(entry)
+                continue
+            from tensegrity_core.export import export_mjcf
+
+            exported = export_mjcf(case.scene)
+            dt0 = exported.timestep
+            factors = (4, 2, 1, 0.5, 0.25) if ctx.quick else (4, 2, 1, 0.5, 0.25, 0.125, 0.0625)
+            runs: dict[float, tuple[float, np.ndarray, int]] = {}
+            for f in factors + (factors[-1] / 2, factors[-1] / 4):
+                runs[f] = (math.nan, np.empty(0), 0)             # run on demand below
+            matched = None
+            ladder = []
+            for f in factors:
+                for g in (f, f / 4):
+                    if not runs[g][2]:
+                        runs[g] = mujoco_run(case, exported.xml, dt0 * g)
+                wall_m, nodes_m, steps = runs[f]
+                err_m = error(nodes_m, runs[f / 4][1])
+                ladder.append((dt0 * f, err_m, wall_m, steps))
+                if err_m <= err_p:
+                    matched = (dt0 * f, err_m, wall_m, steps)
+                    break
+            entry["mujoco_ladder"] = ladder
+            if matched is None:
+                rows.append(Row(GROUP, f"{label}: MuJoCo at matched accuracy", math.nan, "s",
+                                note=f"no step down to {dt0 * factors[-1]:.3g} s reached {err_p:.1e}"))
+                study.append(entry)
+                continue
+            dt, err_m, wall_m, steps = matched
+            entry.update(mujoco_step=dt, mujoco_error=err_m, mujoco_seconds=wall_m, mujoco_steps=steps)
+            rows.append(Row(GROUP, f"{label}: MuJoCo RK4 at matched accuracy", wall_m, "s",
+                            note=f"step {dt:.3g} s (exported {dt0:.3g} s), error {err_m:.1e}, "
+                                 f"{steps / wall_m:.3g} steps/s"))
+            rows.append(Row(GROUP, f"{label}: project vs MuJoCo", wall_p, "s",
+                            baseline=f"{label}: MuJoCo RK4 at matched accuracy", target=">= 1x (MuJoCo / project)"))
+            wall_r, nodes_r, stats_r = project_run(case, method="RK4", max_step=dt)
+            entry.update(project_rk4_seconds=wall_r, project_rk4_error=error(nodes_r, reference))
+            rows.append(Row(GROUP, f"{label}: project RK4 at MuJoCo's step", wall_r, "s",
+                            baseline=f"{label}: MuJoCo RK4 at matched accuracy",
+                            note=f"error {entry['project_rk4_error']:.1e}, "
+                                 f"{stats_r['steps'] / wall_r:.3g} steps/s"))
+            study.append(entry)
+    spine = [e for e in study if e["case"] == "spine_release"]
+    if spine:
+        rows.append(Row(GROUP, "spine_release: real-time factor", spine[0]["duration"] / spine[0]["project_seconds"],
+                        "x", target=">= 10x"))
+    if missing:
+        rows.append(Row(GROUP, "MuJoCo side", math.nan, "", note=missing))
+    ctx.save_json("general_dynamics_mujoco.json", study)
+    _plot_versus(ctx, study)
+    return rows
+
+
+def _plot_versus(ctx: Context, study: list[dict]) -> None:
+    path = ctx.plot_path("general_dynamics_mujoco.png")
+    if path is None or not study:
+        return
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(9, 4.5), constrained_layout=True)
+    x = np.arange(len(study))
+    ax.bar(x - 0.2, [e["project_seconds"] for e in study], 0.38, label="project, DOP853 rtol 1e-7 (compiled)")
+    ax.bar(x + 0.2, [e.get("mujoco_seconds", np.nan) for e in study], 0.38,
+           label="MuJoCo RK4, coarsest step at least as accurate")
+    for k, e in enumerate(study):
+        ax.annotate(f"{e['project_error']:.0e}", (k - 0.2, e["project_seconds"]), ha="center", va="bottom", fontsize=7)
+    ax.set_xticks(x, [f"{e['case']}\n{e['duration']:g} s" for e in study], fontsize=8)
+    ax.set_yscale("log")
+    ax.set(ylabel="integration wall time [s]",
+           title="same structures, matched accuracy (labels: project's error / motion)")
+    ax.grid(True, axis="y", which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _tower_scene(stages: int, duration: float):
+    from tensegrity_core.general import prism_tower
+    from tensegrity_core.general.writing import structure_to_dict
+
+    s = prism_tower(stages, sides=3, EA=2e4)
+    s = s.replace(node_masses=np.full(s.n_nodes, 0.1))
+    top = s.node_names[-1]
+    return _general(f"tower of {s.n_members} members", structure_to_dict(s),
+                    ["inertia", "springs", {"loads": {top: [5.0, 0.0, 0.0]}}], duration)
+
+
+@benchmark
+def growth(ctx: Context) -> list[Row]:
+    """Fixed-step RK4 at the exported step on prism towers: time per simulated second."""
+    missing = _mujoco_available()
+    stages = (1, 5, 22, 111) if ctx.quick else (1, 2, 5, 11, 22, 56, 111, 222)
+    duration = 0.005 if ctx.quick else 0.05
+    rows, data = [], []
+    with threadpool_limits(1):
+        for k in stages:
+            scene = _tower_scene(k, duration)
+            members = scene.model.structure.n_members
+            dt = _tower_step(scene)
+            entry = {"members": members, "step": dt}
+            for kernels in ("numba", "numpy"):
+                os.environ["TENSEGRITY_KERNELS"] = kernels
+                try:
+                    wall, _, _ = project_run(Case("tower", scene, None), method="RK4", max_step=dt)
+                finally:
+                    os.environ.pop("TENSEGRITY_KERNELS", None)
+                entry[kernels] = wall / duration
+            if not missing and (members >= 1998 or not ctx.quick):
+                from tensegrity_core.export import export_mjcf
+
+                wall, _, _ = mujoco_run(Case("tower", scene, None), export_mjcf(scene).xml, dt)
+                entry["mujoco"] = wall / duration
+            data.append(entry)
+    m = np.array([e["members"] for e in data], dtype=float)
+    for kernels in ("numba", "numpy", "mujoco"):
+        t = np.array([e.get(kernels, np.nan) for e in data])
+        use = (m >= 100) & np.isfinite(t)
+        if use.sum() >= 2:
+            slope = float(np.polyfit(np.log(m[use]), np.log(t[use]), 1)[0])
+            rows.append(Row(GROUP, f"towers: growth exponent, {kernels}", slope, "", target="report" if
+                            kernels != "numba" else "~1",
+                            note=f"time per simulated second ~ members^p over {int(m[use][0])}..{int(m[use][-1])}"))
+    last = data[-1]
+    rows.append(Row(GROUP, f"tower {last['members']} members: project RK4 (numba)", last["numba"], "s/s",
+                    note=f"step {last['step']:.3g} s, per simulated second"))
+    rows.append(Row(GROUP, f"tower {last['members']} members: numpy kernels", last["numpy"], "s/s",
+                    baseline=f"tower {last['members']} members: project RK4 (numba)", target="fallback within 3x"))
+    first = data[0]
+    rows.append(Row(GROUP, f"tower {first['members']} members: project RK4 (numba)", first["numba"], "s/s"))
+    rows.append(Row(GROUP, f"tower {first['members']} members: numpy kernels", first["numpy"], "s/s",
+                    baseline=f"tower {first['members']} members: project RK4 (numba)"))
+    if "mujoco" in last:
+        rows.append(Row(GROUP, f"tower {last['members']} members: MuJoCo RK4", last["mujoco"], "s/s",
+                        note="same step"))
+        rows.append(Row(GROUP, f"tower {last['members']} members: project vs MuJoCo", last["numba"], "s/s",
+                        baseline=f"tower {last['members']} members: MuJoCo RK4", target=">= 1x (MuJoCo / project)"))
+    ctx.save_json("general_dynamics_growth.json", data)
+    _plot_growth(ctx, data)
+    return rows
+
+
+def _tower_step(scene) -> float:
+    """The exported model's step (MuJoCo's default) or, without the exporter, 0.2 over the
+    fastest rate of the linearised motion, as the exporter chooses it."""
+    try:
+        from tensegrity_core.export import export_mjcf
+
+        return float(export_mjcf(scene).timestep)
+    except ImportError:
+        from tensegrity_core.sim import compile_scene
+
+        model = compile_scene(scene)
+        eq = model.equations(model.initial_state())
+        rate = float(np.abs(np.linalg.eigvals(eq.jac(0.0, model.initial_state().y).toarray())).max())
+        return 0.2 / rate
+
+
+def _plot_growth(ctx: Context, data: list[dict]) -> None:
+    path = ctx.plot_path("general_dynamics_growth.png")
+    if path is None:
+        return
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
+    m = [e["members"] for e in data]
+    for key, label, marker in (("numba", "project RK4, compiled kernels", "o"),
+                               ("numpy", "project RK4, numpy kernels", "s"),
+                               ("mujoco", "MuJoCo RK4", "^")):
+        pts = [(mm, e[key]) for mm, e in zip(m, data) if key in e]
+        if pts:
+            ax.loglog(*zip(*pts), marker=marker, label=label)
+    ax.set(xlabel="members", ylabel="wall time per simulated second [s/s]",
+           title="prism towers, fixed-step RK4 at the exported step")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+COMPILE_PROBE = """
+import time
+t0 = time.perf_counter()
+from tensegrity_core.sim import load_scene, simulate
+t1 = time.perf_counter()
+simulate(load_scene("spine_release").with_duration(0.01))
+t2 = time.perf_counter()
+simulate(load_scene("spine_release").with_duration(0.01))
+t3 = time.perf_counter()
+print(t1 - t0, t2 - t1, t3 - t2)
+"""
+
+
+@benchmark
+def compile_cache(ctx: Context) -> list[Row]:
+    """numba's one-off cost in a fresh process: an empty cache (compile), then the same cache."""
+    rows = []
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache, OPENBLAS_NUM_THREADS="1")
+        out = []
+        for _ in range(2):
+            t0 = time.perf_counter()
+            done = subprocess.run([sys.executable, "-c", COMPILE_PROBE], env=env, capture_output=True, text=True,
+                                  check=True)
+            out.append((time.perf_counter() - t0, [float(v) for v in done.stdout.split()]))
+    (cold, (_, first_cold, again)), (warm, (_, first_warm, _)) = out
+    rows.append(Row(GROUP, "numba: first run, empty cache", first_cold - again, "s",
+                    note=f"compiling the kernels (a 10 ms spine run, minus a second run's {again * 1e3:.3g} ms)"))
+    rows.append(Row(GROUP, "numba: first run, cache filled", first_warm - again, "s",
+                    baseline="numba: first run, empty cache", note="loading the compiled kernels from the cache"))
+    return rows
