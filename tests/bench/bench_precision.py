@@ -74,10 +74,13 @@ def _scene_data(name: str) -> dict:
 
 
 def _run_scene(data: dict, method: str, rtol: float, atol: float, duration: float | None = None):
+    """A run of the scene with ``method`` at ``rtol``, ``atol``; for RK4, ``rtol`` is its
+    fixed step [s] (the setting its work-precision points sweep)."""
     from tensegrity_core.sim import load_scene, simulate
 
     d = copy.deepcopy(data)
-    d["integrator"] = {"method": method, "rtol": rtol, "atol": atol}
+    d["integrator"] = {"method": method, "rtol": rtol, "atol": atol} if method != "RK4" else \
+        {"method": method, "max_step": rtol}
     if duration is not None:
         d["duration"] = duration
     return simulate(load_scene(d))
@@ -94,9 +97,10 @@ def _position_error(traj, ref) -> float:
 
 def scene_study(ctx: Context, name: str, methods=METHODS, *, reference=("DOP853", "LSODA"),
                 ref_rtol: float = 1e-13, duration: float | None = None, rtols=None,
-                budget: float | None = None, explicit_horizon: float | None = None):
+                budget: float | None = None, explicit_horizon: float | None = None, rk4_steps=()):
     """Work-precision points of shipped scene ``name`` (over ``duration`` s if given);
-    ``(points, info)``. The reference: ``reference`` methods at ``ref_rtol``."""
+    ``(points, info)``. The reference: ``reference`` methods at ``ref_rtol``. ``rk4_steps``:
+    the fixed steps [s] of RK4's points (their setting), if RK4 is among the methods."""
     data = _scene_data(name)
     if duration is not None:
         data["duration"] = duration
@@ -117,6 +121,7 @@ def scene_study(ctx: Context, name: str, methods=METHODS, *, reference=("DOP853"
     vlines = []
     bar = _progress(len(methods) * len(rtols), f"{name}")
     for m in methods:
+        settings = sorted(rk4_steps, reverse=True) if m == "RK4" else rtols
         over_budget = False
         if explicit_horizon is not None and m in EXPLICIT:
             # cost set by stability: a short run, its time scaled to the scene's duration
@@ -128,10 +133,11 @@ def scene_study(ctx: Context, name: str, methods=METHODS, *, reference=("DOP853"
                                 ok=False, note=f"stability-bound: extrapolated from a {explicit_horizon:g} s run"))
             bar.update(len(rtols))
             continue
-        for rtol in rtols:
+        for rtol in settings:
             bar.update(1)
-            is_default = m == default.get("method") and rtol == float(default["rtol"])
-            if over_budget or (rtol == float(default["rtol"]) and rtol not in grid and not is_default):
+            is_default = m == default.get("method") and (
+                rtol == float(default["max_step"]) if m == "RK4" else rtol == float(default["rtol"]))
+            if over_budget or (m != "RK4" and rtol == float(default["rtol"]) and rtol not in grid and not is_default):
                 continue
             atol = rtol * ratio
             try:
@@ -223,9 +229,10 @@ def dynamics_class2(ctx: Context) -> list[Row]:
 
 @benchmark
 def dynamics_general(ctx: Context) -> list[Row]:
-    """The general-structure scenes (nodal dynamics): the table under load and the spine."""
+    """The general-structure scenes (nodal dynamics): the table under load and the spine.
+    DOP853 and RK4 run their compiled stages (numba); RK4's points are its fixed steps."""
     rows = []
-    methods = ("Radau", "BDF", "LSODA", "DOP853")
+    methods = ("Radau", "BDF", "LSODA", "DOP853", "RK4")
     with threadpool_limits(1):
         for name, label, quick_duration in (("table_gravity", "table under load", 0.02),
                                             ("spine_release", "spine release", 0.05)):
@@ -233,7 +240,9 @@ def dynamics_general(ctx: Context) -> list[Row]:
                                        ref_rtol=1e-10 if ctx.quick else 1e-11,
                                        duration=quick_duration if ctx.quick else None,
                                        rtols=[1e-3, 1e-6] if ctx.quick else None,
-                                       budget=2.0 if ctx.quick else 60.0)
+                                       budget=2.0 if ctx.quick else 60.0,
+                                       rk4_steps=[5e-4] if ctx.quick else [1e-3, 5e-4, 2.5e-4, 1.25e-4, 6.25e-5,
+                                                                           3.125e-5])
             save_study(ctx, name, f"{label}, {info['duration']:g} s (node-position error / structure size)",
                   points, info)
             rows += _front_rows("precision", label, points, info, baseline_method="BDF")

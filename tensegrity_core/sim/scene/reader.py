@@ -446,6 +446,9 @@ class _SceneReader(Reader):
         rtol = self.number(d, "rtol", path, default=1e-8, lo=1e-13, hi=0.1)
         atol = self.number(d, "atol", path, default=1e-10, lo=0.0, lo_open=True)
         max_step = self.number(d, "max_step", path, default=math.inf, lo=0.0, lo_open=True, allow_inf=True)
+        if method == "RK4" and not math.isfinite(max_step):
+            raise self.error("RK4 takes fixed steps of max_step [s]: give it (e.g. max_step: 0.001)", path, d,
+                             "method")
         return IntegratorSpec(method, rtol, atol, max_step)
 
 
