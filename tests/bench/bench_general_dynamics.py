@@ -99,6 +99,7 @@ class Case:
     name: str
     scene: object              # tensegrity_core.sim.Scene
     y0: np.ndarray | None      # a start other than the scene's initial state
+    stride: float = 1.0 / RATE  # [s] between samples (a whole number of every step tried)
 
 
 def _general(name: str, structure: dict, effects: list, duration: float, initial: dict | None = None):
@@ -158,8 +159,8 @@ def _with_integrator(scene, **integrator):
     return dataclasses.replace(scene, integrator=dataclasses.replace(scene.integrator, **integrator))
 
 
-def _times(scene) -> np.ndarray:
-    return np.arange(round(scene.duration * RATE) + 1) / RATE
+def _times(case: Case) -> np.ndarray:
+    return case.stride * np.arange(math.floor(case.scene.duration / case.stride * (1 + 1e-9)) + 1)
 
 
 def project_run(case: Case, **integrator) -> tuple[float, np.ndarray, dict]:
@@ -168,7 +169,7 @@ def project_run(case: Case, **integrator) -> tuple[float, np.ndarray, dict]:
 
     scene = _with_integrator(case.scene, **integrator)
     model = compile_scene(scene)
-    times = _times(scene)
+    times = _times(case)
 
     def run():
         state = model.initial_state(t_end=scene.duration) if case.y0 is None else \
@@ -189,7 +190,7 @@ def mujoco_run(case: Case, xml: str, dt: float) -> tuple[float, np.ndarray, int]
 
     peer = MujocoPeer(xml, timestep=dt, integrator="RK4")
     structure = case.scene.model.structure
-    times = _times(case.scene)
+    times = _times(case)
     best, run = math.inf, None
     for _ in range(1 if case.scene.duration < 0.1 else 3):
         if case.y0 is None:
@@ -211,6 +212,16 @@ def error(nodes: np.ndarray, reference: np.ndarray) -> float:
     return float(np.abs(nodes - reference).max() / motion)
 
 
+def _warm() -> None:
+    """Compile or load the numba kernels before anything is timed (``./run setup`` has
+    usually compiled them already)."""
+    from tensegrity_core.sim.general.kernels.jit import have_numba
+    from tensegrity_core.sim.general.kernels.warm import warm
+
+    if have_numba():
+        warm()
+
+
 def _mujoco_available() -> str:
     try:
         import mujoco  # noqa: F401
@@ -228,6 +239,7 @@ def evaluations(ctx: Context) -> list[Row]:
     from tensegrity_core.sim.general.kernels.evaluator import Evaluator
 
     rows = []
+    _warm()
     with threadpool_limits(1):
         for case in cases(True):
             model = compile_scene(case.scene)
@@ -255,9 +267,18 @@ def versus_mujoco(ctx: Context) -> list[Row]:
     missing = _mujoco_available()
     rows: list[Row] = []
     study = []
+    _warm()
     with threadpool_limits(1):
         for case in cases(ctx.quick):
             label = case.name
+            factors = (4, 2, 1, 0.5, 0.25) if ctx.quick else (4, 2, 1, 0.5, 0.25, 0.125, 0.0625)
+            if not missing:
+                from tensegrity_core.export import export_mjcf
+
+                exported = export_mjcf(case.scene)
+                dt0 = exported.timestep
+                coarse = dt0 * factors[0]              # samples at whole numbers of every step
+                case.stride = coarse * max(1, round(1.0 / RATE / coarse))
             _, reference, _ = project_run(case, method="DOP853", rtol=1e-12, atol=1e-14)
             wall_p, nodes_p, stats = project_run(case)
             err_p = error(nodes_p, reference)
@@ -265,22 +286,21 @@ def versus_mujoco(ctx: Context) -> list[Row]:
             rows.append(Row(GROUP, f"{label}: project DOP853 rtol {DEFAULT_RTOL:g}", wall_p, "s",
                             note=f"{T:g} s simulated, error {err_p:.1e} of the motion, {stats['steps']} steps, "
                                  f"{stats['nfev'] / wall_p:.3g} evaluations/s, {T / wall_p:.3g}x real time"))
-            entry = {"case": label, "duration": T, "project_seconds": wall_p, "project_error": err_p,
+            entry = {"case": label, "duration": T, "samples": len(nodes_p), "project_seconds": wall_p,
+                     "project_error": err_p,
                      "project_steps": stats["steps"], "project_nfev": stats["nfev"]}
             if missing:
                 study.append(entry)
                 continue
-            from tensegrity_core.export import export_mjcf
-
-            exported = export_mjcf(case.scene)
-            dt0 = exported.timestep
-            factors = (4, 2, 1, 0.5, 0.25) if ctx.quick else (4, 2, 1, 0.5, 0.25, 0.125, 0.0625)
             runs: dict[float, tuple[float, np.ndarray, int]] = {}
             for f in factors + (factors[-1] / 2, factors[-1] / 4):
                 runs[f] = (math.nan, np.empty(0), 0)             # run on demand below
             matched = None
             ladder = []
             for f in factors:
+                spent = [r[0] for r in runs.values() if r[2]]
+                if spent and max(spent) > (5.0 if ctx.quick else 60.0):
+                    break                                   # finer steps would take too long
                 for g in (f, f / 4):
                     if not runs[g][2]:
                         runs[g] = mujoco_run(case, exported.xml, dt0 * g)
@@ -365,6 +385,7 @@ def growth(ctx: Context) -> list[Row]:
     stages = (1, 5, 22, 111) if ctx.quick else (1, 2, 5, 11, 22, 56, 111, 222)
     duration = 0.005 if ctx.quick else 0.05
     rows, data = [], []
+    _warm()
     with threadpool_limits(1):
         for k in stages:
             scene = _tower_scene(k, duration)
@@ -374,14 +395,16 @@ def growth(ctx: Context) -> list[Row]:
             for kernels in ("numba", "numpy"):
                 os.environ["TENSEGRITY_KERNELS"] = kernels
                 try:
-                    wall, _, _ = project_run(Case("tower", scene, None), method="RK4", max_step=dt)
+                    wall, _, _ = project_run(Case("tower", scene, None, stride=dt * max(1, round(0.005 / dt))),
+                                             method="RK4", max_step=dt)
                 finally:
                     os.environ.pop("TENSEGRITY_KERNELS", None)
                 entry[kernels] = wall / duration
             if not missing and (members >= 1998 or not ctx.quick):
                 from tensegrity_core.export import export_mjcf
 
-                wall, _, _ = mujoco_run(Case("tower", scene, None), export_mjcf(scene).xml, dt)
+                wall, _, _ = mujoco_run(Case("tower", scene, None, stride=dt * max(1, round(0.005 / dt))),
+                                        export_mjcf(scene).xml, dt)
                 entry["mujoco"] = wall / duration
             data.append(entry)
     m = np.array([e["members"] for e in data], dtype=float)

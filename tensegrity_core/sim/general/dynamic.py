@@ -61,7 +61,8 @@ class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralSystem, GeneralSample])
                                   actuators=general_model(scene).actuators, R_ref=config.rotations)
         self.state_names = self.plant.state_names
         method = scene.integrator.method
-        self.method = "Radau" if method == "auto" else method
+        # auto: DOP853, on the front of the general scenes' work-precision study (docs/performance.md)
+        self.method = "DOP853" if method == "auto" else method
 
     # -- states ---------------------------------------------------------------------------------
     def initial_state(self, *, t_end: float = math.inf) -> State[Stepper[GeneralSystem]]:
