@@ -528,46 +528,6 @@ def jacobian_blocks(base: FloatArray, free_node: IntArray, free_axis: IntArray, 
 
 # -- integration stages ------------------------------------------------------------------------------
 @jit
-def rk4_step(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
-             on_node: IntArray, on_body: IntArray, on_offset: FloatArray, body_dof: IntArray,
-             body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
-             body_inv_inertia_cm: FloatArray, member_a: IntArray, member_b: IntArray, EA: FloatArray,
-             damping: FloatArray, is_string: BoolArray, external: FloatArray,
-             y: FloatArray, f: FloatArray, h: float, R_ref: FloatArray, l0: FloatArray,
-             y_new: FloatArray, f_new: FloatArray) -> None:
-    """One classical Runge-Kutta step of size ``h`` [s] from ``y`` with ``f = dy/dt`` there:
-    ``y_new`` and ``f_new = dy/dt`` at the end (the next step's first stage). ``l0`` (3, m):
-    the rest lengths at ``t``, ``t + h/2`` and ``t + h``."""
-    N = y.shape[0]
-    n = base.shape[0]
-    X, V, F = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
-    R, r = np.empty((body_dof.shape[0], 3, 3)), np.empty((on_node.shape[0], 3))
-    wrench = np.empty((body_dof.shape[0], 6))
-    lengths, forces = np.empty(member_a.shape[0]), np.empty(member_a.shape[0])
-    k2, k3, k4, z = np.empty(N), np.empty(N), np.empty(N), np.empty(N)
-    for i in range(N):
-        z[i] = y[i] + 0.5 * h * f[i]
-    derivative(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
-               body_first_moment, body_inertia, body_inv_inertia_cm, member_a, member_b, EA, damping, is_string,
-               external, z, R_ref, l0[1], k2, X, V, F, R, r, wrench, lengths, forces)
-    for i in range(N):
-        z[i] = y[i] + 0.5 * h * k2[i]
-    derivative(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
-               body_first_moment, body_inertia, body_inv_inertia_cm, member_a, member_b, EA, damping, is_string,
-               external, z, R_ref, l0[1], k3, X, V, F, R, r, wrench, lengths, forces)
-    for i in range(N):
-        z[i] = y[i] + h * k3[i]
-    derivative(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
-               body_first_moment, body_inertia, body_inv_inertia_cm, member_a, member_b, EA, damping, is_string,
-               external, z, R_ref, l0[2], k4, X, V, F, R, r, wrench, lengths, forces)
-    for i in range(N):
-        y_new[i] = y[i] + h / 6.0 * (f[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
-    derivative(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
-               body_first_moment, body_inertia, body_inv_inertia_cm, member_a, member_b, EA, damping, is_string,
-               external, y_new, R_ref, l0[2], f_new, X, V, F, R, r, wrench, lengths, forces)
-
-
-@jit
 def rk_stages(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
               on_node: IntArray, on_body: IntArray, on_offset: FloatArray, body_dof: IntArray,
               body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
@@ -626,3 +586,21 @@ def combine(y: FloatArray, h: float, weights: FloatArray, K: FloatArray, out: Fl
         for j in range(weights.shape[0]):
             acc += weights[j] * K[j, i]
         out[i] = y[i] + h * acc
+
+
+@jit
+def dop853_attempt(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
+                   on_node: IntArray, on_body: IntArray, on_offset: FloatArray, body_dof: IntArray,
+                   body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
+                   body_inv_inertia_cm: FloatArray, member_a: IntArray, member_b: IntArray, EA: FloatArray,
+                   damping: FloatArray, is_string: BoolArray, external: FloatArray,
+                   y: FloatArray, h: float, R_ref: FloatArray, l0: FloatArray, A: FloatArray, E5: FloatArray,
+                   E3: FloatArray, rtol: float, atol: float, K: FloatArray, y_new: FloatArray) -> float:
+    """One DOP853 step attempt in one call: stages 1-12 into ``K`` (``K[0]`` given: the rate
+    at ``y``; row 12 the rate at ``y_new``), ``y_new``, and the error norm (:func:`embedded_error`)."""
+    n_stages = E5.shape[0] - 1                              # 12
+    rk_stages(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
+              body_first_moment, body_inertia, body_inv_inertia_cm, member_a, member_b, EA, damping, is_string,
+              external, y, h, R_ref, l0, A, 1, n_stages + 1, K)
+    combine(y, h, A[n_stages, :n_stages], K, y_new)
+    return embedded_error(y, y_new, K, E5, E3, h, rtol, atol)

@@ -18,8 +18,14 @@ from tensegrity_core.sim.general.kernels.plan import Plan
 
 FloatArray = NDArray[np.float64]
 
-#: RK4's stage times as fractions of the step (the rows of its rest lengths).
-RK4_TIMES = np.array([0.0, 0.5, 1.0])
+#: The classical RK4 as a tableau: stages 0-3, then row 4 (its weights ``B``) gives the rate at
+#: the step's end, the next step's first stage; ``RK4_C`` the stages' times over the step.
+RK4_B = np.array([1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0])
+RK4_A = np.zeros((5, 5))
+RK4_A[1, 0] = RK4_A[2, 1] = 0.5
+RK4_A[3, 2] = 1.0
+RK4_A[4, :4] = RK4_B
+RK4_C = np.array([0.0, 0.5, 0.5, 1.0, 1.0])
 #: DOP853's tableau (scipy's tables of Hairer's coefficients): 12 stages, the rate at the
 #: step's end (row 12 of ``A`` is ``B``), three more for the dense output.
 A = np.ascontiguousarray(dop853.A, dtype=float)
@@ -41,7 +47,7 @@ class CompiledStages:
         self.rest_lengths = rest_lengths
         self.constant = constant
         fixed = np.ascontiguousarray(rest_lengths(0.0), dtype=float)
-        self._fixed = {k: np.ascontiguousarray(np.tile(fixed, (k, 1))) for k in (len(RK4_TIMES), len(C))} \
+        self._fixed = {k: np.ascontiguousarray(np.tile(fixed, (k, 1))) for k in (len(RK4_C), len(C))} \
             if constant else None
 
     def _lengths(self, t: float, h: float, fractions: FloatArray) -> FloatArray:
@@ -51,18 +57,20 @@ class CompiledStages:
         return np.ascontiguousarray([self.rest_lengths(t + c * h) for c in fractions], dtype=float)
 
     def rk4(self, t: float, y: FloatArray, f: FloatArray, h: float) -> tuple[FloatArray, FloatArray]:
-        y_new, f_new = np.empty_like(y), np.empty_like(y)
-        loops.rk4_step(*self.plan, y, f, h, self.R_ref, self._lengths(t, h, RK4_TIMES), y_new, f_new)
-        return y_new, f_new
+        K = np.empty((5, len(y)))
+        K[0] = f
+        loops.rk_stages(*self.plan, y, h, self.R_ref, self._lengths(t, h, RK4_C), RK4_A, 1, 5, K)
+        y_new = np.empty_like(y)
+        loops.combine(y, h, RK4_B, K, y_new)
+        return y_new, K[4].copy()
 
     def dop853(self, t: float, y: FloatArray, f: FloatArray, h: float, rtol: float,
                atol: float) -> tuple[FloatArray, FloatArray, float]:
         K = np.empty((N_EXTENDED, len(y)))
         K[0] = f
-        loops.rk_stages(*self.plan, y, h, self.R_ref, self._lengths(t, h, C), A, 1, N_STAGES + 1, K)
         y_new = np.empty_like(y)
-        loops.combine(y, h, A[N_STAGES, :N_STAGES], K, y_new)
-        error = loops.embedded_error(y, y_new, K, E5, E3, h, rtol, atol)
+        error = loops.dop853_attempt(*self.plan, y, h, self.R_ref, self._lengths(t, h, C), A, E5, E3, rtol, atol, K,
+                                     y_new)
         return y_new, K, float(error)
 
     def dop853_dense(self, t: float, y: FloatArray, y_new: FloatArray, K: FloatArray, h: float) -> FloatArray:
