@@ -1,5 +1,6 @@
-"""Rotations: skew matrices, the exponential map, the left Jacobian of SO(3), the best-fit
-rotation of a point set, and the cross product over arrays of vectors.
+"""Rotations: skew matrices, the exponential map, the best-fit rotation of a point set, and the
+cross product over arrays of vectors. (The left Jacobian of SO(3) that the dynamics' rotation
+charts need lives with their kernels, ``sim/general/kernels``.)
 
 Conventions: rotation matrices are *active* (``x_world = R @ x_body``); a rotation vector
 ``theta`` [rad] has direction = axis (right-hand rule) and norm = angle. Orientation
@@ -68,29 +69,3 @@ def cross(a: FloatArray, b: FloatArray) -> FloatArray:
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], -1)
-
-
-def _angle(theta: ArrayLike) -> tuple[FloatArray, FloatArray, NDArray[np.bool_], FloatArray, FloatArray]:
-    """``(|theta|^2, |theta|, small-angle mask, safe |theta|, hat(theta))`` over ``(..., 3)``."""
-    theta = np.asarray(theta, dtype=float)
-    a2: FloatArray = np.sum(theta * theta, axis=-1)
-    a = np.sqrt(a2)
-    small = a < 1e-4
-    return a2, a, small, np.where(small, 1.0, a), hat(theta)
-
-
-def left_jacobian_inverse(theta: ArrayLike) -> FloatArray:
-    """``J_l(theta)^-1`` (..., 3, 3): ``dtheta/dt = J_l^-1 omega`` for ``R = exp(hat(theta)) R_ref``
-    (series below 1e-4 rad)."""
-    a2, _, small, safe, K = _angle(theta)
-    coef: FloatArray = np.where(small, 1.0 / 12.0 + a2 / 720.0,
-                                1.0 / safe**2 - (1.0 + np.cos(safe)) / (2.0 * safe * np.sin(safe)))
-    return np.eye(3) - 0.5 * K + coef[..., None, None] * (K @ K)
-
-
-def left_jacobian(theta: ArrayLike) -> FloatArray:
-    """``J_l(theta)`` (..., 3, 3): ``omega = J_l dtheta/dt``."""
-    a2, _, small, safe, K = _angle(theta)
-    c1: FloatArray = np.where(small, 0.5 - a2 / 24.0, (1.0 - np.cos(safe)) / safe**2)
-    c2: FloatArray = np.where(small, 1.0 / 6.0 - a2 / 120.0, (safe - np.sin(safe)) / safe**3)
-    return np.eye(3) + c1[..., None, None] * K + c2[..., None, None] * (K @ K)

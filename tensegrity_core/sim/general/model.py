@@ -56,11 +56,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
-from tensegrity_core.general.rotation import exp_so3
+from tensegrity_core.general.rotation import cross, exp_so3
 from tensegrity_core.general.statics import group_sum
 from tensegrity_core.general.structure import Structure
 from tensegrity_core.sim.errors import SceneError
-from tensegrity_core.sim.general.kernels.arrays import cross
 from tensegrity_core.sim.general.kernels.evaluator import Evaluation, Evaluator
 from tensegrity_core.sim.general.kernels.plan import build_plan
 from tensegrity_core.sim.general.kernels.stages import CompiledStages

@@ -36,7 +36,7 @@ WARM_STRUCTURE = {
 def warm() -> float:
     """Run every compiled kernel once (compiling or loading it); the seconds it took."""
     from tensegrity_core.sim import Simulator, scene_from_dict
-    from tensegrity_core.sim.general.model import GeneralModel
+    from tensegrity_core.sim.general.model import GeneralSystem
 
     started = time.perf_counter()
     scene = scene_from_dict({"model": {"kind": "general", "structure": WARM_STRUCTURE}, "initial": {"drawn": True},
@@ -46,7 +46,7 @@ def warm() -> float:
     sim = Simulator(scene, t_end=scene.duration)
     sim.advance(scene.duration)                      # stepping, interpolation
     eq = sim.state.work.system
-    assert isinstance(eq, GeneralModel)
+    assert isinstance(eq, GeneralSystem)
     y = sim.state.y.copy()
     eq.fun(0.0, y)
     eq.jac(0.0, y)
