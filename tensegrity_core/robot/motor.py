@@ -1,0 +1,100 @@
+"""Cable motors: the rest length of an actuated cable as the motor's state.
+
+A motor reels its cable in and out; the cable element (:mod:`.cable`) sees the result as
+its rest length ``l0`` [m]. Parameters per motor: the rest-length range ``[lo, hi]`` [m],
+a first-order lag ``tau`` [s] (0: none), a slew-rate limit ``speed`` [m/s] (inf: none)
+and the tension limit ``t_max`` [N].
+
+**Commands** (:func:`target`). In rest-length mode the command is the target rest length
+``u`` [m], clipped to the range. In tension mode it is a target tension ``u`` [N]: the
+motor aims at the rest length that gives that tension at the cable's present length,
+``l - u / k``, so a fast motor makes the cable a constant-tension source. A command may
+carry a reel speed [m/s], which lowers the slew limit for that move.
+
+**Dynamics** (:func:`rate`; exact over a step by :func:`step`)::
+
+    dl0/dt = clip((target - l0) / tau, -speed, speed)
+
+a lag whose rate is limited: far from the target the motor slews at ``speed``, within
+``speed tau`` of it the error decays as ``exp(-t / tau)``. ``tau = 0`` is a pure slew
+limit, ``speed = inf`` a pure lag; with neither the motor is ideal (``l0 = target`` at
+once), which only :func:`step` represents (a model without a motor state).
+
+**Tension limit** (:func:`payout`). A motor cannot hold more than ``t_max``: when the cable
+pulls harder the spool is back-driven and pays out, keeping ``k (l - l0) <= t_max`` (up to
+the range's end, ``hi``, where the motor is at its stop). Paying out lowers the stored
+energy ``k (l - l0)^2 / 2``: the motor's brake dissipates it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+FloatArray = NDArray[np.float64]
+
+#: Command modes: the command is a rest length [m] or a tension [N].
+REST_LENGTH, TENSION = 0, 1
+MODES = {"rest_length": REST_LENGTH, "tension": TENSION}
+
+
+def target(mode: ArrayLike, command: ArrayLike, l: ArrayLike, k: ArrayLike, lo: ArrayLike,
+           hi: ArrayLike) -> FloatArray:
+    """The rest length [m] each motor aims at: ``clip(u, lo, hi)`` in rest-length mode,
+    ``clip(l - u / k, lo, hi)`` in tension mode (``u`` [N], cable length ``l`` [m],
+    stiffness ``k`` [N/m])."""
+    u = np.asarray(command, dtype=float)
+    aim = np.where(np.asarray(mode) == TENSION, np.asarray(l, dtype=float) - u / np.asarray(k, dtype=float), u)
+    out: FloatArray = np.clip(aim, lo, hi)
+    return out
+
+
+def slew_limit(speed: ArrayLike, reel_speed: ArrayLike = np.nan) -> FloatArray:
+    """The slew limit [m/s] of a move: the motor's ``speed``, or the command's
+    ``reel_speed`` where given (not nan) and lower."""
+    s = np.asarray(speed, dtype=float)
+    r = np.asarray(reel_speed, dtype=float)
+    out: FloatArray = np.where(np.isnan(r), s, np.minimum(s, r))
+    return out
+
+
+def rate(l0: ArrayLike, aim: ArrayLike, tau: ArrayLike, speed: ArrayLike) -> FloatArray:
+    """``dl0/dt`` [m/s] = ``clip((aim - l0) / tau, -speed, speed)``; ``tau = 0`` slews at
+    ``speed`` towards ``aim`` (0 at it). Needs ``tau > 0`` or a finite ``speed``."""
+    e = np.asarray(aim, dtype=float) - np.asarray(l0, dtype=float)
+    t = np.asarray(tau, dtype=float)
+    s = np.asarray(speed, dtype=float)
+    unlagged = np.where(e > 0, np.inf, np.where(e < 0, -np.inf, 0.0))    # tau = 0: as fast as the slew
+    lagged = np.divide(e, t, out=unlagged, where=t > 0)
+    out: FloatArray = np.clip(lagged, -s, s)
+    return out
+
+
+def step(l0: ArrayLike, aim: ArrayLike, tau: ArrayLike, speed: ArrayLike, dt: float) -> FloatArray:
+    """The rest lengths [m] after ``dt`` [s] of :func:`rate` towards a constant ``aim``,
+    exactly: a slew at ``speed`` until the error is ``speed tau``, then the exponential
+    ``e exp(-t / tau)``. Ideal motors (``tau = 0``, ``speed = inf``) reach ``aim``."""
+    A = np.asarray(aim, dtype=float)
+    e0 = A - np.asarray(l0, dtype=float)
+    t = np.asarray(tau, dtype=float)
+    s = np.asarray(speed, dtype=float)
+    mag = np.abs(e0)
+    knee = np.multiply(s, t, out=np.zeros_like(mag), where=t > 0)    # |error| where the slew ends
+    slew_time = np.divide(mag - knee, s, out=np.zeros_like(mag), where=(mag > knee) & np.isfinite(s))
+    slewing = dt < slew_time
+    travel = np.multiply(s, dt, out=np.full_like(mag, np.inf), where=np.isfinite(s))
+    after_slew = np.maximum(mag - travel, 0.0)
+    start = np.minimum(mag, knee)
+    decay = np.exp(-np.divide(np.maximum(dt - slew_time, 0.0), t, out=np.full_like(mag, np.inf), where=t > 0))
+    left = np.where(slewing, after_slew, start * decay)
+    out: FloatArray = A - np.sign(e0) * left
+    return out
+
+
+def payout(l0: ArrayLike, l: ArrayLike, k: ArrayLike, t_max: ArrayLike, hi: ArrayLike) -> FloatArray:
+    """Rest lengths [m] after the spools pay out under the tension limit: ``l0`` raised to
+    ``l - t_max / k`` where the cable (length ``l``) would pull harder, at most to ``hi``."""
+    L0 = np.asarray(l0, dtype=float)
+    need = np.asarray(l, dtype=float) - np.asarray(t_max, dtype=float) / np.asarray(k, dtype=float)
+    out: FloatArray = np.maximum(L0, np.minimum(need, hi))
+    return out

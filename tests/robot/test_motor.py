@@ -1,0 +1,79 @@
+"""Cable motors: the step response against the lag's analytic solution, the slew limit,
+exactness over any split of a step, the continuous rate integrated by scipy, commands and
+the payout under the tension limit."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
+from scipy.integrate import solve_ivp
+
+from tensegrity_core.robot import motor
+
+taus = st.one_of(st.just(0.0), st.floats(1e-3, 5.0))
+speeds = st.one_of(st.just(np.inf), st.floats(1e-3, 2.0))
+rest = st.floats(0.05, 2.0)
+
+
+def test_step_response_is_the_first_order_lag():
+    """Without a slew limit: l0(t) = u - (u - l0(0)) exp(-t / tau), evaluated in closed form."""
+    tau, u, start = 0.8, 0.3, 0.5
+    for t in (0.0, 0.01, 0.5, 0.8, 2.0, 10.0):
+        got = float(motor.step(start, u, tau, np.inf, t))
+        assert abs(got - (u - (u - start) * np.exp(-t / tau))) <= 1e-15
+    # one time constant: 63.2 % of the way
+    assert abs((float(motor.step(start, u, tau, np.inf, tau)) - start) / (u - start) - (1 - np.exp(-1))) < 1e-14
+
+
+def test_a_slew_limited_move_is_linear_then_exponential():
+    tau, speed, start, u = 0.1, 0.05, 0.6, 0.2          # error 0.4 m, knee at speed * tau = 5 mm
+    t_knee = (0.4 - speed * tau) / speed                # 7.9 s of slewing
+    assert abs(float(motor.step(start, u, tau, speed, 2.0)) - (start - speed * 2.0)) < 1e-15
+    knee = float(motor.step(start, u, tau, speed, t_knee))
+    assert abs(knee - (u + speed * tau)) < 1e-12
+    later = float(motor.step(start, u, tau, speed, t_knee + 0.3))
+    assert abs(later - (u + speed * tau * np.exp(-3.0))) < 1e-12
+    assert float(motor.step(start, u, 0.0, speed, 100.0)) == u      # a pure slew arrives and stays
+    assert float(motor.step(start, u, 0.0, np.inf, 1e-3)) == u      # an ideal motor at once
+
+
+@given(rest, rest, taus, speeds, st.floats(0.0, 3.0), st.floats(0.0, 3.0))
+def test_the_step_is_exact_over_any_split(start, u, tau, speed, t1, t2):
+    whole = float(motor.step(start, u, tau, speed, t1 + t2))
+    split = float(motor.step(motor.step(start, u, tau, speed, t1), u, tau, speed, t2))
+    assert abs(whole - split) <= 1e-12 + 1e-9 * abs(u - start)
+    lo, hi = min(start, u), max(start, u)
+    assert lo - 1e-15 <= whole <= hi + 1e-15                       # never overshoots
+
+
+@given(rest, rest, st.floats(1e-2, 2.0), speeds)
+def test_the_step_solves_the_rate_equation(start, u, tau, speed):
+    sol = solve_ivp(lambda t, y: motor.rate(y, u, tau, speed), (0.0, 1.5), [start], rtol=1e-11, atol=1e-13,
+                    method="DOP853")
+    assert abs(sol.y[0, -1] - float(motor.step(start, u, tau, speed, 1.5))) < 1e-8
+
+
+def test_commands_rest_length_and_tension_modes():
+    lo, hi = 0.1, 0.6
+    aims = motor.target([motor.REST_LENGTH, motor.REST_LENGTH, motor.TENSION, motor.TENSION],
+                        [0.3, 0.9, 100.0, 1000.0], [0.5, 0.5, 0.5, 0.5], 1000.0, lo, hi)
+    # 0.9 m is out of range; 100 N at 0.5 m needs l0 = 0.5 - 0.1; 1000 N would need 0 m < lo
+    np.testing.assert_allclose(aims, [0.3, 0.6, 0.4, 0.1])
+    assert float(motor.slew_limit(0.2, np.nan)) == 0.2
+    assert float(motor.slew_limit(0.2, 0.05)) == 0.05
+    assert float(motor.slew_limit(0.2, 0.5)) == 0.2                 # a command cannot exceed the motor
+
+
+@given(rest, st.floats(0.0, 0.5), st.floats(10.0, 1e4), st.floats(1.0, 500.0))
+def test_payout_keeps_the_tension_at_its_limit(l0, stretch, k, t_max):
+    hi = l0 + 1.0
+    l = l0 + stretch
+    new = float(motor.payout(l0, l, k, t_max, hi))
+    assert new >= l0
+    assert k * (l - new) <= t_max * (1 + 1e-12) + 1e-12
+    if new > l0:                                                    # paid out: exactly at the limit, less energy
+        assert abs(k * (l - new) - t_max) <= 1e-9 * t_max
+        assert (l - new) ** 2 <= (l - l0) ** 2
+    capped = float(motor.payout(l0, l0 + 10.0, k, 1.0, l0 + 0.01))  # the spool's end: no further
+    assert capped == l0 + 0.01
