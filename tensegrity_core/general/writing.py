@@ -3,7 +3,8 @@
 - :func:`structure_to_dict`: the per-member form (one mapping per member, node names).
 - :func:`structure_to_arrays`: the array form (node coordinates as a list, members as
   columns of node positions and values), for generated structures.
-- :func:`dump_structure`: YAML text in the hand-written style, one node or member a line.
+- :func:`dump_structure`: YAML text in the hand-written style, one node or member a line
+  (:func:`dump_description`: the same style for any description's plain data).
 - :func:`save_structure`: a file by its suffix: ``.yaml``/``.yml`` (per member), ``.json``
   (array form), ``.npz`` (arrays, :mod:`~tensegrity_core.general.structure_npz`).
 
@@ -107,7 +108,13 @@ def _supports_and_loads(s: Structure) -> dict[str, Any]:
 def dump_structure(structure: Structure, header: str = "") -> str:
     """YAML text of ``structure`` in the hand-written style (one node or member per line),
     preceded by ``header`` as comment lines."""
-    data = structure_to_dict(structure)
+    return dump_description(structure_to_dict(structure), header)
+
+
+def dump_description(data: dict[str, Any], header: str = "") -> str:
+    """YAML text of a description's plain ``data`` in the hand-written style: each top-level
+    mapping one entry a line, each list of mappings one mapping a line, everything else in
+    flow style; preceded by ``header`` as comment lines."""
     lines = [f"# {h}" if h else "#" for h in header.splitlines()]
     for key, value in data.items():
         if isinstance(value, dict):

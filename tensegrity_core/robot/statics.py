@@ -1,0 +1,26 @@
+"""Robot statics: the prestressed rest shape, on the robot's own cable element.
+
+The statics run :mod:`tensegrity_core.general` (form-finding, tangent stiffness, stability)
+on :meth:`Robot.structure`, the robot with rods as stiff bars and cables as strings of
+``EA = k l0``, so a rest shape found here is an equilibrium of the dynamics' cables at rest.
+"""
+
+from __future__ import annotations
+
+from numpy.typing import ArrayLike
+
+from tensegrity_core.errors import ConvergenceError
+from tensegrity_core.general.formfind import FormFindResult, form_find
+from tensegrity_core.robot.description import Robot
+
+
+def rest_shape(robot: Robot, rest_lengths: ArrayLike | None = None, *, gravity: bool = False) -> FormFindResult:
+    """The robot's stable equilibrium for the cables' ``rest_lengths`` [m] (default: as drawn)
+    under its supports, without the floor and (unless ``gravity``) without weight: for a free
+    robot its prestressed shape (six rigid-body motions left free), form-found from the
+    drawing. Raises :class:`~tensegrity_core.errors.ConvergenceError` if there is none."""
+    result = form_find(robot.structure(rest_lengths, gravity=gravity))
+    if not result.success:
+        raise ConvergenceError(f"robot {robot.name!r} has no stable rest shape for these rest lengths: "
+                               f"{result.message}")
+    return result
