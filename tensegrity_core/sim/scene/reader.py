@@ -29,6 +29,7 @@ from tensegrity_core.class2.dynamics.limits import SINGULAR_GUARD_REL
 from tensegrity_core.class2.names import ACTUATORS
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.general.structure import STANDARD_GRAVITY, Structure
+from tensegrity_core.robot.gait import read_gait
 from tensegrity_core.schema import (
     DEFAULT_LIMITS,
     KeyPath,
@@ -404,8 +405,21 @@ class _SceneReader(Reader):
                                  (), parent, None)
             return {}
         d = self.mapping(value, path, parent, "inputs")
-        self.keys(d, path, names, required=names)
-        return {n: self.law(d[n], path + (n,), d, n, model) for n in names}
+        from_gait: dict[str, InputLaw] = {}
+        if model.kind == "general" and "gait" in d:
+            gait = read_gait(self, d["gait"], path + ("gait",), d, "gait", self.base)
+            for cable in gait.cables:
+                if cable not in names:
+                    raise self.error(f"the gait drives {excerpt(cable)}, which is not an actuator"
+                                     f"{suggest(cable, names)}; actuators: {', '.join(names)}", path + ("gait",), d,
+                                     "gait")
+                if cable in d:
+                    raise self.error(f"actuator {excerpt(cable)} has a law and is driven by the gait; give one",
+                                     path + (cable,), d, cable)
+            from_gait = dict(gait.laws())
+        own = tuple(n for n in names if n not in from_gait)
+        self.keys(d, path, names + (("gait",) if model.kind == "general" else ()), required=own)
+        return {n: from_gait[n] if n in from_gait else self.law(d[n], path + (n,), d, n, model) for n in names}
 
     LAW_KEYS: ClassVar[dict[str, tuple[str, ...]]] = {
         "constant": ("law", "value"), "ramp": ("law", "from", "to", "t0", "t1"), "proportional": ("law", "gain"),
