@@ -113,14 +113,14 @@ def dump_structure(structure: Structure, header: str = "") -> str:
 
 def dump_description(data: dict[str, Any], header: str = "") -> str:
     """YAML text of a description's plain ``data`` in the hand-written style: each top-level
-    mapping one entry a line, each list of mappings one mapping a line, everything else in
-    flow style; preceded by ``header`` as comment lines."""
+    mapping one entry a line, each list of mappings (or of lists) one item a line, everything
+    else in flow style; preceded by ``header`` as comment lines."""
     lines = [f"# {h}" if h else "#" for h in header.splitlines()]
     for key, value in data.items():
         if isinstance(value, dict):
             lines.append(f"{key}:")
             lines += [f"  {_flow(k)}: {_flow(v)}" for k, v in value.items()]
-        elif isinstance(value, list) and value and isinstance(value[0], dict):
+        elif isinstance(value, list) and value and isinstance(value[0], (dict, list)):
             lines.append(f"{key}:")
             lines += [f"  - {_flow(v)}" for v in value]
         else:

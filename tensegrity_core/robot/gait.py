@@ -104,6 +104,21 @@ class Gait:
         return replace(self, **changes)
 
 
+def gait_to_dict(gait: Gait) -> dict[str, Any]:
+    """The gait as plain data (the file format); ``gait_from_dict`` reads it back."""
+    out: dict[str, Any] = {"name": gait.name}
+    if gait.description:
+        out["description"] = gait.description
+    out |= {"cables": list(gait.cables), "times": list(gait.times),
+            "rest_lengths": [list(r) for r in gait.rest_lengths], "interpolation": gait.interpolation}
+    if gait.period is not None:
+        out["period"] = gait.period
+    for key, default in (("cycles", 1), ("time_scale", 1.0), ("start", 0.0)):
+        if getattr(gait, key) != default:
+            out[key] = getattr(gait, key)
+    return out
+
+
 def gait_names() -> list[str]:
     """Names of the shipped gaits."""
     return _SHIPPED.names()
