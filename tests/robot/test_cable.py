@@ -106,3 +106,11 @@ def test_tension_derivatives_match_central_differences():
                                / (2 * h), rtol=1e-6)
     slack = cable.tension_derivatives(0.5, 1.0, 1.0, 100.0, 1.0)
     assert all(float(x) == 0.0 for x in slack)
+
+
+def test_the_tension_at_rest_is_the_energy_s_derivative():
+    """T(l, 0) = dE/dl for the stored energy k max(0, l - l0)^2 / 2 (central differences)."""
+    l = np.linspace(0.5, 1.5, 41)
+    h = 1e-7
+    dE = (cable.energy(l + h, 1.0, 800.0) - cable.energy(l - h, 1.0, 800.0)) / (2 * h)
+    np.testing.assert_allclose(cable.tension(l, 0.0, 1.0, 800.0, 3.0), dE, atol=1e-4)   # k h at the kink

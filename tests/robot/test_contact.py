@@ -35,6 +35,13 @@ def test_normal_force_is_continuous_at_touch_down_and_the_spring_at_rest():
     assert abs(float(contact.normal_force(W / k, 0.0, k, 5.0)) - W) < 1e-12 * W   # rests W / k deep (0.3 mm)
 
 
+def test_the_normal_force_at_rest_is_the_contact_energy_s_derivative():
+    delta = np.linspace(-1e-3, 2e-3, 31)
+    h = 1e-9
+    dV = (contact.contact_energy(delta + h, 2e5) - contact.contact_energy(delta - h, 2e5)) / (2 * h)
+    np.testing.assert_allclose(contact.normal_force(delta, 0.0, 2e5, 5.0), dV, atol=1e-4)
+
+
 def test_normal_force_derivatives_match_central_differences():
     rng = np.random.default_rng(4)
     delta = rng.uniform(1e-4, 1e-2, 30)

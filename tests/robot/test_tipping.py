@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 from tensegrity_core.general import form_find, member_forces
+from tensegrity_core.general.writing import dump_description
 from tensegrity_core.robot import tipping
-from tensegrity_core.robot.gait import GAITS_DIR, gait_from_file, gait_names
+from tensegrity_core.robot.gait import GAITS_DIR, gait_from_dict, gait_from_file, gait_names, gait_to_dict
 from tensegrity_core.robot.loading import load_robot
 from tensegrity_core.robot.statics import rest_shape
 
@@ -43,6 +44,14 @@ def test_the_shipped_gait_begins_with_the_derived_step(six_bar, first_step):
     # each move is within the motors' slew limit
     speed = np.abs(np.diff(rows, axis=0)) / np.diff(gait.times)[:, None]
     assert speed.max() <= six_bar.motors.max_speed.min() * (1 + 1e-3)
+
+
+def test_the_shipped_gait_file_round_trips():
+    path = GAITS_DIR / "six_bar_roll.yaml"
+    gait = gait_from_file(path)
+    assert gait_from_dict(gait_to_dict(gait)) == gait
+    body = "\n".join(line for line in path.read_text().splitlines() if not line.startswith("#")) + "\n"
+    assert body == dump_description(gait_to_dict(gait))
 
 
 def _supported(robot, X, face, rest):
