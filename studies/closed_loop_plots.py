@@ -15,7 +15,7 @@ from tensegrity_core.class2.control.holding import holding_forces, rest_state
 from tensegrity_core.class2.control.lqr import DEFAULT_WEIGHTS, LQRWeights, design_gain, linearize
 from tensegrity_core.class2.control.paths import CirclePath
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
-from tensegrity_core.class2.singularities import singularity_distance_array
+from tensegrity_core.class2.singularities.distances import singularity_distance_array
 
 if TYPE_CHECKING:
     from studies.closed_loop import StudyResult

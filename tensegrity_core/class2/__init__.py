@@ -57,13 +57,14 @@ from tensegrity_core.class2.kinematics import (
     jacobian_D_rho,
 )
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
-from tensegrity_core.class2.singularities import (
+from tensegrity_core.class2.singularities.distances import (
     SINGULAR_SETS,
     dynamics_singularity,
     nearest_singularity,
     singularity_distance_array,
     singularity_distances,
 )
+from tensegrity_core.class2.singularities.report import SingularityReport, SingularSet, classify_singularities
 from tensegrity_core.class2.stiffness import (
     COORDINATES,
     StiffnessResult,
@@ -76,13 +77,7 @@ from tensegrity_core.class2.stiffness import (
     stiffness_matrix_paper,
     stiffness_sweep,
 )
-from tensegrity_core.class2.workspace import (
-    SingularityReport,
-    SingularSet,
-    Workspace,
-    classify_singularities,
-    workspace,
-)
+from tensegrity_core.class2.workspace import Workspace, workspace
 
 __all__ = [
     "Class2Params",

@@ -37,7 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from tensegrity_core.class2.full_workspace import distance_to_full_workspace
 from tensegrity_core.class2.kinematics import as_real, in_paper_range
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
-from tensegrity_core.class2.singularities import nearest_singularity
+from tensegrity_core.class2.singularities.distances import nearest_singularity
 from tensegrity_core.errors import DomainError
 
 #: Relative tolerance (times L) within which a length on a domain limit is snapped onto

@@ -30,7 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 from tensegrity_core.class2.energy import potential_energy
 from tensegrity_core.class2.geometry import check_actuator_lengths, node_positions
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
-from tensegrity_core.class2.singularities import nearest_singularity
+from tensegrity_core.class2.singularities.distances import nearest_singularity
 from tensegrity_core.errors import DomainError, SingularityError
 
 if TYPE_CHECKING:

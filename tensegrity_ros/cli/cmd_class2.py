@@ -194,7 +194,7 @@ def cmd_workspace(args) -> int:
 
 
 def cmd_singularities(args) -> int:
-    from tensegrity_core.class2.workspace import classify_singularities
+    from tensegrity_core.class2.singularities.report import classify_singularities
 
     params = _params(args)
     rep = _run(lambda: classify_singularities(args.rho1, args.rho2, params))

@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 from tensegrity_core.class2 import PAPER_PARAMS
 from tensegrity_core.class2.full_workspace import distance_to_full_workspace, in_full_workspace
 from tensegrity_core.class2.kinematics import fk_array, forward_kinematics, jacobian_D_rho
-from tensegrity_core.class2.workspace import classify_singularities, workspace
+from tensegrity_core.class2.singularities.report import classify_singularities
+from tensegrity_core.class2.workspace import workspace
 from tensegrity_core.errors import DomainError
 
 P = PAPER_PARAMS

@@ -31,7 +31,7 @@ from tensegrity_core.class2.control.reference import Reference, hold_reference
 from tensegrity_core.class2.inverse_kinematics import inverse_kinematics, nearest_solution
 from tensegrity_core.class2.kinematics import jacobian_D_rho
 from tensegrity_core.class2.params import Class2Params
-from tensegrity_core.class2.singularities import nearest_singularity
+from tensegrity_core.class2.singularities.distances import nearest_singularity
 from tensegrity_core.errors import TensegrityError
 
 #: Default margin to the singular sets [L]: the IK node reports distances in the same measure.

@@ -42,7 +42,7 @@ from tensegrity_core.class2.control.reference import Reference
 from tensegrity_core.class2.energy import equilibrium_beta
 from tensegrity_core.class2.names import ACTUATED_JOINTS
 from tensegrity_core.class2.params import Class2Params
-from tensegrity_core.class2.singularities import nearest_singularity, singularity_distance_array
+from tensegrity_core.class2.singularities.distances import nearest_singularity, singularity_distance_array
 
 #: Bounds on what a trajectory may hold (input from outside is bounded).
 MAX_POINTS: Final = 100_000

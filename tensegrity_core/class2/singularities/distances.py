@@ -16,7 +16,7 @@ the configuration domain across that set). With ``K = 2 k3 + k2`` the sets are l
                   ``beta_half_pi`` line). Distance ``sqrt(rho1^2 + rho2^2) / L``.
 
 The functions here are pure formulas on ``(rho1, rho2)``; the full report with the values
-of beta, the Jacobian and the IK discriminant is :func:`~tensegrity_core.class2.workspace.classify_singularities`.
+of beta, the Jacobian and the IK discriminant is :func:`~tensegrity_core.class2.singularities.report.classify_singularities`.
 """
 
 from __future__ import annotations
