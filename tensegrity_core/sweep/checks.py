@@ -11,14 +11,15 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from tensegrity_core.schema.errors import suggest, type_name
+from tensegrity_core.schema.errors import SchemaError, suggest, type_name
 
 #: A check of one option: the raw YAML value -> the checked value (or :class:`OptionError`).
 Check = Callable[[Any], Any]
 
 
-class OptionError(ValueError):
-    """An option's value is not allowed."""
+class OptionError(SchemaError):
+    """An option's value is not allowed (the bare reason: the reader that applies the check
+    locates it by key path and line, :meth:`~tensegrity_core.schema.Reader.checked`)."""
 
 
 def number(*, lo: float | None = None, lo_open: bool = False) -> Callable[[object], float]:

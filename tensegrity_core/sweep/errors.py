@@ -10,27 +10,14 @@ from __future__ import annotations
 
 from types import ModuleType
 
-from tensegrity_core.errors import TensegrityError
-from tensegrity_core.schema.errors import KeyPath, format_key_path
+from tensegrity_core.schema.errors import SchemaError
 
 
-class SweepError(TensegrityError, ValueError):
+class SweepError(SchemaError):
     """A sweep is invalid or cannot run. ``key`` is the key path in the sweep file (tuple),
-    ``line`` the 1-based line or ``None``, ``file`` the sweep file's name or ``None``; the
-    message already contains all three."""
-
-    def __init__(self, message: str, *, key: KeyPath = (), line: int | None = None, file: str | None = None):
-        where = format_key_path(key)
-        text = f"{where}: {message}" if where else message
-        if line is not None:
-            text += f" (line {line})"
-        if file:
-            text = f"{file}: {text}"
-        super().__init__(text)
-        self.key = tuple(key)
-        self.line = line
-        self.file = file
-        self.reason = message
+    ``line`` the 1-based line or ``None``, ``file`` the sweep file's name or ``None``;
+    ``str()`` shows all three (:class:`~tensegrity_core.schema.SchemaError`), ``reason``
+    the bare message."""
 
 
 class MissingDependencyError(SweepError):

@@ -8,8 +8,10 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
+from tensegrity_core.errors import TensegrityError
 
-class CliError(Exception):
+
+class CliError(TensegrityError):
     """A user-facing failure: printed as one ``error:`` line, exit code ``code``."""
 
     def __init__(self, message: str, code: int = 2):

@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from tensegrity_core.class2.names import ACTUATED_JOINTS, ACTUATORS
+from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import excerpt
 
 #: Accepted names of each actuator (case, spaces, '_', '-' and '/' ignored: "Actuator_1"
@@ -24,7 +25,7 @@ ACTUATOR_ALIASES: dict[str, int] = {
 }
 
 
-class CommandError(ValueError):
+class CommandError(TensegrityError, ValueError):
     """A command that is rejected; the message says why (for a throttled warning)."""
 
 

@@ -432,11 +432,11 @@ class ControllerNode(Node):
         super().destroy_node()
 
 
-class _NoState(Exception):
+class _NoState(TensegrityError):
     """No joint state yet: nothing to plan from."""
 
 
-class _OldStamp(Exception):
+class _OldStamp(TensegrityError):
     """A trajectory's start stamp lies in the past."""
 
 

@@ -14,6 +14,8 @@ import os
 from collections.abc import MutableMapping
 from pathlib import Path
 
+from tensegrity_core.errors import TensegrityError
+
 DEFAULT_DISCOVERY_RANGE = "LOCALHOST"
 #: The suite's Fast DDS profile for LOCALHOST: UDP on 127.0.0.1 only, plus shared memory.
 LOOPBACK_PROFILE = Path(__file__).with_name("fastdds_loopback.xml")
@@ -21,7 +23,7 @@ _PROFILE_VARIABLES = ("FASTRTPS_DEFAULT_PROFILES_FILE", "FASTDDS_DEFAULT_PROFILE
 _FAST_DDS_RMWS = ("", "rmw_fastrtps_cpp", "rmw_fastrtps_dynamic_cpp")
 
 
-class RosUnavailableError(RuntimeError):
+class RosUnavailableError(TensegrityError, RuntimeError):
     """rclpy or the tensegrity_msgs interfaces cannot be imported."""
 
 
