@@ -2,8 +2,10 @@
 
 :func:`parse_text` reads text that a caller already has (a service request, a string in a
 program); :func:`read_file` reads a file (size checked before reading, UTF-8 checked, the
-format from the suffix). Neither ever treats text as a file name or a file name as text:
-which one a caller has is the caller's to say.
+format from the suffix); :func:`read_text` reads a file's text the same way for a table
+format parsed elsewhere (CSV). None ever treats text as a file name or a file name as
+text: which one a caller has is the caller's to say (or
+:func:`~tensegrity_core.schema.sources.resolve_source`'s, for local use).
 
 YAML keeps lines (:mod:`~tensegrity_core.schema.yaml_reader`). JSON is read by Python's
 ``json`` module (C, about 50x faster than YAML on large generated files) with a nesting
@@ -24,6 +26,7 @@ from typing import Any, Final
 
 import numpy as np
 
+from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import LIBRARY_MESSAGE
 from tensegrity_core.schema.errors import SchemaError, clip, excerpt
 from tensegrity_core.schema.limits import DEFAULT_LIMITS, Limits
@@ -95,14 +98,20 @@ def read_file(path: str | os.PathLike[str], *, limits: Limits = DEFAULT_LIMITS,
     ``.yml``, ``.json``, ``.toml``) unless ``fmt`` is given. Errors name the file (as
     ``what``: "scene file", ...)."""
     path = Path(path)
-    name = path.name
     fmt = fmt or SUFFIXES.get(path.suffix.lower())
     if fmt is None:
         raise error(f"cannot tell the format of {excerpt(str(path))}: use a file ending in "
                     f"{', '.join(SUFFIXES)}")
-    data = read_bytes(path, limits, error, what)
-    text = decode_utf8(data, error, name)
-    return parse_text(text, fmt, limits=limits, error=error, file=name), text, fmt
+    text = read_text(path, limits=limits, error=error, what=what)
+    return parse_text(text, fmt, limits=limits, error=error, file=path.name), text, fmt
+
+
+def read_text(path: str | os.PathLike[str], *, limits: Limits = DEFAULT_LIMITS,
+              error: type[SchemaError] = SchemaError, what: str = "file") -> str:
+    """The text of the regular file ``path``: at most ``limits.max_bytes`` bytes of UTF-8, as
+    :func:`read_file` reads, for the tables this layer does not parse itself (CSV)."""
+    path = Path(path)
+    return decode_utf8(read_bytes(path, limits, error, what), error, path.name)
 
 
 def read_bytes(path: Path, limits: Limits, error: type[SchemaError], what: str = "file") -> bytes:
@@ -175,7 +184,7 @@ _BRACKET_STEP[[ord("["), ord("{")]] = 1
 _BRACKET_STEP[[ord("]"), ord("}")]] = -1
 
 
-class _DuplicateKey(Exception):
+class _DuplicateKey(TensegrityError):
     def __init__(self, key: str) -> None:
         super().__init__(key)
         self.key = key

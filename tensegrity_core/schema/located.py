@@ -3,7 +3,8 @@
 The YAML reader builds :class:`LocatedDict` and :class:`LocatedList` (plain ``dict`` and
 ``list`` subclasses, so schemas read them like any parsed data) that carry the 1-based line
 of themselves and of each key or item. :func:`line_of` asks any container for a line and
-gets ``None`` from containers without lines (dicts built in Python, JSON, TOML).
+gets ``None`` from containers without lines (dicts built in Python, JSON, TOML);
+:func:`plain` drops the lines.
 """
 
 from __future__ import annotations
@@ -43,3 +44,13 @@ def line_of(container: Any, key: Any = None) -> int | None:
             return container.item_lines[key]
         return container.line
     return None
+
+
+def plain(value: Any) -> Any:
+    """Parsed data with every located mapping and list made a plain ``dict`` and ``list``
+    (for documents kept, copied and sent to other processes: a sweep's base)."""
+    if isinstance(value, dict):
+        return {k: plain(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [plain(v) for v in value]
+    return value

@@ -5,7 +5,13 @@ each value where the format's schema reads it; a failed check raises the format'
 class with the key path, the line (when the data came from YAML) and the file, e.g.
 ``scene.yaml: effects[3].fold_limit.restitution: must be <= 1, got 1.5 (line 14)``.
 Unknown keys are named with the closest allowed key. Numbers are checked by
-:func:`number_reason`, which formats that word their own messages use as well.
+:func:`number_reason`, whole columns of numbers by :mod:`~tensegrity_core.schema.columns`.
+
+Every format's schema is a subclass of :class:`Reader` (scenes, structures, sweeps,
+actuator trajectories, robots, gaits) and holds only what is its own. Formats whose
+messages name entries in words rather than by key path (a structure's
+``member 's2': EA must be > 0, got -5``) pass that name as ``entry``: it is put before the
+reason, and the key path is still set on the error.
 
 Every number must be at most :data:`MAX_MAGNITUDE` in magnitude: larger values are not
 physical in SI units for anything this package models, and their squares and products
@@ -16,11 +22,13 @@ lose all precision in the solvers.
 from __future__ import annotations
 
 import math
-from collections.abc import Collection, Iterable, Mapping
-from typing import Any, Final, TypedDict, Unpack
+from collections.abc import Callable, Collection, Iterable, Mapping
+from typing import Any, Final, TypedDict, TypeVar, Unpack
 
 from tensegrity_core.schema.errors import KeyPath, SchemaError, excerpt, suggest, type_name
 from tensegrity_core.schema.located import line_of
+
+_T = TypeVar("_T")
 
 #: The largest magnitude any number of a description may have (SI units).
 MAX_MAGNITUDE: Final = 1e15
@@ -69,7 +77,9 @@ def number_reason(value: Any, *, lo: float | None = None, hi: float | None = Non
 class Reader:
     """Checks on parsed data that raise ``error`` (a :class:`SchemaError` class) located by
     key path, line and ``file``. ``path`` arguments are key-path tuples of the value being
-    read; ``container``/``key`` say where it sits, for its line."""
+    read (of the mapping ``d`` for the methods that read ``d[key]``); ``container``/``key``
+    say where it sits, for its line. ``entry``: the value in words, for formats whose
+    messages name entries (see the module's docstring)."""
 
     def __init__(self, error: type[SchemaError] = SchemaError, file: str | None = None) -> None:
         self.error_class = error
@@ -79,74 +89,129 @@ class Reader:
         """The error ``reason`` at key path ``path``, on the line of ``container[key]``."""
         return self.error_class(reason, key=path, line=line_of(container, key), file=self.file)
 
-    def mapping(self, value: Any, path: KeyPath, parent: Any = None, key: Any = None) -> dict[Any, Any]:
+    def mapping(self, value: Any, path: KeyPath, parent: Any = None, key: Any = None, *,
+                entry: str = "") -> dict[Any, Any]:
         """``value`` if it is a mapping."""
         if not isinstance(value, dict):
-            raise self.error(f"must be a mapping, got {type_name(value)} ({excerpt(value)})", path, parent, key)
+            raise self.error(_worded(entry, f"must be a mapping, got {type_name(value)} ({excerpt(value)})"), path,
+                             parent, key)
         return value
 
-    def keys(self, d: Mapping[Any, Any], path: KeyPath, allowed: Iterable[object],
-             required: Iterable[object] = ()) -> None:
+    def sequence(self, value: Any, path: KeyPath, parent: Any = None, key: Any = None, *, of: str = "",
+                 nonempty: bool = False, entry: str = "") -> list[Any]:
+        """``value`` if it is a list (``nonempty``: with an item); ``of`` names the items in
+        the message (``"effects"``)."""
+        if not isinstance(value, list) or (nonempty and not value):
+            kind = ("a non-empty list" if nonempty else "a list") + (f" of {of}" if of else "")
+            raise self.error(_worded(entry, f"must be {kind}, got {type_name(value)} ({excerpt(value)})"), path,
+                             parent, key)
+        return value
+
+    def keys(self, d: Mapping[Any, Any], path: KeyPath, allowed: Iterable[object], required: Iterable[object] = (),
+             *, aliases: Mapping[Any, Any] | None = None, entry: str = "") -> dict[Any, Any]:
         """Every key of ``d`` is in ``allowed`` (an unknown one is named with the closest
-        allowed key) and every key of ``required`` is there."""
+        allowed key) and every key of ``required`` is there. ``aliases`` maps other spellings
+        to allowed keys (giving a key twice, as itself and by an alias, is refused). Returns
+        each allowed key found -> the key as written in ``d``."""
         allowed = tuple(allowed)
+        out: dict[Any, Any] = {}
         for k in d:
-            if k not in allowed:
+            canon = aliases.get(k, k) if aliases else k
+            if canon not in allowed:
                 listing = f"; allowed: {', '.join(map(str, allowed))}" if allowed else "; it takes no options"
-                raise self.error(f"unknown key {excerpt(k)}{suggest(k, allowed)}{listing}", path + (k,), d, k)
+                raise self.error(_worded(entry, f"unknown key {excerpt(k)}{suggest(k, allowed)}{listing}", ":"),
+                                 path + (k,), d, k)
+            if canon in out:
+                raise self.error(_worded(entry, f"{excerpt(k)} repeats {canon!r}", ":"), path + (k,), d, k)
+            out[canon] = k
         for k in required:
-            if k not in d:
-                raise self.error(f"missing required key {k!r}", path, d, None)
+            if k not in out:
+                raise self.error(_worded(entry, f"missing required key {k!r}", ":"), path, d, None)
+        return out
 
     def number(self, d: Mapping[Any, Any], key: Any, path: KeyPath, *, default: float | None = None,
-               **bounds: Unpack[Bounds]) -> float:
+               entry: str = "", **bounds: Unpack[Bounds]) -> float:
         """``d[key]`` as a float within ``bounds`` (see :func:`number_reason`), or
         ``default`` when the key is absent (required when ``default`` is None)."""
         if key not in d:
             if default is None:
-                raise self.error(f"missing required key {key!r}", path, d, None)
+                raise self.error(_worded(entry, f"missing required key {key!r}", ":"), path, d, None)
             return default
-        return self.value_number(d[key], path + (key,), d, key, **bounds)
+        return self.value_number(d[key], path + (key,), d, key, entry=entry, **bounds)
 
-    def value_number(self, value: Any, path: KeyPath, container: Any, key: Any, **bounds: Unpack[Bounds]) -> float:
+    def value_number(self, value: Any, path: KeyPath, container: Any, key: Any, *, entry: str = "",
+                     **bounds: Unpack[Bounds]) -> float:
         """``value`` (at ``path``) as a float within ``bounds``."""
         x, reason = number_reason(value, **bounds)
         if reason is not None:
-            raise self.error(reason, path, container, key)
+            raise self.error(_worded(entry, reason), path, container, key)
         return x
 
     def vector(self, value: Any, n: int, path: KeyPath, container: Any, key: Any, *,
-               what: str = "numbers") -> tuple[float, ...]:
-        """``value`` as a tuple of ``n`` numbers."""
+               what: str = "numbers", entry: str = "") -> tuple[float, ...]:
+        """``value`` as a tuple of ``n`` numbers; ``what`` names them in the message."""
         if not isinstance(value, (list, tuple)) or len(value) != n:
-            raise self.error(f"must be a list of {n} {what}, got {type_name(value)} ({excerpt(value)})", path,
-                             container, key)
-        return tuple(self.value_number(x, path + (i,), value, i) for i, x in enumerate(value))
+            raise self.error(_worded(entry, f"must be a list of {n} {what}, got {type_name(value)} "
+                                            f"({excerpt(value)})"), path, container, key)
+        return tuple(self.value_number(x, path + (i,), value, i, entry=entry) for i, x in enumerate(value))
 
     def string(self, d: Mapping[Any, Any], key: Any, path: KeyPath, *, default: str | None = None,
-               choices: Collection[str] | None = None) -> str:
+               choices: Collection[str] | None = None, entry: str = "") -> str:
         """``d[key]`` as a string (one of ``choices`` if given), or ``default``."""
         if key not in d:
             if default is None:
-                raise self.error(f"missing required key {key!r}", path, d, None)
+                raise self.error(_worded(entry, f"missing required key {key!r}", ":"), path, d, None)
             return default
         value = d[key]
         if not isinstance(value, str):
-            raise self.error(f"must be a string, got {type_name(value)} ({excerpt(value)})", path + (key,), d, key)
-        if choices is not None and value not in choices:
-            raise self.error(f"must be one of {', '.join(choices)}, got {excerpt(value)}{suggest(value, choices)}",
+            raise self.error(_worded(entry, f"must be a string, got {type_name(value)} ({excerpt(value)})"),
                              path + (key,), d, key)
+        if choices is not None and value not in choices:
+            raise self.error(_worded(entry, f"must be one of {', '.join(choices)}, got {excerpt(value)}"
+                                            f"{suggest(value, choices)}"), path + (key,), d, key)
         return value
 
     def integer(self, d: Mapping[Any, Any], key: Any, path: KeyPath, *, default: int | None = None,
-                lo: int | None = None) -> int:
-        """``d[key]`` as an int (>= ``lo`` if given), or ``default``."""
+                lo: int | None = None, hi: int | None = None, entry: str = "") -> int:
+        """``d[key]`` as an int (``lo <= value <= hi`` for the bounds given), or ``default``."""
         if key not in d:
             if default is None:
-                raise self.error(f"missing required key {key!r}", path, d, None)
+                raise self.error(_worded(entry, f"missing required key {key!r}", ":"), path, d, None)
             return default
         value = d[key]
-        if isinstance(value, bool) or not isinstance(value, int) or (lo is not None and value < lo):
-            bound = "a non-negative integer" if lo == 0 else ("an integer" if lo is None else f"an integer >= {lo}")
-            raise self.error(f"must be {bound}, got {excerpt(value)}", path + (key,), d, key)
+        if (isinstance(value, bool) or not isinstance(value, int) or (lo is not None and value < lo)
+                or (hi is not None and value > hi)):
+            if lo == 0 and hi is None:
+                bound = "a non-negative integer"
+            else:
+                limits = " and ".join(([f">= {lo}"] if lo is not None else []) + ([f"<= {hi}"] if hi is not None else []))
+                bound = f"an integer {limits}".rstrip()
+            raise self.error(_worded(entry, f"must be {bound}, got {excerpt(value)}"), path + (key,), d, key)
         return value
+
+    def boolean(self, d: Mapping[Any, Any], key: Any, path: KeyPath, *, default: bool | None = None,
+                entry: str = "") -> bool:
+        """``d[key]`` as true or false, or ``default``."""
+        if key not in d:
+            if default is None:
+                raise self.error(_worded(entry, f"missing required key {key!r}", ":"), path, d, None)
+            return default
+        value = d[key]
+        if not isinstance(value, bool):
+            raise self.error(_worded(entry, f"must be true or false, got {type_name(value)} ({excerpt(value)})"),
+                             path + (key,), d, key)
+        return value
+
+    def checked(self, d: Mapping[Any, Any], key: Any, path: KeyPath, check: Callable[[Any], _T]) -> _T:
+        """``check(d[key])``, for checks kept as functions (a sweep's options): the
+        :class:`SchemaError` a check raises with its bare reason is raised here at
+        ``path + (key,)`` (and the key path the check gave, below it), on the key's line."""
+        try:
+            return check(d[key])
+        except SchemaError as err:
+            raise self.error(err.reason, path + (key,) + err.key, d, key) from None
+
+
+def _worded(entry: str, reason: str, sep: str = "") -> str:
+    """``reason`` after ``entry`` (the value in words) and ``sep``, when there is an entry."""
+    return f"{entry}{sep} {reason}" if entry else reason

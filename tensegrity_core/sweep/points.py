@@ -23,7 +23,8 @@ from typing import Any
 
 import numpy as np
 
-from tensegrity_core.sweep.keypath import Location, get_at, set_at
+from tensegrity_core.schema.errors import KeyPath
+from tensegrity_core.schema.keypath import get_at, set_in_place
 
 FIXED = ("values", "grid")
 RANDOM = ("uniform", "normal", "log_uniform")
@@ -41,7 +42,7 @@ class Quantity:
     values: tuple[Any, ...] = ()
     params: tuple[float, ...] = ()
     scale: bool = False
-    locations: tuple[Location, ...] = ()
+    locations: tuple[KeyPath, ...] = ()
     log: bool = False          # a log-spaced grid or a log-uniform distribution (plots)
 
     @property
@@ -109,5 +110,5 @@ def apply(document: dict[str, Any], quantities: Sequence[Quantity], values: Sequ
     out = copy.deepcopy(document)
     for q, value in zip(quantities, values):
         for loc in q.locations:
-            set_at(out, loc, get_at(document, loc) * value if q.scale else value)
+            set_in_place(out, loc, get_at(document, loc) * value if q.scale else value)
     return out

@@ -17,14 +17,17 @@ from tensegrity_core.schema import (
     Reader,
     SchemaError,
     excerpt,
+    exists,
     format_key_path,
     get_at,
     parse_key_path,
     parse_text,
     parse_yaml,
     read_file,
-    set_at,
+    resolve,
+    set_in_place,
     suggest,
+    with_value_at,
 )
 from tensegrity_core.sim import SceneError
 
@@ -154,16 +157,48 @@ def test_get_at_follows_a_path_and_names_a_missing_key_with_a_suggestion_and_lin
         get_at(doc, ("effects", 5), error=SceneError)
 
 
-def test_set_at_copies_the_path_and_leaves_the_document_alone():
+def test_with_value_at_copies_the_path_and_leaves_the_document_alone():
     doc = {"model": {"params": {"k": 1.0}}, "effects": ["inertia", {"damping": {}}]}
-    new = set_at(doc, "model.params.k", 2.0)
-    new2 = set_at(new, "effects[1].damping", {"c": 1})
+    new = with_value_at(doc, "model.params.k", 2.0)
+    new2 = with_value_at(new, "effects[1].damping", {"c": 1})
     assert doc["model"]["params"]["k"] == 1.0 and new["model"]["params"]["k"] == 2.0
     assert new2["effects"][1] == {"damping": {"c": 1}} and doc["effects"][1] == {"damping": {}}
     assert new2["model"] is new["model"]                       # untouched branches are shared
-    assert set_at(doc, "model.params.c", 0.5)["model"]["params"] == {"k": 1.0, "c": 0.5}
+    assert with_value_at(doc, "model.params.c", 0.5)["model"]["params"] == {"k": 1.0, "c": 0.5}
     with pytest.raises(SchemaError, match="no key 'modle'"):
-        set_at(doc, "modle.params.k", 2.0)
+        with_value_at(doc, "modle.params.k", 2.0)
+
+
+def test_set_in_place_changes_the_document_itself():
+    doc = {"model": {"params": {"k": 1.0}}, "effects": ["inertia", {"damping": {}}]}
+    params = doc["model"]["params"]
+    set_in_place(doc, ("model", "params", "k"), 2.0)
+    set_in_place(doc, "model.params.c", 0.5)                   # a new last key
+    set_in_place(doc, "effects[0]", "gravity")
+    assert doc["model"]["params"] is params and params == {"k": 2.0, "c": 0.5}
+    assert doc["effects"][0] == "gravity"
+    with pytest.raises(SchemaError, match=r"no item \[2\] in a list of 2"):
+        set_in_place(doc, "effects[2]", "x")                  # lists do not grow
+    with pytest.raises(SchemaError, match="no key 'modle'"):
+        set_in_place(doc, "modle.params.k", 2.0)
+
+
+def test_exists_tells_whether_a_key_path_leads_to_a_value():
+    doc = {"model": {"params": {"k": 1.0}}, "effects": ["inertia"]}
+    assert exists(doc, "model.params.k") and exists(doc, ("effects", 0)) and exists(doc, "")
+    assert not exists(doc, "model.params.c") and not exists(doc, "effects[1]") and not exists(doc, "model.params.k.x")
+
+
+def test_patterns_select_entries_by_name_and_key_paths_refuse_selectors():
+    doc = {"members": [{"name": "side1", "l0": 1.0}, {"name": "top", "l0": 2.0}, {"name": "side2", "l0": 3.0}],
+           "effects": ["inertia", "damping"]}
+    assert resolve(doc, "members[side*].l0") == [("members", 0, "l0"), ("members", 2, "l0")]
+    assert resolve(doc, "effects[damping].c") == [("effects", 1, "damping", "c")]
+    assert doc["effects"][1] == {"damping": {}}                # the same effect, with its options mapping
+    with pytest.raises(SchemaError, match=r"cannot read the key path 'members\[side\*\]\.l0': \[side\*\] is no list"):
+        parse_key_path("members[side*].l0")
+    with pytest.raises(SchemaError, match=r"list positions count from 0, got \[-1\]"):
+        resolve(doc, "members[-1].l0")
 
 
 # ------------------------------------------------------------------------------ errors and excerpts
