@@ -17,9 +17,11 @@ YAML: the same as a mapping, with the goal's tolerances::
     goal_tolerance: {rho1: 1.0e-4}             # [m], optional
     goal_time_tolerance: 2.0                   # [s], optional
 
-The file is bounded (:data:`MAX_BYTES`); numbers are checked by the controller when it
-plans the goal (monotonic times, finite values, the workspace), so what is read here is
-only structure. Errors are :class:`TrajectoryFileError` naming the file and the place.
+Both are read as every description file is (:mod:`tensegrity_core.schema`: at most
+``LIMITS.max_bytes``, UTF-8, YAML nesting and aliases bounded). Each number is checked to
+be a finite number here; what the numbers mean (monotonic times, the workspace, the
+tolerances) the controller checks when it plans the goal. Errors are :class:`TrajectoryFileError` with
+the file, the key path (YAML) or the column (CSV), and the line.
 """
 
 from __future__ import annotations
@@ -29,118 +31,127 @@ import io
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, Final
 
 from tensegrity_core.class2.names import ACTUATED_JOINTS
+from tensegrity_core.schema import KeyPath, Limits, Reader, SchemaError, excerpt, read_file, read_text
 
-#: Largest trajectory file accepted [bytes].
-MAX_BYTES = 8 * 1024 * 1024
-_CSV_PAIRS = (("rho1", "rho2"), ("rho1_velocity", "rho2_velocity"), ("rho1_acceleration", "rho2_acceleration"))
+#: Bounds of a trajectory file (at most 8 MiB).
+LIMITS: Final = Limits(max_bytes=8 * 1024 * 1024)
+TOP: Final = ("joint_names", "points", "path_tolerance", "goal_tolerance", "goal_time_tolerance")
+POINT_KEYS: Final = ("time", "positions", "velocities", "accelerations")
+_CSV_PAIRS: Final = (("rho1", "rho2"), ("rho1_velocity", "rho2_velocity"), ("rho1_acceleration", "rho2_acceleration"))
 
 
-class TrajectoryFileError(ValueError):
-    """A trajectory file that cannot be read; the message names the file and the place."""
+class TrajectoryFileError(SchemaError):
+    """A trajectory file that cannot be read; ``str()`` names the file, the place and the line."""
 
 
 @dataclass
 class TrajectoryFile:
-    joint_names: list
-    times: list
-    positions: list
-    velocities: list = field(default_factory=list)
-    accelerations: list = field(default_factory=list)
-    path_tolerance: dict = field(default_factory=dict)
-    goal_tolerance: dict = field(default_factory=dict)
+    """A trajectory as read: ``times`` [s], and per point ``positions`` [m] (one per joint of
+    ``joint_names``), optionally ``velocities`` [m/s] and ``accelerations`` [m/s^2];
+    tolerances per joint [m] and of the goal's time [s]."""
+
+    joint_names: list[str]
+    times: list[float]
+    positions: list[list[float]]
+    velocities: list[list[float]] = field(default_factory=list)
+    accelerations: list[list[float]] = field(default_factory=list)
+    path_tolerance: dict[str, float] = field(default_factory=dict)
+    goal_tolerance: dict[str, float] = field(default_factory=dict)
     goal_time_tolerance: float = 0.0
 
 
-def read_trajectory(path) -> TrajectoryFile:
+def read_trajectory(path: str | Path) -> TrajectoryFile:
+    """The trajectory in the ``.csv`` or ``.yaml``/``.yml`` file ``path``."""
     path = Path(path)
-    try:
-        size = path.stat().st_size
-        if size > MAX_BYTES:
-            raise TrajectoryFileError(f"{path}: {size} bytes; at most {MAX_BYTES} are accepted")
-        text = path.read_text()
-    except OSError as err:
-        raise TrajectoryFileError(f"cannot read {path}: {err.strerror}") from None
-    except UnicodeDecodeError:
-        raise TrajectoryFileError(f"{path}: not a text file") from None
-    if path.suffix.lower() == ".csv":
-        return _from_csv(path, text)
-    if path.suffix.lower() in (".yaml", ".yml"):
-        return _from_yaml(path, text)
-    raise TrajectoryFileError(f"{path}: give a .csv or .yaml file")
+    suffix = path.suffix.lower()
+    if suffix == ".csv":
+        return _from_csv(read_text(path, limits=LIMITS, error=TrajectoryFileError, what="trajectory file"), path.name)
+    if suffix in (".yaml", ".yml"):
+        data, _, _ = read_file(path, limits=LIMITS, error=TrajectoryFileError, what="trajectory file")
+        return _TrajectoryReader(path.name).trajectory(data)
+    raise TrajectoryFileError(f"give a .csv or .yaml file, got {path.name!r}", file=path.name)
 
 
-def _number(where: str, value) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise TrajectoryFileError(f"{where}: {value!r} is not a number") from None
-    return v
-
-
-def _from_csv(path: Path, text: str) -> TrajectoryFile:
+def _from_csv(text: str, file: str) -> TrajectoryFile:
     rows = list(csv.reader(io.StringIO(text)))
     if not rows:
-        raise TrajectoryFileError(f"{path}: empty file")
+        raise TrajectoryFileError("empty file", file=file)
     header = [h.strip() for h in rows[0]]
     missing = [c for c in ("time", *ACTUATED_JOINTS) if c not in header]
     if missing:
-        raise TrajectoryFileError(f"{path}: header needs the columns time, rho1, rho2 (missing {', '.join(missing)})")
+        raise TrajectoryFileError(f"header needs the columns time, rho1, rho2 (missing {', '.join(missing)})",
+                                  line=1, file=file)
     out = TrajectoryFile(list(ACTUATED_JOINTS), [], [])
     lists = [out.positions, out.velocities, out.accelerations]
     pairs = [p for p in _CSV_PAIRS if p[0] in header or p[1] in header]
     for a, b in pairs:
         if a not in header or b not in header:
-            raise TrajectoryFileError(f"{path}: give both columns {a} and {b} or neither")
+            raise TrajectoryFileError(f"give both columns {a} and {b} or neither", line=1, file=file)
     for n, row in enumerate(rows[1:], start=2):
         if not row or all(not c.strip() for c in row):
             continue
         if len(row) != len(header):
-            raise TrajectoryFileError(f"{path}: line {n}: {len(row)} values for {len(header)} columns")
+            raise TrajectoryFileError(f"{len(row)} values for {len(header)} columns", line=n, file=file)
         value = dict(zip(header, row))
-        out.times.append(_number(f"{path}: line {n}: time", value["time"]))
+        out.times.append(_csv_number(value, "time", n, file))
         for (a, b), target in zip(_CSV_PAIRS, lists):
             if (a, b) in pairs:
-                target.append([_number(f"{path}: line {n}: {a}", value[a]), _number(f"{path}: line {n}: {b}", value[b])])
+                target.append([_csv_number(value, a, n, file), _csv_number(value, b, n, file)])
     return out
 
 
-def _from_yaml(path: Path, text: str) -> TrajectoryFile:
-    import yaml
-
+def _csv_number(row: dict[str, str], column: str, line: int, file: str) -> float:
+    """The finite number in ``column`` of a CSV row (on ``line``)."""
     try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        raise TrajectoryFileError(f"{path}: not valid YAML ({str(err).splitlines()[0]})") from None
-    if not isinstance(data, dict) or not isinstance(data.get("points"), list):
-        raise TrajectoryFileError(f"{path}: expected a mapping with a list 'points'")
-    unknown = set(data) - {"joint_names", "points", "path_tolerance", "goal_tolerance", "goal_time_tolerance"}
-    if unknown:
-        raise TrajectoryFileError(f"{path}: unknown key(s) {', '.join(sorted(map(str, unknown)))}")
-    names = data.get("joint_names", list(ACTUATED_JOINTS))
-    if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
-        raise TrajectoryFileError(f"{path}: joint_names must be a list of names")
-    out = TrajectoryFile(list(names), [], [])
-    for i, point in enumerate(data["points"]):
-        where = f"{path}: points[{i}]"
-        if not isinstance(point, dict) or "time" not in point or "positions" not in point:
-            raise TrajectoryFileError(f"{where}: needs time and positions")
-        out.times.append(_number(f"{where}.time", point["time"]))
-        for key, target in (("positions", out.positions), ("velocities", out.velocities),
-                            ("accelerations", out.accelerations)):
-            if key in point:
-                values = point[key]
-                if not isinstance(values, list):
-                    raise TrajectoryFileError(f"{where}.{key}: must be a list")
-                target.append([_number(f"{where}.{key}", v) for v in values])
-    for key in ("path_tolerance", "goal_tolerance"):
-        tol = data.get(key, {})
-        if not isinstance(tol, dict):
-            raise TrajectoryFileError(f"{path}: {key} must map joint names to metres")
-        setattr(out, key, {str(k): _number(f"{path}: {key}.{k}", v) for k, v in tol.items()})
-    gtt = _number(f"{path}: goal_time_tolerance", data.get("goal_time_tolerance", 0.0))
-    if not math.isfinite(gtt) or gtt < 0:
-        raise TrajectoryFileError(f"{path}: goal_time_tolerance must be a finite number of seconds >= 0")
-    out.goal_time_tolerance = gtt
-    return out
+        x = float(row[column])
+    except ValueError:
+        raise TrajectoryFileError(f"{excerpt(row[column])} is not a number", key=(column,), line=line,
+                                  file=file) from None
+    if not math.isfinite(x):
+        raise TrajectoryFileError(f"must be finite, got {excerpt(row[column])}", key=(column,), line=line, file=file)
+    return x
+
+
+class _TrajectoryReader(Reader):
+    """The YAML trajectory's schema over the shared checks."""
+
+    def __init__(self, file: str | None) -> None:
+        super().__init__(TrajectoryFileError, file)
+
+    def trajectory(self, data: object) -> TrajectoryFile:
+        d = self.mapping(data, ())
+        self.keys(d, (), TOP, required=("points",))
+        names = self.joint_names(d)
+        out = TrajectoryFile(names, [], [])
+        points = self.sequence(d["points"], ("points",), d, "points", of="points {time, positions}")
+        for i, point in enumerate(points):
+            path: KeyPath = ("points", i)
+            p = self.mapping(point, path, points, i)
+            self.keys(p, path, POINT_KEYS, required=("time", "positions"))
+            out.times.append(self.number(p, "time", path))
+            for key, target in (("positions", out.positions), ("velocities", out.velocities),
+                                ("accelerations", out.accelerations)):
+                if key in p:
+                    values = self.sequence(p[key], path + (key,), p, key, of="numbers")
+                    target.append([self.value_number(v, path + (key, j), values, j) for j, v in enumerate(values)])
+        out.path_tolerance = self.tolerances(d, "path_tolerance")
+        out.goal_tolerance = self.tolerances(d, "goal_tolerance")
+        out.goal_time_tolerance = self.number(d, "goal_time_tolerance", (), default=0.0, lo=0.0)
+        return out
+
+    def joint_names(self, d: dict[Any, Any]) -> list[str]:
+        if "joint_names" not in d:
+            return list(ACTUATED_JOINTS)
+        names = self.sequence(d["joint_names"], ("joint_names",), d, "joint_names", of="joint names")
+        for j, name in enumerate(names):
+            if not isinstance(name, str):
+                raise self.error(f"must be a joint name, got {excerpt(name)}", ("joint_names", j), names, j)
+        return list(names)
+
+    def tolerances(self, d: dict[Any, Any], key: str) -> dict[str, float]:
+        """Joint name -> tolerance [m] (a finite number; the controller checks the rest)."""
+        tol = self.mapping(d.get(key, {}), (key,), d, key)
+        return {str(k): self.number(tol, k, (key,)) for k in tol}

@@ -5,37 +5,29 @@ from __future__ import annotations
 from pathlib import Path
 
 from tensegrity_core.export.errors import ExportError
-from tensegrity_core.general.examples import example_names, load_example
+from tensegrity_core.general.examples import SHIPPED_EXAMPLES
 from tensegrity_core.general.loading import SUFFIXES, structure_from_file
 from tensegrity_core.general.structure import Structure, StructureError
-from tensegrity_core.schema import excerpt, read_file, suggest
-from tensegrity_core.sim.scene import Scene, scene_from_file, scene_names, scene_path
+from tensegrity_core.schema import excerpt, read_file, resolve_source
+from tensegrity_core.sim.scene import Scene, scene_from_file
+from tensegrity_core.sim.scene.reader import SHIPPED_SCENES
 
 
 def load_source(source: str) -> Scene | Structure:
     """The scene or structure ``source`` names: an existing file (a scene file is a YAML
     mapping with a ``model`` key; anything else of the structure formats
     ``.yaml``/``.yml``/``.json``/``.toml``/``.npz`` is read as a structure), else a shipped
-    scene's name, else a shipped example's name. Raises a ``SceneError`` or
+    scene's name, else a shipped example's name (the rules of
+    :func:`~tensegrity_core.schema.resolve_source`). Raises a ``SceneError`` or
     ``StructureError`` located in the file, or :class:`ExportError`."""
-    path = Path(source)
-    if _is_file(path):
-        return _load_file(path)
-    if source in scene_names():
-        return scene_from_file(scene_path(source))
-    if source in example_names():
-        return load_example(source)
-    names = scene_names() + example_names()
-    raise ExportError(f"no scene or structure file {excerpt(source)}, and no shipped scene or example of that name"
-                      f"{suggest(source, names)}; shipped scenes: {', '.join(scene_names())}; shipped examples: "
-                      f"{', '.join(example_names())}")
-
-
-def _is_file(path: Path) -> bool:
-    try:
-        return path.is_file()
-    except OSError:                       # e.g. a name longer than the system allows
-        return False
+    found = resolve_source(source, what="scene or structure", shipped=(SHIPPED_SCENES, SHIPPED_EXAMPLES),
+                           error=ExportError, suffixes=SUFFIXES, text=None, data=False)
+    assert found.path is not None                  # text and data are refused above
+    if found.shipped is SHIPPED_SCENES:
+        return scene_from_file(found.path)
+    if found.shipped is SHIPPED_EXAMPLES:
+        return structure_from_file(found.path)
+    return _load_file(found.path)
 
 
 def _load_file(path: Path) -> Scene | Structure:

@@ -14,7 +14,7 @@ Typical use::
 
 from tensegrity_core.general.configuration import Configuration, transformation_matrix
 from tensegrity_core.general.dofs import DofLayout
-from tensegrity_core.general.examples import example_names, example_path, load_example
+from tensegrity_core.general.examples import example_names, example_path
 from tensegrity_core.general.formfind import (
     METHODS,
     FormFindResult,
@@ -32,7 +32,7 @@ from tensegrity_core.general.generators import (
     tensegrity_spine,
     tensegrity_table,
 )
-from tensegrity_core.general.loading import load_structure, structure_from_file, structure_from_text
+from tensegrity_core.general.loading import load_example, load_structure, structure_from_file, structure_from_text
 from tensegrity_core.general.path import PathResult, rest_length_path
 from tensegrity_core.general.statics import (
     Modes,

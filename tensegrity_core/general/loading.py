@@ -6,12 +6,12 @@ string is a file name or a description:
 - :func:`structure_from_text`: description text (YAML, JSON or TOML). The one to use for
   text from elsewhere (a service request): it never opens a file.
 - :func:`structure_from_file`: a file (``.yaml``/``.yml``, ``.json``, ``.toml``, ``.npz``).
-- :func:`~tensegrity_core.general.examples.load_example`: a shipped example, by name.
+- :func:`load_example`: a shipped example, by name.
 - :func:`~tensegrity_core.general.structure_schema.structure_from_dict`: parsed data.
 - :func:`load_structure`: the convenience for local use (a Python session, the CLI): a
-  :class:`Structure`, a dict, a path, or a string that is a path if it has no line break
-  and ends in a known suffix or names an existing file, else text. Never give it text from
-  elsewhere: a one-line "description" would name a file on this machine.
+  :class:`Structure`, a dict, a path, a shipped example's name or text, told apart by
+  :func:`~tensegrity_core.schema.resolve_source`. Never give it text from elsewhere: a
+  one-line "description" would name a file on this machine.
 
 Text is bounded by :class:`~tensegrity_core.schema.Limits` (size, nesting, aliases) before
 and while it is parsed; ``max_members`` refuses larger structures before they are built.
@@ -25,9 +25,10 @@ import os
 from pathlib import Path
 from typing import Any, Final
 
+from tensegrity_core.general.examples import SHIPPED_EXAMPLES, example_path
 from tensegrity_core.general.structure import Structure, StructureError
 from tensegrity_core.general.structure_schema import structure_from_dict
-from tensegrity_core.schema import DEFAULT_LIMITS, Limits, parse_text_format, parse_yaml, read_file
+from tensegrity_core.schema import DEFAULT_LIMITS, Limits, parse_text_format, parse_yaml, read_file, resolve_source
 
 #: File suffixes of structure descriptions.
 SUFFIXES: Final = (".yaml", ".yml", ".json", ".toml", ".npz")
@@ -79,19 +80,23 @@ def _located_by_yaml(text: str, limits: Limits, max_members: int | None, name: s
     return None
 
 
+def load_example(name: str) -> Structure:
+    """The shipped example ``name`` (e.g. ``"tensegrity_table"``) as a structure."""
+    return structure_from_file(example_path(name))
+
+
 def load_structure(source: object) -> Structure:
     """A :class:`Structure` from a Structure (returned as is), a dict, a path (``Path``, or a
-    ``str`` without a line break that ends in a structure suffix or names an existing file)
-    or description text. For local use only: see the module's docstring."""
+    ``str`` without a line break that names an existing file), a shipped example's name, or
+    description text (the rules of :func:`~tensegrity_core.schema.resolve_source`). For
+    local use only: see the module's docstring."""
     if isinstance(source, Structure):
         return source
-    if isinstance(source, dict):
-        return structure_from_dict(source)
-    if isinstance(source, Path):
-        return structure_from_file(source)
-    if isinstance(source, str):
-        if "\n" not in source and (source.lower().endswith(SUFFIXES) or Path(source).is_file()):
-            return structure_from_file(source)
-        return structure_from_text(source)
-    raise StructureError(f"cannot load a structure from a {type(source).__name__}; give a path, "
-                         f"YAML/JSON/TOML text or a dict")
+    found = resolve_source(source, what="structure", shipped=SHIPPED_EXAMPLES, error=StructureError,
+                           suffixes=SUFFIXES, text="YAML, JSON or TOML text")
+    if found.data is not None:
+        return structure_from_dict(found.data)
+    if found.text is not None:
+        return structure_from_text(found.text)
+    assert found.path is not None                 # the one kind left
+    return structure_from_file(found.path)

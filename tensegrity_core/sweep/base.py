@@ -2,28 +2,22 @@
 
 Key paths apply to this document (plain dicts and lists, as parsed from the file), and each
 point's copy goes through the core's own loaders (``load_scene(dict)``,
-``load_structure(dict)``), which check it. Everything a loader would read from another file
-is made self-contained here, on the machine that reads the sweep file, so workers need no
-files and a document means the same wherever it is loaded:
-
-- a general scene's ``model.structure`` (a file next to the scene or a shipped example) is
-  inlined as its parsed description, so ``model.structure.members[...]`` key paths reach it;
-- a ``series`` input's CSV ``file`` becomes an absolute path (the workers of an external
-  cluster must then see the same file system).
+``load_structure(dict)``), which check it. A scene's references to other files are
+resolved here, on the machine that reads the sweep file
+(:func:`~tensegrity_core.sim.scene.references.self_contained`), so workers need no files and
+a document means the same wherever it is loaded.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from tensegrity_core.schema import excerpt, plain, read_file, resolve_source
+from tensegrity_core.sweep.errors import SweepError
+
 BASE_KINDS = ("scene", "structure")
-
-
-class BaseError(ValueError):
-    """The base cannot be found or parsed."""
 
 
 @dataclass(frozen=True)
@@ -46,76 +40,41 @@ class Base:
         return model.get("kind") if isinstance(model, dict) else None
 
 
-def plain(value: Any) -> Any:
-    """Parsed YAML (mappings and lists that remember their lines) as plain dicts and lists."""
-    if isinstance(value, dict):
-        return {k: plain(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [plain(v) for v in value]
-    return value
-
-
-def parse_file(path: Path) -> dict[str, Any]:
-    """A YAML or TOML file as a plain dict (the parser the core's loaders use)."""
-    from tensegrity_core.schema import SchemaError, parse_text
-
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as err:
-        raise BaseError(f"cannot read {str(path)!r}: {err.strerror}") from None
-    try:
-        data = parse_text(text, "toml" if path.suffix.lower() == ".toml" else "yaml")
-    except SchemaError as err:
-        raise BaseError(f"{path.name}: {err}") from None
-    document: dict[str, Any] = plain(data)
-    return document
-
-
-def _find(value: str, folder: Path, names: Callable[[], list[str]], shipped_path: Callable[[str], Path],
-          what: str) -> Path:
-    candidate = folder / value
-    if candidate.is_file():
-        return candidate
-    if value in names():
-        return shipped_path(value)
-    from tensegrity_core.schema import suggest
-
-    raise BaseError(f"no {what} file {str(candidate)!r} and no shipped {what} {value!r}"
-                    f"{suggest(value, names())}; shipped: {', '.join(names())}")
-
-
-def load_base(kind: str, value: str, folder: Path) -> Base:
+def load_base(kind: str, value: object, folder: Path) -> Base:
     """Read the base ``kind`` ("scene" or "structure") named ``value``: a file relative to
-    ``folder`` (the sweep file's folder) or a shipped scene / example structure."""
+    ``folder`` (the sweep file's folder) or a shipped scene / example structure. Raises
+    :class:`SweepError` for a name or file that is not there, the format's own error
+    (``SceneError``, ``StructureError``) for a file that cannot be read."""
     if not isinstance(value, str) or not value.strip():
-        raise BaseError(f"must name a shipped {kind} or a file, got {value!r}")
+        raise SweepError(f"must name a shipped {kind} or a file, got {excerpt(value)}")
     if kind == "scene":
-        from tensegrity_core.sim import scene_names, scene_path
+        from tensegrity_core.sim.errors import SceneError
+        from tensegrity_core.sim.scene.reader import SHIPPED_SCENES
+        from tensegrity_core.sim.scene.references import self_contained
 
-        path = _find(value, folder, scene_names, scene_path, "scene")
-        document = parse_file(path)
-        _inline_files(document, path.parent)
+        path = _path(resolve_source(value, what="scene", shipped=SHIPPED_SCENES, error=SweepError,
+                                    folder=folder, text=None, data=False).path)
+        document = _mapping(read_file(path, error=SceneError, fmt="yaml", what="scene file")[0], "scene", path)
+        document = self_contained(document, path.parent)
     else:
-        from tensegrity_core.general import example_names, example_path
+        from tensegrity_core.general.examples import SHIPPED_EXAMPLES
+        from tensegrity_core.general.loading import SUFFIXES
+        from tensegrity_core.general.structure import StructureError
 
-        path = _find(value, folder, example_names, example_path, "structure")
-        document = parse_file(path)
+        path = _path(resolve_source(value, what="structure", shipped=SHIPPED_EXAMPLES, error=SweepError,
+                                    suffixes=SUFFIXES, folder=folder, text=None, data=False).path)
+        document = _mapping(plain(read_file(path, error=StructureError, what="structure file")[0]), "structure",
+                            path)
         document.setdefault("name", path.stem)
     return Base(kind, value, str(path), document)
 
 
-def _inline_files(scene: dict[str, Any], folder: Path) -> None:
-    """Make a scene document self-contained (see the module docstring)."""
-    model = scene.get("model")
-    if isinstance(model, dict) and model.get("kind") == "general" and isinstance(model.get("structure"), str):
-        from tensegrity_core.general import example_names, example_path
+def _path(path: Path | None) -> Path:
+    assert path is not None               # resolve_source gives a path when text and data are refused
+    return path
 
-        path = _find(model["structure"], folder, example_names, example_path, "structure")
-        structure = parse_file(path)
-        structure.setdefault("name", path.stem)
-        model["structure"] = structure
-    inputs = scene.get("inputs")
-    if isinstance(inputs, dict):
-        for law in inputs.values():
-            if isinstance(law, dict) and law.get("law") == "series" and isinstance(law.get("file"), str):
-                law["file"] = str((folder / law["file"]).resolve())
+
+def _mapping(data: object, kind: str, path: Path) -> dict[str, Any]:
+    if not isinstance(data, dict):
+        raise SweepError(f"{path.name}: a {kind} must be a mapping, got {excerpt(data)}")
+    return data

@@ -20,8 +20,9 @@ the base, computations that do not fit the base, unknown results and options. Wh
 values do to the base is not checked here: each point's document goes through the core's
 loader on a worker, and a bad value becomes that point's row with the loader's message.
 
-This module carries its own small checks of the sweep file (the scene and structure readers
-have theirs); it reads YAML with the structure loader's line-keeping parser.
+The checks are the shared ones of :class:`tensegrity_core.schema.Reader` (and the options'
+checks of :mod:`~tensegrity_core.sweep.checks`, applied through it); this module holds only
+the sweep's schema.
 """
 
 from __future__ import annotations
@@ -32,27 +33,43 @@ import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Final, cast
 
-from tensegrity_core.schema import KeyPath, ShippedFiles, suggest, type_name
-from tensegrity_core.sweep.base import BASE_KINDS, Base, BaseError, load_base, plain
+from tensegrity_core.schema import (
+    KeyPath,
+    KeyPathError,
+    Limits,
+    Reader,
+    SchemaError,
+    ShippedFiles,
+    excerpt,
+    format_key_path,
+    line_of,
+    parse_text,
+    plain,
+    read_file,
+    resolve,
+    resolve_source,
+    suggest,
+)
+from tensegrity_core.sweep.base import BASE_KINDS, Base, load_base
 from tensegrity_core.sweep.checks import Check, OptionError
-from tensegrity_core.sweep.checks import number as number_check
 from tensegrity_core.sweep.computations import COMPUTATIONS, ResultSpec
 from tensegrity_core.sweep.computations.results import Column, Options
 from tensegrity_core.sweep.errors import SweepError
-from tensegrity_core.sweep.keypath import KeyPathError, Location, format_location, resolve
 from tensegrity_core.sweep.points import FIXED, RANDOM, Point, Quantity, build_points, count, grid_values
 
 EXAMPLES_DIR = Path(__file__).parent / "examples"
-_SHIPPED = ShippedFiles(EXAMPLES_DIR, "sweep", "shipped sweeps", SweepError)
+#: The shipped sweeps, by name.
+SHIPPED_SWEEPS: Final = ShippedFiles(EXAMPLES_DIR, "sweep", "shipped sweeps", SweepError)
 TOP = ("name", "description", "base", "vary", "samples", "seed", "compute", "results")
 #: Columns every row has besides the varied quantities and the results.
 RESERVED = ("point", "seed", "status", "message", "run_time", "sweep_id")
 #: A result every row has whatever the computation: it may be listed (the issue's list of
 #: results names it) and adds no column.
 ALWAYS_KEPT = "run_time"
-MAX_FILE_BYTES = 1 << 20
+#: Bounds of a sweep file (at most 1 MiB; nesting and aliases as every description).
+LIMITS: Final = Limits(max_bytes=1 << 20)
 MAX_POINTS = 1_000_000
 MAX_VALUES = 100_000
 
@@ -150,7 +167,7 @@ def prepare(sweep: Sweep) -> Plan:
             try:
                 data = rdef.prepare(options, probe, sweep.folder)
             except OptionError as err:
-                raise SweepError(str(err), key=("results", name), line=line,
+                raise SweepError(err.reason, key=("results", name), line=line,
                                  file=sweep.source and Path(sweep.source).name) from None
         specs.append(ResultSpec(name, options, tuple(rdef.columns(options, data)), data))
     seen = set(RESERVED) | {q.column for q in sweep.quantities}
@@ -169,12 +186,12 @@ def prepare(sweep: Sweep) -> Plan:
 # ------------------------------------------------------------------------------ loading
 def sweep_names() -> list[str]:
     """Names of the shipped example sweeps."""
-    return _SHIPPED.names()
+    return SHIPPED_SWEEPS.names()
 
 
 def sweep_path(name: str) -> Path:
     """Path of the shipped sweep ``name``."""
-    return _SHIPPED.path(name)
+    return SHIPPED_SWEEPS.path(name)
 
 
 #: What :func:`load_sweep` reads: a sweep, a shipped sweep's name, a path, YAML text or a dict.
@@ -182,111 +199,36 @@ SweepSource = Sweep | str | Path | dict[str, Any]
 
 
 def load_sweep(source: SweepSource) -> Sweep:
-    """Read and check a sweep: a :class:`Sweep` (returned as is), a shipped sweep's name, a
-    path to a YAML file, YAML text or a dict. Relative paths in it (the base, reference
-    files) are resolved against the sweep file's folder (the current folder otherwise)."""
+    """Read and check a sweep: a :class:`Sweep` (returned as is), a path to an existing file
+    or a shipped sweep's name, YAML text or a dict (the rules of
+    :func:`~tensegrity_core.schema.resolve_source`). Relative paths in it (the base,
+    reference files) are resolved against the sweep file's folder (the current folder
+    otherwise)."""
     if isinstance(source, Sweep):
         return source
-    if isinstance(source, dict):
-        return _Reader(None, Path.cwd()).sweep(source)
-    if isinstance(source, str) and "\n" not in source and source in sweep_names() and not Path(source).is_file():
-        source = sweep_path(source)
-    if isinstance(source, Path) or (isinstance(source, str) and "\n" not in source and (
-            source.lower().endswith((".yaml", ".yml")) or Path(source).is_file())):
-        path = Path(source)
-        try:
-            if path.stat().st_size > MAX_FILE_BYTES:
-                raise SweepError(f"sweep file {str(path)!r} is larger than {MAX_FILE_BYTES} bytes")
-            text = path.read_text(encoding="utf-8")
-        except FileNotFoundError:
-            raise SweepError(f"sweep file not found: {str(path)!r}"
-                             f"{suggest(path.stem, sweep_names(), ' (a shipped sweep: {!r}?)')}") from None
-        except (OSError, UnicodeDecodeError) as err:
-            raise SweepError(f"cannot read sweep file {str(path)!r}: {getattr(err, 'strerror', None) or err}") from None
-        return _Reader(path.name, path.parent.resolve(), str(path)).sweep(_parse(text, path.name))
-    if isinstance(source, str):
-        if ":" not in source:
-            raise SweepError(f"{source!r} is neither a shipped sweep{suggest(source, sweep_names())} "
-                             f"({', '.join(sweep_names())}), an existing sweep file nor YAML text")
-        if len(source) > MAX_FILE_BYTES:
-            raise SweepError(f"sweep text is larger than {MAX_FILE_BYTES} bytes")
-        return _Reader(None, Path.cwd()).sweep(_parse(source, None))
-    raise SweepError(f"cannot load a sweep from a {type(source).__name__}; give a name, a path, YAML text or a dict")
+    found = resolve_source(source, what="sweep", shipped=SHIPPED_SWEEPS, error=SweepError)
+    if found.kind == "data":
+        return _SweepReader(None, Path.cwd()).sweep(found.data)
+    if found.kind == "text":
+        return _SweepReader(None, Path.cwd()).sweep(parse_text(found.text, "yaml", limits=LIMITS, error=SweepError))
+    path = cast(Path, found.path)
+    data, _, _ = read_file(path, limits=LIMITS, error=SweepError, fmt="yaml", what="sweep file")
+    return _SweepReader(path.name, path.parent.resolve(), str(path)).sweep(data)
 
 
-def _parse(text: str, file: str | None) -> object:
-    from tensegrity_core.schema import SchemaError, parse_text
-
-    try:
-        data = parse_text(text, "yaml")
-    except SchemaError as err:
-        raise SweepError(err.reason, line=err.line, file=file) from None
-    return data
+def _on_plain(check: Check) -> Check:
+    """``check`` applied to the value as plain data (options are kept in the sweep and sent
+    to workers, without the lines of the parsed file)."""
+    return lambda value: check(plain(value))
 
 
-def _line(container: object, key: object) -> int | None:
-    lines: dict[object, int] | None = getattr(container, "key_lines", None)
-    if lines is not None and key in lines:
-        return lines[key]
-    items: list[int] | None = getattr(container, "item_lines", None)
-    if items is not None and isinstance(key, int) and key < len(items):
-        return items[key]
-    line: int | None = getattr(container, "line", None)
-    return line
-
-
-class _Reader:
-    """Walks the parsed sweep file, keeping key paths and lines for the error messages."""
+class _SweepReader(Reader):
+    """The sweep file's schema over the shared checks; ``folder`` is where relative paths start."""
 
     def __init__(self, file: str | None, folder: Path, source: str | None = None):
-        self.file = file
+        super().__init__(SweepError, file)
         self.folder = folder
         self.source = source
-
-    def error(self, message: str, path: KeyPath, container: object = None, key: object = None) -> SweepError:
-        line = _line(container, key) if container is not None else None
-        return SweepError(message, key=path, line=line, file=self.file)
-
-    def mapping(self, value: object, path: KeyPath, parent: object = None, key: object = None) -> dict[Any, Any]:
-        if not isinstance(value, dict):
-            raise self.error(f"must be a mapping, got {type_name(value)} ({value!r})", path, parent, key)
-        return value
-
-    def keys(self, d: dict[Any, Any], path: KeyPath, allowed: tuple[str, ...],
-             required: Iterable[str] = ()) -> None:
-        for k in d:
-            if k not in allowed:
-                raise self.error(f"unknown key {k!r}{suggest(k, allowed)}; allowed: {', '.join(allowed)}",
-                                 path + (k,), d, k)
-        for k in required:
-            if k not in d:
-                raise self.error(f"missing required key {k!r}", path, d, None)
-
-    def checked(self, d: dict[str, Any], key: str, path: KeyPath, check: Check) -> Any:
-        """``check`` of ``d[key]`` (as plain data); its :class:`OptionError` is raised as the
-        error at ``path + (key,)``."""
-        try:
-            return check(plain(d[key]))
-        except OptionError as err:
-            raise self.error(str(err), path + (key,), d, key) from None
-
-    def number(self, d: dict[str, Any], key: str, path: KeyPath, *, lo: float | None = None,
-               lo_open: bool = False) -> float:
-        value: float = self.checked(d, key, path, number_check(lo=lo, lo_open=lo_open))
-        return value
-
-    def integer(self, d: dict[str, Any], key: str, path: KeyPath, *, lo: int = 0, hi: int | None = None) -> int:
-        v = d[key]
-        if isinstance(v, bool) or not isinstance(v, int) or v < lo or (hi is not None and v > hi):
-            bound = f">= {lo}" + (f" and <= {hi}" if hi is not None else "")
-            raise self.error(f"must be an integer {bound}, got {v!r}", path + (key,), d, key)
-        return int(v)
-
-    def string(self, d: dict[str, Any], key: str, path: KeyPath) -> str:
-        v = d[key]
-        if not isinstance(v, str):
-            raise self.error(f"must be a string, got {type_name(v)} ({v!r})", path + (key,), d, key)
-        return v
 
     def named(self, item: object, path: KeyPath, holder: object, index: object,
               what: str) -> tuple[str, dict[str, Any], KeyPath]:
@@ -297,26 +239,26 @@ class _Reader:
             name = next(iter(item))
             options = item[name] if item[name] is not None else {}
             return name, self.mapping(options, path + (name,), item, name), path + (name,)
-        raise self.error(f"each {what} is a name or a one-key mapping {{name: {{options}}}}, got {item!r}",
+        raise self.error(f"each {what} is a name or a one-key mapping {{name: {{options}}}}, got {excerpt(item)}",
                          path, holder, index)
 
     # -- the sweep ---------------------------------------------------------------------------
     def sweep(self, data: object) -> Sweep:
         d = self.mapping(data, ())
         self.keys(d, (), TOP, required=("base", "vary", "compute", "results"))
-        name = self.string(d, "name", ()) if "name" in d else (Path(self.file).stem if self.file else "sweep")
-        description = self.string(d, "description", ()) if "description" in d else ""
+        name = self.string(d, "name", (), default=Path(self.file).stem if self.file else "sweep")
+        description = self.string(d, "description", (), default="")
         base = self.base(d["base"], ("base",), d)
         computation, options = self.compute(d["compute"], ("compute",), d, base)
         quantities = self.vary(d["vary"], ("vary",), d, base)
-        seed = self.integer(d, "seed", (), hi=2**63 - 1) if "seed" in d else 0
+        seed = self.integer(d, "seed", (), default=0, lo=0, hi=2**63 - 1)
         random = any(q.random for q in quantities)
         if random and "samples" not in d:
             raise self.error("random quantities need 'samples' (how many points to draw)", (), d, "vary")
         if not random and "samples" in d:
             raise self.error("'samples' counts random draws, but no quantity is random (uniform, normal, "
                              "log_uniform)", ("samples",), d, "samples")
-        samples = self.integer(d, "samples", (), lo=1, hi=MAX_POINTS) if "samples" in d else 1
+        samples = self.integer(d, "samples", (), default=1, lo=1, hi=MAX_POINTS)
         n = count(quantities, samples)
         if n > MAX_POINTS:
             raise self.error(f"the sweep has {n} points; at most {MAX_POINTS}", ("vary",), d, "vary")
@@ -333,7 +275,7 @@ class _Reader:
         kind = next(iter(d))
         try:
             return load_base(kind, d[kind], self.folder)
-        except BaseError as err:
+        except SchemaError as err:              # not found (SweepError), or the file's own error
             raise self.error(str(err), path + (kind,), d, kind) from None
 
     def compute(self, value: object, path: KeyPath, parent: dict[str, Any], base: Base) -> tuple[str, Options]:
@@ -355,7 +297,7 @@ class _Reader:
         self.keys(options, path, tuple(checks), required=required)
         out: Options = {}
         for k in options:
-            out[k] = self.checked(options, k, path, checks[k])
+            out[k] = self.checked(options, k, path, _on_plain(checks[k]))
         return out
 
     def vary(self, value: object, path: KeyPath, parent: dict[str, Any], base: Base) -> list[Quantity]:
@@ -363,15 +305,15 @@ class _Reader:
         if not d:
             raise self.error("list at least one quantity to vary", path, parent, "vary")
         out: list[Quantity] = []
-        taken: dict[Location, str] = {}
+        taken: dict[KeyPath, str] = {}
         for key_path, spec in d.items():
             qpath = path + (key_path,)
             if not isinstance(key_path, str):
-                raise self.error(f"a key path must be a string, got {key_path!r}", qpath, d, key_path)
+                raise self.error(f"a key path must be a string, got {excerpt(key_path)}", qpath, d, key_path)
             q = self.quantity(key_path, spec, qpath, d, base)
             for loc in q.locations:
                 if loc in taken:
-                    raise self.error(f"{format_location(loc)} is already varied by {taken[loc]!r}", qpath, d, key_path)
+                    raise self.error(f"{format_key_path(loc)} is already varied by {taken[loc]!r}", qpath, d, key_path)
                 taken[loc] = key_path
             if q.column in RESERVED or any(q.column == o.column for o in out):
                 raise self.error(f"column name {q.column!r} is taken; give this quantity another with 'name'",
@@ -393,36 +335,27 @@ class _Reader:
         if len(kinds) != 1:
             raise self.error(f"give exactly one of {', '.join(FIXED + RANDOM)}", path, parent, key_path)
         kind = kinds[0]
-        scale = False
-        if "scale" in spec:
-            if not isinstance(spec["scale"], bool):
-                raise self.error(f"must be true or false, got {spec['scale']!r}", path + ("scale",), spec, "scale")
-            scale = spec["scale"]
-        column = self.string(spec, "name", path) if "name" in spec else key_path
+        scale = self.boolean(spec, "scale", path, default=False)
+        column = self.string(spec, "name", path, default=key_path)
         values: tuple[Any, ...] = ()
         params: tuple[float, ...] = ()
         kpath = path + (kind,)
         if kind == "values":
-            v = spec["values"]
-            if not isinstance(v, list) or not v:
-                raise self.error(f"must be a non-empty list, got {type_name(v)} ({v!r})", kpath, holder, "values")
+            v = self.sequence(spec["values"], kpath, holder, "values", nonempty=True)
             if len(v) > MAX_VALUES:
                 raise self.error(f"at most {MAX_VALUES} values, got {len(v)}", kpath, holder, "values")
             for i, x in enumerate(v):
                 ok = isinstance(x, (str, bool)) or (isinstance(x, (int, float)) and math.isfinite(x))
                 if not ok or (scale and isinstance(x, (str, bool))):
                     want = "finite numbers (factors)" if scale else "numbers, strings or booleans"
-                    raise self.error(f"values must be {want}, got {x!r}", kpath + (i,), v, i)
+                    raise self.error(f"values must be {want}, got {excerpt(x)}", kpath + (i,), v, i)
             values = tuple(v)
         elif kind == "grid":
             g = self.mapping(spec["grid"], kpath, spec, "grid")
             self.keys(g, kpath, ("from", "to", "num", "spacing"), required=("from", "to", "num"))
             lo, hi = self.number(g, "from", kpath), self.number(g, "to", kpath)
             num = self.integer(g, "num", kpath, lo=1, hi=MAX_VALUES)
-            spacing = self.string(g, "spacing", kpath) if "spacing" in g else "linear"
-            if spacing not in ("linear", "log"):
-                raise self.error(f"must be linear or log, got {spacing!r}{suggest(spacing, ('linear', 'log'))}",
-                                 kpath + ("spacing",), g, "spacing")
+            spacing = self.string(g, "spacing", kpath, default="linear", choices=("linear", "log"))
             if spacing == "log" and (lo <= 0 or hi <= 0):
                 raise self.error(f"a log grid needs from, to > 0, got {lo:g}, {hi:g}", kpath, spec, "grid")
             values = grid_values(lo, hi, num, spacing)
@@ -439,14 +372,12 @@ class _Reader:
         try:
             locations = tuple(resolve(base.document, key_path, need_number=scale))
         except KeyPathError as err:
-            raise self.error(f"{err} (in the base {base.kind} {base.source!r})", path, parent, key_path) from None
+            raise self.error(f"{err.reason} (in the base {base.kind} {base.source!r})", path, parent, key_path) from None
         log = kind == "log_uniform" or (kind == "grid" and spacing == "log")
         return Quantity(key_path, column, kind, values, params, scale, locations, log)
 
     def results(self, value: object, path: KeyPath, parent: dict[str, Any], computation: str) -> list[ListedResult]:
-        if not isinstance(value, list) or not value:
-            raise self.error(f"must be a non-empty list of results, got {type_name(value)} ({value!r})",
-                             path, parent, "results")
+        value = self.sequence(value, path, parent, "results", of="results", nonempty=True)
         comp = COMPUTATIONS[computation]
         out: list[ListedResult] = []
         seen: set[tuple[str, str]] = set()
@@ -467,5 +398,5 @@ class _Reader:
             if key in seen:
                 raise self.error(f"result {name!r} is listed twice with the same options", path + (i,), value, i)
             seen.add(key)
-            out.append((name, checked, _line(value, i)))
+            out.append((name, checked, line_of(value, i)))
         return out

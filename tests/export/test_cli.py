@@ -43,7 +43,7 @@ def test_json_summary_and_a_structure_file(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("args, message", [
-    (["nope"], "error: no scene or structure file 'nope', and no shipped scene or example of that name; shipped"),
+    (["nope"], "error: no scene or structure file 'nope' and no shipped scene or example 'nope'; shipped scenes: "),
     (["spine_relase"], "(did you mean 'spine_release'?)"),
     (["paper_fold"], "error: scene 'paper_fold' simulates the class-2 mechanism; only general structures export"),
     (["t_bar"], "error: structure 'T-bar': inertia needs a mass on every free node"),

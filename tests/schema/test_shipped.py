@@ -29,7 +29,7 @@ def test_names_are_the_sorted_stems_of_the_yaml_files_and_a_path_is_one_of_them(
 
 @pytest.mark.parametrize("path_of, error, words", [
     (scene_path, SceneError, "unknown scene 'paper_fodl' (did you mean 'paper_fold'?); shipped scenes: "),
-    (example_path, StructureError, "unknown example 'paper_fodl'; available: "),
+    (example_path, StructureError, "unknown example 'paper_fodl'; shipped examples: "),
     (sweep_path, SweepError, "unknown sweep 'paper_fodl'; shipped sweeps: "),
 ])
 def test_each_format_names_an_unknown_shipped_file_in_its_own_words_and_error(path_of, error, words):

@@ -9,8 +9,8 @@ import textwrap
 import numpy as np
 import pytest
 
+from tensegrity_core.schema import KeyPathError, parse_pattern, resolve
 from tensegrity_core.sweep import SweepError, load_sweep, sweep_names
-from tensegrity_core.sweep.keypath import KeyPathError, parse, resolve
 from tensegrity_core.sweep.points import apply
 from tests.sweep.conftest import fold_sweep, monte_carlo_sweep
 
@@ -52,7 +52,7 @@ def error_of(text: str) -> SweepError:
     ("{values: [0.0, 0.01]}", "{values: [0.0, .nan]}", "model.params.c", "values must be numbers"),
     ("{values: [0.0, 0.01]}", "{vals: [0.0, 0.01]}", "model.params.c", "unknown key 'vals' (did you mean 'values'?)"),
     ("{grid: {from: 0.5, to: 2.0, num: 4}}", "{grid: {from: 0.5, to: 2.0, num: 4, spacing: lin}}", "model.params.k",
-     "must be linear or log, got 'lin' (did you mean 'linear'?)"),
+     "must be one of linear, log, got 'lin' (did you mean 'linear'?)"),
     ("{values: [0.0, 0.01]}", "{normal: {mean: 1.0, std: 0.05}}", "compute: simulate",
      "random quantities need 'samples'"),
 ])
@@ -130,7 +130,7 @@ def test_key_paths_select_groups_and_effects():
     assert resolve(doc, "effects[damping].beta") == [("effects", 1, "damping", "beta")]
     assert resolve(doc, "effects[gravity].vector") == [("effects", 2, "gravity", "vector")]
     assert doc["effects"][2] == {"gravity": {}}       # the same effect, now with (empty) options
-    assert parse("loads.c1[2]") == (("key", "loads"), ("key", "c1"), ("index", 2))
+    assert parse_pattern("loads.c1[2]") == (("key", "loads"), ("key", "c1"), ("index", 2))
     with pytest.raises(KeyPathError, match=r"no entry of members matches \[sied\*\] \(did you mean 'side\*'\?\)"):
         resolve(doc, "members[sied*].l0")
     with pytest.raises(KeyPathError, match="say which key"):

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any, ClassVar, cast
+from typing import Any, ClassVar, Final, cast
 
 import numpy as np
 
@@ -39,11 +39,13 @@ from tensegrity_core.schema import (
     excerpt,
     parse_text,
     read_file,
+    resolve_source,
     suggest,
     type_name,
 )
 from tensegrity_core.sim.errors import SceneError
 from tensegrity_core.sim.inputs import Commanded, Constant, InputLaw, Proportional, Ramp
+from tensegrity_core.sim.scene.references import structure_source
 from tensegrity_core.sim.scene.series import read_series
 from tensegrity_core.sim.scene.spec import (
     EFFECTS,
@@ -71,18 +73,19 @@ from tensegrity_core.sim.scene.spec import (
 
 #: The shipped scenes' folder.
 SCENES_DIR = Path(__file__).parents[1] / "scenes"
-_SHIPPED = ShippedFiles(SCENES_DIR, "scene", "shipped scenes", SceneError)
+#: The shipped scenes, by name.
+SHIPPED_SCENES: Final = ShippedFiles(SCENES_DIR, "scene", "shipped scenes", SceneError)
 
 
 # ------------------------------------------------------------------------------ loading
 def scene_names() -> list[str]:
     """Names of the shipped scenes (file stems in the package's ``scenes`` folder)."""
-    return _SHIPPED.names()
+    return SHIPPED_SCENES.names()
 
 
 def scene_path(name: str) -> Path:
     """Path of the shipped scene ``name``."""
-    return _SHIPPED.path(name)
+    return SHIPPED_SCENES.path(name)
 
 
 def scene_from_text(text: str, *, base: str | Path | None = None, limits: Limits = DEFAULT_LIMITS) -> Scene:
@@ -110,32 +113,21 @@ SceneSource = Scene | str | Path | dict[str, Any]
 
 
 def load_scene(source: SceneSource) -> Scene:
-    """Read and check a scene: a :class:`Scene` (returned as is), a shipped scene name, a path
-    (``str`` or ``Path`` to a ``.yaml``/``.yml`` file), YAML text, or a dict. For local use
-    (a Python session, the CLI): text from elsewhere goes to :func:`scene_from_text`.
+    """Read and check a scene: a :class:`Scene` (returned as is), a path (``str`` or
+    ``Path``) to an existing file or a shipped scene's name, YAML text, or a dict (the rules
+    of :func:`~tensegrity_core.schema.resolve_source`). For local use (a Python session,
+    the CLI): text from elsewhere goes to :func:`scene_from_text`.
 
     Relative paths inside the scene (structure files, CSV series) are resolved against the
     scene file's folder (the current folder for text and dicts)."""
     if isinstance(source, Scene):
         return source
-    if isinstance(source, dict):
-        return scene_from_dict(source)
-    if isinstance(source, str) and "\n" not in source and source in scene_names():
-        return scene_from_file(scene_path(source))
-    if isinstance(source, Path) or (isinstance(source, str) and "\n" not in source and (
-            source.lower().endswith((".yaml", ".yml")) or Path(source).is_file())):
-        path = Path(source)
-        if not path.exists():
-            raise SceneError(f"scene file not found: {excerpt(str(path))}"
-                             f"{suggest(path.stem, scene_names(), ' (a shipped scene: {!r}?)')}")
-        return scene_from_file(path)
-    if isinstance(source, str):
-        if ":" not in source:
-            raise SceneError(f"{excerpt(source)} is neither a shipped scene ({', '.join(scene_names())}), "
-                             f"an existing scene file nor YAML text")
-        return scene_from_text(source)
-    raise SceneError(f"cannot load a scene from a {type(source).__name__}; give a name, a path, "
-                     f"YAML text or a dict")
+    found = resolve_source(source, what="scene", shipped=SHIPPED_SCENES, error=SceneError)
+    if found.kind == "data":
+        return scene_from_dict(cast(dict[str, Any], found.data))
+    if found.kind == "text":
+        return scene_from_text(cast(str, found.text))
+    return scene_from_file(cast(Path, found.path))
 
 
 class _SceneReader(Reader):
@@ -209,27 +201,22 @@ class _SceneReader(Reader):
         return GeneralModelSpec(structure, source, end_effector, actuators)
 
     def structure(self, value: object, path: KeyPath, parent: dict[str, Any]) -> tuple[Structure, str]:
-        from tensegrity_core.general import (
-            StructureError,
-            example_names,
-            load_example,
-            structure_from_dict,
-            structure_from_file,
-        )
+        from tensegrity_core.general import StructureError, load_example, structure_from_dict, structure_from_file
 
+        if not isinstance(value, (dict, str)):
+            raise self.error(f"must be a shipped example name, a file path or a mapping, got "
+                             f"{type_name(value)}", path, parent, "structure")
         try:
-            if isinstance(value, dict):
-                return structure_from_dict(value), "inline"
-            if not isinstance(value, str):
-                raise self.error(f"must be a shipped example name, a file path or a mapping, got "
-                                 f"{type_name(value)}", path, parent, "structure")
-            candidate = self.base / value
-            if candidate.is_file():
-                return structure_from_file(candidate), str(candidate)
-            if value in example_names():
-                return load_example(value), value
-            raise self.error(f"no structure file {excerpt(str(candidate))} and no shipped example "
-                             f"{excerpt(value)}{suggest(value, example_names())}", path, parent, "structure")
+            source = structure_source(value, self.base)
+        except SceneError as err:
+            raise self.error(err.reason, path, parent, "structure") from None
+        try:
+            if source.data is not None:
+                return structure_from_dict(source.data), "inline"
+            assert source.path is not None              # a mapping or a file, as structure_source says
+            if source.shipped is not None:
+                return load_example(source.path.stem), source.path.stem
+            return structure_from_file(source.path), str(source.path)
         except StructureError as err:
             raise self.error(f"invalid structure: {err}", path, parent, "structure") from None
 

@@ -2,18 +2,21 @@
 
 A scene's ``law: series`` names a CSV ``file`` (relative to the scene's folder), a ``column``
 and optionally the ``time`` column (default: the first) and the ``interpolation``. The file
-is a header row of column names, then rows of numbers; times must increase.
+is a header row of column names, then rows of numbers; times must increase. It is read as
+every description file is (bounded in size, UTF-8 checked: :func:`~tensegrity_core.schema.read_text`).
 """
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from tensegrity_core.schema import KeyPath, Reader, excerpt, suggest
+from tensegrity_core.schema import KeyPath, Reader, SchemaError, excerpt, read_text, suggest
 from tensegrity_core.sim.inputs import INTERPOLATIONS, Series
+from tensegrity_core.sim.scene.references import series_file
 
 
 def read_series(reader: Reader, d: dict[str, Any], path: KeyPath, base: Path) -> Series:
@@ -22,18 +25,19 @@ def read_series(reader: Reader, d: dict[str, Any], path: KeyPath, base: Path) ->
     file = reader.string(d, "file", path)
     column = reader.string(d, "column", path)
     interpolation = reader.string(d, "interpolation", path, default="linear", choices=INTERPOLATIONS)
-    csv = base / file
+    csv = series_file(file, base)
     shown = excerpt(str(csv))
     try:
-        with open(csv, encoding="utf-8") as fh:
-            header_row = fh.readline(10_000).strip().split(",")
-            table = np.loadtxt(fh, delimiter=",", ndmin=2)
-    except FileNotFoundError:
-        raise reader.error(f"CSV file not found: {shown}", path + ("file",), d, "file") from None
-    except (ValueError, OSError) as err:          # UnicodeDecodeError is a ValueError
+        text = read_text(csv, error=reader.error_class, what="CSV file")
+    except SchemaError as err:
+        raise reader.error(err.reason, path + ("file",), d, "file") from None
+    first_line, _, rows = text.partition("\n")
+    try:
+        table = np.loadtxt(io.StringIO(rows), delimiter=",", ndmin=2)
+    except ValueError as err:
         raise reader.error(f"cannot read {shown} as numbers after a header row: {excerpt(str(err))}",
                            path + ("file",), d, "file") from None
-    header = [h.strip() for h in header_row]
+    header = [h.strip() for h in first_line.strip().split(",")]
     time_col = reader.string(d, "time", path, default=header[0])
     for k, col in (("time", time_col), ("column", column)):
         if col not in header:

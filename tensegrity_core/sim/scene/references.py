@@ -1,0 +1,60 @@
+"""Where a scene refers to other files, and how those references are resolved.
+
+A scene names other files in two places, both relative to the scene file's folder (the
+current folder for text and dicts):
+
+- ``model.structure`` of a general scene: a structure file or a shipped example's name
+  (or the description inline, a mapping): :func:`structure_source`;
+- the ``file`` of a ``law: series`` input: a CSV table: :func:`series_file`.
+
+The scene reader resolves them with these functions, and :func:`self_contained` uses the
+same ones to make a parsed scene document that needs no other file: the structure inlined
+as its parsed description (so key paths such as ``model.structure.members[side*].EA``
+reach it) and CSV files as absolute paths. A sweep sends such a document to its workers
+(the workers of an external cluster must then see the same file system for CSV files).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from tensegrity_core.general.examples import SHIPPED_EXAMPLES
+from tensegrity_core.general.loading import SUFFIXES as STRUCTURE_SUFFIXES
+from tensegrity_core.general.structure import StructureError
+from tensegrity_core.schema import Source, plain, read_file, resolve_source
+from tensegrity_core.sim.errors import SceneError
+
+
+def structure_source(value: object, folder: Path) -> Source:
+    """What ``model.structure`` names: a mapping (the description), a structure file relative
+    to ``folder`` or a shipped example's name; :class:`SceneError` (bare reason) if none."""
+    return resolve_source(value, what="structure", shipped=SHIPPED_EXAMPLES, error=SceneError,
+                          suffixes=STRUCTURE_SUFFIXES, folder=folder, text=None)
+
+
+def series_file(value: str, folder: Path) -> Path:
+    """The CSV file a series law's ``file`` names (relative to ``folder``)."""
+    return folder / value
+
+
+def self_contained(document: dict[str, Any], folder: Path) -> dict[str, Any]:
+    """A copy of the parsed scene ``document`` (plain dicts and lists) that refers to no
+    other file (see the module's docstring); files relative to ``folder``. A reference that
+    cannot be read raises the error its reader raises (``SceneError``, ``StructureError``)."""
+    out: dict[str, Any] = plain(document)
+    model = out.get("model")
+    if isinstance(model, dict) and model.get("kind") == "general" and isinstance(model.get("structure"), str):
+        source = structure_source(model["structure"], folder)
+        assert source.path is not None                 # text and data are not accepted above
+        data = plain(read_file(source.path, error=StructureError, what="structure file")[0])
+        if not isinstance(data, dict):
+            raise StructureError("a structure description must be a mapping", file=source.path.name)
+        data.setdefault("name", source.path.stem)
+        model["structure"] = data
+    inputs = out.get("inputs")
+    if isinstance(inputs, dict):
+        for law in inputs.values():
+            if isinstance(law, dict) and law.get("law") == "series" and isinstance(law.get("file"), str):
+                law["file"] = str(series_file(law["file"], folder).resolve())
+    return out
