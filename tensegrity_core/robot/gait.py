@@ -29,14 +29,14 @@ times, so integrators restart at every corner of the table.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Final
 
 import numpy as np
 
-from tensegrity_core.schema import KeyPath, Reader, SchemaError, ShippedFiles, excerpt, read_file, suggest
+from tensegrity_core.schema import KeyPath, Reader, SchemaError, ShippedFiles, excerpt, read_file, resolve_source
 
 if TYPE_CHECKING:
     from tensegrity_core.sim.inputs import Series
@@ -132,18 +132,19 @@ def read_gait(reader: Reader, value: object, path: KeyPath, parent: Any, key: An
     if "file" not in d:
         return _table(reader, d, path)
     reader.keys(d, path, ("file",) + OVERRIDES)
-    name = reader.string(d, "file", path)
-    candidate = base / name
-    source = candidate if candidate.is_file() else None
-    if source is None:
-        if name not in gait_names():
-            names = gait_names()
-            raise reader.error(f"no gait file {excerpt(str(candidate))} and no shipped gait {excerpt(name)}"
-                               f"{suggest(name, names)}; shipped gaits: {', '.join(names)}", path + ("file",), d,
-                               "file")
-        source = _SHIPPED.path(name)
+    source = gait_file(reader.string(d, "file", path), base,
+                       lambda message: reader.error(message, path + ("file",), d, "file"))
     gait = gait_from_file(source)
     return _options(reader, d, path, gait)
+
+
+def gait_file(name: str, base: Path, error: Callable[[str], Exception]) -> Path:
+    """The file a gait's ``file`` names: a path relative to ``base`` or a shipped gait's name
+    (the rules of :func:`~tensegrity_core.schema.resolve_source`); ``error`` makes the
+    exception of a refusal from its message."""
+    found = resolve_source(name, what="gait", shipped=_SHIPPED, error=error, folder=base, text=None, data=False)
+    assert found.path is not None                 # neither text nor data is accepted
+    return found.path
 
 
 def gait_from_file(path: str | Path) -> Gait:

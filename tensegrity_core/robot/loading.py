@@ -20,7 +20,15 @@ from typing import Any, Final
 
 from tensegrity_core.robot.description import Robot, RobotError
 from tensegrity_core.robot.robot_schema import robot_from_dict
-from tensegrity_core.schema import DEFAULT_LIMITS, Limits, ShippedFiles, excerpt, parse_text_format, read_file, suggest
+from tensegrity_core.schema import (
+    DEFAULT_LIMITS,
+    Limits,
+    ShippedFiles,
+    excerpt,
+    parse_text_format,
+    read_file,
+    resolve_source,
+)
 
 EXAMPLES: Final = Path(__file__).parent / "examples"
 _SHIPPED: Final = ShippedFiles(EXAMPLES, "robot", "shipped robots", RobotError)
@@ -55,18 +63,13 @@ def robot_from_file(path: str | os.PathLike[str], *, limits: Limits = DEFAULT_LI
 
 
 def load_robot(source: Robot | str | Path | dict[str, Any]) -> Robot:
-    """A robot from a :class:`Robot` (as is), a shipped robot's name, a path or a dict; for
-    local use (text from elsewhere goes to :func:`robot_from_text`)."""
+    """A robot from a :class:`Robot` (as is), a shipped robot's name, a path or a dict (the
+    rules of :func:`~tensegrity_core.schema.resolve_source`); for local use (text from
+    elsewhere goes to :func:`robot_from_text`)."""
     if isinstance(source, Robot):
         return source
-    if isinstance(source, dict):
-        return robot_from_dict(source)
-    if isinstance(source, str) and source in robot_names():
-        return robot_from_file(robot_path(source))
-    if isinstance(source, (str, Path)):
-        path = Path(source)
-        if path.is_file():
-            return robot_from_file(path)
-        raise RobotError(f"no shipped robot and no file {excerpt(str(source))}"
-                         f"{suggest(str(source), robot_names())}; shipped robots: {', '.join(robot_names())}")
-    raise RobotError(f"cannot load a robot from a {type(source).__name__}; give a name, a path or a dict")
+    found = resolve_source(source, what="robot", shipped=_SHIPPED, error=RobotError, suffixes=SUFFIXES, text=None)
+    if found.data is not None:
+        return robot_from_dict(found.data)
+    assert found.path is not None                 # text is not accepted
+    return robot_from_file(found.path)

@@ -5,12 +5,14 @@ current folder for text and dicts):
 
 - ``model.structure`` of a general scene: a structure file or a shipped example's name
   (or the description inline, a mapping): :func:`structure_source`;
-- the ``file`` of a ``law: series`` input: a CSV table: :func:`series_file`.
+- the ``file`` of a ``law: series`` input: a CSV table: :func:`series_file`;
+- the ``file`` of ``inputs.gait`` (a robot's gait): a gait file or a shipped gait's name
+  (:func:`~tensegrity_core.robot.gait.gait_file`, which the gait reader uses too).
 
 The scene reader resolves them with these functions, and :func:`self_contained` uses the
 same ones to make a parsed scene document that needs no other file: the structure inlined
 as its parsed description (so key paths such as ``model.structure.members[side*].EA``
-reach it) and CSV files as absolute paths. A sweep sends such a document to its workers
+reach it) and CSV and gait files as absolute paths. A sweep sends such a document to its workers
 (the workers of an external cluster must then see the same file system for CSV files).
 """
 
@@ -22,6 +24,7 @@ from typing import Any
 from tensegrity_core.general.examples import SHIPPED_EXAMPLES
 from tensegrity_core.general.loading import SUFFIXES as STRUCTURE_SUFFIXES
 from tensegrity_core.general.structure import StructureError
+from tensegrity_core.robot.gait import gait_file
 from tensegrity_core.schema import Source, plain, read_file, resolve_source
 from tensegrity_core.sim.errors import SceneError
 
@@ -54,6 +57,9 @@ def self_contained(document: dict[str, Any], folder: Path) -> dict[str, Any]:
         model["structure"] = data
     inputs = out.get("inputs")
     if isinstance(inputs, dict):
+        gait = inputs.get("gait")
+        if isinstance(gait, dict) and isinstance(gait.get("file"), str):
+            gait["file"] = str(gait_file(gait["file"], folder, SceneError).resolve())
         for law in inputs.values():
             if isinstance(law, dict) and law.get("law") == "series" and isinstance(law.get("file"), str):
                 law["file"] = str(series_file(law["file"], folder).resolve())
