@@ -25,7 +25,6 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Final, TypeAlias
 
 import numpy as np
-import yaml
 from numpy.typing import NDArray
 
 from tensegrity_core.class2.control.baseline import ActuatorTracker
@@ -92,9 +91,10 @@ class StudyResult:
 
 def at_rest_scene(rho1: float, rho2: float, params: Class2Params) -> dict[str, Any]:
     """The ``class2_at_rest`` scene started at rest at ``(rho1, rho2)`` with ``params``."""
-    from tensegrity_core.sim import scene_path
+    from tensegrity_core.schema import plain, read_file
+    from tensegrity_core.sim import SceneError, scene_path
 
-    data: dict[str, Any] = yaml.safe_load(scene_path("class2_at_rest").read_text())
+    data: dict[str, Any] = plain(read_file(scene_path("class2_at_rest"), error=SceneError, what="scene file")[0])
     data["model"]["params"] = params.as_dict()
     data["initial"] = {"equilibrium": {"rho1": float(rho1), "rho2": float(rho2)}}
     return data
