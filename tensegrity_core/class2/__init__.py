@@ -35,18 +35,8 @@ from tensegrity_core.class2.geometry import (
     member_lengths,
     node_positions,
 )
-from tensegrity_core.class2.inverse_kinematics import (
-    IK_BRANCHES,
-    IK_CODES,
-    IKAllArrays,
-    IKArrays,
-    IKCandidate,
-    IKResult,
-    ik_array,
-    ik_array_all,
-    inverse_kinematics,
-    nearest_solution,
-)
+from tensegrity_core.class2.ik_arrays import IK_BRANCHES, IK_CODES, IKAllArrays, IKArrays, ik_array, ik_array_all
+from tensegrity_core.class2.inverse_kinematics import IKCandidate, IKResult, inverse_kinematics, nearest_solution
 from tensegrity_core.class2.kinematics import (
     FKArrays,
     FKResult,

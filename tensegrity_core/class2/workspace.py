@@ -24,7 +24,7 @@ from typing import Final, TypeAlias
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tensegrity_core.class2.inverse_kinematics import ik_array_all
+from tensegrity_core.class2.ik_arrays import ik_array_all
 from tensegrity_core.class2.kinematics import as_real, fk_array
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 from tensegrity_core.errors import DomainError

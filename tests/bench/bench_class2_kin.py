@@ -12,7 +12,8 @@ import numpy as np
 from scipy import optimize
 
 from tensegrity_core.class2 import PAPER_PARAMS
-from tensegrity_core.class2.inverse_kinematics import ik_array, inverse_kinematics
+from tensegrity_core.class2.ik_arrays import ik_array
+from tensegrity_core.class2.inverse_kinematics import inverse_kinematics
 from tensegrity_core.class2.kinematics import fk_array, forward_kinematics, forward_kinematics_numeric
 from tests.bench.harness import Row, benchmark, time_per_call
 

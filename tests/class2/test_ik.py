@@ -11,15 +11,12 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from tensegrity_core.class2 import PAPER_PARAMS
+from tensegrity_core.class2.ik_arrays import IK_BRANCHES, IK_CODES, ik_array, ik_array_all
 from tensegrity_core.class2.inverse_kinematics import (
-    IK_BRANCHES,
-    IK_CODES,
     REASON_DUPLICATE,
     REASON_MAXIMUM,
     REASON_NOT_STATIONARY,
     REASON_RANGE,
-    ik_array,
-    ik_array_all,
     inverse_kinematics,
     nearest_solution,
     snap_tolerance,
