@@ -26,6 +26,11 @@ and moment about ``c`` of the nodal forces, ``F' = F - w x (w x s)`` and
 is solved by eliminating ``a_c``: ``dw = I_cm^-1 (M' - s x F' / m)`` with ``I_cm = I_c +
 hat(s)^2 / m`` the inertia about the centre of mass (``R I_cm,body^-1 R^T``: inverted once,
 in the plan), then ``a_c = (F' + s x dw) / m``.
+
+Longer than 500 lines because the kernels call one another (the Jacobian and the
+integration stages call the right-hand side's): numba's on-disk cache of a kernel is renewed
+only when the kernel's own file changes, so a callee in another file could change while its
+callers' cached machine code keeps the old one (numba's documentation, "Cache Notes").
 """
 
 from __future__ import annotations
