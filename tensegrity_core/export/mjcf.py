@@ -1,4 +1,4 @@
-"""MJCF export: the entry point, the writers' registry and the exported model.
+"""MJCF export: the entry point and the writers' registry.
 
 :func:`export_mjcf` takes a scene (or a structure, as :func:`structure_scene`) and hands it
 to the MJCF writer of the back end that simulates it; a robot description goes to
@@ -18,16 +18,14 @@ tendons) and quasi-static scenes (no inertia: MuJoCo simulates dynamics) have no
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from collections.abc import Callable
-from dataclasses import dataclass
 from importlib import import_module
-from pathlib import Path
 
 import numpy as np
 
 from tensegrity_core.export.errors import ExportError
+from tensegrity_core.export.model import MjcfModel
+from tensegrity_core.export.robot_mjcf import write_robot_mjcf
 from tensegrity_core.general.structure import Structure
 from tensegrity_core.robot.description import Robot
 from tensegrity_core.sim.backends import backend_name
@@ -52,49 +50,6 @@ MJCF_WRITERS: dict[str, str] = {
     "general/dynamic": "tensegrity_core.sim.general.mjcf:write_mjcf",
 }
 Writer = Callable[[Scene, "float | None", str], "MjcfModel"]
-
-
-@dataclass(frozen=True)
-class MjcfModel:
-    """An exported model: the MJCF document ``xml`` and what it holds.
-
-    ``timestep`` [s] and ``integrator`` as written; ``fastest_rate`` [1/s] the bound on the
-    linearised dynamics' eigenvalues that the default step comes from
-    (:mod:`tensegrity_core.export.timestep`); the counts of node bodies (free nodes), rigid
-    bodies, tendons (members), dead loads and actuator members; ``nq``, ``nv`` MuJoCo's
-    numbers of position and velocity coordinates. A robot's model also counts its ``rods``
-    (among the rigid bodies), ``motors`` (position actuators), floor ``contacts`` (pairs) and
-    ``sensors``; its ``fastest_rate`` is nan (its step is the 1 kHz loop's)."""
-
-    name: str
-    xml: str
-    timestep: float
-    integrator: str
-    fastest_rate: float
-    node_bodies: int
-    rigid_bodies: int
-    tendons: int
-    loads: int
-    actuator_members: int
-    nq: int
-    nv: int
-    rods: int = 0
-    motors: int = 0
-    contacts: int = 0
-    sensors: int = 0
-
-    def write(self, path: str | os.PathLike[str]) -> None:
-        """Write the document to ``path`` (whole or not at all: a temporary file renamed into
-        place); raises ``OSError``."""
-        target = Path(path)
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                fh.write(self.xml)
-            os.replace(tmp, target)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
 
 
 def structure_scene(structure: Structure, *, source: str = "") -> Scene:
@@ -133,7 +88,6 @@ def export_mjcf(source: Scene | Structure | Robot, *, timestep: float | None = N
     if timestep is not None and not (math.isfinite(timestep) and timestep > 0):
         raise ExportError(f"timestep must be a positive number of seconds, got {timestep!r}")
     if isinstance(source, Robot):
-        from tensegrity_core.export.robot_mjcf import write_robot_mjcf
         return write_robot_mjcf(source, timestep, integrator)
     scene = source if isinstance(source, Scene) else structure_scene(source)
     if scene.model.kind == "class2":

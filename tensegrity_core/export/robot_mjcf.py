@@ -66,12 +66,11 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 from tensegrity_core.export.errors import ExportError
-from tensegrity_core.export.mjcf import MjcfModel
 from tensegrity_core.export.mjcf_text import number, vector
+from tensegrity_core.export.model import MjcfModel
+from tensegrity_core.general.mass_properties import body_inertias
 from tensegrity_core.robot.description import Robot
 from tensegrity_core.robot.rod import rod_frames
-from tensegrity_core.sim.general.mass_properties import body_inertias
-from tensegrity_core.sim.general.model import NodalMasses
 
 FloatArray = NDArray[np.float64]
 
@@ -123,8 +122,11 @@ class _RobotWriter:
             i = int(rod_nodes[np.flatnonzero(robot.node_masses[rod_nodes] > 0)[0]])
             raise ExportError(f"robot {robot.name!r}: node {robot.node_names[i]!r} is a rod end with a point mass; "
                               f"put it in the rod's mass and inertia")
-        self.masses = NodalMasses(self.structure).node if lay.moving_bodies else np.zeros(robot.n_nodes)
-        self.bodies = body_inertias(self.structure, self.masses)
+        # a body's mass shared equally by its nodes, plus their point masses (the general dynamics' lumping)
+        masses = robot.node_masses.copy()
+        for body in robot.bodies:
+            masses[list(body.nodes)] += body.mass / len(body.nodes)
+        self.bodies = body_inertias(self.structure, masses)
         self.qpos: list[float] = []
         self.ctrl: list[float] = []
         self.act: list[float] = []

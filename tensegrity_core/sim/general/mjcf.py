@@ -63,15 +63,15 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
-from tensegrity_core.export.mjcf import MjcfModel
 from tensegrity_core.export.mjcf_text import number, vector
+from tensegrity_core.export.model import MjcfModel
 from tensegrity_core.export.timestep import default_timestep, fastest_rate
 from tensegrity_core.general.configuration import Configuration
+from tensegrity_core.general.mass_properties import body_inertias, mass_matrix
 from tensegrity_core.general.statics import equilibrium_matrix
 from tensegrity_core.general.stiffness import tangent_stiffness
 from tensegrity_core.general.structure import Structure
 from tensegrity_core.sim.commands import compile_inputs
-from tensegrity_core.sim.general.mass_properties import body_inertias, mass_matrix
 from tensegrity_core.sim.general.model import NodalMasses
 from tensegrity_core.sim.general.setup import (
     check_springs,
