@@ -1,4 +1,4 @@
-"""MuJoCo as an independent peer of the general dynamics: runs an exported MJCF model.
+"""MuJoCo as an independent peer of the general dynamics and the robots: runs an exported MJCF model.
 
 Needs the ``mujoco`` extra (``./run setup`` installs it). Only MuJoCo computes here: the
 model is the document of ``tensegrity export mjcf`` (:func:`tensegrity_core.export.export_mjcf`),
@@ -43,10 +43,32 @@ inside a string's dead band) plus what MuJoCo's energy leaves out: each dead loa
 actuator's gain and bias, its ``ctrl`` and the tendon's length). It equals the general
 dynamics' potential energy up to a constant (MuJoCo leaves out the weights of pinned nodes):
 compare differences over time.
+
+**Robots** (a model of ``export_mjcf(robot)``, see docs/mujoco.md "Robots"):
+
+``robot_real_time_factor(model, seconds, *, timestep=1e-3, repeats=3) -> float``
+    Simulated seconds per wall-clock second of MuJoCo stepping the exported robot from its
+    keyframe ``initial`` (motors holding their drawn rest lengths, gravity and the floor as
+    exported) for ``seconds`` [s] at ``timestep`` [s] with the model's integrator, on one
+    core (MuJoCo's ``mj_step`` is single-threaded). Only ``mj_step`` is timed; the best of
+    ``repeats`` runs (the least disturbed by other processes). For the robots benchmark
+    (``tests/bench/bench_robots.py``): call it beside the project's run of the same robot
+    and report the ratio.
+``touching_caps(model, data, *, min_force=0) -> frozenset[str]``
+    The end caps (node names) pressed on the floor by more than ``min_force`` [N] in
+    MuJoCo's current state.
+``play_gait(model, gait, duration, *, sample=0.01, share=0.02) -> GaitRun``
+    The robot from its keyframe with the gait's rest lengths as the motors' controls (the
+    gait's table interpolated at the start of every step), for ``duration`` [s]: the
+    centre of mass every ``sample`` [s] and the faces it stood on, in order
+    (:class:`GaitRun`): a face is a set of exactly three caps each carrying more than
+    ``share`` of the robot's weight, checked at every step (a cap grazing the floor while
+    the robot tips carries less).
 """
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -59,6 +81,7 @@ from scipy.spatial.transform import Rotation
 
 from tensegrity_core.general.rotation import exp_so3
 from tensegrity_core.general.structure import Structure
+from tensegrity_core.robot.gait import Gait
 
 FloatArray = NDArray[np.float64]
 NODE = "node:"
@@ -185,3 +208,79 @@ def mujoco_state(peer: MujocoPeer, structure: Structure, y: ArrayLike,
             qvel[va:va + 3] = v[u:u + 3]
             qvel[va + 3:va + 6] = R.T @ v[u + 3:u + 6]
     return qpos, qvel
+
+
+# -- robots ----------------------------------------------------------------------------------------
+CAP = "cap:"
+
+
+def robot_real_time_factor(model: str | Path, seconds: float, *, timestep: float = 1e-3, repeats: int = 3) -> float:
+    """Simulated seconds per wall-clock second of MuJoCo stepping an exported robot (module docstring)."""
+    text = Path(model).read_text(encoding="utf-8") if isinstance(model, Path) else model
+    m = mujoco.MjModel.from_xml_string(text)
+    m.opt.timestep = timestep
+    d = mujoco.MjData(m)
+    n = max(1, round(seconds / timestep))
+    best = math.inf
+    for _ in range(repeats):
+        mujoco.mj_resetDataKeyframe(m, d, m.key("initial").id)
+        start = time.perf_counter()
+        mujoco.mj_step(m, d, nstep=n)
+        best = min(best, time.perf_counter() - start)
+    return n * timestep / best
+
+
+def touching_caps(m: mujoco.MjModel, d: mujoco.MjData, *, min_force: float = 0.0) -> frozenset[str]:
+    """The end caps (node names, without ``cap:``) pressed on the floor now by more than
+    ``min_force`` [N]."""
+    out = set()
+    wrench = np.zeros(6)
+    for c in range(d.ncon):
+        mujoco.mj_contactForce(m, d, c, wrench)
+        if wrench[0] <= min_force:
+            continue
+        for g in d.contact[c].geom:
+            name = m.geom(g).name
+            if name.startswith(CAP):
+                out.add(name.removeprefix(CAP))
+    return frozenset(out)
+
+
+@dataclass
+class GaitRun:
+    """A gait played into MuJoCo: ``times`` (N,) [s], ``com`` (N, 3) [m] the robot's centre
+    of mass, ``faces`` the faces it stood on in order as ``(t [s], caps)``, ``t`` when it
+    reached each (:func:`play_gait`)."""
+
+    times: FloatArray
+    com: FloatArray
+    faces: list[tuple[float, frozenset[str]]]
+
+
+def play_gait(model: str | Path, gait: Gait, duration: float, *, sample: float = 0.01,
+              share: float = 0.02) -> GaitRun:
+    """The robot driven by ``gait`` in MuJoCo (module docstring)."""
+    text = Path(model).read_text(encoding="utf-8") if isinstance(model, Path) else model
+    m = mujoco.MjModel.from_xml_string(text)
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key("initial").id)
+    mujoco.mj_forward(m, d)
+    weight = float(np.sum(m.body_mass) * np.linalg.norm(m.opt.gravity))
+    t_table, v_table = gait.table()
+    motors = np.array([m.actuator(f"cable:{c}").id for c in gait.cables])
+    every = max(1, round(sample / m.opt.timestep))
+    n = round(duration / m.opt.timestep)
+    times, com = [], []
+    faces: list[tuple[float, frozenset[str]]] = []
+    for k in range(n + 1):
+        if k % every == 0:
+            times.append(d.time)
+            com.append(d.subtree_com[0].copy())
+        caps = touching_caps(m, d, min_force=share * weight)
+        if len(caps) == 3 and (not faces or faces[-1][1] != caps):
+            faces.append((d.time, caps))
+        if k == n:
+            break
+        d.ctrl[motors] = [np.interp(d.time, t_table, v_table[:, j]) for j in range(len(motors))]
+        mujoco.mj_step(m, d)
+    return GaitRun(np.array(times), np.array(com), faces)

@@ -13,6 +13,7 @@ differently.
 """
 
 from tensegrity_core.export.errors import ExportError
-from tensegrity_core.export.mjcf import INTEGRATORS, MJCF_WRITERS, MjcfModel, export_mjcf, structure_scene
+from tensegrity_core.export.mjcf import INTEGRATORS, MJCF_WRITERS, export_mjcf, structure_scene
+from tensegrity_core.export.model import MjcfModel
 
 __all__ = ["INTEGRATORS", "MJCF_WRITERS", "ExportError", "MjcfModel", "export_mjcf", "structure_scene"]

@@ -1,7 +1,8 @@
-"""MJCF export: the entry point, the writers' registry and the exported model.
+"""MJCF export: the entry point and the writers' registry.
 
 :func:`export_mjcf` takes a scene (or a structure, as :func:`structure_scene`) and hands it
-to the MJCF writer of the back end that simulates it. A writer belongs to its back end's
+to the MJCF writer of the back end that simulates it; a robot description goes to
+:func:`tensegrity_core.export.robot_mjcf.write_robot_mjcf`. A writer belongs to its back end's
 package (it writes that back end's physics for MuJoCo), so, like the back ends themselves
 (:data:`~tensegrity_core.sim.backends.BACKENDS`), :data:`MJCF_WRITERS` names each as
 ``module:function`` and imports it on first use:
@@ -17,17 +18,16 @@ tendons) and quasi-static scenes (no inertia: MuJoCo simulates dynamics) have no
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from collections.abc import Callable
-from dataclasses import dataclass
 from importlib import import_module
-from pathlib import Path
 
 import numpy as np
 
 from tensegrity_core.export.errors import ExportError
+from tensegrity_core.export.model import MjcfModel
+from tensegrity_core.export.robot_mjcf import write_robot_mjcf
 from tensegrity_core.general.structure import Structure
+from tensegrity_core.robot.description import Robot
 from tensegrity_core.sim.backends import backend_name
 from tensegrity_core.sim.errors import SceneError
 from tensegrity_core.sim.inputs import Commanded
@@ -41,7 +41,8 @@ from tensegrity_core.sim.scene import (
     SceneEffects,
 )
 
-#: MuJoCo's integrators (``<option integrator>``); RK4 is the default.
+#: MuJoCo's integrators (``<option integrator>``); RK4 is the default of scenes and structures,
+#: implicitfast of robots (MuJoCo's choice for models with contacts).
 INTEGRATORS = ("RK4", "Euler", "implicit", "implicitfast")
 #: The MJCF writer of each back end (:func:`~tensegrity_core.sim.backends.backend_name`), as
 #: ``module:function`` with the signature ``(scene, timestep or None, integrator) -> MjcfModel``.
@@ -49,43 +50,6 @@ MJCF_WRITERS: dict[str, str] = {
     "general/dynamic": "tensegrity_core.sim.general.mjcf:write_mjcf",
 }
 Writer = Callable[[Scene, "float | None", str], "MjcfModel"]
-
-
-@dataclass(frozen=True)
-class MjcfModel:
-    """An exported model: the MJCF document ``xml`` and what it holds.
-
-    ``timestep`` [s] and ``integrator`` as written; ``fastest_rate`` [1/s] the bound on the
-    linearised dynamics' eigenvalues that the default step comes from
-    (:mod:`tensegrity_core.export.timestep`); the counts of node bodies (free nodes), rigid
-    bodies, tendons (members), dead loads and actuator members; ``nq``, ``nv`` MuJoCo's
-    numbers of position and velocity coordinates."""
-
-    name: str
-    xml: str
-    timestep: float
-    integrator: str
-    fastest_rate: float
-    node_bodies: int
-    rigid_bodies: int
-    tendons: int
-    loads: int
-    actuator_members: int
-    nq: int
-    nv: int
-
-    def write(self, path: str | os.PathLike[str]) -> None:
-        """Write the document to ``path`` (whole or not at all: a temporary file renamed into
-        place); raises ``OSError``."""
-        target = Path(path)
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                fh.write(self.xml)
-            os.replace(tmp, target)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
 
 
 def structure_scene(structure: Structure, *, source: str = "") -> Scene:
@@ -104,16 +68,27 @@ def structure_scene(structure: Structure, *, source: str = "") -> Scene:
                  effects=effects, duration=1.0, description=f"the structure {structure.name!r} as drawn")
 
 
-def export_mjcf(source: Scene | Structure, *, timestep: float | None = None, integrator: str = "RK4") -> MjcfModel:
-    """The MuJoCo model of a general scene with inertia, or of a structure (as
-    :func:`structure_scene`). ``timestep`` [s] (default: from the fastest rate, see
-    :mod:`tensegrity_core.export.timestep`); ``integrator`` one of :data:`INTEGRATORS`.
+def export_mjcf(source: Scene | Structure | Robot, *, timestep: float | None = None,
+                integrator: str | None = None) -> MjcfModel:
+    """The MuJoCo model of a general scene with inertia, of a structure (as
+    :func:`structure_scene`) or of a robot (:mod:`tensegrity_core.export.robot_mjcf`).
+    ``timestep`` [s] (default: from the fastest rate, see :mod:`tensegrity_core.export.timestep`;
+    a robot's: 1 ms); ``integrator`` one of :data:`INTEGRATORS` (default: RK4, a robot's
+    implicitfast).
 
     Raises :class:`ExportError` for a class-2 or quasi-static scene, a bad option, or a
     structure that cannot move (a free node without mass);
     :class:`~tensegrity_core.sim.errors.SceneError` when a scene cannot be simulated (no
     springs, a free node without mass); ``SimulationError`` when its initial equilibrium
     cannot be found."""
+    if integrator is None:
+        integrator = "implicitfast" if isinstance(source, Robot) else "RK4"
+    if integrator not in INTEGRATORS:
+        raise ExportError(f"integrator must be one of {', '.join(INTEGRATORS)}, got {integrator!r}")
+    if timestep is not None and not (math.isfinite(timestep) and timestep > 0):
+        raise ExportError(f"timestep must be a positive number of seconds, got {timestep!r}")
+    if isinstance(source, Robot):
+        return write_robot_mjcf(source, timestep, integrator)
     scene = source if isinstance(source, Scene) else structure_scene(source)
     if scene.model.kind == "class2":
         raise ExportError(f"scene {scene.name!r} simulates the class-2 mechanism; only general structures "
@@ -121,10 +96,6 @@ def export_mjcf(source: Scene | Structure, *, timestep: float | None = None, int
     if scene.quasi_static:
         raise ExportError(f"scene {scene.name!r} is quasi-static (no 'inertia' in its effects); MuJoCo simulates "
                           f"dynamics: add 'inertia' to export it")
-    if integrator not in INTEGRATORS:
-        raise ExportError(f"integrator must be one of {', '.join(INTEGRATORS)}, got {integrator!r}")
-    if timestep is not None and not (math.isfinite(timestep) and timestep > 0):
-        raise ExportError(f"timestep must be a positive number of seconds, got {timestep!r}")
     try:
         return mjcf_writer(backend_name(scene))(scene, timestep, integrator)
     except SceneError as err:

@@ -31,18 +31,18 @@ from tensegrity_core.schema import (
 )
 
 EXAMPLES: Final = Path(__file__).parent / "examples"
-_SHIPPED: Final = ShippedFiles(EXAMPLES, "robot", "shipped robots", RobotError)
+SHIPPED_ROBOTS: Final = ShippedFiles(EXAMPLES, "robot", "shipped robots", RobotError)
 SUFFIXES: Final = (".yaml", ".yml", ".json", ".toml")
 
 
 def robot_names() -> list[str]:
     """Names of the shipped robots."""
-    return _SHIPPED.names()
+    return SHIPPED_ROBOTS.names()
 
 
 def robot_path(name: object) -> Path:
     """The file of the shipped robot ``name``."""
-    return _SHIPPED.path(name)
+    return SHIPPED_ROBOTS.path(name)
 
 
 def robot_from_text(text: str, fmt: str | None = None, *, limits: Limits = DEFAULT_LIMITS,
@@ -68,7 +68,7 @@ def load_robot(source: Robot | str | Path | dict[str, Any]) -> Robot:
     elsewhere goes to :func:`robot_from_text`)."""
     if isinstance(source, Robot):
         return source
-    found = resolve_source(source, what="robot", shipped=_SHIPPED, error=RobotError, suffixes=SUFFIXES, text=None)
+    found = resolve_source(source, what="robot", shipped=SHIPPED_ROBOTS, error=RobotError, suffixes=SUFFIXES, text=None)
     if found.data is not None:
         return robot_from_dict(found.data)
     assert found.path is not None                 # text is not accepted

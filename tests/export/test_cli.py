@@ -43,7 +43,9 @@ def test_json_summary_and_a_structure_file(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("args, message", [
-    (["nope"], "error: no scene or structure file 'nope' and no shipped scene or example 'nope'; shipped scenes: "),
+    (["nope"], "error: no scene, robot or structure file 'nope' and no shipped scene or robot or example 'nope'; "
+               "shipped scenes: "),
+    (["six_bars"], "(did you mean 'six_bar'?)"),
     (["spine_relase"], "(did you mean 'spine_release'?)"),
     (["paper_fold"], "error: scene 'paper_fold' simulates the class-2 mechanism; only general structures export"),
     (["t_bar"], "error: structure 'T-bar': inertia needs a mass on every free node"),
@@ -67,7 +69,8 @@ def test_a_scene_file_that_is_not_a_structure_says_both(tmp_path, capsys):
     assert main(["export", "mjcf", str(sweep), "-o", str(tmp_path / "m.xml")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: sweep.yaml: structure: unknown key 'base'")
-    assert err[0].endswith("(read as a structure: it has no 'model' key, so it is no scene)")
+    assert err[0].endswith("(read as a structure: it has no 'model' key, so it is no scene, and no 'cables' key, "
+                           "so it is no robot)")
 
 
 @pytest.mark.parametrize("output, message", [

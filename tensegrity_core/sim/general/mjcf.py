@@ -57,21 +57,21 @@ of 1e-12 is far below any integrator's error.
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
-from collections.abc import Sequence
 
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
-from tensegrity_core.export.mjcf import MjcfModel
+from tensegrity_core.export.mjcf_text import number, vector
+from tensegrity_core.export.model import MjcfModel
 from tensegrity_core.export.timestep import default_timestep, fastest_rate
 from tensegrity_core.general.configuration import Configuration
+from tensegrity_core.general.mass_properties import body_inertias, mass_matrix
 from tensegrity_core.general.statics import equilibrium_matrix
 from tensegrity_core.general.stiffness import tangent_stiffness
 from tensegrity_core.general.structure import Structure
 from tensegrity_core.sim.commands import compile_inputs
-from tensegrity_core.sim.general.mass_properties import body_inertias, mass_matrix
 from tensegrity_core.sim.general.model import NodalMasses
 from tensegrity_core.sim.general.setup import (
     check_springs,
@@ -152,14 +152,14 @@ class _Writer:
             f" Actuator members: ctrl = 1 - l0_ref/l0 (l0 their rest length). "))
         ET.SubElement(root, "compiler", angle="radian", inertiafromgeom="false", alignfree="false",
                       autolimits="true")
-        option = ET.SubElement(root, "option", timestep=_num(self.timestep), integrator=self.integrator,
-                               gravity=_vec(self.gravity))
+        option = ET.SubElement(root, "option", timestep=number(self.timestep), integrator=self.integrator,
+                               gravity=vector(self.gravity))
         ET.SubElement(option, "flag", contact="disable")
         self._defaults(root)
         world = ET.SubElement(root, "worldbody")
         fixed = lay.fixed_mask.all(axis=1) & (lay.node_body < 0)
         for i in np.flatnonzero(fixed):
-            ET.SubElement(world, "site", name=_node(s, int(i)), pos=_vec(self.config.coords[i]))
+            ET.SubElement(world, "site", name=_node(s, int(i)), pos=vector(self.config.coords[i]))
         if self._loaded_nodes().size:
             ET.SubElement(world, "site", name=LOAD_FRAME, pos="0 0 0")
         node_bodies = np.flatnonzero(~lay.fixed_mask.all(axis=1) & (lay.node_body < 0))
@@ -169,10 +169,10 @@ class _Writer:
             self._rigid_body(world, slot)
         self._tendons(root)
         n_loads = self._actuators(root)
-        keyframe = ET.SubElement(ET.SubElement(root, "keyframe"), "key", name="initial", qpos=_vec(self.qpos),
-                                 qvel=_vec(np.zeros(lay.n_dof)))
+        keyframe = ET.SubElement(ET.SubElement(root, "keyframe"), "key", name="initial", qpos=vector(self.qpos),
+                                 qvel=vector(np.zeros(lay.n_dof)))
         if self.ctrl:
-            keyframe.set("ctrl", _vec(self.ctrl))
+            keyframe.set("ctrl", vector(self.ctrl))
         ET.indent(root, space="  ")
         xml = ET.tostring(root, encoding="unicode") + "\n"
         return MjcfModel(name=self.scene.name, xml=xml, timestep=self.timestep, integrator=self.integrator,
@@ -184,23 +184,23 @@ class _Writer:
         """Sizes for the viewer (a hundredth of the structure's extent) and a colour per member kind."""
         extent = float(np.ptp(self.config.coords, axis=0).max()) or 1.0
         default = ET.SubElement(root, "default")
-        ET.SubElement(default, "site", size=_num(0.01 * extent), rgba="0.2 0.2 0.2 1")
+        ET.SubElement(default, "site", size=number(0.01 * extent), rgba="0.2 0.2 0.2 1")
         colours = {"string": "0.85 0.3 0.1 1", "bar": "0.3 0.4 0.6 1", "actuator": "0.2 0.6 0.3 1"}
         widths = {"string": 0.002, "bar": 0.006, "actuator": 0.006}
         for kind in ("string", "bar", "actuator"):
             ET.SubElement(ET.SubElement(default, "default", {"class": kind}), "tendon",
-                          width=_num(widths[kind] * extent), rgba=colours[kind])
+                          width=number(widths[kind] * extent), rgba=colours[kind])
 
     def _node_body(self, world: ET.Element, i: int) -> None:
         s, lay = self.structure, self.lay
         m = float(self.masses[i])
-        body = ET.SubElement(world, "body", name=_node(s, i), pos=_vec(self.config.coords[i]))
+        body = ET.SubElement(world, "body", name=_node(s, i), pos=vector(self.config.coords[i]))
         for axis in range(3):
             if not lay.fixed_mask[i, axis]:
                 ET.SubElement(body, "joint", name=f"{_node(s, i)}:{AXES[axis]}", type="slide",
-                              axis=_vec(np.eye(3)[axis]))
+                              axis=vector(np.eye(3)[axis]))
                 self.qpos.append(0.0)
-        ET.SubElement(body, "inertial", pos="0 0 0", mass=_num(m), diaginertia=_vec([m, m, m]))
+        ET.SubElement(body, "inertial", pos="0 0 0", mass=number(m), diaginertia=vector([m, m, m]))
         ET.SubElement(body, "site", name=_node(s, i))
 
     def _rigid_body(self, world: ET.Element, slot: int) -> None:
@@ -208,15 +208,15 @@ class _Writer:
         name = f"body:{lay.body_names[slot]}"
         centre = self.config.centres[slot]
         quat = Rotation.from_matrix(self.config.rotations[slot]).as_quat(scalar_first=True)
-        body = ET.SubElement(world, "body", name=name, pos=_vec(centre), quat=_vec(quat))
+        body = ET.SubElement(world, "body", name=name, pos=vector(centre), quat=vector(quat))
         ET.SubElement(body, "freejoint", name=name)
         self.qpos.extend([*centre, *quat])
         b = self.bodies[slot]
         I = b.inertia + INERTIA_MARGIN * float(np.trace(b.inertia)) * np.eye(3)
-        ET.SubElement(body, "inertial", pos=_vec(b.com), mass=_num(b.mass),
-                      fullinertia=_vec([I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]))
+        ET.SubElement(body, "inertial", pos=vector(b.com), mass=number(b.mass),
+                      fullinertia=vector([I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]))
         for i in lay.body_nodes[slot]:
-            ET.SubElement(body, "site", name=_node(s, int(i)), pos=_vec(lay.offsets[i]))
+            ET.SubElement(body, "site", name=_node(s, int(i)), pos=vector(lay.offsets[i]))
 
     def _tendons(self, root: ET.Element) -> None:
         s = self.structure
@@ -226,11 +226,11 @@ class _Writer:
             k = s.EA[i] / s.rest_lengths[i]
             attrs = {"name": f"member:{s.member_names[i]}", "class": kind}
             if kind == "string":
-                attrs.update(stiffness=_num(k), springlength=f"0 {_num(s.rest_lengths[i])}")
+                attrs.update(stiffness=number(k), springlength=f"0 {number(s.rest_lengths[i])}")
             elif kind == "bar":
-                attrs.update(stiffness=_num(k), springlength=_num(s.rest_lengths[i]))
+                attrs.update(stiffness=number(k), springlength=number(s.rest_lengths[i]))
             if self.damping is not None and self.damping[i] > 0:
-                attrs["damping"] = _num(self.damping[i])
+                attrs["damping"] = number(self.damping[i])
             tendon = ET.SubElement(tendons, "spatial", attrs)
             ET.SubElement(tendon, "site", site=_node(s, int(a)))
             ET.SubElement(tendon, "site", site=_node(s, int(b)))
@@ -250,27 +250,18 @@ class _Writer:
             name = f"member:{s.member_names[i]}"
             k_ref = s.EA[i] / s.rest_lengths[i]
             ET.SubElement(actuators, "general", name=name, tendon=name, gaintype="affine",
-                          gainprm=f"0 {_num(k_ref)} 0", biastype="affine",
-                          biasprm=f"{_num(s.EA[i])} {_num(-k_ref)} 0")
+                          gainprm=f"0 {number(k_ref)} 0", biastype="affine",
+                          biasprm=f"{number(s.EA[i])} {number(-k_ref)} 0")
             self.ctrl.append(1.0 - float(s.rest_lengths[i] / self.rest_lengths[i]))
         for i in loaded:
             force = self.loads[i]
             size = float(np.linalg.norm(force))
             ET.SubElement(actuators, "general", name=f"load:{s.node_names[i]}", site=_node(s, int(i)),
-                          refsite=LOAD_FRAME, gear=_vec([*(force / size), 0.0, 0.0, 0.0]), gainprm="0",
-                          biastype="affine", biasprm=f"{_num(size)} 0 0")
+                          refsite=LOAD_FRAME, gear=vector([*(force / size), 0.0, 0.0, 0.0]), gainprm="0",
+                          biastype="affine", biasprm=f"{number(size)} 0 0")
             self.ctrl.append(0.0)
         return int(loaded.size)
 
 
 def _node(structure: Structure, i: int) -> str:
     return f"node:{structure.node_names[i]}"
-
-
-def _num(x: float) -> str:
-    """A float as its shortest round-trip text (MuJoCo reads it back exactly)."""
-    return repr(float(x))
-
-
-def _vec(v: Sequence[float] | FloatArray) -> str:
-    return " ".join(_num(x) for x in np.asarray(v, dtype=float).ravel())

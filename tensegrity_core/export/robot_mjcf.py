@@ -1,0 +1,337 @@
+"""The MJCF writer of tensegrity robots: a MuJoCo model of a :class:`~tensegrity_core.robot.description.Robot`.
+
+:func:`write_robot_mjcf` turns a robot description into an MJCF document (reached through
+:func:`tensegrity_core.export.export_mjcf`, which checks the options). Written with
+``xml.etree`` only: MuJoCo is never imported. Every MJCF name is ``<kind>:<the robot's name>``:
+
+=========================  ==================================================================
+robot                      MJCF
+=========================  ==================================================================
+rod ``r``                  body ``rod:r`` with free joint ``rod:r``, frame at the rod's centre
+                           with z along the rod (:func:`~tensegrity_core.robot.rod.rod_frames`,
+                           the principal axes: what ``alignfree`` would pick); ``inertial``:
+                           its mass and ``diaginertia (I_t, I_t, I_a)``; a capsule geom (the
+                           rod, drawn only) and a sphere geom ``cap:n`` per end cap (the
+                           contact sphere); sites ``node:n`` at the cap centres
+rigid body ``b``           body ``body:b`` with free joint (a fixed body: world sites), its
+                           lumped masses' inertia as the general dynamics have it
+point mass on node ``n``   body ``node:n`` on slide joints ``node:n:x|y|z``
+pinned node ``n``          world site ``node:n``
+passive cable ``c``        spatial tendon ``cable:c``, ``stiffness`` k, ``springlength="0 l0"``
+                           (tension only), ``damping`` c (acts on slack cables too)
+actuated cable ``c``       spatial tendon ``cable:c`` and position actuator ``cable:c``:
+                           ``kp`` = k, ``kv`` = c, ``ctrl`` = the target rest length [m] in
+                           the motor's ``ctrlrange``, ``forcerange="-T_max 0"`` (tension only,
+                           the tension limit), ``timeconst`` = the motor lag (the activation
+                           is the rest length)
+floor                      plane geom ``floor``; one contact pair ``contact:n`` per end cap
+                           (``condim`` 3, elliptic cones), parameters below
+sensors                    ``length:c`` (``tendonpos``) per cable with a length sensor;
+                           ``tension:c`` (``actuatorfrc``, minus the tension) per actuated
+                           cable with a tension sensor; per IMU a site ``imu:x`` at the body's
+                           centre with ``imu:x:orientation`` (``framequat``), ``imu:x:gyro``,
+                           ``imu:x:accelerometer`` (specific force)
+initial state              bodies as drawn (``qpos0``) and keyframe ``initial`` (``qpos``,
+                           zero ``qvel``, ``ctrl`` and ``act`` the drawn rest lengths)
+=========================  ==================================================================
+
+**Motors.** A position actuator on the tendon gives ``kp (ctrl - l) - kv ldot``; with the
+activation ``l0`` in place of ``ctrl`` (``timeconst`` > 0: ``dl0/dt = (ctrl - l0)/tau``, MuJoCo's
+exact filter, the project's lag) and the force clipped to ``[-T_max, 0]`` this is minus the
+cable law ``clip(k (l - l0) + c ldot, 0, T_max)`` while the cable is taut (tendon force
+positive lengthens). Not exported: the slew limit (MuJoCo's activations have no rate limit),
+the pay-out past ``T_max`` (MuJoCo clips the force, the rest length stays), and a slack cable
+lengthening fast enough that ``c ldot > k (l0 - l)`` pulls in MuJoCo and not in the project.
+
+**Contact** (derived in docs/mujoco.md, "Robots"). With a constant impedance ``d``
+(``solimp="d d ..."``) and direct ``solref="-S -D"``, MuJoCo's normal contact force on a body
+of inverse weight ``A`` (``1/m`` for a free rod) at penetration ``delta`` is
+``m S delta + m D deltadot + d F``, ``F`` the other forces pressing it into the floor: a
+spring ``m S``, a damper ``m D`` and a share ``d`` of the load carried rigidly. It rests at
+``delta = (1 - d) F / (m S)``, which is the Hunt-Crossley rest ``F / k`` for
+``S = (1 - d) k A``. A linear damper cannot follow Hunt-Crossley's restitution, which falls
+with the impact speed ``v`` (``e^2 ~ 1 - 4 dissipation v / 3``) to zero above
+``3 / (4 dissipation)`` (0.15 m/s for the shipped robots, slower than a robot landing on a
+face): ``D = 2 sqrt(S)`` damps the contact critically, so it does not bounce either.
+Friction: one coefficient, ``mu_static``.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
+
+from tensegrity_core.export.errors import ExportError
+from tensegrity_core.export.mjcf_text import number, vector
+from tensegrity_core.export.model import MjcfModel
+from tensegrity_core.general.mass_properties import body_inertias
+from tensegrity_core.robot.description import Robot
+from tensegrity_core.robot.rod import rod_frames
+
+FloatArray = NDArray[np.float64]
+
+#: MuJoCo's time step [s] unless one is given: the robots' 1 kHz loop.
+DEFAULT_TIMESTEP = 1e-3
+#: The contacts' constant impedance ``d`` (``solimp``): the share of the load the contact
+#: carries rigidly; ``1 - d`` scales the contact's speed by ``sqrt(1 - d)`` (module docstring).
+CONTACT_IMPEDANCE = 0.5
+#: MuJoCo's ``impratio``: friction rows this many times stiffer than the normal, so a cap
+#: loaded below its friction limit creeps slowly (MuJoCo's friction has no stiction anchor).
+FRICTION_IMPRATIO = 100.0
+#: The isotropic part added to a rigid body's inertia tensor, relative to its trace (see
+#: :mod:`tensegrity_core.sim.general.mjcf`).
+INERTIA_MARGIN = 1e-12
+
+
+def write_robot_mjcf(robot: Robot, timestep: float | None, integrator: str) -> MjcfModel:
+    """The MJCF model of ``robot`` (options checked by the caller); raises
+    :class:`ExportError` for what MJCF cannot hold (a pinned rod end, a point mass on a rod end)."""
+    return _RobotWriter(robot, DEFAULT_TIMESTEP if timestep is None else timestep, integrator).model()
+
+
+def contact_parameters(stiffness: float, body_mass: float, impedance: float = CONTACT_IMPEDANCE
+                       ) -> tuple[float, float]:
+    """MuJoCo's direct ``solref = (-S, -D)`` [1/s^2, 1/s] for a cap of a body of ``body_mass``
+    [kg] on a floor of Hunt-Crossley ``stiffness`` [N/m], with the constant ``impedance`` d:
+    ``S = (1 - d) k / m`` (the same rest penetration) and ``D = 2 sqrt(S)`` (critical damping:
+    no bounce); module docstring."""
+    S = (1.0 - impedance) * stiffness / body_mass
+    return S, 2.0 * math.sqrt(S)
+
+
+class _RobotWriter:
+    """One export: the robot's parts, written element by element."""
+
+    def __init__(self, robot: Robot, timestep: float, integrator: str):
+        self.robot = robot
+        self.timestep = float(timestep)
+        self.integrator = integrator
+        self.structure = robot.structure()
+        lay = self.structure.layout
+        self.lay = lay
+        rod_nodes = robot.rods.ends.ravel()
+        if np.any(lay.fixed_mask[rod_nodes]):
+            i = int(rod_nodes[np.flatnonzero(lay.fixed_mask[rod_nodes].any(axis=1))[0]])
+            raise ExportError(f"robot {robot.name!r}: rod end {robot.node_names[i]!r} is pinned; MJCF rods are "
+                              f"free bodies (pin a rigid body instead)")
+        if np.any(robot.node_masses[rod_nodes] > 0):
+            i = int(rod_nodes[np.flatnonzero(robot.node_masses[rod_nodes] > 0)[0]])
+            raise ExportError(f"robot {robot.name!r}: node {robot.node_names[i]!r} is a rod end with a point mass; "
+                              f"put it in the rod's mass and inertia")
+        # a body's mass shared equally by its nodes, plus their point masses (the general dynamics' lumping)
+        masses = robot.node_masses.copy()
+        for body in robot.bodies:
+            masses[list(body.nodes)] += body.mass / len(body.nodes)
+        self.bodies = body_inertias(self.structure, masses)
+        self.qpos: list[float] = []
+        self.ctrl: list[float] = []
+        self.act: list[float] = []
+        self.sensors = 0
+        self.contacts = 0
+
+    # -- the document ----------------------------------------------------------------------------
+    def model(self) -> MjcfModel:
+        r = self.robot
+        root = ET.Element("mujoco", model=r.name)
+        root.append(ET.Comment(
+            f" tensegrity export mjcf: robot {r.name} ({r.description or 'no description'}). What MuJoCo does "
+            f"differently: docs/mujoco.md. Motors: ctrl = target rest length [m]; tension = -actuator force [N]. "))
+        ET.SubElement(root, "compiler", angle="radian", inertiafromgeom="false", alignfree="false",
+                      autolimits="true")
+        option = ET.SubElement(root, "option", timestep=number(self.timestep), integrator=self.integrator,
+                               gravity=vector(r.gravity), cone="elliptic", impratio=number(FRICTION_IMPRATIO))
+        if r.floor is None:
+            ET.SubElement(option, "flag", contact="disable")
+        self._defaults(root)
+        world = ET.SubElement(root, "worldbody")
+        self._floor(world)
+        self._world_sites(world)
+        for i in range(len(r.rods)):
+            self._rod(world, i)
+        for slot in range(len(self.lay.moving_bodies)):
+            self._rigid_body(world, slot)
+        point_masses = self._point_masses(world)
+        self._contacts(root)
+        self._tendons(root)
+        self._actuators(root)
+        self._sensors(root)
+        key = ET.SubElement(ET.SubElement(root, "keyframe"), "key", name="initial", qpos=vector(self.qpos),
+                            qvel=vector(np.zeros(self._nv())))
+        if self.ctrl:
+            key.set("ctrl", vector(self.ctrl))
+        if self.act:
+            key.set("act", vector(self.act))
+        ET.indent(root, space="  ")
+        xml = ET.tostring(root, encoding="unicode") + "\n"
+        return MjcfModel(name=r.name, xml=xml, timestep=self.timestep, integrator=self.integrator,
+                         fastest_rate=math.nan, node_bodies=point_masses,
+                         rigid_bodies=len(r.rods) + len(self.lay.moving_bodies), tendons=len(r.cables), loads=0,
+                         actuator_members=0, nq=len(self.qpos), nv=self._nv(), rods=len(r.rods),
+                         motors=len(r.motors), contacts=self.contacts, sensors=self.sensors)
+
+    def _nv(self) -> int:
+        return len(self.qpos) - len(self.robot.rods) - len(self.lay.moving_bodies)     # a quaternion each
+
+    def _defaults(self, root: ET.Element) -> None:
+        """Colours and widths for the viewer: rods grey, caps dark, passive cables orange, actuated green."""
+        extent = float(np.ptp(self.robot.nodes, axis=0).max()) or 1.0
+        default = ET.SubElement(root, "default")
+        ET.SubElement(default, "site", size=number(0.01 * extent), rgba="0.2 0.2 0.2 1")
+        ET.SubElement(default, "geom", contype="0", conaffinity="0")
+        for kind, rgba in (("passive", "0.85 0.3 0.1 1"), ("actuated", "0.2 0.6 0.3 1")):
+            ET.SubElement(ET.SubElement(default, "default", {"class": kind}), "tendon",
+                          width=number(0.004 * extent), rgba=rgba)
+
+    def _floor(self, world: ET.Element) -> None:
+        floor = self.robot.floor
+        if floor is not None:
+            ET.SubElement(world, "geom", name="floor", type="plane", size="0 0 1", pos=vector(floor.point),
+                          zaxis=vector(floor.normal), rgba="0.8 0.8 0.75 1")
+
+    def _world_sites(self, world: ET.Element) -> None:
+        """Pinned nodes and the nodes of fixed bodies: world sites."""
+        lay = self.lay
+        for i in np.flatnonzero(lay.fixed_mask.all(axis=1) & (lay.node_body < 0)):
+            ET.SubElement(world, "site", name=self._node(int(i)), pos=vector(self.robot.nodes[i]))
+        r = self.robot
+        for k in r.sensors.imu_bodies:
+            if r.bodies[k].fixed:
+                ET.SubElement(world, "site", name=f"imu:{r.bodies[k].name}",
+                              pos=vector(r.nodes[list(r.bodies[k].nodes)].mean(axis=0)))
+
+    def _rod(self, world: ET.Element, i: int) -> None:
+        r = self.robot
+        rods = r.rods
+        a, b = (int(n) for n in rods.ends[i])
+        xa, xb = r.nodes[a], r.nodes[b]
+        half = 0.5 * float(np.linalg.norm(xb - xa))
+        centre = 0.5 * (xa + xb)
+        quat = Rotation.from_matrix(rod_frames(xa, xb)[0]).as_quat(scalar_first=True)
+        name = f"rod:{rods.names[i]}"
+        body = ET.SubElement(world, "body", name=name, pos=vector(centre), quat=vector(quat))
+        ET.SubElement(body, "freejoint", name=name)
+        self.qpos.extend([*centre, *quat])
+        I_t, I_a = rods.inertia[i]
+        ET.SubElement(body, "inertial", pos="0 0 0", mass=number(rods.mass[i]), diaginertia=vector([I_t, I_t, I_a]))
+        ET.SubElement(body, "geom", name=name, type="capsule", size=number(rods.radius[i]),
+                      fromto=vector([0, 0, -half, 0, 0, half]), rgba="0.55 0.55 0.6 1")
+        for node, z in ((a, -half), (b, half)):
+            ET.SubElement(body, "geom", name=f"cap:{r.node_names[node]}", type="sphere",
+                          size=number(rods.cap_radius[i]), pos=vector([0, 0, z]), rgba="0.25 0.25 0.3 1")
+            ET.SubElement(body, "site", name=self._node(node), pos=vector([0, 0, z]))
+        if i in r.sensors.imu_rods:
+            ET.SubElement(body, "site", name=f"imu:{rods.names[i]}", pos="0 0 0")
+
+    def _rigid_body(self, world: ET.Element, slot: int) -> None:
+        lay = self.lay
+        body_name = lay.body_names[slot]
+        name = f"body:{body_name}"
+        centre = self.robot.nodes[list(lay.body_nodes[slot])].mean(axis=0)
+        body = ET.SubElement(world, "body", name=name, pos=vector(centre))
+        ET.SubElement(body, "freejoint", name=name)
+        self.qpos.extend([*centre, 1.0, 0.0, 0.0, 0.0])
+        b = self.bodies[slot]
+        I = b.inertia + INERTIA_MARGIN * float(np.trace(b.inertia)) * np.eye(3)
+        ET.SubElement(body, "inertial", pos=vector(b.com), mass=number(b.mass),
+                      fullinertia=vector([I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]))
+        for i in lay.body_nodes[slot]:
+            ET.SubElement(body, "site", name=self._node(int(i)), pos=vector(lay.offsets[i]))
+        index = [b_.name for b_ in self.robot.bodies].index(body_name)
+        if index in self.robot.sensors.imu_bodies:
+            ET.SubElement(body, "site", name=f"imu:{body_name}", pos="0 0 0")
+
+    def _point_masses(self, world: ET.Element) -> int:
+        """Free nodes that are neither rod ends nor in a body: point masses on slide joints."""
+        r, lay = self.robot, self.lay
+        loose = ~lay.fixed_mask.all(axis=1) & (lay.node_body < 0)
+        loose[r.rods.ends.ravel()] = False
+        for i in np.flatnonzero(loose):
+            m = float(r.node_masses[i])
+            if m <= 0:
+                raise ExportError(f"robot {r.name!r}: free node {r.node_names[i]!r} has no mass; give it a point "
+                                  f"mass or make it a rod end")
+            body = ET.SubElement(world, "body", name=self._node(int(i)), pos=vector(r.nodes[i]))
+            for axis in range(3):
+                if not lay.fixed_mask[i, axis]:
+                    ET.SubElement(body, "joint", name=f"{self._node(int(i))}:{'xyz'[axis]}", type="slide",
+                                  axis=vector(np.eye(3)[axis]))
+                    self.qpos.append(0.0)
+            ET.SubElement(body, "inertial", pos="0 0 0", mass=number(m), diaginertia=vector([m, m, m]))
+            ET.SubElement(body, "site", name=self._node(int(i)))
+        return int(loose.sum())
+
+    def _contacts(self, root: ET.Element) -> None:
+        """One contact pair per end cap with the floor (module docstring)."""
+        r, floor = self.robot, self.robot.floor
+        if floor is None or not len(r.rods):
+            return
+        contact = ET.SubElement(root, "contact")
+        d = CONTACT_IMPEDANCE
+        for i in range(len(r.rods)):
+            S, D = contact_parameters(floor.stiffness, float(r.rods.mass[i]))
+            for node in r.rods.ends[i]:
+                name = r.node_names[int(node)]
+                ET.SubElement(contact, "pair", name=f"contact:{name}", geom1=f"cap:{name}", geom2="floor",
+                              condim="3", friction=vector([floor.mu_static, floor.mu_static, 0, 0, 0]),
+                              solref=vector([-S, -D]), solimp=vector([d, d, 0.001, 0.5, 2]))
+                self.contacts += 1
+
+    def _tendons(self, root: ET.Element) -> None:
+        r = self.robot
+        c = r.cables
+        tendons = ET.SubElement(root, "tendon")
+        for i in range(len(c)):
+            attrs = {"name": f"cable:{c.names[i]}"}
+            if c.motor[i] >= 0:
+                attrs["class"] = "actuated"
+            else:
+                attrs.update({"class": "passive", "stiffness": number(c.stiffness[i]),
+                              "springlength": vector([0.0, c.rest_length[i]])})
+                if c.damping[i] > 0:
+                    attrs["damping"] = number(c.damping[i])
+            tendon = ET.SubElement(tendons, "spatial", attrs)
+            for node in c.ends[i]:
+                ET.SubElement(tendon, "site", site=self._node(int(node)))
+
+    def _actuators(self, root: ET.Element) -> None:
+        r = self.robot
+        c, motors = r.cables, r.motors
+        if not len(motors):
+            return
+        actuators = ET.SubElement(root, "actuator")
+        for j in range(len(motors)):
+            i = int(motors.cable[j])
+            name = f"cable:{c.names[i]}"
+            attrs = {"name": name, "tendon": name, "kp": number(c.stiffness[i]), "kv": number(c.damping[i]),
+                     "ctrlrange": vector(motors.range[j]), "forcerange": vector([-motors.max_tension[j], 0.0])}
+            if motors.tau[j] > 0:
+                attrs["timeconst"] = number(motors.tau[j])
+                self.act.append(float(c.rest_length[i]))
+            ET.SubElement(actuators, "position", attrs)
+            self.ctrl.append(float(c.rest_length[i]))
+
+    def _sensors(self, root: ET.Element) -> None:
+        r = self.robot
+        c, s = r.cables, r.sensors
+        sensor = ET.Element("sensor")
+        for i in s.cable_length:
+            ET.SubElement(sensor, "tendonpos", name=f"length:{c.names[i]}", tendon=f"cable:{c.names[i]}")
+        for i in s.cable_tension:
+            if c.motor[i] >= 0:
+                ET.SubElement(sensor, "actuatorfrc", name=f"tension:{c.names[i]}", actuator=f"cable:{c.names[i]}")
+        imus = [r.rods.names[i] for i in s.imu_rods] + [r.bodies[i].name for i in s.imu_bodies]
+        for name in imus:
+            site = f"imu:{name}"
+            ET.SubElement(sensor, "framequat", name=f"{site}:orientation", objtype="site", objname=site)
+            ET.SubElement(sensor, "gyro", name=f"{site}:gyro", site=site)
+            ET.SubElement(sensor, "accelerometer", name=f"{site}:accelerometer", site=site)
+        self.sensors = len(sensor)
+        if len(sensor):
+            root.append(sensor)
+
+    def _node(self, i: int) -> str:
+        return f"node:{self.robot.node_names[i]}"

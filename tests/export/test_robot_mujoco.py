@@ -1,0 +1,298 @@
+"""The exported robots in MuJoCo against the project's own elements and statics.
+
+MuJoCo is the independent side: its parser, its tendon and actuator laws, its contact
+solver. The project's side is its cable element (:mod:`tensegrity_core.robot.cable`), motor
+(:mod:`tensegrity_core.robot.motor`) and statics (form-finding of the robot with its caps
+held), none of which the exporter uses to write the model. What MuJoCo cannot represent
+(docs/mujoco.md, "Robots") is either kept out of a check's reach or checked as the
+documented difference.
+
+- **Forces.** At random states (poses, velocities, motor states) MuJoCo's generalised
+  passive and actuator forces equal the cable law's forces summed on each rod, to rounding,
+  except where docs/mujoco.md says they differ (damping of a slack passive cable; a slack
+  motor-driven cable lengthening fast), which the check adds as those closed forms.
+- **Motors.** MuJoCo's activation follows the motor's exact lag step.
+- **Drop and settle.** After 30 s on the floor the MuJoCo robot is an equilibrium of the
+  project's statics with its touching caps held where MuJoCo has them and MuJoCo's own
+  remaining inertial and damper forces as loads: node positions and cable tensions agree
+  to what the statics' stiff-bar rods allow (a rod of axial stiffness ``ROD_STIFFNESS_RATIO``
+  times the stiffest cable's shortens by ``F / (ratio k_max)`` under its force ``F``,
+  changing a cable's length by at most that at each end: positions within
+  ``3 F_max / (ratio k_max)``, tensions within ``3 F_max / ratio``). Every touching cap
+  sinks ``F_n / k`` (the Hunt-Crossley rest) to what MuJoCo's remaining motion allows.
+- **IMU.** At rest an IMU's accelerometer reads the specific force ``-g`` in its frame.
+- **Gait.** The shipped rolling gait played into MuJoCo's actuators rolls the 6-bar
+  towards +x over neighbouring hull faces, at least five in 10 s (the issue's target).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+mujoco = pytest.importorskip("mujoco", reason="the mujoco extra is not installed (./run setup installs it)")
+
+from tensegrity_core.export import export_mjcf  # noqa: E402
+from tensegrity_core.export.robot_mjcf import CONTACT_IMPEDANCE, contact_parameters  # noqa: E402
+from tensegrity_core.general.formfind import form_find  # noqa: E402
+from tensegrity_core.robot.cable import tension  # noqa: E402
+from tensegrity_core.robot.description import ROD_STIFFNESS_RATIO, Robot  # noqa: E402
+from tensegrity_core.robot.gait import GAITS_DIR, gait_from_file  # noqa: E402
+from tensegrity_core.robot.loading import load_robot  # noqa: E402
+from tensegrity_core.robot.motor import step as motor_step  # noqa: E402
+from tensegrity_core.robot.tipping import hull_faces  # noqa: E402
+from tests.mujoco_peer import play_gait, touching_caps  # noqa: E402
+
+ROBOTS = ("three_bar", "six_bar", "spine")
+#: How long a dropped robot settles before the statics check [s].
+SETTLE = 30.0
+
+
+def compiled(robot: Robot, **options: object) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    m = mujoco.MjModel.from_xml_string(export_mjcf(robot, **options).xml)  # type: ignore[arg-type]
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key("initial").id)
+    mujoco.mj_forward(m, d)
+    return m, d
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_a_shipped_robot_loads_with_every_part(name):
+    robot = load_robot(name)
+    m, d = compiled(robot)
+    for i, rod in enumerate(robot.rods.names):
+        body = m.body(f"rod:{rod}")
+        I_t, I_a = robot.rods.inertia[i]
+        assert body.mass[0] == robot.rods.mass[i]
+        np.testing.assert_allclose(body.inertia, [I_t, I_t, I_a], rtol=1e-12)
+        assert m.geom(f"rod:{rod}").size[0] == robot.rods.radius[i]
+        for node in robot.rods.ends[i]:
+            assert m.geom(f"cap:{robot.node_names[node]}").size[0] == robot.rods.cap_radius[i]
+    assert m.ntendon == len(robot.cables) and m.nu == len(robot.motors)
+    assert m.npair == (2 * len(robot.rods) if robot.floor is not None else 0)
+    # the keyframe is the drawing: every cable's length as drawn, every motor at its drawn rest length
+    drawn = np.linalg.norm(robot.nodes[robot.cables.ends[:, 1]] - robot.nodes[robot.cables.ends[:, 0]], axis=1)
+    np.testing.assert_allclose(d.ten_length, drawn, rtol=1e-12, atol=1e-12)
+    actuated = robot.cables.actuated
+    np.testing.assert_array_equal(d.ctrl, robot.cables.rest_length[actuated])
+    s = robot.sensors
+    assert m.nsensordata == len(s.cable_length) + int((robot.cables.motor[list(s.cable_tension)] >= 0).sum()) \
+        + 10 * (len(s.imu_rods) + len(s.imu_bodies))
+
+
+def node_states(m, d, robot: Robot) -> tuple[np.ndarray, np.ndarray, list[tuple[int, int, np.ndarray]]]:
+    """Node positions and velocities [m, m/s] from MuJoCo's ``qpos``/``qvel`` with the
+    project's rod geometry (caps ``L/2`` along the body's z axis; a body's nodes at their
+    drawn offsets from the node centroid), and per moving body ``(dof address, body id,
+    node indices)``."""
+    X = np.array([d.site(f"node:{n}").xpos for n in robot.node_names])    # pinned nodes keep theirs
+    V = np.zeros_like(X)
+    bodies = []
+    for i, rod in enumerate(robot.rods.names):
+        a, b = robot.rods.ends[i]
+        half = 0.5 * float(np.linalg.norm(robot.nodes[b] - robot.nodes[a]))
+        bodies.append((f"rod:{rod}", np.array([a, b]), np.array([[0, 0, -half], [0, 0, half]])))
+    for body in robot.bodies:
+        if not body.fixed:
+            idx = np.array(body.nodes)
+            bodies.append((f"body:{body.name}", idx, robot.nodes[idx] - robot.nodes[idx].mean(axis=0)))
+    out = []
+    for name, idx, offsets in bodies:
+        b = m.body(name).id
+        q, v = m.jnt_qposadr[m.body_jntadr[b]], m.jnt_dofadr[m.body_jntadr[b]]
+        R = np.empty(9)
+        mujoco.mju_quat2Mat(R, d.qpos[q + 3:q + 7])
+        R = R.reshape(3, 3)
+        w = R @ d.qvel[v + 3:v + 6]
+        X[idx] = d.qpos[q:q + 3] + offsets @ R.T
+        V[idx] = d.qvel[v:v + 3] + np.cross(w, offsets @ R.T)
+        out.append((int(v), b, idx))
+    return X, V, out
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_mujocos_forces_are_the_cable_law(name, seed):
+    robot = load_robot(name)
+    m, d = compiled(robot)
+    rng = np.random.default_rng(seed)
+    c, motors = robot.cables, robot.motors
+    # a random state: poses turned and moved, random rates, motors anywhere in their range
+    for j in range(m.njnt):
+        q, v = m.jnt_qposadr[j], m.jnt_dofadr[j]
+        d.qpos[q:q + 3] += rng.uniform(-0.02, 0.02, 3)
+        turn = np.empty(4)
+        axis = rng.normal(size=3)
+        mujoco.mju_axisAngle2Quat(turn, axis / np.linalg.norm(axis), rng.uniform(0, 0.1))
+        mujoco.mju_mulQuat(d.qpos[q + 3:q + 7], d.qpos[q + 3:q + 7].copy(), turn)
+        d.qvel[v:v + 6] = np.concatenate([rng.uniform(-0.3, 0.3, 3), rng.uniform(-2, 2, 3)])
+    lo, hi = motors.range[:, 0], motors.range[:, 1]
+    d.ctrl[:] = rng.uniform(lo, hi)
+    rest = c.rest_length.copy()
+    if m.na:
+        d.act[:] = rng.uniform(lo, hi)
+        rest[motors.cable] = d.act
+    else:
+        rest[motors.cable] = d.ctrl
+    mujoco.mj_forward(m, d)
+    X, V, bodies = node_states(m, d, robot)
+    a, b = c.ends[:, 0], c.ends[:, 1]
+    u = X[b] - X[a]
+    length = np.linalg.norm(u, axis=1)
+    u /= length[:, None]
+    rate = np.sum(u * (V[b] - V[a]), axis=1)
+    t_max = np.full(len(c), np.inf)
+    t_max[motors.cable] = motors.max_tension
+    T = tension(length, rate, rest, c.stiffness, c.damping, t_max)
+    # docs/mujoco.md's differences, in closed form: a passive cable's tendon damper acts while
+    # slack and pushes while it shortens fast; a slack motor-driven cable is pulled by its
+    # damper while it lengthens fast
+    passive = c.motor < 0
+    slack = length <= rest
+    raw = c.stiffness * (length - rest) + c.damping * rate
+    documented = np.where(passive, c.stiffness * np.maximum(length - rest, 0.0) + c.damping * rate,
+                          np.clip(raw, 0.0, t_max))
+    T = np.where(np.where(passive, slack | (raw < 0), slack), documented, T)
+    force = np.zeros_like(X)
+    np.add.at(force, a, T[:, None] * u)
+    np.add.at(force, b, -T[:, None] * u)
+    expected = np.zeros(m.nv)
+    for v, body, idx in bodies:
+        R = d.xmat[body].reshape(3, 3)
+        arm = X[idx] - d.xpos[body]
+        expected[v:v + 3] = force[idx].sum(axis=0)
+        expected[v + 3:v + 6] = R.T @ np.cross(arm, force[idx]).sum(axis=0)
+    got = d.qfrc_passive + d.qfrc_actuator
+    scale = np.abs(T).max() * max(1.0, float(np.abs(X).max()))
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * scale)
+
+
+def test_a_motor_lags_as_the_projects_motor():
+    robot = load_robot("three_bar")
+    m, d = compiled(robot)
+    motors = robot.motors
+    start = d.act.copy()
+    aim = motors.range[:, 0] + 0.25 * (motors.range[:, 1] - motors.range[:, 0])
+    d.ctrl[:] = aim
+    mujoco.mj_step(m, d, nstep=700)
+    expected = motor_step(start, aim, motors.tau, motors.max_speed, 700 * m.opt.timestep)
+    np.testing.assert_allclose(d.act, expected, rtol=0, atol=1e-12)
+
+
+@functools.cache
+def settled(name: str) -> tuple[Robot, mujoco.MjModel, mujoco.MjData]:
+    robot = load_robot(name)
+    m, d = compiled(robot)
+    mujoco.mj_step(m, d, nstep=round(SETTLE / m.opt.timestep))
+    mujoco.mj_forward(m, d)
+    return robot, m, d
+
+
+@pytest.fixture(scope="module", params=["three_bar", "six_bar"])
+def dropped(request):
+    return settled(request.param)
+
+
+def test_a_settled_robot_is_an_equilibrium_of_the_projects_statics(dropped):
+    robot, m, d = dropped
+    X, V, bodies = node_states(m, d, robot)
+    # MuJoCo's remaining motion as loads (d'Alembert): each rod's inertial wrench on its caps
+    loads = np.zeros_like(X)
+    for i, (v, body, idx) in enumerate(bodies):
+        R = d.xmat[body].reshape(3, 3)
+        e = R[:, 2]
+        I_t, I_a = robot.rods.inertia[i]
+        inertia = R @ np.diag([I_t, I_t, I_a]) @ R.T
+        w, alpha = R @ d.qvel[v + 3:v + 6], R @ d.qacc[v + 3:v + 6]
+        F = robot.rods.mass[i] * d.qacc[v:v + 3]
+        tau = inertia @ alpha + np.cross(w, inertia @ w)
+        half = 0.5 * float(np.linalg.norm(X[idx[1]] - X[idx[0]]))
+        loads[idx[0]] -= F / 2 - np.cross(tau, e) / (2 * half)
+        loads[idx[1]] -= F / 2 + np.cross(tau, e) / (2 * half)
+    c = robot.cables
+    a, b = c.ends[:, 0], c.ends[:, 1]
+    u = X[b] - X[a]
+    length = np.linalg.norm(u, axis=1)
+    u /= length[:, None]
+    rest = c.rest_length.copy()
+    rest[robot.motors.cable] = d.act if m.na else d.ctrl
+    damper = c.damping * np.sum(u * (V[b] - V[a]), axis=1) * (length > rest)
+    np.add.at(loads, a, damper[:, None] * u)
+    np.add.at(loads, b, -damper[:, None] * u)
+    caps = touching_caps(m, d)
+    assert len(caps) >= 3
+    held = np.zeros((robot.n_nodes, 3), dtype=bool)
+    held[[robot.node_names.index(n) for n in caps]] = True
+    statics = dataclasses.replace(robot.structure(nodes=X, pinned=held), loads=loads)
+    result = form_find(statics, x0=X)
+    assert result.success, result.message
+    rods = len(robot.rods)
+    F_max = float(np.abs(result.member_forces[:rods]).max())
+    k_max = float(c.stiffness.max())
+    assert np.abs(result.nodes - X).max() <= 3 * F_max / (ROD_STIFFNESS_RATIO * k_max)
+    elastic = c.stiffness * np.maximum(length - rest, 0.0)
+    assert np.abs(result.member_forces[rods:] - elastic).max() <= 3 * F_max / ROD_STIFFNESS_RATIO
+
+
+def test_a_settled_robot_sinks_as_the_projects_contact(dropped):
+    """At rest MuJoCo's normal force is ``S delta / ((1 - d) A)`` = ``k delta`` (docs/mujoco.md);
+    what motion remains adds ``(d/(1-d)) m a_n + (D m/(1-d)) v_n`` (the contact row's
+    acceleration and velocity), the tolerance."""
+    robot, m, d = dropped
+    floor = robot.floor
+    jac_acc = np.zeros(d.nefc)
+    mujoco.mj_mulJacVec(m, d, jac_acc, d.qacc)
+    eps = 1.0 - CONTACT_IMPEDANCE
+    wrench = np.zeros(6)
+    for k in range(d.ncon):
+        contact = d.contact[k]
+        mujoco.mj_contactForce(m, d, k, wrench)
+        mass = float(m.body_mass[m.geom_bodyid[contact.geom[0]]] or m.body_mass[m.geom_bodyid[contact.geom[1]]])
+        _, D = contact_parameters(floor.stiffness, mass)
+        row = contact.efc_address
+        slack = (CONTACT_IMPEDANCE * mass * abs(jac_acc[row]) + D * mass * abs(d.efc_vel[row])) / eps
+        assert abs(wrench[0] - floor.stiffness * -contact.dist) <= slack + 1e-9 * wrench[0]
+        assert -contact.dist < 1e-3                  # the issue's target: below 1 mm at rest
+
+
+def test_a_settled_robots_imu_reads_gravity(dropped):
+    robot, m, d = dropped
+    g = m.opt.gravity
+    for i in robot.sensors.imu_rods:
+        name = robot.rods.names[i]
+        R = d.site(f"imu:{name}").xmat.reshape(3, 3)
+        reading = d.sensor(f"imu:{name}:accelerometer").data
+        body = m.body(f"rod:{name}").id
+        v = m.jnt_dofadr[m.body_jntadr[body]]
+        wiggle = float(np.linalg.norm(d.qacc[v:v + 3])) + float(np.linalg.norm(d.qvel[v + 3:v + 6])) ** 2
+        assert np.linalg.norm(reading - R.T @ -g) <= wiggle + 1e-9
+        quat = d.sensor(f"imu:{name}:orientation").data
+        R_quat = np.empty(9)
+        mujoco.mju_quat2Mat(R_quat, quat)
+        np.testing.assert_allclose(R_quat.reshape(3, 3), R, atol=1e-12)
+
+
+def test_the_six_bar_stays_on_the_face_it_is_drawn_on():
+    """Drawn at rest on its lowest hull face, with its centre of mass above that face, the
+    6-bar has no reason to tip: it sags under its weight and stays."""
+    robot, m, d = settled("six_bar")
+    lowest = min(hull_faces(robot.nodes), key=lambda f: float(robot.nodes[list(f), 2].sum()))
+    assert touching_caps(m, d) == frozenset(robot.node_names[i] for i in lowest)
+
+
+def test_the_six_bar_rolls_over_neighbouring_faces_under_the_shipped_gait():
+    robot = load_robot("six_bar")
+    gait = gait_from_file(GAITS_DIR / "six_bar_roll.yaml")
+    run = play_gait(export_mjcf(robot).xml, gait, 10.0)
+    faces = [caps for _, caps in run.faces]
+    hull = {frozenset(robot.node_names[i] for i in f) for f in hull_faces(robot.nodes)}
+    assert all(face in hull for face in faces), faces
+    assert all(len(p & q) == 2 for p, q in zip(faces, faces[1:])), faces      # over an edge each time
+    assert len(set(faces)) >= 5, faces                                          # the issue's target
+    assert run.com[-1, 0] - run.com[0, 0] > 1.0                                 # towards +x [m]
