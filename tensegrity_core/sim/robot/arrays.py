@@ -62,9 +62,9 @@ def contact_velocity(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatAr
 def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray, floor_normal: FloatArray,
                  floor_point: FloatArray, floor_params: FloatArray, body_dof: IntArray, y: FloatArray, n_dof: int,
                  anchors: int, X: FloatArray, V: FloatArray
-                 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+                 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
     """:func:`.loops.floor_forces` of a batch: ``(nodal forces (B, n, 3), moments (B, ncap, 3),
-    depth, normal (B, ncap), friction (B, ncap, 3))``."""
+    depth, normal (B, ncap), friction (B, ncap, 3), the offsets' rates (B, ncap, 3))``."""
     k, d, kt, ct = floor_params[0], floor_params[1], floor_params[4], floor_params[5]
     nvec = floor_normal
     ncap = len(cap_node)
@@ -74,17 +74,17 @@ def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray,
     rate = -_dot(V[:, cap_node], np.broadcast_to(nvec, P.shape))
     fn = np.where(delta > 0.0, k * delta * np.maximum(0.0, 1.0 + d * rate), 0.0)
     state = y[:, anchors + 3 * ncap:anchors + 4 * ncap]
-    anchor = y[:, anchors:anchors + 3 * ncap].reshape(B, ncap, 3)
-    s = P - cap_radius[:, None] * nvec - anchor
+    s = y[:, anchors:anchors + 3 * ncap].reshape(B, ncap, 3)
     s = s - _dot(s, np.broadcast_to(nvec, s.shape))[..., None] * nvec
     v = contact_velocity(cap_node, cap_body, cap_radius, nvec, body_dof, y, n_dof, V)
     v = v - _dot(v, np.broadcast_to(nvec, v.shape))[..., None] * nvec
     damping = np.where(state == STICKING, ct, 0.0)
-    f = np.where((state != NO_ANCHOR)[..., None], -kt * s - damping[..., None] * v, 0.0)
+    anchored = (state != NO_ANCHOR)[..., None]
+    f = np.where(anchored, -kt * s - damping[..., None] * v, 0.0)
     moments = -cap_radius[:, None] * cross(np.broadcast_to(nvec, f.shape), f)
     total = fn[..., None] * nvec + f
     F = general.scatter(cap_node, total, X.shape[1])
-    return F, moments, delta, fn, f
+    return F, moments, delta, fn, f, np.where(anchored, v, 0.0)
 
 
 def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
@@ -105,9 +105,10 @@ def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free
     l0[...] = rest_lengths(cable_l0, cable_motor, y, 2 * n_dof)
     Fc, lengths[...], rates_[...], tensions[...] = cable_forces(cable_a, cable_b, cable_k, cable_c, cable_t_max,
                                                                l0, X, V)
-    Ff, moments, depth[...], normal[...], friction[...] = floor_forces(
+    a0 = 2 * n_dof + len(motor_cable)
+    Ff, moments, depth[...], normal[...], friction[...], sliding = floor_forces(
         cap_node, cap_body, cap_radius, floor_normal, floor_point, floor_params, body_dof, y, n_dof,
-        2 * n_dof + len(motor_cable), X, V)
+        a0, X, V)
     F[...] = external + Fc + Ff
     wrench = general.nodal_wrenches(on_node, on_body, r, F, len(body_dof))
     on = cap_body >= 0
@@ -119,6 +120,7 @@ def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free
                   body_inv_inertia_cm, xv, R, F, wrench, xdot)
     out[:, :2 * n_dof] = xdot
     out[:, 2 * n_dof:] = 0.0
+    out[:, a0:a0 + 3 * len(cap_node)] = sliding.reshape(len(y), -1)
 
 
 evaluate = derivatives
@@ -172,11 +174,9 @@ def sampled_update(base: FloatArray, free_node: IntArray, free_axis: IntArray, o
         delta = cap_radius - _dot(P - floor_point, np.broadcast_to(nvec, P.shape))
         fn = np.where(delta > 0.0, k * delta * np.maximum(0.0, 1.0 + d * -_dot(V[0, cap_node],
                                                                              np.broadcast_to(nvec, P.shape))), 0.0)
-        anchor = y[a0:a0 + 3 * ncap].reshape(ncap, 3)
+        offset = y[a0:a0 + 3 * ncap].reshape(ncap, 3)
         state = y[a0 + 3 * ncap:a0 + 4 * ncap]
-        p = P - cap_radius[:, None] * nvec
-        s = p - anchor
-        s = s - _dot(s, np.broadcast_to(nvec, s.shape))[:, None] * nvec
+        s = offset - _dot(offset, np.broadcast_to(nvec, offset.shape))[:, None] * nvec
         size = np.sqrt(_dot(s, s))
         hold = np.where(state == SLIPPING, mu_k, mu_s) * fn
         touching = (fn > 0.0) & (kt > 0.0)
@@ -187,8 +187,7 @@ def sampled_update(base: FloatArray, free_node: IntArray, free_axis: IntArray, o
         v = contact_velocity(cap_node, cap_body, cap_radius, nvec, body_dof, y[None], n_dof, V)[0]
         ahead = np.maximum(_dot(v, e), 0.0)
         mag = np.maximum(mu_k * fn / (kt if kt > 0.0 else 1.0) - 0.5 * h * ahead, 0.0)
-        dragged = p - mag[:, None] * e
-        anchor[...] = np.where(slips[:, None], dragged, np.where((~touching | new)[:, None], p, anchor))
+        offset[...] = np.where(slips[:, None], mag[:, None] * e, np.where((~touching | new)[:, None], 0.0, offset))
         state[...] = np.where(~touching, NO_ANCHOR, np.where(slips, SLIPPING, STICKING))
     if nb:
         cols = body_dof[:, None] + 3 + np.arange(3)

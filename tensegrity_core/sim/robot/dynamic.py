@@ -48,6 +48,18 @@ SENSOR_KEYS = ("cable_lengths", "cable_tensions", "imu_orientation", "imu_angula
                "cap_contact", "cap_slipping", "friction_forces")
 
 
+def cable_energy(stretch: FloatArray, k: FloatArray, t_max: FloatArray) -> FloatArray:
+    """Stored energy [J] (B,) of cables with stretches ``l - l0`` (B, c) [m], stiffnesses
+    ``k`` [N/m] and tension limits ``t_max`` [N] (inf: none): the potential of the elastic
+    part of the cable's force ``min(k s, T_max)`` for ``s > 0`` (0 while slack),
+    ``k s^2 / 2`` up to ``s = T_max / k`` and ``T_max (s - T_max / (2 k))`` beyond (where the
+    spool pays out at the step's end, which only lowers it)."""
+    s = np.maximum(stretch, 0.0)
+    knee = np.minimum(s, t_max / k)
+    out: FloatArray = np.sum(0.5 * k * knee * knee + np.where(s > knee, np.where(np.isfinite(t_max), t_max, 0.0) * (s - knee), 0.0), axis=1)
+    return out
+
+
 class RobotDynamic(Model[FixedStepper, RobotSample]):
     """Back end ``robot/dynamic`` (implements :class:`~tensegrity_core.sim.model.Model`, and
     ``state_from``, ``equations`` as the dynamic back ends do)."""
@@ -159,16 +171,14 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         rod_length = np.sqrt(np.sum(axis * axis, axis=2))
         e = axis / np.where(rod_length > 0, rod_length, 1.0)[..., None]
         rod_force = 0.5 * (np.sum(ev.forces[:, ends[:, 0]] * e, axis=2) - np.sum(ev.forces[:, ends[:, 1]] * e, axis=2))
-        stretch = np.maximum(ev.lengths - ev.rest_lengths, 0.0)
-        strain = 0.5 * np.sum(plan.cable_k * stretch * stretch, axis=1)
+        strain = cable_energy(ev.lengths - ev.rest_lengths, plan.cable_k, plan.cable_t_max)
         gravity = -np.einsum("bki,ki->b", X, plan.external)
         k, kt = plan.floor_params[0], plan.floor_params[4]
         contact = 0.5 * k * np.sum(np.maximum(ev.depth, 0.0) ** 2, axis=1)
         ncap = len(plan.cap_node)
         a0 = 2 * n + len(plan.motor_cable)
-        anchors = Y[:, a0:a0 + 3 * ncap].reshape(B, ncap, 3)
+        s = Y[:, a0:a0 + 3 * ncap].reshape(B, ncap, 3)
         cstate = Y[:, a0 + 3 * ncap:a0 + 4 * ncap]
-        s = X[:, plan.cap_node] - plan.cap_radius[:, None] * plan.floor_normal - anchors
         s = s - np.sum(s * plan.floor_normal, axis=2)[..., None] * plan.floor_normal
         anchor_energy = 0.5 * kt * np.sum(np.where(cstate > 0, np.sum(s * s, axis=2), 0.0), axis=1)
         com = np.einsum("k,bki->bi", self.node_mass, X) / self.node_mass.sum()

@@ -6,13 +6,15 @@ numpy (tested against each other). Arguments are the :class:`~.plan.RobotPlan` a
 spelled out, then per call the state ``y`` (:class:`~.plan.RobotPlan` ``n_state``), the
 rotation charts ``R_ref`` (nb, 3, 3) and work or output arrays.
 
-**State** ``y = (x, v, l0, anchors, contact)``: the general coordinates and rates
-(``2 n_dof``), the motors' rest lengths [m], per cap the anchor point of its friction [m]
-(3) and its contact state (0: no anchor, 1: sticking, 2: slipping). The last three are
-**sampled**: constant during a step (their rates are 0) and updated once at its end by
-:func:`sampled_update`; :func:`run_steps` integrates whole fixed steps (classical RK4),
-updating them after each, as a 1 kHz robot loop does (MuJoCo likewise integrates its
-actuators' states once per step).
+**State** ``y = (x, v, l0, offsets, contact)``: the general coordinates and rates
+(``2 n_dof``), the motors' rest lengths [m], per cap the tangential offset [m] (3) of its
+contact's material point from its friction anchor, and its contact state (0: no anchor,
+1: sticking, 2: slipping). The offsets are integrated with the motion (their rate is the
+material point's tangential velocity); the rest lengths and contact states are
+**sampled**: constant during a step and updated once at its end by
+:func:`sampled_update`, which also re-maps the offsets (a slip); :func:`run_steps`
+integrates whole fixed steps (classical RK4), updating after each, as a 1 kHz robot loop
+does (MuJoCo likewise integrates its actuators' states once per step).
 
 One evaluation (:func:`derivative`):
 
@@ -84,14 +86,18 @@ def cable_forces(cable_a: IntArray, cable_b: IntArray, cable_k: FloatArray, cabl
 def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray, floor_normal: FloatArray,
                  floor_point: FloatArray, floor_params: FloatArray, body_dof: IntArray, y: FloatArray,
                  n_dof: int, anchors: int, X: FloatArray, V: FloatArray, F: FloatArray, moments: FloatArray,
-                 depth: FloatArray, normal: FloatArray, friction: FloatArray) -> None:
+                 depth: FloatArray, normal: FloatArray, friction: FloatArray, out: FloatArray) -> None:
     """Per cap: its penetration ``depth`` [m], the normal force ``F_n = k delta max(0, 1 + d
     deltadot)`` [N] (``normal``; 0 out of contact) along the floor's normal, and with an
-    anchor (the state's entries from ``anchors``) the friction force ``-k_t s - c_t v_t`` [N]
-    (``friction``, (ncap, 3); the damper only while sticking) of the contact point's
-    tangential offset ``s`` from its anchor and its tangential velocity ``v_t``; both added to
-    the cap's node in ``F``, the friction's moment about the cap's centre into ``moments``.
-    ``n_dof``: the rates start at ``y[n_dof]``."""
+    anchor the friction force ``-k_t s - c_t v_t`` [N] (``friction``, (ncap, 3); the damper
+    only while sticking) of the anchor's tangential offset ``s`` (the state's entries from
+    ``anchors``) and the tangential velocity ``v_t`` of the cap's material point at the
+    contact; both added to the cap's node in ``F``, the friction's moment about the cap's
+    centre into ``moments``. The offset's rate ``v_t`` (0 without an anchor) goes into
+    ``out`` at the state's entries: the offset is the material point's tangential
+    displacement since it was anchored, so the spring's power ``k_t s . v_t`` is exactly the
+    work its force does (a cap rolls without storing energy). ``n_dof``: the rates start at
+    ``y[n_dof]``."""
     k, d, kt, ct = floor_params[0], floor_params[1], floor_params[4], floor_params[5]
     n0, n1, n2 = floor_normal[0], floor_normal[1], floor_normal[2]
     ncap = cap_node.shape[0]
@@ -112,9 +118,10 @@ def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray,
         F[node, 2] += fn * n2
         state = y[anchors + 3 * ncap + c]
         f0, f1, f2 = 0.0, 0.0, 0.0
+        a = anchors + 3 * c
+        out[a], out[a + 1], out[a + 2] = 0.0, 0.0, 0.0
         if state != NO_ANCHOR:
-            a = anchors + 3 * c
-            s0, s1, s2 = X[node, 0] - r * n0 - y[a], X[node, 1] - r * n1 - y[a + 1], X[node, 2] - r * n2 - y[a + 2]
+            s0, s1, s2 = y[a], y[a + 1], y[a + 2]
             sn = s0 * n0 + s1 * n1 + s2 * n2
             s0, s1, s2 = s0 - sn * n0, s1 - sn * n1, s2 - sn * n2
             v0, v1, v2 = V[node, 0], V[node, 1], V[node, 2]
@@ -127,6 +134,7 @@ def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray,
                 v2 -= r * (w0 * n1 - w1 * n0)
             vn = v0 * n0 + v1 * n1 + v2 * n2
             v0, v1, v2 = v0 - vn * n0, v1 - vn * n1, v2 - vn * n2
+            out[a], out[a + 1], out[a + 2] = v0, v1, v2
             damping = ct if state == STICKING else 0.0
             f0, f1, f2 = -kt * s0 - damping * v0, -kt * s1 - damping * v1, -kt * s2 - damping * v2
         friction[c, 0], friction[c, 1], friction[c, 2] = f0, f1, f2
@@ -160,10 +168,11 @@ def derivative(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_
     xv = y[:2 * n_dof]
     place(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, xv, R_ref, X, V, R, r)
     F[:, :] = external
+    out[2 * n_dof:] = 0.0
     rest_lengths(cable_l0, cable_motor, y, 2 * n_dof, l0)
     cable_forces(cable_a, cable_b, cable_k, cable_c, cable_t_max, l0, X, V, F, lengths, rates_, tensions)
     floor_forces(cap_node, cap_body, cap_radius, floor_normal, floor_point, floor_params, body_dof, y, n_dof,
-                 2 * n_dof + motor_cable.shape[0], X, V, F, moments, depth, normal, friction)
+                 2 * n_dof + motor_cable.shape[0], X, V, F, moments, depth, normal, friction, out)
     nodal_wrenches(on_node, on_body, r, F, wrench)
     for c in range(cap_node.shape[0]):
         b = cap_body[c]
@@ -173,7 +182,6 @@ def derivative(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_
             wrench[b, 5] += moments[c, 2]
     rates(free_node, free_axis, free_inv_mass, body_dof, body_mass, body_first_moment, body_inertia,
           body_inv_inertia_cm, xv, R, F, wrench, out[:2 * n_dof])
-    out[2 * n_dof:] = 0.0
 
 
 @jit
@@ -208,11 +216,11 @@ def sampled_update(base: FloatArray, free_node: IntArray, free_axis: IntArray, o
       would pull harder than the tension limit: ``l0 >= l - T_max / k``, at most to the
       range's end;
     - **friction anchors** (return mapping): a cap out of contact (``F_n = 0``) loses its
-      anchor; a cap without one gets it at its contact point, sticking; one whose offset
-      ``s`` from its anchor holds (``k_t |s| <= mu F_n``, ``mu_s`` while sticking, ``mu_k``
-      while slipping) sticks; otherwise it slips: the anchor is dragged to
-      ``|s| = mu_k F_n / k_t - max(v_t . e, 0) h / 2`` behind the contact point along the
-      offset's direction ``e`` (at least 0), so that over the next step of a steady slide the
+      anchor (offset 0); a cap without one gets it where it touches (offset 0), sticking; one
+      whose offset ``s`` holds (``k_t |s| <= mu F_n``, ``mu_s`` while sticking, ``mu_k``
+      while slipping) sticks; otherwise it slips: the anchor is dragged along, leaving
+      ``|s| = mu_k F_n / k_t - max(v_t . e, 0) h / 2`` along the offset's direction ``e``
+      (at least 0), so that over the next step of a steady slide the
       friction force averages ``mu_k F_n`` (docs/robots.md). Every change only lowers the
       anchor's stored energy ``k_t |s|^2 / 2``;
     - **charts**: a body whose rotation vector exceeds :data:`RECHART_ANGLE` is re-anchored."""
@@ -244,16 +252,15 @@ def sampled_update(base: FloatArray, free_node: IntArray, free_axis: IntArray, o
             fn = k * delta * max(0.0, 1.0 + d * -(V[node, 0] * n0 + V[node, 1] * n1 + V[node, 2] * n2))
         a = a0 + 3 * c
         st = a0 + 3 * ncap + c
-        p0, p1, p2 = X[node, 0] - rc * n0, X[node, 1] - rc * n1, X[node, 2] - rc * n2
         if not (fn > 0.0 and kt > 0.0):
             y[st] = NO_ANCHOR
-            y[a], y[a + 1], y[a + 2] = p0, p1, p2
+            y[a], y[a + 1], y[a + 2] = 0.0, 0.0, 0.0
             continue
         if y[st] == NO_ANCHOR:
             y[st] = STICKING
-            y[a], y[a + 1], y[a + 2] = p0, p1, p2
+            y[a], y[a + 1], y[a + 2] = 0.0, 0.0, 0.0
             continue
-        s0, s1, s2 = p0 - y[a], p1 - y[a + 1], p2 - y[a + 2]
+        s0, s1, s2 = y[a], y[a + 1], y[a + 2]
         sn = s0 * n0 + s1 * n1 + s2 * n2
         s0, s1, s2 = s0 - sn * n0, s1 - sn * n1, s2 - sn * n2
         size = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
@@ -272,7 +279,7 @@ def sampled_update(base: FloatArray, free_node: IntArray, free_axis: IntArray, o
             v2 -= rc * (w0 * n1 - w1 * n0)
         ahead = max(v0 * e0 + v1 * e1 + v2 * e2, 0.0)      # (e is tangential: v . e = v_t . e)
         mag = max(mu_k * fn / kt - 0.5 * h * ahead, 0.0)
-        y[a], y[a + 1], y[a + 2] = p0 - mag * e0, p1 - mag * e1, p2 - mag * e2
+        y[a], y[a + 1], y[a + 2] = mag * e0, mag * e1, mag * e2
         y[st] = SLIPPING
     for bb in range(body_dof.shape[0]):
         dd = body_dof[bb] + 3

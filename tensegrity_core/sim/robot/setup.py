@@ -46,19 +46,19 @@ def names_of(robot: Robot) -> Names:
 
 def state_names(robot: Robot, plan: RobotPlan) -> tuple[str, ...]:
     """Names of the state vector's entries: coordinates, rates, the motors' rest lengths, the
-    caps' anchors and contact states."""
+    caps' friction offsets and contact states."""
     labels = robot_layout(robot).labels()
     caps = [robot.node_names[i] for i in plan.cap_node]
     return (tuple(f"x_{s}" for s in labels) + tuple(f"v_{s}" for s in labels)
             + tuple(f"l0_{robot.cables.names[i]}" for i in plan.motor_cable)
-            + tuple(f"anchor_{c}.{a}" for c in caps for a in "xyz") + tuple(f"contact_{c}" for c in caps))
+            + tuple(f"offset_{c}.{a}" for c in caps for a in "xyz") + tuple(f"contact_{c}" for c in caps))
 
 
 def initial_vector(robot: Robot, plan: RobotPlan, lift: float) -> FloatArray:
     """The state at rest as drawn, raised by ``lift`` [m] along the floor's normal (along +z
     without a floor): bodies at their nodes' centroids with rotation vectors 0 (the drawing's
     charts), the motors at the cables' drawn rest lengths, caps that touch the floor anchored
-    where they touch (sticking)."""
+    where they touch (sticking, offset 0)."""
     lay = robot_layout(robot)
     up = np.asarray(robot.floor.normal if robot.floor is not None else (0.0, 0.0, 1.0), dtype=float)
     nodes = robot.nodes + lift * up
@@ -73,8 +73,6 @@ def initial_vector(robot: Robot, plan: RobotPlan, lift: float) -> FloatArray:
     a0 = m0 + len(plan.motor_cable)
     ncap = len(plan.cap_node)
     if ncap:
-        contact = nodes[plan.cap_node] - plan.cap_radius[:, None] * plan.floor_normal
-        y[a0:a0 + 3 * ncap] = contact.ravel()
         touching = plan.cap_radius - (nodes[plan.cap_node] - plan.floor_point) @ plan.floor_normal > 0.0
         anchored = touching & (plan.floor_params[4] > 0.0)
         y[a0 + 3 * ncap:] = np.where(anchored, STICKING, NO_ANCHOR)
