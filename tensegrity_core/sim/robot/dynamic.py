@@ -158,7 +158,7 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
     def _observe(self, ts: FloatArray, Y: FloatArray, ev: RobotEvaluation) -> dict[str, NDArray[Any]]:
-        plan, robot, lay = self.plan, self.robot, self.layout
+        plan, robot = self.plan, self.robot
         B, n = len(ts), plan.n_dof
         q = Y[:, :n].copy()
         nb = len(plan.body_dof)

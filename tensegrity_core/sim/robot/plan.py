@@ -144,7 +144,7 @@ def robot_layout(robot: Robot) -> DofLayout:
 def build_plan(robot: Robot, effects: RobotEffects) -> RobotPlan:
     """The plan of ``robot`` under the scene's ``effects`` (see the module docstring)."""
     lay = robot_layout(robot)
-    n, nb = robot.n_nodes, len(lay.moving_bodies)
+    nb = len(lay.moving_bodies)
     nr = len(robot.rods)
     # -- masses: rods (capsule inertia), other bodies (mass shared by their nodes), point masses
     mass = np.zeros(nb)
@@ -166,10 +166,10 @@ def build_plan(robot: Robot, effects: RobotEffects) -> RobotPlan:
             for node in body.nodes:
                 _add_point(mass, first, inertia, s, share, lay.offsets[node])
     on = np.flatnonzero(lay.node_body >= 0)
-    for node in on:
-        if robot.node_masses[node] > 0:
-            _add_point(mass, first, inertia, int(lay.node_body[node]), float(robot.node_masses[node]),
-                       lay.offsets[node])
+    for carried in on.tolist():
+        if robot.node_masses[carried] > 0:
+            _add_point(mass, first, inertia, int(lay.node_body[carried]), float(robot.node_masses[carried]),
+                       lay.offsets[carried])
     light = [lay.body_names[s] for s in range(nb) if not mass[s] > 0]
     if light:
         raise SceneError(f"inertia needs mass on every moving body; {', '.join(map(repr, light))} has none",
@@ -228,7 +228,7 @@ def build_plan(robot: Robot, effects: RobotEffects) -> RobotPlan:
         on_node=on.astype(np.int64), on_body=lay.node_body[on].astype(np.int64),
         on_offset=np.array(lay.offsets[on], dtype=float).reshape(-1, 3),
         body_dof=np.asarray(lay.body_dof, dtype=np.int64), body_mass=mass, body_first_moment=first,
-        body_inertia=inertia, body_inv_inertia_cm=np.linalg.inv(inertia_cm) if nb else inertia.copy(),
+        body_inertia=inertia, body_inv_inertia_cm=np.asarray(np.linalg.inv(inertia_cm) if nb else inertia.copy(), dtype=np.float64),
         external=weight_mass[:, None] * g[None, :],
         cable_a=np.array(cab.ends[:, 0], dtype=np.int64), cable_b=np.array(cab.ends[:, 1], dtype=np.int64),
         cable_k=np.array(cab.stiffness, dtype=float), cable_c=np.array(cab.damping, dtype=float), cable_t_max=t_max,

@@ -110,7 +110,7 @@ class FixedStepper:
                 steps -= 1
                 continue
             k = min(steps, CHUNK)
-            times = (self.n + np.arange(k)) * self.h
+            times: FloatArray = (self.n + np.arange(k, dtype=np.float64)) * self.h
             y, R, _ = self.system.run(self.y_grid, self.system.R_ref, self.h, self.system.aims(times))
             self._commit(y, R, k)
             steps -= k

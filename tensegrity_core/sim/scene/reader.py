@@ -234,7 +234,10 @@ class _SceneReader(Reader):
                 raise self.error(f"must be a shipped robot's name, a file path or a mapping, got {type_name(value)}",
                                  path + ("robot",), d, "robot")
         except RobotError as err:
-            raise self.error(f"invalid robot: {err}", path + ("robot",), d, "robot") from None
+            if isinstance(value, dict):          # inline: the robot's own key path and line in this file
+                raise self.error_class(f"invalid robot: {err.reason}", key=path + ("robot",) + tuple(err.key),
+                                       line=err.line, file=self.file) from None
+            raise self.error_class(f"invalid robot: {err}", key=path + ("robot",), file=self.file) from None
         if "end_effector" in d:
             ee = self.string(d, "end_effector", path)
             if ee not in robot.node_names:
@@ -508,8 +511,10 @@ class _SceneReader(Reader):
                                      path + (cable,), d, cable)
             from_gait = dict(gait.laws())
         own = tuple(n for n in names if n not in from_gait)
-        self.keys(d, path, names + (("gait",) if takes_gait else ()), required=own)
-        laws = {n: from_gait[n] if n in from_gait else self.law(d[n], path + (n,), d, n, model) for n in names}
+        robot = model.kind == "robot"           # a robot's motors not listed are commanded, holding their rest length
+        self.keys(d, path, names + (("gait",) if takes_gait else ()), required=() if robot else own)
+        laws = {n: from_gait[n] if n in from_gait else self.law(d[n], path + (n,), d, n, model) if n in d
+                else Commanded(None) for n in names}
         if isinstance(model, RobotModelSpec):
             self.within_motor_ranges(laws, model, path, d)
         return laws
