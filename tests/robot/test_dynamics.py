@@ -19,8 +19,8 @@ from hypothesis import strategies as st
 from tensegrity_core.general.rotation import exp_so3
 from tensegrity_core.sim import compile_scene, load_scene
 from tensegrity_core.sim.general.kernels.jit import have_numba
-from tensegrity_core.sim.robot.loops import NO_ANCHOR, SLIPPING, STICKING
-from tensegrity_core.sim.robot.system import RobotSystem
+from tensegrity_core.sim.general.robot.loops import NO_ANCHOR, SLIPPING, STICKING
+from tensegrity_core.sim.general.robot.system import RobotSystem
 
 ALL = ["inertia", "cables", "motors", "gravity", "contact", "friction", "sensors"]
 

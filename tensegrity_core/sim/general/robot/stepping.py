@@ -1,7 +1,7 @@
 """The fixed-step integrator of robot scenes: a 1 kHz loop in compiled code.
 
 A robot's motors and friction anchors are **sampled** elements: their states change once
-per physics step (:func:`tensegrity_core.sim.robot.loops.sampled_update`), so a robot is
+per physics step (:func:`tensegrity_core.sim.general.robot.loops.sampled_update`), so a robot is
 integrated on a fixed grid ``t_n = n h`` (``h`` the scene's ``integrator.max_step``, 1 ms by
 default) with the classical RK4, as MuJoCo steps its models, and the motors' inputs are
 sampled at each step's start. :class:`FixedStepper` keeps the state ``y_n`` at the last grid
@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 from tensegrity_core.events import LoggedEvent
 from tensegrity_core.sim.errors import SimulationError, check_advance_target
-from tensegrity_core.sim.robot.system import RobotSystem
+from tensegrity_core.sim.general.robot.system import RobotSystem
 
 FloatArray = NDArray[np.float64]
 #: What an observation needs of one state: ``(t [s], y, the system of its charts and inputs)``.

@@ -30,13 +30,13 @@ from tensegrity_core.robot.imu import imu_readings
 from tensegrity_core.sim.commands import changed, check_command, compile_inputs
 from tensegrity_core.sim.errors import SimulationError
 from tensegrity_core.sim.general.model import kinetic_energy
+from tensegrity_core.sim.general.robot.loops import SLIPPING
+from tensegrity_core.sim.general.robot.plan import build_plan, lumped_masses, robot_layout
+from tensegrity_core.sim.general.robot.setup import initial_vector, names_of, robot_effects, robot_model, state_names
+from tensegrity_core.sim.general.robot.stepping import FixedStepper, RobotSample
+from tensegrity_core.sim.general.robot.system import RobotEvaluation, RobotSystem
 from tensegrity_core.sim.inputs import held
 from tensegrity_core.sim.model import Model, State
-from tensegrity_core.sim.robot.loops import SLIPPING
-from tensegrity_core.sim.robot.plan import build_plan, lumped_masses, robot_layout
-from tensegrity_core.sim.robot.setup import initial_vector, names_of, robot_effects, robot_model, state_names
-from tensegrity_core.sim.robot.stepping import FixedStepper, RobotSample
-from tensegrity_core.sim.robot.system import RobotEvaluation, RobotSystem
 from tensegrity_core.sim.scene import Scene
 
 FloatArray = NDArray[np.float64]

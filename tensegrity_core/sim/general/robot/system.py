@@ -20,9 +20,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.sim.general.kernels.jit import choose_kernels
+from tensegrity_core.sim.general.robot import arrays, loops
+from tensegrity_core.sim.general.robot.plan import RobotPlan
 from tensegrity_core.sim.inputs import Law
-from tensegrity_core.sim.robot import arrays, loops
-from tensegrity_core.sim.robot.plan import RobotPlan
 
 FloatArray = NDArray[np.float64]
 

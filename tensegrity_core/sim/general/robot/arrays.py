@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from tensegrity_core.general.rotation import cross
 from tensegrity_core.sim.general.kernels import arrays as general
-from tensegrity_core.sim.robot.loops import NO_ANCHOR, RECHART_ANGLE, SLIPPING, STICKING
+from tensegrity_core.sim.general.robot.loops import NO_ANCHOR, RECHART_ANGLE, SLIPPING, STICKING
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
