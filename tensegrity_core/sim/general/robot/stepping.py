@@ -65,6 +65,7 @@ class FixedStepper:
         self.y = self.y_grid
         self.n_steps = 0
         self._ahead: _Ahead | None = None
+        self._aims: tuple[RobotSystem, int, FloatArray] | None = None
 
     @property
     def mode(self) -> frozenset[int]:
@@ -94,6 +95,18 @@ class FixedStepper:
             self._ahead = None                   # the step ahead starts now: it takes the command
         self.system = system.with_chart(self.system.R_ref)
 
+    def aims(self, n: int, k: int) -> FloatArray:
+        """(k, motors) the motors' targets [m] at the starts of steps ``n .. n + k - 1``: the
+        input laws evaluated :data:`CHUNK` steps at a time and kept until the inputs change
+        (a law's evaluation costs far more than a step)."""
+        cached = self._aims
+        if cached is None or cached[0].laws is not self.system.laws or not cached[1] <= n \
+                or n + k > cached[1] + len(cached[2]):
+            times: FloatArray = (n + np.arange(max(k, CHUNK), dtype=np.float64)) * self.h
+            cached = self._aims = (self.system, n, self.system.aims(times))
+        out: FloatArray = cached[2][n - cached[1]:n - cached[1] + k]
+        return out
+
     def _grid_index(self, t: float) -> tuple[int, bool]:
         """``(n, on)``: the last grid point at or before ``t`` and whether ``t`` is on it."""
         x = t / self.h
@@ -110,8 +123,7 @@ class FixedStepper:
                 steps -= 1
                 continue
             k = min(steps, CHUNK)
-            times: FloatArray = (self.n + np.arange(k, dtype=np.float64)) * self.h
-            y, R, _ = self.system.run(self.y_grid, self.system.R_ref, self.h, self.system.aims(times))
+            y, R, _ = self.system.run(self.y_grid, self.system.R_ref, self.h, self.aims(self.n, k))
             self._commit(y, R, k)
             steps -= k
 
@@ -139,8 +151,7 @@ class FixedStepper:
             self.y = self.y_grid
             return
         if self._ahead is None:
-            y, R, y_end = self.system.run(self.y_grid, self.system.R_ref, self.h,
-                                          self.system.aims(np.array([self.n * self.h])))
+            y, R, y_end = self.system.run(self.y_grid, self.system.R_ref, self.h, self.aims(self.n, 1))
             self._ahead = _Ahead(self.n, y, R, y_end)
         self.y = self._interpolate(t_target, self._ahead)
 
