@@ -6,6 +6,7 @@
 ``class2/quasi-static``           class-2 mechanism, equilibrium path (:mod:`.class2.quasistatic`)
 ``general/dynamic``               general structure with inertia (:mod:`.general.dynamic`)
 ``general/quasi-static``          general structure, incremental form-finding (:mod:`.general.quasistatic`)
+``robot/dynamic``                 tensegrity robot, fixed-step dynamics (:mod:`.general.robot.dynamic`)
 ================================  ================================================================
 
 :func:`compile_scene` picks the back end a checked scene asks for (its model kind, and
@@ -28,6 +29,7 @@ BACKENDS: dict[str, str] = {
     "class2/quasi-static": "tensegrity_core.sim.class2.quasistatic:Class2QuasiStatic",
     "general/dynamic": "tensegrity_core.sim.general.dynamic:GeneralDynamic",
     "general/quasi-static": "tensegrity_core.sim.general.quasistatic:GeneralQuasiStatic",
+    "robot/dynamic": "tensegrity_core.sim.general.robot.dynamic:RobotDynamic",
 }
 
 

@@ -55,7 +55,8 @@ def test_every_shipped_scene_compiles_to_a_registered_back_end_with_the_whole_pr
 
 
 def test_the_registry_names_each_model_kind_and_regime_once():
-    assert sorted(BACKENDS) == ["class2/dynamic", "class2/quasi-static", "general/dynamic", "general/quasi-static"]
+    assert sorted(BACKENDS) == ["class2/dynamic", "class2/quasi-static", "general/dynamic", "general/quasi-static",
+                              "robot/dynamic"]
     for key in BACKENDS:
         cls = backend(key)
         assert f"{cls.kind}/{'quasi-static' if cls.quasi_static else 'dynamic'}" == key

@@ -257,16 +257,25 @@ class GeneralSystem:
 
     def kinetic_energy(self, y: FloatArray, R: FloatArray) -> FloatArray:
         """Kinetic energy [J] (B,) of states ``y`` (B, 2 n_dof) whose bodies have rotations
-        ``R`` (B, nb, 3, 3): ``1/2 sum m v^2`` of the free coordinates plus, per body,
-        ``1/2 (m |v_c|^2 + 2 v_c . (w x s) + w . I_c w)``."""
-        n = self.n
-        v = y[:, n:]
-        T: FloatArray = 0.5 * np.sum(self.masses.free * v[:, :self.n_free] ** 2, axis=1)
-        if self.nb:
-            cols = self.lay.body_dof[:, None] + np.arange(3)[None, :]
-            vc, w = v[:, cols], v[:, cols + 3]
-            s = np.einsum("bkij,kj->bki", R, self.masses.s_body)
-            Iw = np.einsum("bkij,kjl,bkml,bkm->bki", R, self.masses.I_body, R, w)
-            T = T + 0.5 * np.sum(self.masses.body * np.sum(vc * vc, axis=2)
-                                 + 2.0 * np.sum(vc * cross(w, s), axis=2) + np.sum(w * Iw, axis=2), axis=1)
-        return T
+        ``R`` (B, nb, 3, 3) (:func:`kinetic_energy`)."""
+        m = self.masses
+        return kinetic_energy(y[:, self.n:], R, m.free, self.lay.body_dof, m.body, m.s_body, m.I_body)
+
+
+def kinetic_energy(v: FloatArray, R: FloatArray, free_mass: FloatArray, body_dof: ArrayLike, body_mass: FloatArray,
+                   first_moment: FloatArray, inertia: FloatArray) -> FloatArray:
+    """Kinetic energy [J] (B,) of rates ``v`` (B, n_dof) (free coordinates first, then per
+    body ``v_c`` and ``w`` at ``body_dof``) with the bodies' rotations ``R`` (B, nb, 3, 3):
+    ``1/2 sum m v^2`` of the free coordinates (lumped masses ``free_mass`` [kg]) plus, per
+    body of mass ``m``, first moment ``s`` and inertia ``I_c`` about ``c`` (body frame),
+    ``1/2 (m |v_c|^2 + 2 v_c . (w x s) + w . I_c w)``."""
+    T: FloatArray = 0.5 * np.sum(free_mass * v[:, :len(free_mass)] ** 2, axis=1)
+    dof = np.asarray(body_dof, dtype=int)
+    if len(dof):
+        cols = dof[:, None] + np.arange(3)[None, :]
+        vc, w = v[:, cols], v[:, cols + 3]
+        s = np.einsum("bkij,kj->bki", R, first_moment)
+        Iw = np.einsum("bkij,kjl,bkml,bkm->bki", R, inertia, R, w)
+        T = T + 0.5 * np.sum(body_mass * np.sum(vc * vc, axis=2)
+                             + 2.0 * np.sum(vc * cross(w, s), axis=2) + np.sum(w * Iw, axis=2), axis=1)
+    return T

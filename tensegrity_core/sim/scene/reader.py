@@ -52,24 +52,34 @@ from tensegrity_core.sim.scene.spec import (
     METHODS,
     NEEDS_INERTIA,
     NOISY_QUANTITIES,
+    ROBOT_EFFECTS,
     ActuatorComplianceSpec,
     ActuatorLagSpec,
     Class2ModelSpec,
+    ContactSpec,
     DampingSpec,
     EffectSpec,
     FlagSpec,
     FoldLimitSpec,
+    FrictionSpec,
     GeneralModelSpec,
     GravitySpec,
     InitialSpec,
     IntegratorSpec,
     LoadsSpec,
     ModelSpec,
+    MotorsSpec,
+    RobotModelSpec,
     Scene,
     SceneEffects,
     SensorNoiseSpec,
     output_size_reason,
 )
+
+#: The fixed step of a robot scene without ``integrator.max_step`` [s] (a 1 kHz loop).
+ROBOT_STEP = 1.0e-3
+#: Effects that only robots have.
+ROBOT_ONLY = tuple(e for e in ROBOT_EFFECTS if e not in ("inertia", "gravity"))
 
 #: The shipped scenes' folder.
 SCENES_DIR = Path(__file__).parents[1] / "scenes"
@@ -161,7 +171,7 @@ class _SceneReader(Reader):
         if reason:
             where = ("output", "rate") if "output" in d else ("duration",)
             raise self.error(reason, where, d["output"] if "output" in d else d, where[-1])
-        integrator = self.integrator(d.get("integrator"), ("integrator",), d)
+        integrator = self.integrator(d.get("integrator"), ("integrator",), d, model)
         seed = self.integer(d, "seed", (), default=0, lo=0)
         return Scene(name=name, model=model, initial=initial, inputs=inputs, effects=effects,
                      duration=duration, output_rate=output_rate, integrator=integrator, seed=seed,
@@ -170,7 +180,9 @@ class _SceneReader(Reader):
     # -- model ---------------------------------------------------------------------------
     def model(self, value: object, path: KeyPath, parent: dict[str, Any]) -> ModelSpec:
         d = self.mapping(value, path, parent, "model")
-        kind = self.string(d, "kind", path, choices=("class2", "general"))
+        kind = self.string(d, "kind", path, choices=("class2", "general", "robot"))
+        if kind == "robot":
+            return self.robot_model(d, path)
         if kind == "class2":
             self.keys(d, path, ("kind", "params"))
             from tensegrity_core.class2.params import PAPER_PARAMS
@@ -199,6 +211,42 @@ class _SceneReader(Reader):
             end_effector = int(structure.n_nodes - 1)
         actuators = tuple(i for i, k in enumerate(structure.member_kinds) if k == "actuator")
         return GeneralModelSpec(structure, source, end_effector, actuators)
+
+    def robot_model(self, d: dict[str, Any], path: KeyPath) -> RobotModelSpec:
+        from tensegrity_core.robot.description import RobotError
+        from tensegrity_core.robot.loading import robot_from_file, robot_names, robot_path
+        from tensegrity_core.robot.robot_schema import robot_from_dict
+
+        self.keys(d, path, ("kind", "robot", "end_effector"), required=("robot",))
+        value = d["robot"]
+        try:
+            if isinstance(value, dict):
+                robot, source = robot_from_dict(value), "inline"
+            elif isinstance(value, str) and (self.base / value).is_file():
+                robot, source = robot_from_file(self.base / value), str(self.base / value)
+            elif isinstance(value, str) and value in robot_names():
+                robot, source = robot_from_file(robot_path(value)), value
+            elif isinstance(value, str):
+                raise self.error(f"no robot file {excerpt(str(self.base / value))} and no shipped robot "
+                                 f"{excerpt(value)}{suggest(value, robot_names())}; shipped robots: "
+                                 f"{', '.join(robot_names())}", path + ("robot",), d, "robot")
+            else:
+                raise self.error(f"must be a shipped robot's name, a file path or a mapping, got {type_name(value)}",
+                                 path + ("robot",), d, "robot")
+        except RobotError as err:
+            if isinstance(value, dict):          # inline: the robot's own key path and line in this file
+                raise self.error_class(f"invalid robot: {err.reason}", key=path + ("robot",) + tuple(err.key),
+                                       line=err.line, file=self.file) from None
+            raise self.error_class(f"invalid robot: {err}", key=path + ("robot",), file=self.file) from None
+        if "end_effector" in d:
+            ee = self.string(d, "end_effector", path)
+            if ee not in robot.node_names:
+                raise self.error(f"unknown node {excerpt(ee)}{suggest(ee, robot.node_names)}",
+                                 path + ("end_effector",), d, "end_effector")
+            end_effector = robot.node_names.index(ee)
+        else:
+            end_effector = int(robot.n_nodes - 1)
+        return RobotModelSpec(robot, source, end_effector, tuple(int(i) for i in robot.cables.actuated))
 
     def structure(self, value: object, path: KeyPath, parent: dict[str, Any]) -> tuple[Structure, str]:
         from tensegrity_core.general import StructureError, load_example, structure_from_dict, structure_from_file
@@ -244,6 +292,11 @@ class _SceneReader(Reader):
                                  f"{', '.join(EFFECTS)}", p, value, i)
             if name in out:
                 raise self.error(f"effect {name!r} is listed twice", p, value, i)
+            if model.kind == "robot" and name not in ROBOT_EFFECTS:
+                raise self.error(f"effect {name!r} does not apply to robots; robot effects: {', '.join(ROBOT_EFFECTS)}",
+                                 p, value, i)
+            if model.kind != "robot" and name in ROBOT_ONLY:
+                raise self.error(f"effect {name!r} applies to robot scenes only (model kind 'robot')", p, value, i)
             options = self.mapping(options, opath, holder, name if holder is item else i)
             out[name] = self.effect_options(name, options, opath, model)
         if "inertia" not in out:
@@ -257,6 +310,15 @@ class _SceneReader(Reader):
                 if name in out:
                     i = list(out).index(name)
                     raise self.error(f"effect {name!r} applies to the class-2 mechanism only", path + (i,), value, i)
+        if model.kind == "robot":
+            for needed, why in (("inertia", "robots are simulated with their dynamics"),
+                                ("cables", "nothing else holds the rods together")):
+                if needed not in out:
+                    raise self.error(f"a robot scene needs {needed!r} ({why})", path, parent, "effects")
+            if "friction" in out and "contact" not in out:
+                i = list(out).index("friction")
+                raise self.error("effect 'friction' needs 'contact' (friction acts where the caps touch the floor)",
+                                 path + (i,), value, i)
         if "springs" not in out and "inertia" not in out:
             raise self.error("a scene without inertia (quasi-static) needs 'springs': nothing else holds the "
                              "configuration in equilibrium", path, parent, "effects")
@@ -265,7 +327,9 @@ class _SceneReader(Reader):
         return cast(SceneEffects, {name: out[name] for name in EFFECTS if name in out})
 
     def effect_options(self, name: str, d: dict[str, Any], path: KeyPath, model: ModelSpec) -> EffectSpec:
-        if name in ("inertia", "springs"):
+        if name in ("motors", "contact", "friction") and isinstance(model, RobotModelSpec):
+            return self.robot_effect(name, d, path, model)
+        if name in ("inertia", "springs", "cables", "sensors"):
             self.keys(d, path, ())
             return FlagSpec()
         if name == "damping":
@@ -285,6 +349,8 @@ class _SceneReader(Reader):
                 return GravitySpec(self.vector(d["vector"], 3, path + ("vector",), d, "vector"))
             if model.kind == "general" and np.any(model.structure.gravity != 0):
                 return GravitySpec(tuple(float(g) for g in model.structure.gravity))
+            if model.kind == "robot" and np.any(model.robot.gravity != 0):
+                return GravitySpec(tuple(float(g) for g in model.robot.gravity))
             return GravitySpec((0.0, 0.0, -STANDARD_GRAVITY))
         if name == "loads":
             names = _node_names(model)
@@ -316,6 +382,36 @@ class _SceneReader(Reader):
             raise self.error(f"lists no quantity; give sigma for some of {', '.join(NOISY_QUANTITIES)}", path, d, None)
         return SensorNoiseSpec({k: self.number(d, k, path, lo=0.0) for k in d})
 
+    def robot_effect(self, name: str, d: dict[str, Any], path: KeyPath, model: RobotModelSpec) -> EffectSpec:
+        """The options of a robot's ``motors``, ``contact`` or ``friction``: each replaces the
+        description's value (every motor's, the floor's)."""
+        if name == "motors":
+            self.keys(d, path, ("tau", "max_speed", "max_tension"))
+            tau = self.number(d, "tau", path, lo=0.0) if "tau" in d else None
+            speed = self.number(d, "max_speed", path, lo=0.0, lo_open=True, allow_inf=True) \
+                if "max_speed" in d else None
+            tension = self.number(d, "max_tension", path, lo=0.0, lo_open=True, allow_inf=True) \
+                if "max_tension" in d else None
+            return MotorsSpec(tau, speed, tension)
+        floor = model.robot.floor
+        if floor is None:
+            raise self.error(f"robot {excerpt(model.robot.name)} has no floor for {name!r} (give its description a "
+                             f"'floor')", path, d, None)
+        if name == "contact":
+            self.keys(d, path, ("stiffness", "dissipation"))
+            return ContactSpec(self.number(d, "stiffness", path, default=floor.stiffness, lo=0.0, lo_open=True),
+                               self.number(d, "dissipation", path, default=floor.dissipation, lo=0.0))
+        self.keys(d, path, ("mu_static", "mu_kinetic", "tangential_stiffness", "tangential_damping"))
+        mu_s = self.number(d, "mu_static", path, default=floor.mu_static, lo=0.0)
+        mu_k = self.number(d, "mu_kinetic", path, default=min(floor.mu_kinetic, mu_s), lo=0.0)
+        if mu_k > mu_s:
+            raise self.error(f"mu_kinetic = {mu_k:g} must not exceed mu_static = {mu_s:g}", path + ("mu_kinetic",),
+                             d, "mu_kinetic")
+        return FrictionSpec(mu_s, mu_k,
+                            self.number(d, "tangential_stiffness", path, default=floor.tangential_stiffness, lo=0.0,
+                                        lo_open=True),
+                            self.number(d, "tangential_damping", path, default=floor.tangential_damping, lo=0.0))
+
     # -- initial state -----------------------------------------------------------------------
     def initial(self, value: object, path: KeyPath, parent: dict[str, Any], model: ModelSpec,
                 effects: SceneEffects) -> InitialSpec:
@@ -338,6 +434,11 @@ class _SceneReader(Reader):
             r2 = self.number(e, "rho2", path + ("equilibrium",))
             self.class2_domain(r1, r2, model, effects, path + ("equilibrium",), d, "equilibrium")
             return InitialSpec("equilibrium", lengths=(r1, r2))
+        if model.kind == "robot":
+            self.keys(d, path, ("drawn", "lift"), required=("drawn",))
+            if d["drawn"] is not True:
+                raise self.error(f"must be true, got {excerpt(d['drawn'])}", path + ("drawn",), d, "drawn")
+            return InitialSpec("drawn", lift=self.number(d, "lift", path, default=0.0, lo=0.0))
         self.keys(d, path, ("equilibrium", "drawn"))
         if len(d) != 1:
             raise self.error("give exactly one of 'equilibrium: true | {preload: {node: [fx, fy, fz]}}' or "
@@ -384,16 +485,21 @@ class _SceneReader(Reader):
         names: tuple[str, ...]
         if model.kind == "class2":
             names = ACTUATORS
+        elif model.kind == "robot":
+            names = tuple(model.robot.cables.names[i] for i in model.actuators)
         else:
             names = tuple(model.structure.member_names[i] for i in model.actuators)
         if value is None:
+            if model.kind == "robot":          # every motor commanded, holding its drawn rest length
+                return {n: Commanded(None) for n in names}
             if names:
                 raise self.error(f"missing required key 'inputs' (one law per actuator: {', '.join(names)})",
                                  (), parent, None)
             return {}
         d = self.mapping(value, path, parent, "inputs")
         from_gait: dict[str, InputLaw] = {}
-        if model.kind == "general" and "gait" in d:
+        takes_gait = model.kind in ("general", "robot")
+        if takes_gait and "gait" in d:
             gait = read_gait(self, d["gait"], path + ("gait",), d, "gait", self.base)
             for cable in gait.cables:
                 if cable not in names:
@@ -405,8 +511,35 @@ class _SceneReader(Reader):
                                      path + (cable,), d, cable)
             from_gait = dict(gait.laws())
         own = tuple(n for n in names if n not in from_gait)
-        self.keys(d, path, names + (("gait",) if model.kind == "general" else ()), required=own)
-        return {n: from_gait[n] if n in from_gait else self.law(d[n], path + (n,), d, n, model) for n in names}
+        robot = model.kind == "robot"           # a robot's motors not listed are commanded, holding their rest length
+        self.keys(d, path, names + (("gait",) if takes_gait else ()), required=() if robot else own)
+        laws = {n: from_gait[n] if n in from_gait else self.law(d[n], path + (n,), d, n, model) if n in d
+                else Commanded(None) for n in names}
+        if isinstance(model, RobotModelSpec):
+            self.within_motor_ranges(laws, model, path, d)
+        return laws
+
+    def within_motor_ranges(self, laws: dict[str, InputLaw], model: RobotModelSpec, path: KeyPath,
+                            d: dict[str, Any]) -> None:
+        """Every rest length a robot's input law asks for lies in its motor's range."""
+        robot = model.robot
+        for name, law in laws.items():
+            cable = robot.cables.names.index(name)
+            lo, hi = robot.motors.range[int(robot.cables.motor[cable])]
+            values: tuple[float, ...]
+            if isinstance(law, Constant):
+                values = (law.value,)
+            elif isinstance(law, Ramp):
+                values = (law.start_value, law.end_value)
+            elif isinstance(law, Commanded):
+                values = () if law.initial is None else (law.initial,)
+            else:
+                values = tuple(getattr(law, "values", ()))
+            bad = [v for v in values if not lo <= v <= hi]
+            if bad:
+                where = path + (name,) if name in d else path + ("gait",)
+                raise self.error(f"rest length {bad[0]:g} m of cable {excerpt(name)} is outside its motor's range "
+                                 f"[{lo:g}, {hi:g}] m", where, d, where[-1])
 
     LAW_KEYS: ClassVar[dict[str, tuple[str, ...]]] = {
         "constant": ("law", "value"), "ramp": ("law", "from", "to", "t0", "t1"), "proportional": ("law", "gain"),
@@ -438,12 +571,19 @@ class _SceneReader(Reader):
         return read_series(self, d, path, self.base)
 
     # -- integrator --------------------------------------------------------------------------------
-    def integrator(self, value: object, path: KeyPath, parent: dict[str, Any]) -> IntegratorSpec:
+    def integrator(self, value: object, path: KeyPath, parent: dict[str, Any], model: ModelSpec) -> IntegratorSpec:
+        robot = model.kind == "robot"
         if value is None:
-            return IntegratorSpec()
+            return IntegratorSpec("RK4", max_step=ROBOT_STEP) if robot else IntegratorSpec()
         d = self.mapping(value, path, parent, "integrator")
         self.keys(d, path, ("method", "rtol", "atol", "max_step"))
         method = self.string(d, "method", path, default="auto", choices=METHODS)
+        if robot:
+            if method not in ("auto", "RK4"):
+                raise self.error(f"a robot scene integrates with fixed RK4 steps (its motors and friction are "
+                                 f"sampled once per step), not {method}", path + ("method",), d, "method")
+            step = self.number(d, "max_step", path, default=ROBOT_STEP, lo=0.0, lo_open=True, hi=0.1)
+            return IntegratorSpec("RK4", max_step=step)
         rtol = self.number(d, "rtol", path, default=1e-8, lo=1e-13, hi=0.1)
         atol = self.number(d, "atol", path, default=1e-10, lo=0.0, lo_open=True)
         max_step = self.number(d, "max_step", path, default=math.inf, lo=0.0, lo_open=True, allow_inf=True)

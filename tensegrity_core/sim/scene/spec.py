@@ -15,6 +15,7 @@ from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, ClassVar, Literal, TypedDict
 
 from tensegrity_core.general.structure import Structure
+from tensegrity_core.robot.description import Robot
 from tensegrity_core.schema import Reader
 from tensegrity_core.sim.errors import SceneError
 from tensegrity_core.sim.inputs import InputLaw
@@ -24,7 +25,10 @@ if TYPE_CHECKING:
 
 #: Effects a scene may list, in the order the simulator composes them.
 EFFECTS = ("inertia", "springs", "damping", "gravity", "loads", "actuator_lag",
-           "actuator_compliance", "fold_limit", "sensor_noise")
+           "actuator_compliance", "fold_limit", "sensor_noise", "cables", "motors", "contact", "friction", "sensors")
+#: The effects of a robot scene (docs/robots.md): the rods' inertia, the tension-only cables,
+#: the cables' motors, gravity, the floor's normal contact and friction, the sensors' readings.
+ROBOT_EFFECTS = ("inertia", "cables", "motors", "gravity", "contact", "friction", "sensors")
 #: Effects that need inertia, and why (without inertia the model is quasi-static).
 NEEDS_INERTIA = {
     "damping": "rates vanish in a quasi-static model, so dampers carry no force",
@@ -64,8 +68,29 @@ class GeneralModelSpec:
     kind: ClassVar[Literal["general"]] = "general"
 
 
+@dataclass(frozen=True)
+class RobotModelSpec:
+    """A tensegrity robot (:mod:`tensegrity_core.robot`): rods, cables, motors, sensors, floor.
+
+    ``end_effector`` is the index of the node reported as the end effector; ``actuators``
+    the indices of the actuated cables in motor order (their motors' rest lengths are the
+    inputs)."""
+
+    robot: Robot
+    source: str
+    end_effector: int
+    actuators: tuple[int, ...]
+    kind: ClassVar[Literal["robot"]] = "robot"
+
+    @property
+    def structure(self) -> Structure:
+        """The robot as the statics see it (:meth:`~tensegrity_core.robot.description.Robot.structure`):
+        its node and member names (rods, then cables) name what a robot scene observes."""
+        return self.robot.structure()
+
+
 #: The mechanism a scene simulates.
-ModelSpec = Class2ModelSpec | GeneralModelSpec
+ModelSpec = Class2ModelSpec | GeneralModelSpec | RobotModelSpec
 
 
 @dataclass(frozen=True)
@@ -73,13 +98,14 @@ class InitialSpec:
     """Initial state. ``kind``: "state" (explicit ``q``, ``qdot``), "equilibrium" (class-2:
     ``q = (rho1, rho2, beta*)`` with ``lengths = (rho1, rho2)``; general: form-found under the
     scene's static effects plus ``preload`` {node index: force [N]}) or "drawn" (general: the
-    reference coordinates). Velocities are zero unless ``qdot`` is given."""
+    reference coordinates; a robot raised by ``lift``). Velocities are zero unless ``qdot`` is given."""
 
     kind: str
     q: tuple[float, ...] | None = None
     qdot: tuple[float, ...] | None = None
     lengths: tuple[float, ...] | None = None
     preload: dict[int, tuple[float, ...]] = field(default_factory=dict)
+    lift: float = 0.0         # [m] robots: how far above its drawing (along the floor's normal) it starts
 
 
 @dataclass(frozen=True)
@@ -124,8 +150,38 @@ class SensorNoiseSpec:
 
 
 @dataclass(frozen=True)
+class MotorsSpec:
+    """Robots: the cables' motors (first-order lag, slew limit, tension limit); each value
+    given here replaces every motor's: ``tau`` [s], ``max_speed`` [m/s], ``max_tension`` [N]
+    (None: each motor's own)."""
+
+    tau: float | None = None
+    max_speed: float | None = None
+    max_tension: float | None = None
+
+
+@dataclass(frozen=True)
+class ContactSpec:
+    """Robots: the floor's normal contact, stiffness [N/m] and Hunt-Crossley dissipation [s/m]."""
+
+    stiffness: float
+    dissipation: float
+
+
+@dataclass(frozen=True)
+class FrictionSpec:
+    """Robots: the floor's stick-slip friction: coefficients (``mu_kinetic <= mu_static``),
+    the anchor's ``tangential_stiffness`` [N/m] and ``tangential_damping`` [N s/m]."""
+
+    mu_static: float
+    mu_kinetic: float
+    tangential_stiffness: float
+    tangential_damping: float
+
+
+@dataclass(frozen=True)
 class FlagSpec:
-    """An effect without options (inertia, springs)."""
+    """An effect without options (inertia, springs, cables, sensors)."""
 
 
 class SceneEffects(TypedDict, total=False):
@@ -140,11 +196,16 @@ class SceneEffects(TypedDict, total=False):
     actuator_compliance: ActuatorComplianceSpec
     fold_limit: FoldLimitSpec
     sensor_noise: SensorNoiseSpec
+    cables: FlagSpec
+    motors: MotorsSpec
+    contact: ContactSpec
+    friction: FrictionSpec
+    sensors: FlagSpec
 
 
 #: The options of one effect.
 EffectSpec = (FlagSpec | DampingSpec | GravitySpec | LoadsSpec | ActuatorLagSpec | ActuatorComplianceSpec | FoldLimitSpec
-              | SensorNoiseSpec)
+              | SensorNoiseSpec | MotorsSpec | ContactSpec | FrictionSpec)
 
 
 @dataclass(frozen=True)
@@ -211,5 +272,11 @@ def values_per_sample(model: ModelSpec) -> int:
     inputs, member forces and lengths, node positions, energies."""
     if model.kind == "class2":
         return 64
+    if model.kind == "robot":
+        r = model.robot
+        bodies = len(r.rods) + len(r.bodies)
+        caps = 2 * len(r.rods)
+        return int(4 * (6 * bodies + 3 * r.n_nodes) + 2 * (len(r.rods) + len(r.cables)) + 6 * r.n_nodes
+                   + 3 * len(r.cables) + 12 * caps + 16 * bodies + 16)
     s = model.structure
     return int(4 * s.layout.n_dof + 2 * s.n_members + 3 * s.n_nodes + len(model.actuators) + 16)

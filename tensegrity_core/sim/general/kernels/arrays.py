@@ -107,11 +107,28 @@ def member_forces(member_a: IntArray, member_b: IntArray, EA: FloatArray, dampin
     return scatter(np.concatenate([member_a, member_b]), np.concatenate([ft, -ft], axis=1), n)
 
 
+def nodal_wrenches(on_node: IntArray, on_body: IntArray, r: FloatArray, F: FloatArray, nb: int) -> FloatArray:
+    """:func:`.loops.nodal_wrenches` of a batch: (B, nb, 6) from ``F`` (B, n, 3) and arms ``r`` (B, n_on, 3)."""
+    f = F[:, on_node]
+    out: FloatArray = np.concatenate([scatter(on_body, f, nb), scatter(on_body, cross(r, f), nb)], axis=2)
+    return out
+
+
 def accelerate(free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray, on_node: IntArray,
                on_body: IntArray, body_dof: IntArray, body_mass: FloatArray, body_first_moment: FloatArray,
                body_inertia: FloatArray, body_inv_inertia_cm: FloatArray, y: FloatArray, R: FloatArray,
                r: FloatArray, F: FloatArray, out: FloatArray) -> None:
     """:func:`.loops.accelerate` of a batch (``F`` (B, n, 3) the nodal forces)."""
+    wrench = nodal_wrenches(on_node, on_body, r, F, len(body_dof))
+    rates(free_node, free_axis, free_inv_mass, body_dof, body_mass, body_first_moment, body_inertia,
+          body_inv_inertia_cm, y, R, F, wrench, out)
+
+
+def rates(free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray, body_dof: IntArray,
+          body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
+          body_inv_inertia_cm: FloatArray, y: FloatArray, R: FloatArray, F: FloatArray, wrench: FloatArray,
+          out: FloatArray) -> None:
+    """:func:`.loops.rates` of a batch (``F`` (B, n, 3), ``wrench`` (B, nb, 6))."""
     n_dof = y.shape[1] // 2
     n_free = len(free_node)
     out[:, :n_free] = y[:, n_dof:n_dof + n_free]
@@ -119,8 +136,6 @@ def accelerate(free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArr
     nb = len(body_dof)
     if not nb:
         return
-    f = F[:, on_node]
-    wrench = np.concatenate([scatter(on_body, f, nb), scatter(on_body, cross(r, f), nb)], axis=2)
     three = np.arange(3)
     cols = body_dof[:, None] + three                                   # (nb, 3) centre columns
     s = _apply(R, np.broadcast_to(body_first_moment, R.shape[:-1]))

@@ -17,7 +17,9 @@ lengths ``l0`` (B, m) [m]. The pipeline of one evaluation, each stage a kernel:
    (dead loads, weights), :func:`member_forces` (axial springs and taut dampers). A new
    effect (contacts, cables driven by motors) is one more kernel of this shape, called in
    :func:`evaluate`;
-3. :func:`accelerate`: generalised forces, rigid-body Newton-Euler, the state's rate.
+3. :func:`accelerate`: generalised forces (:func:`nodal_wrenches`), rigid-body Newton-Euler
+   and the state's rate (:func:`rates`). An effect that applies moments as well as nodal
+   forces (friction at a cap's contact point) adds them to the wrenches between the two.
 
 Rigid body (module docstring of :mod:`tensegrity_core.sim.general.model`): with ``s`` the
 first moment and ``I_c`` the inertia about ``c`` (world frame), ``F`` and ``M`` the force
@@ -150,17 +152,9 @@ def member_forces(member_a: IntArray, member_b: IntArray, EA: FloatArray, dampin
 
 
 @jit
-def accelerate(free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray, on_node: IntArray,
-               on_body: IntArray, body_dof: IntArray, body_mass: FloatArray, body_first_moment: FloatArray,
-               body_inertia: FloatArray, body_inv_inertia_cm: FloatArray, y: FloatArray, R: FloatArray,
-               r: FloatArray, F: FloatArray, wrench: FloatArray, out: FloatArray) -> None:
-    """``out = dy/dt`` of state ``y`` from the nodal forces ``F``: free coordinates ``F / m``;
-    per body the wrench about ``c`` (into ``wrench``, (nb, 6)) and Newton-Euler (module
-    docstring); the rotation vectors' rate ``J_l(theta)^-1 w``."""
-    n_dof = y.shape[0] // 2
-    for j in range(free_node.shape[0]):
-        out[j] = y[n_dof + j]
-        out[n_dof + j] = F[free_node[j], free_axis[j]] * free_inv_mass[j]
+def nodal_wrenches(on_node: IntArray, on_body: IntArray, r: FloatArray, F: FloatArray, wrench: FloatArray) -> None:
+    """``wrench`` (nb, 6): per moving body the force and the moment about ``c`` of the nodal
+    forces ``F`` on its nodes (arms ``r``)."""
     wrench[:, :] = 0.0
     for k in range(on_node.shape[0]):
         b = on_body[k]
@@ -172,6 +166,32 @@ def accelerate(free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArr
         wrench[b, 3] += r1 * f2 - r2 * f1
         wrench[b, 4] += r2 * f0 - r0 * f2
         wrench[b, 5] += r0 * f1 - r1 * f0
+
+
+@jit
+def accelerate(free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray, on_node: IntArray,
+               on_body: IntArray, body_dof: IntArray, body_mass: FloatArray, body_first_moment: FloatArray,
+               body_inertia: FloatArray, body_inv_inertia_cm: FloatArray, y: FloatArray, R: FloatArray,
+               r: FloatArray, F: FloatArray, wrench: FloatArray, out: FloatArray) -> None:
+    """``out = dy/dt`` of state ``y`` from the nodal forces ``F``: the bodies' wrenches
+    (:func:`nodal_wrenches`, into ``wrench``), then :func:`rates`."""
+    nodal_wrenches(on_node, on_body, r, F, wrench)
+    rates(free_node, free_axis, free_inv_mass, body_dof, body_mass, body_first_moment, body_inertia,
+          body_inv_inertia_cm, y, R, F, wrench, out)
+
+
+@jit
+def rates(free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray, body_dof: IntArray,
+          body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
+          body_inv_inertia_cm: FloatArray, y: FloatArray, R: FloatArray, F: FloatArray, wrench: FloatArray,
+          out: FloatArray) -> None:
+    """``out = dy/dt`` of state ``y`` (2 n_dof,) from the nodal forces ``F`` on the free
+    coordinates (``F / m``) and the bodies' ``wrench`` (nb, 6) about ``c``: Newton-Euler
+    (module docstring) and the rotation vectors' rate ``J_l(theta)^-1 w``."""
+    n_dof = y.shape[0] // 2
+    for j in range(free_node.shape[0]):
+        out[j] = y[n_dof + j]
+        out[n_dof + j] = F[free_node[j], free_axis[j]] * free_inv_mass[j]
     for b in range(body_dof.shape[0]):
         d = body_dof[b]
         m = body_mass[b]

@@ -57,6 +57,10 @@ def warm() -> float:
     stages.rk4(0.0, y, f, 1e-3)
     y_new, K, _ = stages.dop853(0.0, y, f, 1e-3, 1e-6, 1e-8)
     stages.dop853_dense(0.0, y, y_new, K, 1e-3)
+    robot = scene_from_dict({"model": {"kind": "robot", "robot": "three_bar"}, "initial": {"drawn": True},
+                             "effects": ["inertia", "cables", "motors", "gravity", "contact", "friction", "sensors"],
+                             "duration": 0.0025})
+    Simulator(robot, t_end=robot.duration).advance(robot.duration)    # the robot kernels: steps, interpolation
     return time.perf_counter() - started
 
 

@@ -1,0 +1,48 @@
+"""Which face of its hull a robot rests on, from the contact state: the faces a rolling robot visits.
+
+A robot rests on a *face* when a set of at least three end caps touches the floor; the
+contact state (per cap: touching or not, the ``cap_contact`` sensor reading) over time gives
+the sequence of faces. A set counts as a face when it holds for at least ``hold`` seconds
+(50 ms by default: a cap that grazes the floor for a sample while the robot tips makes no
+face); consecutive repeats merge, and :func:`faces_rolled` counts a return to a face
+visited before (a rock back) as no new face.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+
+def faces_visited(times: Sequence[float] | NDArray[np.float64], contact: NDArray[np.bool_],
+                  hold: float = 0.05) -> list[tuple[float, frozenset[int]]]:
+    """``[(t, caps), ...]``: each face (a set of at least three touching caps, indices into
+    the caps) the robot rests on for at least ``hold`` [s], with the time [s] it first
+    touched, in order; ``contact`` (N, caps) the touching flags at ``times`` (N,) [s]. A set
+    lasts from its first sample to the next set's first sample."""
+    t = np.asarray(times, dtype=float)
+    rows = np.asarray(contact, dtype=bool)
+    runs: list[tuple[float, frozenset[int]]] = []           # (first sample's time, caps)
+    for i, row in enumerate(rows):
+        caps = frozenset(np.flatnonzero(row).tolist())
+        if not runs or runs[-1][1] != caps:
+            runs.append((float(t[i]), caps))
+    ends = [start for start, _ in runs[1:]] + [float(t[-1]) if len(t) else 0.0]
+    faces: list[tuple[float, frozenset[int]]] = []
+    for (start, caps), end in zip(runs, ends):
+        if len(caps) >= 3 and end - start >= hold * (1 - 1e-9) and (not faces or faces[-1][1] != caps):
+            faces.append((start, caps))
+    return faces
+
+
+def faces_rolled(faces: Sequence[tuple[float, frozenset[int]]]) -> int:
+    """How many faces a robot rolled over: the faces it reached that it had not rested on
+    before (``faces`` from :func:`faces_visited`; the first is where it started)."""
+    seen: set[frozenset[int]] = set()
+    new = 0
+    for _, caps in faces:
+        new += caps not in seen
+        seen.add(caps)
+    return max(new - 1, 0)

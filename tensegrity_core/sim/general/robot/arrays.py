@@ -1,0 +1,230 @@
+"""The robot kernels of :mod:`.loops` written with numpy arrays: the same numbers to rounding, numpy alone.
+
+Used where numba is not installed or not wanted (``TENSEGRITY_KERNELS=numpy``). Each
+function takes a batch of states (leading axis ``B``) as the general array kernels do
+(:mod:`tensegrity_core.sim.general.kernels.arrays`, whose ``place``, ``nodal_wrenches``
+and ``rates`` it calls); :func:`run_steps` loops over the steps in Python. Arguments and
+results are those of the loop kernels of the same name.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tensegrity_core.general.rotation import cross
+from tensegrity_core.sim.general.kernels import arrays as general
+from tensegrity_core.sim.general.robot.loops import NO_ANCHOR, RECHART_ANGLE, SLIPPING, STICKING
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+def _dot(a: FloatArray, b: FloatArray) -> FloatArray:
+    """``a . b`` over the last axis, summed in the loop kernels' order."""
+    out: FloatArray = a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
+    return out
+
+
+def rest_lengths(cable_l0: FloatArray, cable_motor: IntArray, y: FloatArray, start: int) -> FloatArray:
+    """(B, c) rest lengths [m]: drawn, or the motors' states."""
+    out: FloatArray = np.where(cable_motor >= 0, y[:, start + np.maximum(cable_motor, 0)], cable_l0)
+    return out
+
+
+def cable_forces(cable_a: IntArray, cable_b: IntArray, cable_k: FloatArray, cable_c: FloatArray,
+                 cable_t_max: FloatArray, l0: FloatArray, X: FloatArray,
+                 V: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """:func:`.loops.cable_forces` of a batch: ``(nodal forces (B, n, 3), lengths, rates, tensions)``."""
+    h = X[:, cable_b] - X[:, cable_a]
+    length = np.sqrt(_dot(h, h))
+    u = h / length[..., None]
+    rate = _dot(u, V[:, cable_b] - V[:, cable_a])
+    t = np.where(length > l0, np.minimum(np.maximum(cable_k * (length - l0) + cable_c * rate, 0.0), cable_t_max),
+                 0.0)
+    ft = t[..., None] * u
+    F = general.scatter(np.concatenate([cable_a, cable_b]), np.concatenate([ft, -ft], axis=1), X.shape[1])
+    return F, length, rate, t
+
+
+def contact_velocity(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray, floor_normal: FloatArray,
+                     body_dof: IntArray, y: FloatArray, n_dof: int, V: FloatArray) -> FloatArray:
+    """(B, ncap, 3) velocities [m/s] of the caps' contact points: ``v + w x (-r n)``."""
+    v = V[:, cap_node].copy()
+    on = cap_body >= 0
+    if on.any():
+        cols = n_dof + body_dof[cap_body[on]][:, None] + 3 + np.arange(3)
+        w = y[:, cols]
+        v[:, on] -= cap_radius[on][:, None] * cross(w, np.broadcast_to(floor_normal, w.shape))
+    return v
+
+
+def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray, floor_normal: FloatArray,
+                 floor_point: FloatArray, floor_params: FloatArray, body_dof: IntArray, y: FloatArray, n_dof: int,
+                 anchors: int, X: FloatArray, V: FloatArray
+                 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """:func:`.loops.floor_forces` of a batch: ``(nodal forces (B, n, 3), moments (B, ncap, 3),
+    depth, normal (B, ncap), friction (B, ncap, 3), the offsets' rates (B, ncap, 3))``."""
+    k, d, kt, ct = floor_params[0], floor_params[1], floor_params[4], floor_params[5]
+    nvec = floor_normal
+    ncap = len(cap_node)
+    B = len(y)
+    P = X[:, cap_node]
+    delta = cap_radius - _dot(P - floor_point, np.broadcast_to(nvec, P.shape))
+    rate = -_dot(V[:, cap_node], np.broadcast_to(nvec, P.shape))
+    fn = np.where(delta > 0.0, k * delta * np.maximum(0.0, 1.0 + d * rate), 0.0)
+    state = y[:, anchors + 3 * ncap:anchors + 4 * ncap]
+    s = y[:, anchors:anchors + 3 * ncap].reshape(B, ncap, 3)
+    s = s - _dot(s, np.broadcast_to(nvec, s.shape))[..., None] * nvec
+    v = contact_velocity(cap_node, cap_body, cap_radius, nvec, body_dof, y, n_dof, V)
+    v = v - _dot(v, np.broadcast_to(nvec, v.shape))[..., None] * nvec
+    damping = np.where(state == STICKING, ct, 0.0)
+    anchored = (state != NO_ANCHOR)[..., None]
+    f = np.where(anchored, -kt * s - damping[..., None] * v, 0.0)
+    moments = -cap_radius[:, None] * cross(np.broadcast_to(nvec, f.shape), f)
+    total = fn[..., None] * nvec + f
+    F = general.scatter(cap_node, total, X.shape[1])
+    return F, moments, delta, fn, f, np.where(anchored, v, 0.0)
+
+
+def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
+                on_node: IntArray, on_body: IntArray, on_offset: FloatArray, body_dof: IntArray,
+                body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
+                body_inv_inertia_cm: FloatArray, external: FloatArray, cable_a: IntArray, cable_b: IntArray,
+                cable_k: FloatArray, cable_c: FloatArray, cable_t_max: FloatArray, cable_l0: FloatArray,
+                cable_motor: IntArray, motor_cable: IntArray, motor_lo: FloatArray, motor_hi: FloatArray,
+                motor_tau: FloatArray, motor_speed: FloatArray, cap_node: IntArray, cap_body: IntArray,
+                cap_radius: FloatArray, floor_normal: FloatArray, floor_point: FloatArray, floor_params: FloatArray,
+                y: FloatArray, R_ref: FloatArray, out: FloatArray, X: FloatArray, V: FloatArray, R: FloatArray,
+                F: FloatArray, l0: FloatArray, lengths: FloatArray, rates_: FloatArray, tensions: FloatArray,
+                depth: FloatArray, normal: FloatArray, friction: FloatArray) -> None:
+    """:func:`.loops.evaluate`: ``out = dy/dt`` of a batch, keeping every effect's state per state."""
+    n_dof = len(free_node) + 6 * len(body_dof)
+    xv = y[:, :2 * n_dof]
+    r = general.place(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, xv, R_ref, X, V, R)
+    l0[...] = rest_lengths(cable_l0, cable_motor, y, 2 * n_dof)
+    Fc, lengths[...], rates_[...], tensions[...] = cable_forces(cable_a, cable_b, cable_k, cable_c, cable_t_max,
+                                                               l0, X, V)
+    a0 = 2 * n_dof + len(motor_cable)
+    Ff, moments, depth[...], normal[...], friction[...], sliding = floor_forces(
+        cap_node, cap_body, cap_radius, floor_normal, floor_point, floor_params, body_dof, y, n_dof,
+        a0, X, V)
+    F[...] = external + Fc + Ff
+    wrench = general.nodal_wrenches(on_node, on_body, r, F, len(body_dof))
+    on = cap_body >= 0
+    if on.any():
+        extra = general.scatter(cap_body[on], moments[:, on], len(body_dof))
+        wrench[..., 3:] += extra
+    xdot = np.empty((len(y), 2 * n_dof))
+    general.rates(free_node, free_axis, free_inv_mass, body_dof, body_mass, body_first_moment, body_inertia,
+                  body_inv_inertia_cm, xv, R, F, wrench, xdot)
+    out[:, :2 * n_dof] = xdot
+    out[:, 2 * n_dof:] = 0.0
+    out[:, a0:a0 + 3 * len(cap_node)] = sliding.reshape(len(y), -1)
+
+
+evaluate = derivatives
+
+
+def motor_step(l0: FloatArray, aim: FloatArray, tau: FloatArray, speed: FloatArray, dt: float) -> FloatArray:
+    """:func:`.loops.motor_step` over arrays."""
+    e0 = aim - l0
+    mag = np.abs(e0)
+    knee = np.where(tau > 0.0, speed * tau, 0.0)
+    finite = np.isfinite(speed)
+    slew_time = np.where((mag > knee) & finite, (mag - knee) / np.where(finite, speed, 1.0), 0.0)
+    slewing = dt < slew_time
+    decay = np.exp(-(dt - slew_time) / np.where(tau > 0.0, tau, 1.0))
+    left = np.where(slewing, np.maximum(mag - np.where(finite, speed, 0.0) * dt, 0.0),
+                    np.where(tau > 0.0, np.minimum(mag, knee) * decay, 0.0))
+    out: FloatArray = np.where(e0 != 0.0, aim - np.copysign(left, e0), aim)
+    return out
+
+
+def sampled_update(base: FloatArray, free_node: IntArray, free_axis: IntArray, on_node: IntArray,
+                   on_body: IntArray, on_offset: FloatArray, body_dof: IntArray, cable_a: IntArray,
+                   cable_b: IntArray, cable_k: FloatArray, cable_t_max: FloatArray, motor_cable: IntArray,
+                   motor_lo: FloatArray, motor_hi: FloatArray, motor_tau: FloatArray, motor_speed: FloatArray,
+                   cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray, floor_normal: FloatArray,
+                   floor_point: FloatArray, floor_params: FloatArray, y: FloatArray, R_ref: FloatArray, h: float,
+                   aim: FloatArray) -> None:
+    """:func:`.loops.sampled_update` of one state ``y`` (N,) and its charts ``R_ref`` (nb, 3, 3), in place."""
+    n_dof = len(free_node) + 6 * len(body_dof)
+    n, nb = len(base), len(body_dof)
+    X, V, R = np.empty((1, n, 3)), np.empty((1, n, 3)), np.empty((1, nb, 3, 3))
+    general.place(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, y[None, :2 * n_dof],
+                  R_ref[None], X, V, R)
+    m0 = 2 * n_dof
+    na = len(motor_cable)
+    if na:
+        target = np.minimum(np.maximum(aim, motor_lo), motor_hi)
+        l0 = motor_step(y[m0:m0 + na], target, motor_tau, motor_speed, h)
+        t_max = cable_t_max[motor_cable]
+        limited = np.isfinite(t_max)
+        hvec = X[0, cable_b[motor_cable]] - X[0, cable_a[motor_cable]]
+        length = np.sqrt(_dot(hvec, hvec))
+        pay = np.minimum(length - np.where(limited, t_max, 0.0) / cable_k[motor_cable], motor_hi)
+        y[m0:m0 + na] = np.where(limited, np.maximum(l0, pay), l0)
+    ncap = len(cap_node)
+    if ncap:
+        k, d, mu_s, mu_k, kt = floor_params[:5]
+        nvec = floor_normal
+        a0 = m0 + na
+        P = X[0, cap_node]
+        delta = cap_radius - _dot(P - floor_point, np.broadcast_to(nvec, P.shape))
+        fn = np.where(delta > 0.0, k * delta * np.maximum(0.0, 1.0 + d * -_dot(V[0, cap_node],
+                                                                             np.broadcast_to(nvec, P.shape))), 0.0)
+        offset = y[a0:a0 + 3 * ncap].reshape(ncap, 3)
+        state = y[a0 + 3 * ncap:a0 + 4 * ncap]
+        s = offset - _dot(offset, np.broadcast_to(nvec, offset.shape))[:, None] * nvec
+        size = np.sqrt(_dot(s, s))
+        hold = np.where(state == SLIPPING, mu_k, mu_s) * fn
+        touching = (fn > 0.0) & (kt > 0.0)
+        new = touching & (state == NO_ANCHOR)
+        sticks = touching & ~new & (kt * size <= hold)
+        slips = touching & ~new & ~sticks
+        e = s / np.where(size > 0.0, size, 1.0)[:, None]
+        v = contact_velocity(cap_node, cap_body, cap_radius, nvec, body_dof, y[None], n_dof, V)[0]
+        ahead = np.maximum(_dot(v, e), 0.0)
+        mag = np.maximum(mu_k * fn / (kt if kt > 0.0 else 1.0) - 0.5 * h * ahead, 0.0)
+        offset[...] = np.where(slips[:, None], mag[:, None] * e, np.where((~touching | new)[:, None], 0.0, offset))
+        state[...] = np.where(~touching, NO_ANCHOR, np.where(slips, SLIPPING, STICKING))
+    if nb:
+        cols = body_dof[:, None] + 3 + np.arange(3)
+        theta = y[cols]
+        big = _dot(theta, theta) > RECHART_ANGLE * RECHART_ANGLE
+        if big.any():
+            R_ref[big] = R[0, big]
+            y[cols[big]] = 0.0
+
+
+def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
+              on_node: IntArray, on_body: IntArray, on_offset: FloatArray, body_dof: IntArray,
+              body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
+              body_inv_inertia_cm: FloatArray, external: FloatArray, cable_a: IntArray, cable_b: IntArray,
+              cable_k: FloatArray, cable_c: FloatArray, cable_t_max: FloatArray, cable_l0: FloatArray,
+              cable_motor: IntArray, motor_cable: IntArray, motor_lo: FloatArray, motor_hi: FloatArray,
+              motor_tau: FloatArray, motor_speed: FloatArray, cap_node: IntArray, cap_body: IntArray,
+              cap_radius: FloatArray, floor_normal: FloatArray, floor_point: FloatArray, floor_params: FloatArray,
+              y: FloatArray, R_ref: FloatArray, h: float, aims: FloatArray, y_end: FloatArray) -> None:
+    """:func:`.loops.run_steps` (the steps in a Python loop, each stage a batch of one)."""
+    plan = (base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
+            body_first_moment, body_inertia, body_inv_inertia_cm, external, cable_a, cable_b, cable_k, cable_c,
+            cable_t_max, cable_l0, cable_motor, motor_cable, motor_lo, motor_hi, motor_tau, motor_speed, cap_node,
+            cap_body, cap_radius, floor_normal, floor_point, floor_params)
+    n, nb, m, ncap = len(base), len(body_dof), len(cable_a), len(cap_node)
+    work = (np.empty((1, n, 3)), np.empty((1, n, 3)), np.empty((1, nb, 3, 3)), np.empty((1, n, 3)), np.empty((1, m)),
+            np.empty((1, m)),
+            np.empty((1, m)), np.empty((1, m)), np.empty((1, ncap)), np.empty((1, ncap)), np.empty((1, ncap, 3)))
+    K = np.empty((4, 1, len(y)))
+    for s in range(len(aims)):
+        for stage in range(4):
+            c = 0.0 if stage == 0 else (0.5 * h if stage < 3 else h)
+            z = y[None] if stage == 0 else y[None] + c * K[stage - 1]
+            derivatives(*plan, z, R_ref[None], K[stage], *work)
+        y[...] = y + h / 6.0 * (K[0, 0] + 2.0 * K[1, 0] + 2.0 * K[2, 0] + K[3, 0])
+        y_end[...] = y
+        sampled_update(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, cable_a, cable_b, cable_k,
+                       cable_t_max, motor_cable, motor_lo, motor_hi, motor_tau, motor_speed, cap_node, cap_body,
+                       cap_radius, floor_normal, floor_point, floor_params, y, R_ref, h, aims[s])
+

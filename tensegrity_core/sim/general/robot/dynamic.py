@@ -1,0 +1,223 @@
+"""The robot back end: a tensegrity robot's dynamics, integrated in fixed steps.
+
+:class:`RobotDynamic` compiles a robot scene (``model: {kind: robot}``) into a frozen model:
+the :class:`~.plan.RobotPlan` of the effects it lists, the motors' input laws, the names
+and the initial state. A state's integrator is a :class:`~.stepping.FixedStepper`.
+
+Observations (each over the samples): the general back ends' quantities -- ``q``, ``qdot``
+(body centres and rotation vectors from the drawing, their rates with the bodies' angular
+velocities), ``applied_forces`` (the motors' rest lengths [m]), ``nodes``, members (the rods,
+then the cables: ``member_lengths`` [m], ``member_forces`` [N], tension positive; a rod's
+force is the mean of the axial loads on its two caps, its compression at rest),
+``potential_energy`` (gravity, cables' strain, the floor's contact and friction springs)
+and ``kinetic_energy`` [J], ``end_effector`` (a node) and ``contact_forces`` (the caps'
+normal forces [N]) -- and the robot's own: ``centre_of_mass`` [m]; with the ``sensors``
+effect the readings of the description's sensors (:data:`SENSOR_KEYS`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
+
+from tensegrity_core.events import LoggedEvent
+from tensegrity_core.robot.imu import imu_readings
+from tensegrity_core.sim.commands import changed, check_command, compile_inputs
+from tensegrity_core.sim.errors import SimulationError
+from tensegrity_core.sim.general.model import kinetic_energy
+from tensegrity_core.sim.general.robot.loops import SLIPPING
+from tensegrity_core.sim.general.robot.plan import build_plan, lumped_masses, robot_layout
+from tensegrity_core.sim.general.robot.setup import initial_vector, names_of, robot_effects, robot_model, state_names
+from tensegrity_core.sim.general.robot.stepping import FixedStepper, RobotSample
+from tensegrity_core.sim.general.robot.system import RobotEvaluation, RobotSystem
+from tensegrity_core.sim.inputs import held
+from tensegrity_core.sim.model import Model, State
+from tensegrity_core.sim.scene import Scene
+
+FloatArray = NDArray[np.float64]
+#: Sensor readings a robot scene with the ``sensors`` effect observes (each over the samples):
+#: lengths [m] and tensions [N] of the cables that report them; per IMU the orientation
+#: quaternion (x, y, z, w), angular velocity [rad/s] and specific force [m/s^2] in its body's
+#: frame; per cap whether it touches the floor, whether it slips, and its friction force [N].
+SENSOR_KEYS = ("cable_lengths", "cable_tensions", "imu_orientation", "imu_angular_velocity", "imu_specific_force",
+               "cap_contact", "cap_slipping", "friction_forces")
+
+
+def cable_energy(stretch: FloatArray, k: FloatArray, t_max: FloatArray) -> FloatArray:
+    """Stored energy [J] (B,) of cables with stretches ``l - l0`` (B, c) [m], stiffnesses
+    ``k`` [N/m] and tension limits ``t_max`` [N] (inf: none): the potential of the elastic
+    part of the cable's force ``min(k s, T_max)`` for ``s > 0`` (0 while slack),
+    ``k s^2 / 2`` up to ``s = T_max / k`` and ``T_max (s - T_max / (2 k))`` beyond (where the
+    spool pays out at the step's end, which only lowers it)."""
+    s = np.maximum(stretch, 0.0)
+    knee = np.minimum(s, t_max / k)
+    out: FloatArray = np.sum(0.5 * k * knee * knee + np.where(s > knee, np.where(np.isfinite(t_max), t_max, 0.0) * (s - knee), 0.0), axis=1)
+    return out
+
+
+class RobotDynamic(Model[FixedStepper, RobotSample]):
+    """Back end ``robot/dynamic`` (implements :class:`~tensegrity_core.sim.model.Model`, and
+    ``state_from``, ``equations`` as the dynamic back ends do)."""
+
+    kind = "robot"
+    quasi_static = False
+    method = "RK4"
+
+    def __init__(self, scene: Scene):
+        self.scene = scene
+        model = robot_model(scene)
+        self.robot = robot = model.robot
+        self.plan = build_plan(robot, robot_effects(scene))
+        drawn = self.plan.cable_l0[self.plan.motor_cable]
+        self.laws, self.actuator_names, self.initial_commands = compile_inputs(scene.inputs, drawn)
+        self.names = names_of(robot)
+        self.state_names = state_names(robot, self.plan)
+        self.step = scene.integrator.max_step
+        self.y0 = initial_vector(robot, self.plan, scene.initial.lift)
+        nb = len(self.plan.body_dof)
+        self.system = RobotSystem(self.plan, laws=held(self.laws, self.initial_commands),
+                                  R_ref=np.broadcast_to(np.eye(3), (nb, 3, 3)))
+        self.layout = robot_layout(robot)
+        self.node_mass = lumped_masses(robot)
+        self.sensors = "sensors" in scene.effects
+        self.gravity = np.asarray(scene.effects["gravity"].vector if "gravity" in scene.effects else np.zeros(3),
+                                  dtype=float)
+        # the IMUs' body slots (rods first, then the description's bodies)
+        slot_of = {k: s for s, k in enumerate(self.layout.moving_bodies)}
+        imu = list(robot.sensors.imu_rods) + [len(robot.rods) + b for b in robot.sensors.imu_bodies]
+        self.imu_slots = np.array([slot_of[k] for k in imu if k in slot_of], dtype=int)
+
+    # -- states ---------------------------------------------------------------------------------
+    def initial_state(self, *, t_end: float = math.inf) -> State[FixedStepper]:
+        """At rest as drawn, raised by the scene's ``initial.lift``."""
+        return self._state(self.y0, t_end)
+
+    def state_from(self, y: ArrayLike, *, t_end: float = math.inf) -> State[FixedStepper]:
+        """A state at ``t = 0`` from the state vector ``y`` (``state_names``, in the drawing's charts)."""
+        y = np.array(y, dtype=float).ravel()
+        if len(y) != self.plan.n_state or not np.all(np.isfinite(y)):
+            raise SimulationError(f"a state of this model is {self.plan.n_state} finite numbers, got {len(y)}")
+        return self._state(y, t_end)
+
+    def _state(self, y: FloatArray, t_end: float) -> State[FixedStepper]:
+        events: list[LoggedEvent] = []
+        return State(self.initial_commands, events, FixedStepper(self.system, y, self.step, t_end=t_end, log=events))
+
+    def equations(self, state: State[FixedStepper]) -> RobotSystem:
+        """The equations (charts, inputs) the integrator sees at ``state``."""
+        return state.work.system
+
+    # -- running ------------------------------------------------------------------------------
+    def set_command(self, state: State[FixedStepper], values: Iterable[float]) -> None:
+        """New rest lengths [m] for the commanded motors, within their ranges; they act from the
+        next step."""
+        commands = check_command(values, self.laws, self.actuator_names, positive=True)
+        for name, j, v in zip(self.actuator_names, range(len(commands)), commands):
+            lo, hi = self.plan.motor_lo[j], self.plan.motor_hi[j]
+            if not math.isnan(v) and not lo <= v <= hi:
+                raise SimulationError(f"commanded rest length of {name} must be within its motor's range "
+                                      f"[{lo:g}, {hi:g}] m, got {v!r}")
+        if not changed(state.commands, commands):
+            return
+        state.commands = commands
+        state.work.command(state.work.system.with_inputs(held(self.laws, commands)))
+
+    def advance(self, state: State[FixedStepper], t: float) -> None:
+        state.work.advance(t)
+
+    def sample(self, state: State[FixedStepper]) -> RobotSample:
+        st = state.work
+        return st.t, st.y.copy(), st.system
+
+    def record(self, state: State[FixedStepper], times: Sequence[float] | FloatArray,
+               out: list[RobotSample]) -> None:
+        state.work.record(times, out)
+
+    def observe(self, samples: Sequence[RobotSample]) -> dict[str, NDArray[Any]]:
+        """The observations of ``samples`` (module docstring), each run of samples taken under
+        one system (charts and inputs) evaluated as one batch."""
+        parts: list[dict[str, NDArray[Any]]] = []
+        i = 0
+        while i < len(samples):
+            system = samples[i][2]
+            j = i + 1
+            while j < len(samples) and samples[j][2] is system:
+                j += 1
+            ts = np.array([t for t, _, _ in samples[i:j]])
+            Y = np.array([y for _, y, _ in samples[i:j]])
+            parts.append(self._observe(ts, Y, system.evaluate(Y)))
+            i = j
+        if not parts:
+            parts.append(self._observe(np.zeros(0), np.zeros((0, self.plan.n_state)),
+                                       self.system.evaluate(np.zeros((0, self.plan.n_state)))))
+        return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+    def _observe(self, ts: FloatArray, Y: FloatArray, ev: RobotEvaluation) -> dict[str, NDArray[Any]]:
+        plan, robot = self.plan, self.robot
+        B, n = len(ts), plan.n_dof
+        q = Y[:, :n].copy()
+        nb = len(plan.body_dof)
+        if nb and B:
+            rot = plan.body_dof[:, None] + 3 + np.arange(3)[None, :]
+            q[:, rot] = Rotation.from_matrix(ev.rotations.reshape(-1, 3, 3)).as_rotvec().reshape(B, nb, 3)
+        X = ev.positions
+        ends = robot.rods.ends
+        axis = X[:, ends[:, 1]] - X[:, ends[:, 0]]
+        rod_length = np.sqrt(np.sum(axis * axis, axis=2))
+        e = axis / np.where(rod_length > 0, rod_length, 1.0)[..., None]
+        rod_force = 0.5 * (np.sum(ev.forces[:, ends[:, 0]] * e, axis=2) - np.sum(ev.forces[:, ends[:, 1]] * e, axis=2))
+        strain = cable_energy(ev.lengths - ev.rest_lengths, plan.cable_k, plan.cable_t_max)
+        gravity = -np.einsum("bki,ki->b", X, plan.external)
+        k, kt = plan.floor_params[0], plan.floor_params[4]
+        contact = 0.5 * k * np.sum(np.maximum(ev.depth, 0.0) ** 2, axis=1)
+        ncap = len(plan.cap_node)
+        a0 = 2 * n + len(plan.motor_cable)
+        s = Y[:, a0:a0 + 3 * ncap].reshape(B, ncap, 3)
+        cstate = Y[:, a0 + 3 * ncap:a0 + 4 * ncap]
+        s = s - np.sum(s * plan.floor_normal, axis=2)[..., None] * plan.floor_normal
+        anchor_energy = 0.5 * kt * np.sum(np.where(cstate > 0, np.sum(s * s, axis=2), 0.0), axis=1)
+        com = np.einsum("k,bki->bi", self.node_mass, X) / self.node_mass.sum()
+        out: dict[str, NDArray[Any]] = {
+            "t": ts, "state": Y, "q": q, "qdot": Y[:, n:2 * n].copy(),
+            "applied_forces": ev.rest_lengths[:, plan.motor_cable], "nodes": X,
+            "member_lengths": np.concatenate([rod_length, ev.lengths], axis=1),
+            "member_forces": np.concatenate([rod_force, ev.tensions], axis=1),
+            "potential_energy": gravity + strain + contact + anchor_energy,
+            "kinetic_energy": kinetic_energy(Y[:, n:2 * n], ev.rotations, 1.0 / plan.free_inv_mass if len(
+                plan.free_inv_mass) else np.zeros(0), plan.body_dof, plan.body_mass, plan.body_first_moment,
+                plan.body_inertia),
+            "end_effector": X[:, robot_model(self.scene).end_effector].copy(),
+            "folded": np.zeros(B, dtype=bool), "contact_forces": ev.normal, "centre_of_mass": com}
+        if self.sensors:
+            sens = robot.sensors
+            slots = self.imu_slots
+            d = plan.body_dof[slots]
+            cols = d[:, None] + np.arange(3)
+            quat, gyro, specific = imu_readings(
+                ev.rotations[:, slots].reshape(-1, 3, 3), Y[:, n + 3 + cols].reshape(-1, 3),
+                ev.derivative[:, n + cols].reshape(-1, 3), ev.derivative[:, n + 3 + cols].reshape(-1, 3),
+                np.zeros((B * len(slots), 3)), self.gravity)
+            out |= {"cable_lengths": ev.lengths[:, list(sens.cable_length)],
+                    "cable_tensions": ev.tensions[:, list(sens.cable_tension)],
+                    "imu_orientation": quat.reshape(B, len(slots), 4),
+                    "imu_angular_velocity": gyro.reshape(B, len(slots), 3),
+                    "imu_specific_force": specific.reshape(B, len(slots), 3),
+                    "cap_contact": ev.depth > 0.0, "cap_slipping": cstate == SLIPPING, "friction_forces": ev.friction}
+        return out
+
+    def observe_now(self, state: State[FixedStepper]) -> dict[str, Any]:
+        return {k: v[0] for k, v in self.observe([self.sample(state)]).items()}
+
+    def joint_sample(self, state: State[FixedStepper]) -> dict[str, Any]:
+        obs = self.observe_now(state)
+        return {k: obs[k] for k in ("t", "q", "qdot", "applied_forces", "end_effector", "folded")}
+
+    def stats(self, state: State[FixedStepper]) -> dict[str, Any]:
+        st = state.work
+        return {"method": self.method, "steps": st.n_steps, "nfev": st.nfev, "restarts": 0, "events": 0,
+                "step": self.step}

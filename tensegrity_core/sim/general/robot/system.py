@@ -1,0 +1,125 @@
+"""A robot's equations for one stretch: the plan, the rotation charts and the input laws.
+
+:class:`RobotSystem` binds a :class:`~.plan.RobotPlan` to a kernel family (compiled loops
+or numpy arrays, :mod:`tensegrity_core.sim.general.kernels.jit`), the bodies' rotation
+charts ``R_ref`` and the motors' input laws. It is immutable: a re-charting or a new
+command gives a new instance (:meth:`with_chart`, :meth:`with_inputs`). It offers the
+right-hand side ``fun`` (what the fixed step integrates), whole fixed steps (:meth:`run`:
+RK4 and the sampled update after each, in one kernel call) and the evaluation of a batch of
+states for the observations (:meth:`evaluate`).
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Sequence
+from dataclasses import dataclass
+from types import ModuleType
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from tensegrity_core.sim.general.kernels.jit import choose_kernels
+from tensegrity_core.sim.general.robot import arrays, loops
+from tensegrity_core.sim.general.robot.plan import RobotPlan
+from tensegrity_core.sim.inputs import Law
+
+FloatArray = NDArray[np.float64]
+
+
+def _arg(a: ArrayLike) -> FloatArray:
+    """``a`` as a writable C-ordered float64 array (the kind the compiled kernels take)."""
+    if isinstance(a, np.ndarray) and a.dtype == np.float64 and a.flags.c_contiguous and a.flags.writeable:
+        return a
+    return np.array(a, dtype=np.float64, order="C")
+
+
+@dataclass(frozen=True)
+class RobotEvaluation:
+    """A batch of ``B`` states evaluated: ``derivative`` (B, N); node ``positions``,
+    ``velocities`` and the nodal ``forces`` of weights, cables and floor (B, n, 3) [m, m/s,
+    N]; body ``rotations`` (B, nb, 3, 3); cables' ``rest_lengths``, ``lengths`` [m],
+    ``rates`` [m/s], ``tensions`` [N] (B, c); caps' ``depth`` [m] (penetration, > 0 in
+    contact), ``normal`` forces [N] (B, ncap) and ``friction`` forces [N] (B, ncap, 3)."""
+
+    derivative: FloatArray
+    positions: FloatArray
+    velocities: FloatArray
+    rotations: FloatArray
+    forces: FloatArray
+    rest_lengths: FloatArray
+    lengths: FloatArray
+    rates: FloatArray
+    tensions: FloatArray
+    depth: FloatArray
+    normal: FloatArray
+    friction: FloatArray
+
+
+class RobotSystem:
+    """A robot's equations with the charts ``R_ref`` (nb, 3, 3) and the motors' input
+    ``laws`` (one per motor, rest lengths [m]); ``kernels``: ``"numba"``, ``"numpy"`` or
+    None (numba where installed, unless ``TENSEGRITY_KERNELS`` says otherwise)."""
+
+    #: No contact mode in the stepper's sense (the caps' contact states are sampled state).
+    mode: frozenset[int] = frozenset()
+    #: No Jacobian: robot scenes take fixed explicit steps.
+    jac = None
+
+    def __init__(self, plan: RobotPlan, *, laws: Sequence[Law], R_ref: ArrayLike, kernels: str | None = None):
+        self.plan = plan
+        self.laws = tuple(laws)
+        self.R_ref = _arg(R_ref)
+        self.kernels = choose_kernels(kernels)
+        self._module: ModuleType = loops if self.kernels == "numba" else arrays
+
+    def with_chart(self, R_ref: ArrayLike) -> RobotSystem:
+        """The same equations in other rotation charts."""
+        new = copy.copy(self)
+        new.R_ref = _arg(R_ref)
+        return new
+
+    def with_inputs(self, laws: Sequence[Law]) -> RobotSystem:
+        """The same equations under other input laws (a new command)."""
+        new = copy.copy(self)
+        new.laws = tuple(laws)
+        return new
+
+    def aims(self, times: FloatArray) -> FloatArray:
+        """(len(times), motors) the motors' targets [m] at ``times`` [s] (the input laws)."""
+        ts = np.asarray(times, dtype=float)
+        out = np.empty((len(ts), len(self.laws)))
+        for j, law in enumerate(self.laws):
+            out[:, j] = law.arrays(ts, 0.0)[0]
+        return out
+
+    def fun(self, t: float, y: FloatArray) -> FloatArray:
+        """``dy/dt`` at ``(t, y)`` (the sampled entries' rates are 0)."""
+        rate: FloatArray = self.evaluate(np.asarray(y, dtype=float)[None]).derivative[0]
+        return rate
+
+    def run(self, y: FloatArray, R_ref: FloatArray, h: float, aims: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """``len(aims)`` fixed steps of ``h`` [s] from ``y`` in the charts ``R_ref`` with the
+        motors' targets ``aims`` (steps, motors) [m] (:func:`.loops.run_steps`): ``(y, R_ref,
+        y_end)`` after them (new arrays; ``y_end`` the last step's end before its sampled
+        update, in that step's charts)."""
+        y_new, R_new = _arg(np.array(y, dtype=float)), _arg(np.array(R_ref, dtype=float))
+        y_end = np.empty_like(y_new)
+        self._module.run_steps(*self.plan, y_new, R_new, float(h), _arg(aims), y_end)
+        return y_new, R_new, y_end
+
+    def evaluate(self, y: FloatArray, R_ref: FloatArray | None = None) -> RobotEvaluation:
+        """States ``y`` (B, N) in the charts ``R_ref`` (B, nb, 3, 3; default: this system's)."""
+        plan = self.plan
+        Y = _arg(np.atleast_2d(y))
+        B = len(Y)
+        n, nb, c, ncap = len(plan.base), len(plan.body_dof), len(plan.cable_a), len(plan.cap_node)
+        R0 = np.broadcast_to(self.R_ref, (B, nb, 3, 3)) if R_ref is None else R_ref
+        out = np.empty_like(Y)
+        X, V, F = np.empty((B, n, 3)), np.empty((B, n, 3)), np.empty((B, n, 3))
+        R = np.empty((B, nb, 3, 3))
+        l0, lengths, rates, tensions = (np.empty((B, c)) for _ in range(4))
+        depth, normal, friction = np.empty((B, ncap)), np.empty((B, ncap)), np.empty((B, ncap, 3))
+        self._module.evaluate(*plan, Y, _arg(R0), out, X, V, R, F, l0, lengths, rates, tensions, depth, normal,
+                              friction)
+        return RobotEvaluation(out, X, V, R, F, l0, lengths, rates, tensions, depth, normal, friction)

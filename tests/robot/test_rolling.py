@@ -1,0 +1,35 @@
+"""The 6-bar rolls under the shipped gait: faces counted from the contact state."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tensegrity_core.robot.faces import faces_rolled, faces_visited
+from tensegrity_core.sim import compile_scene, load_scene
+
+
+def test_faces_are_held_contact_sets_of_three_caps_or_more():
+    T = [[1, 1, 1, 0, 0]] * 5 + [[1, 1, 0, 0, 0]] * 2 + [[1, 1, 0, 1, 0]] * 5 + [[1, 1, 0, 1, 1]] * 1 \
+        + [[1, 1, 1, 0, 0]] * 3 + [[0, 1, 0, 1, 1]] * 4
+    times = np.arange(len(T)) * 0.1
+    faces = faces_visited(times, np.array(T, dtype=bool), hold=0.25)
+    assert [sorted(c) for _, c in faces] == [[0, 1, 2], [0, 1, 3], [0, 1, 2], [1, 3, 4]]   # not [0, 1, 3, 4]
+    assert faces[1][0] == pytest.approx(0.7)
+    assert faces_rolled(faces) == 2                        # the rock back to [0, 1, 2] is no new face
+
+
+def test_the_six_bar_rolls_at_least_five_faces_in_10_s_towards_x():
+    scene = load_scene("six_bar_roll").with_duration(10.0)
+    model = compile_scene(scene)
+    state = model.initial_state(t_end=10.0)
+    samples: list = []
+    model.record(state, np.arange(1001) / 100, samples)
+    o = model.observe(samples)
+    faces = faces_visited(o["t"], o["cap_contact"])
+    assert faces_rolled(faces) >= 5
+    com = o["centre_of_mass"]
+    assert com[-1, 0] - com[0, 0] > 1.0                  # towards +x, metres
+    assert abs(com[-1, 1] - com[0, 1]) < com[-1, 0] - com[0, 0]
+    depth = model.plan.cap_radius - (o["nodes"][:, model.plan.cap_node] - model.plan.floor_point) @ model.plan.floor_normal
+    assert depth.max() < 0.01                            # never deeper than 1 cm, even while tipping
