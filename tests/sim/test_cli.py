@@ -15,7 +15,7 @@ from tensegrity_core.sim import Trajectory, scene_names, simulate
 from tensegrity_ros.cli import main
 
 SHORT = {"paper_fold": 0.2, "paper_fold_quasistatic": 0.2, "stiff_fold": 0.2, "class2_at_rest": 0.2,
-         "table_gravity": 0.005, "spine_release": 0.02}
+         "table_gravity": 0.005, "spine_release": 0.02, "table_actuated": 0.05}
 
 
 def read_csv(path) -> np.ndarray:
