@@ -50,8 +50,8 @@ class CommandHold:
     def pause(self, now: float) -> None:
         """Stop the command's clock (the simulation no longer plays)."""
         if not self._paused:
-            self._paused = True
             self._paused_age = self.age(now)
+            self._paused = True
 
     def resume(self, now: float) -> None:
         """Start the command's clock again where it stopped."""
