@@ -190,8 +190,11 @@ def _send_forces(args) -> int:
 
     pub = node.create_publisher(ActuatorForces, args.topic, 10)
     try:
-        # wait briefly for the subscriber so a one-shot command is not lost
+        # wait briefly for the subscribers so a one-shot command is not lost: every one the
+        # graph knows (the controller listens too: the first match may not be the simulator)
         wait_for_matches([pub], 1, 5.0, poll=lambda s: rclpy.spin_once(node, timeout_sec=s))
+        wait_for_matches([pub], node.count_subscribers(args.topic), 2.0,
+                         poll=lambda s: rclpy.spin_once(node, timeout_sec=s))
         period = 1.0 / args.rate if args.rate > 0 else None
         while True:
             msg = ActuatorForces(name=names, force=args.forces)

@@ -416,3 +416,39 @@ def test_the_answer_the_last_step_ran_under_sent_again_is_dropped_not_rejected(s
     assert "stamped 0.000000000 s, but the simulator waits at step 1" in proc.stderr()
     assert proc.stop() == 0
     assert "rejected commands: 1;" in proc.stderr()      # the copy was not counted (nor warned of)
+
+
+@pytest.mark.parametrize("lockstep", [False, True])
+def test_simulate_steps_gives_feedback_after_every_step(stepping, ros_context, lockstep):
+    """Issue 33: 25 steps, 25 feedbacks (completed 1..25, remaining 24..0), each kept by the
+    server until its reader has it. The client keeps up to 1000 of them and asks for the
+    result after the last (rclpy's ActionClient drops feedback it processes after the result)."""
+    import rclpy
+    from rclpy.action import ActionClient
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import QoSProfile
+    from simulation_interfaces.action import SimulateSteps
+
+    from tensegrity_ros.rclpy_utils.futures import spin_until_done
+
+    proc, client = stepping("initial_state:=paused", "paused_publish_rate:=0.0", f"lockstep:={str(lockstep).lower()}",
+                            "lockstep_timeout:=30.0")
+    client.set_law(lambda sample: (-0.35, 0.35))
+    node = rclpy.create_node("feedback_test", context=ros_context)
+    ex = SingleThreadedExecutor(context=ros_context)
+    ex.add_node(node)
+    action = ActionClient(node, SimulateSteps, "simulate_steps", feedback_sub_qos_profile=QoSProfile(depth=1000))
+    assert action.wait_for_server(timeout_sec=30)
+    for _ in range(3):
+        feedback: list = []
+        goal = action.send_goal_async(SimulateSteps.Goal(steps=25), feedback_callback=lambda m, got=feedback: got.append(
+            (m.feedback.completed_steps, m.feedback.remaining_steps)))
+        assert spin_until_done(ex, goal, 30) and goal.result().accepted
+        deadline = time.monotonic() + 60
+        while not feedback or feedback[-1][1] != 0:
+            assert time.monotonic() < deadline, feedback
+            ex.spin_once(timeout_sec=0.05)
+        result = goal.result().get_result_async()
+        assert spin_until_done(ex, result, 30) and result.result().result.result.result == 1
+        assert feedback == [(k, 25 - k) for k in range(1, 26)]
+    node.destroy_node()

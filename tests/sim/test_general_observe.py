@@ -10,11 +10,10 @@ the members' slack condition from the structure's kinds and rest lengths.
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
-
-from types import SimpleNamespace
 
 from tensegrity_core.general import structure_from_dict
 from tensegrity_core.sim import Simulator, load_scene

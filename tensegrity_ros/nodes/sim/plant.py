@@ -18,9 +18,8 @@ commands, their ranges) and its names (members, rigid bodies).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import math
+from dataclasses import dataclass
 
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.sim import Names, Simulator, compile_scene
