@@ -188,5 +188,8 @@ def test_a_cable_command_sets_the_cables_it_names():
     forces = Interface("force", ("f1", "f2"), (True, True), ((-math.inf, math.inf),) * 2, (0, 1))
     with pytest.raises(CommandError, match="send tensegrity_msgs/ActuatorForces on actuator_forces"):
         parse_cable_command(["f1"], [0.8], [], [], forces)
+    none = Interface("rest_length", (), (), (), ())
     with pytest.raises(CommandError, match="no actuated cables"):
-        parse_cable_command([], [], [], [], Interface("rest_length", (), (), (), ()))
+        parse_cable_command(["a"], [0.8], [], [], none)
+    assert parse_cable_command([], [], [], [], none).apply([]) == []                # empty: no change
+    assert parse_cable_command([], [], [], [], TABLE).apply([0.9, 0.8, 0.7]) == [0.9, 0.8, 0.7]

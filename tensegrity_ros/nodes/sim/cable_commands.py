@@ -46,6 +46,8 @@ def parse_cable_command(names: Sequence[str], rest_lengths: Sequence[float], ree
     """Check a cable command against the model's ``interface``; the update it makes, or
     :class:`~tensegrity_ros.nodes.actuator_commands.CommandError` saying why not.
 
+    - both ``names`` and ``rest_lengths`` empty: no change (in lockstep it answers a step, which
+      runs under the held rest lengths);
     - ``names`` empty: ``rest_lengths`` gives every input, in input order; otherwise one name
       per rest length, each an input that takes commands, none repeated;
     - every rest length finite and inside its input's range;
@@ -56,8 +58,10 @@ def parse_cable_command(names: Sequence[str], rest_lengths: Sequence[float], ree
         raise CommandError("this scene's inputs are actuator forces (f1, f2), not rest lengths: send "
                            "tensegrity_msgs/ActuatorForces on actuator_forces")
     inputs = interface.inputs
+    if not len(names) and not len(rest_lengths) and not len(reel_speeds) and not len(tensions):
+        return InputUpdate((), ())
     if not inputs:
-        raise CommandError("this scene has no actuated cables: it takes no cable commands")
+        raise CommandError("this scene has no actuated cables: it takes no cable commands but empty ones")
     if len(reel_speeds) or len(tensions):
         what = "reel_speed" if len(reel_speeds) else "tension"
         raise CommandError(f"{what} needs motor-driven cables; this scene's actuated cables take rest lengths only "
