@@ -123,13 +123,16 @@ class SimNode(Node):
         # Free-running, the latest command wins: a history of one means a burst or flood of
         # commands can never build a backlog that the simulation would apply late. In
         # lockstep exactly one command per step is expected, so the depth does not matter.
+        # Cable commands name the cables they set and leave the others: each one counts, so
+        # they are kept (history 100) and applied in order (a later command naming other
+        # cables must not replace an earlier one that is still queued behind a long step).
         # Both command topics exist whatever the scene: a command of the other kind is
         # refused with a warning that names the right one.
         self._command_node = Node(f"{self.get_name()}_commands", namespace=self.get_namespace(),
                                   context=self.context, start_parameter_services=False,
                                   parameter_overrides=[Parameter("start_type_description_service", value=False)])
         self._command_node.create_subscription(ActuatorForces, "actuator_forces", self.on_forces, 1)
-        self._command_node.create_subscription(CableCommand, "cable_commands", self.on_cables, 1)
+        self._command_node.create_subscription(CableCommand, "cable_commands", self.on_cables, 100)
         self.create_service(Trigger, "reset", self.on_reset)
         self.create_service(GetSimulatorFeatures, "get_simulator_features", self.on_get_features)
         self.create_service(GetSimulationState, "get_simulation_state", self.on_get_state)
