@@ -60,3 +60,31 @@ def test_up_starts_every_node_and_ctrl_c_stops_them(cli, ros_context, tmp_path):
     assert not reader.recovered
     assert any(t.name == "/suite_test/joint_states" and t.message_count > 0 for t in reader.topics())
     node.destroy_node()
+
+
+def test_up_on_a_general_structure_starts_its_nodes_and_records_its_topics(cli, ros_context, tmp_path):
+    """Issue 30: `up --scene` of a general structure starts the simulator, the cable controller
+    and form-finding (no IK, no class-2 controller), and records cable and body states."""
+    import rclpy
+
+    up = cli("up", "--scene", "table_actuated", "--namespace", "/general_up", "--record", str(tmp_path / "bag"),
+             log_name="up")
+    node = rclpy.create_node("up_general_probe", context=ros_context)
+    deadline = time.monotonic() + 90
+    want = {"/general_up/cable_states", "/general_up/body_states", "/general_up/joint_states"}
+    while not want <= {name for name, _ in node.get_topic_names_and_types()} \
+            or "/general_up/tensegrity_cable_controller/follow_joint_trajectory/_action/send_goal" not in \
+            {name for name, _ in node.get_service_names_and_types()}:
+        assert time.monotonic() < deadline, up.stderr()
+        time.sleep(0.2)
+    assert len(_children(up.popen.pid)) == 4         # sim, cables, formfind, recorder
+    services = {name for name, _ in node.get_service_names_and_types()}
+    assert "/general_up/solve_ik" not in services and "/general_up/move_end_effector/_action/send_goal" not in services
+    time.sleep(1.0)
+    up.popen.send_signal(signal.SIGINT)
+    assert up.popen.wait(60) == 0, up.stderr()
+    from tensegrity_ros.bag.reader import BagReader
+
+    counts = {t.name: t.message_count for t in BagReader(tmp_path / "bag").topics()}
+    assert all(counts.get(t, 0) > 0 for t in want), counts
+    node.destroy_node()
