@@ -27,8 +27,9 @@ Time advances in whole steps of ``step_size``; ``/clock`` reads exactly ``k * st
 (integer nanoseconds) after ``k`` steps. The run states and their transitions are
 :mod:`.control`; the time policy is plain logic in its own modules: the free-running tick
 schedule (:mod:`.schedule`: real-time factor, no catch-up bursts), the lockstep pacer
-(:mod:`.pacer`), the command hold and its timeout (:mod:`.hold`), which slower topics go
-out with a publication (:mod:`.decimation`). The node keeps the entities, the callbacks and
+(:mod:`.pacer`) and gate (:mod:`.lockstep`: the command of the step waited at), the command
+hold and its timeout (:mod:`.hold`), which slower topics go out with a publication
+(:mod:`.decimation`). The node keeps the entities, the callbacks and
 two threads: a loop thread (free-running ticks, free-running stepping requests, paced
 lockstep publications, republishing while paused) and a command thread (commands arrive
 on a node and executor of their own; in lockstep it also times a step out). A receiver
@@ -80,11 +81,12 @@ from tensegrity_ros.nodes.scene_param import declare_scene
 from tensegrity_ros.nodes.sim import control, sender
 from tensegrity_ros.nodes.sim.control import PAUSED, PLAYING, RUN_STATE_NAMES, STOPPED, Answer, StepRequest
 from tensegrity_ros.nodes.sim.hold import CommandHold
+from tensegrity_ros.nodes.sim.lockstep import LockstepGate
 from tensegrity_ros.nodes.sim.outputs import Outputs
 from tensegrity_ros.nodes.sim.pacer import LockstepPacer
 from tensegrity_ros.nodes.sim.parameters import declare_sim_parameters
 from tensegrity_ros.nodes.sim.plant import SimPlant
-from tensegrity_ros.nodes.sim.receiver import Command, check_step, receive, receive_cables
+from tensegrity_ros.nodes.sim.receiver import receive, receive_cables
 from tensegrity_ros.nodes.sim.schedule import TickSchedule
 from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
@@ -157,8 +159,7 @@ class SimNode(Node):
         if self.state != PLAYING:
             self.hold.pause(time.monotonic())
         self.request: StepRequest | None = None
-        self._lockstep_command: Command | None = None   # the receiver's command for the current step (lockstep)
-        self._applied_command: Command | None = None    # lockstep: the command the last step ran under
+        self.gate = LockstepGate()           # lockstep: the command of the step the simulator waits at
         self._waiting_since = time.monotonic()
         self._due: float | None = None       # paced lockstep: wall time the stepped state is due
         self._pace_wait = 0.0                # paced lockstep: how long the loop thread sleeps
@@ -326,7 +327,7 @@ class SimNode(Node):
         (re)publish the state at t_k for a controller that may have missed it and wait."""
         self._waiting_since = time.monotonic()
         self.pacer.restart()
-        if self._lockstep_command is not None:
+        if self.gate.pending is not None:
             self._lockstep_advance()
         else:
             self._publish()
@@ -341,11 +342,11 @@ class SimNode(Node):
         if not self._may_step():
             return
         if command is None:
-            if self._lockstep_command is None:
+            taken = self.gate.take()
+            if taken is None:
                 return
-            command = self._lockstep_command.update.apply(self.hold.values)
+            command = taken.update.apply(self.hold.values)
             self.hold.set(command, time.monotonic())
-            self._applied_command, self._lockstep_command = self._lockstep_command, None
         if self.request is not None:
             self._request_step(command)
         else:
@@ -363,7 +364,7 @@ class SimNode(Node):
         self._due = None
         self._publish()
         self._waiting_since = now
-        if self._lockstep_command is not None:     # sent before it could have seen this state
+        if self.gate.pending is not None:     # sent before it could have seen this state
             self._lockstep_advance()
 
     def _on_lockstep_timer(self) -> None:
@@ -396,12 +397,8 @@ class SimNode(Node):
             command = parse()
             with self._lock:
                 if self.p.lockstep:
-                    if command == self._applied_command and command.stamp_ns != self.plant.time_ns:
-                        return      # the answer the last step ran under, sent again (a controller
-                                    # answers a state republished to it again): already applied
-                    check_step(command, self.plant.time_ns, self.plant.k)
-                    self._lockstep_command = command
-                    self._lockstep_advance()
+                    if self.gate.offer(command, self.plant.time_ns, self.plant.k):
+                        self._lockstep_advance()
                     return
                 if self.hold.set(command.update.apply(self.hold.values), time.monotonic()):
                     self.get_logger().info("commands resumed")
@@ -456,10 +453,8 @@ class SimNode(Node):
                                      f"interrupted by {why} after {req.completed} of {req.steps} steps"))
         before = self._published_state()
         self.plant.reset(keep_time=keep_time)
-        self._applied_command = None
         self.hold.reset(self.plant.initial_command)
-        if self._published_state() != before:
-            self._lockstep_command = None    # it answered a state that is gone (an unchanged one keeps it)
+        self.gate.reset(state_changed=self._published_state() != before)
         self._due = None
         self.pacer.restart()
         self.schedule.restart()
