@@ -174,21 +174,30 @@ def test_a_cable_command_drives_the_rest_length_exactly_as_the_core(table):
         client.wait_for_services(30)
         assert wait_for_matches([ros.pub], 1, 30)
         ros.send(["long1"], [0.85])
+        # one step at a time until a state shows the command (it may arrive at any step),
+        # then 20 more under it
+        states = [start]
+        deadline = time.monotonic() + 60
+        while states[-1].rest_length[0] != 0.85:
+            assert time.monotonic() < deadline, "the cable command never acted"
+            client.step(1)
+            states += ros.at(len(states) * STEP_NS, "cable_states")
         client.step(20)
-        states = [ros.at(k * STEP_NS, "cable_states")[0] for k in range(21)]
+        states += [ros.at(k * STEP_NS, "cable_states")[0] for k in range(len(states), len(states) + 20)]
     finally:
         client.close()
     # the state at t_k shows the rest lengths it was stepped under: the command's from step k0 - 1
-    k0 = next(k for k, m in enumerate(states) if m.rest_length[0] == 0.85)
+    k0, n = len(states) - 21, len(states) - 1
+    assert all(list(m.rest_length) == [0.9, 0.9, 0.9, 0.3] for m in states[:k0])
     assert all(list(m.rest_length) == [0.85, 0.9, 0.9, 0.3] for m in states[k0:])
     sim = Simulator("table_actuated")
-    for k in range(20):
+    for k in range(n):
         sim.set_command([0.85 if k >= k0 - 1 else 0.9, 0.9, 0.9])
         sim.advance(step_time(k + 1, STEP_NS))
     obs = sim.observe()
-    np.testing.assert_array_equal(states[20].length, obs.member_lengths)
-    np.testing.assert_array_equal(states[20].tension, obs.member_forces)
-    assert states[20].length[0] < start.length[0] - 1e-4          # the shorter rest length pulled c1 down
+    np.testing.assert_array_equal(states[n].length, obs.member_lengths)
+    np.testing.assert_array_equal(states[n].tension, obs.member_forces)
+    assert states[n].length[0] < start.length[0] - 1e-4          # the shorter rest length pulled c1 down
     assert "rejected" not in proc.stderr()
 
 

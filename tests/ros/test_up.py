@@ -80,7 +80,28 @@ def test_up_on_a_general_structure_starts_its_nodes_and_records_its_topics(cli, 
     assert len(_children(up.popen.pid)) == 4         # sim, cables, formfind, recorder
     services = {name for name, _ in node.get_service_names_and_types()}
     assert "/general_up/solve_ik" not in services and "/general_up/move_end_effector/_action/send_goal" not in services
-    time.sleep(1.0)
+    # once the recorder subscribes to a topic, every message after it is recorded: wait until
+    # it subscribes to each, then until a few messages of each have gone out (seen here)
+    from rclpy.qos import QoSProfile
+    from sensor_msgs.msg import JointState
+    from tensegrity_msgs.msg import CableStates, RigidBodyStates
+
+    from tensegrity_ros.rclpy_utils.raw_take import take_all
+
+    kinds = {"/general_up/cable_states": CableStates, "/general_up/body_states": RigidBodyStates,
+             "/general_up/joint_states": JointState}
+    while not all(any(i.node_name == "tensegrity_recorder" for i in node.get_subscriptions_info_by_topic(t))
+                  for t in want):
+        assert time.monotonic() < deadline, up.stderr()
+        time.sleep(0.05)
+    subs = {t: node.create_subscription(kinds[t], t, lambda *_: None, QoSProfile(depth=100), raw=True)
+            for t in want}
+    seen = dict.fromkeys(want, 0)
+    while min(seen.values()) < 5:
+        assert time.monotonic() < deadline + 60, (seen, up.stderr())
+        for t, sub in subs.items():
+            seen[t] += len(take_all(sub))
+        time.sleep(0.05)
     up.popen.send_signal(signal.SIGINT)
     assert up.popen.wait(60) == 0, up.stderr()
     from tensegrity_ros.bag.reader import BagReader
