@@ -22,7 +22,7 @@ from tensegrity_core.class2.dynamics.limits import LAMBDA_MIN_REL
 from tensegrity_core.class2.energy import equilibrium_beta
 from tensegrity_core.class2.geometry import MEMBERS, NODE_NAMES
 from tensegrity_core.class2.params import Class2Params
-from tensegrity_core.class2.singularities import dynamics_singularity
+from tensegrity_core.class2.singularities.distances import dynamics_singularity
 from tensegrity_core.sim.errors import SceneError
 from tensegrity_core.sim.inputs import Commanded, InputLaw
 from tensegrity_core.sim.model import Interface, Names
