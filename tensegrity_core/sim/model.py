@@ -31,7 +31,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import Any, Generic, Protocol, Self, TypeVar
+from typing import Generic, Literal, NotRequired, Protocol, Self, TypedDict, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -40,6 +40,8 @@ from tensegrity_core.events import LoggedEvent
 from tensegrity_core.sim.scene import Scene
 from tensegrity_core.sim.stepper import Stepper, Sys
 
+FloatArray = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
 
 class Integrator(Protocol):
     """What advances a :class:`State` of a back end: the stepper of a dynamic
@@ -102,11 +104,146 @@ class State(Generic[W]):
 
 @dataclass(frozen=True)
 class Names:
-    """Names of what a model observes: nodes, members (``member_nodes`` (m, 2) node indices)."""
+    """Names of what a model observes: nodes, members (``member_nodes`` (m, 2) node indices;
+    ``member_kinds`` per member: general "bar", "string" or "actuator", class-2 "actuator",
+    "strut" or "spring"), and the rigid bodies that move (general structures; in the order of
+    the ``body_*`` observations)."""
 
     node_names: tuple[str, ...]
     member_names: tuple[str, ...]
     member_nodes: NDArray[np.int64]
+    member_kinds: tuple[str, ...] = ()
+    body_names: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Interface:
+    """What a model takes as commands, in the terms a client of the simulator needs.
+
+    ``command``: what an input's value is -- ``"force"``, an actuator force [N], tension
+    positive (class-2), or ``"rest_length"``, an actuated member's rest length [m]
+    (general structures). ``inputs``: the input names in input order (``actuator_names``);
+    ``commanded``: per input, whether it takes commands (its law is "commanded"; the others
+    follow the scene's law); ``limits``: per input, the open interval ``(lo, hi)`` a command
+    must lie in; ``members``: per input, the index of the member it drives (``-1`` if none).
+    """
+
+    command: Literal["force", "rest_length"]
+    inputs: tuple[str, ...]
+    commanded: tuple[bool, ...]
+    limits: tuple[tuple[float, float], ...]
+    members: tuple[int, ...]
+
+    @property
+    def unit(self) -> str:
+        """The unit of an input's value: ``"N"`` or ``"m"``."""
+        return "N" if self.command == "force" else "m"
+
+
+class Observed(TypedDict):
+    """One observation of a state (``observe_now``; SI units, forces tension positive).
+
+    ``t`` [s]; ``state`` the state vector (``state_names``); ``q``, ``qdot`` the coordinates
+    and rates (class-2 ``rho1, rho2, beta``; general: free node coordinates, body centres and
+    rotation vectors from the drawing, and their rates with body angular velocities);
+    ``applied_forces`` per input: class-2 the actuator forces [N], general the rest lengths
+    [m]; ``contact_forces`` the fold limit's (class-2) [N]; ``nodes`` (n, 3) [m];
+    ``member_lengths`` [m] and ``member_forces`` [N] per member; ``end_effector`` (3,) [m];
+    energies [J]; ``folded``: an actuator held at zero length.
+
+    Class-2 with inertia adds ``qddot``. General structures add, per member,
+    ``member_rest_lengths`` [m], ``member_rates`` (dl/dt [m/s]) and ``member_slack`` (a
+    string shorter than its rest length: it carries nothing), and per moving rigid body
+    (``Names.body_names``) its frame -- origin at the body's centre (the mean of its nodes),
+    axes the world axes in the drawing -- as ``body_positions`` (nb, 3) [m],
+    ``body_orientations`` (nb, 4) quaternions ``(x, y, z, w)`` from the world frame,
+    ``body_velocities`` (nb, 3) [m/s] of the origin and ``body_angular_velocities`` (nb, 3)
+    [rad/s] in the world frame.
+    """
+
+    t: float
+    state: FloatArray
+    q: FloatArray
+    qdot: FloatArray
+    applied_forces: FloatArray
+    contact_forces: FloatArray
+    nodes: FloatArray
+    member_lengths: FloatArray
+    member_forces: FloatArray
+    end_effector: FloatArray
+    potential_energy: float
+    kinetic_energy: float
+    folded: bool
+    qddot: NotRequired[FloatArray]
+    member_rest_lengths: NotRequired[FloatArray]
+    member_rates: NotRequired[FloatArray]
+    member_slack: NotRequired[BoolArray]
+    body_positions: NotRequired[FloatArray]
+    body_orientations: NotRequired[FloatArray]
+    body_velocities: NotRequired[FloatArray]
+    body_angular_velocities: NotRequired[FloatArray]
+
+
+class ObservedArrays(TypedDict):
+    """The quantities of :class:`Observed` over N samples (``observe``): each with a leading
+    sample axis (``t`` (N,), ``nodes`` (N, n, 3), ``folded`` (N,) bool, ...)."""
+
+    t: FloatArray
+    state: FloatArray
+    q: FloatArray
+    qdot: FloatArray
+    applied_forces: FloatArray
+    contact_forces: FloatArray
+    nodes: FloatArray
+    member_lengths: FloatArray
+    member_forces: FloatArray
+    end_effector: FloatArray
+    potential_energy: FloatArray
+    kinetic_energy: FloatArray
+    folded: BoolArray
+    qddot: NotRequired[FloatArray]
+    member_rest_lengths: NotRequired[FloatArray]
+    member_rates: NotRequired[FloatArray]
+    member_slack: NotRequired[BoolArray]
+    body_positions: NotRequired[FloatArray]
+    body_orientations: NotRequired[FloatArray]
+    body_velocities: NotRequired[FloatArray]
+    body_angular_velocities: NotRequired[FloatArray]
+
+
+class JointValues(TypedDict):
+    """The cheap part of an observation (``joint_sample``): ``t`` [s], ``q``, ``qdot``,
+    ``applied_forces``, ``end_effector`` and ``folded`` as in :class:`Observed`."""
+
+    t: float
+    q: FloatArray
+    qdot: FloatArray
+    applied_forces: FloatArray
+    end_effector: FloatArray
+    folded: bool
+
+
+def joint_values(obs: Observed) -> JointValues:
+    """The :class:`JointValues` part of an observation."""
+    return JointValues(t=obs["t"], q=obs["q"], qdot=obs["qdot"], applied_forces=obs["applied_forces"],
+                       end_effector=obs["end_effector"], folded=obs["folded"])
+
+
+class Stats(TypedDict, total=False):
+    """Integration statistics (``stats``): ``method``; dynamic models ``steps`` (accepted
+    integrator steps), ``nfev``, ``restarts``, ``events``; quasi-static ones ``steps`` and
+    ``newton_iterations`` (class-2) or ``form_finds`` (general), ``events``; a whole run
+    adds ``wall_time`` [s]."""
+
+    method: str
+    steps: int
+    nfev: int
+    restarts: int
+    events: int
+    newton_iterations: int
+    form_finds: int
+    wall_time: float
+
 
 
 class Model(Protocol[W, S]):
@@ -115,7 +252,7 @@ class Model(Protocol[W, S]):
     ``Backend(scene)`` compiles a checked :class:`~tensegrity_core.sim.scene.Scene`. Attributes:
     ``kind`` ("class2" or "general"), ``quasi_static``, ``scene`` (the scene it was compiled
     from), ``names``, ``state_names`` (of the state vector), ``actuator_names`` (of the
-    inputs, in order).
+    inputs, in order), ``interface`` (:class:`Interface`: what the inputs take).
 
     - ``initial_state(t_end=inf)``: a new state at ``t = 0`` (``t_end`` bounds the
       integration: an integrator never steps past it).
@@ -127,12 +264,14 @@ class Model(Protocol[W, S]):
       on the way.
     - ``sample(state)`` and ``record(state, times, out)``: what an observation needs, at
       ``state.t`` or at increasing ``times`` (advancing the state); only ``observe`` reads them.
-    - ``observe(samples)``: the observed quantities of samples as arrays over them (the keys
-      of :class:`~tensegrity_core.sim.simulator.Observation` plus ``"qddot"``);
-      ``observe_now(state)``: the same for ``state.t`` without the sample axis, evaluated on
-      floats where that is faster; ``joint_sample(state)``: its cheap part (``t, q, qdot,
-      applied_forces, end_effector, folded``).
-    - ``stats(state)``: integrator statistics (``method``, ``steps``, ``events``, ...).
+    - ``observe(samples)``: the observed quantities of samples as arrays over them
+      (:class:`ObservedArrays`); ``observe_now(state)``: the same for ``state.t`` without the
+      sample axis (:class:`Observed`), evaluated on floats where that is faster;
+      ``joint_sample(state)``: its cheap part (:class:`JointValues`).
+    - ``singular_distance(state)``: ``(name, distance / L)`` of the singular set nearest the
+      state's configuration (class-2: ``"lambda1"`` or ``"lambda2"``), or None for a model
+      without singular sets.
+    - ``stats(state)``: integrator statistics (:class:`Stats`).
     """
 
     kind: str
@@ -141,6 +280,7 @@ class Model(Protocol[W, S]):
     names: Names
     state_names: tuple[str, ...]
     actuator_names: tuple[str, ...]
+    interface: Interface
 
     def __init__(self, scene: Scene) -> None: ...
 
@@ -154,13 +294,15 @@ class Model(Protocol[W, S]):
 
     def record(self, state: State[W], times: Sequence[float] | NDArray[np.float64], out: list[S]) -> None: ...
 
-    def observe(self, samples: Sequence[S]) -> dict[str, NDArray[Any]]: ...
+    def observe(self, samples: Sequence[S]) -> ObservedArrays: ...
 
-    def observe_now(self, state: State[W]) -> dict[str, Any]: ...
+    def observe_now(self, state: State[W]) -> Observed: ...
 
-    def joint_sample(self, state: State[W]) -> dict[str, Any]: ...
+    def joint_sample(self, state: State[W]) -> JointValues: ...
 
-    def stats(self, state: State[W]) -> dict[str, Any]: ...
+    def singular_distance(self, state: State[W]) -> tuple[str, float] | None: ...
+
+    def stats(self, state: State[W]) -> Stats: ...
 
 
 class DynamicModel(Model[Stepper[Sys], S], Protocol[Sys, S]):

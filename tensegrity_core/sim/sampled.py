@@ -23,7 +23,6 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -31,6 +30,7 @@ from numpy.typing import NDArray
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.events import LoggedEvent
 from tensegrity_core.sim.errors import SimulationError
+from tensegrity_core.sim.model import Stats
 from tensegrity_core.sim.scene import SceneSource, load_scene
 from tensegrity_core.sim.simulator import JointSample, Simulator
 
@@ -82,7 +82,7 @@ class SampledRun:
     events: list[LoggedEvent]
     success: bool = True
     message: str = ""
-    stats: dict[str, Any] = field(default_factory=dict)
+    stats: Stats = field(default_factory=Stats)
 
     @property
     def q(self) -> NDArray[np.float64]:

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 from tensegrity_core.events import LoggedEvent
 from tensegrity_core.sim.backends import compile_scene
 from tensegrity_core.sim.errors import SimulationError
-from tensegrity_core.sim.model import Model, State
+from tensegrity_core.sim.model import Interface, Model, Observed, State, Stats
 from tensegrity_core.sim.noise import SensorNoise
 from tensegrity_core.sim.scene import SceneSource, load_scene
 from tensegrity_core.sim.trajectory import Trajectory
@@ -53,6 +53,13 @@ class Observation:
     ``end_effector`` (3,) [m] (class-2: node D); energies [J]; ``folded``: an actuator is
     held at zero length by the fold limit; ``contact_forces`` the fold limit's contact
     forces [N] (compressive, >= 0). ``state`` is the model's full state vector.
+
+    General structures also report, per member, ``member_rest_lengths`` [m],
+    ``member_rates`` (dl/dt [m/s]) and ``member_slack`` (a string shorter than its rest
+    length), and per moving rigid body (``body_names``) its frame's ``body_positions`` (nb,
+    3) [m], ``body_orientations`` (nb, 4) quaternions ``(x, y, z, w)``, ``body_velocities``
+    [m/s] and ``body_angular_velocities`` [rad/s] in the world frame (see
+    :class:`~tensegrity_core.sim.model.Observed`); empty for the class-2 mechanism.
     """
 
     t: float
@@ -71,6 +78,15 @@ class Observation:
     folded: bool
     contact_forces: FloatArray = field(default_factory=lambda: np.zeros(0))
     state: FloatArray = field(default_factory=lambda: np.zeros(0))
+    member_kinds: tuple[str, ...] = ()
+    member_rest_lengths: FloatArray = field(default_factory=lambda: np.zeros(0))
+    member_rates: FloatArray = field(default_factory=lambda: np.zeros(0))
+    member_slack: NDArray[np.bool_] = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    body_names: tuple[str, ...] = ()
+    body_positions: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
+    body_orientations: FloatArray = field(default_factory=lambda: np.zeros((0, 4)))
+    body_velocities: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
+    body_angular_velocities: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
 
 
 @dataclass
@@ -106,6 +122,7 @@ class Simulator:
         self.scene = self.model.scene
         self.kind = self.model.kind
         self.quasi_static = self.model.quasi_static
+        self.interface: Interface = self.model.interface
         self.t_end = t_end
         self.state: State[Any] = self.model.initial_state(t_end=t_end)
         noise = self.scene.effects.get("sensor_noise")
@@ -158,13 +175,18 @@ class Simulator:
         forces or energies: ~2 us where :meth:`observe` takes ~30 us (dynamic class-2 scenes;
         other scenes evaluate an observation)."""
         d = self.model.joint_sample(self.state)
-        sample = JointSample(float(d["t"]), d["q"], d["qdot"], np.asarray(d["applied_forces"], dtype=float),
-                             d["end_effector"], bool(d["folded"]))
+        sample = JointSample(d["t"], d["q"], d["qdot"], np.asarray(d["applied_forces"], dtype=float),
+                             d["end_effector"], d["folded"])
         if self._noise is not None:
             self._noise.perturb(sample)
         return sample
 
-    def stats(self) -> dict[str, Any]:
+    def singular_distance(self) -> tuple[str, float] | None:
+        """``(name, distance / L)`` of the singular set nearest the current configuration
+        (class-2), or None for a model without singular sets."""
+        return self.model.singular_distance(self.state)
+
+    def stats(self) -> Stats:
         """Integrator statistics (steps, function evaluations, restarts, events)."""
         return self.model.stats(self.state)
 
@@ -173,16 +195,27 @@ def _is_model(value: object) -> TypeIs[Model[Any, Any]]:
     return hasattr(value, "initial_state") and hasattr(value, "observe_now")
 
 
-def observation(model: Model[Any, Any], data: Mapping[str, Any]) -> Observation:
+def observation(model: Model[Any, Any], data: Observed) -> Observation:
     """The :class:`Observation` of one sample's values (``model.observe_now``)."""
     names = model.names
-    return Observation(
+    obs = Observation(
         t=float(data["t"]), q=data["q"], qdot=data["qdot"], applied_forces=data["applied_forces"],
         node_names=names.node_names, nodes=data["nodes"], member_names=names.member_names,
         member_nodes=names.member_nodes, member_lengths=data["member_lengths"],
         member_forces=data["member_forces"], end_effector=data["end_effector"],
         potential_energy=float(data["potential_energy"]), kinetic_energy=float(data["kinetic_energy"]),
-        folded=bool(data["folded"]), contact_forces=data["contact_forces"], state=data["state"])
+        folded=bool(data["folded"]), contact_forces=data["contact_forces"], state=data["state"],
+        member_kinds=names.member_kinds, body_names=names.body_names)
+    if "member_rest_lengths" in data:
+        obs.member_rest_lengths = data["member_rest_lengths"]
+        obs.member_rates = data["member_rates"]
+        obs.member_slack = data["member_slack"]
+    if "body_positions" in data:
+        obs.body_positions = data["body_positions"]
+        obs.body_orientations = data["body_orientations"]
+        obs.body_velocities = data["body_velocities"]
+        obs.body_angular_velocities = data["body_angular_velocities"]
+    return obs
 
 
 def simulate(scene: SceneSource, *, duration: float | None = None,

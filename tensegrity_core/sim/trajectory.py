@@ -12,7 +12,7 @@ the run stopped early (``message`` says why; the arrays end at the last good sam
 from __future__ import annotations
 
 import json
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -21,9 +21,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tensegrity_core.events import LoggedEvent, as_event_kind
+from tensegrity_core.sim.model import Stats
 
 if TYPE_CHECKING:
-    from tensegrity_core.sim.model import Names
+    from tensegrity_core.sim.model import Names, ObservedArrays
     from tensegrity_core.sim.scene import Scene
 
 FloatArray = NDArray[np.float64]
@@ -55,14 +56,14 @@ class Trajectory:
     actuator_names: tuple[str, ...] = ()
     events: list[LoggedEvent] = field(default_factory=list)
     measurements: dict[str, FloatArray] = field(default_factory=dict)
-    stats: dict[str, Any] = field(default_factory=dict)
+    stats: Stats = field(default_factory=Stats)
     success: bool = True
     message: str = ""
     scene: dict[str, Any] = field(default_factory=dict, repr=False)
 
     @classmethod
-    def from_observations(cls, scene: Scene, data: Mapping[str, np.ndarray], names: Names,
-                          events: Iterable[LoggedEvent], measurements: dict[str, FloatArray], stats: dict[str, Any], *,
+    def from_observations(cls, scene: Scene, data: ObservedArrays, names: Names,
+                          events: Iterable[LoggedEvent], measurements: dict[str, FloatArray], stats: Stats, *,
                           error: str = "", state_names: Iterable[str] = ()) -> Trajectory:
         """The trajectory of a run: ``data`` the model's observations (arrays over the samples),
         ``names`` its :class:`~tensegrity_core.sim.model.Names`."""

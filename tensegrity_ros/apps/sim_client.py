@@ -9,7 +9,12 @@ answers. Calls wait on the response future with an event, never with
 The controller sees each joint state as a :class:`~tensegrity_core.sim.simulator.JointSample`
 whose time is the stamp's integer nanoseconds divided once by 1e9 (the float the core's
 sampled-data runner has at the same step), so a law evaluated here and in
-:func:`tensegrity_core.sim.sampled.run_sampled` gives the same forces bit for bit.
+:func:`tensegrity_core.sim.sampled.run_sampled` gives the same forces bit for bit. For a
+general structure (``cables``: the actuated cables it commands, as ``CableCommand`` rest
+lengths) the sample holds the joint state as published: cable lengths [m] as ``q``, their
+rates as ``qdot``, tensions [N] as ``applied_forces`` (the core's sampled-data runner gives
+a law the structure's coordinates instead: a law of the time alone, such as a gait, is the
+same in both).
 """
 
 from __future__ import annotations
@@ -37,6 +42,13 @@ class JointRecord:
     effort: tuple
 
 
+def cable_sample_of(record: JointRecord) -> JointSample:
+    """The :class:`JointSample` a cable controller sees: lengths, rates, tensions as published."""
+    return JointSample(record.stamp_ns / NS_PER_S, np.array(record.position, dtype=float),
+                       np.array(record.velocity, dtype=float), np.array(record.effort, dtype=float), np.zeros(3),
+                       False)
+
+
 def sample_of(record: JointRecord, L: float = 1.0) -> JointSample:
     """The :class:`JointSample` a controller sees for a received joint state (``L`` [m]:
     strut length, for the end effector D)."""
@@ -49,10 +61,11 @@ def sample_of(record: JointRecord, L: float = 1.0) -> JointSample:
 class SimClient:
     """Services of ``tensegrity_sim`` and a lockstep controller, on one node (of ``context``,
     default: rclpy's default context; call ``rclpy.init()`` first). ``law(sample) -> (f1, f2)`` [N] or None
-    (then joint states are only recorded)."""
+    (then joint states are only recorded); with ``cables`` (names of actuated cables)
+    ``law(sample)`` gives their rest lengths [m], sent as ``CableCommand``."""
 
     def __init__(self, rclpy, name: str = "tensegrity_sim_client", *, record_events: bool = True, context=None,
-                 namespace: str = ""):
+                 namespace: str = "", cables: tuple[str, ...] | None = None):
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.qos import QoSProfile
         from sensor_msgs.msg import JointState
@@ -64,16 +77,18 @@ class SimClient:
             StepSimulation,
         )
         from std_srvs.srv import Trigger
-        from tensegrity_msgs.msg import ActuatorForces, SimulationEvent
+        from tensegrity_msgs.msg import ActuatorForces, CableCommand, SimulationEvent
 
         self.rclpy = rclpy
         self.node = rclpy.create_node(name, namespace=namespace, context=context)
-        self.ActuatorForces = ActuatorForces
+        self.ActuatorForces, self.CableCommand = ActuatorForces, CableCommand
+        self.cables = cables
         self.srv = {"set_simulation_state": SetSimulationState, "get_simulation_state": GetSimulationState,
                     "step_simulation": StepSimulation, "reset_simulation": ResetSimulation, "reset": Trigger,
                     "get_simulator_features": GetSimulatorFeatures}
         self.clients = {n: self.node.create_client(t, n) for n, t in self.srv.items()}
-        self.pub = self.node.create_publisher(ActuatorForces, "actuator_forces", QoSProfile(depth=100))
+        self.pub = (self.node.create_publisher(CableCommand, "cable_commands", QoSProfile(depth=100)) if cables
+                    else self.node.create_publisher(ActuatorForces, "actuator_forces", QoSProfile(depth=100)))
         self.node.create_subscription(JointState, "joint_states", self._on_joints, QoSProfile(depth=1000))
         self.events: list = []
         if record_events:
@@ -120,8 +135,12 @@ class SimClient:
                     return                           # the run's end: no step follows it
                 self._answered.add(rec.stamp_ns)
         if law is not None:
-            f1, f2 = law(sample_of(rec))
-            cmd = self.ActuatorForces(name=list(ACTUATORS), force=[float(f1), float(f2)])
+            if self.cables:
+                cmd = self.CableCommand(name=list(self.cables),
+                                        rest_length=[float(v) for v in law(cable_sample_of(rec))])
+            else:
+                f1, f2 = law(sample_of(rec))
+                cmd = self.ActuatorForces(name=list(ACTUATORS), force=[float(f1), float(f2)])
             cmd.header.stamp = msg.header.stamp
             self.pub.publish(cmd)
 

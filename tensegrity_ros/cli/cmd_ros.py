@@ -13,27 +13,29 @@ NODES = {
     "ik": "tensegrity_ros.nodes.ik",
     "formfind": "tensegrity_ros.nodes.formfind",
     "controller": "tensegrity_ros.nodes.controller",
+    "cables": "tensegrity_ros.nodes.cable_controller",
 }
 
 
 def register(sub) -> None:
-    p = sub.add_parser("node", help="run one node of the suite (sim, ik, formfind or controller)",
+    p = sub.add_parser("node", help="run one node of the suite (sim, ik, formfind, controller or cables)",
                        description="Run one node. ROS arguments follow --ros-args, e.g. "
                        "`tensegrity node sim --ros-args -r __ns:=/robot1 -p publish_rate:=500.0`.")
     p.add_argument("name", choices=sorted(NODES))
     p.set_defaults(func=_node, stop_signals=True)
 
-    p = sub.add_parser("up", help="start the suite (sim + IK + controller + form-finding [+ recorder]); "
-                       "Ctrl-C stops it")
+    p = sub.add_parser("up", help="start the suite (sim + IK + controller + form-finding [+ recorder]; for a "
+                       "general structure sim + cable controller + form-finding); Ctrl-C stops it")
     p.add_argument("--scene", default=None, help="scene file or shipped scene name (the simulator, the IK node "
-                   "and the controller all take the mechanism from it)")
+                   "and the controller all take the mechanism from it; a general structure's scene starts the "
+                   "cable controller instead of the IK node and the class-2 controller)")
     p.add_argument("--namespace", "-n", default=None, help="ROS namespace for every node, e.g. /robot1")
     p.add_argument("--params-file", default=None, help="ROS parameter YAML file applied to every node")
     p.add_argument("--record", metavar="DIR", default=None, help="also record the suite's topics to this bag folder "
                    "(the simulator starts its clock once the recorder has subscribed: the bag holds the run from t = 0)")
     p.add_argument("--no-formfind", action="store_true", help="do not start the form-finding node")
     p.add_argument("--no-controller", action="store_true",
-                   help="do not start the controller (actuator_forces then come only from you)")
+                   help="do not start the controller (actuator_forces or cable_commands then come only from you)")
     p.set_defaults(func=_up, stop_signals=True)
 
     p = sub.add_parser("send-forces", help="publish actuator forces (positive = tensile) on actuator_forces")
@@ -156,15 +158,33 @@ def _up(args) -> int:
     # recording: the simulator's clock starts once the recorder subscribes to every output topic,
     # so the bag holds the run from t = 0 (before the user's own arguments, which may override it)
     sim = ["--ros-args", "-p", "wait_for_subscribers:=1", *mech[1:]] if args.record else mech
-    specs = [ProcessSpec("sim", exe + ["node", "sim"] + sim), ProcessSpec("ik", exe + ["node", "ik"] + mech)]
-    if not args.no_controller:
-        specs.append(ProcessSpec("controller", exe + ["node", "controller"] + mech))
+    specs = [ProcessSpec("sim", exe + ["node", "sim"] + sim)]
+    interface = _scene_interface(args.scene)
+    if interface.command == "force":          # the class-2 mechanism: IK and its controller
+        specs.append(ProcessSpec("ik", exe + ["node", "ik"] + mech))
+        if not args.no_controller:
+            specs.append(ProcessSpec("controller", exe + ["node", "controller"] + mech))
+    elif any(interface.commanded) and not args.no_controller:    # a general structure's commanded cables
+        specs.append(ProcessSpec("cables", exe + ["node", "cables"] + mech))
     if not args.no_formfind:
         specs.append(ProcessSpec("formfind", exe + ["node", "formfind"] + ros))
     if args.record:
         specs.append(ProcessSpec("record", exe + ["record", "-o", args.record] + ros))
     print(f"starting {', '.join(s.name for s in specs)} (Ctrl-C stops all)", flush=True)
     return Launcher(specs).run()
+
+
+def _scene_interface(scene: str | None):
+    """What the ``up`` scene's inputs take (the default scene's if None); a bad scene is a CliError."""
+    from tensegrity_core.errors import TensegrityError
+    from tensegrity_core.excerpt import excerpt
+    from tensegrity_core.sim import compile_scene, load_scene
+    from tensegrity_ros.nodes.scene_param import DEFAULT_SCENE
+
+    try:
+        return compile_scene(load_scene(scene or DEFAULT_SCENE)).interface
+    except TensegrityError as err:
+        raise CliError(f"cannot load scene {excerpt(scene)}: {err}") from None
 
 
 def _client_node(name: str, ros_args: list[str]):
@@ -190,8 +210,11 @@ def _send_forces(args) -> int:
 
     pub = node.create_publisher(ActuatorForces, args.topic, 10)
     try:
-        # wait briefly for the subscriber so a one-shot command is not lost
+        # wait briefly for the subscribers so a one-shot command is not lost: every one the
+        # graph knows (the controller listens too: the first match may not be the simulator)
         wait_for_matches([pub], 1, 5.0, poll=lambda s: rclpy.spin_once(node, timeout_sec=s))
+        wait_for_matches([pub], node.count_subscribers(args.topic), 2.0,
+                         poll=lambda s: rclpy.spin_once(node, timeout_sec=s))
         period = 1.0 / args.rate if args.rate > 0 else None
         while True:
             msg = ActuatorForces(name=names, force=args.forces)

@@ -25,6 +25,13 @@ the joint states' time has not advanced for ``state_timeout`` seconds (wall time
 with ``SINGULAR_STATE`` when the measured state comes within ``singular_abort`` of the
 lambda1/lambda2 sets.
 
+Manual commands take over: a command on ``actuator_forces`` that this node did not send
+(``tensegrity send-forces``, a script of one's own) makes the controller stop commanding,
+says so once in its log, and ends a running goal (``PREEMPTED``, "a command on
+actuator_forces from another node took over"); its next goal makes it command again. So
+``up`` then ``send-forces`` moves the mechanism under the sent forces instead of a tug of
+war with the hold.
+
 Parameters: ``scene`` (the mechanism's parameters, shared with the simulator and the IK
 node), ``rate`` (the sampling rate the gains are designed for: the simulator's
 ``publish_rate``), ``max_force``, ``force_budget``, tolerances and timeouts (declared
@@ -36,6 +43,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -58,6 +66,7 @@ from tensegrity_core.class2.control.errors import INVALID_JOINTS, OUTSIDE_WORKSP
 from tensegrity_core.class2.control.trajectory import actuator_reference
 from tensegrity_core.class2.names import ACTUATED_JOINTS, ACTUATORS, JOINTS
 from tensegrity_core.errors import TensegrityError
+from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_ros.nodes.common import declare, spin_node
 from tensegrity_ros.nodes.scene_param import declare_scene
 from tensegrity_ros.rclpy_utils.messages import duration_to_s, stamp_to_s
@@ -132,8 +141,12 @@ class ControllerNode(Node):
         self._latest_header = None           # its header (stamp and frame)
         self._answer = None                  # the command published for it (sent again for a repeat)
         self._advanced_at = None             # wall time the joint states' time last advanced
+        self._sent: deque = deque(maxlen=256)   # keys of the commands this node published lately
+        self._manual = False                 # another node's command took over; until the next goal
 
         self.pub = self.create_publisher(ActuatorForces, "actuator_forces", 10)
+        # every command on the topic, to tell another node's (a manual command) from this one's
+        self.create_subscription(ActuatorForces, "actuator_forces", self._on_command_seen, QoSProfile(depth=10))
         # latest state wins: a controller that fell behind acts on the newest sample, never a backlog
         self.create_subscription(JointState, "joint_states", self.on_joints, QoSProfile(depth=1))
         self.create_timer(0.05, self._watch_time)
@@ -160,8 +173,8 @@ class ControllerNode(Node):
             if t == t0 and np.array_equal(q, q0) and np.array_equal(qdot, qdot0):
                 # not a new sample (a paused simulator repeats it, a client re-publishes it when
                 # the answer did not come): the same answer again, the controller not advanced
-                if self._answer is not None:
-                    self.pub.publish(self._answer)
+                if self._answer is not None and not self._manual:
+                    self._publish(self._answer)
                 return
             self._simulation_reset(t)       # time went back, or another state at the same time
         self._latest = state
@@ -170,16 +183,36 @@ class ControllerNode(Node):
         self._advanced_at = time.monotonic()
         if self.ctrl.reference is None and not self._start_holding(t, q):
             return
+        if self._manual:
+            return                          # another node commands: nothing sent until the next goal
         tick = self.ctrl.update(t, q, qdot)
         job = self._job
         if job is not None:
             self._supervise(job, t, q, qdot, tick)
         cmd = ActuatorForces(name=list(ACTUATORS), force=[float(tick.forces[0]), float(tick.forces[1])])
         cmd.header.stamp = msg.header.stamp
-        self.pub.publish(cmd)
+        self._publish(cmd)
         self._answer = cmd
         if job is not None and not job.finished.done():
             job.handle.publish_feedback(self._feedback(job, msg, tick, q, qdot))
+
+    def _publish(self, cmd: ActuatorForces) -> None:
+        self._sent.append(_command_key(cmd))
+        self.pub.publish(cmd)
+
+    def _on_command_seen(self, msg: ActuatorForces) -> None:
+        """A command on actuator_forces: another node's takes over (see the module docstring)."""
+        if _command_key(msg) in self._sent or self._manual:
+            return
+        self._manual = True
+        forces = excerpt([float(f) for f in msg.force])
+        self.get_logger().warning(clip(f"another node commands actuator_forces ({forces} N): the controller stops "
+                                       "commanding until its next goal"))
+        job = self._job
+        if job is not None:
+            if self._latest is not None:
+                self.ctrl.hold_here(self._latest[0])
+            self._end(job, G.Outcome(G.PREEMPTED, "a command on actuator_forces from another node took over"))
 
     def _simulation_reset(self, t: float) -> None:
         """The simulation was reset: a joint state at ``t`` [s] that is not a repeat of the
@@ -334,6 +367,10 @@ class ControllerNode(Node):
         old = self._job
         t0 = self._latest[0] if start is None else start
         goal.t_start = t0
+        if self._manual:
+            self._manual = False
+            self.ctrl.reset_integral()
+            self.get_logger().info("a new goal: the controller commands actuator_forces again")
         self._job = job
         job.started_at = time.monotonic()
         self.ctrl.follow(ref, t0, gains)
@@ -468,6 +505,11 @@ def _parse_joint_state(msg: JointState):
     if not all(math.isfinite(v) for v in q + qdot):
         return None
     return stamp_to_s(msg.header.stamp), np.array(q), np.array(qdot)
+
+
+def _command_key(msg: ActuatorForces) -> tuple:
+    """What tells two commands apart: stamp, names and forces."""
+    return msg.header.stamp.sec, msg.header.stamp.nanosec, tuple(msg.name), tuple(msg.force)
 
 
 def _duration_msg(seconds: float) -> DurationMsg:

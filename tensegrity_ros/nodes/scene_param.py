@@ -24,13 +24,13 @@ from tensegrity_ros.nodes.common import declare
 DEFAULT_SCENE = "class2_at_rest"
 
 
-def declare_scene(node: Node) -> tuple[str, Scene]:
+def declare_scene(node: Node, *, class2_only: bool = True) -> tuple[str, Scene]:
     """Declare the read-only ``scene`` parameter and load it: ``(name, Scene)``.
 
     The simulator, the IK node and the controller all take the mechanism (L, k1..k4, masses,
     dampers) from this one parameter, so none can disagree with the simulated mechanism.
-    A scene that cannot be loaded or is not of the class-2 mechanism stops the node with a
-    message naming it.
+    A scene that cannot be loaded, or (``class2_only``: the IK node and the controller) is
+    not of the class-2 mechanism, stops the node with a message naming it.
     """
     name = declare(node, "scene", DEFAULT_SCENE,
                    "scene file or shipped scene name (tensegrity scenes lists them); the mechanism's "
@@ -39,7 +39,7 @@ def declare_scene(node: Node) -> tuple[str, Scene]:
         scene = load_scene(name)
     except TensegrityError as err:
         raise SystemExit(clip(f"{node.get_name()}: cannot load scene {excerpt(name)}: {err}")) from None
-    if scene.model.kind != "class2":
+    if class2_only and scene.model.kind != "class2":
         raise SystemExit(f"{node.get_name()}: scene {excerpt(name)} models a general structure; this node works "
                          "on the class-2 mechanism")
     return name, scene

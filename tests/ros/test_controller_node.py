@@ -482,3 +482,36 @@ def test_the_demo_client_connects_to_a_controller_that_missed_the_first_state(cl
         assert "no command for step" not in sim.stderr()
     finally:
         client.close()
+
+
+def test_a_manual_command_takes_over_from_the_controller_until_its_next_goal(cli, ros_context):
+    """Issue 33: `up` then `send-forces` fought the controller's hold. A command on
+    actuator_forces from another node takes over: the running goal ends PREEMPTED with the
+    reason, the controller sends nothing more (every state then runs under the sent forces),
+    and its next goal makes it command again."""
+    from action_msgs.msg import GoalStatus
+
+    ns = "/manual"
+    sim = cli("node", "sim", "--ros-args", "-r", f"__ns:={ns}", "-p", "command_timeout:=0.0", log_name="sim")
+    ctl = cli("node", "controller", "--ros-args", "-r", f"__ns:={ns}", *CONTROLLER_ARGS, log_name="controller")
+    sim.wait_for("publishing at")
+    ctl.wait_for("holding rho")
+    client = Client(ros_context, ns)
+    x0, y0, _ = client.end_effector()
+    handle, feedback = client.send(client.move, client.Move.Goal(x=x0 + 0.01, y=y0, duration=20.0))
+    client.spin_until(lambda: len(feedback) > 5)
+    sender = cli("send-forces", "-0.35", "0.35", "--rate", "50", "--ros-args", "-r", f"__ns:={ns}", log_name="send")
+    status, result = client.result(handle)
+    assert status == GoalStatus.STATUS_ABORTED and result.error_code == client.Move.Result.PREEMPTED
+    assert "actuator_forces from another node took over" in result.error_string
+    ctl.wait_for("another node commands actuator_forces")
+    # once the sent forces act, every state runs under them: the controller sends nothing
+    client.spin_until(lambda: client.joints and tuple(client.joints[-1].effort[:2]) == (-0.35, 0.35))
+    client.joints.clear()
+    client.spin_until(lambda: len(client.joints) > 40)
+    assert all(tuple(j.effort[:2]) == (-0.35, 0.35) for j in client.joints)
+    sender.kill()                                   # (its exit code on a signal is test_shutdown's matter)
+    handle, _ = client.send(client.move, client.Move.Goal(x=x0, y=y0, duration=1.0))
+    ctl.wait_for("the controller commands actuator_forces again")
+    handle.cancel_goal_async()
+    client.node.destroy_node()

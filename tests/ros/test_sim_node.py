@@ -210,9 +210,12 @@ def test_a_huge_actuator_name_gives_a_short_warning(sim_node):
 
 def test_reset_returns_to_rest_and_time_keeps_running(sim_node):
     proc, ros = sim_node("-p", "real_time_factor:=4.0")
-    for _ in range(20):
-        ros.send((2.0, 2.0))
+    for k in range(20):
+        ros.send((0.5, 0.5 + 1e-3 * k))          # each command its own: the last one is known (and no fault)
         ros.spin(0.05)
+    # no command is in flight once the last one acts (the simulator takes them in order): a
+    # command sent before the reset and taken after it would move the mechanism again
+    ros.spin_until(lambda: tuple(ros.joints[-1].effort[:2]) == (0.5, 0.5 + 1e-3 * 19))
     assert abs(ros.joints[-1].position[0] - 0.7) > 1e-3
     future = ros.reset.call_async(ros.Trigger.Request())
     ros.spin_until(future.done)

@@ -60,6 +60,27 @@ def _clock_listener(ctx):
     return got, spin
 
 
+def _spin_until(spin, condition, what: str, timeout: float = 60.0) -> None:
+    """Spin the listener until ``condition()`` holds; fail saying ``what`` after ``timeout`` [s]."""
+    deadline = time.monotonic() + timeout
+    while not condition():
+        assert time.monotonic() < deadline, f"no {what} within {timeout:g} s"
+        spin(0.05)
+
+
+def _standing_clock(clock: list[int], spin, *, above: int = -1) -> int:
+    """The simulation time [ns] a paused simulator stands at, once it is above ``above``.
+
+    Playing or stepping, each /clock message is a step later than the one before; paused, the
+    simulator republishes its state at ``paused_publish_rate`` with the same stamp. So the
+    first time the last two messages received carry the same stamp, every message published
+    before the pause or the steps has arrived, and that stamp is where the simulator stands
+    (waiting on this condition, not for a fixed time, holds on a loaded machine)."""
+    _spin_until(spin, lambda: len(clock) >= 2 and clock[-1] == clock[-2] > above,
+                "/clock republished at a standing time" + (f" above {above} ns" if above >= 0 else ""))
+    return clock[-1]
+
+
 def _result(res):
     return res.result.result, res.result.error_message
 
@@ -136,22 +157,18 @@ def test_clock_is_exact_after_pause_step_resume_and_never_catches_up(stepping, r
 
     clock, spin = _clock_listener(ros_context)
     proc, client = stepping()                       # free-running, real time
-    spin(1.0)
+    _spin_until(spin, lambda: len(clock) >= 10, "ten /clock messages while playing")
     assert _result(client.set_state(SimulationState.STATE_PAUSED))[0] == 1
-    spin(0.3)
-    paused_at = clock[-1]
-    spin(1.2)                                       # paused: time stands (republished at 1 Hz)
-    assert clock[-1] == paused_at
+    paused_at = _standing_clock(clock, spin)        # paused: time stands (republished at 1 Hz)
     client.step(3)
     client.step(1)
-    spin(0.3)
-    assert clock[-1] == paused_at + 4 * STEP_NS     # exactly n * step_size per n steps
+    assert _standing_clock(clock, spin, above=paused_at) == paused_at + 4 * STEP_NS   # exactly n steps
     played_from = time.monotonic()
     assert _result(client.set_state(SimulationState.STATE_PLAYING))[0] == 1
-    spin(1.0)
+    _spin_until(spin, lambda: clock[-1] >= paused_at + 10 * STEP_NS, "ticks after resuming")
     assert _result(client.set_state(SimulationState.STATE_PAUSED))[0] == 1
     played_for = time.monotonic() - played_from
-    spin(0.3)
+    _standing_clock(clock, spin, above=paused_at + 4 * STEP_NS)
     assert all(c % STEP_NS == 0 for c in clock)     # every stamp on the step grid
     assert clock == sorted(clock)
     resumed = [c for c in clock if c > paused_at + 4 * STEP_NS]
@@ -370,12 +387,11 @@ def test_the_sim_command_plays_pauses_and_steps_the_simulator(stepping, ros_cont
     proc, client = stepping()                                  # free-running, real time
     out = run_cli("sim", "pause")
     assert out.returncode == 0 and out.stdout.startswith("ok: playing -> paused"), out.stdout + out.stderr
-    spin(0.3)
-    paused_at = clock[-1]
+    paused_at = _standing_clock(clock, spin)
     out = run_cli("sim", "step", "3")
     assert out.returncode == 0 and "3 steps done" in out.stdout, out.stdout + out.stderr
-    spin(0.3)
-    assert clock[-1] == paused_at + 3 * STEP_NS
+    assert _standing_clock(clock, spin, above=paused_at) == paused_at + 3 * STEP_NS
+    assert f"t = {(paused_at + 3 * STEP_NS) / 1e9:.9f} s" in out.stdout     # the answer says where it stands
     from simulation_interfaces.msg import SimulationState
 
     state = json.loads(run_cli("sim", "state", "--json").stdout)
@@ -416,3 +432,39 @@ def test_the_answer_the_last_step_ran_under_sent_again_is_dropped_not_rejected(s
     assert "stamped 0.000000000 s, but the simulator waits at step 1" in proc.stderr()
     assert proc.stop() == 0
     assert "rejected commands: 1;" in proc.stderr()      # the copy was not counted (nor warned of)
+
+
+@pytest.mark.parametrize("lockstep", [False, True])
+def test_simulate_steps_gives_feedback_after_every_step(stepping, ros_context, lockstep):
+    """Issue 33: 25 steps, 25 feedbacks (completed 1..25, remaining 24..0), each kept by the
+    server until its reader has it. The client keeps up to 1000 of them and asks for the
+    result after the last (rclpy's ActionClient drops feedback it processes after the result)."""
+    import rclpy
+    from rclpy.action import ActionClient
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import QoSProfile
+    from simulation_interfaces.action import SimulateSteps
+
+    from tensegrity_ros.rclpy_utils.futures import spin_until_done
+
+    proc, client = stepping("initial_state:=paused", "paused_publish_rate:=0.0", f"lockstep:={str(lockstep).lower()}",
+                            "lockstep_timeout:=30.0")
+    client.set_law(lambda sample: (-0.35, 0.35))
+    node = rclpy.create_node("feedback_test", context=ros_context)
+    ex = SingleThreadedExecutor(context=ros_context)
+    ex.add_node(node)
+    action = ActionClient(node, SimulateSteps, "simulate_steps", feedback_sub_qos_profile=QoSProfile(depth=1000))
+    assert action.wait_for_server(timeout_sec=30)
+    for _ in range(3):
+        feedback: list = []
+        goal = action.send_goal_async(SimulateSteps.Goal(steps=25), feedback_callback=lambda m, got=feedback: got.append(
+            (m.feedback.completed_steps, m.feedback.remaining_steps)))
+        assert spin_until_done(ex, goal, 30) and goal.result().accepted
+        deadline = time.monotonic() + 60
+        while not feedback or feedback[-1][1] != 0:
+            assert time.monotonic() < deadline, feedback
+            ex.spin_once(timeout_sec=0.05)
+        result = goal.result().get_result_async()
+        assert spin_until_done(ex, result, 30) and result.result().result.result.result == 1
+        assert feedback == [(k, 25 - k) for k in range(1, 26)]
+    node.destroy_node()

@@ -60,3 +60,52 @@ def test_up_starts_every_node_and_ctrl_c_stops_them(cli, ros_context, tmp_path):
     assert not reader.recovered
     assert any(t.name == "/suite_test/joint_states" and t.message_count > 0 for t in reader.topics())
     node.destroy_node()
+
+
+def test_up_on_a_general_structure_starts_its_nodes_and_records_its_topics(cli, ros_context, tmp_path):
+    """Issue 30: `up --scene` of a general structure starts the simulator, the cable controller
+    and form-finding (no IK, no class-2 controller), and records cable and body states."""
+    import rclpy
+
+    up = cli("up", "--scene", "table_actuated", "--namespace", "/general_up", "--record", str(tmp_path / "bag"),
+             log_name="up")
+    node = rclpy.create_node("up_general_probe", context=ros_context)
+    deadline = time.monotonic() + 90
+    want = {"/general_up/cable_states", "/general_up/body_states", "/general_up/joint_states"}
+    while not want <= {name for name, _ in node.get_topic_names_and_types()} \
+            or "/general_up/tensegrity_cable_controller/follow_joint_trajectory/_action/send_goal" not in \
+            {name for name, _ in node.get_service_names_and_types()}:
+        assert time.monotonic() < deadline, up.stderr()
+        time.sleep(0.2)
+    assert len(_children(up.popen.pid)) == 4         # sim, cables, formfind, recorder
+    services = {name for name, _ in node.get_service_names_and_types()}
+    assert "/general_up/solve_ik" not in services and "/general_up/move_end_effector/_action/send_goal" not in services
+    # once the recorder subscribes to a topic, every message after it is recorded: wait until
+    # it subscribes to each, then until a few messages of each have gone out (seen here)
+    from rclpy.qos import QoSProfile
+    from sensor_msgs.msg import JointState
+    from tensegrity_msgs.msg import CableStates, RigidBodyStates
+
+    from tensegrity_ros.rclpy_utils.raw_take import take_all
+
+    kinds = {"/general_up/cable_states": CableStates, "/general_up/body_states": RigidBodyStates,
+             "/general_up/joint_states": JointState}
+    while not all(any(i.node_name == "tensegrity_recorder" for i in node.get_subscriptions_info_by_topic(t))
+                  for t in want):
+        assert time.monotonic() < deadline, up.stderr()
+        time.sleep(0.05)
+    subs = {t: node.create_subscription(kinds[t], t, lambda *_: None, QoSProfile(depth=100), raw=True)
+            for t in want}
+    seen = dict.fromkeys(want, 0)
+    while min(seen.values()) < 5:
+        assert time.monotonic() < deadline + 60, (seen, up.stderr())
+        for t, sub in subs.items():
+            seen[t] += len(take_all(sub))
+        time.sleep(0.05)
+    up.popen.send_signal(signal.SIGINT)
+    assert up.popen.wait(60) == 0, up.stderr()
+    from tensegrity_ros.bag.reader import BagReader
+
+    counts = {t.name: t.message_count for t in BagReader(tmp_path / "bag").topics()}
+    assert all(counts.get(t, 0) > 0 for t in want), counts
+    node.destroy_node()

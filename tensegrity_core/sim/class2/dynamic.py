@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -20,10 +19,18 @@ from numpy.typing import ArrayLike, NDArray
 from tensegrity_core.events import LoggedEvent
 from tensegrity_core.sim.class2.observe import Class2Observer
 from tensegrity_core.sim.class2.plant import Class2Plant, Class2System
-from tensegrity_core.sim.class2.setup import NAMES, class2_params, force_effects, initial_configuration, static_force
+from tensegrity_core.sim.class2.setup import (
+    NAMES,
+    class2_interface,
+    class2_params,
+    force_effects,
+    initial_configuration,
+    singular_distance,
+    static_force,
+)
 from tensegrity_core.sim.commands import changed, check_command, compile_inputs
 from tensegrity_core.sim.inputs import held
-from tensegrity_core.sim.model import DynamicModel, State
+from tensegrity_core.sim.model import DynamicModel, JointValues, Observed, ObservedArrays, State, Stats
 from tensegrity_core.sim.scene import Scene
 from tensegrity_core.sim.stepper import Stepper
 
@@ -48,6 +55,7 @@ class Class2Dynamic(DynamicModel[Class2System, Class2Sample]):
         q0, qd0 = initial_configuration(scene, effects)
         self.laws, self.actuator_names, self.initial_commands = compile_inputs(
             scene.inputs, static_force(effects, params.L, q0)[:2])
+        self.interface = class2_interface(self.actuator_names, self.laws)
         self.plant = Class2Plant(scene, effects)
         self.state_names = self.plant.state_names
         self.observer = Class2Observer(scene, effects, inertia=True)
@@ -111,24 +119,27 @@ class Class2Dynamic(DynamicModel[Class2System, Class2Sample]):
         finally:
             out.extend((t, y, seg.bits, seg.drive.forces(t, y.tolist())) for t, y, seg in states)
 
-    def observe(self, samples: Sequence[Class2Sample]) -> dict[str, NDArray[Any]]:
+    def observe(self, samples: Sequence[Class2Sample]) -> ObservedArrays:
         """Observed quantities of recorded samples ``[(t, y, mode bits, T), ...]`` (arrays)."""
         return self.observer.many([s[0] for s in samples], [s[1] for s in samples], [s[2] for s in samples],
                                   [s[3] for s in samples])
 
-    def observe_now(self, state: State[Stepper[Class2System]]) -> dict[str, Any]:
+    def observe_now(self, state: State[Stepper[Class2System]]) -> Observed:
         """The observation at ``state.t`` (one sample, on floats)."""
         return self.observer.one(*self.sample(state))
 
-    def joint_sample(self, state: State[Stepper[Class2System]]) -> dict[str, Any]:
+    def joint_sample(self, state: State[Stepper[Class2System]]) -> JointValues:
         """Joint positions, rates, transmitted forces, node D and the fold flag at ``state.t``."""
         t, y, bits, T = self.sample(state)
         L = self.params.L
         ee = np.array([y[0] + L * math.cos(y[2]), L * math.sin(y[2]), 0.0])
-        return {"t": float(t), "q": y[:3], "qdot": y[3:6], "applied_forces": np.asarray(T, dtype=float),
-                "end_effector": ee, "folded": bool(bits)}
+        return JointValues(t=float(t), q=y[:3], qdot=y[3:6], applied_forces=np.asarray(T, dtype=float),
+                           end_effector=ee, folded=bool(bits))
 
-    def stats(self, state: State[Stepper[Class2System]]) -> dict[str, Any]:
+    def singular_distance(self, state: State[Stepper[Class2System]]) -> tuple[str, float]:
+        return singular_distance(self.params, state.y)
+
+    def stats(self, state: State[Stepper[Class2System]]) -> Stats:
         st = state.work
-        return {"method": self.method, "steps": st.n_steps, "nfev": st.nfev, "restarts": st.n_restarts - 1,
-                "events": st.n_events}
+        return Stats(method=self.method, steps=st.n_steps, nfev=st.nfev, restarts=st.n_restarts - 1,
+                     events=st.n_events)

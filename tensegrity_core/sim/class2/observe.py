@@ -13,7 +13,7 @@ few tens of microseconds instead of a few hundred: the ROS node observes at up t
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from typing import Any, TypedDict
+from typing import TypedDict
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -25,6 +25,7 @@ from tensegrity_core.class2.dynamics.limits import LAMBDA_MIN_REL
 from tensegrity_core.class2.geometry import NODE_NAMES
 from tensegrity_core.sim.class2.members import member_values, node_coordinates
 from tensegrity_core.sim.class2.setup import ForceEffect, class2_params
+from tensegrity_core.sim.model import Observed, ObservedArrays
 from tensegrity_core.sim.scene import Scene
 
 END_EFFECTOR = NODE_NAMES.index("D")
@@ -63,7 +64,7 @@ class Class2Observer:
                                        loads=self.loads, inertia=inertia)
 
     def one(self, t: float, y: ArrayLike, bits: int, T: Sequence[float] | NDArray[np.float64],
-            contact: Sequence[float] | None = None) -> dict[str, Any]:
+            contact: Sequence[float] | None = None) -> Observed:
         """The observation of one state ``y`` (q, qdot, ...) at ``t`` in contact mode ``bits``
         with transmitted actuator forces ``T`` (2,); ``contact`` (2,) the contact forces when
         known (quasi-static). Values as :meth:`many` gives them, without the sample axis."""
@@ -89,16 +90,15 @@ class Class2Observer:
         Bx, Cx, Dx, Dy, Ex, Ey, Fy = node_coordinates(self.L, k)
         nodes = np.array([[0.0, 0.0, 0.0], [Bx, 0.0, 0.0], [Cx, 0.0, 0.0], [Dx, Dy, 0.0], [Ex, Ey, 0.0],
                           [0.0, Fy, 0.0]])
-        return {
-            "t": float(t), "state": y.copy(), "q": np.array(yl[:3]), "qdot": np.array(yl[3:6]),
-            "qddot": np.array([a1, a2, a3]), "applied_forces": np.array([T1, T2]),
-            "contact_forces": np.array([l1, l2]), "nodes": nodes, "member_lengths": np.array(lengths),
-            "member_forces": np.array(forces), "end_effector": nodes[END_EFFECTOR].copy(),
-            "potential_energy": float(potential), "kinetic_energy": float(kinetic), "folded": bits != 0,
-        }
+        return Observed(
+            t=float(t), state=y.copy(), q=np.array(yl[:3]), qdot=np.array(yl[3:6]), qddot=np.array([a1, a2, a3]),
+            applied_forces=np.array([T1, T2]), contact_forces=np.array([l1, l2]), nodes=nodes,
+            member_lengths=np.array(lengths), member_forces=np.array(forces), end_effector=nodes[END_EFFECTOR].copy(),
+            potential_energy=float(potential), kinetic_energy=float(kinetic), folded=bits != 0,
+        )
 
     def many(self, t: ArrayLike, Y: ArrayLike, bits: ArrayLike, T: ArrayLike,
-             contact: ArrayLike | None = None) -> dict[str, NDArray[Any]]:
+             contact: ArrayLike | None = None) -> ObservedArrays:
         """Observed quantities of N samples: times ``t`` (N,), states ``Y`` (N, n), contact
         modes ``bits`` (N,), transmitted actuator forces ``T`` (N, 2), and ``contact`` (N, 2)
         the contact forces when known (quasi-static; otherwise they come with the
@@ -138,9 +138,8 @@ class Class2Observer:
         Bx, Cx, Dx, Dy, Ex, Ey, Fy = node_coordinates(self.L, k)
         nodes[:, 1, 0], nodes[:, 2, 0], nodes[:, 3, 0], nodes[:, 3, 1] = Bx, Cx, Dx, Dy
         nodes[:, 4, 0], nodes[:, 4, 1], nodes[:, 5, 1] = Ex, Ey, Fy
-        return {
-            "t": t, "state": Y, "q": q.copy(), "qdot": qd.copy(), "qddot": qdd, "applied_forces": T,
-            "contact_forces": lam, "nodes": nodes, "member_lengths": member_lengths, "member_forces": member_forces,
-            "end_effector": nodes[:, END_EFFECTOR].copy(), "potential_energy": potential, "kinetic_energy": kinetic,
-            "folded": bits != 0,
-        }
+        return ObservedArrays(
+            t=t, state=Y, q=q.copy(), qdot=qd.copy(), qddot=qdd, applied_forces=T, contact_forces=lam, nodes=nodes,
+            member_lengths=member_lengths, member_forces=member_forces, end_effector=nodes[:, END_EFFECTOR].copy(),
+            potential_energy=potential, kinetic_energy=kinetic, folded=bits != 0,
+        )

@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -56,15 +55,17 @@ from tensegrity_core.sim.class2.path_samples import Segment
 from tensegrity_core.sim.class2.potential import TotalPotential
 from tensegrity_core.sim.class2.setup import (
     NAMES,
+    class2_interface,
     class2_params,
     conservative,
     force_effects,
     initial_configuration,
+    singular_distance,
     static_force,
 )
 from tensegrity_core.sim.commands import changed, check_command, compile_inputs
 from tensegrity_core.sim.inputs import held
-from tensegrity_core.sim.model import Model, State
+from tensegrity_core.sim.model import JointValues, Model, Observed, ObservedArrays, State, Stats, joint_values
 from tensegrity_core.sim.scene import Scene
 
 #: Samples of one segment under one potential: ``(times (k,) [s], segment, total potential)``.
@@ -93,6 +94,7 @@ class Class2QuasiStatic(Model[PathFollower, Class2Block]):
         q0, _ = initial_configuration(scene, self.effects)
         self.laws, self.actuator_names, self.initial_commands = compile_inputs(
             scene.inputs, static_force(self.effects, self.L, q0)[:2])
+        self.interface = class2_interface(self.actuator_names, self.laws)
         self.observer = Class2Observer(scene, self.effects, inertia=False)
         fold = "fold_limit" in scene.effects
         force_scale = max(params.k1, params.k2, params.k3, params.k4) * params.L
@@ -147,7 +149,7 @@ class Class2QuasiStatic(Model[PathFollower, Class2Block]):
             potential = state.work.potential
             out.extend((t, seg, potential) for t, seg in blocks)
 
-    def observe(self, blocks: Sequence[Class2Block]) -> dict[str, NDArray[Any]]:
+    def observe(self, blocks: Sequence[Class2Block]) -> ObservedArrays:
         """Observed quantities of recorded blocks (arrays over their samples): the segments'
         equilibria at the blocks' times under the potential each was recorded with."""
         runs: list[tuple[TotalPotential, list[samples.Block]]] = []
@@ -162,16 +164,18 @@ class Class2QuasiStatic(Model[PathFollower, Class2Block]):
         t, q, qd, lam, u, bits = (np.concatenate(arrays) for arrays in zip(*parts))
         return self.observer.many(t, np.concatenate([q, qd], axis=1), bits, u, contact=lam)
 
-    def observe_now(self, state: State[PathFollower]) -> dict[str, Any]:
+    def observe_now(self, state: State[PathFollower]) -> Observed:
         """The observation at ``state.t`` (one sample, evaluated on floats)."""
         q, qd, lam, u = state.work.equilibrium_now()
         return self.observer.one(state.t, q + qd, state.work.seg.bits, u, contact=lam)
 
-    def joint_sample(self, state: State[PathFollower]) -> dict[str, Any]:
-        obs = self.observe_now(state)
-        return {k: obs[k] for k in ("t", "q", "qdot", "applied_forces", "end_effector", "folded")}
+    def joint_sample(self, state: State[PathFollower]) -> JointValues:
+        return joint_values(self.observe_now(state))
 
-    def stats(self, state: State[PathFollower]) -> dict[str, Any]:
+    def singular_distance(self, state: State[PathFollower]) -> tuple[str, float]:
+        return singular_distance(self.params, state.y)
+
+    def stats(self, state: State[PathFollower]) -> Stats:
         counts = state.work.counts
-        return {"method": self.method, "steps": counts.steps, "newton_iterations": counts.newton,
-                "events": len(state.events)}
+        return Stats(method=self.method, steps=counts.steps, newton_iterations=counts.newton,
+                     events=len(state.events))

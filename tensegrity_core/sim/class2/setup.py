@@ -9,6 +9,7 @@ actuator lengths (springs and gravity; loads act from ``t = 0`` on).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 from typing import Any
 
@@ -21,8 +22,10 @@ from tensegrity_core.class2.dynamics.limits import LAMBDA_MIN_REL
 from tensegrity_core.class2.energy import equilibrium_beta
 from tensegrity_core.class2.geometry import MEMBERS, NODE_NAMES
 from tensegrity_core.class2.params import Class2Params
+from tensegrity_core.class2.singularities.distances import dynamics_singularity
 from tensegrity_core.sim.errors import SceneError
-from tensegrity_core.sim.model import Names
+from tensegrity_core.sim.inputs import Commanded, InputLaw
+from tensegrity_core.sim.model import Interface, Names
 from tensegrity_core.sim.scene import Class2ModelSpec, Scene
 
 FloatArray = NDArray[np.float64]
@@ -32,7 +35,22 @@ ForceEffect = Springs | Damping | Gravity | Loads
 ConservativeEffect = Springs | Gravity | Loads
 
 #: What a class-2 observation names: the six nodes and the ten members (MEMBERS order).
-NAMES = Names(NODE_NAMES, tuple(m.name for m in MEMBERS), np.array([m.nodes for m in MEMBERS]))
+NAMES = Names(NODE_NAMES, tuple(m.name for m in MEMBERS), np.array([m.nodes for m in MEMBERS]),
+              tuple(m.kind for m in MEMBERS))
+#: The member each input drives: f1 the actuator AB, f2 the actuator BC.
+INPUT_MEMBERS = {"f1": 0, "f2": 1}
+
+
+def class2_interface(names: Sequence[str], laws: Sequence[InputLaw]) -> Interface:
+    """The inputs of a class-2 model: actuator forces [N] (tension positive), any finite value."""
+    return Interface("force", tuple(names), tuple(isinstance(law, Commanded) for law in laws),
+                     tuple((-math.inf, math.inf) for _ in names), tuple(INPUT_MEMBERS[n] for n in names))
+
+
+def singular_distance(params: Class2Params, q: Sequence[float] | FloatArray) -> tuple[str, float]:
+    """``(name, lambda / L)`` of the singular set nearest the lengths ``q[:2]`` (the nearer of
+    lambda1 and lambda2, :func:`~tensegrity_core.class2.singularities.dynamics_singularity`)."""
+    return dynamics_singularity(float(q[0]), float(q[1]), params)
 
 
 def class2_params(scene: Scene) -> Class2Params:

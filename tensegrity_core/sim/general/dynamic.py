@@ -26,6 +26,7 @@ from tensegrity_core.sim.general.setup import (
     GeneralBackEnd,
     coordinates,
     finish_observations,
+    first_observation,
     general_model,
     initial_configuration,
     member_damping,
@@ -34,7 +35,7 @@ from tensegrity_core.sim.general.setup import (
     scene_loads,
 )
 from tensegrity_core.sim.inputs import held
-from tensegrity_core.sim.model import DynamicModel, State
+from tensegrity_core.sim.model import DynamicModel, JointValues, Observed, ObservedArrays, State, Stats, joint_values
 from tensegrity_core.sim.scene import Scene
 from tensegrity_core.sim.stepper import Stepper
 
@@ -111,7 +112,7 @@ class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralSystem, GeneralSample])
                out: list[GeneralSample]) -> None:
         state.work.record(times, out)
 
-    def observe(self, samples: Sequence[GeneralSample]) -> dict[str, NDArray[Any]]:
+    def observe(self, samples: Sequence[GeneralSample]) -> ObservedArrays:
         """The observations of ``samples``, each run of samples taken under one model (one set
         of charts and laws) evaluated as one batch."""
         rows: dict[str, list[Any]] = {k: [] for k in OBSERVED}
@@ -130,14 +131,17 @@ class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralSystem, GeneralSample])
             i = j
         return finish_observations(rows, self.scene)
 
-    def observe_now(self, state: State[Stepper[GeneralSystem]]) -> dict[str, Any]:
-        return {k: v[0] for k, v in self.observe([self.sample(state)]).items()}
+    def observe_now(self, state: State[Stepper[GeneralSystem]]) -> Observed:
+        return first_observation(self.observe([self.sample(state)]))
 
-    def joint_sample(self, state: State[Stepper[GeneralSystem]]) -> dict[str, Any]:
-        obs = self.observe_now(state)
-        return {k: obs[k] for k in ("t", "q", "qdot", "applied_forces", "end_effector", "folded")}
+    def joint_sample(self, state: State[Stepper[GeneralSystem]]) -> JointValues:
+        return joint_values(self.observe_now(state))
 
-    def stats(self, state: State[Stepper[GeneralSystem]]) -> dict[str, Any]:
+    def singular_distance(self, state: State[Stepper[GeneralSystem]]) -> None:
+        """A general structure has no singular sets of its equations of motion."""
+        return None
+
+    def stats(self, state: State[Stepper[GeneralSystem]]) -> Stats:
         st = state.work
-        return {"method": self.method, "steps": st.n_steps, "nfev": st.nfev, "restarts": st.n_restarts - 1,
-                "events": st.n_events}
+        return Stats(method=self.method, steps=st.n_steps, nfev=st.nfev, restarts=st.n_restarts - 1,
+                     events=st.n_events)

@@ -237,7 +237,11 @@ class GeneralSystem:
         this model's charts and laws, each (B, ...): ``q`` (rotation vectors from the drawing),
         ``qdot``, ``applied_forces`` (actuators' rest lengths [m]), ``nodes`` [m],
         ``member_lengths`` [m], ``member_forces`` [N], ``potential_energy`` and
-        ``kinetic_energy`` [J]."""
+        ``kinetic_energy`` [J]; per member ``member_rest_lengths`` [m], ``member_rates``
+        (dl/dt [m/s]) and ``member_slack`` (a string shorter than its rest length); per moving
+        body ``body_positions`` (its centre [m]), ``body_orientations`` (unit quaternions
+        ``(x, y, z, w)``, ``w >= 0``, of its rotation from the drawing), ``body_velocities``
+        [m/s] and ``body_angular_velocities`` [rad/s] (world frame)."""
         ts = np.atleast_1d(np.asarray(t, dtype=float))
         Y = np.atleast_2d(np.asarray(y, dtype=float))
         n, B = self.n, len(ts)
@@ -251,9 +255,18 @@ class GeneralSystem:
         if self.nb:
             rot = self.lay.body_dof[:, None] + 3 + np.arange(3)[None, :]
             q[:, rot] = Rotation.from_matrix(ev.rotations.reshape(-1, 3, 3)).as_rotvec().reshape(B, self.nb, 3)
+        a, b = self.structure.members[:, 0], self.structure.members[:, 1]
+        h = ev.positions[:, b] - ev.positions[:, a]
+        rates = np.einsum("bmi,bmi->bm", h, ev.velocities[:, b] - ev.velocities[:, a]) / ev.lengths
+        body = self.lay.body_dof[:, None] + np.arange(3)[None, :]
+        quat = Rotation.from_matrix(ev.rotations.reshape(-1, 3, 3)).as_quat().reshape(B, self.nb, 4) if self.nb \
+            else np.zeros((B, 0, 4))
         return {"q": q, "qdot": Y[:, n:].copy(), "applied_forces": l0[:, self.actuators],
                 "nodes": ev.positions, "member_lengths": ev.lengths, "member_forces": ev.forces,
-                "potential_energy": strain - work, "kinetic_energy": self.kinetic_energy(Y, ev.rotations)}
+                "potential_energy": strain - work, "kinetic_energy": self.kinetic_energy(Y, ev.rotations),
+                "member_rest_lengths": l0, "member_rates": rates, "member_slack": ~taut,
+                "body_positions": Y[:, body], "body_orientations": np.where(quat[..., 3:] < 0.0, -quat, quat),
+                "body_velocities": Y[:, n + body], "body_angular_velocities": Y[:, n + body + 3]}
 
     def kinetic_energy(self, y: FloatArray, R: FloatArray) -> FloatArray:
         """Kinetic energy [J] (B,) of states ``y`` (B, 2 n_dof) whose bodies have rotations

@@ -34,15 +34,17 @@ from tensegrity_core.sim.general.setup import (
     coordinates,
     equilibrium,
     finish_observations,
+    first_observation,
     general_model,
     initial_configuration,
     minimal_coordinates,
+    quaternions,
     rest_lengths_function,
     scene_loads,
     static_structure,
 )
 from tensegrity_core.sim.inputs import held
-from tensegrity_core.sim.model import Model, State
+from tensegrity_core.sim.model import JointValues, Model, Observed, ObservedArrays, State, Stats, joint_values
 from tensegrity_core.sim.scene import Scene
 
 FloatArray = NDArray[np.float64]
@@ -150,49 +152,65 @@ class GeneralQuasiStatic(GeneralBackEnd, Model[FormFindingPath, GeneralQuasiStat
             self.advance(state, float(t))
             out.append(self.sample(state))
 
-    def _rate(self, t: float, config: Configuration, static: Structure, rest_of: RestLengths | None) -> FloatArray:
-        """``dU/dt`` of the equilibrium path (zero when the rest lengths do not change)."""
-        n = self.structure.layout.n_dof
+    def _rates(self, t: float, config: Configuration, static: Structure,
+               rest_of: RestLengths | None) -> tuple[FloatArray, FloatArray]:
+        """``(dU/dt, dl/dt)`` of the equilibrium path (zero when the rest lengths do not change):
+        the members' length rates by compatibility, ``dl/dt = A^T dU/dt`` (``A`` the equilibrium
+        matrix, whose column ``j`` is ``dl_j/dU``)."""
+        n, m = self.structure.layout.n_dof, self.structure.n_members
         if rest_of is None:
-            return np.zeros(n)
-        dl0 = np.zeros(self.structure.n_members)
+            return np.zeros(n), np.zeros(m)
+        dl0 = np.zeros(m)
         dl0[self.actuators] = [law.d_time(t, 0.0) for law in rest_of.laws]
         if not np.any(dl0):
-            return np.zeros(n)
+            return np.zeros(n), np.zeros(m)
         lengths = member_lengths(static, config.coords)
         taut = ~(static.is_string & (lengths < static.rest_lengths))
         dt_dl0 = np.where(taut, -static.EA * lengths / static.rest_lengths**2, 0.0)
         A = equilibrium_matrix(static, config, sparse=True)
         K = tangent_stiffness(static, config, sparse=True)
         rate: FloatArray = np.atleast_1d(spsolve(K.tocsc(), -(A @ (dt_dl0 * dl0))))
-        return rate
+        return rate, np.asarray(A.T @ rate, dtype=float)
 
-    def observe(self, samples: Sequence[GeneralQuasiStaticSample]) -> dict[str, NDArray[Any]]:
+    def observe(self, samples: Sequence[GeneralQuasiStaticSample]) -> ObservedArrays:
         rows: dict[str, list[Any]] = {k: [] for k in OBSERVED}
         lay = self.structure.layout
+        body = lay.body_dof[:, None] + np.arange(3)[None, :]
         for t, config, static, rest_of in samples:
             q = minimal_coordinates(lay, coordinates(config), config.rotations)
+            rate, length_rate = self._rates(t, config, static, rest_of)
+            lengths = member_lengths(static, config.coords)
             rows["t"].append(t)
             rows["state"].append(q)
             rows["q"].append(q)
-            rows["qdot"].append(self._rate(t, config, static, rest_of))
+            rows["qdot"].append(rate)
             rows["applied_forces"].append(static.rest_lengths[self.actuators])
             rows["nodes"].append(config.coords)
-            rows["member_lengths"].append(member_lengths(static, config.coords))
+            rows["member_lengths"].append(lengths)
             rows["member_forces"].append(member_forces(static, config.coords))
+            rows["member_rest_lengths"].append(static.rest_lengths)
+            rows["member_rates"].append(length_rate)
+            rows["member_slack"].append(static.is_string & (lengths < static.rest_lengths))
+            rows["body_positions"].append(config.centres)
+            rows["body_orientations"].append(quaternions(config.rotations))
+            rows["body_velocities"].append(rate[body])
+            rows["body_angular_velocities"].append(rate[body + 3])
             rows["potential_energy"].append(potential_energy(static, config.coords))
             rows["kinetic_energy"].append(0.0)
         return finish_observations(rows, self.scene)
 
-    def observe_now(self, state: State[FormFindingPath]) -> dict[str, Any]:
-        return {k: v[0] for k, v in self.observe([self.sample(state)]).items()}
+    def observe_now(self, state: State[FormFindingPath]) -> Observed:
+        return first_observation(self.observe([self.sample(state)]))
 
-    def joint_sample(self, state: State[FormFindingPath]) -> dict[str, Any]:
-        obs = self.observe_now(state)
-        return {k: obs[k] for k in ("t", "q", "qdot", "applied_forces", "end_effector", "folded")}
+    def joint_sample(self, state: State[FormFindingPath]) -> JointValues:
+        return joint_values(self.observe_now(state))
 
-    def stats(self, state: State[FormFindingPath]) -> dict[str, Any]:
-        return {"method": self.method, "form_finds": state.work.n_solves, "events": len(state.events)}
+    def singular_distance(self, state: State[FormFindingPath]) -> None:
+        """A general structure has no singular sets of the class-2 kind."""
+        return None
+
+    def stats(self, state: State[FormFindingPath]) -> Stats:
+        return Stats(method=self.method, form_finds=state.work.n_solves, events=len(state.events))
 
 
 def _size(structure: Structure) -> float:

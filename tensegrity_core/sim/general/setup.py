@@ -12,6 +12,7 @@ from the scene's inputs. The initial equilibrium is form-found under the springs
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping
 from typing import Any
 
@@ -25,14 +26,16 @@ from tensegrity_core.general.formfind import form_find
 from tensegrity_core.general.structure import Structure
 from tensegrity_core.sim.commands import compile_inputs
 from tensegrity_core.sim.errors import SceneError, SimulationError
-from tensegrity_core.sim.inputs import Law
-from tensegrity_core.sim.model import Names
+from tensegrity_core.sim.inputs import Commanded, InputLaw, Law
+from tensegrity_core.sim.model import Interface, Names, Observed, ObservedArrays
 from tensegrity_core.sim.scene import GeneralModelSpec, Scene
 
 FloatArray = NDArray[np.float64]
-#: The quantities both general back ends observe (:func:`finish_observations` adds the constant ones).
+#: The quantities both general back ends observe per sample (:func:`finish_observations` adds the
+#: constant ones).
 OBSERVED = ("t", "state", "q", "qdot", "applied_forces", "nodes", "member_lengths", "member_forces",
-            "potential_energy", "kinetic_energy")
+            "potential_energy", "kinetic_energy", "member_rest_lengths", "member_rates", "member_slack",
+            "body_positions", "body_orientations", "body_velocities", "body_angular_velocities")
 
 
 def general_model(scene: Scene) -> GeneralModelSpec:
@@ -138,7 +141,25 @@ def check_springs(scene: Scene) -> None:
 
 
 def names_of(structure: Structure) -> Names:
-    return Names(structure.node_names, structure.member_names, structure.members)
+    return Names(structure.node_names, structure.member_names, structure.members, structure.member_kinds,
+                 structure.layout.body_names)
+
+
+def general_interface(structure: Structure, actuators: Iterable[int], names: Iterable[str],
+                      laws: Iterable[InputLaw]) -> Interface:
+    """The inputs of a general model: rest lengths [m] of the actuator members, any value > 0."""
+    laws = tuple(laws)
+    return Interface("rest_length", tuple(names), tuple(isinstance(law, Commanded) for law in laws),
+                     tuple((0.0, math.inf) for _ in laws), tuple(int(i) for i in actuators))
+
+
+def quaternions(R: ArrayLike) -> FloatArray:
+    """Unit quaternions ``(x, y, z, w)`` (k, 4) of rotation matrices ``R`` (k, 3, 3), with ``w >= 0``."""
+    R = np.asarray(R, dtype=float).reshape(-1, 3, 3)
+    if not len(R):
+        return np.zeros((0, 4))
+    quat: FloatArray = Rotation.from_matrix(R).as_quat()
+    return np.where(quat[:, 3:] < 0.0, -quat, quat)
 
 
 class GeneralBackEnd:
@@ -155,6 +176,8 @@ class GeneralBackEnd:
         self.structure = general_model(scene).structure
         self.laws, self.actuator_names, self.initial_commands = compile_inputs(scene.inputs, drawn_rest_lengths(scene))
         self.names = names_of(self.structure)
+        self.interface = general_interface(self.structure, general_model(scene).actuators, self.actuator_names,
+                                           self.laws)
 
 
 def coordinates(config: Configuration) -> FloatArray:
@@ -190,13 +213,40 @@ def minimal_coordinates(layout: DofLayout, x: ArrayLike, R: ArrayLike) -> FloatA
     return q
 
 
-def finish_observations(rows: Mapping[str, list[Any]], scene: Scene) -> dict[str, NDArray[Any]]:
-    """The observed arrays of sample ``rows`` (one list per quantity), with the quantities a
-    general structure reports constant (end effector, no folds, no contacts)."""
-    data: dict[str, NDArray[Any]] = {k: np.array(v, dtype=float) for k, v in rows.items()}
-    N = len(data["t"])
-    data["applied_forces"] = data["applied_forces"].reshape(N, -1)
-    data["end_effector"] = data["nodes"][:, general_model(scene).end_effector].copy()
-    data["folded"] = np.zeros(N, dtype=bool)
-    data["contact_forces"] = np.zeros((N, 0))
-    return data
+def finish_observations(rows: Mapping[str, list[Any]], scene: Scene) -> ObservedArrays:
+    """The observed arrays of sample ``rows`` (one list per quantity of :data:`OBSERVED`), with
+    the quantities a general structure reports constant (end effector, no folds, no contacts)."""
+    s = general_model(scene).structure
+    N = len(rows["t"])
+    m, nb = s.n_members, len(s.layout.moving_bodies)
+
+    def floats(key: str, *shape: int) -> FloatArray:
+        return np.array(rows[key], dtype=float).reshape(N, *shape)
+
+    nodes = floats("nodes", s.n_nodes, 3)
+    return ObservedArrays(
+        t=floats("t"), state=floats("state", -1), q=floats("q", -1), qdot=floats("qdot", -1),
+        applied_forces=floats("applied_forces", -1), contact_forces=np.zeros((N, 0)), nodes=nodes,
+        member_lengths=floats("member_lengths", m), member_forces=floats("member_forces", m),
+        end_effector=nodes[:, general_model(scene).end_effector].copy(),
+        potential_energy=floats("potential_energy"), kinetic_energy=floats("kinetic_energy"),
+        folded=np.zeros(N, dtype=bool), member_rest_lengths=floats("member_rest_lengths", m),
+        member_rates=floats("member_rates", m),
+        member_slack=np.array(rows["member_slack"], dtype=bool).reshape(N, m),
+        body_positions=floats("body_positions", nb, 3), body_orientations=floats("body_orientations", nb, 4),
+        body_velocities=floats("body_velocities", nb, 3),
+        body_angular_velocities=floats("body_angular_velocities", nb, 3))
+
+
+def first_observation(data: ObservedArrays) -> Observed:
+    """The first sample of observed arrays, without the sample axis."""
+    return Observed(
+        t=float(data["t"][0]), state=data["state"][0], q=data["q"][0], qdot=data["qdot"][0],
+        applied_forces=data["applied_forces"][0], contact_forces=data["contact_forces"][0], nodes=data["nodes"][0],
+        member_lengths=data["member_lengths"][0], member_forces=data["member_forces"][0],
+        end_effector=data["end_effector"][0], potential_energy=float(data["potential_energy"][0]),
+        kinetic_energy=float(data["kinetic_energy"][0]), folded=bool(data["folded"][0]),
+        member_rest_lengths=data["member_rest_lengths"][0], member_rates=data["member_rates"][0],
+        member_slack=data["member_slack"][0], body_positions=data["body_positions"][0],
+        body_orientations=data["body_orientations"][0], body_velocities=data["body_velocities"][0],
+        body_angular_velocities=data["body_angular_velocities"][0])

@@ -139,7 +139,7 @@ def _error_vs_reference(traj: Trajectory, options: Options,
 def _stat(key: str) -> Callable[[Trajectory], int | None]:
     def read(traj: Trajectory) -> int | None:
         v = traj.stats.get(key)
-        return None if v is None else int(v)
+        return int(v) if isinstance(v, (int, float)) else None
     return read
 
 

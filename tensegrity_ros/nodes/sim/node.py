@@ -1,17 +1,21 @@
-"""``tensegrity_sim``: the simulated mechanism.
+"""``tensegrity_sim``: the simulated mechanism or structure of any scene.
 
-Subscribes ``actuator_forces`` (tensegrity_msgs/ActuatorForces; positive = tensile, pulls
-the actuator's nodes together). Publishes, stamped with simulation time:
+Commands (the model says which it takes, :class:`~tensegrity_core.sim.model.Interface`):
+``actuator_forces`` (tensegrity_msgs/ActuatorForces; the class-2 mechanism; positive =
+tensile, pulls the actuator's nodes together) or ``cable_commands``
+(tensegrity_msgs/CableCommand; general structures: rest lengths [m] of the actuated cables).
+Publishes, stamped with simulation time (topics per model: :mod:`.outputs`):
 
-- ``joint_states`` (sensor_msgs/JointState): joints ``rho1``, ``rho2`` [m] and ``beta``
-  [rad]; position, velocity, and effort = the applied actuator force [N] (0 for beta);
-- ``end_effector`` (geometry_msgs/PointStamped): node D [m];
-- ``mechanism_state`` (tensegrity_msgs/MechanismState): nodes, member lengths and
-  forces, energies, active contacts; at ``state_rate``;
+- ``joint_states`` (sensor_msgs/JointState): class-2 joints ``rho1``, ``rho2`` [m] and
+  ``beta`` [rad] (effort = the applied actuator force [N], 0 for beta); general structures
+  one joint per actuated cable (position = length [m], velocity [m/s], effort = tension [N]);
+- ``end_effector`` (geometry_msgs/PointStamped): node D, or the scene's end-effector node [m];
+- class-2: ``mechanism_state`` (tensegrity_msgs/MechanismState) at ``state_rate``;
+- general: ``cable_states`` (tensegrity_msgs/CableStates: every member) at ``state_rate``
+  and ``body_states`` (tensegrity_msgs/RigidBodyStates) every publication;
 - ``markers`` (visualization_msgs/MarkerArray): members coloured by force (red tension,
   blue compression), nodes as spheres; at ``marker_rate``;
-- ``events`` (tensegrity_msgs/SimulationEvent): every fold, release, singular stop and
-  limit, at the time the integrator located it;
+- ``events`` (tensegrity_msgs/SimulationEvent): what the integrator located, when it did;
 - ``/clock`` (rosgraph_msgs/Clock): simulation time, so other nodes can use_sim_time.
 
 Services: ``reset`` (std_srvs/Trigger: back to the initial state, the clock keeps
@@ -20,23 +24,26 @@ running forward) and the ``simulation_interfaces`` standard: ``get_simulator_fea
 ``reset_simulation``, and the action ``simulate_steps``.
 
 Time advances in whole steps of ``step_size``; ``/clock`` reads exactly ``k * step_size``
-(integer nanoseconds) after ``k`` steps. States (:mod:`.control`): playing, paused
-(time stands; stepping requests step it), stopped. Playing is free-running on the wall
-clock (``real_time_factor``; a pause or a slow machine never causes catch-up steps), or
-lockstep (``lockstep: true``): after publishing the state at t_k the node waits for a
-command stamped t_k and integrates [t_k, t_k+1] under it held, or under ``safe_force``
-after ``lockstep_timeout``. The node is three parts: a receiver (:mod:`.receiver`:
-validates a command once), the plant (:mod:`.plant`: the core simulator and the clock)
-and a sender (:mod:`.sender`: pure functions from samples to messages).
+(integer nanoseconds) after ``k`` steps. The run states and their transitions are
+:mod:`.control`; the time policy is plain logic in its own modules: the free-running tick
+schedule (:mod:`.schedule`: real-time factor, no catch-up bursts), the lockstep pacer
+(:mod:`.pacer`) and gate (:mod:`.lockstep`: the command of the step waited at), the command
+hold and its timeout (:mod:`.hold`), which slower topics go out with a publication
+(:mod:`.decimation`). The node keeps the entities, the callbacks and
+two threads: a loop thread (free-running ticks, free-running stepping requests, paced
+lockstep publications, republishing while paused) and a command thread (commands arrive
+on a node and executor of their own; in lockstep it also times a step out). A receiver
+(:mod:`.receiver`) validates a command once, the plant (:mod:`.plant`) owns the core
+simulator and the clock, and the sender (:mod:`.sender`) turns samples into messages.
 
-Bad commands (wrong lengths, unknown names, NaN/inf, over ``max_force``, stamped for
-another step in lockstep) are rejected with a throttled warning naming the problem (in
-lockstep, the command the last step ran under arriving again is a duplicate, dropped
-silently: a controller answers a republished state again);
-publishing never stops and NaN is never integrated. Free-running, after
-``command_timeout`` seconds without a valid command the forces drop to ``safe_force``.
-When ``lambda1/L`` or ``lambda2/L`` falls below ``singularity_warning`` a throttled
-warning says which set is near and how near, before the simulation has to stop there.
+Bad commands (wrong lengths, unknown names, NaN/inf, over ``max_force`` or outside a rest
+length's range, a command of the other kind, stamped for another step in lockstep) are
+rejected with a throttled warning naming the problem (in lockstep, the command the last
+step ran under arriving again is a duplicate, dropped silently: a controller answers a
+republished state again); publishing never stops and NaN is never integrated.
+Free-running, after ``command_timeout`` seconds of play without a valid command the forces
+drop to ``safe_force`` (rest lengths are held). When ``lambda1/L`` or ``lambda2/L`` falls
+below ``singularity_warning`` a throttled warning says which set is near and how near.
 """
 
 from __future__ import annotations
@@ -46,7 +53,6 @@ import sys
 import threading
 import time
 
-from geometry_msgs.msg import PointStamped
 from rclpy.action import ActionServer, CancelResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -55,7 +61,6 @@ from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile
 from rclpy.task import Future
 from rosgraph_msgs.msg import Clock as ClockMsg
-from sensor_msgs.msg import JointState
 from simulation_interfaces.action import SimulateSteps
 from simulation_interfaces.msg import Result
 from simulation_interfaces.srv import (
@@ -66,8 +71,7 @@ from simulation_interfaces.srv import (
     StepSimulation,
 )
 from std_srvs.srv import Trigger
-from tensegrity_msgs.msg import ActuatorForces, MechanismState, SimulationEvent
-from visualization_msgs.msg import MarkerArray
+from tensegrity_msgs.msg import ActuatorForces, CableCommand, SimulationEvent
 
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import clip, excerpt
@@ -76,35 +80,43 @@ from tensegrity_ros.nodes.common import SERVICE_QOS, rclpy, spin_node
 from tensegrity_ros.nodes.scene_param import declare_scene
 from tensegrity_ros.nodes.sim import control, sender
 from tensegrity_ros.nodes.sim.control import PAUSED, PLAYING, RUN_STATE_NAMES, STOPPED, Answer, StepRequest
+from tensegrity_ros.nodes.sim.hold import CommandHold
+from tensegrity_ros.nodes.sim.lockstep import LockstepGate
+from tensegrity_ros.nodes.sim.outputs import Outputs
+from tensegrity_ros.nodes.sim.pacer import LockstepPacer
 from tensegrity_ros.nodes.sim.parameters import declare_sim_parameters
 from tensegrity_ros.nodes.sim.plant import SimPlant
-from tensegrity_ros.nodes.sim.receiver import check_step, receive
+from tensegrity_ros.nodes.sim.receiver import receive, receive_cables
+from tensegrity_ros.nodes.sim.schedule import TickSchedule
 from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
-#: Free-running catch-up limit [s of wall time]: a tick this late resynchronises instead
-#: of bursting steps.
-MAX_LAG = 0.25
 #: Free-running StepSimulation requests up to this many steps run in the service callback.
 SYNC_STEPS = 100
+#: Feedback messages of one SimulateSteps goal kept for a client that reads them late.
+FEEDBACK_DEPTH = 1000
 
 
 class SimNode(Node):
     def __init__(self, **kwargs) -> None:
         super().__init__("tensegrity_sim", **kwargs)
-        scene_name, scene = declare_scene(self)
+        scene_name, scene = declare_scene(self, class2_only=False)
         self.p = p = declare_sim_parameters(self, scene_name)
         try:
             self.plant = SimPlant(scene, p.step_ns)
         except TensegrityError as err:
             raise SystemExit(clip(f"tensegrity_sim: cannot start scene {excerpt(p.scene)}: {err}")) from None
-        self._state_every = max(1, round(p.publish_rate / p.state_rate)) if p.state_rate > 0 else 0
-        self._marker_every = max(1, round(p.publish_rate / p.marker_rate)) if p.marker_rate > 0 else 0
+        forces = self.plant.interface.command == "force"
+        self.unit = self.plant.interface.unit
+        self.outputs = Outputs(self.plant, publish_rate=p.publish_rate, state_rate=p.state_rate,
+                               marker_rate=p.marker_rate)
+        self.hold = CommandHold(self.plant.initial_command, p.command_timeout,
+                                [p.safe_force] * len(self.plant.initial_command) if forces else None)
+        self.schedule = TickSchedule(p.publish_rate, p.real_time_factor, p.step_ns)
+        self.pacer = LockstepPacer(p.lockstep_real_time_factor, p.step_size)
 
         qos = QoSProfile(depth=100)
-        self.pub_joints = self.create_publisher(JointState, "joint_states", qos)
-        self.pub_ee = self.create_publisher(PointStamped, "end_effector", qos)
-        self.pub_state = self.create_publisher(MechanismState, "mechanism_state", qos)
-        self.pub_markers = self.create_publisher(MarkerArray, "markers", 10)
+        self.pubs = {topic: self.create_publisher(kind, topic, 10 if topic == "markers" else qos)
+                     for topic, kind in self.outputs.topics.items()}
         self.pub_events = self.create_publisher(SimulationEvent, "events", qos)
         self.pub_clock = self.create_publisher(ClockMsg, "/clock", qos)
         # Commands arrive on a node and executor of their own: each wake-up of an rclpy
@@ -113,10 +125,16 @@ class SimNode(Node):
         # Free-running, the latest command wins: a history of one means a burst or flood of
         # commands can never build a backlog that the simulation would apply late. In
         # lockstep exactly one command per step is expected, so the depth does not matter.
+        # Cable commands name the cables they set and leave the others: each one counts, so
+        # they are kept (history 100) and applied in order (a later command naming other
+        # cables must not replace an earlier one that is still queued behind a long step).
+        # Both command topics exist whatever the scene: a command of the other kind is
+        # refused with a warning that names the right one.
         self._command_node = Node(f"{self.get_name()}_commands", namespace=self.get_namespace(),
                                   context=self.context, start_parameter_services=False,
                                   parameter_overrides=[Parameter("start_type_description_service", value=False)])
-        self._command_node.create_subscription(ActuatorForces, "actuator_forces", self.on_command, 1)
+        self._command_node.create_subscription(ActuatorForces, "actuator_forces", self.on_forces, 1)
+        self._command_node.create_subscription(CableCommand, "cable_commands", self.on_cables, 100)
         self.create_service(Trigger, "reset", self.on_reset)
         self.create_service(GetSimulatorFeatures, "get_simulator_features", self.on_get_features)
         self.create_service(GetSimulationState, "get_simulation_state", self.on_get_state)
@@ -127,25 +145,22 @@ class SimNode(Node):
         waiting = ReentrantCallbackGroup()
         self.create_service(StepSimulation, "step_simulation", self.on_step_simulation, qos_profile=SERVICE_QOS,
                             callback_group=waiting)
+        # Feedback after every step: the writer keeps a goal's feedback until every reader has
+        # it (a burst of free-running steps outruns the default history of 10)
         self._action = ActionServer(self, SimulateSteps, "simulate_steps", self.on_simulate_steps,
-                                    cancel_callback=self._on_cancel, callback_group=waiting)
+                                    cancel_callback=self._on_cancel, callback_group=waiting,
+                                    feedback_pub_qos_profile=QoSProfile(depth=FEEDBACK_DEPTH))
 
         self.rejected = 0
         self.lockstep_timeouts = 0
-        self.published = dict.fromkeys(("joint_states", "end_effector", "mechanism_state", "markers",
-                                        "events", "/clock"), 0)
+        self.published = dict.fromkeys((*self.outputs.topics, "events", "/clock"), 0)
         self._lock = threading.Lock()        # plant, run state and publishing: loop thread vs. callbacks
         self.state = p.initial_state
+        if self.state != PLAYING:
+            self.hold.pause(time.monotonic())
         self.request: StepRequest | None = None
-        self._command = list(self.plant.initial_command)   # held (free-running) / last applied
-        self._lockstep_command = None        # the receiver's command for the current step (lockstep)
-        self._applied_command = None         # lockstep: the command the last step ran under
+        self.gate = LockstepGate()           # lockstep: the command of the step the simulator waits at
         self._waiting_since = time.monotonic()
-        self._last_valid: float | None = None     # wall time of the last valid command (free-running)
-        self._timed_out = False
-        self._publications = 0
-        self._resync = True                  # free-running: restart the tick schedule from here
-        self._pace_anchor: tuple[float, int] | None = None   # paced lockstep: (wall time, step) of the schedule
         self._due: float | None = None       # paced lockstep: wall time the stepped state is due
         self._pace_wait = 0.0                # paced lockstep: how long the loop thread sleeps
         self._stop = threading.Event()
@@ -162,9 +177,12 @@ class SimNode(Node):
         mode = (f"lockstep (timeout {p.lockstep_timeout:g} s{pace})" if p.lockstep else
                 f"free-running at real-time factor {p.real_time_factor:g}"
                 + (" (as fast as possible)" if p.real_time_factor == 0 else ""))
+        inputs = self.plant.interface.inputs
+        takes = (f"{'actuator forces' if forces else 'rest lengths'} of {', '.join(inputs)}" if inputs
+                 else "no commands")
         self.get_logger().info(
             f"scene {excerpt(p.scene)}: publishing at {p.publish_rate:g} Hz, step {p.step_size:.9g} s, {mode}, "
-            f"{RUN_STATE_NAMES[self.state]}")
+            f"{RUN_STATE_NAMES[self.state]}; takes {takes}")
 
     def _spin_commands(self) -> None:
         """The command thread: take commands; in lockstep also check the step's timeout
@@ -185,19 +203,17 @@ class SimNode(Node):
         executor timer's per-callback overhead does not."""
         p = self.p
         if p.wait_for_subscribers > 0:
-            publishers = (self.pub_joints, self.pub_ee, self.pub_state, self.pub_markers, self.pub_clock)
+            publishers = (*self.pubs.values(), self.pub_clock)
             self.get_logger().info(f"waiting for {p.wait_for_subscribers} subscriber(s) on every output topic")
             wait_for_matches(publishers, p.wait_for_subscribers, should_stop=self._stop.is_set, poll=self._stop.wait)
         with self._lock:
             self._publish()                  # the state at t_0
             self._waiting_since = time.monotonic()
-            self._last_valid = None
-        period = 1.0 / p.publish_rate
         idle_period = 1.0 / p.paused_publish_rate if p.paused_publish_rate > 0 else math.inf
         next_idle = time.monotonic()
-        deadline: float | None = None         # of the next tick; None: the schedule starts at the next tick
         while not self._stop.is_set():
             now = time.monotonic()
+            delay = 0.0
             with self._lock:
                 try:
                     work = self._loop_work(now)
@@ -206,30 +222,20 @@ class SimNode(Node):
                         return                  # shutting down: publishers are gone
                     self.get_logger().error(f"tick failed: {type(err).__name__}: {err}", throttle_duration_sec=1.0)
                     work = "idle"
+                if work == "tick":
+                    delay = self.schedule.wait(time.monotonic())
+                else:
+                    self.schedule.restart()
+            if work == "tick":
+                if delay > 0:
+                    self._stop.wait(delay)
+                continue
             if work == "step":
-                deadline = None
                 continue
             if work == "pace":
-                deadline = None
                 self._wake.wait(self._pace_wait)
                 self._wake.clear()
                 continue
-            if work == "tick":
-                if p.real_time_factor == 0:
-                    continue
-                # a schedule (re)started by this tick runs from its end: a deadline left from
-                # before a pause would be stale by up to the idle wait (the first ticks would
-                # burst), and ``now`` may predate the play request that this tick serves
-                deadline = (time.monotonic() if deadline is None else deadline) + period
-                delay = deadline - time.monotonic()
-                if delay > 0:
-                    self._stop.wait(delay)
-                elif delay < -MAX_LAG:
-                    deadline = time.monotonic()     # fell far behind: resynchronise, do not burst
-                    with self._lock:
-                        self._resync = True
-                continue
-            deadline = None
             if now >= next_idle:
                 if work == "idle" and idle_period < math.inf:
                     with self._lock:
@@ -261,21 +267,7 @@ class SimNode(Node):
 
     def _tick(self, now: float) -> None:
         """Free-running: the whole steps due by this tick of the schedule, then publish."""
-        p = self.p
-        if self._resync:
-            self._resync = False
-            self._tick_base = (self.plant.k, 0)
-            self._ticks = 0
-        self._ticks += 1
-        base_k, base_ticks = self._tick_base
-        if p.real_time_factor == 0:
-            target = self.plant.k + 1
-        else:
-            sim_ns = (self._ticks - base_ticks) * (1e9 / p.publish_rate) * p.real_time_factor
-            target = base_k + math.floor(sim_ns / p.step_ns + 1e-9)
-            if (target - self.plant.k) * p.step_ns > MAX_LAG * p.real_time_factor * 1e9:
-                self._tick_base = (self.plant.k + 1, self._ticks)     # fell behind: slip, do not burst
-                target = self.plant.k + 1
+        target = self.schedule.steps_due(self.plant.k)
         if target <= self.plant.k:
             return
         command = self._effective_command(now)
@@ -334,15 +326,15 @@ class SimNode(Node):
         """Stepping becomes allowed: step at once if the command for t_k is here, otherwise
         (re)publish the state at t_k for a controller that may have missed it and wait."""
         self._waiting_since = time.monotonic()
-        self._pace_anchor = None
-        if self._lockstep_command is not None:
+        self.pacer.restart()
+        if self.gate.pending is not None:
             self._lockstep_advance()
         else:
             self._publish()
 
     def _lockstep_advance(self, command=None) -> None:
         """Integrate the step the simulator waits at, under the received command (or
-        ``command``, the safe force after a timeout), when stepping is allowed (lock held)."""
+        ``command``, the fallback after a timeout), when stepping is allowed (lock held)."""
         if self.request is not None and self.request.cancel_requested:
             req = self.request
             self._end_request(Answer(Result.RESULT_OK, f"cancelled after {req.completed} of {req.steps} steps"))
@@ -350,15 +342,16 @@ class SimNode(Node):
         if not self._may_step():
             return
         if command is None:
-            if self._lockstep_command is None:
+            taken = self.gate.take()
+            if taken is None:
                 return
-            command = self._command = self._lockstep_command.update.apply(self._command)
-            self._applied_command, self._lockstep_command = self._lockstep_command, None
+            command = taken.update.apply(self.hold.values)
+            self.hold.set(command, time.monotonic())
         if self.request is not None:
             self._request_step(command)
         else:
             self._step(command)
-            due = self._paced_due()
+            due = self.pacer.due(time.monotonic(), self.plant.k) if self.state == PLAYING else None
             if due is not None:
                 self._due = self._waiting_since = due   # the step's timeout counts from its publication
                 self._wake.set()
@@ -366,30 +359,12 @@ class SimNode(Node):
             self._publish()
         self._waiting_since = time.monotonic()
 
-    def _paced_due(self) -> float | None:
-        """Paced lockstep play (``lockstep_real_time_factor`` > 0): the wall time the state
-        just stepped to is due, or None to publish it now. The schedule is anchored where
-        playing began; a controller that fell more than ``MAX_LAG`` behind it moves the anchor
-        (the clock slips, it never hurries to catch up)."""
-        factor = self.p.lockstep_real_time_factor
-        if factor <= 0 or self.state != PLAYING:
-            return None
-        now = time.monotonic()
-        if self._pace_anchor is None:
-            self._pace_anchor = (now, self.plant.k - 1)
-        wall0, k0 = self._pace_anchor
-        due = wall0 + (self.plant.k - k0) * self.p.step_size / factor
-        if due < now - MAX_LAG:
-            self._pace_anchor = (now, self.plant.k)
-            return None
-        return due if due > now else None
-
     def _publish_due(self, now: float) -> None:
         """Publish the paced state that is due (lock held); its step now waits for its command."""
         self._due = None
         self._publish()
         self._waiting_since = now
-        if self._lockstep_command is not None:     # sent before it could have seen this state
+        if self.gate.pending is not None:     # sent before it could have seen this state
             self._lockstep_advance()
 
     def _on_lockstep_timer(self) -> None:
@@ -400,85 +375,70 @@ class SimNode(Node):
             if not self._may_step() or time.monotonic() - self._waiting_since < self.p.lockstep_timeout:
                 return
             self.lockstep_timeouts += 1
+            runs = (f"runs under safe_force = {self.p.safe_force:g} N" if self.hold.safe is not None
+                    else "holds the last rest lengths")
             self.get_logger().warning(
                 f"lockstep: no command for step {self.plant.k} (t = {self._now_text()}) within "
-                f"{self.p.lockstep_timeout:g} s: this step runs under safe_force = {self.p.safe_force:g} N "
-                f"({self.lockstep_timeouts} timed-out steps so far)", throttle_duration_sec=2.0)
-            self._lockstep_advance([self.p.safe_force] * len(self._command))
+                f"{self.p.lockstep_timeout:g} s: this step {runs} ({self.lockstep_timeouts} timed-out steps so far)",
+                throttle_duration_sec=2.0)
+            self._lockstep_advance(self.hold.fallback())
 
     # -- commands -----------------------------------------------------------------------------------
-    def on_command(self, msg: ActuatorForces) -> None:
+    def on_forces(self, msg: ActuatorForces) -> None:
+        self._take("actuator", lambda: receive(msg, max_force=self.p.max_force, interface=self.plant.interface))
+
+    def on_cables(self, msg: CableCommand) -> None:
+        self._take("cable", lambda: receive_cables(msg, interface=self.plant.interface))
+
+    def _take(self, what: str, parse) -> None:
+        """A command message: validate it (``parse()`` gives its :class:`Command`), then apply
+        it as the mode says: the step the simulator waits at (lockstep) or the held command."""
         try:
-            command = receive(msg, max_force=self.p.max_force)
+            command = parse()
             with self._lock:
                 if self.p.lockstep:
-                    if command == self._applied_command and command.stamp_ns != self.plant.time_ns:
-                        return      # the answer the last step ran under, sent again (a controller
-                                    # answers a state republished to it again): already applied
-                    check_step(command, self.plant.time_ns, self.plant.k)
-                    self._lockstep_command = command
-                    self._lockstep_advance()
+                    if self.gate.offer(command, self.plant.time_ns, self.plant.k):
+                        self._lockstep_advance()
                     return
-                self._command = command.update.apply(self._command)
-                self._last_valid = time.monotonic()
-                if self._timed_out:
-                    self._timed_out = False
+                if self.hold.set(command.update.apply(self.hold.values), time.monotonic()):
                     self.get_logger().info("commands resumed")
         except CommandError as err:
             self.rejected += 1
-            self.get_logger().warning(clip(f"rejected actuator command: {err} ({self.rejected} rejected so far)"),
+            self.get_logger().warning(clip(f"rejected {what} command: {err} ({self.rejected} rejected so far)"),
                                       throttle_duration_sec=1.0)
 
     def _effective_command(self, now: float) -> list[float]:
-        p = self.p
-        if p.command_timeout > 0 and self._last_valid is not None and now - self._last_valid > p.command_timeout:
-            if not self._timed_out:
-                self._timed_out = True
-                self.get_logger().warning(
-                    f"no valid command for {p.command_timeout:g} s: forces drop to {p.safe_force:g} N")
-            return [p.safe_force] * len(self._command)
-        return self._command
+        command, timed_out = self.hold.effective(now)
+        if timed_out:
+            self.get_logger().warning(
+                f"no valid command for {self.p.command_timeout:g} s: forces drop to {self.p.safe_force:g} N")
+        return command
 
     # -- publishing -----------------------------------------------------------------------------------
     def _publish(self) -> None:
-        """Joint states, end-effector and clock; the full state and the markers (member
-        forces: the expensive part of an observation) every n-th publication (lock held).
+        """The clock and the model's topics of this publication (:mod:`.outputs`; lock held).
         A topic nobody subscribes to is skipped (there is no reader to deliver to; it saves
         about a fifth of a lockstep step)."""
         ns = self.plant.time_ns
-        hdr = sender.header(ns, self.p.frame_id)
-        sample = self.plant.joint_sample()
         if self.p.publish_clock and self.pub_clock.get_subscription_count():
             self.pub_clock.publish(sender.clock_msg(ns))
             self.published["/clock"] += 1
-        if self.pub_joints.get_subscription_count():
-            self.pub_joints.publish(sender.joint_state_msg(sample, hdr))
-            self.published["joint_states"] += 1
-        if self.pub_ee.get_subscription_count():
-            self.pub_ee.publish(sender.end_effector_msg(sample, hdr))
-            self.published["end_effector"] += 1
-        n = self._publications
-        self._publications += 1
-        want_state = self._state_every > 0 and n % self._state_every == 0 and self.pub_state.get_subscription_count()
-        want_markers = (self._marker_every > 0 and n % self._marker_every == 0
-                        and self.pub_markers.get_subscription_count())
-        if want_state or want_markers:
-            obs = self.plant.observe()
-            if want_state:
-                self.pub_state.publish(sender.mechanism_state_msg(obs, hdr))
-                self.published["mechanism_state"] += 1
-            if want_markers:
-                self.pub_markers.publish(sender.markers_msg(obs, hdr))
-                self.published["markers"] += 1
-        self._warn_near_singular(sample.q)
+        hdr = sender.header(ns, self.p.frame_id)
+        for topic, msg in self.outputs.messages(hdr, lambda t: self.pubs[t].get_subscription_count() > 0):
+            self.pubs[topic].publish(msg)
+            self.published[topic] += 1
+        self._warn_near_singular()
 
-    def _warn_near_singular(self, q) -> None:
-        name, distance = self.plant.near_singular(q)
-        if distance < self.p.singularity_warning:
-            self.get_logger().warning(
-                f"state near the singular set {name}: {name}/L = {distance:.3g} (rho1 = {q[0]:.4g} m, "
-                f"rho2 = {q[1]:.4g} m); accelerations lose accuracy like 1/{name}^2 and the simulation "
-                "stops at 1e-3", throttle_duration_sec=2.0)
+    def _warn_near_singular(self) -> None:
+        near = self.plant.singular_distance()
+        if near is None or near[1] >= self.p.singularity_warning:
+            return
+        name, distance = near
+        q = self.plant.sim.state.y
+        self.get_logger().warning(
+            f"state near the singular set {name}: {name}/L = {distance:.3g} (rho1 = {q[0]:.4g} m, "
+            f"rho2 = {q[1]:.4g} m); accelerations lose accuracy like 1/{name}^2 and the simulation "
+            "stops at 1e-3", throttle_duration_sec=2.0)
 
     def _now_text(self) -> str:
         return f"{self.plant.time_ns / sender.NS_PER_S:.9f} s"
@@ -493,20 +453,17 @@ class SimNode(Node):
                                      f"interrupted by {why} after {req.completed} of {req.steps} steps"))
         before = self._published_state()
         self.plant.reset(keep_time=keep_time)
-        self._applied_command = None
-        self._command = list(self.plant.initial_command)
-        if self._published_state() != before:
-            self._lockstep_command = None    # it answered a state that is gone (an unchanged one keeps it)
-        self._due = self._pace_anchor = None
-        self._last_valid = None
-        self._resync = True
+        self.hold.reset(self.plant.initial_command)
+        self.gate.reset(state_changed=self._published_state() != before)
+        self._due = None
+        self.pacer.restart()
+        self.schedule.restart()
         self._publish()
         self._waiting_since = time.monotonic()
 
     def _published_state(self) -> tuple:
-        """What a controller answers: the time [ns], positions and velocities of the state."""
-        sample = self.plant.joint_sample()
-        return self.plant.time_ns, tuple(map(float, sample.q)), tuple(map(float, sample.qdot))
+        """What a controller answers: the time [ns] and the state vector (positions, rates)."""
+        return self.plant.time_ns, tuple(map(float, self.plant.sim.state.y))
 
     def on_reset(self, req: Trigger.Request, res: Trigger.Response) -> Trigger.Response:
         with self._lock:
@@ -526,8 +483,9 @@ class SimNode(Node):
     def on_get_features(self, req, res):
         res.features.features = list(control.FEATURES)
         res.features.custom_info = (
-            f"tensegrity_sim: step_size {self.p.step_size:.9g} s, lockstep {str(self.p.lockstep).lower()}; "
-            "located events on 'events'; the stepping contract is in docs/ros.md")
+            f"tensegrity_sim: step_size {self.p.step_size:.9g} s, lockstep {str(self.p.lockstep).lower()}, "
+            f"inputs {self.plant.interface.command.replace('_', ' ')}s; located events on 'events'; the stepping "
+            "contract is in docs/ros.md")
         return res
 
     def on_get_state(self, req, res):
@@ -563,13 +521,16 @@ class SimNode(Node):
         if self._due is not None:            # leaving paced play: the stepped state goes out now
             self._due = None
             self._publish()
-        previous, self.state = self.state, target
+        now = time.monotonic()
+        self.state = target
         if target == PLAYING:
-            self._resync = True
-            self._last_valid = None if previous == STOPPED else self._last_valid
+            self.hold.resume(now)
+            self.schedule.restart()
             if self.p.lockstep:
                 self._lockstep_begin()
             self._wake.set()
+        else:
+            self.hold.pause(now)
         return t.answer if t.answer.ok else Answer(Result.RESULT_OK, f"{RUN_STATE_NAMES[target]} (request ended)")
 
     # -- StepSimulation and SimulateSteps ---------------------------------------------------------------

@@ -79,9 +79,10 @@ def declare_sim_parameters(node, scene: str) -> SimParameters:
     max_steps = d("max_steps_per_request", 1_000_000,
                   "largest StepSimulation / SimulateSteps request accepted [steps]", lo=1, hi=2**31 - 1)
     command_timeout = d("command_timeout", 0.5,
-                        "free-running: after this many seconds without a valid command the forces drop "
-                        "to safe_force [s]; 0 = never", lo=0.0)
-    safe_force = d("safe_force", 0.0, "force applied after a command timeout or a lockstep timeout [N]")
+                        "free-running: after this many seconds of play without a valid command the forces "
+                        "drop to safe_force (rest lengths are held) [s]; 0 = never", lo=0.0)
+    safe_force = d("safe_force", 0.0, "actuator force applied after a command timeout or a lockstep timeout "
+                   "(the class-2 mechanism) [N]")
     max_force = d("max_force", 1000.0, "commands with |f| above this are rejected [N]", lo=0.0)
     frame_id = d("frame_id", "world", "frame of the published positions")
     state_rate = d("state_rate", 100.0,

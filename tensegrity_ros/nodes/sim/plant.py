@@ -10,15 +10,20 @@ reads ``offset_ns + k * step_ns`` exactly. Each step is ``set_command(u)`` then
 A step that the core refuses (singular configuration, integrator failure) sets
 :attr:`fault`: from then on the state is held and the clock still advances by one step
 per step, until a reset.
+
+What the model takes and reports comes from the model itself: its
+:class:`~tensegrity_core.sim.model.Interface` (forces or rest lengths, which inputs take
+commands, their ranges) and its names (members, rigid bodies).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
-from tensegrity_core.class2 import dynamics_singularity
 from tensegrity_core.errors import TensegrityError
-from tensegrity_core.sim import Simulator
+from tensegrity_core.sim import Names, Simulator, compile_scene
+from tensegrity_core.sim.model import Interface
 from tensegrity_core.sim.sampled import step_time
 
 
@@ -37,18 +42,21 @@ class SimPlant:
     def __init__(self, scene, step_ns: int):
         self.scene = scene
         self.step_ns = int(step_ns)
-        self._params = scene.model.params
         self.offset_ns = 0
+        self.model = compile_scene(scene)             # once: a reset is a new state of it
+        self.interface: Interface = self.model.interface
+        self.names: Names = self.model.names
         self._start()
 
     def _start(self) -> None:
-        self.sim = Simulator(self.scene)
+        self.sim = Simulator(self.model)
         self.k = 0
         self.fault: str | None = None
         self._n_events = 0
         # Until the first command the actuators hold what the scene starts with (for the
-        # default scene: the forces that keep the mechanism at rest).
-        self.initial_command = [float(f) for f in self.sim.command]
+        # default scene: the forces that keep the mechanism at rest); inputs that follow a
+        # law of the scene hold a placeholder 0 that the core ignores.
+        self.initial_command = [0.0 if math.isnan(f) else float(f) for f in self.sim.command]
 
     @property
     def time_ns(self) -> int:
@@ -81,6 +89,6 @@ class SimPlant:
     def observe(self):
         return self.sim.observe()
 
-    def near_singular(self, q) -> tuple[str, float]:
-        """``(name, lambda/L)`` of the singular set nearest the lengths ``q[:2]``."""
-        return dynamics_singularity(float(q[0]), float(q[1]), self._params)
+    def singular_distance(self) -> tuple[str, float] | None:
+        """``(name, lambda/L)`` of the singular set nearest the current state (class-2), or None."""
+        return self.sim.singular_distance()

@@ -1,32 +1,49 @@
-"""The simulator's command receiver: an ``ActuatorForces`` message checked once, handed on
-as plain values.
+"""The simulator's command receiver: a command message checked once, handed on as plain values.
 
-:func:`receive` validates names and forces (:func:`~tensegrity_ros.nodes.actuator_commands.parse_command`)
-and returns a :class:`Command`; the plant never sees a message. In lockstep mode
-:func:`check_step` also requires the command's stamp to be the simulation time of the
-step the simulator waits at (integer nanoseconds, compared exactly).
+Two command messages, one per kind of input (the model's
+:class:`~tensegrity_core.sim.model.Interface` says which the scene takes): actuator forces
+(``ActuatorForces``, the class-2 mechanism: :func:`receive`) and rest lengths of actuated
+cables (``CableCommand``, general structures: :func:`receive_cables`). Each validates names
+and values and returns a :class:`Command`; a message of the other kind is refused with a
+reason naming the right one. The plant never sees a message. In lockstep mode
+:func:`check_step` also requires the command's stamp to be the simulation time of the step
+the simulator waits at (integer nanoseconds, compared exactly).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from tensegrity_core.sim.model import Interface
 from tensegrity_ros.nodes.actuator_commands import CommandError, ForceUpdate, parse_command
+from tensegrity_ros.nodes.sim.cable_commands import InputUpdate, listed, parse_cable_command
 from tensegrity_ros.nodes.sim.sender import NS_PER_S, stamp_ns
 
 
 @dataclass(frozen=True)
 class Command:
-    """A valid actuator command: which forces it sets [N] (tension positive) and its stamp
-    [ns on the simulation clock]."""
+    """A valid command: which inputs it sets (forces [N], tension positive, or rest lengths
+    [m]) and its stamp [ns on the simulation clock]."""
 
-    update: ForceUpdate
+    update: ForceUpdate | InputUpdate
     stamp_ns: int
 
 
-def receive(msg, *, max_force: float) -> Command:
-    """The :class:`Command` of an ``ActuatorForces`` message, or :class:`CommandError` saying why not."""
+def receive(msg, *, max_force: float, interface: Interface | None = None) -> Command:
+    """The :class:`Command` of an ``ActuatorForces`` message, or :class:`CommandError` saying
+    why not (also when the scene's inputs are not actuator forces)."""
+    if interface is not None and interface.command != "force":
+        if not interface.inputs:
+            raise CommandError("this scene has no actuators: it takes no commands")
+        raise CommandError(f"this scene's inputs are rest lengths of its actuated cables ({listed(interface.inputs)}), "
+                           "not actuator forces: send tensegrity_msgs/CableCommand on cable_commands")
     update = parse_command(list(msg.name), list(msg.force), max_abs_force=max_force)
+    return Command(update, stamp_ns(msg.header.stamp))
+
+
+def receive_cables(msg, *, interface: Interface) -> Command:
+    """The :class:`Command` of a ``CableCommand`` message, or :class:`CommandError` saying why not."""
+    update = parse_cable_command(list(msg.name), msg.rest_length, msg.reel_speed, msg.tension, interface)
     return Command(update, stamp_ns(msg.header.stamp))
 
 

@@ -2,8 +2,9 @@
 
 Nothing here holds state or touches a node; each function takes plain values (a
 :class:`~tensegrity_core.sim.simulator.JointSample` or
-:class:`~tensegrity_core.sim.simulator.Observation`, a header, times in integer
-nanoseconds) and returns a message. Units SI; forces tension positive.
+:class:`~tensegrity_core.sim.simulator.Observation`, the model's
+:class:`~tensegrity_core.sim.model.Interface`, a header, times in integer nanoseconds) and
+returns a message. Units SI; forces tension positive.
 """
 
 from __future__ import annotations
@@ -11,15 +12,16 @@ from __future__ import annotations
 import array
 
 from builtin_interfaces.msg import Time as TimeMsg
-from geometry_msgs.msg import Point, PointStamped
+from geometry_msgs.msg import Point, PointStamped, Pose, Quaternion, Twist, Vector3
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState
 from std_msgs.msg import ColorRGBA, Header
-from tensegrity_msgs.msg import MechanismState, SimulationEvent
+from tensegrity_msgs.msg import CableStates, MechanismState, RigidBodyStates, SimulationEvent
 from visualization_msgs.msg import Marker, MarkerArray
 
 from tensegrity_core.class2.names import JOINTS
 from tensegrity_core.events import EventKind
+from tensegrity_core.sim.model import Interface
 
 NS_PER_S = 1_000_000_000
 #: Names of what an event's index refers to, per kind (the core's event kinds).
@@ -65,6 +67,42 @@ def joint_state_msg(sample, hdr: Header) -> JointState:
     return msg
 
 
+def cable_joint_state_msg(obs, interface: Interface, hdr: Header) -> JointState:
+    """One joint per actuated cable (the scene's inputs, in input order): position = its
+    length [m], velocity = d(length)/dt [m/s], effort = its tension [N] (positive pulling)."""
+    members = list(interface.members)
+    msg = JointState(header=hdr, name=list(interface.inputs))
+    msg.position = _doubles(obs.member_lengths[members])
+    msg.velocity = _doubles(obs.member_rates[members])
+    msg.effort = _doubles(obs.member_forces[members])
+    return msg
+
+
+def cable_states_msg(obs, interface: Interface, hdr: Header) -> CableStates:
+    """Every member: kind, actuated, length [m], its rate [m/s], rest length [m], tension [N], slack."""
+    actuated = set(interface.members)
+    m = CableStates(header=hdr, name=list(obs.member_names), kind=list(obs.member_kinds))
+    m.actuated = [i in actuated for i in range(len(obs.member_names))]
+    m.length = _doubles(obs.member_lengths)
+    m.length_rate = _doubles(obs.member_rates)
+    m.rest_length = _doubles(obs.member_rest_lengths)
+    m.tension = _doubles(obs.member_forces)
+    m.slack = [bool(s) for s in obs.member_slack]
+    return m
+
+
+def body_states_msg(obs, hdr: Header) -> RigidBodyStates:
+    """Each moving rigid body's frame: pose and twist (velocity of its origin, angular velocity)."""
+    m = RigidBodyStates(header=hdr, name=list(obs.body_names))
+    for p, q, v, w in zip(obs.body_positions, obs.body_orientations, obs.body_velocities,
+                          obs.body_angular_velocities):
+        m.pose.append(Pose(position=point(p), orientation=Quaternion(x=float(q[0]), y=float(q[1]), z=float(q[2]),
+                                                                     w=float(q[3]))))
+        m.twist.append(Twist(linear=Vector3(x=float(v[0]), y=float(v[1]), z=float(v[2])),
+                             angular=Vector3(x=float(w[0]), y=float(w[1]), z=float(w[2]))))
+    return m
+
+
 def end_effector_msg(sample, hdr: Header) -> PointStamped:
     return PointStamped(header=hdr, point=point(sample.end_effector))
 
@@ -101,7 +139,8 @@ def force_color(t: float, scale: float) -> ColorRGBA:
 
 
 def markers_msg(obs, hdr: Header) -> MarkerArray:
-    """Members as lines coloured by force, nodes as spheres."""
+    """Members as lines coloured by force (tension red, compression blue, relative to the
+    largest |force| of this observation), nodes as spheres."""
     scale = max(1e-9, max(abs(float(t)) for t in obs.member_forces))
     members = Marker(header=hdr, ns="members", id=0, type=Marker.LINE_LIST, action=Marker.ADD)
     members.scale.x = 0.02

@@ -1,0 +1,245 @@
+"""``tensegrity_cable_controller``: joint_trajectory_controller's action for actuated cables.
+
+Serves ``~/follow_joint_trajectory`` (control_msgs/action/FollowJointTrajectory, the
+definition of control_msgs' Jazzy release built from ``msgs_spec/control_msgs``), so that a
+client written for ros2_control's joint_trajectory_controller works unchanged. The joints
+are the scene's actuated cables that take commands; their positions are rest lengths [m]
+(the motors' position command). The trajectory logic is the core's
+(:mod:`tensegrity_core.sim.joint_trajectory`); this node translates messages.
+
+- Commands: every ``joint_states`` sample is answered with a ``CableCommand``
+  (``cable_commands``) stamped like it, so that a lockstep simulator steps on: while a goal
+  runs, with the goal's joints at the trajectory's positions ``t - t_start`` after its
+  start; idle, with an empty command, which changes nothing (the simulator holds the last
+  rest lengths, as a motor holds its position, and a manual command on ``cable_commands``
+  lasts). A sample repeated unchanged gets the same answer again (a lockstep simulator
+  republishes a state whose answer it lacks).
+- Checks and feedback: on every ``cable_states`` (the simulator's ``state_rate``) the
+  goal's joints' rest lengths as the simulator reports them are the actual positions,
+  their tensions the actual efforts; feedback ``desired`` / ``actual`` / ``error``
+  (positions, and the desired velocities and accelerations), path tolerance until the last
+  point's time, goal tolerance after it within ``goal_time_tolerance``. Rates of rest
+  lengths are not measured: velocity tolerances are accepted and not checked.
+- Start: ``trajectory.header.stamp`` zero starts the goal at the latest joint state's time
+  (the time it was accepted), a stamp starts it at that simulation time; a trajectory that
+  ended before the latest joint state is OLD_HEADER_TIMESTAMP. The first segment starts
+  from the current rest lengths unless the first point is at 0.
+- A new goal takes over from the running one, which ends ABORTED with INVALID_GOAL
+  "preempted: a newer goal took over" (joint_trajectory_controller's code and reason; it
+  reports the status CANCELED, which rclpy allows only after a cancel request); a cancelled
+  goal ends CANCELED with SUCCESSFUL and the cables hold where they are. Goals follow
+  simulation time: a paused simulator pauses them (a cancel still ends them at once).
+
+Parameters: ``scene`` (the simulator's: which cables there are), the default tolerances
+``goal_tolerance`` [m], ``path_tolerance`` [m] (0 = not checked) and
+``goal_time_tolerance`` [s].
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+
+from control_msgs.action import FollowJointTrajectory
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.node import Node
+from rclpy.qos import QoSProfile
+from rclpy.task import Future
+from sensor_msgs.msg import JointState
+from tensegrity_msgs.msg import CableCommand, CableStates
+from trajectory_msgs.msg import JointTrajectoryPoint
+
+from tensegrity_core.errors import TensegrityError
+from tensegrity_core.excerpt import clip, excerpt
+from tensegrity_core.sim import compile_scene
+from tensegrity_core.sim import joint_trajectory as jt
+from tensegrity_ros.nodes.common import declare, spin_node
+from tensegrity_ros.nodes.scene_param import declare_scene
+
+_RESULT = FollowJointTrajectory.Result
+NS_PER_S = 1_000_000_000
+
+
+class _Job:
+    """A running goal: its handle, trajectory, checks, start [s] and the future its execute awaits."""
+
+    def __init__(self, handle, trajectory: jt.JointTrajectory, monitor: jt.GoalMonitor, t_start: float):
+        self.handle = handle
+        self.trajectory = trajectory
+        self.monitor = monitor
+        self.t_start = t_start
+        self.finished = Future()
+
+    def end(self, outcome: jt.Outcome, status: str) -> None:
+        if not self.finished.done():
+            self.finished.set_result((outcome, status))
+
+
+class CableControllerNode(Node):
+    def __init__(self, **kwargs) -> None:
+        super().__init__("tensegrity_cable_controller", **kwargs)
+        self.scene_name, scene = declare_scene(self, class2_only=False)
+        try:
+            self.interface = compile_scene(scene).interface
+        except TensegrityError as err:
+            raise SystemExit(clip(f"{self.get_name()}: cannot compile scene {excerpt(self.scene_name)}: {err}")) \
+                from None
+        if self.interface.command != "rest_length" or not any(self.interface.commanded):
+            raise SystemExit(f"{self.get_name()}: scene {excerpt(self.scene_name)} has no actuated cables that take "
+                             "commands: this node drives the cables of general structures")
+        self.goal_tolerance = declare(self, "goal_tolerance", 1e-4, "default goal tolerance of each cable's rest "
+                                      "length [m]", lo=1e-12, read_only=True)
+        self.path_tolerance = declare(self, "path_tolerance", 0.0, "default path tolerance of each cable's rest "
+                                      "length while a trajectory runs [m]; 0 = not checked", lo=0.0, read_only=True)
+        self.goal_time_tolerance = declare(self, "goal_time_tolerance", 1.0, "default time after a trajectory's "
+                                           "last point to meet the goal tolerance [s]", lo=0.0, read_only=True)
+        self._job: _Job | None = None
+        self._latest: tuple[int, float] | None = None   # (stamp [ns], t [s]) of the latest joint state
+        self._answer: CableCommand | None = None         # the running goal's command for it
+        self._rest: dict[str, float] = {}                # each cable's rest length [m], from cable_states
+        self.pub = self.create_publisher(CableCommand, "cable_commands", 10)
+        self.create_subscription(JointState, "joint_states", self.on_joints, QoSProfile(depth=1))
+        self.create_subscription(CableStates, "cable_states", self.on_cables, QoSProfile(depth=10))
+        ActionServer(self, FollowJointTrajectory, "~/follow_joint_trajectory", self._execute,
+                     goal_callback=lambda _req: GoalResponse.ACCEPT,
+                     cancel_callback=self._on_cancel, feedback_pub_qos_profile=QoSProfile(depth=100))
+        takes = [n for n, c in zip(self.interface.inputs, self.interface.commanded) if c]
+        self.get_logger().info(f"cable controller ready (scene {self.scene_name!r}: {', '.join(takes)})")
+
+    # -- commands and checks ---------------------------------------------------------------
+    def on_joints(self, msg: JointState) -> None:
+        stamp = _ns(msg.header.stamp)
+        if self._latest is None or stamp != self._latest[0]:
+            self._latest, self._answer = (stamp, stamp / NS_PER_S), None
+        if self._answer is None:     # the answer to this state; a state sent again gets it again
+            job = self._job
+            if job is None:
+                self._answer = CableCommand(header=msg.header)       # idle: no change
+            else:
+                tr = job.trajectory
+                command = tr.command(self._latest[1] - job.t_start, self._held())
+                self._answer = CableCommand(header=msg.header, name=list(tr.names),
+                                            rest_length=[command[i] for i in tr.inputs])
+        self.pub.publish(self._answer)
+
+    def _held(self) -> list[float]:
+        """Every input's current rest length [m] (as the simulator last reported it)."""
+        return [self._rest.get(n, math.nan) for n in self.interface.inputs]
+
+    def on_cables(self, msg: CableStates) -> None:
+        self._rest.update(zip(msg.name, msg.rest_length))
+        job = self._job
+        if job is None or job.finished.done():
+            return
+        tr = job.trajectory
+        tau = _ns(msg.header.stamp) / NS_PER_S - job.t_start
+        if tau < 0.0:
+            return
+        index = {n: i for i, n in enumerate(msg.name)}
+        actual = [float(msg.rest_length[index[n]]) for n in tr.names]
+        desired = tr.sample(tau)
+        when = _duration(tau)
+        fb = FollowJointTrajectory.Feedback(header=msg.header, joint_names=list(tr.names))
+        fb.desired = JointTrajectoryPoint(positions=desired.positions.tolist(),
+                                          velocities=desired.velocities.tolist(),
+                                          accelerations=desired.accelerations.tolist(), time_from_start=when)
+        fb.actual = JointTrajectoryPoint(positions=actual, effort=[float(msg.tension[index[n]]) for n in tr.names],
+                                         time_from_start=when)
+        fb.error = JointTrajectoryPoint(positions=[d - a for d, a in zip(desired.positions.tolist(), actual)],
+                                        time_from_start=when)
+        job.handle.publish_feedback(fb)
+        outcome = job.monitor.check(tau, actual)
+        if outcome is not None:
+            self._end(job, outcome, "succeeded" if outcome.succeeded else "aborted")
+
+    def _end(self, job: _Job, outcome: jt.Outcome, status: str) -> None:
+        job.end(outcome, status)
+        if self._job is job:
+            self._job = None
+
+    # -- goals -------------------------------------------------------------------------------
+    async def _execute(self, handle):
+        req = handle.request
+        result = _RESULT()
+        try:
+            job = self._plan(handle, req)
+        except jt.TrajectoryError as err:
+            self.get_logger().warning(clip(f"goal refused: {err}"))
+            result.error_code, result.error_string = err.code, clip(str(err))
+            handle.abort()
+            return result
+        old, self._job, self._answer = self._job, job, None
+        if old is not None:
+            self._end(old, jt.Outcome(jt.INVALID_GOAL, "preempted: a newer goal took over"), "aborted")
+        outcome, status = await job.finished
+        result.error_code, result.error_string = outcome.code, outcome.message
+        {"succeeded": handle.succeed, "aborted": handle.abort, "canceled": handle.canceled}[status]()
+        return result
+
+    def _on_cancel(self, handle) -> CancelResponse:
+        job = self._job
+        if job is not None and job.handle is handle:
+            self._end(job, jt.Outcome(jt.SUCCESSFUL, "cancelled: the cables hold the rest lengths reached"),
+                      "canceled")
+        return CancelResponse.ACCEPT
+
+    def _plan(self, handle, req) -> _Job:
+        """The job of a goal, or :class:`~tensegrity_core.sim.joint_trajectory.TrajectoryError`."""
+        if len(req.multi_dof_trajectory.joint_names) or len(req.multi_dof_trajectory.points):
+            raise jt.TrajectoryError("multi_dof_trajectory is not supported: cables are single-DOF joints")
+        traj = req.trajectory
+        if any(len(p.effort) for p in traj.points):
+            raise jt.TrajectoryError("points with effort are not accepted: the cables take rest lengths")
+        if self._latest is None or len(self._rest) < len(self.interface.inputs):
+            raise jt.TrajectoryError("no joint_states and cable_states received yet: is the simulator running?")
+        trajectory = jt.plan_trajectory(
+            list(traj.joint_names), [_ns(p.time_from_start) / NS_PER_S for p in traj.points],
+            [list(p.positions) for p in traj.points], [list(p.velocities) for p in traj.points],
+            [list(p.accelerations) for p in traj.points], interface=self.interface, start=self._held())
+        now = self._latest[1]
+        stamp = _ns(traj.header.stamp)
+        t_start = now if stamp == 0 else stamp / NS_PER_S
+        if t_start + trajectory.duration < now:
+            raise jt.TrajectoryError(f"the trajectory started at {t_start:.6f} s ended before the simulation's time "
+                                     f"{now:.6f} s", code=jt.OLD_HEADER_TIMESTAMP)
+        n = len(trajectory.names)
+        path, goal = [self.path_tolerance or math.inf] * n, [self.goal_tolerance] * n
+        for items, bounds, default in ((req.path_tolerance, path, self.path_tolerance or math.inf),
+                                       (req.goal_tolerance, goal, self.goal_tolerance)):
+            for item in items:
+                if item.name not in trajectory.names:
+                    raise jt.TrajectoryError(f"tolerance for joint {excerpt(item.name)}, which the trajectory does "
+                                             "not name", code=jt.INVALID_JOINTS)
+                bounds[trajectory.names.index(item.name)] = jt.tolerance(item.position, default)
+        goal_time = _ns(req.goal_time_tolerance) / NS_PER_S or self.goal_time_tolerance
+        off = (math.inf,) * n
+        monitor = jt.GoalMonitor(trajectory, jt.Tolerances(tuple(path), off, tuple(goal), off, goal_time))
+        return _Job(handle, trajectory, monitor, t_start)
+
+    def destroy_node(self) -> None:
+        job, self._job = self._job, None
+        if job is not None:
+            job.end(jt.Outcome(jt.INVALID_GOAL, "the controller is shutting down"), "aborted")
+        super().destroy_node()
+
+
+def _ns(stamp) -> int:
+    """Integer nanoseconds of a stamp or duration: a time [s] is ``ns / 1e9``, divided once, as
+    the core's sampled-data runner has it (the same floats, the same commands)."""
+    return int(stamp.sec) * NS_PER_S + int(stamp.nanosec)
+
+
+def _duration(seconds: float):
+    from builtin_interfaces.msg import Duration
+
+    seconds = max(0.0, seconds)
+    sec = math.floor(seconds)
+    return Duration(sec=int(sec), nanosec=min(int(round((seconds - sec) * 1e9)), 999_999_999))
+
+
+def main(argv=None) -> int:
+    return spin_node(CableControllerNode, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))

@@ -1,0 +1,24 @@
+"""Which of the slower topics go out with a publication. Plain logic, no node.
+
+Every publication (one per free-running tick, lockstep step or republished state) carries
+the fast topics; a slower topic with rate ``r`` [Hz] goes out with every n-th publication,
+``n = round(publish_rate / r)`` (at least 1; a divisor of ``publish_rate`` is exact), the
+first publication included; rate 0 = never.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+
+class Decimation:
+    """Counts publications and says which slower topics are due with each."""
+
+    def __init__(self, publish_rate: float, rates: Mapping[str, float]):
+        self.every = {name: max(1, round(publish_rate / r)) if r > 0 else 0 for name, r in rates.items()}
+        self.count = 0
+
+    def next(self) -> frozenset[str]:
+        """The slower topics due with this publication (counting it)."""
+        n, self.count = self.count, self.count + 1
+        return frozenset(name for name, every in self.every.items() if every and n % every == 0)

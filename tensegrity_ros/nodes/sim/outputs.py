@@ -1,0 +1,84 @@
+"""What tensegrity_sim publishes for its model, and the messages of one publication. No node:
+the node creates a publisher per topic of :attr:`Outputs.topics` and publishes what
+:meth:`Outputs.messages` returns.
+
+The model says what there is (:class:`~tensegrity_core.sim.model.Interface`, its names):
+
+- class-2 mechanism: ``joint_states`` (rho1, rho2 [m], beta [rad]; effort = applied force
+  [N]) and ``end_effector`` every publication, from the cheap joint sample;
+  ``mechanism_state`` (every n-th, ``state_rate``) and ``markers`` (``marker_rate``) from a
+  full observation, taken only when one of them is due and wanted;
+- general structure: ``joint_states`` (one joint per actuated cable: length [m], its rate
+  [m/s], tension [N]), ``end_effector`` and, with moving rigid bodies, ``body_states`` every
+  publication; ``cable_states`` (every member) at ``state_rate``; ``markers`` at
+  ``marker_rate``; all from one observation per publication.
+
+``events`` and ``/clock`` are the node's (they do not depend on the model's kind).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from geometry_msgs.msg import PointStamped
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Header
+from tensegrity_msgs.msg import CableStates, MechanismState, RigidBodyStates
+from visualization_msgs.msg import MarkerArray
+
+from tensegrity_ros.nodes.sim import sender
+from tensegrity_ros.nodes.sim.decimation import Decimation
+from tensegrity_ros.nodes.sim.plant import SimPlant
+
+#: What a publication needs done: the message of each topic (name, message).
+Messages = list[tuple[str, object]]
+
+
+class Outputs:
+    """The per-publication topics of one plant's model and their messages."""
+
+    def __init__(self, plant: SimPlant, *, publish_rate: float, state_rate: float, marker_rate: float):
+        self.plant = plant
+        self.general = plant.interface.command == "rest_length"
+        if self.general:
+            self.topics: dict[str, type] = {"joint_states": JointState, "end_effector": PointStamped,
+                                            "cable_states": CableStates, "markers": MarkerArray}
+            if plant.names.body_names:
+                self.topics["body_states"] = RigidBodyStates
+            slow = {"cable_states": state_rate, "markers": marker_rate}
+        else:
+            self.topics = {"joint_states": JointState, "end_effector": PointStamped,
+                           "mechanism_state": MechanismState, "markers": MarkerArray}
+            slow = {"mechanism_state": state_rate, "markers": marker_rate}
+        self.decimation = Decimation(publish_rate, slow)
+
+    def messages(self, hdr: Header, wanted: Callable[[str], bool]) -> Messages:
+        """The messages of this publication (counted by the decimation) for the topics
+        ``wanted`` (someone subscribes); the expensive observation only when needed."""
+        due = self.decimation.next()
+        want = {t for t in self.topics if wanted(t) and (t not in self.decimation.every or t in due)}
+        if not want:
+            return []
+        out: Messages = []
+        plant, interface = self.plant, self.plant.interface
+        if self.general:
+            obs = plant.observe()
+            build = {"joint_states": lambda: sender.cable_joint_state_msg(obs, interface, hdr),
+                     "end_effector": lambda: sender.end_effector_msg(obs, hdr),
+                     "body_states": lambda: sender.body_states_msg(obs, hdr),
+                     "cable_states": lambda: sender.cable_states_msg(obs, interface, hdr),
+                     "markers": lambda: sender.markers_msg(obs, hdr)}
+            return [(t, build[t]()) for t in self.topics if t in want]
+        if want & {"joint_states", "end_effector"}:
+            sample = plant.joint_sample()
+            if "joint_states" in want:
+                out.append(("joint_states", sender.joint_state_msg(sample, hdr)))
+            if "end_effector" in want:
+                out.append(("end_effector", sender.end_effector_msg(sample, hdr)))
+        if want & {"mechanism_state", "markers"}:
+            obs = plant.observe()
+            if "mechanism_state" in want:
+                out.append(("mechanism_state", sender.mechanism_state_msg(obs, hdr)))
+            if "markers" in want:
+                out.append(("markers", sender.markers_msg(obs, hdr)))
+        return out

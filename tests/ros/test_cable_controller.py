@@ -1,0 +1,195 @@
+"""tensegrity_cable_controller over real DDS: control_msgs' FollowJointTrajectory on the
+actuated tensegrity table, as a joint_trajectory_controller client would use it.
+
+A lockstep simulator (paused; this process steps it) and the cable controller, which answers
+every state of a running goal. Oracles: the core's trajectory sampled at the states' times
+and the core simulator stepped under it in this process (equal to the last bit), the
+goal's own points, and the result codes of control_msgs.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from tests.ros_support import end_context
+
+pytestmark = pytest.mark.ros
+
+STEP_NS = 10_000_000
+ACTION = "/tensegrity_cable_controller/follow_joint_trajectory"
+
+
+@pytest.fixture(scope="module")
+def rig(tmp_path_factory):
+    """The simulator (lockstep, paused, republishing at 20 Hz), the cable controller, a
+    stepping client and an action client."""
+    import rclpy
+    from control_msgs.action import FollowJointTrajectory
+    from rclpy.action import ActionClient
+    from rclpy.context import Context
+
+    from tensegrity_ros.apps.sim_client import SimClient
+    from tests.ros_support import Proc
+
+    folder = tmp_path_factory.mktemp("cables")
+    scene = ("-p", "scene:=table_actuated")
+    sim = Proc(["node", "sim", "--ros-args", *scene, "-p", f"step_size:={STEP_NS / 1e9}", "-p", "lockstep:=true",
+                "-p", "initial_state:=paused", "-p", "paused_publish_rate:=20.0", "-p", "lockstep_timeout:=30.0"],
+               folder / "sim.log")
+    ctl = Proc(["node", "cables", "--ros-args", *scene], folder / "cables.log")
+    sim.wait_for("publishing at")
+    ctl.wait_for("cable controller ready")
+    ctx = Context()
+    rclpy.init(args=[], context=ctx)
+    client = SimClient(rclpy, "cable_test_client", context=ctx)
+    client.wait_for_services(60)
+    action = ActionClient(client.node, FollowJointTrajectory, ACTION)
+    assert action.wait_for_server(timeout_sec=60)
+    yield client, action, sim, ctl
+    action.destroy()
+    client.close()
+    end_context(ctx)
+    for p in (sim, ctl):
+        p.stop()
+
+
+def _goal(points, names=("long1", "long2"), velocities=None, stamp_ns=0, **extra):
+    from builtin_interfaces.msg import Duration
+    from control_msgs.action import FollowJointTrajectory
+    from trajectory_msgs.msg import JointTrajectoryPoint
+
+    goal = FollowJointTrajectory.Goal(**extra)
+    goal.trajectory.joint_names = list(names)
+    goal.trajectory.header.stamp.sec, goal.trajectory.header.stamp.nanosec = divmod(stamp_ns, 10**9)
+    for k, (t, pos) in enumerate(points):
+        sec = math.floor(t)
+        p = JointTrajectoryPoint(positions=list(pos), time_from_start=Duration(sec=int(sec),
+                                                                                nanosec=round((t - sec) * 1e9)))
+        if velocities is not None:
+            p.velocities = list(velocities[k])
+        goal.trajectory.points.append(p)
+    return goal
+
+
+def _send(client, action, goal):
+    """Send ``goal``; (handle, feedback list)."""
+    import threading
+
+    feedback: list = []
+    done = threading.Event()
+    future = action.send_goal_async(goal, feedback_callback=lambda m: feedback.append(m.feedback))
+    future.add_done_callback(lambda _f: done.set())
+    assert done.wait(30)
+    return future.result(), feedback
+
+
+def _result(handle, timeout: float = 60.0):
+    import threading
+
+    done = threading.Event()
+    future = handle.get_result_async()
+    future.add_done_callback(lambda _f: done.set())
+    assert done.wait(timeout), "no result"
+    return future.result().status, future.result().result
+
+
+def _t0(client) -> int:
+    """The simulation time [ns] the simulator waits at (its latest state)."""
+    client.take_joints()
+    return client.wait_joint().stamp_ns
+
+
+def test_a_trajectory_is_followed_in_lockstep_exactly_as_the_core_samples_it(rig):
+    from action_msgs.msg import GoalStatus
+
+    from tensegrity_core.sim import Simulator
+    from tensegrity_core.sim.joint_trajectory import SUCCESSFUL, plan_trajectory
+    from tensegrity_core.sim.sampled import step_time
+
+    client, action, sim, _ = rig
+    t0 = _t0(client)
+    points = [(0.1, (0.88, 0.9)), (0.25, (0.85, 0.93)), (0.3, (0.86, 0.92))]
+    velocities = [(-0.2, 0.1), (0.0, 0.1), (0.0, 0.0)]
+    handle, feedback = _send(client, action, _goal(points, velocities=velocities))
+    assert handle.accepted
+    steps = 40                                     # 0.4 s: past the end (0.3 s), the goal succeeds
+    client.step_received(steps, t0, STEP_NS, chunk=10)
+    status, result = _result(handle)
+    assert status == GoalStatus.STATUS_SUCCEEDED and result.error_code == SUCCESSFUL, result.error_string
+    ros = {j.stamp_ns: j for j in client.joints_since(t0)}
+    # the core: the same trajectory, sampled at each t_k and held, from the same state
+    interface = Simulator("table_actuated").interface
+    core = Simulator("table_actuated")
+    assert t0 == 0 or core.t == 0
+    tr = plan_trajectory(["long1", "long2"], [t for t, _ in points], [p for _, p in points], velocities,
+                         interface=interface, start=[0.9, 0.9, 0.9])
+    lengths = [core.observe().member_lengths[:3]]
+    for k in range(steps):
+        core.set_command(tr.command(step_time(k, STEP_NS) - t0 / 1e9, [0.9, 0.9, 0.9]))
+        core.advance(step_time(k + 1, STEP_NS))
+        lengths.append(core.observe().member_lengths[:3])
+    if t0 == 0:
+        np.testing.assert_array_equal(np.array([ros[k * STEP_NS].position for k in range(steps + 1)]),
+                                      np.array(lengths))
+    # feedback: desired from the trajectory, actual = the rest lengths the simulator reports
+    assert len(feedback) >= steps // 2
+    last = feedback[-1]
+    assert list(last.joint_names) == ["long1", "long2"]
+    np.testing.assert_allclose(last.desired.positions, [0.86, 0.92], atol=1e-12)
+    np.testing.assert_allclose(last.actual.positions, [0.86, 0.92], atol=1e-12)
+    assert all(e > 0 for e in last.actual.effort)                 # tensions [N]
+    assert "no command for step" not in sim.stderr()
+
+
+@pytest.mark.parametrize("goal_args, code, reason", [
+    ({"points": [(0.5, (0.8,))], "names": ("long7",)}, -2, "unknown joint 'long7'; the joints are long1, long2, long3"),
+    ({"points": [(0.5, (0.8,)), (0.5, (0.7,))], "names": ("long1",)}, -1, "must increase strictly"),
+    ({"points": [(0.5, (-0.8,))], "names": ("long1",)}, -1, "position of long1 = -0.8 m is outside its range"),
+    ({"points": [(0.5, (0.8,))], "names": ("long1",), "stamp_ns": 1}, -3, "ended before the simulation's time"),
+])
+def test_bad_goals_are_refused_with_control_msgs_codes(rig, goal_args, code, reason):
+    from action_msgs.msg import GoalStatus
+
+    client, action, _, _ = rig
+    if goal_args.get("stamp_ns") == 1:             # a trajectory over before now: step to t > 0.5 s first
+        goal = _goal([(0.6, (0.9,))], names=("long1",))
+        handle, _ = _send(client, action, goal)
+        t0 = _t0(client)
+        client.step_received(70, t0, STEP_NS, chunk=10)
+        assert _result(handle)[0] == GoalStatus.STATUS_SUCCEEDED
+    handle, _ = _send(client, action, _goal(**goal_args))
+    status, result = _result(handle)
+    assert status == GoalStatus.STATUS_ABORTED and result.error_code == code and reason in result.error_string
+
+
+def test_a_tight_path_tolerance_is_violated_and_a_new_goal_preempts_the_running_one(rig):
+    from action_msgs.msg import GoalStatus
+    from control_msgs.msg import JointTolerance
+
+    from tensegrity_core.sim.joint_trajectory import INVALID_GOAL, PATH_TOLERANCE_VIOLATED
+
+    client, action, _, _ = rig
+    t0 = _t0(client)
+    # the rest lengths are held over each step: one step behind a moving reference (v h)
+    tight = _goal([(0.3, (0.8, 0.8))], path_tolerance=[JointTolerance(name="long1", position=1e-6)])
+    handle, _ = _send(client, action, tight)
+    client.step_received(10, t0, STEP_NS, chunk=5)
+    status, result = _result(handle)
+    assert status == GoalStatus.STATUS_ABORTED and result.error_code == PATH_TOLERANCE_VIOLATED
+    assert "long1: position error" in result.error_string
+    first, _ = _send(client, action, _goal([(5.0, (0.9, 0.9))]))
+    second, _ = _send(client, action, _goal([(0.05, (0.9, 0.9))]))
+    status, result = _result(first)
+    assert status == GoalStatus.STATUS_ABORTED and result.error_code == INVALID_GOAL
+    assert "preempted" in result.error_string
+    cancel = second.cancel_goal_async()
+    import threading
+
+    done = threading.Event()
+    cancel.add_done_callback(lambda _f: done.set())
+    assert done.wait(30)
+    status, result = _result(second)
+    assert status == GoalStatus.STATUS_CANCELED and result.error_code == 0 and "cancelled" in result.error_string
