@@ -159,6 +159,12 @@ class Observed(TypedDict):
     ``body_orientations`` (nb, 4) quaternions ``(x, y, z, w)`` from the world frame,
     ``body_velocities`` (nb, 3) [m/s] of the origin and ``body_angular_velocities`` (nb, 3)
     [rad/s] in the world frame.
+
+    Robots add ``centre_of_mass`` (3,) [m] and, with the ``sensors`` effect, their sensors'
+    readings: ``cable_lengths`` [m] and ``cable_tensions`` [N] of the cables that report them;
+    per IMU ``imu_orientation`` (4,) quaternion ``(x, y, z, w)``, ``imu_angular_velocity``
+    [rad/s] and ``imu_specific_force`` [m/s^2] in its body's frame; per cap ``cap_contact``
+    and ``cap_slipping`` (bool) and ``friction_forces`` (3,) [N].
     """
 
     t: float
@@ -182,6 +188,15 @@ class Observed(TypedDict):
     body_orientations: NotRequired[FloatArray]
     body_velocities: NotRequired[FloatArray]
     body_angular_velocities: NotRequired[FloatArray]
+    centre_of_mass: NotRequired[FloatArray]
+    cable_lengths: NotRequired[FloatArray]
+    cable_tensions: NotRequired[FloatArray]
+    imu_orientation: NotRequired[FloatArray]
+    imu_angular_velocity: NotRequired[FloatArray]
+    imu_specific_force: NotRequired[FloatArray]
+    cap_contact: NotRequired[BoolArray]
+    cap_slipping: NotRequired[BoolArray]
+    friction_forces: NotRequired[FloatArray]
 
 
 class ObservedArrays(TypedDict):
@@ -209,6 +224,15 @@ class ObservedArrays(TypedDict):
     body_orientations: NotRequired[FloatArray]
     body_velocities: NotRequired[FloatArray]
     body_angular_velocities: NotRequired[FloatArray]
+    centre_of_mass: NotRequired[FloatArray]
+    cable_lengths: NotRequired[FloatArray]
+    cable_tensions: NotRequired[FloatArray]
+    imu_orientation: NotRequired[FloatArray]
+    imu_angular_velocity: NotRequired[FloatArray]
+    imu_specific_force: NotRequired[FloatArray]
+    cap_contact: NotRequired[BoolArray]
+    cap_slipping: NotRequired[BoolArray]
+    friction_forces: NotRequired[FloatArray]
 
 
 class JointValues(TypedDict):
@@ -232,8 +256,8 @@ def joint_values(obs: Observed) -> JointValues:
 class Stats(TypedDict, total=False):
     """Integration statistics (``stats``): ``method``; dynamic models ``steps`` (accepted
     integrator steps), ``nfev``, ``restarts``, ``events``; quasi-static ones ``steps`` and
-    ``newton_iterations`` (class-2) or ``form_finds`` (general), ``events``; a whole run
-    adds ``wall_time`` [s]."""
+    ``newton_iterations`` (class-2) or ``form_finds`` (general), ``events``; fixed-step back
+    ends (robots) their ``step`` [s]; a whole run adds ``wall_time`` [s]."""
 
     method: str
     steps: int
@@ -243,6 +267,7 @@ class Stats(TypedDict, total=False):
     newton_iterations: int
     form_finds: int
     wall_time: float
+    step: float
 
 
 

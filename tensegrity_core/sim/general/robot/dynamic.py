@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -35,8 +35,17 @@ from tensegrity_core.sim.general.robot.plan import build_plan, lumped_masses, ro
 from tensegrity_core.sim.general.robot.setup import initial_vector, names_of, robot_effects, robot_model, state_names
 from tensegrity_core.sim.general.robot.stepping import FixedStepper, RobotSample
 from tensegrity_core.sim.general.robot.system import RobotEvaluation, RobotSystem
-from tensegrity_core.sim.inputs import held
-from tensegrity_core.sim.model import Model, State
+from tensegrity_core.sim.inputs import Commanded, held
+from tensegrity_core.sim.model import (
+    Interface,
+    JointValues,
+    Model,
+    Observed,
+    ObservedArrays,
+    State,
+    Stats,
+    joint_values,
+)
 from tensegrity_core.sim.scene import Scene
 
 FloatArray = NDArray[np.float64]
@@ -76,6 +85,10 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         drawn = self.plan.cable_l0[self.plan.motor_cable]
         self.laws, self.actuator_names, self.initial_commands = compile_inputs(scene.inputs, drawn)
         self.names = names_of(robot)
+        self.interface = Interface("rest_length", tuple(self.actuator_names),
+                                   tuple(isinstance(law, Commanded) for law in self.laws),
+                                   tuple((float(lo), float(hi)) for lo, hi in zip(self.plan.motor_lo, self.plan.motor_hi)),
+                                   tuple(len(robot.rods) + int(c) for c in self.plan.motor_cable))
         self.state_names = state_names(robot, self.plan)
         self.step = scene.integrator.max_step
         self.y0 = initial_vector(robot, self.plan, scene.initial.lift)
@@ -138,7 +151,7 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
                out: list[RobotSample]) -> None:
         state.work.record(times, out)
 
-    def observe(self, samples: Sequence[RobotSample]) -> dict[str, NDArray[Any]]:
+    def observe(self, samples: Sequence[RobotSample]) -> ObservedArrays:
         """The observations of ``samples`` (module docstring), each run of samples taken under
         one system (charts and inputs) evaluated as one batch."""
         parts: list[dict[str, NDArray[Any]]] = []
@@ -155,7 +168,7 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         if not parts:
             parts.append(self._observe(np.zeros(0), np.zeros((0, self.plan.n_state)),
                                        self.system.evaluate(np.zeros((0, self.plan.n_state)))))
-        return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+        return cast(ObservedArrays, {k: np.concatenate([p[k] for p in parts]) for k in parts[0]})
 
     def _observe(self, ts: FloatArray, Y: FloatArray, ev: RobotEvaluation) -> dict[str, NDArray[Any]]:
         plan, robot = self.plan, self.robot
@@ -210,14 +223,21 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
                     "cap_contact": ev.depth > 0.0, "cap_slipping": cstate == SLIPPING, "friction_forces": ev.friction}
         return out
 
-    def observe_now(self, state: State[FixedStepper]) -> dict[str, Any]:
-        return {k: v[0] for k, v in self.observe([self.sample(state)]).items()}
+    def observe_now(self, state: State[FixedStepper]) -> Observed:
+        arrays: dict[str, Any] = dict(self.observe([self.sample(state)]))
+        data = {k: v[0] for k, v in arrays.items()}
+        for key in ("t", "potential_energy", "kinetic_energy"):
+            data[key] = float(data[key])
+        data["folded"] = bool(data["folded"])
+        return cast(Observed, data)
 
-    def joint_sample(self, state: State[FixedStepper]) -> dict[str, Any]:
-        obs = self.observe_now(state)
-        return {k: obs[k] for k in ("t", "q", "qdot", "applied_forces", "end_effector", "folded")}
+    def joint_sample(self, state: State[FixedStepper]) -> JointValues:
+        return joint_values(self.observe_now(state))
 
-    def stats(self, state: State[FixedStepper]) -> dict[str, Any]:
+    def singular_distance(self, state: State[FixedStepper]) -> None:
+        """A robot has no singular sets of its equations of motion."""
+        return None
+
+    def stats(self, state: State[FixedStepper]) -> Stats:
         st = state.work
-        return {"method": self.method, "steps": st.n_steps, "nfev": st.nfev, "restarts": 0, "events": 0,
-                "step": self.step}
+        return Stats(method=self.method, steps=st.n_steps, nfev=st.nfev, restarts=0, events=0, step=self.step)
