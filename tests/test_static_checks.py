@@ -1,7 +1,8 @@
 """The static checks that keep the code as it is laid out (issue 13): ruff over the whole
-tree and mypy, strict, over ``tensegrity_core``, both configured in pyproject.toml and
-pinned in its ``test`` extra (a new release may find new things: that arrives by a bump,
-not by a fresh clone)."""
+tree and mypy, strict, over the packages ``[tool.mypy]`` lists (the core, the studies and,
+of tensegrity_ros, the bag tools, the view, the rclpy utilities and the trajectory files),
+both configured in pyproject.toml and pinned in its ``test`` extra (a new release may find
+new things: that arrives by a bump, not by a fresh clone)."""
 
 from __future__ import annotations
 

@@ -31,6 +31,7 @@ from tensegrity_core.schema import (
 )
 
 EXAMPLES: Final = Path(__file__).parent / "examples"
+#: The shipped robots, by name.
 SHIPPED_ROBOTS: Final = ShippedFiles(EXAMPLES, "robot", "shipped robots", RobotError)
 SUFFIXES: Final = (".yaml", ".yml", ".json", ".toml")
 

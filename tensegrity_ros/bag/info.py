@@ -14,7 +14,7 @@ from typing import Any
 from tensegrity_ros.bag.reader import BagReader
 
 
-def bag_info(path: str | os.PathLike) -> dict[str, Any]:
+def bag_info(path: str | os.PathLike[str]) -> dict[str, Any]:
     """Summary of the bag at ``path`` as plain data (times in ns since the epoch, size in bytes)."""
     reader = BagReader(path)
     topics = reader.topics()
@@ -38,7 +38,7 @@ def bag_info(path: str | os.PathLike) -> dict[str, Any]:
         "ros_distro": meta.ros_distro if meta else "",
         "start_ns": start,
         "end_ns": end,
-        "duration_s": ((end - start) / 1e9) if start is not None else 0.0,
+        "duration_s": (end - start) / 1e9 if start is not None and end is not None else 0.0,
         "message_count": sum(t.message_count for t in topics),
         "topics": [
             {
@@ -57,11 +57,14 @@ def bag_info(path: str | os.PathLike) -> dict[str, Any]:
 
 
 def _size(n: int) -> str:
-    for unit in ("B", "KiB", "MiB", "GiB"):
-        if n < 1024 or unit == "GiB":
-            return f"{n:.1f} {unit}" if unit != "B" else f"{n} B"
-        n /= 1024
-    return f"{n} B"
+    if n < 1024:
+        return f"{n} B"
+    size = n / 1024
+    for unit in ("KiB", "MiB"):
+        if size < 1024:
+            return f"{size:.1f} {unit}"
+        size /= 1024
+    return f"{size:.1f} GiB"
 
 
 def _stamp(ns: int | None) -> str:

@@ -51,7 +51,7 @@ class TopicInfo:
     name: str
     type: str
     serialization_format: str = "cdr"
-    offered_qos_profiles: list[dict] = field(default_factory=list)
+    offered_qos_profiles: list[dict[str, Any]] = field(default_factory=list)
     type_description_hash: str = ""
     message_count: int = 0
 
@@ -191,12 +191,12 @@ class _Fields:
         return BagError(f"{self.source} is not rosbag2 metadata: {what} must be {wanted}, "
                         f"got {excerpt(value)}")
 
-    def mapping(self, value: Any, what: str) -> dict:
+    def mapping(self, value: Any, what: str) -> dict[str, Any]:
         if not isinstance(value, dict):
             raise self._fail(what, "a mapping", value)
         return value
 
-    def sequence(self, info: dict, key: str) -> list:
+    def sequence(self, info: dict[str, Any], key: str) -> list[Any]:
         value = info.get(key)
         if value is None:
             return []
@@ -204,7 +204,7 @@ class _Fields:
             raise self._fail(key, "a list", value)
         return value
 
-    def text(self, d: dict, key: str, default: str | None = None) -> str:
+    def text(self, d: dict[str, Any], key: str, default: str | None = None) -> str:
         value = d.get(key, default)
         if value is None and default is not None:
             return default
@@ -214,7 +214,7 @@ class _Fields:
             raise self._fail(key, f"at most {MAX_TEXT} characters", value)
         return value
 
-    def integer(self, d: dict, key: str, default: int | None = None) -> int:
+    def integer(self, d: dict[str, Any], key: str, default: int | None = None) -> int:
         value = d.get(key, default)
         if isinstance(value, bool) or not isinstance(value, int):
             raise self._fail(key, "an integer", value)
@@ -223,7 +223,7 @@ class _Fields:
         return value
 
 
-def read_metadata(folder: str | os.PathLike) -> BagMetadata:
+def read_metadata(folder: str | os.PathLike[str]) -> BagMetadata:
     """Read ``<folder>/metadata.yaml``; :class:`BagError` if missing, outside the folder
     (a symbolic link out), too large or malformed."""
     path = path_inside(folder, METADATA_FILE, "metadata file")
@@ -231,7 +231,7 @@ def read_metadata(folder: str | os.PathLike) -> BagMetadata:
     return BagMetadata.from_dict(load_bag_yaml(data, str(path)), str(path))
 
 
-def write_metadata(folder: str | os.PathLike, meta: BagMetadata) -> Path:
+def write_metadata(folder: str | os.PathLike[str], meta: BagMetadata) -> Path:
     """Write ``<folder>/metadata.yaml`` atomically: a new temporary file in the folder (a
     fresh name, never an existing file or link), then a rename over the old one (which
     replaces a link rather than writing through it)."""

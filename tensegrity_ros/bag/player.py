@@ -21,6 +21,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
 import rclpy
+from rclpy.context import Context
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -69,7 +70,7 @@ class PlayerNode(Node):
 
     def __init__(self, reader: BagReader, opts: PlaybackOptions | None = None,
                  topics: Iterable[str] | None = None, *, node_name: str = "tensegrity_player",
-                 context=None, log: Callable[[str], None] | None = None):
+                 context: Context | None = None, log: Callable[[str], None] | None = None):
         super().__init__(node_name, context=context)
         self.reader = reader
         self.opts = opts = opts or PlaybackOptions()
@@ -139,7 +140,7 @@ class PlayerNode(Node):
         wait = wait or (lambda deadline: sleep_until(deadline, now_ns, should_stop))
         result = PlaybackResult(published={t: 0 for t in self.publishers_by_topic})
         start, end = self.reader.start_ns, self.reader.end_ns
-        if start is None or (not self.publishers_by_topic and self.clock_publisher is None):
+        if start is None or end is None or (not self.publishers_by_topic and self.clock_publisher is None):
             return result
         topics = list(self.publishers_by_topic)
         t0 = start + round(self.opts.start_offset_s * 1e9)
@@ -159,6 +160,7 @@ class PlayerNode(Node):
                 break
             result.loops = event.loop + 1
             if event.message is None:
+                assert self.clock_publisher is not None       # clock ticks come with opts.clock_hz
                 clock_msg.clock.sec, clock_msg.clock.nanosec = divmod(event.clock_ns, 1_000_000_000)
                 self.clock_publisher.publish(clock_msg)
                 result.clock_ticks += 1
@@ -196,7 +198,7 @@ def play(bag: str, topics: Iterable[str] | None = None, opts: PlaybackOptions | 
         raise BagError(f"delay must be >= 0 s, got {delay_s!r}")
     log = log or (lambda text: print(text, file=sys.stderr, flush=True))
     reader = BagReader(bag)
-    if reader.start_ns is None:
+    if reader.start_ns is None or reader.end_ns is None:
         raise BagError(f"nothing to play: bag {bag} holds no messages")
     if opts.start_offset_s * 1e9 > reader.end_ns - reader.start_ns:
         raise BagError(f"nothing to play: the start offset {opts.start_offset_s:g} s is beyond "
@@ -205,7 +207,7 @@ def play(bag: str, topics: Iterable[str] | None = None, opts: PlaybackOptions | 
         log(f"warning: {bag} was not closed properly; playing what the recovery scan found")
     with stop_on_signals() as stop_request:
         stop_request.enter_running()
-        node = None
+        node: PlayerNode | None = None
         try:
             rclpy.init(args=list(ros_args or []), signal_handler_options=SignalHandlerOptions.NO)
             node = PlayerNode(reader, opts, topics, log=log)
@@ -228,7 +230,7 @@ def play(bag: str, topics: Iterable[str] | None = None, opts: PlaybackOptions | 
                     f"{wait_for_all_acked_s:g} s")
         finally:
             if node is not None:
-                node.destroy_node()
+                node.destroy_node()  # type: ignore[no-untyped-call]  # rclpy's, on a subclass: not excluded by name
             rclpy.try_shutdown()
     log("played " + ", ".join(f"{t} {n}" for t, n in result.published.items())
         + (f", /clock {result.clock_ticks} ticks" if opts.clock_hz else "")

@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import os
 from collections import defaultdict
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 from mcap.records import Schema
 from mcap_ros2.decoder import DecoderFactory
@@ -23,12 +25,12 @@ JOINT_STATE = "sensor_msgs/msg/JointState"
 POINT_STAMPED = "geometry_msgs/msg/PointStamped"
 
 
-def decoded_messages(reader: BagReader, topics: list[str]):
+def decoded_messages(reader: BagReader, topics: list[str]) -> Iterator[tuple[str, int, Any]]:
     """(topic, log_time_ns, decoded object) of ``topics``, decoded by mcap-ros2-support."""
     factory = DecoderFactory()
     schemas = {name: Schema(id=i + 1, name=name, encoding=enc, data=text.encode("utf-8"))
                for i, (name, (enc, text)) in enumerate(sorted(reader.definitions().items()))}
-    decoders = {}
+    decoders: dict[str, Callable[[bytes], Any]] = {}
     for m in reader.messages(topics):
         if m.type not in decoders:
             decoder = factory.decoder_for("cdr", schemas.get(m.type))
@@ -38,7 +40,7 @@ def decoded_messages(reader: BagReader, topics: list[str]):
         yield m.topic, m.log_time_ns, decoders[m.type](m.data)
 
 
-def plot_bag(bag: str | os.PathLike, out: str | os.PathLike) -> Path:
+def plot_bag(bag: str | os.PathLike[str], out: str | os.PathLike[str]) -> Path:
     """Write the plot of ``bag`` to ``out`` (PNG); return its path."""
     import matplotlib
     matplotlib.use("Agg")
@@ -50,28 +52,28 @@ def plot_bag(bag: str | os.PathLike, out: str | os.PathLike) -> Path:
     if not joint_topics and not point_topics:
         raise BagError(f"bag {reader.folder} has no {JOINT_STATE} or {POINT_STAMPED} topic to plot")
     start = reader.start_ns or 0
-    joints = defaultdict(lambda: ([], []))
-    points = defaultdict(lambda: ([], [], [], []))
+    joints: defaultdict[str, tuple[list[float], list[float]]] = defaultdict(lambda: ([], []))
+    points: defaultdict[str, tuple[list[float], list[float], list[float], list[float]]] = defaultdict(
+        lambda: ([], [], [], []))
     for topic, t_ns, msg in decoded_messages(reader, joint_topics + point_topics):
         t = (t_ns - start) / 1e9
         if topic in joint_topics:
             for name, pos in zip(msg.name, msg.position):
-                series = joints[f"{topic}: {name}"]
-                series[0].append(t)
-                series[1].append(pos)
+                times, values = joints[f"{topic}: {name}"]
+                times.append(t)
+                values.append(pos)
         else:
-            series = points[topic]
-            for column, value in zip(series, (t, msg.point.x, msg.point.y, msg.point.z)):
+            for column, value in zip(points[topic], (t, msg.point.x, msg.point.y, msg.point.z)):
                 column.append(value)
 
     fig, axes = plt.subplots(2, 1, sharex=True, figsize=(9, 6.5))
-    for label, (t, y) in joints.items():
-        axes[0].plot(t, y, label=label)
+    for label, (times, positions) in joints.items():
+        axes[0].plot(times, positions, label=label)
     axes[0].set_ylabel("joint position [m or rad]")
     axes[0].set_title(f"{reader.folder.name}: joint positions")
-    for topic, (t, x, y, z) in points.items():
+    for topic, (times, x, y, z) in points.items():
         for values, axis in ((x, "x"), (y, "y"), (z, "z")):
-            axes[1].plot(t, values, label=f"{topic} {axis}")
+            axes[1].plot(times, values, label=f"{topic} {axis}")
     axes[1].set_ylabel("end effector [m]")
     axes[1].set_title("end effector")
     axes[1].set_xlabel("time since first message [s]")

@@ -15,13 +15,19 @@ all publishers offered the same compatibility-relevant policies, else with the d
 from __future__ import annotations
 
 from collections.abc import Iterable
-from typing import Any
+from enum import IntEnum
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import yaml
 
 from tensegrity_core.excerpt import excerpt
 from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.untrusted import load_bag_yaml
+
+if TYPE_CHECKING:
+    from rclpy.qos import QoSProfile
+
+_Policy = TypeVar("_Policy", bound=IntEnum)
 
 INFINITE_NS = 9_223_372_036_854_775_807  # RMW_DURATION_INFINITE as nanoseconds
 
@@ -45,7 +51,7 @@ def duration_dict(ns: int) -> dict[str, int]:
     return {"sec": int(ns) // 1_000_000_000, "nsec": int(ns) % 1_000_000_000}
 
 
-def duration_ns(d: dict) -> int:
+def duration_ns(d: dict[str, Any]) -> int:
     """rosbag2's ``{sec, nsec}`` -> nanoseconds (the Foxy-era infinities map to infinite)."""
     sec, nsec = int(d["sec"]), int(d["nsec"])
     if (sec, nsec) in {(0x7FFFFFFF, 0xFFFFFFFF), (0x7FFFFFFF, 0x7FFFFFFF)}:
@@ -63,7 +69,7 @@ def default_profile() -> dict[str, Any]:
     }
 
 
-def profile_to_dict(profile) -> dict[str, Any]:
+def profile_to_dict(profile: Any) -> dict[str, Any]:
     """An rclpy ``QoSProfile`` (e.g. a publisher's offered QoS) -> rosbag2 dict."""
     out: dict[str, Any] = {}
     for key, names in _POLICIES.items():
@@ -77,7 +83,7 @@ def profile_to_dict(profile) -> dict[str, Any]:
     return {k: out[k] for k in order}
 
 
-def normalize_profile(item: dict) -> dict[str, Any]:
+def normalize_profile(item: object) -> dict[str, Any]:
     """A profile dict of any metadata version (names or enum ints) -> version-9 form."""
     if not isinstance(item, dict):
         raise BagError(f"a QoS profile must be a mapping, got {excerpt(item)}")
@@ -109,7 +115,7 @@ def normalize_profile(item: dict) -> dict[str, Any]:
     return out
 
 
-def parse_profiles(value: str | list | None) -> list[dict[str, Any]]:
+def parse_profiles(value: str | list[Any] | None) -> list[dict[str, Any]]:
     """``offered_qos_profiles`` as stored (YAML text, a list, ``""`` or None) -> dicts."""
     if value is None or value == "":
         return []
@@ -122,15 +128,15 @@ def parse_profiles(value: str | list | None) -> list[dict[str, Any]]:
     return [normalize_profile(item) for item in value]
 
 
-def dump_profiles(profiles: Iterable[dict]) -> str:
+def dump_profiles(profiles: Iterable[dict[str, Any]]) -> str:
     """Profiles -> the YAML text rosbag2 puts in the MCAP channel metadata."""
-    profiles = list(profiles)
-    if not profiles:
+    items = list(profiles)
+    if not items:
         return ""
-    return yaml.safe_dump(profiles, default_flow_style=False, sort_keys=False)
+    return yaml.safe_dump(items, default_flow_style=False, sort_keys=False)
 
 
-def request_for_offers(offers: list[dict], depth: int) -> dict[str, Any]:
+def request_for_offers(offers: list[dict[str, Any]], depth: int) -> dict[str, Any]:
     """QoS to subscribe with so as to match every offer (rosbag2's rule; see module doc)."""
     req = default_profile()
     req["depth"] = int(depth)
@@ -141,7 +147,7 @@ def request_for_offers(offers: list[dict], depth: int) -> dict[str, Any]:
     return req
 
 
-def offer_for_replay(recorded: list[dict], depth: int = DEFAULT_REPLAY_DEPTH) -> dict[str, Any]:
+def offer_for_replay(recorded: list[dict[str, Any]], depth: int = DEFAULT_REPLAY_DEPTH) -> dict[str, Any]:
     """QoS to publish a recorded topic with (rosbag2's rule), history ``keep_last(depth)``."""
     keys = ("reliability", "durability", "deadline", "liveliness", "liveliness_lease_duration")
     if recorded and all(all(p[k] == recorded[0][k] for k in keys) for p in recorded):
@@ -158,12 +164,12 @@ def offer_for_replay(recorded: list[dict], depth: int = DEFAULT_REPLAY_DEPTH) ->
     return offer
 
 
-def dict_to_profile(d: dict):
+def dict_to_profile(d: dict[str, Any]) -> QoSProfile:
     """rosbag2 dict -> rclpy ``QoSProfile`` (imports rclpy)."""
     from rclpy.duration import Duration
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile, ReliabilityPolicy
 
-    def enum(cls, names, value):
+    def enum(cls: type[_Policy], names: dict[int, str], value: str) -> _Policy:
         return cls({v: k for k, v in names.items()}[value])
 
     return QoSProfile(

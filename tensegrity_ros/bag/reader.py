@@ -22,9 +22,10 @@ import dataclasses
 import heapq
 import io
 import os
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, BinaryIO
 
 import lz4.frame
 import zstandard
@@ -72,7 +73,7 @@ class _FileContent:
     chunk_indexes: list[ChunkIndex] = dataclasses.field(default_factory=list)  # complete files
 
 
-def _chunk_records(chunk: Chunk, path: Path) -> list:
+def _chunk_records(chunk: Chunk, path: Path) -> list[Any]:
     """The records of ``chunk``, decompressed to at most ``MAX_CHUNK_BYTES`` (zstd frames
     carry their own content size, which ``zstandard.decompress`` trusts over any limit)."""
     if chunk.compression == "zstd":
@@ -158,7 +159,7 @@ def _check_index(ci: ChunkIndex, file_size: int) -> None:
         raise ValueError("chunk index outside the file or over the size limits")
 
 
-def _read_indexed_chunk(f, ci: ChunkIndex, path: Path) -> list:
+def _read_indexed_chunk(f: BinaryIO, ci: ChunkIndex, path: Path) -> list[Any]:
     """The records of the chunk that index ``ci`` points to (a complete file's read path)."""
     f.seek(ci.chunk_start_offset)
     raw = f.read(ci.chunk_length)
@@ -172,7 +173,7 @@ def _read_indexed_chunk(f, ci: ChunkIndex, path: Path) -> list:
 class BagReader:
     """Read a bag folder or an ``.mcap`` file (see the module docstring)."""
 
-    def __init__(self, path: str | os.PathLike):
+    def __init__(self, path: str | os.PathLike[str]):
         path = Path(path)
         if not path.exists():
             raise BagError(f"bag {path} does not exist")
@@ -228,7 +229,7 @@ class BagReader:
         out = []
         for c in self._files:
             start = c.start_ns or 0
-            duration = (c.end_ns - c.start_ns) if c.start_ns is not None else 0
+            duration = c.end_ns - c.start_ns if c.start_ns is not None and c.end_ns is not None else 0
             out.append(FileInfo(c.path.name, start, duration, sum(c.counts.values())))
         return out
 
@@ -296,7 +297,7 @@ class BagReader:
 
     @staticmethod
     def _iter_indexed(content: _FileContent, topics: set[str] | None, start_ns: int | None,
-                      make) -> Iterator[BagMessage]:
+                      make: Callable[[Channel, Message], BagMessage]) -> Iterator[BagMessage]:
         """Messages of a complete file in log-time order (ties in file order), read chunk by
         chunk through the summary's chunk index: chunks are taken in order of their first
         log time, and a message is yielded once no chunk still to be read can hold an
@@ -308,7 +309,7 @@ class BagReader:
                          and (not ci.message_index_offsets
                               or wanted & set(ci.message_index_offsets))),
                         key=lambda ci: (ci.message_start_time, ci.chunk_start_offset))
-        pending: list = []
+        pending: list[Any] = []
         with open_regular(content.path, "storage file") as f:
             for ci in chunks:
                 while pending and pending[0][0] < ci.message_start_time:

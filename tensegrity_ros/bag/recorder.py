@@ -29,10 +29,13 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Callable, Iterable
+from typing import Any
 
 import rclpy
+from rclpy.context import Context
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
+from rclpy.topic_endpoint_info import TopicEndpointInfo
 from rclpy.topic_or_service_is_hidden import topic_or_service_is_hidden
 
 from tensegrity_core.excerpt import excerpt
@@ -54,7 +57,7 @@ POLL_PERIOD = 0.005        # s between two takes; log times are rmw receive time
                            # batching costs no timing accuracy (5 messages per poll at 1 kHz)
 
 
-def message_class(type_name: str):
+def message_class(type_name: str) -> Any:
     """The rclpy message class of ``pkg/msg/Name``; :class:`BagError` if not importable."""
     try:
         return msg_utils.message_class(type_name)
@@ -67,7 +70,7 @@ class RecorderNode(Node):
 
     def __init__(self, writer: BagWriter, topics: Iterable[str] = SUITE_TOPICS, *,
                  record_all: bool = False, depth: int = DEFAULT_DEPTH,
-                 node_name: str = "tensegrity_recorder", context=None,
+                 node_name: str = "tensegrity_recorder", context: Context | None = None,
                  log: Callable[[str], None] | None = None):
         # no executor spins this node (see poll), so it offers no parameter services
         super().__init__(node_name, context=context, start_parameter_services=False)
@@ -119,7 +122,7 @@ class RecorderNode(Node):
         self._skipped.add(name)
         self._log(f"warning: not recording {name}: {why}")
 
-    def _subscribe(self, name: str, type_name: str, cls, infos) -> None:
+    def _subscribe(self, name: str, type_name: str, cls: Any, infos: list[TopicEndpointInfo]) -> None:
         offers = [profile_to_dict(i.qos_profile) for i in infos]
         hashes = {str(i.topic_type_hash) for i in infos}
         request = request_for_offers(offers, self.depth)
@@ -137,7 +140,7 @@ class RecorderNode(Node):
         self._log(f"recording {name} [{type_name}] {request['reliability']} "
                   f"{request['durability']}")
 
-    def _write(self, topic: str, data: bytes, info: dict) -> None:
+    def _write(self, topic: str, data: bytes, info: dict[str, Any]) -> None:
         self.writer.write(topic, data, info["received_timestamp"], info["source_timestamp"],
                           info.get("publication_sequence_number") or 0)
         self.received[topic] += 1
@@ -178,7 +181,7 @@ def record(folder: str, topics: Iterable[str] | None = None, *, record_all: bool
     """
     if max_duration is not None and not max_duration > 0:
         raise BagError(f"max_duration must be > 0 s, got {max_duration!r}")
-    kwargs = {"compression": compression}
+    kwargs: dict[str, Any] = {"compression": compression}
     if chunk_size is not None:
         kwargs["chunk_size"] = chunk_size
     if flush_interval is not None:
@@ -201,7 +204,7 @@ def record(folder: str, topics: Iterable[str] | None = None, *, record_all: bool
                 _drain(node, time.time_ns())
         finally:
             if node is not None:
-                node.destroy_node()
+                node.destroy_node()  # type: ignore[no-untyped-call]  # rclpy's, on a subclass: not excluded by name
             meta = writer.close()
             rclpy.try_shutdown()
     log(f"recorded {meta.message_count} messages to {writer.folder}: " + ", ".join(

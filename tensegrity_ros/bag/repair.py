@@ -49,7 +49,7 @@ def _metadata_from_reader(reader: BagReader, files: list[FileInfo]) -> BagMetada
                        duration_ns=duration, message_count=count, custom_data=custom)
 
 
-def repair_bag(folder: str | os.PathLike, *, keep_original: bool = True,
+def repair_bag(folder: str | os.PathLike[str], *, keep_original: bool = True,
                compression: str = "zstd") -> RepairResult:
     """Recover and re-index the bag in ``folder`` (see the module docstring)."""
     folder = Path(folder)

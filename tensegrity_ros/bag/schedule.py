@@ -38,7 +38,7 @@ class PlaybackOptions:
     loop: bool = False
     clock_hz: float | None = None
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if not (isinstance(self.rate, (int, float)) and 0 < self.rate < float("inf")):
             raise BagError(f"rate must be a finite number > 0, got {self.rate!r}")
         if not (0 <= self.start_offset_s < float("inf")):
@@ -61,9 +61,9 @@ def _due(t_ns: int, t0_ns: int, rate: float) -> int:
     return round((t_ns - t0_ns) / rate)
 
 
-def _clock_ticks(t0_ns: int, end_ns: int, opts: PlaybackOptions, shift_ns: int,
+def _clock_ticks(t0_ns: int, end_ns: int, opts: PlaybackOptions, clock_hz: float, shift_ns: int,
                  loop: int) -> Iterator[PlaybackEvent]:
-    period_wall = 1e9 / opts.clock_hz
+    period_wall = 1e9 / clock_hz
     for k in itertools.count():
         bag_ns = t0_ns + round(opts.rate * k * period_wall)
         if bag_ns > end_ns:
@@ -91,7 +91,7 @@ def timeline(messages: Callable[[], Iterable[BagMessage]], start_ns: int, end_ns
                 for m in messages() if m.log_time_ns >= t0)
         if opts.clock_hz:
             # clock ticks sort before messages due at the same instant
-            ticks = _clock_ticks(t0, end_ns, opts, shift, loop)
+            ticks = _clock_ticks(t0, end_ns, opts, opts.clock_hz, shift, loop)
             merged = heapq.merge(((e.wall_ns, 0, i, e) for i, e in enumerate(ticks)),
                                  ((e.wall_ns, 1, i, e) for i, e in enumerate(msgs)))
             events = (item[3] for item in merged)

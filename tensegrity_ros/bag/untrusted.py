@@ -17,7 +17,7 @@ from __future__ import annotations
 import os
 import stat
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 from tensegrity_core.excerpt import excerpt
 from tensegrity_core.schema import Limits, SchemaError, parse_yaml
@@ -52,7 +52,7 @@ def load_bag_yaml(data: bytes | str, source: str) -> Any:
         raise BagError(f"{source} is not valid YAML{at}: {err.reason}") from None
 
 
-def path_inside(folder: str | os.PathLike, name: Any, what: str = "file") -> Path:
+def path_inside(folder: str | os.PathLike[str], name: Any, what: str = "file") -> Path:
     """``folder / name`` if it stays inside ``folder`` once every link is followed, else
     :class:`BagError`. ``name`` is a relative path as a bag names its files (a string);
     the returned path is ``folder / name`` (not resolved, so messages show what the bag
@@ -73,7 +73,7 @@ def path_inside(folder: str | os.PathLike, name: Any, what: str = "file") -> Pat
     return path
 
 
-def open_regular(path: Path, what: str = "file"):
+def open_regular(path: Path, what: str = "file") -> BinaryIO:
     """Open ``path`` for reading in binary mode if it is a regular file, else
     :class:`BagError` (a FIFO or device named like a bag file would block or never end)."""
     try:
@@ -92,4 +92,5 @@ def read_bounded(path: Path, limit: int, what: str = "file") -> bytes:
     """At most ``limit`` + 1 bytes of the regular file ``path`` (one more than ``limit``
     tells the caller the file is too large)."""
     with open_regular(path, what) as f:
-        return f.read(limit + 1)
+        data: bytes = f.read(limit + 1)
+        return data

@@ -27,6 +27,7 @@ import os
 import time
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
+from typing import Any
 
 import yaml
 from mcap.writer import CompressionType
@@ -65,7 +66,7 @@ class BagWriter:
     ``compression`` is the MCAP chunk compression: ``"zstd"`` (default), ``"lz4"``, ``"none"``.
     """
 
-    def __init__(self, folder: str | os.PathLike, *, chunk_size: int = DEFAULT_CHUNK_SIZE,
+    def __init__(self, folder: str | os.PathLike[str], *, chunk_size: int = DEFAULT_CHUNK_SIZE,
                  compression: str = "zstd", flush_interval: float = DEFAULT_FLUSH_INTERVAL,
                  file_name: str | None = None):
         if not isinstance(chunk_size, int) or chunk_size < 1024:
@@ -83,8 +84,8 @@ class BagWriter:
             raise BagError(f"cannot create bag folder {self.folder}: {err.strerror}") from None
         self.path = self.folder / (file_name or mcap_file_name(self.folder))
         self._stream = open(self.path, "wb")
-        self._mcap = McapWriter(self._stream, chunk_size=chunk_size,
-                                compression=COMPRESSIONS[compression])
+        # mcap has no type information
+        self._mcap: Any = McapWriter(self._stream, chunk_size=chunk_size, compression=COMPRESSIONS[compression])
         self._mcap.start(profile="ros2", library=_library_id())
         self._stream.flush()      # killed before its first chunk, it is still an MCAP file
         self._flush_interval = flush_interval
@@ -92,14 +93,14 @@ class BagWriter:
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self.topics: dict[str, TopicInfo] = {}
-        self._start = None
-        self._end = None
+        self._start: int | None = None         # first and last log time [ns]
+        self._end: int | None = None
         self._closed = False
 
     def __enter__(self) -> BagWriter:
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.close()
 
     def add_topic(self, topic: TopicInfo, definition: str | None = None,
@@ -163,7 +164,7 @@ class BagWriter:
         """The bag's metadata as of now."""
         count = sum(t.message_count for t in self.topics.values())
         start = self._start or 0
-        duration = (self._end - self._start) if self._start is not None else 0
+        duration = self._end - self._start if self._start is not None and self._end is not None else 0
         return BagMetadata(
             topics=[TopicInfo(**vars(t)) for t in self.topics.values()],
             files=[FileInfo(self.path.name, start, duration, count)],

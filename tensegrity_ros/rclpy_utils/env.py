@@ -13,6 +13,7 @@ from __future__ import annotations
 import os
 from collections.abc import MutableMapping
 from pathlib import Path
+from types import ModuleType
 
 from tensegrity_core.errors import TensegrityError
 
@@ -67,7 +68,7 @@ def discovery_range(env: MutableMapping[str, str] | None = None) -> str:
     return value
 
 
-def require_rclpy():
+def require_rclpy() -> ModuleType:
     """Import and return rclpy after setting the environment, or raise a clear error."""
     ensure_ros_environment()
     try:

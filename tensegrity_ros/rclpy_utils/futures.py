@@ -10,9 +10,10 @@ clients therefore wait with :func:`spin_until_done`.
 from __future__ import annotations
 
 import time
+from typing import Any
 
 
-def spin_until_done(executor, future, timeout_s: float) -> bool:
+def spin_until_done(executor: Any, future: Any, timeout_s: float) -> bool:
     """Spin ``executor`` until ``future`` is done or ``timeout_s`` seconds have passed;
     return whether it is done."""
     deadline = time.monotonic() + timeout_s

@@ -14,12 +14,13 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterable
+from typing import Any
 
 #: Seconds the matches must hold before sending (about 25x the gap seen under load).
 MATCH_SETTLE_S = 0.25
 
 
-def wait_for_matches(publishers: Iterable, minimum: int = 1, timeout_s: float | None = None,
+def wait_for_matches(publishers: Iterable[Any], minimum: int = 1, timeout_s: float | None = None,
                      *, settle_s: float = MATCH_SETTLE_S,
                      should_stop: Callable[[], bool] = lambda: False,
                      poll: Callable[[float], None] = time.sleep) -> bool:

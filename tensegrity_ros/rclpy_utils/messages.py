@@ -11,7 +11,7 @@ import numpy as np
 from tensegrity_core.excerpt import excerpt
 
 
-def message_class(type_name: str):
+def message_class(type_name: str) -> Any:
     """The Python class of a ROS interface type such as ``sensor_msgs/msg/JointState``.
 
     Accepts ``pkg/msg/Name``, ``pkg/Name`` (message assumed) and ``pkg/srv/Name``.
@@ -43,11 +43,11 @@ def message_to_dict(msg: Any) -> Any:
     return msg
 
 
-def stamp_to_s(stamp) -> float:
+def stamp_to_s(stamp: Any) -> float:
     """A ``builtin_interfaces/Time`` as seconds."""
-    return stamp.sec + 1e-9 * stamp.nanosec
+    return float(stamp.sec + 1e-9 * stamp.nanosec)
 
 
-def duration_to_s(duration) -> float:
+def duration_to_s(duration: Any) -> float:
     """A ``builtin_interfaces/Duration`` as seconds (its ``sec`` may be negative)."""
-    return duration.sec + 1e-9 * duration.nanosec
+    return float(duration.sec + 1e-9 * duration.nanosec)

@@ -9,11 +9,13 @@ its callback is never called.
 
 from __future__ import annotations
 
+from typing import Any
 
-def take_all(subscription) -> list[tuple[bytes, dict]]:
+
+def take_all(subscription: Any) -> list[tuple[bytes, dict[str, Any]]]:
     """Every message queued on ``subscription`` now, oldest first: ``(CDR bytes, rmw
     message info)`` with ``received_timestamp`` and ``source_timestamp`` [ns]."""
-    taken = []
+    taken: list[tuple[bytes, dict[str, Any]]] = []
     with subscription.handle:
         while (item := subscription.handle.take_message(subscription.msg_type, True)) is not None:
             taken.append(item)

@@ -46,6 +46,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
+from types import FrameType
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 #: Seconds from the first stop signal until a process that has not exited is ended.
@@ -156,7 +157,7 @@ class _Installation:
         os.close(self._write_fd)          # the watcher reads EOF and ends
 
 
-def _ignore_in_python(signum, frame) -> None:
+def _ignore_in_python(signum: int, frame: FrameType | None) -> None:
     """The Python-level handler: nothing to do (the watcher thread acts on the wake-up
     byte); it only replaces the defaults that raise KeyboardInterrupt or kill."""
 

@@ -8,6 +8,7 @@ page changes nothing; :meth:`View.close` stops the source and the server, never 
 
 from __future__ import annotations
 
+import functools
 import threading
 from typing import Any, Final
 
@@ -81,11 +82,15 @@ class View:
             self._latest = frame
             self._cond.notify()
 
+    def _news_since(self, shown: Frame | None) -> bool:
+        """Whether there is a frame other than ``shown`` to draw, or the view closes."""
+        return self._closing or self._latest is not shown
+
     def _render(self) -> None:
         last: Frame | None = None
         while True:
             with self._cond:
-                self._cond.wait_for(lambda shown=last: self._closing or self._latest is not shown, timeout=1.0)
+                self._cond.wait_for(functools.partial(self._news_since, last), timeout=1.0)
                 if self._closing:
                     return
                 frame = self._latest

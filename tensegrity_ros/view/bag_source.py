@@ -14,7 +14,8 @@ import bisect
 import os
 import threading
 import time
-from typing import Final
+from collections.abc import Callable
+from typing import Any, Final
 
 import numpy as np
 from mcap.records import Schema
@@ -53,9 +54,10 @@ class BagSource:
         self.topic = topics[0]
         encoding, text = reader.definitions()[next(t.type for t in reader.topics() if t.name == self.topic)]
         schema = Schema(id=1, name=STATE_TYPE, encoding=encoding, data=text.encode())
-        self._decode = DecoderFactory().decoder_for("cdr", schema)
-        if self._decode is None:
+        decode = DecoderFactory().decoder_for("cdr", schema)
+        if decode is None:
             raise BagError(f"bag {path}: cannot decode {self.topic} (schema encoding {encoding!r})")
+        self._decode: Callable[[bytes], Any] = decode
         self._data: list[bytes] = []
         self._times: list[float] = []
         for m in reader.messages([self.topic]):

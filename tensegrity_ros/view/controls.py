@@ -23,7 +23,7 @@ class ControlPanel:
         self.gui = gui
         self.source = source
         self.report = report
-        self.timeline = None
+        self.timeline: Any = None              # the timeline's slider, when the source has one
         features = source.features
         if "timeline" in features:
             self._timeline()
@@ -94,11 +94,21 @@ class ControlPanel:
     def _timeline(self) -> None:
         gui, source = self.gui, self.source
         with gui.add_folder("Timeline"):
-            self.timeline = gui.add_slider("time [s]", min=0.0, max=max(source.duration, 1e-3),
-                                           step=max(source.duration, 1e-3) / 1000, initial_value=0.0)
+            timeline = gui.add_slider("time [s]", min=0.0, max=max(source.duration, 1e-3),
+                                      step=max(source.duration, 1e-3) / 1000, initial_value=0.0)
             rate = gui.add_number("rate [x real time]", initial_value=1.0, min=0.01, max=100.0, step=0.1)
-        self.timeline.on_update(lambda e: e.client is not None and source.seek(float(self.timeline.value)))
-        rate.on_update(lambda e: e.client is not None and source.set_rate(float(rate.value)))
+        self.timeline = timeline
+
+        def seek(event: Any) -> None:           # a user moved the slider (not show_time)
+            if event.client is not None:
+                source.seek(float(timeline.value))
+
+        def set_rate(event: Any) -> None:
+            if event.client is not None:
+                source.set_rate(float(rate.value))
+
+        timeline.on_update(seek)
+        rate.on_update(set_rate)
 
     def show_time(self, t: float) -> None:
         """Move the timeline's slider to ``t`` [s] from the start (no request to the source)."""

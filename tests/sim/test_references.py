@@ -28,3 +28,16 @@ def test_shipped_names_resolve_to_the_shipped_files_and_a_missing_one_is_named(t
     assert out["inputs"]["gait"]["file"] == str((GAITS_DIR / "six_bar_roll.yaml").resolve())
     with pytest.raises(SceneError, match="no shipped gait 'six_bar_rol' \\(did you mean 'six_bar_roll'\\?\\)"):
         self_contained({"inputs": {"gait": {"file": "six_bar_rol"}}}, tmp_path)
+
+
+def test_a_robot_named_by_a_scene_is_inlined_with_its_name(tmp_path):
+    import yaml
+
+    from tensegrity_core.robot.loading import robot_path
+
+    out = self_contained({"model": {"kind": "robot", "robot": "three_bar"}}, tmp_path)
+    expected = yaml.safe_load(robot_path("three_bar").read_text())
+    expected.setdefault("name", "three_bar")
+    assert out["model"]["robot"] == expected
+    with pytest.raises(SceneError, match="no shipped robot 'three_bars' \\(did you mean 'three_bar'\\?\\)"):
+        self_contained({"model": {"kind": "robot", "robot": "three_bars"}}, tmp_path)

@@ -2,7 +2,9 @@
 
 The format is documented in ``docs/scenes.md``. :mod:`.spec` describes a checked scene (the
 frozen :class:`Scene` and its parts), :mod:`.reader` reads one from text, a file, parsed data
-or a shipped scene's name, :mod:`.series` reads the CSV file of a series input law. The
+or a shipped scene's name and checks it with :mod:`.schema` (a robot model's parts:
+:mod:`.robot_schema`), :mod:`.series` reads the CSV file of a series input law,
+:mod:`.references` knows where a scene names other files. The
 names below are the package's public ones.
 """
 

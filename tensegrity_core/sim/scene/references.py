@@ -5,14 +5,16 @@ current folder for text and dicts):
 
 - ``model.structure`` of a general scene: a structure file or a shipped example's name
   (or the description inline, a mapping): :func:`structure_source`;
+- ``model.robot`` of a robot scene: a robot file or a shipped robot's name (or the
+  description inline): :func:`robot_source`;
 - the ``file`` of a ``law: series`` input: a CSV table: :func:`series_file`;
 - the ``file`` of ``inputs.gait`` (a robot's gait): a gait file or a shipped gait's name
   (:func:`~tensegrity_core.robot.gait.gait_file`, which the gait reader uses too).
 
 The scene reader resolves them with these functions, and :func:`self_contained` uses the
-same ones to make a parsed scene document that needs no other file: the structure inlined
-as its parsed description (so key paths such as ``model.structure.members[side*].EA``
-reach it) and CSV and gait files as absolute paths. A sweep sends such a document to its workers
+same ones to make a parsed scene document that needs no other file: the structure or robot
+inlined as its parsed description (so key paths such as
+``model.structure.members[side*].EA`` reach it) and CSV and gait files as absolute paths. A sweep sends such a document to its workers
 (the workers of an external cluster must then see the same file system for CSV files).
 """
 
@@ -25,7 +27,7 @@ from tensegrity_core.general.examples import SHIPPED_EXAMPLES
 from tensegrity_core.general.loading import SUFFIXES as STRUCTURE_SUFFIXES
 from tensegrity_core.general.structure import StructureError
 from tensegrity_core.robot.gait import gait_file
-from tensegrity_core.schema import Source, plain, read_file, resolve_source
+from tensegrity_core.schema import SchemaError, Source, plain, read_file, resolve_source
 from tensegrity_core.sim.errors import SceneError
 
 
@@ -34,6 +36,15 @@ def structure_source(value: object, folder: Path) -> Source:
     to ``folder`` or a shipped example's name; :class:`SceneError` (bare reason) if none."""
     return resolve_source(value, what="structure", shipped=SHIPPED_EXAMPLES, error=SceneError,
                           suffixes=STRUCTURE_SUFFIXES, folder=folder, text=None)
+
+
+def robot_source(value: object, folder: Path) -> Source:
+    """What ``model.robot`` names: a mapping (the description), a robot file relative to
+    ``folder`` or a shipped robot's name; :class:`SceneError` (bare reason) if none."""
+    from tensegrity_core.robot.loading import SHIPPED_ROBOTS, SUFFIXES
+
+    return resolve_source(value, what="robot", shipped=SHIPPED_ROBOTS, error=SceneError, suffixes=SUFFIXES,
+                          folder=folder, text=None)
 
 
 def series_file(value: str, folder: Path) -> Path:
@@ -48,13 +59,11 @@ def self_contained(document: dict[str, Any], folder: Path) -> dict[str, Any]:
     out: dict[str, Any] = plain(document)
     model = out.get("model")
     if isinstance(model, dict) and model.get("kind") == "general" and isinstance(model.get("structure"), str):
-        source = structure_source(model["structure"], folder)
-        assert source.path is not None                 # text and data are not accepted above
-        data = plain(read_file(source.path, error=StructureError, what="structure file")[0])
-        if not isinstance(data, dict):
-            raise StructureError("a structure description must be a mapping", file=source.path.name)
-        data.setdefault("name", source.path.stem)
-        model["structure"] = data
+        model["structure"] = _inlined(structure_source(model["structure"], folder), StructureError, "structure")
+    if isinstance(model, dict) and model.get("kind") == "robot" and isinstance(model.get("robot"), str):
+        from tensegrity_core.robot.description import RobotError
+
+        model["robot"] = _inlined(robot_source(model["robot"], folder), RobotError, "robot")
     inputs = out.get("inputs")
     if isinstance(inputs, dict):
         gait = inputs.get("gait")
@@ -64,3 +73,14 @@ def self_contained(document: dict[str, Any], folder: Path) -> dict[str, Any]:
             if isinstance(law, dict) and law.get("law") == "series" and isinstance(law.get("file"), str):
                 law["file"] = str(series_file(law["file"], folder).resolve())
     return out
+
+
+def _inlined(source: Source, error: type[SchemaError], what: str) -> dict[str, Any]:
+    """The parsed description in the file ``source`` names, with its name (default: the
+    file's stem)."""
+    assert source.path is not None                     # text and data are not accepted
+    data = plain(read_file(source.path, error=error, what=f"{what} file")[0])
+    if not isinstance(data, dict):
+        raise error(f"a {what} description must be a mapping", file=source.path.name)
+    data.setdefault("name", source.path.stem)
+    return data

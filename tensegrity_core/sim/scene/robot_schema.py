@@ -1,0 +1,114 @@
+"""A robot scene's own parts of the scene's schema: the robot model, the options of the
+robot effects (``motors``, ``contact``, ``friction``) and the motors' ranges of the input
+laws.
+
+Functions over the scene's :class:`~tensegrity_core.schema.Reader` (its errors are
+:class:`~tensegrity_core.sim.errors.SceneError` with key path and line), called by
+:class:`~tensegrity_core.sim.scene.schema.SceneReader`. Lengths in metres, times in seconds,
+forces in newtons.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from tensegrity_core.schema import KeyPath, Reader, excerpt, suggest, type_name
+from tensegrity_core.sim.inputs import Commanded, Constant, InputLaw, Ramp
+from tensegrity_core.sim.scene.references import robot_source
+from tensegrity_core.sim.scene.spec import ContactSpec, EffectSpec, FrictionSpec, MotorsSpec, RobotModelSpec
+
+
+def robot_model(reader: Reader, d: dict[str, Any], path: KeyPath, base: Path) -> RobotModelSpec:
+    """``model`` of ``kind: robot``: the robot (a shipped robot's name, a file relative to
+    ``base`` or the description inline) and the end effector (a node's name; default the
+    last node)."""
+    from tensegrity_core.robot.description import RobotError
+    from tensegrity_core.robot.loading import robot_from_file
+    from tensegrity_core.robot.robot_schema import robot_from_dict
+    from tensegrity_core.sim.errors import SceneError
+
+    reader.keys(d, path, ("kind", "robot", "end_effector"), required=("robot",))
+    value = d["robot"]
+    if not isinstance(value, (dict, str)):
+        raise reader.error(f"must be a shipped robot's name, a file path or a mapping, got {type_name(value)}",
+                           path + ("robot",), d, "robot")
+    try:
+        source = robot_source(value, base)
+    except SceneError as err:
+        raise reader.error(err.reason, path + ("robot",), d, "robot") from None
+    try:
+        if source.data is not None:
+            robot, name = robot_from_dict(source.data), "inline"
+        else:
+            assert source.path is not None              # a mapping or a file, as robot_source says
+            robot = robot_from_file(source.path)
+            name = source.path.stem if source.shipped is not None else str(source.path)
+    except RobotError as err:
+        if isinstance(value, dict):          # inline: the robot's own key path and line in this file
+            raise reader.error_class(f"invalid robot: {err.reason}", key=path + ("robot",) + tuple(err.key),
+                                     line=err.line, file=reader.file) from None
+        raise reader.error_class(f"invalid robot: {err}", key=path + ("robot",), file=reader.file) from None
+    if "end_effector" in d:
+        ee = reader.string(d, "end_effector", path)
+        if ee not in robot.node_names:
+            raise reader.error(f"unknown node {excerpt(ee)}{suggest(ee, robot.node_names)}",
+                               path + ("end_effector",), d, "end_effector")
+        end_effector = robot.node_names.index(ee)
+    else:
+        end_effector = int(robot.n_nodes - 1)
+    return RobotModelSpec(robot, name, end_effector, tuple(int(i) for i in robot.cables.actuated))
+
+
+def robot_effect(reader: Reader, name: str, d: dict[str, Any], path: KeyPath, model: RobotModelSpec) -> EffectSpec:
+    """The options of a robot's ``motors``, ``contact`` or ``friction``: each replaces the
+    description's value (every motor's, the floor's)."""
+    if name == "motors":
+        reader.keys(d, path, ("tau", "max_speed", "max_tension"))
+        tau = reader.number(d, "tau", path, lo=0.0) if "tau" in d else None
+        speed = reader.number(d, "max_speed", path, lo=0.0, lo_open=True, allow_inf=True) \
+            if "max_speed" in d else None
+        tension = reader.number(d, "max_tension", path, lo=0.0, lo_open=True, allow_inf=True) \
+            if "max_tension" in d else None
+        return MotorsSpec(tau, speed, tension)
+    floor = model.robot.floor
+    if floor is None:
+        raise reader.error(f"robot {excerpt(model.robot.name)} has no floor for {name!r} (give its description a "
+                           f"'floor')", path, d, None)
+    if name == "contact":
+        reader.keys(d, path, ("stiffness", "dissipation"))
+        return ContactSpec(reader.number(d, "stiffness", path, default=floor.stiffness, lo=0.0, lo_open=True),
+                           reader.number(d, "dissipation", path, default=floor.dissipation, lo=0.0))
+    reader.keys(d, path, ("mu_static", "mu_kinetic", "tangential_stiffness", "tangential_damping"))
+    mu_s = reader.number(d, "mu_static", path, default=floor.mu_static, lo=0.0)
+    mu_k = reader.number(d, "mu_kinetic", path, default=min(floor.mu_kinetic, mu_s), lo=0.0)
+    if mu_k > mu_s:
+        raise reader.error(f"mu_kinetic = {mu_k:g} must not exceed mu_static = {mu_s:g}", path + ("mu_kinetic",),
+                           d, "mu_kinetic")
+    return FrictionSpec(mu_s, mu_k,
+                        reader.number(d, "tangential_stiffness", path, default=floor.tangential_stiffness, lo=0.0,
+                                      lo_open=True),
+                        reader.number(d, "tangential_damping", path, default=floor.tangential_damping, lo=0.0))
+
+
+def within_motor_ranges(reader: Reader, laws: dict[str, InputLaw], model: RobotModelSpec, path: KeyPath,
+                        d: dict[str, Any]) -> None:
+    """Every rest length a robot's input law asks for lies in its motor's range."""
+    robot = model.robot
+    for name, law in laws.items():
+        cable = robot.cables.names.index(name)
+        lo, hi = robot.motors.range[int(robot.cables.motor[cable])]
+        values: tuple[float, ...]
+        if isinstance(law, Constant):
+            values = (law.value,)
+        elif isinstance(law, Ramp):
+            values = (law.start_value, law.end_value)
+        elif isinstance(law, Commanded):
+            values = () if law.initial is None else (law.initial,)
+        else:
+            values = tuple(getattr(law, "values", ()))
+        bad = [v for v in values if not lo <= v <= hi]
+        if bad:
+            where = path + (name,) if name in d else path + ("gait",)
+            raise reader.error(f"rest length {bad[0]:g} m of cable {excerpt(name)} is outside its motor's range "
+                               f"[{lo:g}, {hi:g}] m", where, d, where[-1])
