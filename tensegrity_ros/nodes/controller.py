@@ -47,7 +47,6 @@ from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
-from builtin_interfaces.msg import Duration as DurationMsg
 from geometry_msgs.msg import Point
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.exceptions import InvalidHandle
@@ -64,12 +63,13 @@ from tensegrity_core.class2.control import PlanningError, TrackingController, pl
 from tensegrity_core.class2.control import goals as G
 from tensegrity_core.class2.control.errors import INVALID_JOINTS, OUTSIDE_WORKSPACE, SINGULAR_PATH
 from tensegrity_core.class2.control.trajectory import actuator_reference
-from tensegrity_core.class2.names import ACTUATED_JOINTS, ACTUATORS, JOINTS
+from tensegrity_core.class2.names import ACTUATED_JOINTS, ACTUATORS
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_ros.nodes.common import declare, spin_node
+from tensegrity_ros.nodes.controller_messages import OldStamp, command_key, duration_msg, parse_joint_state, stamp_start
 from tensegrity_ros.nodes.scene_param import declare_scene
-from tensegrity_ros.rclpy_utils.messages import duration_to_s, stamp_to_s
+from tensegrity_ros.rclpy_utils.messages import duration_to_s
 
 _MOVE = MoveEndEffector.Result
 _FOLLOW = FollowActuatorTrajectory.Result
@@ -162,7 +162,7 @@ class ControllerNode(Node):
 
     # -- the control loop ----------------------------------------------------------------
     def on_joints(self, msg: JointState) -> None:
-        state = _parse_joint_state(msg)
+        state = parse_joint_state(msg)
         if state is None:
             self.get_logger().warning("joint_states without finite rho1, rho2, beta positions and velocities "
                                       "ignored", throttle_duration_sec=2.0)
@@ -197,12 +197,12 @@ class ControllerNode(Node):
             job.handle.publish_feedback(self._feedback(job, msg, tick, q, qdot))
 
     def _publish(self, cmd: ActuatorForces) -> None:
-        self._sent.append(_command_key(cmd))
+        self._sent.append(command_key(cmd))
         self.pub.publish(cmd)
 
     def _on_command_seen(self, msg: ActuatorForces) -> None:
         """A command on actuator_forces: another node's takes over (see the module docstring)."""
-        if _command_key(msg) in self._sent or self._manual:
+        if command_key(msg) in self._sent or self._manual:
             return
         self._manual = True
         forces = excerpt([float(f) for f in msg.force])
@@ -308,7 +308,7 @@ class ControllerNode(Node):
             q, qdot, now = self._require_state(with_rate=True)
             if any(len(p.effort) for p in traj.points):
                 raise PlanningError("points with effort are not accepted: the controller computes the forces")
-            start = _stamp_start(traj.header.stamp, now)
+            start = stamp_start(traj.header.stamp, now)
             path = self._joint_tolerances(req.path_tolerance, self.path_tolerance)
             goal_tol = self._joint_tolerances(req.goal_tolerance, self.goal_tolerance)
             goal_time = duration_to_s(req.goal_time_tolerance) or self.goal_time_tolerance
@@ -320,7 +320,7 @@ class ControllerNode(Node):
                 force_budget=self.force_budget * self.max_force))
         except PlanningError as err:
             return self._refuse(handle, result, FOLLOW_PLANNING_CODES.get(err.code, _FOLLOW.INVALID_GOAL), str(err))
-        except _OldStamp as err:
+        except OldStamp as err:
             return self._refuse(handle, result, _FOLLOW.OLD_HEADER_TIMESTAMP, str(err))
         except _NoState as err:
             return self._refuse(handle, result, _FOLLOW.SIMULATOR_STOPPED, str(err))
@@ -432,7 +432,7 @@ class ControllerNode(Node):
             fb.time_from_start = 0.0
             return fb
         fb = FollowActuatorTrajectory.Feedback(header=self._latest_header, joint_names=list(ACTUATED_JOINTS))
-        when = _duration_msg(0.0)
+        when = duration_msg(0.0)
         fb.desired = JointTrajectoryPoint(positions=[float(v) for v in desired.q[:2]],
                                           velocities=[float(v) for v in desired.qdot[:2]], time_from_start=when)
         fb.actual = JointTrajectoryPoint(positions=[float(v) for v in q[:2]],
@@ -452,7 +452,7 @@ class ControllerNode(Node):
             fb.time_from_start = float(tick.tau)
             return fb
         fb = FollowActuatorTrajectory.Feedback(header=msg.header, joint_names=list(ACTUATED_JOINTS))
-        when = _duration_msg(tick.tau)
+        when = duration_msg(tick.tau)
         fb.desired = JointTrajectoryPoint(positions=[float(v) for v in tick.desired.q[:2]],
                                           velocities=[float(v) for v in tick.desired.qdot[:2]], time_from_start=when)
         fb.actual = JointTrajectoryPoint(positions=[float(v) for v in q[:2]],
@@ -473,49 +473,9 @@ class _NoState(TensegrityError):
     """No joint state yet: nothing to plan from."""
 
 
-class _OldStamp(TensegrityError):
-    """A trajectory's start stamp lies in the past."""
-
-
 def _given(value: float) -> float | None:
     """0 means "not given" in the MoveEndEffector goal; anything else is checked by the planner."""
     return None if value == 0.0 else value
-
-
-def _stamp_start(stamp, now: float) -> float | None:
-    """The start time of a trajectory: None (now) for a zero stamp, else the stamp [s]."""
-    t = stamp_to_s(stamp)
-    if t == 0.0:
-        return None
-    if t < now:
-        raise _OldStamp(f"header.stamp {t:.6f} s is before the controller's current time {now:.6f} s "
-                        "(zero starts the trajectory at once)")
-    return t
-
-
-def _parse_joint_state(msg: JointState):
-    """``(t, q, qdot)`` of a joint state naming rho1, rho2, beta, or None when unusable."""
-    names = list(msg.name)
-    try:
-        idx = [names.index(n) for n in JOINTS]
-        q = [float(msg.position[i]) for i in idx]
-        qdot = [float(msg.velocity[i]) for i in idx]
-    except (ValueError, IndexError):
-        return None
-    if not all(math.isfinite(v) for v in q + qdot):
-        return None
-    return stamp_to_s(msg.header.stamp), np.array(q), np.array(qdot)
-
-
-def _command_key(msg: ActuatorForces) -> tuple:
-    """What tells two commands apart: stamp, names and forces."""
-    return msg.header.stamp.sec, msg.header.stamp.nanosec, tuple(msg.name), tuple(msg.force)
-
-
-def _duration_msg(seconds: float) -> DurationMsg:
-    seconds = max(0.0, seconds)
-    sec = math.floor(seconds)
-    return DurationMsg(sec=int(sec), nanosec=min(int(round((seconds - sec) * 1e9)), 999_999_999))
 
 
 def main(argv=None) -> int:
