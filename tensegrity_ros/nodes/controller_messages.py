@@ -73,6 +73,7 @@ def command_key(msg: ActuatorForces) -> tuple:
 
 
 def duration_msg(seconds: float) -> DurationMsg:
+    """A duration message of ``seconds`` [s] (negative: zero), nanoseconds rounded."""
     seconds = max(0.0, seconds)
     sec = math.floor(seconds)
     return DurationMsg(sec=int(sec), nanosec=min(int(round((seconds - sec) * 1e9)), 999_999_999))

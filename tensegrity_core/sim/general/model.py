@@ -252,15 +252,16 @@ class GeneralSystem:
         strain = 0.5 * np.sum(np.where(taut, self.EA * stretch**2 / l0, 0.0), axis=1)
         work = np.zeros(B) if self.external is None else np.einsum("bki,ki->b", ev.positions, self.external)
         q = Y[:, :n].copy()
+        quat = np.zeros((B, 0, 4))
         if self.nb:
+            rotations = Rotation.from_matrix(ev.rotations.reshape(-1, 3, 3))     # one conversion for both
             rot = self.lay.body_dof[:, None] + 3 + np.arange(3)[None, :]
-            q[:, rot] = Rotation.from_matrix(ev.rotations.reshape(-1, 3, 3)).as_rotvec().reshape(B, self.nb, 3)
+            q[:, rot] = rotations.as_rotvec().reshape(B, self.nb, 3)
+            quat = rotations.as_quat().reshape(B, self.nb, 4)
         a, b = self.structure.members[:, 0], self.structure.members[:, 1]
         h = ev.positions[:, b] - ev.positions[:, a]
         rates = np.einsum("bmi,bmi->bm", h, ev.velocities[:, b] - ev.velocities[:, a]) / ev.lengths
         body = self.lay.body_dof[:, None] + np.arange(3)[None, :]
-        quat = Rotation.from_matrix(ev.rotations.reshape(-1, 3, 3)).as_quat().reshape(B, self.nb, 4) if self.nb \
-            else np.zeros((B, 0, 4))
         return {"q": q, "qdot": Y[:, n:].copy(), "applied_forces": l0[:, self.actuators],
                 "nodes": ev.positions, "member_lengths": ev.lengths, "member_forces": ev.forces,
                 "potential_energy": strain - work, "kinetic_energy": self.kinetic_energy(Y, ev.rotations),

@@ -26,6 +26,9 @@ from tensegrity_core.sim import Names, Simulator, compile_scene
 from tensegrity_core.sim.model import Interface
 from tensegrity_core.sim.sampled import step_time
 
+#: The models whose observations the node's outputs (:mod:`.outputs`) know how to publish.
+SERVED = ("class2", "general")
+
 
 @dataclass(frozen=True)
 class StepOutcome:
@@ -44,6 +47,9 @@ class SimPlant:
         self.step_ns = int(step_ns)
         self.offset_ns = 0
         self.model = compile_scene(scene)             # once: a reset is a new state of it
+        if self.model.kind not in SERVED:
+            raise TensegrityError(f"{self.model.kind} scenes are not served by tensegrity_sim yet "
+                                  "(the class-2 mechanism and general structures are); run it with `tensegrity simulate`")
         self.interface: Interface = self.model.interface
         self.names: Names = self.model.names
         self._start()
