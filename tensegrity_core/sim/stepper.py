@@ -462,21 +462,37 @@ def _candidates(direction: float, g0: FloatArray, r0: FloatArray | None, g1: Flo
     ``(component, falling, t_hi)``: the crossing is bracketed in ``[t0, t_hi]`` if the
     component's sign at ``t_hi`` is the new one (``t_hi = t1`` for a sign change between the
     ends; inside the step where the Hermite cubic of the end values and rates dips across
-    zero and back)."""
+    zero and back). Vectorised over the components: a step without a crossing costs a few
+    array operations however many components there are."""
+    h = t1 - t0
+    # the common step: every component strictly on one side at both ends and, by the bound
+    # below, unable to reach zero in between
+    with np.errstate(invalid="ignore"):
+        quiet = g0 * g1 > 0
+        if r0 is not None and r1 is not None:
+            quiet &= ~(np.minimum(np.abs(g0), np.abs(g1)) < (4.0 / 27.0) * h * (np.abs(r0) + np.abs(r1)))
+    if quiet.all():
+        return []
     out: list[tuple[int, bool, float]] = []
     for falling, sign in ((True, 1.0), (False, -1.0)):
         if direction * sign > 0:               # falling only for direction <= 0, rising only for >= 0
             continue
         a, b = sign * g0, sign * g1
         # from its old side to zero or the new one, or from exactly zero to the new one
-        for k in np.flatnonzero(((a > 0) & (b <= 0)) | ((a == 0) & (b < 0))):
-            out.append((int(k), falling, t1))
+        crossed = ((a > 0) & (b <= 0)) | ((a == 0) & (b < 0))
+        if crossed.any():
+            out += [(int(k), falling, t1) for k in np.flatnonzero(crossed)]
         if r0 is None or r1 is None:
             continue
-        h = t1 - t0
-        dips = _hermite_minimum(a, sign * r0 * h, b, sign * r1 * h)
-        for k in np.flatnonzero((a > 0) & (b > 0) & (dips[1] < 0)):
-            out.append((int(k), falling, t0 + float(dips[0][k]) * h))
+        m0, m1 = sign * r0 * h, sign * r1 * h
+        # the cubic is at least min(a, b) - 4/27 (|m0| + |m1|) (the end-slope basis functions
+        # stay within +-4/27 on [0, 1]): only components that may reach zero are looked at
+        with np.errstate(invalid="ignore"):
+            near = (a > 0) & (b > 0) & (np.minimum(a, b) < (4.0 / 27.0) * (np.abs(m0) + np.abs(m1)))
+        if near.any():
+            k = np.flatnonzero(near)
+            s, p = _hermite_minimum(a[k], m0[k], b[k], m1[k])
+            out += [(int(k[j]), falling, t0 + float(s[j]) * h) for j in np.flatnonzero(p < 0)]
     return out
 
 

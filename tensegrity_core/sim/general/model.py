@@ -63,12 +63,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
+from tensegrity_core.events import EventKind
 from tensegrity_core.general.rotation import cross, exp_so3
 from tensegrity_core.general.statics import group_sum
-from tensegrity_core.events import EventKind
 from tensegrity_core.general.structure import Structure
 from tensegrity_core.sim.errors import SceneError
-from tensegrity_core.sim.general.kernels import arrays
+from tensegrity_core.sim.general.kernels import arrays, loops
 from tensegrity_core.sim.general.kernels.evaluator import Evaluation, Evaluator
 from tensegrity_core.sim.general.kernels.plan import Plan, build_plan
 from tensegrity_core.sim.general.kernels.stages import CompiledStages
@@ -171,9 +171,9 @@ class GeneralSystem:
                                external=self.external)
         self.evaluator = Evaluator(self.plan, kernels)
         self.geometric_plan = self.plan            # strings slack where l < l0 (no slack set)
-        self.strings = np.flatnonzero(self.is_string)
+        self.strings = np.flatnonzero(self.is_string).astype(np.int64)
         # strings whose rest length an input law moves: their gap's rate is not known here
-        self._moving = np.isin(self.strings, self.actuators)
+        self._moving = np.flatnonzero(np.isin(self.strings, self.actuators))
         self._rest_lengths = np.array(structure.rest_lengths, dtype=float)   # writable: the kernels' kind of array
 
     def with_chart(self, R_ref: ArrayLike) -> GeneralSystem:
@@ -274,17 +274,27 @@ class GeneralSystem:
     def string_gaps(self, t: float, y: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Per string (:attr:`strings`): ``l - l0`` [m] at ``(t, y)`` and its rate [m/s] (nan for
         strings whose rest length an input moves)."""
-        plan, y = self.plan, np.asarray(y, dtype=float)[None, :]
+        plan = self.plan
         n, nb = plan.n_nodes, len(plan.body_dof)
-        X, V, R = np.empty((1, n, 3)), np.empty((1, n, 3)), np.empty((1, nb, 3, 3))
-        arrays.place(plan.base, plan.free_node, plan.free_axis, plan.on_node, plan.on_body, plan.on_offset,
-                     plan.body_dof, y, self.R_ref[None], X, V, R)
-        a, b = plan.member_a[self.strings], plan.member_b[self.strings]
-        h = X[0, b] - X[0, a]
-        lengths = np.sqrt(np.einsum("ij,ij->i", h, h))
-        gap = lengths - self.rest_lengths(t)[self.strings]
-        rate = np.einsum("ij,ij->i", h, V[0, b] - V[0, a]) / lengths
-        rate[self._moving] = np.nan
+        l0 = self.rest_lengths(t)
+        if self.evaluator.kernels == "numba":
+            gap, rate = np.empty(len(self.strings)), np.empty(len(self.strings))
+            loops.string_gaps(plan.base, plan.free_node, plan.free_axis, plan.on_node, plan.on_body, plan.on_offset,
+                              plan.body_dof, plan.member_a, plan.member_b, self.strings, np.array(y, dtype=float),
+                              self.R_ref, np.ascontiguousarray(l0, dtype=float), np.empty((n, 3)), np.empty((n, 3)),
+                              np.empty((nb, 3, 3)), np.empty((len(plan.on_node), 3)), gap, rate)
+        else:
+            X, V = np.empty((1, n, 3)), np.empty((1, n, 3))
+            arrays.place(plan.base, plan.free_node, plan.free_axis, plan.on_node, plan.on_body, plan.on_offset,
+                         plan.body_dof, np.asarray(y, dtype=float)[None, :], self.R_ref[None], X, V,
+                         np.empty((1, nb, 3, 3)))
+            a, b = plan.member_a[self.strings], plan.member_b[self.strings]
+            h = X[0, b] - X[0, a]
+            lengths = np.sqrt(np.einsum("ij,ij->i", h, h))
+            gap = lengths - l0[self.strings]
+            rate = np.einsum("ij,ij->i", h, V[0, b] - V[0, a]) / lengths
+        if self._moving.size:
+            rate[self._moving] = np.nan
         return gap, rate
 
     def _geometric_slack(self, t: float, y: FloatArray) -> NDArray[np.bool_]:
