@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from tensegrity_core.sim.model import Event
+from tensegrity_core.events import LoggedEvent as Event
 
 #: Actuator lengths below ``-LENGTH_TOL`` [m] are a leak through the fold limit.
 LENGTH_TOL = 1e-9

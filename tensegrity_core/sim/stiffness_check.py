@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.integrate import RK23, RK45, DOP853, OdeSolver
+from scipy.integrate import DOP853, RK23, RK45, OdeSolver
 from scipy.sparse.linalg import ArpackNoConvergence, eigs
 
 #: Explicit methods and their scipy classes (the stepper's names).

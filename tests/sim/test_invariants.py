@@ -40,7 +40,10 @@ from tensegrity_core.sim.stepper import SOLVERS
 
 from .rigid_reference import FloatingReference
 
-METHODS = tuple(SOLVERS)
+#: The adaptive methods (RK4 takes fixed steps without error control, so it has no tolerance
+#: to hold the invariants to); on general scenes "DOP853" runs the compiled DOP853 where numba
+#: is installed, scipy's through the numpy kernels otherwise.
+METHODS = tuple(m for m in SOLVERS if m != "RK4")
 #: Lengths below this are a leak through the fold limit [m].
 LENGTH_TOL = 1e-9
 
@@ -407,7 +410,6 @@ def test_property_general_samples_and_copies_match_a_reference_through_rechartin
     copied state continued equals an independent integration without rotation charts."""
     scene = pair_scene(method=method, damping=damping)
     model = compile_scene(scene)
-    s = scene.model.structure
     y0 = spun(model, omega, velocity)
     times = np.linspace(0.0, scene.duration, 301)
     recorded, err = record(model, model.state_from(y0, t_end=scene.duration), times)

@@ -18,8 +18,7 @@ import pytest
 from numpy.polynomial import Polynomial
 from scipy.integrate import solve_ivp
 
-from tensegrity_core.sim import compile_scene, load_scene, simulate
-from tensegrity_core.sim import stiffness_check
+from tensegrity_core.sim import compile_scene, load_scene, simulate, stiffness_check
 from tensegrity_core.sim.invariants import violations
 from tensegrity_core.sim.scene import scene_from_text
 from tensegrity_core.sim.stiffness_check import StiffnessWarning, check_integrator, real_stability_limit, warn_if_stiff

@@ -309,7 +309,7 @@ class Class2System:
         y[3:6] = qd
         a_free, _ = self.accelerations(t, y, ())
         held = held_set(Minv, a_free, [j for j in near if qd[j] == 0.0])
-        log = [("fold", j) for j in near if j in hit or (j in held and j not in self.mode)]
+        log: list[tuple[EventKind, int]] = [("fold", j) for j in near if j in hit or (j in held and j not in self.mode)]
         log += [("release", j) for j in sorted(self.mode - held)]
         return Transition(y, self.with_mode(held), tuple(log))
 
