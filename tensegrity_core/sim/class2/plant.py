@@ -119,6 +119,8 @@ class Class2Plant:
         self.drive = Drive(lag_tau=lag.tau if lag else None,
                            compliance=(comp.stiffness, comp.drive_damping) if comp else None)
         self.fold = eff.get("fold_limit")
+        #: The smallest actuator length [m] the integration resolves: its position tolerance.
+        self.resolution = scene.integrator.atol + scene.integrator.rtol * self.L
         self.n = 6 + self.drive.n_states
         self.state_names = STATE_NAMES + self.drive.state_names
 
@@ -305,7 +307,14 @@ class Class2System:
         hit = [j for j in near if qd[j] < 0.0]
         if hit:
             qd, _ = impact(Minv, qd, near, fold.restitution)
-        qd = stick(Minv, qd, near, fold.rest_velocity)
+        y[3:6] = qd
+        # a bounce lower than the integration resolves (its flight's apex v^2 / 2|a| under the
+        # position tolerance) is at rest: its flight would be integration noise, and the noise
+        # can feed such bounces for ever (a Zeno fixed point above rest_velocity)
+        pressing, _ = self.accelerations(t, y, ())
+        rest = max([fold.rest_velocity] + [math.sqrt(2.0 * max(0.0, -float(pressing[j])) * self.plant.resolution)
+                                           for j in near])
+        qd = stick(Minv, qd, near, rest)
         y[3:6] = qd
         a_free, _ = self.accelerations(t, y, ())
         held = held_set(Minv, a_free, [j for j in near if qd[j] == 0.0])
