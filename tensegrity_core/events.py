@@ -12,7 +12,10 @@ Kinds (``index`` in brackets):
 - ``limit``: a quasi-static path reached a limit point (no stable equilibrium continues it);
   the run stops [0];
 - ``jump``: a quasi-static configuration moved to another minimum (a law that jumps, or an
-  initial state that is no minimum) [0].
+  initial state that is no minimum) [0];
+- ``slack``: a string's length fell through its rest length, so it carries no force [the
+  member's index];
+- ``taut``: a slack string's length rose through its rest length [the member's index].
 """
 
 from __future__ import annotations
@@ -20,7 +23,7 @@ from __future__ import annotations
 from typing import Final, Literal, get_args
 
 #: The kind of a located event (see the module docstring).
-EventKind = Literal["fold", "release", "singular", "limit", "jump"]
+EventKind = Literal["fold", "release", "singular", "limit", "jump", "slack", "taut"]
 #: Every event kind, in the order above.
 EVENT_KINDS: Final[tuple[EventKind, ...]] = get_args(EventKind)
 #: A located event in a state's log: ``(t [s], kind, index)``.

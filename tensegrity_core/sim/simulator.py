@@ -30,9 +30,11 @@ from numpy.typing import NDArray
 from tensegrity_core.events import LoggedEvent
 from tensegrity_core.sim.backends import compile_scene
 from tensegrity_core.sim.errors import SimulationError
+from tensegrity_core.sim.invariants import violations
 from tensegrity_core.sim.model import Interface, Model, Observed, State, Stats
 from tensegrity_core.sim.noise import SensorNoise
 from tensegrity_core.sim.scene import SceneSource, load_scene
+from tensegrity_core.sim.stiffness_check import warn_if_stiff
 from tensegrity_core.sim.trajectory import Trajectory
 
 if TYPE_CHECKING:
@@ -223,8 +225,12 @@ def simulate(scene: SceneSource, *, duration: float | None = None,
     """Run a whole scene and return its :class:`Trajectory` at the scene's output rate (and at
     the end time when that is not on the output grid).
 
-    ``duration`` overrides the scene's; ``progress(t, duration)`` is called after every
-    output sample (e.g. to update a progress bar). Commanded inputs hold their initial value.
+    ``duration`` overrides the scene's; ``progress(t, duration)`` is called as the run goes
+    (simulated time ``t`` reached [s]; a few times a second on a slow run, about every 2 % of
+    the samples on a fast one). Commanded inputs hold their initial value. Before the run, a
+    :class:`~tensegrity_core.sim.stiffness_check.StiffnessWarning` says when the scene's
+    explicit method does not fit its stiffness; after it, ``Trajectory.violations`` lists the
+    invariants the run broke (:mod:`tensegrity_core.sim.invariants`).
     """
     scene = load_scene(scene)
     if duration is not None:
@@ -232,6 +238,7 @@ def simulate(scene: SceneSource, *, duration: float | None = None,
     wall0 = time.perf_counter()
     model = compile_scene(scene)
     state = model.initial_state(t_end=scene.duration)
+    warn_if_stiff(model, state, scene.duration)
     n = int(math.floor(scene.duration * scene.output_rate * (1 + 1e-12))) + 1
     times = np.arange(n) / scene.output_rate
     if times[-1] < scene.duration * (1 - 1e-12):         # the run always ends at its duration
@@ -240,19 +247,28 @@ def simulate(scene: SceneSource, *, duration: float | None = None,
     times[-1] = scene.duration      # a grid point within rounding of it (1.21 for 1.2099999999999997 s)
     samples: list[Any] = []
     error: SimulationError | None = None
-    chunk = max(1, n // 50) if progress is not None else n     # progress in 2 % steps, if watched
-    for start in range(0, n, chunk):
+    largest = max(1, n // 50)       # progress at least every 2 % of the samples, if watched
+    chunk = 1 if progress is not None else n
+    start = 0
+    while start < n:
+        wall = time.perf_counter()
         try:
             model.record(state, times[start:start + chunk], samples)
         except SimulationError as err:
             error = err
             break
+        start = min(start + chunk, n)
         if progress is not None:
-            progress(float(times[min(start + chunk, n) - 1]), scene.duration)
+            progress(float(times[start - 1]), scene.duration)
+            # chunks of about a tenth of a second of wall time, up to 2 % of the samples
+            took = time.perf_counter() - wall
+            chunk = max(1, chunk // 2) if took > 0.2 else min(largest, 2 * chunk) if took < 0.05 else chunk
     data = model.observe(samples)
     noise = scene.effects.get("sensor_noise")
     measurements = SensorNoise(noise.sigmas, scene.seed).perturb_arrays(data) if noise is not None else {}
     stats = model.stats(state)
     stats["wall_time"] = time.perf_counter() - wall0
+    broken = violations(data, state.events, fold_limit="fold_limit" in scene.effects)
     return Trajectory.from_observations(scene, data, model.names, list(state.events), measurements, stats,
-                                        error=str(error) if error else "", state_names=model.state_names)
+                                        error=str(error) if error else "", state_names=model.state_names,
+                                        violations=broken)

@@ -9,31 +9,42 @@ alive and steps it itself:
   extra evaluations);
 - after every step the model's event functions are evaluated at the step's end; a sign
   change in the event's direction is located with Brent's method on the dense output
-  (as ``solve_ivp`` does), the step is cut there, and at the event the model updates its
-  state and mode and the solver restarts;
-- the solver restarts at input breakpoints (its ``t_bound`` is the next one), when an input
-  changed (:meth:`restart`) and after the model re-charts its coordinates. A restart keeps
-  the last step size, so it costs no initial-step search (except LSODA, see
-  ``FRESH_START``). After an input change the first
-  solver ends at the target of the next :meth:`advance` (the ROS node's pattern: a new
-  command every tick): a step past it would be thrown away at the next change, after paying
-  for its dense output to interpolate the target.
+  (as ``solve_ivp`` does) and the step is cut there. A component that starts and ends on
+  the same side but whose cubic Hermite interpolant through the end values and rates dips
+  across zero (a short excursion inside one step: a grazing contact) is checked on the
+  dense output at the dip and located there too. The located time is the first at which
+  the component is on its new side, so the model's discrete change applies to a state
+  where it holds;
+- an event is applied when the integration goes past it: the model returns the state and
+  the system to go on with (impact, contact mode, re-charting) and what to log, and the
+  solver restarts there. Until then the step's dense output and the old system describe
+  the state at any time up to the event, so ``advance`` to a time before it, a sample, or
+  a copy see the motion as it was integrated. A re-charting of the coordinates after an
+  accepted step is handled the same way, at the step's end;
+- the solver restarts at input breakpoints (its ``t_bound`` is the next one) and when an
+  input changed (:meth:`change_system`): the model re-resolves its discrete state under the
+  new inputs (a contact that must let go now). A restart keeps the last step size, so it
+  costs no initial-step search (except LSODA, see ``FRESH_START``). After an input change
+  the first solver ends at the target of the next :meth:`advance` (the ROS node's pattern:
+  a new command every tick): a step past it would be thrown away at the next change, after
+  paying for its dense output to interpolate the target.
 
 The state at any time between the last restart and the end of the current step is
 available; the solver never steps past a pending event.
 
 What is integrated is an :class:`OdeSystem`: a model's equations with its discrete state
-(contact mode, rotation charts) and its input laws fixed. An event or a re-charting returns
-the system of the new discrete state; a changed command is a new system. The stepper is the
-integrator of a :class:`~tensegrity_core.sim.model.State`: it writes the located
-events into the state's event log.
+(contact mode, rotation charts) and its input laws fixed. An event, a re-charting or an
+input change returns a :class:`Transition` to the system of the new discrete state. The
+stepper is the integrator of a :class:`~tensegrity_core.sim.model.State`: it
+writes the located events into the state's event log.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import Any, Generic, Protocol, Self, TypeVar
+from dataclasses import dataclass
+from typing import Any, Generic, NamedTuple, Protocol, Self, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -65,19 +76,56 @@ MAX_RETRIES = 30
 
 
 class StateEvent(Protocol):
-    """A state event: ``g(t, y)`` crosses zero in ``direction`` (-1 falling, +1 rising, 0 both);
-    ``kind`` and ``index`` name it in the event log."""
+    """State events: the components of ``g(t, y)`` (an array, or one number) each cross zero in
+    ``direction`` (-1 falling, +1 rising, 0 both). ``kind`` and ``indices`` (one per
+    component) name a crossing in the event log. ``values(t, y)`` gives ``g`` and its time
+    derivative along the motion (same shape; None where the model does not know it): the
+    rate lets the stepper see a crossing and its return inside one step."""
 
     @property
     def kind(self) -> EventKind: ...
 
     @property
-    def index(self) -> int: ...
+    def indices(self) -> tuple[int, ...]: ...
 
     @property
     def direction(self) -> float: ...
 
-    def g(self, t: float, y: FloatArray) -> float: ...
+    def g(self, t: float, y: FloatArray) -> ArrayLike: ...
+
+    def values(self, t: float, y: FloatArray) -> tuple[ArrayLike, ArrayLike | None]: ...
+
+
+@dataclass(frozen=True)
+class Crossing:
+    """A located zero crossing: component ``component`` of ``event`` at time ``t`` [s],
+    ``falling`` (from positive to negative) or rising."""
+
+    t: float
+    event: StateEvent
+    component: int
+    falling: bool = True
+
+    @property
+    def kind(self) -> EventKind:
+        return self.event.kind
+
+    @property
+    def index(self) -> int:
+        return self.event.indices[self.component]
+
+
+#: The system type a transition leads to.
+T_co = TypeVar("T_co", covariant=True)
+
+
+class Transition(NamedTuple, Generic[T_co]):
+    """What a discrete change does: the state ``y`` to go on from, the ``system`` of the new
+    discrete state, and the events to log at that instant as ``(kind, index)``."""
+
+    y: FloatArray
+    system: T_co
+    log: tuple[tuple[EventKind, int], ...] = ()
 
 
 class OdeSystem(Protocol):
@@ -86,11 +134,13 @@ class OdeSystem(Protocol):
 
     ``mode`` is the contact mode (the actuators held at zero length; empty without contacts);
     ``jac`` is ``jac(t, y)`` (dense or sparse) or None (implicit methods then difference);
-    ``events()`` the state events to watch; ``handle_event`` applies one at ``(t, y)`` and
-    returns the state to restart from with the system of the new discrete state;
-    ``after_step`` may re-chart the coordinates after an accepted step (returning the same
-    pair) or return None; ``next_breakpoint(t)`` is the first time after ``t`` where an input
-    law is not smooth (the solver restarts there). A system may also offer ``stages``
+    ``events()`` the state events to watch; ``handle_event(crossing, y)`` applies one located
+    at ``crossing.t`` where the state is ``y``; ``after_step(t, y)`` may re-chart the
+    coordinates after an accepted step, or return None; ``resume(t, y)`` re-resolves the
+    discrete state where the input laws change (a new command, a breakpoint: a contact that
+    must let go); ``next_breakpoint(t)`` is the first time after ``t`` where an input law is
+    not smooth (the solver restarts there). The three transitions are applied by the stepper
+    only; each returns the system of the new discrete state. A system may also offer ``stages``
     (:class:`~tensegrity_core.sim.integrators.Stages`, or None): whole steps in compiled
     code, which the methods of :data:`COMPILED_SOLVERS` then use."""
 
@@ -104,9 +154,11 @@ class OdeSystem(Protocol):
 
     def events(self) -> Sequence[StateEvent]: ...
 
-    def handle_event(self, event: StateEvent, t: float, y: FloatArray) -> tuple[FloatArray, Self]: ...
+    def handle_event(self, crossing: Crossing, y: FloatArray) -> Transition[Self]: ...
 
-    def after_step(self, t: float, y: FloatArray) -> tuple[FloatArray, Self] | None: ...
+    def after_step(self, t: float, y: FloatArray) -> Transition[Self] | None: ...
+
+    def resume(self, t: float, y: FloatArray) -> Transition[Self]: ...
 
     def next_breakpoint(self, t: float) -> float: ...
 
@@ -132,6 +184,16 @@ class _Constant:
         if np.ndim(t):
             return np.repeat(self.y[:, None], np.size(t), axis=1)
         return self.y.copy()
+
+
+@dataclass(frozen=True)
+class _Pending(Generic[Sys]):
+    """A discrete change at time ``t`` that the integration has reached but not yet gone past:
+    a located ``crossing``, or a re-charting's ``transition`` at a step's end."""
+
+    t: float
+    crossing: Crossing | None = None
+    transition: Transition[Sys] | None = None
 
 
 def _dense_jacobian(jac: Jacobian) -> Jacobian:
@@ -169,21 +231,23 @@ class Stepper(Generic[Sys]):
         self._to_target = False       # the next solver ends at the advance target
         self._cut_short = False       # the current solver's bound is an advance target
         # set by restart: the state at t, the current step [t0, t1] and its dense output, the
-        # event located in it (fired at the next advance), the events watched and their values
+        # discrete change reached at t1 (applied at the next advance past it), the events
+        # watched and their values and rates at t0
         self.t: float
         self.y: FloatArray
         self._seg: tuple[float, float]
         self._dense: _Interpolant
-        self._pending: tuple[float, StateEvent] | None
+        self._pending: _Pending[Sys] | None
         self._events: Sequence[StateEvent]
-        self._g: list[float]
+        self._g: list[tuple[FloatArray, FloatArray | None]]
         self.restart(t0, y0)
 
     def copy(self, log: list[LoggedEvent]) -> Stepper[Sys]:
         """A stepper at the same ``(t, y)`` with the same system, counters and step size,
         logging into ``log``. It starts a fresh solver at ``t`` (as after an event), so it
-        agrees with this one to the integration tolerance, not bit for bit; an event located
-        but not yet fired is kept (it fires at the copy's next advance, as here)."""
+        agrees with this one to the integration tolerance, not bit for bit; a discrete change
+        reached but not yet applied (an event, a re-charting) is kept, with the step's dense
+        output up to it, and applied at the copy's next advance past it, as here."""
         new = Stepper.__new__(Stepper)
         new.__dict__.update(self.__dict__)
         new.event_log = log
@@ -210,8 +274,9 @@ class Stepper(Generic[Sys]):
 
     def restart(self, t: float, y: ArrayLike, *, system: Sys | None = None,
                 input_changed: bool = False) -> None:
-        """Start a fresh solver at ``(t, y)``, with a new ``system`` if given (after an event,
-        or an input change: then the first solver ends at the next :meth:`advance` target)."""
+        """Start a fresh solver at ``(t, y)``, with a new ``system`` if given, as it is (the
+        caller has resolved its discrete state; :meth:`change_system` does that for new
+        inputs). After an input change the first solver ends at the next :meth:`advance` target."""
         y = np.array(y, dtype=float)
         if self.solver is not None:
             self._nfev_done += self.solver.nfev
@@ -225,8 +290,25 @@ class Stepper(Generic[Sys]):
         self.solver = None
         self.n_restarts += 1
         self._events = self.system.events()
-        self._g = [ev.g(t, y) for ev in self._events]
+        self._g = [_event_values(ev, t, y) for ev in self._events]
         self._to_target = input_changed
+
+    def change_system(self, system: Sys, *, input_changed: bool = True) -> None:
+        """Go on from the current time with ``system`` (new input laws): a discrete change
+        reached at this very instant is applied first, then the new system re-resolves its
+        discrete state here (:meth:`OdeSystem.resume`, logged) and a fresh solver starts."""
+        if self._pending is not None and self._pending.t <= self.t:
+            self._fire()
+        self._resume(self.t, self.y, system, input_changed=input_changed)
+
+    def _resume(self, t: float, y: FloatArray, system: Sys, *, input_changed: bool = False) -> None:
+        transition = system.resume(t, y)
+        self._log(t, transition.log)
+        self.restart(t, transition.y, system=transition.system, input_changed=input_changed)
+
+    def _log(self, t: float, entries: Sequence[tuple[EventKind, int]]) -> None:
+        self.event_log.extend((t, kind, index) for kind, index in entries)
+        self.n_events += len(entries)
 
     def _new_solver(self, t_target: float) -> OdeSolver:
         t0 = self._seg[1]
@@ -263,7 +345,7 @@ class Stepper(Generic[Sys]):
         t_target = min(t_target, self.t_end)      # within rounding of the end: the end itself
         while self._seg[1] < t_target:
             if self._pending is not None:
-                self._fire(*self._pending)
+                self._fire()
                 continue
             solver = self.solver
             if solver is None or solver.status != "running":
@@ -272,7 +354,7 @@ class Stepper(Generic[Sys]):
                 if solver is not None and self._cut_short:    # ended at the last target: go on
                     self._nfev_done += solver.nfev
                 elif solver is not None:                      # reached a breakpoint
-                    self.restart(solver.t, solver.y)
+                    self._resume(solver.t, solver.y, self.system)
                 solver = self._new_solver(t_target)
             self._step(solver)
         self.t = t_target
@@ -313,35 +395,39 @@ class Stepper(Generic[Sys]):
             size = getattr(solver, "h_abs", size)
         self._h = size if size else self._h
         t_new, y_new = solver.t, solver.y
+        g_new = [_event_values(ev, t_new, y_new) for ev in self._events]
         dense: _Interpolant | None = None
-        g_new = [ev.g(t_new, y_new) for ev in self._events]
-        hit: tuple[float, StateEvent] | None = None
-        for ev, g0, g1 in zip(self._events, self._g, g_new):
-            if (ev.direction < 0 and g0 > 0 >= g1) or (ev.direction > 0 and g0 < 0 <= g1) or \
-                    (ev.direction == 0 and (g0 > 0 >= g1 or g0 < 0 <= g1)):
+        hit: Crossing | None = None
+        for ev, (g0, r0), (g1, r1) in zip(self._events, self._g, g_new):
+            for k, falling, t_hi in _candidates(ev.direction, g0, r0, g1, r1, t_old, t_new):
                 if dense is None:
                     dense = solver.dense_output()
-                te = _crossing(ev, dense, t_old, t_new)
-                if hit is None or te < hit[0]:
-                    hit = (te, ev)
+                te = _locate(ev, k, falling, dense, t_old, t_hi)
+                if te is not None and (hit is None or te < hit.t):
+                    hit = Crossing(float(te), ev, k, falling)
         self._g = g_new
         if hit is not None and dense is not None:       # (a hit has computed the dense output)
-            self._seg = (t_old, hit[0])
+            self._seg = (t_old, hit.t)
             self._dense = dense
-            self._pending = hit
+            self._pending = _Pending(hit.t, crossing=hit)
             return
         self._seg = (t_old, t_new)
         self._dense = _LazyDense(solver) if dense is None else dense
         moved = self.system.after_step(t_new, y_new)
         if moved is not None:
-            self.restart(t_new, moved[0], system=moved[1])
+            self._pending = _Pending(t_new, transition=moved)
 
-    def _fire(self, te: float, ev: StateEvent) -> None:
-        y_e = self._dense(te)
-        self.n_events += 1
-        self.event_log.append((te, ev.kind, ev.index))
-        y_new, system = self.system.handle_event(ev, te, y_e)
-        self.restart(te, y_new, system=system)
+    def _fire(self) -> None:
+        """Apply the pending discrete change and restart after it."""
+        pending = self._pending
+        assert pending is not None
+        if pending.crossing is not None:
+            transition = self.system.handle_event(pending.crossing, self._dense(pending.t))
+        else:
+            assert pending.transition is not None
+            transition = pending.transition
+        self._log(pending.t, transition.log)
+        self.restart(pending.t, transition.y, system=transition.system)
 
     def record(self, times: Sequence[float] | FloatArray, out: list[tuple[float, FloatArray, Sys]]) -> None:
         """Append ``(t, y, system)`` for increasing ``times`` to ``out``: advance to each time,
@@ -364,11 +450,98 @@ class Stepper(Generic[Sys]):
             i = j
 
 
-def _crossing(ev: StateEvent, dense: _Interpolant, t0: float, t1: float) -> float:
-    """Where ``ev.g`` crosses zero in the step ``[t0, t1]`` on its dense output (Brent's method,
-    as ``solve_ivp`` locates events)."""
+def _event_values(ev: StateEvent, t: float, y: FloatArray) -> tuple[FloatArray, FloatArray | None]:
+    g, rate = ev.values(t, y)
+    return np.atleast_1d(np.asarray(g, dtype=float)), None if rate is None else np.atleast_1d(
+        np.asarray(rate, dtype=float))
+
+
+def _candidates(direction: float, g0: FloatArray, r0: FloatArray | None, g1: FloatArray, r1: FloatArray | None,
+                t0: float, t1: float) -> list[tuple[int, bool, float]]:
+    """The components that may cross zero in ``[t0, t1]`` in ``direction``, as
+    ``(component, falling, t_hi)``: the crossing is bracketed in ``[t0, t_hi]`` if the
+    component's sign at ``t_hi`` is the new one (``t_hi = t1`` for a sign change between the
+    ends; inside the step where the Hermite cubic of the end values and rates dips across
+    zero and back). Vectorised over the components: a step without a crossing costs a few
+    array operations however many components there are."""
+    h = t1 - t0
+    # the common step: every component strictly on one side at both ends and, by the bound
+    # below, unable to reach zero in between
+    with np.errstate(invalid="ignore"):
+        quiet = g0 * g1 > 0
+        if r0 is not None and r1 is not None:
+            quiet &= ~(np.minimum(np.abs(g0), np.abs(g1)) < (4.0 / 27.0) * h * (np.abs(r0) + np.abs(r1)))
+    if quiet.all():
+        return []
+    out: list[tuple[int, bool, float]] = []
+    for falling, sign in ((True, 1.0), (False, -1.0)):
+        if direction * sign > 0:               # falling only for direction <= 0, rising only for >= 0
+            continue
+        a, b = sign * g0, sign * g1
+        # from its old side to zero or the new one, or from exactly zero to the new one
+        crossed = ((a > 0) & (b <= 0)) | ((a == 0) & (b < 0))
+        if crossed.any():
+            out += [(int(k), falling, t1) for k in np.flatnonzero(crossed)]
+        if r0 is None or r1 is None:
+            continue
+        m0, m1 = sign * r0 * h, sign * r1 * h
+        # the cubic is at least min(a, b) - 4/27 (|m0| + |m1|) (the end-slope basis functions
+        # stay within +-4/27 on [0, 1]): only components that may reach zero are looked at
+        with np.errstate(invalid="ignore"):
+            near = (a > 0) & (b > 0) & (np.minimum(a, b) < (4.0 / 27.0) * (np.abs(m0) + np.abs(m1)))
+        if near.any():
+            k = np.flatnonzero(near)
+            s, p = _hermite_minimum(a[k], m0[k], b[k], m1[k])
+            out += [(int(k[j]), falling, t0 + float(s[j]) * h) for j in np.flatnonzero(p < 0)]
+    return out
+
+
+def _hermite_minimum(p0: FloatArray, m0: FloatArray, p1: FloatArray,
+                     m1: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """``(s, p(s))`` at the interior minimum over ``s`` in (0, 1) of the cubic Hermite
+    interpolant with end values ``p0, p1`` and end slopes ``m0, m1`` (per unit ``s``);
+    ``p(s) = inf`` where it has none inside."""
+    # p'(s) = A s^2 + B s + m0, p''(s) = 2 A s + B
+    A = 6 * p0 + 3 * m0 - 6 * p1 + 3 * m1
+    B = -6 * p0 - 4 * m0 + 6 * p1 - 2 * m1
+    disc = B * B - 4 * A * m0
+    s_best = np.full(np.shape(p0), 0.5)
+    p_best = np.full(np.shape(p0), np.inf)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        quadratic = A != 0
+        root = np.sqrt(np.maximum(disc, 0.0))
+        linear = -m0 / B
+        for s in (np.where(quadratic, (-B + root) / (2 * A), linear),
+                  np.where(quadratic, (-B - root) / (2 * A), np.nan)):
+            ok = np.isfinite(s) & (s > 0) & (s < 1) & ((disc >= 0) | ~quadratic) & (2 * A * s + B > 0)
+            p = ((2 * s**3 - 3 * s**2 + 1) * p0 + (s**3 - 2 * s**2 + s) * m0 + (-2 * s**3 + 3 * s**2) * p1
+                 + (s**3 - s**2) * m1)
+            better = ok & (p < p_best)
+            s_best = np.where(better, s, s_best)
+            p_best = np.where(better, p, p_best)
+    return s_best, p_best
+
+
+def _locate(ev: StateEvent, k: int, falling: bool, dense: _Interpolant, t0: float, t1: float) -> float | None:
+    """The first time in ``[t0, t1]`` at which component ``k`` of ``ev.g`` is on its new side
+    (< 0 falling, > 0 rising), found by Brent's method on the dense output (as ``solve_ivp``
+    locates events) and moved past the root to the first point where the sign holds; None if
+    the dense output is not on the new side at ``t1`` (a dip of the Hermite cubic only)."""
+    sign = 1.0 if falling else -1.0
+
+    def f(t: float) -> float:
+        return sign * float(np.atleast_1d(ev.g(t, dense(t)))[k])
+
+    if f(t1) > 0.0:
+        return None
     eps = np.finfo(float).eps
-    return float(brentq(lambda t: ev.g(t, dense(t)), t0, t1, xtol=4 * eps * max(1.0, abs(t1)), rtol=4 * eps))
+    xtol = 4 * eps * max(1.0, abs(t1))
+    te = t0 if f(t0) <= 0.0 else float(brentq(f, t0, t1, xtol=xtol, rtol=4 * eps))
+    for _ in range(8):
+        if f(te) < 0.0 or te >= t1:
+            break
+        te = min(t1, te + xtol)
+    return te
 
 
 class _LazyDense:

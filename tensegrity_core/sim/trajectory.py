@@ -6,7 +6,9 @@ vector (names in ``state_names``); ``q``, ``qdot``; ``applied_forces`` (N, a);
 (N, 3); ``potential_energy``, ``kinetic_energy`` (N,); ``folded`` (N,) bool;
 ``contact_forces``. ``events`` lists ``(t, kind, index)``. With sensor noise,
 ``measurements`` holds the noisy copies of the listed quantities. ``success`` is False when
-the run stopped early (``message`` says why; the arrays end at the last good sample).
+the run stopped early (``message`` says why; the arrays end at the last good sample);
+``violations`` lists the invariants the run broke, one line each
+(:mod:`tensegrity_core.sim.invariants`; empty for a sound run).
 """
 
 from __future__ import annotations
@@ -60,11 +62,13 @@ class Trajectory:
     success: bool = True
     message: str = ""
     scene: dict[str, Any] = field(default_factory=dict, repr=False)
+    violations: list[str] = field(default_factory=list)
 
     @classmethod
     def from_observations(cls, scene: Scene, data: ObservedArrays, names: Names,
                           events: Iterable[LoggedEvent], measurements: dict[str, FloatArray], stats: Stats, *,
-                          error: str = "", state_names: Iterable[str] = ()) -> Trajectory:
+                          error: str = "", state_names: Iterable[str] = (),
+                          violations: Iterable[str] = ()) -> Trajectory:
         """The trajectory of a run: ``data`` the model's observations (arrays over the samples),
         ``names`` its :class:`~tensegrity_core.sim.model.Names`."""
         return cls(
@@ -76,7 +80,7 @@ class Trajectory:
             member_names=tuple(names.member_names), member_nodes=np.asarray(names.member_nodes),
             state_names=tuple(state_names), actuator_names=tuple(scene.inputs), events=list(events),
             measurements=measurements, stats=stats, success=not error,
-            message=error or f"simulated {scene.duration:g} s", scene=scene.data)
+            message=error or f"simulated {scene.duration:g} s", scene=scene.data, violations=list(violations))
 
     def __len__(self) -> int:
         return len(self.times)
@@ -94,7 +98,8 @@ class Trajectory:
                 "member_names": list(self.member_names), "state_names": list(self.state_names),
                 "actuator_names": list(self.actuator_names),
                 "events": [[float(t), str(kind), int(i)] for t, kind, i in self.events],
-                "stats": self.stats, "success": self.success, "message": self.message, "scene": self.scene}
+                "stats": self.stats, "success": self.success, "message": self.message, "scene": self.scene,
+                "violations": list(self.violations)}
         arrays["meta"] = np.array(json.dumps(meta, default=float))
         with open(path, "wb") as fh:
             np.savez_compressed(fh, **arrays)
@@ -112,7 +117,8 @@ class Trajectory:
                    state_names=tuple(meta["state_names"]), actuator_names=tuple(meta["actuator_names"]),
                    events=[(float(t), as_event_kind(str(kind)), int(i)) for t, kind, i in meta["events"]],
                    measurements=measured,
-                   stats=meta["stats"], success=meta["success"], message=meta["message"], scene=meta["scene"])
+                   stats=meta["stats"], success=meta["success"], message=meta["message"], scene=meta["scene"],
+                   violations=list(meta.get("violations", [])))
 
     def csv_columns(self) -> tuple[list[str], FloatArray]:
         """Column names and the (N, k) table written by :meth:`to_csv`."""
@@ -135,6 +141,7 @@ class Trajectory:
         cols, table = self.csv_columns()
         header = [f"scene: {self.scene_name}", f"status: {'ok' if self.success else 'stopped'}: {self.message}"]
         header += [f"event: t={t:.12g} {kind} {i}" for t, kind, i in self.events]
+        header += [f"violation: {v}" for v in self.violations]
         with open(path, "w", encoding="utf-8") as fh:
             for line in header:
                 fh.write(f"# {line}\n")

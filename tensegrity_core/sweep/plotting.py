@@ -9,8 +9,9 @@ One panel per numeric result (at most :data:`MAX_PANELS`, in the sweep's order):
 - random samples: a histogram of the result over the points that have it.
 
 Every point with a finite value is drawn, whatever its status (a failed form-finding still
-has its smallest eigenvalue and its ``stable: false``); the panel's title counts the points
-that are not ``ok``.
+has its smallest eigenvalue and its ``stable: false``), except a ``violated`` one: its run
+broke an invariant of the physics, so its values are not results. The panel's title counts
+the points that are not ``ok``, and the violated ones.
 """
 
 from __future__ import annotations
@@ -79,10 +80,12 @@ def plot_sweep(table: Any, sweep: Sweep, path: str | Path, columns: Sequence[str
     nrows = math.ceil(n / ncols)
     fig, axs = plt.subplots(nrows, ncols, figsize=(5.2 * ncols, 4.2 * nrows), squeeze=False)
     ok = table["status"] == RowStatus.OK
+    violated = (table["status"] == RowStatus.VIOLATED).to_numpy()
     for ax, column in zip(axs.flat, columns):
-        values = table[column].astype("float64").to_numpy(na_value=np.nan)
+        values = np.where(violated, np.nan, table[column].astype("float64").to_numpy(na_value=np.nan))
         failed = int((~ok).sum())
-        note = f" ({failed} of {len(table)} points not ok)" if failed else ""
+        note = f" ({failed} of {len(table)} points not ok" if failed else ""
+        note += f", {int(violated.sum())} violated: not drawn)" if violated.any() else ")" if failed else ""
         if mode == "hist":
             data = values[np.isfinite(values)]
             bins: NDArray[np.float64] | int

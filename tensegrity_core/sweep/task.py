@@ -7,6 +7,9 @@ worker, without the one-off import of the core modules its computation runs on].
 - ``ok``: the computation succeeded;
 - ``failed``: it ran and did not succeed (no stable equilibrium, a run stopped early), or the
   core refused it on the way (a ``TensegrityError``); results are kept as far as they exist;
+- ``violated``: it ran, but the outcome breaks an invariant of the physics (an actuator
+  length below zero through the fold limit, a stop that pulls); the message says which;
+  results are kept, and plots count the point as not ok;
 - ``invalid``: the core's loader rejected the point's document (a bad value); the message is
   the loader's;
 - ``error``: anything else went wrong in the point (an unexpected exception, named);
@@ -43,13 +46,14 @@ class RowStatus(StrEnum):
 
     OK = "ok"
     FAILED = "failed"
+    VIOLATED = "violated"
     INVALID = "invalid"
     ERROR = "error"
     LOST = "lost"
 
 
 #: Statuses that a rerun would give again (``--resume`` keeps them); ``lost`` is rerun.
-FINAL_STATUSES = (RowStatus.OK, RowStatus.FAILED, RowStatus.INVALID, RowStatus.ERROR)
+FINAL_STATUSES = (RowStatus.OK, RowStatus.FAILED, RowStatus.VIOLATED, RowStatus.INVALID, RowStatus.ERROR)
 #: The thread-pool limit of this process (False: threadpoolctl missing), once pinned.
 _blas_limit: object = None
 
@@ -95,6 +99,9 @@ def run_point(plan: Plan, point: Point) -> Row:
         else:
             ok, message, outcome = comp.run(loaded, plan.options)
             status = RowStatus.OK if ok else RowStatus.FAILED
+            broken = comp.violations(outcome)
+            if broken:
+                status, message = RowStatus.VIOLATED, "; ".join(broken)
             for spec in plan.results:
                 got = COMPUTATIONS[plan.computation].results[spec.name].extract(outcome, spec.options, spec.data)
                 values.update({c: v for (c, _), v in zip(spec.columns, got)})

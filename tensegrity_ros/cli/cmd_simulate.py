@@ -1,10 +1,13 @@
 """``tensegrity simulate SCENE`` and ``tensegrity scenes``: scene-driven simulation.
 
 SCENE is a scene file (YAML, see docs/scenes.md) or the name of a shipped scene. The run
-shows a progress bar on stderr, prints a summary (``--json`` for scripts), and writes the
-trajectory (``-o OUT.npz`` or ``OUT.csv``) and a plot (``--plot OUT.png``). A scene error
-exits with code 2 and one ``error:`` line; a run that stops early (singular configuration,
-no equilibrium) writes what it has and exits with code 1.
+shows a progress bar on stderr (simulated time reached, and simulated seconds per second),
+prints a summary (``--json`` for scripts), and writes the trajectory (``-o OUT.npz`` or
+``OUT.csv``) and a plot (``--plot OUT.png``). A scene whose explicit integration method
+does not fit its stiffness gets a ``warning:`` line before the run. A scene error exits with
+code 2 and one ``error:`` line; a run that stops early (singular configuration, no
+equilibrium) or breaks an invariant of the physics (``error: invariant violated: ...``)
+writes what it has and exits with code 1.
 """
 
 from __future__ import annotations
@@ -138,10 +141,17 @@ def run_sampled_cli(args) -> int:
     return 0
 
 
+def _print_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"warning: {message}", file=sys.stderr)
+
+
 def run_simulate(args) -> int:
+    import warnings
+
     from tensegrity_core.errors import TensegrityError
     from tensegrity_core.schema import excerpt
     from tensegrity_core.sim import SceneError, load_scene, simulate
+    from tensegrity_core.sim.stiffness_check import StiffnessWarning
 
     if args.control_period is not None or args.controller is not None:
         return run_sampled_cli(args)
@@ -162,13 +172,20 @@ def run_simulate(args) -> int:
         from tqdm import tqdm
 
         bar = tqdm(total=scene.duration, desc=scene.name, unit="s", file=sys.stderr, leave=False,
-                   dynamic_ncols=True, bar_format="{l_bar}{bar}| {n:.3g}/{total:.3g} s [{elapsed}<{remaining}]")
+                   dynamic_ncols=True,
+                   bar_format="{l_bar}{bar}| {n:.4g}/{total:.4g} s simulated [{elapsed}<{remaining}{postfix}]")
 
     def progress(t, duration):
+        elapsed = bar.format_dict["elapsed"]
+        if elapsed > 0:
+            bar.set_postfix_str(f"{t / elapsed:.3g} s simulated per s", refresh=False)
         bar.update(t - bar.n)
 
     try:
-        traj = simulate(scene, progress=progress if bar is not None else None)
+        with warnings.catch_warnings():
+            warnings.simplefilter("always", StiffnessWarning)
+            warnings.showwarning = _print_warning     # at once: before the run, not after it
+            traj = simulate(scene, progress=progress if bar is not None else None)
     except TensegrityError as err:
         raise CliError(str(err)) from None
     finally:
@@ -187,16 +204,18 @@ def run_simulate(args) -> int:
         "events": [{"t": float(t), "kind": k, "index": int(i)} for t, k, i in traj.events],
         "stats": traj.stats, "final": {"q": traj.q[-1] if len(traj) else [],
                                        "end_effector": traj.end_effector[-1] if len(traj) else []},
-        "output": str(out) if out else None, "plot": args.plot,
+        "output": str(out) if out else None, "plot": args.plot, "violations": traj.violations,
     }
     if args.json:
         print_json(summary)
     else:
         _print_summary(summary)
+    for violation in traj.violations:
+        print(f"error: invariant violated: {violation}", file=sys.stderr)
     if not traj.success:
         print(f"error: simulation stopped early: {traj.message}", file=sys.stderr)
         return 1
-    return 0
+    return 1 if traj.violations else 0
 
 
 def _print_summary(s: dict) -> None:

@@ -136,12 +136,46 @@ def test_the_impact_law_against_the_single_contact_formulas():
         q = [0.0, 0.4, 1.1]
         M = inertia.mass_matrix(kinematics(1.0, (*q, 0.0, 0.0, 0.0), 1e-4))
         v = np.array([-0.8, rng.normal(), rng.normal()])
-        new, kept = impact(M, v, 0, frozenset(), restitution)
-        assert new[0] == pytest.approx(-restitution * v[0]) and kept == frozenset()
+        new, _ = impact(np.linalg.inv(M), v, [0], restitution)
+        assert new[0] == pytest.approx(-restitution * v[0])
         impulse = M @ (new - v)
         assert abs(impulse[1]) < 1e-12 and abs(impulse[2]) < 1e-12 and impulse[0] > 0
         loss = 0.5 * v @ M @ v - 0.5 * new @ M @ new
         assert loss == pytest.approx((1 - restitution**2) * v[0] ** 2 / (2 * np.linalg.inv(M)[0, 0]), rel=1e-12)
+
+
+@pytest.mark.parametrize("restitution", [0.0, 0.5, 1.0])
+def test_a_double_impact_is_poissons_law_on_both_stops(restitution):
+    """Both actuators at zero length, both approaching: the compression impulses ``P_c >= 0``
+    stop both (plastic: zero normal velocity for each stop that pushes, none entering its stop),
+    the stops give back ``r P_c``, and the kinetic energy falls by ``(1 - r^2) P_c^T W P_c / 2``
+    (``W = (M^-1)_AA``) -- computed here by trying the four sets of pushing stops."""
+    inertia = Inertia(traj_params())
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        q = [0.0, 0.0, rng.uniform(0.2, 2.9)]
+        M = inertia.mass_matrix(kinematics(1.0, (*q, 0.0, 0.0, 0.0), 1e-4))
+        Minv = np.linalg.inv(M)
+        v = np.array([-rng.uniform(0.1, 1), -rng.uniform(0.1, 1), rng.normal()])
+        W = Minv[:2, :2]
+        expected = None
+        for S in ([0, 1], [0], [1], []):
+            Pc = np.zeros(2)
+            if S:
+                Pc[S] = np.linalg.solve(W[np.ix_(S, S)], -v[S])
+            after = v[:2] + W @ Pc
+            if np.all(Pc >= -1e-12) and np.all(after >= -1e-12):
+                expected = Pc
+                break
+        new, P = impact(Minv, v, [0, 1], restitution)
+        after_all = v[:2] + (1 + restitution) * W @ expected
+        if np.all(after_all >= 0):                 # no plastic correction needed
+            np.testing.assert_allclose(P, (1 + restitution) * expected, rtol=1e-9, atol=1e-12)
+            loss = 0.5 * v @ M @ v - 0.5 * new @ M @ new
+            assert loss == pytest.approx((1 - restitution**2) * expected @ W @ expected / 2, rel=1e-9, abs=1e-14)
+        assert np.all(new[:2] >= -1e-12) and np.all(P >= 0)
+        np.testing.assert_allclose(M @ (new - v), [P[0], P[1], 0.0], atol=1e-12)
+        assert 0.5 * new @ M @ new <= 0.5 * v @ M @ v + 1e-12
 
 
 @pytest.mark.parametrize("restitution", [0.0, 0.8])

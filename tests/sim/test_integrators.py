@@ -56,7 +56,12 @@ def test_rk4_compiled_and_through_the_numpy_kernels_agree_to_rounding():
                           integrator={"method": "RK4", "max_step": 1e-3})
     fast = simulate(scene)
     plain = _with_kernels("numpy", lambda: simulate(scene))
-    assert fast.stats["steps"] == plain.stats["steps"] == 300
+    # steps of 1 ms, a string's slack/taut event cutting one of them in two (the grid restarts
+    # there, its last step shortened to land on the end)
+    assert [e[1:] for e in fast.events] == [e[1:] for e in plain.events]
+    np.testing.assert_allclose([e[0] for e in fast.events], [e[0] for e in plain.events], rtol=0, atol=1e-12)
+    assert fast.stats["steps"] == plain.stats["steps"]
+    assert 300 <= fast.stats["steps"] <= 300 + len(fast.events)
     np.testing.assert_allclose(plain.nodes, fast.nodes, rtol=0, atol=1e-12)
 
 

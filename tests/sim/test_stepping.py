@@ -9,6 +9,7 @@ import pytest
 
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.sim import Observation, SimulationError, Simulator, load_scene, simulate
+from tensegrity_core.sim.stepper import Transition
 
 from .helpers import class2_scene
 
@@ -187,11 +188,14 @@ class _StiffLinear:
     def events(self):
         return []
 
-    def handle_event(self, event, t, y):
-        return y, self
+    def handle_event(self, crossing, y):
+        return Transition(y, self)
 
     def after_step(self, t, y):
         return None
+
+    def resume(self, t, y):
+        return Transition(y, self)
 
     def next_breakpoint(self, t):
         return math.inf

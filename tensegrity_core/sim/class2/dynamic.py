@@ -99,7 +99,7 @@ class Class2Dynamic(DynamicModel[Class2System, Class2Sample]):
             return
         state.commands = commands
         st = state.work
-        st.restart(st.t, st.y, system=st.system.with_laws(held(self.laws, commands)), input_changed=True)
+        st.change_system(st.system.with_laws(held(self.laws, commands)))
 
     def advance(self, state: State[Stepper[Class2System]], t: float) -> None:
         state.work.advance(t)

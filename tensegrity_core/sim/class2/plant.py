@@ -12,11 +12,18 @@ does not list is not built and costs nothing). With the fold limit, the *contact
 (actuators held at zero length) selects the reduced solve of the kernel's
 :class:`~tensegrity_core.class2.dynamics.inertia.Inertia`; events switch modes:
 
-- ``fold i``: ``rho_i`` falls through 0 (free actuator) -> impact law, then mode selection;
+- ``fold i``: ``rho_i`` falls through 0 (free actuator; located at ``-PENETRATION_REL L``)
+  -> the impact law on every actuator at zero length, then the contact mode;
 - ``release i``: the contact force of a held actuator falls through 0 (it would have to
-  pull) -> the actuator is let go;
+  pull; located at ``-RELEASE_REL`` of the force scale) -> the contact mode is chosen again;
 - ``singular``: lambda1 or lambda2 reaches ``SINGULAR_GUARD_REL L`` -> the simulation stops
   with an error (the coordinates break down there).
+
+Where the inputs change (a new command, a law's breakpoint) the contact mode is chosen
+again too (:meth:`Class2System.resume`): a held actuator that a new force would make pull
+is let go at once. The small margins make every event function strictly positive where a
+system starts, so no crossing is ever missed for starting on its zero, and no event can
+fire again at the instant its own change was made (see ``docs/scenes.md``, "The fold limit").
 
 :class:`Class2Plant` is the frozen part (compiled once per scene); a :class:`Class2System`
 is the plant in one contact mode under one set of input laws: what the stepping integrator
@@ -29,6 +36,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass
+from typing import Final
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -41,24 +49,48 @@ from tensegrity_core.class2.dynamics.limits import SINGULAR_GUARD_REL
 from tensegrity_core.class2.names import STATE_NAMES
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.events import EventKind
-from tensegrity_core.sim.class2.contact import impact, select_mode
+from tensegrity_core.sim.class2.contact import held_set, impact, stick
 from tensegrity_core.sim.class2.setup import ForceEffect, class2_params
 from tensegrity_core.sim.errors import SimulationError
 from tensegrity_core.sim.inputs import Law, next_breakpoint
 from tensegrity_core.sim.scene import Scene
-from tensegrity_core.sim.stepper import StateEvent
+from tensegrity_core.sim.stepper import Crossing, Transition
 
 FloatArray = NDArray[np.float64]
 
 
+#: A free actuator's fold event fires where its length reaches ``-PENETRATION_REL L`` (then set
+#: to 0): strictly below the zero that a lift-off leaves it at, so a crossing is never missed.
+PENETRATION_REL: Final = 1e-12
+#: Actuators within ``NEAR_REL L`` of zero length take part in an impact (and are set to 0):
+#: simultaneous impacts are one impact, not a cascade of single ones.
+NEAR_REL: Final = 1e-10
+#: A held actuator's release fires where its contact force reaches ``-RELEASE_REL`` times the
+#: force scale ``1 + |R1| + |R2|`` [N]: strictly below the ``lambda >= 0`` of the mode choice.
+RELEASE_REL: Final = 1e-10
+
+
 @dataclass(frozen=True)
 class Class2StateEvent:
-    """A state event: ``g(t, y)`` crosses zero in ``direction`` (-1 falling, +1 rising)."""
+    """A state event: ``value(t, y)`` crosses zero in ``direction`` (-1 falling, +1 rising);
+    ``rate(t, y)`` is its time derivative when known (a
+    :class:`~tensegrity_core.sim.stepper.StateEvent` of one component)."""
 
     kind: EventKind      # "fold" | "release" | "singular"
     index: int           # actuator (0, 1) or 0/1 for lambda1/lambda2
-    g: Callable[[float, FloatArray], float]
+    value: Callable[[float, FloatArray], float]
+    rate: Callable[[float, FloatArray], float] | None = None
     direction: float = -1.0
+
+    @property
+    def indices(self) -> tuple[int]:
+        return (self.index,)
+
+    def g(self, t: float, y: FloatArray) -> float:
+        return self.value(t, y)
+
+    def values(self, t: float, y: FloatArray) -> tuple[float, float | None]:
+        return self.value(t, y), None if self.rate is None else self.rate(t, y)
 
 
 def bits_of(mode: Iterable[int]) -> int:
@@ -66,9 +98,10 @@ def bits_of(mode: Iterable[int]) -> int:
     return sum(1 << i for i in mode)
 
 
-def _fold_event(i: int) -> Class2StateEvent:
-    """Free actuator ``i`` folds: its length falls through 0."""
-    return Class2StateEvent("fold", i, lambda t, y: y[i])
+def _fold_event(i: int, L: float) -> Class2StateEvent:
+    """Free actuator ``i`` folds: its length falls through ``-PENETRATION_REL L``."""
+    margin = PENETRATION_REL * L
+    return Class2StateEvent("fold", i, lambda t, y: y[i] + margin, lambda t, y: y[3 + i])
 
 
 class Class2Plant:
@@ -86,6 +119,8 @@ class Class2Plant:
         self.drive = Drive(lag_tau=lag.tau if lag else None,
                            compliance=(comp.stiffness, comp.drive_damping) if comp else None)
         self.fold = eff.get("fold_limit")
+        #: The smallest actuator length [m] the integration resolves: its position tolerance.
+        self.resolution = scene.integrator.atol + scene.integrator.rtol * self.L
         self.n = 6 + self.drive.n_states
         self.state_names = STATE_NAMES + self.drive.state_names
 
@@ -200,73 +235,95 @@ class Class2System:
 
     # -- events ---------------------------------------------------------------------------------
     def events(self) -> list[Class2StateEvent]:
-        """Event functions in the system's mode."""
+        """Class2StateEvent functions in the system's mode."""
         L = self.plant.L
         lim = (SINGULAR_GUARD_REL * L) ** 2
         out = [Class2StateEvent("singular", 0, lambda t, y: (2 * L - y[0] - y[1]) * (2 * L + y[0] + y[1]) - lim),
                Class2StateEvent("singular", 1, lambda t, y: (L - y[0]) * (L + y[0]) - lim)]
         if self.plant.fold is not None:
-            out += [self._release_event(i) if i in self.mode else _fold_event(i) for i in (0, 1)]
+            out += [self._release_event(i) if i in self.mode else _fold_event(i, L) for i in (0, 1)]
         return out
 
     def _release_event(self, i: int) -> Class2StateEvent:
-        """Held actuator ``i`` lets go: its contact force falls through 0."""
-        return Class2StateEvent("release", i, lambda t, y: self.accelerations(t, y)[1][i])
+        """Held actuator ``i`` lets go: its contact force falls through ``-RELEASE_REL`` of the
+        force scale."""
+        solve = self.plant.eom.inertia.solve
+        bits = self.bits
 
-    def handle_event(self, event: StateEvent, t: float, y: ArrayLike) -> tuple[FloatArray, Class2System]:
-        """Apply an event at ``(t, y)``: the state to restart from, and the system of the new mode."""
+        def value(t: float, y: FloatArray) -> float:
+            k, (R1, R2, R3) = self.generalized_force(t, y)
+            lam = solve(k, R1, R2, R3, bits)[3 + i]
+            return float(lam) + RELEASE_REL * (1.0 + abs(R1) + abs(R2))
+        return Class2StateEvent("release", i, value)
+
+    def handle_event(self, crossing: Crossing, y: ArrayLike) -> Transition[Class2System]:
+        """Apply an event located at ``crossing.t`` where the state is ``y``: the state to restart
+        from, the system of the new contact mode and the events to log."""
         y = np.array(y, dtype=float)
-        if event.kind == "singular":
-            name = ("lambda1", "lambda2")[event.index]
-            where = ("rho1 + rho2 reached 2L (struts AE and CE flat)", "rho1 reached L (strut BF flat)")[event.index]
+        t = crossing.t
+        if crossing.kind == "singular":
+            name = ("lambda1", "lambda2")[crossing.index]
+            where = ("rho1 + rho2 reached 2L (struts AE and CE flat)", "rho1 reached L (strut BF flat)")[crossing.index]
             raise SimulationError(f"t = {t:.9g} s: {where}: {name} = {SINGULAR_GUARD_REL:g} L, where the coordinates "
                                   f"(rho1, rho2, beta) break down; the simulation stops here "
                                   f"(state {np.array2string(y[:6], precision=6)})", t=t)
-        if event.kind == "fold":
-            mode = self._fold(event.index, t, y)
-        else:
-            mode = self._select(t, y, set(self.mode) - {event.index})
-        return y, self.with_mode(mode)
+        if crossing.kind == "fold":
+            # Located at rho_i = -PENETRATION_REL L, applied at rho_i = 0 with the speed it had
+            # there, v0^2 = v^2 + 2 a_i delta: setting the length back without that would give
+            # each bounce the stop's work over delta, which sustains micro-bounces forever.
+            i = crossing.index
+            a, _ = self.accelerations(t, y)
+            y[3 + i] = -math.sqrt(max(0.0, y[3 + i] ** 2 + 2.0 * float(a[i]) * PENETRATION_REL * self.plant.L))
+            y[i] = 0.0
+            return self._contacts(t, y, reach=NEAR_REL * self.plant.L)
+        return self._contacts(t, y)
 
     def after_step(self, t: float, y: FloatArray) -> None:
         """Nothing to re-chart for the class-2 coordinates."""
         return None
 
-    def _fold(self, i: int, t: float, y: FloatArray) -> frozenset[int]:
-        """Actuator ``i`` reaches zero length: impact, then the contact mode (``y`` updated in place)."""
-        fold = self.plant.fold
-        assert fold is not None               # fold events exist with the fold limit only
-        y[i] = 0.0
-        eom = self.plant.eom
-        M = eom.inertia.mass_matrix(eom.kinematics(y.tolist()))
-        qd, kept = impact(M, y[3:6], i, self.mode, fold.restitution)
-        if abs(qd[i]) < fold.rest_velocity:
-            qd[i] = 0.0
-        y[3:6] = qd
-        candidates = set(kept) | ({i} if qd[i] == 0.0 else set())
-        return self._select(t, y, candidates)
+    def resume(self, t: float, y: FloatArray) -> Transition[Class2System]:
+        """Under this system's (new) input laws at ``(t, y)``: the contact mode chosen again --
+        a held actuator that would now have to pull is let go."""
+        return self._contacts(t, np.array(y, dtype=float))
 
-    def _select(self, t: float, y: FloatArray, candidates: Collection[int]) -> frozenset[int]:
-        """The contact mode among ``candidates`` (``y``'s held entries zeroed in place)."""
-        def solve(S: Collection[int]) -> tuple[FloatArray, FloatArray]:
-            return self.accelerations(t, y, S)
-        a, lam = solve(candidates)
-        tol = 1e-9 * (1.0 + float(np.abs(a).max()) + float(np.abs(lam).max()))
-        mode, _, _ = select_mode(solve, candidates, tol)
-        for j in mode:
-            y[j] = 0.0
-            y[3 + j] = 0.0
-        return frozenset(mode)
+    def _contacts(self, t: float, y: FloatArray, *, reach: float = 0.0) -> Transition[Class2System]:
+        """Impacts and contact mode at ``(t, y)`` (``y`` is changed in place): the actuators held
+        or within ``reach`` of zero length (an impact: ``NEAR_REL L``; otherwise those at zero)
+        are set to zero; if any approaches, all of them take the impact law's impulses; those
+        slower than the rest velocity stick; then the complementarity problem chooses
+        which of those at rest stay held. Logs ``fold`` for each actuator hit (or newly held)
+        and ``release`` for each let go."""
+        fold = self.plant.fold
+        if fold is None:
+            return Transition(y, self)
+        near = [j for j in (0, 1) if j in self.mode or y[j] <= reach]
+        if not near:
+            return Transition(y, self)
+        y[near] = 0.0
+        eom = self.plant.eom
+        Minv = np.linalg.inv(eom.inertia.mass_matrix(eom.kinematics(y.tolist())))
+        qd = y[3:6].copy()
+        hit = [j for j in near if qd[j] < 0.0]
+        if hit:
+            qd, _ = impact(Minv, qd, near, fold.restitution)
+        y[3:6] = qd
+        # a bounce lower than the integration resolves (its flight's apex v^2 / 2|a| under the
+        # position tolerance) is at rest: its flight would be integration noise, and the noise
+        # can feed such bounces for ever (a Zeno fixed point above rest_velocity)
+        pressing, _ = self.accelerations(t, y, ())
+        rest = max([fold.rest_velocity] + [math.sqrt(2.0 * max(0.0, -float(pressing[j])) * self.plant.resolution)
+                                           for j in near])
+        qd = stick(Minv, qd, near, rest)
+        y[3:6] = qd
+        a_free, _ = self.accelerations(t, y, ())
+        held = held_set(Minv, a_free, [j for j in near if qd[j] == 0.0])
+        log: list[tuple[EventKind, int]] = [("fold", j) for j in near if j in hit or (j in held and j not in self.mode)]
+        log += [("release", j) for j in sorted(self.mode - held)]
+        return Transition(y, self.with_mode(held), tuple(log))
 
     def resolve_contacts(self, t0: float, y0: ArrayLike) -> tuple[FloatArray, frozenset[int]]:
         """``(y, mode)`` after resolving the contacts of a starting state (impacts at ``t0``,
         then the contact mode); ``(y0, mode)`` without the fold limit."""
-        y = np.array(y0, dtype=float)
-        if self.plant.fold is None:
-            return y, self.mode
-        system = self
-        for i in (0, 1):
-            if y[i] == 0.0 and y[3 + i] < 0.0:
-                system = system.with_mode(system._fold(i, t0, y))
-        candidates = {i for i in (0, 1) if y[i] == 0.0 and y[3 + i] == 0.0} | set(system.mode)
-        return y, system._select(t0, y, candidates)
+        transition = self._contacts(t0, np.array(y0, dtype=float))
+        return transition.y, transition.system.mode

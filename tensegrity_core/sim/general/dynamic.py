@@ -81,8 +81,9 @@ class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralSystem, GeneralSample])
     def _state(self, y: FloatArray, t_end: float) -> State[Stepper[GeneralSystem]]:
         events: list[LoggedEvent] = []
         s = self.scene.integrator
-        stepper = Stepper(self.plant, 0.0, y, method=self.method, rtol=s.rtol, atol=s.atol, max_step=s.max_step,
-                          t_end=t_end, log=events)
+        start = self.plant.resume(0.0, y)          # the strings' slack set at the start
+        stepper = Stepper(start.system, 0.0, start.y, method=self.method, rtol=s.rtol, atol=s.atol,
+                          max_step=s.max_step, t_end=t_end, log=events)
         return State(self.initial_commands, events, stepper)
 
     def equations(self, state: State[Stepper[GeneralSystem]]) -> GeneralSystem:
@@ -97,8 +98,7 @@ class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralSystem, GeneralSample])
         state.commands = commands
         laws = held(self.laws, commands)
         st = state.work
-        st.restart(st.t, st.y, system=st.system.with_inputs(rest_lengths_function(self.scene, laws), laws),
-                   input_changed=True)
+        st.change_system(st.system.with_inputs(rest_lengths_function(self.scene, laws), laws))
 
     def advance(self, state: State[Stepper[GeneralSystem]], t: float) -> None:
         state.work.advance(t)

@@ -2,7 +2,13 @@
 
 **Model.** Members are axial springs ``t = EA (l - l0)/l0`` (bars and actuators in tension
 and compression, strings only when taut), with an optional axial damper ``c_i dl/dt`` (taut
-members only: a slack string transmits nothing). Masses are lumped: a free node carries its
+members only: a slack string transmits nothing). Where a string goes slack or taut its force
+kinks (without a damper) or jumps (by ``c dl/dt``, with one): no integration step may
+straddle that, or its error estimate and dense output are wrong by far more than the
+tolerance. So the strings' slack set is a discrete state of the system (:attr:`slack`, fixed
+between restarts: a taut string's spring continues smoothly below its rest length inside a
+step, a slack one stays at zero), and the crossings of ``l = l0`` are state events that
+switch it (logged ``slack`` / ``taut`` with the member's index). Masses are lumped: a free node carries its
 point mass and half of each attached member's mass; a rigid body carries its own mass,
 shared equally by its nodes (so its centre of mass is the centroid, where the statics put
 its weight), plus the point masses and half member masses at its nodes.
@@ -50,21 +56,24 @@ from __future__ import annotations
 import copy
 import math
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
+from tensegrity_core.events import EventKind
 from tensegrity_core.general.rotation import cross, exp_so3
 from tensegrity_core.general.statics import group_sum
 from tensegrity_core.general.structure import Structure
 from tensegrity_core.sim.errors import SceneError
+from tensegrity_core.sim.general.kernels import arrays, loops
 from tensegrity_core.sim.general.kernels.evaluator import Evaluation, Evaluator
-from tensegrity_core.sim.general.kernels.plan import build_plan
+from tensegrity_core.sim.general.kernels.plan import Plan, build_plan
 from tensegrity_core.sim.general.kernels.stages import CompiledStages
 from tensegrity_core.sim.inputs import Law, next_breakpoint
-from tensegrity_core.sim.stepper import StateEvent
+from tensegrity_core.sim.stepper import Crossing, Transition
 
 FloatArray = NDArray[np.float64]
 
@@ -119,12 +128,16 @@ class NodalMasses:
 class GeneralSystem:
     """Equations of motion of a general structure for one scene, with the rotation charts
     ``R_ref`` (nb, 3, 3) and the rest lengths ``rest_lengths_of`` (``t -> (m,)`` under the
-    input ``laws``, or None without actuators) of one stretch of integration: an
-    :class:`~tensegrity_core.sim.stepper.OdeSystem`. Immutable: a re-charting or a new command
-    gives a new instance (:meth:`with_chart`, :meth:`with_inputs`)."""
+    input ``laws``, or None without actuators) and the strings' slack set :attr:`slack` of one
+    stretch of integration: an :class:`~tensegrity_core.sim.stepper.OdeSystem`. Immutable: a
+    re-charting, a string's event or a new command gives a new instance (:meth:`with_chart`,
+    :meth:`with_slack`, :meth:`with_inputs`)."""
 
     #: No contacts: the contact mode is always empty.
     mode: frozenset[int] = frozenset()
+    #: Per string (:attr:`strings`): slack in this stretch of integration; None until a state
+    #: has set it (:meth:`resume`; then ``l < l0`` decides, as in the statics).
+    slack: NDArray[np.bool_] | None = None
 
     def __init__(self, structure: Structure, *, masses: NodalMasses, damping: FloatArray | None = None,
                  gravity: ArrayLike | None = None, loads: FloatArray | None = None,
@@ -157,6 +170,10 @@ class GeneralSystem:
                                body_first_moments=masses.s_body, body_inertia=masses.I_body, damping=damping,
                                external=self.external)
         self.evaluator = Evaluator(self.plan, kernels)
+        self.geometric_plan = self.plan            # strings slack where l < l0 (no slack set)
+        self.strings = np.flatnonzero(self.is_string).astype(np.int64)
+        # strings whose rest length an input law moves: their gap's rate is not known here
+        self._moving = np.flatnonzero(np.isin(self.strings, self.actuators))
         self._rest_lengths = np.array(structure.rest_lengths, dtype=float)   # writable: the kernels' kind of array
 
     def with_chart(self, R_ref: ArrayLike) -> GeneralSystem:
@@ -207,18 +224,22 @@ class GeneralSystem:
         return self.evaluator.jacobian(np.asarray(y, dtype=float), self.R_ref, self.rest_lengths(t))
 
     # -- stepper hooks ------------------------------------------------------------------------------
-    def events(self) -> list[StateEvent]:
-        """No state events: members are smooth (strings' slackening is a kink the adaptive
-        step control resolves)."""
-        return []
+    def events(self) -> list[StringEvent]:
+        """The strings going slack (``l`` falls through ``l0``) or taut (rises through it): one
+        vectorised event with a component per string (none without strings)."""
+        return [StringEvent(self)] if self.strings.size else []
 
-    def handle_event(self, event: StateEvent, t: float, y: FloatArray) -> tuple[FloatArray, GeneralSystem]:
-        """There are no state events (:meth:`events`): the state and the model as they are."""
-        return np.asarray(y, dtype=float), self
+    def handle_event(self, crossing: Crossing, y: FloatArray) -> Transition[GeneralSystem]:
+        """String ``crossing.index`` went slack (falling) or taut (rising): the system with it
+        so, logged as ``slack`` / ``taut`` with the member's index; the state as it is."""
+        slack = self._geometric_slack(crossing.t, y) if self.slack is None else self.slack.copy()
+        slack[crossing.component] = crossing.falling
+        return Transition(np.asarray(y, dtype=float), self.with_slack(slack),
+                          (("slack" if crossing.falling else "taut", crossing.index),))
 
-    def after_step(self, t: float, y: FloatArray) -> tuple[FloatArray, GeneralSystem] | None:
+    def after_step(self, t: float, y: FloatArray) -> Transition[GeneralSystem] | None:
         """Re-anchor rotation charts whose angle exceeds :data:`RECHART_ANGLE`: the state and the
-        model of the new charts, or None."""
+        system of the new charts, or None."""
         if not self.nb:
             return None
         rot = self.lay.body_dof[:, None] + 3 + np.arange(3)[None, :]
@@ -230,7 +251,56 @@ class GeneralSystem:
         R_ref = self.R_ref.copy()
         R_ref[big] = exp_so3(theta[big]) @ R_ref[big]
         y[rot[big]] = 0.0
-        return y, self.with_chart(R_ref)
+        return Transition(y, self.with_chart(R_ref))
+
+    def resume(self, t: float, y: FloatArray) -> Transition[GeneralSystem]:
+        """The strings' slack set at ``(t, y)`` under this system's input laws (``l < l0``; at
+        ``l = l0`` exactly, slack if shortening), and the state as it is."""
+        y = np.asarray(y, dtype=float)
+        if not self.strings.size:
+            return Transition(y, self)
+        return Transition(y, self.with_slack(self._geometric_slack(t, y)))
+
+    def with_slack(self, slack: ArrayLike) -> GeneralSystem:
+        """The same equations with the strings' slack set ``slack`` (per :attr:`strings`): in
+        the kernels' plan a taut string is a member that also carries compression, a slack one
+        a member of zero stiffness and damping."""
+        new = copy.copy(self)
+        new.slack = np.array(slack, dtype=bool)
+        new.plan = _with_slack(self.geometric_plan, self.strings, new.slack)
+        new.evaluator = self.evaluator.with_plan(new.plan)
+        return new
+
+    def string_gaps(self, t: float, y: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Per string (:attr:`strings`): ``l - l0`` [m] at ``(t, y)`` and its rate [m/s] (nan for
+        strings whose rest length an input moves)."""
+        plan = self.plan
+        n, nb = plan.n_nodes, len(plan.body_dof)
+        l0 = self.rest_lengths(t)
+        if self.evaluator.kernels == "numba":
+            gap, rate = np.empty(len(self.strings)), np.empty(len(self.strings))
+            loops.string_gaps(plan.base, plan.free_node, plan.free_axis, plan.on_node, plan.on_body, plan.on_offset,
+                              plan.body_dof, plan.member_a, plan.member_b, self.strings, np.array(y, dtype=float),
+                              self.R_ref, np.ascontiguousarray(l0, dtype=float), np.empty((n, 3)), np.empty((n, 3)),
+                              np.empty((nb, 3, 3)), np.empty((len(plan.on_node), 3)), gap, rate)
+        else:
+            X, V = np.empty((1, n, 3)), np.empty((1, n, 3))
+            arrays.place(plan.base, plan.free_node, plan.free_axis, plan.on_node, plan.on_body, plan.on_offset,
+                         plan.body_dof, np.asarray(y, dtype=float)[None, :], self.R_ref[None], X, V,
+                         np.empty((1, nb, 3, 3)))
+            a, b = plan.member_a[self.strings], plan.member_b[self.strings]
+            h = X[0, b] - X[0, a]
+            lengths = np.sqrt(np.einsum("ij,ij->i", h, h))
+            gap = lengths - l0[self.strings]
+            rate = np.einsum("ij,ij->i", h, V[0, b] - V[0, a]) / lengths
+        if self._moving.size:
+            rate[self._moving] = np.nan
+        return gap, rate
+
+    def _geometric_slack(self, t: float, y: FloatArray) -> NDArray[np.bool_]:
+        gap, rate = self.string_gaps(t, y)
+        slack: NDArray[np.bool_] = (gap < 0.0) | ((gap == 0.0) & (rate < 0.0))
+        return slack
 
     def observe(self, t: ArrayLike, y: ArrayLike) -> dict[str, FloatArray]:
         """What the back end reports of states ``y`` (B, 2 n_dof) at times ``t`` (B,) [s] in
@@ -293,3 +363,36 @@ def kinetic_energy(v: FloatArray, R: FloatArray, free_mass: FloatArray, body_dof
         T = T + 0.5 * np.sum(body_mass * np.sum(vc * vc, axis=2)
                              + 2.0 * np.sum(vc * cross(w, s), axis=2) + np.sum(w * Iw, axis=2), axis=1)
     return T
+
+
+def _with_slack(plan: Plan, strings: NDArray[np.int64], slack: NDArray[np.bool_]) -> Plan:
+    """``plan`` with the strings ``strings`` in the slack set ``slack``: no string decides by
+    its length any more; the slack ones have no stiffness or damping."""
+    EA, damping, is_string = plan.EA.copy(), plan.damping.copy(), plan.is_string.copy()
+    gone = strings[slack]
+    EA[gone] = 0.0
+    damping[gone] = 0.0
+    is_string[strings] = False
+    return plan._replace(EA=EA, damping=damping, is_string=is_string)
+
+
+@dataclass(frozen=True)
+class StringEvent:
+    """The strings of ``system`` going slack (a component falls through zero) or taut (rises):
+    components ``l - l0(t)`` [m] per string, with rates ``dl/dt - dl0/dt`` [m/s] (nan where
+    unknown). A :class:`~tensegrity_core.sim.stepper.StateEvent` of both directions, named
+    by the member's index."""
+
+    system: GeneralSystem
+    kind: EventKind = "slack"
+    direction: float = 0.0
+
+    @property
+    def indices(self) -> tuple[int, ...]:
+        return tuple(int(i) for i in self.system.strings)
+
+    def g(self, t: float, y: FloatArray) -> FloatArray:
+        return self.system.string_gaps(t, y)[0]
+
+    def values(self, t: float, y: FloatArray) -> tuple[FloatArray, FloatArray]:
+        return self.system.string_gaps(t, y)

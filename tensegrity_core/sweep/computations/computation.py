@@ -32,7 +32,9 @@ class Computation(Protocol[Loaded, Out]):
       from ``outcome`` where they exist;
     - ``probe(document, options, full=...)``: run once on the machine that reads the sweep
       file, for what result columns and references need (names, sizes, the base's own result);
-    - ``finish_options(options, results)``: the options a run gets, given the results kept.
+    - ``finish_options(options, results)``: the options a run gets, given the results kept;
+    - ``violations(outcome)``: the invariants of the physics an outcome breaks, one line each
+      (a non-empty list makes the point *violated*; by default none are checked).
     """
 
     name: str
@@ -52,3 +54,6 @@ class Computation(Protocol[Loaded, Out]):
     def probe(self, document: dict[str, Any], options: Options, *, full: bool) -> Out: ...
 
     def finish_options(self, options: Options, results: Sequence[ResultSpec]) -> Options: ...
+
+    def violations(self, outcome: Out) -> list[str]:
+        return []

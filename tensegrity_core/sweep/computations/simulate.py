@@ -3,7 +3,8 @@
 Results (column names in brackets; times in s, other quantities in the scene's units):
 
 - ``first_event_time`` {kind, actuator}: time of the first event of that kind (``fold``,
-  ``release``, ``jump``, ``limit``, ``singular``; default any) [``first_<kind>_time``], NaN if none;
+  ``release``, ``jump``, ``limit``, ``singular``, ``slack``, ``taut``; default any)
+  [``first_<kind>_time``], NaN if none (``actuator``: the event's index, a member's for strings);
 - ``event_count`` {kind, actuator}: number of such events [``<kind>_count``];
 - ``t_end``: time of the last sample (below the duration when the run stopped early);
 - ``final`` {of}: the last sample of ``q``, ``qdot``, ``end_effector``, ``applied_forces``,
@@ -208,6 +209,11 @@ class Simulate(Computation["Scene", "Trajectory"]):
 
     def finish_options(self, options: Options, results: Sequence[ResultSpec]) -> Options:
         return options
+
+    def violations(self, outcome: Trajectory) -> list[str]:
+        """What the run broke (:mod:`tensegrity_core.sim.invariants`): a leak through the fold
+        limit, a stop that pulls, events out of order."""
+        return list(outcome.violations)
 
 
 SIMULATE = Simulate()

@@ -74,6 +74,14 @@ class Evaluator:
         ydot: FloatArray = self._module.rate(*self.plan, _arg(y), _arg(R_ref), _arg(l0))
         return ydot
 
+    def with_plan(self, plan: Plan) -> Evaluator:
+        """The same kernels on ``plan``, a plan of the same topology (other member constants):
+        the Jacobian's pattern, if built, is shared."""
+        new = Evaluator(plan, self.kernels)
+        if "pattern" in self.__dict__:
+            new.__dict__["pattern"] = self.__dict__["pattern"]
+        return new
+
     @cached_property
     def pattern(self) -> JacobianPattern:
         """The Jacobian's sparsity pattern (built on first use)."""

@@ -124,6 +124,24 @@ def place(base: FloatArray, free_node: IntArray, free_axis: IntArray, on_node: I
 
 
 @jit
+def string_gaps(base: FloatArray, free_node: IntArray, free_axis: IntArray, on_node: IntArray, on_body: IntArray,
+                on_offset: FloatArray, body_dof: IntArray, member_a: IntArray, member_b: IntArray, strings: IntArray,
+                y: FloatArray, R_ref: FloatArray, l0: FloatArray, X: FloatArray, V: FloatArray, R: FloatArray,
+                r: FloatArray, gap: FloatArray, rate: FloatArray) -> None:
+    """Per string ``strings[j]`` of one state ``y``: ``gap[j] = l - l0`` [m] and ``rate[j] =
+    dl/dt`` [m/s] (the strings' slack/taut event functions); ``X``, ``V``, ``R``, ``r`` are
+    :func:`place`'s work arrays."""
+    place(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, y, R_ref, X, V, R, r)
+    for j in range(strings.shape[0]):
+        i = strings[j]
+        a, b = member_a[i], member_b[i]
+        h0, h1, h2 = X[b, 0] - X[a, 0], X[b, 1] - X[a, 1], X[b, 2] - X[a, 2]
+        length = math.sqrt(h0 * h0 + h1 * h1 + h2 * h2)
+        gap[j] = length - l0[i]
+        rate[j] = (h0 * (V[b, 0] - V[a, 0]) + h1 * (V[b, 1] - V[a, 1]) + h2 * (V[b, 2] - V[a, 2])) / length
+
+
+@jit
 def member_forces(member_a: IntArray, member_b: IntArray, EA: FloatArray, damping: FloatArray,
                   is_string: BoolArray, l0: FloatArray, X: FloatArray, V: FloatArray, F: FloatArray,
                   lengths: FloatArray, forces: FloatArray) -> None:
