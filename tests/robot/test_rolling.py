@@ -48,3 +48,11 @@ def test_the_three_bar_crawls():
     assert np.hypot(*(com[-1, :2] - com[0, :2])) > 0.4
     depth = model.plan.cap_radius - (o["nodes"][:, model.plan.cap_node] - model.plan.floor_point) @ model.plan.floor_normal
     assert depth.max() < 0.01
+
+
+def test_the_spine_bends_towards_the_cords_reeled_in():
+    from tensegrity_core.sim import simulate
+    tr = simulate("spine_bend")
+    i = int(np.searchsorted(tr.times, 2.0))
+    assert tr.success and tr.end_effector[-1, 0] - tr.end_effector[i, 0] > 0.05      # metres towards +x
+    assert abs(tr.end_effector[-1, 1]) < 1e-6                                           # in its plane of symmetry
