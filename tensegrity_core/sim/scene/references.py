@@ -1,18 +1,19 @@
 """Where a scene refers to other files, and how those references are resolved.
 
-A scene names other files in two places, both relative to the scene file's folder (the
+A scene names other files in these places, all relative to the scene file's folder (the
 current folder for text and dicts):
 
 - ``model.structure`` of a general scene: a structure file or a shipped example's name
   (or the description inline, a mapping): :func:`structure_source`;
 - the ``file`` of a ``law: series`` input: a CSV table: :func:`series_file`;
+- ``model.robot`` of a robot scene: a robot file or a shipped robot's name (or inline);
 - the ``file`` of ``inputs.gait`` (a robot's gait): a gait file or a shipped gait's name
   (:func:`~tensegrity_core.robot.gait.gait_file`, which the gait reader uses too).
 
 The scene reader resolves them with these functions, and :func:`self_contained` uses the
 same ones to make a parsed scene document that needs no other file: the structure inlined
 as its parsed description (so key paths such as ``model.structure.members[side*].EA``
-reach it) and CSV and gait files as absolute paths. A sweep sends such a document to its workers
+reach it) and robot, CSV and gait files as absolute paths. A sweep sends such a document to its workers
 (the workers of an external cluster must then see the same file system for CSV files).
 """
 
@@ -55,6 +56,9 @@ def self_contained(document: dict[str, Any], folder: Path) -> dict[str, Any]:
             raise StructureError("a structure description must be a mapping", file=source.path.name)
         data.setdefault("name", source.path.stem)
         model["structure"] = data
+    if isinstance(model, dict) and model.get("kind") == "robot" and isinstance(model.get("robot"), str) \
+            and (folder / model["robot"]).is_file():         # a robot file (else a shipped robot's name)
+        model["robot"] = str((folder / model["robot"]).resolve())
     inputs = out.get("inputs")
     if isinstance(inputs, dict):
         gait = inputs.get("gait")
