@@ -44,17 +44,26 @@ def plot_trajectory(traj: Trajectory, path: str | Path) -> Path:
             ax.plot(t, traj.end_effector[:, k], label=f"end effector {axis} [m]")
     ax.legend(loc="best", fontsize=8)
     ax = axes[2]
+    many = len(traj.actuator_names) > 12
     if traj.applied_forces.size:
         unit = "N" if class2 else "m"
-        for k, name in enumerate(traj.actuator_names):
-            ax.plot(t, traj.applied_forces[:, k], label=f"{name} [{unit}]")
-        if traj.contact_forces.size and np.any(traj.contact_forces):
+        moving = np.argsort(-np.ptp(traj.applied_forces, axis=0), kind="stable")[:12] if many \
+            else range(len(traj.actuator_names))
+        for k in moving:
+            ax.plot(t, traj.applied_forces[:, k], label=f"{traj.actuator_names[k]} [{unit}]")
+        if class2 and traj.contact_forces.size and np.any(traj.contact_forces):
             for k in range(traj.contact_forces.shape[1]):
                 ax.plot(t, traj.contact_forces[:, k], "--", label=f"contact force {k + 1} [N]")
-        ax.legend(loc="best", fontsize=8)
+        ax.legend(loc="best", fontsize=7, ncol=2 if many else 1)
     else:
         ax.text(0.5, 0.5, "no actuators", ha="center", va="center", transform=ax.transAxes)
-    ax.set_title("actuator inputs" + (" and fold-limit contact forces" if class2 else " (rest lengths)"))
+    if not class2 and traj.contact_forces.size and np.any(traj.contact_forces):     # a robot's floor
+        floor = ax.twinx()
+        floor.plot(t, traj.contact_forces.sum(axis=1), "k:", lw=1.0, label="floor normal force, all caps [N]")
+        floor.set_ylabel("[N]")
+        floor.legend(loc="lower right", fontsize=7)
+    ax.set_title("actuator inputs" + (" and fold-limit contact forces" if class2 else
+                                      " (rest lengths" + (", the 12 that move most)" if many else ")")))
     ax = axes[3]
     names = list(traj.member_names)
     shown = range(len(names)) if len(names) <= 12 else np.argsort(-np.abs(traj.member_forces).max(axis=0))[:12]

@@ -206,3 +206,13 @@ def test_the_spine_let_go_sags_and_settles():
     E = tr.kinetic_energy + tr.potential_energy
     assert tr.success and E[-1] < E[0]
     assert tr.kinetic_energy[-50:].max() < 1e-3
+
+
+def test_rod_forces_are_tension_positive_and_match_the_statics_at_rest():
+    """Free of gravity and floor, the drawn 6-bar is its form-found rest shape: every rod in
+    441.2 N of compression (-441.2 N), every cable at 180.1 N (docs/robots.md, the statics)."""
+    model = compile_scene(robot_scene("six_bar", ["inertia", "cables"]))
+    obs = model.observe_now(model.initial_state())
+    forces = obs["member_forces"]
+    assert np.allclose(forces[:6], -441.2, rtol=1e-3) and np.allclose(forces[6:], 180.1, rtol=1e-3)
+    assert np.abs(obs["state"][model.plan.n_dof:2 * model.plan.n_dof]).max() == 0.0

@@ -33,3 +33,26 @@ def test_the_six_bar_rolls_at_least_five_faces_in_10_s_towards_x():
     assert abs(com[-1, 1] - com[0, 1]) < com[-1, 0] - com[0, 0]
     depth = model.plan.cap_radius - (o["nodes"][:, model.plan.cap_node] - model.plan.floor_point) @ model.plan.floor_normal
     assert depth.max() < 0.01                            # never deeper than 1 cm, even while tipping
+
+
+def test_the_three_bar_crawls():
+    """The shipped crawl moves the 3-bar's centre of mass more than 0.4 m over its first
+    three 4 s cycles (after 2 s settling), on the floor (every cap less than 1 cm deep)."""
+    scene = load_scene("three_bar_crawl").with_duration(14.0)
+    model = compile_scene(scene)
+    state = model.initial_state(t_end=14.0)
+    samples: list = []
+    model.record(state, np.arange(2, 15) * 1.0, samples)
+    o = model.observe(samples)
+    com = o["centre_of_mass"]
+    assert np.hypot(*(com[-1, :2] - com[0, :2])) > 0.4
+    depth = model.plan.cap_radius - (o["nodes"][:, model.plan.cap_node] - model.plan.floor_point) @ model.plan.floor_normal
+    assert depth.max() < 0.01
+
+
+def test_the_spine_bends_towards_the_cords_reeled_in():
+    from tensegrity_core.sim import simulate
+    tr = simulate("spine_bend")
+    i = int(np.searchsorted(tr.times, 2.0))
+    assert tr.success and tr.end_effector[-1, 0] - tr.end_effector[i, 0] > 0.05      # metres towards +x
+    assert abs(tr.end_effector[-1, 1]) < 1e-6                                           # in its plane of symmetry

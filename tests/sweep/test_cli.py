@@ -24,7 +24,8 @@ def write(tmp_path, doc, name="s.yaml"):
 def test_sweeps_lists_the_shipped_examples(capsys):
     assert main(["sweeps", "--json"]) == 0
     rows = {r["name"]: r for r in json.loads(capsys.readouterr().out)}
-    assert set(rows) == {"fold_time_kc", "fold_monte_carlo", "spine_stability"}
+    assert set(rows) == {"fold_time_kc", "fold_monte_carlo", "spine_stability", "three_bar_crawl"}
+    assert rows["three_bar_crawl"]["vary"] == ["inputs.gait.time_scale", "effects[5].friction.mu_static"]
     assert rows["fold_time_kc"]["vary"] == ["model.params.k", "model.params.c"]
     assert rows["fold_monte_carlo"]["points"] == 400 and rows["spine_stability"]["compute"] == "stiffness"
 

@@ -1,6 +1,6 @@
 """Where a scene refers to other files, and how those references are resolved.
 
-A scene names other files in two places, both relative to the scene file's folder (the
+A scene names other files in these places, all relative to the scene file's folder (the
 current folder for text and dicts):
 
 - ``model.structure`` of a general scene: a structure file or a shipped example's name

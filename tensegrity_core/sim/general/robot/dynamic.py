@@ -8,7 +8,8 @@ Observations (each over the samples): the general back ends' quantities -- ``q``
 (body centres and rotation vectors from the drawing, their rates with the bodies' angular
 velocities), ``applied_forces`` (the motors' rest lengths [m]), ``nodes``, members (the rods,
 then the cables: ``member_lengths`` [m], ``member_forces`` [N], tension positive; a rod's
-force is the mean of the axial loads on its two caps, its compression at rest),
+force is the mean of the axial loads on its two caps, tension positive: negative at rest, in
+compression),
 ``potential_energy`` (gravity, cables' strain, the floor's contact and friction springs)
 and ``kinetic_energy`` [J], ``end_effector`` (a node) and ``contact_forces`` (the caps'
 normal forces [N]) -- and the robot's own: ``centre_of_mass`` [m]; with the ``sensors``
@@ -183,7 +184,8 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         axis = X[:, ends[:, 1]] - X[:, ends[:, 0]]
         rod_length = np.sqrt(np.sum(axis * axis, axis=2))
         e = axis / np.where(rod_length > 0, rod_length, 1.0)[..., None]
-        rod_force = 0.5 * (np.sum(ev.forces[:, ends[:, 0]] * e, axis=2) - np.sum(ev.forces[:, ends[:, 1]] * e, axis=2))
+        # the loads on the caps pulling them apart (-e at cap a, +e at cap b), averaged: tension positive
+        rod_force = 0.5 * (np.sum(ev.forces[:, ends[:, 1]] * e, axis=2) - np.sum(ev.forces[:, ends[:, 0]] * e, axis=2))
         strain = cable_energy(ev.lengths - ev.rest_lengths, plan.cable_k, plan.cable_t_max)
         gravity = -np.einsum("bki,ki->b", X, plan.external)
         k, kt = plan.floor_params[0], plan.floor_params[4]
