@@ -12,6 +12,8 @@ documented difference.
   except where docs/mujoco.md says they differ (damping of a slack passive cable; a slack
   motor-driven cable lengthening fast), which the check adds as those closed forms.
 - **Motors.** MuJoCo's activation follows the motor's exact lag step.
+- **Free flight.** Thrown and falling without a floor, MuJoCo's trajectories agree with an
+  integration of the project's elements to a tolerance derived from both integrators' errors.
 - **Drop and settle.** After 30 s on the floor the MuJoCo robot is an equilibrium of the
   project's statics with its touching caps held where MuJoCo has them and MuJoCo's own
   remaining inertial and damper forces as loads: node positions and cable tensions agree
@@ -322,3 +324,124 @@ def test_the_six_bar_rolls_over_the_planned_faces_under_the_shipped_gait():
     assert rolled == PLANNED_FACES[:len(rolled)], rolled                       # the derivation's order
     assert len(rolled) >= 5, rolled                                             # the issue's target
     assert run.com[-1, 0] - run.com[0, 0] > 1.0                                 # towards +x [m]
+
+
+def free_flight(robot: Robot, v0: np.ndarray, w0: np.ndarray, times: np.ndarray, rtol: float) -> np.ndarray:
+    """Node positions (N, n, 3) [m] of ``robot`` in free flight (no floor) from its drawing
+    with its rods' centres moving at ``v0`` (r, 3) [m/s] and turning at ``w0`` (r, 3) [rad/s,
+    body frames], its motors holding their rest lengths: the project's cable law (with docs/mujoco.md's
+    differences, which the exported model has), the motor lag and each rod's Newton-Euler
+    equations, integrated by scipy's DOP853 at ``rtol``. Independent of MuJoCo and of the
+    exporter; rods only (no vertebrae), no pinned nodes."""
+    from scipy.integrate import solve_ivp
+    from scipy.spatial.transform import Rotation
+
+    from tensegrity_core.robot.rod import rod_frames
+
+    rods, c, motors = robot.rods, robot.cables, robot.motors
+    r = len(rods)
+    a_end, b_end = rods.ends[:, 0], rods.ends[:, 1]
+    half = 0.5 * np.linalg.norm(robot.nodes[b_end] - robot.nodes[a_end], axis=1)
+    inertia = np.stack([np.diag([t, t, a]) for t, a in rods.inertia])
+    t_max = np.full(len(c), np.inf)
+    t_max[motors.cable] = motors.max_tension
+    g = robot.gravity
+    ctrl = c.rest_length[motors.cable]
+
+    def unpack(y: np.ndarray):
+        x, q = y[:3 * r].reshape(r, 3), y[3 * r:7 * r].reshape(r, 4)
+        v, w = y[7 * r:10 * r].reshape(r, 3), y[10 * r:13 * r].reshape(r, 3)
+        return x, q, v, w, y[13 * r:]
+
+    def rhs(_t: float, y: np.ndarray) -> np.ndarray:
+        x, q, v, w, l0_motor = unpack(y)
+        R = Rotation.from_quat(q, scalar_first=True).as_matrix()
+        arm = half[:, None] * R[:, :, 2]                         # centre -> cap b, world
+        w_world = np.einsum("kij,kj->ki", R, w)
+        X, V = np.empty((robot.n_nodes, 3)), np.empty((robot.n_nodes, 3))
+        X[a_end], X[b_end] = x - arm, x + arm
+        V[a_end], V[b_end] = v - np.cross(w_world, arm), v + np.cross(w_world, arm)
+        rest = c.rest_length.copy()
+        rest[motors.cable] = l0_motor
+        u = X[c.ends[:, 1]] - X[c.ends[:, 0]]
+        length = np.linalg.norm(u, axis=1)
+        u /= length[:, None]
+        rate = np.sum(u * (V[c.ends[:, 1]] - V[c.ends[:, 0]]), axis=1)
+        T = tension(length, rate, rest, c.stiffness, c.damping, t_max)
+        passive, slack = c.motor < 0, length <= rest
+        raw = c.stiffness * (length - rest) + c.damping * rate
+        documented = np.where(passive, c.stiffness * np.maximum(length - rest, 0.0) + c.damping * rate,
+                              np.clip(raw, 0.0, t_max))
+        T = np.where(np.where(passive, slack | (raw < 0), slack), documented, T)
+        f = np.zeros_like(X)
+        np.add.at(f, c.ends[:, 0], T[:, None] * u)
+        np.add.at(f, c.ends[:, 1], -T[:, None] * u)
+        F = f[a_end] + f[b_end] + rods.mass[:, None] * g
+        tau_body = np.einsum("kji,kj->ki", R, np.cross(-arm, f[a_end]) + np.cross(arm, f[b_end]))
+        Iw = np.einsum("kij,kj->ki", inertia, w)
+        wdot = np.linalg.solve(inertia, (tau_body - np.cross(w, Iw))[..., None])[..., 0]
+        qw, qv = q[:, :1], q[:, 1:]
+        qdot = 0.5 * np.concatenate([-np.sum(qv * w, axis=1, keepdims=True), qw * w + np.cross(qv, w)], axis=1)
+        l0dot = (ctrl - l0_motor) / motors.tau
+        return np.concatenate([v.ravel(), qdot.ravel(), (F / rods.mass[:, None]).ravel(), wdot.ravel(), l0dot])
+
+    x0 = 0.5 * (robot.nodes[a_end] + robot.nodes[b_end])
+    q0 = Rotation.from_matrix(rod_frames(robot.nodes[a_end], robot.nodes[b_end])).as_quat(scalar_first=True)
+    y0 = np.concatenate([x0.ravel(), q0.ravel(), v0.ravel(), w0.ravel(), ctrl])
+    sol = solve_ivp(rhs, (0.0, times[-1]), y0, method="DOP853", t_eval=times, rtol=rtol, atol=rtol * 1e-3)
+    assert sol.success, sol.message
+    out = np.empty((len(times), robot.n_nodes, 3))
+    for k in range(len(times)):
+        x, q, *_ = unpack(sol.y[:, k])
+        arm = half[:, None] * Rotation.from_quat(q, scalar_first=True).as_matrix()[:, :, 2]
+        out[k, a_end], out[k, b_end] = x - arm, x + arm
+    return out
+
+
+def mujoco_flight(robot: Robot, v0: np.ndarray, w0: np.ndarray, times: np.ndarray, timestep: float) -> np.ndarray:
+    """The same free flight in the exported model (contacts off), RK4 at ``timestep``."""
+    m = mujoco.MjModel.from_xml_string(export_mjcf(robot, integrator="RK4", timestep=timestep).xml)
+    m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key("initial").id)
+    for i, rod in enumerate(robot.rods.names):
+        v = m.jnt_dofadr[m.body_jntadr[m.body(f"rod:{rod}").id]]
+        d.qvel[v:v + 6] = np.concatenate([v0[i], w0[i]])
+    sites = [m.site(f"node:{n}").id for n in robot.node_names]
+    out = np.empty((len(times), robot.n_nodes, 3))
+    for k, t in enumerate(times):
+        mujoco.mj_step(m, d, nstep=round((t - d.time) / timestep))
+        mujoco.mj_forward(m, d)
+        out[k] = d.site_xpos[sites]
+    return out
+
+
+@pytest.mark.parametrize("name", ["three_bar", "six_bar"])
+def test_free_flight_agrees_with_an_independent_integration(name):
+    """The exported robot thrown (its rods moving and turning) and falling freely, its cables
+    vibrating and its motors holding, in MuJoCo (RK4) and in an integration of the project's
+    elements (DOP853). The tolerance comes from both integrators' errors as in
+    ``test_mujoco_crosscheck.py``: each side runs twice (MuJoCo at ``dt`` and ``dt/2``, scipy at
+    ``rtol`` and ``rtol/100``), and the first runs must agree to ``2 (e_p + e_m) + 1e-12
+    extent`` with ``e_p``, ``e_m`` each side's self-difference. The throw is gentle enough that
+    no cable goes slack or reaches its limit (the law stays smooth, so RK4 keeps its order;
+    a motor's lag is checked exactly above: MuJoCo's RK4 integrates activations at first
+    order). The tolerance must stay below 1e-3 of the motion, so a modelling error that large
+    fails."""
+    robot = load_robot(name)
+    rng = np.random.default_rng(7)
+    r = len(robot.rods)
+    v0, w0 = rng.uniform(-0.05, 0.05, (r, 3)), rng.uniform(-0.5, 0.5, (r, 3))
+    times = np.linspace(0.0, 0.6, 13)
+    dt = 5e-4
+    project, project_fine = (free_flight(robot, v0, w0, times, rtol) for rtol in (1e-8, 1e-10))
+    peer, peer_fine = (mujoco_flight(robot, v0, w0, times, step) for step in (dt, dt / 2))
+    e_p = np.abs(project - project_fine).max()
+    e_m = np.abs(peer - peer_fine).max()
+    extent = float(np.ptp(robot.nodes, axis=0).max())
+    tolerance = 2 * (e_p + e_m) + 1e-12 * extent
+    # the motion, without the free fall every point shares: each node's displacement from the centroid's
+    motion = np.abs((project - project.mean(axis=1, keepdims=True))
+                    - (project[0] - project[0].mean(axis=0))).max()
+    assert tolerance < 1e-3 * motion, (tolerance, motion)
+    assert np.abs(project - peer).max() <= tolerance, (np.abs(project - peer).max(), tolerance)
