@@ -9,6 +9,10 @@ Run from the repository root with the ``mujoco`` extra installed (``./run setup`
 2. The six_bar under the shipped gait ``six_bar_roll``: the centre of mass on the floor and
    over time, with the faces it stands on (from MuJoCo's contacts).
 3. MuJoCo's real-time factor on one core at 1 ms for each shipped robot (both integrators).
+4. The project's robot dynamics against MuJoCo on the same scenes: ``six_bar_roll`` (faces
+   in order, centre-of-mass travel) and the drops ``three_bar_drop``, ``six_bar_drop``
+   (the face it settles on, penetration, rest height), each scene exported with
+   ``export_mjcf(load_scene(name))`` and simulated with ``tensegrity_core.sim.simulate``.
 """
 
 from __future__ import annotations
@@ -27,8 +31,10 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from tensegrity_core.export import export_mjcf  # noqa: E402
+from tensegrity_core.robot.faces import faces_visited  # noqa: E402
 from tensegrity_core.robot.gait import GAITS_DIR, gait_from_file  # noqa: E402
 from tensegrity_core.robot.loading import load_robot  # noqa: E402
+from tensegrity_core.sim import load_scene, simulate  # noqa: E402
 from tests.mujoco_peer import play_gait, robot_real_time_factor, touching_caps  # noqa: E402
 
 IMG = ROOT / "docs" / "img"
@@ -128,7 +134,71 @@ def speed() -> None:
             print(f"{name}: MuJoCo {integrator} at 1 ms runs {rtf:.1f}x real time (best of 3, 5 s simulated)")
 
 
+def project_run(name: str):
+    """The project's run of a robot scene: times, node positions, the faces it stood on (caps
+    carrying more than 2 % of the weight, as :func:`tests.mujoco_peer.play_gait` counts them)
+    and the centre of mass of its rods."""
+    scene = load_scene(name)
+    robot = scene.model.robot
+    run = simulate(scene)
+    caps = robot.rods.ends.ravel()                       # the contact forces' order: each rod's two caps
+    weight = robot.total_mass() * float(np.linalg.norm(robot.gravity))
+    faces = [(t, frozenset(robot.node_names[caps[i]] for i in f))
+             for t, f in faces_visited(run.times, np.asarray(run.contact_forces) > 0.02 * weight, hold=0.0)]
+    m = robot.rods.mass
+    mid = 0.5 * (run.nodes[:, robot.rods.ends[:, 0]] + run.nodes[:, robot.rods.ends[:, 1]])
+    com = np.einsum("r,trk->tk", m, mid) / m.sum()
+    return robot, run, faces, com
+
+
+def compare_roll() -> None:
+    robot, run, faces, com = project_run("six_bar_roll")
+    scene = load_scene("six_bar_roll")
+    gait = gait_from_file(GAITS_DIR / "six_bar_roll.yaml")
+    peer = play_gait(export_mjcf(scene).xml, gait, float(run.times[-1]))
+    print("six_bar_roll faces, project:", [f"{t:.2f} s " + " ".join(sorted(f)) for t, f in faces])
+    print("six_bar_roll faces, MuJoCo: ", [f"{t:.2f} s " + " ".join(sorted(f)) for t, f in peer.faces])
+    d_p, d_m = com[-1] - com[0], peer.com[-1] - peer.com[0]
+    print(f"centre of mass travel over {run.times[-1]:.1f} s: project {d_p[0]:.3f} m x, {d_p[1]:.3f} m y; "
+          f"MuJoCo {d_m[0]:.3f} m x, {d_m[1]:.3f} m y")
+    fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
+    ax.plot(com[:, 0], com[:, 1], color="C0", lw=1.2, label="project (robot back end)")
+    ax.plot(peer.com[:, 0], peer.com[:, 1], color="C1", lw=1.2, label="MuJoCo (exported six_bar_roll)")
+    for (series, path, times, colour, marker) in (("project", com, run.times, "C0", "o"),
+                                                  ("MuJoCo", peer.com, peer.times, "C1", "s")):
+        pts = np.array([path[min(np.searchsorted(times, t), len(times) - 1)]
+                        for t, _ in (faces if series == "project" else peer.faces)])
+        ax.plot(pts[:, 0], pts[:, 1], marker, color=colour, ms=4, ls="none", label=f"{series}: reached a new face")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_aspect("equal")
+    ax.set_title("six_bar_roll: centre of mass on the floor, project and MuJoCo")
+    ax.legend(fontsize=8)
+    fig.savefig(IMG / "mujoco_six_bar_roll_compared.png", dpi=110)
+    plt.close(fig)
+
+
+def compare_drops() -> None:
+    for name in ("three_bar_drop", "six_bar_drop"):
+        robot, run, faces, com = project_run(name)
+        m = mujoco.MjModel.from_xml_string(export_mjcf(load_scene(name)).xml)
+        d = mujoco.MjData(m)
+        mujoco.mj_resetDataKeyframe(m, d, m.key("initial").id)
+        mujoco.mj_step(m, d, nstep=round(float(run.times[-1]) / m.opt.timestep))
+        mujoco.mj_forward(m, d)
+        r_c = float(robot.rods.cap_radius.max())
+        depth_p = r_c - run.nodes[-1, :, 2]
+        touching = sorted(touching_caps(m, d))
+        depth_m = {c: r_c - d.site(f"node:{c}").xpos[2] for c in touching}
+        print(f"{name} after {run.times[-1]:.1f} s: project on {' '.join(sorted(faces[-1][1])) if faces else '-'}, "
+              f"centre of mass at {com[-1, 2]:.4f} m, deepest cap {1e3 * depth_p.max():.3f} mm; MuJoCo on "
+              f"{' '.join(touching)}, centre of mass at {d.subtree_com[0][2]:.4f} m, deepest cap "
+              f"{1e3 * max(depth_m.values()):.3f} mm")
+
+
 if __name__ == "__main__":
     settle_figure()
     roll_figure()
+    compare_roll()
+    compare_drops()
     speed()
