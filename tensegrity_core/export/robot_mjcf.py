@@ -1,7 +1,9 @@
 """The MJCF writer of tensegrity robots: a MuJoCo model of a :class:`~tensegrity_core.robot.description.Robot`.
 
-:func:`write_robot_mjcf` turns a robot description into an MJCF document (reached through
-:func:`tensegrity_core.export.export_mjcf`, which checks the options). Written with
+:func:`write_robot_mjcf` turns a robot description into an MJCF document, and
+:func:`write_robot_scene` a robot scene (its effects and initial lift applied to its robot;
+the ``robot/dynamic`` back end's writer); both are reached through
+:func:`tensegrity_core.export.export_mjcf`, which checks the options. Written with
 ``xml.etree`` only: MuJoCo is never imported. Every MJCF name is ``<kind>:<the robot's name>``:
 
 =========================  ==================================================================
