@@ -9,6 +9,7 @@ package (it writes that back end's physics for MuJoCo), so, like the back ends t
 
 =====================  ===========================================================
 ``general/dynamic``    :func:`tensegrity_core.sim.general.mjcf.write_mjcf`
+``robot/dynamic``      :func:`tensegrity_core.export.robot_mjcf.write_robot_scene`
 =====================  ===========================================================
 
 The class-2 mechanism (a planar linkage with sliding actuators, not a set of bodies and
@@ -48,6 +49,7 @@ INTEGRATORS = ("RK4", "Euler", "implicit", "implicitfast")
 #: ``module:function`` with the signature ``(scene, timestep or None, integrator) -> MjcfModel``.
 MJCF_WRITERS: dict[str, str] = {
     "general/dynamic": "tensegrity_core.sim.general.mjcf:write_mjcf",
+    "robot/dynamic": "tensegrity_core.export.robot_mjcf:write_robot_scene",
 }
 Writer = Callable[[Scene, "float | None", str], "MjcfModel"]
 
@@ -73,8 +75,8 @@ def export_mjcf(source: Scene | Structure | Robot, *, timestep: float | None = N
     """The MuJoCo model of a general scene with inertia, of a structure (as
     :func:`structure_scene`) or of a robot (:mod:`tensegrity_core.export.robot_mjcf`).
     ``timestep`` [s] (default: from the fastest rate, see :mod:`tensegrity_core.export.timestep`;
-    a robot's: 1 ms); ``integrator`` one of :data:`INTEGRATORS` (default: RK4, a robot's
-    implicitfast).
+    a robot's: 1 ms); ``integrator`` one of :data:`INTEGRATORS` (default: RK4; a robot's or
+    a robot scene's implicitfast).
 
     Raises :class:`ExportError` for a class-2 or quasi-static scene, a bad option, or a
     structure that cannot move (a free node without mass);
@@ -82,7 +84,8 @@ def export_mjcf(source: Scene | Structure | Robot, *, timestep: float | None = N
     springs, a free node without mass); ``SimulationError`` when its initial equilibrium
     cannot be found."""
     if integrator is None:
-        integrator = "implicitfast" if isinstance(source, Robot) else "RK4"
+        robotic = isinstance(source, Robot) or (isinstance(source, Scene) and source.model.kind == "robot")
+        integrator = "implicitfast" if robotic else "RK4"
     if integrator not in INTEGRATORS:
         raise ExportError(f"integrator must be one of {', '.join(INTEGRATORS)}, got {integrator!r}")
     if timestep is not None and not (math.isfinite(timestep) and timestep > 0):

@@ -1,7 +1,9 @@
 """The MJCF writer of tensegrity robots: a MuJoCo model of a :class:`~tensegrity_core.robot.description.Robot`.
 
-:func:`write_robot_mjcf` turns a robot description into an MJCF document (reached through
-:func:`tensegrity_core.export.export_mjcf`, which checks the options). Written with
+:func:`write_robot_mjcf` turns a robot description into an MJCF document, and
+:func:`write_robot_scene` a robot scene (its effects and initial lift applied to its robot;
+the ``robot/dynamic`` back end's writer); both are reached through
+:func:`tensegrity_core.export.export_mjcf`, which checks the options. Written with
 ``xml.etree`` only: MuJoCo is never imported. Every MJCF name is ``<kind>:<the robot's name>``:
 
 =========================  ==================================================================
@@ -58,6 +60,7 @@ Friction: one coefficient, ``mu_static``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import xml.etree.ElementTree as ET
 
@@ -71,6 +74,8 @@ from tensegrity_core.export.model import MjcfModel
 from tensegrity_core.general.mass_properties import body_inertias
 from tensegrity_core.robot.description import Robot
 from tensegrity_core.robot.rod import rod_frames
+from tensegrity_core.sim.scene import RobotModelSpec, Scene
+from tensegrity_core.sim.scene.spec import ContactSpec, FrictionSpec, GravitySpec, MotorsSpec
 
 FloatArray = NDArray[np.float64]
 
@@ -87,10 +92,42 @@ FRICTION_IMPRATIO = 100.0
 INERTIA_MARGIN = 1e-12
 
 
-def write_robot_mjcf(robot: Robot, timestep: float | None, integrator: str) -> MjcfModel:
-    """The MJCF model of ``robot`` (options checked by the caller); raises
+def write_robot_mjcf(robot: Robot, timestep: float | None, integrator: str, *, lift: float = 0.0,
+                     name: str | None = None) -> MjcfModel:
+    """The MJCF model of ``robot`` (options checked by the caller), raised ``lift`` [m] above
+    its drawing along the floor's normal, named ``name`` (default: the robot's); raises
     :class:`ExportError` for what MJCF cannot hold (a pinned rod end, a point mass on a rod end)."""
-    return _RobotWriter(robot, DEFAULT_TIMESTEP if timestep is None else timestep, integrator).model()
+    return _RobotWriter(robot, DEFAULT_TIMESTEP if timestep is None else timestep, integrator, lift,
+                        name or robot.name).model()
+
+
+def write_robot_scene(scene: Scene, timestep: float | None, integrator: str) -> MjcfModel:
+    """The MJCF model of a robot scene (the writer of the ``robot/dynamic`` back end): its
+    robot with the scene's effects -- gravity only if listed, the floor's contact only with
+    ``contact`` (its stiffness and dissipation), friction only with ``friction`` (its static
+    coefficient; frictionless otherwise), the motors' overrides -- raised by the initial
+    ``lift``. Inputs (a gait) are not in the file: drive ``ctrl`` from them
+    (``tests.mujoco_peer.play_gait``)."""
+    model = scene.model
+    assert isinstance(model, RobotModelSpec)            # export_mjcf picked this writer for it
+    robot = model.robot
+    fx = scene.effects
+    gravity, motors = fx.get("gravity"), fx.get("motors")
+    contact, friction = fx.get("contact"), fx.get("friction")
+    floor = robot.floor
+    if floor is not None and isinstance(contact, ContactSpec):
+        mu = (friction.mu_static, friction.mu_kinetic) if isinstance(friction, FrictionSpec) else (0.0, 0.0)
+        floor = dataclasses.replace(floor, stiffness=contact.stiffness, dissipation=contact.dissipation,
+                                    mu_static=mu[0], mu_kinetic=mu[1])
+    elif contact is None:
+        floor = None
+    m = robot.motors
+    if isinstance(motors, MotorsSpec):
+        m = dataclasses.replace(m, **{key: np.full(len(m), value) for key in ("tau", "max_speed", "max_tension")
+                                      if (value := getattr(motors, key)) is not None})
+    g = np.zeros(3) if not isinstance(gravity, GravitySpec) else np.asarray(gravity.vector, dtype=float)
+    scene_robot = dataclasses.replace(robot, floor=floor, motors=m, gravity=g)
+    return write_robot_mjcf(scene_robot, timestep, integrator, lift=scene.initial.lift, name=scene.name)
 
 
 def contact_parameters(stiffness: float, body_mass: float, impedance: float = CONTACT_IMPEDANCE
@@ -106,8 +143,10 @@ def contact_parameters(stiffness: float, body_mass: float, impedance: float = CO
 class _RobotWriter:
     """One export: the robot's parts, written element by element."""
 
-    def __init__(self, robot: Robot, timestep: float, integrator: str):
+    def __init__(self, robot: Robot, timestep: float, integrator: str, lift: float, name: str):
         self.robot = robot
+        self.name = name
+        self.lift = lift * (robot.floor.normal if robot.floor is not None else np.array([0.0, 0.0, 1.0]))
         self.timestep = float(timestep)
         self.integrator = integrator
         self.structure = robot.structure()
@@ -136,9 +175,9 @@ class _RobotWriter:
     # -- the document ----------------------------------------------------------------------------
     def model(self) -> MjcfModel:
         r = self.robot
-        root = ET.Element("mujoco", model=r.name)
+        root = ET.Element("mujoco", model=self.name)
         root.append(ET.Comment(
-            f" tensegrity export mjcf: robot {r.name} ({r.description or 'no description'}). What MuJoCo does "
+            f" tensegrity export mjcf: {self.name}, robot {r.name} ({r.description or 'no description'}). What MuJoCo does "
             f"differently: docs/mujoco.md. Motors: ctrl = target rest length [m]; tension = -actuator force [N]. "))
         ET.SubElement(root, "compiler", angle="radian", inertiafromgeom="false", alignfree="false",
                       autolimits="true")
@@ -167,7 +206,7 @@ class _RobotWriter:
             key.set("act", vector(self.act))
         ET.indent(root, space="  ")
         xml = ET.tostring(root, encoding="unicode") + "\n"
-        return MjcfModel(name=r.name, xml=xml, timestep=self.timestep, integrator=self.integrator,
+        return MjcfModel(name=self.name, xml=xml, timestep=self.timestep, integrator=self.integrator,
                          fastest_rate=math.nan, node_bodies=point_masses,
                          rigid_bodies=len(r.rods) + len(self.lay.moving_bodies), tendons=len(r.cables), loads=0,
                          actuator_members=0, nq=len(self.qpos), nv=self._nv(), rods=len(r.rods),
@@ -209,7 +248,7 @@ class _RobotWriter:
         a, b = (int(n) for n in rods.ends[i])
         xa, xb = r.nodes[a], r.nodes[b]
         half = 0.5 * float(np.linalg.norm(xb - xa))
-        centre = 0.5 * (xa + xb)
+        centre = 0.5 * (xa + xb) + self.lift
         quat = Rotation.from_matrix(rod_frames(xa, xb)[0]).as_quat(scalar_first=True)
         name = f"rod:{rods.names[i]}"
         body = ET.SubElement(world, "body", name=name, pos=vector(centre), quat=vector(quat))
@@ -230,7 +269,7 @@ class _RobotWriter:
         lay = self.lay
         body_name = lay.body_names[slot]
         name = f"body:{body_name}"
-        centre = self.robot.nodes[list(lay.body_nodes[slot])].mean(axis=0)
+        centre = self.robot.nodes[list(lay.body_nodes[slot])].mean(axis=0) + self.lift
         body = ET.SubElement(world, "body", name=name, pos=vector(centre))
         ET.SubElement(body, "freejoint", name=name)
         self.qpos.extend([*centre, 1.0, 0.0, 0.0, 0.0])
@@ -254,7 +293,7 @@ class _RobotWriter:
             if m <= 0:
                 raise ExportError(f"robot {r.name!r}: free node {r.node_names[i]!r} has no mass; give it a point "
                                   f"mass or make it a rod end")
-            body = ET.SubElement(world, "body", name=self._node(int(i)), pos=vector(r.nodes[i]))
+            body = ET.SubElement(world, "body", name=self._node(int(i)), pos=vector(r.nodes[i] + self.lift))
             for axis in range(3):
                 if not lay.fixed_mask[i, axis]:
                     ET.SubElement(body, "joint", name=f"{self._node(int(i))}:{'xyz'[axis]}", type="slide",

@@ -124,3 +124,22 @@ def test_a_bad_robot_file_is_one_line_with_exit_2(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: ") and "stiffness" in err[0], err
     assert not (tmp_path / "m.xml").exists()
+
+
+def test_a_robot_scene_exports_with_its_lift_and_effects():
+    from tensegrity_core.sim import load_scene
+
+    scene = load_scene("three_bar_drop")
+    model = export_mjcf(scene)
+    root = ET.fromstring(model.xml)
+    assert model.name == "three_bar_drop" and model.integrator == "implicitfast"
+    robot = scene.model.robot
+    lift = scene.initial.lift
+    assert lift > 0
+    for i, body in enumerate(root.findall("worldbody/body")):
+        a, b = robot.rods.ends[i]
+        centre = 0.5 * (robot.nodes[a] + robot.nodes[b]) + lift * robot.floor.normal
+        np.testing.assert_allclose([float(x) for x in body.get("pos").split()], centre, rtol=0, atol=1e-15)
+    assert len(root.findall("contact/pair")) == 2 * len(robot.rods)
+    np.testing.assert_array_equal([float(x) for x in root.find("option").get("gravity").split()],
+                                  scene.effects["gravity"].vector)

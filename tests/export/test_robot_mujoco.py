@@ -12,23 +12,28 @@ documented difference.
   except where docs/mujoco.md says they differ (damping of a slack passive cable; a slack
   motor-driven cable lengthening fast), which the check adds as those closed forms.
 - **Motors.** MuJoCo's activation follows the motor's exact lag step.
+- **Free flight.** Thrown and falling without a floor, MuJoCo's trajectories agree with an
+  integration of the project's elements to a tolerance derived from both integrators' errors.
 - **Drop and settle.** After 30 s on the floor the MuJoCo robot is an equilibrium of the
   project's statics with its touching caps held where MuJoCo has them and MuJoCo's own
   remaining inertial and damper forces as loads: node positions and cable tensions agree
   to what the statics' stiff-bar rods allow (a rod of axial stiffness ``ROD_STIFFNESS_RATIO``
   times the stiffest cable's shortens by ``F / (ratio k_max)`` under its force ``F``,
   changing a cable's length by at most that at each end: positions within
-  ``3 F_max / (ratio k_max)``, tensions within ``3 F_max / ratio``). Every touching cap
-  sinks ``F_n / k`` (the Hunt-Crossley rest) to what MuJoCo's remaining motion allows.
+  ``3 F_max / (ratio k_max)``, tensions within ``3 F_max / ratio``). Every touching cap's
+  normal force is the Hunt-Crossley rest ``k delta`` plus the derived contribution of
+  MuJoCo's remaining motion, to rounding.
 - **IMU.** At rest an IMU's accelerometer reads the specific force ``-g`` in its frame.
 - **Gait.** The shipped rolling gait played into MuJoCo's actuators rolls the 6-bar
-  towards +x over neighbouring hull faces, at least five in 10 s (the issue's target).
+  towards +x over neighbouring hull faces in the order of its quasi-static derivation, at
+  least five in 10 s (the issue's target).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 
 import numpy as np
 import pytest
@@ -241,9 +246,10 @@ def test_a_settled_robot_is_an_equilibrium_of_the_projects_statics(dropped):
 
 
 def test_a_settled_robot_sinks_as_the_projects_contact(dropped):
-    """At rest MuJoCo's normal force is ``S delta / ((1 - d) A)`` = ``k delta`` (docs/mujoco.md);
-    what motion remains adds ``(d/(1-d)) m a_n + (D m/(1-d)) v_n`` (the contact row's
-    acceleration and velocity), the tolerance."""
+    """MuJoCo's normal force is ``(a_ref - a_n)/R`` (docs/mujoco.md, "Robots"), which with the
+    exported ``solref``/``solimp`` is ``k delta - m (D v_n + d a_n)/(1 - d)``: the
+    Hunt-Crossley rest ``k delta`` plus what the remaining motion (the contact row's velocity
+    ``v_n`` and acceleration ``a_n``, separating positive) adds. Equal to rounding."""
     robot, m, d = dropped
     floor = robot.floor
     jac_acc = np.zeros(d.nefc)
@@ -256,9 +262,10 @@ def test_a_settled_robot_sinks_as_the_projects_contact(dropped):
         mass = float(m.body_mass[m.geom_bodyid[contact.geom[0]]] or m.body_mass[m.geom_bodyid[contact.geom[1]]])
         _, D = contact_parameters(floor.stiffness, mass)
         row = contact.efc_address
-        slack = (CONTACT_IMPEDANCE * mass * abs(jac_acc[row]) + D * mass * abs(d.efc_vel[row])) / eps
-        assert abs(wrench[0] - floor.stiffness * -contact.dist) <= slack + 1e-9 * wrench[0]
-        assert -contact.dist < 1e-3                  # the issue's target: below 1 mm at rest
+        motion = mass * (D * d.efc_vel[row] + CONTACT_IMPEDANCE * jac_acc[row]) / eps
+        assert abs(motion) < 1e-4 * wrench[0]                # settled: the rest dominates
+        assert math.isclose(wrench[0], floor.stiffness * -contact.dist - motion, rel_tol=1e-9)
+        assert -contact.dist < 1e-3                         # the issue's target: below 1 mm at rest
 
 
 def test_a_settled_robots_imu_reads_gravity(dropped):
@@ -286,7 +293,26 @@ def test_the_six_bar_stays_on_the_face_it_is_drawn_on():
     assert touching_caps(m, d) == frozenset(robot.node_names[i] for i in lowest)
 
 
-def test_the_six_bar_rolls_over_neighbouring_faces_under_the_shipped_gait():
+#: The faces of the quasi-static derivation of ``six_bar_roll``, in order:
+#: ``tensegrity_core.robot.tipping.tipping_steps(load_robot("six_bar"), 8)`` (``face``, then
+#: the last step's ``next_face``; about 2.5 min to derive, so written here).
+PLANNED_FACES = [{"n0", "n7", "n9"}, {"n0", "n4", "n7"}, {"n1", "n4", "n7"}, {"n1", "n4", "n11"},
+                 {"n1", "n2", "n11"}, {"n2", "n5", "n11"}, {"n2", "n5", "n6"}, {"n3", "n5", "n6"},
+                 {"n3", "n6", "n9"}]
+
+
+def without_rocking(faces: list[frozenset[str]]) -> list[frozenset[str]]:
+    """The faces with every excursion onto a face and straight back removed (A B A -> A)."""
+    out: list[frozenset[str]] = []
+    for face in faces:
+        if len(out) >= 2 and out[-2] == face:
+            out.pop()
+        else:
+            out.append(face)
+    return out
+
+
+def test_the_six_bar_rolls_over_the_planned_faces_under_the_shipped_gait():
     robot = load_robot("six_bar")
     gait = gait_from_file(GAITS_DIR / "six_bar_roll.yaml")
     run = play_gait(export_mjcf(robot).xml, gait, 10.0)
@@ -294,5 +320,153 @@ def test_the_six_bar_rolls_over_neighbouring_faces_under_the_shipped_gait():
     hull = {frozenset(robot.node_names[i] for i in f) for f in hull_faces(robot.nodes)}
     assert all(face in hull for face in faces), faces
     assert all(len(p & q) == 2 for p, q in zip(faces, faces[1:])), faces      # over an edge each time
-    assert len(set(faces)) >= 5, faces                                          # the issue's target
+    rolled = without_rocking(faces)
+    assert rolled == PLANNED_FACES[:len(rolled)], rolled                       # the derivation's order
+    assert len(rolled) >= 5, rolled                                             # the issue's target
     assert run.com[-1, 0] - run.com[0, 0] > 1.0                                 # towards +x [m]
+
+
+def free_flight(robot: Robot, v0: np.ndarray, w0: np.ndarray, times: np.ndarray, rtol: float) -> np.ndarray:
+    """Node positions (N, n, 3) [m] of ``robot`` in free flight (no floor) from its drawing
+    with its rods' centres moving at ``v0`` (r, 3) [m/s] and turning at ``w0`` (r, 3) [rad/s,
+    body frames], its motors holding their rest lengths: the project's cable law (with docs/mujoco.md's
+    differences, which the exported model has), the motor lag and each rod's Newton-Euler
+    equations, integrated by scipy's DOP853 at ``rtol``. Independent of MuJoCo and of the
+    exporter; rods only (no vertebrae), no pinned nodes."""
+    from scipy.integrate import solve_ivp
+    from scipy.spatial.transform import Rotation
+
+    from tensegrity_core.robot.rod import rod_frames
+
+    rods, c, motors = robot.rods, robot.cables, robot.motors
+    r = len(rods)
+    a_end, b_end = rods.ends[:, 0], rods.ends[:, 1]
+    half = 0.5 * np.linalg.norm(robot.nodes[b_end] - robot.nodes[a_end], axis=1)
+    inertia = np.stack([np.diag([t, t, a]) for t, a in rods.inertia])
+    t_max = np.full(len(c), np.inf)
+    t_max[motors.cable] = motors.max_tension
+    g = robot.gravity
+    ctrl = c.rest_length[motors.cable]
+
+    def unpack(y: np.ndarray):
+        x, q = y[:3 * r].reshape(r, 3), y[3 * r:7 * r].reshape(r, 4)
+        v, w = y[7 * r:10 * r].reshape(r, 3), y[10 * r:13 * r].reshape(r, 3)
+        return x, q, v, w, y[13 * r:]
+
+    def rhs(_t: float, y: np.ndarray) -> np.ndarray:
+        x, q, v, w, l0_motor = unpack(y)
+        R = Rotation.from_quat(q, scalar_first=True).as_matrix()
+        arm = half[:, None] * R[:, :, 2]                         # centre -> cap b, world
+        w_world = np.einsum("kij,kj->ki", R, w)
+        X, V = np.empty((robot.n_nodes, 3)), np.empty((robot.n_nodes, 3))
+        X[a_end], X[b_end] = x - arm, x + arm
+        V[a_end], V[b_end] = v - np.cross(w_world, arm), v + np.cross(w_world, arm)
+        rest = c.rest_length.copy()
+        rest[motors.cable] = l0_motor
+        u = X[c.ends[:, 1]] - X[c.ends[:, 0]]
+        length = np.linalg.norm(u, axis=1)
+        u /= length[:, None]
+        rate = np.sum(u * (V[c.ends[:, 1]] - V[c.ends[:, 0]]), axis=1)
+        T = tension(length, rate, rest, c.stiffness, c.damping, t_max)
+        passive, slack = c.motor < 0, length <= rest
+        raw = c.stiffness * (length - rest) + c.damping * rate
+        documented = np.where(passive, c.stiffness * np.maximum(length - rest, 0.0) + c.damping * rate,
+                              np.clip(raw, 0.0, t_max))
+        T = np.where(np.where(passive, slack | (raw < 0), slack), documented, T)
+        f = np.zeros_like(X)
+        np.add.at(f, c.ends[:, 0], T[:, None] * u)
+        np.add.at(f, c.ends[:, 1], -T[:, None] * u)
+        F = f[a_end] + f[b_end] + rods.mass[:, None] * g
+        tau_body = np.einsum("kji,kj->ki", R, np.cross(-arm, f[a_end]) + np.cross(arm, f[b_end]))
+        Iw = np.einsum("kij,kj->ki", inertia, w)
+        wdot = np.linalg.solve(inertia, (tau_body - np.cross(w, Iw))[..., None])[..., 0]
+        qw, qv = q[:, :1], q[:, 1:]
+        qdot = 0.5 * np.concatenate([-np.sum(qv * w, axis=1, keepdims=True), qw * w + np.cross(qv, w)], axis=1)
+        l0dot = (ctrl - l0_motor) / motors.tau
+        return np.concatenate([v.ravel(), qdot.ravel(), (F / rods.mass[:, None]).ravel(), wdot.ravel(), l0dot])
+
+    x0 = 0.5 * (robot.nodes[a_end] + robot.nodes[b_end])
+    q0 = Rotation.from_matrix(rod_frames(robot.nodes[a_end], robot.nodes[b_end])).as_quat(scalar_first=True)
+    y0 = np.concatenate([x0.ravel(), q0.ravel(), v0.ravel(), w0.ravel(), ctrl])
+    sol = solve_ivp(rhs, (0.0, times[-1]), y0, method="DOP853", t_eval=times, rtol=rtol, atol=rtol * 1e-3)
+    assert sol.success, sol.message
+    out = np.empty((len(times), robot.n_nodes, 3))
+    for k in range(len(times)):
+        x, q, *_ = unpack(sol.y[:, k])
+        arm = half[:, None] * Rotation.from_quat(q, scalar_first=True).as_matrix()[:, :, 2]
+        out[k, a_end], out[k, b_end] = x - arm, x + arm
+    return out
+
+
+def mujoco_flight(robot: Robot, v0: np.ndarray, w0: np.ndarray, times: np.ndarray, timestep: float) -> np.ndarray:
+    """The same free flight in the exported model (contacts off), RK4 at ``timestep``."""
+    m = mujoco.MjModel.from_xml_string(export_mjcf(robot, integrator="RK4", timestep=timestep).xml)
+    m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key("initial").id)
+    for i, rod in enumerate(robot.rods.names):
+        v = m.jnt_dofadr[m.body_jntadr[m.body(f"rod:{rod}").id]]
+        d.qvel[v:v + 6] = np.concatenate([v0[i], w0[i]])
+    sites = [m.site(f"node:{n}").id for n in robot.node_names]
+    out = np.empty((len(times), robot.n_nodes, 3))
+    for k, t in enumerate(times):
+        mujoco.mj_step(m, d, nstep=round((t - d.time) / timestep))
+        mujoco.mj_forward(m, d)
+        out[k] = d.site_xpos[sites]
+    return out
+
+
+@pytest.mark.parametrize("name", ["three_bar", "six_bar"])
+def test_free_flight_agrees_with_an_independent_integration(name):
+    """The exported robot thrown (its rods moving and turning) and falling freely, its cables
+    vibrating and its motors holding, in MuJoCo (RK4) and in an integration of the project's
+    elements (DOP853). The tolerance comes from both integrators' errors as in
+    ``test_mujoco_crosscheck.py``: each side runs twice (MuJoCo at ``dt`` and ``dt/2``, scipy at
+    ``rtol`` and ``rtol/100``), and the first runs must agree to ``2 (e_p + e_m) + 1e-12
+    extent`` with ``e_p``, ``e_m`` each side's self-difference. The throw is gentle enough that
+    no cable goes slack or reaches its limit (the law stays smooth, so RK4 keeps its order;
+    a motor's lag is checked exactly above: MuJoCo's RK4 integrates activations at first
+    order). The tolerance must stay below 1e-3 of the motion, so a modelling error that large
+    fails."""
+    robot = load_robot(name)
+    rng = np.random.default_rng(7)
+    r = len(robot.rods)
+    v0, w0 = rng.uniform(-0.05, 0.05, (r, 3)), rng.uniform(-0.5, 0.5, (r, 3))
+    times = np.linspace(0.0, 0.6, 13)
+    dt = 5e-4
+    project, project_fine = (free_flight(robot, v0, w0, times, rtol) for rtol in (1e-8, 1e-10))
+    peer, peer_fine = (mujoco_flight(robot, v0, w0, times, step) for step in (dt, dt / 2))
+    e_p = np.abs(project - project_fine).max()
+    e_m = np.abs(peer - peer_fine).max()
+    extent = float(np.ptp(robot.nodes, axis=0).max())
+    tolerance = 2 * (e_p + e_m) + 1e-12 * extent
+    # the motion, without the free fall every point shares: each node's displacement from the centroid's
+    motion = np.abs((project - project.mean(axis=1, keepdims=True))
+                    - (project[0] - project[0].mean(axis=0))).max()
+    assert tolerance < 1e-3 * motion, (tolerance, motion)
+    assert np.abs(project - peer).max() <= tolerance, (np.abs(project - peer).max(), tolerance)
+
+
+def test_the_projects_drop_and_mujocos_rest_on_the_same_face():
+    """``three_bar_drop`` in the project's robot dynamics and in MuJoCo (the scene exported):
+    drawn on one cap, the 3-bar tips and lands on the same three caps in both, each sinking
+    about ``F_n / k`` (both contact models rest there: docs/mujoco.md), so their deepest caps
+    agree within 10 % (the issue's bound for qualitative agreement), below 1 mm."""
+    from tensegrity_core.sim import load_scene, simulate
+
+    scene = load_scene("three_bar_drop")
+    robot = scene.model.robot
+    run = simulate(scene)
+    weight = robot.total_mass() * float(np.linalg.norm(robot.gravity))
+    caps = robot.rods.ends.ravel()                      # the contact forces' order: each rod's two caps
+    project_face = {robot.node_names[caps[i]] for i in np.flatnonzero(np.asarray(run.contact_forces)[-1] > 0.02 * weight)}
+    m = mujoco.MjModel.from_xml_string(export_mjcf(scene).xml)
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key("initial").id)
+    mujoco.mj_step(m, d, nstep=round(float(run.times[-1]) / m.opt.timestep))
+    mujoco.mj_forward(m, d)
+    assert touching_caps(m, d, min_force=0.02 * weight) == project_face and len(project_face) == 3
+    r_c = float(robot.rods.cap_radius.max())
+    deepest_project = float((r_c - run.nodes[-1, :, 2]).max())
+    deepest_mujoco = max(r_c - d.site(f"node:{n}").xpos[2] for n in project_face)
+    assert abs(deepest_project - deepest_mujoco) <= 0.1 * deepest_mujoco and deepest_mujoco < 1e-3
