@@ -49,12 +49,12 @@ from typing import Any, Generic, NamedTuple, Protocol, Self, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, OdeSolver, Radau
-from scipy.optimize import brentq
 
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.events import EventKind, LoggedEvent
 from tensegrity_core.sim import integrators
 from tensegrity_core.sim.errors import SimulationError, check_advance_target
+from tensegrity_core.sim.event_location import Crossing, Interpolant, StateEvent, candidates, event_values, locate
 
 FloatArray = NDArray[np.float64]
 #: ``jac(t, y)``: a dense (n, n) array or a scipy.sparse matrix (which has no type information).
@@ -73,46 +73,6 @@ IMPLICIT = ("Radau", "BDF", "LSODA")
 FRESH_START = ("LSODA",)
 #: How many times a failing step is retried with a smaller first step.
 MAX_RETRIES = 30
-
-
-class StateEvent(Protocol):
-    """State events: the components of ``g(t, y)`` (an array, or one number) each cross zero in
-    ``direction`` (-1 falling, +1 rising, 0 both). ``kind`` and ``indices`` (one per
-    component) name a crossing in the event log. ``values(t, y)`` gives ``g`` and its time
-    derivative along the motion (same shape; None where the model does not know it): the
-    rate lets the stepper see a crossing and its return inside one step."""
-
-    @property
-    def kind(self) -> EventKind: ...
-
-    @property
-    def indices(self) -> tuple[int, ...]: ...
-
-    @property
-    def direction(self) -> float: ...
-
-    def g(self, t: float, y: FloatArray) -> ArrayLike: ...
-
-    def values(self, t: float, y: FloatArray) -> tuple[ArrayLike, ArrayLike | None]: ...
-
-
-@dataclass(frozen=True)
-class Crossing:
-    """A located zero crossing: component ``component`` of ``event`` at time ``t`` [s],
-    ``falling`` (from positive to negative) or rising."""
-
-    t: float
-    event: StateEvent
-    component: int
-    falling: bool = True
-
-    @property
-    def kind(self) -> EventKind:
-        return self.event.kind
-
-    @property
-    def index(self) -> int:
-        return self.event.indices[self.component]
 
 
 #: The system type a transition leads to.
@@ -165,13 +125,6 @@ class OdeSystem(Protocol):
 
 #: The system a stepper integrates (each event or restart gives another of the same type).
 Sys = TypeVar("Sys", bound=OdeSystem)
-
-
-class _Interpolant(Protocol):
-    """The solution over the current step (scipy's ``DenseOutput``, :class:`_Constant`,
-    :class:`_LazyDense`): scalar ``t`` -> (n,), array (k,) -> (n, k)."""
-
-    def __call__(self, t: float | FloatArray) -> FloatArray: ...
 
 
 class _Constant:
@@ -236,7 +189,7 @@ class Stepper(Generic[Sys]):
         self.t: float
         self.y: FloatArray
         self._seg: tuple[float, float]
-        self._dense: _Interpolant
+        self._dense: Interpolant
         self._pending: _Pending[Sys] | None
         self._events: Sequence[StateEvent]
         self._g: list[tuple[FloatArray, FloatArray | None]]
@@ -290,7 +243,7 @@ class Stepper(Generic[Sys]):
         self.solver = None
         self.n_restarts += 1
         self._events = self.system.events()
-        self._g = [_event_values(ev, t, y) for ev in self._events]
+        self._g = [event_values(ev, t, y) for ev in self._events]
         self._to_target = input_changed
 
     def change_system(self, system: Sys, *, input_changed: bool = True) -> None:
@@ -395,14 +348,14 @@ class Stepper(Generic[Sys]):
             size = getattr(solver, "h_abs", size)
         self._h = size if size else self._h
         t_new, y_new = solver.t, solver.y
-        g_new = [_event_values(ev, t_new, y_new) for ev in self._events]
-        dense: _Interpolant | None = None
+        g_new = [event_values(ev, t_new, y_new) for ev in self._events]
+        dense: Interpolant | None = None
         hit: Crossing | None = None
         for ev, (g0, r0), (g1, r1) in zip(self._events, self._g, g_new):
-            for k, falling, t_hi in _candidates(ev.direction, g0, r0, g1, r1, t_old, t_new):
+            for k, falling, t_hi in candidates(ev.direction, g0, r0, g1, r1, t_old, t_new):
                 if dense is None:
                     dense = solver.dense_output()
-                te = _locate(ev, k, falling, dense, t_old, t_hi)
+                te = locate(ev, k, falling, dense, t_old, t_hi)
                 if te is not None and (hit is None or te < hit.t):
                     hit = Crossing(float(te), ev, k, falling)
         self._g = g_new
@@ -450,100 +403,6 @@ class Stepper(Generic[Sys]):
             i = j
 
 
-def _event_values(ev: StateEvent, t: float, y: FloatArray) -> tuple[FloatArray, FloatArray | None]:
-    g, rate = ev.values(t, y)
-    return np.atleast_1d(np.asarray(g, dtype=float)), None if rate is None else np.atleast_1d(
-        np.asarray(rate, dtype=float))
-
-
-def _candidates(direction: float, g0: FloatArray, r0: FloatArray | None, g1: FloatArray, r1: FloatArray | None,
-                t0: float, t1: float) -> list[tuple[int, bool, float]]:
-    """The components that may cross zero in ``[t0, t1]`` in ``direction``, as
-    ``(component, falling, t_hi)``: the crossing is bracketed in ``[t0, t_hi]`` if the
-    component's sign at ``t_hi`` is the new one (``t_hi = t1`` for a sign change between the
-    ends; inside the step where the Hermite cubic of the end values and rates dips across
-    zero and back). Vectorised over the components: a step without a crossing costs a few
-    array operations however many components there are."""
-    h = t1 - t0
-    # the common step: every component strictly on one side at both ends and, by the bound
-    # below, unable to reach zero in between
-    with np.errstate(invalid="ignore"):
-        quiet = g0 * g1 > 0
-        if r0 is not None and r1 is not None:
-            quiet &= ~(np.minimum(np.abs(g0), np.abs(g1)) < (4.0 / 27.0) * h * (np.abs(r0) + np.abs(r1)))
-    if quiet.all():
-        return []
-    out: list[tuple[int, bool, float]] = []
-    for falling, sign in ((True, 1.0), (False, -1.0)):
-        if direction * sign > 0:               # falling only for direction <= 0, rising only for >= 0
-            continue
-        a, b = sign * g0, sign * g1
-        # from its old side to zero or the new one, or from exactly zero to the new one
-        crossed = ((a > 0) & (b <= 0)) | ((a == 0) & (b < 0))
-        if crossed.any():
-            out += [(int(k), falling, t1) for k in np.flatnonzero(crossed)]
-        if r0 is None or r1 is None:
-            continue
-        m0, m1 = sign * r0 * h, sign * r1 * h
-        # the cubic is at least min(a, b) - 4/27 (|m0| + |m1|) (the end-slope basis functions
-        # stay within +-4/27 on [0, 1]): only components that may reach zero are looked at
-        with np.errstate(invalid="ignore"):
-            near = (a > 0) & (b > 0) & (np.minimum(a, b) < (4.0 / 27.0) * (np.abs(m0) + np.abs(m1)))
-        if near.any():
-            k = np.flatnonzero(near)
-            s, p = _hermite_minimum(a[k], m0[k], b[k], m1[k])
-            out += [(int(k[j]), falling, t0 + float(s[j]) * h) for j in np.flatnonzero(p < 0)]
-    return out
-
-
-def _hermite_minimum(p0: FloatArray, m0: FloatArray, p1: FloatArray,
-                     m1: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """``(s, p(s))`` at the interior minimum over ``s`` in (0, 1) of the cubic Hermite
-    interpolant with end values ``p0, p1`` and end slopes ``m0, m1`` (per unit ``s``);
-    ``p(s) = inf`` where it has none inside."""
-    # p'(s) = A s^2 + B s + m0, p''(s) = 2 A s + B
-    A = 6 * p0 + 3 * m0 - 6 * p1 + 3 * m1
-    B = -6 * p0 - 4 * m0 + 6 * p1 - 2 * m1
-    disc = B * B - 4 * A * m0
-    s_best = np.full(np.shape(p0), 0.5)
-    p_best = np.full(np.shape(p0), np.inf)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        quadratic = A != 0
-        root = np.sqrt(np.maximum(disc, 0.0))
-        linear = -m0 / B
-        for s in (np.where(quadratic, (-B + root) / (2 * A), linear),
-                  np.where(quadratic, (-B - root) / (2 * A), np.nan)):
-            ok = np.isfinite(s) & (s > 0) & (s < 1) & ((disc >= 0) | ~quadratic) & (2 * A * s + B > 0)
-            p = ((2 * s**3 - 3 * s**2 + 1) * p0 + (s**3 - 2 * s**2 + s) * m0 + (-2 * s**3 + 3 * s**2) * p1
-                 + (s**3 - s**2) * m1)
-            better = ok & (p < p_best)
-            s_best = np.where(better, s, s_best)
-            p_best = np.where(better, p, p_best)
-    return s_best, p_best
-
-
-def _locate(ev: StateEvent, k: int, falling: bool, dense: _Interpolant, t0: float, t1: float) -> float | None:
-    """The first time in ``[t0, t1]`` at which component ``k`` of ``ev.g`` is on its new side
-    (< 0 falling, > 0 rising), found by Brent's method on the dense output (as ``solve_ivp``
-    locates events) and moved past the root to the first point where the sign holds; None if
-    the dense output is not on the new side at ``t1`` (a dip of the Hermite cubic only)."""
-    sign = 1.0 if falling else -1.0
-
-    def f(t: float) -> float:
-        return sign * float(np.atleast_1d(ev.g(t, dense(t)))[k])
-
-    if f(t1) > 0.0:
-        return None
-    eps = np.finfo(float).eps
-    xtol = 4 * eps * max(1.0, abs(t1))
-    te = t0 if f(t0) <= 0.0 else float(brentq(f, t0, t1, xtol=xtol, rtol=4 * eps))
-    for _ in range(8):
-        if f(te) < 0.0 or te >= t1:
-            break
-        te = min(t1, te + xtol)
-    return te
-
-
 class _LazyDense:
     """The solver's dense output for its last step, built on first use (before the next step)."""
 
@@ -551,7 +410,7 @@ class _LazyDense:
         self.solver = solver
         self.t_end: float = solver.t
         self.y: FloatArray = solver.y.copy()
-        self._fn: _Interpolant | None = None
+        self._fn: Interpolant | None = None
 
     def __call__(self, t: float | FloatArray) -> FloatArray:
         if np.ndim(t) == 0 and t == self.t_end:

@@ -52,9 +52,10 @@ from tensegrity_core.events import EventKind
 from tensegrity_core.sim.class2.contact import held_set, impact, stick
 from tensegrity_core.sim.class2.setup import ForceEffect, class2_params
 from tensegrity_core.sim.errors import SimulationError
+from tensegrity_core.sim.event_location import Crossing
 from tensegrity_core.sim.inputs import Law, next_breakpoint
 from tensegrity_core.sim.scene import Scene
-from tensegrity_core.sim.stepper import Crossing, Transition
+from tensegrity_core.sim.stepper import Transition
 
 FloatArray = NDArray[np.float64]
 
@@ -74,7 +75,7 @@ RELEASE_REL: Final = 1e-10
 class Class2StateEvent:
     """A state event: ``value(t, y)`` crosses zero in ``direction`` (-1 falling, +1 rising);
     ``rate(t, y)`` is its time derivative when known (a
-    :class:`~tensegrity_core.sim.stepper.StateEvent` of one component)."""
+    :class:`~tensegrity_core.sim.event_location.StateEvent` of one component)."""
 
     kind: EventKind      # "fold" | "release" | "singular"
     index: int           # actuator (0, 1) or 0/1 for lambda1/lambda2

@@ -68,12 +68,13 @@ from tensegrity_core.general.rotation import cross, exp_so3
 from tensegrity_core.general.statics import group_sum
 from tensegrity_core.general.structure import Structure
 from tensegrity_core.sim.errors import SceneError
+from tensegrity_core.sim.event_location import Crossing
 from tensegrity_core.sim.general.kernels import arrays, loops
 from tensegrity_core.sim.general.kernels.evaluator import Evaluation, Evaluator
 from tensegrity_core.sim.general.kernels.plan import Plan, build_plan
 from tensegrity_core.sim.general.kernels.stages import CompiledStages
 from tensegrity_core.sim.inputs import Law, next_breakpoint
-from tensegrity_core.sim.stepper import Crossing, Transition
+from tensegrity_core.sim.stepper import Transition
 
 FloatArray = NDArray[np.float64]
 
@@ -380,7 +381,7 @@ def _with_slack(plan: Plan, strings: NDArray[np.int64], slack: NDArray[np.bool_]
 class StringEvent:
     """The strings of ``system`` going slack (a component falls through zero) or taut (rises):
     components ``l - l0(t)`` [m] per string, with rates ``dl/dt - dl0/dt`` [m/s] (nan where
-    unknown). A :class:`~tensegrity_core.sim.stepper.StateEvent` of both directions, named
+    unknown). A :class:`~tensegrity_core.sim.event_location.StateEvent` of both directions, named
     by the member's index."""
 
     system: GeneralSystem
