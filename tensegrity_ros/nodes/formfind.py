@@ -126,6 +126,8 @@ class FormFindNode(Node):
                 start = time.monotonic() if start is None else start
         except EOFError:
             proc.join(timeout=5)
+            if proc.exitcode == formfind_worker.OVER_MEMORY_EXIT:
+                return FormFindReply.failure(formfind_worker.OVER_MEMORY)
             return FormFindReply.failure(
                 f"the form-finding worker died while {phase} (exit code {proc.exitcode}; its memory is capped "
                 f"at max_worker_memory_mb = {self.max_worker_memory_mb})")

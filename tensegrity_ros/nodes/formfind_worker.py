@@ -17,6 +17,7 @@ the phase in its answer.
 from __future__ import annotations
 
 import math
+import os
 import resource
 import sys
 import time
@@ -32,6 +33,15 @@ PARSING = "parsing the structure description"
 FORM_FINDING = "form-finding"
 #: The longest message an answer carries (characters).
 MAX_MESSAGE = 2000
+#: What a worker answers when its memory cap stops a request.
+OVER_MEMORY = "the request needs more memory than this service allows a worker"
+#: The exit code of a worker that could not even send :data:`OVER_MEMORY` (the node answers
+#: it for the worker).
+OVER_MEMORY_EXIT = 75
+#: Memory set aside before the cap and given back when a request runs out [bytes], so the
+#: answer can still be built and pickled: after a MemoryError the freed parse may stay
+#: mapped (the allocator keeps it), which counts against the address-space cap.
+RESERVE_BYTES = 4 * 2**20
 
 
 @dataclass
@@ -100,7 +110,7 @@ def solve(text: str, tol: float, max_iter: int, time_limit: float, max_members: 
     except TensegrityError as err:
         return FormFindReply.failure(str(err))
     except MemoryError:
-        return FormFindReply.failure("the request needs more memory than this service allows a worker")
+        return FormFindReply.failure(OVER_MEMORY)
     except Exception as err:  # a bug must become an answer, never a dead service
         traceback.print_exc(file=sys.stderr)            # the server's log, not the caller's answer
         return FormFindReply.failure(f"internal error: {type(err).__name__}")
@@ -120,12 +130,25 @@ def solve(text: str, tol: float, max_iter: int, time_limit: float, max_members: 
 
 def run(conn, text: str, tol: float, max_iter: int, time_limit: float, max_members: int, limits: Limits,
         memory_bytes: int) -> None:
-    """The worker process's body: cap the memory, solve, send phases and the result on ``conn``."""
+    """The worker process's body: cap the memory, solve, send phases and the result on ``conn``.
+    A request that runs out of memory is answered :data:`OVER_MEMORY`; if even that cannot be
+    sent, the worker exits at once with :data:`OVER_MEMORY_EXIT` (no traceback to print under
+    the cap) and the node answers it."""
+    reserve: bytearray | None = bytearray(RESERVE_BYTES)
     try:
         cap_memory(memory_bytes)
-        conn.send(("result", solve(text, tol, max_iter, time_limit, max_members, limits,
-                                   report=lambda phase: conn.send(("phase", phase)))))
+        reply = solve(text, tol, max_iter, time_limit, max_members, limits,
+                      report=lambda phase: conn.send(("phase", phase)))
+        if reply.message == OVER_MEMORY:
+            reserve = None
+        conn.send(("result", reply))
     except MemoryError:
-        conn.send(("result", FormFindReply.failure("the request needs more memory than this service allows a worker")))
+        reserve = None
+        try:
+            conn.send(("result", FormFindReply.failure(OVER_MEMORY)))
+        except MemoryError:
+            conn.close()
+            os._exit(OVER_MEMORY_EXIT)
     finally:
+        del reserve
         conn.close()
