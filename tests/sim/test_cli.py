@@ -62,6 +62,9 @@ def test_scene_errors_are_one_line_with_exit_2(tmp_path, capsys):
     assert len(err) == 1 and err[0].startswith("error: bad.yaml: effects[2]: unknown effect 'dampin'")
     assert err[0].endswith("(line 4)")
     assert main(["simulate", "paper_fold", "-o", str(tmp_path / "x.txt")]) == 2
+    capsys.readouterr()
+    assert main(["simulate", "paper_fld"]) == 2
+    assert "neither a shipped scene (did you mean 'paper_fold'?)" in capsys.readouterr().err
     assert main(["simulate", "no_such_scene"]) == 2
     assert main(["simulate", "paper_fold", "--duration", "-1"]) == 2
 
