@@ -19,6 +19,7 @@ walk them all (:func:`main`).
 from __future__ import annotations
 
 import argparse
+import difflib
 import gc
 import importlib
 import os
@@ -40,13 +41,30 @@ def _command_modules():
     return sorted(mods, key=lambda m: getattr(m, "ORDER", 100))
 
 
+class CommandParser(argparse.ArgumentParser):
+    """The parser of one subcommand: an argument it does not know is refused with *its*
+    usage and the closest option it has (``tensegrity fk 0.7 0.7 --jsn``: "unrecognized
+    arguments: --jsn (did you mean --json?)"), where argparse would hand the leftovers up
+    to the top-level parser and print the top-level usage."""
+
+    def parse_known_args(self, args=None, namespace=None):
+        namespace, extras = super().parse_known_args(args, namespace)
+        if extras:
+            options = [o for action in self._actions for o in action.option_strings]
+            hints = [f"{word} (did you mean {close[0]}?)" if word.startswith("-") and (
+                close := difflib.get_close_matches(word.partition("=")[0], options, n=1)) else word
+                for word in extras]
+            self.error(f"unrecognized arguments: {' '.join(hints)}")
+        return namespace, extras
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="tensegrity",
         description="Simulate, analyse and drive tensegrity mechanisms "
         "(numerical core + ROS 2 Jazzy node suite).",
     )
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=CommandParser)
     for mod in _command_modules():
         mod.register(sub)
     return parser
