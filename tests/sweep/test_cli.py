@@ -158,6 +158,13 @@ def test_a_bad_sweep_file_names_the_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: bad.yaml: vary.model.params.kk.x: model.params has no key 'kk' (did you mean 'k'?)")
     assert err.endswith("(line 3)")
+    path.write_text("base: {scene: paper_fold}\nvary:\n  model.params.k: [1, 2]\n  model.params.cc: [0, 0.1]\n"
+                    "compute: simulate\nresults: [t_end]\n")
+    assert main(["sweep", str(path), "-o", str(tmp_path / "out.csv")]) == 2       # the last key's typo
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: bad.yaml: vary.model.params.cc: the base scene 'paper_fold' has no "
+                          "'model.params.cc'") and "unknown key 'cc' (did you mean 'c'?)" in err
+    assert err.endswith("(line 4)") and not (tmp_path / "out.csv").exists()
 
 
 def test_the_core_reads_sweeps_and_runs_everything_else_without_dask_pandas_or_pyarrow():
