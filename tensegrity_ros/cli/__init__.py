@@ -9,7 +9,9 @@ commands work in an environment without the ROS wheels.
 Long-running ROS commands (``node``, ``up``, ``record``, ``play``) set
 ``stop_signals=True``: for them SIGINT and SIGTERM are stop requests
 (:mod:`tensegrity_ros.rclpy_utils.stop_signals`) from the first line of :func:`main` until the process
-has exited, and a clean stop exits with code 0. Every other command gets Python's default
+has exited, and a clean stop exits with code 0; run as the program (:func:`run`) their
+process then ends without the interpreter's finalization, where ROS processes abort
+(:mod:`tensegrity_ros.rclpy_utils.process_exit`). Every other command gets Python's default
 again once parsed (Ctrl-C raises ``KeyboardInterrupt``: exit code 130). When one of them
 returns, the process is about to exit: its objects are frozen out of the garbage
 collector (``gc.freeze``), so that the interpreter's last collection at exit does not
@@ -70,7 +72,17 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
+def run() -> None:
+    """The ``tensegrity`` program (the console script and ``python -m tensegrity_ros.cli``):
+    :func:`main`, and a long-running ROS command's process then ends without the
+    interpreter's finalization (:mod:`tensegrity_ros.rclpy_utils.process_exit`)."""
+    sys.exit(main(exit_after=True))
+
+
+def main(argv: list[str] | None = None, *, exit_after: bool = False) -> int:
+    """Run the command ``argv`` (default: the process's arguments); its exit code. With
+    ``exit_after`` a long-running ROS command (``node``, ``up``, ``record``, ``play``) ends
+    the process once it has returned, instead of returning."""
     # Held from the first line: a signal during start-up (imports, argument parsing) ends
     # the process at once with code 0, never with a traceback or killed mid-import.
     stop_signals.install()
@@ -92,7 +104,12 @@ def main(argv: list[str] | None = None) -> int:
         keep = bool(getattr(args, "stop_signals", False))  # kept until the process exits
         if not keep:
             stop_signals.release()    # Python's defaults again: Ctrl-C raises KeyboardInterrupt
-        return _run(args)
+        code = _run(args)
+        if keep and exit_after:
+            from tensegrity_ros.rclpy_utils.process_exit import end_process
+
+            end_process(code)
+        return code
     finally:
         if not keep:
             stop_signals.release()
