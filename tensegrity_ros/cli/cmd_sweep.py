@@ -112,9 +112,15 @@ def run_sweep_command(args) -> int:
     except SweepError as err:
         raise CliError(str(err), code=1) from None
     except KeyboardInterrupt:
-        if args.output is not None and journal_path(Path(args.output)).exists():
-            print(f"interrupted: the finished points are in {journal_path(Path(args.output))}; "
-                  f"--resume continues", file=sys.stderr)
+        journal = journal_path(Path(args.output)) if args.output is not None else None
+        if journal is not None and journal.exists():
+            kept = max(0, len(journal.read_text(encoding="utf-8", errors="replace").splitlines()) - 1)
+            print(f"interrupted: {kept} finished point{'s' if kept != 1 else ''} kept in {journal}; "
+                  f"--resume runs the others", file=sys.stderr)
+        elif journal is not None:
+            print("interrupted before the first point finished: nothing written", file=sys.stderr)
+        else:
+            print("interrupted (without -o nothing is kept)", file=sys.stderr)
         return 130
     wall = time.perf_counter() - t0
     if args.plot:

@@ -119,19 +119,53 @@ def test_ctrl_c_ends_the_sweep_with_one_line_and_resume_runs_the_rest_once(tmp_p
         stdout, stderr = proc.communicate(timeout=120)
     finally:
         kill_group(proc)                      # only if it is still there
+    finished = [json.loads(line) for line in journal.read_text().splitlines()[1:]]
     assert proc.returncode == 130, stderr
-    assert stderr.strip().splitlines() == [f"interrupted: the finished points are in {journal}; --resume continues"], \
-        stderr[-3000:]
+    assert stderr.strip().splitlines() == [f"interrupted: {len(finished)} finished points kept in {journal}; "
+                                           "--resume runs the others"], stderr[-3000:]
     assert not out.exists() and stdout == ""
 
     assert_all_end(family)  # the workers end with the cluster
-    finished = [json.loads(line) for line in journal.read_text().splitlines()[1:]]
     assert 2 <= len(finished) < n
     assert main(["sweep", sweep, "-o", str(out), "--resume", "--workers", "2", "--quiet"]) == 0
     table = pd.read_parquet(out)
     assert list(table["point"]) == list(range(n)) and set(table["status"]) == {"ok"}
     for row in finished:                     # kept, not run again
         assert table["run_time"][row["point"]] == row["run_time"]
+
+
+def test_ctrl_c_while_the_cluster_starts_ends_with_one_line(tmp_path):
+    """A Ctrl-C while the embedded cluster starts (its worker processes exist, no point has
+    finished): the workers, which were importing Dask, print nothing, the cluster is closed
+    as soon as its start ends (Dask's exit handler has nothing left to fail on: no
+    AssertionError), exit 130 and one line; no process is left."""
+    import os
+    import signal
+    import time
+
+    from tests.process_groups import assert_all_end, exited, kill_group
+
+    psutil = pytest.importorskip("psutil")
+    sweep = write(tmp_path, fold_sweep(vary={"inputs.f1.gain": {"grid": {"from": 6.0, "to": 14.0, "num": 4}}}))
+    out = tmp_path / "r.parquet"
+    proc = subprocess.Popen([sys.executable, "-m", "tensegrity_ros.cli", "sweep", sweep, "-o", str(out),
+                             "--workers", "2", "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 120     # a guard against a hang, not a timing
+        while len(family := psutil.Process(proc.pid).children(recursive=True)) < 2:   # worker processes
+            assert not exited(proc), "the sweep ended before it was interrupted"
+            assert time.monotonic() < deadline, "no worker process after 120 s"
+            time.sleep(0.01)
+        os.killpg(proc.pid, signal.SIGINT)    # the leader is not reaped yet: the group is still its
+        stdout, stderr = proc.communicate(timeout=120)
+    finally:
+        kill_group(proc)
+    assert proc.returncode == 130, stderr
+    lines = stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("interrupted"), stderr[-3000:]
+    assert not out.exists() and stdout == ""
+    assert_all_end(family)
 
 
 @pytest.mark.parametrize("args, message", [
