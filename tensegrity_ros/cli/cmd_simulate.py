@@ -7,12 +7,18 @@ prints a summary (``--json`` for scripts), and writes the trajectory (``-o OUT.n
 does not fit its stiffness gets a ``warning:`` line before the run. A scene error exits with
 code 2 and one ``error:`` line; a run that stops early (singular configuration, no
 equilibrium) or breaks an invariant of the physics (``error: invariant violated: ...``)
-writes what it has and exits with code 1.
+writes what it has and exits with code 1. Ctrl-C (or SIGTERM) ends the run at its next
+sample: what was computed is written and plotted, said so, exit code 130; a second Ctrl-C
+interrupts at once.
 """
 
 from __future__ import annotations
 
+import contextlib
+import signal
 import sys
+import threading
+from collections.abc import Iterator
 from pathlib import Path
 
 from tensegrity_ros.cli._common import CliError, Row, add_json_flag, add_listing, print_json
@@ -110,8 +116,10 @@ def run_sampled_cli(args) -> int:
     controller = load_controller(args.controller)
     try:
         scene = load_scene(args.scene)
-        run = run_sampled(scene, controller, step_size=args.control_period,
-                          duration=scene.duration if args.duration is None else args.duration)
+        with stop_requests() as stop:
+            run = run_sampled(scene, controller, step_size=args.control_period,
+                              duration=scene.duration if args.duration is None else args.duration,
+                              stop=stop.is_set)
     except (SceneError, TensegrityError) as err:
         raise CliError(str(err)) from None
     if out is not None:
@@ -135,10 +143,7 @@ def run_sampled_cli(args) -> int:
             print(f"final q = {run.q[-1]}")
         if out:
             print(f"trajectory written to {out}")
-    if not run.success:
-        print(f"error: simulation stopped early: {run.message}", file=sys.stderr)
-        return 1
-    return 0
+    return _outcome(run.success, run.message, stop.is_set(), out, None)
 
 
 def _print_warning(message, category, filename, lineno, file=None, line=None) -> None:
@@ -182,10 +187,10 @@ def run_simulate(args) -> int:
         bar.update(t - bar.n)
 
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), stop_requests() as stop:
             warnings.simplefilter("always", StiffnessWarning)
             warnings.showwarning = _print_warning     # at once: before the run, not after it
-            traj = simulate(scene, progress=progress if bar is not None else None)
+            traj = simulate(scene, progress=progress if bar is not None else None, stop=stop.is_set)
     except TensegrityError as err:
         raise CliError(str(err)) from None
     finally:
@@ -212,10 +217,42 @@ def run_simulate(args) -> int:
         _print_summary(summary)
     for violation in traj.violations:
         print(f"error: invariant violated: {violation}", file=sys.stderr)
-    if not traj.success:
-        print(f"error: simulation stopped early: {traj.message}", file=sys.stderr)
+    code = _outcome(traj.success, traj.message, stop.is_set(), out, args.plot)
+    return code or (1 if traj.violations else 0)
+
+
+def _outcome(success: bool, message: str, stopped: bool, out: Path | None, plot: str | None) -> int:
+    """The exit code of a run, and its last line on stderr when it did not end as planned:
+    130 when a stop was asked for (it ends at the next sample, and what was computed is
+    written), 1 when it stopped early by itself."""
+    if stopped and not success:
+        kept = " and ".join(f"{what} {where}" for what, where in (("written to", out), ("plotted in", plot))
+                            if where) or "not written (no -o)"
+        print(f"{message}: the run up to there is {kept}", file=sys.stderr)
+        return 130
+    if not success:
+        print(f"error: simulation stopped early: {message}", file=sys.stderr)
         return 1
-    return 1 if traj.violations else 0
+    return 0
+
+
+@contextlib.contextmanager
+def stop_requests() -> Iterator[threading.Event]:
+    """Within the block SIGINT (Ctrl-C) and SIGTERM set the returned event, which the run
+    checks between samples; a second one raises ``KeyboardInterrupt`` at once."""
+    asked = threading.Event()
+
+    def ask(signum, frame) -> None:
+        if asked.is_set():
+            raise KeyboardInterrupt
+        asked.set()
+
+    previous = {sig: signal.signal(sig, ask) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield asked
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 def _print_summary(s: dict) -> None:
