@@ -127,7 +127,7 @@ def run_sampled_cli(args) -> int:
     summary = {"scene": run.scene_name, "success": run.success, "message": run.message,
                "control_period_ns": run.step_ns, "controller": args.controller, "steps": len(run.commands),
                "t_end": float(run.times[-1]),
-               "events": [{"t": float(t), "kind": k, "index": int(i)} for t, k, i in run.events],
+               "events": _events(run.events),
                "stats": run.stats, "final": {"q": run.q[-1]}, "output": str(out) if out else None}
     if args.json:
         print_json(summary)
@@ -137,8 +137,7 @@ def run_sampled_cli(args) -> int:
         print(f"scene {run.scene_name}: sampled-data run, controller {args.controller} every "
               f"{run.step_ns / 1e9:.9g} s (zero-order hold)")
         print(f"{run.message}: to t = {summary['t_end']:.9g} s")
-        for e in summary["events"]:
-            print(f"  event at t = {e['t']:.9g} s: {e['kind']} {e['index']}")
+        _print_events(summary["events"])
         with np.printoptions(precision=6, suppress=True):
             print(f"final q = {run.q[-1]}")
         if out:
@@ -206,7 +205,7 @@ def run_simulate(args) -> int:
         "scene": traj.scene_name, "success": traj.success, "message": traj.message,
         "model": scene.model.kind, "quasi_static": scene.quasi_static, "effects": list(scene.effects),
         "samples": len(traj), "t_end": float(traj.times[-1]) if len(traj) else 0.0,
-        "events": [{"t": float(t), "kind": k, "index": int(i)} for t, k, i in traj.events],
+        "events": _events(traj.events),
         "stats": traj.stats, "final": {"q": traj.q[-1] if len(traj) else [],
                                        "end_effector": traj.end_effector[-1] if len(traj) else []},
         "output": str(out) if out else None, "plot": args.plot, "violations": traj.violations,
@@ -255,6 +254,19 @@ def stop_requests() -> Iterator[threading.Event]:
             signal.signal(sig, handler)
 
 
+def _events(events) -> list[dict]:
+    """Events for people and scripts: time [s], kind and what it is about by name (``rho1``:
+    counted from 1, as every name is; ``""`` for kinds about nothing in particular)."""
+    from tensegrity_core.events import event_subject
+
+    return [{"t": float(t), "kind": k, "subject": event_subject(k, int(i))} for t, k, i in events]
+
+
+def _print_events(events: list[dict]) -> None:
+    for e in events:
+        print(f"  event at t = {e['t']:.9g} s: {e['kind']} {e['subject']}".rstrip())
+
+
 def _print_summary(s: dict) -> None:
     import numpy as np
 
@@ -263,8 +275,7 @@ def _print_summary(s: dict) -> None:
     stats = s["stats"]
     extra = ", ".join(f"{k} {v}" for k, v in stats.items() if k not in ("wall_time",))
     print(f"{s['message']}: {s['samples']} samples to t = {s['t_end']:.6g} s in {stats['wall_time']:.3f} s ({extra})")
-    for e in s["events"]:
-        print(f"  event at t = {e['t']:.9g} s: {e['kind']} {e['index']}")
+    _print_events(s["events"])
     with np.printoptions(precision=6, suppress=True):
         print(f"final q = {np.asarray(s['final']['q'])}, end effector = {np.asarray(s['final']['end_effector'])}")
     for key, label in (("output", "trajectory"), ("plot", "plot")):

@@ -4,7 +4,9 @@ Results (column names in brackets; times in s, other quantities in the scene's u
 
 - ``first_event_time`` {kind, actuator}: time of the first event of that kind (``fold``,
   ``release``, ``jump``, ``limit``, ``singular``, ``slack``, ``taut``; default any)
-  [``first_<kind>_time``], NaN if none (``actuator``: the event's index, a member's for strings);
+  [``first_<kind>_time``], NaN if none; ``actuator`` counts from 1 as the names do (1: rho1's
+  fold or release, lambda1 for ``singular``, the first member for a string's ``slack`` or
+  ``taut``) [``first_<kind>_time_<actuator>``];
 - ``event_count`` {kind, actuator}: number of such events [``<kind>_count``];
 - ``t_end``: time of the last sample (below the duration when the run stopped early);
 - ``final`` {of}: the last sample of ``q``, ``qdot``, ``end_effector``, ``applied_forces``,
@@ -44,11 +46,13 @@ FINAL_OF = ("q", "qdot", "end_effector", "applied_forces", "member_forces", "mem
             "kinetic_energy", "potential_energy")
 PEAK_OF = ("kinetic_energy", "potential_energy", "member_forces", "applied_forces", "q", "end_effector")
 XYZ = ("x", "y", "z")
+#: The ``actuator`` option: counted from 1, as rho1, rho2 (and lambda1, lambda2) are.
+ACTUATOR = integer(lo=1, what="an actuator (counted from 1: 1 = rho1, 2 = rho2)")
 
 
 def _events(traj: Trajectory, options: Options) -> list[float]:
     kind, actuator = options.get("kind", "any"), options.get("actuator")
-    return [t for t, k, i in traj.events if kind in ("any", k) and actuator in (None, i)]
+    return [t for t, k, i in traj.events if kind in ("any", k) and actuator in (None, i + 1)]
 
 
 def _event_column(stem: str, options: Options) -> str:
@@ -73,10 +77,10 @@ def _component_names(traj: Trajectory, of: str) -> list[str]:
         names = list(traj.state_names)
         names = names[:nq] if of == "q" else names[nq:2 * nq]
         if len(names) != nq:
-            names = [f"{of}_{i}" for i in range(nq)]
+            names = [f"{of}_{i + 1}" for i in range(nq)]
         return [f"final_{n}" for n in names]
     if of == "applied_forces":
-        names = list(traj.actuator_names) or [str(i) for i in range(traj.applied_forces.shape[1])]
+        names = list(traj.actuator_names) or [str(i + 1) for i in range(traj.applied_forces.shape[1])]
         return [f"final_applied_{n}" for n in names]
     prefix = "force" if of == "member_forces" else "length"
     return [f"final_{prefix}_{n}" for n in traj.member_names]
@@ -148,12 +152,12 @@ RESULTS: dict[str, ResultDef[Trajectory]] = {
     "first_event_time": ResultDef(
         doc="time of the first event of a kind [s]",
         columns=lambda o, d: [(_event_column("first_{kind}_time", o), "float")],
-        extract=_first_event, options={"kind": choice(*KIND_CHOICES), "actuator": integer()}),
+        extract=_first_event, options={"kind": choice(*KIND_CHOICES), "actuator": ACTUATOR}),
     "event_count": ResultDef(
         doc="number of events of a kind",
         columns=lambda o, d: [(_event_column("{kind}_count", o), "int")],
         extract=lambda traj, o, d: [len(_events(traj, o))],
-        options={"kind": choice(*KIND_CHOICES), "actuator": integer()}),
+        options={"kind": choice(*KIND_CHOICES), "actuator": ACTUATOR}),
     "t_end": scalar("t_end", "float", lambda traj: float(traj.times[-1]) if len(traj) else math.nan,
                     "time of the last sample [s]"),
     "final": ResultDef(

@@ -139,7 +139,7 @@ class FormFind(Computation["Structure", Equilibrium]):
 
 
 def _eigen_columns(options: Options, data: object) -> list[Column]:
-    return [(f"eigenvalue_{i}", "float") for i in range(options.get("n", 1))]
+    return [(f"eigenvalue_{i + 1}", "float") for i in range(options.get("n", 1))]    # from 1, the lowest
 
 
 def _eigenvalues(out: Equilibrium, options: Options, data: object) -> list[float]:
