@@ -144,6 +144,11 @@ class Plan:
     def result_columns(self) -> list[Column]:
         return [c for r in self.results for c in r.columns]
 
+    @property
+    def result_units(self) -> dict[str, str]:
+        """The unit of each result column (:attr:`~tensegrity_core.sweep.computations.results.ResultDef.unit`)."""
+        return {name: unit for r in self.results for (name, _), unit in zip(r.columns, r.units)}
+
 
 def prepare(sweep: Sweep) -> Plan:
     """The sweep's :class:`Plan`: its results prepared (names and sizes of components from a
@@ -173,7 +178,8 @@ def prepare(sweep: Sweep) -> Plan:
             except OptionError as err:
                 raise SweepError(err.reason, key=("results", name), line=line,
                                  file=sweep.source and Path(sweep.source).name) from None
-        specs.append(ResultSpec(name, options, tuple(rdef.columns(options, data)), data))
+        columns = rdef.columns(options, data)
+        specs.append(ResultSpec(name, options, tuple(columns), data, rdef.units(options, data, columns)))
     seen = set(RESERVED) | {q.column for q in sweep.quantities}
     for spec in specs:
         for column, _ in spec.columns:
