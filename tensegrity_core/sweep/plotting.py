@@ -56,14 +56,18 @@ def _label(v: object) -> str:
     return f"{v:.3g}" if isinstance(v, float) else str(v)
 
 
+def column_unit(plan: Plan, column: str) -> str:
+    """The unit of a result column (``""`` for a boolean, ``?`` when unknown)."""
+    if dict(plan.result_columns).get(column) == "bool":
+        return ""
+    return "s" if column == ALWAYS_KEPT else plan.result_units.get(column) or "?"
+
+
 def column_label(plan: Plan, column: str) -> str:
     """A result column with its unit: ``first_fold_time [s]``, ``slack_members [count]``; a
     boolean column is its name alone (its values are the categories false and true)."""
-    kinds = dict(plan.result_columns)
-    if kinds.get(column) == "bool":
-        return column
-    unit = "s" if column == ALWAYS_KEPT else plan.result_units.get(column, "")
-    return f"{column} [{unit or '?'}]"
+    unit = column_unit(plan, column)
+    return f"{column} [{unit}]" if unit else column
 
 
 def plot_sweep(table: Any, sweep: Sweep, path: str | Path, columns: Sequence[str] | None = None,
@@ -116,11 +120,11 @@ def sweep_figure(table: Any, sweep: Sweep, columns: Sequence[str] | None = None,
         note += f", {int(violated.sum())} violated: not drawn)" if violated.any() else ")" if failed else ""
         label = column_label(plan, column)
         if mode == "hist":
-            _histogram(ax, values, kinds[column], label)
+            _histogram(ax, values, kinds[column], label, column_unit(plan, column))
         elif mode == "line":
             _line(ax, table, axes_q[0], values, kinds[column], label, class2)
-        else:
-            _heat_map(fig, ax, table, axes_q, values, kinds[column], label, class2)
+        elif _heat_map(fig, ax, table, axes_q, values, kinds[column], label, class2):
+            note += "; grey: no value"
         ax.set_title(f"{column}{note}", fontsize=9)
     for ax in list(axs.flat)[n:]:
         ax.set_visible(False)
@@ -135,7 +139,7 @@ def _categorical(axis: Any) -> None:
     axis.set_ticks([0, 1], ["false", "true"])
 
 
-def _histogram(ax: Any, values: NDArray[np.float64], kind: str, label: str) -> None:
+def _histogram(ax: Any, values: NDArray[np.float64], kind: str, label: str, unit: str) -> None:
     data = values[np.isfinite(values)]
     bins: NDArray[np.float64] | int
     if kind in ("int", "bool") and len(data):     # one bar per integer (or per category)
@@ -145,7 +149,8 @@ def _histogram(ax: Any, values: NDArray[np.float64], kind: str, label: str) -> N
         bins = max(10, min(50, int(math.sqrt(max(len(data), 1))) * 2))
     ax.hist(data, bins=bins, color="tab:blue", label="points")
     if len(data) and kind != "bool":
-        ax.axvline(float(np.mean(data)), color="k", lw=1, label=f"mean {np.mean(data):.4g}, std {np.std(data):.2g}")
+        u = "" if unit in ("1", "count") else f" {unit}"
+        ax.axvline(float(np.mean(data)), color="k", lw=1, label=f"mean {np.mean(data):.4g}{u}, std {np.std(data):.2g}{u}")
     if kind == "bool":
         _categorical(ax.xaxis)
     elif kind == "int":
@@ -175,12 +180,12 @@ def _line(ax: Any, table: Any, q: Quantity, values: NDArray[np.float64], kind: s
 
 
 def _heat_map(fig: Any, ax: Any, table: Any, axes_q: list[Quantity], values: NDArray[np.float64], kind: str,
-              label: str, class2: bool) -> None:
+              label: str, class2: bool) -> bool:
     """Rows the first quantity, columns the second; a boolean in two colours, a count with
-    whole-number ticks, cells without a value grey (named in a legend when there are any)."""
+    whole-number ticks, cells without a value grey. Whether there are grey cells (the
+    panel's title then says what grey means)."""
     import matplotlib
     from matplotlib.colors import BoundaryNorm, ListedColormap
-    from matplotlib.patches import Patch
     from matplotlib.ticker import MaxNLocator
 
     qa, qb = axes_q
@@ -201,10 +206,9 @@ def _heat_map(fig: Any, ax: Any, table: Any, axes_q: list[Quantity], values: NDA
         _categorical(bar.ax.yaxis)
     elif kind == "int":
         bar.ax.yaxis.set_major_locator(MaxNLocator(integer=True))
-    if np.isnan(grid).any():
-        ax.legend(handles=[Patch(color="0.85", label="no value")], fontsize=8, loc="upper right")
     for q, setter, labels in ((qb, ax.set_xticks, ax.set_xlabel), (qa, ax.set_yticks, ax.set_ylabel)):
         step = max(1, math.ceil(len(q.values) / 6))
         ticks = list(range(0, len(q.values), step))
         setter(ticks, [_label(q.values[i]) for i in ticks])
         labels(quantity_label(q, class2=class2))
+    return bool(np.isnan(grid).any())
