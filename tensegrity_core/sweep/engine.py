@@ -461,7 +461,7 @@ def _check_workers(client: Client, cluster: str) -> dict[str, int]:
         worker, err = min(bad.items())
         said = clip(" ".join(str(err).split()), LIBRARY_MESSAGE)     # a remote text: one bounded line
         raise SweepError(f"{len(bad)} of {len(answers)} workers of {cluster} cannot run sweeps "
-                         f"({clip(worker, 100)}: {type(err).__name__}: {said}); install tensegrity-ros[sweep] there")
+                         f"({clip(worker, 100)}: {type(err).__name__}: {said}); install this project with its sweep extra there (pip install '.[sweep]')")
     able.update(answers)
     return nthreads
 

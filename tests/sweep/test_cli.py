@@ -220,5 +220,5 @@ sys.exit(main(["sweep", "fold_time_kc", "--workers", "0"]))
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 1, proc.stderr
     assert "sweeps need the packages dask[distributed], pandas and pyarrow" in proc.stdout
-    assert "pip install 'tensegrity-ros[sweep]'" in proc.stdout
+    assert "pip install '.[sweep]' in the project's folder" in proc.stdout      # as the README says
     assert proc.stderr.strip().startswith("error: sweeps need the packages") and "Traceback" not in proc.stderr
