@@ -271,31 +271,39 @@ def _send_forces(args) -> int:
 
 
 class _RivalPublishers:
-    """Warns once that other nodes publish on the topic too (the controller of ``tensegrity
-    up`` does: it answers every joint state). DDS discovers them over some time, so the
-    graph is looked at again before each command, at most once a second."""
+    """Says once who else publishes on the topic. The suite's controller
+    (``tensegrity_controller``, started by ``tensegrity up``) stops commanding when it sees
+    another node's command, until its next goal: a note says so. Any other publisher is a
+    rival: the simulator applies the latest command, so a warning says these forces hold only
+    until its next one. DDS discovers publishers over some time, so the graph is looked at
+    again before each command, at most once a second."""
+
+    CONTROLLER = "tensegrity_controller"
 
     def __init__(self, node, topic: str):
         self.node, self.topic = node, topic
         self._looked = -math.inf
-        self._said = False
+        self._said: set[str] = set()
 
     def warn(self) -> None:
         import time
 
-        if self._said or time.monotonic() - self._looked < 1.0:
+        if time.monotonic() - self._looked < 1.0:
             return
         self._looked = time.monotonic()
         me = (self.node.get_name(), self.node.get_namespace())
-        others = sorted({_full_name(i.node_name, i.node_namespace)
-                         for i in self.node.get_publishers_info_by_topic(self.topic)
-                         if (i.node_name, i.node_namespace) != me})
-        if others:
-            self._said = True
-            print(f"warning: {', '.join(others)} also publish{'es' if len(others) == 1 else ''} on "
-                  f"{self.topic}, and the simulator applies the latest command: these forces hold only "
-                  "until the next one (the controller answers every joint state: start the suite with "
-                  "`tensegrity up --no-controller` to drive the actuators yourself)", file=sys.stderr, flush=True)
+        others = {(i.node_name, i.node_namespace) for i in self.node.get_publishers_info_by_topic(self.topic)} - {me}
+        controllers = sorted(_full_name(n, ns) for n, ns in others if n == self.CONTROLLER)
+        rivals = sorted(_full_name(n, ns) for n, ns in others if n != self.CONTROLLER)
+        if controllers and "controller" not in self._said:
+            self._said.add("controller")
+            print(f"note: {', '.join(controllers)} stops commanding on seeing these forces, until its next goal "
+                  "(tensegrity move or follow)", file=sys.stderr, flush=True)
+        if rivals and "rivals" not in self._said:
+            self._said.add("rivals")
+            print(f"warning: {', '.join(rivals)} also publish{'es' if len(rivals) == 1 else ''} on {self.topic}, "
+                  "and the simulator applies the latest command: these forces hold only until the next one",
+                  file=sys.stderr, flush=True)
 
 
 def _spin_for(executor, seconds: float, clock) -> None:

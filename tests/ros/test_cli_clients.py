@@ -60,10 +60,10 @@ def _wait(condition, what: str, timeout: float = 60.0) -> None:
 
 def test_send_forces_refuses_what_the_simulator_rejects_and_names_another_publisher(cli, ros_context, tmp_path):
     """5000 N is over the simulator's max_force (1000 N by default): refused with that limit,
-    exit 1, nothing sent (the simulator counts no rejected command). A publisher of this
-    process on actuator_forces stands for the controller: a command that goes through is
-    sent with a warning naming it (once discovery has shown it: commands at a rate go on
-    until it has)."""
+    exit 1, nothing sent (the simulator counts no rejected command). Publishers of this
+    process on actuator_forces: one named as the suite's controller gets a note (it steps
+    aside until its next goal), any other a warning naming it (once discovery has shown
+    them: commands at a rate go on until it has)."""
     from tensegrity_msgs.msg import ActuatorForces
 
     sim = cli("node", "sim", "--ros-args", "-p", "command_timeout:=0.0", log_name="sim")
@@ -73,20 +73,24 @@ def test_send_forces_refuses_what_the_simulator_rejects_and_names_another_publis
     assert out.stderr.strip().splitlines() == [
         "error: /tensegrity_sim would reject this command: force for f1 = 5000 N exceeds the limit "
         "max_force = 1000 N"]
-    rival = rclpy_node(ros_context, "rival_controller")
-    rival.create_publisher(ActuatorForces, "actuator_forces", 10)
+    peers = [rclpy_node(ros_context, name) for name in ("rival_controller", "tensegrity_controller")]
+    for peer in peers:                                 # (kept alive in `peers` until the end)
+        peer.create_publisher(ActuatorForces, "actuator_forces", 10)
     log = tmp_path / "send.log"
     with open(log, "w") as err:
         proc = spawn([TENSEGRITY, "send-forces", "0.5", "-0.2", "--rate", "20"], stdout=err, stderr=err,
                      env=dict(os.environ))
     try:
-        _wait(lambda: "warning" in log.read_text(), "the warning")
+        _wait(lambda: "warning" in log.read_text() and "note" in log.read_text(), f"the warning and the note in {log}")
         proc.send_signal(signal.SIGINT)
         assert wait_group(proc, 60) == 0
     finally:
         kill_group(proc)
-    assert log.read_text().startswith("warning: /rival_controller also publishes on /actuator_forces, and the "
-                                      "simulator applies the latest command")
+    assert sorted(log.read_text().splitlines()) == [
+        "note: /tensegrity_controller stops commanding on seeing these forces, until its next goal (tensegrity "
+        "move or follow)",
+        "warning: /rival_controller also publishes on /actuator_forces, and the simulator applies the latest "
+        "command: these forces hold only until the next one"]
     assert sim.stop() == 0
     assert "rejected commands: 0;" in sim.stderr()
 
