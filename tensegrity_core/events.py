@@ -16,6 +16,9 @@ Kinds (``index`` in brackets):
 - ``slack``: a string's length fell through its rest length, so it carries no force [the
   member's index];
 - ``taut``: a slack string's length rose through its rest length [the member's index].
+
+``index`` counts from 0 (it indexes arrays); output for people names what it stands for
+(:func:`event_subject`: ``rho1``, ``lambda2``, ``member 3``), counted from 1 as every name is.
 """
 
 from __future__ import annotations
@@ -36,3 +39,17 @@ def as_event_kind(text: str) -> EventKind:
         if text == kind:
             return kind
     raise ValueError(f"unknown event kind {text!r}; kinds: {', '.join(EVENT_KINDS)}")
+
+
+def event_subject(kind: EventKind, index: int) -> str:
+    """What an event of ``kind`` with ``index`` is about, by name, counted from 1 as every
+    name is: ``rho1``/``rho2`` for the fold or release of an actuator, ``lambda1``/``lambda2``
+    for a singular set, ``member 3`` for a string's slack or taut; ``""`` for the kinds that
+    index nothing (``limit``, ``jump``)."""
+    if kind in ("fold", "release"):
+        return f"rho{index + 1}"
+    if kind == "singular":
+        return f"lambda{index + 1}"
+    if kind in ("slack", "taut"):
+        return f"member {index + 1}"
+    return ""

@@ -113,14 +113,17 @@ class SampledRun:
 
 
 def run_sampled(scene: SceneSource, controller: Controller, *, step_size: float | None = None,
-                step_ns: int | None = None, steps: int | None = None, duration: float | None = None) -> SampledRun:
+                step_ns: int | None = None, steps: int | None = None, duration: float | None = None,
+                stop: Callable[[], bool] | None = None) -> SampledRun:
     """Run ``scene`` under ``controller`` sampled every period and held in between.
 
     Give the period as ``step_size`` [s] or ``step_ns``, and the length as ``steps`` or
     ``duration`` [s] (default: the scene's duration). The scene's commanded inputs take the
     controller's values (values for inputs with a law of their own are ignored, as by
     :meth:`Simulator.set_command`). The simulator is open-ended (no ``t_end``), exactly as in
-    the ROS node, so that the integrator takes the same steps in both.
+    the ROS node, so that the integrator takes the same steps in both. ``stop()`` is asked
+    before each step: once it is true the run ends with the steps made so far (``success``
+    False, message ``"interrupted at t = ... s"``).
     """
     scene = load_scene(scene)
     if (step_size is None) == (step_ns is None):
@@ -138,6 +141,9 @@ def run_sampled(scene: SceneSource, controller: Controller, *, step_size: float 
     commands: list[list[float]] = []
     success, message = True, f"{steps} steps of {step_ns} ns"
     for k in range(steps):
+        if stop is not None and stop():
+            success, message = False, f"interrupted at t = {step_time(k, step_ns):.9g} s"
+            break
         try:
             u = [float(v) for v in controller(samples[-1])]
         except Exception as err:  # the controller is user code: say where it failed

@@ -221,7 +221,8 @@ def observation(model: Model[Any, Any], data: Observed) -> Observation:
 
 
 def simulate(scene: SceneSource, *, duration: float | None = None,
-             progress: Callable[[float, float], object] | None = None) -> Trajectory:
+             progress: Callable[[float, float], object] | None = None,
+             stop: Callable[[], bool] | None = None) -> Trajectory:
     """Run a whole scene and return its :class:`Trajectory` at the scene's output rate (and at
     the end time when that is not on the output grid).
 
@@ -230,7 +231,10 @@ def simulate(scene: SceneSource, *, duration: float | None = None,
     the samples on a fast one). Commanded inputs hold their initial value. Before the run, a
     :class:`~tensegrity_core.sim.stiffness_check.StiffnessWarning` says when the scene's
     explicit method does not fit its stiffness; after it, ``Trajectory.violations`` lists the
-    invariants the run broke (:mod:`tensegrity_core.sim.invariants`).
+    invariants the run broke (:mod:`tensegrity_core.sim.invariants`). ``stop()`` is asked
+    as often: once it is true the run ends there and the trajectory holds the samples
+    computed so far (``success`` False, message ``"interrupted at t = ... s"``), as a run
+    that stops early does.
     """
     scene = load_scene(scene)
     if duration is not None:
@@ -246,23 +250,27 @@ def simulate(scene: SceneSource, *, duration: float | None = None,
         n += 1
     times[-1] = scene.duration      # a grid point within rounding of it (1.21 for 1.2099999999999997 s)
     samples: list[Any] = []
-    error: SimulationError | None = None
+    error: str = ""
     largest = max(1, n // 50)       # progress at least every 2 % of the samples, if watched
-    chunk = 1 if progress is not None else n
+    chunk = 1 if progress is not None or stop is not None else n
     start = 0
     while start < n:
         wall = time.perf_counter()
         try:
             model.record(state, times[start:start + chunk], samples)
         except SimulationError as err:
-            error = err
+            error = str(err)
             break
         start = min(start + chunk, n)
         if progress is not None:
             progress(float(times[start - 1]), scene.duration)
+        if progress is not None or stop is not None:
             # chunks of about a tenth of a second of wall time, up to 2 % of the samples
             took = time.perf_counter() - wall
             chunk = max(1, chunk // 2) if took > 0.2 else min(largest, 2 * chunk) if took < 0.05 else chunk
+        if stop is not None and stop() and start < n:
+            error = f"interrupted at t = {float(times[start - 1]):.6g} s"
+            break
     data = model.observe(samples)
     noise = scene.effects.get("sensor_noise")
     measurements = SensorNoise(noise.sigmas, scene.seed).perturb_arrays(data) if noise is not None else {}
@@ -270,5 +278,4 @@ def simulate(scene: SceneSource, *, duration: float | None = None,
     stats["wall_time"] = time.perf_counter() - wall0
     broken = violations(data, state.events, fold_limit="fold_limit" in scene.effects)
     return Trajectory.from_observations(scene, data, model.names, list(state.events), measurements, stats,
-                                        error=str(error) if error else "", state_names=model.state_names,
-                                        violations=broken)
+                                        error=error, state_names=model.state_names, violations=broken)

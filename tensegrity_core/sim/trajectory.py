@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tensegrity_core.events import LoggedEvent, as_event_kind
+from tensegrity_core.events import LoggedEvent, as_event_kind, event_subject
 from tensegrity_core.sim.model import Stats
 
 if TYPE_CHECKING:
@@ -122,10 +122,10 @@ class Trajectory:
 
     def csv_columns(self) -> tuple[list[str], FloatArray]:
         """Column names and the (N, k) table written by :meth:`to_csv`."""
-        cols = ["t"] + list(self.state_names or [f"y{i}" for i in range(self.states.shape[1])])
+        cols = ["t"] + list(self.state_names or [f"y{i + 1}" for i in range(self.states.shape[1])])
         parts = [self.times[:, None], self.states]
         cols += [f"applied_{a}" for a in self.actuator_names] or \
-            [f"applied_{i}" for i in range(self.applied_forces.shape[1])]
+            [f"applied_{i + 1}" for i in range(self.applied_forces.shape[1])]
         parts.append(self.applied_forces)
         cols += ["end_effector_x", "end_effector_y", "end_effector_z"]
         parts.append(self.end_effector)
@@ -140,7 +140,7 @@ class Trajectory:
         path = Path(path)
         cols, table = self.csv_columns()
         header = [f"scene: {self.scene_name}", f"status: {'ok' if self.success else 'stopped'}: {self.message}"]
-        header += [f"event: t={t:.12g} {kind} {i}" for t, kind, i in self.events]
+        header += [f"event: t={t:.12g} {kind} {event_subject(kind, i)}".rstrip() for t, kind, i in self.events]
         header += [f"violation: {v}" for v in self.violations]
         with open(path, "w", encoding="utf-8") as fh:
             for line in header:

@@ -10,7 +10,7 @@ A sweep file names a base (a scene or a structure), the quantities to vary by ke
 it (grids, lists, random samples), what to compute at each point (``simulate``,
 ``form_find``, ``stiffness``, ``ik``) and which scalar results to keep. Reading and checking
 sweep files needs only the core; running them needs ``dask[distributed]``, ``pandas`` and
-``pyarrow`` (``pip install 'tensegrity-ros[sweep]'``), imported only then. See
+``pyarrow`` (``pip install '.[sweep]'`` in the project's folder), imported only then. See
 ``docs/sweeps.md``.
 """
 

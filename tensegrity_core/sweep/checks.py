@@ -35,13 +35,13 @@ def number(*, lo: float | None = None, lo_open: bool = False) -> Callable[[objec
     return check
 
 
-def integer(*, lo: int = 0) -> Callable[[object], int]:
-    """An integer ``>= lo``."""
+def integer(*, lo: int = 0, what: str = "") -> Callable[[object], int]:
+    """An integer ``>= lo``; ``what`` it stands for, in the refusal of one below ``lo``."""
     def check(v: object) -> int:
         if isinstance(v, bool) or not isinstance(v, int):
             raise OptionError(f"must be an integer, got {type_name(v)} ({v!r})")
         if v < lo:
-            raise OptionError(f"must be >= {lo}, got {v!r}")
+            raise OptionError(f"must be >= {lo}{f' ({what})' if what else ''}, got {v!r}")
         return int(v)
     return check
 

@@ -27,16 +27,20 @@ status ``lost`` (``--resume`` runs them again).
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import os
 import pickle
+import signal
+import threading
 import time
 import weakref
 from collections import deque
 from collections.abc import Callable, Generator, Hashable, Sequence
+from multiprocessing import resource_tracker
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Final, Literal
+from typing import TYPE_CHECKING, Any, Final, Literal, TypeVar
 
 from tensegrity_core.excerpt import LIBRARY_MESSAGE, clip
 from tensegrity_core.sweep.errors import SweepError, require
@@ -49,6 +53,7 @@ from tensegrity_core.sweep.task import Row, RowStatus, inputs, missing, run_batc
 if TYPE_CHECKING:
     from distributed import Client, Future, LocalCluster
 
+_T = TypeVar("_T")
 #: ``progress(done, failed, total)`` after each finished batch.
 ProgressCallback = Callable[[int, int, int], object]
 
@@ -96,15 +101,80 @@ def start_local_cluster(workers: int) -> LocalCluster:
     with one thread each, on 127.0.0.1 only, without a dashboard, one BLAS thread per worker,
     ignoring SIGINT (:mod:`~tensegrity_core.sweep.worker_setup`).
     Close it (``with start_local_cluster(2) as cluster: run_sweep(..., scheduler=cluster.scheduler_address)``)
-    to reuse one cluster for several sweeps."""
+    to reuse one cluster for several sweeps.
+
+    It is started from a thread of its own that blocks SIGINT (:func:`_start_without_sigint`):
+    the cluster's threads and worker processes inherit the block. Ctrl-C in a terminal signals
+    the whole foreground process group: a worker still importing Dask (before its preload
+    ignores SIGINT) printed a ``KeyboardInterrupt`` traceback, and the ``KeyboardInterrupt``
+    of this process, raised inside a starting cluster, left it half started, which Dask's
+    exit handler then failed to close (``AssertionError: Status.init``). A Ctrl-C while the
+    cluster starts is raised here once the start has ended and the cluster is closed."""
     require("distributed")
     import dask
     from distributed import LocalCluster
 
-    with dask.config.set(EMBEDDED_CONFIG):    # read as the scheduler and the workers start
-        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                            dashboard_address=None, scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
-                            silence_logs=logging.ERROR, env=WORKER_ENV, preload=[WORKER_PRELOAD])
+    def start() -> LocalCluster:
+        with dask.config.set(EMBEDDED_CONFIG):    # read as the scheduler and the workers start
+            return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                dashboard_address=None, scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+                                silence_logs=logging.ERROR, env=WORKER_ENV, preload=[WORKER_PRELOAD])
+
+    return _start_without_sigint(start, lambda cluster: cluster.close())
+
+
+def _start_without_sigint(start: Callable[[], _T], close: Callable[[_T], object]) -> _T:
+    """``start()`` run on a new thread that blocks SIGINT (threads and processes it starts
+    inherit the block), waited for in this thread, where a ``KeyboardInterrupt`` still comes
+    at once: it then waits for ``start()`` to end, ``close``s what it made (further Ctrl-C
+    ignored meanwhile) and raises.
+
+    Multiprocessing's resource tracker is started here first: its first start unblocks
+    SIGINT and SIGTERM in the calling thread (CPython 3.11's ``ensure_running`` blocks them
+    around its spawn, then unblocks instead of restoring the mask), which in the starting
+    thread would undo the block before the workers are spawned."""
+    resource_tracker.ensure_running()
+    made: list[_T] = []
+    failed: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            made.append(start())
+        except BaseException as err:  # noqa: BLE001 - handed to the waiting thread
+            failed.append(err)
+
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        thread = threading.Thread(target=run, name="tensegrity-cluster-start", daemon=True)
+        thread.start()
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+    try:
+        while thread.is_alive():
+            thread.join(0.1)
+    except KeyboardInterrupt:
+        with _sigint_ignored():        # the start cannot be cut short; what it made is closed
+            thread.join()
+            for thing in made:
+                close(thing)
+        raise
+    if failed:
+        raise failed[0]
+    return made[0]
+
+
+@contextlib.contextmanager
+def _sigint_ignored() -> Generator[None, None, None]:
+    """SIGINT ignored in the block (when this is the main thread, which alone may set
+    handlers; elsewhere a Ctrl-C does not reach this code as an exception anyway)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def columns_of(sweep: Sweep, plan: Plan) -> tuple[list[TableColumn], list[str]]:
@@ -171,7 +241,8 @@ def run_sweep(sweep: SweepSource, *, output: str | Path | None = None, resume: b
             results.close()            # stopped early: the engine cancels what is still running
             bar.close()
             store.close()
-    return _with_counts(store.finish(rows), len(todo), len(done))
+        table = store.finish(rows)     # written before the cluster closes (a second or more)
+    return _with_counts(table, len(todo), len(done))
 
 
 def _with_counts(table: Any, ran: int, kept: int) -> Any:
@@ -254,6 +325,9 @@ class _DaskEngine:
             except Exception as err:  # noqa: BLE001 - any start-up failure: say so, clean up
                 self._close()
                 raise SweepError(f"cannot start the local Dask cluster: {err}") from None
+            except BaseException:     # interrupted: what has started is closed before the interrupt goes on
+                self._close()
+                raise
             return self
         try:
             client = Client(self.address, timeout=self.timeout)
@@ -280,12 +354,16 @@ class _DaskEngine:
         return False
 
     def _close(self) -> None:
-        if self.client is not None and self._owns_client:
-            self.client.close()
-        self.client = None
-        if self.cluster is not None:
-            self.cluster.close()
-            self.cluster = None
+        """Close the client and the embedded cluster, with Ctrl-C ignored meanwhile: a close
+        cut short leaves nannies running, which Dask's exit handler then fails to close
+        (``AssertionError: Status.running``, after waiting up to 10 s)."""
+        with _sigint_ignored():
+            if self.client is not None and self._owns_client:
+                self.client.close()
+            self.client = None
+            if self.cluster is not None:
+                self.cluster.close()
+                self.cluster = None
 
     def run(self, plan: Plan, points: Sequence[Point], batch: int | None) -> Generator[list[Row], None, None]:
         from distributed import as_completed
@@ -383,7 +461,7 @@ def _check_workers(client: Client, cluster: str) -> dict[str, int]:
         worker, err = min(bad.items())
         said = clip(" ".join(str(err).split()), LIBRARY_MESSAGE)     # a remote text: one bounded line
         raise SweepError(f"{len(bad)} of {len(answers)} workers of {cluster} cannot run sweeps "
-                         f"({clip(worker, 100)}: {type(err).__name__}: {said}); install tensegrity-ros[sweep] there")
+                         f"({clip(worker, 100)}: {type(err).__name__}: {said}); install this project with its sweep extra there (pip install '.[sweep]')")
     able.update(answers)
     return nthreads
 

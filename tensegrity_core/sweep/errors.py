@@ -33,4 +33,4 @@ def require(module: str) -> ModuleType:
     except ImportError as err:
         raise MissingDependencyError(
             f"sweeps need the packages dask[distributed], pandas and pyarrow ({err}); "
-            f"install them with: pip install 'tensegrity-ros[sweep]'") from None
+            f"install them with: pip install '.[sweep]' in the project's folder (./run setup does)") from None

@@ -16,9 +16,11 @@
 
 Every problem raises :class:`~tensegrity_core.sweep.errors.SweepError` naming the key path
 and the line: unknown keys (with a suggestion), wrong types, key paths that lead nowhere in
-the base, computations that do not fit the base, unknown results and options. What a point's
-values do to the base is not checked here: each point's document goes through the core's
-loader on a worker, and a bad value becomes that point's row with the loader's message.
+the base, computations that do not fit the base, unknown results and options, and a key path
+whose last key is new in the base when the computation's loader takes that key at none of
+the quantity's values (a misspelt parameter). Otherwise what a point's values do to the base
+is not checked here: each point's document goes through the core's loader on a worker, and a
+bad value becomes that point's row with the loader's message.
 
 The checks are the shared ones of :class:`tensegrity_core.schema.Reader` (and the options'
 checks of :mod:`~tensegrity_core.sweep.checks`, applied through it); this module holds only
@@ -35,6 +37,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Final, cast
 
+from tensegrity_core.errors import TensegrityError
 from tensegrity_core.schema import (
     KeyPath,
     KeyPathError,
@@ -43,6 +46,7 @@ from tensegrity_core.schema import (
     SchemaError,
     ShippedFiles,
     excerpt,
+    exists,
     format_key_path,
     line_of,
     parse_text,
@@ -57,7 +61,7 @@ from tensegrity_core.sweep.checks import Check, OptionError
 from tensegrity_core.sweep.computations import COMPUTATIONS, ResultSpec
 from tensegrity_core.sweep.computations.results import Column, Options
 from tensegrity_core.sweep.errors import SweepError
-from tensegrity_core.sweep.points import FIXED, RANDOM, Point, Quantity, build_points, count, grid_values
+from tensegrity_core.sweep.points import FIXED, RANDOM, Point, Quantity, apply, build_points, count, grid_values
 
 EXAMPLES_DIR = Path(__file__).parent / "examples"
 #: The shipped sweeps, by name.
@@ -140,6 +144,11 @@ class Plan:
     def result_columns(self) -> list[Column]:
         return [c for r in self.results for c in r.columns]
 
+    @property
+    def result_units(self) -> dict[str, str]:
+        """The unit of each result column (:attr:`~tensegrity_core.sweep.computations.results.ResultDef.unit`)."""
+        return {name: unit for r in self.results for (name, _), unit in zip(r.columns, r.units)}
+
 
 def prepare(sweep: Sweep) -> Plan:
     """The sweep's :class:`Plan`: its results prepared (names and sizes of components from a
@@ -169,7 +178,8 @@ def prepare(sweep: Sweep) -> Plan:
             except OptionError as err:
                 raise SweepError(err.reason, key=("results", name), line=line,
                                  file=sweep.source and Path(sweep.source).name) from None
-        specs.append(ResultSpec(name, options, tuple(rdef.columns(options, data)), data))
+        columns = rdef.columns(options, data)
+        specs.append(ResultSpec(name, options, tuple(columns), data, rdef.units(options, data, columns)))
     seen = set(RESERVED) | {q.column for q in sweep.quantities}
     for spec in specs:
         for column, _ in spec.columns:
@@ -250,7 +260,7 @@ class _SweepReader(Reader):
         description = self.string(d, "description", (), default="")
         base = self.base(d["base"], ("base",), d)
         computation, options = self.compute(d["compute"], ("compute",), d, base)
-        quantities = self.vary(d["vary"], ("vary",), d, base)
+        quantities = self.vary(d["vary"], ("vary",), d, base, computation)
         seed = self.integer(d, "seed", (), default=0, lo=0, hi=2**63 - 1)
         random = any(q.random for q in quantities)
         if random and "samples" not in d:
@@ -300,7 +310,8 @@ class _SweepReader(Reader):
             out[k] = self.checked(options, k, path, _on_plain(checks[k]))
         return out
 
-    def vary(self, value: object, path: KeyPath, parent: dict[str, Any], base: Base) -> list[Quantity]:
+    def vary(self, value: object, path: KeyPath, parent: dict[str, Any], base: Base,
+             computation: str) -> list[Quantity]:
         d = self.mapping(value, path, parent, "vary")
         if not d:
             raise self.error("list at least one quantity to vary", path, parent, "vary")
@@ -311,6 +322,7 @@ class _SweepReader(Reader):
             if not isinstance(key_path, str):
                 raise self.error(f"a key path must be a string, got {excerpt(key_path)}", qpath, d, key_path)
             q = self.quantity(key_path, spec, qpath, d, base)
+            self.new_key(q, qpath, d, base, computation)
             for loc in q.locations:
                 if loc in taken:
                     raise self.error(f"{format_key_path(loc)} is already varied by {taken[loc]!r}", qpath, d, key_path)
@@ -375,6 +387,26 @@ class _SweepReader(Reader):
             raise self.error(f"{err.reason} (in the base {base.kind} {base.source!r})", path, parent, key_path) from None
         log = kind == "log_uniform" or (kind == "grid" and spacing == "log")
         return Quantity(key_path, column, kind, values, params, scale, locations, log)
+
+    def new_key(self, q: Quantity, path: KeyPath, parent: dict[str, Any], base: Base, computation: str) -> None:
+        """Refuse a key path whose last key is new in the base (a key the base leaves at its
+        default) when the computation's loader takes the base with that key at none of the
+        quantity's first, middle and last values (or, for a random quantity, its two
+        parameters): a misspelt key, which would otherwise make every point an invalid row."""
+        if all(exists(base.document, loc) for loc in q.locations):
+            return
+        probes = list(dict.fromkeys([q.values[0], q.values[len(q.values) // 2], q.values[-1]] if q.values
+                                    else list(q.params)))
+        load = COMPUTATIONS[computation].load
+        first: TensegrityError | None = None
+        for value in probes:
+            try:
+                load(apply(base.document, (q,), (value,)))
+                return
+            except TensegrityError as err:
+                first = first or err
+        raise self.error(f"the base {base.kind} {base.source!r} has no {format_key_path(q.locations[0])!r} and "
+                         f"takes none of its values there: {first}", path, parent, q.path)
 
     def results(self, value: object, path: KeyPath, parent: dict[str, Any], computation: str) -> list[ListedResult]:
         value = self.sequence(value, path, parent, "results", of="results", nonempty=True)

@@ -46,6 +46,11 @@ def _die_with_parent() -> None:
         pass
 
 
+def _ended(name: str, code: int) -> str:
+    """How child ``name`` ended, from its ``Popen.returncode`` (negative: a signal)."""
+    return f"{name} was ended by {signal.Signals(-code).name}" if code < 0 else f"{name} exited with code {code}"
+
+
 class Launcher:
     """Runs :class:`ProcessSpec` children until one is asked to stop or all have exited."""
 
@@ -56,6 +61,7 @@ class Launcher:
         self.procs: dict[str, subprocess.Popen] = {}
         self._stop = threading.Event()
         self._lock = threading.Lock()
+        self._reported: set[str] = set()     # children whose end was said already
 
     def _pump(self, name: str, stream) -> None:
         for line in iter(stream.readline, ""):
@@ -83,25 +89,24 @@ class Launcher:
 
     def wait(self) -> int:
         """Block until stop is requested or every child has exited; return an exit code."""
-        reported: set[str] = set()
         while not self._stop.is_set():
             alive = False
             for name, proc in self.procs.items():
                 rc = proc.poll()
                 if rc is None:
                     alive = True
-                elif name not in reported:
-                    reported.add(name)
-                    with self._lock:
-                        self.out.write(f"[launch] {name} exited with code {rc}\n")
-                        self.out.flush()
+                elif name not in self._reported:
+                    self._reported.add(name)
+                    self._say(_ended(name, rc))
             if not alive:
                 break
             self._stop.wait(0.2)
         return self.stop()
 
     def stop(self) -> int:
-        """Stop every child (SIGINT, then SIGTERM, then SIGKILL); the worst exit code."""
+        """Stop every child (SIGINT, then SIGTERM, then SIGKILL); 0 when every child exited 0,
+        else the first other code, a child's death by a signal as 128 + its number (the
+        shell's convention: a segfault is 139). Each child that did not exit 0 is named."""
         for sig, wait in ((signal.SIGINT, self.grace), (signal.SIGTERM, 2.0), (signal.SIGKILL, 2.0)):
             running = [p for p in self.procs.values() if p.poll() is None]
             if not running:
@@ -117,9 +122,19 @@ class Launcher:
                     p.wait(timeout=max(0.0, deadline - time.monotonic()))
                 except subprocess.TimeoutExpired:
                     pass
-        codes = [1 if p.returncode is None else p.returncode for p in self.procs.values()]
-        bad = [c for c in codes if c != 0]
+        bad = []
+        for name, p in self.procs.items():
+            code = 1 if p.returncode is None else p.returncode
+            if code and name not in self._reported:
+                self._say(_ended(name, code))
+            if code:
+                bad.append(128 - code if code < 0 else code)
         return bad[0] if bad else 0
+
+    def _say(self, line: str) -> None:
+        with self._lock:
+            self.out.write(f"[launch] {line}\n")
+            self.out.flush()
 
     def run(self) -> int:
         """Start every child, wait, stop them all; SIGINT/SIGTERM (stop requests of

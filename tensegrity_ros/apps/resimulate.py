@@ -45,21 +45,36 @@ MAX_STEPS = 2_000_000
 FREE_RUNNING_STEP_NS = 1_000_000
 
 
+#: Units of the simulator's joints (its joint_states: rho1, rho2 [m], beta [rad]); the
+#: velocities are these per second.
+JOINT_UNITS = {"rho1": "m", "rho2": "m", "beta": "rad"}
+
+
 @dataclass(frozen=True)
 class Resimulation:
     """What a re-simulation found: ``steps`` of ``step_ns``; ``compared`` recorded joint states
     at stamps on the step grid and ``off_grid`` others (compared with interpolated states);
-    the largest absolute differences of positions [m, rad] and velocities [m/s, rad/s] over
-    both; ``commands`` fed."""
+    ``joints`` the recorded joint names; per joint the largest absolute differences of
+    positions and velocities (``position_differences``, ``velocity_differences``, in
+    ``units``: m or rad, per second for velocities) and their largest values over the joints
+    (``max_position_difference``, ``max_velocity_difference``: mixed units, for a zero test);
+    ``commands`` fed; ``start_difference``: recorded minus re-simulated positions at the
+    first stamp (non-zero: the bag did not start at the scene's initial state)."""
 
     steps: int
     step_ns: int
     compared: int
     off_grid: int
+    joints: list[str]
+    units: list[str]
+    position_differences: list[float]
+    velocity_differences: list[float]
     max_position_difference: float
     max_velocity_difference: float
     commands: int
     first_difference_ns: int | None
+    start_difference: list[float]
+    scene: str
 
     def summary(self) -> str:
         where = "" if self.first_difference_ns is None else \
@@ -67,17 +82,30 @@ class Resimulation:
         return (f"re-simulated {self.steps} steps of {self.step_ns / NS_PER_S:.9g} s in lockstep, fed "
                 f"{self.commands} recorded commands; compared {self.compared} recorded joint states"
                 + (f" ({self.off_grid} off the step grid, against interpolated states)" if self.off_grid else "")
-                + f": largest difference {self.max_position_difference:.3g} in position, "
-                  f"{self.max_velocity_difference:.3g} in velocity{where}")
+                + f": largest difference in position {self._per_joint(self.position_differences, '')}, "
+                  f"in velocity {self._per_joint(self.velocity_differences, '/s')}{where}")
+
+    def _per_joint(self, values: list[float], per: str) -> str:
+        return ", ".join(f"{name} {v:.3g}{f' {unit}{per}' if unit else ''}"
+                         for name, unit, v in zip(self.joints, self.units, values))
+
+    def warning(self) -> str:
+        """"" when the bag starts where the scene does, else a line saying that it does not."""
+        if not any(self.start_difference):
+            return ""
+        return (f"warning: the bag's first joint state is not the initial state of the scene {self.scene!r}: "
+                f"{self._per_joint([abs(v) for v in self.start_difference], '')} apart; the re-simulation "
+                "starts from the scene's, so the runs differ from the start (--scene names the bag's scene)")
 
 
 def _stamp(msg) -> int:
     return int(msg.header.stamp.sec) * NS_PER_S + int(msg.header.stamp.nanosec)
 
 
-def read_recording(bag) -> tuple[list, list]:
-    """``(commands [(stamp_ns, names, forces)], joints [(stamp_ns, position, velocity)])``,
-    each sorted by stamp, from the bag's ActuatorForces and JointState topics."""
+def read_recording(bag) -> tuple[list, list, list[str]]:
+    """``(commands [(stamp_ns, names, forces)], joints [(stamp_ns, position, velocity)],
+    joint names)``, each sorted by stamp, from the bag's ActuatorForces and JointState
+    topics (the names of the first joint state)."""
     reader = BagReader(bag)
     topics = {t.name: t.type for t in reader.topics()}
     cmd_topics = [n for n, t in topics.items() if t == COMMAND_TYPE]
@@ -87,7 +115,7 @@ def read_recording(bag) -> tuple[list, list]:
     if len(cmd_topics) > 1:
         raise BagError(f"{bag}: more than one {COMMAND_TYPE} topic: {', '.join(cmd_topics)}")
     cmd_cls, joint_cls = message_class(COMMAND_TYPE), message_class(JOINT_TYPE)
-    commands, joints = [], []
+    commands, joints, names = [], [], []
     for m in reader.messages(cmd_topics + joint_topics):
         if m.type == COMMAND_TYPE:
             c = deserialize_message(m.data, cmd_cls)
@@ -95,11 +123,12 @@ def read_recording(bag) -> tuple[list, list]:
         else:
             j = deserialize_message(m.data, joint_cls)
             joints.append((_stamp(j), tuple(j.position), tuple(j.velocity)))
+            names = names or list(j.name)
     if not joints:
         raise BagError(f"{bag}: no joint states to compare with")
     commands.sort(key=lambda c: c[0])
     joints.sort(key=lambda j: j[0])
-    return commands, joints
+    return commands, joints, names
 
 
 def infer_step_ns(joints) -> int:
@@ -135,7 +164,7 @@ def resimulate(bag, *, scene: str = "class2_at_rest", step_size: float | None = 
     """Re-simulate ``bag`` (see the module note); needs the ROS wheels."""
     from tensegrity_core.sim import Simulator, load_scene
 
-    commands, joints = read_recording(bag)
+    commands, joints, names = read_recording(bag)
     start = joints[0][0]
     if step_size is not None:
         step_ns = round(step_size * NS_PER_S)
@@ -156,7 +185,8 @@ def resimulate(bag, *, scene: str = "class2_at_rest", step_size: float | None = 
     q = np.array([resim[k * step_ns].position for k in range(steps + 1)])
     v = np.array([resim[k * step_ns].velocity for k in range(steps + 1)])
     compared = off_grid = 0
-    dq = dv = 0.0
+    width = q.shape[1]
+    dq, dv = np.zeros(width), np.zeros(width)
     first = None
     for stamp, position, velocity in joints:
         k, rest = divmod(stamp - start, step_ns)
@@ -165,14 +195,18 @@ def resimulate(bag, *, scene: str = "class2_at_rest", step_size: float | None = 
             got_q, got_v = q[k], v[k]
         else:
             off_grid += 1
-            got_q = [np.interp(stamp, grid, q[:, i]) for i in range(q.shape[1])]
-            got_v = [np.interp(stamp, grid, v[:, i]) for i in range(v.shape[1])]
-        e_q = max(abs(a - b) for a, b in zip(position, got_q))
-        e_v = max(abs(a - b) for a, b in zip(velocity, got_v))
-        if (e_q or e_v) and first is None:
+            got_q = np.array([np.interp(stamp, grid, q[:, i]) for i in range(width)])
+            got_v = np.array([np.interp(stamp, grid, v[:, i]) for i in range(width)])
+        e_q = np.abs(np.asarray(position[:width], dtype=float) - got_q)
+        e_v = np.abs(np.asarray(velocity[:width], dtype=float) - got_v)
+        if (e_q.any() or e_v.any()) and first is None:
             first = stamp
-        dq, dv = max(dq, e_q), max(dv, e_v)
-    return Resimulation(steps, step_ns, compared, off_grid, float(dq), float(dv), used, first)
+        dq, dv = np.maximum(dq, e_q), np.maximum(dv, e_v)
+    names = (names + [f"joint {i + 1}" for i in range(len(names), width)])[:width]
+    start_difference = np.asarray(joints[0][1][:width], dtype=float) - q[0]
+    return Resimulation(steps, step_ns, compared, off_grid, names, [JOINT_UNITS.get(n, "") for n in names],
+                        dq.tolist(), dv.tolist(), float(dq.max(initial=0.0)), float(dv.max(initial=0.0)), used,
+                        first, start_difference.tolist(), scene)
 
 
 def _resimulated(schedule, steps: int, step_ns: int, scene: str, lockstep_timeout: float) -> dict:

@@ -28,6 +28,7 @@ import numpy as np
 from tensegrity_core.class2 import end_effector_of
 from tensegrity_core.class2.names import ACTUATORS
 from tensegrity_core.sim.simulator import JointSample
+from tensegrity_ros.rclpy_utils.spin_thread import SpinThread
 
 NS_PER_S = 1_000_000_000
 
@@ -101,24 +102,9 @@ class SimClient:
         self._new = threading.Condition(self._lock)
         self.executor = SingleThreadedExecutor(context=context)
         self.executor.add_node(self.node)
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._spin, name=f"{name}_spin", daemon=True)
-        self._thread.start()
-
-    def _spin(self) -> None:
-        """Spin until closed, or until the context shuts down (on Ctrl-C rclpy's signal
-        handler shuts it down; the caller's main thread reports the interruption)."""
-        from rclpy.executors import ExternalShutdownException
-
-        context = self.executor.context
-        try:
-            while not self._stop.is_set() and context.ok():
-                self.executor.spin_once(timeout_sec=0.05)
-        except ExternalShutdownException:
-            pass
-        except Exception:
-            if context.ok():    # shut down between the check and the wait: rclpy raises RCLError
-                raise
+        # until closed, or until the context shuts down (on Ctrl-C rclpy's signal handler
+        # shuts it down; the caller's main thread reports the interruption)
+        self._spinning = SpinThread(self.executor, f"{name}_spin", poll_s=0.05).start()
 
     # -- the controller ------------------------------------------------------------------------
     def _on_joints(self, msg) -> None:
@@ -241,7 +227,6 @@ class SimClient:
     def close(self) -> None:
         # the spinning thread ends first: shutting the executor down under a callback that
         # is running destroys the guard condition that callback triggers (InvalidHandle)
-        self._stop.set()
-        self._thread.join()
+        self._spinning.stop()
         self.executor.shutdown()
         self.node.destroy_node()

@@ -9,7 +9,9 @@ commands work in an environment without the ROS wheels.
 Long-running ROS commands (``node``, ``up``, ``record``, ``play``) set
 ``stop_signals=True``: for them SIGINT and SIGTERM are stop requests
 (:mod:`tensegrity_ros.rclpy_utils.stop_signals`) from the first line of :func:`main` until the process
-has exited, and a clean stop exits with code 0. Every other command gets Python's default
+has exited, and a clean stop exits with code 0; run as the program (:func:`run`) their
+process then ends without the interpreter's finalization, where ROS processes abort
+(:mod:`tensegrity_ros.rclpy_utils.process_exit`). Every other command gets Python's default
 again once parsed (Ctrl-C raises ``KeyboardInterrupt``: exit code 130). When one of them
 returns, the process is about to exit: its objects are frozen out of the garbage
 collector (``gc.freeze``), so that the interpreter's last collection at exit does not
@@ -19,6 +21,7 @@ walk them all (:func:`main`).
 from __future__ import annotations
 
 import argparse
+import difflib
 import gc
 import importlib
 import os
@@ -40,19 +43,46 @@ def _command_modules():
     return sorted(mods, key=lambda m: getattr(m, "ORDER", 100))
 
 
+class CommandParser(argparse.ArgumentParser):
+    """The parser of one subcommand: an argument it does not know is refused with *its*
+    usage and the closest option it has (``tensegrity fk 0.7 0.7 --jsn``: "unrecognized
+    arguments: --jsn (did you mean --json?)"), where argparse would hand the leftovers up
+    to the top-level parser and print the top-level usage."""
+
+    def parse_known_args(self, args=None, namespace=None):
+        namespace, extras = super().parse_known_args(args, namespace)
+        if extras:
+            options = [o for action in self._actions for o in action.option_strings]
+            hints = [f"{word} (did you mean {close[0]}?)" if word.startswith("-") and (
+                close := difflib.get_close_matches(word.partition("=")[0], options, n=1)) else word
+                for word in extras]
+            self.error(f"unrecognized arguments: {' '.join(hints)}")
+        return namespace, extras
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="tensegrity",
         description="Simulate, analyse and drive tensegrity mechanisms "
         "(numerical core + ROS 2 Jazzy node suite).",
     )
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=CommandParser)
     for mod in _command_modules():
         mod.register(sub)
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
+def run() -> None:
+    """The ``tensegrity`` program (the console script and ``python -m tensegrity_ros.cli``):
+    :func:`main`, and a long-running ROS command's process then ends without the
+    interpreter's finalization (:mod:`tensegrity_ros.rclpy_utils.process_exit`)."""
+    sys.exit(main(exit_after=True))
+
+
+def main(argv: list[str] | None = None, *, exit_after: bool = False) -> int:
+    """Run the command ``argv`` (default: the process's arguments); its exit code. With
+    ``exit_after`` a long-running ROS command (``node``, ``up``, ``record``, ``play``) ends
+    the process once it has returned, instead of returning."""
     # Held from the first line: a signal during start-up (imports, argument parsing) ends
     # the process at once with code 0, never with a traceback or killed mid-import.
     stop_signals.install()
@@ -74,7 +104,12 @@ def main(argv: list[str] | None = None) -> int:
         keep = bool(getattr(args, "stop_signals", False))  # kept until the process exits
         if not keep:
             stop_signals.release()    # Python's defaults again: Ctrl-C raises KeyboardInterrupt
-        return _run(args)
+        code = _run(args)
+        if keep and exit_after:
+            from tensegrity_ros.rclpy_utils.process_exit import end_process
+
+            end_process(code)
+        return code
     finally:
         if not keep:
             stop_signals.release()

@@ -1,5 +1,3 @@
-import sys
+from tensegrity_ros.cli import run
 
-from tensegrity_ros.cli import main
-
-sys.exit(main())
+run()

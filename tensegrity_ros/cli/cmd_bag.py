@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 from tensegrity_ros.cli._common import CliError, add_json_flag, print_json
 
@@ -64,6 +65,8 @@ def _resimulate(args) -> int:
     if args.step_size is not None and not 1e-6 <= args.step_size <= 10.0:
         raise CliError(f"--step-size must be in [1e-6, 10] s, got {args.step_size}")
     report = resimulate(args.bag, scene=args.scene, step_size=args.step_size)
+    if report.warning():
+        print(report.warning(), file=sys.stderr)
     if args.json:
         import dataclasses
 

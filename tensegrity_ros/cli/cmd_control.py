@@ -23,9 +23,9 @@ def register(sub) -> None:
                        "rest to rest, in --duration seconds or at a peak speed of --speed m/s.")
     p.add_argument("x", type=float, help="target x of D [m]")
     p.add_argument("y", type=float, help="target y of D [m]")
-    p.add_argument("--duration", type=float, default=0.0, help="duration of the move [s]")
-    p.add_argument("--speed", type=float, default=0.0, help="peak speed of D [m/s] (default 0.05 without "
-                   "--duration)")
+    p.add_argument("--duration", type=float, default=0.0, help="duration of the move [s] (0: not given)")
+    p.add_argument("--speed", type=float, default=0.0, help="peak speed of D [m/s] (0: not given; with "
+                   "neither, the controller's max_speed parameter, 0.05 m/s by default)")
     p.add_argument("--tolerance", type=float, default=0.0, help="goal tolerance of D [m] (0: the controller's)")
     p.add_argument("--action", default="move_end_effector")
     p.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for the controller")
@@ -50,13 +50,12 @@ def _move(args) -> int:
     for name in ("x", "y", "duration", "speed", "tolerance"):
         if not math.isfinite(getattr(args, name)):
             raise CliError(f"{name} must be a finite number, got {getattr(args, name)}")
-    speed = args.speed if (args.speed or args.duration) else 0.05
     from tensegrity_ros.rclpy_utils.env import require_rclpy
 
     require_rclpy()
     from tensegrity_msgs.action import MoveEndEffector
 
-    goal = MoveEndEffector.Goal(x=args.x, y=args.y, duration=args.duration, max_speed=speed,
+    goal = MoveEndEffector.Goal(x=args.x, y=args.y, duration=args.duration, max_speed=args.speed,
                                 goal_tolerance=args.tolerance)
 
     def progress(bar, fb):

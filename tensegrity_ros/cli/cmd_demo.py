@@ -9,11 +9,14 @@ ORDER = 1
 
 def register(sub) -> None:
     p = sub.add_parser("demo", help="start the suite, drive the mechanism in lockstep, call the services, record bags",
-                       description="Starts sim (lockstep) + IK + form-finding, drives the mechanism through IK "
-                       "waypoints and the paper's fold scenario via actuator_forces, one command per control "
-                       "period (recording a bag of each), shows that a rerun and the core's sampled-data run are "
+                       description="Starts the simulator (lockstep: one command per control period), the IK, "
+                       "form-finding and controller nodes; moves D through four waypoints with the controller's "
+                       "move_end_effector action and follows an actuator trajectory with "
+                       "follow_actuator_trajectory (each goal's settled error, settling time, overshoot and force); "
+                       "then stops the controller and drives the paper's fold scenario on actuator_forces; records "
+                       "a bag of each, shows that reruns and the core's sampled-data run of the fold are "
                        "identical, tabulates the control period against the continuous-time fold, calls "
-                       "find_form on the tensegrity table, and prints a summary.")
+                       "find_form on the tensegrity table and prints a summary (about 40 s).")
     p.add_argument("--out", "-o", default="demo_out", help="folder for the bags and the suite log")
     p.add_argument("--control-period", type=float, default=0.01, metavar="S",
                    help="the lockstep control period [s] (default 0.01: 100 Hz)")

@@ -7,12 +7,18 @@ prints a summary (``--json`` for scripts), and writes the trajectory (``-o OUT.n
 does not fit its stiffness gets a ``warning:`` line before the run. A scene error exits with
 code 2 and one ``error:`` line; a run that stops early (singular configuration, no
 equilibrium) or breaks an invariant of the physics (``error: invariant violated: ...``)
-writes what it has and exits with code 1.
+writes what it has and exits with code 1. Ctrl-C (or SIGTERM) ends the run at its next
+sample: what was computed is written and plotted, said so, exit code 130; a second Ctrl-C
+interrupts at once.
 """
 
 from __future__ import annotations
 
+import contextlib
+import signal
 import sys
+import threading
+from collections.abc import Iterator
 from pathlib import Path
 
 from tensegrity_ros.cli._common import CliError, Row, add_json_flag, add_listing, print_json
@@ -110,8 +116,10 @@ def run_sampled_cli(args) -> int:
     controller = load_controller(args.controller)
     try:
         scene = load_scene(args.scene)
-        run = run_sampled(scene, controller, step_size=args.control_period,
-                          duration=scene.duration if args.duration is None else args.duration)
+        with stop_requests() as stop:
+            run = run_sampled(scene, controller, step_size=args.control_period,
+                              duration=scene.duration if args.duration is None else args.duration,
+                              stop=stop.is_set)
     except (SceneError, TensegrityError) as err:
         raise CliError(str(err)) from None
     if out is not None:
@@ -119,7 +127,7 @@ def run_sampled_cli(args) -> int:
     summary = {"scene": run.scene_name, "success": run.success, "message": run.message,
                "control_period_ns": run.step_ns, "controller": args.controller, "steps": len(run.commands),
                "t_end": float(run.times[-1]),
-               "events": [{"t": float(t), "kind": k, "index": int(i)} for t, k, i in run.events],
+               "events": _events(run.events),
                "stats": run.stats, "final": {"q": run.q[-1]}, "output": str(out) if out else None}
     if args.json:
         print_json(summary)
@@ -129,16 +137,12 @@ def run_sampled_cli(args) -> int:
         print(f"scene {run.scene_name}: sampled-data run, controller {args.controller} every "
               f"{run.step_ns / 1e9:.9g} s (zero-order hold)")
         print(f"{run.message}: to t = {summary['t_end']:.9g} s")
-        for e in summary["events"]:
-            print(f"  event at t = {e['t']:.9g} s: {e['kind']} {e['index']}")
+        _print_events(summary["events"])
         with np.printoptions(precision=6, suppress=True):
             print(f"final q = {run.q[-1]}")
         if out:
             print(f"trajectory written to {out}")
-    if not run.success:
-        print(f"error: simulation stopped early: {run.message}", file=sys.stderr)
-        return 1
-    return 0
+    return _outcome(run.success, run.message, stop.is_set(), out, None)
 
 
 def _print_warning(message, category, filename, lineno, file=None, line=None) -> None:
@@ -182,10 +186,10 @@ def run_simulate(args) -> int:
         bar.update(t - bar.n)
 
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), stop_requests() as stop:
             warnings.simplefilter("always", StiffnessWarning)
             warnings.showwarning = _print_warning     # at once: before the run, not after it
-            traj = simulate(scene, progress=progress if bar is not None else None)
+            traj = simulate(scene, progress=progress if bar is not None else None, stop=stop.is_set)
     except TensegrityError as err:
         raise CliError(str(err)) from None
     finally:
@@ -201,7 +205,7 @@ def run_simulate(args) -> int:
         "scene": traj.scene_name, "success": traj.success, "message": traj.message,
         "model": scene.model.kind, "quasi_static": scene.quasi_static, "effects": list(scene.effects),
         "samples": len(traj), "t_end": float(traj.times[-1]) if len(traj) else 0.0,
-        "events": [{"t": float(t), "kind": k, "index": int(i)} for t, k, i in traj.events],
+        "events": _events(traj.events),
         "stats": traj.stats, "final": {"q": traj.q[-1] if len(traj) else [],
                                        "end_effector": traj.end_effector[-1] if len(traj) else []},
         "output": str(out) if out else None, "plot": args.plot, "violations": traj.violations,
@@ -212,10 +216,55 @@ def run_simulate(args) -> int:
         _print_summary(summary)
     for violation in traj.violations:
         print(f"error: invariant violated: {violation}", file=sys.stderr)
-    if not traj.success:
-        print(f"error: simulation stopped early: {traj.message}", file=sys.stderr)
+    code = _outcome(traj.success, traj.message, stop.is_set(), out, args.plot)
+    return code or (1 if traj.violations else 0)
+
+
+def _outcome(success: bool, message: str, stopped: bool, out: Path | None, plot: str | None) -> int:
+    """The exit code of a run, and its last line on stderr when it did not end as planned:
+    130 when a stop was asked for (it ends at the next sample, and what was computed is
+    written), 1 when it stopped early by itself."""
+    if stopped and not success:
+        kept = " and ".join(f"{what} {where}" for what, where in (("written to", out), ("plotted in", plot))
+                            if where) or "not written (no -o)"
+        print(f"{message}: the run up to there is {kept}", file=sys.stderr)
+        return 130
+    if not success:
+        print(f"error: simulation stopped early: {message}", file=sys.stderr)
         return 1
-    return 1 if traj.violations else 0
+    return 0
+
+
+@contextlib.contextmanager
+def stop_requests() -> Iterator[threading.Event]:
+    """Within the block SIGINT (Ctrl-C) and SIGTERM set the returned event, which the run
+    checks between samples; a second one raises ``KeyboardInterrupt`` at once."""
+    asked = threading.Event()
+
+    def ask(signum, frame) -> None:
+        if asked.is_set():
+            raise KeyboardInterrupt
+        asked.set()
+
+    previous = {sig: signal.signal(sig, ask) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield asked
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+def _events(events) -> list[dict]:
+    """Events for people and scripts: time [s], kind and what it is about by name (``rho1``:
+    counted from 1, as every name is; ``""`` for kinds about nothing in particular)."""
+    from tensegrity_core.events import event_subject
+
+    return [{"t": float(t), "kind": k, "subject": event_subject(k, int(i))} for t, k, i in events]
+
+
+def _print_events(events: list[dict]) -> None:
+    for e in events:
+        print(f"  event at t = {e['t']:.9g} s: {e['kind']} {e['subject']}".rstrip())
 
 
 def _print_summary(s: dict) -> None:
@@ -226,8 +275,7 @@ def _print_summary(s: dict) -> None:
     stats = s["stats"]
     extra = ", ".join(f"{k} {v}" for k, v in stats.items() if k not in ("wall_time",))
     print(f"{s['message']}: {s['samples']} samples to t = {s['t_end']:.6g} s in {stats['wall_time']:.3f} s ({extra})")
-    for e in s["events"]:
-        print(f"  event at t = {e['t']:.9g} s: {e['kind']} {e['index']}")
+    _print_events(s["events"])
     with np.printoptions(precision=6, suppress=True):
         print(f"final q = {np.asarray(s['final']['q'])}, end effector = {np.asarray(s['final']['end_effector'])}")
     for key, label in (("output", "trajectory"), ("plot", "plot")):

@@ -76,7 +76,7 @@ def run_sweep_command(args) -> int:
     from tensegrity_core.sweep import SweepError, load_sweep
     from tensegrity_core.sweep.engine import run_sweep
     from tensegrity_core.sweep.spec import prepare
-    from tensegrity_core.sweep.store import check_output_path, journal_path
+    from tensegrity_core.sweep.store import check_output_path
     from tensegrity_core.sweep.task import RowStatus
 
     if args.plot is not None and args.plot and not args.plot.lower().endswith(".png"):
@@ -104,6 +104,8 @@ def run_sweep_command(args) -> int:
             plotted_columns(plan, args.plot_result)
     except SweepError as err:
         raise CliError(str(err)) from None
+    except KeyboardInterrupt:              # while the base is computed for the results' columns
+        return _interrupted(args.output)
     t0 = time.perf_counter()
     try:
         table = run_sweep(sweep, output=args.output, resume=args.resume, workers=args.workers,
@@ -112,10 +114,7 @@ def run_sweep_command(args) -> int:
     except SweepError as err:
         raise CliError(str(err), code=1) from None
     except KeyboardInterrupt:
-        if args.output is not None and journal_path(Path(args.output)).exists():
-            print(f"interrupted: the finished points are in {journal_path(Path(args.output))}; "
-                  f"--resume continues", file=sys.stderr)
-        return 130
+        return _interrupted(args.output)
     wall = time.perf_counter() - t0
     if args.plot:
         from tensegrity_core.sweep.plotting import plot_sweep
@@ -150,6 +149,22 @@ def run_sweep_command(args) -> int:
         if summary[key]:
             print(f"{label} written to {summary[key]}")
     return 0
+
+
+def _interrupted(output: str | None) -> int:
+    """Say what an interrupted sweep kept (the journal's points, or nothing); 130."""
+    from tensegrity_core.sweep.store import journal_path
+
+    journal = journal_path(Path(output)) if output is not None else None
+    if journal is not None and journal.exists():
+        kept = max(0, len(journal.read_text(encoding="utf-8", errors="replace").splitlines()) - 1)
+        print(f"interrupted: {kept} finished point{'s' if kept != 1 else ''} kept in {journal}; "
+              f"--resume runs the others", file=sys.stderr)
+    elif journal is not None:
+        print("interrupted before the first point finished: nothing written", file=sys.stderr)
+    else:
+        print("interrupted (without -o nothing is kept)", file=sys.stderr)
+    return 130
 
 
 def default_plot_path(sweep_name: str, output: str | None) -> Path:

@@ -117,8 +117,11 @@ class ControllerNode(Node):
                                       lo=1e-9, read_only=True)
         self.path_tolerance = declare(self, "path_tolerance", 0.0, "default path tolerance of each length "
                                       "during a trajectory [m]; 0 = not checked", lo=0.0, read_only=True)
-        self.goal_time_tolerance = declare(self, "goal_time_tolerance", 3.0, "default time after a trajectory's "
-                                           "last point to meet the goal tolerance [s]", lo=0.0, read_only=True)
+        self.goal_time_tolerance = declare(self, "goal_time_tolerance", G.GOAL_TIME_TOLERANCE, "default time "
+                                           "after a trajectory's last point to meet the goal tolerance [s]",
+                                           lo=0.0, read_only=True)
+        self.max_speed = declare(self, "max_speed", 0.05, "peak speed of D of a move_end_effector goal that "
+                                 "gives neither a duration nor a max_speed (both 0) [m/s]", lo=1e-6, read_only=True)
         self.settle_timeout = declare(self, "settle_timeout", 5.0, "time after a move's end to come within "
                                       "its goal tolerance [s]", lo=0.0, read_only=True)
         self.settle_window = declare(self, "settle_window", 0.2, "how long D must stay within the goal "
@@ -285,8 +288,11 @@ class ControllerNode(Node):
         try:
             q = self._require_state()
             tol = self._tolerance(req.goal_tolerance, "goal_tolerance")
+            duration, max_speed = given(req.duration), given(req.max_speed)
+            if duration is None and max_speed is None:      # 0 = the controller's default, as goal_tolerance
+                max_speed = self.max_speed
             ref, gains = await self._plan(lambda: plan_move(
-                q, (req.x, req.y), self.params, duration=given(req.duration), max_speed=given(req.max_speed),
+                q, (req.x, req.y), self.params, duration=duration, max_speed=max_speed,
                 force_budget=self.force_budget * self.max_force, singular_margin=self.singular_margin))
         except PlanningError as err:
             return self._refuse(handle, result, MOVE_PLANNING_CODES.get(err.code, _MOVE.INVALID_GOAL), str(err))

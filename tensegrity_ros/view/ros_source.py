@@ -18,6 +18,7 @@ from __future__ import annotations
 import threading
 from typing import Any, Final
 
+from tensegrity_ros.rclpy_utils.spin_thread import SpinThread
 from tensegrity_ros.view.frame import Frame
 from tensegrity_ros.view.frames import class2_topology, frame_of_mechanism_state
 from tensegrity_ros.view.inputs import InputSpec
@@ -79,9 +80,8 @@ class RosSource:
         self._drive: dict[str, float] | None = None
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._spin, name="view_ros", daemon=True)
-        self._thread.start()
+        self._stopped = False
+        self._spinner = SpinThread(self.executor, "view_ros").start()
 
     def _make_node(self, namespace: str) -> None:
         from rclpy.action import ActionClient
@@ -112,18 +112,6 @@ class RosSource:
         node.create_timer(0.5, self._poll_state)
         node.create_timer(1.0 / DRIVE_HZ, self._publish_drive)
 
-    def _spin(self) -> None:
-        from rclpy.executors import ExternalShutdownException
-
-        try:
-            while not self._stop.is_set() and self.context.ok():
-                self.executor.spin_once(timeout_sec=0.1)
-        except ExternalShutdownException:
-            pass
-        except Exception:
-            if self.context.ok() and not self._stop.is_set():
-                raise
-
     # -- frames ------------------------------------------------------------------------------
     def _on_state(self, msg: Any) -> None:
         frame = frame_of_mechanism_state(msg, self._run_state)
@@ -151,10 +139,10 @@ class RosSource:
     def stop(self) -> None:
         import rclpy
 
-        if self._stop.is_set():
+        if self._stopped:
             return
-        self._stop.set()
-        self._thread.join()
+        self._stopped = True
+        self._spinner.stop()              # joined before the executor and the node go
         self.executor.shutdown()
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)

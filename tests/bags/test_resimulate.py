@@ -73,8 +73,27 @@ def test_a_perturbed_joint_state_is_reported_with_its_size_and_time(tmp_path):
     report = json.loads(r.stdout)
     expected = abs((float(run.samples[77].q[0]) + 1e-3) - float(run.samples[77].q[0]))
     assert report["max_position_difference"] == expected
+    assert report["joints"] == ["rho1", "rho2", "beta"] and report["units"] == ["m", "m", "rad"]
+    assert report["position_differences"] == [expected, 0.0, 0.0]
     assert report["first_difference_ns"] == 77 * STEP_NS
     assert report["max_velocity_difference"] == 0.0
+    assert report["start_difference"] == [0.0, 0.0, 0.0] and r.stderr == ""     # it starts where the scene does
+
+
+def test_a_bag_that_does_not_start_at_the_scenes_initial_state_is_warned_about(tmp_path):
+    """The first recorded joint state 5 cm off the scene's initial state in rho1: a warning
+    says so, with the unit, and the summary gives each joint's difference with its unit."""
+    folder = tmp_path / "elsewhere"
+    run = _write_bag(folder, perturb=(0, 0.05))
+    r = run_cli("play", str(folder), "--resimulate", timeout=300)
+    assert r.returncode == 0, r.stderr
+    off = abs((float(run.samples[0].q[0]) + 0.05) - float(run.samples[0].q[0]))
+    assert r.stderr.strip().splitlines() == [
+        f"warning: the bag's first joint state is not the initial state of the scene 'class2_at_rest': "
+        f"rho1 {off:.3g} m, rho2 0 m, beta 0 rad apart; the re-simulation starts from the scene's, so the runs "
+        "differ from the start (--scene names the bag's scene)"]
+    assert (f": largest difference in position rho1 {off:.3g} m, rho2 0 m, beta 0 rad, in velocity rho1 0 m/s, "
+            "rho2 0 m/s, beta 0 rad/s; first difference at t = 0.000000000 s") in r.stdout
 
 
 def test_a_bag_without_joint_states_is_one_error_line(tmp_path):

@@ -70,15 +70,35 @@ def main(argv=None) -> int:
     for r in rows:
         if r.baseline and (r.group, r.baseline) in by_name and r.value:
             r.ratio = by_name[(r.group, r.baseline)].value / r.value
+        if r.met is None:
+            r.met = harness.target_met(r)
     w = max([len(r.name) for r in rows] + [10])
-    print(f"{'group':10} {'benchmark':{w}} {'value':>12} {'unit':8} {'vs baseline':>12}  target / note")
+    print(f"{'group':10} {'benchmark':{w}} {'value':>12} {'unit':8} {'vs baseline':>12}  {'target':7} target / note")
     for r in rows:
         ratio = f"{r.ratio:10.2f}x" if r.ratio is not None else ""
-        print(f"{r.group:10} {r.name:{w}} {r.value:12.4g} {r.unit:8} {ratio:>12}  {r.target} {r.note}".rstrip())
+        print(f"{r.group:10} {r.name:{w}} {r.value:12.4g} {r.unit:8} {ratio:>12}  {VERDICT[r.met]:7} "
+              f"{r.target} {r.note}".rstrip())
+    _summarise_targets(rows)
     if args.json:
         whole = {g for g in groups if all((g, fn.__name__) in ran for gg, fn in harness.REGISTRY if gg == g)}
         _write_rows(Path(args.json), rows, ran, whole)
     return 0
+
+
+#: The verdict column: a target met, missed, or not checked (in words, or nothing to compare).
+VERDICT = {True: "met", False: "MISSED", None: ""}
+
+
+def _summarise_targets(rows) -> None:
+    """One line of counts of the targets checked, then every missed one with its value."""
+    checked = [r for r in rows if r.met is not None]
+    missed = [r for r in checked if not r.met]
+    unchecked = sum(1 for r in rows if r.target and r.met is None)
+    print(f"\ntargets: {len(checked) - len(missed)} met, {len(missed)} missed of {len(checked)} checked"
+          + (f" ({unchecked} in words, not checked)" if unchecked else ""))
+    for r in missed:
+        ratio = f" ({r.ratio:.3g}x against {r.baseline!r})" if r.ratio is not None else ""
+        print(f"  MISSED  {r.group}: {r.name}: {r.value:.4g} {r.unit}{ratio}; target {r.target}")
 
 
 def _write_rows(path: Path, rows, ran: set, whole_groups: set) -> None:

@@ -131,7 +131,7 @@ def _measure_publishing_and_recording(ctx: Context, folder: Path) -> list[Row]:
                 for t in read_metadata(folder).topics}
     for topic in ("joint_states", "mechanism_state", "markers"):
         dropped = published.get(topic, -1) - received.get(topic, 0)
-        rows.append(Row("ros", f"recorder dropped {topic}", float(dropped), "msgs", target="0",
+        rows.append(Row("ros", f"recorder dropped {topic}", float(dropped), "msgs", target="== 0",
                         note=f"published {published.get(topic)} received {received.get(topic)}"))
     return rows
 

@@ -82,3 +82,62 @@ def stop_after_a_signal(ctx: Context) -> list[Row]:
             Row("shutdown", f"{name}: signal to exit, max", max(times), "s", target="< 2 s"),
         ]
     return rows
+
+
+@benchmark
+def stress(ctx: Context) -> list[Row]:
+    """Start/stop cycles that must all end cleanly (tests/shutdown_stress.py): in one process
+    through each node's main, idle and loaded alternately (quick 20, full 1,000); and real
+    processes of every kind stopped by SIGINT or SIGTERM 0.2-1.5 s after they are ready, idle
+    and under a load peer (quick: the simulator once each; full: every kind 25 times each). Claim:
+    no cycle with a non-zero exit, a thread left alive, an abort or a traceback."""
+    import random
+
+    from tests.shutdown_stress import PROCESSES
+
+    env = dict(os.environ)
+    env["ROS_DOMAIN_ID"] = str(200 + os.getpid() % 30)
+    cycles = 20 if ctx.quick else 1000
+    t0 = time.monotonic()
+    out = subprocess.run([sys.executable, "-m", "tests.shutdown_stress", str(cycles)], capture_output=True,
+                         text=True, env=env, timeout=7200)
+    summary = next((line for line in out.stdout.splitlines() if line.startswith("cycles ")), "")
+    if summary and out.returncode in (0, 1) and "terminate called" not in out.stderr:
+        bad = int(summary.split("bad ")[1].split(",")[0])
+    else:                     # the process itself ended badly: no cycle counts as clean
+        bad = cycles
+        print(f"   in-process cycles: exit {out.returncode}\n{out.stderr[-3000:]}", file=sys.stderr)
+    rows = [Row("shutdown", "in-process node cycles with a problem", float(bad), "cycles", target="== 0",
+                note=f"{cycles} cycles (sim, ik, formfind, controller; idle and loaded) in "
+                     f"{time.monotonic() - t0:.0f} s, exit code {out.returncode}")]
+    rounds, kinds = (1, ("sim",)) if ctx.quick else (25, tuple(PROCESSES))
+    rng = random.Random(0)
+    previous = os.environ.get("ROS_DOMAIN_ID")
+    os.environ["ROS_DOMAIN_ID"] = env["ROS_DOMAIN_ID"]   # the load peers run here: in the children's domain
+    try:
+        return rows + _real_cycles(kinds, rounds, rng, env)
+    finally:
+        if previous is None:
+            del os.environ["ROS_DOMAIN_ID"]
+        else:
+            os.environ["ROS_DOMAIN_ID"] = previous
+
+
+def _real_cycles(kinds, rounds: int, rng, env: dict) -> list[Row]:
+    from tests.shutdown_stress import process_cycle
+
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="bench_stress_") as tmp:
+        for kind in kinds:
+            results = {mode: [process_cycle(kind, mode == "loaded", rng, Path(tmp) / f"{kind}_{mode}_{k}", env)
+                              for k in range(rounds)] for mode in ("idle", "loaded")}
+            failed = {mode: sum(1 for _, _, problem in r if problem) for mode, r in results.items()}
+            for problems in results.values():
+                for _, _, problem in problems:
+                    if problem:
+                        print(f"   {kind}: {problem[:2000]}", file=sys.stderr)
+            took = [t for r in results.values() for _, t, _ in r]
+            rows.append(Row("shutdown", f"real {kind} cycles with a problem", float(sum(failed.values())), "cycles",
+                            target="== 0", note=f"{rounds} idle ({failed['idle']} bad) + {rounds} loaded "
+                                                f"({failed['loaded']} bad); signal to exit at most {max(took):.2f} s"))
+    return rows

@@ -11,6 +11,7 @@ from __future__ import annotations
 import gc
 import json
 import math
+import re
 import time
 from collections.abc import Callable
 from contextlib import contextmanager
@@ -63,6 +64,45 @@ class Row:
     note: str = ""
     ratio: float | None = None    # filled in by the harness: baseline.value / value
     bench: str = ""               # filled in by the harness: the benchmark function's name
+    #: whether the target is met: set by a benchmark whose target is words ("on the front"),
+    #: else filled in by the harness from the target (:func:`target_met`); None: not checked
+    met: bool | None = None
+
+
+#: Units a target may give in another scale than its row's (factor to the family's base).
+UNIT_SCALES: Final = {
+    "s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9,
+    "m": 1.0, "mm": 1e-3, "um": 1e-6,
+    "Hz": 1.0, "kHz": 1e3,
+    "B": 1.0, "KiB": 2.0**10, "MiB": 2.0**20, "GiB": 2.0**30,
+}
+_FAMILY: Final = {**dict.fromkeys(("s", "ms", "us", "µs", "ns"), "time"), **dict.fromkeys(("m", "mm", "um"), "length"),
+                  **dict.fromkeys(("Hz", "kHz"), "rate"), **dict.fromkeys(("B", "KiB", "MiB", "GiB"), "memory")}
+_TARGET: Final = re.compile(r"\s*(ratio\s+)?(<=|>=|==|<|>)\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?)(x\b)?\s*([A-Za-zµ]*)")
+_COMPARE: Final = {"<": float.__lt__, "<=": float.__le__, ">": float.__gt__, ">=": float.__ge__, "==": float.__eq__}
+
+
+def target_met(row: Row) -> bool | None:
+    """Whether ``row`` meets its target, when the target is a comparison: ``OP NUMBER
+    [UNIT]`` against the value (a unit of another scale of the row's unit is converted,
+    ``< 2 ms`` for a row in us; words after it are a comment), ``OP NUMBERx`` or
+    ``ratio OP NUMBER`` against the ratio to the baseline. None for a target in words
+    ("close to 1", "on the front") or one that cannot be compared (no ratio, another unit)."""
+    m = _TARGET.match(row.target)
+    if m is None:
+        return None
+    ratio_word, op, number, times, unit = m.groups()
+    bound = float(number)
+    if ratio_word or times:
+        return None if row.ratio is None else _COMPARE[op](float(row.ratio), bound)
+    mine = row.unit.split()[0] if row.unit.split() else ""
+    if unit in UNIT_SCALES and unit != mine:
+        if _FAMILY.get(unit) != _FAMILY.get(mine):
+            return None
+        bound *= UNIT_SCALES[unit] / UNIT_SCALES[mine]
+    if math.isnan(row.value):
+        return False
+    return _COMPARE[op](float(row.value), bound)
 
 
 def benchmark(fn: Callable) -> Callable:

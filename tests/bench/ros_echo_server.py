@@ -7,14 +7,14 @@ echo is a node of its own without parameter services on an executor of its own, 
 simulator takes its commands: an rclpy executor's wake-up walks every entity of its nodes,
 so the leanest rclpy answer is the fair baseline."""
 
-import threading
-
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.qos import QoSProfile
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 from tensegrity_msgs.msg import ActuatorForces
+
+from tensegrity_ros.rclpy_utils.spin_thread import SpinThread
 
 
 def main() -> None:
@@ -32,24 +32,18 @@ def main() -> None:
     echo.create_subscription(JointState, "bench_ping", answer, QoSProfile(depth=100))
     echo_executor = SingleThreadedExecutor()
     echo_executor.add_node(echo)
-    threading.Thread(target=lambda: _spin(echo_executor), daemon=True).start()
+    spinning = SpinThread(echo_executor, "bench_topic_echo").start()
     print("echo ready", flush=True)
     try:
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        spinning.stop()             # joined: a thread still in rcl_wait at exit aborts the process
         echo_executor.shutdown()
         echo.destroy_node()
         node.destroy_node()
         rclpy.try_shutdown()
-
-
-def _spin(executor) -> None:
-    try:
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
 
 
 if __name__ == "__main__":

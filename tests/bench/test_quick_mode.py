@@ -72,3 +72,14 @@ def test_an_unknown_group_is_refused_naming_the_groups():
                          capture_output=True, text=True, timeout=120)
     assert out.returncode == 2
     assert "unknown group(s) nonsense" in out.stderr and "precision" in out.stderr
+
+
+def test_the_targets_are_checked_and_summarised(quick_run):
+    """Every row says whether its target was met (null: none, or one in words), the table
+    has the verdict column and the run ends with the count and the missed ones."""
+    assert all("met" in r for r in quick_run.rows)
+    checked = [r for r in quick_run.rows if r["met"] is not None]
+    assert checked and all(r["target"] for r in checked)
+    missed = sum(1 for r in checked if not r["met"])
+    assert f"targets: {len(checked) - missed} met, {missed} missed of {len(checked)} checked" in quick_run.stdout
+    assert sum(line.startswith("  MISSED  ") for line in quick_run.stdout.splitlines()) == missed

@@ -40,6 +40,14 @@ def test_out_of_domain_exits_non_zero_with_one_line_reason_subprocess():
     assert json.loads(out.stdout)["solutions"] == []
 
 
+def test_an_unknown_option_gets_the_commands_usage_and_the_closest_option_subprocess():
+    out = run("fk", "0.7", "0.7", "--jsn")
+    assert out.returncode == 2 and out.stdout == ""
+    lines = out.stderr.strip().splitlines()
+    assert lines[0].startswith("usage: tensegrity fk ")
+    assert lines[-1] == "tensegrity fk: error: unrecognized arguments: --jsn (did you mean --json?)"
+
+
 def test_workspace_plot_subprocess(tmp_path):
     png = tmp_path / "ws.png"
     out = run("workspace", "--plot", str(png), "--rho1-range", "0.2", "0.8", "--rho2-range", "0", "0.3")

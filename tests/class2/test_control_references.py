@@ -130,6 +130,27 @@ def test_bad_moves_are_refused_with_the_reason(start, target, kw, code, words):
     assert err.value.code == code
 
 
+def test_a_move_refused_for_the_force_budget_says_the_duration_that_fits():
+    """D by (0.6, 0.09) m in 1.5 s needs over 5 N of feedforward: the refusal names a duration
+    (and the matching peak speed of D) that fits, which is accepted, while 90 % of it is not."""
+    target = (1.3, 0.8)
+    with pytest.raises(PlanningError, match="over the budget of 5 N: allow more time") as err:
+        plan_move(REST, target, P, duration=1.5, force_budget=5.0)
+    assert err.value.code == INVALID_GOAL
+    words = str(err.value)
+    enough = float(words.split("a duration of at least ")[1].split(" s")[0])
+    speed = float(words.split("a peak speed of D of at most ")[1].split(" m/s")[0])
+    # the line's rest-to-rest scaling peaks at 630/256 times the mean speed (paths.py)
+    length = math.dist((D0.x, D0.y), target)
+    exact = 630 / 256 * length / enough
+    assert exact * (1 - 6e-3) <= speed <= exact       # rounded down to 3 digits: a limit that holds
+    assert 1.5 < enough < 10.0
+    plan_move(REST, target, P, duration=enough, force_budget=5.0)
+    plan_move(REST, target, P, max_speed=speed, force_budget=5.0)
+    with pytest.raises(PlanningError, match="over the budget"):
+        plan_move(REST, target, P, duration=0.9 * enough, force_budget=5.0)
+
+
 def test_a_path_near_the_lambda1_set_is_refused():
     """D low and far right: rho1 + rho2 near 2L (lambda1 -> 0)."""
     path = LinePath((D0.x, D0.y), (1.9, 0.05), 3.0)

@@ -4,10 +4,15 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import signal
+import subprocess
+import time
 
 import pytest
 
-from tests.ros_support import run_cli
+from tests.process_groups import kill_group, wait_group
+from tests.ros_support import TENSEGRITY, run_cli, spawn
 
 pytestmark = pytest.mark.ros
 
@@ -44,3 +49,101 @@ def test_service_missing_is_one_clear_line():
     out = run_cli("call-ik", "1", "1", "--service", "no_such_service", "--timeout", "1", timeout=60)
     assert out.returncode == 3
     assert out.stderr.startswith("error: service /no_such_service not available")
+
+
+def _wait(condition, what: str, timeout: float = 60.0) -> None:
+    deadline = time.monotonic() + timeout
+    while not condition():
+        assert time.monotonic() < deadline, f"never: {what}"
+        time.sleep(0.02)
+
+
+def test_send_forces_refuses_what_the_simulator_rejects_and_names_another_publisher(cli, ros_context, tmp_path):
+    """5000 N is over the simulator's max_force (1000 N by default): refused with that limit,
+    exit 1, nothing sent (the simulator counts no rejected command). Publishers of this
+    process on actuator_forces: one named as the suite's controller gets a note (it steps
+    aside until its next goal), any other a warning naming it (once discovery has shown
+    them: commands at a rate go on until it has)."""
+    from tensegrity_msgs.msg import ActuatorForces
+
+    sim = cli("node", "sim", "--ros-args", "-p", "command_timeout:=0.0", log_name="sim")
+    sim.wait_for("publishing at")
+    out = run_cli("send-forces", "5000", "0", timeout=120)
+    assert out.returncode == 1, out.stderr
+    assert out.stderr.strip().splitlines() == [
+        "error: /tensegrity_sim would reject this command: force for f1 = 5000 N exceeds the limit "
+        "max_force = 1000 N"]
+    peers = [rclpy_node(ros_context, name) for name in ("rival_controller", "tensegrity_controller")]
+    for peer in peers:                                 # (kept alive in `peers` until the end)
+        peer.create_publisher(ActuatorForces, "actuator_forces", 10)
+    log = tmp_path / "send.log"
+    with open(log, "w") as err:
+        proc = spawn([TENSEGRITY, "send-forces", "0.5", "-0.2", "--rate", "20"], stdout=err, stderr=err,
+                     env=dict(os.environ))
+    try:
+        _wait(lambda: "warning" in log.read_text() and "note" in log.read_text(), f"the warning and the note in {log}")
+        proc.send_signal(signal.SIGINT)
+        assert wait_group(proc, 60) == 0
+    finally:
+        kill_group(proc)
+    assert sorted(log.read_text().splitlines()) == [
+        "note: /tensegrity_controller stops commanding on seeing these forces, until its next goal (tensegrity "
+        "move or follow)",
+        "warning: /rival_controller also publishes on /actuator_forces, and the simulator applies the latest "
+        "command: these forces hold only until the next one"]
+    assert sim.stop() == 0
+    assert "rejected commands: 0;" in sim.stderr()
+
+
+def rclpy_node(ctx, name: str):
+    import rclpy
+
+    return rclpy.create_node(name, context=ctx)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_echo_says_what_it_waits_for_and_stops_cleanly_on_a_signal(tmp_path, ros_context, sig):
+    """A misspelt topic: after a moment echo says it is waiting, with the closest topic in
+    the graph (again when discovery brings a closer one). Once the topic appears it waits for messages in silence; SIGTERM or Ctrl-C
+    then ends it with exit code 0 and no traceback."""
+    from std_msgs.msg import String
+
+    node = rclpy_node(ros_context, "echo_test_peer")
+    node.create_publisher(String, "quiet_topics", 10)
+    log = tmp_path / "echo.log"
+    with open(log, "w") as err:
+        proc = spawn([TENSEGRITY, "echo", "quiet_topic"], stdout=subprocess.PIPE, stderr=err,
+                     env=dict(os.environ))
+    try:
+        # said after a moment, and said again with the closest topic once discovery shows it
+        _wait(lambda: "waiting for topic /quiet_topic: nobody publishes or subscribes to it yet (did you mean "
+              "/quiet_topics?)" in log.read_text(), "echo's waiting line with the closest topic")
+        pub = node.create_publisher(String, "quiet_topic", 10)
+        _wait(lambda: pub.get_subscription_count() > 0, "echo's subscription")
+        proc.send_signal(sig)
+        assert wait_group(proc, 60) == 0
+    finally:
+        kill_group(proc)
+    assert "Traceback" not in log.read_text() and proc.stdout.read() == b""
+
+
+def test_send_forces_at_a_rate_stops_cleanly_on_sigterm(tmp_path, ros_context):
+    from rclpy.qos import QoSProfile
+    from tensegrity_msgs.msg import ActuatorForces
+
+    from tensegrity_ros.rclpy_utils.raw_take import take_all
+
+    node = rclpy_node(ros_context, "send_forces_test_peer")
+    sub = node.create_subscription(ActuatorForces, "actuator_forces", lambda *_: None, QoSProfile(depth=10),
+                                   raw=True)
+    log = tmp_path / "send.log"
+    with open(log, "w") as err:
+        proc = spawn([TENSEGRITY, "send-forces", "0.1", "0.2", "--rate", "20"], stdout=err, stderr=err,
+                     env=dict(os.environ))
+    try:
+        _wait(lambda: take_all(sub), "a command")
+        proc.send_signal(signal.SIGTERM)
+        assert wait_group(proc, 60) == 0
+    finally:
+        kill_group(proc)
+    assert log.read_text() == ""

@@ -174,6 +174,22 @@ def test_move_reaches_the_target_within_its_tolerance_with_feedback(suite):
     assert math.hypot(x - target[0], y - target[1]) < 2e-4
 
 
+def test_a_move_with_neither_duration_nor_speed_takes_the_controllers_max_speed(suite):
+    """0 is "not given" for both, as for goal_tolerance: with neither the controller's
+    max_speed (0.05 m/s) applies: the move's rest-to-rest scaling peaks at 630/256 times the
+    mean speed (paths.py), so a 3 cm move lasts 630/256 * 0.03 / 0.05 = 1.48 s."""
+    client, _ = suite
+    x0, y0, _ = client.end_effector()
+    status, res, feedback = client.run(client.move, client.Move.Goal(x=x0 + 0.03, y=y0))
+    assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
+    duration = 630 / 256 * 0.03 / 0.05
+    moving = [f.time_from_start for f in feedback if f.phase == "moving"]
+    settling = [f.time_from_start for f in feedback if f.phase == "settling"]
+    assert duration - 0.02 <= moving[-1] < duration <= settling[0] < duration + 0.02
+    _, res, _ = client.run(client.move, client.Move.Goal(x=x0, y=y0, duration=2.0))   # back, for the next tests
+    assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
+
+
 def test_follow_reaches_the_last_point_with_desired_actual_error_feedback(suite):
     client, _ = suite
     _, _, js = client.end_effector()
@@ -201,10 +217,9 @@ def test_follow_reaches_the_last_point_with_desired_actual_error_feedback(suite)
     (dict(x=3.0, y=0.5, duration=2.0), "OUTSIDE_WORKSPACE", "not reachable"),
     (dict(x=math.nan, y=0.5, duration=2.0), "INVALID_GOAL", "x must be a finite number"),
     (dict(x=1.3, y=0.7, duration=-1.0), "INVALID_GOAL", "duration must be > 0"),
-    (dict(x=1.3, y=0.7), "INVALID_GOAL", "give a duration"),
     (dict(x=1.3, y=0.7, max_speed=math.inf), "INVALID_GOAL", "max_speed must be a finite number"),
     (dict(x=0.9, y=0.9999, duration=2.0), "SINGULAR_PATH", "beta_half_pi"),
-    (dict(x=1.3, y=0.8, duration=1.5), "INVALID_GOAL", "allow more time"),
+    (dict(x=1.3, y=0.8, duration=1.5), "INVALID_GOAL", "allow more time: a duration of at least"),
 ])
 def test_bad_moves_are_refused_with_the_reason_and_the_hold_continues(suite, goal, code, words):
     client, _ = suite

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import json
 import os
-import threading
 import time
 from contextlib import contextmanager
 
@@ -20,6 +19,7 @@ import numpy as np
 import pytest
 
 from tensegrity_core.general import form_find, load_example
+from tensegrity_ros.rclpy_utils.spin_thread import SpinThread
 from tests.hostile_requests import TABLE, alias_bomb, deep_flow_nesting, huge_value, memory_mib, tower_yaml
 from tests.ros_support import end_context
 
@@ -53,7 +53,7 @@ def _node(log, namespace: str, *params: str):
     client = node.create_client(FindForm, f"/{namespace}/find_form", qos_profile=QoSProfile(depth=100))
     executor = MultiThreadedExecutor(context=ctx)
     executor.add_node(node)
-    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner = SpinThread(executor, "ff_test_spin")
     try:
         proc.wait_for("find_form ready")
         spinner.start()
@@ -74,6 +74,7 @@ def _node(log, namespace: str, *params: str):
         call.pid = proc.popen.pid
         yield call
     finally:
+        spinner.stop()
         end_context(ctx)
         proc.stop()
 

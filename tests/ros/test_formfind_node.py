@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import threading
 import time
 
 import numpy as np
 import pytest
 
 from tensegrity_core.general import example_path
+from tensegrity_ros.rclpy_utils.spin_thread import SpinThread
 from tests.ros_support import end_context
 
 pytestmark = pytest.mark.ros
@@ -37,7 +37,7 @@ def formfind(tmp_path_factory):
     client = node.create_client(FindForm, "find_form", qos_profile=QoSProfile(depth=100))
     executor = MultiThreadedExecutor(context=ctx)
     executor.add_node(node)
-    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner = SpinThread(executor, "ff_test_spin")
     spinner.start()
     assert client.wait_for_service(timeout_sec=30)
 
@@ -52,6 +52,7 @@ def formfind(tmp_path_factory):
     call.client = client
     call.log = proc.stderr
     yield call
+    spinner.stop()
     end_context(ctx)
     proc.stop()
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -62,6 +63,9 @@ def test_scene_errors_are_one_line_with_exit_2(tmp_path, capsys):
     assert len(err) == 1 and err[0].startswith("error: bad.yaml: effects[2]: unknown effect 'dampin'")
     assert err[0].endswith("(line 4)")
     assert main(["simulate", "paper_fold", "-o", str(tmp_path / "x.txt")]) == 2
+    capsys.readouterr()
+    assert main(["simulate", "paper_fld"]) == 2
+    assert "neither a shipped scene (did you mean 'paper_fold'?)" in capsys.readouterr().err
     assert main(["simulate", "no_such_scene"]) == 2
     assert main(["simulate", "paper_fold", "--duration", "-1"]) == 2
 
@@ -81,6 +85,37 @@ def test_a_run_that_stops_early_writes_what_it_has_and_exits_1(tmp_path, capsys)
     assert captured.err.strip().splitlines()[-1].startswith("error: simulation stopped early: t = ")
     table = read_csv(out)
     assert 0 < len(table) < 501
+
+
+def test_ctrl_c_writes_what_was_computed_and_says_so(tmp_path):
+    """Ctrl-C ends the run at its next sample: the samples computed so far are written and
+    plotted, the last line says where, exit code 130 (SIGTERM has the same handler)."""
+    import signal
+    import time
+
+    from tests.process_groups import exited, kill_group
+
+    out, plot = tmp_path / "run.npz", tmp_path / "run.png"
+    proc = subprocess.Popen([sys.executable, "-m", "tensegrity_ros.cli", "simulate", "table_gravity", "--duration",
+                             "20", "-o", str(out), "--plot", str(plot)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True, env=dict(os.environ))
+    try:
+        deadline = time.monotonic() + 300          # a guard against a hang, not a timing
+        progress = b""
+        while not re.search(rb"\| 0*[.0-9]*[1-9][.0-9]*/20 s", progress):   # the bar has moved: the run is on
+            assert not exited(proc) and time.monotonic() < deadline, "no progress"
+            progress += os.read(proc.stderr.fileno(), 4096)
+        proc.send_signal(signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=300)
+    finally:
+        kill_group(proc)
+    assert proc.returncode == 130, stderr
+    traj = Trajectory.from_npz(out)
+    t_end = float(traj.times[-1])
+    assert 0 < t_end < 20.0 and plot.stat().st_size > 10_000
+    assert stderr.strip().splitlines()[-1] == (f"interrupted at t = {t_end:.6g} s: the run up to there is written "
+                                               f"to {out} and plotted in {plot}")
+    assert "Traceback" not in stderr and f"interrupted at t = {t_end:.6g} s:" in stdout
 
 
 def test_csv_and_npz_hold_the_same_run(tmp_path):

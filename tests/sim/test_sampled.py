@@ -78,7 +78,8 @@ def test_cli_sampled_run_matches_the_api(capsys, tmp_path):
     summary = json.loads(capsys.readouterr().out)
     run = run_sampled("class2_at_rest", paper_fold_forces, step_size=0.01, duration=2.0)
     assert summary["steps"] == 200 and summary["control_period_ns"] == 10_000_000
-    assert [(e["t"], e["kind"], e["index"]) for e in summary["events"]] == [(t, k, i) for t, k, i in run.events]
+    assert [(e["t"], e["kind"], e["subject"]) for e in summary["events"]] == \
+        [(t, k, f"rho{i + 1}") for t, k, i in run.events]          # the paper's fold: folds of rho1, rho2
     data = np.load(out)
     np.testing.assert_array_equal(data["q"], run.q)
 

@@ -131,7 +131,7 @@ def test_invalid_yaml_reports_its_line():
 
 
 def test_unknown_names_and_missing_files_are_rejected(tmp_path):
-    with pytest.raises(SceneError, match="neither a shipped scene"):
+    with pytest.raises(SceneError, match=r"neither a shipped scene \(did you mean 'paper_fold'\?\)"):
         load_scene("paper_flod")
     with pytest.raises(SceneError, match="scene file not found"):
         load_scene(str(tmp_path / "nothing.yaml"))

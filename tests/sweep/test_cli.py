@@ -119,19 +119,53 @@ def test_ctrl_c_ends_the_sweep_with_one_line_and_resume_runs_the_rest_once(tmp_p
         stdout, stderr = proc.communicate(timeout=120)
     finally:
         kill_group(proc)                      # only if it is still there
+    finished = [json.loads(line) for line in journal.read_text().splitlines()[1:]]
     assert proc.returncode == 130, stderr
-    assert stderr.strip().splitlines() == [f"interrupted: the finished points are in {journal}; --resume continues"], \
-        stderr[-3000:]
+    assert stderr.strip().splitlines() == [f"interrupted: {len(finished)} finished points kept in {journal}; "
+                                           "--resume runs the others"], stderr[-3000:]
     assert not out.exists() and stdout == ""
 
     assert_all_end(family)  # the workers end with the cluster
-    finished = [json.loads(line) for line in journal.read_text().splitlines()[1:]]
     assert 2 <= len(finished) < n
     assert main(["sweep", sweep, "-o", str(out), "--resume", "--workers", "2", "--quiet"]) == 0
     table = pd.read_parquet(out)
     assert list(table["point"]) == list(range(n)) and set(table["status"]) == {"ok"}
     for row in finished:                     # kept, not run again
         assert table["run_time"][row["point"]] == row["run_time"]
+
+
+def test_ctrl_c_while_the_cluster_starts_ends_with_one_line(tmp_path):
+    """A Ctrl-C while the embedded cluster starts (its worker processes exist, no point has
+    finished): the workers, which were importing Dask, print nothing, the cluster is closed
+    as soon as its start ends (Dask's exit handler has nothing left to fail on: no
+    AssertionError), exit 130 and one line; no process is left."""
+    import os
+    import signal
+    import time
+
+    from tests.process_groups import assert_all_end, exited, kill_group
+
+    psutil = pytest.importorskip("psutil")
+    sweep = write(tmp_path, fold_sweep(vary={"inputs.f1.gain": {"grid": {"from": 6.0, "to": 14.0, "num": 4}}}))
+    out = tmp_path / "r.parquet"
+    proc = subprocess.Popen([sys.executable, "-m", "tensegrity_ros.cli", "sweep", sweep, "-o", str(out),
+                             "--workers", "2", "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 120     # a guard against a hang, not a timing
+        while len(family := psutil.Process(proc.pid).children(recursive=True)) < 2:   # worker processes
+            assert not exited(proc), "the sweep ended before it was interrupted"
+            assert time.monotonic() < deadline, "no worker process after 120 s"
+            time.sleep(0.01)
+        os.killpg(proc.pid, signal.SIGINT)    # the leader is not reaped yet: the group is still its
+        stdout, stderr = proc.communicate(timeout=120)
+    finally:
+        kill_group(proc)
+    assert proc.returncode == 130, stderr
+    lines = stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("interrupted"), stderr[-3000:]
+    assert not out.exists() and stdout == ""
+    assert_all_end(family)
 
 
 @pytest.mark.parametrize("args, message", [
@@ -158,6 +192,13 @@ def test_a_bad_sweep_file_names_the_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: bad.yaml: vary.model.params.kk.x: model.params has no key 'kk' (did you mean 'k'?)")
     assert err.endswith("(line 3)")
+    path.write_text("base: {scene: paper_fold}\nvary:\n  model.params.k: [1, 2]\n  model.params.cc: [0, 0.1]\n"
+                    "compute: simulate\nresults: [t_end]\n")
+    assert main(["sweep", str(path), "-o", str(tmp_path / "out.csv")]) == 2       # the last key's typo
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: bad.yaml: vary.model.params.cc: the base scene 'paper_fold' has no "
+                          "'model.params.cc'") and "unknown key 'cc' (did you mean 'c'?)" in err
+    assert err.endswith("(line 4)") and not (tmp_path / "out.csv").exists()
 
 
 def test_the_core_reads_sweeps_and_runs_everything_else_without_dask_pandas_or_pyarrow():
@@ -179,5 +220,5 @@ sys.exit(main(["sweep", "fold_time_kc", "--workers", "0"]))
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 1, proc.stderr
     assert "sweeps need the packages dask[distributed], pandas and pyarrow" in proc.stdout
-    assert "pip install 'tensegrity-ros[sweep]'" in proc.stdout
+    assert "pip install '.[sweep]' in the project's folder" in proc.stdout      # as the README says
     assert proc.stderr.strip().startswith("error: sweeps need the packages") and "Traceback" not in proc.stderr

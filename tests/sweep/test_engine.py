@@ -268,7 +268,8 @@ def test_a_cluster_whose_workers_lack_the_package_is_refused_before_any_task(tmp
     assert len(lines) == 1, err
     assert lines[0].startswith(f"error: 1 of 1 workers of the Dask scheduler at {address!r} cannot run sweeps (tcp://")
     assert "ImportError: no tensegrity_core on this worker xxx" in lines[0]
-    assert lines[0].endswith(f"… ({len(said.strip())} characters)); install tensegrity-ros[sweep] there")
+    assert lines[0].endswith(f"… ({len(said.strip())} characters)); install this project with its sweep extra "
+                             "there (pip install '.[sweep]')")
     assert len(lines[0]) < 500
     assert sorted(p.name for p in work.iterdir()) == ["s.yaml"]
 

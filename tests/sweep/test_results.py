@@ -11,7 +11,7 @@ import pytest
 
 from tensegrity_core.class2 import PAPER_PARAMS, inverse_kinematics
 from tensegrity_core.sim import load_scene, simulate
-from tensegrity_core.sweep import load_sweep, run_sweep
+from tensegrity_core.sweep import SweepError, load_sweep, run_sweep
 from tests.sweep.conftest import fold_sweep
 
 pytest.importorskip("pandas")
@@ -44,7 +44,7 @@ def test_a_hanging_mass_sits_where_hookes_law_puts_it(tmp_path):
         assert row.m_z == pytest.approx(-length, rel=1e-9) and abs(row.m_x) < 1e-12
         assert row.max_member_force == pytest.approx(F, rel=1e-9)
         assert row.min_eigenvalue == pytest.approx(F / length, rel=1e-7)
-        got = sorted([row.eigenvalue_0, row.eigenvalue_1, row.eigenvalue_2])
+        got = sorted([row.eigenvalue_1, row.eigenvalue_2, row.eigenvalue_3])
         assert got == pytest.approx(sorted([F / length, F / length, EA / l0]), rel=1e-7)
         assert row.stable and row.rank == 1
 
@@ -63,6 +63,21 @@ def test_the_papers_first_fold_and_direct_runs_agree_with_the_sweep():
         assert row.first_fold_time == (min(folds) if folds else math.nan)
         assert row.t_end == 1.6
         assert [row.final_rho1, row.final_rho2, row.final_beta] == list(traj.q[-1])
+
+
+def test_actuators_count_from_1_as_their_names_do():
+    """``actuator: 2`` is rho2 (the paper's fold: rho2 folds at 1.381 s, docs/scenes.md), its
+    column ``first_fold_time_2``; 0 is refused with the convention in the message."""
+    table = run_sweep(fold_sweep(vary={"inputs.f1.gain": [10.0]},
+                                 results=[{"first_event_time": {"kind": "fold", "actuator": 2}},
+                                          {"event_count": {"kind": "fold", "actuator": 1}}]),
+                      workers=0, progress=False)
+    assert table["first_fold_time_2"][0] == pytest.approx(1.381, abs=5e-4)
+    traj = simulate("paper_fold", duration=1.6)
+    assert table["first_fold_time_2"][0] == min(t for t, kind, i in traj.events if kind == "fold" and i == 1)
+    assert table["fold_count_1"][0] == sum(1 for _, kind, i in traj.events if kind == "fold" and i == 0)
+    with pytest.raises(SweepError, match=r"must be >= 1 \(an actuator \(counted from 1: 1 = rho1, 2 = rho2\)\), got 0"):
+        load_sweep(fold_sweep(results=[{"first_event_time": {"kind": "fold", "actuator": 0}}]))
 
 
 def test_bad_values_are_invalid_rows_with_the_loaders_message():

@@ -55,6 +55,9 @@ def error_of(text: str) -> SweepError:
      "must be one of linear, log, got 'lin' (did you mean 'linear'?)"),
     ("{values: [0.0, 0.01]}", "{normal: {mean: 1.0, std: 0.05}}", "compute: simulate",
      "random quantities need 'samples'"),
+    ("model.params.c:", "model.params.cc:", "model.params.cc",
+     "has no 'model.params.cc' and takes none of its values there: model.params.cc: unknown key 'cc' "
+     "(did you mean 'c'?)"),
 ])
 def test_bad_sweep_files_name_the_key_the_line_and_a_suggestion(old, new, needle, expected):
     text = GOOD.replace(old, new)
@@ -81,6 +84,30 @@ def test_run_time_may_be_listed_for_every_computation_and_changes_nothing(comput
     assert [r[:2] for r in listed.results] == [r[:2] for r in plain.results] == [(result, {})]
     assert listed.sweep_id == plain.sweep_id
     assert load_sweep({**doc, "results": ["run_time"]}).results == ()
+
+
+@pytest.mark.parametrize("sweep, expected", [
+    ({"base": {"scene": "paper_fold"}, "vary": {"model.params.kk": [1.0, 2.0]},
+      "compute": {"ik": {"targets": [[1.0, 0.5]]}}, "results": ["reachable"]}, "unknown parameter 'kk'"),
+    ({"base": {"structure": "spine_c"}, "vary": {"members[side*].rest_lenght": {"uniform": {"low": 0.02, "high": 0.04}}},
+      "samples": 2, "compute": "form_find", "results": ["stable"]},
+     "unknown key 'rest_lenght' (did you mean 'rest_length'?)"),
+])
+def test_a_misspelt_last_key_is_refused_before_anything_runs(sweep, expected):
+    """The last key of a key path may be new in the base (a parameter left at its default),
+    but one that the computation's loader refuses at every probed value is a typo: the sweep
+    is refused, where it would have run every point as an invalid row."""
+    with pytest.raises(SweepError, match="takes none of its values there") as info:
+        load_sweep(sweep)
+    assert expected in str(info.value)
+
+
+def test_a_new_key_that_some_values_suit_is_varied():
+    """``model.params.k1`` is not in paper_fold's file (it defaults): accepted, and so is a
+    quantity whose first value the loader refuses (that point becomes an invalid row)."""
+    sweep = load_sweep({"base": {"scene": "paper_fold"}, "vary": {"model.params.k1": [-1.0, 1.0, 2.0]},
+                        "compute": "simulate", "results": ["t_end"]})
+    assert sweep.n_points == 3
 
 
 def test_a_duplicate_key_is_refused_with_both_lines():

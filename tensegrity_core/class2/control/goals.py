@@ -29,6 +29,12 @@ from numpy.typing import ArrayLike, NDArray
 from tensegrity_core.class2.control.law import Tick
 from tensegrity_core.class2.control.reference import Reference
 
+#: Default time [s] after an actuator trajectory's last point for the lengths to come within
+#: their goal tolerance. Actuator trajectories are quasi-static (beta, which no actuator
+#: drives, lags its equilibrium while the lengths move): the lengths settle within 0.1 mm
+#: about 5 s after the last point (docs/control.md), so 6 s.
+GOAL_TIME_TOLERANCE: Final = 6.0
+
 SUCCEEDED: Final = "succeeded"
 PATH_TOLERANCE_VIOLATED: Final = "path_tolerance_violated"
 GOAL_TOLERANCE_VIOLATED: Final = "goal_tolerance_violated"
@@ -122,7 +128,7 @@ class TrajectoryGoal(_Goal):
     path_velocity: tuple[float, float] = (0.0, 0.0)
     goal_position: tuple[float, float] = (1e-4, 1e-4)
     goal_velocity: tuple[float, float] = (0.0, 0.0)
-    goal_time: float = 3.0
+    goal_time: float = GOAL_TIME_TOLERANCE
     error: NDArray[np.float64] = field(default_factory=lambda: np.zeros(2))
     rate_error: NDArray[np.float64] = field(default_factory=lambda: np.zeros(2))
 

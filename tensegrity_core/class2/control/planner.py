@@ -18,7 +18,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Final
 
 import numpy as np
@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 from tensegrity_core.class2.control.errors import INVALID_GOAL, OUTSIDE_WORKSPACE, SINGULAR_PATH, PlanningError
 from tensegrity_core.class2.control.flat import end_effector_reference
-from tensegrity_core.class2.control.paths import PEAK_SPEED_FACTOR, LinePath, MeasuredPath
+from tensegrity_core.class2.control.paths import PEAK_SPEED_FACTOR, EndEffectorPath, LinePath, MeasuredPath
 from tensegrity_core.class2.control.reference import Reference, hold_reference
 from tensegrity_core.class2.inverse_kinematics import inverse_kinematics, nearest_solution
 from tensegrity_core.class2.kinematics import jacobian_D_rho
@@ -126,25 +126,82 @@ def plan_move(q_start: Sequence[float] | NDArray[np.float64], target: Sequence[f
     if length < 1e-9 * L:
         return _hold_for(goal.rho1, goal.rho2, T, params, (x, y))
     return plan_path(LinePath(start, (x, y), T), q0, params, force_budget=force_budget,
-                     singular_margin=singular_margin, step=step, target=(x, y))
+                     singular_margin=singular_margin, step=step, target=(x, y),
+                     retimed=lambda duration: LinePath(start, (x, y), duration))
 
 
 def plan_path(path: MeasuredPath, q_start: Sequence[float] | NDArray[np.float64], params: Class2Params, *,
               force_budget: float = math.inf, singular_margin: float = SINGULAR_MARGIN, step: float = 0.002,
-              target: tuple[float, float] | None = None) -> Reference:
+              target: tuple[float, float] | None = None,
+              retimed: Callable[[float], MeasuredPath] | None = None) -> Reference:
     """The reference for D along ``path`` (a :class:`LinePath`, :class:`CirclePath`, ...)
-    starting where ``q_start`` puts D: IK along it (steps 3-4 of the module docstring)."""
+    starting where ``q_start`` puts D: IK along it (steps 3-4 of the module docstring).
+    ``retimed(duration)`` (the same path in another duration), when given, lets a refusal for
+    the force budget say the shortest duration within it (:func:`shortest_duration`)."""
     sigma, rho = check_path_ik(path, q_start[:2], params, singular_margin=singular_margin)
-    def guess(t: NDArray[np.float64]) -> NDArray[np.float64]:   # static IK along the path
-        return np.interp(path.sigma(t), sigma, rho[:, 1])
 
-    ref = end_effector_reference(path, params, guess, step=step, target=target)
+    def reference(p: MeasuredPath) -> Reference:
+        def guess(t: NDArray[np.float64]) -> NDArray[np.float64]:   # static IK along the path
+            return np.interp(p.sigma(t), sigma, rho[:, 1])
+
+        return end_effector_reference(p, params, guess, step=step, target=target)
+
+    ref = reference(path)
     peak = float(np.max(np.abs(ref.force)))
-    if peak > force_budget:
-        raise PlanningError(f"the move needs feedforward forces up to {peak:.3g} N, over the budget of "
-                            f"{force_budget:g} N: allow more time (duration > {path.duration:g} s)",
-                            code=INVALID_GOAL)
-    return ref
+    if peak <= force_budget:
+        return ref
+    advice = "allow more time"
+    if retimed is not None:
+        def fits(duration: float) -> bool:
+            try:
+                return float(np.max(np.abs(reference(retimed(duration)).force))) <= force_budget
+            except PlanningError:      # too fast for a reference at all
+                return False
+
+        enough = shortest_duration(fits, path.duration)
+        advice = (f"allow more time: a duration of at least {enough:.3g} s (a peak speed of D of at most "
+                  f"{_round_down(peak_speed(retimed(enough))):.3g} m/s) keeps it within the budget"
+                  if enough is not None else
+                  f"no duration up to {path.duration * 2 ** _MAX_DOUBLINGS:.3g} s keeps it within the budget: "
+                  "holding the path's configurations alone needs more")
+    raise PlanningError(f"the move needs feedforward forces up to {peak:.3g} N in {path.duration:g} s, over "
+                        f"the budget of {force_budget:g} N: {advice}", code=INVALID_GOAL)
+
+
+#: How far :func:`shortest_duration` looks: up to 2**this times the refused duration.
+_MAX_DOUBLINGS: Final = 6
+
+
+def shortest_duration(fits: Callable[[float], bool], refused: float, *, rel: float = 0.02) -> float | None:
+    """The shortest duration [s] longer than ``refused`` for which ``fits(duration)``, to a
+    relative ``rel`` and rounded up to 3 significant digits (so the number said is one that
+    fits), assuming longer durations fit once one does; None when none up to
+    ``refused * 2**6`` does. Doubles from ``refused``, then bisects (geometrically)."""
+    low, high = refused, refused
+    for _ in range(_MAX_DOUBLINGS):
+        high = 2.0 * low
+        if fits(high):
+            break
+        low = high
+    else:
+        return None
+    while high / low > 1.0 + rel:
+        middle = math.sqrt(low * high)
+        low, high = (low, middle) if fits(middle) else (middle, high)
+    digits = 2 - math.floor(math.log10(high))
+    return math.ceil(high * 10.0**digits) / 10.0**digits
+
+
+def _round_down(value: float) -> float:
+    """``value`` > 0 rounded down to 3 significant digits (a limit said is then one that holds)."""
+    digits = 2 - math.floor(math.log10(value))
+    return math.floor(value * 10.0**digits) / 10.0**digits
+
+
+def peak_speed(path: EndEffectorPath, samples: int = 2001) -> float:
+    """The largest speed of D along ``path`` [m/s], sampled ``samples`` times."""
+    _, velocity, _ = path.sample(np.linspace(0.0, path.duration, samples))
+    return float(np.max(np.hypot(velocity[:, 0], velocity[:, 1])))
 
 
 def _hold_for(rho1: float, rho2: float, duration: float, params: Class2Params,

@@ -87,15 +87,15 @@ class InverseKinematics(Computation["Class2Params", Solved]):
     model = "class2"
     options: dict[str, Check] = {"targets": targets, "paper_range": boolean}
     results: dict[str, ResultDef[Solved]] = {
-        "reachable": scalar("reachable", "int", lambda s: sum(1 for v in s.valid if v), "targets solved"),
+        "reachable": scalar("reachable", "int", lambda s: sum(1 for v in s.valid if v), "targets solved", "count"),
         "reachable_fraction": scalar("reachable_fraction", "float",
-                                     lambda s: sum(1 for v in s.valid if v) / len(s.valid), "fraction solved"),
+                                     lambda s: sum(1 for v in s.valid if v) / len(s.valid), "fraction solved", "1"),
         "min_singularity_distance": scalar("min_singularity_distance", "float", _min_singularity_distance,
-                                           "distance to the nearest singular set"),
+                                           "distance to the nearest singular set (dimensionless)", "1"),
         "max_fk_residual": scalar("max_fk_residual", "float", lambda s: s.over_valid("fk_residual", np.max),
-                                  "[m]"),
+                                  "[m]", "m"),
         "min_stiffness_beta": scalar("min_stiffness_beta", "float", lambda s: s.over_valid("stiffness_beta", np.min),
-                                     "d2U/dbeta2 [J/rad^2]"),
+                                     "d2U/dbeta2 [J/rad^2]", "J/rad^2"),
     }
     required: dict[str, tuple[str, ...]] = {}
     required_options = ("targets",)

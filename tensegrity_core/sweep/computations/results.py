@@ -30,24 +30,36 @@ class Probe(Protocol[Out_co]):
 
 @dataclass(frozen=True)
 class ResultDef(Generic[Out]):
+    """``unit``: the unit of every column (SI, as ``"N/m"``; ``"1"`` dimensionless, ``"count"``
+    a number of things, ``""`` for a boolean), or ``(options, data, column) -> unit`` when the
+    columns differ."""
+
     doc: str
     columns: Callable[[Options, Any], list[Column]]       # (options, data) -> [(column, dtype)]
     extract: Callable[[Out, Options, Any], list[Any]]       # (outcome, options, data) -> [value per column]
     options: dict[str, Check] = field(default_factory=dict)
     prepare: Callable[[Options, Probe[Out], str], Any] | None = None   # (options, probe, folder) -> data
+    unit: str | Callable[[Options, Any, str], str] = "1"
+
+    def units(self, options: Options, data: Any, columns: list[Column]) -> tuple[str, ...]:
+        """The unit of each of ``columns``."""
+        unit = self.unit
+        return tuple(unit if isinstance(unit, str) else unit(options, data, name) for name, _ in columns)
 
 
 @dataclass(frozen=True)
 class ResultSpec:
-    """A result the sweep keeps: its name, checked options, fixed data and columns."""
+    """A result the sweep keeps: its name, checked options, fixed data, columns and their
+    units (:attr:`ResultDef.unit`)."""
 
     name: str
     options: Options
     columns: tuple[Column, ...]
     data: Any = None
+    units: tuple[str, ...] = ()
 
 
-def scalar(column: str, dtype: str, read: Callable[[Out], Any], doc: str, **options: Check) -> ResultDef[Out]:
-    """A result with one column read by ``read(outcome)``."""
+def scalar(column: str, dtype: str, read: Callable[[Out], Any], doc: str, unit: str, **options: Check) -> ResultDef[Out]:
+    """A result with one column read by ``read(outcome)``, in ``unit`` (:attr:`ResultDef.unit`)."""
     return ResultDef(doc=doc, columns=lambda o, d: [(column, dtype)], extract=lambda out, o, d: [read(out)],
-                     options=options)
+                     options=options, unit=unit)

@@ -87,23 +87,27 @@ def _slack(out: Equilibrium) -> int:
     return int(np.sum(s.is_string & (r.member_lengths < s.rest_lengths)))
 
 
+#: The unit of K_T's eigenvalues: N/m along a node's or a body centre's translation, N m/rad
+#: along a body's rotation (a mode mixes both where the structure has rigid bodies).
+KT_UNIT = "N/m, N m/rad"
+
 FORM_FIND_RESULTS: dict[str, ResultDef[Equilibrium]] = {
-    "iterations": scalar("iterations", "int", lambda o: int(o.result.iterations), "Newton iterations"),
+    "iterations": scalar("iterations", "int", lambda o: int(o.result.iterations), "Newton iterations", "count"),
     "residual": scalar("residual", "float", lambda o: float(o.result.residual),
-                       "relative out-of-balance force (largest over nodes) [-]"),
+                       "relative out-of-balance force (largest over nodes) [-]", "1"),
     "min_eigenvalue": scalar("min_eigenvalue", "float", lambda o: float(o.result.min_eigenvalue),
-                             "smallest eigenvalue of K_T (rigid-body modes excluded)"),
-    "stable": scalar("stable", "bool", lambda o: bool(o.result.stable), "stable equilibrium"),
-    "energy": scalar("energy", "float", lambda o: float(o.result.energy), "potential energy [J]"),
-    "max_member_force": scalar("max_member_force", "float", lambda o: _forces(o, np.max), "[N]"),
-    "min_member_force": scalar("min_member_force", "float", lambda o: _forces(o, np.min), "[N]"),
-    "slack_members": scalar("slack_members", "int", _slack, "slack strings"),
+                             "smallest eigenvalue of K_T (rigid-body modes excluded)", KT_UNIT),
+    "stable": scalar("stable", "bool", lambda o: bool(o.result.stable), "stable equilibrium", ""),
+    "energy": scalar("energy", "float", lambda o: float(o.result.energy), "potential energy [J]", "J"),
+    "max_member_force": scalar("max_member_force", "float", lambda o: _forces(o, np.max), "[N]", "N"),
+    "min_member_force": scalar("min_member_force", "float", lambda o: _forces(o, np.min), "[N]", "N"),
+    "slack_members": scalar("slack_members", "int", _slack, "slack strings", "count"),
     "node": ResultDef(doc="equilibrium position of a node [m]", columns=_node_columns, extract=_node_position,
-                      options={"name": text}, prepare=_check_node),
+                      options={"name": text}, prepare=_check_node, unit="m"),
     "error_vs_reference": ResultDef(
         doc="largest node distance from the base structure's equilibrium [m]",
         columns=lambda o, d: [("error_vs_reference", "float")], extract=_node_error,
-        prepare=_reference_nodes),
+        prepare=_reference_nodes, unit="m"),
 }
 
 
@@ -139,7 +143,7 @@ class FormFind(Computation["Structure", Equilibrium]):
 
 
 def _eigen_columns(options: Options, data: object) -> list[Column]:
-    return [(f"eigenvalue_{i}", "float") for i in range(options.get("n", 1))]
+    return [(f"eigenvalue_{i + 1}", "float") for i in range(options.get("n", 1))]    # from 1, the lowest
 
 
 def _eigenvalues(out: Equilibrium, options: Options, data: object) -> list[float]:
@@ -157,12 +161,12 @@ class Stiffness(FormFind):
     results = {
         **FORM_FIND_RESULTS,
         "eigenvalues": ResultDef(doc="lowest eigenvalues of K_T", columns=_eigen_columns, extract=_eigenvalues,
-                                 options={"n": integer(lo=1)}),
-        "rank": scalar("rank", "int", _modes_count(lambda m: m.rank), "rank of the equilibrium matrix"),
+                                 options={"n": integer(lo=1)}, unit=KT_UNIT),
+        "rank": scalar("rank", "int", _modes_count(lambda m: m.rank), "rank of the equilibrium matrix", "count"),
         "self_stress_modes": scalar("self_stress_modes", "int", _modes_count(lambda m: m.self_stress.shape[1]),
-                                    "self-stress modes"),
+                                    "self-stress modes", "count"),
         "mechanism_modes": scalar("mechanism_modes", "int", _modes_count(lambda m: m.mechanisms.shape[1]),
-                                  "mechanism modes (rigid-body motions included)"),
+                                  "mechanism modes (rigid-body motions included)", "count"),
     }
 
     def run(self, structure: Structure, options: Options) -> tuple[bool, str, Equilibrium]:
