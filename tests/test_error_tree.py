@@ -21,6 +21,9 @@ OUTSIDE_THE_TREE = {
     # Raised while a node starts, to stop the process with its message and no traceback: it
     # must stay out of every ``except Exception`` on the way (a TensegrityError is one).
     "tensegrity_ros.nodes.common.ParameterValueError",
+    # A warning, not an error: issued with warnings.warn so a script can filter or raise it,
+    # and a run goes on after it.
+    "tensegrity_core.sim.stiffness_check.StiffnessWarning",
 }
 
 

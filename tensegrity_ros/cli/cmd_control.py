@@ -143,10 +143,10 @@ def _run_goal(args, node_name: str, action, goal, total, progress, summary) -> i
     from rclpy.executors import SingleThreadedExecutor
     from tqdm import tqdm
 
-    from tensegrity_ros.cli.cmd_ros import _client_node
+    from tensegrity_ros.cli.ros_clients import client_node
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
 
-    rclpy, node = _client_node(node_name, args.ros_args)
+    rclpy, node = client_node(node_name, args.ros_args)
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     client = ActionClient(node, action, args.action)
