@@ -139,7 +139,7 @@ def run_sampled_cli(args) -> int:
         print(f"{run.message}: to t = {summary['t_end']:.9g} s")
         _print_events(summary["events"])
         with np.printoptions(precision=6, suppress=True):
-            print(f"final q = {run.q[-1]}")
+            print(f"final q {Q_UNITS.get(scene.model.kind, '')}= {run.q[-1]}")
         if out:
             print(f"trajectory written to {out}")
     return _outcome(run.success, run.message, stop.is_set(), out, None)
@@ -262,6 +262,12 @@ def _events(events) -> list[dict]:
     return [{"t": float(t), "kind": k, "subject": event_subject(k, int(i))} for t, k, i in events]
 
 
+#: What the printed final coordinates are, per model kind.
+Q_UNITS = {"class2": "(rho1 [m], rho2 [m], beta [rad]) ",
+           "general": "(free node coordinates and body centres [m], body rotation vectors [rad]) ",
+           "robot": "(body centres [m] and rotation vectors [rad], per rod and body) "}
+
+
 def _print_events(events: list[dict]) -> None:
     for e in events:
         print(f"  event at t = {e['t']:.9g} s: {e['kind']} {e['subject']}".rstrip())
@@ -273,11 +279,12 @@ def _print_summary(s: dict) -> None:
     kind = "quasi-static" if s["quasi_static"] else "dynamic"
     print(f"scene {s['scene']}: {s['model']}, {kind}; effects: {', '.join(s['effects'])}")
     stats = s["stats"]
-    extra = ", ".join(f"{k} {v}" for k, v in stats.items() if k not in ("wall_time",))
+    extra = ", ".join(f"{k} {v} s" if k == "step" else f"{k} {v}" for k, v in stats.items() if k not in ("wall_time",))
     print(f"{s['message']}: {s['samples']} samples to t = {s['t_end']:.6g} s in {stats['wall_time']:.3f} s ({extra})")
     _print_events(s["events"])
     with np.printoptions(precision=6, suppress=True):
-        print(f"final q = {np.asarray(s['final']['q'])}, end effector = {np.asarray(s['final']['end_effector'])}")
+        print(f"final q {Q_UNITS.get(s['model'], '')}= {np.asarray(s['final']['q'])}")
+        print(f"final end effector [m] = {np.asarray(s['final']['end_effector'])}")
     for key, label in (("output", "trajectory"), ("plot", "plot")):
         if s[key]:
             print(f"{label} written to {s[key]}")

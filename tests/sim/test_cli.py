@@ -142,3 +142,14 @@ def test_the_console_script_runs():
                             env=env, timeout=120)
     assert result.returncode == 0, result.stderr
     assert "scene paper_fold" in result.stdout and "simulated 0.5 s" in result.stdout
+
+
+@pytest.mark.parametrize("name, q_units", [("paper_fold", "rho1 [m], rho2 [m], beta [rad]"),
+                                           ("table_gravity", "[m]"), ("three_bar_drop", "[rad]")])
+def test_the_printed_summary_gives_every_number_its_unit(name, q_units, capsys):
+    assert main(["simulate", name, "--duration", str(SHORT[name])]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"^final q \(.*" + re.escape(q_units) + r".*\) = \[", out, re.M), out
+    assert re.search(r"^final end effector \[m\] = \[", out, re.M), out
+    step = re.search(r"\bstep (\S+)( s)?[,)]", out)
+    assert step is None or step.group(2) == " s", out
