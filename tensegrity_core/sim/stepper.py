@@ -375,7 +375,11 @@ class Stepper(Generic[Sys]):
         pending = self._pending
         assert pending is not None
         if pending.crossing is not None:
-            transition = self.system.handle_event(pending.crossing, self._dense(pending.t))
+            try:
+                transition = self.system.handle_event(pending.crossing, self._dense(pending.t))
+            except SimulationError:           # the event stops the run (a singular set): it is logged
+                self._log(pending.t, ((pending.crossing.kind, pending.crossing.index),))
+                raise
         else:
             assert pending.transition is not None
             transition = pending.transition

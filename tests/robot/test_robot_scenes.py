@@ -85,14 +85,18 @@ def test_overrides_reach_the_model():
     assert set(plan.motor_tau) == {0.25} and set(plan.motor_speed) == {0.1}
 
 
-def test_a_robot_file_named_by_a_scene_travels_to_sweep_workers_as_an_absolute_path(tmp_path):
+def test_a_robot_file_named_by_a_scene_travels_to_sweep_workers_inlined(tmp_path, monkeypatch):
     import shutil
+
+    import yaml
 
     from tensegrity_core.robot.loading import robot_path
     from tensegrity_core.sim.scene.references import self_contained
     shutil.copy(robot_path("three_bar"), tmp_path / "mine.yaml")
     doc = _scene(model={"kind": "robot", "robot": "mine.yaml"})
     out = self_contained(doc, tmp_path)
-    assert out["model"]["robot"] == str((tmp_path / "mine.yaml").resolve())
+    inlined = out["model"]["robot"]
+    assert inlined == yaml.safe_load((tmp_path / "mine.yaml").read_text())   # the file's description itself
+    monkeypatch.chdir(tmp_path.parent)                  # a worker elsewhere needs no file
     assert load_scene(out).model.robot.name == "three_bar"
-    assert self_contained(BASE, tmp_path)["model"]["robot"] == "three_bar"          # a shipped name stays
+    assert self_contained(BASE, tmp_path)["model"]["robot"]["name"] == "three_bar"   # a shipped name too
