@@ -69,6 +69,11 @@ NEAR_REL: Final = 1e-10
 #: A held actuator's release fires where its contact force reaches ``-RELEASE_REL`` times the
 #: force scale ``1 + |R1| + |R2|`` [N]: strictly below the ``lambda >= 0`` of the mode choice.
 RELEASE_REL: Final = 1e-10
+#: Half the time step [s, relative to ``1 + |t|``] of the central difference that gives a
+#: release event's rate: its truncation error (``RATE_STEP^2`` relative over the motion's
+#: time scale) and its rounding (``1e-16 / RATE_STEP`` of the force scale) both far below
+#: what the dip test needs.
+RATE_STEP: Final = 1e-6
 
 
 @dataclass(frozen=True)
@@ -247,15 +252,27 @@ class Class2System:
 
     def _release_event(self, i: int) -> Class2StateEvent:
         """Held actuator ``i`` lets go: its contact force falls through ``-RELEASE_REL`` of the
-        force scale."""
+        force scale.
+
+        Its rate [N/s] is the central difference of that value along the motion over
+        ``RATE_STEP`` either side: with it the stepper sees a contact force that dips below
+        zero and comes back inside one step (held, the mechanism is smooth and steps long:
+        the force can pass through zero and back between two step ends). The rate only
+        chooses where to look; the crossing is located on the value itself."""
         solve = self.plant.eom.inertia.solve
         bits = self.bits
+        fun = self.fun
 
         def value(t: float, y: FloatArray) -> float:
             k, (R1, R2, R3) = self.generalized_force(t, y)
             lam = solve(k, R1, R2, R3, bits)[3 + i]
             return float(lam) + RELEASE_REL * (1.0 + abs(R1) + abs(R2))
-        return Class2StateEvent("release", i, value)
+
+        def rate(t: float, y: FloatArray) -> float:
+            h = RATE_STEP * (1.0 + abs(t))
+            dy = h * fun(t, y)
+            return (value(t + h, y + dy) - value(t - h, y - dy)) / (2.0 * h)
+        return Class2StateEvent("release", i, value, rate)
 
     def handle_event(self, crossing: Crossing, y: ArrayLike) -> Transition[Class2System]:
         """Apply an event located at ``crossing.t`` where the state is ``y``: the state to restart
