@@ -11,7 +11,7 @@ at zero length. :func:`simulate_paper` records when each actuator length first r
 zero (solve_ivp events) and keeps integrating, so the figures show what the equations do
 afterwards. :func:`plot_paper_figures` draws the paper's Figs. 3-7 as PNGs;
 ``python -m studies.paper_simulation [OUTDIR]`` writes them (default
-``docs/img/class2``). Findings are in ``docs/class2_dynamics.md``.
+``docs/img/class2``). Findings are in ``docs/design/class2_dynamics.md``.
 """
 
 from __future__ import annotations

@@ -143,7 +143,7 @@ def derive() -> SymbolicDynamics:
 # ---------------------------------------------------------------------------------------
 
 def closed_forms(sd: SymbolicDynamics, lambdas: tuple[sp.Expr, sp.Expr] | None = None) -> dict[str, sp.Expr]:
-    """The runtime's closed forms (see ``docs/class2_dynamics.md``), keyed by name.
+    """The runtime's closed forms (see ``docs/design/class2_dynamics.md``), keyed by name.
 
     ``lambdas``: expressions to use for (lambda1, lambda2); default their definitions
     (pass plain symbols to print the forms compactly).

@@ -3,7 +3,7 @@
 Each function returns the description dict of one robot (``robot_from_dict`` builds it,
 ``dump_description`` writes it to ``examples/NAME.yaml``; the shipped files are these
 functions' output, tested). Values from a public model or paper say so; values chosen here
-say why (docs/robots.md, "Parameters", tabulates them all).
+say why (docs/design/robots.md, "Parameters", tabulates them all).
 
 - :func:`three_bar`: the Rutgers/Yale 3-bar (TT-3), from its public MuJoCo model
   ``3prism_jonathan_steady_side.xml`` (github.com/drsteinkauz/tensegrity-denoising-RL,

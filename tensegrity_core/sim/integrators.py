@@ -14,7 +14,7 @@ all stages, the error estimate -- in one compiled call.
   to land on the end of a stretch; dense output by cubic Hermite interpolation between the
   step's ends (third order), whose end rate is the next step's first stage (4 evaluations
   per step). No error control: its error is stated against a converged reference in
-  docs/performance.md.
+  docs/design/performance.md.
 - :class:`DOP853`: Dormand and Prince's 8(5,3) pair with step-size control (Hairer,
   Norsett & Wanner, Solving ODEs I, Sect. II.10) and its seventh-order dense output, the
   method of scipy's ``DOP853`` with scipy's coefficient tables; it needs compiled stages.

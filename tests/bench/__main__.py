@@ -5,7 +5,7 @@ with its baseline measured in the same run (ratios: these machines are shared an
 Quick mode (default) is the CI smoke run, seconds per group, and writes files only where
 asked; ``--full`` is the docs run and by default writes the table as
 ``docs/bench/results.json``, the raw data behind the plots into ``docs/bench/`` and the
-plots into ``docs/img/performance/`` (see ``docs/performance.md``); rows of groups not
+plots into ``docs/img/performance/`` (see ``docs/design/performance.md``); rows of groups not
 run keep their earlier values in that JSON file.
 """
 

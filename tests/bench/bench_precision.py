@@ -25,7 +25,7 @@ plots show error against time and against evaluations (``precision_tools``). Err
   agree to 1e-12).
 
 Full mode writes ``docs/bench/precision_*.json`` and ``docs/img/performance/*.png``;
-``docs/performance.md`` reads them in words.
+``docs/design/performance.md`` reads them in words.
 """
 
 from __future__ import annotations

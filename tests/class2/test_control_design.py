@@ -57,7 +57,7 @@ def test_linearisation_matches_finite_differences_of_the_nonlinear_rhs(params, q
 
 
 def test_rest_at_0p7_is_unstable_under_constant_forces_and_controllable():
-    """docs/class2_dynamics.md: under constant forces the rest at (0.7, 0.7) is unstable
+    """docs/design/class2_dynamics.md: under constant forces the rest at (0.7, 0.7) is unstable
     (the Hessian of U has a negative eigenvalue); both forces together still reach every
     mode (Kalman's rank test), so feedback can stabilise it."""
     q, qdot, f = _state(PAPER_PARAMS, (0.7, 0.7, None), (0, 0, 0), None)

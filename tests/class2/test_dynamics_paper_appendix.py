@@ -1,6 +1,6 @@
 """The paper's printed Eq. (46), Eqs. (48-50) and Appendix A against the derivation.
 
-The verdicts below are the errata documented in docs/class2_dynamics.md; each is decided
+The verdicts below are the errata documented in docs/design/class2_dynamics.md; each is decided
 by a 30-digit comparison with the first-principles derivation at random states.
 """
 

@@ -1,6 +1,6 @@
 """The paper's equations checked numerically; each test names the equation and the erratum.
 
-See docs/general.md, "Errata", for the list.
+See docs/design/general.md, "Errata", for the list.
 """
 
 from __future__ import annotations

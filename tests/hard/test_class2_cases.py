@@ -1,7 +1,7 @@
 """Hard cases of the class-2 mechanism (issue 9): accuracy near every singular set,
 measured against 50-digit evaluations (tests/hard/oracles.py), or the documented error.
 
-Catalogue and measured limits: docs/hard_cases.md. Cases already covered elsewhere are
+Catalogue and measured limits: docs/design/hard_cases.md. Cases already covered elsewhere are
 referenced there, not repeated here (e.g. the degenerate beta at k3 -> 0,
 tests/class2/test_kinematics.py::test_degenerate_every_beta_is_reported_not_zero).
 """

@@ -3,7 +3,7 @@ undamped runs (energy drift bounded and reported), the paper's fold with the fol
 
 The energy is recomputed here from the recorded member lengths and the independent mass
 matrix of :mod:`tensegrity_core.class2.dynamics` (sympy-verified), not taken from the
-simulator's own energy output. Measured numbers: docs/hard_cases.md.
+simulator's own energy output. Measured numbers: docs/design/hard_cases.md.
 """
 
 from __future__ import annotations

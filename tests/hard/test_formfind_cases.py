@@ -1,6 +1,6 @@
 """Hard cases of form-finding (issue 9), each against an independent computation: the
 out-of-balance recomputed here from member vectors (not the statics module), mpmath
-roots in 50 digits, or a second run of another kind. Catalogue: docs/hard_cases.md.
+roots in 50 digits, or a second run of another kind. Catalogue: docs/design/hard_cases.md.
 
 Covered elsewhere and only referenced there: a rigid body at the Euler-singular attitude
 (tests/general/test_formfind.py::test_a_body_turned_through_the_paper_singular_attitude_form_finds),

@@ -4,7 +4,7 @@ At rest in the configuration ``(rho1, rho2, beta*(rho))`` the equations of motio
 to ``dU/dq + (f1, f2, 0) = 0`` (``beta*`` makes ``dU/dbeta`` vanish), so the holding forces
 are ``f_i = -dU/drho_i`` [N] (positive = tensile, pulls the actuator's nodes together).
 Under constant forces that equilibrium can be unstable (the paper's start at
-rho = (0.7, 0.7) is: see docs/class2_dynamics.md), so a controller adds feedback.
+rho = (0.7, 0.7) is: see docs/design/class2_dynamics.md), so a controller adds feedback.
 """
 
 from __future__ import annotations

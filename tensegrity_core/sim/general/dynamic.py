@@ -62,7 +62,7 @@ class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralSystem, GeneralSample])
                                   actuators=general_model(scene).actuators, R_ref=config.rotations)
         self.state_names = self.plant.state_names
         method = scene.integrator.method
-        # auto: DOP853, on the front of the general scenes' work-precision study (docs/performance.md)
+        # auto: DOP853, on the front of the general scenes' work-precision study (docs/design/performance.md)
         self.method = "DOP853" if method == "auto" else method
 
     # -- states ---------------------------------------------------------------------------------

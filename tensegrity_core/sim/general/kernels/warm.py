@@ -4,7 +4,7 @@ on-disk cache, once (``./run setup`` does it after installing numba or changing 
 numba compiles a kernel the first time a process calls it and, with ``cache=True``, keeps
 the machine code next to the sources, where every later process (test workers, the demo,
 the ROS nodes) loads it in a fraction of a second. Compiling all of them takes tens of
-seconds (docs/performance.md gives the measured figures); doing it here keeps that cost out
+seconds (docs/design/performance.md gives the measured figures); doing it here keeps that cost out
 of the first simulation a user runs and out of parallel test workers that would each
 compile the same kernels at once.
 """
