@@ -106,14 +106,19 @@ class State(Generic[W]):
 class Names:
     """Names of what a model observes: nodes, members (``member_nodes`` (m, 2) node indices;
     ``member_kinds`` per member: general "bar", "string" or "actuator", class-2 "actuator",
-    "strut" or "spring"), and the rigid bodies that move (general structures; in the order of
-    the ``body_*`` observations)."""
+    "strut" or "spring", robots "bar" (a rod) or "string" (a cable)), and the rigid bodies
+    that move (general structures and robots; in the order of the ``body_*`` observations).
+    Robots also name their IMUs (``imu_names``: the body each is fixed to, in the order of
+    the ``imu_*`` observations) and their end caps (``cap_names``: the cap's node, in the
+    order of ``contact_forces`` and the ``cap_*`` observations)."""
 
     node_names: tuple[str, ...]
     member_names: tuple[str, ...]
     member_nodes: NDArray[np.int64]
     member_kinds: tuple[str, ...] = ()
     body_names: tuple[str, ...] = ()
+    imu_names: tuple[str, ...] = ()
+    cap_names: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -160,7 +165,9 @@ class Observed(TypedDict):
     ``body_velocities`` (nb, 3) [m/s] of the origin and ``body_angular_velocities`` (nb, 3)
     [rad/s] in the world frame.
 
-    Robots add ``centre_of_mass`` (3,) [m] and, with the ``sensors`` effect, their sensors'
+    Robots report the members' and bodies' quantities of general structures too (a rod is
+    rigid: its rest length is its length, its rate 0, it is never slack; its bodies are the
+    rods, then the description's moving bodies) and add ``centre_of_mass`` (3,) [m] and, with the ``sensors`` effect, their sensors'
     readings: ``cable_lengths`` [m] and ``cable_tensions`` [N] of the cables that report them;
     per IMU ``imu_orientation`` (4,) quaternion ``(x, y, z, w)``, ``imu_angular_velocity``
     [rad/s] and ``imu_specific_force`` [m/s^2] in its body's frame; per cap ``cap_contact``

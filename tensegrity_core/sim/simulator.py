@@ -62,6 +62,12 @@ class Observation:
     3) [m], ``body_orientations`` (nb, 4) quaternions ``(x, y, z, w)``, ``body_velocities``
     [m/s] and ``body_angular_velocities`` [rad/s] in the world frame (see
     :class:`~tensegrity_core.sim.model.Observed`); empty for the class-2 mechanism.
+
+    Robots with the ``sensors`` effect also report, per IMU (``imu_names``: the body it is
+    fixed to), ``imu_orientation`` (4,) ``(x, y, z, w)``, ``imu_angular_velocity`` [rad/s]
+    and ``imu_specific_force`` [m/s^2] in its body's frame, and per end cap (``cap_names``)
+    ``cap_contact``, ``cap_slipping`` and ``friction_forces`` (3,) [N]; the caps' normal
+    forces [N] are ``contact_forces``.
     """
 
     t: float
@@ -89,6 +95,14 @@ class Observation:
     body_orientations: FloatArray = field(default_factory=lambda: np.zeros((0, 4)))
     body_velocities: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
     body_angular_velocities: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
+    imu_names: tuple[str, ...] = ()
+    imu_orientation: FloatArray = field(default_factory=lambda: np.zeros((0, 4)))
+    imu_angular_velocity: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
+    imu_specific_force: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
+    cap_names: tuple[str, ...] = ()
+    cap_contact: NDArray[np.bool_] = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    cap_slipping: NDArray[np.bool_] = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    friction_forces: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
 
 
 @dataclass
@@ -217,6 +231,14 @@ def observation(model: Model[Any, Any], data: Observed) -> Observation:
         obs.body_orientations = data["body_orientations"]
         obs.body_velocities = data["body_velocities"]
         obs.body_angular_velocities = data["body_angular_velocities"]
+    if "imu_orientation" in data:
+        obs.imu_names, obs.cap_names = names.imu_names, names.cap_names
+        obs.imu_orientation = data["imu_orientation"]
+        obs.imu_angular_velocity = data["imu_angular_velocity"]
+        obs.imu_specific_force = data["imu_specific_force"]
+        obs.cap_contact = data["cap_contact"]
+        obs.cap_slipping = data["cap_slipping"]
+        obs.friction_forces = data["friction_forces"]
     return obs
 
 

@@ -85,10 +85,13 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         self.plan = build_plan(robot, robot_effects(scene))
         drawn = self.plan.cable_l0[self.plan.motor_cable]
         self.laws, self.actuator_names, self.initial_commands = compile_inputs(scene.inputs, drawn)
-        self.names = names_of(robot)
+        self.names = names_of(robot, self.plan)
         self.interface = Interface("rest_length", tuple(self.actuator_names),
                                    tuple(isinstance(law, Commanded) for law in self.laws),
-                                   tuple((float(lo), float(hi)) for lo, hi in zip(self.plan.motor_lo, self.plan.motor_hi)),
+                                   # the motors' closed ranges [lo, hi] as the open intervals the
+                                   # interface states: one float further out on each side
+                                   tuple((math.nextafter(float(lo), -math.inf), math.nextafter(float(hi), math.inf))
+                                         for lo, hi in zip(self.plan.motor_lo, self.plan.motor_hi)),
                                    tuple(len(robot.rods) + int(c) for c in self.plan.motor_cable))
         self.state_names = state_names(robot, self.plan)
         self.step = scene.integrator.max_step
@@ -197,6 +200,12 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         s = s - np.sum(s * plan.floor_normal, axis=2)[..., None] * plan.floor_normal
         anchor_energy = 0.5 * kt * np.sum(np.where(cstate > 0, np.sum(s * s, axis=2), 0.0), axis=1)
         com = np.einsum("k,bki->bi", self.node_mass, X) / self.node_mass.sum()
+        nr = len(robot.rods)
+        centre = plan.body_dof[:, None] + np.arange(3)
+        out_bodies = {"body_positions": Y[:, centre], "body_velocities": Y[:, n + centre],
+                      "body_angular_velocities": Y[:, n + 3 + centre],
+                      "body_orientations": (Rotation.from_matrix(ev.rotations.reshape(-1, 3, 3)).as_quat().reshape(
+                          B, nb, 4) if nb and B else np.zeros((B, nb, 4)))}
         out: dict[str, NDArray[Any]] = {
             "t": ts, "state": Y, "q": q, "qdot": Y[:, n:2 * n].copy(),
             "applied_forces": ev.rest_lengths[:, plan.motor_cable], "nodes": X,
@@ -207,7 +216,11 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
                 plan.free_inv_mass) else np.zeros(0), plan.body_dof, plan.body_mass, plan.body_first_moment,
                 plan.body_inertia),
             "end_effector": X[:, robot_model(self.scene).end_effector].copy(),
-            "folded": np.zeros(B, dtype=bool), "contact_forces": ev.normal, "centre_of_mass": com}
+            "folded": np.zeros(B, dtype=bool), "contact_forces": ev.normal, "centre_of_mass": com,
+            "member_rest_lengths": np.concatenate([rod_length, ev.rest_lengths], axis=1),
+            "member_rates": np.concatenate([np.zeros((B, nr)), ev.rates], axis=1),
+            "member_slack": np.concatenate([np.zeros((B, nr), dtype=bool), ev.lengths < ev.rest_lengths], axis=1),
+            **out_bodies}
         if self.sensors:
             sens = robot.sensors
             slots = self.imu_slots

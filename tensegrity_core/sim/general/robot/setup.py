@@ -39,9 +39,17 @@ def robot_effects(scene: Scene) -> RobotEffects:
         tangential_damping=friction.tangential_damping if friction else None)
 
 
-def names_of(robot: Robot) -> Names:
-    """What a robot scene observes: its nodes, and as members its rods then its cables."""
-    return Names(robot.node_names, robot.member_names, np.vstack([robot.rods.ends, robot.cables.ends]))
+def names_of(robot: Robot, plan: RobotPlan) -> Names:
+    """What a robot scene observes: its nodes; as members its rods ("bar") then its cables
+    ("string"); its moving bodies (the rods, then the description's other bodies); its IMUs
+    by the body they are fixed to; its end caps by their node."""
+    moving = robot_layout(robot).moving_bodies
+    bodies = robot.rods.names + tuple(b.name for b in robot.bodies)
+    imus = [bodies[k] for k in list(robot.sensors.imu_rods) + [len(robot.rods) + b for b in robot.sensors.imu_bodies]
+            if k in moving]
+    return Names(robot.node_names, robot.member_names, np.vstack([robot.rods.ends, robot.cables.ends]),
+                 ("bar",) * len(robot.rods) + ("string",) * len(robot.cables),
+                 tuple(bodies[k] for k in moving), tuple(imus), tuple(robot.node_names[i] for i in plan.cap_node))
 
 
 def state_names(robot: Robot, plan: RobotPlan) -> tuple[str, ...]:
