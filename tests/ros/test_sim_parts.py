@@ -35,15 +35,6 @@ def test_the_plant_clock_is_k_steps_and_a_reset_keeps_or_zeroes_it():
     assert plant.time_ns == 0 and plant.k == 0
 
 
-def test_a_scene_whose_model_the_node_cannot_publish_is_refused_in_one_line():
-    from tensegrity_core.errors import TensegrityError
-    from tensegrity_core.sim import load_scene
-    from tensegrity_ros.nodes.sim.plant import SimPlant
-
-    with pytest.raises(TensegrityError, match=r"^robot scenes are not served by tensegrity_sim yet .*simulate`$"):
-        SimPlant(load_scene("three_bar_drop"), 1_000_000)
-
-
 def test_a_faulted_plant_holds_the_state_and_the_clock_goes_on():
     from tensegrity_core.sim import load_scene
     from tensegrity_ros.nodes.sim.plant import SimPlant

@@ -202,8 +202,8 @@ TABLE = Interface("rest_length", ("long1", "long2", "long3"), (True, True, False
     (["long1", "long2"], [0.8], {}, "2 names but 1 rest lengths"),
     ([], [0.8], {}, "unnamed command must give 3 rest lengths (long1, long2, long3), got 1"),
     (["long2", "long2"], [0.8, 0.7], {}, "cable long2 named twice"),
-    (["long1"], [0.8], {"tensions": [10.0]}, "tension needs motor-driven cables"),
-    (["long1"], [0.8], {"reel_speeds": [0.1]}, "reel_speed needs motor-driven cables"),
+    (["long1"], [0.8], {"tensions": [10.0]}, "tension commands are not taken"),
+    (["long1"], [0.8], {"reel_speeds": [0.1]}, "reel_speed commands are not taken"),
 ])
 def test_bad_cable_commands_say_why(names, values, extra, reason):
     from tensegrity_ros.nodes.actuator_commands import CommandError

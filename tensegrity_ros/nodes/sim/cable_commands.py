@@ -51,8 +51,7 @@ def parse_cable_command(names: Sequence[str], rest_lengths: Sequence[float], ree
     - ``names`` empty: ``rest_lengths`` gives every input, in input order; otherwise one name
       per rest length, each an input that takes commands, none repeated;
     - every rest length finite and inside its input's range;
-    - ``reel_speeds`` and ``tensions`` empty (motor-driven cables take them; no model has
-      motors yet).
+    - ``reel_speeds`` and ``tensions`` empty (no model takes them).
     """
     if interface.command != "rest_length":
         raise CommandError("this scene's inputs are actuator forces (f1, f2), not rest lengths: send "
@@ -64,7 +63,7 @@ def parse_cable_command(names: Sequence[str], rest_lengths: Sequence[float], ree
         raise CommandError("this scene has no actuated cables: it takes no cable commands but empty ones")
     if len(reel_speeds) or len(tensions):
         what = "reel_speed" if len(reel_speeds) else "tension"
-        raise CommandError(f"{what} needs motor-driven cables; this scene's actuated cables take rest lengths only "
+        raise CommandError(f"{what} commands are not taken: the actuated cables take rest lengths only "
                            f"(leave {what} empty)")
     values = [float(v) for v in rest_lengths]
     if not names:

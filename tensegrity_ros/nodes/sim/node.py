@@ -3,18 +3,24 @@
 Commands (the model says which it takes, :class:`~tensegrity_core.sim.model.Interface`):
 ``actuator_forces`` (tensegrity_msgs/ActuatorForces; the class-2 mechanism; positive =
 tensile, pulls the actuator's nodes together) or ``cable_commands``
-(tensegrity_msgs/CableCommand; general structures: rest lengths [m] of the actuated cables).
+(tensegrity_msgs/CableCommand; general structures and robots: rest lengths [m] of the
+actuated cables, a robot's motors then reach them with their lag and slew limit).
 Publishes, stamped with simulation time (topics per model: :mod:`.outputs`):
 
 - ``joint_states`` (sensor_msgs/JointState): class-2 joints ``rho1``, ``rho2`` [m] and
   ``beta`` [rad] (effort = the applied actuator force [N], 0 for beta); general structures
-  one joint per actuated cable (position = length [m], velocity [m/s], effort = tension [N]);
+  and robots one joint per actuated cable (position = length [m], velocity [m/s], effort =
+  tension [N]);
 - ``end_effector`` (geometry_msgs/PointStamped): node D, or the scene's end-effector node [m];
 - class-2: ``mechanism_state`` (tensegrity_msgs/MechanismState) at ``state_rate``;
-- general: ``cable_states`` (tensegrity_msgs/CableStates: every member) at ``state_rate``
-  and ``body_states`` (tensegrity_msgs/RigidBodyStates) every publication;
+- general and robots: ``cable_states`` (tensegrity_msgs/CableStates: every member) at
+  ``state_rate`` and ``body_states`` (tensegrity_msgs/RigidBodyStates; a robot's rods) every
+  publication;
+- robots: ``imu/<body>`` (sensor_msgs/Imu) at ``imu_rate``, ``contacts``
+  (tensegrity_msgs/CapContacts) at ``state_rate``;
 - ``markers`` (visualization_msgs/MarkerArray): members coloured by force (red tension,
-  blue compression), nodes as spheres; at ``marker_rate``;
+  blue compression), nodes as spheres (robots: rods, cables, floor, contacts); at
+  ``marker_rate``;
 - ``events`` (tensegrity_msgs/SimulationEvent): what the integrator located, when it did;
 - ``/clock`` (rosgraph_msgs/Clock): simulation time, so other nodes can use_sim_time.
 
@@ -108,7 +114,7 @@ class SimNode(Node):
         forces = self.plant.interface.command == "force"
         self.unit = self.plant.interface.unit
         self.outputs = Outputs(self.plant, publish_rate=p.publish_rate, state_rate=p.state_rate,
-                               marker_rate=p.marker_rate)
+                               marker_rate=p.marker_rate, imu_rate=p.imu_rate)
         self.hold = CommandHold(self.plant.initial_command, p.command_timeout,
                                 [p.safe_force] * len(self.plant.initial_command) if forces else None)
         self.schedule = TickSchedule(p.publish_rate, p.real_time_factor, p.step_ns)

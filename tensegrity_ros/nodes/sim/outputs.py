@@ -11,7 +11,13 @@ The model says what there is (:class:`~tensegrity_core.sim.model.Interface`, its
 - general structure: ``joint_states`` (one joint per actuated cable: length [m], its rate
   [m/s], tension [N]), ``end_effector`` and, with moving rigid bodies, ``body_states`` every
   publication; ``cable_states`` (every member) at ``state_rate``; ``markers`` at
-  ``marker_rate``; all from one observation per publication.
+  ``marker_rate``; all from one observation per publication;
+- robot: as a general structure (its rods are its bodies and members of kind "bar", its
+  cables members of kind "string", its motor-driven cables the joints), and
+  ``imu/<body>`` (sensor_msgs/Imu, one per IMU, frame_id = its body) at ``imu_rate``,
+  ``contacts`` (tensegrity_msgs/CapContacts: the caps touching the floor) at
+  ``state_rate``; its ``markers`` draw rods, cables coloured by tension, the floor and the
+  contacts (:mod:`.robot_messages`).
 
 ``events`` and ``/clock`` are the node's (they do not depend on the model's kind).
 """
@@ -21,12 +27,12 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from geometry_msgs.msg import PointStamped
-from sensor_msgs.msg import JointState
+from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Header
-from tensegrity_msgs.msg import CableStates, MechanismState, RigidBodyStates
+from tensegrity_msgs.msg import CableStates, CapContacts, MechanismState, RigidBodyStates
 from visualization_msgs.msg import MarkerArray
 
-from tensegrity_ros.nodes.sim import sender
+from tensegrity_ros.nodes.sim import robot_messages, sender
 from tensegrity_ros.nodes.sim.decimation import Decimation
 from tensegrity_ros.nodes.sim.plant import SimPlant
 
@@ -37,15 +43,26 @@ Messages = list[tuple[str, object]]
 class Outputs:
     """The per-publication topics of one plant's model and their messages."""
 
-    def __init__(self, plant: SimPlant, *, publish_rate: float, state_rate: float, marker_rate: float):
+    def __init__(self, plant: SimPlant, *, publish_rate: float, state_rate: float, marker_rate: float,
+                 imu_rate: float):
         self.plant = plant
         self.general = plant.interface.command == "rest_length"
+        self.robot = plant.model.kind == "robot"
+        self._floor = plant.floor()
+        #: The IMUs' topics, in the order of their readings.
+        self.imu_topics = tuple(f"imu/{name}" for name in plant.names.imu_names)
         if self.general:
             self.topics: dict[str, type] = {"joint_states": JointState, "end_effector": PointStamped,
                                             "cable_states": CableStates, "markers": MarkerArray}
             if plant.names.body_names:
                 self.topics["body_states"] = RigidBodyStates
             slow = {"cable_states": state_rate, "markers": marker_rate}
+            if self.robot:
+                self.topics |= dict.fromkeys(self.imu_topics, Imu)
+                slow |= dict.fromkeys(self.imu_topics, imu_rate)
+                if plant.names.cap_names:
+                    self.topics["contacts"] = CapContacts
+                    slow["contacts"] = state_rate
         else:
             self.topics = {"joint_states": JointState, "end_effector": PointStamped,
                            "mechanism_state": MechanismState, "markers": MarkerArray}
@@ -67,7 +84,12 @@ class Outputs:
                      "end_effector": lambda: sender.end_effector_msg(obs, hdr),
                      "body_states": lambda: sender.body_states_msg(obs, hdr),
                      "cable_states": lambda: sender.cable_states_msg(obs, interface, hdr),
-                     "markers": lambda: sender.markers_msg(obs, hdr)}
+                     "markers": lambda: (robot_messages.robot_markers_msg(obs, self._floor, hdr) if self.robot
+                                         else sender.markers_msg(obs, hdr)),
+                     "contacts": lambda: robot_messages.contacts_msg(obs, hdr)}
+            for i, topic in enumerate(self.imu_topics):
+                build[topic] = lambda i=i: robot_messages.imu_msg(
+                    obs, i, Header(stamp=hdr.stamp, frame_id=obs.imu_names[i]))
             return [(t, build[t]()) for t in self.topics if t in want]
         if want & {"joint_states", "end_effector"}:
             sample = plant.joint_sample()

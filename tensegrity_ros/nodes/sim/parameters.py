@@ -28,6 +28,7 @@ class SimParameters:
     frame_id: str
     state_rate: float           # [Hz]
     marker_rate: float          # [Hz]
+    imu_rate: float             # [Hz]
     wait_for_subscribers: int
     publish_clock: bool
     singularity_warning: float
@@ -86,11 +87,14 @@ def declare_sim_parameters(node, scene: str) -> SimParameters:
     max_force = d("max_force", 1000.0, "commands with |f| above this are rejected [N]", lo=0.0)
     frame_id = d("frame_id", "world", "frame of the published positions")
     state_rate = d("state_rate", 100.0,
-                   "publish rate of mechanism_state [Hz] (member forces, energies, contacts), counted in "
-                   "publications of joint_states at publish_rate; a divisor of publish_rate is exact",
+                   "publish rate of mechanism_state (class-2), cable_states (general structures, robots) and "
+                   "contacts (robots) [Hz], counted in publications of joint_states at publish_rate; a divisor "
+                   "of publish_rate is exact",
                    lo=0.0, hi=1000.0)
     marker_rate = d("marker_rate", 30.0, "publish rate of the markers [Hz], counted like state_rate",
                     lo=0.0, hi=1000.0)
+    imu_rate = d("imu_rate", 100.0, "robots: publish rate of each imu/<body> topic [Hz], counted like state_rate",
+                 lo=0.0, hi=1000.0)
     wait = d("wait_for_subscribers", 0,
              "do not start the clock until every output topic has this many subscribers "
              "(e.g. 1 for a recorder that must see the run from t = 0)", lo=0, hi=1000)
@@ -101,4 +105,4 @@ def declare_sim_parameters(node, scene: str) -> SimParameters:
     return SimParameters(scene, rate, rtf, step_ns, bool(lockstep), lockstep_timeout, lockstep_rtf,
                          STATE_BY_NAME[initial],
                          paused_rate, int(max_steps), command_timeout, safe_force, max_force, frame_id, state_rate,
-                         marker_rate, int(wait), bool(clock), singular)
+                         marker_rate, imu_rate, int(wait), bool(clock), singular)

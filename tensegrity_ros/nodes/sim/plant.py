@@ -21,13 +21,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.sim import Names, Simulator, compile_scene
 from tensegrity_core.sim.model import Interface
 from tensegrity_core.sim.sampled import step_time
-
-#: The models whose observations the node's outputs (:mod:`.outputs`) know how to publish.
-SERVED = ("class2", "general")
 
 
 @dataclass(frozen=True)
@@ -47,9 +46,6 @@ class SimPlant:
         self.step_ns = int(step_ns)
         self.offset_ns = 0
         self.model = compile_scene(scene)             # once: a reset is a new state of it
-        if self.model.kind not in SERVED:
-            raise TensegrityError(f"{self.model.kind} scenes are not served by tensegrity_sim yet "
-                                  "(the class-2 mechanism and general structures are); run it with `tensegrity simulate`")
         self.interface: Interface = self.model.interface
         self.names: Names = self.model.names
         self._start()
@@ -94,6 +90,13 @@ class SimPlant:
 
     def observe(self):
         return self.sim.observe()
+
+    def floor(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """A robot's floor: ``(a point [m], its unit normal)``, or None (no floor, or not a robot)."""
+        robot = getattr(self.model, "robot", None) if self.model.kind == "robot" else None
+        if robot is None or robot.floor is None:
+            return None
+        return np.asarray(robot.floor.point, dtype=float), np.asarray(robot.floor.normal, dtype=float)
 
     def singular_distance(self) -> tuple[str, float] | None:
         """``(name, lambda/L)`` of the singular set nearest the current state (class-2), or None."""
