@@ -6,12 +6,19 @@ tensegrity costs 1-3 us. No maintained library steps a numba-compiled system one
 time with dense output and restarts, as the :class:`~tensegrity_core.sim.stepper.Stepper`
 needs (numbalsoda integrates whole spans without dense output or events), so these two
 solvers are written here as scipy ``OdeSolver`` subclasses: the stepper drives them like
-scipy's, one step per call, while a system's :class:`Stages` compute each whole step --
-all stages, the error estimate -- in one compiled call.
+scipy's, while a system's :class:`Stages` compute each whole step -- all stages, the error
+estimate -- in one compiled call. Where the system's inputs are constant, one call of
+``step()`` runs a whole **stretch** of steps in compiled code (:class:`StretchSolver`): as
+far as the stepper's next target (:attr:`StretchSolver.horizon`: a record time, the end
+of an ``advance``), stopping early at the first step that may hold a discrete change of the
+system (a string going slack or taut, a rotation chart due for re-anchoring), which the
+stepper then checks and locates as after any step. The steps are exactly those of one step
+per call (same sizes, same arithmetic); only the Python between them is gone, about half
+of a step's cost on a structure of a few dozen members.
 
 - :class:`RK4`: the classical fourth-order method with a fixed step ``max_step`` [s] (the
   sampled-data choice of a ROS simulator: a 1 ms tick is one or a few steps), shortened only
-  to land on the end of a stretch; dense output by cubic Hermite interpolation between the
+  to land on the solver's bound (the end, an input breakpoint); dense output by cubic Hermite interpolation between the
   step's ends (third order), whose end rate is the next step's first stage (4 evaluations
   per step). No error control: its error is stated against a converged reference in
   docs/design/performance.md.
@@ -26,7 +33,7 @@ stages through the system's ``fun`` and ``DOP853`` is scipy's.
 from __future__ import annotations
 
 import math
-from typing import Any, Protocol
+from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -42,12 +49,42 @@ FloatArray = NDArray[np.float64]
 SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
 
 
+class Run(NamedTuple):
+    """A stretch of steps computed in one call: ``steps`` accepted (``attempts`` DOP853
+    attempts in all), the last one from ``(t_start, y_start)`` (rate ``f_start``) to
+    ``(t_end, y_end)`` (rate ``f_end``) [s]; DOP853's stages ``K`` of that step and its next
+    step proposal ``h_abs`` [s]; ``failed``: DOP853's next step fell below the rounding of
+    ``t_end`` (the state there is ``y_end``)."""
+
+    steps: int
+    attempts: int
+    t_start: float
+    y_start: FloatArray
+    f_start: FloatArray
+    t_end: float
+    y_end: FloatArray
+    f_end: FloatArray
+    K: FloatArray | None = None
+    h_abs: float = 0.0
+    failed: bool = False
+
+
 class Stages(Protocol):
     """A system's steps computed whole (compiled): ``rk4(t, y, f, h) -> (y_new, f_new)`` with
     ``f``, ``f_new`` the rates at both ends; ``dop853(t, y, f, h, rtol, atol) -> (y_new, K,
     error)`` with ``K`` (16, N) the stages (row 12: the rate at ``y_new``) and the step's
     error norm (< 1: accept); ``dop853_dense(t, y, y_new, K, h) -> F`` (7, N), the dense
-    output's coefficients (it fills ``K``'s last three rows)."""
+    output's coefficients (it fills ``K``'s last three rows).
+
+    Where ``constant`` (the system's inputs do not depend on ``t``), whole stretches of steps
+    in one call: ``rk4_run(t, y, f, h, t_bound, horizon)`` and ``dop853_run(t, y, f, t_bound,
+    horizon, h_abs, max_step, rtol, atol, (safety, min_factor, max_factor))`` take the steps
+    the one-step methods would take, one after the other, until a step ends at or past
+    ``horizon`` or ``t_bound`` or may hold one of the system's discrete changes (its events,
+    a re-charting), and return that last step as a :class:`Run`."""
+
+    @property
+    def constant(self) -> bool: ...
 
     def rk4(self, t: float, y: FloatArray, f: FloatArray, h: float) -> tuple[FloatArray, FloatArray]: ...
 
@@ -55,6 +92,11 @@ class Stages(Protocol):
                atol: float) -> tuple[FloatArray, FloatArray, float]: ...
 
     def dop853_dense(self, t: float, y: FloatArray, y_new: FloatArray, K: FloatArray, h: float) -> FloatArray: ...
+
+    def rk4_run(self, t: float, y: FloatArray, f: FloatArray, h: float, t_bound: float, horizon: float) -> Run: ...
+
+    def dop853_run(self, t: float, y: FloatArray, f: FloatArray, t_bound: float, horizon: float, h_abs: float,
+                   max_step: float, rtol: float, atol: float, control: tuple[float, float, float]) -> Run: ...
 
 
 class HermiteDense(DenseOutput):  # type: ignore[misc]  # scipy is untyped
@@ -78,7 +120,24 @@ class HermiteDense(DenseOutput):  # type: ignore[misc]  # scipy is untyped
         return out
 
 
-class RK4(OdeSolver):  # type: ignore[misc]  # scipy is untyped
+class StretchSolver(OdeSolver):  # type: ignore[misc]  # scipy is untyped
+    """A solver whose ``step()`` may take many steps: as many as reach :attr:`horizon` [s]
+    (set by the caller before each call; ``-inf``, the default: one step, as scipy's
+    solvers), stopping early at a step that may hold a discrete change of the system (its
+    :class:`Stages` decide). ``steps_taken`` is how many the last call took, ``t_start``,
+    ``y_start`` the start of the last one, whose dense output ``dense_output()`` gives."""
+
+    horizon: float = -math.inf
+    steps_taken: int = 0
+    t_start: float
+    y_start: FloatArray
+
+    def stretch(self, stages: Stages | None) -> bool:
+        """Whether this call takes its steps as one compiled stretch."""
+        return stages is not None and stages.constant and self.direction > 0
+
+
+class RK4(StretchSolver):
     """Classical Runge-Kutta with fixed steps of ``max_step`` [s] (see the module docstring);
     ``stages``: the system's compiled steps, or None (stages through ``fun``). ``rtol``,
     ``atol`` and ``first_step`` are accepted and not used: nothing is adapted."""
@@ -95,12 +154,18 @@ class RK4(OdeSolver):  # type: ignore[misc]  # scipy is untyped
         self.h = float(max_step)
         self.stages = stages
         self.f = self.fun(self.t, self.y)
-        self.t_old: float | None = None
-        self.y_old: FloatArray | None = None
-        self.f_old: FloatArray | None = None
+        self.f_start: FloatArray | None = None
 
     def _step_impl(self) -> tuple[bool, str | None]:
         t, y, f = self.t, self.y, self.f
+        if self.stretch(self.stages):
+            assert self.stages is not None
+            run = self.stages.rk4_run(t, y, f, self.h, self.t_bound, self.horizon)
+            self.nfev += 4 * run.steps
+            self.steps_taken = run.steps
+            self.t_start, self.y_start, self.f_start = run.t_start, run.y_start, run.f_start
+            self.t, self.y, self.f = run.t_end, run.y_end, run.f_end
+            return True, None
         left = self.direction * (self.t_bound - t)
         h = left if left < self.h * (1.0 + 1e-9) else self.h      # land on the bound, no sliver step
         h *= self.direction
@@ -113,17 +178,18 @@ class RK4(OdeSolver):  # type: ignore[misc]  # scipy is untyped
             k4 = self.fun(t + h, y + h * k3)
             y_new = y + h / 6.0 * (f + 2.0 * k2 + 2.0 * k3 + k4)
             f_new = self.fun(t + h, y_new)
-        self.t_old, self.y_old, self.f_old = t, y, f
+        self.steps_taken = 1
+        self.t_start, self.y_start, self.f_start = t, y, f
         self.t = self.t_bound if h == self.direction * left else t + h
         self.y, self.f = y_new, f_new
         return True, None
 
     def _dense_output_impl(self) -> HermiteDense:
-        assert self.t_old is not None and self.y_old is not None and self.f_old is not None
-        return HermiteDense(self.t_old, self.t, self.y_old, self.y, self.f_old, self.f)
+        assert self.f_start is not None
+        return HermiteDense(self.t_start, self.t, self.y_start, self.y, self.f_start, self.f)
 
 
-class DOP853(OdeSolver):  # type: ignore[misc]  # scipy is untyped
+class DOP853(StretchSolver):
     """Adaptive DOP853 on a system's compiled :class:`Stages` (see the module docstring)."""
 
     t: float
@@ -143,13 +209,24 @@ class DOP853(OdeSolver):  # type: ignore[misc]  # scipy is untyped
                                                    self.direction, 7, self.rtol, self.atol))
         else:
             self.h_abs = float(first_step)
-        self.t_old: float | None = None
-        self.y_old: FloatArray | None = None
         self.K: FloatArray | None = None
         self.h_previous = 0.0
 
     def _step_impl(self) -> tuple[bool, str | None]:
         t, y = self.t, self.y
+        if self.stretch(self.stages):
+            run = self.stages.dop853_run(t, y, self.f, self.t_bound, self.horizon, self.h_abs, self.max_step,
+                                         self.rtol, self.atol, (SAFETY, MIN_FACTOR, MAX_FACTOR))
+            self.nfev += 12 * run.attempts
+            self.steps_taken = run.steps
+            self.h_abs = run.h_abs
+            if run.failed:
+                self.t, self.y, self.f = run.t_end, run.y_end, run.f_end
+                return False, "the step size fell below the rounding of t"
+            self.t_start, self.y_start, self.K, self.h_previous = run.t_start, run.y_start, run.K, \
+                run.t_end - run.t_start
+            self.t, self.y, self.f = run.t_end, run.y_end, run.f_end
+            return True, None
         min_step = 10.0 * abs(np.nextafter(t, self.direction * np.inf) - t)
         rejected = False
         while True:
@@ -169,12 +246,13 @@ class DOP853(OdeSolver):  # type: ignore[misc]  # scipy is untyped
                 break
             self.h_abs = h_abs * max(MIN_FACTOR, SAFETY * error ** (-1.0 / 8.0))
             rejected = True
-        self.t_old, self.y_old, self.K, self.h_previous = t, y, K, h
+        self.steps_taken = 1
+        self.t_start, self.y_start, self.K, self.h_previous = t, y, K, h
         self.t, self.y, self.f = t_new, y_new, K[12]
         return True, None
 
     def _dense_output_impl(self) -> Dop853DenseOutput:
-        assert self.t_old is not None and self.y_old is not None and self.K is not None
-        F = self.stages.dop853_dense(self.t_old, self.y_old, self.y, self.K, self.h_previous)
+        assert self.K is not None
+        F = self.stages.dop853_dense(self.t_start, self.y_start, self.y, self.K, self.h_previous)
         self.nfev += 3
-        return Dop853DenseOutput(self.t_old, self.t, self.y_old, F)
+        return Dop853DenseOutput(self.t_start, self.t, self.y_start, F)

@@ -309,7 +309,7 @@ class Stepper(Generic[Sys]):
                 elif solver is not None:                      # reached a breakpoint
                     self._resume(solver.t, solver.y, self.system)
                 solver = self._new_solver(t_target)
-            self._step(solver)
+            self._step(solver, t_target)
         self.t = t_target
         self.y = self._dense(t_target) if t_target < self._seg[1] or self._pending is not None \
             else self._end_state()
@@ -321,10 +321,15 @@ class Stepper(Generic[Sys]):
             return y
         return self._dense(self._seg[1])
 
-    def _step(self, solver: OdeSolver) -> None:
+    def _step(self, solver: OdeSolver, t_target: float) -> None:
+        """One step, or with a :class:`~tensegrity_core.sim.integrators.StretchSolver` the
+        steps up to the one that covers ``t_target`` or may hold an event or a re-charting
+        (the steps before it hold none): the events and re-charting are checked on that last one."""
         t_old, y_old = solver.t, solver.y.copy()
         for attempt in range(MAX_RETRIES + 1):
             try:
+                if isinstance(solver, integrators.StretchSolver):
+                    solver.horizon = t_target
                 message = solver.step()
                 break
             except TensegrityError as err:
@@ -341,8 +346,12 @@ class Stepper(Generic[Sys]):
                 solver = self._new_solver(self.t_end)
         if solver.status == "failed":
             raise SimulationError(f"integrator failed at t = {solver.t:.9g} s: {message}", t=solver.t)
-        self.n_steps += 1
-        size = solver.step_size
+        stretch = isinstance(solver, integrators.StretchSolver)
+        self.n_steps += solver.steps_taken if stretch else 1
+        if stretch and solver.steps_taken > 1:      # the stretch's last step is the one to check
+            t_old, y_old = solver.t_start, solver.y_start
+            self._g = [event_values(ev, t_old, y_old) for ev in self._events]
+        size = abs(solver.t - t_old)
         if self._cut_short and solver.t == solver.t_bound:
             # cut at the target: keep the step-size controller's own proposal, not the cut
             size = getattr(solver, "h_abs", size)

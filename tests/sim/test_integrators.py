@@ -11,6 +11,8 @@ import os
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tensegrity_core.sim import SceneError, simulate
 from tensegrity_core.sim.general.kernels.jit import KERNELS_VARIABLE, have_numba
@@ -78,3 +80,94 @@ def test_compiled_dop853_agrees_with_scipys():
 def test_rk4_without_a_step_says_so():
     with pytest.raises(SceneError, match="RK4 takes fixed steps of max_step"):
         _line("RK4")
+
+
+def _solver_runs(method, scene, y0, stretch):
+    """Integrate the system of ``scene`` from ``y0`` with the bare solver (no events handled):
+    ``stretch`` -- whole stretches per call, else one step per call through the one-step
+    stages (the controller in Python); the ``(t, y, steps so far)`` after every call."""
+    from tensegrity_core.sim import compile_scene, integrators
+    from tensegrity_core.sim.general.kernels.stages import CompiledStages
+    from tensegrity_core.sim.general.model import RECHART_ANGLE
+
+    model = compile_scene(scene)
+    system = model.equations(model.state_from(y0))
+    stages = system.stages if stretch else CompiledStages(
+        system.plan, system.R_ref, system.rest_lengths, False, strings=system.strings,
+        moving=np.zeros(len(system.strings), dtype=bool), rechart_angle=RECHART_ANGLE)
+    cls = {"RK4": integrators.RK4, "DOP853": integrators.DOP853}[method]
+    solver = cls(system.fun, 0.0, y0, scene.duration, stages=stages, rtol=1e-9, atol=1e-11, max_step=2e-3)
+    solver.horizon = scene.duration if stretch else -np.inf
+    out, steps = [], 0
+    while solver.status == "running":
+        solver.step()
+        steps += solver.steps_taken
+        out.append((solver.t, solver.y.copy(), steps))
+    return out
+
+
+@pytest.mark.parametrize("method", ["RK4", "DOP853"])
+def test_a_stretch_of_compiled_steps_takes_the_steps_of_one_step_per_call(method):
+    """The compiled stretch chooses, attempts and accepts every step exactly as the solver's
+    one-step path does (bit for bit), and stops at least at every step where a string's gap
+    may cross zero and where a rotation vector passes the re-charting angle."""
+    from tensegrity_core.sim import compile_scene
+    from tensegrity_core.sim.general.model import RECHART_ANGLE
+
+    scene = general_scene(BODIES, ["inertia", "springs", {"damping": {"c": 0.3}}], duration=0.4)
+    y0 = _spinning_start(scene)
+    single = _solver_runs(method, scene, y0, stretch=False)
+    stretched = _solver_runs(method, scene, y0, stretch=True)
+    at = {t: (y, k) for t, y, k in single}
+    assert len(stretched) < len(single)
+    for t, y, k in stretched:
+        assert t in at and np.array_equal(y, at[t][0]) and k == at[t][1]
+    assert stretched[-1][0] == single[-1][0] == scene.duration
+    # where one step per call sees a sign change of a gap or a big rotation vector, the stretch stopped
+    stops = {t for t, _, _ in stretched}
+    model = compile_scene(scene)
+    system = model.equations(model.state_from(y0))
+    previous = np.sign(system.string_gaps(0.0, y0)[0])
+    rot = system.lay.body_dof[:, None] + 3 + np.arange(3)[None, :]
+    crossings = rechartings = 0
+    for t, y, _ in single:
+        sign = np.sign(system.string_gaps(t, y)[0])
+        if np.any(sign != previous):
+            crossings += 1
+            assert t in stops, f"a gap changed sign in the step to t = {t} s, inside a stretch"
+        if np.any(np.linalg.norm(y[rot], axis=1) > RECHART_ANGLE):
+            rechartings += 1
+            assert t in stops, f"a rotation vector passed the re-charting angle at t = {t} s, inside a stretch"
+        previous = sign
+    assert crossings > 0 and rechartings > 0          # the scene exercises both stops
+
+
+def _spinning_start(scene):
+    """The scene's initial state with the bodies and the free node spinning and drifting
+    (random rates, fixed seed): strings go slack and taut, rotation vectors grow past 1 rad."""
+    from tensegrity_core.sim import compile_scene
+
+    y = compile_scene(scene).initial_state().y.copy()
+    n = len(y) // 2
+    y[n:] = np.random.default_rng(3).normal(0.0, 6.0, n)
+    return y
+
+
+_gaps = st.lists(st.one_of(st.sampled_from([0.0, 1e-12, -1e-12]), st.floats(-1e-2, 1e-2)), min_size=4, max_size=4)
+_rates = st.lists(st.floats(-10.0, 10.0), min_size=4, max_size=4)
+
+
+@settings(max_examples=300)
+@given(g0=_gaps, g1=_gaps, r0=_rates, r1=_rates, h=st.floats(1e-6, 1e-2),
+       moving=st.lists(st.booleans(), min_size=4, max_size=4))
+def test_the_compiled_screen_stops_at_every_step_the_stepper_would_look_into(g0, g1, r0, r1, h, moving):
+    """A stretch goes on past a step only if :func:`candidates` (the stepper's check after a
+    step, rates unknown -- nan -- for strings whose rest length moves) finds nothing in it."""
+    from tensegrity_core.sim.event_location import candidates
+    from tensegrity_core.sim.general.kernels import loops
+
+    g0, g1, r0, r1 = (np.array(v, dtype=float) for v in (g0, g1, r0, r1))
+    mask = np.array(moving, dtype=bool)
+    known0, known1 = np.where(mask, np.nan, r0), np.where(mask, np.nan, r1)
+    if candidates(0.0, g0, known0, g1, known1, 0.0, h):
+        assert not loops.quiet_step(g0, r0, g1, r1, mask, h)

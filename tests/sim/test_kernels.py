@@ -180,3 +180,13 @@ def test_a_batch_is_its_states_one_by_one():
         batch = ev.evaluate(Y, charts, lengths).derivative
         one = np.array([ev.derivative(Y[k], charts[k], lengths[k]) for k in range(4)])
         np.testing.assert_array_equal(batch, one)
+
+
+def test_the_general_and_the_robot_plans_start_with_the_same_placement():
+    """The kernels that place nodes and apply Newton-Euler read the first twelve arrays of
+    either plan: both must declare them as :class:`Placement` does, in its order."""
+    from tensegrity_core.sim.general.kernels.plan import Placement, Plan
+    from tensegrity_core.sim.general.robot.plan import RobotPlan
+
+    n = len(Placement._fields)
+    assert Plan._fields[:n] == Placement._fields == RobotPlan._fields[:n]

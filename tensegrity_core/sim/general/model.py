@@ -214,10 +214,14 @@ class GeneralSystem:
     @property
     def stages(self) -> CompiledStages | None:
         """Whole compiled steps for the integrators of :mod:`tensegrity_core.sim.integrators`
-        (RK4, DOP853), or None with the numpy kernels."""
+        (RK4, DOP853), or None with the numpy kernels; their stretches of steps stop where a
+        string may go slack or taut (:meth:`events`) or a chart is due (:meth:`after_step`)."""
         if self.evaluator.kernels != "numba":
             return None
-        return CompiledStages(self.plan, self.R_ref, self.rest_lengths, self.rest_lengths_of is None)
+        moving = np.zeros(len(self.strings), dtype=bool)
+        moving[self._moving] = True
+        return CompiledStages(self.plan, self.R_ref, self.rest_lengths, self.rest_lengths_of is None,
+                              strings=self.strings, moving=moving, rechart_angle=RECHART_ANGLE)
 
     # -- Jacobian --------------------------------------------------------------------------------
     def jac(self, t: float, y: FloatArray) -> Any:

@@ -647,3 +647,141 @@ def dop853_attempt(base: FloatArray, free_node: IntArray, free_axis: IntArray, f
               external, y, h, R_ref, l0, A, 1, n_stages + 1, K)
     combine(y, h, A[n_stages, :n_stages], K, y_new)
     return embedded_error(y, y_new, K, E5, E3, h, rtol, atol)
+
+
+# -- many steps in one call ----------------------------------------------------------------------
+@jit
+def quiet_step(g0: FloatArray, r0: FloatArray, g1: FloatArray, r1: FloatArray, moving: BoolArray, h: float) -> bool:
+    """Whether no string can cross zero in a step of ``h`` [s] whose gaps are ``g0``, ``g1``
+    [m] and rates ``r0``, ``r1`` [m/s] at its ends: the screen of
+    :func:`tensegrity_core.sim.event_location.candidates` (every component strictly on one
+    side at both ends and, by the Hermite bound ``4/27 h (|r0| + |r1|)``, unable to reach zero
+    in between; ``moving`` strings, whose rates are unknown there, by their ends alone), with
+    a margin of 1e-9 of the bound: a step it lets through is one the stepper would find quiet."""
+    bound = (4.0 / 27.0) * h
+    for j in range(g0.shape[0]):
+        if not g0[j] * g1[j] > 0.0:
+            return False
+        if not moving[j] and min(abs(g0[j]), abs(g1[j])) < bound * (abs(r0[j]) + abs(r1[j])) * (1.0 + 1e-9):
+            return False
+    return True
+
+
+@jit
+def chart_due(body_dof: IntArray, y: FloatArray, angle: float) -> bool:
+    """Whether a body's rotation vector in ``y`` is near or past ``angle`` [rad] (within 1e-9
+    of it: the model's re-charting test decides)."""
+    limit = (angle * (1.0 - 1e-9)) ** 2
+    for b in range(body_dof.shape[0]):
+        d = body_dof[b]
+        if y[d + 3] * y[d + 3] + y[d + 4] * y[d + 4] + y[d + 5] * y[d + 5] > limit:
+            return True
+    return False
+
+
+@jit
+def rk4_run(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
+            on_node: IntArray, on_body: IntArray, on_offset: FloatArray, body_dof: IntArray,
+            body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
+            body_inv_inertia_cm: FloatArray, member_a: IntArray, member_b: IntArray, EA: FloatArray,
+            damping: FloatArray, is_string: BoolArray, external: FloatArray,
+            strings: IntArray, moving: BoolArray, rechart_angle: float,
+            t: float, y: FloatArray, f: FloatArray, h_fixed: float, t_bound: float, horizon: float,
+            R_ref: FloatArray, l0: FloatArray, A: FloatArray, weights: FloatArray, K: FloatArray,
+            y_new: FloatArray) -> tuple[int, float, float]:
+    """Classical RK4 steps of ``h_fixed`` [s] from ``(t, y)`` with rate ``f`` (rest lengths
+    ``l0`` (5, m), constant), each shortened only to land on ``t_bound`` as
+    :class:`tensegrity_core.sim.integrators.RK4` steps, until a step ends at or past
+    ``horizon`` or ``t_bound``, or may hold a string's slack/taut event (:func:`quiet_step`)
+    or a re-charting (:func:`chart_due`). Returns ``(steps, t_start, t_end)`` of the last
+    step: its start state and rate are left in ``y`` and ``f`` (overwritten), its end state
+    in ``y_new`` and its end rate in ``K[4]``."""
+    n, nb, ns = base.shape[0], body_dof.shape[0], strings.shape[0]
+    X, V, R, r = np.empty((n, 3)), np.empty((n, 3)), np.empty((nb, 3, 3)), np.empty((on_node.shape[0], 3))
+    g0, r0, g1, r1 = np.empty(ns), np.empty(ns), np.empty(ns), np.empty(ns)
+    string_gaps(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, member_a, member_b, strings, y,
+                R_ref, l0[0], X, V, R, r, g0, r0)
+    steps = 0
+    while True:
+        left = t_bound - t
+        h = left if left < h_fixed * (1.0 + 1e-9) else h_fixed
+        K[0] = f
+        rk_stages(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
+                  body_first_moment, body_inertia, body_inv_inertia_cm, member_a, member_b, EA, damping, is_string,
+                  external, y, h, R_ref, l0, A, 1, 5, K)
+        combine(y, h, weights, K, y_new)
+        t_new = t_bound if h == left else t + h
+        steps += 1
+        string_gaps(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, member_a, member_b, strings,
+                    y_new, R_ref, l0[0], X, V, R, r, g1, r1)
+        if t_new >= horizon or t_new >= t_bound or not quiet_step(g0, r0, g1, r1, moving, t_new - t) \
+                or chart_due(body_dof, y_new, rechart_angle):
+            return steps, t, t_new
+        t = t_new
+        y[:] = y_new
+        f[:] = K[4]
+        g0[:] = g1
+        r0[:] = r1
+
+
+@jit
+def dop853_run(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
+               on_node: IntArray, on_body: IntArray, on_offset: FloatArray, body_dof: IntArray,
+               body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
+               body_inv_inertia_cm: FloatArray, member_a: IntArray, member_b: IntArray, EA: FloatArray,
+               damping: FloatArray, is_string: BoolArray, external: FloatArray,
+               strings: IntArray, moving: BoolArray, rechart_angle: float,
+               t: float, y: FloatArray, t_bound: float, horizon: float, h_abs: float, max_step: float,
+               rtol: float, atol: float, R_ref: FloatArray, l0: FloatArray, A: FloatArray, E5: FloatArray,
+               E3: FloatArray, safety: float, min_factor: float, max_factor: float, K: FloatArray,
+               y_new: FloatArray) -> tuple[bool, int, int, float, float, float]:
+    """Adaptive DOP853 steps from ``(t, y)`` with rate ``K[0]`` (rest lengths ``l0`` (16, m),
+    constant), each chosen, attempted and accepted exactly as
+    :class:`tensegrity_core.sim.integrators.DOP853` does (proposal ``h_abs`` [s], bounded by
+    ``max_step``; controller ``safety``, ``min_factor``, ``max_factor``), until a step ends at
+    or past ``horizon`` or ``t_bound``, or may hold a string's event or a re-charting (as
+    :func:`rk4_run`), or the next step would fall below the rounding of ``t`` (then the steps
+    so far, or ``steps = 0`` if none). Returns ``(steps, attempts, t_start, t_end,
+    h_abs)``: the last step's start state is left in ``y``, its stages in ``K`` (row 12: the
+    rate at its end ``y_new``), and the next step's proposal ``h_abs``."""
+    n, nb, ns = base.shape[0], body_dof.shape[0], strings.shape[0]
+    X, V, R, r = np.empty((n, 3)), np.empty((n, 3)), np.empty((nb, 3, 3)), np.empty((on_node.shape[0], 3))
+    g0, r0, g1, r1 = np.empty(ns), np.empty(ns), np.empty(ns), np.empty(ns)
+    string_gaps(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, member_a, member_b, strings, y,
+                R_ref, l0[0], X, V, R, r, g0, r0)
+    n_stages = E5.shape[0] - 1                              # 12
+    steps, attempts = 0, 0
+    while True:
+        min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
+        rejected = False
+        while True:
+            h = min(h_abs, max_step)
+            if h < min_step:
+                return True, steps, attempts, t, t, h_abs
+            t_new = t + h
+            if t_new - t_bound > 0:
+                t_new = t_bound
+            h = t_new - t
+            error = dop853_attempt(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof,
+                                   body_mass, body_first_moment, body_inertia, body_inv_inertia_cm, member_a,
+                                   member_b, EA, damping, is_string, external, y, h, R_ref, l0, A, E5, E3, rtol,
+                                   atol, K, y_new)
+            attempts += 1
+            if error < 1.0:
+                factor = max_factor if error == 0.0 else min(max_factor, safety * error ** (-1.0 / 8.0))
+                h_abs = h * (min(1.0, factor) if rejected else factor)
+                break
+            h_abs = h * max(min_factor, safety * error ** (-1.0 / 8.0))
+            rejected = True
+        steps += 1
+        t_start = t
+        string_gaps(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, member_a, member_b, strings,
+                    y_new, R_ref, l0[0], X, V, R, r, g1, r1)
+        if t_new >= horizon or t_new >= t_bound or not quiet_step(g0, r0, g1, r1, moving, t_new - t) \
+                or chart_due(body_dof, y_new, rechart_angle):
+            return False, steps, attempts, t_start, t_new, h_abs
+        t = t_new
+        y[:] = y_new
+        K[0] = K[n_stages]
+        g0[:] = g1
+        r0[:] = r1

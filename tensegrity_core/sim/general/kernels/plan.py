@@ -20,11 +20,61 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from tensegrity_core.general.dofs import DofLayout
 from tensegrity_core.general.rotation import hat
 from tensegrity_core.general.structure import Structure
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+
+
+class Placement(NamedTuple):
+    """The arrays that place a model's nodes and accelerate its coordinates: the first twelve
+    of every kernels' plan (:class:`Plan`; the robots' ``RobotPlan`` builds on them), so that
+    the kernels that place nodes and apply Newton-Euler serve both. Fields as in :class:`Plan`."""
+
+    base: FloatArray
+    free_node: IntArray
+    free_axis: IntArray
+    free_inv_mass: FloatArray
+    on_node: IntArray
+    on_body: IntArray
+    on_offset: FloatArray
+    body_dof: IntArray
+    body_mass: FloatArray
+    body_first_moment: FloatArray
+    body_inertia: FloatArray
+    body_inv_inertia_cm: FloatArray
+
+
+def build_placement(layout: DofLayout, nodes: FloatArray, *, free_masses: FloatArray, body_masses: FloatArray,
+                    body_first_moments: FloatArray, body_inertia: FloatArray) -> Placement:
+    """The placement of a model of coordinates ``layout`` and drawn ``nodes`` (n, 3) [m] with
+    its lumped masses: per free coordinate (in ``layout``'s order) [kg], per moving body its
+    mass [kg], first moment [kg m] and inertia about ``c`` in the body frame [kg m^2]."""
+    free_node, free_axis = np.nonzero(layout.free_index >= 0)
+    order = np.argsort(layout.free_index[free_node, free_axis])
+    on = np.flatnonzero(layout.node_body >= 0)
+    mass = np.asarray(body_masses, dtype=float)
+    first = np.asarray(body_first_moments, dtype=float).reshape(-1, 3)
+    inertia = np.asarray(body_inertia, dtype=float).reshape(-1, 3, 3)
+    # inertia about the centre of mass d = s/m: I_cm = I_c + hat(s) hat(s) / m (parallel axes)
+    S = hat(first)
+    inertia_cm = inertia + S @ S / mass[:, None, None] if len(mass) else inertia
+    return Placement(
+        base=np.array(nodes, dtype=float),
+        free_node=free_node[order].astype(np.int64),
+        free_axis=free_axis[order].astype(np.int64),
+        free_inv_mass=1.0 / np.asarray(free_masses, dtype=float),
+        on_node=on.astype(np.int64),
+        on_body=layout.node_body[on].astype(np.int64),
+        on_offset=np.array(layout.offsets[on], dtype=float).reshape(-1, 3),
+        body_dof=np.asarray(layout.body_dof, dtype=np.int64),
+        body_mass=mass,
+        body_first_moment=first,
+        body_inertia=inertia,
+        body_inv_inertia_cm=np.linalg.inv(inertia_cm) if len(mass) else inertia.copy(),
+    )
 
 
 class Plan(NamedTuple):
@@ -78,30 +128,11 @@ def build_plan(structure: Structure, *, free_masses: FloatArray, body_masses: Fl
     """The plan of ``structure`` with its lumped masses (per free coordinate, per moving body
     with its first moment and inertia about ``c`` in the body frame), the
     members' damping coefficients (or None) and the constant external nodal forces (or None)."""
-    lay = structure.layout
-    free_node, free_axis = np.nonzero(lay.free_index >= 0)
-    order = np.argsort(lay.free_index[free_node, free_axis])
-    on = np.flatnonzero(lay.node_body >= 0)
-    mass = np.asarray(body_masses, dtype=float)
-    first = np.asarray(body_first_moments, dtype=float).reshape(-1, 3)
-    inertia = np.asarray(body_inertia, dtype=float).reshape(-1, 3, 3)
-    # inertia about the centre of mass d = s/m: I_cm = I_c + hat(s) hat(s) / m (parallel axes)
-    S = hat(first)
-    inertia_cm = inertia + S @ S / mass[:, None, None] if len(mass) else inertia
+    placement = build_placement(structure.layout, structure.nodes, free_masses=free_masses, body_masses=body_masses,
+                                body_first_moments=body_first_moments, body_inertia=body_inertia)
     m = structure.n_members
     return Plan(
-        base=np.array(structure.nodes, dtype=float),
-        free_node=free_node[order].astype(np.int64),
-        free_axis=free_axis[order].astype(np.int64),
-        free_inv_mass=1.0 / np.asarray(free_masses, dtype=float),
-        on_node=on.astype(np.int64),
-        on_body=lay.node_body[on].astype(np.int64),
-        on_offset=np.array(lay.offsets[on], dtype=float).reshape(-1, 3),
-        body_dof=np.asarray(lay.body_dof, dtype=np.int64),
-        body_mass=mass,
-        body_first_moment=first,
-        body_inertia=inertia,
-        body_inv_inertia_cm=np.linalg.inv(inertia_cm) if len(mass) else inertia.copy(),
+        *placement,
         member_a=np.asarray(structure.members[:, 0], dtype=np.int64),
         member_b=np.asarray(structure.members[:, 1], dtype=np.int64),
         EA=np.array(structure.EA, dtype=float),

@@ -2,7 +2,11 @@
 
 Each step is one call into :mod:`.loops` that evaluates all its stages; only the rest
 lengths at the stages' times come from Python (input laws are Python objects), one row
-per stage, and only when an actuator's law can change them.
+per stage, and only when an actuator's law can change them. With constant rest lengths a
+whole stretch of steps is one call (:meth:`CompiledStages.rk4_run`,
+:meth:`CompiledStages.dop853_run`): it returns to Python only at the step that reaches the
+caller's horizon or the bound, or that may hold a string's slack/taut event or a
+re-charting, so the stepper's event location and re-charting see every such step.
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ from scipy.integrate._ivp import dop853_coefficients as dop853
 
 from tensegrity_core.sim.general.kernels import loops
 from tensegrity_core.sim.general.kernels.plan import Plan
+from tensegrity_core.sim.integrators import Run
 
 FloatArray = NDArray[np.float64]
 
@@ -39,13 +44,19 @@ N_EXTENDED = dop853.N_STAGES_EXTENDED          # 16
 
 class CompiledStages:
     """The steps of the model of ``plan`` in the charts ``R_ref`` (nb, 3, 3) with rest lengths
-    ``rest_lengths(t)`` [m] (``constant``: they do not depend on ``t``)."""
+    ``rest_lengths(t)`` [m] (``constant``: they do not depend on ``t``). A stretch of steps
+    stops at a step that may hold an event of the strings ``strings`` (member indices;
+    ``moving``: per string, its rest length moves with an input) or that leaves a body's
+    rotation vector near or past ``rechart_angle`` [rad]."""
 
-    def __init__(self, plan: Plan, R_ref: FloatArray, rest_lengths: Callable[[float], FloatArray], constant: bool):
+    def __init__(self, plan: Plan, R_ref: FloatArray, rest_lengths: Callable[[float], FloatArray], constant: bool,
+                 *, strings: NDArray[np.int64], moving: NDArray[np.bool_], rechart_angle: float):
         self.plan = plan
         self.R_ref = np.ascontiguousarray(R_ref, dtype=float)
         self.rest_lengths = rest_lengths
         self.constant = constant
+        self._screen = (np.ascontiguousarray(strings, dtype=np.int64), np.ascontiguousarray(moving, dtype=bool),
+                        float(rechart_angle))
         fixed = np.ascontiguousarray(rest_lengths(0.0), dtype=float)
         self._fixed = {k: np.ascontiguousarray(np.tile(fixed, (k, 1))) for k in (len(RK4_C), len(C))} \
             if constant else None
@@ -72,6 +83,34 @@ class CompiledStages:
         error = loops.dop853_attempt(*self.plan, y, h, self.R_ref, self._lengths(t, h, C), A, E5, E3, rtol, atol, K,
                                      y_new)
         return y_new, K, float(error)
+
+    def rk4_run(self, t: float, y: FloatArray, f: FloatArray, h: float, t_bound: float, horizon: float) -> Run:
+        """RK4 steps of ``h`` [s] from ``(t, y)`` (rate ``f``) in one compiled call, as far as
+        ``horizon`` [s] or a step that may hold an event (module docstring); constant rest
+        lengths only."""
+        assert self._fixed is not None, "a stretch of steps needs constant rest lengths"
+        y_start, f_start = y.copy(), f.copy()
+        K, y_end = np.empty((5, len(y))), np.empty_like(y)
+        steps, t_start, t_end = loops.rk4_run(*self.plan, *self._screen, t, y_start, f_start, h, t_bound, horizon,
+                                              self.R_ref, self._fixed[len(RK4_C)], RK4_A, RK4_B, K, y_end)
+        return Run(steps, steps, t_start, y_start, f_start, t_end, y_end, K[4].copy())
+
+    def dop853_run(self, t: float, y: FloatArray, f: FloatArray, t_bound: float, horizon: float, h_abs: float,
+                   max_step: float, rtol: float, atol: float, control: tuple[float, float, float]) -> Run:
+        """Adaptive DOP853 steps from ``(t, y)`` (rate ``f``, first proposal ``h_abs`` [s],
+        bounded by ``max_step``; ``control``: the controller's safety factor and bounds of the
+        change per step) in one compiled call, as far as ``horizon`` [s] or a step that may
+        hold an event (module docstring); constant rest lengths only."""
+        assert self._fixed is not None, "a stretch of steps needs constant rest lengths"
+        y_start = y.copy()
+        K, y_end = np.empty((N_EXTENDED, len(y))), np.empty_like(y)
+        K[0] = f
+        failed, steps, attempts, t_start, t_end, h_next = loops.dop853_run(
+            *self.plan, *self._screen, t, y_start, t_bound, horizon, h_abs, max_step, rtol, atol, self.R_ref,
+            self._fixed[len(C)], A, E5, E3, *control, K, y_end)
+        if failed:
+            return Run(steps, attempts, t_end, y_start, K[0], t_end, y_start, K[0], None, h_next, True)
+        return Run(steps, attempts, t_start, y_start, K[0], t_end, y_end, K[N_STAGES], K, h_next)
 
     def dop853_dense(self, t: float, y: FloatArray, y_new: FloatArray, K: FloatArray, h: float) -> FloatArray:
         loops.rk_stages(*self.plan, y, h, self.R_ref, self._lengths(t, h, C), A, N_STAGES + 1, N_EXTENDED, K)

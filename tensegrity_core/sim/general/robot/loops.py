@@ -83,6 +83,36 @@ def cable_forces(cable_a: IntArray, cable_b: IntArray, cable_k: FloatArray, cabl
 
 
 @jit
+def cap_contact(X: FloatArray, V: FloatArray, node: int, radius: float, floor_point: FloatArray, n0: float, n1: float,
+                n2: float, k: float, d: float) -> tuple[float, float]:
+    """``(delta, F_n)`` of a cap of ``radius`` [m] centred at ``node``: its penetration
+    ``delta`` [m] into the floor (through ``floor_point``, unit normal ``n``) and the normal
+    force ``F_n = k delta max(0, 1 + d deltadot)`` [N] (0 out of contact)."""
+    delta = radius - ((X[node, 0] - floor_point[0]) * n0 + (X[node, 1] - floor_point[1]) * n1
+                      + (X[node, 2] - floor_point[2]) * n2)
+    fn = 0.0
+    if delta > 0.0:
+        fn = k * delta * max(0.0, 1.0 + d * -(V[node, 0] * n0 + V[node, 1] * n1 + V[node, 2] * n2))
+    return delta, fn
+
+
+@jit
+def contact_point_velocity(V: FloatArray, node: int, body: int, body_dof: IntArray, y: FloatArray, n_dof: int,
+                           radius: float, n0: float, n1: float, n2: float) -> tuple[float, float, float]:
+    """Velocity [m/s] of the material point of a cap (centred at ``node``, on moving body
+    ``body`` or -1) that touches the floor of unit normal ``n``: the centre's plus
+    ``w x (-radius n)`` (``y``'s rates start at ``y[n_dof]``)."""
+    v0, v1, v2 = V[node, 0], V[node, 1], V[node, 2]
+    if body >= 0:
+        dof = n_dof + body_dof[body] + 3
+        w0, w1, w2 = y[dof], y[dof + 1], y[dof + 2]
+        v0 -= radius * (w1 * n2 - w2 * n1)
+        v1 -= radius * (w2 * n0 - w0 * n2)
+        v2 -= radius * (w0 * n1 - w1 * n0)
+    return v0, v1, v2
+
+
+@jit
 def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray, floor_normal: FloatArray,
                  floor_point: FloatArray, floor_params: FloatArray, body_dof: IntArray, y: FloatArray,
                  n_dof: int, anchors: int, X: FloatArray, V: FloatArray, F: FloatArray, moments: FloatArray,
@@ -104,14 +134,8 @@ def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray,
     for c in range(ncap):
         node = cap_node[c]
         r = cap_radius[c]
-        height = (X[node, 0] - floor_point[0]) * n0 + (X[node, 1] - floor_point[1]) * n1 \
-            + (X[node, 2] - floor_point[2]) * n2
-        delta = r - height
+        delta, fn = cap_contact(X, V, node, r, floor_point, n0, n1, n2, k, d)
         depth[c] = delta
-        fn = 0.0
-        if delta > 0.0:
-            rate = -(V[node, 0] * n0 + V[node, 1] * n1 + V[node, 2] * n2)
-            fn = k * delta * max(0.0, 1.0 + d * rate)
         normal[c] = fn
         F[node, 0] += fn * n0
         F[node, 1] += fn * n1
@@ -124,14 +148,7 @@ def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray,
             s0, s1, s2 = y[a], y[a + 1], y[a + 2]
             sn = s0 * n0 + s1 * n1 + s2 * n2
             s0, s1, s2 = s0 - sn * n0, s1 - sn * n1, s2 - sn * n2
-            v0, v1, v2 = V[node, 0], V[node, 1], V[node, 2]
-            b = cap_body[c]
-            if b >= 0:                                   # contact point: w x (-r n) more
-                dof = n_dof + body_dof[b] + 3
-                w0, w1, w2 = y[dof], y[dof + 1], y[dof + 2]
-                v0 -= r * (w1 * n2 - w2 * n1)
-                v1 -= r * (w2 * n0 - w0 * n2)
-                v2 -= r * (w0 * n1 - w1 * n0)
+            v0, v1, v2 = contact_point_velocity(V, node, cap_body[c], body_dof, y, n_dof, r, n0, n1, n2)
             vn = v0 * n0 + v1 * n1 + v2 * n2
             v0, v1, v2 = v0 - vn * n0, v1 - vn * n1, v2 - vn * n2
             out[a], out[a + 1], out[a + 2] = v0, v1, v2
@@ -245,11 +262,7 @@ def sampled_update(base: FloatArray, free_node: IntArray, free_axis: IntArray, o
     for c in range(ncap):
         node = cap_node[c]
         rc = cap_radius[c]
-        delta = rc - ((X[node, 0] - floor_point[0]) * n0 + (X[node, 1] - floor_point[1]) * n1
-                      + (X[node, 2] - floor_point[2]) * n2)
-        fn = 0.0
-        if delta > 0.0:
-            fn = k * delta * max(0.0, 1.0 + d * -(V[node, 0] * n0 + V[node, 1] * n1 + V[node, 2] * n2))
+        _, fn = cap_contact(X, V, node, rc, floor_point, n0, n1, n2, k, d)
         a = a0 + 3 * c
         st = a0 + 3 * ncap + c
         if not (fn > 0.0 and kt > 0.0):
@@ -269,14 +282,7 @@ def sampled_update(base: FloatArray, free_node: IntArray, free_axis: IntArray, o
             y[st] = STICKING
             continue
         e0, e1, e2 = s0 / size, s1 / size, s2 / size
-        v0, v1, v2 = V[node, 0], V[node, 1], V[node, 2]
-        b = cap_body[c]
-        if b >= 0:
-            dof = n_dof + body_dof[b] + 3
-            w0, w1, w2 = y[dof], y[dof + 1], y[dof + 2]
-            v0 -= rc * (w1 * n2 - w2 * n1)
-            v1 -= rc * (w2 * n0 - w0 * n2)
-            v2 -= rc * (w0 * n1 - w1 * n0)
+        v0, v1, v2 = contact_point_velocity(V, node, cap_body[c], body_dof, y, n_dof, rc, n0, n1, n2)
         ahead = max(v0 * e0 + v1 * e1 + v2 * e2, 0.0)      # (e is tangential: v . e = v_t . e)
         mag = max(mu_k * fn / kt - 0.5 * h * ahead, 0.0)
         y[a], y[a + 1], y[a + 2] = mag * e0, mag * e1, mag * e2

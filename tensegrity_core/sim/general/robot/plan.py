@@ -36,11 +36,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tensegrity_core.general.dofs import DofLayout
-from tensegrity_core.general.rotation import hat
 from tensegrity_core.general.structure import RigidBody
 from tensegrity_core.robot.description import Robot
 from tensegrity_core.robot.rod import rod_frames, world_inertia
 from tensegrity_core.sim.errors import SceneError
+from tensegrity_core.sim.general.kernels.plan import build_placement
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -71,8 +71,9 @@ class RobotEffects:
 
 
 class RobotPlan(NamedTuple):
-    """A robot's constant arrays (module docstring); the first thirteen are the general
-    kernels' placement and Newton-Euler arrays."""
+    """A robot's constant arrays (module docstring); the first twelve are the general
+    kernels' :class:`~tensegrity_core.sim.general.kernels.plan.Placement` (built by its
+    ``build_placement``), then the weights ``external``."""
 
     base: FloatArray
     free_node: IntArray
@@ -174,16 +175,15 @@ def build_plan(robot: Robot, effects: RobotEffects) -> RobotPlan:
     if light:
         raise SceneError(f"inertia needs mass on every moving body; {', '.join(map(repr, light))} has none",
                          key=("model", "robot"))
-    free_node, free_axis = np.nonzero(lay.free_index >= 0)
-    order = np.argsort(lay.free_index[free_node, free_axis])
-    free_node, free_axis = free_node[order], free_axis[order]
+    free = np.nonzero(lay.free_index >= 0)
+    free_node = free[0][np.argsort(lay.free_index[free])]          # per free coordinate, in the layout's order
     free_mass = np.asarray(robot.node_masses, dtype=float)[free_node]
     if np.any(free_mass <= 0):
         bad = robot.node_names[int(free_node[np.argmax(free_mass <= 0)])]
         raise SceneError(f"inertia needs a mass on every free node; {bad!r} has none (give it a point mass or put "
                          f"it on a rod or body)", key=("model", "robot"))
-    S = hat(first)
-    inertia_cm = inertia + S @ S / mass[:, None, None] if nb else inertia
+    placement = build_placement(lay, robot.nodes, free_masses=free_mass, body_masses=mass, body_first_moments=first,
+                                body_inertia=inertia)
     g = np.zeros(3) if effects.gravity is None else np.asarray(effects.gravity, dtype=float)
     # -- cables and motors
     cab, mot = robot.cables, robot.motors
@@ -222,13 +222,7 @@ def build_plan(robot: Robot, effects: RobotEffects) -> RobotPlan:
         cap_node, cap_body, cap_radius = np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
         params, normal, point = np.zeros(6), np.array([0.0, 0.0, 1.0]), np.zeros(3)
     return RobotPlan(
-        base=np.array(robot.nodes, dtype=float),
-        free_node=free_node.astype(np.int64), free_axis=free_axis.astype(np.int64),
-        free_inv_mass=1.0 / free_mass if len(free_mass) else np.zeros(0),
-        on_node=on.astype(np.int64), on_body=lay.node_body[on].astype(np.int64),
-        on_offset=np.array(lay.offsets[on], dtype=float).reshape(-1, 3),
-        body_dof=np.asarray(lay.body_dof, dtype=np.int64), body_mass=mass, body_first_moment=first,
-        body_inertia=inertia, body_inv_inertia_cm=np.asarray(np.linalg.inv(inertia_cm) if nb else inertia.copy(), dtype=np.float64),
+        *placement,
         external=weight_mass[:, None] * g[None, :],
         cable_a=np.array(cab.ends[:, 0], dtype=np.int64), cable_b=np.array(cab.ends[:, 1], dtype=np.int64),
         cable_k=np.array(cab.stiffness, dtype=float), cable_c=np.array(cab.damping, dtype=float), cable_t_max=t_max,
