@@ -54,7 +54,9 @@ class Run(NamedTuple):
     attempts in all), the last one from ``(t_start, y_start)`` (rate ``f_start``) to
     ``(t_end, y_end)`` (rate ``f_end``) [s]; DOP853's stages ``K`` of that step and its next
     step proposal ``h_abs`` [s]; ``failed``: DOP853's next step fell below the rounding of
-    ``t_end`` (the state there is ``y_end``)."""
+    ``t_end`` (the state there is ``y_end``). The states at the sample times the steps
+    before the last one cover are the rows of ``Y`` up to ``sampled`` (the index of the
+    first time left); ``dense``: how many DOP853 dense outputs that took (3 evaluations each)."""
 
     steps: int
     attempts: int
@@ -67,6 +69,9 @@ class Run(NamedTuple):
     K: FloatArray | None = None
     h_abs: float = 0.0
     failed: bool = False
+    sampled: int = 0
+    Y: FloatArray | None = None
+    dense: int = 0
 
 
 class Stages(Protocol):
@@ -81,7 +86,9 @@ class Stages(Protocol):
     horizon, h_abs, max_step, rtol, atol, (safety, min_factor, max_factor))`` take the steps
     the one-step methods would take, one after the other, until a step ends at or past
     ``horizon`` or ``t_bound`` or may hold one of the system's discrete changes (its events,
-    a re-charting), and return that last step as a :class:`Run`."""
+    a re-charting), and return that last step as a :class:`Run`, with the states at the
+    times ``samples[sample:]`` [s] the steps before it cover (the stepper's samples: the end
+    state of a step that ends exactly at its only sample, else the dense output)."""
 
     @property
     def constant(self) -> bool: ...
@@ -93,10 +100,12 @@ class Stages(Protocol):
 
     def dop853_dense(self, t: float, y: FloatArray, y_new: FloatArray, K: FloatArray, h: float) -> FloatArray: ...
 
-    def rk4_run(self, t: float, y: FloatArray, f: FloatArray, h: float, t_bound: float, horizon: float) -> Run: ...
+    def rk4_run(self, t: float, y: FloatArray, f: FloatArray, h: float, t_bound: float, horizon: float,
+                samples: FloatArray, sample: int) -> Run: ...
 
     def dop853_run(self, t: float, y: FloatArray, f: FloatArray, t_bound: float, horizon: float, h_abs: float,
-                   max_step: float, rtol: float, atol: float, control: tuple[float, float, float]) -> Run: ...
+                   max_step: float, rtol: float, atol: float, control: tuple[float, float, float],
+                   samples: FloatArray, sample: int) -> Run: ...
 
 
 class HermiteDense(DenseOutput):  # type: ignore[misc]  # scipy is untyped
@@ -131,10 +140,21 @@ class StretchSolver(OdeSolver):  # type: ignore[misc]  # scipy is untyped
     steps_taken: int = 0
     t_start: float
     y_start: FloatArray
+    #: Sample times [s] (increasing) and the index of the next one, set by the caller: a
+    #: stretch fills in the states at those its steps before the last one cover.
+    samples: FloatArray = np.zeros(0)
+    sample: int = 0
+    #: After a call: ``(first, last, Y)``, the states at ``samples[first:last]`` are ``Y[first:last]``.
+    sampled: tuple[int, int, FloatArray] | None = None
 
     def stretch(self, stages: Stages | None) -> bool:
         """Whether this call takes its steps as one compiled stretch."""
+        self.sampled = None
         return stages is not None and stages.constant and self.direction > 0
+
+    def _keep_samples(self, run: Run) -> None:
+        if run.Y is not None and run.sampled > self.sample:
+            self.sampled = (self.sample, run.sampled, run.Y)
 
 
 class RK4(StretchSolver):
@@ -160,9 +180,10 @@ class RK4(StretchSolver):
         t, y, f = self.t, self.y, self.f
         if self.stretch(self.stages):
             assert self.stages is not None
-            run = self.stages.rk4_run(t, y, f, self.h, self.t_bound, self.horizon)
+            run = self.stages.rk4_run(t, y, f, self.h, self.t_bound, self.horizon, self.samples, self.sample)
             self.nfev += 4 * run.steps
             self.steps_taken = run.steps
+            self._keep_samples(run)
             self.t_start, self.y_start, self.f_start = run.t_start, run.y_start, run.f_start
             self.t, self.y, self.f = run.t_end, run.y_end, run.f_end
             return True, None
@@ -216,9 +237,11 @@ class DOP853(StretchSolver):
         t, y = self.t, self.y
         if self.stretch(self.stages):
             run = self.stages.dop853_run(t, y, self.f, self.t_bound, self.horizon, self.h_abs, self.max_step,
-                                         self.rtol, self.atol, (SAFETY, MIN_FACTOR, MAX_FACTOR))
-            self.nfev += 12 * run.attempts
+                                         self.rtol, self.atol, (SAFETY, MIN_FACTOR, MAX_FACTOR), self.samples,
+                                         self.sample)
+            self.nfev += 12 * run.attempts + 3 * run.dense
             self.steps_taken = run.steps
+            self._keep_samples(run)
             self.h_abs = run.h_abs
             if run.failed:
                 self.t, self.y, self.f = run.t_end, run.y_end, run.f_end

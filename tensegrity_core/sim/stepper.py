@@ -398,9 +398,14 @@ class Stepper(Generic[Sys]):
     def record(self, times: Sequence[float] | FloatArray, out: list[tuple[float, FloatArray, Sys]]) -> None:
         """Append ``(t, y, system)`` for increasing ``times`` to ``out``: advance to each time,
         and interpolate every time the current step covers in one vectorised call (the system
-        -- its contact mode, its charts -- is constant within a step)."""
+        -- its contact mode, its charts -- is constant within a step). A stretch solver takes
+        the times its quiet steps cover in compiled code, with the same numbers."""
         i, n = 0, len(times)
+        samples = np.ascontiguousarray(times, dtype=float)
         while i < n:
+            i = self._record_stretch(samples, i, out)
+            if i == n:
+                break
             self.advance(float(times[i]))
             j = i + 1
             while j < n and times[j] <= self._seg[1]:
@@ -414,6 +419,30 @@ class Stepper(Generic[Sys]):
                 out.extend((float(t), Y[:, k].copy(), system) for k, t in enumerate(ts))
                 self.t, self.y = float(ts[-1]), Y[:, -1].copy()
             i = j
+
+
+    def _record_stretch(self, times: FloatArray, i: int, out: list[tuple[float, FloatArray, Sys]]) -> int:
+        """With a :class:`~tensegrity_core.sim.integrators.StretchSolver` running past the
+        current step: one stretch towards the last of ``times``, its samples at ``times[i:]``
+        appended to ``out`` (the same states :meth:`record` takes one by one); the index of
+        the first time left (``i`` if none was taken)."""
+        solver = self.solver
+        if not (isinstance(solver, integrators.StretchSolver) and solver.status == "running"
+                and self._pending is None and self._seg[1] < times[i]):
+            return i
+        check_advance_target(self.t, float(times[i]))
+        solver.samples, solver.sample, solver.sampled = times, i, None
+        try:
+            self._step(solver, min(float(times[-1]), self.t_end))
+        finally:
+            solver.samples, solver.sample = integrators.StretchSolver.samples, 0
+        if solver.sampled is None:
+            return i
+        first, last, Y = solver.sampled
+        system = self.system            # the steps before the stretch's last one hold no discrete change
+        out.extend((float(times[k]), Y[k].copy(), system) for k in range(first, last))
+        self.t, self.y = float(times[last - 1]), Y[last - 1].copy()
+        return last
 
 
 class _LazyDense:

@@ -649,6 +649,59 @@ def dop853_attempt(base: FloatArray, free_node: IntArray, free_axis: IntArray, f
     return embedded_error(y, y_new, K, E5, E3, h, rtol, atol)
 
 
+@jit
+def dop853_dense(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
+                 on_node: IntArray, on_body: IntArray, on_offset: FloatArray, body_dof: IntArray,
+                 body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
+                 body_inv_inertia_cm: FloatArray, member_a: IntArray, member_b: IntArray, EA: FloatArray,
+                 damping: FloatArray, is_string: BoolArray, external: FloatArray,
+                 y: FloatArray, y_new: FloatArray, h: float, R_ref: FloatArray, l0: FloatArray, A: FloatArray,
+                 D: FloatArray, K: FloatArray, F: FloatArray) -> None:
+    """DOP853's dense output of an accepted step of ``h`` [s] from ``y`` to ``y_new`` with
+    stages ``K`` (rows 0-12): its three extra stages into ``K`` (rows 13-15) and the
+    interpolant's coefficients ``F`` (7, N) (Hairer's DOP853, as scipy lays them out:
+    :func:`dop853_value` evaluates them)."""
+    extra = K.shape[0] - 3                                  # 13: the first extra stage (row 12: the end's rate)
+    rk_stages(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
+              body_first_moment, body_inertia, body_inv_inertia_cm, member_a, member_b, EA, damping, is_string,
+              external, y, h, R_ref, l0, A, extra, K.shape[0], K)
+    for i in range(y.shape[0]):
+        dy = y_new[i] - y[i]
+        F[0, i] = dy
+        F[1, i] = h * K[0, i] - dy
+        F[2, i] = 2.0 * dy - h * (K[extra - 1, i] + K[0, i])
+        for row in range(D.shape[0]):
+            acc = 0.0
+            for j in range(K.shape[0]):
+                acc += D[row, j] * K[j, i]
+            F[3 + row, i] = h * acc
+
+
+@jit
+def dop853_value(F: FloatArray, y_start: FloatArray, x: float, out: FloatArray) -> None:
+    """``out``: DOP853's interpolant of coefficients ``F`` from ``y_start`` at the fraction
+    ``x`` of its step (summed in scipy's ``Dop853DenseOutput`` order)."""
+    last = F.shape[0] - 1
+    for i in range(y_start.shape[0]):
+        v = 0.0
+        for k in range(F.shape[0]):
+            v += F[last - k, i]
+            v *= x if k % 2 == 0 else 1.0 - x
+        out[i] = v + y_start[i]
+
+
+@jit
+def hermite_value(y_start: FloatArray, f_start: FloatArray, y_end: FloatArray, f_end: FloatArray, h: float,
+                  x: float, out: FloatArray) -> None:
+    """``out``: the cubic Hermite interpolant of a step of ``h`` [s] between both ends' states
+    and rates at the fraction ``x`` of the step (as
+    :class:`tensegrity_core.sim.integrators.HermiteDense` sums it)."""
+    for i in range(y_start.shape[0]):
+        a, b = h * f_start[i], h * f_end[i]
+        dy = y_end[i] - y_start[i]
+        out[i] = y_start[i] + x * (a + x * ((3.0 * dy - 2.0 * a - b) + x * (a + b - 2.0 * dy)))
+
+
 # -- many steps in one call ----------------------------------------------------------------------
 @jit
 def quiet_step(g0: FloatArray, r0: FloatArray, g1: FloatArray, r1: FloatArray, moving: BoolArray, h: float) -> bool:
@@ -680,6 +733,23 @@ def chart_due(body_dof: IntArray, y: FloatArray, angle: float) -> bool:
 
 
 @jit
+def covered(samples: FloatArray, sample: int, t_end: float) -> int:
+    """The index after the last of ``samples`` from ``sample`` on at or before ``t_end`` [s]."""
+    end = sample
+    while end < samples.shape[0] and samples[end] <= t_end:
+        end += 1
+    return end
+
+
+@jit
+def exactly_at_end(samples: FloatArray, sample: int, end: int, t_end: float) -> bool:
+    """Whether a step ending at ``t_end`` covers one sample only, at its very end: then the
+    step's end state is the sample (as the stepper samples one time it advanced to), else
+    every sample comes from the dense output (as the stepper interpolates several at once)."""
+    return end == sample + 1 and samples[sample] == t_end
+
+
+@jit
 def rk4_run(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
             on_node: IntArray, on_body: IntArray, on_offset: FloatArray, body_dof: IntArray,
             body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
@@ -688,14 +758,17 @@ def rk4_run(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv
             strings: IntArray, moving: BoolArray, rechart_angle: float,
             t: float, y: FloatArray, f: FloatArray, h_fixed: float, t_bound: float, horizon: float,
             R_ref: FloatArray, l0: FloatArray, A: FloatArray, weights: FloatArray, K: FloatArray,
-            y_new: FloatArray) -> tuple[int, float, float]:
+            y_new: FloatArray, samples: FloatArray, sample: int, Y: FloatArray) -> tuple[int, float, float, int]:
     """Classical RK4 steps of ``h_fixed`` [s] from ``(t, y)`` with rate ``f`` (rest lengths
     ``l0`` (5, m), constant), each shortened only to land on ``t_bound`` as
     :class:`tensegrity_core.sim.integrators.RK4` steps, until a step ends at or past
     ``horizon`` or ``t_bound``, or may hold a string's slack/taut event (:func:`quiet_step`)
-    or a re-charting (:func:`chart_due`). Returns ``(steps, t_start, t_end)`` of the last
-    step: its start state and rate are left in ``y`` and ``f`` (overwritten), its end state
-    in ``y_new`` and its end rate in ``K[4]``."""
+    or a re-charting (:func:`chart_due`). Returns ``(steps, t_start, t_end, sample)`` of the
+    last step: its start state and rate are left in ``y`` and ``f`` (overwritten), its end
+    state in ``y_new`` and its end rate in ``K[4]``. The states at the times ``samples``
+    [s] (increasing) from index ``sample`` on that the steps before the last one cover go
+    into the rows of ``Y`` (:func:`hermite_value`, or a step's end state where
+    :func:`exactly_at_end`); ``sample`` returned: the first time left."""
     n, nb, ns = base.shape[0], body_dof.shape[0], strings.shape[0]
     X, V, R, r = np.empty((n, 3)), np.empty((n, 3)), np.empty((nb, 3, 3)), np.empty((on_node.shape[0], 3))
     g0, r0, g1, r1 = np.empty(ns), np.empty(ns), np.empty(ns), np.empty(ns)
@@ -716,7 +789,14 @@ def rk4_run(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv
                     y_new, R_ref, l0[0], X, V, R, r, g1, r1)
         if t_new >= horizon or t_new >= t_bound or not quiet_step(g0, r0, g1, r1, moving, t_new - t) \
                 or chart_due(body_dof, y_new, rechart_angle):
-            return steps, t, t_new
+            return steps, t, t_new, sample
+        end = covered(samples, sample, t_new)
+        if exactly_at_end(samples, sample, end, t_new):
+            Y[sample] = y_new
+        else:
+            for j in range(sample, end):
+                hermite_value(y, f, y_new, K[4], t_new - t, (samples[j] - t) / (t_new - t), Y[j])
+        sample = end
         t = t_new
         y[:] = y_new
         f[:] = K[4]
@@ -733,31 +813,34 @@ def dop853_run(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_
                strings: IntArray, moving: BoolArray, rechart_angle: float,
                t: float, y: FloatArray, t_bound: float, horizon: float, h_abs: float, max_step: float,
                rtol: float, atol: float, R_ref: FloatArray, l0: FloatArray, A: FloatArray, E5: FloatArray,
-               E3: FloatArray, safety: float, min_factor: float, max_factor: float, K: FloatArray,
-               y_new: FloatArray) -> tuple[bool, int, int, float, float, float]:
+               E3: FloatArray, safety: float, min_factor: float, max_factor: float, D: FloatArray, K: FloatArray,
+               y_new: FloatArray, F: FloatArray, samples: FloatArray, sample: int,
+               Y: FloatArray) -> tuple[bool, int, int, float, float, float, int, int]:
     """Adaptive DOP853 steps from ``(t, y)`` with rate ``K[0]`` (rest lengths ``l0`` (16, m),
     constant), each chosen, attempted and accepted exactly as
     :class:`tensegrity_core.sim.integrators.DOP853` does (proposal ``h_abs`` [s], bounded by
     ``max_step``; controller ``safety``, ``min_factor``, ``max_factor``), until a step ends at
     or past ``horizon`` or ``t_bound``, or may hold a string's event or a re-charting (as
-    :func:`rk4_run`), or the next step would fall below the rounding of ``t`` (then the steps
-    so far, or ``steps = 0`` if none). Returns ``(steps, attempts, t_start, t_end,
-    h_abs)``: the last step's start state is left in ``y``, its stages in ``K`` (row 12: the
-    rate at its end ``y_new``), and the next step's proposal ``h_abs``."""
+    :func:`rk4_run`). Returns ``(failed, steps, attempts, t_start, t_end, h_abs, sample,
+    dense)``: the last step's start state is left in ``y``, its stages in ``K`` (row 12: the
+    rate at its end ``y_new``), and the next step's proposal ``h_abs``; ``failed``: a step
+    fell below the rounding of ``t``, and the state reached at ``t_end`` is in ``y``. The
+    states at ``samples`` go into ``Y`` as in :func:`rk4_run`, from the steps' dense output
+    (:func:`dop853_dense`, into ``F``; ``dense``: how many were built, 3 evaluations each)."""
     n, nb, ns = base.shape[0], body_dof.shape[0], strings.shape[0]
     X, V, R, r = np.empty((n, 3)), np.empty((n, 3)), np.empty((nb, 3, 3)), np.empty((on_node.shape[0], 3))
     g0, r0, g1, r1 = np.empty(ns), np.empty(ns), np.empty(ns), np.empty(ns)
     string_gaps(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, member_a, member_b, strings, y,
                 R_ref, l0[0], X, V, R, r, g0, r0)
     n_stages = E5.shape[0] - 1                              # 12
-    steps, attempts = 0, 0
+    steps, attempts, dense = 0, 0, 0
     while True:
         min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
         rejected = False
         while True:
             h = min(h_abs, max_step)
             if h < min_step:
-                return True, steps, attempts, t, t, h_abs
+                return True, steps, attempts, t, t, h_abs, sample, dense
             t_new = t + h
             if t_new - t_bound > 0:
                 t_new = t_bound
@@ -779,7 +862,18 @@ def dop853_run(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_
                     y_new, R_ref, l0[0], X, V, R, r, g1, r1)
         if t_new >= horizon or t_new >= t_bound or not quiet_step(g0, r0, g1, r1, moving, t_new - t) \
                 or chart_due(body_dof, y_new, rechart_angle):
-            return False, steps, attempts, t_start, t_new, h_abs
+            return False, steps, attempts, t_start, t_new, h_abs, sample, dense
+        end = covered(samples, sample, t_new)
+        if exactly_at_end(samples, sample, end, t_new):
+            Y[sample] = y_new
+        elif end > sample:
+            dop853_dense(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
+                         body_first_moment, body_inertia, body_inv_inertia_cm, member_a, member_b, EA, damping,
+                         is_string, external, y, y_new, h, R_ref, l0, A, D, K, F)
+            dense += 1
+            for j in range(sample, end):
+                dop853_value(F, y, (samples[j] - t) / h, Y[j])
+        sample = end
         t = t_new
         y[:] = y_new
         K[0] = K[n_stages]

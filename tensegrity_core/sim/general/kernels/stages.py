@@ -84,41 +84,42 @@ class CompiledStages:
                                      y_new)
         return y_new, K, float(error)
 
-    def rk4_run(self, t: float, y: FloatArray, f: FloatArray, h: float, t_bound: float, horizon: float) -> Run:
+    def rk4_run(self, t: float, y: FloatArray, f: FloatArray, h: float, t_bound: float, horizon: float,
+                samples: FloatArray, sample: int) -> Run:
         """RK4 steps of ``h`` [s] from ``(t, y)`` (rate ``f``) in one compiled call, as far as
-        ``horizon`` [s] or a step that may hold an event (module docstring); constant rest
+        ``horizon`` [s] or a step that may hold an event (module docstring), with the states
+        at ``samples[sample:]`` [s] that the steps before the last one cover; constant rest
         lengths only."""
         assert self._fixed is not None, "a stretch of steps needs constant rest lengths"
         y_start, f_start = y.copy(), f.copy()
-        K, y_end = np.empty((5, len(y))), np.empty_like(y)
-        steps, t_start, t_end = loops.rk4_run(*self.plan, *self._screen, t, y_start, f_start, h, t_bound, horizon,
-                                              self.R_ref, self._fixed[len(RK4_C)], RK4_A, RK4_B, K, y_end)
-        return Run(steps, steps, t_start, y_start, f_start, t_end, y_end, K[4].copy())
+        K, y_end, Y = np.empty((5, len(y))), np.empty_like(y), np.empty((len(samples), len(y)))
+        steps, t_start, t_end, done = loops.rk4_run(*self.plan, *self._screen, t, y_start, f_start, h, t_bound,
+                                                    horizon, self.R_ref, self._fixed[len(RK4_C)], RK4_A, RK4_B, K,
+                                                    y_end, samples, sample, Y)
+        return Run(steps, steps, t_start, y_start, f_start, t_end, y_end, K[4].copy(), sampled=done, Y=Y)
 
     def dop853_run(self, t: float, y: FloatArray, f: FloatArray, t_bound: float, horizon: float, h_abs: float,
-                   max_step: float, rtol: float, atol: float, control: tuple[float, float, float]) -> Run:
+                   max_step: float, rtol: float, atol: float, control: tuple[float, float, float],
+                   samples: FloatArray, sample: int) -> Run:
         """Adaptive DOP853 steps from ``(t, y)`` (rate ``f``, first proposal ``h_abs`` [s],
         bounded by ``max_step``; ``control``: the controller's safety factor and bounds of the
         change per step) in one compiled call, as far as ``horizon`` [s] or a step that may
-        hold an event (module docstring); constant rest lengths only."""
+        hold an event (module docstring), with the states at ``samples[sample:]`` [s] that the
+        steps before the last one cover; constant rest lengths only."""
         assert self._fixed is not None, "a stretch of steps needs constant rest lengths"
         y_start = y.copy()
-        K, y_end = np.empty((N_EXTENDED, len(y))), np.empty_like(y)
+        K, y_end, Y = np.empty((N_EXTENDED, len(y))), np.empty_like(y), np.empty((len(samples), len(y)))
         K[0] = f
-        failed, steps, attempts, t_start, t_end, h_next = loops.dop853_run(
+        failed, steps, attempts, t_start, t_end, h_next, done, dense = loops.dop853_run(
             *self.plan, *self._screen, t, y_start, t_bound, horizon, h_abs, max_step, rtol, atol, self.R_ref,
-            self._fixed[len(C)], A, E5, E3, *control, K, y_end)
+            self._fixed[len(C)], A, E5, E3, *control, D, K, y_end, np.empty((7, len(y))), samples, sample, Y)
         if failed:
-            return Run(steps, attempts, t_end, y_start, K[0], t_end, y_start, K[0], None, h_next, True)
-        return Run(steps, attempts, t_start, y_start, K[0], t_end, y_end, K[N_STAGES], K, h_next)
+            return Run(steps, attempts, t_end, y_start, K[0], t_end, y_start, K[0], None, h_next, True, done, Y,
+                       dense)
+        return Run(steps, attempts, t_start, y_start, K[0], t_end, y_end, K[N_STAGES], K, h_next, False, done, Y,
+                   dense)
 
     def dop853_dense(self, t: float, y: FloatArray, y_new: FloatArray, K: FloatArray, h: float) -> FloatArray:
-        loops.rk_stages(*self.plan, y, h, self.R_ref, self._lengths(t, h, C), A, N_STAGES + 1, N_EXTENDED, K)
-        # the interpolant's coefficients (Hairer's DOP853 dense output)
-        dy = y_new - y
         F = np.empty((7, len(y)))
-        F[0] = dy
-        F[1] = h * K[0] - dy
-        F[2] = 2.0 * dy - h * (K[N_STAGES] + K[0])
-        F[3:] = h * (D @ K)
+        loops.dop853_dense(*self.plan, y, y_new, h, self.R_ref, self._lengths(t, h, C), A, D, K, F)
         return F

@@ -58,8 +58,9 @@ def warm() -> float:
     stages.rk4(0.0, y, f, 1e-3)
     y_new, K, _ = stages.dop853(0.0, y, f, 1e-3, 1e-6, 1e-8)
     stages.dop853_dense(0.0, y, y_new, K, 1e-3)
-    stages.rk4_run(0.0, y, f, 1e-3, 0.01, 0.01)
-    stages.dop853_run(0.0, y, f, 0.01, 0.01, 1e-3, np.inf, 1e-6, 1e-8, (0.9, 0.2, 10.0))
+    samples = np.array([0.0025, 0.004, 0.0045, 0.01])
+    stages.rk4_run(0.0, y, f, 1e-3, 0.01, 0.01, samples, 0)
+    stages.dop853_run(0.0, y, f, 0.01, 0.01, 1e-3, np.inf, 1e-6, 1e-8, (0.9, 0.2, 10.0), samples, 0)
     gaps = np.zeros(1)
     loops.quiet_step(gaps, gaps, gaps, gaps, np.zeros(1, dtype=bool), 1e-3)   # as the tests call it
     robot = scene_from_dict({"model": {"kind": "robot", "robot": "three_bar"}, "initial": {"drawn": True},
