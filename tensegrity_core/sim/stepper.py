@@ -431,7 +431,7 @@ class Stepper(Generic[Sys]):
                 and self._pending is None and self._seg[1] < times[i]):
             return i
         check_advance_target(self.t, float(times[i]))
-        solver.samples, solver.sample, solver.sampled = times, i, None
+        solver.samples, solver.sample = times, i
         try:
             self._step(solver, min(float(times[-1]), self.t_end))
         finally:
