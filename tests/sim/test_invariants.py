@@ -202,6 +202,22 @@ def test_a_contact_force_that_dips_below_zero_inside_one_step_releases_the_actua
     assert_fold_limit_holds(data, state.events)
 
 
+def test_a_near_tangent_graze_inside_one_step_folds_the_actuator():
+    """A point of the issue's full box (k 7.0 N/m, c 0.42 N s/m, gain 48.5, restitution 0.78)
+    under DOP853 at rtol 1e-7: rho2 comes down to the stop and turns back inside one step
+    (4.122 s to 4.159 s) whose ends are both above it; the cubic through the step's end values
+    and rates stays above zero while the integrated motion dips 3.5e-8 m below it at 4.148 s.
+    The fold is seen on the step's own dense output, so no sample is below zero."""
+    scene = fold_scene(k=6.999123489755537, c=0.4222766831143423, gain=48.51130033010531,
+                       restitution=0.777417297704791, method="DOP853", rtol=1e-7, atol=1e-9)
+    model = compile_scene(scene)
+    state = model.initial_state(t_end=scene.duration)
+    data, err = record(model, state, np.linspace(0.0, scene.duration, 5001))
+    assert err is None
+    assert_fold_limit_holds(data, state.events)
+    assert any(kind == "fold" and index == 1 and 4.12 < t < 4.16 for t, kind, index in state.events)
+
+
 @pytest.mark.parametrize("method", METHODS)
 @settings(max_examples=2)
 @given(rho=st.tuples(st.floats(0.0, 0.9), st.floats(0.0, 0.9)), seed=st.integers(0, 2**16),
