@@ -179,9 +179,12 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         B, n = len(ts), plan.n_dof
         q = Y[:, :n].copy()
         nb = len(plan.body_dof)
+        orientation = np.zeros((B, nb, 4))
         if nb and B:
             rot = plan.body_dof[:, None] + 3 + np.arange(3)[None, :]
-            q[:, rot] = Rotation.from_matrix(ev.rotations.reshape(-1, 3, 3)).as_rotvec().reshape(B, nb, 3)
+            rotations = Rotation.from_matrix(ev.rotations.reshape(-1, 3, 3))
+            q[:, rot] = rotations.as_rotvec().reshape(B, nb, 3)
+            orientation = rotations.as_quat().reshape(B, nb, 4)
         X = ev.positions
         ends = robot.rods.ends
         axis = X[:, ends[:, 1]] - X[:, ends[:, 0]]
@@ -203,9 +206,7 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         nr = len(robot.rods)
         centre = plan.body_dof[:, None] + np.arange(3)
         out_bodies = {"body_positions": Y[:, centre], "body_velocities": Y[:, n + centre],
-                      "body_angular_velocities": Y[:, n + 3 + centre],
-                      "body_orientations": (Rotation.from_matrix(ev.rotations.reshape(-1, 3, 3)).as_quat().reshape(
-                          B, nb, 4) if nb and B else np.zeros((B, nb, 4)))}
+                      "body_angular_velocities": Y[:, n + 3 + centre], "body_orientations": orientation}
         out: dict[str, NDArray[Any]] = {
             "t": ts, "state": Y, "q": q, "qdot": Y[:, n:2 * n].copy(),
             "applied_forces": ev.rest_lengths[:, plan.motor_cable], "nodes": X,
