@@ -14,7 +14,6 @@ REASON = "Longer than 500 lines because"
 
 #: Modules whose split belongs to work under way elsewhere, with where.
 SPLIT_ELSEWHERE = {
-    "tensegrity_ros/nodes/sim/node.py": "the sim node's rewrite (issue 30)",
 }
 
 

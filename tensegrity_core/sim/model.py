@@ -244,7 +244,10 @@ class ObservedArrays(TypedDict):
 
 class JointValues(TypedDict):
     """The cheap part of an observation (``joint_sample``): ``t`` [s], ``q``, ``qdot``,
-    ``applied_forces``, ``end_effector`` and ``folded`` as in :class:`Observed`."""
+    ``applied_forces``, ``end_effector`` and ``folded`` as in :class:`Observed`; general
+    structures and robots add, per input, the member it drives (``Interface.members``):
+    ``actuated_lengths`` [m], ``actuated_rates`` [m/s] and ``actuated_forces`` [N, tension
+    positive], as ``member_lengths``, ``member_rates`` and ``member_forces``."""
 
     t: float
     q: FloatArray
@@ -252,12 +255,22 @@ class JointValues(TypedDict):
     applied_forces: FloatArray
     end_effector: FloatArray
     folded: bool
+    actuated_lengths: NotRequired[FloatArray]
+    actuated_rates: NotRequired[FloatArray]
+    actuated_forces: NotRequired[FloatArray]
 
 
-def joint_values(obs: Observed) -> JointValues:
-    """The :class:`JointValues` part of an observation."""
-    return JointValues(t=obs["t"], q=obs["q"], qdot=obs["qdot"], applied_forces=obs["applied_forces"],
-                       end_effector=obs["end_effector"], folded=obs["folded"])
+def joint_values(obs: Observed, members: Sequence[int] = ()) -> JointValues:
+    """The :class:`JointValues` part of an observation; with the inputs' ``members`` (general
+    structures and robots) their lengths, rates and forces too."""
+    out = JointValues(t=obs["t"], q=obs["q"], qdot=obs["qdot"], applied_forces=obs["applied_forces"],
+                      end_effector=obs["end_effector"], folded=obs["folded"])
+    driven = list(members)
+    if "member_rates" in obs and all(m >= 0 for m in driven):
+        out["actuated_lengths"] = obs["member_lengths"][driven]
+        out["actuated_rates"] = obs["member_rates"][driven]
+        out["actuated_forces"] = obs["member_forces"][driven]
+    return out
 
 
 class Stats(TypedDict, total=False):

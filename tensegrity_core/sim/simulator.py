@@ -107,12 +107,16 @@ class Observation:
 
 @dataclass
 class JointSample:
-    """The cheap part of an observation, for high-rate publishing (class-2 only).
+    """The cheap part of an observation, for high-rate publishing (cheap for the class-2
+    mechanism and robots; general structures evaluate an observation).
 
     ``q = (rho1, rho2, beta)`` [m, m, rad], ``qdot`` their rates, ``applied_forces`` the
     actuator forces [N] (tension positive), ``end_effector`` node D (3,) [m], ``folded`` an
     actuator held at zero length. Sensor noise, when the scene lists it, is added to the
-    same quantities as in :meth:`Simulator.observe`.
+    same quantities as in :meth:`Simulator.observe`. General structures and robots also give,
+    per input, the length [m], rate [m/s] and force [N] of the member it drives
+    (``actuated_lengths``, ``actuated_rates``, ``actuated_forces``; empty for the class-2
+    mechanism; sensor noise is not added to them).
     """
 
     t: float
@@ -121,6 +125,9 @@ class JointSample:
     applied_forces: FloatArray
     end_effector: FloatArray
     folded: bool
+    actuated_lengths: FloatArray = field(default_factory=lambda: np.zeros(0))
+    actuated_rates: FloatArray = field(default_factory=lambda: np.zeros(0))
+    actuated_forces: FloatArray = field(default_factory=lambda: np.zeros(0))
 
 
 class Simulator:
@@ -193,6 +200,10 @@ class Simulator:
         d = self.model.joint_sample(self.state)
         sample = JointSample(d["t"], d["q"], d["qdot"], np.asarray(d["applied_forces"], dtype=float),
                              d["end_effector"], d["folded"])
+        if "actuated_lengths" in d:
+            sample.actuated_lengths = d["actuated_lengths"]
+            sample.actuated_rates = d["actuated_rates"]
+            sample.actuated_forces = d["actuated_forces"]
         if self._noise is not None:
             self._noise.perturb(sample)
         return sample

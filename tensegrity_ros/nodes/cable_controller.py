@@ -86,7 +86,7 @@ class CableControllerNode(Node):
                 from None
         if self.interface.command != "rest_length" or not any(self.interface.commanded):
             raise SystemExit(f"{self.get_name()}: scene {excerpt(self.scene_name)} has no actuated cables that take "
-                             "commands: this node drives the cables of general structures")
+                             "commands: this node drives the actuated cables of general structures and robots")
         self.goal_tolerance = declare(self, "goal_tolerance", 1e-4, "default goal tolerance of each cable's rest "
                                       "length [m]", lo=1e-12, read_only=True)
         self.path_tolerance = declare(self, "path_tolerance", 0.0, "default path tolerance of each cable's rest "

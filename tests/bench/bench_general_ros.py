@@ -25,15 +25,12 @@ Quick mode: 1.5 s free-running, 1 x 20 lockstep steps (after a warm-up run); ful
 from __future__ import annotations
 
 import os
-import signal
 import statistics
-import subprocess
-import sys
 import time
 
 from tests.bench.bench_ros import _env, _start, _stop
-from tests.bench.bench_stepping import _client
 from tests.bench.harness import Context, Row, benchmark
+from tests.bench.lockstep_loop import LockstepLoop, ros_client
 
 SCENE = "table_actuated"
 STEP_NS = 10_000_000
@@ -83,7 +80,7 @@ def free_running(ctx: Context) -> list[Row]:
                   "-p", "publish_rate:=100.0", "-p", "step_size:=0.01", "-p", "state_rate:=100.0",
                   "-p", "marker_rate:=0.0", "-p", "command_timeout:=0.0", "-p", "initial_state:=paused",
                   "-p", "paused_publish_rate:=0.0"], env, "publishing at")
-    rclpy, rctx, node, ex = _client(env)
+    rclpy, rctx, node, ex = ros_client(env)
     got = {"joint_states": 0, "body_states": 0}
     first: list[int] = []          # the step from which the command holds (its first state shows it)
     seen: list[tuple[float, int]] = []      # (wall time, step) of each cable_states
@@ -134,82 +131,23 @@ def free_running(ctx: Context) -> list[Row]:
 def _loops(env: dict, n: int, rounds: int) -> tuple[list, list, list]:
     """Seconds per bare ping-pong round trip, per lockstep step and per step of the core
     mirroring it, in alternating runs."""
-    from rclpy.qos import QoSProfile
-    from sensor_msgs.msg import JointState
-    from simulation_interfaces.srv import StepSimulation
-    from tensegrity_msgs.msg import ActuatorForces, CableCommand
+    from tensegrity_msgs.msg import CableCommand
 
-    from tensegrity_ros.rclpy_utils.futures import spin_until_done
-    from tensegrity_ros.rclpy_utils.matching import wait_for_matches
-
-    echo = subprocess.Popen([sys.executable, "-m", "tests.bench.ros_echo_server"], env=env,
-                            stdout=subprocess.PIPE, text=True)
-    echo.stdout.readline()
-    sim = _start(["node", "sim", "--ros-args", "-p", f"scene:={SCENE}", "-p", "lockstep:=true",
-                  "-p", "initial_state:=paused", "-p", "step_size:=0.01", "-p", "publish_rate:=100.0",
-                  "-p", "state_rate:=100.0", "-p", "marker_rate:=0.0", "-p", "paused_publish_rate:=0.0",
-                  "-p", f"max_steps_per_request:={10 * n}", "-p", "lockstep_timeout:=60.0"], env, "publishing at")
-    rclpy, rctx, node, ex = _client(env)
-    ping = node.create_publisher(JointState, "bench_ping", QoSProfile(depth=100))
-    got = [0]
-
-    def send_ping() -> None:
-        out = JointState(name=["long1", "long2", "long3"], position=[1.0] * 3, velocity=[0.0] * 3, effort=[0.0] * 3)
-        out.header.stamp.nanosec = got[0] % 1_000_000_000
-        ping.publish(out)
-
-    def on_pong(_msg) -> None:
-        got[0] += 1
-        if got[0] < n:
-            send_ping()
-
-    node.create_subscription(ActuatorForces, "bench_pong", on_pong, QoSProfile(depth=100))
-    pub = node.create_publisher(CableCommand, "cable_commands", QoSProfile(depth=100))
-    answered = [-1]
-
-    def on_state(msg) -> None:
-        stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
-        if stamp == answered[0]:
-            return
-        answered[0] = stamp
-        cmd = CableCommand(name=["long1", "long2", "long3"], rest_length=COMMAND)
-        cmd.header.stamp = msg.header.stamp
-        pub.publish(cmd)
-
-    node.create_subscription(JointState, "joint_states", on_state, QoSProfile(depth=100))
-    step = node.create_client(StepSimulation, "step_simulation")
-    step.wait_for_service(timeout_sec=30)
-    wait_for_matches([ping, pub], 1, 30, poll=lambda s: ex.spin_once(timeout_sec=s))
-
-    def ping_pong() -> float:
-        got[0] = 0
-        t0 = time.perf_counter()
-        send_ping()
-        while got[0] < n:
-            ex.spin_once(timeout_sec=1.0)
-        return (time.perf_counter() - t0) / n
-
-    def lockstep() -> float:
-        t0 = time.perf_counter()
-        future = step.call_async(StepSimulation.Request(steps=n))
-        assert spin_until_done(ex, future, 600) and future.result().result.result == 1, future.result()
-        return (time.perf_counter() - t0) / n
-
+    loop = LockstepLoop(env, [f"scene:={SCENE}", "step_size:=0.01", "publish_rate:=100.0", "state_rate:=100.0",
+                              "marker_rate:=0.0"],
+                        n=n, joints=["long1", "long2", "long3"], command_type=CableCommand,
+                        command_topic="cable_commands",
+                        answer=lambda: CableCommand(name=["long1", "long2", "long3"], rest_length=COMMAND))
     core = CoreMirror()
-    bare, loop, mirror = [], [], []
+    bare, steps, mirror = [], [], []
     for r in range(rounds + 1):
-        b, s_, c = ping_pong(), lockstep(), core.run(n)
+        b, s_, c = loop.ping_pong(), loop.lockstep(), core.run(n)
         if r:                              # the first round warms up
             bare.append(b)
-            loop.append(s_)
+            steps.append(s_)
             mirror.append(c)
-    node.destroy_node()
-    rclpy.try_shutdown(context=rctx)
-    log = _stop(sim)
-    echo.send_signal(signal.SIGINT)
-    echo.wait(30)
-    assert "rejected commands: 0; lockstep timeouts: 0" in log, log[-2000:]
-    return bare, loop, mirror
+    loop.close()
+    return bare, steps, mirror
 
 
 @benchmark

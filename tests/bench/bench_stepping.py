@@ -16,115 +16,35 @@ Quick mode: 500 loop steps, 200 calls; full mode: 5,000 steps, 1,000 calls.
 
 from __future__ import annotations
 
-import os
 import signal
 import statistics
 import subprocess
 import sys
-import time
 
 import numpy as np
 
 from tests.bench.bench_ros import _env, _round_trips, _start, _stop
 from tests.bench.harness import Context, Row, benchmark
-
-
-def _client(env: dict):
-    import rclpy
-    from rclpy.context import Context as RosContext
-    from rclpy.executors import SingleThreadedExecutor
-
-    os.environ.update({k: env[k] for k in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID")})
-    rctx = RosContext()
-    rclpy.init(args=[], context=rctx)
-    node = rclpy.create_node("bench_stepping_client", context=rctx)
-    ex = SingleThreadedExecutor(context=rctx)
-    ex.add_node(node)
-    return rclpy, rctx, node, ex
+from tests.bench.lockstep_loop import LockstepLoop
 
 
 def _loops(env: dict, n: int, rounds: int) -> tuple[list, list]:
     """Seconds per round trip of the bare ping-pong and per lockstep step, measured in
-    alternating runs of ``n`` (``rounds`` each, after one warm-up of each): both servers run
-    throughout, so a change of the machine's load hits both series alike."""
-    from rclpy.qos import QoSProfile
-    from sensor_msgs.msg import JointState
-    from simulation_interfaces.srv import StepSimulation
+    alternating runs of ``n`` (``rounds`` each, after one warm-up of each)."""
     from tensegrity_msgs.msg import ActuatorForces
 
-    from tensegrity_ros.rclpy_utils.futures import spin_until_done
-    from tensegrity_ros.rclpy_utils.matching import wait_for_matches
-
-    echo = subprocess.Popen([sys.executable, "-m", "tests.bench.ros_echo_server"], env=env,
-                            stdout=subprocess.PIPE, text=True)
-    echo.stdout.readline()
-    sim = _start(["node", "sim", "--ros-args", "-p", "lockstep:=true", "-p", "initial_state:=paused",
-                  "-p", "step_size:=0.001", "-p", "publish_rate:=1000.0", "-p", "state_rate:=0.0",
-                  "-p", "marker_rate:=0.0", "-p", "paused_publish_rate:=0.0",
-                  "-p", f"max_steps_per_request:={10 * n}", "-p", "lockstep_timeout:=60.0"], env, "publishing at")
-    rclpy, rctx, node, ex = _client(env)
-    # the ping-pong: JointState out, the echo's ActuatorForces back, the next JointState
-    ping = node.create_publisher(JointState, "bench_ping", QoSProfile(depth=100))
-    got = [0]
-
-    def send_ping() -> None:
-        out = JointState(name=["rho1", "rho2", "beta"], position=[0.7, 0.7, 0.8], velocity=[0.0, 0.0, 0.0],
-                         effort=[0.0, 0.0, 0.0])
-        out.header.stamp.nanosec = got[0] % 1_000_000_000
-        ping.publish(out)
-
-    def on_pong(msg) -> None:
-        got[0] += 1
-        if got[0] < n:                    # the last pong ends the exchange (it must not run on)
-            send_ping()
-
-    node.create_subscription(ActuatorForces, "bench_pong", on_pong, QoSProfile(depth=100))
-    # the lockstep controller: each joint state answered once with the holding forces
-    pub = node.create_publisher(ActuatorForces, "actuator_forces", QoSProfile(depth=100))
-    hold = [-0.35, 0.35]
-    answered = [-1]
-
-    def on_state(msg) -> None:
-        stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
-        if stamp == answered[0]:          # republished at the start of a request: answered already
-            return
-        answered[0] = stamp
-        cmd = ActuatorForces(name=["f1", "f2"], force=hold)
-        cmd.header.stamp = msg.header.stamp
-        pub.publish(cmd)
-
-    node.create_subscription(JointState, "joint_states", on_state, QoSProfile(depth=100))
-    step = node.create_client(StepSimulation, "step_simulation")
-    step.wait_for_service(timeout_sec=30)
-    wait_for_matches([ping, pub], 1, 30, poll=lambda s: ex.spin_once(timeout_sec=s))
-
-    def ping_pong() -> float:
-        got[0] = 0
-        t0 = time.perf_counter()
-        send_ping()
-        while got[0] < n:
-            ex.spin_once(timeout_sec=1.0)
-        return (time.perf_counter() - t0) / n
-
-    def lockstep() -> float:
-        t0 = time.perf_counter()
-        future = step.call_async(StepSimulation.Request(steps=n))
-        assert spin_until_done(ex, future, 600) and future.result().result.result == 1, future.result()
-        return (time.perf_counter() - t0) / n
-
-    bare, loop = [], []
+    loop = LockstepLoop(env, ["step_size:=0.001", "publish_rate:=1000.0", "state_rate:=0.0", "marker_rate:=0.0"],
+                        n=n, joints=["rho1", "rho2", "beta"], command_type=ActuatorForces,
+                        command_topic="actuator_forces",
+                        answer=lambda: ActuatorForces(name=["f1", "f2"], force=[-0.35, 0.35]))   # holding forces
+    bare, steps = [], []
     for r in range(rounds + 1):
-        b, s_ = ping_pong(), lockstep()
+        b, s_ = loop.ping_pong(), loop.lockstep()
         if r:                              # the first round warms up
             bare.append(b)
-            loop.append(s_)
-    node.destroy_node()
-    rclpy.try_shutdown(context=rctx)
-    log = _stop(sim)
-    echo.send_signal(signal.SIGINT)
-    echo.wait(30)
-    assert "rejected commands: 0; lockstep timeouts: 0" in log, log[-2000:]    # one command per step
-    return bare, loop
+            steps.append(s_)
+    loop.close()
+    return bare, steps
 
 
 @benchmark

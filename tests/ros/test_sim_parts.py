@@ -103,3 +103,29 @@ def test_reset_scopes():
     assert reset_plan(r.SCOPE_STATE | r.SCOPE_TIME).time
     for scope in (r.SCOPE_TIME, r.SCOPE_SPAWNED, r.SCOPE_STATE | r.SCOPE_SPAWNED, 8, 64):
         assert reset_plan(scope).answer.code == Result.RESULT_FEATURE_UNSUPPORTED
+
+
+@pytest.mark.parametrize("scene", ["six_bar_drop", "table_actuated"])
+def test_joint_states_alone_come_from_the_joint_sample_and_equal_the_full_observations(scene):
+    """A publication of only joint_states and end_effector (a lockstep loop's) takes the
+    cheap joint sample; its messages equal those of a publication with every topic."""
+    from tensegrity_core.sim import load_scene
+    from tensegrity_ros.nodes.sim import sender
+    from tensegrity_ros.nodes.sim.outputs import Outputs
+    from tensegrity_ros.nodes.sim.plant import SimPlant
+
+    plant = SimPlant(load_scene(scene), 1_000_000)
+    for _ in range(30):
+        plant.step(plant.initial_command)
+    outputs = Outputs(plant, publish_rate=100.0, state_rate=100.0, marker_rate=100.0, imu_rate=100.0)
+    hdr = sender.header(plant.time_ns, "world")
+    calls = []
+    observe = plant.observe
+    plant.observe = lambda: calls.append(1) or observe()
+    alone = dict(outputs.messages(hdr, lambda t: t in ("joint_states", "end_effector")))
+    assert calls == []                                    # no full observation for them
+    every = dict(outputs.messages(hdr, lambda t: True))
+    assert calls == [1]
+    for topic in ("joint_states", "end_effector"):
+        assert alone[topic] == every[topic]
+    assert len(alone["joint_states"].name) == len(plant.interface.inputs) > 0

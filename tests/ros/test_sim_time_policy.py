@@ -52,7 +52,11 @@ def test_a_late_tick_resynchronises_instead_of_bursting_and_a_restart_counts_afr
     assert 1000 * 1_000_000 > MAX_LAG * 1e9
     assert s.steps_due(0) == 1
     s.restart()
-    assert TickSchedule(100.0, 0.0, 10_000_000).steps_due(7) == 8      # as fast as possible: one per tick
+    # as fast as possible: a publish period of simulated time per tick, at least one step
+    assert TickSchedule(100.0, 0.0, 10_000_000).steps_due(7) == 8
+    assert TickSchedule(100.0, 0.0, 1_000_000).steps_due(7) == 17
+    assert TickSchedule(100.0, 0.0, 3_000_000).steps_due(7) == 10       # 3 whole steps in 10 ms
+    assert TickSchedule(1000.0, 0.0, 10_000_000).steps_due(7) == 8
     assert TickSchedule(100.0, 0.0, 10_000_000).wait(5.0) == 0.0
 
 

@@ -135,7 +135,7 @@ class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralSystem, GeneralSample])
         return first_observation(self.observe([self.sample(state)]))
 
     def joint_sample(self, state: State[Stepper[GeneralSystem]]) -> JointValues:
-        return joint_values(self.observe_now(state))
+        return joint_values(self.observe_now(state), self.interface.members)
 
     def singular_distance(self, state: State[Stepper[GeneralSystem]]) -> None:
         """A general structure has no singular sets of its equations of motion."""

@@ -203,7 +203,7 @@ class GeneralQuasiStatic(GeneralBackEnd, Model[FormFindingPath, GeneralQuasiStat
         return first_observation(self.observe([self.sample(state)]))
 
     def joint_sample(self, state: State[FormFindingPath]) -> JointValues:
-        return joint_values(self.observe_now(state))
+        return joint_values(self.observe_now(state), self.interface.members)
 
     def singular_distance(self, state: State[FormFindingPath]) -> None:
         """A general structure has no singular sets of the class-2 kind."""

@@ -27,7 +27,7 @@ Publishes, stamped with simulation time (topics per model: :mod:`.outputs`):
 Services: ``reset`` (std_srvs/Trigger: back to the initial state, the clock keeps
 running forward) and the ``simulation_interfaces`` standard: ``get_simulator_features``,
 ``get_simulation_state``, ``set_simulation_state``, ``step_simulation``,
-``reset_simulation``, and the action ``simulate_steps``.
+``reset_simulation``, and the action ``simulate_steps`` (:mod:`.interfaces`).
 
 Time advances in whole steps of ``step_size``; ``/clock`` reads exactly ``k * step_size``
 (integer nanoseconds) after ``k`` steps. The run states and their transitions are
@@ -59,34 +59,23 @@ import sys
 import threading
 import time
 
-from rclpy.action import ActionServer, CancelResponse
-from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile
-from rclpy.task import Future
 from rosgraph_msgs.msg import Clock as ClockMsg
-from simulation_interfaces.action import SimulateSteps
 from simulation_interfaces.msg import Result
-from simulation_interfaces.srv import (
-    GetSimulationState,
-    GetSimulatorFeatures,
-    ResetSimulation,
-    SetSimulationState,
-    StepSimulation,
-)
-from std_srvs.srv import Trigger
 from tensegrity_msgs.msg import ActuatorForces, CableCommand, SimulationEvent
 
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_ros.nodes.actuator_commands import CommandError
-from tensegrity_ros.nodes.common import SERVICE_QOS, rclpy, spin_node
+from tensegrity_ros.nodes.common import rclpy, spin_node
 from tensegrity_ros.nodes.scene_param import declare_scene
 from tensegrity_ros.nodes.sim import control, sender
-from tensegrity_ros.nodes.sim.control import PAUSED, PLAYING, RUN_STATE_NAMES, STOPPED, Answer, StepRequest
+from tensegrity_ros.nodes.sim.control import PLAYING, RUN_STATE_NAMES, Answer, StepRequest
 from tensegrity_ros.nodes.sim.hold import CommandHold
+from tensegrity_ros.nodes.sim.interfaces import SimulationInterfaces
 from tensegrity_ros.nodes.sim.lockstep import LockstepGate
 from tensegrity_ros.nodes.sim.outputs import Outputs
 from tensegrity_ros.nodes.sim.pacer import LockstepPacer
@@ -96,13 +85,8 @@ from tensegrity_ros.nodes.sim.receiver import receive, receive_cables
 from tensegrity_ros.nodes.sim.schedule import TickSchedule
 from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
-#: Free-running StepSimulation requests up to this many steps run in the service callback.
-SYNC_STEPS = 100
-#: Feedback messages of one SimulateSteps goal kept for a client that reads them late.
-FEEDBACK_DEPTH = 1000
 
-
-class SimNode(Node):
+class SimNode(SimulationInterfaces, Node):
     def __init__(self, **kwargs) -> None:
         super().__init__("tensegrity_sim", **kwargs)
         scene_name, scene = declare_scene(self, class2_only=False)
@@ -141,21 +125,7 @@ class SimNode(Node):
                                   parameter_overrides=[Parameter("start_type_description_service", value=False)])
         self._command_node.create_subscription(ActuatorForces, "actuator_forces", self.on_forces, 1)
         self._command_node.create_subscription(CableCommand, "cable_commands", self.on_cables, 100)
-        self.create_service(Trigger, "reset", self.on_reset)
-        self.create_service(GetSimulatorFeatures, "get_simulator_features", self.on_get_features)
-        self.create_service(GetSimulationState, "get_simulation_state", self.on_get_state)
-        self.create_service(SetSimulationState, "set_simulation_state", self.on_set_state)
-        self.create_service(ResetSimulation, "reset_simulation", self.on_reset_simulation)
-        # The stepping requests await their end: in a group of their own (a mutually exclusive
-        # group stays busy while a callback of it awaits, which would starve the commands).
-        waiting = ReentrantCallbackGroup()
-        self.create_service(StepSimulation, "step_simulation", self.on_step_simulation, qos_profile=SERVICE_QOS,
-                            callback_group=waiting)
-        # Feedback after every step: the writer keeps a goal's feedback until every reader has
-        # it (a burst of free-running steps outruns the default history of 10)
-        self._action = ActionServer(self, SimulateSteps, "simulate_steps", self.on_simulate_steps,
-                                    cancel_callback=self._on_cancel, callback_group=waiting,
-                                    feedback_pub_qos_profile=QoSProfile(depth=FEEDBACK_DEPTH))
+        self._create_interfaces()
 
         self.rejected = 0
         self.lockstep_timeouts = 0
@@ -471,130 +441,6 @@ class SimNode(Node):
         """What a controller answers: the time [ns] and the state vector (positions, rates)."""
         return self.plant.time_ns, tuple(map(float, self.plant.sim.state.y))
 
-    def on_reset(self, req: Trigger.Request, res: Trigger.Response) -> Trigger.Response:
-        with self._lock:
-            self._reset(keep_time=True, why="a reset")
-        res.success, res.message = True, f"reset to the initial state of scene {excerpt(self.plant.scene.name)}"
-        self.get_logger().info(res.message)
-        return res
-
-    def on_reset_simulation(self, req, res):
-        plan = control.reset_plan(int(req.scope))
-        if plan.answer.ok:
-            with self._lock:
-                self._reset(keep_time=not plan.time, why="ResetSimulation")
-        _fill(res.result, plan.answer)
-        return res
-
-    def on_get_features(self, req, res):
-        res.features.features = list(control.FEATURES)
-        res.features.custom_info = (
-            f"tensegrity_sim: step_size {self.p.step_size:.9g} s, lockstep {str(self.p.lockstep).lower()}, "
-            f"inputs {self.plant.interface.command.replace('_', ' ')}s; located events on 'events'; the stepping "
-            "contract is in docs/ros.md")
-        return res
-
-    def on_get_state(self, req, res):
-        with self._lock:
-            res.state.state = self.state
-        _fill(res.result, Answer(Result.RESULT_OK, RUN_STATE_NAMES[res.state.state]))
-        return res
-
-    def on_set_state(self, req, res):
-        target = int(req.state.state)
-        with self._lock:
-            if self.request is not None and target == PLAYING:
-                answer = Answer(Result.RESULT_INCORRECT_STATE, "a stepping request is running: cancel it or wait")
-            elif self.request is not None and target in (PAUSED, STOPPED):
-                req_ = self.request
-                self._end_request(Answer(Result.RESULT_OPERATION_FAILED,
-                                         f"interrupted by SetSimulationState after {req_.completed} of "
-                                         f"{req_.steps} steps"))
-                answer = self._set_state(target, force=True)
-            else:
-                answer = self._set_state(target)
-        _fill(res.result, answer)
-        if answer.ok:
-            self.get_logger().info(f"simulation {answer.message}")
-        return res
-
-    def _set_state(self, target: int, *, force: bool = False) -> Answer:
-        t = control.transition(self.state, target)
-        if not t.answer.ok and not (force and t.state == target):
-            return t.answer
-        if t.reset:
-            self._reset(keep_time=False, why="stopping")
-        if self._due is not None:            # leaving paced play: the stepped state goes out now
-            self._due = None
-            self._publish()
-        now = time.monotonic()
-        self.state = target
-        if target == PLAYING:
-            self.hold.resume(now)
-            self.schedule.restart()
-            if self.p.lockstep:
-                self._lockstep_begin()
-            self._wake.set()
-        else:
-            self.hold.pause(now)
-        return t.answer if t.answer.ok else Answer(Result.RESULT_OK, f"{RUN_STATE_NAMES[target]} (request ended)")
-
-    # -- StepSimulation and SimulateSteps ---------------------------------------------------------------
-    def _wait_future(self) -> Future:
-        future = Future(executor=self.executor)
-        future.add_done_callback(lambda _f: None)   # set_result then wakes the executor (guard condition)
-        return future
-
-    async def on_step_simulation(self, req, res):
-        if not self.p.lockstep and 0 < req.steps <= SYNC_STEPS:
-            # a short free-running request runs right here: no hand-over to the loop thread
-            # and back (which costs more than the steps)
-            answers: list = []
-            with self._lock:
-                refusal = control.check_step_request(int(req.steps), self.state, self.request,
-                                                     self.p.max_steps_per_request)
-                if refusal is None:
-                    self.request = StepRequest(int(req.steps), done=answers.append)
-                    while self.request is not None:
-                        self._request_step(self._effective_command(time.monotonic()))
-            _fill(res.result, refusal if refusal is not None else answers[0])
-            return res
-        future = self._wait_future()
-        request = StepRequest(int(req.steps), done=future.set_result)
-        with self._lock:
-            refusal = self._start_request(request)
-        _fill(res.result, refusal if refusal is not None else await future)
-        return res
-
-    def _on_cancel(self, goal_handle) -> CancelResponse:
-        with self._lock:
-            req = self.request
-            if req is not None and req.owner is goal_handle:
-                req.cancel_requested = True
-                self._wake.set()
-        return CancelResponse.ACCEPT
-
-    async def on_simulate_steps(self, goal_handle):
-        future = self._wait_future()
-
-        def feedback(completed: int, remaining: int) -> None:
-            goal_handle.publish_feedback(SimulateSteps.Feedback(completed_steps=completed, remaining_steps=remaining))
-
-        request = StepRequest(int(goal_handle.request.steps), done=future.set_result, feedback=feedback,
-                              owner=goal_handle)
-        with self._lock:
-            refusal = self._start_request(request)
-        answer = refusal if refusal is not None else await future
-        result = SimulateSteps.Result()
-        _fill(result.result, answer)
-        if request.cancel_requested and goal_handle.is_cancel_requested:
-            goal_handle.canceled()
-        elif answer.ok:
-            goal_handle.succeed()
-        else:
-            goal_handle.abort()
-        return result
-
     def destroy_node(self) -> None:
         self._stop.set()
         self._wake.set()
@@ -615,11 +461,6 @@ class SimNode(Node):
             f"published: {counts}; rejected commands: {self.rejected}; lockstep timeouts: {self.lockstep_timeouts}")
         self._action.destroy()
         super().destroy_node()
-
-
-def _fill(result: Result, answer: Answer) -> None:
-    result.result = answer.code
-    result.error_message = answer.message
 
 
 def main(argv=None) -> int:

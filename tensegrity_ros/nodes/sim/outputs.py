@@ -11,7 +11,9 @@ The model says what there is (:class:`~tensegrity_core.sim.model.Interface`, its
 - general structure: ``joint_states`` (one joint per actuated cable: length [m], its rate
   [m/s], tension [N]), ``end_effector`` and, with moving rigid bodies, ``body_states`` every
   publication; ``cable_states`` (every member) at ``state_rate``; ``markers`` at
-  ``marker_rate``; all from one observation per publication;
+  ``marker_rate``; all from one observation per publication, or from the joint sample when
+  only ``joint_states`` and ``end_effector`` are wanted (and the scene has no sensor noise,
+  which the sample's member values do not carry);
 - robot: as a general structure (its rods are its bodies and members of kind "bar", its
   cables members of kind "string", its motor-driven cables the joints), and
   ``imu/<body>`` (sensor_msgs/Imu, one per IMU, frame_id = its body) at ``imu_rate``,
@@ -78,6 +80,13 @@ class Outputs:
             return []
         out: Messages = []
         plant, interface = self.plant, self.plant.interface
+        if self.general and want <= {"joint_states", "end_effector"} and not plant.noisy:
+            # the joints alone (a lockstep loop's usual state): the cheap joint sample
+            sample = plant.joint_sample()
+            if len(sample.actuated_lengths) == len(interface.inputs):
+                build_joints = {"joint_states": lambda: sender.actuated_joint_state_msg(sample, interface, hdr),
+                                "end_effector": lambda: sender.end_effector_msg(sample, hdr)}
+                return [(t, build_joints[t]()) for t in self.topics if t in want]
         if self.general:
             obs = plant.observe()
             build = {"joint_states": lambda: sender.cable_joint_state_msg(obs, interface, hdr),

@@ -48,6 +48,8 @@ class SimPlant:
         self.model = compile_scene(scene)             # once: a reset is a new state of it
         self.interface: Interface = self.model.interface
         self.names: Names = self.model.names
+        #: The scene adds sensor noise to what it observes.
+        self.noisy = "sensor_noise" in scene.effects
         self._start()
 
     def _start(self) -> None:

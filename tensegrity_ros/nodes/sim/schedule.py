@@ -4,7 +4,9 @@ each tick makes. Plain logic, no node: the loop thread asks, passing the (steady
 A tick happens every ``1 / publish_rate`` seconds of wall time and makes the whole steps of
 ``step_ns`` due by then at ``real_time_factor`` simulated seconds per wall second, counted
 from where the schedule (re)started; each tick with at least one step publishes once.
-``real_time_factor = 0`` is as fast as possible: one step per tick, no wait.
+``real_time_factor = 0`` is as fast as possible, no wait: each tick makes the whole steps in
+one publish period of simulated time (at least one), so the state is published at
+``publish_rate`` per simulated second whatever the step.
 
 Never a burst of catch-up steps: a tick more than ``max_lag`` seconds late restarts the
 wall schedule from that moment, and a tick that would have to make more than ``max_lag``
@@ -48,7 +50,7 @@ class TickSchedule:
             self._base, self._ticks = (k, 0), 0
         self._ticks += 1
         if self.real_time_factor == 0:
-            return k + 1
+            return k + max(1, math.floor(self.period * 1e9 / self.step_ns + 1e-9))
         base_k, base_tick = self._base
         sim_ns = (self._ticks - base_tick) * self.period * 1e9 * self.real_time_factor
         target = base_k + math.floor(sim_ns / self.step_ns + 1e-9)

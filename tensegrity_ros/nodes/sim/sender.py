@@ -78,6 +78,15 @@ def cable_joint_state_msg(obs, interface: Interface, hdr: Header) -> JointState:
     return msg
 
 
+def actuated_joint_state_msg(sample, interface: Interface, hdr: Header) -> JointState:
+    """The joints of :func:`cable_joint_state_msg` from a joint sample (its ``actuated_*``)."""
+    msg = JointState(header=hdr, name=list(interface.inputs))
+    msg.position = _doubles(sample.actuated_lengths)
+    msg.velocity = _doubles(sample.actuated_rates)
+    msg.effort = _doubles(sample.actuated_forces)
+    return msg
+
+
 def cable_states_msg(obs, interface: Interface, hdr: Header) -> CableStates:
     """Every member: kind, actuated, length [m], its rate [m/s], rest length [m], tension [N], slack."""
     actuated = set(interface.members)

@@ -45,7 +45,6 @@ from tensegrity_core.sim.model import (
     ObservedArrays,
     State,
     Stats,
-    joint_values,
 )
 from tensegrity_core.sim.scene import Scene
 
@@ -100,6 +99,7 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         self.system = RobotSystem(self.plan, laws=held(self.laws, self.initial_commands),
                                   R_ref=np.broadcast_to(np.eye(3), (nb, 3, 3)))
         self.layout = robot_layout(robot)
+        self.end_effector = robot_model(scene).end_effector
         self.node_mass = lumped_masses(robot)
         self.sensors = "sensors" in scene.effects
         self.gravity = np.asarray(scene.effects["gravity"].vector if "gravity" in scene.effects else np.zeros(3),
@@ -179,9 +179,12 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         B, n = len(ts), plan.n_dof
         q = Y[:, :n].copy()
         nb = len(plan.body_dof)
+        orientation = np.zeros((B, nb, 4))
         if nb and B:
             rot = plan.body_dof[:, None] + 3 + np.arange(3)[None, :]
-            q[:, rot] = Rotation.from_matrix(ev.rotations.reshape(-1, 3, 3)).as_rotvec().reshape(B, nb, 3)
+            rotations = Rotation.from_matrix(ev.rotations.reshape(-1, 3, 3))
+            q[:, rot] = rotations.as_rotvec().reshape(B, nb, 3)
+            orientation = rotations.as_quat().reshape(B, nb, 4)
         X = ev.positions
         ends = robot.rods.ends
         axis = X[:, ends[:, 1]] - X[:, ends[:, 0]]
@@ -203,9 +206,7 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         nr = len(robot.rods)
         centre = plan.body_dof[:, None] + np.arange(3)
         out_bodies = {"body_positions": Y[:, centre], "body_velocities": Y[:, n + centre],
-                      "body_angular_velocities": Y[:, n + 3 + centre],
-                      "body_orientations": (Rotation.from_matrix(ev.rotations.reshape(-1, 3, 3)).as_quat().reshape(
-                          B, nb, 4) if nb and B else np.zeros((B, nb, 4)))}
+                      "body_angular_velocities": Y[:, n + 3 + centre], "body_orientations": orientation}
         out: dict[str, NDArray[Any]] = {
             "t": ts, "state": Y, "q": q, "qdot": Y[:, n:2 * n].copy(),
             "applied_forces": ev.rest_lengths[:, plan.motor_cable], "nodes": X,
@@ -215,7 +216,7 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
             "kinetic_energy": kinetic_energy(Y[:, n:2 * n], ev.rotations, 1.0 / plan.free_inv_mass if len(
                 plan.free_inv_mass) else np.zeros(0), plan.body_dof, plan.body_mass, plan.body_first_moment,
                 plan.body_inertia),
-            "end_effector": X[:, robot_model(self.scene).end_effector].copy(),
+            "end_effector": X[:, self.end_effector].copy(),
             "folded": np.zeros(B, dtype=bool), "contact_forces": ev.normal, "centre_of_mass": com,
             "member_rest_lengths": np.concatenate([rod_length, ev.rest_lengths], axis=1),
             "member_rates": np.concatenate([np.zeros((B, nr)), ev.rates], axis=1),
@@ -247,7 +248,21 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         return cast(Observed, data)
 
     def joint_sample(self, state: State[FixedStepper]) -> JointValues:
-        return joint_values(self.observe_now(state))
+        """The observation's joint values and its motor cables' lengths, rates and tensions,
+        from one evaluation of the state (a fraction of :meth:`observe_now`'s cost: no
+        energies, rod forces or sensors)."""
+        st = state.work
+        Y = st.y[None, :]
+        ev = st.system.evaluate(Y)
+        plan, n = self.plan, self.plan.n_dof
+        q = Y[0, :n].copy()
+        if len(plan.body_dof):
+            q[plan.body_dof[:, None] + 3 + np.arange(3)] = Rotation.from_matrix(ev.rotations[0]).as_rotvec()
+        motor = plan.motor_cable
+        return JointValues(t=float(st.t), q=q, qdot=Y[0, n:2 * n].copy(), applied_forces=ev.rest_lengths[0, motor],
+                           end_effector=ev.positions[0, self.end_effector].copy(), folded=False,
+                           actuated_lengths=ev.lengths[0, motor], actuated_rates=ev.rates[0, motor],
+                           actuated_forces=ev.tensions[0, motor])
 
     def singular_distance(self, state: State[FixedStepper]) -> None:
         """A robot has no singular sets of its equations of motion."""
