@@ -46,11 +46,11 @@ def missing_stamps(folder: str | Path, expected: Mapping[str, Iterable[int]]) ->
 
 def completeness_line(folder: str | Path, expected: Mapping[str, Iterable[int]]) -> tuple[bool, str]:
     """``(complete, one line)``: every expected message in the bag, or what is missing per topic."""
-    expected = {t: list(s) for t, s in expected.items()}
-    missing = missing_stamps(folder, expected)
-    steps = max((len(s) for s in expected.values()), default=0)
+    wanted = {t: sorted(set(s)) for t, s in expected.items()}
+    missing = missing_stamps(folder, wanted)
+    steps = max((len(s) for s in wanted.values()), default=0)
     if not any(missing.values()):
         return True, f"complete: every message of the run on {', '.join(expected)} ({steps} stamps)"
-    lost = ", ".join(f"{t} {len(m)} of {len(expected[t])} (first at t = {m[0] / NS_PER_S:.3f} s)"
+    lost = ", ".join(f"{t} {len(m)} of {len(wanted[t])} (first at t = {m[0] / NS_PER_S:.3f} s)"
                      for t, m in missing.items() if m)
     return False, f"INCOMPLETE: missing {lost}"
