@@ -19,6 +19,13 @@
 4. call ``find_form`` with the tensegrity-table example;
 5. print a summary (tracking errors, fold times, the control-period table, bag contents).
 
+Recording loses nothing (:mod:`.recording`): a phase starts only once the recorder has
+received the first message of every topic the paused simulator publishes (the demo resets
+the simulator until it has: a reset republishes the standing state) and has matched the
+command publishers; after the phase the recorder is stopped only once its bag holds every
+step's joint state, end effector, clock and command (what a stalled recorder missed comes
+from the writers' history), and the demo says so per bag (exit code 1 if not).
+
 The sample bags in ``bags/`` are the two recordings (``tensegrity demo -o OUT`` and copy
 ``OUT/fold`` and ``OUT/ik_motion``). Times are simulation times (integer nanoseconds of
 the stamps).
@@ -28,10 +35,8 @@ from __future__ import annotations
 
 import shutil
 import signal
-import subprocess
 import sys
 import threading
-import time
 from pathlib import Path
 
 import numpy as np
@@ -42,8 +47,11 @@ from tensegrity_core.sim.sampled import NS_PER_S, run_sampled, step_ns_of
 from tensegrity_ros.apps import demo_moves
 from tensegrity_ros.apps.demo_moves import WAYPOINT_OFFSETS, ControllerClient
 from tensegrity_ros.apps.launch import Launcher, ProcessSpec
+from tensegrity_ros.apps.recording import Recorder, RecorderNotReady
 from tensegrity_ros.apps.sim_client import SimClient
+from tensegrity_ros.bag.completeness import completeness_line
 from tensegrity_ros.rclpy_utils.env import require_rclpy
+from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
 __all__ = ["FOLD_GAIN", "WAYPOINT_OFFSETS", "run_demo"]
 
@@ -54,55 +62,14 @@ SCENE = "class2_at_rest"        # the simulator's scene (commanded forces)
 CONTINUOUS = "paper_fold"       # the same fold with the force law evaluated continuously
 RECORDED_TOPICS = ("joint_states", "end_effector", "mechanism_state", "markers", "/clock", "actuator_forces",
                    "events")
+#: What the paused simulator publishes when it is reset (markers with every third publication).
+STATE_TOPICS = ("/joint_states", "/end_effector", "/mechanism_state", "/markers", "/clock")
+#: Published once per lockstep step: a complete bag holds every step's stamp of each.
+PER_STEP_TOPICS = ("/joint_states", "/end_effector", "/clock")
 
 
 def _say(text: str) -> None:
     print(f"[demo] {text}", flush=True)
-
-
-class Recorder:
-    """``tensegrity record`` as a child process, stopped with SIGINT (finishes the bag)."""
-
-    def __init__(self, folder: Path, ros_args: list[str]):
-        self.folder = folder
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "tensegrity_ros.cli", "record", "-o", str(folder), *ros_args],
-            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-        self._lines: list[str] = []
-        threading.Thread(target=self._pump, daemon=True).start()
-
-    def _pump(self) -> None:
-        for line in self.proc.stderr:
-            self._lines.append(line.rstrip())
-
-    def wait_subscribed(self, topics: int, timeout: float = 30.0) -> None:
-        """Wait until the recorder reports ``topics`` subscriptions (or times out)."""
-        deadline = time.monotonic() + timeout
-        while sum(line.startswith("recording /") for line in self._lines) < topics:
-            if self.proc.poll() is not None:
-                raise RuntimeError("recorder exited: " + "\n".join(self._lines[-5:]))
-            if time.monotonic() > deadline:
-                return
-            time.sleep(0.05)
-
-    def stop(self) -> int:
-        self.proc.send_signal(signal.SIGINT)
-        return self.proc.wait(60)
-
-
-def _wait_subscribed(node, before: dict, timeout: float = 30.0) -> None:
-    """Wait until the graph shows one more subscription on every topic than ``before``
-    (the recorder's), then ``MATCH_SETTLE_S`` more: the recorder's readers can match the
-    writers a little after the writers see them (see :mod:`tensegrity_ros.rclpy_utils.matching`)."""
-    from tensegrity_ros.rclpy_utils.matching import MATCH_SETTLE_S
-
-    deadline = time.monotonic() + timeout
-    while any(node.count_subscribers(t) <= n for t, n in before.items()):
-        if time.monotonic() > deadline:
-            raise RuntimeError("the recorder did not subscribe to every topic within "
-                               f"{timeout:g} s: {sorted(t for t, n in before.items() if node.count_subscribers(t) <= n)}")
-        time.sleep(0.02)
-    time.sleep(MATCH_SETTLE_S)
 
 
 def _ik_goals(client: DemoClient) -> list:
@@ -282,23 +249,37 @@ def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool 
     bags: list[Path] = []
     rec = None
 
-    def recorded(name: str, title: str, phase):
-        """Run ``phase`` while ``OUT/name`` records the suite's topics (when recording)."""
+    def recorded(name: str, title: str, phase, *, controller_commands: bool):
+        """Run ``phase`` while ``OUT/name`` records the suite's topics (when recording); the
+        phase starts once the recorder has received the first message of every topic the
+        paused simulator publishes (resets make it publish) and, with ``controller_commands``,
+        the controller's answer, else matched this process's command publisher; after it, the
+        bag is checked to hold every step's messages."""
         nonlocal rec
         if record:
             folder = out / name
             if folder.exists():
                 shutil.rmtree(folder)
-            before = {t: client.sim.node.count_subscribers(t) for t in RECORDED_TOPICS}
+            commands_before = client.sim.pub.get_subscription_count()
             rec = Recorder(folder, list(RECORDED_TOPICS))
-            rec.wait_subscribed(topics=len(RECORDED_TOPICS))
-            _wait_subscribed(client.sim.node, before)
+            first = STATE_TOPICS + (("/actuator_forces",) if controller_commands else ())
+            matched = {"/events": 1} if controller_commands else {"/events": 1, "/actuator_forces": 1}
+            rec.wait_ready(first, client.sim.reset_all, matched=matched, every=0.2)
+            if not controller_commands and not wait_for_matches([client.sim.pub], commands_before + 1, 60.0):
+                raise RecorderNotReady("the demo's actuator_forces publisher did not match the recorder within 60 s")
+            if controller_commands:
+                ctl.connect()          # the controller answered the resets: the phase waits for a new answer
             bags.append(folder)
         _say(f"{title}" + (f" (recording {out / name})" if record else ""))
         value = phase()
         if rec is not None:
-            rec.stop()
-            rec = None
+            stamps = sorted({j.stamp_ns for j in value})
+            expected = {**dict.fromkeys(PER_STEP_TOPICS, stamps), "/actuator_forces": stamps[:-1]}
+            rec.wait_complete(expected)
+            code, rec = rec.stop(), None
+            complete, line = completeness_line(folder, expected)
+            results.setdefault("bags_complete", {})[name] = complete and code == 0
+            _say(f"  bag {folder}: {line}" + ("" if code == 0 else f"; the recorder exited with code {code}"))
         return value
 
     try:
@@ -308,7 +289,7 @@ def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool 
         results["ik_goals"] = _ik_goals(client)
         moves_joints = recorded("ik_motion", "end-effector moves through the controller's actions "
                                 "(move_end_effector to each waypoint, then follow_actuator_trajectory)",
-                                lambda: _moves(ctl, step_ns, results, label="first"))
+                                lambda: _moves(ctl, step_ns, results, label="first"), controller_commands=True)
         _say("the moves again, not recorded: same lockstep run, compared stamp by stamp")
         moves_again = _moves(ctl, step_ns, results, label="second")
         first_moves, second_moves = _joint_table(moves_joints), _joint_table(moves_again)
@@ -319,7 +300,7 @@ def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool 
             _say("  warning: the controller did not exit cleanly (see the log)")
         results["fold_joints"] = recorded(
             "fold", "the paper's fold scenario from rest, f_i = 10 rho_i t sampled and held",
-            lambda: _fold(client, step_ns, results, label="first"))
+            lambda: _fold(client, step_ns, results, label="first"), controller_commands=False)
         ft = fold_times(results["fold_events"]["first"])
         results["fold_times_s"] = ft
         for key, when in ft.items():
@@ -382,12 +363,12 @@ def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool 
             _say(f"  bag {folder}: {info['message_count']} messages ({counts}), "
                  f"{info['size_bytes'] / 1024:.0f} KiB")
         ok = (results.get("formfind_success", False) and moves_ok and moves_identical and identical
-              and diff == 0.0)
+              and diff == 0.0 and all(results.get("bags_complete", {}).values()))
         return 0 if ok else 1
     except KeyboardInterrupt:
         _say("interrupted")
         return 130
-    except RuntimeError as err:       # a node that did not answer or did not come up
+    except RuntimeError as err:       # a node or the recorder that did not answer or did not come up
         _say(f"failed: {err} (logs in {out / 'suite.log'})")
         return 1
     finally:

@@ -88,8 +88,8 @@ class SimClient:
                     "step_simulation": StepSimulation, "reset_simulation": ResetSimulation, "reset": Trigger,
                     "get_simulator_features": GetSimulatorFeatures}
         self.clients = {n: self.node.create_client(t, n) for n, t in self.srv.items()}
-        self.pub = (self.node.create_publisher(CableCommand, "cable_commands", QoSProfile(depth=100)) if cables
-                    else self.node.create_publisher(ActuatorForces, "actuator_forces", QoSProfile(depth=100)))
+        self.pub = (self.node.create_publisher(CableCommand, "cable_commands", QoSProfile(depth=1000)) if cables
+                    else self.node.create_publisher(ActuatorForces, "actuator_forces", QoSProfile(depth=1000)))
         self.node.create_subscription(JointState, "joint_states", self._on_joints, QoSProfile(depth=1000))
         self.events: list = []
         if record_events:

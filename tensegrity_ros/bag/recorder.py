@@ -13,6 +13,16 @@ limited the recorder to ~700 messages/s). The log time is the rmw receive
 timestamp, the publish time the sender's source timestamp, the MCAP sequence the
 publication sequence number (mod 2**32); all times are system time in ns since the epoch.
 
+Readiness: the recorder says on its log when each topic's first message arrived
+(``first message on /joint_states``) and when the number of publishers its reader has
+matched changes (``matched 1 publisher(s) on /events``). The graph showing the recorder's
+subscription says nothing of whether the publisher's writer and the recorder's reader have
+matched each other (each side learns of the other from its own discovery message; under
+load that can take seconds), and a volatile message published before both sides matched is
+never delivered. A message received proves both matches: a program that must record
+everything from its first step (``tensegrity demo``) makes the publishers publish once
+and starts only after the first message of every topic.
+
 Stopping: SIGINT or SIGTERM (stop requests of :mod:`tensegrity_ros.rclpy_utils.stop_signals`, not
 rclpy's, so that messages already delivered are written first), or ``max_duration``;
 either way the bag is closed properly (summary + ``metadata.yaml``) with counts equal to
@@ -35,6 +45,7 @@ import rclpy
 from rclpy.context import Context
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
+from rclpy.subscription import Subscription
 from rclpy.topic_endpoint_info import TopicEndpointInfo
 from rclpy.topic_or_service_is_hidden import topic_or_service_is_hidden
 
@@ -80,9 +91,10 @@ class RecorderNode(Node):
         self.wanted = {self.resolve_topic_name(t) for t in topics}
         self.received: dict[str, int] = {}
         self._skipped: set[str] = set()
-        self._subscriptions_by_topic: dict[str, object] = {}
+        self._subscriptions_by_topic: dict[str, Subscription] = {}
         self._log = log or (lambda text: print(text, file=sys.stderr, flush=True))
         self._next_discovery = 0.0
+        self._matched: dict[str, int] = {}
 
     def poll(self) -> int:
         """One round of the recording loop: look for new topics (every
@@ -91,6 +103,7 @@ class RecorderNode(Node):
         now = time.monotonic()
         if now >= self._next_discovery:
             self._discover()
+            self._report_matches()
             self._next_discovery = now + DISCOVERY_PERIOD
         written = len(self.take_pending())
         self.writer.maybe_flush()
@@ -118,6 +131,14 @@ class RecorderNode(Node):
                 continue
             self._subscribe(name, types[0], cls, infos)
 
+    def _report_matches(self) -> None:
+        """Log each topic whose count of publishers matched by the recorder's reader changed."""
+        for name, sub in self._subscriptions_by_topic.items():
+            count = sub.get_publisher_count()
+            if count != self._matched.get(name, 0):
+                self._matched[name] = count
+                self._log(f"matched {count} publisher(s) on {name}")
+
     def _skip(self, name: str, why: str) -> None:
         self._skipped.add(name)
         self._log(f"warning: not recording {name}: {why}")
@@ -144,6 +165,8 @@ class RecorderNode(Node):
         self.writer.write(topic, data, info["received_timestamp"], info["source_timestamp"],
                           info.get("publication_sequence_number") or 0)
         self.received[topic] += 1
+        if self.received[topic] == 1:
+            self._log(f"first message on {topic}")
 
     def take_pending(self) -> list[int]:
         """Write every message already queued on the subscriptions, in receive order;

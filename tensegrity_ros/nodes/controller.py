@@ -150,7 +150,8 @@ class ControllerNode(Node):
         self._sent: deque = deque(maxlen=256)   # keys of the commands this node published lately
         self._manual = False                 # another node's command took over; until the next goal
 
-        self.pub = self.create_publisher(ActuatorForces, "actuator_forces", 10)
+        # a history a briefly stalled recorder can be repaired from (the simulator's depth)
+        self.pub = self.create_publisher(ActuatorForces, "actuator_forces", 1000)
         # every command on the topic, to tell another node's (a manual command) from this one's
         self.create_subscription(ActuatorForces, "actuator_forces", self._on_command_seen, QoSProfile(depth=10))
         # latest state wins: a controller that fell behind acts on the newest sample, never a backlog

@@ -104,8 +104,11 @@ class SimNode(SimulationInterfaces, Node):
         self.schedule = TickSchedule(p.publish_rate, p.real_time_factor, p.step_ns)
         self.pacer = LockstepPacer(p.lockstep_real_time_factor, p.step_size)
 
-        qos = QoSProfile(depth=100)
-        self.pubs = {topic: self.create_publisher(kind, topic, 10 if topic == "markers" else qos)
+        # History for a subscriber that falls briefly behind (a recorder on a loaded machine): a
+        # reliable writer repairs what a reader missed only from what it still keeps (1 s of
+        # a lockstep run at 1,000 steps/s; markers, large and slower, 100)
+        qos = QoSProfile(depth=1000)
+        self.pubs = {topic: self.create_publisher(kind, topic, 100 if topic == "markers" else qos)
                      for topic, kind in self.outputs.topics.items()}
         self.pub_events = self.create_publisher(SimulationEvent, "events", qos)
         self.pub_clock = self.create_publisher(ClockMsg, "/clock", qos)

@@ -1,0 +1,66 @@
+"""What a robot's run did, from the samples a ROS client receives: how far it rolled [m], over
+how many faces, and the peak cable tensions [N]. No ROS: the caller collects the samples.
+
+- Distance: the horizontal displacement (world x, y) of the robot's centre, the mean of its
+  rods' centres (``body_states``: every rod of a shipped robot has the same mass, so this is
+  the rods' centre of mass), from the first sample to the last.
+- Faces: the caps touching the floor over time (``contacts``) give the faces the robot rested
+  on (:func:`tensegrity_core.robot.faces.faces_visited`: a set of at least three caps held
+  for ``hold`` s) and the faces rolled (:func:`~tensegrity_core.robot.faces.faces_rolled`: new
+  faces after the first; a rock back onto a face is not a new one).
+- Tensions: the largest tension [N] of each motor cable over the run (``joint_states``
+  effort, positive pulling).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from tensegrity_core.robot.faces import faces_rolled, faces_visited
+
+
+@dataclass(frozen=True)
+class RollSummary:
+    """``displacement`` (x, y) [m] of the centre and its length ``distance`` [m]; ``faces``
+    rolled over and the ``visited`` faces (time [s], caps); ``peak_tensions`` [N] by cable."""
+
+    displacement: tuple[float, float]
+    distance: float
+    faces: int
+    visited: tuple[tuple[float, tuple[str, ...]], ...]
+    peak_tensions: dict[str, float]
+
+    def lines(self, top: int = 3) -> list[str]:
+        """The summary as printed lines, every number with its unit."""
+        dx, dy = self.displacement
+        out = [f"distance rolled: {self.distance:.3f} m (centre moved by ({dx:+.3f}, {dy:+.3f}) m in x, y)",
+               f"faces rolled: {self.faces} ({len(self.visited)} faces rested on)"]
+        if self.peak_tensions:
+            ranked = sorted(self.peak_tensions.items(), key=lambda kv: -kv[1])
+            out.append("peak tensions: " + ", ".join(f"{name} {value:.1f} N" for name, value in ranked[:top])
+                       + f" (largest {min(top, len(ranked))} of {len(ranked)} motor cables)")
+        return out
+
+
+def roll_summary(centres: Sequence[Sequence[float]], contact_times: Sequence[float],
+                 contacts: Sequence[Sequence[str]], cable_names: Sequence[str],
+                 tensions: Sequence[Sequence[float]], *, hold: float = 0.05) -> RollSummary:
+    """The summary of a run (module note): ``centres`` (N, 3) [m] the robot's centre at each
+    body-states sample, in time order; ``contacts[i]`` the caps touching at
+    ``contact_times[i]`` [s]; ``tensions`` (M, cables) [N] of ``cable_names`` at each joint state."""
+    c = np.asarray(centres, dtype=float)
+    if len(c):
+        d = c[-1, :2] - c[0, :2]
+    else:
+        d = np.zeros(2)
+    caps = sorted({name for names in contacts for name in names})
+    matrix = np.array([[cap in set(names) for cap in caps] for names in contacts], dtype=bool).reshape(len(contacts),
+                                                                                                       len(caps))
+    visited = faces_visited(np.asarray(contact_times, dtype=float), matrix, hold)
+    faces = tuple((t, tuple(caps[i] for i in sorted(face))) for t, face in visited)
+    tension = np.asarray(tensions, dtype=float).reshape(-1, len(cable_names))
+    peaks = {name: float(tension[:, j].max()) for j, name in enumerate(cable_names)} if len(tension) else {}
+    return RollSummary((float(d[0]), float(d[1])), float(np.hypot(*d)), faces_rolled(visited), faces, peaks)

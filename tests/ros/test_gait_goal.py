@@ -1,0 +1,102 @@
+"""The pure parts of ``tensegrity gait``: a gait as trajectory points (checked against the
+core's own evaluation of the gait's laws), the 6-bar's rolling gait cut to its first faces
+(the release by the derivation's rule, which reproduces the shipped file's own end), gaits
+by name, and the roll summary from synthetic samples whose answers are known by construction."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from tensegrity_core.robot.gait import GAITS_DIR, Gait, GaitError, gait_from_file
+from tensegrity_ros.apps.gait_goal import HOLD_EDGE_S, first_faces, gait_named, tips, trajectory_points
+from tensegrity_ros.apps.roll_summary import roll_summary
+
+SIX_BAR_SPEED = 0.5      # m/s: the 6-bar's motors (docs/robots.md, the robots' table)
+
+
+def _played(points, t: float) -> np.ndarray:
+    """The rest lengths a linear-interpolating controller commands ``t`` s after the start."""
+    pos = np.asarray(points.positions)
+    return np.array([np.interp(t, points.times, pos[:, j]) for j in range(pos.shape[1])])
+
+
+def _gait(interpolation: str, **options) -> Gait:
+    return Gait(name="test", cables=("a", "b"), times=(0.0, 0.5, 1.25, 2.0),
+                rest_lengths=((1.0, 0.8), (0.7, 0.9), (0.6, 1.0), (1.0, 0.8)), interpolation=interpolation,
+                period=options.pop("period", None), **options)
+
+
+@given(t=st.floats(0.0, 20.0), start=st.sampled_from([0.0, 0.3]), scale=st.sampled_from([1.0, 0.5, 2.0]),
+       cycles=st.sampled_from([1, 3]), interpolation=st.sampled_from(["linear", "previous"]))
+def test_the_trajectory_plays_what_the_gaits_laws_give(t, start, scale, cycles, interpolation):
+    gait = _gait(interpolation, period=2.5, cycles=cycles, time_scale=scale, start=start)
+    points = trajectory_points(gait)
+    assert points.times[0] == 0.0 and all(b > a for a, b in zip(points.times, points.times[1:]))
+    laws = gait.laws()
+    corners = np.asarray(gait.table()[0])
+    if interpolation == "previous" and np.any((corners - HOLD_EDGE_S <= t) & (t < corners)):
+        return                  # inside the edge before a row: the ramp of HOLD_EDGE_S
+    expected = [laws[name].value_at(t, 0.0) for name in gait.cables]
+    assert np.allclose(_played(points, t), expected, rtol=0, atol=1e-12)
+
+
+def test_the_six_bar_gait_cut_to_its_first_faces():
+    gait = gait_from_file(GAITS_DIR / "six_bar_roll.yaml")
+    assert tips(gait) == 8              # the file's own description: "over 8 faces"
+    speeds = [SIX_BAR_SPEED] * len(gait.cables)
+    # all eight: the release by the derivation's rule lands on the file's own last row
+    assert first_faces(gait, 8, speeds).times == gait.times
+    assert first_faces(gait, 8, speeds).rest_lengths == gait.rest_lengths
+    three = first_faces(gait, 3, speeds)
+    assert three.rest_lengths[:7] == gait.rest_lengths[:7] and three.rest_lengths[-1] == gait.rest_lengths[0]
+    # face 3 is held with one cable at 0.732434 m: back to 0.996 m at 0.5 m/s, times 1.2
+    assert three.times[-1] == pytest.approx(gait.times[6] + 1.2 * (0.996 - 0.732434) / 0.5, abs=1e-4)
+    assert tips(three) == 3
+    with pytest.raises(GaitError, match=r"rolls 8 faces: faces must be in \[1, 8\], got 9"):
+        first_faces(gait, 9, speeds)
+    with pytest.raises(GaitError, match="not a rolling gait"):
+        first_faces(gait_named("three_bar_crawl"), 1, speeds)
+
+
+def test_gaits_by_name():
+    roll = gait_named("six_bar_roll")
+    assert tips(roll) == 8 and len(roll.cables) == 24
+    crawl = gait_named("three_bar_crawl")       # the scene's inline gait with its options
+    assert crawl.cables == tuple(f"td_{i}" for i in range(6))
+    assert (crawl.period, crawl.cycles, crawl.start) == (4.0001, 20, 2.0)
+    assert trajectory_points(crawl).duration == pytest.approx(2.0 + 20 * 4.0001)
+    with pytest.raises(GaitError, match="no shipped gait or robot scene named 'six_bar_rol'.*six_bar_roll"):
+        gait_named("six_bar_rol")
+
+
+def test_the_roll_summary_of_a_run_known_by_construction():
+    # the centre moves 1.2 m along x and 0.5 m along y: 1.3 m
+    centres = [(0.0, 0.0, 0.3), (0.6, 0.2, 0.31), (1.2, 0.5, 0.3)]
+    t = np.arange(0, 1.0, 0.01)
+    contacts = []
+    for ti in t:
+        if ti < 0.3:
+            contacts.append(("a", "b", "c"))          # the first face
+        elif ti < 0.32:
+            contacts.append(("a", "b", "c", "e"))     # a graze of 20 ms: no face
+        elif ti < 0.6:
+            contacts.append(("a", "b", "d"))          # rolled onto a new face
+        elif ti < 0.7:
+            contacts.append(("a", "b", "c"))          # rocked back: not a new face
+        else:
+            contacts.append(("b", "d", "e"))          # a new face
+    tensions = [(10.0, 50.0), (80.5, 20.0), (30.0, 40.0)]
+    s = roll_summary(centres, t, contacts, ("c1", "c2"), tensions)
+    assert s.distance == pytest.approx(1.3) and s.displacement == pytest.approx((1.2, 0.5))
+    assert [caps for _, caps in s.visited] == [("a", "b", "c"), ("a", "b", "d"), ("a", "b", "c"), ("b", "d", "e")]
+    assert s.faces == 2
+    assert s.peak_tensions == {"c1": 80.5, "c2": 50.0}
+    lines = s.lines()
+    assert lines[0].startswith("distance rolled: 1.300 m") and "faces rolled: 2" in lines[1]
+    assert "c1 80.5 N, c2 50.0 N" in lines[2]
+    assert all(math.isfinite(v) for v in s.displacement)
