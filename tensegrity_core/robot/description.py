@@ -110,16 +110,19 @@ class Cables:
 class Motors:
     """One motor per actuated cable: ``cable`` (a,) cable index, ``range`` (a, 2) rest-length
     limits [m], ``tau`` lag [s] (0: none), ``max_speed`` [m/s] (inf: none), ``max_tension``
-    [N] (inf: none)."""
+    [N] (inf: none), ``mode`` (a,) what its command is (:data:`.motor.MODES`: rest length
+    [m], reel speed [m/s] or tension [N])."""
 
     cable: IntArray
     range: FloatArray
     tau: FloatArray
     max_speed: FloatArray
     max_tension: FloatArray
+    mode: IntArray
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "cable", _frozen(self.cable, np.int64).reshape(-1))
+        object.__setattr__(self, "mode", _frozen(self.mode, np.int64).reshape(-1))
         object.__setattr__(self, "range", _frozen(self.range).reshape(-1, 2))
         for name in ("tau", "max_speed", "max_tension"):
             object.__setattr__(self, name, _frozen(getattr(self, name)).reshape(-1))

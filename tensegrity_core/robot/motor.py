@@ -5,11 +5,20 @@ its rest length ``l0`` [m]. Parameters per motor: the rest-length range ``[lo, h
 a first-order lag ``tau`` [s] (0: none), a slew-rate limit ``speed`` [m/s] (inf: none)
 and the tension limit ``t_max`` [N].
 
-**Commands** (:func:`target`). In rest-length mode the command is the target rest length
-``u`` [m], clipped to the range. In tension mode it is a target tension ``u`` [N]: the
-motor aims at the rest length that gives that tension at the cable's present length,
-``l - u / k``, so a fast motor makes the cable a constant-tension source. A command may
-carry a reel speed [m/s], which lowers the slew limit for that move.
+**Modes** (per motor; what its command ``u`` means):
+
+- ``rest_length``: ``u`` [m] is the target rest length, clipped to the range
+  (:func:`target`), reached through the dynamics below;
+- ``tension``: ``u`` [N] is a target tension, clipped to ``[0, t_max]``: the motor aims at
+  the rest length that gives that tension at the cable's present length ``l``,
+  ``clip(l - u / k, lo, hi)`` (:func:`target`), through the same dynamics. At rest
+  (``ldot = 0``, ``l0`` = its aim inside the range) the cable's tension
+  ``k (l - l0) = u``: a fast motor makes the cable a constant-tension source; at a range
+  end the motor can do no more (the tension is what the range allows);
+- ``reel_speed``: ``u`` [m/s] is the reel speed (positive pays out, lengthening the rest
+  length), clipped to ``[-speed, speed]``; the rest length moves at that speed until an
+  end of the range (:func:`reel`): ``l0(t + dt) = clip(l0 + clip(u, -speed, speed) dt,
+  lo, hi)``. The lag does not apply (the command is the spool's speed itself).
 
 **Dynamics** (:func:`rate`; exact over a step by :func:`step`)::
 
@@ -33,28 +42,32 @@ from numpy.typing import ArrayLike, NDArray
 
 FloatArray = NDArray[np.float64]
 
-#: Command modes: the command is a rest length [m] or a tension [N].
-REST_LENGTH, TENSION = 0, 1
-MODES = {"rest_length": REST_LENGTH, "tension": TENSION}
+#: Command modes: the command is a rest length [m], a reel speed [m/s] or a tension [N].
+REST_LENGTH, REEL_SPEED, TENSION = 0, 1, 2
+MODES = {"rest_length": REST_LENGTH, "reel_speed": REEL_SPEED, "tension": TENSION}
+#: The unit of a mode's command.
+UNITS = {REST_LENGTH: "m", REEL_SPEED: "m/s", TENSION: "N"}
 
 
 def target(mode: ArrayLike, command: ArrayLike, l: ArrayLike, k: ArrayLike, lo: ArrayLike,
-           hi: ArrayLike) -> FloatArray:
-    """The rest length [m] each motor aims at: ``clip(u, lo, hi)`` in rest-length mode,
-    ``clip(l - u / k, lo, hi)`` in tension mode (``u`` [N], cable length ``l`` [m],
-    stiffness ``k`` [N/m])."""
+           hi: ArrayLike, t_max: ArrayLike = np.inf) -> FloatArray:
+    """The rest length [m] each rest-length or tension motor aims at: ``clip(u, lo, hi)`` in
+    rest-length mode, ``clip(l - clip(u, 0, t_max) / k, lo, hi)`` in tension mode (``u``
+    [N], cable length ``l`` [m], stiffness ``k`` [N/m], tension limit ``t_max`` [N])."""
     u = np.asarray(command, dtype=float)
-    aim = np.where(np.asarray(mode) == TENSION, np.asarray(l, dtype=float) - u / np.asarray(k, dtype=float), u)
+    pull = np.clip(u, 0.0, t_max) / np.asarray(k, dtype=float)
+    aim = np.where(np.asarray(mode) == TENSION, np.asarray(l, dtype=float) - pull, u)
     out: FloatArray = np.clip(aim, lo, hi)
     return out
 
 
-def slew_limit(speed: ArrayLike, reel_speed: ArrayLike = np.nan) -> FloatArray:
-    """The slew limit [m/s] of a move: the motor's ``speed``, or the command's
-    ``reel_speed`` where given (not nan) and lower."""
+def reel(l0: ArrayLike, command: ArrayLike, speed: ArrayLike, lo: ArrayLike, hi: ArrayLike,
+         dt: float) -> FloatArray:
+    """The rest lengths [m] of reel-speed motors after ``dt`` [s] at the commanded speed
+    ``u`` [m/s] within the slew limit ``speed``: ``clip(l0 + clip(u, -speed, speed) dt, lo, hi)``."""
     s = np.asarray(speed, dtype=float)
-    r = np.asarray(reel_speed, dtype=float)
-    out: FloatArray = np.where(np.isnan(r), s, np.minimum(s, r))
+    v = np.clip(np.asarray(command, dtype=float), -s, s)
+    out: FloatArray = np.clip(np.asarray(l0, dtype=float) + v * dt, lo, hi)
     return out
 
 

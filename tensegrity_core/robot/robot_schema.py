@@ -23,6 +23,7 @@ from tensegrity_core.general.structure import Structure, StructureError
 from tensegrity_core.general.structure_schema import structure_from_dict
 from tensegrity_core.robot.contact import floor_normal
 from tensegrity_core.robot.description import Cables, Floor, Motors, Robot, RobotError, Rods, Sensors
+from tensegrity_core.robot.motor import MODES
 from tensegrity_core.robot.rod import rod_inertia
 from tensegrity_core.schema import KeyPath, Reader, excerpt, line_of, suggest, type_name
 
@@ -31,7 +32,7 @@ TOP_KEYS: Final = ("name", "units", "description", "nodes", "rods", "cables", "c
 ROD_KEYS: Final = ("name", "nodes", "mass", "radius", "cap_mass", "cap_radius", "inertia")
 CABLE_KEYS: Final = ("name", "nodes", "stiffness", "damping", "rest_length", "rest_length_ratio", "motor")
 CABLE_DEFAULT_KEYS: Final = ("stiffness", "damping", "rest_length_ratio", "motor")
-MOTOR_KEYS: Final = ("range", "tau", "max_speed", "max_tension")
+MOTOR_KEYS: Final = ("range", "tau", "max_speed", "max_tension", "mode")
 SENSOR_KEYS: Final = ("cable_length", "cable_tension", "imu")
 FLOOR_KEYS: Final = ("normal", "incline", "point", "stiffness", "dissipation", "mu_static", "mu_kinetic",
                      "tangential_stiffness", "tangential_damping")
@@ -220,6 +221,7 @@ class _RobotReader(Reader):
         rows: list[tuple[float, float, float]] = []
         motor_of: list[int] = []
         motors: list[tuple[int, float, float, float, float, float]] = []
+        modes: list[int] = []
         for i, item in enumerate(value):
             path: KeyPath = ("cables", i)
             c = self.mapping(item, path, value, i)
@@ -240,13 +242,14 @@ class _RobotReader(Reader):
                     else defaults.get("rest_length_ratio", 1.0)
                 l0 = ratio * drawn
             if "motor" in c:
-                lo, hi, tau, speed, t_max = self.motor(c, path, defaults.get("motor"), what)
+                lo, hi, tau, speed, t_max, mode = self.motor(c, path, defaults.get("motor"), what)
                 if not lo <= l0 <= hi:
                     where = "rest_length" if "rest_length" in c else "rest_length_ratio" if "rest_length_ratio" in c \
                         else "motor"
                     raise self.error(f"{what}: rest length {l0:g} m is outside the motor's range [{lo:g}, {hi:g}] m",
                                      path + (where,), c, where)
                 motors.append((i, lo, hi, tau, speed, t_max))
+                modes.append(mode)
                 motor_of.append(len(motors) - 1)
             else:
                 motor_of.append(-1)
@@ -257,7 +260,8 @@ class _RobotReader(Reader):
         m = np.array([row[1:] for row in motors], dtype=float).reshape(-1, 5)
         return (Cables(tuple(names), np.array(ends, dtype=np.int64), arr[:, 0], arr[:, 1], arr[:, 2],
                        np.array(motor_of, dtype=np.int64)),
-                Motors(np.array([row[0] for row in motors], dtype=np.int64), m[:, 0:2], m[:, 2], m[:, 3], m[:, 4]))
+                Motors(np.array([row[0] for row in motors], dtype=np.int64), m[:, 0:2], m[:, 2], m[:, 3], m[:, 4],
+                       np.array(modes, dtype=np.int64)))
 
     def default(self, defaults: dict[str, Any], key: str, item: dict[Any, Any], path: KeyPath, what: str) -> float:
         if key not in defaults:
@@ -266,9 +270,9 @@ class _RobotReader(Reader):
         return value
 
     def motor(self, c: dict[Any, Any], path: KeyPath, defaults: tuple[dict[Any, Any], KeyPath] | None,
-              what: str) -> tuple[float, float, float, float, float]:
-        """``(lo, hi, tau, max_speed, max_tension)`` of a cable's ``motor`` (a mapping, or
-        ``true`` for the defaults' motor)."""
+              what: str) -> tuple[float, float, float, float, float, int]:
+        """``(lo, hi, tau, max_speed, max_tension, mode)`` of a cable's ``motor`` (a mapping,
+        or ``true`` for the defaults' motor); ``mode`` one of :data:`.motor.MODES`' values."""
         raw = c["motor"]
         mpath = path + ("motor",)
         if raw is True:
@@ -295,7 +299,9 @@ class _RobotReader(Reader):
         speed = self.number(src, "max_speed", spath, default=math.inf, lo=0.0, lo_open=True, allow_inf=True)
         src, spath = pick("max_tension")
         t_max = self.number(src, "max_tension", spath, default=math.inf, lo=0.0, lo_open=True, allow_inf=True)
-        return lo, hi, tau, speed, t_max
+        src, spath = pick("mode")
+        mode = self.string(src, "mode", spath, default="rest_length", choices=tuple(MODES))
+        return lo, hi, tau, speed, t_max, MODES[mode]
 
     def unique_members(self, d: dict[Any, Any], names: tuple[str, ...]) -> None:
         seen: dict[str, str] = {}

@@ -130,7 +130,10 @@ class Interface:
     (general structures). ``inputs``: the input names in input order (``actuator_names``);
     ``commanded``: per input, whether it takes commands (its law is "commanded"; the others
     follow the scene's law); ``limits``: per input, the open interval ``(lo, hi)`` a command
-    must lie in; ``members``: per input, the index of the member it drives (``-1`` if none).
+    must lie in; ``members``: per input, the index of the member it drives (``-1`` if none);
+    ``modes``: robots only, per input its motor's mode (``"rest_length"`` [m],
+    ``"reel_speed"`` [m/s] or ``"tension"`` [N], :mod:`tensegrity_core.robot.motor`): what
+    that input's value is instead of ``command``, and ``limits`` are in its unit.
     """
 
     command: Literal["force", "rest_length"]
@@ -138,6 +141,7 @@ class Interface:
     commanded: tuple[bool, ...]
     limits: tuple[tuple[float, float], ...]
     members: tuple[int, ...]
+    modes: tuple[str, ...] = ()
 
     @property
     def unit(self) -> str:

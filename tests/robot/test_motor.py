@@ -5,6 +5,7 @@ the payout under the tension limit."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
@@ -60,9 +61,14 @@ def test_commands_rest_length_and_tension_modes():
                         [0.3, 0.9, 100.0, 1000.0], [0.5, 0.5, 0.5, 0.5], 1000.0, lo, hi)
     # 0.9 m is out of range; 100 N at 0.5 m needs l0 = 0.5 - 0.1; 1000 N would need 0 m < lo
     np.testing.assert_allclose(aims, [0.3, 0.6, 0.4, 0.1])
-    assert float(motor.slew_limit(0.2, np.nan)) == 0.2
-    assert float(motor.slew_limit(0.2, 0.05)) == 0.05
-    assert float(motor.slew_limit(0.2, 0.5)) == 0.2                 # a command cannot exceed the motor
+    # a tension above the motor's limit aims at the limit's rest length: 0.5 - 50/1000
+    assert float(motor.target(motor.TENSION, 100.0, 0.5, 1000.0, lo, hi, t_max=50.0)) == pytest.approx(0.45)
+
+
+def test_reel_speed_moves_the_rest_length_at_the_commanded_speed_within_the_slew_limit_and_range():
+    lo, hi = 0.1, 0.6
+    np.testing.assert_allclose(motor.reel([0.3, 0.3, 0.3, 0.598], [0.05, -0.5, 0.5, 0.05], 0.2, lo, hi, 0.1),
+                               [0.305, 0.28, 0.32, 0.6])     # 5 mm, the slew limit both ways, the range's end
 
 
 @given(rest, st.floats(0.0, 0.5), st.floats(10.0, 1e4), st.floats(1.0, 500.0))

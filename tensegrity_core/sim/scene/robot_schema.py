@@ -13,10 +13,17 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
+from tensegrity_core.robot.description import Robot
+from tensegrity_core.robot.motor import MODES, REEL_SPEED, REST_LENGTH, TENSION
 from tensegrity_core.schema import KeyPath, Reader, excerpt, suggest, type_name
 from tensegrity_core.sim.inputs import Commanded, Constant, InputLaw, Ramp
 from tensegrity_core.sim.scene.references import robot_source
 from tensegrity_core.sim.scene.spec import ContactSpec, EffectSpec, FrictionSpec, MotorsSpec, RobotModelSpec
+
+IntArray = NDArray[np.int64]
 
 
 def robot_model(reader: Reader, d: dict[str, Any], path: KeyPath, base: Path) -> RobotModelSpec:
@@ -64,13 +71,13 @@ def robot_effect(reader: Reader, name: str, d: dict[str, Any], path: KeyPath, mo
     """The options of a robot's ``motors``, ``contact`` or ``friction``: each replaces the
     description's value (every motor's, the floor's)."""
     if name == "motors":
-        reader.keys(d, path, ("tau", "max_speed", "max_tension"))
+        reader.keys(d, path, ("tau", "max_speed", "max_tension", "modes"))
         tau = reader.number(d, "tau", path, lo=0.0) if "tau" in d else None
         speed = reader.number(d, "max_speed", path, lo=0.0, lo_open=True, allow_inf=True) \
             if "max_speed" in d else None
         tension = reader.number(d, "max_tension", path, lo=0.0, lo_open=True, allow_inf=True) \
             if "max_tension" in d else None
-        return MotorsSpec(tau, speed, tension)
+        return MotorsSpec(tau, speed, tension, motor_modes(reader, d, path, model) if "modes" in d else ())
     floor = model.robot.floor
     if floor is None:
         raise reader.error(f"robot {excerpt(model.robot.name)} has no floor for {name!r} (give its description a "
@@ -91,13 +98,40 @@ def robot_effect(reader: Reader, name: str, d: dict[str, Any], path: KeyPath, mo
                         reader.number(d, "tangential_damping", path, default=floor.tangential_damping, lo=0.0))
 
 
-def within_motor_ranges(reader: Reader, laws: dict[str, InputLaw], model: RobotModelSpec, path: KeyPath,
-                        d: dict[str, Any]) -> None:
-    """Every rest length a robot's input law asks for lies in its motor's range."""
+def motor_modes(reader: Reader, d: dict[str, Any], path: KeyPath, model: RobotModelSpec) -> tuple[tuple[str, int], ...]:
+    """``motors.modes``: a mapping from actuated cables' names to their motors' modes."""
     robot = model.robot
+    actuated = tuple(robot.cables.names[int(i)] for i in robot.cables.actuated)
+    m = reader.mapping(d["modes"], path + ("modes",), d, "modes")
+    out = []
+    for name in m:
+        if name not in actuated:
+            raise reader.error(f"{excerpt(name)} is not an actuated cable{suggest(str(name), actuated)}; actuated: "
+                               f"{', '.join(actuated)}", path + ("modes", name), m, name)
+        out.append((str(name), MODES[reader.string(m, name, path + ("modes",), choices=tuple(MODES))]))
+    return tuple(out)
+
+
+def modes_of(robot: Robot, motors: MotorsSpec | None) -> IntArray:
+    """(a,) each motor's mode (:data:`~tensegrity_core.robot.motor.MODES`' values): the
+    description's, replaced by the scene's ``motors.modes``."""
+    modes = robot.motors.mode.copy()
+    for name, mode in motors.modes if motors is not None else ():
+        modes[int(robot.cables.motor[robot.cables.names.index(name)])] = mode
+    return modes
+
+
+def within_motor_ranges(reader: Reader, laws: dict[str, InputLaw], model: RobotModelSpec, path: KeyPath,
+                        d: dict[str, Any], motors: MotorsSpec | None) -> None:
+    """Every command a robot's input law gives lies in its motor's range: a rest length [m]
+    in the rest-length range, a reel speed [m/s] within the slew limit, a tension [N] in
+    ``[0, max_tension]`` (the scene's ``motors`` values where given)."""
+    robot = model.robot
+    modes = modes_of(robot, motors)
     for name, law in laws.items():
         cable = robot.cables.names.index(name)
-        lo, hi = robot.motors.range[int(robot.cables.motor[cable])]
+        j = int(robot.cables.motor[cable])
+        lo, hi = command_range(robot, j, int(modes[j]), motors)
         values: tuple[float, ...]
         if isinstance(law, Constant):
             values = (law.value,)
@@ -110,5 +144,26 @@ def within_motor_ranges(reader: Reader, laws: dict[str, InputLaw], model: RobotM
         bad = [v for v in values if not lo <= v <= hi]
         if bad:
             where = path + (name,) if name in d else path + ("gait",)
-            raise reader.error(f"rest length {bad[0]:g} m of cable {excerpt(name)} is outside its motor's range "
-                               f"[{lo:g}, {hi:g}] m", where, d, where[-1])
+            what, unit = COMMAND_WORDS[int(modes[j])]
+            raise reader.error(f"{what} {bad[0]:g} {unit} of cable {excerpt(name)} is outside its motor's range "
+                               f"[{lo:g}, {hi:g}] {unit}", where, d, where[-1])
+
+
+#: Per motor mode, what a command is called and its unit.
+COMMAND_WORDS: dict[int, tuple[str, str]] = {REST_LENGTH: ("rest length", "m"), REEL_SPEED: ("reel speed", "m/s"),
+                                             TENSION: ("tension", "N")}
+
+
+def command_range(robot: Robot, j: int, mode: int, motors: MotorsSpec | None) -> tuple[float, float]:
+    """The closed interval a command of motor ``j`` in ``mode`` must lie in: its rest-length
+    range [m], ``[-max_speed, max_speed]`` [m/s], ``[0, max_tension]`` [N] (the scene's
+    ``motors`` values replacing the description's where given)."""
+    if mode == REEL_SPEED:
+        s = motors.max_speed if motors is not None and motors.max_speed is not None else robot.motors.max_speed[j]
+        return -float(s), float(s)
+    if mode == TENSION:
+        t = motors.max_tension if motors is not None and motors.max_tension is not None \
+            else robot.motors.max_tension[j]
+        return 0.0, float(t)
+    lo, hi = robot.motors.range[j]
+    return float(lo), float(hi)

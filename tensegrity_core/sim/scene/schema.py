@@ -377,7 +377,7 @@ class SceneReader(Reader):
         laws = {n: from_gait[n] if n in from_gait else self.law(d[n], path + (n,), d, n, model) if n in d
                 else Commanded(None) for n in names}
         if isinstance(model, RobotModelSpec):
-            within_motor_ranges(self, laws, model, path, d)
+            within_motor_ranges(self, laws, model, path, d, effects.get("motors"))
         return laws
 
     LAW_KEYS: ClassVar[dict[str, tuple[str, ...]]] = {

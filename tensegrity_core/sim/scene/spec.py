@@ -153,11 +153,13 @@ class SensorNoiseSpec:
 class MotorsSpec:
     """Robots: the cables' motors (first-order lag, slew limit, tension limit); each value
     given here replaces every motor's: ``tau`` [s], ``max_speed`` [m/s], ``max_tension`` [N]
-    (None: each motor's own)."""
+    (None: each motor's own); ``modes``: ``(cable name, mode)`` pairs that replace those
+    motors' modes (:data:`tensegrity_core.robot.motor.MODES`' values)."""
 
     tau: float | None = None
     max_speed: float | None = None
     max_tension: float | None = None
+    modes: tuple[tuple[str, int], ...] = ()
 
 
 @dataclass(frozen=True)

@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tensegrity_core.general.rotation import cross
+from tensegrity_core.robot import motor
 from tensegrity_core.sim.general.kernels import arrays as general
 from tensegrity_core.sim.general.robot.loops import NO_ANCHOR, RECHART_ANGLE, SLIPPING, STICKING
 
@@ -147,7 +148,7 @@ def sampled_update(base: FloatArray, free_node: IntArray, free_axis: IntArray, o
                    motor_lo: FloatArray, motor_hi: FloatArray, motor_tau: FloatArray, motor_speed: FloatArray,
                    cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray, floor_normal: FloatArray,
                    floor_point: FloatArray, floor_params: FloatArray, y: FloatArray, R_ref: FloatArray, h: float,
-                   aim: FloatArray) -> None:
+                   aim: FloatArray, mode: IntArray) -> None:
     """:func:`.loops.sampled_update` of one state ``y`` (N,) and its charts ``R_ref`` (nb, 3, 3), in place."""
     n_dof = len(free_node) + 6 * len(body_dof)
     n, nb = len(base), len(body_dof)
@@ -157,13 +158,16 @@ def sampled_update(base: FloatArray, free_node: IntArray, free_axis: IntArray, o
     m0 = 2 * n_dof
     na = len(motor_cable)
     if na:
-        target = np.minimum(np.maximum(aim, motor_lo), motor_hi)
-        l0 = motor_step(y[m0:m0 + na], target, motor_tau, motor_speed, h)
         t_max = cable_t_max[motor_cable]
-        limited = np.isfinite(t_max)
         hvec = X[0, cable_b[motor_cable]] - X[0, cable_a[motor_cable]]
         length = np.sqrt(_dot(hvec, hvec))
-        pay = np.minimum(length - np.where(limited, t_max, 0.0) / cable_k[motor_cable], motor_hi)
+        k = cable_k[motor_cable]
+        lagged = motor_step(y[m0:m0 + na], motor.target(mode, aim, length, k, motor_lo, motor_hi, t_max), motor_tau,
+                            motor_speed, h)
+        l0 = np.where(mode == motor.REEL_SPEED, motor.reel(y[m0:m0 + na], aim, motor_speed, motor_lo, motor_hi, h),
+                      lagged)
+        limited = np.isfinite(t_max)
+        pay = np.minimum(length - np.where(limited, t_max, 0.0) / k, motor_hi)
         y[m0:m0 + na] = np.where(limited, np.maximum(l0, pay), l0)
     ncap = len(cap_node)
     if ncap:
@@ -206,7 +210,8 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
               cable_motor: IntArray, motor_cable: IntArray, motor_lo: FloatArray, motor_hi: FloatArray,
               motor_tau: FloatArray, motor_speed: FloatArray, cap_node: IntArray, cap_body: IntArray,
               cap_radius: FloatArray, floor_normal: FloatArray, floor_point: FloatArray, floor_params: FloatArray,
-              y: FloatArray, R_ref: FloatArray, h: float, aims: FloatArray, y_end: FloatArray) -> None:
+              y: FloatArray, R_ref: FloatArray, h: float, aims: FloatArray, modes: IntArray,
+              y_end: FloatArray) -> None:
     """:func:`.loops.run_steps` (the steps in a Python loop, each stage a batch of one)."""
     plan = (base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
             body_first_moment, body_inertia, body_inv_inertia_cm, external, cable_a, cable_b, cable_k, cable_c,
@@ -226,5 +231,5 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
         y_end[...] = y
         sampled_update(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, cable_a, cable_b, cable_k,
                        cable_t_max, motor_cable, motor_lo, motor_hi, motor_tau, motor_speed, cap_node, cap_body,
-                       cap_radius, floor_normal, floor_point, floor_params, y, R_ref, h, aims[s])
+                       cap_radius, floor_normal, floor_point, floor_params, y, R_ref, h, aims[s], modes)
 

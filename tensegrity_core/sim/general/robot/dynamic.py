@@ -28,6 +28,7 @@ from scipy.spatial.transform import Rotation
 
 from tensegrity_core.events import LoggedEvent
 from tensegrity_core.robot.imu import imu_readings
+from tensegrity_core.robot.motor import MODES, REEL_SPEED, TENSION
 from tensegrity_core.sim.commands import changed, check_command, compile_inputs
 from tensegrity_core.sim.errors import SimulationError
 from tensegrity_core.sim.general.model import kinetic_energy
@@ -47,6 +48,7 @@ from tensegrity_core.sim.model import (
     Stats,
 )
 from tensegrity_core.sim.scene import Scene
+from tensegrity_core.sim.scene.robot_schema import COMMAND_WORDS, command_range, modes_of
 
 FloatArray = NDArray[np.float64]
 #: Sensor readings a robot scene with the ``sensors`` effect observes (each over the samples):
@@ -82,21 +84,25 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         model = robot_model(scene)
         self.robot = robot = model.robot
         self.plan = build_plan(robot, robot_effects(scene))
-        drawn = self.plan.cable_l0[self.plan.motor_cable]
-        self.laws, self.actuator_names, self.initial_commands = compile_inputs(scene.inputs, drawn)
+        motors = scene.effects.get("motors")
+        self.modes = modes_of(robot, motors)
+        self.command_ranges = tuple(command_range(robot, j, int(m), motors) for j, m in enumerate(self.modes))
+        self.laws, self.actuator_names, self.initial_commands = compile_inputs(scene.inputs, self._holding())
         self.names = names_of(robot, self.plan)
+        mode_names = {v: k for k, v in MODES.items()}
         self.interface = Interface("rest_length", tuple(self.actuator_names),
                                    tuple(isinstance(law, Commanded) for law in self.laws),
-                                   # the motors' closed ranges [lo, hi] as the open intervals the
+                                   # the motors' closed command ranges as the open intervals the
                                    # interface states: one float further out on each side
-                                   tuple((math.nextafter(float(lo), -math.inf), math.nextafter(float(hi), math.inf))
-                                         for lo, hi in zip(self.plan.motor_lo, self.plan.motor_hi)),
-                                   tuple(len(robot.rods) + int(c) for c in self.plan.motor_cable))
+                                   tuple((math.nextafter(lo, -math.inf), math.nextafter(hi, math.inf))
+                                         for lo, hi in self.command_ranges),
+                                   tuple(len(robot.rods) + int(c) for c in self.plan.motor_cable),
+                                   tuple(mode_names[int(m)] for m in self.modes))
         self.state_names = state_names(robot, self.plan)
         self.step = scene.integrator.max_step
         self.y0 = initial_vector(robot, self.plan, scene.initial.lift)
         nb = len(self.plan.body_dof)
-        self.system = RobotSystem(self.plan, laws=held(self.laws, self.initial_commands),
+        self.system = RobotSystem(self.plan, laws=held(self.laws, self.initial_commands), modes=self.modes,
                                   R_ref=np.broadcast_to(np.eye(3), (nb, 3, 3)))
         self.layout = robot_layout(robot)
         self.end_effector = robot_model(scene).end_effector
@@ -108,6 +114,17 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         slot_of = {k: s for s, k in enumerate(self.layout.moving_bodies)}
         imu = list(robot.sensors.imu_rods) + [len(robot.rods) + b for b in robot.sensors.imu_bodies]
         self.imu_slots = np.array([slot_of[k] for k in imu if k in slot_of], dtype=int)
+
+    def _holding(self) -> FloatArray:
+        """(a,) the command that holds each motor as drawn: its drawn rest length [m], reel
+        speed 0 [m/s], or the drawn tension [N] (``k (l - l0)^+`` at the drawn length)."""
+        plan = self.plan
+        i = plan.motor_cable
+        drawn = plan.cable_l0[i]
+        ends = self.robot.nodes[self.robot.cables.ends[i]]
+        tension = plan.cable_k[i] * np.maximum(np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1) - drawn, 0.0)
+        out: FloatArray = np.where(self.modes == REEL_SPEED, 0.0, np.where(self.modes == TENSION, tension, drawn))
+        return out
 
     # -- states ---------------------------------------------------------------------------------
     def initial_state(self, *, t_end: float = math.inf) -> State[FixedStepper]:
@@ -131,14 +148,15 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
 
     # -- running ------------------------------------------------------------------------------
     def set_command(self, state: State[FixedStepper], values: Iterable[float]) -> None:
-        """New rest lengths [m] for the commanded motors, within their ranges; they act from the
-        next step."""
-        commands = check_command(values, self.laws, self.actuator_names, positive=True)
+        """New commands for the commanded motors, each in its motor's mode (rest length [m],
+        reel speed [m/s], tension [N]) and within its range; they act from the next step."""
+        commands = check_command(values, self.laws, self.actuator_names)
         for name, j, v in zip(self.actuator_names, range(len(commands)), commands):
-            lo, hi = self.plan.motor_lo[j], self.plan.motor_hi[j]
+            lo, hi = self.command_ranges[j]
             if not math.isnan(v) and not lo <= v <= hi:
-                raise SimulationError(f"commanded rest length of {name} must be within its motor's range "
-                                      f"[{lo:g}, {hi:g}] m, got {v!r}")
+                what, unit = COMMAND_WORDS[int(self.modes[j])]
+                raise SimulationError(f"commanded {what} of {name} must be within its motor's range "
+                                      f"[{lo:g}, {hi:g}] {unit}, got {v!r}")
         if not changed(state.commands, commands):
             return
         state.commands = commands

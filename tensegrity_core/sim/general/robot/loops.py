@@ -34,6 +34,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from tensegrity_core.robot.motor import REEL_SPEED, TENSION
 from tensegrity_core.sim.general.kernels.jit import jit
 from tensegrity_core.sim.general.kernels.loops import nodal_wrenches, place, rates, rotate
 
@@ -225,13 +226,17 @@ def sampled_update(base: FloatArray, free_node: IntArray, free_axis: IntArray, o
                    motor_lo: FloatArray, motor_hi: FloatArray, motor_tau: FloatArray, motor_speed: FloatArray,
                    cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray, floor_normal: FloatArray,
                    floor_point: FloatArray, floor_params: FloatArray, y: FloatArray, R_ref: FloatArray, h: float,
-                   aim: FloatArray, X: FloatArray, V: FloatArray, R: FloatArray, r: FloatArray) -> None:
+                   aim: FloatArray, mode: IntArray, X: FloatArray, V: FloatArray, R: FloatArray,
+                   r: FloatArray) -> None:
     """The end of a fixed step of ``h`` [s] at state ``y`` (changed in place, with ``R_ref``):
 
-    - **motors**: each rest length moves by the motor's exact step towards its ``aim`` [m]
-      (sampled at the step's start, clipped to the range), then pays out where the cable
-      would pull harder than the tension limit: ``l0 >= l - T_max / k``, at most to the
-      range's end;
+    - **motors** (:mod:`tensegrity_core.robot.motor`): each motor's command ``aim`` is read in
+      its ``mode``: a rest length [m] (clipped to the range) or a tension [N] (the rest
+      length ``l - T / k`` at the cable's length ``l`` now, clipped) that the rest length
+      moves towards by the motor's exact step, or a reel speed [m/s] that moves it by
+      ``clip(u, -speed, speed) h`` within the range; then the spool pays out where the
+      cable would pull harder than the tension limit: ``l0 >= l - T_max / k``, at most to
+      the range's end;
     - **friction anchors** (return mapping): a cap out of contact (``F_n = 0``) loses its
       anchor (offset 0); a cap without one gets it where it touches (offset 0), sticking; one
       whose offset ``s`` holds (``k_t |s| <= mu F_n``, ``mu_s`` while sticking, ``mu_k``
@@ -246,13 +251,19 @@ def sampled_update(base: FloatArray, free_node: IntArray, free_axis: IntArray, o
     place(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, xv, R_ref, X, V, R, r)
     m0 = 2 * n_dof
     for j in range(motor_cable.shape[0]):
-        target = min(max(aim[j], motor_lo[j]), motor_hi[j])
-        l0 = motor_step(y[m0 + j], target, motor_tau[j], motor_speed[j], h)
         i = motor_cable[j]
+        a, b = cable_a[i], cable_b[i]
+        h0, h1, h2 = X[b, 0] - X[a, 0], X[b, 1] - X[a, 1], X[b, 2] - X[a, 2]
+        length = math.sqrt(h0 * h0 + h1 * h1 + h2 * h2)
+        if mode[j] == REEL_SPEED:
+            l0 = min(max(y[m0 + j] + min(max(aim[j], -motor_speed[j]), motor_speed[j]) * h, motor_lo[j]),
+                     motor_hi[j])
+        else:
+            u = aim[j]
+            if mode[j] == TENSION:
+                u = length - min(max(u, 0.0), cable_t_max[i]) / cable_k[i]
+            l0 = motor_step(y[m0 + j], min(max(u, motor_lo[j]), motor_hi[j]), motor_tau[j], motor_speed[j], h)
         if math.isfinite(cable_t_max[i]):
-            a, b = cable_a[i], cable_b[i]
-            h0, h1, h2 = X[b, 0] - X[a, 0], X[b, 1] - X[a, 1], X[b, 2] - X[a, 2]
-            length = math.sqrt(h0 * h0 + h1 * h1 + h2 * h2)
             l0 = max(l0, min(length - cable_t_max[i] / cable_k[i], motor_hi[j]))
         y[m0 + j] = l0
     k, d, mu_s, mu_k, kt = floor_params[0], floor_params[1], floor_params[2], floor_params[3], floor_params[4]
@@ -305,10 +316,12 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
               cable_motor: IntArray, motor_cable: IntArray, motor_lo: FloatArray, motor_hi: FloatArray,
               motor_tau: FloatArray, motor_speed: FloatArray, cap_node: IntArray, cap_body: IntArray,
               cap_radius: FloatArray, floor_normal: FloatArray, floor_point: FloatArray, floor_params: FloatArray,
-              y: FloatArray, R_ref: FloatArray, h: float, aims: FloatArray, y_end: FloatArray) -> None:
+              y: FloatArray, R_ref: FloatArray, h: float, aims: FloatArray, modes: IntArray,
+              y_end: FloatArray) -> None:
     """``len(aims)`` fixed steps of ``h`` [s] from ``y`` (changed in place, with the charts
     ``R_ref``): per step the classical RK4 (the sampled entries constant), then
-    :func:`sampled_update` with that step's motor targets ``aims[s]`` [m]. ``y_end``: the
+    :func:`sampled_update` with that step's motor commands ``aims[s]`` in the motors'
+    ``modes`` (rest length [m], reel speed [m/s], tension [N]). ``y_end``: the
     last step's RK4 result before its update (the end of the step in the step's own charts,
     for interpolation)."""
     N = y.shape[0]
@@ -339,7 +352,7 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
         y_end[:] = y
         sampled_update(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, cable_a, cable_b, cable_k,
                        cable_t_max, motor_cable, motor_lo, motor_hi, motor_tau, motor_speed, cap_node, cap_body,
-                       cap_radius, floor_normal, floor_point, floor_params, y, R_ref, h, aims[s], X, V, R, r)
+                       cap_radius, floor_normal, floor_point, floor_params, y, R_ref, h, aims[s], modes, X, V, R, r)
 
 
 @jit

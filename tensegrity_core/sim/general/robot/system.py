@@ -58,17 +58,22 @@ class RobotEvaluation:
 
 class RobotSystem:
     """A robot's equations with the charts ``R_ref`` (nb, 3, 3) and the motors' input
-    ``laws`` (one per motor, rest lengths [m]); ``kernels``: ``"numba"``, ``"numpy"`` or
-    None (numba where installed, unless ``TENSEGRITY_KERNELS`` says otherwise)."""
+    ``laws`` (one per motor, its command in its mode: ``modes`` (a,), the values of
+    :data:`tensegrity_core.robot.motor.MODES`, default all rest lengths [m]); ``kernels``:
+    ``"numba"``, ``"numpy"`` or None (numba where installed, unless ``TENSEGRITY_KERNELS``
+    says otherwise)."""
 
     #: No contact mode in the stepper's sense (the caps' contact states are sampled state).
     mode: frozenset[int] = frozenset()
     #: No Jacobian: robot scenes take fixed explicit steps.
     jac = None
 
-    def __init__(self, plan: RobotPlan, *, laws: Sequence[Law], R_ref: ArrayLike, kernels: str | None = None):
+    def __init__(self, plan: RobotPlan, *, laws: Sequence[Law], R_ref: ArrayLike, modes: ArrayLike | None = None,
+                 kernels: str | None = None):
         self.plan = plan
         self.laws = tuple(laws)
+        self.modes: NDArray[np.int64] = np.ascontiguousarray(
+            np.zeros(len(plan.motor_cable)) if modes is None else modes, dtype=np.int64)
         self.R_ref = _arg(R_ref)
         self.kernels = choose_kernels(kernels)
         self._module: ModuleType = loops if self.kernels == "numba" else arrays
@@ -86,7 +91,7 @@ class RobotSystem:
         return new
 
     def aims(self, times: FloatArray) -> FloatArray:
-        """(len(times), motors) the motors' targets [m] at ``times`` [s] (the input laws)."""
+        """(len(times), motors) the motors' commands at ``times`` [s] (the input laws)."""
         ts = np.asarray(times, dtype=float)
         out = np.empty((len(ts), len(self.laws)))
         for j, law in enumerate(self.laws):
@@ -100,12 +105,12 @@ class RobotSystem:
 
     def run(self, y: FloatArray, R_ref: FloatArray, h: float, aims: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
         """``len(aims)`` fixed steps of ``h`` [s] from ``y`` in the charts ``R_ref`` with the
-        motors' targets ``aims`` (steps, motors) [m] (:func:`.loops.run_steps`): ``(y, R_ref,
+        motors' commands ``aims`` (steps, motors) in their modes (:func:`.loops.run_steps`): ``(y, R_ref,
         y_end)`` after them (new arrays; ``y_end`` the last step's end before its sampled
         update, in that step's charts)."""
         y_new, R_new = _arg(np.array(y, dtype=float)), _arg(np.array(R_ref, dtype=float))
         y_end = np.empty_like(y_new)
-        self._module.run_steps(*self.plan, y_new, R_new, float(h), _arg(aims), y_end)
+        self._module.run_steps(*self.plan, y_new, R_new, float(h), _arg(aims), self.modes, y_end)
         return y_new, R_new, y_end
 
     def evaluate(self, y: FloatArray, R_ref: FloatArray | None = None) -> RobotEvaluation:
