@@ -5,7 +5,9 @@ vector (names in ``state_names``); ``q``, ``qdot``; ``applied_forces`` (N, a);
 ``member_forces``, ``member_lengths`` (N, m); ``nodes`` (N, n_nodes, 3); ``end_effector``
 (N, 3); ``potential_energy``, ``kinetic_energy`` (N,); ``folded`` (N,) bool;
 ``contact_forces``. ``events`` lists ``(t, kind, index)``. With sensor noise,
-``measurements`` holds the noisy copies of the listed quantities. ``success`` is False when
+``measurements`` holds the noisy copies of the listed quantities. Robots add ``readings``
+(:data:`READINGS`: the centre of mass, and with the ``sensors`` effect the sensors' readings
+and the caps' contact state). ``success`` is False when
 the run stopped early (``message`` says why; the arrays end at the last good sample);
 ``violations`` lists the invariants the run broke, one line each
 (:mod:`tensegrity_core.sim.invariants`; empty for a sound run).
@@ -34,6 +36,22 @@ FloatArray = NDArray[np.float64]
 ARRAYS = ("times", "states", "q", "qdot", "applied_forces", "contact_forces", "member_forces",
           "member_lengths", "nodes", "end_effector", "potential_energy", "kinetic_energy", "folded")
 
+#: A robot's readings a trajectory keeps (``readings``), with their units and shapes over the
+#: ``N`` samples; columns in the robot file's order: the sensed cables (``sensors.cable_length``
+#: and ``sensors.cable_tension``), the IMUs (``sensors.imu``), the caps (each rod's two end
+#: caps, in rod order).
+READINGS: dict[str, str] = {
+    "centre_of_mass": "[m] (N, 3), world frame",
+    "cable_lengths": "[m] (N, sensed cables)",
+    "cable_tensions": "[N] (N, sensed cables), tension positive",
+    "imu_orientation": "unit quaternion x, y, z, w (N, IMUs, 4), the rod's frame in the world",
+    "imu_angular_velocity": "[rad/s] (N, IMUs, 3), in the rod's frame",
+    "imu_specific_force": "[m/s^2] (N, IMUs, 3), in the rod's frame (at rest: -gravity)",
+    "cap_contact": "bool (N, caps), the cap touches the floor",
+    "cap_slipping": "bool (N, caps), the cap slides on the floor",
+    "friction_forces": "[N] (N, caps, 3), world frame, on the cap",
+}
+
 
 @dataclass
 class Trajectory:
@@ -58,6 +76,7 @@ class Trajectory:
     actuator_names: tuple[str, ...] = ()
     events: list[LoggedEvent] = field(default_factory=list)
     measurements: dict[str, FloatArray] = field(default_factory=dict)
+    readings: dict[str, NDArray[Any]] = field(default_factory=dict)
     stats: Stats = field(default_factory=Stats)
     success: bool = True
     message: str = ""
@@ -79,7 +98,8 @@ class Trajectory:
             kinetic_energy=data["kinetic_energy"], folded=data["folded"], node_names=tuple(names.node_names),
             member_names=tuple(names.member_names), member_nodes=np.asarray(names.member_nodes),
             state_names=tuple(state_names), actuator_names=tuple(scene.inputs), events=list(events),
-            measurements=measurements, stats=stats, success=not error,
+            measurements=measurements, readings={k: np.asarray(v) for k, v in data.items() if k in READINGS},
+            stats=stats, success=not error,
             message=error or f"simulated {scene.duration:g} s", scene=scene.data, violations=list(violations))
 
     def __len__(self) -> int:
@@ -87,13 +107,16 @@ class Trajectory:
 
     # -- files -------------------------------------------------------------------------------
     def to_npz(self, path: str | Path) -> Path:
-        """Write every array, the names, events, statistics and the scene to ``path`` (.npz)."""
+        """Write every array, the names, events, statistics and the scene to ``path`` (.npz);
+        ``measurements`` as ``measured_<name>``, ``readings`` as ``reading_<name>``."""
         path = Path(path)
         # (values Any: numpy's stub types the arrays passed as **kwds like its allow_pickle flag)
         arrays: dict[str, Any] = {k: np.asarray(getattr(self, k)) for k in ARRAYS}
         arrays["member_nodes"] = np.asarray(self.member_nodes)
         for k, v in self.measurements.items():
             arrays[f"measured_{k}"] = np.asarray(v)
+        for k, v in self.readings.items():
+            arrays[f"reading_{k}"] = np.asarray(v)
         meta = {"scene_name": self.scene_name, "node_names": list(self.node_names),
                 "member_names": list(self.member_names), "state_names": list(self.state_names),
                 "actuator_names": list(self.actuator_names),
@@ -111,12 +134,13 @@ class Trajectory:
             meta = json.loads(str(z["meta"]))
             arrays = {k: z[k] for k in ARRAYS}
             measured = {k[len("measured_"):]: z[k] for k in z.files if k.startswith("measured_")}
+            readings = {k[len("reading_"):]: z[k] for k in z.files if k.startswith("reading_")}
             member_nodes = z["member_nodes"]
         return cls(scene_name=meta["scene_name"], **arrays, node_names=tuple(meta["node_names"]),
                    member_names=tuple(meta["member_names"]), member_nodes=member_nodes,
                    state_names=tuple(meta["state_names"]), actuator_names=tuple(meta["actuator_names"]),
                    events=[(float(t), as_event_kind(str(kind)), int(i)) for t, kind, i in meta["events"]],
-                   measurements=measured,
+                   measurements=measured, readings=readings,
                    stats=meta["stats"], success=meta["success"], message=meta["message"], scene=meta["scene"],
                    violations=list(meta.get("violations", [])))
 
