@@ -9,9 +9,11 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from builtin_interfaces.msg import Duration as DurationMsg
+from numpy.typing import NDArray
 from sensor_msgs.msg import JointState
 from tensegrity_msgs.action import FollowActuatorTrajectory, MoveEndEffector
 from tensegrity_msgs.msg import ActuatorForces
@@ -42,7 +44,7 @@ def given(value: float) -> float | None:
     return None if value == 0.0 else value
 
 
-def stamp_start(stamp, now: float) -> float | None:
+def stamp_start(stamp: Any, now: float) -> float | None:
     """The start time of a trajectory: None (now) for a zero stamp, else the stamp [s]."""
     t = stamp_to_s(stamp)
     if t == 0.0:
@@ -53,7 +55,7 @@ def stamp_start(stamp, now: float) -> float | None:
     return t
 
 
-def parse_joint_state(msg: JointState):
+def parse_joint_state(msg: JointState) -> tuple[float, NDArray[np.float64], NDArray[np.float64]] | None:
     """``(t, q, qdot)`` of a joint state naming rho1, rho2, beta, or None when unusable."""
     names = list(msg.name)
     try:
@@ -67,7 +69,7 @@ def parse_joint_state(msg: JointState):
     return stamp_to_s(msg.header.stamp), np.array(q), np.array(qdot)
 
 
-def command_key(msg: ActuatorForces) -> tuple:
+def command_key(msg: ActuatorForces) -> tuple[int, int, tuple[str, ...], tuple[float, ...]]:
     """What tells two commands apart: stamp, names and forces."""
     return msg.header.stamp.sec, msg.header.stamp.nanosec, tuple(msg.name), tuple(msg.force)
 

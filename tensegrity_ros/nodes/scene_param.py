@@ -18,6 +18,7 @@ from tensegrity_core.class2 import Class2Params
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_core.sim import Scene, load_scene
+from tensegrity_core.sim.scene.spec import Class2ModelSpec
 from tensegrity_ros.nodes.common import declare
 
 #: The scene every node that models the class-2 mechanism reads it from (one source).
@@ -47,4 +48,6 @@ def declare_scene(node: Node, *, class2_only: bool = True) -> tuple[str, Scene]:
 
 def scene_mechanism(node: Node) -> Class2Params:
     """The class-2 parameters of the node's ``scene`` parameter (declared here)."""
-    return declare_scene(node)[1].model.params
+    model = declare_scene(node)[1].model
+    assert isinstance(model, Class2ModelSpec)           # declare_scene refused any other
+    return model.params
