@@ -46,11 +46,10 @@ import time
 from collections import deque
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any, Literal, TypeAlias, overload
+from typing import Any, Literal, overload
 
 import numpy as np
 from geometry_msgs.msg import Point
-from numpy.typing import NDArray
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.exceptions import InvalidHandle
 from rclpy.node import Node
@@ -59,9 +58,8 @@ from rclpy.task import Future
 from sensor_msgs.msg import JointState
 from tensegrity_msgs.action import FollowActuatorTrajectory, MoveEndEffector
 from tensegrity_msgs.msg import ActuatorForces
-from trajectory_msgs.msg import JointTrajectoryPoint
 
-from tensegrity_core.class2 import dynamics_singularity, end_effector_of
+from tensegrity_core.class2 import dynamics_singularity
 from tensegrity_core.class2.control import PlanningError, TrackingController, plan_move
 from tensegrity_core.class2.control import goals as G
 from tensegrity_core.class2.control.errors import INVALID_JOINTS
@@ -78,24 +76,23 @@ from tensegrity_ros.nodes.controller_messages import (
     FOLLOW_PLANNING_CODES,
     MOVE_PLANNING_CODES,
     OUTCOME_CODES,
+    CommandKey,
+    FloatArray,
+    Goal,
+    JointSample,
     OldStampError,
     command_key,
-    duration_msg,
+    feedback,
     given,
     parse_joint_state,
     stamp_start,
+    start_feedback,
 )
 from tensegrity_ros.nodes.scene_param import declare_scene
 from tensegrity_ros.rclpy_utils.messages import duration_to_s
 
 _MOVE = MoveEndEffector.Result
 _FOLLOW = FollowActuatorTrajectory.Result
-
-FloatArray: TypeAlias = NDArray[np.float64]
-#: ``(t, q, qdot)`` of a joint state: time [s], ``(rho1 [m], rho2 [m], beta [rad])`` and their rates.
-JointSample: TypeAlias = tuple[float, FloatArray, FloatArray]
-#: A goal the node supervises.
-Goal: TypeAlias = G.MoveGoal | G.TrajectoryGoal
 
 
 class _Job:
@@ -161,8 +158,7 @@ class ControllerNode(Node):
         self._latest_header: Any = None      # its header (stamp and frame)
         self._answer: Any = None             # the command published for it (sent again for a repeat)
         self._advanced_at: float | None = None   # wall time the joint states' time last advanced
-        # keys of the commands this node published lately
-        self._sent: deque[tuple[int, int, tuple[str, ...], tuple[float, ...]]] = deque(maxlen=256)
+        self._sent: deque[CommandKey] = deque(maxlen=256)   # keys of the commands this node published lately
         self._manual = False                 # another node's command took over; until the next goal
 
         # a history a briefly stalled recorder can be repaired from (the simulator's depth)
@@ -216,7 +212,7 @@ class ControllerNode(Node):
         self._publish(cmd)
         self._answer = cmd
         if job is not None and not job.finished.done():
-            job.handle.publish_feedback(self._feedback(job, msg, tick, q, qdot))
+            job.handle.publish_feedback(feedback(job.goal, msg.header, tick, q, qdot))
 
     def _publish(self, cmd: ActuatorForces) -> None:
         self._sent.append(command_key(cmd))
@@ -412,7 +408,8 @@ class ControllerNode(Node):
         self.ctrl.follow(ref, t0, gains)
         if old is not None:
             old.end(G.Outcome(G.PREEMPTED, "preempted by a newer goal"))
-        job.handle.publish_feedback(self._start_feedback(job))
+        assert self._latest is not None             # a goal starts on a measured state
+        job.handle.publish_feedback(start_feedback(job.goal, self._latest_header, self._latest, self.params.L))
         await job.finished
         return job
 
@@ -451,53 +448,6 @@ class ControllerNode(Node):
                     raise PlanningError(f"tolerance of {item.name} must be finite, got {v!r}")
                 values[ACTUATED_JOINTS.index(item.name)] = d if v == 0.0 else (v if v > 0.0 else 0.0)
         return (pos[0], pos[1]), (vel[0], vel[1])
-
-    def _start_feedback(self, job: _Job) -> Any:
-        """The feedback of a goal that has just taken over: the last measured
-        state against the reference at that time, before any tick under the goal. A client
-        that steps a paused simulator waits for it: from then on every step is the goal's."""
-        assert self._latest is not None             # a goal starts on a measured state
-        t, q, qdot = self._latest
-        desired = job.goal.reference.sample(t - job.goal.t_start)
-        d = np.array(end_effector_of(q, self.params.L))
-        if isinstance(job.goal, G.MoveGoal):
-            fb = MoveEndEffector.Feedback(header=self._latest_header, phase=job.goal.phase)
-            target = job.goal.reference.target
-            fb.end_effector = Point(x=float(d[0]), y=float(d[1]))
-            fb.desired = Point(x=float(desired.end_effector[0]), y=float(desired.end_effector[1]))
-            fb.tracking_error = float(math.hypot(*(d - desired.end_effector)))
-            fb.distance_to_target = float(math.hypot(d[0] - target[0], d[1] - target[1]))
-            fb.time_from_start = 0.0
-            return fb
-        fb = FollowActuatorTrajectory.Feedback(header=self._latest_header, joint_names=list(ACTUATED_JOINTS))
-        when = duration_msg(0.0)
-        fb.desired = JointTrajectoryPoint(positions=[float(v) for v in desired.q[:2]],
-                                          velocities=[float(v) for v in desired.qdot[:2]], time_from_start=when)
-        fb.actual = JointTrajectoryPoint(positions=[float(v) for v in q[:2]],
-                                         velocities=[float(v) for v in qdot[:2]], time_from_start=when)
-        fb.error = JointTrajectoryPoint(positions=[float(q[k] - desired.q[k]) for k in (0, 1)],
-                                        velocities=[float(qdot[k] - desired.qdot[k]) for k in (0, 1)],
-                                        time_from_start=when)
-        return fb
-
-    def _feedback(self, job: _Job, msg: JointState, tick: Tick, q: FloatArray, qdot: FloatArray) -> Any:
-        if isinstance(job.goal, G.MoveGoal):
-            fb = MoveEndEffector.Feedback(header=msg.header, phase=job.goal.phase)
-            fb.end_effector = Point(x=float(tick.end_effector[0]), y=float(tick.end_effector[1]))
-            fb.desired = Point(x=float(tick.desired.end_effector[0]), y=float(tick.desired.end_effector[1]))
-            fb.tracking_error = float(math.hypot(*(tick.end_effector - tick.desired.end_effector)))
-            fb.distance_to_target = float(job.goal.distance)
-            fb.time_from_start = float(tick.tau)
-            return fb
-        fb = FollowActuatorTrajectory.Feedback(header=msg.header, joint_names=list(ACTUATED_JOINTS))
-        when = duration_msg(tick.tau)
-        fb.desired = JointTrajectoryPoint(positions=[float(v) for v in tick.desired.q[:2]],
-                                          velocities=[float(v) for v in tick.desired.qdot[:2]], time_from_start=when)
-        fb.actual = JointTrajectoryPoint(positions=[float(v) for v in q[:2]],
-                                         velocities=[float(v) for v in qdot[:2]], time_from_start=when)
-        fb.error = JointTrajectoryPoint(positions=[float(v) for v in job.goal.error],
-                                        velocities=[float(v) for v in job.goal.rate_error], time_from_start=when)
-        return fb
 
     def destroy_node(self) -> None:
         job, self._job = self._job, None
