@@ -30,7 +30,7 @@ from tensegrity_ros.apps.sim_client import NS_PER_S, JointRecord, SimClient
 #: End-effector waypoints, offsets [m] from D at rho1 = rho2 = 0.7 (the scene's rest).
 WAYPOINT_OFFSETS = ((0.08, 0.0), (0.08, 0.06), (-0.04, 0.06), (0.0, 0.0))
 MOVE_TIME = 2.0          # s: duration of each move (MoveEndEffector.duration)
-GOAL_TOLERANCE = 5e-5    # m: a move succeeds once D stays this close to its target (issue 15: 0.05 mm)
+GOAL_TOLERANCE = 5e-5    # m: a move succeeds once D stays this close to its target (0.05 mm)
 SETTLE_TIMEOUT = 2.0     # s after a move's end to get there (the controller's settle_timeout)
 SETTLE_WINDOW = 0.2      # s D must stay within the tolerance (the controller's settle_window)
 CHECK_AFTER = 2.0        # s after a move's end at which the error is measured as well

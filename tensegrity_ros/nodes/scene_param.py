@@ -5,8 +5,8 @@ The scene loader (the simulator package, with scipy) is imported here, at module
 every node that uses it has it loaded before the node starts running: a stop signal that
 comes while a process imports ends it at once, one that comes while its node is being built
 waits for the build (:mod:`tensegrity_ros.rclpy_utils.stop_signals`). Imported inside
-:func:`declare_scene` it made building the IK node take 0.7 s on an idle machine and about
-3 s at load average 10, and a SIGINT in that time up to 4.7 s to take effect. The
+:func:`declare_scene` it would make building the IK node take 0.7 s on an idle machine
+(several seconds on a loaded one), and a SIGINT in that time would wait for all of it. The
 form-finding node, which needs no scene, does not import this module.
 """
 
