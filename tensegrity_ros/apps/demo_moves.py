@@ -17,7 +17,9 @@ from __future__ import annotations
 import math
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -28,7 +30,7 @@ from tensegrity_ros.apps.sim_client import NS_PER_S, JointRecord, SimClient
 #: End-effector waypoints, offsets [m] from D at rho1 = rho2 = 0.7 (the scene's rest).
 WAYPOINT_OFFSETS = ((0.08, 0.0), (0.08, 0.06), (-0.04, 0.06), (0.0, 0.0))
 MOVE_TIME = 2.0          # s: duration of each move (MoveEndEffector.duration)
-GOAL_TOLERANCE = 5e-5    # m: a move succeeds once D stays this close to its target (issue 15: 0.05 mm)
+GOAL_TOLERANCE = 5e-5    # m: a move succeeds once D stays this close to its target (0.05 mm)
 SETTLE_TIMEOUT = 2.0     # s after a move's end to get there (the controller's settle_timeout)
 SETTLE_WINDOW = 0.2      # s D must stay within the tolerance (the controller's settle_window)
 CHECK_AFTER = 2.0        # s after a move's end at which the error is measured as well
@@ -89,7 +91,7 @@ class ControllerClient:
         self._cond = threading.Condition()
         sim.node.create_subscription(ActuatorForces, "actuator_forces", self._on_command, QoSProfile(depth=1000))
 
-    def _on_command(self, msg) -> None:
+    def _on_command(self, msg: Any) -> None:
         with self._cond:
             self._answered.add(msg.header.stamp.sec * NS_PER_S + msg.header.stamp.nanosec)
             self._cond.notify_all()
@@ -129,13 +131,14 @@ class ControllerClient:
                 raise RuntimeError(f"the controller did not answer the state at t = {stamp_ns / NS_PER_S:.9f} s "
                                    f"within {timeout:g} s")
 
-    def run_goal(self, action, goal, steps: int, from_ns: int, step_ns: int, timeout: float = 120.0):
+    def run_goal(self, action: Any, goal: Any, steps: int, from_ns: int, step_ns: int,
+                 timeout: float = 120.0) -> tuple[int, Any, list[Any]]:
         """Send ``goal``, wait for its takeover feedback, step ``steps`` steps from the state
         stamped ``from_ns``, return ``(status, result, feedback list)``."""
-        feedback: list = []
+        feedback: list[Any] = []
         started = threading.Event()
 
-        def on_feedback(msg) -> None:
+        def on_feedback(msg: Any) -> None:
             feedback.append(msg.feedback)
             started.set()
 
@@ -153,7 +156,7 @@ class ControllerClient:
         return res.status, res.result, feedback
 
 
-    def _in_executor(self, call, timeout: float = 60.0):
+    def _in_executor(self, call: Callable[[], Any], timeout: float = 60.0) -> Any:
         """``call()`` run by the client's executor thread, its return value (a future).
         rclpy's ActionClient registers a request's future only after sending it, without a
         lock (Jazzy): called from another thread while the executor spins, the answer can be
@@ -161,7 +164,7 @@ class ControllerClient:
         return _wait(self.sim.executor.create_task(call), timeout, "executor task")
 
 
-def _wait(future, timeout: float, what: str):
+def _wait(future: Any, timeout: float, what: str) -> Any:
     done = threading.Event()
     future.add_done_callback(lambda _f: done.set())
     if not done.wait(timeout):
@@ -177,7 +180,8 @@ def _steps(seconds: float, step_ns: int) -> int:
     return math.ceil(round(seconds * NS_PER_S) / step_ns)
 
 
-def run_moves(ctl: ControllerClient, step_ns: int, *, L: float = PAPER_PARAMS.L):
+def run_moves(ctl: ControllerClient, step_ns: int, *, L: float = PAPER_PARAMS.L,
+              ) -> tuple[list[MoveReport], TrajectoryReport, list[JointRecord]]:
     """From rest with the clock at 0: the waypoint moves, then the trajectory. Returns
     ``(move reports, trajectory report, joint states received)``."""
     from builtin_interfaces.msg import Duration
@@ -225,7 +229,8 @@ def run_moves(ctl: ControllerClient, step_ns: int, *, L: float = PAPER_PARAMS.L)
     return moves, trajectory, sim.take_joints()
 
 
-def _move_report(target, start, res, window: list[JointRecord], L: float) -> MoveReport:
+def _move_report(target: tuple[float, float], start: np.ndarray, res: Any, window: list[JointRecord],
+                 L: float) -> MoveReport:
     """The report of a move from the joint states of its window (its start to CHECK_AFTER s
     after its end) and the action's result."""
     direction = np.asarray(target) - start

@@ -22,6 +22,7 @@ import sys
 import threading
 import time
 from dataclasses import dataclass, field
+from typing import TextIO
 
 from tensegrity_ros.rclpy_utils.env import ensure_ros_environment
 from tensegrity_ros.rclpy_utils.stop_signals import signals_blocked, stop_on_signals
@@ -54,16 +55,16 @@ def _ended(name: str, code: int) -> str:
 class Launcher:
     """Runs :class:`ProcessSpec` children until one is asked to stop or all have exited."""
 
-    def __init__(self, specs: list[ProcessSpec], *, grace: float = 5.0, out=sys.stdout):
+    def __init__(self, specs: list[ProcessSpec], *, grace: float = 5.0, out: TextIO = sys.stdout) -> None:
         self.specs = specs
         self.grace = grace
         self.out = out
-        self.procs: dict[str, subprocess.Popen] = {}
+        self.procs: dict[str, subprocess.Popen[str]] = {}
         self._stop = threading.Event()
         self._lock = threading.Lock()
         self._reported: set[str] = set()     # children whose end was said already
 
-    def _pump(self, name: str, stream) -> None:
+    def _pump(self, name: str, stream: TextIO) -> None:
         for line in iter(stream.readline, ""):
             with self._lock:
                 self.out.write(f"[{name}] {line}")

@@ -20,15 +20,20 @@ same in both).
 from __future__ import annotations
 
 import threading
-from collections.abc import Callable
 from dataclasses import dataclass
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from tensegrity_core.class2 import end_effector_of
 from tensegrity_core.class2.names import ACTUATORS
+from tensegrity_core.sim.sampled import Controller
 from tensegrity_core.sim.simulator import JointSample
 from tensegrity_ros.rclpy_utils.spin_thread import SpinThread
+
+if TYPE_CHECKING:
+    from rclpy.context import Context
 
 NS_PER_S = 1_000_000_000
 
@@ -38,9 +43,9 @@ class JointRecord:
     """One joint state as received: stamp [ns], position, velocity, effort (tuples of floats)."""
 
     stamp_ns: int
-    position: tuple
-    velocity: tuple
-    effort: tuple
+    position: tuple[float, ...]
+    velocity: tuple[float, ...]
+    effort: tuple[float, ...]
 
 
 def cable_sample_of(record: JointRecord) -> JointSample:
@@ -65,8 +70,8 @@ class SimClient:
     (then joint states are only recorded); with ``cables`` (names of actuated cables)
     ``law(sample)`` gives their rest lengths [m], sent as ``CableCommand``."""
 
-    def __init__(self, rclpy, name: str = "tensegrity_sim_client", *, record_events: bool = True, context=None,
-                 namespace: str = "", cables: tuple[str, ...] | None = None):
+    def __init__(self, rclpy: ModuleType, name: str = "tensegrity_sim_client", *, record_events: bool = True,
+                 context: Context | None = None, namespace: str = "", cables: tuple[str, ...] | None = None) -> None:
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.qos import QoSProfile
         from sensor_msgs.msg import JointState
@@ -91,13 +96,13 @@ class SimClient:
         self.pub = (self.node.create_publisher(CableCommand, "cable_commands", QoSProfile(depth=1000)) if cables
                     else self.node.create_publisher(ActuatorForces, "actuator_forces", QoSProfile(depth=1000)))
         self.node.create_subscription(JointState, "joint_states", self._on_joints, QoSProfile(depth=1000))
-        self.events: list = []
+        self.events: list[Any] = []           # SimulationEvent messages
         if record_events:
             self.node.create_subscription(SimulationEvent, "events", self.events.append, QoSProfile(depth=1000))
         self.joints: list[JointRecord] = []
-        self.law: Callable | None = None
+        self.law: Controller | None = None
         self._until_ns: int | None = None
-        self._answered: set = set()
+        self._answered: set[int] = set()
         self._lock = threading.Lock()
         self._new = threading.Condition(self._lock)
         self.executor = SingleThreadedExecutor(context=context)
@@ -107,7 +112,7 @@ class SimClient:
         self._spinning = SpinThread(self.executor, f"{name}_spin", poll_s=0.05).start()
 
     # -- the controller ------------------------------------------------------------------------
-    def _on_joints(self, msg) -> None:
+    def _on_joints(self, msg: Any) -> None:
         rec = JointRecord(msg.header.stamp.sec * NS_PER_S + msg.header.stamp.nanosec, tuple(msg.position),
                           tuple(msg.velocity), tuple(msg.effort))
         with self._lock:
@@ -130,7 +135,7 @@ class SimClient:
             cmd.header.stamp = msg.header.stamp
             self.pub.publish(cmd)
 
-    def set_law(self, law: Callable | None, *, until_ns: int | None = None) -> None:
+    def set_law(self, law: Controller | None, *, until_ns: int | None = None) -> None:
         """Answer joint states with ``law`` from now on (None: stop answering). Each stamp is
         answered once per law: a state the simulator republishes (at the start of a stepping
         request, or while paused) gets no second command, which the simulator would reject
@@ -159,14 +164,15 @@ class SimClient:
     def wait_joint(self, stamp_ns: int | None = None, timeout: float = 30.0) -> JointRecord:
         """Wait for a joint state stamped ``stamp_ns`` (None: any, i.e. the first since the
         last take) and return it."""
-        def found():
+        def found() -> JointRecord | None:
             return next((j for j in self.joints if stamp_ns is None or j.stamp_ns == stamp_ns), None)
 
         with self._lock:
-            if not self._new.wait_for(lambda: found() is not None, timeout):
+            record = self._new.wait_for(found, timeout)
+            if record is None:
                 raise RuntimeError(f"no joint_states{'' if stamp_ns is None else f' stamped {stamp_ns} ns'} "
                                    f"within {timeout:g} s")
-            return found()
+            return record
 
     # -- services ----------------------------------------------------------------------------------
     def wait_for_services(self, timeout: float = 60.0) -> None:
@@ -181,7 +187,7 @@ class SimClient:
         if not wait_for_matches([self.pub], 1, timeout):
             raise RuntimeError(f"nobody subscribes to {self.pub.topic_name} within {timeout:g} s")
 
-    def call(self, name: str, request=None, timeout: float = 600.0):
+    def call(self, name: str, request: Any = None, timeout: float = 600.0) -> Any:
         client = self.clients[name]
         done = threading.Event()
         future = client.call_async(request if request is not None else self.srv[name].Request())
@@ -190,7 +196,7 @@ class SimClient:
             raise RuntimeError(f"no answer from {client.srv_name} within {timeout:g} s")
         return future.result()
 
-    def checked(self, name: str, request=None, timeout: float = 600.0):
+    def checked(self, name: str, request: Any = None, timeout: float = 600.0) -> Any:
         """``call`` a simulation_interfaces service and raise unless its result is OK."""
         from simulation_interfaces.msg import Result
 
@@ -199,12 +205,12 @@ class SimClient:
             raise RuntimeError(f"{name} failed (result {res.result.result}): {res.result.error_message}")
         return res
 
-    def set_state(self, state: int):
+    def set_state(self, state: int) -> Any:
         req = self.srv["set_simulation_state"].Request()
         req.state.state = state
         return self.call("set_simulation_state", req)
 
-    def step(self, steps: int, timeout: float = 600.0):
+    def step(self, steps: int, timeout: float = 600.0) -> Any:
         return self.checked("step_simulation", self.srv["step_simulation"].Request(steps=steps), timeout)
 
     def step_received(self, steps: int, from_ns: int, step_ns: int, chunk: int = 50) -> None:
@@ -220,7 +226,7 @@ class SimClient:
             done += n
             self.wait_joint(from_ns + done * step_ns)
 
-    def reset_all(self):
+    def reset_all(self) -> Any:
         req = self.srv["reset_simulation"].Request(scope=self.srv["reset_simulation"].Request.SCOPE_ALL)
         return self.checked("reset_simulation", req)
 

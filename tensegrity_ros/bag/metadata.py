@@ -28,11 +28,11 @@ import os
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Final
 
 import yaml
 
-from tensegrity_core.excerpt import excerpt
+from tensegrity_core.schema import KeyPath, Reader, SchemaError, excerpt, type_name
 from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.qos import parse_profiles
 from tensegrity_ros.bag.untrusted import MAX_YAML_BYTES, load_bag_yaml, path_inside, read_bounded
@@ -124,102 +124,154 @@ class BagMetadata:
 
     @classmethod
     def from_dict(cls, data: Any, source: str = "metadata") -> BagMetadata:
-        """Metadata from the parsed YAML ``data``; :class:`BagError` naming the first field
-        that is missing or of the wrong type (the data comes from a bag: every field is
-        checked, and values are quoted only as excerpts)."""
-        f = _Fields(source)
-        info = f.mapping(f.mapping(data, "the document").get("rosbag2_bagfile_information"),
-                         "rosbag2_bagfile_information")
-        version = f.integer(info, "version")
-        topics = []
-        for entry in f.sequence(info, "topics_with_message_count"):
-            entry = f.mapping(entry, "topics_with_message_count entry")
-            tm = f.mapping(entry.get("topic_metadata"), "topic_metadata")
-            try:
-                profiles = parse_profiles(tm.get("offered_qos_profiles"))
-            except BagError as err:
-                raise BagError(f"{source}: {err}") from None
-            topics.append(TopicInfo(
-                name=f.text(tm, "name"),
-                type=f.text(tm, "type"),
-                serialization_format=f.text(tm, "serialization_format", "cdr"),
-                offered_qos_profiles=profiles,
-                type_description_hash=f.text(tm, "type_description_hash", ""),
-                message_count=f.integer(entry, "message_count", 0),
-            ))
-        paths = [f.text({"relative_file_paths": p}, "relative_file_paths")
-                 for p in f.sequence(info, "relative_file_paths")]
-        files = []
-        for entry in f.sequence(info, "files"):
-            entry = f.mapping(entry, "files entry")
-            files.append(FileInfo(
-                path=f.text(entry, "path"),
-                starting_time_ns=f.integer(f.mapping(entry.get("starting_time"), "starting_time"),
-                                           "nanoseconds_since_epoch"),
-                duration_ns=f.integer(f.mapping(entry.get("duration"), "duration"), "nanoseconds"),
-                message_count=f.integer(entry, "message_count"),
-            ))
+        """Metadata from the parsed YAML ``data`` (``source`` names it in messages), checked
+        field by field by :class:`MetadataReader`: a :class:`MetadataError` names the first
+        field that is missing, unknown or of the wrong type, with its key path and line."""
+        return MetadataReader(source).metadata(data)
+
+
+class MetadataError(SchemaError, BagError):
+    """``metadata.yaml`` is not rosbag2 metadata: the field (key path), its line and the file."""
+
+
+#: The fields of each part of the metadata this reader knows (rosbag2 versions up to
+#: :data:`FORMAT_VERSION`), and those of them that must be there.
+INFO_FIELDS: Final = ("version", "storage_identifier", "duration", "starting_time", "message_count",
+                      "topics_with_message_count", "compression_format", "compression_mode",
+                      "relative_file_paths", "files", "custom_data", "ros_distro")
+INFO_REQUIRED: Final = ("version", "duration", "starting_time", "message_count")
+TOPIC_ENTRY_FIELDS: Final = ("topic_metadata", "message_count")
+TOPIC_FIELDS: Final = ("name", "type", "serialization_format", "offered_qos_profiles", "type_description_hash")
+FILE_FIELDS: Final = ("path", "starting_time", "duration", "message_count")
+
+
+class MetadataReader(Reader):
+    """The schema of ``metadata.yaml`` (see the module's docstring) on the one
+    :class:`~tensegrity_core.schema.Reader`. The data comes from a bag: every field is
+    checked, values are quoted only as excerpts, and strings are at most :data:`MAX_TEXT`
+    characters. Fields of a newer rosbag2 version than :data:`FORMAT_VERSION` that this
+    reader does not know are passed over; in a version it knows, an unknown field is an
+    error that names it."""
+
+    def __init__(self, source: str) -> None:
+        super().__init__(MetadataError, source)
+        self.known = True           # whether this reader knows the file's version's fields
+
+    def metadata(self, data: Any) -> BagMetadata:
+        top = self.mapping(data, ())
+        self.fields(top, (), ("rosbag2_bagfile_information",), ("rosbag2_bagfile_information",))
+        root: KeyPath = ("rosbag2_bagfile_information",)
+        info = self.mapping(top["rosbag2_bagfile_information"], root, top, "rosbag2_bagfile_information")
+        version = self.integer(info, "version", root, lo=1)
+        self.known = version <= FORMAT_VERSION
+        self.fields(info, root, INFO_FIELDS, INFO_REQUIRED)
+        topic_list = self.optional_list(info, "topics_with_message_count", root)
+        topics = [self.topic(entry, root + ("topics_with_message_count", i), topic_list, i)
+                  for i, entry in enumerate(topic_list)]
+        paths_at = root + ("relative_file_paths",)
+        paths = self.optional_list(info, "relative_file_paths", root)
+        for i, p in enumerate(paths):
+            self.text_value(p, paths_at + (i,), paths, i)
+        files_at = root + ("files",)
+        file_list = self.optional_list(info, "files", root)
+        files = [self.storage_file(entry, files_at + (i,), file_list, i) for i, entry in enumerate(file_list)]
         if not files:  # version < 5 lists only the paths
             files = [FileInfo(p, 0, 0, 0) for p in paths]
-        custom = info.get("custom_data") or None
-        if custom is not None:
-            custom = {f.text({"custom_data key": k}, "custom_data key"): f.text(custom, k)
-                      for k in f.mapping(custom, "custom_data")}
-        return cls(
+        return BagMetadata(
             topics=topics,
             files=files,
-            starting_time_ns=f.integer(f.mapping(info.get("starting_time"), "starting_time"),
-                                       "nanoseconds_since_epoch"),
-            duration_ns=f.integer(f.mapping(info.get("duration"), "duration"), "nanoseconds"),
-            message_count=f.integer(info, "message_count"),
-            storage_identifier=f.text(info, "storage_identifier", ""),
-            compression_format=f.text(info, "compression_format", ""),
-            compression_mode=f.text(info, "compression_mode", ""),
-            custom_data=custom,
-            ros_distro=f.text(info, "ros_distro", ""),
+            starting_time_ns=self.nanoseconds(info, "starting_time", "nanoseconds_since_epoch", root),
+            duration_ns=self.nanoseconds(info, "duration", "nanoseconds", root, lo=0),
+            message_count=self.count(info, "message_count", root),
+            storage_identifier=self.text(info, "storage_identifier", root, ""),
+            compression_format=self.text(info, "compression_format", root, ""),
+            compression_mode=self.text(info, "compression_mode", root, ""),
+            custom_data=self.custom_data(info, root),
+            ros_distro=self.text(info, "ros_distro", root, ""),
             version=version,
         )
 
+    def topic(self, value: Any, path: KeyPath, container: Any, key: int) -> TopicInfo:
+        entry = self.mapping(value, path, container, key)
+        self.fields(entry, path, TOPIC_ENTRY_FIELDS, ("topic_metadata",))
+        at = path + ("topic_metadata",)
+        tm = self.mapping(entry["topic_metadata"], at, entry, "topic_metadata")
+        self.fields(tm, at, TOPIC_FIELDS, ("name", "type"))
+        try:
+            profiles = parse_profiles(tm.get("offered_qos_profiles"))
+        except BagError as err:
+            raise self.error(str(err), at + ("offered_qos_profiles",), tm, "offered_qos_profiles") from None
+        return TopicInfo(
+            name=self.text(tm, "name", at),
+            type=self.text(tm, "type", at),
+            serialization_format=self.text(tm, "serialization_format", at, "cdr"),
+            offered_qos_profiles=profiles,
+            type_description_hash=self.text(tm, "type_description_hash", at, ""),
+            message_count=self.count(entry, "message_count", path, default=0),
+        )
 
-class _Fields:
-    """Typed access to the fields of untrusted metadata; errors name ``source`` and the field."""
+    def storage_file(self, value: Any, path: KeyPath, container: Any, key: int) -> FileInfo:
+        entry = self.mapping(value, path, container, key)
+        self.fields(entry, path, FILE_FIELDS, FILE_FIELDS)
+        return FileInfo(
+            path=self.text(entry, "path", path),
+            starting_time_ns=self.nanoseconds(entry, "starting_time", "nanoseconds_since_epoch", path),
+            duration_ns=self.nanoseconds(entry, "duration", "nanoseconds", path, lo=0),
+            message_count=self.count(entry, "message_count", path),
+        )
 
-    def __init__(self, source: str):
-        self.source = source
+    def custom_data(self, info: dict[Any, Any], path: KeyPath) -> dict[str, str] | None:
+        if info.get("custom_data") is None:
+            return None
+        at = path + ("custom_data",)
+        custom = self.mapping(info["custom_data"], at, info, "custom_data")
+        for k in custom:
+            self.text_value(k, at + (k,), custom, k)
+        return {k: self.text(custom, k, at) for k in custom} or None
 
-    def _fail(self, what: str, wanted: str, value: Any) -> BagError:
-        return BagError(f"{self.source} is not rosbag2 metadata: {what} must be {wanted}, "
-                        f"got {excerpt(value)}")
+    # -- fields ----------------------------------------------------------------------------
+    def fields(self, d: dict[Any, Any], path: KeyPath, allowed: tuple[str, ...],
+               required: tuple[str, ...] = ()) -> None:
+        """Every field of ``required`` is in ``d``; in a version this reader knows, every
+        field of ``d`` is one of ``allowed`` (an unknown one is named with the closest)."""
+        self.keys(d, path, allowed if self.known else tuple(d), required)
 
-    def mapping(self, value: Any, what: str) -> dict[str, Any]:
-        if not isinstance(value, dict):
-            raise self._fail(what, "a mapping", value)
-        return value
+    def optional_list(self, d: dict[Any, Any], key: str, path: KeyPath) -> list[Any]:
+        """``d[key]`` as a list; ``[]`` when absent or null."""
+        return [] if d.get(key) is None else self.sequence(d[key], path + (key,), d, key)
 
-    def sequence(self, info: dict[str, Any], key: str) -> list[Any]:
-        value = info.get(key)
-        if value is None:
-            return []
-        if not isinstance(value, list):
-            raise self._fail(key, "a list", value)
-        return value
-
-    def text(self, d: dict[str, Any], key: str, default: str | None = None) -> str:
-        value = d.get(key, default)
-        if value is None and default is not None:
+    def text(self, d: dict[Any, Any], key: Any, path: KeyPath, default: str | None = None) -> str:
+        """``d[key]`` as a string of at most :data:`MAX_TEXT` characters, ``default`` when
+        absent or null (required when ``default`` is None)."""
+        if d.get(key) is None and default is not None:
             return default
+        value = self.string(d, key, path)
+        return self.text_value(value, path + (key,), d, key)
+
+    def text_value(self, value: Any, path: KeyPath, container: Any, key: Any) -> str:
         if not isinstance(value, str):
-            raise self._fail(key, "a string", value)
+            raise self.error(f"must be a string, got {type_name(value)} ({excerpt(value)})", path, container, key)
         if len(value) > MAX_TEXT:
-            raise self._fail(key, f"at most {MAX_TEXT} characters", value)
+            raise self.error(f"must be at most {MAX_TEXT} characters, got {excerpt(value)}", path, container, key)
         return value
 
-    def integer(self, d: dict[str, Any], key: str, default: int | None = None) -> int:
-        value = d.get(key, default)
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise self._fail(key, "an integer", value)
+    def count(self, d: dict[Any, Any], key: str, path: KeyPath, default: int | None = None) -> int:
+        """``d[key]``: a count (a 64-bit unsigned integer)."""
+        return self.int64(d, key, path, default=default, lo=0)
+
+    def nanoseconds(self, d: dict[Any, Any], key: str, field: str, path: KeyPath, lo: int | None = None) -> int:
+        """``d[key][field]``: a time or duration [ns], 64-bit."""
+        at = path + (key,)
+        inner = self.mapping(d[key], at, d, key)
+        if field not in inner:
+            raise self.error(f"missing required key {field!r}", at, inner)
+        return self.int64(inner, field, at, lo=lo)
+
+    def int64(self, d: dict[Any, Any], key: str, path: KeyPath, *, default: int | None = None,
+              lo: int | None = None) -> int:
+        value = self.integer(d, key, path, default=default, lo=lo)
         if not -2**63 <= value < 2**64:
-            raise self._fail(key, "a 64-bit integer", value)
+            raise self.error(f"must fit in 64 bits, got {excerpt(value)}", path + (key,), d, key)
         return value
 
 

@@ -27,6 +27,9 @@ import importlib
 import os
 import pkgutil
 import sys
+from collections.abc import Iterable
+from types import ModuleType
+from typing import Any
 
 from tensegrity_ros.cli._common import CliError, fail
 from tensegrity_ros.rclpy_utils import stop_signals
@@ -36,7 +39,7 @@ os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 
-def _command_modules():
+def _command_modules() -> list[ModuleType]:
     pkg = sys.modules[__name__]
     names = sorted(m.name for m in pkgutil.iter_modules(pkg.__path__) if m.name.startswith("cmd_"))
     mods = [importlib.import_module(f"{__name__}.{n}") for n in names]
@@ -49,7 +52,8 @@ class CommandParser(argparse.ArgumentParser):
     arguments: --jsn (did you mean --json?)"), where argparse would hand the leftovers up
     to the top-level parser and print the top-level usage."""
 
-    def parse_known_args(self, args=None, namespace=None):
+    def parse_known_args(self, args: Iterable[str] | None = None,
+                         namespace: Any = None) -> tuple[Any, list[str]]:
         namespace, extras = super().parse_known_args(args, namespace)
         if extras:
             options = [o for action in self._actions for o in action.option_strings]
@@ -124,7 +128,7 @@ def main(argv: list[str] | None = None, *, exit_after: bool = False) -> int:
             gc.freeze()
 
 
-def _run(args) -> int:
+def _run(args: argparse.Namespace) -> int:
     from tensegrity_ros.rclpy_utils.env import RosUnavailableError
 
     try:

@@ -2,19 +2,25 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import sys
 from collections.abc import Callable
-from typing import Any
+from typing import Any, TypeAlias
 
 from tensegrity_core.errors import TensegrityError
+
+#: What a command module's ``register`` adds its subcommands to.
+Subparsers: TypeAlias = "argparse._SubParsersAction[argparse.ArgumentParser]"
+#: A subcommand's handler: the parsed arguments to the process exit code.
+Handler: TypeAlias = Callable[[argparse.Namespace], int]
 
 
 class CliError(TensegrityError):
     """A user-facing failure: printed as one ``error:`` line, exit code ``code``."""
 
-    def __init__(self, message: str, code: int = 2):
+    def __init__(self, message: str, code: int = 2) -> None:
         super().__init__(message)
         self.code = code
 
@@ -25,15 +31,12 @@ def fail(message: str, code: int = 2) -> int:
 
 
 def _jsonable(obj: Any) -> Any:
-    try:
-        import numpy as np
-    except ImportError:  # pragma: no cover
-        np = None
-    if np is not None:
-        if isinstance(obj, np.ndarray):
-            return [_jsonable(v) for v in obj.tolist()]
-        if isinstance(obj, np.generic):
-            return _jsonable(obj.item())
+    import numpy as np
+
+    if isinstance(obj, np.ndarray):
+        return [_jsonable(v) for v in obj.tolist()]
+    if isinstance(obj, np.generic):
+        return _jsonable(obj.item())
     if isinstance(obj, float) and not math.isfinite(obj):
         return None if math.isnan(obj) else ("inf" if obj > 0 else "-inf")
     if isinstance(obj, dict):
@@ -63,7 +66,7 @@ def parse_param_overrides(items: list[str] | None) -> dict[str, float]:
     return out
 
 
-def add_json_flag(p) -> None:
+def add_json_flag(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="machine-readable JSON output")
 
 
@@ -71,12 +74,12 @@ def add_json_flag(p) -> None:
 Row = dict[str, Any]
 
 
-def add_listing(subparsers, name: str, *, help: str, description: str, rows: Callable[[], list[Row]],
+def add_listing(subparsers: Subparsers, name: str, *, help: str, description: str, rows: Callable[[], list[Row]],
                 details: Callable[[Row], str]) -> None:
     """Add the subcommand ``name`` that lists what the package ships (scenes, sweeps): each
     row of ``rows()`` as its name and description, ``details(row)`` on the line below; with
     ``--json`` the rows themselves."""
-    def run(args) -> int:
+    def run(args: argparse.Namespace) -> int:
         listed = rows()
         if args.json:
             print_json(listed)

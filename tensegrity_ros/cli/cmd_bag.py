@@ -5,13 +5,13 @@ from __future__ import annotations
 import argparse
 import sys
 
-from tensegrity_ros.cli._common import CliError, add_json_flag, print_json
+from tensegrity_ros.cli._common import CliError, Handler, Subparsers, add_json_flag, print_json
 
 ORDER = 70
 
 
-def _bag_errors(fn):
-    def run(args):
+def _bag_errors(fn: Handler) -> Handler:
+    def run(args: argparse.Namespace) -> int:
         from tensegrity_ros.bag.errors import BagError
         try:
             return fn(args)
@@ -21,7 +21,7 @@ def _bag_errors(fn):
 
 
 @_bag_errors
-def _record(args) -> int:
+def _record(args: argparse.Namespace) -> int:
     from tensegrity_ros.rclpy_utils.env import require_rclpy
 
     require_rclpy()
@@ -42,7 +42,7 @@ def _clock_rate(text: str) -> float:
 
 
 @_bag_errors
-def _play(args) -> int:
+def _play(args: argparse.Namespace) -> int:
     from tensegrity_ros.rclpy_utils.env import require_rclpy
 
     require_rclpy()
@@ -59,7 +59,7 @@ def _play(args) -> int:
     return 0    # played to the end, or stopped on request (SIGINT/SIGTERM): both clean
 
 
-def _resimulate(args) -> int:
+def _resimulate(args: argparse.Namespace) -> int:
     from tensegrity_ros.apps.resimulate import resimulate
 
     if args.step_size is not None and not 1e-6 <= args.step_size <= 10.0:
@@ -77,7 +77,7 @@ def _resimulate(args) -> int:
 
 
 @_bag_errors
-def _info(args) -> int:
+def _info(args: argparse.Namespace) -> int:
     from tensegrity_ros.bag.info import bag_info, format_info
 
     info = bag_info(args.bag)
@@ -89,7 +89,7 @@ def _info(args) -> int:
 
 
 @_bag_errors
-def _plot(args) -> int:
+def _plot(args: argparse.Namespace) -> int:
     from tensegrity_ros.bag.plot import plot_bag
 
     print(plot_bag(args.bag, args.output))
@@ -97,7 +97,7 @@ def _plot(args) -> int:
 
 
 @_bag_errors
-def _repair(args) -> int:
+def _repair(args: argparse.Namespace) -> int:
     from tensegrity_ros.bag.repair import repair_bag
 
     result = repair_bag(args.bag, keep_original=not args.no_backup)
@@ -119,7 +119,7 @@ def _repair(args) -> int:
     return 0
 
 
-def register(sub) -> None:
+def register(sub: Subparsers) -> None:
     p = sub.add_parser(
         "record", help="record topics to a rosbag2 MCAP bag folder",
         description="Record topics to a rosbag2-compatible bag folder (metadata.yaml + MCAP). "

@@ -9,13 +9,20 @@ from __future__ import annotations
 
 import argparse
 import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING, TypeVar
 
-from tensegrity_ros.cli._common import CliError, add_json_flag, parse_param_overrides, print_json
+from tensegrity_ros.cli._common import CliError, Subparsers, add_json_flag, parse_param_overrides, print_json
+
+if TYPE_CHECKING:
+    from tensegrity_core.class2 import Class2Params
+    from tensegrity_core.class2.workspace import Curve
 
 ORDER = 20
+T = TypeVar("T")
 
 
-def _params(args):
+def _params(args: argparse.Namespace) -> Class2Params:
     from tensegrity_core.class2 import PAPER_PARAMS
     from tensegrity_core.errors import TensegrityError
 
@@ -25,7 +32,7 @@ def _params(args):
         raise CliError(str(err)) from None
 
 
-def _run(fn):
+def _run(fn: Callable[[], T]) -> T:
     """Turn the core's deliberate errors into one-line CLI errors."""
     from tensegrity_core.errors import TensegrityError
 
@@ -35,7 +42,7 @@ def _run(fn):
         raise CliError(str(err)) from None
 
 
-def _common(p) -> None:
+def _common(p: argparse.ArgumentParser) -> None:
     add_json_flag(p)
     p.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="override a mechanism parameter (L, k1..k4, k, ka, kb, m, c1..c4, c); repeatable")
@@ -45,7 +52,7 @@ def _deg(rad: float) -> str:
     return f"{rad:.6g} rad ({math.degrees(rad):.4g} deg)"
 
 
-def cmd_fk(args) -> int:
+def cmd_fk(args: argparse.Namespace) -> int:
     from tensegrity_core.class2.kinematics import forward_kinematics, forward_kinematics_numeric
 
     params = _params(args)
@@ -71,7 +78,7 @@ def cmd_fk(args) -> int:
     return 0
 
 
-def cmd_ik(args) -> int:
+def cmd_ik(args: argparse.Namespace) -> int:
     from tensegrity_core.class2.inverse_kinematics import inverse_kinematics
 
     params = _params(args)
@@ -103,7 +110,7 @@ def cmd_ik(args) -> int:
     return 0
 
 
-def cmd_stiffness(args) -> int:
+def cmd_stiffness(args: argparse.Namespace) -> int:
     import numpy as np
 
     from tensegrity_core.class2.stiffness import stiffness_along_coordinates, stiffness_sweep
@@ -151,7 +158,7 @@ def cmd_stiffness(args) -> int:
     return 0
 
 
-def cmd_workspace(args) -> int:
+def cmd_workspace(args: argparse.Namespace) -> int:
     from tensegrity_core.class2.workspace import workspace
 
     params = _params(args)
@@ -165,8 +172,9 @@ def cmd_workspace(args) -> int:
 
         plot_workspace(ws, args.plot)
     if args.json:
-        curve = lambda c: {"kind": c.kind, "label": c.label, "rho": c.rho, "xy": c.xy,  # noqa: E731
-                           "on_boundary": c.on_boundary}
+        def curve(c: Curve) -> dict[str, object]:
+            return {"kind": c.kind, "label": c.label, "rho": c.rho, "xy": c.xy, "on_boundary": c.on_boundary}
+
         print_json({"rho1_range": ws.rho1_range, "rho2_range": ws.rho2_range, "paper_range": ws.paper_range,
                     "area": area, "bounds": ws.bounds(), "polygon": ws.polygon,
                     "edges": [curve(c) for c in ws.edges],
@@ -193,7 +201,7 @@ def cmd_workspace(args) -> int:
     return 0
 
 
-def cmd_singularities(args) -> int:
+def cmd_singularities(args: argparse.Namespace) -> int:
     from tensegrity_core.class2.singularities.report import classify_singularities
 
     params = _params(args)
@@ -209,7 +217,7 @@ def cmd_singularities(args) -> int:
     return 0
 
 
-def register(sub) -> None:
+def register(sub: Subparsers) -> None:
     p = sub.add_parser("fk", help="class-2 forward kinematics: node D for actuator lengths")
     p.add_argument("rho1", type=float, help="actuator length AB [m]")
     p.add_argument("rho2", type=float, help="actuator length BC [m]")

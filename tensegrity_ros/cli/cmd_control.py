@@ -9,15 +9,18 @@ reference was) and exits with 130.
 
 from __future__ import annotations
 
+import argparse
 import math
 import sys
+from collections.abc import Callable
+from typing import Any
 
-from tensegrity_ros.cli._common import CliError, add_json_flag
+from tensegrity_ros.cli._common import CliError, Subparsers, add_json_flag
 
 ORDER = 55
 
 
-def register(sub) -> None:
+def register(sub: Subparsers) -> None:
     p = sub.add_parser("move", help="move the end-effector D to (X, Y) [m] through the controller",
                        description="Send a MoveEndEffector goal: D moves along a straight line to (X, Y), "
                        "rest to rest, in --duration seconds or at a peak speed of --speed m/s.")
@@ -46,7 +49,7 @@ def register(sub) -> None:
     p.set_defaults(func=_follow)
 
 
-def _move(args) -> int:
+def _move(args: argparse.Namespace) -> int:
     for name in ("x", "y", "duration", "speed", "tolerance"):
         if not math.isfinite(getattr(args, name)):
             raise CliError(f"{name} must be a finite number, got {getattr(args, name)}")
@@ -58,12 +61,12 @@ def _move(args) -> int:
     goal = MoveEndEffector.Goal(x=args.x, y=args.y, duration=args.duration, max_speed=args.speed,
                                 goal_tolerance=args.tolerance)
 
-    def progress(bar, fb):
+    def progress(bar: Any, fb: Any) -> None:
         bar.n = round(fb.time_from_start, 2)
         bar.set_postfix_str(f"{fb.phase}, D = ({fb.end_effector.x:.4f}, {fb.end_effector.y:.4f}) m, "
                             f"{fb.distance_to_target * 1e3:.3f} mm to go", refresh=True)
 
-    def summary(res):
+    def summary(res: Any) -> str:
         return (f"D = ({res.end_effector.x:.6f}, {res.end_effector.y:.6f}) m, settled error "
                 f"{res.settled_error * 1e3:.4f} mm, settling time {res.settling_time:.3f} s, "
                 f"peak force {res.max_force:.3f} N")
@@ -71,7 +74,7 @@ def _move(args) -> int:
     return _run_goal(args, "tensegrity_move", MoveEndEffector, goal, None, progress, summary)
 
 
-def _follow(args) -> int:
+def _follow(args: argparse.Namespace) -> int:
     from tensegrity_ros.trajectory_file import TrajectoryFileError, read_trajectory
 
     try:
@@ -105,7 +108,7 @@ def _follow(args) -> int:
             point.accelerations = data.accelerations[i]
         traj.points.append(point)
 
-    def tolerances(values: dict, override):
+    def tolerances(values: dict[str, float], override: float | None) -> list[Any]:
         names = data.joint_names if override is not None else list(values)
         return [JointTolerance(name=n, position=float(override if override is not None else values[n]))
                 for n in names]
@@ -117,14 +120,14 @@ def _follow(args) -> int:
                                      else data.goal_time_tolerance))
     total = max(data.times) if data.times else None
 
-    def progress(bar, fb):
+    def progress(bar: Any, fb: Any) -> None:
         bar.n = round(min(fb.actual.time_from_start.sec + 1e-9 * fb.actual.time_from_start.nanosec,
                           bar.total or math.inf), 2)
         e = fb.error.positions
         bar.set_postfix_str(f"rho = ({fb.actual.positions[0]:.4f}, {fb.actual.positions[1]:.4f}) m, error "
                             f"({e[0] * 1e3:.3f}, {e[1] * 1e3:.3f}) mm", refresh=True)
 
-    def summary(res):
+    def summary(res: Any) -> str:
         err = ", ".join(f"{v * 1e3:.4f}" for v in res.final_error)
         return (f"final error ({err}) mm, end-effector error {res.end_effector_error * 1e3:.4f} mm, "
                 f"peak force {res.max_force:.3f} N")
@@ -132,13 +135,14 @@ def _follow(args) -> int:
     return _run_goal(args, "tensegrity_follow", FollowActuatorTrajectory, goal, total, progress, summary)
 
 
-def _code_name(action, code: int) -> str:
+def _code_name(action: Any, code: int) -> str:
     names = {getattr(action.Result, n): n for n in dir(action.Result) if n.isupper() and not n.startswith("_")
              and isinstance(getattr(action.Result, n), int)}
     return names.get(code, str(code))
 
 
-def _run_goal(args, node_name: str, action, goal, total, progress, summary) -> int:
+def _run_goal(args: argparse.Namespace, node_name: str, action: Any, goal: Any, total: float | None,
+              progress: Callable[[Any, Any], None], summary: Callable[[Any], str]) -> int:
     from rclpy.action import ActionClient
     from rclpy.executors import SingleThreadedExecutor
     from tqdm import tqdm

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
+
+from tensegrity_ros.cli._common import Subparsers
 
 ORDER = 1
 
 
-def register(sub) -> None:
+def register(sub: Subparsers) -> None:
     p = sub.add_parser("demo", help="start the suite, drive the mechanism in lockstep, call the services, record bags",
                        description="Starts the simulator (lockstep: one command per control period), the IK, "
                        "form-finding and controller nodes; moves D through four waypoints with the controller's "
@@ -24,7 +27,7 @@ def register(sub) -> None:
     p.set_defaults(func=_demo)
 
 
-def _demo(args) -> int:
+def _demo(args: argparse.Namespace) -> int:
     from tensegrity_ros.apps.demo import run_demo
     from tensegrity_ros.cli._common import CliError
 

@@ -10,14 +10,15 @@ and one ``error:`` line; nothing is written then.
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
-from tensegrity_ros.cli._common import CliError, add_json_flag, print_json
+from tensegrity_ros.cli._common import CliError, Subparsers, add_json_flag, print_json
 
 ORDER = 55
 
 
-def register(subparsers) -> None:
+def register(subparsers: Subparsers) -> None:
     p = subparsers.add_parser("export", help="export a scene, robot or structure to another simulator's format "
                                              "(MJCF)",
                               description="Write a model of a scene, robot or structure for another simulator.")
@@ -61,7 +62,7 @@ def _count(n: int, noun: str) -> str:
     return f"{n} {noun}" if n == 1 else f"{n} {noun[:-1] + 'ies' if noun.endswith('y') else noun + 's'}"
 
 
-def run_export_mjcf(args) -> int:
+def run_export_mjcf(args: argparse.Namespace) -> int:
     from tensegrity_core.errors import TensegrityError
     from tensegrity_core.export import export_mjcf
     from tensegrity_core.export.sources import load_source

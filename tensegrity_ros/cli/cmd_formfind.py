@@ -6,15 +6,22 @@ shipped example (``tensegrity formfind tensegrity_table``).
 
 from __future__ import annotations
 
+import argparse
 import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
-from tensegrity_ros.cli._common import CliError, add_json_flag, print_json
+from tensegrity_ros.cli._common import CliError, Subparsers, add_json_flag, print_json
 
 ORDER = 40
 
+if TYPE_CHECKING:
+    from tensegrity_core.general import Structure
+    from tensegrity_core.general.formfind_result import FormFindResult, IterationInfo
 
-def register(subparsers) -> None:
+
+def register(subparsers: Subparsers) -> None:
     p = subparsers.add_parser(
         "formfind", help="find a stable equilibrium of a tensegrity structure with rigid bodies",
         description="Form-finding (shifted Newton with an energy line search, Ma et al. 2022). "
@@ -46,7 +53,7 @@ def register(subparsers) -> None:
     q.set_defaults(func=run_modes)
 
 
-def _load(file: str):
+def _load(file: str) -> Structure:
     """The structure in ``file``, or the shipped example of that name."""
     from tensegrity_core.general import StructureError, example_names, load_example, structure_from_file
     from tensegrity_core.general.loading import SUFFIXES
@@ -70,7 +77,7 @@ def _exists(file: str) -> bool:
         return False
 
 
-def _progress(quiet: bool):
+def _progress(quiet: bool) -> tuple[Any, Callable[[IterationInfo], None] | None]:
     """A tqdm progress line on stderr and the callback that feeds it."""
     if quiet:
         return None, None
@@ -79,7 +86,7 @@ def _progress(quiet: bool):
     bar = tqdm(desc="form-finding", unit="it", file=sys.stderr, leave=False, dynamic_ncols=True,
                mininterval=0)
 
-    def callback(info):
+    def callback(info: IterationInfo) -> None:
         shift = "" if info.shift is None else f" shift {info.shift:.1e}"
         bar.set_postfix_str(f"residual {info.residual:.3e} ({info.residual_norm:.3e} N), "
                             f"step {info.step_length:.3g}{shift}", refresh=False)
@@ -88,7 +95,7 @@ def _progress(quiet: bool):
     return bar, callback
 
 
-def run_formfind(args) -> int:
+def run_formfind(args: argparse.Namespace) -> int:
     from tensegrity_core.errors import TensegrityError
     from tensegrity_core.general import form_find
 
@@ -126,7 +133,7 @@ def run_formfind(args) -> int:
     return 0
 
 
-def _write(path: Path, data: dict) -> None:
+def _write(path: Path, data: dict[str, Any]) -> None:
     import json
 
     import yaml
@@ -140,7 +147,7 @@ def _write(path: Path, data: dict) -> None:
         raise CliError(f"cannot write {str(path)!r}: {err.strerror}") from None
 
 
-def _print_summary(structure, result) -> None:
+def _print_summary(structure: Structure, result: FormFindResult) -> None:
     print(f"{structure.name}: {result.message}")
     print(f"  iterations {result.iterations}, residual {result.residual:.3e} (relative; norm "
           f"{result.residual_norm:.3e} N), min eigenvalue of K_T {result.min_eigenvalue:.6g} "
@@ -154,7 +161,7 @@ def _print_summary(structure, result) -> None:
         print(f"  {structure.n_members} members: force from {t.min():.6g} to {t.max():.6g} N")
 
 
-def run_modes(args) -> int:
+def run_modes(args: argparse.Namespace) -> int:
     import numpy as np
 
     from tensegrity_core.general import form_find, modal_analysis, modes
@@ -167,7 +174,7 @@ def run_modes(args) -> int:
             raise CliError(f"form-finding failed: {result.message}", code=1)
         state = result.configuration
     m = modes(structure, state)
-    data = {
+    data: dict[str, Any] = {
         "structure": structure.name,
         "dof": int(structure.layout.n_dof),
         "members": int(structure.n_members),

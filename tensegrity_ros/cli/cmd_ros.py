@@ -2,11 +2,19 @@
 
 from __future__ import annotations
 
+import argparse
 import sys
+from collections.abc import Iterable
+from typing import TYPE_CHECKING, Any
 
-from tensegrity_ros.cli._common import CliError, add_json_flag
+from tensegrity_ros.cli._common import CliError, Subparsers, add_json_flag
 from tensegrity_ros.cli.ros_clients import DISCOVERY_S, client_node
 from tensegrity_ros.cli.send_forces import send_forces
+
+if TYPE_CHECKING:
+    from rclpy.node import Node
+
+    from tensegrity_core.sim.model import Interface
 
 ORDER = 50
 
@@ -19,7 +27,7 @@ NODES = {
 }
 
 
-def register(sub) -> None:
+def register(sub: Subparsers) -> None:
     p = sub.add_parser("node", help="run one node of the suite (sim, ik, formfind, controller or cables)",
                        description="Run one node. ROS arguments follow --ros-args, e.g. "
                        "`tensegrity node sim --ros-args -r __ns:=/robot1 -p publish_rate:=500.0`.")
@@ -93,7 +101,7 @@ SIM_ACTIONS = {"state": "get_simulation_state", "play": "set_simulation_state", 
                "stop": "set_simulation_state", "step": "step_simulation", "reset": "reset_simulation"}
 
 
-def _sim(args) -> int:
+def _sim(args: argparse.Namespace) -> int:
     from tensegrity_ros.rclpy_utils.env import require_rclpy
 
     require_rclpy()
@@ -132,7 +140,7 @@ def _sim(args) -> int:
     return 0 if ok else 1
 
 
-def _node(args) -> int:
+def _node(args: argparse.Namespace) -> int:
     import importlib
 
     from tensegrity_ros.rclpy_utils.env import require_rclpy
@@ -140,10 +148,10 @@ def _node(args) -> int:
     require_rclpy()
 
     module = importlib.import_module(NODES[args.name])
-    return module.main([f"tensegrity-{args.name}", *args.ros_args])
+    return int(module.main([f"tensegrity-{args.name}", *args.ros_args]))
 
 
-def _up(args) -> int:
+def _up(args: argparse.Namespace) -> int:
     from tensegrity_ros.apps.launch import Launcher, ProcessSpec
     from tensegrity_ros.rclpy_utils.env import require_rclpy
 
@@ -176,7 +184,7 @@ def _up(args) -> int:
     return Launcher(specs).run()
 
 
-def _scene_interface(scene: str | None):
+def _scene_interface(scene: str | None) -> Interface:
     """What the ``up`` scene's inputs take (the default scene's if None); a bad scene is a CliError."""
     from tensegrity_core.errors import TensegrityError
     from tensegrity_core.excerpt import excerpt
@@ -189,7 +197,7 @@ def _scene_interface(scene: str | None):
         raise CliError(f"cannot load scene {excerpt(scene)}: {err}") from None
 
 
-def _call_service(args, node_name: str, srv_type, request):
+def _call_service(args: argparse.Namespace, node_name: str, srv_type: Any, request: Any) -> Any:
     """One service call from a short-lived client node; the response, or a CliError."""
     from rclpy.executors import SingleThreadedExecutor
 
@@ -213,7 +221,7 @@ def _call_service(args, node_name: str, srv_type, request):
         rclpy.try_shutdown()
 
 
-def _show(args, res, lines) -> int:
+def _show(args: argparse.Namespace, res: Any, lines: Iterable[str]) -> int:
     """Print a response as JSON or as the given human-readable lines; exit code by success."""
     from tensegrity_ros.cli._common import print_json
     from tensegrity_ros.rclpy_utils.messages import message_to_dict
@@ -227,7 +235,7 @@ def _show(args, res, lines) -> int:
     return 0 if res.success else 1
 
 
-def _call_ik(args) -> int:
+def _call_ik(args: argparse.Namespace) -> int:
     from tensegrity_ros.rclpy_utils.env import require_rclpy
 
     require_rclpy()
@@ -240,7 +248,7 @@ def _call_ik(args) -> int:
         f"delta2 {s.delta2:+d}, d2U/dbeta2 = {s.stiffness_beta:.4g})" for s in res.solutions])
 
 
-def _call_formfind(args) -> int:
+def _call_formfind(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from tensegrity_ros.rclpy_utils.env import require_rclpy
@@ -272,7 +280,7 @@ def _call_formfind(args) -> int:
         *(f"member {i}: {t:.6g} N" for i, t in enumerate(res.member_forces))])
 
 
-def _echo(args) -> int:
+def _echo(args: argparse.Namespace) -> int:
     import json
     import time
 
@@ -303,7 +311,7 @@ def _echo(args) -> int:
         cls = message_class(types[0])
         received = []
 
-        def show(msg):
+        def show(msg: Any) -> None:
             received.append(1)
             data = message_to_dict(msg)
             if args.json:
@@ -327,20 +335,20 @@ def _echo(args) -> int:
         rclpy.try_shutdown()
 
 
-def _topics(node) -> list[str]:
+def _topics(node: Node) -> list[str]:
     """The graph's topics, but ROS's own and hidden ones (as ``ros2 topic list`` shows them)."""
     return sorted(name for name, _ in node.get_topic_names_and_types()
                   if name not in ("/rosout", "/parameter_events") and "/_" not in name)
 
 
-def _closest_topic(node, topic: str) -> str:
+def _closest_topic(node: Node, topic: str) -> str:
     """The graph's topic closest to ``topic`` by spelling, or "" when none is close."""
     import difflib
 
     return next(iter(difflib.get_close_matches(topic, _topics(node), n=1)), "")
 
 
-def _topic_hint(node, topic: str) -> str:
+def _topic_hint(node: Node, topic: str) -> str:
     """``" (did you mean /joint_states?); topics now: ..."`` for a topic not in the graph."""
     topics = _topics(node)
     if not topics:

@@ -14,19 +14,27 @@ interrupts at once.
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import signal
 import sys
 import threading
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
+from types import FrameType
+from typing import TYPE_CHECKING, Any, cast
 
-from tensegrity_ros.cli._common import CliError, Row, add_json_flag, add_listing, print_json
+from tensegrity_ros.cli._common import CliError, Row, Subparsers, add_json_flag, add_listing, print_json
+
+if TYPE_CHECKING:
+    from tensegrity_core.events import LoggedEvent
+    from tensegrity_core.sim.sampled import Controller, SampledRun
+    from tensegrity_core.sim.trajectory import Trajectory
 
 ORDER = 50
 
 
-def register(subparsers) -> None:
+def register(subparsers: Subparsers) -> None:
     p = subparsers.add_parser(
         "simulate", help="simulate a scene (class-2 mechanism or general structure)",
         description="Run a scene: only the effects it lists are simulated. Writes the trajectory "
@@ -67,7 +75,7 @@ def _scene_details(r: Row) -> str:
             f"effects: {', '.join(r['effects'])}")
 
 
-def load_controller(spec: str):
+def load_controller(spec: str) -> Controller:
     """The function named by ``MODULE:FUNCTION``, or a CliError saying what is wrong."""
     import importlib
 
@@ -81,10 +89,10 @@ def load_controller(spec: str):
     fn = getattr(module, name, None)
     if not callable(fn):
         raise CliError(f"--controller: {module_name!r} has no function {name!r}")
-    return fn
+    return cast("Controller", fn)     # user code: the forces it returns are read with float()
 
 
-def _output_path(args) -> Path | None:
+def _output_path(args: argparse.Namespace) -> Path | None:
     """The trajectory file of ``-o`` (``.npz`` or ``.csv``), or None."""
     out = Path(args.output) if args.output else None
     if out is not None and out.suffix.lower() not in (".npz", ".csv"):
@@ -92,7 +100,7 @@ def _output_path(args) -> Path | None:
     return out
 
 
-def _write(run, out: Path) -> None:
+def _write(run: Trajectory | SampledRun, out: Path) -> None:
     """Write a run (a trajectory or a sampled-data run) to ``out``, NPZ or CSV by its suffix."""
     try:
         run.to_npz(out) if out.suffix.lower() == ".npz" else run.to_csv(out)
@@ -100,7 +108,7 @@ def _write(run, out: Path) -> None:
         raise CliError(f"cannot write {str(out)!r}: {err.strerror}") from None
 
 
-def run_sampled_cli(args) -> int:
+def run_sampled_cli(args: argparse.Namespace) -> int:
     """``simulate --control-period DT --controller MODULE:FUNCTION``."""
     from tensegrity_core.errors import TensegrityError
     from tensegrity_core.sim import SceneError, load_scene
@@ -145,11 +153,12 @@ def run_sampled_cli(args) -> int:
     return _outcome(run.success, run.message, stop.is_set(), out, None)
 
 
-def _print_warning(message, category, filename, lineno, file=None, line=None) -> None:
+def _print_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                   file: object = None, line: str | None = None) -> None:
     print(f"warning: {message}", file=sys.stderr)
 
 
-def run_simulate(args) -> int:
+def run_simulate(args: argparse.Namespace) -> int:
     import warnings
 
     from tensegrity_core.errors import TensegrityError
@@ -171,7 +180,7 @@ def run_simulate(args) -> int:
         raise CliError(str(err)) from None
     except OSError as err:                   # e.g. a name longer than the system allows
         raise CliError(f"cannot read the scene {excerpt(args.scene)}: {err.strerror}") from None
-    bar = None
+    bar: Any = None
     if not (args.quiet or args.json):
         from tqdm import tqdm
 
@@ -179,7 +188,7 @@ def run_simulate(args) -> int:
                    dynamic_ncols=True,
                    bar_format="{l_bar}{bar}| {n:.4g}/{total:.4g} s simulated [{elapsed}<{remaining}{postfix}]")
 
-    def progress(t, duration):
+    def progress(t: float, duration: float) -> None:
         elapsed = bar.format_dict["elapsed"]
         if elapsed > 0:
             bar.set_postfix_str(f"{t / elapsed:.3g} s simulated per s", refresh=False)
@@ -241,7 +250,7 @@ def stop_requests() -> Iterator[threading.Event]:
     checks between samples; a second one raises ``KeyboardInterrupt`` at once."""
     asked = threading.Event()
 
-    def ask(signum, frame) -> None:
+    def ask(signum: int, frame: FrameType | None) -> None:
         if asked.is_set():
             raise KeyboardInterrupt
         asked.set()
@@ -254,7 +263,7 @@ def stop_requests() -> Iterator[threading.Event]:
             signal.signal(sig, handler)
 
 
-def _events(events) -> list[dict]:
+def _events(events: Iterable[LoggedEvent]) -> list[dict[str, Any]]:
     """Events for people and scripts: time [s], kind and what it is about by name (``rho1``:
     counted from 1, as every name is; ``""`` for kinds about nothing in particular)."""
     from tensegrity_core.events import event_subject
@@ -268,12 +277,12 @@ Q_UNITS = {"class2": "(rho1 [m], rho2 [m], beta [rad]) ",
            "robot": "(body centres [m] and rotation vectors [rad], per rod and body) "}
 
 
-def _print_events(events: list[dict]) -> None:
+def _print_events(events: list[dict[str, Any]]) -> None:
     for e in events:
         print(f"  event at t = {e['t']:.9g} s: {e['kind']} {e['subject']}".rstrip())
 
 
-def _print_summary(s: dict) -> None:
+def _print_summary(s: dict[str, Any]) -> None:
     import numpy as np
 
     kind = "quasi-static" if s["quasi_static"] else "dynamic"

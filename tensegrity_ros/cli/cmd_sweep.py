@@ -13,18 +13,19 @@ reached; nothing is written then), 130 when interrupted (finished rows kept).
 
 from __future__ import annotations
 
+import argparse
 import re
 import sys
 import time
 from collections import Counter
 from pathlib import Path
 
-from tensegrity_ros.cli._common import CliError, Row, add_json_flag, add_listing, print_json
+from tensegrity_ros.cli._common import CliError, Row, Subparsers, add_json_flag, add_listing, print_json
 
 ORDER = 55
 
 
-def register(subparsers) -> None:
+def register(subparsers: Subparsers) -> None:
     p = subparsers.add_parser(
         "sweep", help="run a parameter sweep or Monte Carlo ensemble on Dask (one row per point)",
         description="Vary quantities of a scene or structure (grids, lists, random samples), compute at "
@@ -72,7 +73,7 @@ def _sweep_details(r: Row) -> str:
     return f"{r['base']}, {r['compute']}, {r['points']} points; varies {', '.join(r['vary'])}"
 
 
-def run_sweep_command(args) -> int:
+def run_sweep_command(args: argparse.Namespace) -> int:
     from tensegrity_core.sweep import SweepError, load_sweep
     from tensegrity_core.sweep.engine import run_sweep
     from tensegrity_core.sweep.spec import prepare
@@ -124,7 +125,8 @@ def run_sweep_command(args) -> int:
         except SweepError as err:
             raise CliError(str(err), code=1) from None
     statuses = Counter(table["status"])
-    reasons, example = Counter(), {}
+    reasons: Counter[tuple[str, str]] = Counter()
+    example: dict[tuple[str, str], str] = {}
     for status, message in zip(table["status"], table["message"]):
         if status != RowStatus.OK:         # group messages that differ only in their numbers
             key = (status, re.sub(r"[-+]?\d[\d.]*(?:e[-+]?\d+)?", "#", str(message)))
@@ -145,9 +147,9 @@ def run_sweep_command(args) -> int:
     print(f"{sweep.name}: {len(table)} points ({counts}); {where}" + (f", {kept} kept" if ran and kept else ""))
     for f in summary["failures"]:
         print(f"  {f['points']} {f['status']}, e.g.: {f['message'][:160]}")
-    for key, label in (("output", "results"), ("plot", "plot")):
-        if summary[key]:
-            print(f"{label} written to {summary[key]}")
+    for written, label in (("output", "results"), ("plot", "plot")):
+        if summary[written]:
+            print(f"{label} written to {summary[written]}")
     return 0
 
 
@@ -178,7 +180,7 @@ def default_plot_path(sweep_name: str, output: str | None) -> Path:
     return Path(f"{stem or 'sweep'}.png")
 
 
-def _engine(args) -> str:
+def _engine(args: argparse.Namespace) -> str:
     if args.scheduler:
         return f"the Dask cluster at {args.scheduler}"
     if args.workers == 0:

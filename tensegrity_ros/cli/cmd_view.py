@@ -4,8 +4,12 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
 
-from tensegrity_ros.cli._common import CliError
+from tensegrity_ros.cli._common import CliError, Subparsers
+
+if TYPE_CHECKING:
+    from tensegrity_ros.view.source import Source
 
 ORDER = 75
 
@@ -30,7 +34,7 @@ def _port(text: str) -> int:
     return port
 
 
-def _source(args):
+def _source(args: argparse.Namespace) -> Source:
     """The source the arguments name: a bag, a scene in this process, or the suite over ROS."""
     if args.bag and args.scene:
         raise CliError("give a bag or --scene, not both")
@@ -58,7 +62,7 @@ def _source(args):
     return RosSource(args.namespace, force_limit=args.force_limit, ros_args=args.ros_args)
 
 
-def _view(args) -> int:
+def _view(args: argparse.Namespace) -> int:
     from tensegrity_ros.rclpy_utils import stop_signals
 
     stop = stop_signals.install()
@@ -97,7 +101,7 @@ def _view(args) -> int:
     return 0
 
 
-def register(sub) -> None:
+def register(sub: Subparsers) -> None:
     p = sub.add_parser(
         "view", help="watch and drive a simulation in the browser (3D view, plots, controls)",
         description="Serve a live 3D view of the running suite (any --namespace), of a recorded BAG (timeline: play, "

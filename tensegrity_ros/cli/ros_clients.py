@@ -3,8 +3,14 @@ gives DDS discovery."""
 
 from __future__ import annotations
 
+from types import ModuleType
+from typing import TYPE_CHECKING
 
-def client_node(name: str, ros_args: list[str]):
+if TYPE_CHECKING:
+    from rclpy.node import Node
+
+
+def client_node(name: str, ros_args: list[str]) -> tuple[ModuleType, Node]:
     """rclpy initialised for a short-lived client command, and its node.
 
     rclpy's signal handling is off (``SignalHandlerOptions.NO``): its SIGTERM handler shuts

@@ -3,14 +3,21 @@ against the simulator's limits, with a word about any other publisher of the top
 
 from __future__ import annotations
 
+import argparse
 import math
 import sys
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 from tensegrity_ros.cli._common import CliError
 from tensegrity_ros.cli.ros_clients import DISCOVERY_S, client_node
 
+if TYPE_CHECKING:
+    from rclpy.executors import Executor
+    from rclpy.node import Node
 
-def send_forces(args) -> int:
+
+def send_forces(args: argparse.Namespace) -> int:
     import time
 
     from tensegrity_ros.nodes.actuator_commands import CommandError, parse_command
@@ -76,7 +83,7 @@ class _RivalPublishers:
 
     CONTROLLER = "tensegrity_controller"
 
-    def __init__(self, node, topic: str):
+    def __init__(self, node: Node, topic: str) -> None:
         self.node, self.topic = node, topic
         self._looked = -math.inf
         self._said: set[str] = set()
@@ -102,7 +109,7 @@ class _RivalPublishers:
                   file=sys.stderr, flush=True)
 
 
-def _spin_for(executor, seconds: float, clock) -> None:
+def _spin_for(executor: Executor, seconds: float, clock: Callable[[], float]) -> None:
     """Spin ``executor`` for ``seconds`` of ``clock()`` in waits of at most 0.1 s (an
     interrupt is taken between two of them)."""
     end = clock() + seconds
@@ -114,7 +121,7 @@ def _full_name(name: str, namespace: str) -> str:
     return f"{namespace.rstrip('/')}/{name}"
 
 
-def _check_against_the_simulator(node, executor, topic: str, names: list[str], forces: list[float]) -> None:
+def _check_against_the_simulator(node: Node, executor: Executor, topic: str, names: list[str], forces: list[float]) -> None:
     """Refuse forces that a simulator reading ``topic`` would reject: the simulator of a
     subscriber's namespace (the node offering ``get_simulator_features`` there, looked for
     during :data:`DISCOVERY_S` at most) is asked for its ``max_force`` parameter. Nothing
@@ -138,7 +145,7 @@ def _check_against_the_simulator(node, executor, topic: str, names: list[str], f
             raise CliError(f"{sim} would reject this command: {err}", code=1) from None
 
 
-def _simulators_in(node, namespace: str) -> list[str]:
+def _simulators_in(node: Node, namespace: str) -> list[str]:
     """Full names of the nodes in ``namespace`` that offer ``get_simulator_features``."""
     found = []
     for name, ns in node.get_node_names_and_namespaces():
@@ -153,7 +160,7 @@ def _simulators_in(node, namespace: str) -> list[str]:
     return found
 
 
-def _float_parameter(node, executor, owner: str, name: str) -> float | None:
+def _float_parameter(node: Node, executor: Executor, owner: str, name: str) -> float | None:
     """The value of the number parameter ``name`` of node ``owner`` (its parameter
     service), or None when it does not answer within :data:`DISCOVERY_S` or has none."""
     from rcl_interfaces.msg import ParameterType

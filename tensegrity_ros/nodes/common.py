@@ -5,12 +5,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from typing import overload
 
 from tensegrity_ros.rclpy_utils.env import require_rclpy
 
 rclpy = require_rclpy()
 from rcl_interfaces.msg import IntegerRange, ParameterDescriptor  # noqa: E402
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor  # noqa: E402
+from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from rclpy.qos import QoSProfile, qos_profile_services_default  # noqa: E402
 from rclpy.signals import SignalHandlerOptions  # noqa: E402
@@ -31,7 +32,24 @@ class ParameterValueError(SystemExit):
     """A node parameter has the wrong type or is out of range (the node does not start)."""
 
 
-def declare(node: Node, name: str, default, description: str, *, lo=None, hi=None, read_only=False):
+#: What a parameter may hold here (its default's type).
+ParameterValue = bool | int | float | str
+
+
+@overload
+def declare(node: Node, name: str, default: bool, description: str, *, lo: float | None = None,
+            hi: float | None = None, read_only: bool = False) -> bool: ...
+@overload
+def declare(node: Node, name: str, default: int, description: str, *, lo: float | None = None,
+            hi: float | None = None, read_only: bool = False) -> int: ...
+@overload
+def declare(node: Node, name: str, default: float, description: str, *, lo: float | None = None,
+            hi: float | None = None, read_only: bool = False) -> float: ...
+@overload
+def declare(node: Node, name: str, default: str, description: str, *, lo: float | None = None,
+            hi: float | None = None, read_only: bool = False) -> str: ...
+def declare(node: Node, name: str, default: ParameterValue, description: str, *, lo: float | None = None,
+            hi: float | None = None, read_only: bool = False) -> ParameterValue:
     """Declare a typed parameter with a description and an optional range; return its value.
 
     Floating-point parameters also accept integers (``-p publish_rate:=500`` works) and
@@ -47,7 +65,7 @@ def declare(node: Node, name: str, default, description: str, *, lo=None, hi=Non
     elif isinstance(default, int) and not isinstance(default, bool) and (lo is not None or hi is not None):
         desc.integer_range = [IntegerRange(from_value=int(lo or 0), to_value=int(hi or 2**31 - 1), step=1)]
     try:
-        value = node.declare_parameter(name, default, desc).value
+        value: ParameterValue = node.declare_parameter(name, default, desc).value
     except Exception as err:  # rclpy raises several types for bad overrides
         raise ParameterValueError(f"{node.get_name()}: parameter {name}: {err}") from None
     if is_float:
@@ -60,7 +78,8 @@ def declare(node: Node, name: str, default, description: str, *, lo=None, hi=Non
     return value
 
 
-def spin_node(make_node: Callable[[], Node], args: Sequence[str] | None, executor_factory=None) -> int:
+def spin_node(make_node: Callable[[], Node], args: Sequence[str] | None,
+              executor_factory: Callable[[], Executor] | None = None) -> int:
     """Init, spin until SIGINT/SIGTERM (or an external shutdown), destroy, shut down; 0.
 
     Signals are the suite's stop requests (:mod:`tensegrity_ros.rclpy_utils.stop_signals`), not

@@ -44,7 +44,9 @@ import math
 import sys
 import time
 from collections import deque
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
+from typing import Any, Literal, overload
 
 import numpy as np
 from geometry_msgs.msg import Point
@@ -56,27 +58,35 @@ from rclpy.task import Future
 from sensor_msgs.msg import JointState
 from tensegrity_msgs.action import FollowActuatorTrajectory, MoveEndEffector
 from tensegrity_msgs.msg import ActuatorForces
-from trajectory_msgs.msg import JointTrajectoryPoint
 
-from tensegrity_core.class2 import dynamics_singularity, end_effector_of
+from tensegrity_core.class2 import dynamics_singularity
 from tensegrity_core.class2.control import PlanningError, TrackingController, plan_move
 from tensegrity_core.class2.control import goals as G
 from tensegrity_core.class2.control.errors import INVALID_JOINTS
+from tensegrity_core.class2.control.law import ScheduledGains, Tick
+from tensegrity_core.class2.control.reference import Reference
 from tensegrity_core.class2.control.trajectory import actuator_reference
 from tensegrity_core.class2.names import ACTUATED_JOINTS, ACTUATORS
+from tensegrity_core.class2.params import Class2Params
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import clip, excerpt
+from tensegrity_core.sim.scene.spec import Class2ModelSpec
 from tensegrity_ros.nodes.common import declare, spin_node
 from tensegrity_ros.nodes.controller_messages import (
     FOLLOW_PLANNING_CODES,
     MOVE_PLANNING_CODES,
     OUTCOME_CODES,
+    CommandKey,
+    FloatArray,
+    Goal,
+    JointSample,
     OldStampError,
     command_key,
-    duration_msg,
+    feedback,
     given,
     parse_joint_state,
     stamp_start,
+    start_feedback,
 )
 from tensegrity_ros.nodes.scene_param import declare_scene
 from tensegrity_ros.rclpy_utils.messages import duration_to_s
@@ -88,13 +98,13 @@ _FOLLOW = FollowActuatorTrajectory.Result
 class _Job:
     """A running goal: its handle, the core's supervisor, and the future its execute awaits."""
 
-    def __init__(self, handle, goal):
-        self.handle = handle
+    def __init__(self, handle: Any, goal: Goal) -> None:
+        self.handle = handle                # rclpy's ServerGoalHandle
         self.goal = goal
         self.finished = Future()            # done once the goal has ended (its outcome)
         self.started_at = math.inf          # wall time it took over (the watchdog counts from then)
-        self.last_tick = None
-        self.last_state = None
+        self.last_tick: Tick | None = None
+        self.last_state: JointSample | None = None
 
     def end(self, outcome: G.Outcome) -> None:
         if not self.finished.done():
@@ -102,10 +112,11 @@ class _Job:
 
 
 class ControllerNode(Node):
-    def __init__(self, **kwargs) -> None:
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__("tensegrity_controller", **kwargs)
         self.scene_name, scene = declare_scene(self)
-        self.params = scene.model.params
+        assert isinstance(scene.model, Class2ModelSpec)     # declare_scene refused any other
+        self.params: Class2Params = scene.model.params
         rate = declare(self, "rate", 100.0, "sampling rate the gains are designed for [Hz]: the simulator's "
                        "publish_rate", lo=1.0, hi=10000.0, read_only=True)
         self.max_force = declare(self, "max_force", 5.0, "actuator force limit, |f1|, |f2| <= max_force [N]",
@@ -143,11 +154,11 @@ class ControllerNode(Node):
         # lockstep step, in the demo.)
         self._planner = ThreadPoolExecutor(max_workers=1, thread_name_prefix="planner")
         self._job: _Job | None = None
-        self._latest = None                  # (t, q, qdot) of the last new joint state
-        self._latest_header = None           # its header (stamp and frame)
-        self._answer = None                  # the command published for it (sent again for a repeat)
-        self._advanced_at = None             # wall time the joint states' time last advanced
-        self._sent: deque = deque(maxlen=256)   # keys of the commands this node published lately
+        self._latest: JointSample | None = None     # the last new joint state
+        self._latest_header: Any = None      # its header (stamp and frame)
+        self._answer: Any = None             # the command published for it (sent again for a repeat)
+        self._advanced_at: float | None = None   # wall time the joint states' time last advanced
+        self._sent: deque[CommandKey] = deque(maxlen=256)   # keys of the commands this node published lately
         self._manual = False                 # another node's command took over; until the next goal
 
         # a history a briefly stalled recorder can be repaired from (the simulator's depth)
@@ -201,7 +212,7 @@ class ControllerNode(Node):
         self._publish(cmd)
         self._answer = cmd
         if job is not None and not job.finished.done():
-            job.handle.publish_feedback(self._feedback(job, msg, tick, q, qdot))
+            job.handle.publish_feedback(feedback(job.goal, msg.header, tick, q, qdot))
 
     def _publish(self, cmd: ActuatorForces) -> None:
         self._sent.append(command_key(cmd))
@@ -227,6 +238,7 @@ class ControllerNode(Node):
         the controller holds where it finds the mechanism now. A repeat (same
         stamp, same positions and velocities) is not a reset: a lockstep simulator keeps
         its command for a state it publishes again unchanged."""
+        assert self._latest is not None         # a reset is seen against the latest state
         before = self._latest[0]
         what = f"its time went back from {before:.3f} s to {t:.3f} s" if t < before else f"its state changed at {t:.3f} s"
         job = self._job
@@ -236,7 +248,7 @@ class ControllerNode(Node):
         self.ctrl.reset_integral()
         self.get_logger().info(f"the simulation was reset ({what}): holding anew")
 
-    def _start_holding(self, t: float, q) -> bool:
+    def _start_holding(self, t: float, q: FloatArray) -> bool:
         try:
             self.ctrl.hold(float(q[0]), float(q[1]), t)
         except TensegrityError as err:
@@ -245,7 +257,7 @@ class ControllerNode(Node):
         self.get_logger().info(f"holding rho = ({q[0]:.4f}, {q[1]:.4f}) m")
         return True
 
-    def _supervise(self, job: _Job, t: float, q, qdot, tick) -> None:
+    def _supervise(self, job: _Job, t: float, q: FloatArray, qdot: FloatArray, tick: Tick) -> None:
         job.last_tick, job.last_state = tick, (t, q, qdot)
         if job.handle.is_cancel_requested:
             self.ctrl.hold_here(t)
@@ -283,7 +295,7 @@ class ControllerNode(Node):
                                      f"{min(idle, 1e9):.2f} s ({last}): the simulator stopped or is gone"))
 
     # -- goals ---------------------------------------------------------------------------
-    async def _execute_move(self, handle):
+    async def _execute_move(self, handle: Any) -> Any:
         req = handle.request
         result = _MOVE()
         try:
@@ -308,9 +320,10 @@ class ControllerNode(Node):
         result.settled_error = float(goal.distance)
         result.settling_time = float(goal.settling_time)
         result.max_force = float(goal.max_force)
+        assert goal.outcome is not None                     # the job ends once its goal has
         return self._finish(handle, result, goal.outcome)
 
-    async def _execute_follow(self, handle):
+    async def _execute_follow(self, handle: Any) -> Any:
         req = handle.request
         result = _FOLLOW(joint_names=list(ACTUATED_JOINTS))
         traj = req.trajectory
@@ -341,21 +354,28 @@ class ControllerNode(Node):
         if job.last_state is not None:
             t, q, _ = job.last_state
             result.final_error = [float(q[0] - final.q[0]), float(q[1] - final.q[1])]
+            assert job.last_tick is not None                # set with last_state
             result.end_effector_error = float(math.hypot(*(job.last_tick.end_effector - final.end_effector)))
         result.max_force = float(goal.max_force)
+        assert goal.outcome is not None                     # the job ends once its goal has
         return self._finish(handle, result, goal.outcome)
 
-    def _require_state(self, with_rate: bool = False):
+    @overload
+    def _require_state(self, with_rate: Literal[False] = False) -> FloatArray: ...
+    @overload
+    def _require_state(self, with_rate: Literal[True]) -> tuple[FloatArray, FloatArray, float]: ...
+    def _require_state(self, with_rate: bool = False) -> FloatArray | tuple[FloatArray, FloatArray, float]:
         if self._latest is None or self.ctrl.reference is None:
             raise _NoState("no joint_states received yet: is the simulator running?")
         t, q, qdot = self._latest
         return (q, qdot, t) if with_rate else q
 
-    async def _plan(self, make_reference):
+    async def _plan(self, make_reference: Callable[[], Reference]) -> tuple[Reference, ScheduledGains]:
         """``(reference, gains)``: ``make_reference()`` and the gain schedule along it, on the
         planning thread (the costly part of a goal: tens of ms), awaited here."""
         planned = Future()
         executor = self.executor
+        assert executor is not None                 # a goal runs on the node's executor
 
         def plan() -> None:
             try:
@@ -369,12 +389,14 @@ class ControllerNode(Node):
                 pass                        # the node is shutting down: nobody awaits any more
 
         self._planner.submit(plan)
-        return await planned
+        planned_reference: tuple[Reference, ScheduledGains] = await planned
+        return planned_reference
 
-    async def _run(self, handle, ref, gains, goal, start: float | None) -> _Job:
+    async def _run(self, handle: Any, ref: Reference, gains: ScheduledGains, goal: Goal, start: float | None) -> _Job:
         """Make ``goal`` the running one (preempting the last), then wait until it ends."""
         job = _Job(handle, goal)
         old = self._job
+        assert self._latest is not None             # _require_state let the goal through
         t0 = self._latest[0] if start is None else start
         goal.t_start = t0
         if self._manual:
@@ -386,17 +408,18 @@ class ControllerNode(Node):
         self.ctrl.follow(ref, t0, gains)
         if old is not None:
             old.end(G.Outcome(G.PREEMPTED, "preempted by a newer goal"))
-        job.handle.publish_feedback(self._start_feedback(job))
+        assert self._latest is not None             # a goal starts on a measured state
+        job.handle.publish_feedback(start_feedback(job.goal, self._latest_header, self._latest, self.params.L))
         await job.finished
         return job
 
-    def _refuse(self, handle, result, code: int, reason: str):
+    def _refuse(self, handle: Any, result: Any, code: int, reason: str) -> Any:
         self.get_logger().warning(f"goal refused: {reason}")
         result.error_code, result.error_string = code, reason
         handle.abort()
         return result
 
-    def _finish(self, handle, result, outcome: G.Outcome):
+    def _finish(self, handle: Any, result: Any, outcome: G.Outcome) -> Any:
         result.error_code = OUTCOME_CODES[outcome.code]
         result.error_string = outcome.message
         if outcome.succeeded:
@@ -412,7 +435,8 @@ class ControllerNode(Node):
             raise PlanningError(f"{name} must be a finite number, got {value!r}")
         return self.goal_tolerance if value == 0.0 else (value if value > 0.0 else math.inf)
 
-    def _joint_tolerances(self, items, default: float) -> tuple:
+    def _joint_tolerances(self, items: Sequence[Any], default: float,
+                          ) -> tuple[tuple[float, float], tuple[float, float]]:
         """``((pos1, pos2), (vel1, vel2))`` from JointTolerance messages (0: default, < 0: off)."""
         pos, vel = [default, default], [0.0, 0.0]
         for item in items:
@@ -423,67 +447,21 @@ class ControllerNode(Node):
                 if not math.isfinite(v):
                     raise PlanningError(f"tolerance of {item.name} must be finite, got {v!r}")
                 values[ACTUATED_JOINTS.index(item.name)] = d if v == 0.0 else (v if v > 0.0 else 0.0)
-        return tuple(pos), tuple(vel)
-
-    def _start_feedback(self, job: _Job):
-        """The feedback of a goal that has just taken over: the last measured
-        state against the reference at that time, before any tick under the goal. A client
-        that steps a paused simulator waits for it: from then on every step is the goal's."""
-        t, q, qdot = self._latest
-        desired = job.goal.reference.sample(t - job.goal.t_start)
-        d = np.array(end_effector_of(q, self.params.L))
-        if isinstance(job.goal, G.MoveGoal):
-            fb = MoveEndEffector.Feedback(header=self._latest_header, phase=job.goal.phase)
-            target = job.goal.reference.target
-            fb.end_effector = Point(x=float(d[0]), y=float(d[1]))
-            fb.desired = Point(x=float(desired.end_effector[0]), y=float(desired.end_effector[1]))
-            fb.tracking_error = float(math.hypot(*(d - desired.end_effector)))
-            fb.distance_to_target = float(math.hypot(d[0] - target[0], d[1] - target[1]))
-            fb.time_from_start = 0.0
-            return fb
-        fb = FollowActuatorTrajectory.Feedback(header=self._latest_header, joint_names=list(ACTUATED_JOINTS))
-        when = duration_msg(0.0)
-        fb.desired = JointTrajectoryPoint(positions=[float(v) for v in desired.q[:2]],
-                                          velocities=[float(v) for v in desired.qdot[:2]], time_from_start=when)
-        fb.actual = JointTrajectoryPoint(positions=[float(v) for v in q[:2]],
-                                         velocities=[float(v) for v in qdot[:2]], time_from_start=when)
-        fb.error = JointTrajectoryPoint(positions=[float(q[k] - desired.q[k]) for k in (0, 1)],
-                                        velocities=[float(qdot[k] - desired.qdot[k]) for k in (0, 1)],
-                                        time_from_start=when)
-        return fb
-
-    def _feedback(self, job: _Job, msg: JointState, tick, q, qdot):
-        if isinstance(job.goal, G.MoveGoal):
-            fb = MoveEndEffector.Feedback(header=msg.header, phase=job.goal.phase)
-            fb.end_effector = Point(x=float(tick.end_effector[0]), y=float(tick.end_effector[1]))
-            fb.desired = Point(x=float(tick.desired.end_effector[0]), y=float(tick.desired.end_effector[1]))
-            fb.tracking_error = float(math.hypot(*(tick.end_effector - tick.desired.end_effector)))
-            fb.distance_to_target = float(job.goal.distance)
-            fb.time_from_start = float(tick.tau)
-            return fb
-        fb = FollowActuatorTrajectory.Feedback(header=msg.header, joint_names=list(ACTUATED_JOINTS))
-        when = duration_msg(tick.tau)
-        fb.desired = JointTrajectoryPoint(positions=[float(v) for v in tick.desired.q[:2]],
-                                          velocities=[float(v) for v in tick.desired.qdot[:2]], time_from_start=when)
-        fb.actual = JointTrajectoryPoint(positions=[float(v) for v in q[:2]],
-                                         velocities=[float(v) for v in qdot[:2]], time_from_start=when)
-        fb.error = JointTrajectoryPoint(positions=[float(v) for v in job.goal.error],
-                                        velocities=[float(v) for v in job.goal.rate_error], time_from_start=when)
-        return fb
+        return (pos[0], pos[1]), (vel[0], vel[1])
 
     def destroy_node(self) -> None:
         job, self._job = self._job, None
         if job is not None:
             job.end(G.Outcome(G.SIMULATOR_STOPPED, "the controller is shutting down"))
         self._planner.shutdown(wait=True, cancel_futures=True)
-        super().destroy_node()
+        super().destroy_node()  # type: ignore[no-untyped-call]  # rclpy's, through super(): not excluded by name
 
 
 class _NoState(TensegrityError):
     """No joint state yet: nothing to plan from."""
 
 
-def main(argv=None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     from threadpoolctl import threadpool_limits
 
     # The law's matrices are 8 x 8: a multi-threaded BLAS only adds hand-over costs (5x slower

@@ -3,24 +3,39 @@
 - the result codes of the two actions for the core's goal outcomes and planning errors;
 - a joint state to ``(t [s], q, qdot)`` (rho1, rho2 [m], beta [rad] and their rates), a
   trajectory's start stamp to a time [s], seconds to a ``builtin_interfaces/Duration``;
-- what tells two actuator commands apart.
+- what tells two actuator commands apart;
+- the feedback of a goal: at its takeover and at every tick.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any, TypeAlias
 
 import numpy as np
 from builtin_interfaces.msg import Duration as DurationMsg
+from geometry_msgs.msg import Point
+from numpy.typing import NDArray
 from sensor_msgs.msg import JointState
 from tensegrity_msgs.action import FollowActuatorTrajectory, MoveEndEffector
 from tensegrity_msgs.msg import ActuatorForces
+from trajectory_msgs.msg import JointTrajectoryPoint
 
+from tensegrity_core.class2 import end_effector_of
 from tensegrity_core.class2.control import goals as G
 from tensegrity_core.class2.control.errors import INVALID_JOINTS, OUTSIDE_WORKSPACE, SINGULAR_PATH
-from tensegrity_core.class2.names import JOINTS
+from tensegrity_core.class2.control.law import Tick
+from tensegrity_core.class2.names import ACTUATED_JOINTS, JOINTS
 from tensegrity_core.errors import TensegrityError
 from tensegrity_ros.rclpy_utils.messages import stamp_to_s
+
+FloatArray: TypeAlias = NDArray[np.float64]
+#: ``(t, q, qdot)`` of a joint state: time [s], ``(rho1 [m], rho2 [m], beta [rad])`` and their rates.
+JointSample: TypeAlias = tuple[float, FloatArray, FloatArray]
+#: What tells two actuator commands apart: stamp (s, ns), names and forces [N].
+CommandKey: TypeAlias = tuple[int, int, tuple[str, ...], tuple[float, ...]]
+#: A goal of the controller.
+Goal: TypeAlias = G.MoveGoal | G.TrajectoryGoal
 
 _MOVE = MoveEndEffector.Result
 _FOLLOW = FollowActuatorTrajectory.Result
@@ -42,7 +57,7 @@ def given(value: float) -> float | None:
     return None if value == 0.0 else value
 
 
-def stamp_start(stamp, now: float) -> float | None:
+def stamp_start(stamp: Any, now: float) -> float | None:
     """The start time of a trajectory: None (now) for a zero stamp, else the stamp [s]."""
     t = stamp_to_s(stamp)
     if t == 0.0:
@@ -53,7 +68,7 @@ def stamp_start(stamp, now: float) -> float | None:
     return t
 
 
-def parse_joint_state(msg: JointState):
+def parse_joint_state(msg: JointState) -> JointSample | None:
     """``(t, q, qdot)`` of a joint state naming rho1, rho2, beta, or None when unusable."""
     names = list(msg.name)
     try:
@@ -67,7 +82,7 @@ def parse_joint_state(msg: JointState):
     return stamp_to_s(msg.header.stamp), np.array(q), np.array(qdot)
 
 
-def command_key(msg: ActuatorForces) -> tuple:
+def command_key(msg: ActuatorForces) -> CommandKey:
     """What tells two commands apart: stamp, names and forces."""
     return msg.header.stamp.sec, msg.header.stamp.nanosec, tuple(msg.name), tuple(msg.force)
 
@@ -77,3 +92,54 @@ def duration_msg(seconds: float) -> DurationMsg:
     seconds = max(0.0, seconds)
     sec = math.floor(seconds)
     return DurationMsg(sec=int(sec), nanosec=min(int(round((seconds - sec) * 1e9)), 999_999_999))
+
+
+def start_feedback(goal: Goal, header: Any, latest: JointSample, L: float) -> Any:
+    """The feedback of ``goal`` when it has just taken over: the last measured state
+    ``latest`` (its message's ``header``) against the reference at that time, before any
+    tick under the goal (``L``: strut length [m]). A client that steps a paused simulator
+    waits for it: from then on every step is the goal's."""
+    t, q, qdot = latest
+    desired = goal.reference.sample(t - goal.t_start)
+    d = np.array(end_effector_of(q, L))
+    if isinstance(goal, G.MoveGoal):
+        fb = MoveEndEffector.Feedback(header=header, phase=goal.phase)
+        target = goal.reference.target
+        fb.end_effector = Point(x=float(d[0]), y=float(d[1]))
+        fb.desired = Point(x=float(desired.end_effector[0]), y=float(desired.end_effector[1]))
+        fb.tracking_error = float(math.hypot(*(d - desired.end_effector)))
+        fb.distance_to_target = float(math.hypot(d[0] - target[0], d[1] - target[1]))
+        fb.time_from_start = 0.0
+        return fb
+    fb = FollowActuatorTrajectory.Feedback(header=header, joint_names=list(ACTUATED_JOINTS))
+    when = duration_msg(0.0)
+    fb.desired = JointTrajectoryPoint(positions=[float(v) for v in desired.q[:2]],
+                                      velocities=[float(v) for v in desired.qdot[:2]], time_from_start=when)
+    fb.actual = JointTrajectoryPoint(positions=[float(v) for v in q[:2]],
+                                     velocities=[float(v) for v in qdot[:2]], time_from_start=when)
+    fb.error = JointTrajectoryPoint(positions=[float(q[k] - desired.q[k]) for k in (0, 1)],
+                                    velocities=[float(qdot[k] - desired.qdot[k]) for k in (0, 1)],
+                                    time_from_start=when)
+    return fb
+
+
+def feedback(goal: Goal, header: Any, tick: Tick, q: FloatArray, qdot: FloatArray) -> Any:
+    """The feedback of ``goal`` at a tick of the law on the joint state ``(q, qdot)`` (its
+    message's ``header``)."""
+    if isinstance(goal, G.MoveGoal):
+        fb = MoveEndEffector.Feedback(header=header, phase=goal.phase)
+        fb.end_effector = Point(x=float(tick.end_effector[0]), y=float(tick.end_effector[1]))
+        fb.desired = Point(x=float(tick.desired.end_effector[0]), y=float(tick.desired.end_effector[1]))
+        fb.tracking_error = float(math.hypot(*(tick.end_effector - tick.desired.end_effector)))
+        fb.distance_to_target = float(goal.distance)
+        fb.time_from_start = float(tick.tau)
+        return fb
+    fb = FollowActuatorTrajectory.Feedback(header=header, joint_names=list(ACTUATED_JOINTS))
+    when = duration_msg(tick.tau)
+    fb.desired = JointTrajectoryPoint(positions=[float(v) for v in tick.desired.q[:2]],
+                                      velocities=[float(v) for v in tick.desired.qdot[:2]], time_from_start=when)
+    fb.actual = JointTrajectoryPoint(positions=[float(v) for v in q[:2]],
+                                     velocities=[float(v) for v in qdot[:2]], time_from_start=when)
+    fb.error = JointTrajectoryPoint(positions=[float(v) for v in goal.error],
+                                    velocities=[float(v) for v in goal.rate_error], time_from_start=when)
+    return fb

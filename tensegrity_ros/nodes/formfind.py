@@ -20,7 +20,10 @@ import multiprocessing
 import sys
 import threading
 import time
+from collections.abc import Sequence
 from multiprocessing import resource_tracker
+from multiprocessing.process import BaseProcess
+from typing import Any, cast
 
 from geometry_msgs.msg import Point
 from rclpy.callback_groups import ReentrantCallbackGroup
@@ -47,7 +50,7 @@ LOG_CHARS = 200
 
 
 class FormFindNode(Node):
-    def __init__(self, **kwargs) -> None:
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__("tensegrity_formfind", **kwargs)
         self.max_workers = declare(self, "max_workers", 2, "form-findings run at once (processes)",
                                    lo=1, hi=64, read_only=True)
@@ -63,7 +66,7 @@ class FormFindNode(Node):
         self.limits = Limits(max_bytes=self.max_request_bytes)
         self._slots = threading.BoundedSemaphore(self.max_workers)
         self._workers_lock = threading.Lock()    # worker start vs. shutdown
-        self._closing = False
+        self._closing = threading.Event()       # set under the lock by destroy_node
         self.create_service(FindForm, "find_form", self.on_request, qos_profile=SERVICE_QOS,
                             callback_group=ReentrantCallbackGroup())
         self.get_logger().info(f"find_form ready ({self.max_workers} workers, time limit {self.time_limit:g} s)")
@@ -123,7 +126,7 @@ class FormFindNode(Node):
                         f"time limit of {limit:g} s reached while {phase}; the worker was stopped")
                 kind, value = parent.recv()
                 if kind == "result":
-                    return value
+                    return cast(FormFindReply, value)      # what the worker sends as its result
                 phase = value
                 start = time.monotonic() if start is None else start
         except EOFError:
@@ -139,7 +142,7 @@ class FormFindNode(Node):
                 proc.kill()
             proc.join(timeout=5)
 
-    def _start_worker(self, proc) -> bool:
+    def _start_worker(self, proc: BaseProcess) -> bool:
         """Start worker process ``proc``, unless the node is shutting down (then False).
 
         Not under the lock: the first start waits for the forkserver to import its preloads
@@ -157,13 +160,13 @@ class FormFindNode(Node):
         instead of restoring the mask), which would undo the block before the forkserver's
         spawn."""
         with self._workers_lock:
-            if self._closing:
+            if self._closing.is_set():
                 return False
         resource_tracker.ensure_running()
         with signals_blocked():
             proc.start()
         with self._workers_lock:
-            if not self._closing:
+            if not self._closing.is_set():
                 return True
         proc.kill()
         proc.join(timeout=5)
@@ -173,13 +176,13 @@ class FormFindNode(Node):
         """Kill the running workers first: their requests end at once ("worker died"), so
         a shutdown never waits for a form-finding to finish, and start no new ones."""
         with self._workers_lock:
-            self._closing = True
+            self._closing.set()
             for proc in multiprocessing.active_children():
                 proc.kill()
-        super().destroy_node()
+        super().destroy_node()  # type: ignore[no-untyped-call]  # rclpy's, through super(): not excluded by name
 
 
-def main(argv=None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     return spin_node(FormFindNode, argv, executor_factory=lambda: MultiThreadedExecutor(num_threads=16))
 
 

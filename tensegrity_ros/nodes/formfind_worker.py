@@ -24,9 +24,14 @@ import time
 import traceback
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from multiprocessing.connection import Connection
+from typing import TYPE_CHECKING
 
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.schema import Limits, clip
+
+if TYPE_CHECKING:
+    from tensegrity_core.general.formfind_result import IterationInfo
 
 #: The phases a worker reports, in order (the node names the one a time limit hit).
 PARSING = "parsing the structure description"
@@ -97,9 +102,9 @@ def solve(text: str, tol: float, max_iter: int, time_limit: float, max_members: 
         report(PARSING)
         structure = structure_from_text(text, limits=limits, max_members=max_members)
         report(FORM_FINDING)
-        timed_out = []
+        timed_out: list[int] = []
 
-        def stop_when_late(info) -> bool:
+        def stop_when_late(info: IterationInfo) -> bool:
             if time.monotonic() - start > time_limit:
                 timed_out.append(info.iteration)
                 return True
@@ -128,7 +133,7 @@ def solve(text: str, tol: float, max_iter: int, time_limit: float, max_members: 
     )
 
 
-def run(conn, text: str, tol: float, max_iter: int, time_limit: float, max_members: int, limits: Limits,
+def run(conn: Connection, text: str, tol: float, max_iter: int, time_limit: float, max_members: int, limits: Limits,
         memory_bytes: int) -> None:
     """The worker process's body: cap the memory, solve, send phases and the result on ``conn``.
     A request that runs out of memory is answered :data:`OVER_MEMORY`; if even that cannot be

@@ -11,19 +11,22 @@ from __future__ import annotations
 
 import math
 import sys
+from collections.abc import Sequence
+from typing import Any
 
 from rclpy.node import Node
 from tensegrity_msgs.msg import IKSolution
 from tensegrity_msgs.srv import SolveIK
 
 from tensegrity_core.class2 import inverse_kinematics
+from tensegrity_core.class2.inverse_kinematics import IKCandidate
 from tensegrity_core.errors import TensegrityError
 from tensegrity_ros.nodes.common import SERVICE_QOS, declare, spin_node
 from tensegrity_ros.nodes.scene_param import scene_mechanism
 
 
 class IKNode(Node):
-    def __init__(self, **kwargs) -> None:
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__("tensegrity_ik", **kwargs)
         self.params = scene_mechanism(self)
         self.paper_range = declare(
@@ -57,7 +60,7 @@ class IKNode(Node):
         return res
 
     @staticmethod
-    def _to_msg(c, seed) -> IKSolution:
+    def _to_msg(c: IKCandidate, seed: list[float]) -> IKSolution:
         return IKSolution(
             rho1=c.rho1, rho2=c.rho2, beta=c.beta, alpha=c.alpha,
             delta1=int(c.delta1), delta2=int(c.delta2), in_paper_range=bool(c.in_paper_range),
@@ -67,7 +70,7 @@ class IKNode(Node):
         )
 
 
-def main(argv=None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     return spin_node(IKNode, argv)
 
 

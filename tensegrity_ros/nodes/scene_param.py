@@ -5,8 +5,8 @@ The scene loader (the simulator package, with scipy) is imported here, at module
 every node that uses it has it loaded before the node starts running: a stop signal that
 comes while a process imports ends it at once, one that comes while its node is being built
 waits for the build (:mod:`tensegrity_ros.rclpy_utils.stop_signals`). Imported inside
-:func:`declare_scene` it made building the IK node take 0.7 s on an idle machine and about
-3 s at load average 10, and a SIGINT in that time up to 4.7 s to take effect. The
+:func:`declare_scene` it would make building the IK node take 0.7 s on an idle machine
+(several seconds on a loaded one), and a SIGINT in that time would wait for all of it. The
 form-finding node, which needs no scene, does not import this module.
 """
 
@@ -18,6 +18,7 @@ from tensegrity_core.class2 import Class2Params
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_core.sim import Scene, load_scene
+from tensegrity_core.sim.scene.spec import Class2ModelSpec
 from tensegrity_ros.nodes.common import declare
 
 #: The scene every node that models the class-2 mechanism reads it from (one source).
@@ -47,4 +48,6 @@ def declare_scene(node: Node, *, class2_only: bool = True) -> tuple[str, Scene]:
 
 def scene_mechanism(node: Node) -> Class2Params:
     """The class-2 parameters of the node's ``scene`` parameter (declared here)."""
-    return declare_scene(node)[1].model.params
+    model = declare_scene(node)[1].model
+    assert isinstance(model, Class2ModelSpec)           # declare_scene refused any other
+    return model.params

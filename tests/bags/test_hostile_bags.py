@@ -184,7 +184,7 @@ JUNK_METADATA = {
     "huge_name": (_metadata_with(topics_with_message_count=[{
         "topic_metadata": {"name": "/" + "n" * 100_000, "type": "sensor_msgs/msg/JointState"},
         "message_count": 1}]).encode(), "at most"),
-    "wrong_count_type": (_metadata_with(message_count=[1, 2]).encode(), "message_count must be an integer"),
+    "wrong_count_type": (_metadata_with(message_count=[1, 2]).encode(), "message_count: must be a non-negative integer"),
     "qos_bomb": ((_bomb() + _metadata_with(topics_with_message_count=[{
         "topic_metadata": {"name": "/t", "type": "sensor_msgs/msg/JointState",
                            "offered_qos_profiles": "PLACEHOLDER"},
