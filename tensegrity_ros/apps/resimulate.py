@@ -25,7 +25,10 @@ import bisect
 import os
 import statistics
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, TypeAlias
 
 import numpy as np
 from rclpy.serialization import deserialize_message
@@ -35,6 +38,9 @@ from tensegrity_ros.bag.reader import BagReader
 from tensegrity_ros.bag.recorder import message_class
 from tensegrity_ros.nodes.actuator_commands import CommandError, parse_command
 from tensegrity_ros.rclpy_utils.env import require_rclpy
+
+if TYPE_CHECKING:
+    from tensegrity_ros.apps.sim_client import JointRecord
 
 JOINT_TYPE = "sensor_msgs/msg/JointState"
 COMMAND_TYPE = "tensegrity_msgs/msg/ActuatorForces"
@@ -98,11 +104,17 @@ class Resimulation:
                 "starts from the scene's, so the runs differ from the start (--scene names the bag's scene)")
 
 
-def _stamp(msg) -> int:
+#: A recorded command: ``(stamp [ns], actuator names, forces [N])``.
+RecordedCommand: TypeAlias = tuple[int, list[str], list[float]]
+#: A recorded joint state: ``(stamp [ns], positions, velocities)``.
+RecordedJoints: TypeAlias = tuple[int, tuple[float, ...], tuple[float, ...]]
+
+
+def _stamp(msg: Any) -> int:
     return int(msg.header.stamp.sec) * NS_PER_S + int(msg.header.stamp.nanosec)
 
 
-def read_recording(bag) -> tuple[list, list, list[str]]:
+def read_recording(bag: str | Path) -> tuple[list[RecordedCommand], list[RecordedJoints], list[str]]:
     """``(commands [(stamp_ns, names, forces)], joints [(stamp_ns, position, velocity)],
     joint names)``, each sorted by stamp, from the bag's ActuatorForces and JointState
     topics (the names of the first joint state)."""
@@ -115,7 +127,9 @@ def read_recording(bag) -> tuple[list, list, list[str]]:
     if len(cmd_topics) > 1:
         raise BagError(f"{bag}: more than one {COMMAND_TYPE} topic: {', '.join(cmd_topics)}")
     cmd_cls, joint_cls = message_class(COMMAND_TYPE), message_class(JOINT_TYPE)
-    commands, joints, names = [], [], []
+    commands: list[RecordedCommand] = []
+    joints: list[RecordedJoints] = []
+    names: list[str] = []
     for m in reader.messages(cmd_topics + joint_topics):
         if m.type == COMMAND_TYPE:
             c = deserialize_message(m.data, cmd_cls)
@@ -131,7 +145,7 @@ def read_recording(bag) -> tuple[list, list, list[str]]:
     return commands, joints, names
 
 
-def infer_step_ns(joints) -> int:
+def infer_step_ns(joints: Sequence[RecordedJoints]) -> int:
     """The most common positive spacing of the joint-state stamps [ns]."""
     stamps = sorted({j[0] for j in joints})
     gaps = [b - a for a, b in zip(stamps, stamps[1:]) if b > a]
@@ -140,7 +154,8 @@ def infer_step_ns(joints) -> int:
     return statistics.mode(gaps)
 
 
-def command_schedule(commands, steps: int, step_ns: int, initial, start_ns: int = 0) -> tuple[list, int]:
+def command_schedule(commands: Sequence[RecordedCommand], steps: int, step_ns: int, initial: Sequence[float],
+                     start_ns: int = 0) -> tuple[list[tuple[float, ...]], int]:
     """The force vector in force at each step ``k < steps`` (last command stamped at or
     before ``start_ns + k step_ns``, names applied cumulatively from ``initial``), and how
     many commands were used."""
@@ -159,7 +174,7 @@ def command_schedule(commands, steps: int, step_ns: int, initial, start_ns: int 
     return schedule, applied
 
 
-def resimulate(bag, *, scene: str = "class2_at_rest", step_size: float | None = None,
+def resimulate(bag: str | Path, *, scene: str = "class2_at_rest", step_size: float | None = None,
                lockstep_timeout: float = 10.0) -> Resimulation:
     """Re-simulate ``bag`` (see the module note); needs the ROS wheels."""
     from tensegrity_core.sim import Simulator, load_scene
@@ -209,7 +224,8 @@ def resimulate(bag, *, scene: str = "class2_at_rest", step_size: float | None = 
                         first, start_difference.tolist(), scene)
 
 
-def _resimulated(schedule, steps: int, step_ns: int, scene: str, lockstep_timeout: float) -> dict:
+def _resimulated(schedule: Sequence[tuple[float, ...]], steps: int, step_ns: int, scene: str,
+                 lockstep_timeout: float) -> dict[int, JointRecord]:
     """Joint states by stamp from a lockstep simulator stepped under ``schedule``."""
     rclpy = require_rclpy()
     from tensegrity_ros.apps.launch import Launcher, ProcessSpec
@@ -234,7 +250,7 @@ def _resimulated(schedule, steps: int, step_ns: int, scene: str, lockstep_timeou
         client.step(steps, timeout=max(600.0, steps * 0.05))
         client.wait_joint(steps * step_ns)
         client.set_law(None)
-        out: dict = {}
+        out: dict[int, JointRecord] = {}
         for j in client.take_joints():
             out.setdefault(j.stamp_ns, j)
         return out

@@ -39,6 +39,8 @@ from __future__ import annotations
 
 import math
 import sys
+from collections.abc import Sequence
+from typing import Any
 
 from control_msgs.action import FollowJointTrajectory
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
@@ -63,7 +65,7 @@ NS_PER_S = 1_000_000_000
 class _Job:
     """A running goal: its handle, trajectory, checks, start [s] and the future its execute awaits."""
 
-    def __init__(self, handle, trajectory: jt.JointTrajectory, monitor: jt.GoalMonitor, t_start: float):
+    def __init__(self, handle: Any, trajectory: jt.JointTrajectory, monitor: jt.GoalMonitor, t_start: float) -> None:
         self.handle = handle
         self.trajectory = trajectory
         self.monitor = monitor
@@ -76,7 +78,7 @@ class _Job:
 
 
 class CableControllerNode(Node):
-    def __init__(self, **kwargs) -> None:
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__("tensegrity_cable_controller", **kwargs)
         self.scene_name, scene = declare_scene(self, class2_only=False)
         try:
@@ -158,7 +160,7 @@ class CableControllerNode(Node):
             self._job = None
 
     # -- goals -------------------------------------------------------------------------------
-    async def _execute(self, handle):
+    async def _execute(self, handle: Any) -> Any:
         req = handle.request
         result = _RESULT()
         try:
@@ -176,14 +178,14 @@ class CableControllerNode(Node):
         {"succeeded": handle.succeed, "aborted": handle.abort, "canceled": handle.canceled}[status]()
         return result
 
-    def _on_cancel(self, handle) -> CancelResponse:
+    def _on_cancel(self, handle: Any) -> CancelResponse:
         job = self._job
         if job is not None and job.handle is handle:
             self._end(job, jt.Outcome(jt.SUCCESSFUL, "cancelled: the cables hold the rest lengths reached"),
                       "canceled")
         return CancelResponse.ACCEPT
 
-    def _plan(self, handle, req) -> _Job:
+    def _plan(self, handle: Any, req: Any) -> _Job:
         """The job of a goal, or :class:`~tensegrity_core.sim.joint_trajectory.TrajectoryError`."""
         if len(req.multi_dof_trajectory.joint_names) or len(req.multi_dof_trajectory.points):
             raise jt.TrajectoryError("multi_dof_trajectory is not supported: cables are single-DOF joints")
@@ -220,16 +222,16 @@ class CableControllerNode(Node):
         job, self._job = self._job, None
         if job is not None:
             job.end(jt.Outcome(jt.INVALID_GOAL, "the controller is shutting down"), "aborted")
-        super().destroy_node()
+        super().destroy_node()  # type: ignore[no-untyped-call]  # rclpy's, through super(): not excluded by name
 
 
-def _ns(stamp) -> int:
+def _ns(stamp: Any) -> int:
     """Integer nanoseconds of a stamp or duration: a time [s] is ``ns / 1e9``, divided once, as
     the core's sampled-data runner has it (the same floats, the same commands)."""
     return int(stamp.sec) * NS_PER_S + int(stamp.nanosec)
 
 
-def _duration(seconds: float):
+def _duration(seconds: float) -> Any:
     from builtin_interfaces.msg import Duration
 
     seconds = max(0.0, seconds)
@@ -237,7 +239,7 @@ def _duration(seconds: float):
     return Duration(sec=int(sec), nanosec=min(int(round((seconds - sec) * 1e9)), 999_999_999))
 
 
-def main(argv=None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     return spin_node(CableControllerNode, argv)
 
 

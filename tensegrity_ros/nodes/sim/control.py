@@ -48,7 +48,7 @@ class Answer:
 
     @property
     def ok(self) -> bool:
-        return self.code == Result.RESULT_OK
+        return bool(self.code == Result.RESULT_OK)
 
 
 @dataclass(frozen=True)

@@ -19,14 +19,18 @@ commands, their ranges) and its names (members, rigid bodies).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
 
 from tensegrity_core.errors import TensegrityError
+from tensegrity_core.events import LoggedEvent
 from tensegrity_core.sim import Names, Simulator, compile_scene
 from tensegrity_core.sim.model import Interface
 from tensegrity_core.sim.sampled import step_time
+from tensegrity_core.sim.scene.spec import Scene
+from tensegrity_core.sim.simulator import JointSample, Observation
 
 
 @dataclass(frozen=True)
@@ -34,14 +38,14 @@ class StepOutcome:
     """What one step did: the events the integrator located in it (``(t [s] on the core's
     clock, kind, index)``), and the fault that stopped the simulation in it (or None)."""
 
-    events: tuple
+    events: tuple[LoggedEvent, ...]
     fault: str | None = None
 
 
 class SimPlant:
     """The simulation of one scene, stepped ``step_ns`` at a time."""
 
-    def __init__(self, scene, step_ns: int):
+    def __init__(self, scene: Scene, step_ns: int) -> None:
         self.scene = scene
         self.step_ns = int(step_ns)
         self.offset_ns = 0
@@ -73,7 +77,7 @@ class SimPlant:
         self.offset_ns = self.time_ns if keep_time else 0
         self._start()
 
-    def step(self, command) -> StepOutcome:
+    def step(self, command: Iterable[float]) -> StepOutcome:
         """Integrate one step under ``command`` (one force per actuator [N]) held."""
         fault = None
         if self.fault is None:
@@ -87,10 +91,10 @@ class SimPlant:
         new, self._n_events = tuple(events[self._n_events:]), len(events)
         return StepOutcome(new, fault)
 
-    def joint_sample(self):
+    def joint_sample(self) -> JointSample:
         return self.sim.joint_sample()
 
-    def observe(self):
+    def observe(self) -> Observation:
         return self.sim.observe()
 
     def floor(self) -> tuple[np.ndarray, np.ndarray] | None:

@@ -13,6 +13,7 @@ the simulator waits at (integer nanoseconds, compared exactly).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 from tensegrity_core.sim.model import Interface
 from tensegrity_ros.nodes.actuator_commands import CommandError, ForceUpdate, parse_command
@@ -29,7 +30,7 @@ class Command:
     stamp_ns: int
 
 
-def receive(msg, *, max_force: float, interface: Interface | None = None) -> Command:
+def receive(msg: Any, *, max_force: float, interface: Interface | None = None) -> Command:
     """The :class:`Command` of an ``ActuatorForces`` message, or :class:`CommandError` saying
     why not (also when the scene's inputs are not actuator forces)."""
     if interface is not None and interface.command != "force":
@@ -41,7 +42,7 @@ def receive(msg, *, max_force: float, interface: Interface | None = None) -> Com
     return Command(update, stamp_ns(msg.header.stamp))
 
 
-def receive_cables(msg, *, interface: Interface) -> Command:
+def receive_cables(msg: Any, *, interface: Interface) -> Command:
     """The :class:`Command` of a ``CableCommand`` message, or :class:`CommandError` saying why not."""
     update = parse_cable_command(list(msg.name), msg.rest_length, msg.reel_speed, msg.tension, interface)
     return Command(update, stamp_ns(msg.header.stamp))
