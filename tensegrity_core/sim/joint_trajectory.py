@@ -127,9 +127,14 @@ def plan_trajectory(names: Sequence[str], times: Sequence[float], positions: Seq
         raise TrajectoryError("this scene has no inputs that take commands", code=INVALID_JOINTS)
     if not names:
         raise TrajectoryError("the trajectory names no joints", code=INVALID_JOINTS)
+    modes = dict(zip(interface.inputs, interface.modes))
     for name in names:
         if name not in takes:
             raise TrajectoryError(f"unknown joint {excerpt(name)}; the joints are {', '.join(takes)}",
+                                  code=INVALID_JOINTS)
+        if modes.get(name, "rest_length") != "rest_length":
+            raise TrajectoryError(f"joint {name}'s motor takes a {modes[name].replace('_', ' ')}, not a rest length: "
+                                  "trajectories drive rest-length motors (send its command on cable_commands)",
                                   code=INVALID_JOINTS)
     if len(set(names)) != len(names):
         raise TrajectoryError(f"a joint is named twice in {excerpt(names)}", code=INVALID_JOINTS)

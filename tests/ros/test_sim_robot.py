@@ -149,7 +149,7 @@ def test_bad_robot_commands_are_refused_and_change_nothing(robot):
         (lambda: ros.send(["c9_9"], [0.8]), "unknown cable name 'c9_9' (actuated cables: c0_4, c0_7"),
         (lambda: ros.send(["c0_4"], [float("nan")]), "rest length of c0_4 is not finite"),
         (lambda: ros.send(["c0_4"], [1.2]), "rest length of c0_4 = 1.2 m is outside its range (0.45, 1.05) m"),
-        (lambda: ros.send(["c0_4"], [0.8], tension=[500.0]), "tension commands are not taken"),
+        (lambda: ros.send(["c0_4"], [0.8], tension=[500.0]), "no named cable's motor takes tensions (leave tension empty)"),
         (lambda: forces.publish(ActuatorForces(name=["f1"], force=[1.0])),
          "not actuator forces: send tensegrity_msgs/CableCommand on cable_commands"),
     ]
@@ -167,3 +167,59 @@ def test_bad_robot_commands_are_refused_and_change_nothing(robot):
     assert ros.count["cable_states"] > n                       # alive: still republishing
     assert {tuple(m.rest_length) for m in ros.got["cable_states"].values()} == {tuple(start.rest_length)}
     assert set(ros.got["cable_states"]) == {0}                 # paused: nothing stepped
+
+
+def test_a_tension_mode_motor_takes_its_tension_over_ros_exactly_as_the_core(robot, tmp_path):
+    """A scene with c0_4's motor in tension mode: a CableCommand's ``tension`` field drives it
+    (and a rest length for it is refused); the states stepped under it equal the core's."""
+    import yaml
+
+    from tensegrity_core.sim import Simulator
+    from tensegrity_core.sim.sampled import step_time
+    from tensegrity_ros.apps.sim_client import SimClient
+    from tensegrity_ros.rclpy_utils.matching import wait_for_matches
+
+    scene = tmp_path / "six_bar_tension.yaml"
+    scene.write_text(yaml.safe_dump({
+        "name": "six_bar_tension", "model": {"kind": "robot", "robot": "six_bar"},
+        "initial": {"drawn": True, "lift": LIFT}, "duration": 3.0,
+        "effects": ["inertia", "cables", {"motors": {"modes": {"c0_4": "tension"}}}, "gravity", "contact",
+                    "friction", "sensors"]}))
+    proc, ros = robot("initial_state:=paused", "paused_publish_rate:=20.0", scene=str(scene))
+    import rclpy
+
+    start, = ros.at(0, "cable_states")
+    c04 = list(start.name).index("c0_4")
+    client = SimClient(rclpy, "robot_tension_client", context=ros.executor.context)
+    try:
+        client.wait_for_services(30)
+        assert wait_for_matches([ros.pub], 1, 30)
+        deadline = time.monotonic() + 30
+        while "no named cable's motor takes rest lengths" not in proc.stderr():
+            assert time.monotonic() < deadline, proc.stderr()[-2000:]
+            ros.send(["c0_4"], [0.8])
+            ros.spin(0.2)
+        ros.send(["c0_4"], [], tension=[300.0])
+        states = [start]
+        while states[-1].rest_length[c04] == start.rest_length[c04]:
+            assert time.monotonic() < deadline + 30, "the tension command never acted"
+            client.step(1)
+            states += ros.at(len(states) * STEP_NS, "cable_states")
+        client.step(50)
+        states += [ros.at(k * STEP_NS, "cable_states")[0] for k in range(len(states), len(states) + 50)]
+    finally:
+        client.close()
+    k0, n = len(states) - 51, len(states) - 1
+    sim = Simulator(str(scene))
+    held = list(sim.command)
+    mode = list(sim.interface.modes)
+    assert mode[sim.interface.inputs.index("c0_4")] == "tension"
+    for k in range(n):
+        command = list(held)
+        if k >= k0 - 1:
+            command[sim.interface.inputs.index("c0_4")] = 300.0
+        sim.set_command(command)
+        sim.advance(step_time(k + 1, STEP_NS))
+    obs = sim.observe()
+    np.testing.assert_array_equal(states[n].tension, obs.member_forces)
+    assert states[n].rest_length[c04] < start.rest_length[c04] - 1e-3     # it reels in towards 300 N

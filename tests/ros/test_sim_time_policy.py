@@ -5,6 +5,7 @@ decimation of slower topics; and the check of cable commands against a model's I
 from __future__ import annotations
 
 import math
+import re
 
 import pytest
 from hypothesis import given
@@ -234,3 +235,35 @@ def test_a_cable_command_sets_the_cables_it_names():
         parse_cable_command(["a"], [0.8], [], [], none)
     assert parse_cable_command([], [], [], [], none).apply([]) == []                # empty: no change
     assert parse_cable_command([], [], [], [], TABLE).apply([0.9, 0.8, 0.7]) == [0.9, 0.8, 0.7]
+
+
+MOTORS = Interface("rest_length", ("a", "b", "c"), (True, True, True),
+                   ((0.45, 1.05), (0.0, 2000.0), (-0.5, 0.5)), (6, 7, 8), ("rest_length", "tension", "reel_speed"))
+
+
+def test_a_robot_cable_takes_its_motors_mode_from_its_own_field():
+    from tensegrity_ros.nodes.sim.cable_commands import parse_cable_command
+
+    nan = math.nan
+    assert parse_cable_command(["b"], [], [], [150.0], MOTORS).apply([0.9, 100.0, 0.0]) == [0.9, 150.0, 0.0]
+    assert parse_cable_command(["c", "a"], [nan, 0.8], [-0.1, nan], [], MOTORS).apply([0.9, 100.0, 0.0]) == \
+        [0.8, 100.0, -0.1]
+    assert parse_cable_command([], [0.7, nan, nan], [nan, nan, 0.2], [nan, 10.0, nan], MOTORS).apply(
+        [0.9, 100.0, 0.0]) == [0.7, 10.0, 0.2]
+
+
+@pytest.mark.parametrize("names, rest, reel, tension, reason", [
+    (["b"], [0.8], [], [], "no named cable's motor takes rest lengths (leave rest_length empty)"),
+    (["b"], [], [], [], "1 names but 0 tensions"),
+    (["b"], [], [], [2500.0], "tension of b = 2500 N is outside its range (0, 2000) N"),
+    (["c"], [], [0.6], [], "reel speed of c = 0.6 m/s is outside its range (-0.5, 0.5) m/s"),
+    (["a", "b"], [0.8, 0.8], [], [1.0, 1.0], "cable a's motor takes a rest length [m] (rest_length): its tension "
+                                             "must be NaN (not set)"),
+    (["b"], [], [], [math.nan], "tension of b is not finite"),
+])
+def test_bad_motor_mode_commands_say_why(names, rest, reel, tension, reason):
+    from tensegrity_ros.nodes.actuator_commands import CommandError
+    from tensegrity_ros.nodes.sim.cable_commands import parse_cable_command
+
+    with pytest.raises(CommandError, match=re.escape(reason)):
+        parse_cable_command(names, rest, reel, tension, MOTORS)

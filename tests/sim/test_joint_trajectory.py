@@ -96,6 +96,16 @@ def test_bad_trajectories_say_why(names, times, positions, extra, code, reason):
     assert info.value.code == code
 
 
+def test_a_robot_motor_in_another_mode_is_no_joint_of_a_trajectory():
+    motors = Interface("rest_length", ("a", "b"), (True, True), ((0.45, 1.05), (0.0, 2000.0)), (6, 7),
+                       ("rest_length", "tension"))
+    assert plan_trajectory(["a"], [1.0], [[0.8]], interface=motors, start=(0.9, 100.0)).command(1.0, (0.9, 100.0)) \
+        == [0.8, 100.0]
+    with pytest.raises(TrajectoryError, match="joint b's motor takes a tension, not a rest length") as info:
+        plan_trajectory(["b"], [1.0], [[150.0]], interface=motors, start=(0.9, 100.0))
+    assert info.value.code == INVALID_JOINTS
+
+
 def test_the_goal_monitor_checks_the_path_then_the_goal_within_its_time():
     tr = plan_trajectory(["a", "b"], [1.0], [[0.8, 0.8]], interface=CABLES, start=START)
     tol = Tolerances((0.01, math.inf), (math.inf, math.inf), (0.001, 0.001), (math.inf, math.inf), 0.5)
