@@ -1,0 +1,199 @@
+"""Play a gait on the running suite through ``control_msgs/FollowJointTrajectory`` and watch
+what the robot does (``tensegrity gait``; the command's checks are in
+:mod:`tensegrity_ros.cli.cmd_gait`).
+
+While the goal runs this client collects the simulator's ``body_states`` (the robot's
+centre), ``contacts`` (the caps on the floor) and ``joint_states`` (the motor cables'
+tensions), each stamped with simulation time, and summarises them at the end
+(:mod:`.roll_summary`).
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import TextIO
+
+from tensegrity_ros.apps.gait_goal import TrajectoryPoints, trajectory_points
+from tensegrity_ros.apps.roll_summary import roll_summary
+
+NS_PER_S = 1_000_000_000
+SIM_NODE = "tensegrity_sim"
+
+
+class SuiteError(RuntimeError):
+    """The suite cannot play the gait: one line, and the exit code (3: nothing answers)."""
+
+    def __init__(self, message: str, code: int = 1):
+        super().__init__(message)
+        self.code = code
+
+
+def running_scene(node, executor, timeout: float) -> str:
+    """The running simulator's ``scene`` parameter; SuiteError (code 3) when none answers."""
+    from rclpy.parameter_client import AsyncParameterClient
+
+    from tensegrity_ros.rclpy_utils.futures import spin_until_done
+
+    client = AsyncParameterClient(node, SIM_NODE)
+    where = node.get_namespace()
+    if not client.wait_for_services(timeout_sec=timeout):
+        raise SuiteError(f"no simulator answers in namespace {where} after {timeout:g} s (is the suite up? "
+                       "`tensegrity up --scene six_bar_rest`)", code=3)
+    future = client.get_parameters(["scene"])
+    if not spin_until_done(executor, future, timeout):
+        raise SuiteError(f"the simulator did not say its scene within {timeout:g} s", code=3)
+    return future.result().values[0].string_value
+
+
+def check_scene(scene_name: str, robot_name: str, gait) -> None:
+    """:class:`SuiteError` unless ``scene_name`` simulates ``robot_name`` with the gait's cables commanded."""
+    from tensegrity_core.errors import TensegrityError
+    from tensegrity_core.sim import compile_scene, load_scene
+
+    try:
+        scene = load_scene(scene_name)
+        model = compile_scene(scene)
+    except TensegrityError as err:
+        raise SuiteError(f"the running simulator's scene {scene_name!r} cannot be read here: {err}") from None
+    runs = getattr(scene.model, "source", None) if scene.model.kind == "robot" else None
+    if runs != robot_name:
+        what = f"the robot {runs}" if runs else f"a {scene.model.kind} model, not a robot"
+        raise SuiteError(f"the running suite simulates {what} (scene {scene_name!r}), not {robot_name}")
+    commanded = {name for name, c in zip(model.interface.inputs, model.interface.commanded) if c}
+    missing = [c for c in gait.cables if c not in commanded]
+    if missing:
+        raise SuiteError(f"the running scene {scene_name!r} plays its own inputs on {', '.join(missing[:3])}"
+                       f"{', ...' if len(missing) > 3 else ''}: start the suite with a scene whose motors take "
+                       "commands (`tensegrity up --scene six_bar_rest`)")
+
+
+
+
+def goal_of(points: TrajectoryPoints):
+    """The FollowJointTrajectory goal of ``points`` (positions only: the controller
+    interpolates linearly; its default tolerances)."""
+    from builtin_interfaces.msg import Duration
+    from control_msgs.action import FollowJointTrajectory
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+    traj = JointTrajectory(joint_names=list(points.joint_names))
+    for t, row in zip(points.times, points.positions):
+        ns = round(t * NS_PER_S)
+        traj.points.append(JointTrajectoryPoint(positions=list(row),
+                                                time_from_start=Duration(sec=ns // NS_PER_S, nanosec=ns % NS_PER_S)))
+    return FollowJointTrajectory.Goal(trajectory=traj)
+
+
+class RunWatcher:
+    """Subscriptions to what the robot does; samples kept only while ``active``."""
+
+    def __init__(self, node) -> None:
+        from rclpy.qos import QoSProfile
+        from sensor_msgs.msg import JointState
+        from tensegrity_msgs.msg import CapContacts, RigidBodyStates
+
+        self.active = False
+        self.centres: list[tuple[float, float, float]] = []
+        self.contact_times: list[float] = []
+        self.contacts: list[tuple[str, ...]] = []
+        self.cable_names: tuple[str, ...] = ()
+        self.tensions: list[tuple[float, ...]] = []
+        qos = QoSProfile(depth=1000)
+        node.create_subscription(RigidBodyStates, "body_states", self._on_bodies, qos)
+        node.create_subscription(CapContacts, "contacts", self._on_contacts, qos)
+        node.create_subscription(JointState, "joint_states", self._on_joints, qos)
+
+    def _on_bodies(self, msg) -> None:
+        if self.active and msg.pose:
+            n = len(msg.pose)
+            self.centres.append((sum(p.position.x for p in msg.pose) / n, sum(p.position.y for p in msg.pose) / n,
+                                 sum(p.position.z for p in msg.pose) / n))
+
+    def _on_contacts(self, msg) -> None:
+        if self.active:
+            self.contact_times.append(msg.header.stamp.sec + msg.header.stamp.nanosec / NS_PER_S)
+            self.contacts.append(tuple(msg.name))
+
+    def _on_joints(self, msg) -> None:
+        if self.active:
+            if not self.cable_names:
+                self.cable_names = tuple(msg.name)
+            if tuple(msg.name) == self.cable_names:
+                self.tensions.append(tuple(msg.effort))
+
+    def summary_lines(self) -> list[str]:
+        s = roll_summary(self.centres, self.contact_times, self.contacts, self.cable_names, self.tensions)
+        return s.lines()
+
+
+def play_gait(robot: str, gait, ros_args: list[str], *, action: str, timeout: float, out: TextIO = sys.stdout) -> int:
+    """Send ``gait`` as one goal to ``action`` (once :func:`check_scene` accepts the running
+    simulator's scene for ``robot``), show progress
+    on stderr, print the result and the run's summary to ``out``; the exit code."""
+    from control_msgs.action import FollowJointTrajectory
+    from rclpy.action import ActionClient
+    from rclpy.executors import SingleThreadedExecutor
+    from tqdm import tqdm
+
+    from tensegrity_ros.cli.ros_clients import client_node
+    from tensegrity_ros.rclpy_utils.futures import spin_until_done
+
+    points = trajectory_points(gait)
+    rclpy, node = client_node("tensegrity_gait", ros_args)
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    client = ActionClient(node, FollowJointTrajectory, action)
+    watcher = RunWatcher(node)
+    bar = None
+    handle = None
+    try:
+        check_scene(running_scene(node, executor, timeout), robot, gait)
+        if not client.wait_for_server(timeout_sec=timeout):
+            raise SuiteError(f"action {node.resolve_topic_name(action)} not available after {timeout:g} s (is the "
+                           "suite's cable controller up? `tensegrity up --scene six_bar_rest`)", code=3)
+        bar = tqdm(total=round(points.duration, 2), unit="s", file=sys.stderr, dynamic_ncols=True, mininterval=0.5,
+                   desc=f"{gait.name} on {robot}", bar_format="{l_bar}{bar}| {n:.2f}/{total_fmt} s {postfix}")
+
+        def on_feedback(msg) -> None:
+            d = msg.feedback.desired.time_from_start
+            advance = round(min(d.sec + d.nanosec / NS_PER_S, points.duration), 2) - bar.n
+            if advance > 0:
+                bar.update(advance)           # redraws at most every mininterval
+
+        watcher.active = True
+        sent = client.send_goal_async(goal_of(points), feedback_callback=on_feedback)
+        if not spin_until_done(executor, sent, timeout):
+            raise SuiteError(f"the cable controller did not answer the goal within {timeout:g} s", code=3)
+        handle = sent.result()
+        if not handle.accepted:
+            raise SuiteError("the cable controller rejected the goal", code=1)
+        result = handle.get_result_async()
+        while not spin_until_done(executor, result, 1.0):
+            pass
+        handle = None
+        watcher.active = False
+        res = result.result().result
+        ok = res.error_code == 0
+        if ok:
+            bar.n = bar.total
+            bar.refresh()
+        bar.close()
+        codes = {v: k for k, v in vars(FollowJointTrajectory.Result).items() if k.isupper() and isinstance(v, int)}
+        print(f"{'succeeded' if ok else 'failed (' + codes.get(res.error_code, str(res.error_code)) + ')'}: "
+              f"{res.error_string or gait.name}", file=out)
+        for line in watcher.summary_lines():
+            print(f"  {line}", file=out)
+        return 0 if ok else 1
+    except KeyboardInterrupt:
+        if handle is not None:
+            spin_until_done(executor, handle.cancel_goal_async(), 5.0)
+            bar.close()
+            print("cancelled: the cables hold where they are", file=sys.stderr)
+        return 130
+    finally:
+        if bar is not None:
+            bar.close()
+        executor.shutdown()
+        client.destroy()
+        node.destroy_node()
+        rclpy.try_shutdown()

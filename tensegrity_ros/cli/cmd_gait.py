@@ -1,0 +1,95 @@
+"""``tensegrity gait ROBOT GAIT``: play a shipped gait on the running suite's robot.
+
+The gait (:func:`tensegrity_ros.apps.gait_goal.gait_named`: a shipped gait or a robot
+scene's) goes to the cable controller (``tensegrity_cable_controller``, started by
+``tensegrity up --scene`` a robot scene whose motors take commands) as one
+``control_msgs/FollowJointTrajectory`` goal, exactly the goal a client written for
+ros2_control's joint_trajectory_controller would send: joint names = the gait's cables,
+positions = rest lengths [m] (:func:`~tensegrity_ros.apps.gait_goal.trajectory_points`).
+``--faces N`` cuts a rolling gait to its first N faces, ``--repeats N`` plays a periodic
+gait N cycles. Progress on stderr (the feedback's time along the trajectory); at the end
+the result and what the robot did (:mod:`tensegrity_ros.apps.roll_summary`): distance
+rolled [m], faces rolled, peak tensions [N].
+
+Before sending, the simulator's ``scene`` parameter says which robot runs: a suite that is
+not up (exit 3), runs another robot or a scene whose motors take no commands (exit 1) is
+one line. Exit 0 when the goal succeeded, 1 when it failed; Ctrl-C cancels the goal (the
+cables hold where they are) and exits 130.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from tensegrity_ros.cli._common import CliError
+
+ORDER = 57
+
+ACTION = "tensegrity_cable_controller/follow_joint_trajectory"
+
+
+def register(sub) -> None:
+    p = sub.add_parser("gait", help="play a shipped gait on the running suite's robot (FollowJointTrajectory)",
+                       description="Send a shipped gait (six_bar_roll, three_bar_crawl, ...) to the running suite's "
+                       "cable controller as a control_msgs/FollowJointTrajectory goal (cable rest lengths [m]); "
+                       "print the distance rolled [m], the faces rolled and the peak cable tensions [N]. Start "
+                       "the suite first, e.g. `tensegrity up --scene six_bar_rest`.")
+    p.add_argument("robot", help="the robot the gait is for (six_bar, three_bar, ...)")
+    p.add_argument("gait", help="a shipped gait or a robot scene that plays one (six_bar_roll, three_bar_crawl)")
+    p.add_argument("--faces", type=int, default=None, metavar="N",
+                   help="roll only the first N faces of a rolling gait (six_bar_roll: 1..8)")
+    p.add_argument("--repeats", type=int, default=None, metavar="N", help="cycles of a periodic gait")
+    p.add_argument("--namespace", "-n", default="", help="the suite's ROS namespace (as given to `tensegrity up`)")
+    p.add_argument("--action", default=ACTION, help=f"the FollowJointTrajectory action (default {ACTION})")
+    p.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for the suite to answer")
+    p.set_defaults(func=_gait)
+
+
+def build_gait(robot_name: str, gait_name: str, faces: int | None, repeats: int | None):
+    """``(robot, gait)``: the gait checked against the robot and cut or repeated as asked;
+    CliError with one line otherwise."""
+    from tensegrity_core.errors import TensegrityError
+    from tensegrity_core.robot.loading import load_robot, robot_names
+    from tensegrity_ros.apps.gait_goal import first_faces, gait_named
+
+    if robot_name not in robot_names():
+        raise CliError(f"no shipped robot {robot_name!r}; robots: {', '.join(robot_names())}")
+    robot = load_robot(robot_name)
+    try:
+        gait = gait_named(gait_name)
+        actuated = [robot.cables.names[j] for j in robot.cables.actuated]
+        foreign = [c for c in gait.cables if c not in actuated]
+        if foreign:
+            raise CliError(f"gait {gait_name!r} drives cables that are not motor cables of {robot_name} "
+                           f"({', '.join(foreign[:3])}{', ...' if len(foreign) > 3 else ''}): it is another robot's")
+        if repeats is not None:
+            if gait.period is None:
+                raise CliError(f"gait {gait_name!r} is not periodic: --repeats needs a periodic gait")
+            if repeats < 1:
+                raise CliError(f"--repeats must be >= 1, got {repeats}")
+            gait = gait.with_options(cycles=repeats)
+        if faces is not None:
+            speed = {robot.cables.names[j]: float(v) for j, v in zip(robot.cables.actuated, robot.motors.max_speed)}
+            gait = first_faces(gait, faces, [speed[c] for c in gait.cables])
+    except TensegrityError as err:
+        raise CliError(str(err)) from None
+    return robot, gait
+
+
+def _gait(args) -> int:
+    import math
+
+    if not (math.isfinite(args.timeout) and args.timeout > 0):
+        raise CliError(f"--timeout must be > 0 s, got {args.timeout}")
+    _, gait = build_gait(args.robot, args.gait, args.faces, args.repeats)
+    from tensegrity_ros.rclpy_utils.env import require_rclpy
+
+    require_rclpy()
+    from tensegrity_ros.apps.gait_run import SuiteError, play_gait
+
+    ns = args.namespace if not args.namespace or args.namespace.startswith("/") else "/" + args.namespace
+    ros_args = ["--ros-args", *(["-r", f"__ns:={ns}"] if ns else []), *args.ros_args[1:]]
+    try:
+        return play_gait(args.robot, gait, ros_args, action=args.action, timeout=args.timeout, out=sys.stdout)
+    except SuiteError as err:
+        raise CliError(str(err), code=err.code) from None

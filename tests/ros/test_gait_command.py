@@ -1,0 +1,65 @@
+"""``tensegrity gait`` against the real suite (``tensegrity up --scene six_bar_rest``: the
+simulator and the cable controller over DDS on loopback): one line and exit 3 when no suite
+is up, one line and exit 1 for another robot's gait, and the 6-bar's first face rolled
+through FollowJointTrajectory with the distance [m], faces and tensions [N] printed."""
+
+from __future__ import annotations
+
+import re
+import time
+
+import pytest
+
+from tests.ros_support import run_cli
+
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
+
+NS = "/gait_test"
+#: m: a tip over an edge of a closed face carries the centre of mass from 0.300 m inside
+#: the edge (the triangle's inradius less the sag, docs/robots.md) to beyond it.
+CLOSED_FACE_MARGIN = 0.30
+
+
+def test_gait_says_when_no_suite_is_up_and_rolls_the_six_bar(cli, tmp_path):
+    r = run_cli("gait", "six_bar", "six_bar_roll", "--faces", "1", "-n", NS, "--timeout", "1")
+    assert r.returncode == 3, r.stdout + r.stderr
+    assert r.stderr.strip().splitlines() == [f"error: no simulator answers in namespace {NS} after 1 s (is the suite "
+                                             "up? `tensegrity up --scene six_bar_rest`)"]
+
+    # in lockstep: the cable controller answers every state, so the run goes as fast as that loop
+    up = cli("up", "--scene", "six_bar_rest", "--no-formfind", "--namespace", NS, "--ros-args", "-p",
+             "lockstep:=true", log_name="up")
+    deadline = time.monotonic() + 120                  # a guard against a hang, not a timing
+    while "cable controller ready" not in _stdout_so_far(up):
+        assert up.popen.poll() is None and time.monotonic() < deadline, _stdout_so_far(up)
+        time.sleep(0.2)
+
+    r = run_cli("gait", "three_bar", "three_bar_crawl", "-n", NS, "--timeout", "30")
+    assert r.returncode == 1, r.stdout + r.stderr
+    assert r.stderr.strip().splitlines() == ["error: the running suite simulates the robot six_bar (scene "
+                                             "'six_bar_rest'), not three_bar"]
+
+    r = run_cli("gait", "six_bar", "six_bar_roll", "--faces", "1", "-n", NS, "--timeout", "30", timeout=300)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert r.stdout.startswith("succeeded:"), r.stdout
+    distance = float(re.search(r"distance rolled: (\S+) m", r.stdout).group(1))
+    assert distance > CLOSED_FACE_MARGIN, r.stdout
+    assert re.search(r"faces rolled: \d+ \(\d+ faces rested on\)", r.stdout), r.stdout
+    tensions = [float(v) for v in re.findall(r"c\d+_\d+ (\S+) N", r.stdout)]
+    assert len(tensions) == 3 and all(t > 0 for t in tensions), r.stdout
+
+
+def _stdout_so_far(proc) -> str:
+    """What ``tensegrity up`` printed so far (its children's lines go to its stdout)."""
+    import os
+    import select
+
+    out = proc.popen.stdout
+    chunks = getattr(proc, "_seen", "")
+    while select.select([out], [], [], 0)[0]:
+        data = os.read(out.fileno(), 65536).decode(errors="replace")
+        if not data:
+            break
+        chunks += data
+    proc._seen = chunks
+    return chunks
