@@ -17,7 +17,9 @@
    core's sampled-data run of the same loop (identical), and with the continuous-time
    ``paper_fold`` scene at 10, 100 and 1000 Hz (the core's sampled runs);
 4. call ``find_form`` with the tensegrity-table example;
-5. print a summary (tracking errors, fold times, the control-period table, bag contents).
+5. the 6-bar robot rolled by its gait in a second simulator, recorded to ``OUT/six_bar_roll``
+   and rerun identical (:mod:`.demo_robot`);
+6. print a summary (tracking errors, fold times, the control-period table, bag contents).
 
 Recording loses nothing (:mod:`.recording`): a phase starts only once the recorder has
 received the first message of every topic the paused simulator publishes (the demo resets
@@ -44,7 +46,7 @@ import numpy as np
 from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics
 from tensegrity_core.class2.fold_law import FOLD_GAIN, paper_fold_forces
 from tensegrity_core.sim.sampled import NS_PER_S, run_sampled, step_ns_of
-from tensegrity_ros.apps import demo_moves
+from tensegrity_ros.apps import demo_moves, demo_robot
 from tensegrity_ros.apps.demo_moves import WAYPOINT_OFFSETS, ControllerClient
 from tensegrity_ros.apps.launch import Launcher, ProcessSpec
 from tensegrity_ros.apps.recording import Recorder, RecorderNotReady
@@ -214,7 +216,8 @@ class DemoClient:
         self.sim.close()
 
 
-def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool = True) -> int:
+def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool = True,
+             robot_faces: int = demo_robot.FACES) -> int:
     rclpy = require_rclpy()
     from tensegrity_core.general import example_path
     from tensegrity_ros.bag.info import bag_info
@@ -347,6 +350,11 @@ def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool 
              f"forces / first = {np.round(ratio, 6).tolist()} (paper: [1, 1, 1, 3])")
         results["formfind_success"] = bool(res.success)
 
+        robot_ok = True
+        if robot_faces:
+            robot_ok = demo_robot.run_robot(rclpy, out, step_ns=step_ns, record=record, results=results, bags=bags,
+                                            say=_say, faces=robot_faces)
+
         _say("summary")
         moves, traj = results["moves"]["first"]
         moves_ok = all(m.code == 0 and m.error_after < demo_moves.GOAL_TOLERANCE for m in moves) and traj.code == 0
@@ -357,13 +365,16 @@ def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool 
         _say("  fold (events): " + ", ".join(f"{k} at {v:.6f} s" if v is not None else f"{k} not folded"
                                             for k, v in ft.items())
              + f"; rerun identical: {identical}; core sampled run identical: {diff == 0.0}")
+        if "robot" in results:
+            _say(f"  6-bar ({robot_faces} faces of the gait): {'; '.join(results['robot']['summary'])}; rerun "
+                 f"identical: {results['robot']['identical']}")
         for folder in bags:
             info = bag_info(folder)
             counts = ", ".join(f"{t['name']} {t['count']}" for t in info["topics"])
             _say(f"  bag {folder}: {info['message_count']} messages ({counts}), "
                  f"{info['size_bytes'] / 1024:.0f} KiB")
         ok = (results.get("formfind_success", False) and moves_ok and moves_identical and identical
-              and diff == 0.0 and all(results.get("bags_complete", {}).values()))
+              and diff == 0.0 and all(results.get("bags_complete", {}).values()) and robot_ok)
         return 0 if ok else 1
     except KeyboardInterrupt:
         _say("interrupted")
