@@ -15,7 +15,7 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 
 def test_the_demo_runs_in_lockstep_and_reproduces_itself(tmp_path):
-    r = run_cli("demo", "-o", str(tmp_path / "out"), "--no-record", timeout=600)
+    r = run_cli("demo", "-o", str(tmp_path / "out"), "--no-record", "--robot-faces", "1", timeout=900)
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     out = r.stdout
     from tensegrity_core.class2 import forward_kinematics
@@ -46,6 +46,10 @@ def test_the_demo_runs_in_lockstep_and_reproduces_itself(tmp_path):
     shifts = [abs(float(shift)) for _, _, shift in rows]
     assert shifts[0] > shifts[1] > shifts[2]          # the fold time converges with the rate
     assert "forces / first = [1.0, 1.0, 1.0, 3.0]" in out
+    # the 6-bar: its first face of the gait, rerun identical, what it did with units
+    assert re.search(r"second run: \d+ joint states, identical to the first \(every cable length", out)
+    assert re.search(r"6-bar \(1 faces of the gait\): distance rolled: \S+ m .*faces rolled: \d+ .*peak tensions: "
+                     r"c\d+_\d+ \S+ N.*rerun identical: True", out)
 
 
 def test_ctrl_c_stops_the_demo_with_one_line_and_leaves_nothing_running(tmp_path):
