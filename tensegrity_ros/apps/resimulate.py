@@ -2,8 +2,10 @@
 into a lockstep ``tensegrity_sim`` at their recorded steps, its recorded joint states
 compared with the re-simulated ones.
 
-The bag's ``actuator_forces`` and ``joint_states`` (found by type, any namespace) are
-read; the step is the bag's joint-state spacing (or given). A simulator is started in a
+The bag's commands (``actuator_forces`` of the class-2 mechanism, or ``cable_commands``
+of a general structure or robot: rest lengths by cable name; ``--scene`` names the scene it
+was recorded with, e.g. ``six_bar_rest``) and ``joint_states`` (found by type, any
+namespace) are read; the step is the bag's joint-state spacing (or given). A simulator is started in a
 namespace of its own (lockstep, paused, no ``/clock``, so a running suite is not
 disturbed), reset to the scene's initial state with the clock at 0, and stepped once over
 the whole recording while this process answers each step ``k`` with the command in force
@@ -25,7 +27,7 @@ import bisect
 import os
 import statistics
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeAlias
@@ -36,7 +38,8 @@ from rclpy.serialization import deserialize_message
 from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.reader import BagReader
 from tensegrity_ros.bag.recorder import message_class
-from tensegrity_ros.nodes.actuator_commands import CommandError, parse_command
+from tensegrity_ros.nodes.actuator_commands import CommandError, ForceUpdate, parse_command
+from tensegrity_ros.nodes.sim.cable_commands import InputUpdate, parse_cable_command
 from tensegrity_ros.rclpy_utils.env import require_rclpy
 
 if TYPE_CHECKING:
@@ -44,6 +47,8 @@ if TYPE_CHECKING:
 
 JOINT_TYPE = "sensor_msgs/msg/JointState"
 COMMAND_TYPE = "tensegrity_msgs/msg/ActuatorForces"
+#: The commands of general structures and robots: rest lengths [m] of actuated cables by name.
+CABLE_COMMAND_TYPE = "tensegrity_msgs/msg/CableCommand"
 NS_PER_S = 1_000_000_000
 #: Longest re-simulation accepted [steps] (a bag from outside is bounded like any input).
 MAX_STEPS = 2_000_000
@@ -92,6 +97,11 @@ class Resimulation:
                   f"in velocity {self._per_joint(self.velocity_differences, '/s')}{where}")
 
     def _per_joint(self, values: list[float], per: str) -> str:
+        """Each joint's value with its unit; with more than four joints the largest, named."""
+        if len(values) > 4:
+            k = max(range(len(values)), key=lambda i: abs(values[i]))
+            unit = f" {self.units[k]}{per}" if self.units[k] else ""
+            return f"{values[k]:.3g}{unit} ({self.joints[k]}, the largest of {len(values)} joints)"
         return ", ".join(f"{name} {v:.3g}{f' {unit}{per}' if unit else ''}"
                          for name, unit, v in zip(self.joints, self.units, values))
 
@@ -104,36 +114,42 @@ class Resimulation:
                 "starts from the scene's, so the runs differ from the start (--scene names the bag's scene)")
 
 
-#: A recorded command: ``(stamp [ns], actuator names, forces [N])``.
+#: A recorded command: ``(stamp [ns], names, forces [N] or rest lengths [m])``.
 RecordedCommand: TypeAlias = tuple[int, list[str], list[float]]
 #: A recorded joint state: ``(stamp [ns], positions, velocities)``.
 RecordedJoints: TypeAlias = tuple[int, tuple[float, ...], tuple[float, ...]]
+#: A command's update of the held command vector (forces or rest lengths), and its parser.
+Update: TypeAlias = ForceUpdate | InputUpdate
+Parse: TypeAlias = Callable[[Sequence[str], Sequence[float]], Update]
 
 
 def _stamp(msg: Any) -> int:
     return int(msg.header.stamp.sec) * NS_PER_S + int(msg.header.stamp.nanosec)
 
 
-def read_recording(bag: str | Path) -> tuple[list[RecordedCommand], list[RecordedJoints], list[str]]:
-    """``(commands [(stamp_ns, names, forces)], joints [(stamp_ns, position, velocity)],
-    joint names)``, each sorted by stamp, from the bag's ActuatorForces and JointState
-    topics (the names of the first joint state)."""
+def read_recording(bag: str | Path) -> tuple[list[RecordedCommand], list[RecordedJoints], list[str], str]:
+    """``(commands [(stamp_ns, names, values)], joints [(stamp_ns, position, velocity)],
+    joint names, command type)``, each sorted by stamp, from the bag's command topic
+    (ActuatorForces: forces [N]; or CableCommand: rest lengths [m]) and JointState topic
+    (the names of the first joint state)."""
     reader = BagReader(bag)
     topics = {t.name: t.type for t in reader.topics()}
-    cmd_topics = [n for n, t in topics.items() if t == COMMAND_TYPE]
+    cmd_topics = [n for n, t in topics.items() if t in (COMMAND_TYPE, CABLE_COMMAND_TYPE)]
     joint_topics = [n for n, t in topics.items() if t == JOINT_TYPE]
     if len(joint_topics) != 1:
         raise BagError(f"{bag}: re-simulation needs exactly one {JOINT_TYPE} topic, found {len(joint_topics)}")
     if len(cmd_topics) > 1:
-        raise BagError(f"{bag}: more than one {COMMAND_TYPE} topic: {', '.join(cmd_topics)}")
-    cmd_cls, joint_cls = message_class(COMMAND_TYPE), message_class(JOINT_TYPE)
+        raise BagError(f"{bag}: more than one command topic: {', '.join(cmd_topics)}")
+    cmd_type = topics[cmd_topics[0]] if cmd_topics else COMMAND_TYPE
+    cmd_cls, joint_cls = message_class(cmd_type), message_class(JOINT_TYPE)
     commands: list[RecordedCommand] = []
     joints: list[RecordedJoints] = []
     names: list[str] = []
     for m in reader.messages(cmd_topics + joint_topics):
-        if m.type == COMMAND_TYPE:
+        if m.type == cmd_type:
             c = deserialize_message(m.data, cmd_cls)
-            commands.append((_stamp(c), list(c.name), list(c.force)))
+            values = c.force if cmd_type == COMMAND_TYPE else c.rest_length
+            commands.append((_stamp(c), list(c.name), list(values)))
         else:
             j = deserialize_message(m.data, joint_cls)
             joints.append((_stamp(j), tuple(j.position), tuple(j.velocity)))
@@ -142,7 +158,7 @@ def read_recording(bag: str | Path) -> tuple[list[RecordedCommand], list[Recorde
         raise BagError(f"{bag}: no joint states to compare with")
     commands.sort(key=lambda c: c[0])
     joints.sort(key=lambda j: j[0])
-    return commands, joints, names
+    return commands, joints, names, cmd_type
 
 
 def infer_step_ns(joints: Sequence[RecordedJoints]) -> int:
@@ -155,10 +171,14 @@ def infer_step_ns(joints: Sequence[RecordedJoints]) -> int:
 
 
 def command_schedule(commands: Sequence[RecordedCommand], steps: int, step_ns: int, initial: Sequence[float],
-                     start_ns: int = 0) -> tuple[list[tuple[float, ...]], int]:
-    """The force vector in force at each step ``k < steps`` (last command stamped at or
+                     start_ns: int = 0, parse: Parse | None = None) -> tuple[list[tuple[float, ...]], int]:
+    """The command vector in force at each step ``k < steps`` (last command stamped at or
     before ``start_ns + k step_ns``, names applied cumulatively from ``initial``), and how
-    many commands were used."""
+    many commands were used. ``parse(names, values)`` gives a command's update (default:
+    actuator forces, any size)."""
+    if parse is None:
+        def parse(names: Sequence[str], values: Sequence[float]) -> Update:
+            return parse_command(names, values, max_abs_force=float("inf"))
     stamps = [c[0] for c in commands]
     held, applied, schedule = list(initial), 0, []
     for k in range(steps):
@@ -166,7 +186,7 @@ def command_schedule(commands: Sequence[RecordedCommand], steps: int, step_ns: i
         while applied < n:
             _, names, forces = commands[applied]
             try:
-                held = parse_command(names, forces, max_abs_force=float("inf")).apply(held)
+                held = parse(names, forces).apply(held)
             except CommandError as err:
                 raise BagError(f"recorded command {applied} cannot be applied: {err}") from None
             applied += 1
@@ -179,7 +199,7 @@ def resimulate(bag: str | Path, *, scene: str = "class2_at_rest", step_size: flo
     """Re-simulate ``bag`` (see the module note); needs the ROS wheels."""
     from tensegrity_core.sim import Simulator, load_scene
 
-    commands, joints, names = read_recording(bag)
+    commands, joints, names, cmd_type = read_recording(bag)
     start = joints[0][0]
     if step_size is not None:
         step_ns = round(step_size * NS_PER_S)
@@ -193,9 +213,22 @@ def resimulate(bag: str | Path, *, scene: str = "class2_at_rest", step_size: flo
     if steps > MAX_STEPS:
         raise BagError(f"{bag}: {steps} steps of {step_ns} ns to cover {(joints[-1][0] - start) / NS_PER_S:g} s "
                        f"of joint states: more than the limit {MAX_STEPS}")
-    initial = Simulator(load_scene(scene)).command
-    schedule, used = command_schedule(commands, steps, step_ns, initial, start)
-    resim = _resimulated(schedule, steps, step_ns, scene, lockstep_timeout)
+    sim = Simulator(load_scene(scene))
+    interface = sim.model.interface
+    cables = cmd_type == CABLE_COMMAND_TYPE
+    if cables != (interface.command == "rest_length"):
+        raise BagError(f"{bag}: its commands are {'cable rest lengths' if cables else 'actuator forces'}, but scene "
+                       f"{scene!r} takes {interface.command.replace('_', ' ')}s: give --scene the scene it was "
+                       "recorded with")
+    parse: Parse | None = None
+    if cables:
+        def parse_cables(names: Sequence[str], values: Sequence[float]) -> Update:
+            return parse_cable_command(names, values, [], [], interface)
+        parse = parse_cables
+    schedule, used = command_schedule(commands, steps, step_ns, sim.command, start, parse)
+    commanded = tuple(i for i, c in enumerate(interface.commanded) if c) if cables else None
+    resim = _resimulated(schedule, steps, step_ns, scene, lockstep_timeout,
+                         None if commanded is None else (commanded, tuple(interface.inputs[i] for i in commanded)))
     grid = np.array([start + k * step_ns for k in range(steps + 1)])
     q = np.array([resim[k * step_ns].position for k in range(steps + 1)])
     v = np.array([resim[k * step_ns].velocity for k in range(steps + 1)])
@@ -219,14 +252,17 @@ def resimulate(bag: str | Path, *, scene: str = "class2_at_rest", step_size: flo
         dq, dv = np.maximum(dq, e_q), np.maximum(dv, e_v)
     names = (names + [f"joint {i + 1}" for i in range(len(names), width)])[:width]
     start_difference = np.asarray(joints[0][1][:width], dtype=float) - q[0]
-    return Resimulation(steps, step_ns, compared, off_grid, names, [JOINT_UNITS.get(n, "") for n in names],
+    units = ["m"] * len(names) if cables else [JOINT_UNITS.get(n, "") for n in names]
+    return Resimulation(steps, step_ns, compared, off_grid, names, units,
                         dq.tolist(), dv.tolist(), float(dq.max(initial=0.0)), float(dv.max(initial=0.0)), used,
                         first, start_difference.tolist(), scene)
 
 
 def _resimulated(schedule: Sequence[tuple[float, ...]], steps: int, step_ns: int, scene: str,
-                 lockstep_timeout: float) -> dict[int, JointRecord]:
-    """Joint states by stamp from a lockstep simulator stepped under ``schedule``."""
+                 lockstep_timeout: float,
+                 cables: tuple[tuple[int, ...], tuple[str, ...]] | None = None) -> dict[int, JointRecord]:
+    """Joint states by stamp from a lockstep simulator stepped under ``schedule``; with
+    ``cables`` = (input indices, names) of the commanded cables, as ``CableCommand``."""
     rclpy = require_rclpy()
     from tensegrity_ros.apps.launch import Launcher, ProcessSpec
     from tensegrity_ros.apps.sim_client import SimClient
@@ -243,10 +279,14 @@ def _resimulated(schedule: Sequence[tuple[float, ...]], steps: int, step_ns: int
     rclpy.init()
     client = None
     try:
-        client = SimClient(rclpy, "tensegrity_resimulate", namespace=namespace, record_events=False)
+        client = SimClient(rclpy, "tensegrity_resimulate", namespace=namespace, record_events=False,
+                           cables=None if cables is None else cables[1])
         client.wait_for_services()
         client.reset_all()
-        client.set_law(lambda sample: schedule[round(sample.t * NS_PER_S) // step_ns], until_ns=steps * step_ns)
+        def law(sample: Any) -> Sequence[float]:
+            row = schedule[round(sample.t * NS_PER_S) // step_ns]
+            return row if cables is None else [row[i] for i in cables[0]]
+        client.set_law(law, until_ns=steps * step_ns)
         client.step(steps, timeout=max(600.0, steps * 0.05))
         client.wait_joint(steps * step_ns)
         client.set_law(None)
