@@ -18,8 +18,11 @@ import shutil
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
+from tensegrity_core.robot.gait import Gait
 from tensegrity_core.sim.sampled import NS_PER_S
+from tensegrity_core.sim.simulator import JointSample
 
 NAMESPACE = "/six_bar"
 SCENE = "six_bar_rest"
@@ -28,13 +31,13 @@ FACES = 3                 # of the shipped gait's 8: the demo stays short
 BAG = "six_bar_roll"
 
 
-def gait_law(gait) -> Callable:
+def gait_law(gait: Gait) -> Callable[[JointSample], list[float]]:
     """``law(sample) -> rest lengths [m]``: the gait's rest lengths at the sample's time."""
     laws = [gait.laws()[name] for name in gait.cables]
     return lambda sample: [law.value_at(sample.t, 0.0) for law in laws]
 
 
-def run_robot(rclpy, out: Path, *, step_ns: int, record: bool, results: dict, bags: list[Path],
+def run_robot(rclpy: Any, out: Path, *, step_ns: int, record: bool, results: dict[str, Any], bags: list[Path],
               say: Callable[[str], None], faces: int = FACES) -> bool:
     """The robot phase (module note); True when the rerun is identical and the bag complete."""
     from tensegrity_core.robot.loading import load_robot
@@ -69,7 +72,7 @@ def run_robot(rclpy, out: Path, *, step_ns: int, record: bool, results: dict, ba
         client.wait_for_services(120.0)
         law = gait_law(gait)
 
-        def roll() -> list:
+        def roll() -> list[Any]:
             client.set_law(None)
             client.reset_all()
             client.take_joints()

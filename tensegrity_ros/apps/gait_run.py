@@ -11,8 +11,9 @@ tensions), each stamped with simulation time, and summarises them at the end
 from __future__ import annotations
 
 import sys
-from typing import TextIO
+from typing import Any, TextIO
 
+from tensegrity_core.robot.gait import Gait
 from tensegrity_ros.apps.gait_goal import TrajectoryPoints, trajectory_points
 from tensegrity_ros.apps.roll_summary import roll_summary
 
@@ -28,7 +29,7 @@ class SuiteError(RuntimeError):
         self.code = code
 
 
-def running_scene(node, executor, timeout: float) -> str:
+def running_scene(node: Any, executor: Any, timeout: float) -> str:
     """The running simulator's ``scene`` parameter; SuiteError (code 3) when none answers."""
     from rclpy.parameter_client import AsyncParameterClient
 
@@ -42,10 +43,10 @@ def running_scene(node, executor, timeout: float) -> str:
     future = client.get_parameters(["scene"])
     if not spin_until_done(executor, future, timeout):
         raise SuiteError(f"the simulator did not say its scene within {timeout:g} s", code=3)
-    return future.result().values[0].string_value
+    return str(future.result().values[0].string_value)
 
 
-def check_scene(scene_name: str, robot_name: str, gait) -> None:
+def check_scene(scene_name: str, robot_name: str, gait: Gait) -> None:
     """:class:`SuiteError` unless ``scene_name`` simulates ``robot_name`` with the gait's cables commanded."""
     from tensegrity_core.errors import TensegrityError
     from tensegrity_core.sim import compile_scene, load_scene
@@ -69,11 +70,11 @@ def check_scene(scene_name: str, robot_name: str, gait) -> None:
 
 
 
-def goal_of(points: TrajectoryPoints):
+def goal_of(points: TrajectoryPoints) -> Any:
     """The FollowJointTrajectory goal of ``points`` (positions only: the controller
     interpolates linearly; its default tolerances)."""
     from builtin_interfaces.msg import Duration
-    from control_msgs.action import FollowJointTrajectory
+    from control_msgs.action import FollowJointTrajectory  # type: ignore[import-untyped]
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
     traj = JointTrajectory(joint_names=list(points.joint_names))
@@ -87,7 +88,7 @@ def goal_of(points: TrajectoryPoints):
 class RunWatcher:
     """Subscriptions to what the robot does; samples kept only while ``active``."""
 
-    def __init__(self, node) -> None:
+    def __init__(self, node: Any) -> None:
         from rclpy.qos import QoSProfile
         from sensor_msgs.msg import JointState
         from tensegrity_msgs.msg import CapContacts, RigidBodyStates
@@ -103,18 +104,18 @@ class RunWatcher:
         node.create_subscription(CapContacts, "contacts", self._on_contacts, qos)
         node.create_subscription(JointState, "joint_states", self._on_joints, qos)
 
-    def _on_bodies(self, msg) -> None:
+    def _on_bodies(self, msg: Any) -> None:
         if self.active and msg.pose:
             n = len(msg.pose)
             self.centres.append((sum(p.position.x for p in msg.pose) / n, sum(p.position.y for p in msg.pose) / n,
                                  sum(p.position.z for p in msg.pose) / n))
 
-    def _on_contacts(self, msg) -> None:
+    def _on_contacts(self, msg: Any) -> None:
         if self.active:
             self.contact_times.append(msg.header.stamp.sec + msg.header.stamp.nanosec / NS_PER_S)
             self.contacts.append(tuple(msg.name))
 
-    def _on_joints(self, msg) -> None:
+    def _on_joints(self, msg: Any) -> None:
         if self.active:
             if not self.cable_names:
                 self.cable_names = tuple(msg.name)
@@ -126,7 +127,7 @@ class RunWatcher:
         return s.lines()
 
 
-def play_gait(robot: str, gait, ros_args: list[str], *, action: str, timeout: float, out: TextIO = sys.stdout) -> int:
+def play_gait(robot: str, gait: Gait, ros_args: list[str], *, action: str, timeout: float, out: TextIO = sys.stdout) -> int:
     """Send ``gait`` as one goal to ``action`` (once :func:`check_scene` accepts the running
     simulator's scene for ``robot``), show progress
     on stderr, print the result and the run's summary to ``out``; the exit code."""
@@ -154,7 +155,7 @@ def play_gait(robot: str, gait, ros_args: list[str], *, action: str, timeout: fl
         bar = tqdm(total=round(points.duration, 2), unit="s", file=sys.stderr, dynamic_ncols=True, mininterval=0.5,
                    desc=f"{gait.name} on {robot}", bar_format="{l_bar}{bar}| {n:.2f}/{total_fmt} s {postfix}")
 
-        def on_feedback(msg) -> None:
+        def on_feedback(msg: Any) -> None:
             d = msg.feedback.desired.time_from_start
             advance = round(min(d.sec + d.nanosec / NS_PER_S, points.duration), 2) - bar.n
             if advance > 0:
@@ -187,7 +188,8 @@ def play_gait(robot: str, gait, ros_args: list[str], *, action: str, timeout: fl
     except KeyboardInterrupt:
         if handle is not None:
             spin_until_done(executor, handle.cancel_goal_async(), 5.0)
-            bar.close()
+            if bar is not None:
+                bar.close()
             print("cancelled: the cables hold where they are", file=sys.stderr)
         return 130
     finally:

@@ -20,15 +20,20 @@ cables hold where they are) and exits 130.
 from __future__ import annotations
 
 import sys
+from typing import TYPE_CHECKING, Any
 
 from tensegrity_ros.cli._common import CliError
+
+if TYPE_CHECKING:
+    from tensegrity_core.robot.description import Robot
+    from tensegrity_core.robot.gait import Gait
 
 ORDER = 57
 
 ACTION = "tensegrity_cable_controller/follow_joint_trajectory"
 
 
-def register(sub) -> None:
+def register(sub: Any) -> None:
     p = sub.add_parser("gait", help="play a shipped gait on the running suite's robot (FollowJointTrajectory)",
                        description="Send a shipped gait (six_bar_roll, three_bar_crawl, ...) to the running suite's "
                        "cable controller as a control_msgs/FollowJointTrajectory goal (cable rest lengths [m]); "
@@ -45,7 +50,7 @@ def register(sub) -> None:
     p.set_defaults(func=_gait)
 
 
-def build_gait(robot_name: str, gait_name: str, faces: int | None, repeats: int | None):
+def build_gait(robot_name: str, gait_name: str, faces: int | None, repeats: int | None) -> tuple[Robot, Gait]:
     """``(robot, gait)``: the gait checked against the robot and cut or repeated as asked;
     CliError with one line otherwise."""
     from tensegrity_core.errors import TensegrityError
@@ -76,7 +81,7 @@ def build_gait(robot_name: str, gait_name: str, faces: int | None, repeats: int 
     return robot, gait
 
 
-def _gait(args) -> int:
+def _gait(args: Any) -> int:
     import math
 
     if not (math.isfinite(args.timeout) and args.timeout > 0):
