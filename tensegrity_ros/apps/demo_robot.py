@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import shutil
 import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -97,9 +98,11 @@ def run_robot(rclpy: Any, out: Path, *, step_ns: int, record: bool, results: dic
                 raise RuntimeError("the demo's cable_commands publisher did not match the recorder within 60 s")
             bags.append(folder)
         say("  rolling the 6-bar" + (f" (recording {out / BAG})" if record else ""))
-        watcher.active = True
         first = roll()
-        watcher.active = False
+        window = (0.0, steps * step_ns / NS_PER_S)
+        drained = time.monotonic() + 30.0        # the watcher's samples up to the run's end (its own subscriptions)
+        while watcher.latest() < window[1] and time.monotonic() < drained:
+            time.sleep(0.05)
         complete = True
         if rec is not None:
             stamps = sorted({j.stamp_ns for j in first})
@@ -110,7 +113,7 @@ def run_robot(rclpy: Any, out: Path, *, step_ns: int, record: bool, results: dic
             complete, line = completeness_line(folder, expected)
             complete = complete and code == 0
             say(f"  bag {folder}: {line}")
-        summary = watcher.summary_lines()
+        summary = watcher.summary_lines(*window)
         for text in summary:
             say(f"  {text}")
         say("  the roll again, not recorded: same lockstep run, compared stamp by stamp")

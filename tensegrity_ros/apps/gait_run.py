@@ -10,7 +10,9 @@ tensions), each stamped with simulation time, and summarises them at the end
 
 from __future__ import annotations
 
+import math
 import sys
+import time
 from typing import Any, TextIO
 
 from tensegrity_core.robot.gait import Gait
@@ -86,44 +88,60 @@ def goal_of(points: TrajectoryPoints) -> Any:
 
 
 class RunWatcher:
-    """Subscriptions to what the robot does; samples kept only while ``active``."""
+    """Subscriptions to what the robot does, every sample kept with its stamp [s]; the
+    summary takes those of the goal's window (:meth:`summary_lines`)."""
 
     def __init__(self, node: Any) -> None:
-        from rclpy.qos import QoSProfile
+        from rclpy.qos import HistoryPolicy, QoSProfile
         from sensor_msgs.msg import JointState
-        from tensegrity_msgs.msg import CapContacts, RigidBodyStates
+        from tensegrity_msgs.msg import CableCommand, CapContacts, RigidBodyStates
 
-        self.active = False
-        self.centres: list[tuple[float, float, float]] = []
-        self.contact_times: list[float] = []
-        self.contacts: list[tuple[str, ...]] = []
+        self.controller_answers = 0           # cable_commands seen: the controller gets the states
+        self.centres: list[tuple[float, tuple[float, float, float]]] = []
+        self.contacts: list[tuple[float, tuple[str, ...]]] = []
         self.cable_names: tuple[str, ...] = ()
-        self.tensions: list[tuple[float, ...]] = []
-        qos = QoSProfile(depth=1000)
+        self.tensions: list[tuple[float, tuple[float, ...]]] = []
+        qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1000)   # a loaded client falls behind, loses nothing
         node.create_subscription(RigidBodyStates, "body_states", self._on_bodies, qos)
         node.create_subscription(CapContacts, "contacts", self._on_contacts, qos)
         node.create_subscription(JointState, "joint_states", self._on_joints, qos)
+        node.create_subscription(CableCommand, "cable_commands", self._on_command, 10)
+
+    @staticmethod
+    def _t(msg: Any) -> float:
+        return float(msg.header.stamp.sec + msg.header.stamp.nanosec / NS_PER_S)
+
+    def _on_command(self, msg: Any) -> None:
+        self.controller_answers += 1
 
     def _on_bodies(self, msg: Any) -> None:
-        if self.active and msg.pose:
+        if msg.pose:
             n = len(msg.pose)
-            self.centres.append((sum(p.position.x for p in msg.pose) / n, sum(p.position.y for p in msg.pose) / n,
-                                 sum(p.position.z for p in msg.pose) / n))
+            self.centres.append((self._t(msg), (sum(p.position.x for p in msg.pose) / n,
+                                                sum(p.position.y for p in msg.pose) / n,
+                                                sum(p.position.z for p in msg.pose) / n)))
 
     def _on_contacts(self, msg: Any) -> None:
-        if self.active:
-            self.contact_times.append(msg.header.stamp.sec + msg.header.stamp.nanosec / NS_PER_S)
-            self.contacts.append(tuple(msg.name))
+        self.contacts.append((self._t(msg), tuple(msg.name)))
 
     def _on_joints(self, msg: Any) -> None:
-        if self.active:
-            if not self.cable_names:
-                self.cable_names = tuple(msg.name)
-            if tuple(msg.name) == self.cable_names:
-                self.tensions.append(tuple(msg.effort))
+        if not self.cable_names:
+            self.cable_names = tuple(msg.name)
+        if tuple(msg.name) == self.cable_names:
+            self.tensions.append((self._t(msg), tuple(msg.effort)))
 
-    def summary_lines(self) -> list[str]:
-        s = roll_summary(self.centres, self.contact_times, self.contacts, self.cable_names, self.tensions)
+    def latest(self) -> float:
+        """Stamp [s] of the latest joint state received (-inf: none)."""
+        return self.tensions[-1][0] if self.tensions else -math.inf
+
+    def summary_lines(self, start: float = -math.inf, end: float = math.inf) -> list[str]:
+        """The summary of the samples stamped in [start, end] [s]."""
+        def inside(samples: list[tuple[float, Any]]) -> list[tuple[float, Any]]:
+            return [(t, v) for t, v in samples if start <= t <= end]
+
+        contacts = inside(self.contacts)
+        s = roll_summary([v for _, v in inside(self.centres)], [t for t, _ in contacts], [v for _, v in contacts],
+                         self.cable_names, [v for _, v in inside(self.tensions)])
         return s.lines()
 
 
@@ -152,16 +170,26 @@ def play_gait(robot: str, gait: Gait, ros_args: list[str], *, action: str, timeo
         if not client.wait_for_server(timeout_sec=timeout):
             raise SuiteError(f"action {node.resolve_topic_name(action)} not available after {timeout:g} s (is the "
                            "suite's cable controller up? `tensegrity up --scene six_bar_rest`)", code=3)
+        deadline = time.monotonic() + timeout
+        while not watcher.controller_answers:     # a goal before the controller has a state is INVALID_GOAL
+            if time.monotonic() > deadline:
+                raise SuiteError(f"the cable controller answers no joint states within {timeout:g} s (is the "
+                                 "simulator running? `tensegrity sim play`)", code=3)
+            executor.spin_once(timeout_sec=0.1)
         bar = tqdm(total=round(points.duration, 2), unit="s", file=sys.stderr, dynamic_ncols=True, mininterval=0.5,
                    desc=f"{gait.name} on {robot}", bar_format="{l_bar}{bar}| {n:.2f}/{total_fmt} s {postfix}")
 
+        window = [math.inf, -math.inf]          # the goal's start and latest feedback [s, simulation time]
+
         def on_feedback(msg: Any) -> None:
             d = msg.feedback.desired.time_from_start
+            stamp = RunWatcher._t(msg.feedback)
+            window[0] = min(window[0], stamp - (d.sec + d.nanosec / NS_PER_S))
+            window[1] = max(window[1], stamp)
             advance = round(min(d.sec + d.nanosec / NS_PER_S, points.duration), 2) - bar.n
             if advance > 0:
                 bar.update(advance)           # redraws at most every mininterval
 
-        watcher.active = True
         sent = client.send_goal_async(goal_of(points), feedback_callback=on_feedback)
         if not spin_until_done(executor, sent, timeout):
             raise SuiteError(f"the cable controller did not answer the goal within {timeout:g} s", code=3)
@@ -172,8 +200,10 @@ def play_gait(robot: str, gait: Gait, ros_args: list[str], *, action: str, timeo
         while not spin_until_done(executor, result, 1.0):
             pass
         handle = None
-        watcher.active = False
         res = result.result().result
+        drained = time.monotonic() + timeout      # the samples still queued up to the goal's end
+        while watcher.latest() < window[1] and time.monotonic() < drained:
+            executor.spin_once(timeout_sec=0.1)
         ok = res.error_code == 0
         if ok:
             bar.n = bar.total
@@ -182,7 +212,7 @@ def play_gait(robot: str, gait: Gait, ros_args: list[str], *, action: str, timeo
         codes = {v: k for k, v in vars(FollowJointTrajectory.Result).items() if k.isupper() and isinstance(v, int)}
         print(f"{'succeeded' if ok else 'failed (' + codes.get(res.error_code, str(res.error_code)) + ')'}: "
               f"{res.error_string or gait.name}", file=out)
-        for line in watcher.summary_lines():
+        for line in watcher.summary_lines(*window):
             print(f"  {line}", file=out)
         return 0 if ok else 1
     except KeyboardInterrupt:

@@ -38,7 +38,9 @@ class RollSummary:
         dx, dy = self.displacement
         out = [f"distance rolled: {self.distance:.3f} m (centre moved by ({dx:+.3f}, {dy:+.3f}) m in x, y)",
                f"faces rolled: {self.faces} ({len(self.visited)} faces rested on)"]
-        if self.peak_tensions:
+        if not self.peak_tensions:
+            out.append("peak tensions: no joint states received")
+        else:
             ranked = sorted(self.peak_tensions.items(), key=lambda kv: -kv[1])
             out.append("peak tensions: " + ", ".join(f"{name} {value:.1f} N" for name, value in ranked[:top])
                        + f" (largest {min(top, len(ranked))} of {len(ranked)} motor cables)")
@@ -61,6 +63,8 @@ def roll_summary(centres: Sequence[Sequence[float]], contact_times: Sequence[flo
                                                                                                        len(caps))
     visited = faces_visited(np.asarray(contact_times, dtype=float), matrix, hold)
     faces = tuple((t, tuple(caps[i] for i in sorted(face))) for t, face in visited)
-    tension = np.asarray(tensions, dtype=float).reshape(-1, len(cable_names))
-    peaks = {name: float(tension[:, j].max()) for j, name in enumerate(cable_names)} if len(tension) else {}
+    peaks: dict[str, float] = {}
+    if len(tensions) and len(cable_names):
+        tension = np.asarray(tensions, dtype=float).reshape(-1, len(cable_names))
+        peaks = {name: float(tension[:, j].max()) for j, name in enumerate(cable_names)}
     return RollSummary((float(d[0]), float(d[1])), float(np.hypot(*d)), faces_rolled(visited), faces, peaks)

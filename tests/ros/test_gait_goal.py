@@ -100,3 +100,9 @@ def test_the_roll_summary_of_a_run_known_by_construction():
     assert lines[0].startswith("distance rolled: 1.300 m") and "faces rolled: 2" in lines[1]
     assert "c1 80.5 N, c2 50.0 N" in lines[2]
     assert all(math.isfinite(v) for v in s.displacement)
+
+
+def test_the_roll_summary_of_no_samples_says_so():
+    s = roll_summary([], [], [], (), [])
+    assert s.distance == 0.0 and s.faces == 0 and s.peak_tensions == {}
+    assert s.lines()[-1] == "peak tensions: no joint states received"
