@@ -76,7 +76,7 @@ def goal_of(points: TrajectoryPoints) -> Any:
     """The FollowJointTrajectory goal of ``points`` (positions only: the controller
     interpolates linearly; its default tolerances)."""
     from builtin_interfaces.msg import Duration
-    from control_msgs.action import FollowJointTrajectory  # type: ignore[import-untyped]
+    from control_msgs.action import FollowJointTrajectory
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
     traj = JointTrajectory(joint_names=list(points.joint_names))
