@@ -104,15 +104,14 @@ def gait_named(name: str) -> Gait:
     """A shipped gait, or the gait of a shipped robot scene; :class:`GaitError` (with the
     choices) when there is neither."""
     from tensegrity_core.schema import Reader
+    from tensegrity_core.schema.documents import read_file
     from tensegrity_core.sim.scene.reader import SHIPPED_SCENES, scene_path
 
     if name in gait_names():
         return gait_from_file(gait_file(name, GAITS_DIR, GaitError))
     if name in SHIPPED_SCENES.names():
-        import yaml
-
         path = scene_path(name)
-        data: Any = yaml.safe_load(path.read_text())
+        data: Any = read_file(path, error=GaitError, what="scene file")[0]
         inputs = data.get("inputs") if isinstance(data, dict) else None
         if isinstance(inputs, dict) and "gait" in inputs:
             reader = Reader(GaitError, path.name)
@@ -123,10 +122,9 @@ def gait_named(name: str) -> Gait:
 
 
 def _plays_gait(scene: str) -> bool:
-    import yaml
-
+    from tensegrity_core.schema.documents import read_file
     from tensegrity_core.sim.scene.reader import scene_path
 
-    data = yaml.safe_load(scene_path(scene).read_text())
+    data = read_file(scene_path(scene), error=GaitError, what="scene file")[0]
     return isinstance(data, dict) and isinstance(data.get("inputs"), dict) and "gait" in data["inputs"]
 

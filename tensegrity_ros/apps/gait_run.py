@@ -15,6 +15,7 @@ import sys
 import time
 from typing import Any, TextIO
 
+from tensegrity_core.errors import TensegrityError
 from tensegrity_core.robot.gait import Gait
 from tensegrity_ros.apps.gait_goal import TrajectoryPoints, trajectory_points
 from tensegrity_ros.apps.roll_summary import roll_summary
@@ -23,7 +24,7 @@ NS_PER_S = 1_000_000_000
 SIM_NODE = "tensegrity_sim"
 
 
-class SuiteError(RuntimeError):
+class SuiteError(TensegrityError, RuntimeError):
     """The suite cannot play the gait: one line, and the exit code (3: nothing answers)."""
 
     def __init__(self, message: str, code: int = 1):

@@ -24,11 +24,13 @@ import time
 from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 
+from tensegrity_core.errors import TensegrityError
+
 _FIRST = re.compile(r"first message on (\S+)$")
 _MATCHED = re.compile(r"matched (\d+) publisher\(s\) on (\S+)$")
 
 
-class RecorderNotReady(RuntimeError):
+class RecorderNotReady(TensegrityError, RuntimeError):
     """The recorder did not get a first message or match a publisher in time."""
 
 
