@@ -150,3 +150,31 @@ def test_the_live_view_follows_the_simulator_and_its_controls_drive_it(cli, brow
     finally:
         client.close()
     assert sim.stop(signal.SIGINT) == 0
+
+
+def _red(img: np.ndarray) -> int:
+    """Pixels of the contacts' red (220, 20, 60), shading allowed."""
+    r, g, b = (img[..., k].astype(int) for k in range(3))
+    return int(((r > 150) & (g < 90) & (b < 120) & (r - g > 100)).sum())
+
+
+def test_a_rolling_six_bar_robot_moves_between_frames_with_its_contacts_marked(cli, browser):
+    """``--scene six_bar_roll`` simulated in the view's process: paused at first, the same
+    pixels; played, the robot drawn elsewhere, its caps on the floor marked red."""
+    view, url, port = start_view(cli, "--scene", "six_bar_roll")
+    page = browser.open(url)
+    try:
+        wait_for_canvas(page)
+        still = canvas_pixels(page)
+        page.get_by_role("button", name="Play").click()
+        _until(lambda: status_time(page) > 0.5, "the robot rolled for 0.5 s", poll=lambda: page.wait_for_timeout(200))
+        first = canvas_pixels(page)
+        _until(lambda: status_time(page) > 1.5, "the robot rolled for 1.5 s", poll=lambda: page.wait_for_timeout(200))
+        second = canvas_pixels(page)
+        assert _changed(still, first) > 0.01 and _changed(first, second) > 0.01
+        assert _red(still) == 0 and _red(second) > 20          # at rest on its caps no force yet; rolling: contacts
+        page.get_by_text("normal force: red cylinder").first.wait_for(timeout=WAIT * 1000)
+        _only_loopback(browser, port)
+    finally:
+        page.close()
+    assert view.stop() == 0
