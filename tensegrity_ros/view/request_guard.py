@@ -133,7 +133,9 @@ def install() -> None:
             return ws_server.serve(*args, process_request=functools.partial(_guarded, process_request), **kwargs)
 
         server = _Namespace(ws_server, {"serve": serve})
-        _infra.websockets = _Namespace(websockets, {"asyncio": _Namespace(websockets.asyncio, {"server": server})})
+        # the name viser's module calls websockets.asyncio.server.serve through (its own global only)
+        vars(_infra)["websockets"] = _Namespace(websockets, {"asyncio": _Namespace(websockets.asyncio,
+                                                                                  {"server": server})})
         _state["installed"] = True
 
 

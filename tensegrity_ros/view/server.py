@@ -100,7 +100,8 @@ def start_server(host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, *, label: s
         server.stop()
         raise PortInUseError(f"port {port} on {host} was taken while the view started (viser moved to {bound}); "
                              "choose another with --port")
-    server.gui.configure_theme(show_share_button=False, show_logo=False, control_width="large")
+    server.gui.configure_theme(show_share_button=False, show_logo=False, control_width="large",
+                               control_layout="fixed")
     # Plain lights without shadows: the page stays fluid on software WebGL (no GPU) too.
     server.scene.configure_default_lights(enabled=True, cast_shadow=False)
     return server
