@@ -1,8 +1,10 @@
-"""Screenshots of docs/view.md: ``.venv/bin/python docs/view_screenshots.py`` (writes docs/img/view/*.png).
+"""Screenshots of docs/view.md: ``.venv/bin/python docs/view_screenshots.py [NAME ...]``
+(writes docs/img/view/NAME.png; all of them without names).
 
 Each shipped view in Debian's headless chromium (tests/view/browser.py: software WebGL, the
-network off loopback blocked): the live suite after a move of node D, a bag paused in its
-fold, and a general structure (the spine) simulated in the view's process.
+network off loopback blocked): the live suite after a move of node D (``live_class2``), a bag
+paused in its fold (``bag_fold``), a general structure (the spine) simulated in the view's
+process (``scene_spine``) and the 6-bar robot rolling (``scene_six_bar``).
 """
 
 from __future__ import annotations
@@ -50,43 +52,46 @@ def _shot(browser: Browser, url: str, name: str, act) -> None:
     print(f"wrote {OUT / name}")
 
 
-def main() -> None:
+def _move(page) -> None:
+    page.get_by_role("button", name="Move D").click()
+    page.get_by_text("move: D at").first.wait_for()
+
+
+def _fold(page) -> None:
+    page.get_by_role("button", name="Play").click()
+    _wait_until(page, lambda: status_time(page) > 3.2)
+    page.get_by_role("button", name="Pause").click()
+
+
+def _play_until(t: float):
+    def play(page) -> None:
+        page.get_by_role("button", name="Play").click()
+        _wait_until(page, lambda: status_time(page) > t)
+    return play
+
+
+#: name: (the view's arguments, what the page does before the screenshot).
+SHOTS = {"live_class2": ([], _move),
+         "bag_fold": ([str(ROOT / "bags" / "fold")], _fold),
+         "scene_spine": (["--scene", "spine_release"], _play_until(1.0)),
+         "scene_six_bar": (["--scene", "six_bar_roll"], _play_until(1.2))}
+
+
+def main(names: list[str]) -> None:
     OUT.mkdir(parents=True, exist_ok=True)
     os.environ.setdefault("ROS_DOMAIN_ID", "77")
     browser = Browser(1280, 800)
     procs = []
     with tempfile.TemporaryDirectory() as tmp:
         try:
-            up = subprocess.Popen([TENSEGRITY, "up", "--no-formfind"], stdout=subprocess.DEVNULL,
-                                  stderr=subprocess.DEVNULL, start_new_session=True)
-            procs.append(up)
-            view, url = _start(["view", "--port", "0"], Path(tmp) / "live.log")
-            procs.append(view)
-
-            def move(page) -> None:
-                page.get_by_role("button", name="Move D").click()
-                page.get_by_text("move: D at").first.wait_for()
-
-            _shot(browser, url, "live_class2.png", move)
-
-            bag, url = _start(["view", str(ROOT / "bags" / "fold"), "--port", "0"], Path(tmp) / "bag.log")
-            procs.append(bag)
-
-            def fold(page) -> None:
-                page.get_by_role("button", name="Play").click()
-                _wait_until(page, lambda: status_time(page) > 3.2)
-                page.get_by_role("button", name="Pause").click()
-
-            _shot(browser, url, "bag_fold.png", fold)
-
-            spine, url = _start(["view", "--scene", "spine_release", "--port", "0"], Path(tmp) / "spine.log")
-            procs.append(spine)
-
-            def sway(page) -> None:
-                page.get_by_role("button", name="Play").click()
-                _wait_until(page, lambda: status_time(page) > 1.0)
-
-            _shot(browser, url, "scene_spine.png", sway)
+            if "live_class2" in names:       # the live view needs the suite
+                procs.append(subprocess.Popen([TENSEGRITY, "up", "--no-formfind"], stdout=subprocess.DEVNULL,
+                                              stderr=subprocess.DEVNULL, start_new_session=True))
+            for name in names:
+                args, act = SHOTS[name]
+                view, url = _start(["view", *args, "--port", "0"], Path(tmp) / f"{name}.log")
+                procs.append(view)
+                _shot(browser, url, f"{name}.png", act)
         finally:
             browser.close()
             for p in procs:
@@ -96,4 +101,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    main(sys.argv[1:] or list(SHOTS))

@@ -80,6 +80,9 @@ def _view(args: argparse.Namespace) -> int:
     except ViewError as err:
         source.stop()
         raise CliError(str(err), 3) from None
+    if not is_loopback(args.host):
+        print(f"warning: listening on {args.host}: anyone who can reach this machine can watch and drive the "
+              "simulation", file=sys.stderr, flush=True)
     try:
         server = start_server(args.host, args.port, label="tensegrity view")
     except ViewError as err:
@@ -89,9 +92,6 @@ def _view(args: argparse.Namespace) -> int:
 
     view = View(server, source, first, fps=args.fps)
     url = f"http://{args.host}:{server.get_port()}"
-    if not is_loopback(args.host):
-        print(f"warning: listening on {args.host}: anyone who can reach this machine can watch and drive the "
-              "simulation", file=sys.stderr)
     suite = ", the suite keeps running" if not (args.bag or args.scene) else ""
     print(f"view ready: {url} ({source.label}); Ctrl-C stops the view{suite}", file=sys.stderr, flush=True)
     try:

@@ -55,12 +55,17 @@ def hex_color(rgb: tuple[int, int, int] | NDArray[np.uint8]) -> str:
     return f"#{r:02x}{g:02x}{b:02x}"
 
 
-def legend_html(scale: float, *, cylinders: bool, strings: bool, bodies: bool, contacts: bool, path: bool) -> str:
-    """The legend of the 3D view: one swatch per kind of mark shown, the tension scale [N]."""
+def legend_html(scale: float, *, bars: str, actuators: bool, strings: bool, bodies: bool, contacts: bool, path: bool,
+                normal_force: tuple[float, float] | None = None) -> str:
+    """The legend of the 3D view: one swatch per kind of mark shown, the tension scale [N];
+    ``bars``: what the bars are called ("" without bars);
+    ``normal_force = (height [m], force [N])``: the floor contacts' normal-force cylinders, this
+    high for this force."""
     low, high = (hex_color(c) for c in tension_colors(np.array([1e-12, scale]), scale))
     rows = []
-    if cylinders:
-        rows.append((hex_color(BAR), "bar (cylinder)"))
+    if bars:
+        rows.append((hex_color(BAR), bars))
+    if actuators:
         rows.append((hex_color(ACTUATOR), "actuator (cylinder)"))
     if strings:
         rows.append((f"linear-gradient(90deg, {low}, {high})", f"string: tension 0 to {scale:.3g} N"))
@@ -70,6 +75,8 @@ def legend_html(scale: float, *, cylinders: bool, strings: bool, bodies: bool, c
         rows.append((hex_color(BODY), "rigid body"))
     if contacts:
         rows.append((hex_color(CONTACT), "contact"))
+    if normal_force is not None and normal_force[1] > 1e-6:
+        rows.append((hex_color(CONTACT), f"normal force: red cylinder, {normal_force[0]:.3g} m high for {normal_force[1]:.3g} N"))
     if path:
         rows.append((hex_color(PATH), "end effector's path"))
     cells = "".join(f'<div style="display:flex;align-items:center;gap:6px;font-size:12px">'

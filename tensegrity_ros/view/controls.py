@@ -88,8 +88,16 @@ class ControlPanel:
             x = gui.add_number("x [m]", initial_value=1.45, step=0.01)
             y = gui.add_number("y [m]", initial_value=0.72, step=0.01)
             duration = gui.add_number("duration [s]", initial_value=2.0, min=0.05, max=600.0, step=0.1)
+            goal = gui.add_markdown("")
             go = gui.add_button("Move D")
             go.on_click(lambda _e: source.move(float(x.value), float(y.value), float(duration.value)))
+
+        def show_goal(_event: Any = None) -> None:     # what Move D sends, as the server has it
+            goal.content = f"goal: D to ({x.value:g}, {y.value:g}) m in {duration.value:g} s"
+
+        show_goal()
+        for field in (x, y, duration):
+            field.on_update(show_goal)
 
     def _timeline(self) -> None:
         gui, source = self.gui, self.source

@@ -5,7 +5,10 @@ Bars and actuators are cylinders (one batched mesh of instances: a frame is one 
 for all of them); strings are lines coloured by tension (:mod:`.colors`), slack ones thin and
 grey; nodes are points; rigid bodies translucent hulls of their nodes; fold-limit or floor
 contacts red points; the end effector's path a green trail; the floor a grid at z = 0.
-Sizes scale with the structure's extent at its first frame.
+Sizes scale with the structure's extent at its first frame, except a robot's rods and end
+caps, drawn at their radii (a rod with its caps: a capsule). A floor contact also shows its
+normal force as a red vertical cylinder up from the cap, its height ``CONTACT_HEIGHT`` times the
+structure's extent for the largest normal force seen so far.
 """
 
 from __future__ import annotations
@@ -23,6 +26,8 @@ from tensegrity_ros.view.geometry import segment_poses
 
 #: Points kept on the end effector's trail (at the view's frame rate: ~20 s at 30 fps).
 TRAIL_POINTS: Final = 600
+#: Height of the largest floor normal force's line, as a fraction of the structure's extent.
+CONTACT_HEIGHT: Final = 0.5
 _NO_SEGMENT: Final = np.zeros((1, 2, 3), dtype=np.float32)
 
 
@@ -46,7 +51,10 @@ class StructureDrawing:
         self.scale = colors.TensionScale(max(tension_scale, 1e-6))
         extent = float(np.ptp(first.nodes, axis=0).max()) if len(first.nodes) else 1.0
         self.size = max(extent, 1e-3)
-        self.radius = 0.012 * self.size
+        self.radius = topology.bar_radius or 0.012 * self.size
+        self.node_size = 2 * topology.node_radius or 2.2 * self.radius
+        self.force_scale = colors.TensionScale(1e-6)     # the largest floor normal force so far [N]
+        self._first_node = first.nodes[0] if len(first.nodes) else np.zeros(3)
         self.cylinders = topology.of_kind("bar", "actuator")
         self.strings = topology.of_kind("string")
         kinds = [topology.member_kinds[i] for i in self.cylinders]
@@ -60,8 +68,8 @@ class StructureDrawing:
         if self.topology.floor:
             sc.add_grid("/floor", width=4 * self.size, height=4 * self.size, plane="xy",
                         cell_size=self.size / 10, section_size=self.size / 2)
+        mesh = trimesh.creation.cylinder(radius=1.0, height=1.0, sections=16)
         if len(self.cylinders):
-            mesh = trimesh.creation.cylinder(radius=1.0, height=1.0, sections=16)
             pos, wxyz, scales = self._cylinder_poses(first.nodes)
             self.bars = sc.add_batched_meshes_simple(
                 "/structure/bars", vertices=mesh.vertices, faces=mesh.faces, batched_wxyzs=wxyz,
@@ -71,9 +79,17 @@ class StructureDrawing:
         self.taut = sc.add_line_segments("/structure/strings", _NO_SEGMENT, colors.SLACK, thickness=thick)
         self.slack = sc.add_line_segments("/structure/slack", _NO_SEGMENT, colors.SLACK, thickness=thick / 3)
         self.nodes = sc.add_point_cloud("/structure/nodes", first.nodes.astype(np.float32), colors.NODE,
-                                        point_size=2.2 * self.radius, point_shape="circle")
+                                        point_size=self.node_size, point_shape="circle")
         self.contacts = sc.add_point_cloud("/structure/contacts", np.zeros((1, 3), np.float32), colors.CONTACT,
-                                           point_size=5 * self.radius, point_shape="circle", visible=False)
+                                           point_size=max(5 * self.radius, 1.2 * self.node_size),
+                                           point_shape="circle", visible=False)
+        if self.topology.floor:
+            n = len(self.topology.node_names)
+            self.normals = sc.add_batched_meshes_simple(
+                "/structure/normal_forces", vertices=mesh.vertices, faces=mesh.faces,
+                batched_wxyzs=np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)), batched_positions=np.zeros((n, 3)),
+                batched_scales=np.full((n, 3), 1e-6 * self.size), batched_colors=np.tile(np.array(colors.CONTACT, np.uint8), (n, 1)),
+                lod="off", cast_shadow=False, receive_shadow=False, visible=False)
         self.bodies = []
         for name, idx in self.topology.bodies:
             faces = _hull_faces(first.nodes[list(idx)])
@@ -113,6 +129,8 @@ class StructureDrawing:
         if frame.contacts:
             self.contacts.points = np.array([p for p, _ in frame.contacts], dtype=np.float32)
         self.contacts.visible = bool(frame.contacts)
+        if self.topology.floor:
+            self._show_normals(frame.contacts)
         for handle, idx in self.bodies:
             handle.vertices = nodes[idx].astype(np.float32)
         if self.topology.end_effector is not None:
@@ -122,11 +140,39 @@ class StructureDrawing:
                 self.path.points = np.stack([trail[:-1], trail[1:]], axis=1)
                 self.path.visible = True
 
+    def _show_normals(self, contacts: tuple[tuple[np.ndarray, float], ...]) -> None:
+        """Each floor contact's normal force as a vertical red cylinder up from the top of its
+        cap; one cylinder per node, the unused ones a speck inside the first node's cap."""
+        segments = np.zeros((len(self.topology.node_names), 2, 3))
+        segments[:, 1, 2] = 1e-6 * self.size            # unused: a speck (a zero scale makes the page drop them all)
+        segments += self._first_node
+        if contacts:
+            forces = np.array([f for _, f in contacts])[: len(segments)]
+            scale = self.force_scale.update(forces)
+            base = np.array([p for p, _ in contacts])[: len(segments)]
+            base[:, 2] += 0.5 * self.node_size          # from the top of the cap, not hidden in it
+            segments[: len(base), 0] = segments[: len(base), 1] = base
+            segments[: len(base), 1, 2] += CONTACT_HEIGHT * self.size * forces / scale
+        mid, wxyz, lengths = segment_poses(segments[:, 0], segments[:, 1])
+        self.normals.batched_positions = mid
+        self.normals.batched_wxyzs = wxyz
+        self.normals.batched_scales = np.stack([np.full(len(lengths), 0.75 * self.radius),
+                                                np.full(len(lengths), 0.75 * self.radius), lengths], axis=1)
+        self.normals.visible = bool(contacts)
+
     def legend(self) -> str:
         """The legend's HTML for what this drawing shows, with the tension scale so far."""
         topo = self.topology
-        return colors.legend_html(self.scale.value, cylinders=bool(len(self.cylinders)), strings=bool(len(self.strings)),
-                                  bodies=bool(topo.bodies), contacts=True, path=topo.end_effector is not None)
+        return colors.legend_html(self.scale.value, bars=self._bar_label(), actuators=bool(len(topo.of_kind("actuator"))),
+                                  strings=bool(len(self.strings)),
+                                  bodies=bool(topo.bodies), contacts=True, path=topo.end_effector is not None,
+                                  normal_force=(CONTACT_HEIGHT * self.size, self.force_scale.value) if topo.floor else None)
+
+    def _bar_label(self) -> str:
+        """The legend's words for the bars ("" without any)."""
+        if not len(self.topology.of_kind("bar")):
+            return ""
+        return "rod (cylinder), end caps (spheres)" if self.topology.kind == "robot" else "bar (cylinder)"
 
     def clear_trail(self) -> None:
         """Forget the end effector's path (after a reset or a jump on a bag's timeline)."""

@@ -33,10 +33,12 @@ RUN_STATES: Final = ("playing", "paused", "stopped", "quitting", "no world", "lo
 class Topology:
     """What does not change while a structure moves.
 
+    ``kind``: ``"class2"``, ``"general"`` or ``"robot"`` (rods, cables, a floor);
     ``members`` (m, 2) node indices; ``member_kinds`` one of :data:`MEMBER_KINDS` per member;
     ``bodies`` rigid bodies as ``(name, node indices)``; ``end_effector`` the index of the
     node whose path is drawn (class-2: node D), or None; ``floor``: draw the plane z = 0;
-    ``series_groups``: the plotted quantities as ``(title with unit, names)``, e.g.
+    ``bar_radius`` and ``node_radius`` [m]: a robot's rod and end-cap radii, drawn to scale
+    (0: sizes that scale with the structure's extent); ``series_groups``: the plotted quantities as ``(title with unit, names)``, e.g.
     ``("actuator forces [N]", ("f1", "f2"))``, each name a key of every frame's ``series``.
     """
 
@@ -48,6 +50,8 @@ class Topology:
     bodies: tuple[tuple[str, tuple[int, ...]], ...] = ()
     end_effector: int | None = None
     floor: bool = False
+    bar_radius: float = 0.0
+    node_radius: float = 0.0
     series_groups: tuple[tuple[str, tuple[str, ...]], ...] = ()
 
     def __post_init__(self) -> None:
@@ -72,7 +76,8 @@ class Frame:
     """The state of a structure at simulation time ``t`` [s].
 
     ``nodes`` (n, 3) [m]; ``member_forces`` (m,) [N], tension positive; ``contacts`` as
-    ``(point (3,) [m], force [N] >= 0)``; ``series``: the plotted scalars by name (the names
+    ``(point (3,) [m], normal force [N] >= 0)`` (a class-2 fold limit: the folded actuator's
+    middle; a robot: the centre of an end cap touching the floor); ``series``: the plotted scalars by name (the names
     and units of the topology's ``series_groups``); ``run_state`` one of :data:`RUN_STATES`.
     """
 

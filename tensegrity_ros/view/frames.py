@@ -52,10 +52,35 @@ def general_topology(structure: Any, end_effector: int | None, *, floor: bool) -
                     end_effector=end_effector, floor=floor, series_groups=tuple(groups))
 
 
+def robot_topology(robot: Any) -> Topology:
+    """A robot (:class:`tensegrity_core.robot.description.Robot`): its rods as bars drawn at
+    their radius, end caps as nodes at the caps' radius, cables as strings, the floor. Plotted:
+    cable tensions [N], the motor-driven cables' rest lengths [m], the caps' normal forces [N]
+    (with a floor), the rods' axial forces [N], energies [J]."""
+    rods, cables = tuple(robot.rods.names), tuple(robot.cables.names)
+    members = np.vstack([np.asarray(robot.rods.ends).reshape(-1, 2), np.asarray(robot.cables.ends).reshape(-1, 2)])
+    caps = tuple(robot.node_names)
+    groups = [("cable tensions [N]", tuple(f"T:{n}" for n in cables)),
+              ("motor rest lengths [m]", tuple(f"u:{cables[i]}" for i in robot.motors.cable))]
+    if robot.floor is not None:
+        groups.append(("cap normal forces [N]", tuple(f"N:{n}" for n in caps)))
+    if rods:
+        groups.append(("rod forces [N]", tuple(f"T:{n}" for n in rods)))
+    groups.append(("energy [J]", ("E:potential", "E:kinetic")))
+    return Topology(kind="robot", node_names=caps, member_names=rods + cables, members=members,
+                    member_kinds=("bar",) * len(rods) + ("string",) * len(cables),
+                    bodies=tuple((b.name, tuple(b.nodes)) for b in robot.bodies), floor=robot.floor is not None,
+                    bar_radius=float(np.max(robot.rods.radius, initial=0.0)),
+                    node_radius=float(np.max(robot.rods.cap_radius, initial=0.0)),
+                    series_groups=tuple(groups))
+
+
 def scene_topology(scene: Any) -> Topology:
     """The topology of a loaded scene (:class:`tensegrity_core.sim.scene.Scene`)."""
     if scene.model.kind == "class2":
         return class2_topology()
+    if scene.model.kind == "robot":
+        return robot_topology(scene.model.robot)
     return general_topology(scene.model.structure, scene.model.end_effector, floor="gravity" in scene.effects)
 
 
@@ -83,6 +108,24 @@ def class2_frame(t: float, q: Any, forces: Any, nodes: Any, member_forces: Any, 
     return Frame(t=float(t), nodes=p, member_forces=tension, run_state=run_state, contacts=contacts, series=series)
 
 
+def robot_frame(t: float, nodes: Any, member_forces: Any, rest_lengths: Any, cap_forces: Any, topology: Topology,
+                run_state: str, *, energies: tuple[float, float] | None = None) -> Frame:
+    """A robot's frame: cap centres ``nodes`` (n, 3) [m], ``member_forces`` [N] (rods then
+    cables), the motor-driven cables' ``rest_lengths`` [m] (motor order) and each cap's floor normal force
+    ``cap_forces`` [N] (> 0: in contact, drawn at the cap); energies [J] when known."""
+    p = _points(nodes)
+    tension = np.asarray(member_forces, dtype=float)
+    normal = np.asarray(cap_forces, dtype=float)
+    motors = [k for _title, keys in topology.series_groups for k in keys if k.startswith("u:")]
+    series = {f"T:{n}": float(v) for n, v in zip(topology.member_names, tension)}
+    series.update({k: float(v) for k, v in zip(motors, rest_lengths)})
+    series.update({f"N:{n}": float(v) for n, v in zip(topology.node_names, normal)})
+    if energies is not None:
+        series.update({"E:potential": float(energies[0]), "E:kinetic": float(energies[1])})
+    contacts = tuple((p[i], float(f)) for i, f in enumerate(normal) if f > 0.0)
+    return Frame(t=float(t), nodes=p, member_forces=tension, run_state=run_state, contacts=contacts, series=series)
+
+
 def frame_of_mechanism_state(msg: Any, run_state: str) -> Frame:
     """A frame of a ``tensegrity_msgs/MechanismState`` (a ROS message or a message decoded
     from a bag: anything with its fields); ``t`` is the header stamp [s]."""
@@ -101,6 +144,9 @@ def frame_of_observation(obs: Any, topology: Topology, run_state: str) -> Frame:
     nodes = _points(obs.nodes)
     tension = np.asarray(obs.member_forces, dtype=float)
     series = {f"T:{n}": float(v) for n, v in zip(topology.member_names, tension)}
+    if topology.kind == "robot":
+        return robot_frame(obs.t, nodes, tension, obs.applied_forces, obs.contact_forces, topology, run_state,
+                           energies=(obs.potential_energy, obs.kinetic_energy))
     if topology.end_effector is not None:
         series.update(zip(("p:x", "p:y", "p:z"), (float(v) for v in nodes[topology.end_effector])))
     actuators = [n for n, k in zip(topology.member_names, topology.member_kinds) if k == "actuator"]

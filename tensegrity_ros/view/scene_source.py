@@ -121,7 +121,8 @@ class SceneSource:
         """Up to ``steps`` steps, until the monotonic clock passes ``deadline`` (one at least);
         the number of steps made (all of them after a failure: the simulation stops)."""
         try:
-            self.sim.set_command(command)
+            if self.inputs:             # inputs that all follow their law take no command
+                self.sim.set_command(command)
             for done in range(1, steps + 1):
                 self._k += 1
                 self.sim.advance(step_time(self._k, self.step_ns))

@@ -8,7 +8,9 @@ its defaults do not suit a suite that stays on the machine, and are changed here
 - a port in use makes it try the next one silently: here that is an error naming the port
   (:class:`PortInUseError`), checked before it starts and again after (a race);
 - its page has a "share" button whose request makes the *server* open a tunnel through a
-  public relay: here the button is hidden and the request refused (:class:`LocalViserServer`).
+  public relay: here the button is hidden and the request refused (:class:`LocalViserServer`);
+- it answers any ``Host`` and ``Origin``: here a request of another site's page (DNS
+  rebinding, a cross-site websocket) is refused (:mod:`.request_guard`).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import socket
 from typing import Any
 
 from tensegrity_core.errors import TensegrityError
+from tensegrity_ros.view import request_guard
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8080
@@ -85,8 +88,13 @@ def start_server(host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, *, label: s
 
     if port:
         check_port_free(host, port)
+    request_guard.install()
     with contextlib.redirect_stdout(io.StringIO()):     # viser's own banner: the command prints the URL
         server = LocalViserServer(host=host, port=port, label=label, verbose=False)
+    if not request_guard.guarding():
+        server.stop()
+        raise ViewError(f"viser {viser.__version__} serves without the view's Host/Origin check "
+                        "(tensegrity_ros/view/request_guard.py): install the pinned viser (pip install '.[view]')")
     if port and server.get_port() != port:
         bound = server.get_port()
         server.stop()

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import re
 
-VIEW_READY = re.compile(r"view ready: (http://127\.0\.0\.1:(\d+))")
+VIEW_READY = re.compile(r"view ready: (http://[^\s:]+:(\d+))")
 
 
 def start_view(cli, *args: str, timeout: float = 120.0) -> tuple[object, str, int]:

@@ -9,6 +9,7 @@ their usual time; nothing asserts a duration.
 
 from __future__ import annotations
 
+import re
 import signal
 import time
 
@@ -149,4 +150,101 @@ def test_the_live_view_follows_the_simulator_and_its_controls_drive_it(cli, brow
         assert sim.popen.poll() is None
     finally:
         client.close()
+    assert sim.stop(signal.SIGINT) == 0
+
+
+def _red(img: np.ndarray) -> int:
+    """Pixels of the contacts' red (220, 20, 60), shading allowed (the canvas only: the
+    control panel with the legend's red swatches is beside it)."""
+    r, g, b = (img[..., k].astype(int) for k in range(3))
+    return int(((r > 150) & (g < 90) & (b < 120) & (r - g > 100)).sum())
+
+
+def test_a_rolling_six_bar_robot_moves_between_frames_with_its_contacts_marked(cli, browser):
+    """``--scene six_bar_roll`` simulated in the view's process: paused at first, the same
+    pixels; played, the robot drawn elsewhere, its caps on the floor marked red."""
+    view, url, port = start_view(cli, "--scene", "six_bar_roll")
+    page = browser.open(url)
+    try:
+        page.set_viewport_size({"width": 1280, "height": 800})     # the robot rolls on, towards the panel
+        wait_for_canvas(page)
+        still = canvas_pixels(page)
+        page.get_by_role("button", name="Play").click()
+        _until(lambda: status_time(page) > 0.5, "the robot rolled for 0.5 s", poll=lambda: page.wait_for_timeout(200))
+        first = canvas_pixels(page)
+        _until(lambda: status_time(page) > 3.0, "the robot rolled for 3 s (over its first edge)", poll=lambda: page.wait_for_timeout(200))
+        second = canvas_pixels(page)
+        assert _changed(still, first) > 0.01 and _changed(first, second) > 0.01, (_changed(still, first), _changed(first, second))
+        assert _red(still) == 0 and _red(second) > 20          # at rest on its caps no force yet; rolling: contacts
+        page.get_by_text("normal force: red cylinder").first.wait_for(timeout=WAIT * 1000)
+        _only_loopback(browser, port)
+    finally:
+        page.close()
+    assert view.stop() == 0
+
+
+def _end_effector_after(ros_context, stamp_ns: int) -> tuple[float, float]:
+    """Node D (x, y) [m] from the simulator's ``end_effector``, the first one stamped after ``stamp_ns``."""
+    from geometry_msgs.msg import PointStamped
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
+
+    node = Node("view_test_end_effector", context=ros_context)
+    executor = SingleThreadedExecutor(context=ros_context)
+    executor.add_node(node)
+    seen: list[PointStamped] = []
+    node.create_subscription(PointStamped, "end_effector", seen.append, 10)
+    try:
+        deadline = time.monotonic() + WAIT
+        while time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.1)
+            late = [m for m in seen if m.header.stamp.sec * 10**9 + m.header.stamp.nanosec > stamp_ns]
+            if late:
+                return late[0].point.x, late[0].point.y
+        raise AssertionError("never saw an end_effector message after the move")
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+
+
+@pytest.mark.ros
+def test_the_move_fields_send_the_controllers_goal_and_d_ends_at_the_target(cli, browser, ros_context):
+    """x, y, duration typed into the page's "Move node D" fields reach the controller's
+    move_end_effector action; the simulator's own end_effector then reads the target (the
+    controller settles within 1 mm, docs/control.md)."""
+    import rclpy
+
+    from tensegrity_ros.apps.sim_client import SimClient
+
+    target = (1.42, 0.75)
+    sim = cli("node", "sim", log_name="sim")
+    controller = cli("node", "controller", log_name="controller")
+    client = SimClient(rclpy, "view_move_test_client", context=ros_context, record_events=False)
+    try:
+        client.wait_for_services()
+        controller.wait_for("controller ready", timeout=WAIT)
+        view, url, port = start_view(cli)
+        page = browser.open(url)
+        wait_for_canvas(page)
+        # the view's node has found the controller's action server (the answer says so if not)
+        page.wait_for_timeout(1000)
+        for label, value in (("x [m]", target[0]), ("y [m]", target[1]), ("duration [s]", 2.0)):
+            field = control(page, label).locator("input").first
+            field.fill(str(value))
+            field.press("Enter")
+        page.get_by_text(f"goal: D to ({target[0]:g}, {target[1]:g}) m in 2 s").wait_for(timeout=WAIT * 1000)
+        page.get_by_role("button", name="Move D").click()
+        answer = page.get_by_text(re.compile(r"^move: (D at|the controller refused|failed|no controller)")).first
+        answer.wait_for(timeout=WAIT * 1000)
+        line = answer.inner_text()
+        x, y = (float(v) for v in line.split("(")[1].split(")")[0].split(","))
+        assert abs(x - target[0]) < 1e-3 and abs(y - target[1]) < 1e-3, line
+        done = _next_state(client).stamp_ns
+        dx, dy = _end_effector_after(ros_context, done)
+        assert abs(dx - target[0]) < 1e-3 and abs(dy - target[1]) < 1e-3
+        page.close()
+        assert view.stop() == 0
+    finally:
+        client.close()
+    assert controller.stop(signal.SIGINT) == 0
     assert sim.stop(signal.SIGINT) == 0

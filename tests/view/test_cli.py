@@ -54,3 +54,20 @@ def test_the_view_listens_on_loopback_only_and_serves_its_page_from_itself(cli):
     # the page names no address to load from: every src/href is relative or inline data
     assert "src=\"http" not in page and "href=\"http" not in page
     assert view.stop() == 0
+
+
+def test_another_host_is_warned_about_before_it_listens():
+    """192.0.2.1 (TEST-NET-1, RFC 5737) is no address of this machine: the warning comes
+    first, then the one-line error, and nothing listens anywhere but loopback meanwhile."""
+    res = _run("--scene", "class2_at_rest", "--host", "192.0.2.1", "--port", "8097")
+    lines = res.stderr.strip().splitlines()
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+    assert lines[0] == ("warning: listening on 192.0.2.1: anyone who can reach this machine can watch and drive "
+                        "the simulation")
+    assert lines[-1].startswith("error: cannot listen on 192.0.2.1:8097")
+
+
+def test_a_loopback_host_by_name_is_not_warned_about(cli):
+    view, _url, _port = start_view(cli, "--scene", "class2_at_rest", "--host", "localhost")
+    assert "warning" not in view.stderr()
+    assert view.stop() == 0

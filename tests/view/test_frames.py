@@ -47,7 +47,7 @@ def test_segment_poses_put_a_unit_cylinder_on_the_segment():
     np.testing.assert_allclose(ends, np.vstack([a, b]), atol=1e-12)
 
 
-@pytest.mark.parametrize("scene", ["class2_at_rest", "spine_release", "table_gravity"])
+@pytest.mark.parametrize("scene", ["class2_at_rest", "spine_release", "table_gravity", "six_bar_roll", "spine_bend"])
 def test_a_frame_draws_the_members_the_core_measures(scene):
     """The topology's node pairs applied to the frame's nodes give the core's member lengths
     (a wrong pair, an axis lost on the way, a swapped node all change a length)."""
@@ -67,6 +67,27 @@ def test_the_class2_topology_has_the_papers_members():
     kinds = dict(zip(topology.member_names, topology.member_kinds))
     assert [n for n, k in kinds.items() if k == "actuator"] == ["1_AB", "2_BC"]
     assert sorted(n for n, k in kinds.items() if k == "bar") == ["10_CE", "5_AE", "6_BF", "9_BD"]
+
+
+def test_a_robot_is_drawn_with_its_rods_caps_cables_floor_and_the_caps_on_the_floor():
+    """Rods are bars at the rod radius, cables strings, the floor drawn; a contact is a cap
+    whose centre is lower than its radius above the floor z = 0 (it penetrates: the
+    contact model's delta = r - z > 0), with a positive normal force."""
+    sim = Simulator("six_bar_roll")
+    robot = sim.scene.model.robot
+    topology = scene_topology(sim.scene)
+    assert topology.kind == "robot" and topology.floor
+    assert topology.bar_radius == 0.02 and topology.node_radius == 0.05      # the shipped six_bar.yaml
+    assert [topology.member_kinds[i] for i in topology.of_kind("bar")] == ["bar"] * 6
+    assert len(topology.of_kind("string")) == 24
+    sim.advance(1.0)                                   # rolling: two or three caps on the floor
+    frame = frame_of_observation(sim.observe(), topology, "playing")
+    down = {i for i, z in enumerate(frame.nodes[:, 2]) if z < robot.rods.cap_radius[0]}
+    touching = {int(np.flatnonzero((frame.nodes == p).all(axis=1))[0]) for p, _f in frame.contacts}
+    assert touching and touching == down
+    assert all(f > 0 for _p, f in frame.contacts)
+    assert {f"N:{topology.node_names[i]}" for i in touching} == {k for k, v in frame.series.items()
+                                                                  if k.startswith("N:") and v > 0}
 
 
 def test_a_general_topology_carries_its_bodies_and_the_floor():
