@@ -23,7 +23,7 @@ MATCH_SETTLE_S = 0.25
 def wait_for_matches(publishers: Iterable[Any], minimum: int = 1, timeout_s: float | None = None,
                      *, settle_s: float = MATCH_SETTLE_S,
                      should_stop: Callable[[], bool] = lambda: False,
-                     poll: Callable[[float], None] = time.sleep) -> bool:
+                     poll: Callable[[float], object] = time.sleep) -> bool:
     """Return True once every publisher has had at least ``minimum`` matched subscriptions
     for ``settle_s`` seconds without interruption; False when they are not all matched
     after ``timeout_s`` (None: no limit) or when ``should_stop()`` turns true. ``poll(seconds)`` waits between checks (pass an

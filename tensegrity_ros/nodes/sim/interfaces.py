@@ -11,10 +11,14 @@ in :mod:`.control`; these methods take the node's lock and apply them.
 
 from __future__ import annotations
 
+import threading
 import time
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
 
 from rclpy.action import ActionServer, CancelResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rclpy.task import Future
 from simulation_interfaces.action import SimulateSteps
@@ -33,15 +37,41 @@ from tensegrity_ros.nodes.common import SERVICE_QOS
 from tensegrity_ros.nodes.sim import control
 from tensegrity_ros.nodes.sim.control import PAUSED, PLAYING, RUN_STATE_NAMES, STOPPED, Answer, StepRequest
 
+if TYPE_CHECKING:
+    from tensegrity_ros.nodes.sim.hold import CommandHold
+    from tensegrity_ros.nodes.sim.parameters import SimParameters
+    from tensegrity_ros.nodes.sim.plant import SimPlant
+    from tensegrity_ros.nodes.sim.schedule import TickSchedule
+
 #: Free-running StepSimulation requests up to this many steps run in the service callback.
 SYNC_STEPS = 100
 #: Feedback messages of one SimulateSteps goal kept for a client that reads them late.
 FEEDBACK_DEPTH = 1000
 
 
-class SimulationInterfaces:
+class SimulationInterfaces(Node):
     """The services and the action of the simulator node (module docstring); the node
-    provides the plant, the run state, the lock and the stepping."""
+    provides the plant, the run state, the lock and the stepping (declared here for the
+    type checker, defined by :class:`~tensegrity_ros.nodes.sim.node.SimNode`)."""
+
+    p: SimParameters
+    plant: SimPlant
+    hold: CommandHold
+    schedule: TickSchedule
+    state: int                       # SimulationState value
+    request: StepRequest | None      # the stepping request that runs, if any
+    _lock: threading.Lock
+    _wake: threading.Event
+    _due: float | None
+
+    if TYPE_CHECKING:
+        def _reset(self, *, keep_time: bool, why: str) -> None: ...
+        def _publish(self) -> None: ...
+        def _lockstep_begin(self) -> None: ...
+        def _request_step(self, command: Sequence[float]) -> None: ...
+        def _effective_command(self, now: float) -> list[float]: ...
+        def _start_request(self, req: StepRequest) -> Answer | None: ...
+        def _end_request(self, answer: Answer) -> None: ...
 
     def _create_interfaces(self) -> None:
         self.create_service(Trigger, "reset", self.on_reset)
@@ -67,7 +97,8 @@ class SimulationInterfaces:
         self.get_logger().info(res.message)
         return res
 
-    def on_reset_simulation(self, req, res):
+    def on_reset_simulation(self, req: ResetSimulation.Request, res: ResetSimulation.Response
+                            ) -> ResetSimulation.Response:
         plan = control.reset_plan(int(req.scope))
         if plan.answer.ok:
             with self._lock:
@@ -75,7 +106,8 @@ class SimulationInterfaces:
         _fill(res.result, plan.answer)
         return res
 
-    def on_get_features(self, req, res):
+    def on_get_features(self, req: GetSimulatorFeatures.Request, res: GetSimulatorFeatures.Response
+                        ) -> GetSimulatorFeatures.Response:
         res.features.features = list(control.FEATURES)
         res.features.custom_info = (
             f"tensegrity_sim: step_size {self.p.step_size:.9g} s, lockstep {str(self.p.lockstep).lower()}, "
@@ -83,13 +115,15 @@ class SimulationInterfaces:
             "contract is in docs/ros.md")
         return res
 
-    def on_get_state(self, req, res):
+    def on_get_state(self, req: GetSimulationState.Request, res: GetSimulationState.Response
+                     ) -> GetSimulationState.Response:
         with self._lock:
             res.state.state = self.state
         _fill(res.result, Answer(Result.RESULT_OK, RUN_STATE_NAMES[res.state.state]))
         return res
 
-    def on_set_state(self, req, res):
+    def on_set_state(self, req: SetSimulationState.Request, res: SetSimulationState.Response
+                     ) -> SetSimulationState.Response:
         target = int(req.state.state)
         with self._lock:
             if self.request is not None and target == PLAYING:
@@ -134,11 +168,12 @@ class SimulationInterfaces:
         future.add_done_callback(lambda _f: None)   # set_result then wakes the executor (guard condition)
         return future
 
-    async def on_step_simulation(self, req, res):
+    async def on_step_simulation(self, req: StepSimulation.Request, res: StepSimulation.Response
+                                 ) -> StepSimulation.Response:
         if not self.p.lockstep and 0 < req.steps <= SYNC_STEPS:
             # a short free-running request runs right here: no hand-over to the loop thread
             # and back (which costs more than the steps)
-            answers: list = []
+            answers: list[Answer] = []
             with self._lock:
                 refusal = control.check_step_request(int(req.steps), self.state, self.request,
                                                      self.p.max_steps_per_request)
@@ -155,7 +190,7 @@ class SimulationInterfaces:
         _fill(res.result, refusal if refusal is not None else await future)
         return res
 
-    def _on_cancel(self, goal_handle) -> CancelResponse:
+    def _on_cancel(self, goal_handle: Any) -> CancelResponse:
         with self._lock:
             req = self.request
             if req is not None and req.owner is goal_handle:
@@ -163,7 +198,7 @@ class SimulationInterfaces:
                 self._wake.set()
         return CancelResponse.ACCEPT
 
-    async def on_simulate_steps(self, goal_handle):
+    async def on_simulate_steps(self, goal_handle: Any) -> Any:
         future = self._wait_future()
 
         def feedback(completed: int, remaining: int) -> None:

@@ -58,6 +58,8 @@ import math
 import sys
 import threading
 import time
+from collections.abc import Callable, Sequence
+from typing import Any
 
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
@@ -81,13 +83,13 @@ from tensegrity_ros.nodes.sim.outputs import Outputs
 from tensegrity_ros.nodes.sim.pacer import LockstepPacer
 from tensegrity_ros.nodes.sim.parameters import declare_sim_parameters
 from tensegrity_ros.nodes.sim.plant import SimPlant
-from tensegrity_ros.nodes.sim.receiver import receive, receive_cables
+from tensegrity_ros.nodes.sim.receiver import Command, receive, receive_cables
 from tensegrity_ros.nodes.sim.schedule import TickSchedule
 from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
 
-class SimNode(SimulationInterfaces, Node):
-    def __init__(self, **kwargs) -> None:
+class SimNode(SimulationInterfaces):
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__("tensegrity_sim", **kwargs)
         scene_name, scene = declare_scene(self, class2_only=False)
         self.p = p = declare_sim_parameters(self, scene_name)
@@ -255,7 +257,7 @@ class SimNode(SimulationInterfaces, Node):
         self._publish()
 
     # -- stepping -------------------------------------------------------------------------------
-    def _step(self, command) -> None:
+    def _step(self, command: Sequence[float]) -> None:
         """One step of the plant under ``command``; publish what it located (lock held)."""
         outcome = self.plant.step(command)
         for event in outcome.events:
@@ -264,10 +266,11 @@ class SimNode(SimulationInterfaces, Node):
         if outcome.fault is not None:
             self.get_logger().error(f"simulation stopped, state held: {outcome.fault}")
 
-    def _request_step(self, command) -> None:
+    def _request_step(self, command: Sequence[float]) -> None:
         """One step of the current stepping request, then publish, feedback, and finish it
         when done or cancelled (lock held)."""
         req = self.request
+        assert req is not None                  # called only while a request runs
         if req.cancel_requested:
             self._end_request(Answer(Result.RESULT_OK, f"cancelled after {req.completed} of {req.steps} steps"))
             return
@@ -311,7 +314,7 @@ class SimNode(SimulationInterfaces, Node):
         else:
             self._publish()
 
-    def _lockstep_advance(self, command=None) -> None:
+    def _lockstep_advance(self, command: Sequence[float] | None = None) -> None:
         """Integrate the step the simulator waits at, under the received command (or
         ``command``, the fallback after a timeout), when stepping is allowed (lock held)."""
         if self.request is not None and self.request.cancel_requested:
@@ -369,7 +372,7 @@ class SimNode(SimulationInterfaces, Node):
     def on_cables(self, msg: CableCommand) -> None:
         self._take("cable", lambda: receive_cables(msg, interface=self.plant.interface))
 
-    def _take(self, what: str, parse) -> None:
+    def _take(self, what: str, parse: Callable[[], Command]) -> None:
         """A command message: validate it (``parse()`` gives its :class:`Command`), then apply
         it as the mode says: the step the simulator waits at (lockstep) or the held command."""
         try:
@@ -440,7 +443,7 @@ class SimNode(SimulationInterfaces, Node):
         self._publish()
         self._waiting_since = time.monotonic()
 
-    def _published_state(self) -> tuple:
+    def _published_state(self) -> tuple[int, tuple[float, ...]]:
         """What a controller answers: the time [ns] and the state vector (positions, rates)."""
         return self.plant.time_ns, tuple(map(float, self.plant.sim.state.y))
 
@@ -463,10 +466,10 @@ class SimNode(SimulationInterfaces, Node):
         rclpy.logging.get_logger(f"{self.get_name()}_summary").info(
             f"published: {counts}; rejected commands: {self.rejected}; lockstep timeouts: {self.lockstep_timeouts}")
         self._action.destroy()
-        super().destroy_node()
+        super().destroy_node()  # type: ignore[no-untyped-call]  # rclpy's, through super(): not excluded by name
 
 
-def main(argv=None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     return spin_node(SimNode, argv)
 
 

@@ -89,7 +89,8 @@ class Outputs:
                 return [(t, build_joints[t]()) for t in self.topics if t in want]
         if self.general:
             obs = plant.observe()
-            build = {"joint_states": lambda: sender.cable_joint_state_msg(obs, interface, hdr),
+            build: dict[str, Callable[[], object]] = {
+                     "joint_states": lambda: sender.cable_joint_state_msg(obs, interface, hdr),
                      "end_effector": lambda: sender.end_effector_msg(obs, hdr),
                      "body_states": lambda: sender.body_states_msg(obs, hdr),
                      "cable_states": lambda: sender.cable_states_msg(obs, interface, hdr),
@@ -97,8 +98,9 @@ class Outputs:
                                          else sender.markers_msg(obs, hdr)),
                      "contacts": lambda: robot_messages.contacts_msg(obs, hdr)}
             for i, topic in enumerate(self.imu_topics):
-                build[topic] = lambda i=i: robot_messages.imu_msg(
-                    obs, i, Header(stamp=hdr.stamp, frame_id=obs.imu_names[i]))
+                def imu(i: int = i) -> Imu:
+                    return robot_messages.imu_msg(obs, i, Header(stamp=hdr.stamp, frame_id=obs.imu_names[i]))
+                build[topic] = imu
             return [(t, build[t]()) for t in self.topics if t in want]
         if want & {"joint_states", "end_effector"}:
             sample = plant.joint_sample()

@@ -4,10 +4,17 @@ handed on as one frozen :class:`SimParameters` (all read-only at run time)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, TypeVar
 
 from tensegrity_ros.nodes.common import ParameterValueError, declare
 from tensegrity_ros.nodes.sim.control import STATE_BY_NAME
 from tensegrity_ros.nodes.sim.sender import NS_PER_S
+
+if TYPE_CHECKING:
+    from rclpy.node import Node
+
+#: A parameter's type, that of its default.
+T = TypeVar("T", bool, int, float, str)
 
 
 @dataclass(frozen=True)
@@ -38,13 +45,13 @@ class SimParameters:
         return self.step_ns / NS_PER_S
 
 
-def declare_sim_parameters(node, scene: str) -> SimParameters:
+def declare_sim_parameters(node: Node, scene: str) -> SimParameters:
     """Declare every parameter of ``tensegrity_sim`` on ``node`` but ``scene`` (declared and
     loaded by :func:`~tensegrity_ros.nodes.scene_param.declare_scene`, as for the IK node and the
     controller; its name is ``scene``); a bad value stops the node with a message naming
     the parameter."""
-    def d(name, default, description, **kw):
-        return declare(node, name, default, description, read_only=True, **kw)
+    def d(name: str, default: T, description: str, *, lo: float | None = None, hi: float | None = None) -> T:
+        return declare(node, name, default, description, lo=lo, hi=hi, read_only=True)
 
     rate = d("publish_rate", 100.0, "free-running: ticks per wall second, each publishing the state [Hz]",
              lo=1.0, hi=1000.0)

@@ -15,7 +15,8 @@ from std_msgs.msg import ColorRGBA, Header
 from tensegrity_msgs.msg import CapContacts
 from visualization_msgs.msg import Marker, MarkerArray
 
-from tensegrity_ros.nodes.sim.sender import force_color, point
+from tensegrity_core.sim.simulator import Observation
+from tensegrity_ros.nodes.sim.sender import Coordinates, force_color, point
 
 #: Line widths of the robot's markers [m]: rods, cables.
 ROD_WIDTH, CABLE_WIDTH = 0.03, 0.008
@@ -25,15 +26,15 @@ FLOOR_SIZE, FLOOR_THICKNESS = 10.0, 0.002
 CONTACT_SIZE = 0.04
 
 
-def _vector(v) -> Vector3:
+def _vector(v: Coordinates) -> Vector3:
     return Vector3(x=float(v[0]), y=float(v[1]), z=float(v[2]))
 
 
-def _quaternion(q) -> Quaternion:
+def _quaternion(q: Coordinates) -> Quaternion:
     return Quaternion(x=float(q[0]), y=float(q[1]), z=float(q[2]), w=float(q[3]))
 
 
-def imu_msg(obs, i: int, hdr: Header) -> Imu:
+def imu_msg(obs: Observation, i: int, hdr: Header) -> Imu:
     """IMU ``i`` of the observation (``hdr.frame_id``: the body it is fixed to) as a real
     strapdown IMU reports it, in its body's frame: orientation (body -> world), angular
     velocity [rad/s] and linear acceleration = specific force [m/s^2] (acceleration minus
@@ -45,7 +46,7 @@ def imu_msg(obs, i: int, hdr: Header) -> Imu:
                linear_acceleration=_vector(obs.imu_specific_force[i]))
 
 
-def contacts_msg(obs, hdr: Header) -> CapContacts:
+def contacts_msg(obs: Observation, hdr: Header) -> CapContacts:
     """The caps touching the floor: centre [m], normal force [N], friction force [N], slipping."""
     m = CapContacts(header=hdr)
     for c in np.flatnonzero(obs.cap_contact):
@@ -57,14 +58,14 @@ def contacts_msg(obs, hdr: Header) -> CapContacts:
     return m
 
 
-def robot_markers_msg(obs, floor: tuple[np.ndarray, np.ndarray] | None, hdr: Header) -> MarkerArray:
+def robot_markers_msg(obs: Observation, floor: tuple[np.ndarray, np.ndarray] | None, hdr: Header) -> MarkerArray:
     """Rods (grey-blue thick lines, compression blue), cables coloured by tension (red, relative
     to the largest cable tension of this observation; grey when slack), the floor (a thin grey
     plate through ``floor = (point, unit normal)`` [m], when the robot has one) and the caps
     in contact (green spheres)."""
     rods = [i for i, k in enumerate(obs.member_kinds) if k == "bar"]
     cables = [i for i, k in enumerate(obs.member_kinds) if k != "bar"]
-    out = []
+    out: list[Marker] = []
     for ns, members, width in (("rods", rods, ROD_WIDTH), ("cables", cables, CABLE_WIDTH)):
         m = Marker(header=hdr, ns=ns, id=len(out), type=Marker.LINE_LIST, action=Marker.ADD)
         m.scale.x = width
@@ -95,7 +96,7 @@ def robot_markers_msg(obs, floor: tuple[np.ndarray, np.ndarray] | None, hdr: Hea
     return MarkerArray(markers=out)
 
 
-def _z_to(normal) -> np.ndarray:
+def _z_to(normal: Coordinates) -> np.ndarray:
     """The quaternion ``(x, y, z, w)`` of the shortest rotation taking +z to the unit ``normal``."""
     n = np.asarray(normal, dtype=float)
     q = np.array([-n[1], n[0], 0.0, 1.0 + n[2]])     # half-way quaternion of (0, 0, 1) and n

@@ -10,9 +10,13 @@ returns a message. Units SI; forces tension positive.
 from __future__ import annotations
 
 import array
+from collections.abc import Iterable, Sequence
+from typing import Any
 
+import numpy as np
 from builtin_interfaces.msg import Time as TimeMsg
 from geometry_msgs.msg import Point, PointStamped, Pose, Quaternion, Twist, Vector3
+from numpy.typing import NDArray
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState
 from std_msgs.msg import ColorRGBA, Header
@@ -20,13 +24,16 @@ from tensegrity_msgs.msg import CableStates, MechanismState, RigidBodyStates, Si
 from visualization_msgs.msg import Marker, MarkerArray
 
 from tensegrity_core.class2.names import JOINTS
-from tensegrity_core.events import EventKind
+from tensegrity_core.events import EventKind, LoggedEvent
 from tensegrity_core.sim.model import Interface
+from tensegrity_core.sim.simulator import JointSample, Observation
 
 NS_PER_S = 1_000_000_000
 #: Names of what an event's index refers to, per kind (the core's event kinds).
 EVENT_SUBJECTS: dict[EventKind, tuple[str, str]] = {"fold": ("rho1", "rho2"), "release": ("rho1", "rho2"),
                   "singular": ("lambda1", "lambda2")}
+#: A point or vector [m]: three coordinates (x, y, z).
+Coordinates = Sequence[float] | NDArray[np.float64]
 
 
 def time_msg(ns: int) -> TimeMsg:
@@ -35,7 +42,7 @@ def time_msg(ns: int) -> TimeMsg:
     return TimeMsg(sec=sec, nanosec=nanosec)
 
 
-def stamp_ns(stamp) -> int:
+def stamp_ns(stamp: Any) -> int:
     """Integer nanoseconds of a ``builtin_interfaces/Time``."""
     return int(stamp.sec) * NS_PER_S + int(stamp.nanosec)
 
@@ -48,17 +55,17 @@ def clock_msg(ns: int) -> ClockMsg:
     return ClockMsg(clock=time_msg(ns))
 
 
-def point(p) -> Point:
+def point(p: Coordinates) -> Point:
     return Point(x=float(p[0]), y=float(p[1]), z=float(p[2]))
 
 
-def _doubles(values) -> array.array:
+def _doubles(values: Iterable[float]) -> array.array[float]:
     """A float64 sequence field's value (``array('d')`` takes rclpy's fast path: a list is
     checked element by element on assignment)."""
     return array.array("d", [float(v) for v in values])
 
 
-def joint_state_msg(sample, hdr: Header) -> JointState:
+def joint_state_msg(sample: JointSample, hdr: Header) -> JointState:
     """Joints rho1, rho2 [m], beta [rad]: position, velocity, effort = applied force [N] (0 for beta)."""
     msg = JointState(header=hdr, name=list(JOINTS))
     msg.position = _doubles(sample.q)
@@ -67,7 +74,7 @@ def joint_state_msg(sample, hdr: Header) -> JointState:
     return msg
 
 
-def cable_joint_state_msg(obs, interface: Interface, hdr: Header) -> JointState:
+def cable_joint_state_msg(obs: Observation, interface: Interface, hdr: Header) -> JointState:
     """One joint per actuated cable (the scene's inputs, in input order): position = its
     length [m], velocity = d(length)/dt [m/s], effort = its tension [N] (positive pulling)."""
     members = list(interface.members)
@@ -78,7 +85,7 @@ def cable_joint_state_msg(obs, interface: Interface, hdr: Header) -> JointState:
     return msg
 
 
-def actuated_joint_state_msg(sample, interface: Interface, hdr: Header) -> JointState:
+def actuated_joint_state_msg(sample: JointSample, interface: Interface, hdr: Header) -> JointState:
     """The joints of :func:`cable_joint_state_msg` from a joint sample (its ``actuated_*``)."""
     msg = JointState(header=hdr, name=list(interface.inputs))
     msg.position = _doubles(sample.actuated_lengths)
@@ -87,7 +94,7 @@ def actuated_joint_state_msg(sample, interface: Interface, hdr: Header) -> Joint
     return msg
 
 
-def cable_states_msg(obs, interface: Interface, hdr: Header) -> CableStates:
+def cable_states_msg(obs: Observation, interface: Interface, hdr: Header) -> CableStates:
     """Every member: kind, actuated, length [m], its rate [m/s], rest length [m], tension [N], slack."""
     actuated = set(interface.members)
     m = CableStates(header=hdr, name=list(obs.member_names), kind=list(obs.member_kinds))
@@ -100,7 +107,7 @@ def cable_states_msg(obs, interface: Interface, hdr: Header) -> CableStates:
     return m
 
 
-def body_states_msg(obs, hdr: Header) -> RigidBodyStates:
+def body_states_msg(obs: Observation, hdr: Header) -> RigidBodyStates:
     """Each moving rigid body's frame: pose and twist (velocity of its origin, angular velocity)."""
     m = RigidBodyStates(header=hdr, name=list(obs.body_names))
     for p, q, v, w in zip(obs.body_positions, obs.body_orientations, obs.body_velocities,
@@ -112,11 +119,11 @@ def body_states_msg(obs, hdr: Header) -> RigidBodyStates:
     return m
 
 
-def end_effector_msg(sample, hdr: Header) -> PointStamped:
+def end_effector_msg(sample: JointSample | Observation, hdr: Header) -> PointStamped:
     return PointStamped(header=hdr, point=point(sample.end_effector))
 
 
-def mechanism_state_msg(obs, hdr: Header) -> MechanismState:
+def mechanism_state_msg(obs: Observation, hdr: Header) -> MechanismState:
     """The full state; ``contact_active[i]``: the fold limit pushes on actuator i (its
     contact force [N] is > 0)."""
     m = MechanismState(header=hdr)
@@ -147,7 +154,7 @@ def force_color(t: float, scale: float) -> ColorRGBA:
     return ColorRGBA(r=0.6 + 0.5 * a, g=0.6 + 0.5 * a, b=0.6 - 0.4 * a, a=1.0)
 
 
-def markers_msg(obs, hdr: Header) -> MarkerArray:
+def markers_msg(obs: Observation, hdr: Header) -> MarkerArray:
     """Members as lines coloured by force (tension red, compression blue, relative to the
     largest |force| of this observation), nodes as spheres."""
     scale = max(1e-9, max(abs(float(t)) for t in obs.member_forces))
@@ -166,7 +173,7 @@ def markers_msg(obs, hdr: Header) -> MarkerArray:
     return MarkerArray(markers=[members, nodes])
 
 
-def event_msg(event, offset_ns: int, frame_id: str) -> SimulationEvent:
+def event_msg(event: LoggedEvent, offset_ns: int, frame_id: str) -> SimulationEvent:
     """One located event ``(t [s] on the core's clock, kind, index)``; the simulation clock
     reads ``offset_ns`` when the core's clock reads 0."""
     t, kind, index = event
