@@ -39,18 +39,21 @@ import shutil
 import signal
 import sys
 import threading
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
+from types import ModuleType
+from typing import Any
 
 import numpy as np
 
 from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics
 from tensegrity_core.class2.fold_law import FOLD_GAIN, paper_fold_forces
-from tensegrity_core.sim.sampled import NS_PER_S, run_sampled, step_ns_of
+from tensegrity_core.sim.sampled import NS_PER_S, Controller, run_sampled, step_ns_of
 from tensegrity_ros.apps import demo_moves, demo_robot
 from tensegrity_ros.apps.demo_moves import WAYPOINT_OFFSETS, ControllerClient
 from tensegrity_ros.apps.launch import Launcher, ProcessSpec
 from tensegrity_ros.apps.recording import Recorder, RecorderNotReady
-from tensegrity_ros.apps.sim_client import SimClient
+from tensegrity_ros.apps.sim_client import JointRecord, SimClient
 from tensegrity_ros.bag.completeness import completeness_line
 from tensegrity_ros.rclpy_utils.env import require_rclpy
 from tensegrity_ros.rclpy_utils.matching import wait_for_matches
@@ -68,16 +71,19 @@ RECORDED_TOPICS = ("joint_states", "end_effector", "mechanism_state", "markers",
 STATE_TOPICS = ("/joint_states", "/end_effector", "/mechanism_state", "/markers", "/clock")
 #: Published once per lockstep step: a complete bag holds every step's stamp of each.
 PER_STEP_TOPICS = ("/joint_states", "/end_effector", "/clock")
+#: An IK goal: the end effector's target (x, y) [m] and the lengths (rho1, rho2) [m] solving it.
+IKGoal = tuple[tuple[float, float], tuple[float, ...]]
 
 
 def _say(text: str) -> None:
     print(f"[demo] {text}", flush=True)
 
 
-def _ik_goals(client: DemoClient) -> list:
+def _ik_goals(client: DemoClient) -> list[IKGoal]:
     """``solve_ik`` for each waypoint, seeded with the previous solution (the first with rest)."""
     rest = forward_kinematics(0.7, 0.7, PAPER_PARAMS)
-    current, goals = [0.7, 0.7], []
+    current: list[float] = [0.7, 0.7]
+    goals: list[IKGoal] = []
     for dx, dy in WAYPOINT_OFFSETS:
         target = (rest.x + dx, rest.y + dy)
         res = client.call_ik(target, current)
@@ -88,7 +94,7 @@ def _ik_goals(client: DemoClient) -> list:
     return goals
 
 
-def _moves(ctl: ControllerClient, step_ns: int, results: dict, *, label: str) -> list:
+def _moves(ctl: ControllerClient, step_ns: int, results: dict[str, Any], *, label: str) -> list[JointRecord]:
     """The controller phase (:func:`.demo_moves.run_moves`); its report printed the first time."""
     moves, traj, joints = demo_moves.run_moves(ctl, step_ns)
     results.setdefault("moves", {})[label] = (moves, traj)
@@ -110,16 +116,16 @@ def _moves(ctl: ControllerClient, step_ns: int, results: dict, *, label: str) ->
     return joints
 
 
-def fold_times(events) -> dict:
+def fold_times(events: Iterable[tuple[float, str, int]]) -> dict[str, float | None]:
     """First fold time [s] of each actuator, from ``(t, kind, index)`` events."""
-    out: dict = {}
+    out: dict[int, float] = {}
     for t, kind, index in events:
         if kind == "fold" and index not in out:
             out[index] = float(t)
     return {f"rho{i + 1}": out.get(i) for i in (0, 1)}
 
 
-def control_period_table(step_ns_list, duration: float = FOLD_TIME) -> list[dict]:
+def control_period_table(step_ns_list: Iterable[int], duration: float = FOLD_TIME) -> list[dict[str, Any]]:
     """The fold under the sampled law at each period against the continuous-time scene:
     first fold times, and the largest length difference at the sampling times before the
     first contact (after it the runs part: contacts touch and release at other times)."""
@@ -138,13 +144,17 @@ def control_period_table(step_ns_list, duration: float = FOLD_TIME) -> list[dict
         rho_c = np.column_stack([np.interp(run.times[smooth], cont.times, cont.q[:, i]) for i in (0, 1)])
         folds = fold_times(run.events)
         rows.append({"rate_hz": NS_PER_S / step_ns, "folds": folds, "continuous": cont_folds,
-                     "fold_shift_s": {k: (folds[k] - cont_folds[k]) if folds[k] is not None and cont_folds[k]
-                                      is not None else None for k in folds},
+                     "fold_shift_s": {k: _shift(folds[k], cont_folds[k]) for k in folds},
                      "max_rho_error_m": float(np.max(np.abs(run.q[smooth, :2] - rho_c)))})
     return rows
 
 
-def _fold(client: DemoClient, step_ns: int, results: dict, *, label: str) -> list:
+def _shift(t: float | None, reference: float | None) -> float | None:
+    """``t - reference`` [s]; None when either fold did not happen."""
+    return t - reference if t is not None and reference is not None else None
+
+
+def _fold(client: DemoClient, step_ns: int, results: dict[str, Any], *, label: str) -> list[JointRecord]:
     steps = round(FOLD_TIME * NS_PER_S) // step_ns
     client.sim.events.clear()
     joints = client.run(paper_fold_forces, steps)
@@ -153,17 +163,17 @@ def _fold(client: DemoClient, step_ns: int, results: dict, *, label: str) -> lis
     return joints
 
 
-def _joint_table(joints) -> dict:
+def _joint_table(joints: Iterable[JointRecord]) -> dict[int, JointRecord]:
     """Joint states by stamp (a stamp published twice, e.g. at the start of a request, must
     carry the same values both times)."""
-    out: dict = {}
+    out: dict[int, JointRecord] = {}
     for j in joints:
         if out.setdefault(j.stamp_ns, j) != j:
             raise RuntimeError(f"two different joint states stamped {j.stamp_ns} ns")
     return out
 
 
-def _difference(first: dict, second: dict) -> str:
+def _difference(first: dict[int, JointRecord], second: dict[int, JointRecord]) -> str:
     """How two joint tables (by stamp) differ: their sizes and the first stamp that differs."""
     stamps = sorted(set(first) | set(second))
     at = next(t for t in stamps if first.get(t) != second.get(t))
@@ -175,7 +185,9 @@ class DemoClient:
     """The demo's node: the stepping client of the simulator, and clients of ``solve_ik``
     and ``find_form``."""
 
-    def __init__(self, rclpy) -> None:
+    step_ns: int        # the simulator's step [ns]
+
+    def __init__(self, rclpy: ModuleType) -> None:
         from tensegrity_msgs.srv import FindForm, SolveIK
 
         self.sim = SimClient(rclpy, "tensegrity_demo")
@@ -184,7 +196,7 @@ class DemoClient:
         self.ik = node.create_client(SolveIK, "solve_ik")
         self.ff = node.create_client(FindForm, "find_form")
 
-    def _call(self, client, request, timeout: float = 120.0):
+    def _call(self, client: Any, request: Any, timeout: float = 120.0) -> Any:
         if not client.wait_for_service(timeout_sec=timeout):
             raise RuntimeError(f"service {client.srv_name} not available")
         done = threading.Event()
@@ -194,13 +206,13 @@ class DemoClient:
             raise RuntimeError(f"no answer from {client.srv_name} within {timeout:g} s")
         return future.result()
 
-    def call_ik(self, target, seed):
+    def call_ik(self, target: tuple[float, float], seed: Sequence[float]) -> Any:
         return self._call(self.ik, self.SolveIK.Request(x=target[0], y=target[1], seed=list(seed)))
 
-    def call_formfind(self, text: str):
+    def call_formfind(self, text: str) -> Any:
         return self._call(self.ff, self.FindForm.Request(structure=text))
 
-    def run(self, law, steps: int) -> list:
+    def run(self, law: Controller, steps: int) -> list[JointRecord]:
         """From rest with the clock at 0: ``steps`` lockstep steps under ``law``; the joint
         states received (one per step and the start)."""
         self.sim.set_law(None)
@@ -248,11 +260,12 @@ def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool 
     client = DemoClient(rclpy)
     client.step_ns = step_ns
     ctl = ControllerClient(client.sim)
-    results: dict = {}
+    results: dict[str, Any] = {}
     bags: list[Path] = []
-    rec = None
+    rec: Recorder | None = None
 
-    def recorded(name: str, title: str, phase, *, controller_commands: bool):
+    def recorded(name: str, title: str, phase: Callable[[], list[JointRecord]], *, controller_commands: bool
+                 ) -> list[JointRecord]:
         """Run ``phase`` while ``OUT/name`` records the suite's topics (when recording); the
         phase starts once the recorder has received the first message of every topic the
         paused simulator publishes (resets make it publish) and, with ``controller_commands``,
