@@ -11,11 +11,12 @@ import sys
 
 from tensegrity_ros.rclpy_utils.env import require_rclpy
 
-rclpy = require_rclpy()
-from rclpy.executors import ExternalShutdownException  # noqa: E402
+require_rclpy()                  # one clear line when the ROS wheels are missing
 from rclpy.node import Node  # noqa: E402
 from tensegrity_msgs.msg import ActuatorForces, IKSolution  # noqa: E402
 from tensegrity_msgs.srv import SolveIK  # noqa: E402
+
+from tensegrity_ros.nodes.common import spin_node  # noqa: E402
 
 
 class Peer(Node):
@@ -36,18 +37,16 @@ class Peer(Node):
         return res
 
 
-def main() -> int:
-    rclpy.init(args=sys.argv)
+def _ready_peer() -> Peer:
     node = Peer()
     print("ready", flush=True)
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return node
+
+
+def main() -> int:
+    """Spun as the suite's nodes are (``spin_node``): SIGTERM from the test is a stop request
+    that wakes the executor, so the peer ends promptly however busy the machine is."""
+    return spin_node(_ready_peer, sys.argv)
 
 
 if __name__ == "__main__":
