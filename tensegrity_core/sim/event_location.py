@@ -1,23 +1,21 @@
 """Zero crossings of a model's state events inside an integrator step.
 
 A model's :class:`StateEvent` functions are evaluated at a step's ends; :func:`candidates`
-finds, vectorised over every component, those that change sign or whose end values and rates
-allow a dip to zero inside the step; :func:`dips` finds, for the latter, whether the step's
-dense output does dip across zero and back (a near-tangent graze inside one step);
-:func:`locate` finds the first time a candidate is on its new side with Brent's method on the
-step's dense output. :class:`~tensegrity_core.sim.stepper.Stepper` uses both after
+finds, vectorised over every component, those that change sign or whose cubic Hermite
+interpolant through the end values and rates dips across zero (a short excursion inside one
+step); :func:`locate` finds the first time a candidate is on its new side with Brent's method
+on the step's dense output. :class:`~tensegrity_core.sim.stepper.Stepper` uses both after
 every step.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import brentq, minimize_scalar
+from scipy.optimize import brentq
 
 from tensegrity_core.events import EventKind
 
@@ -78,14 +76,13 @@ def event_values(ev: StateEvent, t: float, y: FloatArray) -> tuple[FloatArray, F
 
 
 def candidates(direction: float, g0: FloatArray, r0: FloatArray | None, g1: FloatArray, r1: FloatArray | None,
-                t0: float, t1: float) -> list[tuple[int, bool, float | None]]:
+                t0: float, t1: float) -> list[tuple[int, bool, float]]:
     """The components that may cross zero in ``[t0, t1]`` in ``direction``, as
-    ``(component, falling, t_hi)``: a sign change between the ends is bracketed in
-    ``[t0, t1]`` (``t_hi = t1``); a component on its old side at both ends whose end values
-    and rates allow a dip to zero in between (its cubic Hermite interpolant can reach zero)
-    has ``t_hi = None``, for :func:`dips` to look for the dip on the step's own dense output.
-    Vectorised over the components: a step without a crossing costs a few array operations
-    however many components there are."""
+    ``(component, falling, t_hi)``: the crossing is bracketed in ``[t0, t_hi]`` if the
+    component's sign at ``t_hi`` is the new one (``t_hi = t1`` for a sign change between the
+    ends; inside the step where the Hermite cubic of the end values and rates dips across
+    zero and back). Vectorised over the components: a step without a crossing costs a few
+    array operations however many components there are."""
     h = t1 - t0
     # the common step: every component strictly on one side at both ends and, by the bound
     # below, unable to reach zero in between
@@ -95,79 +92,60 @@ def candidates(direction: float, g0: FloatArray, r0: FloatArray | None, g1: Floa
             quiet &= ~(np.minimum(np.abs(g0), np.abs(g1)) < (4.0 / 27.0) * h * (np.abs(r0) + np.abs(r1)))
     if quiet.all():
         return []
-    out: list[tuple[int, bool, float | None]] = []
+    out: list[tuple[int, bool, float]] = []
     for falling, sign in ((True, 1.0), (False, -1.0)):
         if direction * sign > 0:               # falling only for direction <= 0, rising only for >= 0
             continue
         a, b = sign * g0, sign * g1
         # from its old side to zero or the new one, or from exactly zero to the new one
         crossed = ((a > 0) & (b <= 0)) | ((a == 0) & (b < 0))
-        out += [(int(k), falling, t1) for k in np.flatnonzero(crossed)]
+        if crossed.any():
+            out += [(int(k), falling, t1) for k in np.flatnonzero(crossed)]
         if r0 is None or r1 is None:
             continue
-        # the cubic Hermite interpolant of the end values and rates is at least
-        # min(a, b) - 4/27 h (|r0| + |r1|) (the end-slope basis functions stay within +-4/27
-        # on the step): only components that may come near zero are looked at
+        m0, m1 = sign * r0 * h, sign * r1 * h
+        # the cubic is at least min(a, b) - 4/27 (|m0| + |m1|) (the end-slope basis functions
+        # stay within +-4/27 on [0, 1]): only components that may reach zero are looked at
         with np.errstate(invalid="ignore"):
-            near = (a > 0) & (b > 0) & (np.minimum(a, b) < (4.0 / 27.0) * h * (np.abs(r0) + np.abs(r1)))
-        out += [(int(k), falling, None) for k in np.flatnonzero(near)]
+            near = (a > 0) & (b > 0) & (np.minimum(a, b) < (4.0 / 27.0) * (np.abs(m0) + np.abs(m1)))
+        if near.any():
+            k = np.flatnonzero(near)
+            s, p = hermite_minimum(a[k], m0[k], b[k], m1[k])
+            out += [(int(k[j]), falling, t0 + float(s[j]) * h) for j in np.flatnonzero(p < 0)]
     return out
 
 
-#: Points at which :func:`dips` samples the dense output across a step before refining the
-#: lowest one: an event function over one step is a smooth, low-order curve (the
-#: interpolant's polynomial through the event function), with at most a few extrema.
-DIP_GRID = 16
-
-
-def dips(ev: StateEvent, near: Sequence[tuple[int, bool]], dense: Interpolant, t0: float,
-         t1: float) -> list[tuple[int, bool, float]]:
-    """For each ``(component, falling)`` of ``near`` (on its old side at both ends of the step
-    ``[t0, t1]``), the time ``t_hi`` of the lowest point of ``sign * g`` on the step's dense
-    output (``sign`` +1 falling, -1 rising) where it is on the new side (``< 0``; the first
-    such grid point if several): the component dips across zero and back inside the step,
-    and its first crossing is bracketed in ``[t0, t_hi]``. Components that stay on their old side are left out.
-
-    The end values and rates alone cannot decide a near-tangent graze: the integrator's
-    interpolant may dip where the cubic through the ends does not. The minimum is found on
-    the interpolant itself: sampled on a grid of :data:`DIP_GRID` intervals, then refined
-    around the lowest sample with bounded Brent minimisation (``minimize_scalar``) unless the
-    samples' curvature rules a dip between them out."""
-    ts = np.linspace(t0, t1, DIP_GRID + 1)[1:-1]          # the ends are known to be on the old side
-    ys = dense(ts)
-    gs = np.stack([np.atleast_1d(np.asarray(ev.g(float(t), ys[:, i]), dtype=float)) for i, t in enumerate(ts)])
-    xatol = 64 * np.finfo(float).eps * max(1.0, abs(t1))
-    out: list[tuple[int, bool, float]] = []
-    for k, falling in near:
-        sign = 1.0 if falling else -1.0
-        values = sign * gs[:, k]
-        across = np.flatnonzero(values < 0.0)
-        if across.size:
-            out.append((k, falling, float(ts[across[0]])))
-            continue
-        # between two samples h/16 apart, a curve of second difference d2 dips at most about
-        # |d2|/8 below the lower sample: a lowest sample above |d2| (8 times that) is no dip
-        if values.min() > np.abs(np.diff(values, 2)).max():
-            continue
-        i = int(np.argmin(values))
-        lo, hi = (ts[i - 1] if i > 0 else t0), (ts[i + 1] if i + 1 < len(ts) else t1)
-
-        def f(t: float, k: int = k, sign: float = sign) -> float:
-            return sign * float(np.atleast_1d(ev.g(t, dense(t)))[k])
-
-        best = minimize_scalar(f, bounds=(lo, hi), method="bounded", options={"xatol": xatol})
-        # a minimum at an end of the step is the end's own value (on the old side, perhaps
-        # by rounding only, just after an event): not a dip
-        if best.fun < 0.0 and t0 + 4 * xatol < best.x < t1 - 4 * xatol:
-            out.append((k, falling, float(best.x)))
-    return out
+def hermite_minimum(p0: FloatArray, m0: FloatArray, p1: FloatArray,
+                     m1: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """``(s, p(s))`` at the interior minimum over ``s`` in (0, 1) of the cubic Hermite
+    interpolant with end values ``p0, p1`` and end slopes ``m0, m1`` (per unit ``s``);
+    ``p(s) = inf`` where it has none inside."""
+    # p'(s) = A s^2 + B s + m0, p''(s) = 2 A s + B
+    A = 6 * p0 + 3 * m0 - 6 * p1 + 3 * m1
+    B = -6 * p0 - 4 * m0 + 6 * p1 - 2 * m1
+    disc = B * B - 4 * A * m0
+    s_best = np.full(np.shape(p0), 0.5)
+    p_best = np.full(np.shape(p0), np.inf)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        quadratic = A != 0
+        root = np.sqrt(np.maximum(disc, 0.0))
+        linear = -m0 / B
+        for s in (np.where(quadratic, (-B + root) / (2 * A), linear),
+                  np.where(quadratic, (-B - root) / (2 * A), np.nan)):
+            ok = np.isfinite(s) & (s > 0) & (s < 1) & ((disc >= 0) | ~quadratic) & (2 * A * s + B > 0)
+            p = ((2 * s**3 - 3 * s**2 + 1) * p0 + (s**3 - 2 * s**2 + s) * m0 + (-2 * s**3 + 3 * s**2) * p1
+                 + (s**3 - s**2) * m1)
+            better = ok & (p < p_best)
+            s_best = np.where(better, s, s_best)
+            p_best = np.where(better, p, p_best)
+    return s_best, p_best
 
 
 def locate(ev: StateEvent, k: int, falling: bool, dense: Interpolant, t0: float, t1: float) -> float | None:
     """The first time in ``[t0, t1]`` at which component ``k`` of ``ev.g`` is on its new side
     (< 0 falling, > 0 rising), found by Brent's method on the dense output (as ``solve_ivp``
     locates events) and moved past the root to the first point where the sign holds; None if
-    the dense output is not on the new side at ``t1``."""
+    the dense output is not on the new side at ``t1`` (a dip of the Hermite cubic only)."""
     sign = 1.0 if falling else -1.0
 
     def f(t: float) -> float:

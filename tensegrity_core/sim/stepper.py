@@ -10,9 +10,9 @@ alive and steps it itself:
 - after every step the model's event functions are evaluated at the step's end; a sign
   change in the event's direction is located with Brent's method on the dense output
   (as ``solve_ivp`` does) and the step is cut there. A component that starts and ends on
-  the same side but whose end values and rates allow it to come near zero inside the step
-  (a grazing contact) is minimised on the dense output; if its minimum is across zero, the
-  first crossing before it is located too. The located time is the first at which
+  the same side but whose cubic Hermite interpolant through the end values and rates dips
+  across zero (a short excursion inside one step: a grazing contact) is checked on the
+  dense output at the dip and located there too. The located time is the first at which
   the component is on its new side, so the model's discrete change applies to a state
   where it holds;
 - an event is applied when the integration goes past it: the model returns the state and
@@ -54,7 +54,7 @@ from tensegrity_core.errors import TensegrityError
 from tensegrity_core.events import EventKind, LoggedEvent
 from tensegrity_core.sim import integrators
 from tensegrity_core.sim.errors import SimulationError, check_advance_target
-from tensegrity_core.sim.event_location import Crossing, Interpolant, StateEvent, candidates, dips, event_values, locate
+from tensegrity_core.sim.event_location import Crossing, Interpolant, StateEvent, candidates, event_values, locate
 
 FloatArray = NDArray[np.float64]
 #: ``jac(t, y)``: a dense (n, n) array or a scipy.sparse matrix (which has no type information).
@@ -361,14 +361,9 @@ class Stepper(Generic[Sys]):
         dense: Interpolant | None = None
         hit: Crossing | None = None
         for ev, (g0, r0), (g1, r1) in zip(self._events, self._g, g_new):
-            found = candidates(ev.direction, g0, r0, g1, r1, t_old, t_new)
-            if not found:
-                continue
-            if dense is None:
-                dense = solver.dense_output()
-            crossed = [(k, falling, t_hi) for k, falling, t_hi in found if t_hi is not None]
-            near = [(k, falling) for k, falling, t_hi in found if t_hi is None]
-            for k, falling, t_hi in crossed + (dips(ev, near, dense, t_old, t_new) if near else []):
+            for k, falling, t_hi in candidates(ev.direction, g0, r0, g1, r1, t_old, t_new):
+                if dense is None:
+                    dense = solver.dense_output()
                 te = locate(ev, k, falling, dense, t_old, t_hi)
                 if te is not None and (hit is None or te < hit.t):
                     hit = Crossing(float(te), ev, k, falling)

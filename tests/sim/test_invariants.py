@@ -202,20 +202,26 @@ def test_a_contact_force_that_dips_below_zero_inside_one_step_releases_the_actua
     assert_fold_limit_holds(data, state.events)
 
 
-def test_a_near_tangent_graze_inside_one_step_folds_the_actuator():
-    """A point of the issue's full box (k 7.0 N/m, c 0.42 N s/m, gain 48.5, restitution 0.78)
-    under DOP853 at rtol 1e-7: rho2 comes down to the stop and turns back inside one step
-    (4.122 s to 4.159 s) whose ends are both above it; the cubic through the step's end values
-    and rates stays above zero while the integrated motion dips 3.5e-8 m below it at 4.148 s.
-    The fold is seen on the step's own dense output, so no sample is below zero."""
-    scene = fold_scene(k=6.999123489755537, c=0.4222766831143423, gain=48.51130033010531,
-                       restitution=0.777417297704791, method="DOP853", rtol=1e-7, atol=1e-9)
-    model = compile_scene(scene)
-    state = model.initial_state(t_end=scene.duration)
-    data, err = record(model, state, np.linspace(0.0, scene.duration, 5001))
-    assert err is None
-    assert_fold_limit_holds(data, state.events)
-    assert any(kind == "fold" and index == 1 and 4.12 < t < 4.16 for t, kind, index in state.events)
+@pytest.mark.parametrize("method", ["Radau", "BDF", "LSODA"])
+def test_a_lift_off_under_a_loose_implicit_method_goes_on(method):
+    """The paper's fold under an implicit method at rtol 1e-3 (the loose end of the precision
+    benchmark) ends, with the events of the same method at rtol 1e-9 in the same order: the
+    long first step after a bounce, whose interpolant wiggles about the stop and about a held
+    actuator's zero contact force, must not be taken for a crossing (each one would restart
+    the run a few ns later, without end)."""
+    import copy
+
+    from tensegrity_core.sim import load_scene, simulate
+
+    base = load_scene("paper_fold").data
+    runs = []
+    for rtol in (1e-3, 1e-9):
+        d = copy.deepcopy(base)
+        d["integrator"] = {"method": method, "rtol": rtol, "atol": rtol * 1e-2}
+        runs.append(simulate(load_scene(d)).events)
+    loose, tight = runs
+    assert [(k, i) for _, k, i in loose] == [(k, i) for _, k, i in tight]
+    assert np.allclose([t for t, _, _ in loose], [t for t, _, _ in tight], atol=0.05)
 
 
 @pytest.mark.parametrize("method", METHODS)
