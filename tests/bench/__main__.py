@@ -15,7 +15,9 @@ import argparse
 import gc
 import importlib
 import json
+import os
 import pkgutil
+import random
 import sys
 import time
 from dataclasses import asdict
@@ -27,6 +29,10 @@ from tests.bench import harness
 
 def main(argv=None) -> int:
     ensure_ros_environment()   # the suite's DDS set-up (loopback only) for in-process nodes too
+    # every node a benchmark starts, in its children and in this process, talks in one
+    # domain: the caller's (the test suite gives each module its own, so a benchmark run
+    # inside the suite never answers another module's clients), else one of its own
+    os.environ.setdefault("ROS_DOMAIN_ID", str(200 + random.randrange(30)))
     ap = argparse.ArgumentParser(prog="python -m tests.bench")
     ap.add_argument("--full", action="store_true", help="full mode (docs figures); default quick")
     ap.add_argument("--only", action="append", default=[], help="run only these groups (or GROUP:FUNCTION)")

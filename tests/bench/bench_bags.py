@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import json
 import os
-import random
 import signal
 import statistics
 import subprocess
@@ -91,9 +90,7 @@ def _replay_spacing_errors(folder: Path, env: dict) -> tuple[list[int], int]:
 def bench_record_and_replay(ctx: Context) -> list[Row]:
     env = dict(os.environ)
     env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    env["ROS_DOMAIN_ID"] = str(200 + random.randrange(30))
-    os.environ.update(ROS_DOMAIN_ID=env["ROS_DOMAIN_ID"],
-                      ROS_AUTOMATIC_DISCOVERY_RANGE=env["ROS_AUTOMATIC_DISCOVERY_RANGE"])
+    os.environ.update(ROS_AUTOMATIC_DISCOVERY_RANGE=env["ROS_AUTOMATIC_DISCOVERY_RANGE"])
     duration = 2.0 if ctx.quick else 10.0
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp) / "bench"

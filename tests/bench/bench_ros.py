@@ -38,7 +38,6 @@ TENSEGRITY = str(Path(sys.executable).with_name("tensegrity"))
 def _env() -> dict:
     env = dict(os.environ)
     env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    env.setdefault("ROS_DOMAIN_ID", "77")
     return env
 
 

@@ -65,7 +65,6 @@ def _stop_time(argv: list[str], ready: str, sig: int, env: dict, held: bool = Tr
 @benchmark
 def stop_after_a_signal(ctx: Context) -> list[Row]:
     env = dict(os.environ)
-    env["ROS_DOMAIN_ID"] = str(200 + os.getpid() % 30)
     rounds = 1 if ctx.quick else 10
     bare = [_stop_time([sys.executable, "-m", "tests.bench.ros_echo_server"], "echo ready",
                        signal.SIGINT, env, held=False)[0] for _ in range(rounds)]
@@ -96,7 +95,6 @@ def stress(ctx: Context) -> list[Row]:
     from tests.shutdown_stress import PROCESSES
 
     env = dict(os.environ)
-    env["ROS_DOMAIN_ID"] = str(200 + os.getpid() % 30)
     cycles = 20 if ctx.quick else 1000
     t0 = time.monotonic()
     out = subprocess.run([sys.executable, "-m", "tests.shutdown_stress", str(cycles)], capture_output=True,
@@ -111,16 +109,7 @@ def stress(ctx: Context) -> list[Row]:
                 note=f"{cycles} cycles (sim, ik, formfind, controller; idle and loaded) in "
                      f"{time.monotonic() - t0:.0f} s, exit code {out.returncode}")]
     rounds, kinds = (1, ("sim",)) if ctx.quick else (25, tuple(PROCESSES))
-    rng = random.Random(0)
-    previous = os.environ.get("ROS_DOMAIN_ID")
-    os.environ["ROS_DOMAIN_ID"] = env["ROS_DOMAIN_ID"]   # the load peers run here: in the children's domain
-    try:
-        return rows + _real_cycles(kinds, rounds, rng, env)
-    finally:
-        if previous is None:
-            del os.environ["ROS_DOMAIN_ID"]
-        else:
-            os.environ["ROS_DOMAIN_ID"] = previous
+    return rows + _real_cycles(kinds, rounds, random.Random(0), env)
 
 
 def _real_cycles(kinds, rounds: int, rng, env: dict) -> list[Row]:

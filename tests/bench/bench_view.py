@@ -115,7 +115,6 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
     seconds = 2.0 if ctx.quick else 15.0
     starts = 1 if ctx.quick else 5
     env = dict(os.environ)
-    env["ROS_DOMAIN_ID"] = str(170 + os.getpid() % 30)
     rows: list[Row] = []
 
     base = []
@@ -163,8 +162,6 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
                                env=env, start_new_session=True)
         received: dict[float, float] = {}
         lock = threading.Lock()
-        old = os.environ.get("ROS_DOMAIN_ID")
-        os.environ["ROS_DOMAIN_ID"] = env["ROS_DOMAIN_ID"]
         rctx = RosContext()
         rclpy.init(args=[], context=rctx)
         node = rclpy.create_node("bench_view_probe", context=rctx)
@@ -199,10 +196,6 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
             executor.shutdown()
             node.destroy_node()
             rclpy.try_shutdown(context=rctx)
-            if old is None:
-                os.environ.pop("ROS_DOMAIN_ID", None)
-            else:
-                os.environ["ROS_DOMAIN_ID"] = old
             _stop(sim)
         with lock:
             latencies = [wall - received[t] for t, wall in samples if t in received]
