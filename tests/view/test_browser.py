@@ -221,11 +221,16 @@ def test_the_move_fields_send_the_controllers_goal_and_d_ends_at_the_target(cli,
         wait_for_canvas(page)
         # the view's node has found the controller's action server (the answer says so if not)
         page.wait_for_timeout(1000)
-        for label, value in (("x [m]", target[0]), ("y [m]", target[1]), ("duration [s]", 2.0)):
+        # one field at a time, each until the server shows it back: viser's page sends GUI
+        # updates through one 50 ms throttle that keeps only the latest message, so a second
+        # field changed within 50 ms of the first would drop the first one's update
+        entries = (("x [m]", target[0], (target[0], 0.72, 2)), ("y [m]", target[1], (*target, 2)),
+                   ("duration [s]", 2.5, (*target, 2.5)))
+        for label, value, (gx, gy, gd) in entries:
             field = control(page, label).locator("input").first
             field.fill(str(value))
             field.press("Enter")
-        page.get_by_text(f"goal: D to ({target[0]:g}, {target[1]:g}) m in 2 s").wait_for(timeout=WAIT * 1000)
+            page.get_by_text(f"goal: D to ({gx:g}, {gy:g}) m in {gd:g} s").wait_for(timeout=WAIT * 1000)
         page.get_by_role("button", name="Move D").click()
         answer = page.get_by_text(re.compile(r"^move: (D at|the controller refused|failed|no controller)")).first
         answer.wait_for(timeout=WAIT * 1000)
