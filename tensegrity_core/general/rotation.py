@@ -1,6 +1,7 @@
-"""Rotations: skew matrices, the exponential map, the best-fit rotation of a point set, and the
-cross product over arrays of vectors. (The left Jacobian of SO(3) that the dynamics' rotation
-charts need lives with their kernels, ``sim/general/kernels``.)
+"""Rotations: skew matrices, the exponential map, the best-fit rotation of a point set, the
+scipy ``Rotation`` of exact rotation matrices, and the cross product over arrays of vectors.
+(The left Jacobian of SO(3) that the dynamics' rotation charts need lives with their
+kernels, ``sim/general/kernels``.)
 
 Conventions: rotation matrices are *active* (``x_world = R @ x_body``); a rotation vector
 ``theta`` [rad] has direction = axis (right-hand rule) and norm = angle. Orientation
@@ -12,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
 
 FloatArray = NDArray[np.float64]
 
@@ -69,3 +71,11 @@ def cross(a: FloatArray, b: FloatArray) -> FloatArray:
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], -1)
+
+
+def exact_rotations(R: ArrayLike) -> Rotation:
+    """The scipy ``Rotation`` of rotation matrices ``R`` (..., 3, 3) that are orthonormal with
+    determinant +1 to rounding, as every rotation the simulator carries is (an exponential map
+    times a reference rotation): scipy's projection of an arbitrary matrix onto the nearest
+    rotation, which costs ~5x the conversion itself, is skipped."""
+    return Rotation.from_matrix(R, assume_valid=True)

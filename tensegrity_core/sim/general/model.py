@@ -61,10 +61,9 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 from tensegrity_core.events import EventKind
-from tensegrity_core.general.rotation import cross, exp_so3
+from tensegrity_core.general.rotation import cross, exact_rotations, exp_so3
 from tensegrity_core.general.statics import group_sum
 from tensegrity_core.general.structure import Structure
 from tensegrity_core.sim.errors import SceneError
@@ -329,7 +328,7 @@ class GeneralSystem:
         q = Y[:, :n].copy()
         quat = np.zeros((B, 0, 4))
         if self.nb:
-            rotations = Rotation.from_matrix(ev.rotations.reshape(-1, 3, 3))     # one conversion for both
+            rotations = exact_rotations(ev.rotations.reshape(-1, 3, 3))     # one conversion for both
             rot = self.lay.body_dof[:, None] + 3 + np.arange(3)[None, :]
             q[:, rot] = rotations.as_rotvec().reshape(B, self.nb, 3)
             quat = rotations.as_quat().reshape(B, self.nb, 4)
@@ -364,7 +363,7 @@ def kinetic_energy(v: FloatArray, R: FloatArray, free_mass: FloatArray, body_dof
         cols = dof[:, None] + np.arange(3)[None, :]
         vc, w = v[:, cols], v[:, cols + 3]
         s = np.einsum("bkij,kj->bki", R, first_moment)
-        Iw = np.einsum("bkij,kjl,bkml,bkm->bki", R, inertia, R, w)
+        Iw = np.einsum("bkij,bkj->bki", R, np.einsum("kij,bkj->bki", inertia, np.einsum("bkji,bkj->bki", R, w)))
         T = T + 0.5 * np.sum(body_mass * np.sum(vc * vc, axis=2)
                              + 2.0 * np.sum(vc * cross(w, s), axis=2) + np.sum(w * Iw, axis=2), axis=1)
     return T

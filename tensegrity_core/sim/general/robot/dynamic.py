@@ -24,9 +24,9 @@ from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 from tensegrity_core.events import LoggedEvent
+from tensegrity_core.general.rotation import exact_rotations
 from tensegrity_core.robot.imu import imu_readings
 from tensegrity_core.robot.motor import MODES, REEL_SPEED, TENSION
 from tensegrity_core.sim.commands import changed, check_command, compile_inputs
@@ -200,7 +200,7 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         orientation = np.zeros((B, nb, 4))
         if nb and B:
             rot = plan.body_dof[:, None] + 3 + np.arange(3)[None, :]
-            rotations = Rotation.from_matrix(ev.rotations.reshape(-1, 3, 3))
+            rotations = exact_rotations(ev.rotations.reshape(-1, 3, 3))
             q[:, rot] = rotations.as_rotvec().reshape(B, nb, 3)
             orientation = rotations.as_quat().reshape(B, nb, 4)
         X = ev.positions
@@ -248,7 +248,7 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
             quat, gyro, specific = imu_readings(
                 ev.rotations[:, slots].reshape(-1, 3, 3), Y[:, n + 3 + cols].reshape(-1, 3),
                 ev.derivative[:, n + cols].reshape(-1, 3), ev.derivative[:, n + 3 + cols].reshape(-1, 3),
-                np.zeros((B * len(slots), 3)), self.gravity)
+                np.zeros((B * len(slots), 3)), self.gravity, quaternions=orientation[:, slots].reshape(-1, 4))
             out |= {"cable_lengths": ev.lengths[:, list(sens.cable_length)],
                     "cable_tensions": ev.tensions[:, list(sens.cable_tension)],
                     "imu_orientation": quat.reshape(B, len(slots), 4),
@@ -275,7 +275,7 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         plan, n = self.plan, self.plan.n_dof
         q = Y[0, :n].copy()
         if len(plan.body_dof):
-            q[plan.body_dof[:, None] + 3 + np.arange(3)] = Rotation.from_matrix(ev.rotations[0]).as_rotvec()
+            q[plan.body_dof[:, None] + 3 + np.arange(3)] = exact_rotations(ev.rotations[0]).as_rotvec()
         motor = plan.motor_cable
         return JointValues(t=float(st.t), q=q, qdot=Y[0, n:2 * n].copy(), applied_forces=ev.rest_lengths[0, motor],
                            end_effector=ev.positions[0, self.end_effector].copy(), folded=False,
