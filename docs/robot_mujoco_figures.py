@@ -189,7 +189,9 @@ def compare_roll() -> None:
     bx.plot(t, 0.1 * np.hypot(*theirs_t[:, :2].T), "k--", lw=1.0, label="10 % of MuJoCo's travel from the start")
     for k, s in enumerate(breaks):
         bx.axvline(s, color="0.7", lw=0.6, ls=":", label="a gait breakpoint" if k == 0 else None)
-    bx.axvspan(3.5, 3.8, color="C0", alpha=0.15, label="project's robot off the floor")
+    for series, (t0, t1), colour in (("project", airborne(run.times, np.asarray(run.contact_forces).sum(axis=1)), "C0"),
+                                     ("MuJoCo", mujoco_airborne(scene, gait, 5.0), "C1")):
+        bx.axvspan(t0, t1, color=colour, alpha=0.2, label=f"{series}: robot off the floor ({t0:.2f}-{t1:.2f} s)")
     bx.set_xlabel("t [s]")
     bx.set_ylabel("distance between the centres of mass [m]")
     bx.set_title("the two runs part after the third gait step (3.2 s)")
@@ -198,6 +200,36 @@ def compare_roll() -> None:
     fig.suptitle("six_bar_roll: project and MuJoCo")
     fig.savefig(IMG / "mujoco_six_bar_roll_compared.png", dpi=110)
     plt.close(fig)
+
+
+def airborne(times: np.ndarray, floor_force: np.ndarray) -> tuple[float, float]:
+    """The first span [s] after the start in which nothing touches the floor (its first and
+    last sample)."""
+    off = np.flatnonzero((floor_force <= 0) & (times > 0.05))
+    end = off[:-1][np.diff(off) > 1]
+    last = int(end[0]) if len(end) else int(off[-1])
+    return float(times[off[0]]), float(times[last])
+
+
+def mujoco_airborne(scene, gait, duration: float) -> tuple[float, float]:
+    """:func:`airborne` of the scene's export in MuJoCo driven by ``gait`` for ``duration`` [s]
+    (the floor's normal force from MuJoCo's contacts at every step)."""
+    m = mujoco.MjModel.from_xml_string(export_mjcf(scene).xml)
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key("initial").id)
+    t_table, v_table = gait.table()
+    motors = np.array([m.actuator(f"cable:{c}").id for c in gait.cables])
+    times, force, f6 = [], [], np.zeros(6)
+    while d.time < duration:
+        d.ctrl[motors] = [np.interp(d.time, t_table, v_table[:, j]) for j in range(len(motors))]
+        mujoco.mj_step(m, d)
+        total = 0.0
+        for i in range(d.ncon):
+            mujoco.mj_contactForce(m, d, i, f6)
+            total += f6[0]
+        times.append(d.time)
+        force.append(total)
+    return airborne(np.array(times), np.array(force))
 
 
 def compare_drops() -> None:

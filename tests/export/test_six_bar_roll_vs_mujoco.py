@@ -10,9 +10,9 @@ compared (docs/design/mujoco.md, "The project's robot dynamics against MuJoCo"):
 - **distance per gait step, up to the divergence**: at each of the gait's breakpoints
   until its third step ends (3.23 s, the centre of mass 1.2 m from its start) the two
   centres of mass are less than 10 % of MuJoCo's distance travelled apart. Right after
-  that the project's robot leaves the floor tipping onto n1 n4 n7 (3.5-3.8 s) and lands on
-  n1 n4 n11, where MuJoCo rests on n1 n4 n7 first; from there the open-loop gait meets the
-  two robots in different states and their paths part (not asserted: the docs tabulate it).
+  that both robots leave the floor (3.5-3.8 s); MuJoCo's lands back on n1 n4 n7, the
+  project's on n1 n4 n11, and from there the open-loop gait meets the two robots in
+  different states and their paths part (not asserted: the docs tabulate it).
 """
 
 from __future__ import annotations
