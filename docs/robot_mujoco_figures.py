@@ -161,7 +161,15 @@ def compare_roll() -> None:
     d_p, d_m = com[-1] - com[0], peer.com[-1] - peer.com[0]
     print(f"centre of mass travel over {run.times[-1]:.1f} s: project {d_p[0]:.3f} m x, {d_p[1]:.3f} m y; "
           f"MuJoCo {d_m[0]:.3f} m x, {d_m[1]:.3f} m y")
-    fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
+    breaks = gait.table()[0]
+    ours = np.array([com[min(np.searchsorted(run.times, t - 1e-9), len(com) - 1)] - com[0] for t in breaks])
+    theirs = np.array([peer.com[min(np.searchsorted(peer.times, t - 1e-9), len(peer.com) - 1)] - peer.com[0]
+                       for t in breaks])
+    for t, a, b in zip(breaks, ours, theirs):
+        print(f"  gait breakpoint {t:5.2f} s: project ({a[0]:.3f}, {a[1]:.3f}) m, MuJoCo ({b[0]:.3f}, {b[1]:.3f}) m, "
+              f"apart {np.hypot(*(a - b)[:2]):.3f} m = {np.hypot(*(a - b)[:2]) / max(np.hypot(*b[:2]), 1e-9):.1%} "
+              f"of MuJoCo's travel")
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(12, 4.8), constrained_layout=True)
     ax.plot(com[:, 0], com[:, 1], color="C0", lw=1.2, label="project (robot back end)")
     ax.plot(peer.com[:, 0], peer.com[:, 1], color="C1", lw=1.2, label="MuJoCo (exported six_bar_roll)")
     for (series, path, times, colour, marker) in (("project", com, run.times, "C0", "o"),
@@ -172,10 +180,56 @@ def compare_roll() -> None:
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_aspect("equal")
-    ax.set_title("six_bar_roll: centre of mass on the floor, project and MuJoCo")
+    ax.set_title("centre of mass on the floor")
     ax.legend(fontsize=8)
+    t = peer.times
+    ours_t = np.array([com[min(np.searchsorted(run.times, s - 1e-9), len(com) - 1)] - com[0] for s in t])
+    theirs_t = peer.com - peer.com[0]
+    bx.plot(t, np.hypot(*(ours_t - theirs_t)[:, :2].T), "C3", lw=1.4, label="project to MuJoCo, on the floor")
+    bx.plot(t, 0.1 * np.hypot(*theirs_t[:, :2].T), "k--", lw=1.0, label="10 % of MuJoCo's travel from the start")
+    for k, s in enumerate(breaks):
+        bx.axvline(s, color="0.7", lw=0.6, ls=":", label="a gait breakpoint" if k == 0 else None)
+    for series, (t0, t1), colour in (("project", airborne(run.times, np.asarray(run.contact_forces).sum(axis=1)), "C0"),
+                                     ("MuJoCo", mujoco_airborne(scene, gait, 5.0), "C1")):
+        bx.axvspan(t0, t1, color=colour, alpha=0.2, label=f"{series}: robot off the floor ({t0:.2f}-{t1:.2f} s)")
+    bx.set_xlabel("t [s]")
+    bx.set_ylabel("distance between the centres of mass [m]")
+    bx.set_title("the two runs part after the third gait step (3.2 s)")
+    bx.legend(fontsize=8, loc="upper left")
+    bx.grid(alpha=0.3)
+    fig.suptitle("six_bar_roll: project and MuJoCo")
     fig.savefig(IMG / "mujoco_six_bar_roll_compared.png", dpi=110)
     plt.close(fig)
+
+
+def airborne(times: np.ndarray, floor_force: np.ndarray) -> tuple[float, float]:
+    """The first span [s] after the start in which nothing touches the floor (its first and
+    last sample)."""
+    off = np.flatnonzero((floor_force <= 0) & (times > 0.05))
+    end = off[:-1][np.diff(off) > 1]
+    last = int(end[0]) if len(end) else int(off[-1])
+    return float(times[off[0]]), float(times[last])
+
+
+def mujoco_airborne(scene, gait, duration: float) -> tuple[float, float]:
+    """:func:`airborne` of the scene's export in MuJoCo driven by ``gait`` for ``duration`` [s]
+    (the floor's normal force from MuJoCo's contacts at every step)."""
+    m = mujoco.MjModel.from_xml_string(export_mjcf(scene).xml)
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key("initial").id)
+    t_table, v_table = gait.table()
+    motors = np.array([m.actuator(f"cable:{c}").id for c in gait.cables])
+    times, force, f6 = [], [], np.zeros(6)
+    while d.time < duration:
+        d.ctrl[motors] = [np.interp(d.time, t_table, v_table[:, j]) for j in range(len(motors))]
+        mujoco.mj_step(m, d)
+        total = 0.0
+        for i in range(d.ncon):
+            mujoco.mj_contactForce(m, d, i, f6)
+            total += f6[0]
+        times.append(d.time)
+        force.append(total)
+    return airborne(np.array(times), np.array(force))
 
 
 def compare_drops() -> None:

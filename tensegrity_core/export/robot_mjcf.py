@@ -21,11 +21,11 @@ point mass on node ``n``   body ``node:n`` on slide joints ``node:n:x|y|z``
 pinned node ``n``          world site ``node:n``
 passive cable ``c``        spatial tendon ``cable:c``, ``stiffness`` k, ``springlength="0 l0"``
                            (tension only), ``damping`` c (acts on slack cables too)
-actuated cable ``c``       spatial tendon ``cable:c`` and position actuator ``cable:c``:
-                           ``kp`` = k, ``kv`` = c, ``ctrl`` = the target rest length [m] in
-                           the motor's ``ctrlrange``, ``forcerange="-T_max 0"`` (tension only,
-                           the tension limit), ``timeconst`` = the motor lag (the activation
-                           is the rest length)
+actuated cable ``c``       spatial tendon ``cable:c`` and actuator ``cable:c`` by the motor's
+                           mode (:mod:`.robot_motors`): a position actuator on the rest
+                           length, an integrator of the reel speed, or a force actuator
+                           pulling with the commanded tension; ``forcerange="-T_max 0"``
+                           (tension only, the tension limit)
 floor                      plane geom ``floor``; one contact pair ``contact:n`` per end cap
                            (``condim`` 3, elliptic cones), parameters below
 sensors                    ``length:c`` (``tendonpos``) per cable with a length sensor;
@@ -34,16 +34,16 @@ sensors                    ``length:c`` (``tendonpos``) per cable with a length 
                            centre with ``imu:x:orientation`` (``framequat``), ``imu:x:gyro``,
                            ``imu:x:accelerometer`` (specific force)
 initial state              bodies as drawn (``qpos0``) and keyframe ``initial`` (``qpos``,
-                           zero ``qvel``, ``ctrl`` and ``act`` the drawn rest lengths)
+                           zero ``qvel``, ``ctrl`` and ``act`` each motor held as drawn)
 =========================  ==================================================================
 
-**Motors.** A position actuator on the tendon gives ``kp (ctrl - l) - kv ldot``; with the
-activation ``l0`` in place of ``ctrl`` (``timeconst`` > 0: ``dl0/dt = (ctrl - l0)/tau``, MuJoCo's
-exact filter, the project's lag) and the force clipped to ``[-T_max, 0]`` this is minus the
-cable law ``clip(k (l - l0) + c ldot, 0, T_max)`` while the cable is taut (tendon force
-positive lengthens). Not exported: the slew limit (MuJoCo's activations have no rate limit),
-the pay-out past ``T_max`` (MuJoCo clips the force, the rest length stays), and a slack cable
-lengthening fast enough that ``c ldot > k (l0 - l)`` pulls in MuJoCo and not in the project.
+**Motors** (:mod:`.robot_motors`). In the rest-length and reel-speed modes the actuator's
+force is ``-(k (l - l0) + c ldot)`` with its activation as the rest length ``l0``, clipped
+to ``[-T_max, 0]``: minus the cable law ``clip(k (l - l0) + c ldot, 0, T_max)`` while the
+cable is taut (tendon force positive lengthens); a slack cable lengthening fast enough that
+``c ldot > k (l0 - l)`` pulls in MuJoCo and not in the project. Not exported: the slew limit
+of the rest-length and tension modes (MuJoCo's activations have no rate limit) and the
+pay-out past ``T_max`` (MuJoCo clips the force, the rest length stays).
 
 **Contact** (derived in docs/mujoco.md, "Robots"). With a constant impedance ``d``
 (``solimp="d d ..."``) and direct ``solref="-S -D"``, MuJoCo's normal contact force on a body
@@ -71,6 +71,7 @@ from scipy.spatial.transform import Rotation
 from tensegrity_core.export.errors import ExportError
 from tensegrity_core.export.mjcf_text import number, vector
 from tensegrity_core.export.model import MjcfModel
+from tensegrity_core.export.robot_motors import CTRL_MEANING, motor_actuators
 from tensegrity_core.general.mass_properties import body_inertias
 from tensegrity_core.robot.description import Robot
 from tensegrity_core.robot.rod import rod_frames
@@ -125,6 +126,11 @@ def write_robot_scene(scene: Scene, timestep: float | None, integrator: str) -> 
     if isinstance(motors, MotorsSpec):
         m = dataclasses.replace(m, **{key: np.full(len(m), value) for key in ("tau", "max_speed", "max_tension")
                                       if (value := getattr(motors, key)) is not None})
+        modes = m.mode.copy()
+        by_cable = {robot.cables.names[int(cable)]: j for j, cable in enumerate(m.cable)}
+        for cable, mode in motors.modes:
+            modes[by_cable[cable]] = mode
+        m = dataclasses.replace(m, mode=modes)
     g = np.zeros(3) if not isinstance(gravity, GravitySpec) else np.asarray(gravity.vector, dtype=float)
     scene_robot = dataclasses.replace(robot, floor=floor, motors=m, gravity=g)
     return write_robot_mjcf(scene_robot, timestep, integrator, lift=scene.initial.lift, name=scene.name)
@@ -178,7 +184,7 @@ class _RobotWriter:
         root = ET.Element("mujoco", model=self.name)
         root.append(ET.Comment(
             f" tensegrity export mjcf: {self.name}, robot {r.name} ({r.description or 'no description'}). What MuJoCo does "
-            f"differently: docs/mujoco.md. Motors: ctrl = target rest length [m]; tension = -actuator force [N]. "))
+            f"differently: docs/mujoco.md. Motors: {CTRL_MEANING}; tension = -actuator force [N]. "))
         ET.SubElement(root, "compiler", angle="radian", inertiafromgeom="false", alignfree="false",
                       autolimits="true")
         option = ET.SubElement(root, "option", timestep=number(self.timestep), integrator=self.integrator,
@@ -337,21 +343,11 @@ class _RobotWriter:
                 ET.SubElement(tendon, "site", site=self._node(int(node)))
 
     def _actuators(self, root: ET.Element) -> None:
-        r = self.robot
-        c, motors = r.cables, r.motors
-        if not len(motors):
+        if not len(self.robot.motors):
             return
-        actuators = ET.SubElement(root, "actuator")
-        for j in range(len(motors)):
-            i = int(motors.cable[j])
-            name = f"cable:{c.names[i]}"
-            attrs = {"name": name, "tendon": name, "kp": number(c.stiffness[i]), "kv": number(c.damping[i]),
-                     "ctrlrange": vector(motors.range[j]), "forcerange": vector([-motors.max_tension[j], 0.0])}
-            if motors.tau[j] > 0:
-                attrs["timeconst"] = number(motors.tau[j])
-                self.act.append(float(c.rest_length[i]))
-            ET.SubElement(actuators, "position", attrs)
-            self.ctrl.append(float(c.rest_length[i]))
+        motors = motor_actuators(self.robot)
+        ET.SubElement(root, "actuator").extend(motors.elements)
+        self.ctrl, self.act = motors.ctrl, motors.act
 
     def _sensors(self, root: ET.Element) -> None:
         r = self.robot

@@ -24,8 +24,12 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
 
+from tensegrity_core.general.formfind import form_find
 from tensegrity_core.general.generators import tensegrity_spine
+from tensegrity_core.robot.robot_schema import robot_from_dict
+from tensegrity_core.robot.statics import rest_shape
 
 FloatArray = NDArray[np.float64]
 
@@ -75,9 +79,10 @@ def three_bar() -> dict[str, Any]:
     """The Rutgers/Yale 3-bar: 3 rods, 6 motor-driven cables (two triangles of end caps), 3
     passive cables, 9 cable-length sensors, 2 IMUs (on rods r01 and r23), a floor.
 
-    Drawn as a regular prism (triangle cables 0.5 m, twist 150 deg) lying on its side with
-    its lowest cap on the floor; its rest shape is form-found from there
-    (:func:`~tensegrity_core.robot.statics.rest_shape`). Node and cable names follow the
+    Drawn at its weightless rest shape, form-found from a regular prism (triangle cables
+    0.5 m, twist 150 deg) lying on its side and turned back onto it, its lowest cap on the
+    floor: every cable starts at the tension of the statics (actuated 74.9 N, within the
+    motors' 267 N). Node and cable names follow the
     MuJoCo model (``s0``..``s5``, ``td_0``..``td_8``)."""
     L, side, twist = TT3_ROD_LENGTH, 0.5, math.radians(150.0)
     rho = side / math.sqrt(3.0)
@@ -90,7 +95,6 @@ def three_bar() -> dict[str, Any]:
     turn = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
     nodes = prism @ turn.T
     nodes[:, 2] += TT3_CAP_RADIUS - nodes[:, 2].min()
-    nodes[:, 0] -= nodes[:, 0].mean()
     names = [f"s{i}" for i in range(6)]
     lo, hi = (TT3_REST_OFFSET + TT3_CONTROL_RANGE[0], TT3_REST_OFFSET + TT3_CONTROL_RANGE[1])
     active = [("td_0", "s0", "s4"), ("td_1", "s0", "s2"), ("td_2", "s2", "s4"),
@@ -102,7 +106,7 @@ def three_bar() -> dict[str, Any]:
     cables = [{"name": n, "nodes": [a, b], "rest_length": TT3_REST_OFFSET, "motor": True} for n, a, b in active]
     l0, k, c = TT3_PASSIVE
     cables += [{"name": n, "nodes": [a, b], "stiffness": k, "damping": c, "rest_length": l0} for n, a, b in passive]
-    return {
+    robot = {
         "name": "three_bar",
         "description": "Rutgers/Yale 3-bar tensegrity robot (TT-3), after its public MuJoCo model",
         "units": "SI",
@@ -117,6 +121,27 @@ def three_bar() -> dict[str, Any]:
                   "tangential_stiffness": 2.0e5, "tangential_damping": 300.0},
         "gravity": True,
     }
+    rest = _at_rest(robot, nodes, [(0, 1), (2, 3), (4, 5)])
+    rest[:, 2] += TT3_CAP_RADIUS - rest[:, 2].min()
+    rest[:, 0] -= rest[:, 0].mean()
+    robot["nodes"] = {n: xyz for n, xyz in zip(names, rest.tolist())}
+    return robot
+
+
+def _at_rest(robot: dict[str, Any], drawing: FloatArray, rods: list[tuple[int, int]]) -> FloatArray:
+    """The free ``robot``'s weightless rest shape (form-found from ``drawing``, its nodes)
+    turned and moved back onto the drawing (least squares over the nodes), so the robot lies
+    as drawn. Each rod (node index pairs) keeps its drawn length: the statics' stiff bars
+    are some 1e-5 m shorter under their compression, the dynamics' rods rigid."""
+    rest = rest_shape(robot_from_dict(robot)).nodes
+    centre, rest_centre = drawing.mean(axis=0), rest.mean(axis=0)
+    turn, _ = Rotation.align_vectors(drawing - centre, rest - rest_centre)
+    out: FloatArray = turn.apply(rest - rest_centre) + centre
+    for a, b in rods:
+        mid, half = 0.5 * (out[a] + out[b]), 0.5 * (out[b] - out[a])
+        half *= 0.5 * float(np.linalg.norm(drawing[b] - drawing[a])) / float(np.linalg.norm(half))
+        out[a], out[b] = mid - half, mid + half
+    return out
 
 
 # --------------------------------------------------------------------------- six_bar
@@ -205,20 +230,37 @@ def _on_face(nodes: FloatArray, face: list[int], cap_radius: float) -> FloatArra
 
 
 # --------------------------------------------------------------------------- spine
+#: The spine's cord motor: a ROBOTIS Dynamixel XL430-W250 (emanual.robotis.com/docs/en/dxl/x/
+#: xl430-w250: stall torque 1.5 N m and no-load speed 61 rev/min at 12 V) winding its cord on
+#: a spool of radius 10 mm (chosen here): it holds at most 1.5 / 0.01 = 150 N, and reels at
+#: most 61 / 60 x 2 pi x 0.01 = 0.064 m/s unloaded.
+SPINE_STALL_TORQUE, SPINE_SPOOL_RADIUS = 1.5, 0.01
+SPINE_MAX_TENSION = SPINE_STALL_TORQUE / SPINE_SPOOL_RADIUS
+#: The motors' slew limit [m/s], below the no-load reel speed (the model does not slow a
+#: loaded reel: a motor's linear torque-speed line is not modelled).
+SPINE_MAX_SPEED = 0.05
+
+
 def spine() -> dict[str, Any]:
     """The C-shaped tensegrity spine of ``spine_release`` (10 vertebrae of 0.05 kg, the lowest
     fixed; cords of EA = 500 N, so each cord's stiffness is ``500 / l0``): its 36 side cords
     (groups +x, -x, +y, -y between consecutive vertebrae) motor-driven within 0.3 .. 1.2 of
-    their drawn length, its 36 diagonal cords passive; an IMU on the top vertebra."""
+    the vertebrae's spacing, its 36 diagonal cords passive; an IMU on the top vertebra.
+
+    Drawn at its rest shape without weight (form-found from ``spine_release``'s drawing,
+    which is not an equilibrium of these rest lengths: there the +x cords would pull 333 N),
+    so every motor starts within its tension limit ``SPINE_MAX_TENSION`` (the +x cords hold
+    112 N, the most)."""
     s = tensegrity_spine(10, shape="C", EA=500.0)
+    rest = form_find(s, strict=True)
     names = s.node_names
     cables = []
     for i, name in enumerate(s.member_names):
         a, b = (names[j] for j in s.members[i])
-        l0, drawn = float(s.rest_lengths[i]), float(s.initial_lengths[i])
+        l0, spacing = float(s.rest_lengths[i]), float(s.initial_lengths[i])
         entry: dict[str, Any] = {"name": name, "nodes": [a, b], "stiffness": 500.0 / l0, "rest_length": l0}
         if name.startswith("side"):
-            entry["motor"] = {"range": [0.3 * drawn, 1.2 * drawn]}
+            entry["motor"] = {"range": [0.3 * spacing, 1.2 * spacing]}
         cables.append(entry)
     bodies = [{"name": b.name, "nodes": [names[j] for j in b.nodes], "mass": 0.05} | (
         {"fixed": True} if b.fixed else {}) for b in s.bodies]
@@ -226,10 +268,10 @@ def spine() -> dict[str, Any]:
         "name": "spine",
         "description": "the C-shaped tensegrity spine of spine_release with motor-driven side cords",
         "units": "SI",
-        "nodes": {n: xyz for n, xyz in zip(names, s.nodes.tolist())},
-        # cord damping, motor lag, speed and limit chosen here (docs/robots.md)
-        "cable_defaults": {"damping": 0.5, "motor": {"range": [0.01, 0.1], "tau": 0.05, "max_speed": 0.05,
-                                                     "max_tension": 50.0}},
+        "nodes": {n: xyz for n, xyz in zip(names, rest.nodes.tolist())},
+        # cord damping and motor lag chosen here, speed and limit from the motor (docs/robots.md)
+        "cable_defaults": {"damping": 0.5, "motor": {"range": [0.01, 0.1], "tau": 0.05, "max_speed": SPINE_MAX_SPEED,
+                                                     "max_tension": SPINE_MAX_TENSION}},
         "cables": cables,
         "rigid_bodies": bodies,
         "sensors": {"cable_length": "all", "cable_tension": "all", "imu": ["vertebra9"]},

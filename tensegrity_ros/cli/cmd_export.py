@@ -29,8 +29,8 @@ def register(subparsers: Subparsers) -> None:
                     "(its own gravity and loads, no damping, from the drawing at rest): nodes as point masses "
                     "on slide joints, rigid bodies as free bodies, members as spatial tendons (strings with "
                     "a tension-only dead band), dampers, gravity, dead loads, the initial state as keyframe "
-                    "'initial'. A robot: rods as free capsule bodies, cables as tendons, motors as position actuators "
-                    "on them (tension only), the floor with contact pairs at the end caps, cable-length and IMU "
+                    "'initial'. A robot: rods as free capsule bodies, cables as tendons, motors as actuators on them by "
+                    "their modes (rest length, reel speed, tension; tension only), the floor with contact pairs at the end caps, cable-length and IMU "
                     "sensors. See docs/mujoco.md.")
     q.add_argument("source", metavar="SCENE_ROBOT_OR_STRUCTURE",
                    help="scene, robot or structure file, or the name of a shipped scene (tensegrity scenes), robot "
@@ -65,6 +65,7 @@ def _count(n: int, noun: str) -> str:
 def run_export_mjcf(args: argparse.Namespace) -> int:
     from tensegrity_core.errors import TensegrityError
     from tensegrity_core.export import export_mjcf
+    from tensegrity_core.export.robot_motors import CTRL_MEANING
     from tensegrity_core.export.sources import load_source
 
     out = _output(args.output)
@@ -93,7 +94,7 @@ def run_export_mjcf(args: argparse.Namespace) -> int:
               f"({_count(model.motors, 'motor')}), {_count(model.contacts, 'floor contact')}, "
               f"{_count(model.sensors, 'sensor')}; nq = {model.nq}, nv = {model.nv}")
         print(f"  integrator {model.integrator}, time step {model.timestep:g} s; initial state: keyframe 'initial'; "
-              f"motor ctrl = target rest length [m]")
+              f"motor {CTRL_MEANING}")
         return 0
     print(f"  {_count(model.node_bodies, 'free node')} on slide joints, {_count(model.rigid_bodies, 'rigid body')} "
           f"on free joints, {_count(model.tendons, 'tendon')}, {_count(model.loads, 'dead load')}, "

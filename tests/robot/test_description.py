@@ -86,13 +86,33 @@ def test_six_bar_rest_shape_is_the_regular_expanded_octahedron():
     np.testing.assert_allclose(l, math.sqrt(6) * L[0] / 4, rtol=1e-10)
 
 
-def test_spine_is_spine_release_s_structure():
-    spine = load_robot("spine").structure()
-    cords = load_example("spine_c")
-    np.testing.assert_allclose(spine.nodes, cords.nodes)
+def test_spine_is_spine_release_s_structure_drawn_at_rest():
+    """The spine's cords are spine_c's (rest lengths, EA = 500 N: equal forces at spine_c's
+    drawing) and it is drawn at their weightless equilibrium: the cords' net force and moment
+    on every free vertebra vanish (summed here from the cords' tensions), where spine_c's
+    drawing leaves them unbalanced by up to 338 N."""
+    robot = load_robot("spine")
+    spine = robot.structure()
+    cords = load_example("spine_c").replace(EA=np.full(spine.n_members, 500.0))
     np.testing.assert_allclose(spine.rest_lengths, cords.rest_lengths)
-    np.testing.assert_allclose(member_forces(spine, cords.nodes),
-                               member_forces(cords.replace(EA=np.full(cords.n_members, 500.0)), cords.nodes), rtol=1e-12)
+    np.testing.assert_allclose(member_forces(spine, cords.nodes), member_forces(cords, cords.nodes), rtol=1e-12)
+
+    def unbalanced(X):
+        e, l0 = robot.cables.ends, robot.cables.rest_length
+        d = X[e[:, 1]] - X[e[:, 0]]
+        l = np.linalg.norm(d, axis=1)
+        pull = (np.maximum(500.0 * (l - l0) / l0, 0.0) / l)[:, None] * d      # on end 0, towards end 1
+        F = np.zeros_like(X)
+        np.add.at(F, e[:, 0], pull)
+        np.add.at(F, e[:, 1], -pull)
+        worst = 0.0
+        for body in spine.bodies:
+            if not body.fixed:
+                n = list(body.nodes)
+                moment = np.cross(X[n] - X[n].mean(axis=0), F[n]).sum(axis=0)
+                worst = max(worst, np.abs(F[n].sum(axis=0)).max(), np.abs(moment).max() / 0.1)
+        return worst
+    assert unbalanced(cords.nodes) > 10.0 and unbalanced(robot.nodes) < 1e-6
 
 
 def _tb() -> dict:

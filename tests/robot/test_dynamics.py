@@ -199,8 +199,8 @@ def test_a_dropped_robot_lands_on_three_caps_less_than_1_mm_deep(drops, name):
 
 
 def test_the_spine_let_go_sags_and_settles():
-    """Drawn without gravity's sag, the spine falls into its equilibrium (its cords' motors pay
-    out where they would pull past 50 N): less than 1 mJ of motion is left after 3 s."""
+    """Drawn at its weightless rest shape, the spine sags under gravity into its equilibrium:
+    less than 1 mJ of motion is left after 3 s."""
     from tensegrity_core.sim import simulate
     tr = simulate("spine_settle")
     E = tr.kinetic_energy + tr.potential_energy

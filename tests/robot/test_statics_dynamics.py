@@ -15,7 +15,7 @@ from tensegrity_core.sim import load_scene, simulate
 
 def test_the_statics_rest_shape_for_new_motor_rest_lengths_is_a_rest_state_of_the_dynamics():
     """The +x side cords' motors at 0.97 of their drawn rest lengths: the statics bends the
-    spine (nodes move up to ~0.2 m from the drawing); drawn at that shape, with gravity and
+    spine (nodes move up to 13 mm from the drawing); drawn at that shape, with gravity and
     the motors holding, the dynamics keeps every node within 1e-9 m and the kinetic energy
     below 1e-15 J for 1 s, and its cable tensions at t = 0 equal the statics' to 1e-9 N."""
     d = spine()
@@ -24,7 +24,7 @@ def test_the_statics_rest_shape_for_new_motor_rest_lengths_is_a_rest_state_of_th
     driven = np.array([n.startswith("sidexp") for n in robot.cables.names])
     l0[driven] *= 0.97
     shape = rest_shape(robot, l0, gravity=True)
-    assert shape.stable and np.abs(shape.nodes - robot.nodes).max() > 0.1
+    assert shape.stable and np.abs(shape.nodes - robot.nodes).max() > 0.01
     d["nodes"] = {n: xyz for n, xyz in zip(robot.node_names, shape.nodes.tolist())}
     for cable, rest in zip(d["cables"], l0):
         cable["rest_length"] = float(rest)
