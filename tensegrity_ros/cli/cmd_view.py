@@ -35,15 +35,14 @@ def _port(text: str) -> int:
 
 
 def _source(args: argparse.Namespace) -> Source:
-    """The source the arguments name: a bag, a scene in this process, or the suite over ROS."""
-    if args.bag and args.scene:
-        raise CliError("give a bag or --scene, not both")
+    """The source the arguments name: a bag (of ``--scene``'s structure), a scene in this
+    process, or the suite over ROS."""
     if args.bag:
         from tensegrity_ros.bag.errors import BagError
         from tensegrity_ros.view.bag_source import BagSource
 
         try:
-            return BagSource(args.bag)
+            return BagSource(args.bag, scene=args.scene)
         except BagError as err:
             raise CliError(str(err), 1) from None
     if args.scene:
@@ -109,7 +108,8 @@ def register(sub: Subparsers) -> None:
         "actuator-force sliders, the controller's move of node D. Listens on 127.0.0.1 unless --host names another "
         "address. docs/view.md.")
     p.add_argument("bag", nargs="?", help="a bag folder or .mcap file to play in the view (no suite needed)")
-    p.add_argument("--scene", help="simulate this scene in the view's process instead (`tensegrity scenes`)")
+    p.add_argument("--scene", help="simulate this scene in the view's process instead (`tensegrity scenes`); with "
+                   "a BAG of a general structure or robot: the scene it was recorded from (what to draw)")
     p.add_argument("--namespace", default="", help="the suite's namespace (e.g. /robot1; default: none)")
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
     p.add_argument("--port", type=_port, default=8080, help="port (default 8080; 0: any free port)")

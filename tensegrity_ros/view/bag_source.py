@@ -1,9 +1,14 @@
 """Frames from a recorded bag: a timeline to play, pause, scrub and play faster or slower.
 
-Reads the bag's own data only (no suite, no ROS at run time): the ``MechanismState``
-messages of the class-2 simulator, decoded by ``mcap-ros2-support`` from the schema stored
-in the bag. Messages stay encoded until shown (a long bag costs its size in memory, not a
-decoded copy); the timeline's time is the messages' header stamps [s] from the first. The
+Reads the bag's own data only (no suite, no ROS at run time), decoded by ``mcap-ros2-support``
+from the schemas stored in the bag: the class-2 simulator's ``MechanismState`` messages, or a
+general structure's or robot's ``body_states`` (or ``markers``), ``cable_states`` and
+``contacts`` (:mod:`.structure_frames`), whose topology comes from the scene the suite
+simulated: ``scene`` (``tensegrity view BAG --scene NAME``) or, without it, the bag's metadata
+(``custom_data: {scene: NAME}``, as ``ros2 bag record --custom-data scene=NAME`` writes).
+Messages stay encoded until shown (a long bag costs its size in memory, not a decoded copy);
+the timeline's time is the header stamps [s] of the messages that place the nodes, from the
+first; each frame takes the latest tensions and contacts stamped at or before it. The
 strings' colour scale is the largest tension of the bag (of up to ``SCALE_SAMPLES`` states
 spread over it), so a state has the same colours however the timeline reached it.
 """
@@ -21,15 +26,21 @@ import numpy as np
 from mcap.records import Schema
 from mcap_ros2.decoder import DecoderFactory
 
+from tensegrity_core.errors import TensegrityError
 from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.reader import BagReader
-from tensegrity_ros.view.frame import Frame
+from tensegrity_ros.view.frame import Frame, Topology
 from tensegrity_ros.view.frames import class2_topology, frame_of_mechanism_state
 from tensegrity_ros.view.inputs import InputSpec
 from tensegrity_ros.view.source import Report, Sink
+from tensegrity_ros.view.structure_frames import StructureMessages, stamp_seconds
 
-#: The message types the view draws, and the topic names it looks for them on.
+#: The message types the view draws.
 STATE_TYPE: Final = "tensegrity_msgs/msg/MechanismState"
+CABLES_TYPE: Final = "tensegrity_msgs/msg/CableStates"
+BODIES_TYPE: Final = "tensegrity_msgs/msg/RigidBodyStates"
+CONTACTS_TYPE: Final = "tensegrity_msgs/msg/CapContacts"
+MARKERS_TYPE: Final = "visualization_msgs/msg/MarkerArray"
 #: Timeline ticks per second of wall time while playing.
 TICK_HZ: Final = 60.0
 #: States decoded at most to find the bag's largest string tension (spread over the bag).
@@ -40,43 +51,74 @@ def _ignore(_text: str) -> None:
     """A report nobody reads (before :meth:`BagSource.start`)."""
 
 
+def _type_name(name: str) -> str:
+    """``pkg/msg/Name`` of a stored type name (``pkg/Name`` in older bags)."""
+    pkg, _, rest = name.partition("/")
+    return name if rest.startswith("msg/") else f"{pkg}/msg/{rest}"
+
+
+class _Topic:
+    """One topic's messages, encoded, sorted by header stamp, with a decoder."""
+
+    def __init__(self, reader: BagReader, path: object, topic: str, type_name: str):
+        definitions = {_type_name(k): v for k, v in reader.definitions().items()}
+        encoding, text = definitions[type_name]
+        decode = DecoderFactory().decoder_for("cdr", Schema(id=1, name=type_name, encoding=encoding,
+                                                            data=text.encode()))
+        if decode is None:
+            raise BagError(f"bag {path}: cannot decode {topic} (schema encoding {encoding!r})")
+        self.name = topic
+        self.decode: Callable[[bytes], Any] = decode
+        pairs = [(stamp_seconds(decode(m.data)), m.data) for m in reader.messages([topic])]
+        pairs.sort(key=lambda p: p[0])
+        self.times = [t for t, _ in pairs]
+        self.data = [d for _, d in pairs]
+
+    def at(self, index: int) -> Any:
+        return self.decode(self.data[index])
+
+    def latest(self, t: float) -> Any:
+        """The last message stamped at or before ``t`` [s] (the first if none is), or None if empty."""
+        if not self.data:
+            return None
+        return self.at(max(0, bisect.bisect_right(self.times, t) - 1))
+
+
 class BagSource:
-    """The timeline of the mechanism states in the bag at ``path`` (folder or .mcap)."""
+    """The timeline of the states in the bag at ``path`` (folder or .mcap); ``scene`` names the
+    scene a general structure's or robot's bag was recorded from (see the module docstring)."""
 
     inputs: tuple[InputSpec, ...] = ()
 
-    def __init__(self, path: str | os.PathLike[str]):
+    def __init__(self, path: str | os.PathLike[str], scene: str | None = None):
         reader = BagReader(path)
-        topics = [t.name for t in reader.topics() if t.type in (STATE_TYPE, "tensegrity_msgs/MechanismState")]
-        if not topics:
-            raise BagError(f"bag {path} has no {STATE_TYPE} topic to draw (record the simulator's "
-                           "mechanism_state: `tensegrity record`)")
-        self.topic = topics[0]
-        encoding, text = reader.definitions()[next(t.type for t in reader.topics() if t.name == self.topic)]
-        schema = Schema(id=1, name=STATE_TYPE, encoding=encoding, data=text.encode())
-        decode = DecoderFactory().decoder_for("cdr", schema)
-        if decode is None:
-            raise BagError(f"bag {path}: cannot decode {self.topic} (schema encoding {encoding!r})")
-        self._decode: Callable[[bytes], Any] = decode
-        self._data: list[bytes] = []
-        self._times: list[float] = []
-        for m in reader.messages([self.topic]):
-            msg = self._decode(m.data)
-            self._data.append(m.data)
-            self._times.append(msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
-        if not self._data:
+        types = {t.name: _type_name(t.type) for t in reader.topics()}
+        of_type = {kind: [n for n, k in types.items() if k == kind] for kind in set(types.values())}
+        self._structure: StructureMessages | None = None
+        self._cables: _Topic | None = None
+        self._contacts: _Topic | None = None
+        if of_type.get(STATE_TYPE):
+            self._nodes = _Topic(reader, path, of_type[STATE_TYPE][0], STATE_TYPE)
+            self.topology: Topology = class2_topology()
+        elif of_type.get(CABLES_TYPE):
+            name = self._scene(reader, path, of_type[CABLES_TYPE][0], scene)
+            try:
+                self._structure = StructureMessages(name)
+            except TensegrityError as err:
+                raise BagError(f"bag {path}: scene {name}: {err}") from None
+            self._nodes = self._structure_topics(reader, path, of_type, self._structure)
+            self.topology = self._structure.topology
+        else:
+            raise BagError(f"bag {path} has no {STATE_TYPE} or {CABLES_TYPE} topic to draw (record the simulator's "
+                           "states: `tensegrity record`)")
+        self.topic = self._nodes.name
+        self._times = self._nodes.times
+        if not self._times:
             raise BagError(f"bag {path}: {self.topic} has no messages")
-        order = sorted(range(len(self._times)), key=self._times.__getitem__)   # by stamp, as a timeline
-        self._data = [self._data[i] for i in order]
-        self._times = [self._times[i] for i in order]
         self.t0 = self._times[0]
         self.duration = self._times[-1] - self.t0
-        self.topology = class2_topology()
-        strings = self.topology.of_kind("string")
-        every = max(1, len(self._data) // SCALE_SAMPLES)
-        self.tension_scale = max(float(np.max(np.asarray(self._decode(d).member_forces)[strings], initial=0.0))
-                                 for d in [*self._data[::every], self._data[-1]])
-        self.label = f"bag {os.fspath(path)}: {self.topic}, {len(self._data)} states over {self.duration:.3f} s"
+        self.tension_scale = self._largest_tension()
+        self.label = f"bag {os.fspath(path)}: {self.topic}, {len(self._times)} states over {self.duration:.3f} s"
         self.features = frozenset({"run", "timeline"})
         self._lock = threading.Lock()
         self._playhead = 0.0
@@ -88,8 +130,72 @@ class BagSource:
         self._thread: threading.Thread | None = None
         self._report: Report = _ignore
 
+    @staticmethod
+    def _scene(reader: BagReader, path: object, cables: str, scene: str | None) -> str:
+        """The scene a structure's bag was recorded from: ``scene``, else its metadata's."""
+        custom = reader.metadata.custom_data if reader.metadata is not None else None
+        scene = scene or (custom or {}).get("scene")
+        if not scene:
+            raise BagError(f"bag {path} holds a general structure's or robot's states ({cables}) but not which "
+                           "structure: name the scene it was recorded from with --scene NAME (`tensegrity scenes`)")
+        return scene
+
+    def _structure_topics(self, reader: BagReader, path: object, of_type: dict[str, list[str]],
+                          structure: StructureMessages) -> _Topic:
+        """The topics of a general structure or robot, checked against its scene; the topic
+        that places the nodes."""
+        cables = of_type[CABLES_TYPE][0]
+        space = cables.rpartition("/")[0]
+        scene = structure.scene.name
+
+        def beside(kind: str) -> str | None:      # the topic of this type in the same namespace
+            return next((n for n in of_type.get(kind, []) if n.rpartition("/")[0] == space), None)
+
+        self._cables = _Topic(reader, path, cables, CABLES_TYPE)
+        contacts = beside(CONTACTS_TYPE)
+        self._contacts = _Topic(reader, path, contacts, CONTACTS_TYPE) if contacts else None
+        kind = BODIES_TYPE if structure.nodes_topic == "body_states" else MARKERS_TYPE
+        topic = beside(kind)
+        if topic is None:
+            raise BagError(f"bag {path} has no {structure.nodes_topic} topic beside {cables}: the nodes of "
+                           f"{scene!r} come from it")
+        nodes = _Topic(reader, path, topic, kind)
+        try:
+            if self._cables.data:
+                structure.check_members(self._cables.at(0).name)
+            if kind == BODIES_TYPE and nodes.data:
+                structure.check_bodies(nodes.at(0).name)
+        except TensegrityError as err:
+            raise BagError(f"bag {path}: {err}") from None
+        if kind == MARKERS_TYPE:      # only the marker arrays with every node place them
+            keep = [i for i in range(len(nodes.data)) if structure.nodes_of_markers(nodes.at(i)) is not None]
+            nodes.times = [nodes.times[i] for i in keep]
+            nodes.data = [nodes.data[i] for i in keep]
+        return nodes
+
+    def _largest_tension(self) -> float:
+        """The largest string tension [N] of up to ``SCALE_SAMPLES`` states spread over the bag."""
+        strings = self.topology.of_kind("string")
+        source = self._cables if self._structure is not None else self._nodes
+        if source is None or not source.data:
+            return 0.0
+        field = "tension" if self._structure is not None else "member_forces"
+        every = max(1, len(source.data) // SCALE_SAMPLES)
+        return max(float(np.max(np.asarray(getattr(source.decode(d), field))[strings], initial=0.0))
+                   for d in [*source.data[::every], source.data[-1]])
+
     def frame_at(self, index: int) -> Frame:
-        return frame_of_mechanism_state(self._decode(self._data[index]), "recorded")
+        """The ``index``-th state of the timeline."""
+        msg = self._nodes.at(index)
+        if self._structure is None:
+            return frame_of_mechanism_state(msg, "recorded")
+        t = self._times[index]
+        placed = (self._structure.nodes_of_bodies(msg) if self._structure.nodes_topic == "body_states"
+                  else self._structure.nodes_of_markers(msg))
+        assert placed is not None          # only marker arrays with every node are on the timeline
+        cables = self._cables.latest(t) if self._cables is not None else None
+        contacts = self._contacts.latest(t) if self._contacts is not None else None
+        return self._structure.frame(t, placed, cables, contacts, "recorded")
 
     def first_frame(self, timeout: float = 0.0) -> Frame:
         return self.frame_at(0)

@@ -1,7 +1,10 @@
 """Colours of the view: strings by tension, the kinds' fixed colours.
 
 Tensions map to matplotlib's ``plasma`` colour map, its part from dark blue (0 N) to orange
-(the scale; the map's pale yellow end would vanish on the page's white);
+(the scale; the map's pale yellow end would vanish on the page's white), interpolated
+between 17 of its colours (:data:`PLASMA_STOPS`, within 3.5/255 of matplotlib's everywhere: a
+test compares them) so that the view's start does not wait for matplotlib's import (about a
+third of it);
 a string carrying no tension (slack, force <= 0) is grey and drawn thin. The scale is the
 largest tension seen so far in the session (:class:`TensionScale`), so one colour means one
 tension from frame to frame.
@@ -12,7 +15,6 @@ from __future__ import annotations
 from typing import Final
 
 import numpy as np
-from matplotlib import colormaps
 from numpy.typing import NDArray
 
 #: RGB 0..255 of what is not coloured by force.
@@ -23,9 +25,13 @@ NODE: Final = (40, 40, 40)
 CONTACT: Final = (220, 20, 60)
 PATH: Final = (20, 150, 90)
 BODY: Final = (120, 160, 200)
-_MAP: Final = colormaps["plasma"]
 #: The part of the map used: 0 N at its start, the scale at this fraction of it.
 MAP_TOP: Final = 0.8
+#: RGB 0..255 of matplotlib's ``plasma`` at 0, MAP_TOP / 16, ..., MAP_TOP.
+PLASMA_STOPS: Final = np.array([
+    (13, 8, 135), (42, 5, 147), (65, 4, 157), (86, 1, 164), (106, 0, 168), (126, 3, 168), (143, 13, 164),
+    (161, 27, 155), (177, 42, 144), (191, 57, 132), (204, 71, 120), (214, 85, 109), (225, 100, 98),
+    (234, 116, 87), (242, 132, 75), (248, 149, 64), (252, 166, 54)], dtype=float)
 
 
 class TensionScale:
@@ -44,7 +50,9 @@ def tension_colors(tensions: NDArray[np.float64], scale: float) -> NDArray[np.ui
     """(m, 3) RGB 0..255 of ``tensions`` [N] on a colour map over [0, ``scale``] N; slack
     (tension <= 0) grey."""
     t = np.asarray(tensions, dtype=float)
-    rgb = (np.asarray(_MAP(MAP_TOP * np.clip(t / scale, 0.0, 1.0)))[:, :3] * 255).round().astype(np.uint8)
+    x = np.clip(t / scale, 0.0, 1.0) * (len(PLASMA_STOPS) - 1)
+    stops = np.arange(len(PLASMA_STOPS))
+    rgb = np.stack([np.interp(x, stops, PLASMA_STOPS[:, k]) for k in range(3)], axis=-1).round().astype(np.uint8)
     rgb[t <= 0.0] = SLACK
     return rgb.reshape(len(t), 3)
 

@@ -17,12 +17,11 @@ from collections import deque
 from typing import Any, Final
 
 import numpy as np
-import trimesh
 from scipy.spatial import ConvexHull, QhullError
 
 from tensegrity_ros.view import colors
 from tensegrity_ros.view.frame import Frame, Topology
-from tensegrity_ros.view.geometry import segment_poses
+from tensegrity_ros.view.geometry import segment_poses, unit_cylinder
 
 #: Points kept on the end effector's trail (at the view's frame rate: ~20 s at 30 fps).
 TRAIL_POINTS: Final = 600
@@ -68,11 +67,11 @@ class StructureDrawing:
         if self.topology.floor:
             sc.add_grid("/floor", width=4 * self.size, height=4 * self.size, plane="xy",
                         cell_size=self.size / 10, section_size=self.size / 2)
-        mesh = trimesh.creation.cylinder(radius=1.0, height=1.0, sections=16)
+        vertices, faces = unit_cylinder(16)
         if len(self.cylinders):
             pos, wxyz, scales = self._cylinder_poses(first.nodes)
             self.bars = sc.add_batched_meshes_simple(
-                "/structure/bars", vertices=mesh.vertices, faces=mesh.faces, batched_wxyzs=wxyz,
+                "/structure/bars", vertices=vertices, faces=faces, batched_wxyzs=wxyz,
                 batched_positions=pos, batched_scales=scales, batched_colors=self._cylinder_colors,
                 lod="off", cast_shadow=False, receive_shadow=False)
         thick = 0.6 * self.radius
@@ -86,7 +85,7 @@ class StructureDrawing:
         if self.topology.floor:
             n = len(self.topology.node_names)
             self.normals = sc.add_batched_meshes_simple(
-                "/structure/normal_forces", vertices=mesh.vertices, faces=mesh.faces,
+                "/structure/normal_forces", vertices=vertices, faces=faces,
                 batched_wxyzs=np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)), batched_positions=np.zeros((n, 3)),
                 batched_scales=np.full((n, 3), 1e-6 * self.size), batched_colors=np.tile(np.array(colors.CONTACT, np.uint8), (n, 1)),
                 lod="off", cast_shadow=False, receive_shadow=False, visible=False)

@@ -30,3 +30,24 @@ def segment_poses(a: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArray,
     lengths = np.linalg.norm(v, axis=1)
     v[lengths <= 0.0] = (0.0, 0.0, 1.0)
     return 0.5 * (a + b), z_to(v), lengths
+
+
+def unit_cylinder(sections: int = 16) -> tuple[NDArray[np.float32], NDArray[np.uint32]]:
+    """Vertices (2 sections + 2, 3) and outward-facing triangles (4 sections, 3) of a closed
+    cylinder of radius 1 and height 1 along Z, centred at the origin: a ring of ``sections``
+    vertices at z = -1/2 and at z = +1/2, and the centres of its two end caps.
+
+    Written here rather than taken from trimesh (``trimesh.creation.cylinder``): the view
+    draws one such mesh, and importing trimesh costs more of the view's start than the rest
+    of its drawing code (docs/design/view.md)."""
+    a = 2 * np.pi * np.arange(sections) / sections
+    ring = np.stack([np.cos(a), np.sin(a)], axis=1)
+    vertices = np.vstack([np.hstack([ring, np.full((sections, 1), -0.5)]), np.hstack([ring, np.full((sections, 1), 0.5)]),
+                          [[0.0, 0.0, -0.5], [0.0, 0.0, 0.5]]]).astype(np.float32)
+    i = np.arange(sections)
+    j = (i + 1) % sections
+    bottom, top = 2 * sections, 2 * sections + 1
+    faces = np.vstack([np.stack([i, j, sections + j], axis=1), np.stack([i, sections + j, sections + i], axis=1),
+                       np.stack([np.full(sections, bottom), j, i], axis=1),
+                       np.stack([np.full(sections, top), sections + i, sections + j], axis=1)])
+    return vertices, faces.astype(np.uint32)

@@ -1,33 +1,43 @@
-"""Frames from a running suite over ROS 2: the simulator's ``mechanism_state``, and the page's
-requests as the suite's own interfaces.
+"""Frames from a running suite over ROS 2, and the page's requests as the suite's own interfaces.
 
 One node, ``tensegrity_view``, in the suite's namespace (any: ``--namespace``), on an
-rclpy context and executor of its own spun by a thread. It subscribes to
-``mechanism_state`` (``tensegrity_msgs/MechanismState``); asks ``get_simulation_state``
-twice a second for the run state (``get_simulator_features`` once, whose ``custom_info``
-says whether the simulator runs in lockstep); pauses, plays and steps through
-``set_simulation_state`` and ``step_simulation`` (``simulation_interfaces``); while the
-page drives the inputs, publishes ``actuator_forces`` (``tensegrity_msgs/ActuatorForces``,
-f1 and f2 [N], tension positive) at ``DRIVE_HZ``, inside the simulator's command timeout;
-and sends ``move_end_effector`` goals to the controller. Every request is asynchronous: its
-answer comes back to the page as one line. Stopping the view destroys this node only.
+rclpy context and executor of its own spun by a thread. What it draws follows the
+simulator's ``scene`` parameter (asked of ``tensegrity_sim``): the class-2 mechanism from
+``mechanism_state`` (``tensegrity_msgs/MechanismState``; drawn as soon as one arrives, so a
+bag played into the graph without a simulator is drawn too), a general structure or robot
+from ``cable_states``, ``body_states`` or ``markers`` and ``contacts``
+(:mod:`.ros_structure`). It asks ``get_simulation_state`` twice a second for the run state
+(``get_simulator_features`` once, whose ``custom_info`` says whether the simulator runs in
+lockstep); pauses, plays and steps through ``set_simulation_state`` and ``step_simulation``
+(``simulation_interfaces``); while the page drives the inputs, publishes them at
+``DRIVE_HZ``, inside the simulator's command timeout: ``actuator_forces``
+(``tensegrity_msgs/ActuatorForces``, f1 and f2 [N], tension positive) or ``cable_commands``
+(``tensegrity_msgs/CableCommand``, rest lengths [m]); and sends the class-2 controller's
+``move_end_effector`` goals. Every request is asynchronous: its answer comes back to the
+page as one line. Stopping the view destroys this node only.
 """
 
 from __future__ import annotations
 
 import threading
+import time
 from typing import Any, Final
 
+from tensegrity_core.errors import TensegrityError
 from tensegrity_ros.rclpy_utils.spin_thread import SpinThread
 from tensegrity_ros.view.frame import Frame
 from tensegrity_ros.view.frames import class2_topology, frame_of_mechanism_state
 from tensegrity_ros.view.inputs import InputSpec
+from tensegrity_ros.view.ros_structure import StructureLink
 from tensegrity_ros.view.server import ViewError
 from tensegrity_ros.view.source import Report, Sink
+from tensegrity_ros.view.structure_frames import StructureMessages
 
 #: Actuator commands per second while the page drives the forces (the simulator drops to its
 #: safe force after ``command_timeout``, 0.5 s by default, without one).
 DRIVE_HZ: Final = 20.0
+#: The simulator's node name, whose ``scene`` parameter says what it simulates.
+SIM_NODE: Final = "tensegrity_sim"
 #: ``simulation_interfaces/SimulationState`` values -> the view's run states.
 RUN_STATES: Final = {0: "stopped", 1: "playing", 2: "paused", 3: "quitting", 4: "no world", 5: "loading world"}
 #: ``simulation_interfaces/Result`` codes by value, for the page's lines.
@@ -46,8 +56,10 @@ def _ignore(_text: str) -> None:
 
 
 class RosSource:
-    """The class-2 simulator of a running suite in ``namespace`` (see the module docstring);
-    ``force_limit`` [N] bounds the force sliders; ``ros_args`` go to rclpy (remapping)."""
+    """The simulator of a running suite in ``namespace`` (see the module docstring);
+    ``force_limit`` [N] bounds the class-2 force sliders; ``ros_args`` go to rclpy (remapping).
+    ``topology``, ``features`` and ``inputs`` are the class-2 mechanism's until
+    :meth:`first_frame` has found a general structure or robot."""
 
     duration = 0.0
     tension_scale = 0.0
@@ -78,6 +90,7 @@ class RosSource:
         self._run_state = "unknown"
         self._lockstep: bool | None = None
         self._drive: dict[str, float] | None = None
+        self._link: StructureLink | None = None
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self._stopped = False
@@ -86,6 +99,7 @@ class RosSource:
     def _make_node(self, namespace: str) -> None:
         from rclpy.action import ActionClient
         from rclpy.node import Node
+        from rclpy.parameter_client import AsyncParameterClient
         from rclpy.qos import QoSProfile
         from simulation_interfaces.srv import (
             GetSimulationState,
@@ -104,6 +118,7 @@ class RosSource:
         self.set_state = node.create_client(SetSimulationState, "set_simulation_state")
         self.step_client = node.create_client(StepSimulation, "step_simulation")
         self.mover = ActionClient(node, MoveEndEffector, "move_end_effector")
+        self.parameters = AsyncParameterClient(node, SIM_NODE)
         self.forces = node.create_publisher(ActuatorForces, "actuator_forces", QoSProfile(depth=10))
         self.ActuatorForces = ActuatorForces
         self.srv = {"get": GetSimulationState, "features": GetSimulatorFeatures, "set": SetSimulationState,
@@ -114,7 +129,10 @@ class RosSource:
 
     # -- frames ------------------------------------------------------------------------------
     def _on_state(self, msg: Any) -> None:
-        frame = frame_of_mechanism_state(msg, self._run_state)
+        if self._link is None:
+            self._on_frame(frame_of_mechanism_state(msg, self._run_state))
+
+    def _on_frame(self, frame: Frame) -> None:
         with self._lock:
             self._latest = frame
             sink = self._sink
@@ -123,13 +141,49 @@ class RosSource:
             sink(frame)
 
     def first_frame(self, timeout: float) -> Frame:
-        if not self._first.wait(timeout):
-            self.stop()
-            raise ViewError(f"no state on {self.node.resolve_topic_name('mechanism_state')} within {timeout:g} s "
-                            "(is the suite up? `tensegrity up`; in a namespace: --namespace)")
+        """The first state: a ``mechanism_state``, or, once the simulator has said that its scene
+        is a general structure or robot, the first frame of its topics."""
+        deadline = time.monotonic() + timeout
+        asked: Any = None                 # the simulator's answer to "which scene?"
+        answered = False
+        while not self._first.wait(0.05):
+            if time.monotonic() > deadline:
+                self.stop()
+                topic = self._link.structure.nodes_topic if self._link else "mechanism_state"
+                raise ViewError(f"no state on {self.node.resolve_topic_name(topic)} within {timeout:g} s "
+                                "(is the suite up? `tensegrity up`; in a namespace: --namespace)")
+            if self._link is not None and self._link.error is not None:
+                self.stop()
+                raise ViewError(str(self._link.error))
+            if answered:
+                continue
+            if asked is None and self.parameters.services_are_ready():
+                asked = self.parameters.get_parameters(["scene"])
+            elif asked is not None and asked.done():
+                answered = True
+                if asked.result() is not None and asked.result().values:
+                    self._follow(str(asked.result().values[0].string_value))
+        if self._link is not None:
+            self.inputs = self._link.inputs()
+            self.features = frozenset({"run", "step"} | ({"inputs"} if self.inputs else set()))
         with self._lock:
             assert self._latest is not None
             return self._latest
+
+    def _follow(self, scene: str) -> None:
+        """Draw the general structure or robot of ``scene`` (the class-2 mechanism: nothing to do)."""
+        from tensegrity_core.sim import load_scene
+
+        try:
+            if load_scene(scene).model.kind == "class2":
+                return
+            structure = StructureMessages(scene)
+        except TensegrityError as err:
+            self.stop()
+            raise ViewError(f"the simulator's scene {scene!r} cannot be drawn here: {err}") from None
+        self.topology = structure.topology
+        self._link = StructureLink(self.node, structure, self._on_frame, lambda: self._run_state)
+        self.label = f"suite {self.node.get_namespace()}: {self.node.resolve_topic_name(structure.nodes_topic)}"
 
     def start(self, sink: Sink, report: Report) -> None:
         with self._lock:
@@ -203,12 +257,16 @@ class RosSource:
             return
         with self._lock:
             self._drive = None if values is None else dict(values)
-        self._report("the sliders drive f1, f2" if values is not None else "the sliders let go of f1, f2")
+        what = "f1, f2" if self._link is None else "the rest lengths"
+        self._report(f"the sliders drive {what}" if values is not None else f"the sliders let go of {what}")
 
     def _publish_drive(self) -> None:
         with self._lock:
             values = self._drive
         if values is None:
+            return
+        if self._link is not None:
+            self._link.publish(values)
             return
         msg = self.ActuatorForces(name=list(values), force=[float(v) for v in values.values()])
         msg.header.stamp = self.node.get_clock().now().to_msg()

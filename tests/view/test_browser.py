@@ -176,6 +176,47 @@ def test_a_rolling_six_bar_robot_moves_between_frames(cli, browser):
     assert view.stop() == 0
 
 
+def _contact_red(img: np.ndarray) -> np.ndarray:
+    """Where the contacts' crimson (220, 20, 60) shows, lit or shaded: red with little green
+    and blue. No string's colour passes (the tension map keeps green >= 50 where it is this
+    red: checked in the test)."""
+    r, g, b = (img[..., k].astype(int) for k in range(3))
+    return (r > 120) & (g < 50) & (b < 100)
+
+
+def test_a_robot_bag_moves_over_its_timeline_with_its_contacts_marked(cli, browser):
+    """``tensegrity view bags/six_bar_roll --scene six_bar_rest``: at its start the 6-bar stands
+    with no cap pressing (no contact in the bag's first state: no crimson pixel); scrubbed to
+    its end, it is drawn elsewhere with its caps on the floor crimson. The bag's frames are
+    fixed, so the pixels do not depend on the machine's speed."""
+    from tensegrity_ros.view import colors
+    from tensegrity_ros.view.bag_source import BagSource
+
+    ramp = colors.tension_colors(np.linspace(1e-9, 1.0, 2001), 1.0)
+    assert not _contact_red(ramp[None]).any() and _contact_red(np.array([[colors.CONTACT]])).all()
+    bag = BagSource(BAGS / "six_bar_roll", scene="six_bar_rest")
+    assert not bag.frame_at(0).contacts and len(bag.frame_at(len(bag._times) - 1).contacts) >= 2
+    view, url, port = start_view(cli, str(BAGS / "six_bar_roll"), "--scene", "six_bar_rest")
+    page = browser.open(url)
+    try:
+        page.set_viewport_size({"width": 1280, "height": 800})     # the robot rolls on, towards the panel
+        wait_for_canvas(page)
+        still = canvas_pixels(page)
+        assert _contact_red(still).sum() == 0
+        control(page, "time [s]").get_by_role("slider").focus()
+        page.keyboard.press("End")
+        _until(lambda: status_time(page) >= round(bag.duration, 3) - 1e-3, "the timeline at its end",
+               poll=lambda: page.wait_for_timeout(200))
+        page.wait_for_timeout(500)
+        end = canvas_pixels(page)
+        assert _changed(still, end) > 0.01
+        assert _contact_red(end).sum() > 20, _contact_red(end).sum()
+        _only_loopback(browser, port)
+    finally:
+        page.close()
+    assert view.stop() == 0
+
+
 def _end_effector_after(ros_context, stamp_ns: int) -> tuple[float, float]:
     """Node D (x, y) [m] from the simulator's ``end_effector``, the first one stamped after ``stamp_ns``."""
     from geometry_msgs.msg import PointStamped

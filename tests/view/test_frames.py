@@ -16,7 +16,7 @@ from tensegrity_core.sim import Simulator  # noqa: E402
 from tensegrity_ros.view.colors import SLACK, tension_colors  # noqa: E402
 from tensegrity_ros.view.frame import Frame, Topology  # noqa: E402
 from tensegrity_ros.view.frames import frame_of_observation, scene_topology  # noqa: E402
-from tensegrity_ros.view.geometry import segment_poses, z_to  # noqa: E402
+from tensegrity_ros.view.geometry import segment_poses, unit_cylinder, z_to  # noqa: E402
 from tensegrity_ros.view.inputs import InputSpec, clamp  # noqa: E402
 from tensegrity_ros.view.plots import SeriesHistory, axis_ranges  # noqa: E402
 
@@ -110,6 +110,18 @@ def test_tension_colours_start_at_the_maps_first_colour_and_grey_slack():
     assert tuple(rgb[3]) != tuple(rgb[0])
 
 
+def test_tension_colours_follow_matplotlibs_plasma_within_3_5_of_255():
+    """Over the whole scale (0 N to the scale, and beyond: held at the top), the colours are
+    matplotlib's plasma on [0, MAP_TOP] within 3.5 units of 255 per channel (interpolation and rounding)."""
+    from matplotlib import colormaps
+
+    from tensegrity_ros.view.colors import MAP_TOP
+
+    t = np.linspace(1e-9, 12.0, 6001)
+    expected = np.asarray(colormaps["plasma"](MAP_TOP * np.clip(t / 10.0, 0.0, 1.0)))[:, :3] * 255
+    assert np.abs(tension_colors(t, scale=10.0).astype(float) - expected).max() <= 3.5
+
+
 def test_clamp_keeps_values_within_limits_and_says_when_it_clamps():
     spec = InputSpec("f1", "N", -5.0, 5.0, 0.0)
     assert clamp(spec, 2.5, 0.0).value == 2.5 and clamp(spec, 2.5, 0.0).note == ""
@@ -143,3 +155,17 @@ def test_axis_ranges_cover_the_data_and_never_collapse():
     (t0, t1), (lo, hi) = axis_ranges((np.array([3.0]), np.array([0.7])))    # one sample: a real range
     assert t1 > t0 == 3.0 and lo < 0.7 < hi
     assert axis_ranges((np.zeros(0),)) == ((0.0, 1.0), (-0.05, 1.05))
+
+
+@pytest.mark.parametrize("sections", [3, 16, 40])
+def test_the_unit_cylinder_is_closed_outward_and_of_its_polygons_volume(sections):
+    """trimesh (an independent mesh library) finds the mesh watertight, its faces wound
+    outward and its volume the regular polygon's area times the height 1; it spans z = -1/2..1/2
+    at radius 1."""
+    trimesh = pytest.importorskip("trimesh")
+    vertices, faces = unit_cylinder(sections)
+    mesh = trimesh.Trimesh(vertices=vertices.astype(float), faces=faces, process=False)
+    assert mesh.is_watertight and mesh.is_winding_consistent
+    assert mesh.volume == pytest.approx(0.5 * sections * math.sin(2 * math.pi / sections), rel=1e-6)
+    np.testing.assert_allclose(mesh.bounds[:, 2], [-0.5, 0.5])
+    np.testing.assert_allclose(np.hypot(vertices[:-2, 0], vertices[:-2, 1]), 1.0, rtol=1e-6)

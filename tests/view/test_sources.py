@@ -84,7 +84,7 @@ def test_a_bags_timeline_holds_its_states_as_an_independent_reader_decodes_them(
         np.testing.assert_array_equal(frame.member_forces, decoded[k].member_forces)
 
 
-def test_a_bag_without_mechanism_states_is_refused_in_one_line(tmp_path):
+def test_a_bag_without_states_to_draw_is_refused_in_one_line(tmp_path):
     """A bag of the clock only (copied from the fold bag with the suite's writer)."""
     from tensegrity_ros.bag.errors import BagError
     from tensegrity_ros.bag.reader import BagReader
@@ -98,6 +98,6 @@ def test_a_bag_without_mechanism_states_is_refused_in_one_line(tmp_path):
         writer.add_topic(clock, text, encoding)
         for m in reader.messages(["/clock"]):
             writer.write(m.topic, m.data, m.log_time_ns)
-    with pytest.raises(BagError, match="has no tensegrity_msgs/msg/MechanismState topic to draw") as err:
+    with pytest.raises(BagError, match="has no tensegrity_msgs/msg/MechanismState or tensegrity_msgs/msg/CableStates topic to draw") as err:
         BagSource(tmp_path / "clock_only")
     assert "\n" not in str(err.value)

@@ -1,0 +1,208 @@
+"""General structures and robots in the view without a browser: bags (the suite's recorded
+6-bar roll; a general structure's bag written from the core's states with the simulator's own
+message builders) and a running robot suite over DDS."""
+
+from __future__ import annotations
+
+import shutil
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+pytest.importorskip("viser")
+pytest.importorskip("rclpy")
+
+from tensegrity_ros.bag.errors import BagError  # noqa: E402
+from tensegrity_ros.view.bag_source import BagSource  # noqa: E402
+
+BAGS = Path(__file__).resolve().parents[2] / "bags"
+ROLL = BAGS / "six_bar_roll"
+WAIT = 120.0
+
+
+def _lengths(frame, topology) -> np.ndarray:
+    ends = topology.members
+    return np.linalg.norm(frame.nodes[ends[:, 1]] - frame.nodes[ends[:, 0]], axis=1)
+
+
+def _recorded(topic: str) -> dict[float, object]:
+    """The bag's messages of ``topic`` by header stamp [s], decoded by an independent reader (rosbags)."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    with AnyReader([ROLL], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as reader:
+        conns = [c for c in reader.connections if c.topic == topic]
+        msgs = [reader.deserialize(raw, c.msgtype) for c, _t, raw in reader.messages(connections=conns)]
+    return {m.header.stamp.sec + m.header.stamp.nanosec * 1e-9: m for m in msgs}
+
+
+def test_a_robot_bag_draws_the_lengths_and_contacts_the_simulator_published():
+    """Nodes placed from the rod poses of ``body_states`` give every member the length the
+    simulator put in ``cable_states`` at the same stamp (rods: 1.7 m, each cable its own);
+    each contact is a cap of the frame, pressed into the floor (its centre below its radius:
+    the penalty contact), with the normal
+    force of ``contacts``."""
+    source = BagSource(ROLL, scene="six_bar_rest")
+    cables, contacts = _recorded("/six_bar/cable_states"), _recorded("/six_bar/contacts")
+    assert source.topology.kind == "robot" and source.duration > 5.0
+    cap_radius = source.topology.node_radius
+    seen_contacts = 0
+    for k in np.linspace(0, len(cables) - 1, 25).astype(int):
+        frame = source.frame_at(k)
+        recorded = cables[min(cables, key=lambda t: abs(t - frame.t))]
+        assert abs(recorded.header.stamp.sec + recorded.header.stamp.nanosec * 1e-9 - frame.t) < 1e-9
+        np.testing.assert_allclose(_lengths(frame, source.topology), recorded.length, atol=1e-9)
+        np.testing.assert_array_equal(frame.member_forces, recorded.tension)
+        touching = contacts[frame.t]
+        assert len(frame.contacts) == len(touching.name)
+        for (point, force), name, f in zip(frame.contacts, touching.name, touching.normal_force):
+            np.testing.assert_allclose(point, frame.nodes[source.topology.node_names.index(name)], atol=1e-9)
+            assert force == f > 0 and 0 < cap_radius - point[2] < 0.1 * cap_radius     # pressed into the floor
+            seen_contacts += 1
+    assert seen_contacts > 25       # it rolls on the floor: three caps down most of the time
+
+
+def test_a_robot_bag_needs_its_scene_and_refuses_another_in_one_line(tmp_path):
+    with pytest.raises(BagError, match="--scene NAME") as err:
+        BagSource(ROLL)
+    assert "\n" not in str(err.value)
+    with pytest.raises(BagError, match="does not have") as err:
+        BagSource(ROLL, scene="spine_bend")
+    assert "\n" not in str(err.value)
+    # a bag that says its scene in its metadata (ros2 bag record --custom-data scene=NAME)
+    copy = tmp_path / "roll"
+    shutil.copytree(ROLL, copy)
+    meta = yaml.safe_load((copy / "metadata.yaml").read_text())
+    meta["rosbag2_bagfile_information"]["custom_data"] = {"scene": "six_bar_rest"}
+    (copy / "metadata.yaml").write_text(yaml.safe_dump(meta))
+    assert BagSource(copy).topology.node_names == BagSource(ROLL, scene="six_bar_rest").topology.node_names
+
+
+def _structure_bag(folder: Path, scene: str, commands: list[list[float]], step: float = 0.01) -> list:
+    """A bag of ``scene`` simulated by the core under ``commands`` (one per step), its
+    ``cable_states`` and ``body_states`` built by the simulator node's own functions; the
+    observations."""
+    from rclpy.serialization import serialize_message
+    from std_msgs.msg import Header
+
+    from tensegrity_core.sim import Simulator
+    from tensegrity_ros.bag.metadata import TopicInfo
+    from tensegrity_ros.bag.writer import BagWriter
+    from tensegrity_ros.nodes.sim import sender
+
+    sim = Simulator(scene)
+    observed = []
+    with BagWriter(folder) as writer:
+        writer.add_topic(TopicInfo(name="/cable_states", type="tensegrity_msgs/msg/CableStates"))
+        writer.add_topic(TopicInfo(name="/body_states", type="tensegrity_msgs/msg/RigidBodyStates"))
+        for k, command in enumerate([None, *commands]):
+            if command is not None:
+                sim.set_command(command)
+                sim.advance(k * step)
+            obs = sim.observe()
+            observed.append(obs)
+            ns = round(obs.t * 1e9)
+            hdr = Header(frame_id="world")
+            hdr.stamp.sec, hdr.stamp.nanosec = divmod(ns, 10**9)
+            writer.write("/cable_states", serialize_message(sender.cable_states_msg(obs, sim.interface, hdr)), ns)
+            writer.write("/body_states", serialize_message(sender.body_states_msg(obs, hdr)), ns)
+    return observed
+
+
+def test_a_general_structures_bag_draws_the_cores_states(tmp_path):
+    """The actuated table, its three rest lengths driven from 0.9 m to 0.8 m: every frame's
+    nodes are the core's (the top body placed by its pose), its forces and rest lengths too."""
+    commands = [[0.9 - 0.01 * k, 0.9, 0.9 - 0.005 * k] for k in range(1, 21)]
+    observed = _structure_bag(tmp_path / "table", "table_actuated", commands)
+    source = BagSource(tmp_path / "table", scene="table_actuated")
+    assert source.topology.kind == "general" and len(source._times) == len(observed)
+    for k, obs in enumerate(observed):
+        frame = source.frame_at(k)
+        assert frame.t == pytest.approx(obs.t, abs=1e-9)
+        np.testing.assert_allclose(frame.nodes, obs.nodes, atol=1e-12)
+        np.testing.assert_array_equal(frame.member_forces, obs.member_forces)
+        assert [frame.series[f"u:long{i}"] for i in (1, 2, 3)] == pytest.approx(list(obs.applied_forces), abs=1e-12)
+    assert frame.series["u:long1"] == pytest.approx(0.7, abs=1e-9)
+
+
+def test_a_general_structures_markers_place_every_node():
+    """The ``nodes`` marker the simulator publishes for a general structure holds every node
+    in order (the view's source of free nodes)."""
+    from std_msgs.msg import Header
+
+    from tensegrity_core.sim import Simulator
+    from tensegrity_ros.nodes.sim import sender
+    from tensegrity_ros.view.structure_frames import StructureMessages
+
+    sim = Simulator("spine_release")
+    sim.advance(0.05)
+    obs = sim.observe()
+    nodes = StructureMessages("spine_release").nodes_of_markers(sender.markers_msg(obs, Header()))
+    np.testing.assert_array_equal(nodes, obs.nodes)
+
+
+class _Frames:
+    def __init__(self) -> None:
+        self.frames: list = []
+        self.reports: list[str] = []
+        self.new = threading.Condition()
+
+    def __call__(self, frame) -> None:
+        with self.new:
+            self.frames.append(frame)
+            self.new.notify_all()
+
+    def wait(self, condition, timeout: float = WAIT):
+        with self.new:
+            assert self.new.wait_for(lambda: any(condition(f) for f in self.frames), timeout), self.reports
+            return next(f for f in self.frames if condition(f))
+
+
+@pytest.mark.ros
+def test_a_running_robot_is_drawn_from_its_topics_and_driven_by_the_sliders(cli, ros_context):
+    """A real simulator serving the 6-bar (scene six_bar_rest, paused), the view's ROS source
+    in this process: it finds the robot from the simulator's scene parameter, its frames give
+    each member the length the simulator publishes in ``cable_states`` (read here by the
+    test's own subscription), and a slider's rest length reaches the simulator's motor."""
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
+    from tensegrity_msgs.msg import CableStates
+
+    from tensegrity_ros.view.ros_source import RosSource
+
+    sim = cli("node", "sim", "--ros-args", "-p", "scene:=six_bar_rest", "-p", "initial_state:=paused",
+              "-p", "paused_publish_rate:=20.0", log_name="sim")
+    node = Node("view_robot_test", context=ros_context)
+    executor = SingleThreadedExecutor(context=ros_context)
+    executor.add_node(node)
+    published: dict[float, CableStates] = {}
+    node.create_subscription(CableStates, "cable_states",
+                             lambda m: published.setdefault(m.header.stamp.sec + m.header.stamp.nanosec * 1e-9, m), 100)
+    source = RosSource("")
+    try:
+        first = source.first_frame(timeout=WAIT)
+        assert source.topology.kind == "robot" and "inputs" in source.features
+        spec = next(s for s in source.inputs if s.name == "c0_4")
+        assert spec.initial == pytest.approx(0.996) and 0.45 < spec.low < spec.high < 1.05
+        sink = _Frames()
+        source.start(sink, sink.reports.append)
+        source.drive({"c0_4": 0.9})
+        source.play()
+        moved = sink.wait(lambda f: f.run_state == "playing" and f.series["u:c0_4"] == pytest.approx(0.9, abs=1e-9))
+        deadline = time.monotonic() + WAIT
+        while not any(t == pytest.approx(moved.t, abs=1e-9) for t in published) and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.1)
+        recorded = published[min(published, key=lambda t: abs(t - moved.t))]
+        np.testing.assert_allclose(_lengths(moved, source.topology), recorded.length, atol=1e-9)
+        assert recorded.rest_length[list(recorded.name).index("c0_4")] == pytest.approx(0.9, abs=1e-9)
+        assert first.t == 0.0 and len(first.nodes) == 12
+        source.pause()
+    finally:
+        source.stop()
+        executor.shutdown()
+        node.destroy_node()
+    assert sim.popen.poll() is None
