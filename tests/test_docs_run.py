@@ -17,8 +17,9 @@ The convention (``docs/architecture.md``, "Examples in the manual"):
   live robot, a running suite, a long run); the reason is required. A ```` ```bash ````
   block is a listing of commands and must carry that marker.
 
-Each page gets one temporary working directory; its blocks run in order (a block selected
-alone runs the page's earlier ones first)."""
+Each page gets one temporary working directory, where ``bags/`` is the project's sample bags
+(so examples name them as from the project's folder: read them, never write there); its
+blocks run in order (a block selected alone runs the page's earlier ones first)."""
 
 from __future__ import annotations
 
@@ -200,6 +201,7 @@ def run_page_through(page: Path, index: int, directory_factory: pytest.TempPathF
     page_blocks = blocks(page)
     if page not in _RUNS:
         _RUNS[page] = PageRun(directory_factory.mktemp(page.stem))
+        (_RUNS[page].directory / "bags").symlink_to(ROOT / "bags", target_is_directory=True)
         for block in page_blocks:
             if block.marker and block.marker[0] == "file":
                 (_RUNS[page].directory / block.marker[1]).write_text(block.text)
