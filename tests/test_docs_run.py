@@ -186,6 +186,17 @@ def run_console(block: Block, directory: Path) -> None:
                              + "\n".join(printed)[-3000:])
 
 
+def test_a_console_block_fails_on_a_wrong_output_or_exit_status(tmp_path):
+    page = tmp_path / "p.md"
+    right = "$ tensegrity fk 0.7 0.7\nforward kinematics ...\nrho1 = 0.7 m, rho2 = 0.7 m\n"
+    run_console(Block(page, 1, "console", right, None), tmp_path)
+    for wrong in ("$ tensegrity fk 0.7 0.7\nrho1 = 0.8 m, rho2 = 0.7 m\n",     # not what it prints
+                  "$ tensegrity fk 0.7 0.7 | head -1\nrho1 = 0.7 m, rho2 = 0.7 m\n",   # in bash: not printed
+                  "$ tensegrity fk 5 5\n"):                                      # exits 2
+        with pytest.raises(AssertionError):
+            run_console(Block(page, 1, "console", wrong, None), tmp_path)
+
+
 def run_block(block: Block, run: PageRun) -> None:
     if not block.runs:
         return
