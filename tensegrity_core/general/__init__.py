@@ -2,8 +2,8 @@
 
 Statics, the exact tangent stiffness and form-finding in minimal coordinates (free node
 coordinates, rigid-body centres and rotation-vector increments), dense or sparse. See
-``docs/general.md`` for the formulas and the paper's errata, ``docs/structures.md`` for the
-structure file format.
+``docs/general.md`` for what it computes, ``docs/design/general.md`` for the formulas and
+the paper's errata, ``docs/structures.md`` for the structure file format.
 
 Typical use::
 

@@ -69,7 +69,7 @@ def test_bars_a_million_times_stiffer_converge_like_a_plain_newton_to_the_exact_
     plain equilibrium equations to 1e-9 relative and every length to 1e-10 m, in at most
     1.5x the iterations of a plain Newton (full steps, no shift, no line search) from the
     same start. (Measured: the same iteration count; forces to 1.3e-10 .. 1.9e-10, lengths
-    to 2.4e-12 m. The energy line search alone needed 3x: the watchdog of docs/general.md.)"""
+    to 2.4e-12 m. The energy line search alone needed 3x: the watchdog of docs/design/general.md.)"""
     s = rest_length_step(prism_tower(stages, bar_EA=1e6 * PAPER_EA, prestrain=prestrain), factor)
     r = form_find(s)
     assert r.success, r.message

@@ -4,7 +4,7 @@ size a dense eigenvalue solve can check, with the threshold at the matrix's roun
 The reference is computed here: the Jacobi-scaled tangent stiffness restricted to the
 complement of the rigid-body motions (found here from the supports: none for a pinned base,
 the six of a free structure), all its eigenvalues by ``numpy.linalg.eigvalsh``, the
-rounding level ``N eps ||K_s||_inf`` (``N`` the most nonzeros in a row, docs/general.md).
+rounding level ``N eps ||K_s||_inf`` (``N`` the most nonzeros in a row, docs/design/general.md).
 """
 
 from __future__ import annotations

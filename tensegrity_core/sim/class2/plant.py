@@ -23,7 +23,7 @@ Where the inputs change (a new command, a law's breakpoint) the contact mode is 
 again too (:meth:`Class2System.resume`): a held actuator that a new force would make pull
 is let go at once. The small margins make every event function strictly positive where a
 system starts, so no crossing is ever missed for starting on its zero, and no event can
-fire again at the instant its own change was made (see ``docs/scenes.md``, "The fold limit").
+fire again at the instant its own change was made (see ``docs/design/scenes.md``, "The fold limit").
 
 :class:`Class2Plant` is the frozen part (compiled once per scene); a :class:`Class2System`
 is the plant in one contact mode under one set of input laws: what the stepping integrator
