@@ -16,6 +16,8 @@ import copy
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 mujoco = pytest.importorskip("mujoco", reason="the mujoco extra is not installed (./run setup installs it)")
 
@@ -73,6 +75,26 @@ def test_a_tension_mode_command_is_clamped_to_pulling_within_the_limit():
         d.ctrl[drive] = command
         mujoco.mj_step(m, d, nstep=2000)
         assert d.actuator_force[drive] == pytest.approx(force, abs=1e-9)
+
+
+@settings(max_examples=15, deadline=None)
+@given(tension=st.floats(0.0, 50.0), speed=st.floats(-0.1, 0.1))
+def test_every_accepted_command_does_what_its_mode_means_in_mujoco(tension, speed):
+    """Over each mode's whole command range ([0, 50] N, [-0.1, 0.1] m/s): a tension-mode
+    cable pulls with the command after 3 s (60 motor lags) and the spring in series carries
+    it (length ``0.45 + T / 200`` from 5 N up, where it never goes slack); a reel's rest length is
+    ``clip(0.48 + u t, 0.2, 0.6)`` after 3 s."""
+    m, d = mujoco_tug(tug_scene("tension", 10.0))
+    d.ctrl[m.actuator("cable:drive").id] = tension
+    mujoco.mj_step(m, d, nstep=3000)
+    assert d.actuator_force[m.actuator("cable:drive").id] == pytest.approx(-tension, abs=1e-9)
+    if tension >= 5.0:     # the spring stays taut (from 10 N it overshoots by 0.44 of the step: damping
+        # ratio 5 / (2 sqrt(200 x 0.5)) = 0.25) and is linear: 3 s decay it by exp(-15)
+        assert d.ten_length[m.tendon("cable:spring").id] == pytest.approx(0.45 + tension / 200.0, abs=1e-6)
+    m, d = mujoco_tug(tug_scene("reel_speed", 0.0))
+    d.ctrl[m.actuator("cable:drive").id] = speed
+    mujoco.mj_step(m, d, nstep=3000)
+    assert d.act[0] == pytest.approx(np.clip(0.48 + speed * 3.0, 0.2, 0.6), abs=1e-12)
 
 
 def test_a_reel_speed_motor_moves_its_rest_length_at_that_speed_in_mujoco():
