@@ -14,7 +14,8 @@ The convention (``docs/architecture.md``, "Examples in the manual"):
 - A block right after ``<!-- file: NAME -->`` (a YAML scene, a structure, a CSV) is written
   to ``NAME`` in the page's working directory before the page's examples run.
 - A console, python or bash block right after ``<!-- not run: REASON -->`` is not run (a
-  live robot, a running suite, a long run); the reason is required. A ```` ```bash ````
+  live robot, a running suite, a long run); the reason is required, and a ``tests/...`` path
+  it names must exist. A ```` ```bash ````
   block is a listing of commands and must carry that marker.
 
 Each page gets one temporary working directory, where ``bags/`` is the project's sample bags
@@ -250,5 +251,9 @@ def test_every_example_block_runs_or_says_why_not():
                 bad.append(f"{block.name}: a console block without a `$ ` command")
             elif block.marker and block.marker[0] == "file" and block.language in RUNNABLE | {"bash"}:
                 bad.append(f"{block.name}: a file marker on a {block.language} block")
+            elif block.marker:
+                bad += [f"{block.name}: the reason names {path}, which does not exist"
+                        for path in re.findall(r"tests/[\w/]+(?:\.py)?", block.marker[1])
+                        if not (ROOT / path).exists()]
     assert not bad, "\n".join(bad)
     assert EXAMPLES, "no example found to run"
