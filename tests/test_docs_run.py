@@ -41,7 +41,7 @@ PAGES = sorted((ROOT / "docs").glob("*.md"))
 #: Block languages that are examples to run; every other language is data or a listing.
 RUNNABLE = frozenset({"console", "python"})
 MARKER = re.compile(r"<!--\s*(not run|file):\s*(.*?)\s*-->")
-#: Wall-time guard against a hanging example (a failure, never a timing claim).
+#: Wall-time guard against a hanging example, s (a failure, never a timing claim).
 HANG_GUARD_S = 300.0
 
 
@@ -234,6 +234,7 @@ EXAMPLES = [pytest.param(page, index, id=block.name)
             for page in PAGES for index, block in enumerate(blocks(page)) if block.runs]
 
 
+@pytest.mark.timeout(HANG_GUARD_S)         # an example run in this process that hangs fails
 @pytest.mark.parametrize(("page", "index"), EXAMPLES)
 def test_the_example_runs(page: Path, index: int, tmp_path_factory: pytest.TempPathFactory):
     run_page_through(page, index, tmp_path_factory)
