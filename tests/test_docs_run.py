@@ -14,7 +14,8 @@ The convention (``docs/architecture.md``, "Examples in the manual"):
 - A block right after ``<!-- file: NAME -->`` (a YAML scene, a structure, a CSV) is written
   to ``NAME`` in the page's working directory before the page's examples run.
 - A console, python or bash block right after ``<!-- not run: REASON -->`` is not run (a
-  live robot, a running suite, a long run); the reason is required. A ```` ```bash ````
+  live robot, a running suite, a long run); the reason is required, and a ``tests/...`` path
+  it names must exist. A ```` ```bash ````
   block is a listing of commands and must carry that marker.
 
 Each page gets one temporary working directory, where ``bags/`` is the project's sample bags
@@ -40,7 +41,7 @@ PAGES = sorted((ROOT / "docs").glob("*.md"))
 #: Block languages that are examples to run; every other language is data or a listing.
 RUNNABLE = frozenset({"console", "python"})
 MARKER = re.compile(r"<!--\s*(not run|file):\s*(.*?)\s*-->")
-#: Wall-time guard against a hanging example (a failure, never a timing claim).
+#: Wall-time guard against a hanging example, s (a failure, never a timing claim).
 HANG_GUARD_S = 300.0
 
 
@@ -233,6 +234,7 @@ EXAMPLES = [pytest.param(page, index, id=block.name)
             for page in PAGES for index, block in enumerate(blocks(page)) if block.runs]
 
 
+@pytest.mark.timeout(HANG_GUARD_S)         # an example run in this process that hangs fails
 @pytest.mark.parametrize(("page", "index"), EXAMPLES)
 def test_the_example_runs(page: Path, index: int, tmp_path_factory: pytest.TempPathFactory):
     run_page_through(page, index, tmp_path_factory)
@@ -250,5 +252,9 @@ def test_every_example_block_runs_or_says_why_not():
                 bad.append(f"{block.name}: a console block without a `$ ` command")
             elif block.marker and block.marker[0] == "file" and block.language in RUNNABLE | {"bash"}:
                 bad.append(f"{block.name}: a file marker on a {block.language} block")
+            elif block.marker:
+                bad += [f"{block.name}: the reason names {path}, which does not exist"
+                        for path in re.findall(r"tests/[\w/]+(?:\.py)?", block.marker[1])
+                        if not (ROOT / path).exists()]
     assert not bad, "\n".join(bad)
     assert EXAMPLES, "no example found to run"
