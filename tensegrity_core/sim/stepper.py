@@ -10,11 +10,23 @@ alive and steps it itself:
 - after every step the model's event functions are evaluated at the step's end; a sign
   change in the event's direction is located with Brent's method on the dense output
   (as ``solve_ivp`` does) and the step is cut there. A component that starts and ends on
-  the same side but whose cubic Hermite interpolant through the end values and rates dips
-  across zero (a short excursion inside one step: a grazing contact) is checked on the
-  dense output at the dip and located there too. The located time is the first at which
+  the same side may still cross zero and come back inside the step (a graze): the distance
+  to a hard stop (the fold limit) is minimised on the step's dense output, and a dip deeper
+  than the position tolerance ``atol`` is located (a shallower one cannot be told from the
+  interpolant's error: the integration holds a length near zero only to ``atol``); any
+  other function is checked where the cubic Hermite interpolant of its end values and rates
+  dips (:mod:`~tensegrity_core.sim.event_location`). The located time is the first at which
   the component is on its new side, so the model's discrete change applies to a state
   where it holds;
+- progress: a graze whose handling changes nothing -- the contact mode stays as it was, and
+  either no event is logged (a held actuator kept held) or the event function's value and
+  rate are back where they were at the start of the step it was found in (an actuator
+  lifting off the stop, "caught" by a dip of the interpolant at rest speed and left free at
+  rest on the stop again) -- would be found again by the restarted integration, and again,
+  without end: that component's grazes are not looked for again before the end of that
+  step. Any other handled crossing changed the motion (a bounce, a mode change, a string
+  going slack), and the model bounds how many of those there are. A sign change between two
+  step ends is always located: the accepted solution itself crossed;
 - an event is applied when the integration goes past it: the model returns the state and
   the system to go on with (impact, contact mode, re-charting) and what to log, and the
   solver restarts there. Until then the step's dense output and the old system describe
@@ -54,7 +66,7 @@ from tensegrity_core.errors import TensegrityError
 from tensegrity_core.events import EventKind, LoggedEvent
 from tensegrity_core.sim import integrators
 from tensegrity_core.sim.errors import SimulationError, check_advance_target
-from tensegrity_core.sim.event_location import Crossing, Interpolant, StateEvent, candidates, event_values, locate
+from tensegrity_core.sim.event_location import Crossing, Interpolant, StateEvent, candidates, dips, event_values, locate
 
 FloatArray = NDArray[np.float64]
 #: ``jac(t, y)``: a dense (n, n) array or a scipy.sparse matrix (which has no type information).
@@ -139,14 +151,25 @@ class _Constant:
         return self.y.copy()
 
 
+class _Graze(NamedTuple):
+    """Where a graze was found: the end ``step_end`` [s] of its step, and its component's
+    ``value`` and ``rate`` (nan if unknown) at the step's start."""
+
+    step_end: float
+    value: float
+    rate: float
+
+
 @dataclass(frozen=True)
 class _Pending(Generic[Sys]):
     """A discrete change at time ``t`` that the integration has reached but not yet gone past:
-    a located ``crossing``, or a re-charting's ``transition`` at a step's end."""
+    a located ``crossing``, or a re-charting's ``transition`` at a step's end. A crossing
+    that is a graze (its component on the old side at both ends of its step) has ``graze``."""
 
     t: float
     crossing: Crossing | None = None
     transition: Transition[Sys] | None = None
+    graze: _Graze | None = None
 
 
 def _dense_jacobian(jac: Jacobian) -> Jacobian:
@@ -183,6 +206,9 @@ class Stepper(Generic[Sys]):
         self._h: float | None = None
         self._to_target = False       # the next solver ends at the advance target
         self._cut_short = False       # the current solver's bound is an advance target
+        # event components (kind, index) whose last graze changed nothing: no graze of theirs
+        # is looked for before the end [s] of the step it was found in (module docstring)
+        self._spent: dict[tuple[EventKind, int], float] = {}
         # set by restart: the state at t, the current step [t0, t1] and its dense output, the
         # discrete change reached at t1 (applied at the next advance past it), the events
         # watched and their values and rates at t0
@@ -204,6 +230,7 @@ class Stepper(Generic[Sys]):
         new = Stepper.__new__(Stepper)
         new.__dict__.update(self.__dict__)
         new.event_log = log
+        new._spent = dict(self._spent)
         new.solver = None
         new._nfev_done = self.nfev
         if self._pending is None:
@@ -219,6 +246,12 @@ class Stepper(Generic[Sys]):
     def mode(self) -> frozenset[int]:
         """The contact mode of the system being integrated."""
         return self.system.mode
+
+    @property
+    def _floor(self) -> float:
+        """The depth [m] a hard stop's dip must pass to be located: the integration's position
+        tolerance near zero (its absolute tolerance; the largest if given per component)."""
+        return float(np.max(self.options["atol"]))
 
     @property
     def t_integrated(self) -> float:
@@ -255,6 +288,7 @@ class Stepper(Generic[Sys]):
         self._resume(self.t, self.y, system, input_changed=input_changed)
 
     def _resume(self, t: float, y: FloatArray, system: Sys, *, input_changed: bool = False) -> None:
+        self._spent.clear()           # new input laws: what changed nothing may change something now
         transition = system.resume(t, y)
         self._log(t, transition.log)
         self.restart(t, transition.y, system=transition.system, input_changed=input_changed)
@@ -360,18 +394,34 @@ class Stepper(Generic[Sys]):
         g_new = [event_values(ev, t_new, y_new) for ev in self._events]
         dense: Interpolant | None = None
         hit: Crossing | None = None
+        graze: _Graze | None = None
+        spent = {key: end for key, end in self._spent.items() if end > t_old}
+        self._spent = spent
         for ev, (g0, r0), (g1, r1) in zip(self._events, self._g, g_new):
-            for k, falling, t_hi in candidates(ev.direction, g0, r0, g1, r1, t_old, t_new):
-                if dense is None:
-                    dense = solver.dense_output()
-                te = locate(ev, k, falling, dense, t_old, t_hi)
+            rates0 = np.full_like(g0, np.nan) if r0 is None else r0
+            found = candidates(ev.direction, g0, r0, g1, r1, t_old, t_new, dense_dips=ev.hard_stop)
+            if not found:
+                continue
+            if dense is None:
+                dense = solver.dense_output()
+            for k, falling, t_hi in found:
+                lo = t_old
+                dip = t_hi != t_new
+                if dip:                       # a graze: from where it may be looked for again
+                    lo = max(t_old, spent.get((ev.kind, ev.indices[k]), t_old))
+                if t_hi is None:              # a hard stop: decided on the dense output
+                    t_hi = next((t for _, _, t in dips(ev, [(k, falling)], dense, lo, t_new, self._floor)), None)
+                if t_hi is None or t_hi <= lo:
+                    continue
+                te = locate(ev, k, falling, dense, lo, t_hi)
                 if te is not None and (hit is None or te < hit.t):
                     hit = Crossing(float(te), ev, k, falling)
+                    graze = _Graze(t_new, float(g0[k]), float(rates0[k])) if dip else None
         self._g = g_new
         if hit is not None and dense is not None:       # (a hit has computed the dense output)
             self._seg = (t_old, hit.t)
             self._dense = dense
-            self._pending = _Pending(hit.t, crossing=hit)
+            self._pending = _Pending(hit.t, crossing=hit, graze=graze)
             return
         self._seg = (t_old, t_new)
         self._dense = _LazyDense(solver) if dense is None else dense
@@ -383,17 +433,33 @@ class Stepper(Generic[Sys]):
         """Apply the pending discrete change and restart after it."""
         pending = self._pending
         assert pending is not None
-        if pending.crossing is not None:
+        crossing = pending.crossing
+        if crossing is not None:
             try:
-                transition = self.system.handle_event(pending.crossing, self._dense(pending.t))
+                transition = self.system.handle_event(crossing, self._dense(pending.t))
             except SimulationError:           # the event stops the run (a singular set): it is logged
-                self._log(pending.t, ((pending.crossing.kind, pending.crossing.index),))
+                self._log(pending.t, ((crossing.kind, crossing.index),))
                 raise
+            if pending.graze is not None and self._changes_nothing(crossing, pending.graze, transition):
+                self._spent[(crossing.kind, crossing.index)] = pending.graze.step_end
         else:
             assert pending.transition is not None
             transition = pending.transition
         self._log(pending.t, transition.log)
         self.restart(pending.t, transition.y, system=transition.system)
+
+    def _changes_nothing(self, crossing: Crossing, graze: _Graze, transition: Transition[Sys]) -> bool:
+        """Whether handling the graze ``crossing`` by ``transition`` changed nothing (module
+        docstring): the same contact mode, and no event logged or the crossing's value and rate
+        where they were at the start of its step (to the integration's tolerances)."""
+        if transition.system.mode != self.system.mode:
+            return False
+        if not transition.log:
+            return True
+        g, r = event_values(crossing.event, crossing.t, transition.y)
+        now = np.array([g[crossing.component], math.nan if r is None else r[crossing.component]])
+        return bool(np.allclose(now, [graze.value, graze.rate], rtol=self.options["rtol"], atol=self._floor,
+                                equal_nan=True))
 
     def record(self, times: Sequence[float] | FloatArray, out: list[tuple[float, FloatArray, Sys]]) -> None:
         """Append ``(t, y, system)`` for increasing ``times`` to ``out``: advance to each time,

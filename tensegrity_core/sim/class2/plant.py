@@ -79,7 +79,8 @@ RATE_STEP: Final = 1e-6
 @dataclass(frozen=True)
 class Class2StateEvent:
     """A state event: ``value(t, y)`` crosses zero in ``direction`` (-1 falling, +1 rising);
-    ``rate(t, y)`` is its time derivative when known (a
+    ``rate(t, y)`` is its time derivative when known; ``hard_stop``: ``value`` is the distance
+    [m] to the fold limit's stop (a
     :class:`~tensegrity_core.sim.event_location.StateEvent` of one component)."""
 
     kind: EventKind      # "fold" | "release" | "singular"
@@ -87,6 +88,7 @@ class Class2StateEvent:
     value: Callable[[float, FloatArray], float]
     rate: Callable[[float, FloatArray], float] | None = None
     direction: float = -1.0
+    hard_stop: bool = False
 
     @property
     def indices(self) -> tuple[int]:
@@ -107,7 +109,7 @@ def bits_of(mode: Iterable[int]) -> int:
 def _fold_event(i: int, L: float) -> Class2StateEvent:
     """Free actuator ``i`` folds: its length falls through ``-PENETRATION_REL L``."""
     margin = PENETRATION_REL * L
-    return Class2StateEvent("fold", i, lambda t, y: y[i] + margin, lambda t, y: y[3 + i])
+    return Class2StateEvent("fold", i, lambda t, y: y[i] + margin, lambda t, y: y[3 + i], hard_stop=True)
 
 
 class Class2Plant:

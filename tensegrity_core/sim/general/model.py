@@ -390,6 +390,7 @@ class StringEvent:
     system: GeneralSystem
     kind: EventKind = "slack"
     direction: float = 0.0
+    hard_stop: bool = False
 
     @property
     def indices(self) -> tuple[int, ...]:
