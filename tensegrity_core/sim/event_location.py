@@ -28,6 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import brentq, minimize_scalar
 
 from tensegrity_core.events import EventKind
+from tensegrity_core.sim.interpolants import Interpolant
 
 FloatArray = NDArray[np.float64]
 
@@ -82,13 +83,6 @@ class Crossing:
     @property
     def index(self) -> int:
         return self.event.indices[self.component]
-
-
-class Interpolant(Protocol):
-    """The solution over the current step (scipy's ``DenseOutput``, :class:`_Constant`,
-    :class:`_LazyDense`): scalar ``t`` -> (n,), array (k,) -> (n, k)."""
-
-    def __call__(self, t: float | FloatArray) -> FloatArray: ...
 
 
 def event_values(ev: StateEvent, t: float, y: FloatArray) -> tuple[FloatArray, FloatArray | None]:

@@ -18,15 +18,13 @@ alive and steps it itself:
   dips (:mod:`~tensegrity_core.sim.event_location`). The located time is the first at which
   the component is on its new side, so the model's discrete change applies to a state
   where it holds;
-- progress: a graze whose handling changes nothing -- the contact mode stays as it was, and
-  either no event is logged (a held actuator kept held) or the event function's value and
-  rate are back where they were at the start of the step it was found in (an actuator
-  lifting off the stop, "caught" by a dip of the interpolant at rest speed and left free at
-  rest on the stop again) -- would be found again by the restarted integration, and again,
-  without end: that component's grazes are not looked for again before the end of that
-  step. Any other handled crossing changed the motion (a bounce, a mode change, a string
-  going slack), and the model bounds how many of those there are. A sign change between two
-  step ends is always located: the accepted solution itself crossed;
+- progress: a graze whose handling changes nothing (the same contact mode, and no event
+  logged or the function's value and rate back where they were at its step's start: an
+  actuator lifting off, caught by a wiggle of the interpolant at rest speed and left at
+  rest on the stop) would be found again by the restarted integration, without end: that
+  component's grazes are not looked for again before the end of that step. Any other
+  handled crossing changed the motion (a bounce, a mode change, a string going slack). A
+  sign change between two step ends is always located: the accepted solution crossed;
 - an event is applied when the integration goes past it: the model returns the state and
   the system to go on with (impact, contact mode, re-charting) and what to log, and the
   solver restarts there. Until then the step's dense output and the old system describe
@@ -66,7 +64,8 @@ from tensegrity_core.errors import TensegrityError
 from tensegrity_core.events import EventKind, LoggedEvent
 from tensegrity_core.sim import integrators
 from tensegrity_core.sim.errors import SimulationError, check_advance_target
-from tensegrity_core.sim.event_location import Crossing, Interpolant, StateEvent, candidates, dips, event_values, locate
+from tensegrity_core.sim.event_location import Crossing, StateEvent, candidates, dips, event_values, locate
+from tensegrity_core.sim.interpolants import Constant, Interpolant, LazyDense
 
 FloatArray = NDArray[np.float64]
 #: ``jac(t, y)``: a dense (n, n) array or a scipy.sparse matrix (which has no type information).
@@ -137,18 +136,6 @@ class OdeSystem(Protocol):
 
 #: The system a stepper integrates (each event or restart gives another of the same type).
 Sys = TypeVar("Sys", bound=OdeSystem)
-
-
-class _Constant:
-    """Dense output of a zero-length segment (scalar ``t`` -> (n,), array -> (n, k))."""
-
-    def __init__(self, y: ArrayLike):
-        self.y = np.array(y, dtype=float)
-
-    def __call__(self, t: float | FloatArray) -> FloatArray:
-        if np.ndim(t):
-            return np.repeat(self.y[:, None], np.size(t), axis=1)
-        return self.y.copy()
 
 
 class _Graze(NamedTuple):
@@ -271,7 +258,7 @@ class Stepper(Generic[Sys]):
         self.t = t
         self.y = y
         self._seg = (t, t)
-        self._dense = _Constant(y)
+        self._dense = Constant(y)
         self._pending = None
         self.solver = None
         self.n_restarts += 1
@@ -376,7 +363,7 @@ class Stepper(Generic[Sys]):
                 self._h = h
                 self._nfev_done += solver.nfev
                 self._seg = (t_old, t_old)
-                self._dense = _Constant(y_old)
+                self._dense = Constant(y_old)
                 solver = self._new_solver(self.t_end)
         if solver.status == "failed":
             raise SimulationError(f"integrator failed at t = {solver.t:.9g} s: {message}", t=solver.t)
@@ -424,7 +411,7 @@ class Stepper(Generic[Sys]):
             self._pending = _Pending(hit.t, crossing=hit, graze=graze)
             return
         self._seg = (t_old, t_new)
-        self._dense = _LazyDense(solver) if dense is None else dense
+        self._dense = LazyDense(solver) if dense is None else dense
         moved = self.system.after_step(t_new, y_new)
         if moved is not None:
             self._pending = _Pending(t_new, transition=moved)
@@ -510,21 +497,3 @@ class Stepper(Generic[Sys]):
         self.t, self.y = float(times[last - 1]), Y[last - 1].copy()
         return last
 
-
-class _LazyDense:
-    """The solver's dense output for its last step, built on first use (before the next step)."""
-
-    def __init__(self, solver: OdeSolver):
-        self.solver = solver
-        self.t_end: float = solver.t
-        self.y: FloatArray = solver.y.copy()
-        self._fn: Interpolant | None = None
-
-    def __call__(self, t: float | FloatArray) -> FloatArray:
-        if np.ndim(t) == 0 and t == self.t_end:
-            return self.y.copy()
-        if self._fn is None:
-            if self.solver.t != self.t_end:
-                raise RuntimeError("dense output requested after the solver moved on")
-            self._fn = self.solver.dense_output()
-        return self._fn(t)
