@@ -7,7 +7,8 @@ the point the status ``violated`` instead of plotting its values silently. Check
 - every sample finite;
 - with the fold limit (class-2): actuator lengths ``>= -LENGTH_TOL``; the contact force of
   a held actuator compressive (``>= -CONTACT_TOL`` of the run's force scale ``1 + max|f| +
-  max|lambda|`` [N]) and zero off the stop;
+  max|lambda|`` [N]) and zero off the stop (a length over ``LENGTH_TOL`` from zero: an
+  implicit method's linear algebra leaves a held actuator's length at rounding, ~1e-33 m);
 - events in time order, no ``(kind, index)`` twice at one instant and never a contradicting
   pair (fold and release of one actuator, slack and taut of one string).
 
@@ -63,7 +64,7 @@ def _fold_limit(t: np.ndarray, q: np.ndarray, forces: np.ndarray, contact: np.nd
         if contact[k, i] < -CONTACT_TOL * scale:
             out.append(f"the stop of rho{i + 1} pulls: contact force {contact[k, i]:.3g} N at t = {t[k]:.9g} s "
                        f"(a held actuator was not released)")
-        off = (contact[:, i] > 0) & (lengths[:, i] != 0.0)
+        off = (contact[:, i] > 0) & (np.abs(lengths[:, i]) > LENGTH_TOL)
         if off.any():
             k = int(np.argmax(off))
             out.append(f"contact force {contact[k, i]:.3g} N on rho{i + 1} = {lengths[k, i]:.3g} m, off its stop, "

@@ -73,12 +73,14 @@ def test_the_docs_complete_scene_with_an_explicit_method_is_said_to_be_stiff_bef
 
 
 def test_the_docs_complete_scene_runs_as_written_and_fits_its_method():
+    """The whole 5 s: rho1 is held from 4.96 s on, where Radau's linear algebra leaves its
+    length at +-3e-33 m, which is on the stop (``tensegrity simulate`` exited 1 on it)."""
     scene = scene_from_text(complete_scene_text())
     model = compile_scene(scene)
     with warnings.catch_warnings():
         warnings.simplefilter("error", StiffnessWarning)
         assert warn_if_stiff(model, model.initial_state(), scene.duration).fits
-        traj = simulate(scene, duration=0.05)
+        traj = simulate(scene)
     assert traj.success and traj.stats["method"] == "Radau" and traj.violations == []
 
 
@@ -125,6 +127,12 @@ def test_a_leak_through_the_fold_limit_and_a_pulling_stop_are_named():
     assert any(line.startswith("actuator length rho1 = ") and "below zero at t = " in line for line in found)
     assert any(line.startswith("the stop of rho2 pulls: contact force -3 N") for line in found)
     assert violations(broken, events, fold_limit=False) == []       # without the limit, lengths are free
+    held = np.flatnonzero(data["contact_forces"][:, 0] > 0)
+    for shift, named in ((1e-33, False), (1e-3, True)):            # rounding, and a real gap [m]
+        moved = copy.deepcopy(data)
+        moved["q"][held[-1], 0] = shift
+        found = violations(moved, events, fold_limit=True)
+        assert any(line.endswith(f"m, off its stop, at t = {data['t'][held[-1]]:.9g} s") for line in found) == named
 
 
 def test_events_out_of_order_or_contradicting_are_named():
