@@ -396,7 +396,7 @@ class Stepper(Generic[Sys]):
                 dip = t_hi != t_new
                 if dip:                       # a graze: from where it may be looked for again
                     lo = max(t_old, spent.get((ev.kind, ev.indices[k]), t_old))
-                if t_hi is None:              # a hard stop: decided on the dense output
+                if t_hi is None and lo < t_new:  # a hard stop: decided on the dense output
                     t_hi = next((t for _, _, t in dips(ev, [(k, falling)], dense, lo, t_new, self._floor)), None)
                 if t_hi is None or t_hi <= lo:
                     continue
