@@ -4,7 +4,8 @@
 Each shipped view in Debian's headless chromium (tests/view/browser.py: software WebGL, the
 network off loopback blocked): the live suite after a move of node D (``live_class2``), a bag
 paused in its fold (``bag_fold``), a general structure (the spine) simulated in the view's
-process (``scene_spine``) and the 6-bar robot rolling (``scene_six_bar``).
+process (``scene_spine``), the 6-bar robot rolling (``scene_six_bar``) and the 6-bar's bag at
+the end of its roll (``bag_six_bar``).
 """
 
 from __future__ import annotations
@@ -74,7 +75,8 @@ def _play_until(t: float):
 SHOTS = {"live_class2": ([], _move),
          "bag_fold": ([str(ROOT / "bags" / "fold")], _fold),
          "scene_spine": (["--scene", "spine_release"], _play_until(1.0)),
-         "scene_six_bar": (["--scene", "six_bar_roll"], _play_until(1.2))}
+         "scene_six_bar": (["--scene", "six_bar_roll"], _play_until(1.2)),
+         "bag_six_bar": ([str(ROOT / "bags" / "six_bar_roll"), "--scene", "six_bar_rest"], _play_until(6.1))}
 
 
 def main(names: list[str]) -> None:

@@ -20,8 +20,10 @@ from tensegrity_ros.view.frame import Frame
 from tensegrity_ros.view.plots import PlotPanel, SeriesHistory
 from tensegrity_ros.view.source import Source
 
-#: The plots are sent every this many shown frames.
+#: The plots are sent every this many shown frames,
 PLOT_EVERY: Final = 6
+#: and when no new frame has come for this long [s] after one that did not send them.
+QUIET: Final = 0.25
 
 
 def status_line(frame: Frame) -> str:
@@ -88,12 +90,18 @@ class View:
 
     def _render(self) -> None:
         last: Frame | None = None
+        stale = False                     # frames shown since the plots and the legend were sent
         while True:
             with self._cond:
-                self._cond.wait_for(functools.partial(self._news_since, last), timeout=1.0)
+                news = self._cond.wait_for(functools.partial(self._news_since, last), timeout=QUIET if stale else 1.0)
                 if self._closing:
                     return
                 frame = self._latest
+            if not news and stale:        # the source went quiet (paused, a jump on a timeline)
+                with self.server.atomic():
+                    self._refresh_panel()
+                self.server.flush()
+                stale = False
             if frame is None or frame is last:
                 continue
             if last is not None and frame.t < last.t:
@@ -102,14 +110,19 @@ class View:
                 self.drawing.show(frame)
                 _set(self.status, status_line(frame))
                 self.controls.show_time(frame.t - self._t0)
-                if self.frames_shown % PLOT_EVERY == 0:
-                    with self._cond:
-                        self.plots.refresh()
-                    _set(self.legend, self.drawing.legend())
+                stale = self.frames_shown % PLOT_EVERY != 0
+                if not stale:
+                    self._refresh_panel()
             self.server.flush()
             self.frames_shown += 1
             last = frame
             self._stop_wait(self.period)
+
+    def _refresh_panel(self) -> None:
+        """Send the plots their history and the legend its scales (call within ``atomic()``)."""
+        with self._cond:
+            self.plots.refresh()
+        _set(self.legend, self.drawing.legend())
 
     def _stop_wait(self, seconds: float) -> None:
         with self._cond:

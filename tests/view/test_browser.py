@@ -187,8 +187,9 @@ def _contact_red(img: np.ndarray) -> np.ndarray:
 def test_a_robot_bag_moves_over_its_timeline_with_its_contacts_marked(cli, browser):
     """``tensegrity view bags/six_bar_roll --scene six_bar_rest``: at its start the 6-bar stands
     with no cap pressing (no contact in the bag's first state: no crimson pixel); scrubbed to
-    its end, it is drawn elsewhere with its caps on the floor crimson. The bag's frames are
-    fixed, so the pixels do not depend on the machine's speed."""
+    its end, it is drawn elsewhere with its caps on the floor crimson, and the legend gives
+    the normal forces' scale. The bag's frames are fixed, so the pixels do not depend on the
+    machine's speed."""
     from tensegrity_ros.view import colors
     from tensegrity_ros.view.bag_source import BagSource
 
@@ -211,6 +212,8 @@ def test_a_robot_bag_moves_over_its_timeline_with_its_contacts_marked(cli, brows
         end = canvas_pixels(page)
         assert _changed(still, end) > 0.01
         assert _contact_red(end).sum() > 20, _contact_red(end).sum()
+        # the legend (like the plots) follows a jump on a paused timeline: its normal-force scale
+        page.get_by_text("normal force: red cylinder").first.wait_for(timeout=WAIT * 1000)
         _only_loopback(browser, port)
     finally:
         page.close()
