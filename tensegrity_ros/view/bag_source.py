@@ -16,6 +16,7 @@ spread over it), so a state has the same colours however the timeline reached it
 from __future__ import annotations
 
 import bisect
+import math
 import os
 import threading
 import time
@@ -70,7 +71,7 @@ class _Topic:
         self.name = topic
         self.decode: Callable[[bytes], Any] = decode
         pairs = [(stamp_seconds(decode(m.data)), m.data) for m in reader.messages([topic])]
-        pairs.sort(key=lambda p: p[0])
+        pairs = sorted((p for p in pairs if math.isfinite(p[0])), key=lambda p: p[0])   # stamped ones
         self.times = [t for t, _ in pairs]
         self.data = [d for _, d in pairs]
 

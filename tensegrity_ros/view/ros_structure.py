@@ -86,7 +86,7 @@ class StructureLink:
     def _on_markers(self, msg: Any) -> None:
         nodes = self.structure.nodes_of_markers(msg)
         if nodes is not None:
-            self._emit(stamp_seconds(msg.markers[0]), nodes)
+            self._emit(stamp_seconds(msg), nodes)
 
     def _emit(self, t: float, nodes: Any) -> None:
         with self._lock:

@@ -17,6 +17,7 @@ Messages are anything with the ROS fields: a live message or one decoded from a 
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from typing import Any, Final
 
@@ -135,5 +136,9 @@ class StructureMessages:
 
 
 def stamp_seconds(msg: Any) -> float:
-    """A message's header stamp [s]."""
+    """A message's header stamp [s]; a ``MarkerArray``'s is its first marker's (NaN without one)."""
+    if hasattr(msg, "markers"):
+        if not msg.markers:
+            return math.nan
+        msg = msg.markers[0]
     return int(msg.header.stamp.sec) + int(msg.header.stamp.nanosec) * 1e-9

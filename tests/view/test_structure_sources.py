@@ -82,10 +82,11 @@ def test_a_robot_bag_needs_its_scene_and_refuses_another_in_one_line(tmp_path):
     assert BagSource(copy).topology.node_names == BagSource(ROLL, scene="six_bar_rest").topology.node_names
 
 
-def _structure_bag(folder: Path, scene: str, commands: list[list[float]], step: float = 0.01) -> list:
+def _structure_bag(folder: Path, scene: str, commands: list[list[float]], step: float = 0.01,
+                   nodes_topic: str = "body_states") -> list:
     """A bag of ``scene`` simulated by the core under ``commands`` (one per step), its
-    ``cable_states`` and ``body_states`` built by the simulator node's own functions; the
-    observations."""
+    ``cable_states`` and ``nodes_topic`` (``body_states`` or ``markers``) built by the
+    simulator node's own functions; the observations."""
     from rclpy.serialization import serialize_message
     from std_msgs.msg import Header
 
@@ -98,7 +99,8 @@ def _structure_bag(folder: Path, scene: str, commands: list[list[float]], step: 
     observed = []
     with BagWriter(folder) as writer:
         writer.add_topic(TopicInfo(name="/cable_states", type="tensegrity_msgs/msg/CableStates"))
-        writer.add_topic(TopicInfo(name="/body_states", type="tensegrity_msgs/msg/RigidBodyStates"))
+        kinds = {"body_states": "tensegrity_msgs/msg/RigidBodyStates", "markers": "visualization_msgs/msg/MarkerArray"}
+        writer.add_topic(TopicInfo(name=f"/{nodes_topic}", type=kinds[nodes_topic]))
         for k, command in enumerate([None, *commands]):
             if command is not None:
                 sim.set_command(command)
@@ -109,7 +111,8 @@ def _structure_bag(folder: Path, scene: str, commands: list[list[float]], step: 
             hdr = Header(frame_id="world")
             hdr.stamp.sec, hdr.stamp.nanosec = divmod(ns, 10**9)
             writer.write("/cable_states", serialize_message(sender.cable_states_msg(obs, sim.interface, hdr)), ns)
-            writer.write("/body_states", serialize_message(sender.body_states_msg(obs, hdr)), ns)
+            nodes_msg = sender.body_states_msg(obs, hdr) if nodes_topic == "body_states" else sender.markers_msg(obs, hdr)
+            writer.write(f"/{nodes_topic}", serialize_message(nodes_msg), ns)
     return observed
 
 
@@ -127,6 +130,43 @@ def test_a_general_structures_bag_draws_the_cores_states(tmp_path):
         np.testing.assert_array_equal(frame.member_forces, obs.member_forces)
         assert [frame.series[f"u:long{i}"] for i in (1, 2, 3)] == pytest.approx(list(obs.applied_forces), abs=1e-12)
     assert frame.series["u:long1"] == pytest.approx(0.7, abs=1e-9)
+
+
+HANG = """
+model:
+  kind: general
+  structure:
+    defaults: {EA: 1000.0, type: string, rest_length_ratio: 0.9}
+    nodes: {a: [0.0, 0.0, 0.0], b: [1.0, 0.0, 0.0], c: [0.0, 1.0, 0.0], hang: [0.3, 0.3, -1.0]}
+    members:
+      - {name: s1, nodes: [a, hang], type: actuator}
+      - {name: s2, nodes: [b, hang]}
+      - {name: s3, nodes: [c, hang]}
+    pinned: [a, b, c]
+    masses: {hang: 1.0}
+  end_effector: hang
+initial: {equilibrium: true}
+inputs: {s1: {law: commanded}}
+effects: [inertia, springs, {damping: {beta: 2.0e-3}}, gravity]
+duration: 1.0
+"""
+
+
+def test_a_structure_with_a_free_node_is_placed_from_its_markers(tmp_path):
+    """A weight on three strings (docs/scenes.md's example, one string commanded): its free
+    node is on no rigid body, so the bag's ``markers`` place the nodes; every frame's nodes
+    and end effector are the core's."""
+    scene = tmp_path / "hang.yaml"
+    scene.write_text(HANG)
+    observed = _structure_bag(tmp_path / "hang", str(scene), [[0.9 - 0.002 * k] for k in range(1, 11)],
+                              nodes_topic="markers")
+    source = BagSource(tmp_path / "hang", scene=str(scene))
+    assert len(source._times) == len(observed)
+    for k, obs in enumerate(observed):
+        frame = source.frame_at(k)
+        np.testing.assert_array_equal(frame.nodes, obs.nodes)
+        assert (frame.series["p:x"], frame.series["p:y"], frame.series["p:z"]) == tuple(obs.nodes[3])
+    assert frame.series["u:s1"] == pytest.approx(0.88, abs=1e-12) and obs.nodes[3][2] != observed[0].nodes[3][2]
 
 
 def test_a_general_structures_markers_place_every_node():
