@@ -26,8 +26,9 @@ of a step's cost on a structure of a few dozen members.
   Norsett & Wanner, Solving ODEs I, Sect. II.10) and its seventh-order dense output, the
   method of scipy's ``DOP853`` with scipy's coefficient tables; it needs compiled stages.
 
-Without compiled stages (a system that offers none, or the numpy kernels) ``RK4`` runs its
-stages through the system's ``fun`` and ``DOP853`` is scipy's.
+Without compiled stages (a system that offers none) ``RK4`` runs its stages through the
+system's ``fun`` and ``DOP853`` is scipy's; stages that compute RK4 steps only (the numpy
+kernels' stretches) leave ``DOP853`` to scipy.
 """
 
 from __future__ import annotations
@@ -88,7 +89,11 @@ class Stages(Protocol):
     ``horizon`` or ``t_bound`` or may hold one of the system's discrete changes (its events,
     a re-charting), and return that last step as a :class:`Run`, with the states at the
     times ``samples[sample:]`` [s] the steps before it cover (the stepper's samples: the end
-    state of a step that ends exactly at its only sample, else the dense output)."""
+    state of a step that ends exactly at its only sample, else the dense output).
+    ``methods``: the solvers (names of :data:`~tensegrity_core.sim.stepper.COMPILED_SOLVERS`)
+    whose steps it computes."""
+
+    methods: tuple[str, ...]
 
     @property
     def constant(self) -> bool: ...

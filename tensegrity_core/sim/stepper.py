@@ -74,7 +74,8 @@ Jacobian = Callable[[float, FloatArray], Any]
 SOLVERS: dict[str, type[OdeSolver]] = {"RK23": RK23, "RK45": RK45, "DOP853": DOP853, "Radau": Radau, "BDF": BDF,
                                        "LSODA": LSODA, "RK4": integrators.RK4}
 #: Solvers that run a whole step in one call of a system's compiled ``stages`` where the
-#: system offers them (:mod:`tensegrity_core.sim.integrators`; the general models with numba).
+#: system offers them for the method (:mod:`tensegrity_core.sim.integrators`; the general
+#: models: both with numba, RK4 with the numpy kernels).
 COMPILED_SOLVERS: dict[str, type[OdeSolver]] = {"RK4": integrators.RK4, "DOP853": integrators.DOP853}
 #: Methods that use a Jacobian.
 IMPLICIT = ("Radau", "BDF", "LSODA")
@@ -303,7 +304,7 @@ class Stepper(Generic[Sys]):
             options["jac"] = _dense_jacobian(system.jac) if self.method == "LSODA" else system.jac
         cls = SOLVERS[self.method]
         stages = getattr(system, "stages", None)      # optional: see OdeSystem
-        if stages is not None and self.method in COMPILED_SOLVERS:
+        if stages is not None and self.method in COMPILED_SOLVERS and self.method in stages.methods:
             cls = COMPILED_SOLVERS[self.method]
             options["stages"] = stages
         solver = cls(system.fun, t0, y0, bound, first_step=first, **options)

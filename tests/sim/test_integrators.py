@@ -82,19 +82,26 @@ def test_rk4_without_a_step_says_so():
         _line("RK4")
 
 
-def _solver_runs(method, scene, y0, stretch):
+def _solver_runs(method, scene, y0, stretch, kernels="numba"):
     """Integrate the system of ``scene`` from ``y0`` with the bare solver (no events handled):
     ``stretch`` -- whole stretches per call, else one step per call through the one-step
     stages (the controller in Python); the ``(t, y, steps so far)`` after every call."""
     from tensegrity_core.sim import compile_scene, integrators
+    from tensegrity_core.sim.general.kernels.array_stages import ArrayStages
     from tensegrity_core.sim.general.kernels.stages import CompiledStages
     from tensegrity_core.sim.general.model import RECHART_ANGLE
 
-    model = compile_scene(scene)
+    model = _with_kernels(kernels, lambda: compile_scene(scene))
     system = model.equations(model.state_from(y0))
-    stages = system.stages if stretch else CompiledStages(
-        system.plan, system.R_ref, system.rest_lengths, False, strings=system.strings,
-        moving=np.zeros(len(system.strings), dtype=bool), rechart_angle=RECHART_ANGLE)
+    assert system.evaluator.kernels == kernels
+    screen = dict(strings=system.strings, moving=np.zeros(len(system.strings), dtype=bool),
+                  rechart_angle=RECHART_ANGLE)
+    if stretch:
+        stages = system.stages
+    elif kernels == "numba":
+        stages = CompiledStages(system.plan, system.R_ref, system.rest_lengths, False, **screen)
+    else:
+        stages = ArrayStages(system.plan, system.evaluator.sums, system.R_ref, system.rest_lengths, False, **screen)
     cls = {"RK4": integrators.RK4, "DOP853": integrators.DOP853}[method]
     solver = cls(system.fun, 0.0, y0, scene.duration, stages=stages, rtol=1e-9, atol=1e-11, max_step=2e-3)
     solver.horizon = scene.duration if stretch else -np.inf
@@ -106,18 +113,19 @@ def _solver_runs(method, scene, y0, stretch):
     return out
 
 
-@pytest.mark.parametrize("method", ["RK4", "DOP853"])
-def test_a_stretch_of_compiled_steps_takes_the_steps_of_one_step_per_call(method):
-    """The compiled stretch chooses, attempts and accepts every step exactly as the solver's
-    one-step path does (bit for bit), and stops at least at every step where a string's gap
-    may cross zero and where a rotation vector passes the re-charting angle."""
+@pytest.mark.parametrize(("method", "kernels"), [("RK4", "numba"), ("DOP853", "numba"), ("RK4", "numpy")])
+def test_a_stretch_of_compiled_steps_takes_the_steps_of_one_step_per_call(method, kernels):
+    """The stretch (compiled, or the numpy kernels' loop) chooses, attempts and accepts every
+    step exactly as the solver's one-step path does (bit for bit), and stops at least at every
+    step where a string's gap may cross zero and where a rotation vector passes the
+    re-charting angle."""
     from tensegrity_core.sim import compile_scene
     from tensegrity_core.sim.general.model import RECHART_ANGLE
 
     scene = general_scene(BODIES, ["inertia", "springs", {"damping": {"c": 0.3}}], duration=0.4)
     y0 = _spinning_start(scene)
-    single = _solver_runs(method, scene, y0, stretch=False)
-    stretched = _solver_runs(method, scene, y0, stretch=True)
+    single = _solver_runs(method, scene, y0, stretch=False, kernels=kernels)
+    stretched = _solver_runs(method, scene, y0, stretch=True, kernels=kernels)
     at = {t: (y, k) for t, y, k in single}
     assert len(stretched) < len(single)
     for t, y, k in stretched:

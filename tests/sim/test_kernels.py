@@ -190,3 +190,36 @@ def test_the_general_and_the_robot_plans_start_with_the_same_placement():
 
     n = len(Placement._fields)
     assert Plan._fields[:n] == Placement._fields == RobotPlan._fields[:n]
+
+
+@settings(max_examples=40)
+@given(n=st.integers(1, 6), ends=st.lists(st.tuples(st.integers(0, 5), st.integers(0, 5)), max_size=12),
+       bodies=st.lists(st.integers(0, 2), max_size=8), B=st.integers(1, 3), seed=st.integers(0, 2**31))
+def test_the_numpy_kernels_sums_are_the_sums_written_out(n, ends, bodies, B, seed):
+    """The sparse sums of the numpy kernels against sums written out member by member:
+    no member, members sharing nodes, nodes without members, bodies without nodes, batches.
+    ``h = x_b - x_a`` is exact (one subtraction); the scatter-adds agree to rounding."""
+    from tensegrity_core.sim.general.kernels import arrays
+
+    pairs = [(a % n, b % n) for a, b in ends if a % n != b % n]
+    a = np.array([p[0] for p in pairs], dtype=np.int64)
+    b = np.array([p[1] for p in pairs], dtype=np.int64)
+    on_body = np.array(bodies, dtype=np.int64)
+    sums = arrays.sums(n, a, b, on_body, 3)
+    rng = np.random.default_rng(seed)
+    X = rng.normal(size=(B, n, 3))
+    ft = rng.normal(size=(B, len(pairs), 3))
+    w = rng.normal(size=(B, len(bodies), 6))
+    np.testing.assert_array_equal(arrays.product(sums.difference, X), X[:, b] - X[:, a])
+    F = np.zeros((B, n, 3))
+    total = np.zeros((B, 3, 6))
+    for k in range(B):
+        for i in range(len(pairs)):
+            F[k, a[i]] += ft[k, i]
+            F[k, b[i]] -= ft[k, i]
+        for j, body in enumerate(bodies):
+            total[k, body] += w[k, j]
+    np.testing.assert_allclose(arrays.product(sums.reaction, ft), F, rtol=0, atol=1e-14 * max(1, len(pairs)))
+    np.testing.assert_allclose(arrays.product(sums.body_sum, w), total, rtol=0, atol=1e-14 * max(1, len(bodies)))
+    one = np.concatenate([arrays.product(sums.reaction, ft[k:k + 1]) for k in range(B)])
+    np.testing.assert_array_equal(arrays.product(sums.reaction, ft), one)

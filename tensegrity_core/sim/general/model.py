@@ -69,6 +69,7 @@ from tensegrity_core.general.structure import Structure
 from tensegrity_core.sim.errors import SceneError
 from tensegrity_core.sim.event_location import Crossing
 from tensegrity_core.sim.general.kernels import arrays, loops
+from tensegrity_core.sim.general.kernels.array_stages import ArrayStages
 from tensegrity_core.sim.general.kernels.evaluator import Evaluation, Evaluator
 from tensegrity_core.sim.general.kernels.plan import Plan, build_plan
 from tensegrity_core.sim.general.kernels.stages import CompiledStages
@@ -211,16 +212,19 @@ class GeneralSystem:
         return self.evaluator.evaluate(Y, np.broadcast_to(self.R_ref, (len(ts),) + self.R_ref.shape), l0)
 
     @property
-    def stages(self) -> CompiledStages | None:
-        """Whole compiled steps for the integrators of :mod:`tensegrity_core.sim.integrators`
-        (RK4, DOP853), or None with the numpy kernels; their stretches of steps stop where a
-        string may go slack or taut (:meth:`events`) or a chart is due (:meth:`after_step`)."""
-        if self.evaluator.kernels != "numba":
-            return None
+    def stages(self) -> CompiledStages | ArrayStages:
+        """Whole steps for the integrators of :mod:`tensegrity_core.sim.integrators`: compiled
+        (RK4, DOP853) with numba, in numpy (RK4) with the numpy kernels; their stretches of
+        steps stop where a string may go slack or taut (:meth:`events`) or a chart is due
+        (:meth:`after_step`)."""
         moving = np.zeros(len(self.strings), dtype=bool)
         moving[self._moving] = True
-        return CompiledStages(self.plan, self.R_ref, self.rest_lengths, self.rest_lengths_of is None,
-                              strings=self.strings, moving=moving, rechart_angle=RECHART_ANGLE)
+        constant = self.rest_lengths_of is None
+        if self.evaluator.sums is not None:
+            return ArrayStages(self.plan, self.evaluator.sums, self.R_ref, self.rest_lengths, constant,
+                               strings=self.strings, moving=moving, rechart_angle=RECHART_ANGLE)
+        return CompiledStages(self.plan, self.R_ref, self.rest_lengths, constant, strings=self.strings,
+                              moving=moving, rechart_angle=RECHART_ANGLE)
 
     # -- Jacobian --------------------------------------------------------------------------------
     def jac(self, t: float, y: FloatArray) -> Any:

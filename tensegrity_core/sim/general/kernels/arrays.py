@@ -3,12 +3,17 @@
 Used where numba is not installed or not wanted (:mod:`.jit`). Every function works on a
 batch of states at once (the leading axis ``B``), so its per-call cost of numpy on small
 arrays is shared by the batch. Arguments and results are those of the loop kernels of the
-same name; the formulas are the same, in the same order where rounding could tell.
+same name, but that the right-hand side's gathers and scatter-adds over members and bodies
+read the sparse matrices of :class:`Sums`, built once per topology; the formulas are the
+same, in the same order where rounding could tell.
 """
 
 from __future__ import annotations
 
+from typing import Any, NamedTuple
+
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from tensegrity_core.general.rotation import cross, hat
@@ -59,6 +64,46 @@ def _apply_transpose(M: FloatArray, v: FloatArray) -> FloatArray:
     return M[..., 0, :] * v[..., 0, None] + M[..., 1, :] * v[..., 1, None] + M[..., 2, :] * v[..., 2, None]
 
 
+class Sums(NamedTuple):
+    """A plan's sums over members and bodies as scipy.sparse CSR matrices (untyped: Any).
+
+    numpy has no fast scatter-add (``np.add.at`` and three ``np.bincount`` cost several times
+    a sparse product), and fancy-indexed gathers copy twice; scipy's compiled CSR product
+    does either in one pass. ``difference`` (m, n): row ``i`` is ``e_b - e_a`` of member
+    ``i``, so ``difference @ X`` is the members' vectors ``h = x_b - x_a`` exactly (one
+    subtraction per entry); ``reaction`` (n, m) is ``-difference^T``, so ``reaction @ (t u)``
+    [N] are the nodal forces of member forces ``t`` along their unit vectors ``u`` (node
+    ``a`` pulled along ``+u``, ``b`` along ``-u`` by a tensile member); ``body_sum`` (nb,
+    n_on) sums the body nodes' values per moving body."""
+
+    difference: Any
+    reaction: Any
+    body_sum: Any
+
+
+def sums(n_nodes: int, member_a: IntArray, member_b: IntArray, on_body: IntArray, nb: int) -> Sums:
+    """The :class:`Sums` of ``n_nodes`` nodes, members ``(member_a, member_b)`` and body nodes
+    on the moving bodies ``on_body`` (of ``nb``)."""
+    m, rows = len(member_a), np.arange(len(member_a))
+    difference = sp.csr_array((np.concatenate([-np.ones(m), np.ones(m)]),
+                               (np.concatenate([rows, rows]), np.concatenate([member_a, member_b]))),
+                              shape=(m, n_nodes))
+    body_sum = sp.csr_array((np.ones(len(on_body)), (on_body, np.arange(len(on_body)))), shape=(nb, len(on_body)))
+    return Sums(difference, sp.csr_array(-difference.T), body_sum)
+
+
+def product(S: Any, values: FloatArray) -> FloatArray:
+    """``S @ values[b]`` for every state ``b`` of ``values`` (B, k, c) -> (B, rows, c): one sparse
+    product over the batch, whose columns are computed independently (a batch gives its
+    states' numbers exactly)."""
+    B, k, c = values.shape
+    if B == 1:
+        one: FloatArray = (S @ values[0])[None]
+        return one
+    out: FloatArray = (S @ values.transpose(1, 0, 2).reshape(k, B * c)).reshape(-1, B, c).transpose(1, 0, 2)
+    return out
+
+
 def scatter(index: IntArray, values: FloatArray, n: int) -> FloatArray:
     """``out[:, j] = sum of values[:, i] with index[i] == j`` for values (B, k, 3) -> (B, n, 3)."""
     B, k = values.shape[:2]
@@ -91,20 +136,19 @@ def place(base: FloatArray, free_node: IntArray, free_axis: IntArray, on_node: I
     return r
 
 
-def member_forces(member_a: IntArray, member_b: IntArray, EA: FloatArray, damping: FloatArray,
-                  is_string: BoolArray, l0: FloatArray, X: FloatArray, V: FloatArray,
-                  lengths: FloatArray, forces: FloatArray) -> FloatArray:
-    """:func:`.loops.member_forces` of a batch; returns the nodal forces (B, n, 3) of the members."""
-    h = X[:, member_b] - X[:, member_a]
+def member_forces(sums: Sums, EA: FloatArray, damping: FloatArray, is_string: BoolArray, l0: FloatArray,
+                  X: FloatArray, V: FloatArray, lengths: FloatArray,
+                  forces: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """:func:`.loops.member_forces` of a batch, the members' ends in ``sums``; returns the
+    nodal forces (B, n, 3) [N] of the members and their lengthening rates (B, m) [m/s]."""
+    hv = product(sums.difference, np.concatenate([X, V], axis=2))       # (B, m, 6): h and dv
+    h, dv = hv[..., :3], hv[..., 3:]
     lengths[...] = np.sqrt(h[..., 0] * h[..., 0] + h[..., 1] * h[..., 1] + h[..., 2] * h[..., 2])
     u = h / lengths[..., None]
-    dv = V[:, member_b] - V[:, member_a]
     rate = u[..., 0] * dv[..., 0] + u[..., 1] * dv[..., 1] + u[..., 2] * dv[..., 2]
     t = EA * (lengths - l0) / l0 + damping * rate
     forces[...] = np.where(is_string & (lengths < l0), 0.0, t)
-    ft = forces[..., None] * u
-    n = X.shape[1]
-    return scatter(np.concatenate([member_a, member_b]), np.concatenate([ft, -ft], axis=1), n)
+    return product(sums.reaction, forces[..., None] * u), rate
 
 
 def nodal_wrenches(on_node: IntArray, on_body: IntArray, r: FloatArray, F: FloatArray, nb: int) -> FloatArray:
@@ -114,12 +158,16 @@ def nodal_wrenches(on_node: IntArray, on_body: IntArray, r: FloatArray, F: Float
     return out
 
 
-def accelerate(free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray, on_node: IntArray,
-               on_body: IntArray, body_dof: IntArray, body_mass: FloatArray, body_first_moment: FloatArray,
+def accelerate(sums: Sums, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
+               on_node: IntArray, body_dof: IntArray, body_mass: FloatArray, body_first_moment: FloatArray,
                body_inertia: FloatArray, body_inv_inertia_cm: FloatArray, y: FloatArray, R: FloatArray,
                r: FloatArray, F: FloatArray, out: FloatArray) -> None:
-    """:func:`.loops.accelerate` of a batch (``F`` (B, n, 3) the nodal forces)."""
-    wrench = nodal_wrenches(on_node, on_body, r, F, len(body_dof))
+    """:func:`.loops.accelerate` of a batch (``F`` (B, n, 3) the nodal forces), the bodies'
+    wrenches summed by ``sums``."""
+    wrench = F[:, :0]                                  # no moving body: no wrench to sum
+    if len(body_dof):
+        f = F[:, on_node]
+        wrench = product(sums.body_sum, np.concatenate([f, cross(r, f)], axis=2))
     rates(free_node, free_axis, free_inv_mass, body_dof, body_mass, body_first_moment, body_inertia,
           body_inv_inertia_cm, y, R, F, wrench, out)
 
@@ -159,14 +207,14 @@ def rate(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_ma
          body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
          body_inv_inertia_cm: FloatArray, member_a: IntArray, member_b: IntArray, EA: FloatArray,
          damping: FloatArray, is_string: BoolArray, external: FloatArray,
-         y: FloatArray, R_ref: FloatArray, l0: FloatArray) -> FloatArray:
-    """:func:`.loops.rate`: ``dy/dt`` of one state."""
+         y: FloatArray, R_ref: FloatArray, l0: FloatArray, sums: Sums) -> FloatArray:
+    """:func:`.loops.rate`: ``dy/dt`` of one state (``sums``: the plan's :class:`Sums`)."""
     n, nb, m = base.shape[0], body_dof.shape[0], member_a.shape[0]
     out = np.empty((1, y.shape[0]))
     derivatives(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
                 body_first_moment, body_inertia, body_inv_inertia_cm, member_a, member_b, EA, damping, is_string,
                 external, y[None], R_ref[None], l0[None], out, np.empty((1, n, 3)), np.empty((1, n, 3)),
-                np.empty((1, nb, 3, 3)), np.empty((1, m)), np.empty((1, m)))
+                np.empty((1, nb, 3, 3)), np.empty((1, m)), np.empty((1, m)), sums)
     ydot: FloatArray = out[0]
     return ydot
 
@@ -177,13 +225,17 @@ def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free
                 body_inv_inertia_cm: FloatArray, member_a: IntArray, member_b: IntArray, EA: FloatArray,
                 damping: FloatArray, is_string: BoolArray, external: FloatArray,
                 y: FloatArray, R_ref: FloatArray, l0: FloatArray, out: FloatArray,
-                X: FloatArray, V: FloatArray, R: FloatArray, lengths: FloatArray, forces: FloatArray) -> None:
+                X: FloatArray, V: FloatArray, R: FloatArray, lengths: FloatArray, forces: FloatArray,
+                sums: Sums) -> FloatArray:
     """:func:`.loops.derivatives`: ``out = dy/dt`` of a batch of states, keeping ``X``, ``V``,
-    ``R``, ``lengths`` and ``forces`` per state."""
+    ``R``, ``lengths`` and ``forces`` per state (``sums``: the plan's :class:`Sums`); returns
+    the members' lengthening rates (B, m) [m/s]."""
     r = place(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, y, R_ref, X, V, R)
-    F = external + member_forces(member_a, member_b, EA, damping, is_string, l0, X, V, lengths, forces)
-    accelerate(free_node, free_axis, free_inv_mass, on_node, on_body, body_dof, body_mass, body_first_moment,
+    F, rates_ = member_forces(sums, EA, damping, is_string, l0, X, V, lengths, forces)
+    F += external
+    accelerate(sums, free_node, free_axis, free_inv_mass, on_node, body_dof, body_mass, body_first_moment,
                body_inertia, body_inv_inertia_cm, y, R, r, F, out)
+    return rates_
 
 
 # -- Jacobian --------------------------------------------------------------------------------------

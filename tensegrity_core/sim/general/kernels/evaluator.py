@@ -7,6 +7,7 @@ results, so one evaluator serves any number of states, threads and copies of a m
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 from functools import cached_property
 from types import ModuleType
@@ -54,6 +55,9 @@ class Evaluator:
         self.plan = plan
         self.kernels = choose_kernels(kernels)
         self._module: ModuleType = loops if self.kernels == "numba" else arrays
+        #: The numpy kernels' sparse sums (None for the compiled loops).
+        self.sums: arrays.Sums | None = None if self.kernels == "numba" else \
+            arrays.sums(plan.n_nodes, plan.member_a, plan.member_b, plan.on_body, len(plan.body_dof))
 
     def evaluate(self, y: FloatArray, R_ref: FloatArray, l0: FloatArray) -> Evaluation:
         """States ``y`` (B, 2 n_dof) in the charts ``R_ref`` (B, nb, 3, 3) with rest lengths
@@ -65,21 +69,24 @@ class Evaluator:
         X, V = np.empty((B, n, 3)), np.empty((B, n, 3))
         R = np.empty((B, nb, 3, 3))
         lengths, forces = np.empty((B, m)), np.empty((B, m))
-        self._module.derivatives(*plan, _arg(y), _arg(R_ref), _arg(l0), out, X, V, R, lengths, forces)
+        if self.sums is None:
+            loops.derivatives(*plan, _arg(y), _arg(R_ref), _arg(l0), out, X, V, R, lengths, forces)
+        else:
+            arrays.derivatives(*plan, _arg(y), _arg(R_ref), _arg(l0), out, X, V, R, lengths, forces, self.sums)
         return Evaluation(out, X, V, R, lengths, forces)
 
     def derivative(self, y: FloatArray, R_ref: FloatArray, l0: FloatArray) -> FloatArray:
         """``dy/dt`` (2 n_dof,) of one state ``y`` in the charts ``R_ref`` (nb, 3, 3) with rest
         lengths ``l0`` (m,)."""
-        ydot: FloatArray = self._module.rate(*self.plan, _arg(y), _arg(R_ref), _arg(l0))
+        ydot: FloatArray = loops.rate(*self.plan, _arg(y), _arg(R_ref), _arg(l0)) if self.sums is None else \
+            arrays.rate(*self.plan, _arg(y), _arg(R_ref), _arg(l0), self.sums)
         return ydot
 
     def with_plan(self, plan: Plan) -> Evaluator:
         """The same kernels on ``plan``, a plan of the same topology (other member constants):
-        the Jacobian's pattern, if built, is shared."""
-        new = Evaluator(plan, self.kernels)
-        if "pattern" in self.__dict__:
-            new.__dict__["pattern"] = self.__dict__["pattern"]
+        the Jacobian's pattern, if built, and the numpy kernels' sums are shared."""
+        new = copy.copy(self)
+        new.plan = plan
         return new
 
     @cached_property

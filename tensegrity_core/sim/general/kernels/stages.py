@@ -49,6 +49,9 @@ class CompiledStages:
     ``moving``: per string, its rest length moves with an input) or that leaves a body's
     rotation vector near or past ``rechart_angle`` [rad]."""
 
+    #: The methods whose steps this computes.
+    methods = ("RK4", "DOP853")
+
     def __init__(self, plan: Plan, R_ref: FloatArray, rest_lengths: Callable[[float], FloatArray], constant: bool,
                  *, strings: NDArray[np.int64], moving: NDArray[np.bool_], rechart_angle: float):
         self.plan = plan

@@ -37,6 +37,7 @@ def warm() -> float:
     """Run every compiled kernel once (compiling or loading it); the seconds it took."""
     from tensegrity_core.sim import Simulator, scene_from_dict
     from tensegrity_core.sim.general.kernels import loops
+    from tensegrity_core.sim.general.kernels.stages import CompiledStages
     from tensegrity_core.sim.general.model import GeneralSystem
 
     started = time.perf_counter()
@@ -53,7 +54,7 @@ def warm() -> float:
     eq.jac(0.0, y)
     eq.evaluate([0.0, 0.0], np.array([y, y]))
     stages = eq.stages
-    assert stages is not None
+    assert isinstance(stages, CompiledStages)
     f = eq.fun(0.0, y)
     stages.rk4(0.0, y, f, 1e-3)
     y_new, K, _ = stages.dop853(0.0, y, f, 1e-3, 1e-6, 1e-8)

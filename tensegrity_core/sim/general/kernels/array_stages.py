@@ -1,0 +1,129 @@
+"""A general model's RK4 steps with the numpy kernels: :mod:`.stages`' stretches in a Python loop.
+
+The twin of :class:`~.stages.CompiledStages` for :mod:`.arrays` (numba not installed, or
+``TENSEGRITY_KERNELS=numpy``), RK4 only (adaptive DOP853 on the numpy kernels is scipy's).
+A stretch of steps runs in one call of :meth:`ArrayStages.rk4_run`, without the stepper's
+per-step work: the strings' gaps and their rates at a step's end come from that end's own
+evaluation (its member lengths and lengthening rates), where the stepper would place the
+nodes again. The screens are those of the compiled stretch (:func:`quiet_step`,
+:func:`chart_due`), so both stop at the same steps; the numbers agree to rounding.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tensegrity_core.sim.general.kernels import arrays
+from tensegrity_core.sim.general.kernels.plan import Plan
+from tensegrity_core.sim.integrators import Run
+
+FloatArray = NDArray[np.float64]
+
+
+def quiet_step(g0: FloatArray, r0: FloatArray, g1: FloatArray, r1: FloatArray, moving: NDArray[np.bool_],
+               h: float) -> bool:
+    """:func:`.loops.quiet_step` over arrays: no string can cross zero in a step of ``h`` [s]
+    whose gaps are ``g0``, ``g1`` [m] and rates ``r0``, ``r1`` [m/s] at its ends."""
+    if not np.all(g0 * g1 > 0.0):
+        return False
+    reach = (4.0 / 27.0) * h * (np.abs(r0) + np.abs(r1)) * (1.0 + 1e-9)
+    return not np.any(~moving & (np.minimum(np.abs(g0), np.abs(g1)) < reach))
+
+
+def chart_due(rotation_columns: NDArray[np.int64], y: FloatArray, angle: float) -> bool:
+    """:func:`.loops.chart_due`: a body's rotation vector (columns ``rotation_columns`` (nb, 3)
+    of ``y``) near or past ``angle`` [rad]."""
+    theta = y[rotation_columns]
+    return bool(np.any(np.sum(theta * theta, axis=1) > (angle * (1.0 - 1e-9)) ** 2))
+
+
+def hermite(y_start: FloatArray, f_start: FloatArray, y_end: FloatArray, f_end: FloatArray, h: float,
+            x: FloatArray) -> FloatArray:
+    """(len(x), N): :func:`.loops.hermite_value` at the fractions ``x`` of a step of ``h`` [s]."""
+    a, b = h * f_start, h * f_end
+    dy = y_end - y_start
+    xc = x[:, None]
+    out: FloatArray = y_start + xc * (a + xc * ((3.0 * dy - 2.0 * a - b) + xc * (a + b - 2.0 * dy)))
+    return out
+
+
+class ArrayStages:
+    """RK4 steps of the model of ``plan`` (its numpy kernels' ``sums``) in the charts
+    ``R_ref`` (nb, 3, 3) with rest lengths ``rest_lengths(t)`` [m] (``constant``: they do not
+    depend on ``t``). A stretch stops at a step that may hold an event of the strings
+    ``strings`` (member indices; ``moving``: per string, its rest length moves with an input)
+    or that leaves a body's rotation vector near or past ``rechart_angle`` [rad]."""
+
+    #: The methods whose steps this computes (the stepper runs others as scipy's).
+    methods = ("RK4",)
+
+    def __init__(self, plan: Plan, sums: arrays.Sums, R_ref: FloatArray, rest_lengths: Callable[[float], FloatArray],
+                 constant: bool, *, strings: NDArray[np.int64], moving: NDArray[np.bool_], rechart_angle: float):
+        self.plan, self.sums = plan, sums
+        self.R_ref = np.ascontiguousarray(R_ref, dtype=float)[None]
+        self.rest_lengths = rest_lengths
+        self.constant = constant
+        self.strings, self.moving, self.rechart_angle = strings, moving, float(rechart_angle)
+        self.rotation_columns = plan.body_dof[:, None] + 3 + np.arange(3)
+        n, nb, m = plan.n_nodes, len(plan.body_dof), len(plan.EA)
+        self._X, self._V = np.empty((1, n, 3)), np.empty((1, n, 3))
+        self._R, self._lengths, self._forces = np.empty((1, nb, 3, 3)), np.empty((1, m)), np.empty((1, m))
+
+    def _rate(self, y: FloatArray, l0: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """``(dy/dt, member lengthening rates [m/s])`` of one state; the member lengths [m]
+        are left in ``self._lengths[0]``."""
+        out = np.empty((1, len(y)))
+        rates = arrays.derivatives(*self.plan, y[None], self.R_ref, l0[None], out, self._X, self._V, self._R,
+                                   self._lengths, self._forces, self.sums)
+        return out[0], rates[0]
+
+    def _step(self, t: float, y: FloatArray, f: FloatArray, h: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """One RK4 step: ``(y_new, f_new, member rates at y_new)``."""
+        k2, _ = self._rate(y + (0.5 * h) * f, self.rest_lengths(t + 0.5 * h))
+        k3, _ = self._rate(y + (0.5 * h) * k2, self.rest_lengths(t + 0.5 * h))
+        k4, _ = self._rate(y + h * k3, self.rest_lengths(t + h))
+        y_new = y + h * (f / 6.0 + k2 / 3.0 + k3 / 3.0 + k4 / 6.0)
+        f_new, rates = self._rate(y_new, self.rest_lengths(t + h))
+        return y_new, f_new, rates
+
+    def rk4(self, t: float, y: FloatArray, f: FloatArray, h: float) -> tuple[FloatArray, FloatArray]:
+        y_new, f_new, _ = self._step(t, y, f, h)
+        return y_new, f_new
+
+    def _gaps(self, y: FloatArray, l0: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The strings' gaps ``l - l0`` [m] and rates [m/s] at ``y`` (one evaluation)."""
+        _, rates = self._rate(y, l0)
+        return self._lengths[0, self.strings] - l0[self.strings], rates[self.strings]
+
+    def rk4_run(self, t: float, y: FloatArray, f: FloatArray, h_fixed: float, t_bound: float, horizon: float,
+                samples: FloatArray, sample: int) -> Run:
+        """:meth:`.stages.CompiledStages.rk4_run` with the numpy kernels: RK4 steps of
+        ``h_fixed`` [s] from ``(t, y)`` (rate ``f``) as far as ``horizon`` [s] or a step that
+        may hold an event, with the states at ``samples[sample:]`` [s] that the steps before
+        the last one cover; constant rest lengths only."""
+        assert self.constant, "a stretch of steps needs constant rest lengths"
+        l0 = self.rest_lengths(t)
+        Y = np.empty((len(samples), len(y)))
+        g0, r0 = self._gaps(y, l0)
+        steps = 0
+        while True:
+            left = t_bound - t
+            h = left if left < h_fixed * (1.0 + 1e-9) else h_fixed
+            y_new, f_new, rates = self._step(t, y, f, h)
+            t_new = t_bound if h == left else t + h
+            steps += 1
+            g1, r1 = self._lengths[0, self.strings] - l0[self.strings], rates[self.strings]
+            if t_new >= horizon or t_new >= t_bound or not quiet_step(g0, r0, g1, r1, self.moving, t_new - t) \
+                    or chart_due(self.rotation_columns, y_new, self.rechart_angle):
+                return Run(steps, steps, t, y, f, t_new, y_new, f_new, sampled=sample, Y=Y)
+            end = int(np.searchsorted(samples, t_new, side="right")) if sample < len(samples) else sample
+            end = max(end, sample)
+            if end == sample + 1 and samples[sample] == t_new:
+                Y[sample] = y_new
+            elif end > sample:
+                Y[sample:end] = hermite(y, f, y_new, f_new, t_new - t, (samples[sample:end] - t) / (t_new - t))
+            sample = end
+            t, y, f, g0, r0 = t_new, y_new, f_new, g1, r1
