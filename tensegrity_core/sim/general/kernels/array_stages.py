@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 
 from tensegrity_core.sim.general.kernels import arrays
 from tensegrity_core.sim.general.kernels.plan import Plan
+from tensegrity_core.sim.general.kernels.stages import RK4_B
 from tensegrity_core.sim.integrators import Run
 
 FloatArray = NDArray[np.float64]
@@ -71,32 +72,32 @@ class ArrayStages:
         n, nb, m = plan.n_nodes, len(plan.body_dof), len(plan.EA)
         self._X, self._V = np.empty((1, n, 3)), np.empty((1, n, 3))
         self._R, self._lengths, self._forces = np.empty((1, nb, 3, 3)), np.empty((1, m)), np.empty((1, m))
+        self._rates = np.empty((1, m))
 
-    def _rate(self, y: FloatArray, l0: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """``(dy/dt, member lengthening rates [m/s])`` of one state; the member lengths [m]
-        are left in ``self._lengths[0]``."""
-        out = np.empty((1, len(y)))
-        rates = arrays.derivatives(*self.plan, y[None], self.R_ref, l0[None], out, self._X, self._V, self._R,
-                                   self._lengths, self._forces, self.sums)
-        return out[0], rates[0]
+    def _rate(self, y: FloatArray, l0: FloatArray, out: FloatArray, rates: bool = False) -> None:
+        """``out`` (N,) = ``dy/dt`` of one state; its member lengths [m] are left in
+        ``self._lengths[0]`` and, if ``rates``, their lengthening rates [m/s] in ``self._rates[0]``."""
+        arrays.derivatives(*self.plan, y[None], self.R_ref, l0[None], out[None], self._X, self._V, self._R,
+                           self._lengths, self._forces, self.sums, self._rates if rates else None)
 
-    def _step(self, t: float, y: FloatArray, f: FloatArray, h: float) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """One RK4 step: ``(y_new, f_new, member rates at y_new)``."""
-        k2, _ = self._rate(y + (0.5 * h) * f, self.rest_lengths(t + 0.5 * h))
-        k3, _ = self._rate(y + (0.5 * h) * k2, self.rest_lengths(t + 0.5 * h))
-        k4, _ = self._rate(y + h * k3, self.rest_lengths(t + h))
-        y_new = y + h * (f / 6.0 + k2 / 3.0 + k3 / 3.0 + k4 / 6.0)
-        f_new, rates = self._rate(y_new, self.rest_lengths(t + h))
-        return y_new, f_new, rates
-
-    def rk4(self, t: float, y: FloatArray, f: FloatArray, h: float) -> tuple[FloatArray, FloatArray]:
-        y_new, f_new, _ = self._step(t, y, f, h)
+    def _step(self, t: float, y: FloatArray, f: FloatArray, h: float) -> tuple[FloatArray, FloatArray]:
+        """One RK4 step: ``(y_new, f_new)``, the member rates at ``y_new`` in ``self._rates[0]``."""
+        K = np.empty((4, len(y)))
+        K[0] = f
+        self._rate(y + (0.5 * h) * f, self.rest_lengths(t + 0.5 * h), K[1])
+        self._rate(y + (0.5 * h) * K[1], self.rest_lengths(t + 0.5 * h), K[2])
+        self._rate(y + h * K[2], self.rest_lengths(t + h), K[3])
+        y_new = y + h * (RK4_B @ K)
+        f_new = np.empty_like(y)
+        self._rate(y_new, self.rest_lengths(t + h), f_new, rates=True)
         return y_new, f_new
 
-    def _gaps(self, y: FloatArray, l0: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """The strings' gaps ``l - l0`` [m] and rates [m/s] at ``y`` (one evaluation)."""
-        _, rates = self._rate(y, l0)
-        return self._lengths[0, self.strings] - l0[self.strings], rates[self.strings]
+    def rk4(self, t: float, y: FloatArray, f: FloatArray, h: float) -> tuple[FloatArray, FloatArray]:
+        return self._step(t, y, f, h)
+
+    def _gaps(self, l0: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The strings' gaps ``l - l0`` [m] and rates [m/s] of the last evaluation with rates."""
+        return self._lengths[0, self.strings] - l0[self.strings], self._rates[0, self.strings]
 
     def rk4_run(self, t: float, y: FloatArray, f: FloatArray, h_fixed: float, t_bound: float, horizon: float,
                 samples: FloatArray, sample: int) -> Run:
@@ -107,15 +108,16 @@ class ArrayStages:
         assert self.constant, "a stretch of steps needs constant rest lengths"
         l0 = self.rest_lengths(t)
         Y = np.empty((len(samples), len(y)))
-        g0, r0 = self._gaps(y, l0)
+        self._rate(y, l0, np.empty_like(y), rates=True)
+        g0, r0 = self._gaps(l0)
         steps = 0
         while True:
             left = t_bound - t
             h = left if left < h_fixed * (1.0 + 1e-9) else h_fixed
-            y_new, f_new, rates = self._step(t, y, f, h)
+            y_new, f_new = self._step(t, y, f, h)
             t_new = t_bound if h == left else t + h
             steps += 1
-            g1, r1 = self._lengths[0, self.strings] - l0[self.strings], rates[self.strings]
+            g1, r1 = self._gaps(l0)
             if t_new >= horizon or t_new >= t_bound or not quiet_step(g0, r0, g1, r1, self.moving, t_new - t) \
                     or chart_due(self.rotation_columns, y_new, self.rechart_angle):
                 return Run(steps, steps, t, y, f, t_new, y_new, f_new, sampled=sample, Y=Y)

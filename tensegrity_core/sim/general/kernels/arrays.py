@@ -137,18 +137,28 @@ def place(base: FloatArray, free_node: IntArray, free_axis: IntArray, on_node: I
 
 
 def member_forces(sums: Sums, EA: FloatArray, damping: FloatArray, is_string: BoolArray, l0: FloatArray,
-                  X: FloatArray, V: FloatArray, lengths: FloatArray,
-                  forces: FloatArray) -> tuple[FloatArray, FloatArray]:
+                  X: FloatArray, V: FloatArray, lengths: FloatArray, forces: FloatArray,
+                  member_rates: FloatArray | None = None) -> FloatArray:
     """:func:`.loops.member_forces` of a batch, the members' ends in ``sums``; returns the
-    nodal forces (B, n, 3) [N] of the members and their lengthening rates (B, m) [m/s]."""
-    hv = product(sums.difference, np.concatenate([X, V], axis=2))       # (B, m, 6): h and dv
-    h, dv = hv[..., :3], hv[..., 3:]
-    lengths[...] = np.sqrt(h[..., 0] * h[..., 0] + h[..., 1] * h[..., 1] + h[..., 2] * h[..., 2])
-    u = h / lengths[..., None]
-    rate = u[..., 0] * dv[..., 0] + u[..., 1] * dv[..., 1] + u[..., 2] * dv[..., 2]
-    t = EA * (lengths - l0) / l0 + damping * rate
-    forces[...] = np.where(is_string & (lengths < l0), 0.0, t)
-    return product(sums.reaction, forces[..., None] * u), rate
+    nodal forces (B, n, 3) [N] of the members; fills ``member_rates`` (B, m), if given, with their
+    lengthening rates [m/s] (computed only where asked for or damped)."""
+    damped = bool(damping.any())
+    if member_rates is None and not damped:
+        h = product(sums.difference, X)
+    else:
+        hv = product(sums.difference, np.concatenate([X, V], axis=2))       # (B, m, 6): h and dv
+        h, dv = hv[..., :3], hv[..., 3:]
+    np.sqrt(h[..., 0] * h[..., 0] + h[..., 1] * h[..., 1] + h[..., 2] * h[..., 2], out=lengths)
+    t = EA * (lengths - l0) / l0
+    if member_rates is not None or damped:
+        rate = (h[..., 0] * dv[..., 0] + h[..., 1] * dv[..., 1] + h[..., 2] * dv[..., 2]) / lengths
+        if member_rates is not None:
+            member_rates[...] = rate
+        if damped:
+            t += damping * rate
+    t[is_string & (lengths < l0)] = 0.0
+    forces[...] = t
+    return product(sums.reaction, (t / lengths)[..., None] * h)
 
 
 def nodal_wrenches(on_node: IntArray, on_body: IntArray, r: FloatArray, F: FloatArray, nb: int) -> FloatArray:
@@ -226,16 +236,15 @@ def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free
                 damping: FloatArray, is_string: BoolArray, external: FloatArray,
                 y: FloatArray, R_ref: FloatArray, l0: FloatArray, out: FloatArray,
                 X: FloatArray, V: FloatArray, R: FloatArray, lengths: FloatArray, forces: FloatArray,
-                sums: Sums) -> FloatArray:
+                sums: Sums, member_rates: FloatArray | None = None) -> None:
     """:func:`.loops.derivatives`: ``out = dy/dt`` of a batch of states, keeping ``X``, ``V``,
-    ``R``, ``lengths`` and ``forces`` per state (``sums``: the plan's :class:`Sums`); returns
-    the members' lengthening rates (B, m) [m/s]."""
+    ``R``, ``lengths`` and ``forces`` per state (``sums``: the plan's :class:`Sums`), and
+    the members' lengthening rates [m/s] in ``member_rates`` (B, m) if given."""
     r = place(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, y, R_ref, X, V, R)
-    F, rates_ = member_forces(sums, EA, damping, is_string, l0, X, V, lengths, forces)
+    F = member_forces(sums, EA, damping, is_string, l0, X, V, lengths, forces, member_rates)
     F += external
     accelerate(sums, free_node, free_axis, free_inv_mass, on_node, body_dof, body_mass, body_first_moment,
                body_inertia, body_inv_inertia_cm, y, R, r, F, out)
-    return rates_
 
 
 # -- Jacobian --------------------------------------------------------------------------------------
