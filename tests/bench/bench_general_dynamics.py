@@ -475,7 +475,7 @@ def _plot_growth(ctx: Context, data: list[dict]) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
+    fig, (ax, ratio) = plt.subplots(1, 2, figsize=(11, 4.5), constrained_layout=True)
     m = [e["members"] for e in data]
     for key, label, marker in (("numba", "project RK4, compiled kernels", "o"),
                                ("numpy", "project RK4, numpy kernels", "s"),
@@ -487,6 +487,12 @@ def _plot_growth(ctx: Context, data: list[dict]) -> None:
            title="prism towers, fixed-step RK4 at the exported step")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
+    ratio.semilogx(m, [e["numpy"] / e["numba"] for e in data], marker="s", label="numpy kernels / compiled kernels")
+    ratio.axhline(3.0, color="k", linestyle="--", label="target: within 3x")
+    ratio.set(xlabel="members", ylabel="time ratio [-]", title="the numpy fallback against the compiled path",
+              ylim=(0.0, None))
+    ratio.grid(True, which="both", alpha=0.3)
+    ratio.legend(fontsize=8)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 

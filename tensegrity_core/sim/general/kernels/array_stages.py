@@ -37,6 +37,8 @@ def quiet_step(g0: FloatArray, r0: FloatArray, g1: FloatArray, r1: FloatArray, m
 def chart_due(rotation_columns: NDArray[np.int64], y: FloatArray, angle: float) -> bool:
     """:func:`.loops.chart_due`: a body's rotation vector (columns ``rotation_columns`` (nb, 3)
     of ``y``) near or past ``angle`` [rad]."""
+    if not len(rotation_columns):
+        return False
     theta = y[rotation_columns]
     return bool(np.any(np.sum(theta * theta, axis=1) > (angle * (1.0 - 1e-9)) ** 2))
 
