@@ -75,6 +75,8 @@ class ArrayStages:
         self._X, self._V = np.empty((1, n, 3)), np.empty((1, n, 3))
         self._R, self._lengths, self._forces = np.empty((1, nb, 3, 3)), np.empty((1, m)), np.empty((1, m))
         self._rates = np.empty((1, m))
+        N = 2 * plan.n_dof
+        self._K, self._stage = np.empty((4, N)), np.empty(N)          # a step's stages and stage state
 
     def _rate(self, y: FloatArray, l0: FloatArray, out: FloatArray, rates: bool = False) -> None:
         """``out`` (N,) = ``dy/dt`` of one state; its member lengths [m] are left in
@@ -84,12 +86,15 @@ class ArrayStages:
 
     def _step(self, t: float, y: FloatArray, f: FloatArray, h: float) -> tuple[FloatArray, FloatArray]:
         """One RK4 step: ``(y_new, f_new)``, the member rates at ``y_new`` in ``self._rates[0]``."""
-        K = np.empty((4, len(y)))
+        K, stage = self._K, self._stage
         K[0] = f
-        self._rate(y + (0.5 * h) * f, self.rest_lengths(t + 0.5 * h), K[1])
-        self._rate(y + (0.5 * h) * K[1], self.rest_lengths(t + 0.5 * h), K[2])
-        self._rate(y + h * K[2], self.rest_lengths(t + h), K[3])
-        y_new = y + h * (RK4_B @ K)
+        for j, c in ((1, 0.5), (2, 0.5), (3, 1.0)):        # stage j at y + c h K[j - 1]
+            np.multiply(K[j - 1], c * h, out=stage)
+            stage += y
+            self._rate(stage, self.rest_lengths(t + c * h), K[j])
+        y_new = RK4_B @ K
+        y_new *= h
+        y_new += y
         f_new = np.empty_like(y)
         self._rate(y_new, self.rest_lengths(t + h), f_new, rates=True)
         return y_new, f_new

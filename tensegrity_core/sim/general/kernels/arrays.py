@@ -148,10 +148,12 @@ def member_forces(sums: Sums, EA: FloatArray, damping: FloatArray, is_string: Bo
     else:
         hv = product(sums.difference, np.concatenate([X, V], axis=2))       # (B, m, 6): h and dv
         h, dv = hv[..., :3], hv[..., 3:]
-    np.sqrt(h[..., 0] * h[..., 0] + h[..., 1] * h[..., 1] + h[..., 2] * h[..., 2], out=lengths)
+    hh = h * h                                   # one pass, then the loops' sum order
+    np.sqrt(hh[..., 0] + hh[..., 1] + hh[..., 2], out=lengths)
     t = EA * (lengths - l0) / l0
     if member_rates is not None or damped:
-        rate = (h[..., 0] * dv[..., 0] + h[..., 1] * dv[..., 1] + h[..., 2] * dv[..., 2]) / lengths
+        hdv = h * dv
+        rate = (hdv[..., 0] + hdv[..., 1] + hdv[..., 2]) / lengths
         if member_rates is not None:
             member_rates[...] = rate
         if damped:
