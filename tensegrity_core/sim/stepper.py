@@ -74,8 +74,7 @@ Jacobian = Callable[[float, FloatArray], Any]
 SOLVERS: dict[str, type[OdeSolver]] = {"RK23": RK23, "RK45": RK45, "DOP853": DOP853, "Radau": Radau, "BDF": BDF,
                                        "LSODA": LSODA, "RK4": integrators.RK4}
 #: Solvers that run a whole step in one call of a system's compiled ``stages`` where the
-#: system offers them for the method (:mod:`tensegrity_core.sim.integrators`; the general
-#: models: both with numba, RK4 with the numpy kernels).
+#: system offers them for the method (:mod:`tensegrity_core.sim.integrators`; general models).
 COMPILED_SOLVERS: dict[str, type[OdeSolver]] = {"RK4": integrators.RK4, "DOP853": integrators.DOP853}
 #: Methods that use a Jacobian.
 IMPLICIT = ("Radau", "BDF", "LSODA")
