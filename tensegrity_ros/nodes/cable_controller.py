@@ -99,7 +99,8 @@ class CableControllerNode(Node):
         self._latest: tuple[int, float] | None = None   # (stamp [ns], t [s]) of the latest joint state
         self._answer: CableCommand | None = None         # the running goal's command for it
         self._rest: dict[str, float] = {}                # each cable's rest length [m], from cable_states
-        self.pub = self.create_publisher(CableCommand, "cable_commands", 10)
+        # a history a briefly stalled recorder can be repaired from (the simulator's depth)
+        self.pub = self.create_publisher(CableCommand, "cable_commands", QoSProfile(depth=1000))
         self.create_subscription(JointState, "joint_states", self.on_joints, QoSProfile(depth=1))
         self.create_subscription(CableStates, "cable_states", self.on_cables, QoSProfile(depth=10))
         ActionServer(self, FollowJointTrajectory, "~/follow_joint_trajectory", self._execute,

@@ -193,3 +193,27 @@ def test_a_tight_path_tolerance_is_violated_and_a_new_goal_preempts_the_running_
     assert done.wait(30)
     status, result = _result(second)
     assert status == GoalStatus.STATUS_CANCELED and result.error_code == 0 and "cancelled" in result.error_string
+
+
+def test_the_commands_keep_the_history_of_the_other_per_step_writers():
+    """``cable_commands`` goes out once per simulator step, as ``actuator_forces`` and the
+    simulator's topics do: its reliable writer keeps the same 1,000 samples (1 s of a lockstep
+    run at 1,000 steps/s) for a recorder that briefly falls behind to be repaired from."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.parameter import Parameter
+    from rclpy.qos import HistoryPolicy
+
+    from tensegrity_ros.nodes.cable_controller import CableControllerNode
+    from tensegrity_ros.nodes.controller import ControllerNode
+
+    ctx = Context()
+    rclpy.init(args=[], context=ctx)
+    try:
+        cables = CableControllerNode(context=ctx, parameter_overrides=[Parameter("scene", value="table_actuated")])
+        forces = ControllerNode(context=ctx)
+        depth = {pub.topic_name: (pub.qos_profile.history, pub.qos_profile.depth)
+                 for node in (cables, forces) for pub in node.publishers if pub.topic_name != "/rosout"}
+        assert depth["/cable_commands"] == depth["/actuator_forces"] == (HistoryPolicy.KEEP_LAST, 1000), depth
+    finally:
+        end_context(ctx)
