@@ -18,7 +18,7 @@ from typing import Any, TextIO
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.robot.gait import Gait
 from tensegrity_ros.apps.gait_goal import TrajectoryPoints, trajectory_points
-from tensegrity_ros.apps.roll_summary import roll_summary
+from tensegrity_ros.apps.roll_summary import REST_HOLD_S, rest_time, roll_summary
 
 NS_PER_S = 1_000_000_000
 SIM_NODE = "tensegrity_sim"
@@ -135,6 +135,36 @@ class RunWatcher:
         """Stamp [s] of the latest joint state received (-inf: none)."""
         return self.tensions[-1][0] if self.tensions else -math.inf
 
+    def watch_until_rest(self, executor: Any, goal_end: float, settle: float, timeout: float) -> float | None:
+        """Spin until the robot is at rest after ``goal_end`` [s] (:func:`.roll_summary.rest_time`)
+        and return that time [s], or None once the samples reach ``goal_end + settle`` [s] or
+        none arrive for ``timeout`` s of wall time."""
+        stalled, seen = time.monotonic() + timeout, self.latest()
+        while time.monotonic() < stalled:
+            rest = rest_time([t for t, _ in self.centres], [c for _, c in self.centres],
+                             [t for t, _ in self.contacts], [c for _, c in self.contacts], goal_end)
+            if rest is not None and rest <= goal_end + settle:
+                return rest
+            if self.latest() >= goal_end + settle:
+                return None
+            executor.spin_once(timeout_sec=0.1)
+            if self.latest() > seen:
+                stalled, seen = time.monotonic() + timeout, self.latest()
+        return None
+
+    def rest_line(self, goal_end: float, settle: float, rest: float | None) -> str:
+        """Whether and when the robot came to rest after the goal's end (``goal_end`` [s])."""
+        if rest is not None:
+            return f"at rest on a face {rest - goal_end:.2f} s after the goal's end"
+        last = [(t, c) for t, c in self.centres if t <= goal_end + settle]
+        window = [(t, c) for t, c in last if t >= last[-1][0] - REST_HOLD_S] if last else []
+        if len(window) < 2 or window[-1][0] <= window[0][0]:
+            return f"not seen at rest within {settle:g} s after the goal's end"
+        (t0, c0), (t1, c1) = window[0], window[-1]
+        speed = math.hypot(c1[0] - c0[0], c1[1] - c0[1]) / (t1 - t0)
+        return (f"still moving {settle:g} s after the goal's end (centre at {speed:.2f} m/s): the distance and "
+                "faces above are those up to then")
+
     def summary_lines(self, start: float = -math.inf, end: float = math.inf) -> list[str]:
         """The summary of the samples stamped in [start, end] [s]."""
         def inside(samples: list[tuple[float, Any]]) -> list[tuple[float, Any]]:
@@ -146,10 +176,13 @@ class RunWatcher:
         return s.lines()
 
 
-def play_gait(robot: str, gait: Gait, ros_args: list[str], *, action: str, timeout: float, out: TextIO = sys.stdout) -> int:
+def play_gait(robot: str, gait: Gait, ros_args: list[str], *, action: str, timeout: float, settle: float,
+              out: TextIO = sys.stdout) -> int:
     """Send ``gait`` as one goal to ``action`` (once :func:`check_scene` accepts the running
-    simulator's scene for ``robot``), show progress
-    on stderr, print the result and the run's summary to ``out``; the exit code."""
+    simulator's scene for ``robot``), show progress on stderr, watch the robot for up to
+    ``settle`` s of simulation time after the goal until it is at rest, print the result and
+    the run's summary (from the goal's start to the rest, or to the end of that watch) to
+    ``out``; the exit code."""
     from control_msgs.action import FollowJointTrajectory
     from rclpy.action import ActionClient
     from rclpy.executors import SingleThreadedExecutor
@@ -202,9 +235,7 @@ def play_gait(robot: str, gait: Gait, ros_args: list[str], *, action: str, timeo
             pass
         handle = None
         res = result.result().result
-        drained = time.monotonic() + timeout      # the samples still queued up to the goal's end
-        while watcher.latest() < window[1] and time.monotonic() < drained:
-            executor.spin_once(timeout_sec=0.1)
+        rest = watcher.watch_until_rest(executor, window[1], settle, timeout)
         ok = res.error_code == 0
         if ok:
             bar.n = bar.total
@@ -213,8 +244,9 @@ def play_gait(robot: str, gait: Gait, ros_args: list[str], *, action: str, timeo
         codes = {v: k for k, v in vars(FollowJointTrajectory.Result).items() if k.isupper() and isinstance(v, int)}
         print(f"{'succeeded' if ok else 'failed (' + codes.get(res.error_code, str(res.error_code)) + ')'}: "
               f"{res.error_string or gait.name}", file=out)
-        for line in watcher.summary_lines(*window):
+        for line in watcher.summary_lines(window[0], window[1] + settle if rest is None else rest):
             print(f"  {line}", file=out)
+        print(f"  {watcher.rest_line(window[1], settle, rest)}", file=out)
         return 0 if ok else 1
     except KeyboardInterrupt:
         if handle is not None:

@@ -10,6 +10,11 @@ how many faces, and the peak cable tensions [N]. No ROS: the caller collects the
   faces after the first; a rock back onto a face is not a new one).
 - Tensions: the largest tension [N] of each motor cable over the run (``joint_states``
   effort, positive pulling).
+- Rest (:func:`rest_time`): a gait's goal ends when the motors reach its last rest lengths,
+  not when the robot stops; a robot still rolling then goes on over more faces (its caps
+  roll on the floor, which has no rolling resistance, docs/robots.md). The robot is at rest
+  once, for ``hold`` s, one face (the same set of at least three caps) touched the floor and
+  its centre stayed within ``speed * hold`` [m] (horizontally) of where it is.
 """
 
 from __future__ import annotations
@@ -20,6 +25,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from tensegrity_core.robot.faces import faces_rolled, faces_visited
+
+#: s a face and the centre must hold still for the robot to be at rest
+REST_HOLD_S = 0.5
+#: m/s: the largest mean horizontal speed of the centre over ``REST_HOLD_S`` of a robot at rest.
+REST_SPEED = 0.02
 
 
 @dataclass(frozen=True)
@@ -68,3 +78,27 @@ def roll_summary(centres: Sequence[Sequence[float]], contact_times: Sequence[flo
         tension = np.asarray(tensions, dtype=float).reshape(-1, len(cable_names))
         peaks = {name: float(tension[:, j].max()) for j, name in enumerate(cable_names)}
     return RollSummary((float(d[0]), float(d[1])), float(np.hypot(*d)), faces_rolled(visited), faces, peaks)
+
+
+def rest_time(times: Sequence[float], centres: Sequence[Sequence[float]], contact_times: Sequence[float],
+              contacts: Sequence[Sequence[str]], after: float, *, hold: float = REST_HOLD_S,
+              speed: float = REST_SPEED) -> float | None:
+    """The first body-states sample time ``t >= after`` [s] at which the robot is at rest
+    (module note): over ``[t - hold, t]`` every contacts sample is the same set of at least
+    three caps and every centre (``centres`` (N, 3) [m] at ``times`` [s]) within
+    ``speed * hold`` [m] of the centre at ``t`` in x, y. None: not at rest in the samples."""
+    if not len(times) or not len(contact_times):
+        return None
+    t = np.asarray(times, dtype=float)
+    xy = np.asarray(centres, dtype=float)[:, :2]
+    ct = np.asarray(contact_times, dtype=float)
+    sets = [frozenset(names) for names in contacts]
+    for i in np.flatnonzero(t >= after):
+        lo = t[i] - hold
+        if lo < min(t[0], ct[0]):
+            continue                                # not watched for ``hold`` s yet
+        near = np.hypot(*(xy[(t >= lo) & (t <= t[i])] - xy[i]).T)
+        faces = {sets[k] for k in np.flatnonzero((ct >= lo) & (ct <= t[i]))}
+        if near.max() <= speed * hold and len(faces) == 1 and len(next(iter(faces))) >= 3:
+            return float(t[i])
+    return None

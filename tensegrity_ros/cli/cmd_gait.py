@@ -8,8 +8,11 @@ ros2_control's joint_trajectory_controller would send: joint names = the gait's 
 positions = rest lengths [m] (:func:`~tensegrity_ros.apps.gait_goal.trajectory_points`).
 ``--faces N`` cuts a rolling gait to its first N faces, ``--repeats N`` plays a periodic
 gait N cycles. Progress on stderr (the feedback's time along the trajectory); at the end
-the result and what the robot did (:mod:`tensegrity_ros.apps.roll_summary`): distance
-rolled [m], faces rolled, peak tensions [N].
+the result and what the robot did (:mod:`tensegrity_ros.apps.roll_summary`) from the goal's
+start until the robot is at rest (watched up to ``--settle`` s of simulation time after the
+goal: the goal ends when the motors reach the last rest lengths, and a robot still rolling
+then goes on): distance rolled [m], faces rolled, peak tensions [N], and when it came to rest
+or how fast it still moved.
 
 Before sending, the simulator's ``scene`` parameter says which robot runs: a suite that is
 not up (exit 3), runs another robot or a scene whose motors take no commands (exit 1) is
@@ -31,6 +34,8 @@ if TYPE_CHECKING:
 ORDER = 57
 
 ACTION = "tensegrity_cable_controller/follow_joint_trajectory"
+#: s of simulation time watched after the goal for the robot to come to rest
+SETTLE_S = 2.0
 
 
 def register(sub: Any) -> None:
@@ -47,6 +52,9 @@ def register(sub: Any) -> None:
     p.add_argument("--namespace", "-n", default="", help="the suite's ROS namespace (as given to `tensegrity up`)")
     p.add_argument("--action", default=ACTION, help=f"the FollowJointTrajectory action (default {ACTION})")
     p.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for the suite to answer")
+    p.add_argument("--settle", type=float, default=SETTLE_S, metavar="S",
+                   help=f"seconds of simulation time to watch the robot after the goal until it is at rest "
+                   f"(default {SETTLE_S:g}); the summary runs to the rest or to the end of this watch")
     p.set_defaults(func=_gait)
 
 
@@ -86,6 +94,8 @@ def _gait(args: Any) -> int:
 
     if not (math.isfinite(args.timeout) and args.timeout > 0):
         raise CliError(f"--timeout must be > 0 s, got {args.timeout}")
+    if not (math.isfinite(args.settle) and args.settle >= 0):
+        raise CliError(f"--settle must be >= 0 s, got {args.settle}")
     _, gait = build_gait(args.robot, args.gait, args.faces, args.repeats)
     from tensegrity_ros.rclpy_utils.env import require_rclpy
 
@@ -95,6 +105,7 @@ def _gait(args: Any) -> int:
     ns = args.namespace if not args.namespace or args.namespace.startswith("/") else "/" + args.namespace
     ros_args = ["--ros-args", *(["-r", f"__ns:={ns}"] if ns else []), *args.ros_args[1:]]
     try:
-        return play_gait(args.robot, gait, ros_args, action=args.action, timeout=args.timeout, out=sys.stdout)
+        return play_gait(args.robot, gait, ros_args, action=args.action, timeout=args.timeout,
+                         settle=args.settle, out=sys.stdout)
     except SuiteError as err:
         raise CliError(str(err), code=err.code) from None

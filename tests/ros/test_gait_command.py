@@ -1,7 +1,8 @@
 """``tensegrity gait`` against the real suite (``tensegrity up --scene six_bar_rest``: the
 simulator and the cable controller over DDS on loopback): one line and exit 3 when no suite
 is up, one line and exit 1 for another robot's gait, and the 6-bar's first face rolled
-through FollowJointTrajectory with the distance [m], faces and tensions [N] printed."""
+through FollowJointTrajectory with the distance [m], faces and tensions [N] printed, and
+whether the robot came to rest after the goal."""
 
 from __future__ import annotations
 
@@ -47,6 +48,10 @@ def test_gait_says_when_no_suite_is_up_and_rolls_the_six_bar(cli, tmp_path):
     assert re.search(r"faces rolled: \d+ \(\d+ faces rested on\)", r.stdout), r.stdout
     tensions = [float(v) for v in re.findall(r"c\d+_\d+ (\S+) N", r.stdout)]
     assert len(tensions) == 3 and all(t > 0 for t in tensions), r.stdout
+    # watched after the goal until at rest, or said how fast it still moves after --settle
+    assert re.search(r"^  (at rest on a face \d+\.\d\d s after the goal's end|still moving 2 s after the goal's "
+                     r"end \(centre at \d+\.\d\d m/s\): the distance and faces above are those up to then)$",
+                     r.stdout, re.M), r.stdout
 
 
 def _stdout_so_far(proc) -> str:

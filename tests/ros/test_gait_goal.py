@@ -1,7 +1,8 @@
 """The pure parts of ``tensegrity gait``: a gait as trajectory points (checked against the
 core's own evaluation of the gait's laws), the 6-bar's rolling gait cut to its first faces
 (the release by the derivation's rule, which reproduces the shipped file's own end), gaits
-by name, and the roll summary from synthetic samples whose answers are known by construction."""
+by name, and the roll summary and the rest after a gait from synthetic samples whose answers
+are known by construction."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from hypothesis import strategies as st
 
 from tensegrity_core.robot.gait import GAITS_DIR, Gait, GaitError, gait_from_file
 from tensegrity_ros.apps.gait_goal import HOLD_EDGE_S, first_faces, gait_named, tips, trajectory_points
-from tensegrity_ros.apps.roll_summary import roll_summary
+from tensegrity_ros.apps.roll_summary import REST_HOLD_S, REST_SPEED, rest_time, roll_summary
 
 SIX_BAR_SPEED = 0.5      # m/s: the 6-bar's motors (docs/robots.md, the robots' table)
 
@@ -106,3 +107,43 @@ def test_the_roll_summary_of_no_samples_says_so():
     s = roll_summary([], [], [], (), [])
     assert s.distance == 0.0 and s.faces == 0 and s.peak_tensions == {}
     assert s.lines()[-1] == "peak tensions: no joint states received"
+
+
+def _glide_then_stop(stop: float, face_from: float, dt: float = 0.01, end: float = 4.0):
+    """A robot whose centre glides at 0.3 m/s along x until ``stop`` [s], then stands; on the
+    edge (a, b) until ``face_from`` [s], then on the face (a, b, c). Samples every ``dt`` s."""
+    k = np.arange(round(end / dt) + 1)
+    t = k * dt
+    x = 0.3 * np.minimum(t, stop)
+    centres = np.column_stack([x, np.zeros_like(x), np.full_like(x, 0.7)])
+    contacts = [("a", "b") if ti < face_from else ("a", "b", "c") for ti in t]
+    return t, centres, contacts
+
+
+def test_the_robot_is_at_rest_once_a_face_and_its_centre_hold_still():
+    t, centres, contacts = _glide_then_stop(stop=2.0, face_from=1.0)
+    # still from 2.0 s on, on the face since 1.0 s: at rest once the centre REST_HOLD_S
+    # earlier is within REST_SPEED * REST_HOLD_S of its final place (0.3 m/s before 2.0 s)
+    settled = 2.0 + REST_HOLD_S - REST_SPEED * REST_HOLD_S / 0.3
+    assert rest_time(t, centres, t, contacts, after=0.0) == pytest.approx(settled, abs=0.011)
+    assert rest_time(t, centres, t, contacts, after=3.2) == pytest.approx(3.2, abs=0.011)
+    # on the face only from 3.0 s: the face must hold too
+    t, centres, contacts = _glide_then_stop(stop=2.0, face_from=3.0)
+    assert rest_time(t, centres, t, contacts, after=0.0) == pytest.approx(3.0 + REST_HOLD_S, abs=0.011)
+    # still on an edge: never at rest
+    t, centres, contacts = _glide_then_stop(stop=2.0, face_from=9.0)
+    assert rest_time(t, centres, t, contacts, after=0.0) is None
+
+
+def test_a_robot_gliding_on_a_face_is_not_at_rest():
+    """The 6-bar after a gait can coast on a face with its caps rolling (no rolling resistance
+    in the model): three caps down, yet moving; a creep just over REST_SPEED is moving too."""
+    t, centres, contacts = _glide_then_stop(stop=9.0, face_from=0.0)
+    assert rest_time(t, centres, t, contacts, after=0.0) is None
+    creep = centres.copy()
+    creep[:, 1] = 1.05 * REST_SPEED * t
+    creep[:, 0] = 0.0
+    assert rest_time(t, creep, t, contacts, after=0.0) is None
+    creep[:, 1] = 0.95 * REST_SPEED * t
+    assert rest_time(t, creep, t, contacts, after=0.0) == pytest.approx(REST_HOLD_S, abs=0.011)
+    assert rest_time([], [], [], [], after=0.0) is None
