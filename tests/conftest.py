@@ -66,6 +66,33 @@ def _ros_domain_per_module(request):
     os.environ["ROS_DOMAIN_ID"] = previous
 
 
+#: Test files whose tests are each a unit of work of their own for ``./run test``'s workers:
+#: independent heavy tests (one subprocess each, no module fixture) that the workers share.
+SHARED_FILES = ("tests/bench/test_quick_mode.py",)
+
+
+def pytest_collection_modifyitems(config, items):
+    """Files with slow tests first (``./run test`` keeps this order: ``--no-loadscope-reorder``),
+    so that no worker is left running a long file after the other ended."""
+    slow = {item.nodeid.split("::", 1)[0] for item in items if item.get_closest_marker("slow")}
+    items.sort(key=lambda item: item.nodeid.split("::", 1)[0] not in slow)   # stable: files stay whole
+
+
+def pytest_xdist_make_scheduler(config, log):
+    """``--dist loadfile`` (``./run test``): a test file is one unit of work, so its module
+    fixtures start once, except the tests of :data:`SHARED_FILES`, each a unit of its own."""
+    if config.getvalue("dist") != "loadfile":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    class FileScheduling(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            file = nodeid.split("::", 1)[0]
+            return nodeid if file in SHARED_FILES else file
+
+    return FileScheduling(config, log)
+
+
 def _processes_of_this_run() -> dict[int, str]:
     """pid -> command line of every live process (other than this one) started by this run."""
     mark = f"{_RUN_MARK[0]}={_RUN_MARK[1]}".encode()
@@ -109,3 +136,4 @@ def pytest_sessionfinish(session, exitstatus):
     print(f"\nerror: {len(left)} process(es) started by this test run were still alive at its "
           f"end (now killed):\n{lines}")
     session.exitstatus = pytest.ExitCode.TESTS_FAILED
+

@@ -46,10 +46,7 @@ def main(argv=None) -> int:
         args.plot_dir = args.plot_dir or str(docs / "img" / "performance")
         args.data_dir = args.data_dir or str(docs / "bench")
 
-    pkg_path = Path(__file__).parent
-    for m in sorted(pkgutil.iter_modules([str(pkg_path)])):
-        if m.name.startswith("bench_"):
-            importlib.import_module(f"tests.bench.{m.name}")
+    load_benchmarks()
     groups = {group for group, _ in harness.REGISTRY}
     names = {f"{group}:{fn.__name__}" for group, fn in harness.REGISTRY}
     unknown = sorted(set(args.only) - groups - names)
@@ -89,6 +86,13 @@ def main(argv=None) -> int:
         whole = {g for g in groups if all((g, fn.__name__) in ran for gg, fn in harness.REGISTRY if gg == g)}
         _write_rows(Path(args.json), rows, ran, whole)
     return 0
+
+
+def load_benchmarks() -> None:
+    """Import every ``tests/bench/bench_*.py``: their benchmarks register themselves."""
+    for m in sorted(pkgutil.iter_modules([str(Path(__file__).parent)])):
+        if m.name.startswith("bench_"):
+            importlib.import_module(f"tests.bench.{m.name}")
 
 
 #: The verdict column: a target met, missed, or not checked (in words, or nothing to compare).

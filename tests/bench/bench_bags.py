@@ -74,9 +74,16 @@ def _replay_spacing_errors(folder: Path, env: dict) -> tuple[list[int], int]:
                             stderr=subprocess.DEVNULL)
     executor = SingleThreadedExecutor(context=ctx)
     executor.add_node(node)
+    # until every message arrived, or the player has ended and nothing more came for a second
+    # (a lost message is counted, not waited for); a guard against a hang besides
     deadline = time.monotonic() + 120 + (recorded[-1] - recorded[0]) / 1e9
+    quiet_since, seen = time.monotonic(), 0
     while len(arrivals) < len(recorded) and time.monotonic() < deadline:
         executor.spin_once(timeout_sec=0.05)
+        if len(arrivals) != seen or play.poll() is None:
+            quiet_since, seen = time.monotonic(), len(arrivals)
+        elif time.monotonic() - quiet_since > 1.0:
+            break
     play.wait(60)
     node.destroy_node()
     rclpy.try_shutdown(context=ctx)
