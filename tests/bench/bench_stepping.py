@@ -50,7 +50,7 @@ def _loops(env: dict, n: int, rounds: int) -> tuple[list, list]:
 @benchmark
 def lockstep_loop(ctx: Context) -> list[Row]:
     env = _env()
-    n, rounds = (250, 2) if ctx.quick else (1000, 7)
+    n, rounds = (100, 1) if ctx.quick else (1000, 7)
     bare, loop = _loops(env, n, rounds)
     b, s_ = statistics.median(bare), statistics.median(loop)
     ratios = sorted(x / y for x, y in zip(bare, loop))
@@ -72,7 +72,7 @@ def step_simulation_round_trip(ctx: Context) -> list[Row]:
     from std_srvs.srv import Trigger
 
     env = _env()
-    n = 200 if ctx.quick else 1000
+    n = 100 if ctx.quick else 1000
     echo = subprocess.Popen([sys.executable, "-m", "tests.bench.ros_echo_server"], env=env,
                             stdout=subprocess.PIPE, text=True)
     echo.stdout.readline()

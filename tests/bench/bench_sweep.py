@@ -18,18 +18,18 @@ that time.
 
 - ``formfind_points``: form-findings of the T-bar (8 members, a few milliseconds each) over
   its top strings' rest-length ratio (0.6 .. 0.95 of the drawn length); ``simulate_points``: the paper's fold for 1.6 s
-  (~6 ms each) over the gain. 200 points each (quick: 40).
+  (~6 ms each) over the gain. 200 points each (quick: ``QUICK_POINTS``).
 - Overhead per point (target < 5 ms), two ways: wall, ``(W T_cluster - T_serial) / n`` with
   ``W = 2`` workers (the worker time each point costs beyond its own computation; it also
   takes in how the other sessions' load shares the cores between our processes), and CPU,
   the CPU seconds of client, scheduler and workers beyond the serial loop's, per point.
-- Times are the best of 2 (quick) or 7 alternating runs each (``timeit``'s rule: the
-  fastest run is the one the other sessions on these shared cores disturbed least).
+- Times are the best of 7 alternating runs each (``timeit``'s rule: the fastest run is the
+  one the other sessions on these shared cores disturbed least); quick mode runs once.
 - ``scaling``: speed-up and overhead per point for 50 .. 2,000 short simulations
-  (quick: 50).
+  (quick: ``QUICK_POINTS``).
 - ``task_cost``: what one Dask task costs on this machine, whatever it computes: 200 tasks
-  that return at once (with 5 rows each, like a batch's), sent and collected the engine's way
-  (two per worker in flight, results fetched with ``as_completed``): the sweep process's CPU
+  (quick: ``QUICK_POINTS``) that return at once (with 5 rows each, like a batch's), sent and
+  collected the engine's way (two per worker in flight, results fetched with ``as_completed``): the sweep process's CPU
   (client and scheduler), the workers' CPU and the wall time, per task. The sweep benchmarks
   also run the cluster with two fixed batches of half the points (``--batch n/2``: the fewest
   tasks, no cost measurement, no balancing) beside the adaptive batches.
@@ -51,6 +51,8 @@ from threadpoolctl import threadpool_limits
 from tests.bench.harness import Context, Row, benchmark
 
 WORKERS = 2
+#: Points of every sweep in quick mode (CI's smoke run: that each benchmark runs and reports).
+QUICK_POINTS = 16
 
 
 def _formfind_sweep(n: int) -> dict:
@@ -207,18 +209,18 @@ class _Cluster:
 
 @benchmark
 def formfind_points(ctx: Context) -> list[Row]:
-    n = 40 if ctx.quick else 200
+    n = QUICK_POINTS if ctx.quick else 200
     with _Cluster() as c:
-        r = _compare(_formfind_sweep(n), c, 2 if ctx.quick else 7, halves_too=True)
+        r = _compare(_formfind_sweep(n), c, 1 if ctx.quick else 7, halves_too=True)
     return [Row("sweep", "embedded cluster start-up (2 workers)", c.startup, "s",
                 note="LocalCluster of 2 processes on 127.0.0.1")] + _rows("form-finding (T-bar)", r)
 
 
 @benchmark
 def simulate_points(ctx: Context) -> list[Row]:
-    n = 40 if ctx.quick else 200
+    n = QUICK_POINTS if ctx.quick else 200
     with _Cluster() as c:
-        r = _compare(_simulate_sweep(n), c, 2 if ctx.quick else 7, halves_too=True)
+        r = _compare(_simulate_sweep(n), c, 1 if ctx.quick else 7, halves_too=True)
     return _rows("simulation (paper fold, 1.6 s)", r)
 
 
@@ -234,12 +236,12 @@ def task_cost(ctx: Context) -> list[Row]:
     from tensegrity_core.sweep import load_sweep
     from tensegrity_core.sweep.spec import prepare
 
-    n = 40 if ctx.quick else 200
+    n = QUICK_POINTS if ctx.quick else 200
     plan = prepare(load_sweep(_formfind_sweep(4)))      # the 3 KB plan every task carries
     with _Cluster() as c:
         workers = [w.pid for w in c.cluster.workers.values()]
         best = None
-        for _ in range(2 if ctx.quick else 5):
+        for _ in range(1 if ctx.quick else 5):
             c0, w0, t0 = time.process_time(), _cpu(workers), time.perf_counter()
             seq = as_completed(loop=c.client.loop, with_results=True, raise_errors=False)
             for _ in range(2 * WORKERS):
@@ -262,7 +264,7 @@ def task_cost(ctx: Context) -> list[Row]:
 
 @benchmark
 def scaling(ctx: Context) -> list[Row]:
-    sizes = [50] if ctx.quick else [50, 200, 1000, 2000]
+    sizes = [QUICK_POINTS] if ctx.quick else [50, 200, 1000, 2000]
     rows, table = [], []
     with _Cluster() as c:
         for n in sizes:
