@@ -48,12 +48,30 @@ def rig(tmp_path_factory):
     client.wait_for_services(60)
     action = ActionClient(client.node, FollowJointTrajectory, ACTION)
     assert action.wait_for_server(timeout_sec=60)
+    _wait_for_the_controllers_answer(client)
     yield client, action, sim, ctl
     action.destroy()
     client.close()
     end_context(ctx)
     for p in (sim, ctl):
         p.stop()
+
+
+def _wait_for_the_controllers_answer(client, timeout: float = 60.0) -> None:
+    """Until the cable controller answers a state the paused simulator republishes (its
+    ``cable_commands``): a goal sent before the controller has the simulator's state is
+    refused by design ("no joint_states and cable_states received yet"), and on a loaded
+    machine the controller may match the simulator's topics after the action server is found."""
+    import threading
+
+    from tensegrity_msgs.msg import CableCommand
+
+    seen = threading.Event()
+    sub = client.node.create_subscription(CableCommand, "cable_commands", lambda _msg: seen.set(), 10)
+    try:
+        assert seen.wait(timeout), "the cable controller answered no state of the simulator"
+    finally:
+        client.node.destroy_subscription(sub)
 
 
 def _goal(points, names=("long1", "long2"), velocities=None, stamp_ns=0, **extra):

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.ros.test_cable_controller import _goal, _result, _send, _t0
+from tests.ros.test_cable_controller import _goal, _result, _send, _t0, _wait_for_the_controllers_answer
 from tests.ros_support import end_context
 
 pytestmark = pytest.mark.ros
@@ -49,6 +49,7 @@ def rig(tmp_path):
     client.wait_for_services(60)
     action = ActionClient(client.node, FollowJointTrajectory, ACTION)
     assert action.wait_for_server(timeout_sec=60)
+    _wait_for_the_controllers_answer(client)
     yield client, action, sim
     action.destroy()
     client.close()
