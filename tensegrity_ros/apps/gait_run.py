@@ -139,17 +139,20 @@ class RunWatcher:
         """Spin until the robot is at rest after ``goal_end`` [s] (:func:`.roll_summary.rest_time`)
         and return that time [s], or None once the samples reach ``goal_end + settle`` [s] or
         none arrive for ``timeout`` s of wall time."""
-        stalled, seen = time.monotonic() + timeout, self.latest()
+        stalled, seen, looked = time.monotonic() + timeout, -math.inf, goal_end
         while time.monotonic() < stalled:
-            rest = rest_time([t for t, _ in self.centres], [c for _, c in self.centres],
-                             [t for t, _ in self.contacts], [c for _, c in self.contacts], goal_end)
-            if rest is not None and rest <= goal_end + settle:
-                return rest
-            if self.latest() >= goal_end + settle:
-                return None
-            executor.spin_once(timeout_sec=0.1)
-            if self.latest() > seen:
+            if self.latest() > seen:             # new samples: look at the new times, back as far as the rule needs
                 stalled, seen = time.monotonic() + timeout, self.latest()
+                centres = [(t, c) for t, c in self.centres if t >= looked - 2 * REST_HOLD_S]
+                contacts = [(t, c) for t, c in self.contacts if t >= looked - 2 * REST_HOLD_S]
+                rest = rest_time([t for t, _ in centres], [c for _, c in centres],
+                                 [t for t, _ in contacts], [c for _, c in contacts], looked)
+                looked = max(looked, centres[-1][0]) if centres else looked
+                if rest is not None and rest <= goal_end + settle:
+                    return rest
+                if seen >= goal_end + settle:
+                    return None
+            executor.spin_once(timeout_sec=0.1)
         return None
 
     def rest_line(self, goal_end: float, settle: float, rest: float | None) -> str:
