@@ -61,6 +61,7 @@ class LockstepLoop:
         from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
         self.n = n
+        self.n_wanted = n                 # pongs the current exchange waits for
         self.echo = subprocess.Popen([sys.executable, "-m", "tests.bench.ros_echo_server"], env=env,
                                      stdout=subprocess.PIPE, text=True)
         self.echo.stdout.readline()
@@ -78,8 +79,28 @@ class LockstepLoop:
         self._answered = -1
         self.node.create_subscription(JointState, "joint_states", self._on_state, QoSProfile(depth=100))
         self.step = self.node.create_client(StepSimulation, "step_simulation")
-        self.step.wait_for_service(timeout_sec=30)
-        wait_for_matches([self.ping, self.pub], 1, 30, poll=lambda s: self.ex.spin_once(timeout_sec=s))
+        if not self.step.wait_for_service(timeout_sec=30):
+            raise RuntimeError("the lockstep simulator's step_simulation service did not appear within 30 s")
+        if not wait_for_matches([self.ping, self.pub], 1, 30, poll=lambda s: self.ex.spin_once(timeout_sec=s)):
+            raise RuntimeError("the echo's or the simulator's subscriptions did not match within 30 s")
+        self._handshake()
+
+    def _handshake(self, timeout_s: float = 30.0) -> None:
+        """Ping until a pong comes back: the writers matched the readers on *both* sides of the
+        echo (the echo's pong writer learns of this node's reader by its own discovery, which
+        nothing here can watch; a pong written before that is lost)."""
+        deadline = time.monotonic() + timeout_s
+        self.got, self.n_wanted = 0, 1
+        while self.got < 1:
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"the echo answered no ping within {timeout_s:g} s")
+            self._send_ping()
+            end = time.monotonic() + 0.1
+            while self.got < 1 and time.monotonic() < end:
+                self.ex.spin_once(timeout_sec=0.01)
+        end = time.monotonic() + 0.3         # the answers to earlier pings of the handshake, if any
+        while time.monotonic() < end:
+            self.ex.spin_once(timeout_sec=0.01)
 
     def _send_ping(self) -> None:
         out = self._ping_msg()
@@ -88,7 +109,7 @@ class LockstepLoop:
 
     def _on_pong(self, _msg) -> None:
         self.got += 1
-        if self.got < self.n:             # the last pong ends the exchange (it must not run on)
+        if self.got < self.n_wanted:      # the last pong ends the exchange (it must not run on)
             self._send_ping()
 
     def _on_state(self, msg) -> None:
@@ -100,13 +121,19 @@ class LockstepLoop:
         cmd.header.stamp = msg.header.stamp
         self.pub.publish(cmd)
 
-    def ping_pong(self) -> float:
-        """Seconds per bare round trip, over ``n``."""
-        self.got = 0
+    def ping_pong(self, timeout_s: float = 120.0) -> float:
+        """Seconds per bare round trip, over ``n``; a RuntimeError when the exchange stops
+        (a message lost after the handshake) for ``timeout_s``."""
+        self.got, self.n_wanted = 0, self.n
         t0 = time.perf_counter()
         self._send_ping()
+        last, progress = 0, time.monotonic()
         while self.got < self.n:
-            self.ex.spin_once(timeout_sec=1.0)
+            self.ex.spin_once(timeout_sec=0.1)
+            if self.got != last:
+                last, progress = self.got, time.monotonic()
+            elif time.monotonic() - progress > timeout_s:
+                raise RuntimeError(f"the ping-pong stopped after {self.got} of {self.n} round trips")
         return (time.perf_counter() - t0) / self.n
 
     def lockstep(self) -> float:

@@ -27,12 +27,28 @@ PLOTS = {"precision": {"wp_paper_fold.png", "wp_stiff_fold.png", "energy_drift.p
          "precision_static": {"wp_formfind.png", "wp_ik.png", "wp_stiffness.png"}}
 
 
+def _run_bench(args: list[str], timeout: float = 900.0) -> subprocess.CompletedProcess:
+    """``python -m tests.bench ARGS`` in a session of its own; after ``timeout`` [s] the whole
+    session is killed (the benchmark and every node it started: none outlives the test) and
+    the test fails with what the run printed."""
+    from tests.process_groups import kill_session
+
+    proc = subprocess.Popen([sys.executable, "-m", "tests.bench", *args], cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        stdout, stderr = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        kill_session(proc)
+        stdout, stderr = proc.communicate()
+        pytest.fail(f"python -m tests.bench {' '.join(args)} ran over {timeout:g} s; it printed:\n{stderr[-3000:]}")
+    return subprocess.CompletedProcess(proc.args, proc.returncode, stdout, stderr)
+
+
 @pytest.mark.parametrize("group", GROUPS)
 def test_each_group_runs_and_reports_its_rows_against_baselines_and_targets(group, tmp_path):
     rows_file = tmp_path / "rows.json"
-    out = subprocess.run([sys.executable, "-m", "tests.bench", "--only", group, "--json", str(rows_file),
-                          "--plot-dir", str(tmp_path / "img"), "--data-dir", str(tmp_path / "data")],
-                         cwd=ROOT, capture_output=True, text=True, timeout=900)
+    out = _run_bench(["--only", group, "--json", str(rows_file), "--plot-dir", str(tmp_path / "img"),
+                      "--data-dir", str(tmp_path / "data")])
     assert out.returncode == 0, out.stderr[-3000:]
     rows = json.loads(rows_file.read_text())
     # the group's own rows, numbers, baselines of its own
