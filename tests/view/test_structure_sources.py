@@ -13,6 +13,8 @@ import numpy as np
 import pytest
 import yaml
 
+from tensegrity_core.sim import scene_path
+
 pytest.importorskip("viser")
 pytest.importorskip("rclpy")
 
@@ -80,6 +82,14 @@ def test_a_robot_bag_needs_its_scene_and_refuses_another_in_one_line(tmp_path):
     meta["rosbag2_bagfile_information"]["custom_data"] = {"scene": "six_bar_rest"}
     (copy / "metadata.yaml").write_text(yaml.safe_dump(meta))
     assert BagSource(copy).topology.node_names == BagSource(ROLL, scene="six_bar_rest").topology.node_names
+    # a path in a bag's metadata is never read: only shipped scene names are taken from a bag
+    outside = tmp_path / "elsewhere.yaml"
+    shutil.copy(scene_path("six_bar_rest"), outside)
+    meta["rosbag2_bagfile_information"]["custom_data"] = {"scene": str(outside)}
+    (copy / "metadata.yaml").write_text(yaml.safe_dump(meta))
+    with pytest.raises(BagError, match="not a shipped scene") as err:
+        BagSource(copy)
+    assert "\n" not in str(err.value)
 
 
 def _structure_bag(folder: Path, scene: str, commands: list[list[float]], step: float = 0.01,
