@@ -39,7 +39,7 @@ def send_forces(args: argparse.Namespace) -> int:
     executor.add_node(node)
     pub = node.create_publisher(ActuatorForces, args.topic, 10)
     topic = node.resolve_topic_name(args.topic)
-    rivals = _RivalPublishers(node, topic)
+    rivals = RivalPublishers(node, topic)
     try:
         # wait briefly for the subscribers so a one-shot command is not lost: every one the
         # graph knows (the controller listens too: the first match may not be the simulator)
@@ -73,15 +73,18 @@ def send_forces(args: argparse.Namespace) -> int:
         rclpy.try_shutdown()
 
 
-class _RivalPublishers:
+class RivalPublishers:
     """Says once who else publishes on the topic. The suite's controller
     (``tensegrity_controller``, started by ``tensegrity up``) stops commanding when it sees
     another node's command, until its next goal: a note says so. Any other publisher is a
     rival: the simulator applies the latest command, so a warning says these forces hold only
     until its next one. DDS discovers publishers over some time, so the graph is looked at
-    again before each command, at most once a second."""
+    again before each command, at most once a second. A publisher whose node discovery has
+    not named yet (rmw reports ``_NODE_NAME_UNKNOWN_`` until the node's graph message
+    arrives) is passed over until a later look names it."""
 
     CONTROLLER = "tensegrity_controller"
+    UNNAMED = "_NODE_NAME_UNKNOWN_"
 
     def __init__(self, node: Node, topic: str) -> None:
         self.node, self.topic = node, topic
@@ -95,7 +98,8 @@ class _RivalPublishers:
             return
         self._looked = time.monotonic()
         me = (self.node.get_name(), self.node.get_namespace())
-        others = {(i.node_name, i.node_namespace) for i in self.node.get_publishers_info_by_topic(self.topic)} - {me}
+        others = {(i.node_name, i.node_namespace) for i in self.node.get_publishers_info_by_topic(self.topic)
+                  if i.node_name != self.UNNAMED} - {me}
         controllers = sorted(_full_name(n, ns) for n, ns in others if n == self.CONTROLLER)
         rivals = sorted(_full_name(n, ns) for n, ns in others if n != self.CONTROLLER)
         if controllers and "controller" not in self._said:

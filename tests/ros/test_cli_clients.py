@@ -147,3 +147,23 @@ def test_send_forces_at_a_rate_stops_cleanly_on_sigterm(tmp_path, ros_context):
     finally:
         kill_group(proc)
     assert log.read_text() == ""
+
+
+def test_a_publisher_discovery_has_not_named_yet_is_named_on_a_later_look(capsys, monkeypatch):
+    """rmw reports a publisher's node as ``_NODE_NAME_UNKNOWN_`` until the node's graph
+    message arrives: send-forces says nothing about it then, and names it on the look after."""
+    from types import SimpleNamespace
+
+    from tensegrity_ros.cli.send_forces import RivalPublishers
+
+    graph = [[SimpleNamespace(node_name="_NODE_NAME_UNKNOWN_", node_namespace="_NODE_NAMESPACE_UNKNOWN_")],
+             [SimpleNamespace(node_name="rival", node_namespace="/")]]
+    node = SimpleNamespace(get_name=lambda: "send_forces", get_namespace=lambda: "/",
+                           get_publishers_info_by_topic=lambda topic: graph.pop(0))
+    clock = iter([0.0, 0.0, 1.5, 1.5])      # two looks a second and a half apart
+    monkeypatch.setattr("time.monotonic", lambda: next(clock))
+    rivals = RivalPublishers(node, "/actuator_forces")
+    rivals.warn()
+    assert capsys.readouterr().err == ""
+    rivals.warn()
+    assert capsys.readouterr().err.startswith("warning: /rival also publishes on /actuator_forces")
