@@ -49,6 +49,7 @@ def test_json_summary_and_a_structure_file(tmp_path, capsys):
     (["spine_relase"], "(did you mean 'spine_release'?)"),
     (["paper_fold"], "error: scene 'paper_fold' simulates the class-2 mechanism; only general structures export"),
     (["t_bar"], "error: structure 'T-bar': inertia needs a mass on every free node"),
+    (["tensegrity_table"], "inertia needs mass on every moving rigid body; 'bottom', 'top' have none (give "),
     (["pyproject.toml"], "error: pyproject.toml: structure: unknown key 'build-system'"),
     (["README.md"], "error: cannot tell what 'README.md' is: a scene file ends in .yaml or .yml"),
     (["table_gravity", "--timestep", "0"], "error: timestep must be a positive number of seconds, got 0.0"),

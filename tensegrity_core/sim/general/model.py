@@ -113,7 +113,8 @@ class NodalMasses:
         bad = [lay.body_names[b] for b in range(nb) if self.body[b] <= 0.0]
         if bad:
             raise SceneError(f"inertia needs mass on every moving rigid body; {', '.join(map(repr, bad))} "
-                             f"has none", key=("effects",))
+                             f"{'has' if len(bad) == 1 else 'have'} none (give the body a 'mass' [kg] in the "
+                             f"structure's rigid_bodies, or its nodes point masses)", key=("effects",))
         self.s_body: FloatArray
         self.I_body: FloatArray
         if nb:

@@ -173,7 +173,8 @@ def build_plan(robot: Robot, effects: RobotEffects) -> RobotPlan:
                        lay.offsets[carried])
     light = [lay.body_names[s] for s in range(nb) if not mass[s] > 0]
     if light:
-        raise SceneError(f"inertia needs mass on every moving body; {', '.join(map(repr, light))} has none",
+        raise SceneError(f"inertia needs mass on every moving body; {', '.join(map(repr, light))} "
+                         f"{'has' if len(light) == 1 else 'have'} none",
                          key=("model", "robot"))
     free = np.nonzero(lay.free_index >= 0)
     free_node = free[0][np.argsort(lay.free_index[free])]          # per free coordinate, in the layout's order
