@@ -61,7 +61,6 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile
@@ -85,6 +84,7 @@ from tensegrity_ros.nodes.sim.parameters import declare_sim_parameters
 from tensegrity_ros.nodes.sim.plant import SimPlant
 from tensegrity_ros.nodes.sim.receiver import Command, receive, receive_cables
 from tensegrity_ros.nodes.sim.schedule import TickSchedule
+from tensegrity_ros.rclpy_utils.inbox import Inbox
 from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
 
@@ -114,9 +114,11 @@ class SimNode(SimulationInterfaces):
                      for topic, kind in self.outputs.topics.items()}
         self.pub_events = self.create_publisher(SimulationEvent, "events", qos)
         self.pub_clock = self.create_publisher(ClockMsg, "/clock", qos)
-        # Commands arrive on a node and executor of their own: each wake-up of an rclpy
-        # executor walks every entity of its nodes (this node's services, action server and
-        # parameter services: ~1 ms per wake-up here), which would dominate a lockstep step.
+        # Commands arrive on a node of their own that no executor spins: the command thread
+        # waits on its two subscriptions alone and takes them (an :class:`Inbox`). An rclpy
+        # executor's wake-up walks every entity of its nodes (this node's services, action
+        # server and parameter services: ~1 ms per wake-up here) and even on these two alone
+        # costs a third of a lockstep step's CPU.
         # Free-running, the latest command wins: a history of one means a burst or flood of
         # commands can never build a backlog that the simulation would apply late. In
         # lockstep exactly one command per step is expected, so the depth does not matter.
@@ -128,8 +130,9 @@ class SimNode(SimulationInterfaces):
         self._command_node = Node(f"{self.get_name()}_commands", namespace=self.get_namespace(),
                                   context=self.context, start_parameter_services=False,
                                   parameter_overrides=[Parameter("start_type_description_service", value=False)])
-        self._command_node.create_subscription(ActuatorForces, "actuator_forces", self.on_forces, 1)
-        self._command_node.create_subscription(CableCommand, "cable_commands", self.on_cables, 100)
+        self._inbox = Inbox(self._command_node)
+        self._inbox.subscribe(ActuatorForces, "actuator_forces", self.on_forces, 1)
+        self._inbox.subscribe(CableCommand, "cable_commands", self.on_cables, 100)
         self._create_interfaces()
 
         self.rejected = 0
@@ -146,8 +149,6 @@ class SimNode(SimulationInterfaces):
         self._pace_wait = 0.0                # paced lockstep: how long the loop thread sleeps
         self._stop = threading.Event()
         self._wake = threading.Event()
-        self._command_executor = SingleThreadedExecutor(context=self.context)
-        self._command_executor.add_node(self._command_node)
         self._command_thread = threading.Thread(target=self._spin_commands, name="tensegrity_sim_commands",
                                                 daemon=True)
         self._command_thread.start()
@@ -171,11 +172,12 @@ class SimNode(SimulationInterfaces):
         poll = min(0.05, self.p.lockstep_timeout / 5)
         try:
             while rclpy.ok(context=self.context) and not self._stop.is_set():
-                self._command_executor.spin_once(timeout_sec=poll)
+                self._inbox.wait(poll)
                 if self.p.lockstep and time.monotonic() - self._waiting_since >= poll:
                     self._on_lockstep_timer()
-        except (ExternalShutdownException, KeyboardInterrupt):
-            pass
+        except Exception:
+            if rclpy.ok(context=self.context) and not self._stop.is_set():
+                raise                        # a wait ended by the context's shutdown is the end
 
     # -- the loop thread: free-running ticks, free-running stepping requests, paused republishing
     def _loop(self) -> None:
@@ -451,8 +453,8 @@ class SimNode(SimulationInterfaces):
         self._stop.set()
         self._wake.set()
         self._thread.join(timeout=5.0)
+        self._inbox.wake()
         self._command_thread.join(timeout=5.0)
-        self._command_executor.shutdown(timeout_sec=5.0)
         self._command_node.destroy_node()
         with self._lock:
             # the executor is shut down by now, so a waiting request is not answered (its
