@@ -78,13 +78,14 @@ def parse_cable_command(names: Sequence[str], rest_lengths: Sequence[float], ree
     if not names:
         indices = list(range(len(inputs)))
     else:
+        position = {name: i for i, name in enumerate(inputs)}
         indices = []
         for name in names:
-            if name not in inputs:
+            i = position.pop(name, None)
+            if i is None:
+                if name in inputs:
+                    raise CommandError(f"cable {name} named twice")
                 raise CommandError(f"unknown cable name {excerpt(name)} (actuated cables: {listed(inputs)})")
-            i = inputs.index(name)
-            if i in indices:
-                raise CommandError(f"cable {name} named twice")
             indices.append(i)
     used = {modes[i] for i in indices}
     for mode, values in lists.items():

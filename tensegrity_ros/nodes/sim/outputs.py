@@ -73,9 +73,10 @@ class Outputs:
 
     def messages(self, hdr: Header, wanted: Callable[[str], bool]) -> Messages:
         """The messages of this publication (counted by the decimation) for the topics
-        ``wanted`` (someone subscribes); the expensive observation only when needed."""
+        ``wanted`` (someone subscribes; asked only of the topics due: an rmw graph query
+        each); the expensive observation only when needed."""
         due = self.decimation.next()
-        want = {t for t in self.topics if wanted(t) and (t not in self.decimation.every or t in due)}
+        want = {t for t in self.topics if (t not in self.decimation.every or t in due) and wanted(t)}
         if not want:
             return []
         out: Messages = []

@@ -10,7 +10,7 @@ returns a message. Units SI; forces tension positive.
 from __future__ import annotations
 
 import array
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -59,10 +59,10 @@ def point(p: Coordinates) -> Point:
     return Point(x=float(p[0]), y=float(p[1]), z=float(p[2]))
 
 
-def _doubles(values: Iterable[float]) -> array.array[float]:
+def _doubles(values: Sequence[float] | NDArray[np.float64]) -> array.array[float]:
     """A float64 sequence field's value (``array('d')`` takes rclpy's fast path: a list is
-    checked element by element on assignment)."""
-    return array.array("d", [float(v) for v in values])
+    checked element by element on assignment), filled from the values' bytes at once."""
+    return array.array("d", np.ascontiguousarray(values, dtype=np.float64).tobytes())
 
 
 def joint_state_msg(sample: JointSample, hdr: Header) -> JointState:
