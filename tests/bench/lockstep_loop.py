@@ -5,9 +5,9 @@ this process: the measurement the stepping, general-structure and robot benchmar
 ``tensegrity node sim`` in lockstep with the given parameters, and a client node here that
 answers every joint state once with the command ``answer()`` gives, stamped like it.
 
-- :meth:`LockstepLoop.ping_pong`: ``n`` round trips JointState out to the echo,
-  ActuatorForces back, the next JointState on its arrival (the same two hops and types as
-  the loop, no simulation); seconds per round trip.
+- :meth:`LockstepLoop.ping_pong`: ``n`` round trips JointState out to the echo, the
+  loop's command back (the message ``answer()`` gives), the next JointState on its arrival
+  (the same two hops and messages as the loop, no simulation); seconds per round trip.
 - :meth:`LockstepLoop.lockstep`: one ``StepSimulation(n)``, each step state out, command in,
   one step; seconds per step.
 
@@ -54,15 +54,16 @@ class LockstepLoop:
     def __init__(self, env: dict, sim_params: list[str], *, n: int, joints: list[str], command_type: type,
                  command_topic: str, answer: Callable[[], object]):
         from rclpy.qos import QoSProfile
+        from rclpy.serialization import serialize_message
         from sensor_msgs.msg import JointState
         from simulation_interfaces.srv import StepSimulation
-        from tensegrity_msgs.msg import ActuatorForces
 
         from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
         self.n = n
         self.n_wanted = n                 # pongs the current exchange waits for
-        self.echo = subprocess.Popen([sys.executable, "-m", "tests.bench.ros_echo_server"], env=env,
+        self.echo = subprocess.Popen([sys.executable, "-m", "tests.bench.ros_echo_server", "--answer",
+                                      command_type.__name__, serialize_message(answer()).hex()], env=env,
                                      stdout=subprocess.PIPE, text=True)
         self.echo.stdout.readline()
         params = [*sim_params, "lockstep:=true", "initial_state:=paused", "paused_publish_rate:=0.0",
@@ -73,7 +74,7 @@ class LockstepLoop:
         self.got = 0
         zeros = [0.0] * len(joints)
         self._ping_msg = lambda: JointState(name=list(joints), position=zeros, velocity=zeros, effort=zeros)
-        self.node.create_subscription(ActuatorForces, "bench_pong", self._on_pong, QoSProfile(depth=100))
+        self.node.create_subscription(command_type, "bench_pong", self._on_pong, QoSProfile(depth=100))
         self.pub = self.node.create_publisher(command_type, command_topic, QoSProfile(depth=100))
         self._answer = answer
         self._answered = -1

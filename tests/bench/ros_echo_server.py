@@ -1,15 +1,21 @@
 """Bare rclpy baselines of the ROS benchmarks (what DDS and rclpy alone cost on this
 machine): a service that answers std_srvs/Trigger at once (``bench_echo``, against
 ``solve_ik`` and ``StepSimulation``), and a topic echo that answers every
-sensor_msgs/JointState on ``bench_ping`` with a tensegrity_msgs/ActuatorForces of the same
-stamp on ``bench_pong`` (against the lockstep loop, which exchanges those two types). The
-echo is a node of its own without parameter services on an executor of its own, as the
-simulator takes its commands: an rclpy executor's wake-up walks every entity of its nodes,
-so the leanest rclpy answer is the fair baseline."""
+sensor_msgs/JointState on ``bench_ping`` with a command message of the same stamp on
+``bench_pong`` (against the lockstep loop, which exchanges a joint state and a command):
+by default a tensegrity_msgs/ActuatorForces of two forces; with ``--answer TYPE HEX`` the
+message of that tensegrity_msgs type serialized in ``HEX`` (the lockstep controller's own
+command, so both exchanges carry the same messages). The echo is a node of its own
+without parameter services on an executor of its own: an rclpy executor's wake-up walks
+every entity of its nodes, so the leanest rclpy answer is the fair baseline."""
+
+import argparse
 
 import rclpy
+import tensegrity_msgs.msg
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.qos import QoSProfile
+from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 from tensegrity_msgs.msg import ActuatorForces
@@ -18,14 +24,21 @@ from tensegrity_ros.rclpy_utils.spin_thread import SpinThread
 
 
 def main() -> None:
+    ap = argparse.ArgumentParser(prog="python -m tests.bench.ros_echo_server")
+    ap.add_argument("--answer", nargs=2, metavar=("TYPE", "HEX"),
+                    help="answer with this serialized tensegrity_msgs message (default: ActuatorForces f1, f2)")
+    args = ap.parse_args()
+    kind, serialized = ActuatorForces, serialize_message(ActuatorForces(name=["f1", "f2"], force=[0.0, 0.0]))
+    if args.answer:
+        kind, serialized = getattr(tensegrity_msgs.msg, args.answer[0]), bytes.fromhex(args.answer[1])
     rclpy.init()
     node = rclpy.create_node("bench_echo_server")
     node.create_service(Trigger, "bench_echo", lambda req, res: res)
     echo = rclpy.create_node("bench_topic_echo", start_parameter_services=False)
-    pong = echo.create_publisher(ActuatorForces, "bench_pong", QoSProfile(depth=100))
+    pong = echo.create_publisher(kind, "bench_pong", QoSProfile(depth=100))
 
     def answer(msg: JointState) -> None:
-        out = ActuatorForces(name=["f1", "f2"], force=[0.0, 0.0])
+        out = deserialize_message(serialized, kind)      # a new message per answer, as a controller makes
         out.header.stamp = msg.header.stamp
         pong.publish(out)
 
