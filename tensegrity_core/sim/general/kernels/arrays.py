@@ -229,9 +229,7 @@ def member_forces(sums: Sums, EA: FloatArray, damping: FloatArray, is_string: Bo
     in the loops' order."""
     h = src.take(sums.position_b, axis=1)             # (B, 3, m)
     h -= src.take(sums.position_a, axis=1)
-    hh = h * h
-    np.add(hh[:, 0], hh[:, 1], out=lengths)
-    lengths += hh[:, 2]
+    np.add.reduce(h * h, axis=1, out=lengths)         # the components added in turn, as the loops do
     np.sqrt(lengths, out=lengths)
     u = h
     u /= lengths[:, None]
@@ -243,8 +241,7 @@ def member_forces(sums: Sums, EA: FloatArray, damping: FloatArray, is_string: Bo
         dv = src.take(sums.velocity_b, axis=1)
         dv -= src.take(sums.velocity_a, axis=1)
         dv *= u
-        rate = np.add(dv[:, 0], dv[:, 1], out=member_rates)
-        rate += dv[:, 2]
+        rate = np.add.reduce(dv, axis=1, out=member_rates)
         if damped:
             t += damping * rate
     if np.count_nonzero(is_string):
