@@ -79,6 +79,7 @@ class ArrayStages:
         nb, m = len(plan.body_dof), len(plan.EA)
         self._R, self._lengths, self._forces = np.empty((1, nb, 3, 3)), np.empty((1, m)), np.empty((1, m))
         self._rates = np.empty((1, m))
+        self._contributions = arrays.contributions(plan.external, 1, m)
         N = 2 * plan.n_dof
         self._K, self._stage = np.empty((4, N)), np.empty(N)          # a step's stages and stage state
 
@@ -86,7 +87,7 @@ class ArrayStages:
         """``out`` (N,) = ``dy/dt`` of one state; its member lengths [m] are left in
         ``self._lengths[0]`` and, if ``rates``, their lengthening rates [m/s] in ``self._rates[0]``."""
         arrays.derivatives(*self.plan, y[None], self.R_ref, l0[None], out[None], None, None, self._R, self._lengths,
-                           self._forces, self.sums, self._rates if rates else None)
+                           self._forces, self.sums, self._rates if rates else None, self._contributions)
 
     def _step(self, t: float, y: FloatArray, f: FloatArray, h: float,
               l0: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:

@@ -336,10 +336,13 @@ def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free
                 damping: FloatArray, is_string: BoolArray, external: FloatArray,
                 y: FloatArray, R_ref: FloatArray, l0: FloatArray, out: FloatArray,
                 X: FloatArray | None, V: FloatArray | None, R: FloatArray, lengths: FloatArray, forces: FloatArray,
-                sums: Sums, member_rates: FloatArray | None = None) -> None:
+                sums: Sums, member_rates: FloatArray | None = None,
+                work: tuple[FloatArray, FloatArray] | None = None) -> None:
     """:func:`.loops.derivatives`: ``out = dy/dt`` of a batch of states, keeping ``X``, ``V``
     (None: not kept), ``R``, ``lengths`` and ``forces`` per state (``sums``: the plan's
-    :class:`Sums`), and the members' lengthening rates [m/s] in ``member_rates`` (B, m) if given."""
+    :class:`Sums`), and the members' lengthening rates [m/s] in ``member_rates`` (B, m) if
+    given; ``work``: the contributions of :func:`contributions` for this plan and batch size
+    to reuse (their external forces and zero stay in place), else allocated here."""
     B, n_dof, n_free = len(y), y.shape[1] // 2, len(free_node)
     moving = body_nodes(on_body, on_offset, body_dof, y, R_ref, R) if len(body_dof) else None
     src = sources(sums, y, None if moving is None else moving[1:])
@@ -347,7 +350,7 @@ def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free
         X[...] = src.take(sums.node_position, axis=1)
     if V is not None:
         V[...] = src.take(sums.node_velocity, axis=1)
-    c, pulls = contributions(external, B, len(EA))
+    c, pulls = contributions(external, B, len(EA)) if work is None else work
     member_forces(sums, EA, damping, is_string, l0, src, lengths, forces, pulls, member_rates)
     pull_back(c, len(EA))
     out[:, :n_free] = y[:, n_dof:n_dof + n_free]
