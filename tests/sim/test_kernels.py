@@ -194,32 +194,53 @@ def test_the_general_and_the_robot_plans_start_with_the_same_placement():
 
 @settings(max_examples=40)
 @given(n=st.integers(1, 6), ends=st.lists(st.tuples(st.integers(0, 5), st.integers(0, 5)), max_size=12),
-       bodies=st.lists(st.integers(0, 2), max_size=8), B=st.integers(1, 3), seed=st.integers(0, 2**31))
-def test_the_numpy_kernels_sums_are_the_sums_written_out(n, ends, bodies, B, seed):
-    """The sparse sums of the numpy kernels against sums written out member by member:
-    no member, members sharing nodes, nodes without members, bodies without nodes, batches.
-    ``h = x_b - x_a`` is exact (one subtraction); the scatter-adds agree to rounding."""
+       kinds=st.lists(st.sampled_from(["free", "fixed", "body"]), min_size=18, max_size=18),
+       bodies=st.lists(st.integers(0, 2), min_size=6, max_size=6), B=st.integers(1, 3), seed=st.integers(0, 2**31))
+def test_the_numpy_kernels_gathers_are_the_sums_written_out(n, ends, kinds, bodies, B, seed):
+    """The gathers of the numpy kernels against sums written out member by member: no
+    member, members sharing nodes, nodes without members, free, fixed and body coordinates,
+    bodies without nodes, batches. Node coordinates and ``h = x_b - x_a`` are exact (one
+    subtraction); the nodal forces too: their table adds the external force and then the
+    members in member order, as the loop below does."""
     from tensegrity_core.sim.general.kernels import arrays
 
     pairs = [(a % n, b % n) for a, b in ends if a % n != b % n]
     a = np.array([p[0] for p in pairs], dtype=np.int64)
     b = np.array([p[1] for p in pairs], dtype=np.int64)
-    on_body = np.array(bodies, dtype=np.int64)
-    sums = arrays.sums(n, a, b, on_body, 3)
+    on_node = np.array([k for k in range(n) if kinds[3 * k] == "body"], dtype=np.int64)
+    on_body = np.array([bodies[k] for k in on_node], dtype=np.int64)
+    free = np.array([(k, c) for k in range(n) for c in range(3) if k not in on_node and kinds[3 * k + c] == "free"],
+                    dtype=np.int64).reshape(-1, 2)
+    free_node, free_axis = free[:, 0], free[:, 1]
     rng = np.random.default_rng(seed)
-    X = rng.normal(size=(B, n, 3))
-    ft = rng.normal(size=(B, len(pairs), 3))
-    w = rng.normal(size=(B, len(bodies), 6))
-    np.testing.assert_array_equal(arrays.product(sums.difference, X), X[:, b] - X[:, a])
-    F = np.zeros((B, n, 3))
+    base = rng.normal(size=(n, 3))
+    body_dof = len(free_node) + 6 * np.arange(3)
+    sums = arrays.sums(base, free_node, free_axis, on_node, on_body, body_dof, a, b)
+    n_dof = len(free_node) + 18
+    y = rng.normal(size=(B, 2 * n_dof))
+    on_x, on_v = rng.normal(size=(B, len(on_node), 3)), rng.normal(size=(B, len(on_node), 3))
+    X, V = np.broadcast_to(base, (B, n, 3)).copy(), np.zeros((B, n, 3))
+    X[:, free_node, free_axis], V[:, free_node, free_axis] = y[:, :len(free_node)], y[:, n_dof:n_dof + len(free_node)]
+    X[:, on_node], V[:, on_node] = on_x, on_v
+    src = arrays.sources(sums, y, (on_x, on_v) if len(on_node) else None)
+    np.testing.assert_array_equal(src.take(sums.node_position, axis=1), X)
+    np.testing.assert_array_equal(src.take(sums.node_velocity, axis=1), V)
+    h = src.take(sums.position_b, axis=1) - src.take(sums.position_a, axis=1)
+    np.testing.assert_array_equal(h.transpose(0, 2, 1), X[:, b] - X[:, a])
+    np.testing.assert_array_equal((src.take(sums.velocity_b, axis=1) - src.take(sums.velocity_a, axis=1))
+                                  .transpose(0, 2, 1), V[:, b] - V[:, a])
+    external, pulls = rng.normal(size=(n, 3)), rng.normal(size=(B, 3, len(pairs)))
+    F = np.broadcast_to(external, (B, n, 3)).copy()
+    for i in range(len(pairs)):
+        F[:, a[i]] += pulls[:, :, i]
+        F[:, b[i]] -= pulls[:, :, i]
+    c, into = arrays.contributions(external, B, len(pairs))
+    into[...] = pulls
+    arrays.pull_back(c, len(pairs))
+    np.testing.assert_array_equal(arrays.gather_sum(c, sums.free_table), F[:, free_node, free_axis])
+    np.testing.assert_array_equal(arrays.gather_sum(c, sums.on_table), F[:, on_node])
+    w = rng.normal(size=(B, len(on_node), 6))
     total = np.zeros((B, 3, 6))
-    for k in range(B):
-        for i in range(len(pairs)):
-            F[k, a[i]] += ft[k, i]
-            F[k, b[i]] -= ft[k, i]
-        for j, body in enumerate(bodies):
-            total[k, body] += w[k, j]
-    np.testing.assert_allclose(arrays.product(sums.reaction, ft), F, rtol=0, atol=1e-14 * max(1, len(pairs)))
-    np.testing.assert_allclose(arrays.product(sums.body_sum, w), total, rtol=0, atol=1e-14 * max(1, len(bodies)))
-    one = np.concatenate([arrays.product(sums.reaction, ft[k:k + 1]) for k in range(B)])
-    np.testing.assert_array_equal(arrays.product(sums.reaction, ft), one)
+    for j, body in enumerate(on_body):
+        total[:, body] += w[:, j]
+    np.testing.assert_allclose(arrays.product(sums.body_sum, w), total, rtol=0, atol=1e-14 * max(1, len(on_node)))

@@ -24,14 +24,19 @@ from tensegrity_core.sim.integrators import Run
 FloatArray = NDArray[np.float64]
 
 
-def quiet_step(g0: FloatArray, r0: FloatArray, g1: FloatArray, r1: FloatArray, moving: NDArray[np.bool_],
-               h: float) -> bool:
+def quiet_step(g0: FloatArray, a0: FloatArray, s0: FloatArray, g1: FloatArray, a1: FloatArray, s1: FloatArray,
+               fixed: NDArray[np.bool_] | None, h: float) -> bool:
     """:func:`.loops.quiet_step` over arrays: no string can cross zero in a step of ``h`` [s]
-    whose gaps are ``g0``, ``g1`` [m] and rates ``r0``, ``r1`` [m/s] at its ends."""
-    if not np.all(g0 * g1 > 0.0):
+    whose gaps are ``g0``, ``g1`` [m] at its ends, given with their magnitudes ``a0``, ``a1``
+    and the magnitudes ``s0``, ``s1`` of their rates [m/s] (computed once per step end: a
+    step's end is the next one's start); ``fixed``: per string, its rest length does not
+    move with an input (None: none moves)."""
+    if not (g0 * g1 > 0.0).all():
         return False
-    reach = (4.0 / 27.0) * h * (np.abs(r0) + np.abs(r1)) * (1.0 + 1e-9)
-    return not np.any(~moving & (np.minimum(np.abs(g0), np.abs(g1)) < reach))
+    near = np.minimum(a0, a1) < (4.0 / 27.0) * h * (s0 + s1) * (1.0 + 1e-9)
+    if fixed is not None:
+        near &= fixed
+    return not near.any()
 
 
 def chart_due(rotation_columns: NDArray[np.int64], y: FloatArray, angle: float) -> bool:
@@ -71,40 +76,45 @@ class ArrayStages:
         self.constant = constant
         self.strings, self.moving, self.rechart_angle = strings, moving, float(rechart_angle)
         self.rotation_columns = plan.body_dof[:, None] + 3 + np.arange(3)
-        n, nb, m = plan.n_nodes, len(plan.body_dof), len(plan.EA)
-        self._X, self._V = np.empty((1, n, 3)), np.empty((1, n, 3))
+        nb, m = len(plan.body_dof), len(plan.EA)
         self._R, self._lengths, self._forces = np.empty((1, nb, 3, 3)), np.empty((1, m)), np.empty((1, m))
         self._rates = np.empty((1, m))
+        self._contributions = arrays.contributions(plan.external, 1, m)
         N = 2 * plan.n_dof
         self._K, self._stage = np.empty((4, N)), np.empty(N)          # a step's stages and stage state
 
     def _rate(self, y: FloatArray, l0: FloatArray, out: FloatArray, rates: bool = False) -> None:
         """``out`` (N,) = ``dy/dt`` of one state; its member lengths [m] are left in
         ``self._lengths[0]`` and, if ``rates``, their lengthening rates [m/s] in ``self._rates[0]``."""
-        arrays.derivatives(*self.plan, y[None], self.R_ref, l0[None], out[None], self._X, self._V, self._R,
-                           self._lengths, self._forces, self.sums, self._rates if rates else None)
+        arrays.derivatives(*self.plan, y[None], self.R_ref, l0[None], out[None], None, None, self._R, self._lengths,
+                           self._forces, self.sums, self._rates if rates else None, self._contributions)
 
-    def _step(self, t: float, y: FloatArray, f: FloatArray, h: float) -> tuple[FloatArray, FloatArray]:
-        """One RK4 step: ``(y_new, f_new)``, the member rates at ``y_new`` in ``self._rates[0]``."""
+    def _step(self, t: float, y: FloatArray, f: FloatArray, h: float,
+              l0: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
+        """One RK4 step: ``(y_new, f_new)``, the member rates at ``y_new`` in ``self._rates[0]``;
+        ``l0`` the rest lengths [m] at every stage if constant, else None."""
         K, stage = self._K, self._stage
         K[0] = f
         for j, c in ((1, 0.5), (2, 0.5), (3, 1.0)):        # stage j at y + c h K[j - 1]
             np.multiply(K[j - 1], c * h, out=stage)
             stage += y
-            self._rate(stage, self.rest_lengths(t + c * h), K[j])
+            self._rate(stage, self.rest_lengths(t + c * h) if l0 is None else l0, K[j])
         y_new = RK4_B @ K
         y_new *= h
         y_new += y
         f_new = np.empty_like(y)
-        self._rate(y_new, self.rest_lengths(t + h), f_new, rates=True)
+        self._rate(y_new, self.rest_lengths(t + h) if l0 is None else l0, f_new, rates=True)
         return y_new, f_new
 
     def rk4(self, t: float, y: FloatArray, f: FloatArray, h: float) -> tuple[FloatArray, FloatArray]:
         return self._step(t, y, f, h)
 
-    def _gaps(self, l0: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """The strings' gaps ``l - l0`` [m] and rates [m/s] of the last evaluation with rates."""
-        return self._lengths[0, self.strings] - l0[self.strings], self._rates[0, self.strings]
+    def _gaps(self, l0: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """The strings' gaps ``l - l0`` [m], their magnitudes and the magnitudes of their rates
+        [m/s] of the last evaluation with rates."""
+        gap = self._lengths[0].take(self.strings)
+        gap -= l0
+        return gap, np.abs(gap), np.abs(self._rates[0].take(self.strings))
 
     def rk4_run(self, t: float, y: FloatArray, f: FloatArray, h_fixed: float, t_bound: float, horizon: float,
                 samples: FloatArray, sample: int) -> Run:
@@ -114,25 +124,28 @@ class ArrayStages:
         the last one cover; constant rest lengths only."""
         assert self.constant, "a stretch of steps needs constant rest lengths"
         l0 = self.rest_lengths(t)
+        l0_strings = l0.take(self.strings)
+        fixed = None if not self.moving.any() else ~self.moving
+        rotations = len(self.rotation_columns) > 0
         Y = np.empty((len(samples), len(y)))
         self._rate(y, l0, np.empty_like(y), rates=True)
-        g0, r0 = self._gaps(l0)
+        g0, a0, s0 = self._gaps(l0_strings)
         steps = 0
         while True:
             left = t_bound - t
             h = left if left < h_fixed * (1.0 + 1e-9) else h_fixed
-            y_new, f_new = self._step(t, y, f, h)
+            y_new, f_new = self._step(t, y, f, h, l0)
             t_new = t_bound if h == left else t + h
             steps += 1
-            g1, r1 = self._gaps(l0)
-            if t_new >= horizon or t_new >= t_bound or not quiet_step(g0, r0, g1, r1, self.moving, t_new - t) \
-                    or chart_due(self.rotation_columns, y_new, self.rechart_angle):
+            g1, a1, s1 = self._gaps(l0_strings)
+            if t_new >= horizon or t_new >= t_bound or not quiet_step(g0, a0, s0, g1, a1, s1, fixed, t_new - t) \
+                    or (rotations and chart_due(self.rotation_columns, y_new, self.rechart_angle)):
                 return Run(steps, steps, t, y, f, t_new, y_new, f_new, sampled=sample, Y=Y)
-            end = int(np.searchsorted(samples, t_new, side="right")) if sample < len(samples) else sample
-            end = max(end, sample)
-            if end == sample + 1 and samples[sample] == t_new:
-                Y[sample] = y_new
-            elif end > sample:
-                Y[sample:end] = hermite(y, f, y_new, f_new, t_new - t, (samples[sample:end] - t) / (t_new - t))
-            sample = end
-            t, y, f, g0, r0 = t_new, y_new, f_new, g1, r1
+            if sample < len(samples) and samples[sample] <= t_new:
+                end = int(np.searchsorted(samples, t_new, side="right"))
+                if end == sample + 1 and samples[sample] == t_new:
+                    Y[sample] = y_new
+                else:
+                    Y[sample:end] = hermite(y, f, y_new, f_new, t_new - t, (samples[sample:end] - t) / (t_new - t))
+                sample = end
+            t, y, f, g0, a0, s0 = t_new, y_new, f_new, g1, a1, s1

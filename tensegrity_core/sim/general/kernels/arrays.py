@@ -3,9 +3,10 @@
 Used where numba is not installed or not wanted (:mod:`.jit`). Every function works on a
 batch of states at once (the leading axis ``B``), so its per-call cost of numpy on small
 arrays is shared by the batch. Arguments and results are those of the loop kernels of the
-same name, but that the right-hand side's gathers and scatter-adds over members and bodies
-read the sparse matrices of :class:`Sums`, built once per topology; the formulas are the
-same, in the same order where rounding could tell.
+same name, but that the right-hand side places its nodes and sums over its members with the
+precomputed gathers of :class:`Sums`, built once per topology (a right-hand side is about
+25 numpy calls whatever the size); the formulas are the same, in the same order where
+rounding could tell.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from numpy.typing import NDArray
 
 from tensegrity_core.general.rotation import cross, hat
 from tensegrity_core.sim.general.kernels.loops import SMALL_ANGLE
+from tensegrity_core.sim.general.kernels.plan import Plan
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -65,31 +67,105 @@ def _apply_transpose(M: FloatArray, v: FloatArray) -> FloatArray:
 
 
 class Sums(NamedTuple):
-    """A plan's sums over members and bodies as scipy.sparse CSR matrices (untyped: Any).
+    """A plan's gathers and sums as constant index arrays, built once per topology.
 
-    numpy has no fast scatter-add (``np.add.at`` and three ``np.bincount`` cost several times
-    a sparse product), and fancy-indexed gathers copy twice; scipy's compiled CSR product
-    does either in one pass. ``difference`` (m, n): row ``i`` is ``e_b - e_a`` of member
-    ``i``, so ``difference @ X`` is the members' vectors ``h = x_b - x_a`` exactly (one
-    subtraction per entry); ``reaction`` (n, m) is ``-difference^T``, so ``reaction @ (t u)``
-    [N] are the nodal forces of member forces ``t`` along their unit vectors ``u`` (node
-    ``a`` pulled along ``+u``, ``b`` along ``-u`` by a tensile member); ``body_sum`` (nb,
-    n_on) sums the body nodes' values per moving body."""
+    numpy has no fast scatter-add (``np.add.at`` and ``np.bincount`` cost several times a
+    gather), scipy's sparse product costs ~5-10 us of Python dispatch per call (more than the
+    whole sum on a few hundred members) and fancy-indexed assignment is several times slower
+    than ``np.take`` with a precomputed index, the cheapest numpy call on small and large
+    arrays alike. So every placement and every sum over members is a gather.
 
-    difference: Any
-    reaction: Any
+    A state's *sources* (:func:`sources`) are the flat array ``[y (2 n_dof) | drawn
+    coordinates (3n) | 0 | body nodes' positions (3 n_on) | their velocities (3 n_on)]``:
+    every node coordinate and velocity is one of its entries (a free coordinate its ``x`` or
+    ``v``, a fixed one its drawn value and zero velocity). ``position_a``, ``position_b``,
+    ``velocity_a``, ``velocity_b`` (3, m) index the members' ends there, component-major
+    (``[k, i]``: axis ``k`` of member ``i``), so ``h = x_b - x_a`` is two gathers and a
+    subtraction; ``node_position``, ``node_velocity`` (n, 3) index every node.
+
+    A state's *contributions* (:func:`contributions`) are the flat array ``[external (3n,
+    node-major) | +t u (3m, component-major) | -t u (3m) | 0]``: a tensile member ``i`` pulls
+    its node ``a_i`` along ``+u_i`` and its node ``b_i`` along ``-u_i``. ``free_table``
+    (d, n_free) lists per free coordinate the contributions it sums (its external force,
+    then its members in member order, padded with the final zero), ``on_table`` (d, n_on, 3)
+    those of the body nodes' coordinates. A sum over the first axis of a gather adds the rows
+    one after the other, the loops' order: the nodal forces are the loops' for the same
+    member forces. ``constant`` (3n + 1,) is the drawn coordinates and the zero of the
+    sources; ``body_sum`` (nb, n_on) a scipy.sparse CSR matrix (untyped: Any) summing the
+    body nodes' values per moving body."""
+
+    position_a: IntArray
+    position_b: IntArray
+    velocity_a: IntArray
+    velocity_b: IntArray
+    node_position: IntArray
+    node_velocity: IntArray
+    free_table: IntArray
+    on_table: IntArray
+    constant: FloatArray
     body_sum: Any
 
 
-def sums(n_nodes: int, member_a: IntArray, member_b: IntArray, on_body: IntArray, nb: int) -> Sums:
-    """The :class:`Sums` of ``n_nodes`` nodes, members ``(member_a, member_b)`` and body nodes
-    on the moving bodies ``on_body`` (of ``nb``)."""
-    m, rows = len(member_a), np.arange(len(member_a))
-    difference = sp.csr_array((np.concatenate([-np.ones(m), np.ones(m)]),
-                               (np.concatenate([rows, rows]), np.concatenate([member_a, member_b]))),
-                              shape=(m, n_nodes))
-    body_sum = sp.csr_array((np.ones(len(on_body)), (on_body, np.arange(len(on_body)))), shape=(nb, len(on_body)))
-    return Sums(difference, sp.csr_array(-difference.T), body_sum)
+def sums(base: FloatArray, free_node: IntArray, free_axis: IntArray, on_node: IntArray, on_body: IntArray,
+         body_dof: IntArray, member_a: IntArray, member_b: IntArray) -> Sums:
+    """The :class:`Sums` of nodes drawn at ``base`` (n, 3) [m], free coordinates ``(free_node,
+    free_axis)``, body nodes ``on_node`` on the moving bodies ``on_body`` (of ``len(body_dof)``)
+    and members ``(member_a, member_b)``."""
+    n, m, n_free, n_on, three = len(base), len(member_a), len(free_node), len(on_node), np.arange(3)
+    n_dof = n_free + 6 * len(body_dof)
+    zero = 2 * n_dof + 3 * n                       # the sources' zero
+    position = 2 * n_dof + 3 * np.arange(n)[:, None] + three
+    velocity = np.full((n, 3), zero)
+    position[free_node, free_axis] = np.arange(n_free)
+    velocity[free_node, free_axis] = n_dof + np.arange(n_free)
+    position[on_node] = zero + 1 + 3 * np.arange(n_on)[:, None] + three
+    velocity[on_node] = zero + 1 + 3 * n_on + 3 * np.arange(n_on)[:, None] + three
+    # contributions per node in member order: (node, member, offset of its +t u or -t u)
+    node = np.concatenate([member_a, member_b]).astype(np.int64)
+    member = np.concatenate([np.arange(m), np.arange(m)])
+    offset = 3 * n + np.concatenate([np.arange(m), 3 * m + np.arange(m)])
+    order = np.lexsort((member, node))
+    node, offset = node[order], offset[order]
+    degree = np.bincount(node, minlength=n)
+    slot = np.arange(len(node)) - np.repeat(np.cumsum(degree) - degree, degree)
+    table = np.full((1 + int(degree.max(initial=0)), n, 3), 3 * n + 6 * m, dtype=np.int64)
+    table[0] = 3 * np.arange(n)[:, None] + three                  # the external force first
+    table[1 + slot, node] = offset[:, None] + m * three
+    a, b = np.asarray(member_a), np.asarray(member_b)
+    return Sums(position_a=np.ascontiguousarray(position[a].T), position_b=np.ascontiguousarray(position[b].T),
+                velocity_a=np.ascontiguousarray(velocity[a].T), velocity_b=np.ascontiguousarray(velocity[b].T),
+                node_position=position, node_velocity=velocity,
+                free_table=np.ascontiguousarray(table[:, free_node, free_axis]),
+                on_table=np.ascontiguousarray(table[:, on_node]),
+                constant=np.append(np.asarray(base, dtype=float).ravel(), 0.0),
+                body_sum=sp.csr_array((np.ones(n_on), (on_body, np.arange(n_on))), shape=(len(body_dof), n_on)))
+
+
+def plan_sums(plan: Plan) -> Sums:
+    """The :class:`Sums` of ``plan``'s topology."""
+    return sums(plan.base, plan.free_node, plan.free_axis, plan.on_node, plan.on_body, plan.body_dof,
+                plan.member_a, plan.member_b)
+
+
+def sources(sums: Sums, y: FloatArray, body_nodes: tuple[FloatArray, FloatArray] | None) -> FloatArray:
+    """The sources (B, 2 n_dof + 3n + 1 + 6 n_on) of :class:`Sums` of states ``y`` (B, 2 n_dof)
+    whose body nodes are at ``body_nodes`` (positions, velocities (B, n_on, 3); None: no body
+    node)."""
+    B = len(y)
+    if B == 1 and body_nodes is None:
+        one: FloatArray = np.concatenate([y, sums.constant[None]], axis=1)
+        return one
+    tail = [] if body_nodes is None else [body_nodes[0].reshape(B, -1), body_nodes[1].reshape(B, -1)]
+    src = np.empty((B, y.shape[1] + len(sums.constant) + sum(t.shape[1] for t in tail)))
+    np.concatenate([y, np.broadcast_to(sums.constant, (B, len(sums.constant)))] + tail, axis=1, out=src)
+    return src
+
+
+def gather_sum(values: FloatArray, table: IntArray) -> FloatArray:
+    """``sum_k values[:, table[k]]`` for values (B, c) and a table (d, ...): (B, ...), the rows
+    added in the table's order."""
+    out: FloatArray = np.add.reduce(values.take(table, axis=1), axis=1)
+    return out
 
 
 def product(S: Any, values: FloatArray) -> FloatArray:
@@ -113,6 +189,19 @@ def scatter(index: IntArray, values: FloatArray, n: int) -> FloatArray:
     return out.reshape(B, n, 3)
 
 
+def body_nodes(on_body: IntArray, on_offset: FloatArray, body_dof: IntArray, y: FloatArray, R_ref: FloatArray,
+               R: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Fills the bodies' rotations ``R`` (B, nb, 3, 3) of states ``y`` (B, 2 n_dof) in the
+    charts ``R_ref``; returns the body nodes' arms ``r``, positions and velocities (B, n_on, 3)."""
+    n_dof = y.shape[1] // 2
+    three = np.arange(3)
+    R[...] = rotations(y[:, body_dof[:, None] + 3 + three]) @ R_ref
+    Ron = R[:, on_body]
+    r = _apply(Ron, np.broadcast_to(on_offset, Ron.shape[:-1]))
+    cols = body_dof[on_body][:, None] + three
+    return r, y[:, cols] + r, y[:, n_dof + cols] + cross(y[:, n_dof + 3 + cols], r)
+
+
 def place(base: FloatArray, free_node: IntArray, free_axis: IntArray, on_node: IntArray, on_body: IntArray,
           on_offset: FloatArray, body_dof: IntArray, y: FloatArray, R_ref: FloatArray,
           X: FloatArray, V: FloatArray, R: FloatArray) -> FloatArray:
@@ -126,41 +215,56 @@ def place(base: FloatArray, free_node: IntArray, free_axis: IntArray, on_node: I
     V[:, free_node, free_axis] = y[:, n_dof:n_dof + n_free]
     if not len(body_dof):
         return np.zeros((len(y), 0, 3))
-    three = np.arange(3)
-    R[...] = rotations(y[:, body_dof[:, None] + 3 + three]) @ R_ref
-    Ron = R[:, on_body]
-    r = _apply(Ron, np.broadcast_to(on_offset, Ron.shape[:-1]))
-    cols = body_dof[on_body][:, None] + three
-    X[:, on_node] = y[:, cols] + r
-    V[:, on_node] = y[:, n_dof + cols] + cross(y[:, n_dof + 3 + cols], r)
+    r, X[:, on_node], V[:, on_node] = body_nodes(on_body, on_offset, body_dof, y, R_ref, R)
     return r
 
 
 def member_forces(sums: Sums, EA: FloatArray, damping: FloatArray, is_string: BoolArray, l0: FloatArray,
-                  X: FloatArray, V: FloatArray, lengths: FloatArray, forces: FloatArray,
-                  member_rates: FloatArray | None = None) -> FloatArray:
-    """:func:`.loops.member_forces` of a batch, the members' ends in ``sums``; returns the
-    nodal forces (B, n, 3) [N] of the members; fills ``member_rates`` (B, m), if given, with their
-    lengthening rates [m/s] (computed only where asked for or damped)."""
-    damped = bool(damping.any())
-    if member_rates is None and not damped:
-        h = product(sums.difference, X)
-    else:
-        hv = product(sums.difference, np.concatenate([X, V], axis=2))       # (B, m, 6): h and dv
-        h, dv = hv[..., :3], hv[..., 3:]
-    hh = h * h                                   # one pass, then the loops' sum order
-    np.sqrt(hh[..., 0] + hh[..., 1] + hh[..., 2], out=lengths)
-    t = EA * (lengths - l0) / l0
+                  src: FloatArray, lengths: FloatArray, forces: FloatArray, pulls: FloatArray,
+                  member_rates: FloatArray | None = None) -> None:
+    """:func:`.loops.member_forces` of a batch of states given by their sources ``src``
+    (:func:`sources`): fills ``lengths`` [m], ``forces`` [N] (B, m), ``pulls`` (B, 3, m) [N],
+    the force ``t u`` of each member on its node ``a`` (component-major), and
+    ``member_rates`` (B, m), if given, with the lengthening rates [m/s]. The loops' formulas
+    in the loops' order."""
+    h = src.take(sums.position_b, axis=1)             # (B, 3, m)
+    h -= src.take(sums.position_a, axis=1)
+    np.add.reduce(h * h, axis=1, out=lengths)         # the components added in turn, as the loops do
+    np.sqrt(lengths, out=lengths)
+    u = h
+    u /= lengths[:, None]
+    t = np.subtract(lengths, l0, out=forces)
+    t *= EA
+    t /= l0
+    damped = np.count_nonzero(damping) > 0
     if member_rates is not None or damped:
-        hdv = h * dv
-        rate = (hdv[..., 0] + hdv[..., 1] + hdv[..., 2]) / lengths
-        if member_rates is not None:
-            member_rates[...] = rate
+        dv = src.take(sums.velocity_b, axis=1)
+        dv -= src.take(sums.velocity_a, axis=1)
+        dv *= u
+        rate = np.add.reduce(dv, axis=1, out=member_rates)
         if damped:
             t += damping * rate
-    t[is_string & (lengths < l0)] = 0.0
-    forces[...] = t
-    return product(sums.reaction, (t / lengths)[..., None] * h)
+    if np.count_nonzero(is_string):
+        t[is_string & (lengths < l0)] = 0.0
+    np.multiply(u, t[:, None], out=pulls)
+
+
+def contributions(external: FloatArray, B: int, m: int) -> tuple[FloatArray, FloatArray]:
+    """The flat contributions (B, 3n + 6m + 1) of :class:`Sums` for ``B`` states of ``m``
+    members, with the external nodal forces ``external`` (n, 3) [N] and the final zero in
+    place, and the view (B, 3, m) where :func:`member_forces` writes the members' pulls;
+    :func:`pull_back` then writes their opposites."""
+    n3 = external.size
+    c = np.empty((B, n3 + 6 * m + 1))
+    c[:, :n3] = external.reshape(-1)
+    c[:, -1] = 0.0
+    pulls: FloatArray = c[:, n3:n3 + 3 * m].reshape(B, 3, m)
+    return c, pulls
+
+
+def pull_back(c: FloatArray, m: int) -> None:
+    """Writes the opposites of the pulls into the contributions ``c`` (:func:`contributions`)."""
+    np.negative(c[:, -1 - 6 * m:-1 - 3 * m], out=c[:, -1 - 3 * m:-1])
 
 
 def nodal_wrenches(on_node: IntArray, on_body: IntArray, r: FloatArray, F: FloatArray, nb: int) -> FloatArray:
@@ -168,20 +272,6 @@ def nodal_wrenches(on_node: IntArray, on_body: IntArray, r: FloatArray, F: Float
     f = F[:, on_node]
     out: FloatArray = np.concatenate([scatter(on_body, f, nb), scatter(on_body, cross(r, f), nb)], axis=2)
     return out
-
-
-def accelerate(sums: Sums, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
-               on_node: IntArray, body_dof: IntArray, body_mass: FloatArray, body_first_moment: FloatArray,
-               body_inertia: FloatArray, body_inv_inertia_cm: FloatArray, y: FloatArray, R: FloatArray,
-               r: FloatArray, F: FloatArray, out: FloatArray) -> None:
-    """:func:`.loops.accelerate` of a batch (``F`` (B, n, 3) the nodal forces), the bodies'
-    wrenches summed by ``sums``."""
-    wrench = F[:, :0]                                  # no moving body: no wrench to sum
-    if len(body_dof):
-        f = F[:, on_node]
-        wrench = product(sums.body_sum, np.concatenate([f, cross(r, f)], axis=2))
-    rates(free_node, free_axis, free_inv_mass, body_dof, body_mass, body_first_moment, body_inertia,
-          body_inv_inertia_cm, y, R, F, wrench, out)
 
 
 def rates(free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray, body_dof: IntArray,
@@ -193,6 +283,14 @@ def rates(free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray, b
     n_free = len(free_node)
     out[:, :n_free] = y[:, n_dof:n_dof + n_free]
     out[:, n_dof:n_dof + n_free] = F[:, free_node, free_axis] * free_inv_mass
+    body_rates(body_dof, body_mass, body_first_moment, body_inertia, body_inv_inertia_cm, y, R, wrench, out)
+
+
+def body_rates(body_dof: IntArray, body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
+               body_inv_inertia_cm: FloatArray, y: FloatArray, R: FloatArray, wrench: FloatArray,
+               out: FloatArray) -> None:
+    """The moving bodies' part of :func:`rates` (Newton-Euler of ``wrench`` (B, nb, 6))."""
+    n_dof = y.shape[1] // 2
     nb = len(body_dof)
     if not nb:
         return
@@ -221,12 +319,12 @@ def rate(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_ma
          damping: FloatArray, is_string: BoolArray, external: FloatArray,
          y: FloatArray, R_ref: FloatArray, l0: FloatArray, sums: Sums) -> FloatArray:
     """:func:`.loops.rate`: ``dy/dt`` of one state (``sums``: the plan's :class:`Sums`)."""
-    n, nb, m = base.shape[0], body_dof.shape[0], member_a.shape[0]
+    nb, m = body_dof.shape[0], member_a.shape[0]
     out = np.empty((1, y.shape[0]))
     derivatives(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
                 body_first_moment, body_inertia, body_inv_inertia_cm, member_a, member_b, EA, damping, is_string,
-                external, y[None], R_ref[None], l0[None], out, np.empty((1, n, 3)), np.empty((1, n, 3)),
-                np.empty((1, nb, 3, 3)), np.empty((1, m)), np.empty((1, m)), sums)
+                external, y[None], R_ref[None], l0[None], out, None, None, np.empty((1, nb, 3, 3)), np.empty((1, m)),
+                np.empty((1, m)), sums)
     ydot: FloatArray = out[0]
     return ydot
 
@@ -237,16 +335,30 @@ def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free
                 body_inv_inertia_cm: FloatArray, member_a: IntArray, member_b: IntArray, EA: FloatArray,
                 damping: FloatArray, is_string: BoolArray, external: FloatArray,
                 y: FloatArray, R_ref: FloatArray, l0: FloatArray, out: FloatArray,
-                X: FloatArray, V: FloatArray, R: FloatArray, lengths: FloatArray, forces: FloatArray,
-                sums: Sums, member_rates: FloatArray | None = None) -> None:
-    """:func:`.loops.derivatives`: ``out = dy/dt`` of a batch of states, keeping ``X``, ``V``,
-    ``R``, ``lengths`` and ``forces`` per state (``sums``: the plan's :class:`Sums`), and
-    the members' lengthening rates [m/s] in ``member_rates`` (B, m) if given."""
-    r = place(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, y, R_ref, X, V, R)
-    F = member_forces(sums, EA, damping, is_string, l0, X, V, lengths, forces, member_rates)
-    F += external
-    accelerate(sums, free_node, free_axis, free_inv_mass, on_node, body_dof, body_mass, body_first_moment,
-               body_inertia, body_inv_inertia_cm, y, R, r, F, out)
+                X: FloatArray | None, V: FloatArray | None, R: FloatArray, lengths: FloatArray, forces: FloatArray,
+                sums: Sums, member_rates: FloatArray | None = None,
+                work: tuple[FloatArray, FloatArray] | None = None) -> None:
+    """:func:`.loops.derivatives`: ``out = dy/dt`` of a batch of states, keeping ``X``, ``V``
+    (None: not kept), ``R``, ``lengths`` and ``forces`` per state (``sums``: the plan's
+    :class:`Sums`), and the members' lengthening rates [m/s] in ``member_rates`` (B, m) if
+    given; ``work``: the contributions of :func:`contributions` for this plan and batch size
+    to reuse (their external forces and zero stay in place), else allocated here."""
+    B, n_dof, n_free = len(y), y.shape[1] // 2, len(free_node)
+    moving = body_nodes(on_body, on_offset, body_dof, y, R_ref, R) if len(body_dof) else None
+    src = sources(sums, y, None if moving is None else moving[1:])
+    if X is not None:
+        X[...] = src.take(sums.node_position, axis=1)
+    if V is not None:
+        V[...] = src.take(sums.node_velocity, axis=1)
+    c, pulls = contributions(external, B, len(EA)) if work is None else work
+    member_forces(sums, EA, damping, is_string, l0, src, lengths, forces, pulls, member_rates)
+    pull_back(c, len(EA))
+    out[:, :n_free] = y[:, n_dof:n_dof + n_free]
+    np.multiply(gather_sum(c, sums.free_table), free_inv_mass, out=out[:, n_dof:n_dof + n_free])
+    if moving is not None:
+        f = gather_sum(c, sums.on_table)
+        wrench = product(sums.body_sum, np.concatenate([f, cross(moving[0], f)], axis=2))
+        body_rates(body_dof, body_mass, body_first_moment, body_inertia, body_inv_inertia_cm, y, R, wrench, out)
 
 
 # -- Jacobian --------------------------------------------------------------------------------------

@@ -57,7 +57,7 @@ class Evaluator:
         self._module: ModuleType = loops if self.kernels == "numba" else arrays
         #: The numpy kernels' sparse sums (None for the compiled loops).
         self.sums: arrays.Sums | None = None if self.kernels == "numba" else \
-            arrays.sums(plan.n_nodes, plan.member_a, plan.member_b, plan.on_body, len(plan.body_dof))
+            arrays.plan_sums(plan)
 
     def evaluate(self, y: FloatArray, R_ref: FloatArray, l0: FloatArray) -> Evaluation:
         """States ``y`` (B, 2 n_dof) in the charts ``R_ref`` (B, nb, 3, 3) with rest lengths
