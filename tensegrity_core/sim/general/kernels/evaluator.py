@@ -55,7 +55,7 @@ class Evaluator:
         self.plan = plan
         self.kernels = choose_kernels(kernels)
         self._module: ModuleType = loops if self.kernels == "numba" else arrays
-        #: The numpy kernels' sparse sums (None for the compiled loops).
+        #: The numpy kernels' gathers and sums (None for the compiled loops).
         self.sums: arrays.Sums | None = None if self.kernels == "numba" else \
             arrays.plan_sums(plan)
 
