@@ -126,7 +126,6 @@ class ArrayStages:
         l0 = self.rest_lengths(t)
         l0_strings = l0.take(self.strings)
         fixed = None if not self.moving.any() else ~self.moving
-        rotations = len(self.rotation_columns) > 0
         Y = np.empty((len(samples), len(y)))
         self._rate(y, l0, np.empty_like(y), rates=True)
         g0, a0, s0 = self._gaps(l0_strings)
@@ -139,7 +138,7 @@ class ArrayStages:
             steps += 1
             g1, a1, s1 = self._gaps(l0_strings)
             if t_new >= horizon or t_new >= t_bound or not quiet_step(g0, a0, s0, g1, a1, s1, fixed, t_new - t) \
-                    or (rotations and chart_due(self.rotation_columns, y_new, self.rechart_angle)):
+                    or chart_due(self.rotation_columns, y_new, self.rechart_angle):
                 return Run(steps, steps, t, y, f, t_new, y_new, f_new, sampled=sample, Y=Y)
             if sample < len(samples) and samples[sample] <= t_new:
                 end = int(np.searchsorted(samples, t_new, side="right"))
