@@ -244,3 +244,22 @@ def test_the_numpy_kernels_gathers_are_the_sums_written_out(n, ends, kinds, bodi
     for j, body in enumerate(on_body):
         total[:, body] += w[:, j]
     np.testing.assert_allclose(arrays.product(sums.body_sum, w), total, rtol=0, atol=1e-14 * max(1, len(on_node)))
+
+
+@settings(max_examples=60)
+@given(gaps=st.lists(st.tuples(st.sampled_from([0.0, 1e-9, -1e-9, 1e-4, -1e-4, 0.3]),
+                                st.sampled_from([0.0, 1e-9, -1e-9, 1e-4, -1e-4, 0.3]),
+                                st.sampled_from([0.0, 1.0, -1.0, 1e3]), st.sampled_from([0.0, 1.0, -1e3]),
+                                st.booleans()), max_size=6),
+       h=st.sampled_from([1e-6, 2e-4, 1e-2]))
+def test_the_numpy_stretch_screens_steps_as_the_loops_do(gaps, h):
+    """The numpy stretch's quiet-step screen (gap magnitudes computed once per step end)
+    decides as the compiled one on every kind of end: a gap at zero, crossing zero, on one
+    side but within reach of its rates, far away; strings whose rest length moves."""
+    from tensegrity_core.sim.general.kernels import loops
+    from tensegrity_core.sim.general.kernels.array_stages import quiet_step
+
+    g0, g1, r0, r1, moving = (np.array([g[k] for g in gaps], dtype=bool if k == 4 else float) for k in range(5))
+    fixed = ~moving if moving.any() else None
+    assert quiet_step(g0, np.abs(g0), np.abs(r0), g1, np.abs(g1), np.abs(r1), fixed, h) == \
+        loops.quiet_step(g0, r0, g1, r1, moving, h)
