@@ -12,6 +12,7 @@ run keep their earlier values in that JSON file.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import gc
 import importlib
 import json
@@ -57,18 +58,20 @@ def main(argv=None) -> int:
     harness.use_timing(harness.QUICK_TIMING if ctx.quick else harness.FULL_TIMING)
     rows: list[harness.Row] = []
     ran = set()
-    for group, fn in harness.REGISTRY:
-        if args.only and group not in args.only and f"{group}:{fn.__name__}" not in args.only:
-            continue
-        print(f"== {group}: {fn.__name__}", file=sys.stderr, flush=True)
-        gc.collect()                 # the last benchmark's garbage is not the next one's cost
-        started = time.perf_counter()
-        new_rows = fn(ctx)
-        print(f"   {group}: {fn.__name__} took {time.perf_counter() - started:.1f} s", file=sys.stderr, flush=True)
-        for r in new_rows:
-            r.bench = fn.__name__
-        rows.extend(new_rows)
-        ran.add((group, fn.__name__))
+    with contextlib.closing(ctx):    # what the benchmarks shared (Context.kept) ends with the run
+        for group, fn in harness.REGISTRY:
+            if args.only and group not in args.only and f"{group}:{fn.__name__}" not in args.only:
+                continue
+            print(f"== {group}: {fn.__name__}", file=sys.stderr, flush=True)
+            gc.collect()                 # the last benchmark's garbage is not the next one's cost
+            started = time.perf_counter()
+            new_rows = fn(ctx)
+            print(f"   {group}: {fn.__name__} took {time.perf_counter() - started:.1f} s", file=sys.stderr,
+                  flush=True)
+            for r in new_rows:
+                r.bench = fn.__name__
+            rows.extend(new_rows)
+            ran.add((group, fn.__name__))
     by_name = {(r.group, r.name): r for r in rows}
     for r in rows:
         if r.baseline and (r.group, r.baseline) in by_name and r.value:

@@ -4,7 +4,7 @@ Every sweep runs three ways in the same run, alternating (four with the fixed ha
 the points one after another in this process (``workers=0``, the serial loop; BLAS pinned to
 one thread as in the workers); on the embedded 2-worker cluster (``start_local_cluster(2)``,
 loopback, one client), started and warmed once before the timing (its start-up is a row of
-its own); and, as the machine's ceiling, in two plain processes without any engine, each
+its own; quick mode starts one for all the group's benchmarks, full mode one for each); and, as the machine's ceiling, in two plain processes without any engine, each
 running every other point in one loop (``concurrent.futures`` on the same task function,
 which pins BLAS to one thread; no journal, no table). The first two give the same rows
 (checked). The ceiling says what these two cores gave two static halves of the points at
@@ -40,6 +40,7 @@ machines are shared, and a load above 2 takes cores from the cluster and the ser
 
 from __future__ import annotations
 
+import contextlib
 import os
 import statistics
 import time
@@ -207,10 +208,18 @@ class _Cluster:
         return False
 
 
+def _cluster(ctx: Context) -> contextlib.AbstractContextManager[_Cluster]:
+    """A benchmark's started and warmed cluster: its own in full mode; in quick mode (a smoke
+    run) one that the group's benchmarks share, started once."""
+    if ctx.quick:
+        return contextlib.nullcontext(ctx.kept("sweep cluster", _Cluster))
+    return _Cluster()
+
+
 @benchmark
 def formfind_points(ctx: Context) -> list[Row]:
     n = QUICK_POINTS if ctx.quick else 200
-    with _Cluster() as c:
+    with _cluster(ctx) as c:
         r = _compare(_formfind_sweep(n), c, 1 if ctx.quick else 7, halves_too=True)
     return [Row("sweep", "embedded cluster start-up (2 workers)", c.startup, "s",
                 note="LocalCluster of 2 processes on 127.0.0.1")] + _rows("form-finding (T-bar)", r)
@@ -219,7 +228,7 @@ def formfind_points(ctx: Context) -> list[Row]:
 @benchmark
 def simulate_points(ctx: Context) -> list[Row]:
     n = QUICK_POINTS if ctx.quick else 200
-    with _Cluster() as c:
+    with _cluster(ctx) as c:
         r = _compare(_simulate_sweep(n), c, 1 if ctx.quick else 7, halves_too=True)
     return _rows("simulation (paper fold, 1.6 s)", r)
 
@@ -238,7 +247,7 @@ def task_cost(ctx: Context) -> list[Row]:
 
     n = QUICK_POINTS if ctx.quick else 200
     plan = prepare(load_sweep(_formfind_sweep(4)))      # the 3 KB plan every task carries
-    with _Cluster() as c:
+    with _cluster(ctx) as c:
         workers = [w.pid for w in c.cluster.workers.values()]
         best = None
         for _ in range(1 if ctx.quick else 5):
@@ -266,7 +275,7 @@ def task_cost(ctx: Context) -> list[Row]:
 def scaling(ctx: Context) -> list[Row]:
     sizes = [QUICK_POINTS] if ctx.quick else [50, 200, 1000, 2000]
     rows, table = [], []
-    with _Cluster() as c:
+    with _cluster(ctx) as c:
         for n in sizes:
             r = _compare(_simulate_sweep(n), c, 1 if ctx.quick or n >= 1000 else 3)
             table.append(r)

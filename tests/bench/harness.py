@@ -14,7 +14,7 @@ import math
 import re
 import time
 from collections.abc import Callable
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, ExitStack, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Final
@@ -28,6 +28,22 @@ class Context:
     plot_dir: str | None = None  # where plots (PNG) go; None: no plots
     data_dir: str | None = None  # where raw data (JSON) goes; None: not written
     extra: dict = field(default_factory=dict)
+    #: what :meth:`kept` entered, closed by :meth:`close` when the run ends
+    _kept: dict = field(default_factory=dict)
+    _stack: ExitStack = field(default_factory=ExitStack)
+
+    def kept(self, key: str, make: Callable[[], AbstractContextManager]):
+        """The value of ``make()`` entered once per run under ``key`` and shared by every
+        benchmark that asks for it (a cluster or a node suite several quick benchmarks use:
+        started once instead of once each); it is exited when the runner closes the context."""
+        if key not in self._kept:
+            self._kept[key] = self._stack.enter_context(make())
+        return self._kept[key]
+
+    def close(self) -> None:
+        """Exit everything :meth:`kept` entered, the last entered first."""
+        self._kept.clear()
+        self._stack.close()
 
     def plot_path(self, name: str) -> Path | None:
         """``plot_dir/name`` (folder created), or None when no plots are wanted."""
