@@ -27,7 +27,8 @@ actuated cable ``c``       spatial tendon ``cable:c`` and actuator ``cable:c`` b
                            pulling with the commanded tension; ``forcerange="-T_max 0"``
                            (tension only, the tension limit)
 floor                      plane geom ``floor``; one contact pair ``contact:n`` per end cap
-                           (``condim`` 3, elliptic cones), parameters below
+                           (``condim`` 3, elliptic cones; 6 with rolling or torsional
+                           friction), parameters below
 sensors                    ``length:c`` (``tendonpos``) per cable with a length sensor;
                            ``tension:c`` (``actuatorfrc``, minus the tension) per actuated
                            cable with a tension sensor; per IMU a site ``imu:x`` at the body's
@@ -55,7 +56,11 @@ spring ``m S``, a damper ``m D`` and a share ``d`` of the load carried rigidly. 
 with the impact speed ``v`` (``e^2 ~ 1 - 4 dissipation v / 3``) to zero above
 ``3 / (4 dissipation)`` (0.15 m/s for the shipped robots, slower than a robot landing on a
 face): ``D = 2 sqrt(S)`` damps the contact critically, so it does not bounce either.
-Friction: one coefficient, ``mu_static``.
+Friction: one coefficient, ``mu_static``; the floor's ``torsional_friction`` and
+``rolling_friction`` [m] are MuJoCo's torsional and rolling coefficients (``condim="6"``:
+``friction="mu mu torsional rolling rolling"``), the same limits ``b F_n`` of the resisting
+couples (MuJoCo's soft constraint regularises them where the project uses a spin rate,
+:mod:`tensegrity_core.robot.contact`).
 """
 
 from __future__ import annotations
@@ -117,9 +122,11 @@ def write_robot_scene(scene: Scene, timestep: float | None, integrator: str) -> 
     contact, friction = fx.get("contact"), fx.get("friction")
     floor = robot.floor
     if floor is not None and isinstance(contact, ContactSpec):
-        mu = (friction.mu_static, friction.mu_kinetic) if isinstance(friction, FrictionSpec) else (0.0, 0.0)
+        mu = ((friction.mu_static, friction.mu_kinetic, friction.rolling_friction, friction.torsional_friction)
+              if isinstance(friction, FrictionSpec) else (0.0, 0.0, 0.0, 0.0))
         floor = dataclasses.replace(floor, stiffness=contact.stiffness, dissipation=contact.dissipation,
-                                    mu_static=mu[0], mu_kinetic=mu[1])
+                                    mu_static=mu[0], mu_kinetic=mu[1], rolling_friction=mu[2],
+                                    torsional_friction=mu[3])
     elif contact is None:
         floor = None
     m = robot.motors
@@ -316,12 +323,15 @@ class _RobotWriter:
             return
         contact = ET.SubElement(root, "contact")
         d = CONTACT_IMPEDANCE
+        turning = floor.rolling_friction > 0.0 or floor.torsional_friction > 0.0
+        mu = [floor.mu_static, floor.mu_static, floor.torsional_friction, floor.rolling_friction,
+              floor.rolling_friction]
         for i in range(len(r.rods)):
             S, D = contact_parameters(floor.stiffness, float(r.rods.mass[i]))
             for node in r.rods.ends[i]:
                 name = r.node_names[int(node)]
                 ET.SubElement(contact, "pair", name=f"contact:{name}", geom1=f"cap:{name}", geom2="floor",
-                              condim="3", friction=vector([floor.mu_static, floor.mu_static, 0, 0, 0]),
+                              condim="6" if turning else "3", friction=vector(mu),
                               solref=vector([-S, -D]), solimp=vector([d, d, 0.001, 0.5, 2]))
                 self.contacts += 1
 

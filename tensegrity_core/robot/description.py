@@ -136,7 +136,10 @@ class Floor:
     """A floor plane through ``point`` with unit ``normal`` (out of the ground); normal
     contact ``stiffness`` [N/m] and Hunt-Crossley ``dissipation`` [s/m]; friction
     coefficients ``mu_static`` >= ``mu_kinetic``; the friction anchor's
-    ``tangential_stiffness`` [N/m] and ``tangential_damping`` [N s/m]."""
+    ``tangential_stiffness`` [N/m] and ``tangential_damping`` [N s/m]; the lever arms [m] of
+    the caps' ``rolling_friction`` and ``torsional_friction`` (MuJoCo's rolling and torsional
+    coefficients: the resisting couples' limits per newton of normal force,
+    :mod:`tensegrity_core.robot.contact`)."""
 
     normal: FloatArray
     point: FloatArray
@@ -146,6 +149,8 @@ class Floor:
     mu_kinetic: float
     tangential_stiffness: float
     tangential_damping: float
+    rolling_friction: float = 0.0
+    torsional_friction: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "normal", _frozen(self.normal))

@@ -148,6 +148,9 @@ def _at_rest(robot: dict[str, Any], drawing: FloatArray, rods: list[tuple[int, i
 #: Rible.jl's SUPERball: bar length 2 l = 1.7 m, bar spacing d = l / 2, bar mass 5 kg, cable
 #: stiffness 4000 N/m, rest length 0.996 m for all 24 cables, friction 0.9.
 SB_ROD_LENGTH, SB_ROD_MASS, SB_STIFFNESS, SB_REST_LENGTH, SB_FRICTION = 1.7, 5.0, 4000.0, 0.996, 0.9
+#: The caps' torsional and rolling friction lever arms [m]: MuJoCo's defaults for
+#: ``condim="6"`` (``friction="1 0.005 0.0001"``; docs/robots.md).
+SB_TORSIONAL_FRICTION, SB_ROLLING_FRICTION = 0.005, 0.0001
 
 
 def expanded_octahedron(length: float) -> tuple[FloatArray, list[tuple[int, int]], list[tuple[int, int]]]:
@@ -203,7 +206,8 @@ def six_bar() -> dict[str, Any]:
         "cables": cable_list,
         "sensors": {"cable_length": "all", "cable_tension": "all", "imu": "all"},
         "floor": {"stiffness": 5.0e5, "dissipation": 5.0, "mu_static": SB_FRICTION, "mu_kinetic": SB_FRICTION,
-                  "tangential_stiffness": 5.0e5, "tangential_damping": 500.0},
+                  "tangential_stiffness": 5.0e5, "tangential_damping": 500.0,
+                  "rolling_friction": SB_ROLLING_FRICTION, "torsional_friction": SB_TORSIONAL_FRICTION},
         "gravity": True,
     }
 

@@ -35,7 +35,7 @@ CABLE_DEFAULT_KEYS: Final = ("stiffness", "damping", "rest_length_ratio", "motor
 MOTOR_KEYS: Final = ("range", "tau", "max_speed", "max_tension", "mode")
 SENSOR_KEYS: Final = ("cable_length", "cable_tension", "imu")
 FLOOR_KEYS: Final = ("normal", "incline", "point", "stiffness", "dissipation", "mu_static", "mu_kinetic",
-                     "tangential_stiffness", "tangential_damping")
+                     "tangential_stiffness", "tangential_damping", "rolling_friction", "torsional_friction")
 #: How far a cap may reach into the floor as drawn [m] (rounding of the drawing).
 DRAWN_CONTACT_TOLERANCE: Final = 1e-9
 
@@ -383,7 +383,9 @@ class _RobotReader(Reader):
                      dissipation=self.number(f, "dissipation", path, default=0.0, lo=0.0),
                      mu_static=mu_s, mu_kinetic=mu_k,
                      tangential_stiffness=self.number(f, "tangential_stiffness", path, default=k, lo=0.0, lo_open=True),
-                     tangential_damping=self.number(f, "tangential_damping", path, default=0.0, lo=0.0))
+                     tangential_damping=self.number(f, "tangential_damping", path, default=0.0, lo=0.0),
+                     rolling_friction=self.number(f, "rolling_friction", path, default=0.0, lo=0.0),
+                     torsional_friction=self.number(f, "torsional_friction", path, default=0.0, lo=0.0))
 
     # -- whole-robot checks ---------------------------------------------------------------------------
     def check_above_floor(self, robot: Robot, d: dict[Any, Any]) -> None:

@@ -5,8 +5,12 @@ Tipping over an edge is a bifurcation and the gait is open loop, so the two runs
 compared (docs/design/mujoco.md, "The project's robot dynamics against MuJoCo"):
 
 - **faces**: the project's faces (rocking onto a face and straight back removed) are
-  MuJoCo's in the same order, possibly passing one without resting on it, up to the last
-  planned tip (9 s);
+  MuJoCo's in the same order, possibly passing one without resting on it, up to n1 n4 n11
+  (~4.5 s); then both pass n2 n5 n6 and end the cycle on n3 n6 n9;
+- **distance over the cycle** (13 s): the centres of mass travel the same distance on the
+  floor within 10 % (project 3.39 m, MuJoCo 3.53 m with the shipped rolling and torsional
+  friction). The distance is chaotic in both (docs/design/mujoco.md: 1.5-3.9 m in MuJoCo
+  for torsional friction 2-5 mm), so this checks the two models at one shared point;
 - **distance per gait step, up to the divergence**: at each of the gait's breakpoints
   until its third step ends (3.23 s, the centre of mass 1.2 m from its start) the two
   centres of mass are less than 10 % of MuJoCo's distance travelled apart. Right after
@@ -28,8 +32,10 @@ from tensegrity_core.robot.gait import GAITS_DIR, gait_from_file  # noqa: E402
 from tensegrity_core.sim import load_scene, simulate  # noqa: E402
 from tests.mujoco_peer import play_gait  # noqa: E402
 
-#: Simulated time [s]: the last planned tip (onto n2 n5 n6) is reached by 8.8 s in both.
-DURATION = 9.0
+#: Simulated time [s]: the gait's whole cycle.
+DURATION = 13.0
+#: The face up to which the two runs pass the same faces in the same order (~4.5 s).
+SAME_FACES_UNTIL = frozenset({"n1", "n4", "n11"})
 #: The end of the gait's third step [s]: up to here the paths agree.
 AGREE_UNTIL = 3.3
 
@@ -69,8 +75,16 @@ def runs():
 def test_the_project_passes_mujocos_faces_in_mujocos_order(runs):
     _, _, faces, peer, _ = runs
     ours, theirs = without_rocking(faces), without_rocking([f for _, f in peer.faces])
-    assert is_subsequence(ours, theirs), (ours, theirs)
-    assert len(ours) >= 6 and ours[-1] == theirs[-1] == {"n2", "n5", "n6"}
+    head = ours[:ours.index(SAME_FACES_UNTIL) + 1]
+    assert is_subsequence(head, theirs[:theirs.index(SAME_FACES_UNTIL) + 1]), (ours, theirs)
+    assert {"n2", "n5", "n6"} in ours and {"n2", "n5", "n6"} in theirs
+    assert ours[-1] == theirs[-1] == {"n3", "n6", "n9"}, (ours, theirs)
+
+
+def test_the_centres_of_mass_travel_the_same_distance_over_the_cycle_within_10_percent(runs):
+    times, com, _, peer, _ = runs
+    ours, theirs = np.hypot(*(com[-1] - com[0])[:2]), np.hypot(*(peer.com[-1] - peer.com[0])[:2])
+    assert abs(ours - theirs) < 0.1 * theirs, (ours, theirs)
 
 
 def test_the_centres_of_mass_agree_within_10_percent_per_gait_step_until_the_paths_part(runs):

@@ -76,7 +76,7 @@ def test_compiled_kernels_and_numpy_twin_agree(robot, seed):
     fast = RobotSystem(model.plan, laws=model.system.laws, R_ref=R_ref, kernels="numba")
     slow = RobotSystem(model.plan, laws=model.system.laws, R_ref=R_ref, kernels="numpy")
     a, b = fast.evaluate(y[None]), slow.evaluate(y[None])
-    for field in ("derivative", "positions", "forces", "tensions", "depth", "normal", "friction"):
+    for field in ("derivative", "positions", "forces", "tensions", "depth", "normal", "friction", "couple"):
         x, z = getattr(a, field), getattr(b, field)
         assert np.allclose(x, z, rtol=1e-11, atol=1e-9 * max(1.0, np.abs(z).max(initial=0.0))), field
     aims = np.tile(model.plan.cable_l0[model.plan.motor_cable] * 0.97, (20, 1))   # the motors move
@@ -109,7 +109,7 @@ def _momentum_rates(model, y, R_ref):
     for k, node in enumerate(p.cap_node):
         fn, ff = ev.normal[0, k] * nvec, ev.friction[0, k]
         F_ext += fn + ff
-        M_ext += np.cross(X[node], fn) + np.cross(X[node] - p.cap_radius[k] * nvec, ff)
+        M_ext += np.cross(X[node], fn) + np.cross(X[node] - p.cap_radius[k] * nvec, ff) + ev.couple[0, k]
     scale = np.abs(p.external).sum() + ev.normal.sum() + np.abs(ev.friction).sum() + ev.tensions.sum()
     return dP - F_ext, dL - M_ext, scale
 
@@ -118,9 +118,12 @@ def _momentum_rates(model, y, R_ref):
 @given(robot=st.sampled_from(["three_bar", "six_bar"]), seed=st.integers(0, 2**32 - 1))
 def test_cables_are_internal_and_the_floor_is_the_only_external_force(robot, seed):
     """Every cable pulls both ends equally along the line between them, so the momenta change
-    only by gravity and the floor's normal and friction forces (and their moments)."""
+    only by gravity and the floor's normal and friction forces (and their moments) and its
+    rolling and spin resistance couples."""
     model = _model(robot)
     y, R_ref = random_state(model, seed)
+    if robot == "six_bar":
+        assert np.all(model.plan.floor_params[6:] > 0.0)           # its caps resist rolling and spinning
     force, moment, scale = _momentum_rates(model, y, R_ref)
     assert np.abs(force).max() <= 1e-9 * scale
     assert np.abs(moment).max() <= 1e-9 * scale * 3.0
@@ -146,13 +149,16 @@ def _energy(model, samples):
 
 @settings(max_examples=12)
 @given(robot=st.sampled_from(["three_bar", "six_bar"]), seed=st.integers(0, 2**32 - 1),
-       lift=st.floats(0.0, 0.05), mu=st.floats(0.0, 1.5), speed=st.floats(0.0, 1.0))
-def test_energy_never_rises_with_the_motors_held(robot, seed, lift, mu, speed):
+       lift=st.floats(0.0, 0.05), mu=st.floats(0.0, 1.5), speed=st.floats(0.0, 1.0),
+       rolling=st.floats(0.0, 1e-3), torsional=st.floats(0.0, 0.01))
+def test_energy_never_rises_with_the_motors_held(robot, seed, lift, mu, speed, rolling, torsional):
     """Kinetic + gravity + cable strain + floor contact + friction offsets never rise over a
     step with no input (motors holding their rest lengths: no ``motors`` effect), from a
-    drop or a throw (velocities up to ``speed``), for any friction coefficient."""
+    drop or a throw (velocities up to ``speed``), for any friction coefficient and rolling
+    and torsional friction up to 1 mm and 10 mm (MuJoCo's defaults: 0.1 mm, 5 mm)."""
     scene = robot_scene(robot, ["inertia", "cables", "gravity", "contact",
-                                {"friction": {"mu_static": mu, "mu_kinetic": mu}}], lift=lift, duration=0.3)
+                                {"friction": {"mu_static": mu, "mu_kinetic": mu, "rolling_friction": rolling,
+                                              "torsional_friction": torsional}}], lift=lift, duration=0.3)
     model = compile_scene(scene)
     y = model.y0.copy()
     n = model.plan.n_dof

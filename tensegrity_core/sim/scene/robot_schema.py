@@ -86,7 +86,8 @@ def robot_effect(reader: Reader, name: str, d: dict[str, Any], path: KeyPath, mo
         reader.keys(d, path, ("stiffness", "dissipation"))
         return ContactSpec(reader.number(d, "stiffness", path, default=floor.stiffness, lo=0.0, lo_open=True),
                            reader.number(d, "dissipation", path, default=floor.dissipation, lo=0.0))
-    reader.keys(d, path, ("mu_static", "mu_kinetic", "tangential_stiffness", "tangential_damping"))
+    reader.keys(d, path, ("mu_static", "mu_kinetic", "tangential_stiffness", "tangential_damping", "rolling_friction",
+                          "torsional_friction"))
     mu_s = reader.number(d, "mu_static", path, default=floor.mu_static, lo=0.0)
     mu_k = reader.number(d, "mu_kinetic", path, default=min(floor.mu_kinetic, mu_s), lo=0.0)
     if mu_k > mu_s:
@@ -95,7 +96,9 @@ def robot_effect(reader: Reader, name: str, d: dict[str, Any], path: KeyPath, mo
     return FrictionSpec(mu_s, mu_k,
                         reader.number(d, "tangential_stiffness", path, default=floor.tangential_stiffness, lo=0.0,
                                       lo_open=True),
-                        reader.number(d, "tangential_damping", path, default=floor.tangential_damping, lo=0.0))
+                        reader.number(d, "tangential_damping", path, default=floor.tangential_damping, lo=0.0),
+                        reader.number(d, "rolling_friction", path, default=floor.rolling_friction, lo=0.0),
+                        reader.number(d, "torsional_friction", path, default=floor.torsional_friction, lo=0.0))
 
 
 def motor_modes(reader: Reader, d: dict[str, Any], path: KeyPath, model: RobotModelSpec) -> tuple[tuple[str, int], ...]:

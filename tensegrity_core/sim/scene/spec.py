@@ -173,12 +173,15 @@ class ContactSpec:
 @dataclass(frozen=True)
 class FrictionSpec:
     """Robots: the floor's stick-slip friction: coefficients (``mu_kinetic <= mu_static``),
-    the anchor's ``tangential_stiffness`` [N/m] and ``tangential_damping`` [N s/m]."""
+    the anchor's ``tangential_stiffness`` [N/m] and ``tangential_damping`` [N s/m], the
+    caps' ``rolling_friction`` and ``torsional_friction`` lever arms [m]."""
 
     mu_static: float
     mu_kinetic: float
     tangential_stiffness: float
     tangential_damping: float
+    rolling_friction: float = 0.0
+    torsional_friction: float = 0.0
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 
 from tensegrity_core.general.rotation import cross
 from tensegrity_core.robot import motor
+from tensegrity_core.robot.contact import resisting_couple
 from tensegrity_core.sim.general.kernels import arrays as general
 from tensegrity_core.sim.general.robot.loops import NO_ANCHOR, RECHART_ANGLE, SLIPPING, STICKING
 
@@ -63,9 +64,10 @@ def contact_velocity(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatAr
 def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray, floor_normal: FloatArray,
                  floor_point: FloatArray, floor_params: FloatArray, body_dof: IntArray, y: FloatArray, n_dof: int,
                  anchors: int, X: FloatArray, V: FloatArray
-                 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+                 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
     """:func:`.loops.floor_forces` of a batch: ``(nodal forces (B, n, 3), moments (B, ncap, 3),
-    depth, normal (B, ncap), friction (B, ncap, 3), the offsets' rates (B, ncap, 3))``."""
+    depth, normal (B, ncap), friction (B, ncap, 3), resisting couples (B, ncap, 3), the
+    offsets' rates (B, ncap, 3))``; the moments include the couples."""
     k, d, kt, ct = floor_params[0], floor_params[1], floor_params[4], floor_params[5]
     nvec = floor_normal
     ncap = len(cap_node)
@@ -83,9 +85,15 @@ def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray,
     anchored = (state != NO_ANCHOR)[..., None]
     f = np.where(anchored, -kt * s - damping[..., None] * v, 0.0)
     moments = -cap_radius[:, None] * cross(np.broadcast_to(nvec, f.shape), f)
+    on = cap_body >= 0
+    couple = np.zeros_like(f)
+    if on.any():
+        w = y[:, n_dof + body_dof[cap_body[on]][:, None] + 3 + np.arange(3)]
+        couple[:, on] = resisting_couple(w, fn[:, on], nvec, floor_params[6],
+                                         floor_params[7])
     total = fn[..., None] * nvec + f
     F = general.scatter(cap_node, total, X.shape[1])
-    return F, moments, delta, fn, f, np.where(anchored, v, 0.0)
+    return F, moments + couple, delta, fn, f, couple, np.where(anchored, v, 0.0)
 
 
 def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
@@ -98,7 +106,7 @@ def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free
                 cap_radius: FloatArray, floor_normal: FloatArray, floor_point: FloatArray, floor_params: FloatArray,
                 y: FloatArray, R_ref: FloatArray, out: FloatArray, X: FloatArray, V: FloatArray, R: FloatArray,
                 F: FloatArray, l0: FloatArray, lengths: FloatArray, rates_: FloatArray, tensions: FloatArray,
-                depth: FloatArray, normal: FloatArray, friction: FloatArray) -> None:
+                depth: FloatArray, normal: FloatArray, friction: FloatArray, couple: FloatArray) -> None:
     """:func:`.loops.evaluate`: ``out = dy/dt`` of a batch, keeping every effect's state per state."""
     n_dof = len(free_node) + 6 * len(body_dof)
     xv = y[:, :2 * n_dof]
@@ -107,7 +115,7 @@ def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free
     Fc, lengths[...], rates_[...], tensions[...] = cable_forces(cable_a, cable_b, cable_k, cable_c, cable_t_max,
                                                                l0, X, V)
     a0 = 2 * n_dof + len(motor_cable)
-    Ff, moments, depth[...], normal[...], friction[...], sliding = floor_forces(
+    Ff, moments, depth[...], normal[...], friction[...], couple[...], sliding = floor_forces(
         cap_node, cap_body, cap_radius, floor_normal, floor_point, floor_params, body_dof, y, n_dof,
         a0, X, V)
     F[...] = external + Fc + Ff
@@ -220,7 +228,8 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
     n, nb, m, ncap = len(base), len(body_dof), len(cable_a), len(cap_node)
     work = (np.empty((1, n, 3)), np.empty((1, n, 3)), np.empty((1, nb, 3, 3)), np.empty((1, n, 3)), np.empty((1, m)),
             np.empty((1, m)),
-            np.empty((1, m)), np.empty((1, m)), np.empty((1, ncap)), np.empty((1, ncap)), np.empty((1, ncap, 3)))
+            np.empty((1, m)), np.empty((1, m)), np.empty((1, ncap)), np.empty((1, ncap)), np.empty((1, ncap, 3)),
+            np.empty((1, ncap, 3)))
     K = np.empty((4, 1, len(y)))
     for s in range(len(aims)):
         for stage in range(4):

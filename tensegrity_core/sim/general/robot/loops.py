@@ -23,7 +23,8 @@ One evaluation (:func:`derivative`):
    :mod:`tensegrity_core.robot.cable`), :func:`floor_forces` (Hunt-Crossley normal force of
    :mod:`tensegrity_core.robot.contact` and the friction anchor's spring of
    :mod:`tensegrity_core.robot.friction`, acting at the contact point: a force on the cap
-   and a moment about its centre);
+   and a moment about its centre; the rolling and spin resistance couple of
+   :mod:`tensegrity_core.robot.contact`);
 3. ``nodal_wrenches``, the caps' friction moments added, ``rates`` (general kernels).
 """
 
@@ -34,6 +35,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from tensegrity_core.robot.contact import SPIN_TOLERANCE
 from tensegrity_core.robot.motor import REEL_SPEED, TENSION
 from tensegrity_core.sim.general.kernels.jit import jit
 from tensegrity_core.sim.general.kernels.loops import nodal_wrenches, place, rates, rotate
@@ -117,19 +119,22 @@ def contact_point_velocity(V: FloatArray, node: int, body: int, body_dof: IntArr
 def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray, floor_normal: FloatArray,
                  floor_point: FloatArray, floor_params: FloatArray, body_dof: IntArray, y: FloatArray,
                  n_dof: int, anchors: int, X: FloatArray, V: FloatArray, F: FloatArray, moments: FloatArray,
-                 depth: FloatArray, normal: FloatArray, friction: FloatArray, out: FloatArray) -> None:
+                 depth: FloatArray, normal: FloatArray, friction: FloatArray, couple: FloatArray,
+                 out: FloatArray) -> None:
     """Per cap: its penetration ``depth`` [m], the normal force ``F_n = k delta max(0, 1 + d
     deltadot)`` [N] (``normal``; 0 out of contact) along the floor's normal, and with an
     anchor the friction force ``-k_t s - c_t v_t`` [N] (``friction``, (ncap, 3); the damper
     only while sticking) of the anchor's tangential offset ``s`` (the state's entries from
     ``anchors``) and the tangential velocity ``v_t`` of the cap's material point at the
     contact; both added to the cap's node in ``F``, the friction's moment about the cap's
-    centre into ``moments``. The offset's rate ``v_t`` (0 without an anchor) goes into
+    centre plus the rolling and spin resistance ``couple`` [N m] (``couple``, (ncap, 3);
+    :func:`tensegrity_core.robot.contact.resisting_couple`) into ``moments``. The offset's rate ``v_t`` (0 without an anchor) goes into
     ``out`` at the state's entries: the offset is the material point's tangential
     displacement since it was anchored, so the spring's power ``k_t s . v_t`` is exactly the
     work its force does (a cap rolls without storing energy). ``n_dof``: the rates start at
     ``y[n_dof]``."""
     k, d, kt, ct = floor_params[0], floor_params[1], floor_params[4], floor_params[5]
+    b_roll, b_spin = floor_params[6], floor_params[7]
     n0, n1, n2 = floor_normal[0], floor_normal[1], floor_normal[2]
     ncap = cap_node.shape[0]
     for c in range(ncap):
@@ -163,6 +168,20 @@ def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray,
         moments[c, 0] = -r * (n1 * f2 - n2 * f1)
         moments[c, 1] = -r * (n2 * f0 - n0 * f2)
         moments[c, 2] = -r * (n0 * f1 - n1 * f0)
+        m0, m1, m2 = 0.0, 0.0, 0.0
+        body = cap_body[c]
+        if fn > 0.0 and body >= 0:
+            dof = n_dof + body_dof[body] + 3
+            w0, w1, w2 = y[dof], y[dof + 1], y[dof + 2]
+            wn = w0 * n0 + w1 * n1 + w2 * n2
+            w0, w1, w2 = w0 - wn * n0, w1 - wn * n1, w2 - wn * n2
+            roll = -b_roll * fn / max(math.sqrt(w0 * w0 + w1 * w1 + w2 * w2), SPIN_TOLERANCE)
+            spin = -b_spin * fn * wn / max(abs(wn), SPIN_TOLERANCE)
+            m0, m1, m2 = roll * w0 + spin * n0, roll * w1 + spin * n1, roll * w2 + spin * n2
+        couple[c, 0], couple[c, 1], couple[c, 2] = m0, m1, m2
+        moments[c, 0] += m0
+        moments[c, 1] += m1
+        moments[c, 2] += m2
 
 
 @jit
@@ -177,11 +196,11 @@ def derivative(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_
                y: FloatArray, R_ref: FloatArray, out: FloatArray, X: FloatArray, V: FloatArray, R: FloatArray,
                r: FloatArray, F: FloatArray, wrench: FloatArray, moments: FloatArray, l0: FloatArray,
                lengths: FloatArray, rates_: FloatArray, tensions: FloatArray, depth: FloatArray,
-               normal: FloatArray, friction: FloatArray) -> None:
+               normal: FloatArray, friction: FloatArray, couple: FloatArray) -> None:
     """``out = dy/dt`` of one state (module docstring): the plan's arrays, ``y``, ``R_ref``,
     ``out``, then work arrays that keep the placement, the forces and each effect's state
     afterwards (``l0`` the cables' rest lengths, ``lengths``, ``rates_``, ``tensions``;
-    the caps' ``depth``, ``normal`` and ``friction`` forces)."""
+    the caps' ``depth``, ``normal`` and ``friction`` forces and resisting ``couple``)."""
     n_dof = free_node.shape[0] + 6 * body_dof.shape[0]
     xv = y[:2 * n_dof]
     place(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, xv, R_ref, X, V, R, r)
@@ -190,7 +209,7 @@ def derivative(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_
     rest_lengths(cable_l0, cable_motor, y, 2 * n_dof, l0)
     cable_forces(cable_a, cable_b, cable_k, cable_c, cable_t_max, l0, X, V, F, lengths, rates_, tensions)
     floor_forces(cap_node, cap_body, cap_radius, floor_normal, floor_point, floor_params, body_dof, y, n_dof,
-                 2 * n_dof + motor_cable.shape[0], X, V, F, moments, depth, normal, friction, out)
+                 2 * n_dof + motor_cable.shape[0], X, V, F, moments, depth, normal, friction, couple, out)
     nodal_wrenches(on_node, on_body, r, F, wrench)
     for c in range(cap_node.shape[0]):
         b = cap_body[c]
@@ -330,7 +349,7 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
     R, r = np.empty((nb, 3, 3)), np.empty((on_node.shape[0], 3))
     wrench, moments = np.empty((nb, 6)), np.empty((ncap, 3))
     l0, lengths, rates_, tensions = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
-    depth, normal, friction = np.empty(ncap), np.empty(ncap), np.empty((ncap, 3))
+    depth, normal, friction, couple = np.empty(ncap), np.empty(ncap), np.empty((ncap, 3)), np.empty((ncap, 3))
     K = np.empty((4, N))
     z = np.empty(N)
     for s in range(aims.shape[0]):
@@ -346,7 +365,7 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
                        cable_c, cable_t_max, cable_l0, cable_motor, motor_cable, motor_lo, motor_hi, motor_tau,
                        motor_speed, cap_node, cap_body, cap_radius, floor_normal, floor_point, floor_params, z,
                        R_ref, K[stage], X, V, R, r, F, wrench, moments, l0, lengths, rates_, tensions, depth,
-                       normal, friction)
+                       normal, friction, couple)
         for i in range(N):
             y[i] = y[i] + h / 6.0 * (K[0, i] + 2.0 * K[1, i] + 2.0 * K[2, i] + K[3, i])
         y_end[:] = y
@@ -366,10 +385,10 @@ def evaluate(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_in
              cap_radius: FloatArray, floor_normal: FloatArray, floor_point: FloatArray, floor_params: FloatArray,
              y: FloatArray, R_ref: FloatArray, out: FloatArray, X: FloatArray, V: FloatArray, R: FloatArray,
              F: FloatArray, l0: FloatArray, lengths: FloatArray, rates_: FloatArray, tensions: FloatArray,
-             depth: FloatArray, normal: FloatArray, friction: FloatArray) -> None:
+             depth: FloatArray, normal: FloatArray, friction: FloatArray, couple: FloatArray) -> None:
     """:func:`derivative` of a batch: ``y`` (B, N), ``R_ref`` (B, nb, 3, 3), ``out`` (B, N);
     kept per state: ``X``, ``V``, the nodal forces ``F`` (B, n, 3), ``R`` (B, nb, 3, 3), ``l0``, ``lengths``,
-    ``rates_``, ``tensions`` (B, c), ``depth``, ``normal`` (B, ncap), ``friction`` (B, ncap, 3)."""
+    ``rates_``, ``tensions`` (B, c), ``depth``, ``normal`` (B, ncap), ``friction``, ``couple`` (B, ncap, 3)."""
     r = np.empty((on_node.shape[0], 3))
     wrench = np.empty((body_dof.shape[0], 6))
     moments = np.empty((cap_node.shape[0], 3))
@@ -379,4 +398,4 @@ def evaluate(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_in
                    cable_t_max, cable_l0, cable_motor, motor_cable, motor_lo, motor_hi, motor_tau, motor_speed,
                    cap_node, cap_body, cap_radius, floor_normal, floor_point, floor_params, y[k], R_ref[k], out[k],
                    X[k], V[k], R[k], r, F[k], wrench, moments, l0[k], lengths[k], rates_[k], tensions[k], depth[k],
-                   normal[k], friction[k])
+                   normal[k], friction[k], couple[k])

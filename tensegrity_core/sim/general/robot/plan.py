@@ -19,7 +19,8 @@ effects (:class:`RobotEffects`: which are listed, with their overrides):
   length follows its input at once) and holds any tension;
 - **caps** (the rods' end caps, only with ``contact``): node, body slot, radius [m];
 - **floor**: unit normal, a point, and ``floor_params`` = (k [N/m], d [s/m], mu_s, mu_k,
-  k_t [N/m], c_t [N s/m]); without ``friction`` ``k_t = c_t = 0`` and no anchor is made.
+  k_t [N/m], c_t [N s/m], rolling and torsional friction [m]); without ``friction``
+  ``k_t = c_t = 0``, no anchor is made and the caps roll and spin freely.
 
 Body frames are the drawing's axes (the rotation charts start at the identity), inertia
 about each body's reference point ``c`` (the centroid of its nodes: a rod's midpoint).
@@ -53,7 +54,7 @@ class RobotEffects:
     listed or not; overrides: every motor's ``tau`` [s], ``max_speed`` [m/s],
     ``max_tension`` [N]; the floor's ``stiffness`` [N/m], ``dissipation`` [s/m],
     ``mu_static``, ``mu_kinetic``, ``tangential_stiffness`` [N/m], ``tangential_damping``
-    [N s/m]."""
+    [N s/m], ``rolling_friction`` and ``torsional_friction`` [m]."""
 
     gravity: tuple[float, float, float] | None = None
     motors: bool = False
@@ -68,6 +69,8 @@ class RobotEffects:
     mu_kinetic: float | None = None
     tangential_stiffness: float | None = None
     tangential_damping: float | None = None
+    rolling_friction: float | None = None
+    torsional_friction: float | None = None
 
 
 class RobotPlan(NamedTuple):
@@ -217,11 +220,13 @@ def build_plan(robot: Robot, effects: RobotEffects) -> RobotPlan:
         params = np.array([pick(effects.stiffness, floor.stiffness), pick(effects.dissipation, floor.dissipation),
                            pick(effects.mu_static, floor.mu_static), pick(effects.mu_kinetic, floor.mu_kinetic),
                            pick(effects.tangential_stiffness, floor.tangential_stiffness) if effects.friction else 0.0,
-                           pick(effects.tangential_damping, floor.tangential_damping) if effects.friction else 0.0])
+                           pick(effects.tangential_damping, floor.tangential_damping) if effects.friction else 0.0,
+                           pick(effects.rolling_friction, floor.rolling_friction) if effects.friction else 0.0,
+                           pick(effects.torsional_friction, floor.torsional_friction) if effects.friction else 0.0])
         normal, point = np.array(floor.normal, dtype=float), np.array(floor.point, dtype=float)
     else:
         cap_node, cap_body, cap_radius = np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
-        params, normal, point = np.zeros(6), np.array([0.0, 0.0, 1.0]), np.zeros(3)
+        params, normal, point = np.zeros(8), np.array([0.0, 0.0, 1.0]), np.zeros(3)
     return RobotPlan(
         *placement,
         external=weight_mass[:, None] * g[None, :],

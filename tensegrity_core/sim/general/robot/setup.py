@@ -36,7 +36,9 @@ def robot_effects(scene: Scene) -> RobotEffects:
         stiffness=contact.stiffness if contact else None, dissipation=contact.dissipation if contact else None,
         mu_static=friction.mu_static if friction else None, mu_kinetic=friction.mu_kinetic if friction else None,
         tangential_stiffness=friction.tangential_stiffness if friction else None,
-        tangential_damping=friction.tangential_damping if friction else None)
+        tangential_damping=friction.tangential_damping if friction else None,
+        rolling_friction=friction.rolling_friction if friction else None,
+        torsional_friction=friction.torsional_friction if friction else None)
 
 
 def names_of(robot: Robot, plan: RobotPlan) -> Names:

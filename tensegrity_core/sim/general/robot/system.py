@@ -40,7 +40,8 @@ class RobotEvaluation:
     ``velocities`` and the nodal ``forces`` of weights, cables and floor (B, n, 3) [m, m/s,
     N]; body ``rotations`` (B, nb, 3, 3); cables' ``rest_lengths``, ``lengths`` [m],
     ``rates`` [m/s], ``tensions`` [N] (B, c); caps' ``depth`` [m] (penetration, > 0 in
-    contact), ``normal`` forces [N] (B, ncap) and ``friction`` forces [N] (B, ncap, 3)."""
+    contact), ``normal`` forces [N] (B, ncap), ``friction`` forces [N] and the rolling and spin
+    resistance ``couple`` [N m] (B, ncap, 3)."""
 
     derivative: FloatArray
     positions: FloatArray
@@ -54,6 +55,7 @@ class RobotEvaluation:
     depth: FloatArray
     normal: FloatArray
     friction: FloatArray
+    couple: FloatArray
 
 
 class RobotSystem:
@@ -124,7 +126,8 @@ class RobotSystem:
         X, V, F = np.empty((B, n, 3)), np.empty((B, n, 3)), np.empty((B, n, 3))
         R = np.empty((B, nb, 3, 3))
         l0, lengths, rates, tensions = (np.empty((B, c)) for _ in range(4))
-        depth, normal, friction = np.empty((B, ncap)), np.empty((B, ncap)), np.empty((B, ncap, 3))
+        depth, normal = np.empty((B, ncap)), np.empty((B, ncap))
+        friction, couple = np.empty((B, ncap, 3)), np.empty((B, ncap, 3))
         self._module.evaluate(*plan, Y, _arg(R0), out, X, V, R, F, l0, lengths, rates, tensions, depth, normal,
-                              friction)
-        return RobotEvaluation(out, X, V, R, F, l0, lengths, rates, tensions, depth, normal, friction)
+                              friction, couple)
+        return RobotEvaluation(out, X, V, R, F, l0, lengths, rates, tensions, depth, normal, friction, couple)
