@@ -194,7 +194,7 @@ def compare_roll() -> None:
         bx.axvspan(t0, t1, color=colour, alpha=0.2, label=f"{series}: robot off the floor ({t0:.2f}-{t1:.2f} s)")
     bx.set_xlabel("t [s]")
     bx.set_ylabel("distance between the centres of mass [m]")
-    bx.set_title("the two runs part after the third gait step (3.2 s)")
+    bx.set_title("how far apart the two runs are")
     bx.legend(fontsize=8, loc="upper left")
     bx.grid(alpha=0.3)
     fig.suptitle("six_bar_roll: project and MuJoCo")
