@@ -1,0 +1,1 @@
+"""Shipped tables of tipping moves (:mod:`tensegrity_core.robot.roll_control`)."""
