@@ -1,0 +1,51 @@
+"""The closed-loop rolling gait (:mod:`tensegrity_core.robot.roll_control`) driving the 6-bar
+in MuJoCo (the export of ``six_bar_rest``): the controller sees MuJoCo's contacts and cap
+positions at 50 Hz and rolls the requested faces there too, counted independently from
+MuJoCo's contacts by :mod:`tensegrity_core.robot.faces`."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+mujoco = pytest.importorskip("mujoco", reason="the mujoco extra is not installed (./run setup installs it)")
+
+from tensegrity_core.export import export_mjcf  # noqa: E402
+from tensegrity_core.robot.faces import faces_rolled, faces_visited  # noqa: E402
+from tensegrity_core.robot.roll_control import RollController  # noqa: E402
+from tensegrity_core.sim import load_scene  # noqa: E402
+from tests.mujoco_peer import touching_caps  # noqa: E402
+
+#: The control period [s] (50 Hz).
+PERIOD = 0.02
+
+
+@pytest.mark.parametrize("faces", [1, 2, 3, 4])
+def test_the_controller_rolls_the_requested_faces_in_mujoco(faces):
+    scene = load_scene("six_bar_rest")
+    robot = scene.model.robot
+    m = mujoco.MjModel.from_xml_string(export_mjcf(scene).xml)
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key("initial").id)
+    mujoco.mj_forward(m, d)
+    act = robot.cables.actuated
+    motors = np.array([m.actuator(f"cable:{robot.cables.names[j]}").id for j in act])
+    index = {n: i for i, n in enumerate(robot.node_names)}
+    controller = RollController(robot, faces, heading=(1.0, 0.0))
+    every = round(PERIOD / m.opt.timestep)
+    times, contact = [], []
+    finish = None
+    for k in range(round(20.0 / m.opt.timestep)):
+        if k % every == 0:
+            touching = sorted(index[c] for c in touching_caps(m, d))
+            nodes = np.array([d.site(f"node:{n}").xpos for n in robot.node_names])
+            d.ctrl[motors] = controller.update(d.time, touching, nodes)
+            times.append(d.time)
+            contact.append(np.isin(np.arange(len(robot.node_names)), touching))
+            if finish is None and controller.done:
+                finish = d.time + 1.0
+            if finish is not None and d.time >= finish:
+                break
+        mujoco.mj_step(m, d)
+    assert controller.done, controller.visited
+    assert faces_rolled(faces_visited(times, np.array(contact))) == faces, controller.visited
