@@ -5,7 +5,9 @@ Each shipped view in Debian's headless chromium (tests/view/browser.py: software
 network off loopback blocked): the live suite after a move of node D (``live_class2``), a bag
 paused in its fold (``bag_fold``), a general structure (the spine) simulated in the view's
 process (``scene_spine``), the 6-bar robot rolling (``scene_six_bar``) and the 6-bar's bag at
-the end of its roll (``bag_six_bar``).
+the end of its roll (``bag_six_bar``). The views run in the repository's folder with bags named
+by relative paths, and a screenshot whose page names an absolute path on this machine (a
+user's folders) is refused.
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ TENSEGRITY = str(Path(sys.executable).with_name("tensegrity"))
 
 def _start(args: list[str], log: Path) -> tuple[subprocess.Popen, str]:
     with open(log, "w") as out:
-        proc = subprocess.Popen([TENSEGRITY, *args], stdout=out, stderr=out, start_new_session=True)
+        proc = subprocess.Popen([TENSEGRITY, *args], stdout=out, stderr=out, start_new_session=True, cwd=ROOT)
     deadline = time.monotonic() + 180
     while not (m := re.search(r"view ready: (\S+)", log.read_text())):
         if proc.poll() is not None or time.monotonic() > deadline:
@@ -43,11 +45,20 @@ def _wait_until(page, condition) -> None:
         page.wait_for_timeout(250)
 
 
+def absolute_paths(text: str) -> list[str]:
+    """The words of ``text`` that name an existing absolute path on this machine (a ROS topic
+    such as ``/six_bar/cable_states`` is not one)."""
+    return [w for w in re.findall(r"(?<![\w.])/[\w.-]+(?:/[\w.-]+)+", text) if Path(w).exists()]
+
+
 def _shot(browser: Browser, url: str, name: str, act) -> None:
     page = browser.open(url)
     wait_for_canvas(page)            # (closes the notice that WebGL runs in software)
     act(page)
     page.wait_for_timeout(3000)      # the plots are sent every few frames
+    shown = absolute_paths(page.inner_text("body"))
+    if shown:
+        raise RuntimeError(f"{name}: the page shows {shown}: name files by paths relative to {ROOT}")
     page.screenshot(path=str(OUT / name))
     page.close()
     print(f"wrote {OUT / name}")
@@ -73,10 +84,10 @@ def _play_until(t: float):
 
 #: name: (the view's arguments, what the page does before the screenshot).
 SHOTS = {"live_class2": ([], _move),
-         "bag_fold": ([str(ROOT / "bags" / "fold")], _fold),
+         "bag_fold": (["bags/fold"], _fold),
          "scene_spine": (["--scene", "spine_release"], _play_until(1.0)),
          "scene_six_bar": (["--scene", "six_bar_roll"], _play_until(1.2)),
-         "bag_six_bar": ([str(ROOT / "bags" / "six_bar_roll"), "--scene", "six_bar_rest"], _play_until(6.1))}
+         "bag_six_bar": (["bags/six_bar_roll", "--scene", "six_bar_rest"], _play_until(6.1))}
 
 
 def main(names: list[str]) -> None:

@@ -91,7 +91,7 @@ def run_robot(rclpy: Any, out: Path, *, step_ns: int, record: bool, results: dic
                                if name.startswith(NAMESPACE + "/") and client.node.count_publishers(name) > 0
                                and not name.endswith("/cable_commands") and "/_" not in name)
             commands_before = client.pub.get_subscription_count()
-            rec = Recorder(folder, [*published, f"{NAMESPACE}/cable_commands"])
+            rec = Recorder(folder, [*published, f"{NAMESPACE}/cable_commands", "--custom-data", f"scene={SCENE}"])
             state = [t for t in published if not t.endswith("/events")]
             rec.wait_ready(state, client.reset_all, matched={f"{NAMESPACE}/cable_commands": 1}, every=0.2)
             if not wait_for_matches([client.pub], commands_before + 1, 60.0):

@@ -194,17 +194,18 @@ def _drain(node: RecorderNode, stop_ns: int) -> None:
 def record(folder: str, topics: Iterable[str] | None = None, *, record_all: bool = False,
            max_duration: float | None = None, chunk_size: int | None = None,
            compression: str = "zstd", flush_interval: float | None = None,
-           ros_args: list[str] | None = None,
+           ros_args: list[str] | None = None, custom_data: dict[str, str] | None = None,
            log: Callable[[str], None] | None = None) -> BagMetadata:
     """Record until SIGINT/SIGTERM or ``max_duration`` s; return the closed bag's metadata.
 
     On a stop request the recorder first writes every message already delivered to its
     subscriptions (it keeps taking until two takes 20 ms apart bring nothing received
-    before the request), then closes the bag.
+    before the request), then closes the bag. ``custom_data`` goes into the bag's metadata
+    (:class:`~tensegrity_ros.bag.writer.BagWriter`).
     """
     if max_duration is not None and not max_duration > 0:
         raise BagError(f"max_duration must be > 0 s, got {max_duration!r}")
-    kwargs: dict[str, Any] = {"compression": compression}
+    kwargs: dict[str, Any] = {"compression": compression, "custom_data": custom_data}
     if chunk_size is not None:
         kwargs["chunk_size"] = chunk_size
     if flush_interval is not None:

@@ -64,11 +64,13 @@ class BagWriter:
     ``folder`` must not exist yet (like rosbag2, a bag is never overwritten). The storage
     file is ``<folder name>_0.mcap`` unless ``file_name`` says otherwise.
     ``compression`` is the MCAP chunk compression: ``"zstd"`` (default), ``"lz4"``, ``"none"``.
+    ``custom_data``: the metadata's ``custom_data`` (as ``ros2 bag record --custom-data``), e.g.
+    ``{"scene": "six_bar_rest"}``, the scene the run simulated (``tensegrity view BAG`` draws it).
     """
 
     def __init__(self, folder: str | os.PathLike[str], *, chunk_size: int = DEFAULT_CHUNK_SIZE,
                  compression: str = "zstd", flush_interval: float = DEFAULT_FLUSH_INTERVAL,
-                 file_name: str | None = None):
+                 file_name: str | None = None, custom_data: dict[str, str] | None = None):
         if not isinstance(chunk_size, int) or chunk_size < 1024:
             raise BagError(f"chunk_size must be an integer >= 1024 bytes, got {chunk_size!r}")
         if compression not in COMPRESSIONS:
@@ -96,6 +98,7 @@ class BagWriter:
         self._start: int | None = None         # first and last log time [ns]
         self._end: int | None = None
         self._closed = False
+        self.custom_data = dict(custom_data) if custom_data else None
 
     def __enter__(self) -> BagWriter:
         return self
@@ -168,7 +171,7 @@ class BagWriter:
         return BagMetadata(
             topics=[TopicInfo(**vars(t)) for t in self.topics.values()],
             files=[FileInfo(self.path.name, start, duration, count)],
-            starting_time_ns=start, duration_ns=duration, message_count=count)
+            starting_time_ns=start, duration_ns=duration, message_count=count, custom_data=self.custom_data)
 
     def close(self) -> BagMetadata:
         """Finish the MCAP file (summary, footer) and write ``metadata.yaml``. Idempotent."""

@@ -30,8 +30,16 @@ def _record(args: argparse.Namespace) -> int:
     record(args.output, args.topics, record_all=args.all,
            max_duration=args.max_duration, chunk_size=args.chunk_size,
            compression=args.compression, flush_interval=args.flush_interval,
-           ros_args=args.ros_args)
+           ros_args=args.ros_args, custom_data=dict(args.custom_data) or None)
     return 0
+
+
+def _key_value(text: str) -> tuple[str, str]:
+    """``KEY=VALUE`` of ``--custom-data`` (``ros2 bag record``'s form)."""
+    key, sep, value = text.partition("=")
+    if not sep or not key.strip():
+        raise argparse.ArgumentTypeError(f"expects KEY=VALUE, got {text!r}")
+    return key.strip(), value
 
 
 def _clock_rate(text: str) -> float:
@@ -141,6 +149,9 @@ def register(sub: Subparsers) -> None:
                    "that (default 0.1)")
     p.add_argument("--compression", choices=("zstd", "lz4", "none"), default="zstd",
                    help="MCAP chunk compression (default zstd)")
+    p.add_argument("--custom-data", type=_key_value, action="append", default=[], metavar="KEY=VALUE",
+                   help="store KEY=VALUE in the bag's metadata (custom_data), as ros2 bag record does; "
+                   "`tensegrity up --record` stores scene=NAME, which `tensegrity view BAG` draws")
     p.set_defaults(func=_record, stop_signals=True)
 
     p = sub.add_parser("play", help="replay a bag with its recorded timing",

@@ -179,7 +179,11 @@ def _up(args: argparse.Namespace) -> int:
     if not args.no_formfind:
         specs.append(ProcessSpec("formfind", exe + ["node", "formfind"] + ros))
     if args.record:
-        specs.append(ProcessSpec("record", exe + ["record", "-o", args.record] + ros))
+        from tensegrity_ros.nodes.scene_param import DEFAULT_SCENE
+
+        # the scene goes into the bag's metadata: `tensegrity view BAG` then knows what to draw
+        scene = ["--custom-data", f"scene={args.scene or DEFAULT_SCENE}"]
+        specs.append(ProcessSpec("record", exe + ["record", "-o", args.record, *scene] + ros))
     print(f"starting {', '.join(s.name for s in specs)} (Ctrl-C stops all)", flush=True)
     return Launcher(specs).run()
 

@@ -9,7 +9,9 @@ page changes nothing; :meth:`View.close` stops the source and the server, never 
 from __future__ import annotations
 
 import functools
+import math
 import threading
+import time
 from typing import Any, Final
 
 import numpy as np
@@ -20,8 +22,10 @@ from tensegrity_ros.view.frame import Frame
 from tensegrity_ros.view.plots import PlotPanel, SeriesHistory
 from tensegrity_ros.view.source import Source
 
-#: The plots are sent every this many shown frames,
-PLOT_EVERY: Final = 6
+#: The plots are sent at most every this many seconds [s] while frames come (each sends the
+#: whole plotted history, which the page redraws: sent with every few frames, it took a
+#: quarter of the frame rate of a page on software WebGL, docs/design/view.md),
+PLOT_PERIOD: Final = 0.5
 #: and when no new frame has come for this long [s] after one that did not send them.
 QUIET: Final = 0.25
 
@@ -91,6 +95,7 @@ class View:
     def _render(self) -> None:
         last: Frame | None = None
         stale = False                     # frames shown since the plots and the legend were sent
+        plotted = -math.inf               # when they were sent [s, monotonic]
         while True:
             with self._cond:
                 news = self._cond.wait_for(functools.partial(self._news_since, last), timeout=QUIET if stale else 1.0)
@@ -110,9 +115,11 @@ class View:
                 self.drawing.show(frame)
                 _set(self.status, status_line(frame))
                 self.controls.show_time(frame.t - self._t0)
-                stale = self.frames_shown % PLOT_EVERY != 0
+                now = time.monotonic()
+                stale = now - plotted < PLOT_PERIOD
                 if not stale:
                     self._refresh_panel()
+                    plotted = now
             self.server.flush()
             self.frames_shown += 1
             last = frame

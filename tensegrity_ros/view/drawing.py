@@ -5,7 +5,8 @@ Bars and actuators are cylinders (one batched mesh of instances: a frame is one 
 for all of them); strings are lines coloured by tension (:mod:`.colors`), slack ones thin and
 grey; nodes are points; rigid bodies translucent hulls of their nodes; fold-limit or floor
 contacts red points; the end effector's path a green trail; the floor a grid at z = 0.
-Sizes scale with the structure's extent at its first frame, except a robot's rods and end
+Lines (strings, the trail) have a width in screen pixels; other sizes scale with the
+structure's extent at its first frame, except a robot's rods and end
 caps, drawn at their radii (a rod with its caps: a capsule). A floor contact also shows its
 normal force as a red vertical cylinder up from the cap, its height ``CONTACT_HEIGHT`` times the
 structure's extent for the largest normal force seen so far.
@@ -27,6 +28,9 @@ from tensegrity_ros.view.geometry import segment_poses, unit_cylinder
 TRAIL_POINTS: Final = 600
 #: Height of the largest floor normal force's line, as a fraction of the structure's extent.
 CONTACT_HEIGHT: Final = 0.5
+#: Width of a taut string's line and of a slack one [screen pixels].
+STRING_PX: Final = 3.0
+SLACK_PX: Final = 1.0
 _NO_SEGMENT: Final = np.zeros((1, 2, 3), dtype=np.float32)
 
 
@@ -74,9 +78,12 @@ class StructureDrawing:
                 "/structure/bars", vertices=vertices, faces=faces, batched_wxyzs=wxyz,
                 batched_positions=pos, batched_scales=scales, batched_colors=self._cylinder_colors,
                 lod="off", cast_shadow=False, receive_shadow=False)
-        thick = 0.6 * self.radius
-        self.taut = sc.add_line_segments("/structure/strings", _NO_SEGMENT, colors.SLACK, thickness=thick)
-        self.slack = sc.add_line_segments("/structure/slack", _NO_SEGMENT, colors.SLACK, thickness=thick / 3)
+        # strings in screen pixels: a line of world width is drawn twice (an antialiasing
+        # fringe over its core), which cost a page on software WebGL about a third of its frames
+        self.taut = sc.add_line_segments("/structure/strings", _NO_SEGMENT, colors.SLACK,
+                                         thickness=STRING_PX, thickness_units="screen")
+        self.slack = sc.add_line_segments("/structure/slack", _NO_SEGMENT, colors.SLACK,
+                                          thickness=SLACK_PX, thickness_units="screen")
         self.nodes = sc.add_point_cloud("/structure/nodes", first.nodes.astype(np.float32), colors.NODE,
                                         point_size=self.node_size, point_shape="circle")
         self.contacts = sc.add_point_cloud("/structure/contacts", np.zeros((1, 3), np.float32), colors.CONTACT,
@@ -89,15 +96,18 @@ class StructureDrawing:
                 batched_wxyzs=np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)), batched_positions=np.zeros((n, 3)),
                 batched_scales=np.full((n, 3), 1e-6 * self.size), batched_colors=np.tile(np.array(colors.CONTACT, np.uint8), (n, 1)),
                 lod="off", cast_shadow=False, receive_shadow=False, visible=False)
-        self.bodies = []
-        for name, idx in self.topology.bodies:
-            faces = _hull_faces(first.nodes[list(idx)])
-            handle = sc.add_mesh_simple(f"/structure/bodies/{name}", first.nodes[list(idx)].astype(np.float32),
-                                        faces, color=colors.BODY, opacity=0.35, side="double",
-                                        cast_shadow=False, receive_shadow=False)
-            self.bodies.append((handle, list(idx)))
-        self.path = sc.add_line_segments("/structure/path", _NO_SEGMENT, colors.PATH, thickness=self.radius / 3,
-                                         visible=False)
+        # every body of three nodes or more in ONE mesh (a rod's two nodes span no hull: its
+        # cylinder draws it): one update a frame whatever the number of bodies
+        hulls = [list(idx) for _, idx in self.topology.bodies if len(idx) >= 3]
+        self._body_nodes = np.array([i for idx in hulls for i in idx], dtype=np.int64)
+        if hulls:
+            offsets = np.cumsum([0] + [len(idx) for idx in hulls[:-1]])
+            faces = np.vstack([_hull_faces(first.nodes[idx]) + off for idx, off in zip(hulls, offsets)])
+            self.bodies = sc.add_mesh_simple("/structure/bodies", first.nodes[self._body_nodes].astype(np.float32),
+                                             faces.astype(np.uint32), color=colors.BODY, opacity=0.35, side="double",
+                                             cast_shadow=False, receive_shadow=False)
+        self.path = sc.add_line_segments("/structure/path", _NO_SEGMENT, colors.PATH, thickness=SLACK_PX * 2,
+                                         thickness_units="screen", visible=False)
         self.show(first)
 
     def _cylinder_poses(self, nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -130,8 +140,8 @@ class StructureDrawing:
         self.contacts.visible = bool(frame.contacts)
         if self.topology.floor:
             self._show_normals(frame.contacts)
-        for handle, idx in self.bodies:
-            handle.vertices = nodes[idx].astype(np.float32)
+        if len(self._body_nodes):
+            self.bodies.vertices = nodes[self._body_nodes].astype(np.float32)
         if self.topology.end_effector is not None:
             self._trail.append(nodes[self.topology.end_effector].astype(np.float32))
             if len(self._trail) > 1:

@@ -102,6 +102,9 @@ def start_server(host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, *, label: s
                              "choose another with --port")
     server.gui.configure_theme(show_share_button=False, show_logo=False, control_width="large",
                                control_layout="fixed")
-    # Plain lights without shadows: the page stays fluid on software WebGL (no GPU) too.
+    # Plain lights, no shadows and no environment map (image-based lighting): the page stays
+    # fluid on software WebGL (no GPU) too. viser's default map alone kept a page on SwiftShader
+    # busy for about 10 s after it loaded (docs/design/view.md).
     server.scene.configure_default_lights(enabled=True, cast_shadow=False)
+    server.scene.configure_environment_map(hdri=None)
     return server

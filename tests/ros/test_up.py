@@ -109,3 +109,16 @@ def test_up_on_a_general_structure_starts_its_nodes_and_records_its_topics(cli, 
     counts = {t.name: t.message_count for t in BagReader(tmp_path / "bag").topics()}
     assert all(counts.get(t, 0) > 0 for t in want), counts
     node.destroy_node()
+    # the recorder stored the scene in the bag (read back by the mcap package: rosbag2's
+    # metadata record, and metadata.yaml), so `tensegrity view BAG` needs no --scene
+    import yaml
+    from mcap.reader import make_reader
+
+    with open(tmp_path / "bag" / "bag_0.mcap", "rb") as f:
+        records = {m.name: m.metadata for m in make_reader(f).iter_metadata()}
+    assert yaml.safe_load(records["rosbag2"]["serialized_metadata"])["custom_data"] == {"scene": "table_actuated"}
+    info = yaml.safe_load((tmp_path / "bag" / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert info["custom_data"] == {"scene": "table_actuated"}
+    from tensegrity_ros.view.bag_source import BagSource
+
+    assert BagSource(tmp_path / "bag").topic == "/general_up/body_states"

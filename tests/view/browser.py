@@ -104,7 +104,9 @@ def wait_for_canvas(page, timeout_ms: float = 60_000) -> None:
     page.locator(CANVAS).first.wait_for(state="visible", timeout=timeout_ms)
     notice = page.locator("button.mantine-Notification-closeButton")
     if notice.count():
-        notice.first.click()
+        # a click event straight to the button: Playwright's click first waits for the
+        # notice's slide-in to come to rest, frames that a busy page draws slowly
+        notice.first.dispatch_event("click")
         notice.first.wait_for(state="detached")
     deadline_polls = int(timeout_ms / 250)
     for _ in range(deadline_polls):

@@ -12,6 +12,7 @@ from __future__ import annotations
 import re
 import signal
 import time
+import types
 
 import numpy as np
 import pytest
@@ -56,6 +57,26 @@ def _until(condition, what: str, timeout: float = WAIT, poll=lambda: time.sleep(
         poll()
 
 
+def _drawn(page) -> None:
+    """Until the page has drawn what it shows: two animation frames from now (the status line
+    and the scene arrive in one message batch; the canvas draws them in the next frame)."""
+    page.evaluate("() => new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
+
+
+def _settled(page) -> None:
+    """Until the status line's time is the same 200 ms apart (a paused source's last frame
+    shown), then drawn."""
+    shown = [status_time(page)]
+
+    def unchanged() -> bool:
+        page.wait_for_timeout(200)
+        before, shown[0] = shown[0], status_time(page)
+        return shown[0] == before
+
+    _until(unchanged, "the page settle", poll=lambda: None)
+    _drawn(page)
+
+
 def _next_state(client):
     """The first joint state the simulator publishes from now on."""
     client.take_joints()
@@ -80,77 +101,20 @@ def test_a_bag_plays_pauses_and_scrubs_on_its_timeline(cli, browser):
         page.get_by_role("button", name="Play").click()
         _until(lambda: status_time(page) > 2.0, "the bag played past 2 s", poll=lambda: page.wait_for_timeout(200))
         page.get_by_role("button", name="Pause").click()
-        page.wait_for_timeout(300)
+        page.get_by_text("paused at").first.wait_for(timeout=WAIT * 1000)
+        _settled(page)
         folded = canvas_pixels(page)
         assert _changed(still, folded) > 0.02
         # scrub back to the start: the first frame's pixels again (a bag's colour scale is fixed)
         control(page, "time [s]").get_by_role("slider").focus()
         page.keyboard.press("Home")
         _until(lambda: status_time(page) == 0.0, "the timeline back at 0 s", poll=lambda: page.wait_for_timeout(200))
-        page.wait_for_timeout(500)
+        _drawn(page)
         assert _changed(still, canvas_pixels(page)) < 0.25 * _changed(still, folded)
         _only_loopback(browser, port)
     finally:
         page.close()
     assert view.stop() == 0
-
-
-@pytest.mark.ros
-def test_the_live_view_follows_the_simulator_and_its_controls_drive_it(cli, browser, ros_context):
-    import rclpy
-    from simulation_interfaces.msg import SimulationState
-
-    from tensegrity_ros.apps.sim_client import SimClient
-
-    sim = cli("node", "sim", log_name="sim")
-    client = SimClient(rclpy, "view_test_client", context=ros_context, record_events=False)
-    try:
-        client.wait_for_services()
-        view, url, port = start_view(cli)
-        page = browser.open(url)
-        wait_for_canvas(page)
-        before = canvas_pixels(page)
-        rho1_before = _next_state(client).position[0]
-
-        # the sliders take the inputs; f1 to its end of the range: +5 N, tension
-        control(page, "drive from the sliders").locator("input[type=checkbox]").check()
-        control(page, "f1 [N]").get_by_role("slider").focus()
-        page.keyboard.press("End")
-        _until(lambda: any(r.effort[0] == 5.0 for r in client.take_joints()), "the simulator apply f1 = 5 N")
-        _until(lambda: abs(_next_state(client).position[0] - rho1_before) > 0.05, "rho1 move by 5 cm")
-        t_moved = _next_state(client).stamp_ns / 1e9
-        _until(lambda: status_time(page) >= t_moved, "the page show the moved state",
-               poll=lambda: page.wait_for_timeout(200))
-        assert _changed(before, canvas_pixels(page)) > 0.01
-
-        # a value typed beyond the limit is clamped, and the page says so
-        field = control(page, "f1 [N]").locator("input[type=text]")
-        field.fill("7")
-        field.press("Enter")
-        page.get_by_text("clamped to 5 N").first.wait_for(timeout=WAIT * 1000)
-        client.take_joints()
-        _until(lambda: (rs := client.take_joints()) and rs[-1].effort[0] == 5.0, "f1 stay at 5 N")
-
-        # pause, then one step through the page: the clock moves by exactly one step
-        page.get_by_role("button", name="Pause").click()
-        _until(lambda: client.call("get_simulation_state").state.state == SimulationState.STATE_PAUSED,
-               "the simulator paused")
-        page.get_by_text("pause: OK").first.wait_for(timeout=WAIT * 1000)
-        paused_at = _next_state(client).stamp_ns
-        page.get_by_role("button", name="Step").click()
-        client.wait_joint(paused_at + 10_000_000)     # step_size = 1 / publish_rate = 10 ms
-
-        assert all(addr in ("127.0.0.1", "::1") for _proto, addr, _port in sockets_of(view.popen.pid))
-        _only_loopback(browser, port)
-
-        # closing the page, then the view, leaves the simulator running
-        page.close()
-        assert view.stop() == 0
-        assert client.call("get_simulation_state").state.state == SimulationState.STATE_PAUSED
-        assert sim.popen.poll() is None
-    finally:
-        client.close()
-    assert sim.stop(signal.SIGINT) == 0
 
 
 def test_a_rolling_six_bar_robot_moves_between_frames(cli, browser):
@@ -208,7 +172,7 @@ def test_a_robot_bag_moves_over_its_timeline_with_its_contacts_marked(cli, brows
         page.keyboard.press("End")
         _until(lambda: status_time(page) >= round(bag.duration, 3) - 1e-3, "the timeline at its end",
                poll=lambda: page.wait_for_timeout(200))
-        page.wait_for_timeout(500)
+        _drawn(page)
         end = canvas_pixels(page)
         assert _changed(still, end) > 0.01
         assert _contact_red(end).sum() > 20, _contact_red(end).sum()
@@ -218,6 +182,91 @@ def test_a_robot_bag_moves_over_its_timeline_with_its_contacts_marked(cli, brows
     finally:
         page.close()
     assert view.stop() == 0
+
+
+@pytest.fixture(scope="module")
+def live(browser, tmp_path_factory):
+    """One suite (simulator and controller), one view of it and its page in the browser,
+    shared by the live tests in the order they are written (each leaves the suite as the next
+    one expects it); the last test closes the page and the view, and the suite stops here."""
+    import rclpy
+    from rclpy.context import Context
+
+    from tensegrity_ros.apps.sim_client import SimClient
+    from tests.ros_support import Proc, end_context
+
+    logs = tmp_path_factory.mktemp("live_view")
+    procs: list[Proc] = []
+
+    def start(*args: str, log_name: str) -> Proc:
+        procs.append(Proc(list(args), logs / f"{log_name}{len(procs)}.log"))
+        return procs[-1]
+
+    ctx = Context()
+    rclpy.init(args=[], context=ctx)
+    client = None
+    try:
+        sim = start("node", "sim", log_name="sim")
+        controller = start("node", "controller", log_name="controller")
+        client = SimClient(rclpy, "view_test_client", context=ctx, record_events=False)
+        client.wait_for_services()
+        controller.wait_for("controller ready", timeout=WAIT)
+        view, url, port = start_view(start)
+        page = browser.open(url)
+        wait_for_canvas(page)
+        yield types.SimpleNamespace(sim=sim, controller=controller, client=client, view=view, url=url, port=port,
+                                    page=page, context=ctx)
+        assert controller.stop(signal.SIGINT) == 0
+        assert sim.stop(signal.SIGINT) == 0
+    finally:
+        if client is not None:
+            client.close()
+        for proc in procs:
+            proc.kill()
+        end_context(ctx)
+
+
+@pytest.mark.ros
+def test_the_live_view_follows_the_simulator_and_its_sliders_drive_it(live, browser):
+    """A slider moved in the page is the force the simulator applies (joint_states' effort),
+    the structure is drawn where it moved, a value beyond the limit is clamped and said so;
+    pause, then one step through the page moves the clock by exactly one step."""
+    from simulation_interfaces.msg import SimulationState
+
+    page, client = live.page, live.client
+    before = canvas_pixels(page)
+    rho1_before = _next_state(client).position[0]
+
+    # the sliders take the inputs (the controller steps aside); f1 to its end of the range: +5 N, tension
+    control(page, "drive from the sliders").locator("input[type=checkbox]").check()
+    control(page, "f1 [N]").get_by_role("slider").focus()
+    page.keyboard.press("End")
+    _until(lambda: any(r.effort[0] == 5.0 for r in client.take_joints()), "the simulator apply f1 = 5 N")
+    _until(lambda: abs(_next_state(client).position[0] - rho1_before) > 0.05, "rho1 move by 5 cm")
+    t_moved = _next_state(client).stamp_ns / 1e9
+    _until(lambda: status_time(page) >= t_moved, "the page show the moved state",
+           poll=lambda: page.wait_for_timeout(200))
+    assert _changed(before, canvas_pixels(page)) > 0.01
+
+    # a value typed beyond the limit is clamped, and the page says so
+    field = control(page, "f1 [N]").locator("input[type=text]")
+    field.fill("7")
+    field.press("Enter")
+    page.get_by_text("clamped to 5 N").first.wait_for(timeout=WAIT * 1000)
+    client.take_joints()
+    _until(lambda: (rs := client.take_joints()) and rs[-1].effort[0] == 5.0, "f1 stay at 5 N")
+
+    # pause, then one step through the page: the clock moves by exactly one step
+    page.get_by_role("button", name="Pause").click()
+    _until(lambda: client.call("get_simulation_state").state.state == SimulationState.STATE_PAUSED,
+           "the simulator paused")
+    page.get_by_text("pause: OK").first.wait_for(timeout=WAIT * 1000)
+    paused_at = _next_state(client).stamp_ns
+    page.get_by_role("button", name="Step").click()
+    client.wait_joint(paused_at + 10_000_000)     # step_size = 1 / publish_rate = 10 ms
+
+    assert all(addr in ("127.0.0.1", "::1") for _proto, addr, _port in sockets_of(live.view.popen.pid))
+    _only_loopback(browser, live.port)
 
 
 def _end_effector_after(ros_context, stamp_ns: int) -> tuple[float, float]:
@@ -245,48 +294,60 @@ def _end_effector_after(ros_context, stamp_ns: int) -> tuple[float, float]:
 
 
 @pytest.mark.ros
-def test_the_move_fields_send_the_controllers_goal_and_d_ends_at_the_target(cli, browser, ros_context):
+def test_the_move_fields_send_the_controllers_goal_and_d_ends_at_the_target(live):
     """x, y, duration typed into the page's "Move node D" fields reach the controller's
     move_end_effector action; the simulator's own end_effector then reads the target (the
     controller settles within 1 mm, docs/control.md)."""
-    import rclpy
+    from simulation_interfaces.msg import SimulationState
 
-    from tensegrity_ros.apps.sim_client import SimClient
-
+    page, client = live.page, live.client
     target = (1.42, 0.75)
-    sim = cli("node", "sim", log_name="sim")
-    controller = cli("node", "controller", log_name="controller")
-    client = SimClient(rclpy, "view_move_test_client", context=ros_context, record_events=False)
-    try:
-        client.wait_for_services()
-        controller.wait_for("controller ready", timeout=WAIT)
-        view, url, port = start_view(cli)
-        page = browser.open(url)
-        wait_for_canvas(page)
-        # the view's node has found the controller's action server (the answer says so if not)
-        page.wait_for_timeout(1000)
-        # one field at a time, each until the server shows it back: viser's page sends GUI
-        # updates through one 50 ms throttle that keeps only the latest message, so a second
-        # field changed within 50 ms of the first would drop the first one's update
-        entries = (("x [m]", target[0], (target[0], 0.72, 2)), ("y [m]", target[1], (*target, 2)),
-                   ("duration [s]", 2.5, (*target, 2.5)))
-        for label, value, (gx, gy, gd) in entries:
-            field = control(page, label).locator("input").first
-            field.fill(str(value))
-            field.press("Enter")
-            page.get_by_text(f"goal: D to ({gx:g}, {gy:g}) m in {gd:g} s").wait_for(timeout=WAIT * 1000)
+    # the sliders no longer driving (a slider's command would take the forces from the
+    # controller again), the mechanism back at its initial state and command, playing
+    control(page, "drive from the sliders").locator("input[type=checkbox]").uncheck()
+    client.reset_all()
+    page.get_by_role("button", name="Play").click()
+    _until(lambda: client.call("get_simulation_state").state.state == SimulationState.STATE_PLAYING,
+           "the simulator playing")
+    # one field at a time, each until the server shows it back: viser's page sends GUI
+    # updates through one 50 ms throttle that keeps only the latest message, so a second
+    # field changed within 50 ms of the first would drop the first one's update
+    entries = (("x [m]", target[0], (target[0], 0.72, 2)), ("y [m]", target[1], (*target, 2)),
+               ("duration [s]", 2.5, (*target, 2.5)))
+    for label, value, (gx, gy, gd) in entries:
+        field = control(page, label).locator("input").first
+        field.fill(str(value))
+        field.press("Enter")
+        page.get_by_text(f"goal: D to ({gx:g}, {gy:g}) m in {gd:g} s").wait_for(timeout=WAIT * 1000)
+    answer = page.get_by_text(re.compile(r"^move: (D at|the controller refused|failed|no controller)")).first
+
+    def move() -> bool:
+        """Press Move D and wait for the answer; False while the view has not yet found the
+        controller's action server (it says so at once)."""
         page.get_by_role("button", name="Move D").click()
-        answer = page.get_by_text(re.compile(r"^move: (D at|the controller refused|failed|no controller)")).first
         answer.wait_for(timeout=WAIT * 1000)
-        line = answer.inner_text()
-        x, y = (float(v) for v in line.split("(")[1].split(")")[0].split(","))
-        assert abs(x - target[0]) < 1e-3 and abs(y - target[1]) < 1e-3, line
-        done = _next_state(client).stamp_ns
-        dx, dy = _end_effector_after(ros_context, done)
-        assert abs(dx - target[0]) < 1e-3 and abs(dy - target[1]) < 1e-3
-        page.close()
-        assert view.stop() == 0
-    finally:
-        client.close()
-    assert controller.stop(signal.SIGINT) == 0
-    assert sim.stop(signal.SIGINT) == 0
+        if answer.inner_text().startswith("move: no controller"):
+            page.wait_for_timeout(200)
+            return False
+        return True
+
+    _until(move, "the view find the controller")
+    line = answer.inner_text()
+    x, y = (float(v) for v in line.split("(")[1].split(")")[0].split(","))
+    assert abs(x - target[0]) < 1e-3 and abs(y - target[1]) < 1e-3, line
+    done = _next_state(client).stamp_ns
+    dx, dy = _end_effector_after(live.context, done)
+    assert abs(dx - target[0]) < 1e-3 and abs(dy - target[1]) < 1e-3
+
+
+@pytest.mark.ros
+def test_closing_the_page_and_the_view_leaves_the_suite_running(live):
+    from simulation_interfaces.msg import SimulationState
+
+    state = live.client.call("get_simulation_state").state.state
+    live.page.close()
+    assert live.view.stop() == 0
+    assert live.client.call("get_simulation_state").state.state == state == SimulationState.STATE_PLAYING
+    assert live.sim.popen.poll() is None and live.controller.popen.poll() is None
+    t = _next_state(live.client).stamp_ns
+    live.client.wait_joint(t + 100_000_000)        # and its clock goes on
