@@ -143,3 +143,22 @@ def test_a_robot_scene_exports_with_its_lift_and_effects():
     assert len(root.findall("contact/pair")) == 2 * len(robot.rods)
     np.testing.assert_array_equal([float(x) for x in root.find("option").get("gravity").split()],
                                   scene.effects["gravity"].vector)
+
+
+def test_rolling_and_torsional_friction_export_as_condim_6_with_the_same_coefficients():
+    """MuJoCo's pair friction is (slide, slide, torsional, rolling, rolling), its torsional and
+    rolling coefficients the couples' lever arms [m], as the floor's."""
+    from tensegrity_core.sim import load_scene
+
+    floor = load_robot("six_bar").floor
+    for source, expected in ((load_robot("six_bar"), (0.9, 0.005, 0.0001)),
+                             (load_scene({"name": "s", "model": {"kind": "robot", "robot": "six_bar"},
+                                          "initial": {"drawn": True}, "duration": 1.0,
+                                          "effects": ["inertia", "cables", "contact", {"friction": {
+                                              "rolling_friction": 0.002, "torsional_friction": 0.0}}]}),
+                              (floor.mu_static, 0.0, 0.002))):
+        pairs = ET.fromstring(export_mjcf(source).xml).findall("contact/pair")
+        assert {p.get("condim") for p in pairs} == {"6"}
+        mu, torsional, rolling = expected
+        for p in pairs:
+            assert [float(x) for x in p.get("friction").split()] == [mu, mu, torsional, rolling, rolling]

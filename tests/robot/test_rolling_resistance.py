@@ -1,16 +1,17 @@
 """The caps' rolling and spin resistance (:mod:`tensegrity_core.robot.contact`): the couple
 only takes energy out and is limited by ``b F_n`` (hypothesis over the accepted ranges); a
 rod spinning flat on a frictionless floor and a rod rolling on its caps slow down at the
-rates derived here from the angular momentum balance."""
+rates derived here from the angular momentum balance; a negative lever arm is one line."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
 from tensegrity_core.robot.contact import SPIN_TOLERANCE, resisting_couple
-from tensegrity_core.sim import compile_scene, load_scene
+from tensegrity_core.sim import SceneError, compile_scene, load_scene
 
 G = 9.81
 
@@ -87,3 +88,10 @@ def test_a_rod_rolling_on_its_caps_slows_at_b_r_m_g_over_its_inertia_about_the_f
     inertia = ROD["mass"] * ROD["cap_radius"] ** 2 + ROD["inertia"][1]
     expected = w0 - b_r * ROD["mass"] * G / inertia * np.linspace(0.0, t, len(w))           # to 4.39 rad/s
     np.testing.assert_allclose(w[:, 0], expected, rtol=5e-3)
+
+
+@pytest.mark.parametrize("key", ["rolling_friction", "torsional_friction"])
+def test_a_negative_lever_arm_is_one_line(key):
+    with pytest.raises(SceneError, match=rf"^effects\[3\]\.friction\.{key}: must be >= 0, got -0.1$"):
+        load_scene({"name": "s", "model": {"kind": "robot", "robot": "six_bar"}, "initial": {"drawn": True},
+                    "duration": 1.0, "effects": ["inertia", "cables", "contact", {"friction": {key: -0.1}}]})
