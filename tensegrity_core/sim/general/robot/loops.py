@@ -170,7 +170,7 @@ def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray,
         moments[c, 2] = -r * (n0 * f1 - n1 * f0)
         m0, m1, m2 = 0.0, 0.0, 0.0
         body = cap_body[c]
-        if fn > 0.0 and body >= 0:
+        if fn > 0.0 and body >= 0 and (b_roll > 0.0 or b_spin > 0.0):
             dof = n_dof + body_dof[body] + 3
             w0, w1, w2 = y[dof], y[dof + 1], y[dof + 2]
             wn = w0 * n0 + w1 * n1 + w2 * n2
