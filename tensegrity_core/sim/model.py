@@ -316,7 +316,10 @@ class Model(Protocol[W, S]):
     - ``observe(samples)``: the observed quantities of samples as arrays over them
       (:class:`ObservedArrays`); ``observe_now(state)``: the same for ``state.t`` without the
       sample axis (:class:`Observed`), evaluated on floats where that is faster;
-      ``joint_sample(state)``: its cheap part (:class:`JointValues`).
+      ``joint_sample(state, coordinates=True)``: its cheap part (:class:`JointValues`); with
+      ``coordinates=False`` a back end may leave ``q`` and ``qdot`` empty where they cost
+      more than the rest (a robot's rotation vectors), for a caller that reads only the
+      actuated members' values.
     - ``singular_distance(state)``: ``(name, distance / L)`` of the singular set nearest the
       state's configuration (class-2: ``"lambda1"`` or ``"lambda2"``), or None for a model
       without singular sets.
@@ -347,7 +350,7 @@ class Model(Protocol[W, S]):
 
     def observe_now(self, state: State[W]) -> Observed: ...
 
-    def joint_sample(self, state: State[W]) -> JointValues: ...
+    def joint_sample(self, state: State[W], *, coordinates: bool = True) -> JointValues: ...
 
     def singular_distance(self, state: State[W]) -> tuple[str, float] | None: ...
 

@@ -193,11 +193,13 @@ class Simulator:
             self._noise.perturb(obs)
         return obs
 
-    def joint_sample(self) -> JointSample:
+    def joint_sample(self, *, coordinates: bool = True) -> JointSample:
         """Joint positions, rates, applied forces and end-effector at ``t``, without member
         forces or energies: ~2 us where :meth:`observe` takes ~30 us (dynamic class-2 scenes;
-        other scenes evaluate an observation)."""
-        d = self.model.joint_sample(self.state)
+        other scenes evaluate an observation). ``coordinates=False``: for a caller that reads
+        only the actuated members' values, ``q`` and ``qdot`` may be empty (robots: the
+        rods' rotation vectors are not computed)."""
+        d = self.model.joint_sample(self.state, coordinates=coordinates)
         sample = JointSample(d["t"], d["q"], d["qdot"], np.asarray(d["applied_forces"], dtype=float),
                              d["end_effector"], d["folded"])
         if "actuated_lengths" in d:

@@ -5,22 +5,25 @@ sensor_msgs/JointState on ``bench_ping`` with a command message of the same stam
 ``bench_pong`` (against the lockstep loop, which exchanges a joint state and a command):
 by default a tensegrity_msgs/ActuatorForces of two forces; with ``--answer TYPE HEX`` the
 message of that tensegrity_msgs type serialized in ``HEX`` (the lockstep controller's own
-command, so both exchanges carry the same messages). The echo is a node of its own
-without parameter services on an executor of its own: an rclpy executor's wake-up walks
-every entity of its nodes, so the leanest rclpy answer is the fair baseline."""
+command, so both exchanges carry the same messages). The echo takes its pings as the
+simulator takes its commands: a node of its own without parameter services, spun by no
+executor, its subscription waited on and taken on a thread of its own
+(:class:`~tensegrity_ros.rclpy_utils.inbox.Inbox`): the leanest rclpy answer is the fair
+baseline."""
 
 import argparse
+import threading
 
 import rclpy
 import tensegrity_msgs.msg
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException
 from rclpy.qos import QoSProfile
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 from tensegrity_msgs.msg import ActuatorForces
 
-from tensegrity_ros.rclpy_utils.spin_thread import SpinThread
+from tensegrity_ros.rclpy_utils.inbox import Inbox
 
 
 def main() -> None:
@@ -42,18 +45,25 @@ def main() -> None:
         out.header.stamp = msg.header.stamp
         pong.publish(out)
 
-    echo.create_subscription(JointState, "bench_ping", answer, QoSProfile(depth=100))
-    echo_executor = SingleThreadedExecutor()
-    echo_executor.add_node(echo)
-    spinning = SpinThread(echo_executor, "bench_topic_echo").start()
+    inbox = Inbox(echo)
+    inbox.subscribe(JointState, "bench_ping", answer, QoSProfile(depth=100))
+    stop = threading.Event()
+
+    def take() -> None:
+        while not stop.is_set():
+            inbox.wait(0.1)
+
+    taking = threading.Thread(target=take, name="bench_topic_echo")
+    taking.start()
     print("echo ready", flush=True)
     try:
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
-        spinning.stop()             # joined: a thread still in rcl_wait at exit aborts the process
-        echo_executor.shutdown()
+        stop.set()
+        inbox.wake()
+        taking.join()               # joined: a thread still in rcl_wait at exit aborts the process
         echo.destroy_node()
         node.destroy_node()
         rclpy.try_shutdown()

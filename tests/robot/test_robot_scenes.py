@@ -105,7 +105,8 @@ def test_a_robot_file_named_by_a_scene_travels_to_sweep_workers_inlined(tmp_path
 @pytest.mark.parametrize("scene", ["six_bar_drop", "spine_bend"])
 def test_the_joint_sample_is_the_observations_joint_part_to_the_last_bit(scene):
     """``joint_sample`` (one evaluation) gives what ``observe_now`` gives for the joints and
-    the motor cables, bit for bit, in motion (60 steps of 1 ms under the scene's inputs)."""
+    the motor cables, bit for bit, in motion (60 steps of 1 ms under the scene's inputs);
+    without the coordinates, the same motor cables and no ``q``, ``qdot``."""
     import numpy as np
 
     from tensegrity_core.sim import Simulator
@@ -117,10 +118,13 @@ def test_the_joint_sample_is_the_observations_joint_part_to_the_last_bit(scene):
         sim.set_command(held)
         sim.advance(step_time(k + 1, 1_000_000))
     full, joints = sim.model.observe_now(sim.state), sim.model.joint_sample(sim.state)
+    cables = sim.model.joint_sample(sim.state, coordinates=False)
     for key in ("q", "qdot", "applied_forces", "end_effector"):
         np.testing.assert_array_equal(joints[key], full[key])
+    assert cables["q"].size == cables["qdot"].size == 0
     driven = list(sim.interface.members)
     for key, member_key in (("actuated_lengths", "member_lengths"), ("actuated_rates", "member_rates"),
                             ("actuated_forces", "member_forces")):
         np.testing.assert_array_equal(joints[key], full[member_key][driven])
+        np.testing.assert_array_equal(cables[key], full[member_key][driven])
     assert np.abs(full["qdot"]).max() > 1e-3                     # it moves

@@ -267,3 +267,33 @@ def test_bad_motor_mode_commands_say_why(names, rest, reel, tension, reason):
 
     with pytest.raises(CommandError, match=re.escape(reason)):
         parse_cable_command(names, rest, reel, tension, MOTORS)
+
+
+#: 24 motor cables as the 6-bar's: rest lengths in (0.45, 1.05) m, two of them following a law.
+MOTORS_24 = Interface("rest_length", tuple(f"m{i}" for i in range(24)), tuple(i not in (5, 17) for i in range(24)),
+                      ((0.45, 1.05),) * 24, tuple(range(6, 30)))
+
+
+@given(st.lists(st.sampled_from([0.75, 0.45, 1.05, 0.2, 1.5, math.nan, math.inf, -math.inf, 0.4500001]),
+                min_size=24, max_size=24),
+       st.one_of(st.none(), st.permutations(range(24)).map(lambda p: p[:7])))
+def test_a_cable_command_is_taken_exactly_when_each_value_is_inside_its_commanded_cables_range(values, subset):
+    """Accepted iff every named cable takes commands and its rest length is finite and inside
+    its open range (all 24 in input order, or 7 named in any order); then it sets exactly those."""
+    from tensegrity_ros.nodes.actuator_commands import CommandError
+    from tensegrity_ros.nodes.sim.cable_commands import parse_cable_command
+
+    indices = list(range(24)) if subset is None else list(subset)
+    names = [MOTORS_24.inputs[i] for i in indices]
+    given_values = [values[i] for i in indices]
+    valid = all(MOTORS_24.commanded[i] and 0.45 < v < 1.05 for i, v in zip(indices, given_values))
+    try:
+        update = parse_cable_command(names, given_values, [], [], MOTORS_24)
+    except CommandError:
+        assert not valid
+        return
+    assert valid
+    expected = [0.0] * 24
+    for i, v in zip(indices, given_values):
+        expected[i] = v
+    assert update.apply([0.0] * 24) == expected

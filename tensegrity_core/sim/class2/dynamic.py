@@ -128,7 +128,7 @@ class Class2Dynamic(DynamicModel[Class2System, Class2Sample]):
         """The observation at ``state.t`` (one sample, on floats)."""
         return self.observer.one(*self.sample(state))
 
-    def joint_sample(self, state: State[Stepper[Class2System]]) -> JointValues:
+    def joint_sample(self, state: State[Stepper[Class2System]], *, coordinates: bool = True) -> JointValues:
         """Joint positions, rates, transmitted forces, node D and the fold flag at ``state.t``."""
         t, y, bits, T = self.sample(state)
         L = self.params.L

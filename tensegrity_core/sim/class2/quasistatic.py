@@ -169,7 +169,7 @@ class Class2QuasiStatic(Model[PathFollower, Class2Block]):
         q, qd, lam, u = state.work.equilibrium_now()
         return self.observer.one(state.t, q + qd, state.work.seg.bits, u, contact=lam)
 
-    def joint_sample(self, state: State[PathFollower]) -> JointValues:
+    def joint_sample(self, state: State[PathFollower], *, coordinates: bool = True) -> JointValues:
         return joint_values(self.observe_now(state))
 
     def singular_distance(self, state: State[PathFollower]) -> tuple[str, float]:

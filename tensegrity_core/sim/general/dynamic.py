@@ -134,7 +134,7 @@ class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralSystem, GeneralSample])
     def observe_now(self, state: State[Stepper[GeneralSystem]]) -> Observed:
         return first_observation(self.observe([self.sample(state)]))
 
-    def joint_sample(self, state: State[Stepper[GeneralSystem]]) -> JointValues:
+    def joint_sample(self, state: State[Stepper[GeneralSystem]], *, coordinates: bool = True) -> JointValues:
         return joint_values(self.observe_now(state), self.interface.members)
 
     def singular_distance(self, state: State[Stepper[GeneralSystem]]) -> None:

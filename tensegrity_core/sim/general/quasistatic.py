@@ -202,7 +202,7 @@ class GeneralQuasiStatic(GeneralBackEnd, Model[FormFindingPath, GeneralQuasiStat
     def observe_now(self, state: State[FormFindingPath]) -> Observed:
         return first_observation(self.observe([self.sample(state)]))
 
-    def joint_sample(self, state: State[FormFindingPath]) -> JointValues:
+    def joint_sample(self, state: State[FormFindingPath], *, coordinates: bool = True) -> JointValues:
         return joint_values(self.observe_now(state), self.interface.members)
 
     def singular_distance(self, state: State[FormFindingPath]) -> None:

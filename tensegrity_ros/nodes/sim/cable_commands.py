@@ -10,6 +10,7 @@ the scene's law) and each one's range.
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -68,14 +69,14 @@ def parse_cable_command(names: Sequence[str], rest_lengths: Sequence[float], ree
         raise CommandError("this scene's inputs are actuator forces (f1, f2), not rest lengths: send "
                            "tensegrity_msgs/ActuatorForces on actuator_forces")
     inputs = interface.inputs
-    lists = {"rest_length": [float(v) for v in rest_lengths], "reel_speed": [float(v) for v in reel_speeds],
-             "tension": [float(v) for v in tensions]}
+    lists = {"rest_length": list(map(float, rest_lengths)), "reel_speed": list(map(float, reel_speeds)),
+             "tension": list(map(float, tensions))}
     if not len(names) and not any(lists.values()):
         return InputUpdate((), ())
     if not inputs:
         raise CommandError("this scene has no actuated cables: it takes no cable commands but empty ones")
     modes = interface.modes or ("rest_length",) * len(inputs)
-    if not names:
+    if not names or tuple(names) == inputs:    # every input, in input order (as joint_states names them)
         indices = list(range(len(inputs)))
     else:
         position = {name: i for i, name in enumerate(inputs)}
@@ -87,7 +88,7 @@ def parse_cable_command(names: Sequence[str], rest_lengths: Sequence[float], ree
                     raise CommandError(f"cable {name} named twice")
                 raise CommandError(f"unknown cable name {excerpt(name)} (actuated cables: {listed(inputs)})")
             indices.append(i)
-    used = {modes[i] for i in indices}
+    used = set(modes) if len(indices) == len(inputs) else {modes[i] for i in indices}
     for mode, values in lists.items():
         field, what, _ = MODE_FIELDS[mode]
         if mode in used and len(values) != len(indices):
@@ -99,8 +100,10 @@ def parse_cable_command(names: Sequence[str], rest_lengths: Sequence[float], ree
                 raise CommandError(f"{field} commands are not taken: the actuated cables take rest lengths "
                                    f"only (leave {field} empty)")
             raise CommandError(f"no {'named ' if names else ''}cable's motor takes {what}s (leave {field} empty)")
+    if used == {"rest_length"} and _in_range(interface, indices, lists["rest_length"]):
+        return InputUpdate(tuple(indices), tuple(lists["rest_length"]))
     out = []
-    for k, i in enumerate(indices):
+    for k, i in enumerate(indices):                    # the first value at fault, named
         name, mode = inputs[i], modes[i]
         field, what, unit = MODE_FIELDS[mode]
         if not interface.commanded[i]:
@@ -117,3 +120,39 @@ def parse_cable_command(names: Sequence[str], rest_lengths: Sequence[float], ree
             raise CommandError(f"{what} of {name} = {v:g} {unit} is outside its range ({lo:g}, {hi:g}) {unit}")
         out.append(v)
     return InputUpdate(tuple(indices), tuple(out))
+
+
+
+@dataclass(frozen=True)
+class _Ranges:
+    """An interface's inputs as the checks of a whole command take them: which take a rest
+    length now (commanded, in rest-length mode), and each input's open range ``(lo, hi)`` [m]."""
+
+    rest_length: tuple[bool, ...]
+    lo: tuple[float, ...]
+    hi: tuple[float, ...]
+
+
+#: The ranges of the interface checked last (a simulator checks every command against one).
+_last: tuple[Interface, _Ranges] | None = None
+
+
+def _in_range(interface: Interface, indices: Sequence[int], values: Sequence[float]) -> bool:
+    """Every value a rest length inside its input's open range (so finite), that input
+    commanded and in rest-length mode: checked in C loops (``map``), not element by element
+    (a command of the 6-bar's 24 cables every lockstep step; for so few values numpy's
+    per-call overhead costs more). False sends the command to the checks that name the value
+    at fault."""
+    global _last
+    if _last is None or _last[0] is not interface:
+        modes = interface.modes or ("rest_length",) * len(interface.inputs)
+        _last = interface, _Ranges(tuple(c and m == "rest_length" for c, m in zip(interface.commanded, modes)),
+                                   tuple(float(lo) for lo, _ in interface.limits),
+                                   tuple(float(hi) for _, hi in interface.limits))
+    r = _last[1]
+    taking: Sequence[bool] = r.rest_length
+    lo: Sequence[float] = r.lo
+    hi: Sequence[float] = r.hi
+    if len(indices) != len(r.lo) or not all(map(operator.eq, indices, range(len(r.lo)))):
+        taking, lo, hi = [taking[i] for i in indices], [lo[i] for i in indices], [hi[i] for i in indices]
+    return all(taking) and all(map(operator.lt, lo, values)) and all(map(operator.lt, values, hi))

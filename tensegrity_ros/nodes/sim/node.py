@@ -38,7 +38,8 @@ hold and its timeout (:mod:`.hold`), which slower topics go out with a publicati
 (:mod:`.decimation`). The node keeps the entities, the callbacks and
 two threads: a loop thread (free-running ticks, free-running stepping requests, paced
 lockstep publications, republishing while paused) and a command thread (commands arrive
-on a node and executor of their own; in lockstep it also times a step out). A receiver
+on a node of their own, taken from a wait set without an executor; in lockstep it also
+times a step out). A receiver
 (:mod:`.receiver`) validates a command once, the plant (:mod:`.plant`) owns the core
 simulator and the clock, and the sender (:mod:`.sender`) turns samples into messages.
 

@@ -82,8 +82,9 @@ class Outputs:
         out: Messages = []
         plant, interface = self.plant, self.plant.interface
         if self.general and want <= {"joint_states", "end_effector"} and not plant.noisy:
-            # the joints alone (a lockstep loop's usual state): the cheap joint sample
-            sample = plant.joint_sample()
+            # the joints alone (a lockstep loop's usual state): the cheap joint sample, of
+            # the actuated members only (not the coordinates: a robot's rotation vectors)
+            sample = plant.joint_sample(coordinates=False)
             if len(sample.actuated_lengths) == len(interface.inputs):
                 build_joints = {"joint_states": lambda: sender.actuated_joint_state_msg(sample, interface, hdr),
                                 "end_effector": lambda: sender.end_effector_msg(sample, hdr)}

@@ -91,8 +91,9 @@ class SimPlant:
         new, self._n_events = tuple(events[self._n_events:]), len(events)
         return StepOutcome(new, fault)
 
-    def joint_sample(self) -> JointSample:
-        return self.sim.joint_sample()
+    def joint_sample(self, *, coordinates: bool = True) -> JointSample:
+        """The core's joint sample (``coordinates=False``: ``q`` and ``qdot`` may be empty)."""
+        return self.sim.joint_sample(coordinates=coordinates)
 
     def observe(self) -> Observation:
         return self.sim.observe()

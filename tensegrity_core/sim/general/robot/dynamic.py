@@ -265,19 +265,22 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         data["folded"] = bool(data["folded"])
         return cast(Observed, data)
 
-    def joint_sample(self, state: State[FixedStepper]) -> JointValues:
+    def joint_sample(self, state: State[FixedStepper], *, coordinates: bool = True) -> JointValues:
         """The observation's joint values and its motor cables' lengths, rates and tensions,
         from one evaluation of the state (a fraction of :meth:`observe_now`'s cost: no
-        energies, rod forces or sensors)."""
+        energies, rod forces or sensors); ``coordinates=False``: ``q`` and ``qdot`` empty (the
+        rods' rotation vectors cost about as much as the evaluation)."""
         st = state.work
         Y = st.y[None, :]
         ev = st.system.evaluate(Y)
         plan, n = self.plan, self.plan.n_dof
-        q = Y[0, :n].copy()
-        if len(plan.body_dof):
-            q[plan.body_dof[:, None] + 3 + np.arange(3)] = exact_rotations(ev.rotations[0]).as_rotvec()
+        q, qdot = np.zeros(0), np.zeros(0)
+        if coordinates:
+            q, qdot = Y[0, :n].copy(), Y[0, n:2 * n].copy()
+            if len(plan.body_dof):
+                q[plan.body_dof[:, None] + 3 + np.arange(3)] = exact_rotations(ev.rotations[0]).as_rotvec()
         motor = plan.motor_cable
-        return JointValues(t=float(st.t), q=q, qdot=Y[0, n:2 * n].copy(), applied_forces=ev.rest_lengths[0, motor],
+        return JointValues(t=float(st.t), q=q, qdot=qdot, applied_forces=ev.rest_lengths[0, motor],
                            end_effector=ev.positions[0, self.end_effector].copy(), folded=False,
                            actuated_lengths=ev.lengths[0, motor], actuated_rates=ev.rates[0, motor],
                            actuated_forces=ev.tensions[0, motor])
