@@ -11,11 +11,9 @@ states for the observations (:meth:`evaluate`).
 
 from __future__ import annotations
 
-import copy
 from collections.abc import Sequence
 from dataclasses import dataclass
 from types import ModuleType
-from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -83,27 +81,37 @@ class RobotSystem:
 
     def with_chart(self, R_ref: ArrayLike) -> RobotSystem:
         """The same equations in other rotation charts."""
-        new = copy.copy(self)
+        new = self._copy()
         new.R_ref = _arg(R_ref)
         return new
 
     def with_inputs(self, laws: Sequence[Law]) -> RobotSystem:
         """The same equations under other input laws (a new command)."""
-        new = copy.copy(self)
+        new = self._copy()
         new.laws = tuple(laws)
+        return new
+
+    def _copy(self) -> RobotSystem:
+        """A shallow copy (what :func:`copy.copy` makes, without its protocol's cost: once per command)."""
+        new = RobotSystem.__new__(RobotSystem)
+        new.__dict__.update(self.__dict__)
         return new
 
     def aims(self, times: FloatArray) -> FloatArray:
         """(len(times), motors) the motors' commands at ``times`` [s] (the input laws)."""
         ts = np.asarray(times, dtype=float)
         out = np.empty((len(ts), len(self.laws)))
-        held = [j for j, law in enumerate(self.laws) if isinstance(law, Constant)]
-        # the constants in one assignment (the commanded motors' held commands); ``0.0 +``
-        # as :meth:`Constant.arrays` computes them (a -0.0 command is 0.0)
-        out[:, held] = 0.0 + np.array([cast(Constant, self.laws[j]).value for j in held], dtype=float)
+        held: list[int] = []
+        values: list[float] = []
         for j, law in enumerate(self.laws):
-            if not isinstance(law, Constant):
+            if isinstance(law, Constant):
+                held.append(j)
+                values.append(law.value)
+            else:
                 out[:, j] = law.arrays(ts, 0.0)[0]
+        # the constants (the commanded motors' held commands) in one assignment, ``0.0 +`` as
+        # :meth:`Constant.arrays` computes them (a -0.0 command is 0.0)
+        out[:, held] = 0.0 + np.array(values, dtype=float)
         return out
 
     def fun(self, t: float, y: FloatArray) -> FloatArray:
