@@ -98,6 +98,12 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
                                          for lo, hi in self.command_ranges),
                                    tuple(len(robot.rods) + int(c) for c in self.plan.motor_cable),
                                    tuple(mode_names[int(m)] for m in self.modes))
+        # the commands' ranges as arrays, unbounded for inputs with a law (``_free``: their
+        # values are ignored, but must be finite)
+        self._free = np.array([not isinstance(law, Commanded) for law in self.laws], dtype=bool)
+        self._lo = np.where(self._free, -np.inf, [r[0] for r in self.command_ranges])
+        self._hi = np.where(self._free, np.inf, [r[1] for r in self.command_ranges])
+        self._all_commanded = not self._free.any()
         self.state_names = state_names(robot, self.plan)
         self.step = scene.integrator.max_step
         self.y0 = initial_vector(robot, self.plan, scene.initial.lift)
@@ -150,6 +156,40 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
     def set_command(self, state: State[FixedStepper], values: Iterable[float]) -> None:
         """New commands for the commanded motors, each in its motor's mode (rest length [m],
         reel speed [m/s], tension [N]) and within its range; they act from the next step."""
+        if self._repeated(state, values):
+            return
+        commands = self._accepted(values)
+        if commands is None:
+            commands = self._checked(values)
+        if commands == state.commands or not changed(state.commands, commands):
+            return
+        state.commands = commands
+        state.work.command(state.work.system.with_inputs(held(self.laws, commands)))
+
+    def _repeated(self, state: State[FixedStepper], values: Iterable[float]) -> bool:
+        """Whether ``values`` (a list or tuple) repeats the last command given to a robot whose
+        motors are all commanded: it passed the checks then and changes nothing now."""
+        return (self._all_commanded and state.commands is not self.initial_commands
+                and isinstance(values, (list, tuple)) and tuple(values) == state.commands)
+
+    def _accepted(self, values: Iterable[float]) -> tuple[float, ...] | None:
+        """The commands of a list, tuple or array ``values`` that passes every check of
+        :meth:`_checked` (one vectorised test: the per-step path of a lockstep controller), or
+        None for anything else (:meth:`_checked` then accepts it or says what is wrong)."""
+        if not isinstance(values, (list, tuple, np.ndarray)):
+            return None
+        try:
+            u = np.array(values, dtype=np.float64)
+        except (TypeError, ValueError):
+            return None
+        if u.shape != self._lo.shape or not bool(np.all(np.isfinite(u) & (self._lo <= u) & (u <= self._hi))):
+            return None
+        out: tuple[float, ...] = tuple(np.where(self._free, math.nan, u).tolist())
+        return out
+
+    def _checked(self, values: Iterable[float]) -> tuple[float, ...]:
+        """``values`` as the new commands (:func:`~tensegrity_core.sim.commands.check_command`),
+        each commanded one within its motor's range; raises :class:`SimulationError`."""
         commands = check_command(values, self.laws, self.actuator_names)
         for name, j, v in zip(self.actuator_names, range(len(commands)), commands):
             lo, hi = self.command_ranges[j]
@@ -157,10 +197,7 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
                 what, unit = COMMAND_WORDS[int(self.modes[j])]
                 raise SimulationError(f"commanded {what} of {name} must be within its motor's range "
                                       f"[{lo:g}, {hi:g}] {unit}, got {v!r}")
-        if not changed(state.commands, commands):
-            return
-        state.commands = commands
-        state.work.command(state.work.system.with_inputs(held(self.laws, commands)))
+        return commands
 
     def advance(self, state: State[FixedStepper], t: float) -> None:
         state.work.advance(t)
@@ -271,12 +308,11 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         energies, rod forces or sensors); ``coordinates=False``: ``q`` and ``qdot`` empty (the
         rods' rotation vectors cost about as much as the evaluation)."""
         st = state.work
-        Y = st.y[None, :]
-        ev = st.system.evaluate(Y)
+        ev = st.evaluation()
         plan, n = self.plan, self.plan.n_dof
         q, qdot = np.zeros(0), np.zeros(0)
         if coordinates:
-            q, qdot = Y[0, :n].copy(), Y[0, n:2 * n].copy()
+            q, qdot = st.y[:n].copy(), st.y[n:2 * n].copy()
             if len(plan.body_dof):
                 q[plan.body_dof[:, None] + 3 + np.arange(3)] = exact_rotations(ev.rotations[0]).as_rotvec()
         motor = plan.motor_cable

@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 from tensegrity_core.events import LoggedEvent
 from tensegrity_core.sim.errors import SimulationError, check_advance_target
-from tensegrity_core.sim.general.robot.system import RobotSystem
+from tensegrity_core.sim.general.robot.system import RobotEvaluation, RobotSystem, empty_evaluation
 
 FloatArray = NDArray[np.float64]
 #: What an observation needs of one state: ``(t [s], y, the system of its charts and inputs)``.
@@ -66,6 +66,7 @@ class FixedStepper:
         self.n_steps = 0
         self._ahead: _Ahead | None = None
         self._aims: tuple[RobotSystem, int, FloatArray] | None = None
+        self._scratch: RobotEvaluation | None = None
 
     @property
     def mode(self) -> frozenset[int]:
@@ -81,12 +82,20 @@ class FixedStepper:
         return (self.n + (self._ahead is not None)) * self.h
 
     def copy(self, log: list[LoggedEvent]) -> FixedStepper:
-        """An independent integrator at the same point (its arrays are never changed in place,
-        so they are shared): continuing it gives the same numbers as continuing this one."""
+        """An independent integrator at the same point (its state arrays are never changed in
+        place, so they are shared): continuing it gives the same numbers as continuing this one."""
         new = FixedStepper.__new__(FixedStepper)
         new.__dict__.update(self.__dict__)
         new.event_log = log
+        new._scratch = None
         return new
+
+    def evaluation(self) -> RobotEvaluation:
+        """The state ``y`` evaluated (:meth:`RobotSystem.evaluate`, a batch of one) into
+        arrays this integrator reuses: valid until the next call (callers copy what they keep)."""
+        if self._scratch is None:
+            self._scratch = empty_evaluation(self.system.plan, 1)
+        return self.system.evaluate(self.y[None, :], out=self._scratch)
 
     def command(self, system: RobotSystem) -> None:
         """Integrate under ``system`` (new input laws, the same charts) from the first step
@@ -97,12 +106,16 @@ class FixedStepper:
 
     def aims(self, n: int, k: int) -> FloatArray:
         """(k, motors) the motors' targets [m] at the starts of steps ``n .. n + k - 1``: the
-        input laws evaluated :data:`CHUNK` steps at a time and kept until the inputs change
-        (a law's evaluation costs far more than a step)."""
+        input laws evaluated ahead and kept until the inputs change (a law's evaluation costs
+        far more than a step). Under new inputs ``k`` rows are evaluated, and twice as many
+        as the last time (up to :data:`CHUNK`) each time the same inputs run out, so a
+        command per step costs one row and free running a fraction of a row per step."""
         cached = self._aims
         if cached is None or cached[0].laws is not self.system.laws or not cached[1] <= n \
                 or n + k > cached[1] + len(cached[2]):
-            times: FloatArray = (n + np.arange(max(k, CHUNK), dtype=np.float64)) * self.h
+            rows = k if cached is None or cached[0].laws is not self.system.laws \
+                else max(k, min(2 * len(cached[2]), CHUNK))
+            times: FloatArray = (n + np.arange(rows, dtype=np.float64)) * self.h
             cached = self._aims = (self.system, n, self.system.aims(times))
         out: FloatArray = cached[2][n - cached[1]:n - cached[1] + k]
         return out

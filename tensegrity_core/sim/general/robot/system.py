@@ -11,7 +11,6 @@ states for the observations (:meth:`evaluate`).
 
 from __future__ import annotations
 
-import copy
 from collections.abc import Sequence
 from dataclasses import dataclass
 from types import ModuleType
@@ -22,7 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 from tensegrity_core.sim.general.kernels.jit import choose_kernels
 from tensegrity_core.sim.general.robot import arrays, loops
 from tensegrity_core.sim.general.robot.plan import RobotPlan
-from tensegrity_core.sim.inputs import Law
+from tensegrity_core.sim.inputs import Constant, Law
 
 FloatArray = NDArray[np.float64]
 
@@ -82,22 +81,37 @@ class RobotSystem:
 
     def with_chart(self, R_ref: ArrayLike) -> RobotSystem:
         """The same equations in other rotation charts."""
-        new = copy.copy(self)
+        new = self._copy()
         new.R_ref = _arg(R_ref)
         return new
 
     def with_inputs(self, laws: Sequence[Law]) -> RobotSystem:
         """The same equations under other input laws (a new command)."""
-        new = copy.copy(self)
+        new = self._copy()
         new.laws = tuple(laws)
+        return new
+
+    def _copy(self) -> RobotSystem:
+        """A shallow copy (what :func:`copy.copy` makes, without its protocol's cost: once per command)."""
+        new = RobotSystem.__new__(RobotSystem)
+        new.__dict__.update(self.__dict__)
         return new
 
     def aims(self, times: FloatArray) -> FloatArray:
         """(len(times), motors) the motors' commands at ``times`` [s] (the input laws)."""
         ts = np.asarray(times, dtype=float)
         out = np.empty((len(ts), len(self.laws)))
+        held: list[int] = []
+        values: list[float] = []
         for j, law in enumerate(self.laws):
-            out[:, j] = law.arrays(ts, 0.0)[0]
+            if isinstance(law, Constant):
+                held.append(j)
+                values.append(law.value)
+            else:
+                out[:, j] = law.arrays(ts, 0.0)[0]
+        # the constants (the commanded motors' held commands) in one assignment, ``0.0 +`` as
+        # :meth:`Constant.arrays` computes them (a -0.0 command is 0.0)
+        out[:, held] = 0.0 + np.array(values, dtype=float)
         return out
 
     def fun(self, t: float, y: FloatArray) -> FloatArray:
@@ -115,19 +129,29 @@ class RobotSystem:
         self._module.run_steps(*self.plan, y_new, R_new, float(h), _arg(aims), self.modes, y_end)
         return y_new, R_new, y_end
 
-    def evaluate(self, y: FloatArray, R_ref: FloatArray | None = None) -> RobotEvaluation:
-        """States ``y`` (B, N) in the charts ``R_ref`` (B, nb, 3, 3; default: this system's)."""
-        plan = self.plan
+    def evaluate(self, y: FloatArray, R_ref: FloatArray | None = None, *,
+                 out: RobotEvaluation | None = None) -> RobotEvaluation:
+        """States ``y`` (B, N) in the charts ``R_ref`` (B, nb, 3, 3; default: this system's),
+        written into ``out`` (from :func:`empty_evaluation` with the same ``B``) or new arrays."""
         Y = _arg(np.atleast_2d(y))
         B = len(Y)
-        n, nb, c, ncap = len(plan.base), len(plan.body_dof), len(plan.cable_a), len(plan.cap_node)
-        R0 = np.broadcast_to(self.R_ref, (B, nb, 3, 3)) if R_ref is None else R_ref
-        out = np.empty_like(Y)
-        X, V, F = np.empty((B, n, 3)), np.empty((B, n, 3)), np.empty((B, n, 3))
-        R = np.empty((B, nb, 3, 3))
-        l0, lengths, rates, tensions = (np.empty((B, c)) for _ in range(4))
-        depth, normal = np.empty((B, ncap)), np.empty((B, ncap))
-        friction, couple = np.empty((B, ncap, 3)), np.empty((B, ncap, 3))
-        self._module.evaluate(*plan, Y, _arg(R0), out, X, V, R, F, l0, lengths, rates, tensions, depth, normal,
-                              friction, couple)
-        return RobotEvaluation(out, X, V, R, F, l0, lengths, rates, tensions, depth, normal, friction, couple)
+        if R_ref is not None:
+            R0 = _arg(R_ref)
+        elif B == 1:
+            R0 = self.R_ref[None]                # a view: R_ref is C-ordered
+        else:
+            R0 = _arg(np.broadcast_to(self.R_ref, (B,) + self.R_ref.shape))
+        ev = empty_evaluation(self.plan, B) if out is None else out
+        self._module.evaluate(*self.plan, Y, R0, ev.derivative, ev.positions, ev.velocities, ev.rotations, ev.forces,
+                              ev.rest_lengths, ev.lengths, ev.rates, ev.tensions, ev.depth, ev.normal, ev.friction,
+                              ev.couple)
+        return ev
+
+
+def empty_evaluation(plan: RobotPlan, B: int) -> RobotEvaluation:
+    """Uninitialised arrays for the evaluation of ``B`` states (:meth:`RobotSystem.evaluate`)."""
+    n, nb, c, ncap = len(plan.base), len(plan.body_dof), len(plan.cable_a), len(plan.cap_node)
+    return RobotEvaluation(np.empty((B, plan.n_state)), np.empty((B, n, 3)), np.empty((B, n, 3)),
+                           np.empty((B, nb, 3, 3)), np.empty((B, n, 3)), np.empty((B, c)), np.empty((B, c)),
+                           np.empty((B, c)), np.empty((B, c)), np.empty((B, ncap)), np.empty((B, ncap)),
+                           np.empty((B, ncap, 3)), np.empty((B, ncap, 3)))
