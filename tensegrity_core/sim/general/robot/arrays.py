@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 from tensegrity_core.general.rotation import cross
 from tensegrity_core.robot import motor
 from tensegrity_core.robot.contact import resisting_couple
+from tensegrity_core.robot.friction import stage_force
 from tensegrity_core.sim.general.kernels import arrays as general
 from tensegrity_core.sim.general.robot.loops import NO_ANCHOR, RECHART_ANGLE, SLIPPING, STICKING
 
@@ -81,9 +82,9 @@ def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray,
     s = s - _dot(s, np.broadcast_to(nvec, s.shape))[..., None] * nvec
     v = contact_velocity(cap_node, cap_body, cap_radius, nvec, body_dof, y, n_dof, V)
     v = v - _dot(v, np.broadcast_to(nvec, v.shape))[..., None] * nvec
-    damping = np.where(state == STICKING, ct, 0.0)
     anchored = (state != NO_ANCHOR)[..., None]
-    f = np.where(anchored, -kt * s - damping[..., None] * v, 0.0)
+    f = np.where(anchored, stage_force(s, v, fn, np.full(fn.shape, kt), ct, floor_params[2], floor_params[3],
+                                       state == SLIPPING), 0.0)
     moments = -cap_radius[:, None] * cross(np.broadcast_to(nvec, f.shape), f)
     on = cap_body >= 0
     couple = np.zeros_like(f)
@@ -195,11 +196,8 @@ def sampled_update(base: FloatArray, free_node: IntArray, free_axis: IntArray, o
         new = touching & (state == NO_ANCHOR)
         sticks = touching & ~new & (kt * size <= hold)
         slips = touching & ~new & ~sticks
-        e = s / np.where(size > 0.0, size, 1.0)[:, None]
-        v = contact_velocity(cap_node, cap_body, cap_radius, nvec, body_dof, y[None], n_dof, V)[0]
-        ahead = np.maximum(_dot(v, e), 0.0)
-        mag = np.maximum(mu_k * fn / (kt if kt > 0.0 else 1.0) - 0.5 * h * ahead, 0.0)
-        offset[...] = np.where(slips[:, None], mag[:, None] * e, np.where((~touching | new)[:, None], 0.0, offset))
+        mag = mu_k * fn / np.where(slips, kt * size, 1.0)
+        offset[...] = np.where(slips[:, None], mag[:, None] * s, np.where((~touching | new)[:, None], 0.0, offset))
         state[...] = np.where(~touching, NO_ANCHOR, np.where(slips, SLIPPING, STICKING))
     if nb:
         cols = body_dof[:, None] + 3 + np.arange(3)

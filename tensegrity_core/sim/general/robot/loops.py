@@ -21,8 +21,9 @@ One evaluation (:func:`derivative`):
 1. ``place``: node positions, velocities, body rotations and arms (general kernel);
 2. weights (``external``), :func:`cable_forces` (the tension-only cable element of
    :mod:`tensegrity_core.robot.cable`), :func:`floor_forces` (Hunt-Crossley normal force of
-   :mod:`tensegrity_core.robot.contact` and the friction anchor's spring of
-   :mod:`tensegrity_core.robot.friction`, acting at the contact point: a force on the cap
+   :mod:`tensegrity_core.robot.contact` and the friction anchor's force of
+   :mod:`tensegrity_core.robot.friction`, the return map of the stage's offset (at most
+   ``mu F_n`` at every stage), acting at the contact point: a force on the cap
    and a moment about its centre; the rolling and spin resistance couple of
    :mod:`tensegrity_core.robot.contact`);
 3. ``nodal_wrenches``, the caps' friction moments added, ``rates`` (general kernels).
@@ -116,6 +117,35 @@ def contact_point_velocity(V: FloatArray, node: int, body: int, body_dof: IntArr
 
 
 @jit
+def anchor_force(s0: float, s1: float, s2: float, v0: float, v1: float, v2: float, fn: float, kt: float, ct: float,
+                 mu_s: float, mu_k: float, sticking: bool) -> tuple[float, float, float]:
+    """The friction force [N] of a cap at one evaluation
+    (:func:`tensegrity_core.robot.friction.stage_force`): the return map of its trial offset
+    ``s`` [m] with the step's hold (``mu_s F_n`` ``sticking``, else ``mu_k F_n``): sticking,
+    ``-k_t s - beta c_t v`` (``v`` [m/s], ``beta`` in [0, 1] the largest keeping the force
+    within the hold; no damper while slipping); beyond it ``mu_k F_n`` against ``s``."""
+    size = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+    hold = (mu_s if sticking else mu_k) * fn
+    if kt * size <= hold and hold > 0.0:
+        a0, a1, a2 = kt * s0, kt * s1, kt * s2
+        b0, b1, b2 = 0.0, 0.0, 0.0
+        if sticking:
+            b0, b1, b2 = ct * v0, ct * v1, ct * v2
+        b_size = math.sqrt(b0 * b0 + b1 * b1 + b2 * b2)
+        beta = 0.0
+        if b_size > 0.0:
+            h0, h1, h2 = a0 / hold, a1 / hold, a2 / hold
+            au = (h0 * b0 + h1 * b1 + h2 * b2) / b_size
+            t = hold * (-au + math.sqrt(au * au + max(1.0 - (h0 * h0 + h1 * h1 + h2 * h2), 0.0)))
+            beta = min(t / b_size, 1.0)
+        return -a0 - beta * b0, -a1 - beta * b1, -a2 - beta * b2
+    if size == 0.0:
+        return 0.0, 0.0, 0.0
+    slide = mu_k * fn
+    return -slide * (s0 / size), -slide * (s1 / size), -slide * (s2 / size)
+
+
+@jit
 def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray, floor_normal: FloatArray,
                  floor_point: FloatArray, floor_params: FloatArray, body_dof: IntArray, y: FloatArray,
                  n_dof: int, anchors: int, X: FloatArray, V: FloatArray, F: FloatArray, moments: FloatArray,
@@ -123,17 +153,19 @@ def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray,
                  out: FloatArray) -> None:
     """Per cap: its penetration ``depth`` [m], the normal force ``F_n = k delta max(0, 1 + d
     deltadot)`` [N] (``normal``; 0 out of contact) along the floor's normal, and with an
-    anchor the friction force ``-k_t s - c_t v_t`` [N] (``friction``, (ncap, 3); the damper
-    only while sticking) of the anchor's tangential offset ``s`` (the state's entries from
-    ``anchors``) and the tangential velocity ``v_t`` of the cap's material point at the
-    contact; both added to the cap's node in ``F``, the friction's moment about the cap's
-    centre plus the rolling and spin resistance ``couple`` [N m] (``couple``, (ncap, 3);
-    :func:`tensegrity_core.robot.contact.resisting_couple`) into ``moments``. The offset's rate ``v_t`` (0 without an anchor) goes into
-    ``out`` at the state's entries: the offset is the material point's tangential
-    displacement since it was anchored, so the spring's power ``k_t s . v_t`` is exactly the
-    work its force does (a cap rolls without storing energy). ``n_dof``: the rates start at
-    ``y[n_dof]``."""
-    k, d, kt, ct = floor_params[0], floor_params[1], floor_params[4], floor_params[5]
+    anchor the friction force (``friction``, (ncap, 3); :func:`anchor_force`: ``-k_t s -
+    beta c_t v_t`` within the hold, ``mu_k F_n`` against ``s`` beyond it) of the anchor's
+    tangential offset ``s`` (the state's entries from ``anchors``) and the tangential
+    velocity ``v_t`` of the cap's material point at the contact; both added to the cap's
+    node in ``F``, the friction's moment about the cap's centre plus the rolling and spin
+    resistance ``couple`` [N m] (``couple``, (ncap, 3);
+    :func:`tensegrity_core.robot.contact.resisting_couple`) into ``moments``. The offset's
+    rate ``v_t`` (0 without an anchor) goes into ``out`` at the state's entries: the offset
+    is the material point's tangential displacement since it was anchored, so the force's
+    power is the rate of the anchor's potential (:mod:`tensegrity_core.robot.friction`; a
+    cap rolls without storing energy). ``n_dof``: the rates start at ``y[n_dof]``."""
+    k, d, mu_s, mu_k = floor_params[0], floor_params[1], floor_params[2], floor_params[3]
+    kt, ct = floor_params[4], floor_params[5]
     b_roll, b_spin = floor_params[6], floor_params[7]
     n0, n1, n2 = floor_normal[0], floor_normal[1], floor_normal[2]
     ncap = cap_node.shape[0]
@@ -158,8 +190,7 @@ def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray,
             vn = v0 * n0 + v1 * n1 + v2 * n2
             v0, v1, v2 = v0 - vn * n0, v1 - vn * n1, v2 - vn * n2
             out[a], out[a + 1], out[a + 2] = v0, v1, v2
-            damping = ct if state == STICKING else 0.0
-            f0, f1, f2 = -kt * s0 - damping * v0, -kt * s1 - damping * v1, -kt * s2 - damping * v2
+            f0, f1, f2 = anchor_force(s0, s1, s2, v0, v1, v2, fn, kt, ct, mu_s, mu_k, state == STICKING)
         friction[c, 0], friction[c, 1], friction[c, 2] = f0, f1, f2
         F[node, 0] += f0
         F[node, 1] += f1
@@ -260,10 +291,9 @@ def sampled_update(base: FloatArray, free_node: IntArray, free_axis: IntArray, o
       anchor (offset 0); a cap without one gets it where it touches (offset 0), sticking; one
       whose offset ``s`` holds (``k_t |s| <= mu F_n``, ``mu_s`` while sticking, ``mu_k``
       while slipping) sticks; otherwise it slips: the anchor is dragged along, leaving
-      ``|s| = mu_k F_n / k_t - max(v_t . e, 0) h / 2`` along the offset's direction ``e``
-      (at least 0), so that over the next step of a steady slide the
-      friction force averages ``mu_k F_n`` (docs/robots.md). Every change only lowers the
-      anchor's stored energy ``k_t |s|^2 / 2``;
+      ``|s| = mu_k F_n / k_t`` along the offset (:mod:`tensegrity_core.robot.friction`:
+      the force inside the next step is that offset's return map, so a steady slide feels
+      ``mu_k F_n`` at every stage). Every change only lowers the anchor's stored energy;
     - **charts**: a body whose rotation vector exceeds :data:`RECHART_ANGLE` is re-anchored."""
     n_dof = free_node.shape[0] + 6 * body_dof.shape[0]
     xv = y[:2 * n_dof]
@@ -311,11 +341,8 @@ def sampled_update(base: FloatArray, free_node: IntArray, free_axis: IntArray, o
         if kt * size <= hold:
             y[st] = STICKING
             continue
-        e0, e1, e2 = s0 / size, s1 / size, s2 / size
-        v0, v1, v2 = contact_point_velocity(V, node, cap_body[c], body_dof, y, n_dof, rc, n0, n1, n2)
-        ahead = max(v0 * e0 + v1 * e1 + v2 * e2, 0.0)      # (e is tangential: v . e = v_t . e)
-        mag = max(mu_k * fn / kt - 0.5 * h * ahead, 0.0)
-        y[a], y[a + 1], y[a + 2] = mag * e0, mag * e1, mag * e2
+        mag = mu_k * fn / (kt * size)
+        y[a], y[a + 1], y[a + 2] = mag * s0, mag * s1, mag * s2
         y[st] = SLIPPING
     for bb in range(body_dof.shape[0]):
         dd = body_dof[bb] + 3
