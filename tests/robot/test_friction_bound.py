@@ -23,7 +23,6 @@ from tensegrity_core.sim.general.robot.system import RobotSystem
 from tests.robot.test_dynamics import _model, random_state, robot_scene
 
 
-
 def _size(lo: float, hi: float, signed: bool = False):
     """0 or a magnitude in [lo, hi] (with either sign): physical sizes, none so small that
     their squares underflow (a force of 1e-300 N is no test of Coulomb's bound)."""
