@@ -67,8 +67,8 @@ def turning(model, w0, duration: float):
 
 def test_a_rod_spinning_flat_on_a_frictionless_floor_slows_at_b_s_m_g_over_its_inertia():
     """Spin couple ``b_s F_n`` at each cap, ``F_n = m g / 2``: ``I w' = -b_s m g`` about the
-    vertical. No sliding friction: the caps circle freely (an anchor of 0.01 N/m pulls them
-    with ``k_t v h / 2`` = 5 uN on average over a step of ``h`` = 1 ms at ``v`` = 1 m/s)."""
+    vertical. No sliding friction (``mu = 0``: the anchor's force is 0 at every stage): the
+    caps circle freely."""
     b_s, w0, t = 0.005, 2.0, 2.0
     model = rod_on_the_floor({"mu_static": 0.0, "tangential_stiffness": 0.01, "tangential_damping": 0.0,
                               "rolling_friction": 0.0, "torsional_friction": b_s}, t)
