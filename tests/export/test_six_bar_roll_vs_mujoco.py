@@ -8,7 +8,7 @@ compared (docs/design/mujoco.md, "The project's robot dynamics against MuJoCo"):
   MuJoCo's in the same order, possibly passing one without resting on it, up to n1 n4 n11
   (~4.5 s); then both pass n2 n5 n6 and end the cycle on n3 n6 n9;
 - **distance over the cycle** (13 s): the centres of mass travel the same distance on the
-  floor within 10 % (project 3.39 m, MuJoCo 3.53 m with the shipped rolling and torsional
+  floor within 10 % (project 3.56 m, MuJoCo 3.53 m with the shipped rolling and torsional
   friction). The distance is chaotic in both (docs/design/mujoco.md: 1.5-3.9 m in MuJoCo
   for torsional friction 2-5 mm), so this checks the two models at one shared point;
 - **distance per gait step, up to the divergence**: at each of the gait's breakpoints
