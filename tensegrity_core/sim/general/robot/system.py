@@ -124,7 +124,7 @@ class RobotSystem:
         motors' commands ``aims`` (steps, motors) in their modes (:func:`.loops.run_steps`): ``(y, R_ref,
         y_end)`` after them (new arrays; ``y_end`` the last step's end before its sampled
         update, in that step's charts)."""
-        y_new, R_new = _arg(np.array(y, dtype=float)), _arg(np.array(R_ref, dtype=float))
+        y_new, R_new = np.array(y, dtype=np.float64, order="C"), np.array(R_ref, dtype=np.float64, order="C")
         y_end = np.empty_like(y_new)
         self._module.run_steps(*self.plan, y_new, R_new, float(h), _arg(aims), self.modes, y_end)
         return y_new, R_new, y_end
