@@ -103,6 +103,7 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         self._free = np.array([not isinstance(law, Commanded) for law in self.laws], dtype=bool)
         self._lo = np.where(self._free, -np.inf, [r[0] for r in self.command_ranges])
         self._hi = np.where(self._free, np.inf, [r[1] for r in self.command_ranges])
+        self._free_list: list[bool] = self._free.tolist()
         self._all_commanded = not self._free.any()
         self.state_names = state_names(robot, self.plan)
         self.step = scene.integrator.max_step
@@ -184,8 +185,12 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
             return None
         if u.shape != self._lo.shape or not bool(np.all(np.isfinite(u) & (self._lo <= u) & (u <= self._hi))):
             return None
-        out: tuple[float, ...] = tuple(np.where(self._free, math.nan, u).tolist())
-        return out
+        vals: list[float] = u.tolist()
+        if self._all_commanded:
+            return tuple(vals)
+        # ``math.nan`` itself for the inputs with a law, as in the commands before: an unchanged
+        # command then compares equal as a tuple
+        return tuple(math.nan if free else v for free, v in zip(self._free_list, vals))
 
     def _checked(self, values: Iterable[float]) -> tuple[float, ...]:
         """``values`` as the new commands (:func:`~tensegrity_core.sim.commands.check_command`),
