@@ -77,3 +77,15 @@ def test_a_copied_state_steps_and_samples_apart_from_its_original():
     assert np.array_equal(samples["a"], samples["ref_a"])
     assert np.array_equal(samples["b"], samples["ref_b"])
     assert not np.array_equal(samples["a"], samples["b"])
+
+
+def test_a_gait_stepped_a_millisecond_at_a_time_equals_one_advance():
+    """The gait's motor targets are the same numbers however many steps each advance asks
+    for (its laws evaluated for 1, 2, 4, ... steps at a time, or for 300 at once)."""
+    stepped, whole = Simulator("six_bar_roll"), Simulator("six_bar_roll")
+    for k in range(1, 301):
+        stepped.advance(step_time(k, STEP_NS))
+    whole.advance(0.3)
+    assert stepped.t == whole.t == 0.3
+    assert np.array_equal(stepped.state.work.y, whole.state.work.y)
+    assert np.array_equal(stepped.joint_sample().q, whole.joint_sample().q)
