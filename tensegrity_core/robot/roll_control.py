@@ -35,13 +35,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.errors import ConvergenceError
 from tensegrity_core.robot.description import Robot
 from tensegrity_core.robot.statics import rest_shape
 from tensegrity_core.robot.tipping import hull_faces, tipping_step
+from tensegrity_core.schema import read_file
 
 FloatArray = NDArray[np.float64]
 Face = tuple[int, int, int]
@@ -71,7 +71,7 @@ class TipMoves:
         self._cables = [self.robot.cables.names[j] for j in act]
         shipped = TIPS_DIR / f"{self.robot.name}.yaml"
         if shipped.is_file():
-            data = yaml.safe_load(shipped.read_text())
+            data = read_file(shipped, what="table of tipping moves")[0]
             if data["cables"] == self._cables and np.array_equal(np.asarray(data["nominal"]), self.nominal):
                 names = {n: i for i, n in enumerate(self.robot.node_names)}
                 for m in data["moves"]:
