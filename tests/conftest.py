@@ -31,6 +31,13 @@ from tensegrity_ros.rclpy_utils.env import ensure_ros_environment  # noqa: E402
 
 ensure_ros_environment()   # loopback only, before this process or a child creates a context
 
+# A suite started in the background from a script without job control inherits SIGINT as
+# ignored, and so would every process it starts (an ignored signal stays ignored across exec):
+# the tests that stop a process with Ctrl-C would all fail. A handler here resets to the default
+# in each child at exec.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+
 settings.register_profile(
     "ci",
     derandomize=True,
