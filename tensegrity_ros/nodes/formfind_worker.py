@@ -43,6 +43,8 @@ OVER_MEMORY = "the request needs more memory than this service allows a worker"
 #: The exit code of a worker that could not even send :data:`OVER_MEMORY` (the node answers
 #: it for the worker).
 OVER_MEMORY_EXIT = 75
+#: Exit status of a worker whose node closed its end of the pipe (nobody to answer).
+ORPHANED_EXIT = 0
 #: Memory set aside before the cap and given back when a request runs out [bytes], so the
 #: answer can still be built and pickled: after a MemoryError the freed parse may stay
 #: mapped (the allocator keeps it), which counts against the address-space cap.
@@ -133,24 +135,34 @@ def solve(text: str, tol: float, max_iter: int, time_limit: float, max_members: 
     )
 
 
+def send(conn: Connection, message: tuple[str, object]) -> None:
+    """Send ``message`` to the node. When the node's end is closed (it shut down while this
+    worker ran) nobody waits for an answer: the worker exits at once, quietly, with
+    :data:`ORPHANED_EXIT`."""
+    try:
+        conn.send(message)
+    except (BrokenPipeError, ConnectionResetError):
+        os._exit(ORPHANED_EXIT)
+
+
 def run(conn: Connection, text: str, tol: float, max_iter: int, time_limit: float, max_members: int, limits: Limits,
         memory_bytes: int) -> None:
     """The worker process's body: cap the memory, solve, send phases and the result on ``conn``.
     A request that runs out of memory is answered :data:`OVER_MEMORY`; if even that cannot be
     sent, the worker exits at once with :data:`OVER_MEMORY_EXIT` (no traceback to print under
-    the cap) and the node answers it."""
+    the cap) and the node answers it. A worker whose node has gone exits (:func:`send`)."""
     reserve: bytearray | None = bytearray(RESERVE_BYTES)
     try:
         cap_memory(memory_bytes)
         reply = solve(text, tol, max_iter, time_limit, max_members, limits,
-                      report=lambda phase: conn.send(("phase", phase)))
+                      report=lambda phase: send(conn, ("phase", phase)))
         if reply.message == OVER_MEMORY:
             reserve = None
-        conn.send(("result", reply))
+        send(conn, ("result", reply))
     except MemoryError:
         reserve = None
         try:
-            conn.send(("result", FormFindReply.failure(OVER_MEMORY)))
+            send(conn, ("result", FormFindReply.failure(OVER_MEMORY)))
         except MemoryError:
             conn.close()
             os._exit(OVER_MEMORY_EXIT)

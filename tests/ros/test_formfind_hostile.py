@@ -210,3 +210,23 @@ def test_a_worker_over_its_memory_cap_is_refused_and_the_node_serves_on(small):
     res = small(TABLE)
     assert res.success and np.allclose(
         [[p.x, p.y, p.z] for p in res.nodes], form_find(load_example("tensegrity_table")).nodes, atol=1e-9)
+
+
+def test_a_worker_whose_node_has_gone_exits_quietly():
+    """The node shut down while a worker ran (its end of the pipe closed): the worker's first
+    report finds no reader and it exits with ORPHANED_EXIT, printing nothing."""
+    import subprocess
+    import sys
+
+    from tensegrity_ros.nodes.formfind_worker import ORPHANED_EXIT
+
+    script = (
+        "from multiprocessing import Pipe\n"
+        "from tensegrity_core.schema import DEFAULT_LIMITS\n"
+        "from tensegrity_ros.nodes.formfind_worker import run\n"
+        "node_end, worker_end = Pipe()\n"
+        "node_end.close()\n"
+        "run(worker_end, 'nodes: {}', 0.0, 0, 60.0, 1000, DEFAULT_LIMITS, 2**30)\n"
+        "raise SystemExit(99)\n")
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert (out.returncode, out.stderr, out.stdout) == (ORPHANED_EXIT, "", "")
