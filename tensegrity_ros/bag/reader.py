@@ -5,7 +5,9 @@
 ``*.mcap`` in the folder. A file whose summary section cannot be read (a recording that
 was killed) is scanned record by record from the start; the scan keeps every record up to
 the first one that is truncated or fails its CRC, so every chunk that was completely
-written is recovered, and :attr:`BagReader.recovered` is set.
+written is recovered, and :attr:`BagReader.recovered` is set. The bag's ``custom_data``
+(:attr:`BagReader.custom_data`) is ``metadata.yaml``'s, else the storage's own (a killed
+recording has no ``metadata.yaml``).
 
 Messages come out in log-time (receive-time) order, ties in file order, so the order per
 topic is the order of reception.
@@ -28,18 +30,20 @@ from pathlib import Path
 from typing import Any, BinaryIO
 
 import lz4.frame
+import yaml
 import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.reader import make_reader
-from mcap.records import Channel, Chunk, ChunkIndex, Header, Message, Schema
+from mcap.records import Channel, Chunk, ChunkIndex, Header, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
 
 from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_ros.bag.errors import BagError
-from tensegrity_ros.bag.metadata import METADATA_FILE, BagMetadata, FileInfo, TopicInfo, read_metadata
+from tensegrity_ros.bag.metadata import METADATA_FILE, BagMetadata, FileInfo, MetadataReader, TopicInfo, read_metadata
 from tensegrity_ros.bag.qos import parse_profiles
 from tensegrity_ros.bag.untrusted import open_regular, path_inside
+from tensegrity_ros.bag.writer import CUSTOM_DATA_RECORD
 
 #: Largest MCAP record read from a bag [bytes] (a chunk of rosbag2's default is 768 KiB).
 MAX_RECORD_BYTES = 256 * 1024 * 1024
@@ -71,6 +75,7 @@ class _FileContent:
     messages: list[Message] | None  # kept only for scanned (damaged) files
     damage: str = ""
     chunk_indexes: list[ChunkIndex] = dataclasses.field(default_factory=list)  # complete files
+    records: dict[str, dict[str, str]] = dataclasses.field(default_factory=dict)  # metadata records by name
 
 
 def _chunk_records(chunk: Chunk, path: Path) -> list[Any]:
@@ -100,6 +105,7 @@ def _scan(path: Path) -> _FileContent:
     schemas: dict[int, Schema] = {}
     channels: dict[int, Channel] = {}
     messages: list[Message] = []
+    records: dict[str, dict[str, str]] = {}
     damage = ""
     header = False
     with open_regular(path, "storage file") as f:
@@ -114,6 +120,8 @@ def _scan(path: Path) -> _FileContent:
                         channels[r.id] = r
                     elif isinstance(r, Message):
                         messages.append(r)
+                    elif isinstance(r, Metadata):
+                        records[r.name] = dict(r.metadata)
         except Exception as err:  # truncation, CRC, torn compressed chunk: many error types
             damage = clip(f"{type(err).__name__}: {err}" if str(err) else type(err).__name__, 200)
     if not header:
@@ -127,17 +135,19 @@ def _scan(path: Path) -> _FileContent:
         path=path, schemas=schemas, channels=channels, counts=counts,
         start_ns=messages[0].log_time if messages else None,
         end_ns=messages[-1].log_time if messages else None,
-        recovered=True, messages=messages, damage=damage)
+        recovered=True, messages=messages, damage=damage, records=records)
 
 
 def _open(path: Path) -> _FileContent:
     with open_regular(path, "storage file") as f:
         try:
-            summary = make_reader(f).get_summary()
+            mcap = make_reader(f)
+            summary = mcap.get_summary()
             if summary is not None:
                 size = os.fstat(f.fileno()).st_size
                 for ci in summary.chunk_indexes:
                     _check_index(ci, size)
+                records = {m.name: dict(m.metadata) for m in mcap.iter_metadata()}
         except Exception:  # no footer, torn or implausible summary: fall back to the scan
             summary = None
     if summary is None or summary.statistics is None:
@@ -149,7 +159,7 @@ def _open(path: Path) -> _FileContent:
         counts=dict(stats.channel_message_counts),
         start_ns=stats.message_start_time if has_messages else None,
         end_ns=stats.message_end_time if has_messages else None,
-        recovered=False, messages=None, chunk_indexes=list(summary.chunk_indexes))
+        recovered=False, messages=None, chunk_indexes=list(summary.chunk_indexes), records=records)
 
 
 def _check_index(ci: ChunkIndex, file_size: int) -> None:
@@ -209,6 +219,28 @@ class BagReader:
     def damage(self) -> list[str]:
         """Where the recovery scan stopped, per damaged file ("" for intact files)."""
         return [f"{c.path.name}: {c.damage}" for c in self._files if c.damage]
+
+    @property
+    def custom_data(self) -> dict[str, str] | None:
+        """The bag's ``custom_data``: ``metadata.yaml``'s when the folder has one, else the
+        first storage file's record written at the start of a recording
+        (:data:`~tensegrity_ros.bag.writer.CUSTOM_DATA_RECORD`), else the ``custom_data`` in its
+        ``rosbag2`` record (written when a recording closes, by rosbag2 too); checked as
+        ``metadata.yaml``'s are."""
+        if self.metadata is not None:
+            return self.metadata.custom_data
+        for content in self._files:
+            source = f"{content.path} (metadata record)"
+            if CUSTOM_DATA_RECORD in content.records:
+                return MetadataReader(source).custom_data({"custom_data": content.records[CUSTOM_DATA_RECORD]}, ())
+            serialized = content.records.get("rosbag2", {}).get("serialized_metadata")
+            if serialized is not None:
+                try:
+                    info = yaml.safe_load(serialized)
+                except yaml.YAMLError as err:
+                    raise BagError(f"{source}: rosbag2's serialized_metadata is not YAML ({excerpt(str(err))})") from None
+                return MetadataReader(source).custom_data(info if isinstance(info, dict) else {}, ())
+        return None
 
     @property
     def start_ns(self) -> int | None:

@@ -5,7 +5,10 @@ A recorder killed with SIGKILL leaves an MCAP file without summary or footer (an
 of :class:`~tensegrity_ros.bag.reader.BagReader` finds (all chunks written completely),
 writes it into a new, valid MCAP file with the same schemas, channels, QoS metadata, log
 and publish times and sequence numbers, and writes a ``metadata.yaml`` whose counts are
-those of the recovered messages. The damaged file is kept as ``<file>.orig`` unless
+those of the recovered messages. The ``custom_data`` (the recorded scene, ...) is the
+damaged bag's (:attr:`~tensegrity_ros.bag.reader.BagReader.custom_data`: the record the
+recorder wrote at the start of its file survives the kill); the new file and
+``metadata.yaml`` both carry it. The damaged file is kept as ``<file>.orig`` unless
 ``keep_original=False``. An intact bag only gets its ``metadata.yaml`` regenerated.
 
 Repair touches nothing outside the bag folder: the storage files it reads, renames or
@@ -44,9 +47,8 @@ def _metadata_from_reader(reader: BagReader, files: list[FileInfo]) -> BagMetada
     count = sum(t.message_count for t in topics)
     start = reader.start_ns or 0
     duration = (reader.end_ns - start) if reader.end_ns is not None else 0
-    custom = reader.metadata.custom_data if reader.metadata else None
     return BagMetadata(topics=topics, files=files, starting_time_ns=start,
-                       duration_ns=duration, message_count=count, custom_data=custom)
+                       duration_ns=duration, message_count=count, custom_data=reader.custom_data)
 
 
 def repair_bag(folder: str | os.PathLike[str], *, keep_original: bool = True,
@@ -67,7 +69,8 @@ def repair_bag(folder: str | os.PathLike[str], *, keep_original: bool = True,
     target = mcap_file_name(folder)
     try:
         definitions = reader.definitions()
-        with BagWriter(tmp, compression=compression, file_name=target) as writer:
+        custom = reader.custom_data
+        with BagWriter(tmp, compression=compression, file_name=target, custom_data=custom) as writer:
             for topic in reader.topics():
                 topic.message_count = 0
                 encoding, text = definitions.get(topic.type, ("ros2msg", None))
@@ -91,7 +94,7 @@ def repair_bag(folder: str | os.PathLike[str], *, keep_original: bool = True,
             else:
                 path.unlink()
         os.replace(tmp / target, folder / target)
-        meta.custom_data = reader.metadata.custom_data if reader.metadata else None
+        meta.custom_data = custom
         write_metadata(folder, meta)
     except OSError as err:  # the repaired storage stays where it was written
         raise BagError(f"cannot put the repaired storage in place in {folder} "

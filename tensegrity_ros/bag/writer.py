@@ -6,7 +6,11 @@ full definition from :mod:`.msgdefs`); one channel per topic (message encoding `
 metadata ``offered_qos_profiles`` in rosbag2's YAML form and ``topic_type_hash``); each
 message with its log time (receive time) and publish time in nanoseconds since the epoch.
 Closing adds a ``rosbag2`` metadata record (``serialized_metadata``) as rosbag2 Jazzy does,
-the summary section, and ``metadata.yaml``.
+the summary section, and ``metadata.yaml``. A bag with ``custom_data`` also gets, right after
+the MCAP header, a metadata record ``tensegrity_custom_data`` (:data:`CUSTOM_DATA_RECORD`, the
+same keys and values) written to the operating system before any message: a recorder
+killed before it closed leaves no ``metadata.yaml`` and no ``rosbag2`` record, and this is
+where :func:`tensegrity_ros.bag.repair.repair_bag` finds the custom_data again.
 
 Durability: messages are grouped in chunks that are closed when they reach ``chunk_size``
 bytes or when :meth:`BagWriter.maybe_flush` finds the oldest message of the open chunk
@@ -40,6 +44,8 @@ from tensegrity_ros.bag.qos import dump_profiles
 
 DEFAULT_CHUNK_SIZE = 768 * 1024   # bytes; rosbag2's MCAP default
 DEFAULT_FLUSH_INTERVAL = 0.1      # seconds (a SIGKILL loses at most about this; 1 s lost ~0.45 s)
+#: Name of the MCAP metadata record holding ``custom_data`` from the start of the file.
+CUSTOM_DATA_RECORD = "tensegrity_custom_data"
 COMPRESSIONS = {"none": CompressionType.NONE, "zstd": CompressionType.ZSTD,
                 "lz4": CompressionType.LZ4}
 
@@ -89,6 +95,9 @@ class BagWriter:
         # mcap has no type information
         self._mcap: Any = McapWriter(self._stream, chunk_size=chunk_size, compression=COMPRESSIONS[compression])
         self._mcap.start(profile="ros2", library=_library_id())
+        self.custom_data = dict(custom_data) if custom_data else None
+        if self.custom_data:      # survives a kill (see the module docstring)
+            self._mcap.add_metadata(CUSTOM_DATA_RECORD, self.custom_data)
         self._stream.flush()      # killed before its first chunk, it is still an MCAP file
         self._flush_interval = flush_interval
         self._unflushed_since: float | None = None
@@ -98,7 +107,6 @@ class BagWriter:
         self._start: int | None = None         # first and last log time [ns]
         self._end: int | None = None
         self._closed = False
-        self.custom_data = dict(custom_data) if custom_data else None
 
     def __enter__(self) -> BagWriter:
         return self

@@ -136,8 +136,7 @@ class BagSource:
     def _scene(reader: BagReader, path: object, cables: str, scene: str | None) -> str:
         """The scene a structure's bag was recorded from: ``scene``, else its metadata's."""
         if not scene:
-            custom = reader.metadata.custom_data if reader.metadata is not None else None
-            scene = (custom or {}).get("scene")
+            scene = (reader.custom_data or {}).get("scene")
             # a bag is outside input: the scene it names must be a shipped one, never a path
             if scene and scene not in scene_names():
                 raise BagError(f"bag {path} names scene {scene!r} in its metadata, which is not a shipped scene "
