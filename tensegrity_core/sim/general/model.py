@@ -71,6 +71,7 @@ from tensegrity_core.sim.event_location import Crossing
 from tensegrity_core.sim.general.kernels import arrays, loops
 from tensegrity_core.sim.general.kernels.array_stages import ArrayStages
 from tensegrity_core.sim.general.kernels.evaluator import Evaluation, Evaluator
+from tensegrity_core.sim.general.kernels.flat_stages import FlatStages, flat_ready
 from tensegrity_core.sim.general.kernels.plan import Plan, build_plan
 from tensegrity_core.sim.general.kernels.stages import CompiledStages
 from tensegrity_core.sim.inputs import Law, next_breakpoint
@@ -213,14 +214,17 @@ class GeneralSystem:
         return self.evaluator.evaluate(Y, np.broadcast_to(self.R_ref, (len(ts),) + self.R_ref.shape), l0)
 
     @property
-    def stages(self) -> CompiledStages | ArrayStages:
+    def stages(self) -> CompiledStages | ArrayStages | FlatStages:
         """Whole steps for the integrators of :mod:`tensegrity_core.sim.integrators`: compiled
-        (RK4, DOP853) with numba, in numpy (RK4) with the numpy kernels; their stretches of
-        steps stop where a string may go slack or taut (:meth:`events`) or a chart is due
-        (:meth:`after_step`)."""
+        (RK4, DOP853) with numba, in numpy (RK4) with the numpy kernels (in one flat buffer
+        for a model without moving bodies whose slack set is known: :mod:`.flat_stages`);
+        their stretches of steps stop where a string may go slack or taut (:meth:`events`)
+        or a chart is due (:meth:`after_step`)."""
         moving = np.zeros(len(self.strings), dtype=bool)
         moving[self._moving] = True
         constant = self.rest_lengths_of is None
+        if self.evaluator.sums is not None and flat_ready(self.plan):
+            return FlatStages(self.plan, self.rest_lengths, constant, strings=self.strings, moving=moving)
         if self.evaluator.sums is not None:
             return ArrayStages(self.plan, self.evaluator.sums, self.R_ref, self.rest_lengths, constant,
                                strings=self.strings, moving=moving, rechart_angle=RECHART_ANGLE)

@@ -1,0 +1,361 @@
+"""RK4 steps of a general model without moving bodies in flat buffers: the fewest numpy calls.
+
+The numpy kernels' cost on a structure of up to a few hundred members is the number of numpy
+calls (each costs about 0.5-1 us of dispatch whatever its length), not their arithmetic.
+:class:`~.array_stages.ArrayStages` evaluates each RK4 stage through the general
+right-hand side, about 20 calls. For a model whose nodes are all free or fixed (no moving
+rigid body) and whose members need no slack test inside a step (the stepper's stretches:
+a taut string carries compression, a slack one has no stiffness), this module evaluates a
+stage in 5 calls (small models) or 11 (larger ones), everything written in place:
+
+- a flat *source* buffer ``S = [y (N) | drawn coordinates (3n) | external forces on the free
+  coordinates (n_free) | 0 | ...]`` whose tail holds the members' quantities (below);
+- the member vectors ``h = x_b - x_a`` (3, m, component-major) as one linear map of ``S``;
+- ``l = sqrt(h . h)`` (``np.vecdot``, ``np.sqrt``);
+- ``dy/dt = [v | (external + sum of the member forces on each free coordinate) / mass]``
+  as one linear map of ``S``;
+- the stage states ``y + h sum_j a_ij K_j`` and the step's end as one product of the
+  coefficients with the rows ``[y | K_0 .. K_3]`` of one (5, N) array.
+
+The linear maps are dense matrices while they are small (:data:`DENSE_LIMIT` entries): one
+BLAS product whatever the number of nonzeros. Then the force of a member on its node ``a``,
+``t u`` with ``t = EA (l - l0) / l0 [+ c (dv . u)]``, is written ``k h - EA u [+ c (dv . u)
+u]`` (``k = EA / l0`` [N/m], ``u = h / l``): linear in ``h``, ``u`` and ``(dv . u) u``, whose
+coefficients (with the masses' inverses and the signs) are the rate matrix's columns, so a
+stage is ``h, dv = G S``; ``l``; ``u = h / l``; ``dy/dt = D S``. Above that size a dense
+product's work exceeds the calls it saves: the maps are gathers with index arrays (both ends
+of every member, and every coordinate's terms summed row by row and scaled), the force as
+``q h`` with ``q = t / l = k - EA / l`` (and ``-q h`` on the nodes ``b``).
+
+The formulas are those of :mod:`.loops`, member by member, the sums in another order: the
+numbers agree with the compiled kernels to rounding (the split ``k h - EA u`` adds two terms
+of the size of ``EA`` where the loops add one of the size of ``t``: an absolute rounding of a
+few ``eps EA`` [N] per member in both). The screen for a string's slack/taut event is that of
+:func:`.array_stages.quiet_step`, so a stretch stops where the compiled one does.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tensegrity_core.sim.general.kernels.array_stages import hermite
+from tensegrity_core.sim.general.kernels.plan import Plan
+from tensegrity_core.sim.integrators import Run
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+#: Largest number of entries of the two dense matrices (member vectors and rates) for which
+#: the linear maps are dense products; above it, gathers (the measured crossover,
+#: docs/design/performance.md: dense faster up to ~27 members, gathers from ~36).
+DENSE_LIMIT = 50_000
+#: The quiet-step screen's factor (:func:`.loops.quiet_step`: a cubic between its ends strays
+#: at most 4/27 of the step times the sum of its end slopes), with its rounding margin.
+SCREEN = (4.0 / 27.0) * (1.0 + 1e-9)
+#: ``np.vecdot``'s axes for a dot product over the components of (3, m) arrays: one per member
+#: (untyped: numpy's stubs type a gufunc's ``axes`` as matmul's pairs).
+COMPONENTS: Any = [(0,), (0,), ()]
+
+
+def flat_ready(plan: Plan) -> bool:
+    """Whether :class:`FlatStages` can step ``plan``: no moving body, no member that goes
+    slack by its length inside a step."""
+    return not len(plan.body_dof) and not bool(np.any(plan.is_string))
+
+
+def rk4_coefficients(h: float) -> FloatArray:
+    """(4, 5): per RK4 stage 1-3 and the step's end, the weights of ``[y, K_0, .., K_3]``."""
+    c = np.zeros((4, 5))
+    c[:, 0] = 1.0
+    c[0, 1], c[1, 2], c[2, 3] = 0.5 * h, 0.5 * h, h
+    c[3, 1:] = h * np.array([1.0, 2.0, 2.0, 1.0]) / 6.0
+    return c
+
+
+def quiet_ends(E0: FloatArray, E1: FloatArray, least0: float, most0: float, least1: float, most1: float, h: float,
+               margin: FloatArray) -> bool:
+    """:func:`.array_stages.quiet_step` of a step of ``h`` [s] from its ends ``E0``, ``E1``
+    (4, m) of :meth:`FlatStages._gaps` (gaps [m], their rates [m/s], their magnitudes) with
+    their least gap and largest rate magnitudes: no gap changes sign and none comes nearer
+    zero than 4/27 h (|rate_0| + |rate_1|). Decided at once from the least gaps and the
+    largest rates when they suffice (which implies the member-by-member test: rounding is
+    monotone), else member by member; ``margin`` (m,) is work space."""
+    if not len(margin):
+        return True
+    if not np.minimum.reduce(np.multiply(E0[0], E1[0], out=margin)) > 0.0:
+        return False
+    if min(least0, least1) >= SCREEN * h * (most0 + most1):
+        return True
+    np.add(E0[3], E1[3], out=margin)
+    margin *= SCREEN * h
+    np.subtract(np.minimum(E0[2], E1[2]), margin, out=margin)
+    return not np.minimum.reduce(margin) < 0.0
+
+
+class FlatLayout:
+    """The index arrays of the flat buffer of ``plan`` (module docstring).
+
+    Sources ``S[:sources]``: ``y``, the drawn coordinates, the external forces on the free
+    coordinates, a zero. ``ends`` (2, 3, m): per member end (a, b), component and member, the
+    entry of the sources giving that node coordinate (a free one its ``x``, a fixed one its
+    drawn value); ``velocity_ends`` likewise for velocities (a fixed coordinate: the zero).
+    ``terms`` (d, N): per entry of ``dy/dt`` the entries it sums, padded with the zero: for
+    ``x`` its ``v``; for ``v`` its external force, then per member in member order the
+    member's force on it, an entry of the (2, 3, m) block ``[+force on a | -force on b]``
+    right after the sources; ``scale`` (N,) the factor of each sum (1 for ``x``, the
+    inverse mass for ``v``)."""
+
+    def __init__(self, plan: Plan):
+        n, m, n_free = plan.n_nodes, len(plan.member_a), len(plan.free_node)
+        N = 2 * n_free
+        self.n_state, self.n_members, self.n_free = N, m, n_free
+        external = N + 3 * n
+        self.zero = external + n_free
+        self.sources = self.zero + 1
+        position = N + 3 * np.arange(n)[:, None] + np.arange(3)
+        velocity = np.full((n, 3), self.zero, dtype=np.int64)
+        position[plan.free_node, plan.free_axis] = np.arange(n_free)
+        velocity[plan.free_node, plan.free_axis] = n_free + np.arange(n_free)
+        a, b = plan.member_a, plan.member_b
+        self.ends = np.ascontiguousarray(np.stack([position[a].T, position[b].T]), dtype=np.int64)
+        self.velocity_ends = np.ascontiguousarray(np.stack([velocity[a].T, velocity[b].T]), dtype=np.int64)
+        tail = self.sources
+        coordinate = np.full((n, 3), -1, dtype=np.int64)
+        coordinate[plan.free_node, plan.free_axis] = np.arange(n_free)
+        lists: list[list[int]] = [[external + j] for j in range(n_free)]
+        for i in range(m):                        # member order, as the loops add the forces
+            for k in range(3):
+                for node, side in ((a[i], 0), (b[i], 1)):
+                    j = coordinate[node, k]
+                    if j >= 0:
+                        lists[j].append(tail + side * 3 * m + k * m + i)
+        self.terms = np.full((max([1] + [len(t) for t in lists]), N), self.zero, dtype=np.int64)
+        self.terms[0, :n_free] = n_free + np.arange(n_free)
+        for j, t in enumerate(lists):
+            self.terms[:len(t), n_free + j] = t
+        self.scale = np.concatenate([np.ones(n_free), plan.free_inv_mass])
+        self.constants = np.concatenate([np.asarray(plan.base, dtype=float).ravel(),
+                                         plan.external[plan.free_node, plan.free_axis], [0.0]])
+
+    def dense_entries(self) -> int:
+        """Entries of the dense matrices: member vectors and velocities (6m, sources), rates
+        (N, sources + 12m)."""
+        m = self.n_members
+        return 6 * m * self.sources + self.n_state * (self.sources + 12 * m)
+
+    def difference_matrix(self, ends: IntArray) -> FloatArray:
+        """(3m, sources): the differences ``S[ends[1]] - S[ends[0]]`` as a matrix."""
+        G = np.zeros((3 * self.n_members, self.sources))
+        rows = np.arange(3 * self.n_members)
+        np.add.at(G, (rows, ends[1].ravel()), 1.0)
+        np.add.at(G, (rows, ends[0].ravel()), -1.0)
+        G[:, self.zero] = 0.0
+        return G
+
+    def force_matrix(self) -> tuple[FloatArray, FloatArray]:
+        """``(D0, incidence)``: ``D0`` (N, sources) ``dy/dt`` from the sources alone (``x``'s
+        rate, the external forces scaled); ``incidence`` (N, 3m) the scaled signed incidence:
+        ``dy/dt += incidence @ f`` for member forces ``f`` (3, m) on the nodes ``a``."""
+        m3 = 3 * self.n_members
+        D = np.zeros((self.n_state, self.sources + 2 * m3))
+        cols = np.arange(self.n_state)
+        for row in self.terms:
+            np.add.at(D, (cols, row), self.scale)
+        D[:, self.zero] = 0.0
+        incidence = D[:, self.sources:self.sources + m3] - D[:, self.sources + m3:]
+        return np.ascontiguousarray(D[:, :self.sources]), incidence
+
+
+class FlatStages:
+    """RK4 steps of the model of ``plan`` (:func:`flat_ready`) in flat buffers (module
+    docstring), with rest lengths ``rest_lengths(t)`` [m] (``constant``: they do not depend
+    on ``t``); ``dense``: the linear maps as dense matrices (None: by size). A stretch stops
+    at a step that may hold an event of the strings ``strings`` (member indices; ``moving``:
+    per string, its rest length moves with an input); there is no body to re-chart."""
+
+    #: The methods whose steps this computes (the stepper runs others as scipy's).
+    methods = ("RK4",)
+
+    def __init__(self, plan: Plan, rest_lengths: Callable[[float], FloatArray], constant: bool, *,
+                 strings: IntArray, moving: NDArray[np.bool_], dense: bool | None = None):
+        assert flat_ready(plan), "the flat stages take models without moving bodies or slack tests"
+        self.plan, self.rest_lengths, self.constant = plan, rest_lengths, constant
+        self.strings, self.moving = strings, moving
+        self.damped = bool(np.any(plan.damping))
+        lay = FlatLayout(plan)
+        self.dense = lay.dense_entries() <= DENSE_LIMIT if dense is None else dense
+        m, m3, N, src = lay.n_members, 3 * lay.n_members, lay.n_state, lay.sources
+        if self.dense:
+            # S = [sources | h (3m) | dv (3m) | u (3m) | (dv . u) u (3m)]
+            self.S = np.zeros(src + 4 * m3)
+            self._hv = self.S[src:src + 2 * m3]
+            self.h, self.dv = (self.S[src + j * m3:src + (j + 1) * m3].reshape(3, m) for j in range(2))
+            self.u, self._du = (self.S[src + j * m3:src + (j + 1) * m3].reshape(3, m) for j in (2, 3))
+            self._G = np.concatenate([lay.difference_matrix(lay.ends), lay.difference_matrix(lay.velocity_ends)])
+            D0, self._incidence = lay.force_matrix()
+            self._D = np.zeros((N, len(self.S)))
+            self._D[:, :src] = D0
+        else:
+            # S = [sources | forces on the nodes a (3m) | their opposites (3m)]
+            self.S = np.zeros(src + 2 * m3)
+            self.h, self.dv = np.empty((3, m)), np.empty((3, m))
+            self._forces = self.S[src:].reshape(2, 3, m)
+            self._Q = np.empty((2, m))
+            self._EA2, self._k2 = np.stack([plan.EA, -plan.EA]), np.empty((2, m))
+            self._ends = np.empty((2, 3, m))
+            self._terms = np.empty(lay.terms.shape)
+        self.layout = lay
+        self.S[N:src] = lay.constants
+        self._state, self._sources = self.S[:N], self.S[:src]
+        self.lengths, self.rate = np.empty(m), np.empty(m)
+        self._k = np.empty(m)
+        self._l0: FloatArray | None = None
+        self._Z = (np.empty((5, N)), np.empty((5, N)))      # [y, K_0 .. K_3] of this step and the next
+        #: per buffer of ``_Z``, its rows ``[y, K_0 .. K_j]`` that stage ``j + 1`` combines
+        self._rows = tuple([Z[:j + 2] for j in range(3)] for Z in self._Z)
+        self._h: float | None = None
+        self._weights: list[FloatArray] = []
+
+    def _rest(self, l0: FloatArray, kept: bool) -> None:
+        """Rest lengths ``l0`` [m] for the next evaluations, with ``k = EA / l0`` [N/m] and
+        (dense) the rate matrix's member columns (``kept``: ``l0`` is the array of the last
+        call, unchanged: nothing to redo)."""
+        if kept and self._l0 is l0:
+            return
+        self._l0 = l0
+        np.divide(self.plan.EA, l0, out=self._k)
+        if not self.dense:
+            np.stack([self._k, -self._k], out=self._k2)
+        else:
+            src, m3 = self.layout.sources, 3 * self.layout.n_members
+            inc, D = self._incidence, self._D
+            np.multiply(inc, np.tile(self._k, 3), out=D[:, src:src + m3])                       # k h
+            np.multiply(inc, -np.tile(self.plan.EA, 3), out=D[:, src + 2 * m3:src + 3 * m3])    # -EA u
+            np.multiply(inc, np.tile(self.plan.damping, 3), out=D[:, src + 3 * m3:])            # c (dv . u) u
+
+    def _rate(self, out: FloatArray) -> None:
+        """``out`` (N,) = ``dy/dt`` of the state in ``S`` (rest lengths of :meth:`_rest`); its
+        member vectors [m] and lengths [m] are left in ``self.h`` and ``self.lengths``, and
+        (dense) the velocity differences [m/s] in ``self.dv``."""
+        h, l = self.h, self.lengths
+        if self.dense:
+            np.dot(self._G, self._sources, out=self._hv)
+            np.vecdot(h, h, axes=COMPONENTS, out=l)
+            np.sqrt(l, out=l)
+            np.divide(h, l, out=self.u)
+            if self.damped:
+                np.vecdot(self.dv, self.u, axes=COMPONENTS, out=self.rate)
+                np.multiply(self.u, self.rate, out=self._du)
+            np.dot(self._D, self.S, out=out)
+            return
+        Q = self._Q                                     # [t / l, -t / l] (2, m) [N/m]
+        self._sources.take(self.layout.ends, out=self._ends)
+        np.subtract(self._ends[1], self._ends[0], out=h)
+        np.vecdot(h, h, axes=COMPONENTS, out=l)
+        np.sqrt(l, out=l)
+        np.divide(self._EA2, l, out=Q)                  # t / l = k (l - l0) / l = k - EA / l
+        np.subtract(self._k2, Q, out=Q)
+        if self.damped:                                 # + c (dv . u) / l = c (dv . h) / l^2
+            w = self.rate
+            self._velocity_differences()
+            np.vecdot(self.dv, h, axes=COMPONENTS, out=w)
+            w *= self.plan.damping
+            w /= l
+            w /= l
+            Q[0] += w
+            Q[1] -= w
+        np.multiply(h, Q[:, None, :], out=self._forces)
+        self.S.take(self.layout.terms, out=self._terms)
+        np.add.reduce(self._terms, axis=0, out=out)
+        out *= self.layout.scale
+
+    def _velocity_differences(self) -> None:
+        """(gathers) ``self.dv`` (3, m): ``v_b - v_a`` of the members at the state in ``S``."""
+        self._sources.take(self.layout.velocity_ends, out=self._ends)
+        np.subtract(self._ends[1], self._ends[0], out=self.dv)
+
+    def _step(self, t: float, h: float, Z: FloatArray, Z_next: FloatArray, l0: FloatArray | None) -> None:
+        """One RK4 step of ``h`` [s] from ``(t, Z[0])`` (rate ``Z[1]``): its stages in ``Z[2:]``,
+        the new state in ``Z_next[0]`` and its rate in ``Z_next[1]``; ``l0`` the rest lengths
+        [m] at every stage if constant, else None (``rest_lengths``)."""
+        if h != self._h:
+            c = rk4_coefficients(h)
+            self._h, self._weights = h, [c[j, :j + 2] for j in range(3)] + [c[3]]
+        w, state, rows = self._weights, self._state, self._rows[Z is self._Z[1]]
+        for j, fraction in ((0, 0.5), (1, 0.5), (2, 1.0)):     # stage j + 1 at y + c h K_j
+            np.dot(w[j], rows[j], out=state)
+            self._rest(self.rest_lengths(t + fraction * h) if l0 is None else l0, l0 is not None)
+            self._rate(Z[j + 2])
+        np.dot(w[3], Z, out=Z_next[0])
+        state[...] = Z_next[0]
+        self._rest(self.rest_lengths(t + h) if l0 is None else l0, l0 is not None)
+        self._rate(Z_next[1])
+
+    def rk4(self, t: float, y: FloatArray, f: FloatArray, h: float) -> tuple[FloatArray, FloatArray]:
+        Z, Z_next = self._Z
+        Z[0], Z[1] = y, f
+        self._step(t, h, Z, Z_next, None)
+        return Z_next[0].copy(), Z_next[1].copy()
+
+    def _gaps(self, l0_screen: FloatArray, out: FloatArray) -> tuple[float, float]:
+        """Per member of the last evaluation into ``out`` (4, m): the gap ``l - l0`` [m]
+        (``+inf`` for members not screened), its rate [m/s], their magnitudes; returns the
+        least gap magnitude and the largest rate magnitude (0 and 0 without members)."""
+        np.subtract(self.lengths, l0_screen, out=out[0])
+        if self.dense:
+            np.vecdot(self.dv, self.u, axes=COMPONENTS, out=out[1])
+        else:
+            self._velocity_differences()
+            np.vecdot(self.dv, self.h, axes=COMPONENTS, out=out[1])
+            out[1] /= self.lengths
+        np.abs(out[:2], out=out[2:])
+        if not out.shape[1]:
+            return 0.0, 0.0
+        return float(np.minimum.reduce(out[2])), float(np.maximum.reduce(out[3]))
+
+    def rk4_run(self, t: float, y: FloatArray, f: FloatArray, h_fixed: float, t_bound: float, horizon: float,
+                samples: FloatArray, sample: int) -> Run:
+        """:meth:`.array_stages.ArrayStages.rk4_run` in flat buffers: RK4 steps of ``h_fixed``
+        [s] from ``(t, y)`` (rate ``f``) as far as ``horizon`` [s] or a step that may hold an
+        event, with the states at ``samples[sample:]`` [s] that the steps before the last one
+        cover; constant rest lengths only."""
+        assert self.constant, "a stretch of steps needs constant rest lengths"
+        l0 = self.rest_lengths(t)
+        # the members screened: strings whose rest length no input moves (the others never stop a step)
+        screened = self.strings[~self.moving]
+        l0_screen = np.full(len(l0), -np.inf)
+        l0_screen[screened] = l0[screened]
+        Y = np.empty((len(samples), len(y)))
+        Z, Z_next = self._Z
+        Z[0], Z[1] = y, f
+        self._state[...] = y
+        self._rest(l0, False)
+        self._rate(np.empty_like(y))
+        E, E_next = np.empty((4, len(l0))), np.empty((4, len(l0)))     # a step's ends: _gaps
+        least0, most0 = self._gaps(l0_screen, E)
+        margin = np.empty(len(l0))
+        steps = 0
+        while True:
+            left = t_bound - t
+            h = left if left < h_fixed * (1.0 + 1e-9) else h_fixed
+            self._step(t, h, Z, Z_next, l0)
+            t_new = t_bound if h == left else t + h
+            steps += 1
+            least1, most1 = self._gaps(l0_screen, E_next)
+            quiet = quiet_ends(E, E_next, least0, most0, least1, most1, t_new - t, margin)
+            if t_new >= horizon or t_new >= t_bound or not quiet:
+                return Run(steps, steps, t, Z[0].copy(), Z[1].copy(), t_new, Z_next[0].copy(), Z_next[1].copy(),
+                           sampled=sample, Y=Y)
+            if sample < len(samples) and samples[sample] <= t_new:
+                end = int(np.searchsorted(samples, t_new, side="right"))
+                if end == sample + 1 and samples[sample] == t_new:
+                    Y[sample] = Z_next[0]
+                else:
+                    Y[sample:end] = hermite(Z[0], Z[1], Z_next[0], Z_next[1], t_new - t,
+                                            (samples[sample:end] - t) / (t_new - t))
+                sample = end
+            t, Z, Z_next, E, E_next, least0, most0 = t_new, Z_next, Z, E_next, E, least1, most1
