@@ -444,6 +444,7 @@ def growth(ctx: Context) -> list[Row]:
                         baseline=f"tower {e['members']} members: project RK4 (numba), CPU",
                         target="ratio >= 0.333 (fallback within 3x: compiled / numpy)"))
     first = data[0]
+    rows += _numpy_floor(_tower_scene(stages[0], duration), first)
     rows.append(Row(GROUP, f"tower {first['members']} members: project RK4 (numba)", first["numba"], "s/s"))
     rows.append(Row(GROUP, f"tower {first['members']} members: numpy kernels", first["numpy"], "s/s",
                     baseline=f"tower {first['members']} members: project RK4 (numba)"))
@@ -454,6 +455,60 @@ def growth(ctx: Context) -> list[Row]:
                         baseline=f"tower {last['members']} members: MuJoCo RK4", target=">= 1x (MuJoCo / project)"))
     ctx.save_json("general_dynamics_growth.json", data)
     _plot_growth(ctx, data)
+    return rows
+
+
+def _cpu_per_call(fn, n: int = 50_000) -> float:
+    """The least CPU time of one call of ``fn()`` [s] over three loops of ``n`` calls."""
+    best = math.inf
+    for _ in range(3):
+        started = time.process_time()
+        for _ in range(n):
+            fn()
+        best = min(best, (time.process_time() - started) / n)
+    return best
+
+
+def _numpy_floor(scene, first: dict) -> list[Row]:
+    """The floor of a pure-numpy RK4 step of the smallest tower (docs/design/performance.md):
+    the fewest numpy calls a step needs -- per evaluation the member vectors and velocities
+    (one product), the lengths (a dot product per member and a root), the unit vectors (one
+    division), the rates (one product); per stage its state (one product) -- each timed alone
+    on the flat stages' own arrays in CPU time, no Python between them and no event screen;
+    against the compiled step and the numpy step measured in the same run."""
+    from tensegrity_core.sim import compile_scene
+    from tensegrity_core.sim.general.kernels.flat_stages import COMPONENTS, FlatStages
+
+    os.environ["TENSEGRITY_KERNELS"] = "numpy"
+    try:
+        model = compile_scene(scene)
+        state = model.initial_state()
+        system = model.equations(state).resume(state.t, state.y).system
+    finally:
+        os.environ.pop("TENSEGRITY_KERNELS", None)
+    flat = system.stages
+    assert isinstance(flat, FlatStages) and flat.dense
+    flat.rk4(0.0, state.y, system.fun(0.0, state.y), first["step"])      # fills the buffers
+    G, D, S, src, hv, h, l, u = flat._G, flat._D, flat.S, flat._sources, flat._hv, flat.h, flat.lengths, flat.u
+    Z, out, weights, state_row = flat._Z[0], np.empty(len(state.y)), flat._weights[3], flat._state
+    calls = {"member vectors (np.dot)": lambda: np.dot(G, src, out=hv),
+             "lengths squared (np.vecdot)": lambda: np.vecdot(h, h, axes=COMPONENTS, out=l),
+             "lengths (np.sqrt)": lambda: np.sqrt(l, out=l),
+             "unit vectors (np.divide)": lambda: np.divide(h, l, out=u),
+             "rates (np.dot)": lambda: np.dot(D, S, out=out),
+             "stage state (np.dot)": lambda: np.dot(weights, Z, out=state_row)}
+    cost = {name: _cpu_per_call(fn) for name, fn in calls.items()}
+    floor = 4 * sum(cost.values())
+    compiled = first["numba_cpu"] * first["step"]          # CPU seconds per step
+    plain = first["numpy_cpu"] * first["step"]
+    members = first["members"]
+    first.update(floor=floor, calls=cost)
+    rows = [Row(GROUP, f"tower {members} members: numpy call, {name}, CPU", c * 1e6, "us") for name, c in cost.items()]
+    rows.append(Row(GROUP, f"tower {members} members: floor of a numpy RK4 step, CPU", floor * 1e6, "us",
+                    note=f"4 x the {len(cost)} calls above; compiled step {compiled * 1e6:.2f} us, "
+                         f"numpy step {plain * 1e6:.1f} us (CPU, same run)"))
+    rows.append(Row(GROUP, f"tower {members} members: floor of a numpy step / compiled step", floor / compiled, "x",
+                    target="report", note="what no pure-numpy RK4 step of this structure can beat"))
     return rows
 
 
@@ -497,6 +552,10 @@ def _plot_growth(ctx: Context, data: list[dict]) -> None:
     ratio.loglog(m, [e["numpy"] / e["numba"] for e in data], marker="s", label="numpy / compiled, wall time")
     ratio.loglog(m, [e["numpy_cpu"] / e["numba_cpu"] for e in data], marker="D",
                    label="numpy / compiled, CPU time of the process")
+    floors = [(e["members"], e["floor"] / (e["numba_cpu"] * e["step"])) for e in data if "floor" in e]
+    if floors:
+        ratio.loglog(*zip(*floors), marker="*", markersize=12, linestyle="none",
+                     label="floor: the fewest numpy calls of a step / compiled, CPU time")
     ratio.axhline(3.0, color="k", linestyle="--", label="target: within 3x")
     ratio.set(xlabel="members", ylabel="time ratio [-]", title="the numpy fallback against the compiled path")
     ratio.grid(True, which="both", alpha=0.3)

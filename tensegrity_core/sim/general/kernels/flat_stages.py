@@ -37,6 +37,7 @@ few ``eps EA`` [N] per member in both). The screen for a string's slack/taut eve
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -95,6 +96,56 @@ def quiet_ends(E0: FloatArray, E1: FloatArray, least0: float, most0: float, leas
     margin *= SCREEN * h
     np.subtract(np.minimum(E0[2], E1[2]), margin, out=margin)
     return not np.minimum.reduce(margin) < 0.0
+
+
+def _dense_rate(G: FloatArray, D: FloatArray, S: FloatArray, sources: FloatArray, hv: FloatArray, h: FloatArray,
+                l: FloatArray, u: FloatArray, dv: FloatArray, rate: FloatArray, du: FloatArray, damped: bool,
+                out: FloatArray) -> None:
+    """:meth:`FlatStages._rate` with dense maps (its arrays bound once: no attribute look-ups)."""
+    np.dot(G, sources, out=hv)                      # h, dv
+    np.vecdot(h, h, axes=COMPONENTS, out=l)
+    np.sqrt(l, out=l)
+    np.divide(h, l, out=u)
+    if damped:
+        np.vecdot(dv, u, axes=COMPONENTS, out=rate)
+        np.multiply(u, rate, out=du)
+    np.dot(D, S, out=out)                           # v; (external + k h - EA u + c (dv . u) u) / mass
+
+
+def _gathered_rate(stages: FlatStages, out: FloatArray) -> None:
+    """:meth:`FlatStages._rate` with gathers."""
+    h, l, Q = stages.h, stages.lengths, stages._Q     # Q: [t / l, -t / l] (2, m) [N/m]
+    ends = stages._ends
+    stages._sources.take(stages.layout.ends, out=ends, mode="clip")     # indices valid: no checks
+    np.subtract(ends[1], ends[0], out=h)
+    _dot_components(h, h, l, stages._product)
+    np.sqrt(l, out=l)
+    np.divide(stages._EA2, l, out=Q)                # t / l = k (l - l0) / l = k - EA / l
+    np.subtract(stages._k2, Q, out=Q)
+    if stages.damped:                               # + c (dv . u) / l = c (dv . h) / l^2
+        w = stages.rate
+        stages._velocity_differences()
+        _dot_components(stages.dv, h, w, stages._product)
+        w *= stages.plan.damping
+        w /= l
+        w /= l
+        Q[0] += w
+        Q[1] -= w
+    np.multiply(h, Q[:, None, :], out=stages._forces)
+    n_free = stages.layout.n_free
+    out[:n_free] = stages._velocities
+    stages.S.take(stages._force_terms, out=stages._terms, mode="clip")
+    acceleration = out[n_free:]
+    np.add.reduce(stages._terms, axis=0, out=acceleration)
+    acceleration *= stages.plan.free_inv_mass
+
+
+def _dot_components(a: FloatArray, b: FloatArray, out: FloatArray, work: FloatArray) -> None:
+    """``out`` (m,) = per member the dot product of ``a`` and ``b`` (3, m): a product and a sum
+    over the components, each one pass over all members (``np.vecdot`` loops member by member:
+    2.5x slower from a few hundred members); ``work`` (3, m)."""
+    np.multiply(a, b, out=work)
+    np.add.reduce(work, axis=0, out=out)
 
 
 class FlatLayout:
@@ -215,20 +266,18 @@ class FlatStages:
         self._state, self._sources, self._velocities = self.S[:N], self.S[:src], self.S[N // 2:N]
         self.lengths, self.rate = np.empty(m), np.empty(m)
         self._k = np.empty(m)
-        self._l0: FloatArray | None = None
         self._Z = (np.empty((5, N)), np.empty((5, N)))      # [y, K_0 .. K_3] of this step and the next
         #: per buffer of ``_Z``, its rows ``[y, K_0 .. K_j]`` that stage ``j + 1`` combines
         self._rows = tuple([Z[:j + 2] for j in range(3)] for Z in self._Z)
         self._h: float | None = None
         self._weights: list[FloatArray] = []
+        self._rate_into: Callable[[FloatArray], None] = \
+            partial(_dense_rate, self._G, self._D, self.S, self._sources, self._hv, self.h, self.lengths, self.u,
+                    self.dv, self.rate, self._du, self.damped) if self.dense else partial(_gathered_rate, self)
 
-    def _rest(self, l0: FloatArray, kept: bool) -> None:
+    def _rest(self, l0: FloatArray) -> None:
         """Rest lengths ``l0`` [m] for the next evaluations, with ``k = EA / l0`` [N/m] and
-        (dense) the rate matrix's member columns (``kept``: ``l0`` is the array of the last
-        call, unchanged: nothing to redo)."""
-        if kept and self._l0 is l0:
-            return
-        self._l0 = l0
+        (dense) the rate matrix's member columns."""
         np.divide(self.plan.EA, l0, out=self._k)
         if not self.dense:
             np.stack([self._k, -self._k], out=self._k2)
@@ -243,74 +292,36 @@ class FlatStages:
         """``out`` (N,) = ``dy/dt`` of the state in ``S`` (rest lengths of :meth:`_rest`); its
         member vectors [m] and lengths [m] are left in ``self.h`` and ``self.lengths``, and
         (dense) the velocity differences [m/s] in ``self.dv``."""
-        h, l = self.h, self.lengths
-        if self.dense:
-            np.dot(self._G, self._sources, out=self._hv)
-            np.vecdot(h, h, axes=COMPONENTS, out=l)
-            np.sqrt(l, out=l)
-            np.divide(h, l, out=self.u)
-            if self.damped:
-                np.vecdot(self.dv, self.u, axes=COMPONENTS, out=self.rate)
-                np.multiply(self.u, self.rate, out=self._du)
-            np.dot(self._D, self.S, out=out)
-            return
-        Q = self._Q                                     # [t / l, -t / l] (2, m) [N/m]
-        self._sources.take(self.layout.ends, out=self._ends, mode="clip")     # indices valid: no checks
-        np.subtract(self._ends[1], self._ends[0], out=h)
-        self._dot(h, h, l)
-        np.sqrt(l, out=l)
-        np.divide(self._EA2, l, out=Q)                  # t / l = k (l - l0) / l = k - EA / l
-        np.subtract(self._k2, Q, out=Q)
-        if self.damped:                                 # + c (dv . u) / l = c (dv . h) / l^2
-            w = self.rate
-            self._velocity_differences()
-            self._dot(self.dv, h, w)
-            w *= self.plan.damping
-            w /= l
-            w /= l
-            Q[0] += w
-            Q[1] -= w
-        np.multiply(h, Q[:, None, :], out=self._forces)
-        n_free = self.layout.n_free
-        out[:n_free] = self._velocities
-        self.S.take(self._force_terms, out=self._terms, mode="clip")
-        acceleration = out[n_free:]
-        np.add.reduce(self._terms, axis=0, out=acceleration)
-        acceleration *= self.plan.free_inv_mass
-
-    def _dot(self, a: FloatArray, b: FloatArray, out: FloatArray) -> None:
-        """(gathers) ``out`` (m,) = per member the dot product of ``a`` and ``b`` (3, m): a
-        product and a sum over the components, each one pass over all members (``np.vecdot``
-        loops member by member: 2.5x slower from a few hundred members)."""
-        np.multiply(a, b, out=self._product)
-        np.add.reduce(self._product, axis=0, out=out)
+        self._rate_into(out)
 
     def _velocity_differences(self) -> None:
         """(gathers) ``self.dv`` (3, m): ``v_b - v_a`` of the members at the state in ``S``."""
         self._sources.take(self.layout.velocity_ends, out=self._ends, mode="clip")
         np.subtract(self._ends[1], self._ends[0], out=self.dv)
 
-    def _step(self, t: float, h: float, Z: FloatArray, Z_next: FloatArray, l0: FloatArray | None) -> None:
+    def _step(self, t: float, h: float, Z: FloatArray, Z_next: FloatArray, varying: bool) -> None:
         """One RK4 step of ``h`` [s] from ``(t, Z[0])`` (rate ``Z[1]``): its stages in ``Z[2:]``,
-        the new state in ``Z_next[0]`` and its rate in ``Z_next[1]``; ``l0`` the rest lengths
-        [m] at every stage if constant, else None (``rest_lengths``)."""
+        the new state in ``Z_next[0]`` and its rate in ``Z_next[1]``; ``varying``: the rest
+        lengths at each stage from ``rest_lengths``, else those of the last :meth:`_rest`."""
         if h != self._h:
             c = rk4_coefficients(h)
             self._h, self._weights = h, [c[j, :j + 2] for j in range(3)] + [c[3]]
-        w, state, rows = self._weights, self._state, self._rows[Z is self._Z[1]]
+        w, state, rows, rate, dot = self._weights, self._state, self._rows[Z is self._Z[1]], self._rate_into, np.dot
         for j, fraction in ((0, 0.5), (1, 0.5), (2, 1.0)):     # stage j + 1 at y + c h K_j
-            np.dot(w[j], rows[j], out=state)
-            self._rest(self.rest_lengths(t + fraction * h) if l0 is None else l0, l0 is not None)
-            self._rate(Z[j + 2])
-        np.dot(w[3], Z, out=Z_next[0])
+            dot(w[j], rows[j], out=state)
+            if varying:
+                self._rest(self.rest_lengths(t + fraction * h))
+            rate(Z[j + 2])
+        dot(w[3], Z, out=Z_next[0])
         state[...] = Z_next[0]
-        self._rest(self.rest_lengths(t + h) if l0 is None else l0, l0 is not None)
-        self._rate(Z_next[1])
+        if varying:
+            self._rest(self.rest_lengths(t + h))
+        rate(Z_next[1])
 
     def rk4(self, t: float, y: FloatArray, f: FloatArray, h: float) -> tuple[FloatArray, FloatArray]:
         Z, Z_next = self._Z
         Z[0], Z[1] = y, f
-        self._step(t, h, Z, Z_next, None)
+        self._step(t, h, Z, Z_next, True)
         return Z_next[0].copy(), Z_next[1].copy()
 
     def _gaps(self, l0_screen: FloatArray, out: FloatArray) -> tuple[float, float]:
@@ -322,7 +333,7 @@ class FlatStages:
             np.vecdot(self.dv, self.u, axes=COMPONENTS, out=out[1])
         else:
             self._velocity_differences()
-            self._dot(self.dv, self.h, out[1])
+            _dot_components(self.dv, self.h, out[1], self._product)
             out[1] /= self.lengths
         np.abs(out[:2], out=out[2:])
         if not out.shape[1]:
@@ -345,7 +356,7 @@ class FlatStages:
         Z, Z_next = self._Z
         Z[0], Z[1] = y, f
         self._state[...] = y
-        self._rest(l0, False)
+        self._rest(l0)
         self._rate(np.empty_like(y))
         E, E_next = np.empty((4, len(l0))), np.empty((4, len(l0)))     # a step's ends: _gaps
         least0, most0 = self._gaps(l0_screen, E)
@@ -354,7 +365,7 @@ class FlatStages:
         while True:
             left = t_bound - t
             h = left if left < h_fixed * (1.0 + 1e-9) else h_fixed
-            self._step(t, h, Z, Z_next, l0)
+            self._step(t, h, Z, Z_next, False)
             t_new = t_bound if h == left else t + h
             steps += 1
             least1, most1 = self._gaps(l0_screen, E_next)
