@@ -6,7 +6,7 @@ calls (each costs about 0.5-1 us of dispatch whatever its length), not their ari
 right-hand side, about 20 calls. For a model whose nodes are all free or fixed (no moving
 rigid body) and whose members need no slack test inside a step (the stepper's stretches:
 a taut string carries compression, a slack one has no stiffness), this module evaluates a
-stage in 5 calls (small models) or 11 (larger ones), everything written in place:
+stage in 5 calls (small models) or 12 (larger ones), everything written in place:
 
 - a flat *source* buffer ``S = [y (N) | drawn coordinates (3n) | external forces on the free
   coordinates (n_free) | 0 | ...]`` whose tail holds the members' quantities (below);
