@@ -64,8 +64,10 @@ def test_the_closed_loop_gait_rolls_exactly_the_faces_asked_in_lockstep(cli, ros
     assert distance > CLOSED_FACE_MARGIN, r.stdout               # past the first edge at least
     dx = float(re.search(r"centre moved by \((\S+),", r.stdout).group(1))
     assert dx > 0, r.stdout                                       # towards the heading +x
-    assert re.search(r"^  at rest on a face \d+\.\d\d s after the controller released the motors$", r.stdout,
-                     re.M), r.stdout
+    # whether the robot is at rest after the controller's end, or how fast it still rocks on its face
+    assert re.search(r"^  (at rest on a face \d+\.\d\d s after the controller released the motors|still moving 2 s "
+                     r"after the controller released the motors \(centre at 0\.0\d m/s\): the distance and faces "
+                     r"above are those up to then)$", r.stdout, re.M), r.stdout
 
     # another node publishes cable commands to the lockstep suite (as its cable controller would):
     # two answers to a state, and the simulator steps on the first; refused in one line
