@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+from collections.abc import Sequence
 from typing import Any, TextIO
 
 from tensegrity_core.errors import TensegrityError
@@ -32,8 +33,9 @@ class SuiteError(TensegrityError, RuntimeError):
         self.code = code
 
 
-def running_scene(node: Any, executor: Any, timeout: float) -> str:
-    """The running simulator's ``scene`` parameter; SuiteError (code 3) when none answers."""
+def sim_parameters(node: Any, executor: Any, names: list[str], timeout: float) -> list[Any]:
+    """The running simulator's parameters ``names`` (rcl_interfaces ParameterValue each);
+    SuiteError (code 3) when none answers."""
     from rclpy.parameter_client import AsyncParameterClient
 
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
@@ -42,15 +44,20 @@ def running_scene(node: Any, executor: Any, timeout: float) -> str:
     where = node.get_namespace()
     if not client.wait_for_services(timeout_sec=timeout):
         raise SuiteError(f"no simulator answers in namespace {where} after {timeout:g} s (is the suite up? "
-                       "`tensegrity up --scene six_bar_rest`)", code=3)
-    future = client.get_parameters(["scene"])
+                         "`tensegrity up --scene six_bar_rest`)", code=3)
+    future = client.get_parameters(names)
     if not spin_until_done(executor, future, timeout):
-        raise SuiteError(f"the simulator did not say its scene within {timeout:g} s", code=3)
-    return str(future.result().values[0].string_value)
+        raise SuiteError(f"the simulator did not say its {', '.join(names)} within {timeout:g} s", code=3)
+    return list(future.result().values)
 
 
-def check_scene(scene_name: str, robot_name: str, gait: Gait) -> None:
-    """:class:`SuiteError` unless ``scene_name`` simulates ``robot_name`` with the gait's cables commanded."""
+def running_scene(node: Any, executor: Any, timeout: float) -> str:
+    """The running simulator's ``scene`` parameter; SuiteError (code 3) when none answers."""
+    return str(sim_parameters(node, executor, ["scene"], timeout)[0].string_value)
+
+
+def check_scene(scene_name: str, robot_name: str, cables: Sequence[str]) -> None:
+    """:class:`SuiteError` unless ``scene_name`` simulates ``robot_name`` with ``cables`` commanded."""
     from tensegrity_core.errors import TensegrityError
     from tensegrity_core.sim import compile_scene, load_scene
 
@@ -64,13 +71,11 @@ def check_scene(scene_name: str, robot_name: str, gait: Gait) -> None:
         what = f"the robot {runs}" if runs else f"a {scene.model.kind} model, not a robot"
         raise SuiteError(f"the running suite simulates {what} (scene {scene_name!r}), not {robot_name}")
     commanded = {name for name, c in zip(model.interface.inputs, model.interface.commanded) if c}
-    missing = [c for c in gait.cables if c not in commanded]
+    missing = [c for c in cables if c not in commanded]
     if missing:
         raise SuiteError(f"the running scene {scene_name!r} plays its own inputs on {', '.join(missing[:3])}"
                        f"{', ...' if len(missing) > 3 else ''}: start the suite with a scene whose motors take "
                        "commands (`tensegrity up --scene six_bar_rest`)")
-
-
 
 
 def goal_of(points: TrajectoryPoints) -> Any:
@@ -155,17 +160,17 @@ class RunWatcher:
             executor.spin_once(timeout_sec=0.1)
         return None
 
-    def rest_line(self, goal_end: float, settle: float, rest: float | None) -> str:
-        """Whether and when the robot came to rest after the goal's end (``goal_end`` [s])."""
+    def rest_line(self, goal_end: float, settle: float, rest: float | None, *, after: str = "the goal's end") -> str:
+        """Whether and when the robot came to rest after ``goal_end`` [s] (``after`` names that moment)."""
         if rest is not None:
-            return f"at rest on a face {rest - goal_end:.2f} s after the goal's end"
+            return f"at rest on a face {rest - goal_end:.2f} s after {after}"
         last = [(t, c) for t, c in self.centres if t <= goal_end + settle]
         window = [(t, c) for t, c in last if t >= last[-1][0] - REST_HOLD_S] if last else []
         if len(window) < 2 or window[-1][0] <= window[0][0]:
-            return f"not seen at rest within {settle:g} s after the goal's end"
+            return f"not seen at rest within {settle:g} s after {after}"
         (t0, c0), (t1, c1) = window[0], window[-1]
         speed = math.hypot(c1[0] - c0[0], c1[1] - c0[1]) / (t1 - t0)
-        return (f"still moving {settle:g} s after the goal's end (centre at {speed:.2f} m/s): the distance and "
+        return (f"still moving {settle:g} s after {after} (centre at {speed:.2f} m/s): the distance and "
                 "faces above are those up to then")
 
     def summary_lines(self, start: float = -math.inf, end: float = math.inf) -> list[str]:
@@ -203,7 +208,7 @@ def play_gait(robot: str, gait: Gait, ros_args: list[str], *, action: str, timeo
     bar = None
     handle = None
     try:
-        check_scene(running_scene(node, executor, timeout), robot, gait)
+        check_scene(running_scene(node, executor, timeout), robot, gait.cables)
         if not client.wait_for_server(timeout_sec=timeout):
             raise SuiteError(f"action {node.resolve_topic_name(action)} not available after {timeout:g} s (is the "
                            "suite's cable controller up? `tensegrity up --scene six_bar_rest`)", code=3)

@@ -1,4 +1,5 @@
-"""``tensegrity gait ROBOT GAIT``: play a shipped gait on the running suite's robot.
+"""``tensegrity gait ROBOT GAIT``: play a shipped gait on the running suite's robot, or roll
+it in closed loop (``GAIT`` = ``roll``).
 
 The gait (:func:`tensegrity_ros.apps.gait_goal.gait_named`: a shipped gait or a robot
 scene's) goes to the cable controller (``tensegrity_cable_controller``, started by
@@ -13,6 +14,13 @@ start until the robot is at rest (watched up to ``--settle`` s of simulation tim
 goal: the goal ends when the motors reach the last rest lengths, and a robot still rolling
 then goes on): distance rolled [m], faces rolled, peak tensions [N], and when it came to rest
 or how fast it still moved.
+
+``tensegrity gait ROBOT roll --faces N [--heading X Y]`` is the closed-loop rolling gait
+(:mod:`tensegrity_ros.apps.gait_loop`): no table, the controller of
+:mod:`tensegrity_core.robot.roll_control` reads the caps on the floor and the rods' poses at
+50 Hz of simulation time and commands each tip on ``cable_commands`` until N new faces are
+reached (robots with a shipped table of tipping moves; ``--max-time`` s of simulation time,
+default 10 a face, before it gives up). The same summary follows.
 
 Before sending, the simulator's ``scene`` parameter says which robot runs: a suite that is
 not up (exit 3), runs another robot or a scene whose motors take no commands (exit 1) is
@@ -34,20 +42,31 @@ if TYPE_CHECKING:
 ORDER = 57
 
 ACTION = "tensegrity_cable_controller/follow_joint_trajectory"
+#: The GAIT argument that runs the closed-loop rolling gait.
+ROLL = "roll"
 #: s of simulation time watched after the goal for the robot to come to rest
 SETTLE_S = 2.0
 
 
 def register(sub: Any) -> None:
-    p = sub.add_parser("gait", help="play a shipped gait on the running suite's robot (FollowJointTrajectory)",
+    p = sub.add_parser("gait", help="play a shipped gait on the running suite's robot (FollowJointTrajectory), "
+                       "or roll it N faces in closed loop (GAIT = roll)",
                        description="Send a shipped gait (six_bar_roll, three_bar_crawl, ...) to the running suite's "
-                       "cable controller as a control_msgs/FollowJointTrajectory goal (cable rest lengths [m]); "
-                       "print the distance rolled [m], the faces rolled and the peak cable tensions [N]. Start "
-                       "the suite first, e.g. `tensegrity up --scene six_bar_rest`.")
+                       "cable controller as a control_msgs/FollowJointTrajectory goal (cable rest lengths [m]), "
+                       f"or with GAIT = {ROLL} roll the robot --faces N faces in closed loop (the contacts and rod "
+                       "poses read, cable_commands published at 50 Hz of simulation time); print the distance "
+                       "rolled [m], the faces rolled and the peak cable tensions [N]. Start the suite first, e.g. "
+                       "`tensegrity up --scene six_bar_rest`.")
     p.add_argument("robot", help="the robot the gait is for (six_bar, three_bar, ...)")
-    p.add_argument("gait", help="a shipped gait or a robot scene that plays one (six_bar_roll, three_bar_crawl)")
+    p.add_argument("gait", help=f"a shipped gait or a robot scene that plays one (six_bar_roll, three_bar_crawl), "
+                   f"or {ROLL}: the closed-loop rolling gait")
     p.add_argument("--faces", type=int, default=None, metavar="N",
-                   help="roll only the first N faces of a rolling gait (six_bar_roll: 1..8)")
+                   help=f"roll only the first N faces of a rolling gait (six_bar_roll: 1..8); with {ROLL}: the "
+                   "faces to roll (required)")
+    p.add_argument("--heading", type=float, nargs=2, default=None, metavar=("X", "Y"),
+                   help=f"with {ROLL}: the direction to roll in on the floor (world x, y; default 1 0)")
+    p.add_argument("--max-time", type=float, default=None, metavar="S",
+                   help=f"with {ROLL}: seconds of simulation time before giving up (default 10 a face)")
     p.add_argument("--repeats", type=int, default=None, metavar="N", help="cycles of a periodic gait")
     p.add_argument("--namespace", "-n", default="", help="the suite's ROS namespace (as given to `tensegrity up`)")
     p.add_argument("--action", default=ACTION, help=f"the FollowJointTrajectory action (default {ACTION})")
@@ -89,6 +108,35 @@ def build_gait(robot_name: str, gait_name: str, faces: int | None, repeats: int 
     return robot, gait
 
 
+def check_roll(robot_name: str, faces: int | None, heading: list[float] | None, max_time: float | None,
+               repeats: int | None) -> tuple[int, tuple[float, float], float]:
+    """``(faces, heading, max_time [s])`` of a closed-loop roll as asked; CliError with one line otherwise."""
+    import math
+
+    from tensegrity_core.robot.loading import robot_names
+    from tensegrity_core.robot.roll_control import TIPS_DIR
+    from tensegrity_ros.apps.gait_loop import default_max_time
+
+    if robot_name not in robot_names():
+        raise CliError(f"no shipped robot {robot_name!r}; robots: {', '.join(robot_names())}")
+    shipped = sorted(p.stem for p in TIPS_DIR.glob("*.yaml"))
+    if robot_name not in shipped:
+        raise CliError(f"the closed-loop {ROLL} needs a table of tipping moves, shipped for: {', '.join(shipped)} "
+                       f"(not {robot_name})")
+    if faces is None or faces < 1:
+        raise CliError(f"{ROLL} needs --faces N, the faces to roll (N >= 1)" + ("" if faces is None else
+                                                                                f", got {faces}"))
+    if repeats is not None:
+        raise CliError(f"--repeats is for periodic gaits, not {ROLL}")
+    h = (1.0, 0.0) if heading is None else (heading[0], heading[1])
+    if not (all(math.isfinite(v) for v in h) and math.hypot(*h) > 0):
+        raise CliError(f"--heading must be a nonzero direction X Y on the floor, got {h[0]:g} {h[1]:g}")
+    limit = default_max_time(faces) if max_time is None else max_time
+    if not (math.isfinite(limit) and limit > 0):
+        raise CliError(f"--max-time must be > 0 s, got {limit}")
+    return faces, h, limit
+
+
 def _gait(args: Any) -> int:
     import math
 
@@ -96,7 +144,12 @@ def _gait(args: Any) -> int:
         raise CliError(f"--timeout must be > 0 s, got {args.timeout}")
     if not (math.isfinite(args.settle) and args.settle >= 0):
         raise CliError(f"--settle must be >= 0 s, got {args.settle}")
-    _, gait = build_gait(args.robot, args.gait, args.faces, args.repeats)
+    if args.gait == ROLL:
+        faces, heading, max_time = check_roll(args.robot, args.faces, args.heading, args.max_time, args.repeats)
+    else:
+        if args.heading is not None or args.max_time is not None:
+            raise CliError(f"--heading and --max-time are for the closed-loop {ROLL}, not a gait table")
+        _, gait = build_gait(args.robot, args.gait, args.faces, args.repeats)
     from tensegrity_ros.rclpy_utils.env import require_rclpy
 
     require_rclpy()
@@ -105,6 +158,11 @@ def _gait(args: Any) -> int:
     ns = args.namespace if not args.namespace or args.namespace.startswith("/") else "/" + args.namespace
     ros_args = ["--ros-args", *(["-r", f"__ns:={ns}"] if ns else []), *args.ros_args[1:]]
     try:
+        if args.gait == ROLL:
+            from tensegrity_ros.apps.gait_loop import roll_closed_loop
+
+            return roll_closed_loop(args.robot, faces, heading, ros_args, timeout=args.timeout, settle=args.settle,
+                                    max_time=max_time, out=sys.stdout)
         return play_gait(args.robot, gait, ros_args, action=args.action, timeout=args.timeout,
                          settle=args.settle, out=sys.stdout)
     except SuiteError as err:

@@ -1,0 +1,85 @@
+"""``tensegrity gait six_bar roll --faces N``, the closed-loop rolling gait, against the real
+suite over DDS on loopback: bad requests are one line before any ROS; in lockstep (the suite
+without its cable controller: the gait answers every state) the 6-bar rolls exactly the
+faces asked, counted from the simulator's ``contacts`` by the summary
+(:func:`tensegrity_core.robot.faces.faces_visited`), not by the controller, and comes to rest
+there; then another node publishes cable commands to the lockstep suite and the gait is refused in one
+line.
+
+Lockstep keeps the run as short as the robot's motion (2 faces: ~4 s of simulation time,
+~450 steps of 10 ms) on a busy machine, where free-running would take that in wall time."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from tests.ros_support import run_cli
+
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
+
+NS = "/gait_loop_test"
+#: m: a tip over an edge of a closed face carries the centre of mass from 0.300 m inside
+#: the edge (the triangle's inradius less the sag, docs/robots.md) to beyond it.
+CLOSED_FACE_MARGIN = 0.30
+
+
+@pytest.mark.parametrize(("args", "line"), [
+    (("three_bar", 1, None, None, None), "the closed-loop roll needs a table of tipping moves, shipped for: six_bar "
+                                         "(not three_bar)"),
+    (("six_bar", None, None, None, None), "roll needs --faces N, the faces to roll (N >= 1)"),
+    (("six_bar", 0, None, None, None), "roll needs --faces N, the faces to roll (N >= 1), got 0"),
+    (("six_bar", 1, [0.0, 0.0], None, None), "--heading must be a nonzero direction X Y on the floor, got 0 0"),
+    (("six_bar", 1, [float("nan"), 1.0], None, None), "--heading must be a nonzero direction X Y on the floor, "
+                                                      "got nan 1"),
+    (("six_bar", 1, None, -1.0, None), "--max-time must be > 0 s, got -1.0"),
+    (("six_bar", 1, None, None, 2), "--repeats is for periodic gaits, not roll"),
+])
+def test_bad_requests_are_one_line(args, line):
+    from tensegrity_ros.cli._common import CliError
+    from tensegrity_ros.cli.cmd_gait import check_roll
+
+    with pytest.raises(CliError) as err:
+        check_roll(*args)
+    assert str(err.value) == line and err.value.code == 2
+
+
+def test_a_bad_request_is_one_line_before_any_ros():
+    r = run_cli("gait", "six_bar", "six_bar_roll", "--heading", "1", "0")
+    assert r.returncode == 2, r.stdout + r.stderr          # a usage error
+    assert r.stderr.strip().splitlines() == ["error: --heading and --max-time are for the closed-loop roll, not a "
+                                             "gait table"]
+
+
+def test_the_closed_loop_gait_rolls_exactly_the_faces_asked_in_lockstep(cli, ros_context):
+    up = cli("up", "--scene", "six_bar_rest", "--no-formfind", "--no-controller", "--namespace", NS, "--ros-args",
+             "-p", "lockstep:=true", log_name="up")
+    r = run_cli("gait", "six_bar", "roll", "--faces", "2", "-n", NS, "--timeout", "60", timeout=300)
+    assert r.returncode == 0, r.stdout + r.stderr + up.stderr()
+    assert re.match(r"done: the controller rolled 2 of 2 faces towards \(\+1\.00, \+0\.00\) in \d+\.\d\d s of "
+                    r"simulation time \(50 Hz closed loop\)\n", r.stdout), r.stdout
+    assert re.search(r"^  faces rolled: 2 \(\d+ faces rested on\)$", r.stdout, re.M), r.stdout
+    distance = float(re.search(r"distance rolled: (\S+) m", r.stdout).group(1))
+    assert distance > CLOSED_FACE_MARGIN, r.stdout               # past the first edge at least
+    dx = float(re.search(r"centre moved by \((\S+),", r.stdout).group(1))
+    assert dx > 0, r.stdout                                       # towards the heading +x
+    # whether the robot is at rest after the controller's end, or how fast it still rocks on its face
+    assert re.search(r"^  (at rest on a face \d+\.\d\d s after the controller released the motors|still moving 2 s "
+                     r"after the controller released the motors \(centre at 0\.0\d m/s\): the distance and faces "
+                     r"above are those up to then)$", r.stdout, re.M), r.stdout
+
+    # another node publishes cable commands to the lockstep suite (as its cable controller would):
+    # two answers to a state, and the simulator steps on the first; refused in one line
+    import rclpy
+    from tensegrity_msgs.msg import CableCommand
+
+    other = rclpy.create_node("other_controller", namespace=NS, context=ros_context)
+    other.create_publisher(CableCommand, "cable_commands", 10)
+    r = run_cli("gait", "six_bar", "roll", "--faces", "1", "-n", NS, "--timeout", "60", timeout=120)
+    assert r.returncode == 1, r.stdout + r.stderr
+    assert r.stderr.strip().splitlines()[-1] == (
+        f"error: the simulator runs in lockstep and {NS}/other_controller already answers its states on "
+        "cable_commands: the closed-loop gait must be the only one (start the suite with "
+        "`tensegrity up --no-controller`)"), r.stderr
+
