@@ -8,6 +8,10 @@ empty / 9-byte / non-MCAP storage, a FIFO named like storage, a zstd chunk that 
 be small and decompresses to far more, a bag with nothing to play. Every CLI run must
 print exactly one line ``error: ...`` (no traceback), of bounded length, and exit 1; the
 files around the bag must be byte for byte what they were.
+
+The verdicts of ``bag info``, ``repair`` and ``plot`` are taken from the command line run in
+the test's process (:func:`run_cli_here`); one real process of each, and every ``play``,
+check what a process prints and returns.
 """
 
 from __future__ import annotations
@@ -23,7 +27,7 @@ from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.metadata import TopicInfo
 from tensegrity_ros.bag.reader import BagReader
 from tensegrity_ros.bag.writer import BagWriter
-from tests.bags.conftest import rosbags_cdr_samples, run_cli
+from tests.bags.conftest import rosbags_cdr_samples, run_cli, run_cli_here
 
 MAX_LINE = 400       # an error line quotes excerpts only: far below any input size used here
 
@@ -104,11 +108,11 @@ def test_repair_never_touches_a_file_the_bag_names_outside_its_folder(tmp_path, 
         entry = "inside.mcap"
     _set_files(folder, [entry])
     before = _tree(tmp_path)
-    done = run_cli("bag", "repair", str(folder), *([] if backup else ["--no-backup"]))
+    done = run_cli_here("bag", "repair", str(folder), *([] if backup else ["--no-backup"]))
     _one_error_line(done, "outside the bag folder" if entry_kind != "absolute" else "absolute path")
     assert _tree(tmp_path) == before
     for command in (("bag", "info", str(folder)),):
-        _one_error_line(run_cli(*command), "storage file")
+        _one_error_line(run_cli_here(*command), "storage file")
 
 
 def test_a_stray_mcap_link_out_of_the_folder_is_refused_too(tmp_path):
@@ -119,7 +123,7 @@ def test_a_stray_mcap_link_out_of_the_folder_is_refused_too(tmp_path):
     (folder / "metadata.yaml").unlink()
     (folder / "zz_1.mcap").symlink_to(victim)
     before = _tree(tmp_path)
-    _one_error_line(run_cli("bag", "repair", str(folder), "--no-backup"), "outside the bag folder")
+    _one_error_line(run_cli_here("bag", "repair", str(folder), "--no-backup"), "outside the bag folder")
     assert _tree(tmp_path) == before
 
 
@@ -130,8 +134,8 @@ def test_metadata_links_out_of_the_folder_are_neither_read_nor_written_through(t
     (folder / "metadata.yaml").unlink()
     (folder / "metadata.yaml").symlink_to(secret)
     before = _tree(tmp_path)
-    _one_error_line(run_cli("bag", "info", str(folder)), "metadata file", "outside the bag folder")
-    _one_error_line(run_cli("bag", "repair", str(folder)), "outside the bag folder")
+    _one_error_line(run_cli_here("bag", "info", str(folder)), "metadata file", "outside the bag folder")
+    _one_error_line(run_cli_here("bag", "repair", str(folder)), "outside the bag folder")
     assert _tree(tmp_path) == before
 
 
@@ -143,7 +147,7 @@ def test_repair_writes_metadata_through_no_prepared_link(tmp_path):
     folder = _bag(tmp_path)
     (folder / "metadata.yaml").unlink()
     (folder / "metadata.yaml.tmp").symlink_to(outside)
-    done = run_cli("bag", "repair", str(folder))
+    done = run_cli_here("bag", "repair", str(folder))
     assert done.returncode == 0, done.stderr
     assert outside.read_text() == "keep me\n"
     assert BagReader(folder).metadata.message_count == 10
@@ -151,7 +155,7 @@ def test_repair_writes_metadata_through_no_prepared_link(tmp_path):
     _damage(folder)
     (folder / "metadata.yaml").unlink()
     beside = sorted(p.name for p in tmp_path.iterdir())
-    assert run_cli("bag", "repair", str(folder), "--no-backup").returncode == 0
+    assert run_cli_here("bag", "repair", str(folder), "--no-backup").returncode == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == beside
     assert not [p for p in folder.iterdir() if p.name.startswith(".repair-")]
 
@@ -200,7 +204,18 @@ def test_junk_metadata_is_one_error_line(tmp_path, kind):
     (folder / "metadata.yaml").write_bytes(data)
     for command in (("bag", "info", str(folder)), ("bag", "repair", str(folder)),
                     ("bag", "plot", str(folder), "-o", str(tmp_path / "p.png"))):
-        _one_error_line(run_cli(*command), needle)
+        _one_error_line(run_cli_here(*command), needle)
+
+
+@pytest.mark.parametrize("command", ["info", "repair", "plot"])
+def test_a_process_refusing_a_bag_prints_one_error_line_and_exits_1(tmp_path, command):
+    """The verdicts above, from a real ``tensegrity`` process: one line, no traceback, exit 1."""
+    folder = _bag(tmp_path)
+    (folder / "metadata.yaml").write_bytes(JUNK_METADATA["binary"][0])
+    args = {"info": [], "repair": ["--no-backup"], "plot": ["-o", str(tmp_path / "p.png")]}[command]
+    before = _tree(tmp_path)
+    _one_error_line(run_cli("bag", command, str(folder), *args), "not UTF-8")
+    assert _tree(tmp_path) == before
 
 
 def _fifo(path: Path) -> None:
@@ -223,7 +238,7 @@ def test_storage_that_is_not_mcap_is_one_error_line(tmp_path, kind):
     folder.mkdir()
     make(folder / "bag_0.mcap")
     for command in (("bag", "info", str(folder)), ("bag", "repair", str(folder), "--no-backup")):
-        _one_error_line(run_cli(*command), needle)
+        _one_error_line(run_cli_here(*command), needle)
     assert os.path.lexists(folder / "bag_0.mcap")      # not renamed, not deleted
 
 
