@@ -1,7 +1,8 @@
 """tensegrity_sim on a robot over real DDS: the 6-bar (``six_bar_drop``: every motor cable
 commanded) publishes one joint per motor cable, every member's state, its rods' frames, one
-IMU per rod and its contacts; rest-length commands drive its motors, in lockstep equal to the
-core's sampled-data run to the last bit; bad commands are refused and change nothing.
+IMU per rod and its contacts; rest-length commands drive its motors (tension and reel-speed
+motors take their own fields), in lockstep equal to the core's sampled-data run to the last
+bit; bad commands are refused and change nothing.
 
 Oracles: the robot description's drawing, stiffnesses, rest lengths and masses (lengths,
 Hooke's law and each rod's cable forces computed here: at t = 0 the robot hangs 5 cm above the
@@ -169,9 +170,12 @@ def test_bad_robot_commands_are_refused_and_change_nothing(robot):
     assert set(ros.got["cable_states"]) == {0}                 # paused: nothing stepped
 
 
-def test_a_tension_mode_motor_takes_its_tension_over_ros_exactly_as_the_core(robot, tmp_path):
-    """A scene with c0_4's motor in tension mode: a CableCommand's ``tension`` field drives it
-    (and a rest length for it is refused); the states stepped under it equal the core's."""
+def test_tension_and_reel_speed_motors_take_their_commands_over_ros_exactly_as_the_core(robot, tmp_path):
+    """A scene with c0_4's motor in tension mode and c0_7's in reel-speed mode: one
+    CableCommand gives each its own field (NaN in the other), a rest length for a tension
+    motor and a reel speed over the slew limit are refused in one line each; the states
+    stepped under the command equal the core's, and the reel moves c0_7's rest length at the
+    commanded speed (Delta l0 = v dt per 1 ms step, inside its range)."""
     import yaml
 
     from tensegrity_core.sim import Simulator
@@ -179,30 +183,36 @@ def test_a_tension_mode_motor_takes_its_tension_over_ros_exactly_as_the_core(rob
     from tensegrity_ros.apps.sim_client import SimClient
     from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
-    scene = tmp_path / "six_bar_tension.yaml"
+    reel = -0.2                                  # m/s: reels in, inside the 6-bar's 0.5 m/s limit
+    scene = tmp_path / "six_bar_modes.yaml"
     scene.write_text(yaml.safe_dump({
-        "name": "six_bar_tension", "model": {"kind": "robot", "robot": "six_bar"},
+        "name": "six_bar_modes", "model": {"kind": "robot", "robot": "six_bar"},
         "initial": {"drawn": True, "lift": LIFT}, "duration": 3.0,
-        "effects": ["inertia", "cables", {"motors": {"modes": {"c0_4": "tension"}}}, "gravity", "contact",
-                    "friction", "sensors"]}))
+        "effects": ["inertia", "cables", {"motors": {"modes": {"c0_4": "tension", "c0_7": "reel_speed"}}},
+                    "gravity", "contact", "friction", "sensors"]}))
     proc, ros = robot("initial_state:=paused", "paused_publish_rate:=20.0", scene=str(scene))
     import rclpy
 
     start, = ros.at(0, "cable_states")
-    c04 = list(start.name).index("c0_4")
-    client = SimClient(rclpy, "robot_tension_client", context=ros.executor.context)
+    c04, c07 = list(start.name).index("c0_4"), list(start.name).index("c0_7")
+    client = SimClient(rclpy, "robot_modes_client", context=ros.executor.context)
+    nan = math.nan
     try:
         client.wait_for_services(30)
         assert wait_for_matches([ros.pub], 1, 30)
         deadline = time.monotonic() + 30
-        while "no named cable's motor takes rest lengths" not in proc.stderr():
-            assert time.monotonic() < deadline, proc.stderr()[-2000:]
-            ros.send(["c0_4"], [0.8])
-            ros.spin(0.2)
-        ros.send(["c0_4"], [], tension=[300.0])
+        for send, reason in ((lambda: ros.send(["c0_4"], [0.8]), "no named cable's motor takes rest lengths"),
+                             (lambda: ros.send(["c0_7"], [], reel_speed=[0.6]),
+                              "reel speed of c0_7 = 0.6 m/s is outside its range (-0.5, 0.5) m/s")):
+            while reason not in proc.stderr():
+                assert time.monotonic() < deadline, proc.stderr()[-2000:]
+                send()
+                ros.spin(0.2)
+            ros.spin(1.1)                        # past the warnings' throttle
+        ros.send(["c0_4", "c0_7"], [], tension=[300.0, nan], reel_speed=[nan, reel])
         states = [start]
         while states[-1].rest_length[c04] == start.rest_length[c04]:
-            assert time.monotonic() < deadline + 30, "the tension command never acted"
+            assert time.monotonic() < deadline + 30, "the command never acted"
             client.step(1)
             states += ros.at(len(states) * STEP_NS, "cable_states")
         client.step(50)
@@ -212,14 +222,18 @@ def test_a_tension_mode_motor_takes_its_tension_over_ros_exactly_as_the_core(rob
     k0, n = len(states) - 51, len(states) - 1
     sim = Simulator(str(scene))
     held = list(sim.command)
-    mode = list(sim.interface.modes)
-    assert mode[sim.interface.inputs.index("c0_4")] == "tension"
+    inputs = sim.interface.inputs
+    assert sim.interface.modes[inputs.index("c0_4")] == "tension"
+    assert sim.interface.modes[inputs.index("c0_7")] == "reel_speed"
     for k in range(n):
         command = list(held)
         if k >= k0 - 1:
-            command[sim.interface.inputs.index("c0_4")] = 300.0
+            command[inputs.index("c0_4")], command[inputs.index("c0_7")] = 300.0, reel
         sim.set_command(command)
         sim.advance(step_time(k + 1, STEP_NS))
     obs = sim.observe()
     np.testing.assert_array_equal(states[n].tension, obs.member_forces)
     assert states[n].rest_length[c04] < start.rest_length[c04] - 1e-3     # it reels in towards 300 N
+    # the reel: every step from the command's first on moves c0_7's rest length by v dt
+    moved = np.diff([s.rest_length[c07] for s in states[k0 - 1:]])
+    np.testing.assert_allclose(moved, reel * STEP_NS / 1e9, rtol=1e-9)

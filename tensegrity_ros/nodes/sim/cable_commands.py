@@ -9,6 +9,7 @@ the scene's law) and each one's range.
 
 from __future__ import annotations
 
+import functools
 import math
 import operator
 from collections.abc import Sequence
@@ -30,10 +31,19 @@ class InputUpdate:
     values: tuple[float, ...]
 
     def apply(self, current: Sequence[float]) -> list[float]:
+        """``current`` (one value per input) with this update's values set."""
+        if len(self.indices) == len(current) and self.indices == _in_order(len(current)):
+            return list(self.values)            # every input, in input order
         out = list(current)
         for i, v in zip(self.indices, self.values):
             out[i] = v
         return out
+
+
+@functools.cache
+def _in_order(n: int) -> tuple[int, ...]:
+    """The indices of ``n`` inputs in input order (one tuple per ``n``)."""
+    return tuple(range(n))
 
 
 def listed(names: Sequence[str]) -> str:
@@ -69,6 +79,13 @@ def parse_cable_command(names: Sequence[str], rest_lengths: Sequence[float], ree
         raise CommandError("this scene's inputs are actuator forces (f1, f2), not rest lengths: send "
                            "tensegrity_msgs/ActuatorForces on actuator_forces")
     inputs = interface.inputs
+    if not reel_speeds and not tensions and len(rest_lengths) == len(inputs) and inputs \
+            and (not names or tuple(names) == inputs):
+        # every input in input order, rest lengths only: a lockstep controller's command
+        every = tuple(map(float, rest_lengths))
+        in_order = _in_order(len(inputs))
+        if _in_range(interface, in_order, every):
+            return InputUpdate(in_order, every)
     lists = {"rest_length": list(map(float, rest_lengths)), "reel_speed": list(map(float, reel_speeds)),
              "tension": list(map(float, tensions))}
     if not len(names) and not any(lists.values()):

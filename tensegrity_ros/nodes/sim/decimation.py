@@ -16,9 +16,13 @@ class Decimation:
 
     def __init__(self, publish_rate: float, rates: Mapping[str, float]):
         self.every = {name: max(1, round(publish_rate / r)) if r > 0 else 0 for name, r in rates.items()}
+        self._on = tuple((name, every) for name, every in self.every.items() if every)
         self.count = 0
 
     def next(self) -> frozenset[str]:
         """The slower topics due with this publication (counting it)."""
         n, self.count = self.count, self.count + 1
-        return frozenset(name for name, every in self.every.items() if every and n % every == 0)
+        return frozenset(name for name, every in self._on if n % every == 0) if self._on else _NONE
+
+
+_NONE: frozenset[str] = frozenset()

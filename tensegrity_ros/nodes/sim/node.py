@@ -115,6 +115,7 @@ class SimNode(SimulationInterfaces):
                      for topic, kind in self.outputs.topics.items()}
         self.pub_events = self.create_publisher(SimulationEvent, "events", qos)
         self.pub_clock = self.create_publisher(ClockMsg, "/clock", qos)
+        self._header = sender.header(0, p.frame_id)     # every publication's, restamped
         # Commands arrive on a node of their own that no executor spins: the command thread
         # waits on its two subscriptions alone and takes them (an :class:`Inbox`). An rclpy
         # executor's wake-up walks every entity of its nodes (this node's services, action
@@ -408,11 +409,14 @@ class SimNode(SimulationInterfaces):
         if self.p.publish_clock and self.pub_clock.get_subscription_count():
             self.pub_clock.publish(sender.clock_msg(ns))
             self.published["/clock"] += 1
-        hdr = sender.header(ns, self.p.frame_id)
-        for topic, msg in self.outputs.messages(hdr, lambda t: self.pubs[t].get_subscription_count() > 0):
+        hdr = sender.restamp(self._header, ns)
+        for topic, msg in self.outputs.messages(hdr, self._subscribed):
             self.pubs[topic].publish(msg)
             self.published[topic] += 1
         self._warn_near_singular()
+
+    def _subscribed(self, topic: str) -> bool:
+        return self.pubs[topic].get_subscription_count() > 0
 
     def _warn_near_singular(self) -> None:
         near = self.plant.singular_distance()

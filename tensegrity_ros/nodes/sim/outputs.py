@@ -34,12 +34,15 @@ from std_msgs.msg import Header
 from tensegrity_msgs.msg import CableStates, CapContacts, MechanismState, RigidBodyStates
 from visualization_msgs.msg import MarkerArray
 
+from tensegrity_core.class2.names import JOINTS
 from tensegrity_ros.nodes.sim import robot_messages, sender
 from tensegrity_ros.nodes.sim.decimation import Decimation
 from tensegrity_ros.nodes.sim.plant import SimPlant
 
 #: What a publication needs done: the message of each topic (name, message).
 Messages = list[tuple[str, object]]
+#: The topics a joint sample gives (no observation needed).
+_JOINTS_ONLY = frozenset({"joint_states", "end_effector"})
 
 
 class Outputs:
@@ -70,25 +73,34 @@ class Outputs:
                            "mechanism_state": MechanismState, "markers": MarkerArray}
             slow = {"mechanism_state": state_rate, "markers": marker_rate}
         self.decimation = Decimation(publish_rate, slow)
+        #: The topics of every publication.
+        self.every_publication = tuple(t for t in self.topics if t not in self.decimation.every)
+        # the joint_states message, reused (its names are set once; only the node publishes it)
+        self._joints = JointState(name=list(plant.interface.inputs if self.general else JOINTS))
 
     def messages(self, hdr: Header, wanted: Callable[[str], bool]) -> Messages:
         """The messages of this publication (counted by the decimation) for the topics
         ``wanted`` (someone subscribes; asked only of the topics due: an rmw graph query
-        each); the expensive observation only when needed."""
+        each); the expensive observation only when needed. The joint_states message is
+        reused: valid until the next call."""
         due = self.decimation.next()
-        want = {t for t in self.topics if (t not in self.decimation.every or t in due) and wanted(t)}
+        want = {t for t in self.every_publication if wanted(t)}
+        if due:
+            want |= {t for t in due if wanted(t)}
         if not want:
             return []
         out: Messages = []
         plant, interface = self.plant, self.plant.interface
-        if self.general and want <= {"joint_states", "end_effector"} and not plant.noisy:
+        if self.general and want <= _JOINTS_ONLY and not plant.noisy:
             # the joints alone (a lockstep loop's usual state): the cheap joint sample, of
             # the actuated members only (not the coordinates: a robot's rotation vectors)
             sample = plant.joint_sample(coordinates=False)
             if len(sample.actuated_lengths) == len(interface.inputs):
-                build_joints = {"joint_states": lambda: sender.actuated_joint_state_msg(sample, interface, hdr),
-                                "end_effector": lambda: sender.end_effector_msg(sample, hdr)}
-                return [(t, build_joints[t]()) for t in self.topics if t in want]
+                if "joint_states" in want:
+                    out.append(("joint_states", sender.actuated_joint_state_msg(sample, interface, hdr, self._joints)))
+                if "end_effector" in want:
+                    out.append(("end_effector", sender.end_effector_msg(sample, hdr)))
+                return out
         if self.general:
             obs = plant.observe()
             build: dict[str, Callable[[], object]] = {
@@ -107,7 +119,7 @@ class Outputs:
         if want & {"joint_states", "end_effector"}:
             sample = plant.joint_sample()
             if "joint_states" in want:
-                out.append(("joint_states", sender.joint_state_msg(sample, hdr)))
+                out.append(("joint_states", sender.joint_state_msg(sample, hdr, self._joints)))
             if "end_effector" in want:
                 out.append(("end_effector", sender.end_effector_msg(sample, hdr)))
         if want & {"mechanism_state", "markers"}:

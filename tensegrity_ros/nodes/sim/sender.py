@@ -51,6 +51,13 @@ def header(ns: int, frame_id: str) -> Header:
     return Header(stamp=time_msg(ns), frame_id=frame_id)
 
 
+def restamp(hdr: Header, ns: int) -> Header:
+    """``hdr`` stamped ``ns`` nanoseconds, in place (a header reused by every publication,
+    whose messages are all published before the next)."""
+    hdr.stamp.sec, hdr.stamp.nanosec = divmod(int(ns), NS_PER_S)
+    return hdr
+
+
 def clock_msg(ns: int) -> ClockMsg:
     return ClockMsg(clock=time_msg(ns))
 
@@ -65,9 +72,11 @@ def _doubles(values: Sequence[float] | NDArray[np.float64]) -> array.array[float
     return array.array("d", np.ascontiguousarray(values, dtype=np.float64).tobytes())
 
 
-def joint_state_msg(sample: JointSample, hdr: Header) -> JointState:
-    """Joints rho1, rho2 [m], beta [rad]: position, velocity, effort = applied force [N] (0 for beta)."""
-    msg = JointState(header=hdr, name=list(JOINTS))
+def joint_state_msg(sample: JointSample, hdr: Header, out: JointState | None = None) -> JointState:
+    """Joints rho1, rho2 [m], beta [rad]: position, velocity, effort = applied force [N] (0 for
+    beta); written into ``out`` when given (a message of these joints, reused: its names stay)."""
+    msg = JointState(name=list(JOINTS)) if out is None else out
+    msg.header = hdr
     msg.position = _doubles(sample.q)
     msg.velocity = _doubles(sample.qdot)
     msg.effort = _doubles((sample.applied_forces[0], sample.applied_forces[1], 0.0))
@@ -85,9 +94,12 @@ def cable_joint_state_msg(obs: Observation, interface: Interface, hdr: Header) -
     return msg
 
 
-def actuated_joint_state_msg(sample: JointSample, interface: Interface, hdr: Header) -> JointState:
-    """The joints of :func:`cable_joint_state_msg` from a joint sample (its ``actuated_*``)."""
-    msg = JointState(header=hdr, name=list(interface.inputs))
+def actuated_joint_state_msg(sample: JointSample, interface: Interface, hdr: Header,
+                             out: JointState | None = None) -> JointState:
+    """The joints of :func:`cable_joint_state_msg` from a joint sample (its ``actuated_*``);
+    written into ``out`` when given (a message of these joints, reused: its names stay)."""
+    msg = JointState(name=list(interface.inputs)) if out is None else out
+    msg.header = hdr
     msg.position = _doubles(sample.actuated_lengths)
     msg.velocity = _doubles(sample.actuated_rates)
     msg.effort = _doubles(sample.actuated_forces)

@@ -37,7 +37,7 @@ from tensegrity_core.sim.general.robot.plan import build_plan, lumped_masses, ro
 from tensegrity_core.sim.general.robot.setup import initial_vector, names_of, robot_effects, robot_model, state_names
 from tensegrity_core.sim.general.robot.stepping import FixedStepper, RobotSample
 from tensegrity_core.sim.general.robot.system import RobotEvaluation, RobotSystem
-from tensegrity_core.sim.inputs import Commanded, held
+from tensegrity_core.sim.inputs import Commanded
 from tensegrity_core.sim.model import (
     Interface,
     JointValues,
@@ -109,7 +109,7 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         self.step = scene.integrator.max_step
         self.y0 = initial_vector(robot, self.plan, scene.initial.lift)
         nb = len(self.plan.body_dof)
-        self.system = RobotSystem(self.plan, laws=held(self.laws, self.initial_commands), modes=self.modes,
+        self.system = RobotSystem(self.plan, laws=self.laws, commands=self.initial_commands, modes=self.modes,
                                   R_ref=np.broadcast_to(np.eye(3), (nb, 3, 3)))
         self.layout = robot_layout(robot)
         self.end_effector = robot_model(scene).end_effector
@@ -165,7 +165,7 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         if commands == state.commands or not changed(state.commands, commands):
             return
         state.commands = commands
-        state.work.command(state.work.system.with_inputs(held(self.laws, commands)))
+        state.work.command(state.work.system.with_commands(commands))
 
     def _repeated(self, state: State[FixedStepper], values: Iterable[float]) -> bool:
         """Whether ``values`` (a list or tuple) repeats the last command given to a robot whose

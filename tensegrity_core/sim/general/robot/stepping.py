@@ -111,10 +111,9 @@ class FixedStepper:
         as the last time (up to :data:`CHUNK`) each time the same inputs run out, so a
         command per step costs one row and free running a fraction of a row per step."""
         cached = self._aims
-        if cached is None or cached[0].laws is not self.system.laws or not cached[1] <= n \
-                or n + k > cached[1] + len(cached[2]):
-            rows = k if cached is None or cached[0].laws is not self.system.laws \
-                else max(k, min(2 * len(cached[2]), CHUNK))
+        same = cached is not None and cached[0].same_inputs(self.system)
+        if cached is None or not same or not cached[1] <= n or n + k > cached[1] + len(cached[2]):
+            rows = max(k, min(2 * len(cached[2]), CHUNK)) if cached is not None and same else k
             times: FloatArray = (n + np.arange(rows, dtype=np.float64)) * self.h
             cached = self._aims = (self.system, n, self.system.aims(times))
         out: FloatArray = cached[2][n - cached[1]:n - cached[1] + k]

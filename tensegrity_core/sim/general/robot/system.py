@@ -2,8 +2,8 @@
 
 :class:`RobotSystem` binds a :class:`~.plan.RobotPlan` to a kernel family (compiled loops
 or numpy arrays, :mod:`tensegrity_core.sim.general.kernels.jit`), the bodies' rotation
-charts ``R_ref`` and the motors' input laws. It is immutable: a re-charting or a new
-command gives a new instance (:meth:`with_chart`, :meth:`with_inputs`). It offers the
+charts ``R_ref``, the motors' input laws and the commands they hold. It is immutable: a
+re-charting or a new command gives a new instance (:meth:`with_chart`, :meth:`with_commands`). It offers the
 right-hand side ``fun`` (what the fixed step integrates), whole fixed steps (:meth:`run`:
 RK4 and the sampled update after each, in one kernel call) and the evaluation of a batch of
 states for the observations (:meth:`evaluate`).
@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 from tensegrity_core.sim.general.kernels.jit import choose_kernels
 from tensegrity_core.sim.general.robot import arrays, loops
 from tensegrity_core.sim.general.robot.plan import RobotPlan
-from tensegrity_core.sim.inputs import Constant, Law
+from tensegrity_core.sim.inputs import Commanded, Constant, InputLaw
 
 FloatArray = NDArray[np.float64]
 
@@ -58,9 +58,11 @@ class RobotEvaluation:
 
 
 class RobotSystem:
-    """A robot's equations with the charts ``R_ref`` (nb, 3, 3) and the motors' input
+    """A robot's equations with the charts ``R_ref`` (nb, 3, 3), the motors' input
     ``laws`` (one per motor, its command in its mode: ``modes`` (a,), the values of
-    :data:`tensegrity_core.robot.motor.MODES`, default all rest lengths [m]); ``kernels``:
+    :data:`tensegrity_core.robot.motor.MODES`, default all rest lengths [m]) and
+    ``commands`` (a,), what each :class:`~tensegrity_core.sim.inputs.Commanded` law holds
+    (the entries of other laws are ignored; default: none held, NaN); ``kernels``:
     ``"numba"``, ``"numpy"`` or None (numba where installed, unless ``TENSEGRITY_KERNELS``
     says otherwise)."""
 
@@ -69,10 +71,21 @@ class RobotSystem:
     #: No Jacobian: robot scenes take fixed explicit steps.
     jac = None
 
-    def __init__(self, plan: RobotPlan, *, laws: Sequence[Law], R_ref: ArrayLike, modes: ArrayLike | None = None,
-                 kernels: str | None = None):
+    def __init__(self, plan: RobotPlan, *, laws: Sequence[InputLaw], R_ref: ArrayLike,
+                 commands: ArrayLike | None = None, modes: ArrayLike | None = None, kernels: str | None = None):
         self.plan = plan
         self.laws = tuple(laws)
+        self.commands: FloatArray = np.full(len(self.laws), np.nan) if commands is None \
+            else np.array(commands, dtype=np.float64)
+        # which laws hold a command, which a scene's constant and which are evaluated in time,
+        # told apart once: a new command changes only ``commands``
+        self._commanded = np.array([j for j, law in enumerate(self.laws) if isinstance(law, Commanded)],
+                                   dtype=np.intp)
+        constant = [(j, law.value) for j, law in enumerate(self.laws) if isinstance(law, Constant)]
+        self._constant = np.array([j for j, _ in constant], dtype=np.intp)
+        self._constant_values = np.array([v for _, v in constant], dtype=np.float64)
+        self._timed = tuple((j, law) for j, law in enumerate(self.laws)
+                            if not isinstance(law, (Commanded, Constant)))
         self.modes: NDArray[np.int64] = np.ascontiguousarray(
             np.zeros(len(plan.motor_cable)) if modes is None else modes, dtype=np.int64)
         self.R_ref = _arg(R_ref)
@@ -85,11 +98,17 @@ class RobotSystem:
         new.R_ref = _arg(R_ref)
         return new
 
-    def with_inputs(self, laws: Sequence[Law]) -> RobotSystem:
-        """The same equations under other input laws (a new command)."""
+    def with_commands(self, commands: ArrayLike) -> RobotSystem:
+        """The same equations with the commanded laws holding ``commands`` (a,) (a new command:
+        the laws are not rebuilt)."""
         new = self._copy()
-        new.laws = tuple(laws)
+        new.commands = np.array(commands, dtype=np.float64)
         return new
+
+    def same_inputs(self, other: RobotSystem) -> bool:
+        """Whether ``other`` runs under these very laws and commands (the same objects: a
+        re-charting keeps them, a new command does not)."""
+        return other.laws is self.laws and other.commands is self.commands
 
     def _copy(self) -> RobotSystem:
         """A shallow copy (what :func:`copy.copy` makes, without its protocol's cost: once per command)."""
@@ -98,20 +117,16 @@ class RobotSystem:
         return new
 
     def aims(self, times: FloatArray) -> FloatArray:
-        """(len(times), motors) the motors' commands at ``times`` [s] (the input laws)."""
+        """(len(times), motors) the motors' commands at ``times`` [s]: the held commands and
+        constants, and the laws evaluated in time."""
         ts = np.asarray(times, dtype=float)
         out = np.empty((len(ts), len(self.laws)))
-        held: list[int] = []
-        values: list[float] = []
-        for j, law in enumerate(self.laws):
-            if isinstance(law, Constant):
-                held.append(j)
-                values.append(law.value)
-            else:
-                out[:, j] = law.arrays(ts, 0.0)[0]
-        # the constants (the commanded motors' held commands) in one assignment, ``0.0 +`` as
-        # :meth:`Constant.arrays` computes them (a -0.0 command is 0.0)
-        out[:, held] = 0.0 + np.array(values, dtype=float)
+        for j, law in self._timed:
+            out[:, j] = law.arrays(ts, 0.0)[0]
+        # the held values in two assignments, ``0.0 +`` as :meth:`Constant.arrays` computes
+        # them (a -0.0 command is 0.0)
+        out[:, self._commanded] = 0.0 + self.commands[self._commanded]
+        out[:, self._constant] = 0.0 + self._constant_values
         return out
 
     def fun(self, t: float, y: FloatArray) -> FloatArray:
