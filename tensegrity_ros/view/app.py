@@ -1,8 +1,10 @@
 """The view: a server, the drawing, the plots, the controls and a source, wired together.
 
 Sources call :meth:`View.submit` from their own threads as often as frames come; a render
-thread sends the page the newest frame at most ``fps`` times a second (frames in between
-only extend the plots' history), so a fast simulator never floods the page. Closing the
+thread sends the page the newest frame at most ``fps`` times a second, one send every
+``1/fps`` s from the start of the last (the time a send takes is within the period, not
+added to it), and frames in between only extend the plots' history, so a fast simulator
+never floods the page. Closing the
 page changes nothing; :meth:`View.close` stops the source and the server, never the suite.
 """
 
@@ -111,6 +113,7 @@ class View:
                 continue
             if last is not None and frame.t < last.t:
                 self.drawing.clear_trail()
+            sent = time.monotonic()
             with self.server.atomic():
                 self.drawing.show(frame)
                 _set(self.status, status_line(frame))
@@ -123,7 +126,7 @@ class View:
             self.server.flush()
             self.frames_shown += 1
             last = frame
-            self._stop_wait(self.period)
+            self._stop_wait(sent + self.period - time.monotonic())
 
     def _refresh_panel(self) -> None:
         """Send the plots their history and the legend its scales (call within ``atomic()``)."""
