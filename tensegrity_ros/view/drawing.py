@@ -5,7 +5,7 @@ Bars and actuators are cylinders (one batched mesh of instances: a frame is one 
 for all of them); strings are lines coloured by tension (:mod:`.colors`), slack ones thin and
 grey; nodes are points; rigid bodies translucent hulls of their nodes; fold-limit or floor
 contacts red points; the end effector's path a green trail; the floor a grid at z = 0.
-Lines (strings, the trail) have a width in screen pixels; other sizes scale with the
+Lines (strings, the trail, the floor's grid) have a width in screen pixels; other sizes scale with the
 structure's extent at its first frame, except a robot's rods and end
 caps, drawn at their radii (a rod with its caps: a capsule). A floor contact also shows its
 normal force as a red vertical cylinder up from the cap, its height ``CONTACT_HEIGHT`` times the
@@ -22,12 +22,17 @@ from scipy.spatial import ConvexHull, QhullError
 
 from tensegrity_ros.view import colors
 from tensegrity_ros.view.frame import Frame, Topology
-from tensegrity_ros.view.geometry import segment_poses, unit_cylinder
+from tensegrity_ros.view.geometry import grid_lines, segment_poses, unit_cylinder
 
 #: Points kept on the end effector's trail (at the view's frame rate: ~20 s at 30 fps).
 TRAIL_POINTS: Final = 600
 #: Height of the largest floor normal force's line, as a fraction of the structure's extent.
 CONTACT_HEIGHT: Final = 0.5
+#: The floor's grid: its width as a multiple of the structure's extent, cells across it, a
+#: section line every this many cells.
+GRID_WIDTH: Final = 4.0
+GRID_CELLS: Final = 40
+GRID_SECTION: Final = 5
 #: Width of a taut string's line and of a slack one [screen pixels].
 STRING_PX: Final = 3.0
 SLACK_PX: Final = 1.0
@@ -69,8 +74,12 @@ class StructureDrawing:
     def _make(self, first: Frame) -> None:
         sc = self.scene
         if self.topology.floor:
-            sc.add_grid("/floor", width=4 * self.size, height=4 * self.size, plane="xy",
-                        cell_size=self.size / 10, section_size=self.size / 2)
+            # lines, not viser's grid (a plane whose shader draws the lines at every pixel it
+            # covers: on software WebGL it halved the frame rate of a 1280 x 720 page)
+            lines, section = grid_lines(0.5 * GRID_WIDTH * self.size, GRID_CELLS, GRID_SECTION)
+            rgb = np.where(section[:, None], colors.GRID_SECTION, colors.GRID_CELL).astype(np.uint8)
+            sc.add_line_segments("/floor", lines, np.repeat(rgb[:, None, :], 2, axis=1), thickness=SLACK_PX,
+                                 thickness_units="screen")
         vertices, faces = unit_cylinder(16)
         if len(self.cylinders):
             pos, wxyz, scales = self._cylinder_poses(first.nodes)

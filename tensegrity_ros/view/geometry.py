@@ -1,4 +1,5 @@
-"""Poses of the drawn members: a unit cylinder along +Z placed on each segment (numpy only)."""
+"""Geometry of the drawing (numpy only): a unit cylinder along +Z placed on each segment, the
+floor's grid lines."""
 
 from __future__ import annotations
 
@@ -51,3 +52,17 @@ def unit_cylinder(sections: int = 16) -> tuple[NDArray[np.float32], NDArray[np.u
                        np.stack([np.full(sections, bottom), j, i], axis=1),
                        np.stack([np.full(sections, top), sections + i, sections + j], axis=1)])
     return vertices, faces.astype(np.uint32)
+
+
+def grid_lines(half_width: float, cells: int, every: int) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
+    """The lines of a square grid on the plane z = 0 centred at the origin: ``cells`` cells
+    across its width ``2 half_width`` [m], lines parallel to X, then to Y, ``cells + 1`` of
+    each, as segments (2 (cells + 1), 2, 3); and which of them are section lines (every
+    ``every``-th line from the centre one)."""
+    at = np.linspace(-half_width, half_width, cells + 1)
+    ends = np.full(cells + 1, half_width)
+    zeros = np.zeros(cells + 1)
+    along_x = np.stack([np.stack([-ends, at, zeros], axis=1), np.stack([ends, at, zeros], axis=1)], axis=1)
+    along_y = along_x[:, :, [1, 0, 2]]
+    section = (np.arange(cells + 1) - cells // 2) % every == 0
+    return np.concatenate([along_x, along_y]).astype(np.float32), np.concatenate([section, section])

@@ -16,7 +16,7 @@ from tensegrity_core.sim import Simulator  # noqa: E402
 from tensegrity_ros.view.colors import SLACK, tension_colors  # noqa: E402
 from tensegrity_ros.view.frame import Frame, Topology  # noqa: E402
 from tensegrity_ros.view.frames import frame_of_observation, scene_topology  # noqa: E402
-from tensegrity_ros.view.geometry import segment_poses, unit_cylinder, z_to  # noqa: E402
+from tensegrity_ros.view.geometry import grid_lines, segment_poses, unit_cylinder, z_to  # noqa: E402
 from tensegrity_ros.view.inputs import InputSpec, clamp  # noqa: E402
 from tensegrity_ros.view.plots import SeriesHistory, axis_ranges  # noqa: E402
 
@@ -169,3 +169,19 @@ def test_the_unit_cylinder_is_closed_outward_and_of_its_polygons_volume(sections
     assert mesh.volume == pytest.approx(0.5 * sections * math.sin(2 * math.pi / sections), rel=1e-6)
     np.testing.assert_allclose(mesh.bounds[:, 2], [-0.5, 0.5])
     np.testing.assert_allclose(np.hypot(vertices[:-2, 0], vertices[:-2, 1]), 1.0, rtol=1e-6)
+
+
+@given(st.floats(0.01, 100.0), st.integers(1, 60), st.integers(1, 12))
+def test_the_floor_grid_is_square_evenly_spaced_with_sections_every_nth_line_from_its_centre(half, cells, every):
+    lines, section = grid_lines(half, cells, every)
+    assert lines.shape == (2 * (cells + 1), 2, 3) and section.shape == (2 * (cells + 1),)
+    assert np.all(lines[:, :, 2] == 0.0)
+    np.testing.assert_allclose(np.linalg.norm(lines[:, 1] - lines[:, 0], axis=1), 2 * half, rtol=1e-6)
+    for axis, group in ((1, lines[: cells + 1]), (0, lines[cells + 1:])):   # parallel to X, then to Y
+        offsets = group[:, 0, axis]
+        np.testing.assert_allclose(group[:, 1, axis], offsets)                 # each line straight
+        np.testing.assert_allclose(np.diff(offsets), 2 * half / cells, rtol=1e-5)
+        np.testing.assert_allclose(offsets[[0, -1]], [-half, half], rtol=1e-6)
+    centre = np.arange(cells + 1) - cells // 2          # lines from the centre one (a middle one if cells is odd)
+    assert list(section[: cells + 1]) == [k % every == 0 for k in centre]
+    assert list(section[cells + 1:]) == list(section[: cells + 1])
