@@ -2,7 +2,10 @@
 
 Playwright (PyPI ``playwright``) drives the machine's ``/usr/bin/chromium`` (never a
 browser of its own). WebGL renders on SwiftShader (``--use-angle=swiftshader
---enable-unsafe-swiftshader``; without them Chromium >= 144 leaves the canvas blank). The
+--enable-unsafe-swiftshader``; without them Chromium >= 144 leaves the canvas blank); the
+page is composited in software (``--disable-gpu-compositing``), as Chrome does on a machine
+without a usable GPU: forced onto SwiftShader as well, compositing cost a page of the
+moving 6-bar half its frame rate (docs/design/view.md). The
 network is blocked twice: a host-resolver rule maps every name but 127.0.0.1 to nothing,
 and a route aborts any request whose host is not a loopback address; every request and
 websocket the page opens is listed in :attr:`Browser.requests` (blocked or not), so a test
@@ -23,7 +26,7 @@ import numpy as np
 CHROMIUM = "/usr/bin/chromium"
 #: viser's 3D canvas (the plots are canvases too).
 CANVAS = 'canvas[data-engine^="three.js"]'
-FLAGS = ["--headless", "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+FLAGS = ["--headless", "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--disable-gpu-compositing",
          "--disable-background-networking", "--disable-component-update", "--disable-sync", "--no-first-run",
          "--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE 127.0.0.1"]
 
