@@ -2,7 +2,10 @@
 start-up.
 
 Measured in Debian's chromium, headless, on software WebGL (SwiftShader: these machines have
-no GPU), the page open at 800 x 500 px:
+no GPU; the page composited in software, as Chrome does without a GPU: ``tests/view/browser.py``),
+the page open at 1280 x 720 px (a user's browser window; the 3D canvas is what the control
+panel leaves of it, 892 x 720 px, at a device pixel ratio of 1 that viser lowers to 0.75
+while the page renders below 38 fps):
 
 - **frame rate**: frames the page renders per second (animation frames in which the page
   drew with WebGL: viser renders on demand, so an animation frame draws only when the
@@ -11,17 +14,20 @@ no GPU), the page open at 800 x 500 px:
   its actuator forces driven by this process along a circle of +-3 N at 0.5 Hz, so that it
   moves), the 6-bar robot's bag (``bags/six_bar_roll``: 100 states per s at any machine
   speed), the 6-bar robot (``six_bar_roll``) and a general structure (the tensegrity spine,
-  ``spine_release``) simulated in the view's process (states as fast as the core integrates). Baseline, same browser, same run: the
-  animation frames per second of an empty page of the view's server (the browser's own
-  rate: the most a page can render). Target: >= 30 fps for the 6-bar and the spine.
+  ``spine_release``) simulated in the view's process (states as fast as the core integrates).
+  Baseline, same browser, same run: the animation frames per second of an empty page of the
+  view's server (the browser's own rate: the most a page can render). Target: >= 30 fps for
+  the 6-bar and the spine. Beside it, the browser's CPU time per rendered frame (all its
+  processes, from ``/proc``): what a frame costs, which a loaded machine does not change
+  as much as the rate.
 - **latency**: from a ``mechanism_state`` message (received by this process's own
   subscriber, wall time) to the page showing that state's time in its status line
   (``performance.timeOrigin + performance.now()``, the same wall clock); median. Target < 50 ms.
 - **ready**: from starting ``tensegrity view --scene class2_at_rest`` to its page answering
   HTTP; baseline ``tensegrity scenes`` (the command line's own start-up). Target < 3 s.
 
-Quick mode (CI): one start-up, 2 s windows, the 6-bar's bag only (the simulations in the view's
-process left out); full mode: 5 start-ups, 15 s windows, all rows.
+Quick mode (CI): one start-up, 2 s windows, the 6-bar's bag and the spine (the 6-bar simulated
+in the view's process left out); full mode: 5 start-ups, 15 s windows, all rows.
 """
 
 from __future__ import annotations
@@ -44,6 +50,8 @@ from tests.process_groups import kill_group, wait_group
 TENSEGRITY = str(Path(sys.executable).with_name("tensegrity"))
 BAGS = Path(__file__).resolve().parents[2] / "bags"
 READY = re.compile(r"view ready: http://127\.0\.0\.1:(\d+)")
+#: The browser's window [px] (a user's).
+WINDOW = (1280, 720)
 
 #: Before any page script: counts the animation frames in which WebGL drew (``__rendered``).
 COUNT_RENDERS = """(() => { window.__tick = 0; window.__rendered = 0; let drawn = -1;
@@ -92,6 +100,32 @@ def _start(args: list[str], env: dict) -> tuple[subprocess.Popen, int, float, Pa
     return proc, port, time.monotonic() - t0, log
 
 
+def _browser_cpu_s() -> float:
+    """CPU time [s] (user + system) used so far by the chromium processes this process started
+    (its descendants named ``chrom*``; Playwright's driver is not among them)."""
+    tick = os.sysconf("SC_CLK_TCK")
+    parent: dict[int, int] = {}
+    used: dict[int, tuple[str, float]] = {}
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            stat = Path(f"/proc/{entry}/stat").read_text()
+        except OSError:                  # a process that ended meanwhile
+            continue
+        name, fields = stat[stat.index("(") + 1:stat.rindex(")")], stat[stat.rindex(")") + 2:].split()
+        parent[int(entry)] = int(fields[1])
+        used[int(entry)] = (name, (int(fields[11]) + int(fields[12])) / tick)
+    me, total = os.getpid(), 0.0
+    for pid, (name, seconds) in used.items():
+        ancestor = pid
+        while ancestor in parent and ancestor not in (me, 0, 1):
+            ancestor = parent[ancestor]
+        if ancestor == me and name.startswith("chrom"):
+            total += seconds
+    return total
+
+
 def _stop(proc: subprocess.Popen) -> None:
     proc.send_signal(2)
     try:
@@ -100,9 +134,10 @@ def _stop(proc: subprocess.Popen) -> None:
         kill_group(proc)
 
 
-def _page_rates(browser, url: str, seconds: float, play: str = "") -> tuple[float, float, float, list]:
-    """(animation frames per s, frames rendered per s, states shown per s, [(t shown, wall ms)])
-    over ``seconds``; ``play``: press the page's Play first, until the page shows this text."""
+def _page_rates(browser, url: str, seconds: float, play: str = "") -> tuple[float, float, float, list, float]:
+    """(animation frames per s, frames rendered per s, states shown per s, [(t shown, wall ms)],
+    the browser's CPU time per rendered frame [s]) over ``seconds``; ``play``: press the page's
+    Play first, until the page shows this text."""
     from tests.view.browser import wait_for_canvas
 
     page = browser.open(url)
@@ -112,10 +147,13 @@ def _page_rates(browser, url: str, seconds: float, play: str = "") -> tuple[floa
             page.get_by_role("button", name="Play").click()
             page.get_by_text(play).first.wait_for()
         page.evaluate(WATCH)
+        cpu = _browser_cpu_s()
         ticks, rendered = page.evaluate(FRAMES, seconds * 1000)
+        cpu = _browser_cpu_s() - cpu
         shown = page.evaluate("() => window.__shown")
         span = (shown[-1][1] - shown[0][1]) / 1000 if len(shown) > 1 else 0.0
-        return ticks, rendered, (len(shown) - 1) / span if span > 0 else 0.0, shown
+        per_frame = cpu / (rendered * seconds) if rendered > 0 else math.inf
+        return ticks, rendered, (len(shown) - 1) / span if span > 0 else 0.0, shown, per_frame
     finally:
         page.close()
 
@@ -150,7 +188,7 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
     rows.append(Row("view", "tensegrity view: start to page served, median", statistics.median(ready), "s",
                     baseline="tensegrity scenes: start to exit, median", target="< 3 s", note=f"{starts} starts"))
 
-    browser = Browser()
+    browser = Browser(*WINDOW)
     browser.context.add_init_script(COUNT_RENDERS)
     try:
         # the renderer alone: an empty viser page
@@ -160,25 +198,27 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
                                 stdout=subprocess.PIPE, text=True, env=env, start_new_session=True)
         try:
             port = int(bare.stdout.readline().split()[-1])
-            bare_fps, _, _, _ = _page_rates(browser, f"http://127.0.0.1:{port}", seconds)
+            bare_fps, _, _, _, _ = _page_rates(browser, f"http://127.0.0.1:{port}", seconds)
         finally:
             kill_group(bare)
         rows.append(Row("view", "empty viser page: animation frames per s", bare_fps, "fps"))
 
         # the 6-bar robot's bag (states at 100 Hz, whatever the machine's speed), the 6-bar and
         # (full mode) the spine simulated in the view's process (as fast as the core integrates)
-        runs = [("6-bar robot bag", [str(BAGS / "six_bar_roll"), "--scene", "six_bar_rest"], "playing at")]
+        runs = [("6-bar robot bag", [str(BAGS / "six_bar_roll"), "--scene", "six_bar_rest"], "playing at"),
+                ("spine (core, in process)", ["--scene", "spine_release"], "· playing")]
         if not ctx.quick:
-            runs += [("6-bar robot (core, in process)", ["--scene", "six_bar_roll"], "· playing"),
-                     ("spine (core, in process)", ["--scene", "spine_release"], "· playing")]
+            runs.insert(1, ("6-bar robot (core, in process)", ["--scene", "six_bar_roll"], "· playing"))
         for name, args, playing in runs:
             proc, port, _, _log = _start(args, env)
             try:
-                _, fps, shown, _ = _page_rates(browser, f"http://127.0.0.1:{port}", seconds, play=playing)
+                _, fps, shown, _, per_frame = _page_rates(browser, f"http://127.0.0.1:{port}", seconds, play=playing)
             finally:
                 _stop(proc)
             rows.append(Row("view", f"{name}: frames rendered per s", fps, "fps", target=">= 30",
                             baseline="empty viser page: animation frames per s"))
+            rows.append(Row("view", f"{name}: browser CPU per rendered frame", per_frame, "s",
+                            note="all chromium processes"))
             rows.append(Row("view", f"{name}: states shown per s", shown, "1/s",
                             note="new states drawn; a bag's come at 100 Hz, the core's as fast as it integrates"))
 
@@ -220,7 +260,7 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
         try:
             proc, port, _, _log = _start([], env)
             try:
-                _, fps, shown, samples = _page_rates(browser, f"http://127.0.0.1:{port}", seconds)
+                _, fps, shown, samples, _ = _page_rates(browser, f"http://127.0.0.1:{port}", seconds)
             finally:
                 _stop(proc)
         finally:
