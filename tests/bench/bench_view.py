@@ -134,15 +134,16 @@ def _stop(proc: subprocess.Popen) -> None:
         kill_group(proc)
 
 
-def _page_rates(browser, url: str, seconds: float, play: str = "") -> tuple[float, float, float, list, float]:
+def _page_rates(browser, url: str, seconds: float, play: str = "", *,
+                empty: bool = False) -> tuple[float, float, float, list, float]:
     """(animation frames per s, frames rendered per s, states shown per s, [(t shown, wall ms)],
     the browser's CPU time per rendered frame [s]) over ``seconds``; ``play``: press the page's
-    Play first, until the page shows this text."""
+    Play first, until the page shows this text; ``empty``: a page with nothing to draw."""
     from tests.view.browser import wait_for_canvas
 
     page = browser.open(url)
     try:
-        wait_for_canvas(page)
+        wait_for_canvas(page, drawn=not empty)
         if play:
             page.get_by_role("button", name="Play").click()
             page.get_by_text(play).first.wait_for()
@@ -198,7 +199,7 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
                                 stdout=subprocess.PIPE, text=True, env=env, start_new_session=True)
         try:
             port = int(bare.stdout.readline().split()[-1])
-            bare_fps, _, _, _, _ = _page_rates(browser, f"http://127.0.0.1:{port}", seconds)
+            bare_fps, _, _, _, _ = _page_rates(browser, f"http://127.0.0.1:{port}", seconds, empty=True)
         finally:
             kill_group(bare)
         rows.append(Row("view", "empty viser page: animation frames per s", bare_fps, "fps"))

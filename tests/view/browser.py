@@ -101,9 +101,9 @@ def canvas_pixels(page) -> np.ndarray:
     return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
 
 
-def wait_for_canvas(page, timeout_ms: float = 60_000) -> None:
-    """Until viser's canvas exists and has drawn something that is not one flat colour; then
-    closes viser's notice over the canvas ("Software WebGL rendering detected")."""
+def wait_for_canvas(page, timeout_ms: float = 60_000, *, drawn: bool = True) -> None:
+    """Until viser's canvas exists and (``drawn``) has drawn something that is not one flat
+    colour; first closes viser's notice over the canvas ("Software WebGL rendering detected")."""
     page.locator(CANVAS).first.wait_for(state="visible", timeout=timeout_ms)
     notice = page.locator("button.mantine-Notification-closeButton")
     if notice.count():
@@ -111,6 +111,8 @@ def wait_for_canvas(page, timeout_ms: float = 60_000) -> None:
         # notice's slide-in to come to rest, frames that a busy page draws slowly
         notice.first.dispatch_event("click")
         notice.first.wait_for(state="detached")
+    if not drawn:
+        return
     deadline_polls = int(timeout_ms / 250)
     for _ in range(deadline_polls):
         if canvas_pixels(page).std() > 1.0:
