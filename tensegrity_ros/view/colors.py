@@ -26,7 +26,7 @@ CONTACT: Final = (220, 20, 60)
 PATH: Final = (20, 150, 90)
 BODY: Final = (120, 160, 200)
 GRID_CELL: Final = (200, 200, 200)
-GRID_SECTION: Final = (140, 140, 140)
+GRID_SECTION: Final = (110, 110, 110)
 #: The part of the map used: 0 N at its start, the scale at this fraction of it.
 MAP_TOP: Final = 0.8
 #: RGB 0..255 of matplotlib's ``plasma`` at 0, MAP_TOP / 16, ..., MAP_TOP.
