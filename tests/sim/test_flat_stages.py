@@ -193,3 +193,37 @@ def test_the_flat_screen_decides_as_the_loops_do(gaps, h):
     expected = loops.quiet_step(g0[screened], r0[screened], g1[screened], r1[screened],
                                 np.zeros(int(screened.sum()), dtype=bool), h)
     assert quiet_ends(E0, E1, *ends[0], *ends[1], h, np.empty(len(g0))) == expected
+
+
+@pytest.mark.skipif(not have_numba(), reason="the oracle is the compiled run (numba, the 'fast' extra)")
+def test_flat_steps_under_a_moving_rest_length_are_the_compiled_ones(monkeypatch):
+    """A cable of the tower reeled in by a ramp law: the flat stages take one step per call
+    with the rest lengths of each stage's time; the run equals the compiled one to rounding."""
+    from tensegrity_core.general import prism_tower
+    from tensegrity_core.general.writing import structure_to_dict
+    from tensegrity_core.sim import compile_scene, load_scene, simulate
+
+    s = prism_tower(1, sides=3, EA=2e3)
+    s = s.replace(node_masses=np.full(s.n_nodes, 0.1))
+    structure = structure_to_dict(s)
+    cable = next(m for m in structure["members"] if m.get("type", "string") == "string")
+    cable.update(type="actuator", name="act")
+    l0 = cable.get("rest_length")
+    assert l0 is not None
+    scene = load_scene({"model": {"kind": "general", "structure": structure}, "initial": {"drawn": True},
+                        "effects": ["inertia", "springs", {"damping": {"c": 0.2}}], "duration": 0.2,
+                        "inputs": {"act": {"law": "ramp", "from": l0, "to": 0.8 * l0, "t1": 0.2}},
+                        "output": {"rate": 200}, "integrator": {"method": "RK4", "max_step": 5e-4}})
+    runs = {}
+    for kernels in ("numba", "numpy"):
+        monkeypatch.setenv(KERNELS_VARIABLE, kernels)
+        runs[kernels] = simulate(scene)
+    model = compile_scene(scene)
+    state = model.initial_state()
+    assert isinstance(model.equations(state).resume(state.t, state.y).system.stages, FlatStages)
+    fast, plain = runs["numba"], runs["numpy"]
+    assert fast.stats["steps"] == plain.stats["steps"]
+    assert [e[1:] for e in plain.events] == [e[1:] for e in fast.events]
+    np.testing.assert_allclose([e[0] for e in plain.events], [e[0] for e in fast.events], rtol=0, atol=1e-11)
+    assert np.abs(fast.nodes[-1] - fast.nodes[0]).max() > 1e-3             # the ramp moves the tower
+    np.testing.assert_allclose(plain.nodes, fast.nodes, rtol=0, atol=1e-11)
