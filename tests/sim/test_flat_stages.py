@@ -142,6 +142,8 @@ def test_a_flat_stretch_takes_the_steps_of_one_step_per_call_and_stops_at_every_
     system = model.equations(state).resume(state.t, state.y).system
     stages = system.stages
     assert isinstance(stages, FlatStages)
+    # the plans of other slack sets share the layout (index arrays and dense maps built once)
+    assert system.with_slack(np.ones(len(system.strings), dtype=bool)).stages.layout is stages.layout
     l0 = system.rest_lengths(0.0)
     y0 = state.y.copy()
     y0[len(y0) // 2:] = np.random.default_rng(9).normal(0.0, 3.0, len(y0) // 2)

@@ -71,7 +71,7 @@ from tensegrity_core.sim.event_location import Crossing
 from tensegrity_core.sim.general.kernels import arrays, loops
 from tensegrity_core.sim.general.kernels.array_stages import ArrayStages
 from tensegrity_core.sim.general.kernels.evaluator import Evaluation, Evaluator
-from tensegrity_core.sim.general.kernels.flat_stages import FlatStages, flat_ready
+from tensegrity_core.sim.general.kernels.flat_stages import FlatLayout, FlatStages, flat_ready
 from tensegrity_core.sim.general.kernels.plan import Plan, build_plan
 from tensegrity_core.sim.general.kernels.stages import CompiledStages
 from tensegrity_core.sim.inputs import Law, next_breakpoint
@@ -224,7 +224,11 @@ class GeneralSystem:
         moving[self._moving] = True
         constant = self.rest_lengths_of is None
         if self.evaluator.sums is not None and flat_ready(self.plan):
-            return FlatStages(self.plan, self.rest_lengths, constant, strings=self.strings, moving=moving)
+            shared = self.evaluator.shared
+            if "flat" not in shared:
+                shared["flat"] = FlatLayout(self.plan)
+            return FlatStages(self.plan, self.rest_lengths, constant, strings=self.strings, moving=moving,
+                              layout=shared["flat"])
         if self.evaluator.sums is not None:
             return ArrayStages(self.plan, self.evaluator.sums, self.R_ref, self.rest_lengths, constant,
                                strings=self.strings, moving=moving, rechart_angle=RECHART_ANGLE)

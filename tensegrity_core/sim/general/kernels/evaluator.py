@@ -58,6 +58,9 @@ class Evaluator:
         #: The numpy kernels' gathers and sums (None for the compiled loops).
         self.sums: arrays.Sums | None = None if self.kernels == "numba" else \
             arrays.plan_sums(plan)
+        #: Objects of this plan's topology built on first use by their users (the numpy
+        #: kernels' flat stages keep their layout here), shared with :meth:`with_plan`'s evaluators.
+        self.shared: dict[str, Any] = {}
 
     def evaluate(self, y: FloatArray, R_ref: FloatArray, l0: FloatArray) -> Evaluation:
         """States ``y`` (B, 2 n_dof) in the charts ``R_ref`` (B, nb, 3, 3) with rest lengths
@@ -84,7 +87,7 @@ class Evaluator:
 
     def with_plan(self, plan: Plan) -> Evaluator:
         """The same kernels on ``plan``, a plan of the same topology (other member constants):
-        the Jacobian's pattern, if built, and the numpy kernels' sums are shared."""
+        the Jacobian's pattern, if built, the numpy kernels' sums and :attr:`shared` are shared."""
         new = copy.copy(self)
         new.plan = plan
         return new

@@ -37,7 +37,7 @@ few ``eps EA`` [N] per member in both). The screen for a string's slack/taut eve
 from __future__ import annotations
 
 from collections.abc import Callable
-from functools import partial
+from functools import cached_property, partial
 from typing import Any
 
 import numpy as np
@@ -193,6 +193,16 @@ class FlatLayout:
         self.constants = np.concatenate([np.asarray(plan.base, dtype=float).ravel(),
                                          plan.external[plan.free_node, plan.free_axis], [0.0]])
 
+    @cached_property
+    def _dense(self) -> tuple[FloatArray, FloatArray, FloatArray]:
+        G = np.concatenate([self.difference_matrix(self.ends), self.difference_matrix(self.velocity_ends)])
+        return (G, *self.force_matrix())
+
+    def dense_maps(self) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """(built on first use, kept: do not modify) the member vectors and velocities
+        (6m, sources) of :meth:`difference_matrix` and the two parts of :meth:`force_matrix`."""
+        return self._dense
+
     def dense_entries(self) -> int:
         """Entries of the dense matrices: member vectors and velocities (6m, sources), rates
         (N, sources + 12m)."""
@@ -225,7 +235,9 @@ class FlatLayout:
 class FlatStages:
     """RK4 steps of the model of ``plan`` (:func:`flat_ready`) in flat buffers (module
     docstring), with rest lengths ``rest_lengths(t)`` [m] (``constant``: they do not depend
-    on ``t``); ``dense``: the linear maps as dense matrices (None: by size). A stretch stops
+    on ``t``); ``dense``: the linear maps as dense matrices (None: by size); ``layout``: the
+    plan's :class:`FlatLayout` if built (one per topology, masses and loads: the plans of
+    one model's slack sets share it). A stretch stops
     at a step that may hold an event of the strings ``strings`` (member indices; ``moving``:
     per string, its rest length moves with an input); there is no body to re-chart."""
 
@@ -233,12 +245,13 @@ class FlatStages:
     methods = ("RK4",)
 
     def __init__(self, plan: Plan, rest_lengths: Callable[[float], FloatArray], constant: bool, *,
-                 strings: IntArray, moving: NDArray[np.bool_], dense: bool | None = None):
+                 strings: IntArray, moving: NDArray[np.bool_], dense: bool | None = None,
+                 layout: FlatLayout | None = None):
         assert flat_ready(plan), "the flat stages take models without moving bodies or slack tests"
         self.plan, self.rest_lengths, self.constant = plan, rest_lengths, constant
         self.strings, self.moving = strings, moving
         self.damped = bool(np.any(plan.damping))
-        lay = FlatLayout(plan)
+        lay = FlatLayout(plan) if layout is None else layout
         self.dense = lay.dense_entries() <= DENSE_LIMIT if dense is None else dense
         m, m3, N, src = lay.n_members, 3 * lay.n_members, lay.n_state, lay.sources
         if self.dense:
@@ -247,8 +260,7 @@ class FlatStages:
             self._hv = self.S[src:src + 2 * m3]
             self.h, self.dv = (self.S[src + j * m3:src + (j + 1) * m3].reshape(3, m) for j in range(2))
             self.u, self._du = (self.S[src + j * m3:src + (j + 1) * m3].reshape(3, m) for j in (2, 3))
-            self._G = np.concatenate([lay.difference_matrix(lay.ends), lay.difference_matrix(lay.velocity_ends)])
-            D0, self._incidence = lay.force_matrix()
+            self._G, D0, self._incidence = lay.dense_maps()
             self._D = np.zeros((N, len(self.S)))
             self._D[:, :src] = D0
         else:
