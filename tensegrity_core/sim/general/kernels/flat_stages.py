@@ -237,9 +237,9 @@ class FlatStages:
     docstring), with rest lengths ``rest_lengths(t)`` [m] (``constant``: they do not depend
     on ``t``); ``dense``: the linear maps as dense matrices (None: by size); ``layout``: the
     plan's :class:`FlatLayout` if built (one per topology, masses and loads: the plans of
-    one model's slack sets share it). A stretch stops
-    at a step that may hold an event of the strings ``strings`` (member indices; ``moving``:
-    per string, its rest length moves with an input); there is no body to re-chart."""
+    one model's slack sets share it). A stretch stops at a step that may hold an event of
+    the strings ``strings`` (member indices; ``moving``: per string, its rest length moves
+    with an input); there is no body to re-chart."""
 
     #: The methods whose steps this computes (the stepper runs others as scipy's).
     methods = ("RK4",)
