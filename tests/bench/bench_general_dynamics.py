@@ -444,7 +444,7 @@ def growth(ctx: Context) -> list[Row]:
                         baseline=f"tower {e['members']} members: project RK4 (numba), CPU",
                         target="ratio >= 0.333 (fallback within 3x: compiled / numpy)"))
     first = data[0]
-    rows += _numpy_floor(_tower_scene(stages[0], duration), first)
+    rows += _numpy_floor(_tower_scene(stages[0], duration), first, 5_000 if ctx.quick else 50_000)
     rows.append(Row(GROUP, f"tower {first['members']} members: project RK4 (numba)", first["numba"], "s/s"))
     rows.append(Row(GROUP, f"tower {first['members']} members: numpy kernels", first["numpy"], "s/s",
                     baseline=f"tower {first['members']} members: project RK4 (numba)"))
@@ -458,7 +458,7 @@ def growth(ctx: Context) -> list[Row]:
     return rows
 
 
-def _cpu_per_call(fn, n: int = 50_000) -> float:
+def _cpu_per_call(fn, n: int) -> float:
     """The least CPU time of one call of ``fn()`` [s] over three loops of ``n`` calls."""
     best = math.inf
     for _ in range(3):
@@ -469,13 +469,14 @@ def _cpu_per_call(fn, n: int = 50_000) -> float:
     return best
 
 
-def _numpy_floor(scene, first: dict) -> list[Row]:
+def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
     """The floor of a pure-numpy RK4 step of the smallest tower (docs/design/performance.md):
     the fewest numpy calls a step needs -- per evaluation the member vectors and velocities
     (one product), the lengths (a dot product per member and a root), the unit vectors (one
     division), the rates (one product); per stage its state (one product) -- each timed alone
     on the flat stages' own arrays in CPU time, no Python between them and no event screen;
-    against the compiled step and the numpy step measured in the same run."""
+    against the compiled step and the numpy step measured in the same run (each call timed over
+    ``calls_per_loop`` calls, the least of three loops)."""
     from tensegrity_core.sim import compile_scene
     from tensegrity_core.sim.general.kernels.flat_stages import COMPONENTS, FlatStages
 
@@ -497,7 +498,7 @@ def _numpy_floor(scene, first: dict) -> list[Row]:
              "unit vectors (np.divide)": lambda: np.divide(h, l, out=u),
              "rates (np.dot)": lambda: np.dot(D, S, out=out),
              "stage state (np.dot)": lambda: np.dot(weights, Z, out=state_row)}
-    cost = {name: _cpu_per_call(fn) for name, fn in calls.items()}
+    cost = {name: _cpu_per_call(fn, calls_per_loop) for name, fn in calls.items()}
     floor = 4 * sum(cost.values())
     compiled = first["numba_cpu"] * first["step"]          # CPU seconds per step
     plain = first["numpy_cpu"] * first["step"]
