@@ -21,7 +21,8 @@ the same initial state (``tests/mujoco_peer.py``).
   seconds and over the process's CPU seconds (what one core does, whatever the load).
 - ``growth``: prism towers of 9 .. 1,998 members, fixed-step RK4 at the exported step in
   both: time per simulated second against members, the growth exponent above 100 members,
-  and the numpy kernels at the same sizes (the fallback's ratio).
+  and the numpy kernels at the same sizes (the fallback's ratio), with the floor of a
+  pure-numpy step of the smallest tower (its fewest numpy calls, each timed alone).
 - ``compile_cache``: numba's cost in a fresh process: compiling every kernel into an empty
   cache, then loading them from it.
 """
