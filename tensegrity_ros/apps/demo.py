@@ -17,7 +17,7 @@
    core's sampled-data run of the same loop (identical), and with the continuous-time
    ``paper_fold`` scene at 10, 100 and 1000 Hz (the core's sampled runs);
 4. call ``find_form`` with the tensegrity-table example;
-5. the 6-bar robot rolled by its gait in a second simulator, recorded to ``OUT/six_bar_roll``
+5. the 6-bar robot rolled in closed loop in a second simulator, recorded to ``OUT/six_bar_roll``
    and rerun identical (:mod:`.demo_robot`);
 6. print a summary (tracking errors, fold times, the control-period table, bag contents).
 
@@ -379,7 +379,7 @@ def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool 
                                             for k, v in ft.items())
              + f"; rerun identical: {identical}; core sampled run identical: {diff == 0.0}")
         if "robot" in results:
-            _say(f"  6-bar ({robot_faces} faces of the gait): {'; '.join(results['robot']['summary'])}; rerun "
+            _say(f"  6-bar ({robot_faces} faces asked, closed loop): {'; '.join(results['robot']['summary'])}; rerun "
                  f"identical: {results['robot']['identical']}")
         for folder in bags:
             info = bag_info(folder)

@@ -1,15 +1,18 @@
-"""The demo's robot phase: the 6-bar rolled by its gait over ROS, recorded, rerun identical.
+"""The demo's robot phase: the 6-bar rolled a number of faces in closed loop over ROS,
+recorded, rerun identical.
 
 A second ``tensegrity_sim`` runs the scene ``six_bar_rest`` (the 6-bar standing on a face,
 its 24 motors taking ``cable_commands``) in the namespace ``/six_bar``, in lockstep and
-paused, with the demo's control period as its step. The demo's client answers every
-joint state with the rest lengths of the shipped ``six_bar_roll`` gait (cut to its first
-``faces`` faces, :func:`.gait_goal.first_faces`) at the state's time, sampled and held for
-the step, as the cable controller would command them; the run is recorded to
+paused, with the demo's control period as its step. The demo's client is the closed-loop
+rolling gait of ``tensegrity gait six_bar roll`` (:class:`.gait_feedback.FeedbackLoop` over
+the core's ``RollController``): it answers every state with the controller's rest lengths
+from the state's ``contacts`` and ``body_states``, until ``faces`` faces are rolled (stepped
+in chunks of ``CHUNK_S``, then ``SETTLE_S`` more to settle). The run is recorded to
 ``OUT/six_bar_roll`` (every topic the simulator publishes, and the commands), then run a
 second time and compared stamp by stamp (identical bit for bit: lockstep stepping depends
-on no arrival time). What the robot did: distance [m], faces rolled, peak tensions [N]
-(:mod:`.roll_summary`, from the client's own subscriptions).
+on no arrival time, and the controller on nothing but the states). What the robot did:
+distance [m], faces rolled, peak tensions [N] (:mod:`.roll_summary`, from the client's own
+subscriptions).
 """
 
 from __future__ import annotations
@@ -21,28 +24,70 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from tensegrity_core.robot.gait import Gait
 from tensegrity_core.sim.sampled import NS_PER_S
-from tensegrity_core.sim.simulator import JointSample
 
 NAMESPACE = "/six_bar"
 SCENE = "six_bar_rest"
-GAIT = "six_bar_roll"
-FACES = 3                 # of the shipped gait's 8: the demo stays short
+FACES = 3                 # the demo stays short
 BAG = "six_bar_roll"
+#: s of simulation time stepped at a time until the controller is done, then to settle
+CHUNK_S = 0.5
+SETTLE_S = 1.0
 
 
-def gait_law(gait: Gait) -> Callable[[JointSample], list[float]]:
-    """``law(sample) -> rest lengths [m]``: the gait's rest lengths at the sample's time."""
-    laws = [gait.laws()[name] for name in gait.cables]
-    return lambda sample: [law.value_at(sample.t, 0.0) for law in laws]
+class LoopFeeder:
+    """The client's subscriptions to ``body_states`` and ``contacts`` feeding ``loop`` (None:
+    not answering), its answers published on ``pub`` once per stamp and only below
+    ``until_ns`` [ns] (an answer to a run's final state would reach the simulator after the
+    next reset, stamped for another step)."""
+
+    def __init__(self, node: Any, pub: Any) -> None:
+        from rclpy.qos import QoSProfile
+        from std_msgs.msg import Header
+        from tensegrity_msgs.msg import CableCommand, CapContacts, RigidBodyStates
+
+        self.loop: Any = None
+        self.until_ns: int | None = None
+        self._answered: set[int] = set()
+        self._pub, self._Header, self._CableCommand = pub, Header, CableCommand
+        node.create_subscription(RigidBodyStates, "body_states", self._on_bodies, QoSProfile(depth=1000))
+        node.create_subscription(CapContacts, "contacts", self._on_contacts, QoSProfile(depth=1000))
+
+    def start(self, loop: Any) -> None:
+        self.loop, self.until_ns, self._answered = loop, None, set()
+
+    def _on_bodies(self, msg: Any) -> None:
+        if self.loop is not None:
+            self._send(self.loop.on_bodies(_ns(msg), list(msg.name),
+                                           [(p.position.x, p.position.y, p.position.z) for p in msg.pose],
+                                           [(p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w)
+                                            for p in msg.pose]))
+
+    def _on_contacts(self, msg: Any) -> None:
+        if self.loop is not None:
+            self._send(self.loop.on_contacts(_ns(msg), list(msg.name)))
+
+    def _send(self, answers: list[Any]) -> None:
+        for a in answers:
+            if a.stamp_ns in self._answered or (self.until_ns is not None and a.stamp_ns >= self.until_ns):
+                continue
+            self._answered.add(a.stamp_ns)
+            hdr = self._Header()
+            hdr.stamp.sec, hdr.stamp.nanosec = divmod(a.stamp_ns, NS_PER_S)
+            self._pub.publish(self._CableCommand(header=hdr, name=list(a.names), rest_length=list(a.rest_lengths)))
+
+
+def _ns(msg: Any) -> int:
+    return int(msg.header.stamp.sec) * NS_PER_S + int(msg.header.stamp.nanosec)
 
 
 def run_robot(rclpy: Any, out: Path, *, step_ns: int, record: bool, results: dict[str, Any], bags: list[Path],
               say: Callable[[str], None], faces: int = FACES) -> bool:
     """The robot phase (module note); True when the rerun is identical and the bag complete."""
     from tensegrity_core.robot.loading import load_robot
-    from tensegrity_ros.apps.gait_goal import first_faces, gait_named
+    from tensegrity_core.robot.roll_control import RollController, TipMoves
+    from tensegrity_ros.apps.gait_feedback import FeedbackLoop, RodFrames
+    from tensegrity_ros.apps.gait_loop import RATE, default_max_time
     from tensegrity_ros.apps.gait_run import RunWatcher
     from tensegrity_ros.apps.launch import Launcher, ProcessSpec
     from tensegrity_ros.apps.recording import Recorder
@@ -51,37 +96,47 @@ def run_robot(rclpy: Any, out: Path, *, step_ns: int, record: bool, results: dic
     from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
     robot = load_robot("six_bar")
-    speed = {robot.cables.names[j]: float(v) for j, v in zip(robot.cables.actuated, robot.motors.max_speed)}
-    gait = gait_named(GAIT)
-    gait = first_faces(gait, faces, [speed[c] for c in gait.cables])
-    steps = -(-round(gait.duration * NS_PER_S) // step_ns) + round(1.0 * NS_PER_S) // step_ns   # + 1 s to settle
+    cables = tuple(robot.cables.names[j] for j in robot.cables.actuated)
+    moves, frames = TipMoves(robot), RodFrames.of(robot)
+    chunk, settle = round(CHUNK_S * NS_PER_S) // step_ns, round(SETTLE_S * NS_PER_S) // step_ns
+    most = -(-round(default_max_time(faces) * NS_PER_S) // step_ns)
     exe = [sys.executable, "-m", "tensegrity_ros.cli"]
     argv = exe + ["node", "sim", "--ros-args", "-r", f"__ns:={NAMESPACE}", "-p", f"scene:={SCENE}",
                   "-p", "lockstep:=true", "-p", "initial_state:=paused", "-p", f"step_size:={step_ns / NS_PER_S!r}",
                   "-p", f"publish_rate:={NS_PER_S / step_ns!r}", "-p", "paused_publish_rate:=0.0",
+                  "-p", f"state_rate:={NS_PER_S / step_ns!r}",                 # contacts with every state
                   "-p", "lockstep_timeout:=30.0", "-p", "publish_clock:=false"]
     log = open(out / "six_bar.log", "w")
     launcher = Launcher([ProcessSpec("six_bar", argv)], out=log)
-    say(f"the 6-bar robot: {SCENE} in {NAMESPACE}, lockstep at {step_ns / 1e6:g} ms, rolled by the gait {GAIT} "
-        f"({faces} faces, {gait.duration:.2f} s, then 1 s to settle; logs in {out / 'six_bar.log'})")
+    say(f"the 6-bar robot: {SCENE} in {NAMESPACE}, lockstep at {step_ns / 1e6:g} ms, rolled {faces} faces towards +x "
+        f"by the closed-loop gait (`tensegrity gait six_bar roll`: contacts and rod poses in, rest lengths out at "
+        f"{RATE:g} Hz), then {SETTLE_S:g} s to settle; logs in {out / 'six_bar.log'}")
     launcher.start()
-    client = SimClient(rclpy, "tensegrity_demo_six_bar", namespace=NAMESPACE, record_events=False,
-                       cables=gait.cables)
+    client = SimClient(rclpy, "tensegrity_demo_six_bar", namespace=NAMESPACE, record_events=False, cables=cables)
+    feeder = LoopFeeder(client.node, client.pub)
     watcher = RunWatcher(client.node)
     rec = None
     try:
         client.wait_for_services(120.0)
-        law = gait_law(gait)
 
-        def roll() -> list[Any]:
+        def roll() -> tuple[int, list[Any]]:
+            feeder.start(None)
             client.set_law(None)
             client.reset_all()
             client.take_joints()
-            client.set_law(law, until_ns=steps * step_ns)
-            client.step(steps)
-            client.set_law(None)
-            client.wait_joint(steps * step_ns)
-            return client.take_joints()
+            loop = FeedbackLoop(RollController(robot, faces, moves=moves), frames, robot.node_names, cables,
+                                rate=RATE)
+            feeder.start(loop)
+            k = 0
+            while loop.done_ns is None and k < most:
+                client.step(chunk)
+                k += chunk
+            feeder.until_ns = (k + settle) * step_ns
+            client.step(settle)
+            k += settle
+            feeder.start(None)
+            client.wait_joint(k * step_ns)
+            return k, client.take_joints()
 
         if record:
             folder = out / BAG
@@ -98,7 +153,7 @@ def run_robot(rclpy: Any, out: Path, *, step_ns: int, record: bool, results: dic
                 raise RuntimeError("the demo's cable_commands publisher did not match the recorder within 60 s")
             bags.append(folder)
         say("  rolling the 6-bar" + (f" (recording {out / BAG})" if record else ""))
-        first = roll()
+        steps, first = roll()
         window = (0.0, steps * step_ns / NS_PER_S)
         drained = time.monotonic() + 30.0        # the watcher's samples up to the run's end (its own subscriptions)
         while watcher.latest() < window[1] and time.monotonic() < drained:
@@ -117,7 +172,7 @@ def run_robot(rclpy: Any, out: Path, *, step_ns: int, record: bool, results: dic
         for text in summary:
             say(f"  {text}")
         say("  the roll again, not recorded: same lockstep run, compared stamp by stamp")
-        second = roll()
+        _, second = roll()
         a, b = {j.stamp_ns: j for j in first}, {j.stamp_ns: j for j in second}
         identical = a == b
         say(f"  second run: {len(b)} joint states, " + ("identical to the first (every cable length, rate and "

@@ -120,10 +120,12 @@ def roll_closed_loop(robot_name: str, faces: int, heading: tuple[float, float], 
         check_scene(scene.string_value, robot_name, cables)
         every = Decimation(publish_rate.double_value, {"contacts": state_rate.double_value}).every["contacts"]
         if every != 1:
-            raise SuiteError(f"the simulator publishes contacts with every {every}th state (state_rate "
-                             f"{state_rate.double_value:g} Hz, publish_rate {publish_rate.double_value:g} Hz): the "
-                             "closed-loop gait needs them with every state (start it with -p state_rate:=<publish_rate>)")
-        if not wait_for_matches([pub], 1, timeout, poll=lambda s: executor.spin_once(timeout_sec=s)):
+            how = f"with every {every}th state" if every else "never"
+            raise SuiteError(f"the simulator publishes contacts {how} (state_rate {state_rate.double_value:g} Hz, "
+                             f"publish_rate {publish_rate.double_value:g} Hz): the closed-loop gait needs them with "
+                             "every state (start it with -p state_rate:=<publish_rate>)")
+        # matched by the watcher's own subscription and the simulator's
+        if not wait_for_matches([pub], 2, timeout, poll=lambda s: executor.spin_once(timeout_sec=s)):
             raise SuiteError(f"the simulator does not subscribe to {pub.topic_name} within {timeout:g} s", code=3)
         others = _other_answerers(node, executor, DISCOVERY_S) if lockstep.bool_value else []
         if others:

@@ -19,14 +19,14 @@ def register(sub: Subparsers) -> None:
                        "then stops the controller and drives the paper's fold scenario on actuator_forces; records "
                        "a bag of each, shows that reruns and the core's sampled-data run of the fold are "
                        "identical, tabulates the control period against the continuous-time fold, calls "
-                       "find_form on the tensegrity table; rolls the 6-bar robot by its gait in lockstep (recorded, rerun identical: "
+                       "find_form on the tensegrity table; rolls the 6-bar robot in closed loop in lockstep (recorded, rerun identical: "
                        "distance, faces, peak tensions) and prints a summary.")
     p.add_argument("--out", "-o", default="demo_out", help="folder for the bags and the suite log")
     p.add_argument("--control-period", type=float, default=0.01, metavar="S",
                    help="the lockstep control period [s] (default 0.01: 100 Hz)")
     p.add_argument("--no-record", action="store_true", help="do not record bags")
     p.add_argument("--robot-faces", type=int, default=3, metavar="N",
-                   help="faces the 6-bar robot rolls (1..8 of its gait; 0: no robot phase)")
+                   help="faces the 6-bar robot rolls in closed loop (1..8; 0: no robot phase)")
     p.set_defaults(func=_demo)
 
 

@@ -46,10 +46,10 @@ def test_the_demo_runs_in_lockstep_and_reproduces_itself(tmp_path):
     shifts = [abs(float(shift)) for _, _, shift in rows]
     assert shifts[0] > shifts[1] > shifts[2]          # the fold time converges with the rate
     assert "forces / first = [1.0, 1.0, 1.0, 3.0]" in out
-    # the 6-bar: its first face of the gait, rerun identical, what it did with units
+    # the 6-bar: one face asked of the closed-loop gait, rerun identical, what it did with units
     assert re.search(r"second run: \d+ joint states, identical to the first \(every cable length", out)
-    assert re.search(r"6-bar \(1 faces of the gait\): distance rolled: \S+ m .*faces rolled: \d+ .*peak tensions: "
-                     r"c\d+_\d+ \S+ N.*rerun identical: True", out)
+    assert re.search(r"6-bar \(1 faces asked, closed loop\): distance rolled: \S+ m .*faces rolled: \d+ .*"
+                     r"peak tensions: c\d+_\d+ \S+ N.*rerun identical: True", out)
 
 
 def test_ctrl_c_stops_the_demo_with_one_line_and_leaves_nothing_running(tmp_path):
