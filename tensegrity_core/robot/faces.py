@@ -5,7 +5,9 @@ contact state (per cap: touching or not, the ``cap_contact`` sensor reading) ove
 the sequence of faces. A set counts as a face when it holds for at least ``hold`` seconds
 (50 ms by default: a cap that grazes the floor for a sample while the robot tips makes no
 face); consecutive repeats merge, and :func:`faces_rolled` counts a return to a face
-visited before (a rock back) as no new face.
+visited before (a rock back) as no new face. :func:`faces_touched` is the strict count: every
+hull face whose caps all touched at one sample, however briefly (a robot that rolls through a
+face without resting on it has still crossed its edges).
 """
 
 from __future__ import annotations
@@ -46,3 +48,15 @@ def faces_rolled(faces: Sequence[tuple[float, frozenset[int]]]) -> int:
         new += caps not in seen
         seen.add(caps)
     return max(new - 1, 0)
+
+
+def faces_touched(touching: Sequence[Sequence[int]] | NDArray[np.int64],
+                  faces: Sequence[tuple[int, int, int]]) -> list[frozenset[int]]:
+    """The hull ``faces`` (node indices) whose three caps all touched the floor at one of the
+    samples ``touching`` (per sample the touching caps' node indices), in the order first
+    touched; ``len(...) - 1`` is how many faces the robot reached beyond the first."""
+    out: list[frozenset[int]] = []
+    for row in touching:
+        now = {int(i) for i in row}
+        out += [frozenset(f) for f in faces if now.issuperset(f) and frozenset(f) not in out]
+    return out

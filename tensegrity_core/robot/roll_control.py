@@ -19,9 +19,20 @@ floor, sampled at the control rate:
    (not the edge it came over); the move of :func:`.tipping.tipping_step` derived for that
    face and edge on the robot's rest shape (:class:`TipMoves`: from the robot's shipped table
    of moves, ``examples/tips/NAME.yaml``, or derived once per face and edge, then kept).
-3. **Tipping.** The move is commanded and held until the robot rests on another face, then
-   every cable is released (back to 2.). A move that has not tipped the robot within
-   ``give_up`` [s] is released and the next best edge is tried.
+3. **Tipping.** The move is commanded and held until the robot turns about the edge: at the
+   first sample where both caps of the edge touch and the face's third cap has left the
+   floor, every cable is released (back to 2. once it rests on a face). A move that has not
+   tipped the robot within ``give_up`` [s] is released and the next best edge is tried.
+
+Why release while it turns rather than on landing: the move stores strain energy in the
+cables (the 6-bar's two-cable move off a closed face, held: up to 0.52 kJ above rest,
+tensions to 1.2 kN) and brings the centre of mass just past the edge. Held until the next
+face touches, the robot lands in the deformed shape with 0.42 kJ still stored and 15 J of
+kinetic energy, and the release then springs it back on the new face, over that face's next
+edge (an open face of the 6-bar is a shallow well: the rise over its short edges, ~0.03 m,
+equals the drop onto it). Released as it turns, the motors pay out during the fall and the
+robot lands near its rest shape, 2 J stored and 5 J kinetic, and the new face holds it
+(docs/robots.md, "A closed-loop rolling gait").
 
 Commands are rest lengths [m] of the robot's actuated cables (in the description's order).
 The controller is pure: :meth:`RollController.update` maps one sample to a command; it
@@ -153,6 +164,7 @@ class RollController:
         self._since = 0.0                               # when the current contact set began [s]
         self._command = self.moves.nominal.copy()
         self._tipping_since: float | None = None        # when the current move was commanded [s]
+        self._pivot: tuple[frozenset[int], int] = (frozenset(), -1)  # the move's edge and third cap
         self._tried: list[tuple[int, int]] = []         # edges of the current face already tried
         self._came: frozenset[int] | None = None        # the edge the robot came over
 
@@ -181,6 +193,8 @@ class RollController:
         if now != self._touching:
             self._touching, self._since = now, t
         X = np.asarray(nodes, dtype=float)
+        if self._tipping_since is not None and self._turning(now):
+            self._release()                             # it falls over the edge: let go (step 3)
         face = self.resting_face(t, X)
         if face is not None and (not self.visited or self.visited[-1] != face):
             if self.visited:
@@ -206,7 +220,14 @@ class RollController:
         if move is not None:
             self._command = move
             self._tipping_since = t
+            self._pivot = (frozenset(edge), next(i for i in face if i not in edge))
         return self._command
+
+    def _turning(self, touching: frozenset[int]) -> bool:
+        """Whether the robot turns about the current move's edge (step 3): both its caps
+        touching, the third cap off the floor."""
+        edge, third = self._pivot
+        return bool(edge) and edge <= touching and third not in touching
 
     def _release(self) -> None:
         self._command = self.moves.nominal.copy()

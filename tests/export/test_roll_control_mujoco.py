@@ -1,7 +1,8 @@
 """The closed-loop rolling gait (:mod:`tensegrity_core.robot.roll_control`) driving the 6-bar
 in MuJoCo (the export of ``six_bar_rest``): the controller sees MuJoCo's contacts and cap
 positions at 50 Hz and rolls the requested faces there too, counted independently from
-MuJoCo's contacts by :mod:`tensegrity_core.robot.faces`."""
+MuJoCo's contacts by :mod:`tensegrity_core.robot.faces` (faces rested on, and hull faces
+touched at all: none rolled through)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import pytest
 mujoco = pytest.importorskip("mujoco", reason="the mujoco extra is not installed (./run setup installs it)")
 
 from tensegrity_core.export import export_mjcf  # noqa: E402
-from tensegrity_core.robot.faces import faces_rolled, faces_visited  # noqa: E402
+from tensegrity_core.robot.faces import faces_rolled, faces_touched, faces_visited  # noqa: E402
 from tensegrity_core.robot.roll_control import RollController  # noqa: E402
 from tensegrity_core.sim import load_scene  # noqa: E402
 from tests.mujoco_peer import touching_caps  # noqa: E402
@@ -20,8 +21,9 @@ from tests.mujoco_peer import touching_caps  # noqa: E402
 PERIOD = 0.02
 
 
+@pytest.mark.parametrize("heading", [(1.0, 0.0), (-1.0, -0.4)])
 @pytest.mark.parametrize("faces", [1, 2, 3, 4])
-def test_the_controller_rolls_the_requested_faces_in_mujoco(faces):
+def test_the_controller_rolls_the_requested_faces_in_mujoco(faces, heading):
     scene = load_scene("six_bar_rest")
     robot = scene.model.robot
     m = mujoco.MjModel.from_xml_string(export_mjcf(scene).xml)
@@ -31,9 +33,9 @@ def test_the_controller_rolls_the_requested_faces_in_mujoco(faces):
     act = robot.cables.actuated
     motors = np.array([m.actuator(f"cable:{robot.cables.names[j]}").id for j in act])
     index = {n: i for i, n in enumerate(robot.node_names)}
-    controller = RollController(robot, faces, heading=(1.0, 0.0))
+    controller = RollController(robot, faces, heading=heading)
     every = round(PERIOD / m.opt.timestep)
-    times, contact = [], []
+    times, contact, touched = [], [], []
     finish = None
     for k in range(round(20.0 / m.opt.timestep)):
         if k % every == 0:
@@ -41,6 +43,7 @@ def test_the_controller_rolls_the_requested_faces_in_mujoco(faces):
             nodes = np.array([d.site(f"node:{n}").xpos for n in robot.node_names])
             d.ctrl[motors] = controller.update(d.time, touching, nodes)
             times.append(d.time)
+            touched.append(touching)
             contact.append(np.isin(np.arange(len(robot.node_names)), touching))
             if finish is None and controller.done:
                 finish = d.time + 1.0
@@ -49,3 +52,4 @@ def test_the_controller_rolls_the_requested_faces_in_mujoco(faces):
         mujoco.mj_step(m, d)
     assert controller.done, controller.visited
     assert faces_rolled(faces_visited(times, np.array(contact))) == faces, controller.visited
+    assert len(faces_touched(touched, controller.moves.faces)) - 1 == faces, controller.visited

@@ -1,14 +1,15 @@
 """The closed-loop rolling gait (:mod:`tensegrity_core.robot.roll_control`) on the simulated
 6-bar: asked for N faces it rolls exactly N (counted independently from the contact state by
-:mod:`tensegrity_core.robot.faces`) and rests, for N = 1..4, each run starting on the face the
-last one ended on; bad requests are refused with one line."""
+:mod:`tensegrity_core.robot.faces`: faces rested on, and hull faces touched at all) and rests,
+for N = 1..4 towards any heading, each run starting on the face the last one ended on; bad
+requests are refused with one line."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from tensegrity_core.robot.faces import faces_rolled, faces_visited
+from tensegrity_core.robot.faces import faces_rolled, faces_touched, faces_visited
 from tensegrity_core.robot.loading import load_robot
 from tensegrity_core.robot.roll_control import TIPS_DIR, RollController, TipMoves
 from tensegrity_core.robot.statics import rest_shape
@@ -20,30 +21,64 @@ from tensegrity_core.sim.general.robot.closed_loop import run_controlled
 RATE = 50.0
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "with Coulomb's bound at every RK4 stage (issue 29) the first run, asked for 1 face, lands on n0 n4 n7 for "
-    "60 ms, bounces on over the edge n0 n4 onto n0 n4 n8 (2 faces counted); runs 2-4 roll exactly. MuJoCo, "
-    "under the same controller, rolls 1-4 exactly (tests/export/test_roll_control_mujoco.py)"))
-def test_the_controller_rolls_the_requested_faces_from_where_the_last_run_ended():
-    scene = load_scene("six_bar_rest").with_duration(60.0)
-    model = compile_scene(scene)
-    robot = scene.model.robot
-    state = model.initial_state(t_end=60.0)
-    moves = TipMoves(robot)
+@pytest.fixture(scope="module")
+def rest_scene():
+    """The 6-bar resting on its drawn face, compiled once for the module."""
+    scene = load_scene("six_bar_rest").with_duration(400.0)
+    return scene, compile_scene(scene), TipMoves(scene.model.robot)
+
+
+def _roll(model, state, controller):
+    """Run ``controller`` from ``state``; from the contact state of the samples, independently
+    of the controller: the faces rolled (rested on), the hull faces touched beyond the first
+    (however briefly), the caps (node indices) of the last face and of the first."""
+    samples = run_controlled(model, state, controller, rate=RATE, duration=20.0, after=1.0)
+    seen = model.observe(samples)
+    contact = seen["contact_forces"] > 0.0
+    faces = faces_visited(seen["t"], contact)
     caps = model.plan.cap_node
+    touched = faces_touched([caps[row] for row in contact], controller.moves.faces)
+    return faces_rolled(faces), len(touched) - 1, {int(caps[i]) for i in faces[-1][1]}, faces[0][1]
+
+
+@pytest.mark.parametrize("heading", [(1.0, 0.0), (0.3, 1.0), (-1.0, -0.4), (0.5403, 0.8415)])
+def test_the_controller_rolls_exactly_the_requested_faces(rest_scene, heading):
+    """From the drawn face, towards four headings, runs asked for 1, 2, 1 and 3 faces in turn
+    (each starting where the last ended: closed and open faces) roll exactly the requested
+    faces, counted independently from the contact state both as faces rested on and as hull
+    faces touched at all (none rolled through), and the robot rests on the face the
+    controller reached, 1 s after its last tip."""
+    scene, model, moves = rest_scene
+    robot = scene.model.robot
+    state = model.initial_state(t_end=400.0)
+    heading = np.asarray(heading) / np.linalg.norm(heading)
+    x0 = model.observe_now(state)["centre_of_mass"][:2]
+    travel = 0
+    for n in (1, 2, 1, 3):
+        controller = RollController(robot, n, heading=heading, moves=moves)
+        rolled, touched, last, _ = _roll(model, state, controller)
+        assert controller.done, (n, controller.visited)
+        assert rolled == touched == n, (n, rolled, touched, controller.visited)
+        assert last == set(controller.visited[-1])
+        travel += n
+    moved = model.observe_now(state)["centre_of_mass"][:2] - x0
+    assert moved @ heading > 0.2 * travel               # towards the heading, metres (~0.5 m a face)
+
+
+def test_the_controller_rolls_the_requested_faces_from_where_the_last_run_ended(rest_scene):
+    """N = 1, 2, 3, 4 towards +x, each run from where the last ended: four different start
+    faces, and the centre of mass moves more than a metre along x."""
+    scene, model, moves = rest_scene
+    state = model.initial_state(t_end=400.0)
     starts, x0 = [], model.observe_now(state)["centre_of_mass"][0]
     for n in (1, 2, 3, 4):
-        controller = RollController(robot, n, heading=(1.0, 0.0), moves=moves)
-        samples = run_controlled(model, state, controller, rate=RATE, duration=20.0, after=1.0)
-        seen = model.observe(samples)
-        assert controller.done, (n, controller.visited)
-        faces = faces_visited(seen["t"], seen["contact_forces"] > 0.0)
-        assert faces_rolled(faces) == n, (n, faces)
-        starts.append(faces[0][1])
-        last = {int(caps[i]) for i in faces[-1][1]}
-        assert last == set(controller.visited[-1])      # and it rests there, 1 s after the last tip
-    assert len(set(starts)) == 4                         # four different start faces
-    assert model.observe_now(state)["centre_of_mass"][0] - x0 > 1.0      # towards +x, metres
+        controller = RollController(scene.model.robot, n, heading=(1.0, 0.0), moves=moves)
+        rolled, touched, last, start = _roll(model, state, controller)
+        assert controller.done and rolled == touched == n, (n, rolled, touched, controller.visited)
+        assert last == set(controller.visited[-1])
+        starts.append(start)
+    assert len(set(starts)) == 4
+    assert model.observe_now(state)["centre_of_mass"][0] - x0 > 1.0
 
 
 def test_the_shipped_table_holds_the_derived_moves():
