@@ -100,8 +100,8 @@ def start_server(host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, *, label: s
         server.stop()
         raise PortInUseError(f"port {port} on {host} was taken while the view started (viser moved to {bound}); "
                              "choose another with --port")
-    server.gui.configure_theme(show_share_button=False, show_logo=False, control_width="large",
-                               control_layout="fixed")
+    server.gui.configure_theme(show_share_button=False, show_logo=False, control_width="large")
+    server.gui.main_panel.dock_right()      # the controls docked to the right edge, beside the scene
     # Plain lights, no shadows and no environment map (image-based lighting): the page stays
     # fluid on software WebGL (no GPU) too. viser's default map alone kept a page on SwiftShader
     # busy for about 10 s after it loaded (docs/design/view.md).

@@ -4,6 +4,7 @@ real HTTP requests and websocket handshakes against a running view server."""
 from __future__ import annotations
 
 import http.client
+import warnings
 
 import pytest
 
@@ -50,10 +51,24 @@ def test_a_view_on_another_address_is_reached_by_its_address_or_the_machines_nam
 
 
 @pytest.fixture(scope="module")
-def server():
-    s = start_server(port=0)
-    yield s
+def started():
+    """A view server on a free port, and every warning its start-up raised."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        s = start_server(port=0)
+    yield s, caught
     s.stop()
+
+
+@pytest.fixture
+def server(started):
+    return started[0]
+
+
+def test_the_server_starts_without_a_warning(started):
+    """The view uses the installed viser's current API (no deprecated call, e.g. the
+    control panel's placement)."""
+    assert [f"{w.category.__name__}: {w.message}" for w in started[1]] == []
 
 
 def _get(port: int, host: str, origin: str | None = None) -> tuple[int, str]:
