@@ -27,14 +27,20 @@ __all__ = ["KeyPath", "SchemaError", "clip", "excerpt", "format_key_path", "sugg
 KeyPath: TypeAlias = tuple[object, ...]
 
 
+#: Longest key written whole in a key path [characters]; a longer one (a hostile document's)
+#: is cut (:func:`clip`), so that a message naming it stays one short line.
+KEY_LIMIT: Final = 60
+
+
 def format_key_path(path: KeyPath) -> str:
-    """``("effects", 2, "fold_limit")`` -> ``"effects[2].fold_limit"``."""
+    """``("effects", 2, "fold_limit")`` -> ``"effects[2].fold_limit"``; a key longer than
+    :data:`KEY_LIMIT` characters is cut."""
     out = ""
     for part in path:
         if isinstance(part, int) and not isinstance(part, bool):
             out += f"[{part}]"
         else:
-            out += ("." if out else "") + str(part)
+            out += ("." if out else "") + clip(part, KEY_LIMIT)
     return out
 
 
