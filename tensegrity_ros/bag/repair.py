@@ -8,7 +8,10 @@ and publish times and sequence numbers, and writes a ``metadata.yaml`` whose cou
 those of the recovered messages. The ``custom_data`` (the recorded scene, ...) is the
 damaged bag's (:attr:`~tensegrity_ros.bag.reader.BagReader.custom_data`: the record the
 recorder wrote at the start of its file survives the kill); the new file and
-``metadata.yaml`` both carry it. The damaged file is kept as ``<file>.orig`` unless
+``metadata.yaml`` both carry it. A ``custom_data`` the reader refuses (a malformed record
+from a hostile file or another tool) does not stop the repair: the messages are what it
+saves, the bag is repaired without ``custom_data``, and :attr:`RepairResult.notes` says
+why. The damaged file is kept as ``<file>.orig`` unless
 ``keep_original=False``. An intact bag only gets its ``metadata.yaml`` regenerated.
 
 Repair touches nothing outside the bag folder: the storage files it reads, renames or
@@ -40,15 +43,25 @@ class RepairResult:
     topic_counts: dict[str, int]
     damage: list[str] = field(default_factory=list)   # where the scan stopped, per file
     originals: list[Path] = field(default_factory=list)  # kept damaged files
+    notes: list[str] = field(default_factory=list)      # what was left out, one line each
 
 
-def _metadata_from_reader(reader: BagReader, files: list[FileInfo]) -> BagMetadata:
+def _custom_data(reader: BagReader) -> tuple[dict[str, str] | None, list[str]]:
+    """The bag's ``custom_data`` and no note, or None and a note saying why it is dropped."""
+    try:
+        return reader.custom_data, []
+    except BagError as err:
+        return None, [f"custom_data left out (the repaired bag has none): {err}"]
+
+
+def _metadata_from_reader(reader: BagReader, files: list[FileInfo],
+                          custom: dict[str, str] | None) -> BagMetadata:
     topics = reader.topics()
     count = sum(t.message_count for t in topics)
     start = reader.start_ns or 0
     duration = (reader.end_ns - start) if reader.end_ns is not None else 0
     return BagMetadata(topics=topics, files=files, starting_time_ns=start,
-                       duration_ns=duration, message_count=count, custom_data=reader.custom_data)
+                       duration_ns=duration, message_count=count, custom_data=custom)
 
 
 def repair_bag(folder: str | os.PathLike[str], *, keep_original: bool = True,
@@ -58,18 +71,18 @@ def repair_bag(folder: str | os.PathLike[str], *, keep_original: bool = True,
     if not folder.is_dir():
         raise BagError(f"bag folder {folder} does not exist")
     reader = BagReader(folder)
+    custom, notes = _custom_data(reader)
     if not reader.recovered:
-        meta = _metadata_from_reader(reader, reader.file_infos())
+        meta = _metadata_from_reader(reader, reader.file_infos(), custom)
         write_metadata(folder, meta)
         return RepairResult(folder, False, meta.message_count,
-                            {t.name: t.message_count for t in meta.topics})
+                            {t.name: t.message_count for t in meta.topics}, notes=notes)
 
     work = Path(tempfile.mkdtemp(prefix=".repair-", dir=folder))
     tmp = work / "bag"
     target = mcap_file_name(folder)
     try:
         definitions = reader.definitions()
-        custom = reader.custom_data
         with BagWriter(tmp, compression=compression, file_name=target, custom_data=custom) as writer:
             for topic in reader.topics():
                 topic.message_count = 0
@@ -102,4 +115,4 @@ def repair_bag(folder: str | os.PathLike[str], *, keep_original: bool = True,
     shutil.rmtree(work, ignore_errors=True)
     return RepairResult(folder, True, meta.message_count,
                         {t.name: t.message_count for t in meta.topics},
-                        reader.damage, originals)
+                        reader.damage, originals, notes)

@@ -112,7 +112,8 @@ def _repair(args: argparse.Namespace) -> int:
     if args.json:
         print_json({"folder": str(result.folder), "rewritten": result.rewritten,
                     "message_count": result.message_count, "topics": result.topic_counts,
-                    "damage": result.damage, "originals": [str(p) for p in result.originals]})
+                    "damage": result.damage, "originals": [str(p) for p in result.originals],
+                    "notes": result.notes})
         return 0
     if result.rewritten:
         print(f"recovered {result.message_count} messages into {result.folder}"
@@ -124,6 +125,8 @@ def _repair(args: argparse.Namespace) -> int:
     else:
         print(f"storage of {result.folder} is intact ({result.message_count} messages); "
               "metadata.yaml regenerated")
+    for note in result.notes:
+        print(f"  {note}")
     return 0
 
 
