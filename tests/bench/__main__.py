@@ -74,15 +74,15 @@ def main(argv=None) -> int:
             ran.add((group, fn.__name__))
     by_name = {(r.group, r.name): r for r in rows}
     for r in rows:
-        if r.baseline and (r.group, r.baseline) in by_name and r.value:
-            r.ratio = by_name[(r.group, r.baseline)].value / r.value
+        if r.baseline and (r.group, r.baseline) in by_name:
+            r.ratio = harness.ratio_to_baseline(r, by_name[(r.group, r.baseline)])
         if r.met is None:
             r.met = harness.target_met(r)
     w = max([len(r.name) for r in rows] + [10])
-    print(f"{'group':10} {'benchmark':{w}} {'value':>12} {'unit':8} {'vs baseline':>12}  {'target':7} target / note")
+    print(f"{'group':10} {'benchmark':{w}} {'value':>12} {'unit':8} {'vs baseline':>22}  {'target':7} target / note")
     for r in rows:
-        ratio = f"{r.ratio:10.2f}x" if r.ratio is not None else ""
-        print(f"{r.group:10} {r.name:{w}} {r.value:12.4g} {r.unit:8} {ratio:>12}  {VERDICT[r.met]:7} "
+        ratio = harness.format_ratio(r) if r.ratio is not None else ""
+        print(f"{r.group:10} {r.name:{w}} {r.value:12.4g} {r.unit:8} {ratio:>22}  {VERDICT[r.met]:7} "
               f"{r.target} {r.note}".rstrip())
     _summarise_targets(rows)
     if args.json:
@@ -110,7 +110,8 @@ def _summarise_targets(rows) -> None:
     print(f"\ntargets: {len(checked) - len(missed)} met, {len(missed)} missed of {len(checked)} checked"
           + (f" ({unchecked} in words, not checked)" if unchecked else ""))
     for r in missed:
-        ratio = f" ({r.ratio:.3g}x against {r.baseline!r})" if r.ratio is not None else ""
+        of = "of" if harness.is_rate(r.unit) else "against"
+        ratio = f" ({r.ratio:.3g}x {of} {r.baseline!r})" if r.ratio is not None else ""
         print(f"  MISSED  {r.group}: {r.name}: {r.value:.4g} {r.unit}{ratio}; target {r.target}")
 
 

@@ -78,7 +78,7 @@ class Row:
     baseline: str | None = None   # name of the row this one is compared with
     target: str = ""              # the claim, e.g. "< 20 us" or ">= 50x"
     note: str = ""
-    ratio: float | None = None    # filled in by the harness: baseline.value / value
+    ratio: float | None = None    # filled in by the harness: :func:`ratio_to_baseline`
     bench: str = ""               # filled in by the harness: the benchmark function's name
     #: whether the target is met: set by a benchmark whose target is words ("on the front"),
     #: else filled in by the harness from the target (:func:`target_met`); None: not checked
@@ -98,11 +98,33 @@ _TARGET: Final = re.compile(r"\s*(ratio\s+)?(<=|>=|==|<|>)\s*([-+]?(?:\d+\.?\d*|
 _COMPARE: Final = {"<": float.__lt__, "<=": float.__le__, ">": float.__gt__, ">=": float.__ge__, "==": float.__eq__}
 
 
+def is_rate(unit: str) -> bool:
+    """Whether ``unit`` is a rate (more per second is more): ``Hz``, ``kHz``, ``fps`` or
+    ``THING/s`` (``states/s``, ``1/s``); a time per second (``s/s``, a cost) is not one."""
+    u = unit.split()[0] if unit.split() else ""
+    thing, per, second = u.rpartition("/")
+    return u in ("Hz", "kHz", "fps") or (bool(per) and second == "s" and _FAMILY.get(thing) != "time")
+
+
+def ratio_to_baseline(row: Row, base: Row) -> float | None:
+    """How ``row`` compares with its baseline row, in the direction that reads right: a
+    rate's value ÷ the baseline's ("0.22x of baseline": 13.5 fps against 60.7 fps), any
+    other row's baseline ÷ value (a time's speed-up: "4.50x" is 4.5 times faster). None
+    when the divisor is 0."""
+    num, den = (row.value, base.value) if is_rate(row.unit) else (base.value, row.value)
+    return num / den if den else None
+
+
+def format_ratio(row: Row) -> str:
+    """The table's "vs baseline" entry of ``row`` (its ratio set): ``4.50x``, ``0.22x of baseline``."""
+    return f"{row.ratio:.2f}x" + (" of baseline" if is_rate(row.unit) else "")
+
+
 def target_met(row: Row) -> bool | None:
     """Whether ``row`` meets its target, when the target is a comparison: ``OP NUMBER
     [UNIT]`` against the value (a unit of another scale of the row's unit is converted,
     ``< 2 ms`` for a row in us; words after it are a comment), ``OP NUMBERx`` or
-    ``ratio OP NUMBER`` against the ratio to the baseline. None for a target in words
+    ``ratio OP NUMBER`` against the ratio to the baseline (:func:`ratio_to_baseline`). None for a target in words
     ("close to 1", "on the front") or one that cannot be compared (no ratio, another unit)."""
     m = _TARGET.match(row.target)
     if m is None:

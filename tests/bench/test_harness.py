@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from tests.bench.__main__ import _summarise_targets
-from tests.bench.harness import Row, target_met
+from tests.bench.harness import Row, format_ratio, is_rate, ratio_to_baseline, target_met
 
 
 @pytest.mark.parametrize("value, unit, target, ratio, met", [
@@ -42,3 +42,32 @@ def test_missed_targets_are_summarised_at_the_end(capsys):
         "  MISSED  sim: quasi-static speed-up: 1 s (8.97x against 'dynamic'); target >= 10x",
         "  MISSED  ros: recorder dropped joint_states: 125 msgs; target == 0",
     ]
+
+
+@pytest.mark.parametrize("unit, rate", [
+    ("Hz", True), ("kHz", True), ("fps", True), ("states/s", True), ("1/s", True), ("steps/s", True),
+    ("s", False), ("ms", False), ("s/s", False), ("us/call", False), ("s CPU", False), ("MiB", False), ("", False),
+])
+def test_a_rate_is_told_by_its_unit(unit, rate):
+    assert is_rate(unit) is rate
+
+
+def test_the_ratio_reads_right_for_a_rate_and_for_a_time():
+    """A rate is compared as value / baseline (13.5 of 60.75 fps is 2/9 of it), a time as
+    baseline / value (1 s against 4.5 s is 4.5 times faster)."""
+    page = Row("view", "page", 13.5, "fps", baseline="empty")
+    page.ratio = ratio_to_baseline(page, Row("view", "empty", 60.75, "fps"))
+    assert page.ratio == pytest.approx(2 / 9) and format_ratio(page) == "0.22x of baseline"
+    fast = Row("sim", "fast", 1.0, "s", baseline="slow")
+    fast.ratio = ratio_to_baseline(fast, Row("sim", "slow", 4.5, "s"))
+    assert fast.ratio == pytest.approx(4.5) and format_ratio(fast) == "4.50x"
+    assert ratio_to_baseline(page, Row("view", "empty", 0.0, "fps")) is None
+    assert ratio_to_baseline(Row("sim", "zero", 0.0, "s"), Row("sim", "slow", 4.5, "s")) is None
+
+
+def test_a_missed_rate_is_summarised_as_a_part_of_its_baseline(capsys):
+    rows = [Row("view", "frames rendered per s", 13.5, "fps", baseline="empty page", target="ratio >= 0.5",
+                ratio=2 / 9, met=False)]
+    _summarise_targets(rows)
+    assert capsys.readouterr().out.splitlines()[2] == \
+        "  MISSED  view: frames rendered per s: 13.5 fps (0.222x of 'empty page'); target ratio >= 0.5"
