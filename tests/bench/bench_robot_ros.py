@@ -15,7 +15,7 @@ simulator step). Each ROS figure is set against the core in this process, in the
    core making the same steps with a joint sample each (what the node publishes joint_states
    from). Claims: >= 500 steps/s and >= 0.7 of the ping-pong. Beside the means: the median
    time between two answers at the client and the CPU per exchange of the simulator and of
-   the echo (what a busy machine distorts less).
+   the echo (what a busy machine distorts less than the means).
 
 The free-running figures are measured one after the other (the node's window, then the
 core's same steps), so a change of the machine's load between them moves their ratio; the
@@ -171,7 +171,7 @@ def lockstep_loop(ctx: Context) -> list[Row]:
         Row("robot_ros", "bare ping-pong: median time between answers", gap_b * 1e3, "ms",
             note="at the client; a preempted exchange moves the mean, hardly the median"),
         Row("robot_ros", "6-bar lockstep: median time between states", gap_s * 1e3, "ms",
-            baseline="bare ping-pong: median time between answers", note="the ratio the load distorts least"),
+            baseline="bare ping-pong: median time between answers", note="a ratio the load distorts less than the means'"),
         Row("robot_ros", "echo process CPU per round trip", cpu_b * 1e6, "us", note="/proc, mean over the runs"),
         Row("robot_ros", "simulator process CPU per lockstep step", cpu_s * 1e6, "us",
             baseline="echo process CPU per round trip", note="/proc, mean over the runs"),
