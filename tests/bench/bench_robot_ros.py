@@ -13,7 +13,9 @@ simulator step). Each ROS figure is set against the core in this process, in the
    in this process answers every joint state with a ``CableCommand`` of the 24 rest lengths
    stamped like it, alternating with a bare rclpy ping-pong (:mod:`.lockstep_loop`), and the
    core making the same steps with a joint sample each (what the node publishes joint_states
-   from). Claims: >= 500 steps/s and >= 0.7 of the ping-pong.
+   from). Claims: >= 500 steps/s and >= 0.7 of the ping-pong. Beside the means: the median
+   time between two answers at the client and the CPU per exchange of the simulator and of
+   the echo (what a busy machine distorts less than the means).
 
 The free-running figures are measured one after the other (the node's window, then the
 core's same steps), so a change of the machine's load between them moves their ratio; the
@@ -140,16 +142,24 @@ def lockstep_loop(ctx: Context) -> list[Row]:
                         n=n, joints=motors, command_type=CableCommand, command_topic="cable_commands",
                         answer=lambda: CableCommand(name=motors, rest_length=[HOLD] * len(motors)))
     core = CoreMirror("six_bar_drop", 1, joints_only=True)
-    bare, steps, mirror = [], [], []
+    bare, steps, mirror, exchanges = [], [], [], []
     for i in range(rounds + 1):
-        b, s_, c = loop.ping_pong(), loop.lockstep(), core.run(n, [HOLD] * len(motors))
+        b = loop.ping_pong()
+        pong = loop.last
+        s_ = loop.lockstep()
+        c = core.run(n, [HOLD] * len(motors))
         if i:                              # the first round warms up
             bare.append(b)
             steps.append(s_)
             mirror.append(c)
+            exchanges.append((pong, loop.last))
     loop.close()
     b, s_, c = statistics.median(bare), statistics.median(steps), statistics.median(mirror)
     ratios = sorted(x / y for x, y in zip(bare, steps))
+    gap_b = statistics.median(p.median_gap_s for p, _ in exchanges)
+    gap_s = statistics.median(q.median_gap_s for _, q in exchanges)
+    cpu_b = statistics.fmean(p.server_cpu_s for p, _ in exchanges)    # over every run: the clock ticks of
+    cpu_s = statistics.fmean(q.server_cpu_s for _, q in exchanges)    # 10 ms need many steps
     return [
         Row("robot_ros", "6-bar core step + joint sample", c * 1e3, "ms"),
         Row("robot_ros", "bare rclpy ping-pong round trip (24 joints)", b * 1e3, "ms"),
@@ -158,4 +168,11 @@ def lockstep_loop(ctx: Context) -> list[Row]:
             note=f"{1 / s_:.0f} steps/s; median of {rounds} runs of {n}; per-pair ratios "
                  f"{ratios[0]:.2f}..{ratios[-1]:.2f}"),
         Row("robot_ros", "6-bar lockstep steps per second", 1 / s_, "steps/s", target=">= 500"),
+        Row("robot_ros", "bare ping-pong: median time between answers", gap_b * 1e3, "ms",
+            note="at the client; a preempted exchange moves the mean, hardly the median"),
+        Row("robot_ros", "6-bar lockstep: median time between states", gap_s * 1e3, "ms",
+            baseline="bare ping-pong: median time between answers", note="a ratio the load distorts less than the means'"),
+        Row("robot_ros", "echo process CPU per round trip", cpu_b * 1e6, "us", note="/proc, mean over the runs"),
+        Row("robot_ros", "simulator process CPU per lockstep step", cpu_s * 1e6, "us",
+            baseline="echo process CPU per round trip", note="/proc, mean over the runs"),
     ]

@@ -12,8 +12,12 @@ answers every joint state once with the command ``answer()`` gives, stamped like
   one step; seconds per step.
 
 Alternate the two in one run (both servers run throughout, so a change of the machine's
-load hits both series alike). :meth:`LockstepLoop.close` stops everything and checks that
-every step ran under its own command (no rejected command, no lockstep timeout).
+load hits both series alike). After each, :attr:`LockstepLoop.last` holds what a busy
+machine distorts less than the mean: the median time between two consecutive answers at
+the client (a preempted exchange moves the mean, hardly the median) and the CPU time the
+answering process (the echo, or the simulator) spent per exchange, from ``/proc``.
+:meth:`LockstepLoop.close` stops everything and checks that every step ran under its own
+command (no rejected command, no lockstep timeout).
 """
 
 from __future__ import annotations
@@ -24,8 +28,30 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 
 from tests.bench.bench_ros import _start, _stop
+
+#: Clock ticks per second of ``/proc/<pid>/stat``'s CPU times.
+_TICKS = os.sysconf("SC_CLK_TCK")
+
+
+def process_cpu_s(pid: int) -> float:
+    """CPU seconds (user + system) process ``pid`` has used, from ``/proc/<pid>/stat``."""
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / _TICKS
+
+
+@dataclass(frozen=True)
+class Exchanges:
+    """One run of ``n`` exchanges: seconds per exchange (wall, over the run), the median
+    seconds between consecutive answers at the client, and the answering process's CPU
+    seconds per exchange."""
+
+    mean_s: float
+    median_gap_s: float
+    server_cpu_s: float
 
 
 def ros_client(env: dict, name: str = "bench_stepping_client"):
@@ -78,6 +104,9 @@ class LockstepLoop:
         self.pub = self.node.create_publisher(command_type, command_topic, QoSProfile(depth=100))
         self._answer = answer
         self._answered = -1
+        self._arrivals: list[float] = []   # perf_counter of each answer of the current run
+        #: The last run's :class:`Exchanges` (after :meth:`ping_pong` or :meth:`lockstep`).
+        self.last: Exchanges | None = None
         self.node.create_subscription(JointState, "joint_states", self._on_state, QoSProfile(depth=100))
         self.step = self.node.create_client(StepSimulation, "step_simulation")
         if not self.step.wait_for_service(timeout_sec=30):
@@ -109,6 +138,7 @@ class LockstepLoop:
         self.ping.publish(out)
 
     def _on_pong(self, _msg) -> None:
+        self._arrivals.append(time.perf_counter())
         self.got += 1
         if self.got < self.n_wanted:      # the last pong ends the exchange (it must not run on)
             self._send_ping()
@@ -117,6 +147,7 @@ class LockstepLoop:
         stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
         if stamp == self._answered:       # republished at the start of a request: answered already
             return
+        self._arrivals.append(time.perf_counter())
         self._answered = stamp
         cmd = self._answer()
         cmd.header.stamp = msg.header.stamp
@@ -126,6 +157,7 @@ class LockstepLoop:
         """Seconds per bare round trip, over ``n``; a RuntimeError when the exchange stops
         (a message lost after the handshake) for ``timeout_s``."""
         self.got, self.n_wanted = 0, self.n
+        self._arrivals, cpu0 = [], process_cpu_s(self.echo.pid)
         t0 = time.perf_counter()
         self._send_ping()
         last, progress = 0, time.monotonic()
@@ -135,7 +167,7 @@ class LockstepLoop:
                 last, progress = self.got, time.monotonic()
             elif time.monotonic() - progress > timeout_s:
                 raise RuntimeError(f"the ping-pong stopped after {self.got} of {self.n} round trips")
-        return (time.perf_counter() - t0) / self.n
+        return self._ran(t0, cpu0, self.echo.pid)
 
     def lockstep(self) -> float:
         """Seconds per lockstep step, over one ``StepSimulation(n)``."""
@@ -143,10 +175,18 @@ class LockstepLoop:
 
         from tensegrity_ros.rclpy_utils.futures import spin_until_done
 
+        self._arrivals, cpu0 = [], process_cpu_s(self.sim.pid)
         t0 = time.perf_counter()
         future = self.step.call_async(StepSimulation.Request(steps=self.n))
         assert spin_until_done(self.ex, future, 600) and future.result().result.result == 1, future.result()
-        return (time.perf_counter() - t0) / self.n
+        return self._ran(t0, cpu0, self.sim.pid)
+
+    def _ran(self, t0: float, cpu0: float, server: int) -> float:
+        """Keep the run's :class:`Exchanges` in :attr:`last`; seconds per exchange."""
+        mean = (time.perf_counter() - t0) / self.n
+        gaps = sorted(b - a for a, b in zip(self._arrivals, self._arrivals[1:])) or [mean]
+        self.last = Exchanges(mean, gaps[len(gaps) // 2], (process_cpu_s(server) - cpu0) / self.n)
+        return mean
 
     def close(self) -> None:
         """Stop the client, the simulator and the echo; every step ran under its own command."""

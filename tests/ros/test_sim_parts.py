@@ -1,5 +1,6 @@
 """The simulator node's parts without DDS: the sender's stamps, the receiver's lockstep
-check, the plant's integer clock, the run-control table of the standard."""
+check, the plant's integer clock, the run-control table of the standard, joint_states as
+serialized bytes."""
 
 from __future__ import annotations
 
@@ -126,6 +127,39 @@ def test_joint_states_alone_come_from_the_joint_sample_and_equal_the_full_observ
     assert calls == []                                    # no full observation for them
     every = dict(outputs.messages(hdr, lambda t: True))
     assert calls == [1]
-    for topic in ("joint_states", "end_effector"):
-        assert alone[topic] == every[topic]
-    assert len(alone["joint_states"].name) == len(plant.interface.inputs) > 0
+    from rclpy.serialization import deserialize_message
+    from sensor_msgs.msg import JointState
+
+    joints = deserialize_message(alone["joint_states"], JointState)    # published as serialized bytes
+    assert joints == every["joint_states"]
+    assert alone["end_effector"] == every["end_effector"]
+    assert len(joints.name) == len(plant.interface.inputs) > 0
+
+
+@pytest.mark.parametrize("names", [(), ("rho1", "rho2", "beta"), tuple(f"c{i}_{i + 4}" for i in range(24))])
+def test_joint_states_as_bytes_read_back_as_the_messages_rclpy_builds(names):
+    """rclpy's deserializer reads every refill of the serialized joint_states as the message
+    rclpy itself builds from the same values (random values and stamps, every byte pattern of
+    a float64 that is not NaN); values of another length are refused."""
+    import numpy as np
+    from rclpy.serialization import deserialize_message
+    from sensor_msgs.msg import JointState
+
+    from tensegrity_ros.nodes.sim.joint_bytes import JointStateBytes
+
+    cdr = JointStateBytes(names, "lab")
+    assert cdr.ok
+    rng = np.random.default_rng(7)
+    n = len(names)
+    for _ in range(50):
+        sec, nanosec = int(rng.integers(0, 2**31)), int(rng.integers(0, 10**9))
+        values = [rng.integers(0, 2**64, n, dtype=np.uint64).view(np.float64) for _ in range(3)]
+        values = [np.where(np.isnan(v), 0.5, v) for v in values]
+        expected = JointState(name=list(names), position=values[0].tolist(), velocity=values[1].tolist(),
+                              effort=values[2].tolist())
+        expected.header.frame_id = "lab"
+        expected.header.stamp.sec, expected.header.stamp.nanosec = sec, nanosec
+        assert deserialize_message(cdr.fill(sec, nanosec, *values), JointState) == expected
+    if n:
+        with pytest.raises(ValueError, match=f"joint_states of {n} joints, got {n - 1} values"):
+            cdr.fill(0, 0, values[0][1:], values[1], values[2])

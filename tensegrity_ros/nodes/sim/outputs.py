@@ -28,7 +28,9 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import numpy as np
 from geometry_msgs.msg import PointStamped
+from numpy.typing import NDArray
 from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Header
 from tensegrity_msgs.msg import CableStates, CapContacts, MechanismState, RigidBodyStates
@@ -37,10 +39,12 @@ from visualization_msgs.msg import MarkerArray
 from tensegrity_core.class2.names import JOINTS
 from tensegrity_ros.nodes.sim import robot_messages, sender
 from tensegrity_ros.nodes.sim.decimation import Decimation
+from tensegrity_ros.nodes.sim.joint_bytes import JointStateBytes
 from tensegrity_ros.nodes.sim.plant import SimPlant
 
 #: What a publication needs done: the message of each topic (name, message).
 Messages = list[tuple[str, object]]
+FloatArray = NDArray[np.float64]
 #: The topics a joint sample gives (no observation needed).
 _JOINTS_ONLY = frozenset({"joint_states", "end_effector"})
 
@@ -75,14 +79,15 @@ class Outputs:
         self.decimation = Decimation(publish_rate, slow)
         #: The topics of every publication.
         self.every_publication = tuple(t for t in self.topics if t not in self.decimation.every)
-        # the joint_states message, reused (its names are set once; only the node publishes it)
-        self._joints = JointState(name=list(plant.interface.inputs if self.general else JOINTS))
+        #: The joint names of joint_states.
+        self.joint_names = tuple(plant.interface.inputs if self.general else JOINTS)
+        self._joint_bytes: JointStateBytes | None = None
 
     def messages(self, hdr: Header, wanted: Callable[[str], bool]) -> Messages:
         """The messages of this publication (counted by the decimation) for the topics
         ``wanted`` (someone subscribes; asked only of the topics due: an rmw graph query
-        each); the expensive observation only when needed. The joint_states message is
-        reused: valid until the next call."""
+        each); the expensive observation only when needed. joint_states from the joint
+        sample are serialized bytes (what a publisher publishes as they are)."""
         due = self.decimation.next()
         want = {t for t in self.every_publication if wanted(t)}
         if due:
@@ -97,7 +102,9 @@ class Outputs:
             sample = plant.joint_sample(coordinates=False)
             if len(sample.actuated_lengths) == len(interface.inputs):
                 if "joint_states" in want:
-                    out.append(("joint_states", sender.actuated_joint_state_msg(sample, interface, hdr, self._joints)))
+                    out.append(("joint_states", self._joints(
+                        hdr, sample.actuated_lengths, sample.actuated_rates, sample.actuated_forces,
+                        lambda: sender.actuated_joint_state_msg(sample, interface, hdr))))
                 if "end_effector" in want:
                     out.append(("end_effector", sender.end_effector_msg(sample, hdr)))
                 return out
@@ -119,7 +126,9 @@ class Outputs:
         if want & {"joint_states", "end_effector"}:
             sample = plant.joint_sample()
             if "joint_states" in want:
-                out.append(("joint_states", sender.joint_state_msg(sample, hdr, self._joints)))
+                out.append(("joint_states", self._joints(
+                    hdr, sample.q, sample.qdot, np.array([sample.applied_forces[0], sample.applied_forces[1], 0.0]),
+                    lambda: sender.joint_state_msg(sample, hdr))))
             if "end_effector" in want:
                 out.append(("end_effector", sender.end_effector_msg(sample, hdr)))
         if want & {"mechanism_state", "markers"}:
@@ -129,3 +138,14 @@ class Outputs:
             if "markers" in want:
                 out.append(("markers", sender.markers_msg(obs, hdr)))
         return out
+
+    def _joints(self, hdr: Header, position: FloatArray, velocity: FloatArray, effort: FloatArray,
+                message: Callable[[], JointState]) -> bytes | JointState:
+        """joint_states of this publication as serialized bytes (:mod:`.joint_bytes`: the
+        names and frame serialized once), or ``message()`` where those bytes do not check out."""
+        cdr = self._joint_bytes
+        if cdr is None or cdr.frame_id != hdr.frame_id:
+            cdr = self._joint_bytes = JointStateBytes(self.joint_names, hdr.frame_id)
+        if not cdr.ok or len(position) != len(self.joint_names):
+            return message()
+        return cdr.fill(hdr.stamp.sec, hdr.stamp.nanosec, position, velocity, effort)

@@ -72,11 +72,9 @@ def _doubles(values: Sequence[float] | NDArray[np.float64]) -> array.array[float
     return array.array("d", np.ascontiguousarray(values, dtype=np.float64).tobytes())
 
 
-def joint_state_msg(sample: JointSample, hdr: Header, out: JointState | None = None) -> JointState:
-    """Joints rho1, rho2 [m], beta [rad]: position, velocity, effort = applied force [N] (0 for
-    beta); written into ``out`` when given (a message of these joints, reused: its names stay)."""
-    msg = JointState(name=list(JOINTS)) if out is None else out
-    msg.header = hdr
+def joint_state_msg(sample: JointSample, hdr: Header) -> JointState:
+    """Joints rho1, rho2 [m], beta [rad]: position, velocity, effort = applied force [N] (0 for beta)."""
+    msg = JointState(header=hdr, name=list(JOINTS))
     msg.position = _doubles(sample.q)
     msg.velocity = _doubles(sample.qdot)
     msg.effort = _doubles((sample.applied_forces[0], sample.applied_forces[1], 0.0))
@@ -94,12 +92,9 @@ def cable_joint_state_msg(obs: Observation, interface: Interface, hdr: Header) -
     return msg
 
 
-def actuated_joint_state_msg(sample: JointSample, interface: Interface, hdr: Header,
-                             out: JointState | None = None) -> JointState:
-    """The joints of :func:`cable_joint_state_msg` from a joint sample (its ``actuated_*``);
-    written into ``out`` when given (a message of these joints, reused: its names stay)."""
-    msg = JointState(name=list(interface.inputs)) if out is None else out
-    msg.header = hdr
+def actuated_joint_state_msg(sample: JointSample, interface: Interface, hdr: Header) -> JointState:
+    """The joints of :func:`cable_joint_state_msg` from a joint sample (its ``actuated_*``)."""
+    msg = JointState(header=hdr, name=list(interface.inputs))
     msg.position = _doubles(sample.actuated_lengths)
     msg.velocity = _doubles(sample.actuated_rates)
     msg.effort = _doubles(sample.actuated_forces)
