@@ -7,7 +7,8 @@ the sequence of faces. A set counts as a face when it holds for at least ``hold`
 face); consecutive repeats merge, and :func:`faces_rolled` counts a return to a face
 visited before (a rock back) as no new face. :func:`faces_touched` is the strict count: every
 hull face whose caps all touched at one sample, however briefly (a robot that rolls through a
-face without resting on it has still crossed its edges).
+face without resting on it has still crossed its edges), and :func:`edge_by_edge` whether the
+faces touched follow each other over one shared edge each.
 """
 
 from __future__ import annotations
@@ -60,3 +61,17 @@ def faces_touched(touching: Sequence[Sequence[int]] | NDArray[np.int64],
         now = {int(i) for i in row}
         out += [frozenset(f) for f in faces if now.issuperset(f) and frozenset(f) not in out]
     return out
+
+
+def edge_by_edge(touching: Sequence[Sequence[int]] | NDArray[np.int64],
+                 faces: Sequence[tuple[int, int, int]]) -> bool:
+    """Whether the hull ``faces`` whose three caps touch, in the order touched (``touching``:
+    per sample the touching caps' node indices), each share an edge with the one before: the
+    robot crossed one edge at a time, never a face on two caps without its third touching."""
+    seq: list[frozenset[int]] = []
+    for row in touching:
+        now = {int(i) for i in row}
+        for f in faces:
+            if now.issuperset(f) and (not seq or seq[-1] != frozenset(f)):
+                seq.append(frozenset(f))
+    return all(len(p & q) == 2 for p, q in zip(seq, seq[1:]))

@@ -19,19 +19,24 @@ floor, sampled at the control rate:
    (not the edge it came over); the move of :func:`.tipping.tipping_step` derived for that
    face and edge on the robot's rest shape (:class:`TipMoves`: from the robot's shipped table
    of moves, ``examples/tips/NAME.yaml``, or derived once per face and edge, then kept).
-3. **Tipping.** The move is commanded and held until the robot turns about the edge: at the
-   first sample where both caps of the edge touch and the face's third cap has left the
-   floor, every cable is released (back to 2. once it rests on a face). A move that has not
-   tipped the robot within ``give_up`` [s] is released and the next best edge is tried.
+3. **Tipping.** The move's cables are driven from their nominal rest lengths towards the
+   move at ``speed`` [m/s] (below the motors' own limit, so the robot tips quasi-statically,
+   just past the edge), until the robot turns about the edge: at the first sample where both
+   caps of the edge touch, the face's third cap is off the floor and the centre of mass
+   (lumped masses, :func:`.tipping.lumped_masses`) seen from above is beyond the edge, or a
+   cap of another face touches, every cable is released (back to 2. once it rests on a
+   face). A move that has not tipped the robot within ``give_up`` [s] is released and the
+   next best edge is tried.
 
-Why release while it turns rather than on landing: the move stores strain energy in the
-cables (the 6-bar's two-cable move off a closed face, held: up to 0.52 kJ above rest,
-tensions to 1.2 kN) and brings the centre of mass just past the edge. Held until the next
-face touches, the robot lands in the deformed shape with 0.42 kJ still stored and 15 J of
-kinetic energy, and the release then springs it back on the new face, over that face's next
-edge (an open face of the 6-bar is a shallow well: the rise over its short edges, ~0.03 m,
-equals the drop onto it). Released as it turns, the motors pay out during the fall and the
-robot lands near its rest shape, 2 J stored and 5 J kinetic, and the new face holds it
+Why drive the move slowly and let go as the robot turns: the move stores strain energy in
+the cables (the 6-bar's two-cable move off a closed face, commanded at once and held: up to
+0.51 kJ above rest, tensions to 1.2 kN) and throws the robot over the edge (24 J of kinetic
+energy at the peak). Held until the next face touches, the robot lands in its deformed shape
+with 0.40 kJ still stored and 16 J of kinetic energy, and the release springs it back over
+that face's next edge (an open face of the 6-bar is a shallow well: the rise of the centre of
+mass over its short edges, ~0.03 m, equals the drop onto it). Driven at 0.2 m/s and released
+as it turns, the motors pay out during the fall: the robot lands near its rest shape, with
+no strain energy left above rest and 6.6 J of kinetic energy, and the new face holds it
 (docs/robots.md, "A closed-loop rolling gait").
 
 Commands are rest lengths [m] of the robot's actuated cables (in the description's order).
@@ -51,7 +56,7 @@ from numpy.typing import ArrayLike, NDArray
 from tensegrity_core.errors import ConvergenceError
 from tensegrity_core.robot.description import Robot
 from tensegrity_core.robot.statics import rest_shape
-from tensegrity_core.robot.tipping import hull_faces, tipping_step
+from tensegrity_core.robot.tipping import hull_faces, lumped_masses, tipping_step
 from tensegrity_core.schema import read_file
 
 FloatArray = NDArray[np.float64]
@@ -146,19 +151,23 @@ class RollController:
     """Rolls ``robot`` over ``faces`` new faces towards ``heading`` (a direction on the floor,
     world x, y) from the contact state (module docstring). ``hold`` [s]: how long a contact
     set must last to count as a face; ``settle`` [s]: how long the robot rests released on a
-    face before the next move; ``give_up`` [s]: how long a move may take to tip it."""
+    face before the next move; ``give_up`` [s]: how long a move may take to tip it;
+    ``speed`` [m/s]: how fast the move's rest lengths are driven from nominal."""
 
     def __init__(self, robot: Robot, faces: int, *, heading: ArrayLike = (1.0, 0.0), hold: float = 0.05,
-                 settle: float = 0.5, give_up: float = 3.0, moves: TipMoves | None = None):
+                 settle: float = 0.5, give_up: float = 8.0, speed: float = 0.2, moves: TipMoves | None = None):
         if faces < 0:
             raise ValueError(f"the number of faces to roll must be >= 0, got {faces}")
         h = np.asarray(heading, dtype=float)
         if h.shape != (2,) or not np.all(np.isfinite(h)) or not np.linalg.norm(h) > 0:
             raise ValueError(f"the heading must be a nonzero direction (x, y) on the floor, got {heading!r}")
+        if not (speed > 0 and np.isfinite(speed)):
+            raise ValueError(f"the speed of a move must be a positive number of m/s, got {speed!r}")
         self.moves = moves if moves is not None and moves.robot is robot else TipMoves(robot)
         self.target = faces
         self.heading = h / np.linalg.norm(h)
-        self.hold, self.settle, self.give_up = hold, settle, give_up
+        self.hold, self.settle, self.give_up, self.speed = hold, settle, give_up, speed
+        self._mass = lumped_masses(robot)
         self.visited: list[Face] = []                   # faces rested on, in order (repeats merged)
         self._touching: frozenset[int] = frozenset()
         self._since = 0.0                               # when the current contact set began [s]
@@ -192,8 +201,17 @@ class RollController:
         now = frozenset(int(i) for i in np.asarray(touching, dtype=int).ravel())
         if now != self._touching:
             self._touching, self._since = now, t
-        X = np.asarray(nodes, dtype=float)
-        if self._tipping_since is not None and self._turning(now):
+        self._decide(t, now, np.asarray(nodes, dtype=float))
+        if self._tipping_since is None:
+            return self._command.copy()
+        # the move driven at ``speed`` from the nominal rest lengths (step 3)
+        reach = self.speed * (t - self._tipping_since)
+        out: FloatArray = self.moves.nominal + np.clip(self._command - self.moves.nominal, -reach, reach)
+        return out
+
+    def _decide(self, t: float, now: frozenset[int], X: FloatArray) -> None:
+        """Steps 1-3 on one sample: rest, choose, command or release the move."""
+        if self._tipping_since is not None and (self._turning(now, X) or self._landed(now)):
             self._release()                             # it falls over the edge: let go (step 3)
         face = self.resting_face(t, X)
         if face is not None and (not self.visited or self.visited[-1] != face):
@@ -202,18 +220,18 @@ class RollController:
             self.visited.append(face)
             self._tried = []
             self._release()                             # it tipped: let go, settle
-            return self._command
+            return
         if self._tipping_since is not None:
             if t - self._tipping_since >= self.give_up:
                 self._release()
-            return self._command
+            return
         if face is None or self.rolled >= self.target or t - self._since < self.settle:
-            return self._command
+            return
         choices = [(float(n @ self.heading), edge) for edge, n in outward_edges(face, X[:, :2])
                    if frozenset(edge) != self._came and edge not in self._tried]
         if not choices:
             self._tried = []
-            return self._command
+            return
         _, edge = max(choices)
         self._tried.append(edge)
         move = self.moves.command(face, edge)
@@ -221,13 +239,22 @@ class RollController:
             self._command = move
             self._tipping_since = t
             self._pivot = (frozenset(edge), next(i for i in face if i not in edge))
-        return self._command
 
-    def _turning(self, touching: frozenset[int]) -> bool:
+    def _turning(self, touching: frozenset[int], nodes: FloatArray) -> bool:
         """Whether the robot turns about the current move's edge (step 3): both its caps
-        touching, the third cap off the floor."""
+        touching, the third cap off the floor, the centre of mass beyond the edge."""
         edge, third = self._pivot
-        return bool(edge) and edge <= touching and third not in touching
+        if not edge <= touching or third in touching:
+            return False
+        a, b = sorted(edge)
+        outward = next(n for e, n in outward_edges((a, b, third), nodes[:, :2]) if set(e) == edge)
+        com = self._mass @ nodes[:, :2] / self._mass.sum()
+        return float(outward @ (com - nodes[a, :2])) > 0.0
+
+    def _landed(self, touching: frozenset[int]) -> bool:
+        """Whether the caps of a hull face other than the one the move started on touch."""
+        start = set(self.visited[-1])
+        return any(set(f) <= touching and set(f) != start for f in self.moves.faces)
 
     def _release(self) -> None:
         self._command = self.moves.nominal.copy()

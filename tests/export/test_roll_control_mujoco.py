@@ -2,7 +2,7 @@
 in MuJoCo (the export of ``six_bar_rest``): the controller sees MuJoCo's contacts and cap
 positions at 50 Hz and rolls the requested faces there too, counted independently from
 MuJoCo's contacts by :mod:`tensegrity_core.robot.faces` (faces rested on, and hull faces
-touched at all: none rolled through)."""
+touched at all, one edge at a time: none rolled through)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pytest
 mujoco = pytest.importorskip("mujoco", reason="the mujoco extra is not installed (./run setup installs it)")
 
 from tensegrity_core.export import export_mjcf  # noqa: E402
-from tensegrity_core.robot.faces import faces_rolled, faces_touched, faces_visited  # noqa: E402
+from tensegrity_core.robot.faces import edge_by_edge, faces_rolled, faces_touched, faces_visited  # noqa: E402
 from tensegrity_core.robot.roll_control import RollController  # noqa: E402
 from tensegrity_core.sim import load_scene  # noqa: E402
 from tests.mujoco_peer import touching_caps  # noqa: E402
@@ -53,3 +53,4 @@ def test_the_controller_rolls_the_requested_faces_in_mujoco(faces, heading):
     assert controller.done, controller.visited
     assert faces_rolled(faces_visited(times, np.array(contact))) == faces, controller.visited
     assert len(faces_touched(touched, controller.moves.faces)) - 1 == faces, controller.visited
+    assert edge_by_edge(touched, controller.moves.faces), controller.visited

@@ -8,8 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from tensegrity_core.robot.faces import faces_rolled, faces_touched, faces_visited
+from tensegrity_core.robot.faces import edge_by_edge, faces_rolled, faces_touched, faces_visited
 from tensegrity_core.robot.loading import load_robot
 from tensegrity_core.robot.roll_control import TIPS_DIR, RollController, TipMoves
 from tensegrity_core.robot.statics import rest_shape
@@ -31,30 +33,34 @@ def rest_scene():
 def _roll(model, state, controller):
     """Run ``controller`` from ``state``; from the contact state of the samples, independently
     of the controller: the faces rolled (rested on), the hull faces touched beyond the first
-    (however briefly), the caps (node indices) of the last face and of the first."""
+    (however briefly), the caps (node indices) of the last face and of the first; and it
+    crossed one edge at a time."""
     samples = run_controlled(model, state, controller, rate=RATE, duration=20.0, after=1.0)
     seen = model.observe(samples)
     contact = seen["contact_forces"] > 0.0
     faces = faces_visited(seen["t"], contact)
     caps = model.plan.cap_node
-    touched = faces_touched([caps[row] for row in contact], controller.moves.faces)
+    touching = [caps[row] for row in contact]
+    assert edge_by_edge(touching, controller.moves.faces), controller.visited
+    touched = faces_touched(touching, controller.moves.faces)
     return faces_rolled(faces), len(touched) - 1, {int(caps[i]) for i in faces[-1][1]}, faces[0][1]
 
 
-@pytest.mark.parametrize("heading", [(1.0, 0.0), (0.3, 1.0), (-1.0, -0.4), (0.5403, 0.8415)])
-def test_the_controller_rolls_exactly_the_requested_faces(rest_scene, heading):
-    """From the drawn face, towards four headings, runs asked for 1, 2, 1 and 3 faces in turn
-    (each starting where the last ended: closed and open faces) roll exactly the requested
+@settings(max_examples=4)
+@given(angle=st.floats(-np.pi, np.pi), counts=st.lists(st.integers(1, 4), min_size=3, max_size=3))
+def test_the_controller_rolls_exactly_the_requested_faces(rest_scene, angle, counts):
+    """From the drawn face, towards any heading, runs asked for 1-4 faces in turn (each
+    starting where the last ended: closed and open faces) roll exactly the requested
     faces, counted independently from the contact state both as faces rested on and as hull
-    faces touched at all (none rolled through), and the robot rests on the face the
+    faces touched at all, one edge at a time (none rolled through), and the robot rests on the face the
     controller reached, 1 s after its last tip."""
     scene, model, moves = rest_scene
     robot = scene.model.robot
     state = model.initial_state(t_end=400.0)
-    heading = np.asarray(heading) / np.linalg.norm(heading)
+    heading = np.array([np.cos(angle), np.sin(angle)])
     x0 = model.observe_now(state)["centre_of_mass"][:2]
     travel = 0
-    for n in (1, 2, 1, 3):
+    for n in counts:
         controller = RollController(robot, n, heading=heading, moves=moves)
         rolled, touched, last, _ = _roll(model, state, controller)
         assert controller.done, (n, controller.visited)
@@ -108,3 +114,5 @@ def test_bad_requests_are_refused_with_one_line():
         RollController(robot, 1, heading=(0.0, 0.0))
     with pytest.raises(ValueError, match="heading must be a nonzero direction"):
         RollController(robot, 1, heading=(np.nan, 1.0))
+    with pytest.raises(ValueError, match="speed of a move must be a positive number of m/s, got 0.0"):
+        RollController(robot, 1, speed=0.0)
