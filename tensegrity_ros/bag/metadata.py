@@ -25,7 +25,7 @@ Version 8 and older files (QoS profiles as a YAML string with enum integers) are
 from __future__ import annotations
 
 import os
-import tempfile
+import secrets
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Final
@@ -286,10 +286,13 @@ def read_metadata(folder: str | os.PathLike[str]) -> BagMetadata:
 def write_metadata(folder: str | os.PathLike[str], meta: BagMetadata) -> Path:
     """Write ``<folder>/metadata.yaml`` atomically: a new temporary file in the folder (a
     fresh name, never an existing file or link), then a rename over the old one (which
-    replaces a link rather than writing through it)."""
+    replaces a link rather than writing through it). The file gets the permissions of any
+    file the user creates (``0o666`` less the umask, as the storage file and rosbag2's
+    ``metadata.yaml``), not a temporary file's owner-only ones."""
     folder = Path(folder)
     path = folder / METADATA_FILE
-    fd, tmp = tempfile.mkstemp(prefix=".metadata-", suffix=".yaml.tmp", dir=folder)
+    tmp = folder / f".metadata-{secrets.token_hex(8)}.yaml.tmp"
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o666)   # the umask applies
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as f:
             f.write(yaml.safe_dump(meta.to_dict(), default_flow_style=False, sort_keys=False))

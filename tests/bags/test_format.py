@@ -230,3 +230,21 @@ def test_timeline_rate_offset_loop_and_validation():
                 {"clock_hz": 0.0}):
         with pytest.raises(BagError):
             PlaybackOptions(**bad)
+
+
+def test_metadata_gets_the_permissions_of_a_file_the_user_creates(tmp_path):
+    """Under a umask of 027, every file the user creates is rw-r----- (0o666 less the umask):
+    ``metadata.yaml`` as written and as repair rewrites it, like the storage file."""
+    import os
+    import stat
+
+    old = os.umask(0o027)
+    try:
+        folder = _write(tmp_path / "perm", n=10)
+        mode = lambda p: stat.S_IMODE(p.stat().st_mode)  # noqa: E731
+        assert mode(folder / "metadata.yaml") == mode(folder / "perm_0.mcap") == 0o640
+        (folder / "metadata.yaml").unlink()
+        repair_bag(folder)
+        assert mode(folder / "metadata.yaml") == 0o640
+    finally:
+        os.umask(old)
