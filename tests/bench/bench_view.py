@@ -12,9 +12,11 @@ while the page renders below 38 fps):
   scene changed) and states it shows per second (changes of its status line), while the
   simulation runs at real time: the class-2 simulator of the suite over ROS (100 Hz states,
   its actuator forces driven by this process along a circle of +-3 N at 0.5 Hz, so that it
-  moves), the 6-bar robot's bag (``bags/six_bar_roll``: 100 states per s at any machine
-  speed), the 6-bar robot (``six_bar_roll``) and a general structure (the tensegrity spine,
-  ``spine_release``) simulated in the view's process (states as fast as the core integrates).
+  moves), the 6-bar robot's and the spine's bags (``bags/six_bar_roll``,
+  ``bags/spine_release``: 100 states per s at any machine speed, a bag row's window ending
+  ``BAG_END_MARGIN`` before the bag does), and (full mode) the 6-bar robot (``six_bar_roll``)
+  and the spine (``spine_release``) simulated in the view's process (states as fast as the
+  core integrates).
   Baseline, same browser, same run: the animation frames per second of an empty page of the
   view's server (the browser's own rate: the most a page can render). Target: >= 30 fps for
   the 6-bar and the spine. Beside it, the browser's CPU time per rendered frame (all its
@@ -26,8 +28,8 @@ while the page renders below 38 fps):
 - **ready**: from starting ``tensegrity view --scene class2_at_rest`` to its page answering
   HTTP; baseline ``tensegrity scenes`` (the command line's own start-up). Target < 3 s.
 
-Quick mode (CI): one start-up, 2 s windows, the 6-bar's bag and the spine (the 6-bar simulated
-in the view's process left out); full mode: 5 start-ups, 15 s windows, all rows.
+Quick mode (CI): one start-up, 2 s windows, the two bags; full mode: 5 start-ups, 15 s
+windows (a bag's: as long as it lasts), all rows.
 """
 
 from __future__ import annotations
@@ -50,6 +52,9 @@ from tests.process_groups import kill_group, wait_group
 TENSEGRITY = str(Path(sys.executable).with_name("tensegrity"))
 BAGS = Path(__file__).resolve().parents[2] / "bags"
 READY = re.compile(r"view ready: http://127\.0\.0\.1:(\d+)")
+#: Wall time [s] kept between a bag row's window and the bag's end (the view stops there):
+#: from pressing Play to the window's start, with room to spare.
+BAG_END_MARGIN = 1.0
 #: The browser's window [px] (a user's).
 WINDOW = (1280, 720)
 
@@ -98,6 +103,13 @@ def _start(args: list[str], env: dict) -> tuple[subprocess.Popen, int, float, Pa
     conn.getresponse().read()
     conn.close()
     return proc, port, time.monotonic() - t0, log
+
+
+def _bag_seconds(folder: str) -> float:
+    """The timeline of the bag in ``folder`` [s]: its header stamps' span, as the view plays it."""
+    from tensegrity_ros.view.bag_source import BagSource
+
+    return BagSource(folder).duration
 
 
 def _browser_cpu_s() -> float:
@@ -204,16 +216,18 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
             kill_group(bare)
         rows.append(Row("view", "empty viser page: animation frames per s", bare_fps, "fps"))
 
-        # the 6-bar robot's bag (states at 100 Hz, whatever the machine's speed), the 6-bar and
-        # (full mode) the spine simulated in the view's process (as fast as the core integrates)
+        # the 6-bar robot's and the spine's bags (states at 100 Hz, whatever the machine's speed),
+        # (full mode) both simulated in the view's process (as fast as the core integrates)
         runs = [("6-bar robot bag", [str(BAGS / "six_bar_roll"), "--scene", "six_bar_rest"], "playing at"),
-                ("spine (core, in process)", ["--scene", "spine_release"], "· playing")]
+                ("spine bag", [str(BAGS / "spine_release")], "playing at")]
         if not ctx.quick:
-            runs.insert(1, ("6-bar robot (core, in process)", ["--scene", "six_bar_roll"], "· playing"))
+            runs += [("6-bar robot (core, in process)", ["--scene", "six_bar_roll"], "· playing"),
+                     ("spine (core, in process)", ["--scene", "spine_release"], "· playing")]
         for name, args, playing in runs:
+            window = min(seconds, _bag_seconds(args[0]) - BAG_END_MARGIN) if name.endswith("bag") else seconds
             proc, port, _, _log = _start(args, env)
             try:
-                _, fps, shown, _, per_frame = _page_rates(browser, f"http://127.0.0.1:{port}", seconds, play=playing)
+                _, fps, shown, _, per_frame = _page_rates(browser, f"http://127.0.0.1:{port}", window, play=playing)
             finally:
                 _stop(proc)
             rows.append(Row("view", f"{name}: frames rendered per s", fps, "fps", target=">= 30",

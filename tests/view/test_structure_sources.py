@@ -144,6 +144,24 @@ def test_a_general_structures_bag_draws_the_cores_states(tmp_path):
     assert frame.series["u:long1"] == pytest.approx(0.7, abs=1e-9)
 
 
+def test_the_shipped_spine_bag_is_the_first_4_s_of_its_scene():
+    """``bags/spine_release`` (docs/bags.md; the view's benchmark plays it): opened with the
+    scene its metadata names, its 400 states 10 ms apart are the core's run of
+    ``spine_release`` from its release, node for node, tension for tension."""
+    from tensegrity_core.sim import Simulator
+
+    source = BagSource(BAGS / "spine_release")
+    assert source.topology.kind == "general" and len(source._times) == 400
+    sim = Simulator("spine_release")
+    for k in range(1, 401):
+        sim.advance(k * 0.01)
+        if k % 50 == 1 or k == 400:
+            obs, frame = sim.observe(), source.frame_at(k - 1)
+            assert frame.t == pytest.approx(obs.t, abs=1e-9) and obs.t == pytest.approx(k * 0.01, abs=1e-12)
+            np.testing.assert_allclose(frame.nodes, obs.nodes, atol=1e-12)
+            np.testing.assert_allclose(frame.member_forces, obs.member_forces, rtol=1e-12, atol=1e-9)
+
+
 HANG = """
 model:
   kind: general
