@@ -4,8 +4,8 @@ For structures the ROS suite does not simulate, and to watch a scene without sta
 suite: a thread steps :class:`tensegrity_core.sim.Simulator` in whole steps of ``step`` s at
 real time (the steps due since the last tick, at most ``MAX_CATCH_UP`` s of them: a late
 tick resynchronises instead of racing), and sends a frame per tick. A tick steps for at most
-one tick period of wall time: a scene that computes slower than real time (the spine's
-implicit integration) runs slower, and the page still gets a frame every tick. Pause, play, single
+one tick period of wall time: a scene that computes slower than real time (a stiff one on a
+loaded machine) runs slower, and the page still gets a frame every tick. Pause, play, single
 steps and the commanded inputs (class-2 actuator forces [N], tension positive; rest lengths
 [m] of a general structure's actuated members) act on that simulator; it starts paused.
 """
