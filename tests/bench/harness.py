@@ -122,10 +122,11 @@ def format_ratio(row: Row) -> str:
 
 def target_met(row: Row) -> bool | None:
     """Whether ``row`` meets its target, when the target is a comparison: ``OP NUMBER
-    [UNIT]`` against the value (a unit of another scale of the row's unit is converted,
-    ``< 2 ms`` for a row in us; words after it are a comment), ``OP NUMBERx`` or
-    ``ratio OP NUMBER`` against the ratio to the baseline (:func:`ratio_to_baseline`). None for a target in words
-    ("close to 1", "on the front") or one that cannot be compared (no ratio, another unit)."""
+    [UNIT]`` against the value (a unit of another scale of the row's unit is converted:
+    ``< 2 ms`` for a row in us; a row per call, ``us/call``, is compared per call: ``< 20 us``;
+    words after it are a comment), ``OP NUMBERx`` or ``ratio OP NUMBER`` against the ratio
+    to the baseline (:func:`ratio_to_baseline`). None for a target in words ("close to 1",
+    "on the front") or one that cannot be compared (no ratio, another unit)."""
     m = _TARGET.match(row.target)
     if m is None:
         return None
@@ -134,6 +135,8 @@ def target_met(row: Row) -> bool | None:
     if ratio_word or times:
         return None if row.ratio is None else _COMPARE[op](float(row.ratio), bound)
     mine = row.unit.split()[0] if row.unit.split() else ""
+    if "/" not in unit and mine.partition("/")[2] not in ("", "s"):
+        mine = mine.partition("/")[0]   # "< 20 us" of a row in us/call: 20 us per call
     if unit in UNIT_SCALES and unit != mine:
         if _FAMILY.get(unit) != _FAMILY.get(mine):
             return None

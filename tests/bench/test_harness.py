@@ -23,6 +23,9 @@ from tests.bench.harness import Row, format_ratio, is_rate, ratio_to_baseline, t
     (1.0, "s", ">= 10x", 10.2, True),
     (1.0, "ms", "ratio >= 0.7", 0.69, False),
     (1.0, "s", ">= 10x", None, None),                 # no baseline measured: not checked
+    (15.0, "us/call", "< 20 us", 3.0, True),          # per call: the target is per call
+    (0.025, "ms/call", "< 20 us", None, False),
+    (600.0, "steps/s", ">= 500", None, True),
     (1.0, "MiB", "< 2 s", None, None),                # another unit: not checked
     (1.0, "", "close to 1", None, None),              # words: not checked
     (float("nan"), "s", "< 2 s", None, False),        # nothing measured misses its target
