@@ -116,3 +116,26 @@ def test_bad_requests_are_refused_with_one_line():
         RollController(robot, 1, heading=(np.nan, 1.0))
     with pytest.raises(ValueError, match="speed of a move must be a positive number of m/s, got 0.0"):
         RollController(robot, 1, speed=0.0)
+
+
+def test_the_strict_counts_see_a_face_crossed_on_two_caps():
+    """``faces_touched`` and ``edge_by_edge`` on hand-written contact sequences over the
+    6-bar's hull: rolling n0 n7 n9 -> n0 n4 n7 -> n0 n4 n8 touches each face, one edge at a
+    time; going from n0 n7 n9 to n0 n4 n8 on the caps n0 n4 alone (n0 n4 n7 never touching
+    with all three) touches two faces but crosses two edges between them."""
+    robot = load_robot("six_bar")
+    faces = hull_faces(rest_shape(robot).nodes)
+    index = {n: i for i, n in enumerate(robot.node_names)}
+
+    def caps(*names):
+        return [index[n] for n in names]
+
+    rolled = [caps("n0", "n7", "n9"), caps("n0", "n7"), caps("n0", "n4", "n7"), caps("n0", "n4"),
+              caps("n0", "n4", "n8")]
+    assert [sorted(f) for f in faces_touched(rolled, faces)] == [sorted(caps(*f)) for f in
+                                                                  (("n0", "n7", "n9"), ("n0", "n4", "n7"),
+                                                                   ("n0", "n4", "n8"))]
+    assert edge_by_edge(rolled, faces)
+    skipped = [caps("n0", "n7", "n9"), caps("n0", "n7"), caps("n0"), caps("n0", "n4"), caps("n0", "n4", "n8")]
+    assert len(faces_touched(skipped, faces)) == 2
+    assert not edge_by_edge(skipped, faces)
