@@ -1,13 +1,15 @@
 """``tensegrity gait six_bar roll --faces N``, the closed-loop rolling gait, against the real
 suite over DDS on loopback: bad requests are one line before any ROS; in lockstep (the suite
 without its cable controller: the gait answers every state) the 6-bar rolls exactly the
-faces asked, counted from the simulator's ``contacts`` by the summary
+faces asked (2, then 1 more from where it rests), counted from the simulator's ``contacts`` by the summary
 (:func:`tensegrity_core.robot.faces.faces_visited`), not by the controller, and comes to rest
 there; then another node publishes cable commands to the lockstep suite and the gait is refused in one
 line.
 
-Lockstep keeps the run as short as the robot's motion (2 faces: ~4 s of simulation time,
-~450 steps of 10 ms) on a busy machine, where free-running would take that in wall time."""
+Lockstep keeps each run as short as the robot's motion (2 faces: ~4 s of simulation time,
+~450 steps of 10 ms) on a busy machine, where free-running would take that in wall time. The
+three runs share one suite (its start-up is the largest part): ~20-30 s in all under load,
+less than three tests each starting a suite."""
 
 from __future__ import annotations
 
@@ -68,6 +70,12 @@ def test_the_closed_loop_gait_rolls_exactly_the_faces_asked_in_lockstep(cli, ros
     assert re.search(r"^  (at rest on a face \d+\.\d\d s after the controller released the motors|still moving 2 s "
                      r"after the controller released the motors \(centre at 0\.0\d m/s\): the distance and faces "
                      r"above are those up to then)$", r.stdout, re.M), r.stdout
+
+    # one face more, from the face it rests on now: exactly one
+    r = run_cli("gait", "six_bar", "roll", "--faces", "1", "-n", NS, "--timeout", "60", "--settle", "0", timeout=300)
+    assert r.returncode == 0, r.stdout + r.stderr + up.stderr()
+    assert r.stdout.startswith("done: the controller rolled 1 of 1 faces"), r.stdout
+    assert re.search(r"^  faces rolled: 1 \(\d+ faces rested on\)$", r.stdout, re.M), r.stdout
 
     # another node publishes cable commands to the lockstep suite (as its cable controller would):
     # two answers to a state, and the simulator steps on the first; refused in one line
