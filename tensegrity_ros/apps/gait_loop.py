@@ -168,7 +168,8 @@ def roll_closed_loop(robot_name: str, faces: int, heading: tuple[float, float], 
             print(f"failed: the controller rolled {controller.rolled} of {faces} faces {where} in {max_time:g} s "
                   "of simulation time (--max-time); the motors hold their last rest lengths", file=out)
         stop = rest if rest is not None else (end + settle if finished else end)
-        for line in watcher.summary_lines(start, stop):
+        hull = [tuple(robot.node_names[i] for i in f) for f in controller.moves.faces]
+        for line in watcher.summary_lines(start, stop, hull):
             print(f"  {line}", file=out)
         if finished:
             print(f"  {watcher.rest_line(end, settle, rest, after='the controller released the motors')}", file=out)

@@ -173,14 +173,16 @@ class RunWatcher:
         return (f"still moving {settle:g} s after {after} (centre at {speed:.2f} m/s): the distance and "
                 "faces above are those up to then")
 
-    def summary_lines(self, start: float = -math.inf, end: float = math.inf) -> list[str]:
-        """The summary of the samples stamped in [start, end] [s]."""
+    def summary_lines(self, start: float = -math.inf, end: float = math.inf,
+                      hull: Sequence[Sequence[str]] | None = None) -> list[str]:
+        """The summary of the samples stamped in [start, end] [s] (with ``hull``, the robot's
+        hull faces as cap names: the faces touched too)."""
         def inside(samples: list[tuple[float, Any]]) -> list[tuple[float, Any]]:
             return [(t, v) for t, v in samples if start <= t <= end]
 
         contacts = inside(self.contacts)
         s = roll_summary([v for _, v in inside(self.centres)], [t for t, _ in contacts], [v for _, v in contacts],
-                         self.cable_names, [v for _, v in inside(self.tensions)])
+                         self.cable_names, [v for _, v in inside(self.tensions)], hull=hull)
         return s.lines()
 
 

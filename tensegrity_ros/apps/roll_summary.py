@@ -8,6 +8,11 @@ how many faces, and the peak cable tensions [N]. No ROS: the caller collects the
   on (:func:`tensegrity_core.robot.faces.faces_visited`: a set of at least three caps held
   for ``hold`` s) and the faces rolled (:func:`~tensegrity_core.robot.faces.faces_rolled`: new
   faces after the first; a rock back onto a face is not a new one).
+- Faces touched (given the robot's hull faces, as cap names): every hull face whose caps all
+  touched the floor at one ``contacts`` sample, however briefly
+  (:func:`~tensegrity_core.robot.faces.faces_touched`): a robot that rolls through a face
+  without resting on it has still crossed its edges; the number beyond the first is the
+  strict count of faces crossed.
 - Tensions: the largest tension [N] of each motor cable over the run (``joint_states``
   effort, positive pulling).
 - Rest (:func:`rest_time`): a gait's goal ends when the motors reach its last rest lengths,
@@ -24,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tensegrity_core.robot.faces import faces_rolled, faces_visited
+from tensegrity_core.robot.faces import faces_rolled, faces_touched, faces_visited
 
 #: s a face and the centre must hold still for the robot to be at rest
 REST_HOLD_S = 0.5
@@ -35,19 +40,23 @@ REST_SPEED = 0.02
 @dataclass(frozen=True)
 class RollSummary:
     """``displacement`` (x, y) [m] of the centre and its length ``distance`` [m]; ``faces``
-    rolled over and the ``visited`` faces (time [s], caps); ``peak_tensions`` [N] by cable."""
+    rolled over and the ``visited`` faces (time [s], caps); ``peak_tensions`` [N] by cable;
+    ``touched`` hull faces touched beyond the first (None: no hull given)."""
 
     displacement: tuple[float, float]
     distance: float
     faces: int
     visited: tuple[tuple[float, tuple[str, ...]], ...]
     peak_tensions: dict[str, float]
+    touched: int | None = None
 
     def lines(self, top: int = 3) -> list[str]:
         """The summary as printed lines, every number with its unit."""
         dx, dy = self.displacement
         out = [f"distance rolled: {self.distance:.3f} m (centre moved by ({dx:+.3f}, {dy:+.3f}) m in x, y)",
-               f"faces rolled: {self.faces} ({len(self.visited)} faces rested on)"]
+               f"faces rolled: {self.faces} ({len(self.visited)} faces rested on"
+               + ("" if self.touched is None else f"; {self.touched} faces crossed, counting those touched however "
+                  "briefly") + ")"]
         if not self.peak_tensions:
             out.append("peak tensions: no joint states received")
         else:
@@ -59,10 +68,12 @@ class RollSummary:
 
 def roll_summary(centres: Sequence[Sequence[float]], contact_times: Sequence[float],
                  contacts: Sequence[Sequence[str]], cable_names: Sequence[str],
-                 tensions: Sequence[Sequence[float]], *, hold: float = 0.05) -> RollSummary:
+                 tensions: Sequence[Sequence[float]], *, hold: float = 0.05,
+                 hull: Sequence[Sequence[str]] | None = None) -> RollSummary:
     """The summary of a run (module note): ``centres`` (N, 3) [m] the robot's centre at each
     body-states sample, in time order; ``contacts[i]`` the caps touching at
-    ``contact_times[i]`` [s]; ``tensions`` (M, cables) [N] of ``cable_names`` at each joint state."""
+    ``contact_times[i]`` [s]; ``tensions`` (M, cables) [N] of ``cable_names`` at each joint state;
+    ``hull`` the robot's hull faces (three cap names each) for the faces touched."""
     c = np.asarray(centres, dtype=float)
     if len(c):
         d = c[-1, :2] - c[0, :2]
@@ -77,7 +88,14 @@ def roll_summary(centres: Sequence[Sequence[float]], contact_times: Sequence[flo
     if len(tensions) and len(cable_names):
         tension = np.asarray(tensions, dtype=float).reshape(-1, len(cable_names))
         peaks = {name: float(tension[:, j].max()) for j, name in enumerate(cable_names)}
-    return RollSummary((float(d[0]), float(d[1])), float(np.hypot(*d)), faces_rolled(visited), faces, peaks)
+    touched = None
+    if hull is not None:
+        index = {name: i for i, name in enumerate(sorted({n for f in hull for n in f} | set(caps)))}
+        rows = [[index[n] for n in names if n in index] for names in contacts]
+        triples = [(index[a], index[b], index[c]) for a, b, c in hull]
+        touched = max(len(faces_touched(rows, triples)) - 1, 0)
+    return RollSummary((float(d[0]), float(d[1])), float(np.hypot(*d)), faces_rolled(visited), faces, peaks,
+                       touched)
 
 
 def rest_time(times: Sequence[float], centres: Sequence[Sequence[float]], contact_times: Sequence[float],
