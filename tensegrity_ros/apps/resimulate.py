@@ -38,6 +38,7 @@ from rclpy.serialization import deserialize_message
 from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.reader import BagReader
 from tensegrity_ros.bag.recorder import message_class
+from tensegrity_ros.bag.scene import recorded_scene
 from tensegrity_ros.nodes.actuator_commands import CommandError, ForceUpdate, parse_command
 from tensegrity_ros.nodes.sim.cable_commands import InputUpdate, parse_cable_command
 from tensegrity_ros.rclpy_utils.env import require_rclpy
@@ -194,11 +195,15 @@ def command_schedule(commands: Sequence[RecordedCommand], steps: int, step_ns: i
     return schedule, applied
 
 
-def resimulate(bag: str | Path, *, scene: str = "class2_at_rest", step_size: float | None = None,
+def resimulate(bag: str | Path, *, scene: str | None = None, step_size: float | None = None,
                lockstep_timeout: float = 10.0) -> Resimulation:
-    """Re-simulate ``bag`` (see the module note); needs the ROS wheels."""
+    """Re-simulate ``bag`` (see the module note) on ``scene``: by default the shipped scene
+    the bag's metadata names, else ``class2_at_rest`` (the simulator node's default); needs
+    the ROS wheels."""
     from tensegrity_core.sim import Simulator, load_scene
 
+    if scene is None:
+        scene = recorded_scene(BagReader(bag), bag) or "class2_at_rest"
     commands, joints, names, cmd_type = read_recording(bag)
     start = joints[0][0]
     if step_size is not None:

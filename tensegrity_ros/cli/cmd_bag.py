@@ -182,8 +182,9 @@ def register(sub: Subparsers) -> None:
                    help="instead of replaying: feed the bag's actuator_forces into a lockstep simulator of "
                    "its own at their recorded steps and report the largest difference between the recorded "
                    "and the re-simulated joint states (0 for a lockstep recording)")
-    p.add_argument("--scene", default="class2_at_rest",
-                   help="--resimulate: the simulator's scene (default class2_at_rest, the node's default)")
+    p.add_argument("--scene", default=None,
+                   help="--resimulate: the simulator's scene (default: the one the bag's metadata names, "
+                   "else class2_at_rest, the node's default)")
     p.add_argument("--step-size", type=float, default=None, metavar="S",
                    help="--resimulate: the step [s] (default: the joint states' spacing in the bag)")
     add_json_flag(p)

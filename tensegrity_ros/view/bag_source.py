@@ -28,9 +28,9 @@ from mcap.records import Schema
 from mcap_ros2.decoder import DecoderFactory
 
 from tensegrity_core.errors import TensegrityError
-from tensegrity_core.sim import scene_names
 from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.reader import BagReader
+from tensegrity_ros.bag.scene import recorded_scene
 from tensegrity_ros.view.frame import Frame, Topology
 from tensegrity_ros.view.frames import class2_topology, frame_of_mechanism_state
 from tensegrity_ros.view.inputs import InputSpec
@@ -136,11 +136,7 @@ class BagSource:
     def _scene(reader: BagReader, path: object, cables: str, scene: str | None) -> str:
         """The scene a structure's bag was recorded from: ``scene``, else its metadata's."""
         if not scene:
-            scene = (reader.custom_data or {}).get("scene")
-            # a bag is outside input: the scene it names must be a shipped one, never a path
-            if scene and scene not in scene_names():
-                raise BagError(f"bag {path} names scene {scene!r} in its metadata, which is not a shipped scene "
-                               "(`tensegrity scenes`): name the scene with --scene NAME or FILE")
+            scene = recorded_scene(reader, path)
         if not scene:
             raise BagError(f"bag {path} holds a general structure's or robot's states ({cables}) but not which "
                            "structure: name the scene it was recorded from with --scene NAME (`tensegrity scenes`)")

@@ -120,7 +120,7 @@ def test_the_robot_sample_bag_resimulates_to_the_last_bit():
 
     from tests.ros_support import run_cli
 
-    r = run_cli("play", str(BAGS / "six_bar_roll"), "--resimulate", "--scene", "six_bar_rest", "--json",
+    r = run_cli("play", str(BAGS / "six_bar_roll"), "--resimulate", "--json",  # the scene its metadata names
                 timeout=600)
     assert r.returncode == 0, r.stdout + r.stderr
     report = json.loads(r.stdout)

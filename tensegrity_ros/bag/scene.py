@@ -1,0 +1,22 @@
+"""The scene a bag was recorded from, as its metadata names it.
+
+``tensegrity record --custom-data scene=NAME`` (and ``ros2 bag record --custom-data``) store
+it in the bag's ``custom_data``; ``tensegrity up --record`` and the demo store the scene they
+ran. A bag is outside input: the name it gives must be a shipped scene, never a path.
+"""
+
+from __future__ import annotations
+
+from tensegrity_core.sim import scene_names
+from tensegrity_ros.bag.errors import BagError
+from tensegrity_ros.bag.reader import BagReader
+
+
+def recorded_scene(reader: BagReader, path: object) -> str | None:
+    """The shipped scene ``reader``'s bag names in its metadata, None when it names none;
+    BagError (one line) when it names something that is not a shipped scene."""
+    scene = (reader.custom_data or {}).get("scene")
+    if scene and scene not in scene_names():
+        raise BagError(f"bag {path} names scene {scene!r} in its metadata, which is not a shipped scene "
+                       "(`tensegrity scenes`): name the scene with --scene NAME or FILE")
+    return scene or None
