@@ -87,7 +87,7 @@ SHOTS = {"live_class2": ([], _move),
          "bag_fold": (["bags/fold"], _fold),
          "scene_spine": (["--scene", "spine_release"], _play_until(1.0)),
          "scene_six_bar": (["--scene", "six_bar_roll"], _play_until(1.2)),
-         "bag_six_bar": (["bags/six_bar_roll", "--scene", "six_bar_rest"], _play_until(6.1))}
+         "bag_six_bar": (["bags/six_bar_roll"], _play_until(10.9))}
 
 
 def main(names: list[str]) -> None:

@@ -113,7 +113,7 @@ def test_sample_bag_resimulates_to_the_last_bit(name):
 
 
 def test_the_robot_sample_bag_resimulates_to_the_last_bit():
-    """``bags/six_bar_roll`` (the demo's 6-bar, rolled by its gait in lockstep: cable
+    """``bags/six_bar_roll`` (the demo's 6-bar, rolled 3 faces by the closed-loop gait in lockstep: cable
     commands by name) fed back into a lockstep simulator of its scene: the same cable
     lengths and rates to the last bit."""
     import json
