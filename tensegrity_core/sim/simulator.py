@@ -284,6 +284,7 @@ def simulate(scene: SceneSource, *, duration: float | None = None,
         times = np.append(times, scene.duration)
         n += 1
     times[-1] = scene.duration      # a grid point within rounding of it (1.21 for 1.2099999999999997 s)
+    record = _recorder(model, state)
     samples: list[Any] = []
     error: str = ""
     largest = max(1, n // 50)       # progress at least every 2 % of the samples, if watched
@@ -292,7 +293,7 @@ def simulate(scene: SceneSource, *, duration: float | None = None,
     while start < n:
         wall = time.perf_counter()
         try:
-            model.record(state, times[start:start + chunk], samples)
+            record(times[start:start + chunk], samples)
         except SimulationError as err:
             error = str(err)
             break
@@ -314,3 +315,16 @@ def simulate(scene: SceneSource, *, duration: float | None = None,
     broken = violations(data, state.events, fold_limit="fold_limit" in scene.effects)
     return Trajectory.from_observations(scene, data, model.names, list(state.events), measurements, stats,
                                         error=error, state_names=model.state_names, violations=broken)
+
+
+def _recorder(model: Model[Any, Any], state: State[Any]) -> Callable[[FloatArray, list[Any]], None]:
+    """What records the samples of a run of ``model`` from ``state``: the model's own stepping,
+    or with the scene's ``control`` (robots) the closed-loop gait sampled at its rate."""
+    control = model.scene.control
+    if control is None:
+        return lambda times, samples: model.record(state, times, samples)
+    from tensegrity_core.robot.roll_control import RollController
+    from tensegrity_core.sim.general.robot.closed_loop import ControlLoop
+
+    controller = RollController(model.scene.model.robot, control.faces, heading=control.heading)
+    return ControlLoop(model, state, controller, rate=control.rate).record

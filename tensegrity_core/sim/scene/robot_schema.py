@@ -10,6 +10,7 @@ forces in newtons.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +22,15 @@ from tensegrity_core.robot.motor import MODES, REEL_SPEED, REST_LENGTH, TENSION
 from tensegrity_core.schema import KeyPath, Reader, excerpt, suggest, type_name
 from tensegrity_core.sim.inputs import Commanded, Constant, InputLaw, Ramp
 from tensegrity_core.sim.scene.references import robot_source
-from tensegrity_core.sim.scene.spec import ContactSpec, EffectSpec, FrictionSpec, MotorsSpec, RobotModelSpec
+from tensegrity_core.sim.scene.spec import (
+    ContactSpec,
+    EffectSpec,
+    FrictionSpec,
+    ModelSpec,
+    MotorsSpec,
+    RobotModelSpec,
+    RollSpec,
+)
 
 IntArray = NDArray[np.int64]
 
@@ -99,6 +108,32 @@ def robot_effect(reader: Reader, name: str, d: dict[str, Any], path: KeyPath, mo
                         reader.number(d, "tangential_damping", path, default=floor.tangential_damping, lo=0.0),
                         reader.number(d, "rolling_friction", path, default=floor.rolling_friction, lo=0.0),
                         reader.number(d, "torsional_friction", path, default=floor.torsional_friction, lo=0.0))
+
+
+def robot_control(reader: Reader, d: dict[str, Any], model: ModelSpec) -> RollSpec:
+    """``control`` of a robot scene: ``{roll: {faces, heading, rate}}``, the closed-loop
+    rolling gait that commands every motor (so the scene gives no ``inputs``): ``faces`` new
+    faces (>= 1) towards ``heading`` (a nonzero (x, y) on the floor; default +x), sampled at
+    ``rate`` [Hz] (default 50)."""
+    path: KeyPath = ("control",)
+    if not isinstance(model, RobotModelSpec):
+        raise reader.error(f"'control' applies to robot scenes only (model kind 'robot'), not {model.kind!r}",
+                           path, d, "control")
+    c = reader.mapping(d["control"], path, d, "control")
+    reader.keys(c, path, ("roll",), required=("roll",))
+    if "inputs" in d:
+        raise reader.error("the closed-loop gait commands every motor: give 'control' or 'inputs', not both",
+                           path, d, "control")
+    path += ("roll",)
+    r = reader.mapping(c["roll"], path, c, "roll")
+    reader.keys(r, path, ("faces", "heading", "rate"), required=("faces",))
+    faces = reader.integer(r, "faces", path, lo=1)
+    heading = reader.vector(r["heading"], 2, path + ("heading",), r, "heading") if "heading" in r else (1.0, 0.0)
+    if not math.hypot(*heading) > 0:
+        raise reader.error(f"must be a nonzero direction (x, y) on the floor, got {list(heading)}",
+                           path + ("heading",), r, "heading")
+    rate = reader.number(r, "rate", path, default=50.0, lo=0.0, lo_open=True)
+    return RollSpec(faces, (heading[0], heading[1]), rate)
 
 
 def motor_modes(reader: Reader, d: dict[str, Any], path: KeyPath, model: RobotModelSpec) -> tuple[tuple[str, int], ...]:

@@ -34,7 +34,7 @@ from tensegrity_core.schema import (
 from tensegrity_core.sim.errors import SceneError
 from tensegrity_core.sim.inputs import Commanded, Constant, InputLaw, Proportional, Ramp
 from tensegrity_core.sim.scene.references import structure_source
-from tensegrity_core.sim.scene.robot_schema import robot_effect, robot_model, within_motor_ranges
+from tensegrity_core.sim.scene.robot_schema import robot_control, robot_effect, robot_model, within_motor_ranges
 from tensegrity_core.sim.scene.series import read_series
 from tensegrity_core.sim.scene.spec import (
     EFFECTS,
@@ -76,7 +76,7 @@ class SceneReader(Reader):
         self.source = source
 
     # -- the scene -----------------------------------------------------------------------
-    TOP = ("name", "description", "model", "initial", "inputs", "effects", "output", "duration",
+    TOP = ("name", "description", "model", "initial", "inputs", "control", "effects", "output", "duration",
            "integrator", "seed")
 
     def scene(self, data: object) -> Scene:
@@ -88,6 +88,7 @@ class SceneReader(Reader):
         effects = self.effects(d["effects"], ("effects",), d, model)
         initial = self.initial(d["initial"], ("initial",), d, model, effects)
         inputs = self.inputs(d.get("inputs"), ("inputs",), d, model, effects)
+        control = robot_control(self, d, model) if "control" in d else None
         duration = self.number(d, "duration", (), lo=0.0, lo_open=True)
         output_rate = 100.0
         if "output" in d:
@@ -102,7 +103,7 @@ class SceneReader(Reader):
         seed = self.integer(d, "seed", (), default=0, lo=0)
         return Scene(name=name, model=model, initial=initial, inputs=inputs, effects=effects,
                      duration=duration, output_rate=output_rate, integrator=integrator, seed=seed,
-                     description=description, source=self.source, data=_plain(d))
+                     description=description, control=control, source=self.source, data=_plain(d))
 
     # -- model ---------------------------------------------------------------------------
     def model(self, value: object, path: KeyPath, parent: dict[str, Any]) -> ModelSpec:

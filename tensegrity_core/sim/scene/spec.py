@@ -214,6 +214,17 @@ EffectSpec = (FlagSpec | DampingSpec | GravitySpec | LoadsSpec | ActuatorLagSpec
 
 
 @dataclass(frozen=True)
+class RollSpec:
+    """Robots: the closed-loop rolling gait (:class:`~tensegrity_core.robot.roll_control.RollController`)
+    run by the scene: roll ``faces`` (>= 1) new faces towards ``heading`` (a nonzero
+    direction (x, y) on the floor, world frame), the controller sampled at ``rate`` [Hz]."""
+
+    faces: int
+    heading: tuple[float, float]
+    rate: float = 50.0
+
+
+@dataclass(frozen=True)
 class IntegratorSpec:
     method: str = "auto"
     rtol: float = 1e-8
@@ -224,7 +235,8 @@ class IntegratorSpec:
 @dataclass(frozen=True)
 class Scene:
     """A checked scene. ``effects`` maps each listed effect name to its options; ``inputs``
-    maps each actuator (class-2: ``"f1"``, ``"f2"``; general: actuator member names) to its law."""
+    maps each actuator (class-2: ``"f1"``, ``"f2"``; general: actuator member names) to its law;
+    ``control`` (robots) the closed-loop gait that commands the motors, or None."""
 
     name: str
     model: ModelSpec
@@ -236,6 +248,7 @@ class Scene:
     integrator: IntegratorSpec = IntegratorSpec()
     seed: int = 0
     description: str = ""
+    control: RollSpec | None = None
     source: str | None = None
     data: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
