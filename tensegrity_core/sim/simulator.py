@@ -263,7 +263,9 @@ def simulate(scene: SceneSource, *, duration: float | None = None,
 
     ``duration`` overrides the scene's; ``progress(t, duration)`` is called as the run goes
     (simulated time ``t`` reached [s]; a few times a second on a slow run, about every 2 % of
-    the samples on a fast one). Commanded inputs hold their initial value. Before the run, a
+    the samples on a fast one). Commanded inputs hold their initial value, unless the scene
+    has ``control`` (robots: the closed-loop rolling gait commands them through a
+    :class:`~tensegrity_core.sim.control_loop.ControlLoop`). Before the run, a
     :class:`~tensegrity_core.sim.stiffness_check.StiffnessWarning` says when the scene's
     explicit method does not fit its stiffness; after it, ``Trajectory.violations`` lists the
     invariants the run broke (:mod:`tensegrity_core.sim.invariants`). ``stop()`` is asked
@@ -324,7 +326,10 @@ def _recorder(model: Model[Any, Any], state: State[Any]) -> Callable[[FloatArray
     if control is None:
         return lambda times, samples: model.record(state, times, samples)
     from tensegrity_core.robot.roll_control import RollController
-    from tensegrity_core.sim.general.robot.closed_loop import ControlLoop
+    from tensegrity_core.sim.control_loop import ControlLoop
+    from tensegrity_core.sim.scene.spec import RobotModelSpec
 
-    controller = RollController(model.scene.model.robot, control.faces, heading=control.heading)
+    robot = model.scene.model
+    assert isinstance(robot, RobotModelSpec)        # the schema takes 'control' for robot scenes only
+    controller = RollController(robot.robot, control.faces, heading=control.heading)
     return ControlLoop(model, state, controller, rate=control.rate).record

@@ -52,6 +52,20 @@ BAD = {
                                            "initial": {"drawn": True}, "effects": ["inertia", "springs", "contact"],
                                            "duration": 0.1}, "effect 'contact' applies to robot scenes only"),
     "variable steps": (_scene(integrator={"method": "DOP853"}), "a robot scene integrates with fixed RK4 steps"),
+    "control: no face": (_scene(control={"roll": {"faces": 0}}), "control.roll.faces: must be an integer >= 1, got 0"),
+    "control: zero heading": (_scene(control={"roll": {"faces": 1, "heading": [0, 0]}}),
+                              "control.roll.heading: must be a nonzero direction (x, y) on the floor, got [0.0, 0.0]"),
+    "control: 3-d heading": (_scene(control={"roll": {"faces": 1, "heading": [1, 0, 0]}}),
+                             "control.roll.heading: must be a list of 2 numbers"),
+    "control: rate 0": (_scene(control={"roll": {"faces": 1, "rate": 0}}), "control.roll.rate: must be > 0, got 0"),
+    "control: unknown key": (_scene(control={"roll": {"faces": 1, "speed": 0.2}}), "control.roll.speed: unknown key 'speed'; allowed: faces, heading, rate"),
+    "control: unknown gait": (_scene(control={"rol": {"faces": 1}}), "control.rol: unknown key 'rol' (did you mean 'roll'?)"),
+    "control with inputs": (_scene(control={"roll": {"faces": 1}}, inputs={"td_0": 0.3}),
+                            "control: the closed-loop gait commands every motor: give 'control' or 'inputs', not both"),
+    "control of a general scene": ({"model": {"kind": "general", "structure": "structures/spine_c_cords.yaml"},
+                                    "initial": {"drawn": True}, "effects": ["inertia", "springs"], "duration": 0.1,
+                                    "control": {"roll": {"faces": 1}}},
+                                   "control: 'control' applies to robot scenes only (model kind 'robot'), not 'general'"),
 }
 
 

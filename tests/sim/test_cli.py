@@ -18,7 +18,8 @@ from tensegrity_ros.cli import main
 SHORT = {"paper_fold": 0.2, "paper_fold_quasistatic": 0.2, "stiff_fold": 0.2, "class2_at_rest": 0.2,
          "table_gravity": 0.005, "spine_release": 0.02, "three_bar_drop": 0.02, "six_bar_drop": 0.02,
          "spine_settle": 0.02, "six_bar_roll": 0.02, "three_bar_crawl": 0.02,
-         "table_actuated": 0.05, "spine_bend": 0.02, "six_bar_rest": 0.02}
+         "table_actuated": 0.05, "spine_bend": 0.02, "six_bar_rest": 0.02,
+         "six_bar_roll_closed_loop": 0.02}
 
 
 def read_csv(path) -> np.ndarray:

@@ -4,34 +4,23 @@
 control sample it reads the contact state (caps whose normal force is positive) and the node
 positions, asks the controller for the motors' commands and holds them until the next
 sample, as a robot's control loop does (the physics runs at its own fixed step between).
-:class:`ControlLoop` does the same while recording at other instants (a scene's output rate):
-what :func:`tensegrity_core.sim.simulate` runs for a scene with ``control``.
+(:class:`tensegrity_core.sim.control_loop.ControlLoop` does the same while recording at
+other instants: what :func:`tensegrity_core.sim.simulate` runs for a scene with ``control``.)
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
+from tensegrity_core.sim.control_loop import Controller
 from tensegrity_core.sim.general.robot.dynamic import RobotDynamic
 from tensegrity_core.sim.general.robot.stepping import FixedStepper, RobotSample
 from tensegrity_core.sim.model import State
 
 FloatArray = NDArray[np.float64]
-
-
-class Controller(Protocol):
-    """A sampled controller: the motors' commands from the touching caps (node indices) and
-    the node positions (n, 3) [m] at time ``t`` [s]."""
-
-    @property
-    def done(self) -> bool: ...
-
-    def update(self, t: float, touching: NDArray[np.int64], nodes: FloatArray) -> FloatArray: ...
 
 
 def run_controlled(model: RobotDynamic, state: State[FixedStepper], controller: Controller, *, rate: float,
@@ -57,39 +46,3 @@ def run_controlled(model: RobotDynamic, state: State[FixedStepper], controller: 
         model.advance(state, t0 + (k + 1) / rate)
     return samples
 
-
-class ControlLoop:
-    """``controller`` sampled at ``rate`` [Hz] from ``state.t`` on, its commands held between
-    samples; :meth:`record` records ``state`` at any instants meanwhile."""
-
-    def __init__(self, model: RobotDynamic, state: State[FixedStepper], controller: Controller, *, rate: float):
-        if not (rate > 0 and math.isfinite(rate)):
-            raise ValueError(f"the control rate must be a positive number of Hz, got {rate!r}")
-        self.model, self.state, self.controller, self.rate = model, state, controller, rate
-        self.t0 = state.t
-        self.k = 0                      # the next control sample is at t0 + k / rate
-
-    def record(self, times: Sequence[float] | FloatArray, samples: list[RobotSample]) -> None:
-        """Advance to each of ``times`` [s] (increasing, from ``state.t``) and append its sample
-        to ``samples``, updating the command at every control instant on the way (a sample
-        at a control instant is taken after the update)."""
-        times = np.asarray(times, dtype=float)
-        i = 0
-        while i < len(times):
-            tc = self.t0 + self.k / self.rate
-            if tc <= times[i] + 1e-12:
-                self._update(tc)
-                continue
-            j = i + int(np.searchsorted(times[i:], tc - 1e-12))
-            self.model.record(self.state, times[i:j], samples)
-            i = j
-
-    def _update(self, t: float) -> None:
-        """The controller's command at the control instant ``t`` [s], from the contact state
-        and node positions there."""
-        scratch: list[RobotSample] = []
-        self.model.record(self.state, [t], scratch)
-        seen = self.model.observe(scratch)
-        touching = self.model.plan.cap_node[seen["contact_forces"][0] > 0.0]
-        self.model.set_command(self.state, self.controller.update(t - self.t0, touching, seen["nodes"][0]))
-        self.k += 1

@@ -1,0 +1,71 @@
+"""A model run under a sampled controller, recorded at other instants (a closed-loop gait).
+
+:class:`ControlLoop` samples a :class:`Controller` at its rate: at each control instant it
+reads the contact state (the caps whose normal force is positive) and the node positions,
+sets the commanded inputs to the controller's command and holds them until the next
+instant, as a robot's control loop does; between, the model advances at its own step and is
+recorded wherever asked (:func:`tensegrity_core.sim.simulate`: a scene's output rate).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tensegrity_core.sim.model import Model, State
+
+FloatArray = NDArray[np.float64]
+
+
+class Controller(Protocol):
+    """A sampled controller: the motors' commands from the touching caps (node indices) and
+    the node positions (n, 3) [m] at time ``t`` [s] (from the loop's start)."""
+
+    @property
+    def done(self) -> bool: ...
+
+    def update(self, t: float, touching: NDArray[np.int64], nodes: FloatArray) -> FloatArray: ...
+
+
+class ControlLoop:
+    """``controller`` sampled at ``rate`` [Hz] from ``state.t`` on, its commands held between
+    samples; :meth:`record` records ``state`` at any instants meanwhile. ``model`` observes
+    ``contact_forces`` per cap (its ``names.cap_names``: a robot's)."""
+
+    def __init__(self, model: Model[Any, Any], state: State[Any], controller: Controller, *, rate: float):
+        if not (rate > 0 and math.isfinite(rate)):
+            raise ValueError(f"the control rate must be a positive number of Hz, got {rate!r}")
+        self.model, self.state, self.controller, self.rate = model, state, controller, rate
+        names = model.names
+        self.caps = np.array([names.node_names.index(c) for c in names.cap_names], dtype=np.int64)
+        self.t0 = state.t
+        self.k = 0                      # the next control instant is t0 + k / rate
+
+    def record(self, times: Sequence[float] | FloatArray, samples: list[Any]) -> None:
+        """Advance to each of ``times`` [s] (increasing, from ``state.t``) and append its sample
+        to ``samples``, updating the command at every control instant on the way (a sample
+        at a control instant is taken after the update)."""
+        times = np.asarray(times, dtype=float)
+        i = 0
+        while i < len(times):
+            tc = self.t0 + self.k / self.rate
+            if tc <= times[i] + 1e-12:
+                self._update(tc)
+                continue
+            j = i + int(np.searchsorted(times[i:], tc - 1e-12))
+            self.model.record(self.state, times[i:j], samples)
+            i = j
+
+    def _update(self, t: float) -> None:
+        """The controller's command at the control instant ``t`` [s], from the contact state
+        and node positions there."""
+        scratch: list[Any] = []
+        self.model.record(self.state, [t], scratch)
+        seen = self.model.observe(scratch)
+        touching = self.caps[seen["contact_forces"][0] > 0.0]
+        self.model.set_command(self.state, self.controller.update(t - self.t0, touching, seen["nodes"][0]))
+        self.k += 1
