@@ -14,7 +14,8 @@ simulated time — at most the flush interval plus ``SLACK_S``:
   either may be descheduled for a few scheduler periods on a loaded 2-core machine.
 
 A recorder kept off the CPU cannot write what it has not taken: the time its threads waited
-for a CPU in the last ``LEAD_S`` before the kill (the kernel's per-thread ``run_delay``,
+for a CPU in the last ``LEAD_S`` before the kill (from further back when the test itself
+was kept off the CPU past that instant; the kernel's per-thread ``run_delay``,
 ``/proc/PID/task/TID/schedstat``; the largest over its threads) is added to the bound, so
 the test measures the recorder's flushing, not the machine's load.
 
@@ -101,10 +102,12 @@ def test_sigkill_loses_at_most_the_flush_interval(cli, ros_context, tmp_path):
             take()
             time.sleep(0.01)
         end = time.monotonic() + rng.uniform(0.3, 1.3)
-        before = None
+        # the recorder's waits from LEAD_S before the kill; from here if a stall of this
+        # process jumps past that instant (the window is then longer, never shorter)
+        before, lead = _run_delays(rec.popen.pid), False
         while time.monotonic() < end:
-            if before is None and end - time.monotonic() <= LEAD_S:
-                before = _run_delays(rec.popen.pid)
+            if not lead and end - time.monotonic() <= LEAD_S:
+                before, lead = _run_delays(rec.popen.pid), True
             take()
             time.sleep(0.002)
         take()
