@@ -30,7 +30,6 @@ from pathlib import Path
 from typing import Any, BinaryIO
 
 import lz4.frame
-import yaml
 import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
@@ -42,7 +41,7 @@ from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.metadata import METADATA_FILE, BagMetadata, FileInfo, MetadataReader, TopicInfo, read_metadata
 from tensegrity_ros.bag.qos import parse_profiles
-from tensegrity_ros.bag.untrusted import open_regular, path_inside
+from tensegrity_ros.bag.untrusted import load_bag_yaml, open_regular, path_inside
 from tensegrity_ros.bag.writer import CUSTOM_DATA_RECORD
 
 #: Largest MCAP record read from a bag [bytes] (a chunk of rosbag2's default is 768 KiB).
@@ -235,10 +234,7 @@ class BagReader:
                 return MetadataReader(source).custom_data({"custom_data": content.records[CUSTOM_DATA_RECORD]}, ())
             serialized = content.records.get("rosbag2", {}).get("serialized_metadata")
             if serialized is not None:
-                try:
-                    info = yaml.safe_load(serialized)
-                except yaml.YAMLError as err:
-                    raise BagError(f"{source}: rosbag2's serialized_metadata is not YAML ({excerpt(str(err))})") from None
+                info = load_bag_yaml(serialized, f"{content.path}: rosbag2's serialized_metadata")
                 return MetadataReader(source).custom_data(info if isinstance(info, dict) else {}, ())
         return None
 

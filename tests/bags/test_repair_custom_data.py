@@ -22,7 +22,10 @@ MAX_LINE = 400       # a note quotes excerpts only: far below the hostile record
 HOSTILE = {
     "long_value": ({"tensegrity_custom_data": {"scene": "s" * (MAX_TEXT + 1)}}, "at most"),
     "long_key": ({"tensegrity_custom_data": {"k" * (MAX_TEXT + 1): "six_bar_rest"}}, "at most"),
-    "rosbag2_not_yaml": ({"rosbag2": {"serialized_metadata": "custom_data: [unclosed"}}, "not YAML"),
+    "rosbag2_not_yaml": ({"rosbag2": {"serialized_metadata": "custom_data: [unclosed"}}, "not valid YAML"),
+    # aliases that would expand to ~10^9 strings: refused while parsing (bounded reader)
+    "rosbag2_alias_bomb": ({"rosbag2": {"serialized_metadata": "a: &a [x, x, x, x, x, x, x, x, x, x]\n" + "".join(
+        f"{chr(98 + i)}: &{chr(98 + i)} [{', '.join(['*' + chr(97 + i)] * 10)}]\n" for i in range(8))}}, "YAML"),
     "rosbag2_custom_data_a_list": (
         {"rosbag2": {"serialized_metadata": "custom_data: [scene, six_bar_rest]\n"}}, "must be a mapping"),
     "rosbag2_value_not_text": (
