@@ -143,6 +143,14 @@ class Simulator:
     def __init__(self, scene: SceneSource | Model[Any, Any], *, t_end: float = math.inf):
         self.model: Model[Any, Any] = scene if _is_model(scene) else compile_scene(load_scene(scene))
         self.scene = self.model.scene
+        if self.scene.control is not None:
+            # its motors answer its controller, not set_command: stepping it here would
+            # silently drop the controller
+            raise SimulationError(
+                f"scene {self.scene.name!r} rolls under its closed-loop gait (control.roll), which "
+                f"`tensegrity simulate {self.scene.name}` runs; to step it or drive it over ROS, run its "
+                "robot's scene without `control` and the gait as a client (`tensegrity gait six_bar roll "
+                "--faces N`, docs/ros.md)")
         self.kind = self.model.kind
         self.quasi_static = self.model.quasi_static
         self.interface: Interface = self.model.interface

@@ -67,3 +67,16 @@ def test_bad_control_through_the_cli_is_one_line(tmp_path, capsys, bad):
     assert main(["simulate", str(scene)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "control.roll." in err[0] and "line 3" in err[0], err
+
+
+def test_the_stepping_simulator_refuses_a_scene_under_control_in_one_line(capsys):
+    """The stepping API (and so the ROS node and the view) cannot run the scene's controller:
+    it refuses the scene, naming what runs it, rather than stepping it with the motors idle."""
+    from tensegrity_core.sim import SimulationError, Simulator
+
+    with pytest.raises(SimulationError, match=r"closed-loop gait \(control.roll\).*tensegrity simulate "
+                                              r"six_bar_roll_closed_loop.*tensegrity gait six_bar roll"):
+        Simulator("six_bar_roll_closed_loop")
+    assert main(["view", "--scene", "six_bar_roll_closed_loop"]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "control.roll" in err[0], err
