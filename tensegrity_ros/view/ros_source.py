@@ -36,6 +36,9 @@ from tensegrity_ros.view.structure_frames import StructureMessages
 #: Actuator commands per second while the page drives the forces (the simulator drops to its
 #: safe force after ``command_timeout``, 0.5 s by default, without one).
 DRIVE_HZ: Final = 20.0
+#: Seconds the page waits for the controller to accept or refuse a move before saying it
+#: got no answer (the goal itself then still runs if it arrived).
+MOVE_ANSWER_S: Final = 10.0
 #: The simulator's node name, whose ``scene`` parameter says what it simulates.
 SIM_NODE: Final = "tensegrity_sim"
 #: ``simulation_interfaces/SimulationState`` values -> the view's run states.
@@ -278,8 +281,16 @@ class RosSource:
             return
         goal = self.MoveEndEffector.Goal(x=float(x), y=float(y), duration=float(duration))
         self._report(f"move: D to ({x:g}, {y:g}) m in {duration:g} s sent")
+        answered = threading.Event()
+
+        def unanswered() -> None:
+            # a goal request (or its answer) lost while discovery still matches the action's
+            # endpoints would otherwise leave the page at "sent" for good
+            if not answered.is_set():
+                self._report(f"move: no answer from the controller within {MOVE_ANSWER_S:g} s (press Move D again)")
 
         def accepted(future: Any) -> None:
+            answered.set()
             handle = future.result()
             if handle is None or not handle.accepted:
                 self._report("move: the controller refused the goal")
@@ -292,8 +303,11 @@ class RosSource:
                 p = res.end_effector
                 self._report(f"move: D at ({p.x:.4f}, {p.y:.4f}) m, {res.settled_error * 1e3:.2f} mm from the target")
             else:
-                self._report(f"move failed ({res.error_code}): {res.error_string}")
+                self._report(f"move: failed ({res.error_code}): {res.error_string}")
 
+        timer = threading.Timer(MOVE_ANSWER_S, unanswered)
+        timer.daemon = True
+        timer.start()
         self.mover.send_goal_async(goal).add_done_callback(accepted)
 
     def seek(self, t: float) -> None:
