@@ -30,6 +30,7 @@ import signal
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 from geometry_msgs.msg import PointStamped
 from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -129,7 +130,12 @@ def test_sigkill_loses_at_most_the_flush_interval(cli, ros_context, tmp_path):
     take()
     probe.destroy_node()
     published = int(re.search(r"published: joint_states (\d+)", sim.stderr()).group(1))
-    assert len(stamps) == published            # the reference is the simulator's whole stream
-    assert stamps == sorted(stamps) and len(set(stamps)) == len(stamps)
+    # the reference is the simulator's whole stream from its first joint state up to the last
+    # kill: one state every period, none missing; states published as the simulator shut down
+    # may not have reached the probe (a reliable writer deleted before its reader acked)
+    gaps = np.diff(stamps)
+    period = float(np.median(gaps))
+    assert np.all(np.abs(gaps - period) < 1e-6), sorted(set(np.round(gaps, 6)))
+    assert stamps[0] <= period + 1e-9 and len(stamps) <= published
     print(f"\nloss windows (simulated s, joint states lost, s the recorder waited for a CPU): {windows}")
     assert all(w <= DEFAULT_FLUSH_INTERVAL + SLACK_S + starved for w, _, starved in windows), windows
