@@ -250,8 +250,11 @@ def test_a_running_robot_is_drawn_from_its_topics_and_driven_by_the_sliders(cli,
     executor = SingleThreadedExecutor(context=ros_context)
     executor.add_node(node)
     published: dict[float, CableStates] = {}
+    # every state kept until read: this executor spins only once the view has shown the moved
+    # frame, which on a loaded machine can be seconds of states later
     node.create_subscription(CableStates, "cable_states",
-                             lambda m: published.setdefault(m.header.stamp.sec + m.header.stamp.nanosec * 1e-9, m), 100)
+                             lambda m: published.setdefault(m.header.stamp.sec + m.header.stamp.nanosec * 1e-9, m),
+                             100_000)
     source = RosSource("")
     try:
         first = source.first_frame(timeout=WAIT)
@@ -266,7 +269,9 @@ def test_a_running_robot_is_drawn_from_its_topics_and_driven_by_the_sliders(cli,
         deadline = time.monotonic() + WAIT
         while not any(t == pytest.approx(moved.t, abs=1e-9) for t in published) and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.1)
-        recorded = published[min(published, key=lambda t: abs(t - moved.t))]
+        at = [t for t in published if t == pytest.approx(moved.t, abs=1e-9)]
+        assert at, f"no cable_states stamped {moved.t} s (received {min(published, default=None)}..{max(published, default=None)})"
+        recorded = published[at[0]]
         np.testing.assert_allclose(_lengths(moved, source.topology), recorded.length, atol=1e-9)
         assert recorded.rest_length[list(recorded.name).index("c0_4")] == pytest.approx(0.9, abs=1e-9)
         assert first.t == 0.0 and len(first.nodes) == 12
