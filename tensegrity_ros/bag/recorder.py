@@ -64,6 +64,8 @@ SUITE_TOPICS = ("joint_states", "end_effector", "mechanism_state", "markers", "/
                 "actuator_forces", "cable_states", "body_states", "cable_commands")
 DEFAULT_DEPTH = 1000       # subscription history: 1 s of backlog at 1 kHz before a drop
 DISCOVERY_PERIOD = 0.1     # s
+#: The recorder node's name (`tensegrity up --record` has the simulator wait for its subscriptions).
+RECORDER_NODE = "tensegrity_recorder"
 POLL_PERIOD = 0.005        # s between two takes; log times are rmw receive times, so this
                            # batching costs no timing accuracy (5 messages per poll at 1 kHz)
 
@@ -81,7 +83,7 @@ class RecorderNode(Node):
 
     def __init__(self, writer: BagWriter, topics: Iterable[str] = SUITE_TOPICS, *,
                  record_all: bool = False, depth: int = DEFAULT_DEPTH,
-                 node_name: str = "tensegrity_recorder", context: Context | None = None,
+                 node_name: str = RECORDER_NODE, context: Context | None = None,
                  log: Callable[[str], None] | None = None):
         # no executor spins this node (see poll), so it offers no parameter services
         super().__init__(node_name, context=context, start_parameter_services=False)

@@ -165,9 +165,13 @@ def _up(args: argparse.Namespace) -> int:
         ros += ["--params-file", args.params_file]
     ros += args.ros_args[1:] if args.ros_args else []
     mech = ros + (["-p", f"scene:={args.scene}"] if args.scene else [])    # one source of the mechanism
-    # recording: the simulator's clock starts once the recorder subscribes to every output topic,
-    # so the bag holds the run from t = 0 (before the user's own arguments, which may override it)
-    sim = ["--ros-args", "-p", "wait_for_subscribers:=1", *mech[1:]] if args.record else mech
+    # recording: the simulator's clock starts once the recorder itself subscribes to every output
+    # topic (another node's subscription, such as the controller's on joint_states, does not
+    # count), so the bag holds the run from t = 0 (before the user's own arguments, which may
+    # override it)
+    from tensegrity_ros.bag.recorder import RECORDER_NODE
+
+    sim = ["--ros-args", "-p", f"wait_for_node:={RECORDER_NODE}", *mech[1:]] if args.record else mech
     specs = [ProcessSpec("sim", exe + ["node", "sim"] + sim)]
     interface = _scene_interface(args.scene)
     if interface.command == "force":          # the class-2 mechanism: IK and its controller

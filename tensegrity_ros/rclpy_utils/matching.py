@@ -20,12 +20,22 @@ from typing import Any
 MATCH_SETTLE_S = 0.25
 
 
+def subscribed_by(node: Any, publishers: Iterable[Any], name: str) -> bool:
+    """Whether the node ``name`` in ``node``'s namespace has a subscription on the topic of
+    every one of ``publishers`` (the graph's endpoint lists: another subscriber of a topic,
+    such as a controller on joint_states, does not count for it)."""
+    ns = node.get_namespace()
+    return all(any(i.node_name == name and i.node_namespace == ns
+                   for i in node.get_subscriptions_info_by_topic(p.topic_name)) for p in publishers)
+
+
 def wait_for_matches(publishers: Iterable[Any], minimum: int = 1, timeout_s: float | None = None,
                      *, settle_s: float = MATCH_SETTLE_S,
                      should_stop: Callable[[], bool] = lambda: False,
-                     poll: Callable[[float], object] = time.sleep) -> bool:
-    """Return True once every publisher has had at least ``minimum`` matched subscriptions
-    for ``settle_s`` seconds without interruption; False when they are not all matched
+                     poll: Callable[[float], object] = time.sleep,
+                     also: Callable[[], bool] = lambda: True) -> bool:
+    """Return True once every publisher has had at least ``minimum`` matched subscriptions,
+    and ``also()`` has been true, for ``settle_s`` seconds without interruption; False when they are not all matched
     after ``timeout_s`` (None: no limit) or when ``should_stop()`` turns true. ``poll(seconds)`` waits between checks (pass an
     executor's ``spin_once`` when the caller must keep spinning)."""
     pubs = list(publishers)
@@ -33,7 +43,7 @@ def wait_for_matches(publishers: Iterable[Any], minimum: int = 1, timeout_s: flo
     matched_since = None
     while True:
         now = time.monotonic()
-        if all(p.get_subscription_count() >= minimum for p in pubs):
+        if all(p.get_subscription_count() >= minimum for p in pubs) and also():
             matched_since = now if matched_since is None else matched_since
             if now - matched_since >= settle_s:
                 return True

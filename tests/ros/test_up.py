@@ -59,6 +59,13 @@ def test_up_starts_every_node_and_ctrl_c_stops_them(cli, ros_context, tmp_path):
     reader = BagReader(tmp_path / "bag")
     assert not reader.recovered
     assert any(t.name == "/suite_test/joint_states" and t.message_count > 0 for t in reader.topics())
+    # ... from t = 0: the clock waited for the recorder's own subscriptions (the controller's on
+    # joint_states does not count for the recorder)
+    from rclpy.serialization import deserialize_message
+
+    stamps = [deserialize_message(m.data, JointState).header.stamp for m in reader.messages()
+              if m.topic == "/suite_test/joint_states"]
+    assert min((s.sec, s.nanosec) for s in stamps) == (0, 0), stamps[:3]
     node.destroy_node()
 
 

@@ -86,7 +86,7 @@ from tensegrity_ros.nodes.sim.plant import SimPlant
 from tensegrity_ros.nodes.sim.receiver import Command, receive, receive_cables
 from tensegrity_ros.nodes.sim.schedule import TickSchedule
 from tensegrity_ros.rclpy_utils.inbox import Inbox
-from tensegrity_ros.rclpy_utils.matching import wait_for_matches
+from tensegrity_ros.rclpy_utils.matching import subscribed_by, wait_for_matches
 
 
 class SimNode(SimulationInterfaces):
@@ -187,10 +187,13 @@ class SimNode(SimulationInterfaces):
         as-fast-as-possible mode. A thread with its own deadline keeps 1 kHz where an
         executor timer's per-callback overhead does not."""
         p = self.p
-        if p.wait_for_subscribers > 0:
+        if p.wait_for_subscribers > 0 or p.wait_for_node:
             publishers = (*self.pubs.values(), self.pub_clock)
-            self.get_logger().info(f"waiting for {p.wait_for_subscribers} subscriber(s) on every output topic")
-            wait_for_matches(publishers, p.wait_for_subscribers, should_stop=self._stop.is_set, poll=self._stop.wait)
+            named = f" and {p.wait_for_node}'s" if p.wait_for_node else ""
+            self.get_logger().info(f"waiting for {p.wait_for_subscribers} subscriber(s){named} on every output topic")
+            wait_for_matches(publishers, max(1, p.wait_for_subscribers), should_stop=self._stop.is_set,
+                             poll=self._stop.wait,
+                             also=lambda: not p.wait_for_node or subscribed_by(self, publishers, p.wait_for_node))
         with self._lock:
             self._publish()                  # the state at t_0
             self._waiting_since = time.monotonic()

@@ -37,6 +37,7 @@ class SimParameters:
     marker_rate: float          # [Hz]
     imu_rate: float             # [Hz]
     wait_for_subscribers: int
+    wait_for_node: str
     publish_clock: bool
     singularity_warning: float
 
@@ -105,6 +106,10 @@ def declare_sim_parameters(node: Node, scene: str) -> SimParameters:
     wait = d("wait_for_subscribers", 0,
              "do not start the clock until every output topic has this many subscribers "
              "(e.g. 1 for a recorder that must see the run from t = 0)", lo=0, hi=1000)
+    wait_node = d("wait_for_node", "",
+                  "do not start the clock until the node of this name (in the simulator's namespace) "
+                  "subscribes to every output topic, matched (`tensegrity up --record`: its recorder); "
+                  "'' = no such wait")
     clock = d("publish_clock", True, "publish /clock from the simulation time")
     singular = d("singularity_warning", 0.05,
                  "warn (throttled) when lambda1/L or lambda2/L falls below this: the mass matrix grows like "
@@ -112,4 +117,4 @@ def declare_sim_parameters(node: Node, scene: str) -> SimParameters:
     return SimParameters(scene, rate, rtf, step_ns, bool(lockstep), lockstep_timeout, lockstep_rtf,
                          STATE_BY_NAME[initial],
                          paused_rate, int(max_steps), command_timeout, safe_force, max_force, frame_id, state_rate,
-                         marker_rate, imu_rate, int(wait), bool(clock), singular)
+                         marker_rate, imu_rate, int(wait), str(wait_node), bool(clock), singular)
