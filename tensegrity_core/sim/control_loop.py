@@ -1,10 +1,12 @@
-"""A model run under a sampled controller, recorded at other instants (a closed-loop gait).
+"""A model run under a sampled controller (a closed-loop gait).
 
 :class:`ControlLoop` samples a :class:`Controller` at its rate: at each control instant it
 reads the contact state (the caps whose normal force is positive) and the node positions,
 sets the commanded inputs to the controller's command and holds them until the next
-instant, as a robot's control loop does; between, the model advances at its own step and is
-recorded wherever asked (:func:`tensegrity_core.sim.simulate`: a scene's output rate).
+instant, as a robot's control loop does; between, the model advances at its own step.
+:meth:`ControlLoop.record` records the run wherever asked (:func:`tensegrity_core.sim.simulate`:
+a scene's output rate); :meth:`ControlLoop.run` at the control instants until the controller
+is done.
 """
 
 from __future__ import annotations
@@ -33,7 +35,8 @@ class Controller(Protocol):
 
 class ControlLoop:
     """``controller`` sampled at ``rate`` [Hz] from ``state.t`` on, its commands held between
-    samples; :meth:`record` records ``state`` at any instants meanwhile. ``model`` observes
+    samples; :meth:`record` records ``state`` at any instants meanwhile, :meth:`run` at the
+    control instants. ``model`` observes
     ``contact_forces`` per cap (its ``names.cap_names``: a robot's)."""
 
     def __init__(self, model: Model[Any, Any], state: State[Any], controller: Controller, *, rate: float):
@@ -59,6 +62,21 @@ class ControlLoop:
             j = i + int(np.searchsorted(times[i:], tc - 1e-12))
             self.model.record(self.state, times[i:j], samples)
             i = j
+
+    def run(self, duration: float, *, after: float = 0.0) -> list[Any]:
+        """The samples at the control instants from the next one on (each taken after its
+        update), until the controller is done and ``after`` [s] more, or ``duration`` [s] in
+        all."""
+        samples: list[Any] = []
+        last = self.k + round(duration * self.rate)
+        finish: float | None = None
+        while True:
+            t = self.t0 + self.k / self.rate
+            self.record([t], samples)
+            if finish is None and self.controller.done:
+                finish = t + after
+            if self.k > last or (finish is not None and t >= finish - 1e-12):
+                return samples
 
     def _update(self, t: float) -> None:
         """The controller's command at the control instant ``t`` [s], from the contact state

@@ -17,7 +17,7 @@ from tensegrity_core.robot.roll_control import TIPS_DIR, RollController, TipMove
 from tensegrity_core.robot.statics import rest_shape
 from tensegrity_core.robot.tipping import hull_faces
 from tensegrity_core.sim import compile_scene, load_scene
-from tensegrity_core.sim.general.robot.closed_loop import run_controlled
+from tensegrity_core.sim.control_loop import ControlLoop
 
 #: The control rate [Hz] (the robots' usual 50 Hz loop).
 RATE = 50.0
@@ -35,7 +35,7 @@ def _roll(model, state, controller):
     of the controller: the faces rolled (rested on), the hull faces touched beyond the first
     (however briefly), the caps (node indices) of the last face and of the first; and it
     crossed one edge at a time."""
-    samples = run_controlled(model, state, controller, rate=RATE, duration=20.0, after=1.0)
+    samples = ControlLoop(model, state, controller, rate=RATE).run(20.0, after=1.0)
     seen = model.observe(samples)
     contact = seen["contact_forces"] > 0.0
     faces = faces_visited(seen["t"], contact)
