@@ -171,7 +171,7 @@ def compare_roll() -> None:
               f"of MuJoCo's travel")
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(12, 4.8), constrained_layout=True)
     ax.plot(com[:, 0], com[:, 1], color="C0", lw=1.2, label="project (robot back end)")
-    ax.plot(peer.com[:, 0], peer.com[:, 1], color="C1", lw=1.2, label="MuJoCo (exported six_bar_roll)")
+    ax.plot(peer.com[:, 0], peer.com[:, 1], color="C1", lw=1.2, label="MuJoCo (exported six_bar_roll, RK4 1 ms)")
     for (series, path, times, colour, marker) in (("project", com, run.times, "C0", "o"),
                                                   ("MuJoCo", peer.com, peer.times, "C1", "s")):
         pts = np.array([path[min(np.searchsorted(times, t), len(times) - 1)]

@@ -42,8 +42,9 @@ from tensegrity_core.sim.scene import (
     SceneEffects,
 )
 
-#: MuJoCo's integrators (``<option integrator>``); RK4 is the default of scenes and structures,
-#: implicitfast of robots (MuJoCo's choice for models with contacts).
+#: MuJoCo's integrators (``<option integrator>``); RK4 is the default of scenes and structures
+#: (a robot scene's: the robot back end's own fixed-step RK4), implicitfast of robot
+#: descriptions (MuJoCo's choice for models with contacts).
 INTEGRATORS = ("RK4", "Euler", "implicit", "implicitfast")
 #: The MJCF writer of each back end (:func:`~tensegrity_core.sim.backends.backend_name`), as
 #: ``module:function`` with the signature ``(scene, timestep or None, integrator) -> MjcfModel``.
@@ -75,8 +76,9 @@ def export_mjcf(source: Scene | Structure | Robot, *, timestep: float | None = N
     """The MuJoCo model of a general scene with inertia, of a structure (as
     :func:`structure_scene`) or of a robot (:mod:`tensegrity_core.export.robot_mjcf`).
     ``timestep`` [s] (default: from the fastest rate, see :mod:`tensegrity_core.export.timestep`;
-    a robot's: 1 ms); ``integrator`` one of :data:`INTEGRATORS` (default: RK4; a robot's or
-    a robot scene's implicitfast).
+    a robot's: 1 ms; a robot scene's: its own fixed step, ``integrator.max_step``);
+    ``integrator`` one of :data:`INTEGRATORS` (default: RK4, as the project integrates a
+    scene; a robot description's: implicitfast).
 
     Raises :class:`ExportError` for a class-2 or quasi-static scene, a bad option, or a
     structure that cannot move (a free node without mass);
@@ -84,8 +86,7 @@ def export_mjcf(source: Scene | Structure | Robot, *, timestep: float | None = N
     springs, a free node without mass); ``SimulationError`` when its initial equilibrium
     cannot be found."""
     if integrator is None:
-        robotic = isinstance(source, Robot) or (isinstance(source, Scene) and source.model.kind == "robot")
-        integrator = "implicitfast" if robotic else "RK4"
+        integrator = "implicitfast" if isinstance(source, Robot) else "RK4"
     if integrator not in INTEGRATORS:
         raise ExportError(f"integrator must be one of {', '.join(INTEGRATORS)}, got {integrator!r}")
     if timestep is not None and not (math.isfinite(timestep) and timestep > 0):

@@ -112,8 +112,10 @@ def write_robot_scene(scene: Scene, timestep: float | None, integrator: str) -> 
     robot with the scene's effects -- gravity only if listed, the floor's contact only with
     ``contact`` (its stiffness and dissipation), friction only with ``friction`` (its static
     coefficient; frictionless otherwise), the motors' overrides -- raised by the initial
-    ``lift``. Inputs (a gait) are not in the file: drive ``ctrl`` from them
-    (``tests.mujoco_peer.play_gait``)."""
+    ``lift``, stepping at the scene's own fixed step unless ``timestep`` [s] is given (the
+    project integrates the scene with RK4 at ``integrator.max_step``: with ``integrator``
+    RK4, MuJoCo integrates it the same way). Inputs (a gait) are not in the file: drive
+    ``ctrl`` from them (``tests.mujoco_peer.play_gait``)."""
     model = scene.model
     assert isinstance(model, RobotModelSpec)            # export_mjcf picked this writer for it
     robot = model.robot
@@ -140,7 +142,8 @@ def write_robot_scene(scene: Scene, timestep: float | None, integrator: str) -> 
         m = dataclasses.replace(m, mode=modes)
     g = np.zeros(3) if not isinstance(gravity, GravitySpec) else np.asarray(gravity.vector, dtype=float)
     scene_robot = dataclasses.replace(robot, floor=floor, motors=m, gravity=g)
-    return write_robot_mjcf(scene_robot, timestep, integrator, lift=scene.initial.lift, name=scene.name)
+    step = scene.integrator.max_step if timestep is None else timestep
+    return write_robot_mjcf(scene_robot, step, integrator, lift=scene.initial.lift, name=scene.name)
 
 
 def contact_parameters(stiffness: float, body_mass: float, impedance: float = CONTACT_IMPEDANCE

@@ -1,0 +1,297 @@
+"""Which modelling differences part the project's and MuJoCo's rolling 6-bar
+(docs/design/mujoco.md, "The project's robot dynamics against MuJoCo").
+
+Run from the repository root with the ``mujoco`` extra installed (``./run setup``)::
+
+    .venv/bin/python docs/robot_mujoco_order.py                  # every experiment, one line each
+    .venv/bin/python docs/robot_mujoco_order.py "MuJoCo, RK4 (as exported)"     # one of EXPERIMENTS
+
+The two models are made equal one difference at a time. MuJoCo runs a scene's export
+(``export_mjcf(load_scene(...))``, its integrator and step overridden) driven either by the
+gait ``six_bar_roll`` as :func:`tests.mujoco_peer.play_gait` drives it, or by the closed-loop
+controller (:class:`tensegrity_core.robot.roll_control.RollController`, 50 Hz) from
+``six_bar_rest``; with its own contacts, or with its contacts switched off and **the
+project's floor law** applied as passive forces (``mujoco.set_mjcb_passive``, so every
+stage of MuJoCo's RK4 feels it): the Hunt-Crossley normal force, the friction anchors
+(:mod:`tensegrity_core.robot.friction`: the offset moves with the contact's material point,
+return-mapped once per step) and the rolling and spin couples
+(:mod:`tensegrity_core.robot.contact`), each computed by the project's own functions from
+MuJoCo's state. Parts of that law can be swapped for MuJoCo-like ones (:class:`Law`), and the
+motors' commands limited as the project's slew limit limits them (:func:`slew_limited`).
+Faces are counted as :func:`tests.mujoco_peer.play_gait` counts them (exactly three caps each
+carrying more than 2 % of the weight, at every step), from the law's normal forces when it
+replaces MuJoCo's contacts. A run of 13 s with the project's law takes ~10 CPU seconds.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from tensegrity_core.export import export_mjcf  # noqa: E402
+from tensegrity_core.robot.contact import normal_force, resisting_couple  # noqa: E402
+from tensegrity_core.robot.friction import stage_force, tangential  # noqa: E402
+from tensegrity_core.robot.gait import GAITS_DIR, gait_from_file  # noqa: E402
+from tensegrity_core.robot.roll_control import RollController  # noqa: E402
+from tensegrity_core.sim import load_scene  # noqa: E402
+from tests.mujoco_peer import touching_caps  # noqa: E402
+
+#: The faces reported are those reached from this time [s] on (where the orders part), over
+#: the gait's whole cycle (13 s).
+FROM = 4.0
+DURATION = 13.0
+#: The closed-loop controller's period [s] (50 Hz).
+PERIOD = 0.02
+#: A cap touches when it carries more than this share of the weight (as play_gait counts).
+SHARE = 0.02
+
+
+@dataclass(frozen=True)
+class Law:
+    """The floor law applied to MuJoCo's bodies in place of its contacts: the normal force
+    (``"hunt-crossley"``: the project's; ``"linear"``: ``k delta + 2 sqrt(k m) deltadot``, a
+    critically damped spring as MuJoCo's ``solref``), the tangential friction
+    (``"anchor"``: the project's stick-slip anchors; ``"regularised"``: ``mu F_n`` against the
+    contact point's slip velocity, linear below ``slip_speed`` [m/s], MuJoCo's creep; ``"none"``)
+    and whether the rolling and spin couples act."""
+
+    normal: str = "hunt-crossley"
+    friction: str = "anchor"
+    couples: bool = True
+    slip_speed: float = 1e-3
+
+
+class ProjectFloor:
+    """The project's floor law on an exported robot in MuJoCo (module docstring)."""
+
+    def __init__(self, m: mujoco.MjModel, scene, law: Law):
+        robot = scene.model.robot
+        floor = robot.floor
+        contact, friction = scene.effects["contact"], scene.effects["friction"]
+        self.law = law
+        self.n = np.asarray(floor.normal, dtype=float)
+        self.point = np.asarray(floor.point, dtype=float)
+        self.k, self.d = contact.stiffness, contact.dissipation
+        self.mu_s, self.mu_k = friction.mu_static, friction.mu_kinetic
+        self.k_t, self.c_t = friction.tangential_stiffness, friction.tangential_damping
+        self.rolling, self.torsional = friction.rolling_friction, friction.torsional_friction
+        names = [n for ends in robot.rods.ends for n in (robot.node_names[int(ends[0])], robot.node_names[int(ends[1])])]
+        self.names = names
+        geoms = [m.geom(f"cap:{n}").id for n in names]
+        self.body = np.array([m.geom_bodyid[g] for g in geoms])
+        self.local = np.array([m.geom_pos[g] for g in geoms])
+        self.radius = np.array([m.geom_size[g][0] for g in geoms])
+        self.mass = np.array([m.body_subtreemass[b] for b in self.body])
+        joints = np.array([m.body_jntadr[b] for b in self.body])
+        self.qadr = np.array([m.jnt_qposadr[j] for j in joints])
+        self.vadr = np.array([m.jnt_dofadr[j] for j in joints])
+        ncap = len(geoms)
+        self.s = np.zeros((ncap, 3))            # anchors' offsets at the step's start [m]
+        self.anchored = np.zeros(ncap, dtype=bool)
+        self.slipping = np.zeros(ncap, dtype=bool)
+        self.material = np.zeros((ncap, 3))     # the contact's material point at the step's start, body frame
+        self.start = np.zeros((ncap, 3))        # ... and in the world [m]
+
+    def kinematics(self, d: mujoco.MjData):
+        """Per cap from MuJoCo's ``qpos``, ``qvel`` (free joints): rotation of its body, centre
+        of its body, cap centre, cap velocity and the body's angular velocity (world)."""
+        R = np.empty((len(self.body), 3, 3))
+        for c, q in enumerate(self.qadr):
+            mujoco.mju_quat2Mat(R[c].ravel(), d.qpos[q + 3:q + 7])
+        com = np.array([d.qpos[q:q + 3] for q in self.qadr])
+        x = com + np.einsum("cij,cj->ci", R, self.local)
+        w = np.einsum("cij,cj->ci", R, np.array([d.qvel[v + 3:v + 6] for v in self.vadr]))
+        v = np.array([d.qvel[v:v + 3] for v in self.vadr]) + np.cross(w, x - com)
+        return R, com, x, v, w
+
+    def normal_forces(self, x, v) -> np.ndarray:
+        delta = self.radius - (x - self.point) @ self.n
+        rate = -(v @ self.n)
+        if self.law.normal == "hunt-crossley":
+            return normal_force(delta, rate, self.k, self.d)
+        return np.where(delta > 0, np.maximum(self.k * delta + 2 * np.sqrt(self.k * self.mass) * rate, 0.0), 0.0)
+
+    def passive(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
+        """MuJoCo's passive callback: the law's forces at the current (stage) state."""
+        R, com, x, v, w = self.kinematics(d)
+        F_n = self.normal_forces(x, v)
+        point = x - self.radius[:, None] * self.n
+        v_cp = v + np.cross(w, point - x)
+        v_t = tangential(v_cp, self.n)
+        if self.law.friction == "anchor":
+            moved = com + np.einsum("cij,cj->ci", R, self.material) - self.start
+            trial = tangential(self.s + moved, self.n)
+            F_t = np.where(self.anchored[:, None],
+                           stage_force(trial, v_t, F_n, np.full(len(F_n), self.k_t), np.full(len(F_n), self.c_t),
+                                       np.full(len(F_n), self.mu_s), np.full(len(F_n), self.mu_k), self.slipping), 0.0)
+        elif self.law.friction == "regularised":
+            speed = np.linalg.norm(v_t, axis=1)
+            F_t = -(self.mu_k * F_n / np.maximum(speed, self.law.slip_speed))[:, None] * v_t
+        else:
+            F_t = np.zeros_like(v_t)
+        M = (resisting_couple(w, F_n, self.n, self.rolling, self.torsional) if self.law.couples
+             else np.zeros_like(w))
+        for c, b in enumerate(self.body):
+            mujoco.mj_applyFT(m, d, F_n[c] * self.n, M[c], x[c], b, d.qfrc_passive)
+            mujoco.mj_applyFT(m, d, F_t[c], np.zeros(3), point[c], b, d.qfrc_passive)
+
+    def step_end(self, d: mujoco.MjData) -> np.ndarray:
+        """The anchors' return map at the end of a step (as the project's sampled update);
+        the normal forces [N] at the new state."""
+        R, com, x, v, w = self.kinematics(d)
+        F_n = self.normal_forces(x, v)
+        moved = com + np.einsum("cij,cj->ci", R, self.material) - self.start
+        trial = tangential(self.s + moved, self.n)
+        size = np.linalg.norm(trial, axis=1)
+        hold = np.where(self.slipping, self.mu_k, self.mu_s) * F_n
+        touching = F_n > 0
+        sticks = self.k_t * size <= hold
+        scale = np.divide(self.mu_k * F_n, self.k_t * size, out=np.zeros_like(size), where=size > 0)
+        new_anchor = touching & ~self.anchored
+        self.s = np.where((touching & self.anchored & sticks)[:, None], trial,
+                          np.where((touching & self.anchored)[:, None], scale[:, None] * trial, 0.0))
+        self.slipping = touching & self.anchored & ~sticks
+        self.anchored = touching
+        self.s[new_anchor] = 0.0
+        point = x - self.radius[:, None] * self.n
+        self.start = point
+        self.material = np.einsum("cji,cj->ci", R, point - com)
+        return F_n
+
+
+@dataclass
+class Run:
+    """A MuJoCo run: the faces reached ``(t [s], caps)`` (as play_gait counts them), the
+    robot's centre of mass at the start and the end [m], and with a controller the faces it
+    rolled to (node indices) and the time it ended [s]."""
+
+    faces: list[tuple[float, str]]
+    com: tuple[np.ndarray, np.ndarray]
+    visited: list[tuple[int, ...]]
+    t_end: float
+
+
+def run(scene_name: str = "six_bar_roll", *, law: Law | None = None, integrator: str = "RK4",
+        timestep: float = 1e-3, duration: float = DURATION, roll: int = 0, slew: bool = False) -> Run:
+    """MuJoCo on the export of ``scene_name`` driven by the gait ``six_bar_roll`` (``roll = 0``)
+    or by the closed-loop controller asked for ``roll`` faces towards +x (sampled at 50 Hz,
+    stopped 1 s after it is done), with its own contacts (``law=None``) or the project's
+    floor law (``law``), for ``duration`` [s]. ``slew``: each motor's command limited at
+    every step so that its rest length moves at most ``max_speed h`` (the project's slew
+    limit, which the export leaves out: :func:`slew_limited`)."""
+    scene = load_scene(scene_name)
+    robot = scene.model.robot
+    m = mujoco.MjModel.from_xml_string(export_mjcf(scene, integrator=integrator, timestep=timestep).xml)
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key("initial").id)
+    floor = None
+    if law is not None:
+        m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+        floor = ProjectFloor(m, scene, law)
+        mujoco.set_mjcb_passive(floor.passive)
+    try:
+        mujoco.mj_forward(m, d)
+        weight = float(np.sum(m.body_mass) * np.linalg.norm(m.opt.gravity))
+        if roll:
+            controller = RollController(robot, roll, heading=(1.0, 0.0))
+            cables = [robot.cables.names[j] for j in robot.cables.actuated]
+            every, finish = round(PERIOD / timestep), math.inf
+        else:
+            gait = gait_from_file(GAITS_DIR / "six_bar_roll.yaml")
+            t_table, v_table = gait.table()
+            cables = list(gait.cables)
+        motors = np.array([m.actuator(f"cable:{c}").id for c in cables])
+        by_cable = {robot.cables.names[int(c)]: j for j, c in enumerate(robot.motors.cable)}
+        speed = np.array([robot.motors.max_speed[by_cable[c]] for c in cables])
+        tau = np.array([robot.motors.tau[by_cable[c]] for c in cables])
+        act = m.actuator_actadr[motors]
+        command = d.ctrl[motors].copy()
+        index = {n: i for i, n in enumerate(robot.node_names)}
+        F_n = floor.step_end(d) if floor is not None else None
+        faces: list[tuple[float, str]] = []
+        com0 = d.subtree_com[0].copy()
+        for k in range(round(duration / timestep) + 1):
+            if floor is None:
+                caps = touching_caps(m, d, min_force=SHARE * weight)
+            else:
+                caps = frozenset(n for n, f in zip(floor.names, F_n) if f > SHARE * weight)
+            face = " ".join(sorted(caps, key=lambda c: int(c[1:])))
+            if len(caps) == 3 and (not faces or faces[-1][1] != face):
+                faces.append((d.time, face))
+            if not roll:
+                command = [np.interp(d.time, t_table, v_table[:, j]) for j in range(len(motors))]
+            elif k % every == 0:
+                touching = (touching_caps(m, d) if floor is None
+                            else frozenset(n for n, f in zip(floor.names, F_n) if f > 0))
+                nodes = np.array([d.site(f"node:{n}").xpos for n in robot.node_names])
+                command = controller.update(d.time, sorted(index[c] for c in touching), nodes)
+                if controller.done and finish == math.inf:
+                    finish = d.time + 1.0
+                if d.time >= finish:
+                    break
+            d.ctrl[motors] = slew_limited(command, d.act[act], speed, tau, timestep) if slew else command
+            mujoco.mj_step(m, d)
+            if floor is not None:
+                F_n = floor.step_end(d)
+        mujoco.mj_forward(m, d)
+        return Run(faces, (com0, d.subtree_com[0].copy()), list(controller.visited) if roll else [], d.time)
+    finally:
+        mujoco.set_mjcb_passive(None)
+
+
+def slew_limited(command, l0, speed, tau, h: float) -> np.ndarray:
+    """The ``ctrl`` [m] that moves MuJoCo's rest-length activations ``l0`` [m] (a first-order
+    lag of time constant ``tau`` [s], integrated exactly over a step ``h`` [s]) towards
+    ``command`` by at most ``speed h`` [m] in the step: the project's slew limit. The
+    activation moves ``(ctrl - l0)(1 - exp(-h / tau))`` in a step."""
+    reach = np.asarray(speed, dtype=float) * h / -np.expm1(-h / np.asarray(tau, dtype=float))
+    out: np.ndarray = l0 + np.clip(np.asarray(command, dtype=float) - l0, -reach, reach)
+    return out
+
+
+def show(label: str, out: Run) -> None:
+    travel = out.com[1] - out.com[0]
+    faces = ", ".join(f"{f} ({t:.2f})" for t, f in out.faces if t >= FROM or out.visited)
+    print(f"{label}: {faces}; centre of mass moved ({travel[0]:.2f}, {travel[1]:.2f}) m"
+          + (f", rolled to {out.visited[1:]} by {out.t_end:.2f} s" if out.visited else ""), flush=True)
+
+
+EXPERIMENTS = {
+    "MuJoCo as exported before (implicitfast)": dict(integrator="implicitfast"),
+    "MuJoCo, RK4 (as exported)": dict(),
+    "MuJoCo, RK4, the project's floor law": dict(law=Law()),
+    "MuJoCo, implicitfast, 0.5 ms": dict(integrator="implicitfast", timestep=5e-4),
+    "MuJoCo, implicitfast, 0.25 ms": dict(integrator="implicitfast", timestep=2.5e-4),
+    "MuJoCo, implicitfast, 0.1 ms": dict(integrator="implicitfast", timestep=1e-4),
+    "MuJoCo, RK4, 0.5 ms": dict(timestep=5e-4),
+    "MuJoCo, RK4, 0.9 ms": dict(timestep=9e-4),
+    "MuJoCo, RK4, 1.1 ms": dict(timestep=1.1e-3),
+    "MuJoCo, RK4, the project's law, linear normal force": dict(law=Law(normal="linear")),
+    "MuJoCo, RK4, the project's law, regularised friction": dict(law=Law(friction="regularised")),
+    "MuJoCo, RK4, the project's law without the couples": dict(law=Law(couples=False)),
+    "closed loop, 4 faces: MuJoCo, RK4": dict(scene_name="six_bar_rest", roll=4, duration=30.0),
+    "closed loop, 4 faces: MuJoCo, implicitfast": dict(scene_name="six_bar_rest", roll=4, duration=30.0,
+                                                       integrator="implicitfast"),
+    "closed loop, 4 faces: MuJoCo, RK4, the project's floor law": dict(scene_name="six_bar_rest", roll=4,
+                                                                       duration=30.0, law=Law()),
+    "closed loop, 4 faces: MuJoCo, RK4, the project's law, regularised friction": dict(
+        scene_name="six_bar_rest", roll=4, duration=30.0, law=Law(friction="regularised")),
+    "closed loop, 4 faces: MuJoCo, RK4, the motors' slew limit": dict(scene_name="six_bar_rest", roll=4,
+                                                                     duration=30.0, slew=True),
+    "closed loop, 4 faces: MuJoCo, RK4, the project's floor law and slew limit": dict(
+        scene_name="six_bar_rest", roll=4, duration=30.0, law=Law(), slew=True),
+    "MuJoCo, RK4, the motors' slew limit": dict(slew=True),
+}
+
+if __name__ == "__main__":
+    chosen = sys.argv[1:] or list(EXPERIMENTS)
+    for label in chosen:
+        show(label, run(**EXPERIMENTS[label]))
