@@ -25,6 +25,7 @@ replaces MuJoCo's contacts. A run of 13 s with the project's law takes ~10 CPU s
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 from dataclasses import dataclass
@@ -41,7 +42,9 @@ from tensegrity_core.robot.contact import normal_force, resisting_couple  # noqa
 from tensegrity_core.robot.friction import stage_force, tangential  # noqa: E402
 from tensegrity_core.robot.gait import GAITS_DIR, gait_from_file  # noqa: E402
 from tensegrity_core.robot.roll_control import RollController  # noqa: E402
-from tensegrity_core.sim import load_scene  # noqa: E402
+from tensegrity_core.robot.tipping import hull_faces, place_on_face  # noqa: E402
+from tensegrity_core.sim import compile_scene, load_scene, simulate  # noqa: E402
+from tensegrity_core.sim.control_loop import ControlLoop  # noqa: E402
 from tests.mujoco_peer import touching_caps  # noqa: E402
 
 #: The faces reported are those reached from this time [s] on (where the orders part), over
@@ -257,6 +260,63 @@ def slew_limited(command, l0, speed, tau, h: float) -> np.ndarray:
     return out
 
 
+def project(scene_name: str = "six_bar_roll", *, step: float = 1e-3, duration: float = DURATION,
+            roll: int = 0) -> Run:
+    """The project's run of the same experiment (:func:`run`'s arguments; ``step`` [s] the
+    scene's fixed step): the gait's scene simulated, or the controller run by
+    :class:`~tensegrity_core.sim.control_loop.ControlLoop`; faces counted as :func:`run`
+    counts them, at the samples (100 Hz for the gait, the controller's 50 Hz)."""
+    scene = load_scene(scene_name)
+    scene = dataclasses.replace(scene.with_duration(duration),
+                                integrator=dataclasses.replace(scene.integrator, max_step=step))
+    robot = scene.model.robot
+    visited: list[tuple[int, ...]] = []
+    if roll:
+        model = compile_scene(scene)
+        controller = RollController(robot, roll, heading=(1.0, 0.0))
+        seen = model.observe(ControlLoop(model, model.initial_state(t_end=duration), controller,
+                                         rate=1 / PERIOD).run(duration, after=1.0))
+        times, forces, nodes, visited = seen["t"], seen["contact_forces"], seen["nodes"], controller.visited
+        rolled = rigid_roll(nodes[0], visited, float(robot.rods.cap_radius.max()))
+        print(f"  the rigid start shape rolled over the same edges: its centre moves ({rolled[-1, 0]:.2f}, "
+              f"{rolled[-1, 1]:.2f}) m, per tip {np.round(np.hypot(*np.diff(rolled, axis=0).T), 2)} m", flush=True)
+    else:
+        out = simulate(scene)
+        times, forces, nodes = out.times, np.asarray(out.contact_forces), np.asarray(out.nodes)
+    mid = 0.5 * (nodes[:, robot.rods.ends[:, 0]] + nodes[:, robot.rods.ends[:, 1]])
+    com = np.einsum("r,trk->tk", robot.rods.mass, mid) / robot.rods.mass.sum()     # the rods' centre of mass
+    weight = robot.total_mass() * float(np.linalg.norm(robot.gravity))
+    names = [robot.node_names[int(i)] for i in robot.rods.ends.ravel()]     # the caps' order
+    faces: list[tuple[float, str]] = []
+    for t, row in zip(times, forces):
+        caps = [n for n, f in zip(names, row) if f > SHARE * weight]
+        face = " ".join(sorted(caps, key=lambda c: int(c[1:])))
+        if len(caps) == 3 and (not faces or faces[-1][1] != face):
+            faces.append((float(t), face))
+    return Run(faces, (com[0], com[-1]), list(visited), float(times[-1]))
+
+
+def rigid_roll(nodes: np.ndarray, visited: list[tuple[int, ...]], radius: float) -> np.ndarray:
+    """(faces, 2) [m]: the centre of the nodes ``nodes`` (n, 3) (equal masses: the 6-bar's
+    caps) on the floor while the rigid shape rolls over the edges between the ``visited``
+    faces (node indices), from the first; each tip turns the shape about the shared edge
+    until the next face lies on the floor, ``radius`` [m] the caps' radius."""
+    X = np.asarray(nodes, dtype=float)
+    out = [X.mean(axis=0)[:2]]
+    for F, G in zip(visited, visited[1:]):
+        a, b = sorted(set(F) & set(G))
+        face = next(f for f in hull_faces(X) if set(f) == set(G))     # outward-ordered
+        Y = place_on_face(X, face, radius)
+        # turned about the vertical and moved so that the shared edge's caps stay where they are
+        turn = math.atan2(*(X[b, 1::-1] - X[a, 1::-1])) - math.atan2(*(Y[b, 1::-1] - Y[a, 1::-1]))
+        c, s = math.cos(turn), math.sin(turn)
+        Y = Y @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]).T
+        Y[:, :2] += X[a, :2] - Y[a, :2]
+        X = Y
+        out.append(X.mean(axis=0)[:2])
+    return np.array(out) - out[0]
+
+
 def show(label: str, out: Run) -> None:
     travel = out.com[1] - out.com[0]
     faces = ", ".join(f"{f} ({t:.2f})" for t, f in out.faces if t >= FROM or out.visited)
@@ -265,6 +325,10 @@ def show(label: str, out: Run) -> None:
 
 
 EXPERIMENTS = {
+    "project, RK4 1 ms (as shipped)": dict(project=True),
+    "project, RK4 0.5 ms": dict(project=True, step=5e-4),
+    "project, RK4 0.25 ms": dict(project=True, step=2.5e-4),
+    "closed loop, 4 faces: project": dict(project=True, scene_name="six_bar_rest", roll=4, duration=30.0),
     "MuJoCo as exported before (implicitfast)": dict(integrator="implicitfast"),
     "MuJoCo, RK4 (as exported)": dict(),
     "MuJoCo, RK4, the project's floor law": dict(law=Law()),
@@ -294,4 +358,5 @@ EXPERIMENTS = {
 if __name__ == "__main__":
     chosen = sys.argv[1:] or list(EXPERIMENTS)
     for label in chosen:
-        show(label, run(**EXPERIMENTS[label]))
+        options = dict(EXPERIMENTS[label])
+        show(label, project(**options) if options.pop("project", False) else run(**options))
