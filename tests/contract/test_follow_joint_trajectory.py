@@ -23,7 +23,7 @@ import math
 
 import pytest
 
-from tests.contract.client import Client, start_sim, stamp_ns
+from tests.contract.client import Client, stamp_ns, start_sim
 
 pytestmark = pytest.mark.ros
 
