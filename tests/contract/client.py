@@ -114,11 +114,14 @@ class Client:
         end_context(self.context)
 
 
-def start_sim(folder: Path, scene: str, *params: str, name: str = "sim") -> Proc:
-    """``tensegrity node sim`` on ``scene`` with ``-p`` parameters, ready to publish."""
+def start_sim(folder: Path, scene: str, *params: str, name: str = "sim", remap: tuple[str, ...] = ()) -> Proc:
+    """``tensegrity node sim`` on ``scene`` with ``-p`` parameters and ``-r`` remappings, ready
+    to publish."""
     args = ["node", "sim", "--ros-args", "-p", f"scene:={scene}"]
     for p in params:
         args += ["-p", p]
+    for r in remap:
+        args += ["-r", r]
     proc = Proc(args, folder / f"{name}.log")
     proc.wait_for("publishing at", timeout=PATIENCE)
     return proc
