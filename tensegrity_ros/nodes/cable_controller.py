@@ -215,6 +215,8 @@ class CableControllerNode(Node):
                                              "not name", code=jt.INVALID_JOINTS)
                 bounds[trajectory.names.index(item.name)] = jt.tolerance(item.position, default)
         goal_time = _ns(req.goal_time_tolerance) / NS_PER_S or self.goal_time_tolerance
+        if goal_time < 0.0:           # joint_trajectory_controller rejects it too
+            raise jt.TrajectoryError(f"goal_time_tolerance must be >= 0 s, got {goal_time:g} s")
         off = (math.inf,) * n
         monitor = jt.GoalMonitor(trajectory, jt.Tolerances(tuple(path), off, tuple(goal), off, goal_time))
         return _Job(handle, trajectory, monitor, t_start)

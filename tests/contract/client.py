@@ -1,0 +1,127 @@
+"""A plain rclpy client, written as a ros2_control / rclpy user writes one: subscriptions that
+keep what they receive, service and action calls, waits on what arrives (never sleeps).
+
+Nothing here imports the suite's own client code: the contract tests check the suite from
+the outside, with expectations taken from the ROS 2 conventions and the issues' contracts.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import defaultdict
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from tests.ros_support import Proc, end_context
+
+#: How long a wait may take before the test fails (generous: a busy 2-core machine; the
+#: tests wait on arrivals and never spend this time when the suite works).
+PATIENCE = 60.0
+
+
+def stamp_ns(stamp: Any) -> int:
+    """Integer nanoseconds of a builtin_interfaces Time or Duration."""
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+
+
+class Client:
+    """One rclpy node in a private context, spun by a multi-threaded executor in a thread."""
+
+    def __init__(self, name: str) -> None:
+        import rclpy
+        from rclpy.context import Context
+        from rclpy.executors import MultiThreadedExecutor
+
+        self.context = Context()
+        rclpy.init(args=[], context=self.context)
+        self.node = rclpy.create_node(name, context=self.context)
+        self._executor = MultiThreadedExecutor(context=self.context)
+        self._executor.add_node(self.node)
+        self._thread = threading.Thread(target=self._executor.spin, daemon=True)
+        self._thread.start()
+        self._changed = threading.Condition()
+        self.received: dict[str, list[Any]] = defaultdict(list)
+        self._actions: list[Any] = []
+
+    def action_client(self, action_type: Any, name: str) -> Any:
+        """An rclpy ActionClient of ``name``, once its server is there."""
+        from rclpy.action import ActionClient
+
+        action = ActionClient(self.node, action_type, name)
+        self._actions.append(action)
+        assert action.wait_for_server(timeout_sec=PATIENCE), f"no action server {name}"
+        return action
+
+    def listen(self, msg_type: Any, topic: str, qos: Any = 100) -> None:
+        """Keep every message of ``topic`` in ``received[topic]``."""
+        def keep(msg: Any) -> None:
+            with self._changed:
+                self.received[topic].append(msg)
+                self._changed.notify_all()
+
+        self.node.create_subscription(msg_type, topic, keep, qos)
+
+    def wait(self, found: Callable[[], Any], what: str, timeout: float = PATIENCE) -> Any:
+        """The first true value of ``found()`` (evaluated whenever a message arrives)."""
+        with self._changed:
+            value = self._changed.wait_for(found, timeout)
+        assert value, f"waited {timeout:g} s for {what}"
+        return value
+
+    def wait_count(self, topic: str, n: int, timeout: float = PATIENCE) -> list[Any]:
+        """Until ``n`` more messages of ``topic`` have arrived; those messages."""
+        start = len(self.received[topic])
+        self.wait(lambda: len(self.received[topic]) >= start + n, f"{n} messages on {topic}", timeout)
+        return self.received[topic][start:start + n]
+
+    def wait_future(self, future: Any, what: str, timeout: float = PATIENCE) -> Any:
+        done = threading.Event()
+        future.add_done_callback(lambda _f: done.set())
+        assert done.wait(timeout), f"waited {timeout:g} s for {what}"
+        return future.result()
+
+    def call(self, srv_type: Any, name: str, request: Any = None, timeout: float = PATIENCE) -> Any:
+        client = self.node.create_client(srv_type, name)
+        try:
+            assert client.wait_for_service(timeout_sec=timeout), f"no service {name}"
+            return self.wait_future(client.call_async(request or srv_type.Request()), f"the answer of {name}",
+                                    timeout)
+        finally:
+            self.node.destroy_client(client)
+
+    def publisher(self, msg_type: Any, topic: str, depth: int = 1000, subscribers: int = 1) -> Any:
+        """A publisher of ``topic``, once ``subscribers`` readers have matched it."""
+        pub = self.node.create_publisher(msg_type, topic, depth)
+        self.wait_until(lambda: pub.get_subscription_count() >= subscribers, f"a subscriber of {topic}")
+        return pub
+
+    def wait_until(self, found: Callable[[], Any], what: str, timeout: float = PATIENCE) -> Any:
+        """Like :meth:`wait` for a condition on the graph, which notifies no subscription:
+        polled at 20 Hz."""
+        deadline = time.monotonic() + timeout
+        while not (value := found()):
+            assert time.monotonic() < deadline, f"waited {timeout:g} s for {what}"
+            threading.Event().wait(0.05)
+        return value
+
+    def close(self) -> None:
+        self._executor.shutdown()
+        self._thread.join(10.0)
+        for action in self._actions:       # not while the executor waits on them
+            action.destroy()
+        end_context(self.context)
+
+
+def start_sim(folder: Path, scene: str, *params: str, name: str = "sim", remap: tuple[str, ...] = ()) -> Proc:
+    """``tensegrity node sim`` on ``scene`` with ``-p`` parameters and ``-r`` remappings, ready
+    to publish."""
+    args = ["node", "sim", "--ros-args", "-p", f"scene:={scene}"]
+    for p in params:
+        args += ["-p", p]
+    for r in remap:
+        args += ["-r", r]
+    proc = Proc(args, folder / f"{name}.log")
+    proc.wait_for("publishing at", timeout=PATIENCE)
+    return proc

@@ -1,0 +1,209 @@
+"""What a robot's simulator publishes, read as a roboticist reads it: the 6-bar of
+``six_bar_rest`` (standing on a face, motors holding) on a free-running simulator.
+
+Expectations come from the ROS 2 message conventions and issues 29-30, and are computed here
+from the robot's description file read with PyYAML (not from the suite's code):
+
+- ``joint_states``: one joint per motor cable of ``six_bar.yaml``; position = the cable's
+  length [m] = the distance of its two caps, each at its rod's pose applied to the drawn
+  offset from the rod's centre (``body_states``, docs/ros.md); velocity = d(length)/dt
+  [m/s] from the rods' twists; effort = tension [N] >= 0, the cable law of the description
+  (stiffness 4000 N/m, damping 50 N s/m, tension-only).
+- ``cable_states``: slack iff tension 0; rods are bars, cables strings, strings never push.
+- ``imu/<rod>`` (sensor_msgs/Imu): frame_id = the rod, a unit quaternion equal to the rod's
+  pose, covariances per sensor_msgs (all zeros = unknown; element 0 = -1 only for a quantity
+  not provided), at rest the specific force -g in the rod frame (+9.81 m/s^2 along world up
+  expressed in the rod frame) and no rotation; stamps on the simulation clock.
+- ``/clock`` advances; every state is stamped with a time the clock published.
+- ``contacts``: only the caps that touch (their centre one cap radius above the floor within
+  1 mm, issue 29's penetration bound), normal forces >= 0 that carry the robot's weight at
+  rest (6 rods x 5 kg: a rod's ``mass`` includes its caps, docs/structures.md), friction
+  within mu_static x normal.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+from tensegrity_core.robot import examples
+from tests.contract.client import Client, stamp_ns, start_sim
+
+pytestmark = pytest.mark.ros
+
+G = 9.81                                   # m/s^2 (9.80665 is within the tolerances below)
+
+
+@pytest.fixture(scope="module")
+def robot():
+    """The 6-bar's description, as a user reads it."""
+    from pathlib import Path
+
+    return yaml.safe_load((Path(examples.__file__).parent / "six_bar.yaml").read_text())
+
+
+@pytest.fixture(scope="module")
+def suite(tmp_path_factory, robot):
+    from rclpy.qos import QoSProfile
+    from rosgraph_msgs.msg import Clock
+    from sensor_msgs.msg import Imu, JointState
+    from tensegrity_msgs.msg import CableStates, CapContacts, RigidBodyStates
+
+    sim = start_sim(tmp_path_factory.mktemp("robot_topics"), "six_bar_rest")
+    client = Client("robot_topics_client")
+    try:
+        client.listen(Clock, "/clock", QoSProfile(depth=1000))
+        for msg_type, topic in ((JointState, "joint_states"), (CableStates, "cable_states"),
+                                (RigidBodyStates, "body_states"), (CapContacts, "contacts")):
+            client.listen(msg_type, topic, QoSProfile(depth=1000))
+        for rod in robot["rods"]:
+            client.listen(Imu, f"imu/{rod['name']}", QoSProfile(depth=1000))
+        yield client, sim
+    finally:
+        client.close()
+        sim.stop()
+
+
+def _by_stamp(client, topic):
+    return {stamp_ns(m.header.stamp): m for m in client.received[topic]}
+
+
+def _at_rest(client) -> int | None:
+    """The stamp [ns] of a state of the robot at rest (every rod's speed < 1 mm/s and rotation
+    < 0.01 rad/s) that joint_states, cable_states, contacts and every IMU have, or None."""
+    common = set(_by_stamp(client, "joint_states")) & set(_by_stamp(client, "cable_states")) \
+        & set(_by_stamp(client, "contacts"))
+    for topic in [t for t in client.received if t.startswith("imu/")]:
+        common &= set(_by_stamp(client, topic))
+    bodies = _by_stamp(client, "body_states")
+    for stamp in sorted(common & set(bodies), reverse=True):
+        twists = bodies[stamp].twist
+        if all(np.hypot(np.hypot(t.linear.x, t.linear.y), t.linear.z) < 1e-3
+               and np.hypot(np.hypot(t.angular.x, t.angular.y), t.angular.z) < 1e-2 for t in twists):
+            return stamp
+    return None
+
+
+def _rotation(q):
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_quat([q.x, q.y, q.z, q.w])
+
+
+def _caps(robot, bodies):
+    """Each cap's position [m] and velocity [m/s] from the rods' poses and twists (world frame)."""
+    nodes = {n: np.array(p, dtype=float) for n, p in robot["nodes"].items()}
+    poses = dict(zip(bodies.name, zip(bodies.pose, bodies.twist)))
+    out = {}
+    for rod in robot["rods"]:
+        pose, twist = poses[rod["name"]]
+        centre_drawn = (nodes[rod["nodes"][0]] + nodes[rod["nodes"][1]]) / 2
+        centre = np.array([pose.position.x, pose.position.y, pose.position.z])
+        v = np.array([twist.linear.x, twist.linear.y, twist.linear.z])
+        w = np.array([twist.angular.x, twist.angular.y, twist.angular.z])
+        for n in rod["nodes"]:
+            r = _rotation(pose.orientation).apply(nodes[n] - centre_drawn)
+            out[n] = (centre + r, v + np.cross(w, r))
+    return out
+
+
+def test_joint_states_are_the_motor_cables_length_rate_and_tension(suite, robot):
+    client, _ = suite
+    stamp = client.wait(lambda: _at_rest(client), "the robot at rest in every topic")
+    joints = _by_stamp(client, "joint_states")[stamp]
+    bodies = _by_stamp(client, "body_states")[stamp]
+    states = _by_stamp(client, "cable_states")[stamp]
+    motors = [c["name"] for c in robot["cables"] if c.get("motor")]
+    assert sorted(joints.name) == sorted(motors)
+    assert len(joints.position) == len(joints.velocity) == len(joints.effort) == len(motors)
+    caps = _caps(robot, bodies)
+    ends = {c["name"]: c["nodes"] for c in robot["cables"]}
+    rest = dict(zip(states.name, states.rest_length))
+    k, c = robot["cable_defaults"]["stiffness"], robot["cable_defaults"]["damping"]
+    for name, length, rate, tension in zip(joints.name, joints.position, joints.velocity, joints.effort):
+        (pa, va), (pb, vb) = caps[ends[name][0]], caps[ends[name][1]]
+        d = pa - pb
+        assert length == pytest.approx(np.linalg.norm(d), abs=1e-9), name
+        assert rate == pytest.approx(d @ (va - vb) / np.linalg.norm(d), abs=1e-6), name
+        expected = max(0.0, k * (length - rest[name]) + c * rate) if length > rest[name] else 0.0
+        assert tension >= 0.0
+        assert tension == pytest.approx(expected, rel=1e-9, abs=1e-6), name
+
+
+def test_cable_states_name_every_member_and_slack_means_no_tension(suite, robot):
+    client, _ = suite
+    stamp = client.wait(lambda: _at_rest(client), "the robot at rest in every topic")
+    states = _by_stamp(client, "cable_states")[stamp]
+    rods = [r["name"] for r in robot["rods"]]
+    cables = [c["name"] for c in robot["cables"]]
+    assert sorted(states.name) == sorted(rods + cables)
+    joints = _by_stamp(client, "joint_states")[stamp]
+    lengths = dict(zip(joints.name, joints.position))
+    for name, kind, length, tension, slack in zip(states.name, states.kind, states.length, states.tension,
+                                                  states.slack):
+        assert kind == ("bar" if name in rods else "string"), name
+        if name in cables:
+            assert tension >= 0.0, name
+            assert slack == (tension == 0.0), name
+            assert length == lengths[name]
+    msgs = client.received["cable_states"]
+    assert all(m.slack[i] == (m.tension[i] == 0.0) for m in msgs for i, n in enumerate(m.name) if n in cables)
+
+
+def test_each_rod_imu_reads_as_sensor_msgs_imu_says_at_rest(suite, robot):
+    client, _ = suite
+    stamp = client.wait(lambda: _at_rest(client), "the robot at rest in every topic")
+    bodies = _by_stamp(client, "body_states")[stamp]
+    poses = dict(zip(bodies.name, bodies.pose))
+    for rod in (r["name"] for r in robot["rods"]):
+        imu = _by_stamp(client, f"imu/{rod}")[stamp]
+        assert imu.header.frame_id == rod
+        q = imu.orientation
+        assert np.hypot(np.hypot(q.x, q.y), np.hypot(q.z, q.w)) == pytest.approx(1.0, abs=1e-9)
+        body = _rotation(poses[rod].orientation).as_matrix()
+        assert np.allclose(_rotation(q).as_matrix(), body, atol=1e-9), rod    # the rod's frame
+        for cov in (imu.orientation_covariance, imu.angular_velocity_covariance,
+                    imu.linear_acceleration_covariance):
+            assert len(cov) == 9
+            # every quantity is provided: element 0 is not -1; exact readings: zeros (unknown) or >= 0
+            assert cov[0] != -1.0 and all(np.isfinite(cov)) and min(cov[0], cov[4], cov[8]) >= 0.0
+        up_in_rod = _rotation(q).inv().apply([0.0, 0.0, G])
+        a = imu.linear_acceleration
+        assert np.allclose([a.x, a.y, a.z], up_in_rod, atol=0.05), (rod, a, up_in_rod)
+        w = imu.angular_velocity
+        assert np.allclose([w.x, w.y, w.z], 0.0, atol=1e-2), rod
+
+
+def test_every_state_is_stamped_on_the_simulation_clock(suite, robot):
+    client, _ = suite
+    client.wait_count("/clock", 20)
+    clock = [stamp_ns(m.clock) for m in client.received["/clock"]]
+    assert all(b > a for a, b in zip(clock, clock[1:])), "the clock went back or stood while playing"
+    assert clock[-1] < 3600 * 10**9              # simulation time from 0, not the wall clock
+    ticks = set(clock)
+    for topic in ("joint_states", "cable_states", "contacts", f"imu/{robot['rods'][0]['name']}"):
+        stamps = [s for s in _by_stamp(client, topic) if clock[0] <= s <= clock[-1]]
+        assert stamps and set(stamps) <= ticks, topic
+
+
+def test_contacts_are_the_caps_on_the_floor_and_carry_the_weight(suite, robot):
+    client, _ = suite
+    stamp = client.wait(lambda: _at_rest(client), "the robot at rest in every topic")
+    contacts = _by_stamp(client, "contacts")[stamp]
+    caps = _caps(robot, _by_stamp(client, "body_states")[stamp])
+    radius = {n: r["cap_radius"] for r in robot["rods"] for n in r["nodes"]}
+    touching = set(contacts.name)
+    assert len(touching) == 3                     # standing on a face
+    for name, point, normal, friction in zip(contacts.name, contacts.position, contacts.normal_force,
+                                             contacts.friction_force):
+        assert normal >= 0.0
+        assert point.z == pytest.approx(caps[name][0][2], abs=1e-9)
+        assert 0.0 <= radius[name] - point.z < 1e-3, name       # touching, less than 1 mm into the floor
+        assert np.hypot(friction.x, friction.y) <= robot["floor"]["mu_static"] * normal + 1e-9
+        assert friction.z == 0.0
+    for name, (p, _) in caps.items():
+        if name not in touching:
+            assert p[2] > radius[name], name                   # every other cap is off the floor
+    mass = sum(r["mass"] for r in robot["rods"])          # each rod's whole mass, caps included
+    assert sum(contacts.normal_force) == pytest.approx(mass * G, rel=5e-3)
