@@ -20,7 +20,6 @@ same in both).
 from __future__ import annotations
 
 import threading
-import time
 from dataclasses import dataclass
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
@@ -37,8 +36,6 @@ if TYPE_CHECKING:
     from rclpy.context import Context
 
 NS_PER_S = 1_000_000_000
-#: Seconds without an answer after which a reset, which may arrive twice, is sent again.
-REPEAT_AFTER_S = 10.0
 
 
 @dataclass(frozen=True)
@@ -190,33 +187,22 @@ class SimClient:
         if not wait_for_matches([self.pub], 1, timeout):
             raise RuntimeError(f"nobody subscribes to {self.pub.topic_name} within {timeout:g} s")
 
-    def call(self, name: str, request: Any = None, timeout: float = 600.0, *, again_after: float | None = None) -> Any:
-        """Call the service ``name`` and wait up to ``timeout`` s for its answer. A request
-        that may be repeated (``again_after`` [s], for calls whose effect does not depend on
-        how often they arrive: a reset, a state change) is sent again when that long passes
-        without an answer: a service can answer before it has matched the client's response
-        reader (rmw then drops the response: "failed to send response"), and the first call
-        after discovery is where that happens."""
+    def call(self, name: str, request: Any = None, timeout: float = 600.0) -> Any:
+        """Call the service ``name`` and wait up to ``timeout`` s for its answer."""
         client = self.clients[name]
-        request = request if request is not None else self.srv[name].Request()
-        deadline = time.monotonic() + timeout
-        while True:
-            done = threading.Event()
-            future = client.call_async(request)
-            future.add_done_callback(lambda _f, done=done: done.set())
-            left = deadline - time.monotonic()
-            if done.wait(left if again_after is None else min(again_after, left)):
-                return future.result()
+        done = threading.Event()
+        future = client.call_async(request if request is not None else self.srv[name].Request())
+        future.add_done_callback(lambda _f: done.set())
+        if not done.wait(timeout):
             client.remove_pending_request(future)
-            if again_after is None or time.monotonic() >= deadline:
-                raise RuntimeError(f"no answer from {client.srv_name} within {timeout:g} s")
+            raise RuntimeError(f"no answer from {client.srv_name} within {timeout:g} s")
+        return future.result()
 
-    def checked(self, name: str, request: Any = None, timeout: float = 600.0, *,
-                again_after: float | None = None) -> Any:
+    def checked(self, name: str, request: Any = None, timeout: float = 600.0) -> Any:
         """``call`` a simulation_interfaces service and raise unless its result is OK."""
         from simulation_interfaces.msg import Result
 
-        res = self.call(name, request, timeout, again_after=again_after)
+        res = self.call(name, request, timeout)
         if res.result.result != Result.RESULT_OK:
             raise RuntimeError(f"{name} failed (result {res.result.result}): {res.result.error_message}")
         return res
@@ -244,7 +230,7 @@ class SimClient:
 
     def reset_all(self) -> Any:
         req = self.srv["reset_simulation"].Request(scope=self.srv["reset_simulation"].Request.SCOPE_ALL)
-        return self.checked("reset_simulation", req, again_after=REPEAT_AFTER_S)
+        return self.checked("reset_simulation", req)
 
     def close(self) -> None:
         # the spinning thread ends first: shutting the executor down under a callback that
