@@ -16,7 +16,7 @@ stage of MuJoCo's RK4 feels it): the Hunt-Crossley normal force, the friction an
 (:mod:`tensegrity_core.robot.friction`: the offset moves with the contact's material point,
 return-mapped once per step) and the rolling and spin couples
 (:mod:`tensegrity_core.robot.contact`), each computed by the project's own functions from
-MuJoCo's state. Parts of that law can be swapped for MuJoCo-like ones (:class:`Law`), and the
+MuJoCo's state. Parts of that law can be swapped for MuJoCo-like ones (:class:`FloorLaw`), and the
 motors' commands limited as the project's slew limit limits them (:func:`slew_limited`).
 Faces are counted as :func:`tests.mujoco_peer.play_gait` counts them (exactly three caps each
 carrying more than 2 % of the weight, at every step), from the law's normal forces when it
@@ -28,16 +28,20 @@ from __future__ import annotations
 import dataclasses
 import math
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from tensegrity_core.export import export_mjcf  # noqa: E402
+from tensegrity_core.export.robot_mjcf import scene_floor  # noqa: E402
 from tensegrity_core.robot.contact import normal_force, resisting_couple  # noqa: E402
 from tensegrity_core.robot.friction import stage_force, tangential  # noqa: E402
 from tensegrity_core.robot.gait import GAITS_DIR, gait_from_file  # noqa: E402
@@ -45,8 +49,9 @@ from tensegrity_core.robot.roll_control import RollController  # noqa: E402
 from tensegrity_core.robot.tipping import hull_faces, place_on_face  # noqa: E402
 from tensegrity_core.sim import compile_scene, load_scene, simulate  # noqa: E402
 from tensegrity_core.sim.control_loop import ControlLoop  # noqa: E402
-from tests.mujoco_peer import touching_caps  # noqa: E402
+from tests.mujoco_peer import CAP, touching_caps  # noqa: E402
 
+FloatArray = NDArray[np.float64]
 #: The faces reported are those reached from this time [s] on (where the orders part), over
 #: the gait's whole cycle (13 s).
 FROM = 4.0
@@ -58,13 +63,13 @@ SHARE = 0.02
 
 
 @dataclass(frozen=True)
-class Law:
-    """The floor law applied to MuJoCo's bodies in place of its contacts: the normal force
-    (``"hunt-crossley"``: the project's; ``"linear"``: ``k delta + 2 sqrt(k m) deltadot``, a
-    critically damped spring as MuJoCo's ``solref``), the tangential friction
-    (``"anchor"``: the project's stick-slip anchors; ``"regularised"``: ``mu F_n`` against the
-    contact point's slip velocity, linear below ``slip_speed`` [m/s], MuJoCo's creep; ``"none"``)
-    and whether the rolling and spin couples act."""
+class FloorLaw:
+    """Which floor law :class:`ProjectFloor` applies: the normal force (``"hunt-crossley"``:
+    the project's; ``"linear"``: ``k delta + 2 sqrt(k m) deltadot``, critically damped as
+    MuJoCo's ``solref``), the tangential friction (``"anchor"``: the project's stick-slip
+    anchors; ``"regularised"``: ``mu_k F_n`` against the contact point's slip velocity,
+    linear below ``slip_speed`` [m/s], a creep like MuJoCo's; ``"none"``) and whether the
+    rolling and spin couples act."""
 
     normal: str = "hunt-crossley"
     friction: str = "anchor"
@@ -73,101 +78,130 @@ class Law:
 
 
 class ProjectFloor:
-    """The project's floor law on an exported robot in MuJoCo (module docstring)."""
+    """The project's floor law (:mod:`tensegrity_core.robot.contact`,
+    :mod:`tensegrity_core.robot.friction`, computed by their functions) acting on an exported
+    robot in MuJoCo in place of MuJoCo's contacts: :meth:`attach` switches MuJoCo's contacts
+    off and installs :meth:`passive` as MuJoCo's passive-force callback, so every stage of
+    its integrator feels the law at that stage's state; call :meth:`step_end` after every
+    ``mj_step`` (the anchors' return map once per step, as the project's sampled update) and
+    :meth:`detach` at the end. The anchors' offsets move with the contact's material point
+    (fixed in the body at the step's start). ``floor``: the scene's robot's
+    :class:`~tensegrity_core.robot.description.Floor` with the scene's contact and friction
+    (``write_robot_scene`` applies the same)."""
 
-    def __init__(self, m: mujoco.MjModel, scene, law: Law):
-        robot = scene.model.robot
-        floor = robot.floor
-        contact, friction = scene.effects["contact"], scene.effects["friction"]
+    def __init__(self, floor, node_names: Sequence[str], law: FloorLaw = FloorLaw()):
         self.law = law
         self.n = np.asarray(floor.normal, dtype=float)
         self.point = np.asarray(floor.point, dtype=float)
-        self.k, self.d = contact.stiffness, contact.dissipation
-        self.mu_s, self.mu_k = friction.mu_static, friction.mu_kinetic
-        self.k_t, self.c_t = friction.tangential_stiffness, friction.tangential_damping
-        self.rolling, self.torsional = friction.rolling_friction, friction.torsional_friction
-        names = [n for ends in robot.rods.ends for n in (robot.node_names[int(ends[0])], robot.node_names[int(ends[1])])]
-        self.names = names
-        geoms = [m.geom(f"cap:{n}").id for n in names]
-        self.body = np.array([m.geom_bodyid[g] for g in geoms])
+        self.floor = floor
+        self.names = tuple(node_names)
+
+    def attach(self, m: mujoco.MjModel, d: mujoco.MjData) -> FloatArray:
+        """Use the law in ``m`` from the state ``d``; returns the caps' normal forces [N] there."""
+        geoms = [m.geom(f"{CAP}{n}").id for n in self.names]
+        body = np.array([m.geom_bodyid[g] for g in geoms])
+        self.bodies, self.slot = np.unique(body, return_inverse=True)
+        joints = m.body_jntadr[self.bodies]
+        self.qadr, self.vadr = m.jnt_qposadr[joints], m.jnt_dofadr[joints]
         self.local = np.array([m.geom_pos[g] for g in geoms])
         self.radius = np.array([m.geom_size[g][0] for g in geoms])
-        self.mass = np.array([m.body_subtreemass[b] for b in self.body])
-        joints = np.array([m.body_jntadr[b] for b in self.body])
-        self.qadr = np.array([m.jnt_qposadr[j] for j in joints])
-        self.vadr = np.array([m.jnt_dofadr[j] for j in joints])
+        self.mass = m.body_subtreemass[body]
         ncap = len(geoms)
-        self.s = np.zeros((ncap, 3))            # anchors' offsets at the step's start [m]
+        self.s = np.zeros((ncap, 3))
         self.anchored = np.zeros(ncap, dtype=bool)
         self.slipping = np.zeros(ncap, dtype=bool)
-        self.material = np.zeros((ncap, 3))     # the contact's material point at the step's start, body frame
-        self.start = np.zeros((ncap, 3))        # ... and in the world [m]
+        self.material = np.zeros((ncap, 3))
+        self.start = np.zeros((ncap, 3))
+        m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+        mujoco.set_mjcb_passive(self.passive)
+        mujoco.mj_forward(m, d)
+        return self.step_end(d)
 
-    def kinematics(self, d: mujoco.MjData):
-        """Per cap from MuJoCo's ``qpos``, ``qvel`` (free joints): rotation of its body, centre
-        of its body, cap centre, cap velocity and the body's angular velocity (world)."""
-        R = np.empty((len(self.body), 3, 3))
-        for c, q in enumerate(self.qadr):
-            mujoco.mju_quat2Mat(R[c].ravel(), d.qpos[q + 3:q + 7])
-        com = np.array([d.qpos[q:q + 3] for q in self.qadr])
-        x = com + np.einsum("cij,cj->ci", R, self.local)
-        w = np.einsum("cij,cj->ci", R, np.array([d.qvel[v + 3:v + 6] for v in self.vadr]))
-        v = np.array([d.qvel[v:v + 3] for v in self.vadr]) + np.cross(w, x - com)
-        return R, com, x, v, w
+    @staticmethod
+    def detach() -> None:
+        mujoco.set_mjcb_passive(None)
 
-    def normal_forces(self, x, v) -> np.ndarray:
+    def _kinematics(self, d: mujoco.MjData) -> tuple[FloatArray, ...]:
+        """Per body its rotation and centre, per cap its rotation, centre, velocity and the
+        body's angular velocity (world), from the free joints' ``qpos``, ``qvel``."""
+        q = d.qpos[self.qadr[:, None] + np.arange(7)]
+        qv = d.qvel[self.vadr[:, None] + np.arange(6)]
+        R_b = Rotation.from_quat(q[:, 3:], scalar_first=True).as_matrix()
+        R, com = R_b[self.slot], q[self.slot, :3]
+        arm = np.einsum("cij,cj->ci", R, self.local)
+        w = np.einsum("cij,cj->ci", R, qv[self.slot, 3:])
+        return R_b, R, com, com + arm, qv[self.slot, :3] + np.cross(w, arm), w
+
+    def _normal(self, x: FloatArray, v: FloatArray) -> FloatArray:
+        f = self.floor
         delta = self.radius - (x - self.point) @ self.n
         rate = -(v @ self.n)
         if self.law.normal == "hunt-crossley":
-            return normal_force(delta, rate, self.k, self.d)
-        return np.where(delta > 0, np.maximum(self.k * delta + 2 * np.sqrt(self.k * self.mass) * rate, 0.0), 0.0)
+            return normal_force(delta, rate, f.stiffness, f.dissipation)
+        out: FloatArray = np.where(delta > 0, np.maximum(f.stiffness * delta + 2 * np.sqrt(f.stiffness * self.mass)
+                                                         * rate, 0.0), 0.0)
+        return out
 
     def passive(self, m: mujoco.MjModel, d: mujoco.MjData) -> None:
-        """MuJoCo's passive callback: the law's forces at the current (stage) state."""
-        R, com, x, v, w = self.kinematics(d)
-        F_n = self.normal_forces(x, v)
+        """MuJoCo's passive-force callback: the law's forces at the current (stage) state."""
+        f = self.floor
+        R_b, R, com, x, v, w = self._kinematics(d)
+        F_n = self._normal(x, v)
         point = x - self.radius[:, None] * self.n
-        v_cp = v + np.cross(w, point - x)
-        v_t = tangential(v_cp, self.n)
+        v_t = tangential(v + np.cross(w, point - x), self.n)
+        ones = np.ones(len(F_n))
         if self.law.friction == "anchor":
-            moved = com + np.einsum("cij,cj->ci", R, self.material) - self.start
-            trial = tangential(self.s + moved, self.n)
-            F_t = np.where(self.anchored[:, None],
-                           stage_force(trial, v_t, F_n, np.full(len(F_n), self.k_t), np.full(len(F_n), self.c_t),
-                                       np.full(len(F_n), self.mu_s), np.full(len(F_n), self.mu_k), self.slipping), 0.0)
+            trial = tangential(self.s + com + np.einsum("cij,cj->ci", R, self.material) - self.start, self.n)
+            F_t = np.where(self.anchored[:, None], stage_force(trial, v_t, F_n, f.tangential_stiffness * ones,
+                                                               f.tangential_damping * ones, f.mu_static * ones,
+                                                               f.mu_kinetic * ones, self.slipping), 0.0)
         elif self.law.friction == "regularised":
-            speed = np.linalg.norm(v_t, axis=1)
-            F_t = -(self.mu_k * F_n / np.maximum(speed, self.law.slip_speed))[:, None] * v_t
+            speed = np.sqrt(np.sum(v_t * v_t, axis=1))
+            F_t = -(f.mu_kinetic * F_n / np.maximum(speed, self.law.slip_speed))[:, None] * v_t
         else:
             F_t = np.zeros_like(v_t)
-        M = (resisting_couple(w, F_n, self.n, self.rolling, self.torsional) if self.law.couples
-             else np.zeros_like(w))
-        for c, b in enumerate(self.body):
-            mujoco.mj_applyFT(m, d, F_n[c] * self.n, M[c], x[c], b, d.qfrc_passive)
-            mujoco.mj_applyFT(m, d, F_t[c], np.zeros(3), point[c], b, d.qfrc_passive)
+        torque = np.cross(x - com, F_n[:, None] * self.n) + np.cross(point - com, F_t)
+        if self.law.couples:
+            torque += resisting_couple(w, F_n, self.n, f.rolling_friction, f.torsional_friction)
+        force = np.zeros((len(self.bodies), 3))
+        moment = np.zeros((len(self.bodies), 3))
+        np.add.at(force, self.slot, F_n[:, None] * self.n + F_t)
+        np.add.at(moment, self.slot, torque)
+        # a free joint's rotational dofs are in the body's frame
+        d.qfrc_passive[self.vadr[:, None] + np.arange(3)] += force
+        d.qfrc_passive[self.vadr[:, None] + 3 + np.arange(3)] += np.einsum("bji,bj->bi", R_b, moment)
 
-    def step_end(self, d: mujoco.MjData) -> np.ndarray:
-        """The anchors' return map at the end of a step (as the project's sampled update);
-        the normal forces [N] at the new state."""
-        R, com, x, v, w = self.kinematics(d)
-        F_n = self.normal_forces(x, v)
-        moved = com + np.einsum("cij,cj->ci", R, self.material) - self.start
-        trial = tangential(self.s + moved, self.n)
-        size = np.linalg.norm(trial, axis=1)
-        hold = np.where(self.slipping, self.mu_k, self.mu_s) * F_n
-        touching = F_n > 0
-        sticks = self.k_t * size <= hold
-        scale = np.divide(self.mu_k * F_n, self.k_t * size, out=np.zeros_like(size), where=size > 0)
-        new_anchor = touching & ~self.anchored
-        self.s = np.where((touching & self.anchored & sticks)[:, None], trial,
-                          np.where((touching & self.anchored)[:, None], scale[:, None] * trial, 0.0))
-        self.slipping = touching & self.anchored & ~sticks
+    def step_end(self, d: mujoco.MjData) -> FloatArray:
+        """The anchors' return map at the end of a step (``tensegrity_core.sim.general.robot.
+        loops.sampled_update``'s rule); returns the caps' normal forces [N] at the new state."""
+        f = self.floor
+        _, R, com, x, v, _ = self._kinematics(d)
+        F_n = self._normal(x, v)
+        trial = tangential(self.s + com + np.einsum("cij,cj->ci", R, self.material) - self.start, self.n)
+        size = np.sqrt(np.sum(trial * trial, axis=1))
+        hold = np.where(self.slipping, f.mu_kinetic, f.mu_static) * F_n
+        touching = (F_n > 0) & (f.tangential_stiffness > 0)
+        sticks = f.tangential_stiffness * size <= hold
+        scale = np.divide(f.mu_kinetic * F_n, f.tangential_stiffness * size, out=np.zeros_like(size), where=size > 0)
+        kept = touching & self.anchored
+        self.s = np.where((kept & sticks)[:, None], trial, np.where(kept[:, None], scale[:, None] * trial, 0.0))
+        self.slipping = kept & ~sticks
         self.anchored = touching
-        self.s[new_anchor] = 0.0
         point = x - self.radius[:, None] * self.n
         self.start = point
         self.material = np.einsum("cji,cj->ci", R, point - com)
         return F_n
+
+
+def slew_limited(command: ArrayLike, l0: ArrayLike, speed: ArrayLike, tau: ArrayLike, h: float) -> FloatArray:
+    """The ``ctrl`` [m] that moves MuJoCo's rest-length activations ``l0`` [m] (a first-order
+    lag of time constant ``tau`` [s], integrated exactly over a step of ``h`` [s]) towards
+    ``command`` by at most ``speed h`` [m] in the step, as the project's motors' slew limit
+    (which MJCF cannot hold): the activation moves ``(ctrl - l0)(1 - exp(-h / tau))`` in a step."""
+    l0 = np.asarray(l0, dtype=float)
+    reach = np.asarray(speed, dtype=float) * h / -np.expm1(-h / np.asarray(tau, dtype=float))
+    out: FloatArray = l0 + np.clip(np.asarray(command, dtype=float) - l0, -reach, reach)
+    return out
 
 
 @dataclass
@@ -182,7 +216,7 @@ class Run:
     t_end: float
 
 
-def run(scene_name: str = "six_bar_roll", *, law: Law | None = None, integrator: str = "RK4",
+def run(scene_name: str = "six_bar_roll", *, law: FloorLaw | None = None, integrator: str = "RK4",
         timestep: float = 1e-3, duration: float = DURATION, roll: int = 0, slew: bool = False) -> Run:
     """MuJoCo on the export of ``scene_name`` driven by the gait ``six_bar_roll`` (``roll = 0``)
     or by the closed-loop controller asked for ``roll`` faces towards +x (sampled at 50 Hz,
@@ -195,12 +229,12 @@ def run(scene_name: str = "six_bar_roll", *, law: Law | None = None, integrator:
     m = mujoco.MjModel.from_xml_string(export_mjcf(scene, integrator=integrator, timestep=timestep).xml)
     d = mujoco.MjData(m)
     mujoco.mj_resetDataKeyframe(m, d, m.key("initial").id)
-    floor = None
-    if law is not None:
-        m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
-        floor = ProjectFloor(m, scene, law)
-        mujoco.set_mjcb_passive(floor.passive)
+    floor, F_n = None, None
     try:
+        if law is not None:
+            names = [robot.node_names[int(i)] for i in robot.rods.ends.ravel()]
+            floor = ProjectFloor(scene_floor(scene), names, law)
+            F_n = floor.attach(m, d)
         mujoco.mj_forward(m, d)
         weight = float(np.sum(m.body_mass) * np.linalg.norm(m.opt.gravity))
         if roll:
@@ -218,7 +252,6 @@ def run(scene_name: str = "six_bar_roll", *, law: Law | None = None, integrator:
         act = m.actuator_actadr[motors]
         command = d.ctrl[motors].copy()
         index = {n: i for i, n in enumerate(robot.node_names)}
-        F_n = floor.step_end(d) if floor is not None else None
         faces: list[tuple[float, str]] = []
         com0 = d.subtree_com[0].copy()
         for k in range(round(duration / timestep) + 1):
@@ -247,17 +280,7 @@ def run(scene_name: str = "six_bar_roll", *, law: Law | None = None, integrator:
         mujoco.mj_forward(m, d)
         return Run(faces, (com0, d.subtree_com[0].copy()), list(controller.visited) if roll else [], d.time)
     finally:
-        mujoco.set_mjcb_passive(None)
-
-
-def slew_limited(command, l0, speed, tau, h: float) -> np.ndarray:
-    """The ``ctrl`` [m] that moves MuJoCo's rest-length activations ``l0`` [m] (a first-order
-    lag of time constant ``tau`` [s], integrated exactly over a step ``h`` [s]) towards
-    ``command`` by at most ``speed h`` [m] in the step: the project's slew limit. The
-    activation moves ``(ctrl - l0)(1 - exp(-h / tau))`` in a step."""
-    reach = np.asarray(speed, dtype=float) * h / -np.expm1(-h / np.asarray(tau, dtype=float))
-    out: np.ndarray = l0 + np.clip(np.asarray(command, dtype=float) - l0, -reach, reach)
-    return out
+        ProjectFloor.detach()
 
 
 def project(scene_name: str = "six_bar_roll", *, step: float = 1e-3, duration: float = DURATION,
@@ -331,27 +354,27 @@ EXPERIMENTS = {
     "closed loop, 4 faces: project": dict(project=True, scene_name="six_bar_rest", roll=4, duration=30.0),
     "MuJoCo as exported before (implicitfast)": dict(integrator="implicitfast"),
     "MuJoCo, RK4 (as exported)": dict(),
-    "MuJoCo, RK4, the project's floor law": dict(law=Law()),
+    "MuJoCo, RK4, the project's floor law": dict(law=FloorLaw()),
     "MuJoCo, implicitfast, 0.5 ms": dict(integrator="implicitfast", timestep=5e-4),
     "MuJoCo, implicitfast, 0.25 ms": dict(integrator="implicitfast", timestep=2.5e-4),
     "MuJoCo, implicitfast, 0.1 ms": dict(integrator="implicitfast", timestep=1e-4),
     "MuJoCo, RK4, 0.5 ms": dict(timestep=5e-4),
     "MuJoCo, RK4, 0.9 ms": dict(timestep=9e-4),
     "MuJoCo, RK4, 1.1 ms": dict(timestep=1.1e-3),
-    "MuJoCo, RK4, the project's law, linear normal force": dict(law=Law(normal="linear")),
-    "MuJoCo, RK4, the project's law, regularised friction": dict(law=Law(friction="regularised")),
-    "MuJoCo, RK4, the project's law without the couples": dict(law=Law(couples=False)),
+    "MuJoCo, RK4, the project's law, linear normal force": dict(law=FloorLaw(normal="linear")),
+    "MuJoCo, RK4, the project's law, regularised friction": dict(law=FloorLaw(friction="regularised")),
+    "MuJoCo, RK4, the project's law without the couples": dict(law=FloorLaw(couples=False)),
     "closed loop, 4 faces: MuJoCo, RK4": dict(scene_name="six_bar_rest", roll=4, duration=30.0),
     "closed loop, 4 faces: MuJoCo, implicitfast": dict(scene_name="six_bar_rest", roll=4, duration=30.0,
                                                        integrator="implicitfast"),
     "closed loop, 4 faces: MuJoCo, RK4, the project's floor law": dict(scene_name="six_bar_rest", roll=4,
-                                                                       duration=30.0, law=Law()),
+                                                                       duration=30.0, law=FloorLaw()),
     "closed loop, 4 faces: MuJoCo, RK4, the project's law, regularised friction": dict(
-        scene_name="six_bar_rest", roll=4, duration=30.0, law=Law(friction="regularised")),
+        scene_name="six_bar_rest", roll=4, duration=30.0, law=FloorLaw(friction="regularised")),
     "closed loop, 4 faces: MuJoCo, RK4, the motors' slew limit": dict(scene_name="six_bar_rest", roll=4,
                                                                      duration=30.0, slew=True),
     "closed loop, 4 faces: MuJoCo, RK4, the project's floor law and slew limit": dict(
-        scene_name="six_bar_rest", roll=4, duration=30.0, law=Law(), slew=True),
+        scene_name="six_bar_rest", roll=4, duration=30.0, law=FloorLaw(), slew=True),
     "MuJoCo, RK4, the motors' slew limit": dict(slew=True),
 }
 

@@ -78,7 +78,7 @@ from tensegrity_core.export.mjcf_text import number, vector
 from tensegrity_core.export.model import MjcfModel
 from tensegrity_core.export.robot_motors import CTRL_MEANING, motor_actuators
 from tensegrity_core.general.mass_properties import body_inertias
-from tensegrity_core.robot.description import Robot
+from tensegrity_core.robot.description import Floor, Robot
 from tensegrity_core.robot.rod import rod_frames
 from tensegrity_core.sim.scene import RobotModelSpec, Scene
 from tensegrity_core.sim.scene.spec import ContactSpec, FrictionSpec, GravitySpec, MotorsSpec
@@ -121,16 +121,7 @@ def write_robot_scene(scene: Scene, timestep: float | None, integrator: str) -> 
     robot = model.robot
     fx = scene.effects
     gravity, motors = fx.get("gravity"), fx.get("motors")
-    contact, friction = fx.get("contact"), fx.get("friction")
-    floor = robot.floor
-    if floor is not None and isinstance(contact, ContactSpec):
-        mu = ((friction.mu_static, friction.mu_kinetic, friction.rolling_friction, friction.torsional_friction)
-              if isinstance(friction, FrictionSpec) else (0.0, 0.0, 0.0, 0.0))
-        floor = dataclasses.replace(floor, stiffness=contact.stiffness, dissipation=contact.dissipation,
-                                    mu_static=mu[0], mu_kinetic=mu[1], rolling_friction=mu[2],
-                                    torsional_friction=mu[3])
-    elif contact is None:
-        floor = None
+    floor = scene_floor(scene)
     m = robot.motors
     if isinstance(motors, MotorsSpec):
         m = dataclasses.replace(m, **{key: np.full(len(m), value) for key in ("tau", "max_speed", "max_tension")
@@ -144,6 +135,26 @@ def write_robot_scene(scene: Scene, timestep: float | None, integrator: str) -> 
     scene_robot = dataclasses.replace(robot, floor=floor, motors=m, gravity=g)
     step = scene.integrator.max_step if timestep is None else timestep
     return write_robot_mjcf(scene_robot, step, integrator, lift=scene.initial.lift, name=scene.name)
+
+
+def scene_floor(scene: Scene) -> Floor | None:
+    """The floor a robot scene simulates: its robot's floor with the scene's ``contact``
+    (stiffness, dissipation) and ``friction`` (coefficients and lever arms, the anchor's
+    stiffness and damping; frictionless without it), or None without ``contact``."""
+    model = scene.model
+    assert isinstance(model, RobotModelSpec)
+    floor = model.robot.floor
+    contact, friction = scene.effects.get("contact"), scene.effects.get("friction")
+    if floor is None or not isinstance(contact, ContactSpec):
+        return None
+    if not isinstance(friction, FrictionSpec):
+        friction = FrictionSpec(0.0, 0.0, floor.tangential_stiffness, floor.tangential_damping)
+    return dataclasses.replace(floor, stiffness=contact.stiffness, dissipation=contact.dissipation,
+                               mu_static=friction.mu_static, mu_kinetic=friction.mu_kinetic,
+                               tangential_stiffness=friction.tangential_stiffness,
+                               tangential_damping=friction.tangential_damping,
+                               rolling_friction=friction.rolling_friction,
+                               torsional_friction=friction.torsional_friction)
 
 
 def contact_parameters(stiffness: float, body_mass: float, impedance: float = CONTACT_IMPEDANCE
