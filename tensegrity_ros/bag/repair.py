@@ -69,7 +69,8 @@ def repair_bag(folder: str | os.PathLike[str], *, keep_original: bool = True,
     """Recover and re-index the bag in ``folder`` (see the module docstring)."""
     folder = Path(folder)
     if not folder.is_dir():
-        raise BagError(f"bag folder {folder} does not exist")
+        raise BagError(f"{folder} is a file, not a bag folder" if folder.exists()
+                       else f"bag folder {folder} does not exist")
     reader = BagReader(folder)
     custom, notes = _custom_data(reader)
     if not reader.recovered:

@@ -43,6 +43,7 @@ class Client:
         self._thread.start()
         self._changed = threading.Condition()
         self.received: dict[str, list[Any]] = defaultdict(list)
+        self.stamped: dict[str, dict[int, Any]] = defaultdict(dict)    # topic -> header stamp [ns] -> message
         self._actions: list[Any] = []
 
     def action_client(self, action_type: Any, name: str) -> Any:
@@ -55,10 +56,13 @@ class Client:
         return action
 
     def listen(self, msg_type: Any, topic: str, qos: Any = 100) -> None:
-        """Keep every message of ``topic`` in ``received[topic]``."""
+        """Keep every message of ``topic`` in ``received[topic]`` (and, when it has a header,
+        in ``stamped[topic]`` by its stamp)."""
         def keep(msg: Any) -> None:
             with self._changed:
                 self.received[topic].append(msg)
+                if hasattr(msg, "header"):
+                    self.stamped[topic][stamp_ns(msg.header.stamp)] = msg
                 self._changed.notify_all()
 
         self.node.create_subscription(msg_type, topic, keep, qos)

@@ -50,7 +50,10 @@ def suite(tmp_path_factory, robot):
     from sensor_msgs.msg import Imu, JointState
     from tensegrity_msgs.msg import CableStates, CapContacts, RigidBodyStates
 
-    sim = start_sim(tmp_path_factory.mktemp("robot_topics"), "six_bar_rest")
+    # as fast as the machine allows, publishing every 50 ms of simulated time (1 ms steps): the
+    # robot rocks on its face for about 10 s of simulation before it is at rest
+    sim = start_sim(tmp_path_factory.mktemp("robot_topics"), "six_bar_rest", "real_time_factor:=0.0",
+                    "publish_rate:=20.0", "step_size:=0.001", "marker_rate:=0.0")
     client = Client("robot_topics_client")
     try:
         client.listen(Clock, "/clock", QoSProfile(depth=1000))
@@ -66,21 +69,19 @@ def suite(tmp_path_factory, robot):
 
 
 def _by_stamp(client, topic):
-    return {stamp_ns(m.header.stamp): m for m in client.received[topic]}
+    return client.stamped[topic]
 
 
 def _at_rest(client) -> int | None:
     """The stamp [ns] of a state of the robot at rest (every rod's speed < 1 mm/s and rotation
     < 0.01 rad/s) that joint_states, cable_states, contacts and every IMU have, or None."""
-    common = set(_by_stamp(client, "joint_states")) & set(_by_stamp(client, "cable_states")) \
-        & set(_by_stamp(client, "contacts"))
-    for topic in [t for t in client.received if t.startswith("imu/")]:
-        common &= set(_by_stamp(client, topic))
-    bodies = _by_stamp(client, "body_states")
-    for stamp in sorted(common & set(bodies), reverse=True):
-        twists = bodies[stamp].twist
-        if all(np.hypot(np.hypot(t.linear.x, t.linear.y), t.linear.z) < 1e-3
-               and np.hypot(np.hypot(t.angular.x, t.angular.y), t.angular.z) < 1e-2 for t in twists):
+    bodies = client.received["body_states"][-8:]          # the latest states (each later one is as good)
+    topics = ["joint_states", "cable_states", "contacts"] + [t for t in client.received if t.startswith("imu/")]
+    for msg in reversed(bodies):
+        stamp = stamp_ns(msg.header.stamp)
+        if all(stamp in client.stamped[t] for t in topics) and all(
+                np.hypot(np.hypot(t.linear.x, t.linear.y), t.linear.z) < 1e-3
+                and np.hypot(np.hypot(t.angular.x, t.angular.y), t.angular.z) < 1e-2 for t in msg.twist):
             return stamp
     return None
 
@@ -207,3 +208,11 @@ def test_contacts_are_the_caps_on_the_floor_and_carry_the_weight(suite, robot):
             assert p[2] > radius[name], name                   # every other cap is off the floor
     mass = sum(r["mass"] for r in robot["rods"])          # each rod's whole mass, caps included
     assert sum(contacts.normal_force) == pytest.approx(mass * G, rel=5e-3)
+
+
+def test_the_simulator_offers_events_and_markers(suite):
+    client, _ = suite
+    topics = dict(client.node.get_publisher_names_and_types_by_node("tensegrity_sim", "/"))
+    assert topics["/events"] == ["tensegrity_msgs/msg/SimulationEvent"]
+    assert topics["/markers"] == ["visualization_msgs/msg/MarkerArray"]
+    assert topics["/body_states"] == ["tensegrity_msgs/msg/RigidBodyStates"]     # the rods' poses
