@@ -85,6 +85,7 @@ from tensegrity_ros.nodes.sim.parameters import declare_sim_parameters
 from tensegrity_ros.nodes.sim.plant import SimPlant
 from tensegrity_ros.nodes.sim.receiver import Command, receive, receive_cables
 from tensegrity_ros.nodes.sim.schedule import TickSchedule
+from tensegrity_ros.rclpy_utils.delivery import DELIVERY_S, wait_for_delivery
 from tensegrity_ros.rclpy_utils.inbox import Inbox
 from tensegrity_ros.rclpy_utils.matching import subscribed_by, wait_for_matches
 
@@ -471,6 +472,12 @@ class SimNode(SimulationInterfaces):
         if req is not None:
             rclpy.logging.get_logger(f"{self.get_name()}_summary").warning(
                 f"a stepping request was interrupted by the shutdown after {req.completed} of {req.steps} steps")
+        if rclpy.ok(context=self.context):        # an external shutdown has ended the publishers' context
+            late = wait_for_delivery([*self.pubs.values(), self.pub_events, self.pub_clock])
+            if late:
+                rclpy.logging.get_logger(f"{self.get_name()}_summary").warning(
+                    f"not every subscriber acknowledged the last messages within {DELIVERY_S:g} s on: "
+                    f"{', '.join(late)}")
         counts = ", ".join(f"{k} {v}" for k, v in self.published.items())
         # the context may already be shut down (Ctrl-C): log without /rosout
         rclpy.logging.get_logger(f"{self.get_name()}_summary").info(

@@ -1,0 +1,82 @@
+"""A simulator stopped by SIGINT has delivered every message it published: a probe in
+another process receives, on every output topic of the robot, exactly as many messages as
+the simulator's own summary says it published (its last log line), the last ones included."""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import time
+
+import pytest
+
+pytestmark = pytest.mark.ros
+
+PROBE = "sim_shutdown_probe"
+
+
+def _published_counts(stderr: str) -> dict[str, int]:
+    """The simulator's summary line ``published: joint_states 812, events 3, /clock 812; ...``."""
+    found = re.search(r"published: ([^;]*);", stderr)
+    assert found, f"no summary line in the simulator's log:\n{stderr[-2000:]}"
+    return {name: int(count) for name, count in (item.rsplit(" ", 1) for item in found.group(1).split(", "))}
+
+
+def test_every_state_published_before_sigint_is_delivered(cli, ros_context):
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+    from rclpy.node import Node
+    from rclpy.qos import QoSProfile
+
+    from tensegrity_ros.rclpy_utils.messages import message_class
+
+    namespace = f"/sim_shutdown_{os.getpid()}"
+    # the clock starts once the probe subscribes to every output topic: it sees the run from t = 0
+    sim = cli("node", "sim", "--ros-args", "-p", "scene:=six_bar_rest", "-p", "publish_rate:=500.0", "-p", "real_time_factor:=0.0",
+              "-p", f"wait_for_node:={PROBE}", "-r", f"__ns:={namespace}", log_name="sim")
+    sim.wait_for("waiting for")
+    node = Node(PROBE, namespace=namespace, context=ros_context)
+    executor = SingleThreadedExecutor(context=ros_context)
+    executor.add_node(node)
+    received: dict[str, int] = {}
+
+    def subscribe_new_topics() -> None:
+        try:
+            found = node.get_publisher_names_and_types_by_node("tensegrity_sim", namespace)
+        except _rclpy.NodeNameNonExistentError:
+            return                                 # not discovered yet
+        for name, types in found:
+            relative = name if name == "/clock" else name[len(namespace) + 1:]
+            if not (name == "/clock" or name.startswith(namespace + "/")) or "/_action/" in name or relative in received:
+                continue
+            received[relative] = 0
+
+            def count(_msg: object, relative: str = relative) -> None:
+                received[relative] += 1
+
+            # every message is kept until taken: a loss can only be the simulator's
+            node.create_subscription(message_class(types[0]), relative, count, QoSProfile(depth=100_000))
+
+    # the simulator starts its clock only once this node subscribes to all its output topics
+    deadline = time.monotonic() + 60
+    while sum(received.values()) < 2000:          # a few seconds of the run
+        assert time.monotonic() < deadline, f"received only {received}"
+        subscribe_new_topics()
+        executor.spin_once(timeout_sec=0.1)
+    sim.popen.send_signal(signal.SIGINT)
+    assert sim.stop(timeout=60) == 0, sim.stderr()
+    published = _published_counts(sim.stderr())
+    published.pop("/clock")          # absolute: other simulators of this run publish it too
+
+    def delivered() -> dict[str, int]:
+        return {topic: n for topic, n in received.items() if topic != "/clock"}
+
+    assert set(published) == set(delivered()), (published, received)
+    deadline = time.monotonic() + 30             # a liveness bound: what was delivered is already here
+    while delivered() != published and time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=0.1)
+    executor.shutdown()
+    node.destroy_node()
+    got = delivered()
+    assert got == published, {k: (got[k], published[k]) for k in published if got[k] != published[k]}
