@@ -262,3 +262,19 @@ def test_a_second_goal_preempts_the_first_as_joint_trajectory_controller_does(su
     status, result = _outcome(client, second)
     assert (status, result.error_code) == (GoalStatus.STATUS_SUCCEEDED, SUCCESSFUL), result.error_string
     client.wait(lambda: abs(_rest(client, ("c3_5",))[0] - NOMINAL) <= 1e-4, "c3_5 back at its nominal rest length")
+
+
+def test_a_trajectory_stamped_in_the_future_starts_then(suite):
+    from action_msgs.msg import GoalStatus
+
+    client, action = suite
+    start = stamp_ns(client.received["joint_states"][-1].header.stamp) + 500_000_000
+    handle, feedback = _send(client, action, _goal([(0.2, (0.98,))], ("c4_8",), stamp_ns_=start, goal_time=2.0))
+    status, result = _outcome(client, handle)
+    assert (status, result.error_code) == (GoalStatus.STATUS_SUCCEEDED, SUCCESSFUL), result.error_string
+    assert feedback and all(stamp_ns(fb.header.stamp) >= start for fb in feedback)
+    before = [dict(zip(m.name, m.rest_length))["c4_8"] for t, m in client.stamped["cable_states"].items()
+              if start - 300_000_000 <= t < start]
+    assert before and set(before) == {NOMINAL}                     # the motor waited for the start
+    handle, _ = _send(client, action, _goal([(0.2, (NOMINAL,))], ("c4_8",), goal_time=2.0))   # back
+    assert _outcome(client, handle)[1].error_code == SUCCESSFUL
