@@ -60,8 +60,9 @@ def suite(tmp_path_factory):
             p.stop()
 
 
-def _goal(points, names, *, stamp_ns_=0, goal_time=None, path=(), goal=()):
-    """A goal as a joint_trajectory_controller client builds it: ``points`` as (t [s], positions)."""
+def _goal(points, names, *, stamp_ns_=0, goal_time=None, path=(), goal=(), velocities=None):
+    """A goal as a joint_trajectory_controller client builds it: ``points`` as (t [s], positions),
+    ``velocities`` one row per point or None."""
     from builtin_interfaces.msg import Duration, Time
     from control_msgs.action import FollowJointTrajectory
     from control_msgs.msg import JointTolerance
@@ -74,6 +75,8 @@ def _goal(points, names, *, stamp_ns_=0, goal_time=None, path=(), goal=()):
     g.trajectory.header.stamp = Time(sec=stamp_ns_ // 1_000_000_000, nanosec=stamp_ns_ % 1_000_000_000)
     g.trajectory.joint_names = list(names)
     g.trajectory.points = [JointTrajectoryPoint(positions=list(p), time_from_start=duration(t)) for t, p in points]
+    for point, v in zip(g.trajectory.points, velocities or ()):
+        point.velocities = list(v)
     g.path_tolerance = [JointTolerance(name=n, position=v) for n, v in path]
     g.goal_tolerance = [JointTolerance(name=n, position=v) for n, v in goal]
     if goal_time is not None:
@@ -237,8 +240,8 @@ def test_a_cancelled_goal_ends_canceled_and_the_cables_hold(suite):
     client.wait(lambda: feedback, "feedback of the running goal")
     answer = client.wait_future(handle.cancel_goal_async(), "the cancel response")
     assert len(answer.goals_canceling) == 1
-    status, _ = _outcome(client, handle)
-    assert status == GoalStatus.STATUS_CANCELED
+    status, result = _outcome(client, handle)
+    assert status == GoalStatus.STATUS_CANCELED and result.error_code == SUCCESSFUL
     held = _rest(client, ("c2_5",))[0]
     client.wait_count("cable_states", 5)
     assert _rest(client, ("c2_5",))[0] == pytest.approx(held, abs=2e-3)   # the motor settles, no more travel
@@ -277,4 +280,29 @@ def test_a_trajectory_stamped_in_the_future_starts_then(suite):
               if start - 300_000_000 <= t < start]
     assert before and set(before) == {NOMINAL}                     # the motor waited for the start
     handle, _ = _send(client, action, _goal([(0.2, (NOMINAL,))], ("c4_8",), goal_time=2.0))   # back
+    assert _outcome(client, handle)[1].error_code == SUCCESSFUL
+
+
+def test_points_with_velocities_are_followed_as_cubic_hermite_segments(suite):
+    """joint_trajectory_controller's interpolation with positions and velocities: a cubic
+    Hermite segment between points, the first from the current rest length at rest at time 0
+    (computed here with scipy's CubicHermiteSpline)."""
+    from action_msgs.msg import GoalStatus
+    from scipy.interpolate import CubicHermiteSpline
+
+    client, action = suite
+    times, positions, velocities = [0.2, 0.4], [0.985, 0.975], [-0.05, 0.0]
+    goal = _goal(list(zip(times, [(p,) for p in positions])), ("c5_11",), velocities=[(v,) for v in velocities],
+                 goal_time=2.0)
+    handle, feedback = _send(client, action, goal)
+    status, result = _outcome(client, handle)
+    assert (status, result.error_code) == (GoalStatus.STATUS_SUCCEEDED, SUCCESSFUL), result.error_string
+    spline = CubicHermiteSpline([0.0, *times], [NOMINAL, *positions], [0.0, *velocities])
+    inside = [fb for fb in feedback if stamp_ns(fb.desired.time_from_start) < 400_000_000]
+    assert len(inside) >= 5
+    for fb in inside:
+        tau = stamp_ns(fb.desired.time_from_start) / 1e9
+        assert fb.desired.positions[0] == pytest.approx(spline(tau), abs=1e-8), tau
+        assert fb.desired.velocities[0] == pytest.approx(spline(tau, 1), abs=1e-6), tau
+    handle, _ = _send(client, action, _goal([(0.2, (NOMINAL,))], ("c5_11",), goal_time=2.0))   # back
     assert _outcome(client, handle)[1].error_code == SUCCESSFUL
