@@ -137,7 +137,9 @@ def frame_of_mechanism_state(msg: Any, run_state: str) -> Frame:
 
 def _by_node(obs: Any, topology: Topology) -> np.ndarray:
     """A robot's cap normal forces [N] in node order (the core gives them in its caps' order,
-    ``obs.cap_names``, which is the rods' ends, not the nodes')."""
+    ``obs.cap_names``, which is the rods' ends, not the nodes'); none without a floor."""
+    if not len(obs.cap_names):
+        return np.zeros(0)
     normal = np.zeros(len(topology.node_names))
     normal[[topology.node_names.index(c) for c in obs.cap_names]] = np.asarray(obs.contact_forces, dtype=float)
     return normal
