@@ -44,8 +44,7 @@
     const rendered = frame - frames;
     const fps = rendered / seconds;
     state.fps = fps;
-    // Slow: fewer frames than the view sends, though the page drew in nearly every animation
-    // frame (a page with time to spare draws in some of them only: it renders on demand).
+    // Slow: fewer frames than the view sends, the page drawing in nearly every animation frame.
     const slow = fps < config.target && rendered >= config.busy * ticks;
     // Idle: a few renders a second in an otherwise quiet page (paused, a bag at its end).
     const idle = fps < config.idleFps && rendered < config.busy * ticks;

@@ -12,8 +12,9 @@ it when the picture stands still, which is this controller.
 It runs in the page (``resolution.js``), in each animation frame: over windows of
 ``WINDOW_MS`` it counts the frames the page rendered (three.js's render counter) and the
 animation frames. A window with fewer rendered frames per second than the view sends
-(``--fps``) *and* a render in nearly every animation frame (``BUSY``: a page with time to
-spare renders on demand, in some animation frames only) lowers the scale one step of
+(``--fps``) *and* a render in nearly every animation frame (``BUSY``: the page drawing all
+the time; viser renders on demand but keeps rendering for 250 ms after each change, so a
+playing page renders in every animation frame it can) lowers the scale one step of
 ``SCALES``; a window of fewer than ``IDLE_FPS`` renders per second, not busy, puts it back
 to 1 (full resolution: a paused view, the one a user looks at closely, is sharp). It sets viser's own "Device Pixel
 Ratio" (the Dev Settings entry, ``fixedDpr``) through the store the page exposes

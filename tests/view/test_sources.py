@@ -113,8 +113,8 @@ def test_a_move_the_controller_never_answers_says_so(ros_context):
 
     from rclpy.action import ActionServer
     from rclpy.node import Node
-
     from tensegrity_msgs.action import MoveEndEffector
+
     from tensegrity_ros.view.ros_source import RosSource
 
     namespace = f"/view_move_unanswered_{os.getpid()}"
