@@ -3,11 +3,14 @@
 
 Each shipped view in Debian's headless chromium (tests/view/browser.py: software WebGL, the
 network off loopback blocked): the live suite after a move of node D (``live_class2``), a bag
-paused in its fold (``bag_fold``), a general structure (the spine) simulated in the view's
-process (``scene_spine``), the 6-bar robot rolling (``scene_six_bar``) and the 6-bar's bag at
-the end of its roll (``bag_six_bar``). The views run in the repository's folder with bags named
-by relative paths, and a screenshot whose page names an absolute path on this machine (a
-user's folders) is refused.
+at the end of its fold (``bag_fold``), a general structure (the spine) simulated in the view's
+process to 1 s (``scene_spine``), the 6-bar robot rolling, at 1.2 s (``scene_six_bar``) and the
+6-bar's bag at the end of its roll (``bag_six_bar``). Each shot is of the time it names,
+whatever the machine's speed: a scene is stepped there from its start (paused), a bag played
+to its end, where it stops; the page at its full resolution (it draws coarser while it plays on a
+slow machine: tensegrity_ros/view/resolution.py). The views run in the repository's folder
+with bags named by relative paths, and a screenshot whose page names an absolute path on
+this machine (a user's folders) is refused.
 """
 
 from __future__ import annotations
@@ -23,7 +26,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from tests.view.browser import Browser, status_time, wait_for_canvas  # noqa: E402
+from tests.view.browser import Browser, control, status_time, wait_for_canvas  # noqa: E402
 
 OUT = ROOT / "docs" / "img" / "view"
 TENSEGRITY = str(Path(sys.executable).with_name("tensegrity"))
@@ -40,8 +43,11 @@ def _start(args: list[str], log: Path) -> tuple[subprocess.Popen, str]:
     return proc, m.group(1)
 
 
-def _wait_until(page, condition) -> None:
+def _wait_until(page, condition, timeout_s: float = 300.0) -> None:
+    deadline = time.monotonic() + timeout_s
     while not condition():
+        if time.monotonic() > deadline:
+            raise RuntimeError(f"the page never showed what the screenshot waits for ({page.url})")
         page.wait_for_timeout(250)
 
 
@@ -56,6 +62,7 @@ def _shot(browser: Browser, url: str, name: str, act) -> None:
     wait_for_canvas(page)            # (closes the notice that WebGL runs in software)
     act(page)
     page.wait_for_timeout(3000)      # the plots are sent every few frames
+    _wait_until(page, lambda: page.evaluate("() => window.__tensegrityResolution.scale") == 1.0)
     shown = absolute_paths(page.inner_text("body"))
     if shown:
         raise RuntimeError(f"{name}: the page shows {shown}: name files by paths relative to {ROOT}")
@@ -69,25 +76,42 @@ def _move(page) -> None:
     page.get_by_text("move: D at").first.wait_for()
 
 
-def _fold(page) -> None:
-    page.get_by_role("button", name="Play").click()
-    _wait_until(page, lambda: status_time(page) > 3.2)
-    page.get_by_role("button", name="Pause").click()
+def _shows(page, t: float) -> bool:
+    """Whether the page shows the state at ``t`` [s] (a state every 10 ms: within half of one)."""
+    return abs(status_time(page) - t) < 0.005
 
 
-def _play_until(t: float):
+def _played_to_end(bag: str):
+    """A bag played to its end (where it stops by itself: its last state), the plots holding
+    its last 10 s."""
+    from tensegrity_ros.view.bag_source import BagSource
+
     def play(page) -> None:
+        source = BagSource(ROOT / bag)
         page.get_by_role("button", name="Play").click()
-        _wait_until(page, lambda: status_time(page) > t)
+        _wait_until(page, lambda: _shows(page, source.t0 + source.duration))
     return play
+
+
+def _stepped_to(t: float, step: float = 0.01):
+    """A scene (paused at its start) stepped to ``t`` [s] in steps of ``step`` (``--step``)."""
+    def steps(page) -> None:
+        field = control(page, "steps").locator("input").first
+        field.fill(str(round(t / step)))
+        field.press("Enter")
+        page.wait_for_timeout(1000)           # the field's value reaches the server (viser sends GUI updates throttled)
+        page.get_by_role("button", name="Step").click()
+        page.get_by_text(f"{round(t / step)} steps of").first.wait_for()
+        _wait_until(page, lambda: _shows(page, t))
+    return steps
 
 
 #: name: (the view's arguments, what the page does before the screenshot).
 SHOTS = {"live_class2": ([], _move),
-         "bag_fold": (["bags/fold"], _fold),
-         "scene_spine": (["--scene", "spine_release"], _play_until(1.0)),
-         "scene_six_bar": (["--scene", "six_bar_roll"], _play_until(1.2)),
-         "bag_six_bar": (["bags/six_bar_roll"], _play_until(10.9))}
+         "bag_fold": (["bags/fold"], _played_to_end("bags/fold")),
+         "scene_spine": (["--scene", "spine_release"], _stepped_to(1.0)),
+         "scene_six_bar": (["--scene", "six_bar_roll"], _stepped_to(1.2)),
+         "bag_six_bar": (["bags/six_bar_roll"], _played_to_end("bags/six_bar_roll"))}
 
 
 def main(names: list[str]) -> None:

@@ -18,6 +18,7 @@ from typing import Any, Final
 
 import numpy as np
 
+from tensegrity_ros.view import resolution
 from tensegrity_ros.view.controls import ControlPanel
 from tensegrity_ros.view.drawing import StructureDrawing
 from tensegrity_ros.view.frame import Frame
@@ -51,6 +52,7 @@ class View:
         self.server = server
         self.source = source
         self.period = 1.0 / fps
+        resolution.install(server, fps)
         gui = server.gui
         gui.add_markdown(f"**{source.label}**")
         self.status = gui.add_markdown(status_line(first))

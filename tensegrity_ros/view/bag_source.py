@@ -5,7 +5,8 @@ from the schemas stored in the bag: the class-2 simulator's ``MechanismState`` m
 general structure's or robot's ``body_states`` (or ``markers``), ``cable_states`` and
 ``contacts`` (:mod:`.structure_frames`), whose topology comes from the scene the suite
 simulated: ``scene`` (``tensegrity view BAG --scene NAME``) or, without it, the bag's metadata
-(``custom_data: {scene: NAME}``, as ``ros2 bag record --custom-data scene=NAME`` writes).
+(``custom_data: {scene: NAME}``, as ``ros2 bag record --custom-data scene=NAME`` writes), or,
+when the metadata names none or cannot be read, a robot's own ``markers`` (:mod:`.marker_robot`).
 Messages stay encoded until shown (a long bag costs its size in memory, not a decoded copy);
 the timeline's time is the header stamps [s] of the messages that place the nodes, from the
 first; each frame takes the latest tensions and contacts stamped at or before it. The
@@ -34,6 +35,7 @@ from tensegrity_ros.bag.scene import recorded_scene
 from tensegrity_ros.view.frame import Frame, Topology
 from tensegrity_ros.view.frames import class2_topology, frame_of_mechanism_state
 from tensegrity_ros.view.inputs import InputSpec
+from tensegrity_ros.view.marker_robot import MarkerRobot, NotDrawable
 from tensegrity_ros.view.source import Report, Sink
 from tensegrity_ros.view.structure_frames import StructureMessages, stamp_seconds
 
@@ -96,18 +98,15 @@ class BagSource:
         reader = BagReader(path)
         types = {t.name: _type_name(t.type) for t in reader.topics()}
         of_type = {kind: [n for n, k in types.items() if k == kind] for kind in set(types.values())}
-        self._structure: StructureMessages | None = None
+        self._structure: StructureMessages | MarkerRobot | None = None
         self._cables: _Topic | None = None
         self._contacts: _Topic | None = None
+        self._read: dict[str, _Topic] = {}
         if of_type.get(STATE_TYPE):
             self._nodes = _Topic(reader, path, of_type[STATE_TYPE][0], STATE_TYPE)
             self.topology: Topology = class2_topology()
         elif of_type.get(CABLES_TYPE):
-            name = self._scene(reader, path, of_type[CABLES_TYPE][0], scene)
-            try:
-                self._structure = StructureMessages(name)
-            except TensegrityError as err:
-                raise BagError(f"bag {path}: scene {name}: {err}") from None
+            self._structure = self._described(reader, path, of_type, scene)
             self._nodes = self._structure_topics(reader, path, of_type, self._structure)
             self.topology = self._structure.topology
         else:
@@ -121,6 +120,8 @@ class BagSource:
         self.duration = self._times[-1] - self.t0
         self.tension_scale = self._largest_tension()
         self.label = f"bag {os.fspath(path)}: {self.topic}, {len(self._times)} states over {self.duration:.3f} s"
+        if isinstance(self._structure, MarkerRobot):
+            self.label += f"; {self._structure.label}"
         self.features = frozenset({"run", "timeline"})
         self._lock = threading.Lock()
         self._playhead = 0.0
@@ -132,36 +133,66 @@ class BagSource:
         self._thread: threading.Thread | None = None
         self._report: Report = _ignore
 
-    @staticmethod
-    def _scene(reader: BagReader, path: object, cables: str, scene: str | None) -> str:
-        """The scene a structure's bag was recorded from: ``scene``, else its metadata's."""
+    def _topic(self, reader: BagReader, path: object, name: str, type_name: str) -> _Topic:
+        """The topic ``name`` of the bag, read once."""
+        if name not in self._read:
+            self._read[name] = _Topic(reader, path, name, type_name)
+        return self._read[name]
+
+    def _described(self, reader: BagReader, path: object, of_type: dict[str, list[str]],
+                   scene: str | None) -> StructureMessages | MarkerRobot:
+        """What draws a structure's bag: ``scene``, else the scene its metadata names, else
+        the robot its own markers draw (:mod:`.marker_robot`); else a one-line BagError
+        saying what is missing."""
+        cables = of_type[CABLES_TYPE][0]
+        unread = ""
         if not scene:
-            scene = recorded_scene(reader, path)
-        if not scene:
-            raise BagError(f"bag {path} holds a general structure's or robot's states ({cables}) but not which "
-                           "structure: name the scene it was recorded from with --scene NAME (`tensegrity scenes`)")
-        return scene
+            try:
+                _ = reader.custom_data         # checked here: a malformed one refuses nothing
+            except TensegrityError as err:     # the messages may still draw the robot
+                unread = f" (its custom_data cannot be read: {err})"
+            else:
+                scene = recorded_scene(reader, path)
+        if scene:
+            try:
+                return StructureMessages(scene)
+            except TensegrityError as err:
+                raise BagError(f"bag {path}: scene {scene}: {err}") from None
+        space = cables.rpartition("/")[0]
+        markers = next((n for n in of_type.get(MARKERS_TYPE, []) if n.rpartition("/")[0] == space), None)
+        why = "it has no markers topic beside it"
+        if markers is not None:
+            topic, names = self._topic(reader, path, markers, MARKERS_TYPE), self._topic(reader, path, cables, CABLES_TYPE)
+            why = "its markers topic is empty" if not topic.data or not names.data else ""
+            if not why:
+                try:
+                    return MarkerRobot(topic.at(0), names.at(0).name)
+                except NotDrawable as err:
+                    why = str(err)
+        raise BagError(f"bag {path} holds a general structure's or robot's states ({cables}) but not which "
+                       f"structure{unread}, and {why}: name the scene it was recorded from with --scene NAME "
+                       "(`tensegrity scenes`)")
 
     def _structure_topics(self, reader: BagReader, path: object, of_type: dict[str, list[str]],
-                          structure: StructureMessages) -> _Topic:
+                          structure: StructureMessages | MarkerRobot) -> _Topic:
         """The topics of a general structure or robot, checked against its scene; the topic
         that places the nodes."""
         cables = of_type[CABLES_TYPE][0]
         space = cables.rpartition("/")[0]
-        scene = structure.scene.name
+        drawn = repr(structure.scene.name) if isinstance(structure, StructureMessages) else "the robot"
 
         def beside(kind: str) -> str | None:      # the topic of this type in the same namespace
             return next((n for n in of_type.get(kind, []) if n.rpartition("/")[0] == space), None)
 
-        self._cables = _Topic(reader, path, cables, CABLES_TYPE)
+        self._cables = self._topic(reader, path, cables, CABLES_TYPE)
         contacts = beside(CONTACTS_TYPE)
-        self._contacts = _Topic(reader, path, contacts, CONTACTS_TYPE) if contacts else None
+        self._contacts = self._topic(reader, path, contacts, CONTACTS_TYPE) if contacts else None
         kind = BODIES_TYPE if structure.nodes_topic == "body_states" else MARKERS_TYPE
         topic = beside(kind)
         if topic is None:
             raise BagError(f"bag {path} has no {structure.nodes_topic} topic beside {cables}: the nodes of "
-                           f"{scene!r} come from it")
-        nodes = _Topic(reader, path, topic, kind)
+                           f"{drawn} come from it")
+        nodes = self._topic(reader, path, topic, kind)
         try:
             if self._cables.data:
                 structure.check_members(self._cables.at(0).name)
@@ -192,8 +223,9 @@ class BagSource:
         if self._structure is None:
             return frame_of_mechanism_state(msg, "recorded")
         t = self._times[index]
-        placed = (self._structure.nodes_of_bodies(msg) if self._structure.nodes_topic == "body_states"
-                  else self._structure.nodes_of_markers(msg))
+        structure = self._structure
+        placed = (structure.nodes_of_bodies(msg) if isinstance(structure, StructureMessages)
+                  and structure.nodes_topic == "body_states" else structure.nodes_of_markers(msg))
         assert placed is not None          # only marker arrays with every node are on the timeline
         cables = self._cables.latest(t) if self._cables is not None else None
         contacts = self._contacts.latest(t) if self._contacts is not None else None

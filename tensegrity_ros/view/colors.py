@@ -69,7 +69,7 @@ def legend_html(scale: float, *, bars: str, actuators: bool, strings: bool, bodi
                 normal_force: tuple[float, float] | None = None) -> str:
     """The legend of the 3D view: one swatch per kind of mark shown, the tension scale [N];
     ``bars``: what the bars are called ("" without bars);
-    ``normal_force = (height [m], force [N])``: the floor contacts' normal-force cylinders, this
+    ``normal_force = (height [m], force [N])``: the floor contacts' normal-force lines, this
     high for this force."""
     low, high = (hex_color(c) for c in tension_colors(np.array([1e-12, scale]), scale))
     rows = []
@@ -86,7 +86,7 @@ def legend_html(scale: float, *, bars: str, actuators: bool, strings: bool, bodi
     if contacts:
         rows.append((hex_color(CONTACT), "contact"))
     if normal_force is not None and normal_force[1] > 1e-6:
-        rows.append((hex_color(CONTACT), f"normal force: red cylinder, {normal_force[0]:.3g} m high for {normal_force[1]:.3g} N"))
+        rows.append((hex_color(CONTACT), f"normal force: red line, {normal_force[0]:.3g} m high for {normal_force[1]:.3g} N"))
     if path:
         rows.append((hex_color(PATH), "end effector's path"))
     cells = "".join(f'<div style="display:flex;align-items:center;gap:6px;font-size:12px">'

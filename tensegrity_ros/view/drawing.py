@@ -8,8 +8,9 @@ contacts red points; the end effector's path a green trail; the floor a grid at 
 Lines (strings, the trail, the floor's grid) have a width in screen pixels; other sizes scale with the
 structure's extent at its first frame, except a robot's rods and end
 caps, drawn at their radii (a rod with its caps: a capsule). A floor contact also shows its
-normal force as a red vertical cylinder up from the cap, its height ``CONTACT_HEIGHT`` times the
-structure's extent for the largest normal force seen so far.
+normal force as a red vertical line up from the cap (unlit, as the strings: a lit cylinder
+standing upright is shaded nearly black under the view's lights), its height ``CONTACT_HEIGHT``
+times the structure's extent for the largest normal force seen so far.
 """
 
 from __future__ import annotations
@@ -36,6 +37,8 @@ GRID_SECTION: Final = 5
 #: Width of a taut string's line and of a slack one [screen pixels].
 STRING_PX: Final = 3.0
 SLACK_PX: Final = 1.0
+#: Width [screen px] of a floor contact's normal-force line.
+NORMAL_PX: Final = 4.0
 _NO_SEGMENT: Final = np.zeros((1, 2, 3), dtype=np.float32)
 
 
@@ -62,7 +65,6 @@ class StructureDrawing:
         self.radius = topology.bar_radius or 0.012 * self.size
         self.node_size = 2 * topology.node_radius or 2.2 * self.radius
         self.force_scale = colors.TensionScale(1e-6)     # the largest floor normal force so far [N]
-        self._first_node = first.nodes[0] if len(first.nodes) else np.zeros(3)
         self.cylinders = topology.of_kind("bar", "actuator")
         self.strings = topology.of_kind("string")
         kinds = [topology.member_kinds[i] for i in self.cylinders]
@@ -99,12 +101,8 @@ class StructureDrawing:
                                            point_size=max(5 * self.radius, 1.2 * self.node_size),
                                            point_shape="circle", visible=False)
         if self.topology.floor:
-            n = len(self.topology.node_names)
-            self.normals = sc.add_batched_meshes_simple(
-                "/structure/normal_forces", vertices=vertices, faces=faces,
-                batched_wxyzs=np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)), batched_positions=np.zeros((n, 3)),
-                batched_scales=np.full((n, 3), 1e-6 * self.size), batched_colors=np.tile(np.array(colors.CONTACT, np.uint8), (n, 1)),
-                lod="off", cast_shadow=False, receive_shadow=False, visible=False)
+            self.normals = sc.add_line_segments("/structure/normal_forces", _NO_SEGMENT, colors.CONTACT,
+                                                thickness=NORMAL_PX, thickness_units="screen", visible=False)
         # every body of three nodes or more in ONE mesh (a rod's two nodes span no hull: its
         # cylinder draws it): one update a frame whatever the number of bodies
         hulls = [list(idx) for _, idx in self.topology.bodies if len(idx) >= 3]
@@ -159,23 +157,15 @@ class StructureDrawing:
                 self.path.visible = True
 
     def _show_normals(self, contacts: tuple[tuple[np.ndarray, float], ...]) -> None:
-        """Each floor contact's normal force as a vertical red cylinder up from the top of its
-        cap; one cylinder per node, the unused ones a speck inside the first node's cap."""
-        segments = np.zeros((len(self.topology.node_names), 2, 3))
-        segments[:, 1, 2] = 1e-6 * self.size            # unused: a speck (a zero scale makes the page drop them all)
-        segments += self._first_node
+        """Each floor contact's normal force as a vertical red line up from the top of its cap."""
         if contacts:
-            forces = np.array([f for _, f in contacts])[: len(segments)]
+            forces = np.array([f for _, f in contacts])
             scale = self.force_scale.update(forces)
-            base = np.array([p for p, _ in contacts])[: len(segments)]
+            base = np.array([p for p, _ in contacts], dtype=float)
             base[:, 2] += 0.5 * self.node_size          # from the top of the cap, not hidden in it
-            segments[: len(base), 0] = segments[: len(base), 1] = base
-            segments[: len(base), 1, 2] += CONTACT_HEIGHT * self.size * forces / scale
-        mid, wxyz, lengths = segment_poses(segments[:, 0], segments[:, 1])
-        self.normals.batched_positions = mid
-        self.normals.batched_wxyzs = wxyz
-        self.normals.batched_scales = np.stack([np.full(len(lengths), 0.75 * self.radius),
-                                                np.full(len(lengths), 0.75 * self.radius), lengths], axis=1)
+            top = base.copy()
+            top[:, 2] += CONTACT_HEIGHT * self.size * forces / scale
+            self.normals.points = np.stack([base, top], axis=1).astype(np.float32)
         self.normals.visible = bool(contacts)
 
     def legend(self) -> str:

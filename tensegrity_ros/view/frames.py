@@ -112,7 +112,7 @@ def robot_frame(t: float, nodes: Any, member_forces: Any, rest_lengths: Any, cap
                 run_state: str, *, energies: tuple[float, float] | None = None) -> Frame:
     """A robot's frame: cap centres ``nodes`` (n, 3) [m], ``member_forces`` [N] (rods then
     cables), the motor-driven cables' ``rest_lengths`` [m] (motor order) and each cap's floor normal force
-    ``cap_forces`` [N] (> 0: in contact, drawn at the cap); energies [J] when known."""
+    ``cap_forces`` [N] in node order (> 0: in contact, drawn at the cap); energies [J] when known."""
     p = _points(nodes)
     tension = np.asarray(member_forces, dtype=float)
     normal = np.asarray(cap_forces, dtype=float)
@@ -135,6 +135,16 @@ def frame_of_mechanism_state(msg: Any, run_state: str) -> Frame:
                         list(msg.contact_force), run_state)
 
 
+def _by_node(obs: Any, topology: Topology) -> np.ndarray:
+    """A robot's cap normal forces [N] in node order (the core gives them in its caps' order,
+    ``obs.cap_names``, which is the rods' ends, not the nodes'); none without a floor."""
+    if not len(obs.cap_names):
+        return np.zeros(0)
+    normal = np.zeros(len(topology.node_names))
+    normal[[topology.node_names.index(c) for c in obs.cap_names]] = np.asarray(obs.contact_forces, dtype=float)
+    return normal
+
+
 def frame_of_observation(obs: Any, topology: Topology, run_state: str) -> Frame:
     """A frame of a core :class:`~tensegrity_core.sim.simulator.Observation` of a scene of
     ``topology``."""
@@ -145,7 +155,7 @@ def frame_of_observation(obs: Any, topology: Topology, run_state: str) -> Frame:
     tension = np.asarray(obs.member_forces, dtype=float)
     series = {f"T:{n}": float(v) for n, v in zip(topology.member_names, tension)}
     if topology.kind == "robot":
-        return robot_frame(obs.t, nodes, tension, obs.applied_forces, obs.contact_forces, topology, run_state,
+        return robot_frame(obs.t, nodes, tension, obs.applied_forces, _by_node(obs, topology), topology, run_state,
                            energies=(obs.potential_energy, obs.kinetic_energy))
     if topology.end_effector is not None:
         series.update(zip(("p:x", "p:y", "p:z"), (float(v) for v in nodes[topology.end_effector])))

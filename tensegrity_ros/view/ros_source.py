@@ -60,20 +60,23 @@ def _ignore(_text: str) -> None:
 
 class RosSource:
     """The simulator of a running suite in ``namespace`` (see the module docstring);
-    ``force_limit`` [N] bounds the class-2 force sliders; ``ros_args`` go to rclpy (remapping).
+    ``force_limit`` [N] bounds the class-2 force sliders; ``ros_args`` go to rclpy (remapping);
+    ``move_answer_s`` [s]: how long a move waits for the controller's answer.
     ``topology``, ``features`` and ``inputs`` are the class-2 mechanism's until
     :meth:`first_frame` has found a general structure or robot."""
 
     duration = 0.0
     tension_scale = 0.0
 
-    def __init__(self, namespace: str = "", *, force_limit: float = 5.0, ros_args: list[str] | None = None):
+    def __init__(self, namespace: str = "", *, force_limit: float = 5.0, ros_args: list[str] | None = None,
+                 move_answer_s: float = MOVE_ANSWER_S):
         import rclpy
         from rclpy.context import Context
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.signals import SignalHandlerOptions
 
         self.topology = class2_topology()
+        self.move_answer_s = move_answer_s
         self.features = frozenset({"run", "step", "inputs", "move"})
         self.inputs = tuple(InputSpec(name, "N", -force_limit, force_limit, 0.0) for name in ("f1", "f2"))
         self.context = Context()
@@ -287,7 +290,8 @@ class RosSource:
             # a goal request (or its answer) lost while discovery still matches the action's
             # endpoints would otherwise leave the page at "sent" for good
             if not answered.is_set():
-                self._report(f"move: no answer from the controller within {MOVE_ANSWER_S:g} s (press Move D again)")
+                self._report(f"move: no answer from the controller within {self.move_answer_s:g} s "
+                             "(press Move D again)")
 
         def accepted(future: Any) -> None:
             answered.set()
@@ -305,7 +309,7 @@ class RosSource:
             else:
                 self._report(f"move: failed ({res.error_code}): {res.error_string}")
 
-        timer = threading.Timer(MOVE_ANSWER_S, unanswered)
+        timer = threading.Timer(self.move_answer_s, unanswered)
         timer.daemon = True
         timer.start()
         self.mover.send_goal_async(goal).add_done_callback(accepted)

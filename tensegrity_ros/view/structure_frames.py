@@ -73,7 +73,6 @@ class StructureMessages:
         #: the plotted rest lengths (a robot's motor cables, a structure's actuators) by member name
         self._rest = [k.partition(":")[2] for _title, keys in self.topology.series_groups for k in keys
                       if k.startswith("u:")]
-        self._member_index = {n: i for i, n in enumerate(self.topology.member_names)}
 
     # -- checks --------------------------------------------------------------------------
     def check_members(self, names: Any) -> None:
@@ -117,22 +116,30 @@ class StructureMessages:
         """The frame at ``t`` [s] of ``nodes`` (n, 3) [m], the latest ``cable_states``
         (``tensegrity_msgs/CableStates``: tensions [N], rest lengths [m]; None before the first)
         and ``contacts`` (``tensegrity_msgs/CapContacts``; None without)."""
-        topo = self.topology
-        m = len(topo.member_names)
-        tension = _floats(states.tension) if states is not None else np.zeros(m)
-        rest = _floats(states.rest_length) if states is not None else np.full(m, np.nan)
-        series = {f"T:{n}": float(v) for n, v in zip(topo.member_names, tension)}
-        series.update({f"u:{n}": float(rest[self._member_index[n]]) for n in self._rest})
-        found: list[tuple[NDArray[np.float64], float]] = []
-        if contacts is not None:
-            forces = dict(zip(contacts.name, (float(f) for f in contacts.normal_force)))
-            series.update({f"N:{n}": forces.get(n, 0.0) for n in topo.node_names})
-            found = [(np.array([p.x, p.y, p.z], dtype=float), float(f))
-                     for p, f in zip(contacts.position, contacts.normal_force) if f > 0.0]
-        if topo.end_effector is not None:
-            series.update(zip(("p:x", "p:y", "p:z"), (float(v) for v in nodes[topo.end_effector])))
-        return Frame(t=float(t), nodes=nodes, member_forces=tension, run_state=run_state, contacts=tuple(found),
-                     series=series)
+        return structure_frame(self.topology, self._rest, t, nodes, states, contacts, run_state)
+
+
+def structure_frame(topo: Topology, rest_names: Any, t: float, nodes: NDArray[np.float64], states: Any,
+                    contacts: Any, run_state: str) -> Frame:
+    """The frame at ``t`` [s] of a structure of ``topo``: ``nodes`` (n, 3) [m], the latest
+    ``cable_states`` (tensions [N], rest lengths [m] of which the members ``rest_names`` are
+    plotted; None before the first) and ``contacts`` (``tensegrity_msgs/CapContacts``; None without)."""
+    m = len(topo.member_names)
+    tension = _floats(states.tension) if states is not None else np.zeros(m)
+    rest = _floats(states.rest_length) if states is not None else np.full(m, np.nan)
+    series = {f"T:{n}": float(v) for n, v in zip(topo.member_names, tension)}
+    index = {n: i for i, n in enumerate(topo.member_names)}
+    series.update({f"u:{n}": float(rest[index[n]]) for n in rest_names})
+    found: list[tuple[NDArray[np.float64], float]] = []
+    if contacts is not None:
+        forces = dict(zip(contacts.name, (float(f) for f in contacts.normal_force)))
+        series.update({f"N:{n}": forces.get(n, 0.0) for n in topo.node_names})
+        found = [(np.array([p.x, p.y, p.z], dtype=float), float(f))
+                 for p, f in zip(contacts.position, contacts.normal_force) if f > 0.0]
+    if topo.end_effector is not None:
+        series.update(zip(("p:x", "p:y", "p:z"), (float(v) for v in nodes[topo.end_effector])))
+    return Frame(t=float(t), nodes=nodes, member_forces=tension, run_state=run_state, contacts=tuple(found),
+                 series=series)
 
 
 def stamp_seconds(msg: Any) -> float:

@@ -4,8 +4,9 @@ start-up.
 Measured in Debian's chromium, headless, on software WebGL (SwiftShader: these machines have
 no GPU; the page composited in software, as Chrome does without a GPU: ``tests/view/browser.py``),
 the page open at 1280 x 720 px (a user's browser window; the 3D canvas is what the control
-panel leaves of it, 892 x 720 px, at a device pixel ratio of 1 that viser lowers to 0.75
-while the page renders below 38 fps):
+panel leaves of it, 892 x 720 px, at a device pixel ratio of 1 that the view's page lowers
+to 0.75 and 0.5 while it renders fewer frames than the view sends: ``tensegrity_ros/view/resolution.py``;
+each row says the ratio it ended at and the canvas's pixels):
 
 - **frame rate**: frames the page renders per second (animation frames in which the page
   drew with WebGL: viser renders on demand, so an animation frame draws only when the
@@ -17,6 +18,8 @@ while the page renders below 38 fps):
   ``BAG_END_MARGIN`` before the bag does), and (full mode) the 6-bar robot (``six_bar_roll``)
   and the spine (``spine_release``) simulated in the view's process (states as fast as the
   core integrates).
+  A window starts once the page's resolution has settled after Play (no change for
+  ``SETTLED`` s, at most ``SETTLE_MAX`` s after Play: what a user watching sees).
   Baseline, same browser, same run: the animation frames per second of an empty page of the
   view's server (the browser's own rate: the most a page can render). Target: >= 30 fps for
   the 6-bar and the spine. Beside it, the browser's CPU time per rendered frame (all its
@@ -57,6 +60,14 @@ READY = re.compile(r"view ready: http://127\.0\.0\.1:(\d+)")
 BAG_END_MARGIN = 1.0
 #: The browser's window [px] (a user's).
 WINDOW = (1280, 720)
+#: A playing page's resolution has settled when it did not change for this long [s],
+SETTLED = 1.0
+#: or this long [s] after Play at the most (two steps down take the page about that long).
+SETTLE_MAX = 1.5
+#: The page's resolution: the canvas's size [CSS px], its drawn pixels, the device pixel ratio.
+RESOLUTION = """() => { const c = document.querySelector('canvas[data-engine^="three.js"]');
+  const r = window.__tensegrityResolution || {};
+  return [c.clientWidth, c.clientHeight, c.width, c.height, r.dpr ?? window.devicePixelRatio, r.changes ?? 0]; }"""
 
 #: Before any page script: counts the animation frames in which WebGL drew (``__rendered``).
 COUNT_RENDERS = """(() => { window.__tick = 0; window.__rendered = 0; let drawn = -1;
@@ -146,27 +157,53 @@ def _stop(proc: subprocess.Popen) -> None:
         kill_group(proc)
 
 
+def _settle(page) -> float:
+    """Wait until the page's resolution has settled (module docstring); the seconds waited."""
+    t0 = time.monotonic()
+    changes, since = page.evaluate(RESOLUTION)[-1], t0
+    while time.monotonic() - since < SETTLED and time.monotonic() - t0 < SETTLE_MAX:
+        page.wait_for_timeout(100)
+        now_changes = page.evaluate(RESOLUTION)[-1]
+        if now_changes != changes:
+            changes, since = now_changes, time.monotonic()
+    return time.monotonic() - t0
+
+
+def _resolution_note(page, settled: float | None, changes: int) -> str:
+    """The canvas's size, its drawn pixels and pixel ratio now, how long the page settled and
+    how often its resolution changed since ``changes`` (the count at the window's start)."""
+    css_w, css_h, w, h, dpr, now = page.evaluate(RESOLUTION)
+    after = f", window from {settled:.1f} s after Play" if settled is not None else ""
+    return (f"canvas {css_w} x {css_h} px drawn at {w} x {h} (pixel ratio {dpr:g}; {now - changes} changes "
+            f"in the window{after})")
+
+
 def _page_rates(browser, url: str, seconds: float, play: str = "", *,
-                empty: bool = False) -> tuple[float, float, float, list, float]:
+                empty: bool = False) -> tuple[float, float, float, list, float, str]:
     """(animation frames per s, frames rendered per s, states shown per s, [(t shown, wall ms)],
-    the browser's CPU time per rendered frame [s]) over ``seconds``; ``play``: press the page's
-    Play first, until the page shows this text; ``empty``: a page with nothing to draw."""
+    the browser's CPU time per rendered frame [s], the canvas's resolution at the end) over
+    ``seconds``; ``play``: press the page's Play first, until the page shows this text, and
+    wait for the page's resolution to settle; ``empty``: a page with nothing to draw."""
     from tests.view.browser import wait_for_canvas
 
     page = browser.open(url)
     try:
         wait_for_canvas(page, drawn=not empty)
+        settled = None
         if play:
             page.get_by_role("button", name="Play").click()
             page.get_by_text(play).first.wait_for()
+            settled = _settle(page)
         page.evaluate(WATCH)
+        changes = page.evaluate(RESOLUTION)[-1]
         cpu = _browser_cpu_s()
         ticks, rendered = page.evaluate(FRAMES, seconds * 1000)
         cpu = _browser_cpu_s() - cpu
+        note = _resolution_note(page, settled, changes)
         shown = page.evaluate("() => window.__shown")
         span = (shown[-1][1] - shown[0][1]) / 1000 if len(shown) > 1 else 0.0
         per_frame = cpu / (rendered * seconds) if rendered > 0 else math.inf
-        return ticks, rendered, (len(shown) - 1) / span if span > 0 else 0.0, shown, per_frame
+        return ticks, rendered, (len(shown) - 1) / span if span > 0 else 0.0, shown, per_frame, note
     finally:
         page.close()
 
@@ -211,7 +248,7 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
                                 stdout=subprocess.PIPE, text=True, env=env, start_new_session=True)
         try:
             port = int(bare.stdout.readline().split()[-1])
-            bare_fps, _, _, _, _ = _page_rates(browser, f"http://127.0.0.1:{port}", seconds, empty=True)
+            bare_fps, _, _, _, _, _ = _page_rates(browser, f"http://127.0.0.1:{port}", seconds, empty=True)
         finally:
             kill_group(bare)
         rows.append(Row("view", "empty viser page: animation frames per s", bare_fps, "fps"))
@@ -224,14 +261,16 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
             runs += [("6-bar robot (core, in process)", ["--scene", "six_bar_roll"], "· playing"),
                      ("spine (core, in process)", ["--scene", "spine_release"], "· playing")]
         for name, args, playing in runs:
-            window = min(seconds, _bag_seconds(args[0]) - BAG_END_MARGIN) if name.endswith("bag") else seconds
+            window = (min(seconds, _bag_seconds(args[0]) - SETTLE_MAX - BAG_END_MARGIN) if name.endswith("bag")
+                      else seconds)
             proc, port, _, _log = _start(args, env)
             try:
-                _, fps, shown, _, per_frame = _page_rates(browser, f"http://127.0.0.1:{port}", window, play=playing)
+                _, fps, shown, _, per_frame, note = _page_rates(browser, f"http://127.0.0.1:{port}", window,
+                                                                play=playing)
             finally:
                 _stop(proc)
             rows.append(Row("view", f"{name}: frames rendered per s", fps, "fps", target=">= 30",
-                            baseline="empty viser page: animation frames per s"))
+                            baseline="empty viser page: animation frames per s", note=note))
             rows.append(Row("view", f"{name}: browser CPU per rendered frame", per_frame, "s",
                             note="all chromium processes"))
             rows.append(Row("view", f"{name}: states shown per s", shown, "1/s",
@@ -275,7 +314,7 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
         try:
             proc, port, _, _log = _start([], env)
             try:
-                _, fps, shown, samples, _ = _page_rates(browser, f"http://127.0.0.1:{port}", seconds)
+                _, fps, shown, samples, _, note = _page_rates(browser, f"http://127.0.0.1:{port}", seconds)
             finally:
                 _stop(proc)
         finally:
@@ -288,7 +327,7 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
         with lock:
             latencies = [wall - received[t] for t, wall in samples if t in received]
         rows.append(Row("view", "class-2 (suite over ROS, driven): frames rendered per s", fps, "fps",
-                        baseline="empty viser page: animation frames per s"))
+                        baseline="empty viser page: animation frames per s", note=note))
         rows.append(Row("view", "class-2 (suite over ROS): states shown per s", shown, "1/s", target=">= 30"))
         if latencies:
             rows.append(Row("view", "class-2: state message to page, median", statistics.median(latencies) / 1000, "s",

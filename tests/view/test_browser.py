@@ -117,6 +117,43 @@ def test_a_bag_plays_pauses_and_scrubs_on_its_timeline(cli, browser):
     assert view.stop() == 0
 
 
+RESOLUTION = """() => { const c = document.querySelector('canvas[data-engine^="three.js"]');
+  return [window.__tensegrityResolution.mode, window.__tensegrityResolution.scale, c.width, c.clientWidth]; }"""
+
+
+def test_the_page_lowers_its_resolution_while_it_falls_behind_and_restores_it_when_paused(cli, browser):
+    """The 6-bar's bag played on a page whose main thread is slowed twentyfold (Chrome's CPU
+    throttling: the page then draws fewer frames than the view sends, on any machine): its
+    canvas keeps its size on the screen and draws fewer pixels; paused, full resolution
+    again. A ratio in the URL (viser's ``fixedDpr``) is the user's: left alone."""
+    view, url, port = start_view(cli, str(BAGS / "six_bar_roll"))
+    page = browser.open(url)
+    try:
+        wait_for_canvas(page)
+        mode, scale, width, css = page.evaluate(RESOLUTION)
+        assert (mode, scale) == ("adaptive", 1.0) and width == css
+        cdp = page.context.new_cdp_session(page)
+        cdp.send("Emulation.setCPUThrottlingRate", {"rate": 20})
+        page.get_by_role("button", name="Play").click()
+        _until(lambda: page.evaluate(RESOLUTION)[1] < 1.0, "the resolution lowered",
+               poll=lambda: page.wait_for_timeout(200))
+        cdp.send("Emulation.setCPUThrottlingRate", {"rate": 1})
+        page.get_by_role("button", name="Pause").click()
+        _until(lambda: page.evaluate(RESOLUTION)[1:] == [1.0, css, css], "full resolution again",
+               poll=lambda: page.wait_for_timeout(200))
+        _only_loopback(browser, port)
+    finally:
+        page.close()
+    page = browser.open(f"{url}/?fixedDpr=0.5")
+    try:
+        wait_for_canvas(page)
+        mode, scale, width, css = page.evaluate(RESOLUTION)
+        assert mode == "fixed in the URL" and width == round(0.5 * css)
+    finally:
+        page.close()
+    assert view.stop() == 0
+
+
 def test_a_rolling_six_bar_robot_moves_between_frames(cli, browser):
     """``--scene six_bar_roll`` simulated in the view's process: paused at first, the same
     pixels; played, the robot drawn elsewhere; the contacts' legend shown (which caps are in
@@ -133,7 +170,7 @@ def test_a_rolling_six_bar_robot_moves_between_frames(cli, browser):
         _until(lambda: status_time(page) > 3.0, "the robot rolled for 3 s (over its first edge)", poll=lambda: page.wait_for_timeout(200))
         second = canvas_pixels(page)
         assert _changed(still, first) > 0.01 and _changed(first, second) > 0.01, (_changed(still, first), _changed(first, second))
-        page.get_by_text("normal force: red cylinder").first.wait_for(timeout=WAIT * 1000)
+        page.get_by_text("normal force: red line").first.wait_for(timeout=WAIT * 1000)
         _only_loopback(browser, port)
     finally:
         page.close()
@@ -177,7 +214,7 @@ def test_a_robot_bag_moves_over_its_timeline_with_its_contacts_marked(cli, brows
         assert _changed(still, end) > 0.01
         assert _contact_red(end).sum() > 20, _contact_red(end).sum()
         # the legend (like the plots) follows a jump on a paused timeline: its normal-force scale
-        page.get_by_text("normal force: red cylinder").first.wait_for(timeout=WAIT * 1000)
+        page.get_by_text("normal force: red line").first.wait_for(timeout=WAIT * 1000)
         _only_loopback(browser, port)
     finally:
         page.close()

@@ -101,3 +101,40 @@ def test_a_bag_without_states_to_draw_is_refused_in_one_line(tmp_path):
     with pytest.raises(BagError, match="has no tensegrity_msgs/msg/MechanismState or tensegrity_msgs/msg/CableStates topic to draw") as err:
         BagSource(tmp_path / "clock_only")
     assert "\n" not in str(err.value)
+
+
+@pytest.mark.ros
+def test_a_move_the_controller_never_answers_says_so(ros_context):
+    """A move_end_effector server that never takes the goal (its node is never spun: the
+    action's endpoints are on the graph, its requests never read): the page's line says no
+    answer came within the view's wait, and nothing else is reported after it."""
+    import os
+    import time
+
+    from rclpy.action import ActionServer
+    from rclpy.node import Node
+    from tensegrity_msgs.action import MoveEndEffector
+
+    from tensegrity_ros.view.ros_source import RosSource
+
+    namespace = f"/view_move_unanswered_{os.getpid()}"
+    server_node = Node("silent_controller", namespace=namespace, context=ros_context)
+    ActionServer(server_node, MoveEndEffector, "move_end_effector", lambda handle: MoveEndEffector.Result())
+    source = RosSource(namespace, move_answer_s=0.5)
+    sink = Frames()
+    source.start(sink, sink.report)
+    try:
+        deadline = time.monotonic() + 120.0
+        while not source.mover.server_is_ready():
+            assert time.monotonic() < deadline, "the view never saw the action server"
+            time.sleep(0.05)
+        source.move(1.45, 0.72, 2.0)
+        line = "move: no answer from the controller within 0.5 s (press Move D again)"
+        while line not in sink.reports:
+            assert time.monotonic() < deadline, sink.reports
+            time.sleep(0.05)
+        moves = [r for r in sink.reports if r.startswith("move: ")]
+        assert moves == ["move: D to (1.45, 0.72) m in 2 s sent", line]
+    finally:
+        source.stop()
+        server_node.destroy_node()

@@ -75,15 +75,13 @@ def test_a_robot_bag_needs_its_scene_and_refuses_another_in_one_line(tmp_path):
     with pytest.raises(BagError, match="does not have") as err:
         BagSource(ROLL, scene="spine_bend")
     assert "\n" not in str(err.value)
-    # without it, the view asks for the scene
+    # without it, the robot is drawn from its own markers (test below)
     copy = tmp_path / "roll"
     shutil.copytree(ROLL, copy)
     meta = yaml.safe_load((copy / "metadata.yaml").read_text())
     meta["rosbag2_bagfile_information"]["custom_data"] = None
     (copy / "metadata.yaml").write_text(yaml.safe_dump(meta))
-    with pytest.raises(BagError, match="--scene NAME") as err:
-        BagSource(copy)
-    assert "\n" not in str(err.value)
+    assert BagSource(copy).label.endswith("drawn from its markers")
     # a path in a bag's metadata is never read: only shipped scene names are taken from a bag
     outside = tmp_path / "elsewhere.yaml"
     shutil.copy(scene_path("six_bar_rest"), outside)
@@ -92,6 +90,72 @@ def test_a_robot_bag_needs_its_scene_and_refuses_another_in_one_line(tmp_path):
     with pytest.raises(BagError, match="not a shipped scene") as err:
         BagSource(copy)
     assert "\n" not in str(err.value)
+
+
+#: A malformed ``tensegrity_custom_data`` record: a scene name over the 4096 characters a bag's text may hold.
+MALFORMED = {"tensegrity_custom_data": {"scene": "s" * 5000}}
+
+
+def _foreign_roll(folder: Path, records: dict, topics: tuple[str, ...], seconds: float = 1.0) -> None:
+    """A bag folder (no ``metadata.yaml``) of one MCAP file written by ``mcap``'s own writer:
+    ``records`` as metadata records after the header (where a recorder writes its
+    custom_data), then the messages of ``topics`` of the 6-bar's roll in its first ``seconds``."""
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+
+    folder.mkdir()
+    with open(ROLL / "six_bar_roll_0.mcap", "rb") as f, open(folder / f"{folder.name}_0.mcap", "wb") as out:
+        reader = make_reader(f)
+        start = reader.get_summary().statistics.message_start_time
+        writer = Writer(out)
+        writer.start(profile="ros2", library="another tool")
+        for name, data in records.items():
+            writer.add_metadata(name, data)
+        schemas, channels = {}, {}
+        for schema, channel, m in reader.iter_messages(topics=[f"/six_bar/{t}" for t in topics], log_time_order=True):
+            if m.log_time - start > seconds * 1e9:
+                break
+            if schema.id not in schemas:
+                schemas[schema.id] = writer.register_schema(schema.name, schema.encoding, schema.data)
+            if channel.id not in channels:
+                channels[channel.id] = writer.register_channel(channel.topic, channel.message_encoding,
+                                                               schemas[schema.id])
+            writer.add_message(channels[channel.id], m.log_time, m.data, m.publish_time, sequence=m.sequence)
+        writer.finish()
+
+
+def test_a_robot_bag_with_a_malformed_custom_data_is_drawn_from_its_own_markers(tmp_path):
+    """No --scene and a custom_data record that cannot be read: the robot is drawn from its
+    markers (rods' and cables' segments join its caps). Every member's length between the
+    caps so placed is the one the simulator put in ``cable_states`` at the same stamp (read
+    by rosbags), and the caps are where the scene's drawing (body poses) puts them."""
+    _foreign_roll(tmp_path / "roll", MALFORMED, ("body_states", "cable_states", "contacts", "markers"))
+    source = BagSource(tmp_path / "roll")
+    assert source.topic == "/six_bar/markers" and source.label.endswith("drawn from its markers")
+    topo = source.topology
+    assert topo.kind == "robot" and topo.floor and len(topo.node_names) == 12
+    assert [topo.member_kinds[i] for i in topo.of_kind("bar")] == ["bar"] * 6 and len(topo.of_kind("string")) == 24
+    by_scene = BagSource(tmp_path / "roll", scene="six_bar_rest")
+    cables = _recorded("/six_bar/cable_states")
+    for k in np.linspace(0, len(source._times) - 1, 6).astype(int):
+        frame = source.frame_at(k)
+        np.testing.assert_allclose(_lengths(frame, topo), cables[frame.t].length, atol=1e-9)
+        drawn = by_scene.frame_at(by_scene.index_at(frame.t - by_scene.t0))
+        assert drawn.t == frame.t
+        # the same caps, in another order: each marker cap is one of the scene's
+        gaps = np.linalg.norm(frame.nodes[:, None, :] - drawn.nodes[None, :, :], axis=2).min(axis=1)
+        assert gaps.max() < 1e-9
+        assert [(tuple(p), f) for p, f in frame.contacts] == [(tuple(p), f) for p, f in drawn.contacts]
+
+
+def test_a_robot_bag_with_a_malformed_custom_data_and_nothing_that_draws_it_says_what_is_missing(tmp_path):
+    _foreign_roll(tmp_path / "roll", MALFORMED, ("body_states", "cable_states"), seconds=0.2)
+    with pytest.raises(BagError) as err:
+        BagSource(tmp_path / "roll")
+    line = str(err.value)
+    assert "\n" not in line and "s" * 100 not in line      # the 5000-character name is quoted as an excerpt
+    assert "custom_data cannot be read" in line and "no markers topic" in line and "--scene NAME" in line
+    assert BagSource(tmp_path / "roll", scene="six_bar_rest").topology.kind == "robot"     # what --scene supplies
 
 
 def _structure_bag(folder: Path, scene: str, commands: list[list[float]], step: float = 0.01,
