@@ -1,8 +1,12 @@
-"""Starting ``tensegrity view`` as a user does, and reading where it listens."""
+"""Starting ``tensegrity view`` as a user does, and reading where it listens; a robot bag
+written by another tool."""
 
 from __future__ import annotations
 
 import re
+from pathlib import Path
+
+BAGS = Path(__file__).resolve().parents[2] / "bags"
 
 VIEW_READY = re.compile(r"view ready: (http://[^\s:]+:(\d+))")
 
@@ -14,3 +18,35 @@ def start_view(cli, *args: str, timeout: float = 120.0) -> tuple[object, str, in
     m = VIEW_READY.search(proc.stderr())
     assert m, proc.stderr()
     return proc, m.group(1), int(m.group(2))
+
+
+#: A malformed ``tensegrity_custom_data`` record: a scene name over the 4096 characters a bag's text may hold.
+MALFORMED = {"tensegrity_custom_data": {"scene": "s" * 5000}}
+
+
+def foreign_roll(folder: Path, records: dict, topics: tuple[str, ...], seconds: float = 1.0) -> None:
+    """A bag folder (no ``metadata.yaml``) of one MCAP file written by ``mcap``'s own writer:
+    ``records`` as metadata records after the header (where a recorder writes its
+    custom_data), then the messages of ``topics`` of the 6-bar's roll in its first ``seconds``."""
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+
+    folder.mkdir()
+    with open(BAGS / "six_bar_roll" / "six_bar_roll_0.mcap", "rb") as f, open(folder / f"{folder.name}_0.mcap", "wb") as out:
+        reader = make_reader(f)
+        start = reader.get_summary().statistics.message_start_time
+        writer = Writer(out)
+        writer.start(profile="ros2", library="another tool")
+        for name, data in records.items():
+            writer.add_metadata(name, data)
+        schemas, channels = {}, {}
+        for schema, channel, m in reader.iter_messages(topics=[f"/six_bar/{t}" for t in topics], log_time_order=True):
+            if m.log_time - start > seconds * 1e9:
+                break
+            if schema.id not in schemas:
+                schemas[schema.id] = writer.register_schema(schema.name, schema.encoding, schema.data)
+            if channel.id not in channels:
+                channels[channel.id] = writer.register_channel(channel.topic, channel.message_encoding,
+                                                               schemas[schema.id])
+            writer.add_message(channels[channel.id], m.log_time, m.data, m.publish_time, sequence=m.sequence)
+        writer.finish()

@@ -12,7 +12,7 @@ pytest.importorskip("viser")
 
 from tests.ros.test_loopback import sockets_of  # noqa: E402
 from tests.ros_support import TENSEGRITY  # noqa: E402
-from tests.view.support import start_view  # noqa: E402
+from tests.view.support import MALFORMED, foreign_roll, start_view  # noqa: E402
 
 
 def _run(*args: str) -> subprocess.CompletedProcess:
@@ -71,3 +71,17 @@ def test_a_loopback_host_by_name_is_not_warned_about(cli):
     view, _url, _port = start_view(cli, "--scene", "class2_at_rest", "--host", "localhost")
     assert "warning" not in view.stderr()
     assert view.stop() == 0
+
+
+def test_a_robot_bag_with_a_malformed_custom_data_plays_from_its_markers_or_says_what_is_missing(cli, tmp_path):
+    """No --scene, a custom_data record that cannot be read: with the simulator's markers the
+    view starts and says what draws the robot; without them, one line naming --scene NAME."""
+    foreign_roll(tmp_path / "marked", MALFORMED, ("body_states", "cable_states", "contacts", "markers"), seconds=0.5)
+    view, _url, _port = start_view(cli, str(tmp_path / "marked"))
+    assert "/six_bar/markers" in view.stderr() and "drawn from its markers" in view.stderr()
+    assert view.stop() == 0
+    foreign_roll(tmp_path / "bare", MALFORMED, ("body_states", "cable_states"), seconds=0.5)
+    res = _run(str(tmp_path / "bare"))
+    lines = res.stderr.strip().splitlines()
+    assert res.returncode == 1 and len(lines) == 1 and "Traceback" not in res.stderr
+    assert "custom_data cannot be read" in lines[0] and "--scene NAME" in lines[0]

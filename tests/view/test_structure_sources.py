@@ -20,6 +20,7 @@ pytest.importorskip("rclpy")
 
 from tensegrity_ros.bag.errors import BagError  # noqa: E402
 from tensegrity_ros.view.bag_source import BagSource  # noqa: E402
+from tests.view.support import MALFORMED, foreign_roll  # noqa: E402
 
 BAGS = Path(__file__).resolve().parents[2] / "bags"
 ROLL = BAGS / "six_bar_roll"
@@ -92,44 +93,12 @@ def test_a_robot_bag_needs_its_scene_and_refuses_another_in_one_line(tmp_path):
     assert "\n" not in str(err.value)
 
 
-#: A malformed ``tensegrity_custom_data`` record: a scene name over the 4096 characters a bag's text may hold.
-MALFORMED = {"tensegrity_custom_data": {"scene": "s" * 5000}}
-
-
-def _foreign_roll(folder: Path, records: dict, topics: tuple[str, ...], seconds: float = 1.0) -> None:
-    """A bag folder (no ``metadata.yaml``) of one MCAP file written by ``mcap``'s own writer:
-    ``records`` as metadata records after the header (where a recorder writes its
-    custom_data), then the messages of ``topics`` of the 6-bar's roll in its first ``seconds``."""
-    from mcap.reader import make_reader
-    from mcap.writer import Writer
-
-    folder.mkdir()
-    with open(ROLL / "six_bar_roll_0.mcap", "rb") as f, open(folder / f"{folder.name}_0.mcap", "wb") as out:
-        reader = make_reader(f)
-        start = reader.get_summary().statistics.message_start_time
-        writer = Writer(out)
-        writer.start(profile="ros2", library="another tool")
-        for name, data in records.items():
-            writer.add_metadata(name, data)
-        schemas, channels = {}, {}
-        for schema, channel, m in reader.iter_messages(topics=[f"/six_bar/{t}" for t in topics], log_time_order=True):
-            if m.log_time - start > seconds * 1e9:
-                break
-            if schema.id not in schemas:
-                schemas[schema.id] = writer.register_schema(schema.name, schema.encoding, schema.data)
-            if channel.id not in channels:
-                channels[channel.id] = writer.register_channel(channel.topic, channel.message_encoding,
-                                                               schemas[schema.id])
-            writer.add_message(channels[channel.id], m.log_time, m.data, m.publish_time, sequence=m.sequence)
-        writer.finish()
-
-
 def test_a_robot_bag_with_a_malformed_custom_data_is_drawn_from_its_own_markers(tmp_path):
     """No --scene and a custom_data record that cannot be read: the robot is drawn from its
     markers (rods' and cables' segments join its caps). Every member's length between the
     caps so placed is the one the simulator put in ``cable_states`` at the same stamp (read
     by rosbags), and the caps are where the scene's drawing (body poses) puts them."""
-    _foreign_roll(tmp_path / "roll", MALFORMED, ("body_states", "cable_states", "contacts", "markers"))
+    foreign_roll(tmp_path / "roll", MALFORMED, ("body_states", "cable_states", "contacts", "markers"))
     source = BagSource(tmp_path / "roll")
     assert source.topic == "/six_bar/markers" and source.label.endswith("drawn from its markers")
     topo = source.topology
@@ -149,7 +118,7 @@ def test_a_robot_bag_with_a_malformed_custom_data_is_drawn_from_its_own_markers(
 
 
 def test_a_robot_bag_with_a_malformed_custom_data_and_nothing_that_draws_it_says_what_is_missing(tmp_path):
-    _foreign_roll(tmp_path / "roll", MALFORMED, ("body_states", "cable_states"), seconds=0.2)
+    foreign_roll(tmp_path / "roll", MALFORMED, ("body_states", "cable_states"), seconds=0.2)
     with pytest.raises(BagError) as err:
         BagSource(tmp_path / "roll")
     line = str(err.value)
