@@ -110,6 +110,13 @@ class Client:
             threading.Event().wait(0.05)
         return value
 
+    def topics_of(self, node: str, namespace: str = "/") -> dict[str, list[str]]:
+        """Topic -> types that ``node`` publishes, once the graph knows the node (its
+        publications may reach this client before its graph entry does)."""
+        self.wait_until(lambda: (node, namespace) in self.node.get_node_names_and_namespaces(),
+                        f"node {namespace.rstrip('/')}/{node} in the graph")
+        return dict(self.node.get_publisher_names_and_types_by_node(node, namespace))
+
     def close(self) -> None:
         self._executor.shutdown()
         self._thread.join(10.0)

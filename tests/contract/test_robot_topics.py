@@ -212,7 +212,7 @@ def test_contacts_are_the_caps_on_the_floor_and_carry_the_weight(suite, robot):
 
 def test_the_simulator_offers_events_and_markers(suite):
     client, _ = suite
-    topics = dict(client.node.get_publisher_names_and_types_by_node("tensegrity_sim", "/"))
+    topics = client.topics_of("tensegrity_sim")
     assert topics["/events"] == ["tensegrity_msgs/msg/SimulationEvent"]
     assert topics["/markers"] == ["visualization_msgs/msg/MarkerArray"]
     assert topics["/body_states"] == ["tensegrity_msgs/msg/RigidBodyStates"]     # the rods' poses
