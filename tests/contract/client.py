@@ -27,17 +27,17 @@ def stamp_ns(stamp: Any) -> int:
 
 
 class Client:
-    """One rclpy node in a private context, spun by a multi-threaded executor in a thread."""
+    """One rclpy node in a private context, spun by an executor in a thread of its own (callbacks never block)."""
 
     def __init__(self, name: str) -> None:
         import rclpy
         from rclpy.context import Context
-        from rclpy.executors import MultiThreadedExecutor
+        from rclpy.executors import SingleThreadedExecutor
 
         self.context = Context()
         rclpy.init(args=[], context=self.context)
         self.node = rclpy.create_node(name, context=self.context)
-        self._executor = MultiThreadedExecutor(context=self.context)
+        self._executor = SingleThreadedExecutor(context=self.context)
         self._executor.add_node(self.node)
         self._thread = threading.Thread(target=self._executor.spin, daemon=True)
         self._thread.start()
