@@ -117,6 +117,13 @@ class Client:
                         f"node {namespace.rstrip('/')}/{node} in the graph")
         return dict(self.node.get_publisher_names_and_types_by_node(node, namespace))
 
+    def add_node(self, node: Any) -> None:
+        """Spin another node of this client's context too."""
+        self._executor.add_node(node)
+
+    def remove_node(self, node: Any) -> None:
+        self._executor.remove_node(node)
+
     def close(self) -> None:
         self._executor.shutdown()
         self._thread.join(10.0)
