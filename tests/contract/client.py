@@ -27,17 +27,17 @@ def stamp_ns(stamp: Any) -> int:
 
 
 class Client:
-    """One rclpy node in a private context, spun by a multi-threaded executor in a thread."""
+    """One rclpy node in a private context, spun by an executor in a thread of its own (callbacks never block)."""
 
     def __init__(self, name: str) -> None:
         import rclpy
         from rclpy.context import Context
-        from rclpy.executors import MultiThreadedExecutor
+        from rclpy.executors import SingleThreadedExecutor
 
         self.context = Context()
         rclpy.init(args=[], context=self.context)
         self.node = rclpy.create_node(name, context=self.context)
-        self._executor = MultiThreadedExecutor(context=self.context)
+        self._executor = SingleThreadedExecutor(context=self.context)
         self._executor.add_node(self.node)
         self._thread = threading.Thread(target=self._executor.spin, daemon=True)
         self._thread.start()
@@ -109,6 +109,20 @@ class Client:
             assert time.monotonic() < deadline, f"waited {timeout:g} s for {what}"
             threading.Event().wait(0.05)
         return value
+
+    def topics_of(self, node: str, namespace: str = "/") -> dict[str, list[str]]:
+        """Topic -> types that ``node`` publishes, once the graph knows the node (its
+        publications may reach this client before its graph entry does)."""
+        self.wait_until(lambda: (node, namespace) in self.node.get_node_names_and_namespaces(),
+                        f"node {namespace.rstrip('/')}/{node} in the graph")
+        return dict(self.node.get_publisher_names_and_types_by_node(node, namespace))
+
+    def add_node(self, node: Any) -> None:
+        """Spin another node of this client's context too."""
+        self._executor.add_node(node)
+
+    def remove_node(self, node: Any) -> None:
+        self._executor.remove_node(node)
 
     def close(self) -> None:
         self._executor.shutdown()

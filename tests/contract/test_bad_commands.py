@@ -18,6 +18,7 @@ import time
 import pytest
 
 from tests.contract.client import PATIENCE, Client, start_sim
+from tests.ros_support import Proc
 
 pytestmark = pytest.mark.ros
 
@@ -40,6 +41,8 @@ def suite(tmp_path_factory):
     folder = tmp_path_factory.mktemp("bad_commands")
     (folder / "six_bar_modes.yaml").write_text(SCENE)
     robot = start_sim(folder, str(folder / "six_bar_modes.yaml"), "marker_rate:=0.0")
+    cables = Proc(["node", "cables", "--ros-args", "-p", f"scene:={folder / 'six_bar_modes.yaml'}"],
+                  folder / "cables.log")
     class2 = start_sim(folder, "class2_at_rest", "publish_clock:=false", "marker_rate:=0.0", "command_timeout:=0.0",
                        name="class2",
                        remap=("__ns:=/class2",))
@@ -52,10 +55,11 @@ def suite(tmp_path_factory):
         pubs = {"cables": client.publisher(CableCommand, "cable_commands"),
                 "forces": client.publisher(ActuatorForces, "actuator_forces"),
                 "class2 cables": client.publisher(CableCommand, "/class2/cable_commands")}
+        cables.wait_for("cable controller ready")
         yield client, pubs, robot, class2
     finally:
         client.close()
-        for p in (robot, class2):
+        for p in (cables, robot, class2):
             p.stop()
 
 
@@ -135,3 +139,23 @@ def test_a_burst_of_cable_commands_to_the_class2_mechanism_changes_nothing_and_w
     lines = _warnings(class2.stderr()[start:])
     assert 1 <= lines <= math.floor(window) + 1, (lines, window)
     assert list(client.received["/class2/joint_states"][-1].effort) == forces   # the applied forces hold
+
+
+@pytest.mark.parametrize("motor", ["c0_4", "c0_7"])
+def test_a_trajectory_for_a_motor_that_takes_no_rest_length_is_invalid_joints(suite, motor):
+    """docs/ros.md: the trajectory's positions are rest lengths; a motor in tension or
+    reel-speed mode is not such a joint (INVALID_JOINTS, -2, with the reason)."""
+    from action_msgs.msg import GoalStatus
+    from builtin_interfaces.msg import Duration
+    from control_msgs.action import FollowJointTrajectory
+    from trajectory_msgs.msg import JointTrajectoryPoint
+
+    client = suite[0]
+    action = client.action_client(FollowJointTrajectory, "/tensegrity_cable_controller/follow_joint_trajectory")
+    goal = FollowJointTrajectory.Goal()
+    goal.trajectory.joint_names = [motor]
+    goal.trajectory.points = [JointTrajectoryPoint(positions=[0.99], time_from_start=Duration(sec=1))]
+    handle = client.wait_future(action.send_goal_async(goal), "the goal response")
+    answer = client.wait_future(handle.get_result_async(), "the goal's result")
+    assert (answer.status, answer.result.error_code) == (GoalStatus.STATUS_ABORTED, -2), answer.result.error_string
+    assert motor in answer.result.error_string

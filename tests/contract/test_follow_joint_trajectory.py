@@ -271,7 +271,9 @@ def test_a_trajectory_stamped_in_the_future_starts_then(suite):
     from action_msgs.msg import GoalStatus
 
     client, action = suite
-    start = stamp_ns(client.received["joint_states"][-1].header.stamp) + 500_000_000
+    # 1.5 s ahead: the goal is taken long before then, even on a loaded machine (a goal taken
+    # after its trajectory's end would be OLD_HEADER_TIMESTAMP)
+    start = stamp_ns(client.received["joint_states"][-1].header.stamp) + 1_500_000_000
     handle, feedback = _send(client, action, _goal([(0.2, (0.98,))], ("c4_8",), stamp_ns_=start, goal_time=2.0))
     status, result = _outcome(client, handle)
     assert (status, result.error_code) == (GoalStatus.STATUS_SUCCEEDED, SUCCESSFUL), result.error_string

@@ -212,7 +212,26 @@ def test_contacts_are_the_caps_on_the_floor_and_carry_the_weight(suite, robot):
 
 def test_the_simulator_offers_events_and_markers(suite):
     client, _ = suite
-    topics = dict(client.node.get_publisher_names_and_types_by_node("tensegrity_sim", "/"))
+    topics = client.topics_of("tensegrity_sim")
     assert topics["/events"] == ["tensegrity_msgs/msg/SimulationEvent"]
     assert topics["/markers"] == ["visualization_msgs/msg/MarkerArray"]
     assert topics["/body_states"] == ["tensegrity_msgs/msg/RigidBodyStates"]     # the rods' poses
+
+
+def test_a_node_with_use_sim_time_follows_the_simulation_clock(suite):
+    """rclpy's own TimeSource subscribes to /clock (best effort, depth 1) when use_sim_time is set."""
+    import rclpy
+    from rclpy.parameter import Parameter
+
+    client, _ = suite
+    node = rclpy.create_node("sim_time_user", context=client.context,
+                             parameter_overrides=[Parameter("use_sim_time", Parameter.Type.BOOL, True)])
+    try:
+        client.add_node(node)
+        client.wait_until(lambda: node.get_clock().now().nanoseconds > 0, "the node's clock to start")
+        latest = max(client.stamped["joint_states"])
+        client.wait_until(lambda: node.get_clock().now().nanoseconds >= latest, "the node's clock to pass a state")
+        assert node.get_clock().now().nanoseconds < latest + 3600 * 10**9       # simulation time, not wall time
+    finally:
+        client.remove_node(node)
+        node.destroy_node()
