@@ -90,11 +90,11 @@ def _stop(server: subprocess.Popen) -> None:
 
 def test_a_server_without_the_wait_drops_a_first_answer(ros_context, tmp_path):
     """The provocation works: with max_blocking_time 0 the server drops an answer (it says
-    so on stderr) within 30 new clients (about 1 in 3 is dropped here)."""
+    so on stderr) within 60 new clients (1 in 3 to 1 in 12 is dropped here)."""
     log = tmp_path / "server.log"
     server = _start_server(_server_profile(tmp_path, "no_wait", blocking_s=0), f"/first_lost_{os.getpid()}", log)
     try:
-        answered = _first_calls(ros_context, f"/first_lost_{os.getpid()}", 30, 3.0, lambda: LOST_LINE in log.read_text())
+        answered = _first_calls(ros_context, f"/first_lost_{os.getpid()}", 60, 3.0, lambda: LOST_LINE in log.read_text())
     finally:
         _stop(server)
     assert LOST_LINE in log.read_text(), f"no answer dropped in {len(answered)} new clients"

@@ -33,7 +33,7 @@ def test_every_state_published_before_sigint_is_delivered(cli, ros_context):
 
     namespace = f"/sim_shutdown_{os.getpid()}"
     # the clock starts once the probe subscribes to every output topic: it sees the run from t = 0
-    sim = cli("node", "sim", "--ros-args", "-p", "scene:=six_bar_rest", "-p", "publish_rate:=500.0", "-p", "real_time_factor:=0.0",
+    sim = cli("node", "sim", "--ros-args", "-p", "scene:=six_bar_rest", "-p", "publish_rate:=500.0",
               "-p", f"wait_for_node:={PROBE}", "-r", f"__ns:={namespace}", log_name="sim")
     sim.wait_for("waiting for")
     node = Node(PROBE, namespace=namespace, context=ros_context)
