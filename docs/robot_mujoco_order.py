@@ -1,5 +1,6 @@
-"""Which modelling differences part the project's and MuJoCo's rolling 6-bar
-(docs/design/mujoco.md, "The project's robot dynamics against MuJoCo").
+"""Which modelling differences part the project's and MuJoCo's rolling 6-bar, and which
+layouts of the derived rolling gait make its faces independent of the simulator
+(docs/design/mujoco.md, "The project's robot dynamics against MuJoCo", "A decisive roll").
 
 Run from the repository root with the ``mujoco`` extra installed (``./run setup``)::
 
@@ -8,7 +9,8 @@ Run from the repository root with the ``mujoco`` extra installed (``./run setup`
 
 The two models are made equal one difference at a time. MuJoCo runs a scene's export
 (``export_mjcf(load_scene(...))``, its integrator and step overridden) driven either by the
-gait ``six_bar_roll`` as :func:`tests.mujoco_peer.play_gait` drives it, or by the closed-loop
+gait ``six_bar_roll`` as :func:`tests.mujoco_peer.play_gait` drives it (its tipping moves
+laid out again by :func:`laid_out` where an experiment names a ``layout``), or by the closed-loop
 controller (:class:`tensegrity_core.robot.roll_control.RollController`, 50 Hz) from
 ``six_bar_rest``; with its own contacts, or with its contacts switched off and **the
 project's floor law** applied as passive forces (``mujoco.set_mjcb_passive``, so every
@@ -34,6 +36,7 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+import yaml
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
@@ -44,18 +47,21 @@ from tensegrity_core.export import export_mjcf  # noqa: E402
 from tensegrity_core.export.robot_mjcf import scene_floor  # noqa: E402
 from tensegrity_core.robot.contact import normal_force, resisting_couple  # noqa: E402
 from tensegrity_core.robot.friction import stage_force, tangential  # noqa: E402
-from tensegrity_core.robot.gait import GAITS_DIR, gait_from_file  # noqa: E402
+from tensegrity_core.robot.gait import GAITS_DIR, Gait, gait_from_file, gait_to_dict  # noqa: E402
 from tensegrity_core.robot.roll_control import RollController  # noqa: E402
 from tensegrity_core.robot.tipping import hull_faces, place_on_face  # noqa: E402
-from tensegrity_core.sim import compile_scene, load_scene, simulate  # noqa: E402
+from tensegrity_core.sim import Scene, compile_scene, load_scene, simulate  # noqa: E402
 from tensegrity_core.sim.control_loop import ControlLoop  # noqa: E402
+from tensegrity_core.sim.scene import SCENES_DIR  # noqa: E402
 from tests.mujoco_peer import CAP, touching_caps  # noqa: E402
 
 FloatArray = NDArray[np.float64]
-#: The faces reported are those reached from this time [s] on (where the orders part), over
-#: the gait's whole cycle (13 s).
+#: The faces reported are those reached from this time [s] on (where the orders part).
 FROM = 4.0
+#: The release-free layout's cycle [s] (13 s): :func:`laid_out` with ``rest=None``.
 DURATION = 13.0
+#: ``(hold, rest)`` [s] of the release-free layout (the next move and the release together).
+RELEASE_FREE = (0.6, None)
 #: The closed-loop controller's period [s] (50 Hz).
 PERIOD = 0.02
 #: A cap touches when it carries more than this share of the weight (as play_gait counts).
@@ -204,6 +210,52 @@ def slew_limited(command: ArrayLike, l0: ArrayLike, speed: ArrayLike, tau: Array
     return out
 
 
+def laid_out(hold: float, rest: float | None) -> Gait:
+    """The shipped ``six_bar_roll``'s tipping moves laid out again: per tip the move (at the
+    motors' speed x 1.2, as :func:`tensegrity_core.robot.tipping.gait_of_steps` moves), a
+    hold of ``hold`` [s], then the release to the nominal rest lengths and a rest of ``rest``
+    [s] (the shipped layout: ``(0.6, 0.3)``); ``rest=None``: no release between tips (each
+    move starts from the last tip's rest lengths), one release at the end."""
+    robot = load_scene("six_bar_roll").model.robot
+    shipped = gait_from_file(GAITS_DIR / "six_bar_roll.yaml")
+    rows = np.asarray(shipped.rest_lengths)
+    nominal, speed = rows[0], robot.motors.max_speed
+    times, table = [0.0], [nominal]
+
+    def move_to(row: FloatArray, then: float | None) -> None:
+        times.append(times[-1] + max(0.05, 1.2 * float(np.max(np.abs(row - table[-1]) / speed))))
+        table.append(row)
+        if then:
+            times.append(times[-1] + then)
+            table.append(row)
+
+    for target in rows[1:-1:4]:
+        move_to(target, hold)
+        if rest is not None:
+            move_to(nominal, rest)
+    if rest is None:
+        move_to(nominal, None)
+    return Gait(name="six_bar_roll", cables=shipped.cables, times=tuple(round(t, 4) for t in times),
+                rest_lengths=tuple(tuple(float(v) for v in r) for r in table))
+
+
+def gait_scene(layout: tuple[float, float | None] | None, step: float = 1e-3,
+               duration: float | None = None) -> Scene:
+    """``six_bar_roll`` with its gait :func:`laid_out` as ``layout`` (None: as shipped), the
+    integrator's fixed step ``step`` [s], simulated for ``duration`` [s] (None: the scene's
+    20 s as shipped, :data:`DURATION` for the release-free layout, the gait and 1 s for
+    another)."""
+    scene = load_scene("six_bar_roll")
+    if layout is not None:
+        gait = laid_out(*layout)
+        data = yaml.safe_load((SCENES_DIR / "six_bar_roll.yaml").read_text(encoding="utf-8"))
+        data["inputs"] = {"gait": {k: v for k, v in gait_to_dict(gait).items() if k != "name"}}
+        scene = load_scene(data).with_duration(DURATION if layout == RELEASE_FREE else gait.duration + 1.0)
+    if duration is not None:
+        scene = scene.with_duration(duration)
+    return dataclasses.replace(scene, integrator=dataclasses.replace(scene.integrator, max_step=step))
+
+
 @dataclass
 class Run:
     """A MuJoCo run: the faces reached ``(t [s], caps)`` (as play_gait counts them), the
@@ -217,14 +269,20 @@ class Run:
 
 
 def run(scene_name: str = "six_bar_roll", *, law: FloorLaw | None = None, integrator: str = "RK4",
-        timestep: float = 1e-3, duration: float = DURATION, roll: int = 0, slew: bool = False) -> Run:
-    """MuJoCo on the export of ``scene_name`` driven by the gait ``six_bar_roll`` (``roll = 0``)
-    or by the closed-loop controller asked for ``roll`` faces towards +x (sampled at 50 Hz,
-    stopped 1 s after it is done), with its own contacts (``law=None``) or the project's
-    floor law (``law``), for ``duration`` [s]. ``slew``: each motor's command limited at
-    every step so that its rest length moves at most ``max_speed h`` (the project's slew
-    limit, which the export leaves out: :func:`slew_limited`)."""
-    scene = load_scene(scene_name)
+        timestep: float = 1e-3, duration: float | None = None, roll: int = 0, slew: bool = False,
+        layout: tuple[float, float | None] | None = RELEASE_FREE) -> Run:
+    """MuJoCo on the export of ``scene_name`` driven by the gait ``six_bar_roll`` (``roll = 0``;
+    :func:`laid_out` as ``layout``, None: as shipped) or by the closed-loop controller asked
+    for ``roll`` faces towards +x (sampled at 50 Hz, stopped 1 s after it is done), with its
+    own contacts (``law=None``) or the project's floor law (``law``), for ``duration`` [s]
+    (:func:`gait_scene`'s for a gait). ``slew``: each motor's command limited at every step
+    so that its rest length moves at most ``max_speed h`` (the project's slew limit, which
+    the export leaves out: :func:`slew_limited`)."""
+    if roll:
+        scene = load_scene(scene_name).with_duration(duration or DURATION)
+    else:
+        scene = gait_scene(layout, duration=duration)
+    duration = scene.duration
     robot = scene.model.robot
     m = mujoco.MjModel.from_xml_string(export_mjcf(scene, integrator=integrator, timestep=timestep).xml)
     d = mujoco.MjData(m)
@@ -242,7 +300,7 @@ def run(scene_name: str = "six_bar_roll", *, law: FloorLaw | None = None, integr
             cables = [robot.cables.names[j] for j in robot.cables.actuated]
             every, finish = round(PERIOD / timestep), math.inf
         else:
-            gait = gait_from_file(GAITS_DIR / "six_bar_roll.yaml")
+            gait = gait_from_file(GAITS_DIR / "six_bar_roll.yaml") if layout is None else laid_out(*layout)
             t_table, v_table = gait.table()
             cables = list(gait.cables)
         motors = np.array([m.actuator(f"cable:{c}").id for c in cables])
@@ -283,15 +341,20 @@ def run(scene_name: str = "six_bar_roll", *, law: FloorLaw | None = None, integr
         ProjectFloor.detach()
 
 
-def project(scene_name: str = "six_bar_roll", *, step: float = 1e-3, duration: float = DURATION,
-            roll: int = 0) -> Run:
+def project(scene_name: str = "six_bar_roll", *, step: float = 1e-3, duration: float | None = None,
+            roll: int = 0, layout: tuple[float, float | None] | None = RELEASE_FREE) -> Run:
     """The project's run of the same experiment (:func:`run`'s arguments; ``step`` [s] the
     scene's fixed step): the gait's scene simulated, or the controller run by
     :class:`~tensegrity_core.sim.control_loop.ControlLoop`; faces counted as :func:`run`
-    counts them, at the samples (100 Hz for the gait, the controller's 50 Hz)."""
-    scene = load_scene(scene_name)
-    scene = dataclasses.replace(scene.with_duration(duration),
-                                integrator=dataclasses.replace(scene.integrator, max_step=step))
+    counts them, at the samples (100 Hz for the gait, the controller's 50 Hz). With a rest
+    between tips, prints the kinetic energy [J] at the start of each next move and its peak
+    since the last move's start."""
+    if roll:
+        scene = load_scene(scene_name).with_duration(duration or DURATION)
+        scene = dataclasses.replace(scene, integrator=dataclasses.replace(scene.integrator, max_step=step))
+    else:
+        scene = gait_scene(layout, step, duration)
+    duration = scene.duration
     robot = scene.model.robot
     visited: list[tuple[int, ...]] = []
     if roll:
@@ -306,6 +369,14 @@ def project(scene_name: str = "six_bar_roll", *, step: float = 1e-3, duration: f
     else:
         out = simulate(scene)
         times, forces, nodes = out.times, np.asarray(out.contact_forces), np.asarray(out.nodes)
+        gait = gait_from_file(GAITS_DIR / "six_bar_roll.yaml") if layout is None else laid_out(*layout)
+        if layout is None or layout[1] is not None:
+            moves = np.asarray(gait.times)[::4]                     # nominal, then move, hold, release, rest
+            K = np.asarray(out.kinetic_energy)
+            left = [(float(K[(times >= a) & (times <= b)].max()), float(np.interp(b, times, K)))
+                    for a, b in zip(moves[:-2], moves[1:-1])]
+            print("  kinetic energy at each next move [J] (peak since the last move's start): "
+                  + ", ".join(f"{k:.2f} ({p:.1f})" for p, k in left), flush=True)
     mid = 0.5 * (nodes[:, robot.rods.ends[:, 0]] + nodes[:, robot.rods.ends[:, 1]])
     com = np.einsum("r,trk->tk", robot.rods.mass, mid) / robot.rods.mass.sum()     # the rods' centre of mass
     weight = robot.total_mass() * float(np.linalg.norm(robot.gravity))
@@ -340,15 +411,15 @@ def rigid_roll(nodes: np.ndarray, visited: list[tuple[int, ...]], radius: float)
     return np.array(out) - out[0]
 
 
-def show(label: str, out: Run) -> None:
+def show(label: str, out: Run, since: float = FROM) -> None:
     travel = out.com[1] - out.com[0]
-    faces = ", ".join(f"{f} ({t:.2f})" for t, f in out.faces if t >= FROM or out.visited)
+    faces = ", ".join(f"{f} ({t:.2f})" for t, f in out.faces if t >= since or out.visited)
     print(f"{label}: {faces}; centre of mass moved ({travel[0]:.2f}, {travel[1]:.2f}) m"
           + (f", rolled to {out.visited[1:]} by {out.t_end:.2f} s" if out.visited else ""), flush=True)
 
 
 EXPERIMENTS = {
-    "project, RK4 1 ms (as shipped)": dict(project=True),
+    "project, RK4 1 ms": dict(project=True),
     "project, RK4 0.5 ms": dict(project=True, step=5e-4),
     "project, RK4 0.25 ms": dict(project=True, step=2.5e-4),
     "closed loop, 4 faces: project": dict(project=True, scene_name="six_bar_rest", roll=4, duration=30.0),
@@ -376,10 +447,22 @@ EXPERIMENTS = {
     "closed loop, 4 faces: MuJoCo, RK4, the project's floor law and slew limit": dict(
         scene_name="six_bar_rest", roll=4, duration=30.0, law=FloorLaw(), slew=True),
     "MuJoCo, RK4, the motors' slew limit": dict(slew=True),
+    # the shipped layout (release and rest between tips) and others, every face from the start
+    "shipped: project, RK4 1 ms": dict(project=True, layout=None),
+    "shipped: project, RK4 0.5 ms": dict(project=True, layout=None, step=5e-4),
+    "shipped: project, RK4 0.25 ms": dict(project=True, layout=None, step=2.5e-4),
+    "shipped: MuJoCo, RK4 1 ms": dict(layout=None),
+    "shipped: MuJoCo, RK4 0.5 ms": dict(layout=None, timestep=5e-4),
+    **{f"hold {h} s, rest {r} s: {who}": dict(layout=(h, r), **options)
+       for h, r in ((0.2, 0.5), (0.3, 0.3), (0.4, 0.4), (0.6, 0.6))
+       for who, options in (("project, RK4 1 ms", dict(project=True)), ("project, RK4 0.25 ms",
+                                                                       dict(project=True, step=2.5e-4)),
+                            ("MuJoCo, RK4 1 ms", {}), ("MuJoCo, RK4 0.5 ms", dict(timestep=5e-4)))},
 }
 
 if __name__ == "__main__":
     chosen = sys.argv[1:] or list(EXPERIMENTS)
     for label in chosen:
         options = dict(EXPERIMENTS[label])
-        show(label, project(**options) if options.pop("project", False) else run(**options))
+        since = FROM if options.get("layout", RELEASE_FREE) == RELEASE_FREE else 0.0
+        show(label, project(**options) if options.pop("project", False) else run(**options), since)

@@ -36,8 +36,9 @@ element, form-finding, stability), as follows.
    the edge just crossed).
 
 :func:`tipping_steps` runs it for a number of steps; :func:`gait_of_steps` lays the steps
-out in time as a :class:`~tensegrity_core.robot.gait.Gait` (move, hold while it tips, on to
-the next step's move); :func:`rolling_gait` does both.
+out in time as a :class:`~tensegrity_core.robot.gait.Gait` (move, hold while it tips,
+release to the nominal rest lengths, rest; each step starts from the shape its derivation
+assumes); :func:`rolling_gait` does both.
 """
 
 from __future__ import annotations
@@ -353,14 +354,15 @@ def _edge_towards(W: FloatArray, face: tuple[int, int, int], want: FloatArray,
     return best[1], best[2]
 
 
-def gait_of_steps(robot: Robot, steps: list[TipStep], *, hold: float, name: str, description: str = "",
-                  margin: float = 1.2) -> Gait:
-    """The steps laid out in time: per step the motors move from the last row to the step's
-    rest lengths (the step's cables moved, every other actuated cable back at its nominal
-    rest length: the previous step's release and this step's move happen together), as fast
-    as they allow (``margin`` x the slowest motor's travel time, at least 0.05 s; a motor
-    without a slew limit counts 0.05 s, its lag acting on top), then hold for ``hold`` [s]
-    while the robot tips. The last row releases every cable."""
+def gait_of_steps(robot: Robot, steps: list[TipStep], *, hold: float, rest: float, name: str,
+                  description: str = "", margin: float = 1.2) -> Gait:
+    """The steps laid out in time, each from the nominal rest lengths as its derivation
+    assumes (the robot at its rest shape on the face): per step the motors move the step's
+    cables to its rest lengths (every other actuated cable at its nominal rest length), hold
+    them for ``hold`` [s] while the robot tips, release every cable to its nominal rest
+    length and rest there for ``rest`` [s] before the next step. Each move and release is as
+    fast as the motors allow (``margin`` x the slowest motor's travel time, at least 0.05 s;
+    a motor without a slew limit counts 0.05 s, its lag acting on top)."""
     act = robot.cables.actuated
     nominal = robot.cables.rest_length[act]
     speed = robot.motors.max_speed
@@ -373,28 +375,30 @@ def gait_of_steps(robot: Robot, steps: list[TipStep], *, hold: float, name: str,
                                                        where=np.isfinite(speed)))))
         times.append(times[-1] + dt)
         rows.append(row)
-        if then > 0:
-            times.append(times[-1] + then)
-            rows.append(row)
+        times.append(times[-1] + then)
+        rows.append(row)
 
     for step in steps:
         target = nominal.copy()
         for j, r in zip(step.cables, step.rest_lengths):
             target[int(np.flatnonzero(act == j)[0])] = r
         move_to(target, hold)
-    move_to(nominal.copy(), 0.0)
+        move_to(nominal.copy(), rest)
     return Gait(name=name, cables=tuple(robot.cables.names[j] for j in act),
                 times=tuple(round(t, 4) for t in times),
                 rest_lengths=tuple(tuple(round(float(v), 6) for v in r) for r in rows), description=description)
 
 
 def rolling_gait(robot: Robot, n_steps: int, *, heading: ArrayLike = (1.0, 0.0), hold: float = 0.6,
-                 name: str = "roll") -> tuple[Gait, list[TipStep]]:
+                 rest: float = 0.3, name: str = "roll") -> tuple[Gait, list[TipStep]]:
     """The derived rolling gait of ``n_steps`` tips towards ``heading`` (:func:`tipping_steps`,
     laid out by :func:`gait_of_steps`; times rounded to 0.1 ms, rest lengths to 1 um), and
-    its steps."""
+    its steps. ``hold`` [s] keeps the cables moved until the tip has landed (the 6-bar lands
+    0.3-0.5 s after its move ends; released earlier, its landing depends on the integration
+    step), ``rest`` [s] waits at the nominal rest lengths after the release
+    (docs/design/mujoco.md, "A decisive roll")."""
     steps = tipping_steps(robot, n_steps, heading)
     h = np.asarray(heading, dtype=float)
     text = (f"{robot.name} rolling towards ({h[0]:g}, {h[1]:g}) over {n_steps} faces, derived quasi-statically "
             f"(tensegrity_core.robot.tipping)")
-    return gait_of_steps(robot, steps, hold=hold, name=name, description=text), steps
+    return gait_of_steps(robot, steps, hold=hold, rest=rest, name=name, description=text), steps

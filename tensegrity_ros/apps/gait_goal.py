@@ -12,26 +12,20 @@ A gait named on the command line is a shipped gait (``tensegrity_core/robot/exam
 or the gait a shipped robot scene plays (``six_bar_roll``, ``three_bar_crawl``).
 
 Rolling gaits derived by :func:`tensegrity_core.robot.tipping.gait_of_steps` have one shape:
-the nominal rest lengths, then per tip a move row and a hold row (equal rows), then the
-release to nominal. :func:`first_faces` keeps the first ``faces`` tips and releases after
-them with that function's rule (the slowest motor's travel time x ``margin``, at least 0.05 s).
+the nominal rest lengths, then per tip a move row and a hold row (equal rows), a release row
+and a rest row (the nominal rest lengths). :func:`first_faces` keeps the first ``faces`` tips
+with their releases and rests.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
-
-import numpy as np
 
 from tensegrity_core.robot.gait import GAITS_DIR, Gait, GaitError, gait_file, gait_from_file, gait_names, read_gait
 
 #: s: how long before a row of a zero-order-hold gait the previous row still holds.
 HOLD_EDGE_S = 1e-6
-#: The release's time margin and shortest move [s] of a derived rolling gait.
-RELEASE_MARGIN = 1.2
-SHORTEST_MOVE_S = 0.05
 
 
 @dataclass(frozen=True)
@@ -69,34 +63,26 @@ def tips(gait: Gait) -> int | None:
     when ``gait`` does not have that shape."""
     rows = gait.rest_lengths
     n = len(rows)
-    if gait.period is not None or n < 4 or n % 2 or rows[0] != rows[-1]:
+    if gait.period is not None or n < 5 or (n - 1) % 4:
         return None
-    if any(rows[k] != rows[k + 1] for k in range(1, n - 1, 2)):
+    if any(rows[k] != rows[k + 1] for k in range(1, n - 1, 2)) or any(rows[k] != rows[0] for k in range(4, n, 4)):
         return None
-    return (n - 2) // 2
+    return (n - 1) // 4
 
 
-def first_faces(gait: Gait, faces: int, max_speed: Sequence[float]) -> Gait:
-    """``gait`` (a rolling gait of :func:`tips` tips) cut to its first ``faces`` tips, then the
-    release to the nominal rest lengths; ``max_speed`` [m/s] of each cable's motor (inf: no
-    slew limit). :class:`GaitError` when the gait is not such a gait or has fewer tips."""
+def first_faces(gait: Gait, faces: int) -> Gait:
+    """``gait`` (a rolling gait of :func:`tips` tips) cut to its first ``faces`` tips, each
+    with its release and rest. :class:`GaitError` when the gait is not such a gait or has
+    fewer tips."""
     available = tips(gait)
     if available is None:
-        raise GaitError(f"gait {gait.name!r} is not a rolling gait of tips (nominal, then a move and a hold per "
-                        "tip, then the release): it cannot be cut to a number of faces")
+        raise GaitError(f"gait {gait.name!r} is not a rolling gait of tips (nominal, then a move, a hold, a release "
+                        "and a rest per tip): it cannot be cut to a number of faces")
     if not 1 <= faces <= available:
         raise GaitError(f"gait {gait.name!r} rolls {available} faces: faces must be in [1, {available}], got {faces}")
-    rows = list(gait.rest_lengths[:1 + 2 * faces])
-    times = list(gait.times[:1 + 2 * faces])
-    nominal = gait.rest_lengths[0]
-    travel = np.abs(np.asarray(rows[-1]) - np.asarray(nominal))
-    speed = np.asarray(max_speed, dtype=float)
-    seconds = np.divide(travel, speed, out=np.zeros_like(travel), where=np.isfinite(speed))
-    release = max(SHORTEST_MOVE_S, RELEASE_MARGIN * float(np.max(seconds)))
-    times.append(round(times[-1] + release, 4))
-    rows.append(nominal)
-    return Gait(name=gait.name, cables=gait.cables, times=tuple(times), rest_lengths=tuple(rows),
-                interpolation=gait.interpolation, time_scale=gait.time_scale, start=gait.start,
+    return Gait(name=gait.name, cables=gait.cables, times=gait.times[:1 + 4 * faces],
+                rest_lengths=gait.rest_lengths[:1 + 4 * faces], interpolation=gait.interpolation,
+                time_scale=gait.time_scale, start=gait.start,
                 description=f"the first {faces} of {available} faces of {gait.name}")
 
 

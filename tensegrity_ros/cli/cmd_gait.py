@@ -101,8 +101,7 @@ def build_gait(robot_name: str, gait_name: str, faces: int | None, repeats: int 
                 raise CliError(f"--repeats must be >= 1, got {repeats}")
             gait = gait.with_options(cycles=repeats)
         if faces is not None:
-            speed = {robot.cables.names[j]: float(v) for j, v in zip(robot.cables.actuated, robot.motors.max_speed)}
-            gait = first_faces(gait, faces, [speed[c] for c in gait.cables])
+            gait = first_faces(gait, faces)
     except TensegrityError as err:
         raise CliError(str(err)) from None
     return robot, gait

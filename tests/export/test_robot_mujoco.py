@@ -320,11 +320,12 @@ def test_the_six_bar_rolls_over_the_planned_faces_under_the_shipped_gait():
     hull = {frozenset(robot.node_names[i] for i in f) for f in hull_faces(robot.nodes)}
     assert all(face in hull for face in faces), faces
     rolled = without_rocking(faces)
-    # the derivation's order, over an edge each time, up to its fourth face (~4.5 s); then, the
-    # caps' torsional friction acting, MuJoCo rests on n2 n5 n11 before n1 n2 n11
-    assert rolled[:4] == PLANNED_FACES[:4], rolled
-    assert all(len(p & q) == 2 for p, q in zip(rolled[:4], rolled[1:4])), rolled
-    assert len(set(rolled)) >= 6, rolled                                        # the issue's target: 5 faces
+    # the derivation's order, over an edge each time, as far as it gets in 10 s (rocking
+    # between n1 n2 n11 and n2 n5 n11 at 10 s)
+    assert rolled == PLANNED_FACES[:len(rolled)] and len(rolled) >= 5, rolled
+    assert all(len(p & q) == 2 for p, q in zip(faces, faces[1:])), faces
+    # the issue's target, 5 faces, counted as tensegrity_core.robot.faces counts (a return not counted again)
+    assert len(set(faces)) - 1 >= 5, faces
     assert run.com[-1, 0] - run.com[0, 0] > 1.0                                 # towards +x [m]
 
 
