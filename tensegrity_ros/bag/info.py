@@ -12,6 +12,7 @@ from datetime import UTC, datetime
 from typing import Any
 
 from tensegrity_ros.bag.reader import BagReader
+from tensegrity_ros.bag.scene import unread_custom_data
 
 
 def bag_info(path: str | os.PathLike[str]) -> dict[str, Any]:
@@ -30,6 +31,9 @@ def bag_info(path: str | os.PathLike[str]) -> dict[str, Any]:
         meta_counts = {t.name: t.message_count for t in meta.topics}
         if meta_counts != {t.name: t.message_count for t in topics}:
             notes.append("metadata.yaml counts differ from the storage (run `tensegrity bag repair`)")
+    unread = unread_custom_data(reader, path)
+    if unread:
+        notes.append(unread)
     return {
         "path": str(reader.folder),
         "files": [p.name for p in reader.files],

@@ -20,6 +20,10 @@ Layout (times in nanoseconds since the Unix epoch, durations in nanoseconds)::
       ros_distro: jazzy
 
 Version 8 and older files (QoS profiles as a YAML string with enum integers) are read too.
+
+``custom_data`` is free-form data of the recorder's (the recorded scene, ...), not what the
+bag's messages need: one that is malformed leaves the rest of the file readable, and
+:attr:`BagMetadata.custom_data_error` says why it could not be read.
 """
 
 from __future__ import annotations
@@ -81,6 +85,9 @@ class BagMetadata:
     custom_data: dict[str, str] | None = None
     ros_distro: str = ROS_DISTRO
     version: int = FORMAT_VERSION
+    #: Why the file's ``custom_data`` could not be read ("" when it could or there is none);
+    #: ``custom_data`` is then None.
+    custom_data_error: str = ""
 
     @property
     def relative_file_paths(self) -> list[str]:
@@ -177,6 +184,10 @@ class MetadataReader(Reader):
         files = [self.storage_file(entry, files_at + (i,), file_list, i) for i, entry in enumerate(file_list)]
         if not files:  # version < 5 lists only the paths
             files = [FileInfo(p, 0, 0, 0) for p in paths]
+        try:
+            custom, custom_error = self.custom_data(info, root), ""
+        except MetadataError as err:     # the recorder's data: the messages are still readable
+            custom, custom_error = None, str(err)
         return BagMetadata(
             topics=topics,
             files=files,
@@ -186,9 +197,10 @@ class MetadataReader(Reader):
             storage_identifier=self.text(info, "storage_identifier", root, ""),
             compression_format=self.text(info, "compression_format", root, ""),
             compression_mode=self.text(info, "compression_mode", root, ""),
-            custom_data=self.custom_data(info, root),
+            custom_data=custom,
             ros_distro=self.text(info, "ros_distro", root, ""),
             version=version,
+            custom_data_error=custom_error,
         )
 
     def topic(self, value: Any, path: KeyPath, container: Any, key: int) -> TopicInfo:

@@ -33,6 +33,7 @@ from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.qos import DEFAULT_REPLAY_DEPTH, dict_to_profile, offer_for_replay
 from tensegrity_ros.bag.reader import BagReader
 from tensegrity_ros.bag.recorder import message_class
+from tensegrity_ros.bag.scene import unread_custom_data
 from tensegrity_ros.bag.schedule import PlaybackOptions, timeline
 from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 from tensegrity_ros.rclpy_utils.stop_signals import stop_on_signals
@@ -205,6 +206,9 @@ def play(bag: str, topics: Iterable[str] | None = None, opts: PlaybackOptions | 
                        f"the end of bag {bag} ({(reader.end_ns - reader.start_ns) / 1e9:g} s)")
     if reader.recovered:
         log(f"warning: {bag} was not closed properly; playing what the recovery scan found")
+    unread = unread_custom_data(reader, bag)
+    if unread:
+        log(f"warning: {unread}")
     with stop_on_signals() as stop_request:
         stop_request.enter_running()
         node: PlayerNode | None = None

@@ -7,7 +7,8 @@ was killed) is scanned record by record from the start; the scan keeps every rec
 the first one that is truncated or fails its CRC, so every chunk that was completely
 written is recovered, and :attr:`BagReader.recovered` is set. The bag's ``custom_data``
 (:attr:`BagReader.custom_data`) is ``metadata.yaml``'s, else the storage's own (a killed
-recording has no ``metadata.yaml``).
+recording has no ``metadata.yaml``); a malformed one refuses nothing but itself (reading it
+raises :class:`BagError`), the messages are read all the same.
 
 Messages come out in log-time (receive-time) order, ties in file order, so the order per
 topic is the order of reception.
@@ -225,8 +226,11 @@ class BagReader:
         first storage file's record written at the start of a recording
         (:data:`~tensegrity_ros.bag.writer.CUSTOM_DATA_RECORD`), else the ``custom_data`` in its
         ``rosbag2`` record (written when a recording closes, by rosbag2 too); checked as
-        ``metadata.yaml``'s are."""
+        ``metadata.yaml``'s are. :class:`BagError` (one line naming the file and the field) when
+        the one that counts is malformed: the messages are still read."""
         if self.metadata is not None:
+            if self.metadata.custom_data_error:
+                raise BagError(self.metadata.custom_data_error)
             return self.metadata.custom_data
         for content in self._files:
             source = f"{content.path} (metadata record)"

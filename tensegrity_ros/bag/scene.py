@@ -12,9 +12,24 @@ from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.reader import BagReader
 
 
+def unread_custom_data(reader: BagReader, path: object) -> str:
+    """One line saying that ``reader``'s bag's ``custom_data`` cannot be read and what that
+    loses (the scene it was recorded from); "" when it can be read or there is none."""
+    try:
+        _ = reader.custom_data
+    except BagError as err:
+        return (f"the custom_data of bag {path} cannot be read, so the scene it was recorded from is "
+                f"unknown (name it with --scene NAME where a command needs it): {err}")
+    return ""
+
+
 def recorded_scene(reader: BagReader, path: object) -> str | None:
     """The shipped scene ``reader``'s bag names in its metadata, None when it names none;
-    BagError (one line) when it names something that is not a shipped scene."""
+    BagError (one line) when it names something that is not a shipped scene, or when its
+    ``custom_data`` cannot be read (:func:`unread_custom_data`)."""
+    unread = unread_custom_data(reader, path)
+    if unread:
+        raise BagError(unread)
     scene = (reader.custom_data or {}).get("scene")
     if scene and scene not in scene_names():
         raise BagError(f"bag {path} names scene {scene!r} in its metadata, which is not a shipped scene "
