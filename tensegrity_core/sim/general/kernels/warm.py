@@ -20,7 +20,7 @@ from tensegrity_core.sim.general.kernels.jit import have_numba
 
 #: A small structure with every kind of part: a free node, a partly pinned node, a rigid
 #: body, strings, a bar, masses (the kernels compile once for all structures).
-WARM_STRUCTURE = {
+WARM_STRUCTURE: dict[str, object] = {
     "name": "warm-up",
     "nodes": {"p1": [0, 0, 0], "p2": [1, 0, 0], "p3": [0, 1, 0], "n": [0.5, 0.5, 1.0], "s": [1.0, 1.0, 0.5]},
     "members": [{"nodes": ["p1", "n"], "EA": 50.0, "rest_length_ratio": 0.9},
@@ -34,7 +34,7 @@ WARM_STRUCTURE = {
 
 #: The same without a rigid body: its kernels take arrays of another type (numba compiles a
 #: kernel once per type of its arguments, so both kinds of structure are warmed).
-WARM_STRUCTURE_WITHOUT_BODIES = {
+WARM_STRUCTURE_WITHOUT_BODIES: dict[str, object] = {
     "name": "warm-up without bodies",
     "nodes": {"a": [0, 0, 0], "n": [0, 0, 1.0]},
     "members": [{"nodes": ["a", "n"], "EA": 100.0, "rest_length_ratio": 0.9}],
