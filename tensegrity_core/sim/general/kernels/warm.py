@@ -20,7 +20,7 @@ from tensegrity_core.sim.general.kernels.jit import have_numba
 
 #: A small structure with every kind of part: a free node, a partly pinned node, a rigid
 #: body, strings, a bar, masses (the kernels compile once for all structures).
-WARM_STRUCTURE = {
+WARM_STRUCTURE: dict[str, object] = {
     "name": "warm-up",
     "nodes": {"p1": [0, 0, 0], "p2": [1, 0, 0], "p3": [0, 1, 0], "n": [0.5, 0.5, 1.0], "s": [1.0, 1.0, 0.5]},
     "members": [{"nodes": ["p1", "n"], "EA": 50.0, "rest_length_ratio": 0.9},
@@ -32,16 +32,41 @@ WARM_STRUCTURE = {
     "masses": {"n": 0.3, "s": 0.2},
 }
 
+#: The same without a rigid body: its kernels take arrays of another type (numba compiles a
+#: kernel once per type of its arguments, so both kinds of structure are warmed).
+WARM_STRUCTURE_WITHOUT_BODIES: dict[str, object] = {
+    "name": "warm-up without bodies",
+    "nodes": {"a": [0, 0, 0], "n": [0, 0, 1.0]},
+    "members": [{"nodes": ["a", "n"], "EA": 100.0, "rest_length_ratio": 0.9}],
+    "pinned": ["a"],
+    "masses": {"n": 2.0},
+}
+
 
 def warm() -> float:
     """Run every compiled kernel once (compiling or loading it); the seconds it took."""
     from tensegrity_core.sim import Simulator, scene_from_dict
     from tensegrity_core.sim.general.kernels import loops
+
+    started = time.perf_counter()
+    for structure in (WARM_STRUCTURE, WARM_STRUCTURE_WITHOUT_BODIES):
+        _warm_general(structure)
+    gaps = np.zeros(1)
+    loops.quiet_step(gaps, gaps, gaps, gaps, np.zeros(1, dtype=bool), 1e-3)   # as the tests call it
+    robot = scene_from_dict({"model": {"kind": "robot", "robot": "three_bar"}, "initial": {"drawn": True},
+                             "effects": ["inertia", "cables", "motors", "gravity", "contact", "friction", "sensors"],
+                             "duration": 0.0025})
+    Simulator(robot, t_end=robot.duration).advance(robot.duration)    # the robot kernels: steps, interpolation
+    return time.perf_counter() - started
+
+
+def _warm_general(structure: dict[str, object]) -> None:
+    """Run every kernel of a general structure once: stepping, interpolation, the stages."""
+    from tensegrity_core.sim import Simulator, scene_from_dict
     from tensegrity_core.sim.general.kernels.stages import CompiledStages
     from tensegrity_core.sim.general.model import GeneralSystem
 
-    started = time.perf_counter()
-    scene = scene_from_dict({"model": {"kind": "general", "structure": WARM_STRUCTURE}, "initial": {"drawn": True},
+    scene = scene_from_dict({"model": {"kind": "general", "structure": structure}, "initial": {"drawn": True},
                              "effects": ["inertia", "springs", {"damping": {"c": 0.1}},
                                          {"gravity": {"vector": [0.0, 0.0, -9.81]}}],
                              "duration": 0.01, "integrator": {"method": "DOP853", "rtol": 1e-6, "atol": 1e-8}})
@@ -62,13 +87,6 @@ def warm() -> float:
     samples = np.array([0.0025, 0.004, 0.0045, 0.01])
     stages.rk4_run(0.0, y, f, 1e-3, 0.01, 0.01, samples, 0)
     stages.dop853_run(0.0, y, f, 0.01, 0.01, 1e-3, np.inf, 1e-6, 1e-8, (0.9, 0.2, 10.0), samples, 0)
-    gaps = np.zeros(1)
-    loops.quiet_step(gaps, gaps, gaps, gaps, np.zeros(1, dtype=bool), 1e-3)   # as the tests call it
-    robot = scene_from_dict({"model": {"kind": "robot", "robot": "three_bar"}, "initial": {"drawn": True},
-                             "effects": ["inertia", "cables", "motors", "gravity", "contact", "friction", "sensors"],
-                             "duration": 0.0025})
-    Simulator(robot, t_end=robot.duration).advance(robot.duration)    # the robot kernels: steps, interpolation
-    return time.perf_counter() - started
 
 
 def main() -> int:
