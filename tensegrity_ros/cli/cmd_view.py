@@ -42,7 +42,7 @@ def _source(args: argparse.Namespace) -> Source:
         from tensegrity_ros.view.bag_source import BagSource
 
         try:
-            return BagSource(args.bag, scene=args.scene)
+            return BagSource(args.bag, scene=args.scene, fps=args.fps)
         except BagError as err:
             raise CliError(str(err), 1) from None
     if args.scene:

@@ -1,10 +1,10 @@
 """The view: a server, the drawing, the plots, the controls and a source, wired together.
 
 Sources call :meth:`View.submit` from their own threads as often as frames come; a render
-thread sends the page the newest frame at most ``fps`` times a second, one send every
-``1/fps`` s from the start of the last (the time a send takes is within the period, not
-added to it), and frames in between only extend the plots' history, so a fast simulator
-never floods the page. Closing the
+thread sends the page the newest frame at most ``fps`` times a second, the sends on a grid
+of ``1/fps`` s (:mod:`.pacing`: the time a send takes and a late wake-up are within the
+period, not added to it), and frames in between only extend the plots' history, so a fast
+simulator never floods the page. Closing the
 page changes nothing; :meth:`View.close` stops the source and the server, never the suite.
 """
 
@@ -22,6 +22,7 @@ from tensegrity_ros.view import resolution
 from tensegrity_ros.view.controls import ControlPanel
 from tensegrity_ros.view.drawing import StructureDrawing
 from tensegrity_ros.view.frame import Frame
+from tensegrity_ros.view.pacing import Pacer
 from tensegrity_ros.view.plots import PlotPanel, SeriesHistory
 from tensegrity_ros.view.source import Source
 
@@ -51,7 +52,7 @@ class View:
     def __init__(self, server: Any, source: Source, first: Frame, *, fps: float = 30.0):
         self.server = server
         self.source = source
-        self.period = 1.0 / fps
+        self.pacer = Pacer(1.0 / fps)
         resolution.install(server, fps)
         gui = server.gui
         gui.add_markdown(f"**{source.label}**")
@@ -115,7 +116,7 @@ class View:
                 continue
             if last is not None and frame.t < last.t:
                 self.drawing.clear_trail()
-            sent = time.monotonic()
+            deadline = self.pacer.tick(time.monotonic())
             with self.server.atomic():
                 self.drawing.show(frame)
                 _set(self.status, status_line(frame))
@@ -128,7 +129,7 @@ class View:
             self.server.flush()
             self.frames_shown += 1
             last = frame
-            self._stop_wait(sent + self.period - time.monotonic())
+            self._stop_wait(deadline - time.monotonic())
 
     def _refresh_panel(self) -> None:
         """Send the plots their history and the legend its scales (call within ``atomic()``)."""

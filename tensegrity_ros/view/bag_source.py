@@ -36,6 +36,7 @@ from tensegrity_ros.view.frame import Frame, Topology
 from tensegrity_ros.view.frames import class2_topology, frame_of_mechanism_state
 from tensegrity_ros.view.inputs import InputSpec
 from tensegrity_ros.view.marker_robot import MarkerRobot, NotDrawable
+from tensegrity_ros.view.pacing import Pacer
 from tensegrity_ros.view.source import Report, Sink
 from tensegrity_ros.view.structure_frames import StructureMessages, stamp_seconds
 
@@ -45,8 +46,6 @@ CABLES_TYPE: Final = "tensegrity_msgs/msg/CableStates"
 BODIES_TYPE: Final = "tensegrity_msgs/msg/RigidBodyStates"
 CONTACTS_TYPE: Final = "tensegrity_msgs/msg/CapContacts"
 MARKERS_TYPE: Final = "visualization_msgs/msg/MarkerArray"
-#: Timeline ticks per second of wall time while playing.
-TICK_HZ: Final = 60.0
 #: States decoded at most to find the bag's largest string tension (spread over the bag).
 SCALE_SAMPLES: Final = 500
 
@@ -94,7 +93,10 @@ class BagSource:
 
     inputs: tuple[InputSpec, ...] = ()
 
-    def __init__(self, path: str | os.PathLike[str], scene: str | None = None):
+    def __init__(self, path: str | os.PathLike[str], scene: str | None = None, *, fps: float = 30.0):
+        #: the timeline's ticks while playing, one frame each at most: ``fps`` a second, the
+        #: view's frame rate (a state decoded between two the view sends would only be dropped)
+        self.pacer = Pacer(1.0 / fps)
         reader = BagReader(path)
         types = {t.name: _type_name(t.type) for t in reader.topics()}
         of_type = {kind: [n for n, k in types.items() if k == kind] for kind in set(types.values())}
@@ -250,6 +252,7 @@ class BagSource:
             self._thread.join()
 
     def _run(self, sink: Sink) -> None:
+        """Tick on the pacer's grid (the time a frame takes to decode is within the period)."""
         last = time.monotonic()
         while not self._stop.is_set():
             now = time.monotonic()
@@ -264,7 +267,7 @@ class BagSource:
             last = now
             if changed:
                 sink(self.frame_at(index))
-            self._wake.wait(1.0 / TICK_HZ)
+            self._wake.wait(max(0.0, self.pacer.tick(now) - time.monotonic()))
             self._wake.clear()
 
     def play(self) -> None:

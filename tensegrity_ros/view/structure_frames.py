@@ -97,10 +97,19 @@ class StructureMessages:
         """(n, 3) [m]: the drawing's nodes, each moving body's moved to its pose in ``msg``
         (``tensegrity_msgs/RigidBodyStates``)."""
         nodes = self.drawn.copy()
-        for name, pose in zip(msg.name, msg.pose):
-            idx, offsets = self.bodies[name]
-            o, p = pose.orientation, pose.position
-            nodes[idx] = Rotation.from_quat([o.x, o.y, o.z, o.w]).apply(offsets) + (p.x, p.y, p.z)
+        names, poses = list(msg.name), list(msg.pose)
+        n = min(len(names), len(poses))
+        if n == 0:
+            return nodes
+        # one rotation per moved node, all applied in one call (a call per body cost the
+        # view's bag thread a fifth of its time per frame)
+        poses = poses[:n]
+        placed = [self.bodies[name] for name in names[:n]]
+        of_node = np.repeat(np.arange(len(placed)), [len(idx) for idx, _ in placed])
+        q = np.array([(p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w) for p in poses])
+        c = np.array([(p.position.x, p.position.y, p.position.z) for p in poses])
+        offsets = np.vstack([off for _, off in placed])
+        nodes[np.concatenate([idx for idx, _ in placed])] = Rotation.from_quat(q[of_node]).apply(offsets) + c[of_node]
         return nodes
 
     def nodes_of_markers(self, msg: Any) -> NDArray[np.float64] | None:
