@@ -55,9 +55,9 @@ from tests.process_groups import kill_group, wait_group
 TENSEGRITY = str(Path(sys.executable).with_name("tensegrity"))
 BAGS = Path(__file__).resolve().parents[2] / "bags"
 READY = re.compile(r"view ready: http://127\.0\.0\.1:(\d+)")
-#: Wall time [s] kept between a bag row's window and the bag's end (the view stops there):
-#: from pressing Play to the window's start, with room to spare.
-BAG_END_MARGIN = 1.0
+#: Wall time [s] kept between a bag row's window and the bag's end (the view stops there): the
+#: page's answer to Play (its "playing at" line) comes after the bag started, by this at most.
+BAG_END_MARGIN = 0.5
 #: The browser's window [px] (a user's).
 WINDOW = (1280, 720)
 #: A playing page's resolution has settled when it did not change for this long [s],
@@ -178,12 +178,13 @@ def _resolution_note(page, settled: float | None, changes: int) -> str:
             f"in the window{after})")
 
 
-def _page_rates(browser, url: str, seconds: float, play: str = "", *,
-                empty: bool = False) -> tuple[float, float, float, list, float, str]:
+def _page_rates(browser, url: str, seconds: float, play: str = "", *, empty: bool = False,
+                ends: float | None = None) -> tuple[float, float, float, list, float, str]:
     """(animation frames per s, frames rendered per s, states shown per s, [(t shown, wall ms)],
     the browser's CPU time per rendered frame [s], the canvas's resolution at the end) over
     ``seconds``; ``play``: press the page's Play first, until the page shows this text, and
-    wait for the page's resolution to settle; ``empty``: a page with nothing to draw."""
+    wait for the page's resolution to settle; ``empty``: a page with nothing to draw;
+    ``ends``: the bag's length [s], the window shortened to end ``BAG_END_MARGIN`` before it."""
     from tests.view.browser import wait_for_canvas
 
     page = browser.open(url)
@@ -194,12 +195,16 @@ def _page_rates(browser, url: str, seconds: float, play: str = "", *,
             page.get_by_role("button", name="Play").click()
             page.get_by_text(play).first.wait_for()
             settled = _settle(page)
+            if ends is not None:
+                seconds = min(seconds, ends - settled - BAG_END_MARGIN)
+                if seconds < 0.5:
+                    raise RuntimeError(f"the page settled {settled:.1f} s after Play: too late in a {ends:.1f} s bag")
         page.evaluate(WATCH)
         changes = page.evaluate(RESOLUTION)[-1]
         cpu = _browser_cpu_s()
         ticks, rendered = page.evaluate(FRAMES, seconds * 1000)
         cpu = _browser_cpu_s() - cpu
-        note = _resolution_note(page, settled, changes)
+        note = _resolution_note(page, settled, changes) + f"; a {seconds:.1f} s window"
         shown = page.evaluate("() => window.__shown")
         span = (shown[-1][1] - shown[0][1]) / 1000 if len(shown) > 1 else 0.0
         per_frame = cpu / (rendered * seconds) if rendered > 0 else math.inf
@@ -261,12 +266,11 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
             runs += [("6-bar robot (core, in process)", ["--scene", "six_bar_roll"], "· playing"),
                      ("spine (core, in process)", ["--scene", "spine_release"], "· playing")]
         for name, args, playing in runs:
-            window = (min(seconds, _bag_seconds(args[0]) - SETTLE_MAX - BAG_END_MARGIN) if name.endswith("bag")
-                      else seconds)
+            ends = _bag_seconds(args[0]) if name.endswith("bag") else None
             proc, port, _, _log = _start(args, env)
             try:
-                _, fps, shown, _, per_frame, note = _page_rates(browser, f"http://127.0.0.1:{port}", window,
-                                                                play=playing)
+                _, fps, shown, _, per_frame, note = _page_rates(browser, f"http://127.0.0.1:{port}", seconds,
+                                                                play=playing, ends=ends)
             finally:
                 _stop(proc)
             rows.append(Row("view", f"{name}: frames rendered per s", fps, "fps", target=">= 30",
