@@ -217,8 +217,9 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
               motor_tau: FloatArray, motor_speed: FloatArray, cap_node: IntArray, cap_body: IntArray,
               cap_radius: FloatArray, floor_normal: FloatArray, floor_point: FloatArray, floor_params: FloatArray,
               y: FloatArray, R_ref: FloatArray, h: float, aims: FloatArray, modes: IntArray,
-              y_end: FloatArray) -> None:
-    """:func:`.loops.run_steps` (the steps in a Python loop, each stage a batch of one)."""
+              y_end: FloatArray, *end: FloatArray) -> None:
+    """:func:`.loops.run_steps` (the steps in a Python loop, each stage a batch of one; ``end``:
+    the final state's evaluation arrays, ``out`` .. ``couple_out``)."""
     plan = (base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
             body_first_moment, body_inertia, body_inv_inertia_cm, external, cable_a, cable_b, cable_k, cable_c,
             cable_t_max, cable_l0, cable_motor, motor_cable, motor_lo, motor_hi, motor_tau, motor_speed, cap_node,
@@ -239,4 +240,5 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
         sampled_update(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, cable_a, cable_b, cable_k,
                        cable_t_max, motor_cable, motor_lo, motor_hi, motor_tau, motor_speed, cap_node, cap_body,
                        cap_radius, floor_normal, floor_point, floor_params, y, R_ref, h, aims[s], modes)
+    derivatives(*plan, y[None], R_ref[None], *end)
 

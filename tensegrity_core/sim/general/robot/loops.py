@@ -363,13 +363,17 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
               motor_tau: FloatArray, motor_speed: FloatArray, cap_node: IntArray, cap_body: IntArray,
               cap_radius: FloatArray, floor_normal: FloatArray, floor_point: FloatArray, floor_params: FloatArray,
               y: FloatArray, R_ref: FloatArray, h: float, aims: FloatArray, modes: IntArray,
-              y_end: FloatArray) -> None:
+              y_end: FloatArray, out: FloatArray, X_out: FloatArray, V_out: FloatArray, R_out: FloatArray,
+              F_out: FloatArray, l0_out: FloatArray, lengths_out: FloatArray, rates_out: FloatArray,
+              tensions_out: FloatArray, depth_out: FloatArray, normal_out: FloatArray, friction_out: FloatArray,
+              couple_out: FloatArray) -> None:
     """``len(aims)`` fixed steps of ``h`` [s] from ``y`` (changed in place, with the charts
     ``R_ref``): per step the classical RK4 (the sampled entries constant), then
     :func:`sampled_update` with that step's motor commands ``aims[s]`` in the motors'
     ``modes`` (rest length [m], reel speed [m/s], tension [N]). ``y_end``: the
     last step's RK4 result before its update (the end of the step in the step's own charts,
-    for interpolation)."""
+    for interpolation). ``out`` .. ``couple_out``: the final ``y`` in the final charts
+    evaluated by :func:`evaluate` (a batch of one), what an observation of the step's end needs."""
     N = y.shape[0]
     n, nb, m, ncap = base.shape[0], body_dof.shape[0], cable_a.shape[0], cap_node.shape[0]
     X, V, F = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
@@ -399,6 +403,12 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
         sampled_update(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, cable_a, cable_b, cable_k,
                        cable_t_max, motor_cable, motor_lo, motor_hi, motor_tau, motor_speed, cap_node, cap_body,
                        cap_radius, floor_normal, floor_point, floor_params, y, R_ref, h, aims[s], modes, X, V, R, r)
+    evaluate(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
+             body_first_moment, body_inertia, body_inv_inertia_cm, external, cable_a, cable_b, cable_k, cable_c,
+             cable_t_max, cable_l0, cable_motor, motor_cable, motor_lo, motor_hi, motor_tau, motor_speed, cap_node,
+             cap_body, cap_radius, floor_normal, floor_point, floor_params, y.reshape((1, N)),
+             R_ref.reshape((1, nb, 3, 3)), out, X_out, V_out, R_out, F_out, l0_out, lengths_out, rates_out,
+             tensions_out, depth_out, normal_out, friction_out, couple_out)
 
 
 @jit

@@ -67,6 +67,11 @@ class FixedStepper:
         self._ahead: _Ahead | None = None
         self._aims: tuple[RobotSystem, int, FloatArray] | None = None
         self._scratch: RobotEvaluation | None = None
+        # the grid state ``_end[0]`` (an array never changed in place) evaluated by the kernel
+        # call that reached it (``_end[1]``): the observation of a step's end without a second
+        # evaluation
+        self._end: tuple[FloatArray, RobotEvaluation] | None = None
+        self._end_buffer: RobotEvaluation | None = None
 
     @property
     def mode(self) -> frozenset[int]:
@@ -88,11 +93,17 @@ class FixedStepper:
         new.__dict__.update(self.__dict__)
         new.event_log = log
         new._scratch = None
+        new._end = None
+        new._end_buffer = None
         return new
 
     def evaluation(self) -> RobotEvaluation:
         """The state ``y`` evaluated (:meth:`RobotSystem.evaluate`, a batch of one) into
-        arrays this integrator reuses: valid until the next call (callers copy what they keep)."""
+        arrays this integrator reuses: valid until the next call or step (callers copy what
+        they keep). At the grid point the last steps reached, their kernel call's evaluation
+        of it (the same numbers)."""
+        if self._end is not None and self._end[0] is self.y:
+            return self._end[1]
         if self._scratch is None:
             self._scratch = empty_evaluation(self.system.plan, 1)
         return self.system.evaluate(self.y[None, :], out=self._scratch)
@@ -135,8 +146,13 @@ class FixedStepper:
                 steps -= 1
                 continue
             k = min(steps, CHUNK)
-            y, R, _ = self.system.run(self.y_grid, self.system.R_ref, self.h, self.aims(self.n, k))
+            if self._end_buffer is None:
+                self._end_buffer = empty_evaluation(self.system.plan, 1)
+            self._end = None
+            y, R, _ = self.system.run(self.y_grid, self.system.R_ref, self.h, self.aims(self.n, k),
+                                      out=self._end_buffer)
             self._commit(y, R, k)
+            self._end = (y, self._end_buffer)
             steps -= k
 
     def _commit(self, y: FloatArray, R_ref: FloatArray, steps: int) -> None:

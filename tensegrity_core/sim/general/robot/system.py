@@ -134,14 +134,20 @@ class RobotSystem:
         rate: FloatArray = self.evaluate(np.asarray(y, dtype=float)[None]).derivative[0]
         return rate
 
-    def run(self, y: FloatArray, R_ref: FloatArray, h: float, aims: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    def run(self, y: FloatArray, R_ref: FloatArray, h: float, aims: FloatArray, *,
+            out: RobotEvaluation | None = None) -> tuple[FloatArray, FloatArray, FloatArray]:
         """``len(aims)`` fixed steps of ``h`` [s] from ``y`` in the charts ``R_ref`` with the
         motors' commands ``aims`` (steps, motors) in their modes (:func:`.loops.run_steps`): ``(y, R_ref,
         y_end)`` after them (new arrays; ``y_end`` the last step's end before its sampled
-        update, in that step's charts)."""
+        update, in that step's charts). The final ``y`` in the final charts is evaluated into
+        ``out`` (from :func:`empty_evaluation` with ``B = 1``; default: arrays thrown away), the
+        same numbers as :meth:`evaluate` of it gives."""
         y_new, R_new = np.array(y, dtype=np.float64, order="C"), np.array(R_ref, dtype=np.float64, order="C")
         y_end = np.empty_like(y_new)
-        self._module.run_steps(*self.plan, y_new, R_new, float(h), _arg(aims), self.modes, y_end)
+        ev = empty_evaluation(self.plan, 1) if out is None else out
+        self._module.run_steps(*self.plan, y_new, R_new, float(h), _arg(aims), self.modes, y_end, ev.derivative,
+                               ev.positions, ev.velocities, ev.rotations, ev.forces, ev.rest_lengths, ev.lengths,
+                               ev.rates, ev.tensions, ev.depth, ev.normal, ev.friction, ev.couple)
         return y_new, R_new, y_end
 
     def evaluate(self, y: FloatArray, R_ref: FloatArray | None = None, *,
