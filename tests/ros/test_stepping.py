@@ -239,8 +239,13 @@ def test_state_changes_answer_with_the_standard_codes(stepping):
 def test_lockstep_without_a_controller_keeps_publishing_under_the_safe_force(stepping):
     """The controller is dead (nobody answers): every step waits lockstep_timeout, warns
     (throttled) and runs under safe_force; joint states keep coming, one per step."""
+    import re
+
     proc, client = stepping("lockstep:=true", "lockstep_timeout:=0.1", "safe_force:=0.25")
-    time.sleep(2.0)
+    deadline = time.monotonic() + 60                # until the log counts 10 timed-out steps
+    while int((re.findall(r"\((\d+) timed-out steps so far\)", proc.stderr()) or ["0"])[-1]) < 10:
+        assert time.monotonic() < deadline, proc.stderr()
+        time.sleep(0.1)
     joints = client.take_joints()
     assert len(joints) >= 5
     stamps = [j.stamp_ns for j in joints]
@@ -248,8 +253,6 @@ def test_lockstep_without_a_controller_keeps_publishing_under_the_safe_force(ste
     assert all(tuple(j.effort[:2]) == (0.25, 0.25) for j in joints[1:])
     log = proc.stderr()
     assert "lockstep: no command for step" in log and "safe_force = 0.25 N" in log
-    import re
-
     timed_out = int(re.findall(r"\((\d+) timed-out steps so far\)", log)[-1])
     assert timed_out >= 10 and log.count("lockstep: no command for step") <= timed_out / 5   # throttled
 
