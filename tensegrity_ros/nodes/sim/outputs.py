@@ -9,8 +9,8 @@ The model says what there is (:class:`~tensegrity_core.sim.model.Interface`, its
   ``mechanism_state`` (every n-th, ``state_rate``) and ``markers`` (``marker_rate``) from a
   full observation, taken only when one of them is due and wanted;
 - general structure: ``joint_states`` (one joint per actuated cable: length [m], its rate
-  [m/s], tension [N]), ``end_effector`` and, with moving rigid bodies, ``body_states`` every
-  publication; ``cable_states`` (every member) at ``state_rate``; ``markers`` at
+  [m/s], tension [N]), ``end_effector`` and, with moving rigid bodies, ``body_states`` and
+  ``/tf`` (world -> each body's frame, :mod:`.transforms`) every publication; ``cable_states`` (every member) at ``state_rate``; ``markers`` at
   ``marker_rate``; all from one observation per publication, or from the joint sample when
   only ``joint_states`` and ``end_effector`` are wanted (and the scene has no sensor noise,
   which the sample's member values do not carry);
@@ -34,10 +34,11 @@ from numpy.typing import NDArray
 from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Header
 from tensegrity_msgs.msg import CableStates, CapContacts, MechanismState, RigidBodyStates
+from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import MarkerArray
 
 from tensegrity_core.class2.names import JOINTS
-from tensegrity_ros.nodes.sim import robot_messages, sender
+from tensegrity_ros.nodes.sim import robot_messages, sender, transforms
 from tensegrity_ros.nodes.sim.decimation import Decimation
 from tensegrity_ros.nodes.sim.joint_bytes import JointStateBytes
 from tensegrity_ros.nodes.sim.plant import SimPlant
@@ -64,7 +65,7 @@ class Outputs:
             self.topics: dict[str, type] = {"joint_states": JointState, "end_effector": PointStamped,
                                             "cable_states": CableStates, "markers": MarkerArray}
             if plant.names.body_names:
-                self.topics["body_states"] = RigidBodyStates
+                self.topics |= {"body_states": RigidBodyStates, "/tf": TFMessage}
             slow = {"cable_states": state_rate, "markers": marker_rate}
             if self.robot:
                 self.topics |= dict.fromkeys(self.imu_topics, Imu)
@@ -114,6 +115,7 @@ class Outputs:
                      "joint_states": lambda: sender.cable_joint_state_msg(obs, interface, hdr),
                      "end_effector": lambda: sender.end_effector_msg(obs, hdr),
                      "body_states": lambda: sender.body_states_msg(obs, hdr),
+                     "/tf": lambda: transforms.tf_msg(obs, hdr),
                      "cable_states": lambda: sender.cable_states_msg(obs, interface, hdr),
                      "markers": lambda: (robot_messages.robot_markers_msg(obs, self._floor, hdr) if self.robot
                                          else sender.markers_msg(obs, hdr)),
