@@ -133,8 +133,8 @@ class RunWatcher:
     def _on_joints(self, msg: Any) -> None:
         if not self.cable_names:
             self.cable_names = tuple(msg.name)
-        if tuple(msg.name) == self.cable_names:
-            self.tensions.append((self._t(msg), tuple(msg.effort)))
+        if tuple(msg.name) == self.cable_names:       # effort: NaN or empty where no tension is measured
+            self.tensions.append((self._t(msg), tuple(msg.effort) or (math.nan,) * len(self.cable_names)))
 
     def latest(self) -> float:
         """Stamp [s] of the latest joint state received (-inf: none)."""

@@ -40,7 +40,7 @@ REST_SPEED = 0.02
 @dataclass(frozen=True)
 class RollSummary:
     """``displacement`` (x, y) [m] of the centre and its length ``distance`` [m]; ``faces``
-    rolled over and the ``visited`` faces (time [s], caps); ``peak_tensions`` [N] by cable;
+    rolled over and the ``visited`` faces (time [s], caps); ``peak_tensions`` [N] by measured cable;
     ``touched`` hull faces touched beyond the first (None: no hull given)."""
 
     displacement: tuple[float, float]
@@ -58,7 +58,7 @@ class RollSummary:
                + ("" if self.touched is None else f"; {self.touched} faces crossed, counting those touched however "
                   "briefly") + ")"]
         if not self.peak_tensions:
-            out.append("peak tensions: no joint states received")
+            out.append("peak tensions: no joint states with a measured tension received")
         else:
             ranked = sorted(self.peak_tensions.items(), key=lambda kv: -kv[1])
             out.append("peak tensions: " + ", ".join(f"{name} {value:.1f} N" for name, value in ranked[:top])
@@ -87,7 +87,8 @@ def roll_summary(centres: Sequence[Sequence[float]], contact_times: Sequence[flo
     peaks: dict[str, float] = {}
     if len(tensions) and len(cable_names):
         tension = np.asarray(tensions, dtype=float).reshape(-1, len(cable_names))
-        peaks = {name: float(tension[:, j].max()) for j, name in enumerate(cable_names)}
+        peaks = {name: float(np.nanmax(tension[:, j])) for j, name in enumerate(cable_names)
+                 if not np.isnan(tension[:, j]).all()}          # NaN: a cable whose tension is not measured
     touched = None
     if hull is not None:
         index = {name: i for i, name in enumerate(sorted({n for f in hull for n in f} | set(caps)))}

@@ -61,7 +61,7 @@ from tensegrity_ros.rclpy_utils.stop_signals import stop_on_signals
 # The suite's topics, as the nodes name them (relative names follow the namespace): the
 # simulator's for the class-2 mechanism and for general structures, and both command topics.
 SUITE_TOPICS = ("joint_states", "end_effector", "mechanism_state", "markers", "/clock",
-                "actuator_forces", "cable_states", "body_states", "cable_commands")
+                "actuator_forces", "cable_states", "body_states", "/tf", "cable_commands")
 DEFAULT_DEPTH = 1000       # subscription history: 1 s of backlog at 1 kHz before a drop
 DISCOVERY_PERIOD = 0.1     # s
 #: The recorder node's name (`tensegrity up --record` has the simulator wait for its subscriptions).

@@ -14,6 +14,10 @@ from the robot's description file read with PyYAML (not from the suite's code):
   pose, covariances per sensor_msgs (all zeros = unknown; element 0 = -1 only for a quantity
   not provided), at rest the specific force -g in the rod frame (+9.81 m/s^2 along world up
   expressed in the rod frame) and no rotation; stamps on the simulation clock.
+- ``/tf`` (tf2_msgs/TFMessage, what tf2 listeners and RViz read): world (body_states'
+  frame_id) -> each rod's frame (the IMUs' frame_ids), stamped as body_states, equal to its
+  poses; the rod's drawn axis, rotated, is the line of its two caps now: caps placed by the
+  transforms reproduce every cable's length (cable_states) and every contact's position.
 - ``/clock`` advances; every state is stamped with a time the clock published.
 - ``contacts``: only the caps that touch (their centre one cap radius above the floor within
   1 mm, issue 29's penetration bound), normal forces >= 0 that carry the robot's weight at
@@ -49,6 +53,7 @@ def suite(tmp_path_factory, robot):
     from rosgraph_msgs.msg import Clock
     from sensor_msgs.msg import Imu, JointState
     from tensegrity_msgs.msg import CableStates, CapContacts, RigidBodyStates
+    from tf2_msgs.msg import TFMessage
 
     # as fast as the machine allows, publishing every 50 ms of simulated time (1 ms steps): the
     # robot rocks on its face for about 10 s of simulation before it is at rest
@@ -62,6 +67,8 @@ def suite(tmp_path_factory, robot):
             client.listen(msg_type, topic, QoSProfile(depth=1000))
         for rod in robot["rods"]:
             client.listen(Imu, f"imu/{rod['name']}", QoSProfile(depth=1000))
+        # as tf2's TransformListener subscribes (reliable, volatile, keep last 100)
+        client.listen(TFMessage, "/tf", QoSProfile(depth=100))
         yield client, sim
     finally:
         client.close()
@@ -235,3 +242,57 @@ def test_a_node_with_use_sim_time_follows_the_simulation_clock(suite):
     finally:
         client.remove_node(node)
         node.destroy_node()
+
+
+def _tf_at(client, stamp):
+    """world -> frame transforms of the /tf message stamped ``stamp`` [ns] (None if none arrived)."""
+    for msg in reversed(client.received["/tf"]):
+        if msg.transforms and stamp_ns(msg.transforms[0].header.stamp) == stamp:
+            return msg
+    return None
+
+
+def test_tf_gives_every_rod_frame_the_imus_name(suite, robot):
+    client, _ = suite
+    stamp = client.wait(lambda: (s := _at_rest(client)) is not None and _tf_at(client, s) is not None and s,
+                        "the robot at rest in every topic and /tf")
+    tf = _tf_at(client, stamp)
+    bodies = _by_stamp(client, "body_states")[stamp]
+    rods = [r["name"] for r in robot["rods"]]
+    assert sorted(t.child_frame_id for t in tf.transforms) == sorted(rods)
+    imu_frames = {client.received[f"imu/{rod}"][-1].header.frame_id for rod in rods}
+    assert imu_frames == set(rods)                                    # the frames tf2 must resolve
+    poses = dict(zip(bodies.name, bodies.pose))
+    for t in tf.transforms:
+        assert t.header.frame_id == bodies.header.frame_id != ""     # the world frame of body_states
+        assert stamp_ns(t.header.stamp) == stamp
+        pose = poses[t.child_frame_id]
+        r, q = t.transform.translation, t.transform.rotation
+        assert (r.x, r.y, r.z) == (pose.position.x, pose.position.y, pose.position.z)
+        assert _rotation(q).approx_equal(_rotation(pose.orientation), atol=1e-12)
+        imu = _by_stamp(client, f"imu/{t.child_frame_id}")[stamp]
+        assert _rotation(q).approx_equal(_rotation(imu.orientation), atol=1e-9)   # body -> world, both
+
+
+def test_tf_places_the_caps_where_the_cables_and_contacts_say(suite, robot):
+    client, _ = suite
+    stamp = client.wait(lambda: (s := _at_rest(client)) is not None and _tf_at(client, s) is not None and s,
+                        "the robot at rest in every topic and /tf")
+    tf = {t.child_frame_id: t.transform for t in _tf_at(client, stamp).transforms}
+    nodes = {n: np.array(p, dtype=float) for n, p in robot["nodes"].items()}
+    caps = {}
+    for rod in robot["rods"]:
+        a, b = (nodes[n] for n in rod["nodes"])
+        t = tf[rod["name"]]
+        rotation, origin = _rotation(t.rotation), np.array([t.translation.x, t.translation.y, t.translation.z])
+        for n in rod["nodes"]:                  # the rod's frame has the world's axes in the drawing
+            caps[n] = origin + rotation.apply(nodes[n] - (a + b) / 2)
+    # every cable's length and every contact fix each rod's axis (the line of its caps) and centre
+    states = _by_stamp(client, "cable_states")[stamp]
+    length = dict(zip(states.name, states.length))
+    for cable in robot["cables"]:
+        i, j = cable["nodes"]
+        assert np.linalg.norm(caps[i] - caps[j]) == pytest.approx(length[cable["name"]], abs=1e-9), cable["name"]
+    contacts = _by_stamp(client, "contacts")[stamp]
+    for name, p in zip(contacts.name, contacts.position):
+        np.testing.assert_allclose(caps[name], [p.x, p.y, p.z], atol=1e-9)

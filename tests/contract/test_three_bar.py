@@ -2,7 +2,9 @@
 with PyYAML): 6 motor cables and 3 passive ones, IMUs on two of its three rods (issue 29).
 
 Expectations (issue 30, ros2_control's shape): ``joint_states`` has one joint per actuated
-cable (the passive cables are not joints: their length is in ``cable_states``);
+cable (the passive cables are not joints: their length is in ``cable_states``) and, as the
+description says ``cable_tension: none``, no effort (sensor_msgs/JointState: an array not
+reported is empty); ``cable_states`` still gives every tension (the simulator's truth);
 ``imu/<rod>`` exists for the rods the description gives an IMU, and for no other.
 """
 
@@ -47,9 +49,11 @@ def test_joint_states_are_the_motor_cables_only(suite, robot):
     motors = [c["name"] for c in robot["cables"] if c.get("motor")]
     assert len(motors) == 6 and sorted(joints.name) == sorted(motors)
     assert len(joints.position) == len(joints.velocity) == 6
-    assert len(joints.effort) in (0, 6)            # sensor_msgs/JointState: empty when not reported
-    assert all(e >= 0.0 for e in joints.effort)
+    assert robot["sensors"]["cable_tension"] == "none"
+    assert len(joints.effort) == 0                 # no tension sensor: sensor_msgs/JointState's empty effort
     states = suite.received["cable_states"][-1]
+    assert len(states.tension) == len(states.name) and all(t >= 0.0 for k, t in zip(states.kind, states.tension)
+                                                           if k == "string")       # the simulator's truth
     assert sorted(states.name) == sorted([r["name"] for r in robot["rods"]] + [c["name"] for c in robot["cables"]])
 
 

@@ -102,7 +102,15 @@ def test_the_roll_summary_of_a_run_known_by_construction():
 def test_the_roll_summary_of_no_samples_says_so():
     s = roll_summary([], [], [], (), [])
     assert s.distance == 0.0 and s.faces == 0 and s.peak_tensions == {}
-    assert s.lines()[-1] == "peak tensions: no joint states received"
+    assert s.lines()[-1] == "peak tensions: no joint states with a measured tension received"
+
+
+def test_the_roll_summary_leaves_out_the_cables_without_a_tension_sensor():
+    nan = math.nan                                 # joint_states' effort of a cable not measured
+    s = roll_summary([], [], [], ("c1", "c2"), [(nan, 5.0), (nan, 7.5), (nan, 2.0)])
+    assert s.peak_tensions == {"c2": 7.5}
+    s = roll_summary([], [], [], ("c1", "c2"), [(nan, nan)])
+    assert s.peak_tensions == {} and s.lines()[-1].endswith("no joint states with a measured tension received")
 
 
 def _glide_then_stop(stop: float, face_from: float, dt: float = 0.01, end: float = 4.0):

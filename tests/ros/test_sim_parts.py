@@ -137,17 +137,19 @@ def test_joint_states_alone_come_from_the_joint_sample_and_equal_the_full_observ
 
 
 @pytest.mark.parametrize("names", [(), ("rho1", "rho2", "beta"), tuple(f"c{i}_{i + 4}" for i in range(24))])
-def test_joint_states_as_bytes_read_back_as_the_messages_rclpy_builds(names):
+@pytest.mark.parametrize("effort", [True, False])
+def test_joint_states_as_bytes_read_back_as_the_messages_rclpy_builds(names, effort):
     """rclpy's deserializer reads every refill of the serialized joint_states as the message
     rclpy itself builds from the same values (random values and stamps, every byte pattern of
-    a float64 that is not NaN); values of another length are refused."""
+    a float64 that is not NaN; without effort, an empty effort array); values of another
+    length are refused."""
     import numpy as np
     from rclpy.serialization import deserialize_message
     from sensor_msgs.msg import JointState
 
     from tensegrity_ros.nodes.sim.joint_bytes import JointStateBytes
 
-    cdr = JointStateBytes(names, "lab")
+    cdr = JointStateBytes(names, "lab", effort=effort)
     assert cdr.ok
     rng = np.random.default_rng(7)
     n = len(names)
@@ -156,7 +158,7 @@ def test_joint_states_as_bytes_read_back_as_the_messages_rclpy_builds(names):
         values = [rng.integers(0, 2**64, n, dtype=np.uint64).view(np.float64) for _ in range(3)]
         values = [np.where(np.isnan(v), 0.5, v) for v in values]
         expected = JointState(name=list(names), position=values[0].tolist(), velocity=values[1].tolist(),
-                              effort=values[2].tolist())
+                              effort=values[2].tolist() if effort else [])
         expected.header.frame_id = "lab"
         expected.header.stamp.sec, expected.header.stamp.nanosec = sec, nanosec
         assert deserialize_message(cdr.fill(sec, nanosec, *values), JointState) == expected

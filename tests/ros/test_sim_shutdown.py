@@ -14,6 +14,8 @@ import pytest
 pytestmark = pytest.mark.ros
 
 PROBE = "sim_shutdown_probe"
+#: The simulator's topics outside its namespace.
+ABSOLUTE = ("/clock", "/tf")
 
 
 def _published_counts(stderr: str) -> dict[str, int]:
@@ -47,8 +49,8 @@ def test_every_state_published_before_sigint_is_delivered(cli, ros_context):
         except _rclpy.NodeNameNonExistentError:
             return                                 # not discovered yet
         for name, types in found:
-            relative = name if name == "/clock" else name[len(namespace) + 1:]
-            if not (name == "/clock" or name.startswith(namespace + "/")) or "/_action/" in name or relative in received:
+            relative = name if name in ABSOLUTE else name[len(namespace) + 1:]
+            if not (name in ABSOLUTE or name.startswith(namespace + "/")) or "/_action/" in name or relative in received:
                 continue
             received[relative] = 0
 
@@ -67,10 +69,11 @@ def test_every_state_published_before_sigint_is_delivered(cli, ros_context):
     sim.popen.send_signal(signal.SIGINT)
     assert sim.stop(timeout=60) == 0, sim.stderr()
     published = _published_counts(sim.stderr())
-    published.pop("/clock")          # absolute: other simulators of this run publish it too
+    for topic in ABSOLUTE:           # absolute: other simulators of this run publish them too
+        published.pop(topic)
 
     def delivered() -> dict[str, int]:
-        return {topic: n for topic, n in received.items() if topic != "/clock"}
+        return {topic: n for topic, n in received.items() if topic not in ABSOLUTE}
 
     assert set(published) == set(delivered()), (published, received)
     deadline = time.monotonic() + 30             # a liveness bound: what was delivered is already here

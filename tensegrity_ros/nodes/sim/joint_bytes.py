@@ -33,11 +33,11 @@ _STAMP = struct.Struct("<iI")
 
 
 def _message(names: Sequence[str], frame_id: str, sec: int = 0, nanosec: int = 0,
-             arrays: Mapping[str, Sequence[float]] | None = None) -> JointState:
-    """A JointState as rclpy builds it (arrays not given: zeros)."""
+             arrays: Mapping[str, Sequence[float]] | None = None, fields: Sequence[str] = _FIELDS) -> JointState:
+    """A JointState as rclpy builds it (arrays not given: zeros; not in ``fields``: empty)."""
     n = len(names)
     given = arrays or {}
-    msg = JointState(name=list(names), **{f: given.get(f, [0.0] * n) for f in _FIELDS})
+    msg = JointState(name=list(names), **{f: given.get(f, [0.0] * n) for f in fields})
     msg.header = Header(frame_id=frame_id)
     msg.header.stamp.sec, msg.header.stamp.nanosec = sec, nanosec
     return msg
@@ -54,29 +54,31 @@ def _where(marked: bytes, mark: bytes) -> tuple[int, int]:
 
 
 class JointStateBytes:
-    """The serialized JointState of the joints ``names`` in frame ``frame_id``."""
+    """The serialized JointState of the joints ``names`` in frame ``frame_id`` (``effort``
+    False: its effort array empty)."""
 
-    def __init__(self, names: Sequence[str], frame_id: str):
+    def __init__(self, names: Sequence[str], frame_id: str, *, effort: bool = True):
         self.names = tuple(names)
         self.frame_id = frame_id
         n = len(self.names)
-        template = serialize_message(_message(self.names, frame_id))
+        fields = _FIELDS if effort else _FIELDS[:2]
+        template = serialize_message(_message(self.names, frame_id, fields=fields))
         self._buffer = bytearray(template)
-        self._stamp = _where(serialize_message(_message(self.names, frame_id, _MARK_SEC, _MARK_NSEC)),
+        self._stamp = _where(serialize_message(_message(self.names, frame_id, _MARK_SEC, _MARK_NSEC, fields=fields)),
                              _STAMP.pack(_MARK_SEC, _MARK_NSEC))
-        self._arrays = [_where(serialize_message(_message(self.names, frame_id, arrays={f: [_MARK] * n})),
-                               struct.pack(f"<{n}d", *[_MARK] * n)) for f in _FIELDS]
+        self._arrays = [_where(serialize_message(_message(self.names, frame_id, arrays={f: [_MARK] * n}, fields=fields)),
+                               struct.pack(f"<{n}d", *[_MARK] * n)) for f in fields]
         self.ok = self._stamp[1] > 0 and (n == 0 or all(e - b == 8 * n for b, e in self._arrays))
         if self.ok:                          # checked once against rclpy's own reading
             values = [np.arange(n, dtype=float) + k + 0.25 for k in range(3)]
             got = deserialize_message(self.fill(1_234_567_890, 987_654_321, *values), JointState)
             self.ok = got == _message(self.names, frame_id, 1_234_567_890, 987_654_321,
-                                      {f: v.tolist() for f, v in zip(_FIELDS, values)})
+                                      {f: v.tolist() for f, v in zip(fields, values)}, fields)
 
     def fill(self, sec: int, nanosec: int, position: NDArray[np.float64], velocity: NDArray[np.float64],
              effort: NDArray[np.float64]) -> bytes:
         """The message stamped ``sec``, ``nanosec`` with these positions, velocities and
-        efforts (one float64 per joint each, joint order)."""
+        efforts (one float64 per joint each, joint order; efforts ignored without an effort array)."""
         buf = self._buffer
         _STAMP.pack_into(buf, self._stamp[0], sec, nanosec)
         for (b, e), values in zip(self._arrays, (position, velocity, effort)):

@@ -10,12 +10,12 @@ Publishes, stamped with simulation time (topics per model: :mod:`.outputs`):
 - ``joint_states`` (sensor_msgs/JointState): class-2 joints ``rho1``, ``rho2`` [m] and
   ``beta`` [rad] (effort = the applied actuator force [N], 0 for beta); general structures
   and robots one joint per actuated cable (position = length [m], velocity [m/s], effort =
-  tension [N]);
+  tension [N]; a robot's measured ones, :mod:`.joint_effort`);
 - ``end_effector`` (geometry_msgs/PointStamped): node D, or the scene's end-effector node [m];
 - class-2: ``mechanism_state`` (tensegrity_msgs/MechanismState) at ``state_rate``;
 - general and robots: ``cable_states`` (tensegrity_msgs/CableStates: every member) at
-  ``state_rate`` and ``body_states`` (tensegrity_msgs/RigidBodyStates; a robot's rods) every
-  publication;
+  ``state_rate``, ``body_states`` (tensegrity_msgs/RigidBodyStates; a robot's rods) and
+  ``/tf`` (tf2_msgs/TFMessage: world -> each body's frame) every publication;
 - robots: ``imu/<body>`` (sensor_msgs/Imu) at ``imu_rate``, ``contacts``
   (tensegrity_msgs/CapContacts) at ``state_rate``;
 - ``markers`` (visualization_msgs/MarkerArray): members coloured by force (red tension,
@@ -111,8 +111,8 @@ class SimNode(SimulationInterfaces):
         # History for a subscriber that falls briefly behind (a recorder on a loaded machine): a
         # reliable writer repairs what a reader missed only from what it still keeps (1 s of
         # a lockstep run at 1,000 steps/s; markers, large and slower, 100)
-        qos = QoSProfile(depth=1000)
-        self.pubs = {topic: self.create_publisher(kind, topic, 100 if topic == "markers" else qos)
+        qos = QoSProfile(depth=1000)       # /tf: tf2's broadcaster's (reliable, volatile, last 100)
+        self.pubs = {topic: self.create_publisher(kind, topic, 100 if topic in ("markers", "/tf") else qos)
                      for topic, kind in self.outputs.topics.items()}
         self.pub_events = self.create_publisher(SimulationEvent, "events", qos)
         self.pub_clock = self.create_publisher(ClockMsg, "/clock", qos)

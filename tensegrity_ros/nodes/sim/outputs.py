@@ -9,8 +9,8 @@ The model says what there is (:class:`~tensegrity_core.sim.model.Interface`, its
   ``mechanism_state`` (every n-th, ``state_rate``) and ``markers`` (``marker_rate``) from a
   full observation, taken only when one of them is due and wanted;
 - general structure: ``joint_states`` (one joint per actuated cable: length [m], its rate
-  [m/s], tension [N]), ``end_effector`` and, with moving rigid bodies, ``body_states`` every
-  publication; ``cable_states`` (every member) at ``state_rate``; ``markers`` at
+  [m/s], tension [N]: a robot's measured ones, :mod:`.joint_effort`), ``end_effector`` and, with moving rigid bodies, ``body_states`` and
+  ``/tf`` (world -> each body's frame, :mod:`.transforms`) every publication; ``cable_states`` (every member) at ``state_rate``; ``markers`` at
   ``marker_rate``; all from one observation per publication, or from the joint sample when
   only ``joint_states`` and ``end_effector`` are wanted (and the scene has no sensor noise,
   which the sample's member values do not carry);
@@ -34,12 +34,14 @@ from numpy.typing import NDArray
 from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Header
 from tensegrity_msgs.msg import CableStates, CapContacts, MechanismState, RigidBodyStates
+from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import MarkerArray
 
 from tensegrity_core.class2.names import JOINTS
-from tensegrity_ros.nodes.sim import robot_messages, sender
+from tensegrity_ros.nodes.sim import robot_messages, sender, transforms
 from tensegrity_ros.nodes.sim.decimation import Decimation
 from tensegrity_ros.nodes.sim.joint_bytes import JointStateBytes
+from tensegrity_ros.nodes.sim.joint_effort import joint_effort
 from tensegrity_ros.nodes.sim.plant import SimPlant
 
 #: What a publication needs done: the message of each topic (name, message).
@@ -64,7 +66,7 @@ class Outputs:
             self.topics: dict[str, type] = {"joint_states": JointState, "end_effector": PointStamped,
                                             "cable_states": CableStates, "markers": MarkerArray}
             if plant.names.body_names:
-                self.topics["body_states"] = RigidBodyStates
+                self.topics |= {"body_states": RigidBodyStates, "/tf": TFMessage}
             slow = {"cable_states": state_rate, "markers": marker_rate}
             if self.robot:
                 self.topics |= dict.fromkeys(self.imu_topics, Imu)
@@ -81,6 +83,8 @@ class Outputs:
         self.every_publication = tuple(t for t in self.topics if t not in self.decimation.every)
         #: The joint names of joint_states.
         self.joint_names = tuple(plant.interface.inputs if self.general else JOINTS)
+        #: Which joints report an effort (a robot's measured tensions, :mod:`.joint_effort`).
+        self.effort = joint_effort(plant.model, self.joint_names)
         self._joint_bytes: JointStateBytes | None = None
 
     def messages(self, hdr: Header, wanted: Callable[[str], bool]) -> Messages:
@@ -111,9 +115,10 @@ class Outputs:
         if self.general:
             obs = plant.observe()
             build: dict[str, Callable[[], object]] = {
-                     "joint_states": lambda: sender.cable_joint_state_msg(obs, interface, hdr),
+                     "joint_states": lambda: self._measured(sender.cable_joint_state_msg(obs, interface, hdr)),
                      "end_effector": lambda: sender.end_effector_msg(obs, hdr),
                      "body_states": lambda: sender.body_states_msg(obs, hdr),
+                     "/tf": lambda: transforms.tf_msg(obs, hdr),
                      "cable_states": lambda: sender.cable_states_msg(obs, interface, hdr),
                      "markers": lambda: (robot_messages.robot_markers_msg(obs, self._floor, hdr) if self.robot
                                          else sender.markers_msg(obs, hdr)),
@@ -145,7 +150,13 @@ class Outputs:
         names and frame serialized once), or ``message()`` where those bytes do not check out."""
         cdr = self._joint_bytes
         if cdr is None or cdr.frame_id != hdr.frame_id:
-            cdr = self._joint_bytes = JointStateBytes(self.joint_names, hdr.frame_id)
+            cdr = self._joint_bytes = JointStateBytes(self.joint_names, hdr.frame_id, effort=self.effort.reported)
         if not cdr.ok or len(position) != len(self.joint_names):
-            return message()
-        return cdr.fill(hdr.stamp.sec, hdr.stamp.nanosec, position, velocity, effort)
+            return self._measured(message())
+        return cdr.fill(hdr.stamp.sec, hdr.stamp.nanosec, position, velocity, self.effort.of(effort))
+
+    def _measured(self, msg: JointState) -> JointState:
+        """``msg`` with the efforts the robot measures (:mod:`.joint_effort`)."""
+        if not all(self.effort.measured):
+            msg.effort = self.effort.of(msg.effort).tolist()
+        return msg
