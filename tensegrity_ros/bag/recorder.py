@@ -59,9 +59,11 @@ from tensegrity_ros.rclpy_utils.raw_take import take_all
 from tensegrity_ros.rclpy_utils.stop_signals import stop_on_signals
 
 # The suite's topics, as the nodes name them (relative names follow the namespace): the
-# simulator's for the class-2 mechanism and for general structures, and both command topics.
+# simulator's for the class-2 mechanism, general structures and robots, and both command
+# topics. A name ending in "/" stands for every topic under it (a robot's ``imu/<rod>``).
 SUITE_TOPICS = ("joint_states", "end_effector", "mechanism_state", "markers", "/clock",
-                "actuator_forces", "cable_states", "body_states", "/tf", "cable_commands")
+                "actuator_forces", "cable_states", "body_states", "/tf", "contacts", "imu/",
+                "cable_commands")
 DEFAULT_DEPTH = 1000       # subscription history: 1 s of backlog at 1 kHz before a drop
 DISCOVERY_PERIOD = 0.1     # s
 #: The recorder node's name (`tensegrity up --record` has the simulator wait for its subscriptions).
@@ -90,7 +92,10 @@ class RecorderNode(Node):
         self.writer = writer
         self.record_all = record_all
         self.depth = int(depth)
-        self.wanted = {self.resolve_topic_name(t) for t in topics}
+        topics = list(topics)
+        self.wanted = {self.resolve_topic_name(t) for t in topics if not t.endswith("/")}
+        self.wanted_under = tuple(self.resolve_topic_name(t.rstrip("/")) + "/" for t in topics
+                                  if t.endswith("/") and t.rstrip("/"))
         self.received: dict[str, int] = {}
         self._skipped: set[str] = set()
         self._subscriptions_by_topic: dict[str, Subscription] = {}
@@ -114,7 +119,7 @@ class RecorderNode(Node):
     def _wants(self, name: str) -> bool:
         if self.record_all:
             return not topic_or_service_is_hidden(name)
-        return name in self.wanted
+        return name in self.wanted or name.startswith(self.wanted_under)
 
     def _discover(self) -> None:
         for name, types in self.get_topic_names_and_types():

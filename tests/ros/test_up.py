@@ -5,6 +5,7 @@ from __future__ import annotations
 import signal
 import subprocess
 import time
+from pathlib import Path
 
 import pytest
 
@@ -129,3 +130,47 @@ def test_up_on_a_general_structure_starts_its_nodes_and_records_its_topics(cli, 
     from tensegrity_ros.view.bag_source import BagSource
 
     assert BagSource(tmp_path / "bag").topic == "/general_up/body_states"
+
+
+def test_up_on_a_robot_records_every_topic_its_simulator_publishes(cli, ros_context, tmp_path):
+    """`up --scene ROBOT --record`: the simulator starts its clock once the recorder subscribes
+    to every output topic, so the recorder must take the robot's own ones too (each
+    ``imu/<rod>``, ``contacts``); a bag then holds every topic the simulator published."""
+    import rclpy
+    import yaml
+    from rclpy.qos import QoSProfile
+    from sensor_msgs.msg import Imu
+
+    from tensegrity_core.robot import examples
+    from tensegrity_ros.rclpy_utils.raw_take import take_all
+
+    description = yaml.safe_load((Path(examples.__file__).parent / "six_bar.yaml").read_text())
+    rods = [rod["name"] for rod in description["rods"]]           # imu: all (one IMU per rod)
+    want = {f"/robot_up/{t}" for t in ("joint_states", "cable_states", "body_states", "contacts",
+                                       *(f"imu/{r}" for r in rods))}
+    up = cli("up", "--scene", "six_bar_rest", "--namespace", "/robot_up", "--record", str(tmp_path / "bag"),
+             log_name="up")
+    node = rclpy.create_node("up_robot_probe", context=ros_context)
+    deadline = time.monotonic() + 120
+    while not all(any(i.node_name == "tensegrity_recorder" for i in node.get_subscriptions_info_by_topic(t))
+                  for t in want):
+        assert up.popen.poll() is None and time.monotonic() < deadline, up.stderr()[-3000:]
+        time.sleep(0.1)
+    # the recorder took every output topic, so the clock runs: a few IMU states go out
+    imu = node.create_subscription(Imu, f"/robot_up/imu/{rods[-1]}", lambda *_: None, QoSProfile(depth=100),
+                                   raw=True)
+    seen = 0
+    while seen < 5:
+        assert up.popen.poll() is None and time.monotonic() < deadline + 60, up.stderr()[-3000:]
+        seen += len(take_all(imu))
+        time.sleep(0.05)
+    node.destroy_node()
+    up.popen.send_signal(signal.SIGINT)
+    assert up.popen.wait(60) == 0, up.stderr()[-3000:]
+    from mcap.reader import make_reader
+
+    counts: dict[str, int] = {}
+    with open(tmp_path / "bag" / "bag_0.mcap", "rb") as f:
+        for _, channel, _ in make_reader(f).iter_messages():
+            counts[channel.topic] = counts.get(channel.topic, 0) + 1
+    assert all(counts.get(t, 0) > 0 for t in want), counts
