@@ -113,7 +113,7 @@ def register(sub: Subparsers) -> None:
     p.add_argument("--namespace", default="", help="the suite's namespace (e.g. /robot1; default: none)")
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
     p.add_argument("--port", type=_port, default=8080, help="port (default 8080; 0: any free port)")
-    p.add_argument("--fps", type=_positive, default=30.0, help="frames per second sent to the page at most (default 30)")
+    p.add_argument("--fps", type=_positive, default=60.0, help="frames per second sent to the page at most (default 60)")
     p.add_argument("--force-limit", type=_positive, default=5.0,
                    help="class-2 force sliders span +-this [N] (default 5)")
     p.add_argument("--step", type=_positive, default=0.01, help="--scene: the simulation step [s] (default 0.01)")

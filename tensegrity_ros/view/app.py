@@ -49,7 +49,7 @@ class View:
     """A started view of ``source`` on ``server`` (see the module docstring); ``first`` is the
     source's first frame (the drawing's sizes and the camera come from it)."""
 
-    def __init__(self, server: Any, source: Source, first: Frame, *, fps: float = 30.0):
+    def __init__(self, server: Any, source: Source, first: Frame, *, fps: float = 60.0):
         self.server = server
         self.source = source
         self.pacer = Pacer(1.0 / fps)

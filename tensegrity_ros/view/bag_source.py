@@ -93,7 +93,7 @@ class BagSource:
 
     inputs: tuple[InputSpec, ...] = ()
 
-    def __init__(self, path: str | os.PathLike[str], scene: str | None = None, *, fps: float = 30.0):
+    def __init__(self, path: str | os.PathLike[str], scene: str | None = None, *, fps: float = 60.0):
         #: the timeline's ticks while playing, one frame each at most: ``fps`` a second, the
         #: view's frame rate (a state decoded between two the view sends would only be dropped)
         self.pacer = Pacer(1.0 / fps)
