@@ -12,7 +12,7 @@ it when the picture stands still, which is this controller.
 It runs in the page (``resolution.js``), in each animation frame: over windows of
 ``WINDOW_MS`` it counts the frames the page rendered (three.js's render counter) and the
 animation frames. A window with fewer rendered frames per second than the view sends
-(``--fps``) *and* a render in nearly every animation frame (``BUSY``: the page drawing all
+(``--fps``) or than ``SMOOTH_FPS``, whichever is less, *and* a render in nearly every animation frame (``BUSY``: the page drawing all
 the time; viser renders on demand but keeps rendering for 250 ms after each change, so a
 playing page renders in every animation frame it can) lowers the scale one step of
 ``SCALES``; a window of fewer than ``IDLE_FPS`` renders per second, not busy, puts it back
@@ -36,6 +36,9 @@ from typing import Any, Final
 
 #: The scales of the device pixel ratio the page steps through, full first.
 SCALES: Final = (1.0, 0.75, 0.5)
+#: Rendered frames per second at or above which the page keeps its resolution though the view
+#: sends more (``--fps`` 60 on a 60 Hz display would otherwise lower it at every missed frame).
+SMOOTH_FPS: Final = 30.0
 #: The window [ms] over which the page's frame rate is measured.
 WINDOW_MS: Final = 500.0
 #: The share of animation frames with a render above which a slow page is busy drawing.
@@ -49,7 +52,7 @@ SCRIPT: Final = Path(__file__).with_name("resolution.js")
 
 def page_script(target_fps: float) -> str:
     """The controller's JavaScript for a view that sends ``target_fps`` frames per second at most."""
-    config = {"target": float(target_fps), "scales": list(SCALES), "windowMs": WINDOW_MS, "busy": BUSY,
+    config = {"target": min(float(target_fps), SMOOTH_FPS), "scales": list(SCALES), "windowMs": WINDOW_MS, "busy": BUSY,
               "idleFps": IDLE_FPS}
     return f"({SCRIPT.read_text().strip()})({json.dumps(config)});"
 
