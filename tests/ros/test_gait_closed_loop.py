@@ -15,6 +15,7 @@ less than three tests each starting a suite."""
 from __future__ import annotations
 
 import re
+import time
 
 import pytest
 
@@ -86,7 +87,15 @@ def test_the_closed_loop_gait_rolls_exactly_the_faces_asked_in_lockstep(cli, ros
     from tensegrity_msgs.msg import CableCommand
 
     other = rclpy.create_node("other_controller", namespace=NS, context=ros_context)
-    other.create_publisher(CableCommand, "cable_commands", 10)
+    commands = other.create_publisher(CableCommand, "cable_commands", 10)
+    # a controller of a running suite is already known when the gait starts (it answers the
+    # gait's discovery at once); this one, the first node of this process, only once the
+    # simulator has matched it -- two participants created at the same moment may take longer
+    # to find each other than the gait looks for another answerer (rmw discovery)
+    deadline = time.monotonic() + 60
+    while commands.get_subscription_count() < 1:
+        assert time.monotonic() < deadline, "the simulator never matched the other controller"
+        time.sleep(0.05)
     r = run_cli("gait", "six_bar", "roll", "--faces", "1", "-n", NS, "--timeout", "60", timeout=120)
     assert r.returncode == 1, r.stdout + r.stderr
     assert r.stderr.strip().splitlines()[-1] == (
