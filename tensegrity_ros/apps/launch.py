@@ -36,6 +36,8 @@ class ProcessSpec:
 
 
 _PR_SET_PDEATHSIG = 1
+#: Seconds :meth:`Launcher.stop` waits for each child's output to be written out after it exited.
+PUMP_JOIN_S = 2.0
 
 
 def _die_with_parent() -> None:
@@ -63,10 +65,13 @@ class Launcher:
         self._stop = threading.Event()
         self._lock = threading.Lock()
         self._reported: set[str] = set()     # children whose end was said already
+        self._pumps: list[threading.Thread] = []
 
     def _pump(self, name: str, stream: TextIO) -> None:
         for line in iter(stream.readline, ""):
             with self._lock:
+                if self.out.closed:              # the caller closed ``out`` after stop: nothing to say to
+                    break
                 self.out.write(f"[{name}] {line}")
                 self.out.flush()
         stream.close()
@@ -83,7 +88,9 @@ class Launcher:
                     preexec_fn=_die_with_parent,
                 )
             self.procs[spec.name] = proc
-            threading.Thread(target=self._pump, args=(spec.name, proc.stdout), daemon=True).start()
+            pump = threading.Thread(target=self._pump, args=(spec.name, proc.stdout), daemon=True)
+            pump.start()
+            self._pumps.append(pump)
 
     def request_stop(self) -> None:
         self._stop.set()
@@ -123,6 +130,10 @@ class Launcher:
                     p.wait(timeout=max(0.0, deadline - time.monotonic()))
                 except subprocess.TimeoutExpired:
                     pass
+        # the children's last lines are written before stop returns (a caller may close ``out``
+        # then); a grandchild still holding the pipe open is not waited for beyond PUMP_JOIN_S
+        for pump in self._pumps:
+            pump.join(PUMP_JOIN_S)
         bad = []
         for name, p in self.procs.items():
             code = 1 if p.returncode is None else p.returncode

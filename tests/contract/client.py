@@ -39,7 +39,8 @@ class Client:
         self.node = rclpy.create_node(name, context=self.context)
         self._executor = SingleThreadedExecutor(context=self.context)
         self._executor.add_node(self.node)
-        self._thread = threading.Thread(target=self._executor.spin, daemon=True)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._spin, daemon=True)
         self._thread.start()
         self._changed = threading.Condition()
         self.received: dict[str, list[Any]] = defaultdict(list)
@@ -124,9 +125,16 @@ class Client:
     def remove_node(self, node: Any) -> None:
         self._executor.remove_node(node)
 
+    def _spin(self) -> None:
+        while not self._stop.is_set():
+            self._executor.spin_once(timeout_sec=0.05)
+
     def close(self) -> None:
-        self._executor.shutdown()
+        # the spin thread ends before the executor goes: shutting an executor down while its
+        # thread runs a callback destroys the guard condition that callback then triggers
+        self._stop.set()
         self._thread.join(10.0)
+        self._executor.shutdown()
         for action in self._actions:       # not while the executor waits on them
             action.destroy()
         end_context(self.context)

@@ -290,6 +290,12 @@ def test_a_running_robot_is_drawn_from_its_topics_and_driven_by_the_sliders(cli,
                              100_000)
     source = RosSource("")
     try:
+        # this subscription matched before anything moves (the paused simulator republishes at
+        # 20 Hz): a state published before it matched would never reach it
+        deadline = time.monotonic() + WAIT
+        while not published:
+            assert time.monotonic() < deadline, "no cable_states from the paused simulator"
+            executor.spin_once(timeout_sec=0.1)
         first = source.first_frame(timeout=WAIT)
         assert source.topology.kind == "robot" and "inputs" in source.features
         spec = next(s for s in source.inputs if s.name == "c0_4")
