@@ -136,6 +136,23 @@ def test_joint_states_alone_come_from_the_joint_sample_and_equal_the_full_observ
     assert len(joints.name) == len(plant.interface.inputs) > 0
 
 
+@pytest.mark.parametrize("n", [1, 3, 24])
+@pytest.mark.parametrize("stale", range(1, 8))
+def test_a_marked_array_is_found_at_its_place_after_padding_left_from_an_earlier_mark(n, stale):
+    """The padding before an aligned float64 array holds what the serializer's buffer held, which
+    can be the last bytes of an array marked in an earlier serialization: the marked array is
+    still found once, at its own place (a sequence length, 1..7 stale bytes, the array, the
+    next sequence length)."""
+    import struct
+
+    from tensegrity_ros.nodes.sim import joint_bytes
+
+    array = struct.pack(f"<{n}d", *[joint_bytes._MARK] * n)
+    marked = struct.pack("<I", n) + array[-stale:] + array + struct.pack("<I", n)
+    first = 4 + stale
+    assert joint_bytes._where(marked, array) == (first, first + 8 * n)
+
+
 @pytest.mark.parametrize("names", [(), ("rho1", "rho2", "beta"), tuple(f"c{i}_{i + 4}" for i in range(24))])
 @pytest.mark.parametrize("effort", [True, False])
 def test_joint_states_as_bytes_read_back_as_the_messages_rclpy_builds(names, effort):

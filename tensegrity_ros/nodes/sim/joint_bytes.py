@@ -24,10 +24,14 @@ from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
 
-#: A float64 of eight equal non-zero bytes: an array of it marks that array's bytes.
-_MARK = float(np.frombuffer(b"\x5a" * 8, dtype="<f8")[0])
-#: Stamp values of non-zero bytes: mark the stamp's bytes.
-_MARK_SEC, _MARK_NSEC = 0x1A1A1A1A, 0x1B1B1B1B
+#: A float64 of eight distinct bytes (a finite number): an array of it marks that array's
+#: bytes. Distinct, so the marked run cannot also be found a few bytes earlier: the padding
+#: before an aligned array holds whatever the serializer's buffer held, which may be the tail
+#: of an earlier marked serialization (an array of eight equal bytes was then found twice,
+#: overlapping, and the template refused: 1 of ~10 CI runs).
+_MARK = float(np.frombuffer(bytes(range(0x50, 0x58)), dtype="<f8")[0])
+#: Stamp values of distinct non-zero bytes: mark the stamp's bytes.
+_MARK_SEC, _MARK_NSEC = 0x14131211, 0x18171615
 _FIELDS = ("position", "velocity", "effort")
 _STAMP = struct.Struct("<iI")
 
@@ -46,7 +50,8 @@ def _message(names: Sequence[str], frame_id: str, sec: int = 0, nanosec: int = 0
 def _where(marked: bytes, mark: bytes) -> tuple[int, int]:
     """``(first, end)``: the one place ``mark`` lies in ``marked``, or ``(0, 0)`` (none, or
     several). Searched rather than diffed: the padding bytes before an aligned field are
-    whatever the serializer left there, so two serializations differ there too."""
+    whatever the serializer left there, so two serializations differ there too (and may end
+    with bytes of a mark, which is why a mark's bytes are distinct)."""
     first = marked.find(mark)
     if first < 0 or marked.find(mark, first + 1) >= 0:
         return 0, 0
