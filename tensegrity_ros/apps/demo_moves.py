@@ -17,7 +17,6 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -26,6 +25,7 @@ import numpy as np
 from tensegrity_core.class2 import PAPER_PARAMS, end_effector_of, forward_kinematics
 from tensegrity_core.class2.names import ACTUATED_JOINTS
 from tensegrity_ros.apps.sim_client import NS_PER_S, JointRecord, SimClient
+from tensegrity_ros.rclpy_utils.futures import on_executor, wait_done
 
 #: End-effector waypoints, offsets [m] from D at rho1 = rho2 = 0.7 (the scene's rest).
 WAYPOINT_OFFSETS = ((0.08, 0.0), (0.08, 0.06), (-0.04, 0.06), (0.0, 0.0))
@@ -142,11 +142,13 @@ class ControllerClient:
             feedback.append(msg.feedback)
             started.set()
 
-        handle = _wait(self._in_executor(lambda: action.send_goal_async(goal, feedback_callback=on_feedback)),
-                       timeout, "goal response")
+        executor = self.sim.executor       # spun by another thread: requests go through it (on_executor)
+        sent = _wait(on_executor(executor, lambda: action.send_goal_async(goal, feedback_callback=on_feedback)),
+                     timeout, "executor task")
+        handle = _wait(sent, timeout, "goal response")
         if not handle.accepted:
             raise RuntimeError("the controller rejected the goal")
-        result_future = self._in_executor(handle.get_result_async)
+        result_future = _wait(on_executor(executor, handle.get_result_async), timeout, "executor task")
         while not started.wait(0.05):
             if result_future.done():      # refused at planning time: aborted with its reason, no feedback
                 res = result_future.result()
@@ -156,18 +158,8 @@ class ControllerClient:
         return res.status, res.result, feedback
 
 
-    def _in_executor(self, call: Callable[[], Any], timeout: float = 60.0) -> Any:
-        """``call()`` run by the client's executor thread, its return value (a future).
-        rclpy's ActionClient registers a request's future only after sending it, without a
-        lock (Jazzy): called from another thread while the executor spins, the answer can be
-        taken before the future exists and is dropped ("Ignoring unexpected goal response")."""
-        return _wait(self.sim.executor.create_task(call), timeout, "executor task")
-
-
 def _wait(future: Any, timeout: float, what: str) -> Any:
-    done = threading.Event()
-    future.add_done_callback(lambda _f: done.set())
-    if not done.wait(timeout):
+    if not wait_done(future, timeout):
         raise RuntimeError(f"no {what} from the controller within {timeout:g} s")
     return future.result()
 

@@ -24,6 +24,7 @@ import time
 from typing import Any, Final
 
 from tensegrity_core.errors import TensegrityError
+from tensegrity_ros.rclpy_utils.futures import on_executor
 from tensegrity_ros.rclpy_utils.spin_thread import SpinThread
 from tensegrity_ros.view.frame import Frame
 from tensegrity_ros.view.frames import class2_topology, frame_of_mechanism_state
@@ -288,7 +289,7 @@ class RosSource:
 
         def unanswered() -> None:
             # a goal request (or its answer) lost while discovery still matches the action's
-            # endpoints would otherwise leave the page at "sent" for good
+            # endpoints, or a controller gone, would otherwise leave the page at "sent" for good
             if not answered.is_set():
                 self._report(f"move: no answer from the controller within {self.move_answer_s:g} s "
                              "(press Move D again)")
@@ -312,7 +313,10 @@ class RosSource:
         timer = threading.Timer(self.move_answer_s, unanswered)
         timer.daemon = True
         timer.start()
-        self.mover.send_goal_async(goal).add_done_callback(accepted)
+        # sent by the spinning thread: from this (the page's) thread, rclpy could take the answer
+        # before it knows the request and drop it (rclpy_utils.futures.on_executor)
+        on_executor(self.executor, lambda: self.mover.send_goal_async(goal)).add_done_callback(
+            lambda task: task.result().add_done_callback(accepted))
 
     def seek(self, t: float) -> None:
         self._report("no timeline: this is the live suite")

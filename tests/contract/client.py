@@ -87,6 +87,16 @@ class Client:
         assert done.wait(timeout), f"waited {timeout:g} s for {what}"
         return future.result()
 
+    def ask(self, call: Callable[[], Any], what: str, timeout: float = PATIENCE) -> Any:
+        """The result of the future ``call()`` returns (an action client's ``send_goal_async``,
+        ``get_result_async``, ``cancel_goal_async``), ``call`` made by the spinning thread.
+        rclpy's ActionClient (Jazzy) registers a request's future only after sending it, without
+        a lock: sent from this thread while the spin thread runs, the answer can come before the
+        future exists and is dropped ("Ignoring unexpected goal response"), so a careful rclpy
+        user sends from the executor's thread."""
+        future = self.wait_future(self._executor.create_task(call), f"the spin thread to ask for {what}", timeout)
+        return self.wait_future(future, what, timeout)
+
     def call(self, srv_type: Any, name: str, request: Any = None, timeout: float = PATIENCE) -> Any:
         client = self.node.create_client(srv_type, name)
         try:

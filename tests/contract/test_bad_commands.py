@@ -155,7 +155,7 @@ def test_a_trajectory_for_a_motor_that_takes_no_rest_length_is_invalid_joints(su
     goal = FollowJointTrajectory.Goal()
     goal.trajectory.joint_names = [motor]
     goal.trajectory.points = [JointTrajectoryPoint(positions=[0.99], time_from_start=Duration(sec=1))]
-    handle = client.wait_future(action.send_goal_async(goal), "the goal response")
-    answer = client.wait_future(handle.get_result_async(), "the goal's result")
+    handle = client.ask(lambda: action.send_goal_async(goal), "the goal response")
+    answer = client.ask(handle.get_result_async, "the goal's result")
     assert (answer.status, answer.result.error_code) == (GoalStatus.STATUS_ABORTED, -2), answer.result.error_string
     assert motor in answer.result.error_string

@@ -87,13 +87,13 @@ def _goal(points, names, *, stamp_ns_=0, goal_time=None, path=(), goal=(), veloc
 def _send(client, action, goal):
     """The goal's handle and the list its feedback goes to."""
     feedback = []
-    handle = client.wait_future(action.send_goal_async(goal, feedback_callback=lambda f: feedback.append(f.feedback)),
-                                "the goal response")
+    handle = client.ask(lambda: action.send_goal_async(goal, feedback_callback=lambda f: feedback.append(f.feedback)),
+                        "the goal response")
     return handle, feedback
 
 
 def _outcome(client, handle):
-    answer = client.wait_future(handle.get_result_async(), "the goal's result")
+    answer = client.ask(handle.get_result_async, "the goal's result")
     return answer.status, answer.result
 
 
@@ -239,7 +239,7 @@ def test_a_cancelled_goal_ends_canceled_and_the_cables_hold(suite):
     handle, feedback = _send(client, action, _goal([(30.0, (0.9,))], ("c2_5",)))
     assert handle.accepted
     client.wait(lambda: feedback, "feedback of the running goal")
-    answer = client.wait_future(handle.cancel_goal_async(), "the cancel response")
+    answer = client.ask(handle.cancel_goal_async, "the cancel response")
     assert len(answer.goals_canceling) == 1
     status, result = _outcome(client, handle)
     assert status == GoalStatus.STATUS_CANCELED and result.error_code == SUCCESSFUL

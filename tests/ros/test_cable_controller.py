@@ -94,24 +94,25 @@ def _goal(points, names=("long1", "long2"), velocities=None, stamp_ns=0, **extra
 
 def _send(client, action, goal):
     """Send ``goal``; (handle, feedback list)."""
-    import threading
-
     feedback: list = []
-    done = threading.Event()
-    future = action.send_goal_async(goal, feedback_callback=lambda m: feedback.append(m.feedback))
-    future.add_done_callback(lambda _f: done.set())
-    assert done.wait(30)
-    return future.result(), feedback
+    return _asked(client, lambda: action.send_goal_async(goal, feedback_callback=lambda m: feedback.append(m.feedback)),
+                  30), feedback
 
 
-def _result(handle, timeout: float = 60.0):
-    import threading
+def _asked(client, call, timeout: float):
+    """The result of the future ``call()`` returns, ``call`` made by the client's spinning thread
+    (rclpy_utils.futures.on_executor: from this thread the answer can be dropped)."""
+    from tensegrity_ros.rclpy_utils.futures import on_executor, wait_done
 
-    done = threading.Event()
-    future = handle.get_result_async()
-    future.add_done_callback(lambda _f: done.set())
-    assert done.wait(timeout), "no result"
-    return future.result().status, future.result().result
+    task = on_executor(client.executor, call)
+    assert wait_done(task, timeout), "the spinning thread did not run the call"
+    assert wait_done(task.result(), timeout), "no answer"
+    return task.result().result()
+
+
+def _result(client, handle, timeout: float = 60.0):
+    answer = _asked(client, handle.get_result_async, timeout)
+    return answer.status, answer.result
 
 
 def _t0(client) -> int:
@@ -135,7 +136,7 @@ def test_a_trajectory_is_followed_in_lockstep_exactly_as_the_core_samples_it(rig
     assert handle.accepted
     steps = 40                                     # 0.4 s: past the end (0.3 s), the goal succeeds
     client.step_received(steps, t0, STEP_NS, chunk=10)
-    status, result = _result(handle)
+    status, result = _result(client, handle)
     assert status == GoalStatus.STATUS_SUCCEEDED and result.error_code == SUCCESSFUL, result.error_string
     ros = {j.stamp_ns: j for j in client.joints_since(t0)}
     # the core: the same trajectory, sampled at each t_k and held, from the same state
@@ -177,9 +178,9 @@ def test_bad_goals_are_refused_with_control_msgs_codes(rig, goal_args, code, rea
         handle, _ = _send(client, action, goal)
         t0 = _t0(client)
         client.step_received(70, t0, STEP_NS, chunk=10)
-        assert _result(handle)[0] == GoalStatus.STATUS_SUCCEEDED
+        assert _result(client, handle)[0] == GoalStatus.STATUS_SUCCEEDED
     handle, _ = _send(client, action, _goal(**goal_args))
-    status, result = _result(handle)
+    status, result = _result(client, handle)
     assert status == GoalStatus.STATUS_ABORTED and result.error_code == code and reason in result.error_string
 
 
@@ -195,21 +196,16 @@ def test_a_tight_path_tolerance_is_violated_and_a_new_goal_preempts_the_running_
     tight = _goal([(0.3, (0.8, 0.8))], path_tolerance=[JointTolerance(name="long1", position=1e-6)])
     handle, _ = _send(client, action, tight)
     client.step_received(10, t0, STEP_NS, chunk=5)
-    status, result = _result(handle)
+    status, result = _result(client, handle)
     assert status == GoalStatus.STATUS_ABORTED and result.error_code == PATH_TOLERANCE_VIOLATED
     assert "long1: position error" in result.error_string
     first, _ = _send(client, action, _goal([(5.0, (0.9, 0.9))]))
     second, _ = _send(client, action, _goal([(0.05, (0.9, 0.9))]))
-    status, result = _result(first)
+    status, result = _result(client, first)
     assert status == GoalStatus.STATUS_ABORTED and result.error_code == INVALID_GOAL
     assert "preempted" in result.error_string
-    cancel = second.cancel_goal_async()
-    import threading
-
-    done = threading.Event()
-    cancel.add_done_callback(lambda _f: done.set())
-    assert done.wait(30)
-    status, result = _result(second)
+    _asked(client, second.cancel_goal_async, 30)
+    status, result = _result(client, second)
     assert status == GoalStatus.STATUS_CANCELED and result.error_code == 0 and "cancelled" in result.error_string
 
 
