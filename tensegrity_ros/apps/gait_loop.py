@@ -30,19 +30,27 @@ from tensegrity_ros.apps.gait_run import NS_PER_S, RunWatcher, SuiteError, check
 RATE = 50.0
 
 
-def _other_answerers(node: Any, executor: Any, wait: float) -> list[str]:
+def _other_answerers(node: Any, executor: Any, look: float, name_wait: float) -> list[str]:
     """The nodes other than ``node`` publishing ``cable_commands`` (fully qualified names),
-    looked for in the graph for up to ``wait`` s (DDS discovery of a node takes that long
-    on a loaded machine) or until one shows with its name."""
+    looked for in the graph for up to ``look`` s (DDS discovery of a node takes that long on a
+    loaded machine). A publisher seen without its node's name (rmw's ``_UNKNOWN_`` until that
+    node's participant has told its names, which can come seconds after its endpoints on a
+    loaded machine) is waited for up to ``name_wait`` s more, then called "another node"."""
     topic = node.resolve_topic_name("cable_commands")
     me = node.get_fully_qualified_name()
-    deadline = time.monotonic() + wait
+    deadline = time.monotonic() + look
+    name_by = 0.0                    # seen without a name: waited for until then
     while True:
         infos = node.get_publishers_info_by_topic(topic)
         names = sorted({f"{i.node_namespace.rstrip('/')}/{i.node_name}" for i in infos} - {me})
         named = [n for n in names if "_UNKNOWN_" not in n]     # rmw's placeholder until the node is known
-        if named or time.monotonic() >= deadline:
-            return named or (["another node"] if names else [])
+        if named:
+            return named
+        now = time.monotonic()
+        if names and not name_by:
+            name_by = now + name_wait
+        if now >= max(deadline, name_by):
+            return ["another node"] if names else []
         executor.spin_once(timeout_sec=0.1)
 
 
@@ -127,7 +135,7 @@ def roll_closed_loop(robot_name: str, faces: int, heading: tuple[float, float], 
         # matched by the watcher's own subscription and the simulator's
         if not wait_for_matches([pub], 2, timeout, poll=lambda s: executor.spin_once(timeout_sec=s)):
             raise SuiteError(f"the simulator does not subscribe to {pub.topic_name} within {timeout:g} s", code=3)
-        others = _other_answerers(node, executor, DISCOVERY_S) if lockstep.bool_value else []
+        others = _other_answerers(node, executor, DISCOVERY_S, timeout) if lockstep.bool_value else []
         if others:
             raise _second_answerer(others)
         live[0] = True
@@ -143,7 +151,7 @@ def roll_closed_loop(robot_name: str, faces: int, heading: tuple[float, float], 
                                  "`tensegrity sim play`)", code=3)
             executor.spin_once(timeout_sec=0.1)
             if lockstep.bool_value and watcher.controller_answers - heard > sent[0]:   # a node started since
-                raise _second_answerer(_other_answerers(node, executor, DISCOVERY_S))
+                raise _second_answerer(_other_answerers(node, executor, timeout, timeout))    # it is there: heard
             if controller.rolled > bar.n:
                 bar.update(controller.rolled - bar.n)
             bar.set_postfix_str(f"t = {loop.elapsed():.2f} s", refresh=False)

@@ -4,8 +4,8 @@ without its cable controller: the gait answers every state) the 6-bar rolls exac
 faces asked (2, then 1 more from where it rests), counted from the simulator's ``contacts`` by the summary
 (faces rested on, :func:`tensegrity_core.robot.faces.faces_visited`, and hull faces touched
 however briefly, :func:`~tensegrity_core.robot.faces.faces_touched`), not by the controller, and comes to rest
-there; then another node publishes cable commands to the lockstep suite and the gait is refused in one
-line.
+there; then the suite's cable controller is started beside it (a second answerer of the lockstep
+simulator's states) and the gait is refused in one line naming it.
 
 Lockstep keeps each run as short as the robot's motion (2 faces: ~4 s of simulation time,
 ~450 steps of 10 ms) on a busy machine, where free-running would take that in wall time. The
@@ -15,11 +15,10 @@ less than three tests each starting a suite."""
 from __future__ import annotations
 
 import re
-import time
 
 import pytest
 
-from tests.ros_support import run_cli
+from tests.ros_support import Proc, run_cli
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
@@ -56,7 +55,7 @@ def test_a_bad_request_is_one_line_before_any_ros():
                                              "gait table"]
 
 
-def test_the_closed_loop_gait_rolls_exactly_the_faces_asked_in_lockstep(cli, ros_context):
+def test_the_closed_loop_gait_rolls_exactly_the_faces_asked_in_lockstep(cli, tmp_path):
     up = cli("up", "--scene", "six_bar_rest", "--no-formfind", "--no-controller", "--namespace", NS, "--ros-args",
              "-p", "lockstep:=true", log_name="up")
     r = run_cli("gait", "six_bar", "roll", "--faces", "2", "-n", NS, "--timeout", "60", timeout=300)
@@ -81,25 +80,19 @@ def test_the_closed_loop_gait_rolls_exactly_the_faces_asked_in_lockstep(cli, ros
     assert re.search(r"^  faces rolled: 1 \(\d+ faces rested on; 1 faces crossed, counting those touched however "
                      r"briefly\)$", r.stdout, re.M), r.stdout
 
-    # another node publishes cable commands to the lockstep suite (as its cable controller would):
-    # two answers to a state, and the simulator steps on the first; refused in one line
-    import rclpy
-    from tensegrity_msgs.msg import CableCommand
-
-    other = rclpy.create_node("other_controller", namespace=NS, context=ros_context)
-    commands = other.create_publisher(CableCommand, "cable_commands", 10)
-    # a controller of a running suite is already known when the gait starts (it answers the
-    # gait's discovery at once); this one, the first node of this process, only once the
-    # simulator has matched it -- two participants created at the same moment may take longer
-    # to find each other than the gait looks for another answerer (rmw discovery)
-    deadline = time.monotonic() + 60
-    while commands.get_subscription_count() < 1:
-        assert time.monotonic() < deadline, "the simulator never matched the other controller"
-        time.sleep(0.05)
-    r = run_cli("gait", "six_bar", "roll", "--faces", "1", "-n", NS, "--timeout", "60", timeout=120)
-    assert r.returncode == 1, r.stdout + r.stderr
+    # the suite's cable controller started beside the gait's lockstep suite: two answers to a
+    # state, and the simulator steps on the first; refused in one line naming it, whether the
+    # gait finds it in the graph before it starts or hears its answers once it runs
+    controller = Proc(["node", "cables", "--ros-args", "-r", f"__ns:={NS}", "-p", "scene:=six_bar_rest"],
+                      tmp_path / "cables.log")
+    try:
+        controller.wait_for("cable controller ready", 60)
+        r = run_cli("gait", "six_bar", "roll", "--faces", "1", "-n", NS, "--timeout", "60", timeout=120)
+    finally:
+        controller.stop()
+    assert r.returncode == 1, r.stdout + r.stderr + controller.stderr()
     assert r.stderr.strip().splitlines()[-1] == (
-        f"error: the simulator runs in lockstep and {NS}/other_controller already answers its states on "
+        f"error: the simulator runs in lockstep and {NS}/tensegrity_cable_controller already answers its states on "
         "cable_commands: the closed-loop gait must be the only one (start the suite with "
         "`tensegrity up --no-controller`)"), r.stderr
 
