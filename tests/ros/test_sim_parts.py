@@ -147,26 +147,26 @@ def test_a_marked_array_is_found_at_its_place_after_padding_left_from_an_earlier
 
     from tensegrity_ros.nodes.sim import joint_bytes
 
-    array = struct.pack(f"<{n}d", *[joint_bytes._MARK] * n)
+    array = joint_bytes._marks(n)
     marked = struct.pack("<I", n) + array[-stale:] + array + struct.pack("<I", n)
     first = 4 + stale
     assert joint_bytes._where(marked, array) == (first, first + 8 * n)
 
 
 @pytest.mark.parametrize("names", [(), ("rho1", "rho2", "beta"), tuple(f"c{i}_{i + 4}" for i in range(24))])
-@pytest.mark.parametrize("effort", [True, False])
-def test_joint_states_as_bytes_read_back_as_the_messages_rclpy_builds(names, effort):
+@pytest.mark.parametrize("fields", [("position", "velocity", "effort"), ("position", "velocity"), ("effort",), ()])
+def test_joint_states_as_bytes_read_back_as_the_messages_rclpy_builds(names, fields):
     """rclpy's deserializer reads every refill of the serialized joint_states as the message
     rclpy itself builds from the same values (random values and stamps, every byte pattern of
-    a float64 that is not NaN; without effort, an empty effort array); values of another
-    length are refused."""
+    a float64 that is not NaN; the arrays not kept empty, whatever values are given for
+    them); values of another length are refused."""
     import numpy as np
     from rclpy.serialization import deserialize_message
     from sensor_msgs.msg import JointState
 
     from tensegrity_ros.nodes.sim.joint_bytes import JointStateBytes
 
-    cdr = JointStateBytes(names, "lab", effort=effort)
+    cdr = JointStateBytes(names, "lab", fields=fields)
     assert cdr.ok
     rng = np.random.default_rng(7)
     n = len(names)
@@ -174,11 +174,79 @@ def test_joint_states_as_bytes_read_back_as_the_messages_rclpy_builds(names, eff
         sec, nanosec = int(rng.integers(0, 2**31)), int(rng.integers(0, 10**9))
         values = [rng.integers(0, 2**64, n, dtype=np.uint64).view(np.float64) for _ in range(3)]
         values = [np.where(np.isnan(v), 0.5, v) for v in values]
-        expected = JointState(name=list(names), position=values[0].tolist(), velocity=values[1].tolist(),
-                              effort=values[2].tolist() if effort else [])
+        kept = {f: v.tolist() if f in fields else [] for f, v in zip(("position", "velocity", "effort"), values)}
+        expected = JointState(name=list(names), **kept)
         expected.header.frame_id = "lab"
         expected.header.stamp.sec, expected.header.stamp.nanosec = sec, nanosec
         assert deserialize_message(cdr.fill(sec, nanosec, *values), JointState) == expected
-    if n:
+    if n and fields:
+        short = [v[1:] if f == fields[0] else v for f, v in zip(("position", "velocity", "effort"), values)]
         with pytest.raises(ValueError, match=f"joint_states of {n} joints, got {n - 1} values"):
-            cdr.fill(0, 0, values[0][1:], values[1], values[2])
+            cdr.fill(0, 0, *short)
+
+
+def test_joint_states_bytes_are_found_whatever_earlier_serializations_left_in_the_buffer():
+    """The padding before an aligned array holds what the serializer's buffer held before: the
+    layouts of joint_states of every choice of arrays are found (bytes, not the message
+    fallback) after those of other joints and frames, in either order."""
+    from tensegrity_ros.nodes.sim.joint_bytes import JointStateBytes
+
+    choices = [("position", "velocity", "effort"), ("position", "velocity"), ("effort",), ()]
+    for names, frame in ([f"c{i}" for i in range(24)], "lab"), (["c0_4", *(f"c{i}" for i in range(1, 24))], "world"):
+        for fields in (*choices, *reversed(choices)):
+            assert JointStateBytes(names, frame, fields=fields).ok, (names[0], frame, fields)
+
+
+@pytest.mark.parametrize(("lengths", "tensions"), [(["c0_4", "c2_10"], ["c0_4", "c1_7"]), ("none", "all"),
+                                                   ("all", "none"), ("none", "none")])
+def test_joint_states_report_the_lengths_and_tensions_the_robot_measures(tmp_path, lengths, tensions):
+    """A 6-bar whose description measures some cables' lengths and some tensions: joint_states
+    (as bytes from the joint sample, and as a message with every topic) carry cable_states'
+    length and rate [m, m/s] where the length is measured and its tension [N] where the tension
+    is, NaN for the other joints, and an empty array where no joint's cable is measured; every
+    motor cable stays a joint."""
+    import math
+    from pathlib import Path
+
+    import yaml
+    from rclpy.serialization import deserialize_message
+    from sensor_msgs.msg import JointState
+
+    from tensegrity_core.robot import examples
+    from tensegrity_core.sim import load_scene
+    from tensegrity_ros.nodes.sim import sender
+    from tensegrity_ros.nodes.sim.outputs import Outputs
+    from tensegrity_ros.nodes.sim.plant import SimPlant
+
+    robot = yaml.safe_load((Path(examples.__file__).parent / "six_bar.yaml").read_text())
+    robot["sensors"] |= {"cable_length": lengths, "cable_tension": tensions}
+    (tmp_path / "six_bar_sensed.yaml").write_text(yaml.safe_dump(robot))
+    scene = {"name": "sensed", "model": {"kind": "robot", "robot": "six_bar_sensed.yaml"},
+             "initial": {"drawn": True},
+             "effects": ["inertia", "cables", "motors", "gravity", "contact", "friction", "sensors"], "duration": 1.0}
+    (tmp_path / "sensed.yaml").write_text(yaml.safe_dump(scene))
+    plant = SimPlant(load_scene(str(tmp_path / "sensed.yaml")), 1_000_000)
+    for _ in range(30):
+        plant.step(plant.initial_command)
+    outputs = Outputs(plant, publish_rate=100.0, state_rate=100.0, marker_rate=100.0, imu_rate=100.0)
+    hdr = sender.header(plant.time_ns, "world")
+    alone = deserialize_message(dict(outputs.messages(hdr, lambda t: t == "joint_states"))["joint_states"], JointState)
+    every = dict(outputs.messages(hdr, lambda t: True))
+    cables = every["cable_states"]
+    length, rate, tension = (dict(zip(cables.name, a)) for a in (cables.length, cables.length_rate, cables.tension))
+    motors = [c["name"] for c in robot["cables"] if c.get("motor")]
+
+    def measured(which, name):
+        return which == "all" or (which != "none" and name in which)
+
+    for joints in (alone, every["joint_states"]):
+        assert list(joints.name) == motors
+        for array, truth, which in ((joints.position, length, lengths), (joints.velocity, rate, lengths),
+                                    (joints.effort, tension, tensions)):
+            if which == "none":
+                assert len(array) == 0
+                continue
+            assert len(array) == len(motors)
+            for name, value in zip(motors, array):
+                assert value == truth[name] if measured(which, name) else math.isnan(value), name
+    assert any(v != 0.0 for v in rate.values())          # a moving robot: the rates are not all zero

@@ -1,8 +1,8 @@
 """joint_states as serialized bytes, refilled in place for each publication.
 
 A simulator's joint_states keep their joint names (a robot's motor cables, the class-2
-joints) and their frame from one publication to the next: only the stamp and the three
-float arrays change. Publishing the Python message converts every name to C and serializes
+joints) and their frame from one publication to the next: only the stamp and the float
+arrays it carries change. Publishing the Python message converts every name to C and serializes
 the whole message each time, ~20 us of the ~120 us of CPU a 6-bar lockstep step costs the
 node (measured in one process between two core steps, load ~15: a joint_states publication
 44 us, the same bytes published raw 24 us). :class:`JointStateBytes` publishes the bytes
@@ -24,14 +24,8 @@ from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
 
-#: A float64 of eight distinct bytes (a finite number): an array of it marks that array's
-#: bytes. Distinct, so the marked run cannot also be found a few bytes earlier: the padding
-#: before an aligned array holds whatever the serializer's buffer held, which may be the tail
-#: of an earlier marked serialization (an array of eight equal bytes was then found twice,
-#: overlapping, and the template refused: 1 of ~10 CI runs).
-_MARK = float(np.frombuffer(bytes(range(0x50, 0x58)), dtype="<f8")[0])
-#: Stamp values of distinct non-zero bytes: mark the stamp's bytes.
-_MARK_SEC, _MARK_NSEC = 0x14131211, 0x18171615
+#: Stamp values of non-zero bytes: mark the stamp's bytes.
+_MARK_SEC, _MARK_NSEC = 0x1A1A1A1A, 0x1B1B1B1B
 _FIELDS = ("position", "velocity", "effort")
 _STAMP = struct.Struct("<iI")
 
@@ -47,11 +41,19 @@ def _message(names: Sequence[str], frame_id: str, sec: int = 0, nanosec: int = 0
     return msg
 
 
+def _marks(n: int) -> bytes:
+    """The bytes that mark an array of ``n`` float64: 1, 2, ..., 251, 1, 2, ... (no float of
+    them is NaN: no byte is 0xff). No run of them shorter than 251 bytes repeats, so they
+    cannot be found again shifted by a few bytes: the padding before an aligned array holds
+    whatever the serializer's buffer held, such as the marks of the serialization before (a
+    mark of equal bytes was then found twice, one to seven bytes apart, and the layout lost)."""
+    return bytes(j % 251 + 1 for j in range(8 * n))
+
+
 def _where(marked: bytes, mark: bytes) -> tuple[int, int]:
     """``(first, end)``: the one place ``mark`` lies in ``marked``, or ``(0, 0)`` (none, or
     several). Searched rather than diffed: the padding bytes before an aligned field are
-    whatever the serializer left there, so two serializations differ there too (and may end
-    with bytes of a mark, which is why a mark's bytes are distinct)."""
+    whatever the serializer left there, so two serializations differ there too."""
     first = marked.find(mark)
     if first < 0 or marked.find(mark, first + 1) >= 0:
         return 0, 0
@@ -59,35 +61,42 @@ def _where(marked: bytes, mark: bytes) -> tuple[int, int]:
 
 
 class JointStateBytes:
-    """The serialized JointState of the joints ``names`` in frame ``frame_id`` (``effort``
-    False: its effort array empty)."""
+    """The serialized JointState of the joints ``names`` in frame ``frame_id`` with the
+    arrays ``fields`` (of position, velocity, effort; the others empty)."""
 
-    def __init__(self, names: Sequence[str], frame_id: str, *, effort: bool = True):
+    def __init__(self, names: Sequence[str], frame_id: str, *, fields: Sequence[str] = _FIELDS):
         self.names = tuple(names)
         self.frame_id = frame_id
+        self.fields = tuple(f for f in _FIELDS if f in fields)
         n = len(self.names)
-        fields = _FIELDS if effort else _FIELDS[:2]
-        template = serialize_message(_message(self.names, frame_id, fields=fields))
+        template = serialize_message(_message(self.names, frame_id, fields=self.fields))
         self._buffer = bytearray(template)
-        self._stamp = _where(serialize_message(_message(self.names, frame_id, _MARK_SEC, _MARK_NSEC, fields=fields)),
+        self._stamp = _where(serialize_message(_message(self.names, frame_id, _MARK_SEC, _MARK_NSEC,
+                                                        fields=self.fields)),
                              _STAMP.pack(_MARK_SEC, _MARK_NSEC))
-        self._arrays = [_where(serialize_message(_message(self.names, frame_id, arrays={f: [_MARK] * n}, fields=fields)),
-                               struct.pack(f"<{n}d", *[_MARK] * n)) for f in fields]
-        self.ok = self._stamp[1] > 0 and (n == 0 or all(e - b == 8 * n for b, e in self._arrays))
+        #: Per array kept: its index in (position, velocity, effort) and where its bytes lie.
+        mark = _marks(n)
+        values = np.frombuffer(mark, dtype="<f8").tolist()
+        self._arrays: list[tuple[int, int, int]] = []
+        for f in self.fields:
+            marked = serialize_message(_message(self.names, frame_id, arrays={f: values}, fields=self.fields))
+            self._arrays.append((_FIELDS.index(f), *_where(marked, mark)))
+        self.ok = self._stamp[1] > 0 and (n == 0 or all(e - b == 8 * n for _, b, e in self._arrays))
         if self.ok:                          # checked once against rclpy's own reading
             values = [np.arange(n, dtype=float) + k + 0.25 for k in range(3)]
             got = deserialize_message(self.fill(1_234_567_890, 987_654_321, *values), JointState)
             self.ok = got == _message(self.names, frame_id, 1_234_567_890, 987_654_321,
-                                      {f: v.tolist() for f, v in zip(fields, values)}, fields)
+                                      {f: values[i].tolist() for i, f in enumerate(_FIELDS)}, self.fields)
 
     def fill(self, sec: int, nanosec: int, position: NDArray[np.float64], velocity: NDArray[np.float64],
              effort: NDArray[np.float64]) -> bytes:
         """The message stamped ``sec``, ``nanosec`` with these positions, velocities and
-        efforts (one float64 per joint each, joint order; efforts ignored without an effort array)."""
+        efforts (one float64 per joint each, joint order; the arrays not kept are ignored)."""
         buf = self._buffer
         _STAMP.pack_into(buf, self._stamp[0], sec, nanosec)
-        for (b, e), values in zip(self._arrays, (position, velocity, effort)):
-            data = np.ascontiguousarray(values, dtype="<f8").tobytes()
+        given = (position, velocity, effort)
+        for i, b, e in self._arrays:
+            data = np.ascontiguousarray(given[i], dtype="<f8").tobytes()
             if len(data) != e - b:            # a slice assignment of another length would move the rest
                 raise ValueError(f"joint_states of {len(self.names)} joints, got {len(data) // 8} values")
             buf[b:e] = data

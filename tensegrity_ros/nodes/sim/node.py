@@ -10,7 +10,7 @@ Publishes, stamped with simulation time (topics per model: :mod:`.outputs`):
 - ``joint_states`` (sensor_msgs/JointState): class-2 joints ``rho1``, ``rho2`` [m] and
   ``beta`` [rad] (effort = the applied actuator force [N], 0 for beta); general structures
   and robots one joint per actuated cable (position = length [m], velocity [m/s], effort =
-  tension [N]; a robot's measured ones, :mod:`.joint_effort`);
+  tension [N]; a robot's measured ones, :mod:`.joint_sensors`);
 - ``end_effector`` (geometry_msgs/PointStamped): node D, or the scene's end-effector node [m];
 - class-2: ``mechanism_state`` (tensegrity_msgs/MechanismState) at ``state_rate``;
 - general and robots: ``cable_states`` (tensegrity_msgs/CableStates: every member) at

@@ -9,7 +9,7 @@ The model says what there is (:class:`~tensegrity_core.sim.model.Interface`, its
   ``mechanism_state`` (every n-th, ``state_rate``) and ``markers`` (``marker_rate``) from a
   full observation, taken only when one of them is due and wanted;
 - general structure: ``joint_states`` (one joint per actuated cable: length [m], its rate
-  [m/s], tension [N]: a robot's measured ones, :mod:`.joint_effort`), ``end_effector`` and, with moving rigid bodies, ``body_states`` and
+  [m/s], tension [N]: a robot's measured ones, :mod:`.joint_sensors`), ``end_effector`` and, with moving rigid bodies, ``body_states`` and
   ``/tf`` (world -> each body's frame, :mod:`.transforms`) every publication; ``cable_states`` (every member) at ``state_rate``; ``markers`` at
   ``marker_rate``; all from one observation per publication, or from the joint sample when
   only ``joint_states`` and ``end_effector`` are wanted (and the scene has no sensor noise,
@@ -41,7 +41,7 @@ from tensegrity_core.class2.names import JOINTS
 from tensegrity_ros.nodes.sim import robot_messages, sender, transforms
 from tensegrity_ros.nodes.sim.decimation import Decimation
 from tensegrity_ros.nodes.sim.joint_bytes import JointStateBytes
-from tensegrity_ros.nodes.sim.joint_effort import joint_effort
+from tensegrity_ros.nodes.sim.joint_sensors import joint_sensors
 from tensegrity_ros.nodes.sim.plant import SimPlant
 
 #: What a publication needs done: the message of each topic (name, message).
@@ -83,8 +83,9 @@ class Outputs:
         self.every_publication = tuple(t for t in self.topics if t not in self.decimation.every)
         #: The joint names of joint_states.
         self.joint_names = tuple(plant.interface.inputs if self.general else JOINTS)
-        #: Which joints report an effort (a robot's measured tensions, :mod:`.joint_effort`).
-        self.effort = joint_effort(plant.model, self.joint_names)
+        #: What joint_states report of each joint (a robot's measured lengths and tensions,
+        #: :mod:`.joint_sensors`).
+        self.sensors = joint_sensors(plant.model, self.joint_names)
         self._joint_bytes: JointStateBytes | None = None
 
     def messages(self, hdr: Header, wanted: Callable[[str], bool]) -> Messages:
@@ -149,14 +150,22 @@ class Outputs:
         """joint_states of this publication as serialized bytes (:mod:`.joint_bytes`: the
         names and frame serialized once), or ``message()`` where those bytes do not check out."""
         cdr = self._joint_bytes
+        length, tension = self.sensors.length, self.sensors.tension
         if cdr is None or cdr.frame_id != hdr.frame_id:
-            cdr = self._joint_bytes = JointStateBytes(self.joint_names, hdr.frame_id, effort=self.effort.reported)
+            fields = ("position", "velocity") * length.reported + ("effort",) * tension.reported
+            cdr = self._joint_bytes = JointStateBytes(self.joint_names, hdr.frame_id, fields=fields)
         if not cdr.ok or len(position) != len(self.joint_names):
             return self._measured(message())
-        return cdr.fill(hdr.stamp.sec, hdr.stamp.nanosec, position, velocity, self.effort.of(effort))
+        if self.sensors.everything:
+            return cdr.fill(hdr.stamp.sec, hdr.stamp.nanosec, position, velocity, effort)
+        return cdr.fill(hdr.stamp.sec, hdr.stamp.nanosec, length.of(position), length.of(velocity),
+                        tension.of(effort))
 
     def _measured(self, msg: JointState) -> JointState:
-        """``msg`` with the efforts the robot measures (:mod:`.joint_effort`)."""
-        if not all(self.effort.measured):
-            msg.effort = self.effort.of(msg.effort).tolist()
+        """``msg`` with the lengths, rates and tensions the robot measures (:mod:`.joint_sensors`)."""
+        if not self.sensors.everything:
+            length, tension = self.sensors.length, self.sensors.tension
+            msg.position = length.of(msg.position).tolist()
+            msg.velocity = length.of(msg.velocity).tolist()
+            msg.effort = tension.of(msg.effort).tolist()
         return msg
