@@ -5,7 +5,9 @@ contact state (per cap: touching or not, the ``cap_contact`` sensor reading) ove
 the sequence of faces. A set counts as a face when it holds for at least ``hold`` seconds
 (50 ms by default: a cap that grazes the floor for a sample while the robot tips makes no
 face); consecutive repeats merge, and :func:`faces_rolled` counts a return to a face
-visited before (a rock back) as no new face. :func:`faces_touched` is the strict count: every
+visited before (a rock back) as no new face. :func:`progress_faces` is the robot's net path:
+the faces with every excursion onto a face and back removed, so a rock onto a face and back
+counts nothing; ``len(progress_faces(...)) - 1`` faces of progress. :func:`faces_touched` is the strict count: every
 hull face whose caps all touched at one sample, however briefly (a robot that rolls through a
 face without resting on it has still crossed its edges), and :func:`edge_by_edge` whether the
 faces touched follow each other over one shared edge each.
@@ -13,10 +15,13 @@ faces touched follow each other over one shared edge each.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Hashable, Sequence
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
+
+Face = TypeVar("Face", bound=Hashable)
 
 
 def faces_visited(times: Sequence[float] | NDArray[np.float64], contact: NDArray[np.bool_],
@@ -49,6 +54,23 @@ def faces_rolled(faces: Sequence[tuple[float, frozenset[int]]]) -> int:
         new += caps not in seen
         seen.add(caps)
     return max(new - 1, 0)
+
+
+def progress_faces(faces: Sequence[Face]) -> list[Face]:
+    """The robot's net path over ``faces`` (the caps of the faces it rested on, in order, as
+    :func:`faces_visited` gives them): every return to the face before the last removed with
+    the excursion (``A B A`` -> ``A``, so ``A B C B A`` -> ``A``); the first is where it
+    started, each later one a face of progress. Any labels of faces do (caps' indices or
+    names)."""
+    path: list[Face] = []
+    for face in faces:
+        if path and path[-1] == face:
+            continue
+        if len(path) >= 2 and path[-2] == face:
+            path.pop()
+        else:
+            path.append(face)
+    return path
 
 
 def faces_touched(touching: Sequence[Sequence[int]] | NDArray[np.int64],

@@ -23,8 +23,11 @@ element, form-finding, stability), as follows.
    nominal rest length; ``s_j = -dR / dl0_j`` (a difference of two equilibria) says whether
    reeling in (``s_j > 0``) or paying out (``s_j < 0``) unloads the far caps, and its reach
    is ``|s_j|`` times the room the motor has that way. Cables are taken in decreasing order
-   of reach until the reaches add up to ``R``, and all of them are moved by one fraction
-   ``f`` of their room.
+   of reach until the reaches add up to ``spread x R`` (or every cable that helps is taken),
+   and all of them are moved by one fraction ``f`` of their room. ``spread = 1`` takes the
+   fewest cables; a larger ``spread`` shares the move among more cables, each moved less
+   (``f`` falls as the reaches taken add up), so the move is shorter at the motors' slew
+   limit (the 6-bar's move off a closed face: 2 cables by 0.42 m at 1, 7 by 0.19 m at 3).
 4. **How far.** ``f`` is found by continuation in steps of 0.05 (each equilibrium
    form-found from the last, so the path stays on one branch: a robot held at three caps has
    another, hanging, equilibrium) and bisection on ``R(f) = -overshoot x R(0)`` (a little
@@ -63,6 +66,9 @@ FloatArray = NDArray[np.float64]
 OVERSHOOT = 0.1
 #: The probe of the sensitivities: a tenth of each cable's range below its rest length.
 PROBE = 0.1
+#: The rolling gait's ``spread`` (module docstring, step 3): its moves shared among the cables
+#: whose reaches add up to three times the far caps' reaction (docs/design/mujoco.md, "A decisive roll").
+GAIT_SPREAD = 3.0
 
 
 @dataclass(frozen=True)
@@ -213,10 +219,10 @@ class _Supported:
 
 
 def tipping_step(robot: Robot, X: FloatArray, face: tuple[int, int, int],
-                 nominal: FloatArray) -> tuple[tuple[int, ...], FloatArray, float, float]:
+                 nominal: FloatArray, spread: float = 1.0) -> tuple[tuple[int, ...], FloatArray, float, float]:
     """``(cables, rest lengths [m], margin [m], margin after [m])``: the move of actuated
     cables that tips the robot, resting with its rest shape ``X`` on ``face`` (edge first),
-    over the edge ``face[:2]`` (module docstring, steps 1-4). Raises
+    over the edge ``face[:2]`` (module docstring, steps 1-4; ``spread`` >= 1 in step 3). Raises
     :class:`ConvergenceError` if no choice of the actuated cables does it."""
     radius = float(robot.rods.cap_radius.max())
     sup = _Supported(robot, place_on_face(X, face, radius), face)
@@ -241,7 +247,7 @@ def tipping_step(robot: Robot, X: FloatArray, face: tuple[int, int, int],
     chosen: list[int] = []
     for k in order:
         chosen.append(k)
-        if reach[chosen].sum() < r0:
+        if reach[chosen].sum() < spread * r0 and len(chosen) < len(order):
             continue
         found = _fraction(sup, nominal, act[chosen], move[chosen], target, X0)
         if found is not None:
@@ -284,9 +290,10 @@ def _fraction(sup: _Supported, nominal: FloatArray, cables: NDArray[np.int64], m
     return None
 
 
-def tipping_steps(robot: Robot, n_steps: int, heading: ArrayLike = (1.0, 0.0)) -> list[TipStep]:
+def tipping_steps(robot: Robot, n_steps: int, heading: ArrayLike = (1.0, 0.0), spread: float = 1.0) -> list[TipStep]:
     """``n_steps`` tipping steps of ``robot`` from its drawing, rolling towards ``heading``
-    (a direction on the floor; module docstring, step 5)."""
+    (a direction on the floor; module docstring, step 5), each move derived with ``spread``
+    (step 3)."""
     X = rest_shape(robot).nodes
     nominal = robot.cables.rest_length.copy()
     faces = hull_faces(X)
@@ -305,7 +312,7 @@ def tipping_steps(robot: Robot, n_steps: int, heading: ArrayLike = (1.0, 0.0)) -
         c = next(i for i in face if i not in edge)
         oriented = (a, b, c) if (a, b, c) in _rotations(face) else (b, a, c)
         nxt = next(f for f in faces if set(edge) <= set(f) and set(f) != set(face))
-        cables, rest, m0, m1 = tipping_step(robot, X, oriented, nominal)
+        cables, rest, m0, m1 = tipping_step(robot, X, oriented, nominal, spread)
         com = mass @ W / mass.sum()
         p, q, r = sorted(nxt)
         steps.append(TipStep(face=oriented, edge=(oriented[0], oriented[1]), next_face=(p, q, r), cables=cables,
@@ -389,15 +396,15 @@ def gait_of_steps(robot: Robot, steps: list[TipStep], *, hold: float, rest: floa
                 rest_lengths=tuple(tuple(round(float(v), 6) for v in r) for r in rows), description=description)
 
 
-def rolling_gait(robot: Robot, n_steps: int, *, heading: ArrayLike = (1.0, 0.0), hold: float = 0.6,
-                 rest: float = 0.3, name: str = "roll") -> tuple[Gait, list[TipStep]]:
-    """The derived rolling gait of ``n_steps`` tips towards ``heading`` (:func:`tipping_steps`,
-    laid out by :func:`gait_of_steps`; times rounded to 0.1 ms, rest lengths to 1 um), and
-    its steps. ``hold`` [s] keeps the cables moved until the tip has landed (the 6-bar lands
-    0.3-0.5 s after its move ends; released earlier, its landing depends on the integration
-    step), ``rest`` [s] waits at the nominal rest lengths after the release
-    (docs/design/mujoco.md, "A decisive roll")."""
-    steps = tipping_steps(robot, n_steps, heading)
+def rolling_gait(robot: Robot, n_steps: int, *, heading: ArrayLike = (1.0, 0.0), hold: float = 0.5,
+                 rest: float = 0.3, spread: float = GAIT_SPREAD, name: str = "roll") -> tuple[Gait, list[TipStep]]:
+    """The derived rolling gait of ``n_steps`` tips towards ``heading`` (:func:`tipping_steps`
+    with ``spread``, laid out by :func:`gait_of_steps`; times rounded to 0.1 ms, rest lengths
+    to 1 um), and its steps. ``hold`` [s] keeps the cables moved until the tip has landed
+    (released earlier, the 6-bar's landing depends on the integration step), ``rest`` [s]
+    waits at the nominal rest lengths after the release (docs/design/mujoco.md, "A decisive
+    roll")."""
+    steps = tipping_steps(robot, n_steps, heading, spread)
     h = np.asarray(heading, dtype=float)
     text = (f"{robot.name} rolling towards ({h[0]:g}, {h[1]:g}) over {n_steps} faces, derived quasi-statically "
             f"(tensegrity_core.robot.tipping)")

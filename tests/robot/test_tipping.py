@@ -25,7 +25,8 @@ def six_bar():
 
 @pytest.fixture(scope="module")
 def first_step(six_bar):
-    return tipping.tipping_steps(six_bar, 1)[0]
+    """The shipped gait's first step: its move shared among the cables (``GAIT_SPREAD``)."""
+    return tipping.tipping_steps(six_bar, 1, spread=tipping.GAIT_SPREAD)[0]
 
 
 def test_the_shipped_gait_begins_with_the_derived_step(six_bar, first_step):
@@ -97,6 +98,24 @@ def test_the_first_step_tips_the_six_bar_by_the_general_statics(six_bar, first_s
     assert abs(margin - first_step.margin_after) < 1e-6
     caps = six_bar.rods.ends.ravel()
     assert Y[caps, 2].min() >= 0.05 - 1e-6                     # no cap went into the floor
+
+
+def test_a_spread_move_tips_the_six_bar_with_more_cables_each_moved_less(six_bar, first_step):
+    """Off the closed face it starts on, the fewest cables (spread 1) and the shipped gait's
+    spread both tip the 6-bar by the general statics; the spread move's longest travel, the
+    time it takes at the motors' slew limit, is shorter."""
+    X = rest_shape(six_bar).nodes
+    nominal = six_bar.cables.rest_length
+    fewest = tipping.tipping_step(six_bar, X, first_step.face, nominal)
+    for cables, rest in ((fewest[0], fewest[1]), (first_step.cables, first_step.rest_lengths)):
+        moved = nominal.copy()
+        moved[list(cables)] = rest
+        _, reaction, margin = _supported(six_bar, X, first_step.face, moved)
+        assert reaction < 0 and margin < 0
+    assert set(fewest[0]) < set(first_step.cables)
+    travel = [np.abs(np.asarray(rest) - nominal[list(cables)]).max() for cables, rest in
+              ((fewest[0], fewest[1]), (first_step.cables, first_step.rest_lengths))]
+    assert travel[1] < travel[0]
 
 
 def test_place_on_face_puts_the_face_on_the_floor_and_the_rest_above():
