@@ -72,7 +72,7 @@ from tensegrity_core.sim.general.kernels import arrays, loops
 from tensegrity_core.sim.general.kernels.array_stages import ArrayStages
 from tensegrity_core.sim.general.kernels.evaluator import Evaluation, Evaluator
 from tensegrity_core.sim.general.kernels.flat_stages import FlatLayout, FlatStages, flat_ready
-from tensegrity_core.sim.general.kernels.plan import Plan, build_plan
+from tensegrity_core.sim.general.kernels.plan import Plan, build_plan, frozen
 from tensegrity_core.sim.general.kernels.stages import CompiledStages
 from tensegrity_core.sim.inputs import Law, next_breakpoint
 from tensegrity_core.sim.stepper import Transition
@@ -298,7 +298,7 @@ class GeneralSystem:
             gap, rate = np.empty(len(self.strings)), np.empty(len(self.strings))
             loops.string_gaps(plan.base, plan.free_node, plan.free_axis, plan.on_node, plan.on_body, plan.on_offset,
                               plan.body_dof, plan.member_a, plan.member_b, self.strings, np.array(y, dtype=float),
-                              self.R_ref, np.ascontiguousarray(l0, dtype=float), np.empty((n, 3)), np.empty((n, 3)),
+                              self.R_ref, np.array(l0, dtype=float), np.empty((n, 3)), np.empty((n, 3)),
                               np.empty((nb, 3, 3)), np.empty((len(plan.on_node), 3)), gap, rate)
         else:
             X, V = np.empty((1, n, 3)), np.empty((1, n, 3))
@@ -390,7 +390,7 @@ def _with_slack(plan: Plan, strings: NDArray[np.int64], slack: NDArray[np.bool_]
     EA[gone] = 0.0
     damping[gone] = 0.0
     is_string[strings] = False
-    return plan._replace(EA=EA, damping=damping, is_string=is_string)
+    return frozen(plan._replace(EA=EA, damping=damping, is_string=is_string))
 
 
 @dataclass(frozen=True)

@@ -19,14 +19,15 @@ from numpy.typing import ArrayLike, NDArray
 from tensegrity_core.sim.general.kernels import arrays, loops
 from tensegrity_core.sim.general.kernels.jit import choose_kernels
 from tensegrity_core.sim.general.kernels.pattern import JacobianPattern
-from tensegrity_core.sim.general.kernels.plan import Plan
+from tensegrity_core.sim.general.kernels.plan import Plan, frozen
 
 FloatArray = NDArray[np.float64]
 
 
 def _arg(a: ArrayLike) -> FloatArray:
     """``a`` as a writable C-ordered float64 array (copied only if it is not one): the
-    compiled kernels are compiled once, for that kind of array."""
+    compiled kernels are compiled once, for that kind of array (a plan's arrays are of
+    another kind, :func:`~.plan.frozen`)."""
     if isinstance(a, np.ndarray) and a.dtype == np.float64 and a.flags.c_contiguous and a.flags.writeable:
         return a
     return np.array(a, dtype=np.float64, order="C")
@@ -52,7 +53,7 @@ class Evaluator:
     installed, unless ``TENSEGRITY_KERNELS`` says otherwise; :func:`~.jit.choose_kernels`)."""
 
     def __init__(self, plan: Plan, kernels: str | None = None):
-        self.plan = plan
+        self.plan = frozen(plan)
         self.kernels = choose_kernels(kernels)
         self._module: ModuleType = loops if self.kernels == "numba" else arrays
         #: The numpy kernels' gathers and sums (None for the compiled loops).
@@ -89,7 +90,7 @@ class Evaluator:
         """The same kernels on ``plan``, a plan of the same topology (other member constants):
         the Jacobian's pattern, if built, the numpy kernels' sums and :attr:`shared` are shared."""
         new = copy.copy(self)
-        new.plan = plan
+        new.plan = frozen(plan)
         return new
 
     @cached_property

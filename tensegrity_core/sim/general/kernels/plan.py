@@ -9,13 +9,18 @@ rotation charts ``R_ref`` and the rest lengths at ``t`` -- is passed to each cal
 
 Conventions: lengths [m], forces [N] (member force positive = tensile), masses [kg],
 inertia [kg m^2] about the body's reference point ``c`` (the centroid of its nodes) in the
-body's reference frame (the drawing's axes). The arrays are plain numpy arrays with fixed
-dtypes (float64, int64, bool) so that the compiled kernels are compiled once for all models.
+body's reference frame (the drawing's axes).
+
+The arrays are of one kind (:func:`frozen`): C-ordered, read-only, float64, int64 or bool.
+numba compiles a kernel once per kind of its arguments -- dtype, dimensions, memory layout
+and whether they are writable -- so a plan whose member ends were a column of a read-only
+table, or a copy of it, would each compile the kernels again (seconds to minutes) where the
+set-up's warm-up (:mod:`.warm`) compiled them once for every model.
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import NamedTuple, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,6 +31,27 @@ from tensegrity_core.general.structure import Structure
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+P = TypeVar("P", bound=tuple[np.ndarray, ...])
+
+#: The dtypes of the kernels' arrays.
+KINDS = (np.dtype(np.float64), np.dtype(np.int64), np.dtype(np.bool_))
+
+
+def constant(a: np.ndarray) -> np.ndarray:
+    """``a`` as the kernels' one kind of constant array: C-ordered and read-only (a copy,
+    unless it is one already; the caller's array stays writable)."""
+    assert a.dtype in KINDS, f"a kernel array of dtype {a.dtype}"
+    if a.flags.c_contiguous and not a.flags.writeable:
+        return a
+    out = np.array(a, order="C")
+    out.setflags(write=False)
+    return out
+
+
+def frozen(plan: P) -> P:
+    """``plan`` (a :class:`Plan`, a :class:`Placement` or a robot's plan: a named tuple of
+    arrays) with every array :func:`constant`: the kind the kernels are compiled for."""
+    return type(plan)(*(constant(a) for a in plan))
 
 
 class Placement(NamedTuple):
@@ -61,7 +87,7 @@ def build_placement(layout: DofLayout, nodes: FloatArray, *, free_masses: FloatA
     # inertia about the centre of mass d = s/m: I_cm = I_c + hat(s) hat(s) / m (parallel axes)
     S = hat(first)
     inertia_cm = inertia + S @ S / mass[:, None, None] if len(mass) else inertia
-    return Placement(
+    return frozen(Placement(
         base=np.array(nodes, dtype=float),
         free_node=free_node[order].astype(np.int64),
         free_axis=free_axis[order].astype(np.int64),
@@ -74,7 +100,7 @@ def build_placement(layout: DofLayout, nodes: FloatArray, *, free_masses: FloatA
         body_first_moment=first,
         body_inertia=inertia,
         body_inv_inertia_cm=np.linalg.inv(inertia_cm) if len(mass) else inertia.copy(),
-    )
+    ))
 
 
 class Plan(NamedTuple):
@@ -131,7 +157,7 @@ def build_plan(structure: Structure, *, free_masses: FloatArray, body_masses: Fl
     placement = build_placement(structure.layout, structure.nodes, free_masses=free_masses, body_masses=body_masses,
                                 body_first_moments=body_first_moments, body_inertia=body_inertia)
     m = structure.n_members
-    return Plan(
+    return frozen(Plan(
         *placement,
         member_a=np.asarray(structure.members[:, 0], dtype=np.int64),
         member_b=np.asarray(structure.members[:, 1], dtype=np.int64),
@@ -139,4 +165,4 @@ def build_plan(structure: Structure, *, free_masses: FloatArray, body_masses: Fl
         damping=np.zeros(m) if damping is None else np.array(damping, dtype=float),
         is_string=np.array(structure.is_string, dtype=bool),
         external=np.zeros((structure.n_nodes, 3)) if external is None else np.array(external, dtype=float),
-    )
+    ))

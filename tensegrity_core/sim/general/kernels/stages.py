@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from scipy.integrate._ivp import dop853_coefficients as dop853
 
 from tensegrity_core.sim.general.kernels import loops
-from tensegrity_core.sim.general.kernels.plan import Plan
+from tensegrity_core.sim.general.kernels.plan import Plan, frozen
 from tensegrity_core.sim.integrators import Run
 
 FloatArray = NDArray[np.float64]
@@ -54,12 +54,11 @@ class CompiledStages:
 
     def __init__(self, plan: Plan, R_ref: FloatArray, rest_lengths: Callable[[float], FloatArray], constant: bool,
                  *, strings: NDArray[np.int64], moving: NDArray[np.bool_], rechart_angle: float):
-        self.plan = plan
-        self.R_ref = np.ascontiguousarray(R_ref, dtype=float)
+        self.plan = frozen(plan)
+        self.R_ref = np.array(R_ref, dtype=float)
         self.rest_lengths = rest_lengths
         self.constant = constant
-        self._screen = (np.ascontiguousarray(strings, dtype=np.int64), np.ascontiguousarray(moving, dtype=bool),
-                        float(rechart_angle))
+        self._screen = (np.array(strings, dtype=np.int64), np.array(moving, dtype=bool), float(rechart_angle))
         fixed = np.ascontiguousarray(rest_lengths(0.0), dtype=float)
         self._fixed = {k: np.ascontiguousarray(np.tile(fixed, (k, 1))) for k in (len(RK4_C), len(C))} \
             if constant else None

@@ -19,7 +19,10 @@ import numpy as np
 from tensegrity_core.sim.general.kernels.jit import have_numba
 
 #: A small structure with every kind of part: a free node, a partly pinned node, a rigid
-#: body, strings, a bar, masses (the kernels compile once for all structures).
+#: body, strings, a bar, masses. The kernels compile once for all structures: every plan's
+#: arrays are of one kind (:func:`~.plan.frozen`), the states and work arrays of another
+#: (writable, C-ordered), so a structure without bodies, or with other sizes, calls the same
+#: signatures (tests/sim/test_kernel_signatures.py).
 WARM_STRUCTURE: dict[str, object] = {
     "name": "warm-up",
     "nodes": {"p1": [0, 0, 0], "p2": [1, 0, 0], "p3": [0, 1, 0], "n": [0.5, 0.5, 1.0], "s": [1.0, 1.0, 0.5]},
@@ -32,16 +35,6 @@ WARM_STRUCTURE: dict[str, object] = {
     "masses": {"n": 0.3, "s": 0.2},
 }
 
-#: The same without a rigid body: its kernels take arrays of another type (numba compiles a
-#: kernel once per type of its arguments, so both kinds of structure are warmed).
-WARM_STRUCTURE_WITHOUT_BODIES: dict[str, object] = {
-    "name": "warm-up without bodies",
-    "nodes": {"a": [0, 0, 0], "n": [0, 0, 1.0]},
-    "members": [{"nodes": ["a", "n"], "EA": 100.0, "rest_length_ratio": 0.9}],
-    "pinned": ["a"],
-    "masses": {"n": 2.0},
-}
-
 
 def warm() -> float:
     """Run every compiled kernel once (compiling or loading it); the seconds it took."""
@@ -49,8 +42,7 @@ def warm() -> float:
     from tensegrity_core.sim.general.kernels import loops
 
     started = time.perf_counter()
-    for structure in (WARM_STRUCTURE, WARM_STRUCTURE_WITHOUT_BODIES):
-        _warm_general(structure)
+    _warm_general(WARM_STRUCTURE)
     gaps = np.zeros(1)
     loops.quiet_step(gaps, gaps, gaps, gaps, np.zeros(1, dtype=bool), 1e-3)   # as the tests call it
     robot = scene_from_dict({"model": {"kind": "robot", "robot": "three_bar"}, "initial": {"drawn": True},

@@ -41,7 +41,7 @@ from tensegrity_core.general.structure import RigidBody
 from tensegrity_core.robot.description import Robot
 from tensegrity_core.robot.rod import rod_frames, world_inertia
 from tensegrity_core.sim.errors import SceneError
-from tensegrity_core.sim.general.kernels.plan import build_placement
+from tensegrity_core.sim.general.kernels.plan import build_placement, frozen
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -227,7 +227,7 @@ def build_plan(robot: Robot, effects: RobotEffects) -> RobotPlan:
     else:
         cap_node, cap_body, cap_radius = np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
         params, normal, point = np.zeros(8), np.array([0.0, 0.0, 1.0]), np.zeros(3)
-    return RobotPlan(
+    return frozen(RobotPlan(
         *placement,
         external=weight_mass[:, None] * g[None, :],
         cable_a=np.array(cab.ends[:, 0], dtype=np.int64), cable_b=np.array(cab.ends[:, 1], dtype=np.int64),
@@ -235,7 +235,7 @@ def build_plan(robot: Robot, effects: RobotEffects) -> RobotPlan:
         cable_l0=np.array(cab.rest_length, dtype=float), cable_motor=motor_slot,
         motor_cable=np.asarray(actuated, dtype=np.int64), motor_lo=lo, motor_hi=hi, motor_tau=tau,
         motor_speed=speed, cap_node=cap_node, cap_body=cap_body, cap_radius=np.array(cap_radius, dtype=float),
-        floor_normal=normal, floor_point=point, floor_params=params)
+        floor_normal=normal, floor_point=point, floor_params=params))
 
 
 def lumped_masses(robot: Robot) -> FloatArray:
