@@ -74,7 +74,7 @@ def test_a_gait_of_two_motor_cables_is_followed_as_the_core_runs_it_and_settles_
     assert handle.accepted
     steps = 300                                    # the trajectory's 0.1 s, then the motors settle
     client.step_received(steps, t0, STEP_NS, chunk=50)
-    status, result = _result(handle)
+    status, result = _result(client, handle)
     assert status == GoalStatus.STATUS_SUCCEEDED and result.error_code == SUCCESSFUL, result.error_string
     ros = {j.stamp_ns: j for j in client.joints_since(t0)}
     last = feedback[-1]

@@ -136,7 +136,9 @@ def test_parameters_from_a_yaml_file_take_effect(sim_node, tmp_path):
     params.write_text(
         "tensegrity_sim:\n  ros__parameters:\n    frame_id: lab\n    publish_rate: 250.0\n"
         "    state_rate: 25.0\n    marker_rate: 5.0\n    real_time_factor: 2.0\n")
-    proc, ros = sim_node("--params-file", str(params))
+    # the simulator starts once this test's listener subscribes to every output topic: the
+    # slower topics' first publication (due with the first) then has its reader
+    proc, ros = sim_node("--params-file", str(params), "-p", "wait_for_node:=sim_test_listener")
     ros.spin_until(lambda: len(ros.states) >= 5 and len(ros.markers) >= 3, timeout=60)
     assert {m.header.frame_id for m in [*ros.joints, *ros.states]} == {"lab"}
     # the slower topics go out with every n-th publication, n = publish_rate / rate, the first
