@@ -6,6 +6,7 @@ Run from the repository root with the ``mujoco`` extra installed (``./run setup`
 
     .venv/bin/python docs/robot_mujoco_order.py                  # every experiment, one line each
     .venv/bin/python docs/robot_mujoco_order.py "MuJoCo, RK4 (as exported)"     # one of EXPERIMENTS
+    .venv/bin/python docs/robot_mujoco_order.py "tip budget"     # what a tip's time is made of
 
 The two models are made equal one difference at a time. MuJoCo runs a scene's export
 (``export_mjcf(load_scene(...))``, its integrator and step overridden) driven either by the
@@ -499,9 +500,61 @@ EXPERIMENTS = {
        for who, options in FOUR_WAYS},
 }
 
+def _inverse_rate(psi: float, psi0: float, w0: float) -> float:
+    """``dt / dpsi`` [s/rad] of a body turning about an edge from rest at ``psi0`` [rad]
+    beyond the vertical, ``psi'' = w0^2 sin psi``."""
+    return 1.0 / math.sqrt(2 * w0 ** 2 * (math.cos(psi0) - math.cos(psi)))
+
+
+def tip_budget() -> None:
+    """What a tip of ``six_bar_roll``'s derivation takes ("A decisive roll", "What a tip's
+    time is made of"), for its three kinds of step (off a closed face, off an open face over
+    its long and over its short edge) with the fewest cables and with ``GAIT_SPREAD``: the
+    longest travel [m] and the move's time at the motors' slew limit (x 1.2, as laid out)
+    [s]; and the rest shape turning rigidly about the edge, from rest with its centre of mass
+    the derived margin beyond it, onto the next face: ``I_e psi'' = M g d sin psi`` (``d``
+    [m] the centre of mass's distance from the edge, ``I_e`` [kg m^2] the rods' inertia about
+    it): the time is the quadrature of ``1 / psi'`` from energy conservation."""
+    from scipy.integrate import quad
+
+    from tensegrity_core.robot.statics import rest_shape
+    from tensegrity_core.robot.tipping import GAIT_SPREAD, lumped_masses
+
+    robot = load_scene("six_bar_roll").model.robot
+    X = rest_shape(robot).nodes
+    mass = lumped_masses(robot)
+    M, g = float(mass.sum()), float(np.linalg.norm(robot.gravity))
+    speed = float(robot.motors.max_speed.min())
+    nominal = robot.cables.rest_length
+    for spread in (1.0, GAIT_SPREAD):
+        for step in tipping_steps(robot, 3, (1.0, 0.0), spread):
+            P = place_on_face(X, step.face, float(robot.rods.cap_radius.max()))
+            a, _, c = step.face
+            if P[c, 1] < 0:
+                P = P * np.array([1.0, -1.0, 1.0])
+            edge = P[a, 1:]                                     # (y, z) of the edge, seen along it
+            d = float(np.linalg.norm((mass @ P / M)[1:] - edge))
+            p, q = P[robot.rods.ends[:, 0], 1:] - edge, P[robot.rods.ends[:, 1], 1:] - edge
+            inertia = float(np.sum(robot.rods.mass / 3 * np.sum(p * p + p * q + q * q, axis=1)))
+            far = P[next(i for i in step.next_face if i not in step.edge), 1:] - edge
+            turn = math.pi - abs(math.atan2(far[1], far[0]))    # onto the next face [rad]
+            w0 = math.sqrt(M * g * d / inertia)
+            psi0 = math.asin(-step.margin_after / d)
+            fall = quad(_inverse_rate, psi0, psi0 + turn, args=(psi0, w0), limit=200)[0]
+            travel = float(np.max(np.abs(np.asarray(step.rest_lengths) - nominal[list(step.cables)])))
+            print(f"spread {spread:g}, {' '.join(robot.node_names[i] for i in step.face)} over "
+                  f"{' '.join(robot.node_names[i] for i in step.edge)}: {len(step.cables)} cables, travel "
+                  f"{travel:.3f} m, move {1.2 * travel / speed:.2f} s; d {d:.3f} m, I_e {inertia:.1f} kg m^2, "
+                  f"1/omega_0 {1 / w0:.3f} s, from {math.degrees(psi0):.2f} deg beyond the edge a rigid fall of "
+                  f"{math.degrees(turn):.1f} deg takes {fall:.2f} s")
+
+
 if __name__ == "__main__":
     chosen = sys.argv[1:] or list(EXPERIMENTS)
     for label in chosen:
+        if label == "tip budget":
+            tip_budget()
+            continue
         options = dict(EXPERIMENTS[label])
         since = FROM if options.get("layout", RELEASE_FREE) == RELEASE_FREE else 0.0
         show(label, project(**options) if options.pop("project", False) else run(**options), since)
