@@ -15,7 +15,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from tensegrity_core.robot.faces import faces_rolled, faces_visited  # noqa: E402
+from tensegrity_core.robot.faces import faces_visited, progress_faces  # noqa: E402
 from tensegrity_core.sim import compile_scene, load_scene  # noqa: E402
 
 OUT = Path(__file__).parent / "img" / "robots"
@@ -64,7 +64,9 @@ def roll() -> None:
     model, o = run("six_bar_roll", 10.0)
     t, com = o["t"], o["centre_of_mass"]
     faces = faces_visited(t, o["cap_contact"])
-    print(f"six_bar_roll: {faces_rolled(faces)} faces rolled in 10 s, centre of mass moved "
+    progress = len(progress_faces([caps for _, caps in faces])) - 1
+    print(f"six_bar_roll: {progress} faces of progress in 10 s (faces at {[round(tf, 2) for tf, _ in faces]} s), "
+          f"centre of mass moved "
           f"{com[-1, 0] - com[0, 0]:.2f} m along x, {com[-1, 1] - com[0, 1]:.2f} m along y")
     fig, axes = plt.subplots(3, 1, figsize=(7, 9))
     ax = axes[0]
@@ -74,7 +76,7 @@ def roll() -> None:
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_aspect("equal", adjustable="datalim")
-    ax.set_title(f"six_bar_roll: {faces_rolled(faces)} faces in 10 s")
+    ax.set_title(f"six_bar_roll: {progress} faces of progress in 10 s")
     ax = axes[1]
     n_rods = len(model.robot.rods)
     tensions = o["member_forces"][:, n_rods:]

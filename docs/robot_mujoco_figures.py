@@ -189,8 +189,12 @@ def compare_roll() -> None:
     bx.plot(t, 0.1 * np.hypot(*theirs_t[:, :2].T), "k--", lw=1.0, label="10 % of MuJoCo's travel from the start")
     for k, s in enumerate(breaks):
         bx.axvline(s, color="0.7", lw=0.6, ls=":", label="a gait breakpoint" if k == 0 else None)
-    for series, (t0, t1), colour in (("project", airborne(run.times, np.asarray(run.contact_forces).sum(axis=1)), "C0"),
-                                     ("MuJoCo", mujoco_airborne(scene, gait, 5.0), "C1")):
+    for series, span, colour in (("project", airborne(run.times, np.asarray(run.contact_forces).sum(axis=1)), "C0"),
+                                 ("MuJoCo", mujoco_airborne(scene, gait, float(run.times[-1])), "C1")):
+        if span is None:
+            continue
+        t0, t1 = span
+        print(f"{series}: off the floor {t0:.2f}-{t1:.2f} s")
         bx.axvspan(t0, t1, color=colour, alpha=0.2, label=f"{series}: robot off the floor ({t0:.2f}-{t1:.2f} s)")
     bx.set_xlabel("t [s]")
     bx.set_ylabel("distance between the centres of mass [m]")
@@ -202,16 +206,18 @@ def compare_roll() -> None:
     plt.close(fig)
 
 
-def airborne(times: np.ndarray, floor_force: np.ndarray) -> tuple[float, float]:
+def airborne(times: np.ndarray, floor_force: np.ndarray) -> tuple[float, float] | None:
     """The first span [s] after the start in which nothing touches the floor (its first and
-    last sample)."""
+    last sample), None if the robot never leaves it."""
     off = np.flatnonzero((floor_force <= 0) & (times > 0.05))
+    if not len(off):
+        return None
     end = off[:-1][np.diff(off) > 1]
     last = int(end[0]) if len(end) else int(off[-1])
     return float(times[off[0]]), float(times[last])
 
 
-def mujoco_airborne(scene, gait, duration: float) -> tuple[float, float]:
+def mujoco_airborne(scene, gait, duration: float) -> tuple[float, float] | None:
     """:func:`airborne` of the scene's export in MuJoCo driven by ``gait`` for ``duration`` [s]
     (the floor's normal force from MuJoCo's contacts at every step)."""
     m = mujoco.MjModel.from_xml_string(export_mjcf(scene).xml)

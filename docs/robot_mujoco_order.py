@@ -6,6 +6,7 @@ Run from the repository root with the ``mujoco`` extra installed (``./run setup`
 
     .venv/bin/python docs/robot_mujoco_order.py                  # every experiment, one line each
     .venv/bin/python docs/robot_mujoco_order.py "MuJoCo, RK4 (as exported)"     # one of EXPERIMENTS
+    .venv/bin/python docs/robot_mujoco_order.py "tip budget"     # what a tip's time is made of
 
 The two models are made equal one difference at a time. MuJoCo runs a scene's export
 (``export_mjcf(load_scene(...))``, its integrator and step overridden) driven either by the
@@ -28,6 +29,7 @@ replaces MuJoCo's contacts. A run of 13 s with the project's law takes ~10 CPU s
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import sys
 from collections.abc import Sequence
@@ -49,7 +51,7 @@ from tensegrity_core.robot.contact import normal_force, resisting_couple  # noqa
 from tensegrity_core.robot.friction import stage_force, tangential  # noqa: E402
 from tensegrity_core.robot.gait import GAITS_DIR, Gait, gait_from_file, gait_to_dict  # noqa: E402
 from tensegrity_core.robot.roll_control import RollController  # noqa: E402
-from tensegrity_core.robot.tipping import hull_faces, place_on_face  # noqa: E402
+from tensegrity_core.robot.tipping import hull_faces, place_on_face, tipping_steps  # noqa: E402
 from tensegrity_core.sim import Scene, compile_scene, load_scene, simulate  # noqa: E402
 from tensegrity_core.sim.control_loop import ControlLoop  # noqa: E402
 from tensegrity_core.sim.scene import SCENES_DIR  # noqa: E402
@@ -60,6 +62,8 @@ FloatArray = NDArray[np.float64]
 FROM = 4.0
 #: The release-free layout's cycle [s] (13 s): :func:`laid_out` with ``rest=None``.
 DURATION = 13.0
+#: A layout of the derived moves, :func:`laid_out`'s arguments: ``(hold, rest[, overlap[, spread]])``.
+Layout = tuple[float, float | None] | tuple[float, float | None, bool] | tuple[float, float | None, bool, float]
 #: ``(hold, rest)`` [s] of the release-free layout (the next move and the release together).
 RELEASE_FREE = (0.6, None)
 #: The closed-loop controller's period [s] (50 Hz).
@@ -210,18 +214,38 @@ def slew_limited(command: ArrayLike, l0: ArrayLike, speed: ArrayLike, tau: Array
     return out
 
 
-def laid_out(hold: float, rest: float | None, overlap: bool = False) -> Gait:
-    """The shipped ``six_bar_roll``'s tipping moves laid out again: per tip the move (at the
-    motors' speed x 1.2, as :func:`tensegrity_core.robot.tipping.gait_of_steps` moves), a
-    hold of ``hold`` [s], then the release to the nominal rest lengths and a rest of ``rest``
-    [s] (the shipped layout: ``(0.6, 0.3)``); ``rest=None``: no release between tips (each
-    move starts from the last tip's rest lengths), one release at the end. ``overlap``: the
+@functools.cache
+def moves(spread: float) -> tuple[FloatArray, FloatArray]:
+    """``(nominal, targets)`` [m]: the actuated cables' nominal rest lengths and the 8 tipping
+    moves of ``six_bar_roll``'s derivation towards +x with ``spread``
+    (:func:`tensegrity_core.robot.tipping.tipping_steps`; 1: the fewest cables, as every
+    layout but the shipped one was measured; the shipped gait: ``GAIT_SPREAD``), rounded to
+    1 um as the gait file is."""
+    robot = load_scene("six_bar_roll").model.robot
+    act = robot.cables.actuated
+    nominal = robot.cables.rest_length[act]
+    targets = []
+    for step in tipping_steps(robot, 8, (1.0, 0.0), spread):
+        target = nominal.copy()
+        for j, r in zip(step.cables, step.rest_lengths):
+            target[int(np.flatnonzero(act == j)[0])] = r
+        targets.append(np.round(target, 6))
+    return nominal, np.array(targets)
+
+
+def laid_out(hold: float, rest: float | None, overlap: bool = False, spread: float = 1.0) -> Gait:
+    """``six_bar_roll``'s tipping moves derived with ``spread`` (:func:`moves`) laid out: per
+    tip the move (at the motors' speed x 1.2, as
+    :func:`tensegrity_core.robot.tipping.gait_of_steps` moves), a hold of ``hold`` [s], then
+    the release to the nominal rest lengths and a rest of ``rest`` [s] (the shipped layout:
+    ``(0.5, 0.3)`` with ``spread`` 3); ``rest=None``: no release between tips (each move
+    starts from the last tip's rest lengths), one release at the end. ``overlap``: the
     release leaves the cables the next move drives where they are held (they go straight to
     their next target in the next move)."""
     robot = load_scene("six_bar_roll").model.robot
     shipped = gait_from_file(GAITS_DIR / "six_bar_roll.yaml")
-    rows = np.asarray(shipped.rest_lengths)
-    nominal, speed = rows[0], robot.motors.max_speed
+    nominal, targets = moves(spread)
+    speed = robot.motors.max_speed
     times, table = [0.0], [nominal]
 
     def move_to(row: FloatArray, then: float | None) -> None:
@@ -231,7 +255,6 @@ def laid_out(hold: float, rest: float | None, overlap: bool = False) -> Gait:
             times.append(times[-1] + then)
             table.append(row)
 
-    targets = rows[1:-1:4]
     for k, target in enumerate(targets):
         move_to(target, hold)
         if rest is not None and overlap and k + 1 < len(targets):
@@ -245,7 +268,7 @@ def laid_out(hold: float, rest: float | None, overlap: bool = False) -> Gait:
                 rest_lengths=tuple(tuple(float(v) for v in r) for r in table))
 
 
-def gait_scene(layout: tuple[float, float | None] | tuple[float, float | None, bool] | None, step: float = 1e-3,
+def gait_scene(layout: Layout | None, step: float = 1e-3,
                duration: float | None = None) -> Scene:
     """``six_bar_roll`` with its gait :func:`laid_out` as ``layout`` (None: as shipped), the
     integrator's fixed step ``step`` [s], simulated for ``duration`` [s] (None: the scene's
@@ -276,7 +299,7 @@ class Run:
 
 def run(scene_name: str = "six_bar_roll", *, law: FloorLaw | None = None, integrator: str = "RK4",
         timestep: float = 1e-3, duration: float | None = None, roll: int = 0, slew: bool = False,
-        layout: tuple[float, float | None] | tuple[float, float | None, bool] | None = RELEASE_FREE) -> Run:
+        layout: Layout | None = RELEASE_FREE) -> Run:
     """MuJoCo on the export of ``scene_name`` driven by the gait ``six_bar_roll`` (``roll = 0``;
     :func:`laid_out` as ``layout``, None: as shipped) or by the closed-loop controller asked
     for ``roll`` faces towards +x (sampled at 50 Hz, stopped 1 s after it is done), with its
@@ -348,7 +371,7 @@ def run(scene_name: str = "six_bar_roll", *, law: FloorLaw | None = None, integr
 
 
 def project(scene_name: str = "six_bar_roll", *, step: float = 1e-3, duration: float | None = None,
-            roll: int = 0, layout: tuple[float, float | None] | tuple[float, float | None, bool] | None = RELEASE_FREE) -> Run:
+            roll: int = 0, layout: Layout | None = RELEASE_FREE) -> Run:
     """The project's run of the same experiment (:func:`run`'s arguments; ``step`` [s] the
     scene's fixed step): the gait's scene simulated, or the controller run by
     :class:`~tensegrity_core.sim.control_loop.ControlLoop`; faces counted as :func:`run`
@@ -469,11 +492,69 @@ EXPERIMENTS = {
        for who, options in FOUR_WAYS},
     **{f"hold {h} s, release the cables the next move does not drive, rest {r} s: {who}": dict(
         layout=(h, r, True), **options) for h, r in ((0.6, 0.1), (0.4, 0.1)) for who, options in FOUR_WAYS},
+    **{f"hold 0.6 s, rest 0.3 s: {who}": dict(layout=(0.6, 0.3), **options) for who, options in FOUR_WAYS},
+    # the moves shared among more cables (tipping's spread), shorter at the motors' slew limit
+    **{f"spread {p}, hold {h} s, rest {r} s: {who}": dict(layout=(h, r, False, p), **options)
+       for p, h, r in ((3.0, 0.6, 0.3), (3.0, 0.4, 0.3), (3.0, 0.4, 0.4), (3.0, 0.45, 0.3), (3.0, 0.55, 0.3),
+                       (3.0, 0.5, 0.25), (3.0, 0.5, 0.35), (2.5, 0.5, 0.3), (3.5, 0.5, 0.3), (100.0, 0.5, 0.3))
+       for who, options in FOUR_WAYS},
 }
+
+def _inverse_rate(psi: float, psi0: float, w0: float) -> float:
+    """``dt / dpsi`` [s/rad] of a body turning about an edge from rest at ``psi0`` [rad]
+    beyond the vertical, ``psi'' = w0^2 sin psi``."""
+    return 1.0 / math.sqrt(2 * w0 ** 2 * (math.cos(psi0) - math.cos(psi)))
+
+
+def tip_budget() -> None:
+    """What a tip of ``six_bar_roll``'s derivation takes ("A decisive roll", "What a tip's
+    time is made of"), for its three kinds of step (off a closed face, off an open face over
+    its long and over its short edge) with the fewest cables and with ``GAIT_SPREAD``: the
+    longest travel [m] and the move's time at the motors' slew limit (x 1.2, as laid out)
+    [s]; and the rest shape turning rigidly about the edge, from rest with its centre of mass
+    the derived margin beyond it, onto the next face: ``I_e psi'' = M g d sin psi`` (``d``
+    [m] the centre of mass's distance from the edge, ``I_e`` [kg m^2] the rods' inertia about
+    it): the time is the quadrature of ``1 / psi'`` from energy conservation."""
+    from scipy.integrate import quad
+
+    from tensegrity_core.robot.statics import rest_shape
+    from tensegrity_core.robot.tipping import GAIT_SPREAD, lumped_masses
+
+    robot = load_scene("six_bar_roll").model.robot
+    X = rest_shape(robot).nodes
+    mass = lumped_masses(robot)
+    M, g = float(mass.sum()), float(np.linalg.norm(robot.gravity))
+    speed = float(robot.motors.max_speed.min())
+    nominal = robot.cables.rest_length
+    for spread in (1.0, GAIT_SPREAD):
+        for step in tipping_steps(robot, 3, (1.0, 0.0), spread):
+            P = place_on_face(X, step.face, float(robot.rods.cap_radius.max()))
+            a, _, c = step.face
+            if P[c, 1] < 0:
+                P = P * np.array([1.0, -1.0, 1.0])
+            edge = P[a, 1:]                                     # (y, z) of the edge, seen along it
+            d = float(np.linalg.norm((mass @ P / M)[1:] - edge))
+            p, q = P[robot.rods.ends[:, 0], 1:] - edge, P[robot.rods.ends[:, 1], 1:] - edge
+            inertia = float(np.sum(robot.rods.mass / 3 * np.sum(p * p + p * q + q * q, axis=1)))
+            far = P[next(i for i in step.next_face if i not in step.edge), 1:] - edge
+            turn = math.pi - abs(math.atan2(far[1], far[0]))    # onto the next face [rad]
+            w0 = math.sqrt(M * g * d / inertia)
+            psi0 = math.asin(-step.margin_after / d)
+            fall = quad(_inverse_rate, psi0, psi0 + turn, args=(psi0, w0), limit=200)[0]
+            travel = float(np.max(np.abs(np.asarray(step.rest_lengths) - nominal[list(step.cables)])))
+            print(f"spread {spread:g}, {' '.join(robot.node_names[i] for i in step.face)} over "
+                  f"{' '.join(robot.node_names[i] for i in step.edge)}: {len(step.cables)} cables, travel "
+                  f"{travel:.3f} m, move {1.2 * travel / speed:.2f} s; d {d:.3f} m, I_e {inertia:.1f} kg m^2, "
+                  f"1/omega_0 {1 / w0:.3f} s, from {math.degrees(psi0):.2f} deg beyond the edge a rigid fall of "
+                  f"{math.degrees(turn):.1f} deg takes {fall:.2f} s")
+
 
 if __name__ == "__main__":
     chosen = sys.argv[1:] or list(EXPERIMENTS)
     for label in chosen:
+        if label == "tip budget":
+            tip_budget()
+            continue
         options = dict(EXPERIMENTS[label])
         since = FROM if options.get("layout", RELEASE_FREE) == RELEASE_FREE else 0.0
         show(label, project(**options) if options.pop("project", False) else run(**options), since)

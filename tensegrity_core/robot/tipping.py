@@ -223,7 +223,10 @@ def tipping_step(robot: Robot, X: FloatArray, face: tuple[int, int, int],
     """``(cables, rest lengths [m], margin [m], margin after [m])``: the move of actuated
     cables that tips the robot, resting with its rest shape ``X`` on ``face`` (edge first),
     over the edge ``face[:2]`` (module docstring, steps 1-4; ``spread`` >= 1 in step 3). Raises
-    :class:`ConvergenceError` if no choice of the actuated cables does it."""
+    :class:`ConvergenceError` if no choice of the actuated cables does it, ValueError for a
+    ``spread`` below 1."""
+    if not spread >= 1.0:
+        raise ValueError(f"spread must be at least 1 (the reaches taken cover the far caps' reaction), got {spread:g}")
     radius = float(robot.rods.cap_radius.max())
     sup = _Supported(robot, place_on_face(X, face, radius), face)
     r0, m0, ok, X0 = sup.state(nominal, sup.X)

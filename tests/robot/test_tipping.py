@@ -116,6 +116,8 @@ def test_a_spread_move_tips_the_six_bar_with_more_cables_each_moved_less(six_bar
     travel = [np.abs(np.asarray(rest) - nominal[list(cables)]).max() for cables, rest in
               ((fewest[0], fewest[1]), (first_step.cables, first_step.rest_lengths))]
     assert travel[1] < travel[0]
+    with pytest.raises(ValueError, match="spread must be at least 1 .* got 0.5"):
+        tipping.tipping_step(six_bar, X, first_step.face, nominal, spread=0.5)
 
 
 def test_place_on_face_puts_the_face_on_the_floor_and_the_rest_above():
