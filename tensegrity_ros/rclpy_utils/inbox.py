@@ -35,9 +35,10 @@ class Inbox:
         self._wait_set: Any = None
 
     def subscribe(self, msg_type: Any, topic: str, callback: Callable[[Any], None],
-                  qos: QoSProfile | int) -> Subscription:
-        """A subscription whose messages :meth:`wait` hands to ``callback``."""
-        subscription = self._node.create_subscription(msg_type, topic, callback, qos)
+                  qos: QoSProfile | int, *, raw: bool = False) -> Subscription:
+        """A subscription whose messages :meth:`wait` hands to ``callback`` (``raw``: as
+        their serialized bytes)."""
+        subscription = self._node.create_subscription(msg_type, topic, callback, qos, raw=raw)
         self._subscriptions.append(subscription)
         self._wait_set = None
         return subscription

@@ -46,6 +46,18 @@ def _in_order(n: int) -> tuple[int, ...]:
     return tuple(range(n))
 
 
+def every_input(rest_lengths: Sequence[float], interface: Interface) -> InputUpdate | None:
+    """The update of a command that sets every input of ``interface``, in input order, to
+    ``rest_lengths`` [m] (a lockstep controller's command), checked at once; None when the
+    scene does not take rest lengths there or a value is not inside its range
+    (:func:`parse_cable_command` then names what is wrong)."""
+    if interface.command != "rest_length" or len(rest_lengths) != len(interface.inputs) or not interface.inputs:
+        return None
+    every = tuple(map(float, rest_lengths))
+    in_order = _in_order(len(every))
+    return InputUpdate(in_order, every) if _in_range(interface, in_order, every) else None
+
+
 def listed(names: Sequence[str]) -> str:
     """Names for a message: the first few, then how many more."""
     shown = ", ".join(names[:_LISTED])
@@ -81,11 +93,9 @@ def parse_cable_command(names: Sequence[str], rest_lengths: Sequence[float], ree
     inputs = interface.inputs
     if not reel_speeds and not tensions and len(rest_lengths) == len(inputs) and inputs \
             and (not names or tuple(names) == inputs):
-        # every input in input order, rest lengths only: a lockstep controller's command
-        every = tuple(map(float, rest_lengths))
-        in_order = _in_order(len(inputs))
-        if _in_range(interface, in_order, every):
-            return InputUpdate(in_order, every)
+        update = every_input(rest_lengths, interface)
+        if update is not None:
+            return update
     lists = {"rest_length": list(map(float, rest_lengths)), "reel_speed": list(map(float, reel_speeds)),
              "tension": list(map(float, tensions))}
     if not len(names) and not any(lists.values()):

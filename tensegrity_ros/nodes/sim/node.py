@@ -75,6 +75,7 @@ from tensegrity_ros.nodes.actuator_commands import CommandError
 from tensegrity_ros.nodes.common import rclpy, spin_node
 from tensegrity_ros.nodes.scene_param import declare_scene
 from tensegrity_ros.nodes.sim import control, sender
+from tensegrity_ros.nodes.sim.command_bytes import CableCommandBytes
 from tensegrity_ros.nodes.sim.control import PLAYING, RUN_STATE_NAMES, Answer, StepRequest
 from tensegrity_ros.nodes.sim.hold import CommandHold
 from tensegrity_ros.nodes.sim.interfaces import SimulationInterfaces
@@ -83,7 +84,7 @@ from tensegrity_ros.nodes.sim.outputs import Outputs
 from tensegrity_ros.nodes.sim.pacer import LockstepPacer
 from tensegrity_ros.nodes.sim.parameters import declare_sim_parameters
 from tensegrity_ros.nodes.sim.plant import SimPlant
-from tensegrity_ros.nodes.sim.receiver import Command, receive, receive_cables
+from tensegrity_ros.nodes.sim.receiver import Command, receive, receive_cable_bytes
 from tensegrity_ros.nodes.sim.schedule import TickSchedule
 from tensegrity_ros.rclpy_utils.delivery import DELIVERY_S, wait_for_delivery
 from tensegrity_ros.rclpy_utils.inbox import Inbox
@@ -135,7 +136,8 @@ class SimNode(SimulationInterfaces):
                                   parameter_overrides=[Parameter("start_type_description_service", value=False)])
         self._inbox = Inbox(self._command_node)
         self._inbox.subscribe(ActuatorForces, "actuator_forces", self.on_forces, 1)
-        self._inbox.subscribe(CableCommand, "cable_commands", self.on_cables, 100)
+        self._cable_bytes = CableCommandBytes(self.plant.interface.inputs)
+        self._inbox.subscribe(CableCommand, "cable_commands", self.on_cables, 100, raw=True)
         self._create_interfaces()
 
         self.rejected = 0
@@ -377,8 +379,10 @@ class SimNode(SimulationInterfaces):
     def on_forces(self, msg: ActuatorForces) -> None:
         self._take("actuator", lambda: receive(msg, max_force=self.p.max_force, interface=self.plant.interface))
 
-    def on_cables(self, msg: CableCommand) -> None:
-        self._take("cable", lambda: receive_cables(msg, interface=self.plant.interface))
+    def on_cables(self, raw: bytes) -> None:
+        """A serialized CableCommand (taken raw: the usual lockstep command is read in place,
+        :mod:`.command_bytes`)."""
+        self._take("cable", lambda: receive_cable_bytes(raw, self._cable_bytes, interface=self.plant.interface))
 
     def _take(self, what: str, parse: Callable[[], Command]) -> None:
         """A command message: validate it (``parse()`` gives its :class:`Command`), then apply
