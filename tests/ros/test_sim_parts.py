@@ -250,4 +250,3 @@ def test_joint_states_report_the_lengths_and_tensions_the_robot_measures(tmp_pat
             for name, value in zip(motors, array):
                 assert value == truth[name] if measured(which, name) else math.isnan(value), name
     assert any(v != 0.0 for v in rate.values())          # a moving robot: the rates are not all zero
-
