@@ -473,13 +473,14 @@ def _cpu_per_call(fn, n: int) -> float:
 def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
     """The floor of a pure-numpy RK4 step of the smallest tower (docs/design/performance.md):
     the fewest numpy calls a step needs -- per evaluation the member vectors and velocities
-    (one product), the lengths (a dot product per member and a root), the unit vectors (one
-    division), the rates (one product); per stage its state (one product) -- each timed alone
-    on the flat stages' own arrays in CPU time, no Python between them and no event screen;
-    against the compiled step and the numpy step measured in the same run (each call timed over
+    (one product), the lengths (two ``hypot``: no numpy call returns a column norm in one
+    ufunc), the unit vectors (one division), the rates (one product); per stage its state
+    (one product) -- each timed alone on the flat stages' own arrays in CPU time, outputs passed
+    as the flat stages pass them, no Python between them and no event screen; against the
+    compiled step and the numpy step measured in the same run (each call timed over
     ``calls_per_loop`` calls, the least of three loops)."""
     from tensegrity_core.sim import compile_scene
-    from tensegrity_core.sim.general.kernels.flat_stages import COMPONENTS, FlatStages
+    from tensegrity_core.sim.general.kernels.flat_stages import FlatStages
 
     os.environ["TENSEGRITY_KERNELS"] = "numpy"
     try:
@@ -493,12 +494,13 @@ def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
     flat.rk4(0.0, state.y, system.fun(0.0, state.y), first["step"])      # fills the buffers
     G, D, S, src, hv, h, l, u = flat._G, flat._D, flat.S, flat._sources, flat._hv, flat.h, flat.lengths, flat.u
     Z, out, weights, state_row = flat._Z[0], np.empty(len(state.y)), flat._weights[3], flat._state
-    calls = {"member vectors (np.dot)": lambda: np.dot(G, src, out=hv),
-             "lengths squared (np.vecdot)": lambda: np.vecdot(h, h, axes=COMPONENTS, out=l),
-             "lengths (np.sqrt)": lambda: np.sqrt(l, out=l),
-             "unit vectors (np.divide)": lambda: np.divide(h, l, out=u),
-             "rates (np.dot)": lambda: np.dot(D, S, out=out),
-             "stage state (np.dot)": lambda: np.dot(weights, Z, out=state_row)}
+    hx, hy, hz = h
+    calls = {"member vectors (np.dot)": lambda: np.dot(G, src, hv),
+             "lengths in the plane (np.hypot)": lambda: np.hypot(hx, hy, l),
+             "lengths (np.hypot)": lambda: np.hypot(l, hz, l),
+             "unit vectors (np.divide)": lambda: np.divide(h, l, u),
+             "rates (np.dot)": lambda: np.dot(D, S, out),
+             "stage state (np.dot)": lambda: np.dot(weights, Z, state_row)}
     cost = {name: _cpu_per_call(fn, calls_per_loop) for name, fn in calls.items()}
     floor = 4 * sum(cost.values())
     compiled = first["numba_cpu"] * first["step"]          # CPU seconds per step

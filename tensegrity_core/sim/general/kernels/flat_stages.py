@@ -6,12 +6,16 @@ calls (each costs about 0.5-1 us of dispatch whatever its length), not their ari
 right-hand side, about 20 calls. For a model whose nodes are all free or fixed (no moving
 rigid body) and whose members need no slack test inside a step (the stepper's stretches:
 a taut string carries compression, a slack one has no stiffness), this module evaluates a
-stage in 5 calls (small models) or 12 (larger ones), everything written in place:
+stage in 6 calls (small models) or 12 (larger ones), everything written in place, each
+output passed positionally (a keyword ``out=`` costs numpy ~0.1-0.2 us of argument parsing
+per call, a tenth of a small call):
 
 - a flat *source* buffer ``S = [y (N) | drawn coordinates (3n) | external forces on the free
   coordinates (n_free) | 0 | ...]`` whose tail holds the members' quantities (below);
 - the member vectors ``h = x_b - x_a`` (3, m, component-major) as one linear map of ``S``;
-- ``l = sqrt(h . h)``;
+- ``l = |h|``: ``hypot(hypot(h_x, h_y), h_z)`` for the dense maps (two calls on a few
+  dozen members, against a dot product per member and a root), a product, a sum over the
+  components and a root for the gathers (``hypot`` costs more per member);
 - ``dy/dt = [v | (external + sum of the member forces on each free coordinate) / mass]``
   as one linear map of ``S``;
 - the stage states ``y + h sum_j a_ij K_j`` and the step's end as one product of the
@@ -22,7 +26,7 @@ BLAS product whatever the number of nonzeros. Then the force of a member on its 
 ``t u`` with ``t = EA (l - l0) / l0 [+ c (dv . u)]``, is written ``k h - EA u [+ c (dv . u)
 u]`` (``k = EA / l0`` [N/m], ``u = h / l``): linear in ``h``, ``u`` and ``(dv . u) u``, whose
 coefficients (with the masses' inverses and the signs) are the rate matrix's columns, so a
-stage is ``h, dv = G S``; ``l``; ``u = h / l``; ``dy/dt = D S``. Above that size a dense
+stage is ``h, dv = G S``; ``l`` (two calls); ``u = h / l``; ``dy/dt = D S``. Above that size a dense
 product's work exceeds the calls it saves: the maps are gathers with index arrays (both ends
 of every member, and every coordinate's terms summed row by row and scaled), the force as
 ``q h`` with ``q = t / l = k - EA / l`` (and ``-q h`` on the nodes ``b``).
@@ -30,8 +34,11 @@ of every member, and every coordinate's terms summed row by row and scaled), the
 The formulas are those of :mod:`.loops`, member by member, the sums in another order: the
 numbers agree with the compiled kernels to rounding (the split ``k h - EA u`` adds two terms
 of the size of ``EA`` where the loops add one of the size of ``t``: an absolute rounding of a
-few ``eps EA`` [N] per member in both). The screen for a string's slack/taut event is that of
-:func:`.array_stages.quiet_step`, so a stretch stops where the compiled one does.
+few ``eps EA`` [N] per member in both; ``hypot`` rounds a length once where the loops'
+root of a sum rounds it up to three times). The screen for a string's slack/taut event
+decides as :func:`.loops.quiet_step`, so a stretch stops where the compiled one does, from
+the gaps signed by their signs at the stretch's start (:func:`quiet_ends`): one reduction
+per step's end gives the least signed gap and the largest rate.
 """
 
 from __future__ import annotations
@@ -61,6 +68,8 @@ SCREEN = (4.0 / 27.0) * (1.0 + 1e-9)
 #: (untyped: numpy's stubs type a gufunc's ``axes`` as matmul's pairs). One call, the cheapest
 #: below ~50 members (the dense maps' sizes); it loops member by member.
 COMPONENTS: Any = [(0,), (0,), ()]
+#: The fractions of the step at RK4's stages 1-3.
+FRACTIONS = (0.5, 0.5, 1.0)
 
 
 def flat_ready(plan: Plan) -> bool:
@@ -78,50 +87,61 @@ def rk4_coefficients(h: float) -> FloatArray:
     return c
 
 
-def quiet_ends(E0: FloatArray, E1: FloatArray, least0: float, most0: float, least1: float, most1: float, h: float,
-               margin: FloatArray) -> bool:
-    """:func:`.array_stages.quiet_step` of a step of ``h`` [s] from its ends ``E0``, ``E1``
-    (4, m) of :meth:`FlatStages._gaps` (gaps [m], their rates [m/s], their magnitudes) with
-    their least gap and largest rate magnitudes: no gap changes sign and none comes nearer
-    zero than 4/27 h (|rate_0| + |rate_1|). Decided at once from the least gaps and the
-    largest rates when they suffice (which implies the member-by-member test: rounding is
-    monotone), else member by member; ``margin`` (m,) is work space."""
-    if not len(margin):
-        return True
-    if not np.minimum.reduce(np.multiply(E0[0], E1[0], out=margin)) > 0.0:
+def quiet_ends(E0: FloatArray, E1: FloatArray, least0: float, most0: float, least1: float, most1: float,
+               h: float) -> bool:
+    """:func:`.loops.quiet_step` of a step of ``h`` [s] within a stretch, from its ends ``E0``,
+    ``E1`` (3, m) of :meth:`FlatStages._gaps`: per member its gap ``l - l0`` [m] times the
+    gap's sign at the stretch's start, its rate [m/s] and the rate's opposite; ``least`` the
+    least signed gap and ``most`` the largest rate magnitude of each end. No gap changes sign
+    and none comes nearer zero than 4/27 h (|rate_0| + |rate_1|).
+
+    Every step before this one in the stretch kept its gaps' signs, so a gap keeps its sign
+    in this one exactly when its signed gap at the end is positive (the loops' ``g0 g1 > 0``;
+    a gap zero at the stretch's start has sign 0 and stops the first step): the least signed
+    gap decides, and the signed gaps are the gaps' magnitudes. Then the least gaps and the
+    largest rates decide at once when they suffice (they imply the member-by-member test:
+    rounding is monotone), else member by member. (The loops' product of two gaps underflows
+    to zero below 1e-154 m, which stops their step and not this one: no length is that exact.)"""
+    if not least1 > 0.0:
         return False
     if min(least0, least1) >= SCREEN * h * (most0 + most1):
         return True
-    np.add(E0[3], E1[3], out=margin)
+    margin = np.add(np.maximum(E0[1], E0[2]), np.maximum(E1[1], E1[2]))
     margin *= SCREEN * h
-    np.subtract(np.minimum(E0[2], E1[2]), margin, out=margin)
-    return not np.minimum.reduce(margin) < 0.0
+    return not bool(np.any(np.minimum(E0[0], E1[0]) < margin))
 
 
 def _dense_rate(G: FloatArray, D: FloatArray, S: FloatArray, sources: FloatArray, hv: FloatArray, h: FloatArray,
-                l: FloatArray, u: FloatArray, dv: FloatArray, rate: FloatArray, du: FloatArray, damped: bool,
-                out: FloatArray) -> None:
-    """:meth:`FlatStages._rate` with dense maps (its arrays bound once: no attribute look-ups)."""
-    np.dot(G, sources, out=hv)                      # h, dv
-    np.vecdot(h, h, axes=COMPONENTS, out=l)
-    np.sqrt(l, out=l)
-    np.divide(h, l, out=u)
-    if damped:
-        np.vecdot(dv, u, axes=COMPONENTS, out=rate)
-        np.multiply(u, rate, out=du)
-    np.dot(D, S, out=out)                           # v; (external + k h - EA u + c (dv . u) u) / mass
+                l: FloatArray, u: FloatArray, dv: FloatArray, rate: FloatArray, du: FloatArray,
+                damped: bool) -> Callable[[FloatArray], None]:
+    """:meth:`FlatStages._rate` with dense maps, its arrays bound in a closure (no attribute
+    look-ups or arguments per call) and every output passed positionally."""
+    dot, hypot, divide = np.dot, np.hypot, np.divide
+    hx, hy, hz = h
+
+    def rate_into(out: FloatArray) -> None:
+        dot(G, sources, hv)                         # h, dv
+        hypot(hx, hy, l)
+        hypot(l, hz, l)
+        divide(h, l, u)
+        if damped:
+            np.vecdot(dv, u, axes=COMPONENTS, out=rate)
+            np.multiply(u, rate, du)
+        dot(D, S, out)                              # v; (external + k h - EA u + c (dv . u) u) / mass
+
+    return rate_into
 
 
 def _gathered_rate(stages: FlatStages, out: FloatArray) -> None:
     """:meth:`FlatStages._rate` with gathers."""
     h, l, Q = stages.h, stages.lengths, stages._Q     # Q: [t / l, -t / l] (2, m) [N/m]
     ends = stages._ends
-    stages._sources.take(stages.layout.ends, out=ends, mode="clip")     # indices valid: no checks
-    np.subtract(ends[1], ends[0], out=h)
+    stages._sources.take(stages.layout.ends, None, ends, "clip")     # indices valid: no checks
+    np.subtract(ends[1], ends[0], h)
     _dot_components(h, h, l, stages._product)
-    np.sqrt(l, out=l)
-    np.divide(stages._EA2, l, out=Q)                # t / l = k (l - l0) / l = k - EA / l
-    np.subtract(stages._k2, Q, out=Q)
+    np.sqrt(l, l)
+    np.divide(stages._EA2, l, Q)                    # t / l = k (l - l0) / l = k - EA / l
+    np.subtract(stages._k2, Q, Q)
     if stages.damped:                               # + c (dv . u) / l = c (dv . h) / l^2
         w = stages.rate
         stages._velocity_differences()
@@ -131,10 +151,10 @@ def _gathered_rate(stages: FlatStages, out: FloatArray) -> None:
         w /= l
         Q[0] += w
         Q[1] -= w
-    np.multiply(h, Q[:, None, :], out=stages._forces)
+    np.multiply(h, Q[:, None, :], stages._forces)
     n_free = stages.layout.n_free
     out[:n_free] = stages._velocities
-    stages.S.take(stages._force_terms, out=stages._terms, mode="clip")
+    stages.S.take(stages._force_terms, None, stages._terms, "clip")
     acceleration = out[n_free:]
     np.add.reduce(stages._terms, axis=0, out=acceleration)
     acceleration *= stages.plan.free_inv_mass
@@ -144,7 +164,7 @@ def _dot_components(a: FloatArray, b: FloatArray, out: FloatArray, work: FloatAr
     """``out`` (m,) = per member the dot product of ``a`` and ``b`` (3, m): a product and a sum
     over the components, each one pass over all members (``np.vecdot`` loops member by member:
     2.5x slower from a few hundred members); ``work`` (3, m)."""
-    np.multiply(a, b, out=work)
+    np.multiply(a, b, work)
     np.add.reduce(work, axis=0, out=out)
 
 
@@ -279,13 +299,15 @@ class FlatStages:
         self.lengths, self.rate = np.empty(m), np.empty(m)
         self._k = np.empty(m)
         self._Z = (np.empty((5, N)), np.empty((5, N)))      # [y, K_0 .. K_3] of this step and the next
-        #: per buffer of ``_Z``, its rows ``[y, K_0 .. K_j]`` that stage ``j + 1`` combines
-        self._rows = tuple([Z[:j + 2] for j in range(3)] for Z in self._Z)
+        #: per buffer of ``_Z``: per stage 1-3 the rows ``[y, K_0 .. K_j]`` it combines and the row
+        #: of its rate; then its rows ``y`` and ``K_0``
+        self._stages = tuple(tuple((Z[:j + 2], Z[j + 2]) for j in range(3)) for Z in self._Z)
+        self._heads = tuple((Z[0], Z[1]) for Z in self._Z)
         self._h: float | None = None
         self._weights: list[FloatArray] = []
         self._rate_into: Callable[[FloatArray], None] = \
-            partial(_dense_rate, self._G, self._D, self.S, self._sources, self._hv, self.h, self.lengths, self.u,
-                    self.dv, self.rate, self._du, self.damped) if self.dense else partial(_gathered_rate, self)
+            _dense_rate(self._G, self._D, self.S, self._sources, self._hv, self.h, self.lengths, self.u, self.dv,
+                        self.rate, self._du, self.damped) if self.dense else partial(_gathered_rate, self)
 
     def _rest(self, l0: FloatArray) -> None:
         """Rest lengths ``l0`` [m] for the next evaluations, with ``k = EA / l0`` [N/m] and
@@ -308,8 +330,8 @@ class FlatStages:
 
     def _velocity_differences(self) -> None:
         """(gathers) ``self.dv`` (3, m): ``v_b - v_a`` of the members at the state in ``S``."""
-        self._sources.take(self.layout.velocity_ends, out=self._ends, mode="clip")
-        np.subtract(self._ends[1], self._ends[0], out=self.dv)
+        self._sources.take(self.layout.velocity_ends, None, self._ends, "clip")
+        np.subtract(self._ends[1], self._ends[0], self.dv)
 
     def _step(self, t: float, h: float, Z: FloatArray, Z_next: FloatArray, varying: bool) -> None:
         """One RK4 step of ``h`` [s] from ``(t, Z[0])`` (rate ``Z[1]``): its stages in ``Z[2:]``,
@@ -318,17 +340,18 @@ class FlatStages:
         if h != self._h:
             c = rk4_coefficients(h)
             self._h, self._weights = h, [c[j, :j + 2] for j in range(3)] + [c[3]]
-        w, state, rows, rate, dot = self._weights, self._state, self._rows[Z is self._Z[1]], self._rate_into, np.dot
-        for j, fraction in ((0, 0.5), (1, 0.5), (2, 1.0)):     # stage j + 1 at y + c h K_j
-            dot(w[j], rows[j], out=state)
+        w, state, rate, dot = self._weights, self._state, self._rate_into, np.dot
+        for j, (rows, K) in enumerate(self._stages[Z is self._Z[1]]):     # stage j + 1 at y + c h K_j
+            dot(w[j], rows, state)
             if varying:
-                self._rest(self.rest_lengths(t + fraction * h))
-            rate(Z[j + 2])
-        dot(w[3], Z, out=Z_next[0])
-        state[...] = Z_next[0]
+                self._rest(self.rest_lengths(t + FRACTIONS[j] * h))
+            rate(K)
+        y_new, f_new = self._heads[Z_next is self._Z[1]]
+        dot(w[3], Z, y_new)
+        state[...] = y_new
         if varying:
             self._rest(self.rest_lengths(t + h))
-        rate(Z_next[1])
+        rate(f_new)
 
     def rk4(self, t: float, y: FloatArray, f: FloatArray, h: float) -> tuple[FloatArray, FloatArray]:
         Z, Z_next = self._Z
@@ -336,21 +359,23 @@ class FlatStages:
         self._step(t, h, Z, Z_next, True)
         return Z_next[0].copy(), Z_next[1].copy()
 
-    def _gaps(self, l0_screen: FloatArray, out: FloatArray) -> tuple[float, float]:
-        """Per member of the last evaluation into ``out`` (4, m): the gap ``l - l0`` [m]
-        (``+inf`` for members not screened), its rate [m/s], their magnitudes; returns the
-        least gap magnitude and the largest rate magnitude (0 and 0 without members)."""
-        np.subtract(self.lengths, l0_screen, out=out[0])
+    def _gaps(self, l0_screen: FloatArray, sign: FloatArray, out: FloatArray) -> tuple[float, float]:
+        """Per member of the last evaluation into ``out`` (3, m): its gap ``l - l0`` [m] times
+        ``sign`` (``+inf`` for members not screened), the gap's rate [m/s] and the rate's
+        opposite; returns the least signed gap and the largest rate magnitude (one reduction;
+        +inf and 0 without members). :func:`quiet_ends` reads them."""
+        gap, rate, opposite = out
+        np.subtract(self.lengths, l0_screen, gap)
+        np.multiply(gap, sign, gap)
         if self.dense:
-            np.vecdot(self.dv, self.u, axes=COMPONENTS, out=out[1])
+            np.vecdot(self.dv, self.u, axes=COMPONENTS, out=rate)
         else:
             self._velocity_differences()
-            _dot_components(self.dv, self.h, out[1], self._product)
-            out[1] /= self.lengths
-        np.abs(out[:2], out=out[2:])
-        if not out.shape[1]:
-            return 0.0, 0.0
-        return float(np.minimum.reduce(out[2])), float(np.maximum.reduce(out[3]))
+            _dot_components(self.dv, self.h, rate, self._product)
+            np.divide(rate, self.lengths, rate)
+        np.negative(rate, opposite)
+        least, low, high = np.minimum.reduce(out, 1, initial=np.inf).tolist()
+        return least, -min(low, high, 0.0)
 
     def rk4_run(self, t: float, y: FloatArray, f: FloatArray, h_fixed: float, t_bound: float, horizon: float,
                 samples: FloatArray, sample: int) -> Run:
@@ -370,27 +395,30 @@ class FlatStages:
         self._state[...] = y
         self._rest(l0)
         self._rate(np.empty_like(y))
-        E, E_next = np.empty((4, len(l0))), np.empty((4, len(l0)))     # a step's ends: _gaps
-        least0, most0 = self._gaps(l0_screen, E)
-        margin = np.empty(len(l0))
+        sign = np.sign(self.lengths - l0_screen)          # the gaps' signs at the stretch's start
+        E, E_next = np.empty((3, len(l0))), np.empty((3, len(l0)))     # a step's ends: _gaps
+        least0, most0 = self._gaps(l0_screen, sign, E)
+        step, gaps, limit = self._step, self._gaps, h_fixed * (1.0 + 1e-9)
         steps = 0
+        due = samples[sample] if sample < len(samples) else np.inf       # the next sample's time [s]
         while True:
             left = t_bound - t
-            h = left if left < h_fixed * (1.0 + 1e-9) else h_fixed
-            self._step(t, h, Z, Z_next, False)
+            h = left if left < limit else h_fixed
+            step(t, h, Z, Z_next, False)
             t_new = t_bound if h == left else t + h
             steps += 1
-            least1, most1 = self._gaps(l0_screen, E_next)
-            quiet = quiet_ends(E, E_next, least0, most0, least1, most1, t_new - t, margin)
-            if t_new >= horizon or t_new >= t_bound or not quiet:
+            least1, most1 = gaps(l0_screen, sign, E_next)
+            if t_new >= horizon or t_new >= t_bound or not quiet_ends(E, E_next, least0, most0, least1, most1,
+                                                                      t_new - t):
                 return Run(steps, steps, t, Z[0].copy(), Z[1].copy(), t_new, Z_next[0].copy(), Z_next[1].copy(),
                            sampled=sample, Y=Y)
-            if sample < len(samples) and samples[sample] <= t_new:
+            if due <= t_new:
                 end = int(np.searchsorted(samples, t_new, side="right"))
-                if end == sample + 1 and samples[sample] == t_new:
+                if end == sample + 1 and due == t_new:
                     Y[sample] = Z_next[0]
                 else:
                     Y[sample:end] = hermite(Z[0], Z[1], Z_next[0], Z_next[1], t_new - t,
                                             (samples[sample:end] - t) / (t_new - t))
                 sample = end
+                due = samples[sample] if sample < len(samples) else np.inf
             t, Z, Z_next, E, E_next, least0, most0 = t_new, Z_next, Z, E_next, E, least1, most1
