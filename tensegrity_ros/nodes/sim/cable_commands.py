@@ -180,6 +180,8 @@ def _in_range(interface: Interface, indices: Sequence[int], values: Sequence[flo
     taking: Sequence[bool] = r.rest_length
     lo: Sequence[float] = r.lo
     hi: Sequence[float] = r.hi
-    if len(indices) != len(r.lo) or not all(map(operator.eq, indices, range(len(r.lo)))):
+    if indices is not _in_order(len(r.lo)) and (len(indices) != len(r.lo)
+                                                or not all(map(operator.eq, indices, range(len(r.lo))))):
+        # not every input in order (the cached tuple of a whole command is known by identity)
         taking, lo, hi = [taking[i] for i in indices], [lo[i] for i in indices], [hi[i] for i in indices]
     return all(taking) and all(map(operator.lt, lo, values)) and all(map(operator.lt, values, hi))
