@@ -478,9 +478,11 @@ def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
     (one product) -- each timed alone on the flat stages' own arrays in CPU time, outputs passed
     as the flat stages pass them, no Python between them and no event screen; against the
     compiled step and the numpy step measured in the same run (each call timed over
-    ``calls_per_loop`` calls, the least of three loops)."""
+    ``calls_per_loop`` calls, the least of three loops). Also the calls of the event screen
+    at a step's end (the signed gaps, the rates and their opposites, one reduction), timed
+    the same way: what a numpy step spends above the floor beyond them is Python."""
     from tensegrity_core.sim import compile_scene
-    from tensegrity_core.sim.general.kernels.flat_stages import FlatStages
+    from tensegrity_core.sim.general.kernels.flat_stages import COMPONENTS, FlatStages
 
     os.environ["TENSEGRITY_KERNELS"] = "numpy"
     try:
@@ -503,6 +505,15 @@ def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
              "stage state (np.dot)": lambda: np.dot(weights, Z, state_row)}
     cost = {name: _cpu_per_call(fn, calls_per_loop) for name, fn in calls.items()}
     floor = 4 * sum(cost.values())
+    E, sign, l0 = np.empty((3, len(l))), np.ones(len(l)), l.copy()
+    gap, rate, opposite = E
+    dv = flat.dv
+    screen = {"gaps (np.subtract)": lambda: np.subtract(l, l0, gap),
+              "signed gaps (np.multiply)": lambda: np.multiply(gap, sign, gap),
+              "rates (np.vecdot)": lambda: np.vecdot(dv, u, axes=COMPONENTS, out=rate),
+              "their opposites (np.negative)": lambda: np.negative(rate, opposite),
+              "least of each (np.minimum.reduce, tolist)": lambda: np.minimum.reduce(E, 1, initial=np.inf).tolist()}
+    screen_cost = {name: _cpu_per_call(fn, calls_per_loop) for name, fn in screen.items()}
     compiled = first["numba_cpu"] * first["step"]          # CPU seconds per step
     plain = first["numpy_cpu"] * first["step"]
     members = first["members"]
@@ -513,6 +524,13 @@ def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
                          f"numpy step {plain * 1e6:.1f} us (CPU, same run)"))
     rows.append(Row(GROUP, f"tower {members} members: floor of a numpy step / compiled step", floor / compiled, "x",
                     target="report", note="what no pure-numpy RK4 step of this structure can beat"))
+    rows += [Row(GROUP, f"tower {members} members: numpy screen call, {name}, CPU", c * 1e6, "us")
+             for name, c in screen_cost.items()]
+    screened = sum(screen_cost.values())
+    rows.append(Row(GROUP, f"tower {members} members: numpy step above its floor and screen, CPU",
+                    (plain - floor - screened) * 1e6, "us",
+                    note=f"numpy step {plain * 1e6:.1f} us - floor {floor * 1e6:.1f} us - screen {screened * 1e6:.1f} us: "
+                         "Python between the calls, and the run's own costs"))
     return rows
 
 

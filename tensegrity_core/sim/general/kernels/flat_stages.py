@@ -8,7 +8,7 @@ rigid body) and whose members need no slack test inside a step (the stepper's st
 a taut string carries compression, a slack one has no stiffness), this module evaluates a
 stage in 6 calls (small models) or 12 (larger ones), everything written in place, each
 output passed positionally (a keyword ``out=`` costs numpy ~0.1-0.2 us of argument parsing
-per call, a tenth of a small call):
+per call, a fifth to a third of a small call):
 
 - a flat *source* buffer ``S = [y (N) | drawn coordinates (3n) | external forces on the free
   coordinates (n_free) | 0 | ...]`` whose tail holds the members' quantities (below);
