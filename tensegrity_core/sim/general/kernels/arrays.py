@@ -5,19 +5,20 @@ batch of states at once (the leading axis ``B``), so its per-call cost of numpy 
 arrays is shared by the batch. Arguments and results are those of the loop kernels of the
 same name, but that the right-hand side places its nodes and sums over its members with the
 precomputed gathers of :class:`Sums`, built once per topology (a right-hand side is about
-25 numpy calls whatever the size); the formulas are the same, in the same order where
-rounding could tell.
+25 numpy calls whatever the size, and about 50 more with moving bodies:
+:mod:`.body_arrays`); the formulas are the same, in the same order where rounding could
+tell.
 """
 
 from __future__ import annotations
 
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
-import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from tensegrity_core.general.rotation import cross, hat
+from tensegrity_core.sim.general.kernels import body_arrays
 from tensegrity_core.sim.general.kernels.loops import SMALL_ANGLE
 from tensegrity_core.sim.general.kernels.plan import Plan
 
@@ -76,7 +77,7 @@ class Sums(NamedTuple):
     arrays alike. So every placement and every sum over members is a gather.
 
     A state's *sources* (:func:`sources`) are the flat array ``[y (2 n_dof) | drawn
-    coordinates (3n) | 0 | body nodes' positions (3 n_on) | their velocities (3 n_on)]``:
+    coordinates (3n) | 0 | body nodes' positions and velocities (n_on, 2, 3)]``:
     every node coordinate and velocity is one of its entries (a free coordinate its ``x`` or
     ``v``, a fixed one its drawn value and zero velocity). ``position_a``, ``position_b``,
     ``velocity_a``, ``velocity_b`` (3, m) index the members' ends there, component-major
@@ -91,8 +92,7 @@ class Sums(NamedTuple):
     those of the body nodes' coordinates. A sum over the first axis of a gather adds the rows
     one after the other, the loops' order: the nodal forces are the loops' for the same
     member forces. ``constant`` (3n + 1,) is the drawn coordinates and the zero of the
-    sources; ``body_sum`` (nb, n_on) a scipy.sparse CSR matrix (untyped: Any) summing the
-    body nodes' values per moving body."""
+    sources; ``bodies`` the moving bodies' :class:`~.body_arrays.BodyIndex`."""
 
     position_a: IntArray
     position_b: IntArray
@@ -103,14 +103,14 @@ class Sums(NamedTuple):
     free_table: IntArray
     on_table: IntArray
     constant: FloatArray
-    body_sum: Any
+    bodies: body_arrays.BodyIndex
 
 
 def sums(base: FloatArray, free_node: IntArray, free_axis: IntArray, on_node: IntArray, on_body: IntArray,
-         body_dof: IntArray, member_a: IntArray, member_b: IntArray) -> Sums:
+         on_offset: FloatArray, body_dof: IntArray, member_a: IntArray, member_b: IntArray) -> Sums:
     """The :class:`Sums` of nodes drawn at ``base`` (n, 3) [m], free coordinates ``(free_node,
     free_axis)``, body nodes ``on_node`` on the moving bodies ``on_body`` (of ``len(body_dof)``)
-    and members ``(member_a, member_b)``."""
+    at the offsets ``on_offset`` (n_on, 3) [m] and members ``(member_a, member_b)``."""
     n, m, n_free, n_on, three = len(base), len(member_a), len(free_node), len(on_node), np.arange(3)
     n_dof = n_free + 6 * len(body_dof)
     zero = 2 * n_dof + 3 * n                       # the sources' zero
@@ -118,8 +118,8 @@ def sums(base: FloatArray, free_node: IntArray, free_axis: IntArray, on_node: In
     velocity = np.full((n, 3), zero)
     position[free_node, free_axis] = np.arange(n_free)
     velocity[free_node, free_axis] = n_dof + np.arange(n_free)
-    position[on_node] = zero + 1 + 3 * np.arange(n_on)[:, None] + three
-    velocity[on_node] = zero + 1 + 3 * n_on + 3 * np.arange(n_on)[:, None] + three
+    position[on_node] = zero + 1 + 6 * np.arange(n_on)[:, None] + three
+    velocity[on_node] = zero + 4 + 6 * np.arange(n_on)[:, None] + three
     # contributions per node in member order: (node, member, offset of its +t u or -t u)
     node = np.concatenate([member_a, member_b]).astype(np.int64)
     member = np.concatenate([np.arange(m), np.arange(m)])
@@ -138,24 +138,24 @@ def sums(base: FloatArray, free_node: IntArray, free_axis: IntArray, on_node: In
                 free_table=np.ascontiguousarray(table[:, free_node, free_axis]),
                 on_table=np.ascontiguousarray(table[:, on_node]),
                 constant=np.append(np.asarray(base, dtype=float).ravel(), 0.0),
-                body_sum=sp.csr_array((np.ones(n_on), (on_body, np.arange(n_on))), shape=(len(body_dof), n_on)))
+                bodies=body_arrays.body_index(on_body, on_offset, body_dof, n_dof))
 
 
 def plan_sums(plan: Plan) -> Sums:
     """The :class:`Sums` of ``plan``'s topology."""
-    return sums(plan.base, plan.free_node, plan.free_axis, plan.on_node, plan.on_body, plan.body_dof,
-                plan.member_a, plan.member_b)
+    return sums(plan.base, plan.free_node, plan.free_axis, plan.on_node, plan.on_body, plan.on_offset,
+                plan.body_dof, plan.member_a, plan.member_b)
 
 
-def sources(sums: Sums, y: FloatArray, body_nodes: tuple[FloatArray, FloatArray] | None) -> FloatArray:
+def sources(sums: Sums, y: FloatArray, body_nodes: FloatArray | None) -> FloatArray:
     """The sources (B, 2 n_dof + 3n + 1 + 6 n_on) of :class:`Sums` of states ``y`` (B, 2 n_dof)
-    whose body nodes are at ``body_nodes`` (positions, velocities (B, n_on, 3); None: no body
-    node)."""
+    whose body nodes are at ``body_nodes`` (B, n_on, 2, 3) (positions [m], velocities [m/s];
+    None: no body node)."""
     B = len(y)
-    if B == 1 and body_nodes is None:
-        one: FloatArray = np.concatenate([y, sums.constant[None]], axis=1)
+    tail = [] if body_nodes is None else [body_nodes.reshape(B, -1)]
+    if B == 1:
+        one: FloatArray = np.concatenate([y, sums.constant[None]] + tail, axis=1)
         return one
-    tail = [] if body_nodes is None else [body_nodes[0].reshape(B, -1), body_nodes[1].reshape(B, -1)]
     src = np.empty((B, y.shape[1] + len(sums.constant) + sum(t.shape[1] for t in tail)))
     np.concatenate([y, np.broadcast_to(sums.constant, (B, len(sums.constant)))] + tail, axis=1, out=src)
     return src
@@ -165,18 +165,6 @@ def gather_sum(values: FloatArray, table: IntArray) -> FloatArray:
     """``sum_k values[:, table[k]]`` for values (B, c) and a table (d, ...): (B, ...), the rows
     added in the table's order."""
     out: FloatArray = np.add.reduce(values.take(table, axis=1), axis=1)
-    return out
-
-
-def product(S: Any, values: FloatArray) -> FloatArray:
-    """``S @ values[b]`` for every state ``b`` of ``values`` (B, k, c) -> (B, rows, c): one sparse
-    product over the batch, whose columns are computed independently (a batch gives its
-    states' numbers exactly)."""
-    B, k, c = values.shape
-    if B == 1:
-        one: FloatArray = (S @ values[0])[None]
-        return one
-    out: FloatArray = (S @ values.transpose(1, 0, 2).reshape(k, B * c)).reshape(-1, B, c).transpose(1, 0, 2)
     return out
 
 
@@ -344,8 +332,9 @@ def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free
     given; ``work``: the contributions of :func:`contributions` for this plan and batch size
     to reuse (their external forces and zero stay in place), else allocated here."""
     B, n_dof, n_free = len(y), y.shape[1] // 2, len(free_node)
-    moving = body_nodes(on_body, on_offset, body_dof, y, R_ref, R) if len(body_dof) else None
-    src = sources(sums, y, None if moving is None else moving[1:])
+    nodes = np.empty((B, len(on_node), 2, 3)) if len(body_dof) else None
+    moving = None if nodes is None else body_arrays.place(sums.bodies, y, R_ref, R, nodes)
+    src = sources(sums, y, nodes)
     if X is not None:
         X[...] = src.take(sums.node_position, axis=1)
     if V is not None:
@@ -356,9 +345,9 @@ def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free
     out[:, :n_free] = y[:, n_dof:n_dof + n_free]
     np.multiply(gather_sum(c, sums.free_table), free_inv_mass, out=out[:, n_dof:n_dof + n_free])
     if moving is not None:
-        f = gather_sum(c, sums.on_table)
-        wrench = product(sums.body_sum, np.concatenate([f, cross(moving[0], f)], axis=2))
-        body_rates(body_dof, body_mass, body_first_moment, body_inertia, body_inv_inertia_cm, y, R, wrench, out)
+        wrench = body_arrays.wrenches(sums.bodies, moving, gather_sum(c, sums.on_table))
+        body_arrays.accelerate(sums.bodies, body_mass, body_first_moment, body_inertia, body_inv_inertia_cm, moving,
+                               R, wrench, out)
 
 
 # -- Jacobian --------------------------------------------------------------------------------------

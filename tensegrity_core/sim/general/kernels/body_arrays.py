@@ -1,0 +1,215 @@
+"""The moving rigid bodies' terms of the numpy right-hand side (:mod:`.arrays`): one numpy call per quantity.
+
+Below a few hundred bodies a numpy evaluation costs its number of calls (about 0.5-2 us of
+dispatch each), not their arithmetic. So every quantity is one call over all bodies and
+all states of a batch (leading axes ``(B, nb)``, or ``(B, n_on)`` per body node), with
+index arrays built once per topology (:class:`BodyIndex`):
+
+- the gathers ``[theta | w | v_c]`` of every body and the skew matrices ``[hat(w) |
+  hat(theta) | .]`` of every body are one ``take`` each from ``y`` (a skew matrix is its
+  vector's entries gathered and multiplied by a constant pattern of signs and zeros);
+- every cross product is a product with a skew matrix (``a x b = hat(a) b``), so several
+  crosses with the same left factor are one ``np.matmul`` over stacked columns;
+- ``exp(hat(theta)) = I + s hat(theta) + c hat(theta)^2`` and the chart's rate ``J_l^-1 w =
+  w - hat(theta) w / 2 + k hat(theta)^2 w`` are each one product of the coefficients ``[s,
+  c]``, ``[-1/2, k]`` with the stacked ``[hat(theta) | hat(theta)^2]``;
+- the body nodes' arms ``r = R p`` and their velocities' parts ``w x r = (hat(w) R) p``
+  are one product of ``[R | hat(w) R]``, gathered per node, with the offsets ``p``;
+- the wrenches ``sum_k [f_k | r_k x f_k]`` per body are one gather and one sum over a
+  table of each body's nodes (in node order, padded with a zero row: the loops' order).
+
+The formulas are those of :mod:`.loops`, grouped as products of small matrices: the
+numbers agree with the compiled kernels to rounding (a product of 3 x 3 matrices adds its
+terms in its own order, ``hat(theta)^2`` is a product where the loops write ``theta
+theta^T - |theta|^2 I``). Each state's numbers are computed independently of the batch.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tensegrity_core.sim.general.kernels.loops import SMALL_ANGLE
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+#: ``hat(v)`` (3, 3) as indices into ``v`` (3,) and the signs that multiply them (0 on the
+#: diagonal): ``hat(v) = v[HAT] * HAT_SIGN``.
+HAT = np.array([[0, 2, 1], [2, 0, 0], [1, 0, 0]])
+HAT_SIGN = np.array([[0.0, -1.0, 1.0], [1.0, 0.0, -1.0], [-1.0, 1.0, 0.0]])
+#: ``a x b = (a[CROSS_A] * b[CROSS_B])[:3] - (...)[3:]``, the loops' terms ``a1 b2 - a2 b1`` ...
+CROSS_A = np.array([1, 2, 0, 2, 0, 1])
+CROSS_B = np.array([2, 0, 1, 1, 2, 0])
+#: The small-angle series of ``[s, c, k]`` (:func:`.loops.rotate`,
+#: :func:`.loops.chart_rate_coefficient`): ``SERIES_0 + a2 / SERIES_1 + a2^2 / SERIES_2``.
+SERIES_0 = np.array([1.0, 0.5, 1.0 / 12.0])
+SERIES_1 = np.array([-6.0, -24.0, 720.0])
+SERIES_2 = np.array([120.0, 720.0, np.inf])
+EYE = np.eye(3).ravel()
+
+
+class BodyIndex(NamedTuple):
+    """A model's moving bodies as index arrays into a batch of states ``y`` (B, 2 n_dof).
+
+    ``vectors`` (nb, 3, 3): per body the columns of ``[theta | w | v_c]``; ``hats`` (nb, 3,
+    3, 3) with ``signs`` (3, 3, 3): ``y.take(hats) * signs`` is ``[hat(w) | hat(theta) | 0]``;
+    ``on_body`` (n_on,) each body node's body; ``offsets`` (n_on, 1, 3, 1) [m] its offset in
+    the body's reference frame; ``centres`` (n_on, 2, 3) the columns of its body's ``[c |
+    v_c]``; ``table`` (d, nb) per body its nodes' rows, padded with ``n_on`` (a zero row);
+    ``rates`` (nb, 4, 3) the columns of ``dy/dt`` that hold ``[dc/dt | dtheta/dt | dv_c/dt
+    | dw/dt]``."""
+
+    vectors: IntArray
+    hats: IntArray
+    signs: FloatArray
+    on_body: IntArray
+    offsets: FloatArray
+    centres: IntArray
+    table: IntArray
+    rates: IntArray
+
+
+def body_index(on_body: IntArray, on_offset: FloatArray, body_dof: IntArray, n_dof: int) -> BodyIndex:
+    """The :class:`BodyIndex` of body nodes on the moving bodies ``on_body`` at the offsets
+    ``on_offset`` (n_on, 3) [m], the bodies' coordinates starting at ``body_dof`` in states of
+    ``n_dof`` coordinates."""
+    three, nb, n_on = np.arange(3), len(body_dof), len(on_body)
+    d = np.asarray(body_dof, dtype=np.int64)[:, None]
+    theta, w, v = d + 3 + three, n_dof + d + 3 + three, n_dof + d + three
+    vectors = np.stack([theta, w, v], axis=1)
+    hats = np.stack([w[:, HAT], theta[:, HAT], theta[:, HAT]], axis=1)
+    signs = np.stack([HAT_SIGN, HAT_SIGN, np.zeros((3, 3))])
+    on_body = np.asarray(on_body, dtype=np.int64)
+    degree = np.bincount(on_body, minlength=nb)
+    table = np.full((int(degree.max(initial=0)), nb), n_on, dtype=np.int64)
+    order = np.argsort(on_body, kind="stable")
+    slot = np.arange(n_on) - np.repeat(np.cumsum(degree) - degree, degree)
+    table[slot, on_body[order]] = order
+    return BodyIndex(vectors=vectors, hats=hats, signs=signs, on_body=on_body,
+                     offsets=np.asarray(on_offset, dtype=float).reshape(n_on, 1, 3, 1),
+                     centres=np.stack([d[on_body] + three, n_dof + d[on_body] + three], axis=1),
+                     table=table, rates=np.stack([d + three, theta, v, w], axis=1))
+
+
+def coefficients(a2: FloatArray) -> FloatArray:
+    """(..., 4) ``[s, c, -1/2, k]`` of rotation vectors with ``|theta|^2 = a2`` (...):
+    ``exp(hat(theta)) = I + s hat(theta) + c hat(theta)^2`` and ``J_l^-1 = I - hat(theta)/2 +
+    k hat(theta)^2``, the formulas of :func:`.loops.rotate` and
+    :func:`.loops.chart_rate_coefficient` (their series below :data:`SMALL_ANGLE`)."""
+    out = np.empty(a2.shape + (4,))
+    out[..., 2] = -0.5
+    small = a2 < SMALL_ANGLE * SMALL_ANGLE
+    if not small.any():
+        _trigonometric(a2, out)
+        return out
+    _trigonometric(np.where(small, 1.0, a2), out)
+    a2 = a2[..., None]
+    series = a2 / SERIES_1
+    series += SERIES_0
+    series += a2 * a2 / SERIES_2
+    out[..., [0, 1, 3]] = np.where(small[..., None], series, out[..., [0, 1, 3]])
+    return out
+
+
+def _trigonometric(a2: FloatArray, out: FloatArray) -> None:
+    """``out[..., [0, 1, 3]] = [sin a / a, (1 - cos a) / a^2, 1/a^2 - (1 + cos a) / (2 a sin a)]``
+    for ``a2 = a^2 > 0``."""
+    a = np.sqrt(a2)
+    sin, cos = np.sin(a), np.cos(a)
+    np.divide(sin, a, out[..., 0])
+    c = np.subtract(1.0, cos, out[..., 1])
+    c /= a2
+    k = out[..., 3]
+    a *= 2.0
+    a *= sin
+    cos += 1.0
+    np.divide(cos, a, k)
+    np.subtract(np.divide(1.0, a2), k, k)
+
+
+class Moving(NamedTuple):
+    """The moving bodies of a batch placed (:func:`place`): ``vectors`` (B, nb, 3, 3) ``[theta
+    | w | v_c]``; ``hats`` (B, nb, 3, 3, 3) ``[hat(w) | hat(theta) | hat(theta)^2]``;
+    ``coefficients`` (B, nb, 4) of :func:`coefficients`; ``arms`` (B, n_on, 2, 3, 1) per body
+    node ``[r | w x r]`` [m, m/s]."""
+
+    vectors: FloatArray
+    hats: FloatArray
+    coefficients: FloatArray
+    arms: FloatArray
+
+
+def place(index: BodyIndex, y: FloatArray, R_ref: FloatArray, R: FloatArray, nodes: FloatArray) -> Moving:
+    """Fills the bodies' rotations ``R`` (B, nb, 3, 3) of states ``y`` (B, 2 n_dof) in the
+    charts ``R_ref`` and their nodes' ``nodes`` (B, n_on, 2, 3): positions [m] and velocities
+    [m/s]."""
+    B, nb = len(y), len(index.vectors)
+    vectors = y.take(index.vectors, axis=1)
+    hats = y.take(index.hats, axis=1)
+    hats *= index.signs
+    theta_hat = hats[:, :, 1]
+    np.matmul(theta_hat, theta_hat, hats[:, :, 2])
+    theta = vectors[:, :, 0]
+    coef = coefficients(np.vecdot(theta, theta))
+    E = np.matmul(coef[:, :, None, :2], hats[:, :, 1:].reshape(B, nb, 2, 9))
+    E += EYE
+    frames = np.empty((B, nb, 2, 3, 3))                                # [R | hat(w) R]
+    np.matmul(E.reshape(B, nb, 3, 3), R_ref, frames[:, :, 0])
+    np.matmul(hats[:, :, 0], frames[:, :, 0], frames[:, :, 1])
+    R[...] = frames[:, :, 0]
+    arms = np.matmul(frames.take(index.on_body, axis=1), index.offsets)
+    np.add(y.take(index.centres, axis=1), arms[..., 0], nodes)
+    return Moving(vectors, hats, coef, arms)
+
+
+def wrenches(index: BodyIndex, moving: Moving, f: FloatArray) -> FloatArray:
+    """(B, nb, 2, 3) per body the force [N] and the moment about ``c`` [N m] of the forces
+    ``f`` (B, n_on, 3) on its nodes, summed in node order."""
+    B, n_on = f.shape[:2]
+    rows = np.empty((B, n_on + 1, 2, 3))
+    rows[:, n_on] = 0.0
+    rows[:, :n_on, 0] = f
+    terms = moving.arms[:, :, 0, :, 0].take(CROSS_A, axis=2)
+    terms *= f.take(CROSS_B, axis=2)
+    np.subtract(terms[..., :3], terms[..., 3:], rows[:, :n_on, 1])
+    out: FloatArray = np.add.reduce(rows.take(index.table, axis=1), axis=1)
+    return out
+
+
+def accelerate(index: BodyIndex, body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
+               body_inv_inertia_cm: FloatArray, moving: Moving, R: FloatArray, wrench: FloatArray,
+               out: FloatArray) -> None:
+    """The moving bodies' part of ``out = dy/dt`` (B, 2 n_dof): Newton-Euler of ``wrench``
+    (B, nb, 2, 3) [N, N m] about ``c`` (:func:`.loops.rates`) and the charts' rates."""
+    B, nb = R.shape[:2]
+    hw = moving.hats[:, :, 0]
+    w = moving.vectors[:, :, 1, :, None]
+    m = body_mass[:, None, None]
+    Rt = R.swapaxes(2, 3)
+    sL = np.empty((B, nb, 3, 2))                                       # [s | L = I_c w] columns
+    np.matmul(R, body_first_moment[:, :, None], sL[..., :1])
+    np.matmul(R, np.matmul(body_inertia, np.matmul(Rt, w)), sL[..., 1:])
+    crossed = np.matmul(hw, sL)                                        # [w x s | w x L]
+    np.matmul(hw, crossed[..., :1], crossed[..., :1])                  # w x (w x s)
+    primed = np.subtract(wrench.swapaxes(2, 3), crossed)               # [F' | M']
+    F, M = primed[..., :1], primed[..., 1:]
+    s = sL[..., 0]
+    hs = s.take(HAT, axis=2)
+    hs *= HAT_SIGN
+    g = np.matmul(hs, F)
+    g /= m
+    np.subtract(M, g, g)
+    rates = np.empty((B, nb, 4, 3))                                    # [dc/dt | dtheta/dt | a_c | dw/dt]
+    rates[:, :, 0] = moving.vectors[:, :, 2]
+    dw = rates[:, :, 3, :, None]
+    np.matmul(R, np.matmul(body_inv_inertia_cm, np.matmul(Rt, g)), dw)
+    acceleration = np.matmul(hs, dw)
+    acceleration += F
+    np.divide(acceleration, m, rates[:, :, 2, :, None])
+    turned = np.matmul(moving.hats[:, :, 1:], w[:, :, None])          # [theta x w | theta x (theta x w)]
+    chart = np.matmul(moving.coefficients[:, :, None, 2:], turned[..., 0])
+    np.add(moving.vectors[:, :, 1], chart[:, :, 0], rates[:, :, 1])
+    out[:, index.rates] = rates
