@@ -265,3 +265,30 @@ def test_the_numpy_stretch_screens_steps_as_the_loops_do(gaps, h):
     fixed = ~moving if moving.any() else None
     assert quiet_step(g0, np.abs(g0), np.abs(r0), g1, np.abs(g1), np.abs(r1), fixed, h) == \
         loops.quiet_step(g0, r0, g1, r1, moving, h)
+
+
+@settings(max_examples=40)
+@given(angles=st.lists(st.one_of(st.just(0.0), st.floats(1e-9, 1e-4), st.floats(1e-4, 3.0)), min_size=1, max_size=6),
+       seed=st.integers(0, 2**31))
+def test_the_numpy_rotation_coefficients_are_the_loops_on_either_side_of_the_series(angles, seed):
+    """The numpy kernels' ``[-1/2, s, c, k]`` of a batch mixing angles below and above the
+    series' switch (each angle its own branch) give the loops' rotation and chart-rate
+    coefficient (the same formulas: ``k`` exactly; near the switch it cancels two terms of
+    ~1e8, so only the same ``|theta|^2`` gives the same ``k``); at zero the exact identity
+    and 1/12."""
+    from tensegrity_core.sim.general.kernels import body_arrays, loops
+
+    rng = np.random.default_rng(seed)
+    axes = rng.normal(size=(len(angles), 3))
+    theta = np.array(angles)[:, None] * axes / np.linalg.norm(axes, axis=1)[:, None]
+    a2 = np.array([t[0] * t[0] + t[1] * t[1] + t[2] * t[2] for t in theta])     # as the loops add it
+    coef = body_arrays.coefficients(a2)
+    for t, a2_t, (half, s, c, k) in zip(theta, a2, coef):
+        K = np.array([[0.0, -t[2], t[1]], [t[2], 0.0, -t[0]], [-t[1], t[0], 0.0]])
+        R = np.empty((3, 3))
+        loops.rotate(t[0], t[1], t[2], np.eye(3), R)
+        np.testing.assert_allclose(np.eye(3) + s * K + c * (K @ K), R, rtol=0, atol=4e-16)
+        assert half == -0.5
+        assert k == loops.chart_rate_coefficient(a2_t)
+    zero = body_arrays.coefficients(np.zeros(2))
+    np.testing.assert_array_equal(zero, [[-0.5, 1.0, 0.5, 1.0 / 12.0]] * 2)

@@ -95,32 +95,35 @@ def body_index(on_body: IntArray, on_offset: FloatArray, body_dof: IntArray, n_d
 
 
 def coefficients(a2: FloatArray) -> FloatArray:
-    """(..., 4) ``[s, c, -1/2, k]`` of rotation vectors with ``|theta|^2 = a2`` (...):
+    """(..., 4) ``[-1/2, s, c, k]`` of rotation vectors with ``|theta|^2 = a2`` (...):
     ``exp(hat(theta)) = I + s hat(theta) + c hat(theta)^2`` and ``J_l^-1 = I - hat(theta)/2 +
-    k hat(theta)^2``, the formulas of :func:`.loops.rotate` and
-    :func:`.loops.chart_rate_coefficient` (their series below :data:`SMALL_ANGLE`)."""
+    k hat(theta)^2`` (so ``[..., 1:3]`` and ``[..., ::3]`` are each product's pair), the
+    formulas of :func:`.loops.rotate` and :func:`.loops.chart_rate_coefficient`, their series
+    below :data:`SMALL_ANGLE` (each branch computed only where some angle takes it)."""
     out = np.empty(a2.shape + (4,))
-    out[..., 2] = -0.5
+    out[..., 0] = -0.5
     small = a2 < SMALL_ANGLE * SMALL_ANGLE
-    if not small.any():
-        _trigonometric(a2, out)
-        return out
-    _trigonometric(np.where(small, 1.0, a2), out)
-    a2 = a2[..., None]
-    series = a2 / SERIES_1
-    series += SERIES_0
-    series += a2 * a2 / SERIES_2
-    out[..., [0, 1, 3]] = np.where(small[..., None], series, out[..., [0, 1, 3]])
+    n_small = np.count_nonzero(small)
+    if n_small < small.size:
+        _trigonometric(np.where(small, 1.0, a2) if n_small else a2, out)
+    if n_small:
+        series = out[..., 1:] if n_small == small.size else np.empty(out[..., 1:].shape)
+        a2 = a2[..., None]
+        np.divide(a2, SERIES_1, series)
+        series += SERIES_0
+        series += a2 * a2 / SERIES_2
+        if n_small < small.size:
+            np.copyto(out[..., 1:], series, where=small[..., None])
     return out
 
 
 def _trigonometric(a2: FloatArray, out: FloatArray) -> None:
-    """``out[..., [0, 1, 3]] = [sin a / a, (1 - cos a) / a^2, 1/a^2 - (1 + cos a) / (2 a sin a)]``
+    """``out[..., 1:] = [sin a / a, (1 - cos a) / a^2, 1/a^2 - (1 + cos a) / (2 a sin a)]``
     for ``a2 = a^2 > 0``."""
     a = np.sqrt(a2)
     sin, cos = np.sin(a), np.cos(a)
-    np.divide(sin, a, out[..., 0])
-    c = np.subtract(1.0, cos, out[..., 1])
+    np.divide(sin, a, out[..., 1])
+    c = np.subtract(1.0, cos, out[..., 2])
     c /= a2
     k = out[..., 3]
     a *= 2.0
@@ -154,7 +157,7 @@ def place(index: BodyIndex, y: FloatArray, R_ref: FloatArray, R: FloatArray, nod
     np.matmul(theta_hat, theta_hat, hats[:, :, 2])
     theta = vectors[:, :, 0]
     coef = coefficients(np.vecdot(theta, theta))
-    E = np.matmul(coef[:, :, None, :2], hats[:, :, 1:].reshape(B, nb, 2, 9))
+    E = np.matmul(coef[:, :, None, 1:3], hats[:, :, 1:].reshape(B, nb, 2, 9))
     E += EYE
     frames = np.empty((B, nb, 2, 3, 3))                                # [R | hat(w) R]
     np.matmul(E.reshape(B, nb, 3, 3), R_ref, frames[:, :, 0])
@@ -210,6 +213,6 @@ def accelerate(index: BodyIndex, body_mass: FloatArray, body_first_moment: Float
     acceleration += F
     np.divide(acceleration, m, rates[:, :, 2, :, None])
     turned = np.matmul(moving.hats[:, :, 1:], w[:, :, None])          # [theta x w | theta x (theta x w)]
-    chart = np.matmul(moving.coefficients[:, :, None, 2:], turned[..., 0])
+    chart = np.matmul(moving.coefficients[:, :, None, ::3], turned[..., 0])
     np.add(moving.vectors[:, :, 1], chart[:, :, 0], rates[:, :, 1])
     out[:, index.rates] = rates
