@@ -5,7 +5,7 @@ batch of states at once (the leading axis ``B``), so its per-call cost of numpy 
 arrays is shared by the batch. Arguments and results are those of the loop kernels of the
 same name, but that the right-hand side places its nodes and sums over its members with the
 precomputed gathers of :class:`Sums`, built once per topology (a right-hand side is about
-25 numpy calls whatever the size, and about 50 more with moving bodies:
+25 numpy calls whatever the size, and about 65 more with moving bodies:
 :mod:`.body_arrays`); the formulas are the same, in the same order where rounding could
 tell.
 """
