@@ -192,15 +192,13 @@ def accelerate(index: BodyIndex, body_mass: FloatArray, body_first_moment: Float
     w = moving.vectors[:, :, 1, :, None]
     m = body_mass[:, None, None]
     Rt = R.swapaxes(2, 3)
-    sL = np.empty((B, nb, 3, 2))                                       # [s | L = I_c w] columns
-    np.matmul(R, body_first_moment[:, :, None], sL[..., :1])
-    np.matmul(R, np.matmul(body_inertia, np.matmul(Rt, w)), sL[..., 1:])
-    crossed = np.matmul(hw, sL)                                        # [w x s | w x L]
-    np.matmul(hw, crossed[..., :1], crossed[..., :1])                  # w x (w x s)
-    primed = np.subtract(wrench.swapaxes(2, 3), crossed)               # [F' | M']
+    s = np.matmul(R, body_first_moment[:, :, None])
+    cL = np.empty((B, nb, 3, 2))                                       # [w x s | L = I_c w] columns
+    np.matmul(hw, s, cL[..., :1])
+    np.matmul(R, np.matmul(body_inertia, np.matmul(Rt, w)), cL[..., 1:])
+    primed = np.subtract(wrench.swapaxes(2, 3), np.matmul(hw, cL))    # [F' | M']: w x (w x s), w x L
     F, M = primed[..., :1], primed[..., 1:]
-    s = sL[..., 0]
-    hs = s.take(HAT, axis=2)
+    hs = s[..., 0].take(HAT, axis=2)
     hs *= HAT_SIGN
     g = np.matmul(hs, F)
     g /= m
