@@ -223,7 +223,7 @@ def test_the_numpy_kernels_gathers_are_the_sums_written_out(n, ends, kinds, bodi
     X, V = np.broadcast_to(base, (B, n, 3)).copy(), np.zeros((B, n, 3))
     X[:, free_node, free_axis], V[:, free_node, free_axis] = y[:, :len(free_node)], y[:, n_dof:n_dof + len(free_node)]
     X[:, on_node], V[:, on_node] = on_x, on_v
-    src = arrays.sources(sums, y, np.stack([on_x, on_v], axis=2) if len(on_node) else None)
+    src = arrays.sources(sums, y, np.stack([on_x, on_v], axis=1) if len(on_node) else None)
     np.testing.assert_array_equal(src.take(sums.node_position, axis=1), X)
     np.testing.assert_array_equal(src.take(sums.node_velocity, axis=1), V)
     h = src.take(sums.position_b, axis=1) - src.take(sums.position_a, axis=1)

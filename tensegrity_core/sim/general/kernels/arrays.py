@@ -77,7 +77,7 @@ class Sums(NamedTuple):
     arrays alike. So every placement and every sum over members is a gather.
 
     A state's *sources* (:func:`sources`) are the flat array ``[y (2 n_dof) | drawn
-    coordinates (3n) | 0 | body nodes' positions and velocities (n_on, 2, 3)]``:
+    coordinates (3n) | 0 | body nodes' positions (3 n_on) | their velocities (3 n_on)]``:
     every node coordinate and velocity is one of its entries (a free coordinate its ``x`` or
     ``v``, a fixed one its drawn value and zero velocity). ``position_a``, ``position_b``,
     ``velocity_a``, ``velocity_b`` (3, m) index the members' ends there, component-major
@@ -118,8 +118,8 @@ def sums(base: FloatArray, free_node: IntArray, free_axis: IntArray, on_node: In
     velocity = np.full((n, 3), zero)
     position[free_node, free_axis] = np.arange(n_free)
     velocity[free_node, free_axis] = n_dof + np.arange(n_free)
-    position[on_node] = zero + 1 + 6 * np.arange(n_on)[:, None] + three
-    velocity[on_node] = zero + 4 + 6 * np.arange(n_on)[:, None] + three
+    position[on_node] = zero + 1 + 3 * np.arange(n_on)[:, None] + three
+    velocity[on_node] = zero + 1 + 3 * n_on + 3 * np.arange(n_on)[:, None] + three
     # contributions per node in member order: (node, member, offset of its +t u or -t u)
     node = np.concatenate([member_a, member_b]).astype(np.int64)
     member = np.concatenate([np.arange(m), np.arange(m)])
@@ -149,8 +149,8 @@ def plan_sums(plan: Plan) -> Sums:
 
 def sources(sums: Sums, y: FloatArray, body_nodes: FloatArray | None) -> FloatArray:
     """The sources (B, 2 n_dof + 3n + 1 + 6 n_on) of :class:`Sums` of states ``y`` (B, 2 n_dof)
-    whose body nodes are at ``body_nodes`` (B, n_on, 2, 3) (positions [m], velocities [m/s];
-    None: no body node)."""
+    whose body nodes are at ``body_nodes`` (B, 2, n_on, 3) (positions [m], then velocities
+    [m/s]; None: no body node)."""
     B = len(y)
     tail = [] if body_nodes is None else [body_nodes.reshape(B, -1)]
     if B == 1:
@@ -332,7 +332,7 @@ def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free
     given; ``work``: the contributions of :func:`contributions` for this plan and batch size
     to reuse (their external forces and zero stay in place), else allocated here."""
     B, n_dof, n_free = len(y), y.shape[1] // 2, len(free_node)
-    nodes = np.empty((B, len(on_node), 2, 3)) if len(body_dof) else None
+    nodes = np.empty((B, 2, len(on_node), 3)) if len(body_dof) else None
     moving = None if nodes is None else body_arrays.place(sums.bodies, y, R_ref, R, nodes)
     src = sources(sums, y, nodes)
     if X is not None:

@@ -54,13 +54,15 @@ EYE = np.eye(3).ravel()
 class BodyIndex(NamedTuple):
     """A model's moving bodies as index arrays into a batch of states ``y`` (B, 2 n_dof).
 
-    ``vectors`` (nb, 3, 3): per body the columns of ``[theta | w | v_c]``; ``hats`` (nb, 3,
-    3, 3) with ``signs`` (3, 3, 3): ``y.take(hats) * signs`` is ``[hat(w) | hat(theta) | 0]``;
-    ``on_body`` (n_on,) each body node's body; ``offsets`` (n_on, 1, 3, 1) [m] its offset in
-    the body's reference frame; ``centres`` (n_on, 2, 3) the columns of its body's ``[c |
-    v_c]``; ``table`` (d, nb) per body its nodes' rows, padded with ``n_on`` (a zero row);
-    ``rates`` (nb, 4, 3) the columns of ``dy/dt`` that hold ``[dc/dt | dtheta/dt | dv_c/dt
-    | dw/dt]``."""
+    The stacked quantities lead with their slot, so that for one state each slot is a
+    contiguous block (numpy's products are several times slower into or from strided views).
+    ``vectors`` (3, nb, 3): the columns of ``[theta | w | v_c]`` of every body; ``hats`` (3,
+    nb, 3, 3) with ``signs`` (3, 1, 3, 3): ``y.take(hats) * signs`` is ``[hat(w) | hat(theta)
+    | 0]``; ``on_body`` (n_on,) each body node's body; ``offsets`` (n_on, 3, 1) [m] its
+    offset in the body's reference frame; ``centres`` (2, n_on, 3) the columns of its body's
+    ``[c | v_c]``; ``table`` (d, nb) per body its nodes' rows, padded with ``n_on`` (a zero
+    row); ``rates`` (nb, 4, 3) the columns of ``dy/dt`` that hold ``[dc/dt | dtheta/dt |
+    dv_c/dt | dw/dt]``."""
 
     vectors: IntArray
     hats: IntArray
@@ -79,9 +81,9 @@ def body_index(on_body: IntArray, on_offset: FloatArray, body_dof: IntArray, n_d
     three, nb, n_on = np.arange(3), len(body_dof), len(on_body)
     d = np.asarray(body_dof, dtype=np.int64)[:, None]
     theta, w, v = d + 3 + three, n_dof + d + 3 + three, n_dof + d + three
-    vectors = np.stack([theta, w, v], axis=1)
-    hats = np.stack([w[:, HAT], theta[:, HAT], theta[:, HAT]], axis=1)
-    signs = np.stack([HAT_SIGN, HAT_SIGN, np.zeros((3, 3))])
+    vectors = np.stack([theta, w, v])
+    hats = np.stack([w[:, HAT], theta[:, HAT], theta[:, HAT]])
+    signs = np.stack([HAT_SIGN, HAT_SIGN, np.zeros((3, 3))])[:, None]
     on_body = np.asarray(on_body, dtype=np.int64)
     degree = np.bincount(on_body, minlength=nb)
     table = np.full((int(degree.max(initial=0)), nb), n_on, dtype=np.int64)
@@ -89,8 +91,8 @@ def body_index(on_body: IntArray, on_offset: FloatArray, body_dof: IntArray, n_d
     slot = np.arange(n_on) - np.repeat(np.cumsum(degree) - degree, degree)
     table[slot, on_body[order]] = order
     return BodyIndex(vectors=vectors, hats=hats, signs=signs, on_body=on_body,
-                     offsets=np.asarray(on_offset, dtype=float).reshape(n_on, 1, 3, 1),
-                     centres=np.stack([d[on_body] + three, n_dof + d[on_body] + three], axis=1),
+                     offsets=np.asarray(on_offset, dtype=float).reshape(n_on, 3, 1),
+                     centres=np.stack([d[on_body] + three, n_dof + d[on_body] + three]),
                      table=table, rates=np.stack([d + three, theta, v, w], axis=1))
 
 
@@ -134,10 +136,10 @@ def _trigonometric(a2: FloatArray, out: FloatArray) -> None:
 
 
 class Moving(NamedTuple):
-    """The moving bodies of a batch placed (:func:`place`): ``vectors`` (B, nb, 3, 3) ``[theta
-    | w | v_c]``; ``hats`` (B, nb, 3, 3, 3) ``[hat(w) | hat(theta) | hat(theta)^2]``;
-    ``coefficients`` (B, nb, 4) of :func:`coefficients`; ``arms`` (B, n_on, 2, 3, 1) per body
-    node ``[r | w x r]`` [m, m/s]."""
+    """The moving bodies of a batch placed (:func:`place`): ``vectors`` (B, 3, nb, 3) ``[theta
+    | w | v_c]``; ``hats`` (B, 3, nb, 3, 3) ``[hat(w) | hat(theta) | hat(theta)^2]``;
+    ``coefficients`` (B, nb, 4) of :func:`coefficients`; ``arms`` (B, 2, n_on, 3, 1) of the
+    body nodes ``[r | w x r]`` [m, m/s]."""
 
     vectors: FloatArray
     hats: FloatArray
@@ -147,23 +149,23 @@ class Moving(NamedTuple):
 
 def place(index: BodyIndex, y: FloatArray, R_ref: FloatArray, R: FloatArray, nodes: FloatArray) -> Moving:
     """Fills the bodies' rotations ``R`` (B, nb, 3, 3) of states ``y`` (B, 2 n_dof) in the
-    charts ``R_ref`` and their nodes' ``nodes`` (B, n_on, 2, 3): positions [m] and velocities
-    [m/s]."""
-    B, nb = len(y), len(index.vectors)
+    charts ``R_ref`` and their nodes' ``nodes`` (B, 2, n_on, 3): positions [m], then
+    velocities [m/s]."""
+    B, nb = len(y), index.vectors.shape[1]
     vectors = y.take(index.vectors, axis=1)
     hats = y.take(index.hats, axis=1)
     hats *= index.signs
-    theta_hat = hats[:, :, 1]
-    np.matmul(theta_hat, theta_hat, hats[:, :, 2])
-    theta = vectors[:, :, 0]
+    theta_hat = hats[:, 1]
+    np.matmul(theta_hat, theta_hat, hats[:, 2])
+    theta = vectors[:, 0]
     coef = coefficients(np.vecdot(theta, theta))
-    E = np.matmul(coef[:, :, None, 1:3], hats[:, :, 1:].reshape(B, nb, 2, 9))
+    E = np.matmul(coef[:, :, None, 1:3], hats[:, 1:].reshape(B, 2, nb, 9).swapaxes(1, 2))
     E += EYE
-    frames = np.empty((B, nb, 2, 3, 3))                                # [R | hat(w) R]
-    np.matmul(E.reshape(B, nb, 3, 3), R_ref, frames[:, :, 0])
-    np.matmul(hats[:, :, 0], frames[:, :, 0], frames[:, :, 1])
-    R[...] = frames[:, :, 0]
-    arms = np.matmul(frames.take(index.on_body, axis=1), index.offsets)
+    frames = np.empty((B, 2, nb, 3, 3))                                # [R | hat(w) R]
+    np.matmul(E.reshape(B, nb, 3, 3), R_ref, frames[:, 0])
+    np.matmul(hats[:, 0], frames[:, 0], frames[:, 1])
+    R[...] = frames[:, 0]
+    arms = np.matmul(frames.take(index.on_body, axis=2), index.offsets)
     np.add(y.take(index.centres, axis=1), arms[..., 0], nodes)
     return Moving(vectors, hats, coef, arms)
 
@@ -175,7 +177,7 @@ def wrenches(index: BodyIndex, moving: Moving, f: FloatArray) -> FloatArray:
     rows = np.empty((B, n_on + 1, 2, 3))
     rows[:, n_on] = 0.0
     rows[:, :n_on, 0] = f
-    terms = moving.arms[:, :, 0, :, 0].take(CROSS_A, axis=2)
+    terms = moving.arms[:, 0, :, :, 0].take(CROSS_A, axis=2)
     terms *= f.take(CROSS_B, axis=2)
     np.subtract(terms[..., :3], terms[..., 3:], rows[:, :n_on, 1])
     out: FloatArray = np.add.reduce(rows.take(index.table, axis=1), axis=1)
@@ -188,8 +190,8 @@ def accelerate(index: BodyIndex, body_mass: FloatArray, body_first_moment: Float
     """The moving bodies' part of ``out = dy/dt`` (B, 2 n_dof): Newton-Euler of ``wrench``
     (B, nb, 2, 3) [N, N m] about ``c`` (:func:`.loops.rates`) and the charts' rates."""
     B, nb = R.shape[:2]
-    hw = moving.hats[:, :, 0]
-    w = moving.vectors[:, :, 1, :, None]
+    hw = moving.hats[:, 0]
+    w = moving.vectors[:, 1, :, :, None]
     m = body_mass[:, None, None]
     Rt = R.swapaxes(2, 3)
     s = np.matmul(R, body_first_moment[:, :, None])
@@ -204,13 +206,13 @@ def accelerate(index: BodyIndex, body_mass: FloatArray, body_first_moment: Float
     g /= m
     np.subtract(M, g, g)
     rates = np.empty((B, nb, 4, 3))                                    # [dc/dt | dtheta/dt | a_c | dw/dt]
-    rates[:, :, 0] = moving.vectors[:, :, 2]
+    rates[:, :, 0] = moving.vectors[:, 2]
     dw = rates[:, :, 3, :, None]
     np.matmul(R, np.matmul(body_inv_inertia_cm, np.matmul(Rt, g)), dw)
     acceleration = np.matmul(hs, dw)
     acceleration += F
     np.divide(acceleration, m, rates[:, :, 2, :, None])
-    turned = np.matmul(moving.hats[:, :, 1:], w[:, :, None])          # [theta x w | theta x (theta x w)]
-    chart = np.matmul(moving.coefficients[:, :, None, ::3], turned[..., 0])
-    np.add(moving.vectors[:, :, 1], chart[:, :, 0], rates[:, :, 1])
+    turned = np.matmul(moving.hats[:, 1:], w[:, None])                # [theta x w | theta x (theta x w)]
+    chart = np.matmul(moving.coefficients[:, :, None, ::3], turned[..., 0].swapaxes(1, 2))
+    np.add(moving.vectors[:, 1], chart[:, :, 0], rates[:, :, 1])
     out[:, index.rates] = rates
