@@ -208,12 +208,12 @@ class Simulator:
         only the actuated members' values, ``q`` and ``qdot`` may be empty (robots: the
         rods' rotation vectors are not computed)."""
         d = self.model.joint_sample(self.state, coordinates=coordinates)
-        sample = JointSample(d["t"], d["q"], d["qdot"], np.asarray(d["applied_forces"], dtype=float),
-                             d["end_effector"], d["folded"])
+        applied = np.asarray(d["applied_forces"], dtype=float)
         if "actuated_lengths" in d:
-            sample.actuated_lengths = d["actuated_lengths"]
-            sample.actuated_rates = d["actuated_rates"]
-            sample.actuated_forces = d["actuated_forces"]
+            sample = JointSample(d["t"], d["q"], d["qdot"], applied, d["end_effector"], d["folded"],
+                                 d["actuated_lengths"], d["actuated_rates"], d["actuated_forces"])
+        else:
+            sample = JointSample(d["t"], d["q"], d["qdot"], applied, d["end_effector"], d["folded"])
         if self._noise is not None:
             self._noise.perturb(sample)
         return sample

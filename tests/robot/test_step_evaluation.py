@@ -13,7 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tensegrity_core.sim.general.kernels.jit import have_numba
-from tensegrity_core.sim.general.robot.system import RobotSystem
+from tensegrity_core.sim.general.robot.system import RobotSystem, block_index, empty_evaluation
 from tests.robot.test_dynamics import ROBOTS, _model, random_state
 
 KERNELS = ["numpy", "numba"] if have_numba() else ["numpy"]
@@ -63,3 +63,33 @@ def test_joint_sample_of_a_kept_evaluation_equals_a_copied_states():
     a, b = model.joint_sample(state), model.joint_sample(copied)
     for key in a:
         assert np.array_equal(a[key], b[key]), key
+
+
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_block_index_finds_each_fields_entries(robot):
+    """``block_index`` points at the entries each field's own array holds (an evaluated state:
+    distinct numbers), for every field, in the order asked."""
+    model = _model(robot)
+    y, _ = random_state(model, 7, spread=0.002)
+    ev = model.system.evaluate(y[None], out=empty_evaluation(model.plan, 1))
+    names = [f.name for f in dataclasses.fields(ev) if f.name != "block"]
+    rng = np.random.default_rng(3)
+    picks = [(name, rng.permutation(getattr(ev, name)[0].size)) for name in names]
+    expected = np.concatenate([getattr(ev, name)[0].ravel()[index] for name, index in picks])
+    assert np.array_equal(ev.block.take(block_index(model.plan, picks)), expected, equal_nan=True)
+    assert ev.block.size == sum(getattr(ev, name).size for name in names)
+
+
+def test_a_joint_sample_keeps_its_values_when_the_state_moves_on():
+    """The joint sample is copied out of the evaluation the integrator reuses: the next step
+    (which writes its own end's evaluation into the same arrays) leaves it as it was."""
+    model = _model("six_bar")
+    state = model.initial_state()
+    model.advance(state, 0.05)
+    sample = model.joint_sample(state, coordinates=False)
+    kept = {key: np.copy(value) for key, value in sample.items()}
+    model.advance(state, 0.051)
+    assert not np.array_equal(model.joint_sample(state, coordinates=False)["actuated_lengths"],
+                              kept["actuated_lengths"])            # the state did move
+    for key, value in kept.items():
+        assert np.array_equal(sample[key], value), key

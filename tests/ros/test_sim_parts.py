@@ -159,7 +159,7 @@ def test_joint_states_as_bytes_read_back_as_the_messages_rclpy_builds(names, fie
     """rclpy's deserializer reads every refill of the serialized joint_states as the message
     rclpy itself builds from the same values (random values and stamps, every byte pattern of
     a float64 that is not NaN; the arrays not kept empty, whatever values are given for
-    them); values of another length are refused."""
+    them); values of another length, a single value among them, are refused."""
     import numpy as np
     from rclpy.serialization import deserialize_message
     from sensor_msgs.msg import JointState
@@ -183,6 +183,10 @@ def test_joint_states_as_bytes_read_back_as_the_messages_rclpy_builds(names, fie
         short = [v[1:] if f == fields[0] else v for f, v in zip(("position", "velocity", "effort"), values)]
         with pytest.raises(ValueError, match=f"joint_states of {n} joints, got {n - 1} values"):
             cdr.fill(0, 0, *short)
+    if n > 1 and fields:                  # one value is not spread over every joint
+        single = [v[:1] if f == fields[-1] else v for f, v in zip(("position", "velocity", "effort"), values)]
+        with pytest.raises(ValueError, match=f"joint_states of {n} joints, got 1 values"):
+            cdr.fill(0, 0, *single)
 
 
 def test_joint_states_bytes_are_found_whatever_earlier_serializations_left_in_the_buffer():

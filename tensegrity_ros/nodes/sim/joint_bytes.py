@@ -82,6 +82,9 @@ class JointStateBytes:
             marked = serialize_message(_message(self.names, frame_id, arrays={f: values}, fields=self.fields))
             self._arrays.append((_FIELDS.index(f), *_where(marked, mark)))
         self.ok = self._stamp[1] > 0 and (n == 0 or all(e - b == 8 * n for _, b, e in self._arrays))
+        #: Per array kept: its index and the float64s of the buffer it fills (written in place).
+        self._views = [(i, np.frombuffer(self._buffer, dtype="<f8", count=n, offset=b))
+                       for i, b, _ in self._arrays] if self.ok else []
         if self.ok:                          # checked once against rclpy's own reading
             values = [np.arange(n, dtype=float) + k + 0.25 for k in range(3)]
             got = deserialize_message(self.fill(1_234_567_890, 987_654_321, *values), JointState)
@@ -95,9 +98,9 @@ class JointStateBytes:
         buf = self._buffer
         _STAMP.pack_into(buf, self._stamp[0], sec, nanosec)
         given = (position, velocity, effort)
-        for i, b, e in self._arrays:
-            data = np.ascontiguousarray(given[i], dtype="<f8").tobytes()
-            if len(data) != e - b:            # a slice assignment of another length would move the rest
-                raise ValueError(f"joint_states of {len(self.names)} joints, got {len(data) // 8} values")
-            buf[b:e] = data
+        for i, view in self._views:
+            values = given[i]
+            if len(values) != len(view):      # an assignment would broadcast a single value
+                raise ValueError(f"joint_states of {len(self.names)} joints, got {len(values)} values")
+            view[:] = values
         return bytes(buf)

@@ -36,7 +36,7 @@ from tensegrity_core.sim.general.robot.loops import SLIPPING
 from tensegrity_core.sim.general.robot.plan import build_plan, lumped_masses, robot_layout
 from tensegrity_core.sim.general.robot.setup import initial_vector, names_of, robot_effects, robot_model, state_names
 from tensegrity_core.sim.general.robot.stepping import FixedStepper, RobotSample
-from tensegrity_core.sim.general.robot.system import RobotEvaluation, RobotSystem
+from tensegrity_core.sim.general.robot.system import RobotEvaluation, RobotSystem, block_index
 from tensegrity_core.sim.inputs import Commanded
 from tensegrity_core.sim.model import (
     Interface,
@@ -121,6 +121,12 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         slot_of = {k: s for s, k in enumerate(self.layout.moving_bodies)}
         imu = list(robot.sensors.imu_rods) + [len(robot.rods) + b for b in robot.sensors.imu_bodies]
         self.imu_slots = np.array([slot_of[k] for k in imu if k in slot_of], dtype=int)
+        motor = self.plan.motor_cable
+        #: Where :meth:`joint_sample`'s values lie in an evaluation's block: the motor cables'
+        #: rest lengths, lengths, rates, tensions, then the end effector's coordinates.
+        self._joint_index = block_index(self.plan, [("rest_lengths", motor), ("lengths", motor), ("rates", motor),
+                                                    ("tensions", motor),
+                                                    ("positions", 3 * self.end_effector + np.arange(3))])
 
     def _holding(self) -> FloatArray:
         """(a,) the command that holds each motor as drawn: its drawn rest length [m], reel
@@ -314,17 +320,19 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         rods' rotation vectors cost about as much as the evaluation)."""
         st = state.work
         ev = st.evaluation()
-        plan, n = self.plan, self.plan.n_dof
-        q, qdot = np.zeros(0), np.zeros(0)
+        # the motor cables' rest lengths, lengths, rates and tensions and the end effector's
+        # position, copied out of the evaluation in one gather; the fields are views of it
+        values = ev.block.take(self._joint_index)
+        a = len(self.plan.motor_cable)
+        q, qdot = values[:0], values[:0]
         if coordinates:
+            plan, n = self.plan, self.plan.n_dof
             q, qdot = st.y[:n].copy(), st.y[n:2 * n].copy()
             if len(plan.body_dof):
                 q[plan.body_dof[:, None] + 3 + np.arange(3)] = exact_rotations(ev.rotations[0]).as_rotvec()
-        motor = plan.motor_cable
-        return JointValues(t=float(st.t), q=q, qdot=qdot, applied_forces=ev.rest_lengths[0, motor],
-                           end_effector=ev.positions[0, self.end_effector].copy(), folded=False,
-                           actuated_lengths=ev.lengths[0, motor], actuated_rates=ev.rates[0, motor],
-                           actuated_forces=ev.tensions[0, motor])
+        return JointValues(t=float(st.t), q=q, qdot=qdot, applied_forces=values[:a], end_effector=values[4 * a:],
+                           folded=False, actuated_lengths=values[a:2 * a], actuated_rates=values[2 * a:3 * a],
+                           actuated_forces=values[3 * a:4 * a])
 
     def singular_distance(self, state: State[FixedStepper]) -> None:
         """A robot has no singular sets of its equations of motion."""

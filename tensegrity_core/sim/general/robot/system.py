@@ -11,6 +11,7 @@ states for the observations (:meth:`evaluate`).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from types import ModuleType
@@ -40,7 +41,8 @@ class RobotEvaluation:
     N]; body ``rotations`` (B, nb, 3, 3); cables' ``rest_lengths``, ``lengths`` [m],
     ``rates`` [m/s], ``tensions`` [N] (B, c); caps' ``depth`` [m] (penetration, > 0 in
     contact), ``normal`` forces [N] (B, ncap), ``friction`` forces [N] and the rolling and spin
-    resistance ``couple`` [N m] (B, ncap, 3)."""
+    resistance ``couple`` [N m] (B, ncap, 3); all of them pieces of one ``block``
+    (:func:`empty_evaluation`)."""
 
     derivative: FloatArray
     positions: FloatArray
@@ -55,6 +57,8 @@ class RobotEvaluation:
     normal: FloatArray
     friction: FloatArray
     couple: FloatArray
+    #: The one array the fields above are pieces of (:func:`empty_evaluation`).
+    block: FloatArray
 
 
 class RobotSystem:
@@ -170,9 +174,26 @@ class RobotSystem:
 
 
 def empty_evaluation(plan: RobotPlan, B: int) -> RobotEvaluation:
-    """Uninitialised arrays for the evaluation of ``B`` states (:meth:`RobotSystem.evaluate`)."""
+    """Uninitialised arrays for the evaluation of ``B`` states (:meth:`RobotSystem.evaluate`):
+    consecutive C-ordered pieces of one array, ``block``, so that entries of several
+    fields are copied out in one gather (:func:`block_index`)."""
     n, nb, c, ncap = len(plan.base), len(plan.body_dof), len(plan.cable_a), len(plan.cap_node)
-    return RobotEvaluation(np.empty((B, plan.n_state)), np.empty((B, n, 3)), np.empty((B, n, 3)),
-                           np.empty((B, nb, 3, 3)), np.empty((B, n, 3)), np.empty((B, c)), np.empty((B, c)),
-                           np.empty((B, c)), np.empty((B, c)), np.empty((B, ncap)), np.empty((B, ncap)),
-                           np.empty((B, ncap, 3)), np.empty((B, ncap, 3)))
+    shapes = ((B, plan.n_state), (B, n, 3), (B, n, 3), (B, nb, 3, 3), (B, n, 3), (B, c), (B, c), (B, c), (B, c),
+              (B, ncap), (B, ncap), (B, ncap, 3), (B, ncap, 3))
+    sizes = [math.prod(s) for s in shapes]
+    ends = np.cumsum(sizes)
+    block = np.empty(int(ends[-1]))
+    d, x, v, R, f, l0, lengths, rates, tensions, depth, normal, friction, couple = (
+        block[end - size:end].reshape(shape) for shape, size, end in zip(shapes, sizes, ends))
+    return RobotEvaluation(d, x, v, R, f, l0, lengths, rates, tensions, depth, normal, friction, couple, block)
+
+
+def block_index(plan: RobotPlan, picks: Sequence[tuple[str, ArrayLike]]) -> NDArray[np.intp]:
+    """Where in the ``block`` of an evaluation of one state (``B = 1``) the entries
+    ``picks`` lie: per ``(field, index)`` the entries ``index`` of that field's array without
+    its batch axis, flattened (a node ``k``'s coordinates: ``3 k + (0, 1, 2)``), in turn.
+    ``ev.block.take(block_index(plan, picks))`` copies them all in one call."""
+    where = empty_evaluation(plan, 1)
+    where.block[:] = np.arange(len(where.block))     # each entry its own place (exact in float64)
+    taken = [getattr(where, name)[0].ravel()[np.asarray(index, dtype=np.intp)] for name, index in picks]
+    return np.concatenate([np.zeros(0), *taken]).astype(np.intp)
