@@ -27,7 +27,7 @@ class LockstepGate:
         """Keep ``command`` for the step at ``time_ns`` [ns] (step ``step``): True; a
         duplicate of the last step's: False; stamped otherwise:
         :class:`~tensegrity_ros.nodes.actuator_commands.CommandError`."""
-        if command == self.applied and command.stamp_ns != time_ns:
+        if command.stamp_ns != time_ns and command == self.applied:   # the usual stamp: no comparison
             return False
         check_step(command, time_ns, step)
         self.pending = command

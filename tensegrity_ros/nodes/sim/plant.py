@@ -87,7 +87,7 @@ class SimPlant:
             except TensegrityError as err:
                 self.fault = fault = str(err)
         self.k += 1
-        events = self.sim.events
+        events = self.sim.state.events          # the state's own log (``Simulator.events`` copies it)
         new, self._n_events = tuple(events[self._n_events:]), len(events)
         return StepOutcome(new, fault)
 
