@@ -294,7 +294,8 @@ class GeneralSystem:
         plan = self.plan
         n, nb = plan.n_nodes, len(plan.body_dof)
         l0 = self.rest_lengths(t)
-        if self.evaluator.kernels == "numba":
+        sums = self.evaluator.sums
+        if sums is None:
             gap, rate = np.empty(len(self.strings)), np.empty(len(self.strings))
             loops.string_gaps(plan.base, plan.free_node, plan.free_axis, plan.on_node, plan.on_body, plan.on_offset,
                               plan.body_dof, plan.member_a, plan.member_b, self.strings, np.array(y, dtype=float),
@@ -302,9 +303,8 @@ class GeneralSystem:
                               np.empty((nb, 3, 3)), np.empty((len(plan.on_node), 3)), gap, rate)
         else:
             X, V = np.empty((1, n, 3)), np.empty((1, n, 3))
-            arrays.place(plan.base, plan.free_node, plan.free_axis, plan.on_node, plan.on_body, plan.on_offset,
-                         plan.body_dof, np.asarray(y, dtype=float)[None, :], self.R_ref[None], X, V,
-                         np.empty((1, nb, 3, 3)))
+            arrays.place(plan.base, plan.free_node, plan.free_axis, plan.on_node, sums.bodies,
+                         np.asarray(y, dtype=float)[None, :], self.R_ref[None], X, V, np.empty((1, nb, 3, 3)))
             a, b = plan.member_a[self.strings], plan.member_b[self.strings]
             h = X[0, b] - X[0, a]
             lengths = np.sqrt(np.einsum("ij,ij->i", h, h))

@@ -4,7 +4,8 @@ Used where numba is not installed or not wanted (:mod:`.jit`). Every function wo
 batch of states at once (the leading axis ``B``), so its per-call cost of numpy on small
 arrays is shared by the batch. Arguments and results are those of the loop kernels of the
 same name, but that the right-hand side places its nodes and sums over its members with the
-precomputed gathers of :class:`Sums`, built once per topology (a right-hand side is about
+precomputed gathers of :class:`Sums` and :func:`place` takes the bodies' index arrays
+(:class:`.body_arrays.BodyIndex`), each built once per topology (a right-hand side is about
 25 numpy calls whatever the size, and about 65 more with moving bodies:
 :mod:`.body_arrays`); the formulas are the same, in the same order where rounding could
 tell.
@@ -25,46 +26,6 @@ from tensegrity_core.sim.general.kernels.plan import Plan
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 BoolArray = NDArray[np.bool_]
-
-
-def rotations(theta: FloatArray) -> FloatArray:
-    """``exp(hat(theta))`` (..., 3, 3) for rotation vectors (..., 3) [rad], as :func:`.loops.rotate`."""
-    t0, t1, t2 = theta[..., 0], theta[..., 1], theta[..., 2]
-    a2 = t0 * t0 + t1 * t1 + t2 * t2
-    small = a2 < SMALL_ANGLE * SMALL_ANGLE
-    a = np.sqrt(np.where(small, 1.0, a2))
-    s = np.where(small, 1.0 - a2 / 6.0 + a2 * a2 / 120.0, np.sin(a) / a)
-    c = np.where(small, 0.5 - a2 / 24.0 + a2 * a2 / 720.0, (1.0 - np.cos(a)) / np.where(small, 1.0, a2))
-    E = np.empty(theta.shape + (3,))
-    E[..., 0, 0] = 1.0 + c * (t0 * t0 - a2)
-    E[..., 0, 1] = -s * t2 + c * t0 * t1
-    E[..., 0, 2] = s * t1 + c * t0 * t2
-    E[..., 1, 0] = s * t2 + c * t1 * t0
-    E[..., 1, 1] = 1.0 + c * (t1 * t1 - a2)
-    E[..., 1, 2] = -s * t0 + c * t1 * t2
-    E[..., 2, 0] = -s * t1 + c * t2 * t0
-    E[..., 2, 1] = s * t0 + c * t2 * t1
-    E[..., 2, 2] = 1.0 + c * (t2 * t2 - a2)
-    return E
-
-
-def chart_rate_coefficient(a2: FloatArray) -> FloatArray:
-    """:func:`.loops.chart_rate_coefficient` over an array of ``|theta|^2``."""
-    small = a2 < SMALL_ANGLE * SMALL_ANGLE
-    a = np.sqrt(np.where(small, 1.0, a2))
-    k: FloatArray = np.where(small, 1.0 / 12.0 + a2 / 720.0,
-                             1.0 / np.where(small, 1.0, a2) - (1.0 + np.cos(a)) / (2.0 * a * np.sin(a)))
-    return k
-
-
-def _apply(M: FloatArray, v: FloatArray) -> FloatArray:
-    """``M v`` over leading axes (M (..., 3, 3), v (..., 3))."""
-    return M[..., 0] * v[..., 0, None] + M[..., 1] * v[..., 1, None] + M[..., 2] * v[..., 2, None]
-
-
-def _apply_transpose(M: FloatArray, v: FloatArray) -> FloatArray:
-    """``M^T v`` over leading axes."""
-    return M[..., 0, :] * v[..., 0, None] + M[..., 1, :] * v[..., 1, None] + M[..., 2, :] * v[..., 2, None]
 
 
 class Sums(NamedTuple):
@@ -177,34 +138,24 @@ def scatter(index: IntArray, values: FloatArray, n: int) -> FloatArray:
     return out.reshape(B, n, 3)
 
 
-def body_nodes(on_body: IntArray, on_offset: FloatArray, body_dof: IntArray, y: FloatArray, R_ref: FloatArray,
-               R: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Fills the bodies' rotations ``R`` (B, nb, 3, 3) of states ``y`` (B, 2 n_dof) in the
-    charts ``R_ref``; returns the body nodes' arms ``r``, positions and velocities (B, n_on, 3)."""
-    n_dof = y.shape[1] // 2
-    three = np.arange(3)
-    R[...] = rotations(y[:, body_dof[:, None] + 3 + three]) @ R_ref
-    Ron = R[:, on_body]
-    r = _apply(Ron, np.broadcast_to(on_offset, Ron.shape[:-1]))
-    cols = body_dof[on_body][:, None] + three
-    return r, y[:, cols] + r, y[:, n_dof + cols] + cross(y[:, n_dof + 3 + cols], r)
-
-
-def place(base: FloatArray, free_node: IntArray, free_axis: IntArray, on_node: IntArray, on_body: IntArray,
-          on_offset: FloatArray, body_dof: IntArray, y: FloatArray, R_ref: FloatArray,
-          X: FloatArray, V: FloatArray, R: FloatArray) -> FloatArray:
-    """Fills ``X``, ``V`` (B, n, 3) and ``R`` (B, nb, 3, 3) of states ``y`` (B, 2 n_dof);
-    returns the arms ``r`` (B, n_on, 3)."""
+def place(base: FloatArray, free_node: IntArray, free_axis: IntArray, on_node: IntArray,
+          bodies: body_arrays.BodyIndex, y: FloatArray, R_ref: FloatArray, X: FloatArray, V: FloatArray,
+          R: FloatArray) -> body_arrays.Moving | None:
+    """Fills the nodes' positions ``X`` [m] and velocities ``V`` [m/s] (B, n, 3) and the
+    bodies' rotations ``R`` (B, nb, 3, 3) of states ``y`` (B, 2 n_dof) in the charts
+    ``R_ref``; returns the moving bodies placed (:func:`.body_arrays.place`; None: none)."""
     n_dof = y.shape[1] // 2
     n_free = len(free_node)
     X[...] = base
     V[...] = 0.0
     X[:, free_node, free_axis] = y[:, :n_free]
     V[:, free_node, free_axis] = y[:, n_dof:n_dof + n_free]
-    if not len(body_dof):
-        return np.zeros((len(y), 0, 3))
-    r, X[:, on_node], V[:, on_node] = body_nodes(on_body, on_offset, body_dof, y, R_ref, R)
-    return r
+    if not bodies.vectors.shape[1]:
+        return None
+    nodes = np.empty((len(y), 2, len(on_node), 3))
+    moving = body_arrays.place(bodies, y, R_ref, R, nodes)
+    X[:, on_node], V[:, on_node] = nodes[:, 0], nodes[:, 1]
+    return moving
 
 
 def member_forces(sums: Sums, EA: FloatArray, damping: FloatArray, is_string: BoolArray, l0: FloatArray,
@@ -253,51 +204,6 @@ def contributions(external: FloatArray, B: int, m: int) -> tuple[FloatArray, Flo
 def pull_back(c: FloatArray, m: int) -> None:
     """Writes the opposites of the pulls into the contributions ``c`` (:func:`contributions`)."""
     np.negative(c[:, -1 - 6 * m:-1 - 3 * m], out=c[:, -1 - 3 * m:-1])
-
-
-def nodal_wrenches(on_node: IntArray, on_body: IntArray, r: FloatArray, F: FloatArray, nb: int) -> FloatArray:
-    """:func:`.loops.nodal_wrenches` of a batch: (B, nb, 6) from ``F`` (B, n, 3) and arms ``r`` (B, n_on, 3)."""
-    f = F[:, on_node]
-    out: FloatArray = np.concatenate([scatter(on_body, f, nb), scatter(on_body, cross(r, f), nb)], axis=2)
-    return out
-
-
-def rates(free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray, body_dof: IntArray,
-          body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
-          body_inv_inertia_cm: FloatArray, y: FloatArray, R: FloatArray, F: FloatArray, wrench: FloatArray,
-          out: FloatArray) -> None:
-    """:func:`.loops.rates` of a batch (``F`` (B, n, 3), ``wrench`` (B, nb, 6))."""
-    n_dof = y.shape[1] // 2
-    n_free = len(free_node)
-    out[:, :n_free] = y[:, n_dof:n_dof + n_free]
-    out[:, n_dof:n_dof + n_free] = F[:, free_node, free_axis] * free_inv_mass
-    body_rates(body_dof, body_mass, body_first_moment, body_inertia, body_inv_inertia_cm, y, R, wrench, out)
-
-
-def body_rates(body_dof: IntArray, body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
-               body_inv_inertia_cm: FloatArray, y: FloatArray, R: FloatArray, wrench: FloatArray,
-               out: FloatArray) -> None:
-    """The moving bodies' part of :func:`rates` (Newton-Euler of ``wrench`` (B, nb, 6))."""
-    n_dof = y.shape[1] // 2
-    nb = len(body_dof)
-    if not nb:
-        return
-    three = np.arange(3)
-    cols = body_dof[:, None] + three                                   # (nb, 3) centre columns
-    s = _apply(R, np.broadcast_to(body_first_moment, R.shape[:-1]))
-    w = y[:, n_dof + 3 + cols]
-    L = _apply(R, _apply(np.broadcast_to(body_inertia, R.shape), _apply_transpose(R, w)))
-    Fp = wrench[..., :3] - cross(w, cross(w, s))
-    Mp = wrench[..., 3:] - cross(w, L)
-    g = Mp - cross(s, Fp) / body_mass[:, None]
-    dw = _apply(R, _apply(np.broadcast_to(body_inv_inertia_cm, R.shape), _apply_transpose(R, g)))
-    out[:, n_dof + cols] = (Fp + cross(s, dw)) / body_mass[:, None]
-    out[:, n_dof + 3 + cols] = dw
-    theta = y[:, 3 + cols]
-    k = chart_rate_coefficient(np.sum(theta * theta, axis=-1))
-    x = cross(theta, w)
-    out[:, cols] = y[:, n_dof + cols]
-    out[:, 3 + cols] = w - 0.5 * x + k[..., None] * cross(theta, x)
 
 
 def rate(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
@@ -359,7 +265,7 @@ def chart_jacobians(theta: FloatArray) -> tuple[FloatArray, FloatArray]:
     a = np.sqrt(safe)
     c1 = np.where(small, 0.5 - a2 / 24.0, (1.0 - np.cos(a)) / safe)
     c2 = np.where(small, 1.0 / 6.0 - a2 / 120.0, (a - np.sin(a)) / (safe * a))
-    k = chart_rate_coefficient(a2)
+    k = body_arrays.coefficients(a2)[..., 3]
     K = hat(theta)
     K2 = theta[..., :, None] * theta[..., None, :] - a2[..., None, None] * np.eye(3)
     eye = np.eye(3)
@@ -390,7 +296,7 @@ def group_matrices(free_inv_mass: FloatArray, body_dof: IntArray, body_mass: Flo
     Rb = R[b]
     Rt = np.swapaxes(Rb, 1, 2)
     m = body_mass[b][:, None, None]
-    s = _apply(Rb, body_first_moment[b])
+    s = np.matmul(Rb, body_first_moment[b][..., None])[..., 0]
     W = Rb @ body_inv_inertia_cm[b] @ Rt
     Ic = Rb @ body_inertia[b] @ Rt
     S = hat(s)
@@ -409,7 +315,7 @@ def group_matrices(free_inv_mass: FloatArray, body_dof: IntArray, body_mass: Flo
     w = y[n_dof + body_dof[b][:, None] + 3 + np.arange(3)]
     Hw = hat(w)
     gyro[gb, :3, 3:] = -hat(cross(w, s)) - Hw @ S
-    gyro[gb, 3:, 3:] = Hw @ Ic - hat(_apply(Ic, w))
+    gyro[gb, 3:, 3:] = Hw @ Ic - hat(np.matmul(Ic, w[..., None])[..., 0])
 
 
 def jacobian_blocks(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
@@ -426,7 +332,9 @@ def jacobian_blocks(base: FloatArray, free_node: IntArray, free_axis: IntArray, 
     n = base.shape[0]
     X, V = np.empty((1, n, 3)), np.empty((1, n, 3))
     R = np.empty((1, len(body_dof), 3, 3))
-    r = place(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, y[None], R_ref[None], X, V, R)[0]
+    bodies = body_arrays.body_index(on_body, on_offset, body_dof, len(y) // 2)
+    moving = place(base, free_node, free_axis, on_node, bodies, y[None], R_ref[None], X, V, R)
+    r = np.zeros((0, 3)) if moving is None else moving.arms[0, 0, :, :, 0]
     X, R = X[0], R[0]
     h = X[member_b] - X[member_a]
     length = np.sqrt(np.sum(h * h, axis=1))

@@ -1,4 +1,7 @@
-"""The moving rigid bodies' terms of the numpy right-hand side (:mod:`.arrays`): one numpy call per quantity.
+"""The moving rigid bodies' terms of the numpy right-hand sides: one numpy call per quantity.
+
+Used by the general model's (:mod:`.arrays`) and the robot's
+(:mod:`tensegrity_core.sim.general.robot.arrays`) numpy kernels and the numpy Jacobian.
 
 Below a few hundred bodies a numpy evaluation costs its number of calls (about 0.5-2 us of
 dispatch each), not their arithmetic. So every quantity is one call over all bodies and

@@ -2,9 +2,13 @@
 
 Used where numba is not installed or not wanted (``TENSEGRITY_KERNELS=numpy``). Each
 function takes a batch of states (leading axis ``B``) as the general array kernels do
-(:mod:`tensegrity_core.sim.general.kernels.arrays`, whose ``place``, ``nodal_wrenches``
-and ``rates`` it calls); :func:`run_steps` loops over the steps in Python. Arguments and
-results are those of the loop kernels of the same name.
+(:mod:`tensegrity_core.sim.general.kernels.arrays`, whose ``place`` it calls, and
+:mod:`~tensegrity_core.sim.general.kernels.body_arrays` for the moving bodies' wrenches and
+Newton-Euler); :func:`run_steps` loops over the steps in Python. Arguments and results are
+those of the loop kernels of the same name, but that :func:`derivatives`,
+:func:`sampled_update` and :func:`run_steps` take the bodies' index arrays ``bodies``
+(:class:`~tensegrity_core.sim.general.kernels.body_arrays.BodyIndex`, built once per plan;
+built there if not given).
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ from tensegrity_core.robot import motor
 from tensegrity_core.robot.contact import resisting_couple
 from tensegrity_core.robot.friction import stage_force
 from tensegrity_core.sim.general.kernels import arrays as general
+from tensegrity_core.sim.general.kernels import body_arrays
 from tensegrity_core.sim.general.robot.loops import NO_ANCHOR, RECHART_ANGLE, SLIPPING, STICKING
 
 FloatArray = NDArray[np.float64]
@@ -107,11 +112,14 @@ def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free
                 cap_radius: FloatArray, floor_normal: FloatArray, floor_point: FloatArray, floor_params: FloatArray,
                 y: FloatArray, R_ref: FloatArray, out: FloatArray, X: FloatArray, V: FloatArray, R: FloatArray,
                 F: FloatArray, l0: FloatArray, lengths: FloatArray, rates_: FloatArray, tensions: FloatArray,
-                depth: FloatArray, normal: FloatArray, friction: FloatArray, couple: FloatArray) -> None:
+                depth: FloatArray, normal: FloatArray, friction: FloatArray, couple: FloatArray, *,
+                bodies: body_arrays.BodyIndex | None = None) -> None:
     """:func:`.loops.evaluate`: ``out = dy/dt`` of a batch, keeping every effect's state per state."""
-    n_dof = len(free_node) + 6 * len(body_dof)
-    xv = y[:, :2 * n_dof]
-    r = general.place(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, xv, R_ref, X, V, R)
+    n_free, nb = len(free_node), len(body_dof)
+    n_dof = n_free + 6 * nb
+    if bodies is None:
+        bodies = body_arrays.body_index(on_body, on_offset, body_dof, n_dof)
+    moving = general.place(base, free_node, free_axis, on_node, bodies, y[:, :2 * n_dof], R_ref, X, V, R)
     l0[...] = rest_lengths(cable_l0, cable_motor, y, 2 * n_dof)
     Fc, lengths[...], rates_[...], tensions[...] = cable_forces(cable_a, cable_b, cable_k, cable_c, cable_t_max,
                                                                l0, X, V)
@@ -120,15 +128,15 @@ def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free
         cap_node, cap_body, cap_radius, floor_normal, floor_point, floor_params, body_dof, y, n_dof,
         a0, X, V)
     F[...] = external + Fc + Ff
-    wrench = general.nodal_wrenches(on_node, on_body, r, F, len(body_dof))
-    on = cap_body >= 0
-    if on.any():
-        extra = general.scatter(cap_body[on], moments[:, on], len(body_dof))
-        wrench[..., 3:] += extra
-    xdot = np.empty((len(y), 2 * n_dof))
-    general.rates(free_node, free_axis, free_inv_mass, body_dof, body_mass, body_first_moment, body_inertia,
-                  body_inv_inertia_cm, xv, R, F, wrench, xdot)
-    out[:, :2 * n_dof] = xdot
+    out[:, :n_free] = y[:, n_dof:n_dof + n_free]
+    out[:, n_dof:n_dof + n_free] = F[:, free_node, free_axis] * free_inv_mass
+    if moving is not None:
+        wrench = body_arrays.wrenches(bodies, moving, F[:, on_node])
+        on = cap_body >= 0
+        if on.any():
+            wrench[:, :, 1] += general.scatter(cap_body[on], moments[:, on], nb)
+        body_arrays.accelerate(bodies, body_mass, body_first_moment, body_inertia, body_inv_inertia_cm, moving, R,
+                               wrench, out)
     out[:, 2 * n_dof:] = 0.0
     out[:, a0:a0 + 3 * len(cap_node)] = sliding.reshape(len(y), -1)
 
@@ -157,13 +165,14 @@ def sampled_update(base: FloatArray, free_node: IntArray, free_axis: IntArray, o
                    motor_lo: FloatArray, motor_hi: FloatArray, motor_tau: FloatArray, motor_speed: FloatArray,
                    cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray, floor_normal: FloatArray,
                    floor_point: FloatArray, floor_params: FloatArray, y: FloatArray, R_ref: FloatArray, h: float,
-                   aim: FloatArray, mode: IntArray) -> None:
+                   aim: FloatArray, mode: IntArray, *, bodies: body_arrays.BodyIndex | None = None) -> None:
     """:func:`.loops.sampled_update` of one state ``y`` (N,) and its charts ``R_ref`` (nb, 3, 3), in place."""
     n_dof = len(free_node) + 6 * len(body_dof)
     n, nb = len(base), len(body_dof)
+    if bodies is None:
+        bodies = body_arrays.body_index(on_body, on_offset, body_dof, n_dof)
     X, V, R = np.empty((1, n, 3)), np.empty((1, n, 3)), np.empty((1, nb, 3, 3))
-    general.place(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, y[None, :2 * n_dof],
-                  R_ref[None], X, V, R)
+    general.place(base, free_node, free_axis, on_node, bodies, y[None, :2 * n_dof], R_ref[None], X, V, R)
     m0 = 2 * n_dof
     na = len(motor_cable)
     if na:
@@ -217,7 +226,7 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
               motor_tau: FloatArray, motor_speed: FloatArray, cap_node: IntArray, cap_body: IntArray,
               cap_radius: FloatArray, floor_normal: FloatArray, floor_point: FloatArray, floor_params: FloatArray,
               y: FloatArray, R_ref: FloatArray, h: float, aims: FloatArray, modes: IntArray,
-              y_end: FloatArray, *end: FloatArray) -> None:
+              y_end: FloatArray, *end: FloatArray, bodies: body_arrays.BodyIndex | None = None) -> None:
     """:func:`.loops.run_steps` (the steps in a Python loop, each stage a batch of one; ``end``:
     the final state's evaluation arrays, ``out`` .. ``couple_out``)."""
     plan = (base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
@@ -230,15 +239,18 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
             np.empty((1, m)), np.empty((1, m)), np.empty((1, ncap)), np.empty((1, ncap)), np.empty((1, ncap, 3)),
             np.empty((1, ncap, 3)))
     K = np.empty((4, 1, len(y)))
+    if bodies is None:
+        bodies = body_arrays.body_index(on_body, on_offset, body_dof, len(free_node) + 6 * nb)
     for s in range(len(aims)):
         for stage in range(4):
             c = 0.0 if stage == 0 else (0.5 * h if stage < 3 else h)
             z = y[None] if stage == 0 else y[None] + c * K[stage - 1]
-            derivatives(*plan, z, R_ref[None], K[stage], *work)
+            derivatives(*plan, z, R_ref[None], K[stage], *work, bodies=bodies)
         y[...] = y + h / 6.0 * (K[0, 0] + 2.0 * K[1, 0] + 2.0 * K[2, 0] + K[3, 0])
         y_end[...] = y
         sampled_update(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, cable_a, cable_b, cable_k,
                        cable_t_max, motor_cable, motor_lo, motor_hi, motor_tau, motor_speed, cap_node, cap_body,
-                       cap_radius, floor_normal, floor_point, floor_params, y, R_ref, h, aims[s], modes)
-    derivatives(*plan, y[None], R_ref[None], *end)
+                       cap_radius, floor_normal, floor_point, floor_params, y, R_ref, h, aims[s], modes,
+                       bodies=bodies)
+    derivatives(*plan, y[None], R_ref[None], *end, bodies=bodies)
 

@@ -19,6 +19,7 @@ from types import ModuleType
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from tensegrity_core.sim.general.kernels import body_arrays
 from tensegrity_core.sim.general.kernels.jit import choose_kernels
 from tensegrity_core.sim.general.robot import arrays, loops
 from tensegrity_core.sim.general.robot.plan import RobotPlan
@@ -95,6 +96,9 @@ class RobotSystem:
         self.R_ref = _arg(R_ref)
         self.kernels = choose_kernels(kernels)
         self._module: ModuleType = loops if self.kernels == "numba" else arrays
+        # the numpy kernels' index arrays of the moving bodies, built once per plan
+        self._options: dict[str, body_arrays.BodyIndex] = {} if self.kernels == "numba" else {
+            "bodies": body_arrays.body_index(plan.on_body, plan.on_offset, plan.body_dof, plan.n_dof)}
 
     def with_chart(self, R_ref: ArrayLike) -> RobotSystem:
         """The same equations in other rotation charts."""
@@ -151,7 +155,7 @@ class RobotSystem:
         ev = empty_evaluation(self.plan, 1) if out is None else out
         self._module.run_steps(*self.plan, y_new, R_new, float(h), _arg(aims), self.modes, y_end, ev.derivative,
                                ev.positions, ev.velocities, ev.rotations, ev.forces, ev.rest_lengths, ev.lengths,
-                               ev.rates, ev.tensions, ev.depth, ev.normal, ev.friction, ev.couple)
+                               ev.rates, ev.tensions, ev.depth, ev.normal, ev.friction, ev.couple, **self._options)
         return y_new, R_new, y_end
 
     def evaluate(self, y: FloatArray, R_ref: FloatArray | None = None, *,
@@ -169,7 +173,7 @@ class RobotSystem:
         ev = empty_evaluation(self.plan, B) if out is None else out
         self._module.evaluate(*self.plan, Y, R0, ev.derivative, ev.positions, ev.velocities, ev.rotations, ev.forces,
                               ev.rest_lengths, ev.lengths, ev.rates, ev.tensions, ev.depth, ev.normal, ev.friction,
-                              ev.couple)
+                              ev.couple, **self._options)
         return ev
 
 
