@@ -148,7 +148,7 @@ def motor_step(l0: FloatArray, aim: FloatArray, tau: FloatArray, speed: FloatArr
     """:func:`.loops.motor_step` over arrays."""
     e0 = aim - l0
     mag = np.abs(e0)
-    knee = np.where(tau > 0.0, speed * tau, 0.0)
+    knee = np.where(tau > 0.0, speed * np.where(tau > 0.0, tau, 1.0), 0.0)    # not inf * 0: a NaN and a warning
     finite = np.isfinite(speed)
     slew_time = np.where((mag > knee) & finite, (mag - knee) / np.where(finite, speed, 1.0), 0.0)
     slewing = dt < slew_time
