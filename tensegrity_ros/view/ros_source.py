@@ -92,6 +92,7 @@ class RosSource:
         self._sink: Sink | None = None
         self._report: Report = _ignore
         self._lock = threading.Lock()
+        self._moves = 0                   # Move D presses: only the latest one's answers are shown
         self._first = threading.Event()
         self._latest: Frame | None = None
         self._run_state = "unknown"
@@ -284,25 +285,38 @@ class RosSource:
             self._report("move: no controller answers move_end_effector (is it running? `tensegrity up`)")
             return
         goal = self.MoveEndEffector.Goal(x=float(x), y=float(y), duration=float(duration))
+        with self._lock:
+            self._moves += 1
+            move = self._moves
         self._report(f"move: D to ({x:g}, {y:g}) m in {duration:g} s sent")
         answered = threading.Event()
+
+        def latest() -> bool:
+            # the page's line is the latest Move D's: an earlier goal's late answer (it was
+            # pressed again, and this goal preempted it) is not shown over it
+            with self._lock:
+                return move == self._moves
 
         def unanswered() -> None:
             # a goal request (or its answer) lost while discovery still matches the action's
             # endpoints, or a controller gone, would otherwise leave the page at "sent" for good
-            if not answered.is_set():
+            if not answered.is_set() and latest():
                 self._report(f"move: no answer from the controller within {self.move_answer_s:g} s "
                              "(press Move D again)")
 
         def accepted(future: Any) -> None:
             answered.set()
             handle = future.result()
+            if not latest():
+                return
             if handle is None or not handle.accepted:
                 self._report("move: the controller refused the goal")
                 return
             handle.get_result_async().add_done_callback(finished)
 
         def finished(future: Any) -> None:
+            if not latest():
+                return
             res = future.result().result
             if res.error_code == 0:
                 p = res.end_effector

@@ -373,6 +373,7 @@ def test_the_move_fields_send_the_controllers_goal_and_d_ends_at_the_target(live
 
     _until(move, "the view find the controller")
     line = answer.inner_text()
+    assert line.startswith("move: D at ("), line
     x, y = (float(v) for v in line.split("(")[1].split(")")[0].split(","))
     assert abs(x - target[0]) < 1e-3 and abs(y - target[1]) < 1e-3, line
     done = _next_state(client).stamp_ns

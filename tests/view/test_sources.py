@@ -104,6 +104,74 @@ def test_a_bag_without_states_to_draw_is_refused_in_one_line(tmp_path):
 
 
 @pytest.mark.ros
+def test_a_late_answer_to_an_earlier_move_is_not_shown_over_the_latest(ros_context):
+    """Move D pressed again while the first goal still runs (as after "no answer ... press Move
+    D again"): the first goal's late answer, a preempted goal's failure, is not shown; the
+    page's lines are the latest goal's."""
+    import os
+    import threading
+    import time
+
+    from rclpy.action import ActionServer
+    from rclpy.callback_groups import ReentrantCallbackGroup
+    from rclpy.executors import MultiThreadedExecutor
+    from rclpy.node import Node
+    from tensegrity_msgs.action import MoveEndEffector
+
+    from tensegrity_ros.rclpy_utils.spin_thread import SpinThread
+    from tensegrity_ros.view.ros_source import RosSource
+
+    first_running, release = threading.Event(), threading.Event()
+
+    def execute(handle):
+        goal, result = handle.request, MoveEndEffector.Result()
+        if goal.x == 1.0:                                  # the first goal: ends preempted, late
+            first_running.set()
+            release.wait(120)
+            handle.abort()
+            result.error_code, result.error_string = MoveEndEffector.Result.PREEMPTED, "preempted by a newer goal"
+            return result
+        handle.succeed()
+        result.end_effector.x, result.end_effector.y = goal.x, goal.y
+        return result
+
+    namespace = f"/view_move_late_{os.getpid()}"
+    server_node = Node("slow_controller", namespace=namespace, context=ros_context)
+    ActionServer(server_node, MoveEndEffector, "move_end_effector", execute, callback_group=ReentrantCallbackGroup())
+    executor = MultiThreadedExecutor(context=ros_context)
+    executor.add_node(server_node)
+    spinning = SpinThread(executor, "slow_controller").start()
+    source = RosSource(namespace)
+    sink = Frames()
+    source.start(sink, sink.report)
+    deadline = time.monotonic() + 120.0
+
+    def until(line: str) -> None:
+        while line not in sink.reports:
+            assert time.monotonic() < deadline, sink.reports
+            time.sleep(0.05)
+
+    try:
+        while not source.mover.server_is_ready():
+            assert time.monotonic() < deadline, "the view never saw the action server"
+            time.sleep(0.05)
+        source.move(1.0, 0.7, 2.0)
+        assert first_running.wait(120)
+        source.move(1.4, 0.7, 2.0)
+        until("move: D at (1.4000, 0.7000) m, 0.00 mm from the target")
+        release.set()                                       # the first goal's answer comes now...
+        source.move(1.3, 0.7, 2.0)                          # ...before this one's, on the same server
+        until("move: D at (1.3000, 0.7000) m, 0.00 mm from the target")
+        assert not [r for r in sink.reports if r.startswith("move: failed")], sink.reports
+    finally:
+        release.set()
+        source.stop()
+        spinning.stop()
+        executor.shutdown()
+        server_node.destroy_node()
+
+
+@pytest.mark.ros
 def test_a_move_the_controller_never_answers_says_so(ros_context):
     """A move_end_effector server that never takes the goal (its node is never spun: the
     action's endpoints are on the graph, its requests never read): the page's line says no
