@@ -79,11 +79,13 @@ def _by_stamp(client, topic):
     return client.stamped[topic]
 
 
-def _at_rest(client) -> int | None:
+def _at_rest(client, robot) -> int | None:
     """The stamp [ns] of a state of the robot at rest (every rod's speed < 1 mm/s and rotation
-    < 0.01 rad/s) that joint_states, cable_states, contacts and every IMU have, or None."""
+    < 0.01 rad/s) that joint_states, cable_states, contacts and every rod's IMU have, or None
+    (every rod's as the description names them: an IMU subscription that matched later than the
+    others has received nothing yet)."""
     bodies = client.received["body_states"][-8:]          # the latest states (each later one is as good)
-    topics = ["joint_states", "cable_states", "contacts"] + [t for t in client.received if t.startswith("imu/")]
+    topics = ["joint_states", "cable_states", "contacts"] + [f"imu/{rod['name']}" for rod in robot["rods"]]
     for msg in reversed(bodies):
         stamp = stamp_ns(msg.header.stamp)
         if all(stamp in client.stamped[t] for t in topics) and all(
@@ -118,7 +120,7 @@ def _caps(robot, bodies):
 
 def test_joint_states_are_the_motor_cables_length_rate_and_tension(suite, robot):
     client, _ = suite
-    stamp = client.wait(lambda: _at_rest(client), "the robot at rest in every topic")
+    stamp = client.wait(lambda: _at_rest(client, robot), "the robot at rest in every topic")
     joints = _by_stamp(client, "joint_states")[stamp]
     bodies = _by_stamp(client, "body_states")[stamp]
     states = _by_stamp(client, "cable_states")[stamp]
@@ -141,7 +143,7 @@ def test_joint_states_are_the_motor_cables_length_rate_and_tension(suite, robot)
 
 def test_cable_states_name_every_member_and_slack_means_no_tension(suite, robot):
     client, _ = suite
-    stamp = client.wait(lambda: _at_rest(client), "the robot at rest in every topic")
+    stamp = client.wait(lambda: _at_rest(client, robot), "the robot at rest in every topic")
     states = _by_stamp(client, "cable_states")[stamp]
     rods = [r["name"] for r in robot["rods"]]
     cables = [c["name"] for c in robot["cables"]]
@@ -161,7 +163,7 @@ def test_cable_states_name_every_member_and_slack_means_no_tension(suite, robot)
 
 def test_each_rod_imu_reads_as_sensor_msgs_imu_says_at_rest(suite, robot):
     client, _ = suite
-    stamp = client.wait(lambda: _at_rest(client), "the robot at rest in every topic")
+    stamp = client.wait(lambda: _at_rest(client, robot), "the robot at rest in every topic")
     bodies = _by_stamp(client, "body_states")[stamp]
     poses = dict(zip(bodies.name, bodies.pose))
     for rod in (r["name"] for r in robot["rods"]):
@@ -197,7 +199,7 @@ def test_every_state_is_stamped_on_the_simulation_clock(suite, robot):
 
 def test_contacts_are_the_caps_on_the_floor_and_carry_the_weight(suite, robot):
     client, _ = suite
-    stamp = client.wait(lambda: _at_rest(client), "the robot at rest in every topic")
+    stamp = client.wait(lambda: _at_rest(client, robot), "the robot at rest in every topic")
     contacts = _by_stamp(client, "contacts")[stamp]
     caps = _caps(robot, _by_stamp(client, "body_states")[stamp])
     radius = {n: r["cap_radius"] for r in robot["rods"] for n in r["nodes"]}
@@ -254,7 +256,7 @@ def _tf_at(client, stamp):
 
 def test_tf_gives_every_rod_frame_the_imus_name(suite, robot):
     client, _ = suite
-    stamp = client.wait(lambda: (s := _at_rest(client)) is not None and _tf_at(client, s) is not None and s,
+    stamp = client.wait(lambda: (s := _at_rest(client, robot)) is not None and _tf_at(client, s) is not None and s,
                         "the robot at rest in every topic and /tf")
     tf = _tf_at(client, stamp)
     bodies = _by_stamp(client, "body_states")[stamp]
@@ -276,7 +278,7 @@ def test_tf_gives_every_rod_frame_the_imus_name(suite, robot):
 
 def test_tf_places_the_caps_where_the_cables_and_contacts_say(suite, robot):
     client, _ = suite
-    stamp = client.wait(lambda: (s := _at_rest(client)) is not None and _tf_at(client, s) is not None and s,
+    stamp = client.wait(lambda: (s := _at_rest(client, robot)) is not None and _tf_at(client, s) is not None and s,
                         "the robot at rest in every topic and /tf")
     tf = {t.child_frame_id: t.transform for t in _tf_at(client, stamp).transforms}
     nodes = {n: np.array(p, dtype=float) for n, p in robot["nodes"].items()}
