@@ -26,6 +26,7 @@ from tensegrity_core.class2 import PAPER_PARAMS, end_effector_of, forward_kinema
 from tensegrity_core.class2.names import ACTUATED_JOINTS
 from tensegrity_ros.apps.sim_client import NS_PER_S, JointRecord, SimClient
 from tensegrity_ros.rclpy_utils.futures import on_executor, wait_done
+from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
 
 #: End-effector waypoints, offsets [m] from D at rho1 = rho2 = 0.7 (the scene's rest).
 WAYPOINT_OFFSETS = ((0.08, 0.0), (0.08, 0.06), (-0.04, 0.06), (0.0, 0.0))
@@ -101,6 +102,7 @@ class ControllerClient:
             if not client.wait_for_server(timeout_sec=timeout):
                 raise RuntimeError(f"the controller's action {client._action_name} is not available "
                                    f"within {timeout:g} s")
+            wait_until_server_heard(self.sim.node, client._action_name, wait_done, timeout)
 
     def connect(self, timeout: float = 60.0, ask_every: float = 2.0) -> None:
         """Return once the loop is known to be closed: the simulator reset to its state at

@@ -200,6 +200,7 @@ def play_gait(robot: str, gait: Gait, ros_args: list[str], *, action: str, timeo
 
     from tensegrity_ros.cli.ros_clients import client_node
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
+    from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
 
     points = trajectory_points(gait)
     rclpy, node = client_node("tensegrity_gait", ros_args)
@@ -214,6 +215,7 @@ def play_gait(robot: str, gait: Gait, ros_args: list[str], *, action: str, timeo
         if not client.wait_for_server(timeout_sec=timeout):
             raise SuiteError(f"action {node.resolve_topic_name(action)} not available after {timeout:g} s (is the "
                            "suite's cable controller up? `tensegrity up --scene six_bar_rest`)", code=3)
+        wait_until_server_heard(node, action, lambda f, t: spin_until_done(executor, f, t), timeout)
         deadline = time.monotonic() + timeout
         while not watcher.controller_answers:     # a goal before the controller has a state is INVALID_GOAL
             if time.monotonic() > deadline:

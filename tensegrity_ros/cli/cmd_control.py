@@ -149,6 +149,7 @@ def _run_goal(args: argparse.Namespace, node_name: str, action: Any, goal: Any, 
 
     from tensegrity_ros.cli.ros_clients import client_node
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
+    from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
 
     rclpy, node = client_node(node_name, args.ros_args)
     executor = SingleThreadedExecutor()
@@ -161,6 +162,7 @@ def _run_goal(args: argparse.Namespace, node_name: str, action: Any, goal: Any, 
         if not client.wait_for_server(timeout_sec=args.timeout):
             raise CliError(f"action {node.resolve_topic_name(args.action)} not available after {args.timeout:g} s "
                            "(is the controller up? `tensegrity up`)", code=3)
+        wait_until_server_heard(node, args.action, lambda f, t: spin_until_done(executor, f, t), args.timeout)
         sent = client.send_goal_async(goal, feedback_callback=lambda msg: progress(bar, msg.feedback))
         if not spin_until_done(executor, sent, args.timeout):
             raise CliError(f"the controller did not answer the goal within {args.timeout:g} s", code=3)

@@ -8,6 +8,8 @@ on a 2-core machine: the first one or two messages of a replay at 200 Hz lost, i
 of 5-10 ms. Nothing on the writer side reports the reader's match, so after every
 publisher has its subscribers :func:`wait_for_matches` holds for ``settle_s`` more (the
 count must stay up for that whole time), which covers that gap many times over.
+A request's answer has the same gap the other way round, and there an answer does prove the
+match: :func:`wait_until_server_heard` waits for one before an action goal is sent.
 """
 
 from __future__ import annotations
@@ -54,3 +56,57 @@ def wait_for_matches(publishers: Iterable[Any], minimum: int = 1, timeout_s: flo
         if should_stop():
             return False
         poll(0.01)
+
+
+def wait_until_server_heard(node: Any, action_name: str, wait: Callable[[Any, float], bool], timeout_s: float,
+                            *, attempt_s: float = 1.0) -> bool:
+    """Return True once the node serving the action ``action_name`` is known to have matched
+    every endpoint that ``node``'s participant created before this call -- in particular the
+    request writers and reply readers of an ``ActionClient`` made just before -- False after
+    ``timeout_s``.
+
+    ``ActionClient.wait_for_server()`` reports only this participant's side of discovery. The
+    server's participant learns of a new client's endpoints later, from discovery messages of
+    its own; rmw_fastrtps waits the response writer's ``max_blocking_time`` for the client's
+    reader when it answers a request (100 ms by default, 5 s under the suite's profile:
+    docs/design/ros.md, "First answers"), then drops the answer, and a goal sent at once never
+    gets its response (a goal of a loaded fresh-clone run waited 30 s). Proof that the server
+    has matched both: an answer to a request whose writer and reply reader were created
+    *after* the action client's. A participant announces its writers and its readers in
+    creation order, each on one reliable, in-order discovery stream (SEDP), so a server that
+    has matched the later endpoints (the request arrived, its answer came back) has matched
+    every earlier one. The probe is the server node's ``get_parameters`` service with
+    no names (no effect; every rclpy and rclcpp node has it unless started without parameter
+    services), asked again every ``attempt_s`` s until one answer arrives; any answer counts.
+
+    ``wait(future, seconds)`` waits for a future and returns whether it is done: the
+    caller's ``spin_until_done`` with its executor, or ``futures.wait_done`` when another
+    thread spins ``node``. A server whose node has no parameter services gives False at once:
+    nothing proves the match then, and the caller goes on as before."""
+    from rcl_interfaces.srv import GetParameters
+
+    deadline = time.monotonic() + timeout_s
+    # The graph names an endpoint's node only once that node's participant has said which
+    # node owns it (until then rmw gives "_NODE_NAMESPACE_UNKNOWN_"); it fills in by itself.
+    while not (servers := [i for i in node.get_publishers_info_by_topic(f"{action_name}/_action/status")
+                           if i.node_namespace.startswith("/")]):
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.01)
+    info = servers[0]
+    fq_node = f"{info.node_namespace.rstrip('/')}/{info.node_name}"
+    if not any(name == f"{fq_node}/get_parameters"
+               for name, _types in node.get_service_names_and_types_by_node(info.node_name, info.node_namespace)):
+        return False                     # no parameter services: nothing to ask
+    probe = node.create_client(GetParameters, f"{fq_node}/get_parameters")
+    try:
+        if not probe.wait_for_service(timeout_sec=max(0.0, deadline - time.monotonic())):
+            return False
+        asked: list[Any] = []
+        while time.monotonic() < deadline:
+            asked.append(probe.call_async(GetParameters.Request()))
+            if wait(asked[-1], min(attempt_s, max(0.0, deadline - time.monotonic()))) or any(f.done() for f in asked):
+                return True
+        return any(f.done() for f in asked)
+    finally:
+        node.destroy_client(probe)

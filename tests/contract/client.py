@@ -54,7 +54,36 @@ class Client:
         action = ActionClient(self.node, action_type, name)
         self._actions.append(action)
         assert action.wait_for_server(timeout_sec=PATIENCE), f"no action server {name}"
+        self._heard_by(name)
         return action
+
+    def _heard_by(self, action_name: str) -> None:
+        """Until the server of ``action_name`` answers a request whose reply reader was created
+        after the action client's. ``wait_for_server()`` is this participant's side of discovery
+        only; the server matches the client's reply readers later, and Fast DDS drops an answer
+        whose reader is not matched 100 ms after the request. Readers are announced in creation
+        order on one in-order stream, so that answer proves the earlier readers matched too. The
+        request is the server node's ``get_parameters`` (no names: no effect), asked every second
+        until one answer arrives."""
+        from rcl_interfaces.srv import GetParameters
+
+        server = self.wait_until(lambda: [i for i in self.node.get_publishers_info_by_topic(
+            f"{action_name}/_action/status") if i.node_namespace.startswith("/")],   # else its node is not known yet
+            f"the server of {action_name} in the graph")[0]
+        probe = self.node.create_client(GetParameters, f"{server.node_namespace.rstrip('/')}/{server.node_name}"
+                                        "/get_parameters")
+        try:
+            assert probe.wait_for_service(timeout_sec=PATIENCE), f"no parameter service of {server.node_name}"
+            asked: list[Any] = []
+            deadline = time.monotonic() + PATIENCE
+            while not any(f.done() for f in asked):
+                assert time.monotonic() < deadline, f"waited {PATIENCE:g} s for {server.node_name} to answer"
+                asked.append(probe.call_async(GetParameters.Request()))
+                arrived = threading.Event()
+                asked[-1].add_done_callback(lambda _f, arrived=arrived: arrived.set())
+                arrived.wait(1.0)
+        finally:
+            self.node.destroy_client(probe)
 
     def listen(self, msg_type: Any, topic: str, qos: Any = 100) -> None:
         """Keep every message of ``topic`` in ``received[topic]`` (and, when it has a header,

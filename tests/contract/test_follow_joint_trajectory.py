@@ -53,6 +53,7 @@ def suite(tmp_path_factory):
         client.listen(CableCommand, "cable_commands")
         action = client.action_client(FollowJointTrajectory, ACTION)
         client.wait(lambda: client.received["cable_commands"], "the cable controller's first answer to a state")
+        client.wait(lambda: client.received["cable_states"], "a cable state")    # another topic: may come later
         yield client, action
     finally:
         client.close()

@@ -14,6 +14,8 @@ import math
 import numpy as np
 import pytest
 
+from tensegrity_ros.rclpy_utils.futures import wait_done
+from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
 from tests.ros_support import end_context
 
 pytestmark = pytest.mark.ros
@@ -48,6 +50,7 @@ def rig(tmp_path_factory):
     client.wait_for_services(60)
     action = ActionClient(client.node, FollowJointTrajectory, ACTION)
     assert action.wait_for_server(timeout_sec=60)
+    assert wait_until_server_heard(client.node, ACTION, wait_done, 60)
     _wait_for_the_controllers_answer(client)
     yield client, action, sim, ctl
     action.destroy()
@@ -102,7 +105,7 @@ def _send(client, action, goal):
 def _asked(client, call, timeout: float):
     """The result of the future ``call()`` returns, ``call`` made by the client's spinning thread
     (rclpy_utils.futures.on_executor: from this thread the answer can be dropped)."""
-    from tensegrity_ros.rclpy_utils.futures import on_executor, wait_done
+    from tensegrity_ros.rclpy_utils.futures import on_executor
 
     task = on_executor(client.executor, call)
     assert wait_done(task, timeout), "the spinning thread did not run the call"

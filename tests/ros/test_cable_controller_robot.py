@@ -15,6 +15,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from tensegrity_ros.rclpy_utils.futures import wait_done
+from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
 from tests.ros.test_cable_controller import _goal, _result, _send, _t0, _wait_for_the_controllers_answer
 from tests.ros_support import end_context
 
@@ -49,6 +51,7 @@ def rig(tmp_path):
     client.wait_for_services(60)
     action = ActionClient(client.node, FollowJointTrajectory, ACTION)
     assert action.wait_for_server(timeout_sec=60)
+    assert wait_until_server_heard(client.node, ACTION, wait_done, 60)
     _wait_for_the_controllers_answer(client)
     yield client, action, sim
     action.destroy()

@@ -20,6 +20,8 @@ import threading
 
 import pytest
 
+from tensegrity_ros.rclpy_utils.futures import wait_done
+from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
 from tests.ros.test_cable_controller import _goal, _result, _send, _wait_for_the_controllers_answer
 from tests.ros_support import end_context
 
@@ -75,6 +77,7 @@ def test_a_free_running_robot_follows_a_trajectory_goal_within_its_motors_slew_l
         client.wait_for_services(60)
         action = ActionClient(client.node, FollowJointTrajectory, ACTION)
         assert action.wait_for_server(timeout_sec=60)
+        assert wait_until_server_heard(client.node, ACTION, wait_done, 60)
         _wait_for_the_controllers_answer(client)
         client.set_state(SimulationState.STATE_PLAYING)
         goal = _goal([(0.1, TARGETS)], names=CABLES, goal_time_tolerance=Duration(sec=5))

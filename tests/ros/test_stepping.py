@@ -287,6 +287,7 @@ def test_cancelling_simulate_steps_stops_at_a_step_boundary(stepping, ros_contex
     from simulation_interfaces.msg import SimulationState
 
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
+    from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
 
     clock, spin = _clock_listener(ros_context)
     proc, client = stepping("initial_state:=paused", "paused_publish_rate:=0.0", f"lockstep:={str(lockstep).lower()}",
@@ -300,10 +301,11 @@ def test_cancelling_simulate_steps_stops_at_a_step_boundary(stepping, ros_contex
     ex.add_node(node)
     action = ActionClient(node, SimulateSteps, "simulate_steps")
     assert action.wait_for_server(timeout_sec=30)
+    assert wait_until_server_heard(node, "simulate_steps", lambda f, t: spin_until_done(ex, f, t), 30)
     feedback = []
     goal_future = action.send_goal_async(SimulateSteps.Goal(steps=1_000_000),
                                          feedback_callback=lambda m: feedback.append(m.feedback))
-    assert spin_until_done(ex, goal_future, 30)
+    assert spin_until_done(ex, goal_future, 30), proc.stderr()
     handle = goal_future.result()
     assert handle.accepted
     deadline = time.monotonic() + 60
@@ -449,6 +451,7 @@ def test_simulate_steps_gives_feedback_after_every_step(stepping, ros_context, l
     from simulation_interfaces.action import SimulateSteps
 
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
+    from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
 
     proc, client = stepping("initial_state:=paused", "paused_publish_rate:=0.0", f"lockstep:={str(lockstep).lower()}",
                             "lockstep_timeout:=30.0")
@@ -458,6 +461,7 @@ def test_simulate_steps_gives_feedback_after_every_step(stepping, ros_context, l
     ex.add_node(node)
     action = ActionClient(node, SimulateSteps, "simulate_steps", feedback_sub_qos_profile=QoSProfile(depth=1000))
     assert action.wait_for_server(timeout_sec=30)
+    assert wait_until_server_heard(node, "simulate_steps", lambda f, t: spin_until_done(ex, f, t), 30)
     for _ in range(3):
         feedback: list = []
         goal = action.send_goal_async(SimulateSteps.Goal(steps=25), feedback_callback=lambda m, got=feedback: got.append(

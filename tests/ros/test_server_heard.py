@@ -1,0 +1,69 @@
+"""wait_until_server_heard over real DDS on loopback: an rclpy action server in a participant
+of its own (a second context), with and without parameter services."""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+
+import pytest
+
+from tests.ros_support import end_context
+
+
+@contextmanager
+def _action_server(parameter_services: bool):
+    """A SimulateSteps server that succeeds at once, spun on a thread of its own."""
+    import rclpy
+    from rclpy.action import ActionServer
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+    from simulation_interfaces.action import SimulateSteps
+
+    from tensegrity_ros.rclpy_utils.spin_thread import SpinThread
+
+    def execute(handle):
+        handle.succeed()
+        return SimulateSteps.Result()
+
+    ctx = Context()
+    rclpy.init(args=[], context=ctx)
+    node = rclpy.create_node("heard_server", context=ctx, start_parameter_services=parameter_services)
+    ActionServer(node, SimulateSteps, "heard_steps", execute)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+    spinner = SpinThread(ex, "heard_server").start()
+    try:
+        yield
+    finally:
+        spinner.stop()
+        end_context(ctx)
+
+
+@pytest.mark.parametrize("parameter_services", [True, False])
+def test_a_server_is_heard_only_through_its_parameter_services(ros_context, parameter_services):
+    """With parameter services the probe is answered (True) and the goal sent after it is
+    accepted; without them nothing can prove the match (False, at once), and the probe
+    client is gone from the node either way."""
+    import rclpy
+    from rclpy.action import ActionClient
+    from rclpy.executors import SingleThreadedExecutor
+    from simulation_interfaces.action import SimulateSteps
+
+    from tensegrity_ros.rclpy_utils.futures import spin_until_done
+    from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
+
+    with _action_server(parameter_services):
+        node = rclpy.create_node("heard_client", context=ros_context)
+        ex = SingleThreadedExecutor(context=ros_context)
+        ex.add_node(node)
+        action = ActionClient(node, SimulateSteps, "heard_steps")
+        assert action.wait_for_server(timeout_sec=60)
+        heard = wait_until_server_heard(node, "heard_steps", lambda f, t: spin_until_done(ex, f, t), 60)
+        assert heard is parameter_services
+        assert not any(name.endswith("/get_parameters")
+                       for name, _types in node.get_client_names_and_types_by_node("heard_client", "/"))
+        goal = action.send_goal_async(SimulateSteps.Goal(steps=1))
+        assert spin_until_done(ex, goal, 60) and goal.result().accepted
+        action.destroy()
+        ex.shutdown()
+        node.destroy_node()
