@@ -8,34 +8,40 @@ rigid body) and whose members need no slack test inside a step (the stepper's st
 a taut string carries compression, a slack one has no stiffness), this module evaluates a
 stage in 6 calls (small models) or 12 (larger ones), everything written in place, each
 output passed positionally (a keyword ``out=`` costs numpy ~0.1-0.2 us of argument parsing
-per call, a fifth to a third of a small call):
+per call, a fifth to a third of a small call); per stage:
 
-- a flat *source* buffer ``S = [y (N) | drawn coordinates (3n) | external forces on the free
-  coordinates (n_free) | 0 | ...]`` whose tail holds the members' quantities (below);
-- the member vectors ``h = x_b - x_a`` (3, m, component-major) as one linear map of ``S``;
-- ``l = |h|``: ``hypot(hypot(h_x, h_y), h_z)`` for the dense maps (two calls on a few
-  dozen members, against a dot product per member and a root), a product, a sum over the
-  components and a root for the gathers (``hypot`` costs more per member);
-- ``dy/dt = [v | (external + sum of the member forces on each free coordinate) / mass]``
-  as one linear map of ``S``;
+- the member vectors ``h = x_b - x_a``, their lengths ``l = |h|``, the unit vectors
+  ``u = h / l`` and ``dy/dt = [v | (external + sum of the member forces on each free
+  coordinate) / mass]``;
 - the stage states ``y + h sum_j a_ij K_j`` and the step's end as one product of the
   coefficients with the rows ``[y | K_0 .. K_3]`` of one (5, N) array.
 
-The linear maps are dense matrices while they are small (:data:`DENSE_LIMIT` entries): one
-BLAS product whatever the number of nonzeros. Then the force of a member on its node ``a``,
-``t u`` with ``t = EA (l - l0) / l0 [+ c (dv . u)]``, is written ``k h - EA u [+ c (dv . u)
-u]`` (``k = EA / l0`` [N/m], ``u = h / l``): linear in ``h``, ``u`` and ``(dv . u) u``, whose
-coefficients (with the masses' inverses and the signs) are the rate matrix's columns, so a
-stage is ``h, dv = G S``; ``l`` (two calls); ``u = h / l``; ``dy/dt = D S``. Above that size a dense
-product's work exceeds the calls it saves: the maps are gathers with index arrays (both ends
-of every member, and every coordinate's terms summed row by row and scaled), the force as
-``q h`` with ``q = t / l = k - EA / l`` (and ``-q h`` on the nodes ``b``).
+While the structure is small (:data:`DENSE_LIMIT` entries of the matrices below) and its state
+moves whole nodes (each moving node's three coordinates in turn, one mass per node: every
+shipped structure), a stage is six calls on a *node-major* buffer ``S`` (rows, 3) of one row
+per node or member, ``[fixed nodes' x | moving nodes' x | their v | h | u | (dv . u) u |
+external forces on the moving nodes]``, whose rows ``x`` and ``v`` are the state itself (so
+the state is written in place by its stage product): ``h = C [x_fixed; x]`` with the members'
+signed incidence ``C`` (m, n), ``l`` a dot product per row and a root, ``u = h / l`` and
+``dy/dt`` (as (2 n_moving, 3): ``[v | a]``) one product of a rate matrix with the rows ``[v |
+h | u | (dv . u) u | external]``. The force of a member on its node ``a``, ``t u`` with ``t =
+EA (l - l0) / l0 [+ c (dv . u)]``, is written ``k h - EA u [+ c (dv . u) u]`` (``k = EA /
+l0`` [N/m]): linear in ``h``, ``u`` and ``(dv . u) u``, whose coefficients (with the masses'
+inverses and the signs) are the rate matrix's columns. The products are BLAS products of
+matrices of a few hundred to a few thousand entries by three columns: one call each, and
+about ``3 m n`` multiplications (a product of component-major arrays by the whole signed
+incidence of every coordinate would be nine times that). Above that size, or when a node is
+partly fixed or has a mass per axis, the maps are gathers with index arrays on a flat buffer
+``[y | drawn coordinates | external forces on the free coordinates | 0 | forces on the
+nodes a | their opposites]`` (both ends of every member, and every coordinate's terms summed
+row by row and scaled), the force as ``q h`` with ``q = t / l = k - EA / l`` (and ``-q h`` on
+the nodes ``b``).
 
 The formulas are those of :mod:`.loops`, member by member, the sums in another order: the
 numbers agree with the compiled kernels to rounding (the split ``k h - EA u`` adds two terms
 of the size of ``EA`` where the loops add one of the size of ``t``: an absolute rounding of a
-few ``eps EA`` [N] per member in both; ``hypot`` rounds a length once where the loops'
-root of a sum rounds it up to three times). The screen for a string's slack/taut event
+few ``eps EA`` [N] per member in both; a length is the root of the sum of its squared
+components, added in numpy's order). The screen for a string's slack/taut event
 decides as :func:`.loops.quiet_step`, so a stretch stops where the compiled one does, from
 the gaps signed by their signs at the stretch's start (:func:`quiet_ends`): one reduction
 per step's end gives the least signed gap and the largest rate.
@@ -45,8 +51,6 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from functools import cached_property, partial
-from typing import Any
-
 import numpy as np
 from numpy.typing import NDArray
 
@@ -57,17 +61,13 @@ from tensegrity_core.sim.integrators import Run
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
-#: Largest number of entries of the two dense matrices (member vectors and rates) for which
-#: the linear maps are dense products; above it, gathers (the measured crossover,
-#: docs/design/performance.md: dense faster up to ~27 members, gathers from ~36).
-DENSE_LIMIT = 50_000
+#: Largest number of entries of the node-major matrices (incidence and rates,
+#: :meth:`FlatLayout.dense_entries`) for which the maps are dense products; above it, gathers
+#: (the measured crossover, docs/design/performance.md: dense faster up to ~100 members).
+DENSE_LIMIT = 40_000
 #: The quiet-step screen's factor (:func:`.loops.quiet_step`: a cubic between its ends strays
 #: at most 4/27 of the step times the sum of its end slopes), with its rounding margin.
 SCREEN = (4.0 / 27.0) * (1.0 + 1e-9)
-#: ``np.vecdot``'s axes for a dot product over the components of (3, m) arrays: one per member
-#: (untyped: numpy's stubs type a gufunc's ``axes`` as matmul's pairs). One call, the cheapest
-#: below ~50 members (the dense maps' sizes); it loops member by member.
-COMPONENTS: Any = [(0,), (0,), ()]
 #: The fractions of the step at RK4's stages 1-3.
 FRACTIONS = (0.5, 0.5, 1.0)
 
@@ -111,23 +111,25 @@ def quiet_ends(E0: FloatArray, E1: FloatArray, least0: float, most0: float, leas
     return not bool(np.any(np.minimum(E0[0], E1[0]) < margin))
 
 
-def _dense_rate(G: FloatArray, D: FloatArray, S: FloatArray, sources: FloatArray, hv: FloatArray, h: FloatArray,
-                l: FloatArray, u: FloatArray, dv: FloatArray, rate: FloatArray, du: FloatArray,
-                damped: bool) -> Callable[[FloatArray], None]:
-    """:meth:`FlatStages._rate` with dense maps, its arrays bound in a closure (no attribute
-    look-ups or arguments per call) and every output passed positionally."""
-    dot, hypot, divide = np.dot, np.hypot, np.divide
-    hx, hy, hz = h
+def _dense_rate(C: FloatArray, P: FloatArray, H: FloatArray, l: FloatArray, U: FloatArray, R: FloatArray,
+                tail: FloatArray, moving: FloatArray, V: FloatArray, dv: FloatArray, rate: FloatArray,
+                DU: FloatArray, damped: bool) -> Callable[[FloatArray], None]:
+    """:meth:`FlatStages._rate` with the node-major maps, its arrays bound in a closure (no
+    attribute look-ups or arguments per call) and every output passed positionally; its
+    output is the rate as (2 n_moving, 3)."""
+    dot, vecdot, sqrt, divide = np.dot, np.vecdot, np.sqrt, np.divide
+    lc, rc = l[:, None], rate[:, None]
 
     def rate_into(out: FloatArray) -> None:
-        dot(G, sources, hv)                         # h, dv
-        hypot(hx, hy, l)
-        hypot(l, hz, l)
-        divide(h, l, u)
+        dot(C, P, H)                                # h = x_b - x_a (m, 3)
+        vecdot(H, H, l)
+        sqrt(l, l)
+        divide(H, lc, U)
         if damped:
-            np.vecdot(dv, u, axes=COMPONENTS, out=rate)
-            np.multiply(u, rate, du)
-        dot(D, S, out)                              # v; (external + k h - EA u + c (dv . u) u) / mass
+            dot(moving, V, dv)                      # v_b - v_a
+            vecdot(dv, U, rate)
+            np.multiply(U, rc, DU)
+        dot(R, tail, out)                           # [v | (external + k h - EA u + c (dv . u) u) / mass]
 
     return rate_into
 
@@ -168,18 +170,33 @@ def _dot_components(a: FloatArray, b: FloatArray, out: FloatArray, work: FloatAr
     np.add.reduce(work, axis=0, out=out)
 
 
-class FlatLayout:
-    """The index arrays of the flat buffer of ``plan`` (module docstring).
+def whole_nodes(plan: Plan) -> IntArray | None:
+    """The nodes whose coordinates the state of ``plan`` moves, in the state's order, if it
+    moves each one's three coordinates in turn (x, y, z) with one mass; else None."""
+    node, axis = plan.free_node, plan.free_axis
+    if len(node) % 3:
+        return None
+    triples, inverse_mass = node.reshape(-1, 3), plan.free_inv_mass.reshape(-1, 3)
+    whole = (np.array_equal(axis, np.tile(np.arange(3), len(triples))) and bool(np.all(triples == triples[:, :1]))
+             and bool(np.all(inverse_mass == inverse_mass[:, :1])))
+    return np.ascontiguousarray(triples[:, 0]) if whole else None
 
-    Sources ``S[:sources]``: ``y``, the drawn coordinates, the external forces on the free
-    coordinates, a zero. ``ends`` (2, 3, m): per member end (a, b), component and member, the
-    entry of the sources giving that node coordinate (a free one its ``x``, a fixed one its
+
+class FlatLayout:
+    """The index arrays and matrices of the flat buffers of ``plan`` (module docstring).
+
+    Gathers: sources ``S[:sources]``: ``y``, the drawn coordinates, the external forces on the
+    free coordinates, a zero. ``ends`` (2, 3, m): per member end (a, b), component and member,
+    the entry of the sources giving that node coordinate (a free one its ``x``, a fixed one its
     drawn value); ``velocity_ends`` likewise for velocities (a fixed coordinate: the zero).
     ``terms`` (d, N): per entry of ``dy/dt`` the entries it sums, padded with the zero: for
     ``x`` its ``v``; for ``v`` its external force, then per member in member order the
     member's force on it, an entry of the (2, 3, m) block ``[+force on a | -force on b]``
     right after the sources; ``scale`` (N,) the factor of each sum (1 for ``x``, the
-    inverse mass for ``v``)."""
+    inverse mass for ``v``).
+
+    Node-major maps (:meth:`node_maps`), if the state moves whole nodes (:func:`whole_nodes`):
+    ``moving`` the moving nodes in the state's order, ``fixed`` the others."""
 
     def __init__(self, plan: Plan):
         n, m, n_free = plan.n_nodes, len(plan.member_a), len(plan.free_node)
@@ -213,43 +230,42 @@ class FlatLayout:
         self.constants = np.concatenate([np.asarray(plan.base, dtype=float).ravel(),
                                          plan.external[plan.free_node, plan.free_axis], [0.0]])
 
-    @cached_property
-    def _dense(self) -> tuple[FloatArray, FloatArray, FloatArray]:
-        G = np.concatenate([self.difference_matrix(self.ends), self.difference_matrix(self.velocity_ends)])
-        return (G, *self.force_matrix())
+        self.moving = whole_nodes(plan)
+        self.fixed = None if self.moving is None else np.setdiff1d(np.arange(n), self.moving)
+        self._plan = plan
 
-    def dense_maps(self) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """(built on first use, kept: do not modify) the member vectors and velocities
-        (6m, sources) of :meth:`difference_matrix` and the two parts of :meth:`force_matrix`."""
-        return self._dense
+    @cached_property
+    def _node_maps(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+        assert self.moving is not None and self.fixed is not None, "node-major maps need whole moving nodes"
+        plan, moving, fixed = self._plan, self.moving, self.fixed
+        nf, m = len(fixed), self.n_members
+        row = np.empty(plan.n_nodes, dtype=np.int64)
+        row[fixed], row[moving] = np.arange(nf), nf + np.arange(len(moving))
+        C = np.zeros((m, plan.n_nodes))
+        members = np.arange(m)
+        np.add.at(C, (members, row[plan.member_b]), 1.0)
+        np.add.at(C, (members, row[plan.member_a]), -1.0)
+        inverse_mass = plan.free_inv_mass[::3]
+        moving_part = np.ascontiguousarray(C[:, nf:])
+        pull = -inverse_mass[:, None] * moving_part.T
+        return (C, moving_part, np.ascontiguousarray(pull), inverse_mass,
+                np.asarray(plan.base, dtype=float)[fixed], np.asarray(plan.external, dtype=float)[moving])
+
+    def node_maps(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+        """(built on first use, kept: do not modify) ``(C, C_moving, pull, inverse_mass,
+        x_fixed, external)``: the members' signed incidence ``C`` (m, n) over the rows ``[fixed
+        | moving]`` (``h = C x``), its moving columns (``dv = C_moving v``), ``pull`` (n_moving,
+        m) the acceleration of each moving node per unit force of a member on its node ``a``
+        (``-C_moving^T / mass``), the moving nodes' inverse masses [1/kg], the fixed nodes'
+        positions (n - n_moving, 3) [m] and the external forces on the moving nodes
+        (n_moving, 3) [N]."""
+        return self._node_maps
 
     def dense_entries(self) -> int:
-        """Entries of the dense matrices: member vectors and velocities (6m, sources), rates
-        (N, sources + 12m)."""
-        m = self.n_members
-        return 6 * m * self.sources + self.n_state * (self.sources + 12 * m)
-
-    def difference_matrix(self, ends: IntArray) -> FloatArray:
-        """(3m, sources): the differences ``S[ends[1]] - S[ends[0]]`` as a matrix."""
-        G = np.zeros((3 * self.n_members, self.sources))
-        rows = np.arange(3 * self.n_members)
-        np.add.at(G, (rows, ends[1].ravel()), 1.0)
-        np.add.at(G, (rows, ends[0].ravel()), -1.0)
-        G[:, self.zero] = 0.0
-        return G
-
-    def force_matrix(self) -> tuple[FloatArray, FloatArray]:
-        """``(D0, incidence)``: ``D0`` (N, sources) ``dy/dt`` from the sources alone (``x``'s
-        rate, the external forces scaled); ``incidence`` (N, 3m) the scaled signed incidence:
-        ``dy/dt += incidence @ f`` for member forces ``f`` (3, m) on the nodes ``a``."""
-        m3 = 3 * self.n_members
-        D = np.zeros((self.n_state, self.sources + 2 * m3))
-        cols = np.arange(self.n_state)
-        for row in self.terms:
-            np.add.at(D, (cols, row), self.scale)
-        D[:, self.zero] = 0.0
-        incidence = D[:, self.sources:self.sources + m3] - D[:, self.sources + m3:]
-        return np.ascontiguousarray(D[:, :self.sources]), incidence
+        """Entries of the node-major matrices: the incidence (m, n) and the rate matrix
+        (2 n_moving, 2 n_moving + 3m); 0 without moving nodes."""
+        moving = 0 if self.moving is None else len(self.moving)
+        return self.n_members * self._plan.n_nodes + 2 * moving * (2 * moving + 3 * self.n_members)
 
 
 class FlatStages:
@@ -272,18 +288,35 @@ class FlatStages:
         self.strings, self.moving = strings, moving
         self.damped = bool(np.any(plan.damping))
         lay = FlatLayout(plan) if layout is None else layout
-        self.dense = lay.dense_entries() <= DENSE_LIMIT if dense is None else dense
-        m, m3, N, src = lay.n_members, 3 * lay.n_members, lay.n_state, lay.sources
+        whole = lay.moving is not None
+        self.dense = (whole and lay.dense_entries() <= DENSE_LIMIT) if dense is None else dense
+        assert whole or not self.dense, "the node-major maps need a state of whole nodes (whole_nodes)"
+        m, m3, N = lay.n_members, 3 * lay.n_members, lay.n_state
+        self.lengths, self.rate = np.empty(m), np.empty(m)
         if self.dense:
-            # S = [sources | h (3m) | dv (3m) | u (3m) | (dv . u) u (3m)]
-            self.S = np.zeros(src + 4 * m3)
-            self._hv = self.S[src:src + 2 * m3]
-            self.h, self.dv = (self.S[src + j * m3:src + (j + 1) * m3].reshape(3, m) for j in range(2))
-            self.u, self._du = (self.S[src + j * m3:src + (j + 1) * m3].reshape(3, m) for j in (2, 3))
-            self._G, D0, self._incidence = lay.dense_maps()
-            self._D = np.zeros((N, len(self.S)))
-            self._D[:, :src] = D0
+            C, moving, self._pull, inverse_mass, x_fixed, external = lay.node_maps()
+            nf, nm, du = len(x_fixed), len(inverse_mass), m if self.damped else 0
+            # S (rows, 3) = [x fixed (nf) | x (nm) | v (nm) | h (m) | u (m) | (dv . u) u (du) | external (nm)]
+            self.S = np.zeros((nf + 2 * nm + 2 * m + du + nm, 3))
+            x, v, h, u = nf + nm, nf + 2 * nm, nf + 2 * nm + m, nf + 2 * nm + 2 * m
+            self.S[:nf], self.S[u + du:] = x_fixed, external
+            self.h, self.u, self._du, self._velocity_rows = self.S[v:h], self.S[h:u], self.S[u:u + du], self.S[x:v]
+            self.dv, self._moving = np.empty((m, 3)), moving
+            # rates (2 nm, 3) = R [v | h | u | (dv . u) u | external]; the columns of h are k's (_rest)
+            self._R = R = np.zeros((2 * nm, 2 * nm + 2 * m + du))
+            R[:nm, :nm] = np.eye(nm)
+            R[nm:, nm + m:nm + 2 * m] = self._pull * -plan.EA
+            if self.damped:
+                R[nm:, nm + 2 * m:nm + 3 * m] = self._pull * plan.damping
+            R[nm:, nm + 2 * m + du:] = np.diag(inverse_mass)
+            self._state = self.S.reshape(-1)[3 * nf:3 * nf + N]
+            self._shape: tuple[int, ...] = (2 * nm, 3)
+            self._C, self._positions, self._tail = C, self.S[:x], self.S[x:]
+            self._rate_into: Callable[[FloatArray], None] = _dense_rate(
+                C, self._positions, self.h, self.lengths, self.u, R, self._tail, moving, self._velocity_rows,
+                self.dv, self.rate, self._du, self.damped)
         else:
+            src = lay.sources
             # S = [sources | forces on the nodes a (3m) | their opposites (3m)]
             self.S = np.zeros(src + 2 * m3)
             self.h, self.dv = np.empty((3, m)), np.empty((3, m))
@@ -293,40 +326,34 @@ class FlatStages:
             self._ends, self._product = np.empty((2, 3, m)), np.empty((3, m))
             self._force_terms = np.ascontiguousarray(lay.terms[:, lay.n_free:])     # v's rows only
             self._terms = np.empty(self._force_terms.shape)
+            self.S[N:src] = lay.constants
+            self._state, self._sources, self._velocities = self.S[:N], self.S[:src], self.S[N // 2:N]
+            self._shape = (N,)
+            self._rate_into = partial(_gathered_rate, self)
         self.layout = lay
-        self.S[N:src] = lay.constants
-        self._state, self._sources, self._velocities = self.S[:N], self.S[:src], self.S[N // 2:N]
-        self.lengths, self.rate = np.empty(m), np.empty(m)
         self._k = np.empty(m)
         self._Z = (np.empty((5, N)), np.empty((5, N)))      # [y, K_0 .. K_3] of this step and the next
-        #: per buffer of ``_Z``: per stage 1-3 the rows ``[y, K_0 .. K_j]`` it combines and the row
-        #: of its rate; then its rows ``y`` and ``K_0``
-        self._stages = tuple(tuple((Z[:j + 2], Z[j + 2]) for j in range(3)) for Z in self._Z)
-        self._heads = tuple((Z[0], Z[1]) for Z in self._Z)
+        #: per buffer of ``_Z``: per stage 1-3 the rows ``[y, K_0 .. K_j]`` it combines and its rate's
+        #: row (shaped as the rate's output); then its rows ``y`` and ``K_0`` (shaped)
+        self._stages = tuple(tuple((Z[:j + 2], Z[j + 2].reshape(self._shape)) for j in range(3)) for Z in self._Z)
+        self._heads = tuple((Z[0], Z[1].reshape(self._shape)) for Z in self._Z)
         self._h: float | None = None
         self._weights: list[FloatArray] = []
-        self._rate_into: Callable[[FloatArray], None] = \
-            _dense_rate(self._G, self._D, self.S, self._sources, self._hv, self.h, self.lengths, self.u, self.dv,
-                        self.rate, self._du, self.damped) if self.dense else partial(_gathered_rate, self)
 
     def _rest(self, l0: FloatArray) -> None:
         """Rest lengths ``l0`` [m] for the next evaluations, with ``k = EA / l0`` [N/m] and
-        (dense) the rate matrix's member columns."""
+        (dense) the rate matrix's columns of ``h``."""
         np.divide(self.plan.EA, l0, out=self._k)
         if not self.dense:
             np.stack([self._k, -self._k], out=self._k2)
         else:
-            src, m3 = self.layout.sources, 3 * self.layout.n_members
-            inc, D = self._incidence, self._D
-            np.multiply(inc, np.tile(self._k, 3), out=D[:, src:src + m3])                       # k h
-            np.multiply(inc, -np.tile(self.plan.EA, 3), out=D[:, src + 2 * m3:src + 3 * m3])    # -EA u
-            np.multiply(inc, np.tile(self.plan.damping, 3), out=D[:, src + 3 * m3:])            # c (dv . u) u
+            nm, m = len(self._pull), self.layout.n_members
+            np.multiply(self._pull, self._k, self._R[nm:, nm:nm + m])                            # k h
 
     def _rate(self, out: FloatArray) -> None:
         """``out`` (N,) = ``dy/dt`` of the state in ``S`` (rest lengths of :meth:`_rest`); its
-        member vectors [m] and lengths [m] are left in ``self.h`` and ``self.lengths``, and
-        (dense) the velocity differences [m/s] in ``self.dv``."""
-        self._rate_into(out)
+        member vectors [m] and lengths [m] are left in ``self.h`` and ``self.lengths``."""
+        self._rate_into(out.reshape(self._shape))
 
     def _velocity_differences(self) -> None:
         """(gathers) ``self.dv`` (3, m): ``v_b - v_a`` of the members at the state in ``S``."""
@@ -368,7 +395,9 @@ class FlatStages:
         np.subtract(self.lengths, l0_screen, gap)
         np.multiply(gap, sign, gap)
         if self.dense:
-            np.vecdot(self.dv, self.u, axes=COMPONENTS, out=rate)
+            if not self.damped:                      # else the last evaluation's
+                np.dot(self._moving, self._velocity_rows, self.dv)
+            np.vecdot(self.dv, self.u, rate)
         else:
             self._velocity_differences()
             _dot_components(self.dv, self.h, rate, self._product)
