@@ -482,8 +482,8 @@ def _cpu_per_call(fn, n: int) -> float:
 def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
     """The floor of a pure-numpy RK4 step of the smallest tower (docs/design/performance.md):
     the fewest numpy calls a step needs -- per evaluation the member vectors (one product),
-    the lengths (a dot product per member and a root: no numpy call returns a row's norm in
-    one call), the unit vectors (one division), the rates (one product); per stage its state
+    the lengths (two ``hypot``: no numpy call returns a row's norm in one call), the unit
+    vectors (one division), the rates (one product); per stage its state
     (one product) -- each timed alone on the flat stages' own arrays in CPU time, outputs passed
     as the flat stages pass them, no Python between them and no event screen; against the
     compiled step and the numpy step measured in the same run (each call timed over
@@ -506,10 +506,10 @@ def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
     flat.rk4(0.0, state.y, system.fun(0.0, state.y), first["step"])      # fills the buffers
     C, P, H, l, U, R, tail = flat._C, flat._positions, flat.h, flat.lengths, flat.u, flat._R, flat._tail
     Z, out, weights, state_row = flat._Z[0], np.empty(flat._shape), flat._weights[3], flat._state
-    lc = l[:, None]
+    lc, (hx, hy, hz) = l[:, None], H.T
     calls = {"member vectors (np.dot)": lambda: np.dot(C, P, H),
-             "squared lengths (np.vecdot)": lambda: np.vecdot(H, H, l),
-             "lengths (np.sqrt)": lambda: np.sqrt(l, l),
+             "lengths in the plane (np.hypot)": lambda: np.hypot(hx, hy, l),
+             "lengths (np.hypot)": lambda: np.hypot(l, hz, l),
              "unit vectors (np.divide)": lambda: np.divide(H, lc, U),
              "rates (np.dot)": lambda: np.dot(R, tail, out),
              "stage state (np.dot)": lambda: np.dot(weights, Z, state_row)}

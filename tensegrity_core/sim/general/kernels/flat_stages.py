@@ -22,7 +22,7 @@ shipped structure), a stage is six calls on a *node-major* buffer ``S`` (rows, 3
 per node or member, ``[fixed nodes' x | moving nodes' x | their v | h | u | (dv . u) u |
 external forces on the moving nodes]``, whose rows ``x`` and ``v`` are the state itself (so
 the state is written in place by its stage product): ``h = C [x_fixed; x]`` with the members'
-signed incidence ``C`` (m, n), ``l`` a dot product per row and a root, ``u = h / l`` and
+signed incidence ``C`` (m, n), ``l`` two ``hypot`` of its columns, ``u = h / l`` and
 ``dy/dt`` (as (2 n_moving, 3): ``[v | a]``) one product of a rate matrix with the rows ``[v |
 h | u | (dv . u) u | external]``. The force of a member on its node ``a``, ``t u`` with ``t =
 EA (l - l0) / l0 [+ c (dv . u)]``, is written ``k h - EA u [+ c (dv . u) u]`` (``k = EA /
@@ -40,8 +40,8 @@ the nodes ``b``).
 The formulas are those of :mod:`.loops`, member by member, the sums in another order: the
 numbers agree with the compiled kernels to rounding (the split ``k h - EA u`` adds two terms
 of the size of ``EA`` where the loops add one of the size of ``t``: an absolute rounding of a
-few ``eps EA`` [N] per member in both; a length is the root of the sum of its squared
-components, added in numpy's order). The screen for a string's slack/taut event
+few ``eps EA`` [N] per member in both; ``hypot`` rounds a length once where the loops'
+root of a sum rounds it up to three times). The screen for a string's slack/taut event
 decides as :func:`.loops.quiet_step`, so a stretch stops where the compiled one does, from
 the gaps signed by their signs at the stretch's start (:func:`quiet_ends`): one reduction
 per step's end gives the least signed gap and the largest rate.
@@ -117,13 +117,14 @@ def _dense_rate(C: FloatArray, P: FloatArray, H: FloatArray, l: FloatArray, U: F
     """:meth:`FlatStages._rate` with the node-major maps, its arrays bound in a closure (no
     attribute look-ups or arguments per call) and every output passed positionally; its
     output is the rate as (2 n_moving, 3)."""
-    dot, vecdot, sqrt, divide = np.dot, np.vecdot, np.sqrt, np.divide
+    dot, vecdot, hypot, divide = np.dot, np.vecdot, np.hypot, np.divide
     lc, rc = l[:, None], rate[:, None]
+    hx, hy, hz = H.T
 
     def rate_into(out: FloatArray) -> None:
         dot(C, P, H)                                # h = x_b - x_a (m, 3)
-        vecdot(H, H, l)
-        sqrt(l, l)
+        hypot(hx, hy, l)
+        hypot(l, hz, l)
         divide(H, lc, U)
         if damped:
             dot(moving, V, dv)                      # v_b - v_a
@@ -360,13 +361,17 @@ class FlatStages:
         self._sources.take(self.layout.velocity_ends, None, self._ends, "clip")
         np.subtract(self._ends[1], self._ends[0], self.dv)
 
+    def _step_of(self, h: float) -> None:
+        """The weights of :func:`rk4_coefficients` for steps of ``h`` [s] in ``self._weights``."""
+        if h != self._h:
+            c = rk4_coefficients(h)
+            self._h, self._weights = h, [c[j, :j + 2] for j in range(3)] + [c[3]]
+
     def _step(self, t: float, h: float, Z: FloatArray, Z_next: FloatArray, varying: bool) -> None:
         """One RK4 step of ``h`` [s] from ``(t, Z[0])`` (rate ``Z[1]``): its stages in ``Z[2:]``,
         the new state in ``Z_next[0]`` and its rate in ``Z_next[1]``; ``varying``: the rest
         lengths at each stage from ``rest_lengths``, else those of the last :meth:`_rest`."""
-        if h != self._h:
-            c = rk4_coefficients(h)
-            self._h, self._weights = h, [c[j, :j + 2] for j in range(3)] + [c[3]]
+        self._step_of(h)
         w, state, rate, dot = self._weights, self._state, self._rate_into, np.dot
         for j, (rows, K) in enumerate(self._stages[Z is self._Z[1]]):     # stage j + 1 at y + c h K_j
             dot(w[j], rows, state)
@@ -386,25 +391,37 @@ class FlatStages:
         self._step(t, h, Z, Z_next, True)
         return Z_next[0].copy(), Z_next[1].copy()
 
-    def _gaps(self, l0_screen: FloatArray, sign: FloatArray, out: FloatArray) -> tuple[float, float]:
-        """Per member of the last evaluation into ``out`` (3, m): its gap ``l - l0`` [m] times
-        ``sign`` (``+inf`` for members not screened), the gap's rate [m/s] and the rate's
-        opposite; returns the least signed gap and the largest rate magnitude (one reduction;
-        +inf and 0 without members). :func:`quiet_ends` reads them."""
-        gap, rate, opposite = out
-        np.subtract(self.lengths, l0_screen, gap)
-        np.multiply(gap, sign, gap)
+    def _screen(self, l0_screen: FloatArray, sign: FloatArray) -> Callable[[FloatArray], tuple[float, float]]:
+        """``gaps(out)``: per member of the last evaluation into ``out`` (3, m) its gap ``l -
+        l0_screen`` [m] times ``sign`` (``+inf`` for members not screened: ``l0_screen`` is
+        ``-inf``), the gap's rate [m/s] and the rate's opposite; returns the least signed gap
+        and the largest rate magnitude (one reduction; +inf and 0 without members).
+        :func:`quiet_ends` reads them. A closure over the arrays, as the rate's."""
+        lengths, dv, subtract, multiply, negative, least = self.lengths, self.dv, np.subtract, np.multiply, \
+            np.negative, np.minimum.reduce
         if self.dense:
-            if not self.damped:                      # else the last evaluation's
-                np.dot(self._moving, self._velocity_rows, self.dv)
-            np.vecdot(self.dv, self.u, rate)
+            u, moving, v, damped, dot, vecdot = self.u, self._moving, self._velocity_rows, self.damped, np.dot, np.vecdot
+
+            def rates(rate: FloatArray) -> None:
+                if not damped:                      # else the last evaluation's
+                    dot(moving, v, dv)
+                vecdot(dv, u, rate)
         else:
-            self._velocity_differences()
-            _dot_components(self.dv, self.h, rate, self._product)
-            np.divide(rate, self.lengths, rate)
-        np.negative(rate, opposite)
-        least, low, high = np.minimum.reduce(out, 1, initial=np.inf).tolist()
-        return least, -min(low, high, 0.0)
+            def rates(rate: FloatArray) -> None:
+                self._velocity_differences()
+                _dot_components(dv, self.h, rate, self._product)
+                np.divide(rate, lengths, rate)
+
+        def gaps(out: FloatArray) -> tuple[float, float]:
+            gap, rate, opposite = out
+            subtract(lengths, l0_screen, gap)
+            multiply(gap, sign, gap)
+            rates(rate)
+            negative(rate, opposite)
+            low_gap, low, high = least(out, 1, None, None, False, np.inf).tolist()
+            return low_gap, -min(low, high, 0.0)
+
+        return gaps
 
     def rk4_run(self, t: float, y: FloatArray, f: FloatArray, h_fixed: float, t_bound: float, horizon: float,
                 samples: FloatArray, sample: int) -> Run:
@@ -425,20 +442,39 @@ class FlatStages:
         self._rest(l0)
         self._rate(np.empty_like(y))
         sign = np.sign(self.lengths - l0_screen)          # the gaps' signs at the stretch's start
-        E, E_next = np.empty((3, len(l0))), np.empty((3, len(l0)))     # a step's ends: _gaps
-        least0, most0 = self._gaps(l0_screen, sign, E)
-        step, gaps, limit = self._step, self._gaps, h_fixed * (1.0 + 1e-9)
+        E, E_next = np.empty((3, len(l0))), np.empty((3, len(l0)))     # a step's ends: _screen
+        gaps = self._screen(l0_screen, sign)
+        least0, most0 = gaps(E)
+        self._step_of(h_fixed)
+        w1, w2, w3, w4 = self._weights
+        rate, dot, state, stages = self._rate_into, np.dot, self._state, self._stages
+        #: per parity of the step: its stages' rows and rate outputs, its buffer and the next one's heads
+        ends = tuple((*(x for pair in stages[k] for x in pair), self._Z[k], *self._heads[1 - k]) for k in (0, 1))
+        odd, limit, stop = 0, h_fixed * (1.0 + 1e-9), min(horizon, t_bound)
         steps = 0
         due = samples[sample] if sample < len(samples) else np.inf       # the next sample's time [s]
         while True:
             left = t_bound - t
-            h = left if left < limit else h_fixed
-            step(t, h, Z, Z_next, False)
-            t_new = t_bound if h == left else t + h
+            if left < limit:                                # the last step, to the bound
+                h = left
+                self._step(t, h, Z, Z_next, False)
+                t_new = t_bound
+            else:
+                h = h_fixed
+                rows1, K1, rows2, K2, rows3, K3, Z, y_new, f_new = ends[odd]
+                dot(w1, rows1, state)
+                rate(K1)
+                dot(w2, rows2, state)
+                rate(K2)
+                dot(w3, rows3, state)
+                rate(K3)
+                dot(w4, Z, y_new)
+                state[...] = y_new
+                rate(f_new)
+                t_new = t + h
             steps += 1
-            least1, most1 = gaps(l0_screen, sign, E_next)
-            if t_new >= horizon or t_new >= t_bound or not quiet_ends(E, E_next, least0, most0, least1, most1,
-                                                                      t_new - t):
+            least1, most1 = gaps(E_next)
+            if t_new >= stop or not quiet_ends(E, E_next, least0, most0, least1, most1, t_new - t):
                 return Run(steps, steps, t, Z[0].copy(), Z[1].copy(), t_new, Z_next[0].copy(), Z_next[1].copy(),
                            sampled=sample, Y=Y)
             if due <= t_new:
@@ -450,4 +486,4 @@ class FlatStages:
                                             (samples[sample:end] - t) / (t_new - t))
                 sample = end
                 due = samples[sample] if sample < len(samples) else np.inf
-            t, Z, Z_next, E, E_next, least0, most0 = t_new, Z_next, Z, E_next, E, least1, most1
+            t, Z, Z_next, E, E_next, least0, most0, odd = t_new, Z_next, Z, E_next, E, least1, most1, 1 - odd
