@@ -488,9 +488,9 @@ def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
     as the flat stages pass them, no Python between them and no event screen; against the
     compiled step and the numpy step measured in the same run (each call timed over
     ``calls_per_loop`` calls, the least of three loops). Also the calls of the event screen
-    at a step's end (the signed gaps, the members' velocities and rates and their opposites,
-    one reduction), timed the same way: what a numpy step spends above the floor beyond them
-    is Python."""
+    at a step's end (the signed gaps, the rates and their opposites, one reduction; the
+    velocity differences come with the member vectors of the step's last evaluation), timed
+    the same way: what a numpy step spends above the floor beyond them is Python."""
     from tensegrity_core.sim import compile_scene
     from tensegrity_core.sim.general.kernels.flat_stages import FlatStages
 
@@ -517,10 +517,9 @@ def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
     floor = 4 * sum(cost.values())
     E, sign, l0 = np.empty((3, len(l))), np.ones(len(l)), l.copy()
     gap, rate, opposite = E
-    dv, moving, V = flat.dv, flat._moving, flat._velocity_rows
+    dv = flat.dv
     screen = {"gaps (np.subtract)": lambda: np.subtract(l, l0, gap),
               "signed gaps (np.multiply)": lambda: np.multiply(gap, sign, gap),
-              "member velocities (np.dot)": lambda: np.dot(moving, V, dv),
               "rates (np.vecdot)": lambda: np.vecdot(dv, U, rate),
               "their opposites (np.negative)": lambda: np.negative(rate, opposite),
               "least of each (np.minimum.reduce, tolist)": lambda: np.minimum.reduce(E, 1, initial=np.inf).tolist()}

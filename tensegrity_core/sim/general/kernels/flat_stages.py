@@ -19,23 +19,24 @@ per call, a fifth to a third of a small call); per stage:
 While the structure is small (:data:`DENSE_LIMIT` entries of the matrices below) and its state
 moves whole nodes (each moving node's three coordinates in turn, one mass per node: every
 shipped structure), a stage is six calls on a *node-major* buffer ``S`` (rows, 3) of one row
-per node or member, ``[fixed nodes' x | moving nodes' x | their v | h | u | (dv . u) u |
-external forces on the moving nodes]``, whose rows ``x`` and ``v`` are the state itself (so
-the state is written in place by its stage product): ``h = C [x_fixed; x]`` with the members'
-signed incidence ``C`` (m, n), ``l`` two ``hypot`` of its columns, ``u = h / l`` and
-``dy/dt`` (as (2 n_moving, 3): ``[v | a]``) one product of a rate matrix with the rows ``[v |
-h | u | (dv . u) u | external]``. The force of a member on its node ``a``, ``t u`` with ``t =
-EA (l - l0) / l0 [+ c (dv . u)]``, is written ``k h - EA u [+ c (dv . u) u]`` (``k = EA /
-l0`` [N/m]): linear in ``h``, ``u`` and ``(dv . u) u``, whose coefficients (with the masses'
-inverses and the signs) are the rate matrix's columns. The products are BLAS products of
-matrices of a few hundred to a few thousand entries by three columns: one call each, and
-about ``3 m n`` multiplications (a product of component-major arrays by the whole signed
-incidence of every coordinate would be nine times that). Above that size, or when a node is
-partly fixed or has a mass per axis, the maps are gathers with index arrays on a flat buffer
-``[y | drawn coordinates | external forces on the free coordinates | 0 | forces on the
-nodes a | their opposites]`` (both ends of every member, and every coordinate's terms summed
-row by row and scaled), the force as ``q h`` with ``q = t / l = k - EA / l`` (and ``-q h`` on
-the nodes ``b``).
+per node or member, ``[fixed nodes' x | moving nodes' x | their v | u | (dv . u) u | external
+forces on the moving nodes | h | dv]``, whose rows ``x`` and ``v`` are the state itself (so the
+state is written in place by its stage product): ``h = C [x_fixed; x]`` with the members'
+signed incidence ``C`` (m, n) (at a step's end, and in every stage of a damped model,
+``[h | dv] = G [x_fixed; x; v]`` in the same one product), ``l`` two ``hypot`` of its columns,
+``u = h / l`` and ``dy/dt`` (as (2 n_moving, 3): ``[v | a]``) one product of a rate matrix
+with the rows ``[v | u | (dv . u) u | external | h]``. The force of a member on its node
+``a``, ``t u`` with ``t = EA (l - l0) / l0 [+ c (dv . u)]``, is written ``k h - EA u [+ c
+(dv . u) u]`` (``k = EA / l0`` [N/m]): linear in ``h``, ``u`` and ``(dv . u) u``, whose
+coefficients (with the masses' inverses and the signs) are the rate matrix's columns. The
+products are BLAS products of matrices of a few hundred to a few thousand entries by three
+columns: one call each, and about ``3 m n`` multiplications (a product of component-major
+arrays by the whole signed incidence of every coordinate would be nine times that). Above that
+size, or when a node is partly fixed or has a mass per axis, the maps are gathers with index
+arrays on a flat buffer ``[y | drawn coordinates | external forces on the free coordinates | 0
+| forces on the nodes a | their opposites]`` (both ends of every member, and every
+coordinate's terms summed row by row and scaled), the force as ``q h`` with ``q = t / l = k -
+EA / l`` (and ``-q h`` on the nodes ``b``).
 
 The formulas are those of :mod:`.loops`, member by member, the sums in another order: the
 numbers agree with the compiled kernels to rounding (the split ``k h - EA u`` adds two terms
@@ -63,8 +64,8 @@ IntArray = NDArray[np.int64]
 
 #: Largest number of entries of the node-major matrices (incidence and rates,
 #: :meth:`FlatLayout.dense_entries`) for which the maps are dense products; above it, gathers
-#: (the measured crossover, docs/design/performance.md: dense faster up to ~100 members).
-DENSE_LIMIT = 40_000
+#: (the measured crossover, docs/design/performance.md: dense faster on 45 members, gathers on 99).
+DENSE_LIMIT = 20_000
 #: The quiet-step screen's factor (:func:`.loops.quiet_step`: a cubic between its ends strays
 #: at most 4/27 of the step times the sum of its end slopes), with its rounding margin.
 SCREEN = (4.0 / 27.0) * (1.0 + 1e-9)
@@ -111,25 +112,28 @@ def quiet_ends(E0: FloatArray, E1: FloatArray, least0: float, most0: float, leas
     return not bool(np.any(np.minimum(E0[0], E1[0]) < margin))
 
 
-def _dense_rate(C: FloatArray, P: FloatArray, H: FloatArray, l: FloatArray, U: FloatArray, R: FloatArray,
-                tail: FloatArray, moving: FloatArray, V: FloatArray, dv: FloatArray, rate: FloatArray,
-                DU: FloatArray, damped: bool) -> Callable[[FloatArray], None]:
+def _dense_rate(C: FloatArray, G: FloatArray, P: FloatArray, PV: FloatArray, HD: FloatArray, H: FloatArray,
+                l: FloatArray, U: FloatArray, R: FloatArray, tail: FloatArray, dv: FloatArray, rate: FloatArray,
+                DU: FloatArray, damped: bool, velocities: bool) -> Callable[[FloatArray], None]:
     """:meth:`FlatStages._rate` with the node-major maps, its arrays bound in a closure (no
     attribute look-ups or arguments per call) and every output passed positionally; its
-    output is the rate as (2 n_moving, 3)."""
-    dot, vecdot, hypot, divide = np.dot, np.vecdot, np.hypot, np.divide
+    output is the rate as (2 n_moving, 3). ``velocities``: the members' velocity differences
+    too (``[h | dv] = G [x_fixed; x; v]`` in one product), into ``dv``."""
+    dot, vecdot, hypot, divide, multiply = np.dot, np.vecdot, np.hypot, np.divide, np.multiply
     lc, rc = l[:, None], rate[:, None]
     hx, hy, hz = H.T
 
     def rate_into(out: FloatArray) -> None:
-        dot(C, P, H)                                # h = x_b - x_a (m, 3)
+        if velocities:
+            dot(G, PV, HD)                          # h = x_b - x_a, dv = v_b - v_a (m, 3)
+        else:
+            dot(C, P, H)
         hypot(hx, hy, l)
         hypot(l, hz, l)
         divide(H, lc, U)
         if damped:
-            dot(moving, V, dv)                      # v_b - v_a
             vecdot(dv, U, rate)
-            np.multiply(U, rc, DU)
+            multiply(U, rc, DU)
         dot(R, tail, out)                           # [v | (external + k h - EA u + c (dv . u) u) / mass]
 
     return rate_into
@@ -297,25 +301,31 @@ class FlatStages:
         if self.dense:
             C, moving, self._pull, inverse_mass, x_fixed, external = lay.node_maps()
             nf, nm, du = len(x_fixed), len(inverse_mass), m if self.damped else 0
-            # S (rows, 3) = [x fixed (nf) | x (nm) | v (nm) | h (m) | u (m) | (dv . u) u (du) | external (nm)]
-            self.S = np.zeros((nf + 2 * nm + 2 * m + du + nm, 3))
-            x, v, h, u = nf + nm, nf + 2 * nm, nf + 2 * nm + m, nf + 2 * nm + 2 * m
-            self.S[:nf], self.S[u + du:] = x_fixed, external
-            self.h, self.u, self._du, self._velocity_rows = self.S[v:h], self.S[h:u], self.S[u:u + du], self.S[x:v]
-            self.dv, self._moving = np.empty((m, 3)), moving
-            # rates (2 nm, 3) = R [v | h | u | (dv . u) u | external]; the columns of h are k's (_rest)
-            self._R = R = np.zeros((2 * nm, 2 * nm + 2 * m + du))
+            # S (rows, 3) = [x fixed (nf) | x (nm) | v (nm) | u (m) | (dv . u) u (du) | external (nm) | h (m) | dv (m)]
+            x, v = nf + nm, nf + 2 * nm
+            u, e, h = v + m, v + m + du, v + m + du + nm
+            self.S = np.zeros((h + 2 * m, 3))
+            self.S[:nf], self.S[e:h] = x_fixed, external
+            self.u, self._du, self.h, self.dv = self.S[v:u], self.S[u:e], self.S[h:h + m], self.S[h + m:]
+            # [h | dv] = G [x fixed | x | v]
+            G = np.zeros((2 * m, v))
+            G[:m, :x], G[m:, x:] = C, moving
+            # rates (2 nm, 3) = R [v | u | (dv . u) u | external | h]; the columns of h are k's (_rest)
+            self._R = R = np.zeros((2 * nm, nm + 2 * m + du + nm))
             R[:nm, :nm] = np.eye(nm)
-            R[nm:, nm + m:nm + 2 * m] = self._pull * -plan.EA
+            R[nm:, nm:nm + m] = self._pull * -plan.EA
             if self.damped:
-                R[nm:, nm + 2 * m:nm + 3 * m] = self._pull * plan.damping
-            R[nm:, nm + 2 * m + du:] = np.diag(inverse_mass)
+                R[nm:, nm + m:nm + 2 * m] = self._pull * plan.damping
+            R[nm:, nm + m + du:2 * nm + m + du] = np.diag(inverse_mass)
+            self._k_columns = R[nm:, 2 * nm + m + du:]
             self._state = self.S.reshape(-1)[3 * nf:3 * nf + N]
             self._shape: tuple[int, ...] = (2 * nm, 3)
-            self._C, self._positions, self._tail = C, self.S[:x], self.S[x:]
-            self._rate_into: Callable[[FloatArray], None] = _dense_rate(
-                C, self._positions, self.h, self.lengths, self.u, R, self._tail, moving, self._velocity_rows,
-                self.dv, self.rate, self._du, self.damped)
+            self._C, self._positions, self._tail = C, self.S[:x], self.S[x:h + m]
+            self._G = G
+            rates = [_dense_rate(C, G, self._positions, self.S[:v], self.S[h:], self.h, self.lengths, self.u, R,
+                                 self._tail, self.dv, self.rate, self._du, self.damped, velocities)
+                     for velocities in (self.damped, True)]
+            self._rate_into, self._rate_end = rates
         else:
             src = lay.sources
             # S = [sources | forces on the nodes a (3m) | their opposites (3m)]
@@ -330,7 +340,7 @@ class FlatStages:
             self.S[N:src] = lay.constants
             self._state, self._sources, self._velocities = self.S[:N], self.S[:src], self.S[N // 2:N]
             self._shape = (N,)
-            self._rate_into = partial(_gathered_rate, self)
+            self._rate_into = self._rate_end = partial(_gathered_rate, self)
         self.layout = lay
         self._k = np.empty(m)
         self._Z = (np.empty((5, N)), np.empty((5, N)))      # [y, K_0 .. K_3] of this step and the next
@@ -348,13 +358,13 @@ class FlatStages:
         if not self.dense:
             np.stack([self._k, -self._k], out=self._k2)
         else:
-            nm, m = len(self._pull), self.layout.n_members
-            np.multiply(self._pull, self._k, self._R[nm:, nm:nm + m])                            # k h
+            np.multiply(self._pull, self._k, self._k_columns)                                    # k h
 
     def _rate(self, out: FloatArray) -> None:
         """``out`` (N,) = ``dy/dt`` of the state in ``S`` (rest lengths of :meth:`_rest`); its
-        member vectors [m] and lengths [m] are left in ``self.h`` and ``self.lengths``."""
-        self._rate_into(out.reshape(self._shape))
+        member vectors [m] and lengths [m] are left in ``self.h`` and ``self.lengths``, and
+        (dense) the velocity differences [m/s] in ``self.dv``."""
+        self._rate_end(out.reshape(self._shape))
 
     def _velocity_differences(self) -> None:
         """(gathers) ``self.dv`` (3, m): ``v_b - v_a`` of the members at the state in ``S``."""
@@ -383,7 +393,7 @@ class FlatStages:
         state[...] = y_new
         if varying:
             self._rest(self.rest_lengths(t + h))
-        rate(f_new)
+        self._rate_end(f_new)
 
     def rk4(self, t: float, y: FloatArray, f: FloatArray, h: float) -> tuple[FloatArray, FloatArray]:
         Z, Z_next = self._Z
@@ -400,12 +410,10 @@ class FlatStages:
         lengths, dv, subtract, multiply, negative, least = self.lengths, self.dv, np.subtract, np.multiply, \
             np.negative, np.minimum.reduce
         if self.dense:
-            u, moving, v, damped, dot, vecdot = self.u, self._moving, self._velocity_rows, self.damped, np.dot, np.vecdot
+            u, vecdot = self.u, np.vecdot
 
             def rates(rate: FloatArray) -> None:
-                if not damped:                      # else the last evaluation's
-                    dot(moving, v, dv)
-                vecdot(dv, u, rate)
+                vecdot(dv, u, rate)                 # dv: the evaluation's (_rate_end)
         else:
             def rates(rate: FloatArray) -> None:
                 self._velocity_differences()
@@ -447,7 +455,7 @@ class FlatStages:
         least0, most0 = gaps(E)
         self._step_of(h_fixed)
         w1, w2, w3, w4 = self._weights
-        rate, dot, state, stages = self._rate_into, np.dot, self._state, self._stages
+        rate, rate_end, dot, state, stages = self._rate_into, self._rate_end, np.dot, self._state, self._stages
         #: per parity of the step: its stages' rows and rate outputs, its buffer and the next one's heads
         ends = tuple((*(x for pair in stages[k] for x in pair), self._Z[k], *self._heads[1 - k]) for k in (0, 1))
         odd, limit, stop = 0, h_fixed * (1.0 + 1e-9), min(horizon, t_bound)
@@ -470,7 +478,7 @@ class FlatStages:
                 rate(K3)
                 dot(w4, Z, y_new)
                 state[...] = y_new
-                rate(f_new)
+                rate_end(f_new)
                 t_new = t + h
             steps += 1
             least1, most1 = gaps(E_next)
