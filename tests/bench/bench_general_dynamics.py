@@ -481,17 +481,18 @@ def _cpu_per_call(fn, n: int) -> float:
 
 def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
     """The floor of a pure-numpy RK4 step of the smallest tower (docs/design/performance.md):
-    the fewest numpy calls a step needs -- per evaluation the member vectors and velocities
-    (one product), the lengths (two ``hypot``: no numpy call returns a column norm in one
-    ufunc), the unit vectors (one division), the rates (one product); per stage its state
+    the fewest numpy calls a step needs -- per evaluation the member vectors (one product),
+    the lengths (two ``hypot``: no numpy call returns a row's norm in one call), the unit
+    vectors (one division), the rates (one product); per stage its state
     (one product) -- each timed alone on the flat stages' own arrays in CPU time, outputs passed
     as the flat stages pass them, no Python between them and no event screen; against the
     compiled step and the numpy step measured in the same run (each call timed over
     ``calls_per_loop`` calls, the least of three loops). Also the calls of the event screen
-    at a step's end (the signed gaps, the rates and their opposites, one reduction), timed
+    at a step's end (the signed gaps, the rates and their opposites, one reduction; the
+    velocity differences come with the member vectors of the step's last evaluation), timed
     the same way: what a numpy step spends above the floor beyond them is Python."""
     from tensegrity_core.sim import compile_scene
-    from tensegrity_core.sim.general.kernels.flat_stages import COMPONENTS, FlatStages
+    from tensegrity_core.sim.general.kernels.flat_stages import FlatStages
 
     os.environ["TENSEGRITY_KERNELS"] = "numpy"
     try:
@@ -503,14 +504,14 @@ def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
     flat = system.stages
     assert isinstance(flat, FlatStages) and flat.dense
     flat.rk4(0.0, state.y, system.fun(0.0, state.y), first["step"])      # fills the buffers
-    G, D, S, src, hv, h, l, u = flat._G, flat._D, flat.S, flat._sources, flat._hv, flat.h, flat.lengths, flat.u
-    Z, out, weights, state_row = flat._Z[0], np.empty(len(state.y)), flat._weights[3], flat._state
-    hx, hy, hz = h
-    calls = {"member vectors (np.dot)": lambda: np.dot(G, src, hv),
+    C, P, H, l, U, R, tail = flat._C, flat._positions, flat.h, flat.lengths, flat.u, flat._R, flat._tail
+    Z, out, weights, state_row = flat._Z[0], np.empty(flat._shape), flat._weights[3], flat._state
+    lc, (hx, hy, hz) = l[:, None], H.T
+    calls = {"member vectors (np.dot)": lambda: np.dot(C, P, H),
              "lengths in the plane (np.hypot)": lambda: np.hypot(hx, hy, l),
              "lengths (np.hypot)": lambda: np.hypot(l, hz, l),
-             "unit vectors (np.divide)": lambda: np.divide(h, l, u),
-             "rates (np.dot)": lambda: np.dot(D, S, out),
+             "unit vectors (np.divide)": lambda: np.divide(H, lc, U),
+             "rates (np.dot)": lambda: np.dot(R, tail, out),
              "stage state (np.dot)": lambda: np.dot(weights, Z, state_row)}
     cost = {name: _cpu_per_call(fn, calls_per_loop) for name, fn in calls.items()}
     floor = 4 * sum(cost.values())
@@ -519,7 +520,7 @@ def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
     dv = flat.dv
     screen = {"gaps (np.subtract)": lambda: np.subtract(l, l0, gap),
               "signed gaps (np.multiply)": lambda: np.multiply(gap, sign, gap),
-              "rates (np.vecdot)": lambda: np.vecdot(dv, u, axes=COMPONENTS, out=rate),
+              "rates (np.vecdot)": lambda: np.vecdot(dv, U, rate),
               "their opposites (np.negative)": lambda: np.negative(rate, opposite),
               "least of each (np.minimum.reduce, tolist)": lambda: np.minimum.reduce(E, 1, initial=np.inf).tolist()}
     screen_cost = {name: _cpu_per_call(fn, calls_per_loop) for name, fn in screen.items()}

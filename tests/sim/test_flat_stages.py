@@ -25,18 +25,24 @@ from tensegrity_core.sim.general.kernels.stages import CompiledStages
 from tensegrity_core.sim.general.model import RECHART_ANGLE
 
 
-def _plan(n, pairs, kinds, EA, damping, rng) -> tuple[Plan, np.ndarray]:
-    """A plan of ``n`` nodes (coordinate kinds ``free``/``fixed``), members ``pairs`` with
+def _plan(n, pairs, kinds, EA, damping, rng, whole=False) -> tuple[Plan, np.ndarray]:
+    """A plan of ``n`` nodes (coordinate kinds ``free``/``fixed``; ``whole``: a node's three
+    coordinates of the kind of its first, one mass per node), members ``pairs`` with
     stiffness ``EA`` [N] and dampers [N s/m], random geometry, masses and loads; and rest
     lengths [m] of 0.6-1.4 of the drawn lengths."""
+    if whole:
+        kinds = [kinds[3 * (j // 3)] for j in range(3 * n)]
     free = np.array([(k, c) for k in range(n) for c in range(3) if kinds[3 * k + c] == "free"],
                     dtype=np.int64).reshape(-1, 2)
+    inverse_mass = 1.0 / rng.uniform(0.1, 2.0, len(free))
+    if whole:
+        inverse_mass = np.repeat(inverse_mass[::3], 3)
     base = rng.normal(size=(n, 3))
     a = np.array([p[0] for p in pairs], dtype=np.int64)
     b = np.array([p[1] for p in pairs], dtype=np.int64)
     m = len(pairs)
     plan = Plan(base=base, free_node=free[:, 0].copy(), free_axis=free[:, 1].copy(),
-                free_inv_mass=1.0 / rng.uniform(0.1, 2.0, len(free)), on_node=np.zeros(0, dtype=np.int64),
+                free_inv_mass=inverse_mass, on_node=np.zeros(0, dtype=np.int64),
                 on_body=np.zeros(0, dtype=np.int64), on_offset=np.zeros((0, 3)), body_dof=np.zeros(0, dtype=np.int64),
                 body_mass=np.zeros(0), body_first_moment=np.zeros((0, 3)), body_inertia=np.zeros((0, 3, 3)),
                 body_inv_inertia_cm=np.zeros((0, 3, 3)), member_a=a, member_b=b,
@@ -58,22 +64,24 @@ def _oracle(plan: Plan, l0: np.ndarray):
        kinds=st.lists(st.sampled_from(["free", "free", "fixed"]), min_size=18, max_size=18),
        EA=st.lists(st.sampled_from([0.0, 10.0, 300.0, 2e4]), min_size=12, max_size=12),
        damping=st.lists(st.sampled_from([0.0, 0.0, 0.5, 20.0]), min_size=12, max_size=12),
-       dense=st.booleans(), h=st.sampled_from([1e-5, 1e-3]), seed=st.integers(0, 2**31))
-def test_a_flat_step_is_the_compiled_step_to_rounding(n, ends, kinds, EA, damping, dense, h, seed):
-    """One RK4 step and the rate at its end, dense or gathered, against the oracle's. The
+       whole=st.booleans(), dense=st.booleans(), h=st.sampled_from([1e-5, 1e-3]), seed=st.integers(0, 2**31))
+def test_a_flat_step_is_the_compiled_step_to_rounding(n, ends, kinds, EA, damping, whole, dense, h, seed):
+    """One RK4 step and the rate at its end, node-major dense (states of whole nodes) or
+    gathered (any state), against the oracle's. The
     flat stages write a member's force ``k h - EA u``: two terms of the size of ``EA``
     where the loops add one of the size of ``t``, so the rates agree to a few ``eps`` of the
     largest force per mass, ``sum (EA + EA l / l0 + c |dv|) / m`` over a coordinate's
     members, and the step to ``h`` times that."""
     pairs = [(a % n, b % n) for a, b in ends if a % n != b % n]
     rng = np.random.default_rng(seed)
-    plan, l0 = _plan(n, pairs, kinds, EA, damping, rng)
+    plan, l0 = _plan(n, pairs, kinds, EA, damping, rng, whole)
     assert flat_ready(plan)
+    assert (flat_stages.whole_nodes(plan) is not None) == (whole or not len(plan.free_node))
     N = 2 * len(plan.free_node)
     y = rng.normal(size=N)
     f = rng.normal(size=N)
     flat = FlatStages(plan, lambda t: l0, True, strings=np.zeros(0, dtype=np.int64), moving=np.zeros(0, dtype=bool),
-                      dense=dense)
+                      dense=dense and whole)
     y_flat, f_flat = flat.rk4(0.0, y, f, h)
     y_ref, f_ref = _oracle(plan, l0).rk4(0.0, y, f, h)
     # the largest force per mass any evaluation of the step can see (positions within |y| + 2h|f| of y)

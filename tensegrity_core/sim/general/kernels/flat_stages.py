@@ -8,28 +8,35 @@ rigid body) and whose members need no slack test inside a step (the stepper's st
 a taut string carries compression, a slack one has no stiffness), this module evaluates a
 stage in 6 calls (small models) or 12 (larger ones), everything written in place, each
 output passed positionally (a keyword ``out=`` costs numpy ~0.1-0.2 us of argument parsing
-per call, a fifth to a third of a small call):
+per call, a fifth to a third of a small call); per stage:
 
-- a flat *source* buffer ``S = [y (N) | drawn coordinates (3n) | external forces on the free
-  coordinates (n_free) | 0 | ...]`` whose tail holds the members' quantities (below);
-- the member vectors ``h = x_b - x_a`` (3, m, component-major) as one linear map of ``S``;
-- ``l = |h|``: ``hypot(hypot(h_x, h_y), h_z)`` for the dense maps (two calls on a few
-  dozen members, against a dot product per member and a root), a product, a sum over the
-  components and a root for the gathers (``hypot`` costs more per member);
-- ``dy/dt = [v | (external + sum of the member forces on each free coordinate) / mass]``
-  as one linear map of ``S``;
+- the member vectors ``h = x_b - x_a``, their lengths ``l = |h|``, the unit vectors
+  ``u = h / l`` and ``dy/dt = [v | (external + sum of the member forces on each free
+  coordinate) / mass]``;
 - the stage states ``y + h sum_j a_ij K_j`` and the step's end as one product of the
   coefficients with the rows ``[y | K_0 .. K_3]`` of one (5, N) array.
 
-The linear maps are dense matrices while they are small (:data:`DENSE_LIMIT` entries): one
-BLAS product whatever the number of nonzeros. Then the force of a member on its node ``a``,
-``t u`` with ``t = EA (l - l0) / l0 [+ c (dv . u)]``, is written ``k h - EA u [+ c (dv . u)
-u]`` (``k = EA / l0`` [N/m], ``u = h / l``): linear in ``h``, ``u`` and ``(dv . u) u``, whose
-coefficients (with the masses' inverses and the signs) are the rate matrix's columns, so a
-stage is ``h, dv = G S``; ``l`` (two calls); ``u = h / l``; ``dy/dt = D S``. Above that size a dense
-product's work exceeds the calls it saves: the maps are gathers with index arrays (both ends
-of every member, and every coordinate's terms summed row by row and scaled), the force as
-``q h`` with ``q = t / l = k - EA / l`` (and ``-q h`` on the nodes ``b``).
+While the structure is small (:data:`DENSE_LIMIT` entries of the matrices below) and its state
+moves whole nodes (each moving node's three coordinates in turn, one mass per node: every
+shipped structure), a stage is six calls on a *node-major* buffer ``S`` (rows, 3) of one row
+per node or member, ``[fixed nodes' x | moving nodes' x | their v | u | (dv . u) u | external
+forces on the moving nodes | h | dv]``, whose rows ``x`` and ``v`` are the state itself (so the
+state is written in place by its stage product): ``h = C [x_fixed; x]`` with the members'
+signed incidence ``C`` (m, n) (at a step's end, and in every stage of a damped model,
+``[h | dv] = G [x_fixed; x; v]`` in the same one product), ``l`` two ``hypot`` of its columns,
+``u = h / l`` and ``dy/dt`` (as (2 n_moving, 3): ``[v | a]``) one product of a rate matrix
+with the rows ``[v | u | (dv . u) u | external | h]``. The force of a member on its node
+``a``, ``t u`` with ``t = EA (l - l0) / l0 [+ c (dv . u)]``, is written ``k h - EA u [+ c
+(dv . u) u]`` (``k = EA / l0`` [N/m]): linear in ``h``, ``u`` and ``(dv . u) u``, whose
+coefficients (with the masses' inverses and the signs) are the rate matrix's columns. The
+products are BLAS products of matrices of a few hundred to a few thousand entries by three
+columns: one call each, and about ``3 m n`` multiplications (a product of component-major
+arrays by the whole signed incidence of every coordinate would be nine times that). Above that
+size, or when a node is partly fixed or has a mass per axis, the maps are gathers with index
+arrays on a flat buffer ``[y | drawn coordinates | external forces on the free coordinates | 0
+| forces on the nodes a | their opposites]`` (both ends of every member, and every
+coordinate's terms summed row by row and scaled), the force as ``q h`` with ``q = t / l = k -
+EA / l`` (and ``-q h`` on the nodes ``b``).
 
 The formulas are those of :mod:`.loops`, member by member, the sums in another order: the
 numbers agree with the compiled kernels to rounding (the split ``k h - EA u`` adds two terms
@@ -45,8 +52,6 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from functools import cached_property, partial
-from typing import Any
-
 import numpy as np
 from numpy.typing import NDArray
 
@@ -57,17 +62,13 @@ from tensegrity_core.sim.integrators import Run
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
-#: Largest number of entries of the two dense matrices (member vectors and rates) for which
-#: the linear maps are dense products; above it, gathers (the measured crossover,
-#: docs/design/performance.md: dense faster up to ~27 members, gathers from ~36).
-DENSE_LIMIT = 50_000
+#: Largest number of entries of the node-major matrices (incidence and rates,
+#: :meth:`FlatLayout.dense_entries`) for which the maps are dense products; above it, gathers
+#: (the measured crossover, docs/design/performance.md: dense faster on 45 members, gathers on 99).
+DENSE_LIMIT = 20_000
 #: The quiet-step screen's factor (:func:`.loops.quiet_step`: a cubic between its ends strays
 #: at most 4/27 of the step times the sum of its end slopes), with its rounding margin.
 SCREEN = (4.0 / 27.0) * (1.0 + 1e-9)
-#: ``np.vecdot``'s axes for a dot product over the components of (3, m) arrays: one per member
-#: (untyped: numpy's stubs type a gufunc's ``axes`` as matmul's pairs). One call, the cheapest
-#: below ~50 members (the dense maps' sizes); it loops member by member.
-COMPONENTS: Any = [(0,), (0,), ()]
 #: The fractions of the step at RK4's stages 1-3.
 FRACTIONS = (0.5, 0.5, 1.0)
 
@@ -111,23 +112,29 @@ def quiet_ends(E0: FloatArray, E1: FloatArray, least0: float, most0: float, leas
     return not bool(np.any(np.minimum(E0[0], E1[0]) < margin))
 
 
-def _dense_rate(G: FloatArray, D: FloatArray, S: FloatArray, sources: FloatArray, hv: FloatArray, h: FloatArray,
-                l: FloatArray, u: FloatArray, dv: FloatArray, rate: FloatArray, du: FloatArray,
-                damped: bool) -> Callable[[FloatArray], None]:
-    """:meth:`FlatStages._rate` with dense maps, its arrays bound in a closure (no attribute
-    look-ups or arguments per call) and every output passed positionally."""
-    dot, hypot, divide = np.dot, np.hypot, np.divide
-    hx, hy, hz = h
+def _dense_rate(C: FloatArray, G: FloatArray, P: FloatArray, PV: FloatArray, HD: FloatArray, H: FloatArray,
+                l: FloatArray, U: FloatArray, R: FloatArray, tail: FloatArray, dv: FloatArray, rate: FloatArray,
+                DU: FloatArray, damped: bool, velocities: bool) -> Callable[[FloatArray], None]:
+    """:meth:`FlatStages._rate` with the node-major maps, its arrays bound in a closure (no
+    attribute look-ups or arguments per call) and every output passed positionally; its
+    output is the rate as (2 n_moving, 3). ``velocities``: the members' velocity differences
+    too (``[h | dv] = G [x_fixed; x; v]`` in one product), into ``dv``."""
+    dot, vecdot, hypot, divide, multiply = np.dot, np.vecdot, np.hypot, np.divide, np.multiply
+    lc, rc = l[:, None], rate[:, None]
+    hx, hy, hz = H.T
 
     def rate_into(out: FloatArray) -> None:
-        dot(G, sources, hv)                         # h, dv
+        if velocities:
+            dot(G, PV, HD)                          # h = x_b - x_a, dv = v_b - v_a (m, 3)
+        else:
+            dot(C, P, H)
         hypot(hx, hy, l)
         hypot(l, hz, l)
-        divide(h, l, u)
+        divide(H, lc, U)
         if damped:
-            np.vecdot(dv, u, axes=COMPONENTS, out=rate)
-            np.multiply(u, rate, du)
-        dot(D, S, out)                              # v; (external + k h - EA u + c (dv . u) u) / mass
+            vecdot(dv, U, rate)
+            multiply(U, rc, DU)
+        dot(R, tail, out)                           # [v | (external + k h - EA u + c (dv . u) u) / mass]
 
     return rate_into
 
@@ -168,18 +175,33 @@ def _dot_components(a: FloatArray, b: FloatArray, out: FloatArray, work: FloatAr
     np.add.reduce(work, axis=0, out=out)
 
 
-class FlatLayout:
-    """The index arrays of the flat buffer of ``plan`` (module docstring).
+def whole_nodes(plan: Plan) -> IntArray | None:
+    """The nodes whose coordinates the state of ``plan`` moves, in the state's order, if it
+    moves each one's three coordinates in turn (x, y, z) with one mass; else None."""
+    node, axis = plan.free_node, plan.free_axis
+    if len(node) % 3:
+        return None
+    triples, inverse_mass = node.reshape(-1, 3), plan.free_inv_mass.reshape(-1, 3)
+    whole = (np.array_equal(axis, np.tile(np.arange(3), len(triples))) and bool(np.all(triples == triples[:, :1]))
+             and bool(np.all(inverse_mass == inverse_mass[:, :1])))
+    return np.ascontiguousarray(triples[:, 0]) if whole else None
 
-    Sources ``S[:sources]``: ``y``, the drawn coordinates, the external forces on the free
-    coordinates, a zero. ``ends`` (2, 3, m): per member end (a, b), component and member, the
-    entry of the sources giving that node coordinate (a free one its ``x``, a fixed one its
+
+class FlatLayout:
+    """The index arrays and matrices of the flat buffers of ``plan`` (module docstring).
+
+    Gathers: sources ``S[:sources]``: ``y``, the drawn coordinates, the external forces on the
+    free coordinates, a zero. ``ends`` (2, 3, m): per member end (a, b), component and member,
+    the entry of the sources giving that node coordinate (a free one its ``x``, a fixed one its
     drawn value); ``velocity_ends`` likewise for velocities (a fixed coordinate: the zero).
     ``terms`` (d, N): per entry of ``dy/dt`` the entries it sums, padded with the zero: for
     ``x`` its ``v``; for ``v`` its external force, then per member in member order the
     member's force on it, an entry of the (2, 3, m) block ``[+force on a | -force on b]``
     right after the sources; ``scale`` (N,) the factor of each sum (1 for ``x``, the
-    inverse mass for ``v``)."""
+    inverse mass for ``v``).
+
+    Node-major maps (:meth:`node_maps`), if the state moves whole nodes (:func:`whole_nodes`):
+    ``moving`` the moving nodes in the state's order, ``fixed`` the others."""
 
     def __init__(self, plan: Plan):
         n, m, n_free = plan.n_nodes, len(plan.member_a), len(plan.free_node)
@@ -213,43 +235,42 @@ class FlatLayout:
         self.constants = np.concatenate([np.asarray(plan.base, dtype=float).ravel(),
                                          plan.external[plan.free_node, plan.free_axis], [0.0]])
 
-    @cached_property
-    def _dense(self) -> tuple[FloatArray, FloatArray, FloatArray]:
-        G = np.concatenate([self.difference_matrix(self.ends), self.difference_matrix(self.velocity_ends)])
-        return (G, *self.force_matrix())
+        self.moving = whole_nodes(plan)
+        self.fixed = None if self.moving is None else np.setdiff1d(np.arange(n), self.moving)
+        self._plan = plan
 
-    def dense_maps(self) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """(built on first use, kept: do not modify) the member vectors and velocities
-        (6m, sources) of :meth:`difference_matrix` and the two parts of :meth:`force_matrix`."""
-        return self._dense
+    @cached_property
+    def _node_maps(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+        assert self.moving is not None and self.fixed is not None, "node-major maps need whole moving nodes"
+        plan, moving, fixed = self._plan, self.moving, self.fixed
+        nf, m = len(fixed), self.n_members
+        row = np.empty(plan.n_nodes, dtype=np.int64)
+        row[fixed], row[moving] = np.arange(nf), nf + np.arange(len(moving))
+        C = np.zeros((m, plan.n_nodes))
+        members = np.arange(m)
+        np.add.at(C, (members, row[plan.member_b]), 1.0)
+        np.add.at(C, (members, row[plan.member_a]), -1.0)
+        inverse_mass = plan.free_inv_mass[::3]
+        moving_part = np.ascontiguousarray(C[:, nf:])
+        pull = -inverse_mass[:, None] * moving_part.T
+        return (C, moving_part, np.ascontiguousarray(pull), inverse_mass,
+                np.asarray(plan.base, dtype=float)[fixed], np.asarray(plan.external, dtype=float)[moving])
+
+    def node_maps(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+        """(built on first use, kept: do not modify) ``(C, C_moving, pull, inverse_mass,
+        x_fixed, external)``: the members' signed incidence ``C`` (m, n) over the rows ``[fixed
+        | moving]`` (``h = C x``), its moving columns (``dv = C_moving v``), ``pull`` (n_moving,
+        m) the acceleration of each moving node per unit force of a member on its node ``a``
+        (``-C_moving^T / mass``), the moving nodes' inverse masses [1/kg], the fixed nodes'
+        positions (n - n_moving, 3) [m] and the external forces on the moving nodes
+        (n_moving, 3) [N]."""
+        return self._node_maps
 
     def dense_entries(self) -> int:
-        """Entries of the dense matrices: member vectors and velocities (6m, sources), rates
-        (N, sources + 12m)."""
-        m = self.n_members
-        return 6 * m * self.sources + self.n_state * (self.sources + 12 * m)
-
-    def difference_matrix(self, ends: IntArray) -> FloatArray:
-        """(3m, sources): the differences ``S[ends[1]] - S[ends[0]]`` as a matrix."""
-        G = np.zeros((3 * self.n_members, self.sources))
-        rows = np.arange(3 * self.n_members)
-        np.add.at(G, (rows, ends[1].ravel()), 1.0)
-        np.add.at(G, (rows, ends[0].ravel()), -1.0)
-        G[:, self.zero] = 0.0
-        return G
-
-    def force_matrix(self) -> tuple[FloatArray, FloatArray]:
-        """``(D0, incidence)``: ``D0`` (N, sources) ``dy/dt`` from the sources alone (``x``'s
-        rate, the external forces scaled); ``incidence`` (N, 3m) the scaled signed incidence:
-        ``dy/dt += incidence @ f`` for member forces ``f`` (3, m) on the nodes ``a``."""
-        m3 = 3 * self.n_members
-        D = np.zeros((self.n_state, self.sources + 2 * m3))
-        cols = np.arange(self.n_state)
-        for row in self.terms:
-            np.add.at(D, (cols, row), self.scale)
-        D[:, self.zero] = 0.0
-        incidence = D[:, self.sources:self.sources + m3] - D[:, self.sources + m3:]
-        return np.ascontiguousarray(D[:, :self.sources]), incidence
+        """Entries of the node-major matrices: the incidence (m, n) and the rate matrix
+        (2 n_moving, 2 n_moving + 3m); 0 without moving nodes."""
+        moving = 0 if self.moving is None else len(self.moving)
+        return self.n_members * self._plan.n_nodes + 2 * moving * (2 * moving + 3 * self.n_members)
 
 
 class FlatStages:
@@ -272,18 +293,41 @@ class FlatStages:
         self.strings, self.moving = strings, moving
         self.damped = bool(np.any(plan.damping))
         lay = FlatLayout(plan) if layout is None else layout
-        self.dense = lay.dense_entries() <= DENSE_LIMIT if dense is None else dense
-        m, m3, N, src = lay.n_members, 3 * lay.n_members, lay.n_state, lay.sources
+        whole = lay.moving is not None
+        self.dense = (whole and lay.dense_entries() <= DENSE_LIMIT) if dense is None else dense
+        assert whole or not self.dense, "the node-major maps need a state of whole nodes (whole_nodes)"
+        m, m3, N = lay.n_members, 3 * lay.n_members, lay.n_state
+        self.lengths, self.rate = np.empty(m), np.empty(m)
         if self.dense:
-            # S = [sources | h (3m) | dv (3m) | u (3m) | (dv . u) u (3m)]
-            self.S = np.zeros(src + 4 * m3)
-            self._hv = self.S[src:src + 2 * m3]
-            self.h, self.dv = (self.S[src + j * m3:src + (j + 1) * m3].reshape(3, m) for j in range(2))
-            self.u, self._du = (self.S[src + j * m3:src + (j + 1) * m3].reshape(3, m) for j in (2, 3))
-            self._G, D0, self._incidence = lay.dense_maps()
-            self._D = np.zeros((N, len(self.S)))
-            self._D[:, :src] = D0
+            C, moving, self._pull, inverse_mass, x_fixed, external = lay.node_maps()
+            nf, nm, du = len(x_fixed), len(inverse_mass), m if self.damped else 0
+            # S (rows, 3) = [x fixed (nf) | x (nm) | v (nm) | u (m) | (dv . u) u (du) | external (nm) | h (m) | dv (m)]
+            x, v = nf + nm, nf + 2 * nm
+            u, e, h = v + m, v + m + du, v + m + du + nm
+            self.S = np.zeros((h + 2 * m, 3))
+            self.S[:nf], self.S[e:h] = x_fixed, external
+            self.u, self._du, self.h, self.dv = self.S[v:u], self.S[u:e], self.S[h:h + m], self.S[h + m:]
+            # [h | dv] = G [x fixed | x | v]
+            G = np.zeros((2 * m, v))
+            G[:m, :x], G[m:, x:] = C, moving
+            # rates (2 nm, 3) = R [v | u | (dv . u) u | external | h]; the columns of h are k's (_rest)
+            self._R = R = np.zeros((2 * nm, nm + 2 * m + du + nm))
+            R[:nm, :nm] = np.eye(nm)
+            R[nm:, nm:nm + m] = self._pull * -plan.EA
+            if self.damped:
+                R[nm:, nm + m:nm + 2 * m] = self._pull * plan.damping
+            R[nm:, nm + m + du:2 * nm + m + du] = np.diag(inverse_mass)
+            self._k_columns = R[nm:, 2 * nm + m + du:]
+            self._state = self.S.reshape(-1)[3 * nf:3 * nf + N]
+            self._shape: tuple[int, ...] = (2 * nm, 3)
+            self._C, self._positions, self._tail = C, self.S[:x], self.S[x:h + m]
+            self._G = G
+            rates = [_dense_rate(C, G, self._positions, self.S[:v], self.S[h:], self.h, self.lengths, self.u, R,
+                                 self._tail, self.dv, self.rate, self._du, self.damped, velocities)
+                     for velocities in (self.damped, True)]
+            self._rate_into, self._rate_end = rates
         else:
+            src = lay.sources
             # S = [sources | forces on the nodes a (3m) | their opposites (3m)]
             self.S = np.zeros(src + 2 * m3)
             self.h, self.dv = np.empty((3, m)), np.empty((3, m))
@@ -293,53 +337,51 @@ class FlatStages:
             self._ends, self._product = np.empty((2, 3, m)), np.empty((3, m))
             self._force_terms = np.ascontiguousarray(lay.terms[:, lay.n_free:])     # v's rows only
             self._terms = np.empty(self._force_terms.shape)
+            self.S[N:src] = lay.constants
+            self._state, self._sources, self._velocities = self.S[:N], self.S[:src], self.S[N // 2:N]
+            self._shape = (N,)
+            self._rate_into = self._rate_end = partial(_gathered_rate, self)
         self.layout = lay
-        self.S[N:src] = lay.constants
-        self._state, self._sources, self._velocities = self.S[:N], self.S[:src], self.S[N // 2:N]
-        self.lengths, self.rate = np.empty(m), np.empty(m)
         self._k = np.empty(m)
         self._Z = (np.empty((5, N)), np.empty((5, N)))      # [y, K_0 .. K_3] of this step and the next
-        #: per buffer of ``_Z``: per stage 1-3 the rows ``[y, K_0 .. K_j]`` it combines and the row
-        #: of its rate; then its rows ``y`` and ``K_0``
-        self._stages = tuple(tuple((Z[:j + 2], Z[j + 2]) for j in range(3)) for Z in self._Z)
-        self._heads = tuple((Z[0], Z[1]) for Z in self._Z)
+        #: per buffer of ``_Z``: per stage 1-3 the rows ``[y, K_0 .. K_j]`` it combines and its rate's
+        #: row (shaped as the rate's output); then its rows ``y`` and ``K_0`` (shaped)
+        self._stages = tuple(tuple((Z[:j + 2], Z[j + 2].reshape(self._shape)) for j in range(3)) for Z in self._Z)
+        self._heads = tuple((Z[0], Z[1].reshape(self._shape)) for Z in self._Z)
         self._h: float | None = None
         self._weights: list[FloatArray] = []
-        self._rate_into: Callable[[FloatArray], None] = \
-            _dense_rate(self._G, self._D, self.S, self._sources, self._hv, self.h, self.lengths, self.u, self.dv,
-                        self.rate, self._du, self.damped) if self.dense else partial(_gathered_rate, self)
 
     def _rest(self, l0: FloatArray) -> None:
         """Rest lengths ``l0`` [m] for the next evaluations, with ``k = EA / l0`` [N/m] and
-        (dense) the rate matrix's member columns."""
+        (dense) the rate matrix's columns of ``h``."""
         np.divide(self.plan.EA, l0, out=self._k)
         if not self.dense:
             np.stack([self._k, -self._k], out=self._k2)
         else:
-            src, m3 = self.layout.sources, 3 * self.layout.n_members
-            inc, D = self._incidence, self._D
-            np.multiply(inc, np.tile(self._k, 3), out=D[:, src:src + m3])                       # k h
-            np.multiply(inc, -np.tile(self.plan.EA, 3), out=D[:, src + 2 * m3:src + 3 * m3])    # -EA u
-            np.multiply(inc, np.tile(self.plan.damping, 3), out=D[:, src + 3 * m3:])            # c (dv . u) u
+            np.multiply(self._pull, self._k, self._k_columns)                                    # k h
 
     def _rate(self, out: FloatArray) -> None:
         """``out`` (N,) = ``dy/dt`` of the state in ``S`` (rest lengths of :meth:`_rest`); its
         member vectors [m] and lengths [m] are left in ``self.h`` and ``self.lengths``, and
         (dense) the velocity differences [m/s] in ``self.dv``."""
-        self._rate_into(out)
+        self._rate_end(out.reshape(self._shape))
 
     def _velocity_differences(self) -> None:
         """(gathers) ``self.dv`` (3, m): ``v_b - v_a`` of the members at the state in ``S``."""
         self._sources.take(self.layout.velocity_ends, None, self._ends, "clip")
         np.subtract(self._ends[1], self._ends[0], self.dv)
 
+    def _step_of(self, h: float) -> None:
+        """The weights of :func:`rk4_coefficients` for steps of ``h`` [s] in ``self._weights``."""
+        if h != self._h:
+            c = rk4_coefficients(h)
+            self._h, self._weights = h, [c[j, :j + 2] for j in range(3)] + [c[3]]
+
     def _step(self, t: float, h: float, Z: FloatArray, Z_next: FloatArray, varying: bool) -> None:
         """One RK4 step of ``h`` [s] from ``(t, Z[0])`` (rate ``Z[1]``): its stages in ``Z[2:]``,
         the new state in ``Z_next[0]`` and its rate in ``Z_next[1]``; ``varying``: the rest
         lengths at each stage from ``rest_lengths``, else those of the last :meth:`_rest`."""
-        if h != self._h:
-            c = rk4_coefficients(h)
-            self._h, self._weights = h, [c[j, :j + 2] for j in range(3)] + [c[3]]
+        self._step_of(h)
         w, state, rate, dot = self._weights, self._state, self._rate_into, np.dot
         for j, (rows, K) in enumerate(self._stages[Z is self._Z[1]]):     # stage j + 1 at y + c h K_j
             dot(w[j], rows, state)
@@ -351,7 +393,7 @@ class FlatStages:
         state[...] = y_new
         if varying:
             self._rest(self.rest_lengths(t + h))
-        rate(f_new)
+        self._rate_end(f_new)
 
     def rk4(self, t: float, y: FloatArray, f: FloatArray, h: float) -> tuple[FloatArray, FloatArray]:
         Z, Z_next = self._Z
@@ -359,23 +401,35 @@ class FlatStages:
         self._step(t, h, Z, Z_next, True)
         return Z_next[0].copy(), Z_next[1].copy()
 
-    def _gaps(self, l0_screen: FloatArray, sign: FloatArray, out: FloatArray) -> tuple[float, float]:
-        """Per member of the last evaluation into ``out`` (3, m): its gap ``l - l0`` [m] times
-        ``sign`` (``+inf`` for members not screened), the gap's rate [m/s] and the rate's
-        opposite; returns the least signed gap and the largest rate magnitude (one reduction;
-        +inf and 0 without members). :func:`quiet_ends` reads them."""
-        gap, rate, opposite = out
-        np.subtract(self.lengths, l0_screen, gap)
-        np.multiply(gap, sign, gap)
+    def _screen(self, l0_screen: FloatArray, sign: FloatArray) -> Callable[[FloatArray], tuple[float, float]]:
+        """``gaps(out)``: per member of the last evaluation into ``out`` (3, m) its gap ``l -
+        l0_screen`` [m] times ``sign`` (``+inf`` for members not screened: ``l0_screen`` is
+        ``-inf``), the gap's rate [m/s] and the rate's opposite; returns the least signed gap
+        and the largest rate magnitude (one reduction; +inf and 0 without members).
+        :func:`quiet_ends` reads them. A closure over the arrays, as the rate's."""
+        lengths, dv, subtract, multiply, negative, least = self.lengths, self.dv, np.subtract, np.multiply, \
+            np.negative, np.minimum.reduce
         if self.dense:
-            np.vecdot(self.dv, self.u, axes=COMPONENTS, out=rate)
+            u, vecdot = self.u, np.vecdot
+
+            def rates(rate: FloatArray) -> None:
+                vecdot(dv, u, rate)                 # dv: the evaluation's (_rate_end)
         else:
-            self._velocity_differences()
-            _dot_components(self.dv, self.h, rate, self._product)
-            np.divide(rate, self.lengths, rate)
-        np.negative(rate, opposite)
-        least, low, high = np.minimum.reduce(out, 1, initial=np.inf).tolist()
-        return least, -min(low, high, 0.0)
+            def rates(rate: FloatArray) -> None:
+                self._velocity_differences()
+                _dot_components(dv, self.h, rate, self._product)
+                np.divide(rate, lengths, rate)
+
+        def gaps(out: FloatArray) -> tuple[float, float]:
+            gap, rate, opposite = out
+            subtract(lengths, l0_screen, gap)
+            multiply(gap, sign, gap)
+            rates(rate)
+            negative(rate, opposite)
+            low_gap, low, high = least(out, 1, None, None, False, np.inf).tolist()
+            return low_gap, -min(low, high, 0.0)
+
+        return gaps
 
     def rk4_run(self, t: float, y: FloatArray, f: FloatArray, h_fixed: float, t_bound: float, horizon: float,
                 samples: FloatArray, sample: int) -> Run:
@@ -396,20 +450,39 @@ class FlatStages:
         self._rest(l0)
         self._rate(np.empty_like(y))
         sign = np.sign(self.lengths - l0_screen)          # the gaps' signs at the stretch's start
-        E, E_next = np.empty((3, len(l0))), np.empty((3, len(l0)))     # a step's ends: _gaps
-        least0, most0 = self._gaps(l0_screen, sign, E)
-        step, gaps, limit = self._step, self._gaps, h_fixed * (1.0 + 1e-9)
+        E, E_next = np.empty((3, len(l0))), np.empty((3, len(l0)))     # a step's ends: _screen
+        gaps = self._screen(l0_screen, sign)
+        least0, most0 = gaps(E)
+        self._step_of(h_fixed)
+        w1, w2, w3, w4 = self._weights
+        rate, rate_end, dot, state, stages = self._rate_into, self._rate_end, np.dot, self._state, self._stages
+        #: per parity of the step: its stages' rows and rate outputs, its buffer and the next one's heads
+        ends = tuple((*(x for pair in stages[k] for x in pair), self._Z[k], *self._heads[1 - k]) for k in (0, 1))
+        odd, limit, stop = 0, h_fixed * (1.0 + 1e-9), min(horizon, t_bound)
         steps = 0
         due = samples[sample] if sample < len(samples) else np.inf       # the next sample's time [s]
         while True:
             left = t_bound - t
-            h = left if left < limit else h_fixed
-            step(t, h, Z, Z_next, False)
-            t_new = t_bound if h == left else t + h
+            if left < limit:                                # the last step, to the bound
+                h = left
+                self._step(t, h, Z, Z_next, False)
+                t_new = t_bound
+            else:
+                h = h_fixed
+                rows1, K1, rows2, K2, rows3, K3, Z, y_new, f_new = ends[odd]
+                dot(w1, rows1, state)
+                rate(K1)
+                dot(w2, rows2, state)
+                rate(K2)
+                dot(w3, rows3, state)
+                rate(K3)
+                dot(w4, Z, y_new)
+                state[...] = y_new
+                rate_end(f_new)
+                t_new = t + h
             steps += 1
-            least1, most1 = gaps(l0_screen, sign, E_next)
-            if t_new >= horizon or t_new >= t_bound or not quiet_ends(E, E_next, least0, most0, least1, most1,
-                                                                      t_new - t):
+            least1, most1 = gaps(E_next)
+            if t_new >= stop or not quiet_ends(E, E_next, least0, most0, least1, most1, t_new - t):
                 return Run(steps, steps, t, Z[0].copy(), Z[1].copy(), t_new, Z_next[0].copy(), Z_next[1].copy(),
                            sampled=sample, Y=Y)
             if due <= t_new:
@@ -421,4 +494,4 @@ class FlatStages:
                                             (samples[sample:end] - t) / (t_new - t))
                 sample = end
                 due = samples[sample] if sample < len(samples) else np.inf
-            t, Z, Z_next, E, E_next, least0, most0 = t_new, Z_next, Z, E_next, E, least1, most1
+            t, Z, Z_next, E, E_next, least0, most0, odd = t_new, Z_next, Z, E_next, E, least1, most1, 1 - odd
