@@ -52,6 +52,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from functools import cached_property, partial
+from typing import Any
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -298,8 +300,9 @@ class FlatStages:
         assert whole or not self.dense, "the node-major maps need a state of whole nodes (whole_nodes)"
         m, m3, N = lay.n_members, 3 * lay.n_members, lay.n_state
         self.lengths, self.rate = np.empty(m), np.empty(m)
+        self.S: FloatArray
         if self.dense:
-            C, moving, self._pull, inverse_mass, x_fixed, external = lay.node_maps()
+            C, moving_part, self._pull, inverse_mass, x_fixed, external = lay.node_maps()
             nf, nm, du = len(x_fixed), len(inverse_mass), m if self.damped else 0
             # S (rows, 3) = [x fixed (nf) | x (nm) | v (nm) | u (m) | (dv . u) u (du) | external (nm) | h (m) | dv (m)]
             x, v = nf + nm, nf + 2 * nm
@@ -309,7 +312,7 @@ class FlatStages:
             self.u, self._du, self.h, self.dv = self.S[v:u], self.S[u:e], self.S[h:h + m], self.S[h + m:]
             # [h | dv] = G [x fixed | x | v]
             G = np.zeros((2 * m, v))
-            G[:m, :x], G[m:, x:] = C, moving
+            G[:m, :x], G[m:, x:] = C, moving_part
             # rates (2 nm, 3) = R [v | u | (dv . u) u | external | h]; the columns of h are k's (_rest)
             self._R = R = np.zeros((2 * nm, nm + 2 * m + du + nm))
             R[:nm, :nm] = np.eye(nm)
@@ -407,8 +410,8 @@ class FlatStages:
         ``-inf``), the gap's rate [m/s] and the rate's opposite; returns the least signed gap
         and the largest rate magnitude (one reduction; +inf and 0 without members).
         :func:`quiet_ends` reads them. A closure over the arrays, as the rate's."""
-        lengths, dv, subtract, multiply, negative, least = self.lengths, self.dv, np.subtract, np.multiply, \
-            np.negative, np.minimum.reduce
+        lengths, dv, subtract, multiply, negative = self.lengths, self.dv, np.subtract, np.multiply, np.negative
+        least: Any = np.minimum.reduce          # called with positional arguments (numpy's stubs: keywords)
         if self.dense:
             u, vecdot = self.u, np.vecdot
 
