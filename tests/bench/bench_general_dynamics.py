@@ -505,13 +505,15 @@ def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
     assert isinstance(flat, FlatStages) and flat.dense
     flat.rk4(0.0, state.y, system.fun(0.0, state.y), first["step"])      # fills the buffers
     C, P, H, l, U, R, tail = flat._C, flat._positions, flat.h, flat.lengths, flat.u, flat._R, flat._tail
-    Z, out, weights, state_row = flat._Z[0], np.empty(flat._shape), flat._weights[3], flat._state
+    Z, out, weights, state_row = flat._Z[0], flat._shaped(np.empty(len(state.y))), flat._weights[3], flat._state
     lc, (hx, hy, hz) = l[:, None], H.T
+    assert flat._identity                  # the rate product carries v: one call
+    rates_out = out[0]
     calls = {"member vectors (np.dot)": lambda: np.dot(C, P, H),
              "lengths in the plane (np.hypot)": lambda: np.hypot(hx, hy, l),
              "lengths (np.hypot)": lambda: np.hypot(l, hz, l),
              "unit vectors (np.divide)": lambda: np.divide(H, lc, U),
-             "rates (np.dot)": lambda: np.dot(R, tail, out),
+             "rates (np.dot)": lambda: np.dot(R, tail, rates_out),
              "stage state (np.dot)": lambda: np.dot(weights, Z, state_row)}
     cost = {name: _cpu_per_call(fn, calls_per_loop) for name, fn in calls.items()}
     floor = 4 * sum(cost.values())

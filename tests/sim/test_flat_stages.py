@@ -64,12 +64,13 @@ def _oracle(plan: Plan, l0: np.ndarray):
        kinds=st.lists(st.sampled_from(["free", "free", "fixed"]), min_size=18, max_size=18),
        EA=st.lists(st.sampled_from([0.0, 10.0, 300.0, 2e4]), min_size=12, max_size=12),
        damping=st.lists(st.sampled_from([0.0, 0.0, 0.5, 20.0]), min_size=12, max_size=12),
-       whole=st.booleans(), dense=st.booleans(), h=st.sampled_from([1e-5, 1e-3]), seed=st.integers(0, 2**31))
-def test_a_flat_step_is_the_compiled_step_to_rounding(n, ends, kinds, EA, damping, whole, dense, h, seed):
-    """One RK4 step and the rate at its end, node-major dense (states of whole nodes) or
-    gathered (any state), against the oracle's. The
-    flat stages write a member's force ``k h - EA u``: two terms of the size of ``EA``
-    where the loops add one of the size of ``t``, so the rates agree to a few ``eps`` of the
+       whole=st.booleans(), dense=st.booleans(), identity=st.booleans(), h=st.sampled_from([1e-5, 1e-3]),
+       seed=st.integers(0, 2**31))
+def test_a_flat_step_is_the_compiled_step_to_rounding(n, ends, kinds, EA, damping, whole, dense, identity, h, seed):
+    """One RK4 step and the rate at its end, node-major dense (states of whole nodes; the
+    velocities carried by the rate product or copied) or gathered (any state), against the
+    oracle's. The flat stages write a member's force ``k h - EA u``: two terms of the size
+    of ``EA`` where the loops add one of the size of ``t``, so the rates agree to a few ``eps`` of the
     largest force per mass, ``sum (EA + EA l / l0 + c |dv|) / m`` over a coordinate's
     members, and the step to ``h`` times that."""
     pairs = [(a % n, b % n) for a, b in ends if a % n != b % n]
@@ -81,7 +82,7 @@ def test_a_flat_step_is_the_compiled_step_to_rounding(n, ends, kinds, EA, dampin
     y = rng.normal(size=N)
     f = rng.normal(size=N)
     flat = FlatStages(plan, lambda t: l0, True, strings=np.zeros(0, dtype=np.int64), moving=np.zeros(0, dtype=bool),
-                      dense=dense and whole)
+                      dense=dense and whole, identity=identity)
     y_flat, f_flat = flat.rk4(0.0, y, f, h)
     y_ref, f_ref = _oracle(plan, l0).rk4(0.0, y, f, h)
     # the largest force per mass any evaluation of the step can see (positions within |y| + 2h|f| of y)

@@ -52,6 +52,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from functools import cached_property, partial
+from typing import Any
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -64,8 +66,13 @@ IntArray = NDArray[np.int64]
 
 #: Largest number of entries of the node-major matrices (incidence and rates,
 #: :meth:`FlatLayout.dense_entries`) for which the maps are dense products; above it, gathers
-#: (the measured crossover, docs/design/performance.md: dense faster on 45 members, gathers on 99).
-DENSE_LIMIT = 20_000
+#: (the measured crossover, docs/design/performance.md: dense faster on 99 members, gathers on 198).
+DENSE_LIMIT = 40_000
+#: Largest number of entries of the identity rows that let the rate product carry the velocities
+#: into ``dx/dt`` (``n_moving x`` the product's columns): below it they cost less than a copy
+#: (one call), above it more (measured: a tie on 45 members, the copy 48 against 53-54 us per
+#: step on 99; docs/design/performance.md).
+IDENTITY_LIMIT = 2_000
 #: The quiet-step screen's factor (:func:`.loops.quiet_step`: a cubic between its ends strays
 #: at most 4/27 of the step times the sum of its end slopes), with its rounding margin.
 SCREEN = (4.0 / 27.0) * (1.0 + 1e-9)
@@ -113,17 +120,20 @@ def quiet_ends(E0: FloatArray, E1: FloatArray, least0: float, most0: float, leas
 
 
 def _dense_rate(C: FloatArray, G: FloatArray, P: FloatArray, PV: FloatArray, HD: FloatArray, H: FloatArray,
-                l: FloatArray, U: FloatArray, R: FloatArray, tail: FloatArray, dv: FloatArray, rate: FloatArray,
-                DU: FloatArray, damped: bool, velocities: bool) -> Callable[[FloatArray], None]:
+                l: FloatArray, U: FloatArray, R: FloatArray, tail: FloatArray, V: FloatArray, dv: FloatArray,
+                rate: FloatArray, DU: FloatArray, damped: bool, velocities: bool,
+                identity: bool) -> Callable[[tuple[FloatArray, FloatArray, FloatArray]], None]:
     """:meth:`FlatStages._rate` with the node-major maps, its arrays bound in a closure (no
     attribute look-ups or arguments per call) and every output passed positionally; its
-    output is the rate as (2 n_moving, 3). ``velocities``: the members' velocity differences
+    output is the rate as the views ``(dy/dt (2 n_moving, 3), dx/dt, dv/dt (n_moving, 3))`` of
+    :meth:`FlatStages._shaped`. ``identity``: ``R`` carries ``v`` into ``dx/dt`` (its identity
+    rows), else ``R`` gives ``dv/dt`` and ``v`` is copied. ``velocities``: the members' velocity differences
     too (``[h | dv] = G [x_fixed; x; v]`` in one product), into ``dv``."""
-    dot, vecdot, hypot, divide, multiply = np.dot, np.vecdot, np.hypot, np.divide, np.multiply
+    dot, vecdot, hypot, divide, multiply, copyto = np.dot, np.vecdot, np.hypot, np.divide, np.multiply, np.copyto
     lc, rc = l[:, None], rate[:, None]
     hx, hy, hz = H.T
 
-    def rate_into(out: FloatArray) -> None:
+    def rate_into(out: tuple[FloatArray, FloatArray, FloatArray]) -> None:
         if velocities:
             dot(G, PV, HD)                          # h = x_b - x_a, dv = v_b - v_a (m, 3)
         else:
@@ -134,7 +144,11 @@ def _dense_rate(C: FloatArray, G: FloatArray, P: FloatArray, PV: FloatArray, HD:
         if damped:
             vecdot(dv, U, rate)
             multiply(U, rc, DU)
-        dot(R, tail, out)                           # [v | (external + k h - EA u + c (dv . u) u) / mass]
+        if identity:
+            dot(R, tail, out[0])                    # [v | (external + k h - EA u + c (dv . u) u) / mass]
+        else:
+            copyto(out[1], V)
+            dot(R, tail, out[2])
 
     return rate_into
 
@@ -276,7 +290,9 @@ class FlatLayout:
 class FlatStages:
     """RK4 steps of the model of ``plan`` (:func:`flat_ready`) in flat buffers (module
     docstring), with rest lengths ``rest_lengths(t)`` [m] (``constant``: they do not depend
-    on ``t``); ``dense``: the linear maps as dense matrices (None: by size); ``layout``: the
+    on ``t``); ``dense``: the linear maps as node-major dense matrices (None: by size and
+    layout); ``identity``: (dense) the rate product carries the velocities into ``dx/dt``, else
+    they are copied (None: by size, :data:`IDENTITY_LIMIT`); ``layout``: the
     plan's :class:`FlatLayout` if built (one per topology, masses and loads: the plans of
     one model's slack sets share it). A stretch stops at a step that may hold an event of
     the strings ``strings`` (member indices; ``moving``: per string, its rest length moves
@@ -287,7 +303,7 @@ class FlatStages:
 
     def __init__(self, plan: Plan, rest_lengths: Callable[[float], FloatArray], constant: bool, *,
                  strings: IntArray, moving: NDArray[np.bool_], dense: bool | None = None,
-                 layout: FlatLayout | None = None):
+                 identity: bool | None = None, layout: FlatLayout | None = None):
         assert flat_ready(plan), "the flat stages take models without moving bodies or slack tests"
         self.plan, self.rest_lengths, self.constant = plan, rest_lengths, constant
         self.strings, self.moving = strings, moving
@@ -298,8 +314,12 @@ class FlatStages:
         assert whole or not self.dense, "the node-major maps need a state of whole nodes (whole_nodes)"
         m, m3, N = lay.n_members, 3 * lay.n_members, lay.n_state
         self.lengths, self.rate = np.empty(m), np.empty(m)
+        self.S: FloatArray
+        #: the rate of the state in ``S`` into an output of :meth:`_shaped`: at a stage, at a step's end
+        self._rate_into: Callable[[Any], None]
+        self._rate_end: Callable[[Any], None]
         if self.dense:
-            C, moving, self._pull, inverse_mass, x_fixed, external = lay.node_maps()
+            C, moving_part, self._pull, inverse_mass, x_fixed, external = lay.node_maps()
             nf, nm, du = len(x_fixed), len(inverse_mass), m if self.damped else 0
             # S (rows, 3) = [x fixed (nf) | x (nm) | v (nm) | u (m) | (dv . u) u (du) | external (nm) | h (m) | dv (m)]
             x, v = nf + nm, nf + 2 * nm
@@ -309,21 +329,26 @@ class FlatStages:
             self.u, self._du, self.h, self.dv = self.S[v:u], self.S[u:e], self.S[h:h + m], self.S[h + m:]
             # [h | dv] = G [x fixed | x | v]
             G = np.zeros((2 * m, v))
-            G[:m, :x], G[m:, x:] = C, moving
-            # rates (2 nm, 3) = R [v | u | (dv . u) u | external | h]; the columns of h are k's (_rest)
-            self._R = R = np.zeros((2 * nm, nm + 2 * m + du + nm))
-            R[:nm, :nm] = np.eye(nm)
-            R[nm:, nm:nm + m] = self._pull * -plan.EA
+            G[:m, :x], G[m:, x:] = C, moving_part
+            # accelerations (nm, 3) = A [u | (dv . u) u | external | h], the columns of h k's (_rest);
+            # R = A, or (small) [[I, 0], [0, A]] for [v | a] = R [v | u | ...] in the same product
+            self._identity = nm * (2 * nm + 2 * m + du) <= IDENTITY_LIMIT if identity is None else identity
+            rows = 2 * nm if self._identity else nm
+            self._R = R = np.zeros((rows, rows + 2 * m + du))
+            R[:rows - nm, :rows - nm] = np.eye(rows - nm)
+            A = R[rows - nm:, rows - nm:]
+            A[:, :m] = self._pull * -plan.EA
             if self.damped:
-                R[nm:, nm + m:nm + 2 * m] = self._pull * plan.damping
-            R[nm:, nm + m + du:2 * nm + m + du] = np.diag(inverse_mass)
-            self._k_columns = R[nm:, 2 * nm + m + du:]
+                A[:, m:2 * m] = self._pull * plan.damping
+            A[:, m + du:m + du + nm] = np.diag(inverse_mass)
+            self._k_columns = A[:, m + du + nm:]
             self._state = self.S.reshape(-1)[3 * nf:3 * nf + N]
-            self._shape: tuple[int, ...] = (2 * nm, 3)
-            self._C, self._positions, self._tail = C, self.S[:x], self.S[x:h + m]
+            self._C, self._positions, self._tail, self._velocity_rows = \
+                C, self.S[:x], self.S[v - (rows - nm):h + m], self.S[x:v]
             self._G = G
             rates = [_dense_rate(C, G, self._positions, self.S[:v], self.S[h:], self.h, self.lengths, self.u, R,
-                                 self._tail, self.dv, self.rate, self._du, self.damped, velocities)
+                                 self._tail, self._velocity_rows, self.dv, self.rate, self._du, self.damped,
+                                 velocities, self._identity)
                      for velocities in (self.damped, True)]
             self._rate_into, self._rate_end = rates
         else:
@@ -339,15 +364,14 @@ class FlatStages:
             self._terms = np.empty(self._force_terms.shape)
             self.S[N:src] = lay.constants
             self._state, self._sources, self._velocities = self.S[:N], self.S[:src], self.S[N // 2:N]
-            self._shape = (N,)
             self._rate_into = self._rate_end = partial(_gathered_rate, self)
         self.layout = lay
         self._k = np.empty(m)
         self._Z = (np.empty((5, N)), np.empty((5, N)))      # [y, K_0 .. K_3] of this step and the next
         #: per buffer of ``_Z``: per stage 1-3 the rows ``[y, K_0 .. K_j]`` it combines and its rate's
         #: row (shaped as the rate's output); then its rows ``y`` and ``K_0`` (shaped)
-        self._stages = tuple(tuple((Z[:j + 2], Z[j + 2].reshape(self._shape)) for j in range(3)) for Z in self._Z)
-        self._heads = tuple((Z[0], Z[1].reshape(self._shape)) for Z in self._Z)
+        self._stages = tuple(tuple((Z[:j + 2], self._shaped(Z[j + 2])) for j in range(3)) for Z in self._Z)
+        self._heads = tuple((Z[0], self._shaped(Z[1])) for Z in self._Z)
         self._h: float | None = None
         self._weights: list[FloatArray] = []
 
@@ -364,7 +388,15 @@ class FlatStages:
         """``out`` (N,) = ``dy/dt`` of the state in ``S`` (rest lengths of :meth:`_rest`); its
         member vectors [m] and lengths [m] are left in ``self.h`` and ``self.lengths``, and
         (dense) the velocity differences [m/s] in ``self.dv``."""
-        self._rate_end(out.reshape(self._shape))
+        self._rate_end(self._shaped(out))
+
+    def _shaped(self, rate: FloatArray) -> Any:
+        """A rate (N,) as the rate's closures write it: the views ``(dy/dt (2 n_moving, 3),
+        dx/dt, dv/dt (n_moving, 3))`` (dense), itself (gathers)."""
+        if not self.dense:
+            return rate
+        half = len(rate) // 2
+        return rate.reshape(-1, 3), rate[:half].reshape(-1, 3), rate[half:].reshape(-1, 3)
 
     def _velocity_differences(self) -> None:
         """(gathers) ``self.dv`` (3, m): ``v_b - v_a`` of the members at the state in ``S``."""
@@ -407,8 +439,8 @@ class FlatStages:
         ``-inf``), the gap's rate [m/s] and the rate's opposite; returns the least signed gap
         and the largest rate magnitude (one reduction; +inf and 0 without members).
         :func:`quiet_ends` reads them. A closure over the arrays, as the rate's."""
-        lengths, dv, subtract, multiply, negative, least = self.lengths, self.dv, np.subtract, np.multiply, \
-            np.negative, np.minimum.reduce
+        lengths, dv, subtract, multiply, negative = self.lengths, self.dv, np.subtract, np.multiply, np.negative
+        least: Any = np.minimum.reduce          # called with positional arguments (numpy's stubs: keywords)
         if self.dense:
             u, vecdot = self.u, np.vecdot
 
