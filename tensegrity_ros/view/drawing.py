@@ -3,7 +3,8 @@ moved by :meth:`StructureDrawing.show` for every :class:`Frame`.
 
 Bars and actuators are cylinders (one batched mesh of instances: a frame is one message
 for all of them); strings are lines coloured by tension (:mod:`.colors`), slack ones thin and
-grey; nodes are points; rigid bodies translucent hulls of their nodes; fold-limit or floor
+grey; nodes are points; rigid bodies translucent hulls of their nodes, each sent once and moved by
+the body's pose (:mod:`.hulls`); fold-limit or floor
 contacts red points; the end effector's path a green trail; the floor a grid at z = 0.
 Lines (strings, the trail, the floor's grid) have a width in screen pixels; other sizes scale with the
 structure's extent at its first frame, except a robot's rods and end
@@ -19,11 +20,11 @@ from collections import deque
 from typing import Any, Final
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
 
 from tensegrity_ros.view import colors
 from tensegrity_ros.view.frame import Frame, Topology
 from tensegrity_ros.view.geometry import grid_lines, segment_poses, unit_cylinder
+from tensegrity_ros.view.hulls import hull_groups
 
 #: Points kept on the end effector's trail (at the view's frame rate: ~20 s at 30 fps).
 TRAIL_POINTS: Final = 600
@@ -40,15 +41,6 @@ SLACK_PX: Final = 1.0
 #: Width [screen px] of a floor contact's normal-force line.
 NORMAL_PX: Final = 4.0
 _NO_SEGMENT: Final = np.zeros((1, 2, 3), dtype=np.float32)
-
-
-def _hull_faces(points: np.ndarray) -> np.ndarray:
-    """Triangles (k, 3) over ``points``: their convex hull, or a fan where they are coplanar."""
-    try:
-        return np.asarray(ConvexHull(points).simplices, dtype=np.uint32)
-    except (QhullError, ValueError):
-        n = len(points)
-        return np.array([(0, i, i + 1) for i in range(1, n - 1)], dtype=np.uint32)
 
 
 class StructureDrawing:
@@ -103,16 +95,17 @@ class StructureDrawing:
         if self.topology.floor:
             self.normals = sc.add_line_segments("/structure/normal_forces", _NO_SEGMENT, colors.CONTACT,
                                                 thickness=NORMAL_PX, thickness_units="screen", visible=False)
-        # every body of three nodes or more in ONE mesh (a rod's two nodes span no hull: its
-        # cylinder draws it): one update a frame whatever the number of bodies
-        hulls = [list(idx) for _, idx in self.topology.bodies if len(idx) >= 3]
-        self._body_nodes = np.array([i for idx in hulls for i in idx], dtype=np.int64)
-        if hulls:
-            offsets = np.cumsum([0] + [len(idx) for idx in hulls[:-1]])
-            faces = np.vstack([_hull_faces(first.nodes[idx]) + off for idx, off in zip(hulls, offsets)])
-            self.bodies = sc.add_mesh_simple("/structure/bodies", first.nodes[self._body_nodes].astype(np.float32),
-                                             faces.astype(np.uint32), color=colors.BODY, opacity=0.35, side="double",
-                                             cast_shadow=False, receive_shadow=False)
+        # bodies of three nodes or more (a rod's two nodes span no hull: its cylinder draws
+        # it) as hulls sent once in their body frames and moved by their poses: no vertices
+        # re-sent a frame, one instanced mesh per shape (docs/design/view.md)
+        self._hulls = hull_groups([idx for _, idx in self.topology.bodies if len(idx) >= 3], first.nodes, self.size)
+        self.bodies = []
+        for i, group in enumerate(self._hulls):
+            pos, wxyz = group.poses(first.nodes)
+            self.bodies.append(sc.add_batched_meshes_simple(
+                f"/structure/bodies/{i}", vertices=group.template.astype(np.float32), faces=group.faces,
+                batched_wxyzs=wxyz, batched_positions=pos, batched_colors=colors.BODY, opacity=0.35, side="double",
+                lod="off", cast_shadow=False, receive_shadow=False))
         self.path = sc.add_line_segments("/structure/path", _NO_SEGMENT, colors.PATH, thickness=SLACK_PX * 2,
                                          thickness_units="screen", visible=False)
         self.show(first)
@@ -147,8 +140,8 @@ class StructureDrawing:
         self.contacts.visible = bool(frame.contacts)
         if self.topology.floor:
             self._show_normals(frame.contacts)
-        if len(self._body_nodes):
-            self.bodies.vertices = nodes[self._body_nodes].astype(np.float32)
+        for group, handle in zip(self._hulls, self.bodies):
+            handle.batched_positions, handle.batched_wxyzs = group.poses(nodes)
         if self.topology.end_effector is not None:
             self._trail.append(nodes[self.topology.end_effector].astype(np.float32))
             if len(self._trail) > 1:

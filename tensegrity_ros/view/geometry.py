@@ -1,10 +1,11 @@
-"""Geometry of the drawing (numpy only): a unit cylinder along +Z placed on each segment, the
-floor's grid lines."""
+"""Geometry of the drawing: a unit cylinder along +Z placed on each segment, the poses of rigid
+point sets, the floor's grid lines."""
 
 from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
 
 FloatArray = NDArray[np.float64]
 
@@ -31,6 +32,25 @@ def segment_poses(a: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArray,
     lengths = np.linalg.norm(v, axis=1)
     v[lengths <= 0.0] = (0.0, 0.0, 1.0)
     return 0.5 * (a + b), z_to(v), lengths
+
+
+def rigid_poses(template: FloatArray, points: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Positions (b, 3) [m] and orientations ``(w, x, y, z)`` (b, 4) that carry ``template``
+    (k, 3), centred at its mean, onto each of ``points`` (b, k, 3): ``points[j, i] = p_j +
+    R(q_j) (template[i] - mean(template))`` for a rigid motion, its least-squares fit otherwise
+    (Kabsch: the rotation from the SVD of the points' cross-covariance, a reflection ruled out).
+    ``p_j`` is the mean of ``points[j]``. Points on one line leave the turn about that line
+    undetermined (any one is returned)."""
+    t = np.asarray(template, dtype=float)
+    q = np.asarray(points, dtype=float).reshape(-1, *t.shape)
+    centre = q.mean(axis=1)
+    cov = np.einsum("ki,bkj->bij", t - t.mean(axis=0), q - centre[:, None, :])
+    u, _, vt = np.linalg.svd(cov)
+    v_ut = np.einsum("bji,bkj->bik", vt, u)                     # V U^T
+    flip = np.where(np.linalg.det(v_ut) < 0, -1.0, 1.0)
+    rot = np.einsum("bji,bj,bkj->bik", vt, np.stack([np.ones_like(flip), np.ones_like(flip), flip], axis=1), u)
+    quat = Rotation.from_matrix(rot).as_quat(canonical=True, scalar_first=True)
+    return centre, quat
 
 
 def unit_cylinder(sections: int = 16) -> tuple[NDArray[np.float32], NDArray[np.uint32]]:

@@ -221,6 +221,80 @@ def test_a_robot_bag_moves_over_its_timeline_with_its_contacts_marked(cli, brows
     assert view.stop() == 0
 
 
+def _differ(a: np.ndarray, b: np.ndarray) -> float:
+    """Fraction of the canvas's pixels whose colour differs by more than 16 of 255 in a channel
+    (a translucent hull over the white background differs from it by 19-47)."""
+    return float((np.abs(a.astype(int) - b.astype(int)).max(axis=2) > 16).mean())
+
+
+def test_rigid_bodies_hulls_move_with_their_bodies(browser):
+    """The spine's vertebrae (one instanced hull moved by each body's pose) drawn at a state
+    where each vertebra is turned by its own angle and moved: the same pixels as the hulls
+    drawn from those nodes' positions (a mesh of the placed nodes, the drawing's former way),
+    and not those of the hulls left where they were first drawn (the check sees a hull that
+    does not follow its body)."""
+    from scipy.spatial.transform import Rotation
+
+    from tensegrity_ros.view import colors
+    from tensegrity_ros.view.bag_source import BagSource
+    from tensegrity_ros.view.drawing import StructureDrawing
+    from tensegrity_ros.view.frame import Frame
+    from tensegrity_ros.view.server import start_server
+
+    bag = BagSource(BAGS / "spine_release")
+    first = bag.frame_at(0)
+    nodes = first.nodes.copy()
+    for i, (_, idx) in enumerate(bag.topology.bodies[1:], start=1):     # the lowest vertebra is fixed
+        body = list(idx)
+        centre = nodes[body].mean(axis=0)
+        turn = Rotation.from_euler("xz", [6.0 * i, 9.0 * i], degrees=True)
+        nodes[body] = centre + turn.apply(nodes[body] - centre) + [0.012 * i, 0.0, 0.0]
+    moved = Frame(t=1.0, nodes=nodes, member_forces=first.member_forces, contacts=(), series={}, run_state="recorded")
+    server = start_server(port=0)
+    try:
+        drawing = StructureDrawing(server.scene, bag.topology, first)
+        (group,) = drawing._hulls
+        server.initial_camera.look_at = tuple(nodes.mean(axis=0))
+        server.initial_camera.position = tuple(nodes.mean(axis=0) + np.array([0.0, -1.0, 0.15]))
+        note = server.gui.add_markdown("step 0")
+        faces = np.vstack([group.faces + 5 * k for k in range(len(group.nodes))])
+        page = browser.open(f"http://127.0.0.1:{server.get_port()}")
+        try:
+            wait_for_canvas(page)
+
+            def shot(step: int, change) -> np.ndarray:
+                with server.atomic():
+                    change()
+                    note.content = f"step {step}"
+                page.get_by_text(f"step {step}").first.wait_for(timeout=WAIT * 1000)
+                _drawn(page)
+                return canvas_pixels(page)
+
+            by_pose = shot(1, lambda: drawing.show(moved))
+            meshes = []
+
+            def hulls_at(positions: np.ndarray):
+                """The drawing's hulls hidden, a mesh of the hulls over ``positions`` (n, 3) [m] instead."""
+                def change() -> None:
+                    for handle in drawing.bodies + meshes:
+                        handle.visible = False
+                    meshes.append(server.scene.add_mesh_simple(
+                        f"/reference/{len(meshes)}", positions[group.nodes].reshape(-1, 3).astype(np.float32),
+                        faces.astype(np.uint32), color=colors.BODY, opacity=0.35, side="double", cast_shadow=False,
+                        receive_shadow=False))
+                return change
+
+            by_nodes = shot(2, hulls_at(nodes))
+            left = shot(3, hulls_at(first.nodes))
+            assert _differ(left, by_nodes) > 0.01, _differ(left, by_nodes)
+            assert _differ(by_pose, by_nodes) < 0.1 * _differ(left, by_nodes), (_differ(by_pose, by_nodes),
+                                                                                _differ(left, by_nodes))
+        finally:
+            page.close()
+    finally:
+        server.stop()
+
+
 @pytest.fixture(scope="module")
 def live(browser, tmp_path_factory):
     """One suite (simulator and controller), one view of it and its page in the browser,
