@@ -40,11 +40,14 @@ def rigid_poses(template: FloatArray, points: FloatArray) -> tuple[FloatArray, F
     R(q_j) (template[i] - mean(template))`` for a rigid motion, its least-squares fit otherwise
     (Kabsch: the rotation from the SVD of the points' cross-covariance, a reflection ruled out).
     ``p_j`` is the mean of ``points[j]``. Points on one line leave the turn about that line
-    undetermined (any one is returned)."""
+    undetermined (any one is returned); points not all finite give a position that is not
+    either, and no turn."""
     t = np.asarray(template, dtype=float)
     q = np.asarray(points, dtype=float).reshape(-1, *t.shape)
-    centre = q.mean(axis=1)
-    cov = np.einsum("ki,bkj->bij", t - t.mean(axis=0), q - centre[:, None, :])
+    with np.errstate(invalid="ignore"):                       # inf - inf of a diverged state: NaN, no warning
+        centre = q.mean(axis=1)
+        cov = np.einsum("ki,bkj->bij", t - t.mean(axis=0), q - centre[:, None, :])
+    cov[~np.isfinite(cov).all(axis=(1, 2))] = np.eye(3)     # such a state: no turn, its position not finite
     u, _, vt = np.linalg.svd(cov)
     v_ut = np.einsum("bji,bkj->bik", vt, u)                     # V U^T
     flip = np.where(np.linalg.det(v_ut) < 0, -1.0, 1.0)

@@ -45,6 +45,18 @@ def test_rigid_poses_never_reflect():
     assert np.linalg.det(Rotation.from_quat(wxyz[0], scalar_first=True).as_matrix()) == pytest.approx(1.0)
 
 
+def test_a_body_with_a_point_not_finite_gets_no_pose_and_leaves_the_others_theirs():
+    """A diverged simulation's state draws nothing for that body, and raises nothing."""
+    template = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    points = np.stack([template + 1.0, template, template])
+    points[1, 2, 0] = np.nan
+    points[2, 0, 1] = np.inf
+    pos, wxyz = rigid_poses(template, points)
+    np.testing.assert_allclose(pos[0], template.mean(axis=0) + 1.0)
+    np.testing.assert_allclose(wxyz[0], [1.0, 0.0, 0.0, 0.0], atol=1e-12)
+    assert not np.isfinite(pos[1:]).all(axis=1).any()
+
+
 def test_congruent_bodies_share_one_group_and_others_do_not():
     """Four copies of a tetrahedron with a centre node, each turned and moved: one group; the
     same shape scaled by 1.001, or with its nodes listed in another order, is another."""
