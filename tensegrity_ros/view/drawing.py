@@ -33,7 +33,7 @@ CONTACT_HEIGHT: Final = 0.5
 #: The floor's grid: its width as a multiple of the structure's extent, cells across it, a
 #: section line every this many cells.
 GRID_WIDTH: Final = 4.0
-GRID_CELLS: Final = 40
+GRID_CELLS: Final = 20
 GRID_SECTION: Final = 5
 #: Width of a taut string's line and of a slack one [screen pixels].
 STRING_PX: Final = 3.0
