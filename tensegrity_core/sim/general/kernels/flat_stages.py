@@ -6,9 +6,9 @@ calls (each costs about 0.5-1 us of dispatch whatever its length), not their ari
 right-hand side, about 20 calls. For a model whose nodes are all free or fixed (no moving
 rigid body) and whose members need no slack test inside a step (the stepper's stretches:
 a taut string carries compression, a slack one has no stiffness), this module evaluates a
-stage in 6 calls (small models) or 12 (larger ones), everything written in place, each
-output passed positionally (a keyword ``out=`` costs numpy ~0.1-0.2 us of argument parsing
-per call, a fifth to a third of a small call); per stage:
+stage in 6 or 7 calls (up to ~100 members) or 12 (larger ones), everything written in place,
+each output passed positionally (a keyword ``out=`` costs numpy ~0.1-0.2 us of argument
+parsing per call, a fifth to a third of a small call); per stage:
 
 - the member vectors ``h = x_b - x_a``, their lengths ``l = |h|``, the unit vectors
   ``u = h / l`` and ``dy/dt = [v | (external + sum of the member forces on each free
@@ -25,7 +25,9 @@ state is written in place by its stage product): ``h = C [x_fixed; x]`` with the
 signed incidence ``C`` (m, n) (at a step's end, and in every stage of a damped model,
 ``[h | dv] = G [x_fixed; x; v]`` in the same one product), ``l`` two ``hypot`` of its columns,
 ``u = h / l`` and ``dy/dt`` (as (2 n_moving, 3): ``[v | a]``) one product of a rate matrix
-with the rows ``[v | u | (dv . u) u | external | h]``. The force of a member on its node
+with the rows ``[v | u | (dv . u) u | external | h]`` (above :data:`IDENTITY_LIMIT`, where the
+identity rows that carry ``v`` would cost more than a call, ``a`` alone from ``[u | ... | h]``
+and ``v`` copied: seven calls). The force of a member on its node
 ``a``, ``t u`` with ``t = EA (l - l0) / l0 [+ c (dv . u)]``, is written ``k h - EA u [+ c
 (dv . u) u]`` (``k = EA / l0`` [N/m]): linear in ``h``, ``u`` and ``(dv . u) u``, whose
 coefficients (with the masses' inverses and the signs) are the rate matrix's columns. The
