@@ -248,11 +248,9 @@ class FlatStages:
             A[:, m + du:m + du + nm] = np.diag(inverse_mass)
             self._k_columns = A[:, m + du + nm:]
             self._state = self.S.reshape(-1)[3 * nf:3 * nf + N]
-            self._C, self._positions, self._tail, self._velocity_rows = \
-                C, self.S[:x], self.S[v - (rows - nm):h + m], self.S[x:v]
-            self._G = G
+            self._C, self._positions, self._tail = C, self.S[:x], self.S[v - (rows - nm):h + m]
             rates = [_dense_rate(C, G, self._positions, self.S[:v], self.S[h:], self.h, self.lengths, self.u, R,
-                                 self._tail, self._velocity_rows, self.dv, self.rate, self._du, self.damped,
+                                 self._tail, self.S[x:v], self.dv, self.rate, self._du, self.damped,
                                  velocities, self._identity)
                      for velocities in (self.damped, True)]
             self._rate_into, self._rate_end = rates
