@@ -79,6 +79,11 @@ IDENTITY_LIMIT = 2_000
 #: The quiet-step screen's factor (:func:`.loops.quiet_step`: a cubic between its ends strays
 #: at most 4/27 of the step times the sum of its end slopes), with its rounding margin.
 SCREEN = (4.0 / 27.0) * (1.0 + 1e-9)
+#: ``np.dot`` and ``np.copyto`` without numpy's ``__array_function__`` dispatch (NEP 18's
+#: ``_implementation``, the C function itself): the dispatch costs 0.2-0.5 us per call, as much
+#: as a product of the small matrices here; every array here is a plain ndarray.
+DOT: Callable[..., Any] = np.dot._implementation  # type: ignore[attr-defined]  # (not in the stubs)
+COPYTO: Callable[..., Any] = np.copyto._implementation  # type: ignore[attr-defined]
 #: The fractions of the step at RK4's stages 1-3.
 FRACTIONS = (0.5, 0.5, 1.0)
 
@@ -132,7 +137,7 @@ def _dense_rate(C: FloatArray, G: FloatArray, P: FloatArray, PV: FloatArray, HD:
     :meth:`FlatStages._shaped`. ``identity``: ``R`` carries ``v`` into ``dx/dt`` (its identity
     rows), else ``R`` gives ``dv/dt`` and ``v`` is copied. ``velocities``: the members' velocity differences
     too (``[h | dv] = G [x_fixed; x; v]`` in one product), into ``dv``."""
-    dot, vecdot, hypot, divide, multiply, copyto = np.dot, np.vecdot, np.hypot, np.divide, np.multiply, np.copyto
+    dot, vecdot, hypot, divide, multiply, copyto = DOT, np.vecdot, np.hypot, np.divide, np.multiply, COPYTO
     lc, rc = l[:, None], rate[:, None]
     hx, hy, hz = H.T
 
@@ -317,7 +322,7 @@ class FlatStages:
         the new state in ``Z_next[0]`` and its rate in ``Z_next[1]``; ``varying``: the rest
         lengths at each stage from ``rest_lengths``, else those of the last :meth:`_rest`."""
         self._step_of(h)
-        w, state, rate, dot = self._weights, self._state, self._rate_into, np.dot
+        w, state, rate, dot = self._weights, self._state, self._rate_into, DOT
         for j, (rows, K) in enumerate(self._stages[Z is self._Z[1]]):     # stage j + 1 at y + c h K_j
             dot(w[j], rows, state)
             if varying:
@@ -390,7 +395,7 @@ class FlatStages:
         least0, most0 = gaps(E)
         self._step_of(h_fixed)
         w1, w2, w3, w4 = self._weights
-        rate, rate_end, dot, state, stages = self._rate_into, self._rate_end, np.dot, self._state, self._stages
+        rate, rate_end, dot, state, stages = self._rate_into, self._rate_end, DOT, self._state, self._stages
         #: per parity of the step: its stages' rows and rate outputs, its buffer and the next one's heads
         ends = tuple((*(x for pair in stages[k] for x in pair), self._Z[k], *self._heads[1 - k]) for k in (0, 1))
         odd, limit, stop = 0, h_fixed * (1.0 + 1e-9), min(horizon, t_bound)
