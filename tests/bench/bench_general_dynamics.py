@@ -492,7 +492,7 @@ def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
     velocity differences come with the member vectors of the step's last evaluation), timed
     the same way: what a numpy step spends above the floor beyond them is Python."""
     from tensegrity_core.sim import compile_scene
-    from tensegrity_core.sim.general.kernels.flat_stages import FlatStages
+    from tensegrity_core.sim.general.kernels.flat_stages import DOT, FlatStages
 
     os.environ["TENSEGRITY_KERNELS"] = "numpy"
     try:
@@ -509,12 +509,12 @@ def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
     lc, (hx, hy, hz) = l[:, None], H.T
     assert flat._identity                  # the rate product carries v: one call
     rates_out = out[0]
-    calls = {"member vectors (np.dot)": lambda: np.dot(C, P, H),
+    calls = {"member vectors (np.dot)": lambda: DOT(C, P, H),
              "lengths in the plane (np.hypot)": lambda: np.hypot(hx, hy, l),
              "lengths (np.hypot)": lambda: np.hypot(l, hz, l),
              "unit vectors (np.divide)": lambda: np.divide(H, lc, U),
-             "rates (np.dot)": lambda: np.dot(R, tail, rates_out),
-             "stage state (np.dot)": lambda: np.dot(weights, Z, state_row)}
+             "rates (np.dot)": lambda: DOT(R, tail, rates_out),
+             "stage state (np.dot)": lambda: DOT(weights, Z, state_row)}
     cost = {name: _cpu_per_call(fn, calls_per_loop) for name, fn in calls.items()}
     floor = 4 * sum(cost.values())
     E, sign, l0 = np.empty((3, len(l))), np.ones(len(l)), l.copy()

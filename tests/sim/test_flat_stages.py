@@ -18,6 +18,7 @@ from hypothesis import strategies as st
 from tensegrity_core.sim.general.kernels import flat_stages
 from tensegrity_core.sim.general.kernels.array_stages import ArrayStages
 from tensegrity_core.sim.general.kernels.arrays import plan_sums
+from tensegrity_core.sim.general.kernels.flat_layout import whole_nodes
 from tensegrity_core.sim.general.kernels.flat_stages import FlatStages, flat_ready
 from tensegrity_core.sim.general.kernels.jit import KERNELS_VARIABLE, have_numba
 from tensegrity_core.sim.general.kernels.plan import Plan
@@ -77,7 +78,7 @@ def test_a_flat_step_is_the_compiled_step_to_rounding(n, ends, kinds, EA, dampin
     rng = np.random.default_rng(seed)
     plan, l0 = _plan(n, pairs, kinds, EA, damping, rng, whole)
     assert flat_ready(plan)
-    assert (flat_stages.whole_nodes(plan) is not None) == (whole or not len(plan.free_node))
+    assert (whole_nodes(plan) is not None) == (whole or not len(plan.free_node))
     N = 2 * len(plan.free_node)
     y = rng.normal(size=N)
     f = rng.normal(size=N)

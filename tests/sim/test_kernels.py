@@ -267,6 +267,25 @@ def test_the_numpy_stretch_screens_steps_as_the_loops_do(gaps, h):
         loops.quiet_step(g0, r0, g1, r1, moving, h)
 
 
+@settings(max_examples=60)
+@given(angles=st.lists(st.sampled_from([0.0, 1e-5, 0.5, 1.0 - 1e-12, 1.0, 1.0 + 1e-12, 3.0]), max_size=4),
+       seed=st.integers(0, 2**31))
+def test_the_numpy_stretch_sees_a_chart_due_as_the_loops_do(angles, seed):
+    """The numpy stretch's re-charting test (every body's rotation vector at once) decides
+    as the compiled one: rotation vectors of random directions whose angles sit below, at
+    and past the limit of 1 rad, and no body at all."""
+    from tensegrity_core.sim.general.kernels import loops
+    from tensegrity_core.sim.general.kernels.array_stages import chart_due
+
+    rng = np.random.default_rng(seed)
+    body_dof = 6 * np.arange(len(angles), dtype=np.int64) + 2          # after two free coordinates
+    y = rng.normal(size=2 * (2 + 6 * len(angles)))
+    for d, angle in zip(body_dof, angles):
+        axis = rng.normal(size=3)
+        y[d + 3:d + 6] = angle * axis / np.linalg.norm(axis)
+    assert chart_due(body_dof[:, None] + 3 + np.arange(3), y, 1.0) == loops.chart_due(body_dof, y, 1.0)
+
+
 @settings(max_examples=40)
 @given(angles=st.lists(st.one_of(st.just(0.0), st.floats(1e-9, 1e-4), st.floats(1e-4, 3.0)), min_size=1, max_size=6),
        seed=st.integers(0, 2**31))

@@ -71,7 +71,8 @@ from tensegrity_core.sim.event_location import Crossing
 from tensegrity_core.sim.general.kernels import arrays, loops
 from tensegrity_core.sim.general.kernels.array_stages import ArrayStages
 from tensegrity_core.sim.general.kernels.evaluator import Evaluation, Evaluator
-from tensegrity_core.sim.general.kernels.flat_stages import FlatLayout, FlatStages, flat_ready
+from tensegrity_core.sim.general.kernels.flat_layout import FlatLayout
+from tensegrity_core.sim.general.kernels.flat_stages import FlatStages, flat_ready
 from tensegrity_core.sim.general.kernels.plan import Plan, build_plan, frozen
 from tensegrity_core.sim.general.kernels.stages import CompiledStages
 from tensegrity_core.sim.inputs import Law, next_breakpoint

@@ -44,8 +44,9 @@ def chart_due(rotation_columns: NDArray[np.int64], y: FloatArray, angle: float) 
     of ``y``) near or past ``angle`` [rad]."""
     if not len(rotation_columns):
         return False
-    theta = y[rotation_columns]
-    return bool(np.any(np.sum(theta * theta, axis=1) > (angle * (1.0 - 1e-9)) ** 2))
+    theta = y.take(rotation_columns)
+    theta *= theta
+    return bool(np.add.reduce(theta, 1).max() > (angle * (1.0 - 1e-9)) ** 2)     # the loops' sum order
 
 
 def hermite(y_start: FloatArray, f_start: FloatArray, y_end: FloatArray, f_end: FloatArray, h: float,

@@ -6,9 +6,9 @@ calls (each costs about 0.5-1 us of dispatch whatever its length), not their ari
 right-hand side, about 20 calls. For a model whose nodes are all free or fixed (no moving
 rigid body) and whose members need no slack test inside a step (the stepper's stretches:
 a taut string carries compression, a slack one has no stiffness), this module evaluates a
-stage in 6 calls (small models) or 12 (larger ones), everything written in place, each
-output passed positionally (a keyword ``out=`` costs numpy ~0.1-0.2 us of argument parsing
-per call, a fifth to a third of a small call); per stage:
+stage in 6 or 7 calls (up to ~100 members) or 12 (larger ones), everything written in place,
+each output passed positionally (a keyword ``out=`` costs numpy ~0.1-0.2 us of argument
+parsing per call, a fifth to a third of a small call); per stage:
 
 - the member vectors ``h = x_b - x_a``, their lengths ``l = |h|``, the unit vectors
   ``u = h / l`` and ``dy/dt = [v | (external + sum of the member forces on each free
@@ -25,7 +25,9 @@ state is written in place by its stage product): ``h = C [x_fixed; x]`` with the
 signed incidence ``C`` (m, n) (at a step's end, and in every stage of a damped model,
 ``[h | dv] = G [x_fixed; x; v]`` in the same one product), ``l`` two ``hypot`` of its columns,
 ``u = h / l`` and ``dy/dt`` (as (2 n_moving, 3): ``[v | a]``) one product of a rate matrix
-with the rows ``[v | u | (dv . u) u | external | h]``. The force of a member on its node
+with the rows ``[v | u | (dv . u) u | external | h]`` (above :data:`IDENTITY_LIMIT`, where the
+identity rows that carry ``v`` would cost more than a call, ``a`` alone from ``[u | ... | h]``
+and ``v`` copied: seven calls). The force of a member on its node
 ``a``, ``t u`` with ``t = EA (l - l0) / l0 [+ c (dv . u)]``, is written ``k h - EA u [+ c
 (dv . u) u]`` (``k = EA / l0`` [N/m]): linear in ``h``, ``u`` and ``(dv . u) u``, whose
 coefficients (with the masses' inverses and the signs) are the rate matrix's columns. The
@@ -51,13 +53,14 @@ per step's end gives the least signed gap and the largest rate.
 from __future__ import annotations
 
 from collections.abc import Callable
-from functools import cached_property, partial
+from functools import partial
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from tensegrity_core.sim.general.kernels.array_stages import hermite
+from tensegrity_core.sim.general.kernels.flat_layout import FlatLayout
 from tensegrity_core.sim.general.kernels.plan import Plan
 from tensegrity_core.sim.integrators import Run
 
@@ -65,7 +68,7 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 #: Largest number of entries of the node-major matrices (incidence and rates,
-#: :meth:`FlatLayout.dense_entries`) for which the maps are dense products; above it, gathers
+#: :meth:`.FlatLayout.dense_entries`) for which the maps are dense products; above it, gathers
 #: (the measured crossover, docs/design/performance.md: dense faster on 99 members, gathers on 198).
 DENSE_LIMIT = 40_000
 #: Largest number of entries of the identity rows that let the rate product carry the velocities
@@ -76,6 +79,11 @@ IDENTITY_LIMIT = 2_000
 #: The quiet-step screen's factor (:func:`.loops.quiet_step`: a cubic between its ends strays
 #: at most 4/27 of the step times the sum of its end slopes), with its rounding margin.
 SCREEN = (4.0 / 27.0) * (1.0 + 1e-9)
+#: ``np.dot`` and ``np.copyto`` without numpy's ``__array_function__`` dispatch (NEP 18's
+#: ``_implementation``, the C function itself): the dispatch costs 0.2-0.5 us per call, as much
+#: as a product of the small matrices here; every array here is a plain ndarray.
+DOT: Callable[..., Any] = np.dot._implementation  # type: ignore[attr-defined]  # (not in the stubs)
+COPYTO: Callable[..., Any] = np.copyto._implementation  # type: ignore[attr-defined]
 #: The fractions of the step at RK4's stages 1-3.
 FRACTIONS = (0.5, 0.5, 1.0)
 
@@ -129,7 +137,7 @@ def _dense_rate(C: FloatArray, G: FloatArray, P: FloatArray, PV: FloatArray, HD:
     :meth:`FlatStages._shaped`. ``identity``: ``R`` carries ``v`` into ``dx/dt`` (its identity
     rows), else ``R`` gives ``dv/dt`` and ``v`` is copied. ``velocities``: the members' velocity differences
     too (``[h | dv] = G [x_fixed; x; v]`` in one product), into ``dv``."""
-    dot, vecdot, hypot, divide, multiply, copyto = np.dot, np.vecdot, np.hypot, np.divide, np.multiply, np.copyto
+    dot, vecdot, hypot, divide, multiply, copyto = DOT, np.vecdot, np.hypot, np.divide, np.multiply, COPYTO
     lc, rc = l[:, None], rate[:, None]
     hx, hy, hz = H.T
 
@@ -189,104 +197,6 @@ def _dot_components(a: FloatArray, b: FloatArray, out: FloatArray, work: FloatAr
     np.add.reduce(work, axis=0, out=out)
 
 
-def whole_nodes(plan: Plan) -> IntArray | None:
-    """The nodes whose coordinates the state of ``plan`` moves, in the state's order, if it
-    moves each one's three coordinates in turn (x, y, z) with one mass; else None."""
-    node, axis = plan.free_node, plan.free_axis
-    if len(node) % 3:
-        return None
-    triples, inverse_mass = node.reshape(-1, 3), plan.free_inv_mass.reshape(-1, 3)
-    whole = (np.array_equal(axis, np.tile(np.arange(3), len(triples))) and bool(np.all(triples == triples[:, :1]))
-             and bool(np.all(inverse_mass == inverse_mass[:, :1])))
-    return np.ascontiguousarray(triples[:, 0]) if whole else None
-
-
-class FlatLayout:
-    """The index arrays and matrices of the flat buffers of ``plan`` (module docstring).
-
-    Gathers: sources ``S[:sources]``: ``y``, the drawn coordinates, the external forces on the
-    free coordinates, a zero. ``ends`` (2, 3, m): per member end (a, b), component and member,
-    the entry of the sources giving that node coordinate (a free one its ``x``, a fixed one its
-    drawn value); ``velocity_ends`` likewise for velocities (a fixed coordinate: the zero).
-    ``terms`` (d, N): per entry of ``dy/dt`` the entries it sums, padded with the zero: for
-    ``x`` its ``v``; for ``v`` its external force, then per member in member order the
-    member's force on it, an entry of the (2, 3, m) block ``[+force on a | -force on b]``
-    right after the sources; ``scale`` (N,) the factor of each sum (1 for ``x``, the
-    inverse mass for ``v``).
-
-    Node-major maps (:meth:`node_maps`), if the state moves whole nodes (:func:`whole_nodes`):
-    ``moving`` the moving nodes in the state's order, ``fixed`` the others."""
-
-    def __init__(self, plan: Plan):
-        n, m, n_free = plan.n_nodes, len(plan.member_a), len(plan.free_node)
-        N = 2 * n_free
-        self.n_state, self.n_members, self.n_free = N, m, n_free
-        external = N + 3 * n
-        self.zero = external + n_free
-        self.sources = self.zero + 1
-        position = N + 3 * np.arange(n)[:, None] + np.arange(3)
-        velocity = np.full((n, 3), self.zero, dtype=np.int64)
-        position[plan.free_node, plan.free_axis] = np.arange(n_free)
-        velocity[plan.free_node, plan.free_axis] = n_free + np.arange(n_free)
-        a, b = plan.member_a, plan.member_b
-        self.ends = np.ascontiguousarray(np.stack([position[a].T, position[b].T]), dtype=np.int64)
-        self.velocity_ends = np.ascontiguousarray(np.stack([velocity[a].T, velocity[b].T]), dtype=np.int64)
-        tail = self.sources
-        coordinate = np.full((n, 3), -1, dtype=np.int64)
-        coordinate[plan.free_node, plan.free_axis] = np.arange(n_free)
-        lists: list[list[int]] = [[external + j] for j in range(n_free)]
-        for i in range(m):                        # member order, as the loops add the forces
-            for k in range(3):
-                for node, side in ((a[i], 0), (b[i], 1)):
-                    j = coordinate[node, k]
-                    if j >= 0:
-                        lists[j].append(tail + side * 3 * m + k * m + i)
-        self.terms = np.full((max([1] + [len(t) for t in lists]), N), self.zero, dtype=np.int64)
-        self.terms[0, :n_free] = n_free + np.arange(n_free)
-        for j, t in enumerate(lists):
-            self.terms[:len(t), n_free + j] = t
-        self.scale = np.concatenate([np.ones(n_free), plan.free_inv_mass])
-        self.constants = np.concatenate([np.asarray(plan.base, dtype=float).ravel(),
-                                         plan.external[plan.free_node, plan.free_axis], [0.0]])
-
-        self.moving = whole_nodes(plan)
-        self.fixed = None if self.moving is None else np.setdiff1d(np.arange(n), self.moving)
-        self._plan = plan
-
-    @cached_property
-    def _node_maps(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
-        assert self.moving is not None and self.fixed is not None, "node-major maps need whole moving nodes"
-        plan, moving, fixed = self._plan, self.moving, self.fixed
-        nf, m = len(fixed), self.n_members
-        row = np.empty(plan.n_nodes, dtype=np.int64)
-        row[fixed], row[moving] = np.arange(nf), nf + np.arange(len(moving))
-        C = np.zeros((m, plan.n_nodes))
-        members = np.arange(m)
-        np.add.at(C, (members, row[plan.member_b]), 1.0)
-        np.add.at(C, (members, row[plan.member_a]), -1.0)
-        inverse_mass = plan.free_inv_mass[::3]
-        moving_part = np.ascontiguousarray(C[:, nf:])
-        pull = -inverse_mass[:, None] * moving_part.T
-        return (C, moving_part, np.ascontiguousarray(pull), inverse_mass,
-                np.asarray(plan.base, dtype=float)[fixed], np.asarray(plan.external, dtype=float)[moving])
-
-    def node_maps(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
-        """(built on first use, kept: do not modify) ``(C, C_moving, pull, inverse_mass,
-        x_fixed, external)``: the members' signed incidence ``C`` (m, n) over the rows ``[fixed
-        | moving]`` (``h = C x``), its moving columns (``dv = C_moving v``), ``pull`` (n_moving,
-        m) the acceleration of each moving node per unit force of a member on its node ``a``
-        (``-C_moving^T / mass``), the moving nodes' inverse masses [1/kg], the fixed nodes'
-        positions (n - n_moving, 3) [m] and the external forces on the moving nodes
-        (n_moving, 3) [N]."""
-        return self._node_maps
-
-    def dense_entries(self) -> int:
-        """Entries of the node-major matrices: the incidence (m, n) and the rate matrix
-        (2 n_moving, 2 n_moving + 3m); 0 without moving nodes."""
-        moving = 0 if self.moving is None else len(self.moving)
-        return self.n_members * self._plan.n_nodes + 2 * moving * (2 * moving + 3 * self.n_members)
-
-
 class FlatStages:
     """RK4 steps of the model of ``plan`` (:func:`flat_ready`) in flat buffers (module
     docstring), with rest lengths ``rest_lengths(t)`` [m] (``constant``: they do not depend
@@ -311,7 +221,7 @@ class FlatStages:
         lay = FlatLayout(plan) if layout is None else layout
         whole = lay.moving is not None
         self.dense = (whole and lay.dense_entries() <= DENSE_LIMIT) if dense is None else dense
-        assert whole or not self.dense, "the node-major maps need a state of whole nodes (whole_nodes)"
+        assert whole or not self.dense, "the node-major maps need a state of whole nodes (flat_layout.whole_nodes)"
         m, m3, N = lay.n_members, 3 * lay.n_members, lay.n_state
         self.lengths, self.rate = np.empty(m), np.empty(m)
         self.S: FloatArray
@@ -343,11 +253,9 @@ class FlatStages:
             A[:, m + du:m + du + nm] = np.diag(inverse_mass)
             self._k_columns = A[:, m + du + nm:]
             self._state = self.S.reshape(-1)[3 * nf:3 * nf + N]
-            self._C, self._positions, self._tail, self._velocity_rows = \
-                C, self.S[:x], self.S[v - (rows - nm):h + m], self.S[x:v]
-            self._G = G
+            self._C, self._positions, self._tail = C, self.S[:x], self.S[v - (rows - nm):h + m]
             rates = [_dense_rate(C, G, self._positions, self.S[:v], self.S[h:], self.h, self.lengths, self.u, R,
-                                 self._tail, self._velocity_rows, self.dv, self.rate, self._du, self.damped,
+                                 self._tail, self.S[x:v], self.dv, self.rate, self._du, self.damped,
                                  velocities, self._identity)
                      for velocities in (self.damped, True)]
             self._rate_into, self._rate_end = rates
@@ -414,7 +322,7 @@ class FlatStages:
         the new state in ``Z_next[0]`` and its rate in ``Z_next[1]``; ``varying``: the rest
         lengths at each stage from ``rest_lengths``, else those of the last :meth:`_rest`."""
         self._step_of(h)
-        w, state, rate, dot = self._weights, self._state, self._rate_into, np.dot
+        w, state, rate, dot = self._weights, self._state, self._rate_into, DOT
         for j, (rows, K) in enumerate(self._stages[Z is self._Z[1]]):     # stage j + 1 at y + c h K_j
             dot(w[j], rows, state)
             if varying:
@@ -487,7 +395,7 @@ class FlatStages:
         least0, most0 = gaps(E)
         self._step_of(h_fixed)
         w1, w2, w3, w4 = self._weights
-        rate, rate_end, dot, state, stages = self._rate_into, self._rate_end, np.dot, self._state, self._stages
+        rate, rate_end, dot, state, stages = self._rate_into, self._rate_end, DOT, self._state, self._stages
         #: per parity of the step: its stages' rows and rate outputs, its buffer and the next one's heads
         ends = tuple((*(x for pair in stages[k] for x in pair), self._Z[k], *self._heads[1 - k]) for k in (0, 1))
         odd, limit, stop = 0, h_fixed * (1.0 + 1e-9), min(horizon, t_bound)
