@@ -81,9 +81,10 @@ IDENTITY_LIMIT = 2_000
 SCREEN = (4.0 / 27.0) * (1.0 + 1e-9)
 #: ``np.dot`` and ``np.copyto`` without numpy's ``__array_function__`` dispatch (NEP 18's
 #: ``_implementation``, the C function itself): the dispatch costs 0.2-0.5 us per call, as much
-#: as a product of the small matrices here; every array here is a plain ndarray.
-DOT: Callable[..., Any] = np.dot._implementation  # type: ignore[attr-defined]  # (not in the stubs)
-COPYTO: Callable[..., Any] = np.copyto._implementation  # type: ignore[attr-defined]
+#: as a product of the small matrices here; every array here is a plain ndarray. A numpy
+#: without the attribute gives the dispatching functions: the same numbers, a little slower.
+DOT: Callable[..., Any] = getattr(np.dot, "_implementation", np.dot)
+COPYTO: Callable[..., Any] = getattr(np.copyto, "_implementation", np.copyto)
 #: The fractions of the step at RK4's stages 1-3.
 FRACTIONS = (0.5, 0.5, 1.0)
 
