@@ -27,6 +27,8 @@ from the robot's description file read with PyYAML (not from the suite's code):
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 import yaml
@@ -191,10 +193,12 @@ def test_every_state_is_stamped_on_the_simulation_clock(suite, robot):
     clock = [stamp_ns(m.clock) for m in client.received["/clock"]]
     assert all(b > a for a, b in zip(clock, clock[1:])), "the clock went back or stood while playing"
     assert clock[-1] < 3600 * 10**9              # simulation time from 0, not the wall clock
-    ticks = set(clock)
+    # the clock's step: a reader more than its history (1000 ticks) behind on a loaded machine
+    # loses ticks, so a state is on the clock when it lies on the ticks' grid, heard or not
+    step = math.gcd(*(b - a for a, b in zip(clock, clock[1:])))
     for topic in ("joint_states", "cable_states", "contacts", f"imu/{robot['rods'][0]['name']}"):
         stamps = [s for s in _by_stamp(client, topic) if clock[0] <= s <= clock[-1]]
-        assert stamps and set(stamps) <= ticks, topic
+        assert stamps and all((s - clock[0]) % step == 0 for s in stamps), (topic, step)
 
 
 def test_contacts_are_the_caps_on_the_floor_and_carry_the_weight(suite, robot):
