@@ -24,6 +24,7 @@ import time
 from dataclasses import asdict
 from pathlib import Path
 
+from tensegrity_core.sim.general.kernels.jit import KERNELS_VARIABLE
 from tensegrity_ros.rclpy_utils.env import ensure_ros_environment
 from tests.bench import harness
 
@@ -43,6 +44,11 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if args.full:
         docs = Path(__file__).resolve().parents[2] / "docs"
+        if os.environ.get(KERNELS_VARIABLE) and not (args.json and args.plot_dir and args.data_dir):
+            # the docs' table and figures are the default kernels' (several benchmarks time
+            # both kinds themselves): rows of another choice would replace them under their names
+            ap.error(f"{KERNELS_VARIABLE}={os.environ[KERNELS_VARIABLE]} with --full writes over the docs' figures of "
+                     "the default kernels: unset it, or give --json, --plot-dir and --data-dir elsewhere")
         args.json = args.json or str(docs / "bench" / "results.json")
         args.plot_dir = args.plot_dir or str(docs / "img" / "performance")
         args.data_dir = args.data_dir or str(docs / "bench")
