@@ -61,7 +61,8 @@ class Client:
         """Until the server of ``action_name`` answers a request whose reply reader was created
         after the action client's. ``wait_for_server()`` is this participant's side of discovery
         only; the server matches the client's reply readers later, and Fast DDS drops an answer
-        whose reader is not matched 100 ms after the request. Readers are announced in creation
+        whose reader is still not matched after the response writer's max_blocking_time (100 ms
+        by default). Readers are announced in creation
         order on one in-order stream, so that answer proves the earlier readers matched too. The
         request is the server node's ``get_parameters`` (no names: no effect), asked every second
         until one answer arrives."""
