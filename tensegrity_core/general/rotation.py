@@ -1,4 +1,4 @@
-"""Rotations: skew matrices, the exponential map, the best-fit rotation of a point set, the
+"""Rotations: skew matrices, the exponential map, the best-fit rotation of point sets, the
 scipy ``Rotation`` of exact rotation matrices, and the cross product over arrays of vectors.
 (The left Jacobian of SO(3) that the dynamics' rotation charts need lives with their
 kernels, ``sim/general/kernels``.)
@@ -58,12 +58,23 @@ def best_fit_rotation(reference: ArrayLike, current: ArrayLike) -> tuple[NDArray
     """
     P = np.asarray(reference, dtype=float)
     Q = np.asarray(current, dtype=float)
-    U, _, Vt = np.linalg.svd(Q.T @ P)
-    d = np.sign(np.linalg.det(U @ Vt))
-    D = np.diag([1.0, 1.0, d if d != 0 else 1.0])
-    R = U @ D @ Vt
+    R = best_fit_rotations(P, Q[None])[0]
     misfit = float(np.sqrt(np.mean(np.sum((P @ R.T - Q) ** 2, axis=1))))
     return R, misfit
+
+
+def best_fit_rotations(reference: ArrayLike, current: ArrayLike) -> NDArray[np.float64]:
+    """:func:`best_fit_rotation` of one ``reference`` (k, 3) onto each of a stack of point
+    sets ``current`` (b, k, 3), all centred on their means: the proper rotations (b, 3, 3)
+    (a reflection ruled out), in one batched SVD."""
+    P = np.asarray(reference, dtype=float)
+    Q = np.asarray(current, dtype=float)
+    U, _, Vt = np.linalg.svd(np.einsum("bki,kj->bij", Q, P))
+    d = np.sign(np.linalg.det(U @ Vt))
+    D = np.ones((len(Q), 3))
+    D[:, 2] = np.where(d != 0, d, 1.0)
+    R: NDArray[np.float64] = (U * D[:, None, :]) @ Vt
+    return R
 
 
 def cross(a: FloatArray, b: FloatArray) -> FloatArray:

@@ -7,6 +7,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
+from tensegrity_core.general.rotation import best_fit_rotations
+
 FloatArray = NDArray[np.float64]
 
 
@@ -46,12 +48,10 @@ def rigid_poses(template: FloatArray, points: FloatArray) -> tuple[FloatArray, F
     q = np.asarray(points, dtype=float).reshape(-1, *t.shape)
     with np.errstate(invalid="ignore"):                       # inf - inf of a diverged state: NaN, no warning
         centre = q.mean(axis=1)
-        cov = np.einsum("ki,bkj->bij", t - t.mean(axis=0), q - centre[:, None, :])
-    cov[~np.isfinite(cov).all(axis=(1, 2))] = np.eye(3)     # such a state: no turn, its position not finite
-    u, _, vt = np.linalg.svd(cov)
-    v_ut = np.einsum("bji,bkj->bik", vt, u)                     # V U^T
-    flip = np.where(np.linalg.det(v_ut) < 0, -1.0, 1.0)
-    rot = np.einsum("bji,bj,bkj->bik", vt, np.stack([np.ones_like(flip), np.ones_like(flip), flip], axis=1), u)
+        moved = q - centre[:, None, :]
+    t = t - t.mean(axis=0)
+    moved[~np.isfinite(moved).all(axis=(1, 2))] = t             # such a state: no turn, its position not finite
+    rot = best_fit_rotations(t, moved)
     quat = Rotation.from_matrix(rot).as_quat(canonical=True, scalar_first=True)
     return centre, quat
 
