@@ -162,8 +162,17 @@ class Client:
         """Spin another node of this client's context too."""
         self._executor.add_node(node)
 
-    def remove_node(self, node: Any) -> None:
-        self._executor.remove_node(node)
+    def drop_node(self, node: Any) -> None:
+        """Stop spinning ``node`` and destroy it, both done by the spin thread between two
+        waits. From this thread they could come while the spin thread builds its wait set
+        from ``node``'s entities: rclpy (Jazzy) guards a subscription's handle there but not
+        its QoS event handlers, which then raise ``InvalidHandle`` in the spin thread and
+        end it."""
+        def drop() -> None:
+            self._executor.remove_node(node)
+            node.destroy_node()
+
+        self.wait_future(self._executor.create_task(drop), "the spin thread to drop a node")
 
     def _spin(self) -> None:
         while not self._stop.is_set():

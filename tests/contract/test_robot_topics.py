@@ -246,8 +246,7 @@ def test_a_node_with_use_sim_time_follows_the_simulation_clock(suite):
         client.wait_until(lambda: node.get_clock().now().nanoseconds >= latest, "the node's clock to pass a state")
         assert node.get_clock().now().nanoseconds < latest + 3600 * 10**9       # simulation time, not wall time
     finally:
-        client.remove_node(node)
-        node.destroy_node()
+        client.drop_node(node)
 
 
 def _tf_at(client, stamp):

@@ -14,7 +14,7 @@ import math
 import numpy as np
 import pytest
 
-from tensegrity_ros.rclpy_utils.futures import wait_done
+from tensegrity_ros.rclpy_utils.futures import on_executor, wait_done
 from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
 from tests.ros_support import end_context
 
@@ -73,8 +73,9 @@ def _wait_for_the_controllers_answer(client, timeout: float = 60.0) -> None:
     sub = client.node.create_subscription(CableCommand, "cable_commands", lambda _msg: seen.set(), 10)
     try:
         assert seen.wait(timeout), "the cable controller answered no state of the simulator"
-    finally:
-        client.node.destroy_subscription(sub)
+    finally:   # by the spinning thread, which may be building its wait set from the subscription
+        destroyed = on_executor(client.executor, lambda: client.node.destroy_subscription(sub))
+        assert wait_done(destroyed, timeout), "the client's thread did not destroy the subscription"
 
 
 def _goal(points, names=("long1", "long2"), velocities=None, stamp_ns=0, **extra):
@@ -105,8 +106,6 @@ def _send(client, action, goal):
 def _asked(client, call, timeout: float):
     """The result of the future ``call()`` returns, ``call`` made by the client's spinning thread
     (rclpy_utils.futures.on_executor: from this thread the answer can be dropped)."""
-    from tensegrity_ros.rclpy_utils.futures import on_executor
-
     task = on_executor(client.executor, call)
     assert wait_done(task, timeout), "the spinning thread did not run the call"
     assert wait_done(task.result(), timeout), "no answer"
