@@ -217,7 +217,7 @@ def play_gait(robot: str, gait: Gait, ros_args: list[str], *, action: str, timeo
                            "suite's cable controller up? `tensegrity up --scene six_bar_rest`)", code=3)
         wait_until_server_heard(node, action, lambda f, t: spin_until_done(executor, f, t), timeout)
         deadline = time.monotonic() + timeout
-        while not watcher.controller_answers:     # a goal before the controller has a state is INVALID_GOAL
+        while not watcher.controller_answers:     # it answers once active (it has the states): it takes goals
             if time.monotonic() > deadline:
                 raise SuiteError(f"the cable controller answers no joint states within {timeout:g} s (is the "
                                  "simulator running? `tensegrity sim play`)", code=3)

@@ -7,8 +7,15 @@ are the scene's actuated cables that take commands; their positions are rest len
 (the motors' position command). The trajectory logic is the core's
 (:mod:`tensegrity_core.sim.joint_trajectory`); this node translates messages.
 
+- Active: once it has a joint state and a cable state naming every commanded cable (the
+  two topics match separately), the controller is active, as a joint_trajectory_controller
+  is once it has its state interfaces: only then does it answer joint states, so a client
+  that waits for its first answer knows it takes goals. A goal that comes before is held
+  until then, at most ``state_timeout`` seconds of wall time, and then refused INVALID_GOAL
+  naming what did not come.
 - Commands: every ``joint_states`` sample is answered with a ``CableCommand``
-  (``cable_commands``) stamped like it, so that a lockstep simulator steps on: while a goal
+  (``cable_commands``) stamped like it, so that a lockstep simulator steps on (the joint
+  state the controller became active on too, when it came first): while a goal
   runs, with the goal's joints at the trajectory's positions ``t - t_start`` after its
   start; idle, with an empty command, which changes nothing (the simulator holds the last
   rest lengths, as a motor holds its position, and a manual command on ``cable_commands``
@@ -32,7 +39,8 @@ are the scene's actuated cables that take commands; their positions are rest len
 
 Parameters: ``scene`` (the simulator's: which cables there are), the default tolerances
 ``goal_tolerance`` [m], ``path_tolerance`` [m] (0 = not checked) and
-``goal_time_tolerance`` [s].
+``goal_time_tolerance`` [s], and ``state_timeout`` [s] (how long a goal waits for the
+controller to become active).
 """
 
 from __future__ import annotations
@@ -44,6 +52,7 @@ from typing import Any
 
 from control_msgs.action import FollowJointTrajectory
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rclpy.task import Future
@@ -95,10 +104,17 @@ class CableControllerNode(Node):
                                       "length while a trajectory runs [m]; 0 = not checked", lo=0.0, read_only=True)
         self.goal_time_tolerance = declare(self, "goal_time_tolerance", 1.0, "default time after a trajectory's "
                                            "last point to meet the goal tolerance [s]", lo=0.0, read_only=True)
+        self.state_timeout = declare(self, "state_timeout", 10.0, "how long a goal sent before the controller "
+                                     "has the simulator's joint_states and cable_states waits for them [s of wall "
+                                     "time]; then it is refused", lo=0.0, read_only=True)
         self._job: _Job | None = None
         self._latest: tuple[int, float] | None = None   # (stamp [ns], t [s]) of the latest joint state
+        self._latest_header: Any = None                 # its header (answered once the controller is active)
         self._answer: CableCommand | None = None         # the running goal's command for it
         self._rest: dict[str, float] = {}                # each cable's rest length [m], from cable_states
+        self._active = False                             # both states received: it answers and takes goals
+        self._held: dict[bytes, Future] = {}             # goals waiting for that, by goal id: how it ended
+        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         # a history a briefly stalled recorder can be repaired from (the simulator's depth)
         self.pub = self.create_publisher(CableCommand, "cable_commands", QoSProfile(depth=1000))
         self.create_subscription(JointState, "joint_states", self.on_joints, QoSProfile(depth=1))
@@ -113,24 +129,56 @@ class CableControllerNode(Node):
     def on_joints(self, msg: JointState) -> None:
         stamp = _ns(msg.header.stamp)
         if self._latest is None or stamp != self._latest[0]:
-            self._latest, self._answer = (stamp, stamp / NS_PER_S), None
-        if self._answer is None:     # the answer to this state; a state sent again gets it again
-            job = self._job
+            self._latest, self._latest_header, self._answer = (stamp, stamp / NS_PER_S), msg.header, None
+        if self._active:
+            self._reply()
+        elif self._rest:
+            self._activate()     # cable_states came first
+
+    def _reply(self) -> None:
+        """Answer the latest joint state (a state sent again gets the same answer again)."""
+        if self._answer is None:
+            job, header, latest = self._job, self._latest_header, self._latest
+            assert latest is not None    # active: a joint state came
             if job is None:
-                self._answer = CableCommand(header=msg.header)       # idle: no change
+                self._answer = CableCommand(header=header)       # idle: no change
             else:
                 tr = job.trajectory
-                command = tr.command(self._latest[1] - job.t_start, self._held())
-                self._answer = CableCommand(header=msg.header, name=list(tr.names),
+                command = tr.command(latest[1] - job.t_start, self._rest_lengths())
+                self._answer = CableCommand(header=header, name=list(tr.names),
                                             rest_length=[command[i] for i in tr.inputs])
         self.pub.publish(self._answer)
 
-    def _held(self) -> list[float]:
+    def _missing(self) -> str:
+        """What the controller lacks to be active ("" when nothing)."""
+        missing = [n for n in self.interface.inputs if n not in self._rest]
+        if self._latest is None:
+            return "no joint_states " + ("and no cable_states " if missing else "") + "received"
+        if len(missing) == len(self.interface.inputs):
+            return "joint_states received but no cable_states"
+        if missing:
+            more = ", ..." if len(missing) > 3 else ""
+            return f"cable_states received without the cables {', '.join(map(excerpt, missing[:3]))}{more}"
+        return ""
+
+    def _activate(self) -> None:
+        """Become active once both states are there: release the held goals, answer the latest state."""
+        if self._active or self._missing():
+            return
+        self._active = True
+        self.get_logger().info("active: joint_states and cable_states received")
+        for ready in self._held.values():
+            _settle(ready, "active")
+        self._reply()
+
+    def _rest_lengths(self) -> list[float]:
         """Every input's current rest length [m] (as the simulator last reported it)."""
         return [self._rest.get(n, math.nan) for n in self.interface.inputs]
 
     def on_cables(self, msg: CableStates) -> None:
         self._rest.update(zip(msg.name, msg.rest_length))
+        if not self._active:
+            self._activate()
         job = self._job
         if job is None or job.finished.done():
             return
@@ -165,6 +213,17 @@ class CableControllerNode(Node):
         req = handle.request
         result = _RESULT()
         try:
+            held = "active" if self._active else await self._until_active(handle)
+            if held == "cancelled":
+                result.error_string = "cancelled before the controller was active"
+                handle.canceled()
+                return result
+            if held == "shutdown":
+                raise jt.TrajectoryError("the controller is shutting down")
+            if held == "timeout":
+                raise jt.TrajectoryError(f"not active after state_timeout = {self.state_timeout:g} s: "
+                                         f"{self._missing()}: is the simulator running scene "
+                                         f"{excerpt(self.scene_name)}?")
             job = self._plan(handle, req)
         except jt.TrajectoryError as err:
             self.get_logger().warning(clip(f"goal refused: {err}"))
@@ -179,7 +238,23 @@ class CableControllerNode(Node):
         {"succeeded": handle.succeed, "aborted": handle.abort, "canceled": handle.canceled}[status]()
         return result
 
+    async def _until_active(self, handle: Any) -> str:
+        """Hold a goal until the controller is active (``"active"``), at most
+        ``state_timeout`` s of wall time (``"timeout"``), or until it is cancelled
+        (``"cancelled"``) or the node shuts down (``"shutdown"``)."""
+        goal = bytes(handle.goal_id.uuid)
+        ready = self._held[goal] = Future()
+        timer = self.create_timer(self.state_timeout, lambda: _settle(ready, "timeout"), clock=self._steady)
+        try:
+            return str(await ready)
+        finally:
+            self.destroy_timer(timer)
+            del self._held[goal]
+
     def _on_cancel(self, handle: Any) -> CancelResponse:
+        held = self._held.get(bytes(handle.goal_id.uuid))
+        if held is not None:
+            _settle(held, "cancelled")
         job = self._job
         if job is not None and job.handle is handle:
             self._end(job, jt.Outcome(jt.SUCCESSFUL, "cancelled: the cables hold the rest lengths reached"),
@@ -193,12 +268,11 @@ class CableControllerNode(Node):
         traj = req.trajectory
         if any(len(p.effort) for p in traj.points):
             raise jt.TrajectoryError("points with effort are not accepted: the cables take rest lengths")
-        if self._latest is None or len(self._rest) < len(self.interface.inputs):
-            raise jt.TrajectoryError("no joint_states and cable_states received yet: is the simulator running?")
         trajectory = jt.plan_trajectory(
             list(traj.joint_names), [_ns(p.time_from_start) / NS_PER_S for p in traj.points],
             [list(p.positions) for p in traj.points], [list(p.velocities) for p in traj.points],
-            [list(p.accelerations) for p in traj.points], interface=self.interface, start=self._held())
+            [list(p.accelerations) for p in traj.points], interface=self.interface, start=self._rest_lengths())
+        assert self._latest is not None    # active: a joint state came
         now = self._latest[1]
         stamp = _ns(traj.header.stamp)
         t_start = now if stamp == 0 else stamp / NS_PER_S
@@ -222,10 +296,18 @@ class CableControllerNode(Node):
         return _Job(handle, trajectory, monitor, t_start)
 
     def destroy_node(self) -> None:
+        for ready in self._held.values():
+            _settle(ready, "shutdown")
         job, self._job = self._job, None
         if job is not None:
             job.end(jt.Outcome(jt.INVALID_GOAL, "the controller is shutting down"), "aborted")
         super().destroy_node()  # type: ignore[no-untyped-call]  # rclpy's, through super(): not excluded by name
+
+
+def _settle(future: Future, outcome: str) -> None:
+    """End a held goal's wait with ``outcome`` unless it has ended."""
+    if not future.done():
+        future.set_result(outcome)
 
 
 def _ns(stamp: Any) -> int:

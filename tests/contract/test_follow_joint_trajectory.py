@@ -20,11 +20,10 @@ reached within 1 ns after its end.
 from __future__ import annotations
 
 import math
-import time
 
 import pytest
 
-from tests.contract.client import PATIENCE, Client, stamp_ns, start_sim
+from tests.contract.client import Client, stamp_ns, start_sim
 
 pytestmark = pytest.mark.ros
 
@@ -53,33 +52,14 @@ def suite(tmp_path_factory):
         client.listen(CableStates, "cable_states")
         client.listen(CableCommand, "cable_commands")
         action = client.action_client(FollowJointTrajectory, ACTION)
+        # its first answer says it is active (it has joint_states and cable_states): it takes goals
         client.wait(lambda: client.received["cable_commands"], "the cable controller's first answer to a state")
         client.wait(lambda: client.received["cable_states"], "a cable state")    # another topic: may come later
-        _until_goals_are_taken(client, action)
         yield client, action
     finally:
         client.close()
         for p in (ctl, sim):
             p.stop()
-
-
-def _until_goals_are_taken(client, action) -> None:
-    """Until the controller takes goals: it needs joint_states and cable_states, whose
-    subscriptions match separately (its answers to joint states say nothing of the other),
-    and refuses a goal before it has both, with a reason. A goal that holds c0_7 at its
-    drawn rest length is sent again after each refusal for that reason, each time once
-    another cable state has come."""
-    from action_msgs.msg import GoalStatus
-
-    deadline = time.monotonic() + PATIENCE
-    while True:
-        handle, _ = _send(client, action, _goal([(0.05, (NOMINAL,))], ("c0_7",), goal_time=2.0))
-        status, result = _outcome(client, handle)
-        if "received yet" not in result.error_string:
-            assert (status, result.error_code) == (GoalStatus.STATUS_SUCCEEDED, SUCCESSFUL), result.error_string
-            return
-        assert time.monotonic() < deadline, result.error_string
-        client.wait_count("cable_states", 1)
 
 
 def _goal(points, names, *, stamp_ns_=0, goal_time=None, path=(), goal=(), velocities=None):

@@ -62,9 +62,9 @@ def rig(tmp_path_factory):
 
 def _wait_for_the_controllers_answer(client, timeout: float = 60.0) -> None:
     """Until the cable controller answers a state the paused simulator republishes (its
-    ``cable_commands``): a goal sent before the controller has the simulator's state is
-    refused by design ("no joint_states and cable_states received yet"), and on a loaded
-    machine the controller may match the simulator's topics after the action server is found."""
+    ``cable_commands``): it answers once it has joint_states and cable_states, so from then
+    on a goal starts at once (one sent before would wait for the states) at the simulation
+    time the controller has, the simulator's."""
     import threading
 
     from tensegrity_msgs.msg import CableCommand

@@ -1,0 +1,112 @@
+"""tensegrity_cable_controller before it has the simulator's states, over real DDS.
+
+As joint_trajectory_controller is active only with its state interfaces, the cable
+controller is active only once it has joint_states and cable_states (their subscriptions
+match separately): before, it answers no joint state, and a goal waits for both at most
+``state_timeout`` s of wall time, then is refused INVALID_GOAL naming what did not come.
+
+Two rigs: the controller started before any simulator, a goal sent, then the simulator
+started (the goal is held and succeeds); and the controller with its cable_states remapped
+to a topic nobody publishes, beside a running simulator (no answer to any joint state, the
+goal refused after its state_timeout).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from tests.contract.client import PATIENCE, Client, start_sim
+from tests.ros_support import Proc
+
+pytestmark = pytest.mark.ros
+
+SCENE = "table_actuated"
+ACTION = "/tensegrity_cable_controller/follow_joint_trajectory"
+SUCCESSFUL, INVALID_GOAL = 0, -1
+REST = 0.9            # table_actuated's rest length of long1 [m] (tensegrity_table_actuated.yaml)
+
+
+def _goal(t: float, position: float):
+    from builtin_interfaces.msg import Duration
+    from control_msgs.action import FollowJointTrajectory
+    from trajectory_msgs.msg import JointTrajectoryPoint
+
+    goal = FollowJointTrajectory.Goal()
+    goal.trajectory.joint_names = ["long1"]
+    sec = int(t)
+    goal.trajectory.points = [JointTrajectoryPoint(positions=[position],
+                                                   time_from_start=Duration(sec=sec, nanosec=round((t - sec) * 1e9)))]
+    return goal
+
+
+def _send(client: Client, action, goal):
+    feedback: list = []
+    handle = client.ask(lambda: action.send_goal_async(goal, feedback_callback=lambda f: feedback.append(f.feedback)),
+                        "the goal response")
+    return handle, feedback
+
+
+def test_a_goal_sent_before_the_simulator_runs_is_held_until_the_states_come_and_then_followed(tmp_path):
+    from action_msgs.msg import GoalStatus
+    from control_msgs.action import FollowJointTrajectory
+    from tensegrity_msgs.msg import CableCommand
+
+    ctl = Proc(["node", "cables", "--ros-args", "-p", f"scene:={SCENE}", "-p", f"state_timeout:={PATIENCE}"],
+               tmp_path / "cables.log")
+    client = Client("held_goal_client")
+    sim = None
+    try:
+        ctl.wait_for("cable controller ready")
+        client.listen(CableCommand, "cable_commands")
+        action = client.action_client(FollowJointTrajectory, ACTION)
+        handle, feedback = _send(client, action, _goal(0.2, REST - 0.02))
+        assert handle.accepted
+        result = handle.get_result_async()
+        assert not result.done() and not client.received["cable_commands"]     # held: no simulator yet
+        sim = start_sim(tmp_path, SCENE)
+        answer = client.wait_future(result, "the held goal's result")
+        assert (answer.status, answer.result.error_code) == (GoalStatus.STATUS_SUCCEEDED, SUCCESSFUL), \
+            answer.result.error_string
+        assert feedback and abs(feedback[-1].actual.positions[0] - (REST - 0.02)) <= 1e-4    # the goal tolerance
+        assert "active: joint_states and cable_states received" in ctl.stderr()
+    finally:
+        client.close()
+        for p in (ctl, sim):
+            if p is not None:
+                p.stop()
+
+
+def test_without_cable_states_no_joint_state_is_answered_and_a_goal_is_refused_after_state_timeout(tmp_path):
+    from action_msgs.msg import GoalStatus
+    from control_msgs.action import FollowJointTrajectory
+    from sensor_msgs.msg import JointState
+    from tensegrity_msgs.msg import CableCommand
+
+    sim = start_sim(tmp_path, SCENE)
+    ctl = Proc(["node", "cables", "--ros-args", "-p", f"scene:={SCENE}", "-p", "state_timeout:=1.0",
+                "-r", "cable_states:=cable_states_withheld"], tmp_path / "cables.log")
+    client = Client("withheld_client")
+    try:
+        ctl.wait_for("cable controller ready")
+        client.listen(JointState, "joint_states")
+        client.listen(CableCommand, "cable_commands")
+        action = client.action_client(FollowJointTrajectory, ACTION)
+        # the controller's joint_states reader and its cable_commands writer in the graph, this
+        # client's cable_commands reader matched with that writer
+        client.wait_until(lambda: any(i.node_name == "tensegrity_cable_controller"
+                                      for i in client.node.get_subscriptions_info_by_topic("/joint_states")),
+                          "the controller's joint_states subscription")
+        client.wait_until(lambda: client.node.count_publishers("/cable_commands") >= 1, "the controller's publisher")
+        handle, _ = _send(client, action, _goal(0.2, REST - 0.02))
+        answer = client.wait_future(handle.get_result_async(), "the refusal")
+        assert (answer.status, answer.result.error_code) == (GoalStatus.STATUS_ABORTED, INVALID_GOAL)
+        message = answer.result.error_string
+        assert "not active after state_timeout = 1 s" in message and "no cable_states" in message, message
+        assert "table_actuated" in message, message
+        client.wait_count("joint_states", 20)        # the simulator keeps publishing: still no answer
+        assert not client.received["cable_commands"]
+        assert "active:" not in ctl.stderr()
+    finally:
+        client.close()
+        for p in (ctl, sim):
+            p.stop()
