@@ -49,7 +49,7 @@ def _send(client: Client, action, goal):
 def test_a_goal_sent_before_the_simulator_runs_is_held_until_the_states_come_and_then_followed(tmp_path):
     from action_msgs.msg import GoalStatus
     from control_msgs.action import FollowJointTrajectory
-    from tensegrity_msgs.msg import CableCommand
+    from tensegrity_msgs.msg import CableStates
 
     ctl = Proc(["node", "cables", "--ros-args", "-p", f"scene:={SCENE}", "-p", f"state_timeout:={PATIENCE}"],
                tmp_path / "cables.log")
@@ -57,17 +57,17 @@ def test_a_goal_sent_before_the_simulator_runs_is_held_until_the_states_come_and
     sim = None
     try:
         ctl.wait_for("cable controller ready")
-        client.listen(CableCommand, "cable_commands")
+        client.listen(CableStates, "cable_states")
         action = client.action_client(FollowJointTrajectory, ACTION)
-        handle, feedback = _send(client, action, _goal(0.2, REST - 0.02))
+        handle, _ = _send(client, action, _goal(0.2, REST - 0.02))
         assert handle.accepted
         result = handle.get_result_async()
-        assert not result.done() and not client.received["cable_commands"]     # held: no simulator yet
-        sim = start_sim(tmp_path, SCENE)
+        sim = start_sim(tmp_path, SCENE)           # after the goal: no state could have come before it
         answer = client.wait_future(result, "the held goal's result")
         assert (answer.status, answer.result.error_code) == (GoalStatus.STATUS_SUCCEEDED, SUCCESSFUL), \
             answer.result.error_string
-        assert feedback and abs(feedback[-1].actual.positions[0] - (REST - 0.02)) <= 1e-4    # the goal tolerance
+        client.wait(lambda: any(abs(dict(zip(m.name, m.rest_length))["long1"] - (REST - 0.02)) <= 1e-4
+                                for m in client.received["cable_states"]), "long1 at the goal (its tolerance)")
         assert "active: joint_states and cable_states received" in ctl.stderr()
     finally:
         client.close()
