@@ -23,7 +23,8 @@ the same initial state (``tests/mujoco_peer.py``).
 - ``growth``: prism towers of 9 .. 1,998 members, fixed-step RK4 at the exported step in
   both: time per simulated second against members, the growth exponent above 100 members,
   and the numpy kernels at the same sizes (the fallback's ratio), with the floor of a
-  pure-numpy step of the smallest tower (its fewest numpy calls, each timed alone).
+  pure-numpy step of the smallest tower (its fewest numpy calls, each timed alone); and the
+  fallback's ratio with moving bodies, on generated spines of 9 .. 576 rigid vertebrae.
 - ``compile_cache``: numba's cost in a fresh process: compiling every kernel into an empty
   cache, then loading them from it.
 """
@@ -404,6 +405,46 @@ def _tower_scene(stages: int, duration: float):
                     ["inertia", "springs", {"loads": {top: [5.0, 0.0, 0.0]}}], duration)
 
 
+#: [s] RK4's step on the generated spines: the exported model's (MuJoCo's default) for 9 and
+#: 36 vertebrae, the same for every length (the vertebrae and cords are the same); fixed
+#: because the exporter's linearisation takes minutes on the longest.
+SPINE_STEP = 2e-5
+
+
+def _spine_scene(vertebrae: int, duration: float):
+    """``tensegrity_spine(vertebrae)`` (straight, cords of EA 500 N at 0.9 of their drawn
+    lengths, vertebrae of 0.05 kg, the lowest fixed, damping beta 1e-3 s) released from its
+    drawing: every cord stays taut (no event), every vertebra moves."""
+    import dataclasses
+
+    from tensegrity_core.general import tensegrity_spine
+    from tensegrity_core.general.writing import structure_to_dict
+
+    s = tensegrity_spine(vertebrae, EA=500.0)
+    s = s.replace(bodies=tuple(dataclasses.replace(b, mass=0.05) for b in s.bodies))
+    return _general(f"spine of {vertebrae} vertebrae", structure_to_dict(s),
+                    ["inertia", "springs", {"damping": {"beta": 1e-3}}], duration)
+
+
+def _both_kernels(scene, step: float, min_time: float) -> dict:
+    """Per simulated second of fixed-step RK4 at ``step`` [s]: wall and CPU time [s/s] with
+    the compiled kernels (``numba``, ``numba_cpu``) and the numpy kernels (``numpy``, ``numpy_cpu``)."""
+    entry = {}
+    for kernels in ("numba", "numpy"):
+        os.environ["TENSEGRITY_KERNELS"] = kernels
+        try:
+            # runs of a few ms (small structures): the least of ``min_time`` of them, so that a
+            # moment of load does not decide the fallback's ratio
+            stride = step * max(1, round(min(0.005, scene.duration) / step))          # samples every 5 ms
+            wall, _, stats = project_run(Case("growth", scene, None, stride=stride),
+                                         min_time=min_time, method="RK4", max_step=step)
+        finally:
+            os.environ.pop("TENSEGRITY_KERNELS", None)
+        entry[kernels] = wall / scene.duration
+        entry[f"{kernels}_cpu"] = stats["cpu_seconds"] / scene.duration
+    return entry
+
+
 @benchmark
 def growth(ctx: Context) -> list[Row]:
     """Fixed-step RK4 at the exported step on prism towers: time per simulated second."""
@@ -418,17 +459,7 @@ def growth(ctx: Context) -> list[Row]:
             members = scene.model.structure.n_members
             dt = _tower_step(scene)
             entry = {"members": members, "step": dt}
-            for kernels in ("numba", "numpy"):
-                os.environ["TENSEGRITY_KERNELS"] = kernels
-                try:
-                    # runs of a few ms (small towers): the least of 0.5 s of them, so that a
-                    # moment of load does not decide the fallback's ratio
-                    wall, _, stats = project_run(Case("tower", scene, None, stride=dt * max(1, round(0.005 / dt))),
-                                                 min_time=0.05 if ctx.quick else 0.5, method="RK4", max_step=dt)
-                finally:
-                    os.environ.pop("TENSEGRITY_KERNELS", None)
-                entry[kernels] = wall / duration
-                entry[f"{kernels}_cpu"] = stats["cpu_seconds"] / duration
+            entry.update(_both_kernels(scene, dt, 0.05 if ctx.quick else 0.5))
             if not missing and (members >= 1998 or not ctx.quick):
                 from tensegrity_core.export import export_mjcf
 
@@ -436,6 +467,12 @@ def growth(ctx: Context) -> list[Row]:
                                         export_mjcf(scene).xml, dt)
                 entry["mujoco"] = wall / duration
             data.append(entry)
+        spines = []
+        for vertebrae in (9, 36) if ctx.quick else (9, 36, 144, 576):
+            scene = _spine_scene(vertebrae, 0.005 if ctx.quick else 0.02)
+            entry = {"vertebrae": vertebrae, "members": scene.model.structure.n_members, "step": SPINE_STEP}
+            entry.update(_both_kernels(scene, SPINE_STEP, 0.05 if ctx.quick else 0.5))
+            spines.append(entry)
     m = np.array([e["members"] for e in data], dtype=float)
     for kernels in ("numba", "numpy", "mujoco"):
         t = np.array([e.get(kernels, np.nan) for e in data])
@@ -466,8 +503,16 @@ def growth(ctx: Context) -> list[Row]:
                         note="same step"))
         rows.append(Row(GROUP, f"tower {last['members']} members: project vs MuJoCo", last["numba"], "s/s",
                         baseline=f"tower {last['members']} members: MuJoCo RK4", target=">= 1x (MuJoCo / project)"))
-    ctx.save_json("general_dynamics_growth.json", data)
-    _plot_growth(ctx, data)
+    for e in spines:                   # with moving bodies
+        label = f"spine of {e['vertebrae']} vertebrae"
+        rows.append(Row(GROUP, f"{label}: project RK4 (numba), CPU", e["numba_cpu"], "s/s",
+                        note=f"{e['members']} members, {e['vertebrae'] - 1} moving bodies, step {e['step']:g} s; "
+                             "CPU seconds per simulated second"))
+        rows.append(Row(GROUP, f"{label}: numpy kernels, CPU", e["numpy_cpu"], "s/s",
+                        baseline=f"{label}: project RK4 (numba), CPU",
+                        target="ratio >= 0.333 (fallback within 3x: compiled / numpy)"))
+    ctx.save_json("general_dynamics_growth.json", {"towers": data, "spines": spines})
+    _plot_growth(ctx, data, spines)
     return rows
 
 
@@ -565,7 +610,7 @@ def _tower_step(scene) -> float:
         return 0.2 / rate
 
 
-def _plot_growth(ctx: Context, data: list[dict]) -> None:
+def _plot_growth(ctx: Context, data: list[dict], spines: list[dict]) -> None:
     path = ctx.plot_path("general_dynamics_growth.png")
     if path is None:
         return
@@ -593,6 +638,13 @@ def _plot_growth(ctx: Context, data: list[dict]) -> None:
     if floors:
         ratio.loglog(*zip(*floors), marker="*", markersize=12, linestyle="none",
                      label="floor: the fewest numpy calls of a step / compiled, CPU time")
+    if spines:
+        ratio.loglog([e["members"] for e in spines], [e["numpy_cpu"] / e["numba_cpu"] for e in spines], marker="v",
+                     label=f"spines of {spines[0]['vertebrae']} .. {spines[-1]['vertebrae']} rigid vertebrae "
+                           "(moving bodies; labels: vertebrae), CPU time")
+        for e in spines:
+            ratio.annotate(f"{e['vertebrae']}", (e["members"], e["numpy_cpu"] / e["numba_cpu"]),
+                           textcoords="offset points", xytext=(4, 4), fontsize=7)
     ratio.axhline(3.0, color="k", linestyle="--", label="target: within 3x")
     ratio.set(xlabel="members", ylabel="time ratio [-]", title="the numpy fallback against the compiled path")
     ratio.grid(True, which="both", alpha=0.3)

@@ -334,7 +334,7 @@ def jacobian_blocks(base: FloatArray, free_node: IntArray, free_axis: IntArray, 
     R = np.empty((1, len(body_dof), 3, 3))
     bodies = body_arrays.body_index(on_body, on_offset, body_dof, len(y) // 2)
     moving = place(base, free_node, free_axis, on_node, bodies, y[None], R_ref[None], X, V, R)
-    r = np.zeros((0, 3)) if moving is None else moving.arms[0, 0, :, :, 0]
+    r = np.zeros((0, 3)) if moving is None else moving.arms[0, 0]
     X, R = X[0], R[0]
     h = X[member_b] - X[member_a]
     length = np.sqrt(np.sum(h * h, axis=1))

@@ -17,7 +17,10 @@ index arrays built once per topology (:class:`BodyIndex`):
   w - hat(theta) w / 2 + k hat(theta)^2 w`` are each one product of the coefficients ``[s,
   c]``, ``[-1/2, k]`` with the stacked ``[hat(theta) | hat(theta)^2]``;
 - the body nodes' arms ``r = R p`` and their velocities' parts ``w x r = (hat(w) R) p``
-  are one product of ``[R | hat(w) R]``, gathered per node, with the offsets ``p``;
+  are one product of ``[R | hat(w) R]`` with each body's offsets ``[p_1 .. p_d]`` as
+  columns, then gathered per node (one small product per body: numpy's ``matmul`` calls
+  BLAS once per matrix of a stack, ~40 ns each, so a product per node cost five times that
+  on a spine);
 - the wrenches ``sum_k [f_k | r_k x f_k]`` per body are one gather and one sum over a
   table of each body's nodes (in node order, padded with a zero row: the loops' order).
 
@@ -61,8 +64,12 @@ class BodyIndex(NamedTuple):
     contiguous block (numpy's products are several times slower into or from strided views).
     ``vectors`` (3, nb, 3): the columns of ``[theta | w | v_c]`` of every body; ``hats`` (3,
     nb, 3, 3) with ``signs`` (3, 1, 3, 3): ``y.take(hats) * signs`` is ``[hat(w) | hat(theta)
-    | 0]``; ``on_body`` (n_on,) each body node's body; ``offsets`` (n_on, 3, 1) [m] its
-    offset in the body's reference frame; ``centres`` (2, n_on, 3) the columns of its body's
+    | 0]``; ``on_body`` (n_on,) each body node's body; ``offsets`` (nb, 3, d) [m] per body its
+    nodes' offsets in its reference frame as columns (in node order, padded with zeros) and
+    ``slots`` (n_on, 3) each body node's column of them, as entries of them flattened (nb 3
+    d); ``crosses`` (2, 2, n_on, 3) the entries of the arms and of the forces (n_on, 3)
+    flattened whose products give each node's ``r x f`` as ``[r1 f2, r2 f0, r0 f1] - [r2 f1,
+    r0 f2, r1 f0]``; ``centres`` (2, n_on, 3) the columns of its body's
     ``[c | v_c]``; ``table`` (d, nb) per body its nodes' rows, padded with ``n_on`` (a zero
     row); ``rates`` (nb, 4, 3) the columns of ``dy/dt`` that hold ``[dc/dt | dtheta/dt |
     dv_c/dt | dw/dt]``."""
@@ -72,6 +79,8 @@ class BodyIndex(NamedTuple):
     signs: FloatArray
     on_body: IntArray
     offsets: FloatArray
+    slots: IntArray
+    crosses: IntArray
     centres: IntArray
     table: IntArray
     rates: IntArray
@@ -93,8 +102,14 @@ def body_index(on_body: IntArray, on_offset: FloatArray, body_dof: IntArray, n_d
     order = np.argsort(on_body, kind="stable")
     slot = np.arange(n_on) - np.repeat(np.cumsum(degree) - degree, degree)
     table[slot, on_body[order]] = order
-    return BodyIndex(vectors=vectors, hats=hats, signs=signs, on_body=on_body,
-                     offsets=np.asarray(on_offset, dtype=float).reshape(n_on, 3, 1),
+    column = np.empty(n_on, dtype=np.int64)
+    column[order] = slot
+    offsets = np.zeros((nb, 3, len(table)))
+    offsets[on_body, :, column] = np.asarray(on_offset, dtype=float).reshape(n_on, 3)
+    slots = (on_body[:, None] * 3 + three) * len(table) + column[:, None]
+    crosses = 3 * np.arange(n_on)[:, None] + np.stack([CROSS_A, CROSS_B]).reshape(2, 2, 1, 3)
+    return BodyIndex(vectors=vectors, hats=hats, signs=signs, on_body=on_body, offsets=offsets, slots=slots,
+                     crosses=crosses,
                      centres=np.stack([d[on_body] + three, n_dof + d[on_body] + three]),
                      table=table, rates=np.stack([d + three, theta, v, w], axis=1))
 
@@ -141,7 +156,7 @@ def _trigonometric(a2: FloatArray, out: FloatArray) -> None:
 class Moving(NamedTuple):
     """The moving bodies of a batch placed (:func:`place`): ``vectors`` (B, 3, nb, 3) ``[theta
     | w | v_c]``; ``hats`` (B, 3, nb, 3, 3) ``[hat(w) | hat(theta) | hat(theta)^2]``;
-    ``coefficients`` (B, nb, 4) of :func:`coefficients`; ``arms`` (B, 2, n_on, 3, 1) of the
+    ``coefficients`` (B, nb, 4) of :func:`coefficients`; ``arms`` (B, 2, n_on, 3) of the
     body nodes ``[r | w x r]`` [m, m/s]."""
 
     vectors: FloatArray
@@ -168,8 +183,9 @@ def place(index: BodyIndex, y: FloatArray, R_ref: FloatArray, R: FloatArray, nod
     np.matmul(E.reshape(B, nb, 3, 3), R_ref, frames[:, 0])
     np.matmul(hats[:, 0], frames[:, 0], frames[:, 1])
     R[...] = frames[:, 0]
-    arms = np.matmul(frames.take(index.on_body, axis=2), index.offsets)
-    np.add(y.take(index.centres, axis=1), arms[..., 0], nodes)
+    columns = np.matmul(frames, index.offsets)                         # (B, 2, nb, 3, d): [R | hat(w) R] p
+    arms = columns.reshape(B, 2, -1).take(index.slots, axis=2)
+    np.add(y.take(index.centres, axis=1), arms, nodes)
     return Moving(vectors, hats, coef, arms)
 
 
@@ -177,13 +193,13 @@ def wrenches(index: BodyIndex, moving: Moving, f: FloatArray) -> FloatArray:
     """(B, nb, 2, 3) per body the force [N] and the moment about ``c`` [N m] of the forces
     ``f`` (B, n_on, 3) on its nodes, summed in node order."""
     B, n_on = f.shape[:2]
-    rows = np.empty((B, n_on + 1, 2, 3))
-    rows[:, n_on] = 0.0
-    rows[:, :n_on, 0] = f
-    terms = moving.arms[:, 0, :, :, 0].take(CROSS_A, axis=2)
-    terms *= f.take(CROSS_B, axis=2)
-    np.subtract(terms[..., :3], terms[..., 3:], rows[:, :n_on, 1])
-    out: FloatArray = np.add.reduce(rows.take(index.table, axis=1), axis=1)
+    rows = np.empty((B, 2, n_on + 1, 3))                               # [f | r x f], a zero row each
+    rows[:, :, n_on] = 0.0
+    rows[:, 0, :n_on] = f
+    terms = moving.arms[:, 0].reshape(B, -1).take(index.crosses[0], axis=1)
+    terms *= f.reshape(B, -1).take(index.crosses[1], axis=1)
+    np.subtract(terms[:, 0], terms[:, 1], rows[:, 1, :n_on])
+    out: FloatArray = np.add.reduce(rows.take(index.table, axis=2), axis=2).swapaxes(1, 2)
     return out
 
 

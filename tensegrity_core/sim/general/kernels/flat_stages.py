@@ -19,18 +19,22 @@ parsing per call, a fifth to a third of a small call); per stage:
 While the structure is small (:data:`DENSE_LIMIT` entries of the matrices below) and its state
 moves whole nodes (each moving node's three coordinates in turn, one mass per node: every
 shipped structure), a stage is six calls on a *node-major* buffer ``S`` (rows, 3) of one row
-per node or member, ``[fixed nodes' x | moving nodes' x | their v | u | (dv . u) u | external
-forces on the moving nodes | h | dv]``, whose rows ``x`` and ``v`` are the state itself (so the
+per node or member, ``[fixed nodes' x | moving nodes' x | their v | u | (dv . u) u | I_3 | h |
+dv]``, whose rows ``x`` and ``v`` are the state itself (so the
 state is written in place by its stage product): ``h = C [x_fixed; x]`` with the members'
-signed incidence ``C`` (m, n) (at a step's end, and in every stage of a damped model,
-``[h | dv] = G [x_fixed; x; v]`` in the same one product), ``l`` two ``hypot`` of its columns,
+signed incidence ``C`` (m, n) (at a step's end, and in every stage of a damped model, also
+``dv = C_moving v`` with its moving nodes' columns: two products by the incidence's two parts
+cost less than one by the block matrix of both from ~50 members), ``l`` two ``hypot`` of its columns,
 ``u = h / l`` and ``dy/dt`` (as (2 n_moving, 3): ``[v | a]``) one product of a rate matrix
-with the rows ``[v | u | (dv . u) u | external | h]`` (above :data:`IDENTITY_LIMIT`, where the
+with the rows ``[v | u | (dv . u) u | I_3 | h]`` (above :data:`IDENTITY_LIMIT`, where the
 identity rows that carry ``v`` would cost more than a call, ``a`` alone from ``[u | ... | h]``
 and ``v`` copied: seven calls). The force of a member on its node
 ``a``, ``t u`` with ``t = EA (l - l0) / l0 [+ c (dv . u)]``, is written ``k h - EA u [+ c
 (dv . u) u]`` (``k = EA / l0`` [N/m]): linear in ``h``, ``u`` and ``(dv . u) u``, whose
-coefficients (with the masses' inverses and the signs) are the rate matrix's columns. The
+coefficients (with the masses' inverses and the signs) are the rate matrix's columns; its
+three columns of ``I_3`` hold the external forces per mass (``ext_c / mass`` times the row
+``e_c``: three columns where a diagonal of the masses' inverses times the forces took one per
+moving node). The
 products are BLAS products of matrices of a few hundred to a few thousand entries by three
 columns: one call each, and about ``3 m n`` multiplications (a product of component-major
 arrays by the whole signed incidence of every coordinate would be nine times that). Above that
@@ -128,25 +132,24 @@ def quiet_ends(E0: FloatArray, E1: FloatArray, least0: float, most0: float, leas
     return not bool(np.any(np.minimum(E0[0], E1[0]) < margin))
 
 
-def _dense_rate(C: FloatArray, G: FloatArray, P: FloatArray, PV: FloatArray, HD: FloatArray, H: FloatArray,
-                l: FloatArray, U: FloatArray, R: FloatArray, tail: FloatArray, V: FloatArray, dv: FloatArray,
-                rate: FloatArray, DU: FloatArray, damped: bool, velocities: bool,
+def _dense_rate(C: FloatArray, C_moving: FloatArray, P: FloatArray, H: FloatArray, l: FloatArray, U: FloatArray,
+                R: FloatArray, tail: FloatArray, V: FloatArray, dv: FloatArray, rate: FloatArray, DU: FloatArray,
+                damped: bool, velocities: bool,
                 identity: bool) -> Callable[[tuple[FloatArray, FloatArray, FloatArray]], None]:
     """:meth:`FlatStages._rate` with the node-major maps, its arrays bound in a closure (no
     attribute look-ups or arguments per call) and every output passed positionally; its
     output is the rate as the views ``(dy/dt (2 n_moving, 3), dx/dt, dv/dt (n_moving, 3))`` of
     :meth:`FlatStages._shaped`. ``identity``: ``R`` carries ``v`` into ``dx/dt`` (its identity
     rows), else ``R`` gives ``dv/dt`` and ``v`` is copied. ``velocities``: the members' velocity differences
-    too (``[h | dv] = G [x_fixed; x; v]`` in one product), into ``dv``."""
+    too (``dv = C_moving v``, a second product), into ``dv``."""
     dot, vecdot, hypot, divide, multiply, copyto = DOT, np.vecdot, np.hypot, np.divide, np.multiply, COPYTO
     lc, rc = l[:, None], rate[:, None]
     hx, hy, hz = H.T
 
     def rate_into(out: tuple[FloatArray, FloatArray, FloatArray]) -> None:
+        dot(C, P, H)                                # h = x_b - x_a (m, 3)
         if velocities:
-            dot(G, PV, HD)                          # h = x_b - x_a, dv = v_b - v_a (m, 3)
-        else:
-            dot(C, P, H)
+            dot(C_moving, V, dv)                    # dv = v_b - v_a (m, 3)
         hypot(hx, hy, l)
         hypot(l, hz, l)
         divide(H, lc, U)
@@ -154,7 +157,7 @@ def _dense_rate(C: FloatArray, G: FloatArray, P: FloatArray, PV: FloatArray, HD:
             vecdot(dv, U, rate)
             multiply(U, rc, DU)
         if identity:
-            dot(R, tail, out[0])                    # [v | (external + k h - EA u + c (dv . u) u) / mass]
+            dot(R, tail, out[0])                    # [v | external / mass + (k h - EA u + c (dv . u) u) / mass]
         else:
             copyto(out[1], V)
             dot(R, tail, out[2])
@@ -232,32 +235,28 @@ class FlatStages:
         if self.dense:
             C, moving_part, self._pull, inverse_mass, x_fixed, external = lay.node_maps()
             nf, nm, du = len(x_fixed), len(inverse_mass), m if self.damped else 0
-            # S (rows, 3) = [x fixed (nf) | x (nm) | v (nm) | u (m) | (dv . u) u (du) | external (nm) | h (m) | dv (m)]
+            # S (rows, 3) = [x fixed (nf) | x (nm) | v (nm) | u (m) | (dv . u) u (du) | I_3 (3) | h (m) | dv (m)]
             x, v = nf + nm, nf + 2 * nm
-            u, e, h = v + m, v + m + du, v + m + du + nm
+            u, e, h = v + m, v + m + du, v + m + du + 3
             self.S = np.zeros((h + 2 * m, 3))
-            self.S[:nf], self.S[e:h] = x_fixed, external
+            self.S[:nf], self.S[e:h] = x_fixed, np.eye(3)
             self.u, self._du, self.h, self.dv = self.S[v:u], self.S[u:e], self.S[h:h + m], self.S[h + m:]
-            # [h | dv] = G [x fixed | x | v]
-            G = np.zeros((2 * m, v))
-            G[:m, :x], G[m:, x:] = C, moving_part
-            # accelerations (nm, 3) = A [u | (dv . u) u | external | h], the columns of h k's (_rest);
+            # accelerations (nm, 3) = A [u | (dv . u) u | I_3 | h], the columns of h k's (_rest);
             # R = A, or (small) [[I, 0], [0, A]] for [v | a] = R [v | u | ...] in the same product
-            self._identity = nm * (2 * nm + 2 * m + du) <= IDENTITY_LIMIT if identity is None else identity
+            self._identity = nm * (nm + 2 * m + du + 3) <= IDENTITY_LIMIT if identity is None else identity
             rows = 2 * nm if self._identity else nm
-            self._R = R = np.zeros((rows, rows + 2 * m + du))
+            self._R = R = np.zeros((rows, rows - nm + 2 * m + du + 3))
             R[:rows - nm, :rows - nm] = np.eye(rows - nm)
             A = R[rows - nm:, rows - nm:]
             A[:, :m] = self._pull * -plan.EA
             if self.damped:
                 A[:, m:2 * m] = self._pull * plan.damping
-            A[:, m + du:m + du + nm] = np.diag(inverse_mass)
-            self._k_columns = A[:, m + du + nm:]
+            A[:, m + du:m + du + 3] = external * inverse_mass[:, None]
+            self._k_columns = A[:, m + du + 3:]
             self._state = self.S.reshape(-1)[3 * nf:3 * nf + N]
             self._C, self._positions, self._tail = C, self.S[:x], self.S[v - (rows - nm):h + m]
-            rates = [_dense_rate(C, G, self._positions, self.S[:v], self.S[h:], self.h, self.lengths, self.u, R,
-                                 self._tail, self.S[x:v], self.dv, self.rate, self._du, self.damped,
-                                 velocities, self._identity)
+            rates = [_dense_rate(C, moving_part, self._positions, self.h, self.lengths, self.u, R, self._tail,
+                                 self.S[x:v], self.dv, self.rate, self._du, self.damped, velocities, self._identity)
                      for velocities in (self.damped, True)]
             self._rate_into, self._rate_end = rates
         else:
