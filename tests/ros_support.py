@@ -10,7 +10,9 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
+from collections import defaultdict
 from pathlib import Path
 
 import pytest
@@ -63,6 +65,37 @@ def _close_executors_and_nodes(ctx) -> None:
         executor.shutdown()
     for node in [o for o in gc.get_objects() if isinstance(o, Node) and o.context is ctx]:
         node.destroy_node()
+
+
+class FeedbackLog:
+    """Every feedback an action server publishes, kept by goal, in order: read on the action's
+    feedback topic (``<action>/_action/feedback``, ROS 2's action design) by a subscription of
+    ``node``. A feedback callback is not enough: rclpy's ActionClient (Jazzy) drops a goal's
+    feedback once the goal's result has come, and the result comes on another topic, so the
+    feedback of the state that ended a goal can reach a client after the result and be lost."""
+
+    def __init__(self, node, action_type, action_name: str, depth: int = 1000) -> None:
+        self._changed = threading.Condition()
+        self._by_goal: dict[bytes, list] = defaultdict(list)
+        node.create_subscription(action_type.Impl.FeedbackMessage, f"{action_name}/_action/feedback", self._keep,
+                                 depth)
+
+    def _keep(self, msg) -> None:
+        with self._changed:
+            self._by_goal[bytes(msg.goal_id.uuid)].append(msg.feedback)
+            self._changed.notify_all()
+
+    def of(self, handle) -> list:
+        """The feedback of the goal of ``handle`` so far."""
+        with self._changed:
+            return list(self._by_goal[bytes(handle.goal_id.uuid)])
+
+    def until(self, handle, found, what: str, timeout: float = 60.0) -> list:
+        """The goal's feedback once ``found(feedback)`` holds (another thread spins ``node``)."""
+        with self._changed:
+            ok = self._changed.wait_for(lambda: found(self._by_goal[bytes(handle.goal_id.uuid)]), timeout)
+        assert ok, f"waited {timeout:g} s for {what}"
+        return self.of(handle)
 
 
 def spawn(argv: list[str], **kwargs) -> subprocess.Popen:

@@ -29,6 +29,7 @@ pytestmark = pytest.mark.ros
 
 SCENE = "six_bar_rest"
 ACTION = "/tensegrity_cable_controller/follow_joint_trajectory"
+FEEDBACK = f"{ACTION}/_action/feedback"     # the action's feedback topic (ROS 2's action design)
 NOMINAL = 0.996                       # every motor's drawn rest length [m] (six_bar.yaml)
 SUCCESSFUL, INVALID_GOAL, INVALID_JOINTS = 0, -1, -2
 OLD_HEADER_TIMESTAMP, PATH_TOLERANCE_VIOLATED, GOAL_TOLERANCE_VIOLATED = -3, -4, -5
@@ -51,6 +52,7 @@ def suite(tmp_path_factory):
         client.listen(JointState, "joint_states")
         client.listen(CableStates, "cable_states")
         client.listen(CableCommand, "cable_commands")
+        client.listen(FollowJointTrajectory.Impl.FeedbackMessage, FEEDBACK)
         action = client.action_client(FollowJointTrajectory, ACTION)
         # its first answer says it is active (it has joint_states and cable_states): it takes goals
         client.wait(lambda: client.received["cable_commands"], "the cable controller's first answer to a state")
@@ -86,12 +88,33 @@ def _goal(points, names, *, stamp_ns_=0, goal_time=None, path=(), goal=(), veloc
     return g
 
 
+class _Feedback:
+    """The feedback the server published for one goal, in order, as it arrives: read on the
+    action's feedback topic, because rclpy's ActionClient (Jazzy) drops a goal's feedback
+    once the goal's result has come, and the result comes on another topic, so the feedback
+    of the state that ended a goal may reach the client after its result."""
+
+    def __init__(self, client, goal_id) -> None:
+        self._received, self._id = client.received[FEEDBACK], bytes(goal_id.uuid)
+
+    def __iter__(self):
+        return iter([m.feedback for m in list(self._received) if bytes(m.goal_id.uuid) == self._id])
+
+    def __len__(self) -> int:
+        return len(list(iter(self)))
+
+
 def _send(client, action, goal):
-    """The goal's handle and the list its feedback goes to."""
-    feedback = []
-    handle = client.ask(lambda: action.send_goal_async(goal, feedback_callback=lambda f: feedback.append(f.feedback)),
-                        "the goal response")
-    return handle, feedback
+    """The goal's handle and its :class:`_Feedback`."""
+    handle = client.ask(lambda: action.send_goal_async(goal), "the goal response")
+    return handle, _Feedback(client, handle.goal_id)
+
+
+def _until_the_end(client, feedback, duration_ns: int) -> None:
+    """Until the feedback of a state at or after the trajectory's end (``duration_ns``) has
+    come, and with it, on the server's one feedback writer, every earlier feedback."""
+    client.wait(lambda: any(stamp_ns(fb.desired.time_from_start) >= duration_ns for fb in feedback),
+                "the feedback of a state after the trajectory's end")
 
 
 def _outcome(client, handle):
@@ -118,12 +141,13 @@ def test_a_goal_in_any_joint_order_is_followed_and_reported_as_joint_trajectory_
     assert handle.accepted
     status, result = _outcome(client, handle)
     assert (status, result.error_code) == (GoalStatus.STATUS_SUCCEEDED, SUCCESSFUL), result.error_string
-    # feedback and result are separate topics: the result may be taken before the last
+    # feedback and result are separate topics: the result may come before the last
     # feedbacks, up to that of the state that ended the goal (after the trajectory's end,
     # within the goal tolerance)
-    client.wait_until(lambda: any(stamp_ns(fb.desired.time_from_start) >= 300_000_000
-                                  and all(abs(e) <= tol for e in fb.error.positions) for fb in feedback),
-                      "the feedback of the state that ended the goal")
+    client.wait(lambda: any(stamp_ns(fb.desired.time_from_start) >= 300_000_000
+                            and all(abs(e) <= tol for e in fb.error.positions) for fb in feedback),
+                "the feedback of the state that ended the goal")
+    feedback = list(feedback)
     states = {stamp_ns(m.header.stamp): m for m in client.received["cable_states"]}
     for fb in feedback:
         assert list(fb.joint_names) == list(names)
@@ -285,7 +309,7 @@ def test_a_trajectory_stamped_in_the_future_starts_then(suite):
     handle, feedback = _send(client, action, _goal([(0.2, (0.98,))], ("c4_8",), stamp_ns_=start, goal_time=2.0))
     status, result = _outcome(client, handle)
     assert (status, result.error_code) == (GoalStatus.STATUS_SUCCEEDED, SUCCESSFUL), result.error_string
-    client.wait_until(lambda: feedback, "feedback of the goal")
+    _until_the_end(client, feedback, 200_000_000)
     assert all(stamp_ns(fb.header.stamp) >= start for fb in feedback)
     # every state between the goal and its start (1.5 s of them: a loaded run may lose a few)
     before = [dict(zip(m.name, m.rest_length))["c4_8"] for t, m in client.stamped["cable_states"].items()
@@ -309,6 +333,7 @@ def test_points_with_velocities_are_followed_as_cubic_hermite_segments(suite):
     handle, feedback = _send(client, action, goal)
     status, result = _outcome(client, handle)
     assert (status, result.error_code) == (GoalStatus.STATUS_SUCCEEDED, SUCCESSFUL), result.error_string
+    _until_the_end(client, feedback, 400_000_000)
     spline = CubicHermiteSpline([0.0, *times], [NOMINAL, *positions], [0.0, *velocities])
     inside = [fb for fb in feedback if stamp_ns(fb.desired.time_from_start) < 400_000_000]
     assert len(inside) >= 5

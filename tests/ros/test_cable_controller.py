@@ -16,7 +16,7 @@ import pytest
 
 from tensegrity_ros.rclpy_utils.futures import on_executor, wait_done
 from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
-from tests.ros_support import end_context
+from tests.ros_support import FeedbackLog, end_context
 
 pytestmark = pytest.mark.ros
 
@@ -51,8 +51,9 @@ def rig(tmp_path_factory):
     action = ActionClient(client.node, FollowJointTrajectory, ACTION)
     assert action.wait_for_server(timeout_sec=60)
     assert wait_until_server_heard(client.node, ACTION, wait_done, 60)
+    feedback_log = FeedbackLog(client.node, FollowJointTrajectory, ACTION)
     _wait_for_the_controllers_answer(client)
-    yield client, action, sim, ctl
+    yield client, action, sim, ctl, feedback_log
     action.destroy()
     client.close()
     end_context(ctx)
@@ -97,10 +98,8 @@ def _goal(points, names=("long1", "long2"), velocities=None, stamp_ns=0, **extra
 
 
 def _send(client, action, goal):
-    """Send ``goal``; (handle, feedback list)."""
-    feedback: list = []
-    return _asked(client, lambda: action.send_goal_async(goal, feedback_callback=lambda m: feedback.append(m.feedback)),
-                  30), feedback
+    """Send ``goal``; its handle (its feedback: the rig's :class:`FeedbackLog`)."""
+    return _asked(client, lambda: action.send_goal_async(goal), 30)
 
 
 def _asked(client, call, timeout: float):
@@ -117,6 +116,13 @@ def _result(client, handle, timeout: float = 60.0):
     return answer.status, answer.result
 
 
+def _ended(fb, duration: float, tolerance: float) -> bool:
+    """Whether feedback ``fb`` is of a state that ends a goal: at or after the trajectory's end
+    (``duration`` [s] from its start), every joint within ``tolerance`` [m]."""
+    t = fb.desired.time_from_start
+    return t.sec + t.nanosec / 1e9 >= duration and all(abs(e) <= tolerance for e in fb.error.positions)
+
+
 def _t0(client) -> int:
     """The simulation time [ns] the simulator waits at (its latest state)."""
     client.take_joints()
@@ -130,11 +136,11 @@ def test_a_trajectory_is_followed_in_lockstep_exactly_as_the_core_samples_it(rig
     from tensegrity_core.sim.joint_trajectory import SUCCESSFUL, plan_trajectory
     from tensegrity_core.sim.sampled import step_time
 
-    client, action, sim, _ = rig
+    client, action, sim, _, feedback_log = rig
     t0 = _t0(client)
     points = [(0.1, (0.88, 0.9)), (0.25, (0.85, 0.93)), (0.3, (0.86, 0.92))]
     velocities = [(-0.2, 0.1), (0.0, 0.1), (0.0, 0.0)]
-    handle, feedback = _send(client, action, _goal(points, velocities=velocities))
+    handle = _send(client, action, _goal(points, velocities=velocities))
     assert handle.accepted
     steps = 40                                     # 0.4 s: past the end (0.3 s), the goal succeeds
     client.step_received(steps, t0, STEP_NS, chunk=10)
@@ -155,7 +161,11 @@ def test_a_trajectory_is_followed_in_lockstep_exactly_as_the_core_samples_it(rig
     if t0 == 0:
         np.testing.assert_array_equal(np.array([ros[k * STEP_NS].position for k in range(steps + 1)]),
                                       np.array(lengths))
-    # feedback: desired from the trajectory, actual = the rest lengths the simulator reports
+    # feedback: desired from the trajectory, actual = the rest lengths the simulator reports;
+    # the goal ended on the first state after the end (0.3 s) within the goal tolerance
+    # (1e-4 m, the controller's default), whose feedback is the goal's last
+    feedback = feedback_log.until(handle, lambda fbs: any(_ended(fb, 0.3, 1e-4) for fb in fbs),
+                                  "the feedback of the state that ended the goal")
     assert len(feedback) >= steps // 2
     last = feedback[-1]
     assert list(last.joint_names) == ["long1", "long2"]
@@ -174,14 +184,14 @@ def test_a_trajectory_is_followed_in_lockstep_exactly_as_the_core_samples_it(rig
 def test_bad_goals_are_refused_with_control_msgs_codes(rig, goal_args, code, reason):
     from action_msgs.msg import GoalStatus
 
-    client, action, _, _ = rig
+    client, action, _, _, _ = rig
     if goal_args.get("stamp_ns") == 1:             # a trajectory over before now: step to t > 0.5 s first
         goal = _goal([(0.6, (0.9,))], names=("long1",))
-        handle, _ = _send(client, action, goal)
+        handle = _send(client, action, goal)
         t0 = _t0(client)
         client.step_received(70, t0, STEP_NS, chunk=10)
         assert _result(client, handle)[0] == GoalStatus.STATUS_SUCCEEDED
-    handle, _ = _send(client, action, _goal(**goal_args))
+    handle = _send(client, action, _goal(**goal_args))
     status, result = _result(client, handle)
     assert status == GoalStatus.STATUS_ABORTED and result.error_code == code and reason in result.error_string
 
@@ -192,17 +202,17 @@ def test_a_tight_path_tolerance_is_violated_and_a_new_goal_preempts_the_running_
 
     from tensegrity_core.sim.joint_trajectory import INVALID_GOAL, PATH_TOLERANCE_VIOLATED
 
-    client, action, _, _ = rig
+    client, action, _, _, _ = rig
     t0 = _t0(client)
     # the rest lengths are held over each step: one step behind a moving reference (v h)
     tight = _goal([(0.3, (0.8, 0.8))], path_tolerance=[JointTolerance(name="long1", position=1e-6)])
-    handle, _ = _send(client, action, tight)
+    handle = _send(client, action, tight)
     client.step_received(10, t0, STEP_NS, chunk=5)
     status, result = _result(client, handle)
     assert status == GoalStatus.STATUS_ABORTED and result.error_code == PATH_TOLERANCE_VIOLATED
     assert "long1: position error" in result.error_string
-    first, _ = _send(client, action, _goal([(5.0, (0.9, 0.9))]))
-    second, _ = _send(client, action, _goal([(0.05, (0.9, 0.9))]))
+    first = _send(client, action, _goal([(5.0, (0.9, 0.9))]))
+    second = _send(client, action, _goal([(0.05, (0.9, 0.9))]))
     status, result = _result(client, first)
     assert status == GoalStatus.STATUS_ABORTED and result.error_code == INVALID_GOAL
     assert "preempted" in result.error_string

@@ -17,8 +17,8 @@ import pytest
 
 from tensegrity_ros.rclpy_utils.futures import wait_done
 from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
-from tests.ros.test_cable_controller import _goal, _result, _send, _t0, _wait_for_the_controllers_answer
-from tests.ros_support import end_context
+from tests.ros.test_cable_controller import _ended, _goal, _result, _send, _t0, _wait_for_the_controllers_answer
+from tests.ros_support import FeedbackLog, end_context
 
 pytestmark = pytest.mark.ros
 
@@ -52,8 +52,9 @@ def rig(tmp_path):
     action = ActionClient(client.node, FollowJointTrajectory, ACTION)
     assert action.wait_for_server(timeout_sec=60)
     assert wait_until_server_heard(client.node, ACTION, wait_done, 60)
+    feedback_log = FeedbackLog(client.node, FollowJointTrajectory, ACTION)
     _wait_for_the_controllers_answer(client)
-    yield client, action, sim
+    yield client, action, sim, feedback_log
     action.destroy()
     client.close()
     end_context(ctx)
@@ -69,17 +70,19 @@ def test_a_gait_of_two_motor_cables_is_followed_as_the_core_runs_it_and_settles_
     from tensegrity_core.sim.joint_trajectory import SUCCESSFUL, plan_trajectory
     from tensegrity_core.sim.sampled import step_time
 
-    client, action, sim = rig
+    client, action, sim, feedback_log = rig
     t0 = _t0(client)
     points = [(0.05, (0.95, 0.97)), (0.1, (0.9, 0.95))]
     goal = _goal(points, names=CABLES, goal_time_tolerance=Duration(sec=0, nanosec=200_000_000))
-    handle, feedback = _send(client, action, goal)
+    handle = _send(client, action, goal)
     assert handle.accepted
     steps = 300                                    # the trajectory's 0.1 s, then the motors settle
     client.step_received(steps, t0, STEP_NS, chunk=50)
     status, result = _result(client, handle)
     assert status == GoalStatus.STATUS_SUCCEEDED and result.error_code == SUCCESSFUL, result.error_string
     ros = {j.stamp_ns: j for j in client.joints_since(t0)}
+    feedback = feedback_log.until(handle, lambda fbs: any(_ended(fb, 0.1, 1e-4) for fb in fbs),
+                                  "the feedback of the state that ended the goal")    # the default tolerance
     last = feedback[-1]
     assert list(last.joint_names) == list(CABLES)
     np.testing.assert_allclose(last.actual.positions, [0.9, 0.95], atol=1e-4)     # the goal tolerance
