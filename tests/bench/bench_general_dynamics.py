@@ -619,7 +619,7 @@ def _plot_growth(ctx: Context, data: list[dict], spines: list[dict]) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (ax, ratio) = plt.subplots(1, 2, figsize=(11, 4.5), constrained_layout=True)
+    fig, (ax, ratio) = plt.subplots(1, 2, figsize=(11, 6.0), constrained_layout=True)
     m = [e["members"] for e in data]
     for key, label, marker in (("numba", "project RK4, compiled kernels", "o"),
                                ("numpy", "project RK4, numpy kernels", "s"),
@@ -648,7 +648,7 @@ def _plot_growth(ctx: Context, data: list[dict], spines: list[dict]) -> None:
     ratio.axhline(3.0, color="k", linestyle="--", label="target: within 3x")
     ratio.set(xlabel="members", ylabel="time ratio [-]", title="the numpy fallback against the compiled path")
     ratio.grid(True, which="both", alpha=0.3)
-    ratio.legend(fontsize=8)
+    ratio.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.13))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
