@@ -94,8 +94,9 @@ class Outputs:
     def messages(self, hdr: Header, wanted: Callable[[str], bool]) -> Messages:
         """The messages of this publication (counted by the decimation) for the topics
         ``wanted`` (someone subscribes; asked only of the topics due: an rmw graph query
-        each); the expensive observation only when needed. joint_states from the joint
-        sample are serialized bytes (what a publisher publishes as they are)."""
+        each); the expensive observation only when needed. joint_states, and a general
+        structure's cable_states, body_states, end_effector and IMU readings, are serialized
+        bytes (what a publisher publishes as they are: :mod:`.joint_bytes`, :mod:`.topic_bytes`)."""
         due = self.decimation.next()
         want = {t for t in self.every_publication if wanted(t)}
         if due:
