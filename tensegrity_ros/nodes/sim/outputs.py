@@ -88,6 +88,8 @@ class Outputs:
         #: :mod:`.joint_sensors`).
         self.sensors = joint_sensors(plant.model, self.joint_names)
         self._joint_bytes: JointStateBytes | None = None
+        #: The actuated members (joint_states' joints) as indices into an observation's members.
+        self._members = np.asarray(plant.interface.members, dtype=np.intp)
         #: The other topics' templates of serialized bytes, by (topic, frame).
         self._templates: dict[tuple[str, str], MessageBytes] = {}
 
@@ -119,7 +121,7 @@ class Outputs:
                 return out
         if self.general:
             obs = plant.observe()
-            members = list(interface.members)
+            members = self._members
             frame = hdr.frame_id
             build: dict[str, Callable[[], object]] = {
                      "joint_states": lambda: self._joints(
