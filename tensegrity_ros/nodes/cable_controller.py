@@ -242,6 +242,8 @@ class CableControllerNode(Node):
         """Hold a goal until the controller is active (``"active"``), at most
         ``state_timeout`` s of wall time (``"timeout"``), or until it is cancelled
         (``"cancelled"``) or the node shuts down (``"shutdown"``)."""
+        if handle.is_cancel_requested:     # cancelled before its execution began
+            return "cancelled"
         goal = bytes(handle.goal_id.uuid)
         ready = self._held[goal] = Future()
         timer = self.create_timer(self.state_timeout, lambda: _settle(ready, "timeout"), clock=self._steady)

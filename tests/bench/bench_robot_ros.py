@@ -9,6 +9,8 @@ simulator step). Each ROS figure is set against the core in this process, in the
    simulated seconds the node made per wall second in a window, against the core's
    ``set_command`` + ``advance`` of the same steps with one ``observe`` per 10 steps (what
    the node does per publication). Claims: real-time factor >= 5 and >= 0.8 of the core's.
+   Beside them: the simulator process's CPU per step over the window (every thread: DDS's
+   too) against the core's, a ratio the load distorts less than the real-time factors'.
 2. Lockstep (``six_bar_drop``: every motor commanded): ``StepSimulation(N)`` while a client
    in this process answers every joint state with a ``CableCommand`` of the 24 rest lengths
    stamped like it, alternating with a bare rclpy ping-pong (:mod:`.lockstep_loop`), and the
@@ -32,7 +34,7 @@ import time
 
 from tests.bench.bench_ros import _env, _start, _stop
 from tests.bench.harness import Context, Row, benchmark
-from tests.bench.lockstep_loop import LockstepLoop, ros_client
+from tests.bench.lockstep_loop import LockstepLoop, process_cpu_s, ros_client
 
 STEP_NS = 1_000_000
 #: Steps per publication at 100 Hz of simulated time.
@@ -105,16 +107,21 @@ def free_running(ctx: Context) -> list[Row]:
         ex.spin_once(timeout_sec=0.05)
     assert len(seen) >= 20, "the simulator never published"
     start = len(seen)
+    cpu0 = process_cpu_s(sim.pid)
     while time.monotonic() < seen[start - 1][0] + duration:
         ex.spin_once(timeout_sec=0.05)
+    cpu1, last = process_cpu_s(sim.pid), len(seen)
     node.destroy_node()
     rclpy.try_shutdown(context=rctx)
     _stop(sim)
-    (w0, k0), (w1, k1) = seen[start - 1], seen[-1]
+    (w0, k0), (w1, k1) = seen[start - 1], seen[last - 1]
     node_rtf = (k1 - k0) * STEP_NS / 1e9 / (w1 - w0)
+    node_cpu = (cpu1 - cpu0) / (k1 - k0)
     core = CoreMirror("six_bar_roll", PER_PUBLICATION)
     core.run(k0)                                   # the same steps up to the window's start
+    cpu = time.thread_time()
     core_step = core.run(k1 - k0)                  # ... and the window's
+    core_cpu = (time.thread_time() - cpu) / (k1 - k0)
     core_rtf = STEP_NS / 1e9 / core_step
     return [
         Row("robot_ros", "6-bar free-running real-time factor (core)", core_rtf, "x",
@@ -124,6 +131,12 @@ def free_running(ctx: Context) -> list[Row]:
             note=f"as fast as possible, topics at 100 Hz of simulated time; steps {k0}..{k1} in {w1 - w0:.1f} s; "
                  f"joint_states {got['joint_states']}, imu/rod0 {got['imu/rod0']} received"),
         Row("robot_ros", "6-bar free-running real-time factor (node, absolute)", node_rtf, "x", target=">= 5"),
+        Row("robot_ros", "6-bar free-running core CPU per step", core_cpu * 1e6, "us",
+            note="this thread's CPU over the window's steps, an observation per 10"),
+        Row("robot_ros", "6-bar free-running simulator process CPU per step", node_cpu * 1e6, "us",
+            baseline="6-bar free-running core CPU per step",
+            note="/proc over the window, every thread (DDS's too); a ratio the load distorts less than the "
+                 "real-time factors'"),
     ]
 
 

@@ -110,3 +110,27 @@ def test_without_cable_states_no_joint_state_is_answered_and_a_goal_is_refused_a
         client.close()
         for p in (ctl, sim):
             p.stop()
+
+
+def test_a_held_goal_that_is_cancelled_ends_canceled_at_once(tmp_path):
+    """No simulator at all, a state_timeout longer than the test's patience: the cancel, not
+    the timeout, ends the held goal."""
+    from action_msgs.msg import GoalStatus
+    from control_msgs.action import FollowJointTrajectory
+
+    ctl = Proc(["node", "cables", "--ros-args", "-p", f"scene:={SCENE}", "-p", f"state_timeout:={10 * PATIENCE}"],
+               tmp_path / "cables.log")
+    client = Client("cancel_held_client")
+    try:
+        ctl.wait_for("cable controller ready")
+        action = client.action_client(FollowJointTrajectory, ACTION)
+        handle, _ = _send(client, action, _goal(0.2, REST - 0.02))
+        assert handle.accepted
+        result = handle.get_result_async()
+        client.ask(handle.cancel_goal_async, "the cancel response")
+        answer = client.wait_future(result, "the cancelled goal's result")
+        assert (answer.status, answer.result.error_code) == (GoalStatus.STATUS_CANCELED, SUCCESSFUL)
+        assert answer.result.error_string == "cancelled before the controller was active"
+    finally:
+        client.close()
+        ctl.stop()

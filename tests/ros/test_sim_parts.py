@@ -127,12 +127,13 @@ def test_joint_states_alone_come_from_the_joint_sample_and_equal_the_full_observ
     assert calls == []                                    # no full observation for them
     every = dict(outputs.messages(hdr, lambda t: True))
     assert calls == [1]
+    from geometry_msgs.msg import PointStamped
     from rclpy.serialization import deserialize_message
     from sensor_msgs.msg import JointState
 
     joints = deserialize_message(alone["joint_states"], JointState)    # published as serialized bytes
-    assert joints == every["joint_states"]
-    assert alone["end_effector"] == every["end_effector"]
+    assert joints == deserialize_message(every["joint_states"], JointState)
+    assert alone["end_effector"] == deserialize_message(every["end_effector"], PointStamped)
     assert len(joints.name) == len(plant.interface.inputs) > 0
 
 
@@ -215,6 +216,7 @@ def test_joint_states_report_the_lengths_and_tensions_the_robot_measures(tmp_pat
     import yaml
     from rclpy.serialization import deserialize_message
     from sensor_msgs.msg import JointState
+    from tensegrity_msgs.msg import CableStates
 
     from tensegrity_core.robot import examples
     from tensegrity_core.sim import load_scene
@@ -236,7 +238,8 @@ def test_joint_states_report_the_lengths_and_tensions_the_robot_measures(tmp_pat
     hdr = sender.header(plant.time_ns, "world")
     alone = deserialize_message(dict(outputs.messages(hdr, lambda t: t == "joint_states"))["joint_states"], JointState)
     every = dict(outputs.messages(hdr, lambda t: True))
-    cables = every["cable_states"]
+    every["joint_states"] = deserialize_message(every["joint_states"], JointState)
+    cables = deserialize_message(every["cable_states"], CableStates)
     length, rate, tension = (dict(zip(cables.name, a)) for a in (cables.length, cables.length_rate, cables.tension))
     motors = [c["name"] for c in robot["cables"] if c.get("motor")]
 

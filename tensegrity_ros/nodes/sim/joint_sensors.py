@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -60,9 +61,10 @@ class JointSensors:
     length: Measured
     tension: Measured
 
-    @property
+    @cached_property
     def everything(self) -> bool:
-        """Every quantity of every joint measured (joint_states carries the values as they are)."""
+        """Every quantity of every joint measured (joint_states carries the values as they are;
+        asked at every publication, computed once)."""
         return all(self.length.measured) and all(self.tension.measured)
 
 

@@ -38,10 +38,11 @@ from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import MarkerArray
 
 from tensegrity_core.class2.names import JOINTS
-from tensegrity_ros.nodes.sim import robot_messages, sender, transforms
+from tensegrity_ros.nodes.sim import robot_messages, sender, topic_bytes, transforms
 from tensegrity_ros.nodes.sim.decimation import Decimation
 from tensegrity_ros.nodes.sim.joint_bytes import JointStateBytes
 from tensegrity_ros.nodes.sim.joint_sensors import joint_sensors
+from tensegrity_ros.nodes.sim.message_bytes import MessageBytes
 from tensegrity_ros.nodes.sim.plant import SimPlant
 
 #: What a publication needs done: the message of each topic (name, message).
@@ -87,12 +88,17 @@ class Outputs:
         #: :mod:`.joint_sensors`).
         self.sensors = joint_sensors(plant.model, self.joint_names)
         self._joint_bytes: JointStateBytes | None = None
+        #: The actuated members (joint_states' joints) as indices into an observation's members.
+        self._members = np.asarray(plant.interface.members, dtype=np.intp)
+        #: The other topics' templates of serialized bytes, by (topic, frame).
+        self._templates: dict[tuple[str, str], MessageBytes] = {}
 
     def messages(self, hdr: Header, wanted: Callable[[str], bool]) -> Messages:
         """The messages of this publication (counted by the decimation) for the topics
         ``wanted`` (someone subscribes; asked only of the topics due: an rmw graph query
-        each); the expensive observation only when needed. joint_states from the joint
-        sample are serialized bytes (what a publisher publishes as they are)."""
+        each); the expensive observation only when needed. joint_states, and a general
+        structure's cable_states, body_states, end_effector and IMU readings, are serialized
+        bytes (what a publisher publishes as they are: :mod:`.joint_bytes`, :mod:`.topic_bytes`)."""
         due = self.decimation.next()
         want = {t for t in self.every_publication if wanted(t)}
         if due:
@@ -115,18 +121,31 @@ class Outputs:
                 return out
         if self.general:
             obs = plant.observe()
+            members = self._members
+            frame = hdr.frame_id
             build: dict[str, Callable[[], object]] = {
-                     "joint_states": lambda: self._measured(sender.cable_joint_state_msg(obs, interface, hdr)),
-                     "end_effector": lambda: sender.end_effector_msg(obs, hdr),
-                     "body_states": lambda: sender.body_states_msg(obs, hdr),
+                     "joint_states": lambda: self._joints(
+                         hdr, obs.member_lengths[members], obs.member_rates[members], obs.member_forces[members],
+                         lambda: sender.cable_joint_state_msg(obs, interface, hdr)),
+                     "end_effector": lambda: self._bytes(
+                         "end_effector", frame, lambda: topic_bytes.end_effector_bytes(frame), hdr,
+                         {"point": obs.end_effector}, lambda: sender.end_effector_msg(obs, hdr)),
+                     "body_states": lambda: self._bytes(
+                         "body_states", frame, lambda: topic_bytes.body_states_bytes(obs.body_names, frame), hdr,
+                         topic_bytes.body_states_runs(obs), lambda: sender.body_states_msg(obs, hdr)),
                      "/tf": lambda: transforms.tf_msg(obs, hdr),
-                     "cable_states": lambda: sender.cable_states_msg(obs, interface, hdr),
+                     "cable_states": lambda: self._bytes(
+                         "cable_states", frame, lambda: topic_bytes.cable_states_bytes(obs, interface, frame), hdr,
+                         topic_bytes.cable_states_runs(obs), lambda: sender.cable_states_msg(obs, interface, hdr)),
                      "markers": lambda: (robot_messages.robot_markers_msg(obs, self._floor, hdr) if self.robot
                                          else sender.markers_msg(obs, hdr)),
                      "contacts": lambda: robot_messages.contacts_msg(obs, hdr)}
             for i, topic in enumerate(self.imu_topics):
-                def imu(i: int = i) -> Imu:
-                    return robot_messages.imu_msg(obs, i, Header(stamp=hdr.stamp, frame_id=obs.imu_names[i]))
+                def imu(i: int = i, topic: str = topic) -> object:
+                    body = obs.imu_names[i]
+                    return self._bytes(topic, body, lambda: topic_bytes.imu_bytes(body), hdr,
+                                       topic_bytes.imu_runs(obs, i),
+                                       lambda: robot_messages.imu_msg(obs, i, Header(stamp=hdr.stamp, frame_id=body)))
                 build[topic] = imu
             return [(t, build[t]()) for t in self.topics if t in want]
         if want & {"joint_states", "end_effector"}:
@@ -160,6 +179,16 @@ class Outputs:
             return cdr.fill(hdr.stamp.sec, hdr.stamp.nanosec, position, velocity, effort)
         return cdr.fill(hdr.stamp.sec, hdr.stamp.nanosec, length.of(position), length.of(velocity),
                         tension.of(effort))
+
+    def _bytes(self, topic: str, frame_id: str, template: Callable[[], MessageBytes], hdr: Header,
+               runs: topic_bytes.Runs, message: Callable[[], object]) -> object:
+        """``topic``'s message of this publication as serialized bytes (its template, made
+        once per frame by ``template()``, filled with ``runs``), or ``message()`` where the
+        template does not check out."""
+        cdr = self._templates.get((topic, frame_id))
+        if cdr is None:
+            cdr = self._templates[(topic, frame_id)] = template()
+        return cdr.fill(hdr.stamp.sec, hdr.stamp.nanosec, runs) if cdr.ok else message()
 
     def _measured(self, msg: JointState) -> JointState:
         """``msg`` with the lengths, rates and tensions the robot measures (:mod:`.joint_sensors`)."""
