@@ -29,6 +29,9 @@ pytestmark = pytest.mark.ros
 
 SCENE = "six_bar_rest"
 ACTION = "/tensegrity_cable_controller/follow_joint_trajectory"
+#: The action's feedback topic: rclpy's ActionClient drops a goal's feedback taken after its
+#: result (another topic may deliver later), so the tests read every feedback from it.
+FEEDBACK = f"{ACTION}/_action/feedback"
 NOMINAL = 0.996                       # every motor's drawn rest length [m] (six_bar.yaml)
 SUCCESSFUL, INVALID_GOAL, INVALID_JOINTS = 0, -1, -2
 OLD_HEADER_TIMESTAMP, PATH_TOLERANCE_VIOLATED, GOAL_TOLERANCE_VIOLATED = -3, -4, -5
@@ -51,6 +54,7 @@ def suite(tmp_path_factory):
         client.listen(JointState, "joint_states")
         client.listen(CableStates, "cable_states")
         client.listen(CableCommand, "cable_commands")
+        client.listen(FollowJointTrajectory.Impl.FeedbackMessage, FEEDBACK)   # before the probe: matched
         action = client.action_client(FollowJointTrajectory, ACTION)
         # its first answer says it is active (it has joint_states and cable_states): it takes goals
         client.wait(lambda: client.received["cable_commands"], "the cable controller's first answer to a state")
@@ -86,12 +90,30 @@ def _goal(points, names, *, stamp_ns_=0, goal_time=None, path=(), goal=(), veloc
     return g
 
 
+class _Feedback:
+    """The feedback of one goal received so far (a sequence read again at every use), from
+    the feedback topic, so that feedback taken after the goal's result is kept too."""
+
+    def __init__(self, client, goal_id: bytes) -> None:
+        self._client, self._goal_id = client, goal_id
+
+    def _items(self) -> list:
+        return [m.feedback for m in list(self._client.received[FEEDBACK]) if bytes(m.goal_id.uuid) == self._goal_id]
+
+    def __iter__(self):
+        return iter(self._items())
+
+    def __len__(self) -> int:
+        return len(self._items())
+
+    def __getitem__(self, i):
+        return self._items()[i]
+
+
 def _send(client, action, goal):
-    """The goal's handle and the list its feedback goes to."""
-    feedback = []
-    handle = client.ask(lambda: action.send_goal_async(goal, feedback_callback=lambda f: feedback.append(f.feedback)),
-                        "the goal response")
-    return handle, feedback
+    """The goal's handle and its feedback (:class:`_Feedback`)."""
+    handle = client.ask(lambda: action.send_goal_async(goal), "the goal response")
+    return handle, _Feedback(client, bytes(handle.goal_id.uuid))
 
 
 def _outcome(client, handle):
