@@ -52,7 +52,7 @@ def suite(tmp_path_factory):
         client.listen(JointState, "joint_states")
         client.listen(CableStates, "cable_states")
         client.listen(CableCommand, "cable_commands")
-        client.listen(FollowJointTrajectory.Impl.FeedbackMessage, FEEDBACK)
+        client.listen(FollowJointTrajectory.Impl.FeedbackMessage, FEEDBACK)   # before the probe: matched
         action = client.action_client(FollowJointTrajectory, ACTION)
         # its first answer says it is active (it has joint_states and cable_states): it takes goals
         client.wait(lambda: client.received["cable_commands"], "the cable controller's first answer to a state")
