@@ -7,6 +7,10 @@ the controller's command, so the closed loop is the sampled-data loop of the cor
 the machine's load (a slow controller slows the clock, it never skips a step), while
 cancels and preemptions sent on wall time land where they would on a real-time machine.
 The simulator starts paused and plays once the controller holds it.
+
+The tests that start a simulator and a controller of their own come first: the module's
+pair (``suite``), started by the first test that asks for it, runs until the module ends, and
+would otherwise keep stepping beside theirs.
 """
 
 from __future__ import annotations
@@ -156,165 +160,6 @@ def _traj(names=("rho1", "rho2"), points=((1.0, (0.71, 0.69)), (2.0, (0.72, 0.7)
         traj.points.append(JointTrajectoryPoint(positions=list(pos),
                                                 time_from_start=Duration(sec=int(sec), nanosec=int((t - sec) * 1e9))))
     return traj
-
-
-def test_move_reaches_the_target_within_its_tolerance_with_feedback(suite):
-    client, _ = suite
-    x0, y0, _ = client.end_effector()
-    target = (x0 + 0.03, y0 + 0.02)
-    goal = client.Move.Goal(x=target[0], y=target[1], duration=1.5)       # default tolerance 0.1 mm
-    status, res, feedback = client.run(client.move, goal)
-    assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
-    assert status == 4                                      # GoalStatus.STATUS_SUCCEEDED
-    assert res.settled_error < 1e-4
-    assert math.hypot(res.end_effector.x - target[0], res.end_effector.y - target[1]) < 1e-4
-    assert 0 < res.max_force <= 5.0
-    phases = [f.phase for f in feedback]
-    assert phases[0] == "moving" and phases[-1] == "settling"
-    times = [f.time_from_start for f in feedback]
-    assert times == sorted(times) and len(feedback) > 50   # ~100 per simulated second
-    x, y, _ = client.end_effector()                         # and it holds there
-    assert math.hypot(x - target[0], y - target[1]) < 2e-4
-
-
-def test_a_move_with_neither_duration_nor_speed_takes_the_controllers_max_speed(suite):
-    """0 is "not given" for both, as for goal_tolerance: with neither the controller's
-    max_speed (0.05 m/s) applies: the move's rest-to-rest scaling peaks at 630/256 times the
-    mean speed (paths.py), so a 3 cm move lasts 630/256 * 0.03 / 0.05 = 1.48 s."""
-    client, _ = suite
-    x0, y0, _ = client.end_effector()
-    status, res, feedback = client.run(client.move, client.Move.Goal(x=x0 + 0.03, y=y0))
-    assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
-    duration = 630 / 256 * 0.03 / 0.05
-    moving = [f.time_from_start for f in feedback if f.phase == "moving"]
-    settling = [f.time_from_start for f in feedback if f.phase == "settling"]
-    assert duration - 0.02 <= moving[-1] < duration <= settling[0] < duration + 0.02
-    _, res, _ = client.run(client.move, client.Move.Goal(x=x0, y=y0, duration=2.0))   # back, for the next tests
-    assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
-
-
-def test_follow_reaches_the_last_point_with_desired_actual_error_feedback(suite):
-    client, _ = suite
-    _, _, js = client.end_effector()
-    r1, r2 = js.position[0], js.position[1]
-    from builtin_interfaces.msg import Duration
-    from tensegrity_msgs.msg import JointTolerance
-
-    x0, y0, _ = client.end_effector()
-    mm = [JointTolerance(name=n, position=1e-3) for n in ("rho1", "rho2")]
-    goal = client.Follow.Goal(trajectory=_traj(points=((1.0, (r1 + 0.01, r2 - 0.01)), (2.0, (r1 + 0.02, r2)))),
-                              goal_tolerance=mm, goal_time_tolerance=Duration(sec=8))
-    status, res, feedback = client.run(client.follow, goal)
-    assert res.error_code == client.Follow.Result.SUCCESSFUL, res.error_string
-    assert all(abs(e) <= 1e-3 for e in res.final_error)
-    fb = feedback[len(feedback) // 2]
-    assert list(fb.joint_names) == ["rho1", "rho2"]
-    for k in (0, 1):
-        assert fb.error.positions[k] == pytest.approx(fb.actual.positions[k] - fb.desired.positions[k], abs=1e-12)
-    # back to rest where it started, for the tests after this one
-    _, res, _ = client.run(client.move, client.Move.Goal(x=x0, y=y0, duration=3.0))
-    assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
-
-
-@pytest.mark.parametrize("goal, code, words", [
-    (dict(x=3.0, y=0.5, duration=2.0), "OUTSIDE_WORKSPACE", "not reachable"),
-    (dict(x=math.nan, y=0.5, duration=2.0), "INVALID_GOAL", "x must be a finite number"),
-    (dict(x=1.3, y=0.7, duration=-1.0), "INVALID_GOAL", "duration must be > 0"),
-    (dict(x=1.3, y=0.7, max_speed=math.inf), "INVALID_GOAL", "max_speed must be a finite number"),
-    (dict(x=0.9, y=0.9999, duration=2.0), "SINGULAR_PATH", "beta_half_pi"),
-    (dict(x=1.3, y=0.8, duration=1.5), "INVALID_GOAL", "allow more time: a duration of at least"),
-])
-def test_bad_moves_are_refused_with_the_reason_and_the_hold_continues(suite, goal, code, words):
-    client, _ = suite
-    before = client.end_effector()
-    status, res, feedback = client.run(client.move, client.Move.Goal(**goal))
-    assert res.error_code == getattr(client.Move.Result, code), res.error_string
-    assert words in res.error_string
-    assert status == 6 and not feedback                     # aborted at once
-    client.commands.clear()                                 # the hold goes on: commands keep coming
-    client.spin_until(lambda: len(client.commands) >= 50, 30)
-    after = client.end_effector()
-    assert math.hypot(after[0] - before[0], after[1] - before[1]) < 5e-4
-
-
-@pytest.mark.parametrize("traj, code, words", [
-    (dict(names=("rho1", "theta")), "INVALID_JOINTS", "unknown joint"),
-    (dict(points=((2.0, (0.71, 0.69)), (1.0, (0.72, 0.7)))), "INVALID_GOAL", "increase strictly"),
-    (dict(points=((1.0, (0.71, math.nan)),)), "INVALID_GOAL", "non-finite"),
-    (dict(points=((1.0, (0.71, math.inf)),)), "INVALID_GOAL", "non-finite"),
-    (dict(points=((3.0, (0.99, 0.7)),)), "INVALID_GOAL", "singular set lambda2"),
-    (dict(points=((3.0, (1.2, 0.7)),)), "INVALID_GOAL", "outside the mechanism's domain"),
-])
-def test_bad_trajectories_are_refused_with_the_reason(suite, traj, code, words):
-    client, _ = suite
-    status, res, _ = client.run(client.follow, client.Follow.Goal(trajectory=_traj(**traj)))
-    assert res.error_code == getattr(client.Follow.Result, code), res.error_string
-    assert words in res.error_string and status == 6
-
-
-def test_unknown_tolerance_joints_and_efforts_are_refused(suite):
-    from tensegrity_msgs.msg import JointTolerance
-
-    client, _ = suite
-    goal = client.Follow.Goal(trajectory=_traj(), path_tolerance=[JointTolerance(name="beta", position=0.1)])
-    _, res, _ = client.run(client.follow, goal)
-    assert res.error_code == client.Follow.Result.INVALID_JOINTS and "beta" in res.error_string
-    traj = _traj()
-    traj.points[0].effort = [1.0, 1.0]
-    _, res, _ = client.run(client.follow, client.Follow.Goal(trajectory=traj))
-    assert res.error_code == client.Follow.Result.INVALID_GOAL and "effort" in res.error_string
-
-
-def test_path_and_goal_tolerance_violations_abort_with_their_codes(suite):
-    from builtin_interfaces.msg import Duration
-    from tensegrity_msgs.msg import JointTolerance
-
-    client, _ = suite
-    _, _, js = client.end_effector()
-    r1, r2 = js.position[0], js.position[1]
-    moving = _traj(points=((1.0, (r1 + 0.02, r2)),))
-    tight = [JointTolerance(name=n, position=1e-7) for n in ("rho1", "rho2")]
-    _, res, _ = client.run(client.follow, client.Follow.Goal(trajectory=moving, path_tolerance=tight))
-    assert res.error_code == client.Follow.Result.PATH_TOLERANCE_VIOLATED, res.error_string
-    assert "path tolerance" in res.error_string
-    _, _, js = client.end_effector()
-    back = _traj(points=((1.0, (js.position[0] - 0.02, js.position[1])),))
-    impossible = [JointTolerance(name=n, position=1e-12) for n in ("rho1", "rho2")]
-    goal = client.Follow.Goal(trajectory=back, goal_tolerance=impossible,
-                              goal_time_tolerance=Duration(sec=0, nanosec=200_000_000))
-    _, res, _ = client.run(client.follow, goal)
-    assert res.error_code == client.Follow.Result.GOAL_TOLERANCE_VIOLATED, res.error_string
-
-
-def test_cancel_holds_where_the_reference_was(suite):
-    client, _ = suite
-    x0, y0, _ = client.end_effector()
-    handle, feedback = client.send(client.move, client.Move.Goal(x=x0 - 0.04, y=y0, duration=8.0))
-    client.spin_until(lambda: feedback and feedback[-1].time_from_start >= 2.0)    # a quarter of the time
-    cancel = handle.cancel_goal_async()
-    client.spin_until(cancel.done)
-    status, res = client.result(handle)
-    assert status == 5 and res.error_code == client.Move.Result.CANCELED   # GoalStatus.STATUS_CANCELED
-    client.wait_sim(5.0)                                    # stopping from full speed takes a few seconds
-    x1, y1, _ = client.end_effector()
-    # stopped part of the way: the reference is 1.96 mm along at 2 s of 8 (the 9th-order
-    # time scaling s(1/4) = 0.049 of 4 cm) and the cancel lands at or after that
-    assert 1e-3 < abs(x1 - x0) < 0.03
-    client.wait_sim(2.0)
-    x2, y2, _ = client.end_effector()
-    assert math.hypot(x2 - x1, y2 - y1) < 2e-4              # and holds
-
-
-def test_a_new_goal_preempts_the_running_one(suite):
-    client, _ = suite
-    x0, y0, _ = client.end_effector()
-    first, feedback = client.send(client.move, client.Move.Goal(x=x0 + 0.04, y=y0, duration=6.0))
-    client.spin_until(lambda: feedback)                     # it runs
-    status, res, _ = client.run(client.move, client.Move.Goal(x=x0, y=y0 + 0.03, duration=1.5))
-    assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
-    status_first, res_first = client.result(first)
-    assert status_first == 6 and res_first.error_code == client.Move.Result.PREEMPTED
-    assert "preempted" in res_first.error_string
 
 
 def test_a_stopped_simulator_aborts_the_running_goal(cli, ros_context):
@@ -543,3 +388,164 @@ def test_a_manual_command_takes_over_from_the_controller_until_its_next_goal(cli
     ctl.wait_for("the controller commands actuator_forces again")
     handle.cancel_goal_async()
     client.node.destroy_node()
+
+
+
+def test_move_reaches_the_target_within_its_tolerance_with_feedback(suite):
+    client, _ = suite
+    x0, y0, _ = client.end_effector()
+    target = (x0 + 0.03, y0 + 0.02)
+    goal = client.Move.Goal(x=target[0], y=target[1], duration=1.5)       # default tolerance 0.1 mm
+    status, res, feedback = client.run(client.move, goal)
+    assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
+    assert status == 4                                      # GoalStatus.STATUS_SUCCEEDED
+    assert res.settled_error < 1e-4
+    assert math.hypot(res.end_effector.x - target[0], res.end_effector.y - target[1]) < 1e-4
+    assert 0 < res.max_force <= 5.0
+    phases = [f.phase for f in feedback]
+    assert phases[0] == "moving" and phases[-1] == "settling"
+    times = [f.time_from_start for f in feedback]
+    assert times == sorted(times) and len(feedback) > 50   # ~100 per simulated second
+    x, y, _ = client.end_effector()                         # and it holds there
+    assert math.hypot(x - target[0], y - target[1]) < 2e-4
+
+
+def test_a_move_with_neither_duration_nor_speed_takes_the_controllers_max_speed(suite):
+    """0 is "not given" for both, as for goal_tolerance: with neither the controller's
+    max_speed (0.05 m/s) applies: the move's rest-to-rest scaling peaks at 630/256 times the
+    mean speed (paths.py), so a 3 cm move lasts 630/256 * 0.03 / 0.05 = 1.48 s."""
+    client, _ = suite
+    x0, y0, _ = client.end_effector()
+    status, res, feedback = client.run(client.move, client.Move.Goal(x=x0 + 0.03, y=y0))
+    assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
+    duration = 630 / 256 * 0.03 / 0.05
+    moving = [f.time_from_start for f in feedback if f.phase == "moving"]
+    settling = [f.time_from_start for f in feedback if f.phase == "settling"]
+    assert duration - 0.02 <= moving[-1] < duration <= settling[0] < duration + 0.02
+    _, res, _ = client.run(client.move, client.Move.Goal(x=x0, y=y0, duration=2.0))   # back, for the next tests
+    assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
+
+
+def test_follow_reaches_the_last_point_with_desired_actual_error_feedback(suite):
+    client, _ = suite
+    _, _, js = client.end_effector()
+    r1, r2 = js.position[0], js.position[1]
+    from builtin_interfaces.msg import Duration
+    from tensegrity_msgs.msg import JointTolerance
+
+    x0, y0, _ = client.end_effector()
+    mm = [JointTolerance(name=n, position=1e-3) for n in ("rho1", "rho2")]
+    goal = client.Follow.Goal(trajectory=_traj(points=((1.0, (r1 + 0.01, r2 - 0.01)), (2.0, (r1 + 0.02, r2)))),
+                              goal_tolerance=mm, goal_time_tolerance=Duration(sec=8))
+    status, res, feedback = client.run(client.follow, goal)
+    assert res.error_code == client.Follow.Result.SUCCESSFUL, res.error_string
+    assert all(abs(e) <= 1e-3 for e in res.final_error)
+    fb = feedback[len(feedback) // 2]
+    assert list(fb.joint_names) == ["rho1", "rho2"]
+    for k in (0, 1):
+        assert fb.error.positions[k] == pytest.approx(fb.actual.positions[k] - fb.desired.positions[k], abs=1e-12)
+    # back to rest where it started, for the tests after this one
+    _, res, _ = client.run(client.move, client.Move.Goal(x=x0, y=y0, duration=3.0))
+    assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
+
+
+@pytest.mark.parametrize("goal, code, words", [
+    (dict(x=3.0, y=0.5, duration=2.0), "OUTSIDE_WORKSPACE", "not reachable"),
+    (dict(x=math.nan, y=0.5, duration=2.0), "INVALID_GOAL", "x must be a finite number"),
+    (dict(x=1.3, y=0.7, duration=-1.0), "INVALID_GOAL", "duration must be > 0"),
+    (dict(x=1.3, y=0.7, max_speed=math.inf), "INVALID_GOAL", "max_speed must be a finite number"),
+    (dict(x=0.9, y=0.9999, duration=2.0), "SINGULAR_PATH", "beta_half_pi"),
+    (dict(x=1.3, y=0.8, duration=1.5), "INVALID_GOAL", "allow more time: a duration of at least"),
+])
+def test_bad_moves_are_refused_with_the_reason_and_the_hold_continues(suite, goal, code, words):
+    client, _ = suite
+    before = client.end_effector()
+    status, res, feedback = client.run(client.move, client.Move.Goal(**goal))
+    assert res.error_code == getattr(client.Move.Result, code), res.error_string
+    assert words in res.error_string
+    assert status == 6 and not feedback                     # aborted at once
+    client.commands.clear()                                 # the hold goes on: commands keep coming
+    client.spin_until(lambda: len(client.commands) >= 50, 30)
+    after = client.end_effector()
+    assert math.hypot(after[0] - before[0], after[1] - before[1]) < 5e-4
+
+
+@pytest.mark.parametrize("traj, code, words", [
+    (dict(names=("rho1", "theta")), "INVALID_JOINTS", "unknown joint"),
+    (dict(points=((2.0, (0.71, 0.69)), (1.0, (0.72, 0.7)))), "INVALID_GOAL", "increase strictly"),
+    (dict(points=((1.0, (0.71, math.nan)),)), "INVALID_GOAL", "non-finite"),
+    (dict(points=((1.0, (0.71, math.inf)),)), "INVALID_GOAL", "non-finite"),
+    (dict(points=((3.0, (0.99, 0.7)),)), "INVALID_GOAL", "singular set lambda2"),
+    (dict(points=((3.0, (1.2, 0.7)),)), "INVALID_GOAL", "outside the mechanism's domain"),
+])
+def test_bad_trajectories_are_refused_with_the_reason(suite, traj, code, words):
+    client, _ = suite
+    status, res, _ = client.run(client.follow, client.Follow.Goal(trajectory=_traj(**traj)))
+    assert res.error_code == getattr(client.Follow.Result, code), res.error_string
+    assert words in res.error_string and status == 6
+
+
+def test_unknown_tolerance_joints_and_efforts_are_refused(suite):
+    from tensegrity_msgs.msg import JointTolerance
+
+    client, _ = suite
+    goal = client.Follow.Goal(trajectory=_traj(), path_tolerance=[JointTolerance(name="beta", position=0.1)])
+    _, res, _ = client.run(client.follow, goal)
+    assert res.error_code == client.Follow.Result.INVALID_JOINTS and "beta" in res.error_string
+    traj = _traj()
+    traj.points[0].effort = [1.0, 1.0]
+    _, res, _ = client.run(client.follow, client.Follow.Goal(trajectory=traj))
+    assert res.error_code == client.Follow.Result.INVALID_GOAL and "effort" in res.error_string
+
+
+def test_path_and_goal_tolerance_violations_abort_with_their_codes(suite):
+    from builtin_interfaces.msg import Duration
+    from tensegrity_msgs.msg import JointTolerance
+
+    client, _ = suite
+    _, _, js = client.end_effector()
+    r1, r2 = js.position[0], js.position[1]
+    moving = _traj(points=((1.0, (r1 + 0.02, r2)),))
+    tight = [JointTolerance(name=n, position=1e-7) for n in ("rho1", "rho2")]
+    _, res, _ = client.run(client.follow, client.Follow.Goal(trajectory=moving, path_tolerance=tight))
+    assert res.error_code == client.Follow.Result.PATH_TOLERANCE_VIOLATED, res.error_string
+    assert "path tolerance" in res.error_string
+    _, _, js = client.end_effector()
+    back = _traj(points=((1.0, (js.position[0] - 0.02, js.position[1])),))
+    impossible = [JointTolerance(name=n, position=1e-12) for n in ("rho1", "rho2")]
+    goal = client.Follow.Goal(trajectory=back, goal_tolerance=impossible,
+                              goal_time_tolerance=Duration(sec=0, nanosec=200_000_000))
+    _, res, _ = client.run(client.follow, goal)
+    assert res.error_code == client.Follow.Result.GOAL_TOLERANCE_VIOLATED, res.error_string
+
+
+def test_cancel_holds_where_the_reference_was(suite):
+    client, _ = suite
+    x0, y0, _ = client.end_effector()
+    handle, feedback = client.send(client.move, client.Move.Goal(x=x0 - 0.04, y=y0, duration=8.0))
+    client.spin_until(lambda: feedback and feedback[-1].time_from_start >= 2.0)    # a quarter of the time
+    cancel = handle.cancel_goal_async()
+    client.spin_until(cancel.done)
+    status, res = client.result(handle)
+    assert status == 5 and res.error_code == client.Move.Result.CANCELED   # GoalStatus.STATUS_CANCELED
+    client.wait_sim(5.0)                                    # stopping from full speed takes a few seconds
+    x1, y1, _ = client.end_effector()
+    # stopped part of the way: the reference is 1.96 mm along at 2 s of 8 (the 9th-order
+    # time scaling s(1/4) = 0.049 of 4 cm) and the cancel lands at or after that
+    assert 1e-3 < abs(x1 - x0) < 0.03
+    client.wait_sim(2.0)
+    x2, y2, _ = client.end_effector()
+    assert math.hypot(x2 - x1, y2 - y1) < 2e-4              # and holds
+
+
+def test_a_new_goal_preempts_the_running_one(suite):
+    client, _ = suite
+    x0, y0, _ = client.end_effector()
+    first, feedback = client.send(client.move, client.Move.Goal(x=x0 + 0.04, y=y0, duration=6.0))
+    client.spin_until(lambda: feedback)                     # it runs
+    status, res, _ = client.run(client.move, client.Move.Goal(x=x0, y=y0 + 0.03, duration=1.5))
+    assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
+    status_first, res_first = client.result(first)
+    assert status_first == 6 and res_first.error_code == client.Move.Result.PREEMPTED
+    assert "preempted" in res_first.error_string
+

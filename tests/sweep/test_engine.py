@@ -3,7 +3,9 @@ a worker killed mid-sweep, a sweep killed mid-run and resumed, an unreachable sc
 
 The tests that need a running cluster, not a fresh one, share one embedded cluster (each
 with a client of its own, as separate sessions would); the test that kills one of its
-workers runs last on it. The embedded cluster's own start and the CLI's are tested apart."""
+workers runs last on it. They come last in the module, after the tests that start clusters of
+their own: the shared one lives until the module ends. The embedded cluster's own start and
+the CLI's are tested apart."""
 
 from __future__ import annotations
 
@@ -64,6 +66,145 @@ def test_the_embedded_cluster_gives_the_serial_results_and_listens_on_loopback_o
     assert seen["sockets"] and {ip for ip, _ in seen["sockets"]} == {"127.0.0.1"}, seen
     assert 8787 not in {port for _, port in seen["sockets"]}          # no dashboard
     assert seen["workers"] >= 2
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def cli(*args, **kw):
+    return subprocess.Popen([sys.executable, "-m", "tensegrity_ros.cli", *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True, **kw)
+
+
+def test_an_unreachable_scheduler_is_one_error_line_naming_it_and_nothing_is_written(tmp_path):
+    sweep = tmp_path / "s.yaml"
+    sweep.write_text(json.dumps(fold_sweep()))
+    address = f"tcp://127.0.0.1:{free_port()}"
+    proc = cli("sweep", str(sweep), "-o", str(tmp_path / "r.parquet"), "--scheduler", address,
+               "--connect-timeout", "2", "--plot", str(tmp_path / "r.png"), cwd=tmp_path)
+    try:
+        wait_exited(proc, 120)       # its one error line fits in the pipe: no need to read first
+    finally:
+        kill_session(proc)
+    out, err = proc.communicate()
+    assert proc.returncode == 1, err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: cannot reach the Dask scheduler at "), err
+    assert address in lines[0] and "Traceback" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.yaml"]
+
+
+def test_a_cluster_whose_workers_lack_the_package_is_refused_before_any_task(tmp_path):
+    """An existing cluster (``dask scheduler`` and ``dask worker``) whose worker cannot import
+    this package: one error line naming the scheduler, the worker and its ImportError, exit
+    1, nothing written. (Dask would send the tasks anyway; the worker that cannot unpickle
+    one closes, and the sweep waited for workers for ever.)"""
+    shadow = tmp_path / "shadow" / "tensegrity_core"
+    shadow.mkdir(parents=True)
+    # a remote text of many lines, long (under Dask's own cut, 10,000 characters)
+    said = "no tensegrity_core on this worker\n" + ("x" * 99 + "\n") * 30
+    (shadow / "__init__.py").write_text(f"raise ImportError({said!r})\n")
+    work = tmp_path / "work"
+    work.mkdir()
+    sweep = work / "s.yaml"
+    sweep.write_text(json.dumps(fold_sweep()))
+    address = f"tcp://127.0.0.1:{free_port()}"
+    dask = str(Path(sys.executable).with_name("dask"))
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(shadow.parent), os.environ.get("PYTHONPATH")]))}
+    scheduler = subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", address.rsplit(":", 1)[1],
+                                  "--no-dashboard"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                 start_new_session=True)
+    worker = subprocess.Popen([dask, "worker", address, "--nworkers", "1", "--nthreads", "1", "--no-dashboard"],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True, env=env)
+    proc = cli("sweep", str(sweep), "-o", str(work / "r.parquet"), "--scheduler", address,
+               "--connect-timeout", "120", cwd=work)     # waits for the scheduler and its worker
+    try:
+        wait_exited(proc, 240)
+    finally:
+        kill_session(proc)
+        kill_session(worker)
+        kill_session(scheduler)
+    out, err = proc.communicate()
+    assert proc.returncode == 1, err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1, err
+    assert lines[0].startswith(f"error: 1 of 1 workers of the Dask scheduler at {address!r} cannot run sweeps (tcp://")
+    assert "ImportError: no tensegrity_core on this worker xxx" in lines[0]
+    assert lines[0].endswith(f"… ({len(said.strip())} characters)); install this project with its sweep extra "
+                             "there (pip install '.[sweep]')")
+    assert len(lines[0]) < 500
+    assert sorted(p.name for p in work.iterdir()) == ["s.yaml"]
+
+
+def test_a_killed_sweep_keeps_its_finished_points_and_resume_runs_only_the_others(tmp_path):
+    doc = fold_sweep(vary={"inputs.f1.gain": {"grid": {"from": 6.0, "to": 14.0, "num": 40}}},
+                     compute="simulate")
+    (tmp_path / "s.yaml").write_text(json.dumps(doc))
+    out = tmp_path / "r.csv"
+    journal = tmp_path / "r.csv.partial.jsonl"
+    proc = cli("sweep", "s.yaml", "-o", "r.csv", "--workers", "1", "--batch", "1", "--quiet", cwd=tmp_path)
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and not exited(proc):
+            if journal.exists() and len(journal.read_text().splitlines()) >= 1 + 5:
+                break
+            time.sleep(0.02)
+        assert not exited(proc), "the sweep ended before it could be killed"
+    finally:
+        kill_session(proc)
+    assert not out.exists()
+    lines = journal.read_text().splitlines()
+    kept = {}
+    for line in lines[1:]:
+        try:
+            row = json.loads(line)
+        except json.JSONDecodeError:     # a line the kill cut short
+            continue
+        kept[row["point"]] = row
+    assert 5 <= len(kept) < 40
+    sweep = load_sweep(str(tmp_path / "s.yaml"))
+    table = run_sweep(sweep, output=out, resume=True, workers=0, progress=False)
+    assert table.attrs == {"ran": 40 - len(kept), "kept": len(kept)}
+    assert list(table["point"]) == list(range(40)) and set(table["status"]) == {"ok"}
+    for index, row in kept.items():        # the finished points were kept, not run again
+        assert table["run_time"][index] == row["run_time"]
+    assert not journal.exists()
+    fresh = run_sweep(sweep, workers=0, progress=False)
+    same_rows(fresh, table)
+    back = pd.read_csv(out)
+    assert list(back["point"]) == list(range(40))
+
+
+def test_resume_drops_a_line_cut_short_and_refuses_another_sweeps_output(tmp_path):
+    out = tmp_path / "r.parquet"
+    sweep = fold_sweep(vary={"inputs.f1.gain": [8.0, 9.0, 10.0, 11.0]})
+
+    def stop_after_two(done, failed, total):
+        if done == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(sweep, output=out, workers=0, progress=stop_after_two)
+    journal = tmp_path / "r.parquet.partial.jsonl"
+    with open(journal, "a") as fh:
+        fh.write('{"point": 2, "inputs.f1.ga')         # what a kill in mid-write leaves
+    table = run_sweep(sweep, output=out, resume=True, workers=0, progress=False)
+    assert table.attrs == {"ran": 2, "kept": 2} and list(table["point"]) == [0, 1, 2, 3]
+    again = run_sweep(sweep, output=out, resume=True, workers=0, progress=False)
+    assert again.attrs == {"ran": 0, "kept": 4}
+    same_rows(table, again)
+    with pytest.raises(SweepError, match="comes from another sweep"):
+        run_sweep({**sweep, "seed": 1}, output=out, resume=True, workers=0, progress=False)
+    with pytest.raises(SweepError, match="has inputs.f1.gain = 9.0, this sweep 9.5"):
+        run_sweep({**sweep, "vary": {"inputs.f1.gain": [8.0, 9.5, 10.0, 11.0]}}, output=out, resume=True,
+                  workers=0, progress=False)
+    more = run_sweep({**sweep, "vary": {"inputs.f1.gain": [8.0, 9.0, 10.0, 11.0, 12.0]}}, output=out,
+                     resume=True, workers=0, progress=False)       # one more value: one more point run
+    assert more.attrs == {"ran": 1, "kept": 4}
+
 
 
 @pytest.fixture(scope="module")
@@ -215,140 +356,3 @@ def test_a_killed_workers_points_run_elsewhere_and_every_point_is_in_the_output_
     assert set(back["status"]) == {"ok"}
     same_rows(run_sweep(sweep, workers=0, progress=False), table)
 
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def cli(*args, **kw):
-    return subprocess.Popen([sys.executable, "-m", "tensegrity_ros.cli", *args], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, start_new_session=True, **kw)
-
-
-def test_an_unreachable_scheduler_is_one_error_line_naming_it_and_nothing_is_written(tmp_path):
-    sweep = tmp_path / "s.yaml"
-    sweep.write_text(json.dumps(fold_sweep()))
-    address = f"tcp://127.0.0.1:{free_port()}"
-    proc = cli("sweep", str(sweep), "-o", str(tmp_path / "r.parquet"), "--scheduler", address,
-               "--connect-timeout", "2", "--plot", str(tmp_path / "r.png"), cwd=tmp_path)
-    try:
-        wait_exited(proc, 120)       # its one error line fits in the pipe: no need to read first
-    finally:
-        kill_session(proc)
-    out, err = proc.communicate()
-    assert proc.returncode == 1, err
-    lines = [line for line in err.splitlines() if line.strip()]
-    assert len(lines) == 1 and lines[0].startswith("error: cannot reach the Dask scheduler at "), err
-    assert address in lines[0] and "Traceback" not in err
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.yaml"]
-
-
-def test_a_cluster_whose_workers_lack_the_package_is_refused_before_any_task(tmp_path):
-    """An existing cluster (``dask scheduler`` and ``dask worker``) whose worker cannot import
-    this package: one error line naming the scheduler, the worker and its ImportError, exit
-    1, nothing written. (Dask would send the tasks anyway; the worker that cannot unpickle
-    one closes, and the sweep waited for workers for ever.)"""
-    shadow = tmp_path / "shadow" / "tensegrity_core"
-    shadow.mkdir(parents=True)
-    # a remote text of many lines, long (under Dask's own cut, 10,000 characters)
-    said = "no tensegrity_core on this worker\n" + ("x" * 99 + "\n") * 30
-    (shadow / "__init__.py").write_text(f"raise ImportError({said!r})\n")
-    work = tmp_path / "work"
-    work.mkdir()
-    sweep = work / "s.yaml"
-    sweep.write_text(json.dumps(fold_sweep()))
-    address = f"tcp://127.0.0.1:{free_port()}"
-    dask = str(Path(sys.executable).with_name("dask"))
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(shadow.parent), os.environ.get("PYTHONPATH")]))}
-    scheduler = subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", address.rsplit(":", 1)[1],
-                                  "--no-dashboard"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                 start_new_session=True)
-    worker = subprocess.Popen([dask, "worker", address, "--nworkers", "1", "--nthreads", "1", "--no-dashboard"],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True, env=env)
-    proc = cli("sweep", str(sweep), "-o", str(work / "r.parquet"), "--scheduler", address,
-               "--connect-timeout", "120", cwd=work)     # waits for the scheduler and its worker
-    try:
-        wait_exited(proc, 240)
-    finally:
-        kill_session(proc)
-        kill_session(worker)
-        kill_session(scheduler)
-    out, err = proc.communicate()
-    assert proc.returncode == 1, err
-    lines = [line for line in err.splitlines() if line.strip()]
-    assert len(lines) == 1, err
-    assert lines[0].startswith(f"error: 1 of 1 workers of the Dask scheduler at {address!r} cannot run sweeps (tcp://")
-    assert "ImportError: no tensegrity_core on this worker xxx" in lines[0]
-    assert lines[0].endswith(f"… ({len(said.strip())} characters)); install this project with its sweep extra "
-                             "there (pip install '.[sweep]')")
-    assert len(lines[0]) < 500
-    assert sorted(p.name for p in work.iterdir()) == ["s.yaml"]
-
-
-def test_a_killed_sweep_keeps_its_finished_points_and_resume_runs_only_the_others(tmp_path):
-    doc = fold_sweep(vary={"inputs.f1.gain": {"grid": {"from": 6.0, "to": 14.0, "num": 40}}},
-                     compute="simulate")
-    (tmp_path / "s.yaml").write_text(json.dumps(doc))
-    out = tmp_path / "r.csv"
-    journal = tmp_path / "r.csv.partial.jsonl"
-    proc = cli("sweep", "s.yaml", "-o", "r.csv", "--workers", "1", "--batch", "1", "--quiet", cwd=tmp_path)
-    try:
-        deadline = time.monotonic() + 120
-        while time.monotonic() < deadline and not exited(proc):
-            if journal.exists() and len(journal.read_text().splitlines()) >= 1 + 5:
-                break
-            time.sleep(0.02)
-        assert not exited(proc), "the sweep ended before it could be killed"
-    finally:
-        kill_session(proc)
-    assert not out.exists()
-    lines = journal.read_text().splitlines()
-    kept = {}
-    for line in lines[1:]:
-        try:
-            row = json.loads(line)
-        except json.JSONDecodeError:     # a line the kill cut short
-            continue
-        kept[row["point"]] = row
-    assert 5 <= len(kept) < 40
-    sweep = load_sweep(str(tmp_path / "s.yaml"))
-    table = run_sweep(sweep, output=out, resume=True, workers=0, progress=False)
-    assert table.attrs == {"ran": 40 - len(kept), "kept": len(kept)}
-    assert list(table["point"]) == list(range(40)) and set(table["status"]) == {"ok"}
-    for index, row in kept.items():        # the finished points were kept, not run again
-        assert table["run_time"][index] == row["run_time"]
-    assert not journal.exists()
-    fresh = run_sweep(sweep, workers=0, progress=False)
-    same_rows(fresh, table)
-    back = pd.read_csv(out)
-    assert list(back["point"]) == list(range(40))
-
-
-def test_resume_drops_a_line_cut_short_and_refuses_another_sweeps_output(tmp_path):
-    out = tmp_path / "r.parquet"
-    sweep = fold_sweep(vary={"inputs.f1.gain": [8.0, 9.0, 10.0, 11.0]})
-
-    def stop_after_two(done, failed, total):
-        if done == 2:
-            raise KeyboardInterrupt
-
-    with pytest.raises(KeyboardInterrupt):
-        run_sweep(sweep, output=out, workers=0, progress=stop_after_two)
-    journal = tmp_path / "r.parquet.partial.jsonl"
-    with open(journal, "a") as fh:
-        fh.write('{"point": 2, "inputs.f1.ga')         # what a kill in mid-write leaves
-    table = run_sweep(sweep, output=out, resume=True, workers=0, progress=False)
-    assert table.attrs == {"ran": 2, "kept": 2} and list(table["point"]) == [0, 1, 2, 3]
-    again = run_sweep(sweep, output=out, resume=True, workers=0, progress=False)
-    assert again.attrs == {"ran": 0, "kept": 4}
-    same_rows(table, again)
-    with pytest.raises(SweepError, match="comes from another sweep"):
-        run_sweep({**sweep, "seed": 1}, output=out, resume=True, workers=0, progress=False)
-    with pytest.raises(SweepError, match="has inputs.f1.gain = 9.0, this sweep 9.5"):
-        run_sweep({**sweep, "vary": {"inputs.f1.gain": [8.0, 9.5, 10.0, 11.0]}}, output=out, resume=True,
-                  workers=0, progress=False)
-    more = run_sweep({**sweep, "vary": {"inputs.f1.gain": [8.0, 9.0, 10.0, 11.0, 12.0]}}, output=out,
-                     resume=True, workers=0, progress=False)       # one more value: one more point run
-    assert more.attrs == {"ran": 1, "kept": 4}
