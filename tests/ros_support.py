@@ -90,12 +90,33 @@ class FeedbackLog:
         with self._changed:
             return list(self._by_goal[bytes(handle.goal_id.uuid)])
 
+    def view(self, handle) -> GoalFeedback:
+        """The feedback of the goal of ``handle``, read anew at every use."""
+        return GoalFeedback(self, handle)
+
     def until(self, handle, found, what: str, timeout: float = 60.0) -> list:
         """The goal's feedback once ``found(feedback)`` holds (another thread spins ``node``)."""
         with self._changed:
             ok = self._changed.wait_for(lambda: found(self._by_goal[bytes(handle.goal_id.uuid)]), timeout)
         assert ok, f"waited {timeout:g} s for {what}"
         return self.of(handle)
+
+
+class GoalFeedback:
+    """One goal's feedback in a :class:`FeedbackLog` as a sequence read anew at every use
+    (``len``, iteration, indexing, truth), for waits on its growth."""
+
+    def __init__(self, log: FeedbackLog, handle) -> None:
+        self._log, self._handle = log, handle
+
+    def __len__(self) -> int:
+        return len(self._log.of(self._handle))
+
+    def __iter__(self):
+        return iter(self._log.of(self._handle))
+
+    def __getitem__(self, i):
+        return self._log.of(self._handle)[i]
 
 
 def spawn(argv: list[str], **kwargs) -> subprocess.Popen:

@@ -96,25 +96,29 @@ WATCH = """() => { window.__shown = []; const seen = new Set();
   .observe(document.body, {subtree: true, childList: true, characterData: true}); }"""
 
 
-def _start(args: list[str], env: dict) -> tuple[subprocess.Popen, int, float, Path]:
-    """A view process, its port and the seconds until its page answered."""
+def _start(args: list[str], env: dict) -> tuple[subprocess.Popen, int, float]:
+    """A view process, its port and the seconds until its page answered (its output goes to a
+    file removed once the page answers: the process keeps writing to the unlinked file)."""
     log = Path(tempfile.mkstemp(prefix="bench_view_", suffix=".log")[1])
-    t0 = time.monotonic()
-    with open(log, "w") as out:
-        proc = subprocess.Popen([TENSEGRITY, "view", *args, "--port", "0"], stdout=out, stderr=out, env=env,
-                                start_new_session=True)
-    deadline = t0 + 120
-    while not (m := READY.search(log.read_text(errors="replace"))):
-        if proc.poll() is not None or time.monotonic() > deadline:
-            kill_group(proc)
-            raise RuntimeError(f"the view did not start: {log.read_text()[-500:]}")
-        time.sleep(0.005)
+    try:
+        t0 = time.monotonic()
+        with open(log, "w") as out:
+            proc = subprocess.Popen([TENSEGRITY, "view", *args, "--port", "0"], stdout=out, stderr=out, env=env,
+                                    start_new_session=True)
+        deadline = t0 + 120
+        while not (m := READY.search(log.read_text(errors="replace"))):
+            if proc.poll() is not None or time.monotonic() > deadline:
+                kill_group(proc)
+                raise RuntimeError(f"the view did not start: {log.read_text()[-500:]}")
+            time.sleep(0.005)
+    finally:
+        log.unlink()
     port = int(m.group(1))
     conn = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
     conn.request("GET", "/")
     conn.getresponse().read()
     conn.close()
-    return proc, port, time.monotonic() - t0, log
+    return proc, port, time.monotonic() - t0
 
 
 def _bag_seconds(folder: str) -> float:
@@ -237,7 +241,7 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
         base.append(time.monotonic() - t0)
     ready = []
     for _ in range(starts):
-        proc, _port, took, _log = _start(["--scene", "class2_at_rest"], env)
+        proc, _port, took = _start(["--scene", "class2_at_rest"], env)
         ready.append(took)
         _stop(proc)
     rows.append(Row("view", "tensegrity scenes: start to exit, median", statistics.median(base), "s"))
@@ -269,7 +273,7 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
                      ("spine (core, in process)", ["--scene", "spine_release"], "· playing")]
         for name, args, playing in runs:
             ends = _bag_seconds(args[0]) if name.endswith("bag") else None
-            proc, port, _, _log = _start(args, env)
+            proc, port, _ = _start(args, env)
             try:
                 _, fps, shown, _, per_frame, note = _page_rates(browser, f"http://127.0.0.1:{port}", seconds,
                                                                 play=playing, ends=ends)
@@ -318,7 +322,7 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
         spin = threading.Thread(target=spin_until_stopped, daemon=True)
         spin.start()
         try:
-            proc, port, _, _log = _start([], env)
+            proc, port, _ = _start([], env)
             try:
                 _, fps, shown, samples, _, note = _page_rates(browser, f"http://127.0.0.1:{port}", seconds)
             finally:

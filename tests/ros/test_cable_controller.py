@@ -42,23 +42,28 @@ def rig(tmp_path_factory):
                 "-p", "initial_state:=paused", "-p", "paused_publish_rate:=20.0", "-p", "lockstep_timeout:=30.0"],
                folder / "sim.log")
     ctl = Proc(["node", "cables", "--ros-args", *scene], folder / "cables.log")
-    sim.wait_for("publishing at")
-    ctl.wait_for("cable controller ready")
     ctx = Context()
-    rclpy.init(args=[], context=ctx)
-    client = SimClient(rclpy, "cable_test_client", context=ctx)
-    client.wait_for_services(60)
-    action = ActionClient(client.node, FollowJointTrajectory, ACTION)
-    assert action.wait_for_server(timeout_sec=60)
-    assert wait_until_server_heard(client.node, ACTION, wait_done, 60)
-    feedback_log = FeedbackLog(client.node, FollowJointTrajectory, ACTION)
-    _wait_for_the_controllers_answer(client)
-    yield client, action, sim, ctl, feedback_log
-    action.destroy()
-    client.close()
-    end_context(ctx)
-    for p in (sim, ctl):
-        p.stop()
+    client = action = None
+    try:
+        sim.wait_for("publishing at")
+        ctl.wait_for("cable controller ready")
+        rclpy.init(args=[], context=ctx)
+        client = SimClient(rclpy, "cable_test_client", context=ctx)
+        client.wait_for_services(60)
+        feedback_log = FeedbackLog(client.node, FollowJointTrajectory, ACTION)   # before the probe: matched
+        action = ActionClient(client.node, FollowJointTrajectory, ACTION)
+        assert action.wait_for_server(timeout_sec=60)
+        assert wait_until_server_heard(client.node, ACTION, wait_done, 60)
+        _wait_for_the_controllers_answer(client)
+        yield client, action, sim, ctl, feedback_log
+    finally:
+        if action is not None:
+            action.destroy()
+        if client is not None:
+            client.close()
+        end_context(ctx)
+        for p in (sim, ctl):
+            p.stop()
 
 
 def _wait_for_the_controllers_answer(client, timeout: float = 60.0) -> None:

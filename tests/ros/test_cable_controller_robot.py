@@ -43,23 +43,28 @@ def rig(tmp_path):
                 "-p", "publish_rate:=1000.0", "-p", "state_rate:=1000.0", "-p", "imu_rate:=0.0",
                 "-p", "marker_rate:=0.0"], tmp_path / "sim.log")
     ctl = Proc(["node", "cables", "--ros-args", *scene], tmp_path / "cables.log")
-    sim.wait_for("publishing at")
-    ctl.wait_for("cable controller ready")
     ctx = Context()
-    rclpy.init(args=[], context=ctx)
-    client = SimClient(rclpy, "robot_cable_test_client", context=ctx)
-    client.wait_for_services(60)
-    action = ActionClient(client.node, FollowJointTrajectory, ACTION)
-    assert action.wait_for_server(timeout_sec=60)
-    assert wait_until_server_heard(client.node, ACTION, wait_done, 60)
-    feedback_log = FeedbackLog(client.node, FollowJointTrajectory, ACTION)
-    _wait_for_the_controllers_answer(client)
-    yield client, action, sim, feedback_log
-    action.destroy()
-    client.close()
-    end_context(ctx)
-    for p in (sim, ctl):
-        p.stop()
+    client = action = None
+    try:
+        sim.wait_for("publishing at")
+        ctl.wait_for("cable controller ready")
+        rclpy.init(args=[], context=ctx)
+        client = SimClient(rclpy, "robot_cable_test_client", context=ctx)
+        client.wait_for_services(60)
+        feedback_log = FeedbackLog(client.node, FollowJointTrajectory, ACTION)   # before the probe: matched
+        action = ActionClient(client.node, FollowJointTrajectory, ACTION)
+        assert action.wait_for_server(timeout_sec=60)
+        assert wait_until_server_heard(client.node, ACTION, wait_done, 60)
+        _wait_for_the_controllers_answer(client)
+        yield client, action, sim, feedback_log
+    finally:
+        if action is not None:
+            action.destroy()
+        if client is not None:
+            client.close()
+        end_context(ctx)
+        for p in (sim, ctl):
+            p.stop()
 
 
 def test_a_gait_of_two_motor_cables_is_followed_as_the_core_runs_it_and_settles_through_the_motors_lag(rig):

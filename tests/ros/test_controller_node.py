@@ -24,7 +24,7 @@ import pytest
 from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics
 from tensegrity_ros.rclpy_utils.futures import spin_until_done
 from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
-from tests.ros_support import end_context, run_cli
+from tests.ros_support import FeedbackLog, end_context, run_cli
 
 pytestmark = pytest.mark.ros
 
@@ -51,8 +51,12 @@ class Client:
         self.node = rclpy.create_node("controller_test_client", namespace=namespace, context=ctx)
         self.executor = SingleThreadedExecutor(context=ctx)
         self.executor.add_node(self.node)
+        # the feedback topics' readers before the probe below: matched once it is answered
+        move_feedback = FeedbackLog(self.node, MoveEndEffector, "move_end_effector")
+        follow_feedback = FeedbackLog(self.node, FollowActuatorTrajectory, "follow_actuator_trajectory")
         self.move = ActionClient(self.node, MoveEndEffector, "move_end_effector")
         self.follow = ActionClient(self.node, FollowActuatorTrajectory, "follow_actuator_trajectory")
+        self._feedback = {self.move: move_feedback, self.follow: follow_feedback}
         self.joints: list = []
         self.commands: list = []
         self.node.create_subscription(JointState, "joint_states", self.joints.append, 10)
@@ -69,13 +73,13 @@ class Client:
             self.executor.spin_once(timeout_sec=0.02)
 
     def send(self, client, goal):
-        """Send ``goal``; returns (goal handle, feedback list)."""
-        feedback: list = []
-        sent = client.send_goal_async(goal, feedback_callback=lambda m: feedback.append(m.feedback))
+        """Send ``goal``; returns (goal handle, its feedback as it comes: a
+        :class:`tests.ros_support.GoalFeedback`)."""
+        sent = client.send_goal_async(goal)
         self.spin_until(sent.done, 30)
         handle = sent.result()
         assert handle.accepted
-        return handle, feedback
+        return handle, self._feedback[client].view(handle)
 
     def result(self, handle, timeout: float = 60.0):
         fut = handle.get_result_async()
@@ -148,6 +152,12 @@ def suite(tmp_path_factory):
     end_context(ctx)
     for p in procs:
         p.stop()
+
+
+def _settling(feedback) -> bool:
+    """Whether a feedback of the settling phase has come: the result may come first (another
+    topic), and with it has come every feedback of the moving phase."""
+    return any(f.phase == "settling" for f in feedback)
 
 
 def _traj(names=("rho1", "rho2"), points=((1.0, (0.71, 0.69)), (2.0, (0.72, 0.7)))):
@@ -402,6 +412,7 @@ def test_move_reaches_the_target_within_its_tolerance_with_feedback(suite):
     assert res.settled_error < 1e-4
     assert math.hypot(res.end_effector.x - target[0], res.end_effector.y - target[1]) < 1e-4
     assert 0 < res.max_force <= 5.0
+    client.spin_until(lambda: _settling(feedback))          # with it every feedback before (one writer)
     phases = [f.phase for f in feedback]
     assert phases[0] == "moving" and phases[-1] == "settling"
     times = [f.time_from_start for f in feedback]
@@ -419,6 +430,7 @@ def test_a_move_with_neither_duration_nor_speed_takes_the_controllers_max_speed(
     status, res, feedback = client.run(client.move, client.Move.Goal(x=x0 + 0.03, y=y0))
     assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
     duration = 630 / 256 * 0.03 / 0.05
+    client.spin_until(lambda: _settling(feedback))
     moving = [f.time_from_start for f in feedback if f.phase == "moving"]
     settling = [f.time_from_start for f in feedback if f.phase == "settling"]
     assert duration - 0.02 <= moving[-1] < duration <= settling[0] < duration + 0.02

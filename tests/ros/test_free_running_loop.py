@@ -81,7 +81,7 @@ def test_a_free_running_robot_follows_a_trajectory_goal_within_its_motors_slew_l
         _wait_for_the_controllers_answer(client)
         client.set_state(SimulationState.STATE_PLAYING)
         goal = _goal([(0.1, TARGETS)], names=CABLES, goal_time_tolerance=Duration(sec=5))
-        handle, _ = _send(client, action, goal)
+        handle = _send(client, action, goal)
         assert handle.accepted
         status, result = _result(client, handle, timeout=300.0)
         assert status == GoalStatus.STATUS_SUCCEEDED and result.error_code == SUCCESSFUL, result.error_string
