@@ -10,6 +10,7 @@ goal's own points, and the result codes of control_msgs.
 from __future__ import annotations
 
 import math
+from contextlib import contextmanager
 
 import numpy as np
 import pytest
@@ -24,10 +25,14 @@ STEP_NS = 10_000_000
 ACTION = "/tensegrity_cable_controller/follow_joint_trajectory"
 
 
-@pytest.fixture(scope="module")
-def rig(tmp_path_factory):
-    """The simulator (lockstep, paused, republishing at 20 Hz), the cable controller, a
-    stepping client and an action client."""
+@contextmanager
+def cable_rig(folder, scene: str, sim_params: tuple[str, ...], client_name: str, before=None):
+    """The simulator of ``scene`` (paused, with ``-p`` parameters ``sim_params``) and the cable
+    controller, a :class:`SimClient` named ``client_name``, an action client the controller
+    has heard, and a :class:`FeedbackLog`, once the controller answers a state (it is active):
+    yields ``(client, action, sim, ctl, feedback_log)``, then stops them all (also when
+    set-up fails). ``before(client)``, if given, makes subscriptions the probe then proves
+    matched."""
     import rclpy
     from control_msgs.action import FollowJointTrajectory
     from rclpy.action import ActionClient
@@ -36,21 +41,22 @@ def rig(tmp_path_factory):
     from tensegrity_ros.apps.sim_client import SimClient
     from tests.ros_support import Proc
 
-    folder = tmp_path_factory.mktemp("cables")
-    scene = ("-p", "scene:=table_actuated")
-    sim = Proc(["node", "sim", "--ros-args", *scene, "-p", f"step_size:={STEP_NS / 1e9}", "-p", "lockstep:=true",
-                "-p", "initial_state:=paused", "-p", "paused_publish_rate:=20.0", "-p", "lockstep_timeout:=30.0"],
-               folder / "sim.log")
-    ctl = Proc(["node", "cables", "--ros-args", *scene], folder / "cables.log")
+    args = ["-p", f"scene:={scene}"]
+    for param in ("initial_state:=paused", *sim_params):
+        args += ["-p", param]
+    sim = Proc(["node", "sim", "--ros-args", *args], folder / "sim.log")
+    ctl = Proc(["node", "cables", "--ros-args", "-p", f"scene:={scene}"], folder / "cables.log")
     ctx = Context()
     client = action = None
     try:
         sim.wait_for("publishing at")
         ctl.wait_for("cable controller ready")
         rclpy.init(args=[], context=ctx)
-        client = SimClient(rclpy, "cable_test_client", context=ctx)
+        client = SimClient(rclpy, client_name, context=ctx)
         client.wait_for_services(60)
         feedback_log = FeedbackLog(client.node, FollowJointTrajectory, ACTION)   # before the probe: matched
+        if before is not None:
+            before(client)
         action = ActionClient(client.node, FollowJointTrajectory, ACTION)
         assert action.wait_for_server(timeout_sec=60)
         assert wait_until_server_heard(client.node, ACTION, wait_done, 60)
@@ -64,6 +70,16 @@ def rig(tmp_path_factory):
         end_context(ctx)
         for p in (sim, ctl):
             p.stop()
+
+
+@pytest.fixture(scope="module")
+def rig(tmp_path_factory):
+    """The simulator (lockstep, paused, republishing at 20 Hz), the cable controller, a
+    stepping client and an action client (:func:`cable_rig`)."""
+    with cable_rig(tmp_path_factory.mktemp("cables"), "table_actuated",
+                   (f"step_size:={STEP_NS / 1e9}", "lockstep:=true", "paused_publish_rate:=20.0",
+                    "lockstep_timeout:=30.0"), "cable_test_client") as parts:
+        yield parts
 
 
 def _wait_for_the_controllers_answer(client, timeout: float = 60.0) -> None:

@@ -15,56 +15,21 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tensegrity_ros.rclpy_utils.futures import wait_done
-from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
-from tests.ros.test_cable_controller import _ended, _goal, _result, _send, _t0, _wait_for_the_controllers_answer
-from tests.ros_support import FeedbackLog, end_context
+from tests.ros.test_cable_controller import _ended, _goal, _result, _send, _t0, cable_rig
 
 pytestmark = pytest.mark.ros
 
 STEP_NS = 1_000_000
-ACTION = "/tensegrity_cable_controller/follow_joint_trajectory"
 CABLES = ("c0_4", "c0_7")
 
 
 @pytest.fixture
 def rig(tmp_path):
-    import rclpy
-    from control_msgs.action import FollowJointTrajectory
-    from rclpy.action import ActionClient
-    from rclpy.context import Context
-
-    from tensegrity_ros.apps.sim_client import SimClient
-    from tests.ros_support import Proc
-
-    scene = ("-p", "scene:=six_bar_drop")
-    sim = Proc(["node", "sim", "--ros-args", *scene, "-p", f"step_size:={STEP_NS / 1e9}", "-p", "lockstep:=true",
-                "-p", "initial_state:=paused", "-p", "paused_publish_rate:=20.0", "-p", "lockstep_timeout:=30.0",
-                "-p", "publish_rate:=1000.0", "-p", "state_rate:=1000.0", "-p", "imu_rate:=0.0",
-                "-p", "marker_rate:=0.0"], tmp_path / "sim.log")
-    ctl = Proc(["node", "cables", "--ros-args", *scene], tmp_path / "cables.log")
-    ctx = Context()
-    client = action = None
-    try:
-        sim.wait_for("publishing at")
-        ctl.wait_for("cable controller ready")
-        rclpy.init(args=[], context=ctx)
-        client = SimClient(rclpy, "robot_cable_test_client", context=ctx)
-        client.wait_for_services(60)
-        feedback_log = FeedbackLog(client.node, FollowJointTrajectory, ACTION)   # before the probe: matched
-        action = ActionClient(client.node, FollowJointTrajectory, ACTION)
-        assert action.wait_for_server(timeout_sec=60)
-        assert wait_until_server_heard(client.node, ACTION, wait_done, 60)
-        _wait_for_the_controllers_answer(client)
-        yield client, action, sim, feedback_log
-    finally:
-        if action is not None:
-            action.destroy()
-        if client is not None:
-            client.close()
-        end_context(ctx)
-        for p in (sim, ctl):
-            p.stop()
+    with cable_rig(tmp_path, "six_bar_drop",
+                   (f"step_size:={STEP_NS / 1e9}", "lockstep:=true", "paused_publish_rate:=20.0",
+                    "lockstep_timeout:=30.0", "publish_rate:=1000.0", "state_rate:=1000.0", "imu_rate:=0.0",
+                    "marker_rate:=0.0"), "robot_cable_test_client") as parts:
+        yield parts
 
 
 def test_a_gait_of_two_motor_cables_is_followed_as_the_core_runs_it_and_settles_through_the_motors_lag(rig):
@@ -75,7 +40,7 @@ def test_a_gait_of_two_motor_cables_is_followed_as_the_core_runs_it_and_settles_
     from tensegrity_core.sim.joint_trajectory import SUCCESSFUL, plan_trajectory
     from tensegrity_core.sim.sampled import step_time
 
-    client, action, sim, feedback_log = rig
+    client, action, sim, _, feedback_log = rig
     t0 = _t0(client)
     points = [(0.05, (0.95, 0.97)), (0.1, (0.9, 0.95))]
     goal = _goal(points, names=CABLES, goal_time_tolerance=Duration(sec=0, nanosec=200_000_000))

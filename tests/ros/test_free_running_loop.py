@@ -20,14 +20,10 @@ import threading
 
 import pytest
 
-from tensegrity_ros.rclpy_utils.futures import wait_done
-from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
-from tests.ros.test_cable_controller import _goal, _result, _send, _wait_for_the_controllers_answer
-from tests.ros_support import end_context
+from tests.ros.test_cable_controller import _goal, _result, _send, cable_rig
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
-ACTION = "/tensegrity_cable_controller/follow_joint_trajectory"
 CABLES = ("c0_4", "c0_7")
 TARGETS = (0.90, 0.95)         # m, from the drawn 0.996: a 0.096 m and a 0.046 m reel-in
 GOAL_TOLERANCE = 1e-4          # m: the controller's default
@@ -35,74 +31,46 @@ NS_PER_S = 1_000_000_000
 
 
 def test_a_free_running_robot_follows_a_trajectory_goal_within_its_motors_slew_limit(tmp_path):
-    import rclpy
     from action_msgs.msg import GoalStatus
     from builtin_interfaces.msg import Duration
-    from control_msgs.action import FollowJointTrajectory
-    from rclpy.action import ActionClient
-    from rclpy.context import Context
     from rclpy.qos import QoSProfile
     from simulation_interfaces.msg import SimulationState
     from tensegrity_msgs.msg import CableStates
 
     from tensegrity_core.robot.loading import load_robot
     from tensegrity_core.sim.joint_trajectory import SUCCESSFUL
-    from tensegrity_ros.apps.sim_client import SimClient
-    from tests.ros_support import Proc
 
     robot = load_robot("six_bar")
     motor_names = [robot.cables.names[c] for c in robot.motors.cable]
     max_speed = {name: float(robot.motors.max_speed[i]) for i, name in enumerate(motor_names)}
-    scene = ("-p", "scene:=six_bar_drop")
-    sim = Proc(["node", "sim", "--ros-args", *scene, "-p", "step_size:=0.001", "-p", "real_time_factor:=1.0",
-                "-p", "initial_state:=paused", "-p", "paused_publish_rate:=20.0", "-p", "publish_rate:=100.0",
-                "-p", "state_rate:=100.0", "-p", "imu_rate:=0.0", "-p", "marker_rate:=0.0"], tmp_path / "sim.log")
-    ctl = Proc(["node", "cables", "--ros-args", *scene], tmp_path / "cables.log")
-    ctx = Context()
-    client = action = None
-    try:
-        sim.wait_for("publishing at")
-        ctl.wait_for("cable controller ready")
-        rclpy.init(args=[], context=ctx)
-        client = SimClient(rclpy, "free_running_loop_client", context=ctx)
-        states: list = []
-        arrived = threading.Condition()
+    states: list = []
+    arrived = threading.Condition()
 
-        def on_cables(msg) -> None:
-            with arrived:
-                states.append(msg)
-                arrived.notify_all()
+    def on_cables(msg) -> None:
+        with arrived:
+            states.append(msg)
+            arrived.notify_all()
 
-        client.node.create_subscription(CableStates, "cable_states", on_cables, QoSProfile(depth=1000))
-        client.wait_for_services(60)
-        action = ActionClient(client.node, FollowJointTrajectory, ACTION)
-        assert action.wait_for_server(timeout_sec=60)
-        assert wait_until_server_heard(client.node, ACTION, wait_done, 60)
-        _wait_for_the_controllers_answer(client)
+    def rest(msg) -> dict[str, float]:
+        return dict(zip(msg.name, msg.rest_length))
+
+    def arrived_at_targets() -> bool:
+        return bool(states) and all(abs(rest(states[-1])[c] - t) <= GOAL_TOLERANCE for c, t in zip(CABLES, TARGETS))
+
+    params = ("step_size:=0.001", "real_time_factor:=1.0", "paused_publish_rate:=20.0", "publish_rate:=100.0",
+              "state_rate:=100.0", "imu_rate:=0.0", "marker_rate:=0.0")
+    with cable_rig(tmp_path, "six_bar_drop", params, "free_running_loop_client", before=lambda client: (
+            client.node.create_subscription(CableStates, "cable_states", on_cables, QoSProfile(depth=1000)))) as (
+            client, action, _, _, _):
         client.set_state(SimulationState.STATE_PLAYING)
         goal = _goal([(0.1, TARGETS)], names=CABLES, goal_time_tolerance=Duration(sec=5))
         handle = _send(client, action, goal)
         assert handle.accepted
         status, result = _result(client, handle, timeout=300.0)
         assert status == GoalStatus.STATUS_SUCCEEDED and result.error_code == SUCCESSFUL, result.error_string
-
-        def rest(msg) -> dict[str, float]:
-            return dict(zip(msg.name, msg.rest_length))
-
-        def arrived_at_targets() -> bool:
-            return bool(states) and all(abs(rest(states[-1])[c] - t) <= GOAL_TOLERANCE for c, t in zip(CABLES, TARGETS))
-
         with arrived:        # the controller saw it on a cable_states this client may not have taken yet
             assert arrived.wait_for(arrived_at_targets, timeout=60.0), "no cable_states at the goal arrived"
             run = list(states)
-    finally:
-        if action is not None:
-            action.destroy()
-        if client is not None:
-            client.close()
-        end_context(ctx)
-        for p in (sim, ctl):
-            p.stop()
 
     stamps = [m.header.stamp.sec * NS_PER_S + m.header.stamp.nanosec for m in run]
     assert stamps == sorted(stamps)
