@@ -318,7 +318,10 @@ def live(browser, tmp_path_factory):
     client = None
     try:
         sim = start("node", "sim", log_name="sim")
-        controller = start("node", "controller", log_name="controller")
+        # the controller's watchdog at 5 s, not its 0.5 s of wall time: the simulator runs at
+        # real time beside a software-rendering browser, and a loaded machine stalled it 0.7 s
+        # (a move aborted as "the simulator stopped"); the watchdog has tests of its own
+        controller = start("node", "controller", "--ros-args", "-p", "state_timeout:=5.0", log_name="controller")
         client = SimClient(rclpy, "view_test_client", context=ctx, record_events=False)
         client.wait_for_services()
         controller.wait_for("controller ready", timeout=WAIT)
