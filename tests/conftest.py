@@ -100,38 +100,59 @@ def pytest_xdist_make_scheduler(config, log):
     return FileScheduling(config, log)
 
 
-def _processes_of_this_run() -> dict[int, str]:
-    """pid -> command line of every live process (other than this one) started by this run."""
+_PF_KTHREAD = 0x00200000   # a kernel thread's flag in /proc/<pid>/stat (include/linux/sched.h)
+
+
+def _stat_fields(proc: str) -> list[str]:
+    """Fields 3.. of /proc/<pid>/stat (state, ppid, ..., flags at [6], starttime at [19])."""
+    return Path(proc, "stat").read_text().rsplit(")", 1)[1].split()
+
+
+def _processes_of_this_run() -> tuple[dict[int, str], set[int]]:
+    """(pid -> command line of every live process, other than this one, started by this run;
+    pids whose environment cannot be read yet).
+
+    A process in the middle of exec (its parent's ``Popen`` has already returned) shows an
+    empty environment until the kernel has built its new stack: such a process started since
+    this one is not yet known to be outside the run, and is returned to be looked at again."""
     mark = f"{_RUN_MARK[0]}={_RUN_MARK[1]}".encode()
-    found = {}
+    started = int(_stat_fields("/proc/self")[19]) if os.path.isdir("/proc") else 0
+    found, unreadable = {}, set()
     for entry in os.scandir("/proc") if os.path.isdir("/proc") else ():
         if not entry.name.isdigit() or int(entry.name) == os.getpid():
             continue
         try:
-            if mark not in Path(entry.path, "environ").read_bytes().split(b"\0"):
-                continue
-            state, ppid = Path(entry.path, "stat").read_text().rsplit(")", 1)[1].split()[:2]
-            cmd = Path(entry.path, "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
-            if state == "Z":
+            environ = Path(entry.path, "environ").read_bytes()
+            stat = _stat_fields(entry.path)
+            if stat[0] == "Z":
                 continue                  # exited, waiting to be reaped: not alive
-            if int(ppid) == os.getpid() and "from multiprocessing." in cmd:
+            if not environ:
+                if not int(stat[6]) & _PF_KTHREAD and int(stat[19]) >= started:
+                    unreadable.add(int(entry.name))
+                continue
+            if mark not in environ.split(b"\0"):
+                continue
+            cmd = Path(entry.path, "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+            if int(stat[1]) == os.getpid() and "from multiprocessing." in cmd:
                 continue                  # this process's own forkserver/resource tracker
             found[int(entry.name)] = cmd
         except OSError:
             continue
-    return found
+    return found, unreadable
 
 
 @pytest.hookimpl(trylast=True)     # after pytest-xdist has shut its workers down
 def pytest_sessionfinish(session, exitstatus):
-    """Fail the run if a process it started is still alive (after 10 s for late exits).
-    With parallel workers the check runs once, in the controlling process after every
-    worker has finished (a worker would see the others' running nodes)."""
+    """Fail the run if a process it started is still alive (after 10 s for late exits and
+    for processes still in exec). With parallel workers the check runs once, in the
+    controlling process after every worker has finished (a worker would see the others'
+    running nodes)."""
     if hasattr(session.config, "workerinput"):
         return
     deadline = time.monotonic() + 10.0
-    while (left := _processes_of_this_run()) and time.monotonic() < deadline:
+    while any(scan := _processes_of_this_run()) and time.monotonic() < deadline:
         time.sleep(0.2)
+    left = scan[0]
     if not left:
         return
     for pid in left:
