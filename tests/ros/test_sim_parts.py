@@ -146,12 +146,12 @@ def test_a_marked_array_is_found_at_its_place_after_padding_left_from_an_earlier
     next sequence length)."""
     import struct
 
-    from tensegrity_ros.nodes.sim import joint_bytes
+    from tensegrity_ros.nodes.sim import message_bytes
 
-    array = joint_bytes._marks(n)
+    array = message_bytes._marks(n)
     marked = struct.pack("<I", n) + array[-stale:] + array + struct.pack("<I", n)
     first = 4 + stale
-    assert joint_bytes._where(marked, array) == (first, first + 8 * n)
+    assert message_bytes._where(marked, array) == (first, first + 8 * n)
 
 
 @pytest.mark.parametrize("names", [(), ("rho1", "rho2", "beta"), tuple(f"c{i}_{i + 4}" for i in range(24))])

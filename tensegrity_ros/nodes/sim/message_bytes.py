@@ -1,13 +1,13 @@
 """Any message of fixed shape as serialized bytes, refilled in place for each publication.
 
-The simulator's cable_states, IMU readings and body states keep their names, kinds, frames
-and sequence lengths from one publication to the next: only the header's stamp, runs of
-float64 (lengths, quaternions, velocities) and runs of bools (slack) change. Publishing
-the Python message converts every string and nested message to C and serializes the whole
-message each time; :class:`MessageBytes` publishes rclpy's own serialization of a template
-with the stamp and the runs written into it, as :mod:`.joint_bytes` does for joint_states.
+The simulator's joint_states, cable_states, IMU readings and body states keep their names,
+kinds, frames and sequence lengths from one publication to the next: only the header's
+stamp, runs of float64 (positions, lengths, quaternions, velocities) and runs of bools
+(slack) change. Publishing the Python message converts every string and nested message to
+C and serializes the whole message each time; :class:`MessageBytes` publishes rclpy's own
+serialization of a template with the stamp and the runs written into it.
 The layout is not written here: where the stamp and each float run lie is found in rclpy's
-serialization of templates with marker values there (:func:`.joint_bytes._where`), a bool
+serialization of templates with marker values there (:func:`_where`), a bool
 run as the one place where all-False and all-True templates read ``0`` and ``1``; the result
 is checked once against rclpy's deserializer, and a template that does not check out
 leaves :attr:`MessageBytes.ok` False (the caller then publishes messages).
@@ -15,6 +15,7 @@ leaves :attr:`MessageBytes.ok` False (the caller then publishes messages).
 
 from __future__ import annotations
 
+import struct
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -22,7 +23,29 @@ import numpy as np
 from numpy.typing import NDArray
 from rclpy.serialization import deserialize_message, serialize_message
 
-from tensegrity_ros.nodes.sim.joint_bytes import _MARK_NSEC, _MARK_SEC, _STAMP, _marks, _where
+#: Stamp values of non-zero bytes: mark the stamp's bytes.
+_MARK_SEC, _MARK_NSEC = 0x1A1A1A1A, 0x1B1B1B1B
+_STAMP = struct.Struct("<iI")
+
+
+def _marks(n: int) -> bytes:
+    """The bytes that mark an array of ``n`` float64: 1, 2, ..., 251, 1, 2, ... (no float of
+    them is NaN: no byte is 0xff). No run of them shorter than 251 bytes repeats, so they
+    cannot be found again shifted by a few bytes: the padding before an aligned array holds
+    whatever the serializer's buffer held, such as the marks of the serialization before (a
+    mark of equal bytes was then found twice, one to seven bytes apart, and the layout lost)."""
+    return bytes(j % 251 + 1 for j in range(8 * n))
+
+
+def _where(marked: bytes, mark: bytes) -> tuple[int, int]:
+    """``(first, end)``: the one place ``mark`` lies in ``marked``, or ``(0, 0)`` (none, or
+    several). Searched rather than diffed: the padding bytes before an aligned field are
+    whatever the serializer left there, so two serializations differ there too."""
+    first = marked.find(mark)
+    if first < 0 or marked.find(mark, first + 1) >= 0:
+        return 0, 0
+    return first, first + len(mark)
+
 
 #: ``build(sec, nanosec, runs)``: the message stamped ``sec``, ``nanosec`` whose runs have
 #: the values ``runs`` gives (name -> sequence), zeros or False for a run not given.
