@@ -124,8 +124,12 @@ class Client:
         a lock: sent from this thread while the spin thread runs, the answer can come before the
         future exists and is dropped ("Ignoring unexpected goal response"), so a careful rclpy
         user sends from the executor's thread."""
-        future = self.wait_future(self._executor.create_task(call), f"the spin thread to ask for {what}", timeout)
-        return self.wait_future(future, what, timeout)
+        return self.wait_future(self.request(call, what, timeout), what, timeout)
+
+    def request(self, call: Callable[[], Any], what: str, timeout: float = PATIENCE) -> Any:
+        """The future ``call()`` returns, ``call`` made by the spinning thread (as in
+        :meth:`ask`), for a test that does something else before it waits for the answer."""
+        return self.wait_future(self._executor.create_task(call), f"the spin thread to ask for {what}", timeout)
 
     def call(self, srv_type: Any, name: str, request: Any = None, timeout: float = PATIENCE) -> Any:
         client = self.node.create_client(srv_type, name)

@@ -61,7 +61,7 @@ def test_a_goal_sent_before_the_simulator_runs_is_held_until_the_states_come_and
         action = client.action_client(FollowJointTrajectory, ACTION)
         handle, _ = _send(client, action, _goal(0.2, REST - 0.02))
         assert handle.accepted
-        result = handle.get_result_async()
+        result = client.request(handle.get_result_async, "the held goal's result")
         sim = start_sim(tmp_path, SCENE)           # after the goal: no state could have come before it
         answer = client.wait_future(result, "the held goal's result")
         assert (answer.status, answer.result.error_code) == (GoalStatus.STATUS_SUCCEEDED, SUCCESSFUL), \
@@ -98,7 +98,7 @@ def test_without_cable_states_no_joint_state_is_answered_and_a_goal_is_refused_a
                           "the controller's joint_states subscription")
         client.wait_until(lambda: client.node.count_publishers("/cable_commands") >= 1, "the controller's publisher")
         handle, _ = _send(client, action, _goal(0.2, REST - 0.02))
-        answer = client.wait_future(handle.get_result_async(), "the refusal")
+        answer = client.ask(handle.get_result_async, "the refusal")
         assert (answer.status, answer.result.error_code) == (GoalStatus.STATUS_ABORTED, INVALID_GOAL)
         message = answer.result.error_string
         assert "not active after state_timeout = 1 s" in message and "no cable_states" in message, message
@@ -126,7 +126,7 @@ def test_a_held_goal_that_is_cancelled_ends_canceled_at_once(tmp_path):
         action = client.action_client(FollowJointTrajectory, ACTION)
         handle, _ = _send(client, action, _goal(0.2, REST - 0.02))
         assert handle.accepted
-        result = handle.get_result_async()
+        result = client.request(handle.get_result_async, "the cancelled goal's result")
         client.ask(handle.cancel_goal_async, "the cancel response")
         answer = client.wait_future(result, "the cancelled goal's result")
         assert (answer.status, answer.result.error_code) == (GoalStatus.STATUS_CANCELED, SUCCESSFUL)
