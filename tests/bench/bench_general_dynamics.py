@@ -530,8 +530,8 @@ def _cpu_per_call(fn, n: int) -> float:
 def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
     """The floor of a pure-numpy RK4 step of the smallest tower (docs/design/performance.md):
     the fewest numpy calls a step needs -- per evaluation the member vectors (one product),
-    the lengths (two ``hypot``: no numpy call returns a row's norm in one call), the unit
-    vectors (one division), the rates (one product); per stage its state
+    the lengths (no numpy call returns a row's norm in one call: the squared components, their
+    sums by a product, the roots), the unit vectors (one division), the rates (one product); per stage its state
     (one product) -- each timed alone on the flat stages' own arrays in CPU time, outputs passed
     as the flat stages pass them, no Python between them and no event screen; against the
     compiled step and the numpy step measured in the same run (each call timed over
@@ -540,7 +540,7 @@ def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
     velocity differences come with the member vectors of the step's last evaluation), timed
     the same way: what a numpy step spends above the floor beyond them is Python."""
     from tensegrity_core.sim import compile_scene
-    from tensegrity_core.sim.general.kernels.flat_stages import DOT, FlatStages
+    from tensegrity_core.sim.general.kernels.flat_stages import DOT, SUMS, FlatStages
 
     os.environ["TENSEGRITY_KERNELS"] = "numpy"
     try:
@@ -554,23 +554,25 @@ def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
     flat.rk4(0.0, state.y, system.fun(0.0, state.y), first["step"])      # fills the buffers
     C, P, H, l, U, R, tail = flat._C, flat._positions, flat.h, flat.lengths, flat.u, flat._R, flat._tail
     Z, out, weights, state_row = flat._Z[0], flat._shaped(np.empty(len(state.y))), flat._weights[3], flat._state
-    lc, (hx, hy, hz) = l[:, None], H.T
+    squares, L = np.empty(H.shape), np.empty(H.shape)
     assert flat._identity                  # the rate product carries v: one call
     rates_out = out[0]
     calls = {"member vectors (np.dot)": lambda: DOT(C, P, H),
-             "lengths in the plane (np.hypot)": lambda: np.hypot(hx, hy, l),
-             "lengths (np.hypot)": lambda: np.hypot(l, hz, l),
-             "unit vectors (np.divide)": lambda: np.divide(H, lc, U),
+             "squared components (np.multiply)": lambda: np.multiply(H, H, squares),
+             "squared lengths (np.dot)": lambda: DOT(squares, SUMS, L),
+             "lengths (np.sqrt)": lambda: np.sqrt(L, L),
+             "unit vectors (np.divide)": lambda: np.divide(H, L, U),
              "rates (np.dot)": lambda: DOT(R, tail, rates_out),
              "stage state (np.dot)": lambda: DOT(weights, Z, state_row)}
     cost = {name: _cpu_per_call(fn, calls_per_loop) for name, fn in calls.items()}
     floor = 4 * sum(cost.values())
     E, sign, l0 = np.empty((3, len(l))), np.ones(len(l)), l.copy()
     gap, rate, opposite = E
-    dv = flat.dv
+    dv, products, ones = flat.dv, np.empty(H.shape), np.ones(3)
     screen = {"gaps (np.subtract)": lambda: np.subtract(l, l0, gap),
               "signed gaps (np.multiply)": lambda: np.multiply(gap, sign, gap),
-              "rates (np.vecdot)": lambda: np.vecdot(dv, U, rate),
+              "rates' terms (np.multiply)": lambda: np.multiply(dv, U, products),
+              "rates (np.dot)": lambda: DOT(products, ones, rate),
               "their opposites (np.negative)": lambda: np.negative(rate, opposite),
               "least of each (np.minimum.reduce, tolist)": lambda: np.minimum.reduce(E, 1, initial=np.inf).tolist()}
     screen_cost = {name: _cpu_per_call(fn, calls_per_loop) for name, fn in screen.items()}
