@@ -175,14 +175,14 @@ def _dense_rate(C: FloatArray, C_moving: FloatArray, P: FloatArray, H: FloatArra
 
 def _gathered_rate(stages: FlatStages, out: FloatArray) -> None:
     """:meth:`FlatStages._rate` with gathers."""
-    h, l, Q = stages.h, stages.lengths, stages._Q     # Q: [t / l, -t / l] (2, m) [N/m]
+    h, l, q, forces = stages.h, stages.lengths, stages._q, stages._forces      # q: t / l (m,) [N/m]
     ends = stages._ends
     stages._sources.take(stages.layout.ends, None, ends, "clip")     # indices valid: no checks
     np.subtract(ends[1], ends[0], h)
     _dot_components(h, h, l, stages._product)
     np.sqrt(l, l)
-    np.divide(stages._EA2, l, Q)                    # t / l = k (l - l0) / l = k - EA / l
-    np.subtract(stages._k2, Q, Q)
+    np.divide(stages.plan.EA, l, q)                 # t / l = k (l - l0) / l = k - EA / l
+    np.subtract(stages._k, q, q)
     if stages.damped:                               # + c (dv . u) / l = c (dv . h) / l^2
         w = stages.rate
         stages._velocity_differences()
@@ -190,9 +190,9 @@ def _gathered_rate(stages: FlatStages, out: FloatArray) -> None:
         w *= stages.plan.damping
         w /= l
         w /= l
-        Q[0] += w
-        Q[1] -= w
-    np.multiply(h, Q[:, None, :], stages._forces)
+        q += w
+    np.multiply(h, q, forces[0])                    # on the nodes a; their opposites on the nodes b
+    np.negative(forces[0], forces[1])
     n_free = stages.layout.n_free
     out[:n_free] = stages._velocities
     stages.S.take(stages._force_terms, None, stages._terms, "clip")
@@ -276,8 +276,7 @@ class FlatStages:
             self.S = np.zeros(src + 2 * m3)
             self.h, self.dv = np.empty((3, m)), np.empty((3, m))
             self._forces = self.S[src:].reshape(2, 3, m)
-            self._Q = np.empty((2, m))
-            self._EA2, self._k2 = np.stack([plan.EA, -plan.EA]), np.empty((2, m))
+            self._q = np.empty(m)
             self._ends, self._product = np.empty((2, 3, m)), np.empty((3, m))
             self._force_terms = np.ascontiguousarray(lay.terms[:, lay.n_free:])     # v's rows only
             self._terms = np.empty(self._force_terms.shape)
@@ -298,9 +297,7 @@ class FlatStages:
         """Rest lengths ``l0`` [m] for the next evaluations, with ``k = EA / l0`` [N/m] and
         (dense) the rate matrix's columns of ``h``."""
         np.divide(self.plan.EA, l0, out=self._k)
-        if not self.dense:
-            np.stack([self._k, -self._k], out=self._k2)
-        else:
+        if self.dense:
             np.multiply(self._pull, self._k, self._k_columns)                                    # k h
 
     def _rate(self, out: FloatArray) -> None:
