@@ -42,7 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from tests.bench.harness import Context, Row, benchmark, best_run, time_per_call
+from tests.bench.harness import Context, Row, benchmark, best_run, no_gc, time_per_call
 
 GROUP = "general_dynamics"
 #: The project's default: compiled DOP853 at this rtol (atol = rtol / 100).
@@ -173,12 +173,21 @@ def project_run(case: Case, *, min_time: float = 0.0, **integrator) -> tuple[flo
     """(integration wall time [s], node positions (N, n, 3), stats) of the project; the stats
     with ``cpu_seconds``, the least CPU time of this process over the runs [s], which go on
     for at least ``min_time`` [s]."""
+    run, cpu, model = _project_runner(case, **integrator)
+    wall, (state, samples) = best_run(run, 2 if case.scene.duration < 0.1 else 3, min_time, max_time=5.0)  # the first: numba loads
+    nodes = model.observe(samples)["nodes"]
+    return wall, nodes, dict(model.stats(state), cpu_seconds=cpu[0])
+
+
+def _project_runner(case: Case, **integrator):
+    """``(run, cpu, model)``: ``run()`` integrates ``case`` with the project (its model
+    compiled here, under this moment's kernel choice) and returns ``(state, samples)``;
+    ``cpu[0]`` the least CPU time of this process over the runs so far [s]."""
     from tensegrity_core.sim import compile_scene
 
     scene = _with_integrator(case.scene, **integrator)
     model = compile_scene(scene)
     times = _times(case)
-
     cpu = [math.inf]
 
     def run():
@@ -190,9 +199,7 @@ def project_run(case: Case, *, min_time: float = 0.0, **integrator) -> tuple[flo
         cpu[0] = min(cpu[0], time.process_time() - started)
         return state, samples
 
-    wall, (state, samples) = best_run(run, 2 if scene.duration < 0.1 else 3, min_time, max_time=5.0)  # the first: numba loads
-    nodes = model.observe(samples)["nodes"]
-    return wall, nodes, dict(model.stats(state), cpu_seconds=cpu[0])
+    return run, cpu, model
 
 
 def mujoco_run(case: Case, xml: str, dt: float) -> tuple[float, np.ndarray, int]:
@@ -428,20 +435,34 @@ def _spine_scene(vertebrae: int, duration: float):
 
 def _both_kernels(scene, step: float, min_time: float) -> dict:
     """Per simulated second of fixed-step RK4 at ``step`` [s]: wall and CPU time [s/s] with
-    the compiled kernels (``numba``, ``numba_cpu``) and the numpy kernels (``numpy``, ``numpy_cpu``)."""
-    entry = {}
+    the compiled kernels (``numba``, ``numba_cpu``) and the numpy kernels (``numpy``, ``numpy_cpu``),
+    the least of runs of each, alternating, for at least ``min_time`` [s] each (runs of a few
+    ms on small structures: a moment of load, or the machine's pace changing, falls on both
+    kernels rather than on the one timed then)."""
+    stride = step * max(1, round(min(0.005, scene.duration) / step))          # samples every 5 ms
+    runners = {}
     for kernels in ("numba", "numpy"):
         os.environ["TENSEGRITY_KERNELS"] = kernels
         try:
-            # runs of a few ms (small structures): the least of ``min_time`` of them, so that a
-            # moment of load does not decide the fallback's ratio
-            stride = step * max(1, round(min(0.005, scene.duration) / step))          # samples every 5 ms
-            wall, _, stats = project_run(Case("growth", scene, None, stride=stride),
-                                         min_time=min_time, method="RK4", max_step=step)
+            runners[kernels] = _project_runner(Case("growth", scene, None, stride=stride), method="RK4",
+                                               max_step=step)
         finally:
             os.environ.pop("TENSEGRITY_KERNELS", None)
-        entry[kernels] = wall / scene.duration
-        entry[f"{kernels}_cpu"] = stats["cpu_seconds"] / scene.duration
+    for run, _, _ in runners.values():
+        run()                                                                 # the first: numba loads
+    wall = dict.fromkeys(runners, math.inf)
+    spent = dict.fromkeys(runners, 0.0)
+    with no_gc():
+        while min(spent.values()) < min_time:
+            for kernels, (run, _, _) in runners.items():
+                started = time.perf_counter()
+                run()
+                took = time.perf_counter() - started
+                wall[kernels], spent[kernels] = min(wall[kernels], took), spent[kernels] + took
+    entry = {}
+    for kernels, (_, cpu, _) in runners.items():
+        entry[kernels] = wall[kernels] / scene.duration
+        entry[f"{kernels}_cpu"] = cpu[0] / scene.duration
     return entry
 
 
@@ -530,8 +551,8 @@ def _cpu_per_call(fn, n: int) -> float:
 def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
     """The floor of a pure-numpy RK4 step of the smallest tower (docs/design/performance.md):
     the fewest numpy calls a step needs -- per evaluation the member vectors (one product),
-    the lengths (two ``hypot``: no numpy call returns a row's norm in one call), the unit
-    vectors (one division), the rates (one product); per stage its state
+    the lengths (no numpy call returns a row's norm in one call: the squared components, their
+    sums by a product, the roots), the unit vectors (one division), the rates (one product); per stage its state
     (one product) -- each timed alone on the flat stages' own arrays in CPU time, outputs passed
     as the flat stages pass them, no Python between them and no event screen; against the
     compiled step and the numpy step measured in the same run (each call timed over
@@ -540,7 +561,7 @@ def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
     velocity differences come with the member vectors of the step's last evaluation), timed
     the same way: what a numpy step spends above the floor beyond them is Python."""
     from tensegrity_core.sim import compile_scene
-    from tensegrity_core.sim.general.kernels.flat_stages import DOT, FlatStages
+    from tensegrity_core.sim.general.kernels.flat_stages import DOT, SUMS, FlatStages
 
     os.environ["TENSEGRITY_KERNELS"] = "numpy"
     try:
@@ -554,23 +575,25 @@ def _numpy_floor(scene, first: dict, calls_per_loop: int) -> list[Row]:
     flat.rk4(0.0, state.y, system.fun(0.0, state.y), first["step"])      # fills the buffers
     C, P, H, l, U, R, tail = flat._C, flat._positions, flat.h, flat.lengths, flat.u, flat._R, flat._tail
     Z, out, weights, state_row = flat._Z[0], flat._shaped(np.empty(len(state.y))), flat._weights[3], flat._state
-    lc, (hx, hy, hz) = l[:, None], H.T
+    squares, L = np.empty(H.shape), np.empty(H.shape)
     assert flat._identity                  # the rate product carries v: one call
     rates_out = out[0]
     calls = {"member vectors (np.dot)": lambda: DOT(C, P, H),
-             "lengths in the plane (np.hypot)": lambda: np.hypot(hx, hy, l),
-             "lengths (np.hypot)": lambda: np.hypot(l, hz, l),
-             "unit vectors (np.divide)": lambda: np.divide(H, lc, U),
+             "squared components (np.multiply)": lambda: np.multiply(H, H, squares),
+             "squared lengths (np.dot)": lambda: DOT(squares, SUMS, L),
+             "lengths (np.sqrt)": lambda: np.sqrt(L, L),
+             "unit vectors (np.divide)": lambda: np.divide(H, L, U),
              "rates (np.dot)": lambda: DOT(R, tail, rates_out),
              "stage state (np.dot)": lambda: DOT(weights, Z, state_row)}
     cost = {name: _cpu_per_call(fn, calls_per_loop) for name, fn in calls.items()}
     floor = 4 * sum(cost.values())
     E, sign, l0 = np.empty((3, len(l))), np.ones(len(l)), l.copy()
     gap, rate, opposite = E
-    dv = flat.dv
+    dv, products, ones = flat.dv, np.empty(H.shape), np.ones(3)
     screen = {"gaps (np.subtract)": lambda: np.subtract(l, l0, gap),
               "signed gaps (np.multiply)": lambda: np.multiply(gap, sign, gap),
-              "rates (np.vecdot)": lambda: np.vecdot(dv, U, rate),
+              "rates' terms (np.multiply)": lambda: np.multiply(dv, U, products),
+              "rates (np.dot)": lambda: DOT(products, ones, rate),
               "their opposites (np.negative)": lambda: np.negative(rate, opposite),
               "least of each (np.minimum.reduce, tolist)": lambda: np.minimum.reduce(E, 1, initial=np.inf).tolist()}
     screen_cost = {name: _cpu_per_call(fn, calls_per_loop) for name, fn in screen.items()}

@@ -11,6 +11,8 @@ in the floor with friction offsets, sticking and slipping.
 
 from __future__ import annotations
 
+from unittest import mock
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -18,6 +20,7 @@ from hypothesis import strategies as st
 
 from tensegrity_core.general.rotation import exp_so3
 from tensegrity_core.sim import compile_scene, load_scene
+from tensegrity_core.sim.general.kernels import body_arrays
 from tensegrity_core.sim.general.kernels.jit import have_numba
 from tensegrity_core.sim.general.robot.loops import NO_ANCHOR, SLIPPING, STICKING
 from tensegrity_core.sim.general.robot.system import RobotSystem
@@ -68,20 +71,25 @@ ROBOTS = ["three_bar", "six_bar", "spine"]
 
 
 @pytest.mark.skipif(not have_numba(), reason="the compiled kernels need numba (the 'fast' extra)")
+@pytest.mark.parametrize("component_major_bodies", [10**9, 0], ids=["stacked", "component-major"])
 @settings(max_examples=30)
 @given(robot=st.sampled_from(ROBOTS), seed=st.integers(0, 2**32 - 1))
-def test_compiled_kernels_and_numpy_twin_agree(robot, seed):
+def test_compiled_kernels_and_numpy_twin_agree(component_major_bodies, robot, seed):
+    """The numpy twin with the bodies' Newton-Euler in either layout
+    (:data:`.body_arrays.COMPONENT_MAJOR_BODIES`: the robots have too few bodies for the
+    component-major one by themselves)."""
     model = _model(robot)
     y, R_ref = random_state(model, seed)
     fast = RobotSystem(model.plan, laws=model.system.laws, R_ref=R_ref, kernels="numba")
     slow = RobotSystem(model.plan, laws=model.system.laws, R_ref=R_ref, kernels="numpy")
-    a, b = fast.evaluate(y[None]), slow.evaluate(y[None])
-    for field in ("derivative", "positions", "forces", "tensions", "depth", "normal", "friction", "couple"):
-        x, z = getattr(a, field), getattr(b, field)
-        assert np.allclose(x, z, rtol=1e-11, atol=1e-9 * max(1.0, np.abs(z).max(initial=0.0))), field
-    aims = np.tile(model.plan.cable_l0[model.plan.motor_cable] * 0.97, (20, 1))   # the motors move
-    for x, z in zip(fast.run(y, R_ref, 1e-3, aims), slow.run(y, R_ref, 1e-3, aims)):
-        assert np.allclose(x, z, rtol=1e-10, atol=1e-10 * max(1.0, np.abs(z).max(initial=0.0)))
+    with mock.patch.object(body_arrays, "COMPONENT_MAJOR_BODIES", component_major_bodies):
+        a, b = fast.evaluate(y[None]), slow.evaluate(y[None])
+        for field in ("derivative", "positions", "forces", "tensions", "depth", "normal", "friction", "couple"):
+            x, z = getattr(a, field), getattr(b, field)
+            assert np.allclose(x, z, rtol=1e-11, atol=1e-9 * max(1.0, np.abs(z).max(initial=0.0))), field
+        aims = np.tile(model.plan.cable_l0[model.plan.motor_cable] * 0.97, (20, 1))   # the motors move
+        for x, z in zip(fast.run(y, R_ref, 1e-3, aims), slow.run(y, R_ref, 1e-3, aims)):
+            assert np.allclose(x, z, rtol=1e-10, atol=1e-10 * max(1.0, np.abs(z).max(initial=0.0)))
 
 
 def _momentum_rates(model, y, R_ref):

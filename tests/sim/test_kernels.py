@@ -10,6 +10,8 @@ dampers, loads and gravity.
 
 from __future__ import annotations
 
+from unittest import mock
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -18,6 +20,7 @@ from hypothesis import strategies as st
 from tensegrity_core.general import prism_tower
 from tensegrity_core.general.rotation import exp_so3
 from tensegrity_core.sim import compile_scene, load_scene
+from tensegrity_core.sim.general.kernels import body_arrays
 from tensegrity_core.sim.general.kernels.evaluator import Evaluator
 from tensegrity_core.sim.general.kernels.jit import have_numba
 
@@ -136,12 +139,19 @@ def _independent_derivative(eq, y, R_ref, l0):
     return out
 
 
+#: :data:`.body_arrays.COMPONENT_MAJOR_BODIES` for either layout of the bodies' Newton-Euler
+#: whatever the number of bodies: stacked 3 x 3 products, component-major
+LAYOUTS = {"stacked": 10**9, "component-major": 0}
+
+
+@pytest.mark.parametrize("layout", sorted(LAYOUTS))
 @settings(max_examples=12)
 @given(name=st.sampled_from(sorted(SCENES)), seed=st.integers(0, 2**31), spread=st.sampled_from([0.0, 1e-3, 0.05]))
-def test_loops_arrays_and_an_independent_newton_euler_agree(name, seed, spread):
+def test_loops_arrays_and_an_independent_newton_euler_agree(layout, name, seed, spread):
     eq, y, R_ref, l0 = _state(name, seed, spread)
     fast = Evaluator(eq.plan, "numba").derivative(y, R_ref, l0)
-    plain = Evaluator(eq.plan, "numpy").derivative(y, R_ref, l0)
+    with mock.patch.object(body_arrays, "COMPONENT_MAJOR_BODIES", LAYOUTS[layout]):
+        plain = Evaluator(eq.plan, "numpy").derivative(y, R_ref, l0)
     scale = np.abs(fast).max()
     np.testing.assert_allclose(plain, fast, rtol=0, atol=1e-13 * scale)
     np.testing.assert_allclose(_independent_derivative(eq, y, R_ref, l0), fast, rtol=0, atol=1e-10 * scale)
@@ -169,7 +179,8 @@ def test_jacobians_agree_and_their_velocity_columns_are_exact(name, seed, spread
     np.testing.assert_allclose(J[:, n:], fd, rtol=0, atol=1e-9 * np.abs(fd).max() + rounding)
 
 
-def test_a_batch_is_its_states_one_by_one():
+@pytest.mark.parametrize("layout", sorted(LAYOUTS))
+def test_a_batch_is_its_states_one_by_one(layout):
     eq, _, R_ref, l0 = _state("bodies", 3, 0.01)
     rng = np.random.default_rng(5)
     Y = np.array([_state("bodies", k, 0.01)[1] for k in range(4)])
@@ -177,8 +188,9 @@ def test_a_batch_is_its_states_one_by_one():
     lengths = l0 * rng.uniform(0.95, 1.05, (4, len(l0)))
     for kernels in ("numba", "numpy"):
         ev = Evaluator(eq.plan, kernels)
-        batch = ev.evaluate(Y, charts, lengths).derivative
-        one = np.array([ev.derivative(Y[k], charts[k], lengths[k]) for k in range(4)])
+        with mock.patch.object(body_arrays, "COMPONENT_MAJOR_BODIES", LAYOUTS[layout]):
+            batch = ev.evaluate(Y, charts, lengths).derivative
+            one = np.array([ev.derivative(Y[k], charts[k], lengths[k]) for k in range(4)])
         np.testing.assert_array_equal(batch, one)
 
 

@@ -55,6 +55,12 @@ SERIES_0 = np.array([1.0, 0.5, 1.0 / 12.0])
 SERIES_1 = np.array([-6.0, -24.0, 720.0])
 SERIES_2 = np.array([120.0, 720.0, np.inf])
 EYE = np.eye(3).ravel()
+#: From this many moving bodies :func:`accelerate` runs component-major (about 50 calls
+#: whose cost grows with the bodies at numpy's streaming speed), below it as products of
+#: stacked matrices (about 30 calls of BLAS once per matrix): measured per RK4 step of the
+#: generated spines (docs/design/performance.md), 8 bodies 456 against 521 us, 35 a tie,
+#: 143 1,334 against 1,180 us, 575 4,264 against 3,384 us.
+COMPONENT_MAJOR_BODIES = 36
 
 
 class BodyIndex(NamedTuple):
@@ -207,7 +213,18 @@ def accelerate(index: BodyIndex, body_mass: FloatArray, body_first_moment: Float
                body_inv_inertia_cm: FloatArray, moving: Moving, R: FloatArray, wrench: FloatArray,
                out: FloatArray) -> None:
     """The moving bodies' part of ``out = dy/dt`` (B, 2 n_dof): Newton-Euler of ``wrench``
-    (B, nb, 2, 3) [N, N m] about ``c`` (:func:`.loops.rates`) and the charts' rates."""
+    (B, nb, 2, 3) [N, N m] about ``c`` (:func:`.loops.rates`) and the charts' rates; from
+    :data:`COMPONENT_MAJOR_BODIES` bodies component-major (:func:`_accelerate_components`),
+    below it as products of stacked 3 x 3 matrices (:func:`_accelerate_stacked`)."""
+    terms = _accelerate_components if len(body_mass) >= COMPONENT_MAJOR_BODIES else _accelerate_stacked
+    terms(index, body_mass, body_first_moment, body_inertia, body_inv_inertia_cm, moving, R, wrench, out)
+
+
+def _accelerate_stacked(index: BodyIndex, body_mass: FloatArray, body_first_moment: FloatArray,
+                        body_inertia: FloatArray, body_inv_inertia_cm: FloatArray, moving: Moving, R: FloatArray,
+                        wrench: FloatArray, out: FloatArray) -> None:
+    """:func:`accelerate` as products of stacked 3 x 3 matrices (``np.matmul``: one BLAS call
+    per matrix of a stack, ~30 calls whatever the number of bodies)."""
     B, nb = R.shape[:2]
     hw = moving.hats[:, 0]
     w = moving.vectors[:, 1, :, :, None]
@@ -235,3 +252,57 @@ def accelerate(index: BodyIndex, body_mass: FloatArray, body_first_moment: Float
     chart = np.matmul(moving.coefficients[:, :, None, ::3], turned[..., 0].swapaxes(1, 2))
     np.add(moving.vectors[:, 1], chart[:, :, 0], rates[:, :, 1])
     out[:, index.rates] = rates
+
+
+def _accelerate_components(index: BodyIndex, body_mass: FloatArray, body_first_moment: FloatArray,
+                           body_inertia: FloatArray, body_inv_inertia_cm: FloatArray, moving: Moving, R: FloatArray,
+                           wrench: FloatArray, out: FloatArray) -> None:
+    """:func:`accelerate` component-major: every vector (B, 3, nb) and matrix (B, 3, 3, nb)
+    holds a component of all bodies in one contiguous row, so a product of a 3 x 3 matrix and a vector is one product
+    over the matrices' entries and one sum (:func:`_times`), a cross product two gathers, a
+    product and a subtraction (:func:`_cross`): the sums in the loops' order, a few calls
+    whatever the number of bodies (``np.matmul`` over stacks of 3 x 3 matrices calls BLAS once
+    per matrix, ~40 ns each)."""
+    B = len(R)
+    m = body_mass
+    Rc = np.ascontiguousarray(R.transpose(0, 2, 3, 1))                 # (B, 3, 3, nb)
+    w = np.ascontiguousarray(moving.vectors[:, 1].swapaxes(1, 2))      # (B, 3, nb)
+    theta = np.ascontiguousarray(moving.vectors[:, 0].swapaxes(1, 2))
+    s = _times(Rc, body_first_moment.T)                                # R s_body
+    turned = np.empty((B, 2, 3, len(m)))                               # [w x s | L = R I R^T w]
+    _cross(w, s, turned[:, 0])
+    _times(Rc, _times(body_inertia.transpose(1, 2, 0), _times(Rc, w, True)), out=turned[:, 1])
+    primed = np.subtract(wrench.transpose(0, 2, 3, 1), _cross(w[:, None], turned))   # [F' | M']
+    F, M = primed[:, 0], primed[:, 1]
+    g = _cross(s, F)
+    g /= m
+    np.subtract(M, g, g)                                               # M' - s x F' / m
+    rates = np.empty((B, 4, 3, len(m)))                                # [dc/dt | dtheta/dt | a_c | dw/dt]
+    rates[:, 0] = moving.vectors[:, 2].swapaxes(1, 2)
+    dw = rates[:, 3]
+    _times(Rc, _times(body_inv_inertia_cm.transpose(1, 2, 0), _times(Rc, g, True)), out=dw)
+    acceleration = _cross(s, dw)
+    acceleration += F
+    np.divide(acceleration, m, rates[:, 2])
+    x = _cross(theta, w)                                               # theta x w
+    chart = _cross(theta, x)
+    chart *= moving.coefficients[:, None, :, 3]
+    x *= 0.5
+    np.subtract(w, x, rates[:, 1])
+    rates[:, 1] += chart                                               # w - theta x w / 2 + k theta x (theta x w)
+    out[:, index.rates.transpose(1, 2, 0)] = rates
+
+
+def _times(M: FloatArray, v: FloatArray, transposed: bool = False, out: FloatArray | None = None) -> FloatArray:
+    """Component-major ``M v`` (or ``M^T v``) of matrices ``M`` (..., 3, 3, nb) and vectors
+    ``v`` (..., 3, nb): each component ``sum_k M_ik v_k`` added left to right, as the loops."""
+    terms = np.multiply(M, v[..., :, None, :] if transposed else v[..., None, :, :])   # M_ki v_k / M_ik v_k
+    product: FloatArray = np.add.reduce(terms, axis=-3 if transposed else -2, out=out)
+    return product
+
+
+def _cross(a: FloatArray, b: FloatArray, out: FloatArray | None = None) -> FloatArray:
+    """Component-major ``a x b`` of vectors (..., 3, nb): ``[a1 b2, a2 b0, a0 b1] - [a2 b1,
+    a0 b2, a1 b0]``, the loops' terms."""
+    terms = np.multiply(a.take(CROSS_A, -2), b.take(CROSS_B, -2))
+    return np.subtract(terms[..., :3, :], terms[..., 3:, :], out)

@@ -6,7 +6,7 @@ calls (each costs about 0.5-1 us of dispatch whatever its length), not their ari
 right-hand side, about 20 calls. For a model whose nodes are all free or fixed (no moving
 rigid body) and whose members need no slack test inside a step (the stepper's stretches:
 a taut string carries compression, a slack one has no stiffness), this module evaluates a
-stage in 6 or 7 calls (up to ~100 members) or 12 (larger ones), everything written in place,
+stage in 8 or 9 calls (up to ~100 members) or 12 (larger ones), everything written in place,
 each output passed positionally (a keyword ``out=`` costs numpy ~0.1-0.2 us of argument
 parsing per call, a fifth to a third of a small call); per stage:
 
@@ -18,17 +18,18 @@ parsing per call, a fifth to a third of a small call); per stage:
 
 While the structure is small (:data:`DENSE_LIMIT` entries of the matrices below) and its state
 moves whole nodes (each moving node's three coordinates in turn, one mass per node: every
-shipped structure), a stage is six calls on a *node-major* buffer ``S`` (rows, 3) of one row
+shipped structure), a stage is eight calls on a *node-major* buffer ``S`` (rows, 3) of one row
 per node or member, ``[fixed nodes' x | moving nodes' x | their v | u | (dv . u) u | I_3 | h |
 dv]``, whose rows ``x`` and ``v`` are the state itself (so the
 state is written in place by its stage product): ``h = C [x_fixed; x]`` with the members'
 signed incidence ``C`` (m, n) (at a step's end, and in every stage of a damped model, also
 ``dv = C_moving v`` with its moving nodes' columns: two products by the incidence's two parts
-cost less than one by the block matrix of both from ~50 members), ``l`` two ``hypot`` of its columns,
-``u = h / l`` and ``dy/dt`` (as (2 n_moving, 3): ``[v | a]``) one product of a rate matrix
-with the rows ``[v | u | (dv . u) u | I_3 | h]`` (above :data:`IDENTITY_LIMIT`, where the
+cost less than one by the block matrix of both from ~50 members), ``l`` the root of the product
+of the squared components ``h * h`` by a (3, 3) matrix of ones (each length in its row's three
+entries, so every call runs over contiguous (m, 3) arrays), ``u = h / l`` and ``dy/dt`` (as
+(2 n_moving, 3): ``[v | a]``) one product of a rate matrix with the rows ``[v | u | (dv . u) u | I_3 | h]`` (above :data:`IDENTITY_LIMIT`, where the
 identity rows that carry ``v`` would cost more than a call, ``a`` alone from ``[u | ... | h]``
-and ``v`` copied: seven calls). The force of a member on its node
+and ``v`` copied: nine calls). The force of a member on its node
 ``a``, ``t u`` with ``t = EA (l - l0) / l0 [+ c (dv . u)]``, is written ``k h - EA u [+ c
 (dv . u) u]`` (``k = EA / l0`` [N/m]): linear in ``h``, ``u`` and ``(dv . u) u``, whose
 coefficients (with the masses' inverses and the signs) are the rate matrix's columns; its
@@ -47,8 +48,8 @@ EA / l`` (and ``-q h`` on the nodes ``b``).
 The formulas are those of :mod:`.loops`, member by member, the sums in another order: the
 numbers agree with the compiled kernels to rounding (the split ``k h - EA u`` adds two terms
 of the size of ``EA`` where the loops add one of the size of ``t``: an absolute rounding of a
-few ``eps EA`` [N] per member in both; ``hypot`` rounds a length once where the loops'
-root of a sum rounds it up to three times). The screen for a string's slack/taut event
+few ``eps EA`` [N] per member in both; the lengths are the loops' roots of sums of squares, the
+sums in BLAS's order). The screen for a string's slack/taut event
 decides as :func:`.loops.quiet_step`, so a stretch stops where the compiled one does, from
 the gaps signed by their signs at the stretch's start (:func:`quiet_ends`): one reduction
 per step's end gives the least signed gap and the largest rate.
@@ -89,6 +90,11 @@ SCREEN = (4.0 / 27.0) * (1.0 + 1e-9)
 #: without the attribute gives the dispatching functions: the same numbers, a little slower.
 DOT: Callable[..., Any] = getattr(np.dot, "_implementation", np.dot)
 COPYTO: Callable[..., Any] = getattr(np.copyto, "_implementation", np.copyto)
+#: (3, 3) ones: a row of squared components times it is the row's sum in each of its three
+#: entries, so the lengths and unit vectors are products and ufuncs over contiguous (m, 3)
+#: arrays (two ``hypot`` of strided columns and a division broadcasting the lengths along rows
+#: of three cost 1.5-1.8x as much from 45 members: the ufuncs' inner loops run three entries long).
+SUMS = np.ones((3, 3))
 #: The fractions of the step at RK4's stages 1-3.
 FRACTIONS = (0.5, 0.5, 1.0)
 
@@ -132,30 +138,32 @@ def quiet_ends(E0: FloatArray, E1: FloatArray, least0: float, most0: float, leas
     return not bool(np.any(np.minimum(E0[0], E1[0]) < margin))
 
 
-def _dense_rate(C: FloatArray, C_moving: FloatArray, P: FloatArray, H: FloatArray, l: FloatArray, U: FloatArray,
-                R: FloatArray, tail: FloatArray, V: FloatArray, dv: FloatArray, rate: FloatArray, DU: FloatArray,
-                damped: bool, velocities: bool,
+def _dense_rate(C: FloatArray, C_moving: FloatArray, P: FloatArray, H: FloatArray, squares: FloatArray,
+                L: FloatArray, U: FloatArray, R: FloatArray, tail: FloatArray, V: FloatArray, dv: FloatArray,
+                rates: FloatArray, DU: FloatArray, damped: bool, velocities: bool,
                 identity: bool) -> Callable[[tuple[FloatArray, FloatArray, FloatArray]], None]:
     """:meth:`FlatStages._rate` with the node-major maps, its arrays bound in a closure (no
     attribute look-ups or arguments per call) and every output passed positionally; its
     output is the rate as the views ``(dy/dt (2 n_moving, 3), dx/dt, dv/dt (n_moving, 3))`` of
     :meth:`FlatStages._shaped`. ``identity``: ``R`` carries ``v`` into ``dx/dt`` (its identity
     rows), else ``R`` gives ``dv/dt`` and ``v`` is copied. ``velocities``: the members' velocity differences
-    too (``dv = C_moving v``, a second product), into ``dv``."""
-    dot, vecdot, hypot, divide, multiply, copyto = DOT, np.vecdot, np.hypot, np.divide, np.multiply, COPYTO
-    lc, rc = l[:, None], rate[:, None]
-    hx, hy, hz = H.T
+    too (``dv = C_moving v``, a second product), into ``dv``. ``L`` (m, 3): each member's length
+    [m] in its three entries, from its squared components ``squares`` (m, 3) [m^2]; ``rates``
+    (m, 3) (damped) likewise each member's ``dv . u`` [m/s]."""
+    dot, sqrt, divide, multiply, copyto = DOT, np.sqrt, np.divide, np.multiply, COPYTO
 
     def rate_into(out: tuple[FloatArray, FloatArray, FloatArray]) -> None:
         dot(C, P, H)                                # h = x_b - x_a (m, 3)
         if velocities:
             dot(C_moving, V, dv)                    # dv = v_b - v_a (m, 3)
-        hypot(hx, hy, l)
-        hypot(l, hz, l)
-        divide(H, lc, U)
+        multiply(H, H, squares)
+        dot(squares, SUMS, L)                       # |h|^2 in each of a row's entries
+        sqrt(L, L)
+        divide(H, L, U)
         if damped:
-            vecdot(dv, U, rate)
-            multiply(U, rc, DU)
+            multiply(dv, U, DU)
+            dot(DU, SUMS, rates)                    # dv . u in each of a row's entries
+            multiply(U, rates, DU)
         if identity:
             dot(R, tail, out[0])                    # [v | external / mass + (k h - EA u + c (dv . u) u) / mass]
         else:
@@ -167,14 +175,14 @@ def _dense_rate(C: FloatArray, C_moving: FloatArray, P: FloatArray, H: FloatArra
 
 def _gathered_rate(stages: FlatStages, out: FloatArray) -> None:
     """:meth:`FlatStages._rate` with gathers."""
-    h, l, Q = stages.h, stages.lengths, stages._Q     # Q: [t / l, -t / l] (2, m) [N/m]
+    h, l, q, forces = stages.h, stages.lengths, stages._q, stages._forces      # q: t / l (m,) [N/m]
     ends = stages._ends
     stages._sources.take(stages.layout.ends, None, ends, "clip")     # indices valid: no checks
     np.subtract(ends[1], ends[0], h)
     _dot_components(h, h, l, stages._product)
     np.sqrt(l, l)
-    np.divide(stages._EA2, l, Q)                    # t / l = k (l - l0) / l = k - EA / l
-    np.subtract(stages._k2, Q, Q)
+    np.divide(stages.plan.EA, l, q)                 # t / l = k (l - l0) / l = k - EA / l
+    np.subtract(stages._k, q, q)
     if stages.damped:                               # + c (dv . u) / l = c (dv . h) / l^2
         w = stages.rate
         stages._velocity_differences()
@@ -182,9 +190,9 @@ def _gathered_rate(stages: FlatStages, out: FloatArray) -> None:
         w *= stages.plan.damping
         w /= l
         w /= l
-        Q[0] += w
-        Q[1] -= w
-    np.multiply(h, Q[:, None, :], stages._forces)
+        q += w
+    np.multiply(h, q, forces[0])                    # on the nodes a; their opposites on the nodes b
+    np.negative(forces[0], forces[1])
     n_free = stages.layout.n_free
     out[:n_free] = stages._velocities
     stages.S.take(stages._force_terms, None, stages._terms, "clip")
@@ -255,8 +263,11 @@ class FlatStages:
             self._k_columns = A[:, m + du + 3:]
             self._state = self.S.reshape(-1)[3 * nf:3 * nf + N]
             self._C, self._positions, self._tail = C, self.S[:x], self.S[v - (rows - nm):h + m]
-            rates = [_dense_rate(C, moving_part, self._positions, self.h, self.lengths, self.u, R, self._tail,
-                                 self.S[x:v], self.dv, self.rate, self._du, self.damped, velocities, self._identity)
+            squares, L = np.empty((m, 3)), np.empty((m, 3))
+            self.lengths = L[:, 0]
+            rates = [_dense_rate(C, moving_part, self._positions, self.h, squares, L, self.u, R, self._tail,
+                                 self.S[x:v], self.dv, np.empty((m, 3)), self._du, self.damped, velocities,
+                                 self._identity)
                      for velocities in (self.damped, True)]
             self._rate_into, self._rate_end = rates
         else:
@@ -265,8 +276,7 @@ class FlatStages:
             self.S = np.zeros(src + 2 * m3)
             self.h, self.dv = np.empty((3, m)), np.empty((3, m))
             self._forces = self.S[src:].reshape(2, 3, m)
-            self._Q = np.empty((2, m))
-            self._EA2, self._k2 = np.stack([plan.EA, -plan.EA]), np.empty((2, m))
+            self._q = np.empty(m)
             self._ends, self._product = np.empty((2, 3, m)), np.empty((3, m))
             self._force_terms = np.ascontiguousarray(lay.terms[:, lay.n_free:])     # v's rows only
             self._terms = np.empty(self._force_terms.shape)
@@ -287,9 +297,7 @@ class FlatStages:
         """Rest lengths ``l0`` [m] for the next evaluations, with ``k = EA / l0`` [N/m] and
         (dense) the rate matrix's columns of ``h``."""
         np.divide(self.plan.EA, l0, out=self._k)
-        if not self.dense:
-            np.stack([self._k, -self._k], out=self._k2)
-        else:
+        if self.dense:
             np.multiply(self._pull, self._k, self._k_columns)                                    # k h
 
     def _rate(self, out: FloatArray) -> None:
@@ -353,10 +361,11 @@ class FlatStages:
         lengths, dv, subtract, multiply, negative = self.lengths, self.dv, np.subtract, np.multiply, np.negative
         least: Any = np.minimum.reduce          # called with positional arguments (numpy's stubs: keywords)
         if self.dense:
-            u, vecdot = self.u, np.vecdot
+            u, dot, products, ones = self.u, DOT, np.empty(self.u.shape), np.ones(3)
 
-            def rates(rate: FloatArray) -> None:
-                vecdot(dv, u, rate)                 # dv: the evaluation's (_rate_end)
+            def rates(rate: FloatArray) -> None:    # dv: the evaluation's (_rate_end)
+                multiply(dv, u, products)
+                dot(products, ones, rate)           # np.vecdot's rows of three: 1.5-1.8x as long from 45 members
         else:
             def rates(rate: FloatArray) -> None:
                 self._velocity_differences()
