@@ -182,11 +182,12 @@ QUICK_TIMING: Final = Timing(min_time=0.02, repeat=2)
 _timing = FULL_TIMING
 
 
-def use_timing(timing: Timing) -> None:
+def use_timing(timing: Timing) -> Timing:
     """Make ``timing`` the default of :func:`best_run` and :func:`time_per_call` (the runner
-    sets it from the mode; arguments given to a call still win)."""
+    sets it from the mode; arguments given to a call still win); returns the one it replaces."""
     global _timing
-    _timing = timing
+    previous, _timing = _timing, timing
+    return previous
 
 
 def best_run(fn: Callable[[], object], repeat: int, min_time: float | None = None, max_time: float = math.inf):

@@ -4,8 +4,11 @@ project runs, the table is printed, the rows are written as JSON and the plots a
 Nothing here asserts a timing (these machines are shared and noisy); it checks that the
 harness works end to end and that what it reports is well formed. Each group runs in a
 quick run of its own (``--only GROUP``), a test of its own and a unit of work of its own
-for the suite's workers (``SHARED_FILES`` in tests/conftest.py), so the two workers share the benchmarks and a
-broken benchmark is named by its group.
+for the suite's workers (``SHARED_FILES`` in tests/conftest.py), so the two workers share the
+benchmarks and a broken benchmark is named by its group. The groups run in the test's
+process (the runner's ``main``: the interpreter, its imports and the kernels are the worker's,
+not started again for each of them); one group runs as the command ``python -m tests.bench``
+in a process of its own, as a user and CI start it.
 """
 
 from __future__ import annotations
@@ -44,11 +47,48 @@ def _run_bench(args: list[str], timeout: float = 900.0) -> subprocess.CompletedP
     return subprocess.CompletedProcess(proc.args, proc.returncode, stdout, stderr)
 
 
+#: The group the command-line test runs (one of the quickest).
+COMMAND_LINE_GROUP = "hard"
+
+
+@pytest.fixture
+def bench_main(capsys):
+    """``python -m tests.bench ARGS`` in this process: ``run(args)`` returns what the command's
+    process would (exit code, stdout, stderr); the harness's mode is put back afterwards."""
+    from tests.bench import harness
+    from tests.bench.__main__ import main
+
+    previous = harness.use_timing(harness.QUICK_TIMING)
+
+    def run(args: list[str]) -> subprocess.CompletedProcess:
+        capsys.readouterr()
+        code = main(args)
+        out, err = capsys.readouterr()
+        return subprocess.CompletedProcess(["python", "-m", "tests.bench", *args], code, out, err)
+
+    yield run
+    harness.use_timing(previous)
+
+
+def _quick_run_args(tmp_path: Path, group: str) -> list[str]:
+    return ["--only", group, "--json", str(tmp_path / "rows.json"), "--plot-dir", str(tmp_path / "img"),
+            "--data-dir", str(tmp_path / "data")]
+
+
+@pytest.mark.timeout(900)            # a benchmark that hangs fails its test, as the command's run would
 @pytest.mark.parametrize("group", GROUPS)
-def test_each_group_runs_and_reports_its_rows_against_baselines_and_targets(group, tmp_path):
+def test_each_group_runs_and_reports_its_rows_against_baselines_and_targets(group, tmp_path, bench_main):
+    _check_quick_run(group, bench_main(_quick_run_args(tmp_path, group)), tmp_path)
+
+
+def test_the_command_runs_a_group_and_reports_it(tmp_path):
+    """The same run as the command ``python -m tests.bench`` starts it, in a process of its own."""
+    _check_quick_run(COMMAND_LINE_GROUP, _run_bench(_quick_run_args(tmp_path, COMMAND_LINE_GROUP)), tmp_path)
+
+
+def _check_quick_run(group: str, out: subprocess.CompletedProcess, tmp_path: Path) -> None:
+    """What a quick run of ``group`` (:func:`_quick_run_args`) reports and writes."""
     rows_file = tmp_path / "rows.json"
-    out = _run_bench(["--only", group, "--json", str(rows_file), "--plot-dir", str(tmp_path / "img"),
-                      "--data-dir", str(tmp_path / "data")])
     assert out.returncode == 0, out.stderr[-3000:]
     rows = json.loads(rows_file.read_text())
     # the group's own rows, numbers, baselines of its own
