@@ -22,7 +22,11 @@ index arrays built once per topology (:class:`BodyIndex`):
   BLAS once per matrix of a stack, ~40 ns each, so a product per node cost five times that
   on a spine);
 - the wrenches ``sum_k [f_k | r_k x f_k]`` per body are one gather and one sum over a
-  table of each body's nodes (in node order, padded with a zero row: the loops' order).
+  table of each body's nodes (in node order, padded with a zero row: the loops' order);
+- Newton-Euler and the charts' rates, from :data:`COMPONENT_MAJOR_BODIES` bodies, are
+  written component-major (each component of all bodies one contiguous row: a 3 x 3
+  product by a vector one product and one sum over all bodies), since ``np.matmul`` over a
+  stack calls BLAS once per matrix (~40 ns each); below it as stacked products, fewer calls.
 
 The formulas are those of :mod:`.loops`, grouped as products of small matrices: the
 numbers agree with the compiled kernels to rounding (a product of 3 x 3 matrices adds its
