@@ -103,42 +103,51 @@ def pytest_xdist_make_scheduler(config, log):
 _PF_KTHREAD = 0x00200000   # a kernel thread's flag in /proc/<pid>/stat (include/linux/sched.h)
 
 
-def _stat_fields(proc: str) -> list[str]:
-    """Fields 3.. of /proc/<pid>/stat (state, ppid, ..., flags at [6], starttime at [19])."""
-    return Path(proc, "stat").read_text().rsplit(")", 1)[1].split()
-
-
 def _processes_of_this_run() -> tuple[dict[int, str], set[int]]:
     """(pid -> command line of every live process, other than this one, started by this run;
-    pids whose environment cannot be read yet).
+    pids of this run's descendants whose environment cannot be read yet).
 
     A process in the middle of exec (its parent's ``Popen`` has already returned) shows an
-    empty environment until the kernel has built its new stack: such a process started since
-    this one is not yet known to be outside the run, and is returned to be looked at again."""
+    empty environment until the kernel has built its new stack (measured: up to 20 ms on a
+    loaded machine). Such a process whose parent is this one or a process of this run is not
+    yet known to be outside the run, and is returned to be looked at again."""
     mark = f"{_RUN_MARK[0]}={_RUN_MARK[1]}".encode()
-    started = int(_stat_fields("/proc/self")[19]) if os.path.isdir("/proc") else 0
-    found, unreadable = {}, set()
+    found, ours, parent, unreadable = {}, {os.getpid()}, {}, []
     for entry in os.scandir("/proc") if os.path.isdir("/proc") else ():
         if not entry.name.isdigit() or int(entry.name) == os.getpid():
             continue
+        pid = int(entry.name)
         try:
             environ = Path(entry.path, "environ").read_bytes()
-            stat = _stat_fields(entry.path)
+            # fields 3.. of stat: state, ppid, ..., flags at [6]
+            stat = Path(entry.path, "stat").read_text().rsplit(")", 1)[1].split()
             if stat[0] == "Z":
                 continue                  # exited, waiting to be reaped: not alive
+            parent[pid] = int(stat[1])
             if not environ:
-                if not int(stat[6]) & _PF_KTHREAD and int(stat[19]) >= started:
-                    unreadable.add(int(entry.name))
+                if not int(stat[6]) & _PF_KTHREAD:
+                    unreadable.append(pid)
                 continue
             if mark not in environ.split(b"\0"):
                 continue
+            ours.add(pid)
             cmd = Path(entry.path, "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
             if int(stat[1]) == os.getpid() and "from multiprocessing." in cmd:
                 continue                  # this process's own forkserver/resource tracker
-            found[int(entry.name)] = cmd
+            found[pid] = cmd
         except OSError:
             continue
-    return found, unreadable
+
+    def descends_from_run(pid: int) -> bool:
+        for _ in range(64):               # a bounded walk up the parents
+            pid = parent.get(pid, 0)
+            if pid in ours:
+                return True
+            if pid <= 1:
+                return False
+        return False
+
+    return found, {pid for pid in unreadable if descends_from_run(pid)}
 
 
 @pytest.hookimpl(trylast=True)     # after pytest-xdist has shut its workers down
