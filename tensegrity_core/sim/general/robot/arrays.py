@@ -36,7 +36,9 @@ def _dot(a: FloatArray, b: FloatArray) -> FloatArray:
 
 def rest_lengths(cable_l0: FloatArray, cable_motor: IntArray, y: FloatArray, start: int) -> FloatArray:
     """(B, c) rest lengths [m]: drawn, or the motors' states."""
-    out: FloatArray = np.where(cable_motor >= 0, y[:, start + np.maximum(cable_motor, 0)], cable_l0)
+    out: FloatArray = np.broadcast_to(cable_l0, (y.shape[0], cable_l0.shape[0])).copy()
+    driven = cable_motor >= 0
+    out[:, driven] = y[:, start + cable_motor[driven]]
     return out
 
 
@@ -46,7 +48,7 @@ def cable_forces(cable_a: IntArray, cable_b: IntArray, cable_k: FloatArray, cabl
     """:func:`.loops.cable_forces` of a batch: ``(nodal forces (B, n, 3), lengths, rates, tensions)``."""
     h = X[:, cable_b] - X[:, cable_a]
     length = np.sqrt(_dot(h, h))
-    u = h / length[..., None]
+    u = np.divide(h, length[..., None], out=np.zeros_like(h), where=length[..., None] > 0.0)   # l = 0: slack
     rate = _dot(u, V[:, cable_b] - V[:, cable_a])
     t = np.where(length > l0, np.minimum(np.maximum(cable_k * (length - l0) + cable_c * rate, 0.0), cable_t_max),
                  0.0)

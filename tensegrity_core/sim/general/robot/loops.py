@@ -65,12 +65,15 @@ def cable_forces(cable_a: IntArray, cable_b: IntArray, cable_k: FloatArray, cabl
                  lengths: FloatArray, rates_: FloatArray, tensions: FloatArray) -> None:
     """Tensions ``T = clip(k (l - l0) + c ldot, 0, T_max)`` of taut cables (``l > l0``; 0
     while slack) added as ``+T u`` to end ``a`` and ``-T u`` to end ``b`` of ``F``; writes
-    ``lengths`` [m], ``rates_`` [m/s] and ``tensions`` [N]."""
+    ``lengths`` [m], ``rates_`` [m/s] and ``tensions`` [N]. A cable whose ends meet (``l = 0``,
+    two rods' caps passing through each other) is slack, with rate 0."""
     for i in range(cable_a.shape[0]):
         a, b = cable_a[i], cable_b[i]
         h0, h1, h2 = X[b, 0] - X[a, 0], X[b, 1] - X[a, 1], X[b, 2] - X[a, 2]
         length = math.sqrt(h0 * h0 + h1 * h1 + h2 * h2)
-        u0, u1, u2 = h0 / length, h1 / length, h2 / length
+        u0, u1, u2 = 0.0, 0.0, 0.0                  # ends at one point: slack (l0 > 0), no direction
+        if length > 0.0:
+            u0, u1, u2 = h0 / length, h1 / length, h2 / length
         rate = u0 * (V[b, 0] - V[a, 0]) + u1 * (V[b, 1] - V[a, 1]) + u2 * (V[b, 2] - V[a, 2])
         lengths[i] = length
         rates_[i] = rate
