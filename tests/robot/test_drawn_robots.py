@@ -2,10 +2,10 @@
 not the shipped robots: one to three rods (any length, mass, cap share, radii), one to five
 cables between any of their caps (any stiffness, damping, rest length, half of them motor
 driven with any lag, slew and tension limits), a floor of any orientation and contact and
-friction parameters, any gravity vector. Every size is drawn log-uniformly over twelve
-orders of magnitude around its unit (1e-6 to 1e6, except where the field bounds it), and
-states are drawn around the drawing (moved, turned, moving, caps in and out of the floor,
-anchored sticking and slipping).
+friction parameters, gravity of any direction and 0.1 to 30 m/s^2. Every size is drawn
+log-uniformly over twelve orders of magnitude around its unit (1e-6 to 1e6, except where the
+field bounds it), and states are drawn around the drawing (moved, turned, moving, caps in and
+out of the floor, anchored sticking and slipping).
 
 At every evaluated state, in both kernel families:
 
@@ -32,6 +32,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from tensegrity_core.general.rotation import exp_so3
+from tensegrity_core.robot.contact import SPIN_TOLERANCE
 from tensegrity_core.sim import compile_scene, load_scene
 from tensegrity_core.sim.general.kernels.jit import have_numba
 from tensegrity_core.sim.general.robot.loops import NO_ANCHOR, SLIPPING, STICKING
@@ -62,7 +63,7 @@ def robots(draw, floor: bool = True) -> dict:
     nodes: dict[str, list[float]] = {}
     rods = []
     for i in range(n_rods):
-        centre = np.array(draw(st.tuples(*[st.floats(-2.0, 2.0)] * 3)))
+        centre = np.array(draw(st.tuples(*[st.floats(-2.0, 2.0)] * 3))) + [5.0 * i, 0.0, 0.0]   # caps apart
         axis = draw(unit)
         length = draw(_size(1e-3, 1e2))
         mass = draw(_size())
@@ -80,12 +81,12 @@ def robots(draw, floor: bool = True) -> dict:
         cable = {"name": f"c{j}", "nodes": [a, b], "stiffness": draw(_size()), "damping": draw(_maybe(_size())),
                  "rest_length_ratio": draw(st.floats(0.2, 2.0))}
         if draw(st.booleans()):
-            cable["motor"] = {"range": [1e-3, 1e3], "tau": draw(_maybe(_size(1e-4, 10.0))),
+            cable["motor"] = {"range": [1e-9, 1e4], "tau": draw(_maybe(_size(1e-4, 10.0))),
                               "max_speed": draw(st.one_of(st.just(".inf"), _size(1e-3, 1e2))),
                               "max_tension": draw(st.one_of(st.just(".inf"), _size()))}
         cables.append(cable)
     out = {"name": "drawn", "nodes": nodes, "rods": rods, "cables": cables, "sensors": {"imu": "all"},
-           "gravity": (draw(st.floats(0.0, 30.0)) * draw(unit)).tolist()}
+           "gravity": (draw(st.floats(0.1, 30.0)) * draw(unit)).tolist()}   # 0: the scene's standard
     if floor:
         normal = draw(unit)
         lowest = min(float(np.dot(nodes[r["nodes"][k]], normal)) - r["cap_radius"] for r in rods for k in (0, 1))
@@ -99,10 +100,12 @@ def robots(draw, floor: bool = True) -> dict:
     return out
 
 
-def model_of(robot: dict, effects=ALL, duration: float = 1.0, step: float = 1e-3):
+def model_of(robot: dict, effects=ALL, duration: float = 1.0, step: float | None = None):
+    """The robot's model (``step``: default :func:`stable_step`, which the scene's check of
+    the step accepts)."""
     return compile_scene(load_scene({"name": "drawn", "model": {"kind": "robot", "robot": robot},
                                      "initial": {"drawn": True}, "effects": effects, "duration": duration,
-                                     "integrator": {"max_step": step}}))
+                                     "integrator": {"max_step": step or stable_step(robot)}}))
 
 
 def stable_step(robot: dict) -> float:
@@ -208,15 +211,26 @@ def test_a_rigidly_moved_robot_gives_the_moved_forces(robot, seed, turn, shift, 
     turned[p.body_dof[:, None] + np.arange(3)] += t
     a = evaluate(model, y, R_ref, kernels)
     b = evaluate(moved, turned, Q @ R_ref @ Q.T, kernels)
-    for field in ("tensions", "normal", "lengths", "depth"):
+    # rounding: positions to 1e-12 of their size (placed from centres and turned charts),
+    # velocities likewise; forces to it times the stiffest and most damping element
+    X, V = np.abs(b.positions[0]).max() + np.abs(t).max(), np.abs(a.velocities[0]).max() + 1e-300
+    k, d, _, _, k_t, c_t, b_roll, b_spin = p.floor_params
+    stiffest = float(p.cable_k.max()) + k * (1.0 + d * V) + k_t
+    damping = float(p.cable_c.max()) + k * d * max(float(a.depth[0].max(initial=0.0)), 0.0) + c_t
+    dx, dv = 1e-12 * X, 1e-12 * V
+    for field, rounding in (("lengths", dx), ("depth", dx), ("tensions", stiffest * dx + damping * dv),
+                            ("normal", stiffest * dx + damping * dv)):
         x, z = getattr(a, field)[0], getattr(b, field)[0]
-        assert np.all(np.abs(x - z) <= 1e-9 * (np.abs(x).max(initial=0.0) + 1e-300)), field
-    for field in ("positions", "forces", "friction", "couple"):
+        assert np.all(np.abs(x - z) <= 1e-9 * np.abs(x).max(initial=0.0) + rounding), field
+    force = stiffest * dx + damping * dv
+    couple = (b_roll + b_spin) * (force + float(a.normal[0].max(initial=0.0)) * dv / SPIN_TOLERANCE)
+    for field, rounding in (("positions", dx), ("forces", len(p.cable_k) * force + force), ("friction", force),
+                            ("couple", couple)):
         x, z = getattr(a, field)[0], getattr(b, field)[0]
         if field == "positions":
             x = x + t @ Q                                              # moved: Q (x + Q^T t)
-        scale = np.abs(x).max(initial=0.0) + 1e-300
-        np.testing.assert_allclose(z, x @ Q.T, rtol=0, atol=1e-9 * scale, err_msg=field)
+        np.testing.assert_allclose(z, x @ Q.T, rtol=0, atol=1e-9 * np.abs(x).max(initial=0.0) + rounding,
+                                   err_msg=field)
 
 
 @settings(max_examples=15)
