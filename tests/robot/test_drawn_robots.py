@@ -20,10 +20,14 @@ At every evaluated state, in both kernel families:
 
 Over time: with gravity, floor and motors off, a drawn robot's linear momentum is conserved
 to rounding through a run (the cables' forces cancel at every stage, and RK4 keeps linear
-invariants exactly).
+invariants exactly). A rod at rest on a floor of any orientation, gravity along the floor's
+normal, reads ``g`` away from the floor on its IMU.
 """
 
 from __future__ import annotations
+
+import os
+from unittest import mock
 
 import numpy as np
 import pytest
@@ -34,7 +38,7 @@ from scipy.spatial.transform import Rotation
 from tensegrity_core.general.rotation import exp_so3
 from tensegrity_core.robot.contact import SPIN_TOLERANCE
 from tensegrity_core.sim import compile_scene, load_scene
-from tensegrity_core.sim.general.kernels.jit import have_numba
+from tensegrity_core.sim.general.kernels.jit import KERNELS_VARIABLE, have_numba
 from tensegrity_core.sim.general.robot.loops import NO_ANCHOR, SLIPPING, STICKING
 from tensegrity_core.sim.general.robot.system import RobotSystem
 from tests.robot.test_dynamics import _momentum_rates
@@ -269,3 +273,42 @@ def test_a_cable_whose_ends_meet_is_slack_and_exerts_nothing(kernels):
     ev = evaluate(model, y, np.broadcast_to(np.eye(3), (2, 3, 3)).copy(), kernels)
     assert ev.lengths[0, 0] == 0.0 and ev.tensions[0, 0] == 0.0
     assert np.all(np.isfinite(ev.derivative)) and np.all(ev.forces == 0.0)
+
+
+@settings(max_examples=30)
+@given(normal=unit, heading=unit, g=st.floats(0.1, 30.0), mass=_size(), length=_size(1e-3, 1e2),
+       radius=_size(1e-6, 1.0), cap_radius=_size(1e-6, 1.0), k=_size(), d=_maybe(_size()), mu=_maybe(_size(1e-3, 10.0)),
+       k_t=_size(), roll=_maybe(_size(1e-6, 0.1)), kernels=st.sampled_from(KERNELS))
+def test_a_rod_at_rest_on_a_floor_reads_g_away_from_the_floor(normal, heading, g, mass, length, radius, cap_radius,
+                                                              k, d, mu, k_t, roll, kernels):
+    """A rod lying on a floor of any orientation ``n``, gravity ``-g n``, sunk ``m g / (2 k)`` so
+    that each cap's spring carries half its weight: it is at rest (no acceleration to
+    rounding) and its IMU's specific force ``R^T (a - g)`` is ``g n`` turned into its frame
+    (imu.py: a body at rest on the floor reads ``+|g|`` up)."""
+    axis = np.cross(normal, heading)
+    if np.linalg.norm(axis) < 1e-3:
+        axis = np.cross(normal, [1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.cross(normal, [0.0, 1.0, 0.0])
+    axis /= np.linalg.norm(axis)
+    centre = cap_radius * normal
+    robot = {"name": "lying", "nodes": {"a": (centre - axis * length / 2).tolist(),
+                                        "b": (centre + axis * length / 2).tolist()},
+             "rods": [{"name": "r", "nodes": ["a", "b"], "mass": mass, "radius": radius, "cap_radius": cap_radius}],
+             "cables": [{"name": "c", "nodes": ["a", "b"], "stiffness": 1.0, "damping": 0.0,
+                         "rest_length": 2.0 * length}],
+             "sensors": {"imu": "all"}, "gravity": (-g * normal).tolist(),
+             "floor": {"normal": normal.tolist(), "stiffness": k, "dissipation": d, "mu_static": mu,
+                       "tangential_stiffness": k_t, "rolling_friction": roll}}
+    with mock.patch.dict(os.environ, {KERNELS_VARIABLE: kernels}):
+        model = model_of(robot)
+    p = model.plan
+    y = model.y0.copy()
+    y[p.body_dof[0]:p.body_dof[0] + 3] -= mass * g / (2.0 * k) * normal
+    obs = model.observe_now(model.state_from(y))
+    n = p.n_dof
+    assert np.abs(obs["state"][n:2 * n]).max() == 0.0
+    # rounding: the depth is a difference of heights of the size of the drawing, 1e-15 of it
+    depth = 1e-15 * (cap_radius + length + mass * g / k)
+    np.testing.assert_allclose(obs["contact_forces"][0], mass * g / 2.0, rtol=1e-9, atol=k * depth)
+    R = Rotation.from_quat(obs["imu_orientation"][0]).as_matrix()
+    np.testing.assert_allclose(R @ obs["imu_specific_force"][0], g * normal, rtol=0,
+                               atol=1e-9 * g + 2.0 * k * depth / mass)
