@@ -21,7 +21,9 @@ At every evaluated state, in both kernel families:
 Over time: with gravity, floor and motors off, a drawn robot's linear momentum is conserved
 to rounding through a run (the cables' forces cancel at every stage, and RK4 keeps linear
 invariants exactly). A rod at rest on a floor of any orientation, gravity along the floor's
-normal, reads ``g`` away from the floor on its IMU.
+normal, reads ``g`` away from the floor on its IMU. Motors in any mode and command never
+leave their range, slew faster than their limit (but when back-driven) or hold more than
+their tension limit.
 """
 
 from __future__ import annotations
@@ -312,3 +314,48 @@ def test_a_rod_at_rest_on_a_floor_reads_g_away_from_the_floor(normal, heading, g
     R = Rotation.from_quat(obs["imu_orientation"][0]).as_matrix()
     np.testing.assert_allclose(R @ obs["imu_specific_force"][0], g * normal, rtol=0,
                                atol=1e-9 * g + 2.0 * k * depth / mass)
+
+
+@settings(max_examples=20)
+@given(robot=robots(floor=False), seed=st.integers(0, 2**32 - 1), data=st.data())
+def test_motors_stay_within_their_limits_along_a_run(robot, seed, data):
+    """Each motor in a drawn mode with a drawn command inside that mode's range (a rest length
+    within 50 % of its drawn one, a reel speed within its slew limit, a tension up to its
+    limit), 30 steps from a drawn state: at every step the rest length stays in the motor's
+    range, moves at most ``max_speed h`` unless the spool is back-driven (then to where the
+    cable pulls exactly ``max_tension``, or to the range's end), and no cable pulls harder
+    than its motor's limit."""
+    actuated = [c for c in robot["cables"] if "motor" in c]
+    modes = {c["name"]: data.draw(st.sampled_from(["rest_length", "reel_speed", "tension"])) for c in actuated}
+    ends = robot["nodes"]
+    inputs = {}
+    for c in actuated:
+        drawn = float(np.linalg.norm(np.subtract(ends[c["nodes"][1]], ends[c["nodes"][0]]))) * c["rest_length_ratio"]
+        speed, t_max = (float(str(c["motor"][key]).lstrip(".")) for key in ("max_speed", "max_tension"))
+        inputs[c["name"]] = {"rest_length": drawn * data.draw(st.floats(0.5, 1.5)),
+                             "reel_speed": min(speed, 10.0) * data.draw(st.floats(-1.0, 1.0)),
+                             "tension": min(t_max, 1e6) * data.draw(st.floats(0.0, 1.0))}[modes[c["name"]]]
+    h = stable_step(robot)
+    effects = ["inertia", "cables", {"motors": {"modes": modes}} if modes else "motors", "gravity"]
+    scene = {"name": "drawn", "model": {"kind": "robot", "robot": robot}, "initial": {"drawn": True},
+             "effects": effects, "duration": 30 * h, "integrator": {"max_step": h}}
+    if inputs:
+        scene["inputs"] = inputs
+    model = compile_scene(load_scene(scene))
+    p = model.plan
+    y, _ = drawn_state(model, seed)
+    samples: list = []
+    model.record(model.state_from(y, t_end=30 * h), np.arange(31) * h, samples)
+    o = model.observe(samples)
+    n, cable = p.n_dof, p.motor_cable
+    l0 = o["state"][:, 2 * n:2 * n + len(cable)]
+    assert np.all((p.motor_lo <= l0) & (l0 <= p.motor_hi))
+    k, t_max = p.cable_k[cable], p.cable_t_max[cable]
+    tension = o["member_forces"][:, len(robot["rods"]) + cable]
+    assert np.all(tension <= t_max)
+    length = o["member_lengths"][:, len(robot["rods"]) + cable]
+    moved = np.abs(np.diff(l0, axis=0))
+    slewed = moved <= p.motor_speed * h * (1 + 1e-9) + 1e-15 * l0[1:]
+    paid_out = (np.diff(l0, axis=0) > 0) & ((np.abs(k * (length[1:] - l0[1:]) - t_max) <= 1e-9 * t_max + 1e-12 * k * length[1:])
+                                             | (l0[1:] == p.motor_hi))
+    assert np.all(slewed | paid_out)
