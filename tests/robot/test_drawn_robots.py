@@ -2,10 +2,10 @@
 not the shipped robots: one to three rods (any length, mass, cap share, radii), one to five
 cables between any of their caps (any stiffness, damping, rest length, half of them motor
 driven with any lag, slew and tension limits), a floor of any orientation and contact and
-friction parameters, any gravity vector. Every size is drawn log-uniformly over twelve
-orders of magnitude around its unit (1e-6 to 1e6, except where the field bounds it), and
-states are drawn around the drawing (moved, turned, moving, caps in and out of the floor,
-anchored sticking and slipping).
+friction parameters, gravity of any direction and 0.1 to 30 m/s^2. Every size is drawn
+log-uniformly over twelve orders of magnitude around its unit (1e-6 to 1e6, except where the
+field bounds it), and states are drawn around the drawing (moved, turned, moving, caps in and
+out of the floor, anchored sticking and slipping).
 
 At every evaluated state, in both kernel families:
 
@@ -20,10 +20,16 @@ At every evaluated state, in both kernel families:
 
 Over time: with gravity, floor and motors off, a drawn robot's linear momentum is conserved
 to rounding through a run (the cables' forces cancel at every stage, and RK4 keeps linear
-invariants exactly).
+invariants exactly). A rod at rest on a floor of any orientation, gravity along the floor's
+normal, reads ``g`` away from the floor on its IMU. Motors in any mode and command never
+leave their range, slew faster than their limit (but when back-driven) or hold more than
+their tension limit.
 """
 
 from __future__ import annotations
+
+import os
+from unittest import mock
 
 import numpy as np
 import pytest
@@ -32,8 +38,9 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from tensegrity_core.general.rotation import exp_so3
+from tensegrity_core.robot.contact import SPIN_TOLERANCE
 from tensegrity_core.sim import compile_scene, load_scene
-from tensegrity_core.sim.general.kernels.jit import have_numba
+from tensegrity_core.sim.general.kernels.jit import KERNELS_VARIABLE, have_numba
 from tensegrity_core.sim.general.robot.loops import NO_ANCHOR, SLIPPING, STICKING
 from tensegrity_core.sim.general.robot.system import RobotSystem
 from tests.robot.test_dynamics import _momentum_rates
@@ -62,7 +69,7 @@ def robots(draw, floor: bool = True) -> dict:
     nodes: dict[str, list[float]] = {}
     rods = []
     for i in range(n_rods):
-        centre = np.array(draw(st.tuples(*[st.floats(-2.0, 2.0)] * 3)))
+        centre = np.array(draw(st.tuples(*[st.floats(-2.0, 2.0)] * 3))) + [5.0 * i, 0.0, 0.0]   # caps apart
         axis = draw(unit)
         length = draw(_size(1e-3, 1e2))
         mass = draw(_size())
@@ -80,12 +87,12 @@ def robots(draw, floor: bool = True) -> dict:
         cable = {"name": f"c{j}", "nodes": [a, b], "stiffness": draw(_size()), "damping": draw(_maybe(_size())),
                  "rest_length_ratio": draw(st.floats(0.2, 2.0))}
         if draw(st.booleans()):
-            cable["motor"] = {"range": [1e-3, 1e3], "tau": draw(_maybe(_size(1e-4, 10.0))),
+            cable["motor"] = {"range": [1e-9, 1e4], "tau": draw(_maybe(_size(1e-4, 10.0))),
                               "max_speed": draw(st.one_of(st.just(".inf"), _size(1e-3, 1e2))),
                               "max_tension": draw(st.one_of(st.just(".inf"), _size()))}
         cables.append(cable)
     out = {"name": "drawn", "nodes": nodes, "rods": rods, "cables": cables, "sensors": {"imu": "all"},
-           "gravity": (draw(st.floats(0.0, 30.0)) * draw(unit)).tolist()}
+           "gravity": (draw(st.floats(0.1, 30.0)) * draw(unit)).tolist()}   # 0: the scene's standard
     if floor:
         normal = draw(unit)
         lowest = min(float(np.dot(nodes[r["nodes"][k]], normal)) - r["cap_radius"] for r in rods for k in (0, 1))
@@ -99,10 +106,12 @@ def robots(draw, floor: bool = True) -> dict:
     return out
 
 
-def model_of(robot: dict, effects=ALL, duration: float = 1.0, step: float = 1e-3):
+def model_of(robot: dict, effects=ALL, duration: float = 1.0, step: float | None = None):
+    """The robot's model (``step``: default :func:`stable_step`, which the scene's check of
+    the step accepts)."""
     return compile_scene(load_scene({"name": "drawn", "model": {"kind": "robot", "robot": robot},
                                      "initial": {"drawn": True}, "effects": effects, "duration": duration,
-                                     "integrator": {"max_step": step}}))
+                                     "integrator": {"max_step": step or stable_step(robot)}}))
 
 
 def stable_step(robot: dict) -> float:
@@ -208,15 +217,26 @@ def test_a_rigidly_moved_robot_gives_the_moved_forces(robot, seed, turn, shift, 
     turned[p.body_dof[:, None] + np.arange(3)] += t
     a = evaluate(model, y, R_ref, kernels)
     b = evaluate(moved, turned, Q @ R_ref @ Q.T, kernels)
-    for field in ("tensions", "normal", "lengths", "depth"):
+    # rounding: positions to 1e-12 of their size (placed from centres and turned charts),
+    # velocities likewise; forces to it times the stiffest and most damping element
+    X, V = np.abs(b.positions[0]).max() + np.abs(t).max(), np.abs(a.velocities[0]).max() + 1e-300
+    k, d, _, _, k_t, c_t, b_roll, b_spin = p.floor_params
+    stiffest = float(p.cable_k.max()) + k * (1.0 + d * V) + k_t
+    damping = float(p.cable_c.max()) + k * d * max(float(a.depth[0].max(initial=0.0)), 0.0) + c_t
+    dx, dv = 1e-12 * X, 1e-12 * V
+    for field, rounding in (("lengths", dx), ("depth", dx), ("tensions", stiffest * dx + damping * dv),
+                            ("normal", stiffest * dx + damping * dv)):
         x, z = getattr(a, field)[0], getattr(b, field)[0]
-        assert np.all(np.abs(x - z) <= 1e-9 * (np.abs(x).max(initial=0.0) + 1e-300)), field
-    for field in ("positions", "forces", "friction", "couple"):
+        assert np.all(np.abs(x - z) <= 1e-9 * np.abs(x).max(initial=0.0) + rounding), field
+    force = stiffest * dx + damping * dv
+    couple = (b_roll + b_spin) * (force + float(a.normal[0].max(initial=0.0)) * dv / SPIN_TOLERANCE)
+    for field, rounding in (("positions", dx), ("forces", len(p.cable_k) * force + force), ("friction", force),
+                            ("couple", couple)):
         x, z = getattr(a, field)[0], getattr(b, field)[0]
         if field == "positions":
             x = x + t @ Q                                              # moved: Q (x + Q^T t)
-        scale = np.abs(x).max(initial=0.0) + 1e-300
-        np.testing.assert_allclose(z, x @ Q.T, rtol=0, atol=1e-9 * scale, err_msg=field)
+        np.testing.assert_allclose(z, x @ Q.T, rtol=0, atol=1e-9 * np.abs(x).max(initial=0.0) + rounding,
+                                   err_msg=field)
 
 
 @settings(max_examples=15)
@@ -255,3 +275,87 @@ def test_a_cable_whose_ends_meet_is_slack_and_exerts_nothing(kernels):
     ev = evaluate(model, y, np.broadcast_to(np.eye(3), (2, 3, 3)).copy(), kernels)
     assert ev.lengths[0, 0] == 0.0 and ev.tensions[0, 0] == 0.0
     assert np.all(np.isfinite(ev.derivative)) and np.all(ev.forces == 0.0)
+
+
+@settings(max_examples=30)
+@given(normal=unit, heading=unit, g=st.floats(0.1, 30.0), mass=_size(), length=_size(1e-3, 1e2),
+       radius=_size(1e-6, 1.0), cap_radius=_size(1e-6, 1.0), k=_size(), d=_maybe(_size()), mu=_maybe(_size(1e-3, 10.0)),
+       k_t=_size(), roll=_maybe(_size(1e-6, 0.1)), kernels=st.sampled_from(KERNELS))
+def test_a_rod_at_rest_on_a_floor_reads_g_away_from_the_floor(normal, heading, g, mass, length, radius, cap_radius,
+                                                              k, d, mu, k_t, roll, kernels):
+    """A rod lying on a floor of any orientation ``n``, gravity ``-g n``, sunk ``m g / (2 k)`` so
+    that each cap's spring carries half its weight: it is at rest (no acceleration to
+    rounding) and its IMU's specific force ``R^T (a - g)`` is ``g n`` turned into its frame
+    (imu.py: a body at rest on the floor reads ``+|g|`` up)."""
+    axis = np.cross(normal, heading)
+    if np.linalg.norm(axis) < 1e-3:
+        axis = np.cross(normal, [1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.cross(normal, [0.0, 1.0, 0.0])
+    axis /= np.linalg.norm(axis)
+    centre = cap_radius * normal
+    robot = {"name": "lying", "nodes": {"a": (centre - axis * length / 2).tolist(),
+                                        "b": (centre + axis * length / 2).tolist()},
+             "rods": [{"name": "r", "nodes": ["a", "b"], "mass": mass, "radius": radius, "cap_radius": cap_radius}],
+             "cables": [{"name": "c", "nodes": ["a", "b"], "stiffness": 1.0, "damping": 0.0,
+                         "rest_length": 2.0 * length}],
+             "sensors": {"imu": "all"}, "gravity": (-g * normal).tolist(),
+             "floor": {"normal": normal.tolist(), "stiffness": k, "dissipation": d, "mu_static": mu,
+                       "tangential_stiffness": k_t, "rolling_friction": roll}}
+    with mock.patch.dict(os.environ, {KERNELS_VARIABLE: kernels}):
+        model = model_of(robot)
+    p = model.plan
+    y = model.y0.copy()
+    y[p.body_dof[0]:p.body_dof[0] + 3] -= mass * g / (2.0 * k) * normal
+    obs = model.observe_now(model.state_from(y))
+    n = p.n_dof
+    assert np.abs(obs["state"][n:2 * n]).max() == 0.0
+    # rounding: the depth is a difference of heights of the size of the drawing, 1e-15 of it
+    depth = 1e-15 * (cap_radius + length + mass * g / k)
+    np.testing.assert_allclose(obs["contact_forces"][0], mass * g / 2.0, rtol=1e-9, atol=k * depth)
+    R = Rotation.from_quat(obs["imu_orientation"][0]).as_matrix()
+    np.testing.assert_allclose(R @ obs["imu_specific_force"][0], g * normal, rtol=0,
+                               atol=1e-9 * g + 2.0 * k * depth / mass)
+
+
+@settings(max_examples=20)
+@given(robot=robots(floor=False), seed=st.integers(0, 2**32 - 1), data=st.data())
+def test_motors_stay_within_their_limits_along_a_run(robot, seed, data):
+    """Each motor in a drawn mode with a drawn command inside that mode's range (a rest length
+    within 50 % of its drawn one, a reel speed within its slew limit, a tension up to its
+    limit), 30 steps from a drawn state: at every step the rest length stays in the motor's
+    range, moves at most ``max_speed h`` unless the spool is back-driven (then to where the
+    cable pulls exactly ``max_tension``, or to the range's end), and no cable pulls harder
+    than its motor's limit."""
+    actuated = [c for c in robot["cables"] if "motor" in c]
+    modes = {c["name"]: data.draw(st.sampled_from(["rest_length", "reel_speed", "tension"])) for c in actuated}
+    ends = robot["nodes"]
+    inputs = {}
+    for c in actuated:
+        drawn = float(np.linalg.norm(np.subtract(ends[c["nodes"][1]], ends[c["nodes"][0]]))) * c["rest_length_ratio"]
+        speed, t_max = (float(str(c["motor"][key]).lstrip(".")) for key in ("max_speed", "max_tension"))
+        inputs[c["name"]] = {"rest_length": drawn * data.draw(st.floats(0.5, 1.5)),
+                             "reel_speed": min(speed, 10.0) * data.draw(st.floats(-1.0, 1.0)),
+                             "tension": min(t_max, 1e6) * data.draw(st.floats(0.0, 1.0))}[modes[c["name"]]]
+    h = stable_step(robot)
+    effects = ["inertia", "cables", {"motors": {"modes": modes}} if modes else "motors", "gravity"]
+    scene = {"name": "drawn", "model": {"kind": "robot", "robot": robot}, "initial": {"drawn": True},
+             "effects": effects, "duration": 30 * h, "integrator": {"max_step": h}}
+    if inputs:
+        scene["inputs"] = inputs
+    model = compile_scene(load_scene(scene))
+    p = model.plan
+    y, _ = drawn_state(model, seed)
+    samples: list = []
+    model.record(model.state_from(y, t_end=30 * h), np.arange(31) * h, samples)
+    o = model.observe(samples)
+    n, cable = p.n_dof, p.motor_cable
+    l0 = o["state"][:, 2 * n:2 * n + len(cable)]
+    assert np.all((p.motor_lo <= l0) & (l0 <= p.motor_hi))
+    k, t_max = p.cable_k[cable], p.cable_t_max[cable]
+    tension = o["member_forces"][:, len(robot["rods"]) + cable]
+    assert np.all(tension <= t_max)
+    length = o["member_lengths"][:, len(robot["rods"]) + cable]
+    moved = np.abs(np.diff(l0, axis=0))
+    slewed = moved <= p.motor_speed * h * (1 + 1e-9) + 1e-15 * l0[1:]
+    paid_out = (np.diff(l0, axis=0) > 0) & ((np.abs(k * (length[1:] - l0[1:]) - t_max) <= 1e-9 * t_max + 1e-12 * k * length[1:])
+                                             | (l0[1:] == p.motor_hi))
+    assert np.all(slewed | paid_out)

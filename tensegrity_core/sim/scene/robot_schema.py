@@ -1,6 +1,6 @@
 """A robot scene's own parts of the scene's schema: the robot model, the options of the
-robot effects (``motors``, ``contact``, ``friction``) and the motors' ranges of the input
-laws.
+robot effects (``motors``, ``contact``, ``friction``), the motors' ranges of the input
+laws and the fixed step the robot's cables allow.
 
 Functions over the scene's :class:`~tensegrity_core.schema.Reader` (its errors are
 :class:`~tensegrity_core.sim.errors.SceneError` with key path and line), called by
@@ -205,3 +205,71 @@ def command_range(robot: Robot, j: int, mode: int, motors: MotorsSpec | None) ->
         return 0.0, float(t)
     lo, hi = robot.motors.range[j]
     return float(lo), float(hi)
+
+
+#: How far the classical RK4's stability region reaches from the origin [1]: the largest
+#: ``|z|`` with ``|R(z)| <= 1``, ``R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24`` (2.83 along the
+#: imaginary axis, 2.79 along the negative real one, 2.96 in between).
+RK4_REACH = 2.96
+
+
+def step_fits(reader: Reader, model: RobotModelSpec, motors: MotorsSpec | None, step: float,
+              d: dict[str, Any]) -> None:
+    """Refuse a fixed step ``step`` [s] that RK4 cannot follow on the robot as drawn.
+
+    Moving a free rod of mass ``m`` [kg] (its own and the point masses at its caps) by ``e``
+    along a unit direction ``u`` stores at least ``sum k_i (u_i . u)^2 e^2 / 2`` in the taut
+    cables ``i`` (stiffness ``k_i`` [N/m], direction ``u_i``, below their motors' tension
+    limits) that join it to anything but itself; the cables' geometric stiffness and
+    everything else only add. So the undamped linearisation at the drawing has a mode of at
+    least ``omega = sqrt(sum k_i (u_i . u)^2 / m)`` (Rayleigh), taken here for ``u`` along each
+    of those cables; with damping the fast root of a mode is at least as large. RK4 with steps
+    ``h`` diverges on it once ``h omega > RK4_REACH``: such a run would stop with a state that
+    is no longer finite, so the scene is refused before it starts, naming the rod, the cable
+    and the longest step that mode allows (a step below it may still be too long for a mode
+    this bound does not see; the run then stops and says so)."""
+    robot = model.robot
+    pinned: NDArray[np.bool_] = np.asarray(robot.pinned.any(axis=1), dtype=bool)
+    in_body = {int(i) for b in robot.bodies for i in b.nodes}
+    rod_of: dict[int, int] = {}
+    for j, (a, b) in enumerate(robot.rods.ends.tolist()):
+        if not (pinned[a] or pinned[b] or a in in_body or b in in_body):
+            rod_of[a] = rod_of[b] = j
+    limit = robot.motors.max_tension if motors is not None else np.full(len(robot.motors), math.inf)
+    if motors is not None and motors.max_tension is not None:
+        limit = np.full(len(robot.motors), motors.max_tension)
+    cables = robot.cables
+    h = robot.nodes[cables.ends[:, 1]] - robot.nodes[cables.ends[:, 0]]
+    drawn = np.linalg.norm(h, axis=1)
+    on: dict[int, list[int]] = {}                      # rod -> its taut cables to other things
+    for i, (a, b) in enumerate(cables.ends.tolist()):
+        k, l0 = float(cables.stiffness[i]), float(cables.rest_length[i])
+        t_max = float(limit[cables.motor[i]]) if cables.motor[i] >= 0 else math.inf
+        if not (drawn[i] > l0 and k * (drawn[i] - l0) < t_max):
+            continue                                   # slack, or paying out at its limit
+        for end, other in ((a, b), (b, a)):
+            rod = rod_of.get(end)
+            if rod is not None and rod_of.get(other) != rod:
+                on.setdefault(rod, []).append(i)
+    worst: tuple[float, float, float, int, int] | None = None
+    for rod, taut in on.items():
+        mass = float(robot.rods.mass[rod] + robot.node_masses[robot.rods.ends[rod]].sum())
+        u = h[taut] / drawn[taut, None]
+        k_taut = cables.stiffness[taut]
+        for j, i in enumerate(taut):
+            stiffness = float(np.sum(k_taut * (u @ u[j]) ** 2))
+            omega = math.sqrt(stiffness / mass)
+            if worst is None or omega > worst[0]:
+                worst = (omega, stiffness, mass, i, rod)
+    if worst is None or step * worst[0] <= RK4_REACH:
+        return
+    omega, stiffness, mass, i, rod = worst
+    longest = RK4_REACH / omega
+    given = isinstance(d.get("integrator"), dict) and "max_step" in d["integrator"]
+    path: KeyPath = ("integrator", "max_step")
+    raise reader.error(f"a fixed step of {step:g} s{'' if given else ' (the default)'} is too long for rod "
+                       f"{excerpt(robot.rods.names[rod])} ({mass:g} kg): moved along cable "
+                       f"{excerpt(cables.names[i])} it meets {stiffness:g} N/m of taut cables, a mode of at least "
+                       f"{omega:.4g} rad/s, which RK4 follows with steps up to {longest:.3g} s; give "
+                       f"integrator.max_step in (0, {longest:.3g}] s",
+                       path, d["integrator"] if given else d, "max_step" if given else "integrator")

@@ -34,7 +34,13 @@ from tensegrity_core.schema import (
 from tensegrity_core.sim.errors import SceneError
 from tensegrity_core.sim.inputs import Commanded, Constant, InputLaw, Proportional, Ramp
 from tensegrity_core.sim.scene.references import structure_source
-from tensegrity_core.sim.scene.robot_schema import robot_control, robot_effect, robot_model, within_motor_ranges
+from tensegrity_core.sim.scene.robot_schema import (
+    robot_control,
+    robot_effect,
+    robot_model,
+    step_fits,
+    within_motor_ranges,
+)
 from tensegrity_core.sim.scene.series import read_series
 from tensegrity_core.sim.scene.spec import (
     EFFECTS,
@@ -55,6 +61,7 @@ from tensegrity_core.sim.scene.spec import (
     IntegratorSpec,
     LoadsSpec,
     ModelSpec,
+    MotorsSpec,
     RobotModelSpec,
     Scene,
     SceneEffects,
@@ -100,6 +107,9 @@ class SceneReader(Reader):
             where = ("output", "rate") if "output" in d else ("duration",)
             raise self.error(reason, where, d["output"] if "output" in d else d, where[-1])
         integrator = self.integrator(d.get("integrator"), ("integrator",), d, model)
+        if isinstance(model, RobotModelSpec) and "cables" in effects:
+            motors = effects.get("motors")
+            step_fits(self, model, motors if isinstance(motors, MotorsSpec) else None, integrator.max_step, d)
         seed = self.integer(d, "seed", (), default=0, lo=0)
         return Scene(name=name, model=model, initial=initial, inputs=inputs, effects=effects,
                      duration=duration, output_rate=output_rate, integrator=integrator, seed=seed,

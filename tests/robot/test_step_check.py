@@ -1,0 +1,90 @@
+"""A robot scene whose fixed step RK4 cannot follow is refused before it runs, in one line
+naming ``integrator.max_step``, its unit and the accepted range; the refusal is right.
+
+The robot: a 1 kg rod along x held between two pinned points by two collinear cables of
+``k = 8e6 N/m`` each, stretched 0.1 and 0.2 mm (no gravity, no floor): it starts 0.05 mm from
+its equilibrium and neither cable goes slack as it oscillates. Its axial mode is the rod between the cables, ``omega = sqrt(2 k / m) = 4000
+rad/s`` (their 1.2 kN only add a transverse stiffness ``2 T / l = 2.4e4 N/m``, far below
+``2 k``), so RK4 follows it with steps up to ``2.96 / 4000 = 0.74 ms``: the default 1 ms is
+refused. Undamped, the mode is on RK4's imaginary axis, stable up to ``h omega = 2 sqrt 2 =
+2.83``: a run at 0.9 of the limit (2.66) keeps its energy, one at 1.05 of it (``h omega =
+3.1``, growth ``|R(3.1 i)| = 1.87`` per step) gains energy from nowhere.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+from tensegrity_core.sim import SceneError, compile_scene, load_scene
+from tensegrity_core.sim.scene.robot_schema import RK4_REACH
+from tensegrity_ros.cli import main
+
+K, MASS = 8e6, 1.0
+LIMIT = RK4_REACH / np.sqrt(2 * K / MASS)        # 0.74 ms
+ROBOT = {"name": "hung", "nodes": {"p": [0.0, 0.0, 0.0], "a": [0.1, 0.0, 0.0], "b": [1.1, 0.0, 0.0],
+                                   "q": [1.2, 0.0, 0.0]},
+         "pinned": ["p", "q"], "rods": [{"name": "r", "nodes": ["a", "b"], "mass": MASS, "radius": 0.01}],
+         "cables": [{"name": "c", "nodes": ["p", "a"], "stiffness": K, "rest_length": 0.0999},
+                    {"name": "d", "nodes": ["b", "q"], "stiffness": K, "rest_length": 0.0998}]}
+
+
+def scene(step: float | None = None) -> dict:
+    out = {"name": "hung", "model": {"kind": "robot", "robot": ROBOT}, "initial": {"drawn": True},
+           "effects": ["inertia", "cables"], "duration": 2.0}
+    return out if step is None else dict(out, integrator={"max_step": step})
+
+
+def test_rk4_s_reach():
+    """The largest |z| in RK4's stability region, on a fine polar grid: 2.96 (to 0.005)."""
+    angle = np.linspace(np.pi / 2, np.pi, 721)[:, None]
+    radius = np.linspace(1e-3, 4.0, 8001)[None, :]
+    z = radius * np.exp(1j * angle)
+    stable = np.abs(1 + z + z**2 / 2 + z**3 / 6 + z**4 / 24) <= 1.0
+    first_unstable = np.argmin(stable, axis=1)
+    assert abs(radius[0, first_unstable - 1].max() - RK4_REACH) < 5e-3
+
+
+def test_a_step_too_long_for_a_cable_is_refused_in_one_line():
+    with pytest.raises(SceneError, match=r"^integrator\.max_step: a fixed step of 0\.001 s \(the default\) is too "
+                                         r"long for rod 'r' \(1 kg\): moved along cable 'c' it meets 1\.6e\+07 N/m of "
+                                         r"taut cables, a mode of at least 4000 rad/s, which RK4 follows with steps "
+                                         r"up to 0\.00074 s; give integrator\.max_step in \(0, 0\.00074\] s$"):
+        load_scene(scene())
+    with pytest.raises(SceneError, match=r"^integrator\.max_step: a fixed step of 0\.0008 s is too long"):
+        load_scene(scene(8e-4))
+    load_scene(scene(7e-4))
+    slack = dict(ROBOT, cables=[dict(c, rest_length=0.1001) for c in ROBOT["cables"]])     # nothing to follow
+    load_scene(dict(scene(), model={"kind": "robot", "robot": slack}))
+
+
+def _energy(step: float, steps: int = 2000) -> float:
+    """The largest energy (kinetic + cables) over ``steps`` steps of ``step`` [s], in units of
+    the energy it starts with (validation passed at a step it accepts, then the model's step
+    replaced)."""
+    model = compile_scene(load_scene(scene(0.5 * LIMIT)))
+    model.step = step
+    state = model.initial_state(t_end=steps * step)
+    samples: list = []
+    model.record(state, np.arange(steps + 1) * step, samples)
+    o = model.observe(samples)
+    E = o["kinetic_energy"] + o["potential_energy"]
+    return float(E.max() / E[0])
+
+
+def test_the_refusal_is_right():
+    """Below the refused steps the energy stays what it was (RK4's error: below 1 % over 2000
+    steps); above them it grows, ``|R(3.1 i)|^2 = 3.5`` times in a step while both cables are
+    taut, until the amplitude slackens them by turns (then more than doubled: 2.3 times)."""
+    assert _energy(0.9 * LIMIT) < 1.01
+    assert _energy(1.05 * LIMIT, steps=20) > 2.0
+
+
+def test_the_cli_says_it_in_one_line_with_exit_2(tmp_path, capsys):
+    path = tmp_path / "hung.yaml"
+    path.write_text(yaml.safe_dump(scene()))
+    assert main(["simulate", str(path), "-o", str(tmp_path / "out.csv"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert "integrator.max_step" in err and "give integrator.max_step in (0, 0.00074] s" in err
