@@ -115,11 +115,12 @@ def model_of(robot: dict, effects=ALL, duration: float = 1.0, step: float | None
 
 
 def stable_step(robot: dict) -> float:
-    """A fixed step [s] that RK4 resolves for the cables of ``robot``: a cable of stiffness
+    """A fixed step [s] that RK4 resolves for the cables and the floor of ``robot``: a cable of stiffness
     ``k`` and damping ``c`` between caps of rods of masses ``m_a``, ``m_b`` moves them as a
     spring on the mass ``1 / (1/m_a' + 1/m_b')`` with ``1/m' <= 4/m`` at a rod's end (a rod's
     transverse inertia is at least ``m L^2 / 12``, so ``1/m + (L/2)^2 / I_t <= 4/m``); summed
-    over the cables (Gershgorin) this bounds the fastest rates ``omega^2`` and ``sigma``.
+    over the cables and the caps' floor springs and anchors (Gershgorin) this bounds the
+    fastest rates ``omega^2`` and ``sigma``.
     Half the inverse of the larger keeps ``h omega``, ``h sigma`` well inside RK4's region
     (2.8 along either axis)."""
     mass = {n: r["mass"] for r in robot["rods"] for n in r["nodes"]}
@@ -128,6 +129,10 @@ def stable_step(robot: dict) -> float:
         inv = 4.0 / mass[c["nodes"][0]] + 4.0 / mass[c["nodes"][1]]
         omega2 += c["stiffness"] * inv
         sigma += c["damping"] * inv
+    floor = robot.get("floor", {})
+    for r in robot["rods"]:                 # each cap on the floor: its normal spring, its friction anchor
+        omega2 += 2.0 * (floor.get("stiffness", 0.0) + floor.get("tangential_stiffness", 0.0)) * 4.0 / r["mass"]
+        sigma += 2.0 * floor.get("tangential_damping", 0.0) * 4.0 / r["mass"]
     return min(1e-3, 0.5 / max(np.sqrt(omega2), sigma))
 
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import yaml
+from numpy.typing import NDArray
 
 from tensegrity_core.sim import SceneError, compile_scene, load_scene
 from tensegrity_core.sim.scene.robot_schema import RK4_REACH
@@ -88,3 +89,56 @@ def test_the_cli_says_it_in_one_line_with_exit_2(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1
     assert "integrator.max_step" in err and "give integrator.max_step in (0, 0.00074] s" in err
+
+
+#: A 1 kg rod lying on a floor of stiffness 1e8 N/m (no damping, no friction): a cap pressed
+#: into it meets a mode of at least ``sqrt(k / m) = 1e4 rad/s`` (the rod on both caps bounces
+#: at ``sqrt(2 k / m)``), so RK4 follows it with steps up to ``2.96 / 1e4 = 0.296 ms``.
+FLOOR_K = 1e8
+FLOOR_LIMIT = RK4_REACH / np.sqrt(FLOOR_K / MASS)
+LYING = {"name": "lying", "nodes": {"a": [0.0, 0.0, 0.01], "b": [1.0, 0.0, 0.01]},
+         "rods": [{"name": "r", "nodes": ["a", "b"], "mass": MASS, "radius": 0.01, "cap_radius": 0.01}],
+         "cables": [{"name": "c", "nodes": ["a", "b"], "stiffness": 1.0, "rest_length": 2.0}],
+         "gravity": [0.0, 0.0, -9.81],
+         "floor": {"stiffness": FLOOR_K, "dissipation": 0.0, "mu_static": 0.0, "tangential_stiffness": 1.0}}
+
+
+def floor_scene(step: float | None = None) -> dict:
+    out = {"name": "lying", "model": {"kind": "robot", "robot": LYING}, "initial": {"drawn": True},
+           "effects": ["inertia", "gravity", "cables", "contact"], "duration": 1.0}
+    return out if step is None else dict(out, integrator={"max_step": step})
+
+
+def test_a_step_too_long_for_the_floor_is_refused_in_one_line():
+    with pytest.raises(SceneError, match=r"^integrator\.max_step: a fixed step of 0\.001 s \(the default\) is too "
+                                         r"long for rod 'r' \(1 kg\): pressed into the floor it meets 1e\+08 N/m of "
+                                         r"contact stiffness, a mode of at least 1e\+04 rad/s, which RK4 follows with "
+                                         r"steps up to 0\.000296 s; give integrator\.max_step in \(0, 0\.000296\] s$"):
+        load_scene(floor_scene())
+    load_scene(floor_scene(0.99 * FLOOR_LIMIT))
+    without_contact = dict(floor_scene(), effects=["inertia", "gravity", "cables"])
+    load_scene(without_contact)                       # no floor force, nothing to follow
+    with pytest.raises(SceneError, match=r"sticking on the floor it meets 1e\+08 N/m of friction anchor"):
+        load_scene(dict(floor_scene(), effects=[
+            "inertia", "gravity", "cables", {"contact": {"stiffness": 1.0}},
+            {"friction": {"mu_static": 0.5, "tangential_stiffness": FLOOR_K}}]))
+
+
+def test_the_floor_s_refusal_is_right():
+    """Past the refused step the rod resting on its caps gains energy from nowhere (its bounce
+    on both caps has ``h omega >= 1.05 * 2.96 * sqrt 2 = 4.4``, beyond RK4's 2.83 on the
+    imaginary axis); well inside it (a tenth: ``h omega`` of the rocking mode
+    ``sqrt(6 k / m)`` about 0.7) it stays at rest to the sinking of its weight."""
+    def run(step: float, steps: int) -> NDArray:
+        model = compile_scene(load_scene(floor_scene(0.5 * FLOOR_LIMIT)))
+        model.step = step
+        samples: list = []
+        model.record(model.initial_state(t_end=steps * step), np.arange(steps + 1) * step, samples)
+        return model.observe(samples)["body_positions"][:, 0, 2]
+
+    heights = run(0.1 * FLOOR_LIMIT, 400)
+    sink = MASS * 9.81 / (2 * FLOOR_K)                # 4.9e-8 m on each cap
+    assert np.all(np.abs(heights - 0.01) <= 2.0 * sink + 1e-12)
+    with np.errstate(all="ignore"):
+        heights = run(1.05 * FLOOR_LIMIT, 60)
+    assert not np.all(np.abs(heights - 0.01) <= 1e3 * sink)

@@ -11,6 +11,7 @@ forces in newtons.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -213,9 +214,10 @@ def command_range(robot: Robot, j: int, mode: int, motors: MotorsSpec | None) ->
 RK4_REACH = 2.96
 
 
-def step_fits(reader: Reader, model: RobotModelSpec, motors: MotorsSpec | None, step: float,
+def step_fits(reader: Reader, model: RobotModelSpec, effects: Mapping[str, EffectSpec], step: float,
               d: dict[str, Any]) -> None:
-    """Refuse a fixed step ``step`` [s] that RK4 cannot follow on the robot as drawn.
+    """Refuse a fixed step ``step`` [s] that RK4 cannot follow on the robot as drawn, with
+    its ``effects``.
 
     Moving a free rod of mass ``m`` [kg] (its own and the point masses at its caps) by ``e``
     along a unit direction ``u`` stores at least ``sum k_i (u_i . u)^2 e^2 / 2`` in the taut
@@ -223,26 +225,30 @@ def step_fits(reader: Reader, model: RobotModelSpec, motors: MotorsSpec | None, 
     limits) that join it to anything but itself; the cables' geometric stiffness and
     everything else only add. So the undamped linearisation at the drawing has a mode of at
     least ``omega = sqrt(sum k_i (u_i . u)^2 / m)`` (Rayleigh), taken here for ``u`` along each
-    of those cables; with damping the fast root of a mode is at least as large. RK4 with steps
-    ``h`` diverges on it once ``h omega > RK4_REACH``: such a run would stop with a state that
-    is no longer finite, so the scene is refused before it starts, naming the rod, the cable
-    and the longest step that mode allows (a step below it may still be too long for a mode
-    this bound does not see; the run then stops and says so)."""
+    of those cables; with damping the fast root of a mode is at least as large. Likewise a cap
+    on the floor (``contact``: its normal force ``k delta`` [N/m] while it presses in; with
+    ``friction``, the sticking anchor's ``tangential_stiffness``) gives the rod moved along
+    the normal (or along the floor) a mode of at least ``sqrt(k / m)`` once it touches. RK4
+    with steps ``h`` diverges on a mode once ``h omega > RK4_REACH``: such a run would stop
+    with a state that is no longer finite, so the scene is refused before it starts, naming
+    the rod, what holds it and the longest step that mode allows (a step below it may still
+    be too long for a mode this bound does not see; the run then stops and says so)."""
     robot = model.robot
+    motors, contact, friction = (effects.get(k) for k in ("motors", "contact", "friction"))
     pinned: NDArray[np.bool_] = np.asarray(robot.pinned.any(axis=1), dtype=bool)
     in_body = {int(i) for b in robot.bodies for i in b.nodes}
     rod_of: dict[int, int] = {}
     for j, (a, b) in enumerate(robot.rods.ends.tolist()):
         if not (pinned[a] or pinned[b] or a in in_body or b in in_body):
             rod_of[a] = rod_of[b] = j
-    limit = robot.motors.max_tension if motors is not None else np.full(len(robot.motors), math.inf)
-    if motors is not None and motors.max_tension is not None:
+    limit = robot.motors.max_tension if isinstance(motors, MotorsSpec) else np.full(len(robot.motors), math.inf)
+    if isinstance(motors, MotorsSpec) and motors.max_tension is not None:
         limit = np.full(len(robot.motors), motors.max_tension)
     cables = robot.cables
     h = robot.nodes[cables.ends[:, 1]] - robot.nodes[cables.ends[:, 0]]
     drawn = np.linalg.norm(h, axis=1)
     on: dict[int, list[int]] = {}                      # rod -> its taut cables to other things
-    for i, (a, b) in enumerate(cables.ends.tolist()):
+    for i, (a, b) in enumerate(cables.ends.tolist() if "cables" in effects else ()):
         k, l0 = float(cables.stiffness[i]), float(cables.rest_length[i])
         t_max = float(limit[cables.motor[i]]) if cables.motor[i] >= 0 else math.inf
         if not (drawn[i] > l0 and k * (drawn[i] - l0) < t_max):
@@ -251,25 +257,36 @@ def step_fits(reader: Reader, model: RobotModelSpec, motors: MotorsSpec | None, 
             rod = rod_of.get(end)
             if rod is not None and rod_of.get(other) != rod:
                 on.setdefault(rod, []).append(i)
-    worst: tuple[float, float, float, int, int] | None = None
-    for rod, taut in on.items():
+    worst: tuple[float, float, float, int, str] | None = None         # omega, k, m, rod, what holds it
+
+    def consider(rod: int, stiffness: float, what: str) -> None:
+        nonlocal worst
         mass = float(robot.rods.mass[rod] + robot.node_masses[robot.rods.ends[rod]].sum())
+        omega = math.sqrt(stiffness / mass)
+        if worst is None or omega > worst[0]:
+            worst = (omega, stiffness, mass, rod, what)
+
+    for rod, taut in on.items():
         u = h[taut] / drawn[taut, None]
         k_taut = cables.stiffness[taut]
         for j, i in enumerate(taut):
             stiffness = float(np.sum(k_taut * (u @ u[j]) ** 2))
-            omega = math.sqrt(stiffness / mass)
-            if worst is None or omega > worst[0]:
-                worst = (omega, stiffness, mass, i, rod)
+            consider(rod, stiffness, f"moved along cable {excerpt(cables.names[i])} it meets {stiffness:g} N/m of "
+                                     f"taut cables")
+    for rod in sorted(set(rod_of.values())):
+        if isinstance(contact, ContactSpec):
+            consider(rod, contact.stiffness, f"pressed into the floor it meets {contact.stiffness:g} N/m of contact "
+                                             f"stiffness")
+        if isinstance(friction, FrictionSpec):
+            consider(rod, friction.tangential_stiffness, f"sticking on the floor it meets "
+                                                         f"{friction.tangential_stiffness:g} N/m of friction anchor")
     if worst is None or step * worst[0] <= RK4_REACH:
         return
-    omega, stiffness, mass, i, rod = worst
+    omega, stiffness, mass, rod, what = worst
     longest = RK4_REACH / omega
     given = isinstance(d.get("integrator"), dict) and "max_step" in d["integrator"]
     path: KeyPath = ("integrator", "max_step")
     raise reader.error(f"a fixed step of {step:g} s{'' if given else ' (the default)'} is too long for rod "
-                       f"{excerpt(robot.rods.names[rod])} ({mass:g} kg): moved along cable "
-                       f"{excerpt(cables.names[i])} it meets {stiffness:g} N/m of taut cables, a mode of at least "
-                       f"{omega:.4g} rad/s, which RK4 follows with steps up to {longest:.3g} s; give "
+                       f"{excerpt(robot.rods.names[rod])} ({mass:g} kg): {what}, a mode of at least {omega:.4g} rad/s, which RK4 follows with steps up to {longest:.3g} s; give "
                        f"integrator.max_step in (0, {longest:.3g}] s",
                        path, d["integrator"] if given else d, "max_step" if given else "integrator")

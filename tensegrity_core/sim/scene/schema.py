@@ -61,7 +61,6 @@ from tensegrity_core.sim.scene.spec import (
     IntegratorSpec,
     LoadsSpec,
     ModelSpec,
-    MotorsSpec,
     RobotModelSpec,
     Scene,
     SceneEffects,
@@ -107,9 +106,8 @@ class SceneReader(Reader):
             where = ("output", "rate") if "output" in d else ("duration",)
             raise self.error(reason, where, d["output"] if "output" in d else d, where[-1])
         integrator = self.integrator(d.get("integrator"), ("integrator",), d, model)
-        if isinstance(model, RobotModelSpec) and "cables" in effects:
-            motors = effects.get("motors")
-            step_fits(self, model, motors if isinstance(motors, MotorsSpec) else None, integrator.max_step, d)
+        if isinstance(model, RobotModelSpec):
+            step_fits(self, model, effects, integrator.max_step, d)
         seed = self.integer(d, "seed", (), default=0, lo=0)
         return Scene(name=name, model=model, initial=initial, inputs=inputs, effects=effects,
                      duration=duration, output_rate=output_rate, integrator=integrator, seed=seed,
