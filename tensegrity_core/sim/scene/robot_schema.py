@@ -11,7 +11,6 @@ forces in newtons.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +30,7 @@ from tensegrity_core.sim.scene.spec import (
     MotorsSpec,
     RobotModelSpec,
     RollSpec,
+    SceneEffects,
 )
 
 IntArray = NDArray[np.int64]
@@ -214,7 +214,7 @@ def command_range(robot: Robot, j: int, mode: int, motors: MotorsSpec | None) ->
 RK4_REACH = 2.96
 
 
-def step_fits(reader: Reader, model: RobotModelSpec, effects: Mapping[str, EffectSpec], step: float,
+def step_fits(reader: Reader, model: RobotModelSpec, effects: SceneEffects, step: float,
               d: dict[str, Any]) -> None:
     """Refuse a fixed step ``step`` [s] that RK4 cannot follow on the robot as drawn, with
     its ``effects``.
@@ -234,15 +234,15 @@ def step_fits(reader: Reader, model: RobotModelSpec, effects: Mapping[str, Effec
     the rod, what holds it and the longest step that mode allows (a step below it may still
     be too long for a mode this bound does not see; the run then stops and says so)."""
     robot = model.robot
-    motors, contact, friction = (effects.get(k) for k in ("motors", "contact", "friction"))
+    motors, contact, friction = effects.get("motors"), effects.get("contact"), effects.get("friction")
     pinned: NDArray[np.bool_] = np.asarray(robot.pinned.any(axis=1), dtype=bool)
     in_body = {int(i) for b in robot.bodies for i in b.nodes}
     rod_of: dict[int, int] = {}
     for j, (a, b) in enumerate(robot.rods.ends.tolist()):
         if not (pinned[a] or pinned[b] or a in in_body or b in in_body):
             rod_of[a] = rod_of[b] = j
-    limit = robot.motors.max_tension if isinstance(motors, MotorsSpec) else np.full(len(robot.motors), math.inf)
-    if isinstance(motors, MotorsSpec) and motors.max_tension is not None:
+    limit = robot.motors.max_tension if motors is not None else np.full(len(robot.motors), math.inf)
+    if motors is not None and motors.max_tension is not None:
         limit = np.full(len(robot.motors), motors.max_tension)
     cables = robot.cables
     h = robot.nodes[cables.ends[:, 1]] - robot.nodes[cables.ends[:, 0]]
@@ -274,10 +274,10 @@ def step_fits(reader: Reader, model: RobotModelSpec, effects: Mapping[str, Effec
             consider(rod, stiffness, f"moved along cable {excerpt(cables.names[i])} it meets {stiffness:g} N/m of "
                                      f"taut cables")
     for rod in sorted(set(rod_of.values())):
-        if isinstance(contact, ContactSpec):
+        if contact is not None:
             consider(rod, contact.stiffness, f"pressed into the floor it meets {contact.stiffness:g} N/m of contact "
                                              f"stiffness")
-        if isinstance(friction, FrictionSpec):
+        if friction is not None:
             consider(rod, friction.tangential_stiffness, f"sticking on the floor it meets "
                                                          f"{friction.tangential_stiffness:g} N/m of friction anchor")
     if worst is None or step * worst[0] <= RK4_REACH:
