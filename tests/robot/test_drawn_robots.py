@@ -115,20 +115,38 @@ def model_of(robot: dict, effects=ALL, duration: float = 1.0, step: float | None
 
 
 def stable_step(robot: dict) -> float:
-    """A fixed step [s] that RK4 resolves for the cables and the floor of ``robot``: a cable of stiffness
-    ``k`` and damping ``c`` between caps of rods of masses ``m_a``, ``m_b`` moves them as a
-    spring on the mass ``1 / (1/m_a' + 1/m_b')`` with ``1/m' <= 4/m`` at a rod's end (a rod's
-    transverse inertia is at least ``m L^2 / 12``, so ``1/m + (L/2)^2 / I_t <= 4/m``); summed
-    over the cables and the caps' floor springs and anchors (Gershgorin) this bounds the
-    fastest rates ``omega^2`` and ``sigma``.
-    Half the inverse of the larger keeps ``h omega``, ``h sigma`` well inside RK4's region
-    (2.8 along either axis)."""
-    mass = {n: r["mass"] for r in robot["rods"] for n in r["nodes"]}
+    """A fixed step [s] that RK4 resolves for the cables and the floor of ``robot`` in the
+    states :func:`drawn_state` draws and the runs from them.
+
+    - A cable of stiffness ``k`` and damping ``c`` between caps of rods of masses ``m_a``,
+      ``m_b`` moves them as a spring on the mass ``1 / (1/m_a' + 1/m_b')`` with ``1/m' <= 4/m``
+      at a rod's end (a rod's transverse inertia ``I_t`` is at least ``m L^2 / 12``, so
+      ``1/m + (L/2)^2 / I_t <= 4/m``).
+    - Its tension ``T`` turns the rod about its centre as the rod turns (a pull at the cap,
+      ``L/2`` from the centre: the rod aligning with the cable, a pendulum of ``T L / 2`` on
+      ``I_t``, so ``omega^2 <= 6 T / (m L)``); ``T`` is bounded by the cable stretched to its
+      drawn length plus the drawn state's moves (half the drawing's size) and both rods'
+      lengths, and its damper at 10 m/s.
+    - Each cap on the floor adds its normal spring and its friction anchor.
+    Summed (Gershgorin) this bounds the fastest rates ``omega^2`` and ``sigma``; half the
+    inverse of the larger keeps ``h omega``, ``h sigma`` well inside RK4's region (2.8 along
+    either axis)."""
+    nodes = {name: np.asarray(x, dtype=float) for name, x in robot["nodes"].items()}
+    size = float(np.ptp(np.array(list(nodes.values())), axis=0).max()) + 1e-3
+    mass, length = {}, {}
+    for r in robot["rods"]:
+        a, b = r["nodes"]
+        for end in (a, b):
+            mass[end], length[end] = r["mass"], float(np.linalg.norm(nodes[b] - nodes[a]))
     omega2 = sigma = 0.0
     for c in robot["cables"]:
-        inv = 4.0 / mass[c["nodes"][0]] + 4.0 / mass[c["nodes"][1]]
+        a, b = c["nodes"]
+        inv = 4.0 / mass[a] + 4.0 / mass[b]
         omega2 += c["stiffness"] * inv
         sigma += c["damping"] * inv
+        stretched = float(np.linalg.norm(nodes[b] - nodes[a])) + 0.5 * size + length[a] + length[b]
+        tension = c["stiffness"] * stretched + c["damping"] * 10.0
+        omega2 += tension * (6.0 / (mass[a] * length[a]) + 6.0 / (mass[b] * length[b]))
     floor = robot.get("floor", {})
     for r in robot["rods"]:                 # each cap on the floor: its normal spring, its friction anchor
         omega2 += 2.0 * (floor.get("stiffness", 0.0) + floor.get("tangential_stiffness", 0.0)) * 4.0 / r["mass"]
