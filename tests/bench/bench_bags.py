@@ -85,6 +85,7 @@ def _replay_spacing_errors(folder: Path, env: dict) -> tuple[list[int], int]:
         elif time.monotonic() - quiet_since > 1.0:
             break
     play.wait(60)
+    executor.shutdown()
     node.destroy_node()
     rclpy.try_shutdown(context=ctx)
     n = min(len(arrivals), len(recorded))

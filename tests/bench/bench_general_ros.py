@@ -110,6 +110,7 @@ def free_running(ctx: Context) -> list[Row]:
     start = len(seen)
     while time.monotonic() < seen[start - 1][0] + duration:
         ex.spin_once(timeout_sec=0.05)
+    ex.shutdown()
     node.destroy_node()
     rclpy.try_shutdown(context=rctx)
     _stop(sim)

@@ -111,6 +111,7 @@ def free_running(ctx: Context) -> list[Row]:
     while time.monotonic() < seen[start - 1][0] + duration:
         ex.spin_once(timeout_sec=0.05)
     cpu1, last = process_cpu_s(sim.pid), len(seen)
+    ex.shutdown()
     node.destroy_node()
     rclpy.try_shutdown(context=rctx)
     _stop(sim)

@@ -157,6 +157,7 @@ def _round_trips(srv_type, name: str, requests: list, env: dict) -> list[float]:
         assert spin_until_done(ex, f, 10)
         if k >= 20:
             times.append(time.perf_counter() - t0)
+    ex.shutdown()
     node.destroy_node()
     rclpy.try_shutdown(context=rctx)
     return times

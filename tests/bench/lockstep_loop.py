@@ -190,6 +190,7 @@ class LockstepLoop:
 
     def close(self) -> None:
         """Stop the client, the simulator and the echo; every step ran under its own command."""
+        self.ex.shutdown()                  # its guard conditions go before the context
         self.node.destroy_node()
         self.rclpy.try_shutdown(context=self.rctx)
         log = _stop(self.sim)
