@@ -25,7 +25,9 @@ def test_the_couple_only_takes_energy_out_and_is_limited_by_b_times_the_normal_f
     M = resisting_couple(w, F_n, n, rolling, torsional)
     assert float(M @ w) <= 0.0
     spin, roll = float(M @ n), M - (M @ n) * n
-    rounding = 1e-12 * (rolling + torsional) * F_n         # of the projections onto n here
+    # of the projections onto n here; at subnormal sizes (a lever of 2e-311 m) a product
+    # rounds to a multiple of the smallest subnormal, not to a relative error
+    rounding = 1e-12 * (rolling + torsional) * F_n + 4 * np.finfo(float).smallest_subnormal
     assert abs(spin) <= torsional * F_n + rounding
     assert np.linalg.norm(roll) <= rolling * F_n + rounding
     w_n = float(w @ n)
