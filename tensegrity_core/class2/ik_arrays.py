@@ -3,7 +3,9 @@
 The vectorised counterpart of :func:`~tensegrity_core.class2.inverse_kinematics.inverse_kinematics`:
 the same route (the paper's Eq. 13, then the factored roots of the quadratic), the same
 snapping of limits (:data:`~tensegrity_core.class2.inverse_kinematics.DOMAIN_TOL`,
-:func:`~tensegrity_core.class2.inverse_kinematics.snap_tolerance`) and the same verdicts,
+:func:`~tensegrity_core.class2.inverse_kinematics.rho1_snap_bound`,
+:func:`~tensegrity_core.class2.inverse_kinematics.snap_tolerance`), the same merging of
+coincident roots (:func:`~tensegrity_core.class2.inverse_kinematics.merge_radius`) and the same verdicts,
 as codes (:data:`IK_CODES`). The derivation is in that module's docstring and
 docs/class2.md.
 
@@ -30,7 +32,10 @@ from tensegrity_core.class2.inverse_kinematics import (
     REASON_RHO1,
     REASON_RHO2,
     REASON_SUM,
+    merge_radius,
+    rho1_snap_bound,
 )
+from tensegrity_core.class2.kinematics import BETA_RANGE_TOL
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 
 
@@ -38,6 +43,12 @@ def _snap_tolerance_array(c: NDArray[np.float64], L: float) -> NDArray[np.float6
     """Vectorised :func:`~tensegrity_core.class2.inverse_kinematics.snap_tolerance` (``c >= 0``)."""
     with np.errstate(divide="ignore"):
         return DOMAIN_TOL * L + np.where(c > 0.0, 8.0 * EPS * L * L / c, 0.0)
+
+
+def _rho1_snap_bound_array(w: NDArray[np.float64], L: float) -> NDArray[np.float64]:
+    """Vectorised :func:`~tensegrity_core.class2.inverse_kinematics.rho1_snap_bound`."""
+    t = DOMAIN_TOL * L
+    return 2.0 * L * t / (np.sqrt(w * w + 2.0 * L * t) + w)
 
 
 #: ``(delta1, delta2)`` of the columns of :func:`ik_array_all`.
@@ -88,10 +99,11 @@ def _branch_array(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Vectorised ``_branch`` of :mod:`~tensegrity_core.class2.inverse_kinematics`."""
     raw = x + d1 * w
-    rho1 = _snap_array(raw, 0.0, L, _snap_tolerance_array(w, L))
+    rho1 = _snap_array(raw, 0.0, L, _rho1_snap_bound_array(w, L))
     moved = rho1 != raw
-    c = np.where(moved, x - rho1, -d1 * w)
-    y = np.where(moved, np.copysign(np.sqrt(np.maximum(0.0, (L - c) * (L + c))), y), y)
+    r = np.hypot(x - rho1, y)
+    c = np.where(moved, L * (x - rho1) / r, -d1 * w)
+    y = np.where(moved, L * y / r, y)
     return rho1, c, y
 
 
@@ -137,10 +149,10 @@ def _paper_branch_snapped(
     """:func:`_paper_branch` with the snapping of the scalar IK."""
     L, k2 = params.L, params.k2
     K = 2.0 * params.k3 + k2
-    y = np.where(np.abs(y - L) <= DOMAIN_TOL * L, L, y)
+    y = np.where((y >= L - DOMAIN_TOL * L) & (y <= L + DOMAIN_TOL * L), L, y)   # as the scalar IK
     w = np.sqrt((L - y) * (L + y))
     rho1, c, y = _branch_array(x, y, w, -1.0, L)
-    tol = _snap_tolerance_array(c, L)
+    tol = _snap_tolerance_array(np.abs(c), L)
     cc, yy = c * c, y * y
     xi2 = K * K * yy + k2 * k2 * cc
     q = np.sqrt(4.0 * L * L * xi2 - ((K + k2) * rho1) ** 2 * yy)
@@ -159,13 +171,14 @@ def ik_array(x: ArrayLike, y: ArrayLike, params: Class2Params = PAPER_PARAMS) ->
     Same snapping of limits as
     :func:`~tensegrity_core.class2.inverse_kinematics.inverse_kinematics`: the formulas run unsnapped on
     every target, then the few targets within snapping distance of a limit (at most
-    ``2e-9 L`` for lengths, :func:`snap_tolerance`) are recomputed with snapping.
+    ``sqrt(2 DOMAIN_TOL) L = 1.4e-6 L`` for lengths, :func:`rho1_snap_bound` on the fold) are
+    recomputed with snapping.
     """
     x, y = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
     shape = x.shape
     x, y = x.reshape(-1), y.reshape(-1)
     L = params.L
-    band = 2e-9 * L   # > snap_tolerance for every c not snapped to 0 (c >= sqrt(2 DOMAIN_TOL) L)
+    band = rho1_snap_bound(0.0, L)   # >= every snap bound: of rho1, and of rho2 for c >= sqrt(2 DOMAIN_TOL) L
     fold = DOMAIN_TOL * L
     with np.errstate(invalid="ignore", divide="ignore"):
         rho1, rho2, c = _paper_branch(x, y, params)
@@ -182,6 +195,7 @@ def ik_array(x: ArrayLike, y: ArrayLike, params: Class2Params = PAPER_PARAMS) ->
             valid = (yb >= 0.0) & (yb <= L) & (rho1 >= 0.0) & (rho1 <= L) & (rho2 >= 0.0) & (
                 rho1 + rho2 <= 2.0 * L)
         beta = np.arctan2(yb, c)
+        valid &= beta <= 0.5 * np.pi + BETA_RANGE_TOL   # a rho1 snapped onto 0 can leave c < 0
     invalid = ~valid
     for a in (rho1, rho2, beta):
         np.copyto(a, np.nan, where=invalid)
@@ -203,7 +217,7 @@ def ik_array_all(x: ArrayLike, y: ArrayLike, params: Class2Params = PAPER_PARAMS
     d1 = np.array([b[0] for b in IK_BRANCHES], dtype=float)
     d2 = np.array([b[1] for b in IK_BRANCHES], dtype=float)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        y = np.where(np.abs(np.abs(y) - L) <= fold, np.copysign(L, y), y)[..., None]
+        y = np.where((np.abs(y) >= L - fold) & (np.abs(y) <= L + fold), np.copysign(L, y), y)[..., None]
         w = np.sqrt((L - y) * (L + y))
         rho1, c, y = _branch_array(x[..., None], y, w, d1, L)
         tol = _snap_tolerance_array(np.abs(c), L)
@@ -217,10 +231,11 @@ def ik_array_all(x: ArrayLike, y: ArrayLike, params: Class2Params = PAPER_PARAMS
         lam1 = np.sqrt(np.maximum((2.0 * L - s) * (2.0 * L + s), 0.0))
         d = K * rho2 - k2 * rho1
         beta = np.arctan2(y, c)
-        code = np.where(beta > 0.5 * np.pi + 1e-12, 1, 0)
-        code = np.where(beta < -1e-12, 1, code)
+        code = np.where(beta > 0.5 * np.pi + BETA_RANGE_TOL, 1, 0)
+        code = np.where(beta < -BETA_RANGE_TOL, 1, code)
         # root verdicts as the scalar IK's _spurious_reason: by branch inside the ellipse range, else numeric
-        genuine_branch = (d2 == -d1) | ((c == 0.0) & (y > 0.0))
+        sign_c = np.where(c == 0.0, -d1, np.sign(c))   # = -delta1 unless rho1 was snapped
+        genuine_branch = (d2 == sign_c) | ((c == 0.0) & (y > 0.0))
         by_branch = np.where(genuine_branch, np.where(y >= 0.0, 0, 6), np.where(y > 0.0, 6, 7))
         grad2 = y * d - c * k2 * lam1
         numeric = np.where(
@@ -232,6 +247,9 @@ def ik_array_all(x: ArrayLike, y: ArrayLike, params: Class2Params = PAPER_PARAMS
         code = np.where(rho2 < 0.0, 4, code)
         code = np.where((rho1 < 0.0) | (rho1 > L), 3, code)
         code = np.where(~(np.isfinite(rho2) & np.isfinite(x[..., None])), 2, code)
-        dup = (w == 0.0) & (np.arange(4) > 0)
-        code = np.where(dup & (code != 2), 8, code)
+        merge = merge_radius(L)
+        for j in range(1, 4):   # a valid root within merge_radius of an earlier valid one: a duplicate
+            near = np.hypot(rho1[..., :j] - rho1[..., j:j + 1], rho2[..., :j] - rho2[..., j:j + 1]) <= merge
+            dup = (near & (code[..., :j] <= 1)).any(axis=-1) & (code[..., j] <= 1)
+            code[..., j] = np.where(dup, 8, code[..., j])
     return IKAllArrays(rho1, rho2, beta, code.astype(np.int8))

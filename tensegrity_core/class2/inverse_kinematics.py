@@ -45,12 +45,40 @@ from tensegrity_core.errors import DomainError
 #: Relative tolerance (times L) within which a length on a domain limit is snapped onto
 #: it, and a target with ``|y|`` that close to L onto the fold ``|y| = L`` (there
 #: ``c = sqrt(L^2 - y^2)`` turns a rounding error of y into sqrt of it in rho1). The
-#: snapped answer reproduces the target to within this tolerance. The snapping of lengths
-#: also allows for the rounding of the target amplified by ``d rho1 / d y = y / c``
-#: (:func:`snap_tolerance`).
+#: snapped answer reproduces the target to within this tolerance: rho1 by the target's
+#: distance from the limit's circle (:func:`rho1_snap_bound`), rho2 with an allowance for
+#: the rounding of the target amplified by ``d rho1 / d y = y / c`` (:func:`snap_tolerance`).
 DOMAIN_TOL: Final = 1e-12
 #: The machine epsilon of float64, the unit of a rounding.
 EPS: Final = float(np.finfo(float).eps)
+
+
+def rho1_snap_bound(w: float, L: float) -> float:
+    """Largest overshoot [m] of ``rho1 = x -+ w`` beyond 0 or L that is put on the limit.
+
+    ``w = sqrt(L^2 - y^2)``. A branch length ``rho1 = lim +- s`` puts the target at
+    ``hypot(x - lim, y) = sqrt(L^2 +- 2 w s + s^2)`` from ``(lim, 0)``, so the target lies
+    within ``t = DOMAIN_TOL L`` of the circle that D traces with ``rho1 = lim`` when
+    ``2 w s + s^2 <= 2 L t``: ``s <= sqrt(w^2 + 2 L t) - w``, written without cancellation.
+    On the fold (``w = 0``) that is ``sqrt(2 DOMAIN_TOL) L``: a target within ``t`` of the
+    corner ``rho1 = L, beta = pi/2`` is reached although its rho1 is ``~1e-6 L`` off.
+    """
+    t = DOMAIN_TOL * L
+    return 2.0 * L * t / (math.sqrt(w * w + 2.0 * L * t) + w)
+
+
+def merge_radius(L: float) -> float:
+    """Distance [m] in the actuator plane within which two roots are one configuration.
+
+    Two roots of one target coincide only on the fold ``|y| = L`` (beta = pi/2, the
+    ``beta_half_pi`` singular set, where ``det(dD/drho) = 0``). There the branches
+    ``delta1 = -+1`` are ``rho1 = x -+ w`` with ``w = sqrt(L^2 - y^2)``: D depends
+    quadratically on the distance from the fold, so a target resolved to ``DOMAIN_TOL L`` (the
+    fold snap) resolves the branch separation ``2 w`` only to ``sqrt(2 DOMAIN_TOL) L``
+    (``2 w = 2 sqrt(2 L (L - y))``). Distinct equilibria of a target off the fold are at least
+    ``2 w - rho1_snap_bound(w) >= 2.2e-6 L`` apart in rho1, more than this radius.
+    """
+    return math.sqrt(2.0 * DOMAIN_TOL) * L
 
 
 def snap_tolerance(c: float, L: float) -> float:
@@ -165,16 +193,17 @@ def _spurious_reason(y: float, c: float, d: float, lam1: float, rho1: float, d1:
     """'' for an energy minimum, else which kind of spurious root (module docstring).
 
     Inside the ellipse range ``|rho1| < 2 K L / (K + k2)`` (which contains [0, L]) the
-    verdict follows from the branch signs alone (docs/class2.md): ``delta2 = -delta1`` is the
-    minimum for ``y >= 0``; ``delta2 = delta1`` is not stationary for ``y > 0`` and the
-    maximum for ``y <= 0``; for ``y < 0`` the ``delta2 = -delta1`` root is not stationary;
-    at ``c = 0`` (``y = L``) the two roots coincide.
+    verdict follows from the signs alone (docs/class2.md): ``delta2 = sign(c)`` (``= -delta1``
+    unless rho1 was snapped onto a limit) is the minimum for ``y >= 0``; the other root is not
+    stationary for ``y > 0`` and the maximum for ``y <= 0``; for ``y < 0`` the
+    ``delta2 = sign(c)`` root is not stationary; at ``c = 0`` (``y = L``) the two roots coincide.
     This is exact where the numeric test is not (near lambda1 = 0 or c = 0 the rounding of
     rho2 dominates dU/dbeta). Outside that range ``dU/dbeta = (y d - c k2 lambda1) / 2`` and
     ``d2U/dbeta2 = (c d + k2 lambda1 y) / 2`` decide.
     """
     if abs(rho1) * (K + k2) < 2.0 * K * L:
-        if d2 == -d1 or (c == 0.0 and y > 0.0):   # c = 0: a double root, both signs agree
+        sign_c = -d1 if c == 0.0 else (1 if c > 0.0 else -1)   # = -delta1 unless rho1 was snapped
+        if d2 == sign_c or (c == 0.0 and y > 0.0):   # c = 0: a double root, both signs agree
             return "" if y >= 0.0 else REASON_NOT_STATIONARY
         return REASON_NOT_STATIONARY if y > 0.0 else REASON_MAXIMUM
     if abs(y * d - c * k2 * lam1) > 0.5 * (abs(y * d) + abs(c * k2 * lam1)):
@@ -183,15 +212,16 @@ def _spurious_reason(y: float, c: float, d: float, lam1: float, rho1: float, d1:
 
 
 def _branch(x: float, y: float, w: float, d1: int, L: float) -> tuple[float, float, float]:
-    """``(rho1, c, y)`` of branch ``delta1`` (Eq. 13), rho1 snapped onto [0, L] when within
-    :func:`snap_tolerance`; a snapped rho1 gets its own consistent ``c = x - rho1`` and
-    ``y = +-sqrt(L^2 - c^2)`` (which moves y by only ~ c * snap / y)."""
+    """``(rho1, c, y)`` of branch ``delta1`` (Eq. 13), rho1 put on 0 or L when beyond it by at
+    most :func:`rho1_snap_bound`; a snapped rho1 gets the point of its circle nearest the
+    target, ``(c, y) = L (x - rho1, y) / hypot(x - rho1, y)`` (which moves D by at most
+    ``DOMAIN_TOL L``). The sign of that c, not ``delta1``, then tells the roots apart."""
     rho1 = x + d1 * w
-    snapped = _snap(rho1, 0.0, L, snap_tolerance(w, L))
+    snapped = _snap(rho1, 0.0, L, rho1_snap_bound(w, L))
     if snapped == rho1:
         return rho1, -d1 * w, y
-    c = x - snapped
-    return snapped, c, math.copysign(math.sqrt(max(0.0, (L - c) * (L + c))), y)
+    r = math.hypot(x - snapped, y)
+    return snapped, L * (x - snapped) / r, L * y / r
 
 
 def _candidate(x: float, y: float, yb: float, rho1: float, rho2: float, c: float, d1: int, d2: int,
@@ -248,9 +278,13 @@ def inverse_kinematics(
     ``paper_range=True`` (default) makes candidates outside ``0 <= alpha, beta <= pi/2``
     invalid (the paper's restriction, Sect. 2); with ``False`` they stay valid and are only
     flagged by ``in_paper_range``. Candidates are listed in the order
-    ``(delta1, delta2) = (-1, +1), (-1, -1), (+1, -1), (+1, +1)`` (genuine roots first); a
-    root identical to an earlier one (at ``|y| = L``) is kept but marked invalid as a
-    duplicate, so ``.valid`` lists distinct solutions. Raises :class:`DomainError` only for
+    ``(delta1, delta2) = (-1, +1), (-1, -1), (+1, -1), (+1, +1)`` (genuine roots first).
+    ``.valid`` lists distinct configurations: a root within :func:`merge_radius`
+    (``sqrt(2 DOMAIN_TOL) L``, the resolution of the branches at the fold) of an earlier
+    valid one is the same configuration; it is kept but marked invalid as a duplicate. That
+    happens only on the fold ``|y| = L``, the singular point where the branches meet.
+    Targets within ``DOMAIN_TOL L`` of the workspace's boundary are put on it
+    (:func:`rho1_snap_bound`); ``fk_residual`` reports the move. Raises :class:`DomainError` only for
     non-finite input; an unreachable target gives an empty or all-invalid result.
     """
     x = as_real("x", x)
@@ -261,6 +295,7 @@ def inverse_kinematics(
     if L - tol <= abs(y) <= L + tol:
         y = math.copysign(L, y)   # the fold: c = sqrt(L^2 - y^2) would amplify rounding to sqrt(tol)
     candidates: list[IKCandidate] = []
+    merge = merge_radius(L)
     if abs(y) <= L:
         w = math.sqrt((L - y) * (L + y))
         for d1 in (-1, 1):
@@ -274,7 +309,7 @@ def inverse_kinematics(
             for d2 in (-d1, d1):
                 rho2 = (mid + d2 * spread) / xi2
                 cand = _candidate(x, y, yb, rho1, rho2, c, d1, d2, params, paper_range)
-                if c == 0.0 and candidates:   # y = +-L: every root is the same double root
+                if any(o.valid and math.hypot(o.rho1 - cand.rho1, o.rho2 - cand.rho2) <= merge for o in candidates):
                     reason = REASON_DUPLICATE if cand.valid else f"{cand.reason}; {REASON_DUPLICATE}"
                     cand = cand._replace(valid=False, reason=reason)
                 candidates.append(cand)

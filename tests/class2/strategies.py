@@ -11,6 +11,16 @@ from tensegrity_core.class2 import PAPER_PARAMS
 unit = st.floats(0.0, 1.0, allow_nan=False)
 
 
+def edged(lo: float, hi: float):
+    """Floats in ``[lo, hi]`` with half the draws on the ends or just inside them (one ulp,
+    1e-12, 1e-9 and 1e-6 of the width): the boundary of a range is drawn on purpose."""
+    width = hi - lo
+    edges = [lo, hi, math.nextafter(lo, hi), math.nextafter(hi, lo)]
+    for f in (1e-12, 1e-9, 1e-6):
+        edges += [lo + f * width, hi - f * width]
+    return st.one_of(st.sampled_from(edges), st.floats(lo, hi))
+
+
 @st.composite
 def configurations(draw, margin: float = 0.0, params=PAPER_PARAMS):
     """(rho1, rho2) in the configuration domain, at least ``margin`` (in units of L) inside."""

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 import sympy as sp
-from hypothesis import assume, given
+from hypothesis import assume, example, given
 from hypothesis import strategies as st
 
 from tensegrity_core.class2 import PAPER_PARAMS
@@ -18,12 +18,14 @@ from tensegrity_core.class2.inverse_kinematics import (
     REASON_NOT_STATIONARY,
     REASON_RANGE,
     inverse_kinematics,
+    merge_radius,
     nearest_solution,
+    rho1_snap_bound,
     snap_tolerance,
 )
 from tensegrity_core.class2.kinematics import fk_array, forward_kinematics
 from tensegrity_core.errors import DomainError
-from tests.class2.strategies import configurations, parameter_sets, scaled
+from tests.class2.strategies import configurations, edged, parameter_sets, scaled
 
 P = PAPER_PARAMS
 EPS = np.finfo(float).eps
@@ -65,9 +67,16 @@ def test_candidates_equal_eq18_roots_as_printed(rho, params):
         assert cand.rho2 == pytest.approx(printed, rel=1e-7, abs=1e-9 * params.L)
 
 
-@given(st.floats(0.0, 1.0), st.floats(0.0, math.pi / 2))
+@given(edged(0.0, 1.0), edged(0.0, math.pi / 2))
+@example(1.0, math.pi / 2)                           # the corner rho1 = L on the fold: a singular point
+@example(1.0, math.nextafter(math.pi / 2, 0.0))      # x rounds beyond L, y rounds onto L
+@example(1.0, math.pi / 2 - 1e-9)                    # rounded target 5e-19 outside W, rho1 1e-9 beyond L
+@example(0.0, math.pi / 2)                           # the folded point
+@example(1.0, 0.0)                                   # rho1 = L on lambda1
 def test_fk_of_ik_reproduces_the_target_to_1e_10(u, beta):
-    # Targets over the whole workspace W = {B + L (cos beta, sin beta): 0 <= rho1 <= L, 0 <= beta <= pi/2}.
+    # Targets over the whole workspace W = {B + L (cos beta, sin beta): 0 <= rho1 <= L, 0 <= beta <= pi/2},
+    # its boundary drawn on purpose. Each target has exactly one configuration in the paper's
+    # range; on the fold (beta = pi/2) the four roots coincide within rounding: one, not two.
     x, y = u + math.cos(beta), math.sin(beta)
     res = inverse_kinematics(x, y)
     assert len(res.valid) == 1
@@ -168,6 +177,49 @@ def test_y_equal_L_gives_one_solution_and_three_duplicates():
     assert all(c.reason == REASON_DUPLICATE for c in res.candidates[1:])
 
 
+@pytest.mark.parametrize("gap", [0.0, 1e-16, 5e-13, 1e-12, 1.01e-12, 1e-11, 1e-9, 1e-6])
+@pytest.mark.parametrize("L", [0.2, 1.0, 5.0])
+def test_distinct_solutions_near_the_fold(gap, L):
+    # A target at height y = L (1 - gap) beside the fold has the two equilibria rho1 = x -+ w,
+    # w = sqrt(L^2 - y^2) = L sqrt(gap (2 - gap)): two configurations, 2w apart in rho1. Within
+    # DOMAIN_TOL L of the fold the target is on it and w = 0: the branches are one double root,
+    # one configuration. merge_radius = sqrt(2 DOMAIN_TOL) L is the branch separation that a
+    # target resolution of DOMAIN_TOL L leaves; the first pair not merged is >= 2.2e-6 L apart.
+    params = P.with_overrides(L=L)
+    y = L * (1.0 - gap)
+    w = L * math.sqrt(gap * (2.0 - gap))
+    x = 0.5 * L   # rho1 = x -+ w both inside [0, L]
+    res = inverse_kinematics(x, y, params, paper_range=False)
+    merged = gap <= 1e-12
+    assert len(res.valid) == (1 if merged else 2)
+    if not merged:
+        a, b = res.valid
+        assert abs(a.rho1 - b.rho1) == pytest.approx(2.0 * w, rel=1e-3)
+        assert math.hypot(a.rho1 - b.rho1, a.rho2 - b.rho2) > merge_radius(L)
+    for sol in res.valid:
+        assert sol.fk_residual <= 1e-12 * L
+    assert len(inverse_kinematics(x, y, params).valid) == 1
+
+
+@pytest.mark.parametrize("L", [0.2, 1.0, 5.0])
+@pytest.mark.parametrize("over", [0.0, 1e-16, 1e-13, 1e-9, 1e-7, 1e-6, 1.4e-6, 1.5e-6, 1e-5])
+def test_corner_of_the_fold_within_the_domain_tolerance_is_reached(L, over):
+    # D = (L + over, L) is at distance sqrt(L^2 + over^2) - L = over^2 / (2 L) from the corner
+    # circle rho1 = L: reached (one solution, rho1 = L) while that is <= DOMAIN_TOL L = 1e-12 L,
+    # i.e. over <= sqrt(2e-12) L = 1.414e-6 L; beyond it, "outside the workspace".
+    params = P.with_overrides(L=L)
+    res = inverse_kinematics(L + over * L, L, params, paper_range=False)
+    inside = (over * L) ** 2 / (2 * L) <= 1e-12 * L
+    assert over * L <= rho1_snap_bound(0.0, L) if inside else over * L > rho1_snap_bound(0.0, L)
+    assert len(res.valid) == (1 if inside else 0)
+    if inside:
+        sol = res.valid[0]
+        assert sol.rho1 == L and sol.in_paper_range
+        assert sol.fk_residual <= 1e-12 * L
+    else:
+        assert "outside the workspace" in res.message
+
+
 def test_y_zero_edge_and_energy_maximum():
     res = inverse_kinematics(1.5, 0.0, paper_range=False)
     assert [(c.rho1, c.rho2) for c in res.valid] == [(0.5, 1.5)]   # lambda1 = 0, beta = 0
@@ -201,10 +253,29 @@ def test_non_finite_target_is_a_domain_error(bad):
         nearest_solution(1.4, 0.7, (0.7,))
 
 
+def edge_targets():
+    """Targets on and just beside the boundary of W, the fold and its corners (L = 1)."""
+    off = np.array([0.0, 1e-16, 1e-13, 1e-12, 1e-9, 1e-6, 1.4e-6, 1.5e-6, 1e-3])
+    off = np.concatenate([-off[::-1], off])
+    ex, ey = [], []
+    for corner_x in (0.0, 1.0, 2.0):
+        for top in (1.0, 0.0):
+            gx, gy = np.meshgrid(corner_x + off, top + off)
+            ex.append(gx.ravel())
+            ey.append(gy.ravel())
+    beta = np.linspace(0.0, np.pi / 2, 41)
+    for r1 in (0.0, 1.0):
+        for sign in (-1.0, 1.0):   # just outside and inside the arcs rho1 = 0 and rho1 = L
+            ex.append(r1 + (1.0 + sign * 1e-13) * np.cos(beta))
+            ey.append((1.0 + sign * 1e-13) * np.sin(beta))
+    return np.concatenate(ex), np.concatenate(ey)
+
+
 def test_ik_array_matches_scalar_paper_branch():
     rng = np.random.default_rng(7)
-    x = rng.uniform(-0.2, 2.2, 3000)
-    y = rng.uniform(-0.2, 1.2, 3000)
+    ex, ey = edge_targets()
+    x = np.concatenate([rng.uniform(-0.2, 2.2, 3000), ex])
+    y = np.concatenate([rng.uniform(-0.2, 1.2, 3000), ey])
     x[:4], y[:4] = [0.3, 1.5, np.nan, 1.0], [1.0, 0.0, 0.5, np.inf]
     out = ik_array(x, y)
     for i in range(len(x)):
@@ -222,10 +293,11 @@ def test_ik_array_matches_scalar_paper_branch():
 
 def test_ik_array_all_codes_match_scalar_reasons():
     rng = np.random.default_rng(8)
-    x = rng.uniform(-0.5, 2.5, 1500)
-    y = rng.uniform(-1.1, 1.1, 1500)
+    ex, ey = edge_targets()
+    x = np.concatenate([rng.uniform(-0.5, 2.5, 1500), ex, ex])
+    y = np.concatenate([rng.uniform(-1.1, 1.1, 1500), ey, -ey])
     out = ik_array_all(x, y)
-    assert out.code.shape == (1500, 4)
+    assert out.code.shape == (len(x), 4)
     for i in range(len(x)):
         res = inverse_kinematics(x[i], y[i], paper_range=False)
         by_branch = {(c.delta1, c.delta2): c for c in res.candidates}
