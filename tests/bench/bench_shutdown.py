@@ -90,7 +90,7 @@ def stop_after_a_signal(ctx: Context) -> list[Row]:
 def stress(ctx: Context) -> list[Row]:
     """Start/stop cycles that must all end cleanly (tests/shutdown_stress.py): in one process
     through each node's main, idle and loaded alternately (quick 8: each kind idle and loaded
-    once, tests/ros/test_shutdown_stress.py runs 160; full 1,000); and real processes of every
+    once, tests/ros/test_shutdown_stress.py runs 80; full 1,000); and real processes of every
     kind stopped by SIGINT or SIGTERM 0.2-1.5 s after they are ready, idle and under a load
     peer (quick: the simulator once each; full: every kind 25 times each). Claim: no cycle with
     a non-zero exit, a thread left alive, an abort or a traceback."""
