@@ -85,8 +85,11 @@ class SimClient:
         from std_srvs.srv import Trigger
         from tensegrity_msgs.msg import ActuatorForces, CableCommand, SimulationEvent
 
+        from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
+
         self.rclpy = rclpy
         self.node = rclpy.create_node(name, namespace=namespace, context=context)
+        guard_parameter_services(self.node)
         self.ActuatorForces, self.CableCommand = ActuatorForces, CableCommand
         self.cables = cables
         self.srv = {"set_simulation_state": SetSimulationState, "get_simulation_state": GetSimulationState,

@@ -36,6 +36,7 @@ from tensegrity_ros.bag.recorder import message_class
 from tensegrity_ros.bag.scene import unread_custom_data
 from tensegrity_ros.bag.schedule import PlaybackOptions, timeline
 from tensegrity_ros.rclpy_utils.matching import wait_for_matches
+from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
 from tensegrity_ros.rclpy_utils.stop_signals import stop_on_signals
 
 CLOCK_TOPIC = "/clock"
@@ -73,6 +74,7 @@ class PlayerNode(Node):
                  topics: Iterable[str] | None = None, *, node_name: str = "tensegrity_player",
                  context: Context | None = None, log: Callable[[str], None] | None = None):
         super().__init__(node_name, context=context)
+        guard_parameter_services(self)
         self.reader = reader
         self.opts = opts = opts or PlaybackOptions()
         self._log = log or (lambda text: print(text, file=sys.stderr, flush=True))

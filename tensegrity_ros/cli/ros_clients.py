@@ -26,9 +26,13 @@ def client_node(name: str, ros_args: list[str]) -> tuple[ModuleType, Node]:
     rclpy = require_rclpy()
     from rclpy.signals import SignalHandlerOptions
 
+    from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
+
     signal.signal(signal.SIGTERM, signal.default_int_handler)
     rclpy.init(args=["tensegrity", *ros_args], signal_handler_options=SignalHandlerOptions.NO)
-    return rclpy, rclpy.create_node(name)
+    node = rclpy.create_node(name)
+    guard_parameter_services(node)
+    return rclpy, node
 
 
 #: Seconds a client gives the graph to show a publisher or subscriber it looks for (DDS

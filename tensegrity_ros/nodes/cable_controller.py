@@ -66,6 +66,7 @@ from tensegrity_core.sim import compile_scene
 from tensegrity_core.sim import joint_trajectory as jt
 from tensegrity_ros.nodes.common import declare, spin_node
 from tensegrity_ros.nodes.scene_param import declare_scene
+from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
 
 _RESULT = FollowJointTrajectory.Result
 NS_PER_S = 1_000_000_000
@@ -89,6 +90,7 @@ class _Job:
 class CableControllerNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("tensegrity_cable_controller", **kwargs)
+        guard_parameter_services(self)
         self.scene_name, scene = declare_scene(self, class2_only=False)
         try:
             self.interface = compile_scene(scene).interface

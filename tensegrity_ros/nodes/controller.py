@@ -90,6 +90,7 @@ from tensegrity_ros.nodes.controller_messages import (
 )
 from tensegrity_ros.nodes.scene_param import declare_scene
 from tensegrity_ros.rclpy_utils.messages import duration_to_s
+from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
 
 _MOVE = MoveEndEffector.Result
 _FOLLOW = FollowActuatorTrajectory.Result
@@ -114,6 +115,7 @@ class _Job:
 class ControllerNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("tensegrity_controller", **kwargs)
+        guard_parameter_services(self)
         self.scene_name, scene = declare_scene(self)
         assert isinstance(scene.model, Class2ModelSpec)     # declare_scene refused any other
         self.params: Class2Params = scene.model.params

@@ -35,6 +35,7 @@ from tensegrity_core.schema import Limits, clip
 from tensegrity_ros.nodes import formfind_worker
 from tensegrity_ros.nodes.common import SERVICE_QOS, declare, spin_node
 from tensegrity_ros.nodes.formfind_worker import FormFindReply
+from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
 from tensegrity_ros.rclpy_utils.stop_signals import signals_blocked
 
 _CTX = multiprocessing.get_context("forkserver")
@@ -52,6 +53,7 @@ LOG_CHARS = 200
 class FormFindNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("tensegrity_formfind", **kwargs)
+        guard_parameter_services(self)
         self.max_workers = declare(self, "max_workers", 2, "form-findings run at once (processes)",
                                    lo=1, hi=64, read_only=True)
         self.time_limit = declare(self, "time_limit", 60.0, "wall-time limit per request, parsing included [s]",

@@ -23,11 +23,13 @@ from tensegrity_core.class2.inverse_kinematics import IKCandidate
 from tensegrity_core.errors import TensegrityError
 from tensegrity_ros.nodes.common import SERVICE_QOS, declare, spin_node
 from tensegrity_ros.nodes.scene_param import scene_mechanism
+from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
 
 
 class IKNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("tensegrity_ik", **kwargs)
+        guard_parameter_services(self)
         self.params = scene_mechanism(self)
         self.paper_range = declare(
             self, "paper_range", True,

@@ -118,7 +118,10 @@ class RosSource:
         from tensegrity_msgs.action import MoveEndEffector
         from tensegrity_msgs.msg import ActuatorForces, MechanismState
 
+        from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
+
         self.node = Node("tensegrity_view", namespace=namespace or None, context=self.context)
+        guard_parameter_services(self.node)
         node = self.node
         node.create_subscription(MechanismState, "mechanism_state", self._on_state, QoSProfile(depth=10))
         self.get_state = node.create_client(GetSimulationState, "get_simulation_state")

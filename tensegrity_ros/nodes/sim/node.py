@@ -89,11 +89,13 @@ from tensegrity_ros.nodes.sim.schedule import TickSchedule
 from tensegrity_ros.rclpy_utils.delivery import DELIVERY_S, wait_for_delivery
 from tensegrity_ros.rclpy_utils.inbox import Inbox
 from tensegrity_ros.rclpy_utils.matching import subscribed_by, wait_for_matches
+from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
 
 
 class SimNode(SimulationInterfaces):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("tensegrity_sim", **kwargs)
+        guard_parameter_services(self)
         scene_name, scene = declare_scene(self, class2_only=False)
         self.p = p = declare_sim_parameters(self, scene_name)
         try:

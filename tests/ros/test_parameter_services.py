@@ -1,0 +1,110 @@
+"""Every node of the suite answers hostile requests to its parameter services, refusing them
+with a reason and keeping its parameters and its process (the nodes run as `tensegrity node
+NAME`, each its own process, over DDS).
+
+rclpy reads a request's ``ParameterValue.type`` before any check, and a type that is not one
+of ``rcl_interfaces/ParameterType``'s used to raise out of the service callback and end the
+node with a traceback (``tensegrity_ros/rclpy_utils/parameter_guard.py``). Every value a
+``uint8`` type can take beyond ParameterType's (10-255) is sent, in one request per service.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from tensegrity_ros.rclpy_utils.futures import spin_until_done
+from tests.process_groups import exited
+from tests.ros_support import Proc, end_context
+
+pytestmark = pytest.mark.ros
+
+NS = "/param_test"
+#: node name -> (``tensegrity node`` arguments, a parameter it declares)
+NODES = {
+    "tensegrity_sim": (["sim", "--ros-args", "-p", "initial_state:=paused", "-p", "paused_publish_rate:=0.0"],
+                       "publish_rate"),
+    "tensegrity_ik": (["ik"], "paper_range"),
+    "tensegrity_controller": (["controller"], "max_force"),
+    "tensegrity_cable_controller": (["cables", "--ros-args", "-p", "scene:=table_actuated"], "goal_tolerance"),
+    "tensegrity_formfind": (["formfind"], "max_workers"),
+}
+UNKNOWN_TYPES = range(10, 256)          # ParameterValue.type is a uint8; 0-9 are ParameterType's
+
+
+@pytest.fixture(scope="module")
+def nodes(tmp_path_factory):
+    """Every node running in NS, and a client of their parameter services in this process."""
+    import rclpy
+    from rcl_interfaces.srv import GetParameters, SetParameters, SetParametersAtomically
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+
+    folder = tmp_path_factory.mktemp("parameter_services")
+    procs = {}
+    for name, (args, _) in NODES.items():
+        ros = [] if "--ros-args" in args else ["--ros-args"]
+        procs[name] = Proc(["node", *args, *ros, "-r", f"__ns:={NS}"], folder / f"{name}.log")
+    ctx = Context()
+    rclpy.init(args=[], context=ctx)
+    try:
+        node = rclpy.create_node("parameter_services_probe", context=ctx)
+        executor = SingleThreadedExecutor(context=ctx)
+        executor.add_node(node)
+        clients = {name: {srv: node.create_client(srv, f"{NS}/{name}/{suffix}")
+                          for srv, suffix in ((SetParameters, "set_parameters"),
+                                              (SetParametersAtomically, "set_parameters_atomically"),
+                                              (GetParameters, "get_parameters"))}
+                   for name in NODES}
+        for name, by_type in clients.items():
+            for client in by_type.values():
+                assert client.wait_for_service(timeout_sec=120), f"{name}: {procs[name].stderr()}"
+
+        def call(name, srv, request):
+            future = clients[name][srv].call_async(request)
+            assert spin_until_done(executor, future, 60), f"{name} did not answer: {procs[name].stderr()}"
+            return future.result()
+
+        yield call, procs
+    finally:
+        end_context(ctx)
+        for proc in procs.values():
+            proc.stop()
+
+
+def _value(call, name, param):
+    from rcl_interfaces.srv import GetParameters
+
+    (value,) = call(name, GetParameters, GetParameters.Request(names=[param])).values
+    return value
+
+
+@pytest.mark.parametrize("name", NODES)
+def test_parameter_requests_of_unknown_types_are_refused_and_the_node_lives_on(nodes, name):
+    from rcl_interfaces.msg import Parameter, ParameterValue
+    from rcl_interfaces.srv import SetParameters, SetParametersAtomically
+
+    call, procs = nodes
+    param = NODES[name][1]
+    before = _value(call, name, param)
+    assert before.type != 0                                     # declared, with a value
+    hostile = [Parameter(name=param, value=ParameterValue(type=t)) for t in UNKNOWN_TYPES]
+    mixed = [*hostile[:2], Parameter(name=param, value=ParameterValue(type=3, double_value=math.nan)),
+             Parameter(name="no_such_parameter", value=ParameterValue(type=3, double_value=1.0))]
+
+    results = call(name, SetParameters, SetParameters.Request(parameters=hostile + mixed)).results
+    assert len(results) == len(hostile) + len(mixed)           # one result per parameter, in order
+    assert not any(r.successful for r in results)
+    for t, r in zip([*UNKNOWN_TYPES, 10, 11], results):
+        assert r.reason == (f"parameter '{param}': value type {t} is not a parameter type "
+                            "(rcl_interfaces/ParameterType: 0-9)")
+    assert "read-only" in results[-2].reason                   # rclpy's own refusals, unchanged
+    assert results[-1].reason
+
+    atomic = call(name, SetParametersAtomically, SetParametersAtomically.Request(parameters=mixed)).result
+    assert not atomic.successful and "value type 10 is not a parameter type" in atomic.reason
+
+    assert _value(call, name, param) == before                  # nothing changed
+    assert not exited(procs[name].popen), procs[name].stderr()
+    assert "Traceback" not in procs[name].stderr()
