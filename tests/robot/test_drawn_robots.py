@@ -1,8 +1,11 @@
 """Physical invariants of robots drawn by hypothesis over the description's accepted ranges,
 not the shipped robots: one to three rods (any length, mass, cap share, radii), one to five
 cables between any of their caps (any stiffness, damping, rest length, half of them motor
-driven with any lag, slew and tension limits), a floor of any orientation and contact and
-friction parameters, gravity of any direction and 0.1 to 30 m/s^2. Every size is drawn
+driven with any lag, slew and tension limits), free point masses (pinned on all, some or
+no axes), a rigid triangle beside the rods (moving or fixed), point masses riding on caps
+and body nodes, a floor of any orientation and contact and friction parameters, the scene's
+overrides of the motors (lag, slew, tension limit, modes) and of the floor, gravity of any
+direction and 0.1 to 30 m/s^2. Every size is drawn
 log-uniformly over twelve orders of magnitude around its unit (1e-6 to 1e6, except where the
 field bounds it), and states are drawn around the drawing (moved, turned, moving, caps in and
 out of the floor, anchored sticking and slipping).
@@ -13,8 +16,8 @@ At every evaluated state, in both kernel families:
   tension exceeds its motor's limit;
 - the floor never pulls (no normal force out of contact), friction never exceeds ``mu F_n``
   (``mu_s`` sticking, ``mu_k`` slipping) and the resisting couples ``b F_n``;
-- Newton: the linear momentum changes by gravity and the floor's forces alone (cables are
-  internal);
+- Newton-Euler: the linear and angular momenta change by the weights, the pins' reactions
+  and the floor's forces and couples alone (cables between moving parts are internal);
 - frame invariance: the robot, its floor and gravity moved by a rigid motion give the moved
   forces (nodal, friction, couples) and the same tensions and contact forces.
 
@@ -24,10 +27,15 @@ invariants exactly). A rod at rest on a floor of any orientation, gravity along 
 normal, reads ``g`` away from the floor on its IMU. Motors in any mode and command never
 leave their range, slew faster than their limit (but when back-driven) or hold more than
 their tension limit.
+
+What users give beside the description: ``control.roll`` (any faces, heading, rate) is read
+or refused in one line; the ``tensegrity gait`` command's flags give a checked gait or one
+line.
 """
 
 from __future__ import annotations
 
+import math
 import os
 from unittest import mock
 
@@ -43,7 +51,6 @@ from tensegrity_core.sim import compile_scene, load_scene
 from tensegrity_core.sim.general.kernels.jit import KERNELS_VARIABLE, have_numba
 from tensegrity_core.sim.general.robot.loops import NO_ANCHOR, SLIPPING, STICKING
 from tensegrity_core.sim.general.robot.system import RobotSystem
-from tests.robot.test_dynamics import _momentum_rates
 
 KERNELS = ["numpy", "numba"] if have_numba() else ["numpy"]
 ALL = ["inertia", "cables", "motors", "gravity", "contact", "friction", "sensors"]
@@ -62,9 +69,19 @@ unit = st.tuples(*[st.floats(-1.0, 1.0)] * 3).filter(lambda v: np.linalg.norm(v)
     lambda v: np.array(v) / np.linalg.norm(v))
 
 
+PIN_AXES = ("xyz", "x", "y", "z", "xy", "xz", "yz")
+
+
 @st.composite
-def robots(draw, floor: bool = True) -> dict:
-    """A robot description (parsed data) drawn over the accepted ranges (module docstring)."""
+def robots(draw, floor: bool = True, pins: str = "any", damping: bool = True, riders: bool = True) -> dict:
+    """A robot description (parsed data) drawn over the accepted ranges (module docstring).
+
+    Beside the rods: up to two free point masses (each fully pinned, pinned along some axes
+    or free; ``pins``: ``"any"``, ``"full"`` (fully pinned or free) or ``"none"``), perhaps a
+    rigid triangle of three nodes (moving with its mass, or ``fixed`` where pins are drawn),
+    point masses riding on rod caps and body nodes; every extra node joined to a rod's cap by
+    a cable (``riders=False``: none riding, so every body's centre of mass is its reference
+    point, the centroid of its nodes). ``damping=False``: every cable undamped."""
     n_rods = draw(st.integers(1, 3))
     nodes: dict[str, list[float]] = {}
     rods = []
@@ -80,19 +97,63 @@ def robots(draw, floor: bool = True) -> dict:
         nodes[f"a{i}"] = (centre - axis * length / 2).tolist()
         nodes[f"b{i}"] = (centre + axis * length / 2).tolist()
         rods.append(rod)
+    caps = list(nodes)
+    out: dict = {"name": "drawn", "nodes": nodes, "rods": rods}
+    masses: dict[str, float] = {}
+    pinned: dict[str, str] = {}
+    immobile: set[str] = set()                  # nodes that never move (fully pinned, on a fixed body)
+    extra: list[str] = []                       # nodes a cable must join to the rods
+    for i in range(draw(st.integers(0, 2))):
+        name = f"p{i}"
+        nodes[name] = (np.array(draw(st.tuples(*[st.floats(-2.0, 2.0)] * 3))) + [-5.0, 5.0 * i, 0.0]).tolist()
+        axes = draw(st.sampled_from({"any": PIN_AXES + ("",), "full": ("xyz", ""), "none": ("",)}[pins]))
+        if axes:
+            pinned[name] = axes
+        if axes == "xyz":
+            immobile.add(name)
+        if axes != "xyz" or draw(st.booleans()):   # a fully pinned node may carry a mass too
+            masses[name] = draw(_size())
+        extra.append(name)
+    body = None
+    if draw(st.booleans()):
+        size = draw(_size(1e-3, 1e2))
+        turn = Rotation.from_rotvec(draw(st.tuples(*[st.floats(-3.0, 3.0)] * 3))).as_matrix()
+        centre = np.array(draw(st.tuples(*[st.floats(-2.0, 2.0)] * 3))) + [5.0 * n_rods, 0.0, 0.0]
+        corners = size * np.array([[1.0, 0.0, 0.0], [-0.5, 0.75 ** 0.5, 0.0], [-0.5, -(0.75 ** 0.5), 0.0]])
+        body = [f"t{j}" for j in range(3)]
+        for name, corner in zip(body, corners):
+            nodes[name] = (centre + turn @ corner).tolist()
+        fixed = pins != "none" and draw(st.integers(0, 3)) == 0
+        out["rigid_bodies"] = [{"name": "tri", "nodes": body, "mass": draw(_size()), "fixed": fixed}]
+        if fixed:
+            immobile.update(body)
+        extra.append(body[0])
+    for name in caps + (body or []) if riders else ():
+        if draw(st.integers(0, 3)) == 0:
+            masses[name] = draw(_size())
     names = list(nodes)
+
+    def joinable(a: str, b: str) -> bool:
+        return not ({a, b} <= immobile or (body is not None and {a, b} <= set(body)))
+    pairs = [(a, b) for a in names for b in names if a < b and joinable(a, b)]
+    ends = [(e, draw(st.sampled_from(caps))) for e in extra]
+    ends += [draw(st.sampled_from(pairs)) for _ in range(draw(st.integers(1, 5)))]
     cables = []
-    for j in range(draw(st.integers(1, 5))):
-        a, b = draw(st.lists(st.sampled_from(names), min_size=2, max_size=2, unique=True))
-        cable = {"name": f"c{j}", "nodes": [a, b], "stiffness": draw(_size()), "damping": draw(_maybe(_size())),
+    for j, (a, b) in enumerate(ends):
+        cable = {"name": f"c{j}", "nodes": [a, b], "stiffness": draw(_size()),
+                 "damping": draw(_maybe(_size())) if damping else 0.0,
                  "rest_length_ratio": draw(st.floats(0.2, 2.0))}
         if draw(st.booleans()):
             cable["motor"] = {"range": [1e-9, 1e4], "tau": draw(_maybe(_size(1e-4, 10.0))),
                               "max_speed": draw(st.one_of(st.just(".inf"), _size(1e-3, 1e2))),
                               "max_tension": draw(st.one_of(st.just(".inf"), _size()))}
         cables.append(cable)
-    out = {"name": "drawn", "nodes": nodes, "rods": rods, "cables": cables, "sensors": {"imu": "all"},
-           "gravity": (draw(st.floats(0.1, 30.0)) * draw(unit)).tolist()}   # 0: the scene's standard
+    out.update(cables=cables, sensors={"imu": [r["name"] for r in rods] + (["tri"] if body else [])},
+               gravity=(draw(st.floats(0.1, 30.0)) * draw(unit)).tolist())   # 0: the scene's standard
+    if masses:
+        out["masses"] = masses
+    if pinned:
+        out["pinned"] = pinned
     if floor:
         normal = draw(unit)
         lowest = min(float(np.dot(nodes[r["nodes"][k]], normal)) - r["cap_radius"] for r in rods for k in (0, 1))
@@ -106,51 +167,102 @@ def robots(draw, floor: bool = True) -> dict:
     return out
 
 
+@st.composite
+def effects_of(draw, robot: dict) -> list:
+    """The scene's effects for ``robot``: all of them, each robot effect with drawn overrides
+    of the description's values (every motor's lag, slew and tension limit and perhaps
+    mode; the floor's contact and friction parameters)."""
+    def some(options: dict) -> dict:
+        return {k: draw(v) for k, v in options.items() if draw(st.booleans())}
+    motors = some({"tau": _maybe(_size(1e-4, 10.0)), "max_speed": st.one_of(st.just(".inf"), _size(1e-3, 1e2)),
+                   "max_tension": st.one_of(st.just(".inf"), _size())})
+    motors = {k: (float("inf") if v == ".inf" else v) for k, v in motors.items()}
+    actuated = [c["name"] for c in robot["cables"] if "motor" in c]
+    if actuated and draw(st.booleans()):
+        motors["modes"] = {c: draw(st.sampled_from(["rest_length", "reel_speed", "tension"])) for c in actuated}
+    out: list = ["inertia", "cables", {"motors": motors}, "gravity"]
+    if "floor" in robot:
+        contact = some({"stiffness": _size(), "dissipation": _maybe(_size())})
+        mu_s = draw(_maybe(_size(1e-3, 10.0)))
+        friction = some({"tangential_stiffness": _size(), "tangential_damping": _maybe(_size()),
+                         "rolling_friction": _maybe(_size(1e-6, 0.1)), "torsional_friction": _maybe(_size(1e-6, 0.1))})
+        if draw(st.booleans()):
+            friction.update(mu_static=mu_s, mu_kinetic=mu_s * draw(st.floats(0.0, 1.0)))
+        out += [{"contact": contact}, {"friction": friction}]
+    return out + ["sensors"]
+
+
 def model_of(robot: dict, effects=ALL, duration: float = 1.0, step: float | None = None):
     """The robot's model (``step``: default :func:`stable_step`, which the scene's check of
     the step accepts)."""
     return compile_scene(load_scene({"name": "drawn", "model": {"kind": "robot", "robot": robot},
                                      "initial": {"drawn": True}, "effects": effects, "duration": duration,
-                                     "integrator": {"max_step": step or stable_step(robot)}}))
+                                     "integrator": {"max_step": step or stable_step(robot, effects)}}))
 
 
-def stable_step(robot: dict) -> float:
+def _override(effects, effect: str, key: str, value: float) -> float:
+    """The value of ``key`` of a robot effect: the scene's override, else the description's."""
+    for e in effects:
+        if isinstance(e, dict) and effect in e and key in e[effect]:
+            return float(e[effect][key])
+    return value
+
+
+def stable_step(robot: dict, effects=ALL) -> float:
     """A fixed step [s] that RK4 resolves for the cables and the floor of ``robot`` in the
     states :func:`drawn_state` draws and the runs from them.
 
-    - A cable of stiffness ``k`` and damping ``c`` between caps of rods of masses ``m_a``,
-      ``m_b`` moves them as a spring on the mass ``1 / (1/m_a' + 1/m_b')`` with ``1/m' <= 4/m``
-      at a rod's end (a rod's transverse inertia ``I_t`` is at least ``m L^2 / 12``, so
-      ``1/m + (L/2)^2 / I_t <= 4/m``).
+    - A cable of stiffness ``k`` and damping ``c`` between nodes of inverse masses ``1/m_a'``,
+      ``1/m_b'`` moves them as a spring on the mass ``1 / (1/m_a' + 1/m_b')``: at a rod's end
+      ``1/m' <= 4/m`` (a rod's transverse inertia ``I_t`` is at least ``m L^2 / 12``, so
+      ``1/m + (L/2)^2 / I_t <= 4/m``); at a node of the triangle (three equal shares of its
+      mass ``M`` at distance ``r`` from its centre: ``1/M + r^2 / (M r^2 / 2) = 3/M``) at most
+      ``4/M``; at a free point mass ``1/m``; at a node that does not move 0. Point masses
+      riding on a rod or the triangle only lower these (more mass, more inertia).
     - Its tension ``T`` turns the rod about its centre as the rod turns (a pull at the cap,
       ``L/2`` from the centre: the rod aligning with the cable, a pendulum of ``T L / 2`` on
-      ``I_t``, so ``omega^2 <= 6 T / (m L)``); ``T`` is bounded by the cable stretched to its
-      drawn length plus the drawn state's moves (half the drawing's size) and both rods'
-      lengths, and its damper at 10 m/s.
-    - Each cap on the floor adds its normal spring and its friction anchor.
+      ``I_t``, so ``omega^2 <= 6 T / (m L)``; the triangle likewise, ``T r`` on ``M r^2 / 2``);
+      ``T`` is bounded by the cable stretched to its drawn length plus the drawn state's moves
+      (half the drawing's size) and both ends' bodies' sizes, and its damper at 10 m/s.
+    - Each cap on the floor adds its normal spring and its friction anchor (the scene's
+      overrides where given).
     Summed (Gershgorin) this bounds the fastest rates ``omega^2`` and ``sigma``; half the
     inverse of the larger keeps ``h omega``, ``h sigma`` well inside RK4's region (2.8 along
     either axis)."""
     nodes = {name: np.asarray(x, dtype=float) for name, x in robot["nodes"].items()}
     size = float(np.ptp(np.array(list(nodes.values())), axis=0).max()) + 1e-3
-    mass, length = {}, {}
+    inverse = {name: 1.0 / robot.get("masses", {}).get(name, np.inf) for name in nodes}
+    pendulum = {name: 0.0 for name in nodes}             # 6 / (m L) [1/(kg m)] of the body a node is on
+    reach = {name: 0.0 for name in nodes}                # its body's size [m]
+    for name, axes in robot.get("pinned", {}).items():
+        if axes == "xyz":
+            inverse[name] = 0.0
     for r in robot["rods"]:
         a, b = r["nodes"]
+        length = float(np.linalg.norm(nodes[b] - nodes[a]))
         for end in (a, b):
-            mass[end], length[end] = r["mass"], float(np.linalg.norm(nodes[b] - nodes[a]))
+            inverse[end], pendulum[end], reach[end] = 4.0 / r["mass"], 6.0 / (r["mass"] * length), length
+    for body in robot.get("rigid_bodies", []):
+        r = float(np.linalg.norm(nodes[body["nodes"][0]] - np.mean([nodes[v] for v in body["nodes"]], axis=0)))
+        for v in body["nodes"]:
+            inverse[v], pendulum[v], reach[v] = (0.0, 0.0, 0.0) if body["fixed"] else \
+                (4.0 / body["mass"], 6.0 / (body["mass"] * r), 2.0 * r)
     omega2 = sigma = 0.0
     for c in robot["cables"]:
         a, b = c["nodes"]
-        inv = 4.0 / mass[a] + 4.0 / mass[b]
+        inv = inverse[a] + inverse[b]
         omega2 += c["stiffness"] * inv
         sigma += c["damping"] * inv
-        stretched = float(np.linalg.norm(nodes[b] - nodes[a])) + 0.5 * size + length[a] + length[b]
+        stretched = float(np.linalg.norm(nodes[b] - nodes[a])) + 0.5 * size + reach[a] + reach[b]
         tension = c["stiffness"] * stretched + c["damping"] * 10.0
-        omega2 += tension * (6.0 / (mass[a] * length[a]) + 6.0 / (mass[b] * length[b]))
+        omega2 += tension * (pendulum[a] + pendulum[b])
     floor = robot.get("floor", {})
+    k = _override(effects, "contact", "stiffness", floor.get("stiffness", 0.0))
+    k_t = _override(effects, "friction", "tangential_stiffness", floor.get("tangential_stiffness", k))
+    c_t = _override(effects, "friction", "tangential_damping", floor.get("tangential_damping", 0.0))
     for r in robot["rods"]:                 # each cap on the floor: its normal spring, its friction anchor
-        omega2 += 2.0 * (floor.get("stiffness", 0.0) + floor.get("tangential_stiffness", 0.0)) * 4.0 / r["mass"]
-        sigma += 2.0 * floor.get("tangential_damping", 0.0) * 4.0 / r["mass"]
+        omega2 += 2.0 * (k + k_t) * 4.0 / r["mass"]
+        sigma += 2.0 * c_t * 4.0 / r["mass"]
     return min(1e-3, 0.5 / max(np.sqrt(omega2), sigma))
 
 
@@ -179,10 +291,90 @@ def evaluate(model, y, R_ref, kernels: str):
     return RobotSystem(model.plan, laws=model.system.laws, R_ref=R_ref, kernels=kernels).evaluate(y[None])
 
 
+@st.composite
+def scenes(draw, **robot_options) -> tuple[dict, list]:
+    """A drawn robot (:func:`robots`) and its scene's effects with drawn overrides."""
+    robot = draw(robots(**robot_options))
+    return robot, draw(effects_of(robot))
+
+
+def balances(model, y: np.ndarray, ev) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """``(dP/dt - F, dL/dt - M, force scale [N], moment scale [N m])``: Newton-Euler of the
+    whole robot written out, momenta about the origin, at the evaluated state ``y``.
+
+    Each moving body (centre ``c``, rate ``v``, angular velocity ``w`` in the world, mass
+    ``m``, first moment ``S = R s`` about ``c`` and inertia ``I_c = R I R^T`` about ``c``) has
+    ``P = m v + w x S`` and ``L = m c x v + c x (w x S) + S x v + I_c w``, so
+    ``dP/dt = m a + w' x S + w x (w x S)`` and
+    ``dL/dt = m c x a + c x (w' x S + w x (w x S)) + S x a + I_c w' + w x I_c w``; a free
+    point mass has ``m x x a``. The external forces on what moves: the weights, the cables'
+    pulls ``T u`` on moving nodes (those between two moving nodes cancel, and their moments,
+    being along the line between them) and the pins' reactions (on a node pinned along some
+    axes they cancel that node's load along those axes), and the floor's normal force at
+    each cap's centre, friction at its contact point ``x - r n`` and the resisting couples.
+
+    The scales sum the terms' sizes, for rounding; a body's ``w'`` solved with an inertia of
+    condition number ``kappa`` (a slender rod with tiny caps: ``I_a / I_t`` down to 1e-12) is
+    rounded to ``kappa eps`` of it, so its inertia's terms count ``1 + 1e-6 kappa`` times
+    (1e-9 of the scale: ``1e-15 kappa``)."""
+    p = model.plan
+    n = p.n_dof
+    X = ev.positions[0]
+    nodal = np.zeros_like(X)                            # the cables' pulls [N]
+    u = X[p.cable_b] - X[p.cable_a]
+    length = np.linalg.norm(u, axis=1)
+    pull = ev.tensions[0][:, None] * np.divide(u, length[:, None], out=np.zeros_like(u), where=length[:, None] > 0)
+    np.add.at(nodal, p.cable_a, pull)
+    np.add.at(nodal, p.cable_b, -pull)
+    moving = np.zeros(X.shape, dtype=bool)
+    moving[p.on_node] = True
+    moving[p.free_node, p.free_axis] = True
+    load = np.where(moving, p.external + nodal, 0.0)
+    load_size = np.where(moving, np.abs(p.external) + np.abs(nodal), 0.0).sum(axis=1)
+    F, M = load.sum(axis=0), np.cross(X, load).sum(axis=0)
+    f_scale = float(load_size.sum())
+    m_scale = float(np.linalg.norm(X, axis=1) @ load_size)
+    nvec = p.floor_normal
+    for k, node in enumerate(p.cap_node):
+        fn, ff, at = ev.normal[0, k] * nvec, ev.friction[0, k], X[node] - p.cap_radius[k] * nvec
+        F += fn + ff
+        M += np.cross(X[node], fn) + np.cross(at, ff) + ev.couple[0, k]
+        f_scale += ev.normal[0, k] + np.linalg.norm(ff)
+        m_scale += (np.linalg.norm(X[node]) + p.cap_radius[k]) * (ev.normal[0, k] + np.linalg.norm(ff)) + \
+            np.linalg.norm(ev.couple[0, k])
+    dP, dL = np.zeros(3), np.zeros(3)
+    rates = ev.derivative[0, n:2 * n]
+    for b, d in enumerate(p.body_dof):
+        c, w = y[d:d + 3], y[n + d + 3:n + d + 6]
+        a, dw = rates[d:d + 3], rates[d + 3:d + 6]
+        R = ev.rotations[0, b]
+        S, I_c = R @ p.body_first_moment[b], R @ p.body_inertia[b] @ R.T
+        m = p.body_mass[b]
+        turning = np.cross(dw, S) + np.cross(w, np.cross(w, S))
+        dP += m * a + turning
+        dL += m * np.cross(c, a) + np.cross(c, turning) + np.cross(S, a) + I_c @ dw + np.cross(w, I_c @ w)
+        f_scale += m * np.linalg.norm(a) + np.linalg.norm(turning)
+        m_scale += np.linalg.norm(c) * (m * np.linalg.norm(a) + np.linalg.norm(turning)) + \
+            np.linalg.norm(S) * np.linalg.norm(a) + \
+            np.linalg.norm(I_c, 2) * (np.linalg.norm(dw) + np.linalg.norm(w) ** 2) * (1.0 + 1e-6 * np.linalg.cond(I_c))
+    a_free = np.zeros(X.shape)
+    a_free[p.free_node, p.free_axis] = rates[:len(p.free_node)] / p.free_inv_mass
+    dP += a_free.sum(axis=0)
+    dL += np.cross(X, a_free).sum(axis=0)
+    f_scale += float(np.abs(a_free).sum())
+    m_scale += float(np.linalg.norm(X, axis=1) @ np.abs(a_free).sum(axis=1))
+    return dP - F, dL - M, f_scale, m_scale
+
+
 @settings(max_examples=60)
-@given(robot=robots(), seed=st.integers(0, 2**32 - 1), kernels=st.sampled_from(KERNELS))
-def test_forces_obey_their_laws_and_the_momentum_changes_by_the_external_ones_alone(robot, seed, kernels):
-    model = model_of(robot)
+@given(scene=scenes(), seed=st.integers(0, 2**32 - 1), kernels=st.sampled_from(KERNELS))
+def test_forces_obey_their_laws_and_the_momenta_change_by_the_external_ones_alone(scene, seed, kernels):
+    """Cables, floor and friction within their laws; Newton-Euler of the whole robot
+    (:func:`balances`): its linear and angular momenta about the origin change by the weights,
+    the pins' reactions, the cables to what does not move and the floor's forces and couples
+    alone (the cables between moving parts are internal)."""
+    robot, effects = scene
+    model = model_of(robot, effects)
     p = model.plan
     y, R_ref = drawn_state(model, seed)
     ev = evaluate(model, y, R_ref, kernels)
@@ -203,9 +395,9 @@ def test_forces_obey_their_laws_and_the_momentum_changes_by_the_external_ones_al
     rounding = 1e-12 * np.linalg.norm(couple, axis=1)                   # of the projections onto n here
     assert np.all(np.abs(spin) <= b_spin * F_n * (1 + 1e-12) + rounding)
     assert np.all(np.linalg.norm(roll, axis=1) <= b_roll * F_n * (1 + 1e-12) + rounding)
-    force, _, scale = _momentum_rates(model, y, R_ref)
-    a = ev.derivative[0, p.n_dof + p.body_dof[:, None] + np.arange(3)]
-    assert np.abs(force).max() <= 1e-9 * (scale + float(np.sum(p.body_mass * np.linalg.norm(a, axis=1))))
+    force, moment, f_scale, m_scale = balances(model, y, ev)
+    assert np.abs(force).max() <= 1e-9 * f_scale
+    assert np.abs(moment).max() <= 1e-9 * m_scale
 
 
 def _moved(robot: dict, Q: np.ndarray, t: np.ndarray) -> dict:
@@ -219,25 +411,27 @@ def _moved(robot: dict, Q: np.ndarray, t: np.ndarray) -> dict:
 
 
 @settings(max_examples=40)
-@given(robot=robots(), seed=st.integers(0, 2**32 - 1), turn=st.tuples(*[st.floats(-3.0, 3.0)] * 3),
+@given(scene=scenes(pins="full"), seed=st.integers(0, 2**32 - 1), turn=st.tuples(*[st.floats(-3.0, 3.0)] * 3),
        shift=st.tuples(*[st.floats(-10.0, 10.0)] * 3), kernels=st.sampled_from(KERNELS))
-def test_a_rigidly_moved_robot_gives_the_moved_forces(robot, seed, turn, shift, kernels):
+def test_a_rigidly_moved_robot_gives_the_moved_forces(scene, seed, turn, shift, kernels):
     """State ``y`` of the robot and the state of the moved robot that is ``y`` moved: centres
     ``Q c + t``, charts ``Q R_ref Q^T`` and rotation vectors ``Q theta`` (its bodies' drawn
     frames are turned by ``Q``), velocities, angular velocities and anchor offsets ``Q`` of
     the original's. Its node positions are the moved ones; its nodal forces (weights, cables,
     floor), friction forces and resisting couples ``Q`` of the original's; tensions, lengths,
-    depths and normal forces the same."""
+    depths and normal forces the same. Free point masses move as the centres; pins are
+    drawn on all three axes or none (a pin along one world axis is not turned with the robot)."""
+    robot, effects = scene
     Q, t = Rotation.from_rotvec(turn).as_matrix(), np.array(shift)
-    model, moved = model_of(robot), model_of(_moved(robot, Q, t))
+    model, moved = model_of(robot, effects), model_of(_moved(robot, Q, t), effects)
     p = model.plan
     y, R_ref = drawn_state(model, seed)
     n, na, ncap = p.n_dof, len(p.motor_cable), len(p.cap_node)
-    assert len(p.free_node) == 0                                     # every node is a rod's cap
     blocks = np.concatenate([np.arange(2 * n), 2 * n + na + np.arange(3 * ncap)]).reshape(-1, 3)
     turned = y.copy()
     turned[blocks] = y[blocks] @ Q.T
     turned[p.body_dof[:, None] + np.arange(3)] += t
+    turned[:len(p.free_node)] += t[p.free_axis]
     a = evaluate(model, y, R_ref, kernels)
     b = evaluate(moved, turned, Q @ R_ref @ Q.T, kernels)
     # rounding: positions to 1e-12 of their size (placed from centres and turned charts),
@@ -262,24 +456,59 @@ def test_a_rigidly_moved_robot_gives_the_moved_forces(robot, seed, turn, shift, 
                                    err_msg=field)
 
 
+def momenta(model, samples) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per sample ``(P [kg m/s], L about the centre of mass [kg m^2/s], scale of P's terms,
+    scale of L's terms)`` of the moving bodies and free point masses (:func:`balances`' ``P``
+    and ``L``; the centre of mass ``(sum m c + S + sum m x) / sum m``)."""
+    p, n = model.plan, model.plan.n_dof
+    P, L, P_size, L_size, first = [], [], [], [], []
+    for _, y, system in samples:
+        ev = system.evaluate(y[None])
+        X, V = ev.positions[0], ev.velocities[0]
+        p_sum, l_sum, mass_moment = np.zeros(3), np.zeros(3), np.zeros(3)
+        p_size = l_size = 0.0
+        for b, d in enumerate(p.body_dof):
+            c, v, w = y[d:d + 3], y[n + d:n + d + 3], y[n + d + 3:n + d + 6]
+            R = ev.rotations[0, b]
+            S, I_c, m = R @ p.body_first_moment[b], R @ p.body_inertia[b] @ R.T, p.body_mass[b]
+            terms = (m * v, np.cross(w, S))
+            p_sum += sum(terms)
+            l_terms = (m * np.cross(c, v), np.cross(c, np.cross(w, S)), np.cross(S, v), I_c @ w)
+            l_sum += sum(l_terms)
+            p_size += sum(np.linalg.norm(x) for x in terms)
+            l_size += sum(np.linalg.norm(x) for x in l_terms[:3]) + np.linalg.norm(I_c, 2) * np.linalg.norm(w)
+            mass_moment += m * c + S
+        m_free = np.zeros(X.shape)
+        m_free[p.free_node, p.free_axis] = 1.0 / p.free_inv_mass
+        p_sum += (m_free * V).sum(axis=0)
+        l_sum += np.cross(X, m_free * V).sum(axis=0)
+        p_size += float(np.abs(m_free * V).sum())
+        l_size += float(np.linalg.norm(X, axis=1) @ np.abs(m_free * V).sum(axis=1))
+        mass_moment += (m_free * X).sum(axis=0)
+        P.append(p_sum), L.append(l_sum), P_size.append(p_size), L_size.append(l_size), first.append(mass_moment)
+    total = float(p.body_mass.sum() + (1.0 / p.free_inv_mass[::3]).sum() if len(p.free_node) else p.body_mass.sum())
+    centre = np.array(first) / total
+    P = np.array(P)
+    L_cm = np.array(L) - np.cross(centre, P)
+    return P, L_cm, np.array(P_size), np.array(L_size) + np.linalg.norm(centre, axis=1) * np.array(P_size)
+
+
 @settings(max_examples=15)
-@given(robot=robots(floor=False), seed=st.integers(0, 2**32 - 1))
+@given(robot=robots(floor=False, pins="none", riders=False), seed=st.integers(0, 2**32 - 1))
 def test_without_gravity_floor_and_motors_a_drawn_robot_keeps_its_linear_momentum(robot, seed):
     """Cables only (motors held, damping as drawn): 20 fixed steps (:func:`stable_step`) from a
-    drawn state whose cables may go slack and taut; ``sum m v`` stays what it was to rounding of its terms."""
+    drawn state whose cables may go slack and taut; ``P`` (:func:`momenta`) stays what it was
+    to rounding of its terms. Exactly: each body's centre is its centre of mass, so ``P`` is
+    linear in the state and RK4 keeps it (a point mass riding off the centre adds ``w x S``,
+    which RK4 keeps to its order only: the smooth runs below)."""
     h = stable_step(robot)
     model = model_of(robot, ["inertia", "cables"], duration=20 * h, step=h)
-    p = model.plan
     y, _ = drawn_state(model, seed)
-    n = p.n_dof
-    centre = p.body_dof[:, None] + np.arange(3)
     samples: list = []
     model.record(model.state_from(y, t_end=20 * h), np.arange(0, 21) * h, samples)
-    v = np.array([s[1][n + centre] for s in samples])
-    assert np.all(np.isfinite(v))
-    momentum = np.einsum("b,tbi->ti", p.body_mass, v)
-    rounding = 1e-12 * np.einsum("b,tbi->t", p.body_mass, np.abs(v)).max() * len(v)
-    assert np.abs(momentum - momentum[0]).max() <= rounding
+    P, _, size, _ = momenta(model, samples)
+    assert np.all(np.isfinite(P))
+    assert np.abs(P - P[0]).max() <= 1e-12 * size.max() * len(P)
 
 
 @pytest.mark.parametrize("kernels", KERNELS)
@@ -382,3 +611,55 @@ def test_motors_stay_within_their_limits_along_a_run(robot, seed, data):
     paid_out = (np.diff(l0, axis=0) > 0) & ((np.abs(k * (length[1:] - l0[1:]) - t_max) <= 1e-9 * t_max + 1e-12 * k * length[1:])
                                              | (l0[1:] == p.motor_hi))
     assert np.all(slewed | paid_out)
+
+
+@settings(max_examples=40)
+@given(faces=st.integers(-3, 10**6), heading=st.tuples(*[st.floats(-1e3, 1e3)] * 2),
+       rate=st.floats(-300.0, 15.0).map(lambda e: float(10.0 ** e)), step=_size(1e-6, 0.1))
+def test_a_closed_loop_roll_is_accepted_or_refused_in_one_line(faces, heading, rate, step):
+    """``control.roll`` over everything its keys take (any count of faces, heading, rate from
+    1e-300 to 1e15 Hz, any fixed step): the scene is read, or refused in one line naming the
+    key; a rate above the step rate ``1 / max_step`` is refused (the commands act once a
+    step: faster samples see the same state, each at the cost of an evaluation)."""
+    from tensegrity_core.sim.errors import SceneError
+
+    scene = {"name": "roll", "model": {"kind": "robot", "robot": "three_bar"}, "initial": {"drawn": True},
+             "control": {"roll": {"faces": faces, "heading": list(heading), "rate": rate}},
+             "effects": ["inertia", "cables", "gravity"], "duration": 1.0, "integrator": {"max_step": step}}
+    try:
+        spec = load_scene(scene)
+    except SceneError as err:
+        assert "\n" not in str(err)
+        key = ".".join(map(str, err.key))
+        assert key in ("control.roll.faces", "control.roll.heading", "control.roll.rate", "integrator.max_step")
+        assert (key == "control.roll.faces") == (faces < 1)
+        if faces >= 1 and math.hypot(*heading) > 0 and key != "integrator.max_step":
+            assert key == "control.roll.rate" and rate * step > 1.0
+        return
+    assert faces >= 1 and math.hypot(*heading) > 0 and rate * spec.integrator.max_step <= 1.0 + 1e-12
+
+
+@settings(max_examples=40)
+@given(gait=st.sampled_from(["roll", "six_bar_roll", "three_bar_crawl", "spine_bend", "walk"]),
+       robot=st.sampled_from(["six_bar", "three_bar", "spine", "five_bar"]),
+       faces=st.one_of(st.none(), st.integers(-3, 10**9)), repeats=st.one_of(st.none(), st.integers(-3, 10**9)),
+       heading=st.one_of(st.none(), st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=2, max_size=2)),
+       max_time=st.one_of(st.none(), st.floats(allow_nan=True, allow_infinity=True)))
+def test_the_gait_commands_flags_give_a_gait_or_one_line(gait, robot, faces, repeats, heading, max_time):
+    """``tensegrity gait ROBOT GAIT`` with any flags its parser takes (``--faces``,
+    ``--repeats``, ``--heading X Y``, ``--max-time``, numbers of any size, NaN and infinities):
+    the checked gait (or closed-loop roll: faces >= 1, a finite nonzero heading, a finite
+    positive time limit), or a ``CliError`` of one line (exit 2 or its own code)."""
+    from tensegrity_ros.cli._common import CliError
+    from tensegrity_ros.cli.cmd_gait import ROLL, build_gait, check_roll
+
+    try:
+        if gait == ROLL:
+            n, h, limit = check_roll(robot, faces, heading, max_time, repeats)
+            assert n >= 1 and all(map(math.isfinite, h)) and math.hypot(*h) > 0
+            assert math.isfinite(limit) and limit > 0
+        else:
+            _, table = build_gait(robot, gait, faces, repeats)
+            assert np.all(np.isfinite(table.times)) and np.all(np.isfinite(table.rest_lengths))
+    except CliError as err:
+        assert str(err) and "\n" not in str(err)

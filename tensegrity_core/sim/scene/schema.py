@@ -35,6 +35,7 @@ from tensegrity_core.sim.errors import SceneError
 from tensegrity_core.sim.inputs import Commanded, Constant, InputLaw, Proportional, Ramp
 from tensegrity_core.sim.scene.references import structure_source
 from tensegrity_core.sim.scene.robot_schema import (
+    control_rate_fits,
     robot_control,
     robot_effect,
     robot_model,
@@ -108,6 +109,8 @@ class SceneReader(Reader):
         integrator = self.integrator(d.get("integrator"), ("integrator",), d, model)
         if isinstance(model, RobotModelSpec):
             step_fits(self, model, effects, integrator.max_step, d)
+        if control is not None:
+            control_rate_fits(self, control, integrator.max_step, d)
         seed = self.integer(d, "seed", (), default=0, lo=0)
         return Scene(name=name, model=model, initial=initial, inputs=inputs, effects=effects,
                      duration=duration, output_rate=output_rate, integrator=integrator, seed=seed,
