@@ -9,7 +9,7 @@ plots show error against time and against evaluations (``precision_tools``). Err
   against a reference that two different methods at rtol 1e-13 agree on (their
   disagreement is reported; the requirement is <= 1e-11; for the general structures,
   whose reference runs cost minutes, rtol 1e-11 and an agreement of ~1e-9). Quick mode
-  (CI) shortens the stiff and general scenes and uses three tolerances. Methods: scipy's RK23, RK45,
+  (CI) shortens the scenes (the paper's fold to 2 s of its 5) and uses three tolerances. Methods: scipy's RK23, RK45,
   DOP853, Radau, BDF and LSODA, rtol 1e-3 .. 1e-12 with the scene's atol/rtol ratio. A
   method's sweep stops once a run exceeds the time budget (reported). In the stiff scene
   the explicit methods' cost is set by stability, not by the tolerance: they run 0.01 s
@@ -201,7 +201,7 @@ def dynamics_class2(ctx: Context) -> list[Row]:
     """The paper's fold scenario and the stiff fold (k_a = k_b = 1e6 N/m)."""
     rows = []
     with threadpool_limits(1):
-        points, info = scene_study(ctx, "paper_fold")
+        points, info = scene_study(ctx, "paper_fold", duration=2.0 if ctx.quick else None)
         # the ROS node's default scene (class2_at_rest) integrates the same model: its
         # setting is judged on this front too
         at_rest = _scene_data("class2_at_rest")["integrator"]

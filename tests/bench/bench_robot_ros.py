@@ -23,7 +23,7 @@ The free-running figures are measured one after the other (the node's window, th
 core's same steps), so a change of the machine's load between them moves their ratio; the
 lockstep ones alternate.
 
-Quick mode: 3 s free-running, 2 x 100 lockstep steps (after a warm-up run); full mode: 15 s,
+Quick mode: 1 s free-running, 2 x 100 lockstep steps (after a warm-up run); full mode: 15 s,
 5 x 500 steps.
 """
 
@@ -81,7 +81,7 @@ def free_running(ctx: Context) -> list[Row]:
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
 
     env = _env()
-    duration = 3.0 if ctx.quick else 15.0
+    duration = 1.0 if ctx.quick else 15.0
     sim = _start(["node", "sim", "--ros-args", "-p", "scene:=six_bar_roll", "-p", "real_time_factor:=0.0",
                   "-p", "publish_rate:=100.0", "-p", "step_size:=0.001", "-p", "state_rate:=100.0",
                   "-p", "imu_rate:=100.0", "-p", "marker_rate:=0.0", "-p", "initial_state:=paused",

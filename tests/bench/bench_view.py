@@ -31,7 +31,7 @@ each row says the ratio it ended at and the canvas's pixels):
 - **ready**: from starting ``tensegrity view --scene class2_at_rest`` to its page answering
   HTTP; baseline ``tensegrity scenes`` (the command line's own start-up). Target < 3 s.
 
-Quick mode (CI's smoke run): one start-up, 2 s windows, the 6-bar robot's bag (the spine's
+Quick mode (CI's smoke run): one start-up, 1 s windows, the 6-bar robot's bag (the spine's
 plays through the same code; tests/view/test_browser.py draws its hulls); full
 mode: 5 start-ups, 15 s windows (a bag's: as long as it lasts), all rows.
 """
@@ -229,7 +229,7 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
     from rclpy.context import Context as RosContext
     from tensegrity_msgs.msg import ActuatorForces, MechanismState
 
-    seconds = 2.0 if ctx.quick else 15.0
+    seconds = 1.0 if ctx.quick else 15.0
     starts = 1 if ctx.quick else 5
     env = dict(os.environ)
     rows: list[Row] = []
