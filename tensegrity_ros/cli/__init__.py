@@ -132,6 +132,10 @@ def _run(args: argparse.Namespace) -> int:
     from tensegrity_ros.rclpy_utils.env import RosUnavailableError
 
     try:
+        if args.ros_args:
+            from tensegrity_ros.cli.ros_clients import check_ros_args
+
+            check_ros_args(args.ros_args)
         return int(args.func(args) or 0)
     except CliError as err:
         return fail(str(err), err.code)

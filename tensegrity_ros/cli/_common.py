@@ -46,6 +46,21 @@ def _jsonable(obj: Any) -> Any:
     return obj
 
 
+def check_seconds(value: float, option: str, *, zero: str | None = None) -> None:
+    """Refuse a time option that is not a finite number of seconds > 0, or >= 0 when ``zero``
+    says what 0 means (a CliError, exit 2)."""
+    if math.isfinite(value) and (value > 0 or (zero is not None and value == 0)):
+        return
+    accepted = f">= 0 (0 = {zero})" if zero is not None else "> 0"
+    raise CliError(f"{option} must be a finite number of seconds {accepted}, got {value:g}")
+
+
+def check_count(value: int, option: str, lo: int, hi: int) -> None:
+    """Refuse a whole-number option outside [lo, hi] (a CliError, exit 2)."""
+    if not lo <= value <= hi:
+        raise CliError(f"{option} must be a whole number in [{lo}, {hi}], got {value}")
+
+
 def print_json(data: Any) -> None:
     """Print ``data`` as JSON (numpy arrays become lists, NaN becomes null)."""
     json.dump(_jsonable(data), sys.stdout, indent=2)

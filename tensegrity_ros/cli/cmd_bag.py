@@ -26,7 +26,10 @@ def _record(args: argparse.Namespace) -> int:
 
     require_rclpy()
     from tensegrity_ros.bag.recorder import record
+    from tensegrity_ros.cli.ros_clients import check_ros_name
 
+    for topic in args.topics:
+        check_ros_name(topic.rstrip("/") or topic, "topic")        # NAME/: every topic under NAME
     record(args.output, args.topics, record_all=args.all,
            max_duration=args.max_duration, chunk_size=args.chunk_size,
            compression=args.compression, flush_interval=args.flush_interval,
@@ -58,7 +61,10 @@ def _play(args: argparse.Namespace) -> int:
         return _resimulate(args)
     from tensegrity_ros.bag.player import play
     from tensegrity_ros.bag.schedule import PlaybackOptions
+    from tensegrity_ros.cli.ros_clients import check_ros_name
 
+    for topic in args.topics or []:
+        check_ros_name(topic, "--topics")
     opts = PlaybackOptions(rate=args.rate, start_offset_s=args.start_offset, loop=args.loop,
                            clock_hz=args.clock)
     play(args.bag, args.topics, opts, delay_s=args.delay,
@@ -72,7 +78,12 @@ def _resimulate(args: argparse.Namespace) -> int:
 
     if args.step_size is not None and not 1e-6 <= args.step_size <= 10.0:
         raise CliError(f"--step-size must be in [1e-6, 10] s, got {args.step_size}")
-    report = resimulate(args.bag, scene=args.scene, step_size=args.step_size)
+    from tensegrity_core.sim import SceneError
+
+    try:
+        report = resimulate(args.bag, scene=args.scene, step_size=args.step_size)
+    except SceneError as err:
+        raise CliError(f"cannot load the scene to re-simulate on: {err}") from None
     if report.warning():
         print(report.warning(), file=sys.stderr)
     if args.json:
@@ -98,9 +109,17 @@ def _info(args: argparse.Namespace) -> int:
 
 @_bag_errors
 def _plot(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
     from tensegrity_ros.bag.plot import plot_bag
 
-    print(plot_bag(args.bag, args.output))
+    folder = Path(args.output).parent
+    if not folder.is_dir():
+        raise CliError(f"cannot write {args.output!r}: folder {str(folder)!r} does not exist")
+    try:
+        print(plot_bag(args.bag, args.output))
+    except OSError as err:
+        raise CliError(f"cannot write {args.output!r}: {err.strerror or err}") from None
     return 0
 
 

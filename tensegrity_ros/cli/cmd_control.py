@@ -15,7 +15,7 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-from tensegrity_ros.cli._common import CliError, Subparsers, add_json_flag
+from tensegrity_ros.cli._common import CliError, Subparsers, add_json_flag, check_seconds
 
 ORDER = 55
 
@@ -53,6 +53,7 @@ def _move(args: argparse.Namespace) -> int:
     for name in ("x", "y", "duration", "speed", "tolerance"):
         if not math.isfinite(getattr(args, name)):
             raise CliError(f"{name} must be a finite number, got {getattr(args, name)}")
+    check_seconds(args.timeout, "--timeout")
     from tensegrity_ros.rclpy_utils.env import require_rclpy
 
     require_rclpy()
@@ -77,6 +78,7 @@ def _move(args: argparse.Namespace) -> int:
 def _follow(args: argparse.Namespace) -> int:
     from tensegrity_ros.trajectory_file import TrajectoryFileError, read_trajectory
 
+    check_seconds(args.timeout, "--timeout")
     try:
         data = read_trajectory(args.file)
     except TrajectoryFileError as err:
@@ -147,22 +149,24 @@ def _run_goal(args: argparse.Namespace, node_name: str, action: Any, goal: Any, 
     from rclpy.executors import SingleThreadedExecutor
     from tqdm import tqdm
 
-    from tensegrity_ros.cli.ros_clients import client_node
+    from tensegrity_ros.cli.ros_clients import check_ros_name, client_node
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
     from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
 
+    check_ros_name(args.action, "--action")
     rclpy, node = client_node(node_name, args.ros_args)
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     client = ActionClient(node, action, args.action)
-    bar = tqdm(total=total, unit="s", file=sys.stderr, disable=args.json, dynamic_ncols=True,
-               bar_format="{l_bar}{bar}| {n:.2f}/{total_fmt} s {postfix}" if total else "{n:.2f} s {postfix}")
+    bar: Any = None              # shown once the controller is there: an error before it is one line
     handle = None
     try:
         if not client.wait_for_server(timeout_sec=args.timeout):
             raise CliError(f"action {node.resolve_topic_name(args.action)} not available after {args.timeout:g} s "
                            "(is the controller up? `tensegrity up`)", code=3)
         wait_until_server_heard(node, args.action, lambda f, t: spin_until_done(executor, f, t), args.timeout)
+        bar = tqdm(total=total, unit="s", file=sys.stderr, disable=args.json, dynamic_ncols=True,
+                   bar_format="{l_bar}{bar}| {n:.2f}/{total_fmt} s {postfix}" if total else "{n:.2f} s {postfix}")
         sent = client.send_goal_async(goal, feedback_callback=lambda msg: progress(bar, msg.feedback))
         if not spin_until_done(executor, sent, args.timeout):
             raise CliError(f"the controller did not answer the goal within {args.timeout:g} s", code=3)
@@ -198,7 +202,8 @@ def _run_goal(args: argparse.Namespace, node_name: str, action: Any, goal: Any, 
             print("cancelled", file=sys.stderr)
         return 130
     finally:
-        bar.close()
+        if bar is not None:
+            bar.close()
         executor.shutdown()        # before the context: rclpy's finalizers break on a collected cycle
         client.destroy()
         node.destroy_node()

@@ -153,7 +153,11 @@ def _gait(args: Any) -> int:
 
     require_rclpy()
     from tensegrity_ros.apps.gait_run import SuiteError, play_gait
+    from tensegrity_ros.cli.ros_clients import check_ros_name
 
+    check_ros_name(args.action, "--action")
+    if args.namespace:
+        check_ros_name(args.namespace, "--namespace", namespace=True)
     ns = args.namespace if not args.namespace or args.namespace.startswith("/") else "/" + args.namespace
     ros_args = ["--ros-args", *(["-r", f"__ns:={ns}"] if ns else []), *args.ros_args[1:]]
     try:

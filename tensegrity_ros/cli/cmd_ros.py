@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
 
-from tensegrity_ros.cli._common import CliError, Subparsers, add_json_flag
-from tensegrity_ros.cli.ros_clients import DISCOVERY_S, client_node
+from tensegrity_ros.cli._common import CliError, Subparsers, add_json_flag, check_count, check_seconds
+from tensegrity_ros.cli.ros_clients import DISCOVERY_S, check_ros_args, check_ros_name, client_node
 from tensegrity_ros.cli.send_forces import send_forces
 
 if TYPE_CHECKING:
@@ -84,7 +85,8 @@ def register(sub: Subparsers) -> None:
     p.add_argument("action", choices=SIM_ACTIONS)
     p.add_argument("steps", nargs="?", type=int, default=None, help="number of steps, for `step`")
     p.add_argument("--timeout", type=float, default=10.0,
-                   help="seconds to wait for the service (and for `step`, per 1,000 steps beyond that)")
+                   help="seconds to wait for the service, and for its answer (for `step`, that much more per 1,000 "
+                   "steps)")
     add_json_flag(p)
     p.set_defaults(func=_sim)
 
@@ -110,9 +112,11 @@ def _sim(args: argparse.Namespace) -> int:
 
     if (args.action == "step") != (args.steps is not None):
         raise CliError("give a number of steps with `step` (and only there), e.g. `tensegrity sim step 100`")
-    if args.steps is not None and args.steps < 1:
-        raise CliError(f"steps must be at least 1, got {args.steps}")
+    if args.steps is not None:
+        check_count(args.steps, "steps", 1, 2**64 - 1)      # StepSimulation's uint64
+    check_seconds(args.timeout, "--timeout")
     args.service = SIM_ACTIONS[args.action]
+    answer_timeout = args.timeout
     states = {"play": SimulationState.STATE_PLAYING, "pause": SimulationState.STATE_PAUSED,
               "stop": SimulationState.STATE_STOPPED}
     if args.action == "state":
@@ -122,10 +126,10 @@ def _sim(args: argparse.Namespace) -> int:
         request.state.state = states[args.action]
     elif args.action == "step":
         srv, request = StepSimulation, StepSimulation.Request(steps=args.steps)
-        args.timeout += args.timeout * args.steps / 1000.0
+        answer_timeout = args.timeout + args.timeout * args.steps / 1000.0
     else:
         srv, request = ResetSimulation, ResetSimulation.Request(scope=ResetSimulation.Request.SCOPE_ALL)
-    res = _call_service(args, "tensegrity_sim_control", srv, request)
+    res = _call_service(args, "tensegrity_sim_control", srv, request, answer_timeout)
     code = res.result.result
     ok = code == Result.RESULT_OK or code == SetSimulationState.Response.ALREADY_IN_TARGET_STATE
     names = {v: k for cls in (Result, SetSimulationState.Response) for k, v in vars(cls).items()
@@ -148,7 +152,12 @@ def _node(args: argparse.Namespace) -> int:
     require_rclpy()
 
     module = importlib.import_module(NODES[args.name])
-    return int(module.main([f"tensegrity-{args.name}", *args.ros_args]))
+    from tensegrity_ros.nodes.common import ParameterValueError
+
+    try:
+        return int(module.main([f"tensegrity-{args.name}", *args.ros_args]))
+    except ParameterValueError as err:           # one line, exit 2, as any other refused argument
+        raise CliError(str(err.code)) from None
 
 
 def _up(args: argparse.Namespace) -> int:
@@ -160,10 +169,12 @@ def _up(args: argparse.Namespace) -> int:
     exe = [sys.executable, "-m", "tensegrity_ros.cli"]
     ros = ["--ros-args"]
     if args.namespace:
+        check_ros_name(args.namespace, "--namespace", namespace=True)
         ros += ["-r", f"__ns:={args.namespace if args.namespace.startswith('/') else '/' + args.namespace}"]
     if args.params_file:
         ros += ["--params-file", args.params_file]
     ros += args.ros_args[1:] if args.ros_args else []
+    check_ros_args(ros)                  # --namespace and --params-file too, before any child starts
     mech = ros + (["-p", f"scene:={args.scene}"] if args.scene else [])    # one source of the mechanism
     # recording: the simulator's clock starts once the recorder itself subscribes to every output
     # topic (another node's subscription, such as the controller's on joint_states, does not
@@ -205,12 +216,15 @@ def _scene_interface(scene: str | None) -> Interface:
         raise CliError(f"cannot load scene {excerpt(scene)}: {err}") from None
 
 
-def _call_service(args: argparse.Namespace, node_name: str, srv_type: Any, request: Any) -> Any:
-    """One service call from a short-lived client node; the response, or a CliError."""
+def _call_service(args: argparse.Namespace, node_name: str, srv_type: Any, request: Any,
+                  answer_timeout: float | None = None) -> Any:
+    """One service call from a short-lived client node; the response, or a CliError. The
+    service is waited for ``args.timeout`` s, its answer ``answer_timeout`` s (default the same)."""
     from rclpy.executors import SingleThreadedExecutor
 
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
 
+    check_ros_name(args.service, "--service")
     rclpy, node = client_node(node_name, args.ros_args)
     executor = SingleThreadedExecutor()
     try:
@@ -220,8 +234,9 @@ def _call_service(args: argparse.Namespace, node_name: str, srv_type: Any, reque
                            f"{args.timeout:g} s (is the suite up? `tensegrity up`)", code=3)
         executor.add_node(node)
         future = client.call_async(request)
-        if not spin_until_done(executor, future, args.timeout):
-            raise CliError(f"no answer from {args.service} within {args.timeout:g} s", code=3)
+        answer_timeout = args.timeout if answer_timeout is None else answer_timeout
+        if not spin_until_done(executor, future, answer_timeout):
+            raise CliError(f"no answer from {args.service} within {answer_timeout:g} s", code=3)
         return future.result()
     finally:
         executor.shutdown()        # before the context: rclpy's finalizers break on a collected cycle
@@ -246,6 +261,7 @@ def _show(args: argparse.Namespace, res: Any, lines: Iterable[str]) -> int:
 def _call_ik(args: argparse.Namespace) -> int:
     from tensegrity_ros.rclpy_utils.env import require_rclpy
 
+    check_seconds(args.timeout, "--timeout")
     require_rclpy()
     from tensegrity_msgs.srv import SolveIK
 
@@ -253,7 +269,7 @@ def _call_ik(args: argparse.Namespace) -> int:
                         SolveIK.Request(x=args.x, y=args.y, seed=list(args.seed or [])))
     return _show(args, res, [
         f"rho1 = {s.rho1:.9f} m  rho2 = {s.rho2:.9f} m  beta = {s.beta:.9f} rad  (delta1 {s.delta1:+d}, "
-        f"delta2 {s.delta2:+d}, d2U/dbeta2 = {s.stiffness_beta:.4g})" for s in res.solutions])
+        f"delta2 {s.delta2:+d}, d2U/dbeta2 = {s.stiffness_beta:.4g} J/rad^2)" for s in res.solutions])
 
 
 def _call_formfind(args: argparse.Namespace) -> int:
@@ -261,6 +277,10 @@ def _call_formfind(args: argparse.Namespace) -> int:
 
     from tensegrity_ros.rclpy_utils.env import require_rclpy
 
+    check_seconds(args.timeout, "--timeout")
+    if not (math.isfinite(args.tol) and args.tol >= 0):
+        raise CliError(f"--tol must be a finite relative residual >= 0 (dimensionless; 0 = the default), got {args.tol:g}")
+    check_count(args.max_iter, "--max-iter", 0, 2**32 - 1)      # FindForm's uint32; 0 = the default
     path = Path(args.file)
     if not path.exists():
         from tensegrity_core.general import example_names, example_path
@@ -284,7 +304,8 @@ def _call_formfind(args: argparse.Namespace) -> int:
                         FindForm.Request(structure=text, tolerance=args.tol, max_iterations=args.max_iter))
     return _show(args, res, [
         f"iterations {res.iterations}, residual {res.residual:.3g} (relative; norm {res.residual_norm:.3g} N), "
-        f"min stiffness eigenvalue {res.min_stiffness_eigenvalue:.4g}, stability margin {res.stability_margin:.3g}",
+        f"min stiffness eigenvalue {res.min_stiffness_eigenvalue:.4g} N/m, stability margin {res.stability_margin:.3g} "
+        "(the eigenvalue over its rounding level)",
         *(f"member {i}: {t:.6g} N" for i, t in enumerate(res.member_forces))])
 
 
@@ -296,6 +317,9 @@ def _echo(args: argparse.Namespace) -> int:
 
     from tensegrity_ros.rclpy_utils.messages import message_class, message_to_dict
 
+    check_seconds(args.timeout, "--timeout", zero="never")
+    check_count(args.count, "--count", 0, 2**63 - 1)
+    check_ros_name(args.topic, "topic")
     rclpy, node = client_node("tensegrity_echo", args.ros_args)
     from rclpy.executors import SingleThreadedExecutor
 

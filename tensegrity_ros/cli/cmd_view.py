@@ -56,8 +56,11 @@ def _source(args: argparse.Namespace) -> Source:
     from tensegrity_ros.rclpy_utils.env import require_rclpy
 
     require_rclpy()
+    from tensegrity_ros.cli.ros_clients import check_ros_name
     from tensegrity_ros.view.ros_source import RosSource
 
+    if args.namespace:
+        check_ros_name(args.namespace, "--namespace", namespace=True)
     return RosSource(args.namespace, force_limit=args.force_limit, ros_args=args.ros_args)
 
 

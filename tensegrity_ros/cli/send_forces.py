@@ -10,7 +10,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from tensegrity_ros.cli._common import CliError
-from tensegrity_ros.cli.ros_clients import DISCOVERY_S, client_node
+from tensegrity_ros.cli.ros_clients import DISCOVERY_S, check_ros_name, client_node
 
 if TYPE_CHECKING:
     from rclpy.executors import Executor
@@ -29,6 +29,7 @@ def send_forces(args: argparse.Namespace) -> int:
         raise CliError(str(err)) from None
     if not (args.rate >= 0 and args.rate < float("inf")):
         raise CliError(f"--rate must be a number of Hz >= 0, got {args.rate}")
+    check_ros_name(args.topic, "--topic")
     rclpy, node = client_node("tensegrity_send_forces", args.ros_args)
     from rclpy.executors import SingleThreadedExecutor
     from tensegrity_msgs.msg import ActuatorForces

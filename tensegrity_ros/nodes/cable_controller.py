@@ -64,7 +64,7 @@ from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_core.sim import compile_scene
 from tensegrity_core.sim import joint_trajectory as jt
-from tensegrity_ros.nodes.common import declare, spin_node
+from tensegrity_ros.nodes.common import ParameterValueError, declare, spin_node
 from tensegrity_ros.nodes.scene_param import declare_scene
 from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
 
@@ -95,10 +95,10 @@ class CableControllerNode(Node):
         try:
             self.interface = compile_scene(scene).interface
         except TensegrityError as err:
-            raise SystemExit(clip(f"{self.get_name()}: cannot compile scene {excerpt(self.scene_name)}: {err}")) \
+            raise ParameterValueError(clip(f"{self.get_name()}: cannot compile scene {excerpt(self.scene_name)}: {err}")) \
                 from None
         if self.interface.command != "rest_length" or not any(self.interface.commanded):
-            raise SystemExit(f"{self.get_name()}: scene {excerpt(self.scene_name)} has no actuated cables that take "
+            raise ParameterValueError(f"{self.get_name()}: scene {excerpt(self.scene_name)} has no actuated cables that take "
                              "commands: this node drives the actuated cables of general structures and robots")
         self.goal_tolerance = declare(self, "goal_tolerance", 1e-4, "default goal tolerance of each cable's rest "
                                       "length [m]", lo=1e-12, read_only=True)

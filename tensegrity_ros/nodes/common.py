@@ -4,9 +4,11 @@ from the scene: :mod:`tensegrity_ros.nodes.scene_param`)."""
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable, Sequence
 from typing import overload
 
+from tensegrity_core.excerpt import excerpt
 from tensegrity_ros.rclpy_utils.env import require_rclpy
 
 rclpy = require_rclpy()
@@ -29,7 +31,8 @@ SERVICE_QOS = QoSProfile(
 
 
 class ParameterValueError(SystemExit):
-    """A node parameter has the wrong type or is out of range (the node does not start)."""
+    """A node parameter has the wrong type or is out of range, or its scene cannot be used (the
+    node does not start; ``tensegrity node`` prints the message as one line and exits with 2)."""
 
 
 #: What a parameter may hold here (its default's type).
@@ -54,7 +57,8 @@ def declare(node: Node, name: str, default: ParameterValue, description: str, *,
 
     Floating-point parameters also accept integers (``-p publish_rate:=500`` works) and
     are returned as float; a wrong type or an out-of-range value stops the node with a
-    message naming the parameter.
+    message naming the parameter, the accepted range and the unit, which is the description's
+    last bracket (``"... [Hz]"``: Hz; ``"[s, wall time]"``: s).
     """
     desc = ParameterDescriptor(description=description, read_only=read_only)
     is_float = isinstance(default, float)
@@ -69,13 +73,33 @@ def declare(node: Node, name: str, default: ParameterValue, description: str, *,
     except Exception as err:  # rclpy raises several types for bad overrides
         raise ParameterValueError(f"{node.get_name()}: parameter {name}: {err}") from None
     if is_float:
+        unit = _unit(description)
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ParameterValueError(f"{node.get_name()}: parameter {name} must be a number, got {value!r}")
+            raise ParameterValueError(f"{node.get_name()}: parameter {name} must be a number{unit and ' [' + unit + ']'}"
+                                      f", got {excerpt(str(value))}")
         value = float(value)
         if not math.isfinite(value) or (lo is not None and value < lo) or (hi is not None and value > hi):
-            raise ParameterValueError(
-                f"{node.get_name()}: parameter {name} = {value!r} is outside [{lo}, {hi}]")
+            raise ParameterValueError(f"{node.get_name()}: parameter {name} must be {_accepted(lo, hi, unit)}, "
+                                      f"got {value:g}{unit and math.isfinite(value) and ' ' + unit or ''}")
     return value
+
+
+def _unit(description: str) -> str:
+    """The unit a parameter's description gives in its last bracket (before any comma), or ""."""
+    found = re.findall(r"\[([^\]]*)\]", description)
+    return found[-1].split(",")[0].strip() if found else ""
+
+
+def _accepted(lo: float | None, hi: float | None, unit: str) -> str:
+    """``a finite number in [lo, hi] Hz``, ``>= lo``, ``<= hi`` or ``finite``, with the unit."""
+    u = f" {unit}" if unit else ""
+    if lo is not None and hi is not None:
+        return f"a finite number in [{lo:g}, {hi:g}]{u}"
+    if lo is not None:
+        return f"a finite number >= {lo:g}{u}"
+    if hi is not None:
+        return f"a finite number <= {hi:g}{u}"
+    return f"a finite number{u and ' of' + u}"
 
 
 def spin_node(make_node: Callable[[], Node], args: Sequence[str] | None,

@@ -19,7 +19,7 @@ from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_core.sim import Scene, load_scene
 from tensegrity_core.sim.scene.spec import Class2ModelSpec
-from tensegrity_ros.nodes.common import declare
+from tensegrity_ros.nodes.common import ParameterValueError, declare
 
 #: The scene every node that models the class-2 mechanism reads it from (one source).
 DEFAULT_SCENE = "class2_at_rest"
@@ -39,9 +39,9 @@ def declare_scene(node: Node, *, class2_only: bool = True) -> tuple[str, Scene]:
     try:
         scene = load_scene(name)
     except TensegrityError as err:
-        raise SystemExit(clip(f"{node.get_name()}: cannot load scene {excerpt(name)}: {err}")) from None
+        raise ParameterValueError(clip(f"{node.get_name()}: cannot load scene {excerpt(name)}: {err}")) from None
     if class2_only and scene.model.kind != "class2":
-        raise SystemExit(f"{node.get_name()}: scene {excerpt(name)} models a general structure; this node works "
+        raise ParameterValueError(f"{node.get_name()}: scene {excerpt(name)} models a general structure; this node works "
                          "on the class-2 mechanism")
     return name, scene
 

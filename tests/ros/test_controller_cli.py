@@ -87,6 +87,7 @@ def test_bad_trajectory_files_are_one_error_line(tmp_path, text, words):
 def test_no_controller_exits_3():
     out = run_cli("move", "1.4", "0.7", "--timeout", "1", "--ros-args", "-r", "__ns:=/nobody_here")
     assert out.returncode == 3 and "not available" in out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1, out.stderr        # no progress bar before the error
 
 
 def test_the_ik_node_takes_the_mechanism_from_the_scene(tmp_path, cli):

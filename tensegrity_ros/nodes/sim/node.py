@@ -72,7 +72,7 @@ from tensegrity_msgs.msg import ActuatorForces, CableCommand, SimulationEvent
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_ros.nodes.actuator_commands import CommandError
-from tensegrity_ros.nodes.common import rclpy, spin_node
+from tensegrity_ros.nodes.common import ParameterValueError, rclpy, spin_node
 from tensegrity_ros.nodes.scene_param import declare_scene
 from tensegrity_ros.nodes.sim import control, sender
 from tensegrity_ros.nodes.sim.command_bytes import CableCommandBytes
@@ -101,7 +101,7 @@ class SimNode(SimulationInterfaces):
         try:
             self.plant = SimPlant(scene, p.step_ns)
         except TensegrityError as err:
-            raise SystemExit(clip(f"tensegrity_sim: cannot start scene {excerpt(p.scene)}: {err}")) from None
+            raise ParameterValueError(clip(f"tensegrity_sim: cannot start scene {excerpt(p.scene)}: {err}")) from None
         forces = self.plant.interface.command == "force"
         self.unit = self.plant.interface.unit
         self.outputs = Outputs(self.plant, publish_rate=p.publish_rate, state_rate=p.state_rate,

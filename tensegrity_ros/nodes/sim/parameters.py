@@ -93,6 +93,9 @@ def declare_sim_parameters(node: Node, scene: str) -> SimParameters:
     safe_force = d("safe_force", 0.0, "actuator force applied after a command timeout or a lockstep timeout "
                    "(the class-2 mechanism) [N]")
     max_force = d("max_force", 1000.0, "commands with |f| above this are rejected [N]", lo=0.0)
+    if abs(safe_force) > max_force:
+        raise ParameterValueError(f"{node.get_name()}: parameter safe_force must be in [-max_force, max_force] = "
+                                  f"[{-max_force:g}, {max_force:g}] N, got {safe_force:g} N")
     frame_id = d("frame_id", "world", "frame of the published positions")
     state_rate = d("state_rate", 100.0,
                    "publish rate of mechanism_state (class-2), cable_states (general structures, robots) and "

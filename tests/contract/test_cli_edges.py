@@ -1,0 +1,111 @@
+"""What a careless user types at the ROS commands' edges: malformed ``--ros-args``, names ROS
+would not take (topics, services, actions, namespaces), times and counts out of range, a
+node parameter out of its range, a scene or a plot path that is not there. Each is one ``error:`` line naming the option and
+what it accepts, exit code 2, before any node is created (never a traceback, never a wait).
+
+Commands that keep the process's signal handling (``node``, ``up``, ``record``, ``play``) run
+as processes, the others in this process through the CLI's ``main``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from tensegrity_ros.cli import main
+from tests.contract.test_cli import _run_all
+
+pytestmark = pytest.mark.ros
+
+FOLD = str(Path(__file__).resolve().parents[2] / "bags" / "fold")
+
+IN_PROCESS = [   # (arguments, words the error line must hold)
+    (["sim", "step", str(2**64)], "steps must be a whole number in [1, 18446744073709551615]"),
+    (["sim", "state", "--timeout", "nan"], "--timeout must be a finite number of seconds > 0, got nan"),
+    (["call-ik", "1.4", "0.7", "--timeout", "-1"], "--timeout must be a finite number of seconds > 0"),
+    (["call-formfind", "tensegrity_table", "--max-iter", "-1"], "--max-iter must be a whole number in [0, 4294967295]"),
+    (["call-formfind", "tensegrity_table", "--max-iter", str(2**32)], "--max-iter"),
+    (["call-formfind", "tensegrity_table", "--tol", "nan"], "--tol must be a finite relative residual >= 0"),
+    (["echo", "joint_states", "--count", "-3"], "--count must be a whole number in [0, "),
+    (["echo", "joint_states", "--timeout", "nan"], "--timeout must be a finite number of seconds >= 0 (0 = never)"),
+    (["move", "1.4", "0.7", "--timeout", "0"], "--timeout must be a finite number of seconds > 0, got 0"),
+    (["follow", "no_such_file.csv", "--timeout", "inf"], "--timeout"),
+    (["send-forces", "1", "0", "--topic", "bad topic"], "--topic 'bad topic' is not a valid ROS name"),
+    (["echo", "bad topic"], "topic 'bad topic' is not a valid ROS name"),
+    (["call-ik", "1.4", "0.7", "--service", "bad srv"], "--service 'bad srv' is not a valid ROS name"),
+    (["move", "1.4", "0.7", "--action", "a b"], "--action 'a b' is not a valid ROS name"),
+    (["gait", "six_bar", "six_bar_roll", "-n", "bad ns"], "--namespace 'bad ns' is not a valid ROS namespace"),
+    (["call-ik", "1.4", "0.7", "--ros-args", "-p", "x"], "parameter override rule: '-p x' (expected -p NAME:=VALUE)"),
+    (["bag", "plot", FOLD, "-o", "no_such_folder/fold.png"], "folder 'no_such_folder' does not exist"),
+]
+
+AS_PROCESSES = [
+    (["node", "ik", "--ros-args", "-p", "paper_range"], "(expected -p NAME:=VALUE)"),
+    (["node", "sim", "--ros-args", "-r", "__ns:=relative"], "remap rule: '-r __ns:=relative'"),
+    (["node", "sim", "--ros-args", "--bogus"], "unknown ROS arguments: --bogus"),
+    (["up", "--namespace", "bad ns"], "--namespace 'bad ns' is not a valid ROS namespace"),
+    (["up", "--params-file", "no_such_params.yaml"], "params file: '--params-file no_such_params.yaml'"),
+    (["record", "-o", "bag", "bad topic"], "topic 'bad topic' is not a valid ROS name"),
+    (["play", FOLD, "--topics", "bad topic"], "--topics 'bad topic' is not a valid ROS name"),
+    (["play", FOLD, "--resimulate", "--scene", "no_such_scene"], "cannot load the scene to re-simulate on: 'no_such_scene'"),
+    # node parameters, checked as the node starts: the range and the unit
+    (["node", "sim", "--ros-args", "-p", "publish_rate:=-5"],
+     "tensegrity_sim: parameter publish_rate must be a finite number in [1, 1000] Hz, got -5 Hz"),
+    (["node", "sim", "--ros-args", "-p", "safe_force:=2000"],
+     "parameter safe_force must be in [-max_force, max_force] = [-1000, 1000] N, got 2000 N"),
+    (["node", "controller", "--ros-args", "-p", "max_force:=nan"],
+     "tensegrity_controller: parameter max_force must be a finite number >= 1e-06 N, got nan"),
+    (["node", "formfind", "--ros-args", "-p", "time_limit:=abc"],
+     "tensegrity_formfind: parameter time_limit must be a number [s], got 'abc'"),
+    (["node", "ik", "--ros-args", "-p", "scene:=no_such_scene"], "tensegrity_ik: cannot load scene 'no_such_scene'"),
+]
+
+
+def _one_error_line(stderr: str) -> str:
+    lines = [line for line in stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: "), stderr
+    return lines[0]
+
+
+@pytest.mark.parametrize("args, words", IN_PROCESS, ids=[" ".join(a[:2]) for a, _ in IN_PROCESS])
+def test_a_bad_option_of_a_client_command_is_one_line_and_exit_2(args, words, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(args) == 2
+    out = capsys.readouterr()
+    assert words in _one_error_line(out.err) and out.out == ""
+
+
+def test_a_bad_argument_of_a_long_running_command_is_one_line_and_exit_2(tmp_path):
+    for done, (args, words) in zip(_run_all([a for a, _ in AS_PROCESSES], tmp_path), AS_PROCESSES):
+        assert done.returncode == 2, (args, done.stdout, done.stderr)
+        assert words in _one_error_line(done.stderr), args
+    assert not (tmp_path / "bag").exists()                      # refused before anything was made
+
+
+@given(st.lists(st.text(alphabet=st.characters(blacklist_categories=("Cs",), blacklist_characters="\x00"),
+                        max_size=12), max_size=4))
+def test_any_ros_arguments_are_taken_or_refused_in_one_line(words):
+    """Whatever follows ``--ros-args``: rcl takes it, or it is one line naming what it could
+    not parse (a CliError), never another exception. (A NUL cannot be in a process argument.)"""
+    from tensegrity_ros.cli._common import CliError
+    from tensegrity_ros.cli.ros_clients import check_ros_args
+
+    try:
+        check_ros_args(["--ros-args", *words])
+    except CliError as err:
+        assert "\n" not in str(err) and str(err)
+
+
+@given(st.text(alphabet=st.characters(blacklist_categories=("Cs",), blacklist_characters="\x00"), max_size=20),
+       st.booleans())
+def test_any_name_is_taken_or_refused_in_one_line(name, namespace):
+    from tensegrity_ros.cli._common import CliError
+    from tensegrity_ros.cli.ros_clients import check_ros_name
+
+    try:
+        check_ros_name(name, "--topic", namespace=namespace)
+    except CliError as err:
+        assert "\n" not in str(err) and "not a valid ROS" in str(err)
