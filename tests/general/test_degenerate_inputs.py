@@ -166,3 +166,14 @@ def test_modes_obey_maxwells_rule_and_span_the_null_spaces(s):
     assert np.abs(A.T @ K).max(initial=0.0) <= 1e-8 * scale
     for k in range(S.shape[1]):
         assert np.abs(_node_forces(s, S[:, k])).max() <= 1e-8
+
+
+def test_an_unstiffened_mechanism_has_stability_margin_0_not_nan():
+    # Dynamic relaxation leaves the node of two slack strings where it stops: K_T = 0, whose
+    # rounding level is 0 too; its zero eigenvalue is neutral with margin 0 (was 0/0 = NaN,
+    # printed as "nan times its rounding level").
+    s = Structure.from_arrays([[0, 0, 0], [1, 0, 0], [0.5, 0.5, 0]], [[0, 2], [1, 2]], EA=1.0,
+                              rest_length_ratio=0.9, pinned=[True, True, False])
+    r = form_find(s, method="dynamic_relaxation")
+    assert r.stability_margin == 0.0 and not r.stable
+    assert "unstiffened mechanism" in r.message and "nan" not in r.message
