@@ -13,7 +13,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from hypothesis import assume, given
+import pytest
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from tensegrity_core.class2 import (
@@ -22,10 +23,13 @@ from tensegrity_core.class2 import (
     inverse_kinematics,
     potential_energy,
     singularity_distances,
+    stiffness_matrix_energy_fd,
+    stiffness_matrix_paper,
 )
 from tensegrity_core.class2.inverse_kinematics import DOMAIN_TOL, EPS
+from tensegrity_core.class2.params import PAPER_PARAMS
 from tensegrity_core.errors import SingularityError
-from tests.class2.strategies import boundary_targets, edge_configurations, extreme_parameter_sets
+from tests.class2.strategies import boundary_targets, edge_configurations, edged, extreme_parameter_sets
 
 
 @st.composite
@@ -113,7 +117,7 @@ def test_the_fold_distance_vanishes_exactly_where_the_jacobian_drops_rank(params
     rho = np.array([rho1, k2 * rho1 / K]) + off * L * n
     assume(min(rho) > 1e-3 * L and rho.sum() < 2 * L - 1e-2 * L and rho[0] < L - 1e-3 * L)
     dist = singularity_distances(rho[0], rho[1], params)["beta_half_pi"]
-    assert dist * L == np_approx(abs(off) * L, 1e-9 * L)
+    assert dist * L == pytest.approx(abs(off) * L, abs=1e-9 * L)
     h = 1e-6 * L
     J = _fd_jacobian(rho[0], rho[1], params, h)
     rel = abs(np.linalg.det(J)) / (np.linalg.norm(J) ** 2)
@@ -125,7 +129,40 @@ def test_the_fold_distance_vanishes_exactly_where_the_jacobian_drops_rank(params
         assert rel > 1e-5 and math.isclose(rel, rel_analytic, rel_tol=1e-3)
 
 
-def np_approx(value, tol):
-    import pytest
+@st.composite
+def stiff_cases(draw):
+    """Springs over six decades, actuators and struts 1e2 to 1e6 times stiffer than the
+    softest spring, the pre-stress force on F within +-(k2 + k3) L, and a configuration at
+    least 1e-2 L from the sets where the stiffness matrix does not exist (the edges of that
+    band drawn on purpose)."""
+    k = edged(1e-3, 1e3).filter(lambda v: v > 0.0)
+    L = draw(edged(1e-2, 1e2).filter(lambda v: v > 0.0))
+    springs = {name: draw(k) for name in ("k1", "k2", "k3", "k4")}
+    rigid = max(springs.values()) * draw(edged(1e2, 1e6))
+    params = PAPER_PARAMS.with_overrides(L=L, ka=rigid, kb=rigid, **springs)
+    rho1 = L * draw(edged(1e-2, 1.0 - 1e-2))
+    rho2 = (2 * L - rho1) * draw(edged(1e-2, 1.0 - 1e-2))
+    f = (springs["k2"] + springs["k3"]) * L * draw(edged(-1.0, 1.0))
+    return rho1, rho2, f, params
 
-    return pytest.approx(value, abs=tol)
+
+@settings(max_examples=25)   # 112 energy sums per example
+@given(stiff_cases())
+def test_stiffness_matrix_is_the_symmetric_energy_hessian_and_its_inertia_the_energys(case):
+    # Route (a), the paper's K = A_r G^ A_r^T + S_r, against route (c), central second
+    # differences of the total potential energy summed over the members: equal (step
+    # 1e-4 L: truncation ~ h^2 g / l^2 <= 1e-4 g with l >= 1e-2 L, rounding ~ eps E / h^2),
+    # symmetric, and the sign of its smallest eigenvalue is the sign of the energy's second
+    # difference along that eigenvector (definite K <=> strict energy minimum).
+    rho1, rho2, f, params = case
+    K = stiffness_matrix_paper(rho1, rho2, f, None, params)
+    scale = np.abs(K).max()
+    assert np.abs(K - K.T).max() <= 1e-12 * scale
+    H = stiffness_matrix_energy_fd(rho1, rho2, f, None, params)
+    assert np.abs(K - H).max() <= 2e-4 * scale
+    w, v = np.linalg.eigh(K)
+    assume(abs(w[0]) > 1e-3 * scale)                     # a sign the differences can resolve
+    h = 1e-3 * params.L
+    q = v[:, 0] * h
+    second = q @ H @ q
+    assert np.sign(second) == np.sign(w[0])
