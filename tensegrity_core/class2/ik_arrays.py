@@ -51,6 +51,32 @@ def _rho1_snap_bound_array(w: NDArray[np.float64], L: float) -> NDArray[np.float
     return 2.0 * L * t / (np.sqrt(w * w + 2.0 * L * t) + w)
 
 
+def _on_sum_limit_array(rho1: NDArray[np.float64], rho2: NDArray[np.float64], L: float) -> NDArray[np.float64]:
+    """Vectorised :func:`~tensegrity_core.class2.inverse_kinematics.on_sum_limit` for the
+    entries put on ``rho1 + rho2 = 2L`` (a sum up to two ulps above 2L moves down)."""
+    for _ in range(2):
+        rho2 = np.where((rho1 + rho2 > 2.0 * L) & (rho1 + rho2 <= 2.0 * L * (1.0 + 4.0 * EPS)),
+                        np.nextafter(rho2, -np.inf), rho2)
+    return rho2
+
+
+def _snap_rho2_array(rho1: NDArray[np.float64], rho2: NDArray[np.float64], c: NDArray[np.float64],
+                     y: NDArray[np.float64], tol: NDArray[np.float64], params: Class2Params) -> NDArray[np.float64]:
+    """rho2 put on 0 within ``tol`` where FK then reproduces the branch's target
+    ``(rho1 + c, y)`` to within ``tol``, and on ``rho1 + rho2 = 2L`` within ``tol`` (as the
+    scalar IK's ``_candidate``)."""
+    L, k2 = params.L, params.k2
+    snapped = np.where((rho2 < 0.0) & (rho2 >= -tol), 0.0, rho2)
+    s = rho1 + snapped
+    d = (2.0 * params.k3 + k2) * snapped - k2 * rho1
+    e = k2 * np.sqrt(np.maximum(0.0, (2.0 * L - s) * (2.0 * L + s)))
+    R = np.hypot(d, e)
+    residual = np.hypot(rho1 + L * d / R - (rho1 + c), L * e / R - y)   # as the scalar fk_residual
+    rho2 = np.where((snapped == rho2) | (residual <= tol), snapped, rho2)
+    over = rho1 + rho2 - 2.0 * L
+    return _on_sum_limit_array(rho1, np.where((over > 0.0) & (over <= tol), 2.0 * L - rho1, rho2), L)
+
+
 #: ``(delta1, delta2)`` of the columns of :func:`ik_array_all`.
 IK_BRANCHES: Final = ((-1, 1), (-1, -1), (1, -1), (1, 1))
 #: Meaning of the codes of :func:`ik_array_all` (index = code); the first failed test wins.
@@ -150,6 +176,7 @@ def _paper_branch_snapped(
     L, k2 = params.L, params.k2
     K = 2.0 * params.k3 + k2
     y = np.where((y >= L - DOMAIN_TOL * L) & (y <= L + DOMAIN_TOL * L), L, y)   # as the scalar IK
+    y = np.where((y >= -DOMAIN_TOL * L) & (y < 0.0), 0.0, y)
     w = np.sqrt((L - y) * (L + y))
     rho1, c, y = _branch_array(x, y, w, -1.0, L)
     tol = _snap_tolerance_array(np.abs(c), L)
@@ -157,10 +184,7 @@ def _paper_branch_snapped(
     xi2 = K * K * yy + k2 * k2 * cc
     q = np.sqrt(4.0 * L * L * xi2 - ((K + k2) * rho1) ** 2 * yy)
     rho2 = k2 * (c * q - rho1 * (k2 * cc - K * yy)) / xi2
-    rho2 = np.where((rho2 < 0.0) & (rho2 >= -tol), 0.0, rho2)
-    over = rho1 + rho2 - 2.0 * L
-    rho2 = np.where((over > 0.0) & (over <= tol), 2.0 * L - rho1, rho2)
-    return rho1, rho2, c, y
+    return rho1, _snap_rho2_array(rho1, rho2, c, y, tol, params), c, y
 
 
 def ik_array(x: ArrayLike, y: ArrayLike, params: Class2Params = PAPER_PARAMS) -> IKArrays:
@@ -184,7 +208,7 @@ def ik_array(x: ArrayLike, y: ArrayLike, params: Class2Params = PAPER_PARAMS) ->
         rho1, rho2, c = _paper_branch(x, y, params)
         s = rho1 + rho2
         valid = (y >= 0.0) & (rho1 >= 0.0) & (rho1 <= L) & (rho2 >= 0.0) & (s <= 2.0 * L)
-        edge = ((y >= L - fold) & (y <= L + fold)) | (
+        edge = ((y >= L - fold) & (y <= L + fold)) | ((y >= -fold) & (y < 0.0)) | (
             ~valid & (y >= 0.0) & (rho1 >= -band) & (rho1 <= L + band) & (rho2 >= -band)
             & (s <= 2.0 * L + band))
         yb = y
@@ -217,16 +241,15 @@ def ik_array_all(x: ArrayLike, y: ArrayLike, params: Class2Params = PAPER_PARAMS
     d1 = np.array([b[0] for b in IK_BRANCHES], dtype=float)
     d2 = np.array([b[1] for b in IK_BRANCHES], dtype=float)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        y = np.where((np.abs(y) >= L - fold) & (np.abs(y) <= L + fold), np.copysign(L, y), y)[..., None]
+        y = np.where((np.abs(y) >= L - fold) & (np.abs(y) <= L + fold), np.copysign(L, y), y)
+        y = np.where((y >= -fold) & (y < 0.0), 0.0, y)[..., None]
         w = np.sqrt((L - y) * (L + y))
         rho1, c, y = _branch_array(x[..., None], y, w, d1, L)
         tol = _snap_tolerance_array(np.abs(c), L)
         xi2 = K * K * y * y + k2 * k2 * c * c
         q = np.sqrt(4.0 * L * L * xi2 - ((K + k2) * rho1 * y) ** 2)
         rho2 = k2 * (-rho1 * (k2 * c * c - K * y * y) + d2 * np.abs(c) * q) / xi2
-        rho2 = np.where((rho2 < 0.0) & (rho2 >= -tol), 0.0, rho2)
-        over = rho1 + rho2 - 2.0 * L
-        rho2 = np.where((over > 0.0) & (over <= tol), 2.0 * L - rho1, rho2)
+        rho2 = _snap_rho2_array(rho1, rho2, c, y, tol, params)
         s = rho1 + rho2
         lam1 = np.sqrt(np.maximum((2.0 * L - s) * (2.0 * L + s), 0.0))
         d = K * rho2 - k2 * rho1

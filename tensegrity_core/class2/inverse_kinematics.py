@@ -43,7 +43,8 @@ from tensegrity_core.class2.singularities.distances import nearest_singularity
 from tensegrity_core.errors import DomainError
 
 #: Relative tolerance (times L) within which a length on a domain limit is snapped onto
-#: it, and a target with ``|y|`` that close to L onto the fold ``|y| = L`` (there
+#: it, a target with ``y`` that close below 0 onto the X axis, and a target with ``|y|``
+#: that close to L onto the fold ``|y| = L`` (there
 #: ``c = sqrt(L^2 - y^2)`` turns a rounding error of y into sqrt of it in rho1). The
 #: snapped answer reproduces the target to within this tolerance: rho1 by the target's
 #: distance from the limit's circle (:func:`rho1_snap_bound`), rho2 with an allowance for
@@ -180,6 +181,15 @@ class IKResult:
         }
 
 
+def on_sum_limit(rho1: float, two_l: float) -> float:
+    """The largest rho2 [m] with ``rho1 + rho2 <= 2L`` in floating point: ``2L - rho1``
+    rounded can make the rounded sum exceed 2L by an ulp."""
+    rho2 = two_l - rho1
+    while rho1 + rho2 > two_l:
+        rho2 = math.nextafter(rho2, -math.inf)
+    return rho2
+
+
 def _snap(v: float, lo: float, hi: float, tol: float) -> float:
     if lo - tol <= v < lo:
         return lo
@@ -224,6 +234,19 @@ def _branch(x: float, y: float, w: float, d1: int, L: float) -> tuple[float, flo
     return snapped, L * (x - snapped) / r, L * y / r
 
 
+def fk_residual(x: float, y: float, rho1: float, rho2: float, params: Class2Params) -> float:
+    """``|FK(rho1, rho2) - (x, y)|`` [m] by the closed form (``rho1 + rho2 <= 2L``); NaN where
+    beta is indeterminate (``R = 0``)."""
+    L, k2 = params.L, params.k2
+    s = rho1 + rho2
+    d = (2.0 * params.k3 + k2) * rho2 - k2 * rho1
+    e = k2 * math.sqrt(max(0.0, (2.0 * L - s) * (2.0 * L + s)))
+    R = math.hypot(d, e)
+    if R == 0.0:
+        return math.nan
+    return math.hypot(rho1 + L * d / R - x, L * e / R - y)
+
+
 def _candidate(x: float, y: float, yb: float, rho1: float, rho2: float, c: float, d1: int, d2: int,
                params: Class2Params, paper_range: bool) -> IKCandidate:
     """Verdict on one root; ``(x, y)`` is the target, ``yb`` the branch's (snapped) y."""
@@ -231,9 +254,14 @@ def _candidate(x: float, y: float, yb: float, rho1: float, rho2: float, c: float
     K = 2.0 * params.k3 + k2
     two_l = 2.0 * L
     tol = snap_tolerance(abs(c), L)   # det(dD/drho) ~ c: rho2 inherits the L / c too
-    rho2 = _snap(rho2, 0.0, math.inf, tol)
+    # rho2 onto 0 only if FK then reproduces the branch's target: dD/drho2 grows like
+    # (2 k3 + k2) / k2, so a length within tol of 0 can put D far from it. (Onto the sum limit
+    # lambda1 = 0 the map is a square root: the target's y sets lambda1, the move is ~y.)
+    snapped = _snap(rho2, 0.0, math.inf, tol)
+    if snapped == rho2 or fk_residual(rho1 + c, yb, rho1, snapped, params) <= tol:
+        rho2 = snapped
     if two_l < rho1 + rho2 <= two_l + tol:
-        rho2 = two_l - rho1
+        rho2 = on_sum_limit(rho1, two_l)
     s = rho1 + rho2
     in_domain = 0.0 <= rho1 <= L and rho2 >= 0.0 and s <= two_l
     reasons: list[str] = []
@@ -258,9 +286,7 @@ def _candidate(x: float, y: float, yb: float, rho1: float, rho2: float, c: float
             reasons.append(spurious)
         if in_domain:
             dist = nearest_singularity(rho1, rho2, params)[1]
-            R = math.hypot(d, e)
-            if R > 0.0:
-                fk_res = math.hypot(rho1 + L * d / R - x, L * e / R - y)
+            fk_res = fk_residual(x, y, rho1, rho2, params)
     in_range = in_paper_range(beta) and 0.0 <= alpha <= 0.5 * math.pi
     if paper_range and not in_range:
         reasons.append(REASON_RANGE)
@@ -294,6 +320,8 @@ def inverse_kinematics(
     tol = DOMAIN_TOL * L
     if L - tol <= abs(y) <= L + tol:
         y = math.copysign(L, y)   # the fold: c = sqrt(L^2 - y^2) would amplify rounding to sqrt(tol)
+    elif -tol <= y < 0.0:
+        y = 0.0                   # the X axis, W's lower edge (lambda1 = 0): below it no equilibrium
     candidates: list[IKCandidate] = []
     merge = merge_radius(L)
     if abs(y) <= L:

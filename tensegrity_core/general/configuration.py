@@ -26,8 +26,50 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
+from tensegrity_core.excerpt import excerpt
 from tensegrity_core.general.rotation import best_fit_rotation, exp_so3, hat
 from tensegrity_core.general.structure import Structure, StructureError
+from tensegrity_core.schema import MAX_MAGNITUDE
+
+
+def node_coordinates(structure: Structure, coords: ArrayLike, *, batch: bool = False) -> NDArray[np.float64]:
+    """``coords`` as float node coordinates [m] of shape ``(n, 3)`` (``batch``: ``(..., n, 3)``).
+
+    :class:`StructureError` naming ``coords`` unless every entry is a finite number of at most
+    :data:`~tensegrity_core.schema.MAX_MAGNITUDE` in magnitude (as in a structure file: larger
+    values overflow the squares the solvers form).
+    """
+    try:
+        xyz = np.array(coords, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise StructureError(f"coords must be an array of numbers [m], got {excerpt(coords)}",
+                             entry=("coords",)) from None
+    n = structure.n_nodes
+    if xyz.shape[-2:] != (n, 3) or (xyz.ndim != 2 and not batch):
+        want = f"(..., {n}, 3)" if batch else f"({n}, 3)"
+        raise StructureError(f"coords must have shape {want}, got {xyz.shape}", entry=("coords",))
+    bad = ~(np.isfinite(xyz) & (np.abs(xyz) <= MAX_MAGNITUDE))
+    if bad.any():
+        row = tuple(int(k) for k in np.argwhere(bad)[0][:-1])
+        name = structure.node_names[row[-1]]
+        raise StructureError(f"coords contain non-finite values or values beyond {MAX_MAGNITUDE:g} m: node "
+                             f"{excerpt(name)} at {excerpt(xyz[row].tolist())}", entry=("coords", name))
+    return xyz
+
+
+def check_member_lengths(structure: Structure, coords: NDArray[np.float64]) -> None:
+    """:class:`StructureError` naming the first member whose two nodes coincide in ``coords``
+    (length at most ``1e-12`` times the extent of ``coords``, the test of a structure file):
+    its direction, so the equilibrium matrix and the stiffness, do not exist there."""
+    a, b = structure.members[:, 0], structure.members[:, 1]
+    scale = max(float(np.ptp(coords, axis=0).max()), 1e-300)
+    short = np.flatnonzero(np.linalg.norm(coords[b] - coords[a], axis=1) <= 1e-12 * scale)
+    if short.size:
+        i = int(short[0])
+        raise StructureError(
+            f"member {excerpt(structure.member_names[i])} has zero length in coords: nodes "
+            f"{excerpt(structure.node_names[a[i]])} and {excerpt(structure.node_names[b[i]])} are both at "
+            f"{coords[a[i]].tolist()}", entry=("coords", structure.member_names[i]))
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,11 +99,7 @@ class Configuration:
         the body size (else :class:`StructureError`), and are then placed exactly. Fixed
         coordinates (pinned axes, fixed bodies) keep the values given in ``coords``.
         """
-        xyz = np.array(coords, dtype=np.float64)
-        if xyz.shape != (structure.n_nodes, 3):
-            raise StructureError(f"coords must have shape ({structure.n_nodes}, 3), got {xyz.shape}")
-        if not np.isfinite(xyz).all():
-            raise StructureError("coords contain non-finite values")
+        xyz = node_coordinates(structure, coords)
         lay = structure.layout
         nb = len(lay.moving_bodies)
         centres = np.zeros((nb, 3))

@@ -22,6 +22,8 @@ that stays unstable or neutral is a failure, not a result.
 
 from __future__ import annotations
 
+import inspect
+import numbers
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
@@ -32,6 +34,7 @@ from numpy.typing import NDArray
 from scipy.optimize import brentq, minimize_scalar
 
 from tensegrity_core.errors import ConvergenceError
+from tensegrity_core.excerpt import excerpt
 from tensegrity_core.general.configuration import Configuration, transformation_matrix
 from tensegrity_core.general.convergence import DEFAULT_TOLERANCE, Balance, balance
 from tensegrity_core.general.formfind_result import (
@@ -61,6 +64,7 @@ from tensegrity_core.general.statics import (
 )
 from tensegrity_core.general.stiffness import tangent_stiffness
 from tensegrity_core.general.structure import Structure, StructureError
+from tensegrity_core.schema import number_reason
 
 FloatArray = NDArray[np.float64]
 #: What the callback receives; returning ``True`` stops form-finding.
@@ -99,10 +103,16 @@ def form_find(structure: Structure, *, method: str = "newton", x0: Configuration
                              f"{', '.join(sorted(METHODS))}")
     if tol is None:
         tol = default_tolerance(structure)
-    if not (np.isfinite(tol) and tol > 0):
-        raise StructureError(f"tol must be a positive number (relative residual), got {tol!r}")
-    if max_iter is not None and int(max_iter) < 0:
-        raise StructureError(f"max_iter must be >= 0, got {max_iter!r}")
+    tol, why = number_reason(tol, lo=0.0, lo_open=True)
+    if why:
+        raise StructureError(f"tol (relative residual) {why}", entry=("tol",))
+    if max_iter is not None and not _is_count(max_iter):
+        raise StructureError(f"max_iter must be an integer >= 0, got {excerpt(max_iter)}", entry=("max_iter",))
+    known = set(inspect.signature(METHODS[key]).parameters) - {"structure", "config", "tol", "max_iter", "callback"}
+    unknown = sorted(set(options) - known)
+    if unknown:
+        raise StructureError(f"unknown option {unknown[0]!r} of form-finding method {key!r}; its options: "
+                             f"{', '.join(sorted(known))}", entry=(unknown[0],))
     config = as_configuration(structure, x0)
     unbalanced = unbalanced_load(structure)
     if unbalanced is not None:
@@ -114,6 +124,11 @@ def form_find(structure: Structure, *, method: str = "newton", x0: Configuration
         raise ConvergenceError(f"form-finding of {structure.name or 'the structure'} failed: "
                                f"{result.message}", result=result)
     return result
+
+
+def _is_count(value: object) -> bool:
+    """An integer >= 0 (a boolean is not one)."""
+    return type(value) is not bool and isinstance(value, numbers.Integral) and int(value) >= 0
 
 
 @dataclass

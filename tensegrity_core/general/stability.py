@@ -66,8 +66,12 @@ class LowestMode:
 
     @property
     def margin(self) -> float:
-        """``scaled / rounding``: above 1 stable, below -1 unstable, else neutral."""
-        return self.scaled / self.rounding if self.rounding > 0 else float(np.sign(self.scaled)) * np.inf
+        """``scaled / rounding``: above 1 stable, below -1 unstable, else neutral. A matrix of
+        zeros (every member slack or unstressed and unstiffened) has rounding level 0: its
+        zero eigenvalue has margin 0 (neutral), any other eigenvalue +-inf."""
+        if self.rounding > 0:
+            return self.scaled / self.rounding
+        return float(np.sign(self.scaled)) * np.inf if self.scaled != 0 else 0.0
 
     @property
     def verdict(self) -> str:

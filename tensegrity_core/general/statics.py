@@ -27,8 +27,10 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from tensegrity_core.general.configuration import Configuration, node_jacobians
+from tensegrity_core.excerpt import excerpt
+from tensegrity_core.general.configuration import Configuration, check_member_lengths, node_coordinates, node_jacobians
 from tensegrity_core.general.structure import Structure, StructureError
+from tensegrity_core.schema import number_reason
 
 #: Where a structure is: a :class:`Configuration`, node coordinates (n, 3) [m], or
 #: ``None`` for the reference drawing.
@@ -37,6 +39,9 @@ StateLike: TypeAlias = Configuration | ArrayLike | None
 
 def as_configuration(structure: Structure, state: StateLike) -> Configuration:
     """Accept a :class:`Configuration`, ``None`` (the reference drawing) or ``(n, 3)`` coordinates.
+
+    Coordinates must be finite numbers (:func:`node_coordinates`) with no member of zero
+    length (:func:`check_member_lengths`); else :class:`StructureError` naming ``coords``.
 
     A configuration of another structure with the same nodes and rigid bodies (e.g. before
     a change of rest lengths or loads) is re-bound to ``structure``.
@@ -55,7 +60,9 @@ def as_configuration(structure: Structure, state: StateLike) -> Configuration:
         return Configuration(structure, state.coords, state.centres, state.rotations)
     if state is None:
         return Configuration.initial(structure)
-    return Configuration.from_coords(structure, state)
+    config = Configuration.from_coords(structure, state)
+    check_member_lengths(structure, config.coords)
+    return config
 
 
 def _coords(structure: Structure, state: StateLike) -> NDArray[np.float64]:
@@ -63,7 +70,7 @@ def _coords(structure: Structure, state: StateLike) -> NDArray[np.float64]:
         return state.coords
     if state is None:
         return structure.nodes
-    return np.asarray(state, dtype=float)
+    return node_coordinates(structure, state, batch=True)
 
 
 def member_vectors(structure: Structure, coords: ArrayLike) -> NDArray[np.float64]:
@@ -81,10 +88,30 @@ def member_lengths(structure: Structure, coords: StateLike) -> NDArray[np.float6
 
 def forces_from_lengths(structure: Structure, lengths: ArrayLike,
                         rest_lengths: ArrayLike | None = None) -> NDArray[np.float64]:
-    """Tension-positive member forces [N] for member lengths ``(..., m)`` [m]; strings go slack."""
-    l0 = structure.rest_lengths if rest_lengths is None else np.asarray(rest_lengths, dtype=float)
-    t = structure.EA * (np.asarray(lengths, dtype=float) - l0) / l0
+    """Tension-positive member forces [N] for member lengths ``(..., m)`` [m]; strings go slack.
+
+    ``rest_lengths`` [m] (default the structure's) must broadcast to ``(..., m)`` and be
+    finite and positive, else :class:`StructureError` naming ``rest_lengths``.
+    """
+    lengths = np.asarray(lengths, dtype=float)
+    l0 = structure.rest_lengths if rest_lengths is None else _rest_lengths(structure, rest_lengths, lengths.shape)
+    t = structure.EA * (lengths - l0) / l0
     return np.where(structure.is_string & (t < 0.0), 0.0, t)
+
+
+def _rest_lengths(structure: Structure, rest_lengths: ArrayLike, shape: tuple[int, ...]) -> NDArray[np.float64]:
+    """Checked override of the rest lengths [m] for member lengths of ``shape``."""
+    try:
+        l0 = np.asarray(rest_lengths, dtype=float)
+        np.broadcast_shapes(l0.shape, shape)
+    except (TypeError, ValueError):
+        raise StructureError(f"rest_lengths must be numbers [m] of a shape that broadcasts to {shape} "
+                             f"({structure.n_members} members), got {excerpt(rest_lengths)}",
+                             entry=("rest_lengths",)) from None
+    if not (np.isfinite(l0) & (l0 > 0.0)).all():
+        raise StructureError(f"rest_lengths must be finite and positive [m], got {excerpt(l0.tolist())}",
+                             entry=("rest_lengths",))
+    return l0
 
 
 def member_forces(structure: Structure, coords: StateLike, rest_lengths: ArrayLike | None = None) -> NDArray[np.float64]:
@@ -277,8 +304,12 @@ def modes(structure: Structure, coords: StateLike = None, *, rtol: float = 1e-8)
     """Rank, self-stress and mechanism modes of ``A_r`` at ``coords`` (default: reference).
 
     Singular values below ``rtol`` times the largest count as zero (configurations from
-    form-finding are exact to about 1e-10, data typed from a paper to its printed digits).
+    form-finding are exact to about 1e-10, data typed from a paper to its printed digits);
+    ``0 <= rtol < 1``, else :class:`StructureError` naming ``rtol``.
     """
+    _, why = number_reason(rtol, lo=0.0, hi=1.0, hi_open=True)
+    if why:
+        raise StructureError(f"rtol (relative singular-value threshold) {why}", entry=("rtol",))
     A = equilibrium_matrix(structure, coords)
     W, s, Vt = np.linalg.svd(A, full_matrices=True)
     tol = rtol * (s[0] if s.size else 0.0)

@@ -72,8 +72,13 @@ class RigidBody:
     fixed: bool = False
 
 
-def _readonly(a: ArrayLike, dtype: DTypeLike = float) -> NDArray[Any]:
-    a = np.array(a, dtype=dtype, copy=True)
+def _readonly(key: str, a: ArrayLike, dtype: DTypeLike = float) -> NDArray[Any]:
+    """A read-only copy of field ``key``; :class:`StructureError` naming it if ``a`` is not an
+    array of numbers."""
+    try:
+        a = np.array(a, dtype=dtype, copy=True)
+    except (TypeError, ValueError):
+        raise StructureError(f"{key} must be an array of numbers, got {excerpt(a)}", entry=(key,)) from None
     a.setflags(write=False)
     return a
 
@@ -110,15 +115,15 @@ class Structure:
         def set_(k: str, v: object) -> None:      # a frozen dataclass
             object.__setattr__(self, k, v)
 
-        set_("nodes", _readonly(self.nodes))
-        set_("members", _readonly(self.members, dtype=np.int64))
-        set_("EA", _readonly(self.EA))
-        set_("rest_lengths", _readonly(self.rest_lengths))
-        set_("member_masses", _readonly(self.member_masses))
-        set_("pinned", _readonly(self.pinned, dtype=bool))
-        set_("loads", _readonly(self.loads))
-        set_("node_masses", _readonly(self.node_masses))
-        set_("gravity", _readonly(self.gravity))
+        set_("nodes", _readonly("nodes", self.nodes))
+        set_("members", _readonly("members", self.members, dtype=np.int64))
+        set_("EA", _readonly("EA", self.EA))
+        set_("rest_lengths", _readonly("rest_lengths", self.rest_lengths))
+        set_("member_masses", _readonly("member_masses", self.member_masses))
+        set_("pinned", _readonly("pinned", self.pinned, dtype=bool))
+        set_("loads", _readonly("loads", self.loads))
+        set_("node_masses", _readonly("node_masses", self.node_masses))
+        set_("gravity", _readonly("gravity", self.gravity))
         set_("member_kinds", tuple(self.member_kinds))
         set_("bodies", tuple(self.bodies))
         _validate(self, n, m)
@@ -198,11 +203,11 @@ class Structure:
 
     def with_rest_lengths(self, rest_lengths: ArrayLike) -> Structure:
         """A copy with new rest lengths [m] (actuation, prestress design, continuation)."""
-        return self.replace(rest_lengths=np.asarray(rest_lengths, dtype=float))
+        return self.replace(rest_lengths=rest_lengths)
 
     def with_nodes(self, nodes: ArrayLike) -> Structure:
         """A copy whose reference coordinates (start of form-finding, body shapes) are ``nodes``."""
-        return self.replace(nodes=np.asarray(nodes, dtype=float))
+        return self.replace(nodes=nodes)
 
     # ------------------------------------------------------------------ derived data
     @property
@@ -216,13 +221,13 @@ class Structure:
     @cached_property
     def is_string(self) -> NDArray[np.bool_]:
         """(m,) bool: members that go slack in compression."""
-        return _readonly([k == "string" for k in self.member_kinds], dtype=bool)
+        return _readonly("is_string", [k == "string" for k in self.member_kinds], dtype=bool)
 
     @cached_property
     def initial_lengths(self) -> NDArray[np.float64]:
         """(m,) member lengths in the reference coordinates [m]."""
         h = self.nodes[self.members[:, 1]] - self.nodes[self.members[:, 0]]
-        return _readonly(np.linalg.norm(h, axis=1))
+        return _readonly("initial_lengths", np.linalg.norm(h, axis=1))
 
     @cached_property
     def external_forces(self) -> NDArray[np.float64]:
@@ -231,7 +236,7 @@ class Structure:
         mass = self.node_masses.copy()
         np.add.at(mass, self.members[:, 0], 0.5 * self.member_masses)
         np.add.at(mass, self.members[:, 1], 0.5 * self.member_masses)
-        return _readonly(self.loads + mass[:, None] * self.gravity[None, :])
+        return _readonly("external_forces", self.loads + mass[:, None] * self.gravity[None, :])
 
     @cached_property
     def layout(self) -> DofLayout:

@@ -46,3 +46,48 @@ def scaled(rho, params):
     while r1 + r2 > 2.0 * params.L:
         r2 = math.nextafter(r2, 0.0)
     return r1, r2
+
+
+@st.composite
+def extreme_parameter_sets(draw):
+    """Strut length and the kinematic springs k2, k3 over six decades (1e-3 to 1e3, the ends
+    drawn on purpose): the ratio (2 k3 + k2) / k2 that amplifies dD/drho2 reaches 2e6."""
+    k = edged(1e-3, 1e3).map(lambda v: v if v > 0.0 else 1e-3)
+    return PAPER_PARAMS.with_overrides(L=draw(edged(1e-3, 1e3).filter(lambda v: v > 0.0)), k2=draw(k), k3=draw(k))
+
+
+@st.composite
+def edge_configurations(draw, params=PAPER_PARAMS):
+    """(rho1, rho2) [m] in the configuration domain of ``params`` with the edges drawn on
+    purpose: rho1 in [0, L], rho2 a fraction of [0, 2L - rho1], both fractions :func:`edged`."""
+    L = params.L
+    rho1 = L * draw(edged(0.0, 1.0))
+    top = 2.0 * L - rho1
+    rho2 = top * draw(edged(0.0, 1.0))
+    while rho1 + rho2 > 2.0 * L:
+        rho2 = math.nextafter(rho2, 0.0)
+    return rho1, rho2
+
+
+#: Signed offsets (units of L) of a target from W's boundary along the outward normal.
+BOUNDARY_OFFSETS = (0.0, 1e-16, -1e-16, 1e-13, -1e-13, 5e-13, -5e-13, 2e-12, -2e-12, 1e-9, -1e-9, 1e-6, -1e-6,
+                    1e-3, -1e-3)
+
+
+@st.composite
+def boundary_targets(draw, params=PAPER_PARAMS):
+    """``(x, y)`` [m] near the boundary of the workspace W of ``params`` (the quarter circles
+    about A and about (L, 0), the top y = L and the bottom y = 0), displaced along the outward
+    normal by one of :data:`BOUNDARY_OFFSETS` (positive: outside)."""
+    L = params.L
+    piece = draw(st.integers(0, 3))
+    t = draw(edged(0.0, 1.0))
+    off = draw(st.sampled_from(BOUNDARY_OFFSETS))
+    b = 0.5 * math.pi * t
+    if piece == 0:      # arc about A: outside is towards A
+        return L * math.cos(b) * (1.0 - off), L * math.sin(b) * (1.0 - off)
+    if piece == 1:      # top segment
+        return t * L, L * (1.0 + off)
+    if piece == 2:      # arc about (L, 0): outside is away from it
+        return L + L * math.cos(b) * (1.0 + off), L * math.sin(b) * (1.0 + off)
+    return L + t * L, -off * L

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from scipy.optimize import minimize
@@ -219,8 +221,16 @@ def test_options_are_validated():
     s = load_example("t_bar")
     with pytest.raises(StructureError, match="unknown form-finding method 'magic'"):
         form_find(s, method="magic")
-    with pytest.raises(StructureError, match="tol must be a positive number"):
-        form_find(s, tol=-1.0)
+    for tol, why in ((-1.0, "must be > 0"), (math.nan, "must be finite"), ("1e-9", "must be a number")):
+        with pytest.raises(StructureError, match=rf"tol \(relative residual\) {why}"):
+            form_find(s, tol=tol)
+    for max_iter in (-1, 2.5, math.nan, "10", True):
+        with pytest.raises(StructureError, match="max_iter must be an integer >= 0"):
+            form_find(s, max_iter=max_iter)
+    with pytest.raises(StructureError, match="unknown option 'max_iterations' of form-finding method 'newton'"):
+        form_find(s, max_iterations=10)
+    with pytest.raises(StructureError, match="unknown option 'shift' of form-finding method 'dynamic_relaxation'"):
+        form_find(s, method="dr", shift=0.1)
     with pytest.raises(StructureError, match="linear_solver"):
         form_find(s, linear_solver="cholmod")
     assert set(METHODS) == {"newton", "dynamic_relaxation"}
