@@ -38,6 +38,12 @@ FLOOR_KEYS: Final = ("normal", "incline", "point", "stiffness", "dissipation", "
                      "tangential_stiffness", "tangential_damping", "rolling_friction", "torsional_friction")
 #: How far a cap may reach into the floor as drawn [m] (rounding of the drawing).
 DRAWN_CONTACT_TOLERANCE: Final = 1e-9
+#: The least ratio of a rod's axial to transverse inertia [1]. The dynamics hold a rod's
+#: inertia in the drawing's axes and solve with its inverse, which rounds to ``kappa eps``
+#: of itself for the condition number ``kappa = I_t / I_a``: at 1e12 its spin about its axis
+#: is kept to 1e-4, at 1/eps = 4.5e15 the inverse fails. A capsule has ``I_a / I_t`` about
+#: ``6 (r / L)^2``: the bound is a radius of 4e-7 of the rod's length.
+MIN_AXIAL_INERTIA_RATIO: Final = 1e-12
 
 
 def robot_from_dict(data: object, *, default_name: str = "robot", file: str | None = None) -> Robot:
@@ -71,6 +77,7 @@ class _RobotReader(Reader):
         robot = Robot(name=name, node_names=tuple(names), nodes=coords, rods=rods, cables=cables,
                       motors=motors, sensors=sensors, floor=floor, bodies=twin.bodies, pinned=twin.pinned,
                       node_masses=twin.node_masses, gravity=twin.gravity, description=description)
+        self.check_axial_inertia(robot, d)
         if floor is not None:
             self.check_above_floor(robot, d)
         return robot
@@ -388,6 +395,26 @@ class _RobotReader(Reader):
                      torsional_friction=self.number(f, "torsional_friction", path, default=0.0, lo=0.0))
 
     # -- whole-robot checks ---------------------------------------------------------------------------
+    def check_axial_inertia(self, robot: Robot, d: dict[Any, Any]) -> None:
+        """Each rod's axial inertia is at least :data:`MIN_AXIAL_INERTIA_RATIO` of its
+        transverse inertia, counting the point masses on its caps (``m (L/2)^2`` each, an upper
+        bound about the rod's centre of mass)."""
+        rods = robot.rods
+        lengths = np.linalg.norm(robot.nodes[rods.ends[:, 1]] - robot.nodes[rods.ends[:, 0]], axis=1)
+        riders = robot.node_masses[rods.ends].sum(axis=1)
+        I_t = rods.inertia[:, 0] + riders * (lengths / 2) ** 2
+        I_a = rods.inertia[:, 1]
+        bad = np.flatnonzero(~(I_a >= MIN_AXIAL_INERTIA_RATIO * I_t))
+        if len(bad):
+            j = int(bad[0])
+            key = "inertia" if "inertia" in d["rods"][j] else "cap_radius" if "cap_radius" in d["rods"][j] else "radius"
+            raise self.error(f"rod {excerpt(rods.names[j])}: its axial inertia {I_a[j]:.3g} kg m^2 is below "
+                             f"{MIN_AXIAL_INERTIA_RATIO:g} of its transverse inertia {I_t[j]:.3g} kg m^2 (with the "
+                             f"point masses on its caps), which double precision cannot carry beside it: give it a "
+                             f"thicker radius or cap_radius (a capsule's ratio is about 6 (radius / length)^2), "
+                             f"or its inertia [I_t, I_a] with I_a >= {MIN_AXIAL_INERTIA_RATIO:g} I_t",
+                             ("rods", j, key), d["rods"][j], key)
+
     def check_above_floor(self, robot: Robot, d: dict[Any, Any]) -> None:
         """No end cap may start inside the floor."""
         assert robot.floor is not None

@@ -41,13 +41,16 @@ from unittest import mock
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from tensegrity_core.general.rotation import exp_so3
 from tensegrity_core.robot.contact import SPIN_TOLERANCE
+from tensegrity_core.robot.description import RobotError
+from tensegrity_core.robot.robot_schema import robot_from_dict
 from tensegrity_core.sim import compile_scene, load_scene
+from tensegrity_core.sim.errors import SceneError
 from tensegrity_core.sim.general.kernels.jit import KERNELS_VARIABLE, have_numba
 from tensegrity_core.sim.general.robot.loops import NO_ANCHOR, SLIPPING, STICKING
 from tensegrity_core.sim.general.robot.system import RobotSystem
@@ -154,6 +157,11 @@ def robots(draw, floor: bool = True, pins: str = "any", damping: bool = True, ri
         out["masses"] = masses
     if pinned:
         out["pinned"] = pinned
+    try:
+        robot_from_dict(out)
+    except RobotError as err:                   # refused: a rod too slender for double precision
+        assume("axial inertia" not in err.reason)
+        raise
     if floor:
         normal = draw(unit)
         lowest = min(float(np.dot(nodes[r["nodes"][k]], normal)) - r["cap_radius"] for r in rods for k in (0, 1))
@@ -456,10 +464,10 @@ def test_a_rigidly_moved_robot_gives_the_moved_forces(scene, seed, turn, shift, 
                                    err_msg=field)
 
 
-def momenta(model, samples) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def momenta(model, samples) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Per sample ``(P [kg m/s], L about the centre of mass [kg m^2/s], scale of P's terms,
-    scale of L's terms)`` of the moving bodies and free point masses (:func:`balances`' ``P``
-    and ``L``; the centre of mass ``(sum m c + S + sum m x) / sum m``)."""
+    scale of L's terms, the centre of mass [m])`` of the moving bodies and free point masses
+    (:func:`balances`' ``P`` and ``L``; the centre of mass ``(sum m c + S + sum m x) / sum m``)."""
     p, n = model.plan, model.plan.n_dof
     P, L, P_size, L_size, first = [], [], [], [], []
     for _, y, system in samples:
@@ -490,7 +498,7 @@ def momenta(model, samples) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
     centre = np.array(first) / total
     P = np.array(P)
     L_cm = np.array(L) - np.cross(centre, P)
-    return P, L_cm, np.array(P_size), np.array(L_size) + np.linalg.norm(centre, axis=1) * np.array(P_size)
+    return P, L_cm, np.array(P_size), np.array(L_size) + np.linalg.norm(centre, axis=1) * np.array(P_size), centre
 
 
 @settings(max_examples=15)
@@ -506,7 +514,7 @@ def test_without_gravity_floor_and_motors_a_drawn_robot_keeps_its_linear_momentu
     y, _ = drawn_state(model, seed)
     samples: list = []
     model.record(model.state_from(y, t_end=20 * h), np.arange(0, 21) * h, samples)
-    P, _, size, _ = momenta(model, samples)
+    P, _, size, _, _ = momenta(model, samples)
     assert np.all(np.isfinite(P))
     assert np.abs(P - P[0]).max() <= 1e-12 * size.max() * len(P)
 
@@ -553,7 +561,11 @@ def test_a_rod_at_rest_on_a_floor_reads_g_away_from_the_floor(normal, heading, g
              "floor": {"normal": normal.tolist(), "stiffness": k, "dissipation": d, "mu_static": mu,
                        "tangential_stiffness": k_t, "rolling_friction": roll}}
     with mock.patch.dict(os.environ, {KERNELS_VARIABLE: kernels}):
-        model = model_of(robot)
+        try:
+            model = model_of(robot)
+        except SceneError as err:              # refused: a rod too slender for double precision
+            assume("axial inertia" not in err.reason)
+            raise
     p = model.plan
     y = model.y0.copy()
     y[p.body_dof[0]:p.body_dof[0] + 3] -= mass * g / (2.0 * k) * normal
@@ -621,8 +633,6 @@ def test_a_closed_loop_roll_is_accepted_or_refused_in_one_line(faces, heading, r
     1e-300 to 1e15 Hz, any fixed step): the scene is read, or refused in one line naming the
     key; a rate above the step rate ``1 / max_step`` is refused (the commands act once a
     step: faster samples see the same state, each at the cost of an evaluation)."""
-    from tensegrity_core.sim.errors import SceneError
-
     scene = {"name": "roll", "model": {"kind": "robot", "robot": "three_bar"}, "initial": {"drawn": True},
              "control": {"roll": {"faces": faces, "heading": list(heading), "rate": rate}},
              "effects": ["inertia", "cables", "gravity"], "duration": 1.0, "integrator": {"max_step": step}}
@@ -663,3 +673,134 @@ def test_the_gait_commands_flags_give_a_gait_or_one_line(gait, robot, faces, rep
             assert np.all(np.isfinite(table.times)) and np.all(np.isfinite(table.rest_lengths))
     except CliError as err:
         assert str(err) and "\n" not in str(err)
+
+
+def energy(model, samples) -> tuple[np.ndarray, np.ndarray]:
+    """Per sample ``(E [J], scale of its terms [J])``: kinetic ``1/2 m v^2 + v . (w x S) +
+    1/2 w . I_c w`` of each body (:func:`balances`' notation) and ``1/2 m v^2`` of each free
+    point mass, the cables' strain ``1/2 k (l - l0)^2`` while taut, and gravity's
+    ``-sum m g . x`` over the nodes' lumped masses (a rod's half at each cap, a body's shares,
+    the point masses: their centre of mass is the robot's); with a floor of no dissipation
+    the caps' springs ``1/2 k delta^2`` while pressed in."""
+    p, n = model.plan, model.plan.n_dof
+    E, size = [], []
+    for _, y, system in samples:
+        ev = system.evaluate(y[None])
+        X, V = ev.positions[0], ev.velocities[0]
+        terms = []
+        for b, d in enumerate(p.body_dof):
+            v, w = y[n + d:n + d + 3], y[n + d + 3:n + d + 6]
+            R = ev.rotations[0, b]
+            S, I_c, m = R @ p.body_first_moment[b], R @ p.body_inertia[b] @ R.T, p.body_mass[b]
+            terms += [0.5 * m * v @ v, v @ np.cross(w, S), 0.5 * w @ I_c @ w]
+        terms += list(0.5 * V[p.free_node, p.free_axis] ** 2 / p.free_inv_mass)
+        stretch = np.maximum(ev.lengths[0] - ev.rest_lengths[0], 0.0)
+        terms += list(0.5 * p.cable_k * stretch ** 2)
+        terms += list(-np.einsum("ij,ij->i", p.external, X))             # external: the weights m g
+        terms += list(0.5 * p.floor_params[0] * np.maximum(ev.depth[0], 0.0) ** 2)
+        E.append(sum(terms))
+        size.append(sum(abs(t) for t in terms))
+    return np.array(E), np.array(size)
+
+
+def _jacobian_rates(model, y: np.ndarray) -> np.ndarray:
+    """The rates' Jacobian ``d(v, a)/d(x, v)`` at ``y`` by central differences (one batch)."""
+    n = model.plan.n_dof
+    scale = np.maximum(np.abs(y[:2 * n]), 1e-3) * 1e-6
+    Y = np.repeat(y[None], 4 * n, axis=0)
+    idx = np.arange(2 * n)
+    Y[idx, idx] += scale
+    Y[2 * n + idx, idx] -= scale
+    f = model.system.evaluate(Y).derivative[:, :2 * n]
+    return ((f[:2 * n] - f[2 * n:]) / (2.0 * scale[:, None])).T
+
+
+def floor_rates(model, samples, centre: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per sample the floor's force [N] on the robot, its moment about the centre of mass
+    ``centre`` [N m] (normal forces along ``n`` at the caps' centres) and the scale of their
+    terms."""
+    p = model.plan
+    F, M, size = [], [], []
+    for (_, y, system), c in zip(samples, centre):
+        ev = system.evaluate(y[None])
+        f = ev.normal[0][:, None] * p.floor_normal
+        arm = ev.positions[0][p.cap_node] - c
+        F.append(f.sum(axis=0)), M.append(np.cross(arm, f).sum(axis=0))
+        size.append(float(ev.normal[0] @ (1.0 + np.linalg.norm(arm, axis=1))))
+    return np.array(F), np.array(M), np.array(size)
+
+
+def _simpson(f: np.ndarray, h: float) -> np.ndarray:
+    """``int_0^t f`` at every second sample (Simpson's rule on samples ``h`` [s] apart)."""
+    parts = (f[:-2:2] + 4.0 * f[1:-1:2] + f[2::2]) * h / 3.0
+    return np.concatenate([np.zeros((1,) + f.shape[1:]), np.cumsum(parts, axis=0)])
+
+
+@pytest.mark.parametrize("floor", [False, True], ids=["no floor", "on the floor"])
+@settings(max_examples=20)
+@given(data=st.data(), seed=st.integers(0, 2**32 - 1))
+def test_a_smooth_run_keeps_energy_and_momenta_to_the_order_of_rk4(floor, data, seed):
+    """Undamped cables, motors held, gravity and, without a floor, no external force: the
+    energy ``E`` (:func:`energy`), the angular momentum about the centre of mass ``L``
+    (uniform gravity has no moment about it) and ``P - M g t`` (:func:`momenta`) are
+    invariants. On a floor without friction and dissipation, pressed in on its lowest caps:
+    ``E`` with the caps' springs is, and ``L`` and ``P - M g t`` change by the floor's
+    moment about the centre of mass and its force (:func:`floor_rates`, integrated by
+    Simpson's rule over the samples, ``O(h^4)`` as well).
+
+    RK4's global error over a fixed horizon is ``O(h^4)``, so these balances' residuals
+    over the same horizon shrink at least 8-fold (16 asymptotically; 32 for a harmonic
+    mode's energy, ``|R(iz)|^2 = 1 - z^6/72 + ...``) when the step is halved, up to
+    rounding; an energy or moment source (a force that is not a gradient, a couple about the
+    centre of mass, a floor force at the wrong point) leaves a residual alike at both steps
+    and fails this, as does an error of lower order.
+
+    The horizon is ``1 / omega`` of the fastest mode at the start (the rates' Jacobian; at
+    most 4 :func:`stable_step`, for the caps not yet on the floor), in 4 steps
+    (``h omega = 1/4``) against 8, from the drawing with rates small beside the cables'
+    stretch and the caps' depth, so no cable switches between slack and taut and no cap
+    touches or leaves the floor (checked at every sample; the derivative jumps there and the
+    order drops). Rounding: 1e-13 of the balances' terms a step, ``1 + 1e-6 kappa`` times for
+    bodies whose inertia has the condition number ``kappa`` (:func:`balances`)."""
+    robot = data.draw(robots(floor=floor, pins="none", damping=False))
+    effects = ["inertia", "cables", "gravity"] + ([{"contact": {"dissipation": 0.0}}] if floor else [])
+    model = model_of(robot, effects)
+    p, n = model.plan, model.plan.n_dof
+    rng = np.random.default_rng(seed)
+    y = model.y0.copy()
+    ev = model.system.evaluate(y[None])
+    margin = float(np.abs(ev.lengths[0] - ev.rest_lengths[0]).min())
+    if floor:                                          # pressed in by up to its caps' radius
+        sink = float(p.cap_radius.min()) * data.draw(st.floats(0.01, 1.0))
+        y[p.body_dof[:, None] + np.arange(3)] -= sink * p.floor_normal
+        y[:len(p.free_node)] -= sink * p.floor_normal[p.free_axis]
+        margin = min(margin, sink)
+    omega = float(np.abs(np.linalg.eigvals(_jacobian_rates(model, y))).max())
+    horizon = min(1.0 / omega if omega > 0 else np.inf, 4.0 * stable_step(robot, effects))  # the check's bound too
+    nodes = np.array(list(robot["nodes"].values()))
+    size = float(np.ptp(nodes, axis=0).max()) + 1e-3
+    y[n:2 * n] = rng.normal(0.0, 1.0, n) * 0.05 * margin / horizon / max(1.0, size)
+    kappa = max((np.linalg.cond(I) for I in p.body_inertia), default=1.0)
+    residuals = []
+    for steps in (4, 8):
+        h = horizon / steps
+        m = model_of(robot, effects, duration=horizon, step=h)
+        samples: list = []
+        m.record(m.state_from(y, t_end=horizon), np.linspace(0.0, horizon, steps + 1), samples)
+        evs = [s[2].evaluate(s[1][None]) for s in samples]
+        pattern = np.array([np.concatenate([e.tensions[0] > 0.0, e.normal[0] > 0.0]) for e in evs])
+        assume(np.all(pattern == pattern[0]))
+        E, E_size = energy(m, samples)
+        P, L, P_size, L_size, centre = momenta(m, samples)
+        t = np.array([s[0] for s in samples])
+        P = P - np.outer(t, p.external.sum(axis=0))                    # M g t
+        if floor:
+            F, M, FM_size = floor_rates(m, samples, centre)
+            P[::2] -= _simpson(F, h)
+            L[::2] -= _simpson(M, h)
+            P_size, L_size = P_size + FM_size * horizon, L_size + FM_size * horizon
+        keep = slice(None, None, steps // 2)                            # the common instants 0, T/2, T
+        residuals.append([(np.abs(q[keep] - q[0]).max(), s.max() * 1e-13 * steps * (1.0 + 1e-6 * kappa))
+                          for q, s in ((E, E_size), (L, L_size), (P, P_size))])
+    for (coarse, _), (fine, rounding), what in zip(*residuals, ("energy", "angular momentum", "linear momentum")):
+        assert fine <= coarse / 8.0 + rounding, (what, coarse, fine, rounding)
