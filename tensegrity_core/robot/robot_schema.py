@@ -25,7 +25,7 @@ from tensegrity_core.robot.contact import floor_normal
 from tensegrity_core.robot.description import Cables, Floor, Motors, Robot, RobotError, Rods, Sensors
 from tensegrity_core.robot.motor import MODES
 from tensegrity_core.robot.rod import rod_inertia
-from tensegrity_core.schema import KeyPath, Reader, excerpt, line_of, suggest, type_name
+from tensegrity_core.schema import MAX_MAGNITUDE, KeyPath, Reader, excerpt, line_of, suggest, type_name
 
 TOP_KEYS: Final = ("name", "units", "description", "nodes", "rods", "cables", "cable_defaults", "sensors",
                    "floor", "pinned", "rigid_bodies", "masses", "gravity")
@@ -44,6 +44,29 @@ DRAWN_CONTACT_TOLERANCE: Final = 1e-9
 #: is kept to 1e-4, at 1/eps = 4.5e15 the inverse fails. A capsule has ``I_a / I_t`` about
 #: ``6 (r / L)^2``: the bound is a radius of 4e-7 of the rod's length.
 MIN_AXIAL_INERTIA_RATIO: Final = 1e-12
+#: The least nonzero size a robot takes, of its unit [1]: the reciprocal of the largest
+#: number any description takes (:data:`~tensegrity_core.schema.MAX_MAGNITUDE`, 1e15), so
+#: that the dynamics' products of sizes and their reciprocals (an acceleration ``k x / m``,
+#: a rate ``sqrt(k / m)``, their squares) stay inside double precision: a mass of 1e-300 kg
+#: pulled by a cable overflowed the state.
+MIN_SIZE: Final = 1.0 / MAX_MAGNITUDE
+#: The unit of each positive size a robot's description and a robot scene's effects take.
+SIZE_UNITS: Final = {"mass": "kg", "radius": "m", "cap_mass": "kg", "cap_radius": "m", "inertia": "kg m^2",
+                     "stiffness": "N/m", "damping": "N s/m", "rest_length": "m", "rest_length_ratio": "(a ratio)",
+                     "range": "m", "tau": "s", "max_speed": "m/s", "max_tension": "N", "dissipation": "s/m",
+                     "mu_static": "(a coefficient)", "mu_kinetic": "(a coefficient)", "tangential_stiffness": "N/m",
+                     "tangential_damping": "N s/m", "rolling_friction": "m", "torsional_friction": "m",
+                     "masses": "kg"}
+
+
+def size_reason(x: float, key: str) -> str | None:
+    """Why ``x`` is no size of ``key`` (:data:`SIZE_UNITS`): nonzero and below :data:`MIN_SIZE`
+    of its unit; None when it is one."""
+    if x == 0 or not abs(x) < MIN_SIZE:
+        return None
+    unit = SIZE_UNITS[key]
+    return (f"{x:g} {unit} is below the least nonzero size a robot takes, {MIN_SIZE:g} {unit} (accepted: "
+            f"[{MIN_SIZE:g}, {MAX_MAGNITUDE:g}] {unit}, or 0 where the key allows it)")
 
 
 def robot_from_dict(data: object, *, default_name: str = "robot", file: str | None = None) -> Robot:
@@ -54,6 +77,19 @@ def robot_from_dict(data: object, *, default_name: str = "robot", file: str | No
 class _RobotReader(Reader):
     def __init__(self, file: str | None):
         super().__init__(RobotError, file)
+
+    def number(self, d: Mapping[Any, Any], key: Any, path: KeyPath, **options: Any) -> float:
+        """:meth:`Reader.number`, and a size (:data:`SIZE_UNITS`) given is 0 or at least
+        :data:`MIN_SIZE` of its unit."""
+        x: float = super().number(d, key, path, **options)
+        if key in d and key in SIZE_UNITS:
+            self.check_size(x, key, path + (key,), d, key)
+        return x
+
+    def check_size(self, x: float, key: str, path: KeyPath, container: Any, at: Any) -> None:
+        reason = size_reason(x, key)
+        if reason is not None:
+            raise self.error(reason, path, container, at)
 
     # -- the robot -----------------------------------------------------------------------------
     def robot(self, data: object, default_name: str) -> Robot:
@@ -72,6 +108,7 @@ class _RobotReader(Reader):
         cables, motors = self.cables(d["cables"], d, index, coords, defaults)
         self.unique_members(d, rods.names + cables.names)
         twin = self.statics_twin(d, rods, cables)
+        self.check_masses(d, names, twin)
         sensors = self.sensors(d, rods, cables, twin.bodies)
         floor = self.floor(d) if "floor" in d else None
         robot = Robot(name=name, node_names=tuple(names), nodes=coords, rods=rods, cables=cables,
@@ -120,6 +157,15 @@ class _RobotReader(Reader):
             if line is None and len(key) == 2:
                 line = line_of(d.get(str(key[0])), key[1])
             raise RobotError(reason, key=key, line=line, file=self.file) from None
+
+    def check_masses(self, d: dict[Any, Any], names: list[str], twin: Structure) -> None:
+        """Point masses and rigid bodies' masses are 0 or at least :data:`MIN_SIZE` kg."""
+        for i in np.flatnonzero(twin.node_masses).tolist():
+            masses = next(d[k] for k in ("masses", "point_masses") if k in d)
+            self.check_size(float(twin.node_masses[i]), "masses", ("masses", names[i]), masses, names[i])
+        for j, body in enumerate(twin.bodies):
+            bodies = next(d[k] for k in ("rigid_bodies", "bodies") if k in d)
+            self.check_size(float(body.mass), "mass", ("rigid_bodies", j, "mass"), bodies[j], "mass")
 
     def node_pair(self, item: dict[Any, Any], path: KeyPath, index: Mapping[str, int], coords: np.ndarray,
                   what: str) -> tuple[int, int]:
@@ -182,6 +228,8 @@ class _RobotReader(Reader):
             if "inertia" in r:
                 I_t, I_a = self.vector(r["inertia"], 2, path + ("inertia",), r, "inertia",
                                        what="numbers [I_transverse, I_axial] (kg m^2)")
+                for j, value in enumerate((I_t, I_a)):
+                    self.check_size(value, "inertia", path + ("inertia", j), r["inertia"], j)
                 if not (I_t > 0 and I_a > 0 and I_a <= 2 * I_t):
                     raise self.error(f"{what}: inertia [{I_t:g}, {I_a:g}] kg m^2 is not a rod's: both must be > 0 "
                                      f"and I_axial <= 2 I_transverse", path + ("inertia",), r, "inertia")
@@ -297,6 +345,8 @@ class _RobotReader(Reader):
         if "range" not in src:
             raise self.error(f"{what}: a motor needs its rest-length range [lo, hi] (m)", mpath, c, "motor")
         lo, hi = self.vector(src["range"], 2, spath + ("range",), src, "range", what="rest lengths [lo, hi] (m)")
+        for j, value in enumerate((lo, hi)):
+            self.check_size(value, "range", spath + ("range", j), src["range"], j)
         if not 0 < lo < hi:
             raise self.error(f"{what}: the range must be 0 < lo < hi, got [{lo:g}, {hi:g}] m", spath + ("range",),
                              src, "range")

@@ -5,9 +5,11 @@ driven with any lag, slew and tension limits), free point masses (pinned on all,
 no axes), a rigid triangle beside the rods (moving or fixed), point masses riding on caps
 and body nodes, a floor of any orientation and contact and friction parameters, the scene's
 overrides of the motors (lag, slew, tension limit, modes) and of the floor, gravity of any
-direction and 0.1 to 30 m/s^2. Every size is drawn
-log-uniformly over twelve orders of magnitude around its unit (1e-6 to 1e6, except where the
-field bounds it), and states are drawn around the drawing (moved, turned, moving, caps in and
+direction and 0.1 to 30 m/s^2. Masses, stiffnesses, damping and the floor's contact
+parameters are drawn log-uniformly over the whole range the description accepts (1e-15 to
+1e15 of their unit, ``robot_schema.MIN_SIZE`` to ``MAX_MAGNITUDE``); lengths, radii, lags,
+speeds and friction coefficients over the orders of magnitude the drawing's coordinates
+leave them (lengths 1e-3 to 1e2 m, radii 1e-6 to 1 m), and states are drawn around the drawing (moved, turned, moving, caps in and
 out of the floor, anchored sticking and slipping).
 
 At every evaluated state, in both kernel families:
@@ -48,7 +50,7 @@ from scipy.spatial.transform import Rotation
 from tensegrity_core.general.rotation import exp_so3
 from tensegrity_core.robot.contact import SPIN_TOLERANCE
 from tensegrity_core.robot.description import RobotError
-from tensegrity_core.robot.robot_schema import robot_from_dict
+from tensegrity_core.robot.robot_schema import MIN_SIZE, robot_from_dict
 from tensegrity_core.sim import compile_scene, load_scene
 from tensegrity_core.sim.errors import SceneError
 from tensegrity_core.sim.general.kernels.jit import KERNELS_VARIABLE, have_numba
@@ -59,9 +61,17 @@ KERNELS = ["numpy", "numba"] if have_numba() else ["numpy"]
 ALL = ["inertia", "cables", "motors", "gravity", "contact", "friction", "sensors"]
 
 
-def _size(lo: float = 1e-6, hi: float = 1e6):
-    """A positive size drawn log-uniformly in [lo, hi] (its unit's orders of magnitude alike)."""
+def _size(lo: float = 1e-15, hi: float = 1e15):
+    """A positive size drawn log-uniformly in [lo, hi] (its unit's orders of magnitude alike;
+    by default the whole range a robot's description accepts)."""
     return st.floats(np.log10(lo), np.log10(hi)).map(lambda e: float(10.0 ** e))
+
+
+def _share(whole: float, share: float) -> float:
+    """``whole * share``, or 0 where that is below the least size a robot takes (as a user
+    would write it)."""
+    part = whole * share
+    return part if part >= MIN_SIZE else 0.0
 
 
 def _maybe(size, zero: float = 0.0):
@@ -92,11 +102,11 @@ def robots(draw, floor: bool = True, pins: str = "any", damping: bool = True, ri
         centre = np.array(draw(st.tuples(*[st.floats(-2.0, 2.0)] * 3))) + [5.0 * i, 0.0, 0.0]   # caps apart
         axis = draw(unit)
         length = draw(_size(1e-3, 1e2))
-        mass = draw(_size())
+        mass = draw(_size(1e-13))                                 # its caps' 1 %, a size too
         radius = draw(_maybe(_size(1e-6, 1.0)))                   # 0: a slender rod, whose caps ...
         share = draw(st.floats(0.0 if radius > 0 else 0.01, 0.5))    # ... give it its axial inertia
         rod = {"name": f"r{i}", "nodes": [f"a{i}", f"b{i}"], "mass": mass, "radius": radius,
-               "cap_mass": mass * share, "cap_radius": draw(_size(1e-6, 1.0))}
+               "cap_mass": _share(mass, share), "cap_radius": draw(_size(1e-6, 1.0))}
         nodes[f"a{i}"] = (centre - axis * length / 2).tolist()
         nodes[f"b{i}"] = (centre + axis * length / 2).tolist()
         rods.append(rod)
@@ -168,11 +178,16 @@ def robots(draw, floor: bool = True, pins: str = "any", damping: bool = True, ri
         mu_s = draw(_maybe(_size(1e-3, 10.0)))
         out["floor"] = {"normal": normal.tolist(), "point": (lowest * normal).tolist(), "stiffness": draw(_size()),
                         "dissipation": draw(_maybe(_size())), "mu_static": mu_s,
-                        "mu_kinetic": mu_s * draw(st.floats(0.0, 1.0)), "tangential_stiffness": draw(_size()),
+                        "mu_kinetic": _share(mu_s, draw(st.floats(0.0, 1.0))), "tangential_stiffness": draw(_size()),
                         "tangential_damping": draw(_maybe(_size())),
                         "rolling_friction": draw(_maybe(_size(1e-6, 0.1))),
                         "torsional_friction": draw(_maybe(_size(1e-6, 0.1)))}
     return out
+
+
+def _some(draw, options: dict) -> dict:
+    """Some of ``options`` (key: strategy), each drawn."""
+    return {k: draw(v) for k, v in options.items() if draw(st.booleans())}
 
 
 @st.composite
@@ -180,9 +195,7 @@ def effects_of(draw, robot: dict) -> list:
     """The scene's effects for ``robot``: all of them, each robot effect with drawn overrides
     of the description's values (every motor's lag, slew and tension limit and perhaps
     mode; the floor's contact and friction parameters)."""
-    def some(options: dict) -> dict:
-        return {k: draw(v) for k, v in options.items() if draw(st.booleans())}
-    motors = some({"tau": _maybe(_size(1e-4, 10.0)), "max_speed": st.one_of(st.just(".inf"), _size(1e-3, 1e2)),
+    motors = _some(draw, {"tau": _maybe(_size(1e-4, 10.0)), "max_speed": st.one_of(st.just(".inf"), _size(1e-3, 1e2)),
                    "max_tension": st.one_of(st.just(".inf"), _size())})
     motors = {k: (float("inf") if v == ".inf" else v) for k, v in motors.items()}
     actuated = [c["name"] for c in robot["cables"] if "motor" in c]
@@ -190,12 +203,12 @@ def effects_of(draw, robot: dict) -> list:
         motors["modes"] = {c: draw(st.sampled_from(["rest_length", "reel_speed", "tension"])) for c in actuated}
     out: list = ["inertia", "cables", {"motors": motors}, "gravity"]
     if "floor" in robot:
-        contact = some({"stiffness": _size(), "dissipation": _maybe(_size())})
+        contact = _some(draw, {"stiffness": _size(), "dissipation": _maybe(_size())})
         mu_s = draw(_maybe(_size(1e-3, 10.0)))
-        friction = some({"tangential_stiffness": _size(), "tangential_damping": _maybe(_size()),
+        friction = _some(draw, {"tangential_stiffness": _size(), "tangential_damping": _maybe(_size()),
                          "rolling_friction": _maybe(_size(1e-6, 0.1)), "torsional_friction": _maybe(_size(1e-6, 0.1))})
         if draw(st.booleans()):
-            friction.update(mu_static=mu_s, mu_kinetic=mu_s * draw(st.floats(0.0, 1.0)))
+            friction.update(mu_static=mu_s, mu_kinetic=_share(mu_s, draw(st.floats(0.0, 1.0))))
         out += [{"contact": contact}, {"friction": friction}]
     return out + ["sensors"]
 

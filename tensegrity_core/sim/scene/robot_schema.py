@@ -79,7 +79,20 @@ def robot_model(reader: Reader, d: dict[str, Any], path: KeyPath, base: Path) ->
 
 def robot_effect(reader: Reader, name: str, d: dict[str, Any], path: KeyPath, model: RobotModelSpec) -> EffectSpec:
     """The options of a robot's ``motors``, ``contact`` or ``friction``: each replaces the
-    description's value (every motor's, the floor's)."""
+    description's value (every motor's, the floor's), a size as in the description
+    (:func:`~tensegrity_core.robot.robot_schema.size_reason`)."""
+    effect = _robot_effect(reader, name, d, path, model)
+    from tensegrity_core.robot.robot_schema import SIZE_UNITS, size_reason
+
+    for key, value in d.items():
+        if key in SIZE_UNITS and isinstance(value, (int, float)) and not isinstance(value, bool):
+            reason = size_reason(float(value), key)
+            if reason is not None:
+                raise reader.error(reason, path + (key,), d, key)
+    return effect
+
+
+def _robot_effect(reader: Reader, name: str, d: dict[str, Any], path: KeyPath, model: RobotModelSpec) -> EffectSpec:
     if name == "motors":
         reader.keys(d, path, ("tau", "max_speed", "max_tension", "modes"))
         tau = reader.number(d, "tau", path, lo=0.0) if "tau" in d else None
