@@ -211,7 +211,7 @@ def cmd_singularities(args: argparse.Namespace) -> int:
         return 0
     print(f"singular sets near rho1 = {rep.rho1:g} m, rho2 = {rep.rho2:g} m (beta = {rep.beta:.6g} rad, "
           f"D = ({rep.x:.6g}, {rep.y:.6g}) m); cond(dD/drho) = {rep.jacobian_cond:.4g}")
-    print(f"  {'set':16} {'distance':>10} {'value':>12}  meaning")
+    print(f"  {'set':16} {'distance/L':>10} {'value':>12}  meaning")
     for s in rep.sets:
         print(f"  {s.kind:16} {s.distance:10.4g} {s.value:12.5g}  {s.description}")
     return 0

@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
 from tensegrity_core.class2 import PAPER_PARAMS, Class2Dynamics, Class2Params, equilibrium_beta
@@ -105,3 +107,28 @@ def test_weights_are_validated():
         LQRWeights(position=0.0)
     with pytest.raises(ParameterError, match="force"):
         LQRWeights(force=math.nan)
+
+
+@given(st.floats(), st.floats())
+def test_holding_any_measured_lengths_holds_them_or_refuses_with_a_reason(rho1, rho2):
+    """The controller starts by holding what the simulator measures: for any lengths (a rogue
+    publisher's, or the folded rho = (0, 0), where the Riccati equation has no stabilising
+    solution and scipy raised LinAlgError, which ended the controller node) the law either
+    holds them with finite gains or refuses with a TensegrityError that says why."""
+    from tensegrity_core.class2.control import TrackingController
+    from tensegrity_core.errors import TensegrityError
+
+    ctrl = TrackingController(PAPER_PARAMS, dt=0.01, max_force=5.0)
+    try:
+        ctrl.hold(rho1, rho2, 0.0)
+    except TensegrityError as err:
+        assert str(err) and ctrl.reference is None
+    else:
+        assert np.all(np.isfinite(ctrl.gains.K))
+
+
+def test_the_folded_mechanism_cannot_be_held_and_says_so():
+    from tensegrity_core.class2.control import PlanningError, TrackingController
+
+    with pytest.raises(PlanningError, match=r"no stabilising feedback gain at rho = \(0, 0\) m"):
+        TrackingController(PAPER_PARAMS, dt=0.01, max_force=5.0).hold(0.0, 0.0, 0.0)

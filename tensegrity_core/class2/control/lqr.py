@@ -29,6 +29,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.class2 import mass_matrix, rhs_jacobian
+from tensegrity_core.class2.control.errors import SINGULAR_PATH, PlanningError
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
 from tensegrity_core.errors import ParameterError
 
@@ -137,10 +138,20 @@ DEFAULT_WEIGHTS: Final = LQRWeights()
 
 def design_gain(q: Vector, qdot: Vector, f: Vector, params: Class2Params, weights: LQRWeights, dt: float) -> Gain:
     """The discrete LQR gain (2, 8) for the loop sampled every ``dt`` [s], linearised about
-    the reference state ``(q, qdot)`` with reference forces ``f`` [N]."""
+    the reference state ``(q, qdot)`` with reference forces ``f`` [N]. A state where the loop
+    has no stabilising gain (on or at a singular set, where the linearisation is not finite
+    or the Riccati equation has no solution) raises PlanningError (code SINGULAR_PATH)."""
     A, B = linearize(q, qdot, f, params)
     Ad, Bd = discretize(*augment(A, B, q, params.L), dt)
     Q, R = weights.matrices(q, params.L)
-    P = scipy.linalg.solve_discrete_are(Ad, Bd, Q, R)
+    at = f"rho = ({float(q[0]):.4g}, {float(q[1]):.4g}) m, beta = {float(q[2]):.4g} rad"
+    if not all(np.all(np.isfinite(m)) for m in (Ad, Bd, Q)):
+        raise PlanningError(f"no feedback gain at {at}: the linearised dynamics are not finite there "
+                            "(a singular configuration)", code=SINGULAR_PATH)
+    try:
+        P = scipy.linalg.solve_discrete_are(Ad, Bd, Q, R)
+    except np.linalg.LinAlgError as err:
+        raise PlanningError(f"no stabilising feedback gain at {at} (a singular configuration): {err}",
+                            code=SINGULAR_PATH) from None
     K = np.linalg.solve(R + Bd.T @ P @ Bd, Bd.T @ P @ Ad)
     return Gain(K, np.linalg.eigvals(Ad - Bd @ K), float(dt))
