@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from tensegrity_ros.cli._common import CliError, Handler, Subparsers, add_json_flag, print_json
+from tensegrity_ros.cli._common import CliError, Handler, Subparsers, add_json_flag, check_seconds, print_json
 
 ORDER = 70
 
@@ -65,6 +65,9 @@ def _play(args: argparse.Namespace) -> int:
 
     for topic in args.topics or []:
         check_ros_name(topic, "--topics")
+    if args.wait_for_subscribers is not None:
+        check_seconds(args.wait_for_subscribers, "--wait-for-subscribers")
+    check_seconds(args.wait_for_all_acked, "--wait-for-all-acked", zero="exit at once")
     opts = PlaybackOptions(rate=args.rate, start_offset_s=args.start_offset, loop=args.loop,
                            clock_hz=args.clock)
     play(args.bag, args.topics, opts, delay_s=args.delay,

@@ -115,11 +115,14 @@ def _follow(args: argparse.Namespace) -> int:
         return [JointTolerance(name=n, position=float(override if override is not None else values[n]))
                 for n in names]
 
+    goal_time = args.goal_time_tolerance if args.goal_time_tolerance is not None else data.goal_time_tolerance
+    if not 0 <= goal_time < 1e9:         # a builtin_interfaces/Duration holds int32 seconds
+        raise CliError(f"the goal time tolerance must be a finite number of seconds in [0, 1e9) (0 = the "
+                       f"controller's default), got {goal_time:g}")
     goal = FollowActuatorTrajectory.Goal(
         trajectory=traj, path_tolerance=tolerances(data.path_tolerance, args.path_tolerance),
         goal_tolerance=tolerances(data.goal_tolerance, args.goal_tolerance),
-        goal_time_tolerance=duration(args.goal_time_tolerance if args.goal_time_tolerance is not None
-                                     else data.goal_time_tolerance))
+        goal_time_tolerance=duration(goal_time))
     total = max(data.times) if data.times else None
 
     def progress(bar: Any, fb: Any) -> None:

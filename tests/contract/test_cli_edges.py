@@ -33,6 +33,8 @@ IN_PROCESS = [   # (arguments, words the error line must hold)
     (["echo", "joint_states", "--timeout", "nan"], "--timeout must be a finite number of seconds >= 0 (0 = never)"),
     (["move", "1.4", "0.7", "--timeout", "0"], "--timeout must be a finite number of seconds > 0, got 0"),
     (["follow", "no_such_file.csv", "--timeout", "inf"], "--timeout"),
+    (["follow", "trajectory.csv", "--goal-time-tolerance", "1e12"],       # Duration's int32 seconds wrapped
+     "the goal time tolerance must be a finite number of seconds in [0, 1e9)"),
     (["send-forces", "1", "0", "--topic", "bad topic"], "--topic 'bad topic' is not a valid ROS name"),
     (["echo", "bad topic"], "topic 'bad topic' is not a valid ROS name"),
     (["call-ik", "1.4", "0.7", "--service", "bad srv"], "--service 'bad srv' is not a valid ROS name"),
@@ -50,6 +52,8 @@ AS_PROCESSES = [
     (["up", "--params-file", "no_such_params.yaml"], "params file: '--params-file no_such_params.yaml'"),
     (["record", "-o", "bag", "bad topic"], "topic 'bad topic' is not a valid ROS name"),
     (["play", FOLD, "--topics", "bad topic"], "--topics 'bad topic' is not a valid ROS name"),
+    (["play", FOLD, "--wait-for-all-acked", "nan"],
+     "--wait-for-all-acked must be a finite number of seconds >= 0 (0 = exit at once), got nan"),
     (["play", FOLD, "--resimulate", "--scene", "no_such_scene"], "cannot load the scene to re-simulate on: 'no_such_scene'"),
     # node parameters, checked as the node starts: the range and the unit
     (["node", "sim", "--ros-args", "-p", "publish_rate:=-5"],
@@ -73,6 +77,7 @@ def _one_error_line(stderr: str) -> str:
 @pytest.mark.parametrize("args, words", IN_PROCESS, ids=[" ".join(a[:2]) for a, _ in IN_PROCESS])
 def test_a_bad_option_of_a_client_command_is_one_line_and_exit_2(args, words, capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
+    (tmp_path / "trajectory.csv").write_text("time,rho1,rho2\n1.0,0.705,0.7\n2.0,0.71,0.7\n")
     assert main(args) == 2
     out = capsys.readouterr()
     assert words in _one_error_line(out.err) and out.out == ""
