@@ -100,7 +100,7 @@ def test_ctrl_c_ends_the_sweep_with_one_line_and_resume_runs_the_rest_once(tmp_p
     from tests.process_groups import assert_all_end, exited, kill_group
 
     psutil = pytest.importorskip("psutil")
-    n = 60                                   # 20 s of the fold: ~0.1 s a point, ~3 s on 2 workers
+    n = 30                                   # 20 s of the fold: ~0.1 s a point, ~1.5 s on 2 workers
     sweep = write(tmp_path, fold_sweep(vary={"inputs.f1.gain": {"grid": {"from": 6.0, "to": 14.0, "num": n}}},
                                        compute={"simulate": {"duration": 20.0}}))
     out = tmp_path / "r.parquet"
