@@ -178,6 +178,10 @@ class CableControllerNode(Node):
         return [self._rest.get(n, math.nan) for n in self.interface.inputs]
 
     def on_cables(self, msg: CableStates) -> None:
+        unusable = _unusable_cable_states(msg)
+        if unusable:
+            self.get_logger().warning(f"cable_states ignored: {unusable}", throttle_duration_sec=2.0)
+            return
         self._rest.update(zip(msg.name, msg.rest_length))
         if not self._active:
             self._activate()
@@ -189,6 +193,8 @@ class CableControllerNode(Node):
         if tau < 0.0:
             return
         index = {n: i for i, n in enumerate(msg.name)}
+        if any(n not in index for n in tr.names):
+            return                   # a state without the goal's cables: nothing to check or report
         actual = [float(msg.rest_length[index[n]]) for n in tr.names]
         desired = tr.sample(tau)
         when = _duration(tau)
@@ -328,9 +334,25 @@ def _duration(seconds: float) -> Any:
     return Duration(sec=int(sec), nanosec=min(int(round((seconds - sec) * 1e9)), 999_999_999))
 
 
+def _unusable_cable_states(msg: CableStates) -> str:
+    """Why a ``cable_states`` message cannot be read (no simulator sends such: a rogue
+    publisher), or "" when it can: one rest length and one tension per name, each name once,
+    finite rest lengths [m]."""
+    n = len(msg.name)
+    if len(msg.rest_length) != n or len(msg.tension) != n:
+        return f"{n} names but {len(msg.rest_length)} rest lengths and {len(msg.tension)} tensions"
+    if len(set(msg.name)) != n:
+        return "a cable named twice"
+    bad = next((name for name, v in zip(msg.name, msg.rest_length) if not math.isfinite(v)), None)
+    if bad is not None:
+        return clip(f"the rest length of {excerpt(bad)} is not finite")
+    return ""
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     return spin_node(CableControllerNode, argv)
 
 
 if __name__ == "__main__":
     sys.exit(main(sys.argv))
+
