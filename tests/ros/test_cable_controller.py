@@ -63,7 +63,12 @@ def cable_rig(folder, scene: str, sim_params: tuple[str, ...], client_name: str,
         _wait_for_the_controllers_answer(client)
         yield client, action, sim, ctl, feedback_log
     finally:
-        if action is not None:
+        # the action client is destroyed by the thread that spins its node (between two
+        # spin_once): destroyed from this one while that thread built a wait set from the
+        # node's waitables, rclpy added the freed handle ("action client pointer is invalid",
+        # RCLError in a loaded run's spin thread); if that thread no longer spins, from here
+        destroyed = action is None or wait_done(on_executor(client.executor, action.destroy), 60)
+        if not destroyed:
             action.destroy()
         if client is not None:
             client.close()
