@@ -47,8 +47,9 @@ MIN_AXIAL_INERTIA_RATIO: Final = 1e-12
 #: The least nonzero size a robot takes, of its unit [1]: the reciprocal of the largest
 #: number any description takes (:data:`~tensegrity_core.schema.MAX_MAGNITUDE`, 1e15), so
 #: that the dynamics' products of sizes and their reciprocals (an acceleration ``k x / m``,
-#: a rate ``sqrt(k / m)``, their squares) stay inside double precision: a mass of 1e-300 kg
-#: pulled by a cable overflowed the state.
+#: a rate ``sqrt(k / m)``, their squares) stay inside double precision: a rod of 1e-300 kg on
+#: a cable of 1e9 N/m has a mode past the largest double (the step check asked for a step
+#: in (0, 0] s).
 MIN_SIZE: Final = 1.0 / MAX_MAGNITUDE
 #: The unit of each positive size a robot's description and a robot scene's effects take.
 SIZE_UNITS: Final = {"mass": "kg", "radius": "m", "cap_mass": "kg", "cap_radius": "m", "inertia": "kg m^2",

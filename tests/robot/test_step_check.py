@@ -142,3 +142,54 @@ def test_the_floor_s_refusal_is_right():
     with np.errstate(all="ignore"):
         heights = run(1.05 * FLOOR_LIMIT, 60)
     assert not np.all(np.abs(heights - 0.01) <= 1e3 * sink)
+
+
+#: A 1 kg rod of 1 m (radius 1 cm: ``I_t = 0.0856 kg m^2``) held along x between two points
+#: pinned 1000 m beyond its caps by soft cables (``k = 1 N/m``) at ``T = 999 N``: moving along
+#: them it meets only 2 N/m, but turned by ``theta`` each cap's arc shortens its cable by
+#: ``theta^2 L / 4``, so the pair stores ``T L theta^2 / 2`` and the rod swings back to align
+#: with them at ``omega = sqrt(T L / I_t) = 108 rad/s`` (their transverse stiffness ``T / l =
+#: 1 N/m`` adds 0.05 %): RK4 follows it with steps up to ``2.96 / 108 = 27.4 ms``.
+T_PULL, TURN_I = 999.0, 0.0856008553
+TURN_OMEGA = np.sqrt(T_PULL * 1.0 / TURN_I)
+TURN_LIMIT = RK4_REACH / TURN_OMEGA
+TURNING = {"name": "aligned", "nodes": {"p": [-1000.0, 0.0, 0.0], "a": [0.0, 0.0, 0.0], "b": [1.0, 0.0, 0.0],
+                                        "q": [1001.0, 0.0, 0.0]},
+           "pinned": ["p", "q"], "rods": [{"name": "r", "nodes": ["a", "b"], "mass": MASS, "radius": 0.01}],
+           "cables": [{"name": "c", "nodes": ["b", "q"], "stiffness": 1.0, "rest_length": 1.0},
+                      {"name": "d", "nodes": ["p", "a"], "stiffness": 1.0, "rest_length": 1.0}]}
+
+
+def turning_scene(step: float) -> dict:
+    return {"name": "aligned", "model": {"kind": "robot", "robot": TURNING}, "initial": {"drawn": True},
+            "effects": ["inertia", "cables"], "duration": 5.0, "integrator": {"max_step": step}}
+
+
+def test_a_step_too_long_for_a_rod_turning_into_its_cables_is_refused():
+    with pytest.raises(SceneError, match=r"^integrator\.max_step: a fixed step of 0\.05 s is too long for rod 'r' "
+                                         r"\(1 kg\): turned towards cable 'c' \(its transverse inertia 0\.0856009 kg "
+                                         r"m\^2\) it meets 999 N m/rad of taut cables, a mode of at least 108 rad/s, "
+                                         r"which RK4 follows with steps up to 0\.0274 s; give integrator\.max_step in "
+                                         r"\(0, 0\.0274\] s$"):
+        load_scene(turning_scene(0.05))
+    load_scene(turning_scene(0.99 * TURN_LIMIT))
+
+
+def test_the_turning_refusal_is_right():
+    """Turned 0.01 rad and let go: at 0.9 of the refused step (``h omega = 2.66``, inside
+    RK4's 2.83 on the imaginary axis) the swing stays below its start's ``theta omega`` = 1.08
+    rad/s; past the refusal (1.05 of it, ``h omega = 3.1``) it grows from nowhere, ``|R(3.1
+    i)| = 1.87`` per step, past 10 times that within 2 s (69 times, tumbling)."""
+    def swing(step: float, duration: float) -> float:
+        model = compile_scene(load_scene(turning_scene(0.5 * TURN_LIMIT)))
+        model.step = step
+        p = model.plan
+        y = model.y0.copy()
+        y[p.body_dof[0] + 5] = 0.01                                     # turned about z
+        samples: list = []
+        steps = int(duration / step)
+        model.record(model.state_from(y, t_end=steps * step), np.arange(steps + 1) * step, samples)
+        return max(abs(float(s[1][p.n_dof + p.body_dof[0] + 5])) for s in samples)
+
+    assert swing(0.9 * TURN_LIMIT, 5.0) < 0.01 * TURN_OMEGA * 1.01
+    assert swing(1.05 * TURN_LIMIT, 2.0) > 10 * 0.01 * TURN_OMEGA

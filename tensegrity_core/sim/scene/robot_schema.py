@@ -234,6 +234,60 @@ def command_range(robot: Robot, j: int, mode: int, motors: MotorsSpec | None) ->
     return float(lo), float(hi)
 
 
+def rotation_mode(robot: Robot, rod: int, taut: list[int], g: NDArray[np.float64]) -> tuple[float, float, int] | None:
+    """``(omega^2 [1/s^2], I [kg m^2], cable)``: a lower bound on the square of the fastest
+    mode of the robot as drawn from turning rod ``rod`` about its centre (by ``theta`` about
+    an axis ``e`` across it), its transverse inertia about the centre ``I`` (its own and its
+    caps' point masses') and the cable whose direction gave the axis; None when no axis
+    gives a positive bound.
+
+    The cap at ``r`` from the centre moves by ``theta e x r + theta^2/2 e x (e x r)``; a taut
+    cable from it along ``u`` (stiffness ``k``, tension ``T``) then stores
+    ``theta^2/2 (k (u . (e x r))^2 + T u . r)`` (its stretch, and the arc shortening it by
+    ``theta^2/2 u . r``), plus its transverse stiffness ``T / l`` (left out: it only adds);
+    a point mass's weight ``W`` at the cap ``theta^2/2 W . r``. The Rayleigh quotient of that
+    sum over ``I`` bounds ``omega^2`` from below (the cables to the rod's other end held
+    still). Axes: across the rod, normal to each cable's plane with it, and the rod's two
+    frame axes. A cable pulling a cap outward along the rod (``u . r = L/2``) gives
+    ``T L / (2 I)``: the rod swinging to align with it."""
+    a, b = (int(x) for x in robot.rods.ends[rod])
+    centre = 0.5 * (robot.nodes[a] + robot.nodes[b])
+    axis = robot.nodes[b] - robot.nodes[a]
+    length = float(np.linalg.norm(axis))
+    axis /= length
+    riders = robot.node_masses[[a, b]]
+    inertia = float(robot.rods.inertia[rod, 0] + riders.sum() * (length / 2) ** 2)
+    cables = robot.cables
+    ends, k, T, r, u = [], [], [], [], []
+    for i in taut:
+        ca, cb = (int(x) for x in cables.ends[i])
+        for end, other in ((ca, cb), (cb, ca)):
+            if end in (a, b) and other not in (a, b):
+                d = robot.nodes[other] - robot.nodes[end]
+                l = float(np.linalg.norm(d))
+                ends.append(i)
+                k.append(float(cables.stiffness[i]))
+                T.append(float(cables.stiffness[i]) * (l - float(cables.rest_length[i])))
+                r.append(robot.nodes[end] - centre)
+                u.append(d / l)
+    if not ends:
+        return None
+    K, Tn, R, U = np.array(k), np.array(T), np.array(r), np.array(u)
+    weight = sum(float(m) * float(g @ (robot.nodes[n] - centre)) for n, m in zip((a, b), riders))
+    frame = np.linalg.svd(axis[None])[2][1:]                   # two unit axes across the rod
+    best: tuple[float, float, int] | None = None
+    for j, i in enumerate(ends):
+        trial = np.cross(R[j], U[j])
+        trial -= (trial @ axis) * axis
+        size = float(np.linalg.norm(trial))
+        for e in ([trial / size] if size > 1e-12 * length else []) + list(frame):
+            stored = float(np.sum(K * np.einsum("ij,ij->i", U, np.cross(e, R)) ** 2 + Tn * np.einsum("ij,ij->i", U, R)))
+            omega2 = (stored + weight) / inertia
+            if omega2 > 0 and (best is None or omega2 > best[0]):
+                best = (omega2, inertia, i)
+    return best
+
+
 #: How far the classical RK4's stability region reaches from the origin [1]: the largest
 #: ``|z|`` with ``|R(z)| <= 1``, ``R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24`` (2.83 along the
 #: imaginary axis, 2.79 along the negative real one, 2.96 in between).
@@ -254,7 +308,9 @@ def step_fits(reader: Reader, model: RobotModelSpec, effects: SceneEffects, step
     of those cables; with damping the fast root of a mode is at least as large. Likewise a cap
     on the floor (``contact``: its normal force ``k delta`` [N/m] while it presses in; with
     ``friction``, the sticking anchor's ``tangential_stiffness``) gives the rod moved along
-    the normal (or along the floor) a mode of at least ``sqrt(k / m)`` once it touches. RK4
+    the normal (or along the floor) a mode of at least ``sqrt(k / m)`` once it touches, and
+    turning a rod about its centre into its taut cables a mode of at least
+    :func:`rotation_mode`'s (a rod swinging to align with a cable's pull). RK4
     with steps ``h`` diverges on a mode once ``h omega > RK4_REACH``: such a run would stop
     with a state that is no longer finite, so the scene is refused before it starts, naming
     the rod, what holds it and the longest step that mode allows (a step below it may still
@@ -299,6 +355,17 @@ def step_fits(reader: Reader, model: RobotModelSpec, effects: SceneEffects, step
             stiffness = float(np.sum(k_taut * (u @ u[j]) ** 2))
             consider(rod, stiffness, f"moved along cable {excerpt(cables.names[i])} it meets {stiffness:g} N/m of "
                                      f"taut cables")
+    gravity = effects.get("gravity")
+    g = np.zeros(3) if gravity is None else np.asarray(gravity.vector, dtype=float)
+    for rod, taut in on.items():
+        turning = rotation_mode(robot, rod, taut, g)
+        if turning is not None:
+            omega2, inertia, i = turning
+            stiffness = omega2 * float(robot.rods.mass[rod] + robot.node_masses[robot.rods.ends[rod]].sum())
+            if worst is None or math.sqrt(omega2) > worst[0]:
+                worst = (math.sqrt(omega2), stiffness, float(robot.rods.mass[rod] + robot.node_masses[
+                    robot.rods.ends[rod]].sum()), rod, f"turned towards cable {excerpt(cables.names[i])} (its "
+                    f"transverse inertia {inertia:g} kg m^2) it meets {omega2 * inertia:g} N m/rad of taut cables")
     for rod in sorted(set(rod_of.values())):
         if contact is not None:
             consider(rod, contact.stiffness, f"pressed into the floor it meets {contact.stiffness:g} N/m of contact "
@@ -308,7 +375,7 @@ def step_fits(reader: Reader, model: RobotModelSpec, effects: SceneEffects, step
                                                          f"{friction.tangential_stiffness:g} N/m of friction anchor")
     if worst is None or step * worst[0] <= RK4_REACH:
         return
-    omega, stiffness, mass, rod, what = worst
+    omega, _, mass, rod, what = worst
     longest = RK4_REACH / omega
     given = isinstance(d.get("integrator"), dict) and "max_step" in d["integrator"]
     path: KeyPath = ("integrator", "max_step")
