@@ -40,7 +40,7 @@ def node_coordinates(structure: Structure, coords: ArrayLike, *, batch: bool = F
     values overflow the squares the solvers form).
     """
     try:
-        xyz = np.array(coords, dtype=np.float64)
+        xyz = np.asarray(coords, dtype=np.float64)
     except (TypeError, ValueError):
         raise StructureError(f"coords must be an array of numbers [m], got {excerpt(coords)}",
                              entry=("coords",)) from None
@@ -99,7 +99,7 @@ class Configuration:
         the body size (else :class:`StructureError`), and are then placed exactly. Fixed
         coordinates (pinned axes, fixed bodies) keep the values given in ``coords``.
         """
-        xyz = node_coordinates(structure, coords)
+        xyz = node_coordinates(structure, coords).copy()
         lay = structure.layout
         nb = len(lay.moving_bodies)
         centres = np.zeros((nb, 3))
