@@ -9,7 +9,8 @@ rclpy shutdown, bags finished), SIGTERM after a grace period, SIGKILL last.
 Children start with SIGINT and SIGTERM blocked (:func:`tensegrity_ros.rclpy_utils.stop_signals.signals_blocked`
 around the spawn); each unblocks them once its own stop handling is in place, so a stop
 that comes while a child is still starting is carried out by the child, never lost or
-answered with a traceback. The launcher exits 0 only if every child exited 0.
+answered with a traceback. A child that fails (exits with a code other than 0) stops the
+others. The launcher exits 0 only if every child exited 0.
 """
 
 from __future__ import annotations
@@ -96,17 +97,20 @@ class Launcher:
         self._stop.set()
 
     def wait(self) -> int:
-        """Block until stop is requested or every child has exited; return an exit code."""
+        """Block until stop is requested, every child has exited or one has failed (exited with
+        a code other than 0: a suite without one of its nodes, its simulator refusing its
+        parameters, is of no use and would only look alive); stop the rest; return an exit code."""
         while not self._stop.is_set():
-            alive = False
+            alive, failed = False, False
             for name, proc in self.procs.items():
                 rc = proc.poll()
                 if rc is None:
                     alive = True
                 elif name not in self._reported:
                     self._reported.add(name)
-                    self._say(_ended(name, rc))
-            if not alive:
+                    failed = failed or rc != 0
+                    self._say(_ended(name, rc) + (": stopping the suite" if rc != 0 else ""))
+            if not alive or failed:
                 break
             self._stop.wait(0.2)
         return self.stop()

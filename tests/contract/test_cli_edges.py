@@ -114,3 +114,21 @@ def test_any_name_is_taken_or_refused_in_one_line(name, namespace):
         check_ros_name(name, "--topic", namespace=namespace)
     except CliError as err:
         assert "\n" not in str(err) and "not a valid ROS" in str(err)
+
+
+def test_up_stops_the_suite_when_its_simulator_refuses_its_parameters(tmp_path):
+    """The simulator exits 2 at once; the cable controller beside it is stopped (the suite
+    would otherwise sit there without a simulator) and `up` exits with the simulator's code."""
+    import subprocess
+
+    from tests.ros_support import TENSEGRITY
+
+    done = subprocess.run([TENSEGRITY, "up", "--scene", "table_actuated", "--no-formfind", "-n", "/up_refused",
+                           "--ros-args", "-p", "publish_rate:=-5"],
+                          capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    said = done.stdout + done.stderr
+    assert done.returncode == 2, said
+    assert "[launch] sim exited with code 2: stopping the suite" in done.stdout, said
+    assert ("[sim] error: tensegrity_sim: parameter publish_rate must be a finite number in [1, 1000] Hz, got -5 Hz"
+            in done.stdout), said
+    assert "Traceback" not in said
