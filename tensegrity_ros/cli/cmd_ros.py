@@ -340,7 +340,10 @@ def _echo(args: argparse.Namespace) -> int:
                       f"{_topic_hint(node, topic)} (Ctrl-C stops)", file=sys.stderr, flush=True)
                 said = close
             executor.spin_once(timeout_sec=0.1)
-        cls = message_class(types[0])
+        try:
+            cls = message_class(types[0])
+        except ValueError as err:        # a type of another node whose package is not installed here
+            raise CliError(f"cannot echo {topic}: {err}", code=1) from None
         received = []
 
         def show(msg: Any) -> None:

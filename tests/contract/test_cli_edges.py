@@ -64,7 +64,6 @@ AS_PROCESSES = [
      "tensegrity_controller: parameter max_force must be a finite number >= 1e-06 N, got nan"),
     (["node", "formfind", "--ros-args", "-p", "time_limit:=abc"],
      "tensegrity_formfind: parameter time_limit must be a number [s], got 'abc'"),
-    (["node", "ik", "--ros-args", "-p", "scene:=no_such_scene"], "tensegrity_ik: cannot load scene 'no_such_scene'"),
 ]
 
 
