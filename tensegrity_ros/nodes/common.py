@@ -13,6 +13,7 @@ from tensegrity_ros.rclpy_utils.env import require_rclpy
 
 rclpy = require_rclpy()
 from rcl_interfaces.msg import IntegerRange, ParameterDescriptor  # noqa: E402
+from rclpy.exceptions import InvalidParameterValueException  # noqa: E402
 from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from rclpy.qos import QoSProfile, qos_profile_services_default  # noqa: E402
@@ -70,6 +71,12 @@ def declare(node: Node, name: str, default: ParameterValue, description: str, *,
         desc.integer_range = [IntegerRange(from_value=int(lo or 0), to_value=int(hi or 2**31 - 1), step=1)]
     try:
         value: ParameterValue = node.declare_parameter(name, default, desc).value
+    except InvalidParameterValueException as err:     # out of an integer range
+        given = re.match(r"Invalid parameter value \((.*?)\) for parameter", str(err))
+        raise ParameterValueError(
+            f"{node.get_name()}: parameter {name} must be a whole number in [{int(lo or 0)}, {int(hi or 2**31 - 1)}]"
+            f"{' ' + _unit(description) if _unit(description) else ''}, got {given.group(1) if given else err}"
+        ) from None
     except Exception as err:  # rclpy raises several types for bad overrides
         raise ParameterValueError(f"{node.get_name()}: parameter {name}: {err}") from None
     if is_float:

@@ -60,8 +60,8 @@ AS_PROCESSES = [
      "tensegrity_sim: parameter publish_rate must be a finite number in [1, 1000] Hz, got -5 Hz"),
     (["node", "sim", "--ros-args", "-p", "safe_force:=2000"],
      "parameter safe_force must be in [-max_force, max_force] = [-1000, 1000] N, got 2000 N"),
-    (["node", "controller", "--ros-args", "-p", "max_force:=nan"],
-     "tensegrity_controller: parameter max_force must be a finite number >= 1e-06 N, got nan"),
+    (["node", "formfind", "--ros-args", "-p", "max_workers:=0"],
+     "tensegrity_formfind: parameter max_workers must be a whole number in [1, 64], got 0"),
     (["node", "formfind", "--ros-args", "-p", "time_limit:=abc"],
      "tensegrity_formfind: parameter time_limit must be a number [s], got 'abc'"),
 ]
