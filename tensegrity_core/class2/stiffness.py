@@ -31,6 +31,23 @@ by least squares. The residual of those equations is the component along the rot
 ``-dU/dbeta / L``: zero exactly when beta is the FKP equilibrium.
 
 The pre-stress force ``f`` [N] acts on node F along +Y (Eq. 44).
+
+Definiteness. ``K`` is the tangent stiffness of the framework whose actuators and struts
+are elastic (axial stiffnesses ``ka``, ``kb``); the mechanism's energy
+:func:`~tensegrity_core.class2.energy.potential_energy` treats them as rigid, leaving the
+one coordinate beta at locked actuators. The two agree in the limit ``ka, kb -> infinity``:
+then the motions that stretch a rigid member cost infinite energy and ``K(f = 0)`` is
+positive definite exactly when ``d2U/dbeta2 > 0``. For finite ``ka, kb`` ``K(0)`` can have a
+negative eigenvalue where ``d2U/dbeta2 > 0``, and it is real (the second difference of the
+member energies along its eigenvector is negative): near the folded point ``s = rho1 + rho2
+-> 0`` the compressed struts AE and CE are nearly parallel, a sideways motion ``d`` of E
+stretches them only by about ``s d / (2L)``, so what holds E sideways is the springs'
+stiffness minus the struts' geometric stiffness ``(|t_AE| + |t_CE|) / L`` plus only ``kb (s /
+2L)^2`` and the actuators' compliance. E.g. ``k2 = k4 = 428 N/m``, ``ka = 1e4 N/m``, ``kb =
+4.3e5 N/m`` (other parameters the paper's) at ``rho1 = rho2 = 1e-6 L``: smallest eigenvalue
+-3.98 N/m while ``d2U/dbeta2 = 428 N m/rad``; the framework buckles sideways at E, the
+rigid-strut mechanism does not. At the paper's parameters ``K(0)`` is positive definite over
+the configuration domain (tested on draws down to 1e-6 L from its edges).
 """
 
 from __future__ import annotations
@@ -330,9 +347,11 @@ def critical_forces(rho1: float, rho2: float, params: Class2Params = PAPER_PARAM
 
     The member forces, hence ``K``, are affine in f: ``K(f) = K(0) + f (K(1) - K(0))``, so
     these are the finite real eigenvalues of the pencil ``(K(0), -(K(1) - K(0)))``. Between
-    the two around 0 the matrix keeps the inertia it has at f = 0 (positive definite at
-    every FKP equilibrium checked, docs/class2.md); at a critical force the stiffnesses
-    K_i pass through zero or have a pole.
+    two consecutive critical forces ``K(f)`` keeps one inertia (``det K`` does not vanish);
+    between the two around 0 it is that of ``K(0)``, which is positive definite at the
+    paper's parameters but need not be for finite ``ka, kb`` near the folded point (module
+    docstring, "Definiteness"). At a critical force the stiffnesses K_i pass through zero or
+    have a pole.
     """
     from scipy import linalg
 

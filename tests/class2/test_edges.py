@@ -5,7 +5,8 @@ of the configuration domain, spring constants and sizes over six decades: IK suc
 exactly for the targets within ``DOMAIN_TOL L`` of W, FK and IK are inverse up to the
 conditioning of the map, the equilibrium is the minimum of the energy summed from the
 springs' lengths (finite differences), and the singular measures vanish exactly where the
-finite-difference Jacobian drops rank.
+finite-difference Jacobian drops rank; the stiffness matrix is the energy's Hessian, and
+where its definiteness and the rigid-strut energy's disagree the difference is real.
 """
 
 from __future__ import annotations
@@ -26,8 +27,17 @@ from tensegrity_core.class2 import (
     stiffness_matrix_energy_fd,
     stiffness_matrix_paper,
 )
+from tensegrity_core.class2.energy import d2U_dbeta2, equilibrium_beta
+from tensegrity_core.class2.geometry import member_lengths, node_positions
 from tensegrity_core.class2.inverse_kinematics import DOMAIN_TOL, EPS
 from tensegrity_core.class2.params import PAPER_PARAMS
+from tensegrity_core.class2.stiffness import (
+    FREE,
+    axial_stiffnesses,
+    critical_forces,
+    member_forces,
+    total_potential_energy,
+)
 from tensegrity_core.errors import SingularityError
 from tests.class2.strategies import boundary_targets, edge_configurations, edged, extreme_parameter_sets
 
@@ -166,3 +176,60 @@ def test_stiffness_matrix_is_the_symmetric_energy_hessian_and_its_inertia_the_en
     q = v[:, 0] * h
     second = q @ H @ q
     assert np.sign(second) == np.sign(w[0])
+
+
+def test_negative_stiffness_eigenvalue_at_the_folded_point_is_real_and_the_rigid_limit_is_definite():
+    """Soft actuators (ka) and struts (kb) against stiff springs k2 = k4 near the folded point
+    rho1 = rho2 = 1e-6 L: d2U/dbeta2 > 0 (from energy.py's closed form it tends to k2 L^2 as
+    rho -> 0: a -> 0, b -> -2 k2 L, beta = pi/2), yet K(0) has a negative eigenvalue.
+
+    It is real: the second difference of the member energies (stiffness_matrix_energy_fd's
+    energy, rest lengths from the member forces) along its eigenvector v is negative and equal
+    to the eigenvalue. Step h = 1e-5 L: the actuators' lengths |Bx|, |Cx - Bx| and the
+    zero-free-length springs' energies are exactly linear/quadratic while B moves less than
+    rho1 (|v_Bx| h < rho1), the struts add O(kb h^2/L^2) = 4e-5 N/m, rounding 4 eps E/h^2 ~ 4e-3
+    N/m (E ~ 430 J). In the rigid limit ka = 1e12, kb = 1e16 N/m (kb (s/2L)^2 = 4e4 N/m
+    exceeds the struts' geometric stiffness |t|/L ~ 430 N/m) K(0) is positive definite, as
+    d2U/dbeta2 > 0 says it must be; and K(f) keeps the inertia of K(0) up to the critical forces
+    around 0."""
+    params = PAPER_PARAMS.with_overrides(k2=428.0, k4=428.0, ka=1e4, kb=4.3e5)
+    L = params.L
+    rho1 = rho2 = 1e-6 * L
+    beta = float(equilibrium_beta(rho1, rho2, params))
+    assert float(d2U_dbeta2(np.array([rho1, rho2, beta]), params)) == pytest.approx(params.k2 * L**2, rel=1e-6)
+    K = stiffness_matrix_paper(rho1, rho2, 0.0, None, params)
+    w, v = np.linalg.eigh(K)
+    assert w[0] < -1.0                                     # N/m, well beyond the 1e-2 N/m resolution
+    assert w[1] > 0.0
+    t, _ = member_forces(rho1, rho2, 0.0, None, params)
+    X0 = node_positions((rho1, rho2, beta), params).reshape(-1)
+    rest = member_lengths((rho1, rho2, beta), params) - t / axial_stiffnesses(params)
+    h = 1e-5 * L
+    assert abs(v[0, 0]) * h < rho1                         # v[0] is Bx
+    d = np.zeros(12)
+    d[FREE] = v[:, 0] * h
+    E0 = total_potential_energy(X0, rest, 0.0, params)
+    second = (total_potential_energy(X0 + d, rest, 0.0, params) - 2.0 * E0
+              + total_potential_energy(X0 - d, rest, 0.0, params)) / h**2
+    assert second == pytest.approx(w[0], abs=1e-2)
+    rigid = params.with_overrides(ka=1e12, kb=1e16)
+    assert np.linalg.eigvalsh(stiffness_matrix_paper(rho1, rho2, 0.0, None, rigid))[0] > 0.0
+    crit = critical_forces(rho1, rho2, params)
+    lo = max(crit[crit < 0], default=-1e3)
+    hi = min(crit[crit > 0], default=1e3)
+    for f in (0.5 * lo, 0.5 * hi):
+        assert (np.linalg.eigvalsh(stiffness_matrix_paper(rho1, rho2, f, None, params)) < 0).sum() == 1
+
+
+@settings(max_examples=40)
+@given(st.data())
+def test_stiffness_at_zero_force_is_positive_definite_at_the_papers_parameters(data):
+    """At the paper's parameters K(0) is positive definite over the configuration domain,
+    drawn down to about 1e-6 L from its edges (K exists from 1e-12 L on)."""
+    params = PAPER_PARAMS
+    L = params.L
+    rho1 = L * data.draw(edged(1e-6, 1.0 - 1e-6))
+    top = 2.0 * L - rho1
+    rho2 = top * data.draw(edged(1e-6 / 2.0, 1.0 - 1e-6 / 2.0))
+    assume(2.0 * L - rho1 - rho2 >= 1e-6 * L)
+    assert np.linalg.eigvalsh(stiffness_matrix_paper(rho1, rho2, 0.0, None, params))[0] > 0.0

@@ -17,11 +17,11 @@ from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
 from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics, inverse_kinematics
-from tensegrity_core.class2.dynamics import Class2Dynamics
+from tensegrity_core.class2.dynamics import LAMBDA_MIN_REL, Class2Dynamics, SingularityApproachEvent
 from tensegrity_core.general import Configuration, form_find, generalized_force, potential_energy, tangent_stiffness
 from tensegrity_core.general.formfind import line_search
 from tensegrity_core.general.statics import member_lengths
-from tests.class2.strategies import configurations, parameter_sets, scaled
+from tests.class2.strategies import configurations, edged, parameter_sets, scaled
 from tests.hard.oracles import fk_residual
 from tests.hard.strategies import displacements, structures
 
@@ -106,6 +106,69 @@ def test_property_class2_energy_conserved_without_damping_or_forces(r1, r2, b, v
                     atol=1e-12, events=near_singular)
     E = np.array([dyn.energy(y) for y in sol.y.T])
     assert np.abs(E - E[0]).max() <= 1e-8 * max(abs(E[0]), 1e-3)
+
+
+#: Starting distances lambda/L to the lambda sets: 3 LAMBDA_MIN_REL up to L, the ends and the
+#: decades between drawn on purpose (log-uniform).
+_LAMBDA0 = edged(math.log10(3.0 * LAMBDA_MIN_REL), 0.0).map(lambda e: 10.0 ** e)
+#: beta [rad]: the paper's range limit pi/2 and its neighbours drawn on purpose, else (0.2, 2.9).
+_BETA = st.one_of(st.sampled_from([math.pi / 2, math.nextafter(math.pi / 2, 0.0), math.pi / 2 + 1e-9,
+                                   math.pi / 2 - 1e-6]), st.floats(0.2, 2.9))
+
+
+@settings(max_examples=30, deadline=None)
+@given(_LAMBDA0, _LAMBDA0, _BETA, st.floats(-2.0, 2.0), st.floats(-2.0, 2.0), st.floats(-3.0, 3.0))
+def test_property_class2_energy_conserved_near_the_singular_sets(l1, l2, b, w1, w2, wb):
+    """T + U is conserved up to a bound derived from the distance to the lambda sets.
+
+    Draws: ``lambda1 = l1 L`` (s -> 2L, struts AE, CE flat), ``lambda2 = l2 L`` (rho1 -> L,
+    the fold corner with beta -> pi/2 drawn on purpose); rates ``rho1' = -l2 w2``, ``s' = -l1
+    w1``, i.e. ``lambda2' = rho1 w2/L``, ``lambda1' = s w1/L`` [m/s] (bounded node speeds, so the
+    approach to a set takes a time ~ lambda/w). beta = pi/2 is no singularity
+    of the dynamics (M, grad U regular there); only the lambdas are.
+
+    Derivation of the solver settings and the allowance. Stop at ``lambda_stop = lambda0/2``
+    (SingularityApproachEvent, above the refusal LAMBDA_MIN_REL L): along the run every
+    lambda >= lambda_stop. There ``mu = m/2 + 2 m L^2/(3 lambda1^2)`` (and ``m L^2/(3
+    lambda2^2)``), so ``d ln T / d ln s <= 2 s^2/lambda^2 <= 8 (L/lambda)^2``: a relative error
+    ``e`` of the state gives a relative energy error ``8 (L/lambda)^2 e``. The remaining
+    distance ``2L - s = lambda^2/(2L + s)`` is resolved only with a relative tolerance below
+    ``(lambda/L)^2``: ``rtol = max(1e-10 (lambda_stop/L)^2, 1e-13)`` (scipy's floor is
+    2.2e-14). An RK stage must not cross the refusal: ``max_step = (lambda_stop -
+    LAMBDA_MIN_REL L)/(4 w)`` with ``w`` twice the drawn rates (energy exchange with the
+    springs over the window changes node speeds by less than that). Per accepted step DOP853
+    keeps the error below ``sqrt(6) rtol`` of the state (RMS norm) and rounding adds ``eps``;
+    over ``n`` steps, worst case without cancellation::
+
+        |E - E0| <= n 8 (L/lambda_stop)^2 (sqrt(6) rtol + eps) (T + |U|)_max + 1e-12 E0
+
+    The window is at most 200 ``max_step`` (cost). The bound is worst case (the drift seen is
+    below 1% of it), yet a 1e-3 relative error in the velocity term ``kappa1 sdot^2`` fails it.
+    """
+    p = PAPER_PARAMS.with_overrides(c1=0.0, c2=0.0, c3=0.0, c4=0.0)
+    L = p.L
+    dyn = Class2Dynamics(p)
+    lam1, lam2 = l1 * L, l2 * L
+    rho1 = math.sqrt((L - lam2) * (L + lam2))
+    s = math.sqrt((2.0 * L - lam1) * (2.0 * L + lam1))
+    r1d = -l2 * w2                  # lambda2' = rho1 w2/L
+    sd = -l1 * w1                   # lambda1' = s w1/L
+    y0 = np.array([rho1, s - rho1, b, r1d, sd - r1d, wb])
+    stop = 0.5 * min(l1, l2)
+    rtol = max(1e-10 * stop**2, 1e-13)
+    w = 2.0 * max(abs(w1), abs(w2), 1e-3)
+    h_max = (stop - LAMBDA_MIN_REL) * L / (4.0 * w)
+    T = min(0.2, 200 * h_max)
+    sol = solve_ivp(lambda t, y: dyn.rhs(t, y), (0, T), y0, method="DOP853", rtol=rtol, atol=1e-2 * rtol * L,
+                    events=[SingularityApproachEvent("lambda1", p, stop), SingularityApproachEvent("lambda2", p, stop)],
+                    max_step=h_max, first_step=min(h_max, T))
+    assert sol.status in (0, 1), sol.message
+    E = np.array([dyn.energy(y) for y in sol.y.T])
+    U = np.array([dyn.energy(np.concatenate([y[:3], np.zeros(3)])) for y in sol.y.T])
+    scale = np.abs(E - U).max() + np.abs(U).max()      # max T + max |U| over the run
+    n = len(sol.t) - 1
+    allowance = n * 8.0 / stop**2 * (math.sqrt(6.0) * rtol + 2.2e-16) * scale + 1e-12 * abs(E[0])
+    assert np.abs(E - E[0]).max() <= allowance
 
 
 @given(configurations(margin=1e-3), parameter_sets())

@@ -44,7 +44,13 @@ class SingularityApproachEvent:
     """Zero when ``lambda1`` or ``lambda2`` reaches ``margin * L`` (decreasing).
 
     The value is ``lambda^2 - (margin L)^2`` [m^2], smooth across the level. ``margin`` must
-    exceed the model's ``lambda_min`` so the event fires before the equations refuse.
+    exceed the model's ``lambda_min`` so the event fires before the equations refuse, and the
+    integrator's trial stages must not jump past the refusal: with ``lambda'`` [m/s] the
+    largest rate of approach, ``max_step <= (margin - lambda_min) L / |lambda'|``. Near the
+    set the remaining length ``2L - s = lambda1^2/(2L + s)`` (and ``L - rho1``) is a fraction
+    ``~ (lambda/L)^2`` of the state, so ``rtol`` must be below that fraction to resolve the
+    approach; otherwise a step that crosses the set raises
+    :class:`~tensegrity_core.errors.DomainError` before the event can fire.
     """
 
     kind: str
