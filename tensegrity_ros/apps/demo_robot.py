@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import shutil
 import sys
+import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -39,7 +40,10 @@ class LoopFeeder:
     """The client's subscriptions to ``body_states`` and ``contacts`` feeding ``loop`` (None:
     not answering), its answers published on ``pub`` once per stamp and only below
     ``until_ns`` [ns] (an answer to a run's final state would reach the simulator after the
-    next reset, stamped for another step)."""
+    next reset, stamped for another step). The reset's state at t = 0, published before the
+    loop starts, is answered when it starts: a lockstep simulator waits for its command, and
+    whether it was delivered before or after :meth:`start` is a matter of thread timing (a
+    run whose t = 0 state came first waited out the 30 s lockstep timeout and differed)."""
 
     def __init__(self, node: Any, pub: Any) -> None:
         from rclpy.qos import QoSProfile
@@ -49,22 +53,46 @@ class LoopFeeder:
         self.loop: Any = None
         self.until_ns: int | None = None
         self._answered: set[int] = set()
+        self._lock = threading.Lock()                 # start() on the caller's thread, callbacks on the spin thread
+        self._at_reset: dict[str, Any] = {}           # body_states and contacts stamped t = 0 since start(None)
+        self._fed: set[tuple[str, int]] = set()       # what the loop has had: a reset's state comes once
         self._pub, self._Header, self._CableCommand = pub, Header, CableCommand
         node.create_subscription(RigidBodyStates, "body_states", self._on_bodies, QoSProfile(depth=1000))
         node.create_subscription(CapContacts, "contacts", self._on_contacts, QoSProfile(depth=1000))
 
     def start(self, loop: Any) -> None:
-        self.loop, self.until_ns, self._answered = loop, None, set()
+        with self._lock:
+            self.loop, self.until_ns, self._answered, self._fed = loop, None, set(), set()
+            if loop is None:
+                self._at_reset = {}
+            for kind, msg in self._at_reset.items():
+                self._feed(kind, msg)
 
     def _on_bodies(self, msg: Any) -> None:
-        if self.loop is not None:
+        self._take("bodies", msg)
+
+    def _on_contacts(self, msg: Any) -> None:
+        self._take("contacts", msg)
+
+    def _take(self, kind: str, msg: Any) -> None:
+        with self._lock:
+            if _ns(msg) == 0:
+                self._at_reset[kind] = msg
+            if self.loop is not None:
+                self._feed(kind, msg)
+
+    def _feed(self, kind: str, msg: Any) -> None:
+        """Give the loop ``msg`` once per kind and stamp (every reset's state at t = 0 is the
+        same state)."""
+        if (kind, _ns(msg)) in self._fed:
+            return
+        self._fed.add((kind, _ns(msg)))
+        if kind == "bodies":
             self._send(self.loop.on_bodies(_ns(msg), list(msg.name),
                                            [(p.position.x, p.position.y, p.position.z) for p in msg.pose],
                                            [(p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w)
                                             for p in msg.pose]))
-
-    def _on_contacts(self, msg: Any) -> None:
-        if self.loop is not None:
+        else:
             self._send(self.loop.on_contacts(_ns(msg), list(msg.name)))
 
     def _send(self, answers: list[Any]) -> None:
