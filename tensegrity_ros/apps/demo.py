@@ -216,8 +216,7 @@ class DemoClient:
         """From rest with the clock at 0: ``steps`` lockstep steps under ``law``; the joint
         states received (one per step and the start)."""
         self.sim.set_law(None)
-        self.sim.reset_all()
-        self.sim.take_joints()
+        self.sim.restart()
         self.sim.set_law(law, until_ns=steps * self.step_ns)
         self.sim.step(steps)
         self.sim.set_law(None)

@@ -40,10 +40,17 @@ class LoopFeeder:
     """The client's subscriptions to ``body_states`` and ``contacts`` feeding ``loop`` (None:
     not answering), its answers published on ``pub`` once per stamp and only below
     ``until_ns`` [ns] (an answer to a run's final state would reach the simulator after the
-    next reset, stamped for another step). The reset's state at t = 0, published before the
-    loop starts, is answered when it starts: a lockstep simulator waits for its command, and
-    whether it was delivered before or after :meth:`start` is a matter of thread timing (a
-    run whose t = 0 state came first waited out the 30 s lockstep timeout and differed)."""
+    next reset, stamped for another step).
+
+    What the loop sees depends on no thread's timing, so that a rerun is identical:
+
+    - the reset's state at t = 0, published before the loop starts, is answered when it
+      starts (dropped, the lockstep simulator would wait out its timeout for that command);
+    - of each kind, only the messages from its t = 0 state on are fed (a topic's messages
+      arrive in order, so a late state of the run before the reset comes before it);
+    - :meth:`wait_fed` lets the caller wait until the loop has had a stamp, so that the
+      loop's ``done_ns`` is read after the last state of a chunk of steps (read before it,
+      a run could step a chunk more than its rerun)."""
 
     def __init__(self, node: Any, pub: Any) -> None:
         from rclpy.qos import QoSProfile
@@ -53,7 +60,7 @@ class LoopFeeder:
         self.loop: Any = None
         self.until_ns: int | None = None
         self._answered: set[int] = set()
-        self._lock = threading.Lock()                 # start() on the caller's thread, callbacks on the spin thread
+        self._fed_cv = threading.Condition()          # callbacks on the spin thread, the rest on the caller's
         self._at_reset: dict[str, Any] = {}           # body_states and contacts stamped t = 0 since start(None)
         self._fed: set[tuple[str, int]] = set()       # what the loop has had: a reset's state comes once
         self._pub, self._Header, self._CableCommand = pub, Header, CableCommand
@@ -61,7 +68,7 @@ class LoopFeeder:
         node.create_subscription(CapContacts, "contacts", self._on_contacts, QoSProfile(depth=1000))
 
     def start(self, loop: Any) -> None:
-        with self._lock:
+        with self._fed_cv:
             self.loop, self.until_ns, self._answered, self._fed = loop, None, set(), set()
             if loop is None:
                 self._at_reset = {}
@@ -75,11 +82,18 @@ class LoopFeeder:
         self._take("contacts", msg)
 
     def _take(self, kind: str, msg: Any) -> None:
-        with self._lock:
+        with self._fed_cv:
             if _ns(msg) == 0:
                 self._at_reset[kind] = msg
-            if self.loop is not None:
+            if self.loop is not None and kind in self._at_reset:
                 self._feed(kind, msg)
+
+    def wait_fed(self, stamp_ns: int, timeout: float = 60.0) -> None:
+        """Wait until the loop has had both kinds stamped ``stamp_ns`` [ns]."""
+        with self._fed_cv:
+            if not self._fed_cv.wait_for(lambda: {("bodies", stamp_ns), ("contacts", stamp_ns)} <= self._fed, timeout):
+                raise RuntimeError(f"the 6-bar's body_states and contacts stamped {stamp_ns / NS_PER_S:g} s did not "
+                                   f"reach the gait within {timeout:g} s")
 
     def _feed(self, kind: str, msg: Any) -> None:
         """Give the loop ``msg`` once per kind and stamp (every reset's state at t = 0 is the
@@ -87,6 +101,7 @@ class LoopFeeder:
         if (kind, _ns(msg)) in self._fed:
             return
         self._fed.add((kind, _ns(msg)))
+        self._fed_cv.notify_all()
         if kind == "bodies":
             self._send(self.loop.on_bodies(_ns(msg), list(msg.name),
                                            [(p.position.x, p.position.y, p.position.z) for p in msg.pose],
@@ -150,8 +165,7 @@ def run_robot(rclpy: Any, out: Path, *, step_ns: int, record: bool, results: dic
         def roll() -> tuple[int, list[Any]]:
             feeder.start(None)
             client.set_law(None)
-            client.reset_all()
-            client.take_joints()
+            client.restart()
             loop = FeedbackLoop(RollController(robot, faces, moves=moves), frames, robot.node_names, cables,
                                 rate=RATE)
             feeder.start(loop)
@@ -159,6 +173,7 @@ def run_robot(rclpy: Any, out: Path, *, step_ns: int, record: bool, results: dic
             while loop.done_ns is None and k < most:
                 client.step(chunk)
                 k += chunk
+                feeder.wait_fed(k * step_ns)
             feeder.until_ns = (k + settle) * step_ns
             client.step(settle)
             k += settle

@@ -235,6 +235,16 @@ class SimClient:
         req = self.srv["reset_simulation"].Request(scope=self.srv["reset_simulation"].Request.SCOPE_ALL)
         return self.checked("reset_simulation", req)
 
+    def restart(self) -> JointRecord:
+        """Reset the simulation (:meth:`reset_all`) and forget the joint states received
+        before it: those received from then on are the new run's, beginning with its state at
+        t = 0, which this waits for and returns. The reset publishes that state before it
+        answers, and whether it is received before or after the answer is thread timing, so
+        a run that took the joint states after the answer had it or not by chance."""
+        self.take_joints()
+        self.reset_all()
+        return self.wait_joint(0)
+
     def close(self) -> None:
         # the spinning thread ends first: shutting the executor down under a callback that
         # is running destroys the guard condition that callback triggers (InvalidHandle)
