@@ -3,7 +3,8 @@
 
 Expectations from the standard (simulation_interfaces 1.5.1): stepping works on a paused
 simulator and advances ``/clock`` by exactly steps x step size, is refused while playing with
-RESULT_INCORRECT_STATE and a message; a transition to the current state answers
+RESULT_OPERATION_FAILED (StepSimulation.srv: "Calling with simulation not paused will return
+RESULT_OPERATION_FAILED and error message") and a message; a transition to the current state answers
 ALREADY_IN_TARGET_STATE; a reset (SCOPE_DEFAULT) puts the clock at 0 and the robot back
 where it started; the state getter says which state the simulator is in. And, stepped into
 its free fall, every rod's IMU reads what a real one does there: no specific force and no
@@ -97,7 +98,7 @@ def test_stepping_a_paused_robot_advances_the_clock_by_whole_steps_and_a_reset_p
     assert _set(client, SimulationState.STATE_PLAYING).result == Result.RESULT_OK
     assert _state(client) == SimulationState.STATE_PLAYING
     refused = _step(client, 1)
-    assert refused.result == Result.RESULT_INCORRECT_STATE and refused.error_message.strip()
+    assert refused.result == Result.RESULT_OPERATION_FAILED and refused.error_message.strip()
 
     assert _set(client, SimulationState.STATE_PAUSED).result == Result.RESULT_OK
     seen = len(client.received["body_states"])

@@ -188,7 +188,7 @@ def test_stepping_requests_outside_pause_and_of_bad_size_are_answered(stepping):
     proc, client = stepping("max_steps_per_request:=1000")
     res = client.call("step_simulation", StepSimulation.Request(steps=1))
     code, message = _result(res)
-    assert code == Result.RESULT_INCORRECT_STATE and "paused" in message
+    assert code == Result.RESULT_OPERATION_FAILED and "paused" in message   # StepSimulation.srv's code
     from simulation_interfaces.msg import SimulationState
 
     client.set_state(SimulationState.STATE_PAUSED)
@@ -406,7 +406,7 @@ def test_the_sim_command_plays_pauses_and_steps_the_simulator(stepping, ros_cont
     assert state["ok"] and state["state"]["state"] == SimulationState.STATE_PAUSED
     assert run_cli("sim", "play").returncode == 0
     out = run_cli("sim", "step", "2")
-    assert out.returncode == 1 and out.stdout.startswith("failed (RESULT_INCORRECT_STATE)"), out.stdout
+    assert out.returncode == 1 and out.stdout.startswith("failed (RESULT_OPERATION_FAILED)"), out.stdout
     out = run_cli("sim", "play")
     assert out.returncode == 0 and "already playing" in out.stdout            # ALREADY_IN_TARGET_STATE
     out = run_cli("sim", "step")
@@ -477,4 +477,16 @@ def test_simulate_steps_gives_feedback_after_every_step(stepping, ros_context, l
         result = goal.result().get_result_async()
         assert spin_until_done(ex, result, 30) and result.result().result.result.result == 1
         assert feedback == [(k, 25 - k) for k in range(1, 26)]
+    # playing, the goal ends with SimulateSteps.action's code for it: "Calling with simulation
+    # unpaused will return OPERATION_FAILED and error message"
+    from action_msgs.msg import GoalStatus
+    from simulation_interfaces.msg import Result, SimulationState
+
+    assert client.set_state(SimulationState.STATE_PLAYING).result.result == Result.RESULT_OK
+    goal = action.send_goal_async(SimulateSteps.Goal(steps=5))
+    assert spin_until_done(ex, goal, 30) and goal.result().accepted
+    result = goal.result().get_result_async()
+    assert spin_until_done(ex, result, 30) and result.result().status == GoalStatus.STATUS_ABORTED
+    refused = result.result().result.result
+    assert refused.result == Result.RESULT_OPERATION_FAILED and "paused" in refused.error_message
     node.destroy_node()

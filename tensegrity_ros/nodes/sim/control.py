@@ -139,9 +139,13 @@ class StepRequest:
 
 
 def check_step_request(steps: int, state: int, busy: StepRequest | None, max_steps: int) -> Answer | None:
-    """Why a stepping request of ``steps`` cannot start (an :class:`Answer`), or None."""
+    """Why a stepping request of ``steps`` cannot start (an :class:`Answer`), or None.
+
+    A simulation that is not paused answers RESULT_OPERATION_FAILED, the code the standard's
+    StepSimulation and SimulateSteps name for that case (and O3DE's implementation
+    answers); a request while another runs, RESULT_INCORRECT_STATE."""
     if state != PAUSED:
-        return Answer(Result.RESULT_INCORRECT_STATE,
+        return Answer(Result.RESULT_OPERATION_FAILED,
                       f"stepping needs the simulation paused; it is {RUN_STATE_NAMES[state]} "
                       "(SetSimulationState to STATE_PAUSED first)")
     if busy is not None and not busy.finished:
