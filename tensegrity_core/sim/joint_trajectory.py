@@ -5,7 +5,9 @@ The joints are a model's inputs that take commands (general structures: actuated
 whose positions are rest lengths [m]; see :class:`~tensegrity_core.sim.model.Interface`).
 A trajectory names some of them, each once, and gives points with ``time_from_start`` [s]
 (>= 0, strictly increasing), positions (one per named joint, inside each input's range) and
-optionally velocities and accelerations (every point or none). Interpolation as in
+optionally velocities and accelerations (every point or none); the last point's velocities
+are 0 (joint_trajectory_controller's default, ``allow_nonzero_velocity_at_trajectory_end:
+false``: after it the trajectory holds its positions at rest). Interpolation as in
 ros2_controllers' joint_trajectory_controller: positions only -> linear, with velocities ->
 cubic Hermite, with accelerations too -> quintic (``scipy.interpolate.BPoly.from_derivatives``,
 which is exactly that family). Unless the first point is at 0 the first segment starts at
@@ -15,7 +17,11 @@ point the trajectory holds it.
 :class:`GoalMonitor` checks a running goal as joint_trajectory_controller does: until the
 last point's time each joint must stay within its path tolerance of the desired position
 (and rate, where given); after it, the goal succeeds once every joint is within its goal
-tolerance, and fails when that has not happened ``goal_time`` seconds after the end.
+tolerance, and fails when that has not happened ``goal_time`` seconds after the end (``inf``:
+it waits as long as it takes, as joint_trajectory_controller with a goal time of 0).
+
+Tolerance values as control_msgs' JointTolerance gives them (:func:`tolerance`): > 0 the
+bound, 0 the default, < 0 "erased" (not checked; for the goal time: no limit).
 """
 
 from __future__ import annotations
@@ -35,6 +41,8 @@ from tensegrity_core.sim.model import Interface
 
 FloatArray = NDArray[np.float64]
 
+#: The largest last-point velocity taken for 0 [m/s]: joint_trajectory_controller's (float epsilon).
+END_VELOCITY_EPS: Final = float(np.finfo(np.float32).eps)
 #: What a trajectory may hold (input from outside is bounded).
 MAX_POINTS: Final = 100_000
 MAX_DURATION: Final = 24 * 3600.0
@@ -160,6 +168,10 @@ def plan_trajectory(names: Sequence[str], times: Sequence[float], positions: Seq
     a = _rows("accelerations", accelerations, n, len(names))
     if a is not None and v is None:
         raise TrajectoryError("accelerations need velocities too")
+    if v is not None and np.any(np.abs(v[-1]) > END_VELOCITY_EPS):
+        j = int(np.argmax(np.abs(v[-1]) > END_VELOCITY_EPS))
+        raise TrajectoryError(f"the last point's velocity of {names[j]} is {v[-1, j]:g} {interface.unit}/s: a "
+                              "trajectory must end at rest (its last point then holds)")
     for j, i in enumerate(inputs):
         lo, hi = interface.limits[i]
         bad = np.flatnonzero(~((p[:, j] > lo) & (p[:, j] < hi)))
@@ -181,7 +193,7 @@ def plan_trajectory(names: Sequence[str], times: Sequence[float], positions: Seq
 class Tolerances:
     """Per joint of a trajectory (its order): ``path_position`` [m] and ``path_velocity``
     [m/s] while it runs, ``goal_position`` and ``goal_velocity`` at its end (``inf``: not
-    checked), and ``goal_time`` [s] after the end to meet the goal tolerances."""
+    checked), and ``goal_time`` [s] after the end to meet the goal tolerances (``inf``: no limit)."""
 
     path_position: tuple[float, ...]
     path_velocity: tuple[float, ...]
@@ -246,7 +258,8 @@ def _violation(names: Sequence[str], pos_err: FloatArray, vel_err: FloatArray | 
 
 
 def tolerance(value: float, default: float) -> float:
-    """A JointTolerance value as a bound: > 0 itself, 0 the default, < 0 not checked (inf)."""
+    """A JointTolerance value (or a goal time [s]) as a bound: > 0 itself, 0 the default, < 0
+    not checked (inf; control_msgs' -1, "erased")."""
     if not math.isfinite(value):
         raise TrajectoryError(f"a tolerance must be finite, got {value!r}")
     return default if value == 0.0 else (value if value > 0.0 else math.inf)

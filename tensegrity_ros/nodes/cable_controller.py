@@ -25,21 +25,22 @@ are the scene's actuated cables that take commands; their positions are rest len
   goal's joints' rest lengths as the simulator reports them are the actual positions,
   their tensions the actual efforts; feedback ``desired`` / ``actual`` / ``error``
   (positions, and the desired velocities and accelerations), path tolerance until the last
-  point's time, goal tolerance after it within ``goal_time_tolerance``. Rates of rest
+  point's time, goal tolerance after it within ``goal_time_tolerance`` (0: the default;
+  < 0, control_msgs' -1: no limit, the goal waits for its tolerance). Rates of rest
   lengths are not measured: velocity tolerances are accepted and not checked.
 - Start: ``trajectory.header.stamp`` zero starts the goal at the latest joint state's time
   (the time it was accepted), a stamp starts it at that simulation time; a trajectory that
   ended before the latest joint state is OLD_HEADER_TIMESTAMP. The first segment starts
   from the current rest lengths unless the first point is at 0.
 - A new goal takes over from the running one, which ends ABORTED with INVALID_GOAL
-  "preempted: a newer goal took over" (joint_trajectory_controller's code and reason; it
-  reports the status CANCELED, which rclpy allows only after a cancel request); a cancelled
+  "preempted: a newer goal took over" (joint_trajectory_controller's status, code and
+  reason since its Jazzy release 4.41; CANCELED before); a cancelled
   goal ends CANCELED with SUCCESSFUL and the cables hold where they are. Goals follow
   simulation time: a paused simulator pauses them (a cancel still ends them at once).
 
 Parameters: ``scene`` (the simulator's: which cables there are), the default tolerances
 ``goal_tolerance`` [m], ``path_tolerance`` [m] (0 = not checked) and
-``goal_time_tolerance`` [s], and ``state_timeout`` [s] (how long a goal waits for the
+``goal_time_tolerance`` [s] (0 = no limit), and ``state_timeout`` [s] (how long a goal waits for the
 controller to become active).
 """
 
@@ -105,7 +106,9 @@ class CableControllerNode(Node):
         self.path_tolerance = declare(self, "path_tolerance", 0.0, "default path tolerance of each cable's rest "
                                       "length while a trajectory runs [m]; 0 = not checked", lo=0.0, read_only=True)
         self.goal_time_tolerance = declare(self, "goal_time_tolerance", 1.0, "default time after a trajectory's "
-                                           "last point to meet the goal tolerance [s]", lo=0.0, read_only=True)
+                                           "last point to meet the goal tolerance; 0 = no limit (as "
+                                           "joint_trajectory_controller's constraints.goal_time) [s]", lo=0.0,
+                                           read_only=True)
         self.state_timeout = declare(self, "state_timeout", 10.0, "how long a goal sent before the controller "
                                      "has the simulator's joint_states and cable_states waits for them [s of wall "
                                      "time]; then it is refused", lo=0.0, read_only=True)
@@ -298,9 +301,9 @@ class CableControllerNode(Node):
                     raise jt.TrajectoryError(f"tolerance for joint {excerpt(item.name)}, which the trajectory does "
                                              "not name", code=jt.INVALID_JOINTS)
                 bounds[trajectory.names.index(item.name)] = jt.tolerance(item.position, default)
-        goal_time = _ns(req.goal_time_tolerance) / NS_PER_S or self.goal_time_tolerance
-        if goal_time < 0.0:           # joint_trajectory_controller rejects it too
-            raise jt.TrajectoryError(f"goal_time_tolerance must be >= 0 s, got {goal_time:g} s")
+        # as joint_trajectory_controller: 0 the default, -1 (here any value < 0) no limit; a
+        # default of 0 is no limit too (its constraints.goal_time)
+        goal_time = jt.tolerance(_ns(req.goal_time_tolerance) / NS_PER_S, self.goal_time_tolerance or math.inf)
         off = (math.inf,) * n
         monitor = jt.GoalMonitor(trajectory, jt.Tolerances(tuple(path), off, tuple(goal), off, goal_time))
         return _Job(handle, trajectory, monitor, t_start)

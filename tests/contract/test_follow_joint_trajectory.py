@@ -200,7 +200,9 @@ def test_a_goal_joint_trajectory_controller_rejects_ends_with_the_standard_code_
 @pytest.mark.parametrize("case, kwargs, code", [
     ("a tolerance for a joint the trajectory does not name", {"goal": [("c0_7", 1e-3)]}, INVALID_JOINTS),
     ("a NaN tolerance", {"path": [("c0_4", math.nan)]}, INVALID_GOAL),
-    ("a negative goal_time_tolerance", {"goal_time": -1.0}, INVALID_GOAL),
+    # joint_trajectory_controller (validate_trajectory_msg), allow_nonzero_velocity_at_trajectory_end
+    # false by default: "Velocity of last trajectory point of joint ... is not zero"
+    ("a last point that does not end at rest", {"velocities": [(0.01,)]}, INVALID_GOAL),
 ])
 def test_bad_tolerances_are_refused(suite, case, kwargs, code):
     from action_msgs.msg import GoalStatus
@@ -210,6 +212,31 @@ def test_bad_tolerances_are_refused(suite, case, kwargs, code):
     status, result = _outcome(client, handle)
     assert (status, result.error_code) == (GoalStatus.STATUS_ABORTED, code), (case, result.error_string)
     assert result.error_string.strip(), case
+
+
+def test_a_goal_time_tolerance_of_minus_one_waits_as_long_as_the_goal_takes(suite):
+    """control_msgs' JointTolerance: -1 "erased"; joint_trajectory_controller reads a goal's
+    goal_time_tolerance through the same rule (tolerances.hpp, resolve_tolerance_source) and a
+    goal time of 0 waits "a potentially infinite amount of time": the 0.1 m step that the
+    motor reaches some 0.2 s after a 0.05 s trajectory's end (a goal time of 1 ns: violated,
+    above) succeeds, however long it took."""
+    from action_msgs.msg import GoalStatus
+    from builtin_interfaces.msg import Duration
+
+    client, action = suite
+    start = _rest(client, ("c1_7",))[0]
+    target = start - 0.1                          # 0.1 m at 0.5 m/s takes the motor >= 0.2 s
+    goal = _goal([(0.05, (target,))], ("c1_7",), goal_time=Duration(sec=-1), goal=[("c1_7", 1e-4)])
+    handle, feedback = _send(client, action, goal)
+    status, result = _outcome(client, handle)
+    assert (status, result.error_code) == (GoalStatus.STATUS_SUCCEEDED, SUCCESSFUL), result.error_string
+    # it ran on past the trajectory's end: feedback 0.1 s after it, still outside the tolerance
+    client.wait(lambda: any(stamp_ns(fb.desired.time_from_start) >= 150_000_000 for fb in feedback),
+                "feedback 0.1 s after the trajectory's end")
+    assert any(stamp_ns(fb.desired.time_from_start) >= 150_000_000 and abs(fb.error.positions[0]) > 1e-4
+               for fb in feedback)
+    handle, _ = _send(client, action, _goal([(0.5, (NOMINAL,))], ("c1_7",), goal_time=2.0))   # back
+    assert _outcome(client, handle)[1].error_code == SUCCESSFUL
 
 
 def test_an_empty_trajectory_is_refused(suite):

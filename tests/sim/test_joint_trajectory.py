@@ -89,6 +89,9 @@ def test_a_command_sets_the_trajectorys_joints_and_holds_the_others():
     (["a"], [1.0], [[0.5, 0.6]], {}, INVALID_GOAL, "2 positions for the 1 joints"),
     (["a"], [1.0, 2.0], [[0.5], [0.6]], {"accelerations": [[0.0], [0.0]]}, INVALID_GOAL, "need velocities"),
     (["a"], [1.0, 2.0], [[0.5], [0.6]], {"velocities": [[0.0]]}, INVALID_GOAL, "1 rows for 2 points"),
+    # joint_trajectory_controller's default (allow_nonzero_velocity_at_trajectory_end: false)
+    (["b", "a"], [1.0, 2.0], [[0.5, 0.5], [0.6, 0.6]], {"velocities": [[0.1, 0.1], [0.0, -1e-3]]}, INVALID_GOAL,
+     "last point's velocity of a is -0.001 m/s"),
 ])
 def test_bad_trajectories_say_why(names, times, positions, extra, code, reason):
     with pytest.raises(TrajectoryError, match=reason) as info:
@@ -121,7 +124,23 @@ def test_the_goal_monitor_checks_the_path_then_the_goal_within_its_time():
     assert m.check(1.3, [0.8005, 0.7995], [0.0, 0.0]).succeeded
 
 
+def test_a_last_velocity_below_float_epsilon_is_at_rest():
+    """joint_trajectory_controller compares the last point's velocities with float epsilon."""
+    tr = plan_trajectory(["a"], [1.0], [[0.5]], [[1e-8]], interface=CABLES, start=START)
+    assert tr.sample(2.0).positions[0] == 0.5
+
+
+def test_without_a_goal_time_the_goal_waits_for_its_tolerance():
+    """A goal time of inf (control_msgs' -1, or a default of 0: joint_trajectory_controller
+    "will wait a potentially infinite amount of time") never fails the goal tolerance."""
+    tr = plan_trajectory(["a"], [1.0], [[0.8]], interface=CABLES, start=START)
+    m = GoalMonitor(tr, Tolerances((math.inf,), (math.inf,), (0.001,), (math.inf,), tolerance(-1.0, 0.5)))
+    assert m.check(1e6, [0.9]) is None
+    assert m.check(1e6 + 1.0, [0.8]).succeeded
+
+
 def test_tolerance_values_follow_joint_tolerance_conventions():
     assert tolerance(0.0, 0.01) == 0.01 and tolerance(0.2, 0.01) == 0.2 and tolerance(-1.0, 0.01) == math.inf
+    assert tolerance(0.0, math.inf) == math.inf                # a default of "none": not checked
     with pytest.raises(TrajectoryError):
         tolerance(math.nan, 0.01)
