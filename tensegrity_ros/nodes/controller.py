@@ -124,7 +124,7 @@ class ControllerNode(Node):
         self.max_force = declare(self, "max_force", 5.0, "actuator force limit, |f1|, |f2| <= max_force [N]",
                                  lo=1e-6, read_only=True)
         self.force_budget = declare(self, "force_budget", 0.8, "share of max_force a goal's feedforward may "
-                                    "use (the rest is the feedback's room)", lo=0.01, hi=1.0, read_only=True)
+                                    "use (the rest is the feedback's room) [fraction of max_force]", lo=0.01, hi=1.0, read_only=True)
         self.goal_tolerance = declare(self, "goal_tolerance", 1e-4, "default goal tolerance: of D for "
                                       "move_end_effector, of each length for follow_actuator_trajectory [m]",
                                       lo=1e-9, read_only=True)
@@ -142,7 +142,7 @@ class ControllerNode(Node):
         self.state_timeout = declare(self, "state_timeout", 0.5, "a goal aborts when the joint states' time "
                                      "has not advanced for this long [s, wall time]", lo=0.01, read_only=True)
         self.singular_abort = declare(self, "singular_abort", 0.01, "a goal aborts when lambda1/L or "
-                                      "lambda2/L of the measured state falls below this", lo=0.0, hi=1.0,
+                                      "lambda2/L of the measured state falls below this [fraction of L]", lo=0.0, hi=1.0,
                                       read_only=True)
         self.singular_margin = declare(self, "singular_margin", 0.02, "planned paths keep this distance "
                                        "from every singular set [L]", lo=0.0, hi=1.0, read_only=True)

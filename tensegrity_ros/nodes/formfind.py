@@ -54,7 +54,7 @@ class FormFindNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("tensegrity_formfind", **kwargs)
         guard_parameter_services(self)
-        self.max_workers = declare(self, "max_workers", 2, "form-findings run at once (processes)",
+        self.max_workers = declare(self, "max_workers", 2, "form-findings run at once [processes]",
                                    lo=1, hi=64, read_only=True)
         self.time_limit = declare(self, "time_limit", 60.0, "wall-time limit per request, parsing included [s]",
                                   lo=0.1, read_only=True)

@@ -61,7 +61,7 @@ AS_PROCESSES = [
     (["node", "sim", "--ros-args", "-p", "safe_force:=2000"],
      "parameter safe_force must be in [-max_force, max_force] = [-1000, 1000] N, got 2000 N"),
     (["node", "formfind", "--ros-args", "-p", "max_workers:=0"],
-     "tensegrity_formfind: parameter max_workers must be a whole number in [1, 64], got 0"),
+     "tensegrity_formfind: parameter max_workers must be a whole number in [1, 64] processes, got 0"),
     (["node", "formfind", "--ros-args", "-p", "time_limit:=abc"],
      "tensegrity_formfind: parameter time_limit must be a number [s], got 'abc'"),
 ]

@@ -37,7 +37,13 @@ UNKNOWN_TYPES = range(10, 256)          # ParameterValue.type is a uint8; 0-9 ar
 def nodes(tmp_path_factory):
     """Every node running in NS, and a client of their parameter services in this process."""
     import rclpy
-    from rcl_interfaces.srv import GetParameters, SetParameters, SetParametersAtomically
+    from rcl_interfaces.srv import (
+        DescribeParameters,
+        GetParameters,
+        ListParameters,
+        SetParameters,
+        SetParametersAtomically,
+    )
     from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
 
@@ -55,7 +61,9 @@ def nodes(tmp_path_factory):
         clients = {name: {srv: node.create_client(srv, f"{NS}/{name}/{suffix}")
                           for srv, suffix in ((SetParameters, "set_parameters"),
                                               (SetParametersAtomically, "set_parameters_atomically"),
-                                              (GetParameters, "get_parameters"))}
+                                              (GetParameters, "get_parameters"),
+                                              (ListParameters, "list_parameters"),
+                                              (DescribeParameters, "describe_parameters"))}
                    for name in NODES}
         for name, by_type in clients.items():
             for client in by_type.values():
@@ -108,3 +116,42 @@ def test_parameter_requests_of_unknown_types_are_refused_and_the_node_lives_on(n
     assert _value(call, name, param) == before                  # nothing changed
     assert not exited(procs[name].popen), procs[name].stderr()
     assert "Traceback" not in procs[name].stderr()
+
+
+#: Parameters rclpy declares on every node itself (not the suite's).
+RCLPY_OWN = {"use_sim_time", "start_type_description_service"}
+#: A unit in brackets (``[m]``, ``[s, wall time]``, ``[1]`` for a ratio) or a count.
+UNIT = r"\[[^\]]+\]|\b(count|number of)\b"
+
+
+@pytest.mark.parametrize("name", NODES)
+def test_every_parameter_is_snake_case_read_only_and_says_its_unit(nodes, name):
+    """ROS 2's conventions for a node's parameters, read over its parameter services as any
+    client (rqt, ``ros2 param describe``) reads them: names in snake_case (REP 144's rule for
+    names, the ROS 2 style guide's for parameters), a description, read-only where the node
+    reads the value only as it starts (every parameter of the suite: docs/ros.md), and for a
+    number its unit in brackets, REP 103's SI units (``[s]``, ``[Hz]``, ``[m]``, ``[N]``),
+    or a count; a number's range in the descriptor (``additional_constraints`` or
+    ``integer_range``) when it has one."""
+    import re
+
+    from rcl_interfaces.msg import ParameterType
+    from rcl_interfaces.srv import DescribeParameters, ListParameters
+
+    call, _ = nodes
+    names = [n for n in call(name, ListParameters, ListParameters.Request()).result.names if n not in RCLPY_OWN]
+    assert NODES[name][1] in names
+    described = call(name, DescribeParameters, DescribeParameters.Request(names=names)).descriptors
+    assert [d.name for d in described] == names
+    problems = []
+    for d in described:
+        if not re.fullmatch(r"[a-z][a-z0-9]*(_[a-z0-9]+)*", d.name):
+            problems.append(f"{d.name} is not snake_case")
+        if not d.description.strip():
+            problems.append(f"{d.name} has no description")
+        if not d.read_only:
+            problems.append(f"{d.name} is not read-only, but the node reads it only as it starts")
+        if d.type in (ParameterType.PARAMETER_DOUBLE, ParameterType.PARAMETER_INTEGER) or d.dynamic_typing:
+            if not re.search(UNIT, d.description):
+                problems.append(f"{d.name}'s description gives no unit: {d.description!r}")
+    assert not problems, f"{name}: " + "; ".join(problems)

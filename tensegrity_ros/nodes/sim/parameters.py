@@ -56,7 +56,7 @@ def declare_sim_parameters(node: Node, scene: str) -> SimParameters:
 
     rate = d("publish_rate", 100.0, "free-running: ticks per wall second, each publishing the state [Hz]",
              lo=1.0, hi=1000.0)
-    rtf = d("real_time_factor", 1.0, "free-running: simulated seconds per wall second; 0 = as fast as possible",
+    rtf = d("real_time_factor", 1.0, "free-running: simulated seconds per wall second; 0 = as fast as possible [s/s]",
             lo=0.0, hi=1000.0)
     step_size = d("step_size", 0.0,
                   "the simulation step, i.e. the control period [s], rounded to whole nanoseconds: /clock "
@@ -76,7 +76,7 @@ def declare_sim_parameters(node: Node, scene: str) -> SimParameters:
                      "lockstep while playing: publish the next state no sooner than this many simulated "
                      "seconds per wall second allow (1 = real time, to watch or to pace a controller that "
                      "acts on wall time); every step still waits for its command, so a slow controller "
-                     "slows the clock and never loses a step; 0 = as fast as the controller answers",
+                     "slows the clock and never loses a step; 0 = as fast as the controller answers [s/s]",
                      lo=0.0, hi=1000.0)
     initial = d("initial_state", "playing", "state at start: playing, paused or stopped")
     if initial not in STATE_BY_NAME:
@@ -108,7 +108,7 @@ def declare_sim_parameters(node: Node, scene: str) -> SimParameters:
                  lo=0.0, hi=1000.0)
     wait = d("wait_for_subscribers", 0,
              "do not start the clock until every output topic has this many subscribers "
-             "(e.g. 1 for a recorder that must see the run from t = 0)", lo=0, hi=1000)
+             "(e.g. 1 for a recorder that must see the run from t = 0) [subscribers]", lo=0, hi=1000)
     wait_node = d("wait_for_node", "",
                   "do not start the clock until the node of this name (in the simulator's namespace) "
                   "subscribes to every output topic, matched (`tensegrity up --record`: its recorder); "
@@ -116,7 +116,7 @@ def declare_sim_parameters(node: Node, scene: str) -> SimParameters:
     clock = d("publish_clock", True, "publish /clock from the simulation time")
     singular = d("singularity_warning", 0.05,
                  "warn (throttled) when lambda1/L or lambda2/L falls below this: the mass matrix grows like "
-                 "1/lambda^2 and the simulation stops at 1e-3; 0 = never", lo=0.0, hi=1.0)
+                 "1/lambda^2 and the simulation stops at 1e-3; 0 = never [fraction of L]", lo=0.0, hi=1.0)
     return SimParameters(scene, rate, rtf, step_ns, bool(lockstep), lockstep_timeout, lockstep_rtf,
                          STATE_BY_NAME[initial],
                          paused_rate, int(max_steps), command_timeout, safe_force, max_force, frame_id, state_rate,
