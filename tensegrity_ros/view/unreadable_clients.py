@@ -76,12 +76,12 @@ class _AnsweringProtocol(ServerProtocol):
     """websockets' server protocol, answering an unparseable request before it closes."""
 
     def send_eof(self) -> None:
-        failed = self.state is CONNECTING and isinstance(self.handshake_exc, InvalidMessage)
-        answer = status_for(self.handshake_exc.__cause__) if failed else None
+        failed = self.handshake_exc if self.state is CONNECTING else None
+        cause = failed.__cause__ if isinstance(failed, InvalidMessage) else None
+        answer = status_for(cause)
         if answer is not None:
             self.writes.append(_answer(*answer))
-            LOGGER.warning("tensegrity view: answered %d to an unreadable request (%s)",
-                           answer[0].value, self.handshake_exc.__cause__)
+            LOGGER.warning("tensegrity view: answered %d to an unreadable request (%s)", answer[0].value, cause)
         super().send_eof()
 
 
