@@ -8,6 +8,11 @@ what subscribers receive is byte for byte what was recorded. Timing, rate, start
 looping and ``/clock`` follow :mod:`tensegrity_ros.bag.schedule`. With ``clock_hz`` set a
 ``/clock`` topic stored in the bag is not replayed (there would be two time sources).
 
+Its parameter services (``ros2 param``) are answered by an executor on a thread of its own
+(:func:`play`) while the main thread publishes; a request of a wrong or unknown type is
+refused with a reason (:mod:`tensegrity_ros.rclpy_utils.parameter_guard`) and the replay
+goes on.
+
 Waiting: the player sleeps until 1 ms before an event is due and then polls the monotonic
 clock, so events leave within a few microseconds of their due time on an idle machine.
 """
@@ -23,6 +28,7 @@ from dataclasses import dataclass, field
 import rclpy
 from rclpy.context import Context
 from rclpy.duration import Duration
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
@@ -37,6 +43,7 @@ from tensegrity_ros.bag.scene import unread_custom_data
 from tensegrity_ros.bag.schedule import PlaybackOptions, timeline
 from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
+from tensegrity_ros.rclpy_utils.spin_thread import SpinThread
 from tensegrity_ros.rclpy_utils.stop_signals import stop_on_signals
 
 CLOCK_TOPIC = "/clock"
@@ -214,9 +221,14 @@ def play(bag: str, topics: Iterable[str] | None = None, opts: PlaybackOptions | 
     with stop_on_signals() as stop_request:
         stop_request.enter_running()
         node: PlayerNode | None = None
+        executor: SingleThreadedExecutor | None = None
+        services: SpinThread | None = None
         try:
             rclpy.init(args=list(ros_args or []), signal_handler_options=SignalHandlerOptions.NO)
             node = PlayerNode(reader, opts, topics, log=log)
+            executor = SingleThreadedExecutor()
+            executor.add_node(node)
+            services = SpinThread(executor, "player_services", poll_s=1.0).start()   # stop() wakes it
             log(f"playing {bag}: {clip(', '.join(node.publishers_by_topic) or '/clock only', 200)} "
                 "(stop with Ctrl-C)")
 
@@ -235,6 +247,10 @@ def play(bag: str, topics: Iterable[str] | None = None, opts: PlaybackOptions | 
                 log(f"warning: not every subscriber acknowledged every message within "
                     f"{wait_for_all_acked_s:g} s")
         finally:
+            if services is not None:
+                services.stop()          # joined before the executor and the node go
+            if executor is not None:
+                executor.shutdown()
             if node is not None:
                 node.destroy_node()  # type: ignore[no-untyped-call]  # rclpy's, on a subclass: not excluded by name
             rclpy.try_shutdown()

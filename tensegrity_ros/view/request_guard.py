@@ -20,8 +20,9 @@ must be the same ``http://host:port`` as the ``Host``. A request without an ``Or
 viser (1.1.1, pinned) has no hook for this: its HTTP handler is a closure passed as
 ``process_request`` to ``websockets.asyncio.server.serve`` inside its server thread
 (``viser/infra/_infra.py``). :func:`install` therefore hands viser's module a view of the
-``websockets`` package whose ``serve`` wraps that ``process_request`` with the check;
-nothing else in the process, websockets included, is changed. :func:`guarding` tells
+``websockets`` package whose ``serve`` wraps that ``process_request`` with the check and
+answers requests websockets cannot parse (:mod:`.unreadable_clients`, which also guards
+viser's incoming-message loop); nothing else in the process, websockets included, is changed. :func:`guarding` tells
 whether viser's server was started through the wrapper, so a viser that no longer goes
 through it is refused at start rather than run without the check.
 """
@@ -118,10 +119,15 @@ class _Namespace:
 
 
 def install() -> None:
-    """Put the check in front of every request of viser's servers in this process (once)."""
+    """Put the check in front of every request of viser's servers in this process, and
+    :mod:`.unreadable_clients`' answers after it (once)."""
+    import logging
+
     import websockets
     import websockets.asyncio.server as ws_server
     from viser.infra import _infra
+
+    from tensegrity_ros.view import unreadable_clients
 
     with _lock:
         if _state["installed"]:
@@ -130,12 +136,15 @@ def install() -> None:
         @functools.wraps(ws_server.serve)
         def serve(*args: Any, process_request: Callable[..., Any] | None = None, **kwargs: Any) -> Any:
             _state["serving"] = True
-            return ws_server.serve(*args, process_request=functools.partial(_guarded, process_request), **kwargs)
+            return ws_server.serve(*args, process_request=functools.partial(_guarded, process_request),
+                                   create_connection=unreadable_clients.AnsweringConnection, **kwargs)
 
         server = _Namespace(ws_server, {"serve": serve})
         # the name viser's module calls websockets.asyncio.server.serve through (its own global only)
         vars(_infra)["websockets"] = _Namespace(websockets, {"asyncio": _Namespace(websockets.asyncio,
                                                                                   {"server": server})})
+        vars(_infra)["_message_consumer"] = unreadable_clients.guarded_consumer(_infra._message_consumer)
+        logging.getLogger("websockets.server").addFilter(unreadable_clients.QuietHandshakeFailures())
         _state["installed"] = True
 
 

@@ -219,6 +219,43 @@ def test_loop_replays_the_bag_again(recorded_bag, ros_context, cli):
     assert got[2 * n] == expected("end_effector", [0])[0]
 
 
+def test_parameter_requests_of_wrong_types_are_refused_and_the_replay_goes_on(recorded_bag, ros_context, cli):
+    """``ros2 param set`` on the player: answered (refused, with a reason) while it plays,
+    its parameters unchanged and the replay going on."""
+    from rcl_interfaces.msg import Parameter as ParameterMsg
+    from rcl_interfaces.msg import ParameterType, ParameterValue
+    from rcl_interfaces.srv import GetParameters, SetParameters
+
+    sink = Collector(ros_context, {"/end_effector": TYPE_NAMES["end_effector"]})
+    got = sink.got["/end_effector"]
+    n = COUNTS["end_effector"]
+    play = cli("play", str(recorded_bag), "--topics", "end_effector", "--loop", "--rate", "4",
+               "--wait-for-subscribers", "60")
+    sink.spin_until(lambda: len(got) >= 1)
+    setter = sink.create_client(SetParameters, "/tensegrity_player/set_parameters")
+    getter = sink.create_client(GetParameters, "/tensegrity_player/get_parameters")
+
+    def call(client, request):
+        future = client.call_async(request)
+        sink.spin_until(future.done)
+        return future.result()
+
+    hostile = [ParameterMsg(name="use_sim_time", value=ParameterValue(type=ParameterType.PARAMETER_STRING,
+                                                                        string_value="yes")),
+               ParameterMsg(name="use_sim_time", value=ParameterValue(type=200))]
+    results = call(setter, SetParameters.Request(parameters=hostile)).results
+    assert [r.successful for r in results] == [False, False]
+    assert "Wrong parameter type" in results[0].reason          # rclpy's own refusal
+    assert results[1].reason == ("parameter 'use_sim_time': value type 200 is not a parameter type "
+                                 "(rcl_interfaces/ParameterType: 0-9)")
+    (value,) = call(getter, GetParameters.Request(names=["use_sim_time"])).values
+    assert (value.type, value.bool_value) == (ParameterType.PARAMETER_BOOL, False)
+    seen = len(got)
+    sink.spin_until(lambda: len(got) >= seen + n)                # a whole loop more after the requests
+    assert play.stop(signal.SIGINT) == 0, play.stderr()
+    assert "Traceback" not in play.stderr()
+
+
 def test_bag_written_by_rosbags_plays(tmp_path, ros_context, cli):
     """A rosbag2 MCAP bag from another writer (rosbags) replays with its content."""
     from rosbags.rosbag2 import StoragePlugin, Writer
