@@ -70,6 +70,7 @@ from tensegrity_core.class2.names import ACTUATED_JOINTS, ACTUATORS
 from tensegrity_core.class2.params import Class2Params
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import clip, excerpt
+from tensegrity_core.sim.joint_trajectory import tolerance
 from tensegrity_core.sim.scene.spec import Class2ModelSpec
 from tensegrity_ros.nodes.common import declare, spin_node
 from tensegrity_ros.nodes.controller_messages import (
@@ -336,7 +337,8 @@ class ControllerNode(Node):
             start = stamp_start(traj.header.stamp, now)
             path = self._joint_tolerances(req.path_tolerance, self.path_tolerance)
             goal_tol = self._joint_tolerances(req.goal_tolerance, self.goal_tolerance)
-            goal_time = duration_to_s(req.goal_time_tolerance) or self.goal_time_tolerance
+            # control_msgs' reading, as for tolerances: 0 the default, < 0 (its -1) no limit
+            goal_time = tolerance(duration_to_s(req.goal_time_tolerance), self.goal_time_tolerance)
             ref, gains = await self._plan(lambda: actuator_reference(
                 traj.joint_names, [duration_to_s(p.time_from_start) for p in traj.points],
                 [list(p.positions) for p in traj.points], [list(p.velocities) for p in traj.points],

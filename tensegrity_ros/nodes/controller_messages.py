@@ -117,8 +117,8 @@ def start_feedback(goal: Goal, header: Any, latest: JointSample, L: float) -> An
                                       velocities=[float(v) for v in desired.qdot[:2]], time_from_start=when)
     fb.actual = JointTrajectoryPoint(positions=[float(v) for v in q[:2]],
                                      velocities=[float(v) for v in qdot[:2]], time_from_start=when)
-    fb.error = JointTrajectoryPoint(positions=[float(q[k] - desired.q[k]) for k in (0, 1)],
-                                    velocities=[float(qdot[k] - desired.qdot[k]) for k in (0, 1)],
+    fb.error = JointTrajectoryPoint(positions=[float(desired.q[k] - q[k]) for k in (0, 1)],
+                                    velocities=[float(desired.qdot[k] - qdot[k]) for k in (0, 1)],
                                     time_from_start=when)
     return fb
 
@@ -140,6 +140,7 @@ def feedback(goal: Goal, header: Any, tick: Tick, q: FloatArray, qdot: FloatArra
                                       velocities=[float(v) for v in tick.desired.qdot[:2]], time_from_start=when)
     fb.actual = JointTrajectoryPoint(positions=[float(v) for v in q[:2]],
                                      velocities=[float(v) for v in qdot[:2]], time_from_start=when)
-    fb.error = JointTrajectoryPoint(positions=[float(v) for v in goal.error],
-                                    velocities=[float(v) for v in goal.rate_error], time_from_start=when)
+    # control_msgs' sign (joint_trajectory_controller's feedback): desired - actual
+    fb.error = JointTrajectoryPoint(positions=[-float(v) for v in goal.error],
+                                    velocities=[-float(v) for v in goal.rate_error], time_from_start=when)
     return fb

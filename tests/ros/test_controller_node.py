@@ -455,7 +455,9 @@ def test_follow_reaches_the_last_point_with_desired_actual_error_feedback(suite)
     fb = feedback[len(feedback) // 2]
     assert list(fb.joint_names) == ["rho1", "rho2"]
     for k in (0, 1):
-        assert fb.error.positions[k] == pytest.approx(fb.actual.positions[k] - fb.desired.positions[k], abs=1e-12)
+        # control_msgs (joint_trajectory_controller's feedback, JointTrajectoryControllerState:
+        # "essentially reference - feedback"): desired - actual
+        assert fb.error.positions[k] == pytest.approx(fb.desired.positions[k] - fb.actual.positions[k], abs=1e-12)
     # back to rest where it started, for the tests after this one
     _, res, _ = client.run(client.move, client.Move.Goal(x=x0, y=y0, duration=3.0))
     assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
@@ -529,6 +531,32 @@ def test_path_and_goal_tolerance_violations_abort_with_their_codes(suite):
                               goal_time_tolerance=Duration(sec=0, nanosec=200_000_000))
     _, res, _ = client.run(client.follow, goal)
     assert res.error_code == client.Follow.Result.GOAL_TOLERANCE_VIOLATED, res.error_string
+
+
+def test_a_goal_time_tolerance_of_minus_one_waits_for_the_goal_tolerance(suite):
+    """control_msgs' -1 ("erased"), which joint_trajectory_controller reads for the goal time
+    too: no limit. A goal tolerance of 1e-12 m is never met, yet 0.5 s after the end (where a
+    goal time of 0.2 s failed above) the goal runs on; a cancel ends it."""
+    from builtin_interfaces.msg import Duration
+    from tensegrity_msgs.msg import JointTolerance
+
+    client, _ = suite
+    _, _, js = client.end_effector()
+    there = _traj(points=((0.5, (js.position[0] + 0.005, js.position[1])),))
+    impossible = [JointTolerance(name=n, position=1e-12) for n in ("rho1", "rho2")]
+    handle, feedback = client.send(client.follow, client.Follow.Goal(trajectory=there, goal_tolerance=impossible,
+                                                                     goal_time_tolerance=Duration(sec=-1)))
+    result = handle.get_result_async()
+    client.spin_until(lambda: result.done() or any(
+        fb.desired.time_from_start.sec + 1e-9 * fb.desired.time_from_start.nanosec >= 1.0 for fb in feedback))
+    assert not result.done(), result.result().result.error_string
+    cancel = handle.cancel_goal_async()
+    client.spin_until(cancel.done)
+    status, res = client.result(handle)
+    assert status == 5, res.error_string                      # GoalStatus.STATUS_CANCELED
+    back = _traj(points=((0.5, (js.position[0], js.position[1])),))
+    _, res, _ = client.run(client.follow, client.Follow.Goal(trajectory=back, goal_time_tolerance=Duration(sec=8)))
+    assert res.error_code == client.Follow.Result.SUCCESSFUL, res.error_string
 
 
 def test_cancel_holds_where_the_reference_was(suite):
