@@ -13,7 +13,7 @@ from tensegrity_ros.rclpy_utils.env import require_rclpy
 
 rclpy = require_rclpy()
 from rcl_interfaces.msg import IntegerRange, ParameterDescriptor  # noqa: E402
-from rclpy.exceptions import InvalidParameterValueException  # noqa: E402
+from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException  # noqa: E402
 from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from rclpy.qos import QoSProfile, qos_profile_services_default  # noqa: E402
@@ -77,6 +77,9 @@ def declare(node: Node, name: str, default: ParameterValue, description: str, *,
             f"{node.get_name()}: parameter {name} must be a whole number in [{int(lo or 0)}, {int(hi or 2**31 - 1)}]"
             f"{' ' + _unit(description) if _unit(description) else ''}, got {given.group(1) if given else err}"
         ) from None
+    except InvalidParameterTypeException as err:      # an override of another type (paper_range:=maybe)
+        raise ParameterValueError(f"{node.get_name()}: parameter {name} must be "
+                                  f"{_expected(default, lo, hi, _unit(description))}, got {_given(str(err))}") from None
     except Exception as err:  # rclpy raises several types for bad overrides
         raise ParameterValueError(f"{node.get_name()}: parameter {name}: {err}") from None
     if is_float:
@@ -95,6 +98,37 @@ def _unit(description: str) -> str:
     """The unit a parameter's description gives in its last bracket (before any comma), or ""."""
     found = re.findall(r"\[([^\]]*)\]", description)
     return found[-1].split(",")[0].strip() if found else ""
+
+
+#: rclpy's parameter type names, as the error lines say them.
+_TYPE_WORDS = {"BOOL": "a boolean", "INTEGER": "a whole number", "DOUBLE": "a number", "STRING": "text",
+               "BYTE_ARRAY": "a list of bytes", "BOOL_ARRAY": "a list of true/false",
+               "INTEGER_ARRAY": "a list of whole numbers", "DOUBLE_ARRAY": "a list of numbers",
+               "STRING_ARRAY": "a list of texts"}
+
+
+def _expected(default: ParameterValue, lo: float | None, hi: float | None, unit: str) -> str:
+    """What a parameter of ``default``'s type (not float: those take any number, :func:`declare`)
+    accepts, in words: ``true or false``, ``a whole number in [1, 64] s``, ``text``."""
+    if isinstance(default, bool):
+        kind = "true or false"
+    elif isinstance(default, int):
+        kind = _TYPE_WORDS["INTEGER"]
+        if lo is not None or hi is not None:
+            kind += f" in [{int(lo or 0)}, {int(hi or 2**31 - 1)}]"
+    else:
+        kind = _TYPE_WORDS["STRING"]
+    return f"{kind} {unit}" if unit else kind
+
+
+def _given(message: str) -> str:
+    """The value and its type in words, from rclpy's InvalidParameterTypeException message
+    ("Trying to set parameter 'x' to 'maybe' of type 'STRING', expecting type 'BOOL'")."""
+    found = re.search(r" to '(.*)' of type '(\w+)'", message, re.DOTALL)
+    if found is None:
+        return excerpt(message)
+    value, kind = found.groups()
+    return f"{excerpt(value)} ({_TYPE_WORDS.get(kind, kind.lower())})"
 
 
 def _accepted(lo: float | None, hi: float | None, unit: str) -> str:

@@ -64,6 +64,20 @@ AS_PROCESSES = [
      "tensegrity_formfind: parameter max_workers must be a whole number in [1, 64] processes, got 0"),
     (["node", "formfind", "--ros-args", "-p", "time_limit:=abc"],
      "tensegrity_formfind: parameter time_limit must be a number [s], got 'abc'"),
+    # a value of another type than the parameter's, for every node: the type in words, the range, the unit
+    (["node", "ik", "--ros-args", "-p", "paper_range:=maybe"],
+     "error: tensegrity_ik: parameter paper_range must be true or false, got 'maybe' (text)"),
+    (["node", "sim", "--ros-args", "-p", "lockstep:=1"],
+     "error: tensegrity_sim: parameter lockstep must be true or false, got '1' (a whole number)"),
+    (["node", "controller", "--ros-args", "-p", "scene:=[1, 2]"],
+     "error: tensegrity_controller: parameter scene must be text, got '[1, 2]' (a list of whole numbers)"),
+    (["node", "cables", "--ros-args", "-p", "scene:=true"],
+     "error: tensegrity_cable_controller: parameter scene must be text, got 'True' (a boolean)"),
+    (["node", "formfind", "--ros-args", "-p", "max_workers:=two"],
+     "error: tensegrity_formfind: parameter max_workers must be a whole number in [1, 64], got 'two' (text)"),
+    (["node", "formfind", "--ros-args", "-p", "max_members:=1.5"],
+     "error: tensegrity_formfind: parameter max_members must be a whole number in [1, 2147483647] members, "
+     "got '1.5' (a number)"),
 ]
 
 
