@@ -316,13 +316,34 @@ def test_a_second_goal_preempts_the_first_as_joint_trajectory_controller_does(su
     second, _ = _send(client, action, _goal([(0.3, (NOMINAL,))], ("c3_5",), goal_time=2.0))
     assert second.accepted
     status, result = _outcome(client, first)
-    # joint_trajectory_controller: the running goal ends with INVALID_GOAL (CANCELED there; rclpy
-    # lets a server report CANCELED only after a cancel request, so ABORTED here, docs/ros.md)
-    assert status in (GoalStatus.STATUS_ABORTED, GoalStatus.STATUS_CANCELED)
+    # joint_trajectory_controller (preempt_active_goal, Jazzy 4.41 on): ABORTED with INVALID_GOAL
+    assert status == GoalStatus.STATUS_ABORTED
     assert result.error_code == INVALID_GOAL and result.error_string.strip()
     status, result = _outcome(client, second)
     assert (status, result.error_code) == (GoalStatus.STATUS_SUCCEEDED, SUCCESSFUL), result.error_string
     client.wait(lambda: abs(_rest(client, ("c3_5",))[0] - NOMINAL) <= 1e-4, "c3_5 back at its nominal rest length")
+
+
+def test_an_invalid_goal_leaves_the_running_goal_running(suite):
+    """joint_trajectory_controller rejects an invalid goal before it is accepted, so only a
+    valid goal preempts (goal_received_callback, then goal_accepted_callback): here the invalid
+    goal ends at once with its code and the running goal goes on until it is cancelled."""
+    from action_msgs.msg import GoalStatus
+
+    client, action = suite
+    first, feedback = _send(client, action, _goal([(30.0, (0.9,))], ("c6_9",)))
+    assert first.accepted
+    client.wait(lambda: feedback, "feedback of the first goal")
+    bad, _ = _send(client, action, _goal([(0.1, (2.0,))], ("c6_9",)))        # outside the motor's range
+    status, result = _outcome(client, bad)
+    assert (status, result.error_code) == (GoalStatus.STATUS_ABORTED, INVALID_GOAL), result.error_string
+    seen = len(feedback)
+    client.wait(lambda: len(feedback) > seen + 2, "feedback of the first goal after the invalid one")
+    client.ask(first.cancel_goal_async, "the cancel response")
+    status, _ = _outcome(client, first)
+    assert status == GoalStatus.STATUS_CANCELED                # running until the cancel, not preempted
+    handle, _ = _send(client, action, _goal([(0.2, (NOMINAL,))], ("c6_9",), goal_time=2.0))   # back
+    assert _outcome(client, handle)[1].error_code == SUCCESSFUL
 
 
 def test_a_trajectory_stamped_in_the_future_starts_then(suite):
