@@ -13,11 +13,20 @@ import sys
 import threading
 import time
 from collections import defaultdict
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pytest
 
 from tests.process_groups import exited, kill_group, wait_group
+
+if TYPE_CHECKING:
+    from rclpy.context import Context
+    from rclpy.executors import Executor
+    from rclpy.node import Node
 
 TENSEGRITY = str(Path(sys.executable).with_name("tensegrity"))
 
@@ -25,13 +34,54 @@ TENSEGRITY = str(Path(sys.executable).with_name("tensegrity"))
 @pytest.fixture
 def ros_context():
     """A private rclpy context, ended by :func:`end_context` at teardown."""
+    with open_context() as ctx:
+        yield ctx
+
+
+@contextmanager
+def open_context() -> Iterator[Context]:
+    """A private rclpy context, initialised, ended by :func:`end_context` on leaving."""
     import rclpy
     from rclpy.context import Context
 
     ctx = Context()
     rclpy.init(args=[], context=ctx)
-    yield ctx
-    end_context(ctx)
+    try:
+        yield ctx
+    finally:
+        end_context(ctx)
+
+
+@dataclass(frozen=True)
+class Probe:
+    """A test's own node in a private context, with the executor that spins it."""
+
+    context: Context
+    node: Node
+    executor: Executor
+
+
+@contextmanager
+def probe(name: str, *, multithreaded: bool = False, spin: bool = False, **node_options) -> Iterator[Probe]:
+    """A node ``name`` (``node_options`` as ``rclpy.create_node`` takes them) in a private
+    context (:func:`open_context`), added to a single-threaded executor (``multithreaded``: a
+    ``MultiThreadedExecutor``); ``spin`` spins it on a :class:`SpinThread` until leaving, else
+    the test spins it. On leaving, the spinning stops and :func:`end_context` ends the rest."""
+    import rclpy
+    from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
+
+    from tensegrity_ros.rclpy_utils.spin_thread import SpinThread
+
+    with open_context() as ctx:
+        node = rclpy.create_node(name, context=ctx, **node_options)
+        executor = (MultiThreadedExecutor if multithreaded else SingleThreadedExecutor)(context=ctx)
+        executor.add_node(node)
+        spinner = SpinThread(executor, name).start() if spin else None
+        try:
+            yield Probe(ctx, node, executor)
+        finally:
+            if spinner is not None:
+                spinner.stop()
 
 
 def end_context(ctx) -> None:

@@ -13,7 +13,6 @@ import time
 from pathlib import Path
 
 import pytest
-from rclpy.context import Context
 from rclpy.duration import Duration
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -27,7 +26,7 @@ from tensegrity_ros.bag.schedule import PlaybackOptions
 from tests.bags.compare import plain
 from tests.bags.conftest import Proc, rosbags_cdr_samples
 from tests.bags.suite_publishers import TYPE_NAMES, SuitePublisher, make_message
-from tests.ros_support import end_context
+from tests.ros_support import open_context
 
 pytestmark = pytest.mark.ros
 
@@ -43,23 +42,19 @@ def absolute(topic: str) -> str:
 
 @pytest.fixture(scope="module")
 def recorded_bag(tmp_path_factory) -> Path:
-    import rclpy
-
     folder = tmp_path_factory.mktemp("play") / "source"
     rec = Proc(["record", "-o", str(folder)], folder.parent / "record.log")
-    ctx = Context()
-    rclpy.init(args=[], context=ctx)
     try:
-        rec.wait_for("recording to")
-        node = SuitePublisher(RATES, context=ctx, name="source_publisher")
-        assert node.wait_for_subscribers(60)
-        node.run(counts=COUNTS)
-        for pub in node.pubs.values():
-            assert pub.wait_for_all_acked(Duration(seconds=30))
-        assert rec.stop() == 0
+        with open_context() as ctx:
+            rec.wait_for("recording to")
+            node = SuitePublisher(RATES, context=ctx, name="source_publisher")
+            assert node.wait_for_subscribers(60)
+            node.run(counts=COUNTS)
+            for pub in node.pubs.values():
+                assert pub.wait_for_all_acked(Duration(seconds=30))
+            assert rec.stop() == 0
     finally:
         rec.kill()
-        end_context(ctx)
     return folder
 
 

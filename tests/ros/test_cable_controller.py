@@ -17,7 +17,7 @@ import pytest
 
 from tensegrity_ros.rclpy_utils.futures import on_executor, wait_done
 from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
-from tests.ros_support import FeedbackLog, end_context
+from tests.ros_support import FeedbackLog, open_context
 
 pytestmark = pytest.mark.ros
 
@@ -36,7 +36,6 @@ def cable_rig(folder, scene: str, sim_params: tuple[str, ...], client_name: str,
     import rclpy
     from control_msgs.action import FollowJointTrajectory
     from rclpy.action import ActionClient
-    from rclpy.context import Context
 
     from tensegrity_ros.apps.sim_client import SimClient
     from tests.ros_support import Proc
@@ -46,33 +45,33 @@ def cable_rig(folder, scene: str, sim_params: tuple[str, ...], client_name: str,
         args += ["-p", param]
     sim = Proc(["node", "sim", "--ros-args", *args], folder / "sim.log")
     ctl = Proc(["node", "cables", "--ros-args", "-p", f"scene:={scene}"], folder / "cables.log")
-    ctx = Context()
     client = action = None
     try:
         sim.wait_for("publishing at")
         ctl.wait_for("cable controller ready")
-        rclpy.init(args=[], context=ctx)
-        client = SimClient(rclpy, client_name, context=ctx)
-        client.wait_for_services(60)
-        feedback_log = FeedbackLog(client.node, FollowJointTrajectory, ACTION)   # before the probe: matched
-        if before is not None:
-            before(client)
-        action = ActionClient(client.node, FollowJointTrajectory, ACTION)
-        assert action.wait_for_server(timeout_sec=60)
-        assert wait_until_server_heard(client.node, ACTION, wait_done, 60)
-        _wait_for_the_controllers_answer(client)
-        yield client, action, sim, ctl, feedback_log
+        with open_context() as ctx:
+            try:
+                client = SimClient(rclpy, client_name, context=ctx)
+                client.wait_for_services(60)
+                feedback_log = FeedbackLog(client.node, FollowJointTrajectory, ACTION)   # before the probe: matched
+                if before is not None:
+                    before(client)
+                action = ActionClient(client.node, FollowJointTrajectory, ACTION)
+                assert action.wait_for_server(timeout_sec=60)
+                assert wait_until_server_heard(client.node, ACTION, wait_done, 60)
+                _wait_for_the_controllers_answer(client)
+                yield client, action, sim, ctl, feedback_log
+            finally:
+                # the action client is destroyed by the thread that spins its node (between two
+                # spin_once): destroyed from this one while that thread built a wait set from the
+                # node's waitables, rclpy added the freed handle ("action client pointer is invalid",
+                # RCLError in a loaded run's spin thread); if that thread no longer spins, from here
+                destroyed = action is None or wait_done(on_executor(client.executor, action.destroy), 60)
+                if not destroyed:
+                    action.destroy()
+                if client is not None:
+                    client.close()
     finally:
-        # the action client is destroyed by the thread that spins its node (between two
-        # spin_once): destroyed from this one while that thread built a wait set from the
-        # node's waitables, rclpy added the freed handle ("action client pointer is invalid",
-        # RCLError in a loaded run's spin thread); if that thread no longer spins, from here
-        destroyed = action is None or wait_done(on_executor(client.executor, action.destroy), 60)
-        if not destroyed:
-            action.destroy()
-        if client is not None:
-            client.close()
-        end_context(ctx)
         for p in (sim, ctl):
             p.stop()
 
@@ -247,25 +246,19 @@ def test_a_tight_path_tolerance_is_violated_and_a_new_goal_preempts_the_running_
     assert status == GoalStatus.STATUS_CANCELED and result.error_code == 0 and "cancelled" in result.error_string
 
 
-def test_the_commands_keep_the_history_of_the_other_per_step_writers():
+def test_the_commands_keep_the_history_of_the_other_per_step_writers(ros_context):
     """``cable_commands`` goes out once per simulator step, as ``actuator_forces`` and the
     simulator's topics do: its reliable writer keeps the same 1,000 samples (1 s of a lockstep
     run at 1,000 steps/s) for a recorder that briefly falls behind to be repaired from."""
-    import rclpy
-    from rclpy.context import Context
     from rclpy.parameter import Parameter
     from rclpy.qos import HistoryPolicy
 
     from tensegrity_ros.nodes.cable_controller import CableControllerNode
     from tensegrity_ros.nodes.controller import ControllerNode
 
-    ctx = Context()
-    rclpy.init(args=[], context=ctx)
-    try:
-        cables = CableControllerNode(context=ctx, parameter_overrides=[Parameter("scene", value="table_actuated")])
-        forces = ControllerNode(context=ctx)
-        depth = {pub.topic_name: (pub.qos_profile.history, pub.qos_profile.depth)
-                 for node in (cables, forces) for pub in node.publishers if pub.topic_name != "/rosout"}
-        assert depth["/cable_commands"] == depth["/actuator_forces"] == (HistoryPolicy.KEEP_LAST, 1000), depth
-    finally:
-        end_context(ctx)
+    cables = CableControllerNode(context=ros_context,
+                                 parameter_overrides=[Parameter("scene", value="table_actuated")])
+    forces = ControllerNode(context=ros_context)
+    depth = {pub.topic_name: (pub.qos_profile.history, pub.qos_profile.depth)
+             for node in (cables, forces) for pub in node.publishers if pub.topic_name != "/rosout"}
+    assert depth["/cable_commands"] == depth["/actuator_forces"] == (HistoryPolicy.KEEP_LAST, 1000), depth

@@ -17,7 +17,7 @@ import pytest
 from tensegrity_ros.rclpy_utils.futures import spin_until_done
 from tensegrity_ros.rclpy_utils.matching import wait_for_matches, wait_until_server_heard
 from tests.process_groups import exited
-from tests.ros_support import FeedbackLog, Proc, end_context
+from tests.ros_support import FeedbackLog, Proc, probe
 
 pytestmark = pytest.mark.ros
 
@@ -35,12 +35,9 @@ UNUSABLE = [
 
 
 def test_unusable_cable_states_during_a_goal_are_ignored_and_the_goal_goes_on(tmp_path):
-    import rclpy
     from builtin_interfaces.msg import Duration
     from control_msgs.action import FollowJointTrajectory
     from rclpy.action import ActionClient
-    from rclpy.context import Context
-    from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import QoSProfile
     from sensor_msgs.msg import JointState
     from tensegrity_msgs.msg import CableCommand, CableStates
@@ -48,68 +45,64 @@ def test_unusable_cable_states_during_a_goal_are_ignored_and_the_goal_goes_on(tm
 
     proc = Proc(["node", "cables", "--ros-args", "-r", f"__ns:={NS}", "-p", "scene:=table_actuated"],
                 tmp_path / "cables.log")
-    ctx = Context()
-    rclpy.init(args=[], context=ctx)
     try:
-        node = rclpy.create_node("hostile_cables_probe", context=ctx)
-        executor = SingleThreadedExecutor(context=ctx)
-        executor.add_node(node)
-        commands: list = []
-        node.create_subscription(CableCommand, f"{NS}/cable_commands", commands.append, QoSProfile(depth=100))
-        feedback = FeedbackLog(node, FollowJointTrajectory, ACTION)
-        joints = node.create_publisher(JointState, f"{NS}/joint_states", QoSProfile(depth=100))
-        cables = node.create_publisher(CableStates, f"{NS}/cable_states", QoSProfile(depth=100))
-        proc.wait_for("cable controller ready", timeout=120)
-        spin = lambda s: executor.spin_once(timeout_sec=s)            # noqa: E731
-        assert wait_for_matches([joints, cables], 1, 120, poll=spin), proc.stderr()
+        with probe("hostile_cables_probe") as client_probe:
+            node, executor = client_probe.node, client_probe.executor
+            commands: list = []
+            node.create_subscription(CableCommand, f"{NS}/cable_commands", commands.append, QoSProfile(depth=100))
+            feedback = FeedbackLog(node, FollowJointTrajectory, ACTION)
+            joints = node.create_publisher(JointState, f"{NS}/joint_states", QoSProfile(depth=100))
+            cables = node.create_publisher(CableStates, f"{NS}/cable_states", QoSProfile(depth=100))
+            proc.wait_for("cable controller ready", timeout=120)
+            spin = lambda s: executor.spin_once(timeout_sec=s)            # noqa: E731
+            assert wait_for_matches([joints, cables], 1, 120, poll=spin), proc.stderr()
 
-        def until(done, what):
-            deadline = time.monotonic() + 120
-            while not done():
-                assert time.monotonic() < deadline and not exited(proc.popen), f"{what}: {proc.stderr()}"
-                executor.spin_once(timeout_sec=0.1)
+            def until(done, what):
+                deadline = time.monotonic() + 120
+                while not done():
+                    assert time.monotonic() < deadline and not exited(proc.popen), f"{what}: {proc.stderr()}"
+                    executor.spin_once(timeout_sec=0.1)
 
-        until(lambda: node.count_publishers(f"{NS}/cable_commands") >= 1, "the controller's command publisher")
+            until(lambda: node.count_publishers(f"{NS}/cable_commands") >= 1, "the controller's command publisher")
 
-        def states(sec, names=CABLES, rest=(0.9, 0.9, 0.9), tension=(1.0, 1.0, 1.0)):
-            msg = CableStates(name=list(names), rest_length=list(rest), tension=list(tension))
-            msg.header.stamp.sec = sec
-            cables.publish(msg)
+            def states(sec, names=CABLES, rest=(0.9, 0.9, 0.9), tension=(1.0, 1.0, 1.0)):
+                msg = CableStates(name=list(names), rest_length=list(rest), tension=list(tension))
+                msg.header.stamp.sec = sec
+                cables.publish(msg)
 
-        def joint_state(sec):
-            msg = JointState(name=CABLES, position=[0.9] * 3, velocity=[0.0] * 3, effort=[1.0] * 3)
-            msg.header.stamp.sec = sec
-            joints.publish(msg)
-            until(lambda: any(c.header.stamp.sec == sec for c in commands), f"the answer to the state at {sec} s")
+            def joint_state(sec):
+                msg = JointState(name=CABLES, position=[0.9] * 3, velocity=[0.0] * 3, effort=[1.0] * 3)
+                msg.header.stamp.sec = sec
+                joints.publish(msg)
+                until(lambda: any(c.header.stamp.sec == sec for c in commands), f"the answer to the state at {sec} s")
 
-        states(1)
-        joint_state(1)                                    # active: it answers
-        action = ActionClient(node, FollowJointTrajectory, ACTION)
-        assert action.wait_for_server(timeout_sec=120)
-        assert wait_until_server_heard(node, ACTION, lambda f, t: spin_until_done(executor, f, t), 120)
-        goal = FollowJointTrajectory.Goal()
-        goal.trajectory.joint_names = ["long1"]
-        goal.trajectory.points = [JointTrajectoryPoint(positions=[0.85], time_from_start=Duration(sec=100))]
-        sent = action.send_goal_async(goal)
-        assert spin_until_done(executor, sent, 120) and sent.result().accepted
-        handle = sent.result()
+            states(1)
+            joint_state(1)                                    # active: it answers
+            action = ActionClient(node, FollowJointTrajectory, ACTION)
+            assert action.wait_for_server(timeout_sec=120)
+            assert wait_until_server_heard(node, ACTION, lambda f, t: spin_until_done(executor, f, t), 120)
+            goal = FollowJointTrajectory.Goal()
+            goal.trajectory.joint_names = ["long1"]
+            goal.trajectory.points = [JointTrajectoryPoint(positions=[0.85], time_from_start=Duration(sec=100))]
+            sent = action.send_goal_async(goal)
+            assert spin_until_done(executor, sent, 120) and sent.result().accepted
+            handle = sent.result()
 
-        for k, (names, rest, tension) in enumerate(UNUSABLE, start=2):
-            states(k, names, rest, tension)
-            states(k)                                     # a usable one after it, on the same topic
-            until(lambda k=k: any(f.header.stamp.sec == k for f in feedback.of(handle)), f"feedback at {k} s")
-            joint_state(k)
-        assert [f.header.stamp.sec for f in feedback.of(handle)] == list(range(2, 2 + len(UNUSABLE)))
-        assert all(f.actual.positions.tolist() == [0.9] for f in feedback.of(handle))
-        answers = [c for c in commands if c.header.stamp.sec > 1]
-        assert [c.header.stamp.sec for c in answers] == list(range(2, 2 + len(UNUSABLE)))
-        assert all(list(c.name) == ["long1"] and all(math.isfinite(v) for v in c.rest_length) for c in answers)
-        log = proc.stderr()
-        assert "Traceback" not in log and not exited(proc.popen)
-        assert "cable_states ignored" in log
-        cancel = handle.cancel_goal_async()
-        assert spin_until_done(executor, cancel, 60)
-        action.destroy()
+            for k, (names, rest, tension) in enumerate(UNUSABLE, start=2):
+                states(k, names, rest, tension)
+                states(k)                                     # a usable one after it, on the same topic
+                until(lambda k=k: any(f.header.stamp.sec == k for f in feedback.of(handle)), f"feedback at {k} s")
+                joint_state(k)
+            assert [f.header.stamp.sec for f in feedback.of(handle)] == list(range(2, 2 + len(UNUSABLE)))
+            assert all(f.actual.positions.tolist() == [0.9] for f in feedback.of(handle))
+            answers = [c for c in commands if c.header.stamp.sec > 1]
+            assert [c.header.stamp.sec for c in answers] == list(range(2, 2 + len(UNUSABLE)))
+            assert all(list(c.name) == ["long1"] and all(math.isfinite(v) for v in c.rest_length) for c in answers)
+            log = proc.stderr()
+            assert "Traceback" not in log and not exited(proc.popen)
+            assert "cable_states ignored" in log
+            cancel = handle.cancel_goal_async()
+            assert spin_until_done(executor, cancel, 60)
+            action.destroy()
     finally:
-        end_context(ctx)
         proc.stop()

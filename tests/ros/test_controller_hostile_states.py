@@ -14,7 +14,7 @@ import time
 import pytest
 
 from tests.process_groups import exited
-from tests.ros_support import Proc, end_context
+from tests.ros_support import Proc, probe
 
 pytestmark = pytest.mark.ros
 
@@ -41,9 +41,6 @@ def test_unusable_joint_states_get_no_answer_and_the_next_usable_one_does(tmp_pa
     for a reset (its log says so: the event waited for), then tries to hold it and refuses; the
     next usable state is held and answered. The unreadable ones come in a burst before a last
     usable state: only that one is answered."""
-    import rclpy
-    from rclpy.context import Context
-    from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import QoSProfile
     from sensor_msgs.msg import JointState
     from tensegrity_msgs.msg import ActuatorForces
@@ -52,52 +49,48 @@ def test_unusable_joint_states_get_no_answer_and_the_next_usable_one_does(tmp_pa
     from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
     proc = Proc(["node", "controller", "--ros-args", "-r", f"__ns:={NS}"], tmp_path / "controller.log")
-    ctx = Context()
-    rclpy.init(args=[], context=ctx)
     try:
-        node = rclpy.create_node("hostile_states_probe", context=ctx)
-        executor = SingleThreadedExecutor(context=ctx)
-        executor.add_node(node)
-        answers: list = []
-        node.create_subscription(ActuatorForces, f"{NS}/actuator_forces", answers.append, QoSProfile(depth=100))
-        pub = node.create_publisher(JointState, f"{NS}/joint_states", QoSProfile(depth=100))
-        proc.wait_for("controller ready", timeout=120)
-        assert wait_for_matches([pub], 1, 120, poll=lambda s: executor.spin_once(timeout_sec=s)), proc.stderr()
-        # the answers must not be lost: the controller's publisher has matched ours first
-        deadline = time.monotonic() + 120
-        while node.count_publishers(f"{NS}/actuator_forces") < 1:
-            assert time.monotonic() < deadline, proc.stderr()
-            executor.spin_once(timeout_sec=0.1)
-
-        def send(sec, names, positions, velocities):
-            msg = JointState(name=names, position=positions, velocity=velocities, effort=[0.0] * len(positions))
-            msg.header.stamp.sec = sec
-            pub.publish(msg)
-
-        beta = float(equilibrium_beta(0.7, 0.7, PAPER_PARAMS))
-
-        def usable(sec):
-            send(sec, NAMES, [0.7, 0.7, beta], [0.0, 0.0, 0.0])
+        with probe("hostile_states_probe") as client_probe:
+            node, executor = client_probe.node, client_probe.executor
+            answers: list = []
+            node.create_subscription(ActuatorForces, f"{NS}/actuator_forces", answers.append, QoSProfile(depth=100))
+            pub = node.create_publisher(JointState, f"{NS}/joint_states", QoSProfile(depth=100))
+            proc.wait_for("controller ready", timeout=120)
+            assert wait_for_matches([pub], 1, 120, poll=lambda s: executor.spin_once(timeout_sec=s)), proc.stderr()
+            # the answers must not be lost: the controller's publisher has matched ours first
             deadline = time.monotonic() + 120
-            while not any(a.header.stamp.sec == sec for a in answers):
-                assert time.monotonic() < deadline and not exited(proc.popen), proc.stderr()
+            while node.count_publishers(f"{NS}/actuator_forces") < 1:
+                assert time.monotonic() < deadline, proc.stderr()
                 executor.spin_once(timeout_sec=0.1)
 
-        usable(1000)
-        for k, q in enumerate(UNHOLDABLE, start=1):
-            send(k, NAMES, list(q), [0.0, 0.0, 0.0])
-            proc.wait_for(f"its time went back from {1000 + k - 1:.3f} s to {k:.3f} s", timeout=120)
-            usable(1000 + k)
-        for names, positions, velocities in UNREADABLE:
-            send(2000, names, positions, velocities)
-        usable(3000)
-        # one writer, reliable, in order: an answer to any other state would be among them
-        assert [a.header.stamp.sec for a in answers] == [1000 + k for k in range(len(UNHOLDABLE) + 1)] + [3000]
-        assert all(math.isfinite(f) and abs(f) <= 5.0 for a in answers for f in a.force)
-        assert not exited(proc.popen)
-        log = proc.stderr()
-        assert "Traceback" not in log
-        assert "cannot hold the measured configuration: no stabilising feedback gain at rho = (0, 0) m" in log
+            def send(sec, names, positions, velocities):
+                msg = JointState(name=names, position=positions, velocity=velocities, effort=[0.0] * len(positions))
+                msg.header.stamp.sec = sec
+                pub.publish(msg)
+
+            beta = float(equilibrium_beta(0.7, 0.7, PAPER_PARAMS))
+
+            def usable(sec):
+                send(sec, NAMES, [0.7, 0.7, beta], [0.0, 0.0, 0.0])
+                deadline = time.monotonic() + 120
+                while not any(a.header.stamp.sec == sec for a in answers):
+                    assert time.monotonic() < deadline and not exited(proc.popen), proc.stderr()
+                    executor.spin_once(timeout_sec=0.1)
+
+            usable(1000)
+            for k, q in enumerate(UNHOLDABLE, start=1):
+                send(k, NAMES, list(q), [0.0, 0.0, 0.0])
+                proc.wait_for(f"its time went back from {1000 + k - 1:.3f} s to {k:.3f} s", timeout=120)
+                usable(1000 + k)
+            for names, positions, velocities in UNREADABLE:
+                send(2000, names, positions, velocities)
+            usable(3000)
+            # one writer, reliable, in order: an answer to any other state would be among them
+            assert [a.header.stamp.sec for a in answers] == [1000 + k for k in range(len(UNHOLDABLE) + 1)] + [3000]
+            assert all(math.isfinite(f) and abs(f) <= 5.0 for a in answers for f in a.force)
+            assert not exited(proc.popen)
+            log = proc.stderr()
+            assert "Traceback" not in log
+            assert "cannot hold the measured configuration: no stabilising feedback gain at rho = (0, 0) m" in log
     finally:
-        end_context(ctx)
         proc.stop()

@@ -24,7 +24,7 @@ import pytest
 from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics
 from tensegrity_ros.rclpy_utils.futures import spin_until_done
 from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
-from tests.ros_support import FeedbackLog, end_context, run_cli
+from tests.ros_support import FeedbackLog, open_context, run_cli
 
 pytestmark = pytest.mark.ros
 
@@ -132,9 +132,6 @@ def _sim_control(namespace: str, action: str) -> None:
 @pytest.fixture(scope="module")
 def suite(tmp_path_factory):
     """One simulator + controller for the module's goals, and a client."""
-    import rclpy
-    from rclpy.context import Context
-
     from tests.ros_support import Proc
 
     folder = tmp_path_factory.mktemp("controller")
@@ -145,11 +142,8 @@ def suite(tmp_path_factory):
         return procs[-1]
 
     sim, ctl = _start(cli, "/ctl")
-    ctx = Context()
-    rclpy.init(args=[], context=ctx)
-    client = Client(ctx, "/ctl")
-    yield client, ctl
-    end_context(ctx)
+    with open_context() as ctx:
+        yield Client(ctx, "/ctl"), ctl
     for p in procs:
         p.stop()
 

@@ -19,9 +19,8 @@ import numpy as np
 import pytest
 
 from tensegrity_core.general import form_find, load_example
-from tensegrity_ros.rclpy_utils.spin_thread import SpinThread
 from tests.hostile_requests import TABLE, alias_bomb, deep_flow_nesting, huge_value, memory_mib, tower_yaml
-from tests.ros_support import end_context
+from tests.ros_support import probe
 
 pytestmark = pytest.mark.ros
 
@@ -31,9 +30,6 @@ MARKER = "env-marker-5b1e0c"                     # in the nodes' environment, mu
 @contextmanager
 def _node(log, namespace: str, *params: str):
     """A running `tensegrity node formfind` in ``namespace`` with ``params``, and a caller."""
-    import rclpy
-    from rclpy.context import Context
-    from rclpy.executors import MultiThreadedExecutor
     from rclpy.qos import QoSProfile
     from tensegrity_msgs.srv import FindForm
 
@@ -47,35 +43,28 @@ def _node(log, namespace: str, *params: str):
         proc = Proc(args, log)
     finally:
         del os.environ["TENSEGRITY_TEST_SECRET"]
-    ctx = Context()
-    rclpy.init(args=[], context=ctx)
-    node = rclpy.create_node(f"hostile_client_{namespace}", context=ctx)
-    client = node.create_client(FindForm, f"/{namespace}/find_form", qos_profile=QoSProfile(depth=100))
-    executor = MultiThreadedExecutor(context=ctx)
-    executor.add_node(node)
-    spinner = SpinThread(executor, "ff_test_spin")
     try:
-        proc.wait_for("find_form ready")
-        spinner.start()
-        assert client.wait_for_service(timeout_sec=30)
+        with probe(f"hostile_client_{namespace}", multithreaded=True, spin=True) as client_probe:
+            client = client_probe.node.create_client(FindForm, f"/{namespace}/find_form",
+                                                     qos_profile=QoSProfile(depth=100))
+            proc.wait_for("find_form ready")
+            assert client.wait_for_service(timeout_sec=30)
 
-        def send(text: str):
-            return client.call_async(FindForm.Request(structure=text))
+            def send(text: str):
+                return client.call_async(FindForm.Request(structure=text))
 
-        def call(text: str, timeout: float = 120.0):
-            future = send(text)
-            deadline = time.monotonic() + timeout
-            while not future.done() and time.monotonic() < deadline:
-                time.sleep(0.005)
-            assert future.done(), "no answer"
-            return future.result()
+            def call(text: str, timeout: float = 120.0):
+                future = send(text)
+                deadline = time.monotonic() + timeout
+                while not future.done() and time.monotonic() < deadline:
+                    time.sleep(0.005)
+                assert future.done(), "no answer"
+                return future.result()
 
-        call.send = send
-        call.pid = proc.popen.pid
-        yield call
+            call.send = send
+            call.pid = proc.popen.pid
+            yield call
     finally:
-        spinner.stop()
-        end_context(ctx)
         proc.stop()
 
 

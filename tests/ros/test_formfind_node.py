@@ -8,8 +8,7 @@ import numpy as np
 import pytest
 
 from tensegrity_core.general import example_path
-from tensegrity_ros.rclpy_utils.spin_thread import SpinThread
-from tests.ros_support import end_context
+from tests.ros_support import probe
 
 pytestmark = pytest.mark.ros
 
@@ -19,9 +18,6 @@ TABLE = example_path("tensegrity_table").read_text()
 @pytest.fixture(scope="module")
 def formfind(tmp_path_factory):
     """A running `tensegrity node formfind` process (time limit 5 s) and a client here."""
-    import rclpy
-    from rclpy.context import Context
-    from rclpy.executors import MultiThreadedExecutor
     from rclpy.qos import QoSProfile
     from tensegrity_msgs.srv import FindForm
 
@@ -31,29 +27,21 @@ def formfind(tmp_path_factory):
     proc = Proc(["node", "formfind", "--ros-args", "-p", "time_limit:=5.0",
                  "-p", "max_request_bytes:=1000000"], log)
     proc.wait_for("find_form ready")
-    ctx = Context()
-    rclpy.init(args=[], context=ctx)
-    node = rclpy.create_node("ff_test_client", context=ctx)
-    client = node.create_client(FindForm, "find_form", qos_profile=QoSProfile(depth=100))
-    executor = MultiThreadedExecutor(context=ctx)
-    executor.add_node(node)
-    spinner = SpinThread(executor, "ff_test_spin")
-    spinner.start()
-    assert client.wait_for_service(timeout_sec=30)
+    with probe("ff_test_client", multithreaded=True, spin=True) as client_probe:
+        client = client_probe.node.create_client(FindForm, "find_form", qos_profile=QoSProfile(depth=100))
+        assert client.wait_for_service(timeout_sec=30)
 
-    def call(text, tol=0.0, max_iter=0, timeout=60.0):
-        future = client.call_async(FindForm.Request(structure=text, tolerance=tol, max_iterations=max_iter))
-        deadline = time.monotonic() + timeout
-        while not future.done() and time.monotonic() < deadline:
-            time.sleep(0.01)
-        assert future.done(), "no answer"
-        return future.result()
+        def call(text, tol=0.0, max_iter=0, timeout=60.0):
+            future = client.call_async(FindForm.Request(structure=text, tolerance=tol, max_iterations=max_iter))
+            deadline = time.monotonic() + timeout
+            while not future.done() and time.monotonic() < deadline:
+                time.sleep(0.01)
+            assert future.done(), "no answer"
+            return future.result()
 
-    call.client = client
-    call.log = proc.stderr
-    yield call
-    spinner.stop()
-    end_context(ctx)
+        call.client = client
+        call.log = proc.stderr
+        yield call
     proc.stop()
 
 

@@ -7,7 +7,7 @@ import math
 import pytest
 
 from tensegrity_ros.rclpy_utils.futures import spin_until_done
-from tests.ros_support import end_context
+from tests.ros_support import probe
 
 pytestmark = pytest.mark.ros
 
@@ -20,33 +20,25 @@ def ik_service(tmp_path_factory):
     log = tmp_path_factory.mktemp("ik") / "ik.log"
     proc = Proc(["node", "ik"], log)
     proc.wait_for("solve_ik ready")
-    import rclpy
-    from rclpy.context import Context
-    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import QoSProfile
     from tensegrity_msgs.srv import SolveIK
 
-    ctx = Context()
-    rclpy.init(args=[], context=ctx)
-    node = rclpy.create_node("ik_test_client", context=ctx)
-    from rclpy.qos import QoSProfile
+    with probe("ik_test_client") as client_probe:
+        # A burst of concurrent calls needs a response history as deep as the burst: rclpy's
+        # default keeps the last 10 responses, and the server answers faster than a client
+        # takes them (measured: 60-80 of 100 arrive with the default). The server's own queue
+        # is deep (SERVICE_QOS), so it never loses a request.
+        client = client_probe.node.create_client(SolveIK, "solve_ik", qos_profile=QoSProfile(depth=1000))
+        executor = client_probe.executor
+        assert client.wait_for_service(timeout_sec=30)
 
-    # A burst of concurrent calls needs a response history as deep as the burst: rclpy's
-    # default keeps the last 10 responses, and the server answers faster than a client
-    # takes them (measured: 60-80 of 100 arrive with the default). The server's own queue
-    # is deep (SERVICE_QOS), so it never loses a request.
-    client = node.create_client(SolveIK, "solve_ik", qos_profile=QoSProfile(depth=1000))
-    executor = SingleThreadedExecutor(context=ctx)
-    executor.add_node(node)
-    assert client.wait_for_service(timeout_sec=30)
+        def call(x, y, seed=()):
+            future = client.call_async(SolveIK.Request(x=x, y=y, seed=list(seed)))
+            assert spin_until_done(executor, future, 30), "no answer"
+            return future.result()
 
-    def call(x, y, seed=()):
-        future = client.call_async(SolveIK.Request(x=x, y=y, seed=list(seed)))
-        assert spin_until_done(executor, future, 30), "no answer"
-        return future.result()
-
-    call.client, call.executor = client, executor
-    yield call
-    end_context(ctx)
+        call.client, call.executor = client, executor
+        yield call
     proc.stop()
 
 

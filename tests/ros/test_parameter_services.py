@@ -16,7 +16,7 @@ import pytest
 
 from tensegrity_ros.rclpy_utils.futures import spin_until_done
 from tests.process_groups import exited
-from tests.ros_support import Proc, end_context
+from tests.ros_support import Proc, probe
 
 pytestmark = pytest.mark.ros
 
@@ -36,7 +36,6 @@ UNKNOWN_TYPES = range(10, 256)          # ParameterValue.type is a uint8; 0-9 ar
 @pytest.fixture(scope="module")
 def nodes(tmp_path_factory):
     """Every node running in NS, and a client of their parameter services in this process."""
-    import rclpy
     from rcl_interfaces.srv import (
         DescribeParameters,
         GetParameters,
@@ -44,39 +43,33 @@ def nodes(tmp_path_factory):
         SetParameters,
         SetParametersAtomically,
     )
-    from rclpy.context import Context
-    from rclpy.executors import SingleThreadedExecutor
 
     folder = tmp_path_factory.mktemp("parameter_services")
     procs = {}
     for name, (args, _) in NODES.items():
         ros = [] if "--ros-args" in args else ["--ros-args"]
         procs[name] = Proc(["node", *args, *ros, "-r", f"__ns:={NS}"], folder / f"{name}.log")
-    ctx = Context()
-    rclpy.init(args=[], context=ctx)
     try:
-        node = rclpy.create_node("parameter_services_probe", context=ctx)
-        executor = SingleThreadedExecutor(context=ctx)
-        executor.add_node(node)
-        clients = {name: {srv: node.create_client(srv, f"{NS}/{name}/{suffix}")
-                          for srv, suffix in ((SetParameters, "set_parameters"),
-                                              (SetParametersAtomically, "set_parameters_atomically"),
-                                              (GetParameters, "get_parameters"),
-                                              (ListParameters, "list_parameters"),
-                                              (DescribeParameters, "describe_parameters"))}
-                   for name in NODES}
-        for name, by_type in clients.items():
-            for client in by_type.values():
-                assert client.wait_for_service(timeout_sec=120), f"{name}: {procs[name].stderr()}"
+        with probe("parameter_services_probe") as client_probe:
+            node, executor = client_probe.node, client_probe.executor
+            clients = {name: {srv: node.create_client(srv, f"{NS}/{name}/{suffix}")
+                              for srv, suffix in ((SetParameters, "set_parameters"),
+                                                  (SetParametersAtomically, "set_parameters_atomically"),
+                                                  (GetParameters, "get_parameters"),
+                                                  (ListParameters, "list_parameters"),
+                                                  (DescribeParameters, "describe_parameters"))}
+                       for name in NODES}
+            for name, by_type in clients.items():
+                for client in by_type.values():
+                    assert client.wait_for_service(timeout_sec=120), f"{name}: {procs[name].stderr()}"
 
-        def call(name, srv, request):
-            future = clients[name][srv].call_async(request)
-            assert spin_until_done(executor, future, 60), f"{name} did not answer: {procs[name].stderr()}"
-            return future.result()
+            def call(name, srv, request):
+                future = clients[name][srv].call_async(request)
+                assert spin_until_done(executor, future, 60), f"{name} did not answer: {procs[name].stderr()}"
+                return future.result()
 
-        yield call, procs
+            yield call, procs
     finally:
-        end_context(ctx)
         for proc in procs.values():
             proc.stop()
 

@@ -7,36 +7,22 @@ from contextlib import contextmanager
 
 import pytest
 
-from tests.ros_support import end_context
+from tests.ros_support import probe
 
 
 @contextmanager
 def _action_server(parameter_services: bool):
     """A SimulateSteps server that succeeds at once, spun on a thread of its own."""
-    import rclpy
     from rclpy.action import ActionServer
-    from rclpy.context import Context
-    from rclpy.executors import SingleThreadedExecutor
     from simulation_interfaces.action import SimulateSteps
-
-    from tensegrity_ros.rclpy_utils.spin_thread import SpinThread
 
     def execute(handle):
         handle.succeed()
         return SimulateSteps.Result()
 
-    ctx = Context()
-    rclpy.init(args=[], context=ctx)
-    node = rclpy.create_node("heard_server", context=ctx, start_parameter_services=parameter_services)
-    ActionServer(node, SimulateSteps, "heard_steps", execute)
-    ex = SingleThreadedExecutor(context=ctx)
-    ex.add_node(node)
-    spinner = SpinThread(ex, "heard_server").start()
-    try:
+    with probe("heard_server", spin=True, start_parameter_services=parameter_services) as server:
+        ActionServer(server.node, SimulateSteps, "heard_steps", execute)
         yield
-    finally:
-        spinner.stop()
-        end_context(ctx)
 
 
 @pytest.mark.parametrize("parameter_services", [True, False])

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.ros_support import end_context
+from tests.ros_support import probe
 
 pytestmark = pytest.mark.ros
 
@@ -47,10 +47,6 @@ def test_tests_run_in_their_own_domain():
 
 
 def test_message_and_service_between_two_processes():
-    from tensegrity_ros.rclpy_utils.env import require_rclpy
-
-    rclpy = require_rclpy()
-    from rclpy.node import Node
     from tensegrity_msgs.msg import ActuatorForces
     from tensegrity_msgs.srv import SolveIK
 
@@ -62,33 +58,29 @@ def test_message_and_service_between_two_processes():
         [sys.executable, str(Path(__file__).with_name("peer_node.py")), "--ros-args", "-r", f"__ns:={namespace}"],
         stdout=subprocess.PIPE, text=True, env=dict(os.environ),
     )
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx)
     try:
-        assert peer.stdout.readline().strip() == "ready"
-        node = Node("smoke_client", namespace=namespace, context=ctx)
-        got: list[ActuatorForces] = []
-        node.create_subscription(ActuatorForces, "pong", got.append, 10)
-        pub = node.create_publisher(ActuatorForces, "ping", 10)
-        client = node.create_client(SolveIK, "solve_ik")
-        executor = rclpy.executors.SingleThreadedExecutor(context=ctx)
-        executor.add_node(node)
+        with probe("smoke_client", namespace=namespace) as client_probe:
+            node, executor = client_probe.node, client_probe.executor
+            assert peer.stdout.readline().strip() == "ready"
+            got: list[ActuatorForces] = []
+            node.create_subscription(ActuatorForces, "pong", got.append, 10)
+            pub = node.create_publisher(ActuatorForces, "ping", 10)
+            client = node.create_client(SolveIK, "solve_ik")
 
-        assert client.wait_for_service(timeout_sec=20.0), "service never appeared"
-        deadline = time.monotonic() + 20.0
-        while not got and time.monotonic() < deadline:
-            pub.publish(ActuatorForces(name=["f1", "f2"], force=[1.5, -2.0]))
-            executor.spin_once(timeout_sec=0.1)
-        assert got, "no echo received"
-        assert list(got[0].name) == ["f1", "f2"]
-        assert list(got[0].force) == [3.0, -4.0]
+            assert client.wait_for_service(timeout_sec=20.0), "service never appeared"
+            deadline = time.monotonic() + 20.0
+            while not got and time.monotonic() < deadline:
+                pub.publish(ActuatorForces(name=["f1", "f2"], force=[1.5, -2.0]))
+                executor.spin_once(timeout_sec=0.1)
+            assert got, "no echo received"
+            assert list(got[0].name) == ["f1", "f2"]
+            assert list(got[0].force) == [3.0, -4.0]
 
-        future = client.call_async(SolveIK.Request(x=0.25, y=0.5))
-        assert spin_until_done(executor, future, 20.0)
-        res = future.result()
-        assert res is not None and res.success
-        assert (res.solutions[0].rho1, res.solutions[0].rho2) == (0.25, 0.5)
+            future = client.call_async(SolveIK.Request(x=0.25, y=0.5))
+            assert spin_until_done(executor, future, 20.0)
+            res = future.result()
+            assert res is not None and res.success
+            assert (res.solutions[0].rho1, res.solutions[0].rho2) == (0.25, 0.5)
     finally:
-        end_context(ctx)
         peer.terminate()
         peer.wait(timeout=10)

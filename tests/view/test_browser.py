@@ -301,10 +301,9 @@ def live(browser, tmp_path_factory):
     shared by the live tests in the order they are written (each leaves the suite as the next
     one expects it); the last test closes the page and the view, and the suite stops here."""
     import rclpy
-    from rclpy.context import Context
 
     from tensegrity_ros.apps.sim_client import SimClient
-    from tests.ros_support import Proc, end_context
+    from tests.ros_support import Proc, open_context
 
     logs = tmp_path_factory.mktemp("live_view")
     procs: list[Proc] = []
@@ -313,31 +312,29 @@ def live(browser, tmp_path_factory):
         procs.append(Proc(list(args), logs / f"{log_name}{len(procs)}.log"))
         return procs[-1]
 
-    ctx = Context()
-    rclpy.init(args=[], context=ctx)
-    client = None
-    try:
-        sim = start("node", "sim", log_name="sim")
-        # the controller's watchdog at 5 s, not its 0.5 s of wall time: the simulator runs at
-        # real time beside a software-rendering browser, and a loaded machine stalled it 0.7 s
-        # (a move aborted as "the simulator stopped"); the watchdog has tests of its own
-        controller = start("node", "controller", "--ros-args", "-p", "state_timeout:=5.0", log_name="controller")
-        client = SimClient(rclpy, "view_test_client", context=ctx, record_events=False)
-        client.wait_for_services()
-        controller.wait_for("controller ready", timeout=WAIT)
-        view, url, port = start_view(start)
-        page = browser.open(url)
-        wait_for_canvas(page)
-        yield types.SimpleNamespace(sim=sim, controller=controller, client=client, view=view, url=url, port=port,
-                                    page=page, context=ctx)
-        assert controller.stop(signal.SIGINT) == 0
-        assert sim.stop(signal.SIGINT) == 0
-    finally:
-        if client is not None:
-            client.close()
-        for proc in procs:
-            proc.kill()
-        end_context(ctx)
+    with open_context() as ctx:
+        client = None
+        try:
+            sim = start("node", "sim", log_name="sim")
+            # the controller's watchdog at 5 s, not its 0.5 s of wall time: the simulator runs at
+            # real time beside a software-rendering browser, and a loaded machine stalled it 0.7 s
+            # (a move aborted as "the simulator stopped"); the watchdog has tests of its own
+            controller = start("node", "controller", "--ros-args", "-p", "state_timeout:=5.0", log_name="controller")
+            client = SimClient(rclpy, "view_test_client", context=ctx, record_events=False)
+            client.wait_for_services()
+            controller.wait_for("controller ready", timeout=WAIT)
+            view, url, port = start_view(start)
+            page = browser.open(url)
+            wait_for_canvas(page)
+            yield types.SimpleNamespace(sim=sim, controller=controller, client=client, view=view, url=url, port=port,
+                                        page=page, context=ctx)
+            assert controller.stop(signal.SIGINT) == 0
+            assert sim.stop(signal.SIGINT) == 0
+        finally:
+            if client is not None:
+                client.close()
+            for proc in procs:
+                proc.kill()
 
 
 @pytest.mark.ros
