@@ -139,6 +139,25 @@ def test_without_a_goal_time_the_goal_waits_for_its_tolerance():
     assert m.check(1e6 + 1.0, [0.8]).succeeded
 
 
+@given(st.floats(allow_nan=False, allow_infinity=False), st.floats(1e-12, 1e3))
+def test_any_finite_tolerance_value_reads_as_control_msgs_says(value, default):
+    """JointTolerance.msg: 0 "unspecified", the default; -1 "erased" (here any value < 0), not
+    checked; above 0 the bound itself."""
+    bound = tolerance(value, default)
+    assert bound == (default if value == 0.0 else value if value > 0.0 else math.inf)
+
+
+@given(st.floats(-10.0, 10.0))
+def test_a_trajectory_is_refused_exactly_when_its_last_velocity_exceeds_float_epsilon(v):
+    args = (["a"], [1.0, 2.0], [[0.5], [0.6]], [[0.0], [v]])
+    if abs(v) > float(np.finfo(np.float32).eps):         # 2^-23, compared in float64
+        with pytest.raises(TrajectoryError, match="must end at rest") as info:
+            plan_trajectory(*args, interface=CABLES, start=START)
+        assert info.value.code == INVALID_GOAL
+    else:
+        assert plan_trajectory(*args, interface=CABLES, start=START).sample(3.0).velocities[0] == 0.0
+
+
 def test_tolerance_values_follow_joint_tolerance_conventions():
     assert tolerance(0.0, 0.01) == 0.01 and tolerance(0.2, 0.01) == 0.2 and tolerance(-1.0, 0.01) == math.inf
     assert tolerance(0.0, math.inf) == math.inf                # a default of "none": not checked
