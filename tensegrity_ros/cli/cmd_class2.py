@@ -211,10 +211,15 @@ def cmd_singularities(args: argparse.Namespace) -> int:
         return 0
     print(f"singular sets near rho1 = {rep.rho1:g} m, rho2 = {rep.rho2:g} m (beta = {rep.beta:.6g} rad, "
           f"D = ({rep.x:.6g}, {rep.y:.6g}) m); cond(dD/drho) = {rep.jacobian_cond:.4g}")
-    print(f"  {'set':16} {'distance/L':>10} {'value':>12}  meaning")
+    print(f"  {'set':16} {'distance/L':>10}  {'value':20}  meaning")
     for s in rep.sets:
-        print(f"  {s.kind:16} {s.distance:10.4g} {s.value:12.5g}  {s.description}")
+        print(f"  {s.kind:16} {s.distance:10.4g}  {_with_unit(s.value, s.unit):20}  {s.description}")
     return 0
+
+
+def _with_unit(value: float, unit: str) -> str:
+    """``0.46365 rad``; a multiple of the strut length as ``0.71414 x L``."""
+    return f"{value:.5g} x {unit}" if unit.endswith("L") else f"{value:.5g} {unit}"
 
 
 def register(sub: Subparsers) -> None:

@@ -119,6 +119,20 @@ def test_bad_input_one_line_errors(argv, fragment, capsys):
     assert len(err) == 1 and err[0].startswith("error:") and fragment in err[0]
 
 
+def test_singularities_table_gives_each_value_its_unit(capsys):
+    """Every number of the table's value column carries its unit: rad for the angles, m/m for
+    det dD/drho, N^4 m^2 for the IK discriminant (stiffnesses in N/m), a multiple of L or 2L
+    for the lengths (lambda2 = sqrt(L^2 - rho1^2) = 0.8 L at rho1 = 0.6 m, L = 1 m)."""
+    assert main(["singularities", "0.6", "0.3"]) == 0
+    rows = {line.split()[0]: line.split()[2:] for line in capsys.readouterr().out.splitlines()[2:]}
+    units = {kind: words[1] if words[1] != "x" else " ".join(words[1:3]) for kind, words in rows.items()}
+    assert units == {"lambda1": "x 2L", "beta_zero": "rad", "lambda2": "x L", "beta_half_pi": "rad",
+                     "ik_discriminant": "N^4", "det_jacobian": "m/m", "folded": "x L"}
+    assert rows["ik_discriminant"][2] == "m^2"
+    assert float(rows["lambda2"][0]) == pytest.approx(0.8)
+    assert float(rows["folded"][0]) == pytest.approx(math.hypot(0.6, 0.3))
+
+
 def test_singularities_table(capsys):
     assert main(["singularities", "0.6", "0.2", "--json"]) == 0
     data = json.loads(capsys.readouterr().out)

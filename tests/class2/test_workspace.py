@@ -165,3 +165,24 @@ def test_ik_discriminant_equals_factorised_form_and_det_formula(u, v):
     # det changes sign across the fold line exactly: sign(det) = -sign(cos beta)
     if abs(3 * r2 - r1) > 1e-9:
         assert np.sign(rep.jacobian_det) == -np.sign(math.cos(fk.beta))
+
+
+#: How a singular set's value scales when every length is multiplied by s and every stiffness
+#: by kappa, by its unit (dimensional analysis: a force N = (N/m) m scales as kappa s).
+UNIT_SCALING = {"rad": lambda s, kappa: 1.0, "m/m": lambda s, kappa: 1.0, "L": lambda s, kappa: 1.0,
+                "2L": lambda s, kappa: 1.0, "N^4 m^2": lambda s, kappa: (kappa * s) ** 4 * s**2}
+
+
+@given(st.floats(0.05, 0.95), st.floats(0.05, 0.9), st.floats(0.1, 10.0), st.floats(0.1, 10.0))
+def test_each_singular_value_scales_as_its_unit_says(r1, r2, s, kappa):
+    """The unit each set's value is given in is its dimension: scaling lengths by s and
+    stiffnesses by kappa scales the value as the unit says, and no other way."""
+    from dataclasses import replace
+
+    stiff = {name: kappa * getattr(PAPER_PARAMS, name) for name in ("k1", "k2", "k3", "k4", "ka", "kb")}
+    scaled = replace(PAPER_PARAMS, L=s * PAPER_PARAMS.L, **stiff)
+    base = {v.kind: v for v in classify_singularities(r1, r2).sets}
+    for v in classify_singularities(s * r1, s * r2, scaled).sets:
+        factor = UNIT_SCALING[v.unit](s, kappa)
+        assert v.unit == base[v.kind].unit
+        assert v.value == pytest.approx(factor * base[v.kind].value, rel=1e-9, abs=1e-12 * factor), v.kind

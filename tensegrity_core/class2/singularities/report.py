@@ -29,12 +29,15 @@ class SingularSet:
 
     ``distance`` is the distance in the actuator plane divided by L (dimensionless, 0 on
     the set, negative outside the domain across it); ``value`` is the quantity that
-    vanishes on the set (see ``description``).
+    vanishes on the set (see ``description``), in ``unit``: ``rad``, ``m/m`` (the
+    determinant of ``dD/drho``), ``N^4 m^2`` (the IK discriminant, stiffnesses in N/m), or
+    ``L`` / ``2L`` for a length given as a multiple of the strut length (or twice it).
     """
 
     kind: str
     distance: float
     value: float
+    unit: str
     description: str
 
 
@@ -106,19 +109,19 @@ def classify_singularities(rho1: float, rho2: float, params: Class2Params = PAPE
         jac, det, cond = None, math.inf, math.inf
     lam1 = math.sqrt(max(0.0, (2 * L - r1 - r2) * (2 * L + r1 + r2)))
     sets = [
-        SingularSet("lambda1", dist["lambda1"], lam1 / (2 * L),
+        SingularSet("lambda1", dist["lambda1"], lam1 / (2 * L), "2L",
                     "rho1 + rho2 -> 2L: struts AE, CE flat, D on the X axis, |dD/drho| unbounded"),
-        SingularSet("beta_zero", dist["lambda1"], fk.beta,
+        SingularSet("beta_zero", dist["lambda1"], fk.beta, "rad",
                     "beta -> 0 (paper's range limit); on the equilibrium manifold only at lambda1 = 0"),
-        SingularSet("lambda2", dist["lambda2"], math.sqrt(max(0.0, (L - r1) * (L + r1))) / L,
+        SingularSet("lambda2", dist["lambda2"], math.sqrt(max(0.0, (L - r1) * (L + r1))) / L, "L",
                     "rho1 -> L: F reaches A, its speed rho1 rho1' / lambda2 unbounded"),
-        SingularSet("beta_half_pi", dist["beta_half_pi"], 0.5 * math.pi - fk.beta,
+        SingularSet("beta_half_pi", dist["beta_half_pi"], 0.5 * math.pi - fk.beta, "rad",
                     "beta -> pi/2 (paper's range limit): D straight above B, y = L is a fold"),
-        SingularSet("ik_discriminant", dist["beta_half_pi"], xi1**2 - 4 * xi2 * xi0,
+        SingularSet("ik_discriminant", dist["beta_half_pi"], xi1**2 - 4 * xi2 * xi0, "N^4 m^2",
                     "xi1^2 - 4 xi2 xi0 -> 0 (Eq. 18): the IK roots merge (same line as beta = pi/2)"),
-        SingularSet("det_jacobian", dist["beta_half_pi"], det,
+        SingularSet("det_jacobian", dist["beta_half_pi"], det, "m/m",
                     "det dD/drho = L cos(beta) dbeta/drho2 -> 0 (same line as beta = pi/2)"),
-        SingularSet("folded", dist["folded"], dist["folded"],
+        SingularSet("folded", dist["folded"], dist["folded"], "L",
                     "rho1 = rho2 = 0: every node on the Y axis (on the beta = pi/2 line)"),
     ]
     sets.sort(key=lambda s: s.distance)
