@@ -21,8 +21,9 @@ from __future__ import annotations
 
 import sys
 import time
-from typing import Any, TextIO
+from typing import Any, Final, TextIO
 
+from tensegrity_core.sim.joint_trajectory import MAX_DURATION
 from tensegrity_ros.apps.gait_feedback import ClockWentBack, FeedbackLoop, RodFrames
 from tensegrity_ros.apps.gait_run import NS_PER_S, RunWatcher, SuiteError, check_scene, sim_parameters
 
@@ -193,8 +194,17 @@ def roll_closed_loop(robot_name: str, faces: int, heading: tuple[float, float], 
         rclpy.try_shutdown()
 
 
+#: Simulation time [s] a face gets by default (a tip takes 1-2 s, a retry over another edge 3 s more).
+FACE_TIME: Final = 10.0
+#: The longest closed-loop roll [s of simulation time]: a day, the longest trajectory the
+#: suite's cable controller accepts (:data:`tensegrity_core.sim.joint_trajectory.MAX_DURATION`).
+MAX_TIME: Final = MAX_DURATION
+#: The most faces one roll may ask for: each with its FACE_TIME within MAX_TIME (8640).
+MAX_FACES: Final = int(MAX_TIME // FACE_TIME)
+
+
 def default_max_time(faces: int) -> float:
-    """Simulation time [s] the closed-loop roll gets by default: 10 s a face (a tip takes 1-2 s,
-    a retry over another edge 3 s more), at least 10 s."""
-    return max(10.0, 10.0 * faces)
+    """Simulation time [s] the closed-loop roll gets by default: FACE_TIME a face, at least one
+    FACE_TIME."""
+    return FACE_TIME * max(1, faces)
 

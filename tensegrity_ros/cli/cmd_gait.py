@@ -20,7 +20,9 @@ or how fast it still moved.
 :mod:`tensegrity_core.robot.roll_control` reads the caps on the floor and the rods' poses at
 50 Hz of simulation time and commands each tip on ``cable_commands`` until N new faces are
 reached (robots with a shipped table of tipping moves; ``--max-time`` s of simulation time,
-default 10 a face, before it gives up). The same summary follows.
+default 10 a face, before it gives up). A roll lasts at most a day of simulation time (the
+longest trajectory the cable controller accepts), so ``--faces`` is at most 8640 and
+``--max-time`` at most 86400 s. The same summary follows.
 
 Before sending, the simulator's ``scene`` parameter says which robot runs: a suite that is
 not up (exit 3), runs another robot or a scene whose motors take no commands (exit 1) is
@@ -114,7 +116,7 @@ def check_roll(robot_name: str, faces: int | None, heading: list[float] | None, 
 
     from tensegrity_core.robot.loading import robot_names
     from tensegrity_core.robot.roll_control import TIPS_DIR
-    from tensegrity_ros.apps.gait_loop import default_max_time
+    from tensegrity_ros.apps.gait_loop import FACE_TIME, MAX_FACES, MAX_TIME, default_max_time
 
     if robot_name not in robot_names():
         raise CliError(f"no shipped robot {robot_name!r}; robots: {', '.join(robot_names())}")
@@ -125,14 +127,17 @@ def check_roll(robot_name: str, faces: int | None, heading: list[float] | None, 
     if faces is None or faces < 1:
         raise CliError(f"{ROLL} needs --faces N, the faces to roll (N >= 1)" + ("" if faces is None else
                                                                                 f", got {faces}"))
+    if faces > MAX_FACES:
+        raise CliError(f"--faces must be at most {MAX_FACES} ({FACE_TIME:g} s of simulation time a face within "
+                       f"a roll's {MAX_TIME:g} s, a day), got {faces}")
     if repeats is not None:
         raise CliError(f"--repeats is for periodic gaits, not {ROLL}")
     h = (1.0, 0.0) if heading is None else (heading[0], heading[1])
     if not (all(math.isfinite(v) for v in h) and math.hypot(*h) > 0):
         raise CliError(f"--heading must be a nonzero direction X Y on the floor, got {h[0]:g} {h[1]:g}")
     limit = default_max_time(faces) if max_time is None else max_time
-    if not (math.isfinite(limit) and limit > 0):
-        raise CliError(f"--max-time must be > 0 s, got {limit}")
+    if not (math.isfinite(limit) and 0 < limit <= MAX_TIME):
+        raise CliError(f"--max-time must be > 0 s and at most {MAX_TIME:g} s (a day of simulation time), got {limit}")
     return faces, h, limit
 
 

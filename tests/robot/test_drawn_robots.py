@@ -675,16 +675,16 @@ def test_a_closed_loop_roll_is_accepted_or_refused_in_one_line(faces, heading, r
 def test_the_gait_commands_flags_give_a_gait_or_one_line(gait, robot, faces, repeats, heading, max_time):
     """``tensegrity gait ROBOT GAIT`` with any flags its parser takes (``--faces``,
     ``--repeats``, ``--heading X Y``, ``--max-time``, numbers of any size, NaN and infinities):
-    the checked gait (or closed-loop roll: faces >= 1, a finite nonzero heading, a finite
-    positive time limit), or a ``CliError`` of one line (exit 2 or its own code)."""
+    the checked gait (or closed-loop roll: 1 <= faces <= 8640, a finite nonzero heading, a
+    time limit in (0, 86400] s), or a ``CliError`` of one line (exit 2 or its own code)."""
     from tensegrity_ros.cli._common import CliError
     from tensegrity_ros.cli.cmd_gait import ROLL, build_gait, check_roll
 
     try:
         if gait == ROLL:
             n, h, limit = check_roll(robot, faces, heading, max_time, repeats)
-            assert n >= 1 and all(map(math.isfinite, h)) and math.hypot(*h) > 0
-            assert math.isfinite(limit) and limit > 0
+            assert 1 <= n <= 8640 and all(map(math.isfinite, h)) and math.hypot(*h) > 0   # 8640: a day at 10 s
+            assert 0 < limit <= 86400.0                                                   # a day of simulation
         else:
             _, table = build_gait(robot, gait, faces, repeats)
             assert np.all(np.isfinite(table.times)) and np.all(np.isfinite(table.rest_lengths))

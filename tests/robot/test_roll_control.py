@@ -139,3 +139,25 @@ def test_the_strict_counts_see_a_face_crossed_on_two_caps():
     skipped = [caps("n0", "n7", "n9"), caps("n0", "n7"), caps("n0"), caps("n0", "n4"), caps("n0", "n4", "n8")]
     assert len(faces_touched(skipped, faces)) == 2
     assert not edge_by_edge(skipped, faces)
+
+
+def test_a_rate_the_models_step_cannot_take_is_refused(rest_scene):
+    """The 6-bar steps 1 ms at a time and its motors take a command at a step's start, so a
+    controller is sampled at 1000 Hz at most (the scene's ``control`` check, here for the
+    Python API); a rate that is no positive number is refused too."""
+    import math
+
+    from tensegrity_core.errors import ParameterError
+
+    scene, model, _ = rest_scene
+    assert scene.integrator.method == "RK4" and scene.integrator.max_step == 0.001
+    state = model.initial_state(t_end=1.0)
+    controller = RollController(scene.model.robot, 1)
+    with pytest.raises(ParameterError, match=r"^a controller sampled at 1001 Hz is faster than the robot's fixed "
+                                             r"step of 0.001 s \(1000 Hz\), at which its commands act; give rate in "
+                                             r"\(0, 1000\] Hz$"):
+        ControlLoop(model, state, controller, rate=1001.0)
+    assert ControlLoop(model, state, controller, rate=1000.0).rate == 1000.0     # one command a step
+    for bad in (0.0, -50.0, math.nan, math.inf):
+        with pytest.raises(ParameterError, match="the control rate must be a positive number of Hz"):
+            ControlLoop(model, state, controller, rate=bad)

@@ -36,7 +36,15 @@ CLOSED_FACE_MARGIN = 0.30
     (("six_bar", 1, [0.0, 0.0], None, None), "--heading must be a nonzero direction X Y on the floor, got 0 0"),
     (("six_bar", 1, [float("nan"), 1.0], None, None), "--heading must be a nonzero direction X Y on the floor, "
                                                       "got nan 1"),
-    (("six_bar", 1, None, -1.0, None), "--max-time must be > 0 s, got -1.0"),
+    (("six_bar", 1, None, -1.0, None), "--max-time must be > 0 s and at most 86400 s (a day of simulation time), "
+                                       "got -1.0"),
+    (("six_bar", 1, None, 86401.0, None), "--max-time must be > 0 s and at most 86400 s (a day of simulation "
+                                          "time), got 86401.0"),
+    # a day of simulation time at 10 s a face: 86400 / 10 = 8640 faces
+    (("six_bar", 10**9, None, None, None), "--faces must be at most 8640 (10 s of simulation time a face within a "
+                                           "roll's 86400 s, a day), got 1000000000"),
+    (("six_bar", 8641, None, 10.0, None), "--faces must be at most 8640 (10 s of simulation time a face within a "
+                                          "roll's 86400 s, a day), got 8641"),
     (("six_bar", 1, None, None, 2), "--repeats is for periodic gaits, not roll"),
 ])
 def test_bad_requests_are_one_line(args, line):
@@ -46,6 +54,13 @@ def test_bad_requests_are_one_line(args, line):
     with pytest.raises(CliError) as err:
         check_roll(*args)
     assert str(err.value) == line and err.value.code == 2
+
+
+def test_the_largest_roll_is_taken():
+    from tensegrity_ros.cli.cmd_gait import check_roll
+
+    assert check_roll("six_bar", 8640, None, None, None) == (8640, (1.0, 0.0), 86400.0)
+    assert check_roll("six_bar", 1, None, 86400.0, None)[2] == 86400.0
 
 
 def test_a_bad_request_is_one_line_before_any_ros():

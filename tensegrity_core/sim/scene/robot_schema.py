@@ -151,16 +151,16 @@ def robot_control(reader: Reader, d: dict[str, Any], model: ModelSpec) -> RollSp
 
 
 def control_rate_fits(reader: Reader, control: RollSpec, step: float, d: dict[str, Any]) -> None:
-    """Refuse a control rate [Hz] above the robot's step rate ``1 / step``: the motors take a
-    new command at the start of a step, so samples between two steps see the same state and
-    command nothing new (and each costs an evaluation: at 1 MHz a 10 ms run took 40 s)."""
-    if control.rate * step <= 1.0 + 1e-12:
+    """Refuse a control rate [Hz] the robot's fixed step ``step`` [s] cannot take
+    (:func:`~tensegrity_core.sim.control_loop.control_rate_reason`)."""
+    from tensegrity_core.sim.control_loop import control_rate_reason
+
+    reason = control_rate_reason(control.rate, step)
+    if reason is None:
         return
     path: KeyPath = ("control", "roll", "rate")
     r = d["control"]["roll"]
-    raise reader.error(f"a controller sampled at {control.rate:g} Hz is faster than the robot's fixed step of "
-                       f"{step:g} s ({1.0 / step:g} Hz), at which its commands act; give rate in (0, {1.0 / step:g}] Hz",
-                       path, r, "rate" if "rate" in r else None)
+    raise reader.error(reason, path, r, "rate" if "rate" in r else None)
 
 
 def motor_modes(reader: Reader, d: dict[str, Any], path: KeyPath, model: RobotModelSpec) -> tuple[tuple[str, int], ...]:
