@@ -12,9 +12,10 @@ robot                      MJCF
 rod ``r``                  body ``rod:r`` with free joint ``rod:r``, frame at the rod's centre
                            with z along the rod (:func:`~tensegrity_core.robot.rod.rod_frames`,
                            the principal axes: what ``alignfree`` would pick); ``inertial``:
-                           its mass and ``diaginertia (I_t, I_t, I_a)``; a capsule geom (the
-                           rod, drawn only) and a sphere geom ``cap:n`` per end cap (the
-                           contact sphere); sites ``node:n`` at the cap centres
+                           its mass and ``diaginertia (I_t, I_t, I_a)`` with the point masses
+                           on its caps (:func:`rod_inertial`); a capsule geom (the rod, drawn
+                           only; none at radius 0) and a sphere geom ``cap:n`` per end cap
+                           (the contact sphere); sites ``node:n`` at the cap centres
 rigid body ``b``           body ``body:b`` with free joint (a fixed body: world sites), its
                            lumped masses' inertia as the general dynamics have it
 point mass on node ``n``   body ``node:n`` on slide joints ``node:n:x|y|z``
@@ -37,6 +38,13 @@ sensors                    ``length:c`` (``tendonpos``) per cable with a length 
 initial state              bodies as drawn (``qpos0``) and keyframe ``initial`` (``qpos``,
                            zero ``qvel``, ``ctrl`` and ``act`` each motor held as drawn)
 =========================  ==================================================================
+
+**What MuJoCo cannot take** is refused in one line (:class:`ExportError`;
+:mod:`.mujoco_limits`): a moving body's mass or principal inertia below ``mjMINVAL``, a rigid
+body's full inertia tensor with an eigenvalue below ``mjEPS``, a node nearer its body's frame
+than 1e-6 m without being at it. A centre of mass that near its body's reference point gets
+the body's frame (:func:`~.mujoco_limits.frame_shift`): MuJoCo would otherwise put it at the
+frame.
 
 **Motors** (:mod:`.robot_motors`). In the rest-length and reel-speed modes the actuator's
 force is ``-(k (l - l0) + c ldot)`` with its activation as the rest length ``l0``, clipped
@@ -76,9 +84,11 @@ from scipy.spatial.transform import Rotation
 from tensegrity_core.export.errors import ExportError
 from tensegrity_core.export.mjcf_text import number, vector
 from tensegrity_core.export.model import MjcfModel
+from tensegrity_core.export.mujoco_limits import MJEPS, MJMINVAL, MJMINVAL_MARGIN, MJMINVAL_WHY, frame_shift
 from tensegrity_core.export.robot_motors import CTRL_MEANING, motor_actuators
-from tensegrity_core.general.mass_properties import body_inertias
+from tensegrity_core.general.mass_properties import layout_inertias
 from tensegrity_core.robot.description import Floor, Robot
+from tensegrity_core.robot.layout import bodies_layout
 from tensegrity_core.robot.rod import rod_frames
 from tensegrity_core.sim.scene import RobotModelSpec, Scene
 from tensegrity_core.sim.scene.spec import ContactSpec, FrictionSpec, GravitySpec, MotorsSpec
@@ -157,6 +167,27 @@ def scene_floor(scene: Scene) -> Floor | None:
                                torsional_friction=friction.torsional_friction)
 
 
+def rod_inertial(robot: Robot, i: int) -> tuple[float, float, float, float]:
+    """``(mass [kg], centre of mass [m] along the rod's axis from its centre, I_t, I_a [kg m^2]
+    about that centre of mass)`` of rod ``i`` with the point masses riding on its caps (at
+    ``-L/2`` and ``+L/2`` along its axis: ``I_a`` unchanged, ``I_t`` by the parallel axis);
+    raises :class:`ExportError` where MuJoCo cannot take it (:data:`~.mujoco_limits.MJMINVAL`)."""
+    rods = robot.rods
+    a, b = (int(n) for n in rods.ends[i])
+    half = 0.5 * float(np.linalg.norm(robot.nodes[b] - robot.nodes[a]))
+    m_a, m_b = float(robot.node_masses[a]), float(robot.node_masses[b])
+    mass = float(rods.mass[i]) + m_a + m_b
+    com = half * (m_b - m_a) / mass
+    I_t, I_a = (float(x) for x in rods.inertia[i])
+    I_t += (m_a + m_b) * half ** 2 - mass * com ** 2
+    least = min(I_t, I_a)
+    if not least >= MJMINVAL * (1.0 + MJMINVAL_MARGIN):
+        which = "transverse" if I_t <= I_a else "axial"
+        raise ExportError(f"robot {robot.name!r}: rods[{i}].inertia: rod {rods.names[i]!r} has {which} inertia "
+                          f"{least:.3g} kg m^2 (with its caps' point masses); {MJMINVAL_WHY}")
+    return mass, com, I_t, I_a
+
+
 def contact_parameters(stiffness: float, body_mass: float, impedance: float = CONTACT_IMPEDANCE
                        ) -> tuple[float, float]:
     """MuJoCo's direct ``solref = (-S, -D)`` [1/s^2, 1/s] for a cap of a body of ``body_mass``
@@ -176,23 +207,28 @@ class _RobotWriter:
         self.lift = lift * (robot.floor.normal if robot.floor is not None else np.array([0.0, 0.0, 1.0]))
         self.timestep = float(timestep)
         self.integrator = integrator
-        self.structure = robot.structure()
-        lay = self.structure.layout
+        lay = bodies_layout(robot)
         self.lay = lay
         rod_nodes = robot.rods.ends.ravel()
         if np.any(lay.fixed_mask[rod_nodes]):
             i = int(rod_nodes[np.flatnonzero(lay.fixed_mask[rod_nodes].any(axis=1))[0]])
             raise ExportError(f"robot {robot.name!r}: rod end {robot.node_names[i]!r} is pinned; MJCF rods are "
                               f"free bodies (pin a rigid body instead)")
-        if np.any(robot.node_masses[rod_nodes] > 0):
-            i = int(rod_nodes[np.flatnonzero(robot.node_masses[rod_nodes] > 0)[0]])
-            raise ExportError(f"robot {robot.name!r}: node {robot.node_names[i]!r} is a rod end with a point mass; "
-                              f"put it in the rod's mass and inertia")
+        self.rods = [rod_inertial(robot, i) for i in range(len(robot.rods))]
         # a body's mass shared equally by its nodes, plus their point masses (the general dynamics' lumping)
         masses = robot.node_masses.copy()
         for body in robot.bodies:
             masses[list(body.nodes)] += body.mass / len(body.nodes)
-        self.bodies = body_inertias(self.structure, masses)
+        self.bodies = layout_inertias(lay, masses)
+        for slot, b in enumerate(self.bodies):
+            I = b.inertia + INERTIA_MARGIN * float(np.trace(b.inertia)) * np.eye(3)
+            least = float(np.linalg.eigvalsh(I).min())
+            if not least >= MJEPS * (1.0 + MJMINVAL_MARGIN):
+                j = [b_.name for b_ in robot.bodies].index(lay.body_names[slot])
+                raise ExportError(f"robot {robot.name!r}: rigid_bodies[{j}]: body {lay.body_names[slot]!r} has a "
+                                  f"principal inertia of {least:.3g} kg m^2 (of its nodes' masses); MuJoCo refuses "
+                                  f"a full inertia tensor with an eigenvalue below its mjEPS, {MJEPS:g} kg m^2: give "
+                                  f"the body more mass or size")
         self.qpos: list[float] = []
         self.ctrl: list[float] = []
         self.act: list[float] = []
@@ -275,40 +311,49 @@ class _RobotWriter:
         a, b = (int(n) for n in rods.ends[i])
         xa, xb = r.nodes[a], r.nodes[b]
         half = 0.5 * float(np.linalg.norm(xb - xa))
-        centre = 0.5 * (xa + xb) + self.lift
-        quat = Rotation.from_matrix(rod_frames(xa, xb)[0]).as_quat(scalar_first=True)
+        frame = rod_frames(xa, xb)[0]
+        mass, com, I_t, I_a = self.rods[i]
         name = f"rod:{rods.names[i]}"
-        body = ET.SubElement(world, "body", name=name, pos=vector(centre), quat=vector(quat))
+        shift = frame_shift(np.array([0.0, 0.0, com]), np.array([[0.0, 0.0, -half], [0.0, 0.0, half]]),
+                            f"robot {r.name!r}: rods[{i}]: rod {rods.names[i]!r}",
+                            float(np.abs([xa, xb]).max()))[2]
+        origin = 0.5 * (xa + xb) + shift * frame[:, 2] + self.lift
+        quat = Rotation.from_matrix(frame).as_quat(scalar_first=True)
+        body = ET.SubElement(world, "body", name=name, pos=vector(origin), quat=vector(quat))
         ET.SubElement(body, "freejoint", name=name)
-        self.qpos.extend([*centre, *quat])
-        I_t, I_a = rods.inertia[i]
-        ET.SubElement(body, "inertial", pos="0 0 0", mass=number(rods.mass[i]), diaginertia=vector([I_t, I_t, I_a]))
-        ET.SubElement(body, "geom", name=name, type="capsule", size=number(rods.radius[i]),
-                      fromto=vector([0, 0, -half, 0, 0, half]), rgba="0.55 0.55 0.6 1")
-        for node, z in ((a, -half), (b, half)):
+        self.qpos.extend([*origin, *quat])
+        ET.SubElement(body, "inertial", pos=vector([0.0, 0.0, com - shift]), mass=number(mass),
+                      diaginertia=vector([I_t, I_t, I_a]))
+        if rods.radius[i] > 0:                        # a slender rod (radius 0) is drawn by its caps alone
+            ET.SubElement(body, "geom", name=name, type="capsule", size=number(rods.radius[i]),
+                          fromto=vector([0, 0, -half - shift, 0, 0, half - shift]), rgba="0.55 0.55 0.6 1")
+        for node, z in ((a, -half - shift), (b, half - shift)):
             ET.SubElement(body, "geom", name=f"cap:{r.node_names[node]}", type="sphere",
                           size=number(rods.cap_radius[i]), pos=vector([0, 0, z]), rgba="0.25 0.25 0.3 1")
             ET.SubElement(body, "site", name=self._node(node), pos=vector([0, 0, z]))
         if i in r.sensors.imu_rods:
-            ET.SubElement(body, "site", name=f"imu:{rods.names[i]}", pos="0 0 0")
+            ET.SubElement(body, "site", name=f"imu:{rods.names[i]}", pos=vector([0.0, 0.0, -shift]))
 
     def _rigid_body(self, world: ET.Element, slot: int) -> None:
         lay = self.lay
         body_name = lay.body_names[slot]
         name = f"body:{body_name}"
-        centre = self.robot.nodes[list(lay.body_nodes[slot])].mean(axis=0) + self.lift
-        body = ET.SubElement(world, "body", name=name, pos=vector(centre))
-        ET.SubElement(body, "freejoint", name=name)
-        self.qpos.extend([*centre, 1.0, 0.0, 0.0, 0.0])
         b = self.bodies[slot]
-        I = b.inertia + INERTIA_MARGIN * float(np.trace(b.inertia)) * np.eye(3)
-        ET.SubElement(body, "inertial", pos=vector(b.com), mass=number(b.mass),
-                      fullinertia=vector([I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]))
-        for i in lay.body_nodes[slot]:
-            ET.SubElement(body, "site", name=self._node(int(i)), pos=vector(lay.offsets[i]))
         index = [b_.name for b_ in self.robot.bodies].index(body_name)
+        nodes = lay.body_nodes[slot]
+        shift = frame_shift(b.com, lay.offsets[nodes], f"robot {self.robot.name!r}: rigid_bodies[{index}]: body "
+                                                       f"{body_name!r}", float(np.abs(self.robot.nodes[nodes]).max()))
+        origin = self.robot.nodes[list(nodes)].mean(axis=0) + shift + self.lift
+        body = ET.SubElement(world, "body", name=name, pos=vector(origin))
+        ET.SubElement(body, "freejoint", name=name)
+        self.qpos.extend([*origin, 1.0, 0.0, 0.0, 0.0])
+        I = b.inertia + INERTIA_MARGIN * float(np.trace(b.inertia)) * np.eye(3)
+        ET.SubElement(body, "inertial", pos=vector(b.com - shift), mass=number(b.mass),
+                      fullinertia=vector([I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]))
+        for i in nodes:
+            ET.SubElement(body, "site", name=self._node(int(i)), pos=vector(lay.offsets[i] - shift))
         if index in self.robot.sensors.imu_bodies:
-            ET.SubElement(body, "site", name=f"imu:{body_name}", pos="0 0 0")
+            ET.SubElement(body, "site", name=f"imu:{body_name}", pos=vector(-shift))
 
     def _point_masses(self, world: ET.Element) -> int:
         """Free nodes that are neither rod ends nor in a body: point masses on slide joints."""
@@ -341,7 +386,7 @@ class _RobotWriter:
         mu = [floor.mu_static, floor.mu_static, floor.torsional_friction, floor.rolling_friction,
               floor.rolling_friction]
         for i in range(len(r.rods)):
-            S, D = contact_parameters(floor.stiffness, float(r.rods.mass[i]))
+            S, D = contact_parameters(floor.stiffness, self.rods[i][0])
             for node in r.rods.ends[i]:
                 name = r.node_names[int(node)]
                 ET.SubElement(contact, "pair", name=f"contact:{name}", geom1=f"cap:{name}", geom2="floor",

@@ -21,6 +21,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from tensegrity_core.general.configuration import Configuration
+from tensegrity_core.general.dofs import DofLayout
 from tensegrity_core.general.rotation import hat
 from tensegrity_core.general.structure import Structure
 
@@ -47,7 +48,12 @@ class BodyInertia:
 def body_inertias(structure: Structure, node_masses: FloatArray) -> list[BodyInertia]:
     """The mass properties of each moving body (``structure.layout.moving_bodies`` order) of the
     lumped ``node_masses`` (n,) [kg]."""
-    lay = structure.layout
+    return layout_inertias(structure.layout, node_masses)
+
+
+def layout_inertias(lay: DofLayout, node_masses: FloatArray) -> list[BodyInertia]:
+    """The mass properties of each moving body of the layout ``lay`` (its ``moving_bodies``
+    order) of the lumped ``node_masses`` (n,) [kg]."""
     out = []
     for idx in lay.body_nodes:
         m = node_masses[idx]

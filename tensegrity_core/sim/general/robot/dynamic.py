@@ -28,12 +28,13 @@ from numpy.typing import ArrayLike, NDArray
 from tensegrity_core.events import LoggedEvent
 from tensegrity_core.general.rotation import exact_rotations
 from tensegrity_core.robot.imu import imu_readings
+from tensegrity_core.robot.layout import robot_layout
 from tensegrity_core.robot.motor import MODES, REEL_SPEED, TENSION
 from tensegrity_core.sim.commands import changed, check_command, compile_inputs
 from tensegrity_core.sim.errors import SimulationError
 from tensegrity_core.sim.general.model import kinetic_energy
 from tensegrity_core.sim.general.robot.loops import SLIPPING
-from tensegrity_core.sim.general.robot.plan import build_plan, lumped_masses, robot_layout
+from tensegrity_core.sim.general.robot.plan import build_plan, lumped_masses
 from tensegrity_core.sim.general.robot.setup import initial_vector, names_of, robot_effects, robot_model, state_names
 from tensegrity_core.sim.general.robot.stepping import FixedStepper, RobotSample
 from tensegrity_core.sim.general.robot.system import RobotEvaluation, RobotSystem, block_index

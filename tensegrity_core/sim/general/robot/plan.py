@@ -29,16 +29,14 @@ about each body's reference point ``c`` (the centroid of its nodes: a rod's midp
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
-from tensegrity_core.general.dofs import DofLayout
-from tensegrity_core.general.structure import RigidBody
 from tensegrity_core.robot.description import Robot
+from tensegrity_core.robot.layout import robot_layout
 from tensegrity_core.robot.rod import rod_frames, world_inertia
 from tensegrity_core.sim.errors import SceneError
 from tensegrity_core.sim.general.kernels.plan import build_placement, frozen
@@ -120,29 +118,6 @@ class RobotPlan(NamedTuple):
         """Length of the state vector: ``x``, ``v``, the motors' rest lengths, per cap its
         anchor (3) and its contact state (1)."""
         return 2 * self.n_dof + len(self.motor_cable) + 4 * len(self.cap_node)
-
-
-class _Bodies:
-    """What :class:`~tensegrity_core.general.dofs.DofLayout` reads of a robot: its nodes and
-    its rigid bodies, the rods among them (two nodes each)."""
-
-    def __init__(self, robot: Robot, bodies: Sequence[RigidBody]):
-        self.n_nodes = robot.n_nodes
-        self.node_names = robot.node_names
-        self.nodes = np.asarray(robot.nodes, dtype=float)
-        self.pinned = np.asarray(robot.pinned, dtype=bool)
-        self.members = np.asarray(robot.cables.ends, dtype=np.int64)
-        self.bodies = tuple(bodies)
-        self.layout = DofLayout(self)
-
-
-def robot_layout(robot: Robot) -> DofLayout:
-    """The coordinates of a robot: per rod and per moving rigid body its centre and rotation
-    vector, the free coordinates of the other nodes (numbering of :class:`DofLayout`; the
-    rods come first, in the description's order, then its other bodies)."""
-    rods = [RigidBody(name, (int(a), int(b)), float(m)) for name, (a, b), m in
-            zip(robot.rods.names, robot.rods.ends.tolist(), robot.rods.mass.tolist())]
-    return _Bodies(robot, rods + list(robot.bodies)).layout
 
 
 def build_plan(robot: Robot, effects: RobotEffects) -> RobotPlan:

@@ -6,8 +6,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tensegrity_core.robot.description import Robot
+from tensegrity_core.robot.layout import robot_layout
 from tensegrity_core.sim.general.robot.loops import NO_ANCHOR, STICKING
-from tensegrity_core.sim.general.robot.plan import RobotEffects, RobotPlan, robot_layout
+from tensegrity_core.sim.general.robot.plan import RobotEffects, RobotPlan
 from tensegrity_core.sim.model import Names
 from tensegrity_core.sim.scene import RobotModelSpec, Scene
 
