@@ -112,6 +112,8 @@ class CableControllerNode(Node):
         self.state_timeout = declare(self, "state_timeout", 10.0, "how long a goal sent before the controller "
                                      "has the simulator's joint_states and cable_states waits for them [s of wall "
                                      "time]; then it is refused", lo=0.0, read_only=True)
+        #: the controller's joints: the commanded inputs (cables) in the scene's order
+        self.joints = [n for n, c in zip(self.interface.inputs, self.interface.commanded) if c]
         self._job: _Job | None = None
         self._latest: tuple[int, float] | None = None   # (stamp [ns], t [s]) of the latest joint state
         self._latest_header: Any = None                 # its header (answered once the controller is active)
@@ -127,8 +129,7 @@ class CableControllerNode(Node):
         ActionServer(self, FollowJointTrajectory, "~/follow_joint_trajectory", self._execute,
                      goal_callback=lambda _req: GoalResponse.ACCEPT,
                      cancel_callback=self._on_cancel, feedback_pub_qos_profile=QoSProfile(depth=100))
-        takes = [n for n, c in zip(self.interface.inputs, self.interface.commanded) if c]
-        self.get_logger().info(f"cable controller ready (scene {self.scene_name!r}: {', '.join(takes)})")
+        self.get_logger().info(f"cable controller ready (scene {self.scene_name!r}: {', '.join(self.joints)})")
 
     # -- commands and checks ---------------------------------------------------------------
     def on_joints(self, msg: JointState) -> None:
@@ -298,8 +299,12 @@ class CableControllerNode(Node):
                                        (req.goal_tolerance, goal, self.goal_tolerance)):
             for item in items:
                 if item.name not in trajectory.names:
-                    raise jt.TrajectoryError(f"tolerance for joint {excerpt(item.name)}, which the trajectory does "
-                                             "not name", code=jt.INVALID_JOINTS)
+                    # as joint_trajectory_controller, tolerances may name any of the
+                    # controller's joints: one the trajectory leaves out holds, nothing to check
+                    if item.name in self.joints:
+                        continue
+                    raise jt.TrajectoryError(f"tolerance for unknown joint {excerpt(item.name)}; the joints are "
+                                             f"{', '.join(self.joints)}", code=jt.INVALID_JOINTS)
                 bounds[trajectory.names.index(item.name)] = jt.tolerance(item.position, default)
         # as joint_trajectory_controller: 0 the default, -1 (here any value < 0) no limit; a
         # default of 0 is no limit too (its constraints.goal_time)

@@ -198,7 +198,7 @@ def test_a_goal_joint_trajectory_controller_rejects_ends_with_the_standard_code_
 
 
 @pytest.mark.parametrize("case, kwargs, code", [
-    ("a tolerance for a joint the trajectory does not name", {"goal": [("c0_7", 1e-3)]}, INVALID_JOINTS),
+    ("a tolerance for a joint the controller does not have", {"goal": [("no_such_cable", 1e-3)]}, INVALID_JOINTS),
     ("a NaN tolerance", {"path": [("c0_4", math.nan)]}, INVALID_GOAL),
     # joint_trajectory_controller (validate_trajectory_msg), allow_nonzero_velocity_at_trajectory_end
     # false by default: "Velocity of last trajectory point of joint ... is not zero"
@@ -236,6 +236,24 @@ def test_a_goal_time_tolerance_of_minus_one_waits_as_long_as_the_goal_takes(suit
     assert any(stamp_ns(fb.desired.time_from_start) >= 150_000_000 and abs(fb.error.positions[0]) > 1e-4
                for fb in feedback)
     handle, _ = _send(client, action, _goal([(0.5, (NOMINAL,))], ("c1_7",), goal_time=2.0))   # back
+    assert _outcome(client, handle)[1].error_code == SUCCESSFUL
+
+
+def test_tolerances_for_every_joint_of_the_controller_go_with_a_partial_trajectory(suite):
+    """A client that fills path and goal tolerances for all the controller's joints (they may
+    name any of them: joint_trajectory_controller's get_segment_tolerances looks each up among
+    its joints) and moves one: the goal is taken and succeeds."""
+    from action_msgs.msg import GoalStatus
+
+    client, action = suite
+    joints = list(client.received["joint_states"][-1].name)
+    assert len(joints) == 24 and "c2_6" in joints
+    everyone = [(n, 5e-3) for n in joints]
+    goal = _goal([(0.2, (0.985,))], ("c2_6",), goal_time=2.0, path=everyone, goal=everyone)
+    handle, _ = _send(client, action, goal)
+    status, result = _outcome(client, handle)
+    assert (status, result.error_code) == (GoalStatus.STATUS_SUCCEEDED, SUCCESSFUL), result.error_string
+    handle, _ = _send(client, action, _goal([(0.2, (NOMINAL,))], ("c2_6",), goal_time=2.0))   # back
     assert _outcome(client, handle)[1].error_code == SUCCESSFUL
 
 
