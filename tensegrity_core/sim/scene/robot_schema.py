@@ -10,6 +10,7 @@ forces in newtons.
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 from typing import Any
@@ -300,6 +301,7 @@ def _rk4_growth(z: complex) -> float:
     return abs(1 + z + z**2 / 2 + z**3 / 6 + z**4 / 24) - 1.0
 
 
+@functools.lru_cache(maxsize=1024)      # a robot's cables share a few damping ratios
 def rk4_reach(zeta: float) -> float:
     """The largest ``h omega`` [1] at which RK4 keeps a linear mode of natural frequency
     ``omega`` [rad/s] and damping ratio ``zeta >= 0`` [1] from growing: the stability
