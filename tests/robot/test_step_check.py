@@ -5,10 +5,13 @@ The robot: a 1 kg rod along x held between two pinned points by two collinear ca
 ``k = 8e6 N/m`` each, stretched 0.1 and 0.2 mm (no gravity, no floor): it starts 0.05 mm from
 its equilibrium and neither cable goes slack as it oscillates. Its axial mode is the rod between the cables, ``omega = sqrt(2 k / m) = 4000
 rad/s`` (their 1.2 kN only add a transverse stiffness ``2 T / l = 2.4e4 N/m``, far below
-``2 k``), so RK4 follows it with steps up to ``2.96 / 4000 = 0.74 ms``: the default 1 ms is
-refused. Undamped, the mode is on RK4's imaginary axis, stable up to ``h omega = 2 sqrt 2 =
-2.83``: a run at 0.9 of the limit (2.66) keeps its energy, one at 1.05 of it (``h omega =
-3.1``, growth ``|R(3.1 i)| = 1.87`` per step) gains energy from nowhere.
+``2 k``). Undamped, the mode's roots ``+-i omega`` put ``h omega`` on RK4's imaginary axis,
+where ``|R(iy)|^2 = 1 - y^6/72 + y^8/576`` exceeds 1 exactly from ``y = 2 sqrt 2 = 2.83`` on:
+RK4 follows it with steps up to ``2 sqrt 2 / 4000 = 0.707 ms`` and the default 1 ms is
+refused. A run at 0.98 of that limit loses its energy to RK4; one at 1.02 of it (``h omega =
+2.885``, ``|R|^2 = 1.33`` a step) gains energy from nowhere. Damped, the roots ``omega (-zeta +- i
+sqrt(1 - zeta^2))`` leave the axis and the limit is the region's radius along them (2.62 at
+``zeta = 1/2``, below the undamped 2.83).
 """
 
 from __future__ import annotations
@@ -19,11 +22,11 @@ import yaml
 from numpy.typing import NDArray
 
 from tensegrity_core.sim import SceneError, compile_scene, load_scene
-from tensegrity_core.sim.scene.robot_schema import RK4_REACH
+from tensegrity_core.sim.scene.robot_schema import RK4_IMAGINARY_REACH, rk4_reach
 from tensegrity_ros.cli import main
 
 K, MASS = 8e6, 1.0
-LIMIT = RK4_REACH / np.sqrt(2 * K / MASS)        # 0.74 ms
+LIMIT = 2 * np.sqrt(2) / np.sqrt(2 * K / MASS)    # 0.707 ms
 ROBOT = {"name": "hung", "nodes": {"p": [0.0, 0.0, 0.0], "a": [0.1, 0.0, 0.0], "b": [1.1, 0.0, 0.0],
                                    "q": [1.2, 0.0, 0.0]},
          "pinned": ["p", "q"], "rods": [{"name": "r", "nodes": ["a", "b"], "mass": MASS, "radius": 0.01}],
@@ -37,49 +40,89 @@ def scene(step: float | None = None) -> dict:
     return out if step is None else dict(out, integrator={"max_step": step})
 
 
-def test_rk4_s_reach():
-    """The largest |z| in RK4's stability region, on a fine polar grid: 2.96 (to 0.005)."""
-    angle = np.linspace(np.pi / 2, np.pi, 721)[:, None]
-    radius = np.linspace(1e-3, 4.0, 8001)[None, :]
-    z = radius * np.exp(1j * angle)
-    stable = np.abs(1 + z + z**2 / 2 + z**3 / 6 + z**4 / 24) <= 1.0
-    first_unstable = np.argmin(stable, axis=1)
-    assert abs(radius[0, first_unstable - 1].max() - RK4_REACH) < 5e-3
+def _first_unstable(root: complex) -> float:
+    """The largest ``r`` [1] with ``|R(r' root)| <= 1`` for every ``r' <= r``, on a grid of
+    step 1e-5 (independent of the code's root finding)."""
+    r = np.arange(1.0, 4.0, 1e-5)
+    z = r * root
+    return float(r[np.argmax(np.abs(1 + z + z**2 / 2 + z**3 / 6 + z**4 / 24) > 1.0) - 1])
+
+
+def test_rk4_s_reach_on_the_imaginary_axis_is_2_sqrt_2():
+    assert RK4_IMAGINARY_REACH == pytest.approx(2 * np.sqrt(2), rel=1e-15) == rk4_reach(0.0)
+    assert abs(_first_unstable(1j) - 2 * np.sqrt(2)) < 2e-5
+
+
+@pytest.mark.parametrize("zeta", [1e-3, 0.1, 0.3, 0.5, 0.7, 0.9, 0.999])
+def test_rk4_s_reach_along_a_damped_modes_roots(zeta):
+    """The region's radius along ``-zeta + i sqrt(1 - zeta^2)`` (2.95 at 0.1, 2.62 at 0.5)."""
+    assert abs(rk4_reach(zeta) - _first_unstable(complex(-zeta, np.sqrt(1 - zeta**2)))) < 2e-5
+
+
+@pytest.mark.parametrize("zeta", [1.0, 1.5, 4.0])
+def test_rk4_s_reach_for_an_overdamped_mode_is_its_fast_root_s(zeta):
+    """Real roots ``-omega (zeta +- sqrt(zeta^2 - 1))``: the fast one within the real axis's 2.785."""
+    assert abs(rk4_reach(zeta) * (zeta + np.sqrt(zeta**2 - 1)) - _first_unstable(-1.0)) < 2e-5
 
 
 def test_a_step_too_long_for_a_cable_is_refused_in_one_line():
     with pytest.raises(SceneError, match=r"^integrator\.max_step: a fixed step of 0\.001 s \(the default\) is too "
                                          r"long for rod 'r' \(1 kg\): moved along cable 'c' it meets 1\.6e\+07 N/m of "
                                          r"taut cables, a mode of at least 4000 rad/s, which RK4 follows with steps "
-                                         r"up to 0\.00074 s; give integrator\.max_step in \(0, 0\.00074\] s$"):
+                                         r"up to 0\.000707 s; give integrator\.max_step in \(0, 0\.000707\] s$"):
         load_scene(scene())
-    with pytest.raises(SceneError, match=r"^integrator\.max_step: a fixed step of 0\.0008 s is too long"):
-        load_scene(scene(8e-4))
+    with pytest.raises(SceneError, match=r"^integrator\.max_step: a fixed step of 0\.00072 s is too long"):
+        load_scene(scene(7.2e-4))                 # h omega = 2.88: was taken within RK4's 2.96 off the axis
     load_scene(scene(7e-4))
     slack = dict(ROBOT, cables=[dict(c, rest_length=0.1001) for c in ROBOT["cables"]])     # nothing to follow
     load_scene(dict(scene(), model={"kind": "robot", "robot": slack}))
 
 
-def _energy(step: float, steps: int = 2000) -> float:
-    """The largest energy (kinetic + cables) over ``steps`` steps of ``step`` [s], in units of
-    the energy it starts with (validation passed at a step it accepts, then the model's step
-    replaced)."""
-    model = compile_scene(load_scene(scene(0.5 * LIMIT)))
+def taut(damping: float) -> dict:
+    """The robot with its cables stretched 1.0 and 1.1 mm (starting 0.05 mm from equilibrium,
+    as drawn: a mode that grows stays linear until it is 20 times that) and damped ``damping``
+    [N s/m] each."""
+    return dict(ROBOT, cables=[dict(c, damping=damping, rest_length=r) for c, r in zip(ROBOT["cables"],
+                                                                                      (0.0990, 0.0989))])
+
+
+def _kinetic_growth(robot: dict, step: float, steps: int = 100) -> float:
+    """The largest kinetic energy over the last 10 of ``steps`` steps of ``step`` [s] over
+    the largest over the first 6 (three periods): below 1 when RK4 follows the mode, above
+    when it grows (validation passed at a step it accepts, then the model's step replaced)."""
+    model = compile_scene(load_scene(dict(scene(1e-5), model={"kind": "robot", "robot": robot})))
     model.step = step
-    state = model.initial_state(t_end=steps * step)
     samples: list = []
-    model.record(state, np.arange(steps + 1) * step, samples)
-    o = model.observe(samples)
-    E = o["kinetic_energy"] + o["potential_energy"]
-    return float(E.max() / E[0])
+    model.record(model.initial_state(t_end=steps * step), np.arange(steps + 1) * step, samples)
+    kinetic = model.observe(samples)["kinetic_energy"]
+    return float(kinetic[-10:].max() / kinetic[:6].max())
 
 
-def test_the_refusal_is_right():
-    """Below the refused steps the energy stays what it was (RK4's error: below 1 % over 2000
-    steps); above them it grows, ``|R(3.1 i)|^2 = 3.5`` times in a step while both cables are
-    taut, until the amplitude slackens them by turns (then more than doubled: 2.3 times)."""
-    assert _energy(0.9 * LIMIT) < 1.01
-    assert _energy(1.05 * LIMIT, steps=20) > 2.0
+def test_the_refusal_is_right_just_below_and_just_above_it():
+    """Undamped: just below the refused steps (0.98 of the limit, ``h omega = 2.77``) RK4
+    takes energy out, ``|R(2.77 i)|^2 = 0.75`` a step, so 100 steps leave less than 1e-3 of
+    it; just above them (1.02, ``h omega = 2.885``) it puts energy in from nowhere,
+    ``|R(2.885 i)|^2 = 1.33`` a step, until the cables slacken by turns (over 10 times)."""
+    assert _kinetic_growth(taut(0.0), 0.98 * LIMIT) < 1e-3
+    assert _kinetic_growth(taut(0.0), 1.02 * LIMIT) > 10.0
+
+
+#: The cables damped at ``c = zeta m omega`` each (2000 N s/m: along the rod both act, ``2 c
+#: = 2 zeta m omega``), damping ratio ``zeta = 1/2``: the roots at 120 degrees, where RK4's
+#: region reaches 2.62 (less than the 2.83 of an undamped mode).
+DAMPING = 0.5 * MASS * 4000.0
+DAMPED_LIMIT = 2.6225 / 4000.0                     # 0.656 ms
+
+
+def test_a_damped_modes_refusal_takes_its_damping_and_is_right():
+    """Refused from 2.62 / omega (a step the undamped limit takes); just below it
+    ``|R|^2 = 0.88`` a step, just above ``1.14``: the damped mode grows from nowhere."""
+    damped = dict(scene(0.99 * LIMIT), model={"kind": "robot", "robot": taut(DAMPING)})
+    with pytest.raises(SceneError, match=r"follows with steps up to 0\.000656 s"):
+        load_scene(damped)
+    load_scene(dict(damped, integrator={"max_step": 0.99 * DAMPED_LIMIT}))
+    assert _kinetic_growth(taut(DAMPING), 0.98 * DAMPED_LIMIT) < 1e-3
+    assert _kinetic_growth(taut(DAMPING), 1.02 * DAMPED_LIMIT) > 10.0
 
 
 def test_the_cli_says_it_in_one_line_with_exit_2(tmp_path, capsys):
@@ -88,14 +131,15 @@ def test_the_cli_says_it_in_one_line_with_exit_2(tmp_path, capsys):
     assert main(["simulate", str(path), "-o", str(tmp_path / "out.csv"), "--quiet"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1
-    assert "integrator.max_step" in err and "give integrator.max_step in (0, 0.00074] s" in err
+    assert "integrator.max_step" in err and "give integrator.max_step in (0, 0.000707] s" in err
 
 
 #: A 1 kg rod lying on a floor of stiffness 1e8 N/m (no damping, no friction): a cap pressed
 #: into it meets a mode of at least ``sqrt(k / m) = 1e4 rad/s`` (the rod on both caps bounces
-#: at ``sqrt(2 k / m)``), so RK4 follows it with steps up to ``2.96 / 1e4 = 0.296 ms``.
+#: at ``sqrt(2 k / m)``), undamped as it touches, so RK4 follows it with steps up to
+#: ``2 sqrt 2 / 1e4 = 0.283 ms``.
 FLOOR_K = 1e8
-FLOOR_LIMIT = RK4_REACH / np.sqrt(FLOOR_K / MASS)
+FLOOR_LIMIT = 2 * np.sqrt(2) / np.sqrt(FLOOR_K / MASS)
 LYING = {"name": "lying", "nodes": {"a": [0.0, 0.0, 0.01], "b": [1.0, 0.0, 0.01]},
          "rods": [{"name": "r", "nodes": ["a", "b"], "mass": MASS, "radius": 0.01, "cap_radius": 0.01}],
          "cables": [{"name": "c", "nodes": ["a", "b"], "stiffness": 1.0, "rest_length": 2.0}],
@@ -113,7 +157,7 @@ def test_a_step_too_long_for_the_floor_is_refused_in_one_line():
     with pytest.raises(SceneError, match=r"^integrator\.max_step: a fixed step of 0\.001 s \(the default\) is too "
                                          r"long for rod 'r' \(1 kg\): pressed into the floor it meets 1e\+08 N/m of "
                                          r"contact stiffness, a mode of at least 1e\+04 rad/s, which RK4 follows with "
-                                         r"steps up to 0\.000296 s; give integrator\.max_step in \(0, 0\.000296\] s$"):
+                                         r"steps up to 0\.000283 s; give integrator\.max_step in \(0, 0\.000283\] s$"):
         load_scene(floor_scene())
     load_scene(floor_scene(0.99 * FLOOR_LIMIT))
     without_contact = dict(floor_scene(), effects=["inertia", "gravity", "cables"])
@@ -126,7 +170,7 @@ def test_a_step_too_long_for_the_floor_is_refused_in_one_line():
 
 def test_the_floor_s_refusal_is_right():
     """Past the refused step the rod resting on its caps gains energy from nowhere (its bounce
-    on both caps has ``h omega >= 1.05 * 2.96 * sqrt 2 = 4.4``, beyond RK4's 2.83 on the
+    on both caps has ``h omega >= 1.05 * 2.83 * sqrt 2 = 4.2``, beyond RK4's 2.83 on the
     imaginary axis); well inside it (a tenth: ``h omega`` of the rocking mode
     ``sqrt(6 k / m)`` about 0.7) it stays at rest to the sinking of its weight."""
     def run(step: float, steps: int) -> NDArray:
@@ -149,10 +193,11 @@ def test_the_floor_s_refusal_is_right():
 #: them it meets only 2 N/m, but turned by ``theta`` each cap's arc shortens its cable by
 #: ``theta^2 L / 4``, so the pair stores ``T L theta^2 / 2`` and the rod swings back to align
 #: with them at ``omega = sqrt(T L / I_t) = 108 rad/s`` (their transverse stiffness ``T / l =
-#: 1 N/m`` adds 0.05 %): RK4 follows it with steps up to ``2.96 / 108 = 27.4 ms``.
+#: 1 N/m`` adds 0.05 %), undamped (the cables' lengths change only to second order in
+#: ``theta``): RK4 follows it with steps up to ``2 sqrt 2 / 108 = 26.2 ms``.
 T_PULL, TURN_I = 999.0, 0.0856008553
 TURN_OMEGA = np.sqrt(T_PULL * 1.0 / TURN_I)
-TURN_LIMIT = RK4_REACH / TURN_OMEGA
+TURN_LIMIT = 2 * np.sqrt(2) / TURN_OMEGA
 TURNING = {"name": "aligned", "nodes": {"p": [-1000.0, 0.0, 0.0], "a": [0.0, 0.0, 0.0], "b": [1.0, 0.0, 0.0],
                                         "q": [1001.0, 0.0, 0.0]},
            "pinned": ["p", "q"], "rods": [{"name": "r", "nodes": ["a", "b"], "mass": MASS, "radius": 0.01}],
@@ -169,17 +214,17 @@ def test_a_step_too_long_for_a_rod_turning_into_its_cables_is_refused():
     with pytest.raises(SceneError, match=r"^integrator\.max_step: a fixed step of 0\.05 s is too long for rod 'r' "
                                          r"\(1 kg\): turned towards cable 'c' \(its transverse inertia 0\.0856009 kg "
                                          r"m\^2\) it meets 999 N m/rad of taut cables, a mode of at least 108 rad/s, "
-                                         r"which RK4 follows with steps up to 0\.0274 s; give integrator\.max_step in "
-                                         r"\(0, 0\.0274\] s$"):
+                                         r"which RK4 follows with steps up to 0\.0262 s; give integrator\.max_step in "
+                                         r"\(0, 0\.0262\] s$"):
         load_scene(turning_scene(0.05))
     load_scene(turning_scene(0.99 * TURN_LIMIT))
 
 
 def test_the_turning_refusal_is_right():
-    """Turned 0.01 rad and let go: at 0.9 of the refused step (``h omega = 2.66``, inside
-    RK4's 2.83 on the imaginary axis) the swing stays below its start's ``theta omega`` = 1.08
-    rad/s; past the refusal (1.05 of it, ``h omega = 3.1``) it grows from nowhere, ``|R(3.1
-    i)| = 1.87`` per step, past 10 times that within 2 s (69 times, tumbling)."""
+    """Turned 0.01 rad and let go: just below the refused step (0.98 of it, ``h omega =
+    2.77``) the swing stays below its start's ``theta omega`` = 1.08 rad/s; just past the
+    refusal (1.02 of it, ``h omega = 2.885``) it grows from nowhere, ``|R(2.885 i)| = 1.15``
+    a step, past 10 times that within 2 s."""
     def swing(step: float, duration: float) -> float:
         model = compile_scene(load_scene(turning_scene(0.5 * TURN_LIMIT)))
         model.step = step
@@ -191,5 +236,5 @@ def test_the_turning_refusal_is_right():
         model.record(model.state_from(y, t_end=steps * step), np.arange(steps + 1) * step, samples)
         return max(abs(float(s[1][p.n_dof + p.body_dof[0] + 5])) for s in samples)
 
-    assert swing(0.9 * TURN_LIMIT, 5.0) < 0.01 * TURN_OMEGA * 1.01
-    assert swing(1.05 * TURN_LIMIT, 2.0) > 10 * 0.01 * TURN_OMEGA
+    assert swing(0.98 * TURN_LIMIT, 5.0) < 0.01 * TURN_OMEGA * 1.01
+    assert swing(1.02 * TURN_LIMIT, 2.0) > 10 * 0.01 * TURN_OMEGA

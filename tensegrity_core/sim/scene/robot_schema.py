@@ -10,6 +10,7 @@ forces in newtons.
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 from typing import Any
@@ -288,10 +289,33 @@ def rotation_mode(robot: Robot, rod: int, taut: list[int], g: NDArray[np.float64
     return best
 
 
-#: How far the classical RK4's stability region reaches from the origin [1]: the largest
-#: ``|z|`` with ``|R(z)| <= 1``, ``R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24`` (2.83 along the
-#: imaginary axis, 2.79 along the negative real one, 2.96 in between).
-RK4_REACH = 2.96
+#: Where the classical RK4's stability region ``|R(z)| <= 1``, ``R(z) = 1 + z + z^2/2 + z^3/6
+#: + z^4/24``, meets the imaginary axis [1]: ``|R(iy)|^2 = 1 - y^6/72 + y^8/576`` is at most 1
+#: exactly while ``y^2 <= 8``, so an undamped mode (``z = +-i h omega``) grows from
+#: ``h omega = 2 sqrt 2 = 2.83`` on (the region reaches 2.96 in between and 2.79 along the
+#: negative real axis).
+RK4_IMAGINARY_REACH = 2.0 * math.sqrt(2.0)
+
+
+def _rk4_growth(z: complex) -> float:
+    return abs(1 + z + z**2 / 2 + z**3 / 6 + z**4 / 24) - 1.0
+
+
+@functools.lru_cache(maxsize=1024)      # a robot's cables share a few damping ratios
+def rk4_reach(zeta: float) -> float:
+    """The largest ``h omega`` [1] at which RK4 keeps a linear mode of natural frequency
+    ``omega`` [rad/s] and damping ratio ``zeta >= 0`` [1] from growing: the stability
+    region's radius along the mode's roots ``omega (-zeta +- i sqrt(1 - zeta^2))`` (modulus
+    ``omega``), or for ``zeta > 1`` its reach along the negative real axis over the fast
+    root's ``zeta + sqrt(zeta^2 - 1)``. ``rk4_reach(0)`` is :data:`RK4_IMAGINARY_REACH`."""
+    from scipy.optimize import brentq
+
+    if zeta <= 0.0:
+        return RK4_IMAGINARY_REACH
+    if zeta >= 1.0:
+        return float(brentq(lambda r: _rk4_growth(-r), 1.0, 3.0)) / (zeta + math.sqrt(zeta * zeta - 1.0))
+    root = complex(-zeta, math.sqrt(1.0 - zeta * zeta))
+    return float(brentq(lambda r: _rk4_growth(r * root), 1.0, 3.0))
 
 
 def step_fits(reader: Reader, model: RobotModelSpec, effects: SceneEffects, step: float,
@@ -311,10 +335,15 @@ def step_fits(reader: Reader, model: RobotModelSpec, effects: SceneEffects, step
     the normal (or along the floor) a mode of at least ``sqrt(k / m)`` once it touches, and
     turning a rod about its centre into its taut cables a mode of at least
     :func:`rotation_mode`'s (a rod swinging to align with a cable's pull). RK4
-    with steps ``h`` diverges on a mode once ``h omega > RK4_REACH``: such a run would stop
+    with steps ``h`` diverges on a mode once ``h omega`` exceeds its reach: such a run would stop
     with a state that is no longer finite, so the scene is refused before it starts, naming
     the rod, what holds it and the longest step that mode allows (a step below it may still
-    be too long for a mode this bound does not see; the run then stops and says so)."""
+    be too long for a mode this bound does not see; the run then stops and says so).
+    RK4's reach is :func:`rk4_reach` of the mode's damping ratio ``c / (2 m omega)``: the
+    taut cables' damping ``c_i`` [N s/m] along the same direction (``sum c_i (u_i . u)^2``),
+    the friction anchor's ``tangential_damping``; an undamped mode (a rod turning, whose
+    cables' lengths change only to second order; a cap just touching, where Hunt-Crossley
+    damping ``k delta d`` is zero) has :data:`RK4_IMAGINARY_REACH`."""
     robot = model.robot
     motors, contact, friction = effects.get("motors"), effects.get("contact"), effects.get("friction")
     pinned: NDArray[np.bool_] = np.asarray(robot.pinned.any(axis=1), dtype=bool)
@@ -339,22 +368,24 @@ def step_fits(reader: Reader, model: RobotModelSpec, effects: SceneEffects, step
             rod = rod_of.get(end)
             if rod is not None and rod_of.get(other) != rod:
                 on.setdefault(rod, []).append(i)
-    worst: tuple[float, float, float, int, str] | None = None         # omega, k, m, rod, what holds it
+    worst: tuple[float, float, float, int, str] | None = None   # longest step [s], omega, m, rod, what holds it
 
-    def consider(rod: int, stiffness: float, what: str) -> None:
+    def consider(rod: int, stiffness: float, what: str, damping: float = 0.0) -> None:
         nonlocal worst
         mass = float(robot.rods.mass[rod] + robot.node_masses[robot.rods.ends[rod]].sum())
         omega = math.sqrt(stiffness / mass)
-        if worst is None or omega > worst[0]:
-            worst = (omega, stiffness, mass, rod, what)
+        longest = rk4_reach(damping / (2.0 * mass * omega)) / omega
+        if worst is None or longest < worst[0]:
+            worst = (longest, omega, mass, rod, what)
 
     for rod, taut in on.items():
         u = h[taut] / drawn[taut, None]
-        k_taut = cables.stiffness[taut]
+        k_taut, c_taut = cables.stiffness[taut], cables.damping[taut]
         for j, i in enumerate(taut):
-            stiffness = float(np.sum(k_taut * (u @ u[j]) ** 2))
+            share = (u @ u[j]) ** 2
+            stiffness = float(np.sum(k_taut * share))
             consider(rod, stiffness, f"moved along cable {excerpt(cables.names[i])} it meets {stiffness:g} N/m of "
-                                     f"taut cables")
+                                     f"taut cables", float(np.sum(c_taut * share)))
     gravity = effects.get("gravity")
     g = np.zeros(3) if gravity is None else np.asarray(gravity.vector, dtype=float)
     for rod, taut in on.items():
@@ -362,21 +393,19 @@ def step_fits(reader: Reader, model: RobotModelSpec, effects: SceneEffects, step
         if turning is not None:
             omega2, inertia, i = turning
             stiffness = omega2 * float(robot.rods.mass[rod] + robot.node_masses[robot.rods.ends[rod]].sum())
-            if worst is None or math.sqrt(omega2) > worst[0]:
-                worst = (math.sqrt(omega2), stiffness, float(robot.rods.mass[rod] + robot.node_masses[
-                    robot.rods.ends[rod]].sum()), rod, f"turned towards cable {excerpt(cables.names[i])} (its "
-                    f"transverse inertia {inertia:g} kg m^2) it meets {omega2 * inertia:g} N m/rad of taut cables")
+            consider(rod, stiffness, f"turned towards cable {excerpt(cables.names[i])} (its transverse inertia "
+                                     f"{inertia:g} kg m^2) it meets {omega2 * inertia:g} N m/rad of taut cables")
     for rod in sorted(set(rod_of.values())):
         if contact is not None:
             consider(rod, contact.stiffness, f"pressed into the floor it meets {contact.stiffness:g} N/m of contact "
                                              f"stiffness")
         if friction is not None:
             consider(rod, friction.tangential_stiffness, f"sticking on the floor it meets "
-                                                         f"{friction.tangential_stiffness:g} N/m of friction anchor")
-    if worst is None or step * worst[0] <= RK4_REACH:
+                                                         f"{friction.tangential_stiffness:g} N/m of friction anchor",
+                     friction.tangential_damping)
+    if worst is None or step <= worst[0]:
         return
-    omega, _, mass, rod, what = worst
-    longest = RK4_REACH / omega
+    longest, omega, mass, rod, what = worst
     given = isinstance(d.get("integrator"), dict) and "max_step" in d["integrator"]
     path: KeyPath = ("integrator", "max_step")
     raise reader.error(f"a fixed step of {step:g} s{'' if given else ' (the default)'} is too long for rod "
