@@ -74,7 +74,7 @@ AS_PROCESSES = [
     (["node", "cables", "--ros-args", "-p", "scene:=true"],
      "error: tensegrity_cable_controller: parameter scene must be text, got 'True' (a boolean)"),
     (["node", "formfind", "--ros-args", "-p", "max_workers:=two"],
-     "error: tensegrity_formfind: parameter max_workers must be a whole number in [1, 64], got 'two' (text)"),
+     "error: tensegrity_formfind: parameter max_workers must be a whole number in [1, 64] processes, got 'two' (text)"),
     (["node", "formfind", "--ros-args", "-p", "max_members:=1.5"],
      "error: tensegrity_formfind: parameter max_members must be a whole number in [1, 2147483647] members, "
      "got '1.5' (a number)"),
