@@ -153,8 +153,8 @@ def robot_control(reader: Reader, d: dict[str, Any], model: ModelSpec) -> RollSp
 
 def control_rate_fits(reader: Reader, control: RollSpec, step: float, d: dict[str, Any]) -> None:
     """Refuse a control rate [Hz] the robot's fixed step ``step`` [s] cannot take
-    (:func:`~tensegrity_core.sim.control_rate.control_rate_reason`)."""
-    from tensegrity_core.sim.control_rate import control_rate_reason
+    (:func:`~tensegrity_core.sim.control_loop.control_rate_reason`)."""
+    from tensegrity_core.sim.control_loop import control_rate_reason
 
     reason = control_rate_reason(control.rate, step)
     if reason is None:
