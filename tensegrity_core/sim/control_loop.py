@@ -11,7 +11,6 @@ is done.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from typing import Any, Protocol
 
@@ -20,6 +19,7 @@ from numpy.typing import NDArray
 
 from tensegrity_core.errors import ParameterError
 from tensegrity_core.sim.model import Model, State
+from tensegrity_core.sim.scene.robot_schema import control_rate_reason
 
 FloatArray = NDArray[np.float64]
 
@@ -34,26 +34,12 @@ class Controller(Protocol):
     def update(self, t: float, touching: NDArray[np.int64], nodes: FloatArray) -> FloatArray: ...
 
 
-def control_rate_reason(rate: float, step: float) -> str | None:
-    """Why a controller cannot be sampled at ``rate`` [Hz] on a model taking fixed steps of
-    ``step`` [s] (0: adaptive steps, any rate), or None when it can. Above ``1 / step`` it
-    cannot: the motors take a new command at the start of a step, so samples between two
-    steps see the same state and command nothing new (and each costs an evaluation: at 1 MHz
-    a 10 ms run took 40 s)."""
-    if not (rate > 0 and math.isfinite(rate)):
-        return f"the control rate must be a positive number of Hz, got {rate!r}"
-    if step > 0 and rate * step > 1.0 + 1e-12:
-        return (f"a controller sampled at {rate:g} Hz is faster than the robot's fixed step of {step:g} s "
-                f"({1.0 / step:g} Hz), at which its commands act; give rate in (0, {1.0 / step:g}] Hz")
-    return None
-
-
 class ControlLoop:
     """``controller`` sampled at ``rate`` [Hz] from ``state.t`` on, its commands held between
     samples; :meth:`record` records ``state`` at any instants meanwhile, :meth:`run` at the
-    control instants. ``model`` observes
-    ``contact_forces`` per cap (its ``names.cap_names``: a robot's). A rate the model's step
-    cannot take is refused (:func:`control_rate_reason`, ``ParameterError``), as a scene's
+    control instants. ``model`` observes ``contact_forces`` per cap (its ``names.cap_names``:
+    a robot's). A rate the model's step cannot take is refused with ``ParameterError``
+    (:func:`~tensegrity_core.sim.scene.robot_schema.control_rate_reason`), as a scene's
     ``control`` is."""
 
     def __init__(self, model: Model[Any, Any], state: State[Any], controller: Controller, *, rate: float):

@@ -151,11 +151,23 @@ def robot_control(reader: Reader, d: dict[str, Any], model: ModelSpec) -> RollSp
     return RollSpec(faces, (heading[0], heading[1]), rate)
 
 
+def control_rate_reason(rate: float, step: float) -> str | None:
+    """Why a controller cannot be sampled at ``rate`` [Hz] on a model taking fixed steps of
+    ``step`` [s] (0: adaptive steps, any rate), or None when it can. Above ``1 / step`` it
+    cannot: the motors take a new command at the start of a step, so samples between two
+    steps see the same state and command nothing new (and each costs an evaluation: at 1 MHz
+    a 10 ms run took 40 s)."""
+    if not (rate > 0 and math.isfinite(rate)):
+        return f"the control rate must be a positive number of Hz, got {rate!r}"
+    if step > 0 and rate * step > 1.0 + 1e-12:
+        return (f"a controller sampled at {rate:g} Hz is faster than the robot's fixed step of {step:g} s "
+                f"({1.0 / step:g} Hz), at which its commands act; give rate in (0, {1.0 / step:g}] Hz")
+    return None
+
+
 def control_rate_fits(reader: Reader, control: RollSpec, step: float, d: dict[str, Any]) -> None:
     """Refuse a control rate [Hz] the robot's fixed step ``step`` [s] cannot take
-    (:func:`~tensegrity_core.sim.control_loop.control_rate_reason`)."""
-    from tensegrity_core.sim.control_loop import control_rate_reason
-
+    (:func:`control_rate_reason`)."""
     reason = control_rate_reason(control.rate, step)
     if reason is None:
         return
