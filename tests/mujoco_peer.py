@@ -33,8 +33,9 @@ general dynamics into MuJoCo's coordinates, :func:`mujoco_state`). Use::
     A state ``y = (x, v)`` of the general dynamics (``GeneralDynamic.state_from``'s vector:
     coordinates in the rotation charts ``R_ref`` (nb, 3, 3), rates with world angular
     velocities) in MuJoCo's coordinates (slide joints relative to the body's position in
-    the model, free joints: centre, quaternion ``w x y z``, centre velocity, angular
-    velocity in the body frame).
+    the model, free joints: the frame's origin -- the centre, or the centre of mass where
+    the export moved the frame there (docs/mujoco.md) --, quaternion ``w x y z``, the
+    origin's velocity, angular velocity in the body frame).
 
 **Energies.** ``kinetic`` is MuJoCo's ``energy[1]``. ``potential`` is MuJoCo's
 ``energy[0]`` (gravity on the body masses, ``-m g . x_com``, and the tendon springs, zero
@@ -181,6 +182,10 @@ class MujocoPeer:
         return PeerRun(ts, out_nodes, kinetic, potential, steps, wall)
 
 
+def _site_names(m: mujoco.MjModel) -> NDArray[np.str_]:
+    return np.array([m.site(k).name for k in range(m.nsite)])
+
+
 def mujoco_state(peer: MujocoPeer, structure: Structure, y: ArrayLike,
                  R_ref: ArrayLike) -> tuple[FloatArray, FloatArray]:
     """``(qpos, qvel)`` of the general dynamics' state ``y`` (see the module docstring)."""
@@ -203,9 +208,11 @@ def mujoco_state(peer: MujocoPeer, structure: Structure, y: ArrayLike,
             slot = lay.body_names.index(name.removeprefix("body:"))
             u = lay.body_dof[slot]
             R = exp_so3(x[u + 3:u + 6]) @ R_ref[slot]
-            qpos[qa:qa + 3] = x[u:u + 3]
+            body = m.jnt_bodyid[j]                # its frame: the node centroid, moved by the sites' mean
+            shift = -m.site_pos[(m.site_bodyid == body) & np.char.startswith(_site_names(m), NODE)].mean(axis=0)
+            qpos[qa:qa + 3] = x[u:u + 3] + R @ shift
             qpos[qa + 3:qa + 7] = Rotation.from_matrix(R).as_quat(scalar_first=True)
-            qvel[va:va + 3] = v[u:u + 3]
+            qvel[va:va + 3] = v[u:u + 3] + np.cross(v[u + 3:u + 6], R @ shift)
             qvel[va + 3:va + 6] = R.T @ v[u + 3:u + 6]
     return qpos, qvel
 

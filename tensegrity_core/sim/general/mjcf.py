@@ -56,15 +56,20 @@ of 1e-12 is far below any integrator's error.
 
 from __future__ import annotations
 
+import math
 import xml.etree.ElementTree as ET
 
 import numpy as np
+import scipy.linalg
 import scipy.sparse as sp
 from numpy.typing import NDArray
+from scipy.sparse.linalg import ArpackNoConvergence
 from scipy.spatial.transform import Rotation
 
+from tensegrity_core.export.errors import ExportError
 from tensegrity_core.export.mjcf_text import number, vector
 from tensegrity_core.export.model import MjcfModel
+from tensegrity_core.export.mujoco_limits import MJEPS, MJMINVAL, MJMINVAL_MARGIN, MJMINVAL_WHY, frame_shift
 from tensegrity_core.export.timestep import default_timestep, fastest_rate
 from tensegrity_core.general.configuration import Configuration
 from tensegrity_core.general.mass_properties import body_inertias, mass_matrix
@@ -123,15 +128,38 @@ class _Writer:
         laws, _, commands = compile_inputs(scene.inputs, drawn_rest_lengths(scene))
         rest = rest_lengths_function(scene, held(laws, commands))
         self.rest_lengths: FloatArray = s.rest_lengths.copy() if rest is None else rest(0.0)
+        self._check_masses()
         self.rate = self._fastest_rate()
+        if timestep is None and not (math.isfinite(self.rate) and self.rate > 0):
+            raise ExportError(f"scene {scene.name!r}: the fastest rate of its linearised dynamics is "
+                              f"{self.rate:g} 1/s in double precision, so no time step follows from it: give one "
+                              f"(timestep=..., --timestep)")
         self.timestep = default_timestep(self.rate) if timestep is None else float(timestep)
         self.integrator = integrator
         self.qpos: list[float] = []
         self.ctrl: list[float] = []
 
+    def _check_masses(self) -> None:
+        """What MuJoCo cannot take (:mod:`tensegrity_core.export.mujoco_limits`): a free node's
+        mass below ``mjMINVAL``, a moving body's mass below it or an eigenvalue of its inertia
+        tensor (with :data:`INERTIA_MARGIN`) below ``mjEPS``."""
+        s, lay = self.structure, self.lay
+        for i in np.flatnonzero(~lay.fixed_mask.all(axis=1) & (lay.node_body < 0)):
+            if not self.masses[i] >= MJMINVAL:
+                raise ExportError(f"{self.scene.name!r}: node {s.node_names[i]!r} has a mass of "
+                                  f"{self.masses[i]:.3g} kg; {MJMINVAL_WHY}")
+        for slot, b in enumerate(self.bodies):
+            least = float(np.linalg.eigvalsh(b.inertia + INERTIA_MARGIN * float(np.trace(b.inertia)) * np.eye(3))[0])
+            if not (b.mass >= MJMINVAL and least >= MJEPS * (1.0 + MJMINVAL_MARGIN)):
+                raise ExportError(f"{self.scene.name!r}: rigid body {lay.body_names[slot]!r} has a mass of "
+                                  f"{b.mass:.3g} kg and a least principal inertia of {least:.3g} kg m^2; MuJoCo "
+                                  f"refuses a moving body's mass below its mjMINVAL, {MJMINVAL:g} kg, and a full "
+                                  f"inertia tensor's eigenvalue below its mjEPS, {MJEPS:g} kg m^2")
+
     def _fastest_rate(self) -> float:
         """The bound of :func:`~tensegrity_core.export.timestep.fastest_rate` at the initial
-        state, slack strings counted as taut (they may tighten)."""
+        state, slack strings counted as taut (they may tighten); nan where the eigenvalue
+        solver finds none in double precision."""
         twin = static_structure(self.scene, loads=self.loads, rest_lengths=self.rest_lengths)
         config = Configuration(twin, self.config.coords, self.config.centres, self.config.rotations)
         K = tangent_stiffness(twin, config, sparse=True, slack_elastic=True)
@@ -140,7 +168,10 @@ class _Writer:
             A = equilibrium_matrix(twin, config, sparse=True)
             D = A @ sp.diags(self.damping) @ A.T
         M = mass_matrix(self.structure, self.masses, self.config)
-        return fastest_rate(M, K, D)
+        try:
+            return fastest_rate(M, K, D)
+        except (np.linalg.LinAlgError, scipy.linalg.LinAlgError, ArpackNoConvergence):
+            return math.nan
 
     # -- the document ----------------------------------------------------------------------------
     def model(self) -> MjcfModel:
@@ -206,17 +237,21 @@ class _Writer:
     def _rigid_body(self, world: ET.Element, slot: int) -> None:
         s, lay = self.structure, self.lay
         name = f"body:{lay.body_names[slot]}"
-        centre = self.config.centres[slot]
-        quat = Rotation.from_matrix(self.config.rotations[slot]).as_quat(scalar_first=True)
-        body = ET.SubElement(world, "body", name=name, pos=vector(centre), quat=vector(quat))
-        ET.SubElement(body, "freejoint", name=name)
-        self.qpos.extend([*centre, *quat])
         b = self.bodies[slot]
+        nodes = lay.body_nodes[slot]
+        shift = frame_shift(b.com, lay.offsets[nodes], f"{self.scene.name!r}: rigid body {lay.body_names[slot]!r}",
+                            float(np.abs(self.config.coords[nodes]).max()))
+        R = self.config.rotations[slot]
+        origin = self.config.centres[slot] + R @ shift
+        quat = Rotation.from_matrix(R).as_quat(scalar_first=True)
+        body = ET.SubElement(world, "body", name=name, pos=vector(origin), quat=vector(quat))
+        ET.SubElement(body, "freejoint", name=name)
+        self.qpos.extend([*origin, *quat])
         I = b.inertia + INERTIA_MARGIN * float(np.trace(b.inertia)) * np.eye(3)
-        ET.SubElement(body, "inertial", pos=vector(b.com), mass=number(b.mass),
+        ET.SubElement(body, "inertial", pos=vector(b.com - shift), mass=number(b.mass),
                       fullinertia=vector([I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]))
-        for i in lay.body_nodes[slot]:
-            ET.SubElement(body, "site", name=_node(s, int(i)), pos=vector(lay.offsets[i]))
+        for i in nodes:
+            ET.SubElement(body, "site", name=_node(s, int(i)), pos=vector(lay.offsets[i] - shift))
 
     def _tendons(self, root: ET.Element) -> None:
         s = self.structure
