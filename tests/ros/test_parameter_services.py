@@ -6,6 +6,9 @@ rclpy reads a request's ``ParameterValue.type`` before any check, and a type tha
 of ``rcl_interfaces/ParameterType``'s used to raise out of the service callback and end the
 node with a traceback (``tensegrity_ros/rclpy_utils/parameter_guard.py``). Every value a
 ``uint8`` type can take beyond ParameterType's (10-255) is sent, in one request per service.
+
+And every node's parameters, as ``describe_parameters`` shows them to any client, follow ROS 2's
+conventions: snake_case names, a description, read-only, a unit for every number.
 """
 
 from __future__ import annotations
