@@ -385,6 +385,31 @@ def test_a_trajectory_stamped_in_the_future_starts_then(suite):
     assert _outcome(client, handle)[1].error_code == SUCCESSFUL
 
 
+def test_a_trajectory_stamped_in_the_past_is_joined_where_it_is_now(suite):
+    """joint_trajectory_controller takes a trajectory whose start is past and whose end is not
+    (validate_trajectory_msg refuses only one that has ended) and samples it at the present
+    time: the first feedback is already 0.2 s into it, and the desired positions are the
+    trajectory's (linear from the rest length at its start) from there."""
+    from action_msgs.msg import GoalStatus
+
+    client, action = suite
+    now = stamp_ns(client.received["joint_states"][-1].header.stamp)
+    start = now - 200_000_000
+    handle, feedback = _send(client, action, _goal([(1.0, (0.976,))], ("c5_8",), stamp_ns_=start, goal_time=2.0))
+    status, result = _outcome(client, handle)
+    assert (status, result.error_code) == (GoalStatus.STATUS_SUCCEEDED, SUCCESSFUL), result.error_string
+    _until_the_end(client, feedback, 1_000_000_000)
+    taus = [stamp_ns(fb.desired.time_from_start) for fb in feedback]
+    assert min(taus) >= 200_000_000, min(taus)
+    for fb in feedback:
+        tau = stamp_ns(fb.desired.time_from_start) / 1e9
+        # tau: the state's time from the start, in seconds as floats (1 ns of rounding)
+        assert abs(stamp_ns(fb.header.stamp) - start - stamp_ns(fb.desired.time_from_start)) <= 1
+        assert fb.desired.positions[0] == pytest.approx(NOMINAL + (0.976 - NOMINAL) * min(tau, 1.0), abs=1e-9)
+    handle, _ = _send(client, action, _goal([(0.2, (NOMINAL,))], ("c5_8",), goal_time=2.0))   # back
+    assert _outcome(client, handle)[1].error_code == SUCCESSFUL
+
+
 def test_points_with_velocities_are_followed_as_cubic_hermite_segments(suite):
     """joint_trajectory_controller's interpolation with positions and velocities: a cubic
     Hermite segment between points, the first from the current rest length at rest at time 0
