@@ -16,7 +16,8 @@ a protocol other than HTTP/1.1 (HTTP/1.0)             505 HTTP Version Not Suppo
 a body, a transfer coding, a malformed line           400 Bad Request
 ====================================================  =========================================
 
-and the log keeps one line per such request (:class:`QuietHandshakeFailures`). A request cut
+and the log keeps one line per such request (:class:`QuietHandshakeFailures`), quoting the
+request's words as an excerpt (escaped, at most about 120 characters). A request cut
 short by its client (the connection closed mid-request) gets no answer: no one reads it.
 
 On the websocket, viser decodes each frame as a msgpack message of its own and lets any
@@ -40,6 +41,8 @@ from websockets.frames import CloseCode
 from websockets.http11 import MAX_LINE_LENGTH, MAX_NUM_HEADERS
 from websockets.protocol import CONNECTING
 from websockets.server import ServerProtocol
+
+from tensegrity_core.excerpt import excerpt
 
 LOGGER: Final = logging.getLogger("tensegrity_ros.view")
 
@@ -81,7 +84,8 @@ class _AnsweringProtocol(ServerProtocol):
         answer = status_for(cause)
         if answer is not None:
             self.writes.append(_answer(*answer))
-            LOGGER.warning("tensegrity view: answered %d to an unreadable request (%s)", answer[0].value, cause)
+            LOGGER.warning("tensegrity view: answered %d to an unreadable request (%s)", answer[0].value,
+                           excerpt(str(cause), 120))
         super().send_eof()
 
 
@@ -117,7 +121,7 @@ def guarded_consumer(consume: Consumer) -> Consumer:
             raise
         except Exception as err:     # viser's decode of a frame: msgspec, KeyError, an assert, ...
             LOGGER.warning("tensegrity view: closed a websocket client that sent a frame the page never sends "
-                           "(%s: %s)", type(err).__name__, err)
+                           "(%s: %s)", type(err).__name__, excerpt(str(err), 120))
             await websocket.close(CloseCode.INVALID_DATA, "not a viser message")
             await websocket.recv()   # raises ConnectionClosed, which viser's handler ends on quietly
     return guarded

@@ -132,6 +132,15 @@ def test_unreadable_requests_get_a_status_and_one_log_line_and_the_page_is_still
     assert len(answered) == len(BAD_REQUESTS), answered
 
 
+def test_the_log_line_quotes_a_request_bounded_and_escaped(served):
+    """A request line of 8000 bytes with a terminal escape in it: the log line is about 200
+    characters and holds no control character (it cannot rewrite the user's terminal)."""
+    answer = served.raw(b"\x1b[2J" + b"x" * 8000 + b"\r\n\r\n")
+    assert answer.startswith(b"HTTP/1.1 400 ")
+    (line,) = [r.getMessage() for r in served.stop() if "answered" in r.getMessage()]
+    assert len(line) < 250 and "\x1b" not in line and "\\x1b" in line
+
+
 def test_unknown_paths_are_404_and_query_strings_are_ignored(served):
     assert served.get("/no/such/file.js")[0] == 404
     assert served.get("/assets")[0] == 404                 # a folder is not a file
