@@ -4,22 +4,25 @@ life ends it cleanly, exit code 0, no traceback, for every node and for ``up``,
 
 Each round starts the process as ``tensegrity up`` starts its children (own session,
 signals held until its handlers are in place: :func:`tests.ros_support.spawn`) and sends
-one signal (SIGINT or SIGTERM, drawn) at a moment drawn from one of four phases:
+one signal (SIGINT or SIGTERM, drawn) at a moment drawn from one of four phases, in turn:
 
 - ``start``:  0-300 ms after the spawn (interpreter start, imports, argument parsing);
-- ``init``:   before the process says it is ready (ROS context, node construction, rclpy
-  and DDS start-up), uniformly over the time the previous round took to get ready;
 - ``ready``:  the instant it says it is ready (for the simulator: at its first
   ``joint_states``, seen by a subscriber here: the moment the issue's SIGTERM failed);
-- ``steady``: 0.2-1.2 s after that.
+- ``init``:   before the process says it is ready (ROS context, node construction, rclpy
+  and DDS start-up), uniformly over the time the last round that got ready took (the
+  ``ready`` round before it);
+- ``steady``: 0.2-1.2 s after it is ready.
 
 A stop that comes while a node is being built waits for the build (the process holds a ROS
 context by then), so building a node must not import libraries: the last test checks that
 for the nodes that read the scene (the IK node imported the simulator package and scipy
 there: 0.7 s idle, about 3 s at load average 10; a SIGINT then took up to 4.7 s).
 
-Rounds per process kind: ``TENSEGRITY_STRESS_ROUNDS`` (default 8: two per phase); the
-random draws are seeded by the round number, so a failing round can be rerun. The times
+Rounds per process kind: ``TENSEGRITY_STRESS_ROUNDS`` (default 4: one per phase, both
+signals among them for every kind; the shutdown benchmark and the stress test
+(tests/ros/test_shutdown_stress.py) stop the processes many more times); the random draws
+are seeded by the round number, so a failing round can be rerun. The times
 from signal to exit are printed (``-s``) and judged by the benchmark
 ``tests/bench/bench_shutdown.py``, not here: a round fails only on a non-zero exit, a
 traceback or an exception report, or no exit within ``HANG_S`` (then its native stacks
@@ -43,8 +46,8 @@ from tests.ros_support import TENSEGRITY, spawn
 
 pytestmark = pytest.mark.ros
 
-ROUNDS = int(os.environ.get("TENSEGRITY_STRESS_ROUNDS", "8"))
-PHASES = ("start", "init", "ready", "steady")
+ROUNDS = int(os.environ.get("TENSEGRITY_STRESS_ROUNDS", "4"))
+PHASES = ("start", "ready", "init", "steady")
 HANG_S = 30.0
 SAMPLE_BAG = Path(__file__).resolve().parents[2] / "bags" / "ik_motion"
 
