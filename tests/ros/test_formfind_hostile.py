@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 from tensegrity_core.general import form_find, load_example
+from tensegrity_ros.rclpy_utils.futures import wait_done
 from tests.hostile_requests import TABLE, alias_bomb, deep_flow_nesting, huge_value, memory_mib, tower_yaml
 from tests.ros_support import probe
 
@@ -55,10 +56,7 @@ def _node(log, namespace: str, *params: str):
 
             def call(text: str, timeout: float = 120.0):
                 future = send(text)
-                deadline = time.monotonic() + timeout
-                while not future.done() and time.monotonic() < deadline:
-                    time.sleep(0.005)
-                assert future.done(), "no answer"
+                assert wait_done(future, timeout), "no answer"
                 return future.result()
 
             call.send = send

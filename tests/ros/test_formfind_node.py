@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from tensegrity_core.general import example_path
+from tensegrity_ros.rclpy_utils.futures import wait_done
 from tests.ros_support import probe
 
 pytestmark = pytest.mark.ros
@@ -33,10 +34,7 @@ def formfind(tmp_path_factory):
 
         def call(text, tol=0.0, max_iter=0, timeout=60.0):
             future = client.call_async(FindForm.Request(structure=text, tolerance=tol, max_iterations=max_iter))
-            deadline = time.monotonic() + timeout
-            while not future.done() and time.monotonic() < deadline:
-                time.sleep(0.01)
-            assert future.done(), "no answer"
+            assert wait_done(future, timeout), "no answer"
             return future.result()
 
         call.client = client

@@ -29,6 +29,11 @@ pytestmark = [pytest.mark.slow,
 
 BAGS = __import__("pathlib").Path(__file__).resolve().parents[2] / "bags"
 WAIT = 120.0   # s: a deadline for conditions that usually hold within a second or two
+#: The frame rate of the views whose pages play: viser draws for 250 ms after each frame it
+#: gets, so at the view's default 60 frames a second a playing page draws without pause in
+#: software (about a core of the machine); at 2 it rests half the time. The states shown are
+#: still the newest ones (a bag's playhead and the simulators run at real time, not per frame).
+PLAYING_FPS = ("--fps", "2")
 
 
 @pytest.fixture(scope="module")
@@ -90,7 +95,7 @@ def _only_loopback(browser: Browser, port: int) -> None:
 
 
 def test_a_bag_plays_pauses_and_scrubs_on_its_timeline(cli, browser):
-    view, url, port = start_view(cli, str(BAGS / "fold"))
+    view, url, port = start_view(cli, str(BAGS / "fold"), *PLAYING_FPS)
     page = browser.open(url)
     try:
         wait_for_canvas(page)
@@ -158,7 +163,7 @@ def test_a_rolling_six_bar_robot_moves_between_frames(cli, browser):
     """``--scene six_bar_roll`` simulated in the view's process: paused at first, the same
     pixels; played, the robot drawn elsewhere; the contacts' legend shown (which caps are in
     contact, and their forces, is tested on the frames: tests/view/test_frames.py)."""
-    view, url, port = start_view(cli, "--scene", "six_bar_roll")
+    view, url, port = start_view(cli, "--scene", "six_bar_roll", *PLAYING_FPS)
     page = browser.open(url)
     try:
         page.set_viewport_size({"width": 1280, "height": 800})     # the robot rolls on, towards the panel
@@ -323,7 +328,7 @@ def live(browser, tmp_path_factory):
             client = SimClient(rclpy, "view_test_client", context=ctx, record_events=False)
             client.wait_for_services()
             controller.wait_for("controller ready", timeout=WAIT)
-            view, url, port = start_view(start)
+            view, url, port = start_view(start, *PLAYING_FPS)
             page = browser.open(url)
             wait_for_canvas(page)
             yield types.SimpleNamespace(sim=sim, controller=controller, client=client, view=view, url=url, port=port,
