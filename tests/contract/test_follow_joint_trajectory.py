@@ -242,14 +242,16 @@ def test_a_goal_time_tolerance_of_minus_one_waits_as_long_as_the_goal_takes(suit
 def test_tolerances_for_every_joint_of_the_controller_go_with_a_partial_trajectory(suite):
     """A client that fills path and goal tolerances for all the controller's joints (they may
     name any of them: joint_trajectory_controller's get_segment_tolerances looks each up among
-    its joints) and moves one: the goal is taken and succeeds."""
+    its joints) and moves one: the goal is taken and succeeds. The path tolerance is wider
+    than the whole move (NOMINAL - 0.985 = 11 mm), so no lag of a loaded machine's real-time
+    loop can violate it: what is tested is the names (an unknown one is INVALID_JOINTS)."""
     from action_msgs.msg import GoalStatus
 
     client, action = suite
     joints = list(client.received["joint_states"][-1].name)
     assert len(joints) == 24 and "c2_6" in joints
-    everyone = [(n, 5e-3) for n in joints]
-    goal = _goal([(0.2, (0.985,))], ("c2_6",), goal_time=2.0, path=everyone, goal=everyone)
+    path, goal_tolerance = [(n, 0.05) for n in joints], [(n, 5e-3) for n in joints]
+    goal = _goal([(0.2, (0.985,))], ("c2_6",), goal_time=2.0, path=path, goal=goal_tolerance)
     handle, _ = _send(client, action, goal)
     status, result = _outcome(client, handle)
     assert (status, result.error_code) == (GoalStatus.STATUS_SUCCEEDED, SUCCESSFUL), result.error_string
