@@ -28,6 +28,13 @@ are the scene's actuated cables that take commands; their positions are rest len
   point's time, goal tolerance after it within ``goal_time_tolerance`` (0: the default;
   < 0, control_msgs' -1: no limit, the goal waits for its tolerance). Rates of rest
   lengths are not measured: velocity tolerances are accepted and not checked.
+- State: once active, every ``cable_states`` is also published as a
+  ``JointTrajectoryControllerState`` on ``~/controller_state`` (joint_trajectory_controller's
+  topic, published there every update): all the controller's joints in its order;
+  ``feedback`` the reported rest lengths (effort: tensions), ``reference`` the trajectory's
+  sample for a running goal's joints and the held rest length (the controller's last command,
+  else the rest length it became active on) for the others, ``output`` the rest lengths
+  commanded, ``error`` = reference - feedback (positions).
 - Start: ``trajectory.header.stamp`` zero starts the goal at the latest joint state's time
   (the time it was accepted), a stamp starts it at that simulation time; a trajectory that
   ended before the latest joint state is OLD_HEADER_TIMESTAMP. The first segment starts
@@ -52,6 +59,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from control_msgs.action import FollowJointTrajectory
+from control_msgs.msg import JointTrajectoryControllerState
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
@@ -114,18 +122,23 @@ class CableControllerNode(Node):
                                      "time]; then it is refused", lo=0.0, read_only=True)
         #: the controller's joints: the commanded inputs (cables) in the scene's order
         self.joints = [n for n, c in zip(self.interface.inputs, self.interface.commanded) if c]
+        self._column = {n: i for i, n in enumerate(self.joints)}
         self._job: _Job | None = None
         self._latest: tuple[int, float] | None = None   # (stamp [ns], t [s]) of the latest joint state
         self._latest_header: Any = None                 # its header (answered once the controller is active)
         self._answer: CableCommand | None = None         # the running goal's command for it
         self._rest: dict[str, float] = {}                # each cable's rest length [m], from cable_states
+        self._held: dict[str, float] = {}                # each joint's held rest length [m] (controller_state)
         self._active = False                             # both states received: it answers and takes goals
-        self._held: dict[bytes, Future] = {}             # goals waiting for that, by goal id: how it ended
+        self._waiting: dict[bytes, Future] = {}          # goals waiting for that, by goal id: how it ended
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         # a history a briefly stalled recorder can be repaired from (the simulator's depth)
         self.pub = self.create_publisher(CableCommand, "cable_commands", QoSProfile(depth=1000))
         self.create_subscription(JointState, "joint_states", self.on_joints, QoSProfile(depth=1))
         self.create_subscription(CableStates, "cable_states", self.on_cables, QoSProfile(depth=10))
+        # joint_trajectory_controller's publisher: reliable, volatile, keep last (system default)
+        self.state_pub = self.create_publisher(JointTrajectoryControllerState, "~/controller_state",
+                                               QoSProfile(depth=10))
         ActionServer(self, FollowJointTrajectory, "~/follow_joint_trajectory", self._execute,
                      goal_callback=lambda _req: GoalResponse.ACCEPT,
                      cancel_callback=self._on_cancel, feedback_pub_qos_profile=QoSProfile(depth=100))
@@ -153,6 +166,7 @@ class CableControllerNode(Node):
                 command = tr.command(latest[1] - job.t_start, self._rest_lengths())
                 self._answer = CableCommand(header=header, name=list(tr.names),
                                             rest_length=[command[i] for i in tr.inputs])
+                self._held.update(zip(self._answer.name, self._answer.rest_length))
         self.pub.publish(self._answer)
 
     def _missing(self) -> str:
@@ -172,8 +186,9 @@ class CableControllerNode(Node):
         if self._active or self._missing():
             return
         self._active = True
+        self._held = {n: self._rest[n] for n in self.joints}
         self.get_logger().info("active: joint_states and cable_states received")
-        for ready in self._held.values():
+        for ready in self._waiting.values():
             _settle(ready, "active")
         self._reply()
 
@@ -189,16 +204,17 @@ class CableControllerNode(Node):
         self._rest.update(zip(msg.name, msg.rest_length))
         if not self._active:
             self._activate()
+        index = {n: i for i, n in enumerate(msg.name)}
         job = self._job
-        if job is None or job.finished.done():
+        tau = math.nan if job is None else _ns(msg.header.stamp) / NS_PER_S - job.t_start
+        if job is not None and (job.finished.done() or not tau >= 0.0
+                                or any(n not in index for n in job.trajectory.names)):
+            job = None          # ended, not started, or a state without the goal's cables: nothing to check
+        if self._active and all(n in index for n in self.joints):
+            self.state_pub.publish(self._state(msg, index, job, tau))
+        if job is None:
             return
         tr = job.trajectory
-        tau = _ns(msg.header.stamp) / NS_PER_S - job.t_start
-        if tau < 0.0:
-            return
-        index = {n: i for i, n in enumerate(msg.name)}
-        if any(n not in index for n in tr.names):
-            return                   # a state without the goal's cables: nothing to check or report
         actual = [float(msg.rest_length[index[n]]) for n in tr.names]
         desired = tr.sample(tau)
         when = _duration(tau)
@@ -214,6 +230,29 @@ class CableControllerNode(Node):
         outcome = job.monitor.check(tau, actual)
         if outcome is not None:
             self._end(job, outcome, "succeeded" if outcome.succeeded else "aborted")
+
+    def _state(self, msg: CableStates, index: dict[str, int], job: _Job | None, tau: float) -> Any:
+        """The ``controller_state`` of one ``cable_states`` sample: every joint, ``job``'s at its
+        trajectory's sample ``tau`` [s] after its start, the others held."""
+        reference, rates, accelerations = [self._held[n] for n in self.joints], [0.0] * len(self.joints), \
+            [0.0] * len(self.joints)
+        when = _duration(0.0)
+        if job is not None:
+            sample, when = job.trajectory.sample(tau), _duration(tau)
+            for name, p, v, a in zip(job.trajectory.names, sample.positions.tolist(), sample.velocities.tolist(),
+                                     sample.accelerations.tolist()):
+                column = self._column[name]
+                reference[column], rates[column], accelerations[column] = p, v, a
+        feedback = [float(msg.rest_length[index[n]]) for n in self.joints]
+        # as joint_trajectory_controller: feedback and error at time_from_start 0, no speed scaling
+        return JointTrajectoryControllerState(
+            header=msg.header, joint_names=list(self.joints), speed_scaling_factor=1.0,
+            reference=JointTrajectoryPoint(positions=reference, velocities=rates, accelerations=accelerations,
+                                           time_from_start=when),
+            feedback=JointTrajectoryPoint(positions=feedback,
+                                          effort=[float(msg.tension[index[n]]) for n in self.joints]),
+            error=JointTrajectoryPoint(positions=[r - f for r, f in zip(reference, feedback)]),
+            output=JointTrajectoryPoint(positions=list(reference)))
 
     def _end(self, job: _Job, outcome: jt.Outcome, status: str) -> None:
         job.end(outcome, status)
@@ -257,16 +296,16 @@ class CableControllerNode(Node):
         if handle.is_cancel_requested:     # cancelled before its execution began
             return "cancelled"
         goal = bytes(handle.goal_id.uuid)
-        ready = self._held[goal] = Future()
+        ready = self._waiting[goal] = Future()
         timer = self.create_timer(self.state_timeout, lambda: _settle(ready, "timeout"), clock=self._steady)
         try:
             return str(await ready)
         finally:
             self.destroy_timer(timer)
-            del self._held[goal]
+            del self._waiting[goal]
 
     def _on_cancel(self, handle: Any) -> CancelResponse:
-        held = self._held.get(bytes(handle.goal_id.uuid))
+        held = self._waiting.get(bytes(handle.goal_id.uuid))
         if held is not None:
             _settle(held, "cancelled")
         job = self._job
@@ -314,7 +353,7 @@ class CableControllerNode(Node):
         return _Job(handle, trajectory, monitor, t_start)
 
     def destroy_node(self) -> None:
-        for ready in self._held.values():
+        for ready in self._waiting.values():
             _settle(ready, "shutdown")
         job, self._job = self._job, None
         if job is not None:

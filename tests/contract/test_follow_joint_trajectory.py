@@ -30,6 +30,7 @@ pytestmark = pytest.mark.ros
 SCENE = "six_bar_rest"
 ACTION = "/tensegrity_cable_controller/follow_joint_trajectory"
 FEEDBACK = f"{ACTION}/_action/feedback"     # the action's feedback topic (ROS 2's action design)
+STATE = "/tensegrity_cable_controller/controller_state"    # joint_trajectory_controller's ~/controller_state
 NOMINAL = 0.996                       # every motor's drawn rest length [m] (six_bar.yaml)
 SUCCESSFUL, INVALID_GOAL, INVALID_JOINTS = 0, -1, -2
 OLD_HEADER_TIMESTAMP, PATH_TOLERANCE_VIOLATED, GOAL_TOLERANCE_VIOLATED = -3, -4, -5
@@ -38,6 +39,7 @@ OLD_HEADER_TIMESTAMP, PATH_TOLERANCE_VIOLATED, GOAL_TOLERANCE_VIOLATED = -3, -4,
 @pytest.fixture(scope="module")
 def suite(tmp_path_factory):
     from control_msgs.action import FollowJointTrajectory
+    from control_msgs.msg import JointTrajectoryControllerState
     from sensor_msgs.msg import JointState
     from tensegrity_msgs.msg import CableCommand, CableStates
 
@@ -53,6 +55,7 @@ def suite(tmp_path_factory):
         client.listen(CableStates, "cable_states")
         client.listen(CableCommand, "cable_commands")
         client.listen(FollowJointTrajectory.Impl.FeedbackMessage, FEEDBACK)   # before the probe: matched
+        client.listen(JointTrajectoryControllerState, STATE, qos=10)           # rclpy's default QoS
         action = client.action_client(FollowJointTrajectory, ACTION)
         # its first answer says it is active (it has joint_states and cable_states): it takes goals
         client.wait(lambda: client.received["cable_commands"], "the cable controller's first answer to a state")
@@ -435,4 +438,67 @@ def test_points_with_velocities_are_followed_as_cubic_hermite_segments(suite):
         assert fb.desired.positions[0] == pytest.approx(spline(tau), abs=1e-8), tau
         assert fb.desired.velocities[0] == pytest.approx(spline(tau, 1), abs=1e-6), tau
     handle, _ = _send(client, action, _goal([(0.2, (NOMINAL,))], ("c5_11",), goal_time=2.0))   # back
+    assert _outcome(client, handle)[1].error_code == SUCCESSFUL
+
+
+def test_the_controller_state_is_published_as_joint_trajectory_controller_publishes_it(suite):
+    """joint_trajectory_controller publishes control_msgs/JointTrajectoryControllerState on
+    ``~/controller_state`` at every update, over all its joints in its order, error = reference
+    - feedback; a subscriber with rclpy's default QoS (reliable, volatile, keep last 10) reads
+    it. Here, with every cable_states sample: feedback = that sample's rest lengths, output =
+    the command sent on cable_commands for the same stamp, reference = the trajectory for the
+    goal's joint and the held rest length for the others; after the goal the joint holds its
+    last command: the target (the step of 0.02 m in 0.05 s takes the motor, 0.5 m/s and a
+    0.02 s lag, longer than the trajectory, so states after its end were answered with it)."""
+    client, action = suite
+    joints = list(client.received["joint_states"][-1].name)    # the simulator's commanded cables
+    name = joints[-1]
+    column = joints.index(name)
+    start = _rest(client, (name,))[0]
+    target = start - 0.02
+    states = client.received[STATE]
+    # the states come in order from one writer: after an idle one (time_from_start 0), every
+    # state of an earlier goal has come, and those with a time_from_start are this goal's
+    mark = len(states)
+    mark = client.wait(lambda: next((mark + i + 1 for i, s in enumerate(states[mark:])
+                                     if stamp_ns(s.reference.time_from_start) == 0), None), "an idle controller_state")
+    handle, _ = _send(client, action, _goal([(0.05, (target,))], (name,), goal_time=2.0, goal=[(name, 1e-4)]))
+    assert _outcome(client, handle)[1].error_code == SUCCESSFUL
+
+    def split():
+        """This goal's states (time_from_start > 0) and the first idle one after them, once it came."""
+        ours = list(states[mark:])
+        running = [i for i, s in enumerate(ours) if stamp_ns(s.reference.time_from_start) > 0]
+        after = [s for s in ours[running[0]:] if stamp_ns(s.reference.time_from_start) == 0] if running else []
+        return (ours[running[0]:running[-1] + 1], after[0]) if after else None
+
+    during, held = client.wait(split, "the controller_state of the goal and one after it")
+    assert all(stamp_ns(s.reference.time_from_start) > 0 for s in during)
+    # every command the controller sent for these states has come (one writer, in stamp order)
+    client.wait(lambda: stamp_ns(client.received["cable_commands"][-1].header.stamp) >= stamp_ns(held.header.stamp),
+                "the controller's commands up to the state after the goal")
+    cables = client.stamped["cable_states"]
+    commands = client.stamped["cable_commands"]
+    for s in [*during, held]:
+        n = len(joints)
+        assert list(s.joint_names) == joints
+        assert len(s.reference.velocities) == len(s.reference.accelerations) == len(s.feedback.effort) == n
+        assert len(s.reference.positions) == len(s.feedback.positions) == len(s.error.positions) == n
+        assert s.speed_scaling_factor == 1.0
+        for r, f, e in zip(s.reference.positions, s.feedback.positions, s.error.positions):
+            assert e == pytest.approx(r - f, abs=1e-12)                 # control_msgs: reference - feedback
+        sample = cables.get(stamp_ns(s.header.stamp))
+        if sample is not None:                                          # feedback = the simulator's rest lengths
+            rest = dict(zip(sample.name, sample.rest_length))
+            assert list(s.feedback.positions) == [rest[j] for j in joints]
+        command = commands.get(stamp_ns(s.header.stamp))
+        if command is not None and name in command.name:                # output = the command sent
+            assert s.output.positions[column] == command.rest_length[list(command.name).index(name)]
+        others = [j for j in range(n) if j != column]
+        assert [s.output.positions[j] for j in others] == [s.reference.positions[j] for j in others]
+    assert any(target < s.reference.positions[column] < start for s in during), "no reference between start and end"
+    assert stamp_ns(held.reference.time_from_start) == 0
+    assert held.reference.positions[column] == pytest.approx(target, abs=1e-12)
+    assert held.output.positions[column] == pytest.approx(target, abs=1e-12)
+    handle, _ = _send(client, action, _goal([(0.2, (start,))], (name,), goal_time=2.0))     # back
     assert _outcome(client, handle)[1].error_code == SUCCESSFUL
