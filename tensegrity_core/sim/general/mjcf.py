@@ -48,6 +48,13 @@ centroid, so its ``qpos`` is the general dynamics' centre and orientation). The 
 is RK4 by default; the default time step comes from the fastest rate of the linearised
 dynamics (:mod:`tensegrity_core.export.timestep`).
 
+**What MuJoCo cannot take** is refused in one line (:mod:`tensegrity_core.export.mujoco_limits`):
+a free node's lumped mass below ``mjMINVAL`` (1e-15 kg), a rigid body's mass below it or an
+eigenvalue of its inertia tensor below ``mjEPS`` (1e-14 kg m^2), a fastest rate the
+eigenvalue solver cannot find in double precision (without a given step). A rigid body whose
+centre of mass lies within MuJoCo's 1e-6 m pose tolerance of its node centroid, without being
+at it, has its frame at its centre of mass (MuJoCo would put it at the frame).
+
 **Inertia tensors** are written with ``1e-12`` of their trace added on the diagonal: a body
 whose masses lie in a plane sits exactly on MuJoCo's bound ``A + B >= C`` on the principal
 moments, which rounding would otherwise break about a third of the time. A relative change
