@@ -35,6 +35,10 @@ are the scene's actuated cables that take commands; their positions are rest len
   sample for a running goal's joints and the held rest length (the controller's last command,
   else the rest length it became active on) for the others, ``output`` the rest lengths
   commanded, ``error`` = reference - feedback (positions).
+- Topic: a ``trajectory_msgs/JointTrajectory`` on ``~/joint_trajectory``
+  (joint_trajectory_controller's topic interface) is a goal without an action: the default
+  tolerances, no feedback and no result (a refusal or a violated tolerance is logged); it
+  takes over from the running goal as a new goal does.
 - Start: ``trajectory.header.stamp`` zero starts the goal at the latest joint state's time
   (the time it was accepted), a stamp starts it at that simulation time; a trajectory that
   ended before the latest joint state is OLD_HEADER_TIMESTAMP. The first segment starts
@@ -67,7 +71,7 @@ from rclpy.qos import QoSProfile
 from rclpy.task import Future
 from sensor_msgs.msg import JointState
 from tensegrity_msgs.msg import CableCommand, CableStates
-from trajectory_msgs.msg import JointTrajectoryPoint
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import clip, excerpt
@@ -82,7 +86,8 @@ NS_PER_S = 1_000_000_000
 
 
 class _Job:
-    """A running goal: its handle, trajectory, checks, start [s] and the future its execute awaits."""
+    """A running goal: its handle (None: from ``~/joint_trajectory``), trajectory, checks, start [s]
+    and the future its execute awaits."""
 
     def __init__(self, handle: Any, trajectory: jt.JointTrajectory, monitor: jt.GoalMonitor, t_start: float) -> None:
         self.handle = handle
@@ -139,6 +144,7 @@ class CableControllerNode(Node):
         # joint_trajectory_controller's publisher: reliable, volatile, keep last (system default)
         self.state_pub = self.create_publisher(JointTrajectoryControllerState, "~/controller_state",
                                                QoSProfile(depth=10))
+        self.create_subscription(JointTrajectory, "~/joint_trajectory", self.on_trajectory, QoSProfile(depth=1))
         ActionServer(self, FollowJointTrajectory, "~/follow_joint_trajectory", self._execute,
                      goal_callback=lambda _req: GoalResponse.ACCEPT,
                      cancel_callback=self._on_cancel, feedback_pub_qos_profile=QoSProfile(depth=100))
@@ -226,9 +232,12 @@ class CableControllerNode(Node):
                                          time_from_start=when)
         fb.error = JointTrajectoryPoint(positions=[d - a for d, a in zip(desired.positions.tolist(), actual)],
                                         time_from_start=when)
-        job.handle.publish_feedback(fb)
+        if job.handle is not None:
+            job.handle.publish_feedback(fb)
         outcome = job.monitor.check(tau, actual)
         if outcome is not None:
+            if job.handle is None and not outcome.succeeded:
+                self.get_logger().warning(clip(f"joint_trajectory: {outcome.message}"))
             self._end(job, outcome, "succeeded" if outcome.succeeded else "aborted")
 
     def _state(self, msg: CableStates, index: dict[str, int], job: _Job | None, tau: float) -> Any:
@@ -281,13 +290,29 @@ class CableControllerNode(Node):
             result.error_code, result.error_string = err.code, clip(str(err))
             handle.abort()
             return result
-        old, self._job, self._answer = self._job, job, None
-        if old is not None:
-            self._end(old, jt.Outcome(jt.INVALID_GOAL, "preempted: a newer goal took over"), "aborted")
+        self._take_over(job)
         outcome, status = await job.finished
         result.error_code, result.error_string = outcome.code, outcome.message
         {"succeeded": handle.succeed, "aborted": handle.abort, "canceled": handle.canceled}[status]()
         return result
+
+    def _take_over(self, job: _Job) -> None:
+        """Run ``job`` from now on; the running one ends preempted."""
+        old, self._job, self._answer = self._job, job, None
+        if old is not None:
+            self._end(old, jt.Outcome(jt.INVALID_GOAL, "preempted: a newer goal took over"), "aborted")
+
+    def on_trajectory(self, msg: JointTrajectory) -> None:
+        """joint_trajectory_controller's ``~/joint_trajectory``: a goal without an action (no
+        feedback, no result; the default tolerances), taking over from the running one."""
+        try:
+            if not self._active:
+                raise jt.TrajectoryError(f"the controller is not active: {self._missing()}")
+            job = self._plan(None, FollowJointTrajectory.Goal(trajectory=msg))
+        except jt.TrajectoryError as err:
+            self.get_logger().warning(clip(f"joint_trajectory ignored: {err}"))
+            return
+        self._take_over(job)
 
     async def _until_active(self, handle: Any) -> str:
         """Hold a goal until the controller is active (``"active"``), at most

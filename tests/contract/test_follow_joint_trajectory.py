@@ -502,3 +502,48 @@ def test_the_controller_state_is_published_as_joint_trajectory_controller_publis
     assert held.output.positions[column] == pytest.approx(target, abs=1e-12)
     handle, _ = _send(client, action, _goal([(0.2, (start,))], (name,), goal_time=2.0))     # back
     assert _outcome(client, handle)[1].error_code == SUCCESSFUL
+
+
+def test_a_trajectory_on_the_joint_trajectory_topic_takes_over_and_is_followed(suite):
+    """joint_trajectory_controller's topic interface: a JointTrajectory on
+    ``~/joint_trajectory`` replaces what runs and is followed (seen on ``~/controller_state``
+    and in the rest lengths); the action goal it takes over from ends ABORTED with INVALID_GOAL
+    (docs/ros.md: this suite's one difference). It is published until that goal has ended (a
+    publication before the controller's reader has matched the writer may be lost); each copy
+    starts the same move again from its arrival."""
+    import threading
+    import time
+
+    from action_msgs.msg import GoalStatus
+    from builtin_interfaces.msg import Duration
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+    client, action = suite
+    joints = list(client.received["joint_states"][-1].name)
+    name = joints[0]
+    column = joints.index(name)
+    start = _rest(client, (name,))[0]
+    target = start - 0.02
+    pub = client.publisher(JointTrajectory, "/tensegrity_cable_controller/joint_trajectory")
+    handle, feedback = _send(client, action, _goal([(30.0, (start - 0.01,))], (name,)))
+    client.wait(lambda: len(feedback) > 0, "the feedback of the running goal")
+    ended = client.request(handle.get_result_async, "the goal's result")
+    arrived = threading.Event()
+    ended.add_done_callback(lambda _f: arrived.set())
+    trajectory = JointTrajectory(joint_names=[name], points=[
+        JointTrajectoryPoint(positions=[target], time_from_start=Duration(nanosec=50_000_000))])
+    deadline = time.monotonic() + 60.0
+    pub.publish(trajectory)
+    while not arrived.wait(1.0):
+        assert time.monotonic() < deadline, "waited 60 s for the topic's trajectory to take over"
+        pub.publish(trajectory)
+    answer = ended.result()
+    assert (answer.status, answer.result.error_code) == (GoalStatus.STATUS_ABORTED, INVALID_GOAL)
+    assert "preempted" in answer.result.error_string
+    states = client.received[STATE]
+    client.wait(lambda: any(stamp_ns(s.reference.time_from_start) >= 50_000_000
+                            and s.reference.positions[column] == pytest.approx(target, abs=1e-12)
+                            for s in list(states)), "a controller_state after the topic trajectory's end")
+    client.wait(lambda: abs(_rest(client, (name,))[0] - target) <= 1e-3, "the rest length at the target")
+    handle, _ = _send(client, action, _goal([(0.2, (start,))], (name,), goal_time=2.0))     # back
+    assert _outcome(client, handle)[1].error_code == SUCCESSFUL
