@@ -25,6 +25,7 @@ run on the robot's own cable element.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -32,16 +33,35 @@ from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.general.structure import RigidBody, Structure
 from tensegrity_core.robot.cable import statics_EA
-from tensegrity_core.schema import SchemaError
+from tensegrity_core.schema import MAX_MAGNITUDE, SchemaError
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 #: In the statics a rod is a bar whose axial stiffness ``EA / L`` is this many times the
-#: stiffest cable's: its length changes by about 1e-4 of the cables' stretch, which stands
-#: for a rigid rod (two nodes cannot make a rigid body of the structure format); stiffer
-#: bars only push the form-finding's residual into the rounding of their forces.
+#: stiffest cable's, ``k_max``: it stands for a rigid rod (two nodes cannot make a rigid body
+#: of the structure format). How rigid it must be: a rod carrying the force ``C`` [N] changes
+#: its length by ``C / (ROD_STIFFNESS_RATIO k_max)``, and ``C`` is what the cables at one of
+#: its caps pull (and the weight there), at most ``k_max`` times the sum ``e`` [m] of their
+#: stretches; so the statics' rods are off their length by at most ``e / ROD_STIFFNESS_RATIO``
+#: (plus the weight's share), and the rest shape by that much: 1e-4 of the cables' stretch,
+#: below the 1e-5 of the rod length the statics state (the six-bar's rods, 441 N on
+#: 4e7 N/m: 1.1e-5 m of 1.7 m, docs/robots.md). Stiffer bars gain nothing measurable and push
+#: the rods' forces, ``EA`` times a strain known to 1e-16, into the rounding of the residual.
 ROD_STIFFNESS_RATIO = 1.0e4
+
+
+def statics_force_unit(EA: ArrayLike) -> float:
+    """The force unit [N] of the statics' structure for members of axial stiffness ``EA`` [N]:
+    1, or the least power of two that brings the largest within the structure format's
+    bound (:data:`~tensegrity_core.schema.MAX_MAGNITUDE`). The equilibria are those of
+    stiffnesses and loads divided alike, and a power of two divides without rounding, so a
+    robot with cables up to 1e15 N/m (its rods' stand-ins 1e4 times stiffer) has the same
+    statics in this unit as in newtons."""
+    largest = float(np.max(EA))
+    if not largest > MAX_MAGNITUDE:
+        return 1.0
+    return float(2.0 ** math.ceil(math.log2(largest / MAX_MAGNITUDE)))
 
 
 class RobotError(SchemaError):
@@ -224,6 +244,21 @@ class Robot:
         """Mass of rods, rigid bodies and point masses [kg]."""
         return float(self.rods.mass.sum() + sum(b.mass for b in self.bodies) + self.node_masses.sum())
 
+    def member_EA(self, rest_lengths: ArrayLike | None = None) -> FloatArray:
+        """(m,) axial stiffnesses [N] of the statics' members (rods, then cables): rods as bars
+        of :data:`ROD_STIFFNESS_RATIO` times the stiffest cable's ``EA / L``, cables as
+        strings of ``EA = k l0`` with the cables' ``rest_lengths`` [m] (default: as drawn)."""
+        l0 = self.cables.rest_length if rest_lengths is None else np.asarray(rest_lengths, dtype=float)
+        rod_EA = ROD_STIFFNESS_RATIO * float(self.cables.stiffness.max()) * self.rod_lengths()
+        out: FloatArray = np.concatenate([rod_EA, statics_EA(self.cables.stiffness, l0)])
+        return out
+
+    def force_unit(self, rest_lengths: ArrayLike | None = None) -> float:
+        """The unit [N] of forces (and stiffnesses, loads) of :meth:`structure` with these
+        ``rest_lengths`` (:func:`statics_force_unit`): 1 but for cables stiffer than about
+        1e11 N/m."""
+        return statics_force_unit(self.member_EA(rest_lengths))
+
     def structure(self, rest_lengths: ArrayLike | None = None, *, nodes: ArrayLike | None = None,
                   pinned: ArrayLike | None = None, gravity: bool = True) -> Structure:
         """The robot as the statics see it: rods as bars of axial stiffness
@@ -231,20 +266,21 @@ class Robot:
         cap, exact for the weight of a symmetric rod), cables as strings of ``EA = k l0``
         with the cables' ``rest_lengths`` [m] (default: as drawn), the robot's bodies,
         supports (or ``pinned`` (n, 3)), point masses and, with ``gravity``, its gravity;
-        drawn at ``nodes`` (default: the robot's)."""
+        drawn at ``nodes`` (default: the robot's). Its forces, stiffnesses ``EA`` and
+        gravity's loads are in units of :meth:`force_unit` newtons (1 N but for cables
+        stiffer than about 1e11 N/m), so that every robot the description accepts is a
+        structure the format accepts: multiply its forces by that unit for newtons."""
         l0 = self.cables.rest_length if rest_lengths is None else np.asarray(rest_lengths, dtype=float)
-        L = self.rod_lengths()
-        k_max = float(self.cables.stiffness.max())
-        rod_EA = ROD_STIFFNESS_RATIO * k_max * L
+        EA = self.member_EA(l0)
+        unit = statics_force_unit(EA)
         return Structure(
             name=self.name, node_names=self.node_names,
             nodes=self.nodes if nodes is None else np.asarray(nodes, dtype=float),
             member_names=self.member_names,
             members=np.vstack([self.rods.ends, self.cables.ends]),
             member_kinds=("bar",) * len(self.rods) + ("string",) * len(self.cables),
-            EA=np.concatenate([rod_EA, statics_EA(self.cables.stiffness, l0)]),
-            rest_lengths=np.concatenate([L, l0]),
+            EA=EA / unit, rest_lengths=np.concatenate([self.rod_lengths(), l0]),
             member_masses=np.concatenate([self.rods.mass, np.zeros(len(self.cables))]),
             pinned=self.pinned if pinned is None else np.asarray(pinned, dtype=bool),
             bodies=self.bodies, loads=np.zeros((self.n_nodes, 3)), node_masses=self.node_masses,
-            gravity=self.gravity if gravity else np.zeros(3))
+            gravity=(self.gravity if gravity else np.zeros(3)) / unit)

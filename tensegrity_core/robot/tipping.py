@@ -184,13 +184,14 @@ class _Supported:
         for i in down:
             pinned[i, 2] = True
             start[i, 2] = self.radius_of[i]
-        s = self.robot.structure(rest_lengths, nodes=start, pinned=pinned, gravity=False).replace(
-            gravity=self.gravity)
+        s = self.robot.structure(rest_lengths, nodes=start, pinned=pinned, gravity=False)
+        s = s.replace(gravity=self.gravity / self.robot.force_unit(rest_lengths))
         result = form_find(s)
         if not (result.success and result.stable):
             return None
         X = result.nodes
-        reaction = np.where(pinned[:, 2], -(internal_nodal_forces(s, X) + s.external_forces)[:, 2], 0.0)
+        unit = self.robot.force_unit(rest_lengths)
+        reaction = np.where(pinned[:, 2], -(internal_nodal_forces(s, X) + s.external_forces)[:, 2] * unit, 0.0)
         return X, reaction
 
     def state(self, rest_lengths: FloatArray, start: FloatArray) -> tuple[float, float, bool, FloatArray]:
