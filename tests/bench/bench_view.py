@@ -31,9 +31,11 @@ each row says the ratio it ended at and the canvas's pixels):
 - **ready**: from starting ``tensegrity view --scene class2_at_rest`` to its page answering
   HTTP; baseline ``tensegrity scenes`` (the command line's own start-up). Target < 3 s.
 
-Quick mode (CI's smoke run): one start-up, 1 s windows, the 6-bar robot's bag (the spine's
-plays through the same code; tests/view/test_browser.py draws its hulls); full
-mode: 5 start-ups, 15 s windows (a bag's: as long as it lasts), all rows.
+Quick mode (CI's smoke run: every row reported, no speed proven): one start-up (that of the
+view of the suite over ROS: the same command, started once instead of twice), 0.5 s windows, the
+6-bar robot's bag (the spine's plays through the same code; tests/view/test_browser.py draws
+its hulls); full mode: 5 start-ups of ``--scene class2_at_rest``, 15 s windows (a bag's: as
+long as it lasts), all rows.
 """
 
 from __future__ import annotations
@@ -229,7 +231,7 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
     from rclpy.context import Context as RosContext
     from tensegrity_msgs.msg import ActuatorForces, MechanismState
 
-    seconds = 1.0 if ctx.quick else 15.0
+    seconds = 0.5 if ctx.quick else 15.0
     starts = 1 if ctx.quick else 5
     env = dict(os.environ)
     rows: list[Row] = []
@@ -239,14 +241,13 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
         t0 = time.monotonic()
         subprocess.run([TENSEGRITY, "scenes"], capture_output=True, env=env, check=True)
         base.append(time.monotonic() - t0)
+    # quick mode: the start-up of the view of the suite over ROS below (the same command) stands for these
     ready = []
-    for _ in range(starts):
+    for _ in range(0 if ctx.quick else starts):
         proc, _port, took = _start(["--scene", "class2_at_rest"], env)
         ready.append(took)
         _stop(proc)
     rows.append(Row("view", "tensegrity scenes: start to exit, median", statistics.median(base), "s"))
-    rows.append(Row("view", "tensegrity view: start to page served, median", statistics.median(ready), "s",
-                    baseline="tensegrity scenes: start to exit, median", target="< 3 s", note=f"{starts} starts"))
 
     browser = Browser(*WINDOW)
     browser.context.add_init_script(COUNT_RENDERS)
@@ -322,7 +323,9 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
         spin = threading.Thread(target=spin_until_stopped, daemon=True)
         spin.start()
         try:
-            proc, port, _ = _start([], env)
+            proc, port, took = _start([], env)
+            if ctx.quick:
+                ready.append(took)
             try:
                 _, fps, shown, samples, _, note = _page_rates(browser, f"http://127.0.0.1:{port}", seconds)
             finally:
@@ -344,4 +347,7 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
                             target="< 50 ms", note=f"{len(latencies)} states"))
     finally:
         browser.close()
+    rows.insert(1, Row("view", "tensegrity view: start to page served, median", statistics.median(ready), "s",
+                       baseline="tensegrity scenes: start to exit, median", target="< 3 s",
+                       note="1 start: the view of the suite over ROS" if ctx.quick else f"{starts} starts"))
     return rows
