@@ -9,10 +9,12 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
 from numpy.typing import ArrayLike
 
 from tensegrity_core.errors import ConvergenceError
 from tensegrity_core.general.formfind import FormFindResult, form_find
+from tensegrity_core.general.formfind_result import STATUS_MESSAGES
 from tensegrity_core.robot.description import Robot
 
 
@@ -20,15 +22,22 @@ def rest_shape(robot: Robot, rest_lengths: ArrayLike | None = None, *, gravity: 
     """The robot's stable equilibrium for the cables' ``rest_lengths`` [m] (default: as drawn)
     under its supports, without the floor and (unless ``gravity``) without weight: for a free
     robot its prestressed shape (six rigid-body motions left free), form-found from the
-    drawing. Raises :class:`~tensegrity_core.errors.ConvergenceError` if there is none.
+    drawing. Raises :class:`~tensegrity_core.errors.ConvergenceError` if there is none, saying
+    why in the robot's terms (the form-finding's diagnosis names the rods' stand-in bars).
 
     Its forces [N], energy [J] and stiffness [N/m] are in SI units; its ``structure``,
     ``configuration`` and ``history`` are the statics' (forces in :meth:`Robot.force_unit`
     newtons)."""
-    result = form_find(robot.structure(rest_lengths, gravity=gravity))
+    try:
+        result = form_find(robot.structure(rest_lengths, gravity=gravity))
+    except np.linalg.LinAlgError:                 # a stiffness matrix no shift makes definite in double precision
+        k = robot.cables.stiffness
+        raise ConvergenceError(f"robot {robot.name!r} has no rest shape the statics can resolve: its cables' "
+                               f"stiffness spans {k.min():.3g} to {k.max():.3g} N/m, beyond double precision "
+                               f"beside its rods") from None
     if not result.success:
         raise ConvergenceError(f"robot {robot.name!r} has no stable rest shape for these rest lengths: "
-                               f"{result.message}")
+                               f"{STATUS_MESSAGES[result.status]}")
     unit = robot.force_unit(rest_lengths)
     if unit == 1.0:
         return result

@@ -186,7 +186,10 @@ class _Supported:
             start[i, 2] = self.radius_of[i]
         s = self.robot.structure(rest_lengths, nodes=start, pinned=pinned, gravity=False)
         s = s.replace(gravity=self.gravity / self.robot.force_unit(rest_lengths))
-        result = form_find(s)
+        try:
+            result = form_find(s)
+        except np.linalg.LinAlgError:             # stiffnesses beyond double precision: no equilibrium found
+            return None
         if not (result.success and result.stable):
             return None
         X = result.nodes
