@@ -518,11 +518,11 @@ def tip_budget() -> None:
     from scipy.integrate import quad
 
     from tensegrity_core.robot.statics import rest_shape
-    from tensegrity_core.robot.tipping import GAIT_SPREAD, lumped_masses
+    from tensegrity_core.robot.tipping import GAIT_SPREAD
 
     robot = load_scene("six_bar_roll").model.robot
     X = rest_shape(robot).nodes
-    mass = lumped_masses(robot)
+    mass = robot.lumped_masses()
     M, g = float(mass.sum()), float(np.linalg.norm(robot.gravity))
     speed = float(robot.motors.max_speed.min())
     nominal = robot.cables.rest_length

@@ -240,6 +240,18 @@ class Robot:
         out: FloatArray = np.linalg.norm(self.nodes[e[:, 1]] - self.nodes[e[:, 0]], axis=1)
         return out
 
+    def lumped_masses(self) -> FloatArray:
+        """(n,) masses [kg] lumped at the nodes, where the weights act: point masses, half of
+        each rod's mass at each of its caps (exact for the weight of a symmetric rod), each
+        other body's mass shared equally by its nodes (their centre of mass is the robot's)."""
+        m = np.array(self.node_masses, dtype=float)
+        np.add.at(m, self.rods.ends[:, 0], 0.5 * self.rods.mass)
+        np.add.at(m, self.rods.ends[:, 1], 0.5 * self.rods.mass)
+        for body in self.bodies:
+            m[list(body.nodes)] += body.mass / len(body.nodes)
+        out: FloatArray = m
+        return out
+
     def total_mass(self) -> float:
         """Mass of rods, rigid bodies and point masses [kg]."""
         return float(self.rods.mass.sum() + sum(b.mass for b in self.bodies) + self.node_masses.sum())

@@ -23,7 +23,7 @@ floor, sampled at the control rate:
    move at ``speed`` [m/s] (below the motors' own limit, so the robot tips quasi-statically,
    just past the edge), until the robot turns about the edge: at the first sample where both
    caps of the edge touch, the face's third cap is off the floor and the centre of mass
-   (lumped masses, :func:`.tipping.lumped_masses`) seen from above is beyond the edge, or a
+   (lumped masses, :meth:`.Robot.lumped_masses`) seen from above is beyond the edge, or a
    cap of another face touches, every cable is released (back to 2. once it rests on a
    face). A move that has not tipped the robot within ``give_up`` [s] is released and the
    next best edge is tried.
@@ -56,7 +56,7 @@ from numpy.typing import ArrayLike, NDArray
 from tensegrity_core.errors import ConvergenceError
 from tensegrity_core.robot.description import Robot
 from tensegrity_core.robot.statics import rest_shape
-from tensegrity_core.robot.tipping import hull_faces, lumped_masses, tipping_step
+from tensegrity_core.robot.tipping import hull_faces, tipping_step
 from tensegrity_core.schema import read_file
 
 FloatArray = NDArray[np.float64]
@@ -167,7 +167,7 @@ class RollController:
         self.target = faces
         self.heading = h / np.linalg.norm(h)
         self.hold, self.settle, self.give_up, self.speed = hold, settle, give_up, speed
-        self._mass = lumped_masses(robot)
+        self._mass = robot.lumped_masses()
         self.visited: list[Face] = []                   # faces rested on, in order (repeats merged)
         self._touching: frozenset[int] = frozenset()
         self._since = 0.0                               # when the current contact set began [s]

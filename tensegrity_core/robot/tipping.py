@@ -91,18 +91,6 @@ class TipStep:
     heading: tuple[float, float]
 
 
-def lumped_masses(robot: Robot) -> FloatArray:
-    """(n,) masses [kg] at the nodes: point masses, half of each rod at each cap, each rigid
-    body's mass shared equally by its nodes."""
-    m = robot.node_masses.copy()
-    np.add.at(m, robot.rods.ends[:, 0], 0.5 * robot.rods.mass)
-    np.add.at(m, robot.rods.ends[:, 1], 0.5 * robot.rods.mass)
-    for body in robot.bodies:
-        m[list(body.nodes)] += body.mass / len(body.nodes)
-    out: FloatArray = m
-    return out
-
-
 def hull_faces(points: ArrayLike) -> list[tuple[int, int, int]]:
     """The triangular faces of the convex hull of ``points`` (n, 3), each ordered
     counter-clockwise seen from outside."""
@@ -165,7 +153,7 @@ class _Supported:
             X = X * np.array([1.0, -1.0, 1.0])            # keeps lengths; the margin is |y| inside)
         self.X = X
         self.face = face
-        self.mass = lumped_masses(robot)
+        self.mass = robot.lumped_masses()
         self.weight = float(self.mass.sum()) * (float(np.linalg.norm(robot.gravity)) or STANDARD_GRAVITY)
         self.gravity = np.array([0.0, 0.0, -self.weight / float(self.mass.sum())])
         self.caps: list[int] = robot.rods.ends.reshape(-1).tolist()
@@ -312,7 +300,7 @@ def tipping_steps(robot: Robot, n_steps: int, heading: ArrayLike = (1.0, 0.0), s
     want = np.asarray(heading, dtype=float) / np.linalg.norm(heading)
     came: frozenset[int] | None = None
     steps: list[TipStep] = []
-    mass = lumped_masses(robot)
+    mass = robot.lumped_masses()
     for _ in range(n_steps):
         edge, out_dir = _edge_towards(W, face, want, came)
         a, b = edge

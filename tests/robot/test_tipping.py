@@ -77,7 +77,7 @@ def _supported(robot, X, face, rest):
         if c in (p, q):
             other = q if p == c else p
             force_z += t[i] * (Y[other, 2] - Y[c, 2]) / np.linalg.norm(Y[other] - Y[c])
-    m = tipping.lumped_masses(robot)
+    m = robot.lumped_masses()
     return Y, -force_z, float(m @ Y[:, 1] / m.sum())
 
 

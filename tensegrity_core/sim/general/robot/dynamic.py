@@ -34,7 +34,7 @@ from tensegrity_core.sim.commands import changed, check_command, compile_inputs
 from tensegrity_core.sim.errors import SimulationError
 from tensegrity_core.sim.general.model import kinetic_energy
 from tensegrity_core.sim.general.robot.loops import SLIPPING
-from tensegrity_core.sim.general.robot.plan import build_plan, lumped_masses
+from tensegrity_core.sim.general.robot.plan import build_plan
 from tensegrity_core.sim.general.robot.setup import initial_vector, names_of, robot_effects, robot_model, state_names
 from tensegrity_core.sim.general.robot.stepping import FixedStepper, RobotSample
 from tensegrity_core.sim.general.robot.system import RobotEvaluation, RobotSystem, block_index
@@ -114,7 +114,7 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
                                   R_ref=np.broadcast_to(np.eye(3), (nb, 3, 3)))
         self.layout = robot_layout(robot)
         self.end_effector = robot_model(scene).end_effector
-        self.node_mass = lumped_masses(robot)
+        self.node_mass = robot.lumped_masses()
         self.sensors = "sensors" in scene.effects
         self.gravity = np.asarray(scene.effects["gravity"].vector if "gravity" in scene.effects else np.zeros(3),
                                   dtype=float)

@@ -129,7 +129,7 @@ def build_plan(robot: Robot, effects: RobotEffects) -> RobotPlan:
     mass = np.zeros(nb)
     first = np.zeros((nb, 3))
     inertia = np.zeros((nb, 3, 3))
-    weight_mass = lumped_masses(robot)
+    weight_mass = robot.lumped_masses()
     ends = robot.rods.ends
     frames = rod_frames(robot.nodes[ends[:, 0]], robot.nodes[ends[:, 1]])
     rod_I = world_inertia(frames, robot.rods.inertia[:, 0], robot.rods.inertia[:, 1])
@@ -211,18 +211,6 @@ def build_plan(robot: Robot, effects: RobotEffects) -> RobotPlan:
         motor_cable=np.asarray(actuated, dtype=np.int64), motor_lo=lo, motor_hi=hi, motor_tau=tau,
         motor_speed=speed, cap_node=cap_node, cap_body=cap_body, cap_radius=np.array(cap_radius, dtype=float),
         floor_normal=normal, floor_point=point, floor_params=params))
-
-
-def lumped_masses(robot: Robot) -> FloatArray:
-    """(n,) masses [kg] lumped at the nodes, where the weights act: point masses, half of each
-    rod's mass at each of its caps, each other body's mass shared equally by its nodes (their
-    centre of mass is the robot's)."""
-    m = np.array(robot.node_masses, dtype=float)
-    np.add.at(m, robot.rods.ends[:, 0], 0.5 * robot.rods.mass)
-    np.add.at(m, robot.rods.ends[:, 1], 0.5 * robot.rods.mass)
-    for body in robot.bodies:
-        m[list(body.nodes)] += body.mass / len(body.nodes)
-    return m
 
 
 def _add_point(mass: FloatArray, first: FloatArray, inertia: FloatArray, slot: int, m: float, p: FloatArray) -> None:
