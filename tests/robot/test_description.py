@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -201,3 +202,19 @@ def test_errors_carry_the_file_and_line(tmp_path):
     with pytest.raises(RobotError, match="unknown robot|no shipped robot"):
         load_robot("three_bars")
     assert robot_from_text(robot_path("six_bar").read_text()).name == "six_bar"
+
+
+def test_the_statics_of_cables_up_to_1e15_n_per_m_are_those_of_the_shipped_six_bar_scaled():
+    """Equilibria are homogeneous in stiffness: the six-bar with every cable 2.5e11 times
+    stiffer (1e15 N/m, the largest a description takes; its rods' stand-ins 1.7e19 N, beyond
+    the structure format's 1e15) has the same weightless rest shape, every force 2.5e11 times
+    larger (the structure's force unit a power of two: its division is exact). A free
+    robot's rest shape is found up to a rigid motion (six free modes), so its members'
+    lengths are compared: to rounding, 1e-12 m."""
+    robot = load_robot("six_bar")
+    factor = 1e15 / float(robot.cables.stiffness.max())
+    stiff = replace(robot, cables=replace(robot.cables, stiffness=robot.cables.stiffness * factor))
+    assert stiff.force_unit() > 1.0 and stiff.structure().EA.max() <= 1e15
+    a, b = rest_shape(robot), rest_shape(stiff)
+    np.testing.assert_allclose(b.member_lengths, a.member_lengths, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(b.member_forces, factor * a.member_forces, rtol=1e-9)
