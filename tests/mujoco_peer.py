@@ -221,6 +221,27 @@ def mujoco_state(peer: MujocoPeer, structure: Structure, y: ArrayLike,
 CAP = "cap:"
 
 
+
+def body_force_expectation(m: mujoco.MjModel, d: mujoco.MjData, body: int, nodal: NDArray[np.float64],
+                           rounding: NDArray[np.float64], arm_from: NDArray[np.float64], size: float
+                           ) -> tuple[int, NDArray[np.float64], NDArray[np.float64]]:
+    """What MuJoCo's generalized force on the free joint of ``body`` must be when the nodes
+    riding on it feel the forces ``nodal`` (k, 3) [N] at ``arm_from`` (k, 3) [m]: its first
+    dof index, the expected (6,) force [N] and moment about the body's frame origin in the
+    body frame [N m], and their allowance from the forces' ``rounding`` (k,) [N] and the
+    model's ``size`` [m] (moments carry 64 eps of size times the forces)."""
+    eps = float(np.finfo(float).eps)
+    v = int(m.jnt_dofadr[m.body_jntadr[body]])
+    arm = arm_from - d.xpos[body]
+    R = d.xmat[body].reshape(3, 3)
+    expected, tolerance = np.empty(6), np.empty(6)
+    expected[:3] = nodal.sum(axis=0)
+    expected[3:] = R.T @ np.cross(arm, nodal).sum(axis=0)
+    tolerance[:3] = rounding.sum()
+    tolerance[3:] = (rounding * (1.0 + np.linalg.norm(arm, axis=1))).sum() + 64 * eps * size * np.abs(nodal).sum()
+    return v, expected, tolerance
+
+
 def robot_real_time_factor(model: str | Path, seconds: float, *, timestep: float = 1e-3, repeats: int = 3) -> float:
     """Simulated seconds per wall-clock second of MuJoCo stepping an exported robot (module docstring)."""
     text = Path(model).read_text(encoding="utf-8") if isinstance(model, Path) else model

@@ -46,6 +46,7 @@ from tensegrity_core.export.robot_mjcf import INERTIA_MARGIN  # noqa: E402
 from tensegrity_core.robot.layout import robot_layout  # noqa: E402
 from tensegrity_core.robot.robot_schema import robot_from_dict  # noqa: E402
 from tensegrity_core.sim import compile_scene, load_scene  # noqa: E402
+from tests.mujoco_peer import body_force_expectation  # noqa: E402
 from tests.robot.test_drawn_robots import ALL, scenes, stable_step  # noqa: E402
 
 EPS = np.finfo(float).eps
@@ -142,15 +143,9 @@ def test_a_drawn_robot_exports_with_the_projects_masses_and_forces_or_says_why_n
     for s in range(len(p.body_dof)):
         name = lay.body_names[s]
         b = m.body(f"rod:{name}" if s < nr else f"body:{name}").id
-        v = m.jnt_dofadr[m.body_jntadr[b]]
         idx = np.flatnonzero(lay.node_body == s)
-        arm = X[idx] - d.xpos[b]
-        R = d.xmat[b].reshape(3, 3)
-        expected[v:v + 3] = nodal[idx].sum(axis=0)
-        expected[v + 3:v + 6] = R.T @ np.cross(arm, nodal[idx]).sum(axis=0)
-        tolerance[v:v + 3] = rounding[idx].sum()
-        tolerance[v + 3:v + 6] = (rounding[idx] * (1.0 + np.linalg.norm(arm, axis=1))).sum() \
-            + 64 * EPS * size * np.abs(nodal[idx]).sum()
+        v, force, allowance = body_force_expectation(m, d, b, nodal[idx], rounding[idx], X[idx], size)
+        expected[v:v + 6], tolerance[v:v + 6] = force, allowance
     for node, axis in zip(p.free_node, p.free_axis):
         v = m.jnt_dofadr[m.joint(f"node:{robot.node_names[node]}:{'xyz'[axis]}").id]
         expected[v], tolerance[v] = nodal[node, axis], rounding[node]
