@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import itertools
 import os
 import random
 import signal
@@ -68,14 +69,20 @@ if os.environ.get("HYPOTHESIS_PROFILE", "ci") == "ci":
     _same_examples_in_every_run()
 
 
-def module_domain(module: str, worker: int, workers: int) -> int:
-    """The ROS domain of a test module: the run's base + a per-module offset, interleaved
-    between the run's parallel workers (worker ``w`` of ``n`` uses offsets ``w mod n``), so
-    two modules running at once never share a domain. Valid domains are 0..232."""
-    import zlib
+def module_domain(index: int, worker: int, workers: int) -> int:
+    """The ROS domain of the ``index``-th test module a worker runs: the run's base + an
+    offset, interleaved between the run's parallel workers (worker ``w`` of ``n`` uses
+    offsets ``w mod n``), so two modules running at once never share a domain. A worker's
+    modules take the offsets in turn, ``230 // n`` of them, so a module never shares the
+    domain of the modules just before it: a process killed there leaves its DDS participant
+    matched for its lease (~20 s), and a publisher of the same topic waits for that reader's
+    acknowledgements until its timeout (hashing the module's name into 29 offsets put up to 9
+    modules in one domain). Valid domains are 0..232."""
+    slots = 230 // workers
+    return (_BASE_DOMAIN + (index % slots) * workers + worker) % 230 + 1
 
-    offset = zlib.crc32(module.encode()) % 29
-    return (_BASE_DOMAIN + offset * workers + worker) % 230 + 1
+
+_modules_run = itertools.count()
 
 
 @pytest.fixture(autouse=True, scope="module")
@@ -86,7 +93,7 @@ def _ros_domain_per_module(request):
     worker = int(os.environ.get("PYTEST_XDIST_WORKER", "gw0").removeprefix("gw"))
     workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
     previous = os.environ["ROS_DOMAIN_ID"]
-    os.environ["ROS_DOMAIN_ID"] = str(module_domain(request.module.__name__, worker, workers))
+    os.environ["ROS_DOMAIN_ID"] = str(module_domain(next(_modules_run), worker, workers))
     yield
     os.environ["ROS_DOMAIN_ID"] = previous
 

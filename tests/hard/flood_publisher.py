@@ -39,6 +39,7 @@ def main(argv=None) -> int:
     ap.add_argument("--count", type=int, default=20_000)
     ap.add_argument("--hold", type=float, nargs=2, required=True)
     ap.add_argument("--subscribers", type=int, default=1)
+    ap.add_argument("--namespace", default="")
     args = ap.parse_args(argv)
 
     import rclpy
@@ -49,7 +50,7 @@ def main(argv=None) -> int:
     from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
     rclpy.init()
-    node = rclpy.create_node("flood_publisher")
+    node = rclpy.create_node("flood_publisher", namespace=args.namespace)
     pub = node.create_publisher(ActuatorForces, "actuator_forces", QoSProfile(depth=args.count))
     wait_for_matches([pub], args.subscribers, 60, settle_s=0.5)
     msgs = []
@@ -66,9 +67,10 @@ def main(argv=None) -> int:
             time.sleep(ahead)
         pub.publish(msg)
     end_ns = time.time_ns()
-    pub.wait_for_all_acked(Duration(seconds=60))
+    acked = pub.wait_for_all_acked(Duration(seconds=60))
     print(json.dumps({"published": args.count, "valid": valid, "start_ns": start_ns, "end_ns": end_ns,
-                      "seconds": (end_ns - start_ns) / 1e9, "last_valid": list(args.hold)}), flush=True)
+                      "seconds": (end_ns - start_ns) / 1e9, "last_valid": list(args.hold), "acked": acked}),
+          flush=True)
     node.destroy_node()
     rclpy.try_shutdown()
     return 0
