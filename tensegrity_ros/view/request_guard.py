@@ -127,7 +127,7 @@ def install() -> None:
     import websockets.asyncio.server as ws_server
     from viser.infra import _infra
 
-    from tensegrity_ros.view import unreadable_clients
+    from tensegrity_ros.view import prompt_stop, unreadable_clients
 
     with _lock:
         if _state["installed"]:
@@ -136,8 +136,8 @@ def install() -> None:
         @functools.wraps(ws_server.serve)
         def serve(*args: Any, process_request: Callable[..., Any] | None = None, **kwargs: Any) -> Any:
             _state["serving"] = True
-            return ws_server.serve(*args, process_request=functools.partial(_guarded, process_request),
-                                   create_connection=unreadable_clients.AnsweringConnection, **kwargs)
+            return prompt_stop.PromptServe(*args, process_request=functools.partial(_guarded, process_request),
+                                           create_connection=unreadable_clients.AnsweringConnection, **kwargs)
 
         server = _Namespace(ws_server, {"serve": serve})
         # the name viser's module calls websockets.asyncio.server.serve through (its own global only)

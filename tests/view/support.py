@@ -1,14 +1,42 @@
-"""Starting ``tensegrity view`` as a user does, and reading where it listens; a robot bag
-written by another tool."""
+"""Starting ``tensegrity view`` as a user does, and reading where it listens; a raw
+websocket client of it; a robot bag written by another tool."""
 
 from __future__ import annotations
 
+import base64
+import os
 import re
+import socket
 from pathlib import Path
 
 BAGS = Path(__file__).resolve().parents[2] / "bags"
 
 VIEW_READY = re.compile(r"view ready: (http://[^\s:]+:(\d+))")
+
+#: Patience for one answer of the view on a loaded machine [s] (an event ends every wait before it).
+PATIENCE = 60.0
+
+
+def subprotocol() -> str:
+    """The websocket subprotocol the page asks for (viser refuses another version's)."""
+    import viser
+
+    return f"viser-v{viser.__version__}"
+
+
+def handshake(port: int) -> socket.socket:
+    """A raw socket to the view on ``port``, past the websocket handshake (the page's
+    subprotocol); it reads nothing more unless its caller does."""
+    s = socket.create_connection(("127.0.0.1", port), timeout=PATIENCE)
+    key = base64.b64encode(os.urandom(16))
+    s.sendall(b"GET / HTTP/1.1\r\nHost: 127.0.0.1:%d\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+              b"Sec-WebSocket-Key: %s\r\nSec-WebSocket-Version: 13\r\n"
+              b"Sec-WebSocket-Protocol: %s\r\n\r\n" % (port, key, subprotocol().encode()))
+    head = b""
+    while b"\r\n\r\n" not in head:
+        head += s.recv(1)
+    assert head.startswith(b"HTTP/1.1 101"), head
+    return s
 
 
 def start_view(cli, *args: str, timeout: float = 120.0) -> tuple[object, str, int]:

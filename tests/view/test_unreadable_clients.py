@@ -5,7 +5,6 @@ goes on serving others through all of it."""
 
 from __future__ import annotations
 
-import base64
 import http.client
 import logging
 import os
@@ -20,12 +19,9 @@ from websockets.exceptions import ConnectionClosed  # noqa: E402
 from websockets.sync.client import connect  # noqa: E402
 
 from tensegrity_ros.view.server import start_server  # noqa: E402
+from tests.view.support import PATIENCE, handshake, subprotocol  # noqa: E402
 
-#: The websocket subprotocol the page asks for (viser refuses another version's).
-SUBPROTOCOL = f"viser-v{__import__('viser').__version__}"
-
-#: Patience for one answer on a loaded machine [s] (an event ends every wait before it).
-PATIENCE = 60.0
+SUBPROTOCOL = subprotocol()
 
 
 class _Records(logging.Handler):
@@ -63,19 +59,6 @@ class Served:
         body = res.read()
         conn.close()
         return res.status, body
-
-    def handshake(self) -> socket.socket:
-        """A raw socket past the websocket handshake (the page's subprotocol)."""
-        s = socket.create_connection(("127.0.0.1", self.port), timeout=PATIENCE)
-        key = base64.b64encode(os.urandom(16))
-        s.sendall(b"GET / HTTP/1.1\r\nHost: 127.0.0.1:%d\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
-                  b"Sec-WebSocket-Key: %s\r\nSec-WebSocket-Version: 13\r\n"
-                  b"Sec-WebSocket-Protocol: %s\r\n\r\n" % (self.port, key, SUBPROTOCOL.encode()))
-        head = b""
-        while b"\r\n\r\n" not in head:
-            head += s.recv(1)
-        assert head.startswith(b"HTTP/1.1 101"), head
-        return s
 
     def stop(self) -> list[logging.LogRecord]:
         """Stop the server (its connections' handlers end first) and return its log."""
@@ -183,7 +166,7 @@ def test_a_websocket_client_sending_garbage_is_closed_alone(served, frame):
 
 
 def test_a_websocket_client_leaving_mid_frame_is_forgotten_quietly(served):
-    s = served.handshake()
+    s = handshake(served.port)
     s.sendall(b"\x82\xfe\x10\x00" + os.urandom(4) + b"part of 4096 bytes")   # masked, length 4096
     s.close()
     assert served.get("/")[0] == 200
