@@ -79,6 +79,7 @@ from tensegrity_core.sim import compile_scene
 from tensegrity_core.sim import joint_trajectory as jt
 from tensegrity_ros.nodes.common import ParameterValueError, declare, spin_node
 from tensegrity_ros.nodes.scene_param import declare_scene
+from tensegrity_ros.rclpy_utils.messages import stamp_ns
 from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
 
 _RESULT = FollowJointTrajectory.Result
@@ -152,7 +153,7 @@ class CableControllerNode(Node):
 
     # -- commands and checks ---------------------------------------------------------------
     def on_joints(self, msg: JointState) -> None:
-        stamp = _ns(msg.header.stamp)
+        stamp = stamp_ns(msg.header.stamp)
         if self._latest is None or stamp != self._latest[0]:
             self._latest, self._latest_header, self._answer = (stamp, stamp / NS_PER_S), msg.header, None
         if self._active:
@@ -212,7 +213,7 @@ class CableControllerNode(Node):
             self._activate()
         index = {n: i for i, n in enumerate(msg.name)}
         job = self._job
-        tau = math.nan if job is None else _ns(msg.header.stamp) / NS_PER_S - job.t_start
+        tau = math.nan if job is None else stamp_ns(msg.header.stamp) / NS_PER_S - job.t_start
         if job is not None and (job.finished.done() or not tau >= 0.0
                                 or any(n not in index for n in job.trajectory.names)):
             job = None          # ended, not started, or a state without the goal's cables: nothing to check
@@ -347,12 +348,12 @@ class CableControllerNode(Node):
         if any(len(p.effort) for p in traj.points):
             raise jt.TrajectoryError("points with effort are not accepted: the cables take rest lengths")
         trajectory = jt.plan_trajectory(
-            list(traj.joint_names), [_ns(p.time_from_start) / NS_PER_S for p in traj.points],
+            list(traj.joint_names), [stamp_ns(p.time_from_start) / NS_PER_S for p in traj.points],
             [list(p.positions) for p in traj.points], [list(p.velocities) for p in traj.points],
             [list(p.accelerations) for p in traj.points], interface=self.interface, start=self._rest_lengths())
         assert self._latest is not None    # active: a joint state came
         now = self._latest[1]
-        stamp = _ns(traj.header.stamp)
+        stamp = stamp_ns(traj.header.stamp)
         t_start = now if stamp == 0 else stamp / NS_PER_S
         if t_start + trajectory.duration < now:
             raise jt.TrajectoryError(f"the trajectory started at {t_start:.6f} s ended before the simulation's time "
@@ -372,7 +373,7 @@ class CableControllerNode(Node):
                 bounds[trajectory.names.index(item.name)] = jt.tolerance(item.position, default)
         # as joint_trajectory_controller: 0 the default, -1 (here any value < 0) no limit; a
         # default of 0 is no limit too (its constraints.goal_time)
-        goal_time = jt.tolerance(_ns(req.goal_time_tolerance) / NS_PER_S, self.goal_time_tolerance or math.inf)
+        goal_time = jt.tolerance(stamp_ns(req.goal_time_tolerance) / NS_PER_S, self.goal_time_tolerance or math.inf)
         off = (math.inf,) * n
         monitor = jt.GoalMonitor(trajectory, jt.Tolerances(tuple(path), off, tuple(goal), off, goal_time))
         return _Job(handle, trajectory, monitor, t_start)
@@ -392,10 +393,6 @@ def _settle(future: Future, outcome: str) -> None:
         future.set_result(outcome)
 
 
-def _ns(stamp: Any) -> int:
-    """Integer nanoseconds of a stamp or duration: a time [s] is ``ns / 1e9``, divided once, as
-    the core's sampled-data runner has it (the same floats, the same commands)."""
-    return int(stamp.sec) * NS_PER_S + int(stamp.nanosec)
 
 
 def _duration(seconds: float) -> Any:
