@@ -111,3 +111,20 @@ def payout(l0: ArrayLike, l: ArrayLike, k: ArrayLike, t_max: ArrayLike, hi: Arra
     need = np.asarray(l, dtype=float) - np.asarray(t_max, dtype=float) / np.asarray(k, dtype=float)
     out: FloatArray = np.maximum(L0, np.minimum(need, hi))
     return out
+
+
+def settling_time(gap: ArrayLike, tolerance: float, tau: ArrayLike, speed: ArrayLike) -> FloatArray:
+    """s a rest-length motor needs to bring an error of ``gap`` [m] (towards a constant aim)
+    within ``tolerance`` [m] under :func:`rate`: the slew at ``speed`` [m/s] down to
+    ``speed tau`` (or to ``tolerance``, if that is larger), then the decay ``exp(-t / tau)``
+    to ``tolerance``. 0 where ``gap <= tolerance``; ``tau = 0`` and ``speed = inf``: 0
+    (ideal). Needs ``tolerance > 0``."""
+    g = np.abs(np.asarray(gap, dtype=float))
+    t = np.asarray(tau, dtype=float)
+    s = np.asarray(speed, dtype=float)
+    knee = np.maximum(np.multiply(s, t, out=np.full_like(g, np.inf), where=np.isfinite(s)), tolerance)
+    slew_end = np.minimum(g, knee)
+    slew = np.divide(g - slew_end, s, out=np.zeros_like(g), where=np.isfinite(s))
+    decay = t * np.log(np.maximum(slew_end, tolerance) / tolerance)
+    out: FloatArray = slew + decay
+    return out

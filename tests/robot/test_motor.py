@@ -83,3 +83,34 @@ def test_payout_keeps_the_tension_at_its_limit(l0, stretch, k, t_max):
         assert (l - new) ** 2 <= (l - l0) ** 2
     capped = float(motor.payout(l0, l0 + 10.0, k, 1.0, l0 + 0.01))  # the spool's end: no further
     assert capped == l0 + 0.01
+
+
+@given(taus, speeds, st.floats(1e-4, 1.0), st.floats(1e-6, 1e-2))
+def test_settling_time_is_when_the_integrated_rate_reaches_the_tolerance(tau, speed, gap, tolerance):
+    """The error of a motor from ``gap`` away, integrated by scipy from the continuous rate,
+    first reaches ``tolerance`` at ``settling_time`` (an event of the integration)."""
+    got = float(motor.settling_time(gap, tolerance, tau, speed))
+    if gap <= tolerance:
+        assert got == 0.0
+        return
+    if tau == 0.0 and not np.isfinite(speed):
+        assert got == 0.0                                 # an ideal motor is there at once
+        return
+    if tau == 0.0:                                        # a pure slew: the rate jumps at the aim
+        assert abs(got - (gap - tolerance) / speed) <= 1e-12 * max(got, 1.0)
+        return
+
+    def reached(_t, y):
+        return y[0] - tolerance
+    reached.terminal = True
+    sol = solve_ivp(lambda _t, y: -np.clip(y / tau, -speed, speed), (0.0, 10 * got + 1.0), [gap],
+                    events=reached, rtol=1e-11, atol=1e-14, method="DOP853")
+    assert sol.t_events[0].size == 1
+    assert abs(sol.t_events[0][0] - got) <= 1e-6 * got + 1e-9
+
+
+def test_settling_time_of_the_three_bar_motor_is_its_lag_times_the_log_of_the_gap():
+    """The 3-bar's motors (lag 1 s, no slew limit): 0.6 m to 0.1 mm takes ln(6000) s = 8.70 s."""
+    assert abs(float(motor.settling_time(0.6, 1e-4, 1.0, np.inf)) - np.log(6000.0)) < 1e-12
+    # the 6-bar's (lag 0.02 s, 0.5 m/s): 0.59 m of slew in 1.18 s, then 0.02 ln(100) s
+    assert abs(float(motor.settling_time(0.6, 1e-4, 0.02, 0.5)) - (1.18 + 0.02 * np.log(100.0))) < 1e-12

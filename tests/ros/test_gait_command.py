@@ -9,6 +9,7 @@ from __future__ import annotations
 import re
 import time
 
+import numpy as np
 import pytest
 
 from tests.ros_support import run_cli
@@ -70,3 +71,23 @@ def _stdout_so_far(proc) -> str:
         chunks += data
     proc._seen = chunks
     return chunks
+
+
+def test_a_gait_waits_for_slow_motors_to_arrive(cli):
+    """The 3-bar's motors lag by 1 s (no slew limit): its crawl ends with its rest lengths
+    about 0.07 m short of the last point's, which they close to the controller's goal tolerance
+    (0.1 mm) in about ln(0.07 / 1e-4) = 6.5 s, past the controller's default 1 s. The goal
+    allows the controller's 1 s plus the motors' bound, 1 ln(0.6 / 1e-4) = 8.7 s (their 0.6 m
+    range), so it succeeds once they are there."""
+    ns = NS + "_three_bar"
+    up = cli("up", "--scene", "three_bar_drop", "--no-formfind", "--namespace", ns, "--ros-args", "-p",
+             "lockstep:=true", log_name="up_three_bar")
+    deadline = time.monotonic() + 120                  # a guard against a hang, not a timing
+    while "cable controller ready" not in _stdout_so_far(up):
+        assert up.popen.poll() is None and time.monotonic() < deadline, _stdout_so_far(up)
+        time.sleep(0.2)
+    r = run_cli("gait", "three_bar", "three_bar_crawl", "--repeats", "1", "-n", ns, "--timeout", "30",
+                "--settle", "0", timeout=300)
+    assert r.returncode == 0, r.stdout + r.stderr
+    after = float(re.match(r"succeeded: within the goal tolerance (\S+) s after the end", r.stdout).group(1))
+    assert 1.0 < after < 1.0 + np.log(0.6 / 1e-4), r.stdout
