@@ -48,6 +48,7 @@ from tensegrity_core.general.formfind_result import (
     structure_size,
 )
 from tensegrity_core.general.linalg import (
+    NoDefiniteShift,
     ShiftedStep,
     moving_coordinates,
     null_space_of_rows,
@@ -364,7 +365,10 @@ def _newton_iterations(structure: Structure, config: Configuration,
             Kk = K
         else:
             Kk = K[np.ix_(keep, keep)] if state.dense else K[keep][:, keep]
-        step = shifted_step_dense(Kk, P, state.shift) if state.dense else shifted_step_sparse(Kk, P, state.shift)
+        try:
+            step = shifted_step_dense(Kk, P, state.shift) if state.dense else shifted_step_sparse(Kk, P, state.shift)
+        except NoDefiniteShift:
+            return config, FormFindStatus.NON_FINITE
         dU = _direction(structure, step, keep, state.max_step * size)
         if watch is not None:               # the second step of a relaxed pair
             relaxed = config.retract(dU)
