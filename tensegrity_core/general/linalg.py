@@ -54,6 +54,7 @@ matrix with non-finite entries has no such shift: :class:`NoDefiniteShift` says 
 from __future__ import annotations
 
 from collections.abc import Callable
+from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from typing import Final, TypeAlias, TypeVar
 
@@ -63,6 +64,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.linalg import qr
 from scipy.sparse.linalg import LinearOperator, SuperLU, eigsh, splu
+from threadpoolctl import ThreadpoolController
 
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.general.configuration import Configuration
@@ -98,6 +100,23 @@ def dominance_shift(Ks: Matrix) -> float:
     else:
         row_sum = np.abs(np.asarray(Ks, dtype=float)).sum(axis=1)
     return max(2.0 * float(row_sum.max(initial=0.0)), float(np.finfo(float).tiny))
+
+
+#: This process's BLAS libraries (found once: inspecting them takes ~20 ms).
+_BLAS: ThreadpoolController | None = None
+
+
+def one_blas_thread() -> AbstractContextManager[object]:
+    """A context in which BLAS runs on one thread, for dense algebra of at most a few hundred
+    unknowns: a thread more hands over each small factorisation and eigenproblem, and on a
+    busy machine its threads wait for cores they spin on (a 40-vertebra C spine, 234 DOF:
+    13.4 s of CPU and 61 s of wall time with two BLAS threads under load 12, 1.4 s of CPU
+    with one; docs/design/general.md). Process-wide while it lasts, as BLAS's own setting."""
+    global _BLAS
+    if _BLAS is None:
+        _BLAS = ThreadpoolController()
+    limit: AbstractContextManager[object] = _BLAS.limit(limits=1, user_api="blas")
+    return limit
 
 
 def as_dense(K: Matrix) -> FloatArray:
@@ -194,9 +213,10 @@ def shifted_step_dense(K: Matrix, P: FloatArray, u: float | None = None) -> Shif
 
     def attempt(tau: float) -> tuple[FloatArray, bool] | None:
         try:
-            return la.cho_factor(Ks + tau * eye, check_finite=False)
+            factor: tuple[FloatArray, bool] = la.cho_factor(Ks + tau * eye, check_finite=False)
         except la.LinAlgError:
             return None
+        return factor
 
     def step(tau: float, indefinite: bool, alternative: ShiftedStep | None = None) -> ShiftedStep:
         tau, c, tries = definite_factor(attempt, tau, limit)
@@ -218,9 +238,9 @@ def definite_factor(attempt: Callable[[float], T | None], tau: float, limit: flo
     fails the smallest decade above ``tau`` that succeeds, up to the Gershgorin shift
     ``limit`` (:func:`smallest_definite_shift`; module docstring: why it terminates).
     Returns ``(shift, factor, attempts)``."""
-    factor = attempt(tau)
-    if factor is not None:
-        return tau, factor, 1
+    first = attempt(tau)
+    if first is not None:
+        return tau, first, 1
     shift, factor, tries = smallest_definite_shift(attempt, tau, limit=limit)
     return shift, factor, tries + 1
 
