@@ -56,8 +56,10 @@ class Outputs:
     """The per-publication topics of one plant's model and their messages."""
 
     def __init__(self, plant: SimPlant, *, publish_rate: float, state_rate: float, marker_rate: float,
-                 imu_rate: float):
+                 imu_rate: float, frame_prefix: str = ""):
         self.plant = plant
+        #: Put before each moving body's name to make its frame (/tf child, IMU frame_id).
+        self.frame_prefix = frame_prefix
         self.general = plant.interface.command == "rest_length"
         self.robot = plant.model.kind == "robot"
         self._floor = plant.floor()
@@ -133,7 +135,7 @@ class Outputs:
                      "body_states": lambda: self._bytes(
                          "body_states", frame, lambda: topic_bytes.body_states_bytes(obs.body_names, frame), hdr,
                          topic_bytes.body_states_runs(obs), lambda: sender.body_states_msg(obs, hdr)),
-                     "/tf": lambda: transforms.tf_msg(obs, hdr),
+                     "/tf": lambda: transforms.tf_msg(obs, hdr, self.frame_prefix),
                      "cable_states": lambda: self._bytes(
                          "cable_states", frame, lambda: topic_bytes.cable_states_bytes(obs, interface, frame), hdr,
                          topic_bytes.cable_states_runs(obs), lambda: sender.cable_states_msg(obs, interface, hdr)),
@@ -142,7 +144,7 @@ class Outputs:
                      "contacts": lambda: robot_messages.contacts_msg(obs, hdr)}
             for i, topic in enumerate(self.imu_topics):
                 def imu(i: int = i, topic: str = topic) -> object:
-                    body = obs.imu_names[i]
+                    body = self.frame_prefix + obs.imu_names[i]
                     return self._bytes(topic, body, lambda: topic_bytes.imu_bytes(body), hdr,
                                        topic_bytes.imu_runs(obs, i),
                                        lambda: robot_messages.imu_msg(obs, i, Header(stamp=hdr.stamp, frame_id=body)))

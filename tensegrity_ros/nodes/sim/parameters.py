@@ -33,6 +33,7 @@ class SimParameters:
     safe_force: float           # [N]
     max_force: float            # [N]
     frame_id: str
+    frame_prefix: str           # before each moving body's frame name (/tf child, IMU frame_id)
     state_rate: float           # [Hz]
     marker_rate: float          # [Hz]
     imu_rate: float             # [Hz]
@@ -97,6 +98,10 @@ def declare_sim_parameters(node: Node, scene: str) -> SimParameters:
         raise ParameterValueError(f"{node.get_name()}: parameter safe_force must be in [-max_force, max_force] = "
                                   f"[{-max_force:g}, {max_force:g}] N, got {safe_force:g} N")
     frame_id = d("frame_id", "world", "frame of the published positions")
+    frame_prefix = d("frame_prefix", "",
+                     "put before each moving body's frame name (the /tf child frames and the IMUs' frame_id), "
+                     "as robot_state_publisher's frame_prefix: 'robot1/' keeps two robots' frames apart on "
+                     "the one /tf; '' = the bodies' names")
     state_rate = d("state_rate", 100.0,
                    "publish rate of mechanism_state (class-2), cable_states (general structures, robots) and "
                    "contacts (robots) [Hz], counted in publications of joint_states at publish_rate; a divisor "
@@ -119,5 +124,6 @@ def declare_sim_parameters(node: Node, scene: str) -> SimParameters:
                  "1/lambda^2 and the simulation stops at 1e-3; 0 = never [fraction of L]", lo=0.0, hi=1.0)
     return SimParameters(scene, rate, rtf, step_ns, bool(lockstep), lockstep_timeout, lockstep_rtf,
                          STATE_BY_NAME[initial],
-                         paused_rate, int(max_steps), command_timeout, safe_force, max_force, frame_id, state_rate,
+                         paused_rate, int(max_steps), command_timeout, safe_force, max_force, frame_id, frame_prefix,
+                         state_rate,
                          marker_rate, imu_rate, int(wait), str(wait_node), bool(clock), singular)
