@@ -33,8 +33,10 @@ floor                      plane geom ``floor``; one contact pair ``contact:n`` 
 sensors                    ``length:c`` (``tendonpos``) per cable with a length sensor;
                            ``tension:c`` (``actuatorfrc``, minus the tension) per actuated
                            cable with a tension sensor; per IMU a site ``imu:x`` at the body's
-                           centre with ``imu:x:orientation`` (``framequat``), ``imu:x:gyro``,
-                           ``imu:x:accelerometer`` (specific force)
+                           centre, its axes the world's in the drawing (the project's body
+                           frame, in which its IMU reads), with ``imu:x:orientation``
+                           (``framequat``), ``imu:x:gyro``, ``imu:x:accelerometer`` (specific
+                           force)
 initial state              bodies as drawn (``qpos0``) and keyframe ``initial`` (``qpos``,
                            zero ``qvel``, ``ctrl`` and ``act`` each motor held as drawn)
 =========================  ==================================================================
@@ -332,7 +334,11 @@ class _RobotWriter:
                           size=number(rods.cap_radius[i]), pos=vector([0, 0, z]), rgba="0.25 0.25 0.3 1")
             ET.SubElement(body, "site", name=self._node(node), pos=vector([0, 0, z]))
         if i in r.sensors.imu_rods:
-            ET.SubElement(body, "site", name=f"imu:{rods.names[i]}", pos=vector([0.0, 0.0, -shift]))
+            # the project's rod frame has the world's axes in the drawing (its IMU reads in it):
+            # the site undoes the body's turn onto the rod's principal axes
+            drawn_axes = Rotation.from_matrix(frame).inv().as_quat(scalar_first=True)
+            ET.SubElement(body, "site", name=f"imu:{rods.names[i]}", pos=vector([0.0, 0.0, -shift]),
+                          quat=vector(drawn_axes))
 
     def _rigid_body(self, world: ET.Element, slot: int) -> None:
         lay = self.lay
