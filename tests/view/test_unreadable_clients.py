@@ -124,9 +124,15 @@ def test_the_log_line_quotes_a_request_bounded_and_escaped(served):
     assert len(line) < 250 and "\x1b" not in line and "\\x1b" in line
 
 
-def test_unknown_paths_are_404_and_query_strings_are_ignored(served):
-    assert served.get("/no/such/file.js")[0] == 404
-    assert served.get("/assets")[0] == 404                 # a folder is not a file
+def test_unknown_paths_are_404_with_one_line_saying_so_and_query_strings_are_ignored(served):
+    for path in ("/no/such/file.js?x=1", "/assets", "/..%2f\x1b[2J"):      # a folder is not a file
+        answer = served.raw(b"GET %s HTTP/1.1\r\nHost: 127.0.0.1:%d\r\n\r\n" % (path.encode(), served.port))
+        head, _, body = answer.partition(b"\r\n\r\n")
+        assert head.startswith(b"HTTP/1.1 404 Not Found\r\n"), answer
+        assert b"\r\nContent-Type: text/plain; charset=utf-8" in head
+        assert b"\r\nContent-Length: %d" % len(body) in head
+        assert body.startswith(b"tensegrity view: 404 Not Found: '/") and body.endswith(b"(it is at /)\n")
+        assert body.count(b"\n") == 1 and b"\x1b" not in body and b"x=1" not in body
     status, body = served.get("/?x=1&y=%ZZ&z")
     assert status == 200 and b'<div id="root">' in body
 
