@@ -41,8 +41,9 @@ are the scene's actuated cables that take commands; their positions are rest len
   takes over from the running goal as a new goal does.
 - Start: ``trajectory.header.stamp`` zero starts the goal at the latest joint state's time
   (the time it was accepted), a stamp starts it at that simulation time; a trajectory that
-  ended before the latest joint state is OLD_HEADER_TIMESTAMP. The first segment starts
-  from the current rest lengths unless the first point is at 0.
+  ended before the latest joint state is OLD_HEADER_TIMESTAMP; one that starts more than a day
+  of simulation time ahead waits for it, with a warning (a wall-clock stamp). The first
+  segment starts from the current rest lengths unless the first point is at 0.
 - A new goal takes over from the running one, which ends ABORTED with INVALID_GOAL
   "preempted: a newer goal took over" (joint_trajectory_controller's status, code and
   reason since its Jazzy release 4.41; CANCELED before); a cancelled
@@ -358,6 +359,13 @@ class CableControllerNode(Node):
         if t_start + trajectory.duration < now:
             raise jt.TrajectoryError(f"the trajectory started at {t_start:.6f} s ended before the simulation's time "
                                      f"{now:.6f} s", code=jt.OLD_HEADER_TIMESTAMP)
+        if t_start - now > jt.MAX_DURATION:
+            # as joint_trajectory_controller it waits; said, since a wall-clock stamp from a
+            # client without use_sim_time starts decades of simulation time ahead
+            self.get_logger().warning(clip(
+                f"a goal starts at {t_start:.6f} s, {t_start - now:.3g} s after the simulation's time {now:.6f} s, "
+                "and waits until then: is its trajectory.header.stamp wall-clock time (a client without "
+                "use_sim_time)? A zero stamp starts it at once"))
         n = len(trajectory.names)
         path, goal = [self.path_tolerance or math.inf] * n, [self.goal_tolerance] * n
         for items, bounds, default in ((req.path_tolerance, path, self.path_tolerance or math.inf),

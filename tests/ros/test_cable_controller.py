@@ -10,6 +10,7 @@ goal's own points, and the result codes of control_msgs.
 from __future__ import annotations
 
 import math
+import time
 from contextlib import contextmanager
 
 import numpy as np
@@ -303,3 +304,19 @@ def test_a_refused_joint_trajectory_is_logged_once_in_one_line_and_the_running_g
     for reason in bad:
         lines = [line for line in log if reason in line]
         assert len(lines) == 1 and "joint_trajectory ignored: " in lines[0], lines
+
+
+def test_a_goal_stamped_on_the_wall_clock_waits_and_says_why(rig):
+    """A client without use_sim_time stamps its trajectory with the wall clock, ~1.8e9 s: as
+    joint_trajectory_controller the controller waits for that simulation time (the goal runs,
+    no feedback yet), and its log says why, so the client's silent wait has a reason."""
+    from action_msgs.msg import GoalStatus
+
+    client, action, _, ctl, _ = rig
+    wall = time.time_ns()
+    handle = _send(client, action, _goal([(0.5, (0.9, 0.9))], stamp_ns=wall))
+    assert handle.accepted
+    ctl.wait_for("is its trajectory.header.stamp wall-clock time")
+    _asked(client, handle.cancel_goal_async, 30)
+    status, _ = _result(client, handle)
+    assert status == GoalStatus.STATUS_CANCELED
