@@ -12,19 +12,13 @@ by cable name) at the caller's rate.
 
 from __future__ import annotations
 
-import math
 import threading
 from collections.abc import Callable
-from typing import Any, Final
+from typing import Any
 
 from tensegrity_ros.view.frame import Frame
-from tensegrity_ros.view.inputs import InputSpec
+from tensegrity_ros.view.inputs import InputSpec, command_input
 from tensegrity_ros.view.structure_frames import StructureMessages, TopologyMismatch, stamp_seconds
-
-#: Rest-length sliders without a finite motor range span this fraction of the first rest length either way.
-REST_LENGTH_SPAN: Final = 0.5
-#: Slider limits stay this fraction of the range inside a motor's open interval.
-INSIDE: Final = 1e-6
 
 
 class StructureLink:
@@ -98,7 +92,8 @@ class StructureLink:
     def inputs(self) -> tuple[InputSpec, ...]:
         """One slider per motor (or actuated member) that takes rest-length commands: its
         limits the motor's range, or ``REST_LENGTH_SPAN`` of its rest length either way
-        without one; starting at the rest length of the latest ``cable_states``."""
+        without one (:func:`.inputs.command_input`); starting at the rest length of the latest
+        ``cable_states``."""
         itf = self.interface
         modes = itf.modes or ("rest_length",) * len(itf.inputs)
         with self._lock:
@@ -107,11 +102,7 @@ class StructureLink:
         for name, commanded, (lo, hi), member, mode in zip(itf.inputs, itf.commanded, itf.limits, itf.members, modes):
             if not commanded or mode != "rest_length" or member < 0 or member >= len(rest):
                 continue
-            value = float(rest[member])
-            if not (math.isfinite(lo) and math.isfinite(hi)):
-                lo, hi = max(lo, (1 - REST_LENGTH_SPAN) * value), min(hi, (1 + REST_LENGTH_SPAN) * value)
-            pad = INSIDE * (hi - lo)
-            out.append(InputSpec(name, "m", lo + pad, hi - pad, min(max(value, lo + pad), hi - pad)))
+            out.append(command_input(name, float(rest[member]), (lo, hi)))
         return tuple(out)
 
     def publish(self, values: dict[str, float]) -> None:

@@ -22,13 +22,11 @@ from tensegrity_core.sim import Simulator, load_scene
 from tensegrity_core.sim.sampled import step_time
 from tensegrity_ros.view.frame import Frame
 from tensegrity_ros.view.frames import frame_of_observation, scene_topology
-from tensegrity_ros.view.inputs import InputSpec
+from tensegrity_ros.view.inputs import InputSpec, command_input
 from tensegrity_ros.view.source import Report, Sink
 
 #: Largest simulated time made up in one tick [s].
 MAX_CATCH_UP: Final = 0.25
-#: Rest-length sliders span this fraction of the initial rest length either way.
-REST_LENGTH_SPAN: Final = 0.5
 
 
 def _ignore(_text: str) -> None:
@@ -62,17 +60,20 @@ class SceneSource:
         self._report: Report = _ignore
 
     def _input_specs(self, force_limit: float) -> tuple[InputSpec, ...]:
-        """One slider per commanded input (inputs with a law follow it: no slider)."""
+        """One slider per commanded input (inputs with a law follow it: no slider): class-2
+        forces within ``force_limit`` [N]; rest lengths, tensions or reel speeds within the
+        simulator's limits (:func:`.inputs.command_input`)."""
         names = list(self.sim.scene.inputs)
+        itf = self.sim.interface
+        modes = itf.modes or ("rest_length",) * len(names)
         out = []
-        for name, value in zip(names, self.sim.command):
+        for name, value, limits, mode in zip(names, self.sim.command, itf.limits, modes):
             if math.isnan(value):
                 continue
             if self.topology.kind == "class2":
                 out.append(InputSpec(name, "N", -force_limit, force_limit, float(value)))
-            else:
-                span = REST_LENGTH_SPAN * abs(value)
-                out.append(InputSpec(name, "m", max(1e-6, value - span), value + span, float(value)))
+            else:              # a robot motor's command in its mode, within its range
+                out.append(command_input(name, float(value), limits, mode))
         return tuple(out)
 
     def first_frame(self, timeout: float = 0.0) -> Frame:

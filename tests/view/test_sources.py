@@ -208,3 +208,38 @@ def test_a_move_the_controller_never_answers_says_so(ros_context):
     finally:
         source.stop()
         server_node.destroy_node()
+
+
+def test_a_robots_sliders_span_its_motors_ranges_in_each_motors_unit(tmp_path):
+    """``tensegrity view --scene`` of the 6-bar with one motor in tension and one in
+    reel-speed mode (the scene of docs/ros.md): each slider spans its motor's range from
+    six_bar.yaml (rest lengths [0.45, 1.05] m, tensions [0, 2000] N, reel speeds [-0.5, 0.5]
+    m/s), and the simulation steps on with every slider at either end (a command outside
+    the motor's range stops it)."""
+    import yaml
+
+    from tensegrity_core.robot import examples
+
+    motor = yaml.safe_load((Path(examples.__file__).parent / "six_bar.yaml").read_text())["cable_defaults"]["motor"]
+    scene = tmp_path / "six_bar_modes.yaml"
+    scene.write_text("model: {kind: robot, robot: six_bar}\ninitial: {drawn: true}\nduration: 3.0\n"
+                     "effects: [inertia, cables, {motors: {modes: {c0_4: tension, c0_7: reel_speed}}}, gravity, "
+                     "contact, friction, sensors]\n")
+    source = SceneSource(str(scene), step=0.01)
+    sliders = {s.name: s for s in source.inputs}
+    assert len(sliders) == 24
+    expected = {"c0_4": ("N", 0.0, motor["max_tension"]), "c0_7": ("m/s", -motor["max_speed"], motor["max_speed"]),
+                "c0_8": ("m", *motor["range"])}
+    for name, (unit, low, high) in expected.items():
+        assert (sliders[name].unit, sliders[name].low, sliders[name].high) == (unit, low, high)
+    sink = Frames()
+    source.start(sink, sink.report)
+    try:
+        for end in ("low", "high"):
+            source.drive({name: getattr(s, end) for name, s in sliders.items()})
+            t = sink.frames[-1].t if sink.frames else 0.0
+            source.step(2)
+            sink.wait(lambda f, t=t: f.t >= t + 0.02 - 1e-9)
+        assert not [r for r in sink.reports if "stopped" in r], sink.reports
+    finally:
+        source.stop()
