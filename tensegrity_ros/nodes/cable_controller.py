@@ -32,9 +32,14 @@ are the scene's actuated cables that take commands; their positions are rest len
   ``JointTrajectoryControllerState`` on ``~/controller_state`` (joint_trajectory_controller's
   topic, published there every update): all the controller's joints in its order;
   ``feedback`` the reported rest lengths (effort: tensions), ``reference`` the trajectory's
-  sample for a running goal's joints and the held rest length (the controller's last command,
-  else the rest length it became active on) for the others, ``output`` the rest lengths
-  commanded, ``error`` = reference - feedback (positions).
+  sample for a running goal's joints and the held rest length for the others, ``output`` the
+  rest lengths commanded, ``error`` = reference - feedback (positions). The held rest length
+  is what the simulator holds: the latest rest length commanded on ``cable_commands``, by this
+  controller or by anyone else (a command the simulator refuses changes nothing: the same
+  check, :func:`~tensegrity_ros.nodes.sim.cable_commands.parse_cable_command`), in the order
+  they arrive, else the rest length the controller became active on. A lockstep simulator
+  runs a step under the last command stamped for it, so there another's command holds only
+  until this controller's answer to the same step (an empty one) replaces it.
 - Topic: a ``trajectory_msgs/JointTrajectory`` on ``~/joint_trajectory``
   (joint_trajectory_controller's topic interface) is a goal without an action: the default
   tolerances, no feedback and no result (a refusal or a violated tolerance is logged); it
@@ -60,6 +65,7 @@ from __future__ import annotations
 
 import math
 import sys
+from collections import deque
 from collections.abc import Sequence
 from typing import Any
 
@@ -69,6 +75,7 @@ from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
+from rclpy.serialization import deserialize_message, serialize_message
 from rclpy.task import Future
 from sensor_msgs.msg import JointState
 from tensegrity_msgs.msg import CableCommand, CableStates
@@ -78,13 +85,20 @@ from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_core.sim import compile_scene
 from tensegrity_core.sim import joint_trajectory as jt
+from tensegrity_ros.nodes.actuator_commands import CommandError
 from tensegrity_ros.nodes.common import ParameterValueError, declare, spin_node
 from tensegrity_ros.nodes.scene_param import declare_scene
+from tensegrity_ros.nodes.sim.cable_commands import parse_cable_command
 from tensegrity_ros.rclpy_utils.messages import stamp_ns
 from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
 
 _RESULT = FollowJointTrajectory.Result
 NS_PER_S = 1_000_000_000
+#: The depth of the subscription to ``cable_commands`` [messages],
+COMMAND_DEPTH = 100
+#: and how many of its own commands the controller recognises there: more than that depth, so
+#: that its own command is never taken for another's.
+OWN_ECHOES = 2 * COMMAND_DEPTH
 
 
 class _Job:
@@ -133,9 +147,12 @@ class CableControllerNode(Node):
         self._job: _Job | None = None
         self._latest: tuple[int, float] | None = None   # (stamp [ns], t [s]) of the latest joint state
         self._latest_header: Any = None                 # its header (answered once the controller is active)
-        self._answer: CableCommand | None = None         # the running goal's command for it
+        self._answer: bytes | None = None                # the answer to it, serialized
         self._rest: dict[str, float] = {}                # each cable's rest length [m], from cable_states
         self._held: dict[str, float] = {}                # each joint's held rest length [m] (controller_state)
+        self._sent: deque[bytes] = deque(maxlen=OWN_ECHOES)  # the latest commands it sent, serialized
+        self._position = {n for n, m in zip(self.interface.inputs, self.interface.modes or
+                                            ("rest_length",) * len(self.interface.inputs)) if m == "rest_length"}
         self._active = False                             # both states received: it answers and takes goals
         self._waiting: dict[bytes, Future] = {}          # goals waiting for that, by goal id: how it ended
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -143,6 +160,9 @@ class CableControllerNode(Node):
         self.pub = self.create_publisher(CableCommand, "cable_commands", QoSProfile(depth=1000))
         self.create_subscription(JointState, "joint_states", self.on_joints, QoSProfile(depth=1))
         self.create_subscription(CableStates, "cable_states", self.on_cables, QoSProfile(depth=10))
+        # every command the simulator takes, others' too: what the cables hold (controller_state)
+        self.create_subscription(CableCommand, "cable_commands", self.on_command, QoSProfile(depth=COMMAND_DEPTH),
+                                 raw=True)
         # joint_trajectory_controller's publisher: reliable, volatile, keep last (system default)
         self.state_pub = self.create_publisher(JointTrajectoryControllerState, "~/controller_state",
                                                QoSProfile(depth=10))
@@ -168,14 +188,30 @@ class CableControllerNode(Node):
             job, header, latest = self._job, self._latest_header, self._latest
             assert latest is not None    # active: a joint state came
             if job is None:
-                self._answer = CableCommand(header=header)       # idle: no change
+                answer = CableCommand(header=header)       # idle: no change
             else:
                 tr = job.trajectory
                 command = tr.command(latest[1] - job.t_start, self._rest_lengths())
-                self._answer = CableCommand(header=header, name=list(tr.names),
-                                            rest_length=[command[i] for i in tr.inputs])
-                self._held.update(zip(self._answer.name, self._answer.rest_length))
+                answer = CableCommand(header=header, name=list(tr.names), rest_length=[command[i] for i in tr.inputs])
+                self._held.update(zip(answer.name, answer.rest_length))
+            self._answer = serialize_message(answer)
+        self._sent.append(self._answer)
         self.pub.publish(self._answer)
+
+    def on_command(self, raw: bytes) -> None:
+        """A command on ``cable_commands`` (another's: the controller's own were taken into
+        account when sent): the rest lengths it sets, if the simulator takes it, are what
+        the cables hold from now on (``controller_state``'s reference for joints no goal moves)."""
+        if raw in self._sent:
+            return
+        msg = deserialize_message(raw, CableCommand)
+        try:
+            update = parse_cable_command(list(msg.name), msg.rest_length, msg.reel_speed, msg.tension, self.interface)
+        except CommandError:
+            return                       # the simulator refuses it (and says why): nothing changes
+        inputs = self.interface.inputs
+        self._held.update((inputs[i], v) for i, v in zip(update.indices, update.values)
+                          if inputs[i] in self._position and inputs[i] in self._column)
 
     def _missing(self) -> str:
         """What the controller lacks to be active ("" when nothing)."""
