@@ -9,6 +9,7 @@ in seconds from the bag's first message.
 
 from __future__ import annotations
 
+import math
 import os
 from collections import defaultdict
 from collections.abc import Callable, Iterator
@@ -20,6 +21,9 @@ from mcap_ros2.decoder import DecoderFactory
 
 from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.reader import BagReader
+
+#: Most lines whose legend fits inside a plot; more go beside it, at most LEGEND_ROWS a column.
+LEGEND_INSIDE, LEGEND_ROWS = 8, 14
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
 POINT_STAMPED = "geometry_msgs/msg/PointStamped"
@@ -42,6 +46,17 @@ def decoded_messages(reader: BagReader, topics: list[str]) -> Iterator[tuple[str
 
 def plot_bag(bag: str | os.PathLike[str], out: str | os.PathLike[str]) -> Path:
     """Write the plot of ``bag`` to ``out`` (PNG); return its path."""
+    import matplotlib.pyplot as plt
+
+    fig = bag_figure(bag)
+    out = Path(out)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
+def bag_figure(bag: str | os.PathLike[str]) -> Any:
+    """The matplotlib figure of ``bag``'s joint positions and end effector (module note)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -79,12 +94,12 @@ def plot_bag(bag: str | os.PathLike[str], out: str | os.PathLike[str]) -> Path:
     axes[1].set_xlabel("time since first message [s]")
     for ax in axes:
         ax.grid(True, alpha=0.3)
-        if ax.lines:
+        if len(ax.lines) > LEGEND_INSIDE:   # a robot's 24 cables: beside the plot, in columns
+            ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0,
+                      ncol=math.ceil(len(ax.lines) / LEGEND_ROWS))
+        elif ax.lines:
             ax.legend(fontsize=8, loc="best")
         else:
             ax.text(0.5, 0.5, "no data", ha="center", va="center", transform=ax.transAxes)
     fig.tight_layout()
-    out = Path(out)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return fig

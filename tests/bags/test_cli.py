@@ -67,3 +67,27 @@ def test_errors_are_one_line(tmp_path):
         assert done.returncode != 0
         lines = done.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("error: ") and needle in lines[0], done.stderr
+
+
+def test_a_robots_plot_keeps_its_legend_off_the_plots():
+    """The 6-bar's bag has 24 joints: their legend goes beside the joints' plot, inside the
+    figure, covering neither plot (inside, it ran down over both)."""
+    from pathlib import Path
+
+    import matplotlib.pyplot as plt
+
+    from tensegrity_ros.bag.plot import bag_figure
+    from tests.plot_checks import assert_readable
+
+    fig = bag_figure(Path(__file__).resolve().parents[2] / "bags" / "six_bar_roll")
+    try:
+        assert_readable(fig)
+        renderer = fig.canvas.get_renderer()
+        legend = fig.axes[0].get_legend()
+        assert len(legend.get_texts()) == 24
+        box = legend.get_window_extent(renderer)
+        assert fig.bbox.contains(box.x0, box.y0) and fig.bbox.contains(box.x1, box.y1)
+        for ax in fig.axes:
+            assert not box.overlaps(ax.get_window_extent(renderer)), ax.get_title()
+    finally:
+        plt.close(fig)
