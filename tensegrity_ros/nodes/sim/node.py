@@ -104,8 +104,7 @@ class SimNode(SimulationInterfaces):
         forces = self.plant.interface.command == "force"
         self.unit = self.plant.interface.unit
         self.outputs = Outputs(self.plant, publish_rate=p.publish_rate, state_rate=p.state_rate,
-                               marker_rate=p.marker_rate, imu_rate=p.imu_rate,
-                               frame_prefix=p.frame_prefix)
+                               marker_rate=p.marker_rate, imu_rate=p.imu_rate, frame_prefix=p.frame_prefix)
         self.hold = CommandHold(self.plant.initial_command, p.command_timeout,
                                 [p.safe_force] * len(self.plant.initial_command) if forces else None)
         self.schedule = TickSchedule(p.publish_rate, p.real_time_factor, p.step_ns)
