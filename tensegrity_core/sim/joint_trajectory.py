@@ -22,6 +22,13 @@ it waits as long as it takes, as joint_trajectory_controller with a goal time of
 
 Tolerance values as control_msgs' JointTolerance gives them (:func:`tolerance`): > 0 the
 bound, 0 the default, < 0 "erased" (not checked; for the goal time: no limit).
+
+A robot's motors trail their commands by their lag and slew limit (the 3-bar's lag of 1 s
+needs 6.5 s to close the 0.07 m its crawl ends with to 0.1 mm), so a default goal time meant
+for the command's own delay runs out before they arrive. :func:`motors_settle_time` bounds
+the time its slowest motor among a goal's joints needs to come within the goal tolerance of
+a rest length commanded from anywhere in its range (no gap can be wider): the time the
+default goal time adds for a robot's motors.
 """
 
 from __future__ import annotations
@@ -29,7 +36,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Final
+from typing import Any, Final
 
 import numpy as np
 from numpy.typing import NDArray
@@ -263,3 +270,25 @@ def tolerance(value: float, default: float) -> float:
     if not math.isfinite(value):
         raise TrajectoryError(f"a tolerance must be finite, got {value!r}")
     return default if value == 0.0 else (value if value > 0.0 else math.inf)
+
+
+def motors_settle_time(scene: Any, joints: Sequence[str], tolerance: float) -> float:
+    """s the slowest rest-length motor of ``joints`` in the scene ``scene`` needs to come within
+    ``tolerance`` [m] (> 0) of a rest length commanded from anywhere in its range
+    (:func:`tensegrity_core.robot.motor.settling_time`; the scene's ``motors`` lag and slew limit
+    replacing the description's); 0 for a scene without robot motors (ideal actuators) or
+    without the ``motors`` effect (ideal motors)."""
+    from tensegrity_core.robot.motor import settling_time
+    from tensegrity_core.sim.scene import RobotModelSpec
+
+    fx = scene.effects.get("motors")
+    if fx is None or not isinstance(scene.model, RobotModelSpec):
+        return 0.0
+    robot = scene.model.robot
+    wanted = [j for j, c in enumerate(robot.motors.cable) if robot.cables.names[c] in set(joints)]
+    if not wanted:
+        return 0.0
+    tau = robot.motors.tau[wanted] if fx.tau is None else np.full(len(wanted), fx.tau)
+    speed = robot.motors.max_speed[wanted] if fx.max_speed is None else np.full(len(wanted), fx.max_speed)
+    width = robot.motors.range[wanted, 1] - robot.motors.range[wanted, 0]
+    return float(np.max(settling_time(width, tolerance, tau, speed)))

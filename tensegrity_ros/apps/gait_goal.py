@@ -11,13 +11,6 @@ row before it. A gait that starts later than 0 s holds its first row from 0.
 A gait named on the command line is a shipped gait (``tensegrity_core/robot/examples/gaits``)
 or the gait a shipped robot scene plays (``six_bar_roll``, ``three_bar_crawl``).
 
-The goal gives the motors time to arrive: the cable controller's goal tolerance is met only
-once the rest lengths are within it of the last point's, and a motor trails its command by
-its lag and slew limit (the 3-bar's lag of 1 s needs 6.5 s to close the 0.07 m its crawl ends
-with to 0.1 mm). :func:`settle_time` bounds that time for a gait's motors from the width of
-their ranges (no gap can be wider), and the goal's ``goal_time_tolerance`` is the controller's
-own allowance plus that bound; the goal still ends as soon as the motors are there.
-
 Rolling gaits derived by :func:`tensegrity_core.robot.tipping.gait_of_steps` have one shape:
 the nominal rest lengths, then per tip a move row and a hold row (equal rows), a release row
 and a rest row (the nominal rest lengths). :func:`first_faces` keeps the first ``faces`` tips
@@ -28,8 +21,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import Any
-
-import numpy as np
 
 from tensegrity_core.robot.gait import GAITS_DIR, Gait, GaitError, gait_file, gait_from_file, gait_names, read_gait
 
@@ -65,27 +56,6 @@ def trajectory_points(gait: Gait) -> TrajectoryPoints:
         times.append(float(ti))
         positions.append(tuple(float(v) for v in row))
     return TrajectoryPoints(gait.cables, tuple(times), tuple(positions))
-
-
-def settle_time(scene: Any, cables: tuple[str, ...], tolerance: float) -> float:
-    """s the slowest motor of ``cables`` in the robot scene ``scene`` needs to come within
-    ``tolerance`` [m] of a rest length commanded from anywhere in its range (the scene's
-    ``motors`` lag and slew limit replacing the description's; without the ``motors`` effect
-    the motors are ideal: 0); module note."""
-    from tensegrity_core.robot.motor import settling_time
-
-    fx = scene.effects.get("motors")
-    if fx is None:
-        return 0.0
-    motors = scene.model.robot.motors
-    names = scene.model.robot.cables.names
-    wanted = [j for j, c in enumerate(motors.cable) if names[c] in cables]
-    if not wanted:
-        return 0.0
-    tau = motors.tau[wanted] if fx.tau is None else np.full(len(wanted), fx.tau)
-    speed = motors.max_speed[wanted] if fx.max_speed is None else np.full(len(wanted), fx.max_speed)
-    width = motors.range[wanted, 1] - motors.range[wanted, 0]
-    return float(np.max(settling_time(width, tolerance, tau, speed)))
 
 
 def tips(gait: Gait) -> int | None:

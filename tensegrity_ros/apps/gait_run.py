@@ -18,7 +18,7 @@ from typing import Any, TextIO
 
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.robot.gait import Gait
-from tensegrity_ros.apps.gait_goal import TrajectoryPoints, settle_time, trajectory_points
+from tensegrity_ros.apps.gait_goal import TrajectoryPoints, trajectory_points
 from tensegrity_ros.apps.roll_summary import REST_HOLD_S, rest_time, roll_summary
 
 NS_PER_S = 1_000_000_000
@@ -56,9 +56,8 @@ def running_scene(node: Any, executor: Any, timeout: float) -> str:
     return str(sim_parameters(node, executor, ["scene"], timeout)[0].string_value)
 
 
-def check_scene(scene_name: str, robot_name: str, cables: Sequence[str]) -> Any:
-    """The scene ``scene_name`` (a :class:`tensegrity_core.sim.scene.Scene`); :class:`SuiteError`
-    unless it simulates ``robot_name`` with ``cables`` commanded."""
+def check_scene(scene_name: str, robot_name: str, cables: Sequence[str]) -> None:
+    """:class:`SuiteError` unless ``scene_name`` simulates ``robot_name`` with ``cables`` commanded."""
     from tensegrity_core.errors import TensegrityError
     from tensegrity_core.sim import compile_scene, load_scene
 
@@ -77,43 +76,11 @@ def check_scene(scene_name: str, robot_name: str, cables: Sequence[str]) -> Any:
         raise SuiteError(f"the running scene {scene_name!r} plays its own inputs on {', '.join(missing[:3])}"
                        f"{', ...' if len(missing) > 3 else ''}: start the suite with a scene whose motors take "
                        "commands (`tensegrity up --scene six_bar_rest`)")
-    return scene
 
 
-def goal_time_allowance(node: Any, executor: Any, action: str, scene: Any, cables: tuple[str, ...],
-                        timeout: float) -> float:
-    """s the goal allows after its last point (its ``goal_time_tolerance``): the cable
-    controller's own ``goal_time_tolerance`` plus the time the motors of ``cables`` need to
-    reach its ``goal_tolerance`` (:func:`.gait_goal.settle_time`), read from the node that
-    serves ``action``; 0 (the controller's default) when that node has no such parameters
-    or its allowance is unlimited."""
-    from rcl_interfaces.msg import ParameterType
-    from rclpy.parameter_client import AsyncParameterClient
-
-    from tensegrity_ros.rclpy_utils.futures import spin_until_done
-
-    server = node.resolve_topic_name(action).rsplit("/", 1)[0] or "/"
-    client = AsyncParameterClient(node, server)
-    if not client.wait_for_services(timeout_sec=timeout):
-        return 0.0
-    future = client.get_parameters(["goal_tolerance", "goal_time_tolerance"])
-    if not spin_until_done(executor, future, timeout) or future.result() is None:
-        return 0.0
-    tolerance, allowance = future.result().values
-    def number(value: Any) -> float:            # a parameter this controller does not have: nan
-        return float({ParameterType.PARAMETER_DOUBLE: value.double_value,
-                      ParameterType.PARAMETER_INTEGER: value.integer_value}.get(value.type, math.nan))
-
-    tol, allowed = number(tolerance), number(allowance)
-    if not (tol > 0 and allowed > 0 and math.isfinite(tol + allowed)):
-        return 0.0
-    return allowed + settle_time(scene, cables, tol)
-
-
-def goal_of(points: TrajectoryPoints, goal_time: float = 0.0) -> Any:
+def goal_of(points: TrajectoryPoints) -> Any:
     """The FollowJointTrajectory goal of ``points`` (positions only: the controller
-    interpolates linearly; its default tolerances), allowing ``goal_time`` [s] after the last
-    point to meet them (0: the controller's default)."""
+    interpolates linearly; its default tolerances)."""
     from builtin_interfaces.msg import Duration
     from control_msgs.action import FollowJointTrajectory
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
@@ -123,9 +90,7 @@ def goal_of(points: TrajectoryPoints, goal_time: float = 0.0) -> Any:
         ns = round(t * NS_PER_S)
         traj.points.append(JointTrajectoryPoint(positions=list(row),
                                                 time_from_start=Duration(sec=ns // NS_PER_S, nanosec=ns % NS_PER_S)))
-    ns = round(goal_time * NS_PER_S)
-    return FollowJointTrajectory.Goal(trajectory=traj,
-                                      goal_time_tolerance=Duration(sec=ns // NS_PER_S, nanosec=ns % NS_PER_S))
+    return FollowJointTrajectory.Goal(trajectory=traj)
 
 
 class RunWatcher:
@@ -246,7 +211,7 @@ def play_gait(robot: str, gait: Gait, ros_args: list[str], *, action: str, timeo
     bar = None
     handle = None
     try:
-        scene = check_scene(running_scene(node, executor, timeout), robot, gait.cables)
+        check_scene(running_scene(node, executor, timeout), robot, gait.cables)
         if not client.wait_for_server(timeout_sec=timeout):
             raise SuiteError(f"action {node.resolve_topic_name(action)} not available after {timeout:g} s (is the "
                            "suite's cable controller up? `tensegrity up --scene six_bar_rest`)", code=3)
@@ -271,8 +236,7 @@ def play_gait(robot: str, gait: Gait, ros_args: list[str], *, action: str, timeo
             if advance > 0:
                 bar.update(advance)           # redraws at most every mininterval
 
-        goal_time = goal_time_allowance(node, executor, action, scene, gait.cables, timeout)
-        sent = client.send_goal_async(goal_of(points, goal_time), feedback_callback=on_feedback)
+        sent = client.send_goal_async(goal_of(points), feedback_callback=on_feedback)
         if not spin_until_done(executor, sent, timeout):
             raise SuiteError(f"the cable controller did not answer the goal within {timeout:g} s", code=3)
         handle = sent.result()

@@ -124,6 +124,7 @@ class CableControllerNode(Node):
         super().__init__("tensegrity_cable_controller", **kwargs)
         guard_parameter_services(self)
         self.scene_name, scene = declare_scene(self, class2_only=False)
+        self.scene = scene
         try:
             self.interface = compile_scene(scene).interface
         except TensegrityError as err:
@@ -137,9 +138,10 @@ class CableControllerNode(Node):
         self.path_tolerance = declare(self, "path_tolerance", 0.0, "default path tolerance of each cable's rest "
                                       "length while a trajectory runs [m]; 0 = not checked", lo=0.0, read_only=True)
         self.goal_time_tolerance = declare(self, "goal_time_tolerance", 1.0, "default time after a trajectory's "
-                                           "last point to meet the goal tolerance; 0 = no limit (as "
-                                           "joint_trajectory_controller's constraints.goal_time) [s]", lo=0.0,
-                                           read_only=True)
+                                           "last point to meet the goal tolerance, plus for a robot the time its "
+                                           "motors of the goal need to close a gap as wide as their range; 0 = no "
+                                           "limit (as joint_trajectory_controller's constraints.goal_time) [s]",
+                                           lo=0.0, read_only=True)
         self.state_timeout = declare(self, "state_timeout", 10.0, "how long a goal sent before the controller "
                                      "has the simulator's joint_states and cable_states waits for them [s of wall "
                                      "time]; then it is refused", lo=0.0, read_only=True)
@@ -440,8 +442,11 @@ class CableControllerNode(Node):
                                              f"{', '.join(self.joints)}", code=jt.INVALID_JOINTS)
                 bounds[trajectory.names.index(item.name)] = jt.tolerance(item.position, default)
         # as joint_trajectory_controller: 0 the default, -1 (here any value < 0) no limit; a
-        # default of 0 is no limit too (its constraints.goal_time)
-        goal_time = jt.tolerance(stamp_ns(req.goal_time_tolerance) / NS_PER_S, self.goal_time_tolerance or math.inf)
+        # default of 0 is no limit too (its constraints.goal_time); a robot's default adds the
+        # time its motors need to arrive (jt.motors_settle_time)
+        settle = jt.motors_settle_time(self.scene, trajectory.names, min(goal)) if math.isfinite(min(goal)) else 0.0
+        default_goal_time = self.goal_time_tolerance + settle if self.goal_time_tolerance else math.inf
+        goal_time = jt.tolerance(stamp_ns(req.goal_time_tolerance) / NS_PER_S, default_goal_time)
         off = (math.inf,) * n
         monitor = jt.GoalMonitor(trajectory, jt.Tolerances(tuple(path), off, tuple(goal), off, goal_time))
         return _Job(handle, trajectory, monitor, t_start)

@@ -114,3 +114,21 @@ def test_settling_time_of_the_three_bar_motor_is_its_lag_times_the_log_of_the_ga
     assert abs(float(motor.settling_time(0.6, 1e-4, 1.0, np.inf)) - np.log(6000.0)) < 1e-12
     # the 6-bar's (lag 0.02 s, 0.5 m/s): 0.59 m of slew in 1.18 s, then 0.02 ln(100) s
     assert abs(float(motor.settling_time(0.6, 1e-4, 0.02, 0.5)) - (1.18 + 0.02 * np.log(100.0))) < 1e-12
+
+
+def test_a_scenes_motors_settle_time_is_its_slowest_motors_over_its_range():
+    """``joint_trajectory.motors_settle_time``: the scene's ``motors`` overrides replace the
+    description's lag; a scene without ``motors`` (ideal motors) or without robot motors 0."""
+    from tensegrity_core.sim import load_scene
+    from tensegrity_core.sim.joint_trajectory import motors_settle_time
+
+    three = load_scene("three_bar_drop")
+    assert abs(motors_settle_time(three, ["td_0", "td_3"], 1e-4) - np.log(0.6 / 1e-4)) < 1e-9
+    assert motors_settle_time(three, ["td_6"], 1e-4) == 0.0                 # a passive cable: no motor
+    faster = load_scene({"model": {"kind": "robot", "robot": "three_bar"}, "initial": {"drawn": True},
+                         "effects": ["inertia", "cables", {"motors": {"tau": 0.1}}], "duration": 1.0})
+    assert abs(motors_settle_time(faster, ["td_0"], 1e-4) - 0.1 * np.log(0.6 / 1e-4)) < 1e-9
+    ideal = load_scene({"model": {"kind": "robot", "robot": "three_bar"}, "initial": {"drawn": True},
+                        "effects": ["inertia", "cables"], "duration": 1.0})
+    assert motors_settle_time(ideal, ["td_0"], 1e-4) == 0.0
+    assert motors_settle_time(load_scene("table_actuated"), ["long1"], 1e-4) == 0.0

@@ -76,9 +76,10 @@ def _stdout_so_far(proc) -> str:
 def test_a_gait_waits_for_slow_motors_to_arrive(cli):
     """The 3-bar's motors lag by 1 s (no slew limit): its crawl ends with its rest lengths
     about 0.07 m short of the last point's, which they close to the controller's goal tolerance
-    (0.1 mm) in about ln(0.07 / 1e-4) = 6.5 s, past the controller's default 1 s. The goal
-    allows the controller's 1 s plus the motors' bound, 1 ln(0.6 / 1e-4) = 8.7 s (their 0.6 m
-    range), so it succeeds once they are there."""
+    (0.1 mm) in about ln(0.07 / 1e-4) = 6.5 s, past the controller's goal_time_tolerance of 1 s.
+    The gait's goal (a joint_trajectory_controller client's: the default goal time) gets those
+    1 s plus the motors' bound, 1 ln(0.6 / 1e-4) = 8.7 s (their 0.6 m range), so it succeeds
+    once they are there."""
     ns = NS + "_three_bar"
     up = cli("up", "--scene", "three_bar_drop", "--no-formfind", "--namespace", ns, "--ros-args", "-p",
              "lockstep:=true", log_name="up_three_bar")
