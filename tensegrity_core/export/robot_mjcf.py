@@ -38,7 +38,8 @@ sensors                    ``length:c`` (``tendonpos``) per cable with a length 
                            (``framequat``), ``imu:x:gyro``, ``imu:x:accelerometer`` (specific
                            force)
 initial state              bodies as drawn (``qpos0``) and keyframe ``initial`` (``qpos``,
-                           zero ``qvel``, ``ctrl`` and ``act`` each motor held as drawn)
+                           zero ``qvel``, ``ctrl`` and ``act`` each motor held as drawn; a
+                           scene's ``ctrl`` its commands at t = 0)
 =========================  ==================================================================
 
 **What MuJoCo cannot take** is refused in one line (:class:`ExportError`;
@@ -92,6 +93,7 @@ from tensegrity_core.general.mass_properties import layout_inertias
 from tensegrity_core.robot.description import Floor, Robot
 from tensegrity_core.robot.layout import bodies_layout
 from tensegrity_core.robot.rod import rod_frames
+from tensegrity_core.sim.inputs import Commanded
 from tensegrity_core.sim.scene import RobotModelSpec, Scene
 from tensegrity_core.sim.scene.spec import ContactSpec, FrictionSpec, GravitySpec, MotorsSpec
 
@@ -111,12 +113,14 @@ INERTIA_MARGIN = 1e-12
 
 
 def write_robot_mjcf(robot: Robot, timestep: float | None, integrator: str, *, lift: float = 0.0,
-                     name: str | None = None) -> MjcfModel:
+                     name: str | None = None, commands: dict[str, float] | None = None) -> MjcfModel:
     """The MJCF model of ``robot`` (options checked by the caller), raised ``lift`` [m] above
-    its drawing along the floor's normal, named ``name`` (default: the robot's); raises
-    :class:`ExportError` for what MJCF cannot hold (a pinned rod end, a point mass on a rod end)."""
+    its drawing along the floor's normal, named ``name`` (default: the robot's), the keyframe's
+    ``ctrl`` of each motor named in ``commands`` (by cable) that command in its mode's unit (the
+    others held as drawn); raises :class:`ExportError` for what MJCF cannot hold (a pinned rod
+    end, a point mass on a rod end)."""
     return _RobotWriter(robot, DEFAULT_TIMESTEP if timestep is None else timestep, integrator, lift,
-                        name or robot.name).model()
+                        name or robot.name, commands or {}).model()
 
 
 def write_robot_scene(scene: Scene, timestep: float | None, integrator: str) -> MjcfModel:
@@ -126,8 +130,11 @@ def write_robot_scene(scene: Scene, timestep: float | None, integrator: str) -> 
     coefficient; frictionless otherwise), the motors' overrides -- raised by the initial
     ``lift``, stepping at the scene's own fixed step unless ``timestep`` [s] is given (the
     project integrates the scene with RK4 at ``integrator.max_step``: with ``integrator``
-    RK4, MuJoCo integrates it the same way). Inputs (a gait) are not in the file: drive
-    ``ctrl`` from them (``tests.mujoco_peer.play_gait``)."""
+    RK4, MuJoCo integrates it the same way). The keyframe's ``ctrl`` holds each motor's
+    command at t = 0 (a constant input's value, a law's or gait's first, a commanded input's
+    ``initial``; as drawn without one), its activation the drawn state, as the project starts;
+    inputs that change in time are not in the file: drive ``ctrl`` from them
+    (``tests.mujoco_peer.play_gait``)."""
     model = scene.model
     assert isinstance(model, RobotModelSpec)            # export_mjcf picked this writer for it
     robot = model.robot
@@ -146,7 +153,26 @@ def write_robot_scene(scene: Scene, timestep: float | None, integrator: str) -> 
     g = np.zeros(3) if not isinstance(gravity, GravitySpec) else np.asarray(gravity.vector, dtype=float)
     scene_robot = dataclasses.replace(robot, floor=floor, motors=m, gravity=g)
     step = scene.integrator.max_step if timestep is None else timestep
-    return write_robot_mjcf(scene_robot, step, integrator, lift=scene.initial.lift, name=scene.name)
+    return write_robot_mjcf(scene_robot, step, integrator, lift=scene.initial.lift, name=scene.name,
+                            commands=initial_commands(scene))
+
+
+def initial_commands(scene: Scene) -> dict[str, float]:
+    """Each motor input's command at t = 0 by cable name, in its mode's unit: a law's value
+    (at the cable's drawn length), a commanded input's ``initial``; none for a commanded
+    input without one (held as drawn)."""
+    robot = scene.model.robot if isinstance(scene.model, RobotModelSpec) else None
+    assert robot is not None
+    names = list(robot.cables.names)
+    out: dict[str, float] = {}
+    for name, law in scene.inputs.items():
+        if isinstance(law, Commanded):
+            if law.initial is not None:
+                out[name] = float(law.initial)
+            continue
+        a, b = robot.cables.ends[names.index(name)]
+        out[name] = float(law.value_at(0.0, float(np.linalg.norm(robot.nodes[b] - robot.nodes[a]))))
+    return out
 
 
 def scene_floor(scene: Scene) -> Floor | None:
@@ -203,8 +229,10 @@ def contact_parameters(stiffness: float, body_mass: float, impedance: float = CO
 class _RobotWriter:
     """One export: the robot's parts, written element by element."""
 
-    def __init__(self, robot: Robot, timestep: float, integrator: str, lift: float, name: str):
+    def __init__(self, robot: Robot, timestep: float, integrator: str, lift: float, name: str,
+                 commands: dict[str, float]):
         self.robot = robot
+        self.commands = commands
         self.name = name
         self.lift = lift * (robot.floor.normal if robot.floor is not None else np.array([0.0, 0.0, 1.0]))
         self.timestep = float(timestep)
@@ -423,6 +451,9 @@ class _RobotWriter:
         motors = motor_actuators(self.robot)
         ET.SubElement(root, "actuator").extend(motors.elements)
         self.ctrl, self.act = motors.ctrl, motors.act
+        cables = self.robot.cables.names
+        for j, cable in enumerate(self.robot.motors.cable):
+            self.ctrl[j] = self.commands.get(cables[int(cable)], self.ctrl[j])
 
     def _sensors(self, root: ET.Element) -> None:
         r = self.robot
