@@ -441,9 +441,8 @@ class CableControllerNode(Node):
                     raise jt.TrajectoryError(f"tolerance for unknown joint {excerpt(item.name)}; the joints are "
                                              f"{', '.join(self.joints)}", code=jt.INVALID_JOINTS)
                 bounds[trajectory.names.index(item.name)] = jt.tolerance(item.position, default)
-        # as joint_trajectory_controller: 0 the default, -1 (here any value < 0) no limit; a
-        # default of 0 is no limit too (its constraints.goal_time); a robot's default adds the
-        # time its motors need to arrive (jt.motors_settle_time)
+        # as joint_trajectory_controller: 0 the default, -1 (here any value < 0) no limit; a default of 0 is
+        # no limit too (its constraints.goal_time); a robot's default adds its motors' time to arrive
         settle = jt.motors_settle_time(self.scene, trajectory.names, min(goal)) if math.isfinite(min(goal)) else 0.0
         default_goal_time = self.goal_time_tolerance + settle if self.goal_time_tolerance else math.inf
         goal_time = jt.tolerance(stamp_ns(req.goal_time_tolerance) / NS_PER_S, default_goal_time)
