@@ -102,6 +102,17 @@ def _ros_domain_per_module(request):
 #: independent heavy tests (one subprocess each, no module fixture) that the workers share.
 SHARED_FILES = ("tests/bench/test_quick_mode.py",)
 
+#: Test files that are one unit of work together, named by what they share: a computation
+#: cached in the process (``functools.lru_cache``), done once on the one worker that runs them
+#: all. The sympy derivation of the class-2 dynamics (``studies.derivation.derive_dynamics``:
+#: ``derive()`` ~3.4 s of CPU, which the first two files call, ``lambdified()`` ~1.5 s, which
+#: the first and third call): the three files took 24.5 s of CPU in three processes, 13.9 s in one.
+SAME_WORKER = {
+    "tests/class2/test_dynamics_derivation.py": "the class-2 sympy derivation",
+    "tests/class2/test_dynamics_paper_appendix.py": "the class-2 sympy derivation",
+    "tests/sim/test_class2_effects.py": "the class-2 sympy derivation",
+}
+
 
 def pytest_collection_modifyitems(config, items):
     """Files with slow tests first (``./run test`` keeps this order: ``--no-loadscope-reorder``),
@@ -110,17 +121,24 @@ def pytest_collection_modifyitems(config, items):
     items.sort(key=lambda item: item.nodeid.split("::", 1)[0] not in slow)   # stable: files stay whole
 
 
+def work_unit(nodeid: str) -> str:
+    """The unit of work of ``./run test``'s workers that the test ``nodeid`` belongs to: its
+    file, but for :data:`SHARED_FILES` (the test alone) and :data:`SAME_WORKER` (the group)."""
+    file = nodeid.split("::", 1)[0]
+    return nodeid if file in SHARED_FILES else SAME_WORKER.get(file, file)
+
+
 def pytest_xdist_make_scheduler(config, log):
     """``--dist loadfile`` (``./run test``): a test file is one unit of work, so its module
-    fixtures start once, except the tests of :data:`SHARED_FILES`, each a unit of its own."""
+    fixtures start once, except the tests of :data:`SHARED_FILES`, each a unit of its own, and
+    the files of :data:`SAME_WORKER`, one unit together."""
     if config.getvalue("dist") != "loadfile":
         return None
     from xdist.scheduler import LoadScopeScheduling
 
     class FileScheduling(LoadScopeScheduling):
         def _split_scope(self, nodeid: str) -> str:
-            file = nodeid.split("::", 1)[0]
-            return nodeid if file in SHARED_FILES else file
+            return work_unit(nodeid)
 
     return FileScheduling(config, log)
 

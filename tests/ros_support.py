@@ -191,9 +191,10 @@ class Proc:
     def stderr(self) -> str:
         return self.log.read_text()
 
-    def wait_for(self, text: str, timeout: float = 30.0) -> None:
+    def wait_for(self, text: str, timeout: float = 30.0, *, since: int = 0) -> None:
+        """Until ``text`` is in the stderr after its first ``since`` characters."""
         deadline = time.monotonic() + timeout
-        while text not in self.stderr():
+        while text not in self.stderr()[since:]:
             if exited(self.popen) or time.monotonic() > deadline:
                 raise AssertionError(f"never saw {text!r}; stderr:\n{self.stderr()}")
             time.sleep(0.05)

@@ -181,6 +181,10 @@ class StiffnessResult:
     t : member tensions [N], members 1..10; lengths : member lengths [m].
     g_hat : modified axial stiffnesses ``g_i - t_i / l_i`` [N/m] (Eq. 36).
     equilibrium_residual : ``max |A_r t - f_r|`` [N]; ~1e-15 at the FKP equilibrium.
+    min_eigenvalue : smallest eigenvalue of K [N/m]. Where it is negative the framework
+        (elastic actuators and struts) is unstable, and the K_i are Schur complements of an
+        unstable equilibrium, not stiffnesses a load could measure, even when all are
+        positive (one negative eigenvalue can leave every ``(K^-1)_ii`` positive).
     """
 
     rho1: float
@@ -195,6 +199,7 @@ class StiffnessResult:
     lengths: NDArray[np.float64]
     g_hat: NDArray[np.float64]
     equilibrium_residual: float
+    min_eigenvalue: float
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -203,7 +208,7 @@ class StiffnessResult:
             "cond_K_r": dict(zip(self.coordinates, self.cond_K_r)),
             "member_forces": {m.label: float(v) for m, v in zip(MEMBERS, self.t)},
             "g_hat": {m.label: float(v) for m, v in zip(MEMBERS, self.g_hat)},
-            "equilibrium_residual": self.equilibrium_residual,
+            "equilibrium_residual": self.equilibrium_residual, "min_eigenvalue": self.min_eigenvalue,
         }
 
 
@@ -306,7 +311,7 @@ def stiffness_along_coordinates(rho1: float, rho2: float, f: float = 0.0,
     K, t, lengths, g_hat, residual = _paper_procedure(rho1, rho2, beta, f, params)
     K_i, cond = _along_coordinates(K)
     return StiffnessResult(rho1, rho2, beta, f, COORDINATES, K, K_i, cond, t, lengths, g_hat,
-                           float(np.max(np.abs(residual))))
+                           float(np.max(np.abs(residual))), float(np.linalg.eigvalsh(K)[0]))
 
 
 def _along_coordinates(K: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -330,7 +335,8 @@ def _along_coordinates(K: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDA
 def stiffness_sweep(rho1: float, rho2: float, forces: ArrayLike,
                     params: Class2Params = PAPER_PARAMS) -> dict[str, Any]:
     """``K_i(f)`` over the forces ``forces`` [N] (the paper's Fig. 2): a dict with ``f`` (m,),
-    ``K_i`` (m, 7), ``cond_K_r`` (m, 7), ``coordinates`` and the configuration."""
+    ``K_i`` (m, 7), ``cond_K_r`` (m, 7), ``min_eigenvalue`` (m,) [N/m] (negative: the K_i of
+    that row belong to an unstable framework), ``coordinates`` and the configuration."""
     fs = np.asarray(forces, dtype=float)
     rows = [stiffness_along_coordinates(rho1, rho2, float(fv), params) for fv in fs]
     return {
@@ -338,6 +344,7 @@ def stiffness_sweep(rho1: float, rho2: float, forces: ArrayLike,
         "beta": rows[0].beta if rows else math.nan, "coordinates": COORDINATES, "f": fs,
         "K_i": np.array([r.K_i for r in rows]).reshape(len(fs), 7),
         "cond_K_r": np.array([r.cond_K_r for r in rows]).reshape(len(fs), 7),
+        "min_eigenvalue": np.array([r.min_eigenvalue for r in rows]),
     }
 
 

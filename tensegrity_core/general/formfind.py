@@ -26,12 +26,13 @@ import inspect
 import numbers
 import time
 from collections.abc import Callable
+from contextlib import nullcontext
 from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import brentq, minimize_scalar
+from scipy.optimize import minimize_scalar
 
 from tensegrity_core.errors import ConvergenceError
 from tensegrity_core.excerpt import excerpt
@@ -48,17 +49,19 @@ from tensegrity_core.general.formfind_result import (
     structure_size,
 )
 from tensegrity_core.general.linalg import (
+    NoDefiniteShift,
     ShiftedStep,
     moving_coordinates,
     null_space_of_rows,
+    one_blas_thread,
     shifted_step_dense,
     shifted_step_sparse,
 )
+from tensegrity_core.general.linesearch import energy_noise, line_search
 from tensegrity_core.general.relaxation import dynamic_relaxation
 from tensegrity_core.general.stability import lowest_mode
 from tensegrity_core.general.statics import (
     as_configuration,
-    generalized_force,
     member_lengths,
     potential_energy,
 )
@@ -208,8 +211,9 @@ def newton(structure: Structure, config: Configuration, *, tol: float, max_iter:
     indefinite (the paper's ``u = 0.1`` on raw entries ~1e7 N/m is about 1e-8 relative; a
     fixed ``u`` makes convergence linear along modes softer than ``u``). Steps the line
     search would cut go through the watchdog of :func:`_newton_iterations`.
-    ``linear_solver``: ``"dense"`` (full eigenvalues each step, the paper's), ``"sparse"``
-    (Cholesky attempts) or ``"auto"``. ``max_step`` caps the first-order node displacement
+    ``linear_solver``: ``"dense"`` (full eigenvalues each step, the paper's; BLAS on one
+    thread meanwhile, :func:`~.linalg.one_blas_thread`), ``"sparse"`` (Cholesky attempts)
+    or ``"auto"``. ``max_step`` caps the first-order node displacement
     of a Newton step at that many structure sizes before the line search (a guard against
     near-singular directions; the paper's [0, 1] interval alone does not bound the step).
     ``max_escapes`` saddles are left along their unstable mode before an unstable result is
@@ -234,27 +238,28 @@ def newton(structure: Structure, config: Configuration, *, tol: float, max_iter:
     escapes = 0
     timings = {"iterations": 0.0, "stability": 0.0}
     label = f"newton ({'dense' if dense else 'sparse'})"
-    while True:
-        started = time.perf_counter()
-        config, status = _newton_iterations(structure, config, state)
-        timings["iterations"] += time.perf_counter() - started
-        if status not in (FormFindStatus.STABLE, FormFindStatus.LINE_SEARCH_STALLED) or not check_stability:
-            return make_result(structure, config, status, state.iterations, state.history, label, tol=tol,
-                               dense=dense, check_stability=check_stability, timings=timings)
-        started = time.perf_counter()
-        low = lowest_mode(tangent_stiffness(structure, config, sparse=not dense), config, dense=dense)
-        timings["stability"] += time.perf_counter() - started
-        # a line search stalls where the energy is flat: along an unstiffened mechanism, or on
-        # a saddle; such a stall is reported as what it is (UNSTIFFENED or UNSTABLE), or left (a saddle)
-        if status == FormFindStatus.LINE_SEARCH_STALLED and low.verdict == "stable":
-            return make_result(structure, config, status, state.iterations, state.history, label, tol=tol, dense=dense,
-                               check_stability=True, low=low, timings=timings)
-        if low.verdict != "unstable" or escapes >= max_escapes:
-            return make_result(structure, config, FormFindStatus.STABLE, state.iterations, state.history, label,
-                               tol=tol, dense=dense, check_stability=True, low=low, timings=timings,
-                               stalled=status == FormFindStatus.LINE_SEARCH_STALLED)
-        escapes += 1
-        config = _escape_saddle(structure, config, low.vector)
+    with one_blas_thread() if dense else nullcontext():
+        while True:
+            started = time.perf_counter()
+            config, status = _newton_iterations(structure, config, state)
+            timings["iterations"] += time.perf_counter() - started
+            if status not in (FormFindStatus.STABLE, FormFindStatus.LINE_SEARCH_STALLED) or not check_stability:
+                return make_result(structure, config, status, state.iterations, state.history, label, tol=tol,
+                                   dense=dense, check_stability=check_stability, timings=timings)
+            started = time.perf_counter()
+            low = lowest_mode(tangent_stiffness(structure, config, sparse=not dense), config, dense=dense)
+            timings["stability"] += time.perf_counter() - started
+            # a line search stalls where the energy is flat: along an unstiffened mechanism, or on
+            # a saddle; such a stall is reported as what it is (UNSTIFFENED or UNSTABLE), or left (a saddle)
+            if status == FormFindStatus.LINE_SEARCH_STALLED and low.verdict == "stable":
+                return make_result(structure, config, status, state.iterations, state.history, label, tol=tol, dense=dense,
+                                   check_stability=True, low=low, timings=timings)
+            if low.verdict != "unstable" or escapes >= max_escapes:
+                return make_result(structure, config, FormFindStatus.STABLE, state.iterations, state.history, label,
+                                   tol=tol, dense=dense, check_stability=True, low=low, timings=timings,
+                                   stalled=status == FormFindStatus.LINE_SEARCH_STALLED)
+            escapes += 1
+            config = _escape_saddle(structure, config, low.vector)
 
 
 def step_reach(structure: Structure, dU: FloatArray) -> float:
@@ -317,11 +322,6 @@ def _negative_curvature_search(structure: Structure, config: Configuration, step
     return best
 
 
-def _noise(V: float) -> float:
-    """Energy differences below this are rounding [J]."""
-    return 1e-12 * max(abs(V), 1e-300)
-
-
 def _newton_iterations(structure: Structure, config: Configuration,
                        state: _Iteration) -> tuple[Configuration, FormFindStatus]:
     """Iterate until converged; returns (config, status) and counts ``state.iterations``.
@@ -364,12 +364,15 @@ def _newton_iterations(structure: Structure, config: Configuration,
             Kk = K
         else:
             Kk = K[np.ix_(keep, keep)] if state.dense else K[keep][:, keep]
-        step = shifted_step_dense(Kk, P, state.shift) if state.dense else shifted_step_sparse(Kk, P, state.shift)
+        try:
+            step = shifted_step_dense(Kk, P, state.shift) if state.dense else shifted_step_sparse(Kk, P, state.shift)
+        except NoDefiniteShift:
+            return config, FormFindStatus.NON_FINITE
         dU = _direction(structure, step, keep, state.max_step * size)
         if watch is not None:               # the second step of a relaxed pair
             relaxed = config.retract(dU)
             x, V_new, config_new = 1.0, potential_energy(structure, relaxed.coords), relaxed
-            if not V_new <= watch.energy + _noise(watch.energy):          # no net decrease: go back
+            if not V_new <= watch.energy + energy_noise(watch.energy):          # no net decrease: go back
                 config, V, bal, dU = watch.config, watch.energy, watch.balance, watch.direction
                 x, V_new, config_new = line_search(structure, config, dU, V, bal.physical.generalized)
                 relax = False
@@ -396,80 +399,6 @@ def _newton_iterations(structure: Structure, config: Configuration,
         state.history.append(asdict(info))
         if state.callback is not None and state.callback(info) is True:
             return config, FormFindStatus.CALLBACK
-
-
-def line_search(structure: Structure, config: Configuration, dU: FloatArray, V0: float,
-                P0: FloatArray, *, x_max: float = 1.0) -> tuple[float, float, Configuration]:
-    """Bounded line search of Eqs. 83-84: ``x`` minimising ``V(U + x dU)`` on ``[0, 1]``.
-
-    The full step is taken when the potential has not risen and its slope there is
-    non-negative-descent or small (``|phi'(1)| <= 0.01 |phi'(0)|``, the Newton regime, so
-    convergence stays quadratic); otherwise the slope ``phi'(x) = -P(x) . dU`` (computed
-    from forces, free of the round-off of energy differences) is driven to zero by Brent's
-    method when it changes sign on ``[0, 1]``, and ``V`` itself is minimised by bounded
-    Brent (MATLAB's ``fminbnd``) when it does not. With ``x_max > 1`` (a step along negative
-    curvature) a full step that still descends steeply is extended, doubling ``x`` up to
-    ``x_max`` while ``V`` falls, to the root of the slope past it. Returns ``(x, V(x),
-    configuration)``; ``x = 0`` when no decrease was found.
-    """
-    slope0 = -float(np.dot(P0, dU))
-    noise = _noise(V0)
-    cache: dict[float, tuple[float, Configuration]] = {}
-
-    def phi(x: float) -> float:
-        if x not in cache:
-            c = config.retract(x * dU)
-            v = potential_energy(structure, c.coords)
-            cache[x] = (v if np.isfinite(v) else np.inf, c)
-        return cache[x][0]
-
-    def slope(x: float) -> float:
-        phi(x)
-        P = generalized_force(structure, cache[x][1])
-        return -float(np.dot(P, dU))
-
-    if slope0 >= 0:            # not a descent direction (cannot happen with a PD shift)
-        return 0.0, V0, config
-    V1 = phi(1.0)
-    if np.isfinite(V1):
-        s1 = slope(1.0)
-        if np.isfinite(s1) and V1 <= V0 + noise and (s1 <= 0 or abs(s1) <= 0.01 * abs(slope0)):
-            if x_max > 1.0 and s1 < -0.01 * abs(slope0):
-                x = _extend(phi, slope, x_max)
-                return x, cache[x][0], cache[x][1]
-            return 1.0, V1, cache[1.0][1]
-        if np.isfinite(s1) and s1 > 0:
-            x = float(brentq(slope, 0.0, 1.0, xtol=1e-10, rtol=1e-6, maxiter=100))
-            if phi(x) < V0:
-                return x, cache[x][0], cache[x][1]
-    res = minimize_scalar(phi, bounds=(0.0, 1.0), method="bounded", options={"xatol": 1e-8})
-    x = float(res.x)
-    if phi(x) < V0:
-        return x, cache[x][0], cache[x][1]
-    x = 1.0
-    for _ in range(60):
-        x *= 0.5
-        if phi(x) < V0:
-            return x, cache[x][0], cache[x][1]
-    return 0.0, V0, config
-
-
-def _extend(phi: Callable[[float], float], slope: Callable[[float], float], x_max: float) -> float:
-    """Past ``x = 1`` (descending there) along negative curvature: double ``x`` while ``V``
-    falls and the slope stays negative, up to ``x_max``; then the root of the slope in the
-    last interval if it changed sign. Returns the ``x`` of the lowest ``V`` found."""
-    prev, x = 1.0, min(2.0, x_max)
-    while np.isfinite(phi(x)) and phi(x) < phi(prev) and slope(x) < 0 and x < x_max:
-        prev, x = x, min(2.0 * x, x_max)
-    if np.isfinite(phi(x)) and phi(x) < phi(prev) and slope(x) >= 0 > slope(prev):
-        root = float(brentq(slope, prev, x, xtol=1e-10, rtol=1e-6, maxiter=100))
-        return min((prev, root, x), key=phi)
-    if np.isfinite(phi(x)) and phi(x) < phi(prev):
-        return x
-    if slope(prev) < 0 <= slope(x):
-        root = float(brentq(slope, prev, x, xtol=1e-10, rtol=1e-6, maxiter=100))
-        return min((prev, root), key=phi)
-    return prev
 
 
 def _escape_saddle(structure: Structure, config: Configuration, v: FloatArray) -> Configuration:

@@ -35,11 +35,26 @@ search ends lower (:mod:`.formfind`): the second alone made steps of ~1/u along 
 curvature that was local and that the line search then cut to 1e-6 (a 9,000-member
 tower: 15 iterations, now 6). A fixed ``u`` (the paper's Eq. 81 on the scaled matrix)
 remains as an option.
+
+One rule when a factorisation fails, for both paths and every shift they choose (the
+rounding level, the reflection, Eq. 81's ``u + |lambda_min|`` whose computed ``lambda_min``
+is only known to rounding): the smallest power of ten above the failed shift that
+factors, found two decades at a time and bisected to one decade
+(:func:`smallest_definite_shift`, :func:`definite_factor`). It terminates at the Gershgorin
+shift ``2 ||K_s||_inf`` (:func:`dominance_shift`): there ``K_s + tau I`` is strictly
+diagonally dominant, every row's diagonal exceeding the sum of its off-diagonal magnitudes
+by ``||K_s||_inf``, at least a third of the diagonal; elimination keeps that dominance in
+every Schur complement, so Cholesky (and the ``L D L^T`` attempt) completes in floating
+point. The dense Cholesky needs it: at ``|lambda_min| + rho`` the shifted matrix is singular
+to within ``rho``, and on a chain of springs whose stiffnesses span decades (a tridiagonal
+``K``) the elimination's rounding exceeds that (7 % of such chains, 43-93 nodes). Only a
+matrix with non-finite entries has no such shift: :class:`NoDefiniteShift` says so.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from typing import Final, TypeAlias, TypeVar
 
@@ -49,7 +64,9 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.linalg import qr
 from scipy.sparse.linalg import LinearOperator, SuperLU, eigsh, splu
+from threadpoolctl import ThreadpoolController
 
+from tensegrity_core.errors import TensegrityError
 from tensegrity_core.general.configuration import Configuration
 from tensegrity_core.general.rotation import hat
 from tensegrity_core.general.stiffness import sym_rotation_hessian
@@ -59,6 +76,47 @@ T = TypeVar("T")
 #: A stiffness matrix: dense array or scipy sparse matrix.
 Matrix: TypeAlias = "FloatArray | sp.spmatrix"
 _EPS: Final = float(np.finfo(float).eps)
+
+
+class NoDefiniteShift(TensegrityError, FloatingPointError):
+    """No identity shift makes a stiffness matrix positive definite in double precision:
+    its entries are not finite (stiffnesses or coordinates beyond double precision)."""
+
+
+def require_finite(Ks: Matrix) -> None:
+    """Raise :class:`NoDefiniteShift` unless every entry of the scaled stiffness is finite."""
+    values = Ks.data if sp.issparse(Ks) else np.asarray(Ks)
+    if not np.all(np.isfinite(values)):
+        raise NoDefiniteShift("the stiffness matrix has non-finite entries: stiffnesses or coordinates beyond "
+                              "double precision")
+
+
+def dominance_shift(Ks: Matrix) -> float:
+    """``2 ||K_s||_inf``: the shift that makes ``K_s + tau I`` strictly diagonally dominant,
+    so its Cholesky factorisation completes in floating point (module docstring); the
+    smallest normal number for a zero matrix."""
+    if sp.issparse(Ks):
+        row_sum = np.asarray(abs(sp.csr_matrix(Ks)).sum(axis=1)).ravel()
+    else:
+        row_sum = np.abs(np.asarray(Ks, dtype=float)).sum(axis=1)
+    return max(2.0 * float(row_sum.max(initial=0.0)), float(np.finfo(float).tiny))
+
+
+#: This process's BLAS libraries (found once: inspecting them takes ~20 ms).
+_BLAS: ThreadpoolController | None = None
+
+
+def one_blas_thread() -> AbstractContextManager[object]:
+    """A context in which BLAS runs on one thread, for dense algebra of at most a few hundred
+    unknowns: a thread more hands over each small factorisation and eigenproblem, and on a
+    busy machine its threads wait for cores they spin on (a 40-vertebra C spine, 234 DOF:
+    13.4 s of CPU and 61 s of wall time with two BLAS threads under load 12, 1.4 s of CPU
+    with one; docs/design/general.md). Process-wide while it lasts, as BLAS's own setting."""
+    global _BLAS
+    if _BLAS is None:
+        _BLAS = ThreadpoolController()
+    limit: AbstractContextManager[object] = _BLAS.limit(limits=1, user_api="blas")
+    return limit
 
 
 def as_dense(K: Matrix) -> FloatArray:
@@ -141,20 +199,32 @@ class ShiftedStep:
 def shifted_step_dense(K: Matrix, P: FloatArray, u: float | None = None) -> ShiftedStep:
     """The paper's procedure with dense algebra: all eigenvalues of the scaled ``K_T`` each
     step, then the shift (``rho`` if positive definite, else as in the module docstring; a
-    fixed ``u``: the paper's ``u + max(0, -lambda_min)``), dense Cholesky."""
+    fixed ``u``: the paper's ``u + max(0, -lambda_min)``), dense Cholesky; a shift whose
+    Cholesky fails is raised by the rule of :func:`definite_factor`. Raises
+    :class:`NoDefiniteShift` for a matrix with non-finite entries."""
     Kd = as_dense(K)
     d = jacobi_scaling(Kd)
     Ks = d[:, None] * Kd * d[None, :]
+    require_finite(Ks)
     lam = float(la.eigvalsh(Ks)[0])
     rho = rounding_level(Ks)
+    limit = dominance_shift(Ks)
+    eye = np.eye(len(d))
+
+    def attempt(tau: float) -> tuple[FloatArray, bool] | None:
+        try:
+            factor: tuple[FloatArray, bool] = la.cho_factor(Ks + tau * eye, check_finite=False)
+        except la.LinAlgError:
+            return None
+        return factor
 
     def step(tau: float, indefinite: bool, alternative: ShiftedStep | None = None) -> ShiftedStep:
-        c = la.cho_factor(Ks + tau * np.eye(len(d)))
+        tau, c, tries = definite_factor(attempt, tau, limit)
 
         def solve(x: FloatArray) -> FloatArray:
             return np.asarray(d * la.cho_solve(c, d * x), dtype=float)
 
-        return ShiftedStep(solve(P), tau, lam, 1, solve, indefinite, alternative)
+        return ShiftedStep(solve(P), tau, lam, tries, solve, indefinite, alternative)
 
     if u is not None:
         return step(u + max(0.0, -lam), lam <= 0.0)
@@ -163,64 +233,67 @@ def shifted_step_dense(K: Matrix, P: FloatArray, u: float | None = None) -> Shif
     return step(2.0 * abs(lam) + rho, True, step(abs(lam) + rho, True))
 
 
-def shifted_step_sparse(K: Matrix, P: FloatArray, u: float | None = None, *, growth: float = 10.0) -> ShiftedStep:
+def definite_factor(attempt: Callable[[float], T | None], tau: float, limit: float) -> tuple[float, T, int]:
+    """``attempt(tau)`` (a factorisation of the scaled matrix shifted by ``tau``), or when it
+    fails the smallest decade above ``tau`` that succeeds, up to the Gershgorin shift
+    ``limit`` (:func:`smallest_definite_shift`; module docstring: why it terminates).
+    Returns ``(shift, factor, attempts)``."""
+    first = attempt(tau)
+    if first is not None:
+        return tau, first, 1
+    shift, factor, tries = smallest_definite_shift(attempt, tau, limit=limit)
+    return shift, factor, tries + 1
+
+
+def shifted_step_sparse(K: Matrix, P: FloatArray, u: float | None = None) -> ShiftedStep:
     """The shifted Newton step on the scaled ``K_T`` with sparse algebra (module docstring).
 
     ``u`` None: first attempt at the rounding level ``rho``; on an indefinite matrix the
     smallest shift ``tau`` that makes it positive definite is bracketed within a factor 10
     (:func:`smallest_definite_shift`) and the step uses ``2 tau + rho``, which lifts the
     most negative eigenvalue to between ``|lambda_min|`` and ``19 |lambda_min|``. A fixed
-    ``u``: the paper's Eq. 81 (first attempt ``u``, then shifts ``u growth^k`` until one
-    succeeds, the smallest eigenvalue by shift-invert Lanczos, then ``u + |lambda_min|``).
+    ``u``: the paper's Eq. 81 (first attempt ``u``, then the decade bracket above it, the
+    smallest eigenvalue by shift-invert Lanczos, then ``u + |lambda_min|``). Raises
+    :class:`NoDefiniteShift` for a matrix with non-finite entries.
     """
     Kc = sp.csr_matrix(K)
     d = jacobi_scaling(Kc)
     D = sp.diags(d)
     Ks = (D @ Kc @ D).tocsc()
+    require_finite(Ks)
     n = Ks.shape[0]
     eye = sp.identity(n, format="csc")
     rho = rounding_level(Ks)
+    limit = dominance_shift(Ks)
 
     def attempt(tau: float) -> SuperLU | None:
         return factor_if_positive_definite(Ks + tau * eye)
 
-    if u is None:
-        lu = attempt(rho)
-        if lu is not None:
-            dU, solve = _scaled_solution(lu, d, P)
-            return ShiftedStep(dU, rho, None, 1, solve)
-        tau, lu_tau, tries = smallest_definite_shift(attempt, rho)
-        lam = _nearest_eigenvalue(Ks, tau, lu_tau)
-        candidates = []
-        for shift in (2.0 * abs(lam) + rho, abs(lam) + rho):
-            lu = attempt(shift)
-            tries += 1
-            if lu is None:            # lam's last digits put it just short: the bracket's factor
-                shift, lu = tau, lu_tau
-            dU, solve = _scaled_solution(lu, d, P)
-            candidates.append(ShiftedStep(dU, shift, lam, tries, solve, indefinite=True))
-        reflection, along = candidates
-        reflection.alternative = along
-        return reflection
-    lu = attempt(u)
-    if lu is not None:
+    first = rho if u is None else u
+    tau, lu, tries = definite_factor(attempt, first, limit)
+    if tries == 1:
         dU, solve = _scaled_solution(lu, d, P)
-        return ShiftedStep(dU, u, None, 1, solve)
-    tau, tries = u, 1
-    while lu is None:
-        if tries > 40:
-            raise FloatingPointError("no positive shift makes the scaled stiffness positive definite")
-        tau *= growth
-        tries += 1
-        lu = attempt(tau)
+        return ShiftedStep(dU, tau, None, 1, solve)
     lam = _nearest_eigenvalue(Ks, tau, lu)
-    shift = u + max(0.0, -lam)
-    better = attempt(shift)
-    tries += 1
-    if better is not None:
-        lu, tau = better, shift
-    dU, solve = _scaled_solution(lu, d, P)
-    return ShiftedStep(dU, tau, lam, tries, solve, indefinite=True)
+    if u is not None:
+        shift = u + max(0.0, -lam)
+        better = attempt(shift)
+        tries += 1
+        if better is not None:
+            lu, tau = better, shift
+        dU, solve = _scaled_solution(lu, d, P)
+        return ShiftedStep(dU, tau, lam, tries, solve, indefinite=True)
+    candidates = []
+    for shift in (2.0 * abs(lam) + rho, abs(lam) + rho):
+        lu_shift = attempt(shift)
+        tries += 1
+        if lu_shift is None:          # lam's last digits put it just short: the bracket's factor
+            shift, lu_shift = tau, lu
+        dU, solve = _scaled_solution(lu_shift, d, P)
+        candidates.append(ShiftedStep(dU, shift, lam, tries, solve, indefinite=True))
+    reflection, along = candidates
+    reflection.alternative = along
+    return reflection
 
 
 def _nearest_eigenvalue(Ks: sp.spmatrix, tau: float, lu: SuperLU) -> float:
@@ -232,19 +305,24 @@ def _nearest_eigenvalue(Ks: sp.spmatrix, tau: float, lu: SuperLU) -> float:
                        return_eigenvectors=False)[0])
 
 
-def smallest_definite_shift(attempt: Callable[[float], T | None], failed: float) -> tuple[float, T, int]:
+def smallest_definite_shift(attempt: Callable[[float], T | None], failed: float, *,
+                            limit: float = 1e16) -> tuple[float, T, int]:
     """The smallest power of ten (to one decade) ``tau > failed`` for which ``attempt(tau)``
     (a factorisation of a matrix shifted by ``tau``) succeeds, with its result and the number
     of attempts: ``1e-8``, then up two decades at a time until one succeeds, then bisection
     of the exponent down to one decade above a failing shift (``failed`` is known to fail).
-    Raises FloatingPointError when even ``1e16`` fails."""
-    lo = np.log10(max(failed, 1e-300))
-    hi = max(-8.0, np.floor(lo) + 1.0)
+    The last attempt upwards is ``limit`` itself (a shift known to suffice, e.g.
+    :func:`dominance_shift`); raises :class:`NoDefiniteShift` when even that fails."""
+    top = float(np.log10(limit))
+    lo = float(np.log10(max(failed, 1e-300)))
+    hi = min(max(-8.0, np.floor(lo) + 1.0), top)
+    if not hi > lo:
+        raise NoDefiniteShift(f"no shift up to {limit:.3g} makes the matrix positive definite")
     result, tries = attempt(10.0 ** hi), 1
     while result is None:
-        if hi >= 16:
-            raise FloatingPointError("no positive shift makes the matrix positive definite")
-        lo, hi = hi, hi + 2.0
+        if hi >= top:
+            raise NoDefiniteShift(f"no shift up to {limit:.3g} makes the matrix positive definite")
+        lo, hi = hi, min(hi + 2.0, top)
         result, tries = attempt(10.0 ** hi), tries + 1
     while hi - lo > 1.0:
         mid = np.ceil(0.5 * (lo + hi)) if hi - lo >= 2.0 else 0.5 * (lo + hi)

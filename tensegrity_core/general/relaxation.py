@@ -5,7 +5,9 @@ Pseudo-dynamics ``M dv/dt = P(U)`` integrated explicitly with time step ``dt = 1
 ``U <- U (+) v`` (rotations through the exponential map). Fictitious
 masses make the explicit scheme stable: ``M_i = mass_factor * sum_j |K_ij| / 2`` (the
 Gershgorin bound of the largest eigenvalue of ``K_T``), refreshed every ``mass_update``
-steps. Kinetic damping: when the kinetic energy stops growing, the velocities are reset
+steps. ``K_T`` there counts slack strings with their elastic stiffness ``EA/l0``: a slack
+string may tauten within a step, and a node held only by slack strings would otherwise get
+no mass at all (a loaded one then flew off to overflow in one step). Kinetic damping: when the kinetic energy stops growing, the velocities are reset
 to zero (the structure is near a minimum of the potential along its path). Each step
 costs one force evaluation, so steps are cheap but many; it needs no factorization and
 serves as the second method of the benchmark. Convergence is judged as Newton's
@@ -76,7 +78,7 @@ def dynamic_relaxation(structure: Structure, config: Configuration, *, tol: floa
         if refresh:
             assert bal is not None
             necessary = 2.0 * (tol * bal.scale.max(initial=0.0) + FLOOR_FACTOR * bal.floor.max(initial=0.0))
-            K = tangent_stiffness(structure, config, sparse=True)
+            K = tangent_stiffness(structure, config, sparse=True, slack_elastic=True)
             rows = np.asarray(abs(K).sum(axis=1)).ravel()
             M = 0.5 * mass_factor * np.maximum(rows, 1e-12 * max(rows.max(initial=0.0), 1e-300))
         assert M is not None

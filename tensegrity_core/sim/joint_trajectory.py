@@ -127,7 +127,7 @@ def _rows(name: str, value: Sequence[Sequence[float]], n: int, width: int) -> Fl
     arr = np.array([[float(v) for v in row] for row in value])
     if not np.all(np.isfinite(arr)):
         i, j = np.argwhere(~np.isfinite(arr))[0]
-        raise TrajectoryError(f"point {i}: {name}[{j}] is not finite ({arr[i, j]!r})")
+        raise TrajectoryError(f"point {i}: {name}[{j}] is not finite ({float(arr[i, j])!r})")
     return arr
 
 

@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from tensegrity_core.sim.sampled import NS_PER_S
+from tensegrity_ros.rclpy_utils.messages import stamp_ns
 
 NAMESPACE = "/six_bar"
 SCENE = "six_bar_rest"
@@ -83,7 +84,7 @@ class LoopFeeder:
 
     def _take(self, kind: str, msg: Any) -> None:
         with self._fed_cv:
-            if _ns(msg) == 0:
+            if stamp_ns(msg.header.stamp) == 0:
                 self._at_reset[kind] = msg
             if self.loop is not None and kind in self._at_reset:
                 self._feed(kind, msg)
@@ -98,17 +99,17 @@ class LoopFeeder:
     def _feed(self, kind: str, msg: Any) -> None:
         """Give the loop ``msg`` once per kind and stamp (every reset's state at t = 0 is the
         same state)."""
-        if (kind, _ns(msg)) in self._fed:
+        if (kind, stamp_ns(msg.header.stamp)) in self._fed:
             return
-        self._fed.add((kind, _ns(msg)))
+        self._fed.add((kind, stamp_ns(msg.header.stamp)))
         self._fed_cv.notify_all()
         if kind == "bodies":
-            self._send(self.loop.on_bodies(_ns(msg), list(msg.name),
+            self._send(self.loop.on_bodies(stamp_ns(msg.header.stamp), list(msg.name),
                                            [(p.position.x, p.position.y, p.position.z) for p in msg.pose],
                                            [(p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w)
                                             for p in msg.pose]))
         else:
-            self._send(self.loop.on_contacts(_ns(msg), list(msg.name)))
+            self._send(self.loop.on_contacts(stamp_ns(msg.header.stamp), list(msg.name)))
 
     def _send(self, answers: list[Any]) -> None:
         for a in answers:
@@ -120,8 +121,6 @@ class LoopFeeder:
             self._pub.publish(self._CableCommand(header=hdr, name=list(a.names), rest_length=list(a.rest_lengths)))
 
 
-def _ns(msg: Any) -> int:
-    return int(msg.header.stamp.sec) * NS_PER_S + int(msg.header.stamp.nanosec)
 
 
 def run_robot(rclpy: Any, out: Path, *, step_ns: int, record: bool, results: dict[str, Any], bags: list[Path],

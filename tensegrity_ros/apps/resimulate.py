@@ -42,6 +42,7 @@ from tensegrity_ros.bag.scene import recorded_scene
 from tensegrity_ros.nodes.actuator_commands import CommandError, ForceUpdate, parse_command
 from tensegrity_ros.nodes.sim.cable_commands import InputUpdate, parse_cable_command
 from tensegrity_ros.rclpy_utils.env import require_rclpy
+from tensegrity_ros.rclpy_utils.messages import stamp_ns
 
 if TYPE_CHECKING:
     from tensegrity_ros.apps.sim_client import JointRecord
@@ -124,8 +125,6 @@ Update: TypeAlias = ForceUpdate | InputUpdate
 Parse: TypeAlias = Callable[[Sequence[str], Sequence[float]], Update]
 
 
-def _stamp(msg: Any) -> int:
-    return int(msg.header.stamp.sec) * NS_PER_S + int(msg.header.stamp.nanosec)
 
 
 def read_recording(bag: str | Path) -> tuple[list[RecordedCommand], list[RecordedJoints], list[str], str]:
@@ -150,10 +149,10 @@ def read_recording(bag: str | Path) -> tuple[list[RecordedCommand], list[Recorde
         if m.type == cmd_type:
             c = deserialize_message(m.data, cmd_cls)
             values = c.force if cmd_type == COMMAND_TYPE else c.rest_length
-            commands.append((_stamp(c), list(c.name), list(values)))
+            commands.append((stamp_ns(c.header.stamp), list(c.name), list(values)))
         else:
             j = deserialize_message(m.data, joint_cls)
-            joints.append((_stamp(j), tuple(j.position), tuple(j.velocity)))
+            joints.append((stamp_ns(j.header.stamp), tuple(j.position), tuple(j.velocity)))
             names = names or list(j.name)
     if not joints:
         raise BagError(f"{bag}: no joint states to compare with")

@@ -17,13 +17,14 @@ from rclpy.serialization import deserialize_message
 
 from tensegrity_ros.bag.reader import BagReader
 from tensegrity_ros.bag.recorder import message_class
+from tensegrity_ros.rclpy_utils.messages import stamp_ns
 
 NS_PER_S = 1_000_000_000
 
 
 def _stamp_ns(msg: object) -> int:
-    stamp = msg.clock if hasattr(msg, "clock") else msg.header.stamp  # type: ignore[attr-defined]
-    return int(stamp.sec) * NS_PER_S + int(stamp.nanosec)
+    """A message's stamp [ns]: a ``Clock``'s time, else its header's stamp."""
+    return stamp_ns(msg.clock if hasattr(msg, "clock") else msg.header.stamp)  # type: ignore[attr-defined]
 
 
 def bag_stamps(folder: str | Path, topics: Iterable[str]) -> dict[str, set[int]]:

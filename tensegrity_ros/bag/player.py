@@ -27,7 +27,6 @@ from dataclasses import dataclass, field
 
 import rclpy
 from rclpy.context import Context
-from rclpy.duration import Duration
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -35,6 +34,7 @@ from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 
 from tensegrity_core.excerpt import clip, excerpt
+from tensegrity_ros.bag.acks import Unacknowledged, report, wait_for_acks
 from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.qos import DEFAULT_REPLAY_DEPTH, dict_to_profile, offer_for_replay
 from tensegrity_ros.bag.reader import BagReader
@@ -179,20 +179,15 @@ class PlayerNode(Node):
                 result.published[event.message.topic] += 1
         return result
 
-    def wait_for_all_acked(self, timeout_s: float) -> bool:
-        """Wait until every reliable subscriber acknowledged everything published (at most
-        ``timeout_s`` s in all); False if some did not. A writer that goes away first
-        cannot resend what its readers missed: the last messages of a replay were lost
-        that way under load."""
-        deadline = time.monotonic() + timeout_s
-        pubs = list(self.publishers_by_topic.values())
+    def wait_for_all_acked(self, timeout_s: float) -> list[Unacknowledged]:
+        """Wait until every reliable subscriber acknowledged everything published, at most
+        ``timeout_s`` s, a subscriber that is gone not waited for (:mod:`.acks`); the topics
+        left. A writer that goes away first cannot resend what its readers missed: the
+        last messages of a replay were lost that way under load. Another thread spins the node."""
+        pubs = dict(self.publishers_by_topic)
         if self.clock_publisher is not None:
-            pubs.append(self.clock_publisher)
-        ok = True
-        for pub in pubs:
-            left = max(0.0, deadline - time.monotonic())
-            ok = pub.wait_for_all_acked(Duration(nanoseconds=int(left * 1e9))) and ok
-        return ok
+            pubs[CLOCK_TOPIC] = self.clock_publisher
+        return wait_for_acks(self, pubs, timeout_s)
 
 
 def play(bag: str, topics: Iterable[str] | None = None, opts: PlaybackOptions | None = None,
@@ -242,10 +237,10 @@ def play(bag: str, topics: Iterable[str] | None = None, opts: PlaybackOptions | 
             result = node.play(should_stop=stop)
             result.stopped = result.stopped or stop()
             # asked to stop: go now (a subscriber that never acknowledges must not hold us)
-            if wait_for_all_acked_s > 0 and not result.stopped \
-                    and not node.wait_for_all_acked(wait_for_all_acked_s):
-                log(f"warning: not every subscriber acknowledged every message within "
-                    f"{wait_for_all_acked_s:g} s")
+            if wait_for_all_acked_s > 0 and not result.stopped:
+                line = report(node.wait_for_all_acked(wait_for_all_acked_s), wait_for_all_acked_s)
+                if line is not None:
+                    log(line)
         finally:
             if services is not None:
                 services.stop()          # joined before the executor and the node go

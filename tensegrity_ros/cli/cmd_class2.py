@@ -133,9 +133,12 @@ def cmd_stiffness(args: argparse.Namespace) -> int:
             names = sweep["coordinates"]
             print(f"stiffness along x_r at rho1 = {sweep['rho1']:g} m, rho2 = {sweep['rho2']:g} m, "
                   f"beta = {sweep['beta']:.6g} rad; f on F along +Y [N], K_i [N/m]")
-            print(f"  {'f':>9} " + " ".join(f"{'K' + str(i + 1) + ' ' + n:>11}" for i, n in enumerate(names)))
-            for fv, row in zip(sweep["f"], sweep["K_i"]):
-                print(f"  {fv:9.4g} " + " ".join(f"{v:11.5g}" for v in row))
+            print(f"  {'f':>9} " + " ".join(f"{'K' + str(i + 1) + ' ' + n:>11}" for i, n in enumerate(names))
+                  + f" {'min eig K':>11}")
+            for fv, row, low in zip(sweep["f"], sweep["K_i"], sweep["min_eigenvalue"]):
+                print(f"  {fv:9.4g} " + " ".join(f"{v:11.5g}" for v in row) + f" {low:11.5g}")
+            if np.any(sweep["min_eigenvalue"] < 0):
+                print("  where min eig K < 0 the framework is unstable: those K_i are no stiffnesses")
             if args.plot:
                 print(f"plot written to {args.plot}")
         return 0
@@ -155,6 +158,10 @@ def cmd_stiffness(args: argparse.Namespace) -> int:
     print("  member forces (tension > 0) [N]: " + ", ".join(f"{m.label} {t:.5g}" for m, t in zip(MEMBERS, res.t)))
     print(f"  equilibrium residual max|A_r t - f_r| = {res.equilibrium_residual:.3g} N"
           + ("" if args.beta is None else " (beta given: zero only at the FKP equilibrium)"))
+    print(f"  smallest eigenvalue of K = {res.min_eigenvalue:.6g} N/m"
+          + (" (positive definite)" if res.min_eigenvalue > 0 else
+             ": K is not positive definite, the framework (elastic actuators and struts) is unstable "
+             "here and the K_i above are no stiffnesses a load could measure"))
     return 0
 
 

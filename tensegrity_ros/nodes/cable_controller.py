@@ -32,9 +32,14 @@ are the scene's actuated cables that take commands; their positions are rest len
   ``JointTrajectoryControllerState`` on ``~/controller_state`` (joint_trajectory_controller's
   topic, published there every update): all the controller's joints in its order;
   ``feedback`` the reported rest lengths (effort: tensions), ``reference`` the trajectory's
-  sample for a running goal's joints and the held rest length (the controller's last command,
-  else the rest length it became active on) for the others, ``output`` the rest lengths
-  commanded, ``error`` = reference - feedback (positions).
+  sample for a running goal's joints and the held rest length for the others, ``output`` the
+  rest lengths commanded, ``error`` = reference - feedback (positions). The held rest length
+  is what the simulator holds: the latest rest length commanded on ``cable_commands``, by this
+  controller or by anyone else (a command the simulator refuses changes nothing: the same
+  check, :func:`~tensegrity_ros.nodes.sim.cable_commands.parse_cable_command`), in the order
+  they arrive, else the rest length the controller became active on. A lockstep simulator
+  runs a step under the last command stamped for it: this controller's answer to a step,
+  coming after another's command for that step, replaces it, which the reference does not see.
 - Topic: a ``trajectory_msgs/JointTrajectory`` on ``~/joint_trajectory``
   (joint_trajectory_controller's topic interface) is a goal without an action: the default
   tolerances, no feedback and no result (a refusal or a violated tolerance is logged); it
@@ -60,6 +65,7 @@ from __future__ import annotations
 
 import math
 import sys
+from collections import deque
 from collections.abc import Sequence
 from typing import Any
 
@@ -69,6 +75,7 @@ from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
+from rclpy.serialization import deserialize_message, serialize_message
 from rclpy.task import Future
 from sensor_msgs.msg import JointState
 from tensegrity_msgs.msg import CableCommand, CableStates
@@ -78,12 +85,22 @@ from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_core.sim import compile_scene
 from tensegrity_core.sim import joint_trajectory as jt
+from tensegrity_ros.nodes.actuator_commands import CommandError
 from tensegrity_ros.nodes.common import ParameterValueError, declare, spin_node
 from tensegrity_ros.nodes.scene_param import declare_scene
+from tensegrity_ros.nodes.sim.cable_commands import parse_cable_command
+from tensegrity_ros.rclpy_utils.messages import stamp_ns
 from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
+from tensegrity_ros.rclpy_utils.raw_take import take_all
 
 _RESULT = FollowJointTrajectory.Result
 NS_PER_S = 1_000_000_000
+#: The depth of the reader of ``cable_commands`` [messages], read at every ``cable_states``
+#: (a lockstep simulator at 1,000 steps/s and ``state_rate`` 10 Hz: 100 between two),
+COMMAND_DEPTH = 1000
+#: and how many of its own commands the controller recognises there: more than that depth, so
+#: that its own command is never taken for another's.
+OWN_ECHOES = 2 * COMMAND_DEPTH
 
 
 class _Job:
@@ -106,10 +123,9 @@ class CableControllerNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("tensegrity_cable_controller", **kwargs)
         guard_parameter_services(self)
-        self.scene_name, scene = declare_scene(self, class2_only=False)
-        self.scene = scene
+        self.scene_name, self.scene = declare_scene(self, class2_only=False)
         try:
-            self.interface = compile_scene(scene).interface
+            self.interface = compile_scene(self.scene).interface
         except TensegrityError as err:
             raise ParameterValueError(clip(f"{self.get_name()}: cannot compile scene {excerpt(self.scene_name)}: {err}")) \
                 from None
@@ -134,9 +150,13 @@ class CableControllerNode(Node):
         self._job: _Job | None = None
         self._latest: tuple[int, float] | None = None   # (stamp [ns], t [s]) of the latest joint state
         self._latest_header: Any = None                 # its header (answered once the controller is active)
-        self._answer: CableCommand | None = None         # the running goal's command for it
+        self._answer: bytes | None = None                # the answer to it, serialized
         self._rest: dict[str, float] = {}                # each cable's rest length [m], from cable_states
         self._held: dict[str, float] = {}                # each joint's held rest length [m] (controller_state)
+        self._sent: deque[bytes] = deque()               # the latest commands it sent, serialized,
+        self._sent_count: dict[bytes, int] = {}          # and how often each is in there
+        self._position = {n for n, m in zip(self.interface.inputs, self.interface.modes or
+                                            ("rest_length",) * len(self.interface.inputs)) if m == "rest_length"}
         self._active = False                             # both states received: it answers and takes goals
         self._waiting: dict[bytes, Future] = {}          # goals waiting for that, by goal id: how it ended
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -144,6 +164,15 @@ class CableControllerNode(Node):
         self.pub = self.create_publisher(CableCommand, "cable_commands", QoSProfile(depth=1000))
         self.create_subscription(JointState, "joint_states", self.on_joints, QoSProfile(depth=1))
         self.create_subscription(CableStates, "cable_states", self.on_cables, QoSProfile(depth=10))
+        # every command the simulator takes, others' too: what the cables hold (controller_state).
+        # Read in bulk at each cable_states by a node no executor spins: a callback per command
+        # (one per simulator step, mostly this controller's own) cost 0.2-0.3 ms of CPU each
+        self._commands_node = Node(f"_{self.get_name()}_commands", namespace=self.get_namespace(),
+                                   context=self.context, use_global_arguments=False, start_parameter_services=False,
+                                   enable_rosout=False)
+        self._commands = self._commands_node.create_subscription(
+            CableCommand, self.resolve_topic_name("cable_commands"), lambda _raw: None,
+            QoSProfile(depth=COMMAND_DEPTH), raw=True)
         # joint_trajectory_controller's publisher: reliable, volatile, keep last (system default)
         self.state_pub = self.create_publisher(JointTrajectoryControllerState, "~/controller_state",
                                                QoSProfile(depth=10))
@@ -155,7 +184,7 @@ class CableControllerNode(Node):
 
     # -- commands and checks ---------------------------------------------------------------
     def on_joints(self, msg: JointState) -> None:
-        stamp = _ns(msg.header.stamp)
+        stamp = stamp_ns(msg.header.stamp)
         if self._latest is None or stamp != self._latest[0]:
             self._latest, self._latest_header, self._answer = (stamp, stamp / NS_PER_S), msg.header, None
         if self._active:
@@ -169,14 +198,43 @@ class CableControllerNode(Node):
             job, header, latest = self._job, self._latest_header, self._latest
             assert latest is not None    # active: a joint state came
             if job is None:
-                self._answer = CableCommand(header=header)       # idle: no change
+                answer = CableCommand(header=header)       # idle: no change
             else:
                 tr = job.trajectory
                 command = tr.command(latest[1] - job.t_start, self._rest_lengths())
-                self._answer = CableCommand(header=header, name=list(tr.names),
-                                            rest_length=[command[i] for i in tr.inputs])
-                self._held.update(zip(self._answer.name, self._answer.rest_length))
+                answer = CableCommand(header=header, name=list(tr.names), rest_length=[command[i] for i in tr.inputs])
+                self._held.update(zip(answer.name, answer.rest_length))
+            self._answer = serialize_message(answer)
+        self._remember(self._answer)
         self.pub.publish(self._answer)
+
+    def _remember(self, raw: bytes) -> None:
+        """Keep the latest :data:`OWN_ECHOES` commands sent, to know them on ``cable_commands``."""
+        self._sent.append(raw)
+        self._sent_count[raw] = self._sent_count.get(raw, 0) + 1
+        if len(self._sent) > OWN_ECHOES:
+            old = self._sent.popleft()
+            if self._sent_count[old] == 1:
+                del self._sent_count[old]
+            else:
+                self._sent_count[old] -= 1
+
+    def _read_commands(self) -> None:
+        """Take the commands that came on ``cable_commands``: the rest lengths each of another's
+        sets, if the simulator takes it, are what the cables hold from then on (the
+        controller's own were taken into account when sent)."""
+        inputs = self.interface.inputs
+        for raw, _info in take_all(self._commands):
+            if raw in self._sent_count:
+                continue
+            msg = deserialize_message(raw, CableCommand)
+            try:
+                update = parse_cable_command(list(msg.name), msg.rest_length, msg.reel_speed, msg.tension,
+                                             self.interface)
+            except CommandError:
+                continue                 # the simulator refuses it (and says why): nothing changes
+            self._held.update((inputs[i], v) for i, v in zip(update.indices, update.values)
+                              if inputs[i] in self._position and inputs[i] in self._column)
 
     def _missing(self) -> str:
         """What the controller lacks to be active ("" when nothing)."""
@@ -196,6 +254,7 @@ class CableControllerNode(Node):
             return
         self._active = True
         self._held = {n: self._rest[n] for n in self.joints}
+        take_all(self._commands)         # what came before is in these rest lengths already
         self.get_logger().info("active: joint_states and cable_states received")
         for ready in self._waiting.values():
             _settle(ready, "active")
@@ -215,11 +274,12 @@ class CableControllerNode(Node):
             self._activate()
         index = {n: i for i, n in enumerate(msg.name)}
         job = self._job
-        tau = math.nan if job is None else _ns(msg.header.stamp) / NS_PER_S - job.t_start
+        tau = math.nan if job is None else stamp_ns(msg.header.stamp) / NS_PER_S - job.t_start
         if job is not None and (job.finished.done() or not tau >= 0.0
                                 or any(n not in index for n in job.trajectory.names)):
             job = None          # ended, not started, or a state without the goal's cables: nothing to check
         if self._active and all(n in index for n in self.joints):
+            self._read_commands()
             self.state_pub.publish(self._state(msg, index, job, tau))
         if job is None:
             return
@@ -350,19 +410,18 @@ class CableControllerNode(Node):
         if any(len(p.effort) for p in traj.points):
             raise jt.TrajectoryError("points with effort are not accepted: the cables take rest lengths")
         trajectory = jt.plan_trajectory(
-            list(traj.joint_names), [_ns(p.time_from_start) / NS_PER_S for p in traj.points],
+            list(traj.joint_names), [stamp_ns(p.time_from_start) / NS_PER_S for p in traj.points],
             [list(p.positions) for p in traj.points], [list(p.velocities) for p in traj.points],
             [list(p.accelerations) for p in traj.points], interface=self.interface, start=self._rest_lengths())
         assert self._latest is not None    # active: a joint state came
         now = self._latest[1]
-        stamp = _ns(traj.header.stamp)
+        stamp = stamp_ns(traj.header.stamp)
         t_start = now if stamp == 0 else stamp / NS_PER_S
         if t_start + trajectory.duration < now:
             raise jt.TrajectoryError(f"the trajectory started at {t_start:.6f} s ended before the simulation's time "
                                      f"{now:.6f} s", code=jt.OLD_HEADER_TIMESTAMP)
         if t_start - now > jt.MAX_DURATION:
-            # as joint_trajectory_controller it waits; said, since a wall-clock stamp from a
-            # client without use_sim_time starts decades of simulation time ahead
+            # as joint_trajectory_controller it waits, but says so: a wall clock's stamp is decades ahead
             self.get_logger().warning(clip(
                 f"a goal starts at {t_start:.6f} s, {t_start - now:.3g} s after the simulation's time {now:.6f} s, "
                 "and waits until then: is its trajectory.header.stamp wall-clock time (a client without "
@@ -385,7 +444,7 @@ class CableControllerNode(Node):
         # time its motors need to arrive (jt.motors_settle_time)
         settle = jt.motors_settle_time(self.scene, trajectory.names, min(goal)) if math.isfinite(min(goal)) else 0.0
         default_goal_time = self.goal_time_tolerance + settle if self.goal_time_tolerance else math.inf
-        goal_time = jt.tolerance(_ns(req.goal_time_tolerance) / NS_PER_S, default_goal_time)
+        goal_time = jt.tolerance(stamp_ns(req.goal_time_tolerance) / NS_PER_S, default_goal_time)
         off = (math.inf,) * n
         monitor = jt.GoalMonitor(trajectory, jt.Tolerances(tuple(path), off, tuple(goal), off, goal_time))
         return _Job(handle, trajectory, monitor, t_start)
@@ -396,6 +455,7 @@ class CableControllerNode(Node):
         job, self._job = self._job, None
         if job is not None:
             job.end(jt.Outcome(jt.INVALID_GOAL, "the controller is shutting down"), "aborted")
+        self._commands_node.destroy_node()
         super().destroy_node()  # type: ignore[no-untyped-call]  # rclpy's, through super(): not excluded by name
 
 
@@ -405,10 +465,6 @@ def _settle(future: Future, outcome: str) -> None:
         future.set_result(outcome)
 
 
-def _ns(stamp: Any) -> int:
-    """Integer nanoseconds of a stamp or duration: a time [s] is ``ns / 1e9``, divided once, as
-    the core's sampled-data runner has it (the same floats, the same commands)."""
-    return int(stamp.sec) * NS_PER_S + int(stamp.nanosec)
 
 
 def _duration(seconds: float) -> Any:

@@ -43,6 +43,18 @@ def message_to_dict(msg: Any) -> Any:
     return msg
 
 
+#: Nanoseconds in a second.
+NS_PER_S = 1_000_000_000
+
+
+def stamp_ns(stamp: Any) -> int:
+    """A ``builtin_interfaces/Time`` (or ``Duration``) as integer nanoseconds, exact (no float
+    in between): ``sec * 1e9 + nanosec``, as ``rclpy.time.Time.from_msg`` reads it. A
+    ``Duration``'s ``sec`` may be negative (-0.5 s is ``sec=-1, nanosec=500000000``); a
+    ``nanosec`` of 1e9 or more, which no ROS client sends, adds whole seconds."""
+    return int(stamp.sec) * NS_PER_S + int(stamp.nanosec)
+
+
 def stamp_to_s(stamp: Any) -> float:
     """A ``builtin_interfaces/Time`` as seconds."""
     return float(stamp.sec + 1e-9 * stamp.nanosec)

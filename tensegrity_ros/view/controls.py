@@ -60,7 +60,9 @@ class ControlPanel:
             self.note = gui.add_markdown("")
 
         def values() -> dict[str, float]:
-            return {name: float(s.value) for name, (_spec, s) in self.sliders.items()}
+            # clamped here too: viser runs callbacks on a pool of threads, so another control's
+            # callback can read a slider before that slider's own callback has clamped it
+            return {name: clamp(spec, s.value, spec.initial).value for name, (spec, s) in self.sliders.items()}
 
         def on_drive(event: Any) -> None:
             if event.client is not None:

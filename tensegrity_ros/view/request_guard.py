@@ -38,6 +38,8 @@ from collections.abc import Callable
 from typing import Any, Final
 from urllib.parse import urlsplit
 
+from tensegrity_core.excerpt import excerpt
+
 #: Names that mean this machine's loopback address.
 LOCAL_NAMES: Final = ("localhost", "localhost.")
 
@@ -91,18 +93,27 @@ _state = {"installed": False, "serving": False}
 _lock = threading.Lock()
 
 
-def _guarded(process_request: Callable[..., Any] | None, connection: Any, request: Any) -> Any:
-    """Refuse a request that :func:`refusal` refuses (403, one line); else viser's handler."""
+def _text(status: http.HTTPStatus, line: str) -> Any:
+    """A response of ``status`` whose body is ``line`` (plain text, one line)."""
     from websockets.datastructures import Headers
     from websockets.http11 import Response
 
+    body = f"tensegrity view: {line}\n".encode()
+    return Response(status.value, status.phrase,
+                    Headers({"Content-Type": "text/plain; charset=utf-8", "Content-Length": str(len(body))}), body)
+
+
+def _guarded(process_request: Callable[..., Any] | None, connection: Any, request: Any) -> Any:
+    """Refuse a request that :func:`refusal` refuses (403, one line); else viser's handler,
+    whose 404 (no body) gets one line of text saying what is not there."""
     reason = refusal(request.headers.get("Host"), request.headers.get("Origin"), connection.local_address[:2])
     if reason is not None:
-        body = f"tensegrity view: {reason}\n".encode()
-        return Response(http.HTTPStatus.FORBIDDEN, "Forbidden",
-                        Headers({"Content-Type": "text/plain; charset=utf-8", "Content-Length": str(len(body))}),
-                        body)
-    return process_request(connection, request) if process_request is not None else None
+        return _text(http.HTTPStatus.FORBIDDEN, reason)
+    response = process_request(connection, request) if process_request is not None else None
+    if response is not None and response.status_code == http.HTTPStatus.NOT_FOUND and not response.body:
+        path = excerpt(urlsplit(request.path).path, 120)
+        return _text(http.HTTPStatus.NOT_FOUND, f"404 Not Found: {path} is not a file of the view's page (it is at /)")
+    return response
 
 
 class _Namespace:
@@ -127,7 +138,7 @@ def install() -> None:
     import websockets.asyncio.server as ws_server
     from viser.infra import _infra
 
-    from tensegrity_ros.view import unreadable_clients
+    from tensegrity_ros.view import prompt_stop, unreadable_clients
 
     with _lock:
         if _state["installed"]:
@@ -136,8 +147,8 @@ def install() -> None:
         @functools.wraps(ws_server.serve)
         def serve(*args: Any, process_request: Callable[..., Any] | None = None, **kwargs: Any) -> Any:
             _state["serving"] = True
-            return ws_server.serve(*args, process_request=functools.partial(_guarded, process_request),
-                                   create_connection=unreadable_clients.AnsweringConnection, **kwargs)
+            return prompt_stop.PromptServe(*args, process_request=functools.partial(_guarded, process_request),
+                                           create_connection=unreadable_clients.AnsweringConnection, **kwargs)
 
         server = _Namespace(ws_server, {"serve": serve})
         # the name viser's module calls websockets.asyncio.server.serve through (its own global only)

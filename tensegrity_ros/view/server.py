@@ -10,7 +10,9 @@ its defaults do not suit a suite that stays on the machine, and are changed here
 - its page has a "share" button whose request makes the *server* open a tunnel through a
   public relay: here the button is hidden and the request refused (:class:`LocalViserServer`);
 - it answers any ``Host`` and ``Origin``: here a request of another site's page (DNS
-  rebinding, a cross-site websocket) is refused (:mod:`.request_guard`).
+  rebinding, a cross-site websocket) is refused (:mod:`.request_guard`);
+- it applies any value a client sends for a control: here one that does not fit the control
+  is refused (:mod:`.control_values`).
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ import socket
 from typing import Any
 
 from tensegrity_core.errors import TensegrityError
-from tensegrity_ros.view import request_guard
+from tensegrity_ros.view import control_values, request_guard
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8080
@@ -89,6 +91,7 @@ def start_server(host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, *, label: s
     if port:
         check_port_free(host, port)
     request_guard.install()
+    control_values.install()
     with contextlib.redirect_stdout(io.StringIO()):     # viser's own banner: the command prints the URL
         server = LocalViserServer(host=host, port=port, label=label, verbose=False)
     if not request_guard.guarding():

@@ -18,6 +18,12 @@ One BLAS thread throughout. Structures from the generators of ``tensegrity_core.
   scaled and for the physical matrix, written out here) and its fixed threshold 1e-11 on
   the scaled eigenvalue: time, and the margin over the rounding level. Quick: 1,800
   members; full: 9,990 and 19,998 (the issue's towers), 49,986 and 99,990.
+- ``spine_threads``: the dense Newton algebra of a C spine of 40 vertebrae (234 DOF, under
+  ``DENSE_LIMIT``) with one BLAS thread against two: one shifted step and the stability
+  eigenvalue at the straight start, process CPU time (spinning threads included) and wall
+  time per call. Full mode adds form-finding of the 40- and the 100-vertebra C spine (the
+  latter sparse) with the exact ``K_T`` (``slack_stiffness=False``), the run that took 49 s
+  against 3 s with BLAS's default threads on a busy machine.
 - ``shift``: Newton with the default shift (the rounding level of a definite matrix)
   against the paper's fixed shift 1e-10 on the scaled matrix, towers after a 1 %
   rest-length step: time and iterations. Quick: 1,800 members; full: 18,000 and 36,000.
@@ -201,6 +207,61 @@ def verdict(ctx: Context) -> list[Row]:
             rows.append(Row("formfind", f"verdict, {tag}", t_new, "s", baseline=f"verdict before, {tag}",
                             note=f"scaled eigenvalue {low.scaled:.3g} = {low.margin:.3g} x rounding level "
                                  f"{low.rounding:.2g}: {low.verdict}"))
+    return rows
+
+
+def _cpu_and_wall(fn, repeat: int) -> tuple[float, float]:
+    """Best process CPU time and best wall time [s] of ``fn()`` over ``repeat`` runs."""
+    cpu, wall = float("inf"), float("inf")
+    for _ in range(repeat):
+        c0, w0 = time.process_time(), time.perf_counter()
+        fn()
+        cpu, wall = min(cpu, time.process_time() - c0), min(wall, time.perf_counter() - w0)
+    return cpu, wall
+
+
+@benchmark
+def spine_threads(ctx: Context) -> list[Row]:
+    from tensegrity_core.general import Configuration, form_find, tangent_stiffness, tensegrity_spine
+    from tensegrity_core.general.convergence import balance
+    from tensegrity_core.general.linalg import moving_coordinates, shifted_step_dense
+    from tensegrity_core.general.stability import lowest_mode
+
+    s = tensegrity_spine(40, shape="C")
+    config = Configuration.initial(s)
+    K = tangent_stiffness(s, config)
+    keep = moving_coordinates(config)
+    P = balance(s, config).physical.generalized[keep]
+
+    def dense_algebra():
+        shifted_step_dense(K[np.ix_(keep, keep)], P)
+        lowest_mode(K, config, dense=True)
+
+    rows = []
+    label = f"dense shifted step and stability eigenvalue, C spine 40 vertebrae ({s.layout.n_dof} DOF)"
+    for threads in (1, 2):
+        with threadpool_limits(threads, user_api="blas"):
+            cpu, wall = _cpu_and_wall(dense_algebra, 5 if ctx.quick else 20)
+        base = None if threads == 1 else "{what}, 1 BLAS thread"
+        for what, value in (("CPU", cpu), ("wall", wall)):
+            rows.append(Row("formfind", f"{label}, {what}, {threads} BLAS thread{'s' * (threads > 1)}", value, "s",
+                            baseline=base and base.format(what=f"{label}, {what}")))
+    if ctx.quick:
+        return rows
+    times = {}
+    for n in (100, 40):
+        spine = tensegrity_spine(n, shape="C")
+        c0, w0 = time.process_time(), time.perf_counter()
+        r = form_find(spine, slack_stiffness=False, max_iter=400)
+        times[n] = (time.process_time() - c0, time.perf_counter() - w0, r)
+        assert r.success, r.message
+    for n in (100, 40):
+        cpu, wall, r = times[n]
+        tag = f"form-finding, C spine {n} vertebrae, exact K_T"
+        for what, value in (("CPU", cpu), ("wall", wall)):
+            rows.append(Row("formfind", f"{tag}, {what}", value, "s",
+                            baseline=None if n == 100 else f"form-finding, C spine 100 vertebrae, exact K_T, {what}",
+                            note=f"{r.iterations} it, {r.method}"))
     return rows
 
 

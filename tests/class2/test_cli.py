@@ -101,6 +101,16 @@ def test_stiffness_single_and_sweep_with_plot(capsys, tmp_path):
     assert "K4 Dy" in capsys.readouterr().out and png.stat().st_size > 10_000
 
 
+def test_stiffness_says_when_k_is_not_positive_definite(capsys):
+    """Springs of 100 N/m against actuators of 10 N/m near the fold: every K_i is positive but
+    K has a negative eigenvalue (-72.48 N/m by an independent Hessian, tests/class2/test_stiffness.py)."""
+    assert main(["stiffness", "0.05", "0.05", "--param", "k=100"]) == 0
+    out = capsys.readouterr().out
+    assert "smallest eigenvalue of K = -72.4787 N/m: K is not positive definite" in out
+    assert main(["stiffness", "0.7", "0.7"]) == 0
+    assert "smallest eigenvalue of K = 0.744099 N/m (positive definite)" in capsys.readouterr().out
+
+
 @pytest.mark.parametrize(
     ("argv", "fragment"),
     [

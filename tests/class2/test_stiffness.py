@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -185,10 +186,28 @@ def test_stiffness_is_affine_in_f_and_critical_force_makes_K_singular():
     assert np.linalg.eigvalsh(k0)[0] > 0
 
 
+def test_min_eigenvalue_against_an_independent_nodal_energy_hessian():
+    """Expected values: an independent Hessian of the members' energies over the six nodes
+    (own sympy code: springs k l^2 / 2 with zero free length; actuators and struts with axial
+    stiffness ka, kb and the forces that balance the springs and f at the FKP equilibrium).
+    At the paper's parameters K is positive definite. With every spring at k = 100 N/m
+    against actuators of ka = 10 N/m the framework near the fold is unstable (one negative
+    eigenvalue), yet all seven K_i come out positive: only the eigenvalue tells."""
+    assert stiffness_along_coordinates(0.7, 0.7, 0.0).min_eigenvalue == pytest.approx(0.7440988671, rel=1e-8)
+    assert stiffness_along_coordinates(0.7, 0.7, 1.0).min_eigenvalue == pytest.approx(0.7602916495, rel=1e-8)
+    stiff_springs = dataclasses.replace(P, k1=100.0, k2=100.0, k3=100.0, k4=100.0)
+    res = stiffness_along_coordinates(0.05, 0.05, 0.0, stiff_springs)
+    assert res.min_eigenvalue == pytest.approx(-72.47869617, rel=1e-8)
+    np.testing.assert_allclose(res.K_i, [44.7231, 36.699, 93.2782, 1245.4394, 61.0983, 2200.111, 1033.5642],
+                               rtol=1e-5)
+    assert res.as_dict()["min_eigenvalue"] == res.min_eigenvalue
+
+
 def test_sweep_shapes_and_values():
     sweep = stiffness_sweep(0.7, 0.7, np.linspace(0, 5, 6))
     assert sweep["K_i"].shape == (6, 7) and sweep["cond_K_r"].shape == (6, 7)
     assert sweep["K_i"][3] == pytest.approx(stiffness_along_coordinates(0.7, 0.7, 3.0).K_i)
+    assert sweep["min_eigenvalue"][3] == stiffness_along_coordinates(0.7, 0.7, 3.0).min_eigenvalue
 
 
 @pytest.mark.parametrize(

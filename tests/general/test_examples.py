@@ -131,6 +131,27 @@ def test_patio_shade_mechanisms_and_stiffness():
     assert ev.min() > 0 and r.rigid_body_modes == 0
 
 
+def test_patio_shade_first_modes_against_fig_9():
+    """Fig. 9 says the 1st and 4th modes of K_T leave the plane and the 2nd and 3rd are
+    planar. The structure is planar and loaded in its plane, so K_T splits exactly into an
+    in-plane block (n6.x, n6.y, cx, cy, rz) and an out-of-plane block (n6.z, cz, rx, ry):
+    every mode lies in one of them. At the reconstructed equilibrium modes 1, 2 and 4 leave
+    the plane and only mode 3 is planar. Which block comes first is no property of the
+    structure: its coordinates mix metres and radians, so a change of length unit scales the
+    two kinds of entries differently and reorders the modes. Expected eigenvalues [N/m,
+    N m/rad]: an independent finite-difference Hessian of the strain energy (own code, the
+    triangle turned by a rotation vector about its centroid, steps 1e-4)."""
+    s = load_example("patio_shade")
+    r = form_find(s)
+    ma = modal_analysis(s, r.configuration)
+    np.testing.assert_allclose(ma.eigenvalues[:4], [1.1126167e7, 1.2677081e7, 2.3597890e7, 2.8237802e7],
+                               rtol=1e-6)
+    labels = s.layout.labels()
+    out_of_plane = [labels.index(n) for n in ("n6.z", "triangle.cz", "triangle.rx", "triangle.ry")]
+    share = np.sum(ma.modes[out_of_plane, :4] ** 2, axis=0)
+    np.testing.assert_allclose(share, [1, 1, 0, 1], atol=1e-9)
+
+
 # --------------------------------------------------------------------------- table (5.2.3)
 def test_table_self_stress_is_one_one_one_three_and_six_rigid_modes():
     s = load_example("tensegrity_table")
@@ -214,6 +235,29 @@ def test_rigid_faces_are_stiffer_than_bar_faces():
     v = np.array([n.startswith("v") for n in rts.structure.member_names])
     vt = np.array([n.startswith("v") for n in tts.structure.member_names])
     assert rts.member_forces[v].mean() == pytest.approx(tts.member_forces[vt].mean(), rel=0.05)
+
+
+@pytest.mark.parametrize("ratio", [0.8, 0.1])
+def test_rigid_and_bar_faces_carry_the_same_vertical_forces(ratio):
+    """Sect. 5.2.4 says the vertical strings' force "in RTS increases a lot more than that of
+    TTS" as their rest length falls from 0.8 l to 0.1 l. The bar version differs from the
+    rigid one only by its face bars' elongation t_b l_b / EA_b (EA_b = 1000 EA_s). A
+    vertical string joins two faces, so its length moves by at most about two bar
+    elongations, and its force t_v = EA_s (l_v - l0_v) / l0_v by the fraction
+    dt_v / t_v <= 2 max(t_b l_b / EA_b) / (l_v - l0_v): ~2e-3 at 0.8 l, ~2e-2 at 0.1 l.
+    The forces agree to that, not 'a lot more'."""
+    rts = form_find(spherical_tensegrity("tetrahedron", vertical_ratio=ratio))
+    tts = form_find(spherical_tensegrity("tetrahedron", vertical_ratio=ratio, rigid=False))
+    assert rts.success and tts.success
+    s = tts.structure
+    v = np.array([n.startswith("v") for n in s.member_names])
+    bar = np.array([k == "bar" for k in s.member_kinds])
+    assert bar.sum() == 12                                              # 4 triangles of bars
+    elongation = np.abs(tts.member_forces[bar]) * tts.member_lengths[bar] / s.EA[bar]
+    bound = 2 * elongation.max() / np.mean(tts.member_lengths[v] - s.rest_lengths[v])
+    rv = np.array([n.startswith("v") for n in rts.structure.member_names])
+    assert abs(rts.member_forces[rv].mean() / tts.member_forces[v].mean() - 1) <= bound
+    assert bound < 0.02
 
 
 # --------------------------------------------------------------------------- spine (5.2.5)

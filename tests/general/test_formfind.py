@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize
 from scipy.spatial.transform import Rotation
+from threadpoolctl import threadpool_info, threadpool_limits
 
 from tensegrity_core.errors import ConvergenceError
 from tensegrity_core.general import (
@@ -19,6 +20,7 @@ from tensegrity_core.general import (
     form_find,
     load_example,
     out_of_balance,
+    prism_tower,
 )
 from tests.general.paper_oracle import euler_matrix
 
@@ -249,3 +251,23 @@ def test_configuration_from_another_topology_is_rejected():
     a, b = load_example("t_bar"), load_example("patio_shade")
     with pytest.raises(StructureError, match="other nodes"):
         form_find(a, x0=Configuration.initial(b))
+
+
+def _blas_threads() -> set[int]:
+    return {pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"}
+
+
+def test_dense_newton_runs_blas_on_one_thread_and_gives_the_threads_back():
+    """Dense algebra of a few hundred unknowns pays a second BLAS thread's hand-overs and, on
+    a busy machine, its spinning (docs/design/general.md: 7x the CPU per step at 234 DOF): the
+    dense Newton iterations run on one thread, seen from the callback, and the process's
+    setting is back afterwards; sparse Newton leaves it alone."""
+    tower = prism_tower(2)
+    s = tower.with_rest_lengths(np.where(tower.is_string, 0.99, 1.0) * tower.rest_lengths)
+    with threadpool_limits(2, user_api="blas"):
+        assert _blas_threads() == {2}
+        for solver, inside in (("dense", {1}), ("sparse", {2})):
+            seen: list[set[int]] = []
+            r = form_find(s, linear_solver=solver, callback=lambda info, seen=seen: seen.append(_blas_threads()))
+            assert r.success and seen and all(threads == inside for threads in seen)
+            assert _blas_threads() == {2}

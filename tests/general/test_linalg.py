@@ -4,16 +4,21 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import scipy.linalg as la
 import scipy.sparse as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tensegrity_core.general import Configuration, form_find, load_example, tangent_stiffness
 from tensegrity_core.general.linalg import (
+    NoDefiniteShift,
+    dominance_shift,
     factor_if_positive_definite,
     jacobi_scaling,
+    rounding_level,
     shifted_step_dense,
     shifted_step_sparse,
+    smallest_definite_shift,
     zero_energy_rigid_modes,
 )
 from tensegrity_core.general.stability import lowest_mode
@@ -56,6 +61,79 @@ def test_shifted_steps_match_eq81_and_descend():
     assert a.shift == 1e-10 and b.shift == 1e-10 and b.factorizations == 1
     np.testing.assert_allclose(a.dU, b.dU, rtol=1e-8)
     np.testing.assert_allclose(pd @ a.dU, P, rtol=1e-6, atol=1e-6)
+
+
+def spring_chain(seed: int, n: int = 60) -> np.ndarray:
+    """The stiffness of ``n`` nodes on a line between ``n + 1`` springs of 1 .. 1e8 N/m, 30 % of
+    them softened to -0.5 times that (a compressed member's geometric stiffness): tridiagonal,
+    indefinite, spanning eight decades."""
+    rng = np.random.default_rng(seed)
+    k = 10.0 ** rng.uniform(0, 8, n + 1)
+    k[rng.random(n + 1) < 0.3] *= -0.5
+    return np.diag(k[:-1] + k[1:]) - np.diag(k[1:-1], 1) - np.diag(k[1:-1], -1)
+
+
+def test_dense_step_survives_a_cholesky_that_fails_at_its_chosen_shift():
+    """At ``|lambda_min| + rho`` the scaled chain is singular to within its rounding level,
+    and LAPACK's Cholesky of it fails on some chains (the matrix built to defeat a single
+    attempt: checked here, so the test cannot pass vacuously). The step then takes the
+    smallest decade above that factors: ``K_s + shift I`` positive definite by its
+    eigenvalues, the shift at most ten times the one chosen, and ``dU`` solves the shifted
+    system to Cholesky's backward error and descends."""
+    defeated = 0
+    for seed in range(12):
+        K = spring_chain(seed)
+        P = np.random.default_rng(seed).normal(size=len(K))
+        d = jacobi_scaling(K)
+        Ks = d[:, None] * K * d[None, :]
+        w = np.linalg.eigvalsh(Ks)
+        rho = rounding_level(Ks)
+        try:
+            la.cho_factor(Ks + (abs(w[0]) + rho) * np.eye(len(K)))
+        except la.LinAlgError:
+            defeated += 1
+        step = shifted_step_dense(K, P)
+        assert step.indefinite and step.alternative is not None
+        for s, chosen in ((step, 2 * abs(w[0]) + rho), (step.alternative, abs(w[0]) + rho)):
+            assert chosen <= s.shift <= 10 * chosen * (1 + 1e-12)
+            assert w[0] + s.shift > 0
+            # Cholesky's backward error on a positive definite A: |E| <= n eps |L||L^T|, whose
+            # entries are at most sqrt(A_ii A_jj) <= max diag A; the residual of x is E x
+            A = Ks + s.shift * np.eye(len(K))
+            x = s.dU / d
+            residual = A @ x - d * P
+            assert np.abs(residual).max() <= 4 * len(K) ** 2 * np.finfo(float).eps * A.diagonal().max() \
+                * np.abs(x).max()
+            assert P @ s.dU > 0
+    assert defeated >= 2
+
+
+@settings(max_examples=40)
+@given(st.integers(0, 2**32 - 1), st.integers(2, 40), st.floats(0, 15))
+def test_the_dominance_shift_always_factors(seed, n, decades):
+    """The termination argument of the shift rule: ``K_s + 2 ||K_s||_inf I`` is strictly
+    diagonally dominant, so Cholesky (dense) and the L D L^T attempt (sparse) succeed, for
+    symmetric matrices of either sign with entries over ``decades`` decades."""
+    rng = np.random.default_rng(seed)
+    A = rng.normal(size=(n, n)) * 10.0 ** rng.uniform(0, decades, (n, n))
+    A = A + A.T
+    tau = dominance_shift(A)
+    la.cho_factor(A + tau * np.eye(n))
+    assert factor_if_positive_definite(sp.csc_matrix(A + tau * np.eye(n))) is not None
+
+
+def test_no_shift_for_a_matrix_with_non_finite_entries_is_one_refusal():
+    K = spring_chain(0, 5)
+    K[1, 2] = K[2, 1] = np.nan
+    P = np.ones(5)
+    for attempt in (lambda: shifted_step_dense(K, P), lambda: shifted_step_sparse(sp.csr_matrix(K), P),
+                    lambda: shifted_step_dense(K, P, 1e-10)):
+        with pytest.raises(NoDefiniteShift, match="non-finite entries"):
+            attempt()
+    calls = []
+    with pytest.raises(NoDefiniteShift, match="no shift up to 1e\\+06"):
+        smallest_definite_shift(lambda tau: calls.append(tau), 1e-3, limit=1e6)
+    assert max(calls) == pytest.approx(1e6) and len(calls) <= 6
 
 
 @pytest.mark.parametrize("name, count", [

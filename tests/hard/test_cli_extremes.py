@@ -57,12 +57,14 @@ def _cases(tmp: Path) -> list[tuple[list[str], str]]:
         "rate.yaml": fold.replace("rate: 100", "rate: 1.0e9"),
         "bomb_scene.yaml": _bomb("description"),
         "deep_scene.yaml": "model:\n  kind: " + "[" * 100_000 + "]" * 100_000 + "\n",
-        "EA.yaml": table.replace("E: 7.6e10, A: 1.0e-4", "EA: 1.0e308"),
+        "EA.yaml": table.replace("E: 7.6e+10, A: 1.0e-4", "EA: 1.0e308"),
         "coords.yaml": table.replace("c1: [0.0, 1.0, 1.0]", "c1: [1.0e300, 1.0, 1.0]"),
         "bomb_structure.yaml": _bomb("name"),
         "deep_structure.yaml": "nodes:\n" + "".join("  " * (i + 1) + f"k{i}:\n" for i in range(2000)),
         "int.yaml": table.replace("rest_length_ratio: 0.3}", "rest_length_ratio: 0.3, mass: 1" + "0" * 5000 + "}"),
     }
+    originals = (fold, table)
+    assert not any(text in originals for text in files.values()), "a case's replacement found nothing to replace"
     for name, text in files.items():
         (tmp / name).write_text(text)
     (tmp / "latin1_scene.yaml").write_bytes(b"name: caf\xe9\n" + fold.encode())

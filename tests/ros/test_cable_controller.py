@@ -265,6 +265,47 @@ def test_the_commands_keep_the_history_of_the_other_per_step_writers(ros_context
     assert depth["/cable_commands"] == depth["/actuator_forces"] == (HistoryPolicy.KEEP_LAST, 1000), depth
 
 
+def test_a_refused_joint_trajectory_is_logged_once_in_one_line_and_the_running_goal_goes_on(rig):
+    """``~/joint_trajectory`` has no result to refuse with: a trajectory naming an unknown
+    joint, with times that do not increase or a position that is not a number is refused
+    with one log line each, and the goal running meanwhile ends as it would have (a taken
+    trajectory would have preempted it: ABORTED)."""
+    from action_msgs.msg import GoalStatus
+    from trajectory_msgs.msg import JointTrajectory
+
+    from tensegrity_core.sim.joint_trajectory import SUCCESSFUL
+    from tensegrity_ros.rclpy_utils.matching import wait_for_matches
+
+    client, action, _, ctl, feedback_log = rig
+    t0 = _t0(client)
+    handle = _send(client, action, _goal([(0.2, (0.87, 0.91))]))
+    assert handle.accepted
+    bad = {
+        "unknown joint 'long7'; the joints are long1, long2, long3": _goal([(0.5, (0.8,))], names=("long7",)),
+        "time_from_start must increase strictly": _goal([(0.5, (0.8,)), (0.5, (0.7,))], names=("long1",)),
+        "point 0: positions[0] is not finite (nan)": _goal([(0.5, (math.nan,))], names=("long1",)),
+    }
+    logged = len(ctl.stderr())                                 # the module's earlier tests logged before
+    pub = client.node.create_publisher(JointTrajectory, "/tensegrity_cable_controller/joint_trajectory", 10)
+    try:
+        assert wait_for_matches([pub], 1, 60)
+        client.step_received(5, t0, STEP_NS, chunk=5)          # the goal runs
+        for reason, goal in bad.items():
+            pub.publish(goal.trajectory)
+            ctl.wait_for(reason, timeout=60, since=logged)    # one at a time: the subscription keeps the last only
+    finally:
+        client.node.destroy_publisher(pub)
+    client.step_received(25, t0 + 5 * STEP_NS, STEP_NS, chunk=5)   # to 0.3 s, past the goal's end (0.2 s)
+    status, result = _result(client, handle)
+    assert status == GoalStatus.STATUS_SUCCEEDED and result.error_code == SUCCESSFUL, result.error_string
+    fb = feedback_log.until(handle, lambda fbs: any(_ended(f, 0.2, 1e-4) for f in fbs), "the goal's last feedback")
+    np.testing.assert_allclose(fb[-1].desired.positions, [0.87, 0.91], atol=1e-12)
+    log = ctl.stderr()[logged:].splitlines()
+    for reason in bad:
+        lines = [line for line in log if reason in line]
+        assert len(lines) == 1 and "joint_trajectory ignored: " in lines[0], lines
+
+
 def test_a_goal_stamped_on_the_wall_clock_waits_and_says_why(rig):
     """A client without use_sim_time stamps its trajectory with the wall clock, ~1.8e9 s: as
     joint_trajectory_controller the controller waits for that simulation time (the goal runs,

@@ -17,6 +17,47 @@ pytestmark = pytest.mark.ros
 NS = ("--ros-args", "-r", "__ns:=/ctl_cli")
 
 
+@pytest.mark.parametrize("text, words", [
+    ("time,rho1\n1,0.7\n", "missing rho2"),
+    ("time,rho1,rho2\n1,0.7,abc\n", "'abc' is not a number"),
+    ("time,rho1,rho2,rho1_velocity\n1,0.7,0.7,0\n", "both columns rho1_velocity and rho2_velocity"),
+])
+def test_bad_trajectory_files_are_one_error_line(tmp_path, text, words):
+    f = tmp_path / "bad.csv"
+    f.write_text(text)
+    out = run_cli("follow", str(f))
+    assert out.returncode == 2 and words in out.stderr and len(out.stderr.strip().splitlines()) == 1
+
+
+def test_no_controller_exits_3():
+    out = run_cli("move", "1.4", "0.7", "--timeout", "1", "--ros-args", "-r", "__ns:=/nobody_here")
+    assert out.returncode == 3 and "not available" in out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1, out.stderr        # no progress bar before the error
+
+
+def test_the_ik_node_takes_the_mechanism_from_the_scene(tmp_path, cli):
+    """A scene with L = 1.3, k2 = 2: the IK node's answer is the core's for those parameters
+    (it has no L or k parameters of its own any more)."""
+    from tensegrity_core.sim import scene_path
+
+    data = yaml.safe_load(scene_path("class2_at_rest").read_text())
+    data["model"]["params"] = {"L": 1.3, "k1": 1.0, "k2": 2.0, "k3": 1.0, "k4": 1.0, "c": 0.01, "m": 2.0}
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(yaml.safe_dump(data))
+    ik = cli("node", "ik", "--ros-args", "-r", "__ns:=/ik_scene", "-p", f"scene:={scene}", log_name="ik")
+    ik.wait_for("solve_ik ready")
+    params = Class2Params(L=1.3, k2=2.0)
+    d = forward_kinematics(0.8, 0.9, params)
+    out = run_cli("call-ik", f"{d.x!r}", f"{d.y!r}", "--json", "--ros-args", "-r", "__ns:=/ik_scene")
+    assert out.returncode == 0, out.stderr
+    sol = json.loads(out.stdout)["solutions"][0]
+    core = inverse_kinematics(d.x, d.y, params).valid[0]
+    assert (sol["rho1"], sol["rho2"]) == pytest.approx((core.rho1, core.rho2), abs=1e-12)
+    assert (sol["rho1"], sol["rho2"]) == pytest.approx((0.8, 0.9), abs=1e-9)
+
+
+# The suite's tests come last: its simulator and controller run their 100 Hz loop at real time
+# (CPU all along) from its first test to the module's end, so no test without it runs inside.
 @pytest.fixture(scope="module")
 def suite(tmp_path_factory):
     from tests.ros_support import Proc
@@ -70,42 +111,3 @@ def test_follow_yaml_with_a_bad_point_fails_with_the_controllers_reason(suite, t
                                             {"time": 0.5, "positions": [0.71, 0.7]}]}))
     out = run_cli("follow", str(f), *NS)
     assert out.returncode == 1 and "failed (INVALID_GOAL)" in out.stdout and "increase strictly" in out.stdout
-
-
-@pytest.mark.parametrize("text, words", [
-    ("time,rho1\n1,0.7\n", "missing rho2"),
-    ("time,rho1,rho2\n1,0.7,abc\n", "'abc' is not a number"),
-    ("time,rho1,rho2,rho1_velocity\n1,0.7,0.7,0\n", "both columns rho1_velocity and rho2_velocity"),
-])
-def test_bad_trajectory_files_are_one_error_line(tmp_path, text, words):
-    f = tmp_path / "bad.csv"
-    f.write_text(text)
-    out = run_cli("follow", str(f))
-    assert out.returncode == 2 and words in out.stderr and len(out.stderr.strip().splitlines()) == 1
-
-
-def test_no_controller_exits_3():
-    out = run_cli("move", "1.4", "0.7", "--timeout", "1", "--ros-args", "-r", "__ns:=/nobody_here")
-    assert out.returncode == 3 and "not available" in out.stderr
-    assert len(out.stderr.strip().splitlines()) == 1, out.stderr        # no progress bar before the error
-
-
-def test_the_ik_node_takes_the_mechanism_from_the_scene(tmp_path, cli):
-    """A scene with L = 1.3, k2 = 2: the IK node's answer is the core's for those parameters
-    (it has no L or k parameters of its own any more)."""
-    from tensegrity_core.sim import scene_path
-
-    data = yaml.safe_load(scene_path("class2_at_rest").read_text())
-    data["model"]["params"] = {"L": 1.3, "k1": 1.0, "k2": 2.0, "k3": 1.0, "k4": 1.0, "c": 0.01, "m": 2.0}
-    scene = tmp_path / "scene.yaml"
-    scene.write_text(yaml.safe_dump(data))
-    ik = cli("node", "ik", "--ros-args", "-r", "__ns:=/ik_scene", "-p", f"scene:={scene}", log_name="ik")
-    ik.wait_for("solve_ik ready")
-    params = Class2Params(L=1.3, k2=2.0)
-    d = forward_kinematics(0.8, 0.9, params)
-    out = run_cli("call-ik", f"{d.x!r}", f"{d.y!r}", "--json", "--ros-args", "-r", "__ns:=/ik_scene")
-    assert out.returncode == 0, out.stderr
-    sol = json.loads(out.stdout)["solutions"][0]
-    core = inverse_kinematics(d.x, d.y, params).valid[0]
-    assert (sol["rho1"], sol["rho2"]) == pytest.approx((core.rho1, core.rho2), abs=1e-12)
-    assert (sol["rho1"], sol["rho2"]) == pytest.approx((0.8, 0.9), abs=1e-9)

@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
-import pytest
+from pathlib import Path
 
+import pytest
+import yaml
+
+import tensegrity_core
 from tensegrity_core.general import StructureError
 from tensegrity_core.general.examples import example_path
 from tensegrity_core.schema import SchemaError, ShippedFiles
@@ -38,3 +42,28 @@ def test_each_format_names_an_unknown_shipped_file_in_its_own_words_and_error(pa
     assert str(err.value).startswith(words)
     with pytest.raises(error, match=r"… \(300 characters\)"):     # not the system's 'file name too long'
         path_of("x" * 300)
+
+
+def _numbers_read_as_text(value, where=""):
+    """Paths of the strings in a parsed document that mean a number (``'7.6e10'``)."""
+    if isinstance(value, dict):
+        return [p for k, v in value.items() for p in _numbers_read_as_text(v, f"{where}/{k}")]
+    if isinstance(value, list):
+        return [p for i, v in enumerate(value) for p in _numbers_read_as_text(v, f"{where}/{i}")]
+    if isinstance(value, str):
+        try:
+            float(value)
+        except ValueError:
+            return []
+        return [f"{where} = {value!r}"]
+    return []
+
+
+def test_a_plain_yaml_parser_reads_every_shipped_number_as_a_number():
+    # The project's reader takes 7.6e10 as the number it means; PyYAML's YAML 1.1 resolver reads
+    # it as text (its float pattern wants a '.' and a signed exponent), so a user's own script
+    # would see strings. Shipped files write numbers every YAML 1.1 reader takes (7.6e+10).
+    root = Path(tensegrity_core.__file__).parent
+    bad = [f"{path.relative_to(root)}: {p}" for path in sorted(root.rglob("*.yaml"))
+           for p in _numbers_read_as_text(yaml.safe_load(path.read_text()))]
+    assert not bad, "\n".join(bad)

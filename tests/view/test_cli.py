@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import http.client
+import signal
 import socket
 import subprocess
 
@@ -10,9 +11,12 @@ import pytest
 
 pytest.importorskip("viser")
 
+from websockets.exceptions import ConnectionClosed  # noqa: E402
+from websockets.sync.client import connect  # noqa: E402
+
 from tests.ros.test_loopback import sockets_of  # noqa: E402
 from tests.ros_support import TENSEGRITY  # noqa: E402
-from tests.view.support import MALFORMED, foreign_roll, start_view  # noqa: E402
+from tests.view.support import MALFORMED, PATIENCE, foreign_roll, handshake, start_view, subprotocol  # noqa: E402
 
 
 def _run(*args: str) -> subprocess.CompletedProcess:
@@ -54,6 +58,27 @@ def test_the_view_listens_on_loopback_only_and_serves_its_page_from_itself(cli):
     # the page names no address to load from: every src/href is relative or inline data
     assert "src=\"http" not in page and "href=\"http" not in page
     assert view.stop() == 0
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_a_stop_ends_every_connection_of_the_page_and_its_server(cli, sig):
+    """A browser's spare connection that has sent no request, a websocket client that
+    neither reads nor answers the close, and one that does: the stop ends them all and the
+    server's thread ends before the view exits (viser's one line). Left to ``websockets``,
+    either of the first two held the server for 10 s (its open and close timeouts), longer
+    than viser waits for it, and the view exited with the thread still running."""
+    view, url, port = start_view(cli, "--scene", "class2_at_rest")
+    spare = socket.create_connection(("127.0.0.1", port), timeout=PATIENCE)
+    stalled = handshake(port)                      # accepted after the spare one: both are the server's now
+    with connect(url.replace("http", "ws") + "/", subprotocols=[subprotocol()], open_timeout=PATIENCE) as page:
+        page.recv(timeout=PATIENCE)                # the page's first message: the server sends to it
+        assert view.stop(sig) == 0
+        with pytest.raises(ConnectionClosed):
+            page.recv(timeout=PATIENCE)
+    spare.close()
+    stalled.close()
+    assert view.popen.stdout.read() == "(viser) Server stopped\n"
+    assert "Traceback" not in view.stderr() and len(view.stderr().strip().splitlines()) == 1
 
 
 def test_another_host_is_warned_about_before_it_listens():

@@ -5,7 +5,6 @@ goes on serving others through all of it."""
 
 from __future__ import annotations
 
-import base64
 import http.client
 import logging
 import os
@@ -20,12 +19,9 @@ from websockets.exceptions import ConnectionClosed  # noqa: E402
 from websockets.sync.client import connect  # noqa: E402
 
 from tensegrity_ros.view.server import start_server  # noqa: E402
+from tests.view.support import PATIENCE, handshake, subprotocol  # noqa: E402
 
-#: The websocket subprotocol the page asks for (viser refuses another version's).
-SUBPROTOCOL = f"viser-v{__import__('viser').__version__}"
-
-#: Patience for one answer on a loaded machine [s] (an event ends every wait before it).
-PATIENCE = 60.0
+SUBPROTOCOL = subprotocol()
 
 
 class _Records(logging.Handler):
@@ -63,19 +59,6 @@ class Served:
         body = res.read()
         conn.close()
         return res.status, body
-
-    def handshake(self) -> socket.socket:
-        """A raw socket past the websocket handshake (the page's subprotocol)."""
-        s = socket.create_connection(("127.0.0.1", self.port), timeout=PATIENCE)
-        key = base64.b64encode(os.urandom(16))
-        s.sendall(b"GET / HTTP/1.1\r\nHost: 127.0.0.1:%d\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
-                  b"Sec-WebSocket-Key: %s\r\nSec-WebSocket-Version: 13\r\n"
-                  b"Sec-WebSocket-Protocol: %s\r\n\r\n" % (self.port, key, SUBPROTOCOL.encode()))
-        head = b""
-        while b"\r\n\r\n" not in head:
-            head += s.recv(1)
-        assert head.startswith(b"HTTP/1.1 101"), head
-        return s
 
     def stop(self) -> list[logging.LogRecord]:
         """Stop the server (its connections' handlers end first) and return its log."""
@@ -141,9 +124,15 @@ def test_the_log_line_quotes_a_request_bounded_and_escaped(served):
     assert len(line) < 250 and "\x1b" not in line and "\\x1b" in line
 
 
-def test_unknown_paths_are_404_and_query_strings_are_ignored(served):
-    assert served.get("/no/such/file.js")[0] == 404
-    assert served.get("/assets")[0] == 404                 # a folder is not a file
+def test_unknown_paths_are_404_with_one_line_saying_so_and_query_strings_are_ignored(served):
+    for path in ("/no/such/file.js?x=1", "/assets", "/..%2f\x1b[2J"):      # a folder is not a file
+        answer = served.raw(b"GET %s HTTP/1.1\r\nHost: 127.0.0.1:%d\r\n\r\n" % (path.encode(), served.port))
+        head, _, body = answer.partition(b"\r\n\r\n")
+        assert head.startswith(b"HTTP/1.1 404 Not Found\r\n"), answer
+        assert b"\r\nContent-Type: text/plain; charset=utf-8" in head
+        assert b"\r\nContent-Length: %d" % len(body) in head
+        assert body.startswith(b"tensegrity view: 404 Not Found: '/") and body.endswith(b"(it is at /)\n")
+        assert body.count(b"\n") == 1 and b"\x1b" not in body and b"x=1" not in body
     status, body = served.get("/?x=1&y=%ZZ&z")
     assert status == 200 and b'<div id="root">' in body
 
@@ -183,7 +172,7 @@ def test_a_websocket_client_sending_garbage_is_closed_alone(served, frame):
 
 
 def test_a_websocket_client_leaving_mid_frame_is_forgotten_quietly(served):
-    s = served.handshake()
+    s = handshake(served.port)
     s.sendall(b"\x82\xfe\x10\x00" + os.urandom(4) + b"part of 4096 bytes")   # masked, length 4096
     s.close()
     assert served.get("/")[0] == 200

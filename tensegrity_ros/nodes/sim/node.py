@@ -15,12 +15,11 @@ Publishes, stamped with simulation time (topics per model: :mod:`.outputs`):
 - class-2: ``mechanism_state`` (tensegrity_msgs/MechanismState) at ``state_rate``;
 - general and robots: ``cable_states`` (tensegrity_msgs/CableStates: every member) at
   ``state_rate``, ``body_states`` (tensegrity_msgs/RigidBodyStates; a robot's rods) and
-  ``/tf`` (tf2_msgs/TFMessage: world -> each body's frame) every publication;
+  ``/tf`` (tf2_msgs/TFMessage: world -> each body's frame, ``frame_prefix`` + its name) every publication;
 - robots: ``imu/<body>`` (sensor_msgs/Imu) at ``imu_rate``, ``contacts``
   (tensegrity_msgs/CapContacts) at ``state_rate``;
 - ``markers`` (visualization_msgs/MarkerArray): members coloured by force (red tension,
-  blue compression), nodes as spheres (robots: rods, cables, floor, contacts); at
-  ``marker_rate``;
+  blue compression), nodes as spheres (robots: rods, cables, floor, contacts); at ``marker_rate``;
 - ``events`` (tensegrity_msgs/SimulationEvent): what the integrator located, when it did;
 - ``/clock`` (rosgraph_msgs/Clock): simulation time, so other nodes can use_sim_time.
 

@@ -23,7 +23,8 @@ from tensegrity_core.sim.model import Interface
 from tensegrity_ros.nodes.actuator_commands import CommandError, ForceUpdate, parse_command
 from tensegrity_ros.nodes.sim.cable_commands import InputUpdate, every_input, listed, parse_cable_command
 from tensegrity_ros.nodes.sim.command_bytes import CableCommandBytes
-from tensegrity_ros.nodes.sim.sender import NS_PER_S, stamp_ns
+from tensegrity_ros.nodes.sim.sender import NS_PER_S
+from tensegrity_ros.rclpy_utils.messages import stamp_ns
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import array
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 from builtin_interfaces.msg import Time as TimeMsg
@@ -40,11 +39,6 @@ def time_msg(ns: int) -> TimeMsg:
     """A stamp of ``ns`` nanoseconds on the simulation clock (exact: no float in between)."""
     sec, nanosec = divmod(int(ns), NS_PER_S)
     return TimeMsg(sec=sec, nanosec=nanosec)
-
-
-def stamp_ns(stamp: Any) -> int:
-    """Integer nanoseconds of a ``builtin_interfaces/Time``."""
-    return int(stamp.sec) * NS_PER_S + int(stamp.nanosec)
 
 
 def header(ns: int, frame_id: str) -> Header:

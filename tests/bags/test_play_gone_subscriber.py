@@ -1,0 +1,61 @@
+"""The player's end with a subscriber killed during the replay: not waited for, named.
+
+A SIGKILLed subscriber's DDS reader stays matched until its participant's lease ends
+(Fast DDS: 20 s) and never acknowledges; the player used to wait its whole
+``--wait-for-all-acked``. Here that bound is 600 s, so only the player's finding that the
+subscriber's node no longer answers (``tensegrity_ros/bag/acks.py``) ends the wait with its
+one line; before the lease ends, nothing else could.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.process_groups import wait_group
+from tests.ros_support import probe, spawn
+
+pytestmark = pytest.mark.ros
+
+PEER = Path(__file__).resolve().parents[1] / "ros" / "peer_node.py"
+FOLD = Path(__file__).resolve().parents[2] / "bags" / "fold"
+PATIENCE = 120.0
+
+
+def test_a_subscriber_killed_during_the_replay_is_named_and_not_waited_for(cli):
+    from tensegrity_msgs.msg import ActuatorForces
+
+    namespace = f"/gone_{os.getpid()}"
+    peer = spawn([sys.executable, str(PEER), "--ros-args", "-r", f"__ns:={namespace}", "-r", "ping:=/actuator_forces"],
+                 stdout=subprocess.PIPE, text=True, env=dict(os.environ))
+    try:
+        assert peer.stdout.readline().strip() == "ready"
+        with probe("gone_watch", namespace=namespace) as watch:
+            echoed: list[ActuatorForces] = []
+            watch.node.create_subscription(ActuatorForces, "pong", echoed.append, 10)
+            # 400 messages over 2.1 s, played at 0.2x: the replay lasts 10 s, and the peer is killed
+            # at its first message
+            play = cli("play", str(FOLD), "--topics", "/actuator_forces", "--rate", "0.2",
+                       "--wait-for-subscribers", "60", "--wait-for-all-acked", "600", log_name="play")
+            while not echoed:
+                watch.executor.spin_once(timeout_sec=0.1)
+                assert peer.poll() is None and play.popen.poll() is None, play.stderr()
+        os.kill(peer.pid, signal.SIGKILL)
+        peer.wait(PATIENCE)
+        play.wait_for("played ", timeout=PATIENCE)
+        assert wait_group(play.popen, PATIENCE) == 0
+    finally:
+        if peer.poll() is None:
+            peer.kill()
+            peer.wait(PATIENCE)
+    lines = play.stderr().strip().splitlines()
+    warnings = [line for line in lines if line.startswith("warning:")]
+    assert len(warnings) == 1, lines
+    assert "/actuator_forces (subscribed by " + f"{namespace}/smoke_peer; none of them answers: not waited for)" \
+        in warnings[0]
+    assert lines[-1] == "played /actuator_forces 400" and "Traceback" not in play.stderr()
