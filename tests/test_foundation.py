@@ -18,7 +18,7 @@ def _site_without_ros(tmp_path: Path) -> Path:
     site_packages = Path(numpy.__file__).parents[1]
     site = tmp_path / "site"
     site.mkdir()
-    for name in ("numpy", "numpy.libs", "scipy", "scipy.libs", "yaml", "_yaml"):
+    for name in ("numpy", "numpy.libs", "scipy", "scipy.libs", "yaml", "_yaml", "threadpoolctl.py"):
         if (site_packages / name).exists():
             (site / name).symlink_to(site_packages / name)
     (site / "tensegrity_core").symlink_to(ROOT / "tensegrity_core")

@@ -22,7 +22,7 @@ readers acknowledge), :func:`report` turns what is left into one line.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any, Final
 
@@ -99,14 +99,14 @@ def _subscriber_nodes(node: Any, topic: str) -> tuple[str, ...]:
                          for i in node.get_subscriptions_info_by_topic(topic)}))
 
 
-def wait_for_acks(node: Any, publishers: Mapping[str, Any], timeout_s: float, *,
+def wait_for_acks(node: Any, publishers: Iterable[Any], timeout_s: float, *,
                   now: Callable[[], float] = time.monotonic,
                   sleep: Callable[[float], object] = time.sleep) -> list[Unacknowledged]:
-    """Wait until every subscriber of each of ``publishers`` (topic -> publisher of
-    ``node``, which another thread spins) has acknowledged everything published, at most
-    ``timeout_s`` seconds; the topics left (the module docstring)."""
+    """Wait until every subscriber of each of ``publishers`` (of ``node``, which another
+    thread spins) has acknowledged everything published, at most ``timeout_s`` seconds; the
+    topics left, by their names as remapped (the module docstring)."""
     began = now()
-    pending = dict(publishers)
+    pending = {publisher.topic_name: publisher for publisher in publishers}
     nodes: dict[str, tuple[str, ...]] = {}
     probes: dict[str, _Probe | None] = {}          # None: a node without parameter services
     gone: list[Unacknowledged] = []

@@ -184,9 +184,9 @@ class PlayerNode(Node):
         ``timeout_s`` s, a subscriber that is gone not waited for (:mod:`.acks`); the topics
         left. A writer that goes away first cannot resend what its readers missed: the
         last messages of a replay were lost that way under load. Another thread spins the node."""
-        pubs = dict(self.publishers_by_topic)
+        pubs = list(self.publishers_by_topic.values())
         if self.clock_publisher is not None:
-            pubs[CLOCK_TOPIC] = self.clock_publisher
+            pubs.append(self.clock_publisher)
         return wait_for_acks(self, pubs, timeout_s)
 
 

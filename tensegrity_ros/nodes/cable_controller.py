@@ -123,9 +123,10 @@ class CableControllerNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("tensegrity_cable_controller", **kwargs)
         guard_parameter_services(self)
-        self.scene_name, self.scene = declare_scene(self, class2_only=False)
+        self.scene_name, scene = declare_scene(self, class2_only=False)
+        self.scene = scene
         try:
-            self.interface = compile_scene(self.scene).interface
+            self.interface = compile_scene(scene).interface
         except TensegrityError as err:
             raise ParameterValueError(clip(f"{self.get_name()}: cannot compile scene {excerpt(self.scene_name)}: {err}")) \
                 from None
@@ -421,7 +422,8 @@ class CableControllerNode(Node):
             raise jt.TrajectoryError(f"the trajectory started at {t_start:.6f} s ended before the simulation's time "
                                      f"{now:.6f} s", code=jt.OLD_HEADER_TIMESTAMP)
         if t_start - now > jt.MAX_DURATION:
-            # as joint_trajectory_controller it waits, but says so: a wall clock's stamp is decades ahead
+            # as joint_trajectory_controller it waits; said, since a wall-clock stamp from a
+            # client without use_sim_time starts decades of simulation time ahead
             self.get_logger().warning(clip(
                 f"a goal starts at {t_start:.6f} s, {t_start - now:.3g} s after the simulation's time {now:.6f} s, "
                 "and waits until then: is its trajectory.header.stamp wall-clock time (a client without "
@@ -439,9 +441,8 @@ class CableControllerNode(Node):
                     raise jt.TrajectoryError(f"tolerance for unknown joint {excerpt(item.name)}; the joints are "
                                              f"{', '.join(self.joints)}", code=jt.INVALID_JOINTS)
                 bounds[trajectory.names.index(item.name)] = jt.tolerance(item.position, default)
-        # as joint_trajectory_controller: 0 the default, -1 (here any value < 0) no limit; a
-        # default of 0 is no limit too (its constraints.goal_time); a robot's default adds the
-        # time its motors need to arrive (jt.motors_settle_time)
+        # as joint_trajectory_controller: 0 the default, -1 (here any value < 0) no limit; a default of 0 is
+        # no limit too (its constraints.goal_time); a robot's default adds its motors' time to arrive
         settle = jt.motors_settle_time(self.scene, trajectory.names, min(goal)) if math.isfinite(min(goal)) else 0.0
         default_goal_time = self.goal_time_tolerance + settle if self.goal_time_tolerance else math.inf
         goal_time = jt.tolerance(stamp_ns(req.goal_time_tolerance) / NS_PER_S, default_goal_time)

@@ -134,8 +134,8 @@ class ControllerNode(Node):
         self.goal_time_tolerance = declare(self, "goal_time_tolerance", G.GOAL_TIME_TOLERANCE, "default time "
                                            "after a trajectory's last point to meet the goal tolerance [s]",
                                            lo=0.0, read_only=True)
-        self.max_speed = declare(self, "max_speed", 0.05, "peak speed of D of a move_end_effector goal that "
-                                 "gives neither a duration nor a max_speed (both 0) [m/s]", lo=1e-6, read_only=True)
+        self.max_speed = declare(self, "max_speed", 0.05, "peak speed limit of D of a move_end_effector goal "
+                                 "that gives neither a duration nor a max_speed (both 0) [m/s]", lo=1e-6, read_only=True)
         self.settle_timeout = declare(self, "settle_timeout", 5.0, "time after a move's end to come within "
                                       "its goal tolerance [s]", lo=0.0, read_only=True)
         self.settle_window = declare(self, "settle_window", 0.2, "how long D must stay within the goal "

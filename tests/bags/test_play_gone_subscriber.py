@@ -30,8 +30,9 @@ PATIENCE = 120.0
 def test_a_subscriber_killed_during_the_replay_is_named_and_not_waited_for(cli):
     from tensegrity_msgs.msg import ActuatorForces
 
-    namespace = f"/gone_{os.getpid()}"
-    peer = spawn([sys.executable, str(PEER), "--ros-args", "-r", f"__ns:={namespace}", "-r", "ping:=/actuator_forces"],
+    namespace = f"/gone_{os.getpid()}"          # the peer's and the replayed topic's: no other test's subscriber counts
+    topic = f"{namespace}/actuator_forces"
+    peer = spawn([sys.executable, str(PEER), "--ros-args", "-r", f"__ns:={namespace}", "-r", f"ping:={topic}"],
                  stdout=subprocess.PIPE, text=True, env=dict(os.environ))
     try:
         assert peer.stdout.readline().strip() == "ready"
@@ -41,7 +42,8 @@ def test_a_subscriber_killed_during_the_replay_is_named_and_not_waited_for(cli):
             # 400 messages over 2.1 s, played at 0.2x: the replay lasts 10 s, and the peer is killed
             # at its first message
             play = cli("play", str(FOLD), "--topics", "/actuator_forces", "--rate", "0.2",
-                       "--wait-for-subscribers", "60", "--wait-for-all-acked", "600", log_name="play")
+                       "--wait-for-subscribers", "60", "--wait-for-all-acked", "600",
+                       "--ros-args", "-r", f"/actuator_forces:={topic}", log_name="play")
             while not echoed:
                 watch.executor.spin_once(timeout_sec=0.1)
                 assert peer.poll() is None and play.popen.poll() is None, play.stderr()
@@ -56,6 +58,5 @@ def test_a_subscriber_killed_during_the_replay_is_named_and_not_waited_for(cli):
     lines = play.stderr().strip().splitlines()
     warnings = [line for line in lines if line.startswith("warning:")]
     assert len(warnings) == 1, lines
-    assert "/actuator_forces (subscribed by " + f"{namespace}/smoke_peer; none of them answers: not waited for)" \
-        in warnings[0]
+    assert f"{topic} (subscribed by {namespace}/smoke_peer; none of them answers: not waited for)" in warnings[0]
     assert lines[-1] == "played /actuator_forces 400" and "Traceback" not in play.stderr()

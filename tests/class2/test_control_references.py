@@ -104,6 +104,25 @@ def test_move_duration_from_a_speed_limit_keeps_the_peak_speed():
     assert math.isclose(both.duration, 10.0, rel_tol=1e-3)
 
 
+def test_a_speed_limit_alone_goes_slower_when_its_speed_needs_more_than_the_force_budget():
+    """A speed limit is a limit: a 1 cm move at 0.05 m/s would last 630/256 * 0.01 / 0.05 =
+    0.49 s and need tens of N of feedforward (the rest-to-rest acceleration grows as speed^2 /
+    distance), so with only the limit the move takes the shortest duration within the 4 N
+    budget instead of being refused, while the same duration given as a duration is refused."""
+    target = (D0.x + 0.01, D0.y)
+    at_limit = PEAK_SPEED_FACTOR * 0.01 / 0.05
+    with pytest.raises(PlanningError, match="over the budget of 4 N"):
+        plan_move(REST, target, P, duration=at_limit, force_budget=4.0)
+    ref = plan_move(REST, target, P, max_speed=0.05, force_budget=4.0)
+    assert np.max(np.abs(ref.force)) <= 4.0
+    assert ref.duration > 1.5 * at_limit
+    speed = np.hypot(*_derivative(ref.end_effector, ref.times).T)
+    assert speed.max() < 0.05
+    assert np.allclose(ref.end_effector[-1], target, atol=1e-9)
+    with pytest.raises(PlanningError, match="over the budget"):      # and it is the shortest (to 5 %)
+        plan_move(REST, target, P, duration=0.95 * ref.duration, force_budget=4.0)
+
+
 @pytest.mark.parametrize("start, target, kw, code, words", [
     ((0.7, 0.7), (3.0, 0.5), dict(duration=2), OUTSIDE_WORKSPACE, "not reachable"),
     ((0.7, 0.7), (0.2, 0.1), dict(duration=2), OUTSIDE_WORKSPACE, "not reachable"),

@@ -441,6 +441,23 @@ def test_a_move_with_neither_duration_nor_speed_takes_the_controllers_max_speed(
     assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
 
 
+def test_a_short_move_without_a_duration_goes_slower_than_the_speed_limit_within_the_force_budget(suite):
+    """`tensegrity move X Y` with neither duration nor speed, 1 cm away: at the controller's
+    max_speed (0.05 m/s) the move would last 630/256 * 0.01 / 0.05 = 0.49 s and need tens of N
+    of feedforward (acceleration ~ speed^2 / distance), over the 4 N budget (max_force 5 N x
+    force_budget 0.8). A speed limit is a limit, so the move goes slower and succeeds."""
+    client, _ = suite
+    x0, y0, _ = client.end_effector()
+    status, res, feedback = client.run(client.move, client.Move.Goal(x=x0 + 0.01, y=y0))
+    assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
+    assert status == 4 and res.settled_error < 1e-4 and 0 < res.max_force <= 5.0
+    client.spin_until(lambda: _settling(feedback))
+    moving = [f.time_from_start for f in feedback if f.phase == "moving"]
+    assert moving[-1] > 1.5 * 630 / 256 * 0.01 / 0.05      # stretched, not the limit's 0.49 s
+    _, res, _ = client.run(client.move, client.Move.Goal(x=x0, y=y0, duration=2.0))   # back, for the next tests
+    assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
+
+
 def test_follow_reaches_the_last_point_with_desired_actual_error_feedback(suite):
     client, _ = suite
     _, _, js = client.end_effector()

@@ -6,13 +6,16 @@
 2. D moves from where it is to the target along a straight line with the rest-to-rest
    scaling of :mod:`~tensegrity_core.class2.control.paths`; its duration is the given one,
    or the one that keeps D's peak speed at ``max_speed`` (the longer when both are given);
+   ``max_speed`` alone is a limit, not a demand: a move whose feedforward at that speed
+   would exceed ``force_budget`` takes the shortest duration within it instead (step 4);
 3. IK along the line at least every ``ik_spacing`` metres, each solve seeded with the
    previous solution (:func:`~tensegrity_core.class2.nearest_solution`, branch continuity):
    a sample outside the workspace, a jump of branch, or one nearer than
    ``singular_margin`` (actuator plane, relative to L) to a singular set refuses the move
    with the place and the set;
 4. the dynamically consistent reference (:mod:`~tensegrity_core.class2.control.flat`),
-   whose feedforward must stay within ``force_budget`` [N].
+   whose feedforward must stay within ``force_budget`` [N]: a given duration over it is
+   refused, naming the shortest duration that fits.
 """
 
 from __future__ import annotations
@@ -127,17 +130,19 @@ def plan_move(q_start: Sequence[float] | NDArray[np.float64], target: Sequence[f
         return _hold_for(goal.rho1, goal.rho2, T, params, (x, y))
     return plan_path(LinePath(start, (x, y), T), q0, params, force_budget=force_budget,
                      singular_margin=singular_margin, step=step, target=(x, y),
-                     retimed=lambda duration: LinePath(start, (x, y), duration))
+                     retimed=lambda duration: LinePath(start, (x, y), duration), stretch=duration is None)
 
 
 def plan_path(path: MeasuredPath, q_start: Sequence[float] | NDArray[np.float64], params: Class2Params, *,
               force_budget: float = math.inf, singular_margin: float = SINGULAR_MARGIN, step: float = 0.002,
               target: tuple[float, float] | None = None,
-              retimed: Callable[[float], MeasuredPath] | None = None) -> Reference:
+              retimed: Callable[[float], MeasuredPath] | None = None, stretch: bool = False) -> Reference:
     """The reference for D along ``path`` (a :class:`LinePath`, :class:`CirclePath`, ...)
     starting where ``q_start`` puts D: IK along it (steps 3-4 of the module docstring).
     ``retimed(duration)`` (the same path in another duration), when given, lets a refusal for
-    the force budget say the shortest duration within it (:func:`shortest_duration`)."""
+    the force budget say the shortest duration within it (:func:`shortest_duration`), or,
+    with ``stretch`` (the path's duration came from a speed limit, not from the caller), be
+    replaced by the reference over that duration."""
     sigma, rho = check_path_ik(path, q_start[:2], params, singular_margin=singular_margin)
 
     def reference(p: MeasuredPath) -> Reference:
@@ -159,6 +164,10 @@ def plan_path(path: MeasuredPath, q_start: Sequence[float] | NDArray[np.float64]
                 return False
 
         enough = shortest_duration(fits, path.duration)
+        if stretch and enough is not None:
+            slower = reference(retimed(enough))
+            if float(np.max(np.abs(slower.force))) <= force_budget:
+                return slower
         advice = (f"allow more time: a duration of at least {enough:.3g} s (a peak speed of D of at most "
                   f"{_round_down(peak_speed(retimed(enough))):.3g} m/s) keeps it within the budget"
                   if enough is not None else
