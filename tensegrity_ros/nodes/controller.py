@@ -65,7 +65,7 @@ from tensegrity_core.class2.control import goals as G
 from tensegrity_core.class2.control.errors import INVALID_JOINTS
 from tensegrity_core.class2.control.law import ScheduledGains, Tick
 from tensegrity_core.class2.control.reference import Reference
-from tensegrity_core.class2.control.trajectory import actuator_reference
+from tensegrity_core.class2.control.trajectory import MAX_DURATION, actuator_reference
 from tensegrity_core.class2.names import ACTUATED_JOINTS, ACTUATORS
 from tensegrity_core.class2.params import Class2Params
 from tensegrity_core.errors import TensegrityError
@@ -83,6 +83,7 @@ from tensegrity_ros.nodes.controller_messages import (
     JointSample,
     OldStampError,
     command_key,
+    far_start_warning,
     feedback,
     given,
     parse_joint_state,
@@ -335,6 +336,8 @@ class ControllerNode(Node):
             if any(len(p.effort) for p in traj.points):
                 raise PlanningError("points with effort are not accepted: the controller computes the forces")
             start = stamp_start(traj.header.stamp, now)
+            if (far := far_start_warning(start, now, MAX_DURATION)) is not None:
+                self.get_logger().warning(far)
             path = self._joint_tolerances(req.path_tolerance, self.path_tolerance)
             goal_tol = self._joint_tolerances(req.goal_tolerance, self.goal_tolerance)
             # control_msgs' reading, as for tolerances: 0 the default, < 0 (its -1) no limit

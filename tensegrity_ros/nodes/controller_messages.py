@@ -2,7 +2,8 @@
 
 - the result codes of the two actions for the core's goal outcomes and planning errors;
 - a joint state to ``(t [s], q, qdot)`` (rho1, rho2 [m], beta [rad] and their rates), a
-  trajectory's start stamp to a time [s], seconds to a ``builtin_interfaces/Duration``;
+  trajectory's start stamp to a time [s] (and the warning for one far ahead), seconds to a
+  ``builtin_interfaces/Duration``;
 - what tells two actuator commands apart;
 - the feedback of a goal: at its takeover and at every tick.
 """
@@ -66,6 +67,18 @@ def stamp_start(stamp: Any, now: float) -> float | None:
         raise OldStampError(f"header.stamp {t:.6f} s is before the controller's current time {now:.6f} s "
                         "(zero starts the trajectory at once)")
     return t
+
+
+def far_start_warning(start: float | None, now: float, horizon: float) -> str | None:
+    """What to say of a trajectory that starts more than ``horizon`` seconds of simulation
+    time after ``now`` (it waits for its stamp, as joint_trajectory_controller's goals do):
+    such a stamp is most likely wall-clock time from a client without use_sim_time. None
+    for a start within the horizon or at once."""
+    if start is None or start - now <= horizon:
+        return None
+    return (f"a trajectory starts at {start:.6f} s, {start - now:.3g} s after the simulation's time {now:.6f} s, "
+            "and waits until then: is its trajectory.header.stamp wall-clock time (a client without "
+            "use_sim_time)? A zero stamp starts it at once")
 
 
 def parse_joint_state(msg: JointState) -> JointSample | None:

@@ -579,6 +579,27 @@ def test_a_goal_time_tolerance_of_minus_one_waits_for_the_goal_tolerance(suite):
     assert res.error_code == client.Follow.Result.SUCCESSFUL, res.error_string
 
 
+def test_a_trajectory_stamped_on_the_wall_clock_is_said_in_the_log(suite):
+    """A client without use_sim_time stamps its trajectory with the wall clock (1.8e9 s): as
+    control_msgs' controllers, the goal waits for that simulation time, and the controller
+    says so once with the likely cause instead of waiting silently; a cancel ends it."""
+    import rclpy.clock
+
+    client, ctl = suite
+    since = len(ctl.stderr())
+    _, _, js = client.end_effector()
+    traj = _traj(points=((1.0, (js.position[0], js.position[1])),))
+    traj.header.stamp = rclpy.clock.Clock(clock_type=rclpy.clock.ClockType.SYSTEM_TIME).now().to_msg()
+    handle, _ = client.send(client.follow, client.Follow.Goal(trajectory=traj))
+    ctl.wait_for("wall-clock time (a client without use_sim_time)", since=since)
+    result = handle.get_result_async()
+    assert not result.done()
+    cancel = handle.cancel_goal_async()
+    client.spin_until(cancel.done)
+    status, res = client.result(handle)
+    assert status == 5 and res.error_code == client.Follow.Result.CANCELED, res.error_string
+
+
 def test_cancel_holds_where_the_reference_was(suite):
     client, _ = suite
     x0, y0, _ = client.end_effector()
