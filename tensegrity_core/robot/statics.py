@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-import numpy as np
 from numpy.typing import ArrayLike
 
 from tensegrity_core.errors import ConvergenceError
@@ -28,13 +27,7 @@ def rest_shape(robot: Robot, rest_lengths: ArrayLike | None = None, *, gravity: 
     Its forces [N], energy [J] and stiffness [N/m] are in SI units; its ``structure``,
     ``configuration`` and ``history`` are the statics' (forces in :meth:`Robot.force_unit`
     newtons)."""
-    try:
-        result = form_find(robot.structure(rest_lengths, gravity=gravity))
-    except np.linalg.LinAlgError:                 # a stiffness matrix no shift makes definite in double precision
-        k = robot.cables.stiffness
-        raise ConvergenceError(f"robot {robot.name!r} has no rest shape the statics can resolve: its cables' "
-                               f"stiffness spans {k.min():.3g} to {k.max():.3g} N/m, beyond double precision "
-                               f"beside its rods") from None
+    result = form_find(robot.structure(rest_lengths, gravity=gravity))
     if not result.success:
         raise ConvergenceError(f"robot {robot.name!r} has no stable rest shape for these rest lengths: "
                                f"{STATUS_MESSAGES[result.status]}")

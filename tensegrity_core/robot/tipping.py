@@ -174,10 +174,7 @@ class _Supported:
             start[i, 2] = self.radius_of[i]
         s = self.robot.structure(rest_lengths, nodes=start, pinned=pinned, gravity=False)
         s = s.replace(gravity=self.gravity / self.robot.force_unit(rest_lengths))
-        try:
-            result = form_find(s)
-        except np.linalg.LinAlgError:             # stiffnesses beyond double precision: no equilibrium found
-            return None
+        result = form_find(s)
         if not (result.success and result.stable):
             return None
         X = result.nodes
