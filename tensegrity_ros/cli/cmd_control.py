@@ -23,12 +23,13 @@ ORDER = 55
 def register(sub: Subparsers) -> None:
     p = sub.add_parser("move", help="move the end-effector D to (X, Y) [m] through the controller",
                        description="Send a MoveEndEffector goal: D moves along a straight line to (X, Y), "
-                       "rest to rest, in --duration seconds or at a peak speed of --speed m/s.")
+                       "rest to rest, in --duration seconds or at a peak speed of at most --speed m/s.")
     p.add_argument("x", type=float, help="target x of D [m]")
     p.add_argument("y", type=float, help="target y of D [m]")
     p.add_argument("--duration", type=float, default=0.0, help="duration of the move [s] (0: not given)")
-    p.add_argument("--speed", type=float, default=0.0, help="peak speed of D [m/s] (0: not given; with "
-                   "neither, the controller's max_speed parameter, 0.05 m/s by default)")
+    p.add_argument("--speed", type=float, default=0.0, help="limit on the peak speed of D [m/s]; slower "
+                   "when the force budget needs it (0: not given; with neither, the controller's max_speed "
+                   "parameter, 0.05 m/s by default)")
     p.add_argument("--tolerance", type=float, default=0.0, help="goal tolerance of D [m] (0: the controller's)")
     p.add_argument("--action", default="move_end_effector")
     p.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for the controller")
