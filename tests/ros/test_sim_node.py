@@ -204,6 +204,34 @@ def test_bad_commands_are_rejected_and_publishing_goes_on(sim_node):
     assert all(tuple(m.effort[:2]) == pytest.approx((-0.35, 0.35)) for m in ros.joints)
 
 
+def test_refusal_warnings_are_throttled_per_reason(sim_node):
+    """A different refusal right after a shown one reaches the log at once (each reason has a
+    throttle of its own); a stream of one reason shows at most once a second. The stream's
+    commands go out one per joint state received (so the node takes most of them: its command
+    queue keeps the latest); a third reason after it (one topic, taken in order) marks its end
+    and carries the count of refusals, which the throttle must have held below."""
+    proc, ros = sim_node()
+    start, t0 = len(proc.stderr()), time.monotonic()
+    while "not finite" not in proc.stderr()[start:]:       # resent: the queue keeps only the latest
+        n = len(ros.joints)
+        ros.send((float("nan"), 0.0))
+        ros.spin_until(lambda n=n: len(ros.joints) > n)
+    ros.send((1.0,), ("f9",))                               # within a second of that warning
+    ros.spin_until(lambda: "unknown actuator name 'f9'" in proc.stderr()[start:])
+    for _ in range(200):
+        n = len(ros.joints)
+        ros.send((float("nan"), 0.0))
+        ros.spin_until(lambda n=n: len(ros.joints) > n)
+    ros.send((1.0, 2.0, 3.0), ("f1", "f2"))
+    ros.spin_until(lambda: "2 names but 3 forces" in proc.stderr()[start:])
+    window = time.monotonic() - t0
+    log = [line for line in proc.stderr()[start:].splitlines() if "rejected actuator command" in line]
+    shown = sum("not finite" in line for line in log)
+    assert 1 <= shown <= math.floor(window) + 1, (shown, window)
+    rejected = int(re.search(r"\((\d+) rejected so far\)", log[-1]).group(1))
+    assert rejected - 2 > shown, (rejected, shown)        # the stream's refusals held back
+
+
 def test_a_huge_actuator_name_gives_a_short_warning(sim_node):
     """A 64 KiB actuator name (issue 12) is rejected with a warning that quotes an excerpt:
     every log line stays short."""

@@ -44,9 +44,9 @@ simulator and the clock, and the sender (:mod:`.sender`) turns samples into mess
 
 Bad commands (wrong lengths, unknown names, NaN/inf, over ``max_force`` or outside a rest
 length's range, a command of the other kind, stamped for another step in lockstep) are
-rejected with a throttled warning naming the problem (in lockstep, the command the last
-step ran under arriving again is a duplicate, dropped silently: a controller answers a
-republished state again); publishing never stops and NaN is never integrated.
+rejected with a warning naming the problem, throttled per reason (:mod:`..refusals`). In
+lockstep, the command the last step ran under arriving again is a duplicate, dropped
+silently (a controller answers a republished state); publishing never stops and NaN is never integrated.
 Free-running, after ``command_timeout`` seconds of play without a valid command the forces
 drop to ``safe_force`` (rest lengths are held). When ``lambda1/L`` or ``lambda2/L`` falls
 below ``singularity_warning`` a throttled warning says which set is near and how near.
@@ -72,6 +72,7 @@ from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_ros.nodes.actuator_commands import CommandError
 from tensegrity_ros.nodes.common import ParameterValueError, rclpy, spin_node
+from tensegrity_ros.nodes.refusals import ReasonThrottle, reason_of
 from tensegrity_ros.nodes.scene_param import declare_scene
 from tensegrity_ros.nodes.sim import control, sender
 from tensegrity_ros.nodes.sim.command_bytes import CableCommandBytes
@@ -141,7 +142,7 @@ class SimNode(SimulationInterfaces):
         self._inbox.subscribe(CableCommand, "cable_commands", self.on_cables, 100, raw=True)
         self._create_interfaces()
 
-        self.rejected = 0
+        self.rejected, self._refusals = 0, ReasonThrottle(1.0)   # warnings: each reason at most once a second
         self.lockstep_timeouts = 0
         self.published = dict.fromkeys((*self.outputs.topics, "events", "/clock"), 0)
         self._lock = threading.Lock()        # plant, run state and publishing: loop thread vs. callbacks
@@ -399,8 +400,8 @@ class SimNode(SimulationInterfaces):
                     self.get_logger().info("commands resumed")
         except CommandError as err:
             self.rejected += 1
-            self.get_logger().warning(clip(f"rejected {what} command: {err} ({self.rejected} rejected so far)"),
-                                      throttle_duration_sec=1.0)
+            if self._refusals.admit((what, reason_of(err)), time.monotonic()):
+                self.get_logger().warning(clip(f"rejected {what} command: {err} ({self.rejected} rejected so far)"))
 
     def _effective_command(self, now: float) -> list[float]:
         command, timed_out = self.hold.effective(now)
