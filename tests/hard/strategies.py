@@ -70,10 +70,19 @@ def drawn_structures(draw, bodies: bool = True) -> dict:
     21 decades between members); rest lengths 0.5-1.5 of the drawn lengths (prestress
     either sign); 0-3 nodes pinned, or single axes; point masses 1e-3 .. 1e3 kg and
     gravity, dead loads; optionally a rigid triangle with a mass. Returned as keyword
-    arguments so a refusal by the structure itself is seen by the test."""
+    arguments so a refusal by the structure itself is seen by the test.
+
+    Two draws in three are *held* (``held`` in the name), in any geometry, so form-finding
+    has an answer to check: three nodes pinned, every other node on members to three
+    earlier nodes, EA over at most six decades, every rest length 0.1-0.5 of the drawn
+    length, weights and loads at most 1 % of the weakest EA [N]. All members pull, so the
+    potential is convex (``(l - l0)^2`` of a convex ``l >= l0``) and bounded below; a node
+    stays on taut members where its anchors are further apart than the sum of its members'
+    rest lengths, and a taut member stiffens it across (``t / l``), flat or straight too."""
     seed = draw(st.integers(0, 2**32 - 1))
     geometry = draw(st.sampled_from(("general", "general") + GEOMETRIES))
     rng = np.random.default_rng(seed)
+    held = draw(st.sampled_from((True, True, False)))
     n = draw(st.integers(4, 9))
     nodes = rng.uniform(-1.0, 1.0, (n, 3))
     if "coplanar" in geometry:
@@ -85,7 +94,9 @@ def drawn_structures(draw, bodies: bool = True) -> dict:
     nodes *= 10.0 ** draw(st.floats(-3.0, 3.0))
     m = draw(st.integers(n - 1, 3 * n))
     pairs = [(0, 1)] if geometry in ("clustered", "coincident") else []
-    pairs += [(int(rng.integers(0, i)), i) for i in range(1, n)]      # every node on a member: a tree
+    for i in range(1, n):                                      # every node on a member: a tree
+        ends = rng.choice(i, min(i, 3) if held and i >= 3 else 1, replace=False)
+        pairs += [(int(a), i) for a in ends]
     while len(pairs) < m:
         a, b = rng.choice(n, 2, replace=False).tolist()
         pairs.append((int(a), int(b)))
@@ -94,11 +105,11 @@ def drawn_structures(draw, bodies: bool = True) -> dict:
         pairs.append((b, a) if rng.random() < 0.5 else (a, b))
     members = np.array(pairs)
     lo = draw(st.floats(-6.0, 15.0))
-    hi = draw(st.floats(lo, 15.0))
+    hi = draw(st.floats(lo, min(lo + 2.0, 15.0) if held else 15.0))
     EA = 10.0 ** rng.uniform(lo, hi, len(members))
     kinds = ["bar" if k else "string" for k in rng.random(len(members)) < 0.3]
     pinned = np.zeros((n, 3), dtype=bool)
-    pinned[:draw(st.sampled_from((3, 3, 2, 1, 0)))] = True     # mostly supported: no equilibrium is one answer
+    pinned[:3 if held else draw(st.sampled_from((3, 3, 2, 1, 0)))] = True   # mostly supported
     if draw(st.booleans()):
         pinned[int(rng.integers(n)), int(rng.integers(3))] = True
     body = ()
@@ -109,7 +120,14 @@ def drawn_structures(draw, bodies: bool = True) -> dict:
         members, EA, kinds = members[~inside], EA[~inside], [k for k, q in zip(kinds, inside) if not q]
     masses = np.where(rng.random(n) < 0.5, 10.0 ** rng.uniform(-3, 3, n), 0.0)
     loads = rng.normal(0.0, 1.0, (n, 3)) * (rng.random((n, 1)) < 0.3) * 10.0 ** draw(st.floats(-3.0, 6.0))
-    return dict(nodes=nodes, members=members, EA=EA, rest_length_ratio=rng.uniform(0.5, 1.5, len(members)),
+    ratio = rng.uniform(0.1 if held else 0.5, 0.5 if held else 1.5, len(members))
+    if held:                                                   # weights [N] and loads within 1 % of EA
+        cap = 1e-2 * EA.min()
+        masses *= min(1.0, cap / (9.81 * 1e3))
+        loads *= cap / max(np.abs(loads).max(), cap)
+        if body:
+            body = (RigidBody("tri", body[0].nodes, mass=body[0].mass * min(1.0, cap / (9.81 * 1e3))),)
+    return dict(nodes=nodes, members=members, EA=EA, rest_length_ratio=ratio,
                 kinds=kinds, pinned=pinned, bodies=body, loads=loads, node_masses=masses,
                 gravity=[0.0, 0.0, -9.81] if draw(st.booleans()) else [0.0, 0.0, 0.0],
-                name=f"drawn {geometry} structure (seed {seed})")
+                name=f"drawn {geometry} structure{' held' if held else ''} (seed {seed})")
