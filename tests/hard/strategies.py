@@ -74,7 +74,7 @@ def drawn_structures(draw, bodies: bool = True) -> dict:
 
     Two draws in three are *held* (``held`` in the name), in any geometry, so form-finding
     has an answer to check: three nodes pinned, every other node on members to three
-    earlier nodes, EA over at most six decades, every rest length 0.1-0.5 of the drawn
+    earlier nodes, EA over at most two decades, every rest length 0.1-0.5 of the drawn
     length, weights and loads at most 1 % of the weakest EA [N]. All members pull, so the
     potential is convex (``(l - l0)^2`` of a convex ``l >= l0``) and bounded below; a node
     stays on taut members where its anchors are further apart than the sum of its members'
