@@ -37,9 +37,8 @@ are the scene's actuated cables that take commands; their positions are rest len
   is what the simulator holds: the latest rest length commanded on ``cable_commands``, by this
   controller or by anyone else (a command the simulator refuses changes nothing: the same
   check, :func:`~tensegrity_ros.nodes.sim.cable_commands.parse_cable_command`), in the order
-  they arrive, else the rest length the controller became active on. A lockstep simulator
-  runs a step under the last command stamped for it: this controller's answer to a step,
-  coming after another's command for that step, replaces it, which the reference does not see.
+  they arrive, else the rest length the controller became active on (a lockstep simulator
+  merges the commands for one step in the same order: :mod:`~tensegrity_ros.nodes.sim.lockstep`).
 - Topic: a ``trajectory_msgs/JointTrajectory`` on ``~/joint_trajectory``
   (joint_trajectory_controller's topic interface) is a goal without an action: the default
   tolerances, no feedback and no result (a refusal or a violated tolerance is logged); it

@@ -98,3 +98,79 @@ def test_the_reference_of_a_joint_no_goal_moves_is_the_rest_length_another_comma
             assert list(state.feedback.positions) == [0.85, 0.9, 0.9]
     finally:
         client.node.destroy_publisher(pub)
+
+
+class Answers:
+    """The idle controller's answers on ``cable_commands`` (empty commands), counted by stamp [ns]."""
+
+    def __init__(self) -> None:
+        self.count: dict[int, int] = {}
+        self.changed = threading.Condition()
+
+    def add(self, msg) -> None:
+        if msg.name or msg.rest_length:
+            return                                    # not the controller's idle answer
+        with self.changed:
+            stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+            self.count[stamp] = self.count.get(stamp, 0) + 1
+            self.changed.notify_all()
+
+    def more(self, stamp_ns: int, than: int, timeout: float = 60.0) -> None:
+        with self.changed:
+            assert self.changed.wait_for(lambda: self.count.get(stamp_ns, 0) > than, timeout), \
+                f"the controller answered the state at {stamp_ns} ns no more than {than} times"
+
+
+@pytest.fixture
+def lockstep_rig(tmp_path):
+    from control_msgs.msg import JointTrajectoryControllerState
+    from rclpy.qos import QoSProfile
+    from tensegrity_msgs.msg import CableCommand
+
+    states, answers = States(), Answers()
+
+    def subscribe(client) -> None:
+        client.node.create_subscription(JointTrajectoryControllerState, "/tensegrity_cable_controller/controller_state",
+                                        states.add, QoSProfile(depth=100))
+        client.node.create_subscription(CableCommand, "cable_commands", answers.add, QoSProfile(depth=100))
+
+    with cable_rig(tmp_path, "table_actuated", (f"step_size:={STEP_NS / 1e9}", "lockstep:=true",
+                                                "paused_publish_rate:=20.0", "lockstep_timeout:=30.0"),
+                   "lockstep_reference_client", before=subscribe) as (client, _action, _sim, _ctl, _log):
+        yield client, states, answers
+
+
+def test_in_lockstep_a_clients_rest_length_survives_the_controllers_empty_answer_to_the_same_step(lockstep_rig):
+    """The paused simulator waits at t0 and republishes its state; the idle controller answers
+    each with an empty command stamped t0. The test commands ``long1`` for t0, waits until the
+    controller has read it (its reference shows it) and has answered t0 twice more, then steps
+    once: the step runs under the client's rest length, not under the controller's later
+    empty answer, and the reference equals it."""
+    from tensegrity_msgs.msg import CableCommand
+
+    from tensegrity_ros.rclpy_utils.matching import wait_for_matches
+
+    client, states, answers = lockstep_rig
+    client.take_joints()
+    t0 = client.wait_joint().stamp_ns                   # the state the simulator waits at (republished)
+    assert list(states.at(t0).reference.positions) == [0.9, 0.9, 0.9]
+    pub = client.node.create_publisher(CableCommand, "cable_commands", 10)
+    try:
+        assert wait_for_matches([pub], 2, 60)                     # the simulator and the controller
+        command = CableCommand(name=["long1"], rest_length=[0.85])
+        command.header.stamp.sec, command.header.stamp.nanosec = divmod(t0, 10**9)
+        pub.publish(command)
+        with states.changed:                                       # the controller read it
+            assert states.changed.wait_for(lambda: states.by_stamp[t0].reference.positions[0] == 0.85, 60), \
+                "the controller's reference never showed the client's command"
+        with answers.changed:
+            seen = answers.count.get(t0, 0)
+        answers.more(t0, seen + 1)                                 # answered t0 twice since: after the command
+        client.step(1)
+        client.wait_joint(t0 + STEP_NS)
+        state = states.at(t0 + STEP_NS)
+        assert list(state.feedback.positions) == [0.85, 0.9, 0.9]   # the step ran under the client's command
+        assert list(state.reference.positions) == [0.85, 0.9, 0.9]
+        assert list(state.error.positions) == [0.0, 0.0, 0.0]
+    finally:
+        client.node.destroy_publisher(pub)

@@ -97,43 +97,6 @@ def test_paced_states_are_due_on_the_schedule_never_earlier_and_a_late_controlle
     assert LockstepPacer(0.0, 0.01).due(0.0, 1) is None and not LockstepPacer(0.0, 0.01).paced
 
 
-# -- the lockstep gate -------------------------------------------------------------------------------
-def test_the_gate_keeps_the_command_of_the_waited_step_drops_a_repeat_and_refuses_other_stamps():
-    from tensegrity_ros.nodes.actuator_commands import CommandError, ForceUpdate
-    from tensegrity_ros.nodes.sim.lockstep import LockstepGate
-    from tensegrity_ros.nodes.sim.receiver import Command
-
-    gate = LockstepGate()
-    a = Command(ForceUpdate((0, 1), (0.5, 0.5)), 0)
-    assert gate.take() is None
-    assert gate.offer(a, 0, 0) and gate.take() == a and gate.pending is None
-    assert gate.offer(a, 10, 1) is False                      # the last step's answer again: dropped
-    with pytest.raises(CommandError, match="stamped 0.000000000 s, but the simulator waits at step 1"):
-        gate.offer(Command(ForceUpdate((0,), (0.7,)), 0), 10, 1)
-    b = Command(ForceUpdate((0,), (0.7,)), 10)
-    assert gate.offer(b, 10, 1) and gate.pending == b
-    gate.reset(state_changed=False)                           # the very state again: b still answers it
-    assert gate.pending == b and gate.applied is None
-    gate.reset(state_changed=True)
-    assert gate.pending is None
-
-
-def test_the_gate_keeps_the_last_command_for_the_waited_step_and_a_refused_one_changes_nothing():
-    from tensegrity_ros.nodes.actuator_commands import CommandError, ForceUpdate
-    from tensegrity_ros.nodes.sim.lockstep import LockstepGate
-    from tensegrity_ros.nodes.sim.receiver import Command
-
-    gate = LockstepGate()
-    first, second = Command(ForceUpdate((0, 1), (0.5, 0.5)), 20), Command(ForceUpdate((1,), (0.25,)), 20)
-    assert gate.offer(first, 20, 2) and gate.offer(second, 20, 2)      # same stamp: the later one replaces it
-    with pytest.raises(CommandError, match="waits at step 2"):
-        gate.offer(Command(ForceUpdate((0,), (9.0,)), 30), 20, 2)       # stamped for a later step
-    assert gate.pending == second and gate.applied is None               # the refusal changed nothing
-    assert gate.take() == second and gate.take() is None                 # taken once
-    assert gate.applied == second
-    assert gate.offer(second, 20, 2)      # at the same step still (a reset to the state it answered): kept again
-
-
 # -- the command hold -------------------------------------------------------------------------------
 def test_forces_drop_to_the_safe_value_after_the_timeout_of_play_and_come_back_with_a_command():
     from tensegrity_ros.nodes.sim.hold import CommandHold
