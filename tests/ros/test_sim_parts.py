@@ -257,3 +257,13 @@ def test_joint_states_report_the_lengths_and_tensions_the_robot_measures(tmp_pat
             for name, value in zip(motors, array):
                 assert value == truth[name] if measured(which, name) else math.isnan(value), name
     assert any(v != 0.0 for v in rate.values())          # a moving robot: the rates are not all zero
+
+
+def test_a_part_imports_without_the_node():
+    import subprocess
+    import sys
+
+    probe = ("import sys; import tensegrity_ros.nodes.sim.cable_commands; "
+             "print('tensegrity_ros.nodes.sim.node' in sys.modules, 'rclpy.node' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True, timeout=120)
+    assert out.stdout.split() == ["False", "False"]
