@@ -44,7 +44,7 @@ simulator and the clock, and the sender (:mod:`.sender`) turns samples into mess
 
 Bad commands (wrong lengths, unknown names, NaN/inf, over ``max_force`` or outside a rest
 length's range, a command of the other kind, stamped for another step in lockstep) are
-rejected with a throttled warning naming the problem (in lockstep, the command the last
+rejected with a throttled warning naming the problem (in lockstep, a command the last
 step ran under arriving again is a duplicate, dropped silently: a controller answers a
 republished state again); publishing never stops and NaN is never integrated.
 Free-running, after ``command_timeout`` seconds of play without a valid command the forces
