@@ -10,7 +10,8 @@ pytestmark = pytest.mark.ros
 
 
 def test_stamps_are_exact_integer_nanoseconds():
-    from tensegrity_ros.nodes.sim.sender import stamp_ns, time_msg
+    from tensegrity_ros.nodes.sim.sender import time_msg
+    from tensegrity_ros.rclpy_utils.messages import stamp_ns
 
     for ns in (0, 1, 999_999_999, 1_000_000_000, 123 * 10**9 + 456, 2**40 + 7):
         msg = time_msg(ns)
