@@ -37,7 +37,7 @@ from pathlib import Path
 
 SAMPLE_BAG = Path(__file__).resolve().parents[1] / "bags" / "ik_motion"
 #: The node kinds: module of the node's ``main``.
-NODE_MODULES = {"sim": "tensegrity_ros.nodes.sim", "ik": "tensegrity_ros.nodes.ik",
+NODE_MODULES = {"sim": "tensegrity_ros.nodes.sim.node", "ik": "tensegrity_ros.nodes.ik",
                 "formfind": "tensegrity_ros.nodes.formfind", "controller": "tensegrity_ros.nodes.controller"}
 #: Threads a stopped cycle may leave: the pool of the form-finding node's
 #: MultiThreadedExecutor (idle; rclpy 7.1 never shuts that pool down, and Python's exit

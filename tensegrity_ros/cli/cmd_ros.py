@@ -20,7 +20,7 @@ if TYPE_CHECKING:
 ORDER = 50
 
 NODES = {
-    "sim": "tensegrity_ros.nodes.sim",
+    "sim": "tensegrity_ros.nodes.sim.node",
     "ik": "tensegrity_ros.nodes.ik",
     "formfind": "tensegrity_ros.nodes.formfind",
     "controller": "tensegrity_ros.nodes.controller",

@@ -10,7 +10,8 @@ pytestmark = pytest.mark.ros
 
 
 def test_stamps_are_exact_integer_nanoseconds():
-    from tensegrity_ros.nodes.sim.sender import stamp_ns, time_msg
+    from tensegrity_ros.nodes.sim.sender import time_msg
+    from tensegrity_ros.rclpy_utils.messages import stamp_ns
 
     for ns in (0, 1, 999_999_999, 1_000_000_000, 123 * 10**9 + 456, 2**40 + 7):
         msg = time_msg(ns)
@@ -257,3 +258,13 @@ def test_joint_states_report_the_lengths_and_tensions_the_robot_measures(tmp_pat
             for name, value in zip(motors, array):
                 assert value == truth[name] if measured(which, name) else math.isnan(value), name
     assert any(v != 0.0 for v in rate.values())          # a moving robot: the rates are not all zero
+
+
+def test_a_part_imports_without_the_node():
+    import subprocess
+    import sys
+
+    probe = ("import sys; import tensegrity_ros.nodes.sim.cable_commands; "
+             "print('tensegrity_ros.nodes.sim.node' in sys.modules, 'rclpy.node' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True, timeout=120)
+    assert out.stdout.split() == ["False", "False"]

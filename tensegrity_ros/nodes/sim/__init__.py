@@ -1,5 +1,4 @@
-"""``tensegrity_sim``: the simulated mechanism (see :mod:`tensegrity_ros.nodes.sim.node`)."""
+"""``tensegrity_sim``: the simulated mechanism (the node: :mod:`tensegrity_ros.nodes.sim.node`).
 
-from tensegrity_ros.nodes.sim.node import SimNode, main
-
-__all__ = ["SimNode", "main"]
+The package imports none of its modules: importing a part (:mod:`.cable_commands`, say)
+does not load the node."""

@@ -45,8 +45,8 @@ simulator and the clock, and the sender (:mod:`.sender`) turns samples into mess
 Bad commands (wrong lengths, unknown names, NaN/inf, over ``max_force`` or outside a rest
 length's range, a command of the other kind, stamped for another step in lockstep) are
 rejected with a warning naming the problem, throttled per reason (:mod:`..refusals`). In
-lockstep, the command the last step ran under arriving again is a duplicate, dropped
-silently (a controller answers a republished state); publishing never stops and NaN is never integrated.
+lockstep, a command the last step ran under arriving again is a duplicate, dropped silently
+(a controller answers a republished state again); publishing never stops and NaN is never integrated.
 Free-running, after ``command_timeout`` seconds of play without a valid command the forces
 drop to ``safe_force`` (rest lengths are held). When ``lambda1/L`` or ``lambda2/L`` falls
 below ``singularity_warning`` a throttled warning says which set is near and how near.
