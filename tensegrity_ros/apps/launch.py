@@ -4,7 +4,9 @@ There is no ``ros2 launch`` on these machines, so this is the suite's own small 
 each node runs in its own process (``tensegrity node <name> --ros-args ...``), so the
 1 kHz simulator never shares an interpreter lock with service handlers. Output of every
 child is prefixed with its name. Ctrl-C / SIGTERM stop every child: SIGINT first (clean
-rclpy shutdown, bags finished), SIGTERM after a grace period, SIGKILL last.
+rclpy shutdown, bags finished), SIGTERM after a grace period, SIGKILL last; a child marked
+``stops_last`` (the recorder) only after every other one has exited
+(:mod:`tensegrity_ros.apps.stop_order`).
 
 Children start with SIGINT and SIGTERM blocked (:func:`tensegrity_ros.rclpy_utils.stop_signals.signals_blocked`
 around the spawn); each unblocks them once its own stop handling is in place, so a stop
@@ -25,6 +27,7 @@ import time
 from dataclasses import dataclass, field
 from typing import TextIO
 
+from tensegrity_ros.apps.stop_order import stop_bound_s, stop_in_stages, stop_stages
 from tensegrity_ros.rclpy_utils.env import ensure_ros_environment
 from tensegrity_ros.rclpy_utils.stop_signals import signals_blocked, stop_on_signals
 
@@ -34,6 +37,9 @@ class ProcessSpec:
     name: str
     argv: list[str]
     env: dict[str, str] = field(default_factory=dict)
+    #: a consumer of the others' messages (the recorder): stopped only after every other child
+    #: has exited, so it takes their last messages (:mod:`tensegrity_ros.apps.stop_order`)
+    stops_last: bool = False
 
 
 _PR_SET_PDEATHSIG = 1
@@ -116,24 +122,13 @@ class Launcher:
         return self.stop()
 
     def stop(self) -> int:
-        """Stop every child (SIGINT, then SIGTERM, then SIGKILL); 0 when every child exited 0,
+        """Stop every child (SIGINT, then SIGTERM, then SIGKILL; ``stops_last`` children after
+        the others have exited, in at most :meth:`stop_bound_s`); 0 when every child exited 0,
         else the first other code, a child's death by a signal as 128 + its number (the
         shell's convention: a segfault is 139). Each child that did not exit 0 is named."""
-        for sig, wait in ((signal.SIGINT, self.grace), (signal.SIGTERM, 2.0), (signal.SIGKILL, 2.0)):
-            running = [p for p in self.procs.values() if p.poll() is None]
-            if not running:
-                break
-            for p in running:
-                try:
-                    os.killpg(p.pid, sig)
-                except ProcessLookupError:
-                    pass
-            deadline = time.monotonic() + wait
-            for p in running:
-                try:
-                    p.wait(timeout=max(0.0, deadline - time.monotonic()))
-                except subprocess.TimeoutExpired:
-                    pass
+        last = {s.name for s in self.specs if s.stops_last}
+        stages = stop_stages(list(self.procs), last)
+        stop_in_stages(stages, self.grace, self._signal, self._wait, self._stage_done)
         # the children's last lines are written before stop returns (a caller may close ``out``
         # then); a grandchild still holding the pipe open is not waited for beyond PUMP_JOIN_S
         for pump in self._pumps:
@@ -147,6 +142,44 @@ class Launcher:
                 bad.append(128 - code if code < 0 else code)
         return bad[0] if bad else 0
 
+    def stop_bound_s(self) -> float:
+        """Longest time [s] :meth:`stop` waits for the children to exit (their output then
+        gets up to :data:`PUMP_JOIN_S` more each)."""
+        return stop_bound_s(2 if any(s.stops_last for s in self.specs) else 1, self.grace)
+
+    def _signal(self, name: str, sig: signal.Signals) -> None:
+        proc = self.procs[name]
+        if proc.poll() is None:
+            try:
+                os.killpg(proc.pid, sig)
+            except ProcessLookupError:
+                pass
+
+    def _wait(self, names: list[str], timeout_s: float) -> list[str]:
+        """Wait up to ``timeout_s`` for ``names`` to exit; those still running."""
+        deadline = time.monotonic() + timeout_s
+        for name in names:
+            try:
+                self.procs[name].wait(timeout=max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                pass
+        return [n for n in names if self.procs[n].poll() is None]
+
+    def _stage_done(self, stage: list[str], running: list[str]) -> None:
+        """After a stage other than the last: its children's output is written out (their last
+        lines come before the next stage's) and the hand-over is said."""
+        last = [s.name for s in self.specs if s.stops_last]
+        if not last or set(stage) <= set(last):
+            return
+        for name, pump in zip(self.procs, self._pumps):
+            if name in stage:
+                pump.join(PUMP_JOIN_S)
+        stopping = ", ".join(last)
+        if running:
+            self._say(f"{', '.join(running)} still running after SIGKILL; stopping {stopping} anyway")
+        else:
+            self._say(f"{', '.join(stage)} exited; stopping {stopping}")
+
     def _say(self, line: str) -> None:
         with self._lock:
             self.out.write(f"[launch] {line}\n")
@@ -156,9 +189,10 @@ class Launcher:
         """Start every child, wait, stop them all; SIGINT/SIGTERM (stop requests of
         :mod:`tensegrity_ros.rclpy_utils.stop_signals`) stop them."""
         with stop_on_signals() as stop:
-            # the stop escalates over grace + 4 s; give the process that long before the
-            # stop deadline calls it hung
-            stop.exit_deadline_s = max(stop.exit_deadline_s, self.grace + 10.0)
+            # the stop escalates in stages; give the process that long (and the children's
+            # output its time) before the stop deadline calls it hung
+            stop.exit_deadline_s = max(stop.exit_deadline_s,
+                                       self.stop_bound_s() + PUMP_JOIN_S * len(self.specs) + 6.0)
             stop.enter_running()
             forget = stop.on_stop(self.request_stop)
             try:

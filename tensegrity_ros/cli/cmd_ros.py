@@ -198,7 +198,8 @@ def _up(args: argparse.Namespace) -> int:
 
         # the scene goes into the bag's metadata: `tensegrity view BAG` then knows what to draw
         scene = ["--custom-data", f"scene={args.scene or DEFAULT_SCENE}"]
-        specs.append(ProcessSpec("record", exe + ["record", "-o", args.record, *scene] + ros))
+        # stopped after the others have exited: the bag holds their last messages
+        specs.append(ProcessSpec("record", exe + ["record", "-o", args.record, *scene] + ros, stops_last=True))
     print(f"starting {', '.join(s.name for s in specs)} (Ctrl-C stops all)", flush=True)
     return Launcher(specs).run()
 

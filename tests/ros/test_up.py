@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import re
 import signal
 import subprocess
 import time
+from collections import Counter
 from pathlib import Path
 
 import pytest
@@ -53,7 +55,24 @@ def test_up_starts_every_node_and_ctrl_c_stops_them(cli, ros_context, tmp_path):
         time.sleep(0.05)
     up.popen.send_signal(signal.SIGINT)
     assert up.popen.wait(60) == 0, up.stderr()
+    out = up.popen.stdout.read()
     assert not any(_alive(pid) for pid in children)
+    # the recorder is stopped only once every publisher has exited (their last lines are out
+    # by then), so it takes the simulator's last messages: every message the simulator counts
+    # as published is in the bag (read by the mcap package)
+    handover = out.index("[launch] sim, ik, controller, formfind exited; stopping record\n")
+    published = re.search(r"\[sim\] .*published: (.*?); rejected", out)
+    assert published and published.start() < handover, out
+    assert out.index("[record] recorded ") > handover, out
+    counts = {("" if t.startswith("/") else "/suite_test/") + t: int(n)
+              for t, n in (item.rsplit(" ", 1) for item in published.group(1).split(", "))}
+    from mcap.reader import make_reader
+
+    (mcap_file,) = (tmp_path / "bag").glob("*.mcap")
+    with open(mcap_file, "rb") as f:
+        in_bag = Counter(channel.topic for _, channel, _ in make_reader(f).iter_messages())
+    assert counts["/suite_test/joint_states"] > 0, out
+    assert {t: in_bag[t] for t, n in counts.items() if n} == {t: n for t, n in counts.items() if n}, out
     # the recorder was stopped cleanly too: its bag is complete
     from tensegrity_ros.bag.reader import BagReader
 
