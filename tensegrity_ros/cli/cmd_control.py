@@ -18,6 +18,8 @@ from typing import Any
 from tensegrity_ros.cli._common import CliError, Subparsers, add_json_flag, check_seconds
 
 ORDER = 55
+#: the suffix of an action's goal service in the graph (an action NAME shows as NAME + SEND_GOAL)
+SEND_GOAL = "/_action/send_goal"
 
 
 def register(sub: Subparsers) -> None:
@@ -153,7 +155,7 @@ def _run_goal(args: argparse.Namespace, node_name: str, action: Any, goal: Any, 
     from rclpy.executors import SingleThreadedExecutor
     from tqdm import tqdm
 
-    from tensegrity_ros.cli.ros_clients import check_ros_name, client_node
+    from tensegrity_ros.cli.ros_clients import check_ros_name, client_node, namespace_hint
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
     from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
 
@@ -166,8 +168,9 @@ def _run_goal(args: argparse.Namespace, node_name: str, action: Any, goal: Any, 
     handle = None
     try:
         if not client.wait_for_server(timeout_sec=args.timeout):
+            actions = (n[:-len(SEND_GOAL)] for n, _ in node.get_service_names_and_types() if n.endswith(SEND_GOAL))
             raise CliError(f"action {node.resolve_topic_name(args.action)} not available after {args.timeout:g} s "
-                           "(is the controller up? `tensegrity up`)", code=3)
+                           f"(is the controller up? `tensegrity up`){namespace_hint(args.action, actions)}", code=3)
         wait_until_server_heard(node, args.action, lambda f, t: spin_until_done(executor, f, t), args.timeout)
         bar = tqdm(total=total, unit="s", file=sys.stderr, disable=args.json, dynamic_ncols=True,
                    bar_format="{l_bar}{bar}| {n:.2f}/{total_fmt} s {postfix}" if total else "{n:.2f} s {postfix}")

@@ -9,7 +9,7 @@ from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
 
 from tensegrity_ros.cli._common import CliError, Subparsers, add_json_flag, check_count, check_seconds
-from tensegrity_ros.cli.ros_clients import DISCOVERY_S, check_ros_args, check_ros_name, client_node
+from tensegrity_ros.cli.ros_clients import DISCOVERY_S, check_ros_args, check_ros_name, client_node, namespace_hint
 from tensegrity_ros.cli.send_forces import send_forces
 
 if TYPE_CHECKING:
@@ -231,8 +231,10 @@ def _call_service(args: argparse.Namespace, node_name: str, srv_type: Any, reque
     try:
         client = node.create_client(srv_type, args.service)
         if not client.wait_for_service(timeout_sec=args.timeout):
+            services = (n for n, _ in node.get_service_names_and_types())
             raise CliError(f"service {node.resolve_service_name(args.service)} not available after "
-                           f"{args.timeout:g} s (is the suite up? `tensegrity up`)", code=3)
+                           f"{args.timeout:g} s (is the suite up? `tensegrity up`)"
+                           f"{namespace_hint(args.service, services)}", code=3)
         executor.add_node(node)
         future = client.call_async(request)
         answer_timeout = args.timeout if answer_timeout is None else answer_timeout

@@ -7,7 +7,7 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from types import ModuleType
 from typing import TYPE_CHECKING
 
@@ -116,3 +116,17 @@ def check_ros_name(name: str, option: str, *, namespace: bool = False) -> None:
         why = str(err).splitlines()[0].partition(": ")[2].rstrip(":")
         raise CliError(f"{option} {excerpt(name)} is not a valid ROS {'namespace' if namespace else 'name'}: {why}"
                        ) from None
+
+
+def namespace_hint(name: str, graph_names: Iterable[str]) -> str:
+    """``"; found /robot1/solve_ik: add --ros-args -r __ns:=/robot1"`` when the relative
+    ``name`` a client looked for is in the graph only under another namespace (the suite was
+    started with ``tensegrity up --namespace``), else ``""``. ``graph_names`` are fully
+    qualified service or action names."""
+    if name.startswith(("/", "~")):              # absolute or private: a namespace does not move it
+        return ""
+    found = sorted(n for n in set(graph_names) if n.endswith("/" + name) and n != "/" + name)
+    if not found:
+        return ""
+    more = f" (and {len(found) - 1} more)" if len(found) > 1 else ""
+    return f"; found {found[0]}{more}: add --ros-args -r __ns:={found[0][:-len(name) - 1]}"

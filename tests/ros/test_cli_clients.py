@@ -51,6 +51,30 @@ def test_service_missing_is_one_clear_line():
     assert out.stderr.startswith("error: service /no_such_service not available")
 
 
+def test_a_service_under_another_namespace_is_named_with_the_remap_that_reaches_it(cli):
+    """call-ik without a namespace against an IK node in /hint_ns: the one error line names
+    where the service is and the --ros-args that reach it."""
+    ik = cli("node", "ik", "--ros-args", "-r", "__ns:=/hint_ns", log_name="ik")
+    ik.wait_for("solve_ik ready")
+    out = run_cli("call-ik", "1", "1", "--timeout", "5", timeout=60)
+    assert out.returncode == 3
+    assert out.stderr == ("error: service /solve_ik not available after 5 s (is the suite up? `tensegrity up`); "
+                          "found /hint_ns/solve_ik: add --ros-args -r __ns:=/hint_ns\n"), out.stderr
+    reached = run_cli("call-ik", "1.2", "0.9", "--timeout", "30", "--ros-args", "-r", "__ns:=/hint_ns", timeout=60)
+    assert reached.returncode in (0, 1) and "not available" not in reached.stderr, reached.stderr
+
+
+def test_namespace_hint_only_for_a_relative_name_found_elsewhere():
+    from tensegrity_ros.cli.ros_clients import namespace_hint
+
+    graph = ["/a/b/solve_ik", "/robot1/solve_ik", "/robot1/find_form", "/x_solve_ik"]
+    assert namespace_hint("solve_ik", graph) == "; found /a/b/solve_ik (and 1 more): add --ros-args -r __ns:=/a/b"
+    assert namespace_hint("find_form", graph) == "; found /robot1/find_form: add --ros-args -r __ns:=/robot1"
+    assert namespace_hint("/solve_ik", graph) == ""          # absolute: a namespace does not move it
+    assert namespace_hint("reset", graph) == ""
+    assert namespace_hint("solve_ik", ["/solve_ik"]) == ""   # there, just not answering
+
+
 def _wait(condition, what: str, timeout: float = 60.0) -> None:
     deadline = time.monotonic() + timeout
     while not condition():
