@@ -5,17 +5,21 @@ CSV: a header row, then one row per point: ``time`` [s from the start], ``rho1``
 ``rho2_acceleration`` [m/s^2] (both of a pair or neither)::
 
     time,rho1,rho2
-    1.0,0.72,0.68
-    2.0,0.75,0.70
+    2.0,0.71,0.69
+    4.0,0.72,0.70
+    6.0,0.70,0.70
 
-YAML: the same as a mapping, with the goal's tolerances::
+(from rest at 0.70 m, the lengths meet the default goal tolerance, 0.1 mm, 4.1 s after the
+last point: within the controller's default ``goal_time_tolerance`` of 6 s). YAML: the
+same as a mapping, with the goal's tolerances (this one meets 0.1 mm 3.5 s after its
+point)::
 
     joint_names: [rho1, rho2]            # optional, this order by default
     points:
       - {time: 1.0, positions: [0.72, 0.68], velocities: [0.0, 0.0]}
     path_tolerance: {rho1: 0.01, rho2: 0.01}   # [m], optional
     goal_tolerance: {rho1: 1.0e-4}             # [m], optional
-    goal_time_tolerance: 2.0                   # [s], optional
+    goal_time_tolerance: 5.0                   # [s], optional
 
 Both are read as every description file is (:mod:`tensegrity_core.schema`: at most
 ``LIMITS.max_bytes``, UTF-8, YAML nesting and aliases bounded). Each number is checked to
