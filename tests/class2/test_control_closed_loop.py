@@ -20,6 +20,7 @@ from tensegrity_core.class2.control import LQRWeights, TrackingController, plan_
 from tensegrity_core.class2.control import goals as G
 from tensegrity_core.class2.control.trajectory import actuator_reference
 from tensegrity_core.sim import Simulator
+from tests.class2.goal_loop import follow_to_outcome
 
 P = PAPER_PARAMS
 D0 = forward_kinematics(0.7, 0.7, P)
@@ -115,12 +116,7 @@ def test_the_documented_actuator_trajectory_meets_the_default_goal_tolerance_in_
                              start_rho=s.q[:2], start_rate=s.qdot[:2], params=P)
     ctrl.follow(ref, 0.0)
     goal = G.TrajectoryGoal(ref, 0.0)                 # the defaults: 0.1 mm within GOAL_TIME_TOLERANCE
-    while goal.outcome is None:
-        s = sim.joint_sample()
-        tick = ctrl.update(s.t, s.q, s.qdot)
-        goal.step(s.t, s.q, s.qdot, tick)
-        sim.set_command(list(tick.forces))
-        sim.advance(round(s.t / DT + 1) * DT)
+    s = follow_to_outcome(sim, ctrl, goal, DT)
     assert goal.outcome.succeeded, goal.outcome.message
     assert 3.0 < s.t - ref.duration <= G.GOAL_TIME_TOLERANCE
 

@@ -45,7 +45,6 @@ from tensegrity_core.general import (
     Structure,
     equilibrium_matrix,
     form_find,
-    generalized_force,
     modes,
     save_structure,
     tangent_stiffness,
@@ -54,6 +53,7 @@ from tensegrity_core.general import (
 from tensegrity_ros.cli import main
 from tests.general.independent import member_forces as plain_member_forces
 from tests.general.independent import relative_residual
+from tests.hard.stiffness_check import slack_switch, stiffness_along
 from tests.hard.strategies import drawn_structures
 
 EPS = float(np.finfo(float).eps)
@@ -140,14 +140,6 @@ def test_equilibrium_matrix_and_modes_answer_and_hold(kwargs):
             assert np.abs(Q @ Q.T - basis @ basis.T).max() <= wedin
 
 
-def _slack_switch(s, config, d, h) -> bool:
-    """Whether a string changes between slack and taut within +-h along d (a kink of V)."""
-    from tensegrity_core.general.statics import member_lengths
-
-    signs = [np.sign(member_lengths(s, config.retract(e * d).coords) - s.rest_lengths) for e in (-h, 0.0, h)]
-    return bool(np.any(s.is_string & ((signs[0] != signs[1]) | (signs[1] != signs[2]))))
-
-
 @settings(max_examples=60, suppress_health_check=[HealthCheck.filter_too_much])
 @given(drawn_structures())
 def test_tangent_stiffness_answers_symmetric_and_the_jacobian_of_the_force(kwargs):
@@ -169,13 +161,8 @@ def test_tangent_stiffness_answers_symmetric_and_the_jacobian_of_the_force(kwarg
                   for b in s.bodies] + [0.0])
     reach = 1.0 + radius                                  # node motion per unit of d (a rotation moves by radius)
     h = (EPS * x_max * l_min**2) ** (1 / 3) / reach       # rounding eps x/h against truncation h^2/l^2
-    assume(not _slack_switch(s, config, d, h))
-    fd = -(generalized_force(s, config.retract(h * d)) - generalized_force(s, config.retract(-h * d))) / (2 * h)
-    P = generalized_force(s, config)
-    expected = K @ d
-    for slot in s.layout.body_dof:
-        rot = slot + 3 + np.arange(3)
-        expected[rot] += 0.5 * np.cross(P[rot], d[rot])
+    assume(not slack_switch(s, config, d, h))
+    fd, expected, P = stiffness_along(s, config, K, d, h)
     forces = np.abs(plain_member_forces(s, s.nodes)).max() + np.abs(P).max()
     rounding = 64 * EPS * (scale * x_max + forces) / h
     truncation = 8 * (h * reach / l_min) ** 2 * (scale + forces / l_min)

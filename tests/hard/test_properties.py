@@ -20,17 +20,10 @@ from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics, inverse_kin
 from tensegrity_core.class2.dynamics import LAMBDA_MIN_REL, Class2Dynamics, SingularityApproachEvent
 from tensegrity_core.general import Configuration, form_find, generalized_force, potential_energy, tangent_stiffness
 from tensegrity_core.general.formfind import line_search
-from tensegrity_core.general.statics import member_lengths
 from tests.class2.strategies import configurations, edged, parameter_sets, scaled
 from tests.hard.oracles import fk_residual
+from tests.hard.stiffness_check import slack_switch, stiffness_along
 from tests.hard.strategies import displacements, structures
-
-
-def _slack_switch(s, config, d, h) -> bool:
-    """Whether a string changes between slack and taut within +-h along d (a kink of V)."""
-    l0 = s.rest_lengths
-    signs = [np.sign(member_lengths(s, config.retract(t * d).coords) - l0) for t in (-h, 0.0, h)]
-    return bool(np.any(s.is_string & ((signs[0] != signs[1]) | (signs[1] != signs[2]))))
 
 
 @settings(max_examples=60)
@@ -47,13 +40,8 @@ def test_property_tangent_stiffness_symmetric_and_the_jacobian_of_the_force(s, s
     d = displacements(s, seed + 1, 1.0)
     d /= np.linalg.norm(d)
     h = 1e-6
-    assume(not _slack_switch(s, config, d, h))
-    fd = -(generalized_force(s, config.retract(h * d)) - generalized_force(s, config.retract(-h * d))) / (2 * h)
-    P = generalized_force(s, config)
-    expected = K @ d
-    for slot in s.layout.body_dof:
-        rot = slot + 3 + np.arange(3)
-        expected[rot] += 0.5 * np.cross(P[rot], d[rot])
+    assume(not slack_switch(s, config, d, h))
+    fd, expected, _ = stiffness_along(s, config, K, d, h)
     assert np.abs(fd - expected).max() <= 1e-6 * scale
 
 

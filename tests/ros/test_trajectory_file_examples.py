@@ -18,6 +18,7 @@ from tensegrity_core.class2.control import goals as G
 from tensegrity_core.class2.control.trajectory import actuator_reference
 from tensegrity_core.sim import Simulator
 from tensegrity_ros import trajectory_file
+from tests.class2.goal_loop import follow_to_outcome
 
 DT = 0.01
 MARGIN_S = 1.0
@@ -47,10 +48,5 @@ def test_the_docstring_example_meets_its_goal_time_with_margin(suffix, tmp_path)
     goal_time = traj.goal_time_tolerance or G.GOAL_TIME_TOLERANCE          # 0: the controller's default
     tol = tuple(traj.goal_tolerance.get(n, 1e-4) for n in ("rho1", "rho2"))
     goal = G.TrajectoryGoal(ref, 0.0, goal_position=tol, goal_time=goal_time - MARGIN_S)
-    while goal.outcome is None:
-        s = sim.joint_sample()
-        tick = ctrl.update(s.t, s.q, s.qdot)
-        goal.step(s.t, s.q, s.qdot, tick)
-        sim.set_command(list(tick.forces))
-        sim.advance(round(s.t / DT + 1) * DT)
+    follow_to_outcome(sim, ctrl, goal, DT)
     assert goal.outcome.succeeded, goal.outcome.message
