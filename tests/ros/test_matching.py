@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-import time
-
+from tensegrity_ros.rclpy_utils import matching
 from tensegrity_ros.rclpy_utils.matching import wait_for_matches
 
 
@@ -17,11 +16,28 @@ class ScriptedPublisher:
         return self.counts.pop(0) if len(self.counts) > 1 else self.counts[0]
 
 
-def test_returns_only_after_the_matches_held_for_the_settle_time():
+class ScriptedClock:
+    """The helper's clock, advanced only by its polls: what it sees is the same under any
+    scheduling delay of the process (a real poll of 0.01 s may take 50 ms on a loaded machine)."""
+
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def monotonic(self) -> float:
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        self.now += seconds
+
+
+def test_returns_only_after_the_matches_held_for_the_settle_time(monkeypatch):
+    clock = ScriptedClock()
+    monkeypatch.setattr(matching, "time", clock)
     pub = ScriptedPublisher([0, 0, 1, 1, 0, 1])      # a match that drops restarts the settle
-    start = time.monotonic()
-    assert wait_for_matches([pub], 1, None, settle_s=0.05, poll=time.sleep)
-    assert time.monotonic() - start >= 0.05 + 4 * 0.01
+    assert wait_for_matches([pub], 1, None, settle_s=0.05, poll=clock.sleep)
+    # the match from the sixth poll (t = 0.05 s) on held 0.05 s: returned at t >= 0.10 s,
+    # and the drop at the fifth poll was seen (the count's script was read to its end)
+    assert clock.now >= 0.05 + 5 * 0.01 - 1e-12
     assert pub.counts == [1]
 
 
