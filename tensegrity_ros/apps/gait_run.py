@@ -97,21 +97,35 @@ class RunWatcher:
     """Subscriptions to what the robot does, every sample kept with its stamp [s]; the
     summary takes those of the goal's window (:meth:`summary_lines`)."""
 
-    def __init__(self, node: Any) -> None:
-        from rclpy.qos import HistoryPolicy, QoSProfile
-        from sensor_msgs.msg import JointState
-        from tensegrity_msgs.msg import CableCommand, CapContacts, RigidBodyStates
+    def __init__(self, node: Any, *, samples: bool = True) -> None:
+        """``samples`` False: the robot's samples only from :meth:`subscribe_samples` on."""
+        from tensegrity_msgs.msg import CableCommand
 
+        self.node = node
         self.controller_answers = 0           # cable_commands seen: the controller gets the states
         self.centres: list[tuple[float, tuple[float, float, float]]] = []
         self.contacts: list[tuple[float, tuple[str, ...]]] = []
         self.cable_names: tuple[str, ...] = ()
         self.tensions: list[tuple[float, tuple[float, ...]]] = []
-        qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1000)   # a loaded client falls behind, loses nothing
-        node.create_subscription(RigidBodyStates, "body_states", self._on_bodies, qos)
-        node.create_subscription(CapContacts, "contacts", self._on_contacts, qos)
-        node.create_subscription(JointState, "joint_states", self._on_joints, qos)
+        self.samples: list[Any] = []
         node.create_subscription(CableCommand, "cable_commands", self._on_command, 10)
+        if samples:
+            self.subscribe_samples()
+
+    def subscribe_samples(self) -> list[Any]:
+        """Subscribe to the robot's samples (bodies, contacts, joint states), every one kept:
+        a lockstep simulator steps as fast as its controller answers, whether this client
+        keeps up or not, so samples taken long before the goal are a backlog this client
+        works through one by one (at load, slower than the simulator adds to it)."""
+        from rclpy.qos import HistoryPolicy, QoSProfile
+        from sensor_msgs.msg import JointState
+        from tensegrity_msgs.msg import CapContacts, RigidBodyStates
+
+        qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1000)   # a loaded client falls behind, loses nothing
+        self.samples = [self.node.create_subscription(RigidBodyStates, "body_states", self._on_bodies, qos),
+                        self.node.create_subscription(CapContacts, "contacts", self._on_contacts, qos),
+                        self.node.create_subscription(JointState, "joint_states", self._on_joints, qos)]
+        return self.samples
 
     @staticmethod
     def _t(msg: Any) -> float:
@@ -207,7 +221,7 @@ def play_gait(robot: str, gait: Gait, ros_args: list[str], *, action: str, timeo
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     client = ActionClient(node, FollowJointTrajectory, action)
-    watcher = RunWatcher(node)
+    watcher = RunWatcher(node, samples=False)
     bar = None
     handle = None
     try:
@@ -221,6 +235,14 @@ def play_gait(robot: str, gait: Gait, ros_args: list[str], *, action: str, timeo
             if time.monotonic() > deadline:
                 raise SuiteError(f"the cable controller answers no joint states within {timeout:g} s (is the "
                                  "simulator running? `tensegrity sim play`)", code=3)
+            executor.spin_once(timeout_sec=0.1)
+        # the samples from now on, matched before the goal is sent (its first samples arrive)
+        samples = watcher.subscribe_samples()
+        deadline = time.monotonic() + timeout
+        while not all(sub.get_publisher_count() for sub in samples):
+            if time.monotonic() > deadline:
+                raise SuiteError(f"the simulator's body_states, contacts and joint_states not matched within "
+                                 f"{timeout:g} s", code=3)
             executor.spin_once(timeout_sec=0.1)
         bar = tqdm(total=round(points.duration, 2), unit="s", file=sys.stderr, dynamic_ncols=True, mininterval=0.5,
                    desc=f"{gait.name} on {robot}", bar_format="{l_bar}{bar}| {n:.2f}/{total_fmt} s {postfix}")
