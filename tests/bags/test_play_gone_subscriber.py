@@ -38,7 +38,22 @@ def test_a_subscriber_killed_during_the_replay_is_named_and_not_waited_for(cli):
         assert peer.stdout.readline().strip() == "ready"
         with probe("gone_watch", namespace=namespace) as watch:
             echoed: list[ActuatorForces] = []
-            watch.node.create_subscription(ActuatorForces, "pong", echoed.append, 10)
+            watch.node.create_subscription(
+                ActuatorForces, "pong", lambda m: echoed.append(m) if m.header.frame_id != "probe" else None, 10)
+            # the round trip peer -> pong -> this test is matched before the replay starts: at load,
+            # discovery could otherwise outlast the replay, whose end (the peer alive) would then
+            # come before the kill
+            ping = watch.node.create_publisher(ActuatorForces, topic, 10)
+            round_trip: list[ActuatorForces] = []
+            watch.node.create_subscription(
+                ActuatorForces, "pong", lambda m: round_trip.append(m) if m.header.frame_id == "probe" else None, 10)
+            while not round_trip:
+                msg = ActuatorForces()
+                msg.header.frame_id = "probe"
+                ping.publish(msg)
+                watch.executor.spin_once(timeout_sec=0.1)
+                assert peer.poll() is None
+            watch.node.destroy_publisher(ping)
             # 400 messages over 2.1 s, played at 0.2x: the replay lasts 10 s, and the peer is killed
             # at its first message
             play = cli("play", str(FOLD), "--topics", "/actuator_forces", "--rate", "0.2",
@@ -47,6 +62,7 @@ def test_a_subscriber_killed_during_the_replay_is_named_and_not_waited_for(cli):
             while not echoed:
                 watch.executor.spin_once(timeout_sec=0.1)
                 assert peer.poll() is None and play.popen.poll() is None, play.stderr()
+        assert play.popen.poll() is None and "played " not in play.stderr(), play.stderr()   # killed during the replay
         os.kill(peer.pid, signal.SIGKILL)
         peer.wait(PATIENCE)
         play.wait_for("played ", timeout=PATIENCE)
