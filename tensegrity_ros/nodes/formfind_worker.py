@@ -27,11 +27,21 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import Connection
 from typing import TYPE_CHECKING
 
+from threadpoolctl import threadpool_limits
+
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.schema import Limits, clip
 
 if TYPE_CHECKING:
     from tensegrity_core.general.formfind_result import IterationInfo
+
+# BLAS on one thread in the forkserver that preloads this module, so its workers never start
+# BLAS threads after the fork: once in a fresh-clone run, a worker under its memory cap hung
+# the small table's request for the whole time limit, and dense Newton's one-thread context
+# (which restores the count it found, starting threads again) is the only change to BLAS's
+# threads in a worker (suspected, not reproduced). One thread is also what a worker should
+# use: the node runs several workers at once.
+threadpool_limits(limits=1, user_api="blas")
 
 #: The phases a worker reports, in order (the node names the one a time limit hit).
 PARSING = "parsing the structure description"
