@@ -86,7 +86,7 @@ from tensegrity_ros.nodes.sim.parameters import declare_sim_parameters
 from tensegrity_ros.nodes.sim.plant import SimPlant
 from tensegrity_ros.nodes.sim.receiver import Command, receive, receive_cable_bytes
 from tensegrity_ros.nodes.sim.schedule import TickSchedule
-from tensegrity_ros.rclpy_utils.delivery import DELIVERY_S, wait_for_delivery
+from tensegrity_ros.rclpy_utils.delivery import wait_for_delivery
 from tensegrity_ros.rclpy_utils.inbox import Inbox
 from tensegrity_ros.rclpy_utils.matching import subscribed_by, wait_for_matches
 from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
@@ -479,11 +479,10 @@ class SimNode(SimulationInterfaces):
             rclpy.logging.get_logger(f"{self.get_name()}_summary").warning(
                 f"a stepping request was interrupted by the shutdown after {req.completed} of {req.steps} steps")
         if rclpy.ok(context=self.context):        # an external shutdown has ended the publishers' context
-            late = wait_for_delivery([*self.pubs.values(), self.pub_events, self.pub_clock])
+            late, why = wait_for_delivery([*self.pubs.values(), self.pub_events, self.pub_clock])
             if late:
                 rclpy.logging.get_logger(f"{self.get_name()}_summary").warning(
-                    f"not every subscriber acknowledged the last messages within {DELIVERY_S:g} s on: "
-                    f"{', '.join(late)}")
+                    f"not every subscriber acknowledged the last messages ({why}) on: {', '.join(late)}")
         counts = ", ".join(f"{k} {v}" for k, v in self.published.items())
         # the context may already be shut down (Ctrl-C): log without /rosout
         rclpy.logging.get_logger(f"{self.get_name()}_summary").info(
