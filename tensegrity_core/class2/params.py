@@ -35,6 +35,16 @@ from tensegrity_core.errors import ParameterError
 _POSITIVE = ("L", "k1", "k2", "k3", "k4", "ka", "kb", "m")
 #: Parameters that must be finite and >= 0.
 _NON_NEGATIVE = ("c1", "c2", "c3", "c4")
+#: Every parameter lies in [-MAGNITUDE_RANGE[1], MAGNITUDE_RANGE[1]] and every positive one at
+#: least MAGNITUDE_RANGE[0] (SI units). The formulas square and multiply parameters (K^2 L^2 in the
+#: IK's discriminant, sqrt(4 L^2 - s^2) in the FK, stiffness solves with kb/k ratios): outside
+#: 1e-15..1e15 those products underflow to 0 or overflow, and the FK answered beta = 0 for
+#: L = 1e-300 m, the IK divided by zero for k = 1e-300 N/m. Inside the range the results are
+#: homogeneous in L and in the stiffnesses (tests/hard/test_class2_param_range.py).
+MAGNITUDE_RANGE = (1e-15, 1e15)
+#: The unit of each parameter, for messages.
+_UNITS = {"L": "m", "m": "kg", **{n: "N/m" for n in ("k1", "k2", "k3", "k4", "ka", "kb")},
+          **{n: "N s/m" for n in _NON_NEGATIVE}}
 
 
 @dataclass(frozen=True)
@@ -76,6 +86,11 @@ class Class2Params:
                 raise ParameterError(f"parameter {f.name} must be finite, got {v!r}")
             if f.name in _POSITIVE and v <= 0:
                 raise ParameterError(f"parameter {f.name} must be > 0, got {v!r}")
+            lo, hi = MAGNITUDE_RANGE
+            if abs(v) > hi or (f.name in _POSITIVE and v < lo):
+                unit = _UNITS[f.name]
+                span = f"between {lo:g} {unit} and {hi:g} {unit}" if f.name in _POSITIVE else f"at most {hi:g} {unit}"
+                raise ParameterError(f"parameter {f.name} must be {span}, got {v!r}")
             if f.name in _NON_NEGATIVE and v < 0:
                 raise ParameterError(f"parameter {f.name} must be >= 0, got {v!r}")
             object.__setattr__(self, f.name, float(v))

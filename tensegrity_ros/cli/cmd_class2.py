@@ -80,17 +80,18 @@ def cmd_fk(args: argparse.Namespace) -> int:
 
 def cmd_ik(args: argparse.Namespace) -> int:
     from tensegrity_core.class2.inverse_kinematics import inverse_kinematics
+    from tensegrity_core.class2.kinematics import as_real
 
     params = _params(args)
     res = _run(lambda: inverse_kinematics(args.x, args.y, params, paper_range=args.paper_range))
     shown = list(res.candidates if args.all else res.valid)
-    seed = args.seed
+    seed = args.seed and _run(lambda: (as_real("seed rho1", args.seed[0]), as_real("seed rho2", args.seed[1])))
     dist = {}
-    if seed is not None:
+    if seed:
         dist = {id(c): math.hypot(c.rho1 - seed[0], c.rho2 - seed[1]) for c in shown}
         shown.sort(key=lambda c: (not c.valid, dist[id(c)] if math.isfinite(dist[id(c)]) else math.inf))
     if args.json:
-        rows = [{**c.as_dict(), **({"distance_to_seed": dist[id(c)]} if seed is not None else {})} for c in shown]
+        rows = [{**c.as_dict(), **({"distance_to_seed": dist[id(c)]} if seed else {})} for c in shown]
         print_json({"x": res.x, "y": res.y, "paper_range": res.paper_range, "success": res.success,
                     "message": res.message, "outside_distance": res.outside_distance, "solutions": rows})
     else:
@@ -98,12 +99,12 @@ def cmd_ik(args: argparse.Namespace) -> int:
               f"({'paper range 0 <= beta <= pi/2' if res.paper_range else 'any stable equilibrium'}): {res.message}")
         if shown:
             head = f"  {'d1':>3} {'d2':>3} {'rho1 [m]':>12} {'rho2 [m]':>12} {'beta [rad]':>11}  {'range':5}"
-            print(head + ("  seed dist" if seed is not None else "") + "  verdict")
+            print(head + ("  seed dist [m]" if seed else "") + "  verdict")
         for c in shown:
             line = (f"  {c.delta1:+3d} {c.delta2:+3d} {c.rho1:12.8g} {c.rho2:12.8g} {c.beta:11.6g}  "
                     f"{'yes' if c.in_paper_range else 'no':5}")
-            if seed is not None:
-                line += f"  {dist[id(c)]:9.4g}"
+            if seed:
+                line += f"  {dist[id(c)]:13.4g}"
             print(line + "  " + ("valid" if c.valid else c.reason))
     if not res.success:
         raise CliError(res.message)

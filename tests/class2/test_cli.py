@@ -121,6 +121,9 @@ def test_stiffness_says_when_k_is_not_positive_definite(capsys):
         (["fk", "0.5", "nan"], "finite"),
         (["fk", "0.5", "0.5", "--param", "kb=-1"], "kb must be > 0"),
         (["singularities", "0.5", "1.6"], "exceeds 2L"),
+        (["ik", "1.4", "0.7", "--seed", "nan", "0.7"], "seed rho1 must be finite, got nan"),
+        (["ik", "1.4", "0.7", "--seed", "0.7", "inf"], "seed rho2 must be finite, got inf"),
+        (["ik", "1.4", "0.7", "--param", "k=1e-300"], "k1 must be between 1e-15 N/m and 1e+15 N/m"),
     ],
 )
 def test_bad_input_one_line_errors(argv, fragment, capsys):

@@ -119,8 +119,9 @@ def test_non_finite_or_non_numeric_input_is_a_domain_error(bad):
 
 def test_degenerate_every_beta_is_reported_not_zero():
     # a = b = 0 needs lambda1 = 0 and (2 k3 + k2) rho2 = k2 rho1, impossible for k3 > 0 on the
-    # domain; k3 = 1e-320 (valid, > 0) underflows 2 k3 + k2 to k2 and reaches it at rho = (L, L).
-    p = P.with_overrides(k3=1e-320)
+    # domain; k3 = 1e-15 against k2 = 1e15 (both in the accepted range) rounds 2 k3 + k2 to k2
+    # and reaches it at rho = (L, L).
+    p = P.with_overrides(k3=1e-15, k2=1e15)
     with pytest.raises(SingularityError) as err:
         forward_kinematics(1.0, 1.0, p)
     assert err.value.kind == "indeterminate_beta"
