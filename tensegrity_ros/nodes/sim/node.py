@@ -274,7 +274,7 @@ class SimNode(SimulationInterfaces):
         """One step of the plant under ``command``; publish what it located (lock held)."""
         outcome = self.plant.step(command)
         for event in outcome.events:
-            self.pub_events.publish(sender.event_msg(event, self.plant.offset_ns, self.p.frame_id))
+            self.pub_events.publish(sender.event_msg(event, self.plant.offset_ns, self.p.frame_id, self.plant.names))
             self.published["events"] += 1
         if outcome.fault is not None:
             self.get_logger().error(f"simulation stopped, state held: {outcome.fault}")
