@@ -119,6 +119,30 @@ def one_blas_thread() -> AbstractContextManager[object]:
     return limit
 
 
+def claim_blas_memory() -> None:
+    """Put BLAS on one thread for good and make it take now the memory it keeps for later
+    calls: for a process about to cap its address space (a form-finding worker).
+
+    OpenBLAS (numpy's and scipy's, one library each) keeps work buffers of ``BUFFER_SIZE``
+    (32 MiB in their builds) that it maps when a call finds none free, and a forked process
+    re-creates the thread pool (thread stacks, a buffer per thread) at its first change of
+    thread count (:func:`one_blas_thread`'s). A mapping that fails is retried: without end
+    by scipy's 0.3.30 (a worker seen spinning in ``blas_memory_alloc``, OpenBLAS's
+    ``driver/others/memory.c``), ten times by numpy's 0.3.31, which then ends the process.
+    Under an address-space cap that is a hang or a dead worker, never a ``MemoryError``.
+    After this call each library has its pool and a free buffer, and on one thread a call
+    takes one buffer and gives it back, so no later call maps another. The products are
+    128 x 128: above OpenBLAS's small-matrix kernels (up to 100^3 multiply-adds), which take
+    no buffer."""
+    global _BLAS
+    if _BLAS is None:
+        _BLAS = ThreadpoolController()
+    _BLAS.limit(limits=1, user_api="blas")
+    a = np.eye(128)
+    np.matmul(a, a)
+    la.blas.dgemm(1.0, a, a)
+
+
 def as_dense(K: Matrix) -> FloatArray:
     """``K`` as a dense float array."""
     if isinstance(K, np.ndarray):

@@ -25,7 +25,7 @@ from tensegrity_core.robot.contact import floor_normal
 from tensegrity_core.robot.description import Cables, Floor, Motors, Robot, RobotError, Rods, Sensors
 from tensegrity_core.robot.motor import MODES
 from tensegrity_core.robot.rod import rod_inertia
-from tensegrity_core.schema import MAX_MAGNITUDE, KeyPath, Reader, excerpt, line_of, suggest, type_name
+from tensegrity_core.schema import MAX_MAGNITUDE, KeyPath, Reader, described, excerpt, line_of, suggest
 
 TOP_KEYS: Final = ("name", "units", "description", "nodes", "rods", "cables", "cable_defaults", "sensors",
                    "floor", "pinned", "rigid_bodies", "masses", "gravity")
@@ -199,7 +199,7 @@ class _RobotReader(Reader):
     # -- rods ------------------------------------------------------------------------------------
     def rods(self, value: object, parent: dict[Any, Any], index: Mapping[str, int], coords: np.ndarray) -> Rods:
         if not isinstance(value, list):
-            raise self.error(f"must be a list of rods, got {type_name(value)} ({excerpt(value)})", ("rods",),
+            raise self.error(f"must be a list of rods, got {described(value)}", ("rods",),
                              parent, "rods")
         names: list[str] = []
         ends: list[tuple[int, int]] = []
@@ -270,7 +270,7 @@ class _RobotReader(Reader):
     def cables(self, value: object, parent: dict[Any, Any], index: Mapping[str, int], coords: np.ndarray,
                defaults: dict[str, Any]) -> tuple[Cables, Motors]:
         if not isinstance(value, list) or not value:
-            raise self.error(f"must be a non-empty list of cables, got {type_name(value)} ({excerpt(value)})",
+            raise self.error(f"must be a non-empty list of cables, got {described(value)}",
                              ("cables",), parent, "cables")
         names: list[str] = []
         ends: list[tuple[int, int]] = []

@@ -35,7 +35,16 @@ from tensegrity_core.schema.documents import (
     read_file,
     read_text,
 )
-from tensegrity_core.schema.errors import KeyPath, SchemaError, clip, excerpt, format_key_path, suggest, type_name
+from tensegrity_core.schema.errors import (
+    KeyPath,
+    SchemaError,
+    clip,
+    described,
+    excerpt,
+    format_key_path,
+    suggest,
+    type_name,
+)
 from tensegrity_core.schema.keypath import (
     KeyPathError,
     exists,
@@ -56,7 +65,7 @@ from tensegrity_core.schema.yaml_reader import parse_yaml
 __all__ = [
     "DEFAULT_LIMITS", "KeyPath", "KeyPathError", "Limits", "LocatedDict", "LocatedList", "MAX_MAGNITUDE", "Reader",
     "SchemaError", "ShippedFiles", "Source",
-    "check_size", "clip", "excerpt", "exists", "format_key_path", "get_at", "guess_format", "is_number", "line_of",
+    "check_size", "clip", "described", "excerpt", "exists", "format_key_path", "get_at", "guess_format", "is_number", "line_of",
     "number_reason", "number_rows", "parse_key_path", "parse_pattern", "parse_text", "parse_text_format",
     "parse_yaml", "plain", "plain_numbers", "read_file", "read_text", "resolve", "resolve_source", "set_in_place",
     "suggest", "type_name", "with_value_at", "within_bounds",

@@ -19,7 +19,7 @@ from typing import Any, ClassVar, Final, Self, TypeAlias
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import clip, excerpt
 
-__all__ = ["KeyPath", "SchemaError", "clip", "excerpt", "format_key_path", "suggest",
+__all__ = ["KeyPath", "SchemaError", "clip", "described", "excerpt", "format_key_path", "suggest",
            "type_name"]   # excerpt, clip: the core's one helper
 
 #: Where a value sits in a nested description: mapping keys (str, or any scalar key a
@@ -98,6 +98,14 @@ def type_name(value: Any) -> str:
         if isinstance(value, kind):
             return name
     return type(value).__name__
+
+
+def described(value: Any) -> str:
+    """What a value is and, unless it is null, an excerpt of it: ``"a string ('1.0 s')"``,
+    ``"nothing (null)"`` (an empty file or a key with no value)."""
+    if value is None:
+        return type_name(value)
+    return f"{type_name(value)} ({excerpt(value)})"
 
 
 #: Suggestions are searched among at most this many choices of similar length (difflib

@@ -25,7 +25,7 @@ import math
 from collections.abc import Callable, Collection, Iterable, Mapping
 from typing import Any, Final, TypedDict, TypeVar, Unpack
 
-from tensegrity_core.schema.errors import KeyPath, SchemaError, excerpt, suggest, type_name
+from tensegrity_core.schema.errors import KeyPath, SchemaError, described, excerpt, suggest
 from tensegrity_core.schema.located import line_of
 
 _T = TypeVar("_T")
@@ -58,7 +58,7 @@ def number_reason(value: Any, *, lo: float | None = None, hi: float | None = Non
     if allow_inf and isinstance(value, str) and value.strip().lower() in ("inf", "+inf", "infinity", ".inf"):
         value = math.inf
     if not is_number(value):
-        return math.nan, f"must be a number, got {type_name(value)} ({excerpt(value)})"
+        return math.nan, f"must be a number, got {described(value)}"
     try:
         x = float(value)
     except OverflowError:
@@ -93,7 +93,7 @@ class Reader:
                 entry: str = "") -> dict[Any, Any]:
         """``value`` if it is a mapping."""
         if not isinstance(value, dict):
-            raise self.error(_worded(entry, f"must be a mapping, got {type_name(value)} ({excerpt(value)})"), path,
+            raise self.error(_worded(entry, f"must be a mapping, got {described(value)}"), path,
                              parent, key)
         return value
 
@@ -103,7 +103,7 @@ class Reader:
         the message (``"effects"``)."""
         if not isinstance(value, list) or (nonempty and not value):
             kind = ("a non-empty list" if nonempty else "a list") + (f" of {of}" if of else "")
-            raise self.error(_worded(entry, f"must be {kind}, got {type_name(value)} ({excerpt(value)})"), path,
+            raise self.error(_worded(entry, f"must be {kind}, got {described(value)}"), path,
                              parent, key)
         return value
 
@@ -151,8 +151,7 @@ class Reader:
                what: str = "numbers", entry: str = "") -> tuple[float, ...]:
         """``value`` as a tuple of ``n`` numbers; ``what`` names them in the message."""
         if not isinstance(value, (list, tuple)) or len(value) != n:
-            raise self.error(_worded(entry, f"must be a list of {n} {what}, got {type_name(value)} "
-                                            f"({excerpt(value)})"), path, container, key)
+            raise self.error(_worded(entry, f"must be a list of {n} {what}, got {described(value)}"), path, container, key)
         return tuple(self.value_number(x, path + (i,), value, i, entry=entry) for i, x in enumerate(value))
 
     def string(self, d: Mapping[Any, Any], key: Any, path: KeyPath, *, default: str | None = None,
@@ -164,7 +163,7 @@ class Reader:
             return default
         value = d[key]
         if not isinstance(value, str):
-            raise self.error(_worded(entry, f"must be a string, got {type_name(value)} ({excerpt(value)})"),
+            raise self.error(_worded(entry, f"must be a string, got {described(value)}"),
                              path + (key,), d, key)
         if choices is not None and value not in choices:
             raise self.error(_worded(entry, f"must be one of {', '.join(choices)}, got {excerpt(value)}"
@@ -198,7 +197,7 @@ class Reader:
             return default
         value = d[key]
         if not isinstance(value, bool):
-            raise self.error(_worded(entry, f"must be true or false, got {type_name(value)} ({excerpt(value)})"),
+            raise self.error(_worded(entry, f"must be true or false, got {described(value)}"),
                              path + (key,), d, key)
         return value
 

@@ -30,13 +30,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
-from typing import Generic, Literal, NotRequired, Protocol, Self, TypedDict, TypeVar
+from dataclasses import dataclass, field
+from typing import Any, Generic, Literal, NotRequired, Protocol, Self, TypedDict, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.events import LoggedEvent
+from tensegrity_core.sim.errors import SimulationError
 from tensegrity_core.sim.scene import Scene
 from tensegrity_core.sim.stepper import Stepper, Sys
 
@@ -81,6 +82,8 @@ class State(Generic[W]):
     commands: tuple[float, ...]
     events: list[LoggedEvent]
     work: W
+    #: The model that made the state: only it may run it (:func:`check_owner`).
+    owner: object = field(default=None, repr=False)
 
     @property
     def t(self) -> float:
@@ -99,7 +102,20 @@ class State(Generic[W]):
         model's copy restarts its integrator at ``t`` (as after an event), so the two agree to
         the integration tolerance, not bit for bit; a quasi-static copy is exact."""
         events = list(self.events)
-        return State(self.commands, events, self.work.copy(events))
+        return State(self.commands, events, self.work.copy(events), owner=self.owner)
+
+
+def check_owner(model: object, state: State[Any]) -> None:
+    """Raise :class:`~tensegrity_core.sim.errors.SimulationError` unless ``state`` was made by
+    ``model`` (its ``initial_state``/``state_from``, or a copy of one of those). A state holds
+    its model's integrator, laws and contact mode: run by another model, even one compiled from
+    the same scene, it would silently go on with the first model's equations (Drake refuses a
+    context from another system the same way)."""
+    if state.owner is not model:
+        scene = getattr(getattr(state.owner, "scene", None), "name", None)
+        made = f"another model (compiled from scene {scene!r})" if scene else "another model"
+        raise SimulationError(f"this state was made by {made}; a state runs only on the model that made it: "
+                              "use model.initial_state() (or a copy of a state of this model)")
 
 
 @dataclass(frozen=True)

@@ -36,7 +36,7 @@ from typing import Any, Final
 
 import yaml
 
-from tensegrity_core.schema import KeyPath, Reader, SchemaError, excerpt, type_name
+from tensegrity_core.schema import KeyPath, Reader, SchemaError, described, excerpt
 from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.qos import parse_profiles
 from tensegrity_ros.bag.untrusted import MAX_YAML_BYTES, load_bag_yaml, path_inside, read_bounded
@@ -262,7 +262,7 @@ class MetadataReader(Reader):
 
     def text_value(self, value: Any, path: KeyPath, container: Any, key: Any) -> str:
         if not isinstance(value, str):
-            raise self.error(f"must be a string, got {type_name(value)} ({excerpt(value)})", path, container, key)
+            raise self.error(f"must be a string, got {described(value)}", path, container, key)
         if len(value) > MAX_TEXT:
             raise self.error(f"must be at most {MAX_TEXT} characters, got {excerpt(value)}", path, container, key)
         return value

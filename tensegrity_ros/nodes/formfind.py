@@ -38,8 +38,10 @@ from tensegrity_ros.nodes.formfind_worker import FormFindReply
 from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
 from tensegrity_ros.rclpy_utils.stop_signals import signals_blocked
 
+#: What the workers' forkserver imports before it forks them.
+WORKER_PRELOAD = ["tensegrity_ros.nodes.formfind_worker", "tensegrity_core.general"]
 _CTX = multiprocessing.get_context("forkserver")
-_CTX.set_forkserver_preload(["tensegrity_ros.nodes.formfind_worker", "tensegrity_core.general"])
+_CTX.set_forkserver_preload(WORKER_PRELOAD)
 #: How long a form-finding worker may run past the time limit to stop itself at its next
 #: iteration and send what it has (a parsing worker is stopped at the limit itself) [s].
 GRACE = 2.0

@@ -27,21 +27,11 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import Connection
 from typing import TYPE_CHECKING
 
-from threadpoolctl import threadpool_limits
-
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.schema import Limits, clip
 
 if TYPE_CHECKING:
     from tensegrity_core.general.formfind_result import IterationInfo
-
-# BLAS on one thread in the forkserver that preloads this module, so its workers never start
-# BLAS threads after the fork: once in a fresh-clone run, a worker under its memory cap hung
-# the small table's request for the whole time limit, and dense Newton's one-thread context
-# (which restores the count it found, starting threads again) is the only change to BLAS's
-# threads in a worker (suspected, not reproduced). One thread is also what a worker should
-# use: the node runs several workers at once.
-threadpool_limits(limits=1, user_api="blas")
 
 #: The phases a worker reports, in order (the node names the one a time limit hit).
 PARSING = "parsing the structure description"
@@ -158,11 +148,16 @@ def send(conn: Connection, message: tuple[str, object]) -> None:
 def run(conn: Connection, text: str, tol: float, max_iter: int, time_limit: float, max_members: int, limits: Limits,
         memory_bytes: int) -> None:
     """The worker process's body: cap the memory, solve, send phases and the result on ``conn``.
+    BLAS takes its memory before the cap (:func:`~tensegrity_core.general.linalg.claim_blas_memory`):
+    OpenBLAS retries a failed mapping forever, so under the cap it would hang, not refuse.
     A request that runs out of memory is answered :data:`OVER_MEMORY`; if even that cannot be
     sent, the worker exits at once with :data:`OVER_MEMORY_EXIT` (no traceback to print under
     the cap) and the node answers it. A worker whose node has gone exits (:func:`send`)."""
+    from tensegrity_core.general.linalg import claim_blas_memory
+
     reserve: bytearray | None = bytearray(RESERVE_BYTES)
     try:
+        claim_blas_memory()
         cap_memory(memory_bytes)
         reply = solve(text, tol, max_iter, time_limit, max_members, limits,
                       report=lambda phase: send(conn, ("phase", phase)))

@@ -199,6 +199,51 @@ def test_a_worker_over_its_memory_cap_is_refused_and_the_node_serves_on(small):
         [[p.x, p.y, p.z] for p in res.nodes], form_find(load_example("tensegrity_table")).nodes, atol=1e-9)
 
 
+def test_a_worker_answers_under_a_cap_smaller_than_a_blas_buffer():
+    """Workers forked as the node forks them, each allowed 24 MiB: less than one of OpenBLAS's
+    32 MiB work buffers, which OpenBLAS maps on first need and retries forever when it cannot
+    again and again when it cannot: scipy's forever (the worker hangs), numpy's ten times before
+    it ends the process. The table needs far less and is answered; the 40-vertebra spine's
+    dense Newton (234 unknowns) as well, or refused for memory. Each gets 60 s (the node's
+    default time limit) to answer."""
+    import subprocess
+    import sys
+
+    script = (
+        "import multiprocessing\n"
+        "from tensegrity_core.general import example_path\n"
+        "from tensegrity_core.schema import DEFAULT_LIMITS\n"
+        "from tensegrity_ros.nodes import formfind_worker\n"
+        "from tensegrity_ros.nodes.formfind import WORKER_PRELOAD\n"
+        "ctx = multiprocessing.get_context('forkserver')\n"
+        "ctx.set_forkserver_preload(WORKER_PRELOAD)\n"
+        "for name in ('tensegrity_table', 'spine_c'):\n"
+        "    parent, child = ctx.Pipe(duplex=False)\n"
+        "    worker = ctx.Process(target=formfind_worker.run, args=(child, example_path(name).read_text(), 0.0, 0,\n"
+        "                         60.0, 1000, DEFAULT_LIMITS, 24 * 2**20))\n"
+        "    worker.start()\n"
+        "    child.close()\n"
+        "    answer = 'no answer in 60 s'\n"
+        "    try:\n"
+        "        while parent.poll(60.0):\n"
+        "            kind, value = parent.recv()\n"
+        "            if kind == 'result':\n"
+        "                answer = (value.success, value.message)\n"
+        "                break\n"
+        "    except EOFError:\n"
+        "        worker.join()\n"
+        "        answer = f'died with exit code {worker.exitcode}'\n"
+        "    worker.kill()\n"
+        "    worker.join()\n"
+        "    print(name, answer, flush=True)\n")
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    lines = out.stdout.splitlines()
+    assert lines[0] == "tensegrity_table (True, 'converged to a stable equilibrium')", out.stdout
+    assert lines[1] in ("spine_c (True, 'converged to a stable equilibrium')",
+                        "spine_c (False, 'the request needs more memory than this service allows a worker')"), out.stdout
+
+
 def test_a_worker_whose_node_has_gone_exits_quietly():
     """The node shut down while a worker ran (its end of the pipe closed): the worker's first
     report finds no reader and it exits with ORPHANED_EXIT, printing nothing."""

@@ -219,3 +219,34 @@ def test_a_dynamic_model_starts_from_any_state_vector_and_refuses_bad_ones():
     with pytest.raises(SimulationError, match="domain"):
         model.state_from([0.5, 1.6, 0.0, 0.0, 0.0, 0.0])          # rho1 + rho2 > 2L
     assert not hasattr(compile_scene(load_scene("paper_fold_quasistatic")), "state_from")
+
+
+def _robot_scene():
+    return load_scene("three_bar_drop")
+
+
+@pytest.mark.parametrize("key, scene", [("class2/dynamic", lambda: load_scene("paper_fold")),
+                                        ("class2/quasi-static", lambda: load_scene("paper_fold_quasistatic")),
+                                        ("general/dynamic", lambda: load_scene("table_gravity")),
+                                        ("general/quasi-static", _quasi_static_table),
+                                        ("robot/dynamic", _robot_scene)])
+def test_a_state_runs_only_on_the_model_that_made_it(key, scene):
+    """A state carries its model's integrator and laws: another model, even one compiled from
+    the same scene, refuses it in one line instead of running the first model's equations."""
+    scene = scene()
+    assert backend_name(scene) == key
+    mine, other = compile_scene(scene), compile_scene(scene)
+    state = mine.initial_state(t_end=1.0)
+    command = [0.0 if math.isnan(c) else c for c in state.commands]
+    calls = {"advance": lambda m, s: m.advance(s, 0.001), "set_command": lambda m, s: m.set_command(s, command),
+             "record": lambda m, s: m.record(s, [0.001], []), "observe_now": lambda m, s: m.observe_now(s),
+             "joint_sample": lambda m, s: m.joint_sample(s)}
+    for name, call in calls.items():
+        for foreign in (state, state.copy()):
+            with pytest.raises(SimulationError, match=r"^this state was made by another model \(compiled from "
+                                                      rf"scene '{scene.name}'\); a state runs only on the model"):
+                call(other, foreign)
+        assert state.t == 0.0, name
+    mine.advance(state.copy(), 0.001)          # its copies run on the model that made it
+    mine.advance(state, 0.001)
+    assert state.t == 0.001

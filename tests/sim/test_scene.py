@@ -6,7 +6,7 @@ import textwrap
 
 import pytest
 
-from tensegrity_core.sim import SceneError, load_scene, scene_names
+from tensegrity_core.sim import SceneError, load_scene, scene_from_text, scene_names
 from tensegrity_core.sim.inputs import Commanded, Proportional, Ramp, Series
 
 GOOD = textwrap.dedent("""\
@@ -96,6 +96,12 @@ def test_dicts_paths_and_names_are_accepted(tmp_path):
      "effects[3].actuator_lag.tau", 14, "must be > 0"),
     (GOOD.split("effects:")[0] + "effects: 3\nduration: 1.0\n", "effects", 10, "must be a list"),
     (GOOD.replace("kind: class2", "kind: class3"), "model.kind", 3, "must be one of class2, general"),
+    (GOOD.replace("params: {k: 1.0, c: 0.01}", "params: {k: -1.0, c: 0.01}"), "model.params.k", 4, "must be > 0"),
+    (GOOD.replace("params: {k: 1.0, c: 0.01}", "params: {k: 1.0, c: -0.01}"), "model.params.c", 4, "must be >= 0"),
+    (GOOD.replace("f1: {law: proportional, gain: 10.0}", "f1: {law: commanded, initial: keep}"),
+     "inputs.f1.initial", 8, "must be a number or 'hold', got 'keep'"),
+    (GOOD.replace("f1: {law: proportional, gain: 10.0}", "f1: {law: commanded, initial: hld}"),
+     "inputs.f1.initial", 8, "(did you mean 'hold'?)"),
 ])
 def test_each_kind_of_error_names_the_key_and_the_line(text, key, line, words):
     err = error(text)
@@ -123,6 +129,13 @@ def test_the_file_name_leads_the_message(tmp_path):
     path.write_text(GOOD.replace("seed: 3", "seed: 3\nseed: 4"))
     err = error(str(path))
     assert str(err).startswith("broken.yaml: ") and "duplicate key 'seed'" in str(err) and err.line == 19
+
+
+@pytest.mark.parametrize("text", ["", "# only a comment\n", "~\n"])
+def test_an_empty_scene_is_named_as_nothing(text):
+    with pytest.raises(SceneError) as info:
+        scene_from_text(text)
+    assert str(info.value) == "must be a mapping, got nothing (null)"
 
 
 def test_invalid_yaml_reports_its_line():

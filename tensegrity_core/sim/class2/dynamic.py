@@ -30,7 +30,7 @@ from tensegrity_core.sim.class2.setup import (
 )
 from tensegrity_core.sim.commands import changed, check_command, compile_inputs
 from tensegrity_core.sim.inputs import held
-from tensegrity_core.sim.model import DynamicModel, JointValues, Observed, ObservedArrays, State, Stats
+from tensegrity_core.sim.model import DynamicModel, JointValues, Observed, ObservedArrays, State, Stats, check_owner
 from tensegrity_core.sim.scene import Scene
 from tensegrity_core.sim.stepper import Stepper
 
@@ -86,14 +86,16 @@ class Class2Dynamic(DynamicModel[Class2System, Class2Sample]):
         system = self.plant.system(mode, held(self.laws, self.initial_commands))
         stepper = Stepper(system, 0.0, y, method=self.method, rtol=s.rtol, atol=s.atol, max_step=s.max_step,
                           t_end=t_end, log=events)
-        return State(self.initial_commands, events, stepper)
+        return State(self.initial_commands, events, stepper, owner=self)
 
     def equations(self, state: State[Stepper[Class2System]]) -> Class2System:
         """The system (contact mode, commands) the integrator sees at ``state``."""
+        check_owner(self, state)
         return state.work.system
 
     # -- running ------------------------------------------------------------------------------
     def set_command(self, state: State[Stepper[Class2System]], values: Iterable[float]) -> None:
+        check_owner(self, state)
         commands = check_command(values, self.laws, self.actuator_names)
         if not changed(state.commands, commands):
             return
@@ -102,6 +104,7 @@ class Class2Dynamic(DynamicModel[Class2System, Class2Sample]):
         st.change_system(st.system.with_laws(held(self.laws, commands)))
 
     def advance(self, state: State[Stepper[Class2System]], t: float) -> None:
+        check_owner(self, state)
         state.work.advance(t)
 
     def sample(self, state: State[Stepper[Class2System]]) -> Class2Sample:
@@ -113,6 +116,7 @@ class Class2Dynamic(DynamicModel[Class2System, Class2Sample]):
     def record(self, state: State[Stepper[Class2System]], times: Sequence[float] | FloatArray,
                out: list[Class2Sample]) -> None:
         """Append samples at increasing ``times`` to ``out``."""
+        check_owner(self, state)
         states: list[tuple[float, FloatArray, Class2System]] = []
         try:
             state.work.record(times, states)
@@ -126,10 +130,12 @@ class Class2Dynamic(DynamicModel[Class2System, Class2Sample]):
 
     def observe_now(self, state: State[Stepper[Class2System]]) -> Observed:
         """The observation at ``state.t`` (one sample, on floats)."""
+        check_owner(self, state)
         return self.observer.one(*self.sample(state))
 
     def joint_sample(self, state: State[Stepper[Class2System]], *, coordinates: bool = True) -> JointValues:
         """Joint positions, rates, transmitted forces, node D and the fold flag at ``state.t``."""
+        check_owner(self, state)
         t, y, bits, T = self.sample(state)
         L = self.params.L
         ee = np.array([y[0] + L * math.cos(y[2]), L * math.sin(y[2]), 0.0])

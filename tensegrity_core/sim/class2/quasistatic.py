@@ -65,7 +65,16 @@ from tensegrity_core.sim.class2.setup import (
 )
 from tensegrity_core.sim.commands import changed, check_command, compile_inputs
 from tensegrity_core.sim.inputs import held
-from tensegrity_core.sim.model import JointValues, Model, Observed, ObservedArrays, State, Stats, joint_values
+from tensegrity_core.sim.model import (
+    JointValues,
+    Model,
+    Observed,
+    ObservedArrays,
+    State,
+    Stats,
+    check_owner,
+    joint_values,
+)
 from tensegrity_core.sim.scene import Scene
 
 #: Samples of one segment under one potential: ``(times (k,) [s], segment, total potential)``.
@@ -115,7 +124,7 @@ class Class2QuasiStatic(Model[PathFollower, Class2Block]):
         """The path's start at ``t = 0`` (the minimum reached from the scene's initial state,
         found once at compile time; ``t_end`` is not needed: the path never runs ahead)."""
         events = list(self._start.events)
-        return State(self.initial_commands, events, self._start.copy(events))
+        return State(self.initial_commands, events, self._start.copy(events), owner=self)
 
     def potential(self, state: State[PathFollower]) -> TotalPotential:
         """The total potential the state's path follows (its effects under its commands)."""
@@ -123,6 +132,7 @@ class Class2QuasiStatic(Model[PathFollower, Class2Block]):
 
     # -- running ------------------------------------------------------------------------------
     def set_command(self, state: State[PathFollower], values: Iterable[float]) -> None:
+        check_owner(self, state)
         commands = check_command(values, self.laws, self.actuator_names)
         if not changed(state.commands, commands):
             return
@@ -131,6 +141,7 @@ class Class2QuasiStatic(Model[PathFollower, Class2Block]):
         state.work.jump_here()
 
     def advance(self, state: State[PathFollower], t: float) -> None:
+        check_owner(self, state)
         state.work.advance(t)
 
     def sample(self, state: State[PathFollower]) -> Class2Block:
@@ -142,6 +153,7 @@ class Class2QuasiStatic(Model[PathFollower, Class2Block]):
         """Append blocks ``(times inside one segment, segment, potential)`` for increasing
         ``times`` to ``out``: the path is advanced segment by segment; :meth:`observe`
         evaluates them."""
+        check_owner(self, state)
         blocks: list[samples.Block] = []
         try:
             state.work.record(times, blocks)
@@ -166,10 +178,12 @@ class Class2QuasiStatic(Model[PathFollower, Class2Block]):
 
     def observe_now(self, state: State[PathFollower]) -> Observed:
         """The observation at ``state.t`` (one sample, evaluated on floats)."""
+        check_owner(self, state)
         q, qd, lam, u = state.work.equilibrium_now()
         return self.observer.one(state.t, q + qd, state.work.seg.bits, u, contact=lam)
 
     def joint_sample(self, state: State[PathFollower], *, coordinates: bool = True) -> JointValues:
+        check_owner(self, state)
         return joint_values(self.observe_now(state))
 
     def singular_distance(self, state: State[PathFollower]) -> tuple[str, float]:

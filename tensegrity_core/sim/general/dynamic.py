@@ -35,7 +35,16 @@ from tensegrity_core.sim.general.setup import (
     scene_loads,
 )
 from tensegrity_core.sim.inputs import held
-from tensegrity_core.sim.model import DynamicModel, JointValues, Observed, ObservedArrays, State, Stats, joint_values
+from tensegrity_core.sim.model import (
+    DynamicModel,
+    JointValues,
+    Observed,
+    ObservedArrays,
+    State,
+    Stats,
+    check_owner,
+    joint_values,
+)
 from tensegrity_core.sim.scene import Scene
 from tensegrity_core.sim.stepper import Stepper
 
@@ -84,14 +93,16 @@ class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralSystem, GeneralSample])
         start = self.plant.resume(0.0, y)          # the strings' slack set at the start
         stepper = Stepper(start.system, 0.0, start.y, method=self.method, rtol=s.rtol, atol=s.atol,
                           max_step=s.max_step, t_end=t_end, log=events)
-        return State(self.initial_commands, events, stepper)
+        return State(self.initial_commands, events, stepper, owner=self)
 
     def equations(self, state: State[Stepper[GeneralSystem]]) -> GeneralSystem:
         """The model (charts, commands) the integrator sees at ``state``."""
+        check_owner(self, state)
         return state.work.system
 
     # -- running ------------------------------------------------------------------------------
     def set_command(self, state: State[Stepper[GeneralSystem]], values: Iterable[float]) -> None:
+        check_owner(self, state)
         commands = check_command(values, self.laws, self.actuator_names, positive=True)
         if not changed(state.commands, commands):
             return
@@ -101,6 +112,7 @@ class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralSystem, GeneralSample])
         st.change_system(st.system.with_inputs(rest_lengths_function(self.scene, laws), laws))
 
     def advance(self, state: State[Stepper[GeneralSystem]], t: float) -> None:
+        check_owner(self, state)
         state.work.advance(t)
 
     def sample(self, state: State[Stepper[GeneralSystem]]) -> GeneralSample:
@@ -110,6 +122,7 @@ class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralSystem, GeneralSample])
 
     def record(self, state: State[Stepper[GeneralSystem]], times: Sequence[float] | FloatArray,
                out: list[GeneralSample]) -> None:
+        check_owner(self, state)
         state.work.record(times, out)
 
     def observe(self, samples: Sequence[GeneralSample]) -> ObservedArrays:
@@ -132,9 +145,11 @@ class GeneralDynamic(GeneralBackEnd, DynamicModel[GeneralSystem, GeneralSample])
         return finish_observations(rows, self.scene)
 
     def observe_now(self, state: State[Stepper[GeneralSystem]]) -> Observed:
+        check_owner(self, state)
         return first_observation(self.observe([self.sample(state)]))
 
     def joint_sample(self, state: State[Stepper[GeneralSystem]], *, coordinates: bool = True) -> JointValues:
+        check_owner(self, state)
         return joint_values(self.observe_now(state), self.interface.members)
 
     def singular_distance(self, state: State[Stepper[GeneralSystem]]) -> None:

@@ -44,7 +44,16 @@ from tensegrity_core.sim.general.setup import (
     static_structure,
 )
 from tensegrity_core.sim.inputs import held
-from tensegrity_core.sim.model import JointValues, Model, Observed, ObservedArrays, State, Stats, joint_values
+from tensegrity_core.sim.model import (
+    JointValues,
+    Model,
+    Observed,
+    ObservedArrays,
+    State,
+    Stats,
+    check_owner,
+    joint_values,
+)
 from tensegrity_core.sim.scene import Scene
 
 FloatArray = NDArray[np.float64]
@@ -124,10 +133,11 @@ class GeneralQuasiStatic(GeneralBackEnd, Model[FormFindingPath, GeneralQuasiStat
     def initial_state(self, *, t_end: float = math.inf) -> State[FormFindingPath]:
         """The equilibrium at ``t = 0`` under the scene's loads (event ``jump`` when it is not
         the initial configuration)."""
-        return State(self.initial_commands, [(0.0, "jump", 0)] if self._jumped else [], self._start.copy([]))
+        return State(self.initial_commands, [(0.0, "jump", 0)] if self._jumped else [], self._start.copy([]), owner=self)
 
     # -- running ------------------------------------------------------------------------------
     def set_command(self, state: State[FormFindingPath], values: Iterable[float]) -> None:
+        check_owner(self, state)
         commands = check_command(values, self.laws, self.actuator_names, positive=True)
         if not changed(state.commands, commands):
             return
@@ -136,6 +146,7 @@ class GeneralQuasiStatic(GeneralBackEnd, Model[FormFindingPath, GeneralQuasiStat
         state.work.update(state.t)
 
     def advance(self, state: State[FormFindingPath], t: float) -> None:
+        check_owner(self, state)
         path = state.work
         check_advance_target(path.t, t)
         path.update(t)
@@ -148,6 +159,7 @@ class GeneralQuasiStatic(GeneralBackEnd, Model[FormFindingPath, GeneralQuasiStat
 
     def record(self, state: State[FormFindingPath], times: Sequence[float] | FloatArray,
                out: list[GeneralQuasiStaticSample]) -> None:
+        check_owner(self, state)
         for t in times:
             self.advance(state, float(t))
             out.append(self.sample(state))
@@ -200,9 +212,11 @@ class GeneralQuasiStatic(GeneralBackEnd, Model[FormFindingPath, GeneralQuasiStat
         return finish_observations(rows, self.scene)
 
     def observe_now(self, state: State[FormFindingPath]) -> Observed:
+        check_owner(self, state)
         return first_observation(self.observe([self.sample(state)]))
 
     def joint_sample(self, state: State[FormFindingPath], *, coordinates: bool = True) -> JointValues:
+        check_owner(self, state)
         return joint_values(self.observe_now(state), self.interface.members)
 
     def singular_distance(self, state: State[FormFindingPath]) -> None:

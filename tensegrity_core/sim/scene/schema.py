@@ -27,6 +27,7 @@ from tensegrity_core.robot.gait import read_gait
 from tensegrity_core.schema import (
     KeyPath,
     Reader,
+    described,
     excerpt,
     suggest,
     type_name,
@@ -131,8 +132,8 @@ class SceneReader(Reader):
                 p = self.mapping(d["params"], path + ("params",), d, "params")
                 allowed = tuple(PAPER_PARAMS.as_dict()) + ("k", "c")
                 self.keys(p, path + ("params",), allowed)
-                for k in p:
-                    overrides[k] = self.number(p, k, path + ("params",))
+                for k in p:   # dampings c, c1..c4 may be 0; lengths, stiffnesses and the mass may not
+                    overrides[k] = self.number(p, k, path + ("params",), lo=0.0, lo_open=not k.startswith("c"))
             try:
                 params = PAPER_PARAMS.with_overrides(overrides)
             except TensegrityError as err:
@@ -174,7 +175,7 @@ class SceneReader(Reader):
     # -- effects ---------------------------------------------------------------------------
     def effects(self, value: object, path: KeyPath, parent: dict[str, Any], model: ModelSpec) -> SceneEffects:
         if not isinstance(value, list):
-            raise self.error(f"must be a list of effects, got {type_name(value)} ({excerpt(value)})", path, parent,
+            raise self.error(f"must be a list of effects, got {described(value)}", path, parent,
                              "effects")
         out: dict[str, EffectSpec] = {}
         for i, item in enumerate(value):
@@ -418,6 +419,9 @@ class SceneReader(Reader):
         if law == "commanded":
             if "initial" not in d or d["initial"] == "hold":
                 return Commanded(None)
+            if isinstance(d["initial"], str):
+                raise self.error(f"must be a number or 'hold', got {excerpt(d['initial'])}"
+                                 f"{suggest(d['initial'], ['hold'])}", path + ("initial",), d, "initial")
             return Commanded(self.number(d, "initial", path))
         return read_series(self, d, path, self.base)
 

@@ -47,6 +47,7 @@ from tensegrity_core.sim.model import (
     ObservedArrays,
     State,
     Stats,
+    check_owner,
 )
 from tensegrity_core.sim.scene import Scene
 from tensegrity_core.sim.scene.robot_schema import COMMAND_WORDS, command_range, modes_of
@@ -154,16 +155,18 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
 
     def _state(self, y: FloatArray, t_end: float) -> State[FixedStepper]:
         events: list[LoggedEvent] = []
-        return State(self.initial_commands, events, FixedStepper(self.system, y, self.step, t_end=t_end, log=events))
+        return State(self.initial_commands, events, FixedStepper(self.system, y, self.step, t_end=t_end, log=events), owner=self)
 
     def equations(self, state: State[FixedStepper]) -> RobotSystem:
         """The equations (charts, inputs) the integrator sees at ``state``."""
+        check_owner(self, state)
         return state.work.system
 
     # -- running ------------------------------------------------------------------------------
     def set_command(self, state: State[FixedStepper], values: Iterable[float]) -> None:
         """New commands for the commanded motors, each in its motor's mode (rest length [m],
         reel speed [m/s], tension [N]) and within its range; they act from the next step."""
+        check_owner(self, state)
         if self._repeated(state, values):
             return
         commands = self._accepted(values)
@@ -212,6 +215,7 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         return commands
 
     def advance(self, state: State[FixedStepper], t: float) -> None:
+        check_owner(self, state)
         state.work.advance(t)
 
     def sample(self, state: State[FixedStepper]) -> RobotSample:
@@ -220,6 +224,7 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
 
     def record(self, state: State[FixedStepper], times: Sequence[float] | FloatArray,
                out: list[RobotSample]) -> None:
+        check_owner(self, state)
         state.work.record(times, out)
 
     def observe(self, samples: Sequence[RobotSample]) -> ObservedArrays:
@@ -307,6 +312,7 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         return out
 
     def observe_now(self, state: State[FixedStepper]) -> Observed:
+        check_owner(self, state)
         arrays: dict[str, Any] = dict(self.observe([self.sample(state)]))
         data = {k: v[0] for k, v in arrays.items()}
         for key in ("t", "potential_energy", "kinetic_energy"):
@@ -319,6 +325,7 @@ class RobotDynamic(Model[FixedStepper, RobotSample]):
         from one evaluation of the state (a fraction of :meth:`observe_now`'s cost: no
         energies, rod forces or sensors); ``coordinates=False``: ``q`` and ``qdot`` empty (the
         rods' rotation vectors cost about as much as the evaluation)."""
+        check_owner(self, state)
         st = state.work
         ev = st.evaluation()
         # the motor cables' rest lengths, lengths, rates and tensions and the end effector's
