@@ -177,6 +177,8 @@ def run_modes(args: argparse.Namespace) -> int:
 
     from tensegrity_core.general import form_find, modal_analysis, modes
 
+    if args.stiffness < 0:
+        raise CliError(f"--stiffness must be >= 0 (the number of eigenvalues to print), got {args.stiffness}")
     structure = _load(args.file)
     state = None
     if args.at_equilibrium:

@@ -64,6 +64,7 @@ def test_failure_exits_non_zero_with_one_line(tmp_path, capsys):
     (["formfind", "no_such_file.yaml"], "structure file not found"),
     (["formfind", "patio_shade", "-o", "result.txt"], "must end in .yaml"),
     (["formfind", "patio_shade", "--method", "magic"], "unknown form-finding method"),
+    (["modes", "patio_shade", "--stiffness", "-1"], "--stiffness must be >= 0 (the number of eigenvalues to print), got -1"),
 ])
 def test_bad_input_is_one_error_line_with_code_2(args, message, capsys):
     assert main(args) == 2
