@@ -7,6 +7,8 @@ the right-hand side, and the statics' form-finding called directly.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -58,6 +60,29 @@ def test_a_mass_between_two_bars_oscillates_at_sqrt_2k_over_m():
     np.testing.assert_allclose(traj.nodes[:, 1, 0], x0 * np.cos(omega * traj.times), atol=1e-9)
     np.testing.assert_allclose(traj.member_forces[:, 0], 100.0 * traj.nodes[:, 1, 0], atol=1e-7)
 
+
+
+def test_a_taut_strings_damper_pushes_while_the_string_shortens_fast():
+    """A taut string's force is ``k x + c dx/dt`` (``x = l - l0``) both ways, as MuJoCo's tendon's
+    (docs/scenes.md): 1 kg on a string of k = 100 N/m, c = 4 N s/m, released 0.5 m stretched,
+    moves as the damped oscillator ``x = x0 e^{-z w t} (cos(w_d t) + z w / w_d sin(w_d t))`` until
+    it goes slack (w = 10 rad/s, z = 0.2); the force turns compressive before that."""
+    k, c, x0 = 100.0, 4.0, 0.5
+    structure = {"name": "one damped string", "nodes": {"a": [0.0, 0, 0], "m": [0.5 + x0, 0, 0]},
+                 "members": [{"nodes": ["a", "m"], "EA": k * 0.5, "rest_length": 0.5}],
+                 "pinned": {"a": "xyz", "m": "yz"}, "masses": {"m": 1.0}}
+    traj = simulate(general_scene(structure, ["inertia", "springs", {"damping": {"c": c}}], duration=0.2,
+                                  output={"rate": 1000}))
+    w = math.sqrt(k)                                    # 1 kg
+    z = c / (2 * w)
+    wd = w * math.sqrt(1 - z * z)
+    t = traj.times
+    x = x0 * np.exp(-z * w * t) * (np.cos(wd * t) + z * w / wd * np.sin(wd * t))
+    v = -x0 * w * w / wd * np.exp(-z * w * t) * np.sin(wd * t)
+    taut = x > 0
+    np.testing.assert_allclose(traj.nodes[taut, 1, 0] - 0.5, x[taut], atol=1e-8)
+    np.testing.assert_allclose(traj.member_forces[taut, 0], (k * x + c * v)[taut], atol=1e-6)
+    assert traj.member_forces[taut, 0].min() < -10.0            # c v = -13.9 N as it goes slack at 0.181 s
 
 @pytest.mark.parametrize("kernels", ["loops", "arrays"])
 def test_left_jacobian_and_its_inverse(kernels):
