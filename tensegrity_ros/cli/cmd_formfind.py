@@ -7,6 +7,7 @@ shipped example (``tensegrity formfind tensegrity_table``).
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -160,9 +161,14 @@ def k_unit(structure: Structure) -> str:
 
 def _print_summary(structure: Structure, result: FormFindResult) -> None:
     print(f"{structure.name}: {result.message}")
+    if math.isfinite(result.min_eigenvalue):
+        stability = (f"min eigenvalue of K_T [{k_unit(structure)}] {result.min_eigenvalue:.6g} "
+                     f"({result.rigid_body_modes} rigid-body modes excluded), stability margin "
+                     f"{result.stability_margin:.3g}")
+    else:       # stopped before an equilibrium: the stability check did not run
+        stability = "stability not checked"
     print(f"  iterations {result.iterations}, residual {result.residual:.3e} (relative; norm "
-          f"{result.residual_norm:.3e} {residual_unit_of(structure)}), min eigenvalue of K_T [{k_unit(structure)}] {result.min_eigenvalue:.6g} "
-          f"({result.rigid_body_modes} rigid-body modes excluded), stability margin {result.stability_margin:.3g}")
+          f"{result.residual_norm:.3e} {residual_unit_of(structure)}), {stability}")
     if structure.n_members <= 60:
         print(f"  {'member':>12} {'force [N]':>14} {'length [m]':>12}")
         for name, t, length in zip(structure.member_names, result.member_forces, result.member_lengths):

@@ -60,6 +60,14 @@ def test_failure_exits_non_zero_with_one_line(tmp_path, capsys):
     assert len([line for line in err if line.startswith("error:")]) == 1
 
 
+def test_a_failed_form_finding_prints_no_nan(capsys):
+    """Stopped before any iteration there is no equilibrium and no stability check: the
+    summary says so instead of printing 'nan' (the JSON gives null)."""
+    assert main(["formfind", "tensegrity_table", "--max-iter", "0"]) == 1
+    out = capsys.readouterr().out
+    assert "stability not checked" in out and "nan" not in out.lower()
+
+
 @pytest.mark.parametrize("args, message", [
     (["formfind", "no_such_file.yaml"], "structure file not found"),
     (["formfind", "patio_shade", "-o", "result.txt"], "must end in .yaml"),
