@@ -175,15 +175,26 @@ def rounding_level(K: Matrix) -> float:
     return float(count.max(initial=1) * _EPS * row_sum.max(initial=0.0))
 
 
+#: scipy's message for SuperLU's report of a zero pivot; SuperLU's other failures come as
+#: RuntimeError too, with its own message (``SUPERLU_MALLOC fails for buf in intCalloc()``).
+_SINGULAR: Final = "Factor is exactly singular"
+
+
 def factor_if_positive_definite(A: sp.spmatrix) -> SuperLU | None:
     """SuperLU ``L D L^T`` factor of the sparse symmetric ``A`` if it is positive definite,
-    else ``None`` (see the module docstring)."""
+    else ``None`` (see the module docstring). Raises ``MemoryError`` when SuperLU cannot
+    allocate (scipy raises some of those as RuntimeError, which must not read as a zero
+    pivot: a memory cap would turn into a shift and a wrong verdict)."""
     A = sp.csc_matrix(A)
     try:
         lu = splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                   options=dict(SymmetricMode=True, Equil=False))
-    except RuntimeError:          # exactly singular pivot: not positive definite
-        return None
+    except RuntimeError as err:
+        if str(err) == _SINGULAR:       # an exactly zero pivot: not positive definite
+            return None
+        if "alloc" in str(err).lower():
+            raise MemoryError(f"SuperLU: {err}") from err
+        raise
     if not np.array_equal(lu.perm_r, lu.perm_c):
         return None
     d = lu.U.diagonal()

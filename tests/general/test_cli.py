@@ -28,6 +28,15 @@ def test_formfind_writes_yaml_and_json_results_and_a_plot(tmp_path, capsys):
     assert png.stat().st_size > 10_000 and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.parametrize("name, residual, eigenvalue", [("t_bar", "N", "N/m"),
+                                                       ("tensegrity_table", "N, N m", "N/m and N m/rad mixed")])
+def test_the_summary_gives_the_units_of_the_residual_and_the_eigenvalue(capsys, name, residual, eigenvalue):
+    """With rigid bodies the residual holds moments and K_T their rotations: the units say so."""
+    assert main(["formfind", name, "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert f" {residual}), min eigenvalue of K_T [{eigenvalue}] " in out, out
+
+
 def test_formfind_json_on_stdout_and_progress_on_stderr(capsys):
     assert main(["formfind", "spine_c", "--json"]) == 0
     out = capsys.readouterr()

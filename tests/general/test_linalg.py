@@ -136,6 +136,52 @@ def test_no_shift_for_a_matrix_with_non_finite_entries_is_one_refusal():
     assert max(calls) == pytest.approx(1e6) and len(calls) <= 6
 
 
+def test_an_allocation_failure_in_superlu_is_a_memory_error_not_an_indefinite_matrix():
+    """The 3-D grid Laplacian (12^3 unknowns; eigenvalues sums of 2 - 2 cos(k pi / 13) > 0,
+    positive definite) factored in processes whose address space is capped at 128 KiB to 6 MiB
+    (steps of 128 KiB) above what they map, so that the cap falls on each of SuperLU's first
+    allocations in turn: each gives the factor or MemoryError, never "not positive definite".
+    scipy raises some of SuperLU's failed allocations as RuntimeError ('SUPERLU_MALLOC fails
+    ...'), the type of its zero-pivot report: read as one, a form-finding worker's cap would
+    become ever larger shifts and the verdict 'non-finite values'. ~4 s."""
+    import subprocess
+    import sys
+
+    script = (
+        "import os, resource\n"
+        "import numpy as np, scipy.sparse as sp\n"
+        "from tensegrity_core.general.linalg import factor_if_positive_definite\n"
+        "m = 12\n"
+        "D = sp.diags_array([-np.ones(m - 1), 2 * np.ones(m), -np.ones(m - 1)], offsets=[-1, 0, 1])\n"
+        "I = sp.identity(m)\n"
+        "A = (sp.kron(sp.kron(D, I), I) + sp.kron(sp.kron(I, D), I) + sp.kron(sp.kron(I, I), D)).tocsc()\n"
+        "with open('/proc/self/statm') as fh:\n"
+        "    mapped = int(fh.read().split()[0]) * resource.getpagesize()\n"
+        "for kib in range(128, 6 * 1024, 128):\n"
+        "    r, w = os.pipe()\n"
+        "    pid = os.fork()\n"
+        "    if pid == 0:\n"
+        "        quiet = os.open(os.devnull, os.O_WRONLY)\n"          # SuperLU prints its failures
+        "        os.dup2(quiet, 1)\n"
+        "        os.dup2(quiet, 2)\n"
+        "        resource.setrlimit(resource.RLIMIT_AS, (mapped + kib * 1024,) * 2)\n"
+        "        try:\n"
+        "            got = 'factor' if factor_if_positive_definite(A) is not None else 'not positive definite'\n"
+        "        except BaseException as err:\n"
+        "            got = type(err).__name__\n"
+        "        os.write(w, got.encode())\n"
+        "        os._exit(0)\n"
+        "    os.close(w)\n"
+        "    os.waitpid(pid, 0)\n"
+        "    with os.fdopen(r) as fh:\n"
+        "        print(kib, fh.read(), flush=True)\n")
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    got = dict(line.split(" ", 1) for line in out.stdout.splitlines() if line[:1].isdigit())
+    assert len(got) == 47 and set(got.values()) <= {"factor", "MemoryError"}, got
+    assert "MemoryError" in got.values(), got
+
+
 @pytest.mark.parametrize("name, count", [
     ("tensegrity_table", 6), ("spherical_octahedron", 6), ("patio_shade", 0), ("t_bar", 0), ("spine_c", 0)])
 def test_zero_energy_rigid_modes(name, count):
