@@ -141,8 +141,8 @@ class _TrajectoryReader(Reader):
                 if key in p:
                     values = self.sequence(p[key], path + (key,), p, key, of="numbers")
                     target.append([self.value_number(v, path + (key, j), values, j) for j, v in enumerate(values)])
-        out.path_tolerance = self.tolerances(d, "path_tolerance")
-        out.goal_tolerance = self.tolerances(d, "goal_tolerance")
+        out.path_tolerance = self.tolerances(d, "path_tolerance", names)
+        out.goal_tolerance = self.tolerances(d, "goal_tolerance", names)
         out.goal_time_tolerance = self.number(d, "goal_time_tolerance", (), default=0.0, lo=0.0)
         return out
 
@@ -155,7 +155,9 @@ class _TrajectoryReader(Reader):
                 raise self.error(f"must be a joint name, got {excerpt(name)}", ("joint_names", j), names, j)
         return list(names)
 
-    def tolerances(self, d: dict[Any, Any], key: str) -> dict[str, float]:
-        """Joint name -> tolerance [m] (a finite number; the controller checks the rest)."""
+    def tolerances(self, d: dict[Any, Any], key: str, names: list[str]) -> dict[str, float]:
+        """Joint name (one of the trajectory's ``names``) -> tolerance [m] (a finite number;
+        the controller checks the rest)."""
         tol = self.mapping(d.get(key, {}), (key,), d, key)
+        self.keys(tol, (key,), names)
         return {str(k): self.number(tol, k, (key,)) for k in tol}

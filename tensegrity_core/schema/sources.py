@@ -62,6 +62,7 @@ def resolve_source(source: object, *, what: str, shipped: ShippedFiles | Sequenc
     if isinstance(source, Path):
         path = source if folder is None or source.is_absolute() else folder / source
         if not _is_file(path):
+            _refuse_if_not_regular(path, error)
             raise error(f"{what} file not found: {excerpt(str(path))}{_suggestion(path.stem, folders, what)}")
         return Source("path", path=path)
     if isinstance(source, str):
@@ -72,6 +73,8 @@ def resolve_source(source: object, *, what: str, shipped: ShippedFiles | Sequenc
         for files in folders:
             if one_line and source in files.names():
                 return Source("path", path=files.path(source), shipped=files)
+        if one_line:
+            _refuse_if_not_regular(path, error)
         kinds = " or ".join(dict.fromkeys(f.what for f in folders))
         if text is None:
             raise error(f"no {what} file {excerpt(str(path))} and no shipped {kinds} {excerpt(source)}"
@@ -85,6 +88,17 @@ def resolve_source(source: object, *, what: str, shipped: ShippedFiles | Sequenc
     accepted = ["a name", "a path"] + ([text] if text is not None else []) + (["a dict"] if data else [])
     raise error(f"cannot load a {what} from a {type(source).__name__}; give {', '.join(accepted[:-1])} or "
                 f"{accepted[-1]}")
+
+
+def _refuse_if_not_regular(path: Path, error: Callable[[str], Exception]) -> None:
+    """Refuse a path that exists but is no regular file (a fifo, a device, a folder), which
+    "not found" would misdescribe."""
+    try:
+        exists = path.exists()
+    except OSError:                       # e.g. a name longer than the system allows
+        exists = False
+    if exists:
+        raise error(f"{excerpt(str(path))} is not a regular file")
 
 
 def _is_file(path: Path) -> bool:

@@ -29,7 +29,7 @@ from typing import TextIO
 
 from tensegrity_ros.apps.stop_order import stop_bound_s, stop_in_stages, stop_stages
 from tensegrity_ros.rclpy_utils.env import ensure_ros_environment
-from tensegrity_ros.rclpy_utils.stop_signals import signals_blocked, stop_on_signals
+from tensegrity_ros.rclpy_utils.stop_signals import EXIT_DEADLINE_S, signals_blocked, stop_on_signals
 
 
 @dataclass
@@ -62,9 +62,12 @@ def _ended(name: str, code: int) -> str:
 
 
 class Launcher:
-    """Runs :class:`ProcessSpec` children until one is asked to stop or all have exited."""
+    """Runs :class:`ProcessSpec` children until one is asked to stop or all have exited.
+    ``grace`` [s]: how long a child may take to stop after SIGINT before SIGTERM; by default
+    the time a suite process allows its own stop (``EXIT_DEADLINE_S``: a simulator waiting
+    for its subscribers' acknowledgements takes up to 7 s, ``rclpy_utils/delivery.py``)."""
 
-    def __init__(self, specs: list[ProcessSpec], *, grace: float = 5.0, out: TextIO = sys.stdout) -> None:
+    def __init__(self, specs: list[ProcessSpec], *, grace: float = EXIT_DEADLINE_S, out: TextIO = sys.stdout) -> None:
         self.specs = specs
         self.grace = grace
         self.out = out

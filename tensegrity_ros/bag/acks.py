@@ -10,10 +10,14 @@ unacknowledged :data:`PROBE_AFTER_S` after the wait began has its subscribers' n
 whether they are there: their parameter service, which every rclpy and rclcpp node serves
 unless told not to (``get_parameters`` with no names: no effect), asked every
 :data:`ASK_EVERY_S` (a request sent before the server has matched the asking client is
-lost). When none of a topic's nodes has answered within :data:`ANSWER_S`, the topic is
-given up. A node that answers, or one without parameter services (nothing can tell), is
-waited for up to the bound: a live reader still repairing what it missed under load gets
-it all. A live node answers within its executor's latency, milliseconds on an idle machine.
+lost). A node without parameter services (a node made with ``start_parameter_services=False``,
+such as the simulator's command node) is asked through another node of its process that
+has them: nodes of one ROS context share one DDS participant, named by the first 12 bytes
+of every endpoint's GUID (:func:`_participant_sibling`). When none of a topic's nodes has
+answered within :data:`ANSWER_S`, the topic is given up. A node that answers, or one
+without parameter services alone in its process (nothing can tell), is waited for up to
+the bound: a live reader still repairing what it missed under load gets it all. A live
+node answers within its executor's latency, milliseconds on an idle machine.
 
 The wait polls every publisher every :data:`POLL_S` (the suite's heartbeat period, when
 readers acknowledge), :func:`report` turns what is left into one line.
@@ -93,6 +97,24 @@ def _serves_parameters(node: Any, fq_name: str) -> bool:
     return any(service == f"{fq_name}/get_parameters" for service, _types in services)
 
 
+def _fq(info: Any) -> str:
+    return f"{info.node_namespace.rstrip('/')}/{info.node_name}"
+
+
+#: Bytes of an endpoint's gid that name its DDS participant (rmw_fastrtps: the GUID prefix).
+PARTICIPANT_BYTES: Final = 12
+
+
+def _participant_sibling(node: Any, topic: str, fq_name: str) -> str | None:
+    """Another node with parameter services in the process of ``fq_name`` (a subscriber of
+    ``topic``): one whose ``/rosout`` publisher is of the same participant; None if none."""
+    participants = {bytes(i.endpoint_gid[:PARTICIPANT_BYTES]) for i in node.get_subscriptions_info_by_topic(topic)
+                    if _fq(i) == fq_name}
+    siblings = sorted({_fq(i) for i in node.get_publishers_info_by_topic("/rosout")
+                       if bytes(i.endpoint_gid[:PARTICIPANT_BYTES]) in participants} - {fq_name})
+    return next((name for name in siblings if _serves_parameters(node, name)), None)
+
+
 def _subscriber_nodes(node: Any, topic: str) -> tuple[str, ...]:
     """The fully qualified names of the nodes subscribed to ``topic`` (graph view)."""
     return tuple(sorted({f"{i.node_namespace.rstrip('/')}/{i.node_name}"
@@ -123,7 +145,8 @@ def wait_for_acks(node: Any, publishers: Iterable[Any], timeout_s: float, *,
                     names = nodes.setdefault(topic, _subscriber_nodes(node, topic))
                     for name in names:
                         if name not in probes:
-                            probes[name] = _Probe(node, name, t) if _serves_parameters(node, name) else None
+                            asked = name if _serves_parameters(node, name) else _participant_sibling(node, topic, name)
+                            probes[name] = _Probe(node, asked, t) if asked else None
                     verdicts = [_verdict(probes[n], t) for n in names]
                     if names and all(v is False for v in verdicts):
                         gone.append(Unacknowledged(topic, names, gone=True))

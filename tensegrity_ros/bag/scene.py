@@ -7,7 +7,6 @@ ran. A bag is outside input: the name it gives must be a shipped scene, never a 
 
 from __future__ import annotations
 
-from tensegrity_core.sim import scene_names
 from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.reader import BagReader
 
@@ -30,6 +29,10 @@ def recorded_scene(reader: BagReader, path: object) -> str | None:
     unread = unread_custom_data(reader, path)
     if unread:
         raise BagError(unread)
+    # imported here, not at the top: the simulator package takes ~1 s of CPU to import, which
+    # every `tensegrity play` (which reads only the custom_data) would otherwise pay
+    from tensegrity_core.sim import scene_names
+
     scene = (reader.custom_data or {}).get("scene")
     if scene and scene not in scene_names():
         raise BagError(f"bag {path} names scene {scene!r} in its metadata, which is not a shipped scene "

@@ -42,6 +42,16 @@ def _run(fn: Callable[[], T]) -> T:
         raise CliError(str(err)) from None
 
 
+#: The most points a sweep or a workspace boundary curve may have: 10,000 take ~10 s of CPU
+#: (one stiffness solve or one boundary point each); a count of 1e8 ran for hours in silence.
+MAX_POINTS = 10_000
+
+
+def _check_points(points: int) -> None:
+    if not 2 <= points <= MAX_POINTS:
+        raise CliError(f"--points must be between 2 and {MAX_POINTS}, got {points}")
+
+
 def _common(p: argparse.ArgumentParser) -> None:
     add_json_flag(p)
     p.add_argument("--param", action="append", metavar="NAME=VALUE",
@@ -121,8 +131,7 @@ def cmd_stiffness(args: argparse.Namespace) -> int:
         fmin, fmax = args.sweep
         if not (math.isfinite(fmin) and math.isfinite(fmax)) or fmax <= fmin:
             raise CliError(f"--sweep needs finite FMIN < FMAX, got {fmin:g} {fmax:g}")
-        if args.points < 2:
-            raise CliError(f"--points must be >= 2, got {args.points}")
+        _check_points(args.points)
         sweep = _run(lambda: stiffness_sweep(args.rho1, args.rho2, np.linspace(fmin, fmax, args.points), params))
         if args.plot:
             from tensegrity_core.class2.plotting import plot_stiffness_sweep
@@ -170,8 +179,7 @@ def cmd_workspace(args: argparse.Namespace) -> int:
     from tensegrity_core.class2.workspace import workspace
 
     params = _params(args)
-    if args.points < 2:
-        raise CliError(f"--points must be >= 2, got {args.points}")
+    _check_points(args.points)
     ws = _run(lambda: workspace(params, args.rho1_range, args.rho2_range,
                                 paper_range=args.paper_range, n=args.points))
     area = ws.area()
@@ -256,7 +264,7 @@ def register(sub: Subparsers) -> None:
     p.add_argument("--beta", type=float, default=None,
                    help="angle of BD [rad] (default: the FKP equilibrium)")
     p.add_argument("--sweep", type=float, nargs=2, metavar=("FMIN", "FMAX"), help="tabulate K_i(f) over [FMIN, FMAX]")
-    p.add_argument("--points", type=int, default=36, help="points of the sweep (default 36)")
+    p.add_argument("--points", type=int, default=36, help="points of the sweep (2-10000, default 36)")
     p.add_argument("--plot", metavar="FILE.png", help="with --sweep: plot K_i(f) as the paper's Fig. 2")
     _common(p)
     p.set_defaults(func=cmd_stiffness)
@@ -266,7 +274,7 @@ def register(sub: Subparsers) -> None:
     p.add_argument("--rho2-range", type=float, nargs=2, metavar=("A", "B"), help="limits of rho2 [m]")
     p.add_argument("--paper-range", action=argparse.BooleanOptionalAction, default=True,
                    help="count only equilibria with beta <= pi/2 (default: yes)")
-    p.add_argument("--points", type=int, default=200, help="points per boundary curve (default 200)")
+    p.add_argument("--points", type=int, default=200, help="points per boundary curve (2-10000, default 200)")
     p.add_argument("--plot", metavar="FILE.png", help="draw the reachable set, boundary and singular curves")
     _common(p)
     p.set_defaults(func=cmd_workspace)

@@ -7,6 +7,7 @@ shipped example (``tensegrity formfind tensegrity_table``).
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -147,7 +148,12 @@ def _write(path: Path, data: dict[str, Any]) -> None:
         raise CliError(f"cannot write {str(path)!r}: {err.strerror}") from None
 
 
-def _k_unit(structure: Structure) -> str:
+def residual_unit_of(structure: Structure) -> str:
+    """The unit of the residual's norm: N over nodes; with rigid bodies their moments mix in N m."""
+    return "N, N m" if structure.bodies else "N"
+
+
+def k_unit(structure: Structure) -> str:
     """The unit of the eigenvalues of K_T: N/m over nodes; with rigid bodies their rotations
     mix in N m/rad (docs/general.md)."""
     return "N/m and N m/rad mixed" if structure.bodies else "N/m"
@@ -155,9 +161,14 @@ def _k_unit(structure: Structure) -> str:
 
 def _print_summary(structure: Structure, result: FormFindResult) -> None:
     print(f"{structure.name}: {result.message}")
+    if math.isfinite(result.min_eigenvalue):
+        stability = (f"min eigenvalue of K_T [{k_unit(structure)}] {result.min_eigenvalue:.6g} "
+                     f"({result.rigid_body_modes} rigid-body modes excluded), stability margin "
+                     f"{result.stability_margin:.3g}")
+    else:       # stopped before an equilibrium: the stability check did not run
+        stability = "stability not checked"
     print(f"  iterations {result.iterations}, residual {result.residual:.3e} (relative; norm "
-          f"{result.residual_norm:.3e} N), min eigenvalue of K_T [{_k_unit(structure)}] {result.min_eigenvalue:.6g} "
-          f"({result.rigid_body_modes} rigid-body modes excluded), stability margin {result.stability_margin:.3g}")
+          f"{result.residual_norm:.3e} {residual_unit_of(structure)}), {stability}")
     if structure.n_members <= 60:
         print(f"  {'member':>12} {'force [N]':>14} {'length [m]':>12}")
         for name, t, length in zip(structure.member_names, result.member_forces, result.member_lengths):
@@ -172,6 +183,8 @@ def run_modes(args: argparse.Namespace) -> int:
 
     from tensegrity_core.general import form_find, modal_analysis, modes
 
+    if args.stiffness < 0:
+        raise CliError(f"--stiffness must be >= 0 (the number of eigenvalues to print), got {args.stiffness}")
     structure = _load(args.file)
     state = None
     if args.at_equilibrium:
@@ -199,6 +212,6 @@ def run_modes(args: argparse.Namespace) -> int:
     for k, col in enumerate(m.self_stress.T[:5]):
         print(f"  self-stress {k + 1}: " + ", ".join(f"{n} {v:.4f}" for n, v in zip(structure.member_names, col)))
     if args.stiffness:
-        print(f"  lowest eigenvalues of K_T [{_k_unit(structure)}]: "
+        print(f"  lowest eigenvalues of K_T [{k_unit(structure)}]: "
               + ", ".join(f"{v:.6g}" for v in data["stiffness_eigenvalues"]))
     return 0

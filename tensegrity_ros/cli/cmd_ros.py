@@ -36,7 +36,9 @@ def register(sub: Subparsers) -> None:
     p.set_defaults(func=_node, stop_signals=True)
 
     p = sub.add_parser("up", help="start the suite (sim + IK + controller + form-finding [+ recorder]; for a "
-                       "general structure sim + cable controller + form-finding); Ctrl-C stops it")
+                       "general structure sim + cable controller + form-finding); Ctrl-C stops it",
+                       description="Start the suite; Ctrl-C stops it. Refused (exit 1) when the suite already runs in "
+                       "the same namespace of the same ROS domain: start another with --namespace.")
     p.add_argument("--scene", default=None, help="scene file or shipped scene name (the simulator, the IK node "
                    "and the controller all take the mechanism from it; a general structure's scene starts the "
                    "cable controller instead of the IK node and the class-2 controller)")
@@ -200,6 +202,11 @@ def _up(args: argparse.Namespace) -> int:
         scene = ["--custom-data", f"scene={args.scene or DEFAULT_SCENE}"]
         # stopped after the others have exited: the bag holds their last messages
         specs.append(ProcessSpec("record", exe + ["record", "-o", args.record, *scene] + ros, stops_last=True))
+    from tensegrity_ros.apps.suite_presence import refusal, running_suite
+
+    found, namespace, domain = running_suite(ros)
+    if found:                            # a second suite would publish and serve the same names
+        raise CliError(refusal(found, namespace, domain), code=1)
     print(f"starting {', '.join(s.name for s in specs)} (Ctrl-C stops all)", flush=True)
     return Launcher(specs).run()
 
@@ -305,10 +312,17 @@ def _call_formfind(args: argparse.Namespace) -> int:
 
     res = _call_service(args, "tensegrity_call_formfind", FindForm,
                         FindForm.Request(structure=text, tolerance=args.tol, max_iterations=args.max_iter))
+    residual_unit, eigenvalue_unit = "N", "N/m"
+    if res.success:   # a structure with rigid bodies has moments and rotations too
+        from tensegrity_core.general import structure_from_text
+        from tensegrity_ros.cli.cmd_formfind import k_unit, residual_unit_of
+
+        structure = structure_from_text(text)
+        residual_unit, eigenvalue_unit = residual_unit_of(structure), k_unit(structure)
     return _show(args, res, [
-        f"iterations {res.iterations}, residual {res.residual:.3g} (relative; norm {res.residual_norm:.3g} N), "
-        f"min stiffness eigenvalue {res.min_stiffness_eigenvalue:.4g} N/m, stability margin {res.stability_margin:.3g} "
-        "(the eigenvalue over its rounding level)",
+        f"iterations {res.iterations}, residual {res.residual:.3g} (relative; norm {res.residual_norm:.3g} "
+        f"{residual_unit}), min stiffness eigenvalue {res.min_stiffness_eigenvalue:.4g} {eigenvalue_unit}, "
+        f"stability margin {res.stability_margin:.3g} (the eigenvalue over its rounding level)",
         *(f"member {i}: {t:.6g} N" for i, t in enumerate(res.member_forces))])
 
 

@@ -276,3 +276,14 @@ def test_bag_written_by_rosbags_plays(tmp_path, ros_context, cli):
         [v for topic, *_, v in samples if topic == "/end_effector"]
     assert [m.header.stamp.nanosec for m in sink.got["/end_effector"]] == \
         [k * 10_000_000 for k in range(30)]
+
+
+def test_the_player_imports_without_the_simulator():
+    """`tensegrity play` reads a bag's custom_data, never a scene: the simulator package (about
+    1 s of CPU to import, paid by every play) stays out of the player's process."""
+    import subprocess
+    import sys
+
+    probe = "import sys; import tensegrity_ros.bag.player; print('tensegrity_core.sim' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True, timeout=120)
+    assert out.stdout.split() == ["False"]

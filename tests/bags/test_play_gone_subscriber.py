@@ -27,13 +27,17 @@ FOLD = Path(__file__).resolve().parents[2] / "bags" / "fold"
 PATIENCE = 120.0
 
 
-def test_a_subscriber_killed_during_the_replay_is_named_and_not_waited_for(cli):
+@pytest.mark.parametrize("listener", ["smoke_peer", "smoke_peer_listener"])
+def test_a_subscriber_killed_during_the_replay_is_named_and_not_waited_for(cli, listener):
+    """``smoke_peer_listener``: the subscriber's node has no parameter services; its
+    process's other node is asked instead."""
     from tensegrity_msgs.msg import ActuatorForces
 
     namespace = f"/gone_{os.getpid()}"          # the peer's and the replayed topic's: no other test's subscriber counts
     topic = f"{namespace}/actuator_forces"
     peer = spawn([sys.executable, str(PEER), "--ros-args", "-r", f"__ns:={namespace}", "-r", f"ping:={topic}"],
-                 stdout=subprocess.PIPE, text=True, env=dict(os.environ))
+                 stdout=subprocess.PIPE, text=True,
+                 env=dict(os.environ, PEER_LISTENER="1" if listener == "smoke_peer_listener" else "0"))
     try:
         assert peer.stdout.readline().strip() == "ready"
         with probe("gone_watch", namespace=namespace) as watch:
@@ -74,5 +78,5 @@ def test_a_subscriber_killed_during_the_replay_is_named_and_not_waited_for(cli):
     lines = play.stderr().strip().splitlines()
     warnings = [line for line in lines if line.startswith("warning:")]
     assert len(warnings) == 1, lines
-    assert f"{topic} (subscribed by {namespace}/smoke_peer; none of them answers: not waited for)" in warnings[0]
+    assert f"{topic} (subscribed by {namespace}/{listener}; none of them answers: not waited for)" in warnings[0]
     assert lines[-1] == "played /actuator_forces 400" and "Traceback" not in play.stderr()

@@ -124,6 +124,9 @@ def test_stiffness_says_when_k_is_not_positive_definite(capsys):
         (["ik", "1.4", "0.7", "--seed", "nan", "0.7"], "seed rho1 must be finite, got nan"),
         (["ik", "1.4", "0.7", "--seed", "0.7", "inf"], "seed rho2 must be finite, got inf"),
         (["ik", "1.4", "0.7", "--param", "k=1e-300"], "k1 must be between 1e-15 N/m and 1e+15 N/m"),
+        (["stiffness", "0.7", "0.7", "--sweep", "0", "5", "--points", "100000000"],
+         "--points must be between 2 and 10000, got 100000000"),
+        (["workspace", "--points", "1000000000"], "--points must be between 2 and 10000, got 1000000000"),
     ],
 )
 def test_bad_input_one_line_errors(argv, fragment, capsys):

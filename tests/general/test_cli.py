@@ -28,6 +28,15 @@ def test_formfind_writes_yaml_and_json_results_and_a_plot(tmp_path, capsys):
     assert png.stat().st_size > 10_000 and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.parametrize("name, residual, eigenvalue", [("t_bar", "N", "N/m"),
+                                                       ("tensegrity_table", "N, N m", "N/m and N m/rad mixed")])
+def test_the_summary_gives_the_units_of_the_residual_and_the_eigenvalue(capsys, name, residual, eigenvalue):
+    """With rigid bodies the residual holds moments and K_T their rotations: the units say so."""
+    assert main(["formfind", name, "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert f" {residual}), min eigenvalue of K_T [{eigenvalue}] " in out, out
+
+
 def test_formfind_json_on_stdout_and_progress_on_stderr(capsys):
     assert main(["formfind", "spine_c", "--json"]) == 0
     out = capsys.readouterr()
@@ -51,10 +60,19 @@ def test_failure_exits_non_zero_with_one_line(tmp_path, capsys):
     assert len([line for line in err if line.startswith("error:")]) == 1
 
 
+def test_a_failed_form_finding_prints_no_nan(capsys):
+    """Stopped before any iteration there is no equilibrium and no stability check: the
+    summary says so instead of printing 'nan' (the JSON gives null)."""
+    assert main(["formfind", "tensegrity_table", "--max-iter", "0"]) == 1
+    out = capsys.readouterr().out
+    assert "stability not checked" in out and "nan" not in out.lower()
+
+
 @pytest.mark.parametrize("args, message", [
     (["formfind", "no_such_file.yaml"], "structure file not found"),
     (["formfind", "patio_shade", "-o", "result.txt"], "must end in .yaml"),
     (["formfind", "patio_shade", "--method", "magic"], "unknown form-finding method"),
+    (["modes", "patio_shade", "--stiffness", "-1"], "--stiffness must be >= 0 (the number of eigenvalues to print), got -1"),
 ])
 def test_bad_input_is_one_error_line_with_code_2(args, message, capsys):
     assert main(args) == 2

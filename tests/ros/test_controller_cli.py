@@ -21,9 +21,11 @@ NS = ("--ros-args", "-r", "__ns:=/ctl_cli")
     ("time,rho1\n1,0.7\n", "missing rho2"),
     ("time,rho1,rho2\n1,0.7,abc\n", "'abc' is not a number"),
     ("time,rho1,rho2,rho1_velocity\n1,0.7,0.7,0\n", "both columns rho1_velocity and rho2_velocity"),
+    ("points:\n  - {time: 1.0, positions: [0.7, 0.7]}\ngoal_tolerance: {rho1: 0.001, rho3: 0.1}\n",
+     "goal_tolerance.rho3: unknown key 'rho3'"),
 ])
 def test_bad_trajectory_files_are_one_error_line(tmp_path, text, words):
-    f = tmp_path / "bad.csv"
+    f = tmp_path / ("bad.yaml" if text.startswith("points") else "bad.csv")
     f.write_text(text)
     out = run_cli("follow", str(f))
     assert out.returncode == 2 and words in out.stderr and len(out.stderr.strip().splitlines()) == 1

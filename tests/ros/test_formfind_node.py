@@ -71,7 +71,8 @@ def test_call_formfind_prints_the_relative_residual_its_norm_and_the_margin(form
     out = run_cli("call-formfind", "tensegrity_table", timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.startswith("ok: converged to a stable equilibrium")
-    assert "(relative; norm " in out.stdout and " N), min stiffness eigenvalue " in out.stdout
+    assert "(relative; norm " in out.stdout and " N, N m), min stiffness eigenvalue " in out.stdout
+    assert " N/m and N m/rad mixed, stability margin " in out.stdout        # the table has rigid bodies
     margin = float(out.stdout.split("stability margin ")[1].split()[0])
     assert margin > 1
 

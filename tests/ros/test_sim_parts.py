@@ -268,3 +268,25 @@ def test_a_part_imports_without_the_node():
              "print('tensegrity_ros.nodes.sim.node' in sys.modules, 'rclpy.node' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True, timeout=120)
     assert out.stdout.split() == ["False", "False"]
+
+
+def test_a_string_going_taut_is_published_under_the_members_name():
+    """A weight falls freely on a slack string and pulls it taut after sqrt(2 d / g) (d the
+    string's slack, 0.5 m): the event names the member as cable_states does."""
+    from tensegrity_core.sim import load_scene
+    from tensegrity_ros.nodes.sim import sender
+    from tensegrity_ros.nodes.sim.plant import SimPlant
+
+    scene = load_scene({
+        "model": {"kind": "general", "structure": {
+            "nodes": {"a": [0, 0, 0], "w": [0, 0, -1.0]}, "pinned": ["a"], "masses": {"w": 1.0},
+            "members": [{"name": "tether", "nodes": ["a", "w"], "EA": 100.0, "rest_length": 1.5}]}},
+        "initial": {"drawn": True}, "effects": ["inertia", "springs", {"gravity": {"vector": [0, 0, -9.81]}}],
+        "duration": 1.0})
+    plant = SimPlant(scene, 10_000_000)
+    events = []
+    while not events:
+        events = [e for e in plant.step(plant.initial_command).events if e[1] == "taut"]
+    msg = sender.event_msg(events[0], plant.offset_ns, "world", plant.names)
+    assert (msg.kind, msg.index, msg.name) == ("taut", 0, "tether")
+    assert msg.time == pytest.approx((2 * 0.5 / 9.81) ** 0.5, abs=1e-9)

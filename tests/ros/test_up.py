@@ -193,3 +193,40 @@ def test_up_on_a_robot_records_every_topic_its_simulator_publishes(cli, ros_cont
         for _, channel, _ in make_reader(f).iter_messages():
             counts[channel.topic] = counts.get(channel.topic, 0) + 1
     assert all(counts.get(t, 0) > 0 for t in want), counts
+
+
+def test_a_second_up_in_the_same_namespace_is_refused_naming_the_running_nodes(cli, ros_context):
+    """Two suites in one namespace would publish the same topics: the second `up` exits 1
+    with one line that names the domain and the running nodes; the first runs on."""
+    import os
+
+    import rclpy
+
+    first = cli("up", "--namespace", "/twice", "--no-formfind", "--no-controller", log_name="up_first")
+    node = rclpy.create_node("twice_probe", context=ros_context)
+    deadline = time.monotonic() + 60
+    while ("tensegrity_sim", "/twice") not in node.get_node_names_and_namespaces():
+        assert time.monotonic() < deadline, first.stderr()
+        time.sleep(0.1)
+    node.destroy_node()
+    second = cli("up", "--namespace", "/twice", "--no-formfind", "--no-controller", log_name="up_second")
+    assert second.popen.wait(60) == 1, second.stderr()
+    domain = os.environ.get("ROS_DOMAIN_ID", "0")
+    [line] = second.stderr().strip().splitlines()       # one line, no child started
+    # the names its graph showed by the first look that found one: the IK node, the simulator or both
+    assert re.fullmatch(rf"error: the suite is already running in ROS domain {domain} in namespace /twice "
+                        r"\((/twice/tensegrity_ik|/twice/tensegrity_sim|/twice/tensegrity_ik, /twice/tensegrity_sim)\)"
+                        r": stop it first, or start this one in "
+                        r"another namespace \(--namespace /robot2\) or domain \(ROS_DOMAIN_ID\)", line), line
+    assert first.popen.poll() is None                   # the running suite is left alone
+    assert first.stop() == 0, first.stderr()
+
+
+def test_the_suite_nodes_of_a_namespace_are_told_apart_from_other_namespaces_and_nodes():
+    from tensegrity_ros.apps.suite_presence import suite_nodes_in
+
+    graph = [("tensegrity_sim", "/"), ("tensegrity_sim", "/robot2"), ("tensegrity_ik", "/"), ("talker", "/"),
+             ("tensegrity_sim", "/")]
+    assert suite_nodes_in(graph, "/") == ["/tensegrity_ik", "/tensegrity_sim"]
+    assert suite_nodes_in(graph, "/robot2") == ["/robot2/tensegrity_sim"]
+    assert suite_nodes_in(graph, "/robot3") == []

@@ -62,6 +62,23 @@ def test_only_regular_files_are_read(tmp_path):
     assert "cannot tell the format" in str(_read_error(tmp_path / "x.txt"))
 
 
+def test_a_scene_named_by_a_fifo_a_device_or_a_folder_is_no_regular_file_not_a_missing_one(tmp_path, monkeypatch):
+    """The loaders that take a name or a path (here ``tensegrity simulate``'s) call a fifo, a
+    device and a folder what they are; a shipped name wins over a folder of that name."""
+    import os
+
+    from tensegrity_core.sim import load_scene
+
+    fifo = tmp_path / "scene.yaml"
+    os.mkfifo(fifo)
+    for source in (str(fifo), fifo, "/dev/zero", str(tmp_path)):
+        with pytest.raises(SceneError, match="is not a regular file"):
+            load_scene(source)
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "paper_fold").mkdir()
+    assert load_scene("paper_fold").name == "paper_fold"
+
+
 def test_json_is_read_by_json_with_depth_and_duplicate_checks():
     assert parse_text('{"a": [1, 2.5e3], "b": "]]]]"}', "json") == {"a": [1, 2500.0], "b": "]]]]"}
     deep = '{"a": ' + "[" * 65 + "]" * 65 + "}"

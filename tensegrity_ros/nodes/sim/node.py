@@ -86,11 +86,13 @@ from tensegrity_ros.nodes.sim.parameters import declare_sim_parameters
 from tensegrity_ros.nodes.sim.plant import SimPlant
 from tensegrity_ros.nodes.sim.receiver import Command, receive, receive_cable_bytes
 from tensegrity_ros.nodes.sim.schedule import TickSchedule
-from tensegrity_ros.rclpy_utils.delivery import DELIVERY_S, wait_for_delivery
+from tensegrity_ros.rclpy_utils.delivery import wait_for_delivery
 from tensegrity_ros.rclpy_utils.inbox import Inbox
 from tensegrity_ros.rclpy_utils.matching import subscribed_by, wait_for_matches
 from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
 
+#: Commands kept per command topic until the command thread takes them (see ``__init__``).
+COMMAND_HISTORY = 100
 
 class SimNode(SimulationInterfaces):
     def __init__(self, **kwargs: Any) -> None:
@@ -125,21 +127,20 @@ class SimNode(SimulationInterfaces):
         # executor's wake-up walks every entity of its nodes (this node's services, action
         # server and parameter services: ~1 ms per wake-up here) and even on these two alone
         # costs a third of a lockstep step's CPU.
-        # Free-running, the latest command wins: a history of one means a burst or flood of
-        # commands can never build a backlog that the simulation would apply late. In
-        # lockstep exactly one command per step is expected, so the depth does not matter.
-        # Cable commands name the cables they set and leave the others: each one counts, so
-        # they are kept (history 100) and applied in order (a later command naming other
-        # cables must not replace an earlier one that is still queued behind a long step).
+        # A command names the inputs it sets and leaves the others: each one counts, so both
+        # kinds are kept and applied in order. A history of one would let a later command naming
+        # other inputs replace an earlier one still queued (two publishers' partial commands
+        # for one lockstep step, back to back): the earlier one's inputs would never be set. The
+        # inbox takes all that is queued at each wake-up: a flood is applied at once.
         # Both command topics exist whatever the scene: a command of the other kind is
         # refused with a warning that names the right one.
         self._command_node = Node(f"{self.get_name()}_commands", namespace=self.get_namespace(),
                                   context=self.context, start_parameter_services=False,
                                   parameter_overrides=[Parameter("start_type_description_service", value=False)])
         self._inbox = Inbox(self._command_node)
-        self._inbox.subscribe(ActuatorForces, "actuator_forces", self.on_forces, 1)
+        self._inbox.subscribe(ActuatorForces, "actuator_forces", self.on_forces, COMMAND_HISTORY)
         self._cable_bytes = CableCommandBytes(self.plant.interface.inputs)
-        self._inbox.subscribe(CableCommand, "cable_commands", self.on_cables, 100, raw=True)
+        self._inbox.subscribe(CableCommand, "cable_commands", self.on_cables, COMMAND_HISTORY, raw=True)
         self._create_interfaces()
 
         self.rejected, self._refusals = 0, ReasonThrottle(1.0)   # warnings: each reason at most once a second
@@ -273,7 +274,7 @@ class SimNode(SimulationInterfaces):
         """One step of the plant under ``command``; publish what it located (lock held)."""
         outcome = self.plant.step(command)
         for event in outcome.events:
-            self.pub_events.publish(sender.event_msg(event, self.plant.offset_ns, self.p.frame_id))
+            self.pub_events.publish(sender.event_msg(event, self.plant.offset_ns, self.p.frame_id, self.plant.names))
             self.published["events"] += 1
         if outcome.fault is not None:
             self.get_logger().error(f"simulation stopped, state held: {outcome.fault}")
@@ -479,11 +480,10 @@ class SimNode(SimulationInterfaces):
             rclpy.logging.get_logger(f"{self.get_name()}_summary").warning(
                 f"a stepping request was interrupted by the shutdown after {req.completed} of {req.steps} steps")
         if rclpy.ok(context=self.context):        # an external shutdown has ended the publishers' context
-            late = wait_for_delivery([*self.pubs.values(), self.pub_events, self.pub_clock])
+            late, why = wait_for_delivery([*self.pubs.values(), self.pub_events, self.pub_clock])
             if late:
                 rclpy.logging.get_logger(f"{self.get_name()}_summary").warning(
-                    f"not every subscriber acknowledged the last messages within {DELIVERY_S:g} s on: "
-                    f"{', '.join(late)}")
+                    f"not every subscriber acknowledged the last messages ({why}) on: {', '.join(late)}")
         counts = ", ".join(f"{k} {v}" for k, v in self.published.items())
         # the context may already be shut down (Ctrl-C): log without /rosout
         rclpy.logging.get_logger(f"{self.get_name()}_summary").info(

@@ -24,12 +24,12 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from tensegrity_core.class2.names import JOINTS
 from tensegrity_core.events import EventKind, LoggedEvent
-from tensegrity_core.sim.model import Interface
+from tensegrity_core.sim.model import Interface, Names
 from tensegrity_core.sim.simulator import JointSample, Observation
 
 NS_PER_S = 1_000_000_000
 #: Names of what an event's index refers to, per kind (the core's event kinds).
-EVENT_SUBJECTS: dict[EventKind, tuple[str, str]] = {"fold": ("rho1", "rho2"), "release": ("rho1", "rho2"),
+EVENT_SUBJECTS: dict[EventKind, tuple[str, ...]] = {"fold": ("rho1", "rho2"), "release": ("rho1", "rho2"),
                   "singular": ("lambda1", "lambda2")}
 #: A point or vector [m]: three coordinates (x, y, z).
 Coordinates = Sequence[float] | NDArray[np.float64]
@@ -174,11 +174,12 @@ def markers_msg(obs: Observation, hdr: Header) -> MarkerArray:
     return MarkerArray(markers=[members, nodes])
 
 
-def event_msg(event: LoggedEvent, offset_ns: int, frame_id: str) -> SimulationEvent:
-    """One located event ``(t [s] on the core's clock, kind, index)``; the simulation clock
-    reads ``offset_ns`` when the core's clock reads 0."""
+def event_msg(event: LoggedEvent, offset_ns: int, frame_id: str, names: Names) -> SimulationEvent:
+    """One located event ``(t [s] on the core's clock, kind, index)`` of a model with ``names``;
+    the simulation clock reads ``offset_ns`` when the core's clock reads 0. A string's ``slack``
+    or ``taut`` event is named by its member (the order of ``cable_states``)."""
     t, kind, index = event
-    subjects = EVENT_SUBJECTS.get(kind, ())
+    subjects = names.member_names if kind in ("slack", "taut") else EVENT_SUBJECTS.get(kind, ())
     ns = offset_ns + round(t * NS_PER_S)
     return SimulationEvent(header=header(ns, frame_id), time=offset_ns / NS_PER_S + float(t), kind=str(kind),
                            index=int(index), name=subjects[index] if 0 <= index < len(subjects) else "")

@@ -1,0 +1,61 @@
+"""Partial commands from two publishers over real DDS: every one reaches the lockstep gate.
+
+Two controllers each command one actuator of the class-2 mechanism for the same lockstep
+step. Their messages arrive back to back: the simulator's process is stopped (SIGSTOP)
+while both are published, so both are in its reader's queue before its command thread
+can take either. The step must run under both (the gate merges them in arrival order)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+import pytest
+
+pytestmark = pytest.mark.ros
+
+STEP_NS = 10_000_000          # 10 ms
+
+
+def test_two_partial_actuator_forces_for_one_step_back_to_back_both_apply(cli, ros_context):
+    import rclpy
+    from rclpy.qos import QoSProfile
+    from tensegrity_msgs.msg import ActuatorForces
+
+    from tensegrity_ros.apps.sim_client import SimClient
+    from tensegrity_ros.rclpy_utils.matching import wait_for_matches
+
+    proc = cli("node", "sim", "--ros-args", "-p", f"step_size:={STEP_NS / 1e9}", "-p", "publish_rate:=100.0",
+               "-p", "lockstep:=true", "-p", "initial_state:=paused", "-p", "paused_publish_rate:=0.0",
+               "-p", "lockstep_timeout:=30.0", log_name="sim")
+    proc.wait_for("publishing at")
+    client = SimClient(rclpy, "partial_commands_test", context=ros_context)
+    other = rclpy.create_node("partial_commands_other", context=ros_context)
+    try:
+        client.wait_for_services(30)
+        first = client.pub
+        second = other.create_publisher(ActuatorForces, "actuator_forces", QoSProfile(depth=10))
+        assert wait_for_matches([first, second], 1, 30)
+        client.set_law(None)
+        for round_ in range(3):                  # three steps, each under two partial commands
+            f1, f2 = 0.25 + 0.1 * round_, 0.65 - 0.1 * round_
+            stamp = round_ * STEP_NS
+            a = ActuatorForces(name=["f1"], force=[f1])
+            b = ActuatorForces(name=["f2"], force=[f2])
+            a.header.stamp.nanosec = b.header.stamp.nanosec = stamp
+            os.killpg(proc.popen.pid, signal.SIGSTOP)    # its session: the simulator alone
+            try:
+                first.publish(a)
+                second.publish(b)
+                time.sleep(0.2)                  # both are on their way to the stopped reader
+            finally:
+                os.killpg(proc.popen.pid, signal.SIGCONT)
+            client.step(1)
+            joint = client.wait_joint(stamp + STEP_NS)
+            assert tuple(joint.effort[:2]) == (f1, f2), (round_, tuple(joint.effort[:2]), proc.stderr()[-2000:])
+        assert proc.stop() == 0
+        assert "rejected commands: 0;" in proc.stderr()
+    finally:
+        other.destroy_node()
+        client.close()
