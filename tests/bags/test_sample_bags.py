@@ -7,9 +7,13 @@ every command obeys the paper's law f_i = 10 rho_i t (Sect. 5.3) for one start t
 actuator length ever goes negative (the fold limit), and the mechanism ends folded with
 both lengths zero; IK motion — D comes within the controller's goal tolerance (0.05 mm, the
 target of issue 15) of every demo waypoint (the waypoints are defined from the forward
-kinematics at rest), and every published state is finite. Both were recorded in lockstep:
-re-simulating their commands finds the recorded joint states to the last bit (a bag recorded
-by older code would not).
+kinematics at rest), and every published state is finite. Both were recorded in lockstep,
+on another machine: re-simulating their commands here finds the recorded joint states within
+rounding (ROUNDING_PER_STEP per step; not to the last bit: scipy's DOP853, which integrates
+the class-2 mechanism, forms its stages with ``np.dot`` and its error norm with
+``np.linalg.norm``, BLAS calls whose OpenBLAS kernels, chosen per CPU, sum in different orders
+and with or without FMA). A bag recorded on this machine re-simulates to the last bit
+(tests/bags/test_resimulate.py records one).
 """
 
 from __future__ import annotations
@@ -33,6 +37,16 @@ from tensegrity_ros.bag.recorder import message_class
 pytestmark = pytest.mark.ros
 
 BAGS = Path(__file__).resolve().parents[2] / "bags"
+#: Largest difference [m, rad; m/s, rad/s] per 10 ms step a recording made with another CPU's
+#: BLAS kernels may show against this machine's re-simulation: 2^-46 = 128 ulp of a unit-sized
+#: value. A 10 ms step is a few DOP853 steps of 12 stages, each stage a dot product of at most
+#: 12 terms, whose rounding may differ between kernels by up to gamma_12 ~ 12 ulp of the terms'
+#: magnitude (states and rates here stay below 4: beta reaches 2.5 rad in fold); such differences
+#: add up step after step (the damped mechanism does not amplify them over a 10 ms step).
+#: Measured on an AMD EPYC against bags recorded elsewhere: 1.1e-14 after 400 steps (fold),
+#: 1.5e-13 after 2794 (ik_motion): 0.12 and 0.24 ulp of 1.0 per step, against the bound's 128; every
+#: command fed one step late differs by 1.6 (fold) and 0.025 (ik_motion).
+ROUNDING_PER_STEP = 2.0 ** -46
 
 
 def replay(folder: Path, ros_context, cli) -> dict[str, list[bytes]]:
@@ -100,7 +114,7 @@ def test_sample_bag_is_small_and_replays_exactly(name, ros_context, cli):
 
 
 @pytest.mark.parametrize("name", ["fold", "ik_motion"])
-def test_sample_bag_resimulates_to_the_last_bit(name):
+def test_sample_bag_resimulates_within_rounding(name):
     import json
 
     from tests.ros_support import run_cli
@@ -108,14 +122,18 @@ def test_sample_bag_resimulates_to_the_last_bit(name):
     r = run_cli("play", str(BAGS / name), "--resimulate", "--json", timeout=300)
     assert r.returncode == 0, r.stdout + r.stderr
     report = json.loads(r.stdout)
-    assert report["compared"] > 400 and report["max_position_difference"] == 0.0
-    assert report["max_velocity_difference"] == 0.0
+    bound = report["steps"] * ROUNDING_PER_STEP
+    assert report["compared"] > 400 and report["start_difference"] == [0.0, 0.0, 0.0]
+    assert report["max_position_difference"] <= bound, (report["max_position_difference"], bound)
+    assert report["max_velocity_difference"] <= bound, (report["max_velocity_difference"], bound)
 
 
-def test_the_robot_sample_bag_resimulates_to_the_last_bit():
+def test_the_robot_sample_bag_resimulates_within_rounding():
     """``bags/six_bar_roll`` (the demo's 6-bar, rolled 3 faces by the closed-loop gait in lockstep: cable
     commands by name) fed back into a lockstep simulator of its scene: the same cable
-    lengths and rates to the last bit."""
+    lengths and rates within rounding (recorded on another machine; measured on an AMD EPYC:
+    1.5e-14 m and 4.5e-12 m/s after 1100 steps, the rates 18 ulp of 1.0 per step: the
+    contacts' stiff forces amplify rounding more than the class-2 mechanism does)."""
     import json
 
     from tests.ros_support import run_cli
@@ -125,5 +143,8 @@ def test_the_robot_sample_bag_resimulates_to_the_last_bit():
     assert r.returncode == 0, r.stdout + r.stderr
     report = json.loads(r.stdout)
     assert report["compared"] > 400 and len(report["joints"]) == 24
-    assert report["max_position_difference"] == 0.0 and report["max_velocity_difference"] == 0.0
+    bound = report["steps"] * ROUNDING_PER_STEP
+    assert report["start_difference"] == [0.0] * 24
+    assert report["max_position_difference"] <= bound, (report["max_position_difference"], bound)
+    assert report["max_velocity_difference"] <= bound, (report["max_velocity_difference"], bound)
     assert set(report["units"]) == {"m"}
