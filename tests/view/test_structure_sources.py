@@ -180,9 +180,13 @@ def test_a_general_structures_bag_draws_the_cores_states(tmp_path):
 def test_the_shipped_spine_bag_is_the_first_4_s_of_its_scene():
     """``bags/spine_release`` (docs/bags.md; the view's benchmark plays it): opened with the
     scene its metadata names, its 400 states 10 ms apart are the core's run of
-    ``spine_release`` from its release, node for node, tension for tension."""
+    ``spine_release`` from its release, node for node, tension for tension, to the scene's
+    integrator tolerance: another CPU's BLAS rounds DOP853's stages differently (docs/bags.md),
+    and the stiff cords (EA/l0 ~ 4e4 N/m) turn a 2e-11 m difference of the nodes into 1e-6 N
+    of tension, so the tensions agree to the integrator's rtol of the largest tension."""
     from tensegrity_core.sim import Simulator
 
+    rtol = yaml.safe_load(scene_path("spine_release").read_text())["integrator"]["rtol"]
     source = BagSource(BAGS / "spine_release")
     assert source.topology.kind == "general" and len(source._times) == 400
     sim = Simulator("spine_release")
@@ -191,8 +195,9 @@ def test_the_shipped_spine_bag_is_the_first_4_s_of_its_scene():
         if k % 50 == 1 or k == 400:
             obs, frame = sim.observe(), source.frame_at(k - 1)
             assert frame.t == pytest.approx(obs.t, abs=1e-9) and obs.t == pytest.approx(k * 0.01, abs=1e-12)
-            np.testing.assert_allclose(frame.nodes, obs.nodes, atol=1e-12)
-            np.testing.assert_allclose(frame.member_forces, obs.member_forces, rtol=1e-12, atol=1e-9)
+            np.testing.assert_allclose(frame.nodes, obs.nodes, rtol=rtol, atol=1e-12)
+            np.testing.assert_allclose(frame.member_forces, obs.member_forces, rtol=0,
+                                       atol=rtol * np.abs(obs.member_forces).max())
 
 
 HANG = """
