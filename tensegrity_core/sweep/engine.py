@@ -43,6 +43,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Final, Literal, TypeVar
 
 from tensegrity_core.excerpt import LIBRARY_MESSAGE, clip
+from tensegrity_core.sweep.connect import client_of
 from tensegrity_core.sweep.errors import SweepError, require
 from tensegrity_core.sweep.points import Point
 from tensegrity_core.sweep.scheduling import BatchPlanner, InFlight, spread_order
@@ -329,12 +330,7 @@ class _DaskEngine:
                 self._close()
                 raise
             return self
-        try:
-            client = Client(self.address, timeout=self.timeout)
-        except (OSError, TimeoutError, ValueError) as err:
-            self._close()
-            raise SweepError(f"cannot reach the Dask scheduler at {self.address!r} within "
-                             f"{self.timeout:g} s: {err}") from None
+        client = client_of(self.address, self.timeout)
         self.client = client
         try:
             client.wait_for_workers(1, timeout=self.timeout)
