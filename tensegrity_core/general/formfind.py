@@ -389,16 +389,39 @@ def _newton_iterations(structure: Structure, config: Configuration,
                 if np.isfinite(V_relaxed):
                     watch = _Watchdog(config, V, bal, dU)
                     x, V_new, config_new = 1.0, V_relaxed, relaxed
+        trial_balance = None
         if x == 0.0:
-            return config, FormFindStatus.LINE_SEARCH_STALLED
+            x, V_new, config_new, trial_balance = _below_energy_rounding(structure, config, dU, V, bal)
+            if x == 0.0:
+                return config, FormFindStatus.LINE_SEARCH_STALLED
         state.iterations += 1
         config, V = config_new, V_new
-        bal = balance(structure, config)
+        bal = trial_balance if trial_balance is not None else balance(structure, config)
         info = IterationInfo(state.iterations, bal.residual, V, x, float(x * np.linalg.norm(dU)), step.shift,
                              step.min_eigenvalue, bal.residual_norm)
         state.history.append(asdict(info))
         if state.callback is not None and state.callback(info) is True:
             return config, FormFindStatus.CALLBACK
+
+
+def _below_energy_rounding(structure: Structure, config: Configuration, dU: FloatArray, V: float,
+                           bal: Balance) -> tuple[float, float, Configuration, Balance | None]:
+    """The full step ``dU`` where the line search found no decrease because the energy cannot
+    see one: the step's first-order change of energy ``|P . dU|`` [J] is below the energy's
+    rounding (:func:`~.linesearch.energy_noise`), so ``V`` and its slope at the step's end
+    are rounding and their signs a coin toss of the machine's arithmetic (a 6-bar one Newton
+    step from converged: ``P . dU`` = 5e-21 J against 8e-10 J of rounding, the slope at the
+    end +1e-22 J on one orientation of a symmetric support and -1e-23 J on another). The
+    forces are not rounding there: the step is taken when it lowers the residual norm.
+    Returns ``(x, V(x), configuration, its balance)``, ``x = 0`` (and no balance) when not."""
+    if abs(float(np.dot(bal.physical.generalized, dU))) > energy_noise(V):
+        return 0.0, V, config, None
+    trial = config.retract(dU)
+    V_trial = potential_energy(structure, trial.coords)
+    after = balance(structure, trial)
+    if not (np.isfinite(V_trial) and V_trial <= V + energy_noise(V) and after.residual_norm < bal.residual_norm):
+        return 0.0, V, config, None
+    return 1.0, V_trial, trial, after
 
 
 def _escape_saddle(structure: Structure, config: Configuration, v: FloatArray) -> Configuration:
