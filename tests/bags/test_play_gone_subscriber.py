@@ -25,6 +25,8 @@ pytestmark = pytest.mark.ros
 PEER = Path(__file__).resolve().parents[1] / "ros" / "peer_node.py"
 FOLD = Path(__file__).resolve().parents[2] / "bags" / "fold"
 PATIENCE = 120.0
+#: Seconds between the player seeing the peer and its replay (see the test).
+DISCOVERY_S = 5.0
 
 
 @pytest.mark.parametrize("listener", ["smoke_peer", "smoke_peer_listener"])
@@ -59,9 +61,13 @@ def test_a_subscriber_killed_during_the_replay_is_named_and_not_waited_for(cli, 
                 assert peer.poll() is None
             watch.node.destroy_publisher(ping)
             # 400 messages over 2.1 s, played at 0.2x: the replay lasts 10 s, and the peer is killed
-            # at its first message
+            # at its first echo. The player sees the peer's reader before the peer's reader has
+            # matched the player's writer; a reader that matches only after the replay is
+            # sent everything at once and acknowledges it (a fresh-clone run at load ~14 saw the
+            # first echo after the player had ended): the replay starts DISCOVERY_S after the
+            # player sees the peer, the peer's discovery of the player has that long besides
             play = cli("play", str(FOLD), "--topics", "/actuator_forces", "--rate", "0.2",
-                       "--wait-for-subscribers", "60", "--wait-for-all-acked", "600",
+                       "--wait-for-subscribers", "60", "--wait-for-all-acked", "600", "--delay", str(DISCOVERY_S),
                        "--ros-args", "-r", f"/actuator_forces:={topic}", log_name="play")
             while not echoed:
                 watch.executor.spin_once(timeout_sec=0.1)
