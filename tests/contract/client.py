@@ -86,6 +86,12 @@ class Client:
         finally:
             self.node.destroy_client(probe)
 
+    def stamped_copy(self, topic: str) -> dict[int, Any]:
+        """A copy of ``stamped[topic]``, taken under the lock the spin thread adds under: the
+        dict grows while a test iterates it (RuntimeError: dictionary changed size)."""
+        with self._changed:
+            return dict(self.stamped[topic])
+
     def listen(self, msg_type: Any, topic: str, qos: Any = 100) -> None:
         """Keep every message of ``topic`` in ``received[topic]`` (and, when it has a header,
         in ``stamped[topic]`` by its stamp)."""

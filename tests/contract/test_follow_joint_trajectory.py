@@ -383,7 +383,7 @@ def test_a_trajectory_stamped_in_the_future_starts_then(suite):
     _until_the_end(client, feedback, 200_000_000)
     assert all(stamp_ns(fb.header.stamp) >= start for fb in feedback)
     # every state between the goal and its start (1.5 s of them: a loaded run may lose a few)
-    before = [dict(zip(m.name, m.rest_length))["c4_8"] for t, m in client.stamped["cable_states"].items()
+    before = [dict(zip(m.name, m.rest_length))["c4_8"] for t, m in client.stamped_copy("cable_states").items()
               if now <= t < start]
     assert before and set(before) == {NOMINAL}                     # the motor waited for the start
     handle, _ = _send(client, action, _goal([(0.2, (NOMINAL,))], ("c4_8",), goal_time=2.0))   # back

@@ -45,7 +45,7 @@ def test_subsets_of_length_and_tension_sensors_give_nan_for_the_other_joints(tmp
     try:
         client.listen(JointState, "joint_states")
         client.listen(CableStates, "cable_states")
-        stamp = client.wait(lambda: next((s for s in reversed(client.stamped["joint_states"])
+        stamp = client.wait(lambda: next((s for s in reversed(client.stamped_copy("joint_states"))
                                           if s in client.stamped["cable_states"]), None),
                             "joint_states and cable_states of one stamp")
         joints, cables = client.stamped["joint_states"][stamp], client.stamped["cable_states"][stamp]

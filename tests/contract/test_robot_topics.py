@@ -242,7 +242,7 @@ def test_a_node_with_use_sim_time_follows_the_simulation_clock(suite):
     try:
         client.add_node(node)
         client.wait_until(lambda: node.get_clock().now().nanoseconds > 0, "the node's clock to start")
-        latest = max(client.stamped["joint_states"])
+        latest = max(client.stamped_copy("joint_states"))
         client.wait_until(lambda: node.get_clock().now().nanoseconds >= latest, "the node's clock to pass a state")
         assert node.get_clock().now().nanoseconds < latest + 3600 * 10**9       # simulation time, not wall time
     finally:
