@@ -89,6 +89,14 @@ def test_call_formfind_prints_the_relative_residual_its_norm_and_the_margin(form
     assert " N/m and N m/rad mixed, stability margin " in out.stdout        # the table has rigid bodies
     margin = float(out.stdout.split("stability margin ")[1].split()[0])
     assert margin > 1
+    # each force under the description's member name; the table's is t = EA (l - l0)/l0 with
+    # l0 = 0.3 l: long strings 0.72 m, short 0.78 m at its equilibrium (docs/general.md)
+    forces = dict(line.strip().split(": ") for line in out.stdout.splitlines() if line.strip().startswith("member "))
+    expected = {"long1": 0.72, "long2": 0.72, "long3": 0.72, "short": 0.78}
+    assert sorted(forces) == sorted(f"member {n}" for n in expected)
+    for name, l in expected.items():
+        l0 = 0.3 * {"short": 0.5}.get(name, 1.0)
+        assert float(forces[f"member {name}"].split()[0]) == pytest.approx(7.6e6 * (l - l0) / l0, rel=1e-3)
 
 
 @pytest.mark.parametrize("text, why", [
