@@ -9,10 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-pytest.importorskip("viser")
-
-from tensegrity_ros.view.frame import Frame  # noqa: E402
-from tensegrity_ros.view.scene_source import SceneSource  # noqa: E402
+from tensegrity_ros.view.frame import Frame
+from tensegrity_ros.view.scene_source import SceneSource
 
 BAGS = Path(__file__).resolve().parents[2] / "bags"
 
