@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -111,9 +112,13 @@ def test_bad_descriptions_are_refused_with_a_reason(formfind, text, why):
     assert why in res.message
 
 
-def test_negative_tolerance_is_refused(formfind):
-    res = formfind(TABLE, tol=-1.0)
-    assert not res.success and "tolerance" in res.message
+@pytest.mark.parametrize("tol", [-1.0, math.nan, math.inf])
+def test_a_tolerance_not_finite_and_at_least_0_is_refused_by_its_field_name(formfind, tol):
+    """The request's field is ``tolerance``: an infinite one was passed on and refused as
+    "tol (relative residual) must be finite", a name the caller never wrote."""
+    res = formfind(TABLE, tol=tol)
+    assert not res.success
+    assert res.message == f"tolerance must be a finite number >= 0 (0 = default), got {tol}"
 
 
 def test_very_large_request_is_refused_before_parsing(formfind):
