@@ -23,8 +23,9 @@ point)::
 
 Both are read as every description file is (:mod:`tensegrity_core.schema`: at most
 ``LIMITS.max_bytes``, UTF-8, YAML nesting and aliases bounded). Each number is checked to
-be a finite number here; what the numbers mean (monotonic times, the workspace, the
-tolerances) the controller checks when it plans the goal. Errors are :class:`TrajectoryFileError` with
+be a finite number here, and the times [s] to be >= 0 and to increase strictly from point to
+point; what the other numbers mean (the workspace, the tolerances) the controller checks when
+it plans the goal. Errors are :class:`TrajectoryFileError` with
 the file, the key path (YAML) or the column (CSV), and the line.
 """
 
@@ -100,7 +101,11 @@ def _from_csv(text: str, file: str) -> TrajectoryFile:
         if len(row) != len(header):
             raise TrajectoryFileError(f"{len(row)} values for {len(header)} columns", line=n, file=file)
         value = dict(zip(header, row))
-        out.times.append(_csv_number(value, "time", n, file))
+        t = _csv_number(value, "time", n, file)
+        reason = _time_reason(t, out.times)
+        if reason:
+            raise TrajectoryFileError(reason, key=("time",), line=n, file=file)
+        out.times.append(t)
         for (a, b), target in zip(_CSV_PAIRS, lists):
             if (a, b) in pairs:
                 target.append([_csv_number(value, a, n, file), _csv_number(value, b, n, file)])
@@ -119,6 +124,16 @@ def _csv_number(row: dict[str, str], column: str, line: int, file: str) -> float
     return x
 
 
+def _time_reason(t: float, before: list[float]) -> str:
+    """Why ``t`` [s] cannot be the time of the point after the points at ``before``, or ''."""
+    i = len(before)
+    if t < 0.0:
+        return f"point {i}: time {t:g} s is negative (times are seconds from the start)"
+    if before and t <= before[-1]:
+        return f"point {i} at {t:g} s does not follow point {i - 1} at {before[-1]:g} s (times must increase strictly)"
+    return ""
+
+
 class _TrajectoryReader(Reader):
     """The YAML trajectory's schema over the shared checks."""
 
@@ -135,7 +150,11 @@ class _TrajectoryReader(Reader):
             path: KeyPath = ("points", i)
             p = self.mapping(point, path, points, i)
             self.keys(p, path, POINT_KEYS, required=("time", "positions"))
-            out.times.append(self.number(p, "time", path))
+            t = self.number(p, "time", path)
+            reason = _time_reason(t, out.times)
+            if reason:
+                raise self.error(reason, path + ("time",), p, "time")
+            out.times.append(t)
             for key, target in (("positions", out.positions), ("velocities", out.velocities),
                                 ("accelerations", out.accelerations)):
                 if key in p:

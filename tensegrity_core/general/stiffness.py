@@ -27,12 +27,14 @@ against finite differences).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from numbers import Integral
 from typing import Literal, overload
 
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
+from tensegrity_core.errors import ParameterError
 from tensegrity_core.general.configuration import Configuration, node_jacobians, transformation_matrix
 from tensegrity_core.general.statics import (
     StateLike,
@@ -175,15 +177,20 @@ class ModalAnalysis:
 def modal_analysis(structure: Structure, coords: StateLike = None, *, n_modes: int | None = None) -> ModalAnalysis:
     """Eigen-decomposition of the exact ``K_T`` at ``coords`` (default: reference drawing).
 
-    ``n_modes`` limits the result to the lowest ``n_modes`` modes. Note that eigenvalues of a
-    matrix mixing N/m and N m/rad depend on the length unit; compare modes of the same kind.
+    ``n_modes`` (a whole number >= 1, or None for all) limits the result to the lowest
+    ``min(n_modes, n_dof)`` modes; anything else raises
+    :class:`~tensegrity_core.errors.ParameterError`. Note that eigenvalues of a matrix mixing
+    N/m and N m/rad depend on the length unit; compare modes of the same kind.
     """
     from scipy.linalg import eigh
 
+    asked: object = n_modes                  # callers outside the type checker pass anything
+    if asked is not None and (isinstance(asked, bool) or not isinstance(asked, Integral) or int(asked) < 1):
+        raise ParameterError(f"n_modes must be a whole number >= 1 (or None for every mode), got {asked!r}")
     config = as_configuration(structure, coords)
     K = tangent_stiffness(structure, config)
     n = K.shape[0]
-    k = n if n_modes is None else max(1, min(int(n_modes), n))
+    k = n if n_modes is None else min(int(n_modes), n)
     w, V = eigh(K, subset_by_index=[0, k - 1])
     G = transformation_matrix(config)
     disp = (G @ V).T.reshape(k, structure.n_nodes, 3)

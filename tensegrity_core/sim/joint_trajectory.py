@@ -232,11 +232,14 @@ class GoalMonitor:
     def check(self, tau: float, positions: Sequence[float], velocities: Sequence[float] | None = None
               ) -> Outcome | None:
         """The outcome at ``tau`` seconds after the start given the joints' actual positions
-        (and rates, if measured), or None while the goal runs on."""
+        (and rates, if measured), or None while the goal runs on. The errors its message names are
+        desired - actual, control_msgs' sign (the ``error`` of FollowJointTrajectory's feedback
+        and of joint_trajectory_controller's state), so a message and the feedback of the same
+        moment agree."""
         tr, tol = self.trajectory, self.tolerances
         desired = tr.sample(tau)
-        pos_err = np.asarray(positions, dtype=float) - desired.positions
-        vel_err = None if velocities is None else np.asarray(velocities, dtype=float) - desired.velocities
+        pos_err = desired.positions - np.asarray(positions, dtype=float)
+        vel_err = None if velocities is None else desired.velocities - np.asarray(velocities, dtype=float)
         if tau <= tr.duration:
             bad = _violation(tr.names, pos_err, vel_err, tol.path_position, tol.path_velocity, self.unit)
             if bad:
@@ -255,7 +258,8 @@ class GoalMonitor:
 
 def _violation(names: Sequence[str], pos_err: FloatArray, vel_err: FloatArray | None, pos_tol: Sequence[float],
                vel_tol: Sequence[float], unit: str) -> str:
-    """The first tolerance exceeded, as ``"<joint>: position error <e> <unit> (tolerance <t>)"``, or ``""``."""
+    """The first tolerance exceeded, as ``"<joint>: position error <e> <unit> (tolerance <t>)"``
+    (``e`` = desired - actual), or ``""``."""
     for j, name in enumerate(names):
         if abs(pos_err[j]) > pos_tol[j]:
             return f"{name}: position error {pos_err[j]:.3g} {unit} (tolerance {pos_tol[j]:g} {unit})"

@@ -311,6 +311,48 @@ class Stats(TypedDict, total=False):
 
 
 
+class Frozen:
+    """The base of every back end: its attributes are fixed once its ``__init__`` returns.
+
+    Setting or deleting an attribute of a compiled model afterwards raises
+    :class:`AttributeError`, and the numpy arrays it holds directly are made read-only, so a
+    model shared by many states cannot be changed under them. ``dataclass(frozen=True)`` does
+    not fit here: a back end computes its attributes in ``__init__`` from the scene, in an
+    order that reads earlier ones; this seals the instance when the outermost ``__init__``
+    (the most derived class's) returns.
+    """
+
+    __sealed = False
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        init = cls.__dict__.get("__init__")
+        if init is None:
+            return
+
+        def sealing_init(self: Frozen, *args: Any, **kw: Any) -> None:
+            init(self, *args, **kw)
+            if type(self).__init__ is sealing_init:          # the outermost __init__ has run
+                for value in vars(self).values():
+                    if isinstance(value, np.ndarray):
+                        value.flags.writeable = False
+                object.__setattr__(self, "_Frozen__sealed", True)
+
+        sealing_init.__doc__, sealing_init.__qualname__ = init.__doc__, init.__qualname__
+        cls.__init__ = sealing_init  # type: ignore[method-assign, assignment]
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if self.__sealed:
+            raise AttributeError(f"a compiled {type(self).__name__} is frozen: its {name!r} cannot be set "
+                                 "(compile a new model from a changed scene instead)")
+        object.__setattr__(self, name, value)
+
+    def __delattr__(self, name: str) -> None:
+        if self.__sealed:
+            raise AttributeError(f"a compiled {type(self).__name__} is frozen: its {name!r} cannot be deleted")
+        object.__delattr__(self, name)
+
+
 class Model(Protocol[W, S]):
     """What every back end implements: a compiled scene (frozen) and the operations on its states.
 

@@ -48,6 +48,7 @@ from tensegrity_core.schema import (
     excerpt,
     exists,
     format_key_path,
+    get_at,
     line_of,
     parse_text,
     plain,
@@ -322,7 +323,7 @@ class _SweepReader(Reader):
             if not isinstance(key_path, str):
                 raise self.error(f"a key path must be a string, got {excerpt(key_path)}", qpath, d, key_path)
             q = self.quantity(key_path, spec, qpath, d, base)
-            self.new_key(q, qpath, d, base, computation)
+            self.some_value_fits(q, qpath, d, base, computation)
             for loc in q.locations:
                 if loc in taken:
                     raise self.error(f"{format_key_path(loc)} is already varied by {taken[loc]!r}", qpath, d, key_path)
@@ -388,25 +389,36 @@ class _SweepReader(Reader):
         log = kind == "log_uniform" or (kind == "grid" and spacing == "log")
         return Quantity(key_path, column, kind, values, params, scale, locations, log)
 
-    def new_key(self, q: Quantity, path: KeyPath, parent: dict[str, Any], base: Base, computation: str) -> None:
-        """Refuse a key path whose last key is new in the base (a key the base leaves at its
-        default) when the computation's loader takes the base with that key at none of the
-        quantity's first, middle and last values (or, for a random quantity, its two
-        parameters): a misspelt key, which would otherwise make every point an invalid row."""
-        if all(exists(base.document, loc) for loc in q.locations):
-            return
-        probes = list(dict.fromkeys([q.values[0], q.values[len(q.values) // 2], q.values[-1]] if q.values
-                                    else list(q.params)))
+    def some_value_fits(self, q: Quantity, path: KeyPath, parent: dict[str, Any], base: Base,
+                        computation: str) -> None:
+        """Refuse a quantity none of whose values can be valid, which would otherwise make
+        every point a failed row: one whose last key is new in the base (a key the base leaves
+        at its default), or one whose values at an existing key are all of another kind
+        (number, text, boolean) than the base's value there, when the computation's loader
+        takes the base with that key at none of the probed values. The probes: the first,
+        middle and last values and every distinct text or boolean one (a key may take a
+        number or a word such as ``auto``), or a random quantity's two parameters."""
+        new = not all(exists(base.document, loc) for loc in q.locations)
+        if not new:
+            kinds = {_kind(get_at(base.document, loc)) for loc in q.locations}
+            if not q.values or any(_kind(v) in kinds for v in q.values):
+                return                      # numbers at a number (grids and random ones are numbers)
+        probes = [q.values[0], q.values[len(q.values) // 2], q.values[-1]] if q.values else list(q.params)
+        probes += [v for v in q.values if isinstance(v, (str, bool))]
         load = COMPUTATIONS[computation].load
         first: TensegrityError | None = None
-        for value in probes:
+        for value in dict.fromkeys((type(v), v) for v in probes):
             try:
-                load(apply(base.document, (q,), (value,)))
+                load(apply(base.document, (q,), (value[1],)))
                 return
             except TensegrityError as err:
                 first = first or err
-        raise self.error(f"the base {base.kind} {base.source!r} has no {format_key_path(q.locations[0])!r} and "
-                         f"takes none of its values there: {first}", path, parent, q.path)
+        where = format_key_path(q.locations[0])
+        if new:
+            raise self.error(f"the base {base.kind} {base.source!r} has no {where!r} and takes none of its values "
+                             f"there: {first}", path, parent, q.path)
+        raise self.error(f"the base {base.kind} {base.source!r} takes none of these values at {where!r}: {first}",
+                         path, parent, q.path)
 
     def results(self, value: object, path: KeyPath, parent: dict[str, Any], computation: str) -> list[ListedResult]:
         value = self.sequence(value, path, parent, "results", of="results", nonempty=True)
@@ -432,3 +444,11 @@ class _SweepReader(Reader):
             seen.add(key)
             out.append((name, checked, line_of(value, i)))
         return out
+
+
+def _kind(value: object) -> str:
+    """A value's kind as a loader tells them apart: boolean, number (int or float), text, or
+    its type's name."""
+    if isinstance(value, bool):
+        return "boolean"
+    return "number" if isinstance(value, (int, float)) else type(value).__name__

@@ -26,6 +26,7 @@ import gc
 import importlib
 import os
 import pkgutil
+import re
 import sys
 from collections.abc import Iterable
 from types import ModuleType
@@ -46,7 +47,25 @@ def _command_modules() -> list[ModuleType]:
     return sorted(mods, key=lambda m: getattr(m, "ORDER", 100))
 
 
-class CommandParser(argparse.ArgumentParser):
+#: What a value that is a negative number looks like on the command line: a minus, then a
+#: digit or a point and a digit (``-1``, ``-.5``, ``-1e-12``, ``-2.5E3``). argparse's own
+#: pattern (``-\d+`` or ``-\d*\.\d+``, Python 3.11) misses exponents, so it read ``--f -1e3`` as
+#: an unknown option ``-1e3``; this is the pattern later Pythons use (CPython gh-123945).
+#: None of our options looks like a number, so such a word is always a value.
+NEGATIVE_NUMBER = re.compile(r"-\.?\d")
+
+
+class SignedNumberParser(argparse.ArgumentParser):
+    """A parser that reads every negative number as a value (:data:`NEGATIVE_NUMBER`).
+    argparse offers no public hook for this: it keeps the pattern in the attribute its
+    ``__init__`` sets, replaced here; its subparsers are of the same class."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = NEGATIVE_NUMBER
+
+
+class CommandParser(SignedNumberParser):
     """The parser of one subcommand: an argument it does not know is refused with *its*
     usage and the closest option it has (``tensegrity fk 0.7 0.7 --jsn``: "unrecognized
     arguments: --jsn (did you mean --json?)"), where argparse would hand the leftovers up
@@ -65,7 +84,7 @@ class CommandParser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = SignedNumberParser(
         prog="tensegrity",
         description="Simulate, analyse and drive tensegrity mechanisms "
         "(numerical core + ROS 2 Jazzy node suite).",

@@ -154,7 +154,10 @@ def _node(args: argparse.Namespace) -> int:
     require_rclpy()
 
     module = importlib.import_module(NODES[args.name])
+    from tensegrity_ros.apps.start_gate import pass_gate
     from tensegrity_ros.nodes.common import ParameterValueError
+
+    pass_gate()                          # imported: now wait for `tensegrity up`'s look, if it looks
 
     try:
         return int(module.main([f"tensegrity-{args.name}", *args.ros_args]))
@@ -204,11 +207,15 @@ def _up(args: argparse.Namespace) -> int:
         specs.append(ProcessSpec("record", exe + ["record", "-o", args.record, *scene] + ros, stops_last=True))
     from tensegrity_ros.apps.suite_presence import refusal, running_suite
 
-    found, namespace, domain = running_suite(ros)
-    if found:                            # a second suite would publish and serve the same names
-        raise CliError(refusal(found, namespace, domain), code=1)
-    print(f"starting {', '.join(s.name for s in specs)} (Ctrl-C stops all)", flush=True)
-    return Launcher(specs).run()
+    def look() -> None:
+        """Refuse when the suite runs here already (the children import meanwhile, held at
+        their start gates: none of them is in the graph yet, :mod:`tensegrity_ros.apps.start_gate`)."""
+        found, namespace, domain = running_suite(ros)
+        if found:                        # a second suite would publish and serve the same names
+            raise CliError(refusal(found, namespace, domain), code=1)
+        print(f"starting {', '.join(s.name for s in specs)} (Ctrl-C stops all)", flush=True)
+
+    return Launcher(specs).run(look)
 
 
 def _scene_interface(scene: str | None) -> Interface:

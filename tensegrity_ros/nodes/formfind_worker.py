@@ -57,8 +57,8 @@ class FormFindReply:
     pipe): ``nodes`` [[x, y, z], ...] [m] in the description's order, ``member_forces`` [N]
     tension positive, ``residual`` the relative residual (dimensionless: out-of-balance
     force at a node over the forces that meet there), ``residual_norm`` the Euclidean norm
-    of all out-of-balance forces and moments [N, N m], ``min_stiffness_eigenvalue`` [N/m]
-    and ``stability_margin`` (its scaled value over its rounding level; NaN when not
+    of all out-of-balance forces and moments [N, N m], ``min_stiffness_eigenvalue`` [N/m,
+    mixed with N m/rad where the structure has rigid bodies] and ``stability_margin`` (its scaled value over its rounding level; NaN when not
     computed): see ``FormFindResult``."""
 
     success: bool = False

@@ -96,6 +96,24 @@ def test_a_bad_option_of_a_client_command_is_one_line_and_exit_2(args, words, ca
     assert words in _one_error_line(out.err) and out.out == ""
 
 
+@pytest.mark.parametrize("name, text, words", [
+    ("back.csv", "time,rho1,rho2\n1,0.7,0.7\n2,0.71,0.7\n1.5,0.7,0.7\n",
+     "back.csv: time: point 2 at 1.5 s does not follow point 1 at 2 s (times must increase strictly) (line 4)"),
+    ("same.yaml", "points:\n  - {time: 1.0, positions: [0.7, 0.7]}\n  - {time: 1.0, positions: [0.7, 0.7]}\n",
+     "same.yaml: points[1].time: point 1 at 1 s does not follow point 0 at 1 s"),
+    ("early.csv", "time,rho1,rho2\n-1e-12,0.7,0.7\n", "early.csv: time: point 0: time -1e-12 s is negative"),
+])
+def test_a_trajectory_whose_times_do_not_increase_is_refused_as_the_file_is_read(name, text, words, capsys,
+                                                                                  tmp_path, monkeypatch):
+    """The reader refuses it, naming the point and its line (exit 2), before any node is made:
+    no controller runs here, so a file that got past the reader would time out (exit 3)."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / name).write_text(text)
+    assert main(["follow", name, "--timeout", "0.5"]) == 2
+    out = capsys.readouterr()
+    assert words in _one_error_line(out.err) and out.out == ""
+
+
 def test_a_bad_argument_of_a_long_running_command_is_one_line_and_exit_2(tmp_path):
     for done, (args, words) in zip(_run_all([a for a, _ in AS_PROCESSES], tmp_path), AS_PROCESSES):
         assert done.returncode == 2, (args, done.stdout, done.stderr)

@@ -121,3 +121,18 @@ def test_modal_analysis_of_the_table():
     np.testing.assert_allclose(K @ ma.modes, ma.modes * ma.eigenvalues, atol=1e-6 * np.abs(K).max())
     assert ma.displacements.shape == (12, 8, 3)
     assert np.all(np.diff(ma.eigenvalues) >= 0)
+
+
+@pytest.mark.parametrize("n_modes", [0, -1, 2.5, True, "3"])
+def test_modal_analysis_refuses_a_mode_count_that_is_not_a_whole_number_of_at_least_one(n_modes):
+    """No silent clamp: asking for 0 or -1 modes is a mistake, not a request for one."""
+    from tensegrity_core.errors import ParameterError
+
+    with pytest.raises(ParameterError, match=f"n_modes must be a whole number >= 1 .*got {n_modes!r}"):
+        modal_analysis(load_example("t_bar"), n_modes=n_modes)
+
+
+def test_modal_analysis_gives_the_modes_asked_for_up_to_the_degrees_of_freedom():
+    s = load_example("t_bar")
+    n = s.layout.n_dof
+    assert [len(modal_analysis(s, n_modes=k).eigenvalues) for k in (1, np.int64(2), n, n + 5)] == [1, 2, n, n]

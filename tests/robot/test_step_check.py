@@ -22,6 +22,8 @@ import yaml
 from numpy.typing import NDArray
 
 from tensegrity_core.sim import SceneError, compile_scene, load_scene
+from tensegrity_core.sim.general.robot.stepping import FixedStepper
+from tensegrity_core.sim.model import State
 from tensegrity_core.sim.scene.robot_schema import RK4_IMAGINARY_REACH, rk4_reach
 from tensegrity_ros.cli import main
 
@@ -86,14 +88,23 @@ def taut(damping: float) -> dict:
                                                                                       (0.0990, 0.0989))])
 
 
+def state_at_step(model, step: float, t_end: float, y: NDArray | None = None) -> State:
+    """A state of the robot ``model`` that its fixed-step RK4 advances by ``step`` [s] instead
+    of the scene's (validation passed at a step it accepts; the model itself is frozen), from
+    ``y`` (its initial state vector by default)."""
+    events: list = []
+    start = model.y0.copy() if y is None else y
+    return State(model.initial_commands, events, FixedStepper(model.system, start, step, t_end=t_end, log=events),
+                 owner=model)
+
+
 def _kinetic_growth(robot: dict, step: float, steps: int = 100) -> float:
     """The largest kinetic energy over the last 10 of ``steps`` steps of ``step`` [s] over
     the largest over the first 6 (three periods): below 1 when RK4 follows the mode, above
     when it grows (validation passed at a step it accepts, then the model's step replaced)."""
     model = compile_scene(load_scene(dict(scene(1e-5), model={"kind": "robot", "robot": robot})))
-    model.step = step
     samples: list = []
-    model.record(model.initial_state(t_end=steps * step), np.arange(steps + 1) * step, samples)
+    model.record(state_at_step(model, step, steps * step), np.arange(steps + 1) * step, samples)
     kinetic = model.observe(samples)["kinetic_energy"]
     return float(kinetic[-10:].max() / kinetic[:6].max())
 
@@ -175,9 +186,8 @@ def test_the_floor_s_refusal_is_right():
     ``sqrt(6 k / m)`` about 0.7) it stays at rest to the sinking of its weight."""
     def run(step: float, steps: int) -> NDArray:
         model = compile_scene(load_scene(floor_scene(0.5 * FLOOR_LIMIT)))
-        model.step = step
         samples: list = []
-        model.record(model.initial_state(t_end=steps * step), np.arange(steps + 1) * step, samples)
+        model.record(state_at_step(model, step, steps * step), np.arange(steps + 1) * step, samples)
         return model.observe(samples)["body_positions"][:, 0, 2]
 
     heights = run(0.1 * FLOOR_LIMIT, 400)
@@ -227,13 +237,12 @@ def test_the_turning_refusal_is_right():
     a step, past 10 times that within 2 s."""
     def swing(step: float, duration: float) -> float:
         model = compile_scene(load_scene(turning_scene(0.5 * TURN_LIMIT)))
-        model.step = step
         p = model.plan
         y = model.y0.copy()
         y[p.body_dof[0] + 5] = 0.01                                     # turned about z
         samples: list = []
         steps = int(duration / step)
-        model.record(model.state_from(y, t_end=steps * step), np.arange(steps + 1) * step, samples)
+        model.record(state_at_step(model, step, steps * step, y), np.arange(steps + 1) * step, samples)
         return max(abs(float(s[1][p.n_dof + p.body_dof[0] + 5])) for s in samples)
 
     assert swing(0.98 * TURN_LIMIT, 5.0) < 0.01 * TURN_OMEGA * 1.01

@@ -236,7 +236,9 @@ def test_a_tight_path_tolerance_is_violated_and_a_new_goal_preempts_the_running_
     client.step_received(10, t0, STEP_NS, chunk=5)
     status, result = _result(client, handle)
     assert status == GoalStatus.STATUS_ABORTED and result.error_code == PATH_TOLERANCE_VIOLATED
-    assert "long1: position error" in result.error_string
+    # long1 comes down to 0.8 m (from 0.86 or 0.9 m, whichever test ran before) and its held rest
+    # length trails above the desired one: desired - actual < 0, the sign of the feedback's error
+    assert "long1: position error -" in result.error_string
     first = _send(client, action, _goal([(5.0, (0.9, 0.9))]))
     second = _send(client, action, _goal([(0.05, (0.9, 0.9))]))
     status, result = _result(client, first)

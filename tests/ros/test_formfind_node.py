@@ -16,6 +16,20 @@ pytestmark = pytest.mark.ros
 TABLE = example_path("tensegrity_table").read_text()
 
 
+def test_the_service_definition_gives_the_eigenvalue_unit_the_cli_prints():
+    """A client reads units from FindForm.srv: with rigid bodies the tangent stiffness mixes
+    N/m with N m/rad, as `tensegrity formfind` and `call-formfind` print (no DDS, ~1 ms)."""
+    from pathlib import Path
+
+    from tensegrity_core.general import load_example
+    from tensegrity_ros.cli.cmd_formfind import k_unit
+
+    srv = (Path(__file__).parents[2] / "msgs_spec/tensegrity_msgs/srv/FindForm.srv").read_text()
+    comment = srv[srv.index("min_stiffness_eigenvalue"):srv.index("float64 stability_margin")]
+    assert k_unit(load_example("tensegrity_table")) == "N/m and N m/rad mixed"
+    assert "N/m" in comment and "N m/rad" in comment
+
+
 @pytest.fixture(scope="module")
 def formfind(tmp_path_factory):
     """A running `tensegrity node formfind` process (time limit 5 s) and a client here."""

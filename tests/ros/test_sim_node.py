@@ -152,6 +152,14 @@ def test_parameters_from_a_yaml_file_take_effect(sim_node, tmp_path):
     assert "real-time factor 2" in proc.stderr()
 
 
+def _documented_member_names() -> list[str]:
+    """The member names MechanismState.msg promises a client, read from its comment."""
+    from pathlib import Path
+    text = (Path(__file__).parents[2] / "msgs_spec/tensegrity_msgs/msg/MechanismState.msg").read_text()
+    start = text.index("string[] member_names")
+    return re.findall(r'"([^"]+)"', text[start:text.index("float64[] member_lengths")])
+
+
 def test_every_output_topic_and_clock_are_consistent(sim_node):
     proc, ros = sim_node()
     ros.spin_until(lambda: ros.states and ros.markers and ros.ee and ros.clock)
@@ -161,6 +169,7 @@ def test_every_output_topic_and_clock_are_consistent(sim_node):
     L = 1.0
     d = next(p for n, p in zip(s.node_names, s.nodes) if n == "D")
     assert (d.x, d.y) == pytest.approx((q[0] + L * math.cos(q[2]), L * math.sin(q[2])), abs=1e-12)
+    assert list(s.member_names) == _documented_member_names()
     lengths = dict(zip(s.member_names, s.member_lengths))
     assert lengths["BD"] == pytest.approx(1.0, abs=1e-12) and lengths["AB"] == pytest.approx(q[0])
     # springs: tension = k * length (zero free length, k = 1)

@@ -52,6 +52,15 @@ def test_every_shipped_scene_compiles_to_a_registered_back_end_with_the_whole_pr
     assert state.t == 0.0 and len(state.y) == len(model.state_names) and np.all(np.isfinite(state.y))
     assert isinstance(state.mode, frozenset) and (model.kind == "class2" or state.mode == frozenset())
     assert len(state.commands) == len(model.actuator_names) == len(scene.inputs)
+    # Frozen: no attribute can be set or deleted, and the arrays it holds are read-only.
+    with pytest.raises(AttributeError, match="frozen"):
+        model.scene = scene
+    with pytest.raises(AttributeError, match="frozen"):
+        model.patched = 1
+    with pytest.raises(AttributeError, match="frozen"):
+        del model.interface
+    assert model.scene is scene
+    assert not any(v.flags.writeable for v in vars(model).values() if isinstance(v, np.ndarray))
 
 
 def test_the_registry_names_each_model_kind_and_regime_once():

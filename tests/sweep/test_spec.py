@@ -230,3 +230,26 @@ def test_the_example_in_the_docs_is_a_valid_sweep():
     sweep = load_sweep(block)
     assert sweep.name == "fold_time_kc" and sweep.n_points == 17 * 8
     assert [p.values for p in sweep.points()] == [p.values for p in load_sweep("fold_time_kc").points()]
+
+
+@pytest.mark.parametrize("base, vary, expected", [
+    ({"scene": "paper_fold"}, {"model.params.k": ["a", "b"]},
+     "vary.model.params.k: the base scene 'paper_fold' takes none of these values at 'model.params.k': "
+     "model.params.k: must be a number, got a string ('a')"),
+    ({"scene": "paper_fold"}, {"duration": [True, False]}, "takes none of these values at 'duration'"),
+    ({"structure": "spine_c"}, {"members[side*].rest_length": ["short", "long"]},
+     "takes none of these values at 'members[0].rest_length'"),
+])
+def test_values_all_of_the_wrong_kind_at_an_existing_key_are_refused_before_anything_runs(base, vary, expected):
+    """Every point would be a failed row: refused as the sweep is read, with the loader's reason."""
+    compute, result = ("simulate", "t_end") if "scene" in base else ("form_find", "stable")
+    with pytest.raises(SweepError) as info:
+        load_sweep({"base": base, "vary": vary, "compute": compute, "results": [result]})
+    assert expected in str(info.value) and "\n" not in str(info.value)
+
+
+def test_an_existing_key_with_some_values_of_its_kind_is_varied():
+    """One number among words: the words' points become failed rows, the number's runs."""
+    sweep = load_sweep({"base": {"scene": "paper_fold"}, "vary": {"model.params.k": ["a", 1.0, True]},
+                        "compute": "simulate", "results": ["t_end"]})
+    assert sweep.n_points == 3

@@ -30,7 +30,16 @@ from tensegrity_core.sim.class2.setup import (
 )
 from tensegrity_core.sim.commands import changed, check_command, compile_inputs
 from tensegrity_core.sim.inputs import held
-from tensegrity_core.sim.model import DynamicModel, JointValues, Observed, ObservedArrays, State, Stats, check_owner
+from tensegrity_core.sim.model import (
+    DynamicModel,
+    Frozen,
+    JointValues,
+    Observed,
+    ObservedArrays,
+    State,
+    Stats,
+    check_owner,
+)
 from tensegrity_core.sim.scene import Scene
 from tensegrity_core.sim.stepper import Stepper
 
@@ -39,7 +48,7 @@ FloatArray = NDArray[np.float64]
 Class2Sample = tuple[float, FloatArray, int, tuple[float, float]]
 
 
-class Class2Dynamic(DynamicModel[Class2System, Class2Sample]):
+class Class2Dynamic(Frozen, DynamicModel[Class2System, Class2Sample]):
     """Back end ``class2/dynamic``: the class-2 equations of motion with the scene's effects
     (implements :class:`~tensegrity_core.sim.model.DynamicModel`)."""
 

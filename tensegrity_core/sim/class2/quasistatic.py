@@ -66,6 +66,7 @@ from tensegrity_core.sim.class2.setup import (
 from tensegrity_core.sim.commands import changed, check_command, compile_inputs
 from tensegrity_core.sim.inputs import held
 from tensegrity_core.sim.model import (
+    Frozen,
     JointValues,
     Model,
     Observed,
@@ -81,7 +82,7 @@ from tensegrity_core.sim.scene import Scene
 Class2Block = tuple[NDArray[np.float64], Segment, TotalPotential]
 
 
-class Class2QuasiStatic(Model[PathFollower, Class2Block]):
+class Class2QuasiStatic(Frozen, Model[PathFollower, Class2Block]):
     """Back end ``class2/quasi-static``: the equilibrium path of a class-2 scene without
     inertia (implements :class:`~tensegrity_core.sim.model.Model`). The path's start at
     ``t = 0`` is found once, at compile time; a state's integrator is a

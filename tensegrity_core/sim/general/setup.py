@@ -27,7 +27,7 @@ from tensegrity_core.general.structure import Structure
 from tensegrity_core.sim.commands import compile_inputs
 from tensegrity_core.sim.errors import SceneError, SimulationError
 from tensegrity_core.sim.inputs import Commanded, InputLaw, Law
-from tensegrity_core.sim.model import Interface, Names, Observed, ObservedArrays
+from tensegrity_core.sim.model import Frozen, Interface, Names, Observed, ObservedArrays
 from tensegrity_core.sim.scene import GeneralModelSpec, Scene
 
 FloatArray = NDArray[np.float64]
@@ -162,7 +162,7 @@ def quaternions(R: ArrayLike) -> FloatArray:
     return np.where(quat[:, 3:] < 0.0, -quat, quat)
 
 
-class GeneralBackEnd:
+class GeneralBackEnd(Frozen):
     """The base of both general back ends: what they compile alike from a general scene that
     lists ``springs``. ``scene``; its ``structure``; the input ``laws`` and ``actuator_names``
     in input order with the ``initial_commands`` (commanded rest lengths [m] hold the drawn

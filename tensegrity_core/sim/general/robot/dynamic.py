@@ -40,6 +40,7 @@ from tensegrity_core.sim.general.robot.stepping import FixedStepper, RobotSample
 from tensegrity_core.sim.general.robot.system import RobotEvaluation, RobotSystem, block_index
 from tensegrity_core.sim.inputs import Commanded
 from tensegrity_core.sim.model import (
+    Frozen,
     Interface,
     JointValues,
     Model,
@@ -73,7 +74,7 @@ def cable_energy(stretch: FloatArray, k: FloatArray, t_max: FloatArray) -> Float
     return out
 
 
-class RobotDynamic(Model[FixedStepper, RobotSample]):
+class RobotDynamic(Frozen, Model[FixedStepper, RobotSample]):
     """Back end ``robot/dynamic`` (implements :class:`~tensegrity_core.sim.model.Model`, and
     ``state_from``, ``equations`` as the dynamic back ends do)."""
 
