@@ -45,7 +45,8 @@ from tensegrity_ros.bag.repair import repair_bag
 from tensegrity_ros.bag.writer import DEFAULT_FLUSH_INTERVAL
 from tensegrity_ros.rclpy_utils.raw_take import take_all
 
-pytestmark = pytest.mark.ros
+# among the suite's longest files: ./run test starts them first (tests/conftest.py)
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 ROUNDS = 4
 SLACK_S = 0.1

@@ -8,9 +8,13 @@ runtime module with the lambdified derivation at random states.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from tensegrity_core.class2 import geometry
 from tensegrity_core.class2.params import Class2Params
+
+# among the suite's longest files: ./run test starts them first (tests/conftest.py)
+pytestmark = pytest.mark.slow
 
 
 def test_derivation_self_checks_all_pass():

@@ -12,6 +12,9 @@ from scipy.integrate import solve_ivp
 
 from tensegrity_core.class2.params import PAPER_PARAMS
 
+# among the suite's longest files: ./run test starts them first (tests/conftest.py)
+pytestmark = pytest.mark.slow
+
 AGREE = {"T (Eq. 46)", *(f"M{i}{j} (A.{1 if (i, j) in ((1, 1), (1, 2)) else 2})" for i in (1, 2, 3) for j in (1, 2, 3)),
          "F13 (A.4)", "F23 (A.4)", "F31 (A.4)", "F32 (A.4)", "F33 (A.4)",
          *(f"G{i}{j} (A.5)" for i in (1, 2, 3) for j in (1, 2, 3) if (i, j) not in ((1, 1), (2, 1))),

@@ -58,7 +58,8 @@ from tests.hard.strategies import drawn_structures
 
 EPS = float(np.finfo(float).eps)
 #: A numpy warning (overflow, 0/0) printed to the user is a defect too.
-pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")
+# among the suite's longest files: ./run test starts them first (tests/conftest.py)
+pytestmark = [pytest.mark.filterwarnings("error::RuntimeWarning"), pytest.mark.slow]
 
 
 def answer_or_refusal(call):

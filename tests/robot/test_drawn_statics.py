@@ -8,6 +8,7 @@ bars are the statics' own)."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -17,6 +18,9 @@ from tensegrity_core.robot.robot_schema import robot_from_dict
 from tensegrity_core.robot.statics import rest_shape
 from tensegrity_core.robot.tipping import tipping_step
 from tests.robot.test_drawn_robots import robots
+
+# among the suite's longest files: ./run test starts them first (tests/conftest.py)
+pytestmark = pytest.mark.slow
 
 
 def _one_line_about_the_users_parts(err: Exception, rods: tuple[str, ...]) -> None:

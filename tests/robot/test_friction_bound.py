@@ -22,6 +22,9 @@ from tensegrity_core.sim.general.robot.loops import SLIPPING, STICKING
 from tensegrity_core.sim.general.robot.system import RobotSystem
 from tests.robot.test_dynamics import _model, random_state, robot_scene
 
+# among the suite's longest files: ./run test starts them first (tests/conftest.py)
+pytestmark = pytest.mark.slow
+
 
 def _size(lo: float, hi: float, signed: bool = False):
     """0 or a magnitude in [lo, hi] (with either sign): physical sizes, none so small that

@@ -19,6 +19,9 @@ from tensegrity_core.robot.tipping import hull_faces
 from tensegrity_core.sim import compile_scene, load_scene
 from tensegrity_core.sim.control_loop import ControlLoop
 
+# among the suite's longest files: ./run test starts them first (tests/conftest.py)
+pytestmark = pytest.mark.slow
+
 #: The control rate [Hz] (the robots' usual 50 Hz loop).
 RATE = 50.0
 

@@ -40,6 +40,9 @@ from tensegrity_core.sim.stepper import SOLVERS
 
 from .rigid_reference import FloatingReference
 
+# among the suite's longest files: ./run test starts them first (tests/conftest.py)
+pytestmark = pytest.mark.slow
+
 #: The adaptive methods (RK4 takes fixed steps without error control, so it has no tolerance
 #: to hold the invariants to); on general scenes "DOP853" runs the compiled DOP853 where numba
 #: is installed, scipy's through the numpy kernels otherwise.

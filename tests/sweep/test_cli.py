@@ -12,6 +12,9 @@ import pytest
 from tensegrity_ros.cli import main
 from tests.sweep.conftest import fold_sweep, monte_carlo_sweep
 
+# among the suite's longest files: ./run test starts them first (tests/conftest.py)
+pytestmark = pytest.mark.slow
+
 
 def write(tmp_path, doc, name="s.yaml"):
     path = tmp_path / name
