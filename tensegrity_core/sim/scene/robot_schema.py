@@ -330,7 +330,7 @@ def rk4_reach(zeta: float) -> float:
     return float(brentq(lambda r: _rk4_growth(r * root), 1.0, 3.0))
 
 
-def impact_speed(robot: Robot, lift: float, g: NDArray[np.float64]) -> float:
+def impact_speed(robot: Robot, lift: float, g: NDArray[np.float64], normal: NDArray[np.float64]) -> float:
     """The speed [m/s] at which a robot released at rest as drawn, raised ``lift`` [m] along
     the floor's normal ``n``, first touches the floor under gravity ``g`` [m/s^2]: until then
     gravity is its only external force, so its centre of mass falls ``lift`` freely and meets
@@ -338,10 +338,10 @@ def impact_speed(robot: Robot, lift: float, g: NDArray[np.float64]) -> float:
     pinned nodes, which does not fall)."""
     if robot.pinned.any():
         return 0.0
-    return math.sqrt(2.0 * abs(float(g @ robot.floor.normal)) * max(lift, 0.0))
+    return math.sqrt(2.0 * abs(float(g @ normal)) * max(lift, 0.0))
 
 
-def cap_mass(robot: Robot, rod: int) -> float:
+def cap_mass(robot: Robot, rod: int, normal: NDArray[np.float64]) -> float:
     """The effective mass [kg] of a cap of rod ``rod`` as drawn pushed along the floor's normal
     ``n``: moving the cap by ``e`` along ``n`` costs at least the kinetic energy of
     ``m_eff e'^2 / 2``, ``1 / m_eff = 1/m + (L/2)^2 |n x a|^2 / I`` (the rod's mass ``m`` and
@@ -355,7 +355,7 @@ def cap_mass(robot: Robot, rod: int) -> float:
     riders = robot.node_masses[[a, b]]
     mass = float(robot.rods.mass[rod] + riders.sum())
     inertia = float(robot.rods.inertia[rod, 0] + riders.sum() * half**2)
-    across = float(np.linalg.norm(np.cross(robot.floor.normal, axis / (2.0 * half))))
+    across = float(np.linalg.norm(np.cross(normal, axis / (2.0 * half))))
     return 1.0 / (1.0 / mass + (half * across) ** 2 / inertia)
 
 
@@ -443,10 +443,11 @@ def step_fits(reader: Reader, model: RobotModelSpec, effects: SceneEffects, step
             consider(rod, stiffness, f"turned towards cable {excerpt(cables.names[i])} (its transverse inertia "
                                      f"{inertia:g} kg m^2) it meets {omega2 * inertia:g} N m/rad of taut cables")
     for rod in sorted(set(rod_of.values())):
-        if contact is not None:
-            speed = impact_speed(robot, lift, g) if contact.dissipation > 0.0 else 0.0
+        if contact is not None and robot.floor is not None:
+            normal = robot.floor.normal
+            speed = impact_speed(robot, lift, g, normal) if contact.dissipation > 0.0 else 0.0
             stiff = contact.stiffness * (1.0 + contact.dissipation * speed)
-            m_cap = cap_mass(robot, rod)
+            m_cap = cap_mass(robot, rod, normal)
             consider(rod, stiff, mass=m_cap, what=f"a cap pressed into the floor ({m_cap:.3g} kg of the rod moving "
                                                   f"with it) meets {contact.stiffness:g} N/m of contact stiffness"
                                  + (f" (with its dissipation {contact.dissipation:g} s/m, {stiff:.4g} N/m at up to "
