@@ -35,6 +35,9 @@ from tensegrity_core.schema.yaml_reader import parse_yaml
 FORMATS: Final = ("yaml", "json", "toml")
 SUFFIXES: Final = {".yaml": "yaml", ".yml": "yaml", ".json": "json", ".toml": "toml"}
 _JSON_STRING: Final = re.compile(rb'"(?:[^"\\]|\\.)*"', re.S)
+#: A first line that only TOML starts with: a table header (no comma or nested bracket, unlike
+#: a flow list such as ``[1, 2]``) or a ``key = value`` assignment.
+_TOML_FIRST_LINE: Final = re.compile(r'^(\[\[?[^\[\],]+\]\]?\s*(#.*)?$|[A-Za-z0-9_"\'.-]+\s*=)')
 _TOML_WHERE: Final = re.compile(r"\(at line ([0-9]+), column [0-9]+\)|\(at end of document\)")
 
 
@@ -49,15 +52,17 @@ def check_size(text: str, limits: Limits, error: type[SchemaError] = SchemaError
 
 
 def guess_format(text: str) -> str:
-    """``"json"`` for text that starts with ``{``, ``"toml"`` for text whose first line is a
-    TOML table or assignment, else ``"yaml"``."""
+    """``"toml"`` for text whose first line is a TOML table header (``[name]``, ``[[name]]``)
+    or assignment (``key = value``), ``"json"`` for other text that starts with ``{`` or ``[``
+    (a JSON or YAML flow collection: :func:`parse_text` reads it as YAML when it is not JSON),
+    else ``"yaml"``. A one-item list of a bare key (``[a]``) is a TOML table header."""
     for line in text.splitlines():
         s = line.strip()
         if not s or s.startswith("#"):
             continue
-        if s.startswith("{"):
-            return "json"
-        return "toml" if re.match(r'^(\[|[A-Za-z0-9_"\'.-]+\s*=)', s) else "yaml"
+        if _TOML_FIRST_LINE.match(s):
+            return "toml"
+        return "json" if s.startswith(("{", "[")) else "yaml"
     return "yaml"
 
 

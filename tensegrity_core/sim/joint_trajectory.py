@@ -184,7 +184,7 @@ def plan_trajectory(names: Sequence[str], times: Sequence[float], positions: Seq
         bad = np.flatnonzero(~((p[:, j] > lo) & (p[:, j] < hi)))
         if bad.size:
             raise TrajectoryError(f"point {int(bad[0])}: position of {names[j]} = {p[bad[0], j]:g} "
-                                  f"{interface.unit} is outside its range ({lo:g}, {hi:g}) {interface.unit}")
+                                  f"{interface.unit} is outside its range {interface.range_text(i)} {interface.unit}")
     derivs = [p] + [x for x in (v, a) if x is not None]
     if t[0] > 0.0:
         s0 = np.array([float(start[i]) for i in inputs])

@@ -29,6 +29,7 @@ model whose states have integrators of type ``W`` and whose samples (what ``samp
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Generic, Literal, NotRequired, Protocol, Self, TypedDict, TypeVar
@@ -163,6 +164,14 @@ class Interface:
     def unit(self) -> str:
         """The unit of an input's value: ``"N"`` or ``"m"``."""
         return "N" if self.command == "force" else "m"
+
+    def range_text(self, i: int) -> str:
+        """Input ``i``'s interval as a message shows it, ``"(lo, hi)"`` in ``:g``. A robot
+        motor's closed range [lo, hi] is stated one float further out on each side, which ``:g``
+        hides except at 0, where that float is subnormal (-4.9e-324): a bound smaller in size
+        than the smallest normal float reads 0."""
+        lo, hi = (0.0 if abs(b) < sys.float_info.min else b for b in self.limits[i])
+        return f"({lo:g}, {hi:g})"
 
 
 class Observed(TypedDict):

@@ -84,6 +84,7 @@ def roll_closed_loop(robot_name: str, faces: int, heading: tuple[float, float], 
     controller = RollController(robot, faces, heading=heading)
     loop = FeedbackLoop(controller, RodFrames.of(robot), robot.node_names, cables, rate=RATE)
     rclpy, node = client_node("tensegrity_gait", ros_args)
+    joined = time.monotonic()      # discovery of the other answerers runs from here, beside the set-up below
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     watcher = RunWatcher(node)
@@ -136,7 +137,9 @@ def roll_closed_loop(robot_name: str, faces: int, heading: tuple[float, float], 
         # matched by the watcher's own subscription and the simulator's
         if not wait_for_matches([pub], 2, timeout, poll=lambda s: executor.spin_once(timeout_sec=s)):
             raise SuiteError(f"the simulator does not subscribe to {pub.topic_name} within {timeout:g} s", code=3)
-        others = _other_answerers(node, executor, DISCOVERY_S, timeout) if lockstep.bool_value else []
+        # the graph has been discovered since the node joined it: DISCOVERY_S in all from then
+        look = max(0.0, joined + DISCOVERY_S - time.monotonic())
+        others = _other_answerers(node, executor, look, timeout) if lockstep.bool_value else []
         if others:
             raise _second_answerer(others)
         live[0] = True

@@ -24,9 +24,11 @@ import subprocess
 import sys
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TextIO
 
+from tensegrity_ros.apps.start_gate import Gate
 from tensegrity_ros.apps.stop_order import stop_bound_s, stop_in_stages, stop_stages
 from tensegrity_ros.rclpy_utils.env import ensure_ros_environment
 from tensegrity_ros.rclpy_utils.stop_signals import EXIT_DEADLINE_S, signals_blocked, stop_on_signals
@@ -76,6 +78,7 @@ class Launcher:
         self._lock = threading.Lock()
         self._reported: set[str] = set()     # children whose end was said already
         self._pumps: list[threading.Thread] = []
+        self._gates: list[Gate] = []
 
     def _pump(self, name: str, stream: TextIO) -> None:
         for line in iter(stream.readline, ""):
@@ -86,21 +89,38 @@ class Launcher:
                 self.out.flush()
         stream.close()
 
-    def start(self) -> None:
+    def start(self, gated: bool = False) -> None:
+        """Start every child; ``gated``: each holds at its start gate (after its imports,
+        before it joins the ROS graph) until :meth:`open_gates` or :meth:`close_gates`
+        (:mod:`tensegrity_ros.apps.start_gate`)."""
         env = dict(os.environ)
         ensure_ros_environment(env)
         env["PYTHONUNBUFFERED"] = "1"
         for spec in self.specs:
+            gate = Gate() if gated else None
             with signals_blocked():
                 proc = subprocess.Popen(
-                    spec.argv, env={**env, **spec.env}, stdout=subprocess.PIPE,
-                    stderr=subprocess.STDOUT, text=True, start_new_session=True,
-                    preexec_fn=_die_with_parent,
+                    spec.argv, env={**env, **spec.env, **(gate.child_env() if gate else {})},
+                    stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True,
+                    preexec_fn=_die_with_parent, pass_fds=(gate.child_fd,) if gate else (),
                 )
+            if gate is not None:
+                gate.started()
+                self._gates.append(gate)
             self.procs[spec.name] = proc
             pump = threading.Thread(target=self._pump, args=(spec.name, proc.stdout), daemon=True)
             pump.start()
             self._pumps.append(pump)
+
+    def open_gates(self) -> None:
+        """Let every gated child join the ROS graph."""
+        for gate in self._gates:
+            gate.open()
+
+    def close_gates(self) -> None:
+        """Keep every gated child that has not passed its gate from starting: each exits 0."""
+        for gate in self._gates:
+            gate.close()
 
     def request_stop(self) -> None:
         self._stop.set()
@@ -188,9 +208,12 @@ class Launcher:
             self.out.write(f"[launch] {line}\n")
             self.out.flush()
 
-    def run(self) -> int:
+    def run(self, look: Callable[[], None] | None = None) -> int:
         """Start every child, wait, stop them all; SIGINT/SIGTERM (stop requests of
-        :mod:`tensegrity_ros.rclpy_utils.stop_signals`) stop them."""
+        :mod:`tensegrity_ros.rclpy_utils.stop_signals`) stop them. ``look``: called once the
+        children are started and held at their gates (their imports go on meanwhile); its
+        return opens the gates, its exception (a refusal) closes them, waits for the children
+        to exit and propagates."""
         with stop_on_signals() as stop:
             # the stop escalates in stages; give the process that long (and the children's
             # output its time) before the stop deadline calls it hung
@@ -199,7 +222,18 @@ class Launcher:
             stop.enter_running()
             forget = stop.on_stop(self.request_stop)
             try:
-                self.start()
+                self.start(gated=look is not None)
+                if look is not None:
+                    try:
+                        look()
+                    except BaseException:
+                        self.close_gates()
+                        self.stop()
+                        raise
+                    if self._stop.is_set():          # stopped during the look: nothing starts
+                        self.close_gates()
+                    else:
+                        self.open_gates()
                 return self.wait()
             finally:
                 forget()

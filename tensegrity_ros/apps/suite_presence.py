@@ -4,7 +4,8 @@ Two suites in one namespace of one ROS domain publish the same topics and serve 
 services: two simulators' ``joint_states`` interleave, a goal is taken by either
 controller. ROS itself lets that happen (``ros2 launch`` starts nodes whose names are
 taken, and ``ros2 node list`` only warns that nodes share an exact name), so ``up`` looks
-first: :func:`running_suite` watches the graph for up to :data:`LOOK_S` seconds for a node
+before any of its own nodes joins the graph (they import meanwhile, held at their start
+gates: :mod:`tensegrity_ros.apps.start_gate`): :func:`running_suite` watches the graph for up to :data:`LOOK_S` seconds for a node
 of the suite in the namespace the new one would take, and ``up`` refuses with
 :func:`refusal`. Another namespace (``--namespace``) or domain (``ROS_DOMAIN_ID``) is
 another suite's place. DDS discovery cannot prove an absence: a suite that the graph does

@@ -25,11 +25,13 @@ def _record(args: argparse.Namespace) -> int:
     from tensegrity_ros.rclpy_utils.env import require_rclpy
 
     require_rclpy()
+    from tensegrity_ros.apps.start_gate import pass_gate
     from tensegrity_ros.bag.recorder import record
     from tensegrity_ros.cli.ros_clients import check_ros_name
 
     for topic in args.topics:
         check_ros_name(topic.rstrip("/") or topic, "topic")        # NAME/: every topic under NAME
+    pass_gate()                          # imported: now wait for `tensegrity up`'s look, if it looks
     record(args.output, args.topics, record_all=args.all,
            max_duration=args.max_duration, chunk_size=args.chunk_size,
            compression=args.compression, flush_interval=args.flush_interval,

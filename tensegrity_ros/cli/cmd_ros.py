@@ -154,7 +154,10 @@ def _node(args: argparse.Namespace) -> int:
     require_rclpy()
 
     module = importlib.import_module(NODES[args.name])
+    from tensegrity_ros.apps.start_gate import pass_gate
     from tensegrity_ros.nodes.common import ParameterValueError
+
+    pass_gate()                          # imported: now wait for `tensegrity up`'s look, if it looks
 
     try:
         return int(module.main([f"tensegrity-{args.name}", *args.ros_args]))
@@ -204,11 +207,15 @@ def _up(args: argparse.Namespace) -> int:
         specs.append(ProcessSpec("record", exe + ["record", "-o", args.record, *scene] + ros, stops_last=True))
     from tensegrity_ros.apps.suite_presence import refusal, running_suite
 
-    found, namespace, domain = running_suite(ros)
-    if found:                            # a second suite would publish and serve the same names
-        raise CliError(refusal(found, namespace, domain), code=1)
-    print(f"starting {', '.join(s.name for s in specs)} (Ctrl-C stops all)", flush=True)
-    return Launcher(specs).run()
+    def look() -> None:
+        """Refuse when the suite runs here already (the children import meanwhile, held at
+        their start gates: none of them is in the graph yet, :mod:`tensegrity_ros.apps.start_gate`)."""
+        found, namespace, domain = running_suite(ros)
+        if found:                        # a second suite would publish and serve the same names
+            raise CliError(refusal(found, namespace, domain), code=1)
+        print(f"starting {', '.join(s.name for s in specs)} (Ctrl-C stops all)", flush=True)
+
+    return Launcher(specs).run(look)
 
 
 def _scene_interface(scene: str | None) -> Interface:
@@ -313,17 +320,19 @@ def _call_formfind(args: argparse.Namespace) -> int:
     res = _call_service(args, "tensegrity_call_formfind", FindForm,
                         FindForm.Request(structure=text, tolerance=args.tol, max_iterations=args.max_iter))
     residual_unit, eigenvalue_unit = "N", "N/m"
+    names = [str(i) for i in range(len(res.member_forces))]
     if res.success:   # a structure with rigid bodies has moments and rotations too
         from tensegrity_core.general import structure_from_text
         from tensegrity_ros.cli.cmd_formfind import k_unit, residual_unit_of
 
         structure = structure_from_text(text)
         residual_unit, eigenvalue_unit = residual_unit_of(structure), k_unit(structure)
+        names = list(structure.member_names)   # the answer keeps the description's member order
     return _show(args, res, [
         f"iterations {res.iterations}, residual {res.residual:.3g} (relative; norm {res.residual_norm:.3g} "
         f"{residual_unit}), min stiffness eigenvalue {res.min_stiffness_eigenvalue:.4g} {eigenvalue_unit}, "
-        f"stability margin {res.stability_margin:.3g} (the eigenvalue over its rounding level)",
-        *(f"member {i}: {t:.6g} N" for i, t in enumerate(res.member_forces))])
+        f"stability margin {res.stability_margin:.3g} (the scaled eigenvalue over its rounding level)",
+        *(f"member {name}: {t:.6g} N" for name, t in zip(names, res.member_forces))])
 
 
 def _echo(args: argparse.Namespace) -> int:

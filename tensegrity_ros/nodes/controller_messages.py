@@ -153,7 +153,7 @@ def feedback(goal: Goal, header: Any, tick: Tick, q: FloatArray, qdot: FloatArra
                                       velocities=[float(v) for v in tick.desired.qdot[:2]], time_from_start=when)
     fb.actual = JointTrajectoryPoint(positions=[float(v) for v in q[:2]],
                                      velocities=[float(v) for v in qdot[:2]], time_from_start=when)
-    # control_msgs' sign (joint_trajectory_controller's feedback): desired - actual
-    fb.error = JointTrajectoryPoint(positions=[-float(v) for v in goal.error],
-                                    velocities=[-float(v) for v in goal.rate_error], time_from_start=when)
+    # control_msgs' sign (joint_trajectory_controller's feedback): desired - actual, as the goal's
+    fb.error = JointTrajectoryPoint(positions=[float(v) for v in goal.error],
+                                    velocities=[float(v) for v in goal.rate_error], time_from_start=when)
     return fb

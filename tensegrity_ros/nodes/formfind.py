@@ -16,6 +16,7 @@ time limit hit.
 
 from __future__ import annotations
 
+import math
 import multiprocessing
 import sys
 import threading
@@ -85,8 +86,8 @@ class FormFindNode(Node):
         if not req.structure.strip():
             res.message = "empty structure description"
             return res
-        if req.tolerance < 0 or req.tolerance != req.tolerance:
-            res.message = f"tolerance must be >= 0 (0 = default), got {req.tolerance}"
+        if not 0.0 <= req.tolerance < math.inf:
+            res.message = f"tolerance must be a finite number >= 0 (0 = default), got {req.tolerance}"
             return res
         with self._slots:
             out = self._run(req.structure, float(req.tolerance), int(req.max_iterations))

@@ -24,9 +24,10 @@ from numpy.typing import NDArray
 MEMBER_KINDS: Final = ("bar", "string", "actuator")
 #: Run states a frame reports: the simulator's (``simulation_interfaces``: playing, paused,
 #: stopped, quitting, no world, loading world), ``"lockstep"`` for a playing lockstep
-#: simulator, ``"recorded"`` for a bag, ``"unknown"`` before the simulator has answered.
+#: simulator, ``"recorded"`` for a bag, ``"unknown"`` before the simulator has answered,
+#: ``"no simulator"`` once a running suite's simulator has left the graph.
 RUN_STATES: Final = ("playing", "paused", "stopped", "quitting", "no world", "loading world", "lockstep", "recorded",
-                     "unknown")
+                     "unknown", "no simulator")
 
 
 @dataclass(frozen=True, eq=False)

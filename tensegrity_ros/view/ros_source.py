@@ -8,7 +8,8 @@ bag played into the graph without a simulator is drawn too), a general structure
 from ``cable_states``, ``body_states`` or ``markers`` and ``contacts``
 (:mod:`.ros_structure`). It asks ``get_simulation_state`` twice a second for the run state
 (``get_simulator_features`` once, whose ``custom_info`` says whether the simulator runs in
-lockstep); pauses, plays and steps through ``set_simulation_state`` and ``step_simulation``
+lockstep); once that service has left the graph (the suite stopped), the last frame is shown
+again as ``"no simulator"`` and the page says so, rather than a frozen time still "playing"; pauses, plays and steps through ``set_simulation_state`` and ``step_simulation``
 (``simulation_interfaces``); while the page drives the inputs, publishes them at
 ``DRIVE_HZ``, inside the simulator's command timeout: ``actuator_forces``
 (``tensegrity_msgs/ActuatorForces``, f1 and f2 [N], tension positive) or ``cable_commands``
@@ -19,6 +20,7 @@ page as one line. Stopping the view destroys this node only.
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 import time
 from typing import Any, Final
@@ -44,6 +46,8 @@ MOVE_ANSWER_S: Final = 10.0
 SIM_NODE: Final = "tensegrity_sim"
 #: ``simulation_interfaces/SimulationState`` values -> the view's run states.
 RUN_STATES: Final = {0: "stopped", 1: "playing", 2: "paused", 3: "quitting", 4: "no world", 5: "loading world"}
+#: The run state once the simulator's ``get_simulation_state`` has left the graph.
+NO_SIMULATOR: Final = "no simulator"
 #: ``simulation_interfaces/Result`` codes by value, for the page's lines.
 RESULT_NAMES: Final = {0: "FEATURE_UNSUPPORTED", 1: "OK", 2: "NOT_FOUND", 3: "INCORRECT_STATE", 4: "OPERATION_FAILED",
                        101: "ALREADY_IN_TARGET_STATE", 102: "STATE_TRANSITION_ERROR", 103: "INCORRECT_TRANSITION"}
@@ -97,6 +101,7 @@ class RosSource:
         self._latest: Frame | None = None
         self._run_state = "unknown"
         self._lockstep: bool | None = None
+        self._simulator_seen = False      # its get_simulation_state was on the graph once
         self._drive: dict[str, float] | None = None
         self._link: StructureLink | None = None
         self.executor = SingleThreadedExecutor(context=self.context)
@@ -219,7 +224,23 @@ class RosSource:
             future = self.get_features.call_async(self.srv["features"].Request())
             future.add_done_callback(self._on_features)
         if self.get_state.service_is_ready():
+            self._simulator_seen = True
             self.get_state.call_async(self.srv["get"].Request()).add_done_callback(self._on_run_state)
+        elif self._simulator_seen and self._run_state != NO_SIMULATOR:
+            self._simulator_gone()
+
+    def _simulator_gone(self) -> None:
+        """The simulator left the graph: no state will come, so the page must not go on saying
+        "playing" over a frozen time; a simulator that comes back is followed again."""
+        self._run_state = NO_SIMULATOR
+        self._lockstep = None             # a simulator started again may run otherwise
+        with self._lock:
+            latest = self._latest
+        if latest is None:
+            return
+        self._on_frame(dataclasses.replace(latest, run_state=NO_SIMULATOR))
+        self._report(f"the simulator has gone ({self.node.resolve_service_name(self.get_state.srv_name)} left the graph): "
+                     f"the last state shown is t = {latest.t:.3f} s")
 
     def _on_features(self, future: Any) -> None:
         res = future.result()

@@ -29,8 +29,8 @@ from rclpy.qos import QoSProfile
 from rclpy.serialization import deserialize_message
 
 from tensegrity_core.class2 import forward_kinematics
-from tensegrity_ros.apps.demo import FOLD_GAIN, WAYPOINT_OFFSETS
-from tensegrity_ros.apps.demo_moves import GOAL_TOLERANCE
+from tensegrity_core.class2.fold_law import FOLD_GAIN
+from tensegrity_ros.apps.demo_moves import GOAL_TOLERANCE, WAYPOINT_OFFSETS
 from tensegrity_ros.bag.reader import BagReader
 from tensegrity_ros.bag.recorder import message_class
 

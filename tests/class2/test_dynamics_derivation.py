@@ -8,16 +8,14 @@ runtime module with the lambdified derivation at random states.
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
-sp = pytest.importorskip("sympy")
-
-from studies.derivation import derive_dynamics as dd  # noqa: E402
-from tensegrity_core.class2 import geometry  # noqa: E402
-from tensegrity_core.class2.params import Class2Params  # noqa: E402
+from tensegrity_core.class2 import geometry
+from tensegrity_core.class2.params import Class2Params
 
 
 def test_derivation_self_checks_all_pass():
+    from studies.derivation import derive_dynamics as dd
+
     checks = dd.check_derivation(seed=3)
     failed = [name for name, ok in checks.items() if not ok]
     assert not failed, f"failed: {failed}"
@@ -30,12 +28,18 @@ def test_identity_check_rejects_a_wrong_closed_form():
     """The 40-digit comparison used by check_derivation is not vacuous."""
     import random
 
+    import sympy as sp
+
+    from studies.derivation import derive_dynamics as dd
+
     sd = dd.derive()
     wrong = dd.closed_forms(sd)["C1"] * (1 + sp.Rational(1, 10**12))
     assert not dd._equal(wrong, dd.derived_counterparts(sd)["C1"], random.Random(0))
 
 
 def test_symbolic_nodes_match_geometry_module():
+    from studies.derivation import derive_dynamics as dd
+
     sd = dd.derive()
     rng = np.random.default_rng(5)
     for _ in range(10):
@@ -47,6 +51,8 @@ def test_symbolic_nodes_match_geometry_module():
 
 
 def test_runtime_matches_derivation_at_random_states():
+    from studies.derivation import derive_dynamics as dd
+
     errors = dd.check_runtime(n_points=30, seed=11)
     assert set(errors) >= {"kinetic_energy", "mass_matrix", "velocity_terms", "damping_matrix", "potential_energy",
                            "potential_gradient", "potential_hessian", "generalized_forces", "acceleration",

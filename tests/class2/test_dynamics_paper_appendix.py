@@ -8,14 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.integrate import solve_ivp
 
-sp = pytest.importorskip("sympy")
-
-from scipy.integrate import solve_ivp  # noqa: E402
-
-from studies.derivation import derive_dynamics as dd  # noqa: E402
-from studies.derivation import paper_appendix_a as pa  # noqa: E402
-from tensegrity_core.class2.params import PAPER_PARAMS  # noqa: E402
+from tensegrity_core.class2.params import PAPER_PARAMS
 
 AGREE = {"T (Eq. 46)", *(f"M{i}{j} (A.{1 if (i, j) in ((1, 1), (1, 2)) else 2})" for i in (1, 2, 3) for j in (1, 2, 3)),
          "F13 (A.4)", "F23 (A.4)", "F31 (A.4)", "F32 (A.4)", "F33 (A.4)",
@@ -25,6 +20,8 @@ AGREE = {"T (Eq. 46)", *(f"M{i}{j} (A.{1 if (i, j) in ((1, 1), (1, 2)) else 2})"
 
 @pytest.fixture(scope="module")
 def table():
+    from studies.derivation import paper_appendix_a as pa
+
     return {(r.entry, r.reading): r for r in pa.compare()}
 
 
@@ -40,6 +37,8 @@ def test_verdict_of_every_printed_entry(table):
 
 
 def test_printed_damping_matrix_is_not_symmetric_and_not_psd(table):
+    from studies.derivation import paper_appendix_a as pa
+
     for reading in pa.READINGS:
         h12 = table[("H12 (A.7)", reading)].printed[0]
         h21 = table[("H21 (A.9)", reading)].printed[0]
@@ -54,6 +53,10 @@ def test_printed_building_blocks_with_the_documented_corrections_give_the_derive
     and a factor 1/2), the EF gradient of A.6's second bracket, A.10's EF and BE terms and
     A.13/A.14's CD terms. The result must be the derived H: this checks every claim of the
     errata table about which printed pieces are right."""
+    import sympy as sp
+
+    from studies.derivation import derive_dynamics as dd
+
     sd = dd.derive()
     rho1, rho2, beta = sd.q
     L = sd.p["L"]
@@ -96,6 +99,8 @@ def test_literal_printed_equations_freeze_rho1_at_zero():
     term c1/L1^2 with L1 = rho1 becomes an unbounded damper as rho1 -> 0, so rho1 sticks
     near zero (about 2.0-2.2 s), rho2 freezes at about 0.18 m and beta creeps to about 1.48
     rad. This is the closest the printed equations come to the paper's 'q_F at 2.5 s'."""
+    from studies.derivation import paper_appendix_a as pa
+
     qdd = pa.printed_eom("literal")
     params = PAPER_PARAMS.as_dict()
 

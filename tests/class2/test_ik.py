@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 import pytest
-import sympy as sp
 from hypothesis import assume, example, given
 from hypothesis import strategies as st
 
@@ -41,6 +40,8 @@ def paper_quadratic(x, y, rho1, p):
 
 
 def test_eqs_14_to_17_follow_from_squaring_eq10_with_eq12():
+    import sympy as sp
+
     rho1, rho2, y, c, k2, k3, L = sp.symbols("rho1 rho2 y c k2 k3 L", real=True)
     K = 2 * k3 + k2
     squared = sp.expand(y**2 * (K * rho2 - k2 * rho1) ** 2 - c**2 * k2**2 * (4 * L**2 - (rho1 + rho2) ** 2))

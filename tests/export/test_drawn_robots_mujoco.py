@@ -38,16 +38,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-mujoco = pytest.importorskip("mujoco", reason="the mujoco extra is not installed (./run setup installs it)")
-
-from tensegrity_core.export import ExportError, export_mjcf  # noqa: E402
-from tensegrity_core.export.mujoco_limits import MJEPS, MJMINVAL  # noqa: E402
-from tensegrity_core.export.robot_mjcf import INERTIA_MARGIN  # noqa: E402
-from tensegrity_core.robot.layout import robot_layout  # noqa: E402
-from tensegrity_core.robot.robot_schema import robot_from_dict  # noqa: E402
-from tensegrity_core.sim import compile_scene, load_scene  # noqa: E402
-from tests.mujoco_peer import body_force_expectation  # noqa: E402
-from tests.robot.test_drawn_robots import ALL, scenes, stable_step  # noqa: E402
+from tensegrity_core.export import ExportError, export_mjcf
+from tensegrity_core.export.mujoco_limits import MJEPS, MJMINVAL
+from tensegrity_core.export.robot_mjcf import INERTIA_MARGIN
+from tensegrity_core.robot.layout import robot_layout
+from tensegrity_core.robot.robot_schema import robot_from_dict
+from tensegrity_core.sim import compile_scene, load_scene
+from tests.mujoco_peer import body_force_expectation
+from tests.robot.test_drawn_robots import ALL, scenes, stable_step
 
 EPS = np.finfo(float).eps
 
@@ -57,6 +55,8 @@ def warnings_kept():
     """MuJoCo's warnings (an inertia too close to singular to factorise, at mass ratios of up
     to 1e28 here, which the smooth forces compared do not use) into a list rather than its log
     file in the working folder."""
+    import mujoco
+
     kept: list[str] = []
     previous = mujoco.get_mju_user_warning()
     mujoco.set_mju_user_warning(kept.append)
@@ -79,6 +79,8 @@ def about_com(mass: float, first: np.ndarray, inertia: np.ndarray) -> np.ndarray
 @settings(max_examples=100, deadline=None)
 @given(scene=scenes(), as_scene=st.booleans())
 def test_a_drawn_robot_exports_with_the_projects_masses_and_forces_or_says_why_not(scene, as_scene):
+    import mujoco
+
     robot_data, effects = scene
     if not as_scene:
         effects = ALL                               # the description's own floor, gravity and motors

@@ -26,14 +26,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-mujoco = pytest.importorskip("mujoco", reason="the mujoco extra is not installed (./run setup installs it)")
-
-from tensegrity_core.export import ExportError, export_mjcf  # noqa: E402
-from tensegrity_core.export.mujoco_limits import MJEPS, MJMINVAL  # noqa: E402
-from tensegrity_core.general.mass_properties import body_inertias  # noqa: E402
-from tensegrity_core.sim.general.model import NodalMasses  # noqa: E402
-from tests.hard.strategies import structures  # noqa: E402
-from tests.mujoco_peer import body_force_expectation  # noqa: E402
+from tensegrity_core.export import ExportError, export_mjcf
+from tensegrity_core.export.mujoco_limits import MJEPS, MJMINVAL
+from tensegrity_core.general.mass_properties import body_inertias
+from tensegrity_core.sim.general.model import NodalMasses
+from tests.hard.strategies import structures
+from tests.mujoco_peer import body_force_expectation
 
 EPS = np.finfo(float).eps
 
@@ -42,6 +40,8 @@ EPS = np.finfo(float).eps
 def warnings_kept():
     """MuJoCo's warnings (an inertia too close to singular to factorise at extreme mass
     ratios) into a list rather than its log file in the working folder."""
+    import mujoco
+
     kept: list[str] = []
     previous = mujoco.get_mju_user_warning()
     mujoco.set_mju_user_warning(kept.append)
@@ -54,6 +54,8 @@ def warnings_kept():
        stiffness=st.floats(-15.0, 9.0), gravity=st.booleans())
 def test_a_drawn_structure_exports_with_its_masses_and_forces_or_says_why_not(structure, masses, stiffness,
                                                                               gravity):
+    import mujoco
+
     n = structure.n_nodes
     s = structure.replace(node_masses=10.0 ** np.array(masses[:n]), EA=structure.EA * 10.0 ** stiffness,
                           gravity=np.array([0.0, 0.0, -9.81]) if gravity else np.zeros(3))

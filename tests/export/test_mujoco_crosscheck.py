@@ -35,16 +35,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tensegrity_core.export import export_mjcf
+from tensegrity_core.general import RigidBody, Structure, form_find, load_example, prism_tower
+from tensegrity_core.general.writing import structure_to_dict
+from tensegrity_core.sim import Scene, compile_scene, load_scene, scene_from_dict
+from tensegrity_core.sim.general.setup import initial_configuration
+from tests.mujoco_peer import MujocoPeer, mujoco_state
+
 ROOT = Path(__file__).resolve().parents[2]
-
-pytest.importorskip("mujoco", reason="the mujoco extra is not installed (./run setup installs it)")
-
-from tensegrity_core.export import export_mjcf  # noqa: E402
-from tensegrity_core.general import RigidBody, Structure, form_find, load_example, prism_tower  # noqa: E402
-from tensegrity_core.general.writing import structure_to_dict  # noqa: E402
-from tensegrity_core.sim import Scene, compile_scene, load_scene, scene_from_dict  # noqa: E402
-from tensegrity_core.sim.general.setup import initial_configuration  # noqa: E402
-from tests.mujoco_peer import MujocoPeer, mujoco_state  # noqa: E402
 
 #: A second run's tolerances are this fraction of the first's.
 TIGHTER = 0.01

@@ -16,14 +16,11 @@ axes).
 from __future__ import annotations
 
 import numpy as np
-import pytest
 from scipy.spatial.transform import Rotation
 
-mujoco = pytest.importorskip("mujoco", reason="the mujoco extra is not installed (./run setup installs it)")
-
-from tensegrity_core.export import export_mjcf  # noqa: E402
-from tensegrity_core.sim import compile_scene, load_scene  # noqa: E402
-from tests.mujoco_peer import touching_caps  # noqa: E402
+from tensegrity_core.export import export_mjcf
+from tensegrity_core.sim import compile_scene, load_scene
+from tests.mujoco_peer import touching_caps
 
 INPUTS = {"td_0": 0.40, "td_3": 0.45}           # m, rest-length targets
 IMUS = ("r01", "r23")                           # the 3-bar's IMUs (three_bar.yaml)
@@ -33,6 +30,8 @@ T_END, SAMPLE = 1.0, 0.01                       # s
 def differences(h: float) -> np.ndarray:
     """Largest |specific force| [m/s^2], |angular velocity| [rad/s] and orientation [rad]
     difference between MuJoCo's IMU sensors and the project's readings over the run at step ``h``."""
+    import mujoco
+
     scene = load_scene({"name": "three_bar_reeling", "model": {"kind": "robot", "robot": "three_bar"},
                         "initial": {"drawn": True}, "inputs": INPUTS,
                         "effects": ["inertia", "cables", "motors", "sensors"],
@@ -83,6 +82,8 @@ def test_after_landing_the_rod_axis_agrees_and_the_spin_about_it_is_the_contacts
     and the spin about the rod's own axis (which no cable resists: the cables pull at its cap
     centres, on the axis) are what the two contact models' friction decides, and differ
     (docs/mujoco.md): measured 0.35 rad of the orientation's 0.35 rad difference is spin."""
+    import mujoco
+
     scene = load_scene("three_bar_drop")
     robot = scene.model.robot
     t_end = float(scene.duration)

@@ -19,11 +19,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-mujoco = pytest.importorskip("mujoco", reason="the mujoco extra is not installed (./run setup installs it)")
-
-from tensegrity_core.export import export_mjcf  # noqa: E402
-from tensegrity_core.robot.loading import load_robot  # noqa: E402
-from tensegrity_core.sim import load_scene, simulate  # noqa: E402
+from tensegrity_core.export import export_mjcf
+from tensegrity_core.robot.loading import load_robot
+from tensegrity_core.sim import load_scene, simulate
 
 TUG = {"name": "tug", "units": "SI",
        "nodes": {"a": [0, 0, 0], "p": [0.5, 0, 0], "b": [1.0, 0, 0], "e": [0.5, 0.1, 0]},
@@ -41,6 +39,8 @@ def tug_scene(mode, command, duration=5.0):
 
 
 def mujoco_tug(scene):
+    import mujoco
+
     m = mujoco.MjModel.from_xml_string(export_mjcf(scene).xml)
     d = mujoco.MjData(m)
     mujoco.mj_resetDataKeyframe(m, d, m.key("initial").id)
@@ -52,6 +52,8 @@ def test_a_tension_mode_cable_pulls_with_its_command_in_mujoco(tension):
     """Held as drawn (10 N) by the keyframe; commanded ``tension`` [N]: after 5 s the drive's
     actuator pulls with the command and the spring has stretched to carry it, where the
     project's run of the same scene puts it too."""
+    import mujoco
+
     scene = tug_scene("tension", tension)
     m, d = mujoco_tug(scene)
     drive = m.actuator("cable:drive").id
@@ -69,6 +71,8 @@ def test_a_tension_mode_cable_pulls_with_its_command_in_mujoco(tension):
 def test_a_tension_mode_command_is_clamped_to_pulling_within_the_limit():
     """A push (-5 N) gives no force, 80 N the motor's 50 N limit (each after 2 s: 40 motor
     lags, the filtered command within 15 exp(-40) N of its end)."""
+    import mujoco
+
     m, d = mujoco_tug(tug_scene("tension", 15.0))
     drive = m.actuator("cable:drive").id
     for command, force in ((-5.0, 0.0), (80.0, -50.0)):
@@ -84,6 +88,8 @@ def test_every_accepted_command_does_what_its_mode_means_in_mujoco(tension, spee
     cable pulls with the command after 3 s (60 motor lags) and the spring in series carries
     it (length ``0.45 + T / 200`` from 5 N up, where it never goes slack); a reel's rest length is
     ``clip(0.48 + u t, 0.2, 0.6)`` after 3 s."""
+    import mujoco
+
     m, d = mujoco_tug(tug_scene("tension", 10.0))
     d.ctrl[m.actuator("cable:drive").id] = tension
     mujoco.mj_step(m, d, nstep=3000)
@@ -101,6 +107,8 @@ def test_a_reel_speed_motor_moves_its_rest_length_at_that_speed_in_mujoco():
     """Paid out at 0.05 m/s: MuJoCo's activation (the rest length) is ``0.48 + 0.05 t`` [m]
     until the range's end (0.6 m) as in the project, and while the cable is taut the force
     is minus the cable law ``k (l - l0) + c dl/dt`` on that rest length."""
+    import mujoco
+
     scene = tug_scene("reel_speed", 0.05, duration=3.0)
     m, d = mujoco_tug(scene)
     drive, tendon = m.actuator("cable:drive").id, m.tendon("cable:drive").id
@@ -143,6 +151,8 @@ def test_a_sampled_motor_pulls_off_mujocos_by_half_a_step_of_its_reel(h):
     resulted with the new ``l0``: the tension differs from MuJoCo's by ``-k r h / 2`` (``r`` =
     dl0/dt of the lag) plus half a step of the tension's own change, which here (the length
     following ``l0`` through the stiff rods) is 1-2 % of it (docs/mujoco.md, robots)."""
+    import mujoco
+
     robot = load_robot("three_bar")
     k, tau, drawn, command = robot.cables.stiffness[0], robot.motors.tau[0], robot.cables.rest_length[0], 0.40
     scene = load_scene({"name": "reel", "model": {"kind": "robot", "robot": "three_bar"}, "initial": {"drawn": True},

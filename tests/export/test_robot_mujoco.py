@@ -34,25 +34,27 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-mujoco = pytest.importorskip("mujoco", reason="the mujoco extra is not installed (./run setup installs it)")
+from tensegrity_core.export import export_mjcf
+from tensegrity_core.export.robot_mjcf import CONTACT_IMPEDANCE, contact_parameters
+from tensegrity_core.general.formfind import form_find
+from tensegrity_core.robot.cable import tension
+from tensegrity_core.robot.description import ROD_STIFFNESS_RATIO, Robot
+from tensegrity_core.robot.faces import progress_faces
+from tensegrity_core.robot.gait import GAITS_DIR, gait_from_file
+from tensegrity_core.robot.loading import load_robot
+from tensegrity_core.robot.motor import step as motor_step
+from tensegrity_core.robot.tipping import hull_faces
+from tests.mujoco_peer import play_gait, touching_caps
 
-from tensegrity_core.export import export_mjcf  # noqa: E402
-from tensegrity_core.export.robot_mjcf import CONTACT_IMPEDANCE, contact_parameters  # noqa: E402
-from tensegrity_core.general.formfind import form_find  # noqa: E402
-from tensegrity_core.robot.cable import tension  # noqa: E402
-from tensegrity_core.robot.description import ROD_STIFFNESS_RATIO, Robot  # noqa: E402
-from tensegrity_core.robot.faces import progress_faces  # noqa: E402
-from tensegrity_core.robot.gait import GAITS_DIR, gait_from_file  # noqa: E402
-from tensegrity_core.robot.loading import load_robot  # noqa: E402
-from tensegrity_core.robot.motor import step as motor_step  # noqa: E402
-from tensegrity_core.robot.tipping import hull_faces  # noqa: E402
-from tests.mujoco_peer import play_gait, touching_caps  # noqa: E402
+if TYPE_CHECKING:
+    import mujoco
 
 ROBOTS = ("three_bar", "six_bar", "spine")
 #: How long a dropped robot settles before the statics check [s].
@@ -60,6 +62,8 @@ SETTLE = 30.0
 
 
 def compiled(robot: Robot, **options: object) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    import mujoco
+
     m = mujoco.MjModel.from_xml_string(export_mjcf(robot, **options).xml)  # type: ignore[arg-type]
     d = mujoco.MjData(m)
     mujoco.mj_resetDataKeyframe(m, d, m.key("initial").id)
@@ -96,6 +100,8 @@ def node_states(m, d, robot: Robot) -> tuple[np.ndarray, np.ndarray, list[tuple[
     project's rod geometry (caps ``L/2`` along the body's z axis; a body's nodes at their
     drawn offsets from the node centroid), and per moving body ``(dof address, body id,
     node indices)``."""
+    import mujoco
+
     X = np.array([d.site(f"node:{n}").xpos for n in robot.node_names])    # pinned nodes keep theirs
     V = np.zeros_like(X)
     bodies = []
@@ -125,6 +131,8 @@ def node_states(m, d, robot: Robot) -> tuple[np.ndarray, np.ndarray, list[tuple[
 @settings(max_examples=20, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1))
 def test_mujocos_forces_are_the_cable_law(name, seed):
+    import mujoco
+
     robot = load_robot(name)
     m, d = compiled(robot)
     rng = np.random.default_rng(seed)
@@ -180,6 +188,8 @@ def test_mujocos_forces_are_the_cable_law(name, seed):
 
 
 def test_a_motor_lags_as_the_projects_motor():
+    import mujoco
+
     robot = load_robot("three_bar")
     m, d = compiled(robot)
     motors = robot.motors
@@ -193,6 +203,8 @@ def test_a_motor_lags_as_the_projects_motor():
 
 @functools.cache
 def settled(name: str) -> tuple[Robot, mujoco.MjModel, mujoco.MjData]:
+    import mujoco
+
     robot = load_robot(name)
     m, d = compiled(robot)
     mujoco.mj_step(m, d, nstep=round(SETTLE / m.opt.timestep))
@@ -251,6 +263,8 @@ def test_a_settled_robot_sinks_as_the_projects_contact(dropped):
     exported ``solref``/``solimp`` is ``k delta - m (D v_n + d a_n)/(1 - d)``: the
     Hunt-Crossley rest ``k delta`` plus what the remaining motion (the contact row's velocity
     ``v_n`` and acceleration ``a_n``, separating positive) adds. Equal to rounding."""
+    import mujoco
+
     robot, m, d = dropped
     floor = robot.floor
     jac_acc = np.zeros(d.nefc)
@@ -270,6 +284,8 @@ def test_a_settled_robot_sinks_as_the_projects_contact(dropped):
 
 
 def test_a_settled_robots_imu_reads_gravity(dropped):
+    import mujoco
+
     robot, m, d = dropped
     g = m.opt.gravity
     for i in robot.sensors.imu_rods:
@@ -391,6 +407,8 @@ def free_flight(robot: Robot, v0: np.ndarray, w0: np.ndarray, times: np.ndarray,
 
 def mujoco_flight(robot: Robot, v0: np.ndarray, w0: np.ndarray, times: np.ndarray, timestep: float) -> np.ndarray:
     """The same free flight in the exported model (contacts off), RK4 at ``timestep``."""
+    import mujoco
+
     m = mujoco.MjModel.from_xml_string(export_mjcf(robot, integrator="RK4", timestep=timestep).xml)
     m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
     d = mujoco.MjData(m)
@@ -443,6 +461,8 @@ def test_the_projects_drop_and_mujocos_rest_on_the_same_face():
     drawn on one cap, the 3-bar tips and lands on the same three caps in both, each sinking
     about ``F_n / k`` (both contact models rest there: docs/mujoco.md), so their deepest caps
     agree within 10 % (the issue's bound for qualitative agreement), below 1 mm."""
+    import mujoco
+
     from tensegrity_core.sim import load_scene, simulate
 
     scene = load_scene("three_bar_drop")

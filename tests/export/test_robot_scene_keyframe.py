@@ -12,10 +12,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-mujoco = pytest.importorskip("mujoco", reason="the mujoco extra is not installed (./run setup installs it)")
-
-from tensegrity_core.export import export_mjcf  # noqa: E402
-from tensegrity_core.sim import compile_scene, load_scene  # noqa: E402
+from tensegrity_core.export import export_mjcf
+from tensegrity_core.sim import compile_scene, load_scene
 
 SCENE = {"name": "three_bar_reeling", "model": {"kind": "robot", "robot": "three_bar"}, "initial": {"drawn": True},
          "inputs": {"td_0": 0.40, "td_3": 0.45, "td_1": {"law": "commanded", "initial": 0.5}},
@@ -23,6 +21,8 @@ SCENE = {"name": "three_bar_reeling", "model": {"kind": "robot", "robot": "three
 
 
 def test_a_robot_scenes_keyframe_holds_its_initial_commands():
+    import mujoco
+
     scene = load_scene(SCENE)
     m = mujoco.MjModel.from_xml_string(export_mjcf(scene).xml)
     d = mujoco.MjData(m)

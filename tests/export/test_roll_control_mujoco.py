@@ -9,13 +9,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-mujoco = pytest.importorskip("mujoco", reason="the mujoco extra is not installed (./run setup installs it)")
-
-from tensegrity_core.export import export_mjcf  # noqa: E402
-from tensegrity_core.robot.faces import edge_by_edge, faces_rolled, faces_touched, faces_visited  # noqa: E402
-from tensegrity_core.robot.roll_control import RollController  # noqa: E402
-from tensegrity_core.sim import load_scene  # noqa: E402
-from tests.mujoco_peer import touching_caps  # noqa: E402
+from tensegrity_core.export import export_mjcf
+from tensegrity_core.robot.faces import edge_by_edge, faces_rolled, faces_touched, faces_visited
+from tensegrity_core.robot.roll_control import RollController
+from tensegrity_core.sim import load_scene
+from tests.mujoco_peer import touching_caps
 
 #: The control period [s] (50 Hz).
 PERIOD = 0.02
@@ -24,6 +22,8 @@ PERIOD = 0.02
 @pytest.mark.parametrize("heading", [(1.0, 0.0), (-1.0, -0.4)])
 @pytest.mark.parametrize("faces", [1, 2, 3, 4])
 def test_the_controller_rolls_the_requested_faces_in_mujoco(faces, heading):
+    import mujoco
+
     scene = load_scene("six_bar_rest")
     robot = scene.model.robot
     m = mujoco.MjModel.from_xml_string(export_mjcf(scene).xml)

@@ -14,14 +14,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-mujoco = pytest.importorskip("mujoco", reason="the mujoco extra is not installed (./run setup installs it)")
-
-from tensegrity_core.export import export_mjcf  # noqa: E402
-from tensegrity_core.robot.faces import faces_visited, progress_faces  # noqa: E402
-from tensegrity_core.robot.gait import GAITS_DIR, gait_from_file  # noqa: E402
-from tensegrity_core.sim import load_scene, simulate  # noqa: E402
-from tests.export.test_robot_mujoco import PLANNED_FACES  # noqa: E402
-from tests.mujoco_peer import play_gait  # noqa: E402
+from tensegrity_core.export import export_mjcf
+from tensegrity_core.robot.faces import faces_visited, progress_faces
+from tensegrity_core.robot.gait import GAITS_DIR, gait_from_file
+from tensegrity_core.sim import load_scene, simulate
+from tests.export.test_robot_mujoco import PLANNED_FACES
+from tests.mujoco_peer import play_gait
 
 
 @pytest.fixture(scope="module")

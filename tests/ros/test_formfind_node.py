@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -89,6 +90,14 @@ def test_call_formfind_prints_the_relative_residual_its_norm_and_the_margin(form
     assert " N/m and N m/rad mixed, stability margin " in out.stdout        # the table has rigid bodies
     margin = float(out.stdout.split("stability margin ")[1].split()[0])
     assert margin > 1
+    # each force under the description's member name; the table's is t = EA (l - l0)/l0 with
+    # l0 = 0.3 l: long strings 0.72 m, short 0.78 m at its equilibrium (docs/general.md)
+    forces = dict(line.strip().split(": ") for line in out.stdout.splitlines() if line.strip().startswith("member "))
+    expected = {"long1": 0.72, "long2": 0.72, "long3": 0.72, "short": 0.78}
+    assert sorted(forces) == sorted(f"member {n}" for n in expected)
+    for name, l in expected.items():
+        l0 = 0.3 * {"short": 0.5}.get(name, 1.0)
+        assert float(forces[f"member {name}"].split()[0]) == pytest.approx(7.6e6 * (l - l0) / l0, rel=1e-3)
 
 
 @pytest.mark.parametrize("text, why", [
@@ -103,9 +112,13 @@ def test_bad_descriptions_are_refused_with_a_reason(formfind, text, why):
     assert why in res.message
 
 
-def test_negative_tolerance_is_refused(formfind):
-    res = formfind(TABLE, tol=-1.0)
-    assert not res.success and "tolerance" in res.message
+@pytest.mark.parametrize("tol", [-1.0, math.nan, math.inf])
+def test_a_tolerance_not_finite_and_at_least_0_is_refused_by_its_field_name(formfind, tol):
+    """The request's field is ``tolerance``: an infinite one was passed on and refused as
+    "tol (relative residual) must be finite", a name the caller never wrote."""
+    res = formfind(TABLE, tol=tol)
+    assert not res.success
+    assert res.message == f"tolerance must be a finite number >= 0 (0 = default), got {tol}"
 
 
 def test_very_large_request_is_refused_before_parsing(formfind):

@@ -232,6 +232,20 @@ def test_bad_motor_mode_commands_say_why(names, rest, reel, tension, reason):
         parse_cable_command(names, rest, reel, tension, MOTORS)
 
 
+def test_a_real_tension_motors_range_reads_from_0_in_the_message():
+    """The compiled robot states its motors' closed ranges one float further out; at 0 that
+    float is subnormal and read "(-4.94066e-324, 2000) N" in the refusal."""
+    from tensegrity_core.sim import Simulator
+    from tensegrity_ros.nodes.actuator_commands import CommandError
+    from tensegrity_ros.nodes.sim.cable_commands import parse_cable_command
+
+    scene = {"name": "six_bar_modes", "model": {"kind": "robot", "robot": "six_bar"}, "initial": {"drawn": True},
+             "duration": 1.0, "effects": ["inertia", "cables", {"motors": {"modes": {"c0_4": "tension"}}}, "gravity"]}
+    interface = Simulator(scene).interface
+    with pytest.raises(CommandError, match=re.escape("tension of c0_4 = -5 N is outside its range (0, 2000) N")):
+        parse_cable_command(["c0_4"], [], [], [-5.0], interface)
+
+
 #: 24 motor cables as the 6-bar's: rest lengths in (0.45, 1.05) m, two of them following a law.
 MOTORS_24 = Interface("rest_length", tuple(f"m{i}" for i in range(24)), tuple(i not in (5, 17) for i in range(24)),
                       ((0.45, 1.05),) * 24, tuple(range(6, 30)))

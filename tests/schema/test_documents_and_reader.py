@@ -99,6 +99,18 @@ def test_a_guessed_format_falls_back_from_json_to_yaml():
     assert parse_text('a = [1, 2]\n[t]\nb = "x"\n') == {"a": [1, 2], "t": {"b": "x"}}
 
 
+def test_a_flow_list_is_read_as_json_or_yaml_and_a_table_header_as_toml():
+    """Text starting with ``[`` is TOML only when its first line is a table header: a JSON or
+    YAML list was read as TOML and refused as "invalid TOML" (a find_form caller sending
+    ``[1, 2, 3]`` had never written TOML)."""
+    assert parse_text("[1, 2, 3]") == [1, 2, 3]                             # JSON
+    assert parse_text("[a, b]\n") == ["a", "b"]                             # YAML flow
+    assert parse_text("[1]") == {"1": {}}                     # one bare key: a TOML table, as TOML reads it
+    assert parse_text("[t]\nb = 1\n") == {"t": {"b": 1}}                    # TOML table
+    assert parse_text("[[m]]  # one\nx = 1\n") == {"m": [{"x": 1}]}         # array of tables
+    assert parse_text('["a b".c]\nx = 1\n') == {"a b": {"c": {"x": 1}}}
+
+
 def test_toml_errors_have_their_line():
     with pytest.raises(SchemaError) as info:
         parse_text('a = 1\nb = = 2\nc = 3\n', "toml")

@@ -24,10 +24,6 @@ from tensegrity_core.sim.class2 import members
 
 from .helpers import central_jacobian, class2_scene, random_states
 
-sp = pytest.importorskip("sympy")
-
-from studies.derivation import derive_dynamics as dd  # noqa: E402
-
 PARAMS = PAPER_PARAMS.with_overrides(k1=1.3, k2=0.7, k3=2.1, k4=0.4, c1=0.02, c2=0.05, c3=0.03, c4=0.01, m=1.7)
 GRAVITY = (1.2, -9.8, 3.0)
 LOADS = {1: (1.0, 2.0, 3.0), 2: (0.4, 0.1, 0.0), 3: (0.3, -0.7, 0.0), 4: (1.1, 0.5, 0.0), 5: (0.2, -0.3, 0.0)}
@@ -39,6 +35,8 @@ def ctx(y):
 
 def derived(name, params, y, f=(0.0, 0.0)):
     """The lambdified first-principles expression ``name`` at state ``y`` and forces ``f``."""
+    from studies.derivation import derive_dynamics as dd
+
     args = [getattr(params, n) for n in dd.PARAM_NAMES] + list(y[:6]) + list(f)
     return np.asarray(dd.lambdified()[name](*args), dtype=float)
 

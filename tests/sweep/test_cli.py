@@ -12,8 +12,6 @@ import pytest
 from tensegrity_ros.cli import main
 from tests.sweep.conftest import fold_sweep, monte_carlo_sweep
 
-pd = pytest.importorskip("pandas")
-
 
 def write(tmp_path, doc, name="s.yaml"):
     path = tmp_path / name
@@ -36,6 +34,8 @@ def test_sweeps_lists_the_shipped_examples(capsys):
     (monte_carlo_sweep(samples=6), "hist"),
 ])
 def test_a_sweep_writes_its_table_and_plot(tmp_path, capsys, doc, panels):
+    import pandas as pd
+
     out, plot = tmp_path / "r.parquet", tmp_path / "r.png"
     code = main(["sweep", write(tmp_path, doc), "-o", str(out), "--plot", str(plot), "--workers", "0", "--json"])
     summary = json.loads(capsys.readouterr().out)
@@ -46,6 +46,8 @@ def test_a_sweep_writes_its_table_and_plot(tmp_path, capsys, doc, panels):
 
 
 def test_run_time_is_plotted_when_asked_for_or_when_it_is_the_only_result(tmp_path, capsys):
+    import pandas as pd
+
     from tensegrity_core.sweep import load_sweep
     from tensegrity_core.sweep.plotting import plotted_columns
     from tensegrity_core.sweep.spec import prepare
@@ -96,6 +98,8 @@ def test_ctrl_c_ends_the_sweep_with_one_line_and_resume_runs_the_rest_once(tmp_p
     import os
     import signal
     import time
+
+    import pandas as pd
 
     from tests.process_groups import assert_all_end, exited, kill_group
 

@@ -13,8 +13,6 @@ import pytest
 from tensegrity_core.sweep.connect import MARGIN_S, client_of
 from tensegrity_core.sweep.errors import SweepError
 
-pytest.importorskip("distributed")
-
 
 def _server(reply: bytes):
     """A TCP server on loopback that accepts every connection, writes ``reply`` (may be empty)

@@ -24,20 +24,20 @@ from tensegrity_core.sweep import SweepError, load_sweep, run_sweep
 from tests.process_groups import exited, kill_session, wait_exited
 from tests.sweep.conftest import fold_sweep, monte_carlo_sweep
 
-pd = pytest.importorskip("pandas")
-distributed = pytest.importorskip("distributed")
-psutil = pytest.importorskip("psutil")
-
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(300)]
 
 
 def same_rows(a, b) -> None:
     """Equal tables apart from the run times (NaN equal to NaN)."""
+    import pandas as pd
+
     pd.testing.assert_frame_equal(a.drop(columns=["run_time"]).reset_index(drop=True),
                                   b.drop(columns=["run_time"]).reset_index(drop=True))
 
 
 def listening(processes) -> set:
+    import psutil
+
     out = set()
     for p in processes:
         try:
@@ -48,6 +48,8 @@ def listening(processes) -> set:
 
 
 def test_the_embedded_cluster_gives_the_serial_results_and_listens_on_loopback_only():
+    import psutil
+
     sweep = load_sweep(monte_carlo_sweep(samples=8))
     serial = run_sweep(sweep, workers=0, progress=False)
     me = psutil.Process()
@@ -140,6 +142,8 @@ def test_a_cluster_whose_workers_lack_the_package_is_refused_before_any_task(tmp
 
 
 def test_a_killed_sweep_keeps_its_finished_points_and_resume_runs_only_the_others(tmp_path):
+    import pandas as pd
+
     doc = fold_sweep(vary={"inputs.f1.gain": {"grid": {"from": 6.0, "to": 14.0, "num": 40}}},
                      compute="simulate")
     (tmp_path / "s.yaml").write_text(json.dumps(doc))
@@ -295,6 +299,7 @@ def test_a_killed_workers_points_run_elsewhere_and_every_point_is_in_the_output_
     # the last test on the shared cluster (its nanny restarts the killed worker meanwhile)
     import threading
 
+    import pandas as pd
     from distributed import Client
 
     # 12 runs of 20 s of the paper's fold, a few tenths of a second each

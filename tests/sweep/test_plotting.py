@@ -14,7 +14,6 @@ from tensegrity_core.sweep.units import coordinate_unit, key_unit, quantity_labe
 from tests.plot_checks import assert_readable
 from tests.sweep.conftest import fold_sweep, monte_carlo_sweep
 
-pytest.importorskip("pandas")
 matplotlib.use("Agg")
 
 

@@ -14,8 +14,6 @@ from tensegrity_core.sim import load_scene, simulate
 from tensegrity_core.sweep import SweepError, load_sweep, run_sweep
 from tests.sweep.conftest import fold_sweep
 
-pytest.importorskip("pandas")
-
 EA, L0 = 1000.0, 1.0
 HANGING = {"name": "hanging", "nodes": {"top": [0.0, 0.0, 0.0], "m": [0.0, 0.0, -1.0]},
            "members": [{"name": "s", "nodes": ["top", "m"], "EA": EA, "rest_length": L0}],

@@ -10,11 +10,7 @@ from types import SimpleNamespace
 
 import pytest
 
-distributed = pytest.importorskip("distributed")
-from distributed.core import Status  # noqa: E402
-from distributed.worker import Worker  # noqa: E402
-
-from tensegrity_core.sweep.worker_setup import HEARTBEAT_FAILED, _HeartbeatCutByClosing  # noqa: E402
+from tensegrity_core.sweep.worker_setup import HEARTBEAT_FAILED, _HeartbeatCutByClosing
 
 
 def record(message: str) -> logging.LogRecord:
@@ -22,14 +18,19 @@ def record(message: str) -> logging.LogRecord:
 
 
 def test_the_message_filtered_is_the_one_dask_logs_when_a_heartbeat_fails():
+    from distributed.worker import Worker
+
     assert f'"{HEARTBEAT_FAILED}.")' in inspect.getsource(Worker.heartbeat)
 
 
-@pytest.mark.parametrize("status, shown", [(Status.running, True), (Status.paused, True), (Status.init, True),
-                                           (Status.closing, False), (Status.closing_gracefully, False),
-                                           (Status.closed, False)])
+@pytest.mark.parametrize("status, shown", [("running", True), ("paused", True), ("init", True),
+                                           ("closing", False), ("closing_gracefully", False),
+                                           ("closed", False)])
 def test_a_failed_heartbeat_is_dropped_only_while_the_worker_closes(status, shown):
-    worker = SimpleNamespace(status=status)
+    """``status``: the name of one of Dask's worker statuses (``distributed.core.Status``)."""
+    from distributed.core import Status
+
+    worker = SimpleNamespace(status=Status[status])
     keep = _HeartbeatCutByClosing(worker)
     assert keep.filter(record(f"{HEARTBEAT_FAILED}.")) is shown
     assert keep.filter(record("Unexpected exception during heartbeat. Closing worker.")) is True

@@ -17,12 +17,9 @@ import types
 import numpy as np
 import pytest
 
-pytest.importorskip("viser")
-pytest.importorskip("playwright")
-
-from tests.ros.test_loopback import sockets_of  # noqa: E402
-from tests.view.browser import Browser, canvas_pixels, chromium_available, control, status_time, wait_for_canvas  # noqa: E402
-from tests.view.support import start_view  # noqa: E402
+from tests.ros.test_loopback import sockets_of
+from tests.view.browser import Browser, canvas_pixels, chromium_available, control, status_time, wait_for_canvas
+from tests.view.support import start_view
 
 pytestmark = [pytest.mark.slow,
               pytest.mark.skipif(not chromium_available(), reason="needs Debian's chromium (./run test installs it)")]

@@ -8,15 +8,12 @@ import socket
 import subprocess
 
 import pytest
+from websockets.exceptions import ConnectionClosed
+from websockets.sync.client import connect
 
-pytest.importorskip("viser")
-
-from websockets.exceptions import ConnectionClosed  # noqa: E402
-from websockets.sync.client import connect  # noqa: E402
-
-from tests.ros.test_loopback import sockets_of  # noqa: E402
-from tests.ros_support import TENSEGRITY  # noqa: E402
-from tests.view.support import MALFORMED, PATIENCE, foreign_roll, handshake, start_view, subprotocol  # noqa: E402
+from tests.ros.test_loopback import sockets_of
+from tests.ros_support import TENSEGRITY
+from tests.view.support import MALFORMED, PATIENCE, foreign_roll, handshake, start_view, subprotocol
 
 
 def _run(*args: str) -> subprocess.CompletedProcess:

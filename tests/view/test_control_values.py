@@ -11,12 +11,10 @@ import threading
 
 import pytest
 
-pytest.importorskip("viser")
-
-from tensegrity_ros.view.controls import ControlPanel  # noqa: E402
-from tensegrity_ros.view.inputs import InputSpec  # noqa: E402
-from tensegrity_ros.view.server import start_server  # noqa: E402
-from tests.view.support import PATIENCE, Page  # noqa: E402
+from tensegrity_ros.view.controls import ControlPanel
+from tensegrity_ros.view.inputs import InputSpec
+from tensegrity_ros.view.server import start_server
+from tests.view.support import PATIENCE, Page
 
 
 class Requests:

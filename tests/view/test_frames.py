@@ -10,15 +10,13 @@ from hypothesis import given
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-pytest.importorskip("viser")
-
-from tensegrity_core.sim import Simulator  # noqa: E402
-from tensegrity_ros.view.colors import SLACK, tension_colors  # noqa: E402
-from tensegrity_ros.view.frame import Frame, Topology  # noqa: E402
-from tensegrity_ros.view.frames import frame_of_observation, scene_topology  # noqa: E402
-from tensegrity_ros.view.geometry import grid_lines, segment_poses, unit_cylinder, z_to  # noqa: E402
-from tensegrity_ros.view.inputs import InputSpec, clamp  # noqa: E402
-from tensegrity_ros.view.plots import SeriesHistory, axis_ranges  # noqa: E402
+from tensegrity_core.sim import Simulator
+from tensegrity_ros.view.colors import SLACK, tension_colors
+from tensegrity_ros.view.frame import Frame, Topology
+from tensegrity_ros.view.frames import frame_of_observation, scene_topology
+from tensegrity_ros.view.geometry import grid_lines, segment_poses, unit_cylinder, z_to
+from tensegrity_ros.view.inputs import InputSpec, clamp
+from tensegrity_ros.view.plots import SeriesHistory, axis_ranges
 
 finite = st.floats(-10.0, 10.0, allow_nan=False)
 

@@ -12,10 +12,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-pytest.importorskip("viser")
-
-from tensegrity_ros.view.geometry import rigid_poses  # noqa: E402
-from tensegrity_ros.view.hulls import hull_groups  # noqa: E402
+from tensegrity_ros.view.geometry import rigid_poses
+from tensegrity_ros.view.hulls import hull_groups
 
 BAGS = Path(__file__).resolve().parents[2] / "bags"
 

@@ -7,14 +7,11 @@ import http.client
 import warnings
 
 import pytest
+from websockets.exceptions import InvalidStatus
+from websockets.sync.client import connect
 
-pytest.importorskip("viser")
-
-from websockets.exceptions import InvalidStatus  # noqa: E402
-from websockets.sync.client import connect  # noqa: E402
-
-from tensegrity_ros.view.request_guard import refusal  # noqa: E402
-from tensegrity_ros.view.server import start_server  # noqa: E402
+from tensegrity_ros.view.request_guard import refusal
+from tensegrity_ros.view.server import start_server
 
 LOOPBACK = ("127.0.0.1", 8080)
 

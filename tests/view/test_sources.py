@@ -9,10 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-pytest.importorskip("viser")
-
-from tensegrity_ros.view.frame import Frame  # noqa: E402
-from tensegrity_ros.view.scene_source import SceneSource  # noqa: E402
+from tensegrity_ros.view.frame import Frame
+from tensegrity_ros.view.scene_source import SceneSource
 
 BAGS = Path(__file__).resolve().parents[2] / "bags"
 
@@ -241,5 +239,34 @@ def test_a_robots_sliders_span_its_motors_ranges_in_each_motors_unit(tmp_path):
             source.step(2)
             sink.wait(lambda f, t=t: f.t >= t + 0.02 - 1e-9)
         assert not [r for r in sink.reports if "stopped" in r], sink.reports
+    finally:
+        source.stop()
+
+
+@pytest.mark.ros
+def test_a_suite_that_stops_is_said_so_not_left_playing(cli, ros_context):
+    """A real simulator (class-2, playing) stopped with Ctrl-C while the view's ROS source
+    follows it: no state comes any more, and the last frame is shown again as "no simulator"
+    with a line naming its time, instead of a frozen time that still reads "playing" (~9 s,
+    most of it the simulator's start)."""
+    import time
+
+    from tensegrity_ros.view.ros_source import NO_SIMULATOR, RosSource
+
+    sim = cli("node", "sim", log_name="sim")
+    source = RosSource("")
+    sink = Frames()
+    try:
+        source.first_frame(timeout=120.0)
+        source.start(sink, sink.report)
+        playing = sink.wait(lambda f: f.run_state == "playing")
+        assert sim.stop() == 0
+        gone = sink.wait(lambda f: f.run_state == NO_SIMULATOR)
+        assert gone.t >= playing.t
+        line = f"the simulator has gone (/get_simulation_state left the graph): the last state shown is t = {gone.t:.3f} s"
+        deadline = time.monotonic() + 10.0
+        while line not in sink.reports:
+            assert time.monotonic() < deadline, sink.reports
+            time.sleep(0.05)
     finally:
         source.stop()

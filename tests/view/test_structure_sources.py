@@ -14,13 +14,9 @@ import pytest
 import yaml
 
 from tensegrity_core.sim import scene_path
-
-pytest.importorskip("viser")
-pytest.importorskip("rclpy")
-
-from tensegrity_ros.bag.errors import BagError  # noqa: E402
-from tensegrity_ros.view.bag_source import BagSource  # noqa: E402
-from tests.view.support import MALFORMED, foreign_roll  # noqa: E402
+from tensegrity_ros.bag.errors import BagError
+from tensegrity_ros.view.bag_source import BagSource
+from tests.view.support import MALFORMED, foreign_roll
 
 BAGS = Path(__file__).resolve().parents[2] / "bags"
 ROLL = BAGS / "six_bar_roll"

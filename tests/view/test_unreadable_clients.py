@@ -12,14 +12,11 @@ import socket
 from concurrent.futures import ThreadPoolExecutor
 
 import pytest
+from websockets.exceptions import ConnectionClosed
+from websockets.sync.client import connect
 
-pytest.importorskip("viser")
-
-from websockets.exceptions import ConnectionClosed  # noqa: E402
-from websockets.sync.client import connect  # noqa: E402
-
-from tensegrity_ros.view.server import start_server  # noqa: E402
-from tests.view.support import PATIENCE, handshake, subprotocol  # noqa: E402
+from tensegrity_ros.view.server import start_server
+from tests.view.support import PATIENCE, handshake, subprotocol
 
 SUBPROTOCOL = subprotocol()
 

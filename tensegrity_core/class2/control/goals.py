@@ -137,8 +137,9 @@ class TrajectoryGoal(_Goal):
         if self.outcome is not None:
             return self.outcome
         self._forces(tick)
-        self.error = np.asarray(q[:2], dtype=float) - tick.desired.q[:2]
-        self.rate_error = np.asarray(qdot[:2], dtype=float) - tick.desired.qdot[:2]
+        # desired - actual: control_msgs' sign (FollowJointTrajectory's feedback ``error``)
+        self.error = tick.desired.q[:2] - np.asarray(q[:2], dtype=float)
+        self.rate_error = tick.desired.qdot[:2] - np.asarray(qdot[:2], dtype=float)
         late = self.tau(t) - self.reference.duration
         if late < 0.0:
             for name, err, tol in (("position", self.error, _checked(self.path_position)),

@@ -144,7 +144,8 @@ def parse_cable_command(names: Sequence[str], rest_lengths: Sequence[float], ree
             raise CommandError(f"{what} of {name} is not finite ({excerpt(v)})")
         lo, hi = interface.limits[i]
         if not lo < v < hi:
-            raise CommandError(f"{what} of {name} = {v:g} {unit} is outside its range ({lo:g}, {hi:g}) {unit}")
+            raise CommandError(f"{what} of {name} = {v:g} {unit} is outside its range {interface.range_text(i)} "
+                               f"{unit}")
         out.append(v)
     return InputUpdate(tuple(indices), tuple(out))
 
