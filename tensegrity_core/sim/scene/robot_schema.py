@@ -330,8 +330,37 @@ def rk4_reach(zeta: float) -> float:
     return float(brentq(lambda r: _rk4_growth(r * root), 1.0, 3.0))
 
 
+def impact_speed(robot: Robot, lift: float, g: NDArray[np.float64], normal: NDArray[np.float64]) -> float:
+    """The speed [m/s] at which a robot released at rest as drawn, raised ``lift`` [m] along
+    the floor's normal ``n``, first touches the floor under gravity ``g`` [m/s^2]: until then
+    gravity is its only external force, so its centre of mass falls ``lift`` freely and meets
+    it at ``sqrt(2 |g . n| lift)`` (a drawing at rest falls as one body; 0 for a robot with
+    pinned nodes, which does not fall)."""
+    if robot.pinned.any():
+        return 0.0
+    return math.sqrt(2.0 * abs(float(g @ normal)) * max(lift, 0.0))
+
+
+def cap_mass(robot: Robot, rod: int, normal: NDArray[np.float64]) -> float:
+    """The effective mass [kg] of a cap of rod ``rod`` as drawn pushed along the floor's normal
+    ``n``: moving the cap by ``e`` along ``n`` costs at least the kinetic energy of
+    ``m_eff e'^2 / 2``, ``1 / m_eff = 1/m + (L/2)^2 |n x a|^2 / I`` (the rod's mass ``m`` and
+    transverse inertia ``I`` about its centre, the point masses at its caps included, its unit
+    axis ``a``, half-length ``L/2``): the cap's push is shared by the rod's translation and its
+    turning, and a rod lying along the floor turns most. So the floor's contact stiffness
+    ``k`` under that cap alone gives a mode of at least ``sqrt(k / m_eff)`` (Rayleigh)."""
+    a, b = (int(x) for x in robot.rods.ends[rod])
+    axis = robot.nodes[b] - robot.nodes[a]
+    half = 0.5 * float(np.linalg.norm(axis))
+    riders = robot.node_masses[[a, b]]
+    mass = float(robot.rods.mass[rod] + riders.sum())
+    inertia = float(robot.rods.inertia[rod, 0] + riders.sum() * half**2)
+    across = float(np.linalg.norm(np.cross(normal, axis / (2.0 * half))))
+    return 1.0 / (1.0 / mass + (half * across) ** 2 / inertia)
+
+
 def step_fits(reader: Reader, model: RobotModelSpec, effects: SceneEffects, step: float,
-              d: dict[str, Any]) -> None:
+              d: dict[str, Any], lift: float = 0.0) -> None:
     """Refuse a fixed step ``step`` [s] that RK4 cannot follow on the robot as drawn, with
     its ``effects``.
 
@@ -350,7 +379,11 @@ def step_fits(reader: Reader, model: RobotModelSpec, effects: SceneEffects, step
     with steps ``h`` diverges on a mode once ``h omega`` exceeds its reach: such a run would stop
     with a state that is no longer finite, so the scene is refused before it starts, naming
     the rod, what holds it and the longest step that mode allows (a step below it may still
-    be too long for a mode this bound does not see; the run then stops and says so).
+    be too long for a mode this bound does not see; the run then stops and says so). A cap
+    meeting the floor at ``deltadot`` feels the Hunt-Crossley force ``k delta (1 + d deltadot)``
+    stiffen to ``k (1 + d deltadot)`` while it presses in: the floor's mode is taken at the
+    speed of the first touch-down (:func:`impact_speed`; later bounces may be faster), where a
+    step that suits ``k`` alone gains energy at the bounce.
     RK4's reach is :func:`rk4_reach` of the mode's damping ratio ``c / (2 m omega)``: the
     taut cables' damping ``c_i`` [N s/m] along the same direction (``sum c_i (u_i . u)^2``),
     the friction anchor's ``tangential_damping``; an undamped mode (a rod turning, whose
@@ -382,13 +415,15 @@ def step_fits(reader: Reader, model: RobotModelSpec, effects: SceneEffects, step
                 on.setdefault(rod, []).append(i)
     worst: tuple[float, float, float, int, str] | None = None   # longest step [s], omega, m, rod, what holds it
 
-    def consider(rod: int, stiffness: float, what: str, damping: float = 0.0) -> None:
+    def consider(rod: int, stiffness: float, what: str, damping: float = 0.0, mass: float = 0.0) -> None:
+        """The mode of ``stiffness`` [N/m] on ``mass`` [kg] (default: the whole rod's)."""
         nonlocal worst
-        mass = float(robot.rods.mass[rod] + robot.node_masses[robot.rods.ends[rod]].sum())
+        whole = float(robot.rods.mass[rod] + robot.node_masses[robot.rods.ends[rod]].sum())
+        mass = mass or whole
         omega = math.sqrt(stiffness / mass)
         longest = rk4_reach(damping / (2.0 * mass * omega)) / omega
         if worst is None or longest < worst[0]:
-            worst = (longest, omega, mass, rod, what)
+            worst = (longest, omega, whole, rod, what)
 
     for rod, taut in on.items():
         u = h[taut] / drawn[taut, None]
@@ -408,9 +443,15 @@ def step_fits(reader: Reader, model: RobotModelSpec, effects: SceneEffects, step
             consider(rod, stiffness, f"turned towards cable {excerpt(cables.names[i])} (its transverse inertia "
                                      f"{inertia:g} kg m^2) it meets {omega2 * inertia:g} N m/rad of taut cables")
     for rod in sorted(set(rod_of.values())):
-        if contact is not None:
-            consider(rod, contact.stiffness, f"pressed into the floor it meets {contact.stiffness:g} N/m of contact "
-                                             f"stiffness")
+        if contact is not None and robot.floor is not None:
+            normal = robot.floor.normal
+            speed = impact_speed(robot, lift, g, normal) if contact.dissipation > 0.0 else 0.0
+            stiff = contact.stiffness * (1.0 + contact.dissipation * speed)
+            m_cap = cap_mass(robot, rod, normal)
+            consider(rod, stiff, mass=m_cap, what=f"a cap pressed into the floor ({m_cap:.3g} kg of the rod moving "
+                                                  f"with it) meets {contact.stiffness:g} N/m of contact stiffness"
+                                 + (f" (with its dissipation {contact.dissipation:g} s/m, {stiff:.4g} N/m at up to "
+                                    f"{speed:.3g} m/s)" if speed > 0.0 else ""))
         if friction is not None:
             consider(rod, friction.tangential_stiffness, f"sticking on the floor it meets "
                                                          f"{friction.tangential_stiffness:g} N/m of friction anchor",
@@ -418,9 +459,17 @@ def step_fits(reader: Reader, model: RobotModelSpec, effects: SceneEffects, step
     if worst is None or step <= worst[0]:
         return
     longest, omega, mass, rod, what = worst
+    longest = _at_most(longest)
     given = isinstance(d.get("integrator"), dict) and "max_step" in d["integrator"]
     path: KeyPath = ("integrator", "max_step")
     raise reader.error(f"a fixed step of {step:g} s{'' if given else ' (the default)'} is too long for rod "
                        f"{excerpt(robot.rods.names[rod])} ({mass:g} kg): {what}, a mode of at least {omega:.4g} rad/s, which RK4 follows with steps up to {longest:.3g} s; give "
                        f"integrator.max_step in (0, {longest:.3g}] s",
                        path, d["integrator"] if given else d, "max_step" if given else "integrator")
+
+
+def _at_most(x: float) -> float:
+    """``x`` > 0 to 3 significant digits, rounded down: the longest step a refusal suggests
+    must itself be accepted."""
+    unit = 10.0 ** (math.floor(math.log10(x)) - 2)
+    return math.floor(x / unit) * unit

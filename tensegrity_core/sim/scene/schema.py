@@ -109,7 +109,7 @@ class SceneReader(Reader):
             raise self.error(reason, where, d["output"] if "output" in d else d, where[-1])
         integrator = self.integrator(d.get("integrator"), ("integrator",), d, model)
         if isinstance(model, RobotModelSpec):
-            step_fits(self, model, effects, integrator.max_step, d)
+            step_fits(self, model, effects, integrator.max_step, d, getattr(initial, "lift", 0.0))
         if control is not None:
             control_rate_fits(self, control, integrator.max_step, d)
         seed = self.integer(d, "seed", (), default=0, lo=0)
