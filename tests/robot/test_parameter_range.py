@@ -13,7 +13,7 @@ drop height each over decades. A scene the step check refuses is refused in one 
   stored energy ``V`` as drawn; the motors hold, friction and dampers only take) plus
   ``M g delta``, so ``delta <= (M g + sqrt((M g)^2 + 2 k E)) / k``.
 
-Cost: 8 examples (a few refused), about 4 s on a loaded 2-core machine.
+Cost: 8 examples (a few refused), about 4 s on a loaded 2-core machine, and 5 free-flying ones, 0.3 s.
 """
 
 from __future__ import annotations
@@ -89,3 +89,28 @@ def test_the_drawn_cables_are_the_ones_the_test_assumes():
     """Six motor cables then three passive ones, after the three rods."""
     assert len(BASE["rods"]) == 3 and [("motor" in c) for c in BASE["cables"]] == [True] * 6 + [False] * 3
     assert all(rod["cap_radius"] == pytest.approx(CAP) for rod in BASE["rods"])
+
+
+@settings(max_examples=5)
+@given(mass=decades(0.05, 50), k=decades(50, 2e4), c=st.sampled_from([0.0, 1.0, 50.0]), seed=st.integers(0, 2**32 - 1))
+def test_without_floor_or_gravity_momentum_holds_and_energy_never_rises(mass, k, c, seed):
+    """No external force (no ``gravity``, no ``contact``): the rods' total momentum ``sum m
+    v_c`` stays what it was, to rounding, from any velocities; with the motors holding, the
+    cables' energy and the kinetic energy never grow (the dampers and RK4 inside its stability
+    region only take). About 0.1 s of CPU each."""
+    data = {"name": "free", "model": {"kind": "robot", "robot": robot(mass, k, c, 1e5, 0.0, 0.0)},
+            "initial": {"drawn": True}, "duration": 0.3, "effects": ["inertia", "cables", "motors"]}
+    try:
+        model = compile_scene(load_scene(data))
+    except SceneError as err:
+        assert str(err).startswith("integrator.max_step: "), str(err)
+        return
+    y = np.array(model.y0, dtype=float)
+    y[len(y) // 2:] = np.random.default_rng(seed).normal(0.0, 0.3, len(y) // 2)     # every body moving
+    samples: list = []
+    model.record(model.state_from(y, t_end=0.3), np.linspace(0.0, 0.3, 31), samples)
+    seen = model.observe(samples)
+    momentum = mass * seen["body_velocities"].sum(axis=1)
+    assert np.abs(momentum - momentum[0]).max() <= 1e-12 * (1.0 + np.abs(momentum[0]).max() + mass)
+    energy = seen["kinetic_energy"] + seen["potential_energy"]
+    assert energy.max() <= energy[0] * (1.0 + 1e-9)
