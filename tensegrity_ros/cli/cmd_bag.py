@@ -70,8 +70,12 @@ def _play(args: argparse.Namespace) -> int:
     if args.wait_for_subscribers is not None:
         check_seconds(args.wait_for_subscribers, "--wait-for-subscribers")
     check_seconds(args.wait_for_all_acked, "--wait-for-all-acked", zero="exit at once")
-    opts = PlaybackOptions(rate=args.rate, start_offset_s=args.start_offset, loop=args.loop,
-                           clock_hz=args.clock)
+    from tensegrity_ros.bag.errors import BagError
+    try:
+        opts = PlaybackOptions(rate=args.rate, start_offset_s=args.start_offset, loop=args.loop,
+                               clock_hz=args.clock)
+    except BagError as err:             # a refused option value is usage (exit 2), not the bag
+        raise CliError(str(err)) from None
     play(args.bag, args.topics, opts, delay_s=args.delay,
          wait_for_subscribers_s=args.wait_for_subscribers,
          wait_for_all_acked_s=args.wait_for_all_acked, ros_args=args.ros_args)

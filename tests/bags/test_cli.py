@@ -56,15 +56,18 @@ def test_repair_cli_and_info_on_a_killed_bag(small_bag):
 
 
 def test_errors_are_one_line(tmp_path):
-    for args, needle in (
-        (("bag", "info", str(tmp_path / "missing")), "does not exist"),
-        (("play", str(tmp_path / "missing")), "does not exist"),
-        (("play", str(tmp_path), "--rate", "0"), "rate must be a finite number > 0"),
-        (("record", "-o", str(tmp_path)), "exists already"),
-        (("bag", "plot", str(tmp_path / "missing"), "-o", str(tmp_path / "x.png")), "does not exist"),
+    """Exit code 1 for a bag problem, 2 for a refused option value (docs/bags.md)."""
+    for args, needle, code in (
+        (("bag", "info", str(tmp_path / "missing")), "does not exist", 1),
+        (("play", str(tmp_path / "missing")), "does not exist", 1),
+        (("play", str(tmp_path), "--rate", "0"), "rate must be a finite number > 0", 2),
+        (("play", str(tmp_path), "--start-offset", "-1"), "start offset must be >= 0 s", 2),
+        (("play", str(tmp_path), "--clock", "-5"), "clock rate must be in (0, 10000] Hz", 2),
+        (("record", "-o", str(tmp_path)), "exists already", 1),
+        (("bag", "plot", str(tmp_path / "missing"), "-o", str(tmp_path / "x.png")), "does not exist", 1),
     ):
         done = run_cli(*args)
-        assert done.returncode != 0
+        assert done.returncode == code, (args, done.returncode, done.stderr)
         lines = done.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("error: ") and needle in lines[0], done.stderr
 
