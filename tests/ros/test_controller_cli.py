@@ -109,7 +109,10 @@ def test_follow_a_csv_file_shows_progress_and_succeeds(suite, tmp_path):
 
 def test_follow_yaml_with_a_bad_point_fails_with_the_controllers_reason(suite, tmp_path):
     f = tmp_path / "traj.yaml"
-    f.write_text(yaml.safe_dump({"points": [{"time": 1.0, "positions": [0.7, 0.7]},
-                                            {"time": 0.5, "positions": [0.71, 0.7]}]}))
+    # A well-formed file whose second point only the controller can judge: rho1 = 5 m is far
+    # outside the mechanism's domain (rho1 < L = 1 m), which the file reader does not know.
+    f.write_text(yaml.safe_dump({"points": [{"time": 0.5, "positions": [0.7, 0.7]},
+                                            {"time": 1.0, "positions": [5.0, 0.7]}]}))
     out = run_cli("follow", str(f), *NS)
-    assert out.returncode == 1 and "failed (INVALID_GOAL)" in out.stdout and "increase strictly" in out.stdout
+    assert out.returncode == 1 and "failed (INVALID_GOAL)" in out.stdout, (out.stdout, out.stderr)
+    assert "outside the mechanism's domain" in out.stdout, out.stdout
