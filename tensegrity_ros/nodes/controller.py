@@ -21,7 +21,8 @@ planned (bad numbers, unknown joints, out of the workspace, through a singular s
 the force budget) is accepted and aborted at once with its reason in the result
 (``error_code``, ``error_string``: ROS 2's goal response has no field for a reason); the
 running goal and the hold are not disturbed. A goal aborts with ``SIMULATOR_STOPPED`` when
-the joint states' time has not advanced for ``state_timeout`` seconds (wall time) and
+the joint states' time has not advanced for ``state_timeout`` seconds (wall time; a goal
+that comes before the first joint state waits that long for it) and
 with ``SINGULAR_STATE`` when the measured state comes within ``singular_abort`` of the
 lambda1/lambda2 sets.
 
@@ -51,6 +52,7 @@ from typing import Any, Literal, overload
 import numpy as np
 from geometry_msgs.msg import Point
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import InvalidHandle
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
@@ -62,7 +64,6 @@ from tensegrity_msgs.msg import ActuatorForces
 from tensegrity_core.class2 import dynamics_singularity
 from tensegrity_core.class2.control import PlanningError, TrackingController, plan_move
 from tensegrity_core.class2.control import goals as G
-from tensegrity_core.class2.control.errors import INVALID_JOINTS
 from tensegrity_core.class2.control.law import ScheduledGains, Tick
 from tensegrity_core.class2.control.reference import Reference
 from tensegrity_core.class2.control.trajectory import MAX_DURATION, actuator_reference
@@ -86,6 +87,7 @@ from tensegrity_ros.nodes.controller_messages import (
     far_start_warning,
     feedback,
     given,
+    joint_tolerances,
     parse_joint_state,
     stamp_start,
     start_feedback,
@@ -164,6 +166,8 @@ class ControllerNode(Node):
         self._advanced_at: float | None = None   # wall time the joint states' time last advanced
         self._sent: deque[CommandKey] = deque(maxlen=256)   # keys of the commands this node published lately
         self._manual = False                 # another node's command took over; until the next goal
+        self._first_state: list[Future] = []   # goals that came before the first joint state
+        self._steady = Clock(clock_type=ClockType.STEADY_TIME)   # their wait is wall time, as the watchdog's
 
         # a history a briefly stalled recorder can be repaired from (the simulator's depth)
         self.pub = self.create_publisher(ActuatorForces, "actuator_forces", 1000)
@@ -205,6 +209,9 @@ class ControllerNode(Node):
         self._advanced_at = time.monotonic()
         if self.ctrl.reference is None and not self._start_holding(t, q):
             return
+        for waiting in self._first_state:
+            if not waiting.done():
+                waiting.set_result(True)
         if self._manual:
             return                          # another node commands: nothing sent until the next goal
         tick = self.ctrl.update(t, q, qdot)
@@ -303,6 +310,7 @@ class ControllerNode(Node):
         req = handle.request
         result = _MOVE()
         try:
+            await self._until_first_state()
             q = self._require_state()
             tol = self._tolerance(req.goal_tolerance, "goal_tolerance")
             duration, max_speed = given(req.duration), given(req.max_speed)
@@ -332,14 +340,15 @@ class ControllerNode(Node):
         result = _FOLLOW(joint_names=list(ACTUATED_JOINTS))
         traj = req.trajectory
         try:
+            await self._until_first_state()
             q, qdot, now = self._require_state(with_rate=True)
             if any(len(p.effort) for p in traj.points):
                 raise PlanningError("points with effort are not accepted: the controller computes the forces")
             start = stamp_start(traj.header.stamp, now)
             if (far := far_start_warning(start, now, MAX_DURATION)) is not None:
                 self.get_logger().warning(far)
-            path = self._joint_tolerances(req.path_tolerance, self.path_tolerance)
-            goal_tol = self._joint_tolerances(req.goal_tolerance, self.goal_tolerance)
+            path = joint_tolerances(req.path_tolerance, self.path_tolerance)
+            goal_tol = joint_tolerances(req.goal_tolerance, self.goal_tolerance)
             # control_msgs' reading, as for tolerances: 0 the default, < 0 (its -1) no limit
             goal_time = tolerance(duration_to_s(req.goal_time_tolerance), self.goal_time_tolerance)
             ref, gains = await self._plan(lambda: actuator_reference(
@@ -367,13 +376,30 @@ class ControllerNode(Node):
         assert goal.outcome is not None                     # the job ends once its goal has
         return self._finish(handle, result, goal.outcome)
 
+    async def _until_first_state(self) -> None:
+        """Hold a goal that came before the first joint state (a client may send one as soon
+        as the action server is up, before the simulator's first sample has arrived) until that
+        state, at most ``state_timeout`` s of wall time; :meth:`_require_state` then refuses."""
+        if self._latest is not None and self.ctrl.reference is not None:
+            return
+        arrived = Future()
+        self._first_state.append(arrived)
+        timer = self.create_timer(self.state_timeout, lambda: arrived.done() or arrived.set_result(False),
+                                  clock=self._steady)
+        try:
+            await arrived
+        finally:
+            self.destroy_timer(timer)
+            self._first_state.remove(arrived)
+
     @overload
     def _require_state(self, with_rate: Literal[False] = False) -> FloatArray: ...
     @overload
     def _require_state(self, with_rate: Literal[True]) -> tuple[FloatArray, FloatArray, float]: ...
     def _require_state(self, with_rate: bool = False) -> FloatArray | tuple[FloatArray, FloatArray, float]:
         if self._latest is None or self.ctrl.reference is None:
-            raise _NoState("no joint_states received yet: is the simulator running?")
+            raise _NoState(f"no joint_states received within state_timeout = {self.state_timeout:g} s: "
+                           "is the simulator running?")
         t, q, qdot = self._latest
         return (q, qdot, t) if with_rate else q
 
@@ -441,20 +467,6 @@ class ControllerNode(Node):
         if not math.isfinite(value):
             raise PlanningError(f"{name} must be a finite number, got {value!r}")
         return self.goal_tolerance if value == 0.0 else (value if value > 0.0 else math.inf)
-
-    def _joint_tolerances(self, items: Sequence[Any], default: float,
-                          ) -> tuple[tuple[float, float], tuple[float, float]]:
-        """``((pos1, pos2), (vel1, vel2))`` from JointTolerance messages (0: default, < 0: off)."""
-        pos, vel = [default, default], [0.0, 0.0]
-        for item in items:
-            if item.name not in ACTUATED_JOINTS:
-                raise PlanningError(f"tolerance for unknown joint {item.name!r}; the joints are rho1, rho2",
-                                    code=INVALID_JOINTS)
-            for values, v, d in ((pos, item.position, default), (vel, item.velocity, 0.0)):
-                if not math.isfinite(v):
-                    raise PlanningError(f"tolerance of {item.name} must be finite, got {v!r}")
-                values[ACTUATED_JOINTS.index(item.name)] = d if v == 0.0 else (v if v > 0.0 else 0.0)
-        return (pos[0], pos[1]), (vel[0], vel[1])
 
     def destroy_node(self) -> None:
         job, self._job = self._job, None

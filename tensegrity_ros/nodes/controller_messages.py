@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any, TypeAlias
 
 import numpy as np
@@ -23,6 +24,7 @@ from tensegrity_msgs.msg import ActuatorForces
 from trajectory_msgs.msg import JointTrajectoryPoint
 
 from tensegrity_core.class2 import end_effector_of
+from tensegrity_core.class2.control import PlanningError
 from tensegrity_core.class2.control import goals as G
 from tensegrity_core.class2.control.errors import INVALID_JOINTS, OUTSIDE_WORKSPACE, SINGULAR_PATH
 from tensegrity_core.class2.control.law import Tick
@@ -157,3 +159,17 @@ def feedback(goal: Goal, header: Any, tick: Tick, q: FloatArray, qdot: FloatArra
     fb.error = JointTrajectoryPoint(positions=[float(v) for v in goal.error],
                                     velocities=[float(v) for v in goal.rate_error], time_from_start=when)
     return fb
+
+
+def joint_tolerances(items: Sequence[Any], default: float) -> tuple[tuple[float, float], tuple[float, float]]:
+    """``((pos1, pos2), (vel1, vel2))`` from JointTolerance messages (0: default, < 0: off)."""
+    pos, vel = [default, default], [0.0, 0.0]
+    for item in items:
+        if item.name not in ACTUATED_JOINTS:
+            raise PlanningError(f"tolerance for unknown joint {item.name!r}; the joints are rho1, rho2",
+                                code=INVALID_JOINTS)
+        for values, v, d in ((pos, item.position, default), (vel, item.velocity, 0.0)):
+            if not math.isfinite(v):
+                raise PlanningError(f"tolerance of {item.name} must be finite, got {v!r}")
+            values[ACTUATED_JOINTS.index(item.name)] = d if v == 0.0 else (v if v > 0.0 else 0.0)
+    return (pos[0], pos[1]), (vel[0], vel[1])

@@ -636,3 +636,36 @@ def test_a_new_goal_preempts_the_running_one(suite):
     assert status_first == 6 and res_first.error_code == client.Move.Result.PREEMPTED
     assert "preempted" in res_first.error_string
 
+
+
+def test_a_goal_sent_before_the_first_joint_state_waits_for_it(cli, ros_context):
+    """A client may send a goal as soon as the action server is up, before the simulator's
+    first joint state has reached the controller: the goal is held for it (``state_timeout``),
+    not aborted with SIMULATOR_STOPPED. Here no simulator runs; the test publishes the one
+    state itself after the goal was accepted, then cancels: the goal ends CANCELED (it ran)."""
+    from action_msgs.msg import GoalStatus
+    from sensor_msgs.msg import JointState
+
+    fk = forward_kinematics(0.7, 0.7, PAPER_PARAMS)
+    cli("node", "controller", "--ros-args", "-r", "__ns:=/early", "-p", "state_timeout:=60.0", log_name="controller")
+    client = Client(ros_context, "/early")
+    publisher = client.node.create_publisher(JointState, "joint_states", 10)
+    handle, _ = client.send(client.move, client.Move.Goal(x=fk.x + 0.01, y=fk.y, duration=3.0))
+    outcome = handle.get_result_async()
+    end = time.monotonic() + 1.0
+    while time.monotonic() < end:
+        client.executor.spin_once(timeout_sec=0.02)
+    assert not outcome.done(), outcome.result().result.error_string     # held, not refused
+    steps = iter(range(10**6))
+
+    def publish() -> None:           # the mechanism at rest, time advancing 10 ms a sample
+        state = JointState(name=["rho1", "rho2", "beta"], position=[0.7, 0.7, fk.beta], velocity=[0.0, 0.0, 0.0])
+        state.header.stamp.sec, ms = divmod(10 * next(steps), 1000)
+        state.header.stamp.nanosec = ms * 1_000_000
+        publisher.publish(state)
+
+    client.spin_until(lambda: (publish(), client.commands)[1], 30)    # the controller holds
+    cancel = handle.cancel_goal_async()
+    client.spin_until(cancel.done, 30)
+    client.spin_until(lambda: (publish(), outcome.done())[1], 30)     # the cancel ends on a state
+    assert outcome.result().status == GoalStatus.STATUS_CANCELED, outcome.result().result.error_string
