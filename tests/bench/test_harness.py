@@ -3,8 +3,6 @@ row's value (or its ratio to the baseline), a missed one is printed as such and 
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 from tests.bench.__main__ import _summarise_targets
