@@ -159,13 +159,15 @@ def run_command(line: str, directory: Path) -> tuple[int, str]:
     a fresh interpreter's start-up costs 1-2 s of a 2-core machine's time per command); any
     other line runs in bash, with the venv's ``tensegrity`` on the PATH."""
     flat = re.sub(r"\\\n\s*", " ", line)                 # continuation lines joined
-    if IN_PROCESS.fullmatch(flat):
+    # a comment's text is not shell syntax: before it, the command has no quote to hide a ``#``
+    command = flat.split(" #", 1)[0].rstrip()
+    if IN_PROCESS.fullmatch(command):
         from tensegrity_ros.cli import main
 
         out = io.StringIO()
         with contextlib.chdir(directory), contextlib.redirect_stdout(out), contextlib.redirect_stderr(out):
             try:
-                code = main(shlex.split(flat, comments=True)[1:])
+                code = main(shlex.split(command)[1:])
             except SystemExit as stop:                    # argparse's usage errors
                 code = stop.code if isinstance(stop.code, int) else 1
         return code, out.getvalue()

@@ -18,9 +18,11 @@ def test_a_run_that_leaves_a_process_alive_fails_and_kills_it(tmp_path):
         "def test_starts_a_process_and_forgets_it():\n"
         "    p = subprocess.Popen(['sleep', '300'], start_new_session=True)\n"
         f"    open({str(marker)!r}, 'w').write(str(p.pid))\n")
+    # the leaked process never exits: the run's wait for late exits (10 s) would only be waited out
+    env = {**os.environ, "TENSEGRITY_TEST_LATE_EXITS_S": "0.5"}
     run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "tests.conftest",
                           "-p", "no:cacheprovider", str(tmp_path / "test_leak.py")],
-                         cwd=ROOT, capture_output=True, text=True, timeout=120)
+                         cwd=ROOT, capture_output=True, text=True, timeout=120, env=env)
     assert run.returncode == 1, run.stdout[-2000:]
     assert "1 passed" in run.stdout and "still alive at its end" in run.stdout
     pid = int(marker.read_text())

@@ -39,7 +39,7 @@ import shutil
 import signal
 import sys
 import threading
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -48,7 +48,7 @@ import numpy as np
 
 from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics
 from tensegrity_core.class2.fold_law import FOLD_GAIN, paper_fold_forces
-from tensegrity_core.sim.sampled import NS_PER_S, Controller, run_sampled, step_ns_of
+from tensegrity_core.sim.sampled import NS_PER_S, Controller, SampledRun, run_sampled, step_ns_of
 from tensegrity_ros.apps import demo_moves, demo_robot
 from tensegrity_ros.apps.demo_moves import WAYPOINT_OFFSETS, ControllerClient
 from tensegrity_ros.apps.launch import Launcher, ProcessSpec
@@ -125,10 +125,13 @@ def fold_times(events: Iterable[tuple[float, str, int]]) -> dict[str, float | No
     return {f"rho{i + 1}": out.get(i) for i in (0, 1)}
 
 
-def control_period_table(step_ns_list: Iterable[int], duration: float = FOLD_TIME) -> list[dict[str, Any]]:
+def control_period_table(step_ns_list: Iterable[int], duration: float = FOLD_TIME, *,
+                         runs: Mapping[int, SampledRun] | None = None) -> list[dict[str, Any]]:
     """The fold under the sampled law at each period against the continuous-time scene:
     first fold times, and the largest length difference at the sampling times before the
-    first contact (after it the runs part: contacts touch and release at other times)."""
+    first contact (after it the runs part: contacts touch and release at other times).
+    ``runs``: the core's sampled runs of the fold already made, by step [ns] (the demo's own
+    period's: computed again it would be the same run)."""
     import dataclasses
 
     from tensegrity_core.sim import load_scene, simulate
@@ -138,7 +141,9 @@ def control_period_table(step_ns_list: Iterable[int], duration: float = FOLD_TIM
     cont_folds = fold_times(cont.events)
     rows = []
     for step_ns in step_ns_list:
-        run = run_sampled(SCENE, paper_fold_forces, step_ns=step_ns, duration=duration)
+        run = (runs or {}).get(step_ns)
+        if run is None:
+            run = run_sampled(SCENE, paper_fold_forces, step_ns=step_ns, duration=duration)
         first_contact = min(t for t in cont_folds.values() if t is not None)
         smooth = run.times < first_contact
         rho_c = np.column_stack([np.interp(run.times[smooth], cont.times, cont.q[:, i]) for i in (0, 1)])
@@ -341,7 +346,7 @@ def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool 
              + ("(identical)" if diff == 0.0 else ""))
 
         _say(f"control period against the continuous-time {CONTINUOUS!r} scene (the core's sampled runs)")
-        table = control_period_table([step_ns_of(1.0 / hz) for hz in TABLE_RATES])
+        table = control_period_table([step_ns_of(1.0 / hz) for hz in TABLE_RATES], runs={step_ns: core})
         results["table"] = table
         cont = table[0]["continuous"]
         _say(f"  continuous: rho2 folds at {cont['rho2']:.6f} s, rho1 at {cont['rho1']:.6f} s")

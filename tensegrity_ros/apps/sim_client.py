@@ -179,16 +179,25 @@ class SimClient:
 
     # -- services ----------------------------------------------------------------------------------
     def wait_for_services(self, timeout: float = 60.0) -> None:
-        """Wait for the simulator's services, and for the command publisher to be matched
-        (held :data:`~tensegrity_ros.rclpy_utils.matching.MATCH_SETTLE_S`: a lockstep command
-        lost to a reader that matched late would stall that step until the timeout)."""
-        from tensegrity_ros.rclpy_utils.matching import wait_for_matches
+        """Wait for the simulator's services, and for every command writer of this client's
+        participant made so far (this client's, and those of other nodes of its context) to be
+        matched on both sides: this publisher has a subscriber, and the simulator has answered
+        a ``get_simulation_state`` asked through a client made now, which proves that its
+        reader has matched all those writers
+        (:func:`~tensegrity_ros.rclpy_utils.matching.wait_until_answered`). A command
+        written before the simulator's reader knew its writer would come late, repaired only
+        after the step it was meant for had run, or never."""
+        from tensegrity_ros.rclpy_utils.futures import wait_done
+        from tensegrity_ros.rclpy_utils.matching import wait_for_matches, wait_until_answered
 
         for client in self.clients.values():
             if not client.wait_for_service(timeout_sec=timeout):
                 raise RuntimeError(f"service {client.srv_name} not available within {timeout:g} s")
-        if not wait_for_matches([self.pub], 1, timeout):
+        if not wait_for_matches([self.pub], 1, timeout, settle_s=0.0):
             raise RuntimeError(f"nobody subscribes to {self.pub.topic_name} within {timeout:g} s")
+        if not wait_until_answered(self.node, self.srv["get_simulation_state"], "get_simulation_state", wait_done,
+                                   timeout):
+            raise RuntimeError(f"the simulator did not answer get_simulation_state within {timeout:g} s")
 
     def call(self, name: str, request: Any = None, timeout: float = 600.0) -> Any:
         """Call the service ``name`` and wait up to ``timeout`` s for its answer."""

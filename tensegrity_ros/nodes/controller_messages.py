@@ -1,10 +1,10 @@
 """The controller's translations between messages and the core's values (no node, no DDS).
 
-- the result codes of the two actions for the core's goal outcomes and planning errors;
+- the result codes of the two actions for the core's goal outcomes and planning errors, and a
+  goal's end with them (:func:`finish`);
 - a joint state to ``(t [s], q, qdot)`` (rho1, rho2 [m], beta [rad] and their rates), a
   trajectory's start stamp to a time [s] (and the warning for one far ahead), seconds to a
   ``builtin_interfaces/Duration``;
-- what tells two actuator commands apart;
 - the feedback of a goal: at its takeover and at every tick.
 """
 
@@ -20,7 +20,6 @@ from geometry_msgs.msg import Point
 from numpy.typing import NDArray
 from sensor_msgs.msg import JointState
 from tensegrity_msgs.action import FollowActuatorTrajectory, MoveEndEffector
-from tensegrity_msgs.msg import ActuatorForces
 from trajectory_msgs.msg import JointTrajectoryPoint
 
 from tensegrity_core.class2 import end_effector_of
@@ -35,8 +34,6 @@ from tensegrity_ros.rclpy_utils.messages import stamp_to_s
 FloatArray: TypeAlias = NDArray[np.float64]
 #: ``(t, q, qdot)`` of a joint state: time [s], ``(rho1 [m], rho2 [m], beta [rad])`` and their rates.
 JointSample: TypeAlias = tuple[float, FloatArray, FloatArray]
-#: What tells two actuator commands apart: stamp (s, ns), names and forces [N].
-CommandKey: TypeAlias = tuple[int, int, tuple[str, ...], tuple[float, ...]]
 #: A goal of the controller.
 Goal: TypeAlias = G.MoveGoal | G.TrajectoryGoal
 
@@ -97,9 +94,18 @@ def parse_joint_state(msg: JointState) -> JointSample | None:
     return stamp_to_s(msg.header.stamp), np.array(q), np.array(qdot)
 
 
-def command_key(msg: ActuatorForces) -> CommandKey:
-    """What tells two commands apart: stamp, names and forces."""
-    return msg.header.stamp.sec, msg.header.stamp.nanosec, tuple(msg.name), tuple(msg.force)
+def finish(handle: Any, result: Any, outcome: G.Outcome) -> Any:
+    """Fill ``result`` (an action's result message) from ``outcome`` and end the goal of
+    ``handle`` (rclpy's ServerGoalHandle) as the outcome says; returns ``result``."""
+    result.error_code = OUTCOME_CODES[outcome.code]
+    result.error_string = outcome.message
+    if outcome.succeeded:
+        handle.succeed()
+    elif outcome.code == G.CANCELED:
+        handle.canceled()
+    else:
+        handle.abort()
+    return result
 
 
 def duration_msg(seconds: float) -> DurationMsg:

@@ -7,9 +7,11 @@ gap although the writer already counted it (eProsima/Fast-DDS#2641). Seen here u
 on a 2-core machine: the first one or two messages of a replay at 200 Hz lost, i.e. a gap
 of 5-10 ms. Nothing on the writer side reports the reader's match, so after every
 publisher has its subscribers :func:`wait_for_matches` holds for ``settle_s`` more (the
-count must stay up for that whole time), which covers that gap many times over.
-A request's answer has the same gap the other way round, and there an answer does prove the
-match: :func:`wait_until_server_heard` waits for one before an action goal is sent.
+count must stay up for that whole time), which covers that gap when the reader's process
+runs in it; a reader's process that gets no CPU then (a loaded machine, a stopped process)
+is still behind. Where the reader's node serves something, an answer proves its match:
+:func:`wait_until_answered` asks it through a client made after the writers (a lockstep
+client's commands), :func:`wait_until_server_heard` before an action goal is sent.
 """
 
 from __future__ import annotations
@@ -98,13 +100,29 @@ def wait_until_server_heard(node: Any, action_name: str, wait: Callable[[Any, fl
     if not any(name == f"{fq_node}/get_parameters"
                for name, _types in node.get_service_names_and_types_by_node(info.node_name, info.node_namespace)):
         return False                     # no parameter services: nothing to ask
-    probe = node.create_client(GetParameters, f"{fq_node}/get_parameters")
+    return wait_until_answered(node, GetParameters, f"{fq_node}/get_parameters", wait,
+                               max(0.0, deadline - time.monotonic()), attempt_s=attempt_s)
+
+
+def wait_until_answered(node: Any, srv_type: Any, srv_name: str, wait: Callable[[Any, float], bool], timeout_s: float,
+                        *, attempt_s: float = 1.0) -> bool:
+    """Return True once the server of ``srv_name`` (type ``srv_type``; its default request
+    must have no effect) has answered a request sent through a client made in this call,
+    asked again every ``attempt_s`` s; False after ``timeout_s``. The answer proves that the
+    server's participant has matched every endpoint ``node``'s participant created before
+    this call (announced in creation order on one reliable, in-order discovery stream each,
+    see :func:`wait_until_server_heard`): in particular the readers of that server's node
+    have matched this participant's earlier writers, so a message published on them now
+    is taken, not dropped by a reader that has not yet discovered its writer.
+    ``wait(future, seconds)`` as for :func:`wait_until_server_heard`."""
+    deadline = time.monotonic() + timeout_s
+    probe = node.create_client(srv_type, srv_name)
     try:
         if not probe.wait_for_service(timeout_sec=max(0.0, deadline - time.monotonic())):
             return False
         asked: list[Any] = []
         while time.monotonic() < deadline:
-            asked.append(probe.call_async(GetParameters.Request()))
+            asked.append(probe.call_async(srv_type.Request()))
             if wait(asked[-1], min(attempt_s, max(0.0, deadline - time.monotonic()))) or any(f.done() for f in asked):
                 return True
         return any(f.done() for f in asked)

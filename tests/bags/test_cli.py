@@ -1,4 +1,9 @@
-"""``tensegrity bag info|plot|repair`` and the CLI's error lines (subprocesses)."""
+"""``tensegrity bag info|plot|repair`` and the CLI's error lines.
+
+The bag commands run through the command line's ``main`` in this process
+(:func:`run_cli_here`: no interpreter start per command; a real process of each is
+tests/bags/test_hostile_bags.py's); ``play`` and ``record`` hold the process's signals
+until it exits, so they run as processes (:func:`run_cli`)."""
 
 from __future__ import annotations
 
@@ -6,17 +11,17 @@ import json
 
 from tensegrity_ros.bag.plot import decoded_messages
 from tensegrity_ros.bag.reader import BagReader
-from tests.bags.conftest import run_cli
+from tests.bags.conftest import run_cli, run_cli_here
 
 
 def test_info_text_and_json(small_bag):
     folder, samples = small_bag
-    text = run_cli("bag", "info", str(folder))
+    text = run_cli_here("bag", "info", str(folder))
     assert text.returncode == 0, text.stderr
     assert "Messages:          80" in text.stdout
     assert "Topic: /joint_states | Type: sensor_msgs/msg/JointState" in text.stdout
     assert "Count: 40" in text.stdout and "Serialization Format: cdr" in text.stdout
-    info = json.loads(run_cli("bag", "info", str(folder), "--json").stdout)
+    info = json.loads(run_cli_here("bag", "info", str(folder), "--json").stdout)
     start = min(t for _, _, t, _, _ in samples)
     end = max(t for _, _, t, _, _ in samples)
     assert (info["start_ns"], info["end_ns"]) == (start, end)
@@ -36,7 +41,7 @@ def test_plot_decodes_without_ros_and_writes_png(small_bag, tmp_path):
     assert [(m.point.x, m.point.y, m.point.z) for t, _, m in decoded if t == "/end_effector"] == \
         [v for topic, *_, v in samples if topic == "/end_effector"]
     out = tmp_path / "plot.png"
-    done = run_cli("bag", "plot", str(folder), "-o", str(out))
+    done = run_cli_here("bag", "plot", str(folder), "-o", str(out))
     assert done.returncode == 0, done.stderr
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 10_000
 
@@ -46,13 +51,13 @@ def test_repair_cli_and_info_on_a_killed_bag(small_bag):
     data = (folder / "small_0.mcap").read_bytes()
     (folder / "small_0.mcap").write_bytes(data[: len(data) // 2])
     (folder / "metadata.yaml").unlink()
-    info = json.loads(run_cli("bag", "info", str(folder), "--json").stdout)
+    info = json.loads(run_cli_here("bag", "info", str(folder), "--json").stdout)
     assert info["recovered"] is True and len(info["notes"]) == 2
-    done = run_cli("bag", "repair", str(folder), "--json")
+    done = run_cli_here("bag", "repair", str(folder), "--json")
     assert done.returncode == 0, done.stderr
     result = json.loads(done.stdout)
     assert result["rewritten"] and result["message_count"] == info["message_count"]
-    assert json.loads(run_cli("bag", "info", str(folder), "--json").stdout)["notes"] == []
+    assert json.loads(run_cli_here("bag", "info", str(folder), "--json").stdout)["notes"] == []
 
 
 def test_errors_are_one_line(tmp_path):
@@ -66,7 +71,7 @@ def test_errors_are_one_line(tmp_path):
         (("record", "-o", str(tmp_path)), "exists already", 1),
         (("bag", "plot", str(tmp_path / "missing"), "-o", str(tmp_path / "x.png")), "does not exist", 1),
     ):
-        done = run_cli(*args)
+        done = (run_cli_here if args[0] == "bag" else run_cli)(*args)
         assert done.returncode == code, (args, done.returncode, done.stderr)
         lines = done.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("error: ") and needle in lines[0], done.stderr

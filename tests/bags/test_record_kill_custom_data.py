@@ -55,9 +55,9 @@ def test_a_sigkilled_recording_keeps_its_custom_data_through_repair(cli, ros_con
             pass
     assert [r.metadata for r in records if isinstance(r, Metadata)] == [SCENE]
 
-    from tests.ros_support import run_cli
+    from tests.bags.conftest import run_cli_here
 
-    out = run_cli("bag", "repair", str(folder))
+    out = run_cli_here("bag", "repair", str(folder))      # in this process: no interpreter start
     assert out.returncode == 0, out.stderr
     meta = yaml.safe_load((folder / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
     assert meta["custom_data"] == SCENE

@@ -40,7 +40,7 @@ def _targets(n: int, seed: int = 11):
 
 @benchmark
 def scalar_calls(ctx):
-    repeat = 3 if ctx.quick else 7
+    repeat = 1 if ctx.quick else 7
     fk = time_per_call(lambda: forward_kinematics(0.7, 0.7), repeat=repeat) * 1e6
     fk_num = time_per_call(lambda: forward_kinematics_numeric(0.7, 0.7), min_time=0.1, repeat=repeat) * 1e6
     ik4 = time_per_call(lambda: inverse_kinematics(*TARGET4), repeat=repeat) * 1e6
@@ -68,7 +68,7 @@ def _best_time(fn, repeat: int) -> float:
 @benchmark
 def vectorised(ctx):
     n = 1_000_000
-    repeat = 3 if ctx.quick else 7
+    repeat = 1 if ctx.quick else 7
     x, y = _targets(n)
     ik_ns = _best_time(lambda: ik_array(x, y), repeat) / n * 1e9
     m = 2000 if ctx.quick else 20000

@@ -72,7 +72,7 @@ def _thinned(history: dict, keep: int = 300) -> dict:
 def formfind_work_precision(ctx: Context) -> list[Row]:
     from tensegrity_core.general import tensegrity_spine
 
-    budget = 1.0 if ctx.quick else 30.0
+    budget = 0.3 if ctx.quick else 30.0      # quick: Newton converges well within it, relaxation is cut
     n_vert = 11 if ctx.quick else 126
     structures = {"table, long1 shortened": _short_string_table(),
                   f"spine, {8 * (n_vert - 1)} members": tensegrity_spine(n_vert, perturbation=0.03, seed=0)}
@@ -187,13 +187,14 @@ def stiffness_work_precision(ctx: Context) -> list[Row]:
 
     configs = [(0.7, 0.7, 1.0), (0.5, 0.8, 0.0), (0.3, 0.9, 2.0)]
     steps = [1e-2, 1e-4, 1e-6] if ctx.quick else [10.0 ** -k for k in range(1, 8)]
+    timing = {} if ctx.quick else {"min_time": 0.1, "repeat": 3}      # quick: the mode's (harness.QUICK_TIMING)
     rows, points = [], []
     with threadpool_limits(1):
         Ks = {c: stiffness_matrix_paper(*c) for c in configs}
         agree = max(float(np.abs(stiffness_matrix_assembled(*c) - Ks[c]).max() / np.abs(Ks[c]).max())
                     for c in configs)
-        t_paper = time_per_call(lambda: stiffness_matrix_paper(*configs[0]), min_time=0.1, repeat=3)
-        t_asm = time_per_call(lambda: stiffness_matrix_assembled(*configs[0]), min_time=0.1, repeat=3)
+        t_paper = time_per_call(lambda: stiffness_matrix_paper(*configs[0]), **timing)
+        t_asm = time_per_call(lambda: stiffness_matrix_assembled(*configs[0]), **timing)
         rows += [Row("precision_static", "stiffness: paper's procedure (analytic)", t_paper * 1e6, "us"),
                  Row("precision_static", "stiffness: generic assembly (analytic)", t_asm * 1e6, "us",
                      baseline="stiffness: paper's procedure (analytic)",
@@ -204,7 +205,7 @@ def stiffness_work_precision(ctx: Context) -> list[Row]:
         for h in steps:
             err = max(float(np.abs(stiffness_matrix_energy_fd(*c, step=h) - Ks[c]).max() / np.abs(Ks[c]).max())
                       for c in configs)
-            t = time_per_call(lambda h=h: stiffness_matrix_energy_fd(*configs[0], step=h), min_time=0.1, repeat=3)
+            t = time_per_call(lambda h=h: stiffness_matrix_energy_fd(*configs[0], step=h), **timing)
             points.append(Point("stiffness", "central differences of U", h, err, t, evaluations=4 * 28))
             rows.append(Row("precision_static", f"stiffness: energy differences, step {h:g} L", t * 1e6, "us",
                             baseline="stiffness: paper's procedure (analytic)",

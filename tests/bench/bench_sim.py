@@ -20,7 +20,7 @@ claims are ratios against a baseline measured in the same run.
 - ``stiff``: the stiff fold (k_a/k = 1e6) with Radau and the analytic Jacobian, Radau with
   finite-difference Jacobians, and an explicit method (extrapolated from a short run).
 
-Quick mode (CI's smoke run: every row reported, no speed proven): fewer repeats, 200 calls of
+Quick mode (CI's smoke run: every row reported, no speed proven): one run of each timing, 200 calls of
 ``advance`` (full: 10 000), the explicit method's short run 2 ms of the stiff fold (full: 10 ms;
 either is thousands of steps at the stability limit).
 """
@@ -61,7 +61,7 @@ def effect_cost(ctx: Context) -> list[Row]:
     base["effects"] = ["inertia", "springs", "fold_limit"]
     base["integrator"] = {"method": "DOP853", "rtol": 1e-7, "atol": 1e-9}
     y = np.array([0.55, 0.35, 0.7, -0.3, -0.8, -0.2])
-    repeat = 3 if ctx.quick else 7
+    repeat = 1 if ctx.quick else 7
     rows = []
 
     def model_of(d):
@@ -126,7 +126,7 @@ def paper_real_time(ctx: Context) -> list[Row]:
     from tensegrity_core.sim import load_scene, simulate
 
     d = _scene_dict()
-    repeat = 5 if ctx.quick else 15
+    repeat = 1 if ctx.quick else 15
     rows = []
     with threadpool_limits(1):
         ref_d = copy.deepcopy(d)
@@ -171,7 +171,7 @@ def _ramp_scenes(T: float):
 def quasi_static_speed(ctx: Context) -> list[Row]:
     from tensegrity_core.sim import load_scene, simulate
 
-    repeat = 3 if ctx.quick else 7
+    repeat = 1 if ctx.quick else 7
     rows = []
     with threadpool_limits(1):
         pairs = [("paper fold", load_scene("paper_fold"), load_scene("paper_fold_quasistatic"))]
@@ -182,9 +182,7 @@ def quasi_static_speed(ctx: Context) -> list[Row]:
         d["model"]["structure"] = str(table.model.source)
         pairs.append(("table under load, 0.2 s", table, load_scene(d)))
         for label, dyn, qs in pairs:
-            # the table's dynamic run takes seconds: once is enough in quick mode
-            t_dyn, traj_d = best_run(lambda dyn=dyn: simulate(dyn),
-                                     1 if ctx.quick and label.startswith("table") else repeat)
+            t_dyn, traj_d = best_run(lambda dyn=dyn: simulate(dyn), repeat)
             t_qs, traj_q = best_run(lambda qs=qs: simulate(qs), repeat)
             rows.append(Row("sim", f"{label}: dynamic", t_dyn, "s", note=f"{len(traj_d)} samples"))
             rows.append(Row("sim", f"{label}: quasi-static", t_qs, "s", baseline=f"{label}: dynamic", target=">= 10x",

@@ -3,8 +3,6 @@ row's value (or its ratio to the baseline), a missed one is printed as such and 
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 from tests.bench.__main__ import _summarise_targets
@@ -78,18 +76,20 @@ def test_a_missed_rate_is_summarised_as_a_part_of_its_baseline(capsys):
         "  MISSED  view: frames rendered per s: 13.5 fps (0.222x of 'empty page'); target ratio >= 0.5"
 
 
-def test_full_mode_under_chosen_kernels_leaves_the_docs_files_alone(tmp_path):
+def test_full_mode_under_chosen_kernels_leaves_the_docs_files_alone(tmp_path, monkeypatch, capsys):
     """``--full`` writes the docs' table and figures, which are the default kernels': with
-    TENSEGRITY_KERNELS set it refuses (one line, exit 2) unless every output goes elsewhere."""
-    import os
-    import subprocess
-    import sys
+    TENSEGRITY_KERNELS set it refuses (one line, exit 2) unless every output goes elsewhere.
+    The runner's ``main`` in this process (its refusals are argparse's exit): the process
+    start of ``python -m tests.bench`` is tested by tests/bench/test_quick_mode.py."""
+    from tests.bench.__main__ import main
 
-    env = {**os.environ, "TENSEGRITY_KERNELS": "numpy"}
-    run = subprocess.run([sys.executable, "-m", "tests.bench", "--full", "--only", "no_such_group"], env=env,
-                         capture_output=True, text=True, cwd=Path(__file__).resolve().parents[2])
-    assert run.returncode == 2 and "TENSEGRITY_KERNELS=numpy with --full" in run.stderr, run.stderr
+    monkeypatch.setenv("TENSEGRITY_KERNELS", "numpy")
+    with pytest.raises(SystemExit) as refused:
+        main(["--full", "--only", "no_such_group"])
+    err = capsys.readouterr().err
+    assert refused.value.code == 2 and "TENSEGRITY_KERNELS=numpy with --full" in err, err
     elsewhere = ["--json", str(tmp_path / "r.json"), "--plot-dir", str(tmp_path), "--data-dir", str(tmp_path)]
-    run = subprocess.run([sys.executable, "-m", "tests.bench", "--full", "--only", "no_such_group", *elsewhere],
-                         env=env, capture_output=True, text=True, cwd=Path(__file__).resolve().parents[2])
-    assert run.returncode == 2 and "unknown group(s) no_such_group" in run.stderr, run.stderr
+    with pytest.raises(SystemExit) as refused:
+        main(["--full", "--only", "no_such_group", *elsewhere])
+    err = capsys.readouterr().err
+    assert refused.value.code == 2 and "unknown group(s) no_such_group" in err, err

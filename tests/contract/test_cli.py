@@ -11,11 +11,10 @@ measured value; counts are whole numbers) must have a unit on its line, either a
 from __future__ import annotations
 
 import re
-import subprocess
 
 import pytest
 
-from tests.ros_support import TENSEGRITY
+from tests.forked_cli import run_all
 
 pytestmark = pytest.mark.ros          # one case asks for a simulator over DDS
 
@@ -59,17 +58,6 @@ def test_the_unit_check_finds_a_bare_number_and_accepts_labelled_ones():
     assert numbers_without_units("the paper's fold (Sect. 5.3)") == []           # a reference, not a value
 
 
-def _run_all(cases: list[list[str]], cwd) -> list[subprocess.CompletedProcess]:
-    """Run every command at once (they are short and mostly wait), each to its end."""
-    procs = [subprocess.Popen([TENSEGRITY, *args], cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                              text=True) for args in cases]
-    out = []
-    for args, p in zip(cases, procs):
-        stdout, stderr = p.communicate(timeout=180)
-        out.append(subprocess.CompletedProcess(args, p.returncode, stdout, stderr))
-    return out
-
-
 BAD = [   # (arguments, a word the error line must name)
     (["simulate", "no_such_scene"], "no_such_scene"),
     (["up", "--scene", "no_such_scene"], "no_such_scene"),
@@ -86,7 +74,7 @@ def test_bad_arguments_give_one_line_and_a_non_zero_exit_code(tmp_path):
     (tmp_path / "notes.txt").write_text("this is not a bag\n")
     (tmp_path / "text_bag").mkdir()
     (tmp_path / "text_bag" / "text_bag_0.mcap").write_text("this is not a bag either\n")
-    for done, (args, named) in zip(_run_all([a for a, _ in BAD], tmp_path), BAD):
+    for done, (args, named) in zip(run_all([a for a, _ in BAD], tmp_path), BAD):
         said = done.stdout + done.stderr
         assert done.returncode != 0, (args, said)
         assert "Traceback" not in said, (args, said)
@@ -100,6 +88,6 @@ def test_robot_commands_print_a_unit_with_every_number(tmp_path):
     cases = [["simulate", "six_bar_drop", "--duration", "0.01", "-o", "drop.npz"],
              ["export", "mjcf", "six_bar", "-o", "six_bar.xml"],
              ["scenes"]]
-    for done in _run_all(cases, tmp_path):
+    for done in run_all(cases, tmp_path):
         assert done.returncode == 0, (done.args, done.stderr)
         assert numbers_without_units(done.stdout) == [], done.args

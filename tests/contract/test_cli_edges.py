@@ -4,7 +4,8 @@ node parameter out of its range, a scene or a plot path that is not there. Each 
 what it accepts, exit code 2, before any node is created (never a traceback, never a wait).
 
 Commands that keep the process's signal handling (``node``, ``up``, ``record``, ``play``) run
-as processes, the others in this process through the CLI's ``main``.
+as processes (forked from one interpreter that imported once: :mod:`tests.forked_cli`), the
+others in this process through the CLI's ``main``.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from tensegrity_ros.cli import main
-from tests.contract.test_cli import _run_all
+from tests.forked_cli import run_all
 
 pytestmark = pytest.mark.ros
 
@@ -115,7 +116,7 @@ def test_a_trajectory_whose_times_do_not_increase_is_refused_as_the_file_is_read
 
 
 def test_a_bad_argument_of_a_long_running_command_is_one_line_and_exit_2(tmp_path):
-    for done, (args, words) in zip(_run_all([a for a, _ in AS_PROCESSES], tmp_path), AS_PROCESSES):
+    for done, (args, words) in zip(run_all([a for a, _ in AS_PROCESSES], tmp_path), AS_PROCESSES):
         assert done.returncode == 2, (args, done.stdout, done.stderr)
         assert words in _one_error_line(done.stderr), args
     assert not (tmp_path / "bag").exists()                      # refused before anything was made

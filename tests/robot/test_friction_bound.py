@@ -18,6 +18,7 @@ from hypothesis import strategies as st
 from tensegrity_core.robot import friction
 from tensegrity_core.sim import compile_scene
 from tensegrity_core.sim.general.kernels.jit import have_numba
+from tensegrity_core.sim.general.kernels.plan import constant
 from tensegrity_core.sim.general.robot.loops import SLIPPING, STICKING
 from tensegrity_core.sim.general.robot.system import RobotSystem
 from tests.robot.test_dynamics import _model, random_state, robot_scene
@@ -85,7 +86,9 @@ def test_the_kernels_friction_obeys_coulomb_at_every_state(kernels, robot, seed,
     mu_s, mu_k = max(mu_a, mu_b), min(mu_a, mu_b)
     params = model.plan.floor_params.copy()
     params[2], params[3], params[5] = mu_s, mu_k, c_t
-    plan = model.plan._replace(floor_params=params)
+    # read-only, as every plan's arrays: a writable one is another numba signature, compiled
+    # anew (~30 s of CPU) in each process instead of loaded from the cache
+    plan = model.plan._replace(floor_params=constant(params))
     y, R_ref = random_state(model, seed)
     ncap = len(plan.cap_node)
     a0 = 2 * plan.n_dof + len(plan.motor_cable)

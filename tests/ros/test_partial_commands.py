@@ -33,10 +33,13 @@ def test_two_partial_actuator_forces_for_one_step_back_to_back_both_apply(cli, r
     client = SimClient(rclpy, "partial_commands_test", context=ros_context)
     other = rclpy.create_node("partial_commands_other", context=ros_context)
     try:
-        client.wait_for_services(30)
         first = client.pub
         second = other.create_publisher(ActuatorForces, "actuator_forces", QoSProfile(depth=10))
-        assert wait_for_matches([first, second], 1, 30)
+        # made after both publishers (one participant: one context), the client's probe
+        # proves the simulator's reader has matched both writers; a writer's own count
+        # proves its side only, and a stopped simulator discovers nothing
+        client.wait_for_services(30)
+        assert wait_for_matches([second], 1, 30, settle_s=0.0)
         client.set_law(None)
         for round_ in range(3):                  # three steps, each under two partial commands
             f1, f2 = 0.25 + 0.1 * round_, 0.65 - 0.1 * round_

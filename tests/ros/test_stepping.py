@@ -389,27 +389,27 @@ def test_the_sim_command_plays_pauses_and_steps_the_simulator(stepping, ros_cont
     OK, 1 with the simulator's code and reason, 2 for a bad command line."""
     import json
 
-    from tests.ros_support import run_cli
+    from tests.ros_support import run_client_here
 
     clock, spin = _clock_listener(ros_context)
     proc, client = stepping()                                  # free-running, real time
-    out = run_cli("sim", "pause")
+    out = run_client_here("sim", "pause")
     assert out.returncode == 0 and out.stdout.startswith("ok: playing -> paused"), out.stdout + out.stderr
     paused_at = _standing_clock(clock, spin)
-    out = run_cli("sim", "step", "3")
+    out = run_client_here("sim", "step", "3")
     assert out.returncode == 0 and "3 steps done" in out.stdout, out.stdout + out.stderr
     assert _standing_clock(clock, spin, above=paused_at) == paused_at + 3 * STEP_NS
     assert f"t = {(paused_at + 3 * STEP_NS) / 1e9:.9f} s" in out.stdout     # the answer says where it stands
     from simulation_interfaces.msg import SimulationState
 
-    state = json.loads(run_cli("sim", "state", "--json").stdout)
+    state = json.loads(run_client_here("sim", "state", "--json").stdout)
     assert state["ok"] and state["state"]["state"] == SimulationState.STATE_PAUSED
-    assert run_cli("sim", "play").returncode == 0
-    out = run_cli("sim", "step", "2")
+    assert run_client_here("sim", "play").returncode == 0
+    out = run_client_here("sim", "step", "2")
     assert out.returncode == 1 and out.stdout.startswith("failed (RESULT_OPERATION_FAILED)"), out.stdout
-    out = run_cli("sim", "play")
+    out = run_client_here("sim", "play")
     assert out.returncode == 0 and "already playing" in out.stdout            # ALREADY_IN_TARGET_STATE
-    out = run_cli("sim", "step")
+    out = run_client_here("sim", "step")
     assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1 and "Traceback" not in out.stderr
 
 

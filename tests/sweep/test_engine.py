@@ -4,8 +4,9 @@ a worker killed mid-sweep, a sweep killed mid-run and resumed, an unreachable sc
 The tests that need a running cluster, not a fresh one, share one embedded cluster (each
 with a client of its own, as separate sessions would); the test that kills one of its
 workers runs last on it. They come last in the module, after the tests that start clusters of
-their own: the shared one lives until the module ends. The embedded cluster's own start and
-the CLI's are tested apart."""
+their own: the shared one lives until the module ends. It is the embedded cluster
+(``start_local_cluster``), whose start ``run_sweep(workers=N)`` and the CLI's ``--workers N``
+share: tests/sweep/test_cli.py starts it through the CLI."""
 
 from __future__ import annotations
 
@@ -45,29 +46,6 @@ def listening(processes) -> set:
         except psutil.NoSuchProcess:
             pass
     return out
-
-
-def test_the_embedded_cluster_gives_the_serial_results_and_listens_on_loopback_only():
-    import psutil
-
-    sweep = load_sweep(monte_carlo_sweep(samples=8))
-    serial = run_sweep(sweep, workers=0, progress=False)
-    me = psutil.Process()
-    before = listening([me, *me.children(recursive=True)])     # not the cluster's
-    seen: dict = {}
-
-    def watch(done, failed, total):
-        if "sockets" not in seen:
-            workers = me.children(recursive=True)
-            seen["sockets"] = listening([me, *workers]) - before
-            seen["workers"] = len([p for p in workers if "python" in p.name().lower()])
-
-    table = run_sweep(sweep, workers=2, progress=watch)
-    same_rows(serial, table)
-    assert table.attrs["ran"] == 8 and list(table["status"]) == ["ok"] * 8
-    assert seen["sockets"] and {ip for ip, _ in seen["sockets"]} == {"127.0.0.1"}, seen
-    assert 8787 not in {port for _, port in seen["sockets"]}          # no dashboard
-    assert seen["workers"] >= 2
 
 
 def free_port() -> int:
@@ -213,13 +191,45 @@ def test_resume_drops_a_line_cut_short_and_refuses_another_sweeps_output(tmp_pat
 
 @pytest.fixture(scope="module")
 def shared_cluster():
-    """The module's embedded 2-worker cluster (``start_local_cluster``), its workers warmed
-    by a sweep of the fold (they import the core on their first task)."""
+    """The module's embedded 2-worker cluster (``start_local_cluster``, what ``run_sweep``
+    starts for ``workers=2``), its workers warmed by a sweep of the fold (they import the core
+    on their first task); ``cluster.listening_before`` is what this process and its children
+    listened on before it started."""
+    import psutil
+
     from tensegrity_core.sweep.engine import start_local_cluster
 
+    me = psutil.Process()
+    before = listening([me, *me.children(recursive=True)])     # not the cluster's
     with start_local_cluster(2) as cluster:
+        cluster.listening_before = before
         run_sweep(fold_sweep(), scheduler=cluster.scheduler_address, batch=1, progress=False)
         yield cluster
+
+
+def test_the_embedded_cluster_gives_the_serial_results_and_listens_on_loopback_only(shared_cluster):
+    """On the embedded cluster (the one ``run_sweep(workers=2)`` starts: the same
+    ``start_local_cluster``; the CLI's Ctrl-C tests start it through ``--workers 2``), the rows
+    of the serial run; its scheduler and workers listen on 127.0.0.1 only, no dashboard."""
+    import psutil
+
+    sweep = load_sweep(monte_carlo_sweep(samples=8))
+    serial = run_sweep(sweep, workers=0, progress=False)
+    me = psutil.Process()
+    seen: dict = {}
+
+    def watch(done, failed, total):
+        if "sockets" not in seen:
+            workers = me.children(recursive=True)
+            seen["sockets"] = listening([me, *workers]) - shared_cluster.listening_before
+            seen["workers"] = len([p for p in workers if "python" in p.name().lower()])
+
+    table = run_sweep(sweep, scheduler=shared_cluster.scheduler_address, progress=watch)
+    same_rows(serial, table)
+    assert table.attrs["ran"] == 8 and list(table["status"]) == ["ok"] * 8
+    assert seen["sockets"] and {ip for ip, _ in seen["sockets"]} == {"127.0.0.1"}, seen
+    assert 8787 not in {port for _, port in seen["sockets"]}          # no dashboard
+    assert seen["workers"] >= 2
 
 
 def test_a_connected_client_runs_several_sweeps_and_is_left_open_for_its_owner(monkeypatch, shared_cluster):
@@ -271,8 +281,11 @@ def test_a_sweep_stopped_early_cancels_its_tasks_and_leaves_a_kept_client_free(c
 
     from distributed import Client
 
+    # 5 s of the fold, ~0.07 s of CPU a point: after the first point 39 are left, ~1.4 s on each
+    # worker, far more than the 0.05 s before the Ctrl-C. A task already running when the sweep
+    # stops runs to its end (Dask does not cut a running task short): its points are short
     slow = fold_sweep(vary={"inputs.f1.gain": {"grid": {"from": 6.0, "to": 14.0, "num": 40}}},
-                      compute={"simulate": {"duration": 20.0}})      # ~0.1 s a point, ~2 s in all
+                      compute="simulate")
 
     def stop(done, failed, total):
         if how == "callback raises":

@@ -67,8 +67,10 @@ def test_a_line_over_one_quantity_has_units_on_both_axes():
 def test_a_heat_map_draws_a_boolean_as_two_categories():
     import matplotlib.pyplot as plt
 
+    # stable at diagonal factor 0.9, not at 1.1 (18 slack members), at either side factor; a side
+    # factor of 1.6 with 1.1 (35 slack) took the form-finding ~4 s of CPU, 1.3 takes ~0.2 s
     sweep = {"base": {"structure": "spine_c"},
-             "vary": {"members[side*].rest_length": {"values": [0.6, 1.6], "scale": True, "name": "side_factor"},
+             "vary": {"members[side*].rest_length": {"values": [0.6, 1.3], "scale": True, "name": "side_factor"},
                       "members[diag*].rest_length": {"values": [0.9, 1.1], "scale": True, "name": "diagonal_factor"}},
              "compute": "form_find", "results": ["stable", "slack_members", "max_member_force"]}
     _check(sweep, {"side_factor [1]", "diagonal_factor [1]", "slack_members [count]", "max_member_force [N]"})

@@ -21,6 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from tensegrity_core.sim.general.kernels import body_arrays
 from tensegrity_core.sim.general.kernels.jit import choose_kernels
+from tensegrity_core.sim.general.kernels.plan import constant
 from tensegrity_core.sim.general.robot import arrays, loops
 from tensegrity_core.sim.general.robot.plan import RobotPlan
 from tensegrity_core.sim.inputs import Commanded, Constant, InputLaw
@@ -86,13 +87,15 @@ class RobotSystem:
         # told apart once: a new command changes only ``commands``
         self._commanded = np.array([j for j, law in enumerate(self.laws) if isinstance(law, Commanded)],
                                    dtype=np.intp)
-        constant = [(j, law.value) for j, law in enumerate(self.laws) if isinstance(law, Constant)]
-        self._constant = np.array([j for j, _ in constant], dtype=np.intp)
-        self._constant_values = np.array([v for _, v in constant], dtype=np.float64)
+        constants = [(j, law.value) for j, law in enumerate(self.laws) if isinstance(law, Constant)]
+        self._constant = np.array([j for j, _ in constants], dtype=np.intp)
+        self._constant_values = np.array([v for _, v in constants], dtype=np.float64)
         self._timed = tuple((j, law) for j, law in enumerate(self.laws)
                             if not isinstance(law, (Commanded, Constant)))
-        self.modes: NDArray[np.int64] = np.ascontiguousarray(
-            np.zeros(len(plan.motor_cable)) if modes is None else modes, dtype=np.int64)
+        # read-only, as the plan's arrays: a writable one is another signature of the compiled
+        # kernels, compiled anew in each process instead of loaded from the warmed cache
+        self.modes: NDArray[np.int64] = constant(np.asarray(
+            np.zeros(len(plan.motor_cable)) if modes is None else modes, dtype=np.int64))
         self.R_ref = _arg(R_ref)
         self.kernels = choose_kernels(kernels)
         self._module: ModuleType = loops if self.kernels == "numba" else arrays
