@@ -231,16 +231,18 @@ def run_cli(*args: str, timeout: float = 120.0) -> subprocess.CompletedProcess:
     return subprocess.run([TENSEGRITY, *args], capture_output=True, text=True, timeout=timeout)
 
 
-def run_client_here(*args: str) -> subprocess.CompletedProcess:
-    """``tensegrity ARGS`` for a short-lived ROS client command (``sim``, ``call-ik``, ...) run
-    in this process through the command line's ``main``, its output and exit code as
-    :func:`run_cli` gives them: for tests of what the command says and does, not of its
-    process, a call then costs no interpreter start (~1.5-2 s of CPU with rclpy). The command
-    uses rclpy's default context, which this process's tests leave alone (they use private
-    ones), and ends it; the SIGINT and SIGTERM handlers it sets are put back. Output rcl
-    writes to the file descriptors directly is not captured: tests of what a process prints
-    in all run :func:`run_cli`. An exception that escapes ``main`` fails the test."""
+def run_cli_here(*args: str) -> subprocess.CompletedProcess:
+    """``tensegrity ARGS`` run in this process through the command line's ``main``, its output
+    and exit code as :func:`run_cli` gives them: for tests of what a command says and does, not
+    of its process (bag commands that need no ROS; short-lived ROS clients such as ``sim`` and
+    ``call-ik``), a call then costs no interpreter start (~1-2 s of CPU). A ROS client uses
+    rclpy's default context, which this process's tests leave alone (they use private ones),
+    and ends it; the SIGINT and SIGTERM handlers a command sets are put back, and the objects
+    ``main`` freezes for its process's exit are unfrozen. Output rcl writes to the file
+    descriptors directly is not captured: tests of what a process prints in all run
+    :func:`run_cli`. An exception that escapes ``main`` fails the test."""
     import contextlib
+    import gc
     import io
 
     from tensegrity_ros.cli import main
@@ -256,6 +258,7 @@ def run_client_here(*args: str) -> subprocess.CompletedProcess:
     finally:
         for sig, handler in handlers.items():
             signal.signal(sig, handler)
+        gc.unfreeze()
     return subprocess.CompletedProcess(["tensegrity", *args], code, out.getvalue(), err.getvalue())
 
 

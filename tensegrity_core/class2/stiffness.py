@@ -289,7 +289,7 @@ def stiffness_matrix_energy_fd(rho1: float, rho2: float, f: float = 0.0, beta: f
     h = 1e-4 * params.L if step is None else float(step)
 
     # the 4 x 28 displaced coordinate sets of the central differences, their energies in one
-    # batch: one energy per call spent ~100 ms per Hessian in numpy's per-call overhead, ~8 ms so
+    # batch: one energy per call spent ~10 ms of CPU per Hessian in numpy's per-call overhead, ~1 ms so
     i, j = np.triu_indices(7)
     X = np.repeat(X0[None], 4 * len(i), axis=0).reshape(4, len(i), 12)
     for k, (si, sj) in enumerate(((1, 1), (1, -1), (-1, 1), (-1, -1))):

@@ -2,33 +2,9 @@
 
 from __future__ import annotations
 
-import contextlib
-import gc
-import io
-import subprocess
-
 import pytest
 
-from tests.ros_support import Proc, cli, ros_context, run_cli  # noqa: F401  (fixtures and helpers)
-
-
-def run_cli_here(*args: str) -> subprocess.CompletedProcess:
-    """``tensegrity ARGS`` run in this process (the command line's ``main``), its output and
-    exit code as :func:`run_cli` returns them, for the bag commands that need no ROS (``bag
-    info``, ``repair``, ``plot``): a test about the reader's verdict on many bags then costs
-    no interpreter start-up per bag (~1 s each on a busy machine). An exception that escapes
-    ``main`` fails the test with its traceback, as it would print one from a process; the
-    tests that check what a real process prints and returns run :func:`run_cli`."""
-    from tensegrity_ros.cli import main
-
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            code = main(list(args))
-        except SystemExit as exit_:           # argparse's refusals
-            code = exit_.code if isinstance(exit_.code, int) else 1
-    gc.unfreeze()       # main() freezes the process's objects for its exit, which comes later here
-    return subprocess.CompletedProcess(["tensegrity", *args], code, out.getvalue(), err.getvalue())
+from tests.ros_support import Proc, cli, ros_context, run_cli, run_cli_here  # noqa: F401  (fixtures and helpers)
 
 
 def rosbags_cdr_samples(n: int):

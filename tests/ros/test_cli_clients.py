@@ -1,6 +1,6 @@
 """The client commands users run without the ros2 CLI: call-ik, send-forces, echo (issue 6).
 
-What a command says and returns is checked in this process (``run_client_here``); what a
+What a command says and returns is checked in this process (``run_cli_here``); what a
 process prints in all (one exact error line), and how it stops on a signal, with processes."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import time
 import pytest
 
 from tests.process_groups import kill_group, wait_group
-from tests.ros_support import TENSEGRITY, run_cli, run_client_here, spawn
+from tests.ros_support import TENSEGRITY, run_cli, run_cli_here, spawn
 
 pytestmark = pytest.mark.ros
 
@@ -26,22 +26,22 @@ def test_call_ik_json_reaches_the_target(cli):
     # D for rho = (0.5, 0.6) from the energy-minimising beta (paper parameters)
     beta = math.atan2(math.sqrt(4 - 1.1**2), 3 * 0.6 - 0.5)
     x, y = 0.5 + math.cos(beta), math.sin(beta)
-    out = run_client_here("call-ik", f"{x!r}", f"{y!r}", "--json")
+    out = run_cli_here("call-ik", f"{x!r}", f"{y!r}", "--json")
     assert out.returncode == 0, out.stderr
     data = json.loads(out.stdout)
     assert data["success"] and len(data["solutions"]) == 1
     s = data["solutions"][0]
     assert (s["rho1"], s["rho2"]) == pytest.approx((0.5, 0.6), abs=1e-10)
-    bad = run_client_here("call-ik", "5", "5")
+    bad = run_cli_here("call-ik", "5", "5")
     assert bad.returncode == 1 and bad.stdout.startswith("failed:")
 
 
 def test_send_forces_then_echo_shows_them_applied(cli):
     sim = cli("node", "sim", "--ros-args", "-p", "command_timeout:=0.0", log_name="sim")
     sim.wait_for("publishing at")
-    out = run_client_here("send-forces", "0.5", "-0.2")
+    out = run_cli_here("send-forces", "0.5", "-0.2")
     assert out.returncode == 0, out.stderr
-    echo = run_client_here("echo", "joint_states", "-c", "1", "--json", "--timeout", "30")
+    echo = run_cli_here("echo", "joint_states", "-c", "1", "--json", "--timeout", "30")
     assert echo.returncode == 0, echo.stderr
     msg = json.loads(echo.stdout.splitlines()[0])
     assert msg["name"] == ["rho1", "rho2", "beta"]
@@ -49,7 +49,7 @@ def test_send_forces_then_echo_shows_them_applied(cli):
 
 
 def test_service_missing_is_one_clear_line():
-    out = run_client_here("call-ik", "1", "1", "--service", "no_such_service", "--timeout", "1")
+    out = run_cli_here("call-ik", "1", "1", "--service", "no_such_service", "--timeout", "1")
     assert out.returncode == 3
     assert out.stderr.startswith("error: service /no_such_service not available")
 
@@ -63,7 +63,7 @@ def test_a_service_under_another_namespace_is_named_with_the_remap_that_reaches_
     assert out.returncode == 3
     assert out.stderr == ("error: service /solve_ik not available after 5 s (is the suite up? `tensegrity up`); "
                           "found /hint_ns/solve_ik: add --ros-args -r __ns:=/hint_ns\n"), out.stderr
-    reached = run_client_here("call-ik", "1.2", "0.9", "--timeout", "30", "--ros-args", "-r", "__ns:=/hint_ns")
+    reached = run_cli_here("call-ik", "1.2", "0.9", "--timeout", "30", "--ros-args", "-r", "__ns:=/hint_ns")
     assert reached.returncode in (0, 1) and "not available" not in reached.stderr, reached.stderr
 
 
