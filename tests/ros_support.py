@@ -194,9 +194,15 @@ class Proc:
     def wait_for(self, text: str, timeout: float = 30.0, *, since: int = 0) -> None:
         """Until ``text`` is in the stderr after its first ``since`` characters."""
         deadline = time.monotonic() + timeout
-        while text not in self.stderr()[since:]:
-            if exited(self.popen) or time.monotonic() > deadline:
-                raise AssertionError(f"never saw {text!r}; stderr:\n{self.stderr()}")
+        while True:
+            # exit and deadline are read before the log: a process that writes ``text`` as it
+            # exits (its last line) has written it by the time it is seen to have exited
+            over = exited(self.popen) or time.monotonic() > deadline
+            log = self.stderr()
+            if text in log[since:]:
+                return
+            if over:
+                raise AssertionError(f"never saw {text!r}; stderr:\n{log}")
             time.sleep(0.05)
 
     def stop(self, sig=signal.SIGINT, timeout: float = 60.0) -> int:
