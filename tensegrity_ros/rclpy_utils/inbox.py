@@ -9,11 +9,15 @@ its subscription's callback, oldest first: the same calls rclpy's own
 ``rclpy.wait_for_message`` makes, kept for the life of the node.
 
 The subscriptions are made on a node that no executor spins (their callbacks are called
-only from :meth:`Inbox.wait`); :meth:`Inbox.wake` ends a wait at once (a stop).
+only from :meth:`Inbox.wait` and :meth:`Inbox.take_queued`); :meth:`Inbox.wake` ends a wait
+at once (a stop). Messages are taken and handed on under one lock, so a message taken by one
+thread has been handled when another thread's :meth:`Inbox.take_queued` returns, and each
+subscription's messages reach its callback in the order they came.
 """
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from typing import Any
 
@@ -33,6 +37,7 @@ class Inbox:
         self._subscriptions: list[Subscription] = []
         self._wake = node.create_guard_condition(lambda: None)
         self._wait_set: Any = None
+        self._taking = threading.Lock()      # a take and its callback: one thread at a time
 
     def subscribe(self, msg_type: Any, topic: str, callback: Callable[[Any], None],
                   qos: QoSProfile | int, *, raw: bool = False) -> Subscription:
@@ -55,17 +60,24 @@ class Inbox:
         wait_set.add_guard_condition(self._wake.handle)
         wait_set.wait(max(0, int(timeout_s * NS_PER_S)))
         ready = wait_set.get_ready_entities("subscription")
+        return self._take([s for s in self._subscriptions if s.handle.pointer in ready])
+
+    def take_queued(self) -> int:
+        """Hand every message queued now to its callback, without waiting (from any thread:
+        one that must act on every message already received); how many."""
+        return self._take(self._subscriptions)
+
+    def _take(self, subscriptions: list[Subscription]) -> int:
         handled = 0
-        for subscription in self._subscriptions:
-            if subscription.handle.pointer not in ready:
-                continue
-            while True:
-                with subscription.handle:
-                    taken = subscription.handle.take_message(subscription.msg_type, subscription.raw)
-                if taken is None:
-                    break
-                subscription.callback(taken[0])
-                handled += 1
+        with self._taking:
+            for subscription in subscriptions:
+                while True:
+                    with subscription.handle:
+                        taken = subscription.handle.take_message(subscription.msg_type, subscription.raw)
+                    if taken is None:
+                        break
+                    subscription.callback(taken[0])
+                    handled += 1
         return handled
 
     def wake(self) -> None:

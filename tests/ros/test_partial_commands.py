@@ -3,7 +3,11 @@
 Two controllers each command one actuator of the class-2 mechanism for the same lockstep
 step. Their messages arrive back to back: the simulator's process is stopped (SIGSTOP)
 while both are published, so both are in its reader's queue before its command thread
-can take either. The step must run under both (the gate merges them in arrival order)."""
+can take either (when DDS delivers them as the simulator resumes; a send it repairs later
+comes alone). Both are acknowledged by the simulator's reader before the step is requested:
+a command received before a stepping request counts for its step, even one its command
+thread has not taken yet (docs/ros.md: several commands for t_k that arrive while paused
+make one command). The step must run under both (the gate merges them in arrival order)."""
 
 from __future__ import annotations
 
@@ -20,6 +24,7 @@ STEP_NS = 10_000_000          # 10 ms
 
 def test_two_partial_actuator_forces_for_one_step_back_to_back_both_apply(cli, ros_context):
     import rclpy
+    from rclpy.duration import Duration
     from rclpy.qos import QoSProfile
     from tensegrity_msgs.msg import ActuatorForces
 
@@ -54,6 +59,11 @@ def test_two_partial_actuator_forces_for_one_step_back_to_back_both_apply(cli, r
                 time.sleep(0.2)                  # both are on their way to the stopped reader
             finally:
                 os.killpg(proc.popen.pid, signal.SIGCONT)
+            # a reliable writer's first send to a stopped process may be lost and repaired
+            # later, from each writer on its own (seen under load: the two came 20-40 ms after
+            # the step request, in reverse order): the step waits until both are received
+            for pub in (first, second):
+                assert pub.wait_for_all_acked(Duration(seconds=30)), "the simulator never received a command"
             client.step(1)
             joint = client.wait_joint(stamp + STEP_NS)
             assert tuple(joint.effort[:2]) == (f1, f2), (round_, tuple(joint.effort[:2]), proc.stderr()[-2000:])

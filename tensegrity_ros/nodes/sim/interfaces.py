@@ -42,6 +42,7 @@ if TYPE_CHECKING:
     from tensegrity_ros.nodes.sim.parameters import SimParameters
     from tensegrity_ros.nodes.sim.plant import SimPlant
     from tensegrity_ros.nodes.sim.schedule import TickSchedule
+    from tensegrity_ros.rclpy_utils.inbox import Inbox
 
 #: Free-running StepSimulation requests up to this many steps run in the service callback.
 SYNC_STEPS = 100
@@ -63,6 +64,7 @@ class SimulationInterfaces(Node):
     _lock: threading.Lock
     _wake: threading.Event
     _due: float | None
+    _inbox: Inbox                    # the command subscriptions (the command thread takes them)
 
     if TYPE_CHECKING:
         def _reset(self, *, keep_time: bool, why: str) -> None: ...
@@ -72,6 +74,14 @@ class SimulationInterfaces(Node):
         def _effective_command(self, now: float) -> list[float]: ...
         def _start_request(self, req: StepRequest) -> Answer | None: ...
         def _end_request(self, answer: Answer) -> None: ...
+
+    def _take_queued_commands(self) -> None:
+        """Apply every command received before stepping starts (a stepping request, play; call
+        without the lock). Commands and requests come on separate topics and threads: a command
+        sent before the request may still be queued when the request is handled, and in lockstep
+        the step would run without it (a second controller's partial command for that step would
+        then be refused as stale)."""
+        self._inbox.take_queued()
 
     def _create_interfaces(self) -> None:
         self.create_service(Trigger, "reset", self.on_reset)
@@ -125,6 +135,8 @@ class SimulationInterfaces(Node):
     def on_set_state(self, req: SetSimulationState.Request, res: SetSimulationState.Response
                      ) -> SetSimulationState.Response:
         target = int(req.state.state)
+        if target == PLAYING:
+            self._take_queued_commands()
         with self._lock:
             if self.request is not None and target == PLAYING:
                 answer = Answer(Result.RESULT_INCORRECT_STATE, "a stepping request is running: cancel it or wait")
@@ -185,6 +197,7 @@ class SimulationInterfaces(Node):
             return res
         future = self._wait_future()
         request = StepRequest(int(req.steps), done=future.set_result)
+        self._take_queued_commands()
         with self._lock:
             refusal = self._start_request(request)
         _fill(res.result, refusal if refusal is not None else await future)
@@ -206,6 +219,7 @@ class SimulationInterfaces(Node):
 
         request = StepRequest(int(goal_handle.request.steps), done=future.set_result, feedback=feedback,
                               owner=goal_handle)
+        self._take_queued_commands()
         with self._lock:
             refusal = self._start_request(request)
         answer = refusal if refusal is not None else await future
