@@ -20,6 +20,12 @@ NS = "/gait_test"
 #: m: a tip over an edge of a closed face carries the centre of mass from 0.300 m inside
 #: the edge (the triangle's inradius less the sag, docs/robots.md) to beyond it.
 CLOSED_FACE_MARGIN = 0.30
+#: The suite's lockstep loop paced at real time: unpaced, a playing lockstep simulator and
+#: its cable controller step as fast as they can from the suite's start to the test's end,
+#: most of it while the test's clients start (~25 s of CPU a test beside two busy
+#: processes); paced, no step is lost either (a late answer slows the clock), and a gait
+#: of a few seconds of simulation time takes those seconds.
+PACED = ("-p", "lockstep_real_time_factor:=1.0")
 
 
 def test_gait_says_when_no_suite_is_up_and_rolls_the_six_bar(cli, tmp_path):
@@ -28,9 +34,11 @@ def test_gait_says_when_no_suite_is_up_and_rolls_the_six_bar(cli, tmp_path):
     assert r.stderr.strip().splitlines() == [f"error: no simulator answers in namespace {NS} after 1 s (is the suite "
                                              "up? `tensegrity up --scene six_bar_rest`)"]
 
-    # in lockstep: the cable controller answers every state, so the run goes as fast as that loop
+    # in lockstep: the cable controller answers every state, so no step is lost on a loaded
+    # machine; paced at real time (PACED), the loop does not burn both cores on steps nobody
+    # watches while the test starts its clients
     up = cli("up", "--scene", "six_bar_rest", "--no-formfind", "--namespace", NS, "--ros-args", "-p",
-             "lockstep:=true", log_name="up")
+             "lockstep:=true", *PACED, log_name="up")
     deadline = time.monotonic() + 120                  # a guard against a hang, not a timing
     while "cable controller ready" not in _stdout_so_far(up):
         assert up.popen.poll() is None and time.monotonic() < deadline, _stdout_so_far(up)
@@ -82,7 +90,7 @@ def test_a_gait_waits_for_slow_motors_to_arrive(cli):
     once they are there."""
     ns = NS + "_three_bar"
     up = cli("up", "--scene", "three_bar_drop", "--no-formfind", "--namespace", ns, "--ros-args", "-p",
-             "lockstep:=true", log_name="up_three_bar")
+             "lockstep:=true", *PACED, log_name="up_three_bar")
     deadline = time.monotonic() + 120                  # a guard against a hang, not a timing
     while "cable controller ready" not in _stdout_so_far(up):
         assert up.popen.poll() is None and time.monotonic() < deadline, _stdout_so_far(up)
