@@ -402,6 +402,7 @@ def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool 
     finally:
         if rec is not None:
             rec.stop()
+        ctl.close()
         client.close()
         rclpy.try_shutdown()
         controller.stop()

@@ -40,6 +40,9 @@ TRAJECTORY = ((2.0, (0.71, 0.69)), (4.0, (0.72, 0.70)), (6.0, (0.70, 0.70)))
 TRAJECTORY_GOAL_TIME = 5.0   # s after the last point to come within the goal tolerance
 TRAJECTORY_TOLERANCE = 1e-4  # m, each length at the end
 
+#: s: the longest a wait for the controller's answer stays in a wait set at a time (Ctrl-C,
+#: a Python signal handler, runs only between two waits: a wait set is not woken by it)
+WAIT_SLICE = 0.1
 #: ROS parameters of the demo's controller (the simulator is stepped by the demo: between
 #: goals it stands paused, which the controller's watchdog must not read as a stopped one).
 CONTROLLER_PARAMETERS = {"settle_timeout": SETTLE_TIMEOUT, "settle_window": SETTLE_WINDOW,
@@ -72,14 +75,22 @@ class TrajectoryReport:
 
 
 class ControllerClient:
-    """Action clients of the controller and a listener of its commands, on the node of a
-    :class:`SimClient` (whose executor spins them)."""
+    """Action clients of the controller, on the node of a :class:`SimClient` (whose executor
+    spins them), and a listener of its commands on a node of its own that no executor spins:
+    the commands are taken only where :meth:`wait_answered` needs them, on the caller's thread
+    (:class:`~tensegrity_ros.rclpy_utils.inbox.Inbox`), not woken for one by one at every step
+    (an executor's wake-up per message costs ~0.5 ms of CPU, :mod:`~tensegrity_ros.rclpy_utils.raw_take`).
+    Its history keeps the last 1000 commands: the one waited for is always the latest, the
+    answer to the state the paused simulator stands at."""
 
     def __init__(self, sim: SimClient) -> None:
         from rclpy.action import ActionClient
+        from rclpy.node import Node
         from rclpy.qos import QoSProfile
         from tensegrity_msgs.action import FollowActuatorTrajectory, MoveEndEffector
         from tensegrity_msgs.msg import ActuatorForces
+
+        from tensegrity_ros.rclpy_utils.inbox import Inbox
 
         self.sim = sim
         self.Move, self.Follow = MoveEndEffector, FollowActuatorTrajectory
@@ -89,13 +100,15 @@ class ControllerClient:
         self.follow = ActionClient(sim.node, FollowActuatorTrajectory, "follow_actuator_trajectory",
                                    feedback_sub_qos_profile=feedback_qos)
         self._answered: set[int] = set()
-        self._cond = threading.Condition()
-        sim.node.create_subscription(ActuatorForces, "actuator_forces", self._on_command, QoSProfile(depth=1000))
+        self._commands_node = Node(f"_{sim.node.get_name()}_commands", namespace=sim.node.get_namespace(),
+                                   context=sim.node.context, use_global_arguments=False,
+                                   start_parameter_services=False, enable_rosout=False)
+        self._commands = Inbox(self._commands_node)
+        self._commands.subscribe(ActuatorForces, sim.node.resolve_topic_name("actuator_forces"), self._on_command,
+                                 QoSProfile(depth=1000))
 
     def _on_command(self, msg: Any) -> None:
-        with self._cond:
-            self._answered.add(msg.header.stamp.sec * NS_PER_S + msg.header.stamp.nanosec)
-            self._cond.notify_all()
+        self._answered.add(msg.header.stamp.sec * NS_PER_S + msg.header.stamp.nanosec)
 
     def wait_for_servers(self, timeout: float = 60.0) -> None:
         for client in (self.move, self.follow):
@@ -118,8 +131,8 @@ class ControllerClient:
             self.sim.reset_all()
             try:
                 self.wait_answered(0, min(ask_every, max(0.0, deadline - time.monotonic())))
-                with self._cond:
-                    self._answered.clear()    # the next wait for t = 0 waits for the next answer
+                self._commands.wait(0.0)      # the answers here now are this one's, not the next wait's
+                self._answered.clear()        # the next wait for t = 0 waits for the next answer
                 return
             except RuntimeError:
                 if time.monotonic() >= deadline:
@@ -128,10 +141,17 @@ class ControllerClient:
 
     def wait_answered(self, stamp_ns: int, timeout: float = 60.0) -> None:
         """Wait until the controller has answered the state stamped ``stamp_ns``."""
-        with self._cond:
-            if not self._cond.wait_for(lambda: stamp_ns in self._answered, timeout):
+        deadline = time.monotonic() + timeout
+        self._commands.wait(0.0)
+        while stamp_ns not in self._answered:
+            left = deadline - time.monotonic()
+            if left <= 0.0:
                 raise RuntimeError(f"the controller did not answer the state at t = {stamp_ns / NS_PER_S:.9f} s "
                                    f"within {timeout:g} s")
+            self._commands.wait(min(left, WAIT_SLICE))
+
+    def close(self) -> None:
+        self._commands_node.destroy_node()
 
     def run_goal(self, action: Any, goal: Any, steps: int, from_ns: int, step_ns: int,
                  timeout: float = 120.0) -> tuple[int, Any, list[Any]]:

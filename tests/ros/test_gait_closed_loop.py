@@ -18,7 +18,7 @@ import re
 
 import pytest
 
-from tests.ros_support import Proc, run_cli
+from tests.ros_support import Proc, run_cli, run_cli_here
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
@@ -96,8 +96,13 @@ def test_the_closed_loop_gait_rolls_exactly_the_faces_asked_in_lockstep(cli, tmp
                      r"briefly\)$", r.stdout, re.M), r.stdout
 
     # the suite's cable controller started beside the gait's lockstep suite: two answers to a
-    # state, and the simulator steps on the first; refused in one line naming it, whether the
-    # gait finds it in the graph before it starts or hears its answers once it runs
+    # state; refused in one line naming it, whether the gait finds it in the graph before it
+    # starts or hears its answers once it runs. The simulator is paused first: playing, it would
+    # step as fast as the controller answers while the gait starts (~25 s of CPU of the two
+    # beside busy processes); paused, it republishes its state (paused_publish_rate, 1 Hz),
+    # which the controller answers, in the graph the same
+    paused = run_cli_here("sim", "pause", "--ros-args", "-r", f"__ns:={NS}")
+    assert paused.returncode == 0, paused.stdout + paused.stderr
     controller = Proc(["node", "cables", "--ros-args", "-r", f"__ns:={NS}", "-p", "scene:=six_bar_rest"],
                       tmp_path / "cables.log")
     try:
