@@ -21,7 +21,6 @@ rotation-vector increments at ``dtheta = 0``) -- i.e. exactly the physical resid
 from __future__ import annotations
 
 import math
-
 from dataclasses import dataclass
 from typing import Literal, TypeAlias, overload
 
