@@ -122,14 +122,12 @@ class Configuration:
         lay = self.structure.layout
         dU = np.asarray(dU, dtype=float)
         coords = self.coords.copy()
-        free = lay.free_index >= 0
-        coords[free] += dU[lay.free_index[free]]
+        coords[lay.free_mask] += dU[lay.free_dofs]
         if lay.body_dof.size:
-            d = dU[lay.body_dof[:, None] + np.arange(6)[None, :]]
+            d = dU[lay.body_dofs]
             centres = self.centres + d[:, :3]
             rotations = exp_so3(d[:, 3:]) @ self.rotations
-            on = lay.node_body >= 0
-            slot = lay.node_body[on]
+            on, slot = lay.on_body, lay.body_slot
             coords[on] = centres[slot] + np.einsum("kij,kj->ki", rotations[slot], lay.offsets[on])
         else:
             centres, rotations = self.centres, self.rotations
@@ -140,8 +138,8 @@ class Configuration:
         (zero for other nodes)."""
         lay = self.structure.layout
         r = np.zeros_like(self.coords)
-        on = lay.node_body >= 0
-        r[on] = self.coords[on] - self.centres[lay.node_body[on]]
+        on = lay.on_body
+        r[on] = self.coords[on] - self.centres[lay.body_slot]
         return r
 
 

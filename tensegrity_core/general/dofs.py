@@ -78,7 +78,11 @@ class DofLayout:
     follows at +3); ``moving_bodies`` the structure's body indices that move;
     ``offsets`` (n, 3) body-frame offsets ``p_j`` of body nodes (zero elsewhere);
     ``fixed_mask`` (n, 3) bool, coordinates that never move; ``body_radii`` (nb,) the
-    largest node distance from each body's centre [m].
+    largest node distance from each body's centre [m]. Derived once, for the per-step
+    kernels (each numpy call on these small arrays costs a microsecond): ``free_mask`` (n, 3)
+    ``free_index >= 0``; ``free_dofs`` the ``U`` indices of ``free_index[free_mask]``;
+    ``on_body`` (n,) bool, nodes of moving bodies; ``body_slot`` their ``node_body``;
+    ``body_dofs`` (nb, 6) the ``U`` indices of each moving body (centre, then rotation).
     """
 
     def __init__(self, structure: StructureView) -> None:
@@ -121,6 +125,11 @@ class DofLayout:
         base = self.body_dof[node_body[on_body]]
         node_dofs[on_body] = base[:, None] + np.arange(6)[None, :]
         self.node_dofs = node_dofs
+        self.free_mask = free_index >= 0
+        self.free_dofs = free_index[self.free_mask]
+        self.on_body = on_body
+        self.body_slot = node_body[on_body]
+        self.body_dofs = self.body_dof[:, None] + np.arange(6)[None, :]
         self.names = structure.node_names
         self.body_names = tuple(structure.bodies[k].name for k in self.moving_bodies)
 
