@@ -111,6 +111,27 @@ class Client:
         assert value, f"waited {timeout:g} s for {what}"
         return value
 
+    def wait_for(self, topic: str, found: Callable[[Any], Any], what: str, *, since: int = 0,
+                 timeout: float = PATIENCE) -> Any:
+        """The first message of ``topic`` from ``received[topic][since]`` on for which
+        ``found(message)`` is true. Each message is tested once: :meth:`wait` evaluates its
+        condition at every arrival on any topic (some 400 a second) holding the lock the spin
+        thread adds under, so a condition over every message so far (thousands, late in a
+        module) holds that thread up until its readers' queues overflow and drop the very
+        messages waited for."""
+        checked = since
+
+        def scan() -> tuple[Any] | None:
+            nonlocal checked
+            received = self.received[topic]
+            while checked < len(received):
+                checked += 1
+                if found(received[checked - 1]):
+                    return (received[checked - 1],)
+            return None
+
+        return self.wait(scan, what, timeout)[0]
+
     def wait_count(self, topic: str, n: int, timeout: float = PATIENCE) -> list[Any]:
         """Until ``n`` more messages of ``topic`` have arrived; those messages."""
         start = len(self.received[topic])

@@ -95,29 +95,58 @@ class _Feedback:
     """The feedback the server published for one goal, in order, as it arrives: read on the
     action's feedback topic, because rclpy's ActionClient (Jazzy) drops a goal's feedback
     once the goal's result has come, and the result comes on another topic, so the feedback
-    of the state that ended a goal may reach the client after its result."""
+    of the state that ended a goal may reach the client after its result. The topic's
+    messages from ``since`` on are sorted as they come, each once: a condition of
+    ``Client.wait`` is evaluated at every arrival (see ``Client.wait_for``)."""
 
-    def __init__(self, client, goal_id) -> None:
+    def __init__(self, client, goal_id, since: int) -> None:
+        self._client = client
         self._received, self._id = client.received[FEEDBACK], bytes(goal_id.uuid)
+        self._sorted, self._ours = since, []
+
+    def _update(self) -> list:
+        received = self._received
+        while self._sorted < len(received):
+            message = received[self._sorted]
+            self._sorted += 1
+            if bytes(message.goal_id.uuid) == self._id:
+                self._ours.append(message.feedback)
+        return self._ours
 
     def __iter__(self):
-        return iter([m.feedback for m in list(self._received) if bytes(m.goal_id.uuid) == self._id])
+        return iter(list(self._update()))
 
     def __len__(self) -> int:
-        return len(list(iter(self)))
+        return len(self._update())
+
+    def wait_for(self, found, what: str):
+        """The goal's first feedback for which ``found(feedback)`` is true, each tested once."""
+        checked = 0
+
+        def scan():
+            nonlocal checked
+            ours = self._update()
+            while checked < len(ours):
+                checked += 1
+                if found(ours[checked - 1]):
+                    return (ours[checked - 1],)
+            return None
+
+        return self._client.wait(scan, what)[0]
 
 
 def _send(client, action, goal):
     """The goal's handle and its :class:`_Feedback`."""
+    since = len(client.received[FEEDBACK])          # the goal's feedback comes after this
     handle = client.ask(lambda: action.send_goal_async(goal), "the goal response")
-    return handle, _Feedback(client, handle.goal_id)
+    return handle, _Feedback(client, handle.goal_id, since)
 
 
 def _until_the_end(client, feedback, duration_ns: int) -> None:
     """Until the feedback of a state at or after the trajectory's end (``duration_ns``) has
     come, and with it, on the server's one feedback writer, every earlier feedback."""
-    client.wait(lambda: any(stamp_ns(fb.desired.time_from_start) >= duration_ns for fb in feedback),
-                "the feedback of a state after the trajectory's end")
+    feedback.wait_for(lambda fb: stamp_ns(fb.desired.time_from_start) >= duration_ns,
+                      "the feedback of a state after the trajectory's end")
 
 
 def _outcome(client, handle):
@@ -147,9 +176,8 @@ def test_a_goal_in_any_joint_order_is_followed_and_reported_as_joint_trajectory_
     # feedback and result are separate topics: the result may come before the last
     # feedbacks, up to that of the state that ended the goal (after the trajectory's end,
     # within the goal tolerance)
-    client.wait(lambda: any(stamp_ns(fb.desired.time_from_start) >= 300_000_000
-                            and all(abs(e) <= tol for e in fb.error.positions) for fb in feedback),
-                "the feedback of the state that ended the goal")
+    feedback.wait_for(lambda fb: stamp_ns(fb.desired.time_from_start) >= 300_000_000
+                      and all(abs(e) <= tol for e in fb.error.positions), "the feedback of the state that ended the goal")
     feedback = list(feedback)
     states = {stamp_ns(m.header.stamp): m for m in client.received["cable_states"]}
     for fb in feedback:
@@ -234,8 +262,8 @@ def test_a_goal_time_tolerance_of_minus_one_waits_as_long_as_the_goal_takes(suit
     status, result = _outcome(client, handle)
     assert (status, result.error_code) == (GoalStatus.STATUS_SUCCEEDED, SUCCESSFUL), result.error_string
     # it ran on past the trajectory's end: feedback 0.1 s after it, still outside the tolerance
-    client.wait(lambda: any(stamp_ns(fb.desired.time_from_start) >= 150_000_000 for fb in feedback),
-                "feedback 0.1 s after the trajectory's end")
+    feedback.wait_for(lambda fb: stamp_ns(fb.desired.time_from_start) >= 150_000_000,
+                      "feedback 0.1 s after the trajectory's end")
     assert any(stamp_ns(fb.desired.time_from_start) >= 150_000_000 and abs(fb.error.positions[0]) > 1e-4
                for fb in feedback)
     handle, _ = _send(client, action, _goal([(0.5, (NOMINAL,))], ("c1_7",), goal_time=2.0))   # back
@@ -536,6 +564,7 @@ def test_a_trajectory_on_the_joint_trajectory_topic_takes_over_and_is_followed(s
     trajectory = JointTrajectory(joint_names=[name], points=[
         JointTrajectoryPoint(positions=[target], time_from_start=Duration(nanosec=50_000_000))])
     deadline = time.monotonic() + 60.0
+    mark = len(client.received[STATE])       # this trajectory's states come after
     pub.publish(trajectory)
     while not arrived.wait(1.0):
         assert time.monotonic() < deadline, "waited 60 s for the topic's trajectory to take over"
@@ -543,10 +572,9 @@ def test_a_trajectory_on_the_joint_trajectory_topic_takes_over_and_is_followed(s
     answer = ended.result()
     assert (answer.status, answer.result.error_code) == (GoalStatus.STATUS_ABORTED, INVALID_GOAL)
     assert "preempted" in answer.result.error_string
-    states = client.received[STATE]
-    client.wait(lambda: any(stamp_ns(s.reference.time_from_start) >= 50_000_000
-                            and s.reference.positions[column] == pytest.approx(target, abs=1e-12)
-                            for s in list(states)), "a controller_state after the topic trajectory's end")
+    client.wait_for(STATE, lambda s: stamp_ns(s.reference.time_from_start) >= 50_000_000
+                    and s.reference.positions[column] == pytest.approx(target, abs=1e-12),
+                    "a controller_state after the topic trajectory's end", since=mark)
     client.wait(lambda: abs(_rest(client, (name,))[0] - target) <= 1e-3, "the rest length at the target")
     handle, _ = _send(client, action, _goal([(0.2, (start,))], (name,), goal_time=2.0))     # back
     assert _outcome(client, handle)[1].error_code == SUCCESSFUL
