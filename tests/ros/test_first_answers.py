@@ -11,7 +11,7 @@ with the suite's profile every call is answered.
 
 Each new client is made in a node whose participant the server already knows (a first
 answer proves it), as a user's next call is: the server then learns of each new endpoint
-from its own announcement, and the repair of a dropped one is a single resend. A
+from its own announcement, and a dropped one is resent after the next heartbeat. A
 participant the server does not know yet is announced to it in one burst of everything it
 has when the server finds it (Fast DDS's late-joiner path: a heartbeat, the server's
 request, the writer's answer); the test's 9 KB buffer drops most of that burst, which then
