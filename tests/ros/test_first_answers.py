@@ -9,8 +9,8 @@ arrives at once. The server then has a request and no reader to answer to. With 
 ``max_blocking_time`` of 0 it drops the answer and says so ("failed to send response");
 with the suite's profile every call is answered.
 
-Each new client is made in a node whose participant the server already knows (a first
-answer proves it), as a user's next call is: the server then learns of each new endpoint
+The suite profile's new clients are made in a node whose participant the server already
+knows (a first answer proves it), as a user's next call is: the server then learns of each new endpoint
 from its own announcement, and a dropped one is resent after the next heartbeat. A
 participant the server does not know yet is announced to it in one burst of everything it
 has when the server finds it (Fast DDS's late-joiner path: a heartbeat, the server's
@@ -61,11 +61,11 @@ def _start_server(profile: Path, namespace: str, log: Path) -> subprocess.Popen:
     return server
 
 
-def _first_calls(ctx, namespace: str, rounds: int, wait_s: float, stop) -> list[bool]:
+def _first_calls(ctx, namespace: str, rounds: int, wait_s: float, stop, *, known: bool) -> list[bool]:
     """``rounds`` new clients of ``solve_ik``, each called once right after
-    ``wait_for_service`` and after :data:`NOISE` new subscriptions, in a node the server has
-    answered once already: whether each was answered within ``wait_s`` (a liveness bound);
-    stops early when ``stop()``."""
+    ``wait_for_service`` and after :data:`NOISE` new subscriptions (``known``: in a node the
+    server has answered once already): whether each was answered within ``wait_s`` (a
+    liveness bound); stops early when ``stop()``."""
     from rcl_interfaces.srv import GetParameters
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
@@ -78,8 +78,9 @@ def _first_calls(ctx, namespace: str, rounds: int, wait_s: float, stop) -> list[
     node = Node("first_answers_client", namespace=namespace, context=ctx)
     executor = SingleThreadedExecutor(context=ctx)
     executor.add_node(node)
-    assert wait_until_answered(node, GetParameters, f"{namespace}/smoke_peer/get_parameters",
-                               lambda future, s: spin_until_done(executor, future, s), 60), "the server never heard this node"
+    assert not known or wait_until_answered(node, GetParameters, f"{namespace}/smoke_peer/get_parameters",
+                                            lambda future, s: spin_until_done(executor, future, s), 60), \
+        "the server never heard this node"
     answered = []
     for i in range(rounds):
         noise = [node.create_subscription(Empty, f"noise_{i}_{k}", lambda _m: None, 1) for k in range(NOISE)]
@@ -106,12 +107,14 @@ def _stop(server: subprocess.Popen) -> None:
 
 def test_a_server_without_the_wait_drops_a_first_answer(ros_context, tmp_path):
     """The provocation works: with max_blocking_time 0 the server drops an answer (it says
-    so on stderr) within 60 new clients (14 of 70 were dropped in three runs beside two busy
-    loops)."""
+    so on stderr) within 60 new clients. Its node is new to the server, so its first round
+    may take the late-joiner path: in a known node the rounds alone dropped none in 60 in 2
+    of 8 loaded runs (14 of 70 in three others), too rare for a bound of 60."""
     log = tmp_path / "server.log"
     server = _start_server(_server_profile(tmp_path, "no_wait", blocking_s=0), f"/first_lost_{os.getpid()}", log)
     try:
-        answered = _first_calls(ros_context, f"/first_lost_{os.getpid()}", 60, 3.0, lambda: LOST_LINE in log.read_text())
+        answered = _first_calls(ros_context, f"/first_lost_{os.getpid()}", 60, 3.0, lambda: LOST_LINE in log.read_text(),
+                                known=False)
     finally:
         _stop(server)
     assert LOST_LINE in log.read_text(), f"no answer dropped in {len(answered)} new clients"
@@ -122,7 +125,7 @@ def test_the_suite_profile_answers_every_first_call(ros_context, tmp_path):
     log = tmp_path / "server.log"
     server = _start_server(_server_profile(tmp_path, "suite", blocking_s=None), f"/first_kept_{os.getpid()}", log)
     try:
-        answered = _first_calls(ros_context, f"/first_kept_{os.getpid()}", 20, 30.0, lambda: False)
+        answered = _first_calls(ros_context, f"/first_kept_{os.getpid()}", 20, 30.0, lambda: False, known=True)
     finally:
         _stop(server)
     assert all(answered), f"answered: {answered}\n{log.read_text()}"
