@@ -40,7 +40,9 @@ long as it lasts), all rows.
 
 from __future__ import annotations
 
+import contextlib
 import http.client
+import io
 import math
 import os
 import re
@@ -252,16 +254,17 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
     browser = Browser(*WINDOW)
     browser.context.add_init_script(COUNT_RENDERS)
     try:
-        # the renderer alone: an empty viser page
-        bare = subprocess.Popen([sys.executable, "-c", "import time; from tensegrity_ros.view.server import "
-                                 "start_server; s = start_server(port=0); print('port', s.get_port(), flush=True); "
-                                 "time.sleep(600)"],
-                                stdout=subprocess.PIPE, text=True, env=env, start_new_session=True)
+        # the renderer alone: an empty viser page, served from this process (its server thread
+        # idles once the page has loaded: the browser's rate is the browser's own; a process of
+        # its own would cost a Python start and viser's import, ~2 CPU s, for nothing measured)
+        from tensegrity_ros.view.server import start_server
+
+        bare = start_server(port=0)
         try:
-            port = int(bare.stdout.readline().split()[-1])
-            bare_fps, _, _, _, _, _ = _page_rates(browser, f"http://127.0.0.1:{port}", seconds, empty=True)
+            bare_fps, _, _, _, _, _ = _page_rates(browser, f"http://127.0.0.1:{bare.get_port()}", seconds, empty=True)
         finally:
-            kill_group(bare)
+            with contextlib.redirect_stdout(io.StringIO()):     # viser's "Server stopped": not the table's
+                bare.stop()
         rows.append(Row("view", "empty viser page: animation frames per s", bare_fps, "fps"))
 
         # the 6-bar robot's and the spine's bags (states at 100 Hz, whatever the machine's speed),
