@@ -5,6 +5,7 @@ sockets, no ROS: about 1 s of CPU for the module (two Python children), 2 s of w
 
 from __future__ import annotations
 
+import os
 import signal
 import subprocess
 import sys
@@ -74,6 +75,7 @@ def test_a_stopped_holder_is_refused_unnamed_after_the_answer_bound(holder, name
     """A holder that cannot answer (SIGSTOP) still holds the namespace: the asker refuses
     after ANSWER_S without names instead of hanging or starting a second suite."""
     holder.send_signal(signal.SIGSTOP)
+    os.waitpid(holder.pid, os.WUNTRACED)    # every thread of it stopped (a signal is delivered later)
     try:
         start = time.monotonic()
         assert claim(7, namespace, []) == [UNNAMED]
