@@ -41,7 +41,8 @@ from tensegrity_ros.bag.reader import BagReader
 from tensegrity_ros.bag.recorder import message_class
 from tensegrity_ros.bag.scene import unread_custom_data
 from tensegrity_ros.bag.schedule import PlaybackOptions, timeline
-from tensegrity_ros.rclpy_utils.matching import wait_for_matches
+from tensegrity_ros.rclpy_utils.futures import wait_done
+from tensegrity_ros.rclpy_utils.matching import wait_for_matches, wait_until_subscribers_heard
 from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
 from tensegrity_ros.rclpy_utils.spin_thread import SpinThread
 from tensegrity_ros.rclpy_utils.stop_signals import stop_on_signals
@@ -49,6 +50,9 @@ from tensegrity_ros.rclpy_utils.stop_signals import stop_on_signals
 CLOCK_TOPIC = "/clock"
 #: Largest writer history per replayed topic [messages].
 REPLAY_HISTORY_CAP = 10_000
+#: s a subscribing node gets to answer the player's probe (a hang guard: a node that is not
+#: spinning cannot answer, and the replay then goes on as when nothing could be asked)
+HEARD_S = 10.0
 _SPIN_NS = 1_000_000  # poll the clock for the last 1 ms before an event
 
 
@@ -132,12 +136,22 @@ class PlayerNode(Node):
 
     def wait_for_subscribers(self, timeout_s: float, should_stop: Callable[[], bool] = lambda: False
                              ) -> bool:
-        """Wait until every publisher has a matched subscription, matched on both sides
-        (:func:`tensegrity_ros.rclpy_utils.matching.wait_for_matches`); False on timeout."""
+        """Wait until every publisher has a matched subscription
+        (:func:`tensegrity_ros.rclpy_utils.matching.wait_for_matches`; False on timeout), then
+        until every subscribing node has proven by an answer that its readers matched them
+        (:func:`~tensegrity_ros.rclpy_utils.matching.wait_until_subscribers_heard`: a reader
+        that matches later drops the first messages), at most :data:`HEARD_S` s, after which
+        a note says that the first messages may be lost. Another thread spins the node."""
         pubs = list(self.publishers_by_topic.values())
         if self.clock_publisher is not None:
             pubs.append(self.clock_publisher)
-        return wait_for_matches(pubs, 1, timeout_s, should_stop=should_stop)
+        if not wait_for_matches(pubs, 1, timeout_s, should_stop=should_stop):
+            return False
+        if not wait_until_subscribers_heard(self, pubs, wait_done, HEARD_S, should_stop=should_stop) \
+                and not should_stop():
+            self._log(f"note: not every subscribing node answered within {HEARD_S:g} s (is it spinning?): "
+                      "a reader that has not matched the player yet loses the first messages")
+        return True
 
     def play(self, should_stop: Callable[[], bool] = lambda: False,
              now_ns: Callable[[], int] = time.monotonic_ns,

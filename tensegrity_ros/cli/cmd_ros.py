@@ -205,17 +205,25 @@ def _up(args: argparse.Namespace) -> int:
         scene = ["--custom-data", f"scene={args.scene or DEFAULT_SCENE}"]
         # stopped after the others have exited: the bag holds their last messages
         specs.append(ProcessSpec("record", exe + ["record", "-o", args.record, *scene] + ros, stops_last=True))
+    from tensegrity_ros.apps.suite_claim import SuiteClaim
     from tensegrity_ros.apps.suite_presence import refusal, running_suite
+
+    claims: list[SuiteClaim] = []            # held until every child has exited
 
     def look() -> None:
         """Refuse when the suite runs here already (the children import meanwhile, held at
         their start gates: none of them is in the graph yet, :mod:`tensegrity_ros.apps.start_gate`)."""
-        found, namespace, domain = running_suite(ros)
-        if found:                        # a second suite would publish and serve the same names
-            raise CliError(refusal(found, namespace, domain), code=1)
+        presence = running_suite(ros, [s.name for s in specs])
+        if presence.found:               # a second suite would publish and serve the same names
+            raise CliError(refusal(presence.found, presence.namespace, presence.domain), code=1)
+        claims.extend([presence.claim] if presence.claim else [])
         print(f"starting {', '.join(s.name for s in specs)} (Ctrl-C stops all)", flush=True)
 
-    return Launcher(specs).run(look)
+    try:
+        return Launcher(specs).run(look)
+    finally:
+        for held in claims:
+            held.release()
 
 
 def _scene_interface(scene: str | None) -> Interface:

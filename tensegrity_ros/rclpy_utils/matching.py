@@ -11,7 +11,8 @@ count must stay up for that whole time), which covers that gap when the reader's
 runs in it; a reader's process that gets no CPU then (a loaded machine, a stopped process)
 is still behind. Where the reader's node serves something, an answer proves its match:
 :func:`wait_until_answered` asks it through a client made after the writers (a lockstep
-client's commands), :func:`wait_until_server_heard` before an action goal is sent.
+client's commands), :func:`wait_until_server_heard` before an action goal is sent, and
+:func:`wait_until_subscribers_heard` asks every subscribing node (a replay's first messages).
 """
 
 from __future__ import annotations
@@ -85,8 +86,6 @@ def wait_until_server_heard(node: Any, action_name: str, wait: Callable[[Any, fl
     caller's ``spin_until_done`` with its executor, or ``futures.wait_done`` when another
     thread spins ``node``. A server whose node has no parameter services gives False at once:
     nothing proves the match then, and the caller goes on as before."""
-    from rcl_interfaces.srv import GetParameters
-
     deadline = time.monotonic() + timeout_s
     # The graph names an endpoint's node only once that node's participant has said which
     # node owns it (until then rmw gives "_NODE_NAMESPACE_UNKNOWN_"); it fills in by itself.
@@ -96,19 +95,66 @@ def wait_until_server_heard(node: Any, action_name: str, wait: Callable[[Any, fl
             return False
         time.sleep(0.01)
     info = servers[0]
-    fq_node = f"{info.node_namespace.rstrip('/')}/{info.node_name}"
-    if not any(name == f"{fq_node}/get_parameters"
-               for name, _types in node.get_service_names_and_types_by_node(info.node_name, info.node_namespace)):
-        return False                     # no parameter services: nothing to ask
+    return _node_answered(node, info.node_name, info.node_namespace, wait, deadline, attempt_s=attempt_s) is True
+
+
+def wait_until_subscribers_heard(node: Any, publishers: Iterable[Any], wait: Callable[[Any, float], bool],
+                                 timeout_s: float, *, should_stop: Callable[[], bool] = lambda: False,
+                                 attempt_s: float = 1.0) -> bool:
+    """Return True once every node the graph shows subscribing to the topic of one of
+    ``publishers`` has answered its ``get_parameters`` (no names: no effect) through a client
+    made in this call, False after ``timeout_s`` or when ``should_stop()`` turns true.
+
+    The writers count a subscription when *they* have matched its reader
+    (:func:`wait_for_matches`); the reader matches the writers from discovery messages of
+    its own, later on a loaded machine, and drops what comes before. The answer proves that
+    the subscriber's participant has matched every endpoint ``node``'s participant created
+    before this call, the ``publishers`` among them (:func:`wait_until_answered`). A
+    subscribing node without parameter services cannot be asked and is passed over: for it,
+    only the settle of :func:`wait_for_matches` stands. A subscription named in the graph
+    comes after its node's parameter services on the participant's in-order discovery stream,
+    so they are known by then. ``wait(future, seconds)`` as for :func:`wait_until_server_heard`."""
+    deadline = time.monotonic() + timeout_s
+    topics = [p.topic_name for p in publishers]
+    # rmw names an endpoint's node "_NODE_NAMESPACE_UNKNOWN_" until that node's participant has
+    # said which node owns it; it fills in by itself
+    while True:
+        infos = [i for t in topics for i in node.get_subscriptions_info_by_topic(t)]
+        if all(i.node_namespace.startswith("/") for i in infos):
+            break
+        if time.monotonic() > deadline or should_stop():
+            return False
+        time.sleep(0.01)
+    for name, namespace in sorted({(i.node_name, i.node_namespace) for i in infos}):
+        if _node_answered(node, name, namespace, wait, deadline, should_stop, attempt_s=attempt_s) is False:
+            return False
+    return True
+
+
+def _node_answered(node: Any, name: str, namespace: str, wait: Callable[[Any, float], bool], deadline: float,
+                   should_stop: Callable[[], bool] = lambda: False, *, attempt_s: float) -> bool | None:
+    """Whether the node ``name`` in ``namespace`` answered its ``get_parameters`` before
+    ``deadline`` (monotonic s) through a client made now; None when it has no parameter
+    services (nothing to ask)."""
+    from rcl_interfaces.srv import GetParameters
+
+    fq_node = f"{namespace.rstrip('/')}/{name}"
+    try:
+        services = node.get_service_names_and_types_by_node(name, namespace)
+    except Exception:  # noqa: BLE001 - rclpy raises a bare RuntimeError for a node that left the graph
+        return None
+    if not any(service == f"{fq_node}/get_parameters" for service, _types in services):
+        return None
     return wait_until_answered(node, GetParameters, f"{fq_node}/get_parameters", wait,
-                               max(0.0, deadline - time.monotonic()), attempt_s=attempt_s)
+                               max(0.0, deadline - time.monotonic()), should_stop=should_stop, attempt_s=attempt_s)
 
 
 def wait_until_answered(node: Any, srv_type: Any, srv_name: str, wait: Callable[[Any, float], bool], timeout_s: float,
-                        *, attempt_s: float = 1.0) -> bool:
+                        *, should_stop: Callable[[], bool] = lambda: False, attempt_s: float = 1.0) -> bool:
     """Return True once the server of ``srv_name`` (type ``srv_type``; its default request
     must have no effect) has answered a request sent through a client made in this call,
-    asked again every ``attempt_s`` s; False after ``timeout_s``. The answer proves that the
+    asked again every ``attempt_s`` s; False after ``timeout_s`` or when ``should_stop()``
+    turns true (checked between attempts). The answer proves that the
     server's participant has matched every endpoint ``node``'s participant created before
     this call (announced in creation order on one reliable, in-order discovery stream each,
     see :func:`wait_until_server_heard`): in particular the readers of that server's node
@@ -121,7 +167,7 @@ def wait_until_answered(node: Any, srv_type: Any, srv_name: str, wait: Callable[
         if not probe.wait_for_service(timeout_sec=max(0.0, deadline - time.monotonic())):
             return False
         asked: list[Any] = []
-        while time.monotonic() < deadline:
+        while time.monotonic() < deadline and not should_stop():
             asked.append(probe.call_async(srv_type.Request()))
             if wait(asked[-1], min(attempt_s, max(0.0, deadline - time.monotonic()))) or any(f.done() for f in asked):
                 return True

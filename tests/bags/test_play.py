@@ -108,8 +108,9 @@ def test_topic_filter_and_start_offset(recorded_bag, ros_context, cli):
     sink = Collector(ros_context, all_topics())
     play = cli("play", str(recorded_bag), "--topics", "joint_states", "/end_effector",
                "--start-offset", "0.25", "--wait-for-subscribers", "60")
-    assert play.popen.wait(60) == 0, play.stderr()
+    # spun meanwhile: the player waits for the sink's answer (its readers matched) before it plays
     sink.spin_until(lambda: all(len(sink.got[absolute(t)]) >= len(v) for t, v in want.items()))
+    assert play.popen.wait(60) == 0, play.stderr()
     for topic, indices in want.items():
         assert 0 < len(indices) < COUNTS[topic]
         assert [plain(m) for m in sink.got[absolute(topic)]] == expected(topic, indices)

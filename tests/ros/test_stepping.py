@@ -263,7 +263,10 @@ def test_lockstep_without_a_controller_keeps_publishing_under_the_safe_force(ste
 def test_a_lockstep_command_for_another_step_is_rejected_with_a_reason(stepping):
     from tensegrity_msgs.msg import ActuatorForces
 
-    proc, client = stepping("lockstep:=true", "initial_state:=paused", "paused_publish_rate:=0.0")
+    # lockstep_timeout 30 s, a hang guard: with the default 1 s a step whose answer from this
+    # process comes later (a loaded machine) runs under safe_force, and the efforts below differ
+    proc, client = stepping("lockstep:=true", "initial_state:=paused", "paused_publish_rate:=0.0",
+                            "lockstep_timeout:=30.0")
     wrong = ActuatorForces(name=["f1", "f2"], force=[1.0, 1.0])
     wrong.header.stamp.nanosec = 3 * STEP_NS                   # the simulator waits at step 0
     client.pub.publish(wrong)

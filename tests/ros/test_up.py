@@ -230,3 +230,31 @@ def test_the_suite_nodes_of_a_namespace_are_told_apart_from_other_namespaces_and
     assert suite_nodes_in(graph, "/") == ["/tensegrity_ik", "/tensegrity_sim"]
     assert suite_nodes_in(graph, "/robot2") == ["/robot2/tensegrity_sim"]
     assert suite_nodes_in(graph, "/robot3") == []
+
+
+def test_suite_nodes_without_a_claim_are_found_in_the_graph_and_the_claim_is_left_free(ros_context):
+    """A suite node started by hand (no `up`, so no claim): the look finds it in the graph,
+    names it, and takes no claim; where nothing runs, the claim is taken and a second look
+    meets it at once. The long look only bounds the wait: it ends as the node shows."""
+    import rclpy
+
+    from tensegrity_ros.apps.suite_claim import SuiteClaim, claim
+    from tensegrity_ros.apps.suite_presence import running_suite
+
+    node = rclpy.create_node("tensegrity_formfind", namespace="/by_hand", context=ros_context)
+    try:
+        presence = running_suite(["--ros-args", "-r", "__ns:=/by_hand"], ["sim", "ik"], look_s=120.0)
+    finally:
+        node.destroy_node()
+    assert presence.found == ["/by_hand/tensegrity_formfind"] and presence.claim is None, presence
+    free = claim(presence.domain, "/by_hand", [])
+    assert isinstance(free, SuiteClaim)
+    free.release()
+
+    empty = running_suite(["--ros-args", "-r", "__ns:=/nobody_here"], ["sim", "formfind"], look_s=0.5)
+    assert empty.found == [] and empty.namespace == "/nobody_here" and empty.claim is not None, empty
+    try:
+        again = running_suite(["--ros-args", "-r", "__ns:=/nobody_here"], ["sim"], look_s=0.5)
+        assert again.found == ["/nobody_here/tensegrity_formfind", "/nobody_here/tensegrity_sim"], again
+    finally:
+        empty.claim.release()
