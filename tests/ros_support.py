@@ -169,6 +169,22 @@ class GoalFeedback:
         return self._log.of(self._handle)[i]
 
 
+def heard_by(node: Node, names: list[str], wait, timeout: float = 120.0) -> None:
+    """Assert that each node of ``names`` (fully qualified) answers its ``get_parameters``
+    through a client made now: proof that its participant has matched every endpoint
+    ``node``'s participant made before, so that its readers take what ``node`` publishes next
+    and its writers send to ``node``'s readers (a writer's own count proves its side only:
+    :func:`tensegrity_ros.rclpy_utils.matching.wait_until_answered`). ``wait(future, s)``:
+    ``spin_until_done`` with the test's executor, or ``wait_done`` when a thread spins."""
+    from rcl_interfaces.srv import GetParameters
+
+    from tensegrity_ros.rclpy_utils.matching import wait_until_answered
+
+    for name in names:
+        assert wait_until_answered(node, GetParameters, f"{name}/get_parameters", wait, timeout), \
+            f"{name} did not answer within {timeout:g} s"
+
+
 def spawn(argv: list[str], **kwargs) -> subprocess.Popen:
     """Start a child as a supervisor does (``tensegrity up``): in a session of its own
     (so :func:`kill_group` ends it with everything it started) and with SIGINT/SIGTERM

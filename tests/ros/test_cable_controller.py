@@ -18,7 +18,7 @@ import pytest
 
 from tensegrity_ros.rclpy_utils.futures import on_executor, wait_done
 from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
-from tests.ros_support import FeedbackLog, open_context
+from tests.ros_support import FeedbackLog, heard_by, open_context
 
 pytestmark = pytest.mark.ros
 
@@ -291,6 +291,7 @@ def test_a_refused_joint_trajectory_is_logged_once_in_one_line_and_the_running_g
     pub = client.node.create_publisher(JointTrajectory, "/tensegrity_cable_controller/joint_trajectory", 10)
     try:
         assert wait_for_matches([pub], 1, 60)
+        heard_by(client.node, ["/tensegrity_cable_controller"], wait_done)   # each goal is sent once
         client.step_received(5, t0, STEP_NS, chunk=5)          # the goal runs
         for reason, goal in bad.items():
             pub.publish(goal.trajectory)

@@ -17,7 +17,7 @@ import pytest
 from tensegrity_ros.rclpy_utils.futures import spin_until_done
 from tensegrity_ros.rclpy_utils.matching import wait_for_matches, wait_until_server_heard
 from tests.process_groups import exited
-from tests.ros_support import FeedbackLog, Proc, probe
+from tests.ros_support import FeedbackLog, Proc, heard_by, probe
 
 pytestmark = pytest.mark.ros
 
@@ -56,6 +56,8 @@ def test_unusable_cable_states_during_a_goal_are_ignored_and_the_goal_goes_on(tm
             proc.wait_for("cable controller ready", timeout=120)
             spin = lambda s: executor.spin_once(timeout_sec=s)            # noqa: E731
             assert wait_for_matches([joints, cables], 1, 120, poll=spin), proc.stderr()
+            # each state is sent once: the controller's readers must have matched ours first
+            heard_by(node, [f"{NS}/tensegrity_cable_controller"], lambda f, t: spin_until_done(executor, f, t))
 
             def until(done, what):
                 deadline = time.monotonic() + 120

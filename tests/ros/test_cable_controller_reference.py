@@ -14,7 +14,9 @@ import threading
 
 import pytest
 
+from tensegrity_ros.rclpy_utils.futures import wait_done
 from tests.ros.test_cable_controller import STEP_NS, cable_rig
+from tests.ros_support import heard_by
 
 pytestmark = pytest.mark.ros
 
@@ -82,6 +84,7 @@ def test_the_reference_of_a_joint_no_goal_moves_is_the_rest_length_another_comma
     pub = client.node.create_publisher(CableCommand, "cable_commands", 10)
     try:
         assert wait_for_matches([pub], 2, 60)                     # the simulator and the controller
+        heard_by(client.node, ["/tensegrity_sim", "/tensegrity_cable_controller"], wait_done)   # sent once
         pub.publish(CableCommand(name=["long1"], rest_length=[0.85]))
         state = _step_until(client, states, lambda s: s.feedback.positions[0] == 0.85
                             and s.reference.positions[0] == 0.85)
@@ -157,6 +160,7 @@ def test_in_lockstep_a_clients_rest_length_survives_the_controllers_empty_answer
     pub = client.node.create_publisher(CableCommand, "cable_commands", 10)
     try:
         assert wait_for_matches([pub], 2, 60)                     # the simulator and the controller
+        heard_by(client.node, ["/tensegrity_sim", "/tensegrity_cable_controller"], wait_done)   # sent once
         command = CableCommand(name=["long1"], rest_length=[0.85])
         command.header.stamp.sec, command.header.stamp.nanosec = divmod(t0, 10**9)
         pub.publish(command)

@@ -13,8 +13,9 @@ import time
 
 import pytest
 
+from tensegrity_ros.rclpy_utils.futures import spin_until_done
 from tests.process_groups import exited
-from tests.ros_support import Proc, probe
+from tests.ros_support import Proc, heard_by, probe
 
 pytestmark = pytest.mark.ros
 
@@ -57,6 +58,8 @@ def test_unusable_joint_states_get_no_answer_and_the_next_usable_one_does(tmp_pa
             pub = node.create_publisher(JointState, f"{NS}/joint_states", QoSProfile(depth=100))
             proc.wait_for("controller ready", timeout=120)
             assert wait_for_matches([pub], 1, 120, poll=lambda s: executor.spin_once(timeout_sec=s)), proc.stderr()
+            # each state is sent once: the controller's reader must have matched ours first
+            heard_by(node, [f"{NS}/tensegrity_controller"], lambda f, t: spin_until_done(executor, f, t))
             # the answers must not be lost: the controller's publisher has matched ours first
             deadline = time.monotonic() + 120
             while node.count_publishers(f"{NS}/actuator_forces") < 1:
