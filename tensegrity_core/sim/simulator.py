@@ -335,9 +335,11 @@ def _recorder(model: Model[Any, Any], state: State[Any]) -> Callable[[FloatArray
         return lambda times, samples: model.record(state, times, samples)
     from tensegrity_core.robot.roll_control import RollController
     from tensegrity_core.sim.control_loop import ControlLoop
+    from tensegrity_core.sim.general.robot.dynamic import RobotDynamic
     from tensegrity_core.sim.scene.spec import RobotModelSpec
 
     robot = model.scene.model
     assert isinstance(robot, RobotModelSpec)        # the schema takes 'control' for robot scenes only
+    assert isinstance(model, RobotDynamic)
     controller = RollController(robot.robot, control.faces, heading=control.heading)
     return ControlLoop(model, state, controller, rate=control.rate).record
