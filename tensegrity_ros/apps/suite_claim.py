@@ -11,7 +11,8 @@ domain and the namespace. Why a socket and not a lock file: the kernel releases 
 holder ends, however it ends (a SIGKILLed launcher leaves nothing stale behind), and its
 scope is the network namespace, the scope of the suite's loopback-only DDS (two suites in
 separate network namespaces never discover each other, and their claims never meet either).
-The holder answers each connection with its node names (JSON) and closes it.
+The holder answers each connection with its node names, one per line (UTF-8; a ROS name
+has no line break), and closes it.
 
 Where abstract sockets do not exist, :func:`claim` claims nothing and the graph look is the
 only check.
@@ -20,7 +21,6 @@ only check.
 from __future__ import annotations
 
 import hashlib
-import json
 import socket
 import sys
 import threading
@@ -47,7 +47,7 @@ class SuiteClaim:
 
     def __init__(self, sock: socket.socket | None, nodes: list[str]) -> None:
         self._sock = sock
-        self._answer = json.dumps(sorted(nodes)).encode()
+        self._answer = "\n".join(sorted(nodes)).encode()
         if sock is not None:
             threading.Thread(target=self._serve, args=(sock,), name="suite-claim", daemon=True).start()
 
@@ -104,7 +104,7 @@ def claim(domain: int, namespace: str, nodes: list[str]) -> SuiteClaim | list[st
 def _ask(address: bytes, deadline: float) -> list[str] | None:
     """The node names the holder of ``address`` answers with; None if nothing listens there
     (its holder has just bound it, or has just released it); :data:`UNNAMED` if it does not
-    answer by ``deadline`` (a stopped holder) or answers nonsense."""
+    answer by ``deadline`` (a stopped holder) or answers no names."""
     with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as sock:
         sock.settimeout(max(0.01, deadline - time.monotonic()))
         try:
@@ -114,10 +114,5 @@ def _ask(address: bytes, deadline: float) -> list[str] | None:
             return None
         except OSError:                      # timed out, or the holder went away meanwhile
             return [UNNAMED]
-    try:
-        nodes = json.loads(data)
-    except ValueError:
-        return [UNNAMED]
-    if isinstance(nodes, list) and nodes and all(isinstance(n, str) for n in nodes):
-        return nodes
-    return [UNNAMED]
+    nodes = data.decode("utf-8", "replace").split("\n")
+    return nodes if all(nodes) else [UNNAMED]

@@ -159,13 +159,37 @@ class Client:
         return self.wait_future(self._executor.create_task(call), f"the spin thread to ask for {what}", timeout)
 
     def call(self, srv_type: Any, name: str, request: Any = None, timeout: float = PATIENCE) -> Any:
+        """One call of the service ``name`` through a new client, once its server has heard
+        the client: the server's node answers its ``get_parameters`` through a probe made
+        after the client (wait_until_answered; ``wait_for_service`` is this side's match only,
+        and the request is sent once: it need not be idempotent)."""
+        from rcl_interfaces.srv import GetParameters
+
+        from tensegrity_ros.rclpy_utils.futures import wait_done
+        from tensegrity_ros.rclpy_utils.matching import wait_until_answered
+
         client = self.node.create_client(srv_type, name)
         try:
             assert client.wait_for_service(timeout_sec=timeout), f"no service {name}"
+            resolved = self.node.resolve_service_name(name)
+            server = self.wait_until(lambda: self._server_of(resolved), f"the node serving {resolved}")
+            assert wait_until_answered(self.node, GetParameters, f"{server}/get_parameters", wait_done, timeout), \
+                f"{server} did not answer within {timeout:g} s"
             return self.wait_future(client.call_async(request or srv_type.Request()), f"the answer of {name}",
                                     timeout)
         finally:
             self.node.destroy_client(client)
+
+    def _server_of(self, service: str) -> str | None:
+        """The fully qualified name of the node the graph shows serving ``service``, or None."""
+        for node, namespace in self.node.get_node_names_and_namespaces():
+            try:
+                services = self.node.get_service_names_and_types_by_node(node, namespace)
+            except Exception:  # noqa: BLE001 - rclpy raises a bare RuntimeError for a node that left the graph
+                continue
+            if any(name == service for name, _types in services):
+                return f"{namespace.rstrip('/')}/{node}"
+        return None
 
     def publisher(self, msg_type: Any, topic: str, depth: int = 1000, subscribers: int = 1) -> Any:
         """A publisher of ``topic``, once ``subscribers`` readers have matched it."""

@@ -20,6 +20,7 @@ reached within 1 ns after its end.
 from __future__ import annotations
 
 import math
+from contextlib import contextmanager
 
 import pytest
 
@@ -158,6 +159,31 @@ def _until_the_end(client, feedback, duration_ns: int) -> None:
 def _outcome(client, handle):
     answer = client.ask(handle.get_result_async, "the goal's result")
     return answer.status, answer.result
+
+
+@contextmanager
+def _paused(client):
+    """The simulator paused (set_simulation_state) while the block runs, played again after
+    it; yields the simulation time [ns] it stands at: that of two joint states in a row with
+    the same stamp (a paused simulator republishes its state), received after the pause."""
+    from simulation_interfaces.msg import SimulationState
+    from simulation_interfaces.srv import SetSimulationState
+
+    def set_state(state: int) -> None:
+        request = SetSimulationState.Request(state=SimulationState(state=state))
+        result = client.call(SetSimulationState, "set_simulation_state", request).result
+        assert result.result == result.RESULT_OK, result.error_message
+
+    states = client.received["joint_states"]
+    mark = len(states)
+    set_state(SimulationState.STATE_PAUSED)
+    try:
+        standing = client.wait(lambda: len(states) >= mark + 2 and (
+            t := stamp_ns(states[-1].header.stamp)) == stamp_ns(states[-2].header.stamp) and (t,),
+            "a joint state republished at a standing time")[0]
+        yield standing
+    finally:
+        set_state(SimulationState.STATE_PLAYING)
 
 
 def _rest(client, names):
@@ -408,17 +434,17 @@ def test_a_trajectory_stamped_in_the_future_starts_then(suite):
     from action_msgs.msg import GoalStatus
 
     client, action = suite
-    # 1.5 s ahead: the goal is taken long before then, even on a loaded machine (a goal taken
-    # after its trajectory's end would be OLD_HEADER_TIMESTAMP)
-    now = stamp_ns(client.received["joint_states"][-1].header.stamp)
-    start = now + 1_500_000_000
-    handle, feedback = _send(client, action, _goal([(0.2, (0.98,))], ("c4_8",), stamp_ns_=start,
-                                                   goal_time=UNTIL_REACHED))
+    # sent to a paused simulator: the goal is taken before its start however loaded the machine
+    # (in a running one, a goal taken after its trajectory's end would be OLD_HEADER_TIMESTAMP)
+    with _paused(client) as now:
+        start = now + 500_000_000
+        handle, feedback = _send(client, action, _goal([(0.2, (0.98,))], ("c4_8",), stamp_ns_=start,
+                                                       goal_time=UNTIL_REACHED))
     status, result = _outcome(client, handle)
     assert (status, result.error_code) == (GoalStatus.STATUS_SUCCEEDED, SUCCESSFUL), result.error_string
     _until_the_end(client, feedback, 200_000_000)
     assert all(stamp_ns(fb.header.stamp) >= start for fb in feedback)
-    # every state between the goal and its start (1.5 s of them: a loaded run may lose a few)
+    # every state between the goal and its start (0.5 s of them: a loaded run may lose a few)
     before = [dict(zip(m.name, m.rest_length))["c4_8"] for t, m in client.stamped_copy("cable_states").items()
               if now <= t < start]
     assert before and set(before) == {NOMINAL}                     # the motor waited for the start
@@ -434,23 +460,23 @@ def test_a_trajectory_stamped_in_the_past_is_joined_where_it_is_now(suite):
     from action_msgs.msg import GoalStatus
 
     client, action = suite
-    # 0.2 s past, 4 s long: the goal is taken long before its end, even when this test reads the
-    # simulation's time a second late on a loaded machine (a goal taken after its trajectory's
-    # end would be OLD_HEADER_TIMESTAMP)
-    now = stamp_ns(client.received["joint_states"][-1].header.stamp)
-    start = now - 200_000_000
-    handle, feedback = _send(client, action, _goal([(4.0, (0.976,))], ("c5_8",), stamp_ns_=start,
-                                                   goal_time=UNTIL_REACHED))
+    # 0.2 s past, sent to a paused simulator: the goal is taken at the time read here however
+    # loaded the machine (in a running one, a goal taken after its trajectory's end would be
+    # OLD_HEADER_TIMESTAMP)
+    with _paused(client) as now:
+        start = now - 200_000_000
+        handle, feedback = _send(client, action, _goal([(1.0, (0.976,))], ("c5_8",), stamp_ns_=start,
+                                                       goal_time=UNTIL_REACHED))
     status, result = _outcome(client, handle)
     assert (status, result.error_code) == (GoalStatus.STATUS_SUCCEEDED, SUCCESSFUL), result.error_string
-    _until_the_end(client, feedback, 4_000_000_000)
+    _until_the_end(client, feedback, 1_000_000_000)
     taus = [stamp_ns(fb.desired.time_from_start) for fb in feedback]
     assert min(taus) >= 200_000_000, min(taus)
     for fb in feedback:
         tau = stamp_ns(fb.desired.time_from_start) / 1e9
         # tau: the state's time from the start, in seconds as floats (1 ns of rounding)
         assert abs(stamp_ns(fb.header.stamp) - start - stamp_ns(fb.desired.time_from_start)) <= 1
-        assert fb.desired.positions[0] == pytest.approx(NOMINAL + (0.976 - NOMINAL) * min(tau, 4.0) / 4.0, abs=1e-9)
+        assert fb.desired.positions[0] == pytest.approx(NOMINAL + (0.976 - NOMINAL) * min(tau, 1.0), abs=1e-9)
     handle, _ = _send(client, action, _goal([(0.2, (NOMINAL,))], ("c5_8",), goal_time=UNTIL_REACHED))   # back
     assert _outcome(client, handle)[1].error_code == SUCCESSFUL
 
