@@ -34,15 +34,23 @@ class Controller(Protocol):
     def update(self, t: float, touching: NDArray[np.int64], nodes: FloatArray) -> FloatArray: ...
 
 
+class ControlledModel(Model[Any, Any], Protocol):
+    """A model a sampled controller runs: a robot's
+    (:class:`~tensegrity_core.sim.general.robot.dynamic.RobotDynamic`), whose samples give the
+    caps' normal forces [N] (ncap,) and the node positions [m] (n, 3) without a whole observation."""
+
+    def contact_forces_and_nodes(self, sample: Any) -> tuple[FloatArray, FloatArray]: ...
+
+
 class ControlLoop:
     """``controller`` sampled at ``rate`` [Hz] from ``state.t`` on, its commands held between
     samples; :meth:`record` records ``state`` at any instants meanwhile, :meth:`run` at the
-    control instants. ``model`` observes ``contact_forces`` per cap (its ``names.cap_names``:
-    a robot's). A rate the model's step cannot take is refused with ``ParameterError``
+    control instants. ``model`` gives the caps' contact forces in the order of its
+    ``names.cap_names`` (a robot's). A rate the model's step cannot take is refused with ``ParameterError``
     (:func:`~tensegrity_core.sim.scene.robot_schema.control_rate_reason`), as a scene's
     ``control`` is."""
 
-    def __init__(self, model: Model[Any, Any], state: State[Any], controller: Controller, *, rate: float):
+    def __init__(self, model: ControlledModel, state: State[Any], controller: Controller, *, rate: float):
         integrator = model.scene.integrator
         reason = control_rate_reason(rate, integrator.max_step if integrator.method == "RK4" else 0.0)
         if reason is not None:
@@ -88,7 +96,7 @@ class ControlLoop:
         and node positions there."""
         scratch: list[Any] = []
         self.model.record(self.state, [t], scratch)
-        seen = self.model.observe(scratch)
-        touching = self.caps[seen["contact_forces"][0] > 0.0]
-        self.model.set_command(self.state, self.controller.update(t - self.t0, touching, seen["nodes"][0]))
+        contact_forces, nodes = self.model.contact_forces_and_nodes(scratch[0])
+        touching = self.caps[contact_forces > 0.0]
+        self.model.set_command(self.state, self.controller.update(t - self.t0, touching, nodes))
         self.k += 1

@@ -22,7 +22,7 @@ import math
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -334,10 +334,10 @@ def _recorder(model: Model[Any, Any], state: State[Any]) -> Callable[[FloatArray
     if control is None:
         return lambda times, samples: model.record(state, times, samples)
     from tensegrity_core.robot.roll_control import RollController
-    from tensegrity_core.sim.control_loop import ControlLoop
+    from tensegrity_core.sim.control_loop import ControlledModel, ControlLoop
     from tensegrity_core.sim.scene.spec import RobotModelSpec
 
     robot = model.scene.model
     assert isinstance(robot, RobotModelSpec)        # the schema takes 'control' for robot scenes only
     controller = RollController(robot.robot, control.faces, heading=control.heading)
-    return ControlLoop(model, state, controller, rate=control.rate).record
+    return ControlLoop(cast(ControlledModel, model), state, controller, rate=control.rate).record   # a robot's
