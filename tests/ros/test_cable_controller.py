@@ -296,8 +296,9 @@ def test_a_refused_joint_trajectory_is_logged_once_in_one_line_and_the_running_g
         for reason, goal in bad.items():
             pub.publish(goal.trajectory)
             ctl.wait_for(reason, timeout=60, since=logged)    # one at a time: the subscription keeps the last only
-    finally:
-        client.node.destroy_publisher(pub)
+    finally:   # by the spinning thread, which may be building its wait set from the publisher's events
+        destroyed = on_executor(client.executor, lambda: client.node.destroy_publisher(pub))
+        assert wait_done(destroyed, 60), "the client's thread did not destroy the publisher"
     client.step_received(25, t0 + 5 * STEP_NS, STEP_NS, chunk=5)   # to 0.3 s, past the goal's end (0.2 s)
     status, result = _result(client, handle)
     assert status == GoalStatus.STATUS_SUCCEEDED and result.error_code == SUCCESSFUL, result.error_string

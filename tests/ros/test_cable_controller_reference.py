@@ -14,7 +14,7 @@ import threading
 
 import pytest
 
-from tensegrity_ros.rclpy_utils.futures import wait_done
+from tensegrity_ros.rclpy_utils.futures import on_executor, wait_done
 from tests.ros.test_cable_controller import STEP_NS, cable_rig
 from tests.ros_support import heard_by
 
@@ -99,8 +99,9 @@ def test_the_reference_of_a_joint_no_goal_moves_is_the_rest_length_another_comma
             state = _step_until(client, states, lambda s: True)
             assert list(state.reference.positions) == [0.85, 0.9, 0.9]
             assert list(state.feedback.positions) == [0.85, 0.9, 0.9]
-    finally:
-        client.node.destroy_publisher(pub)
+    finally:   # by the spinning thread, which may be building its wait set from the publisher's events
+        destroyed = on_executor(client.executor, lambda: client.node.destroy_publisher(pub))
+        assert wait_done(destroyed, 60), "the client's thread did not destroy the publisher"
 
 
 class Answers:
@@ -176,5 +177,6 @@ def test_in_lockstep_a_clients_rest_length_survives_the_controllers_empty_answer
         assert list(state.feedback.positions) == [0.85, 0.9, 0.9]   # the step ran under the client's command
         assert list(state.reference.positions) == [0.85, 0.9, 0.9]
         assert list(state.error.positions) == [0.0, 0.0, 0.0]
-    finally:
-        client.node.destroy_publisher(pub)
+    finally:   # by the spinning thread, which may be building its wait set from the publisher's events
+        destroyed = on_executor(client.executor, lambda: client.node.destroy_publisher(pub))
+        assert wait_done(destroyed, 60), "the client's thread did not destroy the publisher"
