@@ -126,28 +126,60 @@ def _full_name(name: str, namespace: str) -> str:
     return f"{namespace.rstrip('/')}/{name}"
 
 
+#: s to wait for a simulator known to read the topic to answer for its limits (a hang guard).
+SIMULATOR_ANSWER_S = 30.0
+
+
 def _check_against_the_simulator(node: Node, executor: Executor, topic: str, names: list[str], forces: list[float]) -> None:
-    """Refuse forces that a simulator reading ``topic`` would reject: the simulator of a
-    subscriber's namespace (the node offering ``get_simulator_features`` there, looked for
-    during :data:`DISCOVERY_S` at most) is asked for its ``max_force`` parameter. Nothing
-    is checked when no simulator is found or answers (the subscriber is something else)."""
+    """Refuse forces that a simulator reading ``topic`` would reject: each simulator found is
+    asked for its ``max_force`` parameter. A simulator ``N`` reads through its command node
+    (``N`` + :data:`~tensegrity_ros.nodes.sim.COMMANDS_NODE_SUFFIX`): once discovery has named
+    that subscriber, ``N`` is known to be there and gets :data:`SIMULATOR_ANSWER_S` to
+    answer. Any other subscriber's namespace is looked at for a node offering
+    ``get_simulator_features`` during :data:`DISCOVERY_S`, and that node gets as long to
+    answer. Nothing is checked when no simulator is found or answers (the subscribers are
+    something else)."""
     import time
 
     from tensegrity_ros.nodes.actuator_commands import CommandError, parse_command
 
-    namespaces = sorted({i.node_namespace for i in node.get_subscriptions_info_by_topic(topic)})
-    end = time.monotonic() + DISCOVERY_S
-    while not (sims := [sim for ns in namespaces for sim in _simulators_in(node, ns)]) \
-            and time.monotonic() < end:
-        executor.spin_once(timeout_sec=0.1)         # the subscriber's node may not be known yet
-    for sim in sims:
-        limit = _float_parameter(node, executor, sim, "max_force")
+    sims = _named_simulators(node, executor, topic)
+    if not sims:
+        namespaces = sorted({i.node_namespace for i in node.get_subscriptions_info_by_topic(topic)})
+        end = time.monotonic() + DISCOVERY_S
+        while not (found := [sim for ns in namespaces for sim in _simulators_in(node, ns)]) \
+                and time.monotonic() < end:
+            executor.spin_once(timeout_sec=0.1)         # the subscriber's node may not be known yet
+        sims = dict.fromkeys(found, DISCOVERY_S)
+    for sim, answer_s in sims.items():
+        limit = _float_parameter(node, executor, sim, "max_force", answer_s)
         if limit is None:
             continue
         try:
             parse_command(names, forces, max_abs_force=limit)
         except CommandError as err:
             raise CliError(f"{sim} would reject this command: {err}", code=1) from None
+
+
+def _named_simulators(node: Node, executor: Executor, topic: str) -> dict[str, float]:
+    """The simulators whose command nodes subscribe to ``topic``, each with the time [s] it
+    gets to answer. Waits (at most :data:`SIMULATOR_ANSWER_S`) until discovery has named every
+    subscriber (rmw says ``_NODE_NAMESPACE_UNKNOWN_`` until the node's graph message arrives;
+    the simulator's own node is in that message too, created before its command node)."""
+    import time
+
+    from tensegrity_ros.nodes.sim import COMMANDS_NODE_SUFFIX
+
+    end = time.monotonic() + SIMULATOR_ANSWER_S
+    while True:
+        infos = node.get_subscriptions_info_by_topic(topic)
+        if all(i.node_namespace.startswith("/") for i in infos) or time.monotonic() >= end:
+            break
+        executor.spin_once(timeout_sec=0.05)
+    graph = set(node.get_node_names_and_namespaces())
+    return {_full_name(i.node_name.removesuffix(COMMANDS_NODE_SUFFIX), i.node_namespace): SIMULATOR_ANSWER_S
+            for i in infos if i.node_name.endswith(COMMANDS_NODE_SUFFIX)
+            and (i.node_name.removesuffix(COMMANDS_NODE_SUFFIX), i.node_namespace) in graph}
 
 
 def _simulators_in(node: Node, namespace: str) -> list[str]:
@@ -165,9 +197,10 @@ def _simulators_in(node: Node, namespace: str) -> list[str]:
     return found
 
 
-def _float_parameter(node: Node, executor: Executor, owner: str, name: str) -> float | None:
+def _float_parameter(node: Node, executor: Executor, owner: str, name: str, answer_s: float) -> float | None:
     """The value of the number parameter ``name`` of node ``owner`` (its parameter
-    service), or None when it does not answer within :data:`DISCOVERY_S` or has none."""
+    service), or None when its service does not show, or it does not answer, within
+    ``answer_s`` [s] each, or it has none."""
     from rcl_interfaces.msg import ParameterType
     from rcl_interfaces.srv import GetParameters
 
@@ -175,10 +208,10 @@ def _float_parameter(node: Node, executor: Executor, owner: str, name: str) -> f
 
     client = node.create_client(GetParameters, f"{owner}/get_parameters")
     try:
-        if not client.wait_for_service(timeout_sec=DISCOVERY_S):
+        if not client.wait_for_service(timeout_sec=answer_s):
             return None
         future = client.call_async(GetParameters.Request(names=[name]))
-        if not spin_until_done(executor, future, DISCOVERY_S) or not future.result().values:
+        if not spin_until_done(executor, future, answer_s) or not future.result().values:
             return None
         value = future.result().values[0]
         return {ParameterType.PARAMETER_DOUBLE: value.double_value,

@@ -194,3 +194,34 @@ def test_a_publisher_discovery_has_not_named_yet_is_named_on_a_later_look(capsys
     assert capsys.readouterr().err == ""
     rivals.warn()
     assert capsys.readouterr().err.startswith("warning: /rival also publishes on /actuator_forces")
+
+
+def test_send_forces_knows_a_simulator_from_its_command_node_without_looking_for_its_services(ros_context):
+    """A subscriber ``N_commands`` is a simulator N's command node, so N is there and is asked
+    for its limits however long its services take to show; a subscriber of another name is
+    not taken for a simulator. Named only once discovery names the subscriber (polled until
+    then: no window)."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from tensegrity_msgs.msg import ActuatorForces
+
+    from tensegrity_ros.cli.send_forces import SIMULATOR_ANSWER_S, _named_simulators
+
+    sim = rclpy.create_node("fake_sim", namespace="/named", context=ros_context)
+    reader = rclpy.create_node("fake_sim_commands", namespace="/named", context=ros_context)
+    other = rclpy.create_node("listener_commands_not", namespace="/named", context=ros_context)
+    asker = rclpy.create_node("asker", context=ros_context)
+    executor = SingleThreadedExecutor(context=ros_context)
+    executor.add_node(asker)
+    try:
+        for node in (reader, other):
+            node.create_subscription(ActuatorForces, "/named/actuator_forces", lambda _m: None, 10)
+        deadline = time.monotonic() + 60
+        while asker.count_subscribers("/named/actuator_forces") < 2:
+            assert time.monotonic() < deadline
+            executor.spin_once(timeout_sec=0.05)
+        assert _named_simulators(asker, executor, "/named/actuator_forces") == {"/named/fake_sim": SIMULATOR_ANSWER_S}
+    finally:
+        executor.shutdown()
+        for node in (sim, reader, other, asker):
+            node.destroy_node()

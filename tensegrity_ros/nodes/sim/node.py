@@ -74,7 +74,7 @@ from tensegrity_ros.nodes.actuator_commands import CommandError
 from tensegrity_ros.nodes.common import ParameterValueError, rclpy, spin_node
 from tensegrity_ros.nodes.refusals import ReasonThrottle, reason_of
 from tensegrity_ros.nodes.scene_param import declare_scene
-from tensegrity_ros.nodes.sim import control, sender
+from tensegrity_ros.nodes.sim import COMMANDS_NODE_SUFFIX, control, sender
 from tensegrity_ros.nodes.sim.command_bytes import CableCommandBytes
 from tensegrity_ros.nodes.sim.control import PLAYING, RUN_STATE_NAMES, Answer, StepRequest
 from tensegrity_ros.nodes.sim.hold import CommandHold
@@ -134,7 +134,7 @@ class SimNode(SimulationInterfaces):
         # inbox takes all that is queued at each wake-up: a flood is applied at once.
         # Both command topics exist whatever the scene: a command of the other kind is
         # refused with a warning that names the right one.
-        self._command_node = Node(f"{self.get_name()}_commands", namespace=self.get_namespace(),
+        self._command_node = Node(self.get_name() + COMMANDS_NODE_SUFFIX, namespace=self.get_namespace(),
                                   context=self.context, start_parameter_services=False,
                                   parameter_overrides=[Parameter("start_type_description_service", value=False)])
         self._inbox = Inbox(self._command_node)
