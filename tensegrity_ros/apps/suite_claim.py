@@ -29,6 +29,8 @@ import time
 #: How long [s] a second ``up`` waits for the holder's answer (it answers at once; the bound
 #: only keeps a stopped holder, SIGSTOP, from hanging the second ``up``).
 ANSWER_S = 2.0
+#: The longest answer [bytes] read from a claim's holder (a suite's node names take ~200).
+ANSWER_BYTES = 65536
 #: What the refusal names when the holder did not answer within :data:`ANSWER_S`.
 UNNAMED = "the nodes of another `tensegrity up` on this machine"
 
@@ -105,11 +107,16 @@ def _ask(address: bytes, deadline: float) -> list[str] | None:
     """The node names the holder of ``address`` answers with; None if nothing listens there
     (its holder has just bound it, or has just released it); :data:`UNNAMED` if it does not
     answer by ``deadline`` (a stopped holder) or answers no names."""
+    data = b""
     with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as sock:
-        sock.settimeout(max(0.01, deadline - time.monotonic()))
         try:
+            sock.settimeout(max(0.01, deadline - time.monotonic()))
             sock.connect(address)
-            data = b"".join(iter(lambda: sock.recv(65536), b""))
+            while chunk := sock.recv(ANSWER_BYTES):
+                data += chunk
+                if len(data) > ANSWER_BYTES or time.monotonic() >= deadline:
+                    return [UNNAMED]         # not a claim's answer: the address is taken all the same
+                sock.settimeout(max(0.01, deadline - time.monotonic()))
         except ConnectionRefusedError:
             return None
         except OSError:                      # timed out, or the holder went away meanwhile

@@ -82,3 +82,33 @@ def test_a_stopped_holder_is_refused_unnamed_after_the_answer_bound(holder, name
         assert time.monotonic() - start < ANSWER_S + 5.0      # a hang guard, not a timing claim
     finally:
         holder.send_signal(signal.SIGCONT)
+
+
+def test_an_endless_answer_is_read_only_to_its_bound(namespace):
+    """Whatever holds the address and answers without end (not a claim's holder) is read up
+    to ANSWER_BYTES, within ANSWER_S: the namespace counts as taken, unnamed."""
+    import socket
+    import threading
+
+    from tensegrity_ros.apps.suite_claim import _address
+
+    server = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    server.bind(_address(5, namespace))
+    server.listen(1)
+
+    def flood() -> None:
+        conn, _ = server.accept()
+        with conn:
+            try:
+                while True:
+                    conn.sendall(b"x" * 4096)
+            except OSError:
+                pass
+
+    thread = threading.Thread(target=flood, daemon=True)
+    thread.start()
+    try:
+        assert claim(5, namespace, []) == [UNNAMED]
+    finally:
+        server.close()
+        thread.join(10)
