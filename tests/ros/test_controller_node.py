@@ -489,6 +489,7 @@ def test_follow_reaches_the_last_point_with_desired_actual_error_feedback(suite)
     (dict(x=1.3, y=0.7, duration=-1.0), "INVALID_GOAL", "duration must be > 0"),
     (dict(x=1.3, y=0.7, max_speed=math.inf), "INVALID_GOAL", "max_speed must be a finite number"),
     (dict(x=0.9, y=0.9999, duration=2.0), "SINGULAR_PATH", "beta_half_pi"),
+    (dict(x=0.0, y=1.0, duration=2.0), "SINGULAR_PATH", "singular set folded"),  # solve_ik names it too
     (dict(x=1.3, y=0.8, duration=1.5), "INVALID_GOAL", "allow more time: a duration of at least"),
 ])
 def test_bad_moves_are_refused_with_the_reason_and_the_hold_continues(suite, goal, code, words):
