@@ -356,7 +356,7 @@ def _message(x: float, y: float, L: float, candidates: Sequence[IKCandidate], n_
     if n_valid:
         found = f"{n_valid} valid solution{'s' if n_valid > 1 else ''} of {len(candidates)} candidates"
         return found + "".join(_on_singular_set(c, L) for c in candidates if c.valid)
-    where = f"D = ({x:g}, {y:g})"
+    where = f"D = ({x:g}, {y:g}) m"
     if abs(y) > L:
         return f"no real solution for {where}: |y| > L = {L:g} m (outside the workspace by {outside:.3g} m)"
     if outside > 0.0:

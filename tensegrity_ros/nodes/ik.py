@@ -48,7 +48,7 @@ class IKNode(Node):
             res.message = f"seed must be empty or [rho1, rho2], got {len(seed)} values"
             return res
         if not all(math.isfinite(v) for v in (req.x, req.y, *seed)):
-            res.message = f"non-finite request: x = {req.x}, y = {req.y}, seed = {seed}"
+            res.message = f"non-finite request: x = {req.x:g} m, y = {req.y:g} m, seed = {seed} m"
             return res
         try:
             result = inverse_kinematics(req.x, req.y, self.params, paper_range=self.paper_range)

@@ -102,6 +102,8 @@ def test_unreachable_targets_fail_with_a_reason(ik_service, x, y, why):
 def test_malformed_requests_fail_cleanly(ik_service, x, y, seed):
     res = ik_service(x, y, seed)
     assert not res.success and res.message
+    if not all(math.isfinite(v) for v in (x, y, *seed)):     # every number with its unit
+        assert res.message == f"non-finite request: x = {x:g} m, y = {y:g} m, seed = {list(seed)} m"
     # the node is still alive and answering
     x0, y0, _ = _fk(0.5, 0.5)
     assert ik_service(x0, y0).success
