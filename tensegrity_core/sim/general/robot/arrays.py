@@ -247,8 +247,8 @@ def first_crossing(switch: FloatArray, g0: FloatArray, rate0: FloatArray, g1: Fl
     """:func:`.step_loops.first_crossing` (its crossings by the same scalar code, in the same order)."""
     side = np.where(switch == ON, 1.0, -1.0)
     which, best = -1, 1.0
-    for i in np.flatnonzero((side * g1 < 0.0) & (side * g0 >= 0.0)).tolist():
-        x = _crossing(float(side[i] * g0[i]), float(side[i] * rate0[i] * H), float(side[i] * g1[i]),
+    for i in np.flatnonzero(side * g1 < 0.0).tolist():
+        x = _crossing(max(float(side[i] * g0[i]), 0.0), float(side[i] * rate0[i] * H), float(side[i] * g1[i]),
                       float(side[i] * rate1[i] * H))
         if which < 0 or x < best:
             which, best = i, x

@@ -102,13 +102,13 @@ def first_crossing(switch: FloatArray, g0: FloatArray, rate0: FloatArray, g1: Fl
                    H: float) -> tuple[int, float]:
     """``(i, x)``: the switch whose guard leaves its mode's side first over a piece of ``H``
     [s] (``g0``, ``rate0`` at its start, ``g1``, ``rate1`` at its end), and where (the fraction
-    ``x`` of the piece, :func:`crossing`); ``(-1, 1)`` if none does. A guard not on its mode's
-    side at the piece's start (one just flipped at its crossing) is not looked at."""
+    ``x`` of the piece, :func:`crossing`); ``(-1, 1)`` if none does. A guard a rounding short
+    of its mode's side at the piece's start (one just flipped at its crossing) starts at 0."""
     which, best = -1, 1.0
     for i in range(switch.shape[0]):
         side = 1.0 if switch[i] == ON else -1.0
-        if side * g1[i] < 0.0 and side * g0[i] >= 0.0:
-            x = crossing(side * g0[i], side * rate0[i] * H, side * g1[i], side * rate1[i] * H)
+        if side * g1[i] < 0.0:
+            x = crossing(max(side * g0[i], 0.0), side * rate0[i] * H, side * g1[i], side * rate1[i] * H)
             if which < 0 or x < best:
                 which, best = i, x
     return which, best
