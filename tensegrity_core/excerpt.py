@@ -16,7 +16,17 @@ from typing import Final
 #: Characters of an outside value quoted in a message (the quote marks not counted).
 DEFAULT_LIMIT: Final = 60
 
-_REPR = reprlib.Repr()
+class _Repr(reprlib.Repr):
+    """reprlib with numpy scalars shown as the Python numbers they hold (numpy >= 2 reprs
+    ``np.float64(-1.0)``, which reads as code in a user's message)."""
+
+    def repr1(self, x: object, level: int) -> str:
+        if getattr(x, "ndim", None) == 0 and hasattr(x, "item"):
+            x = x.item()
+        return super().repr1(x, level)
+
+
+_REPR = _Repr()
 _REPR.maxlevel = 3
 _REPR.maxstring = DEFAULT_LIMIT
 _REPR.maxother = DEFAULT_LIMIT

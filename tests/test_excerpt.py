@@ -35,6 +35,15 @@ def test_deep_and_alias_expanded_structures_render_small_and_fast():
     assert len(excerpt(bomb)) <= DEFAULT_LIMIT + 1
 
 
+def test_numpy_scalars_show_as_plain_numbers_also_inside_containers():
+    """A message quoting ``list(array[:3])`` once read ``got [np.float64(-1.0)] s``."""
+    import numpy as np
+
+    assert excerpt([np.float64(-1.0), np.float32(2.5)]) == "[-1.0, 2.5]"
+    assert excerpt({"t": (np.int64(3), np.float64("inf"))}) == "{'t': (3, inf)}"
+    assert excerpt(np.float64(0.5)) == "0.5"
+
+
 def test_clip_bounds_a_whole_message():
     assert clip("short") == "short"
     out = clip("e" * 10_000, 100)

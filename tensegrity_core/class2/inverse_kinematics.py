@@ -39,7 +39,7 @@ import numpy as np
 from tensegrity_core.class2.full_workspace import distance_to_full_workspace
 from tensegrity_core.class2.kinematics import as_real, in_paper_range
 from tensegrity_core.class2.params import PAPER_PARAMS, Class2Params
-from tensegrity_core.class2.singularities.distances import nearest_singularity
+from tensegrity_core.class2.singularities.distances import SINGULAR_MEANINGS, nearest_singularity
 from tensegrity_core.errors import DomainError
 
 #: Relative tolerance (times L) within which a length on a domain limit is snapped onto
@@ -118,6 +118,8 @@ class IKCandidate(NamedTuple):
     stiffness_beta : d2U/dbeta2 at the target [J/rad^2] (> 0 for a minimum).
     singularity_distance : distance to the nearest singular set (dimensionless; NaN outside
         the configuration domain).
+    singular_set : name of that set (:data:`~tensegrity_core.class2.singularities.distances.SINGULAR_SETS`;
+        '' outside the configuration domain).
     fk_residual : ``|FK(rho1, rho2) - (x, y)|`` [m]; NaN outside the configuration domain.
     """
 
@@ -132,6 +134,7 @@ class IKCandidate(NamedTuple):
     in_paper_range: bool
     stiffness_beta: float
     singularity_distance: float
+    singular_set: str
     fk_residual: float
 
     def as_dict(self) -> dict[str, Any]:
@@ -275,6 +278,7 @@ def _candidate(x: float, y: float, yb: float, rho1: float, rho2: float, c: float
     beta = math.atan2(yb, c)
     lam_sq = (two_l - s) * (two_l + s)
     alpha = stiffness = dist = fk_res = math.nan
+    singular_set = ""
     if lam_sq >= -4.0 * tol * L:
         lam1 = math.sqrt(lam_sq) if lam_sq > 0.0 else 0.0
         alpha = math.atan2(lam1, s)
@@ -285,14 +289,14 @@ def _candidate(x: float, y: float, yb: float, rho1: float, rho2: float, c: float
         if spurious:
             reasons.append(spurious)
         if in_domain:
-            dist = nearest_singularity(rho1, rho2, params)[1]
+            singular_set, dist = nearest_singularity(rho1, rho2, params)
             fk_res = fk_residual(x, y, rho1, rho2, params)
     in_range = in_paper_range(beta) and 0.0 <= alpha <= 0.5 * math.pi
     if paper_range and not in_range:
         reasons.append(REASON_RANGE)
     return IKCandidate(
         rho1, rho2, beta, alpha, d1, d2, not reasons, "; ".join(reasons) if reasons else "", in_range,
-        stiffness, dist, fk_res,
+        stiffness, dist, singular_set, fk_res,
     )
 
 
@@ -350,8 +354,9 @@ def inverse_kinematics(
 def _message(x: float, y: float, L: float, candidates: Sequence[IKCandidate], n_valid: int, outside: float,
              paper_range: bool) -> str:
     if n_valid:
-        return f"{n_valid} valid solution{'s' if n_valid > 1 else ''} of {len(candidates)} candidates"
-    where = f"D = ({x:g}, {y:g})"
+        found = f"{n_valid} valid solution{'s' if n_valid > 1 else ''} of {len(candidates)} candidates"
+        return found + "".join(_on_singular_set(c, L) for c in candidates if c.valid)
+    where = f"D = ({x:g}, {y:g}) m"
     if abs(y) > L:
         return f"no real solution for {where}: |y| > L = {L:g} m (outside the workspace by {outside:.3g} m)"
     if outside > 0.0:
@@ -359,6 +364,18 @@ def _message(x: float, y: float, L: float, candidates: Sequence[IKCandidate], n_
     if paper_range:
         return f"no valid solution for {where} within the paper's angle range"
     return f"no valid solution for {where}"
+
+
+def _on_singular_set(c: IKCandidate, L: float) -> str:
+    """The note for a valid solution on a singular set (within the IK's resolution,
+    :func:`merge_radius`): an equilibrium, but ``dD/drho`` is singular there, so a controller
+    keeping a margin from the singular sets (``tensegrity_controller``'s ``singular_margin``)
+    refuses to hold D there; '' elsewhere."""
+    if not c.singularity_distance * L <= merge_radius(L):
+        return ""
+    return (f"; rho = ({c.rho1:.6g}, {c.rho2:.6g}) m lies on the singular set {c.singular_set} "
+            f"({SINGULAR_MEANINGS[c.singular_set]}): an equilibrium where dD/drho is singular, "
+            f"refused as a target by a controller keeping a margin from singular sets")
 
 
 def nearest_solution(

@@ -159,8 +159,9 @@ class RollController:
         if faces < 0:
             raise ValueError(f"the number of faces to roll must be >= 0, got {faces}")
         h = np.asarray(heading, dtype=float)
-        if h.shape != (2,) or not np.all(np.isfinite(h)) or not np.linalg.norm(h) > 0:
+        if h.shape != (2,) or not np.all(np.isfinite(h)) or not np.any(h != 0.0):
             raise ValueError(f"the heading must be a nonzero direction (x, y) on the floor, got {heading!r}")
+        h = h / np.max(np.abs(h))       # scaled first: the norm of (1e-300, 0) underflows, of 1e308s overflows
         if not (speed > 0 and np.isfinite(speed)):
             raise ValueError(f"the speed of a move must be a positive number of m/s, got {speed!r}")
         self.moves = moves if moves is not None and moves.robot is robot else TipMoves(robot)

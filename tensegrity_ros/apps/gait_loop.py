@@ -167,7 +167,7 @@ def roll_closed_loop(robot_name: str, faces: int, heading: tuple[float, float], 
         end = (loop.done_ns if loop.done_ns is not None else (loop.start_ns or 0) + round(loop.elapsed() * NS_PER_S)
                ) / NS_PER_S
         rest = watcher.watch_until_rest(executor, end, settle, timeout) if finished else None
-        where = f"towards ({heading[0]:+.2f}, {heading[1]:+.2f})"
+        where = f"towards ({controller.heading[0]:+.2f}, {controller.heading[1]:+.2f})"
         ok = finished and controller.rolled == faces
         if ok:
             print(f"done: the controller rolled {faces} of {faces} faces {where} in {end - start:.2f} s "

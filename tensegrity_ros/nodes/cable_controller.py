@@ -52,18 +52,23 @@ are the scene's actuated cables that take commands; their positions are rest len
   "preempted: a newer goal took over" (joint_trajectory_controller's status, code and
   reason since its Jazzy release 4.41; CANCELED before); a cancelled
   goal ends CANCELED with SUCCESSFUL and the cables hold where they are. Goals follow
-  simulation time: a paused simulator pauses them (a cancel still ends them at once).
+  simulation time: a paused simulator pauses them (a cancel still ends them at once; it
+  republishes its state, at ``paused_publish_rate``). A running goal ends ABORTED with
+  INVALID_GOAL when no joint state at all has come for ``state_timeout`` s of the
+  controller's watch (:mod:`.state_watch`: its own stalls do not count): the simulator
+  stopped or is gone, and a goal without a goal time would otherwise never end.
 
 Parameters: ``scene`` (the simulator's: which cables there are), the default tolerances
 ``goal_tolerance`` [m], ``path_tolerance`` [m] (0 = not checked) and
 ``goal_time_tolerance`` [s] (0 = no limit), and ``state_timeout`` [s] (how long a goal waits for the
-controller to become active).
+controller to become active, and a running goal for the next joint state).
 """
 
 from __future__ import annotations
 
 import math
 import sys
+import time
 from collections import deque
 from collections.abc import Sequence
 from typing import Any
@@ -85,12 +90,14 @@ from tensegrity_core.excerpt import clip, excerpt
 from tensegrity_core.sim import compile_scene
 from tensegrity_core.sim import joint_trajectory as jt
 from tensegrity_ros.nodes.actuator_commands import CommandError
+from tensegrity_ros.nodes.cable_states import unusable_cable_states
 from tensegrity_ros.nodes.common import ParameterValueError, declare, spin_node
 from tensegrity_ros.nodes.scene_param import declare_scene
 from tensegrity_ros.nodes.sim.cable_commands import parse_cable_command
-from tensegrity_ros.rclpy_utils.messages import stamp_ns
+from tensegrity_ros.nodes.state_watch import WATCH_PERIOD, StateWatch
+from tensegrity_ros.rclpy_utils.messages import duration_msg, stamp_ns
 from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
-from tensegrity_ros.rclpy_utils.raw_take import take_all
+from tensegrity_ros.rclpy_utils.raw_take import take_all, take_waiting
 
 _RESULT = FollowJointTrajectory.Result
 NS_PER_S = 1_000_000_000
@@ -143,7 +150,8 @@ class CableControllerNode(Node):
                                            lo=0.0, read_only=True)
         self.state_timeout = declare(self, "state_timeout", 10.0, "how long a goal sent before the controller "
                                      "has the simulator's joint_states and cable_states waits for them [s of wall "
-                                     "time]; then it is refused", lo=0.0, read_only=True)
+                                     "time], then refused, and a running goal for the next joint state [s of the "
+                                     "controller's watch], then aborted", lo=0.0, read_only=True)
         #: the controller's joints: the commanded inputs (cables) in the scene's order
         self.joints = [n for n, c in zip(self.interface.inputs, self.interface.commanded) if c]
         self._column = {n: i for i, n in enumerate(self.joints)}
@@ -160,9 +168,11 @@ class CableControllerNode(Node):
         self._active = False                             # both states received: it answers and takes goals
         self._waiting: dict[bytes, Future] = {}          # goals waiting for that, by goal id: how it ended
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self._watch = StateWatch(WATCH_PERIOD)           # the silence since the last joint state or goal start
         # a history a briefly stalled recorder can be repaired from (the simulator's depth)
         self.pub = self.create_publisher(CableCommand, "cable_commands", QoSProfile(depth=1000))
-        self.create_subscription(JointState, "joint_states", self.on_joints, QoSProfile(depth=1))
+        self._joint_states = self.create_subscription(JointState, "joint_states", self.on_joints, QoSProfile(depth=1))
+        self.create_timer(WATCH_PERIOD, self._watch_states, clock=self._steady)
         self.create_subscription(CableStates, "cable_states", self.on_cables, QoSProfile(depth=10))
         # every command the simulator takes, others' too: what the cables hold (controller_state).
         # Read in bulk at each cable_states by a node no executor spins: a callback per command
@@ -184,6 +194,7 @@ class CableControllerNode(Node):
 
     # -- commands and checks ---------------------------------------------------------------
     def on_joints(self, msg: JointState) -> None:
+        self._watch.heard(time.monotonic())      # any state: the simulator is there (paused, it repeats one)
         stamp = stamp_ns(msg.header.stamp)
         if self._latest is None or stamp != self._latest[0]:
             self._latest, self._latest_header, self._answer = (stamp, stamp / NS_PER_S), msg.header, None
@@ -265,7 +276,7 @@ class CableControllerNode(Node):
         return [self._rest.get(n, math.nan) for n in self.interface.inputs]
 
     def on_cables(self, msg: CableStates) -> None:
-        unusable = _unusable_cable_states(msg)
+        unusable = unusable_cable_states(msg)
         if unusable:
             self.get_logger().warning(f"cable_states ignored: {unusable}", throttle_duration_sec=2.0)
             return
@@ -286,7 +297,7 @@ class CableControllerNode(Node):
         tr = job.trajectory
         actual = [float(msg.rest_length[index[n]]) for n in tr.names]
         desired = tr.sample(tau)
-        when = _duration(tau)
+        when = duration_msg(tau)
         fb = FollowJointTrajectory.Feedback(header=msg.header, joint_names=list(tr.names))
         fb.desired = JointTrajectoryPoint(positions=desired.positions.tolist(),
                                           velocities=desired.velocities.tolist(),
@@ -308,9 +319,9 @@ class CableControllerNode(Node):
         trajectory's sample ``tau`` [s] after its start, the others held."""
         reference, rates, accelerations = [self._held[n] for n in self.joints], [0.0] * len(self.joints), \
             [0.0] * len(self.joints)
-        when = _duration(0.0)
+        when = duration_msg(0.0)
         if job is not None:
-            sample, when = job.trajectory.sample(tau), _duration(tau)
+            sample, when = job.trajectory.sample(tau), duration_msg(tau)
             for name, p, v, a in zip(job.trajectory.names, sample.positions.tolist(), sample.velocities.tolist(),
                                      sample.accelerations.tolist()):
                 column = self._column[name]
@@ -362,8 +373,19 @@ class CableControllerNode(Node):
     def _take_over(self, job: _Job) -> None:
         """Run ``job`` from now on; the running one ends preempted."""
         old, self._job, self._answer = self._job, job, None
+        self._watch.heard(time.monotonic())
         if old is not None:
             self._end(old, jt.Outcome(jt.INVALID_GOAL, "preempted: a newer goal took over"), "aborted")
+
+    def _watch_states(self) -> None:
+        """A running goal ends when no joint state has come for ``state_timeout`` s of watch
+        (:class:`StateWatch`; a state waiting in the reader is heard first)."""
+        for msg in take_waiting(self._joint_states):
+            self.on_joints(msg)
+        silence, job = self._watch.look(time.monotonic()), self._job
+        if job is not None and silence > self.state_timeout:
+            self._end(job, jt.Outcome(jt.INVALID_GOAL, f"no joint_states for {silence:.2f} s of the controller's "
+                                      "watch: the simulator stopped or is gone"), "aborted")
 
     def on_trajectory(self, msg: JointTrajectory) -> None:
         """joint_trajectory_controller's ``~/joint_trajectory``: a goal without an action (no
@@ -463,31 +485,6 @@ def _settle(future: Future, outcome: str) -> None:
     """End a held goal's wait with ``outcome`` unless it has ended."""
     if not future.done():
         future.set_result(outcome)
-
-
-
-
-def _duration(seconds: float) -> Any:
-    from builtin_interfaces.msg import Duration
-
-    seconds = max(0.0, seconds)
-    sec = math.floor(seconds)
-    return Duration(sec=int(sec), nanosec=min(int(round((seconds - sec) * 1e9)), 999_999_999))
-
-
-def _unusable_cable_states(msg: CableStates) -> str:
-    """Why a ``cable_states`` message cannot be read (no simulator sends such: a rogue
-    publisher), or "" when it can: one rest length and one tension per name, each name once,
-    finite rest lengths [m]."""
-    n = len(msg.name)
-    if len(msg.rest_length) != n or len(msg.tension) != n:
-        return f"{n} names but {len(msg.rest_length)} rest lengths and {len(msg.tension)} tensions"
-    if len(set(msg.name)) != n:
-        return "a cable named twice"
-    bad = next((name for name, v in zip(msg.name, msg.rest_length) if not math.isfinite(v)), None)
-    if bad is not None:
-        return clip(f"the rest length of {excerpt(bad)} is not finite")
-    return ""
 
 
 def main(argv: Sequence[str] | None = None) -> int:

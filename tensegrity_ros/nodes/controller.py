@@ -21,8 +21,8 @@ planned (bad numbers, unknown joints, out of the workspace, through a singular s
 the force budget) is accepted and aborted at once with its reason in the result
 (``error_code``, ``error_string``: ROS 2's goal response has no field for a reason); the
 running goal and the hold are not disturbed. A goal aborts with ``SIMULATOR_STOPPED`` when
-the joint states' time has not advanced for ``state_timeout`` seconds (wall time; a goal
-that comes before the first joint state waits that long for it) and
+the joint states' time has not advanced for ``state_timeout`` seconds of the controller's
+watch (:mod:`.state_watch`; a goal before the first joint state waits that long for it) and
 with ``SINGULAR_STATE`` when the measured state comes within ``singular_abort`` of the
 lambda1/lambda2 sets.
 
@@ -47,7 +47,7 @@ import time
 from collections import deque
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any, Literal, overload
+from typing import Any
 
 import numpy as np
 from geometry_msgs.msg import Point
@@ -92,9 +92,10 @@ from tensegrity_ros.nodes.controller_messages import (
     start_feedback,
 )
 from tensegrity_ros.nodes.scene_param import declare_scene
+from tensegrity_ros.nodes.state_watch import WATCH_PERIOD, StateWatch
 from tensegrity_ros.rclpy_utils.messages import duration_to_s
 from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
-from tensegrity_ros.rclpy_utils.raw_take import take_all
+from tensegrity_ros.rclpy_utils.raw_take import take_all, take_waiting
 
 _MOVE = MoveEndEffector.Result
 _FOLLOW = FollowActuatorTrajectory.Result
@@ -107,7 +108,6 @@ class _Job:
         self.handle = handle                # rclpy's ServerGoalHandle
         self.goal = goal
         self.finished = Future()            # done once the goal has ended (its outcome)
-        self.started_at = math.inf          # wall time it took over (the watchdog counts from then)
         self.last_tick: Tick | None = None
         self.last_state: JointSample | None = None
 
@@ -144,7 +144,8 @@ class ControllerNode(Node):
         self.settle_window = declare(self, "settle_window", 0.2, "how long D must stay within the goal "
                                      "tolerance for a move to succeed [s]", lo=0.0, read_only=True)
         self.state_timeout = declare(self, "state_timeout", 0.5, "a goal aborts when the joint states' time "
-                                     "has not advanced for this long [s, wall time]", lo=0.01, read_only=True)
+                                     "has not advanced for this long [s of the controller's watch: wall time "
+                                     "while it runs]", lo=0.01, read_only=True)
         self.singular_abort = declare(self, "singular_abort", 0.01, "a goal aborts when lambda1/L or "
                                       "lambda2/L of the measured state falls below this [fraction of L]", lo=0.0, hi=1.0,
                                       read_only=True)
@@ -163,11 +164,11 @@ class ControllerNode(Node):
         self._latest: JointSample | None = None     # the last new joint state
         self._latest_header: Any = None      # its header (stamp and frame)
         self._answer: bytes | None = None    # the command published for it, serialized (sent again for a repeat)
-        self._advanced_at: float | None = None   # wall time the joint states' time last advanced
+        self._watch = StateWatch(WATCH_PERIOD)   # the silence since the last new joint state or goal start
         self._sent: deque[bytes] = deque(maxlen=256)   # the commands this node published lately, serialized
         self._manual = False                 # another node's command took over; until the next goal
         self._first_state: list[Future] = []   # goals that came before the first joint state
-        self._steady = Clock(clock_type=ClockType.STEADY_TIME)   # their wait is wall time, as the watchdog's
+        self._steady = Clock(clock_type=ClockType.STEADY_TIME)   # their wait is wall time
 
         # a history a briefly stalled recorder can be repaired from (the simulator's depth)
         self.pub = self.create_publisher(ActuatorForces, "actuator_forces", 1000)
@@ -181,8 +182,8 @@ class ControllerNode(Node):
             ActuatorForces, self.resolve_topic_name("actuator_forces"), lambda _raw: None, QoSProfile(depth=10),
             raw=True)
         # latest state wins: a controller that fell behind acts on the newest sample, never a backlog
-        self.create_subscription(JointState, "joint_states", self.on_joints, QoSProfile(depth=1))
-        self.create_timer(0.05, self._watch_time)
+        self._joint_states = self.create_subscription(JointState, "joint_states", self.on_joints, QoSProfile(depth=1))
+        self.create_timer(WATCH_PERIOD, self._watch_time)
         for action, name, execute in ((MoveEndEffector, "move_end_effector", self._execute_move),
                                       (FollowActuatorTrajectory, "follow_actuator_trajectory", self._execute_follow)):
             # feedback goes out on every tick: a history of 100 (1 s at 100 Hz) instead of
@@ -214,7 +215,7 @@ class ControllerNode(Node):
         self._latest = state
         self._latest_header = msg.header
         self._answer = None
-        self._advanced_at = time.monotonic()
+        self._watch.heard(time.monotonic())
         if self.ctrl.reference is None and not self._start_holding(t, q):
             return
         for waiting in self._first_state:
@@ -308,19 +309,22 @@ class ControllerNode(Node):
             self._job = None
 
     def _watch_time(self) -> None:
-        """Wall-time watchdog: a goal cannot wait for a simulator that has stopped. It counts
-        from the later of the last new joint state and the goal's start (a goal sent to a
-        paused simulator gets ``state_timeout`` for the simulator to resume). Takes the
-        commands too: another node's is seen while no joint state comes."""
+        """The state watchdog (:class:`StateWatch`): a goal cannot wait for a simulator that has
+        stopped; a state waiting in the reader is heard first. A goal sent to a paused simulator
+        gets ``state_timeout`` for it to resume. Takes the commands too: another node's is seen
+        while no joint state comes."""
+        for msg in take_waiting(self._joint_states):
+            self.on_joints(msg)
         self._read_commands()
-        job, since = self._job, self._advanced_at
+        silence = self._watch.look(time.monotonic())
+        job = self._job
         if job is None:
             return
-        idle = time.monotonic() - max(job.started_at if since is None else since, job.started_at)
-        if idle > self.state_timeout:
+        if silence > self.state_timeout:
             last = "none received" if self._latest is None else f"the last at t = {self._latest[0]:.3f} s"
             self._end(job, G.Outcome(G.SIMULATOR_STOPPED, f"the joint states' time has not advanced for "
-                                     f"{min(idle, 1e9):.2f} s ({last}): the simulator stopped or is gone"))
+                                     f"{silence:.2f} s of the controller's watch ({last}): the simulator "
+                                     "stopped or is gone"))
 
     # -- goals ---------------------------------------------------------------------------
     async def _execute_move(self, handle: Any) -> Any:
@@ -328,7 +332,7 @@ class ControllerNode(Node):
         result = _MOVE()
         try:
             await self._until_first_state()
-            q = self._require_state()
+            q = self._require_state()[0]
             tol = self._tolerance(req.goal_tolerance, "goal_tolerance")
             duration, max_speed = given(req.duration), given(req.max_speed)
             if duration is None and max_speed is None:      # 0 = the controller's default, as goal_tolerance
@@ -358,7 +362,7 @@ class ControllerNode(Node):
         traj = req.trajectory
         try:
             await self._until_first_state()
-            q, qdot, now = self._require_state(with_rate=True)
+            q, qdot, now = self._require_state()
             if any(len(p.effort) for p in traj.points):
                 raise PlanningError("points with effort are not accepted: the controller computes the forces")
             start = stamp_start(traj.header.stamp, now)
@@ -409,16 +413,12 @@ class ControllerNode(Node):
             self.destroy_timer(timer)
             self._first_state.remove(arrived)
 
-    @overload
-    def _require_state(self, with_rate: Literal[False] = False) -> FloatArray: ...
-    @overload
-    def _require_state(self, with_rate: Literal[True]) -> tuple[FloatArray, FloatArray, float]: ...
-    def _require_state(self, with_rate: bool = False) -> FloatArray | tuple[FloatArray, FloatArray, float]:
+    def _require_state(self) -> tuple[FloatArray, FloatArray, float]:
         if self._latest is None or self.ctrl.reference is None:
             raise _NoState(f"no joint_states received within state_timeout = {self.state_timeout:g} s: "
                            "is the simulator running?")
         t, q, qdot = self._latest
-        return (q, qdot, t) if with_rate else q
+        return q, qdot, t
 
     async def _plan(self, make_reference: Callable[[], Reference]) -> tuple[Reference, ScheduledGains]:
         """``(reference, gains)``: ``make_reference()`` and the gain schedule along it, on the
@@ -454,7 +454,7 @@ class ControllerNode(Node):
             self.ctrl.reset_integral()
             self.get_logger().info("a new goal: the controller commands actuator_forces again")
         self._job = job
-        job.started_at = time.monotonic()
+        self._watch.heard(time.monotonic())
         self.ctrl.follow(ref, t0, gains)
         if old is not None:
             old.end(G.Outcome(G.PREEMPTED, "preempted by a newer goal"))

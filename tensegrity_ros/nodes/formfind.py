@@ -1,17 +1,17 @@
 """``tensegrity_formfind``: the ``find_form`` service over the core's form-finding.
 
-The request carries a structure description as *text* (YAML or JSON, the structure-file
-format of ``docs/structures.md``); the service never reads a file or a shipped example,
-whatever the text says. Each request is solved in its own worker process (forked from a
-forkserver with the numerical core preloaded), at most ``max_workers`` at once; the
-service callbacks run in a reentrant callback group on a multi-threaded executor, so a
-long request never blocks other callers. Every request is bounded: its size
-(``max_request_bytes``) before anything else, its nesting, aliases and members
-(``max_members``) while it is parsed, its time (``time_limit``, from the worker's start,
-parsing included) and its memory (``max_worker_memory_mb``, the worker's address space).
-Malformed, oversized, over-limit or non-converging requests get ``success = false`` and a
-short reason (values quoted in a few dozen characters at most) that says which phase a
-time limit hit.
+The request carries a structure description as *text* (YAML, JSON or TOML, the
+structure-file format of ``docs/structures.md``; how the format is told: docs/ros.md); the
+service never reads a file or a shipped example, whatever the text says. Each request is
+solved in its own worker process (forked from a forkserver with the numerical core
+preloaded), at most ``max_workers`` at once; the service callbacks run in a reentrant
+callback group on a multi-threaded executor, so a long request never blocks other callers.
+Every request is bounded: its size (``max_request_bytes``) before anything else, its
+nesting, aliases and members (``max_members``) while it is parsed, its time (``time_limit``,
+from the worker's start, parsing included) and its memory (``max_worker_memory_mb``, the
+worker's address space). Malformed, oversized, over-limit or non-converging requests get
+``success = false`` and a short reason (values quoted in a few dozen characters at most)
+that says which phase a time limit hit.
 """
 
 from __future__ import annotations

@@ -2,8 +2,10 @@
 
 Request ``(x, y, seed)``: the end-effector target D [m] and optionally the current
 actuator lengths ``[rho1, rho2]`` [m]. Response: the valid solutions only, nearest the
-seed first; ``success = false`` with a reason for unreachable, non-finite or malformed
-requests. Parameters: ``scene`` (the mechanism's L, k1..k4 come from it, as for the
+seed first, each naming its nearest singular set and the distance to it (a solution on a
+set, such as the folded pose for D = (0, L), is an equilibrium the controller refuses as a
+target, and the message says so); ``success = false`` with a reason for unreachable,
+non-finite or malformed requests. Parameters: ``scene`` (the mechanism's L, k1..k4 come from it, as for the
 simulator and the controller) and ``paper_range``.
 """
 
@@ -46,7 +48,7 @@ class IKNode(Node):
             res.message = f"seed must be empty or [rho1, rho2], got {len(seed)} values"
             return res
         if not all(math.isfinite(v) for v in (req.x, req.y, *seed)):
-            res.message = f"non-finite request: x = {req.x}, y = {req.y}, seed = {seed}"
+            res.message = f"non-finite request: x = {req.x:g} m, y = {req.y:g} m, seed = {seed} m"
             return res
         try:
             result = inverse_kinematics(req.x, req.y, self.params, paper_range=self.paper_range)
@@ -69,6 +71,7 @@ class IKNode(Node):
             stiffness_beta=float(c.stiffness_beta),
             distance_to_seed=math.hypot(c.rho1 - seed[0], c.rho2 - seed[1]) if seed else 0.0,
             singularity_distance=float(c.singularity_distance),
+            singular_set=c.singular_set,
         )
 
 

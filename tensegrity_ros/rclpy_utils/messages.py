@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import array
 import importlib
+import math
 from typing import Any
 
 import numpy as np
@@ -63,3 +64,11 @@ def stamp_to_s(stamp: Any) -> float:
 def duration_to_s(duration: Any) -> float:
     """A ``builtin_interfaces/Duration`` as seconds (its ``sec`` may be negative)."""
     return float(duration.sec + 1e-9 * duration.nanosec)
+
+
+def duration_msg(seconds: float) -> Any:
+    """A ``builtin_interfaces/Duration`` of ``seconds`` (a negative one is 0), to the nanosecond."""
+    from builtin_interfaces.msg import Duration
+
+    sec = math.floor(max(0.0, seconds))
+    return Duration(sec=int(sec), nanosec=min(int(round((max(0.0, seconds) - sec) * 1e9)), 999_999_999))

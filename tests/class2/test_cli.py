@@ -36,7 +36,7 @@ def test_out_of_domain_exits_non_zero_with_one_line_reason_subprocess():
     assert len(lines) == 1 and lines[0].startswith("error:") and "rho1" in lines[0]
     out = run("ik", "3", "0.5", "--json")
     assert out.returncode != 0
-    assert out.stderr.strip().splitlines() == ["error: no valid solution for D = (3, 0.5): outside the workspace by 1.06 m"]
+    assert out.stderr.strip().splitlines() == ["error: no valid solution for D = (3, 0.5) m: outside the workspace by 1.06 m"]
     assert json.loads(out.stdout)["solutions"] == []
 
 

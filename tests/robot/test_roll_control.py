@@ -24,6 +24,8 @@ pytestmark = pytest.mark.slow
 
 #: The control rate [Hz] (the robots' usual 50 Hz loop).
 RATE = 50.0
+_SIX_BAR = load_robot("six_bar")
+_SIX_BAR_MOVES = TipMoves(_SIX_BAR)
 
 
 @pytest.fixture(scope="module")
@@ -119,6 +121,24 @@ def test_bad_requests_are_refused_with_one_line():
         RollController(robot, 1, heading=(np.nan, 1.0))
     with pytest.raises(ValueError, match="speed of a move must be a positive number of m/s, got 0.0"):
         RollController(robot, 1, speed=0.0)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.tuples(st.floats(allow_nan=False, allow_infinity=False), st.floats(allow_nan=False, allow_infinity=False))
+       .filter(lambda h: h != (0.0, 0.0)))
+def test_any_finite_nonzero_heading_is_its_unit_direction(heading):
+    """Every finite nonzero (x, y) is a direction, however small or large its numbers (the CLI's
+    ``--heading 1e-300 0`` once raised, and ``1e308 1e308`` overflowed to a heading of (0, 0)):
+    the controller's heading is the unit vector along it. Pure; ~0.2 s for the 60 examples."""
+    controller = RollController(_SIX_BAR, 1, heading=heading, moves=_SIX_BAR_MOVES)
+    u = controller.heading
+    assert abs(float(np.hypot(u[0], u[1])) - 1.0) <= 4e-16
+    x, y = heading
+    for component, along in ((u[0], x), (u[1], y)):          # the same signs (or rounded to 0 beside a
+        assert component == 0.0 or np.sign(component) == np.sign(along)   # component 1e300 times larger)
+    # parallel: u = h / |h|, so u_x |y| = u_y |x| when both are scaled by the larger one
+    scale = max(abs(x), abs(y))
+    assert abs(u[0] * (y / scale) - u[1] * (x / scale)) <= 4e-16
 
 
 def test_the_strict_counts_see_a_face_crossed_on_two_caps():

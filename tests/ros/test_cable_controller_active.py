@@ -134,3 +134,48 @@ def test_a_held_goal_that_is_cancelled_ends_canceled_at_once(tmp_path):
     finally:
         client.close()
         ctl.stop()
+
+
+def test_a_running_goal_without_a_goal_time_ends_when_the_simulator_stops(tmp_path):
+    """A goal with goal_time_tolerance -1 (no limit) waits for its tolerance, which a
+    simulator that stops (SIGSTOP: no state at all, not even a paused one's repeats) never
+    brings: after ``state_timeout`` s without a joint state the goal ends ABORTED with
+    INVALID_GOAL and the reason, where it ran forever. The controller's own stall as long
+    (SIGSTOP 2 s, its state_timeout 1 s) is not the simulator's: the goal goes on."""
+    import os
+    import signal
+    import threading
+
+    from action_msgs.msg import GoalStatus
+    from builtin_interfaces.msg import Duration
+    from control_msgs.action import FollowJointTrajectory
+
+    sim = start_sim(tmp_path, SCENE)
+    ctl = Proc(["node", "cables", "--ros-args", "-p", f"scene:={SCENE}", "-p", "state_timeout:=1.0"],
+               tmp_path / "cables.log")
+    client = Client("stopped_sim_client")
+    try:
+        ctl.wait_for("cable controller ready")
+        action = client.action_client(FollowJointTrajectory, ACTION)
+        goal = _goal(60.0, REST - 0.02)
+        goal.goal_time_tolerance = Duration(sec=-1)
+        handle, feedback = _send(client, action, goal)
+        result = client.request(handle.get_result_async, "the goal's result")
+        client.wait_until(lambda: feedback, "the goal's feedback")
+        os.killpg(ctl.popen.pid, signal.SIGSTOP)          # its session: the controller alone
+        threading.Event().wait(2.0)
+        os.killpg(ctl.popen.pid, signal.SIGCONT)
+        seen = len(feedback)
+        client.wait_until(lambda: len(feedback) > seen + 2, "feedback after the controller's stall")
+        assert not result.done(), result.result().result.error_string
+        os.killpg(sim.popen.pid, signal.SIGSTOP)
+        try:
+            answer = client.wait_future(result, "the result of the goal whose simulator stopped")
+        finally:
+            os.killpg(sim.popen.pid, signal.SIGCONT)
+        assert (answer.status, answer.result.error_code) == (GoalStatus.STATUS_ABORTED, INVALID_GOAL)
+        assert "the simulator stopped or is gone" in answer.result.error_string, answer.result.error_string
+    finally:
+        client.close()
+        for p in (ctl, sim):
+            p.stop()

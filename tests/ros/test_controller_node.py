@@ -489,6 +489,7 @@ def test_follow_reaches_the_last_point_with_desired_actual_error_feedback(suite)
     (dict(x=1.3, y=0.7, duration=-1.0), "INVALID_GOAL", "duration must be > 0"),
     (dict(x=1.3, y=0.7, max_speed=math.inf), "INVALID_GOAL", "max_speed must be a finite number"),
     (dict(x=0.9, y=0.9999, duration=2.0), "SINGULAR_PATH", "beta_half_pi"),
+    (dict(x=0.0, y=1.0, duration=2.0), "SINGULAR_PATH", "singular set folded"),  # solve_ik names it too
     (dict(x=1.3, y=0.8, duration=1.5), "INVALID_GOAL", "allow more time: a duration of at least"),
 ])
 def test_bad_moves_are_refused_with_the_reason_and_the_hold_continues(suite, goal, code, words):
@@ -636,6 +637,30 @@ def test_a_new_goal_preempts_the_running_one(suite):
     assert status_first == 6 and res_first.error_code == client.Move.Result.PREEMPTED
     assert "preempted" in res_first.error_string
 
+
+def test_a_controller_stopped_longer_than_its_state_timeout_goes_on_with_its_goal(suite):
+    """A controller short of CPU, here stopped (SIGSTOP) 2.5 s, longer than its state_timeout
+    (2 s), has not watched the simulator meanwhile: the lockstep simulator waited for its
+    command, and its state was waiting in the controller's reader. When the controller runs
+    again the goal goes on and succeeds; SIMULATOR_STOPPED would blame a simulator that
+    never stopped (rclpy's executor runs a due timer, the watchdog, before a waiting
+    subscription)."""
+    import os
+    import signal
+
+    client, ctl = suite
+    x0, y0, _ = client.end_effector()
+    handle, feedback = client.send(client.move, client.Move.Goal(x=x0 + 0.01, y=y0, duration=2.0))
+    client.spin_until(lambda: feedback)                     # it runs
+    os.killpg(ctl.popen.pid, signal.SIGSTOP)                # its session: the controller alone
+    try:
+        end = time.monotonic() + 2.5
+        while time.monotonic() < end:                       # the client reads on meanwhile
+            client.executor.spin_once(timeout_sec=0.05)
+    finally:
+        os.killpg(ctl.popen.pid, signal.SIGCONT)
+    status, res = client.result(handle)
+    assert (status, res.error_code) == (4, client.Move.Result.SUCCESSFUL), res.error_string
 
 
 def test_a_goal_sent_before_the_first_joint_state_waits_for_it(cli, ros_context):

@@ -31,6 +31,24 @@ def test_the_service_definition_gives_the_eigenvalue_unit_the_cli_prints():
     assert "N/m" in comment and "N m/rad" in comment
 
 
+def test_the_service_definition_names_every_format_the_service_reads():
+    """FindForm.srv, the node's docstring and the manual's interface table name every format
+    the description reader accepts (TOML too), and the manual says how each is told (no DDS)."""
+    from pathlib import Path
+
+    from tensegrity_core.schema.documents import FORMATS
+    from tensegrity_ros.nodes import formfind as node
+
+    root = Path(__file__).parents[2]
+    srv = (root / "msgs_spec/tensegrity_msgs/srv/FindForm.srv").read_text()
+    field = srv[srv.index("string structure"):srv.index("float64 tolerance")]
+    table = next(line for line in (root / "docs/ros.md").read_text().splitlines()
+                 if line.startswith("| `srv/FindForm`"))
+    for text in (field, node.__doc__ or "", table):
+        assert all(fmt.upper() in " ".join(text.split()) for fmt in FORMATS), text
+    assert "docs/ros.md" in field
+
+
 @pytest.fixture(scope="module")
 def formfind(tmp_path_factory):
     """A running `tensegrity node formfind` process (time limit 5 s) and a client here."""
@@ -68,6 +86,51 @@ def test_table_example_gives_the_papers_self_stress(formfind):
     assert len(res.nodes) == 8
     # the residual is relative (out-of-balance force over the forces at a node), its norm in N
     assert 0 <= res.residual <= 1e-10 and 0 <= res.residual_norm <= 1e-10 * 7.6e6
+
+
+TABLE_TOML = """name = "tensegrity table"
+[defaults]
+E = 7.6e10
+A = 1.0e-4
+type = "string"
+rest_length_ratio = 0.3
+[nodes]
+f1 = [0.0, 1.0, 0.0]
+f2 = [-0.8660254037844386, -0.5, 0.0]
+f3 = [0.8660254037844386, -0.5, 0.0]
+post = [0.0, 0.0, 0.75]
+c1 = [0.0, 1.0, 1.0]
+c2 = [-0.8660254037844386, -0.5, 1.0]
+c3 = [0.8660254037844386, -0.5, 1.0]
+hang = [0.0, 0.0, 0.25]
+[[members]]
+name = "long1"
+nodes = ["f1", "c1"]
+[[members]]
+name = "long2"
+nodes = ["f2", "c2"]
+[[members]]
+name = "long3"
+nodes = ["f3", "c3"]
+[[members]]
+name = "short"
+nodes = ["hang", "post"]
+[[rigid_bodies]]
+name = "bottom"
+nodes = ["f1", "f2", "f3", "post"]
+[[rigid_bodies]]
+name = "top"
+nodes = ["c1", "c2", "c3", "hang"]
+"""
+
+
+def test_a_toml_description_is_read_as_the_service_definition_says(formfind):
+    """The table written as TOML (FindForm.srv: YAML, JSON or TOML) gives Ma et al.'s
+    [1, 1, 1, 3] self-stress, as the YAML example does."""
+    res = formfind(TABLE_TOML)
+    assert res.success, res.message
+    t = np.array(res.member_forces)
+    np.testing.assert_allclose(t / t[0], [1, 1, 1, 3], rtol=1e-8)
 
 
 def test_the_tolerance_is_on_the_relative_residual(formfind):

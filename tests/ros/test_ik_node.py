@@ -64,6 +64,18 @@ def test_answers_reach_the_target_and_match_the_core(ik_service):
     assert (s.delta1, s.delta2) == (core[0].delta1, core[0].delta2)
 
 
+def test_the_folded_pose_is_returned_with_its_singular_set_named(ik_service):
+    """D = (0, L) is reached only by the paper's q_F = [0, 0, pi/2] (Sect. 5.3: "a singular
+    configuration"): an equilibrium, returned as such, with the set the controller's refusal
+    of the same target names (tests/ros/test_controller_node.py)."""
+    res = ik_service(0.0, 1.0)
+    assert res.success, res.message
+    [s] = res.solutions
+    assert (s.rho1, s.rho2, s.beta) == pytest.approx((0.0, 0.0, math.pi / 2), abs=1e-12)
+    assert s.singular_set == "folded" and s.singularity_distance == 0.0
+    assert "lies on the singular set folded" in res.message
+
+
 def test_seed_orders_and_measures_distance(ik_service):
     x, y, _ = _fk(0.3, 0.9)
     res = ik_service(x, y, seed=(0.0, 0.0))
@@ -90,6 +102,8 @@ def test_unreachable_targets_fail_with_a_reason(ik_service, x, y, why):
 def test_malformed_requests_fail_cleanly(ik_service, x, y, seed):
     res = ik_service(x, y, seed)
     assert not res.success and res.message
+    if not all(math.isfinite(v) for v in (x, y, *seed)):     # every number with its unit
+        assert res.message == f"non-finite request: x = {x:g} m, y = {y:g} m, seed = {list(seed)} m"
     # the node is still alive and answering
     x0, y0, _ = _fk(0.5, 0.5)
     assert ik_service(x0, y0).success

@@ -59,12 +59,12 @@ def move_duration(length: float, duration: float | None, max_speed: float | None
     if duration is not None:
         duration = _finite("duration", duration)
         if duration <= 0.0:
-            raise PlanningError(f"duration must be > 0 s, got {duration:g}")
+            raise PlanningError(f"duration must be > 0 s, got {duration:g} s")
         given.append(duration)
     if max_speed is not None:
         max_speed = _finite("max_speed", max_speed)
         if max_speed <= 0.0:
-            raise PlanningError(f"max_speed must be > 0 m/s, got {max_speed:g}")
+            raise PlanningError(f"max_speed must be > 0 m/s, got {max_speed:g} m/s")
         given.append(PEAK_SPEED_FACTOR * length / max_speed)
     if not given:
         raise PlanningError("give a duration (> 0 s) or a speed limit max_speed (> 0 m/s)")
