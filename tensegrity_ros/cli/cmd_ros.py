@@ -332,20 +332,17 @@ def _call_formfind(args: argparse.Namespace) -> int:
 
     res = _call_service(args, "tensegrity_call_formfind", FindForm,
                         FindForm.Request(structure=text, tolerance=args.tol, max_iterations=args.max_iter))
-    residual_unit, eigenvalue_unit = "N", "N/m"
+    from tensegrity_ros.cli.cmd_formfind import answer_summary
+
+    structure = None
     names = [str(i) for i in range(len(res.member_forces))]
     if res.success:   # a structure with rigid bodies has moments and rotations too
         from tensegrity_core.general import structure_from_text
-        from tensegrity_ros.cli.cmd_formfind import k_unit, residual_unit_of
 
         structure = structure_from_text(text)
-        residual_unit, eigenvalue_unit = residual_unit_of(structure), k_unit(structure)
         names = list(structure.member_names)   # the answer keeps the description's member order
-    return _show(args, res, [
-        f"iterations {res.iterations}, residual {res.residual:.3g} (relative; norm {res.residual_norm:.3g} "
-        f"{residual_unit}), min stiffness eigenvalue {res.min_stiffness_eigenvalue:.4g} {eigenvalue_unit}, "
-        f"stability margin {res.stability_margin:.3g} (the scaled eigenvalue over its rounding level)",
-        *(f"member {name}: {t:.6g} N" for name, t in zip(names, res.member_forces))])
+    return _show(args, res, [answer_summary(res, structure),
+                             *(f"member {name}: {t:.6g} N" for name, t in zip(names, res.member_forces))])
 
 
 def _echo(args: argparse.Namespace) -> int:
