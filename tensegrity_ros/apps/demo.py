@@ -237,8 +237,9 @@ class DemoClient:
 def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool = True,
              robot_faces: int = demo_robot.FACES) -> int:
     rclpy = require_rclpy()
-    from tensegrity_core.general import example_path
+    from tensegrity_core.general import example_path, structure_from_text
     from tensegrity_ros.bag.info import bag_info
+    from tensegrity_ros.cli.cmd_formfind import answer_summary
 
     step_ns = step_ns_of(control_period)
     out.mkdir(parents=True, exist_ok=True)
@@ -360,12 +361,12 @@ def run_demo(out: Path, *, control_period: float = CONTROL_PERIOD, record: bool 
             _say(f"  {row['rate_hz']:>9g}  {cells[0]}   {cells[1]}   {row['max_rho_error_m']:.3e}")
 
         _say("form-finding the tensegrity table through find_form")
-        res = client.call_formfind(example_path("tensegrity_table").read_text())
+        table_text = example_path("tensegrity_table").read_text()
+        res = client.call_formfind(table_text)
         forces = np.array(res.member_forces)
         ratio = forces / forces[0] if res.success else []
-        _say(f"  {'ok' if res.success else 'FAILED'}: {res.message}; {res.iterations} iterations, residual "
-             f"{res.residual:.2g} (relative; norm {res.residual_norm:.2g} N), min stiffness eigenvalue "
-             f"{res.min_stiffness_eigenvalue:.4g}, stability margin {res.stability_margin:.2g}; "
+        _say(f"  {'ok' if res.success else 'FAILED'}: {res.message}; "
+             f"{answer_summary(res, structure_from_text(table_text))}; "
              f"forces / first = {np.round(ratio, 6).tolist()} (paper: [1, 1, 1, 3])")
         results["formfind_success"] = bool(res.success)
 

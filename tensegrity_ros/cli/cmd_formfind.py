@@ -159,6 +159,19 @@ def k_unit(structure: Structure) -> str:
     return "N/m and N m/rad mixed" if structure.bodies else "N/m"
 
 
+def answer_summary(answer: Any, structure: Structure | None) -> str:
+    """One line of a ``find_form`` answer's numbers with their units (the ``FindForm`` response
+    fields ``iterations``, ``residual``, ``residual_norm``, ``min_stiffness_eigenvalue``,
+    ``stability_margin``) for ``structure``, the description it answered (None: one that was
+    not read, taken as one without rigid bodies)."""
+    residual_unit = "N" if structure is None else residual_unit_of(structure)
+    eigenvalue_unit = "N/m" if structure is None else k_unit(structure)
+    return (f"iterations {answer.iterations}, residual {answer.residual:.3g} (relative; norm "
+            f"{answer.residual_norm:.3g} {residual_unit}), min stiffness eigenvalue "
+            f"{answer.min_stiffness_eigenvalue:.4g} {eigenvalue_unit}, stability margin "
+            f"{answer.stability_margin:.3g} (the scaled eigenvalue over its rounding level)")
+
+
 def _print_summary(structure: Structure, result: FormFindResult) -> None:
     print(f"{structure.name}: {result.message}")
     if math.isfinite(result.min_eigenvalue):

@@ -298,7 +298,8 @@ def _call_ik(args: argparse.Namespace) -> int:
                         SolveIK.Request(x=args.x, y=args.y, seed=list(args.seed or [])))
     return _show(args, res, [
         f"rho1 = {s.rho1:.9f} m  rho2 = {s.rho2:.9f} m  beta = {s.beta:.9f} rad  (delta1 {s.delta1:+d}, "
-        f"delta2 {s.delta2:+d}, d2U/dbeta2 = {s.stiffness_beta:.4g} J/rad^2)" for s in res.solutions])
+        f"delta2 {s.delta2:+d}, d2U/dbeta2 = {s.stiffness_beta:.4g} J/rad^2; nearest singular set "
+        f"{s.singular_set} at {s.singularity_distance:.3g} L)" for s in res.solutions])
 
 
 def _call_formfind(args: argparse.Namespace) -> int:
@@ -331,20 +332,17 @@ def _call_formfind(args: argparse.Namespace) -> int:
 
     res = _call_service(args, "tensegrity_call_formfind", FindForm,
                         FindForm.Request(structure=text, tolerance=args.tol, max_iterations=args.max_iter))
-    residual_unit, eigenvalue_unit = "N", "N/m"
+    from tensegrity_ros.cli.cmd_formfind import answer_summary
+
+    structure = None
     names = [str(i) for i in range(len(res.member_forces))]
     if res.success:   # a structure with rigid bodies has moments and rotations too
         from tensegrity_core.general import structure_from_text
-        from tensegrity_ros.cli.cmd_formfind import k_unit, residual_unit_of
 
         structure = structure_from_text(text)
-        residual_unit, eigenvalue_unit = residual_unit_of(structure), k_unit(structure)
         names = list(structure.member_names)   # the answer keeps the description's member order
-    return _show(args, res, [
-        f"iterations {res.iterations}, residual {res.residual:.3g} (relative; norm {res.residual_norm:.3g} "
-        f"{residual_unit}), min stiffness eigenvalue {res.min_stiffness_eigenvalue:.4g} {eigenvalue_unit}, "
-        f"stability margin {res.stability_margin:.3g} (the scaled eigenvalue over its rounding level)",
-        *(f"member {name}: {t:.6g} N" for name, t in zip(names, res.member_forces))])
+    return _show(args, res, [answer_summary(res, structure),
+                             *(f"member {name}: {t:.6g} N" for name, t in zip(names, res.member_forces))])
 
 
 def _echo(args: argparse.Namespace) -> int:

@@ -61,6 +61,15 @@ AS_PROCESSES = [
      "tensegrity_sim: parameter publish_rate must be a finite number in [1, 1000] Hz, got -5 Hz"),
     (["node", "sim", "--ros-args", "-p", "safe_force:=2000"],
      "parameter safe_force must be in [-max_force, max_force] = [-1000, 1000] N, got 2000 N"),
+    # frame names tf2 would refuse to look up (tf2's validateFrameId): empty, or starting with '/'
+    (["node", "sim", "--ros-args", "-p", "frame_prefix:=/robot1/"],
+     "tensegrity_sim: parameter frame_prefix must not start with '/' (tf2 refuses such frame ids: "
+     "write 'robot1/'), got '/robot1/'"),
+    (["node", "sim", "--ros-args", "-p", "frame_id:=/world"],
+     "tensegrity_sim: parameter frame_id must not start with '/' (tf2 refuses such frame ids: "
+     "write 'world'), got '/world'"),
+    (["node", "sim", "--ros-args", "-p", "frame_id:=''"],
+     "tensegrity_sim: parameter frame_id must name a frame (tf2 refuses an empty frame id), got ''"),
     (["node", "formfind", "--ros-args", "-p", "max_workers:=0"],
      "tensegrity_formfind: parameter max_workers must be a whole number in [1, 64] processes, got 0"),
     (["node", "formfind", "--ros-args", "-p", "time_limit:=abc"],

@@ -46,6 +46,9 @@ def test_the_demo_runs_in_lockstep_and_reproduces_itself(tmp_path):
     shifts = [abs(float(shift)) for _, _, shift in rows]
     assert shifts[0] > shifts[1] > shifts[2]          # the fold time converges with the rate
     assert "forces / first = [1.0, 1.0, 1.0, 3.0]" in out
+    # every number with its unit: the table has rigid bodies, so moments and rotations mix in
+    assert re.search(r"residual \S+ \(relative; norm \S+ N, N m\), min stiffness eigenvalue \S+ N/m and N m/rad "
+                     r"mixed, stability margin \S+ \(the scaled eigenvalue over its rounding level\)", out)
     # the 6-bar: one face asked of the closed-loop gait, rerun identical, what it did with units
     # a run is its state at t = 0 and every step after it: chunks of CHUNK_S until the
     # controller is done, then SETTLE_S (at the demo's 10 ms step)

@@ -47,6 +47,18 @@ class SimParameters:
         return self.step_ns / NS_PER_S
 
 
+def _check_frame(node_name: str, name: str, value: str, *, may_be_empty: bool) -> None:
+    """Refuse a frame name (or prefix) that tf2 would refuse to look up: its ``validateFrameId``
+    throws for an empty frame id and for one starting with '/' (ROS 1's global names), so RViz,
+    tf2 listeners and robot_localization could resolve none of the published frames."""
+    if not value and not may_be_empty:
+        raise ParameterValueError(f"{node_name}: parameter {name} must name a frame (tf2 refuses an empty frame id), "
+                                  f"got ''")
+    if value.startswith("/"):
+        raise ParameterValueError(f"{node_name}: parameter {name} must not start with '/' (tf2 refuses such frame "
+                                  f"ids: write {value.lstrip('/')!r}), got {value!r}")
+
+
 def declare_sim_parameters(node: Node, scene: str) -> SimParameters:
     """Declare every parameter of ``tensegrity_sim`` on ``node`` but ``scene`` (declared and
     loaded by :func:`~tensegrity_ros.nodes.scene_param.declare_scene`, as for the IK node and the
@@ -102,6 +114,8 @@ def declare_sim_parameters(node: Node, scene: str) -> SimParameters:
                      "put before each moving body's frame name (the /tf child frames and the IMUs' frame_id), "
                      "as robot_state_publisher's frame_prefix: 'robot1/' keeps two robots' frames apart on "
                      "the one /tf; '' = the bodies' names")
+    _check_frame(node.get_name(), "frame_id", frame_id, may_be_empty=False)
+    _check_frame(node.get_name(), "frame_prefix", frame_prefix, may_be_empty=True)
     state_rate = d("state_rate", 100.0,
                    "publish rate of mechanism_state (class-2), cable_states (general structures, robots) and "
                    "contacts (robots) [Hz], counted in publications of joint_states at publish_rate; a divisor "
