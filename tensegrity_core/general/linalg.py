@@ -377,30 +377,39 @@ def _scaled_solution(lu: SuperLU, d: FloatArray, P: FloatArray) -> tuple[FloatAr
     return solve(P), solve
 
 
-def rigid_motions(config: Configuration) -> tuple[FloatArray, FloatArray, FloatArray]:
+def rigid_motions(config: Configuration) -> tuple[FloatArray, FloatArray, FloatArray, float]:
     """Infinitesimal rigid motions of the whole structure in ``U``.
 
-    Returns ``T`` (n_dof, 6): columns are translations x, y, z and rotations about x, y, z
-    through the centroid ``o`` of all nodes; ``F`` (n_fixed, 6): the motion each would
-    impose on the fixed coordinates; ``o``.
+    Returns ``T`` (n_dof, 6): columns are translations x, y, z [per m] and rotations about
+    x, y, z through the centroid ``o`` of all nodes, each rotation by the angle ``1 / ell``
+    [rad per m] so that it moves the nodes as far as a unit translation does; ``F`` (n_fixed,
+    6): the motion each would impose on the fixed coordinates; ``o``; ``ell`` [m], the
+    root-mean-square distance of the nodes from ``o`` (1 for a single point). With
+    unscaled rotations the columns' sizes differ by ``ell``, and every relative rank test
+    on them (supports, rigid modes) would depend on the unit of length: a prism of 1e-15 m
+    or of 1e13 m lost its rotations or translations from the excluded modes.
     """
     s = config.structure
     lay = s.layout
     o = config.coords.mean(axis=0)
+    arm = config.coords - o
+    ell = float(np.sqrt(np.mean(np.sum(arm * arm, axis=1))))
+    if not ell > 0.0:
+        ell = 1.0
     E = np.eye(3)
     node_motion = np.zeros((s.n_nodes, 3, 6))        # displacement of node i, axis j, motion k
     node_motion[:, :, :3] = E[None]
-    node_motion[:, :, 3:] = -hat(config.coords - o)     # e_k x d = -hat(d) e_k
+    node_motion[:, :, 3:] = -hat(arm / ell)             # e_k x d = -hat(d) e_k
     T = np.zeros((lay.n_dof, 6))
     free = lay.free_index >= 0
     T[lay.free_index[free]] = node_motion[free]
     if lay.body_dof.size:
         rows = lay.body_dof[:, None] + np.arange(3)[None, :]
         T[rows.ravel(), :3] = np.tile(E, (len(lay.body_dof), 1))
-        T[rows.ravel(), 3:] = (-hat(config.centres - o)).reshape(-1, 3)
-        T[(rows + 3).ravel(), 3:] = np.tile(E, (len(lay.body_dof), 1))
+        T[rows.ravel(), 3:] = (-hat((config.centres - o) / ell)).reshape(-1, 3)
+        T[(rows + 3).ravel(), 3:] = np.tile(E / ell, (len(lay.body_dof), 1))
     F = node_motion[lay.fixed_mask]
-    return T, F, o
+    return T, F, o, ell
 
 
 def null_space_of_rows(F: FloatArray) -> FloatArray:
@@ -421,7 +430,7 @@ def zero_energy_rigid_modes(config: Configuration) -> FloatArray:
     which case they are part of the stability question and are kept.
     """
     s = config.structure
-    T, F, o = rigid_motions(config)
+    T, F, o, ell = rigid_motions(config)
     N = null_space_of_rows(F) if F.shape[0] else np.eye(6)
     if N.shape[1] == 0:
         return np.zeros((T.shape[0], 0))
@@ -432,9 +441,11 @@ def zero_energy_rigid_modes(config: Configuration) -> FloatArray:
     w = lay.body_masses[:, None] * s.gravity[None, :]
     if w.size:
         HL[3:, 3:] += sym_rotation_hessian(-w, config.centres - o).sum(axis=0)
+    HL[3:, 3:] /= ell * ell          # per (rotation ell) squared, as T's rotation columns
     scale = float(np.sum(np.linalg.norm(f, axis=1) * np.linalg.norm(config.coords - o, axis=1)))
     if w.size:
         scale += float(np.sum(np.linalg.norm(w, axis=1) * np.linalg.norm(config.centres - o, axis=1)))
+    scale /= ell * ell
     Hn = N.T @ HL @ N
     mu, Y = np.linalg.eigh(0.5 * (Hn + Hn.T))
     keep = np.abs(mu) <= 1e-10 * scale if scale > 0 else np.ones(len(mu), dtype=bool)

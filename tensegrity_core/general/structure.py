@@ -22,6 +22,7 @@ nodes act as fully pinned nodes. Individual nodes of a moving body cannot be pin
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -315,20 +316,33 @@ def _validate(s: Structure, n: int, m: int) -> None:
         i = int(same[0])
         raise StructureError(f"member {excerpt(s.member_names[i])} joins node {excerpt(s.node_names[a[i]])} to itself",
                              entry=("members", i))
-    scale = max(float(np.ptp(s.nodes, axis=0).max()), 1e-300) if n > 1 else 1.0
-    lengths = np.linalg.norm(s.nodes[b] - s.nodes[a], axis=1)
+    span = float(np.ptp(s.nodes, axis=0).max()) if n > 1 else 1.0
+    if 0.0 < span < MIN_SPAN:
+        raise StructureError(f"the nodes span {span:.3g} m, less than {MIN_SPAN:g} m: the squares of such lengths "
+                             f"underflow double precision (give the coordinates in a smaller unit than m)",
+                             entry=("nodes",))
+    scale = max(span, 1e-300)
+    delta = s.nodes[b] - s.nodes[a]
+    big = np.abs(delta).max(axis=1)              # norms without squaring tiny components to 0
+    lengths = np.linalg.norm(delta / np.where(big > 0, big, 1.0)[:, None], axis=1) * big
     short = np.flatnonzero(lengths <= 1e-12 * scale)
     if short.size:
         i = int(short[0])
-        raise StructureError(
-            f"member {excerpt(s.member_names[i])} has zero length: nodes {excerpt(s.node_names[a[i]])} and "
-            f"{excerpt(s.node_names[b[i]])} are both at {s.nodes[a[i]].tolist()}", entry=("members", i))
-    for arr, what in ((s.EA, "axial stiffness EA"), (s.rest_lengths, "rest length")):
+        na, nb = excerpt(s.node_names[a[i]]), excerpt(s.node_names[b[i]])
+        where = (f"are both at {s.nodes[a[i]].tolist()}" if np.array_equal(s.nodes[a[i]], s.nodes[b[i]]) else
+                 f"at {s.nodes[a[i]].tolist()} and {s.nodes[b[i]].tolist()} are {float(lengths[i]):.3g} m apart, "
+                 f"within 1e-12 of the structure's size {scale:.3g} m")
+        raise StructureError(f"member {excerpt(s.member_names[i])} has zero length: nodes {na} and {nb} {where}",
+                             entry=("members", i))
+    for arr, what, unit in ((s.EA, "axial stiffness EA", "N"), (s.rest_lengths, "rest length", "m")):
         bad = np.flatnonzero(~_bounded(arr) | (arr <= 0))
         if bad.size:
             i = int(bad[0])
-            raise StructureError(f"member {excerpt(s.member_names[i])}: {what} must be finite and "
-                                 f"positive, got {excerpt(float(arr[i]))}", entry=("members", i))
+            value = float(arr[i])
+            why = (f"must be at most {MAX_MAGNITUDE:g} {unit} (larger values overflow the squares the solvers "
+                   f"form)" if math.isfinite(value) and value > 0 else f"must be finite and positive [{unit}]")
+            raise StructureError(f"member {excerpt(s.member_names[i])}: {what} {why}, got {excerpt(value)}",
+                                 entry=("members", i))
     bad = np.flatnonzero(~_bounded(s.member_masses) | (s.member_masses < 0))
     if bad.size:
         i = int(bad[0])
@@ -342,6 +356,12 @@ def _validate(s: Structure, n: int, m: int) -> None:
     bodies = _body_nodes(s)
     _validate_bodies(s, n, scale, bodies)
     _validate_free_nodes(s, n, bodies)
+
+
+#: Least span of a structure's nodes [m] (largest extent along an axis): below it the
+#: squares of member lengths, which energies and stiffnesses form, underflow (a prism
+#: form-finds down to 1e-154 m and fails its line search at 1e-156 m).
+MIN_SPAN: Final = 1e-150
 
 
 def _bounded(arr: NDArray[np.float64]) -> NDArray[np.bool_]:

@@ -36,13 +36,18 @@ class SuiteError(TensegrityError, RuntimeError):
 def sim_parameters(node: Any, executor: Any, names: list[str], timeout: float) -> list[Any]:
     """The running simulator's parameters ``names`` (rcl_interfaces ParameterValue each);
     SuiteError (code 3) when none answers."""
+    from rcl_interfaces.srv import GetParameters
     from rclpy.parameter_client import AsyncParameterClient
 
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
+    from tensegrity_ros.rclpy_utils.matching import wait_until_answered
 
     client = AsyncParameterClient(node, SIM_NODE)
     where = node.get_namespace()
-    if not client.wait_for_services(timeout_sec=timeout):
+    # asked once the simulator has matched this client's response reader (a probe made after
+    # it answered), else the answer can be lost
+    if not client.wait_for_services(timeout_sec=timeout) or not wait_until_answered(
+            node, GetParameters, f"{SIM_NODE}/get_parameters", lambda f, t: spin_until_done(executor, f, t), timeout):
         raise SuiteError(f"no simulator answers in namespace {where} after {timeout:g} s (is the suite up? "
                          "`tensegrity up --scene six_bar_rest`)", code=3)
     future = client.get_parameters(names)

@@ -246,6 +246,7 @@ def _call_service(args: argparse.Namespace, node_name: str, srv_type: Any, reque
     from rclpy.executors import SingleThreadedExecutor
 
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
+    from tensegrity_ros.rclpy_utils.matching import wait_until_service_heard
 
     check_ros_name(args.service, "--service")
     rclpy, node = client_node(node_name, args.ros_args)
@@ -258,6 +259,9 @@ def _call_service(args: argparse.Namespace, node_name: str, srv_type: Any, reque
                            f"{args.timeout:g} s (is the suite up? `tensegrity up`)"
                            f"{namespace_hint(args.service, services)}", code=3)
         executor.add_node(node)
+        # the request once the server has matched this client's response reader: a request
+        # that comes before loses its answer (stepping and resets cannot simply be sent again)
+        wait_until_service_heard(node, args.service, lambda f, t: spin_until_done(executor, f, t), args.timeout)
         future = client.call_async(request)
         answer_timeout = args.timeout if answer_timeout is None else answer_timeout
         if not spin_until_done(executor, future, answer_timeout):

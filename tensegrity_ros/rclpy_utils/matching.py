@@ -11,7 +11,8 @@ count must stay up for that whole time), which covers that gap when the reader's
 runs in it; a reader's process that gets no CPU then (a loaded machine, a stopped process)
 is still behind. Where the reader's node serves something, an answer proves its match:
 :func:`wait_until_answered` asks it through a client made after the writers (a lockstep
-client's commands), :func:`wait_until_server_heard` before an action goal is sent, and
+client's commands), :func:`wait_until_server_heard` before an action goal is sent,
+:func:`wait_until_service_heard` before a service request is sent, and
 :func:`wait_until_subscribers_heard` asks every subscribing node (a replay's first messages).
 """
 
@@ -96,6 +97,41 @@ def wait_until_server_heard(node: Any, action_name: str, wait: Callable[[Any, fl
         time.sleep(0.01)
     info = servers[0]
     return _node_answered(node, info.node_name, info.node_namespace, wait, deadline, attempt_s=attempt_s) is True
+
+
+def wait_until_service_heard(node: Any, service: str, wait: Callable[[Any, float], bool], timeout_s: float,
+                             *, attempt_s: float = 1.0) -> bool:
+    """Return True once the node serving ``service`` (a name ``node`` resolves) is known to
+    have matched every endpoint ``node``'s participant created before this call, the response
+    reader of a service client made just before among them; False after ``timeout_s``.
+
+    ``Client.wait_for_service()`` is this side's match only: a request sent at once can reach
+    a server that has not yet matched the client's response reader, and rmw_fastrtps then
+    drops the answer after the response writer's ``max_blocking_time``, 5 s under the suite's
+    profile and 100 ms under any other (docs/design/ros.md, "First answers"). The proof is
+    :func:`wait_until_server_heard`'s: the serving node answers its ``get_parameters``
+    through a client made now. A server whose node has no parameter services gives False
+    at once (nothing proves the match; the caller goes on as before).
+    ``wait(future, seconds)`` as for :func:`wait_until_server_heard`."""
+    deadline = time.monotonic() + timeout_s
+    resolved = node.resolve_service_name(service)
+    while (server := _server_of(node, resolved)) is None:
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.01)
+    return _node_answered(node, *server, wait, deadline, attempt_s=attempt_s) is True
+
+
+def _server_of(node: Any, service: str) -> tuple[str, str] | None:
+    """``(name, namespace)`` of a node the graph shows serving the fully qualified ``service``."""
+    for name, namespace in node.get_node_names_and_namespaces():
+        try:
+            services = node.get_service_names_and_types_by_node(name, namespace)
+        except Exception:  # noqa: BLE001 - rclpy raises a bare RuntimeError for a node that left the graph
+            continue
+        if any(found == service for found, _types in services):
+            return name, namespace
+    return None
 
 
 def wait_until_subscribers_heard(node: Any, publishers: Iterable[Any], wait: Callable[[Any, float], bool],

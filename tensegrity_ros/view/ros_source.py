@@ -23,6 +23,7 @@ from __future__ import annotations
 import dataclasses
 import threading
 import time
+from collections.abc import Callable
 from typing import Any, Final
 
 from tensegrity_core.errors import TensegrityError
@@ -102,6 +103,8 @@ class RosSource:
         self._run_state = "unknown"
         self._lockstep: bool | None = None
         self._simulator_seen = False      # its get_simulation_state was on the graph once
+        self._heard = False               # the simulator has answered get_simulation_state (since it came)
+        self._unsent: list[Callable[[], None]] = []   # requests waiting for that
         self._drive: dict[str, float] | None = None
         self._link: StructureLink | None = None
         self.executor = SingleThreadedExecutor(context=self.context)
@@ -129,13 +132,16 @@ class RosSource:
         guard_parameter_services(self.node)
         node = self.node
         node.create_subscription(MechanismState, "mechanism_state", self._on_state, QoSProfile(depth=10))
-        self.get_state = node.create_client(GetSimulationState, "get_simulation_state")
         self.get_features = node.create_client(GetSimulatorFeatures, "get_simulator_features")
         self.set_state = node.create_client(SetSimulationState, "set_simulation_state")
         self.step_client = node.create_client(StepSimulation, "step_simulation")
         self.mover = ActionClient(node, MoveEndEffector, "move_end_effector")
         self.parameters = AsyncParameterClient(node, SIM_NODE)
         self.forces = node.create_publisher(ActuatorForces, "actuator_forces", QoSProfile(depth=10))
+        # made last: the simulator's answer to it proves it has matched every endpoint above
+        # (announced in creation order; docs/design/ros.md, "First answers"), so a play, pause
+        # or step waits for one before it is sent, and its answer is not lost
+        self.get_state = node.create_client(GetSimulationState, "get_simulation_state")
         self.ActuatorForces = ActuatorForces
         self.srv = {"get": GetSimulationState, "features": GetSimulatorFeatures, "set": SetSimulationState,
                     "step": StepSimulation}
@@ -220,9 +226,10 @@ class RosSource:
     # -- the run state ------------------------------------------------------------------------
     def _poll_state(self) -> None:
         if self._lockstep is None and self.get_features.service_is_ready():
-            self._lockstep = False
-            future = self.get_features.call_async(self.srv["features"].Request())
-            future.add_done_callback(self._on_features)
+            # asked at each poll until one answers (it changes nothing; a slow answer still counts):
+            # the answer to a request sent before the simulator matched this client's response
+            # reader is lost
+            self.get_features.call_async(self.srv["features"].Request()).add_done_callback(self._on_features)
         if self.get_state.service_is_ready():
             self._simulator_seen = True
             self.get_state.call_async(self.srv["get"].Request()).add_done_callback(self._on_run_state)
@@ -235,6 +242,8 @@ class RosSource:
         self._run_state = NO_SIMULATOR
         self._lockstep = None             # a simulator started again may run otherwise
         with self._lock:
+            self._heard = False
+        with self._lock:
             latest = self._latest
         if latest is None:
             return
@@ -244,11 +253,16 @@ class RosSource:
 
     def _on_features(self, future: Any) -> None:
         res = future.result()
-        self._lockstep = res is not None and "lockstep true" in res.features.custom_info
+        if res is not None:
+            self._lockstep = "lockstep true" in res.features.custom_info
 
     def _on_run_state(self, future: Any) -> None:
         res = future.result()
         if res is not None:
+            with self._lock:
+                self._heard, unsent, self._unsent = True, self._unsent, []
+            for send in unsent:
+                send()
             self._run_state = run_state_name(res.state.state, bool(self._lockstep))
 
     # -- requests ----------------------------------------------------------------------------
@@ -266,7 +280,14 @@ class RosSource:
             text = f"{what}: {RESULT_NAMES.get(code, code)}"
             self._report(f"{text} ({res.result.error_message})" if res.result.error_message else text)
 
-        client.call_async(request).add_done_callback(done)
+        def send() -> None:
+            client.call_async(request).add_done_callback(done)
+
+        with self._lock:
+            if not self._heard:
+                self._unsent.append(send)
+                return
+        send()
 
     def _set_state(self, state: int, what: str) -> None:
         request = self.srv["set"].Request()

@@ -177,3 +177,25 @@ def test_an_unstiffened_mechanism_has_stability_margin_0_not_nan():
     r = form_find(s, method="dynamic_relaxation")
     assert r.stability_margin == 0.0 and not r.stable
     assert "unstiffened mechanism" in r.message and "nan" not in r.message
+
+
+def _triangle(nodes, **kw):
+    return Structure.from_arrays(np.array(nodes, float), [[0, 1], [1, 2], [2, 0]], EA=1e3, **kw)
+
+
+def test_each_refusal_of_a_member_states_the_bound_it_breaks():
+    """A rest length of 1.27e15 m (0.9 x a drawn 1.41e15 m) breaks the 1e15 bound, not
+    'finite and positive'; nodes 1e-300 m apart are not 'both at' one point; a structure
+    spanning 1e-160 m is refused by its span (its squared lengths underflow), not by a
+    member 'of zero length' whose ends differ."""
+    with pytest.raises(StructureError, match=r"rest length must be at most 1e\+15 m .*got 1272792206135785\.5"):
+        _triangle([[0, 0, 0], [1e15, 0, 0], [0, 1e15, 0]], rest_length_ratio=0.9)
+    with pytest.raises(StructureError, match=r"EA must be at most 1e\+15 N"):
+        Structure.from_arrays(np.eye(3), [[0, 1], [1, 2]], EA=[1.0, 2e15])
+    with pytest.raises(StructureError, match=r"nodes '0' and '1' at \[0\.0, 0\.0, 0\.0\] and \[1e-300, 0\.0, 0\.0\] "
+                                             r"are 1e-300 m apart, within 1e-12 of the structure's size 1 m"):
+        _triangle([[0, 0, 0], [1e-300, 0, 0], [0, 1, 0]])
+    with pytest.raises(StructureError, match=r"the nodes span 2e-160 m, less than 1e-150 m"):
+        _triangle([[0, 0, 0], [2e-160, 0, 0], [0, 1e-160, 0]])
+    tiny = _triangle([[0, 0, 0], [2e-150, 0, 0], [0, 1e-150, 0]])     # at the bound: built, lengths exact
+    np.testing.assert_allclose(member_lengths(tiny, tiny.nodes), [2e-150, math.sqrt(5) * 1e-150, 1e-150], rtol=1e-15)

@@ -61,11 +61,13 @@ def _start_server(profile: Path, namespace: str, log: Path) -> subprocess.Popen:
     return server
 
 
-def _first_calls(ctx, namespace: str, rounds: int, wait_s: float, stop, *, known: bool) -> list[bool]:
+def _first_calls(ctx, namespace: str, rounds: int, wait_s: float, stop, *, known: bool,
+                 heard: bool = False) -> list[bool]:
     """``rounds`` new clients of ``solve_ik``, each called once right after
-    ``wait_for_service`` and after :data:`NOISE` new subscriptions (``known``: in a node the
-    server has answered once already): whether each was answered within ``wait_s`` (a
-    liveness bound); stops early when ``stop()``."""
+    ``wait_for_service`` (``heard``: and after ``wait_until_service_heard``) and after
+    :data:`NOISE` new subscriptions (``known``: in a node the server has answered once
+    already): whether each was answered within ``wait_s`` (a liveness bound); stops early
+    when ``stop()``."""
     from rcl_interfaces.srv import GetParameters
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
@@ -73,7 +75,7 @@ def _first_calls(ctx, namespace: str, rounds: int, wait_s: float, stop, *, known
     from tensegrity_msgs.srv import SolveIK
 
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
-    from tensegrity_ros.rclpy_utils.matching import wait_until_answered
+    from tensegrity_ros.rclpy_utils.matching import wait_until_answered, wait_until_service_heard
 
     node = Node("first_answers_client", namespace=namespace, context=ctx)
     executor = SingleThreadedExecutor(context=ctx)
@@ -86,6 +88,7 @@ def _first_calls(ctx, namespace: str, rounds: int, wait_s: float, stop, *, known
         noise = [node.create_subscription(Empty, f"noise_{i}_{k}", lambda _m: None, 1) for k in range(NOISE)]
         client = node.create_client(SolveIK, "solve_ik")
         assert client.wait_for_service(timeout_sec=30), "solve_ik never appeared"
+        assert not heard or wait_until_service_heard(node, "solve_ik", lambda f, s: spin_until_done(executor, f, s), 60)
         future = client.call_async(SolveIK.Request(x=float(i), y=0.5))
         done = spin_until_done(executor, future, wait_s)
         answered.append(done and future.result().solutions[0].rho1 == float(i))
@@ -130,3 +133,20 @@ def test_the_suite_profile_answers_every_first_call(ros_context, tmp_path):
         _stop(server)
     assert all(answered), f"answered: {answered}\n{log.read_text()}"
     assert LOST_LINE not in log.read_text()
+
+
+def test_a_client_that_waits_until_the_server_heard_it_gets_every_answer_from_a_server_that_does_not_wait(
+        ros_context, tmp_path):
+    """What the CLI's service calls do (``tensegrity sim``, ``call ik``, ``call formfind``):
+    ``wait_until_service_heard`` before the request. The server of the first test above
+    (max_blocking_time 0: it drops an answer to a reader it has not matched, within 60 new
+    clients of a new node) answers each of 10 such clients; a probe's own answer may be
+    dropped meanwhile (the probe asks again), the requests' never are."""
+    log = tmp_path / "server.log"
+    namespace = f"/first_heard_{os.getpid()}"
+    server = _start_server(_server_profile(tmp_path, "no_wait_heard", blocking_s=0), namespace, log)
+    try:
+        answered = _first_calls(ros_context, namespace, 10, 30.0, lambda: False, known=False, heard=True)
+    finally:
+        _stop(server)
+    assert all(answered), f"answered: {answered}\n{log.read_text()}"
