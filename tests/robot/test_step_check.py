@@ -184,6 +184,19 @@ def test_a_step_too_long_for_the_floor_is_refused_in_one_line():
             {"friction": {"mu_static": 0.5, "tangential_stiffness": FLOOR_K}}]))
 
 
+def test_the_floor_s_refusal_takes_the_cap_at_its_lightest_whatever_the_drawing():
+    """A rod drawn standing on a cap (its axis along the floor's normal) would push the floor
+    with its whole 1 kg, but it can fall and land flat, a cap then moving with 0.25 kg of it:
+    the check takes that (the mode ``sqrt(k / 0.25 kg)``, steps up to 0.141 ms), not the
+    drawing's 1 kg (0.283 ms)."""
+    standing = dict(LYING, nodes={"a": [0.0, 0.0, 0.01], "b": [0.0, 0.0, 1.01]})
+    scene = dict(floor_scene(0.2e-3), model={"kind": "robot", "robot": standing})
+    with pytest.raises(SceneError, match=r"\(0\.25 kg of the rod moving with it\) .* give integrator\.max_step in "
+                                         r"\(0, 0\.000141\] s$"):
+        load_scene(scene)
+    load_scene(dict(scene, integrator={"max_step": 0.99 * FLOOR_LIMIT}))
+
+
 def test_the_floor_s_refusal_is_right():
     """Past the refused step the rod resting on its caps gains energy from nowhere (its
     rocking on both caps, ``sqrt(6 k / m)``, has ``h omega = 1.05 * 2.83 * sqrt(6/4) = 3.6``,
