@@ -196,6 +196,10 @@ class CableControllerNode(Node):
     def on_joints(self, msg: JointState) -> None:
         self._watch.heard(time.monotonic())      # any state: the simulator is there (paused, it repeats one)
         stamp = stamp_ns(msg.header.stamp)
+        if self._latest is not None and stamp < self._latest[0] and self._job is not None:   # reset: docs/ros.md
+            self._end(self._job, jt.Outcome(jt.INVALID_GOAL, f"the simulation was reset: its time went back from "
+                      f"{self._latest[1]:g} s to {stamp / NS_PER_S:g} s; the cables hold the rest lengths the reset "
+                      "gave them"), "aborted")
         if self._latest is None or stamp != self._latest[0]:
             self._latest, self._latest_header, self._answer = (stamp, stamp / NS_PER_S), msg.header, None
         if self._active:

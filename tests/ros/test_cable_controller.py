@@ -249,6 +249,28 @@ def test_a_tight_path_tolerance_is_violated_and_a_new_goal_preempts_the_running_
     assert status == GoalStatus.STATUS_CANCELED and result.error_code == 0 and "cancelled" in result.error_string
 
 
+def test_a_reset_of_the_simulation_ends_the_running_goal(rig):
+    """ResetSimulation takes the simulation time back (to 0): the running goal's trajectory,
+    timed from a start the new run has not reached, would otherwise wait that long and then
+    report success over a run it never drove. It ends at the first joint state from before its
+    time, as the class-2 controller's goals do (there SIMULATOR_STOPPED; control_msgs has no
+    such code: ABORTED with INVALID_GOAL, as for a preempted goal). No process of its own:
+    a few steps of the module's rig (~1 s)."""
+    from action_msgs.msg import GoalStatus
+
+    from tensegrity_core.sim.joint_trajectory import INVALID_GOAL
+
+    client, action, _, _, _ = rig
+    t0 = _t0(client)
+    handle = _send(client, action, _goal([(5.0, (0.88, 0.88))]))
+    client.step_received(5, t0, STEP_NS)
+    client.restart()                    # the state at t = 0 of the new run: the controller's next state
+    status, result = _result(client, handle, 15.0)
+    assert status == GoalStatus.STATUS_ABORTED and result.error_code == INVALID_GOAL, result.error_string
+    went = f"the simulation was reset: its time went back from {(t0 + 5 * STEP_NS) / 1e9:g} s to 0 s"
+    assert result.error_string.startswith(went), result.error_string
+
+
 def test_the_commands_keep_the_history_of_the_other_per_step_writers(ros_context):
     """``cable_commands`` goes out once per simulator step, as ``actuator_forces`` and the
     simulator's topics do: its reliable writer keeps the same 1,000 samples (1 s of a lockstep
