@@ -9,8 +9,8 @@ weigh the force like Simpson's rule, which misses the area of a ramp starting at
 into the step by ``h^2 theta (1 - 3 theta) / 6`` of its slope (``theta <= 1/2``; mirrored
 above), up to ``h^2 / 24`` too little at ``theta = 1/2``. A cap meeting a floor of stiffness
 ``k`` at the speed ``v`` then gains up to ``k v^2 h^2 / 24`` [J] of spurious work, ``(h
-omega)^2 / 12`` of its kinetic energy (``omega^2 = k / m``): 2.4 % of a 6-bar cap's at 1 ms,
-and half of it on a 4.2e6 N/m floor (docs/design/robots.md, "Switches inside a step").
+omega)^2 / 12`` of its kinetic energy (``omega^2 = k / m``): about 2 % of a 6-bar cap's at
+1 ms (docs/design/robots.md, "Switches inside a step").
 
 So each step is integrated in **smooth pieces**. Each switch keeps the mode it has at the
 step's start (:data:`.loops.ON`, :data:`.loops.OFF`: the force law continued through 0),
