@@ -368,14 +368,14 @@ def _message(x: float, y: float, L: float, candidates: Sequence[IKCandidate], n_
 
 def _on_singular_set(c: IKCandidate, L: float) -> str:
     """The note for a valid solution on a singular set (within the IK's resolution,
-    :func:`merge_radius`): an equilibrium, but ``dD/drho`` is singular there, so a controller
-    keeping a margin from the singular sets (``tensegrity_controller``'s ``singular_margin``)
-    refuses to hold D there; '' elsewhere."""
+    :func:`merge_radius`): an equilibrium, but a singular one (what is singular depends on
+    the set), so a controller keeping a margin from the singular sets
+    (``tensegrity_controller``'s ``singular_margin``) refuses to hold D there; '' elsewhere."""
     if not c.singularity_distance * L <= merge_radius(L):
         return ""
     return (f"; rho = ({c.rho1:.6g}, {c.rho2:.6g}) m lies on the singular set {c.singular_set} "
-            f"({SINGULAR_MEANINGS[c.singular_set]}): an equilibrium where dD/drho is singular, "
-            f"refused as a target by a controller keeping a margin from singular sets")
+            f"({SINGULAR_MEANINGS[c.singular_set]}): an equilibrium, refused as a target by a "
+            f"controller keeping a margin from singular sets")
 
 
 def nearest_solution(

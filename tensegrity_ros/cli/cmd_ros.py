@@ -298,7 +298,8 @@ def _call_ik(args: argparse.Namespace) -> int:
                         SolveIK.Request(x=args.x, y=args.y, seed=list(args.seed or [])))
     return _show(args, res, [
         f"rho1 = {s.rho1:.9f} m  rho2 = {s.rho2:.9f} m  beta = {s.beta:.9f} rad  (delta1 {s.delta1:+d}, "
-        f"delta2 {s.delta2:+d}, d2U/dbeta2 = {s.stiffness_beta:.4g} J/rad^2)" for s in res.solutions])
+        f"delta2 {s.delta2:+d}, d2U/dbeta2 = {s.stiffness_beta:.4g} J/rad^2; nearest singular set "
+        f"{s.singular_set} at {s.singularity_distance:.3g} L)" for s in res.solutions])
 
 
 def _call_formfind(args: argparse.Namespace) -> int:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 
@@ -52,6 +53,8 @@ def test_each_solution_names_its_nearest_singular_set(rho, params):
     ((0.0, 1.0), (0.0, 0.0), "folded"),            # the paper's q_F: D at (0, L)
     ((0.9, 1.0), (0.9, 0.3), "beta_half_pi"),      # on the fold y = L: D above B, rho2 = rho1 / 3
     ((2.0, 0.0), (1.0, 1.0), "lambda1"),           # struts flat: D on the X axis at 2L
+    ((1.0 + math.cos(math.atan2(math.sqrt(4 - 1.7**2), 1.1)), math.sin(math.atan2(math.sqrt(4 - 1.7**2), 1.1))),
+     (1.0, 0.7), "lambda2"),                       # F at A: beta = atan2(k2 lambda1, K rho2 - k2 rho1)
 ])
 def test_a_valid_solution_on_a_singular_set_is_named_and_the_planner_refuses_it(target, rho, name):
     """~2 ms: the planner refuses at the target check, before planning a path."""
@@ -61,6 +64,7 @@ def test_a_valid_solution_on_a_singular_set_is_named_and_the_planner_refuses_it(
     assert (sol.rho1, sol.rho2) == pytest.approx(rho, abs=1e-9)
     assert sol.singular_set == name and sol.singularity_distance == pytest.approx(0.0, abs=1e-9)
     assert f"lies on the singular set {name}" in res.message
+    assert ("dD/drho" in res.message) == (name != "lambda2")     # regular there: see the test below
     with pytest.raises(PlanningError, match=f"singular set {name}") as err:
         plan_move((0.7, 0.7, forward_kinematics(0.7, 0.7).beta), target, PAPER_PARAMS, duration=2.0)
     assert err.value.code == SINGULAR_PATH
@@ -71,3 +75,26 @@ def test_a_regular_target_names_no_singular_set():
     res = inverse_kinematics(fk.x, fk.y)
     assert res.message == "1 valid solution of 2 candidates"
     assert res.valid[0].singular_set == "lambda2" and res.valid[0].singularity_distance == pytest.approx(0.3)
+
+
+def _D(rho1, rho2):
+    """End-effector of the equilibrium (paper parameters): dU/dbeta = 0 of the two springs
+    CD (k3) and DE (k2) that move with beta gives beta = atan2(k2 lambda1, K rho2 - k2 rho1)."""
+    lam1 = math.sqrt(max(0.0, 4 - (rho1 + rho2) ** 2))
+    beta = math.atan2(lam1, 3 * rho2 - rho1)
+    return np.array([rho1 + math.cos(beta), math.sin(beta)])
+
+
+@pytest.mark.parametrize("rho, name", [((0.5, 1.5 - 1e-9), "lambda1"), ((1.0 - 1e-9, 0.7), "lambda2"),
+                                       ((0.6, 0.2), "beta_half_pi"), ((1e-9, 1e-9), "folded")])
+def test_what_the_message_says_is_singular_holds(rho, name):
+    """A one-sided difference of D(rho) near each set: the Jacobian is singular (a small
+    determinant or an unbounded entry) on lambda1, beta_half_pi and folded, regular on
+    lambda2 (where the dynamics, not the kinematics, break down); the message says which."""
+    from tensegrity_core.class2.singularities.distances import SINGULAR_MEANINGS
+
+    h = 1e-7
+    J = np.column_stack([(_D(rho[0] - h * (i == 0), rho[1] - h * (i == 1)) - _D(*rho)) / -h for i in (0, 1)])
+    singular = abs(np.linalg.det(J)) < 1e-3 or np.abs(J).max() > 1e3
+    says = "dD/drho" in SINGULAR_MEANINGS[name]
+    assert singular == says == (name != "lambda2"), (name, J)

@@ -1,22 +1,12 @@
-"""Shared fixtures of the general-tensegrity tests.
-
-BLAS is pinned to one thread: on shared two-core machines OpenBLAS threads make small dense
-eigenvalue problems 100x slower (measured: 120 x 120 eigh 2.8 ms vs 0.4 s under load).
-"""
+"""Shared fixtures of the general-tensegrity tests (BLAS runs on one thread, as in the whole
+run: tests/conftest.py)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from threadpoolctl import threadpool_limits
 
 from tensegrity_core.general import RigidBody, Structure
-
-
-@pytest.fixture(autouse=True, scope="session")
-def _single_threaded_blas():
-    with threadpool_limits(1):
-        yield
 
 
 @pytest.fixture

@@ -184,26 +184,46 @@ def test_a_step_too_long_for_the_floor_is_refused_in_one_line():
             {"friction": {"mu_static": 0.5, "tangential_stiffness": FLOOR_K}}]))
 
 
+def test_the_floor_s_refusal_takes_the_cap_at_its_lightest_whatever_the_drawing():
+    """A rod drawn standing on a cap (its axis along the floor's normal) would push the floor
+    with its whole 1 kg, but it can fall and land flat, a cap then moving with 0.25 kg of it:
+    the check takes that (the mode ``sqrt(k / 0.25 kg)``, steps up to 0.141 ms), not the
+    drawing's 1 kg (0.283 ms)."""
+    standing = dict(LYING, nodes={"a": [0.0, 0.0, 0.01], "b": [0.0, 0.0, 1.01]})
+    scene = dict(floor_scene(0.2e-3), model={"kind": "robot", "robot": standing})
+    with pytest.raises(SceneError, match=r"\(0\.25 kg of the rod moving with it\) .* give integrator\.max_step in "
+                                         r"\(0, 0\.000141\] s$"):
+        load_scene(scene)
+    load_scene(dict(scene, integrator={"max_step": 0.99 * FLOOR_LIMIT}))
+
+
 def test_the_floor_s_refusal_is_right():
     """Past the refused step the rod resting on its caps gains energy from nowhere (its
     rocking on both caps, ``sqrt(6 k / m)``, has ``h omega = 1.05 * 2.83 * sqrt(6/4) = 3.6``,
-    beyond RK4's 2.83 on the imaginary axis); well inside it (a tenth: ``h omega`` of the
-    rocking mode about 0.35) it stays at rest to the sinking of its weight. Tilted 1e-7 rad
-    (its caps 5e-8 m up and down), so that the rocking is there to grow."""
+    beyond RK4's 2.83 on the imaginary axis): its tilt grows more than tenfold, until
+    a cap leaves the floor and the steps split at its lift-offs and touch-downs, so it rattles
+    on its caps with ten times its weight's sinking energy and more; well inside it (a tenth:
+    ``h omega`` of the rocking mode about 0.35) it stays at rest to the sinking of its weight,
+    its tilt and energy never above their start. Tilted 1e-7 rad (its caps 5e-8 m up and
+    down), so that the rocking is there to grow."""
     def run(step: float, steps: int) -> NDArray:
         model = compile_scene(load_scene(floor_scene(0.5 * FLOOR_LIMIT)))
         y = model.y0.copy()
         y[model.plan.body_dof[0] + 4] = 1e-7                             # turned about y
         samples: list = []
         model.record(state_at_step(model, step, steps * step, y), np.arange(steps + 1) * step, samples)
-        return model.observe(samples)["body_positions"][:, 0, 2]
+        seen = model.observe(samples)
+        return (seen["body_positions"][:, 0, 2], np.abs(seen["q"][:, 4]),
+                seen["kinetic_energy"] + seen["potential_energy"])
 
-    heights = run(0.1 * FLOOR_LIMIT, 400)
+    heights, tilt, energy = run(0.1 * FLOOR_LIMIT, 400)
     sink = MASS * 9.81 / (2 * FLOOR_K)                # 4.9e-8 m on each cap
     assert np.all(np.abs(heights - 0.01) <= 2.0 * sink + 5e-8 + 1e-12)    # and the raised cap's 5e-8 m
+    assert tilt.max() <= 1e-7 * (1 + 1e-9) and energy.max() <= energy[0] * (1 + 1e-12)
     with np.errstate(all="ignore"):
-        heights = run(1.05 * FLOOR_LIMIT, 200)
-    assert not np.all(np.abs(heights - 0.01) <= 1e3 * sink)
+        heights, tilt, energy = run(1.05 * FLOOR_LIMIT, 200)
+    assert tilt.max() > 10 * 1e-7                                       # measured: 38 times
+    assert energy.max() - energy[0] > 10 * MASS * 9.81 * sink           # measured: 56 times
 
 
 #: A 1 kg rod of 1 m (radius 1 cm: ``I_t = 0.0856 kg m^2``) held along x between two points

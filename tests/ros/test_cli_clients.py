@@ -34,6 +34,10 @@ def test_call_ik_json_reaches_the_target(cli):
     assert (s["rho1"], s["rho2"]) == pytest.approx((0.5, 0.6), abs=1e-10)
     bad = run_cli_here("call-ik", "5", "5")
     assert bad.returncode == 1 and bad.stdout.startswith("failed:")
+    folded = run_cli_here("call-ik", "0", "1")        # the paper's q_F: valid, named singular
+    assert folded.returncode == 0, folded.stderr
+    assert "lies on the singular set folded" in folded.stdout.splitlines()[0]
+    assert "nearest singular set folded at 0 L" in folded.stdout
 
 
 def test_send_forces_then_echo_shows_them_applied(cli):

@@ -37,9 +37,10 @@ def _signatures() -> dict[str, list[str]]:
     """Per compiled kernel of the general and the robot back ends, its signatures in this process."""
     from tensegrity_core.sim.general.kernels import loops
     from tensegrity_core.sim.general.robot import loops as robot_loops
+    from tensegrity_core.sim.general.robot import step_loops
 
     return {f"{module.__name__}.{name}": [str(s) for s in kernel.signatures]
-            for module in (loops, robot_loops) for name, kernel in vars(module).items()
+            for module in (loops, robot_loops, step_loops) for name, kernel in vars(module).items()
             if hasattr(kernel, "signatures") and getattr(kernel, "py_func", None) is not None
             and kernel.py_func.__module__ == module.__name__}
 

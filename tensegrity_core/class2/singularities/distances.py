@@ -32,12 +32,12 @@ from tensegrity_core.class2.params import Class2Params
 #: Names of the singular sets, in the order used by :func:`singularity_distances`.
 SINGULAR_SETS: Final = ("lambda1", "lambda2", "beta_half_pi", "folded")
 
-#: What each set is, in a few words (for messages naming the set).
+#: What each set is and what is singular on it, in a few words (for messages naming the set).
 SINGULAR_MEANINGS: Final = {
-    "lambda1": "rho1 + rho2 = 2L: struts AE, CE flat, D on the X axis",
-    "lambda2": "rho1 = L: F at A",
-    "beta_half_pi": "D straight above B, on the fold y = L",
-    "folded": "rho1 = rho2 = 0: every node on the Y axis",
+    "lambda1": "rho1 + rho2 = 2L: struts AE, CE flat, D on the X axis, |dD/drho| unbounded",
+    "lambda2": "rho1 = L: F at A, its speed unbounded, the equations of motion break down",
+    "beta_half_pi": "D straight above B, on the fold y = L: det dD/drho = 0",
+    "folded": "rho1 = rho2 = 0: every node on the Y axis, det dD/drho = 0",
 }
 
 _SQRT2: Final = math.sqrt(2.0)

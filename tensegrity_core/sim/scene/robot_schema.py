@@ -341,22 +341,21 @@ def impact_speed(robot: Robot, lift: float, g: NDArray[np.float64], normal: NDAr
     return math.sqrt(2.0 * abs(float(g @ normal)) * max(lift, 0.0))
 
 
-def cap_mass(robot: Robot, rod: int, normal: NDArray[np.float64]) -> float:
-    """The effective mass [kg] of a cap of rod ``rod`` as drawn pushed along the floor's normal
-    ``n``: moving the cap by ``e`` along ``n`` costs at least the kinetic energy of
-    ``m_eff e'^2 / 2``, ``1 / m_eff = 1/m + (L/2)^2 |n x a|^2 / I`` (the rod's mass ``m`` and
-    transverse inertia ``I`` about its centre, the point masses at its caps included, its unit
-    axis ``a``, half-length ``L/2``): the cap's push is shared by the rod's translation and its
-    turning, and a rod lying along the floor turns most. So the floor's contact stiffness
-    ``k`` under that cap alone gives a mode of at least ``sqrt(k / m_eff)`` (Rayleigh)."""
+def cap_mass(robot: Robot, rod: int) -> float:
+    """The least effective mass [kg] of a cap of rod ``rod`` pushed along the floor's normal,
+    over every orientation the rod can land in: moving the cap by ``e`` along a unit ``n``
+    costs at least the kinetic energy of ``m_eff e'^2 / 2``, ``1 / m_eff = 1/m + (L/2)^2 |n x
+    a|^2 / I`` (the rod's mass ``m`` and transverse inertia ``I`` about its centre, the point
+    masses at its caps included, its unit axis ``a``, half-length ``L/2``): the cap's push is
+    shared by the rod's translation and its turning, and a rod lying along the floor (``|n x
+    a| = 1``, the least) turns most. So the floor's contact stiffness ``k`` under that cap
+    alone gives a mode of at least ``sqrt(k / m_eff)`` (Rayleigh), however the robot tumbles."""
     a, b = (int(x) for x in robot.rods.ends[rod])
-    axis = robot.nodes[b] - robot.nodes[a]
-    half = 0.5 * float(np.linalg.norm(axis))
+    half = 0.5 * float(np.linalg.norm(robot.nodes[b] - robot.nodes[a]))
     riders = robot.node_masses[[a, b]]
     mass = float(robot.rods.mass[rod] + riders.sum())
     inertia = float(robot.rods.inertia[rod, 0] + riders.sum() * half**2)
-    across = float(np.linalg.norm(np.cross(normal, axis / (2.0 * half))))
-    return 1.0 / (1.0 / mass + (half * across) ** 2 / inertia)
+    return 1.0 / (1.0 / mass + half**2 / inertia)
 
 
 def step_fits(reader: Reader, model: RobotModelSpec, effects: SceneEffects, step: float,
@@ -447,7 +446,7 @@ def step_fits(reader: Reader, model: RobotModelSpec, effects: SceneEffects, step
             normal = robot.floor.normal
             speed = impact_speed(robot, lift, g, normal) if contact.dissipation > 0.0 else 0.0
             stiff = contact.stiffness * (1.0 + contact.dissipation * speed)
-            m_cap = cap_mass(robot, rod, normal)
+            m_cap = cap_mass(robot, rod)
             consider(rod, stiff, mass=m_cap, what=f"a cap pressed into the floor ({m_cap:.3g} kg of the rod moving "
                                                   f"with it) meets {contact.stiffness:g} N/m of contact stiffness"
                                  + (f" (with its dissipation {contact.dissipation:g} s/m, {stiff:.4g} N/m at up to "

@@ -22,7 +22,8 @@ from tensegrity_core.robot.contact import resisting_couple
 from tensegrity_core.robot.friction import stage_force
 from tensegrity_core.sim.general.kernels import arrays as general
 from tensegrity_core.sim.general.kernels import body_arrays
-from tensegrity_core.sim.general.robot.loops import NO_ANCHOR, RECHART_ANGLE, SLIPPING, STICKING
+from tensegrity_core.sim.general.robot.loops import BY_SIGN, NO_ANCHOR, OFF, ON, RECHART_ANGLE, SLIPPING, STICKING
+from tensegrity_core.sim.general.robot.step_loops import MAX_PIECES, _crossing
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -43,14 +44,16 @@ def rest_lengths(cable_l0: FloatArray, cable_motor: IntArray, y: FloatArray, sta
 
 
 def cable_forces(cable_a: IntArray, cable_b: IntArray, cable_k: FloatArray, cable_c: FloatArray,
-                 cable_t_max: FloatArray, l0: FloatArray, X: FloatArray,
-                 V: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """:func:`.loops.cable_forces` of a batch: ``(nodal forces (B, n, 3), lengths, rates, tensions)``."""
+                 cable_t_max: FloatArray, l0: FloatArray, X: FloatArray, V: FloatArray,
+                 switch: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """:func:`.loops.cable_forces` of a batch: ``(nodal forces (B, n, 3), lengths, rates,
+    tensions)``; ``switch`` (c,) the cables' modes (:data:`.loops.BY_SIGN`, ``OFF``, ``ON``)."""
     h = X[:, cable_b] - X[:, cable_a]
     length = np.sqrt(_dot(h, h))
     u = np.divide(h, length[..., None], out=np.zeros_like(h), where=length[..., None] > 0.0)   # l = 0: slack
     rate = _dot(u, V[:, cable_b] - V[:, cable_a])
-    t = np.where(length > l0, np.minimum(np.maximum(cable_k * (length - l0) + cable_c * rate, 0.0), cable_t_max),
+    taut = np.where(switch == BY_SIGN, length > l0, switch == ON)
+    t = np.where(taut, np.minimum(np.maximum(cable_k * (length - l0) + cable_c * rate, 0.0), cable_t_max),
                  0.0)
     ft = t[..., None] * u
     F = general.scatter(np.concatenate([cable_a, cable_b]), np.concatenate([ft, -ft], axis=1), X.shape[1])
@@ -71,11 +74,12 @@ def contact_velocity(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatAr
 
 def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray, floor_normal: FloatArray,
                  floor_point: FloatArray, floor_params: FloatArray, body_dof: IntArray, y: FloatArray, n_dof: int,
-                 anchors: int, X: FloatArray, V: FloatArray
+                 anchors: int, X: FloatArray, V: FloatArray, switch: FloatArray
                  ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
     """:func:`.loops.floor_forces` of a batch: ``(nodal forces (B, n, 3), moments (B, ncap, 3),
     depth, normal (B, ncap), friction (B, ncap, 3), resisting couples (B, ncap, 3), the
-    offsets' rates (B, ncap, 3))``; the moments include the couples."""
+    offsets' rates (B, ncap, 3))``; the moments include the couples. ``switch`` (ncap,) the
+    caps' modes (:data:`.loops.BY_SIGN`, ``OFF``, ``ON``)."""
     k, d, kt, ct = floor_params[0], floor_params[1], floor_params[4], floor_params[5]
     nvec = floor_normal
     ncap = len(cap_node)
@@ -83,21 +87,23 @@ def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray,
     P = X[:, cap_node]
     delta = cap_radius - _dot(P - floor_point, np.broadcast_to(nvec, P.shape))
     rate = -_dot(V[:, cap_node], np.broadcast_to(nvec, P.shape))
-    fn = np.where(delta > 0.0, k * delta * np.maximum(0.0, 1.0 + d * rate), 0.0)
+    fn = np.where(np.where(switch == BY_SIGN, delta > 0.0, switch == ON), k * delta * np.maximum(0.0, 1.0 + d * rate),
+                  0.0)
+    pressing = np.maximum(fn, 0.0)
     state = y[:, anchors + 3 * ncap:anchors + 4 * ncap]
     s = y[:, anchors:anchors + 3 * ncap].reshape(B, ncap, 3)
     s = s - _dot(s, np.broadcast_to(nvec, s.shape))[..., None] * nvec
     v = contact_velocity(cap_node, cap_body, cap_radius, nvec, body_dof, y, n_dof, V)
     v = v - _dot(v, np.broadcast_to(nvec, v.shape))[..., None] * nvec
     anchored = (state != NO_ANCHOR)[..., None]
-    f = np.where(anchored, stage_force(s, v, fn, np.full(fn.shape, kt), ct, floor_params[2], floor_params[3],
+    f = np.where(anchored, stage_force(s, v, pressing, np.full(fn.shape, kt), ct, floor_params[2], floor_params[3],
                                        state == SLIPPING), 0.0)
     moments = -cap_radius[:, None] * cross(np.broadcast_to(nvec, f.shape), f)
     on = cap_body >= 0
     couple = np.zeros_like(f)
     if on.any():
         w = y[:, n_dof + body_dof[cap_body[on]][:, None] + 3 + np.arange(3)]
-        couple[:, on] = resisting_couple(w, fn[:, on], nvec, floor_params[6],
+        couple[:, on] = resisting_couple(w, pressing[:, on], nvec, floor_params[6],
                                          floor_params[7])
     total = fn[..., None] * nvec + f
     F = general.scatter(cap_node, total, X.shape[1])
@@ -115,8 +121,11 @@ def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free
                 y: FloatArray, R_ref: FloatArray, out: FloatArray, X: FloatArray, V: FloatArray, R: FloatArray,
                 F: FloatArray, l0: FloatArray, lengths: FloatArray, rates_: FloatArray, tensions: FloatArray,
                 depth: FloatArray, normal: FloatArray, friction: FloatArray, couple: FloatArray, *,
-                bodies: body_arrays.BodyIndex | None = None) -> None:
-    """:func:`.loops.evaluate`: ``out = dy/dt`` of a batch, keeping every effect's state per state."""
+                bodies: body_arrays.BodyIndex | None = None, switch: FloatArray | None = None) -> None:
+    """:func:`.loops.evaluate`: ``out = dy/dt`` of a batch, keeping every effect's state per
+    state; ``switch`` (ncap + c): the modes of :func:`.loops.derivative` (default: all by sign)."""
+    if switch is None:
+        switch = np.full(len(cap_node) + len(cable_a), BY_SIGN)
     n_free, nb = len(free_node), len(body_dof)
     n_dof = n_free + 6 * nb
     if bodies is None:
@@ -124,11 +133,11 @@ def derivatives(base: FloatArray, free_node: IntArray, free_axis: IntArray, free
     moving = general.place(base, free_node, free_axis, on_node, bodies, y[:, :2 * n_dof], R_ref, X, V, R)
     l0[...] = rest_lengths(cable_l0, cable_motor, y, 2 * n_dof)
     Fc, lengths[...], rates_[...], tensions[...] = cable_forces(cable_a, cable_b, cable_k, cable_c, cable_t_max,
-                                                               l0, X, V)
+                                                               l0, X, V, switch[len(cap_node):])
     a0 = 2 * n_dof + len(motor_cable)
     Ff, moments, depth[...], normal[...], friction[...], couple[...], sliding = floor_forces(
         cap_node, cap_body, cap_radius, floor_normal, floor_point, floor_params, body_dof, y, n_dof,
-        a0, X, V)
+        a0, X, V, switch[:len(cap_node)])
     F[...] = external + Fc + Ff
     out[:, :n_free] = y[:, n_dof:n_dof + n_free]
     out[:, n_dof:n_dof + n_free] = F[:, free_node, free_axis] * free_inv_mass
@@ -219,6 +228,33 @@ def sampled_update(base: FloatArray, free_node: IntArray, free_axis: IntArray, o
             y[cols[big]] = 0.0
 
 
+def guards(cap_node: IntArray, cap_radius: FloatArray, floor_normal: FloatArray, floor_point: FloatArray,
+           cable_a: IntArray, cable_b: IntArray, l0: FloatArray, X: FloatArray,
+           V: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """:func:`.step_loops.guards` of one state (``l0`` (c,), ``X``, ``V`` (n, 3)): ``(g, rate)`` (ncap + c)."""
+    P = X[cap_node]
+    nvec = np.broadcast_to(floor_normal, P.shape)
+    delta = cap_radius - _dot(P - floor_point, nvec)
+    ddot = -_dot(V[cap_node], nvec)
+    h = X[cable_b] - X[cable_a]
+    length = np.sqrt(_dot(h, h))
+    u = np.divide(h, length[..., None], out=np.zeros_like(h), where=length[..., None] > 0.0)
+    return np.concatenate([delta, length - l0]), np.concatenate([ddot, _dot(u, V[cable_b] - V[cable_a])])
+
+
+def first_crossing(switch: FloatArray, g0: FloatArray, rate0: FloatArray, g1: FloatArray, rate1: FloatArray,
+                   H: float) -> tuple[int, float]:
+    """:func:`.step_loops.first_crossing` (its crossings by the same scalar code, in the same order)."""
+    side = np.where(switch == ON, 1.0, -1.0)
+    which, best = -1, 1.0
+    for i in np.flatnonzero(side * g1 < 0.0).tolist():
+        x = _crossing(max(float(side[i] * g0[i]), 0.0), float(side[i] * rate0[i] * H), float(side[i] * g1[i]),
+                      float(side[i] * rate1[i] * H))
+        if which < 0 or x < best:
+            which, best = i, x
+    return which, best
+
+
 def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
               on_node: IntArray, on_body: IntArray, on_offset: FloatArray, body_dof: IntArray,
               body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
@@ -229,30 +265,57 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
               cap_radius: FloatArray, floor_normal: FloatArray, floor_point: FloatArray, floor_params: FloatArray,
               y: FloatArray, R_ref: FloatArray, h: float, aims: FloatArray, modes: IntArray,
               y_end: FloatArray, *end: FloatArray, bodies: body_arrays.BodyIndex | None = None) -> None:
-    """:func:`.loops.run_steps` (the steps in a Python loop, each stage a batch of one; ``end``:
-    the final state's evaluation arrays, ``out`` .. ``couple_out``)."""
+    """:func:`.step_loops.run_steps` (the steps and their smooth pieces in a Python loop, each
+    stage a batch of one; ``end``: the final state's evaluation arrays, ``out`` .. ``couple_out``)."""
     plan = (base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
             body_first_moment, body_inertia, body_inv_inertia_cm, external, cable_a, cable_b, cable_k, cable_c,
             cable_t_max, cable_l0, cable_motor, motor_cable, motor_lo, motor_hi, motor_tau, motor_speed, cap_node,
             cap_body, cap_radius, floor_normal, floor_point, floor_params)
     n, nb, m, ncap = len(base), len(body_dof), len(cable_a), len(cap_node)
+    n_dof = len(free_node) + 6 * nb
     work = (np.empty((1, n, 3)), np.empty((1, n, 3)), np.empty((1, nb, 3, 3)), np.empty((1, n, 3)), np.empty((1, m)),
             np.empty((1, m)),
             np.empty((1, m)), np.empty((1, m)), np.empty((1, ncap)), np.empty((1, ncap)), np.empty((1, ncap, 3)),
             np.empty((1, ncap, 3)))
+    X, V, R, l0 = work[0], work[1], work[2], work[4]
     K = np.empty((4, 1, len(y)))
     if bodies is None:
-        bodies = body_arrays.body_index(on_body, on_offset, body_dof, len(free_node) + 6 * nb)
-    for s in range(len(aims)):
+        bodies = body_arrays.body_index(on_body, on_offset, body_dof, n_dof)
+    guard_args = (cap_node, cap_radius, floor_normal, floor_point, cable_a, cable_b)
+
+    def piece(z0: FloatArray, H: float, switch: FloatArray, first: bool) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """RK4 over ``H`` [s] from ``z0`` under ``switch`` (set from the first stage's guards
+        where ``first``): ``(end, guards, rates)`` of its first stage."""
+        g0 = rate0 = np.empty(0)
         for stage in range(4):
-            c = 0.0 if stage == 0 else (0.5 * h if stage < 3 else h)
-            z = y[None] if stage == 0 else y[None] + c * K[stage - 1]
-            derivatives(*plan, z, R_ref[None], K[stage], *work, bodies=bodies)
-        y[...] = y + h / 6.0 * (K[0, 0] + 2.0 * K[1, 0] + 2.0 * K[2, 0] + K[3, 0])
+            c = 0.0 if stage == 0 else (0.5 * H if stage < 3 else H)
+            z = z0[None] if stage == 0 else z0[None] + c * K[stage - 1]
+            derivatives(*plan, z, R_ref[None], K[stage], *work, bodies=bodies, switch=switch)
+            if stage == 0:
+                g0, rate0 = guards(*guard_args, l0[0], X[0], V[0])
+                if first:
+                    switch[...] = np.where(g0 > 0.0, ON, OFF)
+        end: FloatArray = z0 + H / 6.0 * (K[0, 0] + 2.0 * K[1, 0] + 2.0 * K[2, 0] + K[3, 0])
+        return end, g0, rate0
+
+    for s in range(len(aims)):
+        z0, left, pieces = y.copy(), h, 0
+        switch = np.full(ncap + m, BY_SIGN)
+        while True:
+            y1, g0, rate0 = piece(z0, left, switch, pieces == 0)
+            general.place(base, free_node, free_axis, on_node, bodies, y1[None, :2 * n_dof], R_ref[None], X, V, R)
+            g1, rate1 = guards(*guard_args, l0[0], X[0], V[0])
+            which, x = first_crossing(switch, g0, rate0, g1, rate1, left)
+            if which < 0 or pieces >= MAX_PIECES:
+                break
+            pieces += 1
+            z0, _, _ = piece(z0, x * left, switch, False)
+            left = left - x * left
+            switch[which] = OFF if switch[which] == ON else ON
+        y[...] = y1
         y_end[...] = y
         sampled_update(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, cable_a, cable_b, cable_k,
                        cable_t_max, motor_cable, motor_lo, motor_hi, motor_tau, motor_speed, cap_node, cap_body,
                        cap_radius, floor_normal, floor_point, floor_params, y, R_ref, h, aims[s], modes,
                        bodies=bodies)
     derivatives(*plan, y[None], R_ref[None], *end, bodies=bodies)
-

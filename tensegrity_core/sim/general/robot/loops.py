@@ -12,9 +12,10 @@ contact's material point from its friction anchor, and its contact state (0: no 
 1: sticking, 2: slipping). The offsets are integrated with the motion (their rate is the
 material point's tangential velocity); the rest lengths and contact states are
 **sampled**: constant during a step and updated once at its end by
-:func:`sampled_update`, which also re-maps the offsets (a slip); :func:`run_steps`
-integrates whole fixed steps (classical RK4), updating after each, as a 1 kHz robot loop
-does (MuJoCo likewise integrates its actuators' states once per step).
+:func:`sampled_update`, which also re-maps the offsets (a slip);
+:func:`.step_loops.run_steps` integrates whole fixed steps (classical RK4 in smooth pieces
+between the caps' and cables' switches), updating after each, as a 1 kHz robot loop does
+(MuJoCo likewise integrates its actuators' states once per step).
 
 One evaluation (:func:`derivative`):
 
@@ -46,6 +47,9 @@ IntArray = NDArray[np.int64]
 
 #: Contact states of a cap (the last entries of the state vector).
 NO_ANCHOR, STICKING, SLIPPING = 0.0, 1.0, 2.0
+#: A switch's mode in an evaluation (per cap: in contact; per cable: taut): by the sign of its
+#: guard (penetration, ``l - l0``), or held off or on through a smooth piece of a step.
+BY_SIGN, OFF, ON = -1.0, 0.0, 1.0
 #: Re-anchor a body's rotation chart when its rotation vector exceeds this angle [rad]
 #: (as the general dynamics do).
 RECHART_ANGLE = 1.0
@@ -62,11 +66,14 @@ def rest_lengths(cable_l0: FloatArray, cable_motor: IntArray, y: FloatArray, sta
 @jit
 def cable_forces(cable_a: IntArray, cable_b: IntArray, cable_k: FloatArray, cable_c: FloatArray,
                  cable_t_max: FloatArray, l0: FloatArray, X: FloatArray, V: FloatArray, F: FloatArray,
-                 lengths: FloatArray, rates_: FloatArray, tensions: FloatArray) -> None:
+                 lengths: FloatArray, rates_: FloatArray, tensions: FloatArray, switch: FloatArray,
+                 first: int) -> None:
     """Tensions ``T = clip(k (l - l0) + c ldot, 0, T_max)`` of taut cables (``l > l0``; 0
     while slack) added as ``+T u`` to end ``a`` and ``-T u`` to end ``b`` of ``F``; writes
     ``lengths`` [m], ``rates_`` [m/s] and ``tensions`` [N]. A cable whose ends meet (``l = 0``,
-    two rods' caps passing through each other) is slack, with rate 0."""
+    two rods' caps passing through each other) is slack, with rate 0. ``switch[first + i]``
+    (:data:`BY_SIGN`, :data:`OFF`, :data:`ON`): whether cable ``i`` is taut by the sign of
+    ``l - l0`` or held slack or taut (a step's smooth piece, :mod:`.step_loops`)."""
     for i in range(cable_a.shape[0]):
         a, b = cable_a[i], cable_b[i]
         h0, h1, h2 = X[b, 0] - X[a, 0], X[b, 1] - X[a, 1], X[b, 2] - X[a, 2]
@@ -78,7 +85,8 @@ def cable_forces(cable_a: IntArray, cable_b: IntArray, cable_k: FloatArray, cabl
         lengths[i] = length
         rates_[i] = rate
         t = 0.0
-        if length > l0[i]:
+        mode = switch[first + i]
+        if (length > l0[i]) if mode == BY_SIGN else mode == ON:
             t = min(max(cable_k[i] * (length - l0[i]) + cable_c[i] * rate, 0.0), cable_t_max[i])
         tensions[i] = t
         F[a, 0] += t * u0
@@ -91,14 +99,16 @@ def cable_forces(cable_a: IntArray, cable_b: IntArray, cable_k: FloatArray, cabl
 
 @jit
 def cap_contact(X: FloatArray, V: FloatArray, node: int, radius: float, floor_point: FloatArray, n0: float, n1: float,
-                n2: float, k: float, d: float) -> tuple[float, float]:
+                n2: float, k: float, d: float, mode: float) -> tuple[float, float]:
     """``(delta, F_n)`` of a cap of ``radius`` [m] centred at ``node``: its penetration
     ``delta`` [m] into the floor (through ``floor_point``, unit normal ``n``) and the normal
-    force ``F_n = k delta max(0, 1 + d deltadot)`` [N] (0 out of contact)."""
+    force ``F_n = k delta max(0, 1 + d deltadot)`` [N] (0 out of contact). ``mode``
+    (:data:`BY_SIGN`, :data:`OFF`, :data:`ON`): in contact where ``delta > 0``, or held out of
+    or in contact (a step's smooth piece: ``F_n`` continued through ``delta = 0``)."""
     delta = radius - ((X[node, 0] - floor_point[0]) * n0 + (X[node, 1] - floor_point[1]) * n1
                       + (X[node, 2] - floor_point[2]) * n2)
     fn = 0.0
-    if delta > 0.0:
+    if (delta > 0.0) if mode == BY_SIGN else mode == ON:
         fn = k * delta * max(0.0, 1.0 + d * -(V[node, 0] * n0 + V[node, 1] * n1 + V[node, 2] * n2))
     return delta, fn
 
@@ -153,7 +163,7 @@ def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray,
                  floor_point: FloatArray, floor_params: FloatArray, body_dof: IntArray, y: FloatArray,
                  n_dof: int, anchors: int, X: FloatArray, V: FloatArray, F: FloatArray, moments: FloatArray,
                  depth: FloatArray, normal: FloatArray, friction: FloatArray, couple: FloatArray,
-                 out: FloatArray) -> None:
+                 out: FloatArray, switch: FloatArray) -> None:
     """Per cap: its penetration ``depth`` [m], the normal force ``F_n = k delta max(0, 1 + d
     deltadot)`` [N] (``normal``; 0 out of contact) along the floor's normal, and with an
     anchor the friction force (``friction``, (ncap, 3); :func:`anchor_force`: ``-k_t s -
@@ -175,7 +185,7 @@ def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray,
     for c in range(ncap):
         node = cap_node[c]
         r = cap_radius[c]
-        delta, fn = cap_contact(X, V, node, r, floor_point, n0, n1, n2, k, d)
+        delta, fn = cap_contact(X, V, node, r, floor_point, n0, n1, n2, k, d, switch[c])
         depth[c] = delta
         normal[c] = fn
         F[node, 0] += fn * n0
@@ -193,7 +203,7 @@ def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray,
             vn = v0 * n0 + v1 * n1 + v2 * n2
             v0, v1, v2 = v0 - vn * n0, v1 - vn * n1, v2 - vn * n2
             out[a], out[a + 1], out[a + 2] = v0, v1, v2
-            f0, f1, f2 = anchor_force(s0, s1, s2, v0, v1, v2, fn, kt, ct, mu_s, mu_k, state == STICKING)
+            f0, f1, f2 = anchor_force(s0, s1, s2, v0, v1, v2, max(fn, 0.0), kt, ct, mu_s, mu_k, state == STICKING)
         friction[c, 0], friction[c, 1], friction[c, 2] = f0, f1, f2
         F[node, 0] += f0
         F[node, 1] += f1
@@ -227,11 +237,13 @@ def derivative(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_
                cable_motor: IntArray, motor_cable: IntArray, motor_lo: FloatArray, motor_hi: FloatArray,
                motor_tau: FloatArray, motor_speed: FloatArray, cap_node: IntArray, cap_body: IntArray,
                cap_radius: FloatArray, floor_normal: FloatArray, floor_point: FloatArray, floor_params: FloatArray,
-               y: FloatArray, R_ref: FloatArray, out: FloatArray, X: FloatArray, V: FloatArray, R: FloatArray,
-               r: FloatArray, F: FloatArray, wrench: FloatArray, moments: FloatArray, l0: FloatArray,
+               switch: FloatArray, y: FloatArray, R_ref: FloatArray, out: FloatArray, X: FloatArray, V: FloatArray,
+               R: FloatArray, r: FloatArray, F: FloatArray, wrench: FloatArray, moments: FloatArray, l0: FloatArray,
                lengths: FloatArray, rates_: FloatArray, tensions: FloatArray, depth: FloatArray,
                normal: FloatArray, friction: FloatArray, couple: FloatArray) -> None:
-    """``out = dy/dt`` of one state (module docstring): the plan's arrays, ``y``, ``R_ref``,
+    """``out = dy/dt`` of one state (module docstring): the plan's arrays, the switches' modes
+    ``switch`` (ncap + c: the caps', then the cables'; :data:`BY_SIGN` in every evaluation but a
+    step's smooth pieces, :mod:`.step_loops`), ``y``, ``R_ref``,
     ``out``, then work arrays that keep the placement, the forces and each effect's state
     afterwards (``l0`` the cables' rest lengths, ``lengths``, ``rates_``, ``tensions``;
     the caps' ``depth``, ``normal`` and ``friction`` forces and resisting ``couple``)."""
@@ -241,9 +253,10 @@ def derivative(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_
     F[:, :] = external
     out[2 * n_dof:] = 0.0
     rest_lengths(cable_l0, cable_motor, y, 2 * n_dof, l0)
-    cable_forces(cable_a, cable_b, cable_k, cable_c, cable_t_max, l0, X, V, F, lengths, rates_, tensions)
+    cable_forces(cable_a, cable_b, cable_k, cable_c, cable_t_max, l0, X, V, F, lengths, rates_, tensions, switch,
+                 cap_node.shape[0])
     floor_forces(cap_node, cap_body, cap_radius, floor_normal, floor_point, floor_params, body_dof, y, n_dof,
-                 2 * n_dof + motor_cable.shape[0], X, V, F, moments, depth, normal, friction, couple, out)
+                 2 * n_dof + motor_cable.shape[0], X, V, F, moments, depth, normal, friction, couple, out, switch)
     nodal_wrenches(on_node, on_body, r, F, wrench)
     for c in range(cap_node.shape[0]):
         b = cap_body[c]
@@ -325,7 +338,7 @@ def sampled_update(base: FloatArray, free_node: IntArray, free_axis: IntArray, o
     for c in range(ncap):
         node = cap_node[c]
         rc = cap_radius[c]
-        _, fn = cap_contact(X, V, node, rc, floor_point, n0, n1, n2, k, d)
+        _, fn = cap_contact(X, V, node, rc, floor_point, n0, n1, n2, k, d, BY_SIGN)
         a = a0 + 3 * c
         st = a0 + 3 * ncap + c
         if not (fn > 0.0 and kt > 0.0):
@@ -357,64 +370,6 @@ def sampled_update(base: FloatArray, free_node: IntArray, free_axis: IntArray, o
 
 
 @jit
-def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
-              on_node: IntArray, on_body: IntArray, on_offset: FloatArray, body_dof: IntArray,
-              body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
-              body_inv_inertia_cm: FloatArray, external: FloatArray, cable_a: IntArray, cable_b: IntArray,
-              cable_k: FloatArray, cable_c: FloatArray, cable_t_max: FloatArray, cable_l0: FloatArray,
-              cable_motor: IntArray, motor_cable: IntArray, motor_lo: FloatArray, motor_hi: FloatArray,
-              motor_tau: FloatArray, motor_speed: FloatArray, cap_node: IntArray, cap_body: IntArray,
-              cap_radius: FloatArray, floor_normal: FloatArray, floor_point: FloatArray, floor_params: FloatArray,
-              y: FloatArray, R_ref: FloatArray, h: float, aims: FloatArray, modes: IntArray,
-              y_end: FloatArray, out: FloatArray, X_out: FloatArray, V_out: FloatArray, R_out: FloatArray,
-              F_out: FloatArray, l0_out: FloatArray, lengths_out: FloatArray, rates_out: FloatArray,
-              tensions_out: FloatArray, depth_out: FloatArray, normal_out: FloatArray, friction_out: FloatArray,
-              couple_out: FloatArray) -> None:
-    """``len(aims)`` fixed steps of ``h`` [s] from ``y`` (changed in place, with the charts
-    ``R_ref``): per step the classical RK4 (the sampled entries constant), then
-    :func:`sampled_update` with that step's motor commands ``aims[s]`` in the motors'
-    ``modes`` (rest length [m], reel speed [m/s], tension [N]). ``y_end``: the
-    last step's RK4 result before its update (the end of the step in the step's own charts,
-    for interpolation). ``out`` .. ``couple_out``: the final ``y`` in the final charts
-    evaluated by :func:`evaluate` (a batch of one), what an observation of the step's end needs."""
-    N = y.shape[0]
-    n, nb, m, ncap = base.shape[0], body_dof.shape[0], cable_a.shape[0], cap_node.shape[0]
-    X, V, F = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
-    R, r = np.empty((nb, 3, 3)), np.empty((on_node.shape[0], 3))
-    wrench, moments = np.empty((nb, 6)), np.empty((ncap, 3))
-    l0, lengths, rates_, tensions = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
-    depth, normal, friction, couple = np.empty(ncap), np.empty(ncap), np.empty((ncap, 3)), np.empty((ncap, 3))
-    K = np.empty((4, N))
-    z = np.empty(N)
-    for s in range(aims.shape[0]):
-        for stage in range(4):
-            if stage == 0:
-                z[:] = y
-            else:
-                c = 0.5 * h if stage < 3 else h
-                for i in range(N):
-                    z[i] = y[i] + c * K[stage - 1, i]
-            derivative(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
-                       body_first_moment, body_inertia, body_inv_inertia_cm, external, cable_a, cable_b, cable_k,
-                       cable_c, cable_t_max, cable_l0, cable_motor, motor_cable, motor_lo, motor_hi, motor_tau,
-                       motor_speed, cap_node, cap_body, cap_radius, floor_normal, floor_point, floor_params, z,
-                       R_ref, K[stage], X, V, R, r, F, wrench, moments, l0, lengths, rates_, tensions, depth,
-                       normal, friction, couple)
-        for i in range(N):
-            y[i] = y[i] + h / 6.0 * (K[0, i] + 2.0 * K[1, i] + 2.0 * K[2, i] + K[3, i])
-        y_end[:] = y
-        sampled_update(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, cable_a, cable_b, cable_k,
-                       cable_t_max, motor_cable, motor_lo, motor_hi, motor_tau, motor_speed, cap_node, cap_body,
-                       cap_radius, floor_normal, floor_point, floor_params, y, R_ref, h, aims[s], modes, X, V, R, r)
-    evaluate(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
-             body_first_moment, body_inertia, body_inv_inertia_cm, external, cable_a, cable_b, cable_k, cable_c,
-             cable_t_max, cable_l0, cable_motor, motor_cable, motor_lo, motor_hi, motor_tau, motor_speed, cap_node,
-             cap_body, cap_radius, floor_normal, floor_point, floor_params, y.reshape((1, N)),
-             R_ref.reshape((1, nb, 3, 3)), out, X_out, V_out, R_out, F_out, l0_out, lengths_out, rates_out,
-             tensions_out, depth_out, normal_out, friction_out, couple_out)
-
-
-@jit
 def evaluate(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv_mass: FloatArray,
              on_node: IntArray, on_body: IntArray, on_offset: FloatArray, body_dof: IntArray,
              body_mass: FloatArray, body_first_moment: FloatArray, body_inertia: FloatArray,
@@ -432,10 +387,11 @@ def evaluate(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_in
     r = np.empty((on_node.shape[0], 3))
     wrench = np.empty((body_dof.shape[0], 6))
     moments = np.empty((cap_node.shape[0], 3))
+    by_sign = np.full(cap_node.shape[0] + cable_a.shape[0], BY_SIGN)
     for k in range(y.shape[0]):
         derivative(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
                    body_first_moment, body_inertia, body_inv_inertia_cm, external, cable_a, cable_b, cable_k, cable_c,
                    cable_t_max, cable_l0, cable_motor, motor_cable, motor_lo, motor_hi, motor_tau, motor_speed,
-                   cap_node, cap_body, cap_radius, floor_normal, floor_point, floor_params, y[k], R_ref[k], out[k],
+                   cap_node, cap_body, cap_radius, floor_normal, floor_point, floor_params, by_sign, y[k], R_ref[k], out[k],
                    X[k], V[k], R[k], r, F[k], wrench, moments, l0[k], lengths[k], rates_[k], tensions[k], depth[k],
                    normal[k], friction[k], couple[k])

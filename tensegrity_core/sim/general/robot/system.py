@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 from tensegrity_core.sim.general.kernels import body_arrays
 from tensegrity_core.sim.general.kernels.jit import choose_kernels
 from tensegrity_core.sim.general.kernels.plan import constant
-from tensegrity_core.sim.general.robot import arrays, loops
+from tensegrity_core.sim.general.robot import arrays, loops, step_loops
 from tensegrity_core.sim.general.robot.plan import RobotPlan
 from tensegrity_core.sim.inputs import Commanded, Constant, InputLaw
 
@@ -99,6 +99,7 @@ class RobotSystem:
         self.R_ref = _arg(R_ref)
         self.kernels = choose_kernels(kernels)
         self._module: ModuleType = loops if self.kernels == "numba" else arrays
+        self._steps: ModuleType = step_loops if self.kernels == "numba" else arrays
         # the numpy kernels' index arrays of the moving bodies, built once per plan
         self._options: dict[str, body_arrays.BodyIndex] = {} if self.kernels == "numba" else {
             "bodies": body_arrays.body_index(plan.on_body, plan.on_offset, plan.body_dof, plan.n_dof)}
@@ -148,7 +149,7 @@ class RobotSystem:
     def run(self, y: FloatArray, R_ref: FloatArray, h: float, aims: FloatArray, *,
             out: RobotEvaluation | None = None) -> tuple[FloatArray, FloatArray, FloatArray]:
         """``len(aims)`` fixed steps of ``h`` [s] from ``y`` in the charts ``R_ref`` with the
-        motors' commands ``aims`` (steps, motors) in their modes (:func:`.loops.run_steps`): ``(y, R_ref,
+        motors' commands ``aims`` (steps, motors) in their modes (:func:`.step_loops.run_steps`): ``(y, R_ref,
         y_end)`` after them (new arrays; ``y_end`` the last step's end before its sampled
         update, in that step's charts). The final ``y`` in the final charts is evaluated into
         ``out`` (from :func:`empty_evaluation` with ``B = 1``; default: arrays thrown away), the
@@ -156,7 +157,7 @@ class RobotSystem:
         y_new, R_new = np.array(y, dtype=np.float64, order="C"), np.array(R_ref, dtype=np.float64, order="C")
         y_end = np.empty_like(y_new)
         ev = empty_evaluation(self.plan, 1) if out is None else out
-        self._module.run_steps(*self.plan, y_new, R_new, float(h), _arg(aims), self.modes, y_end, ev.derivative,
+        self._steps.run_steps(*self.plan, y_new, R_new, float(h), _arg(aims), self.modes, y_end, ev.derivative,
                                ev.positions, ev.velocities, ev.rotations, ev.forces, ev.rest_lengths, ev.lengths,
                                ev.rates, ev.tensions, ev.depth, ev.normal, ev.friction, ev.couple, **self._options)
         return y_new, R_new, y_end
