@@ -70,6 +70,12 @@ AS_PROCESSES = [
      "write 'world'), got '/world'"),
     (["node", "sim", "--ros-args", "-p", "frame_id:=''"],
      "tensegrity_sim: parameter frame_id must name a frame (tf2 refuses an empty frame id), got ''"),
+    # a robot (bot_drop.yaml, written by _write_bot) whose IMU's body '1-rod a' names no ROS topic:
+    # the core takes any name, and rclpy's InvalidTopicNameException ended the simulator in a traceback
+    (["node", "sim", "--ros-args", "-p", "scene:=bot_drop.yaml"],
+     "error: tensegrity_sim: the IMU of '1-rod a' cannot publish on 'imu/1-rod a': a ROS topic name holds "
+     "letters, digits and '_' in tokens that do not start with a digit; rename the body in the robot's "
+     "description"),
     (["node", "formfind", "--ros-args", "-p", "max_workers:=0"],
      "tensegrity_formfind: parameter max_workers must be a whole number in [1, 64] processes, got 0"),
     (["node", "formfind", "--ros-args", "-p", "time_limit:=abc"],
@@ -124,7 +130,25 @@ def test_a_trajectory_whose_times_do_not_increase_is_refused_as_the_file_is_read
     assert words in _one_error_line(out.err) and out.out == ""
 
 
+def _write_bot(folder: Path) -> None:
+    """The 3-bar with its rod r01 renamed '1-rod a' (its IMU too) and a scene dropping it, in ``folder``."""
+    import yaml
+
+    from tensegrity_core.robot.loading import robot_path
+
+    robot = yaml.safe_load(robot_path("three_bar").read_text())
+    for rod in robot["rods"]:
+        rod["name"] = {"r01": "1-rod a"}.get(rod["name"], rod["name"])
+    robot["sensors"]["imu"] = ["1-rod a", "r23"]
+    (folder / "bot.yaml").write_text(yaml.safe_dump(robot))
+    (folder / "bot_drop.yaml").write_text(yaml.safe_dump({
+        "name": "bot_drop", "model": {"kind": "robot", "robot": str(folder / "bot.yaml")},
+        "initial": {"drawn": True, "lift": 0.05}, "duration": 1.0,
+        "effects": ["inertia", "cables", "motors", "gravity", "contact", "friction", "sensors"]}))
+
+
 def test_a_bad_argument_of_a_long_running_command_is_one_line_and_exit_2(tmp_path):
+    _write_bot(tmp_path)
     for done, (args, words) in zip(run_all([a for a, _ in AS_PROCESSES], tmp_path), AS_PROCESSES):
         assert done.returncode == 2, (args, done.stdout, done.stderr)
         assert words in _one_error_line(done.stderr), args

@@ -38,6 +38,8 @@ from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import MarkerArray
 
 from tensegrity_core.class2.names import JOINTS
+from tensegrity_core.excerpt import excerpt
+from tensegrity_ros.nodes.common import ParameterValueError
 from tensegrity_ros.nodes.sim import robot_messages, sender, topic_bytes, transforms
 from tensegrity_ros.nodes.sim.decimation import Decimation
 from tensegrity_ros.nodes.sim.joint_bytes import JointStateBytes
@@ -50,6 +52,21 @@ Messages = list[tuple[str, object]]
 FloatArray = NDArray[np.float64]
 #: The topics a joint sample gives (no observation needed).
 _JOINTS_ONLY = frozenset({"joint_states", "end_effector"})
+
+
+def _check_topic(body: str, topic: str) -> None:
+    """Refuse an IMU whose body's name makes no ROS topic name (the core takes any name; rclpy
+    would raise InvalidTopicNameException as the publisher is made), in one line."""
+    from rclpy.exceptions import InvalidTopicNameException
+    from rclpy.validate_topic_name import validate_topic_name
+
+    try:
+        validate_topic_name(topic)
+    except InvalidTopicNameException:
+        raise ParameterValueError(
+            f"tensegrity_sim: the IMU of {excerpt(body)} cannot publish on {excerpt(topic)}: a ROS topic name holds "
+            "letters, digits and '_' in tokens that do not start with a digit; rename the body in the robot's "
+            "description") from None
 
 
 class Outputs:
@@ -65,6 +82,8 @@ class Outputs:
         self._floor = plant.floor()
         #: The IMUs' topics, in the order of their readings.
         self.imu_topics = tuple(f"imu/{name}" for name in plant.names.imu_names)
+        for name, topic in zip(plant.names.imu_names, self.imu_topics):
+            _check_topic(name, topic)
         if self.general:
             self.topics: dict[str, type] = {"joint_states": JointState, "end_effector": PointStamped,
                                             "cable_states": CableStates, "markers": MarkerArray}
