@@ -235,8 +235,10 @@ def test_actuator_reference_beta_stays_on_its_equilibrium_and_forces_hold_at_the
     (dict(times=(2.0, 1.0)), INVALID_GOAL, "increase strictly"),
     (dict(times=(-1.0, 1.0)), INVALID_GOAL, "negative"),
     (dict(times=(1.0, math.nan)), INVALID_GOAL, "not finite"),
-    (dict(pos=((0.72, math.nan), (0.75, 0.7))), INVALID_GOAL, "non-finite"),
-    (dict(pos=((0.72, 0.68), (math.inf, 0.7))), INVALID_GOAL, "non-finite"),
+    (dict(pos=((0.72, math.nan), (0.75, 0.7))), INVALID_GOAL, r"^positions\[0\]: rho2 is not finite \(nan\)$"),
+    (dict(pos=((0.72, 0.68), (math.inf, 0.7))), INVALID_GOAL, r"^positions\[1\]: rho1 is not finite \(inf\)$"),
+    (dict(names=("rho2", "rho1"), pos=((0.72, math.nan), (0.75, 0.7))), INVALID_GOAL,    # in the goal's order
+     r"^positions\[0\]: rho1 is not finite \(nan\)$"),
     (dict(pos=((0.72, 0.68), (0.75,))), INVALID_GOAL, "1 values for the 2 joints"),
     (dict(vel=((0.0, 0.0),)), INVALID_GOAL, "give all points or none"),
     (dict(acc=((0, 0), (0, 0))), INVALID_GOAL, "accelerations need velocities"),

@@ -508,8 +508,8 @@ def test_bad_moves_are_refused_with_the_reason_and_the_hold_continues(suite, goa
 @pytest.mark.parametrize("traj, code, words", [
     (dict(names=("rho1", "theta")), "INVALID_JOINTS", "unknown joint"),
     (dict(points=((2.0, (0.71, 0.69)), (1.0, (0.72, 0.7)))), "INVALID_GOAL", "increase strictly"),
-    (dict(points=((1.0, (0.71, math.nan)),)), "INVALID_GOAL", "non-finite"),
-    (dict(points=((1.0, (0.71, math.inf)),)), "INVALID_GOAL", "non-finite"),
+    (dict(points=((1.0, (0.71, math.nan)),)), "INVALID_GOAL", "positions[0]: rho2 is not finite (nan)"),
+    (dict(points=((1.0, (0.71, math.inf)),)), "INVALID_GOAL", "positions[0]: rho2 is not finite (inf)"),
     (dict(points=((3.0, (0.99, 0.7)),)), "INVALID_GOAL", "singular set lambda2"),
     (dict(points=((3.0, (1.2, 0.7)),)), "INVALID_GOAL", "outside the mechanism's domain"),
 ])

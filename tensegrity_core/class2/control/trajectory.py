@@ -52,9 +52,9 @@ MAX_DURATION: Final = 3600.0
 Rows: TypeAlias = Sequence[Sequence[float]]
 
 
-def _array(name: str, value: Rows | None, n: int) -> NDArray[np.float64] | None:
-    """``value`` as an (n, 2) finite array, or None when empty (no rows, or only empty rows:
-    trajectory_msgs leaves a point's velocities empty when it has none)."""
+def _array(name: str, value: Rows | None, n: int, joints: Sequence[str]) -> NDArray[np.float64] | None:
+    """``value`` as an (n, 2) finite array (columns: ``joints``), or None when empty (no rows, or
+    only empty rows: trajectory_msgs leaves a point's velocities empty when it has none)."""
     if value is None or len(value) == 0 or all(len(row) == 0 for row in value):
         return None
     if len(value) != n:
@@ -68,7 +68,7 @@ def _array(name: str, value: Rows | None, n: int) -> NDArray[np.float64] | None:
         raise PlanningError(f"{name}: not numbers ({err})") from None
     if not np.all(np.isfinite(arr)):
         i, j = np.argwhere(~np.isfinite(arr))[0]
-        raise PlanningError(f"{name}[{i}]: non-finite value {arr[i, j]!r}")
+        raise PlanningError(f"{name}[{i}]: {joints[j]} is not finite ({float(arr[i, j]):g})")
     return arr
 
 
@@ -98,6 +98,7 @@ def actuator_reference(names: Iterable[str], times: Sequence[float], positions: 
     order of ``names``; ``velocities`` [m/s], ``accelerations`` [m/s^2] likewise or empty;
     ``start_rho`` [m], ``start_rate`` [m/s] the measured state at the start (rho1, rho2).
     """
+    names = list(names)
     cols = joint_order(names)
     n = len(times)
     if n == 0:
@@ -115,11 +116,11 @@ def actuator_reference(names: Iterable[str], times: Sequence[float], positions: 
                             f"follow point {i - 1} at {t[i - 1]:g} s")
     if t[-1] > MAX_DURATION:
         raise PlanningError(f"the trajectory lasts {t[-1]:g} s; at most {MAX_DURATION:g} s are accepted")
-    p = _array("positions", positions, n)
+    p = _array("positions", positions, n, names)
     if p is None:
         raise PlanningError("every point needs positions for rho1 and rho2")
-    v = _array("velocities", velocities, n)
-    a = _array("accelerations", accelerations, n)
+    v = _array("velocities", velocities, n, names)
+    a = _array("accelerations", accelerations, n, names)
     if a is not None and v is None:
         raise PlanningError("accelerations need velocities too")
     p = p[:, cols]
