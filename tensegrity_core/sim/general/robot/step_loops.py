@@ -150,16 +150,17 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
     g0, rate0, g1, rate1 = np.empty(ncap + m), np.empty(ncap + m), np.empty(ncap + m), np.empty(ncap + m)
     for s in range(aims.shape[0]):
         z0[:] = y
-        left = h
-        pieces = 0
+        left = h                              # what is left of the step [s]
+        H = h                                 # the piece being taken [s]: what is left, or up to a crossing
+        pieces, which, to_crossing = 0, -1, False
         switch[:] = BY_SIGN                   # the first stage by sign: the modes are its guards' signs
         while True:
-            # one RK4 piece of ``left`` from z0 (its first stage's guards into g0, rate0)
+            # one RK4 piece of ``H`` from z0 (its first stage's guards into g0, rate0)
             for stage in range(4):
                 if stage == 0:
                     z[:] = z0
                 else:
-                    c = 0.5 * left if stage < 3 else left
+                    c = 0.5 * H if stage < 3 else H
                     for i in range(N):
                         z[i] = z0[i] + c * K[stage - 1, i]
                 derivative(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof,
@@ -174,7 +175,15 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
                         if switch[i] == BY_SIGN:
                             switch[i] = ON if g0[i] > 0.0 else OFF
             for i in range(N):
-                y1[i] = z0[i] + left / 6.0 * (K[0, i] + 2.0 * K[1, i] + 2.0 * K[2, i] + K[3, i])
+                y1[i] = z0[i] + H / 6.0 * (K[0, i] + 2.0 * K[1, i] + 2.0 * K[2, i] + K[3, i])
+            if to_crossing:
+                # at the crossing under the same modes: the switch flips, the rest is the next piece
+                z0[:] = y1
+                left = left - H
+                H = left
+                switch[which] = OFF if switch[which] == ON else ON
+                to_crossing = False
+                continue
             place(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, y1[:2 * n_dof], R_ref, X, V,
                   R, r)
             guards(cap_node, cap_radius, floor_normal, floor_point, cable_a, cable_b, l0, X, V, g1, rate1)
@@ -182,25 +191,8 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
             if which < 0 or pieces >= MAX_PIECES:
                 break
             pieces += 1
-            piece = x * left
-            # RK4 to the crossing under the same modes (the step is redone: another piece)
-            for stage in range(4):
-                if stage == 0:
-                    z[:] = z0
-                else:
-                    c = 0.5 * piece if stage < 3 else piece
-                    for i in range(N):
-                        z[i] = z0[i] + c * K[stage - 1, i]
-                derivative(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof,
-                           body_mass, body_first_moment, body_inertia, body_inv_inertia_cm, external, cable_a,
-                           cable_b, cable_k, cable_c, cable_t_max, cable_l0, cable_motor, motor_cable, motor_lo,
-                           motor_hi, motor_tau, motor_speed, cap_node, cap_body, cap_radius, floor_normal,
-                           floor_point, floor_params, switch, z, R_ref, K[stage], X, V, R, r, F, wrench, moments,
-                           l0, lengths, rates_, tensions, depth, normal, friction, couple)
-            for i in range(N):
-                z0[i] = z0[i] + piece / 6.0 * (K[0, i] + 2.0 * K[1, i] + 2.0 * K[2, i] + K[3, i])
-            left = left - piece
-            switch[which] = OFF if switch[which] == ON else ON
+            H = x * left                      # the step is redone up to the crossing: another piece
+            to_crossing = True
         y[:] = y1
         y_end[:] = y
         sampled_update(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, cable_a, cable_b, cable_k,
