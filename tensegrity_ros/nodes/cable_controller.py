@@ -21,13 +21,14 @@ are the scene's actuated cables that take commands; their positions are rest len
   rest lengths, as a motor holds its position, and a manual command on ``cable_commands``
   lasts). A sample repeated unchanged gets the same answer again (a lockstep simulator
   republishes a state whose answer it lacks).
-- Checks and feedback: on every ``cable_states`` (the simulator's ``state_rate``) the
-  goal's joints' rest lengths as the simulator reports them are the actual positions,
-  their tensions the actual efforts; feedback ``desired`` / ``actual`` / ``error``
-  (positions, and the desired velocities and accelerations), path tolerance until the last
-  point's time, goal tolerance after it within ``goal_time_tolerance`` (0: the default;
-  < 0, control_msgs' -1: no limit, the goal waits for its tolerance). Rates of rest
-  lengths are not measured: velocity tolerances are accepted and not checked.
+- Checks and feedback: on every ``cable_states`` (the simulator's ``state_rate``) stamped no earlier than
+  the goal was taken (the latest joint state's time: as joint_trajectory_controller's updates after a goal
+  came; an older one a reader was behind with is not the goal's) the goal's joints' rest lengths as the
+  simulator reports them are the actual positions, their tensions the actual efforts; feedback ``desired``
+  / ``actual`` / ``error`` (positions, and the desired velocities and accelerations), path tolerance until
+  the last point's time, goal tolerance after it within ``goal_time_tolerance`` (0: the default; < 0,
+  control_msgs' -1: no limit, the goal waits for its tolerance). Rates of rest lengths are not measured:
+  velocity tolerances are accepted and not checked.
 - State: once active, every ``cable_states`` is also published as a
   ``JointTrajectoryControllerState`` on ``~/controller_state`` (joint_trajectory_controller's
   topic, published there every update): all the controller's joints in its order;
@@ -110,15 +111,13 @@ OWN_ECHOES = 2 * COMMAND_DEPTH
 
 
 class _Job:
-    """A running goal: its handle (None: from ``~/joint_trajectory``), trajectory, checks, start [s]
-    and the future its execute awaits."""
+    """A running goal: its handle (None: from ``~/joint_trajectory``), trajectory, checks, start [s],
+    the simulation time it was taken at [s] (the latest joint state's) and the future its execute awaits."""
 
-    def __init__(self, handle: Any, trajectory: jt.JointTrajectory, monitor: jt.GoalMonitor, t_start: float) -> None:
-        self.handle = handle
-        self.trajectory = trajectory
-        self.monitor = monitor
-        self.t_start = t_start
-        self.finished = Future()
+    def __init__(self, handle: Any, trajectory: jt.JointTrajectory, monitor: jt.GoalMonitor, t_start: float,
+                 t_taken: float) -> None:
+        self.handle, self.trajectory, self.monitor = handle, trajectory, monitor
+        self.t_start, self.t_taken, self.finished = t_start, t_taken, Future()
 
     def end(self, outcome: jt.Outcome, status: str) -> None:
         if not self.finished.done():
@@ -289,10 +288,11 @@ class CableControllerNode(Node):
             self._activate()
         index = {n: i for i, n in enumerate(msg.name)}
         job = self._job
-        tau = math.nan if job is None else stamp_ns(msg.header.stamp) / NS_PER_S - job.t_start
-        if job is not None and (job.finished.done() or not tau >= 0.0
+        t = stamp_ns(msg.header.stamp) / NS_PER_S
+        tau = math.nan if job is None else t - job.t_start
+        if job is not None and (job.finished.done() or not tau >= 0.0 or t < job.t_taken
                                 or any(n not in index for n in job.trajectory.names)):
-            job = None          # ended, not started, or a state without the goal's cables: nothing to check
+            job = None   # ended, not started, older than the goal (a reader behind) or without its cables
         if self._active and all(n in index for n in self.joints):
             self._read_commands()
             self.state_pub.publish(self._state(msg, index, job, tau))
@@ -473,7 +473,7 @@ class CableControllerNode(Node):
         goal_time = jt.tolerance(stamp_ns(req.goal_time_tolerance) / NS_PER_S, default_goal_time)
         off = (math.inf,) * n
         monitor = jt.GoalMonitor(trajectory, jt.Tolerances(tuple(path), off, tuple(goal), off, goal_time))
-        return _Job(handle, trajectory, monitor, t_start)
+        return _Job(handle, trajectory, monitor, t_start, now)
 
     def destroy_node(self) -> None:
         for ready in self._waiting.values():
