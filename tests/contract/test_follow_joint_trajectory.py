@@ -193,6 +193,15 @@ def _rest(client, names):
     return [rest[n] for n in names]
 
 
+def _held(state, names):
+    """The rest lengths [m] an idle ``controller_state`` says the controller holds ``names`` at
+    (its ``output``: the latest command, the simulator's motors' aim), or None for a goal's."""
+    if stamp_ns(state.reference.time_from_start) != 0:
+        return None
+    output = dict(zip(state.joint_names, state.output.positions))
+    return [output[n] for n in names]
+
+
 def test_a_goal_in_any_joint_order_is_followed_and_reported_as_joint_trajectory_controller_does(suite):
     from action_msgs.msg import GoalStatus
 
@@ -253,12 +262,18 @@ def test_a_goal_joint_trajectory_controller_rejects_ends_with_the_standard_code_
     from action_msgs.msg import GoalStatus
 
     client, action = suite
-    before = _rest(client, ("c0_7", "c5_8"))
+    names = ("c0_7", "c5_8")
+    # what the cables are held at, not where the motors are: an earlier goal's motor may still
+    # be on its way or settling within its tolerance. After an idle state every state of an
+    # earlier goal has come (one writer, in order)
+    idle = client.wait_for(STATE, lambda s: _held(s, names) is not None, "an idle controller_state",
+                           since=len(client.received[STATE]))
     handle, _ = _send(client, action, _goal(*goal_args))
     status, result = _outcome(client, handle)
     assert (status, result.error_code) == (GoalStatus.STATUS_ABORTED, code), (case, result.error_string)
     assert result.error_string.strip(), case
-    assert _rest(client, ("c0_7", "c5_8")) == before             # nothing moved
+    after = client.wait_count(STATE, 5)                          # states after the refusal
+    assert [_held(s, names) for s in after] == [_held(idle, names)] * 5     # nothing commanded
 
 
 @pytest.mark.parametrize("case, kwargs, code", [
