@@ -264,10 +264,12 @@ def test_a_goal_joint_trajectory_controller_rejects_ends_with_the_standard_code_
     client, action = suite
     names = ("c0_7", "c5_8")
     # what the cables are held at, not where the motors are: an earlier goal's motor may still
-    # be on its way or settling within its tolerance. After an idle state every state of an
-    # earlier goal has come (one writer, in order)
-    idle = client.wait_for(STATE, lambda s: _held(s, names) is not None, "an idle controller_state",
-                           since=len(client.received[STATE]))
+    # be on its way or settling within its tolerance. An idle state no older than the latest
+    # joint state here came after every state of an earlier goal (one writer, in order; a state
+    # a controller's reader was behind with, published while that goal ran, is older)
+    now = stamp_ns(client.received["joint_states"][-1].header.stamp)
+    idle = client.wait_for(STATE, lambda s: _held(s, names) is not None and stamp_ns(s.header.stamp) >= now,
+                           "an idle controller_state", since=len(client.received[STATE]))
     handle, _ = _send(client, action, _goal(*goal_args))
     status, result = _outcome(client, handle)
     assert (status, result.error_code) == (GoalStatus.STATUS_ABORTED, code), (case, result.error_string)
