@@ -55,21 +55,29 @@ MALFORMED = {"tensegrity_custom_data": {"scene": "s" * 5000}}
 def foreign_roll(folder: Path, records: dict, topics: tuple[str, ...], seconds: float = 1.0) -> None:
     """A bag folder (no ``metadata.yaml``) of one MCAP file written by ``mcap``'s own writer:
     ``records`` as metadata records after the header (where a recorder writes its
-    custom_data), then the messages of ``topics`` of the 6-bar's roll in its first ``seconds``."""
+    custom_data), then the messages of ``topics`` of the 6-bar's roll from its start to
+    ``seconds`` after every one of them has begun (the shipped recording's topics begin at
+    different times: its markers 0.8 s after its states)."""
     from mcap.reader import make_reader
     from mcap.writer import Writer
 
     folder.mkdir()
     with open(BAGS / "six_bar_roll" / "six_bar_roll_0.mcap", "rb") as f, open(folder / f"{folder.name}_0.mcap", "wb") as out:
         reader = make_reader(f)
-        start = reader.get_summary().statistics.message_start_time
+        names = [f"/six_bar/{t}" for t in topics]
+        first: dict[str, int] = {}
+        for _schema, channel, m in reader.iter_messages(topics=names, log_time_order=True):
+            first.setdefault(channel.topic, m.log_time)
+            if len(first) == len(names):
+                break
+        end = max(first.values()) + seconds * 1e9
         writer = Writer(out)
         writer.start(profile="ros2", library="another tool")
         for name, data in records.items():
             writer.add_metadata(name, data)
         schemas, channels = {}, {}
-        for schema, channel, m in reader.iter_messages(topics=[f"/six_bar/{t}" for t in topics], log_time_order=True):
-            if m.log_time - start > seconds * 1e9:
+        for schema, channel, m in reader.iter_messages(topics=names, log_time_order=True):
+            if m.log_time > end:
                 break
             if schema.id not in schemas:
                 schemas[schema.id] = writer.register_schema(schema.name, schema.encoding, schema.data)
