@@ -146,8 +146,8 @@ class ControllerNode(Node):
         self.settle_window = declare(self, "settle_window", 0.2, "how long D must stay within the goal "
                                      "tolerance for a move to succeed [s]", lo=0.0, read_only=True)
         self.state_timeout = declare(self, "state_timeout", 0.5, "a goal aborts when the joint states' time "
-                                     "has not advanced for this long [s of the controller's watch: wall time "
-                                     "while it runs]", lo=0.01, read_only=True)
+                                     "has not advanced for this long [s, of the controller's watch: wall "
+                                     "time while it runs]", lo=0.01, read_only=True)
         self.singular_abort = declare(self, "singular_abort", 0.01, "a goal aborts when lambda1/L or "
                                       "lambda2/L of the measured state falls below this [fraction of L]", lo=0.0, hi=1.0,
                                       read_only=True)
