@@ -430,11 +430,11 @@ class CableControllerNode(Node):
 
     def _plan(self, handle: Any, req: Any) -> _Job:
         """The job of a goal, or :class:`~tensegrity_core.sim.joint_trajectory.TrajectoryError`."""
-        if len(req.multi_dof_trajectory.joint_names) or len(req.multi_dof_trajectory.points):
-            raise jt.TrajectoryError("multi_dof_trajectory is not supported: cables are single-DOF joints")
-        traj = req.trajectory
-        if any(len(p.effort) for p in traj.points):
-            raise jt.TrajectoryError("points with effort are not accepted: the cables take rest lengths")
+        traj, multi = req.trajectory, req.multi_dof_trajectory
+        if why := jt.unsupported_reason(
+                multi_dof=bool(len(multi.joint_names) or len(multi.points)), effort=any(len(p.effort) for p in traj.points),
+                component_tolerances=(len(req.component_path_tolerance), len(req.component_goal_tolerance))):
+            raise jt.TrajectoryError(why)
         trajectory = jt.plan_trajectory(
             list(traj.joint_names), [stamp_ns(p.time_from_start) / NS_PER_S for p in traj.points],
             [list(p.positions) for p in traj.points], [list(p.velocities) for p in traj.points],

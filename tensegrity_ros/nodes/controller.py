@@ -365,7 +365,7 @@ class ControllerNode(Node):
             q, qdot, now = self._require_state()
             if any(len(p.effort) for p in traj.points):
                 raise PlanningError("points with effort are not accepted: the controller computes the forces")
-            start = stamp_start(traj.header.stamp, now)
+            start = stamp_start(traj.header.stamp, now, [duration_to_s(p.time_from_start) for p in traj.points])
             if (far := far_start_warning(start, now, MAX_DURATION)) is not None:
                 self.get_logger().warning(far)
             path = joint_tolerances(req.path_tolerance, self.path_tolerance)

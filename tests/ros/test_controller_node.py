@@ -607,6 +607,34 @@ def test_a_trajectory_stamped_on_the_wall_clock_is_said_in_the_log(suite):
     assert status == 5 and res.error_code == client.Follow.Result.CANCELED, res.error_string
 
 
+def test_a_trajectory_stamped_in_the_past_is_joined_and_one_that_ended_is_refused(suite):
+    """As joint_trajectory_controller (validate_trajectory_msg refuses only a trajectory that
+    has ended) and the cable controller: a trajectory whose start is past and whose end is not
+    is joined where it is now (its first feedback is already 0.2 s or more into it); one that
+    ended before the controller's time is OLD_HEADER_TIMESTAMP. About 1 s of the module's rig."""
+    from builtin_interfaces.msg import Duration, Time
+
+    client, _ = suite
+    client.wait_sim(0.5)                                   # a past of at least 0.5 s
+    _, _, js = client.end_effector()
+    here = ((0.5, (js.position[0], js.position[1])),)      # hold where it is for 0.5 s
+
+    def since(seconds: float) -> object:
+        traj = _traj(points=here)
+        start = _stamp(js) - seconds
+        traj.header.stamp = Time(sec=math.floor(start), nanosec=round((start - math.floor(start)) * 1e9) % 10**9)
+        return traj
+
+    _, res, feedback = client.run(client.follow, client.Follow.Goal(trajectory=since(0.51)))
+    assert res.error_code == client.Follow.Result.OLD_HEADER_TIMESTAMP, res.error_string
+    assert "ended at" in res.error_string and not feedback
+    _, res, feedback = client.run(client.follow, client.Follow.Goal(trajectory=since(0.2),
+                                                                    goal_time_tolerance=Duration(sec=8)))
+    assert res.error_code == client.Follow.Result.SUCCESSFUL, res.error_string
+    taus = [f.desired.time_from_start.sec + 1e-9 * f.desired.time_from_start.nanosec for f in feedback]
+    assert taus and min(taus) >= 0.2 - 1e-9, taus[:3]
+
+
 def test_cancel_holds_where_the_reference_was(suite):
     client, _ = suite
     x0, y0, _ = client.end_effector()
