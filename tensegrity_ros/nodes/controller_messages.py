@@ -49,7 +49,11 @@ FOLLOW_PLANNING_CODES = {INVALID_JOINTS: _FOLLOW.INVALID_JOINTS}
 
 
 class OldStampError(TensegrityError):
-    """A trajectory's start stamp lies in the past."""
+    """A trajectory ended before the controller's current time."""
+
+
+class NoStateError(TensegrityError):
+    """No joint state yet: nothing to plan from."""
 
 
 def given(value: float) -> float | None:
