@@ -63,12 +63,11 @@ def cable_forces(cable_a: IntArray, cable_b: IntArray, cable_k: FloatArray, cabl
 def contact_velocity(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray, floor_normal: FloatArray,
                      body_dof: IntArray, y: FloatArray, n_dof: int, V: FloatArray) -> FloatArray:
     """(B, ncap, 3) velocities [m/s] of the caps' contact points: ``v + w x (-r n)``."""
-    v = V[:, cap_node].copy()
+    v = V[:, cap_node]
     on = cap_body >= 0
     if on.any():
         cols = n_dof + body_dof[cap_body[on]][:, None] + 3 + np.arange(3)
-        w = y[:, cols]
-        v[:, on] -= cap_radius[on][:, None] * cross(w, np.broadcast_to(floor_normal, w.shape))
+        v[:, on] -= cap_radius[on][:, None] * cross(y[:, cols], floor_normal)
     return v
 
 
@@ -84,21 +83,24 @@ def floor_forces(cap_node: IntArray, cap_body: IntArray, cap_radius: FloatArray,
     nvec = floor_normal
     ncap = len(cap_node)
     B = len(y)
+    if not ncap:                       # no floor: nothing of it (a spine), without its ~40 calls
+        none = np.zeros((B, 0))
+        return np.zeros_like(X), none[..., None], none, none, none[..., None], none[..., None], none[..., None]
     P = X[:, cap_node]
-    delta = cap_radius - _dot(P - floor_point, np.broadcast_to(nvec, P.shape))
-    rate = -_dot(V[:, cap_node], np.broadcast_to(nvec, P.shape))
+    delta = cap_radius - _dot(P - floor_point, nvec)
+    rate = -_dot(V[:, cap_node], nvec)
     fn = np.where(np.where(switch == BY_SIGN, delta > 0.0, switch == ON), k * delta * np.maximum(0.0, 1.0 + d * rate),
                   0.0)
     pressing = np.maximum(fn, 0.0)
     state = y[:, anchors + 3 * ncap:anchors + 4 * ncap]
     s = y[:, anchors:anchors + 3 * ncap].reshape(B, ncap, 3)
-    s = s - _dot(s, np.broadcast_to(nvec, s.shape))[..., None] * nvec
+    s = s - _dot(s, nvec)[..., None] * nvec
     v = contact_velocity(cap_node, cap_body, cap_radius, nvec, body_dof, y, n_dof, V)
-    v = v - _dot(v, np.broadcast_to(nvec, v.shape))[..., None] * nvec
+    v -= _dot(v, nvec)[..., None] * nvec
     anchored = (state != NO_ANCHOR)[..., None]
-    f = np.where(anchored, stage_force(s, v, pressing, np.full(fn.shape, kt), ct, floor_params[2], floor_params[3],
-                                       state == SLIPPING), 0.0)
-    moments = -cap_radius[:, None] * cross(np.broadcast_to(nvec, f.shape), f)
+    f = np.where(anchored, stage_force(s, v, pressing, kt, ct, floor_params[2], floor_params[3], state == SLIPPING),
+                 0.0)
+    moments = -cap_radius[:, None] * cross(nvec, f)
     on = cap_body >= 0
     couple = np.zeros_like(f)
     if on.any():
@@ -283,11 +285,13 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
         bodies = body_arrays.body_index(on_body, on_offset, body_dof, n_dof)
     guard_args = (cap_node, cap_radius, floor_normal, floor_point, cable_a, cable_b)
 
-    def piece(z0: FloatArray, H: float, switch: FloatArray, first: bool) -> tuple[FloatArray, FloatArray, FloatArray]:
+    def piece(z0: FloatArray, H: float, switch: FloatArray, first: bool,
+              again: bool = False) -> tuple[FloatArray, FloatArray, FloatArray]:
         """RK4 over ``H`` [s] from ``z0`` under ``switch`` (set from the first stage's guards
-        where ``first``): ``(end, guards, rates)`` of its first stage."""
+        where ``first``): ``(end, guards, rates)`` of its first stage. ``again``: the piece
+        redone up to a crossing, whose first stage is the one in ``K[0]`` (no guards)."""
         g0 = rate0 = np.empty(0)
-        for stage in range(4):
+        for stage in range(1 if again else 0, 4):
             c = 0.0 if stage == 0 else (0.5 * H if stage < 3 else H)
             z = z0[None] if stage == 0 else z0[None] + c * K[stage - 1]
             derivatives(*plan, z, R_ref[None], K[stage], *work, bodies=bodies, switch=switch)
@@ -309,7 +313,7 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
             if which < 0 or pieces >= MAX_PIECES:
                 break
             pieces += 1
-            z0, _, _ = piece(z0, x * left, switch, False)
+            z0, _, _ = piece(z0, x * left, switch, False, again=True)
             left = left - x * left
             switch[which] = OFF if switch[which] == ON else ON
         y[...] = y1
