@@ -68,13 +68,15 @@ class Client:
         until one answer arrives."""
         from rcl_interfaces.srv import GetParameters
 
+        from tensegrity_ros.rclpy_utils.matching import wait_for_service
+
         server = self.wait_until(lambda: [i for i in self.node.get_publishers_info_by_topic(
             f"{action_name}/_action/status") if i.node_namespace.startswith("/")],   # else its node is not known yet
             f"the server of {action_name} in the graph")[0]
         probe = self.node.create_client(GetParameters, f"{server.node_namespace.rstrip('/')}/{server.node_name}"
                                         "/get_parameters")
         try:
-            assert probe.wait_for_service(timeout_sec=PATIENCE), f"no parameter service of {server.node_name}"
+            assert wait_for_service(probe, PATIENCE), f"no parameter service of {server.node_name}"
             asked: list[Any] = []
             deadline = time.monotonic() + PATIENCE
             while not any(f.done() for f in asked):
@@ -166,11 +168,11 @@ class Client:
         from rcl_interfaces.srv import GetParameters
 
         from tensegrity_ros.rclpy_utils.futures import wait_done
-        from tensegrity_ros.rclpy_utils.matching import wait_until_answered
+        from tensegrity_ros.rclpy_utils.matching import wait_for_service, wait_until_answered
 
         client = self.node.create_client(srv_type, name)
         try:
-            assert client.wait_for_service(timeout_sec=timeout), f"no service {name}"
+            assert wait_for_service(client, timeout), f"no service {name}"
             resolved = self.node.resolve_service_name(name)
             server = self.wait_until(lambda: self._server_of(resolved), f"the node serving {resolved}")
             assert wait_until_answered(self.node, GetParameters, f"{server}/get_parameters", wait_done, timeout), \

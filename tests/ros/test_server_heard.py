@@ -53,3 +53,21 @@ def test_a_server_is_heard_only_through_its_parameter_services(ros_context, para
         action.destroy()
         ex.shutdown()
         node.destroy_node()
+
+
+def test_wait_for_service_finds_a_server_and_gives_up_without_one(ros_context):
+    """True once a server in another participant is there, False after its timeout when none
+    is, and False once the client's context is shut down (no wait past it). ~1 s."""
+    import rclpy
+    from std_srvs.srv import Trigger
+
+    from tensegrity_ros.rclpy_utils.matching import wait_for_service
+
+    node = rclpy.create_node("wait_for_service_client", context=ros_context)
+    absent = node.create_client(Trigger, "no_such_service")
+    assert wait_for_service(absent, 0.2) is False
+    with probe("wait_for_service_server", spin=True) as server:
+        server.node.create_service(Trigger, "present_service", lambda _req, res: res)
+        assert wait_for_service(node.create_client(Trigger, "present_service"), 60.0) is True
+    rclpy.try_shutdown(context=ros_context)
+    assert wait_for_service(absent, 60.0) is False

@@ -96,10 +96,10 @@ def robot_effect(reader: Reader, name: str, d: dict[str, Any], path: KeyPath, mo
 def _robot_effect(reader: Reader, name: str, d: dict[str, Any], path: KeyPath, model: RobotModelSpec) -> EffectSpec:
     if name == "motors":
         reader.keys(d, path, ("tau", "max_speed", "max_tension", "modes"))
-        tau = reader.number(d, "tau", path, lo=0.0) if "tau" in d else None
-        speed = reader.number(d, "max_speed", path, lo=0.0, lo_open=True, allow_inf=True) \
+        tau = reader.number(d, "tau", path, unit="s", lo=0.0) if "tau" in d else None
+        speed = reader.number(d, "max_speed", path, unit="m/s", lo=0.0, lo_open=True, allow_inf=True) \
             if "max_speed" in d else None
-        tension = reader.number(d, "max_tension", path, lo=0.0, lo_open=True, allow_inf=True) \
+        tension = reader.number(d, "max_tension", path, unit="N", lo=0.0, lo_open=True, allow_inf=True) \
             if "max_tension" in d else None
         return MotorsSpec(tau, speed, tension, motor_modes(reader, d, path, model) if "modes" in d else ())
     floor = model.robot.floor
@@ -108,21 +108,21 @@ def _robot_effect(reader: Reader, name: str, d: dict[str, Any], path: KeyPath, m
                            f"'floor')", path, d, None)
     if name == "contact":
         reader.keys(d, path, ("stiffness", "dissipation"))
-        return ContactSpec(reader.number(d, "stiffness", path, default=floor.stiffness, lo=0.0, lo_open=True),
-                           reader.number(d, "dissipation", path, default=floor.dissipation, lo=0.0))
+        return ContactSpec(reader.number(d, "stiffness", path, unit="N/m", default=floor.stiffness, lo=0.0, lo_open=True),
+                           reader.number(d, "dissipation", path, unit="s/m", default=floor.dissipation, lo=0.0))
     reader.keys(d, path, ("mu_static", "mu_kinetic", "tangential_stiffness", "tangential_damping", "rolling_friction",
                           "torsional_friction"))
-    mu_s = reader.number(d, "mu_static", path, default=floor.mu_static, lo=0.0)
-    mu_k = reader.number(d, "mu_kinetic", path, default=min(floor.mu_kinetic, mu_s), lo=0.0)
+    mu_s = reader.number(d, "mu_static", path, unit="", default=floor.mu_static, lo=0.0)
+    mu_k = reader.number(d, "mu_kinetic", path, unit="", default=min(floor.mu_kinetic, mu_s), lo=0.0)
     if mu_k > mu_s:
         raise reader.error(f"mu_kinetic = {mu_k:g} must not exceed mu_static = {mu_s:g}", path + ("mu_kinetic",),
                            d, "mu_kinetic")
     return FrictionSpec(mu_s, mu_k,
-                        reader.number(d, "tangential_stiffness", path, default=floor.tangential_stiffness, lo=0.0,
+                        reader.number(d, "tangential_stiffness", path, unit="N/m", default=floor.tangential_stiffness, lo=0.0,
                                       lo_open=True),
-                        reader.number(d, "tangential_damping", path, default=floor.tangential_damping, lo=0.0),
-                        reader.number(d, "rolling_friction", path, default=floor.rolling_friction, lo=0.0),
-                        reader.number(d, "torsional_friction", path, default=floor.torsional_friction, lo=0.0))
+                        reader.number(d, "tangential_damping", path, unit="N s/m", default=floor.tangential_damping, lo=0.0),
+                        reader.number(d, "rolling_friction", path, unit="m", default=floor.rolling_friction, lo=0.0),
+                        reader.number(d, "torsional_friction", path, unit="m", default=floor.torsional_friction, lo=0.0))
 
 
 def robot_control(reader: Reader, d: dict[str, Any], model: ModelSpec) -> RollSpec:
@@ -143,11 +143,11 @@ def robot_control(reader: Reader, d: dict[str, Any], model: ModelSpec) -> RollSp
     r = reader.mapping(c["roll"], path, c, "roll")
     reader.keys(r, path, ("faces", "heading", "rate"), required=("faces",))
     faces = reader.integer(r, "faces", path, lo=1)
-    heading = reader.vector(r["heading"], 2, path + ("heading",), r, "heading") if "heading" in r else (1.0, 0.0)
+    heading = reader.vector(r["heading"], 2, path + ("heading",), r, "heading", unit="") if "heading" in r else (1.0, 0.0)
     if not math.hypot(*heading) > 0:
         raise reader.error(f"must be a nonzero direction (x, y) on the floor, got {list(heading)}",
                            path + ("heading",), r, "heading")
-    rate = reader.number(r, "rate", path, default=50.0, lo=0.0, lo_open=True)
+    rate = reader.number(r, "rate", path, unit="Hz", default=50.0, lo=0.0, lo_open=True)
     return RollSpec(faces, (heading[0], heading[1]), rate)
 
 
@@ -358,6 +358,26 @@ def cap_mass(robot: Robot, rod: int) -> float:
     return 1.0 / (1.0 / mass + half**2 / inertia)
 
 
+def contact_point_mass(robot: Robot, rod: int) -> float:
+    """The effective mass [kg] of the contact point of a cap of rod ``rod`` lying along the
+    floor, pushed along the floor across the rod's axis (the friction anchor's force there):
+    the point is ``rho = (L/2) a - r n`` from the rod's centre (cap radius ``r``), and a force
+    along a unit ``t`` (``t``, ``a`` and ``n`` orthogonal) turns the rod about ``n`` with the
+    lever ``L/2`` and spins it about its axis with the lever ``r``, so ``1 / m_eff = 1/m +
+    (L/2)^2 / I_t + r^2 / I_a`` (transverse and axial inertias about the centre, the point
+    masses at the caps in ``m`` and ``I_t``; on the axis they add nothing to ``I_a``). The
+    axial term dominates a rod: a thin rod's ``I_a`` is small, so its caps' friction anchor
+    meets a fast spin mode. The anchor's stiffness ``k_t`` gives a mode of at least
+    ``sqrt(k_t / m_eff)`` (Rayleigh), its damping ``c_t`` the rate ``c_t / m_eff``."""
+    a, b = (int(x) for x in robot.rods.ends[rod])
+    half = 0.5 * float(np.linalg.norm(robot.nodes[b] - robot.nodes[a]))
+    riders = robot.node_masses[[a, b]]
+    mass = float(robot.rods.mass[rod] + riders.sum())
+    inertia = float(robot.rods.inertia[rod, 0] + riders.sum() * half**2)
+    radius = float(robot.rods.cap_radius[rod])
+    return 1.0 / (1.0 / mass + half**2 / inertia + radius**2 / float(robot.rods.inertia[rod, 1]))
+
+
 def step_fits(reader: Reader, model: RobotModelSpec, effects: SceneEffects, step: float,
               d: dict[str, Any], lift: float = 0.0) -> None:
     """Refuse a fixed step ``step`` [s] that RK4 cannot follow on the robot as drawn, with
@@ -452,9 +472,11 @@ def step_fits(reader: Reader, model: RobotModelSpec, effects: SceneEffects, step
                                  + (f" (with its dissipation {contact.dissipation:g} s/m, {stiff:.4g} N/m at up to "
                                     f"{speed:.3g} m/s)" if speed > 0.0 else ""))
         if friction is not None:
-            consider(rod, friction.tangential_stiffness, f"sticking on the floor it meets "
-                                                         f"{friction.tangential_stiffness:g} N/m of friction anchor",
-                     friction.tangential_damping)
+            m_t = contact_point_mass(robot, rod)
+            consider(rod, friction.tangential_stiffness, mass=m_t, damping=friction.tangential_damping,
+                     what=f"a cap sticking on the floor ({m_t:.3g} kg of the rod moving with its contact point, "
+                          f"spinning it) meets {friction.tangential_stiffness:g} N/m and "
+                          f"{friction.tangential_damping:g} N s/m of friction anchor")
     if worst is None or step <= worst[0]:
         return
     longest, omega, mass, rod, what = worst
