@@ -150,19 +150,20 @@ class _TrajectoryReader(Reader):
             path: KeyPath = ("points", i)
             p = self.mapping(point, path, points, i)
             self.keys(p, path, POINT_KEYS, required=("time", "positions"))
-            t = self.number(p, "time", path)
+            t = self.number(p, "time", path, unit="s")
             reason = _time_reason(t, out.times)
             if reason:
                 raise self.error(reason, path + ("time",), p, "time")
             out.times.append(t)
-            for key, target in (("positions", out.positions), ("velocities", out.velocities),
-                                ("accelerations", out.accelerations)):
+            for key, target, unit in (("positions", out.positions, "m"), ("velocities", out.velocities, "m/s"),
+                                      ("accelerations", out.accelerations, "m/s^2")):
                 if key in p:
                     values = self.sequence(p[key], path + (key,), p, key, of="numbers")
-                    target.append([self.value_number(v, path + (key, j), values, j) for j, v in enumerate(values)])
+                    target.append([self.value_number(v, path + (key, j), values, j, unit=unit)
+                                   for j, v in enumerate(values)])
         out.path_tolerance = self.tolerances(d, "path_tolerance", names)
         out.goal_tolerance = self.tolerances(d, "goal_tolerance", names)
-        out.goal_time_tolerance = self.number(d, "goal_time_tolerance", (), default=0.0, lo=0.0)
+        out.goal_time_tolerance = self.number(d, "goal_time_tolerance", (), unit="s", default=0.0, lo=0.0)
         return out
 
     def joint_names(self, d: dict[Any, Any]) -> list[str]:
@@ -179,4 +180,4 @@ class _TrajectoryReader(Reader):
         the controller checks the rest)."""
         tol = self.mapping(d.get(key, {}), (key,), d, key)
         self.keys(tol, (key,), names)
-        return {str(k): self.number(tol, k, (key,)) for k in tol}
+        return {str(k): self.number(tol, k, (key,), unit="m") for k in tol}

@@ -42,9 +42,10 @@ _NON_NEGATIVE = ("c1", "c2", "c3", "c4")
 #: L = 1e-300 m, the IK divided by zero for k = 1e-300 N/m. Inside the range the results are
 #: homogeneous in L and in the stiffnesses (tests/hard/test_class2_param_range.py).
 MAGNITUDE_RANGE = (1e-15, 1e15)
-#: The unit of each parameter, for messages.
-_UNITS = {"L": "m", "m": "kg", **{n: "N/m" for n in ("k1", "k2", "k3", "k4", "ka", "kb")},
-          **{n: "N s/m" for n in _NON_NEGATIVE}}
+#: The unit of each parameter, for messages (``k`` and ``c`` set all four springs' stiffness
+#: and damping at once).
+PARAM_UNITS = {"L": "m", "m": "kg", **{n: "N/m" for n in ("k", "k1", "k2", "k3", "k4", "ka", "kb")},
+               **{n: "N s/m" for n in ("c", *_NON_NEGATIVE)}}
 
 
 @dataclass(frozen=True)
@@ -85,14 +86,16 @@ class Class2Params:
             if not math.isfinite(v):
                 raise ParameterError(f"parameter {f.name} must be finite, got {v!r}")
             if f.name in _POSITIVE and v <= 0:
-                raise ParameterError(f"parameter {f.name} must be > 0, got {v!r}")
+                raise ParameterError(f"parameter {f.name} must be > 0 {PARAM_UNITS[f.name]}, got {v!r} "
+                                     f"{PARAM_UNITS[f.name]}")
             lo, hi = MAGNITUDE_RANGE
             if abs(v) > hi or (f.name in _POSITIVE and v < lo):
-                unit = _UNITS[f.name]
+                unit = PARAM_UNITS[f.name]
                 span = f"between {lo:g} {unit} and {hi:g} {unit}" if f.name in _POSITIVE else f"at most {hi:g} {unit}"
-                raise ParameterError(f"parameter {f.name} must be {span}, got {v!r}")
+                raise ParameterError(f"parameter {f.name} must be {span}, got {v!r} {unit}")
             if f.name in _NON_NEGATIVE and v < 0:
-                raise ParameterError(f"parameter {f.name} must be >= 0, got {v!r}")
+                raise ParameterError(f"parameter {f.name} must be >= 0 {PARAM_UNITS[f.name]}, got {v!r} "
+                                     f"{PARAM_UNITS[f.name]}")
             object.__setattr__(self, f.name, float(v))
 
     @property

@@ -106,7 +106,7 @@ def form_find(structure: Structure, *, method: str = "newton", x0: Configuration
                              f"{', '.join(sorted(METHODS))}")
     if tol is None:
         tol = default_tolerance(structure)
-    tol, why = number_reason(tol, lo=0.0, lo_open=True)
+    tol, why = number_reason(tol, unit="", lo=0.0, lo_open=True)
     if why:
         raise StructureError(f"tol (relative residual) {why}", entry=("tol",))
     if max_iter is not None and not _is_count(max_iter):

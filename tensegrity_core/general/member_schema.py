@@ -37,6 +37,8 @@ from tensegrity_core.schema.columns import NUMBER_TYPES
 
 MEMBER_KEYS: Final = ("A", "E", "EA", "mass", "name", "nodes", "rest_length", "rest_length_ratio", "type")
 MEMBER_ALIASES: Final = {"ends": "nodes", "kind": "type", "l0": "rest_length", "l0_ratio": "rest_length_ratio"}
+#: The unit of each number a member (or ``defaults``) takes (``""``: dimensionless).
+MEMBER_UNITS: Final = {"A": "m^2", "E": "Pa", "EA": "N", "mass": "kg", "rest_length": "m", "rest_length_ratio": ""}
 _KIND_NAMES: Final = "bar, strut, string, cable, actuator"
 _ABSENT: Final = object()
 
@@ -76,9 +78,9 @@ class MemberReader(Reader):
         super().__init__(StructureError, file)
 
     def number_at(self, value: object, what: str, path: KeyPath, container: Any = None, key: Any = None, *,
-                  positive: bool = False, nonneg: bool = False) -> float:
-        """``value`` as a number (``positive``: > 0, ``nonneg``: >= 0); ``what`` in words."""
-        return self.value_number(value, path, container, key, entry=what,
+                  unit: str, positive: bool = False, nonneg: bool = False) -> float:
+        """``value`` as a number in ``unit`` (``positive``: > 0, ``nonneg``: >= 0); ``what`` in words."""
+        return self.value_number(value, path, container, key, unit=unit, entry=what,
                                  lo=0.0 if positive or nonneg else None, lo_open=positive)
 
     def node_ref(self, ref: object, names: Mapping[str, int], what: str, path: KeyPath, container: Any,
@@ -229,12 +231,13 @@ class MemberReader(Reader):
             raise self.error(f"{what}: give rest_length or rest_length_ratio, not both", where, raw, i)
         l0, ratio = math.nan, 1.0
         if "rest_length" in mk:
-            l0 = self.number_at(item[mk["rest_length"]], f"{what}: rest_length", where, raw, i, positive=True)
+            l0 = self.number_at(item[mk["rest_length"]], f"{what}: rest_length", where, raw, i, unit="m", positive=True)
         else:
             r = val("rest_length_ratio")
-            ratio = 1.0 if r is None else self.number_at(r, f"{what}: rest_length_ratio", where, raw, i, positive=True)
+            ratio = 1.0 if r is None else self.number_at(r, f"{what}: rest_length_ratio", where, raw, i, unit="",
+                                                         positive=True)
         w = val("mass")
-        w = 0.0 if w is None else self.number_at(w, f"{what}: mass", where, raw, i, nonneg=True)
+        w = 0.0 if w is None else self.number_at(w, f"{what}: mass", where, raw, i, unit="kg", nonneg=True)
         return name, (a, b), kind, EA, l0, ratio, w
 
     def member_stiffness(self, item: Mapping[Any, Any], mk: Keys, defaults: Mapping[str, Any], what: str,
@@ -243,20 +246,20 @@ class MemberReader(Reader):
         if "EA" in mk and ("E" in mk or "A" in mk):
             raise self.error(f"{what}: give EA, or E and A, not both", where, raw, i)
         if "EA" in mk:
-            return self.number_at(item[mk["EA"]], f"{what}: EA", where, raw, i, positive=True)
+            return self.number_at(item[mk["EA"]], f"{what}: EA", where, raw, i, unit="N", positive=True)
         if "E" in mk or "A" in mk:
             E = item[mk["E"]] if "E" in mk else defaults.get("E")
             A = item[mk["A"]] if "A" in mk else defaults.get("A")
             if E is None or A is None:
                 raise self.error(f"{what}: axial stiffness needs both E and A (or EA)", where, raw, i)
-            product = (self.number_at(E, f"{what}: E", where, raw, i, positive=True)
-                       * self.number_at(A, f"{what}: A", where, raw, i, positive=True))
-            return self.number_at(product, f"{what}: EA = E A", where, raw, i, positive=True)
+            product = (self.number_at(E, f"{what}: E", where, raw, i, unit="Pa", positive=True)
+                       * self.number_at(A, f"{what}: A", where, raw, i, unit="m^2", positive=True))
+            return self.number_at(product, f"{what}: EA = E A", where, raw, i, unit="N", positive=True)
         stiffness = default_stiffness(defaults)
         if stiffness is None:
             raise self.error(f"{what}: axial stiffness missing: give EA, or E and A, in the member or in defaults",
                              where, raw, i)
-        return self.number_at(stiffness, f"{what}: EA = E A", where, raw, i, positive=True)
+        return self.number_at(stiffness, f"{what}: EA = E A", where, raw, i, unit="N", positive=True)
 
     # -- the array form --------------------------------------------------------------------------
     def member_columns(self, raw: dict[Any, Any], path: KeyPath, n: int, defaults: Mapping[str, Any],
@@ -300,7 +303,7 @@ class MemberReader(Reader):
         bad = np.flatnonzero(~within_bounds(EA, each=True))
         if bad.size:
             i = int(bad[0])
-            raise self.error(f"member {excerpt(names[i])}: EA = E A {number_reason(float(EA[i]))[1]}",
+            raise self.error(f"member {excerpt(names[i])}: EA = E A {number_reason(float(EA[i]), unit='N')[1]}",
                              path + ("nodes", i), ends_raw, i)
         if "rest_length" in mk and "rest_length_ratio" in mk:
             raise self.error("members: give rest_length or rest_length_ratio, not both", path + ("rest_length",),
@@ -351,10 +354,10 @@ class MemberReader(Reader):
                 arr = np.array(value, dtype=float)
                 if within_bounds(arr) and ((arr >= 0) if nonneg else (arr > 0)).all():
                     return arr
-            return np.array([self.number_at(v, f"members.{key}[{i}]", where + (i,), value, i, positive=not nonneg,
-                                            nonneg=nonneg) for i, v in enumerate(value)])
-        return np.full(m, self.number_at(value, f"members.{key}", where, raw, mk[key], positive=not nonneg,
-                                         nonneg=nonneg))
+            return np.array([self.number_at(v, f"members.{key}[{i}]", where + (i,), value, i, unit=MEMBER_UNITS[key],
+                                            positive=not nonneg, nonneg=nonneg) for i, v in enumerate(value)])
+        return np.full(m, self.number_at(value, f"members.{key}", where, raw, mk[key], unit=MEMBER_UNITS[key],
+                                         positive=not nonneg, nonneg=nonneg))
 
     def kind_column(self, raw: Mapping[Any, Any], path: KeyPath, mk: Keys, m: int, default: object) -> list[str]:
         """``members.type`` of the array form: one type for all or one per member."""

@@ -317,7 +317,7 @@ def modes(structure: Structure, coords: StateLike = None, *, rtol: float = 1e-8)
     form-finding are exact to about 1e-10, data typed from a paper to its printed digits);
     ``0 <= rtol < 1``, else :class:`StructureError` naming ``rtol``.
     """
-    _, why = number_reason(rtol, lo=0.0, hi=1.0, hi_open=True)
+    _, why = number_reason(rtol, unit="", lo=0.0, hi=1.0, hi_open=True)
     if why:
         raise StructureError(f"rtol (relative singular-value threshold) {why}", entry=("rtol",))
     A = equilibrium_matrix(structure, coords)

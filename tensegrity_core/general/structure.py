@@ -297,15 +297,16 @@ def _validate(s: Structure, n: int, m: int) -> None:
                                  entry=(key,))
     if len(s.member_kinds) != m or not set(s.member_kinds) <= set(MEMBER_KINDS):
         raise StructureError(f"member_kinds must be {m} of {MEMBER_KINDS}", entry=("members",))
-    for key, arr, what in (("nodes", s.nodes, "coordinates"), ("loads", s.loads, "load")):
+    for key, arr, what, unit in (("nodes", s.nodes, "coordinates", "m"), ("loads", s.loads, "load", "N")):
         bad_rows = ~_bounded(arr).all(axis=1)
         if bad_rows.any():
             i = int(np.flatnonzero(bad_rows)[0])
             raise StructureError(f"{what} of node {excerpt(s.node_names[i])} must be finite and at most "
-                                 f"{MAX_MAGNITUDE:g} in magnitude, got {arr[i].tolist()}", entry=(key, s.node_names[i]))
+                                 f"{MAX_MAGNITUDE:g} {unit} in magnitude, got {arr[i].tolist()} {unit}",
+                                 entry=(key, s.node_names[i]))
     if not _bounded(s.gravity).all():
-        raise StructureError(f"gravity must be finite and at most {MAX_MAGNITUDE:g} in magnitude, got "
-                             f"{s.gravity.tolist()}", entry=("gravity",))
+        raise StructureError(f"gravity must be finite and at most {MAX_MAGNITUDE:g} m/s^2 in magnitude, got "
+                             f"{s.gravity.tolist()} m/s^2", entry=("gravity",))
     a, b = s.members[:, 0], s.members[:, 1]
     if ((s.members < 0) | (s.members >= n)).any():
         i = int(np.flatnonzero(((s.members < 0) | (s.members >= n)).any(axis=1))[0])
@@ -341,18 +342,18 @@ def _validate(s: Structure, n: int, m: int) -> None:
             value = float(arr[i])
             why = (f"must be at most {MAX_MAGNITUDE:g} {unit} (larger values overflow the squares the solvers "
                    f"form)" if math.isfinite(value) and value > 0 else f"must be finite and positive [{unit}]")
-            raise StructureError(f"member {excerpt(s.member_names[i])}: {what} {why}, got {excerpt(value)}",
+            raise StructureError(f"member {excerpt(s.member_names[i])}: {what} {why}, got {excerpt(value)} {unit}",
                                  entry=("members", i))
     bad = np.flatnonzero(~_bounded(s.member_masses) | (s.member_masses < 0))
     if bad.size:
         i = int(bad[0])
-        raise StructureError(f"member {excerpt(s.member_names[i])}: mass must be finite and >= 0, "
-                             f"got {excerpt(float(s.member_masses[i]))}", entry=("members", i))
+        raise StructureError(f"member {excerpt(s.member_names[i])}: mass must be finite and >= 0 kg, "
+                             f"got {excerpt(float(s.member_masses[i]))} kg", entry=("members", i))
     bad = np.flatnonzero(~_bounded(s.node_masses) | (s.node_masses < 0))
     if bad.size:
         i = int(bad[0])
-        raise StructureError(f"point mass of node {excerpt(s.node_names[i])} must be finite and >= 0, "
-                             f"got {excerpt(float(s.node_masses[i]))}", entry=("masses", s.node_names[i]))
+        raise StructureError(f"point mass of node {excerpt(s.node_names[i])} must be finite and >= 0 kg, "
+                             f"got {excerpt(float(s.node_masses[i]))} kg", entry=("masses", s.node_names[i]))
     bodies = _body_nodes(s)
     _validate_bodies(s, n, scale, bodies)
     _validate_free_nodes(s, n, bodies)
@@ -395,8 +396,8 @@ def _validate_bodies(s: Structure, n: int, scale: float, bodies: BodyNodes) -> N
     bad = np.flatnonzero(~_bounded(masses) | (masses < 0))
     if bad.size:
         k = int(bad[0])
-        raise StructureError(f"rigid body {excerpt(s.bodies[k].name)}: mass must be finite and >= 0, "
-                             f"got {excerpt(s.bodies[k].mass)}", entry=("rigid_bodies", k))
+        raise StructureError(f"rigid body {excerpt(s.bodies[k].name)}: mass must be finite and >= 0 kg, "
+                             f"got {excerpt(s.bodies[k].mass)} kg", entry=("rigid_bodies", k))
     bad = np.flatnonzero((flat < 0) | (flat >= n))
     if bad.size:
         body = s.bodies[body_of[bad[0]]]

@@ -19,7 +19,7 @@ from typing import Any, Final, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from tensegrity_core.general.member_schema import Keys, MemberReader, member_count
+from tensegrity_core.general.member_schema import MEMBER_UNITS, Keys, MemberReader, member_count
 from tensegrity_core.general.structure import STANDARD_GRAVITY, RigidBody, Structure, StructureError
 from tensegrity_core.schema import MAX_MAGNITUDE, excerpt, is_number, line_of, number_rows, type_name
 from tensegrity_core.schema.columns import NUMBER_TYPES
@@ -77,14 +77,14 @@ class _StructureReader(MemberReader):
         raw_loads = self.mapping(get("loads", {}), ("loads",), d, keys.get("loads"), entry="loads")
         for node, value in raw_loads.items():
             i = self.node_ref(node, index, "loads", ("loads", node), raw_loads, node)
-            loads[i] = self.vector(value, 3, ("loads", node), raw_loads, node, what="numbers [x, y, z]",
+            loads[i] = self.vector(value, 3, ("loads", node), raw_loads, node, unit="N", what="numbers [x, y, z]",
                                    entry=f"loads of node {excerpt(node)}")
         masses = np.zeros(len(node_names))
         raw_masses = self.mapping(get("masses", {}), ("masses",), d, keys.get("masses"), entry="masses")
         for node, value in raw_masses.items():
             i = self.node_ref(node, index, "masses", ("masses", node), raw_masses, node)
             masses[i] = self.number_at(value, f"point mass of node {excerpt(node)}", ("masses", node), raw_masses,
-                                       node, nonneg=True)
+                                       node, unit="kg", nonneg=True)
         gravity = self.gravity(d, keys)
         try:
             return Structure(
@@ -122,7 +122,7 @@ class _StructureReader(MemberReader):
             raise self.error("nodes is empty", ("nodes",), d, keys["nodes"])
         coords = number_rows(rows, 3)
         if coords is None:            # an unusual row (numpy numbers, tuples) or a bad one, worded
-            coords = np.array([self.vector(row, 3, ("nodes", label), raw, label, what="numbers [x, y, z]",
+            coords = np.array([self.vector(row, 3, ("nodes", label), raw, label, unit="m", what="numbers [x, y, z]",
                                            entry=f"coordinates of node {excerpt(label)}")
                                for label, row in zip(labels, rows)])
         return names, coords
@@ -154,7 +154,8 @@ class _StructureReader(MemberReader):
                 out[canon] = value
             else:
                 out[canon] = self.number_at(value, f"defaults: {key}", ("defaults", key), raw, key,
-                                            positive=canon != "mass", nonneg=canon == "mass")
+                                            unit=MEMBER_UNITS[canon], positive=canon != "mass",
+                                            nonneg=canon == "mass")
         return out
 
     # -- supports, bodies, gravity -----------------------------------------------------------------
@@ -218,7 +219,8 @@ class _StructureReader(MemberReader):
         if "nodes" not in bk or not isinstance(item[bk["nodes"]], list):
             raise self.error(f"{what}: nodes must be a list of node names", path, raw, k)
         nodes = tuple(self.node_ref(n, index, what, path, raw, k) for n in item[bk["nodes"]])
-        mass = self.number_at(item[bk["mass"]], f"{what}: mass", path, raw, k, nonneg=True) if "mass" in bk else 0.0
+        mass = self.number_at(item[bk["mass"]], f"{what}: mass", path, raw, k, unit="kg",
+                                                                         nonneg=True) if "mass" in bk else 0.0
         fixed = item.get(bk.get("fixed", "fixed"), False)
         if not isinstance(fixed, bool):
             raise self.error(f"{what}: fixed must be true or false, got {excerpt(fixed)}", path, raw, k)
@@ -235,8 +237,8 @@ class _StructureReader(MemberReader):
             return np.zeros(3)
         if is_number(raw):
             return np.array([0.0, 0.0, -self.number_at(raw, "gravity", ("gravity",), d, keys["gravity"],
-                                                       nonneg=True)])
-        return np.array(self.vector(raw, 3, ("gravity",), d, keys["gravity"], what="numbers [x, y, z]",
+                                                       unit="m/s^2", nonneg=True)])
+        return np.array(self.vector(raw, 3, ("gravity",), d, keys["gravity"], unit="m/s^2", what="numbers [x, y, z]",
                                     entry="gravity"))
 
 

@@ -178,7 +178,7 @@ def _table(reader: Reader, d: Mapping[Any, Any], path: KeyPath) -> Gait:
     if not isinstance(times_raw, list) or not times_raw:
         raise reader.error(f"must be a non-empty list of times (s), got {excerpt(times_raw)}", path + ("times",), d,
                            "times")
-    times = [reader.value_number(t, path + ("times", i), times_raw, i, lo=0.0) for i, t in enumerate(times_raw)]
+    times = [reader.value_number(t, path + ("times", i), times_raw, i, unit="s", lo=0.0) for i, t in enumerate(times_raw)]
     if times[0] != 0.0:
         raise reader.error(f"the first time must be 0 s, got {times[0]:g}", path + ("times", 0), times_raw, 0)
     for i in range(1, len(times)):
@@ -192,7 +192,7 @@ def _table(reader: Reader, d: Mapping[Any, Any], path: KeyPath) -> Gait:
     rows = []
     for i, row in enumerate(rows_raw):
         values = reader.vector(row, len(cables_raw), path + ("rest_lengths", i), rows_raw, i,
-                               what="rest lengths (m), one per cable")
+                               unit="m", what="rest lengths (m), one per cable")
         for j, v in enumerate(values):
             if not v > 0:
                 raise reader.error(f"rest length of {excerpt(cables_raw[j])} must be > 0 m, got {v:g}",
@@ -201,7 +201,7 @@ def _table(reader: Reader, d: Mapping[Any, Any], path: KeyPath) -> Gait:
     interpolation = reader.string(d, "interpolation", path, default="linear", choices=INTERPOLATIONS)
     period = None
     if "period" in d:
-        period = reader.number(d, "period", path, lo=times[-1], lo_open=True)
+        period = reader.number(d, "period", path, unit="s", lo=times[-1], lo_open=True)
     gait = Gait(name=name, cables=tuple(cables_raw), times=tuple(times), rest_lengths=tuple(rows),
                 interpolation=interpolation, period=period, description=description)
     return _options(reader, d, path, gait)
@@ -212,8 +212,8 @@ def _options(reader: Reader, d: Mapping[Any, Any], path: KeyPath, gait: Gait) ->
     if cycles > 1 and gait.period is None:
         raise reader.error(f"{cycles} cycles need a periodic gait (a period after the last row)", path + ("cycles",),
                            d, "cycles")
-    scale = reader.number(d, "time_scale", path, default=gait.time_scale, lo=0.0, lo_open=True)
-    start = reader.number(d, "start", path, default=gait.start, lo=0.0)
+    scale = reader.number(d, "time_scale", path, unit="", default=gait.time_scale, lo=0.0, lo_open=True)
+    start = reader.number(d, "start", path, unit="s", default=gait.start, lo=0.0)
     out = gait.with_options(cycles=cycles, time_scale=scale, start=start)
     samples = len(out.times) * out.cycles
     if samples > 10_000_000 or not math.isfinite(out.duration):

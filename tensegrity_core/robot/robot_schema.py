@@ -79,10 +79,13 @@ class _RobotReader(Reader):
     def __init__(self, file: str | None):
         super().__init__(RobotError, file)
 
-    def number(self, d: Mapping[Any, Any], key: Any, path: KeyPath, **options: Any) -> float:
-        """:meth:`Reader.number`, and a size (:data:`SIZE_UNITS`) given is 0 or at least
-        :data:`MIN_SIZE` of its unit."""
-        x: float = super().number(d, key, path, **options)
+    def number(self, d: Mapping[Any, Any], key: Any, path: KeyPath, *, unit: str | None = None,
+               **options: Any) -> float:
+        """:meth:`Reader.number` in ``unit`` (by default the key's unit in :data:`SIZE_UNITS`),
+        and a size given is 0 or at least :data:`MIN_SIZE` of its unit."""
+        if unit is None:
+            unit = SIZE_UNITS[key]
+        x: float = super().number(d, key, path, unit="" if unit.startswith("(") else unit, **options)
         if key in d and key in SIZE_UNITS:
             self.check_size(x, key, path + (key,), d, key)
         return x
@@ -131,7 +134,7 @@ class _RobotReader(Reader):
             if isinstance(name, bool) or not isinstance(name, (str, int)):
                 raise self.error(f"a node name must be a string, got {excerpt(name)}", ("nodes",), nodes, name)
             names.append(str(name))
-            rows.append(self.vector(xyz, 3, ("nodes", name), nodes, name, what="coordinates [x, y, z] (m)"))
+            rows.append(self.vector(xyz, 3, ("nodes", name), nodes, name, unit="m", what="coordinates [x, y, z] (m)"))
         return names, np.array(rows, dtype=float)
 
     def statics_twin(self, d: dict[Any, Any], rods: Rods, cables: Cables) -> Structure:
@@ -228,7 +231,7 @@ class _RobotReader(Reader):
                                      lo_open=True)
             if "inertia" in r:
                 I_t, I_a = self.vector(r["inertia"], 2, path + ("inertia",), r, "inertia",
-                                       what="numbers [I_transverse, I_axial] (kg m^2)")
+                                       unit="kg m^2", what="numbers [I_transverse, I_axial] (kg m^2)")
                 for j, value in enumerate((I_t, I_a)):
                     self.check_size(value, "inertia", path + ("inertia", j), r["inertia"], j)
                 if not (I_t > 0 and I_a > 0 and I_a <= 2 * I_t):
@@ -345,7 +348,7 @@ class _RobotReader(Reader):
         src, spath = pick("range")
         if "range" not in src:
             raise self.error(f"{what}: a motor needs its rest-length range [lo, hi] (m)", mpath, c, "motor")
-        lo, hi = self.vector(src["range"], 2, spath + ("range",), src, "range", what="rest lengths [lo, hi] (m)")
+        lo, hi = self.vector(src["range"], 2, spath + ("range",), src, "range", unit="m", what="rest lengths [lo, hi] (m)")
         for j, value in enumerate((lo, hi)):
             self.check_size(value, "range", spath + ("range", j), src["range"], j)
         if not 0 < lo < hi:
@@ -419,18 +422,18 @@ class _RobotReader(Reader):
         if "incline" in f:
             inc = self.mapping(f["incline"], path + ("incline",), f, "incline")
             self.keys(inc, path + ("incline",), ("angle", "heading"), required=("angle",))
-            angle = self.number(inc, "angle", path + ("incline",), lo=0.0, hi=90.0, hi_open=True)
-            heading = self.number(inc, "heading", path + ("incline",), default=0.0)
+            angle = self.number(inc, "angle", path + ("incline",), unit="deg", lo=0.0, hi=90.0, hi_open=True)
+            heading = self.number(inc, "heading", path + ("incline",), unit="deg", default=0.0)
             normal = floor_normal(math.radians(angle), math.radians(heading))
         elif "normal" in f:
-            v = np.array(self.vector(f["normal"], 3, path + ("normal",), f, "normal"))
+            v = np.array(self.vector(f["normal"], 3, path + ("normal",), f, "normal", unit=""))
             size = float(np.linalg.norm(v))
             if not size > 0:
                 raise self.error("the normal must not be the zero vector", path + ("normal",), f, "normal")
             normal = v / size
         else:
             normal = np.array([0.0, 0.0, 1.0])
-        point = np.array(self.vector(f["point"], 3, path + ("point",), f, "point")) if "point" in f else np.zeros(3)
+        point = np.array(self.vector(f["point"], 3, path + ("point",), f, "point", unit="m")) if "point" in f else np.zeros(3)
         k = self.number(f, "stiffness", path, lo=0.0, lo_open=True)
         mu_s = self.number(f, "mu_static", path, lo=0.0)
         mu_k = self.number(f, "mu_kinetic", path, default=mu_s, lo=0.0)

@@ -16,13 +16,15 @@ reason, and the key path is still set on the error.
 Every number must be at most :data:`MAX_MAGNITUDE` in magnitude: larger values are not
 physical in SI units for anything this package models, and their squares and products
 (lengths from coordinates, stiffness from EA, sample counts from durations) overflow or
-lose all precision in the solvers.
+lose all precision in the solvers. Every number is read with its unit (``unit="N"``;
+``""`` for a dimensionless one), which a refusal states beside its bound and the value:
+``EA: must be at most 1e+15 N in magnitude, got 1e+308 N``.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Collection, Iterable, Mapping
+from collections.abc import Callable, Collection, Iterable, Mapping, Sequence
 from typing import Any, Final, TypedDict, TypeVar, Unpack
 
 from tensegrity_core.schema.errors import KeyPath, SchemaError, described, excerpt, suggest
@@ -49,11 +51,18 @@ def is_number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
-def number_reason(value: Any, *, lo: float | None = None, hi: float | None = None, lo_open: bool = False,
-                  hi_open: bool = False, allow_inf: bool = False) -> tuple[float, str | None]:
+def with_unit(x: float, unit: str) -> str:
+    """``x`` and its unit in words: ``"1e+15 N"``, ``"0.5"`` for a dimensionless number."""
+    return f"{x:g} {unit}" if unit else f"{x:g}"
+
+
+def number_reason(value: Any, *, unit: str, lo: float | None = None, hi: float | None = None,
+                  lo_open: bool = False, hi_open: bool = False, allow_inf: bool = False) -> tuple[float, str | None]:
     """``(float(value), None)`` if ``value`` is a number within the bounds, else
-    ``(nan, reason)`` with ``reason`` like ``"must be > 0, got -1"``. Non-finite values and
-    values beyond :data:`MAX_MAGNITUDE` are refused (``allow_inf``: infinity is allowed,
+    ``(nan, reason)`` with ``reason`` like ``"must be > 0 m, got -1 m"``: the bound and the
+    value with ``unit`` (SI, as written in the description: ``"m"``, ``"N/m"``; ``""`` for a
+    dimensionless number, whose bound is then said to be dimensionless). Non-finite values
+    and values beyond :data:`MAX_MAGNITUDE` are refused (``allow_inf``: infinity is allowed,
     also written ``inf``/``.inf``)."""
     if allow_inf and isinstance(value, str) and value.strip().lower() in ("inf", "+inf", "infinity", ".inf"):
         value = math.inf
@@ -65,12 +74,14 @@ def number_reason(value: Any, *, lo: float | None = None, hi: float | None = Non
         x = math.inf if value > 0 else -math.inf
     if math.isnan(x) or (math.isinf(x) and not allow_inf):
         return math.nan, f"must be finite, got {excerpt(value)}"
+    got = f"{excerpt(value)} {unit}" if unit else excerpt(value)
+    dimensionless = "" if unit else " (dimensionless)"
     if math.isfinite(x) and abs(x) > MAX_MAGNITUDE:
-        return math.nan, f"must be at most {MAX_MAGNITUDE:g} in magnitude, got {excerpt(value)}"
+        return math.nan, f"must be at most {with_unit(MAX_MAGNITUDE, unit)}{dimensionless} in magnitude, got {got}"
     if lo is not None and (x < lo or (lo_open and x == lo)):
-        return math.nan, f"must be {'>' if lo_open else '>='} {lo:g}, got {excerpt(value)}"
+        return math.nan, f"must be {'>' if lo_open else '>='} {with_unit(lo, unit)}{dimensionless}, got {got}"
     if hi is not None and (x > hi or (hi_open and x == hi)):
-        return math.nan, f"must be {'<' if hi_open else '<='} {hi:g}, got {excerpt(value)}"
+        return math.nan, f"must be {'<' if hi_open else '<='} {with_unit(hi, unit)}{dimensionless}, got {got}"
     return x, None
 
 
@@ -129,30 +140,33 @@ class Reader:
                 raise self.error(_worded(entry, f"missing required key {k!r}", ":"), path, d, None)
         return out
 
-    def number(self, d: Mapping[Any, Any], key: Any, path: KeyPath, *, default: float | None = None,
+    def number(self, d: Mapping[Any, Any], key: Any, path: KeyPath, *, unit: str, default: float | None = None,
                entry: str = "", **bounds: Unpack[Bounds]) -> float:
-        """``d[key]`` as a float within ``bounds`` (see :func:`number_reason`), or
-        ``default`` when the key is absent (required when ``default`` is None)."""
+        """``d[key]`` as a float in ``unit`` within ``bounds`` (see :func:`number_reason`),
+        or ``default`` when the key is absent (required when ``default`` is None)."""
         if key not in d:
             if default is None:
                 raise self.error(_worded(entry, f"missing required key {key!r}", ":"), path, d, None)
             return default
-        return self.value_number(d[key], path + (key,), d, key, entry=entry, **bounds)
+        return self.value_number(d[key], path + (key,), d, key, unit=unit, entry=entry, **bounds)
 
-    def value_number(self, value: Any, path: KeyPath, container: Any, key: Any, *, entry: str = "",
+    def value_number(self, value: Any, path: KeyPath, container: Any, key: Any, *, unit: str, entry: str = "",
                      **bounds: Unpack[Bounds]) -> float:
-        """``value`` (at ``path``) as a float within ``bounds``."""
-        x, reason = number_reason(value, **bounds)
+        """``value`` (at ``path``) as a float in ``unit`` within ``bounds``."""
+        x, reason = number_reason(value, unit=unit, **bounds)
         if reason is not None:
             raise self.error(_worded(entry, reason), path, container, key)
         return x
 
-    def vector(self, value: Any, n: int, path: KeyPath, container: Any, key: Any, *,
+    def vector(self, value: Any, n: int, path: KeyPath, container: Any, key: Any, *, unit: str | Sequence[str],
                what: str = "numbers", entry: str = "") -> tuple[float, ...]:
-        """``value`` as a tuple of ``n`` numbers; ``what`` names them in the message."""
+        """``value`` as a tuple of ``n`` numbers in ``unit`` (or in ``unit[i]`` each, for a
+        vector of mixed quantities); ``what`` names them in the message."""
         if not isinstance(value, (list, tuple)) or len(value) != n:
             raise self.error(_worded(entry, f"must be a list of {n} {what}, got {described(value)}"), path, container, key)
-        return tuple(self.value_number(x, path + (i,), value, i, entry=entry) for i, x in enumerate(value))
+        units = [unit] * n if isinstance(unit, str) else list(unit)
+        return tuple(self.value_number(x, path + (i,), value, i, unit=units[i], entry=entry)
+                     for i, x in enumerate(value))
 
     def string(self, d: Mapping[Any, Any], key: Any, path: KeyPath, *, default: str | None = None,
                choices: Collection[str] | None = None, entry: str = "") -> str:

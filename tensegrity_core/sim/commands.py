@@ -49,7 +49,7 @@ def check_command(values: Iterable[float], laws: Sequence[InputLaw], names: Sequ
         if not math.isfinite(v):
             raise SimulationError(f"command for {name} must be finite, got {v!r}")
         if positive and isinstance(law, Commanded) and not v > 0:
-            raise SimulationError(f"commanded rest length of {name} must be > 0, got {v!r}")
+            raise SimulationError(f"commanded rest length of {name} must be > 0 m, got {v!r} m")
     return tuple(v if isinstance(law, Commanded) else math.nan for law, v in zip(laws, vals))
 
 

@@ -23,6 +23,13 @@ it waits as long as it takes, as joint_trajectory_controller with a goal time of
 Tolerance values as control_msgs' JointTolerance gives them (:func:`tolerance`): > 0 the
 bound, 0 the default, < 0 "erased" (not checked; for the goal time: no limit).
 
+What a goal may hold that single-DOF joints cannot follow is refused
+(:func:`unsupported_reason`): a multi-DOF trajectory, the component tolerances (bounds on the
+x, y, z, translation or rotation of a multi-DOF joint: a cable has none of them, so a bound
+given there could never be checked; joint_trajectory_controller, whose joints are
+single-DOF too, accepts them and checks nothing, which would report success against bounds
+never applied) and efforts.
+
 A robot's motors trail their commands by their lag and slew limit (the 3-bar's lag of 1 s
 needs 6.5 s to close the 0.07 m its crawl ends with to 0.1 mm), so a default goal time meant
 for the command's own delay runs out before they arrive. :func:`motors_settle_time` bounds
@@ -266,6 +273,21 @@ def _violation(names: Sequence[str], pos_err: FloatArray, vel_err: FloatArray | 
         if vel_err is not None and abs(vel_err[j]) > vel_tol[j]:
             return f"{name}: velocity error {vel_err[j]:.3g} {unit}/s (tolerance {vel_tol[j]:g} {unit}/s)"
     return ""
+
+
+def unsupported_reason(*, multi_dof: bool, component_tolerances: tuple[int, int], effort: bool) -> str | None:
+    """Why a goal cannot be followed by single-DOF joints that take positions, or None: it
+    has a multi-DOF trajectory, component tolerances (how many path and goal component
+    tolerances it gives), or points with effort."""
+    if multi_dof:
+        return "multi_dof_trajectory is not supported: cables are single-DOF joints"
+    for key, count in zip(("component_path_tolerance", "component_goal_tolerance"), component_tolerances):
+        if count:
+            return (f"{key} ({count} given) is not supported: it bounds components (x, y, z, translation, rotation) "
+                    f"of multi-DOF joints, and cables are single-DOF joints: give {key.removeprefix('component_')}")
+    if effort:
+        return "points with effort are not accepted: the cables take rest lengths"
+    return None
 
 
 def tolerance(value: float, default: float) -> float:

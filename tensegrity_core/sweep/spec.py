@@ -77,6 +77,9 @@ ALWAYS_KEPT = "run_time"
 LIMITS: Final = Limits(max_bytes=1 << 20)
 MAX_POINTS = 1_000_000
 MAX_VALUES = 100_000
+#: The unit a refused bound of a swept value is stated in: the swept key's own (a sweep
+#: names keys of any file, and keeps the numbers in their units).
+SWEPT_UNIT: Final = "(the swept key's unit)"
 
 #: A result as the sweep file lists it: ``(name, checked options, line)``.
 ListedResult = tuple[str, Options, int | None]
@@ -366,7 +369,7 @@ class _SweepReader(Reader):
         elif kind == "grid":
             g = self.mapping(spec["grid"], kpath, spec, "grid")
             self.keys(g, kpath, ("from", "to", "num", "spacing"), required=("from", "to", "num"))
-            lo, hi = self.number(g, "from", kpath), self.number(g, "to", kpath)
+            lo, hi = self.number(g, "from", kpath, unit=SWEPT_UNIT), self.number(g, "to", kpath, unit=SWEPT_UNIT)
             num = self.integer(g, "num", kpath, lo=1, hi=MAX_VALUES)
             spacing = self.string(g, "spacing", kpath, default="linear", choices=("linear", "log"))
             if spacing == "log" and (lo <= 0 or hi <= 0):
@@ -376,7 +379,7 @@ class _SweepReader(Reader):
             g = self.mapping(spec[kind], kpath, spec, kind)
             names = ("mean", "std") if kind == "normal" else ("low", "high")
             self.keys(g, kpath, names, required=names)
-            a, b = self.number(g, names[0], kpath), self.number(g, names[1], kpath, lo=0.0)
+            a, b = self.number(g, names[0], kpath, unit=SWEPT_UNIT), self.number(g, names[1], kpath, unit=SWEPT_UNIT, lo=0.0)
             if kind != "normal" and not a < b:
                 raise self.error(f"needs low < high, got {a:g}, {b:g}", kpath, spec, kind)
             if kind == "log_uniform" and a <= 0:

@@ -96,6 +96,7 @@ from tensegrity_ros.nodes.common import ParameterValueError, declare, spin_node
 from tensegrity_ros.nodes.scene_param import declare_scene
 from tensegrity_ros.nodes.sim.cable_commands import parse_cable_command
 from tensegrity_ros.nodes.state_watch import WATCH_PERIOD, StateWatch
+from tensegrity_ros.rclpy_utils.first_message import HeardPublisher
 from tensegrity_ros.rclpy_utils.messages import duration_msg, stamp_ns
 from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
 from tensegrity_ros.rclpy_utils.raw_take import take_all, take_waiting
@@ -169,7 +170,7 @@ class CableControllerNode(Node):
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._watch = StateWatch(WATCH_PERIOD)           # the silence since the last joint state or goal start
         # a history a briefly stalled recorder can be repaired from (the simulator's depth)
-        self.pub = self.create_publisher(CableCommand, "cable_commands", QoSProfile(depth=1000))
+        self.pub = HeardPublisher(self, CableCommand, "cable_commands", QoSProfile(depth=1000), own_subscriptions=1)
         self._joint_states = self.create_subscription(JointState, "joint_states", self.on_joints, QoSProfile(depth=1))
         self.create_timer(WATCH_PERIOD, self._watch_states, clock=self._steady)
         self.create_subscription(CableStates, "cable_states", self.on_cables, QoSProfile(depth=10))
@@ -336,8 +337,7 @@ class CableControllerNode(Node):
             header=msg.header, joint_names=list(self.joints), speed_scaling_factor=1.0,
             reference=JointTrajectoryPoint(positions=reference, velocities=rates, accelerations=accelerations,
                                            time_from_start=when),
-            feedback=JointTrajectoryPoint(positions=feedback,
-                                          effort=[float(msg.tension[index[n]]) for n in self.joints]),
+            feedback=JointTrajectoryPoint(positions=feedback, effort=[float(msg.tension[index[n]]) for n in self.joints]),
             error=JointTrajectoryPoint(positions=[r - f for r, f in zip(reference, feedback)]),
             output=JointTrajectoryPoint(positions=list(reference)))
 
@@ -430,11 +430,11 @@ class CableControllerNode(Node):
 
     def _plan(self, handle: Any, req: Any) -> _Job:
         """The job of a goal, or :class:`~tensegrity_core.sim.joint_trajectory.TrajectoryError`."""
-        if len(req.multi_dof_trajectory.joint_names) or len(req.multi_dof_trajectory.points):
-            raise jt.TrajectoryError("multi_dof_trajectory is not supported: cables are single-DOF joints")
-        traj = req.trajectory
-        if any(len(p.effort) for p in traj.points):
-            raise jt.TrajectoryError("points with effort are not accepted: the cables take rest lengths")
+        traj, multi = req.trajectory, req.multi_dof_trajectory
+        if why := jt.unsupported_reason(
+                multi_dof=bool(len(multi.joint_names) or len(multi.points)), effort=any(len(p.effort) for p in traj.points),
+                component_tolerances=(len(req.component_path_tolerance), len(req.component_goal_tolerance))):
+            raise jt.TrajectoryError(why)
         trajectory = jt.plan_trajectory(
             list(traj.joint_names), [stamp_ns(p.time_from_start) / NS_PER_S for p in traj.points],
             [list(p.positions) for p in traj.points], [list(p.velocities) for p in traj.points],

@@ -81,6 +81,7 @@ from tensegrity_ros.nodes.controller_messages import (
     FloatArray,
     Goal,
     JointSample,
+    NoStateError,
     OldStampError,
     far_start_warning,
     feedback,
@@ -93,6 +94,7 @@ from tensegrity_ros.nodes.controller_messages import (
 )
 from tensegrity_ros.nodes.scene_param import declare_scene
 from tensegrity_ros.nodes.state_watch import WATCH_PERIOD, StateWatch
+from tensegrity_ros.rclpy_utils.first_message import HeardPublisher
 from tensegrity_ros.rclpy_utils.messages import duration_to_s
 from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
 from tensegrity_ros.rclpy_utils.raw_take import take_all, take_waiting
@@ -144,8 +146,8 @@ class ControllerNode(Node):
         self.settle_window = declare(self, "settle_window", 0.2, "how long D must stay within the goal "
                                      "tolerance for a move to succeed [s]", lo=0.0, read_only=True)
         self.state_timeout = declare(self, "state_timeout", 0.5, "a goal aborts when the joint states' time "
-                                     "has not advanced for this long [s of the controller's watch: wall time "
-                                     "while it runs]", lo=0.01, read_only=True)
+                                     "has not advanced for this long [s, of the controller's watch: wall "
+                                     "time while it runs]", lo=0.01, read_only=True)
         self.singular_abort = declare(self, "singular_abort", 0.01, "a goal aborts when lambda1/L or "
                                       "lambda2/L of the measured state falls below this [fraction of L]", lo=0.0, hi=1.0,
                                       read_only=True)
@@ -171,7 +173,7 @@ class ControllerNode(Node):
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)   # their wait is wall time
 
         # a history a briefly stalled recorder can be repaired from (the simulator's depth)
-        self.pub = self.create_publisher(ActuatorForces, "actuator_forces", 1000)
+        self.pub = HeardPublisher(self, ActuatorForces, "actuator_forces", 1000, own_subscriptions=1)
         # every command on the topic, to tell another node's (a manual command) from this one's: taken
         # at each joint state and watchdog tick from a node no executor spins (an executor's wake-up
         # per command, mostly this node's own, cost ~0.5 ms of its CPU per step), compared serialized
@@ -342,7 +344,7 @@ class ControllerNode(Node):
                 force_budget=self.force_budget * self.max_force, singular_margin=self.singular_margin))
         except PlanningError as err:
             return self._refuse(handle, result, MOVE_PLANNING_CODES.get(err.code, _MOVE.INVALID_GOAL), str(err))
-        except _NoState as err:
+        except NoStateError as err:
             return self._refuse(handle, result, _MOVE.SIMULATOR_STOPPED, str(err))
         goal = G.MoveGoal(ref, 0.0, tolerance=tol, settle_timeout=self.settle_timeout,
                           settle_window=self.settle_window)
@@ -365,7 +367,7 @@ class ControllerNode(Node):
             q, qdot, now = self._require_state()
             if any(len(p.effort) for p in traj.points):
                 raise PlanningError("points with effort are not accepted: the controller computes the forces")
-            start = stamp_start(traj.header.stamp, now)
+            start = stamp_start(traj.header.stamp, now, [duration_to_s(p.time_from_start) for p in traj.points])
             if (far := far_start_warning(start, now, MAX_DURATION)) is not None:
                 self.get_logger().warning(far)
             path = joint_tolerances(req.path_tolerance, self.path_tolerance)
@@ -382,7 +384,7 @@ class ControllerNode(Node):
             return self._refuse(handle, result, FOLLOW_PLANNING_CODES.get(err.code, _FOLLOW.INVALID_GOAL), str(err))
         except OldStampError as err:
             return self._refuse(handle, result, _FOLLOW.OLD_HEADER_TIMESTAMP, str(err))
-        except _NoState as err:
+        except NoStateError as err:
             return self._refuse(handle, result, _FOLLOW.SIMULATOR_STOPPED, str(err))
         goal = G.TrajectoryGoal(ref, 0.0, path_position=path[0], path_velocity=path[1],
                                 goal_position=goal_tol[0], goal_velocity=goal_tol[1], goal_time=goal_time)
@@ -415,7 +417,7 @@ class ControllerNode(Node):
 
     def _require_state(self) -> tuple[FloatArray, FloatArray, float]:
         if self._latest is None or self.ctrl.reference is None:
-            raise _NoState(f"no joint_states received within state_timeout = {self.state_timeout:g} s: "
+            raise NoStateError(f"no joint_states received within state_timeout = {self.state_timeout:g} s: "
                            "is the simulator running?")
         t, q, qdot = self._latest
         return q, qdot, t
@@ -481,10 +483,6 @@ class ControllerNode(Node):
         self._planner.shutdown(wait=True, cancel_futures=True)
         self._commands_node.destroy_node()
         super().destroy_node()  # type: ignore[no-untyped-call]  # rclpy's, through super(): not excluded by name
-
-
-class _NoState(TensegrityError):
-    """No joint state yet: nothing to plan from."""
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -49,7 +49,11 @@ FOLLOW_PLANNING_CODES = {INVALID_JOINTS: _FOLLOW.INVALID_JOINTS}
 
 
 class OldStampError(TensegrityError):
-    """A trajectory's start stamp lies in the past."""
+    """A trajectory ended before the controller's current time."""
+
+
+class NoStateError(TensegrityError):
+    """No joint state yet: nothing to plan from."""
 
 
 def given(value: float) -> float | None:
@@ -57,14 +61,18 @@ def given(value: float) -> float | None:
     return None if value == 0.0 else value
 
 
-def stamp_start(stamp: Any, now: float) -> float | None:
-    """The start time of a trajectory: None (now) for a zero stamp, else the stamp [s]."""
+def stamp_start(stamp: Any, now: float, times: Sequence[float]) -> float | None:
+    """The start time of a trajectory whose points come ``times`` [s] after it: None (now)
+    for a zero stamp, else the stamp [s]. As joint_trajectory_controller (its
+    ``validate_trajectory_msg``), a start in the past is joined where the trajectory is at
+    ``now``, and only a trajectory that ended before ``now`` is refused (:class:`OldStampError`)."""
     t = stamp_to_s(stamp)
     if t == 0.0:
         return None
-    if t < now:
-        raise OldStampError(f"header.stamp {t:.6f} s is before the controller's current time {now:.6f} s "
-                        "(zero starts the trajectory at once)")
+    end = t + max(times, default=0.0)
+    if end < now:
+        raise OldStampError(f"the trajectory started at header.stamp {t:.6f} s ended at {end:.6f} s, before the "
+                            f"controller's current time {now:.6f} s (zero starts the trajectory at once)")
     return t
 
 
@@ -133,7 +141,7 @@ def start_feedback(goal: Goal, header: Any, latest: JointSample, L: float) -> An
         fb.time_from_start = 0.0
         return fb
     fb = FollowActuatorTrajectory.Feedback(header=header, joint_names=list(ACTUATED_JOINTS))
-    when = duration_msg(0.0)
+    when = duration_msg(max(0.0, t - goal.t_start))     # > 0: a trajectory started in the past, joined
     fb.desired = JointTrajectoryPoint(positions=[float(v) for v in desired.q[:2]],
                                       velocities=[float(v) for v in desired.qdot[:2]], time_from_start=when)
     fb.actual = JointTrajectoryPoint(positions=[float(v) for v in q[:2]],

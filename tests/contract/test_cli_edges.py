@@ -76,6 +76,8 @@ AS_PROCESSES = [
      "error: tensegrity_sim: the IMU of '1-rod a' cannot publish on 'imu/1-rod a': a ROS topic name holds "
      "letters, digits and '_' in tokens that do not start with a digit; rename the body in the robot's "
      "description"),
+    (["node", "controller", "--ros-args", "-p", "state_timeout:=0.0"],
+     "error: tensegrity_controller: parameter state_timeout must be a finite number >= 0.01 s, got 0 s"),
     (["node", "formfind", "--ros-args", "-p", "max_workers:=0"],
      "tensegrity_formfind: parameter max_workers must be a whole number in [1, 64] processes, got 0"),
     (["node", "formfind", "--ros-args", "-p", "time_limit:=abc"],

@@ -90,7 +90,7 @@ def test_the_array_form_reads_like_the_per_member_form():
     ("[[0, 3], [1, 3], [2, 3]]", "[[0, 3], [1, 4], [2, 3]]", "members.nodes[1] must be a pair [a, b] of node positions "
      "0 to 3, got [1, 4]", 9),
     ("[[0, 3], [1, 3], [2, 3]]", "[[0, 3], [1, true], [2, 3]]", "members.nodes[1] must be a pair", 9),
-    ("[0.9, 0.9, 0.95]", "[0.9, -0.9, 0.95]", "members.rest_length_ratio[1] must be > 0, got -0.9", 11),
+    ("[0.9, 0.9, 0.95]", "[0.9, -0.9, 0.95]", "members.rest_length_ratio[1] must be > 0 (dimensionless), got -0.9", 11),
     ("[0.9, 0.9, 0.95]", "[0.9, 0.95]", "members.rest_length_ratio must have one value per member (3), got 2", 11),
     ("type: string", "type: [string, rope, bar]", "members.type[1]: unknown type 'rope'", 10),
     ("type: string", "type: string\n  colour: red", "members: unknown key 'colour'", 11),

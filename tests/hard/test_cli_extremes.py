@@ -71,15 +71,15 @@ def _cases(tmp: Path) -> list[tuple[list[str], str]]:
     (tmp / "latin1_structure.yaml").write_bytes(b"name: caf\xe9\n" + table.encode())
     sim, ff = ["simulate", "--quiet"], ["formfind", "--quiet"]
     return [
-        (sim + [str(tmp / "L.yaml")], "model.params.L: must be at most 1e+15 in magnitude, got 1e+300"),
-        (sim + [str(tmp / "duration.yaml")], "duration: must be at most 1e+15 in magnitude, got 1e+300"),
-        (sim + ["paper_fold", "--duration", "1e300"], "duration: must be at most 1e+15 in magnitude"),
+        (sim + [str(tmp / "L.yaml")], "model.params.L: must be at most 1e+15 m in magnitude, got 1e+300 m"),
+        (sim + [str(tmp / "duration.yaml")], "duration: must be at most 1e+15 s in magnitude, got 1e+300 s"),
+        (sim + ["paper_fold", "--duration", "1e300"], "duration: must be at most 1e+15 s in magnitude"),
         (sim + [str(tmp / "rate.yaml")], "output.rate: duration x output.rate = 5 s x 1e+09 Hz gives 5e+09 samples"),
         (sim + [str(tmp / "latin1_scene.yaml")], "latin1_scene.yaml: not UTF-8 text: byte 0xe9 at offset 9 (line 1)"),
         (sim + [str(tmp / "bomb_scene.yaml")], "aliases expand to more than 10000 values"),
         (sim + [str(tmp / "deep_scene.yaml")], "deep_scene.yaml: invalid YAML: exceeded maximum nesting depth"),
-        (ff + [str(tmp / "EA.yaml")], "defaults: EA must be at most 1e+15 in magnitude, got 1e+308"),
-        (ff + [str(tmp / "coords.yaml")], "coordinates of node 'c1' must be at most 1e+15 in magnitude, got 1e+300"),
+        (ff + [str(tmp / "EA.yaml")], "defaults: EA must be at most 1e+15 N in magnitude, got 1e+308 N"),
+        (ff + [str(tmp / "coords.yaml")], "coordinates of node 'c1' must be at most 1e+15 m in magnitude, got 1e+300 m"),
         (ff + [str(tmp / "latin1_structure.yaml")], "not UTF-8 text: byte 0xe9 at offset 9 (line 1)"),
         (ff + [str(tmp / "bomb_structure.yaml")], "aliases expand to more than 10000 values"),
         (ff + [str(tmp / "deep_structure.yaml")], "nested deeper than 64 levels"),

@@ -165,13 +165,13 @@ def test_bad_input_one_clear_line_each():
     assert _error(d) == "cables[6].stiffness: must be finite, got nan"
     d = _tb()
     d["cables"][7]["stiffness"] = -700.0
-    assert _error(d) == "cables[7].stiffness: must be > 0, got -700.0"
+    assert _error(d) == "cables[7].stiffness: must be > 0 N/m, got -700.0 N/m"
     d = _tb()
     d["nodes"]["s1"] = list(d["nodes"]["s0"])
     assert "rod 'r01' has zero length: nodes 's0' and 's1' are both at" in _error(d)
     d = _tb()
     d["floor"]["mu_static"] = -0.2
-    assert _error(d) == "floor.mu_static: must be >= 0, got -0.2"
+    assert _error(d) == "floor.mu_static: must be >= 0 (dimensionless), got -0.2"
     d = _tb()
     d["floor"]["point"] = [0.0, 0.0, 0.1]
     assert "cap 's3' of rod 'r23' starts 0.1 m inside the floor" in _error(d)
@@ -225,7 +225,7 @@ def test_errors_carry_the_file_and_line(tmp_path):
     with pytest.raises(RobotError) as err:
         robot_from_file(path)
     line = next(i for i, s in enumerate(text.splitlines(), 1) if "mu_static" in s)
-    assert str(err.value) == f"tb.yaml: floor.mu_static: must be >= 0, got -1.0 (line {line})"
+    assert str(err.value) == f"tb.yaml: floor.mu_static: must be >= 0 (dimensionless), got -1.0 (line {line})"
     with pytest.raises(RobotError, match="unknown robot|no shipped robot"):
         load_robot("three_bars")
     assert robot_from_text(robot_path("six_bar").read_text()).name == "six_bar"

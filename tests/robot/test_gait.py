@@ -42,7 +42,7 @@ def test_a_held_gait_steps():
     ({"times": [0.1, 1.0, 1.5]}, "times[0]: the first time must be 0 s, got 0.1"),
     ({"rest_lengths": [[1.0, 2.0], [0.8], [0.8, 1.5]]}, "rest_lengths[1]: must be a list of 2 rest lengths"),
     ({"rest_lengths": [[1.0, 2.0], [0.8, -2.0], [0.8, 1.5]]}, "rest length of 'b' must be > 0 m, got -2"),
-    ({"period": 1.5}, "period: must be > 1.5, got 1.5"),
+    ({"period": 1.5}, "period: must be > 1.5 s, got 1.5 s"),
     ({"period": None, "cycles": 2}, "cycles: 2 cycles need a periodic gait"),
     ({"cables": ["a", "a"]}, "cable 'a' is listed twice"),
     ({"interpolation": "cubic"}, "interpolation: must be one of linear, previous, got 'cubic'"),

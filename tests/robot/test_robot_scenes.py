@@ -38,12 +38,12 @@ BAD = {
                                  "inputs.td_0: rest length 0.9 m of cable 'td_0' is outside its motor's range"),
     "NaN": (_scene(inputs={"td_0": {"law": "constant", "value": float("nan")}}), "inputs.td_0.value: must be finite"),
     "negative stiffness": (_scene(effects=["inertia", "cables", {"contact": {"stiffness": -1.0}}]),
-                           "effects[2].contact.stiffness: must be > 0, got -1"),
+                           "effects[2].contact.stiffness: must be > 0 N/m, got -1.0 N/m"),
     "rod of zero length": (_scene(model={"kind": "robot", "robot": {**INLINE, "nodes": {"a": [0, 0, 0.1],
                                                                                           "b": [0, 0, 0.1]}}}),
                            "rod 'r' has zero length"),
     "friction < 0": (_scene(effects=["inertia", "cables", "contact", {"friction": {"mu_static": -0.2}}]),
-                     "effects[3].friction.mu_static: must be >= 0, got -0.2"),
+                     "effects[3].friction.mu_static: must be >= 0 (dimensionless), got -0.2"),
     "starts inside the floor": (_scene(model={"kind": "robot", "robot": {**INLINE, "nodes": {
         "a": [0, 0, 0.02], "b": [1, 0, 0.1]}}}), "cap 'a' of rod 'r' starts 0.03 m inside the floor"),
     "friction without contact": (_scene(effects=["inertia", "cables", "friction"]),
@@ -57,7 +57,7 @@ BAD = {
                               "control.roll.heading: must be a nonzero direction (x, y) on the floor, got [0.0, 0.0]"),
     "control: 3-d heading": (_scene(control={"roll": {"faces": 1, "heading": [1, 0, 0]}}),
                              "control.roll.heading: must be a list of 2 numbers"),
-    "control: rate 0": (_scene(control={"roll": {"faces": 1, "rate": 0}}), "control.roll.rate: must be > 0, got 0"),
+    "control: rate 0": (_scene(control={"roll": {"faces": 1, "rate": 0}}), "control.roll.rate: must be > 0 Hz, got 0 Hz"),
     "control: unknown key": (_scene(control={"roll": {"faces": 1, "speed": 0.2}}), "control.roll.speed: unknown key 'speed'; allowed: faces, heading, rate"),
     "control: unknown gait": (_scene(control={"rol": {"faces": 1}}), "control.rol: unknown key 'rol' (did you mean 'roll'?)"),
     "control with inputs": (_scene(control={"roll": {"faces": 1}}, inputs={"td_0": 0.3}),
@@ -85,7 +85,7 @@ def test_bad_input_through_the_cli_exits_2_with_one_line(tmp_path, capsys):
     bad.write_text(yaml.safe_dump(BAD["friction < 0"][0]))
     assert main(["simulate", str(bad), "-o", str(tmp_path / "out.npz")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "mu_static: must be >= 0, got -0.2" in err[0] and err[0].startswith("error: bad.yaml")
+    assert len(err) == 1 and "mu_static: must be >= 0 (dimensionless), got -0.2" in err[0] and err[0].startswith("error: bad.yaml")
     assert not (tmp_path / "out.npz").exists()
 
 

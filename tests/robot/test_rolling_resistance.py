@@ -94,6 +94,6 @@ def test_a_rod_rolling_on_its_caps_slows_at_b_r_m_g_over_its_inertia_about_the_f
 
 @pytest.mark.parametrize("key", ["rolling_friction", "torsional_friction"])
 def test_a_negative_lever_arm_is_one_line(key):
-    with pytest.raises(SceneError, match=rf"^effects\[3\]\.friction\.{key}: must be >= 0, got -0.1$"):
+    with pytest.raises(SceneError, match=rf"^effects\[3\]\.friction\.{key}: must be >= 0 m, got -0.1 m$"):
         load_scene({"name": "s", "model": {"kind": "robot", "robot": "six_bar"}, "initial": {"drawn": True},
                     "duration": 1.0, "effects": ["inertia", "cables", "contact", {"friction": {key: -0.1}}]})

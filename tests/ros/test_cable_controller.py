@@ -222,6 +222,22 @@ def test_bad_goals_are_refused_with_control_msgs_codes(rig, goal_args, code, rea
     assert status == GoalStatus.STATUS_ABORTED and result.error_code == code and reason in result.error_string
 
 
+@pytest.mark.parametrize("key", ["component_path_tolerance", "component_goal_tolerance"])
+def test_a_goal_with_component_tolerances_is_refused_not_ignored(rig, key):
+    """Component tolerances bound the x, y, z, translation or rotation of multi-DOF joints: a
+    cable has none, so the bound could never be checked, and accepting it would report success
+    against it. Refused INVALID_GOAL with the reason (about 0.1 s on the module's rig)."""
+    from action_msgs.msg import GoalStatus
+    from control_msgs.msg import JointComponentTolerance
+
+    client, action, _, _, _ = rig
+    bound = JointComponentTolerance(joint_name="long1", component=JointComponentTolerance.TRANSLATION, position=1e-3)
+    handle = _send(client, action, _goal([(0.5, (0.8,))], names=("long1",), **{key: [bound]}))
+    status, result = _result(client, handle)
+    assert status == GoalStatus.STATUS_ABORTED and result.error_code == -1, result.error_string
+    assert result.error_string.startswith(f"{key} (1 given) is not supported"), result.error_string
+
+
 def test_a_tight_path_tolerance_is_violated_and_a_new_goal_preempts_the_running_one(rig):
     from action_msgs.msg import GoalStatus
     from control_msgs.msg import JointTolerance

@@ -54,7 +54,9 @@ def robot(cli, ros_context):
 def test_the_six_bar_at_rest_in_the_air_publishes_its_drawing_hookes_law_and_its_imus(robot):
     from tensegrity_core.robot.loading import load_robot
 
-    proc, ros = robot("initial_state:=paused", "paused_publish_rate:=20.0")
+    proc, ros = robot("initial_state:=paused", "paused_publish_rate:=20.0", "imu_rate:=500.0")
+    proc.wait_for("parameter imu_rate = 500 Hz is above publish_rate = 100 Hz: its topics go out with every "
+                  "publication, at 100 Hz")           # capped, as at 100 Hz: said at start
     joints, cables, bodies, contacts, markers = ros.at(0, "joint_states", "cable_states", "body_states", "contacts",
                                                        "markers")
     r = load_robot("six_bar")

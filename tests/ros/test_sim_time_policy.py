@@ -157,6 +157,14 @@ def test_slower_topics_go_out_with_every_nth_publication_from_the_first():
     assert all("fast" in s for s in due) and not any("off" in s for s in due)
 
 
+def test_a_rate_above_publish_rate_is_named_in_one_warning_line():
+    from tensegrity_ros.nodes.sim.decimation import cap_warnings
+
+    lines = cap_warnings(100.0, {"state_rate": 100.0, "marker_rate": 0.0, "imu_rate": 500.0})
+    assert lines == ["parameter imu_rate = 500 Hz is above publish_rate = 100 Hz: its topics go out with every "
+                     "publication, at 100 Hz"]
+
+
 # -- cable commands ---------------------------------------------------------------------------------
 TABLE = Interface("rest_length", ("long1", "long2", "long3"), (True, True, False),
                   ((0.0, math.inf), (0.0, math.inf), (0.0, math.inf)), (0, 1, 2))

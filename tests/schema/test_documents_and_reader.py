@@ -141,12 +141,12 @@ def test_unknown_keys_get_a_suggestion_the_key_path_and_the_line():
 
 @pytest.mark.parametrize("check, text, line", [
     (lambda r, d: r.keys(d, (), tuple(d), required=("model", "effects")), "missing required key 'effects'", 1),
-    (lambda r, d: r.number(d, "duration", (), lo=0.0, lo_open=True), "duration: must be > 0, got -1", 4),
-    (lambda r, d: r.number(d, "duration", (), lo=0.0), "duration: must be >= 0, got -1", 4),
-    (lambda r, d: r.number(d, "duration", (), hi=-2.0), "duration: must be <= -2, got -1", 4),
+    (lambda r, d: r.number(d, "duration", (), unit="s", lo=0.0, lo_open=True), "duration: must be > 0 s, got -1 s", 4),
+    (lambda r, d: r.number(d, "duration", (), unit="s", lo=0.0), "duration: must be >= 0 s, got -1 s", 4),
+    (lambda r, d: r.number(d, "duration", (), unit="", hi=-2.0), "duration: must be <= -2 (dimensionless), got -1", 4),
     (lambda r, d: r.integer(d, "seed", (), lo=0), "seed: must be a non-negative integer, got 1.5", 5),
-    (lambda r, d: r.number(d, "rate", ()), "rate: must be at most 1e+15 in magnitude, got 1e+300", 6),
-    (lambda r, d: r.vector(d["v"], 3, ("v",), d, "v"), "v: must be a list of 3 numbers, got a list ([1, 2])", 7),
+    (lambda r, d: r.number(d, "rate", (), unit="Hz"), "rate: must be at most 1e+15 Hz in magnitude, got 1e+300 Hz", 6),
+    (lambda r, d: r.vector(d["v"], 3, ("v",), d, "v", unit="m"), "v: must be a list of 3 numbers, got a list ([1, 2])", 7),
     (lambda r, d: r.string(d["model"], "kind", ("model",), choices=("class3", "general")),
      "model.kind: must be one of class3, general, got 'class2' (did you mean 'class3'?)", 2),
     (lambda r, d: r.mapping(d["v"], ("v",), d, "v"), "v: must be a mapping, got a list ([1, 2])", 7),
@@ -158,12 +158,12 @@ def test_each_check_words_its_failure(check, text, line):
 
 def test_numbers_are_bounded_and_infinity_is_allowed_only_when_asked():
     r = Reader()
-    assert r.value_number(MAX_MAGNITUDE, ("x",), None, None) == 1e15
-    assert r.value_number(".inf", ("x",), None, None, allow_inf=True) == math.inf
+    assert r.value_number(MAX_MAGNITUDE, ("x",), None, None, unit="m") == 1e15
+    assert r.value_number(".inf", ("x",), None, None, unit="m", allow_inf=True) == math.inf
     for bad, words in ((float("nan"), "must be finite"), (10**400, "must be finite"), (True, "must be a number"),
-                       ("1", "must be a number, got a string ('1')"), (-1e16, "at most 1e+15 in magnitude")):
+                       ("1", "must be a number, got a string ('1')"), (-1e16, "at most 1e+15 m in magnitude")):
         with pytest.raises(SchemaError, match=words.replace("(", r"\(").replace(")", r"\)").replace("+", r"\+")):
-            r.value_number(bad, ("x",), None, None)
+            r.value_number(bad, ("x",), None, None, unit="m")
 
 
 # ------------------------------------------------------------------------------ key paths

@@ -91,7 +91,7 @@ def test_failures_are_summarised_and_do_not_fail_the_command(tmp_path, capsys):
     assert main(["sweep", write(tmp_path, doc), "--workers", "0", "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "3 points (2 invalid, 1 ok)" in out
-    assert "2 invalid, e.g.: model.params.k: must be > 0, got -1.0" in out
+    assert "2 invalid, e.g.: model.params.k: must be > 0 N/m, got -1.0 N/m" in out
 
 
 def test_ctrl_c_ends_the_sweep_with_one_line_and_resume_runs_the_rest_once(tmp_path):

@@ -81,7 +81,7 @@ def test_actuators_count_from_1_as_their_names_do():
 def test_bad_values_are_invalid_rows_with_the_loaders_message():
     table = run_sweep(fold_sweep(vary={"model.params.k": [1.0, -1.0, "stiff"]}), workers=0, progress=False)
     assert list(table["status"]) == ["ok", "invalid", "invalid"]
-    assert "model.params.k: must be > 0, got -1" in table["message"][1]
+    assert "model.params.k: must be > 0 N/m, got -1.0 N/m" in table["message"][1]
     assert "must be a number" in table["message"][2] and "model.params.k" in table["message"][2]
     assert math.isnan(table["first_fold_time"][1]) and table["point"].tolist() == [0, 1, 2]
 

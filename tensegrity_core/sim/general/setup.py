@@ -121,8 +121,8 @@ class RestLengths:
         bad = np.flatnonzero(~(out[act] > 0))
         if bad.size:
             raise SimulationError(f"t = {t:.9g} s: rest length of actuator "
-                                  f"{self.structure.member_names[act[bad[0]]]!r} must be > 0, got "
-                                  f"{out[act[bad[0]]]!r}", t=t)
+                                  f"{self.structure.member_names[act[bad[0]]]!r} must be > 0 m, got "
+                                  f"{out[act[bad[0]]]!r} m", t=t)
         return out
 
 

@@ -96,10 +96,10 @@ def robot_effect(reader: Reader, name: str, d: dict[str, Any], path: KeyPath, mo
 def _robot_effect(reader: Reader, name: str, d: dict[str, Any], path: KeyPath, model: RobotModelSpec) -> EffectSpec:
     if name == "motors":
         reader.keys(d, path, ("tau", "max_speed", "max_tension", "modes"))
-        tau = reader.number(d, "tau", path, lo=0.0) if "tau" in d else None
-        speed = reader.number(d, "max_speed", path, lo=0.0, lo_open=True, allow_inf=True) \
+        tau = reader.number(d, "tau", path, unit="s", lo=0.0) if "tau" in d else None
+        speed = reader.number(d, "max_speed", path, unit="m/s", lo=0.0, lo_open=True, allow_inf=True) \
             if "max_speed" in d else None
-        tension = reader.number(d, "max_tension", path, lo=0.0, lo_open=True, allow_inf=True) \
+        tension = reader.number(d, "max_tension", path, unit="N", lo=0.0, lo_open=True, allow_inf=True) \
             if "max_tension" in d else None
         return MotorsSpec(tau, speed, tension, motor_modes(reader, d, path, model) if "modes" in d else ())
     floor = model.robot.floor
@@ -108,21 +108,21 @@ def _robot_effect(reader: Reader, name: str, d: dict[str, Any], path: KeyPath, m
                            f"'floor')", path, d, None)
     if name == "contact":
         reader.keys(d, path, ("stiffness", "dissipation"))
-        return ContactSpec(reader.number(d, "stiffness", path, default=floor.stiffness, lo=0.0, lo_open=True),
-                           reader.number(d, "dissipation", path, default=floor.dissipation, lo=0.0))
+        return ContactSpec(reader.number(d, "stiffness", path, unit="N/m", default=floor.stiffness, lo=0.0, lo_open=True),
+                           reader.number(d, "dissipation", path, unit="s/m", default=floor.dissipation, lo=0.0))
     reader.keys(d, path, ("mu_static", "mu_kinetic", "tangential_stiffness", "tangential_damping", "rolling_friction",
                           "torsional_friction"))
-    mu_s = reader.number(d, "mu_static", path, default=floor.mu_static, lo=0.0)
-    mu_k = reader.number(d, "mu_kinetic", path, default=min(floor.mu_kinetic, mu_s), lo=0.0)
+    mu_s = reader.number(d, "mu_static", path, unit="", default=floor.mu_static, lo=0.0)
+    mu_k = reader.number(d, "mu_kinetic", path, unit="", default=min(floor.mu_kinetic, mu_s), lo=0.0)
     if mu_k > mu_s:
         raise reader.error(f"mu_kinetic = {mu_k:g} must not exceed mu_static = {mu_s:g}", path + ("mu_kinetic",),
                            d, "mu_kinetic")
     return FrictionSpec(mu_s, mu_k,
-                        reader.number(d, "tangential_stiffness", path, default=floor.tangential_stiffness, lo=0.0,
+                        reader.number(d, "tangential_stiffness", path, unit="N/m", default=floor.tangential_stiffness, lo=0.0,
                                       lo_open=True),
-                        reader.number(d, "tangential_damping", path, default=floor.tangential_damping, lo=0.0),
-                        reader.number(d, "rolling_friction", path, default=floor.rolling_friction, lo=0.0),
-                        reader.number(d, "torsional_friction", path, default=floor.torsional_friction, lo=0.0))
+                        reader.number(d, "tangential_damping", path, unit="N s/m", default=floor.tangential_damping, lo=0.0),
+                        reader.number(d, "rolling_friction", path, unit="m", default=floor.rolling_friction, lo=0.0),
+                        reader.number(d, "torsional_friction", path, unit="m", default=floor.torsional_friction, lo=0.0))
 
 
 def robot_control(reader: Reader, d: dict[str, Any], model: ModelSpec) -> RollSpec:
@@ -143,11 +143,11 @@ def robot_control(reader: Reader, d: dict[str, Any], model: ModelSpec) -> RollSp
     r = reader.mapping(c["roll"], path, c, "roll")
     reader.keys(r, path, ("faces", "heading", "rate"), required=("faces",))
     faces = reader.integer(r, "faces", path, lo=1)
-    heading = reader.vector(r["heading"], 2, path + ("heading",), r, "heading") if "heading" in r else (1.0, 0.0)
+    heading = reader.vector(r["heading"], 2, path + ("heading",), r, "heading", unit="") if "heading" in r else (1.0, 0.0)
     if not math.hypot(*heading) > 0:
         raise reader.error(f"must be a nonzero direction (x, y) on the floor, got {list(heading)}",
                            path + ("heading",), r, "heading")
-    rate = reader.number(r, "rate", path, default=50.0, lo=0.0, lo_open=True)
+    rate = reader.number(r, "rate", path, unit="Hz", default=50.0, lo=0.0, lo_open=True)
     return RollSpec(faces, (heading[0], heading[1]), rate)
 
 

@@ -48,6 +48,7 @@ from tensegrity_core.sim.scene.spec import (
     EFFECTS,
     METHODS,
     NEEDS_INERTIA,
+    NOISE_UNITS,
     NOISY_QUANTITIES,
     ROBOT_EFFECTS,
     ActuatorComplianceSpec,
@@ -97,12 +98,12 @@ class SceneReader(Reader):
         initial = self.initial(d["initial"], ("initial",), d, model, effects)
         inputs = self.inputs(d.get("inputs"), ("inputs",), d, model, effects)
         control = robot_control(self, d, model) if "control" in d else None
-        duration = self.number(d, "duration", (), lo=0.0, lo_open=True)
+        duration = self.number(d, "duration", (), unit="s", lo=0.0, lo_open=True)
         output_rate = 100.0
         if "output" in d:
             out = self.mapping(d["output"], ("output",), d, "output")
             self.keys(out, ("output",), ("rate",), required=("rate",))
-            output_rate = self.number(out, "rate", ("output",), lo=0.0, lo_open=True)
+            output_rate = self.number(out, "rate", ("output",), unit="Hz", lo=0.0, lo_open=True)
         reason = output_size_reason(duration, output_rate, model)
         if reason:
             where = ("output", "rate") if "output" in d else ("duration",)
@@ -125,7 +126,7 @@ class SceneReader(Reader):
             return robot_model(self, d, path, self.base)
         if kind == "class2":
             self.keys(d, path, ("kind", "params"))
-            from tensegrity_core.class2.params import PAPER_PARAMS
+            from tensegrity_core.class2.params import PAPER_PARAMS, PARAM_UNITS
 
             overrides: dict[str, float] = {}
             if "params" in d:
@@ -133,7 +134,7 @@ class SceneReader(Reader):
                 allowed = tuple(PAPER_PARAMS.as_dict()) + ("k", "c")
                 self.keys(p, path + ("params",), allowed)
                 for k in p:   # dampings c, c1..c4 may be 0; lengths, stiffnesses and the mass may not
-                    overrides[k] = self.number(p, k, path + ("params",), lo=0.0, lo_open=not k.startswith("c"))
+                    overrides[k] = self.number(p, k, path + ("params",), unit=PARAM_UNITS[k], lo=0.0, lo_open=not k.startswith("c"))
             try:
                 params = PAPER_PARAMS.with_overrides(overrides)
             except TensegrityError as err:
@@ -245,12 +246,12 @@ class SceneReader(Reader):
                 raise self.error("give exactly one of 'c' [N s/m] (every member) or 'beta' [s] (c_i = beta EA_i/l0_i)",
                                  path, d, None)
             if "c" in d:
-                return DampingSpec(c=self.number(d, "c", path, lo=0.0))
-            return DampingSpec(beta=self.number(d, "beta", path, lo=0.0))
+                return DampingSpec(c=self.number(d, "c", path, unit="N s/m", lo=0.0))
+            return DampingSpec(beta=self.number(d, "beta", path, unit="s", lo=0.0))
         if name == "gravity":
             self.keys(d, path, ("vector",))
             if "vector" in d:
-                return GravitySpec(self.vector(d["vector"], 3, path + ("vector",), d, "vector"))
+                return GravitySpec(self.vector(d["vector"], 3, path + ("vector",), d, "vector", unit="m/s^2"))
             if model.kind == "general" and np.any(model.structure.gravity != 0):
                 return GravitySpec(tuple(float(g) for g in model.structure.gravity))
             if model.kind == "robot" and np.any(model.robot.gravity != 0):
@@ -263,28 +264,28 @@ class SceneReader(Reader):
                 if node not in names:
                     raise self.error(f"unknown node {excerpt(node)}{suggest(node, names)}; nodes: "
                                      f"{', '.join(names[:40])}", path + (node,), d, node)
-                forces[names.index(node)] = self.vector(vec, 3, path + (node,), d, node)
+                forces[names.index(node)] = self.vector(vec, 3, path + (node,), d, node, unit="N")
             if not forces:
                 raise self.error("lists no node: give node: [fx, fy, fz] [N]", path, d, None)
             return LoadsSpec(forces)
         if name == "actuator_lag":
             self.keys(d, path, ("tau",), required=("tau",))
-            return ActuatorLagSpec(self.number(d, "tau", path, lo=0.0, lo_open=True))
+            return ActuatorLagSpec(self.number(d, "tau", path, unit="s", lo=0.0, lo_open=True))
         if name == "actuator_compliance":
             self.keys(d, path, ("stiffness", "drive_damping"), required=("drive_damping",))
             # (a general scene has no actuator stiffness to default to: effects() refuses the effect)
             default = model.params.ka if model.kind == "class2" else math.nan
-            stiffness = self.number(d, "stiffness", path, default=default, lo=0.0, lo_open=True)
-            return ActuatorComplianceSpec(stiffness, self.number(d, "drive_damping", path, lo=0.0, lo_open=True))
+            stiffness = self.number(d, "stiffness", path, unit="N/m", default=default, lo=0.0, lo_open=True)
+            return ActuatorComplianceSpec(stiffness, self.number(d, "drive_damping", path, unit="N s/m", lo=0.0, lo_open=True))
         if name == "fold_limit":
             self.keys(d, path, ("restitution", "rest_velocity"))
-            return FoldLimitSpec(self.number(d, "restitution", path, default=0.0, lo=0.0, hi=1.0),
-                             self.number(d, "rest_velocity", path, default=1e-6, lo=0.0, lo_open=True))
+            return FoldLimitSpec(self.number(d, "restitution", path, unit="", default=0.0, lo=0.0, hi=1.0),
+                             self.number(d, "rest_velocity", path, unit="m/s", default=1e-6, lo=0.0, lo_open=True))
         # sensor_noise
         self.keys(d, path, NOISY_QUANTITIES)
         if not d:
             raise self.error(f"lists no quantity; give sigma for some of {', '.join(NOISY_QUANTITIES)}", path, d, None)
-        return SensorNoiseSpec({k: self.number(d, k, path, lo=0.0) for k in d})
+        return SensorNoiseSpec({k: self.number(d, k, path, unit=NOISE_UNITS[k], lo=0.0) for k in d})
 
     # -- initial state -----------------------------------------------------------------------
     def initial(self, value: object, path: KeyPath, parent: dict[str, Any], model: ModelSpec,
@@ -295,24 +296,24 @@ class SceneReader(Reader):
             if ("q" in d) == ("equilibrium" in d):
                 raise self.error("give exactly one of 'q: [rho1, rho2, beta]' or 'equilibrium: {rho1, rho2}'",
                                  path, d, None)
-            qdot = self.vector(d["qdot"], 3, path + ("qdot",), d, "qdot") if "qdot" in d else (0.0, 0.0, 0.0)
+            qdot = self.vector(d["qdot"], 3, path + ("qdot",), d, "qdot", unit=("m/s", "m/s", "rad/s")) if "qdot" in d else (0.0, 0.0, 0.0)
             if "q" in d:
-                q = self.vector(d["q"], 3, path + ("q",), d, "q")
+                q = self.vector(d["q"], 3, path + ("q",), d, "q", unit=("m", "m", "rad"))
                 self.class2_domain(q[0], q[1], model, effects, path + ("q",), d, "q")
                 return InitialSpec("state", q=q, qdot=qdot)
             if "qdot" in d:
                 raise self.error("'qdot' goes with 'q'; an equilibrium starts at rest", path + ("qdot",), d, "qdot")
             e = self.mapping(d["equilibrium"], path + ("equilibrium",), d, "equilibrium")
             self.keys(e, path + ("equilibrium",), ("rho1", "rho2"), required=("rho1", "rho2"))
-            r1 = self.number(e, "rho1", path + ("equilibrium",))
-            r2 = self.number(e, "rho2", path + ("equilibrium",))
+            r1 = self.number(e, "rho1", path + ("equilibrium",), unit="m")
+            r2 = self.number(e, "rho2", path + ("equilibrium",), unit="m")
             self.class2_domain(r1, r2, model, effects, path + ("equilibrium",), d, "equilibrium")
             return InitialSpec("equilibrium", lengths=(r1, r2))
         if model.kind == "robot":
             self.keys(d, path, ("drawn", "lift"), required=("drawn",))
             if d["drawn"] is not True:
                 raise self.error(f"must be true, got {excerpt(d['drawn'])}", path + ("drawn",), d, "drawn")
-            return InitialSpec("drawn", lift=self.number(d, "lift", path, default=0.0, lo=0.0))
+            return InitialSpec("drawn", lift=self.number(d, "lift", path, unit="m", default=0.0, lo=0.0))
         self.keys(d, path, ("equilibrium", "drawn"))
         if len(d) != 1:
             raise self.error("give exactly one of 'equilibrium: true | {preload: {node: [fx, fy, fz]}}' or "
@@ -334,7 +335,7 @@ class SceneReader(Reader):
                 p = path + ("equilibrium", "preload", node)
                 if node not in names:
                     raise self.error(f"unknown node {excerpt(node)}{suggest(node, names)}", p, pl, node)
-                preload[names.index(node)] = self.vector(vec, 3, p, pl, node)
+                preload[names.index(node)] = self.vector(vec, 3, p, pl, node, unit="N")
         return InitialSpec("equilibrium", preload=preload)
 
     def class2_domain(self, r1: float, r2: float, model: Class2ModelSpec, effects: SceneEffects, path: KeyPath,
@@ -399,30 +400,31 @@ class SceneReader(Reader):
 
     def law(self, value: object, path: KeyPath, parent: dict[str, Any], key: str, model: ModelSpec) -> InputLaw:
         if isinstance(value, (int, float)) and not isinstance(value, bool):
-            return Constant(self.value_number(value, path, parent, key))
+            return Constant(self.value_number(value, path, parent, key, unit=model.input_unit))
         d = self.mapping(value, path, parent, key)
         law = self.string(d, "law", path, choices=tuple(self.LAW_KEYS))
         self.keys(d, path, self.LAW_KEYS[law])
         if law == "constant":
-            return Constant(self.number(d, "value", path))
+            return Constant(self.number(d, "value", path, unit=model.input_unit))
         if law == "ramp":
-            t0 = self.number(d, "t0", path, default=0.0, lo=0.0)
-            t1 = self.number(d, "t1", path)
+            t0 = self.number(d, "t0", path, unit="s", default=0.0, lo=0.0)
+            t1 = self.number(d, "t1", path, unit="s")
             if t1 <= t0:
                 raise self.error(f"must be after t0 = {t0:g} s, got {t1:g}", path + ("t1",), d, "t1")
-            return Ramp(self.number(d, "from", path), self.number(d, "to", path), t0, t1)
+            return Ramp(self.number(d, "from", path, unit=model.input_unit),
+                        self.number(d, "to", path, unit=model.input_unit), t0, t1)
         if law == "proportional":
             if model.kind != "class2":
                 raise self.error("law 'proportional' (gain * length * t) is a force law of the class-2 mechanism; "
                                  "general structures take rest lengths", path + ("law",), d, "law")
-            return Proportional(self.number(d, "gain", path))
+            return Proportional(self.number(d, "gain", path, unit="N/(m s)"))
         if law == "commanded":
             if "initial" not in d or d["initial"] == "hold":
                 return Commanded(None)
             if isinstance(d["initial"], str):
                 raise self.error(f"must be a number or 'hold', got {excerpt(d['initial'])}"
                                  f"{suggest(d['initial'], ['hold'])}", path + ("initial",), d, "initial")
-            return Commanded(self.number(d, "initial", path))
+            return Commanded(self.number(d, "initial", path, unit=model.input_unit))
         return read_series(self, d, path, self.base)
 
     # -- integrator --------------------------------------------------------------------------------
@@ -437,11 +439,11 @@ class SceneReader(Reader):
             if method not in ("auto", "RK4"):
                 raise self.error(f"a robot scene integrates with fixed RK4 steps (its motors and friction are "
                                  f"sampled once per step), not {method}", path + ("method",), d, "method")
-            step = self.number(d, "max_step", path, default=ROBOT_STEP, lo=0.0, lo_open=True, hi=0.1)
+            step = self.number(d, "max_step", path, unit="s", default=ROBOT_STEP, lo=0.0, lo_open=True, hi=0.1)
             return IntegratorSpec("RK4", max_step=step)
-        rtol = self.number(d, "rtol", path, default=1e-8, lo=1e-13, hi=0.1)
-        atol = self.number(d, "atol", path, default=1e-10, lo=0.0, lo_open=True)
-        max_step = self.number(d, "max_step", path, default=math.inf, lo=0.0, lo_open=True, allow_inf=True)
+        rtol = self.number(d, "rtol", path, unit="", default=1e-8, lo=1e-13, hi=0.1)
+        atol = self.number(d, "atol", path, unit="(the state's units: m, rad and their rates)", default=1e-10, lo=0.0, lo_open=True)
+        max_step = self.number(d, "max_step", path, unit="s", default=math.inf, lo=0.0, lo_open=True, allow_inf=True)
         if method == "RK4" and not math.isfinite(max_step):
             raise self.error("RK4 takes fixed steps of max_step [s]: give it (e.g. max_step: 0.001)", path, d,
                              "method")

@@ -38,9 +38,11 @@ NEEDS_INERTIA = {
 }
 #: Integration methods: scipy's solve_ivp set, fixed-step RK4 (tensegrity_core.sim.integrators) and "auto".
 METHODS = ("auto", "RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA", "RK4")
-#: Observed quantities that sensor noise may perturb.
-NOISY_QUANTITIES = ("q", "qdot", "applied_forces", "nodes", "member_lengths", "member_forces",
-                    "end_effector")
+#: Observed quantities that sensor noise may perturb -> the unit of their noise's sigma
+#: (``q`` is the class-2 mechanism's ``[rho1, rho2, beta]``).
+NOISE_UNITS = {"q": "m or rad", "qdot": "m/s or rad/s", "applied_forces": "N", "nodes": "m",
+               "member_lengths": "m", "member_forces": "N", "end_effector": "m"}
+NOISY_QUANTITIES = tuple(NOISE_UNITS)
 #: The most memory the output of one run may take (its arrays of 8-byte floats) [bytes].
 MAX_OUTPUT_BYTES = 2 * 2**30
 
@@ -48,10 +50,12 @@ MAX_OUTPUT_BYTES = 2 * 2**30
 # ------------------------------------------------------------------------------ data
 @dataclass(frozen=True)
 class Class2ModelSpec:
-    """The planar class-2 mechanism with parameters ``params``."""
+    """The planar class-2 mechanism with parameters ``params``; its inputs are the actuator
+    forces (``input_unit``)."""
 
     params: Class2Params
     kind: ClassVar[Literal["class2"]] = "class2"
+    input_unit: ClassVar[str] = "N"
 
 
 @dataclass(frozen=True)
@@ -66,6 +70,7 @@ class GeneralModelSpec:
     end_effector: int
     actuators: tuple[int, ...]
     kind: ClassVar[Literal["general"]] = "general"
+    input_unit: ClassVar[str] = "m"
 
 
 @dataclass(frozen=True)
@@ -81,6 +86,7 @@ class RobotModelSpec:
     end_effector: int
     actuators: tuple[int, ...]
     kind: ClassVar[Literal["robot"]] = "robot"
+    input_unit: ClassVar[str] = "m"
 
     @property
     def structure(self) -> Structure:
@@ -263,7 +269,7 @@ class Scene:
     def with_duration(self, duration: float) -> Scene:
         """A copy that runs for ``duration`` [s] (checked like the scene's own)."""
         reader = Reader(SceneError)
-        duration = reader.value_number(duration, ("duration",), None, None, lo=0.0, lo_open=True)
+        duration = reader.value_number(duration, ("duration",), None, None, unit="s", lo=0.0, lo_open=True)
         reason = output_size_reason(duration, self.output_rate, self.model)
         if reason:
             raise SceneError(reason, key=("duration",))

@@ -162,17 +162,17 @@ class SimNode(SimulationInterfaces):
         self._command_thread.start()
         self._thread = threading.Thread(target=self._loop, name="tensegrity_sim_loop", daemon=True)
         self._thread.start()
-        pace = (f", at most {p.lockstep_real_time_factor:g} x real time" if p.lockstep_real_time_factor > 0
-                else "")
+        pace = f", at most {p.lockstep_real_time_factor:g} x real time" if p.lockstep_real_time_factor > 0 else ""
         mode = (f"lockstep (timeout {p.lockstep_timeout:g} s{pace})" if p.lockstep else
                 f"free-running at real-time factor {p.real_time_factor:g}"
                 + (" (as fast as possible)" if p.real_time_factor == 0 else ""))
         inputs = self.plant.interface.inputs
-        takes = (f"{'actuator forces' if forces else 'rest lengths'} of {', '.join(inputs)}" if inputs
-                 else "no commands")
+        takes = f"{'actuator forces' if forces else 'rest lengths'} of {', '.join(inputs)}" if inputs else "no commands"
         self.get_logger().info(
             f"scene {excerpt(p.scene)}: publishing at {p.publish_rate:g} Hz, step {p.step_size:.9g} s, {mode}, "
             f"{RUN_STATE_NAMES[self.state]}; takes {takes}")
+        for line in self.outputs.cap_warnings:
+            self.get_logger().warning(line)
 
     def _spin_commands(self) -> None:
         """The command thread: take commands; in lockstep also check the step's timeout

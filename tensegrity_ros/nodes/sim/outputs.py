@@ -41,7 +41,7 @@ from tensegrity_core.class2.names import JOINTS
 from tensegrity_core.excerpt import excerpt
 from tensegrity_ros.nodes.common import ParameterValueError
 from tensegrity_ros.nodes.sim import robot_messages, sender, topic_bytes, transforms
-from tensegrity_ros.nodes.sim.decimation import Decimation
+from tensegrity_ros.nodes.sim.decimation import Decimation, cap_warnings
 from tensegrity_ros.nodes.sim.joint_bytes import JointStateBytes
 from tensegrity_ros.nodes.sim.joint_sensors import joint_sensors
 from tensegrity_ros.nodes.sim.message_bytes import MessageBytes
@@ -101,6 +101,9 @@ class Outputs:
                            "mechanism_state": MechanismState, "markers": MarkerArray}
             slow = {"mechanism_state": state_rate, "markers": marker_rate}
         self.decimation = Decimation(publish_rate, slow)
+        #: What the node warns of at start: the rates of its topics capped at publish_rate.
+        self.cap_warnings = cap_warnings(publish_rate, {"state_rate": state_rate, "marker_rate": marker_rate}
+                                         | ({"imu_rate": imu_rate} if self.robot and self.imu_topics else {}))
         #: The topics of every publication.
         self.every_publication = tuple(t for t in self.topics if t not in self.decimation.every)
         #: The joint names of joint_states.

@@ -119,11 +119,11 @@ def declare_sim_parameters(node: Node, scene: str) -> SimParameters:
     state_rate = d("state_rate", 100.0,
                    "publish rate of mechanism_state (class-2), cable_states (general structures, robots) and "
                    "contacts (robots) [Hz], counted in publications of joint_states at publish_rate; a divisor "
-                   "of publish_rate is exact",
+                   "of publish_rate is exact; above publish_rate it is capped at publish_rate (warned at start)",
                    lo=0.0, hi=1000.0)
-    marker_rate = d("marker_rate", 30.0, "publish rate of the markers [Hz], counted like state_rate",
+    marker_rate = d("marker_rate", 30.0, "publish rate of the markers [Hz], counted (and capped) like state_rate",
                     lo=0.0, hi=1000.0)
-    imu_rate = d("imu_rate", 100.0, "robots: publish rate of each imu/<body> topic [Hz], counted like state_rate",
+    imu_rate = d("imu_rate", 100.0, "robots: publish rate of each imu/<body> topic [Hz], counted (and capped) like state_rate",
                  lo=0.0, hi=1000.0)
     wait = d("wait_for_subscribers", 0,
              "do not start the clock until every output topic has this many subscribers "
