@@ -2,7 +2,7 @@
 ``copy_vector``): numba compiles a slice assignment of an array with its shape-mismatch message
 (f-strings of the shapes, ``str.join``) and links that code into every kernel calling one, which
 it then optimises and emits again: ~7 s of the set-up's CPU once and ~1 s per such kernel
-(docs/design/performance.md, "What the warm-up compiles").
+(docs/design/performance.md, the set-up's numba warm-up).
 
 Read from the kernels' sources (their syntax trees): an assignment to a slice (``out[:] = ...``,
 ``X[:, :] = ...``) may only store a number: a numeric literal or a numeric constant of the kernel

@@ -57,7 +57,7 @@ def copy_vector(src: FloatArray, out: FloatArray) -> None:
     """``out[i] = src[i]`` for every ``i`` of ``src``. The kernels copy arrays with loops, not
     slice assignment (``out[:] = src``): numba compiles a slice assignment's shape check with
     its error message, whose string formatting is linked into every kernel that calls it, up
-    to ~1 s of compile time each (docs/design/performance.md, "The set-up's CPU")."""
+    to ~1 s of compile time each (docs/design/performance.md, the set-up's numba warm-up)."""
     for i in range(src.shape[0]):
         out[i] = src[i]
 
