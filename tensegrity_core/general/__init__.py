@@ -12,48 +12,53 @@ Typical use::
     r = form_find(s)                 # r.success, r.nodes, r.member_forces, r.min_eigenvalue
 """
 
-from tensegrity_core.general.configuration import Configuration, transformation_matrix
-from tensegrity_core.general.dofs import DofLayout
-from tensegrity_core.general.examples import example_names, example_path
-from tensegrity_core.general.formfind import (
-    METHODS,
-    FormFindResult,
-    FormFindStatus,
-    IterationInfo,
-    default_tolerance,
-    form_find,
-)
-from tensegrity_core.general.generators import (
-    polyhedron,
-    prism_grid,
-    prism_tower,
-    spherical_tensegrity,
-    t_bar,
-    tensegrity_spine,
-    tensegrity_table,
-)
-from tensegrity_core.general.loading import load_example, load_structure, structure_from_file, structure_from_text
-from tensegrity_core.general.path import PathResult, rest_length_path
-from tensegrity_core.general.statics import (
-    Modes,
-    OutOfBalance,
-    equilibrium_matrix,
-    generalized_force,
-    member_forces,
-    member_lengths,
-    modes,
-    out_of_balance,
-    potential_energy,
-)
-from tensegrity_core.general.stiffness import (
-    ModalAnalysis,
-    modal_analysis,
-    stiffness_parts,
-    tangent_stiffness,
-)
-from tensegrity_core.general.structure import RigidBody, Structure, StructureError
-from tensegrity_core.general.structure_schema import structure_from_dict
-from tensegrity_core.general.writing import dump_structure, save_structure, structure_to_arrays, structure_to_dict
+from typing import TYPE_CHECKING
+
+from tensegrity_core.lazy_exports import lazy_exports
+
+if TYPE_CHECKING:   # the names and their modules; each imported on first use (lazy_exports)
+    from tensegrity_core.general.configuration import Configuration, transformation_matrix
+    from tensegrity_core.general.dofs import DofLayout
+    from tensegrity_core.general.examples import example_names, example_path
+    from tensegrity_core.general.formfind import (
+        METHODS,
+        FormFindResult,
+        FormFindStatus,
+        IterationInfo,
+        default_tolerance,
+        form_find,
+    )
+    from tensegrity_core.general.generators import (
+        polyhedron,
+        prism_grid,
+        prism_tower,
+        spherical_tensegrity,
+        t_bar,
+        tensegrity_spine,
+        tensegrity_table,
+    )
+    from tensegrity_core.general.loading import load_example, load_structure, structure_from_file, structure_from_text
+    from tensegrity_core.general.path import PathResult, rest_length_path
+    from tensegrity_core.general.statics import (
+        Modes,
+        OutOfBalance,
+        equilibrium_matrix,
+        generalized_force,
+        member_forces,
+        member_lengths,
+        modes,
+        out_of_balance,
+        potential_energy,
+    )
+    from tensegrity_core.general.stiffness import (
+        ModalAnalysis,
+        modal_analysis,
+        stiffness_parts,
+        tangent_stiffness,
+    )
+    from tensegrity_core.general.structure import RigidBody, Structure, StructureError
+    from tensegrity_core.general.structure_schema import structure_from_dict
+    from tensegrity_core.general.writing import dump_structure, save_structure, structure_to_arrays, structure_to_dict
 
 __all__ = [
     "Configuration", "DofLayout", "FormFindResult", "FormFindStatus", "IterationInfo", "METHODS", "ModalAnalysis",
@@ -66,3 +71,5 @@ __all__ = [
     "structure_to_dict", "t_bar", "tangent_stiffness", "tensegrity_spine", "tensegrity_table",
     "transformation_matrix",
 ]
+
+__getattr__ = lazy_exports(__name__)

@@ -78,26 +78,28 @@ def stage_force(s: ArrayLike, v_t: ArrayLike, F_n: ArrayLike, k_t: ArrayLike, c_
     the return map of its trial offset ``s`` (..., 3) [m] from the step's anchor, with the
     contact point's tangential velocity ``v_t`` [m/s], normal force ``F_n`` [N] and the
     step's ``slipping`` flags; ``|F_t| <= mu_s F_n`` (``mu_k F_n`` where it slips)."""
+    # each quantity one numpy call where it can be (the robot's numpy kernels call this at every
+    # evaluation of a few caps, where a call's dispatch, not its arithmetic, is the cost)
     S = np.asarray(s, dtype=float)
     V = np.asarray(v_t, dtype=float)
     Fn = np.asarray(F_n, dtype=float)
     kt = np.asarray(k_t, dtype=float)
     was = np.asarray(slipping, dtype=bool)
-    size = np.sqrt(np.sum(S * S, axis=-1))
-    hold = np.where(was, np.asarray(mu_k, dtype=float), np.asarray(mu_s, dtype=float)) * Fn
+    kinetic = np.asarray(mu_k, dtype=float)
+    size = np.sqrt(np.add.reduce(S * S, axis=-1))
+    hold = np.where(was, kinetic, np.asarray(mu_s, dtype=float)) * Fn
     sticks = (kt * size <= hold) & (hold > 0.0)
     a = kt[..., None] * S
     b = np.where(was, 0.0, np.asarray(c_t, dtype=float))[..., None] * V
     # beta |b| = t, the root of |a + t u|^2 = H^2 with u = b / |b|, in units of H (no H^2 to underflow)
-    b_size = np.sqrt(np.sum(b * b, axis=-1))
-    u = b / np.where(b_size > 0.0, b_size, 1.0)[..., None]
-    a_h = np.divide(a, hold[..., None], out=np.zeros_like(a), where=sticks[..., None])
-    au = np.sum(a_h * u, axis=-1)
-    t = hold * (-au + np.sqrt(au * au + np.maximum(1.0 - np.sum(a_h * a_h, axis=-1), 0.0)))
-    beta = np.minimum(np.divide(t, b_size, out=np.zeros_like(t), where=b_size > 0.0), 1.0)
+    b_size = np.sqrt(np.add.reduce(b * b, axis=-1))
+    moving = b_size > 0.0
+    a_h = np.divide(a, np.where(sticks, hold, 1.0)[..., None])
+    au = np.add.reduce(a_h * b, axis=-1) / np.where(moving, b_size, 1.0)
+    t = hold * (np.sqrt(au * au + np.maximum(1.0 - np.add.reduce(a_h * a_h, axis=-1), 0.0)) - au)
+    beta = np.where(moving, np.minimum(t / np.where(moving, b_size, 1.0), 1.0), 0.0)
     e = S / np.where(size > 0.0, size, 1.0)[..., None]
-    out: FloatArray = np.where(sticks[..., None], -a - beta[..., None] * b,
-                               -(np.asarray(mu_k, dtype=float) * Fn)[..., None] * e)
+    out: FloatArray = np.where(sticks[..., None], -a - beta[..., None] * b, -(kinetic * Fn)[..., None] * e)
     return out
 
 

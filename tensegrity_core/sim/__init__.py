@@ -16,22 +16,29 @@
 See ``docs/scenes.md`` for the scene format, the models and the benchmarks.
 """
 
-from tensegrity_core.sim.backends import BACKENDS, compile_scene
-from tensegrity_core.sim.errors import SceneError, SimulationError
-from tensegrity_core.sim.model import DynamicModel, Model, Names, State
-from tensegrity_core.sim.scene import (
-    EFFECTS,
-    Scene,
-    load_scene,
-    scene_from_dict,
-    scene_from_file,
-    scene_from_text,
-    scene_names,
-    scene_path,
-)
-from tensegrity_core.sim.simulator import JointSample, Observation, Simulator, simulate
-from tensegrity_core.sim.trajectory import Trajectory
+from typing import TYPE_CHECKING
+
+from tensegrity_core.lazy_exports import lazy_exports
+
+if TYPE_CHECKING:   # the names and their modules; each imported on first use (lazy_exports)
+    from tensegrity_core.sim.backends import BACKENDS, compile_scene
+    from tensegrity_core.sim.errors import SceneError, SimulationError
+    from tensegrity_core.sim.model import DynamicModel, Model, Names, State
+    from tensegrity_core.sim.scene import (
+        EFFECTS,
+        Scene,
+        load_scene,
+        scene_from_dict,
+        scene_from_file,
+        scene_from_text,
+        scene_names,
+        scene_path,
+    )
+    from tensegrity_core.sim.simulator import JointSample, Observation, Simulator, simulate
+    from tensegrity_core.sim.trajectory import Trajectory
 
 __all__ = ["BACKENDS", "EFFECTS", "DynamicModel", "JointSample", "Model", "Names", "Observation", "Scene",
            "SceneError", "SimulationError", "Simulator", "State", "Trajectory", "compile_scene", "load_scene",
            "scene_from_dict", "scene_from_file", "scene_from_text", "scene_names", "scene_path", "simulate"]
+
+__getattr__ = lazy_exports(__name__)

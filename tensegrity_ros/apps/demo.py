@@ -57,7 +57,7 @@ from tensegrity_ros.apps.sim_client import JointRecord, SimClient
 from tensegrity_ros.bag.completeness import completeness_line
 from tensegrity_ros.rclpy_utils.env import require_rclpy
 from tensegrity_ros.rclpy_utils.futures import wait_done
-from tensegrity_ros.rclpy_utils.matching import wait_for_matches, wait_until_service_heard
+from tensegrity_ros.rclpy_utils.matching import wait_for_matches, wait_for_service, wait_until_service_heard
 
 __all__ = ["FOLD_GAIN", "WAYPOINT_OFFSETS", "run_demo"]
 
@@ -203,7 +203,7 @@ class DemoClient:
         self.ff = node.create_client(FindForm, "find_form")
 
     def _call(self, client: Any, request: Any, timeout: float = 120.0) -> Any:
-        if not client.wait_for_service(timeout_sec=timeout):
+        if not wait_for_service(client, timeout):
             raise RuntimeError(f"service {client.srv_name} not available")
         wait_until_service_heard(self.sim.node, client.srv_name, wait_done, timeout)   # else its answer can be lost
         done = threading.Event()

@@ -188,10 +188,10 @@ class SimClient:
         written before the simulator's reader knew its writer would come late, repaired only
         after the step it was meant for had run, or never."""
         from tensegrity_ros.rclpy_utils.futures import wait_done
-        from tensegrity_ros.rclpy_utils.matching import wait_for_matches, wait_until_answered
+        from tensegrity_ros.rclpy_utils.matching import wait_for_matches, wait_for_service, wait_until_answered
 
         for client in self.clients.values():
-            if not client.wait_for_service(timeout_sec=timeout):
+            if not wait_for_service(client, timeout):
                 raise RuntimeError(f"service {client.srv_name} not available within {timeout:g} s")
         if not wait_for_matches([self.pub], 1, timeout, settle_s=0.0):
             raise RuntimeError(f"nobody subscribes to {self.pub.topic_name} within {timeout:g} s")

@@ -246,14 +246,14 @@ def _call_service(args: argparse.Namespace, node_name: str, srv_type: Any, reque
     from rclpy.executors import SingleThreadedExecutor
 
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
-    from tensegrity_ros.rclpy_utils.matching import wait_until_service_heard
+    from tensegrity_ros.rclpy_utils.matching import wait_for_service, wait_until_service_heard
 
     check_ros_name(args.service, "--service")
     rclpy, node = client_node(node_name, args.ros_args)
     executor = SingleThreadedExecutor()
     try:
         client = node.create_client(srv_type, args.service)
-        if not client.wait_for_service(timeout_sec=args.timeout):
+        if not wait_for_service(client, args.timeout):
             services = (n for n, _ in node.get_service_names_and_types())
             raise CliError(f"service {node.resolve_service_name(args.service)} not available after "
                            f"{args.timeout:g} s (is the suite up? `tensegrity up`)"

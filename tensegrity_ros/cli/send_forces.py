@@ -205,13 +205,13 @@ def _float_parameter(node: Node, executor: Executor, owner: str, name: str, answ
     from rcl_interfaces.srv import GetParameters
 
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
-    from tensegrity_ros.rclpy_utils.matching import wait_until_answered
+    from tensegrity_ros.rclpy_utils.matching import wait_for_service, wait_until_answered
 
     client = node.create_client(GetParameters, f"{owner}/get_parameters")
     try:
         # asked once the owner has matched this client's response reader (a probe made after
         # it answered), else the answer can be lost
-        if not client.wait_for_service(timeout_sec=answer_s) or not wait_until_answered(
+        if not wait_for_service(client, answer_s) or not wait_until_answered(
                 node, GetParameters, f"{owner}/get_parameters", lambda f, t: spin_until_done(executor, f, t), answer_s):
             return None
         future = client.call_async(GetParameters.Request(names=[name]))

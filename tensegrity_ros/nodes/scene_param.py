@@ -1,7 +1,8 @@
 """The ``scene`` parameter of the nodes that model the class-2 mechanism (the simulator, the
 IK node and the controller): the mechanism's parameters from one source.
 
-The scene loader (the simulator package, with scipy) is imported here, at module level, so
+The scene reader (``tensegrity_core.sim.scene``: the scene's checks, not the simulator's back
+ends, :mod:`tensegrity_core.lazy_exports`) is imported here, at module level, so
 every node that uses it has it loaded before the node starts running: a stop signal that
 comes while a process imports ends it at once, one that comes while its node is being built
 waits for the build (:mod:`tensegrity_ros.rclpy_utils.stop_signals`). Imported inside

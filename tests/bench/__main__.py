@@ -3,10 +3,11 @@
 Runs every benchmark (``tests/bench/bench_*.py``), prints one table, and compares each row
 with its baseline measured in the same run (ratios: these machines are shared and noisy).
 Quick mode (default) is the CI smoke run, seconds per group, and writes files only where
-asked; ``--full`` is the docs run and by default writes the table as
-``docs/bench/results.json``, the raw data behind the plots into ``docs/bench/`` and the
-plots into ``docs/img/performance/`` (see ``docs/design/performance.md``); rows of groups not
-run keep their earlier values in that JSON file.
+asked, never into ``docs/`` (its rough figures are not the docs'); ``--full`` is the docs run
+and by default writes the table as ``docs/bench/results.json``, the raw data behind the plots
+into ``docs/bench/`` and the plots into ``docs/img/performance/`` (tracked files: see
+``docs/design/performance.md``), and says where before it runs; rows of groups not run keep
+their earlier values in that JSON file.
 """
 
 from __future__ import annotations
@@ -36,14 +37,22 @@ def main(argv=None) -> int:
     # inside the suite never answers another module's clients), else one of its own
     os.environ.setdefault("ROS_DOMAIN_ID", str(200 + random.randrange(30)))
     ap = argparse.ArgumentParser(prog="python -m tests.bench")
-    ap.add_argument("--full", action="store_true", help="full mode (docs figures); default quick")
+    ap.add_argument("--full", action="store_true",
+                    help="full mode (docs figures: writes docs/bench/ and docs/img/performance/ unless told "
+                         "elsewhere); default quick")
     ap.add_argument("--only", action="append", default=[], help="run only these groups (or GROUP:FUNCTION)")
     ap.add_argument("--json", default=None, help="write the rows as JSON to this file")
     ap.add_argument("--plot-dir", default=None, help="write plots (PNG) into this folder")
     ap.add_argument("--data-dir", default=None, help="write the data behind the plots (JSON) here")
     args = ap.parse_args(argv)
+    docs = Path(__file__).resolve().parents[2] / "docs"
+    if not args.full:
+        outputs = (args.json, args.plot_dir, args.data_dir)
+        into_docs = [p for p in outputs if p and Path(p).resolve().is_relative_to(docs)]
+        if into_docs:
+            ap.error(f"quick mode's rough figures would be written over the docs' ({', '.join(into_docs)}): "
+                     "give --full, or a place outside docs/")
     if args.full:
-        docs = Path(__file__).resolve().parents[2] / "docs"
         if os.environ.get(KERNELS_VARIABLE) and not (args.json and args.plot_dir and args.data_dir):
             # the docs' table and figures are the default kernels' (several benchmarks time
             # both kinds themselves): rows of another choice would replace them under their names
@@ -60,6 +69,8 @@ def main(argv=None) -> int:
     if unknown:
         ap.error(f"unknown group(s) {', '.join(unknown)}; the groups are {', '.join(sorted(groups))} "
                  "(GROUP:FUNCTION picks one benchmark)")
+    if args.full:
+        print(_destinations(args), file=sys.stderr, flush=True)
     ctx = harness.Context(quick=not args.full, plot_dir=args.plot_dir, data_dir=args.data_dir)
     harness.use_timing(harness.QUICK_TIMING if ctx.quick else harness.FULL_TIMING)
     rows: list[harness.Row] = []
@@ -95,6 +106,12 @@ def main(argv=None) -> int:
         whole = {g for g in groups if all((g, fn.__name__) in ran for gg, fn in harness.REGISTRY if gg == g)}
         _write_rows(Path(args.json), rows, ran, whole)
     return 0
+
+
+def _destinations(args: argparse.Namespace) -> str:
+    """The line that says where a full run writes (by default tracked files under docs/)."""
+    return (f"full mode writes the table to {args.json}, the data behind the plots into {args.data_dir}/ "
+            f"and the plots into {args.plot_dir}/")
 
 
 def load_benchmarks() -> None:

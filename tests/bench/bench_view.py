@@ -125,11 +125,12 @@ def _start(args: list[str], env: dict) -> tuple[subprocess.Popen, int, float]:
     return proc, port, time.monotonic() - t0
 
 
-def _bag_seconds(folder: str) -> float:
-    """The timeline of the bag in ``folder`` [s]: its header stamps' span, as the view plays it."""
-    from tensegrity_ros.view.bag_source import BagSource
+def _timeline_seconds(page) -> float:
+    """The length [s] of the timeline a bag's page plays (its header stamps' span, the end of
+    the page's time slider: the view reads the bag once, this process does not read it again)."""
+    from tests.view.browser import control
 
-    return BagSource(folder).duration
+    return float(control(page, "time [s]").get_by_role("slider").get_attribute("aria-valuemax"))
 
 
 def _browser_cpu_s() -> float:
@@ -188,18 +189,19 @@ def _resolution_note(page, settled: float | None, changes: int) -> str:
 
 
 def _page_rates(browser, url: str, seconds: float, play: str = "", *, empty: bool = False,
-                ends: float | None = None) -> tuple[float, float, float, list, float, str]:
+                bag: bool = False) -> tuple[float, float, float, list, float, str]:
     """(animation frames per s, frames rendered per s, states shown per s, [(t shown, wall ms)],
     the browser's CPU time per rendered frame [s], the canvas's resolution at the end) over
     ``seconds``; ``play``: press the page's Play first, until the page shows this text, and
     wait for the page's resolution to settle; ``empty``: a page with nothing to draw;
-    ``ends``: the bag's length [s], the window shortened to end ``BAG_END_MARGIN`` before it."""
+    ``bag``: a bag's page, the window shortened to end ``BAG_END_MARGIN`` before the bag does."""
     from tests.view.browser import wait_for_canvas
 
     page = browser.open(url)
     try:
         wait_for_canvas(page, drawn=not empty)
         settled = None
+        ends = _timeline_seconds(page) if bag else None
         if play:
             page.get_by_role("button", name="Play").click()
             page.get_by_text(play).first.wait_for()
@@ -276,11 +278,10 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
                      ("6-bar robot (core, in process)", ["--scene", "six_bar_roll"], "· playing"),
                      ("spine (core, in process)", ["--scene", "spine_release"], "· playing")]
         for name, args, playing in runs:
-            ends = _bag_seconds(args[0]) if name.endswith("bag") else None
             proc, port, _ = _start(args, env)
             try:
                 _, fps, shown, _, per_frame, note = _page_rates(browser, f"http://127.0.0.1:{port}", seconds,
-                                                                play=playing, ends=ends)
+                                                                play=playing, bag=name.endswith("bag"))
             finally:
                 _stop(proc)
             rows.append(Row("view", f"{name}: frames rendered per s", fps, "fps", target=">= 30",

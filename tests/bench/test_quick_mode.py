@@ -139,3 +139,39 @@ def test_an_unknown_group_is_refused_naming_the_groups(capsys):
     err = capsys.readouterr().err
     assert refused.value.code == 2
     assert "unknown group(s) nonsense" in err and "precision" in err
+
+
+def test_quick_mode_never_writes_into_the_docs(capsys):
+    """Quick mode's rough figures are refused a place under docs/ (where the full run's tracked
+    table, data and plots live), before anything runs: the table there stays as it was."""
+    from tests.bench.__main__ import main
+
+    table = ROOT / "docs" / "bench" / "results.json"
+    before = table.read_bytes()
+    with pytest.raises(SystemExit) as refused:
+        main(["--only", "class2_dyn", "--json", str(table)])
+    assert refused.value.code == 2
+    assert "would be written over the docs'" in capsys.readouterr().err
+    assert table.read_bytes() == before
+
+
+def test_the_full_run_says_where_it_writes(tmp_path, capsys, monkeypatch):
+    """``--full`` names its table, data and plot folders before it runs (by default the docs'
+    tracked files); a stand-in group of one row keeps the test cheap."""
+    from tests.bench import harness
+    from tests.bench.__main__ import load_benchmarks, main
+
+    load_benchmarks()
+    monkeypatch.setattr(harness, "REGISTRY", [("tiny", lambda ctx: [harness.Row("tiny", "one", 1.0, "s")])])
+    previous = harness.use_timing(harness.FULL_TIMING)
+    out = {k: tmp_path / k for k in ("rows.json", "img", "data")}
+    try:
+        assert main(["--full", "--only", "tiny", "--json", str(out["rows.json"]), "--plot-dir", str(out["img"]),
+                     "--data-dir", str(out["data"])]) == 0
+    finally:
+        harness.use_timing(previous)
+    err = capsys.readouterr().err
+    assert (f"full mode writes the table to {out['rows.json']}, the data behind the plots into {out['data']}/ "
+            f"and the plots into {out['img']}/") in err
+    assert err.index("full mode writes") < err.index("== tiny")
+    assert [r["name"] for r in json.loads(out["rows.json"].read_text())] == ["one"]

@@ -51,15 +51,17 @@ class Client:
         """An rclpy ActionClient of ``name``, once its server is there."""
         from rclpy.action import ActionClient
 
+        from tensegrity_ros.rclpy_utils.matching import wait_for_action_server
+
         action = ActionClient(self.node, action_type, name)
         self._actions.append(action)
-        assert action.wait_for_server(timeout_sec=PATIENCE), f"no action server {name}"
+        assert wait_for_action_server(self.node, action, PATIENCE), f"no action server {name}"
         self._heard_by(name)
         return action
 
     def _heard_by(self, action_name: str) -> None:
         """Until the server of ``action_name`` answers a request whose reply reader was created
-        after the action client's. ``wait_for_server()`` is this participant's side of discovery
+        after the action client's. ``wait_for_action_server`` is this participant's side of discovery
         only; the server matches the client's reply readers later, and Fast DDS drops an answer
         whose reader is still not matched after the response writer's max_blocking_time (100 ms
         by default). Readers are announced in creation
@@ -68,13 +70,15 @@ class Client:
         until one answer arrives."""
         from rcl_interfaces.srv import GetParameters
 
+        from tensegrity_ros.rclpy_utils.matching import wait_for_service
+
         server = self.wait_until(lambda: [i for i in self.node.get_publishers_info_by_topic(
             f"{action_name}/_action/status") if i.node_namespace.startswith("/")],   # else its node is not known yet
             f"the server of {action_name} in the graph")[0]
         probe = self.node.create_client(GetParameters, f"{server.node_namespace.rstrip('/')}/{server.node_name}"
                                         "/get_parameters")
         try:
-            assert probe.wait_for_service(timeout_sec=PATIENCE), f"no parameter service of {server.node_name}"
+            assert wait_for_service(probe, PATIENCE), f"no parameter service of {server.node_name}"
             asked: list[Any] = []
             deadline = time.monotonic() + PATIENCE
             while not any(f.done() for f in asked):
@@ -166,11 +170,11 @@ class Client:
         from rcl_interfaces.srv import GetParameters
 
         from tensegrity_ros.rclpy_utils.futures import wait_done
-        from tensegrity_ros.rclpy_utils.matching import wait_until_answered
+        from tensegrity_ros.rclpy_utils.matching import wait_for_service, wait_until_answered
 
         client = self.node.create_client(srv_type, name)
         try:
-            assert client.wait_for_service(timeout_sec=timeout), f"no service {name}"
+            assert wait_for_service(client, timeout), f"no service {name}"
             resolved = self.node.resolve_service_name(name)
             server = self.wait_until(lambda: self._server_of(resolved), f"the node serving {resolved}")
             assert wait_until_answered(self.node, GetParameters, f"{server}/get_parameters", wait_done, timeout), \

@@ -55,6 +55,7 @@ from tensegrity_core.general.rotation import exp_so3
 from tensegrity_core.robot.contact import SPIN_TOLERANCE
 from tensegrity_core.robot.description import RobotError
 from tensegrity_core.robot.robot_schema import MIN_SIZE, robot_from_dict
+from tensegrity_core.robot.rod import rod_inertia
 from tensegrity_core.sim import compile_scene, load_scene
 from tensegrity_core.sim.errors import SceneError
 from tensegrity_core.sim.general.kernels.jit import KERNELS_VARIABLE, have_numba
@@ -286,8 +287,15 @@ def stable_step(robot: dict, effects=ALL) -> float:
     k_t = _override(effects, "friction", "tangential_stiffness", floor.get("tangential_stiffness", k))
     c_t = _override(effects, "friction", "tangential_damping", floor.get("tangential_damping", 0.0))
     for r in robot["rods"]:                 # each cap on the floor: its normal spring, its friction anchor
-        omega2 += 2.0 * (k + k_t) * 4.0 / r["mass"]
-        sigma += 2.0 * c_t * 4.0 / r["mass"]
+        # the anchor acts at the contact point, ``cap_radius`` off the axis: it spins the rod
+        # about its axis too (docs/robots.md), ``r^2 / I_a`` more inverse mass
+        a, b = r["nodes"]
+        cap_mass = r.get("cap_mass", 0.0)
+        _, I_a = rod_inertia(r["mass"] - 2 * cap_mass, r["radius"], cap_mass, r.get("cap_radius", r["radius"]),
+                             float(np.linalg.norm(nodes[b] - nodes[a])))
+        spin = r.get("cap_radius", r["radius"]) ** 2 / float(I_a)
+        omega2 += 2.0 * (k * 4.0 / r["mass"] + k_t * (4.0 / r["mass"] + spin))
+        sigma += 2.0 * c_t * (4.0 / r["mass"] + spin)
     return min(1e-3, 0.5 / max(np.sqrt(omega2), sigma))
 
 

@@ -22,6 +22,7 @@ import yaml
 from numpy.typing import NDArray
 
 from tensegrity_core.sim import SceneError, compile_scene, load_scene
+from tensegrity_core.sim.general.robot.loops import STICKING
 from tensegrity_core.sim.general.robot.stepping import FixedStepper
 from tensegrity_core.sim.model import State
 from tensegrity_core.sim.scene.robot_schema import RK4_IMAGINARY_REACH, rk4_reach
@@ -178,7 +179,9 @@ def test_a_step_too_long_for_the_floor_is_refused_in_one_line():
     load_scene(floor_scene(0.99 * FLOOR_LIMIT))
     without_contact = dict(floor_scene(), effects=["inertia", "gravity", "cables"])
     load_scene(without_contact)                       # no floor force, nothing to follow
-    with pytest.raises(SceneError, match=r"sticking on the floor it meets 1e\+08 N/m of friction anchor"):
+    with pytest.raises(SceneError, match=r"a cap sticking on the floor \(0\.167 kg of the rod moving with its contact "
+                                         r"point, spinning it\) meets 1e\+08 N/m and 0 N s/m of friction anchor, a "
+                                         r"mode of at least 2\.449e\+04 rad/s"):
         load_scene(dict(floor_scene(), effects=[
             "inertia", "gravity", "cables", {"contact": {"stiffness": 1.0}},
             {"friction": {"mu_static": 0.5, "tangential_stiffness": FLOOR_K}}]))
@@ -317,3 +320,49 @@ def test_the_dissipative_floor_s_refusal_is_right():
 
     assert most_energy(3.1e-4) <= 1.0 + 1e-9
     assert most_energy(1e-3) > 3.0
+
+
+#: The lying rod on a soft floor (1e4 N/m) with a stiff friction anchor (1e6 N/m, undamped,
+#: ``mu = 1``): a tangential force across the rod at a contact point (``r = 0.01 m`` below its
+#: cap's centre) moves the rod, turns it about the normal (lever ``L/2``) and spins it about
+#: its axis (lever ``r``, ``I_a = 5e-5 kg m^2``): ``1 / m_eff = 1/m + (L/2)^2 / I_t + r^2 /
+#: I_a = 1 + 3 + 2``, 0.167 kg, a mode of at least ``sqrt(6 k_t)`` = 2449 rad/s. Both caps
+#: stuck, the rod's sideways slide with its spin (``2 k_t (1/m + r^2/I_a)``) and its turning
+#: (``2 k_t (L/2)^2 / I_t``) are exactly that mode: RK4 follows it with steps up to
+#: ``2 sqrt 2 / 2449`` = 1.155 ms. The check once took the whole rod's 1 kg (2.83 ms).
+ANCHOR_K = 1e6
+ANCHOR_LIMIT = 2 * np.sqrt(2) / np.sqrt(6 * ANCHOR_K)
+
+
+def anchor_scene(step: float) -> dict:
+    return {"name": "anchored", "model": {"kind": "robot", "robot": LYING}, "initial": {"drawn": True},
+            "integrator": {"max_step": step}, "duration": 1.0,
+            "effects": ["inertia", "gravity", "cables", {"contact": {"stiffness": 1e4}},
+                        {"friction": {"mu_static": 1.0, "tangential_stiffness": ANCHOR_K,
+                                      "tangential_damping": 0.0}}]}
+
+
+def test_a_step_too_long_for_the_friction_anchor_is_refused_and_the_refusal_is_right():
+    """Spun about its axis at 1e-4 rad/s (its caps' contact points 1 um/s across it, the
+    anchors' force 1e-3 of the 4.9 N hold) the rod sticking on its caps rocks in the anchors'
+    mode: at 0.98 of the refused step its kinetic energy never exceeds its start, at 1.02 of
+    it (``|R(2.885 i)|^2 = 1.33`` a step) it grows tenfold within 100 steps. About 0.1 s."""
+    with pytest.raises(SceneError, match=r"meets 1e\+06 N/m and 0 N s/m of friction anchor, a mode of at least "
+                                         r"2449 rad/s, which RK4 follows with steps up to 0\.00115 s"):
+        load_scene(anchor_scene(1.02 * ANCHOR_LIMIT))
+    model = compile_scene(load_scene(anchor_scene(0.98 * ANCHOR_LIMIT)))
+
+    def growth(step: float) -> float:
+        p = model.plan
+        y = model.y0.copy()
+        y[p.body_dof[0] + 2] -= MASS * 9.81 / (2 * 1e4)                # at rest: each cap carries half the weight
+        a0 = 2 * p.n_dof + len(p.motor_cable)
+        y[a0 + 3 * len(p.cap_node):a0 + 4 * len(p.cap_node)] = STICKING  # anchored where they rest
+        y[p.n_dof + p.body_dof[0] + 3] = 1e-4                          # spun about x, the rod's axis
+        samples: list = []
+        model.record(state_at_step(model, step, 100 * step, y), np.arange(101) * step, samples)
+        kinetic = model.observe(samples)["kinetic_energy"]
+        return float(kinetic.max() / kinetic[0])
+
+    assert growth(0.98 * ANCHOR_LIMIT) <= 1.0 + 1e-6
+    assert growth(1.02 * ANCHOR_LIMIT) > 10.0

@@ -23,7 +23,7 @@ import pytest
 
 from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics
 from tensegrity_ros.rclpy_utils.futures import spin_until_done
-from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
+from tensegrity_ros.rclpy_utils.matching import wait_for_action_server, wait_until_server_heard
 from tests.ros_support import FeedbackLog, open_context, run_cli
 
 pytestmark = pytest.mark.ros
@@ -63,7 +63,7 @@ class Client:
         self.node.create_subscription(ActuatorForces, "actuator_forces", self.commands.append, 100)
         self.Move, self.Follow = MoveEndEffector, FollowActuatorTrajectory
         for client, name in ((self.move, "move_end_effector"), (self.follow, "follow_actuator_trajectory")):
-            assert client.wait_for_server(timeout_sec=60), "no action server"
+            assert wait_for_action_server(self.node, client, 60), "no action server"
             assert wait_until_server_heard(self.node, name, lambda f, t: spin_until_done(self.executor, f, t), 60)
 
     def spin_until(self, cond, timeout: float = 60.0) -> None:
@@ -326,7 +326,7 @@ def test_the_first_command_waits_until_the_simulator_has_matched_the_controllers
     get_parameters (proof that it has matched the writer). Here the subscriber's node is not
     spun for 1 s after it publishes the state, so it cannot answer in that time: the first
     command must not have been sent before then (its source timestamp), where it went out at
-    once. About 3 s (one controller process)."""
+    once. One controller process: 8 s of wall time at a load of 30 on 2 cores."""
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
     from sensor_msgs.msg import JointState

@@ -73,6 +73,8 @@ def test_a_bad_request_is_one_line_before_any_ros():
 def test_the_closed_loop_gait_rolls_exactly_the_faces_asked_in_lockstep(cli, tmp_path):
     up = cli("up", "--scene", "six_bar_rest", "--no-formfind", "--no-controller", "--namespace", NS, "--ros-args",
              "-p", "lockstep:=true", log_name="up")
+    # this run as a process of its own (its exit after a roll too); the later ones in this process: no
+    # interpreter start and imports (~1.5-2.6 s of CPU each), their ROS clients over DDS the same
     r = run_cli("gait", "six_bar", "roll", "--faces", "2", "-n", NS, "--timeout", "60", timeout=300)
     assert r.returncode == 0, r.stdout + r.stderr + up.stderr()
     assert re.match(r"done: the controller rolled 2 of 2 faces towards \(\+1\.00, \+0\.00\) in \d+\.\d\d s of "
@@ -89,7 +91,7 @@ def test_the_closed_loop_gait_rolls_exactly_the_faces_asked_in_lockstep(cli, tmp
                      r"above are those up to then)$", r.stdout, re.M), r.stdout
 
     # one face more, from the face it rests on now: exactly one
-    r = run_cli("gait", "six_bar", "roll", "--faces", "1", "-n", NS, "--timeout", "60", timeout=300)
+    r = run_cli_here("gait", "six_bar", "roll", "--faces", "1", "-n", NS, "--timeout", "60")
     assert r.returncode == 0, r.stdout + r.stderr + up.stderr()
     assert r.stdout.startswith("done: the controller rolled 1 of 1 faces"), r.stdout
     assert re.search(r"^  faces rolled: 1 \(\d+ faces rested on; 1 faces crossed, counting those touched however "
@@ -107,7 +109,7 @@ def test_the_closed_loop_gait_rolls_exactly_the_faces_asked_in_lockstep(cli, tmp
                       tmp_path / "cables.log")
     try:
         controller.wait_for("cable controller ready", 60)
-        r = run_cli("gait", "six_bar", "roll", "--faces", "1", "-n", NS, "--timeout", "60", timeout=120)
+        r = run_cli_here("gait", "six_bar", "roll", "--faces", "1", "-n", NS, "--timeout", "60")
     finally:
         controller.stop()
     assert r.returncode == 1, r.stdout + r.stderr + controller.stderr()

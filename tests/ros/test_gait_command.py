@@ -2,7 +2,13 @@
 simulator and the cable controller over DDS on loopback): one line and exit 3 when no suite
 is up, one line and exit 1 for another robot's gait, and the 6-bar's first face rolled
 through FollowJointTrajectory with the distance [m], faces and tensions [N] printed, and
-whether the robot came to rest after the goal."""
+whether the robot came to rest after the goal.
+
+The ``gait`` commands run in this process (:func:`~tests.ros_support.run_cli_here`: what a
+command says and returns, its ROS client over DDS as in a process of its own): a process of
+its own cost an interpreter start and its imports (~1.5-2.6 s of CPU), during which the
+suite's paced loop ran on for nobody. ``tests/ros/test_gait_closed_loop.py`` runs the
+command as a process (a roll, and a refusal before any ROS)."""
 
 from __future__ import annotations
 
@@ -12,7 +18,7 @@ import time
 import numpy as np
 import pytest
 
-from tests.ros_support import run_cli, run_cli_here
+from tests.ros_support import run_cli_here
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
@@ -29,7 +35,7 @@ PACED = ("-p", "lockstep_real_time_factor:=1.0")
 
 
 def test_gait_says_when_no_suite_is_up_and_rolls_the_six_bar(cli, tmp_path):
-    r = run_cli("gait", "six_bar", "six_bar_roll", "--faces", "1", "-n", NS, "--timeout", "1")
+    r = run_cli_here("gait", "six_bar", "six_bar_roll", "--faces", "1", "-n", NS, "--timeout", "1")
     assert r.returncode == 3, r.stdout + r.stderr
     assert r.stderr.strip().splitlines() == [f"error: no simulator answers in namespace {NS} after 1 s (is the suite "
                                              "up? `tensegrity up --scene six_bar_rest`)"]
@@ -44,15 +50,12 @@ def test_gait_says_when_no_suite_is_up_and_rolls_the_six_bar(cli, tmp_path):
         assert up.popen.poll() is None and time.monotonic() < deadline, _stdout_so_far(up)
         time.sleep(0.2)
 
-    # what the command says and returns, in this process: no interpreter start (~2.6 s of CPU)
-    # while the suite's loop runs
     r = run_cli_here("gait", "three_bar", "three_bar_crawl", "-n", NS, "--timeout", "30")
     assert r.returncode == 1, r.stdout + r.stderr
     assert r.stderr.strip().splitlines() == ["error: the running suite simulates the robot six_bar (scene "
                                              "'six_bar_rest'), not three_bar"]
 
-    r = run_cli("gait", "six_bar", "six_bar_roll", "--faces", "1", "-n", NS, "--timeout", "30", "--settle", "0",
-                timeout=300)
+    r = run_cli_here("gait", "six_bar", "six_bar_roll", "--faces", "1", "-n", NS, "--timeout", "30", "--settle", "0")
     assert r.returncode == 0, r.stdout + r.stderr
     assert r.stdout.startswith("succeeded:"), r.stdout
     distance = float(re.search(r"distance rolled: (\S+) m", r.stdout).group(1))
@@ -97,8 +100,8 @@ def test_a_gait_waits_for_slow_motors_to_arrive(cli):
     while "cable controller ready" not in _stdout_so_far(up):
         assert up.popen.poll() is None and time.monotonic() < deadline, _stdout_so_far(up)
         time.sleep(0.2)
-    r = run_cli("gait", "three_bar", "three_bar_crawl", "--repeats", "1", "-n", ns, "--timeout", "30",
-                "--settle", "0", timeout=300)
+    r = run_cli_here("gait", "three_bar", "three_bar_crawl", "--repeats", "1", "-n", ns, "--timeout", "30",
+                     "--settle", "0")
     assert r.returncode == 0, r.stdout + r.stderr
     after = float(re.match(r"succeeded: within the goal tolerance (\S+) s after the end", r.stdout).group(1))
     assert 1.0 < after < 1.0 + np.log(0.6 / 1e-4), r.stdout

@@ -358,6 +358,26 @@ def cap_mass(robot: Robot, rod: int) -> float:
     return 1.0 / (1.0 / mass + half**2 / inertia)
 
 
+def contact_point_mass(robot: Robot, rod: int) -> float:
+    """The effective mass [kg] of the contact point of a cap of rod ``rod`` lying along the
+    floor, pushed along the floor across the rod's axis (the friction anchor's force there):
+    the point is ``rho = (L/2) a - r n`` from the rod's centre (cap radius ``r``), and a force
+    along a unit ``t`` (``t``, ``a`` and ``n`` orthogonal) turns the rod about ``n`` with the
+    lever ``L/2`` and spins it about its axis with the lever ``r``, so ``1 / m_eff = 1/m +
+    (L/2)^2 / I_t + r^2 / I_a`` (transverse and axial inertias about the centre, the point
+    masses at the caps in ``m`` and ``I_t``; on the axis they add nothing to ``I_a``). The
+    axial term dominates a rod: a thin rod's ``I_a`` is small, so its caps' friction anchor
+    meets a fast spin mode. The anchor's stiffness ``k_t`` gives a mode of at least
+    ``sqrt(k_t / m_eff)`` (Rayleigh), its damping ``c_t`` the rate ``c_t / m_eff``."""
+    a, b = (int(x) for x in robot.rods.ends[rod])
+    half = 0.5 * float(np.linalg.norm(robot.nodes[b] - robot.nodes[a]))
+    riders = robot.node_masses[[a, b]]
+    mass = float(robot.rods.mass[rod] + riders.sum())
+    inertia = float(robot.rods.inertia[rod, 0] + riders.sum() * half**2)
+    radius = float(robot.rods.cap_radius[rod])
+    return 1.0 / (1.0 / mass + half**2 / inertia + radius**2 / float(robot.rods.inertia[rod, 1]))
+
+
 def step_fits(reader: Reader, model: RobotModelSpec, effects: SceneEffects, step: float,
               d: dict[str, Any], lift: float = 0.0) -> None:
     """Refuse a fixed step ``step`` [s] that RK4 cannot follow on the robot as drawn, with
@@ -452,9 +472,11 @@ def step_fits(reader: Reader, model: RobotModelSpec, effects: SceneEffects, step
                                  + (f" (with its dissipation {contact.dissipation:g} s/m, {stiff:.4g} N/m at up to "
                                     f"{speed:.3g} m/s)" if speed > 0.0 else ""))
         if friction is not None:
-            consider(rod, friction.tangential_stiffness, f"sticking on the floor it meets "
-                                                         f"{friction.tangential_stiffness:g} N/m of friction anchor",
-                     friction.tangential_damping)
+            m_t = contact_point_mass(robot, rod)
+            consider(rod, friction.tangential_stiffness, mass=m_t, damping=friction.tangential_damping,
+                     what=f"a cap sticking on the floor ({m_t:.3g} kg of the rod moving with its contact point, "
+                          f"spinning it) meets {friction.tangential_stiffness:g} N/m and "
+                          f"{friction.tangential_damping:g} N s/m of friction anchor")
     if worst is None or step <= worst[0]:
         return
     longest, omega, mass, rod, what = worst

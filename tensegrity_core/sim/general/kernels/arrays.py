@@ -130,11 +130,11 @@ def gather_sum(values: FloatArray, table: IntArray) -> FloatArray:
 
 
 def scatter(index: IntArray, values: FloatArray, n: int) -> FloatArray:
-    """``out[:, j] = sum of values[:, i] with index[i] == j`` for values (B, k, 3) -> (B, n, 3)."""
-    B, k = values.shape[:2]
-    flat = (np.arange(B)[:, None] * n + index[None, :]).ravel()
-    v = values.reshape(B * k, 3)
-    out: FloatArray = np.stack([np.bincount(flat, weights=v[:, j], minlength=B * n) for j in range(3)], axis=1)
+    """``out[:, j] = sum of values[:, i] with index[i] == j`` for values (B, k, 3) -> (B, n, 3): one
+    ``bincount`` over every entry, each sum in the order of ``i``."""
+    B = len(values)
+    flat = (np.arange(0, 3 * B * n, 3 * n)[:, None] + 3 * index)[..., None] + np.arange(3)   # (B, k, 3) entries
+    out = np.asarray(np.bincount(flat.ravel(), weights=values.ravel(), minlength=3 * B * n), dtype=np.float64)
     return out.reshape(B, n, 3)
 
 

@@ -100,9 +100,10 @@ class RobotSystem:
         self.kernels = choose_kernels(kernels)
         self._module: ModuleType = loops if self.kernels == "numba" else arrays
         self._steps: ModuleType = step_loops if self.kernels == "numba" else arrays
-        # the numpy kernels' index arrays of the moving bodies, built once per plan
-        self._options: dict[str, body_arrays.BodyIndex] = {} if self.kernels == "numba" else {
-            "bodies": body_arrays.body_index(plan.on_body, plan.on_offset, plan.body_dof, plan.n_dof)}
+        # the numpy kernels' index arrays of the moving bodies and the cables, built once per plan
+        self._options: dict[str, body_arrays.BodyIndex | arrays.CableIndex] = {} if self.kernels == "numba" else {
+            "bodies": body_arrays.body_index(plan.on_body, plan.on_offset, plan.body_dof, plan.n_dof),
+            "cables": arrays.cable_index(plan.cable_a, plan.cable_b)}
 
     def with_chart(self, R_ref: ArrayLike) -> RobotSystem:
         """The same equations in other rotation charts."""
