@@ -26,7 +26,7 @@ from tensegrity_core.class2 import PAPER_PARAMS, end_effector_of, forward_kinema
 from tensegrity_core.class2.names import ACTUATED_JOINTS
 from tensegrity_ros.apps.sim_client import NS_PER_S, JointRecord, SimClient
 from tensegrity_ros.rclpy_utils.futures import on_executor, wait_done
-from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
+from tensegrity_ros.rclpy_utils.matching import wait_for_action_server, wait_until_server_heard
 
 #: End-effector waypoints, offsets [m] from D at rho1 = rho2 = 0.7 (the scene's rest).
 WAYPOINT_OFFSETS = ((0.08, 0.0), (0.08, 0.06), (-0.04, 0.06), (0.0, 0.0))
@@ -112,7 +112,7 @@ class ControllerClient:
 
     def wait_for_servers(self, timeout: float = 60.0) -> None:
         for client in (self.move, self.follow):
-            if not client.wait_for_server(timeout_sec=timeout):
+            if not wait_for_action_server(self.sim.node, client, timeout):
                 raise RuntimeError(f"the controller's action {client._action_name} is not available "
                                    f"within {timeout:g} s")
             wait_until_server_heard(self.sim.node, client._action_name, wait_done, timeout)

@@ -219,7 +219,7 @@ def play_gait(robot: str, gait: Gait, ros_args: list[str], *, action: str, timeo
 
     from tensegrity_ros.cli.ros_clients import client_node
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
-    from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
+    from tensegrity_ros.rclpy_utils.matching import wait_for_action_server, wait_until_server_heard
 
     points = trajectory_points(gait)
     rclpy, node = client_node("tensegrity_gait", ros_args)
@@ -231,7 +231,7 @@ def play_gait(robot: str, gait: Gait, ros_args: list[str], *, action: str, timeo
     handle = None
     try:
         check_scene(running_scene(node, executor, timeout), robot, gait.cables)
-        if not client.wait_for_server(timeout_sec=timeout):
+        if not wait_for_action_server(node, client, timeout):
             raise SuiteError(f"action {node.resolve_topic_name(action)} not available after {timeout:g} s (is the "
                            "suite's cable controller up? `tensegrity up --scene six_bar_rest`)", code=3)
         wait_until_server_heard(node, action, lambda f, t: spin_until_done(executor, f, t), timeout)

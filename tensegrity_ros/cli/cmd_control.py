@@ -157,7 +157,7 @@ def _run_goal(args: argparse.Namespace, node_name: str, action: Any, goal: Any, 
 
     from tensegrity_ros.cli.ros_clients import check_ros_name, client_node, namespace_hint
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
-    from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
+    from tensegrity_ros.rclpy_utils.matching import wait_for_action_server, wait_until_server_heard
 
     check_ros_name(args.action, "--action")
     rclpy, node = client_node(node_name, args.ros_args)
@@ -167,7 +167,7 @@ def _run_goal(args: argparse.Namespace, node_name: str, action: Any, goal: Any, 
     bar: Any = None              # shown once the controller is there: an error before it is one line
     handle = None
     try:
-        if not client.wait_for_server(timeout_sec=args.timeout):
+        if not wait_for_action_server(node, client, args.timeout):
             actions = (n[:-len(SEND_GOAL)] for n, _ in node.get_service_names_and_types() if n.endswith(SEND_GOAL))
             raise CliError(f"action {node.resolve_topic_name(args.action)} not available after {args.timeout:g} s "
                            f"(is the controller up? `tensegrity up`){namespace_hint(args.action, actions)}", code=3)

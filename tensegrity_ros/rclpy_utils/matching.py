@@ -24,7 +24,7 @@ from typing import Any
 
 #: Seconds the matches must hold before sending (about 25x the gap seen under load).
 MATCH_SETTLE_S = 0.25
-#: Seconds between two looks of :func:`wait_for_service` for a service's server.
+#: Seconds between two looks of :func:`wait_for_service` and :func:`wait_for_action_server`.
 SERVER_POLL_S = 0.01
 
 
@@ -37,9 +37,23 @@ def wait_for_service(client: Any, timeout_s: float) -> bool:
     gives a fresh client in ~0.1 s on loopback was seen ~0.25 s after the client was made,
     at every client's start (measured: 0.25 s, against 0.09-0.12 s looking every 10 ms), and
     on a loaded machine its timeout ran long. ``service_is_ready`` is one call into rcl."""
+    return _wait_until_ready(client.service_is_ready, client.context, timeout_s)
+
+
+def wait_for_action_server(node: Any, client: Any, timeout_s: float) -> bool:
+    """Whether the action ``client`` (rclpy's ``ActionClient``, made on ``node``) has a
+    server: True as soon as it has, False after ``timeout_s`` s of wall time or once
+    ``node``'s context is shut down. ``ActionClient.wait_for_server`` has the same 0.25 s
+    sleeps as ``Client.wait_for_service`` (:func:`wait_for_service`)."""
+    return _wait_until_ready(client.server_is_ready, node.context, timeout_s)
+
+
+def _wait_until_ready(ready: Callable[[], bool], context: Any, timeout_s: float) -> bool:
+    """Whether ``ready()`` turned true, looked at every :data:`SERVER_POLL_S` s until
+    ``timeout_s`` s of wall time have passed or ``context`` is shut down."""
     deadline = time.monotonic() + timeout_s
-    while client.context.ok():
-        if client.service_is_ready():
+    while context.ok():
+        if ready():
             return True
         if time.monotonic() >= deadline:
             return False

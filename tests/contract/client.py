@@ -51,15 +51,17 @@ class Client:
         """An rclpy ActionClient of ``name``, once its server is there."""
         from rclpy.action import ActionClient
 
+        from tensegrity_ros.rclpy_utils.matching import wait_for_action_server
+
         action = ActionClient(self.node, action_type, name)
         self._actions.append(action)
-        assert action.wait_for_server(timeout_sec=PATIENCE), f"no action server {name}"
+        assert wait_for_action_server(self.node, action, PATIENCE), f"no action server {name}"
         self._heard_by(name)
         return action
 
     def _heard_by(self, action_name: str) -> None:
         """Until the server of ``action_name`` answers a request whose reply reader was created
-        after the action client's. ``wait_for_server()`` is this participant's side of discovery
+        after the action client's. ``wait_for_action_server`` is this participant's side of discovery
         only; the server matches the client's reply readers later, and Fast DDS drops an answer
         whose reader is still not matched after the response writer's max_blocking_time (100 ms
         by default). Readers are announced in creation

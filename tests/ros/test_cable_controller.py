@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from tensegrity_ros.rclpy_utils.futures import on_executor, wait_done
-from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
+from tensegrity_ros.rclpy_utils.matching import wait_for_action_server, wait_until_server_heard
 from tests.ros_support import FeedbackLog, heard_by, open_context
 
 pytestmark = pytest.mark.ros
@@ -58,7 +58,7 @@ def cable_rig(folder, scene: str, sim_params: tuple[str, ...], client_name: str,
                 if before is not None:
                     before(client)
                 action = ActionClient(client.node, FollowJointTrajectory, ACTION)
-                assert action.wait_for_server(timeout_sec=60)
+                assert wait_for_action_server(client.node, action, 60)
                 assert wait_until_server_heard(client.node, ACTION, wait_done, 60)
                 _wait_for_the_controllers_answer(client)
                 yield client, action, sim, ctl, feedback_log

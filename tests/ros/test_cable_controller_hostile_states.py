@@ -15,7 +15,7 @@ import time
 import pytest
 
 from tensegrity_ros.rclpy_utils.futures import spin_until_done
-from tensegrity_ros.rclpy_utils.matching import wait_for_matches, wait_until_server_heard
+from tensegrity_ros.rclpy_utils.matching import wait_for_action_server, wait_for_matches, wait_until_server_heard
 from tests.process_groups import exited
 from tests.ros_support import FeedbackLog, Proc, heard_by, probe
 
@@ -81,7 +81,7 @@ def test_unusable_cable_states_during_a_goal_are_ignored_and_the_goal_goes_on(tm
             states(1)
             joint_state(1)                                    # active: it answers
             action = ActionClient(node, FollowJointTrajectory, ACTION)
-            assert action.wait_for_server(timeout_sec=120)
+            assert wait_for_action_server(node, action, 120)
             assert wait_until_server_heard(node, ACTION, lambda f, t: spin_until_done(executor, f, t), 120)
             goal = FollowJointTrajectory.Goal()
             goal.trajectory.joint_names = ["long1"]

@@ -23,7 +23,7 @@ import pytest
 
 from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics
 from tensegrity_ros.rclpy_utils.futures import spin_until_done
-from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
+from tensegrity_ros.rclpy_utils.matching import wait_for_action_server, wait_until_server_heard
 from tests.ros_support import FeedbackLog, open_context, run_cli
 
 pytestmark = pytest.mark.ros
@@ -63,7 +63,7 @@ class Client:
         self.node.create_subscription(ActuatorForces, "actuator_forces", self.commands.append, 100)
         self.Move, self.Follow = MoveEndEffector, FollowActuatorTrajectory
         for client, name in ((self.move, "move_end_effector"), (self.follow, "follow_actuator_trajectory")):
-            assert client.wait_for_server(timeout_sec=60), "no action server"
+            assert wait_for_action_server(self.node, client, 60), "no action server"
             assert wait_until_server_heard(self.node, name, lambda f, t: spin_until_done(self.executor, f, t), 60)
 
     def spin_until(self, cond, timeout: float = 60.0) -> None:

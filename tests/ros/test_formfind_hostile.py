@@ -20,6 +20,7 @@ import pytest
 
 from tensegrity_core.general import form_find, load_example
 from tensegrity_ros.rclpy_utils.futures import wait_done
+from tensegrity_ros.rclpy_utils.matching import wait_for_service
 from tests.hostile_requests import TABLE, alias_bomb, deep_flow_nesting, huge_value, memory_mib, tower_yaml
 from tests.ros_support import probe
 
@@ -49,7 +50,7 @@ def _node(log, namespace: str, *params: str):
             client = client_probe.node.create_client(FindForm, f"/{namespace}/find_form",
                                                      qos_profile=QoSProfile(depth=100))
             proc.wait_for("find_form ready")
-            assert client.wait_for_service(timeout_sec=30)
+            assert wait_for_service(client, 30)
 
             def send(text: str):
                 return client.call_async(FindForm.Request(structure=text))

@@ -10,6 +10,7 @@ import pytest
 
 from tensegrity_core.general import example_path
 from tensegrity_ros.rclpy_utils.futures import wait_done
+from tensegrity_ros.rclpy_utils.matching import wait_for_service
 from tests.ros_support import probe
 
 pytestmark = pytest.mark.ros
@@ -64,7 +65,7 @@ def formfind(tmp_path_factory):
     proc.wait_for("find_form ready")
     with probe("ff_test_client", multithreaded=True, spin=True) as client_probe:
         client = client_probe.node.create_client(FindForm, "find_form", qos_profile=QoSProfile(depth=100))
-        assert client.wait_for_service(timeout_sec=30)
+        assert wait_for_service(client, 30)
 
         def call(text, tol=0.0, max_iter=0, timeout=60.0):
             future = client.call_async(FindForm.Request(structure=text, tolerance=tol, max_iterations=max_iter))

@@ -7,6 +7,7 @@ import math
 import pytest
 
 from tensegrity_ros.rclpy_utils.futures import spin_until_done
+from tensegrity_ros.rclpy_utils.matching import wait_for_service
 from tests.ros_support import probe
 
 pytestmark = pytest.mark.ros
@@ -30,7 +31,7 @@ def ik_service(tmp_path_factory):
         # is deep (SERVICE_QOS), so it never loses a request.
         client = client_probe.node.create_client(SolveIK, "solve_ik", qos_profile=QoSProfile(depth=1000))
         executor = client_probe.executor
-        assert client.wait_for_service(timeout_sec=30)
+        assert wait_for_service(client, 30)
 
         def call(x, y, seed=()):
             future = client.call_async(SolveIK.Request(x=x, y=y, seed=list(seed)))

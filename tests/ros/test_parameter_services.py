@@ -18,6 +18,7 @@ import math
 import pytest
 
 from tensegrity_ros.rclpy_utils.futures import spin_until_done
+from tensegrity_ros.rclpy_utils.matching import wait_for_service
 from tests.process_groups import exited
 from tests.ros_support import Proc, probe
 
@@ -64,7 +65,7 @@ def nodes(tmp_path_factory):
                        for name in NODES}
             for name, by_type in clients.items():
                 for client in by_type.values():
-                    assert client.wait_for_service(timeout_sec=120), f"{name}: {procs[name].stderr()}"
+                    assert wait_for_service(client, 120), f"{name}: {procs[name].stderr()}"
 
             def call(name, srv, request):
                 future = clients[name][srv].call_async(request)

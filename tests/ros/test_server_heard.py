@@ -36,14 +36,14 @@ def test_a_server_is_heard_only_through_its_parameter_services(ros_context, para
     from simulation_interfaces.action import SimulateSteps
 
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
-    from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
+    from tensegrity_ros.rclpy_utils.matching import wait_for_action_server, wait_until_server_heard
 
     with _action_server(parameter_services):
         node = rclpy.create_node("heard_client", context=ros_context)
         ex = SingleThreadedExecutor(context=ros_context)
         ex.add_node(node)
         action = ActionClient(node, SimulateSteps, "heard_steps")
-        assert action.wait_for_server(timeout_sec=60)
+        assert wait_for_action_server(node, action, 60)
         heard = wait_until_server_heard(node, "heard_steps", lambda f, t: spin_until_done(ex, f, t), 60)
         assert heard is parameter_services
         assert not any(name.endswith("/get_parameters")
@@ -55,19 +55,26 @@ def test_a_server_is_heard_only_through_its_parameter_services(ros_context, para
         node.destroy_node()
 
 
-def test_wait_for_service_finds_a_server_and_gives_up_without_one(ros_context):
-    """True once a server in another participant is there, False after its timeout when none
-    is, and False once the client's context is shut down (no wait past it). ~1 s."""
+def test_server_waits_find_a_server_and_give_up_without_one(ros_context):
+    """``wait_for_service``: True once a server in another participant is there, False after
+    its timeout when none is, and False once the client's context is shut down (no wait past
+    it); ``wait_for_action_server`` False after its timeout and after the shutdown (its True
+    path: test_a_server_is_heard_only_through_its_parameter_services). ~1 s."""
     import rclpy
+    from rclpy.action import ActionClient
+    from simulation_interfaces.action import SimulateSteps
     from std_srvs.srv import Trigger
 
-    from tensegrity_ros.rclpy_utils.matching import wait_for_service
+    from tensegrity_ros.rclpy_utils.matching import wait_for_action_server, wait_for_service
 
     node = rclpy.create_node("wait_for_service_client", context=ros_context)
     absent = node.create_client(Trigger, "no_such_service")
+    absent_action = ActionClient(node, SimulateSteps, "no_such_action")
     assert wait_for_service(absent, 0.2) is False
+    assert wait_for_action_server(node, absent_action, 0.2) is False
     with probe("wait_for_service_server", spin=True) as server:
         server.node.create_service(Trigger, "present_service", lambda _req, res: res)
         assert wait_for_service(node.create_client(Trigger, "present_service"), 60.0) is True
     rclpy.try_shutdown(context=ros_context)
     assert wait_for_service(absent, 60.0) is False
+    assert wait_for_action_server(node, absent_action, 60.0) is False

@@ -51,6 +51,7 @@ def test_message_and_service_between_two_processes():
     from tensegrity_msgs.srv import SolveIK
 
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
+    from tensegrity_ros.rclpy_utils.matching import wait_for_service
 
     # a namespace of its own, so nodes of other tests in this domain cannot answer instead
     namespace = f"/smoke_{os.getpid()}"
@@ -67,7 +68,7 @@ def test_message_and_service_between_two_processes():
             pub = node.create_publisher(ActuatorForces, "ping", 10)
             client = node.create_client(SolveIK, "solve_ik")
 
-            assert client.wait_for_service(timeout_sec=20.0), "service never appeared"
+            assert wait_for_service(client, 20.0), "service never appeared"
             deadline = time.monotonic() + 20.0
             while not got and time.monotonic() < deadline:
                 pub.publish(ActuatorForces(name=["f1", "f2"], force=[1.5, -2.0]))

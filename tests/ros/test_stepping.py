@@ -290,7 +290,7 @@ def test_cancelling_simulate_steps_stops_at_a_step_boundary(stepping, ros_contex
     from simulation_interfaces.msg import SimulationState
 
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
-    from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
+    from tensegrity_ros.rclpy_utils.matching import wait_for_action_server, wait_until_server_heard
 
     clock, spin = _clock_listener(ros_context)
     proc, client = stepping("initial_state:=paused", "paused_publish_rate:=0.0", f"lockstep:={str(lockstep).lower()}",
@@ -303,7 +303,7 @@ def test_cancelling_simulate_steps_stops_at_a_step_boundary(stepping, ros_contex
     ex = SingleThreadedExecutor(context=ros_context)
     ex.add_node(node)
     action = ActionClient(node, SimulateSteps, "simulate_steps")
-    assert action.wait_for_server(timeout_sec=30)
+    assert wait_for_action_server(node, action, 30)
     assert wait_until_server_heard(node, "simulate_steps", lambda f, t: spin_until_done(ex, f, t), 30)
     feedback = []
     goal_future = action.send_goal_async(SimulateSteps.Goal(steps=1_000_000),
@@ -451,7 +451,7 @@ def test_simulate_steps_gives_feedback_after_every_step(stepping, ros_context, l
     from simulation_interfaces.action import SimulateSteps
 
     from tensegrity_ros.rclpy_utils.futures import spin_until_done
-    from tensegrity_ros.rclpy_utils.matching import wait_until_server_heard
+    from tensegrity_ros.rclpy_utils.matching import wait_for_action_server, wait_until_server_heard
 
     proc, client = stepping("initial_state:=paused", "paused_publish_rate:=0.0", f"lockstep:={str(lockstep).lower()}",
                             "lockstep_timeout:=30.0")
@@ -460,7 +460,7 @@ def test_simulate_steps_gives_feedback_after_every_step(stepping, ros_context, l
     ex = SingleThreadedExecutor(context=ros_context)
     ex.add_node(node)
     action = ActionClient(node, SimulateSteps, "simulate_steps", feedback_sub_qos_profile=QoSProfile(depth=1000))
-    assert action.wait_for_server(timeout_sec=30)
+    assert wait_for_action_server(node, action, 30)
     assert wait_until_server_heard(node, "simulate_steps", lambda f, t: spin_until_done(ex, f, t), 30)
     for _ in range(3):
         feedback: list = []

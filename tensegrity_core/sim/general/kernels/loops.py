@@ -53,6 +53,24 @@ SMALL_ANGLE = 1e-4
 
 
 @jit
+def copy_vector(src: FloatArray, out: FloatArray) -> None:
+    """``out[i] = src[i]`` for every ``i`` of ``src``. The kernels copy arrays with loops, not
+    slice assignment (``out[:] = src``): numba compiles a slice assignment's shape check with
+    its error message, whose string formatting is linked into every kernel that calls it, up
+    to ~1 s of compile time each (docs/design/performance.md, the set-up's numba warm-up)."""
+    for i in range(src.shape[0]):
+        out[i] = src[i]
+
+
+@jit
+def copy_matrix(src: FloatArray, out: FloatArray) -> None:
+    """``out[i, j] = src[i, j]`` for every ``(i, j)`` of ``src`` (as :func:`copy_vector`)."""
+    for i in range(src.shape[0]):
+        for j in range(src.shape[1]):
+            out[i, j] = src[i, j]
+
+
+@jit
 def rotate(t0: float, t1: float, t2: float, R_ref: FloatArray, R: FloatArray) -> None:
     """``R = exp(hat(theta)) R_ref`` (Rodrigues; series below :data:`SMALL_ANGLE`)."""
     a2 = t0 * t0 + t1 * t1 + t2 * t2
@@ -97,7 +115,7 @@ def place(base: FloatArray, free_node: IntArray, free_axis: IntArray, on_node: I
     """Node positions ``X`` and velocities ``V`` (n, 3), rotations ``R`` (nb, 3, 3) and arms
     ``r`` (n_on, 3) [m] of one state ``y`` in the charts ``R_ref``."""
     n_dof = y.shape[0] // 2
-    X[:, :] = base
+    copy_matrix(base, X)
     V[:, :] = 0.0
     for j in range(free_node.shape[0]):
         X[free_node[j], free_axis[j]] = y[j]
@@ -284,7 +302,7 @@ def derivative(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_
     (nb, 3, 3), ``l0`` (m,), ``out``, and work arrays that keep the placement (``X``, ``V``,
     ``R``, ``r``), the nodal forces ``F``, the body wrenches and the member state afterwards."""
     place(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, y, R_ref, X, V, R, r)
-    F[:, :] = external
+    copy_matrix(external, F)
     member_forces(member_a, member_b, EA, damping, is_string, l0, X, V, F, lengths, forces)
     accelerate(free_node, free_axis, free_inv_mass, on_node, on_body, body_dof, body_mass, body_first_moment,
                body_inertia, body_inv_inertia_cm, y, R, r, F, wrench, out)
@@ -484,7 +502,7 @@ def jacobian_blocks(base: FloatArray, free_node: IntArray, free_axis: IntArray, 
     place(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, y, R_ref, X, V, R, r)
     arm = np.zeros((n, 3))
     for k in range(on_node.shape[0]):
-        arm[on_node[k]] = r[k]
+        copy_vector(r[k], arm[on_node[k]])
     f_el = external.copy()
     K = np.zeros(position.shape)
     D = np.zeros(position.shape)
@@ -524,7 +542,7 @@ def jacobian_blocks(base: FloatArray, free_node: IntArray, free_axis: IntArray, 
                 G_[1, 3], G_[1, 5] = -r2, r0
                 G_[2, 3], G_[2, 4] = r1, -r0
             else:
-                G_[:, :] = node_selection[node]
+                copy_matrix(node_selection[node], G_)
         multiply(kmat, Ga, kGa)
         multiply(kmat, Gb, kGb)
         multiply(dmat, Ga, dGa)
@@ -577,9 +595,11 @@ def rk_stages(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
               body_inv_inertia_cm: FloatArray, member_a: IntArray, member_b: IntArray, EA: FloatArray,
               damping: FloatArray, is_string: BoolArray, external: FloatArray,
               y: FloatArray, h: float, R_ref: FloatArray, l0: FloatArray, A: FloatArray,
-              first: int, last: int, K: FloatArray) -> None:
+              first: int | np.int64, last: int | np.int64, K: FloatArray) -> None:
     """Stages ``first .. last - 1`` of an explicit Runge-Kutta tableau ``A``:
-    ``K[s] = f(y + h sum_j A[s, j] K[j])`` with the rest lengths ``l0[s]`` (one row per stage)."""
+    ``K[s] = f(y + h sum_j A[s, j] K[j])`` with the rest lengths ``l0[s]`` (one row per stage).
+    Kernels pass ``first`` and ``last`` as ``np.int64``, as a call from Python does: numba
+    compiles a kernel again for every literal integer argument (``1``, ``5``) it is called with."""
     N = y.shape[0]
     n = base.shape[0]
     X, V, F = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
@@ -644,7 +664,7 @@ def dop853_attempt(base: FloatArray, free_node: IntArray, free_axis: IntArray, f
     n_stages = E5.shape[0] - 1                              # 12
     rk_stages(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
               body_first_moment, body_inertia, body_inv_inertia_cm, member_a, member_b, EA, damping, is_string,
-              external, y, h, R_ref, l0, A, 1, n_stages + 1, K)
+              external, y, h, R_ref, l0, A, np.int64(1), n_stages + 1, K)
     combine(y, h, A[n_stages, :n_stages], K, y_new)
     return embedded_error(y, y_new, K, E5, E3, h, rtol, atol)
 
@@ -778,10 +798,10 @@ def rk4_run(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv
     while True:
         left = t_bound - t
         h = left if left < h_fixed * (1.0 + 1e-9) else h_fixed
-        K[0] = f
+        copy_vector(f, K[0])
         rk_stages(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
                   body_first_moment, body_inertia, body_inv_inertia_cm, member_a, member_b, EA, damping, is_string,
-                  external, y, h, R_ref, l0, A, 1, 5, K)
+                  external, y, h, R_ref, l0, A, np.int64(1), np.int64(5), K)
         combine(y, h, weights, K, y_new)
         t_new = t_bound if h == left else t + h
         steps += 1
@@ -792,16 +812,16 @@ def rk4_run(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_inv
             return steps, t, t_new, sample
         end = covered(samples, sample, t_new)
         if exactly_at_end(samples, sample, end, t_new):
-            Y[sample] = y_new
+            copy_vector(y_new, Y[sample])
         else:
             for j in range(sample, end):
                 hermite_value(y, f, y_new, K[4], t_new - t, (samples[j] - t) / (t_new - t), Y[j])
         sample = end
         t = t_new
-        y[:] = y_new
-        f[:] = K[4]
-        g0[:] = g1
-        r0[:] = r1
+        copy_vector(y_new, y)
+        copy_vector(K[4], f)
+        copy_vector(g1, g0)
+        copy_vector(r1, r0)
 
 
 @jit
@@ -865,7 +885,7 @@ def dop853_run(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_
             return False, steps, attempts, t_start, t_new, h_abs, sample, dense
         end = covered(samples, sample, t_new)
         if exactly_at_end(samples, sample, end, t_new):
-            Y[sample] = y_new
+            copy_vector(y_new, Y[sample])
         elif end > sample:
             dop853_dense(base, free_node, free_axis, free_inv_mass, on_node, on_body, on_offset, body_dof, body_mass,
                          body_first_moment, body_inertia, body_inv_inertia_cm, member_a, member_b, EA, damping,
@@ -875,7 +895,7 @@ def dop853_run(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_
                 dop853_value(F, y, (samples[j] - t) / h, Y[j])
         sample = end
         t = t_new
-        y[:] = y_new
-        K[0] = K[n_stages]
-        g0[:] = g1
-        r0[:] = r1
+        copy_vector(y_new, y)
+        copy_vector(K[n_stages], K[0])
+        copy_vector(g1, g0)
+        copy_vector(r1, r0)

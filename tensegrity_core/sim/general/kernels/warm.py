@@ -3,11 +3,11 @@ on-disk cache, once (``./run setup`` does it after installing numba or changing 
 
 numba compiles a kernel the first time a process calls it and, with ``cache=True``, keeps
 the machine code next to the sources, where every later process (test workers, the demo,
-the ROS nodes) loads it in a fraction of a second. Compiling all of them (42 kernels, 45
-signatures) takes about 40 s of CPU; in ``./run setup`` it shares the two cores with the
+the ROS nodes) loads it in a fraction of a second. Compiling all of them (47 kernels, 49
+signatures) takes about 60 s of CPU; in ``./run setup`` it shares the two cores with the
 interface builds, the byte-compilation and mypy, and is the set-up's last step, so it runs in two
 processes: first the kernels both back ends call (the general right-hand side, ~10 s of CPU), then
-the robot back end's (~10 s) in a forked process beside the rest of the general ones (~19 s).
+the robot back end's (~21 s) in a forked process beside the rest of the general ones (~26 s).
 The two compile disjoint kernels, so neither writes a cache file of the other's. The line it
 prints gives the wall time and the CPU of both processes. Doing it here keeps that cost out of the first simulation a user runs and out of
 parallel test workers that would each compile the same kernels at once.

@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 from tensegrity_core.robot.contact import SPIN_TOLERANCE
 from tensegrity_core.robot.motor import REEL_SPEED, TENSION
 from tensegrity_core.sim.general.kernels.jit import jit
-from tensegrity_core.sim.general.kernels.loops import nodal_wrenches, place, rates, rotate
+from tensegrity_core.sim.general.kernels.loops import copy_matrix, nodal_wrenches, place, rates, rotate
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -250,7 +250,7 @@ def derivative(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_
     n_dof = free_node.shape[0] + 6 * body_dof.shape[0]
     xv = y[:2 * n_dof]
     place(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, xv, R_ref, X, V, R, r)
-    F[:, :] = external
+    copy_matrix(external, F)
     out[2 * n_dof:] = 0.0
     rest_lengths(cable_l0, cable_motor, y, 2 * n_dof, l0)
     cable_forces(cable_a, cable_b, cable_k, cable_c, cable_t_max, l0, X, V, F, lengths, rates_, tensions, switch,
@@ -365,7 +365,7 @@ def sampled_update(base: FloatArray, free_node: IntArray, free_axis: IntArray, o
         t0, t1, t2 = y[dd], y[dd + 1], y[dd + 2]
         if t0 * t0 + t1 * t1 + t2 * t2 > RECHART_ANGLE * RECHART_ANGLE:
             rotate(t0, t1, t2, R_ref[bb], R[bb])
-            R_ref[bb, :, :] = R[bb, :, :]
+            copy_matrix(R[bb], R_ref[bb])
             y[dd], y[dd + 1], y[dd + 2] = 0.0, 0.0, 0.0
 
 

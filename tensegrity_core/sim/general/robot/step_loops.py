@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tensegrity_core.sim.general.kernels.jit import jit
-from tensegrity_core.sim.general.kernels.loops import place
+from tensegrity_core.sim.general.kernels.loops import copy_vector, place
 from tensegrity_core.sim.general.robot.loops import BY_SIGN, OFF, ON, derivative, evaluate, sampled_update
 
 FloatArray = NDArray[np.float64]
@@ -152,7 +152,7 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
     switch = np.empty(ncap + m)
     g0, rate0, g1, rate1 = np.empty(ncap + m), np.empty(ncap + m), np.empty(ncap + m), np.empty(ncap + m)
     for s in range(aims.shape[0]):
-        z0[:] = y
+        copy_vector(y, z0)
         left = h                              # what is left of the step [s]
         H = h                                 # the piece being taken [s]: what is left, or up to a crossing
         pieces, which, to_crossing = 0, -1, False
@@ -162,7 +162,7 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
             # to a crossing, its first stage is the one in K[0]: the same state, charts and modes
             for stage in range(1 if to_crossing else 0, 4):
                 if stage == 0:
-                    z[:] = z0
+                    copy_vector(z0, z)
                 else:
                     c = 0.5 * H if stage < 3 else H
                     for i in range(N):
@@ -182,7 +182,7 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
                 y1[i] = z0[i] + H / 6.0 * (K[0, i] + 2.0 * K[1, i] + 2.0 * K[2, i] + K[3, i])
             if to_crossing:
                 # at the crossing under the same modes: the switch flips, the rest is the next piece
-                z0[:] = y1
+                copy_vector(y1, z0)
                 left = left - H
                 H = left
                 switch[which] = OFF if switch[which] == ON else ON
@@ -197,8 +197,8 @@ def run_steps(base: FloatArray, free_node: IntArray, free_axis: IntArray, free_i
             pieces += 1
             H = x * left                      # the step is redone up to the crossing: another piece
             to_crossing = True
-        y[:] = y1
-        y_end[:] = y
+        copy_vector(y1, y)
+        copy_vector(y, y_end)
         sampled_update(base, free_node, free_axis, on_node, on_body, on_offset, body_dof, cable_a, cable_b, cable_k,
                        cable_t_max, motor_cable, motor_lo, motor_hi, motor_tau, motor_speed, cap_node, cap_body,
                        cap_radius, floor_normal, floor_point, floor_params, y, R_ref, h, aims[s], modes, X, V, R, r)
