@@ -12,6 +12,12 @@ CPU at every start of the IK node. Such a package writes its names once, as impo
 its module then. The names and their modules are read from those imports in the package's
 own source, so that they are written in one place; a name that is not among them but is a
 submodule of the package is imported as one (``tensegrity_core.sim.scene``).
+
+Why not scientific-python's ``lazy_loader``: its ``attach_stub`` reads the names from a
+``.pyi`` stub beside the package, which type checkers then read instead of the package's
+source (two files to keep in step, and a stub that hides the source from mypy); its
+``attach`` takes them as a dict that mypy and ruff cannot see. Reading the package's own
+``TYPE_CHECKING`` imports keeps one place for the names that every tool reads.
 """
 
 from __future__ import annotations
