@@ -96,7 +96,6 @@ from tensegrity_ros.nodes.common import ParameterValueError, declare, spin_node
 from tensegrity_ros.nodes.scene_param import declare_scene
 from tensegrity_ros.nodes.sim.cable_commands import parse_cable_command
 from tensegrity_ros.nodes.state_watch import WATCH_PERIOD, StateWatch
-from tensegrity_ros.rclpy_utils.first_message import HeardPublisher
 from tensegrity_ros.rclpy_utils.messages import duration_msg, stamp_ns
 from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
 from tensegrity_ros.rclpy_utils.raw_take import take_all, take_waiting
@@ -170,7 +169,7 @@ class CableControllerNode(Node):
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._watch = StateWatch(WATCH_PERIOD)           # the silence since the last joint state or goal start
         # a history a briefly stalled recorder can be repaired from (the simulator's depth)
-        self.pub = HeardPublisher(self, CableCommand, "cable_commands", QoSProfile(depth=1000), own_subscriptions=1)
+        self.pub = self.create_publisher(CableCommand, "cable_commands", QoSProfile(depth=1000))
         self._joint_states = self.create_subscription(JointState, "joint_states", self.on_joints, QoSProfile(depth=1))
         self.create_timer(WATCH_PERIOD, self._watch_states, clock=self._steady)
         self.create_subscription(CableStates, "cable_states", self.on_cables, QoSProfile(depth=10))
@@ -337,7 +336,8 @@ class CableControllerNode(Node):
             header=msg.header, joint_names=list(self.joints), speed_scaling_factor=1.0,
             reference=JointTrajectoryPoint(positions=reference, velocities=rates, accelerations=accelerations,
                                            time_from_start=when),
-            feedback=JointTrajectoryPoint(positions=feedback, effort=[float(msg.tension[index[n]]) for n in self.joints]),
+            feedback=JointTrajectoryPoint(positions=feedback,
+                                          effort=[float(msg.tension[index[n]]) for n in self.joints]),
             error=JointTrajectoryPoint(positions=[r - f for r, f in zip(reference, feedback)]),
             output=JointTrajectoryPoint(positions=list(reference)))
 

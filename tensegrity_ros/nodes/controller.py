@@ -81,7 +81,6 @@ from tensegrity_ros.nodes.controller_messages import (
     FloatArray,
     Goal,
     JointSample,
-    NoStateError,
     OldStampError,
     far_start_warning,
     feedback,
@@ -94,7 +93,6 @@ from tensegrity_ros.nodes.controller_messages import (
 )
 from tensegrity_ros.nodes.scene_param import declare_scene
 from tensegrity_ros.nodes.state_watch import WATCH_PERIOD, StateWatch
-from tensegrity_ros.rclpy_utils.first_message import HeardPublisher
 from tensegrity_ros.rclpy_utils.messages import duration_to_s
 from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
 from tensegrity_ros.rclpy_utils.raw_take import take_all, take_waiting
@@ -173,7 +171,7 @@ class ControllerNode(Node):
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)   # their wait is wall time
 
         # a history a briefly stalled recorder can be repaired from (the simulator's depth)
-        self.pub = HeardPublisher(self, ActuatorForces, "actuator_forces", 1000, own_subscriptions=1)
+        self.pub = self.create_publisher(ActuatorForces, "actuator_forces", 1000)
         # every command on the topic, to tell another node's (a manual command) from this one's: taken
         # at each joint state and watchdog tick from a node no executor spins (an executor's wake-up
         # per command, mostly this node's own, cost ~0.5 ms of its CPU per step), compared serialized
@@ -344,7 +342,7 @@ class ControllerNode(Node):
                 force_budget=self.force_budget * self.max_force, singular_margin=self.singular_margin))
         except PlanningError as err:
             return self._refuse(handle, result, MOVE_PLANNING_CODES.get(err.code, _MOVE.INVALID_GOAL), str(err))
-        except NoStateError as err:
+        except _NoState as err:
             return self._refuse(handle, result, _MOVE.SIMULATOR_STOPPED, str(err))
         goal = G.MoveGoal(ref, 0.0, tolerance=tol, settle_timeout=self.settle_timeout,
                           settle_window=self.settle_window)
@@ -384,7 +382,7 @@ class ControllerNode(Node):
             return self._refuse(handle, result, FOLLOW_PLANNING_CODES.get(err.code, _FOLLOW.INVALID_GOAL), str(err))
         except OldStampError as err:
             return self._refuse(handle, result, _FOLLOW.OLD_HEADER_TIMESTAMP, str(err))
-        except NoStateError as err:
+        except _NoState as err:
             return self._refuse(handle, result, _FOLLOW.SIMULATOR_STOPPED, str(err))
         goal = G.TrajectoryGoal(ref, 0.0, path_position=path[0], path_velocity=path[1],
                                 goal_position=goal_tol[0], goal_velocity=goal_tol[1], goal_time=goal_time)
@@ -417,7 +415,7 @@ class ControllerNode(Node):
 
     def _require_state(self) -> tuple[FloatArray, FloatArray, float]:
         if self._latest is None or self.ctrl.reference is None:
-            raise NoStateError(f"no joint_states received within state_timeout = {self.state_timeout:g} s: "
+            raise _NoState(f"no joint_states received within state_timeout = {self.state_timeout:g} s: "
                            "is the simulator running?")
         t, q, qdot = self._latest
         return q, qdot, t
@@ -483,6 +481,10 @@ class ControllerNode(Node):
         self._planner.shutdown(wait=True, cancel_futures=True)
         self._commands_node.destroy_node()
         super().destroy_node()  # type: ignore[no-untyped-call]  # rclpy's, through super(): not excluded by name
+
+
+class _NoState(TensegrityError):
+    """No joint state yet: nothing to plan from."""
 
 
 def main(argv: Sequence[str] | None = None) -> int:

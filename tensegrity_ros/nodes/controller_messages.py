@@ -52,10 +52,6 @@ class OldStampError(TensegrityError):
     """A trajectory ended before the controller's current time."""
 
 
-class NoStateError(TensegrityError):
-    """No joint state yet: nothing to plan from."""
-
-
 def given(value: float) -> float | None:
     """0 means "not given" in the MoveEndEffector goal; anything else is checked by the planner."""
     return None if value == 0.0 else value

@@ -318,53 +318,6 @@ def test_a_repeated_state_gets_the_same_answer_and_does_not_advance_the_law(cli,
     assert list(last["a"].force) != list(answered("a", samples[0])[0].force)   # the samples moved the law
 
 
-def test_the_first_command_waits_until_the_simulator_has_matched_the_controllers_writer(cli, ros_context):
-    """A lockstep simulator's command reader may match the controller's writer after the
-    controller has its first state (each side from its own discovery messages), and drops a
-    command that comes before: that step then waited lockstep_timeout. The controller sends
-    its first command to a subscriber once that subscriber's node has answered its
-    get_parameters (proof that it has matched the writer). Here the subscriber's node is not
-    spun for 1 s after it publishes the state, so it cannot answer in that time: the first
-    command must not have been sent before then (its source timestamp), where it went out at
-    once. One controller process: 8 s of wall time at a load of 30 on 2 cores."""
-    import rclpy
-    from rclpy.executors import SingleThreadedExecutor
-    from sensor_msgs.msg import JointState
-    from tensegrity_msgs.msg import ActuatorForces
-
-    from tensegrity_ros.rclpy_utils.futures import spin_until_done
-    from tensegrity_ros.rclpy_utils.matching import wait_for_matches, wait_until_subscribers_heard
-    from tensegrity_ros.rclpy_utils.raw_take import take_all
-
-    ctl = cli("node", "controller", "--ros-args", "-r", "__ns:=/first", log_name="controller")
-    node = rclpy.create_node("first_command_test", context=ros_context)
-    executor = SingleThreadedExecutor(context=ros_context)
-    executor.add_node(node)
-    node.create_subscription(ActuatorForces, "/first/actuator_forces", lambda _msg: None, 100)   # the one asked
-    # the same participant's reader, on a node no executor spins: taken with its source timestamps
-    reader = rclpy.create_node("first_command_reader", context=ros_context, start_parameter_services=False)
-    commands = reader.create_subscription(ActuatorForces, "/first/actuator_forces", lambda _raw: None, 100, raw=True)
-    states = node.create_publisher(JointState, "/first/joint_states", 10)
-    ctl.wait_for("controller ready")
-    wait = lambda future, s: spin_until_done(executor, future, s)     # noqa: E731
-    assert wait_for_matches([states], 1, 30.0, poll=lambda s: executor.spin_once(timeout_sec=s))
-    assert wait_until_subscribers_heard(node, [states], wait, 30.0)   # the controller takes our state
-    state = JointState(name=["rho1", "rho2", "beta"], position=[0.7, 0.7, D0.beta], velocity=[0.0, 0.0, 0.0])
-    states.publish(state)
-    time.sleep(1.0)                                                   # not spun: get_parameters unanswered
-    spun = time.time_ns()
-    got: list = []
-    end = time.monotonic() + 30.0
-    while not got and time.monotonic() < end:
-        executor.spin_once(timeout_sec=0.01)
-        got = take_all(commands)
-    assert got, "no command came"
-    assert got[0][1]["source_timestamp"] >= spun, (spun - got[0][1]["source_timestamp"]) / 1e9
-    executor.shutdown()
-    reader.destroy_node()
-    node.destroy_node()
-
-
 def test_the_demo_client_connects_to_a_controller_that_missed_the_first_state(cli, ros_context):
     """The demo's loop check (``ControllerClient.connect``) against the race that stopped the
     demo once under load: the simulator (paused, lockstep, no republishing) publishes its state
