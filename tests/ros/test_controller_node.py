@@ -610,8 +610,9 @@ def test_a_trajectory_stamped_on_the_wall_clock_is_said_in_the_log(suite):
 def test_a_trajectory_stamped_in_the_past_is_joined_and_one_that_ended_is_refused(suite):
     """As joint_trajectory_controller (validate_trajectory_msg refuses only a trajectory that
     has ended) and the cable controller: a trajectory whose start is past and whose end is not
-    is joined where it is now (its first feedback is already 0.2 s or more into it); one that
-    ended before the controller's time is OLD_HEADER_TIMESTAMP. About 1 s of the module's rig."""
+    is joined where it is now (its first feedback is already 0.2 s or more into it; the joined
+    hold lasts 3 s, so a controller running behind under load still has feedback to give before
+    the result); one that ended before the controller's time is OLD_HEADER_TIMESTAMP."""
     from builtin_interfaces.msg import Duration, Time
 
     client, _ = suite
@@ -619,8 +620,8 @@ def test_a_trajectory_stamped_in_the_past_is_joined_and_one_that_ended_is_refuse
     _, _, js = client.end_effector()
     here = ((0.5, (js.position[0], js.position[1])),)      # hold where it is for 0.5 s
 
-    def since(seconds: float) -> object:
-        traj = _traj(points=here)
+    def since(seconds: float, hold: tuple = here) -> object:
+        traj = _traj(points=hold)
         start = _stamp(js) - seconds
         traj.header.stamp = Time(sec=math.floor(start), nanosec=round((start - math.floor(start)) * 1e9) % 10**9)
         return traj
@@ -628,7 +629,7 @@ def test_a_trajectory_stamped_in_the_past_is_joined_and_one_that_ended_is_refuse
     _, res, feedback = client.run(client.follow, client.Follow.Goal(trajectory=since(0.51)))
     assert res.error_code == client.Follow.Result.OLD_HEADER_TIMESTAMP, res.error_string
     assert "ended at" in res.error_string and not feedback
-    _, res, feedback = client.run(client.follow, client.Follow.Goal(trajectory=since(0.2),
+    _, res, feedback = client.run(client.follow, client.Follow.Goal(trajectory=since(0.2, ((3.0, here[0][1]),)),
                                                                     goal_time_tolerance=Duration(sec=8)))
     assert res.error_code == client.Follow.Result.SUCCESSFUL, res.error_string
     taus = [f.desired.time_from_start.sec + 1e-9 * f.desired.time_from_start.nanosec for f in feedback]
