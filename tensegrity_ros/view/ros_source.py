@@ -170,9 +170,10 @@ class RosSource:
         answered = False
         while not self._first.wait(0.05):
             if time.monotonic() > deadline:
-                self.stop()
                 topic = self._link.structure.nodes_topic if self._link else "mechanism_state"
-                raise ViewError(f"no state on {self.node.resolve_topic_name(topic)} within {timeout:g} s "
+                topic = self.node.resolve_topic_name(topic)     # before stop() destroys the node
+                self.stop()
+                raise ViewError(f"no state on {topic} within {timeout:g} s "
                                 "(is the suite up? `tensegrity up`; in a namespace: --namespace)")
             if self._link is not None and self._link.error is not None:
                 self.stop()

@@ -7,7 +7,9 @@ so some of the announcements (the client's response reader among them) are dropp
 sent again later, while its request writer (announced on the other discovery stream)
 arrives at once. The server then has a request and no reader to answer to. With a
 ``max_blocking_time`` of 0 it drops the answer and says so ("failed to send response");
-with the suite's profile every call is answered.
+with the suite's profile every call is answered. That loss is a race the provocation makes
+likely, not certain (a fresh-clone CI run's server without the wait answered all of 60 new
+clients of a new node), so it is described in docs/design/ros.md, not asserted.
 
 The suite profile's new clients are made in a node whose participant the server already
 knows (a first answer proves it), as a user's next call is: the server then learns of each new endpoint
@@ -61,13 +63,12 @@ def _start_server(profile: Path, namespace: str, log: Path) -> subprocess.Popen:
     return server
 
 
-def _first_calls(ctx, namespace: str, rounds: int, wait_s: float, stop, *, known: bool,
+def _first_calls(ctx, namespace: str, rounds: int, wait_s: float, *, known: bool,
                  heard: bool = False) -> list[bool]:
     """``rounds`` new clients of ``solve_ik``, each called once right after
     ``wait_for_service`` (``heard``: and after ``wait_until_service_heard``) and after
     :data:`NOISE` new subscriptions (``known``: in a node the server has answered once
-    already): whether each was answered within ``wait_s`` (a liveness bound); stops early
-    when ``stop()``."""
+    already): whether each was answered within ``wait_s`` (a liveness bound)."""
     from rcl_interfaces.srv import GetParameters
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
@@ -96,8 +97,6 @@ def _first_calls(ctx, namespace: str, rounds: int, wait_s: float, stop, *, known
         node.destroy_client(client)
         for subscription in noise:
             node.destroy_subscription(subscription)
-        if stop():
-            break
     executor.shutdown()
     node.destroy_node()
     return answered
@@ -108,27 +107,11 @@ def _stop(server: subprocess.Popen) -> None:
     server.wait(timeout=30)
 
 
-def test_a_server_without_the_wait_drops_a_first_answer(ros_context, tmp_path):
-    """The provocation works: with max_blocking_time 0 the server drops an answer (it says
-    so on stderr) within 60 new clients. Its node is new to the server, so its first round
-    may take the late-joiner path: in a known node the rounds alone dropped none in 60 in 2
-    of 8 loaded runs (14 of 70 in three others), too rare for a bound of 60."""
-    log = tmp_path / "server.log"
-    server = _start_server(_server_profile(tmp_path, "no_wait", blocking_s=0), f"/first_lost_{os.getpid()}", log)
-    try:
-        answered = _first_calls(ros_context, f"/first_lost_{os.getpid()}", 60, 3.0, lambda: LOST_LINE in log.read_text(),
-                                known=False)
-    finally:
-        _stop(server)
-    assert LOST_LINE in log.read_text(), f"no answer dropped in {len(answered)} new clients"
-    assert not all(answered)
-
-
 def test_the_suite_profile_answers_every_first_call(ros_context, tmp_path):
     log = tmp_path / "server.log"
     server = _start_server(_server_profile(tmp_path, "suite", blocking_s=None), f"/first_kept_{os.getpid()}", log)
     try:
-        answered = _first_calls(ros_context, f"/first_kept_{os.getpid()}", 20, 30.0, lambda: False, known=True)
+        answered = _first_calls(ros_context, f"/first_kept_{os.getpid()}", 20, 30.0, known=True)
     finally:
         _stop(server)
     assert all(answered), f"answered: {answered}\n{log.read_text()}"
@@ -138,15 +121,14 @@ def test_the_suite_profile_answers_every_first_call(ros_context, tmp_path):
 def test_a_client_that_waits_until_the_server_heard_it_gets_every_answer_from_a_server_that_does_not_wait(
         ros_context, tmp_path):
     """What the CLI's service calls do (``tensegrity sim``, ``call ik``, ``call formfind``):
-    ``wait_until_service_heard`` before the request. The server of the first test above
-    (max_blocking_time 0: it drops an answer to a reader it has not matched, within 60 new
-    clients of a new node) answers each of 10 such clients; a probe's own answer may be
+    ``wait_until_service_heard`` before the request. A server with max_blocking_time 0 (it
+    drops an answer to a reader it has not matched) answers each of 10 such clients; a probe's own answer may be
     dropped meanwhile (the probe asks again), the requests' never are."""
     log = tmp_path / "server.log"
     namespace = f"/first_heard_{os.getpid()}"
     server = _start_server(_server_profile(tmp_path, "no_wait_heard", blocking_s=0), namespace, log)
     try:
-        answered = _first_calls(ros_context, namespace, 10, 30.0, lambda: False, known=False, heard=True)
+        answered = _first_calls(ros_context, namespace, 10, 30.0, known=False, heard=True)
     finally:
         _stop(server)
     assert all(answered), f"answered: {answered}\n{log.read_text()}"
