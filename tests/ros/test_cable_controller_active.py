@@ -98,8 +98,9 @@ def test_a_goal_sent_before_the_simulator_runs_is_held_cancelled_at_once_or_foll
         answer = client.wait_future(result, "the held goal's result")
         assert (answer.status, answer.result.error_code) == (GoalStatus.STATUS_SUCCEEDED, SUCCESSFUL), \
             answer.result.error_string
+        held = client.received[f"{HELD_NS}/cable_states"]
         client.wait(lambda: any(abs(dict(zip(m.name, m.rest_length))["long1"] - (REST - 0.02)) <= 1e-4
-                                for m in client.received[f"{HELD_NS}/cable_states"]), "long1 at the goal (its tolerance)")
+                                for m in held), "long1 at the goal (its tolerance)")
         assert "active: joint_states and cable_states received" in ctl.stderr()
     finally:
         client.close()

@@ -74,8 +74,9 @@ def _wait(condition, what: str, timeout: float = 60.0) -> None:
 
 def test_send_forces_applies_forces_refuses_what_the_simulator_rejects_and_names_another_publisher(cli, ros_context,
                                                                                                    tmp_path):
-    """Forces within the simulator's limits are applied (echo shows them). 5000 N is over the simulator's max_force (1000 N by default): refused with that limit,
-    exit 1, nothing sent (the simulator counts no rejected command). Publishers of this
+    """Forces within the simulator's limits are applied (echo shows them). 5000 N is over
+    the simulator's max_force (1000 N by default): refused with that limit, exit 1, nothing
+    sent (the simulator counts no rejected command). Publishers of this
     process on actuator_forces: one named as the suite's controller gets a note (it steps
     aside until its next goal), any other a warning naming it (once discovery has shown
     them: commands at a rate go on until it has)."""
