@@ -172,7 +172,9 @@ class CableControllerNode(Node):
         self.pub = self.create_publisher(CableCommand, "cable_commands", QoSProfile(depth=1000))
         self._joint_states = self.create_subscription(JointState, "joint_states", self.on_joints, QoSProfile(depth=1))
         self.create_timer(WATCH_PERIOD, self._watch_states, clock=self._steady)
-        self.create_subscription(CableStates, "cable_states", self.on_cables, QoSProfile(depth=10))
+        # the simulator's writers keep 100 samples: a controller stalled that long (a busy machine)
+        # still takes every state, and answers each with its controller_state and feedback
+        self.create_subscription(CableStates, "cable_states", self.on_cables, QoSProfile(depth=100))
         # every command the simulator takes, others' too: what the cables hold (controller_state).
         # Read in bulk at each cable_states by a node no executor spins: a callback per command
         # (one per simulator step, mostly this controller's own) cost 0.2-0.3 ms of CPU each
