@@ -120,6 +120,12 @@ def test_a_cluster_whose_workers_lack_the_package_is_refused_before_any_task(tmp
 
 
 def test_a_killed_sweep_keeps_its_finished_points_and_resume_runs_only_the_others(tmp_path):
+    """The sweep's process SIGKILLed mid-run: its journal keeps the finished points, and
+    resume runs only the others. The killed sweep runs its points in its own process
+    (``--workers 0``): the journal is written by that process whatever engine runs the points
+    (``run_sweep``'s store), and an embedded cluster's start (a worker process importing Dask
+    and the core) proves nothing more here; the cluster's journal after a Ctrl-C is
+    tests/sweep/test_cli.py::test_ctrl_c_ends_the_sweep_with_one_line_and_resume_runs_the_rest_once."""
     import pandas as pd
 
     doc = fold_sweep(vary={"inputs.f1.gain": {"grid": {"from": 6.0, "to": 14.0, "num": 40}}},
@@ -127,7 +133,7 @@ def test_a_killed_sweep_keeps_its_finished_points_and_resume_runs_only_the_other
     (tmp_path / "s.yaml").write_text(json.dumps(doc))
     out = tmp_path / "r.csv"
     journal = tmp_path / "r.csv.partial.jsonl"
-    proc = cli("sweep", "s.yaml", "-o", "r.csv", "--workers", "1", "--batch", "1", "--quiet", cwd=tmp_path)
+    proc = cli("sweep", "s.yaml", "-o", "r.csv", "--workers", "0", "--quiet", cwd=tmp_path)
     try:
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline and not exited(proc):
