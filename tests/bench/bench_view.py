@@ -60,6 +60,8 @@ from tests.process_groups import kill_group, wait_group
 TENSEGRITY = str(Path(sys.executable).with_name("tensegrity"))
 BAGS = Path(__file__).resolve().parents[2] / "bags"
 READY = re.compile(r"view ready: http://127\.0\.0\.1:(\d+)")
+#: The simulator node's log line once it publishes its states.
+SIM_PUBLISHING = re.compile(r"publishing at")
 #: Wall time [s] kept between a bag row's window and the bag's end (the view stops there): the
 #: page's answer to Play (its "playing at" line) comes after the bag started, by this at most.
 BAG_END_MARGIN = 0.5
@@ -100,21 +102,29 @@ WATCH = """() => { window.__shown = []; const seen = new Set();
   .observe(document.body, {subtree: true, childList: true, characterData: true}); }"""
 
 
+def _launch(name: str, command: list[str], ready: re.Pattern, env: dict,
+            log: Path) -> tuple[subprocess.Popen, re.Match]:
+    """``command`` (``name`` in errors) started in a session of its own, its output to ``log``,
+    once ``ready`` matches in that output (120 s at most: else the process is killed and a
+    RuntimeError gives the log's end)."""
+    with open(log, "w") as out:
+        proc = subprocess.Popen(command, stdout=out, stderr=out, env=env, start_new_session=True)
+    deadline = time.monotonic() + 120
+    while not (m := ready.search(log.read_text(errors="replace"))):
+        if proc.poll() is not None or time.monotonic() > deadline:
+            kill_group(proc)
+            raise RuntimeError(f"{name} did not start: {log.read_text(errors='replace')[-500:]}")
+        time.sleep(0.005)
+    return proc, m
+
+
 def _start(args: list[str], env: dict) -> tuple[subprocess.Popen, int, float]:
     """A view process, its port and the seconds until its page answered (its output goes to a
     file removed once the page answers: the process keeps writing to the unlinked file)."""
     log = Path(tempfile.mkstemp(prefix="bench_view_", suffix=".log")[1])
     try:
         t0 = time.monotonic()
-        with open(log, "w") as out:
-            proc = subprocess.Popen([TENSEGRITY, "view", *args, "--port", "0"], stdout=out, stderr=out, env=env,
-                                    start_new_session=True)
-        deadline = t0 + 120
-        while not (m := READY.search(log.read_text(errors="replace"))):
-            if proc.poll() is not None or time.monotonic() > deadline:
-                kill_group(proc)
-                raise RuntimeError(f"the view did not start: {log.read_text()[-500:]}")
-            time.sleep(0.005)
+        proc, m = _launch("the view", [TENSEGRITY, "view", *args, "--port", "0"], READY, env, log)
     finally:
         log.unlink()
     port = int(m.group(1))
@@ -292,8 +302,14 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
                             note="new states drawn; a bag's come at 100 Hz, the core's as fast as it integrates"))
 
         # the class-2 simulator of the suite over ROS
-        sim = subprocess.Popen([TENSEGRITY, "node", "sim"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                               env=env, start_new_session=True)
+        # the view waits a while for a first state, not for a simulator still starting: it
+        # starts once the simulator publishes, whose log a failure of the view shows
+        sim_log = Path(tempfile.mkstemp(prefix="bench_view_sim_", suffix=".log")[1])
+        try:
+            sim, _ = _launch("the simulator", [TENSEGRITY, "node", "sim"], SIM_PUBLISHING, env, sim_log)
+        except BaseException:
+            sim_log.unlink()
+            raise
         received: dict[float, float] = {}
         lock = threading.Lock()
         rctx = RosContext()
@@ -327,7 +343,10 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
         spin = threading.Thread(target=spin_until_stopped, daemon=True)
         spin.start()
         try:
-            proc, port, took = _start([], env)
+            try:
+                proc, port, took = _start([], env)
+            except RuntimeError as failed:
+                raise RuntimeError(f"{failed}\nthe simulator's log: {sim_log.read_text(errors='replace')[-1500:]}") from None
             if ctx.quick:
                 ready.append(took)
             try:
@@ -340,7 +359,10 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
             executor.shutdown()
             node.destroy_node()
             rclpy.try_shutdown(context=rctx)
-            _stop(sim)
+            try:
+                _stop(sim)
+            finally:
+                sim_log.unlink()
         with lock:
             latencies = [wall - received[t] for t, wall in samples if t in received]
         rows.append(Row("view", "class-2 (suite over ROS, driven): frames rendered per s", fps, "fps",

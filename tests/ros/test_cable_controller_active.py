@@ -5,10 +5,12 @@ controller is active only once it has joint_states and cable_states (their subsc
 match separately): before, it answers no joint state, and a goal waits for both at most
 ``state_timeout`` s of wall time, then is refused INVALID_GOAL naming what did not come.
 
-Two rigs: the controller started before any simulator, a goal sent, then the simulator
-started (the goal is held and succeeds); and the controller with its cable_states remapped
-to a topic nobody publishes, beside a running simulator (no answer to any joint state, the
-goal refused after its state_timeout).
+Two rigs: the controller started before any simulator, a goal sent and cancelled (it ends
+at once), another sent, then the simulator started (the goal is held and succeeds); and one
+running simulator (:func:`running_sim`) beside which a controller starts with its
+cable_states remapped to a topic nobody publishes (no answer to any joint state, the goal
+refused after its state_timeout), or a controller that becomes active and then sees the
+simulator stop.
 """
 
 from __future__ import annotations
@@ -23,7 +25,19 @@ pytestmark = pytest.mark.ros
 SCENE = "table_actuated"
 ACTION = "/tensegrity_cable_controller/follow_joint_trajectory"
 SUCCESSFUL, INVALID_GOAL = 0, -1
+#: the namespace of the rig without a simulator until its test starts one (apart from :func:`running_sim`)
+HELD_NS = "/held"
 REST = 0.9            # table_actuated's rest length of long1 [m] (tensegrity_table_actuated.yaml)
+
+
+@pytest.fixture(scope="module")
+def running_sim(tmp_path_factory):
+    """One simulator of ``SCENE`` for the tests that start their controller beside a running
+    one (a start costs ~2 s of CPU): each test's controller is its own, and a test that stops
+    the simulator (SIGSTOP) lets it go on (SIGCONT) before it ends."""
+    sim = start_sim(tmp_path_factory.mktemp("running_sim"), SCENE)
+    yield sim
+    sim.stop()
 
 
 def _goal(t: float, position: float):
@@ -52,28 +66,41 @@ def _ended(result) -> str:
     return f"status {answer.status}, error_code {answer.result.error_code}: {answer.result.error_string!r}"
 
 
-def test_a_goal_sent_before_the_simulator_runs_is_held_until_the_states_come_and_then_followed(tmp_path):
+def test_a_goal_sent_before_the_simulator_runs_is_held_cancelled_at_once_or_followed_once_the_states_come(tmp_path):
+    """One controller before any simulator (in a namespace of its own), a state_timeout
+    longer than the test's patience: a held goal that is cancelled ends CANCELED at once (the
+    cancel, not the timeout, ends it); a second held goal is followed once the simulator,
+    started after it, sends its states."""
     from action_msgs.msg import GoalStatus
     from control_msgs.action import FollowJointTrajectory
     from tensegrity_msgs.msg import CableStates
 
-    ctl = Proc(["node", "cables", "--ros-args", "-p", f"scene:={SCENE}", "-p", f"state_timeout:={PATIENCE}"],
-               tmp_path / "cables.log")
+    ctl = Proc(["node", "cables", "--ros-args", "-r", f"__ns:={HELD_NS}", "-p", f"scene:={SCENE}", "-p",
+                f"state_timeout:={10 * PATIENCE}"], tmp_path / "cables.log")
     client = Client("held_goal_client")
     sim = None
     try:
         ctl.wait_for("cable controller ready")
-        client.listen(CableStates, "cable_states")
-        action = client.action_client(FollowJointTrajectory, ACTION)
+        client.listen(CableStates, f"{HELD_NS}/cable_states")
+        action = client.action_client(FollowJointTrajectory, HELD_NS + ACTION)
+        handle, _ = _send(client, action, _goal(0.2, REST - 0.02))
+        assert handle.accepted
+        result = client.request(handle.get_result_async, "the cancelled goal's result")
+        client.ask(handle.cancel_goal_async, "the cancel response")
+        answer = client.wait_future(result, "the cancelled goal's result")
+        assert (answer.status, answer.result.error_code) == (GoalStatus.STATUS_CANCELED, SUCCESSFUL)
+        assert answer.result.error_string == "cancelled before the controller was active"
+
         handle, _ = _send(client, action, _goal(0.2, REST - 0.02))
         assert handle.accepted
         result = client.request(handle.get_result_async, "the held goal's result")
-        sim = start_sim(tmp_path, SCENE)           # after the goal: no state could have come before it
+        sim = start_sim(tmp_path, SCENE, remap=(f"__ns:={HELD_NS}",))   # after the goal: no state came before
         answer = client.wait_future(result, "the held goal's result")
         assert (answer.status, answer.result.error_code) == (GoalStatus.STATUS_SUCCEEDED, SUCCESSFUL), \
             answer.result.error_string
+        held = client.received[f"{HELD_NS}/cable_states"]
         client.wait(lambda: any(abs(dict(zip(m.name, m.rest_length))["long1"] - (REST - 0.02)) <= 1e-4
-                                for m in client.received["cable_states"]), "long1 at the goal (its tolerance)")
+                                for m in held), "long1 at the goal (its tolerance)")
         assert "active: joint_states and cable_states received" in ctl.stderr()
     finally:
         client.close()
@@ -82,13 +109,13 @@ def test_a_goal_sent_before_the_simulator_runs_is_held_until_the_states_come_and
                 p.stop()
 
 
-def test_without_cable_states_no_joint_state_is_answered_and_a_goal_is_refused_after_state_timeout(tmp_path):
+def test_without_cable_states_no_joint_state_is_answered_and_a_goal_is_refused_after_state_timeout(tmp_path,
+                                                                                                   running_sim):
     from action_msgs.msg import GoalStatus
     from control_msgs.action import FollowJointTrajectory
     from sensor_msgs.msg import JointState
     from tensegrity_msgs.msg import CableCommand
 
-    sim = start_sim(tmp_path, SCENE)
     ctl = Proc(["node", "cables", "--ros-args", "-p", f"scene:={SCENE}", "-p", "state_timeout:=1.0",
                 "-r", "cable_states:=cable_states_withheld"], tmp_path / "cables.log")
     client = Client("withheld_client")
@@ -114,35 +141,10 @@ def test_without_cable_states_no_joint_state_is_answered_and_a_goal_is_refused_a
         assert "active:" not in ctl.stderr()
     finally:
         client.close()
-        for p in (ctl, sim):
-            p.stop()
-
-
-def test_a_held_goal_that_is_cancelled_ends_canceled_at_once(tmp_path):
-    """No simulator at all, a state_timeout longer than the test's patience: the cancel, not
-    the timeout, ends the held goal."""
-    from action_msgs.msg import GoalStatus
-    from control_msgs.action import FollowJointTrajectory
-
-    ctl = Proc(["node", "cables", "--ros-args", "-p", f"scene:={SCENE}", "-p", f"state_timeout:={10 * PATIENCE}"],
-               tmp_path / "cables.log")
-    client = Client("cancel_held_client")
-    try:
-        ctl.wait_for("cable controller ready")
-        action = client.action_client(FollowJointTrajectory, ACTION)
-        handle, _ = _send(client, action, _goal(0.2, REST - 0.02))
-        assert handle.accepted
-        result = client.request(handle.get_result_async, "the cancelled goal's result")
-        client.ask(handle.cancel_goal_async, "the cancel response")
-        answer = client.wait_future(result, "the cancelled goal's result")
-        assert (answer.status, answer.result.error_code) == (GoalStatus.STATUS_CANCELED, SUCCESSFUL)
-        assert answer.result.error_string == "cancelled before the controller was active"
-    finally:
-        client.close()
         ctl.stop()
 
 
-def test_a_running_goal_without_a_goal_time_ends_when_the_simulator_stops(tmp_path):
+def test_a_running_goal_without_a_goal_time_ends_when_the_simulator_stops(tmp_path, running_sim):
     """A goal with goal_time_tolerance -1 (no limit) waits for its tolerance, which a
     simulator that stops (SIGSTOP: no state at all, not even a paused one's repeats) never
     brings: after ``state_timeout`` s without a joint state the goal ends ABORTED with
@@ -161,7 +163,7 @@ def test_a_running_goal_without_a_goal_time_ends_when_the_simulator_stops(tmp_pa
     from builtin_interfaces.msg import Duration
     from control_msgs.action import FollowJointTrajectory
 
-    sim = start_sim(tmp_path, SCENE)
+    sim = running_sim
     ctl = Proc(["node", "cables", "--ros-args", "-p", f"scene:={SCENE}", "-p", "state_timeout:=1.0"],
                tmp_path / "cables.log")
     client = Client("stopped_sim_client")
@@ -189,5 +191,4 @@ def test_a_running_goal_without_a_goal_time_ends_when_the_simulator_stops(tmp_pa
         assert "the simulator stopped or is gone" in answer.result.error_string, answer.result.error_string
     finally:
         client.close()
-        for p in (ctl, sim):
-            p.stop()
+        ctl.stop()

@@ -20,55 +20,38 @@ from tests.ros_support import TENSEGRITY, run_cli, run_cli_here, spawn
 pytestmark = pytest.mark.ros
 
 
-def test_call_ik_json_reaches_the_target(cli):
-    ik = cli("node", "ik", log_name="ik")
-    ik.wait_for("solve_ik ready")
-    # D for rho = (0.5, 0.6) from the energy-minimising beta (paper parameters)
-    beta = math.atan2(math.sqrt(4 - 1.1**2), 3 * 0.6 - 0.5)
-    x, y = 0.5 + math.cos(beta), math.sin(beta)
-    out = run_cli_here("call-ik", f"{x!r}", f"{y!r}", "--json")
-    assert out.returncode == 0, out.stderr
-    data = json.loads(out.stdout)
-    assert data["success"] and len(data["solutions"]) == 1
-    s = data["solutions"][0]
-    assert (s["rho1"], s["rho2"]) == pytest.approx((0.5, 0.6), abs=1e-10)
-    bad = run_cli_here("call-ik", "5", "5")
-    assert bad.returncode == 1 and bad.stdout.startswith("failed:")
-    folded = run_cli_here("call-ik", "0", "1")        # the paper's q_F: valid, named singular
-    assert folded.returncode == 0, folded.stderr
-    assert "lies on the singular set folded" in folded.stdout.splitlines()[0]
-    assert "nearest singular set folded at 0 L" in folded.stdout
-
-
-def test_send_forces_then_echo_shows_them_applied(cli):
-    sim = cli("node", "sim", "--ros-args", "-p", "command_timeout:=0.0", log_name="sim")
-    sim.wait_for("publishing at")
-    out = run_cli_here("send-forces", "0.5", "-0.2")
-    assert out.returncode == 0, out.stderr
-    echo = run_cli_here("echo", "joint_states", "-c", "1", "--json", "--timeout", "30")
-    assert echo.returncode == 0, echo.stderr
-    msg = json.loads(echo.stdout.splitlines()[0])
-    assert msg["name"] == ["rho1", "rho2", "beta"]
-    assert msg["effort"][:2] == [0.5, -0.2]
-
-
-def test_service_missing_is_one_clear_line():
-    out = run_cli_here("call-ik", "1", "1", "--service", "no_such_service", "--timeout", "1")
-    assert out.returncode == 3
-    assert out.stderr.startswith("error: service /no_such_service not available")
-
-
-def test_a_service_under_another_namespace_is_named_with_the_remap_that_reaches_it(cli):
+def test_call_ik_names_the_remap_to_a_service_in_another_namespace_and_through_it_reaches_the_target(cli):
     """call-ik without a namespace against an IK node in /hint_ns: the one error line names
-    where the service is and the --ros-args that reach it."""
+    where the service is and the --ros-args that reach it; through them, the JSON answer
+    reaches the target, a target out of reach fails, and a folded one is named singular."""
     ik = cli("node", "ik", "--ros-args", "-r", "__ns:=/hint_ns", log_name="ik")
     ik.wait_for("solve_ik ready")
     out = run_cli("call-ik", "1", "1", "--timeout", "5", timeout=60)
     assert out.returncode == 3
     assert out.stderr == ("error: service /solve_ik not available after 5 s (is the suite up? `tensegrity up`); "
                           "found /hint_ns/solve_ik: add --ros-args -r __ns:=/hint_ns\n"), out.stderr
-    reached = run_cli_here("call-ik", "1.2", "0.9", "--timeout", "30", "--ros-args", "-r", "__ns:=/hint_ns")
-    assert reached.returncode in (0, 1) and "not available" not in reached.stderr, reached.stderr
+    reach = ("--ros-args", "-r", "__ns:=/hint_ns")
+    # D for rho = (0.5, 0.6) from the energy-minimising beta (paper parameters)
+    beta = math.atan2(math.sqrt(4 - 1.1**2), 3 * 0.6 - 0.5)
+    x, y = 0.5 + math.cos(beta), math.sin(beta)
+    out = run_cli_here("call-ik", f"{x!r}", f"{y!r}", "--json", "--timeout", "30", *reach)
+    assert out.returncode == 0, out.stderr
+    data = json.loads(out.stdout)
+    assert data["success"] and len(data["solutions"]) == 1
+    s = data["solutions"][0]
+    assert (s["rho1"], s["rho2"]) == pytest.approx((0.5, 0.6), abs=1e-10)
+    bad = run_cli_here("call-ik", "5", "5", *reach)
+    assert bad.returncode == 1 and bad.stdout.startswith("failed:")
+    folded = run_cli_here("call-ik", "0", "1", *reach)        # the paper's q_F: valid, named singular
+    assert folded.returncode == 0, folded.stderr
+    assert "lies on the singular set folded" in folded.stdout.splitlines()[0]
+    assert "nearest singular set folded at 0 L" in folded.stdout
+
+
+def test_service_missing_is_one_clear_line():
+    out = run_cli_here("call-ik", "1", "1", "--service", "no_such_service", "--timeout", "1")
+    assert out.returncode == 3
+    assert out.stderr.startswith("error: service /no_such_service not available")
 
 
 def test_namespace_hint_only_for_a_relative_name_found_elsewhere():
@@ -89,9 +72,11 @@ def _wait(condition, what: str, timeout: float = 60.0) -> None:
         time.sleep(0.02)
 
 
-def test_send_forces_refuses_what_the_simulator_rejects_and_names_another_publisher(cli, ros_context, tmp_path):
-    """5000 N is over the simulator's max_force (1000 N by default): refused with that limit,
-    exit 1, nothing sent (the simulator counts no rejected command). Publishers of this
+def test_send_forces_applies_forces_refuses_what_the_simulator_rejects_and_names_another_publisher(cli, ros_context,
+                                                                                                   tmp_path):
+    """Forces within the simulator's limits are applied (echo shows them). 5000 N is over
+    the simulator's max_force (1000 N by default): refused with that limit, exit 1, nothing
+    sent (the simulator counts no rejected command). Publishers of this
     process on actuator_forces: one named as the suite's controller gets a note (it steps
     aside until its next goal), any other a warning naming it (once discovery has shown
     them: commands at a rate go on until it has)."""
@@ -99,6 +84,15 @@ def test_send_forces_refuses_what_the_simulator_rejects_and_names_another_publis
 
     sim = cli("node", "sim", "--ros-args", "-p", "command_timeout:=0.0", log_name="sim")
     sim.wait_for("publishing at")
+    # forces the simulator takes: applied, as echo shows
+    out = run_cli_here("send-forces", "0.5", "-0.2")
+    assert out.returncode == 0, out.stderr
+    echo = run_cli_here("echo", "joint_states", "-c", "1", "--json", "--timeout", "30")
+    assert echo.returncode == 0, echo.stderr
+    msg = json.loads(echo.stdout.splitlines()[0])
+    assert msg["name"] == ["rho1", "rho2", "beta"]
+    assert msg["effort"][:2] == [0.5, -0.2]
+
     out = run_cli("send-forces", "5000", "0", timeout=120)
     assert out.returncode == 1, out.stderr
     assert out.stderr.strip().splitlines() == [

@@ -51,7 +51,9 @@ def robot(cli, ros_context):
         w.close()
 
 
-def test_the_six_bar_at_rest_in_the_air_publishes_its_drawing_hookes_law_and_its_imus(robot):
+def test_the_six_bar_at_rest_in_the_air_publishes_its_drawing_hookes_law_and_its_imus_and_refuses_bad_commands(robot):
+    """One paused simulator: its states at rest, then bad robot commands (refused, nothing
+    changed: still paused at t = 0, the drawn rest lengths)."""
     from tensegrity_core.robot.loading import load_robot
 
     proc, ros = robot("initial_state:=paused", "paused_publish_rate:=20.0", "imu_rate:=500.0")
@@ -101,6 +103,7 @@ def test_the_six_bar_at_rest_in_the_air_publishes_its_drawing_hookes_law_and_its
     assert list(contacts.name) == []                                  # 5 cm up: nothing touches
     assert [m.ns for m in markers.markers] == ["rods", "cables", "floor", "contacts"]
     assert len(markers.markers[1].points) == 2 * len(r.cables)
+    _bad_robot_commands_are_refused_and_change_nothing(proc, ros)
 
 
 def wave(t: float, n: int) -> list[float]:
@@ -142,8 +145,7 @@ def test_a_lockstep_run_of_a_gait_equals_the_cores_sampled_data_run_bit_for_bit(
     assert "rejected" not in log and "no command for step" not in log
 
 
-def test_bad_robot_commands_are_refused_and_change_nothing(robot):
-    proc, ros = robot("initial_state:=paused", "paused_publish_rate:=20.0")
+def _bad_robot_commands_are_refused_and_change_nothing(proc, ros):
     start, = ros.at(0, "cable_states")
     from tensegrity_msgs.msg import ActuatorForces
 

@@ -108,3 +108,13 @@ def test_a_robot_bag_with_a_malformed_custom_data_plays_from_its_markers_or_says
     lines = res.stderr.strip().splitlines()
     assert res.returncode == 1 and len(lines) == 1 and "Traceback" not in res.stderr
     assert "custom_data cannot be read" in lines[0] and "--scene NAME" in lines[0]
+
+
+def test_no_suite_running_is_one_line_naming_the_topic():
+    """``tensegrity view --wait 1`` with no simulator in its ROS domain (each test module runs
+    in a domain of its own; none of this module's starts a suite): after the 1 s wait, one
+    error line naming the topic it waited on and what to do, exit status 3."""
+    res = _run("--wait", "1")
+    assert res.returncode == 3 and "Traceback" not in res.stderr
+    assert res.stderr.strip().splitlines() == ["error: no state on /mechanism_state within 1 s (is the suite up? "
+                                               "`tensegrity up`; in a namespace: --namespace)"]
