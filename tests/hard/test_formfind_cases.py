@@ -77,12 +77,14 @@ def test_case_free_rigid_body_modes_singular_KT():
 
 
 # ------------------------------------------------------------------ strings slack during iterations
-@pytest.mark.parametrize("n", [20, 100])
+@pytest.mark.parametrize("n", [20, 40])
 def test_case_strings_going_slack_during_iterations(n):
     """The C spine drawn straight: the first Newton steps slacken up to 30 % of the side
     strings. The result is the same equilibrium with the slack-string Newton matrix and
     with the exact K_T (two different iterations) to 1e-9 m, and balanced by the
-    independent residual."""
+    independent residual. 40 vertebrae already take the exact K_T 4x the iterations (78
+    against 19; 100 vertebrae, 122 against 48, cost twice as much CPU for the same check:
+    the benchmark ``hard:slack_newton --full`` runs them)."""
     s = tensegrity_spine(n, shape="C")
     seen = []
     r = form_find(s, callback=lambda info: seen.append(info.residual) and None)
