@@ -259,7 +259,8 @@ def run_cli_here(*args: str) -> subprocess.CompletedProcess:
     of its process (bag commands that need no ROS; short-lived ROS clients such as ``sim`` and
     ``call-ik``), a call then costs no interpreter start (~1-2 s of CPU). A ROS client uses
     rclpy's default context, which this process's tests leave alone (they use private ones),
-    and ends it; the SIGINT and SIGTERM handlers a command sets are put back, and the objects
+    and ends it; the SIGINT and SIGTERM handlers a command sets are put back (a long-running
+    command's, ``play`` or ``record``, held for its process's exit, are released), and the objects
     ``main`` freezes for its process's exit are unfrozen. Output rcl writes to the file
     descriptors directly is not captured: tests of what a process prints in all run
     :func:`run_cli`. An exception that escapes ``main`` fails the test."""
@@ -268,6 +269,7 @@ def run_cli_here(*args: str) -> subprocess.CompletedProcess:
     import io
 
     from tensegrity_ros.cli import main
+    from tensegrity_ros.rclpy_utils import stop_signals
 
     handlers = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
     out, err = io.StringIO(), io.StringIO()
@@ -278,6 +280,7 @@ def run_cli_here(*args: str) -> subprocess.CompletedProcess:
             except SystemExit as exit_:           # argparse's refusals
                 code = exit_.code if isinstance(exit_.code, int) else 1
     finally:
+        stop_signals.release()
         for sig, handler in handlers.items():
             signal.signal(sig, handler)
         gc.unfreeze()

@@ -43,15 +43,16 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Final
+from typing import TYPE_CHECKING, Any, Final
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.interpolate import BPoly
 
 from tensegrity_core.errors import TensegrityError
 from tensegrity_core.excerpt import excerpt
-from tensegrity_core.sim.model import Interface
+
+if TYPE_CHECKING:       # a name for annotations: the model module brings the integrators (scipy.integrate)
+    from tensegrity_core.sim.model import Interface
 
 FloatArray = NDArray[np.float64]
 
@@ -97,6 +98,10 @@ class JointTrajectory:
     def __init__(self, names: tuple[str, ...], inputs: tuple[int, ...], knots: FloatArray, values: FloatArray):
         self.names = names
         self.inputs = inputs
+        # imported here: what imports this module for its checks (a node's start) does not
+        # pay for scipy.interpolate (~0.7 s of CPU with scipy.special and scipy.optimize)
+        from scipy.interpolate import BPoly
+
         self.duration = float(knots[-1])
         self._poly = BPoly.from_derivatives(knots, values)
         self._rate = self._poly.derivative(1)

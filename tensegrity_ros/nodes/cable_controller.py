@@ -49,15 +49,14 @@ are the scene's actuated cables that take commands; their positions are rest len
   ended before the latest joint state is OLD_HEADER_TIMESTAMP; one that starts more than a day
   of simulation time ahead waits for it, with a warning (a wall-clock stamp). The first
   segment starts from the current rest lengths unless the first point is at 0.
-- A new goal takes over from the running one, which ends ABORTED with INVALID_GOAL
-  "preempted: a newer goal took over" (joint_trajectory_controller's status, code and
-  reason since its Jazzy release 4.41; CANCELED before); a cancelled
-  goal ends CANCELED with SUCCESSFUL and the cables hold where they are. Goals follow
-  simulation time: a paused simulator pauses them (a cancel still ends them at once; it
-  republishes its state, at ``paused_publish_rate``). A running goal ends ABORTED with
-  INVALID_GOAL when no joint state at all has come for ``state_timeout`` s of the
-  controller's watch (:mod:`.state_watch`: its own stalls do not count): the simulator
-  stopped or is gone, and a goal without a goal time would otherwise never end.
+- A new goal takes over from the running one, which ends ABORTED with INVALID_GOAL "preempted: a
+  newer goal took over" (joint_trajectory_controller's status, code and reason since its Jazzy
+  release 4.41; CANCELED before); a cancelled goal ends CANCELED with SUCCESSFUL and the cables hold
+  where they are. Goals follow simulation time: a paused simulator pauses them (a cancel still ends
+  them at once; it republishes its state, at ``paused_publish_rate``). A running goal ends ABORTED
+  with INVALID_GOAL when no joint state at all has come for ``state_timeout`` s of the controller's
+  watch (:mod:`.state_watch`: its own stalls do not count): the simulator stopped or is gone, and a
+  goal without a goal time would otherwise never end.
 
 Parameters: ``scene`` (the simulator's: which cables there are), the default tolerances
 ``goal_tolerance`` [m], ``path_tolerance`` [m] (0 = not checked) and
@@ -172,8 +171,7 @@ class CableControllerNode(Node):
         self.pub = self.create_publisher(CableCommand, "cable_commands", QoSProfile(depth=1000))
         self._joint_states = self.create_subscription(JointState, "joint_states", self.on_joints, QoSProfile(depth=1))
         self.create_timer(WATCH_PERIOD, self._watch_states, clock=self._steady)
-        # the simulator's writers keep 100 samples: a controller stalled that long (a busy machine)
-        # still takes every state, and answers each with its controller_state and feedback
+        # the simulator's depth: a briefly stalled controller still answers every state
         self.create_subscription(CableStates, "cable_states", self.on_cables, QoSProfile(depth=100))
         # every command the simulator takes, others' too: what the cables hold (controller_state).
         # Read in bulk at each cable_states by a node no executor spins: a callback per command

@@ -39,8 +39,12 @@ from tensegrity_ros.nodes.formfind_worker import FormFindReply
 from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
 from tensegrity_ros.rclpy_utils.stop_signals import signals_blocked
 
-#: What the workers' forkserver imports before it forks them.
-WORKER_PRELOAD = ["tensegrity_ros.nodes.formfind_worker", "tensegrity_core.general"]
+#: What the workers' forkserver imports before it forks them: the modules a request runs
+#: (``tensegrity_core.general`` exports its names lazily, so the package alone holds none of
+#: them, and every worker would import form-finding and scipy.optimize itself: ~0.5 s of CPU a
+#: request).
+WORKER_PRELOAD = ["tensegrity_ros.nodes.formfind_worker", "tensegrity_core.general.formfind",
+                  "tensegrity_core.general.loading"]
 _CTX = multiprocessing.get_context("forkserver")
 _CTX.set_forkserver_preload(WORKER_PRELOAD)
 #: How long a form-finding worker may run past the time limit to stop itself at its next

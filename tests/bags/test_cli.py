@@ -1,9 +1,9 @@
 """``tensegrity bag info|plot|repair`` and the CLI's error lines.
 
-The bag commands run through the command line's ``main`` in this process
-(:func:`run_cli_here`: no interpreter start per command; a real process of each is
-tests/bags/test_hostile_bags.py's); ``play`` and ``record`` hold the process's signals
-until it exits, so they run as processes (:func:`run_cli`)."""
+The commands run through the command line's ``main`` in this process
+(:func:`run_cli_here`: no interpreter start per command); a real process of each bag
+command is tests/bags/test_hostile_bags.py's, of ``play`` and ``record`` the tests of
+playing and recording."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import json
 
 from tensegrity_ros.bag.plot import decoded_messages
 from tensegrity_ros.bag.reader import BagReader
-from tests.bags.conftest import run_cli, run_cli_here
+from tests.bags.conftest import run_cli_here
 
 
 def test_info_text_and_json(small_bag):
@@ -71,7 +71,7 @@ def test_errors_are_one_line(tmp_path):
         (("record", "-o", str(tmp_path)), "exists already", 1),
         (("bag", "plot", str(tmp_path / "missing"), "-o", str(tmp_path / "x.png")), "does not exist", 1),
     ):
-        done = (run_cli_here if args[0] == "bag" else run_cli)(*args)
+        done = run_cli_here(*args)
         assert done.returncode == code, (args, done.returncode, done.stderr)
         lines = done.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("error: ") and needle in lines[0], done.stderr

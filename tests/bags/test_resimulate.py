@@ -15,7 +15,7 @@ from rclpy.serialization import serialize_message
 
 from tensegrity_ros.bag.metadata import TopicInfo
 from tensegrity_ros.bag.writer import BagWriter
-from tests.ros_support import run_cli
+from tests.ros_support import run_cli_here
 
 pytestmark = pytest.mark.ros
 
@@ -56,7 +56,7 @@ def _write_bag(folder, *, perturb: tuple[int, float] | None = None, with_joints:
 def test_a_lockstep_recording_resimulates_with_no_difference(tmp_path):
     folder = tmp_path / "lockstep"
     _write_bag(folder)
-    r = run_cli("play", str(folder), "--resimulate", "--json", timeout=300)
+    r = run_cli_here("play", str(folder), "--resimulate", "--json")
     assert r.returncode == 0, r.stderr
     report = json.loads(r.stdout)
     assert report["steps"] == STEPS and report["step_ns"] == STEP_NS and report["commands"] == STEPS
@@ -68,7 +68,7 @@ def test_a_lockstep_recording_resimulates_with_no_difference(tmp_path):
 def test_a_perturbed_joint_state_is_reported_with_its_size_and_time(tmp_path):
     folder = tmp_path / "perturbed"
     run = _write_bag(folder, perturb=(77, 1e-3))
-    r = run_cli("play", str(folder), "--resimulate", "--json", timeout=300)
+    r = run_cli_here("play", str(folder), "--resimulate", "--json")
     assert r.returncode == 0, r.stderr
     report = json.loads(r.stdout)
     expected = abs((float(run.samples[77].q[0]) + 1e-3) - float(run.samples[77].q[0]))
@@ -85,7 +85,7 @@ def test_a_bag_that_does_not_start_at_the_scenes_initial_state_is_warned_about(t
     says so, with the unit, and the summary gives each joint's difference with its unit."""
     folder = tmp_path / "elsewhere"
     run = _write_bag(folder, perturb=(0, 0.05))
-    r = run_cli("play", str(folder), "--resimulate", timeout=300)
+    r = run_cli_here("play", str(folder), "--resimulate")
     assert r.returncode == 0, r.stderr
     off = abs((float(run.samples[0].q[0]) + 0.05) - float(run.samples[0].q[0]))
     assert r.stderr.strip().splitlines() == [
@@ -99,7 +99,7 @@ def test_a_bag_that_does_not_start_at_the_scenes_initial_state_is_warned_about(t
 def test_a_bag_without_joint_states_is_one_error_line(tmp_path):
     folder = tmp_path / "commands_only"
     _write_bag(folder, with_joints=False)
-    r = run_cli("play", str(folder), "--resimulate", timeout=120)
+    r = run_cli_here("play", str(folder), "--resimulate")
     assert r.returncode == 1
     assert r.stderr.count("\n") == 1 and "no joint states to compare with" in r.stderr
 
@@ -117,6 +117,6 @@ def test_a_bag_too_long_to_resimulate_is_refused(tmp_path):
             js = JointState(name=["rho1", "rho2", "beta"], position=[0.7, 0.7, 0.8])
             js.header.stamp = Time(sec=sec, nanosec=1_000_000 * k if sec == 0 else 0)
             w.write("/joint_states", serialize_message(js), 1_700_000_000_000_000_000 + k)
-    r = run_cli("play", str(folder), "--resimulate", timeout=120)
+    r = run_cli_here("play", str(folder), "--resimulate")
     assert r.returncode == 1
     assert r.stderr.count("\n") == 1 and "more than the limit 2000000" in r.stderr

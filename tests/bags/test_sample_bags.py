@@ -117,9 +117,9 @@ def test_sample_bag_is_small_and_replays_exactly(name, ros_context, cli):
 def test_sample_bag_resimulates_within_rounding(name):
     import json
 
-    from tests.ros_support import run_cli
+    from tests.ros_support import run_cli_here
 
-    r = run_cli("play", str(BAGS / name), "--resimulate", "--json", timeout=300)
+    r = run_cli_here("play", str(BAGS / name), "--resimulate", "--json")
     assert r.returncode == 0, r.stdout + r.stderr
     report = json.loads(r.stdout)
     bound = report["steps"] * ROUNDING_PER_STEP
@@ -136,10 +136,9 @@ def test_the_robot_sample_bag_resimulates_within_rounding():
     contacts' stiff forces amplify rounding more than the class-2 mechanism does)."""
     import json
 
-    from tests.ros_support import run_cli
+    from tests.ros_support import run_cli_here
 
-    r = run_cli("play", str(BAGS / "six_bar_roll"), "--resimulate", "--json",  # the scene its metadata names
-                timeout=600)
+    r = run_cli_here("play", str(BAGS / "six_bar_roll"), "--resimulate", "--json")  # the scene its metadata names
     assert r.returncode == 0, r.stdout + r.stderr
     report = json.loads(r.stdout)
     assert report["compared"] > 400 and len(report["joints"]) == 24

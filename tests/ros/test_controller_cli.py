@@ -1,5 +1,9 @@
 """`tensegrity move` and `tensegrity follow` against a running controller (issue 15), and
-the IK node reading the mechanism from the scene (one source of parameters)."""
+the IK node reading the mechanism from the scene (one source of parameters).
+
+The commands run in this process (:func:`tests.ros_support.run_cli_here`: what they print
+and their exit codes, without an interpreter start each, ~1.5 s of CPU); the one whose claim
+is the process's whole stderr (no controller: one line) runs as its own process."""
 
 from __future__ import annotations
 
@@ -10,7 +14,7 @@ import pytest
 import yaml
 
 from tensegrity_core.class2 import Class2Params, forward_kinematics, inverse_kinematics
-from tests.ros_support import run_cli
+from tests.ros_support import run_cli, run_cli_here
 
 pytestmark = pytest.mark.ros
 
@@ -27,7 +31,7 @@ NS = ("--ros-args", "-r", "__ns:=/ctl_cli")
 def test_bad_trajectory_files_are_one_error_line(tmp_path, text, words):
     f = tmp_path / ("bad.yaml" if text.startswith("points") else "bad.csv")
     f.write_text(text)
-    out = run_cli("follow", str(f))
+    out = run_cli_here("follow", str(f))
     assert out.returncode == 2 and words in out.stderr and len(out.stderr.strip().splitlines()) == 1
 
 
@@ -50,7 +54,7 @@ def test_the_ik_node_takes_the_mechanism_from_the_scene(tmp_path, cli):
     ik.wait_for("solve_ik ready")
     params = Class2Params(L=1.3, k2=2.0)
     d = forward_kinematics(0.8, 0.9, params)
-    out = run_cli("call-ik", f"{d.x!r}", f"{d.y!r}", "--json", "--ros-args", "-r", "__ns:=/ik_scene")
+    out = run_cli_here("call-ik", f"{d.x!r}", f"{d.y!r}", "--json", "--ros-args", "-r", "__ns:=/ik_scene")
     assert out.returncode == 0, out.stderr
     sol = json.loads(out.stdout)["solutions"][0]
     core = inverse_kinematics(d.x, d.y, params).valid[0]
@@ -72,7 +76,7 @@ def suite(tmp_path_factory):
     ctl = Proc(["node", "controller", *NS, "-p", "state_timeout:=2.0"], folder / "ctl.log")
     sim.wait_for("publishing at")
     ctl.wait_for("holding rho")
-    played = run_cli("sim", "play", *NS)
+    played = run_cli_here("sim", "play", *NS)
     assert played.returncode == 0, played.stdout + played.stderr
     yield folder
     for p in (sim, ctl):
@@ -81,7 +85,7 @@ def suite(tmp_path_factory):
 
 def test_move_prints_the_result_and_exits_0(suite):
     d = forward_kinematics(0.7, 0.7)
-    out = run_cli("move", f"{d.x + 0.02}", f"{d.y}", "--duration", "1.5", "--tolerance", "1e-4", "--json", *NS)
+    out = run_cli_here("move", f"{d.x + 0.02}", f"{d.y}", "--duration", "1.5", "--tolerance", "1e-4", "--json", *NS)
     assert out.returncode == 0, out.stderr
     res = json.loads(out.stdout)
     assert res["status"] == "SUCCESSFUL" and res["settled_error"] < 1e-4
@@ -89,7 +93,7 @@ def test_move_prints_the_result_and_exits_0(suite):
 
 
 def test_move_outside_the_workspace_fails_with_the_reason(suite):
-    out = run_cli("move", "3", "0.5", *NS)
+    out = run_cli_here("move", "3", "0.5", *NS)
     assert out.returncode == 1
     assert "failed (OUTSIDE_WORKSPACE)" in out.stdout and "not reachable" in out.stdout
     assert "Traceback" not in out.stderr
@@ -97,11 +101,11 @@ def test_move_outside_the_workspace_fails_with_the_reason(suite):
 
 def test_follow_a_csv_file_shows_progress_and_succeeds(suite, tmp_path):
     d = forward_kinematics(0.7, 0.7)
-    back = run_cli("move", f"{d.x}", f"{d.y}", "--duration", "1.5", *NS)       # from a known place
+    back = run_cli_here("move", f"{d.x}", f"{d.y}", "--duration", "1.5", *NS)       # from a known place
     assert back.returncode == 0, back.stdout + back.stderr
     f = tmp_path / "traj.csv"
     f.write_text("time,rho1,rho2\n1.0,0.705,0.7\n2.0,0.71,0.7\n")
-    out = run_cli("follow", str(f), "--goal-tolerance", "1e-3", "--goal-time-tolerance", "8", *NS)
+    out = run_cli_here("follow", str(f), "--goal-tolerance", "1e-3", "--goal-time-tolerance", "8", *NS)
     assert out.returncode == 0, out.stdout + out.stderr
     assert out.stdout.startswith("succeeded")
     assert "2.00/2.0 s" in out.stderr                    # the progress bar over the trajectory's time
@@ -113,6 +117,6 @@ def test_follow_yaml_with_a_bad_point_fails_with_the_controllers_reason(suite, t
     # outside the mechanism's domain (rho1 < L = 1 m), which the file reader does not know.
     f.write_text(yaml.safe_dump({"points": [{"time": 0.5, "positions": [0.7, 0.7]},
                                             {"time": 1.0, "positions": [5.0, 0.7]}]}))
-    out = run_cli("follow", str(f), *NS)
+    out = run_cli_here("follow", str(f), *NS)
     assert out.returncode == 1 and "failed (INVALID_GOAL)" in out.stdout, (out.stdout, out.stderr)
     assert "outside the mechanism's domain" in out.stdout, out.stdout

@@ -24,7 +24,7 @@ import pytest
 from tensegrity_core.class2 import PAPER_PARAMS, forward_kinematics
 from tensegrity_ros.rclpy_utils.futures import spin_until_done
 from tensegrity_ros.rclpy_utils.matching import wait_for_action_server, wait_until_server_heard
-from tests.ros_support import FeedbackLog, open_context, run_cli
+from tests.ros_support import FeedbackLog, open_context, run_cli_here
 
 pytestmark = pytest.mark.ros
 
@@ -125,7 +125,8 @@ def _start(cli, namespace: str, *controller_args: str, scene: str | None = None,
 
 
 def _sim_control(namespace: str, action: str) -> None:
-    out = run_cli("sim", action, "--ros-args", "-r", f"__ns:={namespace}")
+    # in this process (no interpreter start, ~1.5 s of CPU): the test is about the controller
+    out = run_cli_here("sim", action, "--ros-args", "-r", f"__ns:={namespace}")
     assert out.returncode == 0, out.stdout + out.stderr
 
 

@@ -31,8 +31,9 @@ def test_sweeps_lists_the_shipped_examples(capsys):
     assert rows["fold_monte_carlo"]["points"] == 400 and rows["spine_stability"]["compute"] == "stiffness"
 
 
+# the line plot (one varied quantity) is drawn through the command by
+# test_plot_without_a_file_draws_beside_the_output; its figure is checked in tests/sweep/test_plotting.py
 @pytest.mark.parametrize("doc, panels", [
-    (fold_sweep(), "line"),
     (fold_sweep(vary={"inputs.f1.gain": [8.0, 10.0], "model.params.c": [0.0, 0.01, 0.1]}), "heat"),
     (monte_carlo_sweep(samples=6), "hist"),
 ])
@@ -66,14 +67,23 @@ def test_run_time_is_plotted_when_asked_for_or_when_it_is_the_only_result(tmp_pa
                                                              "run_time", "sweep_id"]
 
 
-@pytest.mark.parametrize("output, expected", [("r.parquet", "r.png"), ("r.csv", "r.png"), (None, "fold.png")])
-def test_plot_without_a_file_draws_beside_the_output(tmp_path, capsys, monkeypatch, output, expected):
+def test_plot_without_a_file_draws_beside_the_output(tmp_path, capsys, monkeypatch):
+    """``--plot`` without a file draws beside the output, named after it. One sweep is drawn
+    through the command; the other outputs differ only in the name the command takes from
+    ``default_plot_path`` (without ``-o``, the sweep's name: drawn through the command by
+    test_plot_named_after_the_sweep_stays_in_the_current_folder)."""
+    from pathlib import Path
+
+    from tensegrity_ros.cli.cmd_sweep import default_plot_path
+
+    assert default_plot_path("fold", "r.parquet") == Path("r.png")
+    assert default_plot_path("fold", "out/r.csv") == Path("out/r.png")
+    assert default_plot_path("fold", None) == Path("fold.png")
     monkeypatch.chdir(tmp_path)
     sweep = write(tmp_path, fold_sweep(name="fold"))
-    args = ["sweep", sweep, *(["-o", output] if output else []), "--workers", "0", "--quiet", "--plot"]
-    assert main(args) == 0
-    assert (tmp_path / expected).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert f"plot written to {expected}" in capsys.readouterr().out
+    assert main(["sweep", sweep, "-o", "r.csv", "--workers", "0", "--quiet", "--plot"]) == 0
+    assert (tmp_path / "r.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "plot written to r.png" in capsys.readouterr().out
 
 
 def test_plot_named_after_the_sweep_stays_in_the_current_folder(tmp_path, capsys, monkeypatch):

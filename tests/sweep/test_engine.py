@@ -22,7 +22,8 @@ from pathlib import Path
 import pytest
 
 from tensegrity_core.sweep import SweepError, load_sweep, run_sweep
-from tests.process_groups import exited, kill_session, wait_exited
+from tensegrity_ros.cli import main
+from tests.process_groups import exited, kill_session
 from tests.sweep.conftest import fold_sweep, monte_carlo_sweep
 
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(300)]
@@ -59,29 +60,28 @@ def cli(*args, **kw):
                             stderr=subprocess.PIPE, text=True, start_new_session=True, **kw)
 
 
-def test_an_unreachable_scheduler_is_one_error_line_naming_it_and_nothing_is_written(tmp_path):
+def test_an_unreachable_scheduler_is_one_error_line_naming_it_and_nothing_is_written(tmp_path, capsys):
+    """The command run in this process (its ``main``): what it says and writes is the
+    check, not its process (an interpreter start importing Dask and pandas)."""
     sweep = tmp_path / "s.yaml"
     sweep.write_text(json.dumps(fold_sweep()))
     address = f"tcp://127.0.0.1:{free_port()}"
-    proc = cli("sweep", str(sweep), "-o", str(tmp_path / "r.parquet"), "--scheduler", address,
-               "--connect-timeout", "2", "--plot", str(tmp_path / "r.png"), cwd=tmp_path)
-    try:
-        wait_exited(proc, 120)       # its one error line fits in the pipe: no need to read first
-    finally:
-        kill_session(proc)
-    out, err = proc.communicate()
-    assert proc.returncode == 1, err
+    code = main(["sweep", str(sweep), "-o", str(tmp_path / "r.parquet"), "--scheduler", address,
+                 "--connect-timeout", "2", "--plot", str(tmp_path / "r.png")])
+    err = capsys.readouterr().err
+    assert code == 1, err
     lines = [line for line in err.splitlines() if line.strip()]
     assert len(lines) == 1 and lines[0].startswith("error: cannot reach the Dask scheduler at "), err
     assert address in lines[0] and "Traceback" not in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.yaml"]
 
 
-def test_a_cluster_whose_workers_lack_the_package_is_refused_before_any_task(tmp_path):
+def test_a_cluster_whose_workers_lack_the_package_is_refused_before_any_task(tmp_path, capsys):
     """An existing cluster (``dask scheduler`` and ``dask worker``) whose worker cannot import
     this package: one error line naming the scheduler, the worker and its ImportError, exit
     1, nothing written. (Dask would send the tasks anyway; the worker that cannot unpickle
-    one closes, and the sweep waited for workers for ever.)"""
+    one closes, and the sweep waited for workers for ever.) The command runs in this process
+    (its ``main``; the worker is the process that lacks the package)."""
     shadow = tmp_path / "shadow" / "tensegrity_core"
     shadow.mkdir(parents=True)
     # a remote text of many lines, long (under Dask's own cut, 10,000 characters)
@@ -99,16 +99,14 @@ def test_a_cluster_whose_workers_lack_the_package_is_refused_before_any_task(tmp
                                  start_new_session=True)
     worker = subprocess.Popen([dask, "worker", address, "--nworkers", "1", "--nthreads", "1", "--no-dashboard"],
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True, env=env)
-    proc = cli("sweep", str(sweep), "-o", str(work / "r.parquet"), "--scheduler", address,
-               "--connect-timeout", "120", cwd=work)     # waits for the scheduler and its worker
     try:
-        wait_exited(proc, 240)
+        code = main(["sweep", str(sweep), "-o", str(work / "r.parquet"), "--scheduler", address,
+                     "--connect-timeout", "120"])     # waits for the scheduler and its worker
     finally:
-        kill_session(proc)
         kill_session(worker)
         kill_session(scheduler)
-    out, err = proc.communicate()
-    assert proc.returncode == 1, err
+    err = capsys.readouterr().err
+    assert code == 1, err
     lines = [line for line in err.splitlines() if line.strip()]
     assert len(lines) == 1, err
     assert lines[0].startswith(f"error: 1 of 1 workers of the Dask scheduler at {address!r} cannot run sweeps (tcp://")
@@ -120,6 +118,14 @@ def test_a_cluster_whose_workers_lack_the_package_is_refused_before_any_task(tmp
 
 
 def test_a_killed_sweep_keeps_its_finished_points_and_resume_runs_only_the_others(tmp_path):
+    """The sweep's process SIGKILLed mid-run: its journal keeps the finished points, and
+    resume runs only the others. The killed sweep runs its points in its own process
+    (``--workers 0``): the journal is written by that process whatever engine runs the points
+    (``run_sweep``'s store), and an embedded cluster's start (a worker process importing Dask
+    and the core) proves nothing more here; the cluster's journal after a Ctrl-C is
+    tests/sweep/test_cli.py::test_ctrl_c_ends_the_sweep_with_one_line_and_resume_runs_the_rest_once.
+    The kept rows are compared with a serial run of their points alone: the rows run at the
+    resume ran in this process as a serial run of all 40 would (35 more points)."""
     import pandas as pd
 
     doc = fold_sweep(vary={"inputs.f1.gain": {"grid": {"from": 6.0, "to": 14.0, "num": 40}}},
@@ -127,7 +133,7 @@ def test_a_killed_sweep_keeps_its_finished_points_and_resume_runs_only_the_other
     (tmp_path / "s.yaml").write_text(json.dumps(doc))
     out = tmp_path / "r.csv"
     journal = tmp_path / "r.csv.partial.jsonl"
-    proc = cli("sweep", "s.yaml", "-o", "r.csv", "--workers", "1", "--batch", "1", "--quiet", cwd=tmp_path)
+    proc = cli("sweep", "s.yaml", "-o", "r.csv", "--workers", "0", "--quiet", cwd=tmp_path)
     try:
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline and not exited(proc):
@@ -154,8 +160,15 @@ def test_a_killed_sweep_keeps_its_finished_points_and_resume_runs_only_the_other
     for index, row in kept.items():        # the finished points were kept, not run again
         assert table["run_time"][index] == row["run_time"]
     assert not journal.exists()
-    fresh = run_sweep(sweep, workers=0, progress=False)
-    same_rows(fresh, table)
+    # every row is its point; the killed process's rows are what a serial run of those points
+    # gives (the rows run now ran here, one after another, as a fresh serial run would)
+    assert [(row["inputs.f1.gain"], row["seed"]) for _, row in table.iterrows()] == \
+        [(p.values[0], p.seed) for p in sweep.points()]
+    alone = run_sweep(fold_sweep(vary={"inputs.f1.gain": [row["inputs.f1.gain"] for _, row in sorted(kept.items())]},
+                                 compute="simulate"), workers=0, progress=False)
+    results = [c for c in table.columns if c not in ("point", "seed", "run_time", "sweep_id")]
+    pd.testing.assert_frame_equal(table.loc[sorted(kept), results].reset_index(drop=True),
+                                  alone[results].reset_index(drop=True))
     back = pd.read_csv(out)
     assert list(back["point"]) == list(range(40))
 

@@ -26,7 +26,6 @@ from typing import Final, TypeAlias
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.interpolate import BPoly
 
 from tensegrity_core.class2 import damping_matrix, mass_matrix, potential_gradient, velocity_terms
 from tensegrity_core.class2.control.errors import (
@@ -136,6 +135,9 @@ def actuator_reference(names: Iterable[str], times: Sequence[float], positions: 
     if len(T) == 1:            # one point at time 0: rest there
         T = np.array([0.0, step])
         derivs = [np.vstack([d, d]) for d in derivs[:1]]
+    # imported here: a controller that only holds never plans (its start is cheaper by the import)
+    from scipy.interpolate import BPoly
+
     values = np.stack(derivs, 1)                     # (knots, orders, 2)
     poly = BPoly.from_derivatives(T, values)
     tg = grid(float(T[-1]), step)
