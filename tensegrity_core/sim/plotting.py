@@ -65,6 +65,9 @@ def trajectory_figure(traj: Trajectory) -> Any:
         ax.grid(alpha=0.3)
     _legend(first, right, traj)
     fig.tight_layout()
+    # the layout is final: with tight_layout's placeholder engine left on the figure, savefig
+    # would lay out and draw the whole figure once more (without rendering) before drawing it
+    fig.set_layout_engine(None)
     return fig
 
 
