@@ -22,7 +22,7 @@ def _cross(a, b):
     ~10^4 times per run."""
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out = np.empty(a.shape if a.ndim >= b.ndim else b.shape)     # (k, 3) with (k, 3) or (3,)
     out[..., 0] = a1 * b2 - a2 * b1
     out[..., 1] = a2 * b0 - a0 * b2
     out[..., 2] = a0 * b1 - a1 * b0
@@ -50,11 +50,16 @@ class FloatingReference:
             in_body[idx] = True
         self.particles = np.flatnonzero(~in_body)
         self.c = c
+        # member k pulls node a toward b with t u and b toward a: node forces are -incidence.T @ (t u)
+        self.incidence = np.zeros((len(s.members), s.n_nodes))
+        self.incidence[np.arange(len(s.members)), s.members[:, 0]] = -1.0
+        self.incidence[np.arange(len(s.members)), s.members[:, 1]] = 1.0
 
     def initial(self, nodes, node_velocities):
         """The reference state of nodes (n, 3) moving rigidly with ``node_velocities`` (n, 3)."""
         self.p = []                 # body-frame offsets from the centre of mass (R = I at t = 0)
-        self.inertia = []
+        self.inertia = []           # body frame: the world frame's is R I R^T
+        self.inverse_inertia = []   # and its inverse R I^-1 R^T
         parts = []
         for idx in self.bodies:
             mk = self.m[idx]
@@ -68,6 +73,7 @@ class FloatingReference:
             w = np.linalg.solve(I, L)
             self.p.append(r)
             self.inertia.append(I)
+            self.inverse_inertia.append(np.linalg.inv(I))
             parts += [cm, vcm, np.eye(3).ravel(), w]
         parts += [nodes[self.particles].ravel(), node_velocities[self.particles].ravel()]
         return np.concatenate(parts)
@@ -99,10 +105,7 @@ class FloatingReference:
         if self.c is not None:
             t = t + self.c * np.einsum("ij,ij->i", u, v[b] - v[a])
         t = np.where(s.is_string & (l < s.rest_lengths), 0.0, t)
-        f = np.zeros_like(x)
-        np.add.at(f, a, t[:, None] * u)
-        np.add.at(f, b, -t[:, None] * u)
-        return f
+        return -self.incidence.T @ (t[:, None] * u)
 
     def rhs(self, t, y):
         x, v = self.unpack(y)
@@ -113,12 +116,14 @@ class FloatingReference:
             R, w = y[o + 6:o + 15].reshape(3, 3), y[o + 15:o + 18]
             M = self.m[idx].sum()
             cm = y[o:o + 3]
-            I = R @ self.inertia[b] @ R.T
             torque = _cross(x[idx] - cm, f[idx]).sum(axis=0)
             out[o:o + 3] = y[o + 3:o + 6]
             out[o + 3:o + 6] = f[idx].sum(axis=0) / M
             out[o + 6:o + 15] = (_hat(w) @ R).ravel()
-            out[o + 15:o + 18] = np.linalg.solve(I, torque - _cross(w, I @ w))
+            # Euler: w' = I^-1 (M - w x I w) in the world frame, I = R I_body R^T
+            w_body = R.T @ w
+            spin = _cross(w, R @ (self.inertia[b] @ w_body))
+            out[o + 15:o + 18] = R @ (self.inverse_inertia[b] @ (R.T @ (torque - spin)))
             o += 18
         n = len(self.particles)
         out[o:o + 3 * n] = v[self.particles].ravel()
