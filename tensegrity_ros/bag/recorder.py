@@ -59,11 +59,12 @@ from tensegrity_ros.rclpy_utils.raw_take import take_all
 from tensegrity_ros.rclpy_utils.stop_signals import stop_on_signals
 
 # The suite's topics, as the nodes name them (relative names follow the namespace): the
-# simulator's for the class-2 mechanism, general structures and robots, and both command
-# topics. A name ending in "/" stands for every topic under it (a robot's ``imu/<rod>``).
+# simulator's for the class-2 mechanism, general structures and robots (its located events
+# too: a stop on the singular set), and both command topics. A name ending in "/" stands for
+# every topic under it (a robot's ``imu/<rod>``).
 SUITE_TOPICS = ("joint_states", "end_effector", "mechanism_state", "markers", "/clock",
                 "actuator_forces", "cable_states", "body_states", "/tf", "contacts", "imu/",
-                "cable_commands")
+                "cable_commands", "events")
 DEFAULT_DEPTH = 1000       # subscription history: 1 s of backlog at 1 kHz before a drop
 DISCOVERY_PERIOD = 0.1     # s
 #: The recorder node's name (`tensegrity up --record` has the simulator wait for its subscriptions).

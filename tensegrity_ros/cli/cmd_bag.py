@@ -163,7 +163,7 @@ def register(sub: Subparsers) -> None:
         "record", help="record topics to a rosbag2 MCAP bag folder",
         description="Record topics to a rosbag2-compatible bag folder (metadata.yaml + MCAP). "
         "Default topics: the suite's (joint_states, end_effector, mechanism_state, markers, "
-        "/clock, actuator_forces; for general structures cable_states, body_states, cable_commands), "
+        "/clock, actuator_forces, events; for general structures cable_states, body_states, cable_commands), "
         "subscribed as they appear. Stop with Ctrl-C or SIGTERM.")
     p.add_argument("topics", nargs="*", metavar="TOPIC", help="topics to record (relative names "
                    "follow the namespace)")

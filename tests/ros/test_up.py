@@ -72,6 +72,8 @@ def test_up_starts_every_node_and_ctrl_c_stops_them(cli, ros_context, tmp_path):
     with open(mcap_file, "rb") as f:
         in_bag = Counter(channel.topic for _, channel, _ in make_reader(f).iter_messages())
     assert counts["/suite_test/joint_states"] > 0, out
+    # the simulator's located events too (a stop on the singular set), whether or not this run had any
+    assert "recording /suite_test/events [tensegrity_msgs/msg/SimulationEvent]" in out, out
     assert {t: in_bag[t] for t, n in counts.items() if n} == {t: n for t, n in counts.items() if n}, out
     # the recorder was stopped cleanly too: its bag is complete
     from tensegrity_ros.bag.reader import BagReader
