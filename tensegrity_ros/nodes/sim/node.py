@@ -199,8 +199,7 @@ class SimNode(SimulationInterfaces):
             self.get_logger().info(f"waiting for {p.wait_for_subscribers} subscriber(s){named} on every output topic")
             wait_for_matches(publishers, max(1, p.wait_for_subscribers), should_stop=self._stop.is_set,
                              poll=self._stop.wait,
-                             also=lambda: not p.wait_for_node
-                             or subscribed_by(self, (*publishers, self.pub_events), p.wait_for_node))
+                             also=lambda: not p.wait_for_node or subscribed_by(self, publishers, p.wait_for_node))
         with self._lock:
             self._publish()                  # the state at t_0
             self._waiting_since = time.monotonic()
