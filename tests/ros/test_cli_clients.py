@@ -146,9 +146,10 @@ def test_echo_says_what_it_waits_for_and_stops_cleanly_on_a_signal(tmp_path, ros
         pub = node.create_publisher(String, "quiet_topic", 10)
         _wait(lambda: pub.get_subscription_count() > 0, "echo's subscription")
         proc.send_signal(sig)
-        assert wait_group(proc, 60) == 0
+        code = wait_group(proc, 60)
     finally:
         kill_group(proc)
+    assert code == 0, f"echo ended with exit code {code} on signal {sig.name}; its stderr:\n{log.read_text()}"
     assert "Traceback" not in log.read_text() and proc.stdout.read() == b""
 
 
