@@ -12,7 +12,7 @@ from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
 from tests.ros.test_loopback import sockets_of
-from tests.ros_support import TENSEGRITY
+from tests.ros_support import TENSEGRITY, run_cli_here
 from tests.view.support import MALFORMED, PATIENCE, foreign_roll, handshake, start_view, subprotocol
 
 
@@ -20,12 +20,19 @@ def _run(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run([TENSEGRITY, "view", *args], capture_output=True, text=True, timeout=120)
 
 
+def _refused(*args: str) -> subprocess.CompletedProcess:
+    """``tensegrity view ARGS`` run in this process (:func:`~tests.ros_support.run_cli_here`):
+    for the refusals made before anything listens, whose output is the view's own lines
+    (no ROS, nothing written to the file descriptors below Python), no interpreter start."""
+    return run_cli_here("view", *args)
+
+
 def test_a_port_in_use_is_one_line_naming_it():
     with socket.socket() as taken:
         taken.bind(("127.0.0.1", 0))
         taken.listen()
         port = taken.getsockname()[1]
-        res = _run("--scene", "class2_at_rest", "--port", str(port))
+        res = _refused("--scene", "class2_at_rest", "--port", str(port))
     assert res.returncode == 2
     assert res.stderr.strip().splitlines() == [f"error: port {port} on 127.0.0.1 is in use (another view or program "
                                                "listens there); choose another with --port"]
@@ -37,7 +44,7 @@ def test_a_port_in_use_is_one_line_naming_it():
     (("--scene", "class2_at_rest", "--port", "70000"), "must be in 0..65535"),
 ])
 def test_bad_input_is_one_line(args, message):
-    res = _run(*args)
+    res = _refused(*args)
     assert res.returncode != 0 and "Traceback" not in res.stderr
     last = res.stderr.strip().splitlines()[-1]     # argparse prints its usage above the error line
     assert "error:" in last and message in last
@@ -82,7 +89,7 @@ def test_a_stop_ends_every_connection_of_the_page_and_its_server(cli, sig):
 def test_another_host_is_warned_about_before_it_listens():
     """192.0.2.1 (TEST-NET-1, RFC 5737) is no address of this machine: the warning comes
     first, then the one-line error, and nothing listens anywhere but loopback meanwhile."""
-    res = _run("--scene", "class2_at_rest", "--host", "192.0.2.1", "--port", "8097")
+    res = _refused("--scene", "class2_at_rest", "--host", "192.0.2.1", "--port", "8097")
     lines = res.stderr.strip().splitlines()
     assert res.returncode == 2 and "Traceback" not in res.stderr
     assert lines[0] == ("warning: listening on 192.0.2.1: anyone who can reach this machine can watch and drive "
@@ -104,7 +111,7 @@ def test_a_robot_bag_with_a_malformed_custom_data_plays_from_its_markers_or_says
     assert "/six_bar/markers" in view.stderr() and "drawn from its markers" in view.stderr()
     assert view.stop() == 0
     foreign_roll(tmp_path / "bare", MALFORMED, ("body_states", "cable_states"), seconds=0.5)
-    res = _run(str(tmp_path / "bare"))
+    res = _refused(str(tmp_path / "bare"))
     lines = res.stderr.strip().splitlines()
     assert res.returncode == 1 and len(lines) == 1 and "Traceback" not in res.stderr
     assert "custom_data cannot be read" in lines[0] and "--scene NAME" in lines[0]
