@@ -54,16 +54,24 @@ def main() -> None:
             inbox.wait(0.1)
 
     taking = threading.Thread(target=take, name="bench_topic_echo")
-    taking.start()
-    print("echo ready", flush=True)
+    executor = rclpy.get_global_executor()
+    executor.add_node(node)
     try:
-        rclpy.spin(node)
+        taking.start()
+        print("echo ready", flush=True)
+        # rclpy.spin's loop, each wait ending after 0.1 s: rclpy's SIGINT handling wakes the wait
+        # before it shuts the context down, and its KeyboardInterrupt may come in no thread
+        # (tensegrity_ros/rclpy_utils/stop_signals.py); an endless wait could then miss the stop
+        while executor.context.ok():
+            executor.spin_once(timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
         stop.set()
         inbox.wake()
-        taking.join()               # joined: a thread still in rcl_wait at exit aborts the process
+        if taking.is_alive():
+            taking.join()           # joined: a thread still in rcl_wait at exit aborts the process
+        executor.remove_node(node)
         echo.destroy_node()
         node.destroy_node()
         rclpy.try_shutdown()
