@@ -10,7 +10,8 @@ The simulator starts paused and plays once the controller holds it.
 
 The tests that start a simulator and a controller of their own come first: the module's
 pair (``suite``), started by the first test that asks for it, runs until the module ends, and
-would otherwise keep stepping beside theirs.
+would otherwise keep stepping beside theirs. The tests on the pair that reset and stop its
+simulator come last among those on the pair, the stop at the very end.
 """
 
 from __future__ import annotations
@@ -132,7 +133,7 @@ def _sim_control(namespace: str, action: str) -> None:
 
 @pytest.fixture(scope="module")
 def suite(tmp_path_factory):
-    """One simulator + controller for the module's goals, and a client."""
+    """One simulator + controller for the module's goals: (a client, the controller, the simulator)."""
     from tests.ros_support import Proc
 
     folder = tmp_path_factory.mktemp("controller")
@@ -144,7 +145,7 @@ def suite(tmp_path_factory):
 
     sim, ctl = _start(cli, "/ctl")
     with open_context() as ctx:
-        yield Client(ctx, "/ctl"), ctl
+        yield Client(ctx, "/ctl"), ctl, sim
     for p in procs:
         p.stop()
 
@@ -165,19 +166,6 @@ def _traj(names=("rho1", "rho2"), points=((1.0, (0.71, 0.69)), (2.0, (0.72, 0.7)
         traj.points.append(JointTrajectoryPoint(positions=list(pos),
                                                 time_from_start=Duration(sec=int(sec), nanosec=int((t - sec) * 1e9))))
     return traj
-
-
-def test_a_stopped_simulator_aborts_the_running_goal(cli, ros_context):
-    sim, ctl = _start(cli, "/ctl_stop")
-    client = Client(ros_context, "/ctl_stop")
-    x0, y0, _ = client.end_effector()
-    handle, feedback = client.send(client.move, client.Move.Goal(x=x0 + 0.03, y=y0, duration=8.0))
-    client.spin_until(lambda: feedback)                     # it runs
-    sim.kill()
-    status, res = client.result(handle, 30)
-    assert status == 6 and res.error_code == client.Move.Result.SIMULATOR_STOPPED
-    assert "has not advanced" in res.error_string
-    assert ctl.popen.poll() is None                          # the controller keeps running
 
 
 def test_a_simulator_driven_into_a_singular_set_aborts_the_running_goal(cli, ros_context, tmp_path):
@@ -215,53 +203,6 @@ def test_a_simulator_driven_into_a_singular_set_aborts_the_running_goal(cli, ros
     # lambda2/L = sqrt(1 - (rho1/L)^2): rho1 within its printed 0.05 mm of the length it implies
     assert abs(rho1 - PAPER_PARAMS.L * math.sqrt(1.0 - value**2)) <= 6e-5
     assert ctl.popen.poll() is None
-
-
-def test_a_reset_ends_the_running_goal_and_the_lockstep_loop_goes_on(cli, ros_context):
-    """ResetSimulation (clock back to 0) under a running goal: the goal ends with the reason,
-    the controller holds anew where the reset put the mechanism and answers its state, so the
-    lockstep simulator never waits out a step."""
-    import rclpy
-
-    from tensegrity_ros.apps.sim_client import SimClient
-
-    sim, ctl = _start(cli, "/ctl_reset")
-    client = Client(ros_context, "/ctl_reset")
-    # the reset goes from this process (what `tensegrity sim reset` sends): a CLI process
-    # started on a loaded machine took longer than the 5 s the move had left, and the move
-    # then succeeded before the reset came
-    sim_client = SimClient(rclpy, "reset_test", record_events=False, context=ros_context, namespace="/ctl_reset")
-    try:
-        sim_client.wait_for_services(30)
-        x0, y0, _ = client.end_effector()
-        # a move far longer than the reset's way here: this process reads the feedback (and
-        # its 100 Hz joint states and commands) late at load, and a 6 s move once ended before
-        # the reset came; an ended move would succeed, this one is cut at once
-        handle, feedback = client.send(client.move, client.Move.Goal(x=x0 + 0.03, y=y0, duration=120.0))
-        client.spin_until(lambda: feedback and feedback[-1].time_from_start >= 1.0)
-        sim_client.reset_all()
-    finally:
-        sim_client.close()
-    status, res = client.result(handle)
-    assert status == 6 and res.error_code == client.Move.Result.SIMULATOR_STOPPED
-    assert "the simulation was reset: its time went back" in res.error_string
-    # states published before the reset may still be queued for this client (at load, one
-    # from mid-move was read as the held state): the first after the reset is where the
-    # clock goes back, and from there it runs again from 0
-    def one_second_after_the_reset() -> bool:
-        stamps = [_stamp(j) for j in client.joints]
-        return any(b < a for a, b in zip(stamps, stamps[1:])) and stamps[-1] >= 1.0
-
-    client.spin_until(one_second_after_the_reset)
-    x, y, _ = client.end_effector()
-    assert math.hypot(x - x0, y - y0) < 2e-4                 # held at the initial state
-    log = sim.stderr()
-    assert "no command for step" not in log                  # no step waited out its timeout
-    # an answer in flight when the reset came is refused as stamped for another step
-    import re
-
-    assert all(float(t) > 0.5 for t in re.findall(r"command stamped (\S+) s, but", log)), log
-    assert "holding anew" in ctl.stderr()
 
 
 def test_a_repeated_state_gets_the_same_answer_and_does_not_advance_the_law(cli, ros_context):
@@ -406,7 +347,7 @@ def test_a_manual_command_takes_over_from_the_controller_until_its_next_goal(cli
 
 
 def test_move_reaches_the_target_within_its_tolerance_with_feedback(suite):
-    client, _ = suite
+    client, _, _ = suite
     x0, y0, _ = client.end_effector()
     target = (x0 + 0.03, y0 + 0.02)
     goal = client.Move.Goal(x=target[0], y=target[1], duration=1.5)       # default tolerance 0.1 mm
@@ -429,7 +370,7 @@ def test_a_move_with_neither_duration_nor_speed_takes_the_controllers_max_speed(
     """0 is "not given" for both, as for goal_tolerance: with neither the controller's
     max_speed (0.05 m/s) applies: the move's rest-to-rest scaling peaks at 630/256 times the
     mean speed (paths.py), so a 3 cm move lasts 630/256 * 0.03 / 0.05 = 1.48 s."""
-    client, _ = suite
+    client, _, _ = suite
     x0, y0, _ = client.end_effector()
     status, res, feedback = client.run(client.move, client.Move.Goal(x=x0 + 0.03, y=y0))
     assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
@@ -447,7 +388,7 @@ def test_a_short_move_without_a_duration_goes_slower_than_the_speed_limit_within
     max_speed (0.05 m/s) the move would last 630/256 * 0.01 / 0.05 = 0.49 s and need tens of N
     of feedforward (acceleration ~ speed^2 / distance), over the 4 N budget (max_force 5 N x
     force_budget 0.8). A speed limit is a limit, so the move goes slower and succeeds."""
-    client, _ = suite
+    client, _, _ = suite
     x0, y0, _ = client.end_effector()
     status, res, feedback = client.run(client.move, client.Move.Goal(x=x0 + 0.01, y=y0))
     assert res.error_code == client.Move.Result.SUCCESSFUL, res.error_string
@@ -460,7 +401,7 @@ def test_a_short_move_without_a_duration_goes_slower_than_the_speed_limit_within
 
 
 def test_follow_reaches_the_last_point_with_desired_actual_error_feedback(suite):
-    client, _ = suite
+    client, _, _ = suite
     _, _, js = client.end_effector()
     r1, r2 = js.position[0], js.position[1]
     from builtin_interfaces.msg import Duration
@@ -494,7 +435,7 @@ def test_follow_reaches_the_last_point_with_desired_actual_error_feedback(suite)
     (dict(x=1.3, y=0.8, duration=1.5), "INVALID_GOAL", "allow more time: a duration of at least"),
 ])
 def test_bad_moves_are_refused_with_the_reason_and_the_hold_continues(suite, goal, code, words):
-    client, _ = suite
+    client, _, _ = suite
     before = client.end_effector()
     status, res, feedback = client.run(client.move, client.Move.Goal(**goal))
     assert res.error_code == getattr(client.Move.Result, code), res.error_string
@@ -515,7 +456,7 @@ def test_bad_moves_are_refused_with_the_reason_and_the_hold_continues(suite, goa
     (dict(points=((3.0, (1.2, 0.7)),)), "INVALID_GOAL", "outside the mechanism's domain"),
 ])
 def test_bad_trajectories_are_refused_with_the_reason(suite, traj, code, words):
-    client, _ = suite
+    client, _, _ = suite
     status, res, _ = client.run(client.follow, client.Follow.Goal(trajectory=_traj(**traj)))
     assert res.error_code == getattr(client.Follow.Result, code), res.error_string
     assert words in res.error_string and status == 6
@@ -524,7 +465,7 @@ def test_bad_trajectories_are_refused_with_the_reason(suite, traj, code, words):
 def test_unknown_tolerance_joints_and_efforts_are_refused(suite):
     from tensegrity_msgs.msg import JointTolerance
 
-    client, _ = suite
+    client, _, _ = suite
     goal = client.Follow.Goal(trajectory=_traj(), path_tolerance=[JointTolerance(name="beta", position=0.1)])
     _, res, _ = client.run(client.follow, goal)
     assert res.error_code == client.Follow.Result.INVALID_JOINTS and "beta" in res.error_string
@@ -538,7 +479,7 @@ def test_path_and_goal_tolerance_violations_abort_with_their_codes(suite):
     from builtin_interfaces.msg import Duration
     from tensegrity_msgs.msg import JointTolerance
 
-    client, _ = suite
+    client, _, _ = suite
     _, _, js = client.end_effector()
     r1, r2 = js.position[0], js.position[1]
     moving = _traj(points=((1.0, (r1 + 0.02, r2)),))
@@ -568,7 +509,7 @@ def test_a_goal_time_tolerance_of_minus_one_waits_for_the_goal_tolerance(suite):
     from builtin_interfaces.msg import Duration
     from tensegrity_msgs.msg import JointTolerance
 
-    client, _ = suite
+    client, _, _ = suite
     _, _, js = client.end_effector()
     there = _traj(points=((0.5, (js.position[0] + 0.005, js.position[1])),))
     impossible = [JointTolerance(name=n, position=1e-12) for n in ("rho1", "rho2")]
@@ -593,7 +534,7 @@ def test_a_trajectory_stamped_on_the_wall_clock_is_said_in_the_log(suite):
     says so once with the likely cause instead of waiting silently; a cancel ends it."""
     import rclpy.clock
 
-    client, ctl = suite
+    client, ctl, _ = suite
     since = len(ctl.stderr())
     _, _, js = client.end_effector()
     traj = _traj(points=((1.0, (js.position[0], js.position[1])),))
@@ -616,7 +557,7 @@ def test_a_trajectory_stamped_in_the_past_is_joined_and_one_that_ended_is_refuse
     the result); one that ended before the controller's time is OLD_HEADER_TIMESTAMP."""
     from builtin_interfaces.msg import Duration, Time
 
-    client, _ = suite
+    client, _, _ = suite
     client.wait_sim(0.5)                                   # a past of at least 0.5 s
     _, _, js = client.end_effector()
     here = ((0.5, (js.position[0], js.position[1])),)      # hold where it is for 0.5 s
@@ -638,7 +579,7 @@ def test_a_trajectory_stamped_in_the_past_is_joined_and_one_that_ended_is_refuse
 
 
 def test_cancel_holds_where_the_reference_was(suite):
-    client, _ = suite
+    client, _, _ = suite
     x0, y0, _ = client.end_effector()
     handle, feedback = client.send(client.move, client.Move.Goal(x=x0 - 0.04, y=y0, duration=8.0))
     client.spin_until(lambda: feedback and feedback[-1].time_from_start >= 2.0)    # a quarter of the time
@@ -657,7 +598,7 @@ def test_cancel_holds_where_the_reference_was(suite):
 
 
 def test_a_new_goal_preempts_the_running_one(suite):
-    client, _ = suite
+    client, _, _ = suite
     x0, y0, _ = client.end_effector()
     first, feedback = client.send(client.move, client.Move.Goal(x=x0 + 0.04, y=y0, duration=6.0))
     client.spin_until(lambda: feedback)                     # it runs
@@ -678,7 +619,7 @@ def test_a_controller_stopped_longer_than_its_state_timeout_goes_on_with_its_goa
     import os
     import signal
 
-    client, ctl = suite
+    client, ctl, _ = suite
     x0, y0, _ = client.end_effector()
     handle, feedback = client.send(client.move, client.Move.Goal(x=x0 + 0.01, y=y0, duration=2.0))
     client.spin_until(lambda: feedback)                     # it runs
@@ -691,6 +632,65 @@ def test_a_controller_stopped_longer_than_its_state_timeout_goes_on_with_its_goa
         os.killpg(ctl.popen.pid, signal.SIGCONT)
     status, res = client.result(handle)
     assert (status, res.error_code) == (4, client.Move.Result.SUCCESSFUL), res.error_string
+
+
+def test_a_reset_ends_the_running_goal_and_the_lockstep_loop_goes_on(suite):
+    """ResetSimulation (clock back to 0) under a running goal: the goal ends with the reason,
+    the controller holds anew where the reset put the mechanism (the scene's rest at
+    rho = (0.7, 0.7) m) and answers its state, so the lockstep simulator never waits out a
+    step."""
+    import rclpy
+
+    from tensegrity_ros.apps.sim_client import SimClient
+
+    client, ctl, sim = suite
+    since_sim, since_ctl = len(sim.stderr()), len(ctl.stderr())
+    # the reset goes from this process (what `tensegrity sim reset` sends): a CLI process
+    # started on a loaded machine took longer than the 5 s the move had left, and the move
+    # then succeeded before the reset came
+    sim_client = SimClient(rclpy, "reset_test", record_events=False, context=client.node.context, namespace="/ctl")
+    try:
+        sim_client.wait_for_services(30)
+        x0, y0, _ = client.end_effector()
+        # a move far longer than the reset's way here: this process reads the feedback (and
+        # its 100 Hz joint states and commands) late at load, and a 6 s move once ended before
+        # the reset came; an ended move would succeed, this one is cut at once
+        handle, feedback = client.send(client.move, client.Move.Goal(x=x0 + 0.03, y=y0, duration=120.0))
+        client.spin_until(lambda: feedback and feedback[-1].time_from_start >= 1.0)
+        sim_client.reset_all()
+    finally:
+        sim_client.close()
+    status, res = client.result(handle)
+    assert status == 6 and res.error_code == client.Move.Result.SIMULATOR_STOPPED
+    assert "the simulation was reset: its time went back" in res.error_string
+    # states published before the reset may still be queued for this client (at load, one
+    # from mid-move was read as the held state): the first after the reset is where the
+    # clock goes back, and from there it runs again from 0
+    def one_second_after_the_reset() -> bool:
+        stamps = [_stamp(j) for j in client.joints]
+        return any(b < a for a, b in zip(stamps, stamps[1:])) and stamps[-1] >= 1.0
+
+    client.spin_until(one_second_after_the_reset)
+    x, y, _ = client.end_effector()
+    assert math.hypot(x - D0.x, y - D0.y) < 2e-4             # held at the initial state
+    log = sim.stderr()[since_sim:]
+    assert "no command for step" not in log                  # no step waited out its timeout
+    # an answer in flight when the reset came is refused as stamped for another step
+    assert all(float(t) > 0.5 for t in re.findall(r"command stamped (\S+) s, but", log)), log
+    assert "holding anew" in ctl.stderr()[since_ctl:]
+
+
+def test_a_stopped_simulator_aborts_the_running_goal(suite):
+    """The last test on the module's pair: it stops the simulator."""
+    client, ctl, sim = suite
+    x0, y0, _ = client.end_effector()
+    handle, feedback = client.send(client.move, client.Move.Goal(x=x0 + 0.03, y=y0, duration=8.0))
+    client.spin_until(lambda: feedback)                     # it runs
+    sim.kill()
+    status, res = client.result(handle, 30)
+    assert status == 6 and res.error_code == client.Move.Result.SIMULATOR_STOPPED
+    assert "has not advanced" in res.error_string
+    assert ctl.popen.poll() is None                          # the controller keeps running
 
 
 def test_a_goal_sent_before_the_first_joint_state_waits_for_it(cli, ros_context):
