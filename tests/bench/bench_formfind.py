@@ -22,9 +22,10 @@ One BLAS thread throughout. Structures from the generators of ``tensegrity_core.
 - ``spine_threads``: the dense Newton algebra of a C spine of 40 vertebrae (234 DOF, under
   ``DENSE_LIMIT``) with one BLAS thread against two: one shifted step and the stability
   eigenvalue at the straight start, process CPU time (spinning threads included) and wall
-  time per call. Full mode adds form-finding of the 40- and the 100-vertebra C spine (the
-  latter sparse) with the exact ``K_T`` (``slack_stiffness=False``), the run that took 49 s
-  against 3 s with BLAS's default threads on a busy machine.
+  time per call (the best of 20 calls; quick: one call). Full mode adds form-finding of the
+  40- and the 100-vertebra C spine (the latter sparse) with the exact ``K_T``
+  (``slack_stiffness=False``), the run that took 49 s against 3 s with BLAS's default
+  threads on a busy machine.
 - ``shift``: Newton with the default shift (the rounding level of a definite matrix)
   against the paper's fixed shift 1e-10 on the scaled matrix, towers after a 1 %
   rest-length step: time and iterations. Quick: 1,800 members; full: 18,000 and 36,000.
@@ -242,7 +243,7 @@ def spine_threads(ctx: Context) -> list[Row]:
     label = f"dense shifted step and stability eigenvalue, C spine 40 vertebrae ({s.layout.n_dof} DOF)"
     for threads in (1, 2):
         with threadpool_limits(threads, user_api="blas"):
-            cpu, wall = _cpu_and_wall(dense_algebra, 5 if ctx.quick else 20)
+            cpu, wall = _cpu_and_wall(dense_algebra, 1 if ctx.quick else 20)
         base = None if threads == 1 else "{what}, 1 BLAS thread"
         for what, value in (("CPU", cpu), ("wall", wall)):
             rows.append(Row("formfind", f"{label}, {what}, {threads} BLAS thread{'s' * (threads > 1)}", value, "s",

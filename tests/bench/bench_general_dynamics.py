@@ -31,8 +31,8 @@ the same initial state (``tests/mujoco_peer.py``).
 Quick mode (CI's smoke run: every row reported, no speed proven): one round of
 ``evaluations``; the prisms and the table against MuJoCo, 1/20 of their durations, steps of 1
 and 1/2 the exported one; towers of 9, 198 and 999 members (two above 100 for the growth
-exponent; MuJoCo on none) and spines of 9 and 36 vertebrae, 5 ms each; the cache's loading
-alone.
+exponent; MuJoCo on none) and spines of 9 and 36 vertebrae, 5 ms each, one timed run of each
+kernel, the numpy floor's calls timed over 1,000 calls a loop; the cache's loading alone.
 """
 
 from __future__ import annotations
@@ -57,6 +57,8 @@ DEFAULT_RTOL = 1e-7
 RATE = 200.0
 #: The structures quick mode (CI's smoke run) compares with MuJoCo.
 QUICK_CASES = ("two stacked 3-prisms", "table_gravity")
+#: [s] Quick mode's least time per kernel in ``growth``: one timed run each (after the first).
+QUICK_MIN_TIME = 1e-9
 
 BODIES = {
     "name": "two spinning bodies",
@@ -486,7 +488,7 @@ def growth(ctx: Context) -> list[Row]:
             members = scene.model.structure.n_members
             dt = _tower_step(scene)
             entry = {"members": members, "step": dt}
-            entry.update(_both_kernels(scene, dt, 0.05 if ctx.quick else 0.5))
+            entry.update(_both_kernels(scene, dt, QUICK_MIN_TIME if ctx.quick else 0.5))
             if not missing and (members >= 1998 or not ctx.quick):
                 from tensegrity_core.export import export_mjcf
 
@@ -498,7 +500,7 @@ def growth(ctx: Context) -> list[Row]:
         for vertebrae in (9, 36) if ctx.quick else (9, 36, 144, 576):
             scene = _spine_scene(vertebrae, 0.005 if ctx.quick else 0.02)
             entry = {"vertebrae": vertebrae, "members": scene.model.structure.n_members, "step": SPINE_STEP}
-            entry.update(_both_kernels(scene, SPINE_STEP, 0.05 if ctx.quick else 0.5))
+            entry.update(_both_kernels(scene, SPINE_STEP, QUICK_MIN_TIME if ctx.quick else 0.5))
             spines.append(entry)
     m = np.array([e["members"] for e in data], dtype=float)
     for kernels in ("numba", "numpy", "mujoco"):
@@ -521,7 +523,7 @@ def growth(ctx: Context) -> list[Row]:
                         baseline=f"tower {e['members']} members: project RK4 (numba), CPU",
                         target="ratio >= 0.333 (fallback within 3x: compiled / numpy)"))
     first = data[0]
-    rows += _numpy_floor(_tower_scene(stages[0], duration), first, 5_000 if ctx.quick else 50_000)
+    rows += _numpy_floor(_tower_scene(stages[0], duration), first, 1_000 if ctx.quick else 50_000)
     rows.append(Row(GROUP, f"tower {first['members']} members: project RK4 (numba)", first["numba"], "s/s"))
     rows.append(Row(GROUP, f"tower {first['members']} members: numpy kernels", first["numpy"], "s/s",
                     baseline=f"tower {first['members']} members: project RK4 (numba)"))
