@@ -41,7 +41,11 @@ class LoopFeeder:
     """The client's subscriptions to ``body_states`` and ``contacts`` feeding ``loop`` (None:
     not answering), its answers published on ``pub`` once per stamp and only below
     ``until_ns`` [ns] (an answer to a run's final state would reach the simulator after the
-    next reset, stamped for another step).
+    next reset, stamped for another step); every sample (with ``joint_states``) also goes to
+    ``watcher`` (a :class:`.gait_run.RunWatcher` made without subscriptions of its own to
+    them). The samples are taken on a thread of their own from a node that no executor spins
+    (:class:`~tensegrity_ros.rclpy_utils.inbox.Inbox`): through the client's executor, each of
+    the five per step cost a wake-up that rebuilds the wait set of the client's node.
 
     What the loop sees depends on no thread's timing, so that a rerun is identical:
 
@@ -53,10 +57,14 @@ class LoopFeeder:
       loop's ``done_ns`` is read after the last state of a chunk of steps (read before it,
       a run could step a chunk more than its rerun)."""
 
-    def __init__(self, node: Any, pub: Any) -> None:
-        from rclpy.qos import QoSProfile
+    def __init__(self, node: Any, pub: Any, watcher: Any) -> None:
+        from rclpy.node import Node
+        from rclpy.qos import HistoryPolicy, QoSProfile
+        from sensor_msgs.msg import JointState
         from std_msgs.msg import Header
         from tensegrity_msgs.msg import CableCommand, CapContacts, RigidBodyStates
+
+        from tensegrity_ros.rclpy_utils.inbox import Inbox
 
         self.loop: Any = None
         self.until_ns: int | None = None
@@ -65,8 +73,35 @@ class LoopFeeder:
         self._at_reset: dict[str, Any] = {}           # body_states and contacts stamped t = 0 since start(None)
         self._fed: set[tuple[str, int]] = set()       # what the loop has had: a reset's state comes once
         self._pub, self._Header, self._CableCommand = pub, Header, CableCommand
-        node.create_subscription(RigidBodyStates, "body_states", self._on_bodies, QoSProfile(depth=1000))
-        node.create_subscription(CapContacts, "contacts", self._on_contacts, QoSProfile(depth=1000))
+        self._watcher = watcher
+        self._node = Node(f"_{node.get_name()}_samples", namespace=node.get_namespace(), context=node.context,
+                          use_global_arguments=False, start_parameter_services=False, enable_rosout=False)
+        self._inbox = Inbox(self._node)
+        qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1000)    # the watcher loses no sample
+        self._inbox.subscribe(RigidBodyStates, node.resolve_topic_name("body_states"), self._on_bodies, qos)
+        self._inbox.subscribe(CapContacts, node.resolve_topic_name("contacts"), self._on_contacts, qos)
+        self._inbox.subscribe(JointState, node.resolve_topic_name("joint_states"), watcher._on_joints, qos)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._take, name=f"{node.get_name()}_samples", daemon=True)
+        self._thread.start()
+
+    def _take(self) -> None:
+        """Hand the samples on as they come, until :meth:`close` or until the context shuts
+        down (joined like :class:`~tensegrity_ros.rclpy_utils.spin_thread.SpinThread`)."""
+        context = self._node.context
+        try:
+            while not self._stop.is_set() and context.ok():
+                self._inbox.wait(0.05)
+        except Exception:
+            if context.ok():     # shut down between the check and the wait: rclpy raises RCLError
+                raise
+
+    def close(self) -> None:
+        self._stop.set()
+        if self._node.context.ok():
+            self._inbox.wake()
+        self._thread.join()
+        self._node.destroy_node()
 
     def start(self, loop: Any) -> None:
         with self._fed_cv:
@@ -77,12 +112,14 @@ class LoopFeeder:
                 self._feed(kind, msg)
 
     def _on_bodies(self, msg: Any) -> None:
-        self._take("bodies", msg)
+        self._watcher._on_bodies(msg)
+        self._give("bodies", msg)
 
     def _on_contacts(self, msg: Any) -> None:
-        self._take("contacts", msg)
+        self._watcher._on_contacts(msg)
+        self._give("contacts", msg)
 
-    def _take(self, kind: str, msg: Any) -> None:
+    def _give(self, kind: str, msg: Any) -> None:
         with self._fed_cv:
             if stamp_ns(msg.header.stamp) == 0:
                 self._at_reset[kind] = msg
@@ -155,8 +192,8 @@ def run_robot(rclpy: Any, out: Path, *, step_ns: int, record: bool, results: dic
         f"{RATE:g} Hz), then {SETTLE_S:g} s to settle; logs in {out / 'six_bar.log'}")
     launcher.start()
     client = SimClient(rclpy, "tensegrity_demo_six_bar", namespace=NAMESPACE, record_events=False, cables=cables)
-    feeder = LoopFeeder(client.node, client.pub)
-    watcher = RunWatcher(client.node)
+    watcher = RunWatcher(client.node, samples=False)
+    feeder = LoopFeeder(client.node, client.pub, watcher)
     rec = None
     try:
         client.wait_for_services(120.0)
@@ -224,6 +261,7 @@ def run_robot(rclpy: Any, out: Path, *, step_ns: int, record: bool, results: dic
     finally:
         if rec is not None:
             rec.stop()
+        feeder.close()
         client.close()
         launcher.stop()
         log.close()
