@@ -23,7 +23,12 @@ def _alive(pid: int) -> bool:
     return subprocess.run(["ps", "-p", str(pid)], capture_output=True).returncode == 0
 
 
-def test_up_starts_every_node_and_ctrl_c_stops_them(cli, ros_context, tmp_path):
+def test_up_starts_every_node_and_ctrl_c_stops_them_and_a_second_up_there_is_refused(cli, ros_context, tmp_path):
+    """`up` starts every node; a second `up` in the same namespace, which would publish the
+    same topics, exits 1 with one line that names the domain and the running nodes, and the
+    first runs on; Ctrl-C then stops every node of the first."""
+    import os
+
     import rclpy
 
     up = cli("up", "--namespace", "/suite_test", "--record", str(tmp_path / "bag"), log_name="up")
@@ -53,6 +58,20 @@ def test_up_starts_every_node_and_ctrl_c_stops_them(cli, ros_context, tmp_path):
     while not take_all(sub):
         assert time.monotonic() < deadline + 60, up.stderr()
         time.sleep(0.05)
+    second = cli("up", "--namespace", "/suite_test", "--no-formfind", "--no-controller", log_name="up_second")
+    assert second.popen.wait(60) == 1, second.stderr()
+    domain = os.environ.get("ROS_DOMAIN_ID", "0")
+    [line] = second.stderr().strip().splitlines()       # one line, no child started
+    # the names its graph showed by the first look that found one: some of the first's nodes
+    found = re.fullmatch(rf"error: the suite is already running in ROS domain {domain} in namespace /suite_test "
+                         r"\(([^()]+)\): stop it first, or start this one in "
+                         r"another namespace \(--namespace /robot2\) or domain \(ROS_DOMAIN_ID\)", line)
+    assert found, line
+    names = found[1].split(", ")
+    assert names == sorted(set(names)) and set(names) <= {f"/suite_test/tensegrity_{n}" for n in
+                                                          ("sim", "ik", "controller", "formfind", "recorder")}, line
+    assert up.popen.poll() is None                      # the running suite is left alone
+    assert _children(up.popen.pid) == children
     up.popen.send_signal(signal.SIGINT)
     assert up.popen.wait(60) == 0, up.stderr()
     out = up.popen.stdout.read()
@@ -195,33 +214,6 @@ def test_up_on_a_robot_records_every_topic_its_simulator_publishes(cli, ros_cont
         for _, channel, _ in make_reader(f).iter_messages():
             counts[channel.topic] = counts.get(channel.topic, 0) + 1
     assert all(counts.get(t, 0) > 0 for t in want), counts
-
-
-def test_a_second_up_in_the_same_namespace_is_refused_naming_the_running_nodes(cli, ros_context):
-    """Two suites in one namespace would publish the same topics: the second `up` exits 1
-    with one line that names the domain and the running nodes; the first runs on."""
-    import os
-
-    import rclpy
-
-    first = cli("up", "--namespace", "/twice", "--no-formfind", "--no-controller", log_name="up_first")
-    node = rclpy.create_node("twice_probe", context=ros_context)
-    deadline = time.monotonic() + 60
-    while ("tensegrity_sim", "/twice") not in node.get_node_names_and_namespaces():
-        assert time.monotonic() < deadline, first.stderr()
-        time.sleep(0.1)
-    node.destroy_node()
-    second = cli("up", "--namespace", "/twice", "--no-formfind", "--no-controller", log_name="up_second")
-    assert second.popen.wait(60) == 1, second.stderr()
-    domain = os.environ.get("ROS_DOMAIN_ID", "0")
-    [line] = second.stderr().strip().splitlines()       # one line, no child started
-    # the names its graph showed by the first look that found one: the IK node, the simulator or both
-    assert re.fullmatch(rf"error: the suite is already running in ROS domain {domain} in namespace /twice "
-                        r"\((/twice/tensegrity_ik|/twice/tensegrity_sim|/twice/tensegrity_ik, /twice/tensegrity_sim)\)"
-                        r": stop it first, or start this one in "
-                        r"another namespace \(--namespace /robot2\) or domain \(ROS_DOMAIN_ID\)", line), line
-    assert first.popen.poll() is None                   # the running suite is left alone
-    assert first.stop() == 0, first.stderr()
 
 
 def test_the_suite_nodes_of_a_namespace_are_told_apart_from_other_namespaces_and_nodes():
