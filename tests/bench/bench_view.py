@@ -32,10 +32,11 @@ each row says the ratio it ended at and the canvas's pixels):
   HTTP; baseline ``tensegrity scenes`` (the command line's own start-up). Target < 3 s.
 
 Quick mode (CI's smoke run: every row reported, no speed proven): one start-up (that of the
-view of the suite over ROS: the same command, started once instead of twice), 0.3 s windows
-after a settling wait cut to ``QUICK_SETTLE``, the 6-bar robot's bag (the spine's plays
-through the same code; tests/view/test_browser.py draws its hulls); full mode: 5 start-ups
-of ``--scene class2_at_rest``, 15 s windows (a bag's: as long as it lasts), all rows.
+view of the suite over ROS: the same command, started once instead of twice), the browser's
+window ``QUICK_WINDOW``, 0.3 s windows after a settling wait cut to ``QUICK_SETTLE``, the
+6-bar robot's bag (the spine's plays through the same code; tests/view/test_browser.py draws
+its hulls); full mode: 5 start-ups of ``--scene class2_at_rest``, 15 s windows (a bag's: as
+long as it lasts), all rows.
 """
 
 from __future__ import annotations
@@ -67,6 +68,9 @@ SIM_PUBLISHING = re.compile(r"publishing at")
 BAG_END_MARGIN = 0.5
 #: The browser's window [px] (a user's).
 WINDOW = (1280, 720)
+#: Quick mode's window [px]: software WebGL's cost grows with the canvas's pixels, and the page
+#: renders the whole time it plays (the control panel keeps its width: a 572 x 540 px canvas).
+QUICK_WINDOW = (960, 540)
 #: A playing page's resolution has settled when it did not change for this long [s],
 SETTLED = 1.0
 #: or this long [s] after Play at the most (two steps down take the page about that long).
@@ -269,7 +273,7 @@ def view_in_the_browser(ctx: Context) -> list[Row]:
         _stop(proc)
     rows.append(Row("view", "tensegrity scenes: start to exit, median", statistics.median(base), "s"))
 
-    browser = Browser(*WINDOW)
+    browser = Browser(*(QUICK_WINDOW if ctx.quick else WINDOW))
     browser.context.add_init_script(COUNT_RENDERS)
     try:
         # the renderer alone: an empty viser page, served from this process (its server thread
