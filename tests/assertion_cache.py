@@ -1,5 +1,5 @@
 """Writes pytest's assertion-rewritten code of the test modules once, before a test run
-(``./run test``'s ``compile_project``): ``python -m tests.assertion_cache``.
+(``./run test``'s ``rewrite_test_asserts``): ``python -m tests.assertion_cache``.
 
 pytest rewrites the ``assert`` statements of every test module and conftest it imports and
 keeps the result in ``__pycache__/<name>.<tag>-pytest-<version>.pyc``, but writes it only
