@@ -30,6 +30,7 @@ from mcap.records import Schema
 from mcap_ros2.decoder import DecoderFactory
 
 from tensegrity_core.errors import TensegrityError
+from tensegrity_core.excerpt import excerpt
 from tensegrity_ros.bag.errors import BagError
 from tensegrity_ros.bag.reader import BagReader
 from tensegrity_ros.bag.scene import recorded_scene
@@ -84,7 +85,7 @@ def _stamps(encoding: str, definition: str, decode: Callable[[bytes], Any]) -> C
 
     def read(data: bytes) -> float:
         kind = data[:2]
-        if kind not in (b"\x00\x00", b"\x00\x01"):        # CDR_BE, CDR_LE; another representation: decoded
+        if kind not in (b"\x00\x00", b"\x00\x01") or len(data) < 12:   # CDR_BE, CDR_LE; else decoded
             return decoded(data)
         sec, nanosec = struct.unpack_from("<iI" if kind == b"\x00\x01" else ">iI", data, 4)
         return int(sec) + int(nanosec) * 1e-9
@@ -103,15 +104,28 @@ class _Topic:
         if decode is None:
             raise BagError(f"bag {path}: cannot decode {topic} (schema encoding {encoding!r})")
         self.name = topic
-        self.decode: Callable[[bytes], Any] = decode
+        self._path = path
+        self._decode = decode
         stamp = _stamps(encoding, text, decode)
-        pairs = [(stamp(m.data), m.data) for m in reader.messages([topic])]
+        pairs = [(self._guarded(stamp, m.data, f"message {i} (in the bag's order)"), m.data)
+                 for i, m in enumerate(reader.messages([topic]))]
         pairs = sorted((p for p in pairs if math.isfinite(p[0])), key=lambda p: p[0])   # stamped ones
         self.times = [t for t, _ in pairs]
         self.data = [d for _, d in pairs]
 
     def at(self, index: int) -> Any:
-        return self.decode(self.data[index])
+        """The ``index``-th message (in stamp order), decoded; a BagError if it cannot be."""
+        return self._guarded(self._decode, self.data[index], f"the message stamped {self.times[index]:.9f} s "
+                             f"({index + 1} of {len(self.data)})")
+
+    def _guarded(self, read: Callable[[bytes], Any], data: bytes, which: str) -> Any:
+        """``read(data)``, or a one-line BagError naming the message (``which``) when its bytes
+        are not a message of the topic's type (a truncated or overwritten record of a damaged bag)."""
+        try:
+            return read(data)
+        except Exception as err:      # mcap_ros2's CDR reader: struct.error, IndexError, UnicodeDecodeError, ...
+            raise BagError(f"bag {self._path}: {which} on {self.name} cannot be decoded "
+                           f"({len(data)} bytes: {excerpt(str(err) or type(err).__name__)})") from None
 
     def latest(self, t: float) -> Any:
         """The last message stamped at or before ``t`` [s] (the first if none is), or None if empty."""
@@ -249,8 +263,8 @@ class BagSource:
             return 0.0
         field = "tension" if self._structure is not None else "member_forces"
         every = max(1, len(source.data) // SCALE_SAMPLES)
-        return max(float(np.max(np.asarray(getattr(source.decode(d), field))[strings], initial=0.0))
-                   for d in [*source.data[::every], source.data[-1]])
+        return max(float(np.max(np.asarray(getattr(source.at(i), field))[strings], initial=0.0))
+                   for i in [*range(0, len(source.data), every), len(source.data) - 1])
 
     def frame_at(self, index: int) -> Frame:
         """The ``index``-th state of the timeline."""
@@ -299,7 +313,12 @@ class BagSource:
                 changed, self._shown = index != self._shown, index
             last = now
             if changed:
-                sink(self.frame_at(index))
+                try:
+                    frame = self.frame_at(index)
+                except BagError as err:       # a damaged message: said, and the last frame stays shown
+                    self._report(f"error: {err}")
+                else:
+                    sink(frame)
             self._wake.wait(max(0.0, self.pacer.tick(now) - time.monotonic()))
             self._wake.clear()
 

@@ -270,3 +270,74 @@ def test_a_suite_that_stops_is_said_so_not_left_playing(cli, ros_context):
             time.sleep(0.05)
     finally:
         source.stop()
+
+
+def _damaged_copy(source: Path, folder: Path, topic: str, index: int, keep: int) -> None:
+    """A copy of the bag ``source`` (with the suite's writer) whose ``index``-th message on
+    ``topic`` keeps only its first ``keep`` bytes, as a record overwritten in a damaged file."""
+    from tensegrity_ros.bag.reader import BagReader
+    from tensegrity_ros.bag.writer import BagWriter
+
+    reader = BagReader(source)
+    seen = 0
+    with BagWriter(folder) as writer:
+        for t in reader.topics():
+            encoding, text = reader.definitions()[t.type]
+            writer.add_topic(t, text, encoding)
+        for m in reader.messages():
+            data = m.data
+            if m.topic == topic:
+                data, seen = (data[:keep] if seen == index else data), seen + 1
+            writer.write(m.topic, data, m.log_time_ns)
+    assert seen > index
+
+
+@pytest.mark.parametrize("keep", [6, 30], ids=["stamp cut", "body cut"])
+def test_a_message_that_cannot_be_decoded_refuses_the_bag_in_one_line(tmp_path, keep):
+    """A state cut short inside its header stamp (the stamp's own read) or after it (its
+    decode): a BagError naming the bag, the topic and the message, not the CDR reader's
+    traceback; the command says it in one line with exit code 1."""
+    from tensegrity_ros.bag.errors import BagError
+    from tensegrity_ros.view.bag_source import BagSource
+    from tests.ros_support import run_cli_here
+
+    _damaged_copy(BAGS / "fold", tmp_path / "damaged", "/mechanism_state", 3, keep)
+    with pytest.raises(BagError, match=f"/mechanism_state cannot be decoded \\({keep} bytes: ") as err:
+        BagSource(tmp_path / "damaged")
+    assert "\n" not in str(err.value) and str(tmp_path / "damaged") in str(err.value)
+    res = run_cli_here("view", str(tmp_path / "damaged"), "--port", "0")
+    assert res.returncode == 1 and res.stderr.splitlines() == [f"error: {err.value}"]
+
+
+def test_a_damaged_state_met_while_playing_is_reported_and_the_replay_goes_on(tmp_path):
+    """The 6-bar's bag with one body state cut after its stamp: it opens (a robot's states are
+    decoded as they are shown), the frame of that state is refused with the reason, and the
+    replay goes on to the bag's end showing the states after it."""
+    from tensegrity_ros.bag.errors import BagError
+    from tensegrity_ros.view.bag_source import BagSource
+
+    _damaged_copy(BAGS / "six_bar_roll", tmp_path / "damaged", "/six_bar/body_states", 40, 40)
+    source = BagSource(tmp_path / "damaged", scene="six_bar_rest")
+    with pytest.raises(BagError, match=r"stamped [0-9.]+ s \(41 of [0-9]+\) on /six_bar/body_states cannot be "):
+        source.frame_at(40)
+    after, last = source.frame_at(41).t, source.frame_at(len(source._times) - 1).t
+    sink, refused = Frames(), threading.Event()
+
+    def report(text: str) -> None:
+        sink.report(text)
+        if text.startswith("error: "):
+            refused.set()
+
+    source.start(sink, report)
+    try:
+        source.seek(source._times[40] - source.t0)     # scrubbed onto the damaged state
+        assert refused.wait(120), sink.reports
+        source.seek(after - source.t0)                 # the next one shows
+        sink.wait(lambda f: f.t == after)
+        source.set_rate(8.0)
+        source.play()
+        sink.wait(lambda f: f.t == last)
+    finally:
+        source.stop()
+    errors = [r for r in sink.reports if r.startswith("error: ")]
+    assert all("(41 of " in r and "/six_bar/body_states cannot be decoded (40 bytes: " in r for r in errors), errors
