@@ -19,7 +19,7 @@ from typing import Any
 from mcap.records import Schema
 from mcap_ros2.decoder import DecoderFactory
 
-from tensegrity_ros.bag.errors import BagError
+from tensegrity_ros.bag.errors import BagError, decoded
 from tensegrity_ros.bag.reader import BagReader
 
 #: Most lines whose legend fits inside a plot; more go beside it, at most LEGEND_ROWS a column.
@@ -41,7 +41,9 @@ def decoded_messages(reader: BagReader, topics: list[str]) -> Iterator[tuple[str
             if decoder is None:
                 raise BagError(f"topic {m.topic}: no ros2msg schema for {m.type!r} in the bag")
             decoders[m.type] = decoder
-        yield m.topic, m.log_time_ns, decoders[m.type](m.data)
+        yield m.topic, m.log_time_ns, decoded(decoders[m.type], m.data,
+                                              f"bag {reader.folder}: the message of {m.topic} logged at "
+                                              f"{m.log_time_ns} ns")
 
 
 def plot_bag(bag: str | os.PathLike[str], out: str | os.PathLike[str]) -> Path:

@@ -30,8 +30,7 @@ from mcap.records import Schema
 from mcap_ros2.decoder import DecoderFactory
 
 from tensegrity_core.errors import TensegrityError
-from tensegrity_core.excerpt import excerpt
-from tensegrity_ros.bag.errors import BagError
+from tensegrity_ros.bag.errors import BagError, decoded
 from tensegrity_ros.bag.reader import BagReader
 from tensegrity_ros.bag.scene import recorded_scene
 from tensegrity_ros.view.frame import Frame, Topology
@@ -119,13 +118,8 @@ class _Topic:
                              f"({index + 1} of {len(self.data)})")
 
     def _guarded(self, read: Callable[[bytes], Any], data: bytes, which: str) -> Any:
-        """``read(data)``, or a one-line BagError naming the message (``which``) when its bytes
-        are not a message of the topic's type (a truncated or overwritten record of a damaged bag)."""
-        try:
-            return read(data)
-        except Exception as err:      # mcap_ros2's CDR reader: struct.error, IndexError, UnicodeDecodeError, ...
-            raise BagError(f"bag {self._path}: {which} on {self.name} cannot be decoded "
-                           f"({len(data)} bytes: {excerpt(str(err) or type(err).__name__)})") from None
+        """``read(data)``, or a one-line BagError naming the message (``which``)."""
+        return decoded(read, data, f"bag {self._path}: {which} on {self.name}")
 
     def latest(self, t: float) -> Any:
         """The last message stamped at or before ``t`` [s] (the first if none is), or None if empty."""

@@ -11,6 +11,7 @@ import pytest
 
 from tensegrity_ros.view.frame import Frame
 from tensegrity_ros.view.scene_source import SceneSource
+from tests.bags.damaged import damaged_copy
 
 BAGS = Path(__file__).resolve().parents[2] / "bags"
 
@@ -272,26 +273,6 @@ def test_a_suite_that_stops_is_said_so_not_left_playing(cli, ros_context):
         source.stop()
 
 
-def _damaged_copy(source: Path, folder: Path, topic: str, index: int, keep: int) -> None:
-    """A copy of the bag ``source`` (with the suite's writer) whose ``index``-th message on
-    ``topic`` keeps only its first ``keep`` bytes, as a record overwritten in a damaged file."""
-    from tensegrity_ros.bag.reader import BagReader
-    from tensegrity_ros.bag.writer import BagWriter
-
-    reader = BagReader(source)
-    seen = 0
-    with BagWriter(folder) as writer:
-        for t in reader.topics():
-            encoding, text = reader.definitions()[t.type]
-            writer.add_topic(t, text, encoding)
-        for m in reader.messages():
-            data = m.data
-            if m.topic == topic:
-                data, seen = (data[:keep] if seen == index else data), seen + 1
-            writer.write(m.topic, data, m.log_time_ns)
-    assert seen > index
-
-
 @pytest.mark.parametrize("keep", [6, 30], ids=["stamp cut", "body cut"])
 def test_a_message_that_cannot_be_decoded_refuses_the_bag_in_one_line(tmp_path, keep):
     """A state cut short inside its header stamp (the stamp's own read) or after it (its
@@ -301,7 +282,7 @@ def test_a_message_that_cannot_be_decoded_refuses_the_bag_in_one_line(tmp_path, 
     from tensegrity_ros.view.bag_source import BagSource
     from tests.ros_support import run_cli_here
 
-    _damaged_copy(BAGS / "fold", tmp_path / "damaged", "/mechanism_state", 3, keep)
+    damaged_copy(BAGS / "fold", tmp_path / "damaged", "/mechanism_state", 3, keep)
     with pytest.raises(BagError, match=f"/mechanism_state cannot be decoded \\({keep} bytes: ") as err:
         BagSource(tmp_path / "damaged")
     assert "\n" not in str(err.value) and str(tmp_path / "damaged") in str(err.value)
@@ -316,7 +297,7 @@ def test_a_damaged_state_met_while_playing_is_reported_and_the_replay_goes_on(tm
     from tensegrity_ros.bag.errors import BagError
     from tensegrity_ros.view.bag_source import BagSource
 
-    _damaged_copy(BAGS / "six_bar_roll", tmp_path / "damaged", "/six_bar/body_states", 40, 40)
+    damaged_copy(BAGS / "six_bar_roll", tmp_path / "damaged", "/six_bar/body_states", 40, 40)
     source = BagSource(tmp_path / "damaged", scene="six_bar_rest")
     with pytest.raises(BagError, match=r"stamped [0-9.]+ s \(41 of [0-9]+\) on /six_bar/body_states cannot be "):
         source.frame_at(40)
