@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING, Any, TypeAlias
 import numpy as np
 from rclpy.serialization import deserialize_message
 
-from tensegrity_ros.bag.errors import BagError
+from tensegrity_ros.bag.errors import BagError, decoded
 from tensegrity_ros.bag.reader import BagReader
 from tensegrity_ros.bag.recorder import message_class
 from tensegrity_ros.bag.scene import recorded_scene
@@ -146,12 +146,13 @@ def read_recording(bag: str | Path) -> tuple[list[RecordedCommand], list[Recorde
     joints: list[RecordedJoints] = []
     names: list[str] = []
     for m in reader.messages(cmd_topics + joint_topics):
+        where = f"bag {bag}: the message of {m.topic} logged at {m.log_time_ns} ns"
         if m.type == cmd_type:
-            c = deserialize_message(m.data, cmd_cls)
+            c = decoded(lambda data: deserialize_message(data, cmd_cls), m.data, where)
             values = c.force if cmd_type == COMMAND_TYPE else c.rest_length
             commands.append((stamp_ns(c.header.stamp), list(c.name), list(values)))
         else:
-            j = deserialize_message(m.data, joint_cls)
+            j = decoded(lambda data: deserialize_message(data, joint_cls), m.data, where)
             joints.append((stamp_ns(j.header.stamp), tuple(j.position), tuple(j.velocity)))
             names = names or list(j.name)
     if not joints:

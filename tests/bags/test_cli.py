@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from tensegrity_ros.bag.plot import decoded_messages
 from tensegrity_ros.bag.reader import BagReader
 from tests.bags.conftest import run_cli_here
@@ -77,22 +79,24 @@ def test_errors_are_one_line(tmp_path):
         assert len(lines) == 1 and lines[0].startswith("error: ") and needle in lines[0], done.stderr
 
 
-def test_a_plot_of_a_bag_with_a_damaged_message_is_one_line_naming_it(tmp_path):
+@pytest.mark.parametrize("command", [("bag", "plot", "{bag}", "-o", "{png}"), ("play", "{bag}", "--resimulate")],
+                         ids=["plot", "resimulate"])
+def test_a_bag_with_a_damaged_message_is_one_line_naming_it(tmp_path, command):
     """A joint state cut short inside its positions: exit 1 and the bag, topic and message in
-    one line, not the CDR reader's struct.error; no plot is written."""
+    one line, not the CDR reader's struct.error or rclpy's RMWError; no plot is written."""
     from pathlib import Path
 
     from tests.bags.damaged import damaged_copy
 
-    damaged_copy(Path(__file__).resolve().parents[2] / "bags" / "fold", tmp_path / "damaged", "/joint_states", 3, 30)
-    done = run_cli_here("bag", "plot", str(tmp_path / "damaged"), "-o", str(tmp_path / "x.png"))
+    bag, png = tmp_path / "damaged", tmp_path / "x.png"
+    damaged_copy(Path(__file__).resolve().parents[2] / "bags" / "fold", bag, "/joint_states", 3, 30)
+    done = run_cli_here(*(word.format(bag=bag, png=png) for word in command))
     assert done.returncode == 1, done.stderr
-    logged = [m.log_time_ns for m in BagReader(tmp_path / "damaged").messages(["/joint_states"])][3]
+    logged = [m.log_time_ns for m in BagReader(bag).messages(["/joint_states"])][3]
     lines = done.stderr.splitlines()
     assert len(lines) == 1 and lines[0].startswith(
-        f"error: bag {tmp_path / 'damaged'}: the message of /joint_states logged at {logged} ns cannot be decoded "
-        "(30 bytes: "), done.stderr
-    assert not (tmp_path / "x.png").exists()
+        f"error: bag {bag}: the message of /joint_states logged at {logged} ns cannot be decoded (30 bytes: "), lines
+    assert not png.exists()
 
 
 def test_a_robots_plot_keeps_its_legend_off_the_plots():
