@@ -24,7 +24,7 @@ _BASE_DOMAIN = int(os.environ["ROS_DOMAIN_ID"])
 os.environ.setdefault("MPLBACKEND", "Agg")
 # BLAS on one thread in this run's processes and in every process they start (set before any
 # of them loads OpenBLAS, numpy's and scipy's, which read it once as they load). The run's
-# workers outnumber the cores (``./run test``: 4 on 2), so a second BLAS thread has no core of
+# workers outnumber the cores (``./run test``: 6 on 2), so a second BLAS thread has no core of
 # its own: every call handed to it waits for one, then spins on it (docs/design/general.md:
 # a dense Newton step 4.1x the CPU and 7.2x the wall time on two threads; a 120 x 120 eigh
 # 0.4 s instead of 2.8 ms under load; the class-2 LQR gain design's expm and Riccati solve
