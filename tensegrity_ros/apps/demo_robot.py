@@ -58,13 +58,12 @@ class LoopFeeder:
       a run could step a chunk more than its rerun)."""
 
     def __init__(self, node: Any, pub: Any, watcher: Any) -> None:
-        from rclpy.node import Node
         from rclpy.qos import HistoryPolicy, QoSProfile
         from sensor_msgs.msg import JointState
         from std_msgs.msg import Header
         from tensegrity_msgs.msg import CableCommand, CapContacts, RigidBodyStates
 
-        from tensegrity_ros.rclpy_utils.inbox import Inbox
+        from tensegrity_ros.rclpy_utils.inbox import InboxThread
 
         self.loop: Any = None
         self.until_ns: int | None = None
@@ -74,34 +73,16 @@ class LoopFeeder:
         self._fed: set[tuple[str, int]] = set()       # what the loop has had: a reset's state comes once
         self._pub, self._Header, self._CableCommand = pub, Header, CableCommand
         self._watcher = watcher
-        self._node = Node(f"_{node.get_name()}_samples", namespace=node.get_namespace(), context=node.context,
-                          use_global_arguments=False, start_parameter_services=False, enable_rosout=False)
-        self._inbox = Inbox(self._node)
+        self._samples = InboxThread(node, "samples")
         qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1000)    # the watcher loses no sample
-        self._inbox.subscribe(RigidBodyStates, node.resolve_topic_name("body_states"), self._on_bodies, qos)
-        self._inbox.subscribe(CapContacts, node.resolve_topic_name("contacts"), self._on_contacts, qos)
-        self._inbox.subscribe(JointState, node.resolve_topic_name("joint_states"), watcher._on_joints, qos)
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._take, name=f"{node.get_name()}_samples", daemon=True)
-        self._thread.start()
-
-    def _take(self) -> None:
-        """Hand the samples on as they come, until :meth:`close` or until the context shuts
-        down (joined like :class:`~tensegrity_ros.rclpy_utils.spin_thread.SpinThread`)."""
-        context = self._node.context
-        try:
-            while not self._stop.is_set() and context.ok():
-                self._inbox.wait(0.05)
-        except Exception:
-            if context.ok():     # shut down between the check and the wait: rclpy raises RCLError
-                raise
+        inbox = self._samples.inbox
+        inbox.subscribe(RigidBodyStates, node.resolve_topic_name("body_states"), self._on_bodies, qos)
+        inbox.subscribe(CapContacts, node.resolve_topic_name("contacts"), self._on_contacts, qos)
+        inbox.subscribe(JointState, node.resolve_topic_name("joint_states"), watcher._on_joints, qos)
+        self._samples.start()
 
     def close(self) -> None:
-        self._stop.set()
-        if self._node.context.ok():
-            self._inbox.wake()
-        self._thread.join()
-        self._node.destroy_node()
+        self._samples.close()
 
     def start(self, loop: Any) -> None:
         with self._fed_cv:

@@ -78,7 +78,6 @@ class SimClient:
     def __init__(self, rclpy: ModuleType, name: str = "tensegrity_sim_client", *, record_events: bool = True,
                  context: Context | None = None, namespace: str = "", cables: tuple[str, ...] | None = None) -> None:
         from rclpy.executors import SingleThreadedExecutor
-        from rclpy.node import Node
         from rclpy.qos import QoSProfile
         from sensor_msgs.msg import JointState
         from simulation_interfaces.srv import (
@@ -91,7 +90,7 @@ class SimClient:
         from std_srvs.srv import Trigger
         from tensegrity_msgs.msg import ActuatorForces, CableCommand, SimulationEvent
 
-        from tensegrity_ros.rclpy_utils.inbox import Inbox
+        from tensegrity_ros.rclpy_utils.inbox import InboxThread
         from tensegrity_ros.rclpy_utils.parameter_guard import guard_parameter_services
 
         self.rclpy = rclpy
@@ -105,10 +104,8 @@ class SimClient:
         self.clients = {n: self.node.create_client(t, n) for n, t in self.srv.items()}
         self.pub = (self.node.create_publisher(CableCommand, "cable_commands", QoSProfile(depth=1000)) if cables
                     else self.node.create_publisher(ActuatorForces, "actuator_forces", QoSProfile(depth=1000)))
-        self._joints_node = Node(f"_{name}_joints", namespace=namespace, context=self.node.context,
-                                 use_global_arguments=False, start_parameter_services=False, enable_rosout=False)
-        self._joints_inbox = Inbox(self._joints_node)
-        self._joints_inbox.subscribe(JointState, self.node.resolve_topic_name("joint_states"), self._on_joints,
+        self._joints = InboxThread(self.node, "joints")
+        self._joints.inbox.subscribe(JointState, self.node.resolve_topic_name("joint_states"), self._on_joints,
                                      QoSProfile(depth=1000))
         self.events: list[Any] = []           # SimulationEvent messages
         if record_events:
@@ -124,22 +121,9 @@ class SimClient:
         # until closed, or until the context shuts down (on Ctrl-C rclpy's signal handler
         # shuts it down; the caller's main thread reports the interruption)
         self._spinning = SpinThread(self.executor, f"{name}_spin", poll_s=0.05).start()
-        self._joints_stop = threading.Event()
-        self._joints_thread = threading.Thread(target=self._take_joints, name=f"{name}_joints", daemon=True)
-        self._joints_thread.start()
+        self._joints.start()
 
     # -- the controller ------------------------------------------------------------------------
-    def _take_joints(self) -> None:
-        """Hand the joint states to :meth:`_on_joints` as they come, until :meth:`close` or
-        until the context shuts down (joined like :class:`SpinThread`, for the same reason)."""
-        context = self._joints_node.context
-        try:
-            while not self._joints_stop.is_set() and context.ok():
-                self._joints_inbox.wait(0.05)
-        except Exception:
-            if context.ok():     # shut down between the check and the wait: rclpy raises RCLError
-                raise
-
     def _on_joints(self, msg: Any) -> None:
         rec = JointRecord(msg.header.stamp.sec * NS_PER_S + msg.header.stamp.nanosec, tuple(msg.position),
                           tuple(msg.velocity), tuple(msg.effort))
@@ -283,10 +267,6 @@ class SimClient:
         # the spinning thread ends first: shutting the executor down under a callback that
         # is running destroys the guard condition that callback triggers (InvalidHandle)
         self._spinning.stop()
-        self._joints_stop.set()
-        if self._joints_node.context.ok():
-            self._joints_inbox.wake()
-        self._joints_thread.join()
+        self._joints.close()
         self.executor.shutdown()
-        self._joints_node.destroy_node()
         self.node.destroy_node()

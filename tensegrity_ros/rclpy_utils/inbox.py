@@ -83,3 +83,40 @@ class Inbox:
     def wake(self) -> None:
         """End a :meth:`wait` now (from another thread)."""
         self._wake.trigger()
+
+
+class InboxThread:
+    """An :class:`Inbox` on a node of its own beside ``beside`` (same context and namespace,
+    spun by no executor, named ``_<beside>_<suffix>``), taken on a thread of its own from
+    :meth:`start` until :meth:`close` or until the context shuts down. Subscribe first, then
+    start: the thread's wait set is built from the subscriptions it finds."""
+
+    def __init__(self, beside: Node, suffix: str) -> None:
+        self.node = Node(f"_{beside.get_name()}_{suffix}", namespace=beside.get_namespace(), context=beside.context,
+                         use_global_arguments=False, start_parameter_services=False, enable_rosout=False)
+        self.inbox = Inbox(self.node)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._take, name=f"{beside.get_name()}_{suffix}", daemon=True)
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def _take(self) -> None:
+        """Hand the messages on as they come (joined like
+        :class:`~tensegrity_ros.rclpy_utils.spin_thread.SpinThread`, for the same reason)."""
+        context = self.node.context
+        try:
+            while not self._stop.is_set() and context.ok():
+                self.inbox.wait(0.05)
+        except Exception:
+            if context.ok():     # shut down between the check and the wait: rclpy raises RCLError
+                raise
+
+    def close(self) -> None:
+        """Stop the thread (a wait ends at once), join it and destroy the node."""
+        self._stop.set()
+        if self.node.context.ok():
+            self.inbox.wake()
+        if self._thread.is_alive():
+            self._thread.join()
+        self.node.destroy_node()
