@@ -27,24 +27,21 @@ status ``lost`` (``--resume`` runs them again).
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import math
 import os
 import pickle
-import signal
-import threading
 import time
 import weakref
 from collections import deque
 from collections.abc import Callable, Generator, Hashable, Sequence
-from multiprocessing import resource_tracker
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Final, Literal, TypeVar
+from typing import TYPE_CHECKING, Any, Final, Literal
 
 from tensegrity_core.excerpt import LIBRARY_MESSAGE, clip
 from tensegrity_core.sweep.connect import client_of
 from tensegrity_core.sweep.errors import SweepError, require
+from tensegrity_core.sweep.interrupts import sigint_deferred, sigint_ignored, start_without_sigint
 from tensegrity_core.sweep.points import Point
 from tensegrity_core.sweep.scheduling import BatchPlanner, InFlight, spread_order
 from tensegrity_core.sweep.spec import Plan, Sweep, SweepSource, load_sweep, prepare
@@ -54,7 +51,6 @@ from tensegrity_core.sweep.task import Row, RowStatus, inputs, missing, run_batc
 if TYPE_CHECKING:
     from distributed import Client, Future, LocalCluster
 
-_T = TypeVar("_T")
 #: ``progress(done, failed, total)`` after each finished batch.
 ProgressCallback = Callable[[int, int, int], object]
 
@@ -84,6 +80,8 @@ EMBEDDED_CONFIG: Final = {"distributed.worker.profile.enabled": False, "distribu
                           "distributed.admin.system-monitor.interval": "2s",
                           "distributed.worker.memory.monitor-interval": "0.5s"}
 DEFAULT_CONNECT_TIMEOUT = 10.0
+#: Seconds between two questions for the workers of a cluster that has none yet.
+WORKER_POLL_S = 0.1
 #: Run by each embedded worker process as it starts: it ignores Ctrl-C (the sweep's process
 #: handles it and closes the cluster).
 WORKER_PRELOAD = "tensegrity_core.sweep.worker_setup"
@@ -104,7 +102,8 @@ def start_local_cluster(workers: int) -> LocalCluster:
     Close it (``with start_local_cluster(2) as cluster: run_sweep(..., scheduler=cluster.scheduler_address)``)
     to reuse one cluster for several sweeps.
 
-    It is started from a thread of its own that blocks SIGINT (:func:`_start_without_sigint`):
+    It is started from a thread of its own that blocks SIGINT
+    (:func:`~tensegrity_core.sweep.interrupts.start_without_sigint`):
     the cluster's threads and worker processes inherit the block. Ctrl-C in a terminal signals
     the whole foreground process group: a worker still importing Dask (before its preload
     ignores SIGINT) printed a ``KeyboardInterrupt`` traceback, and the ``KeyboardInterrupt``
@@ -121,61 +120,7 @@ def start_local_cluster(workers: int) -> LocalCluster:
                                 dashboard_address=None, scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
                                 silence_logs=logging.ERROR, env=WORKER_ENV, preload=[WORKER_PRELOAD])
 
-    return _start_without_sigint(start, lambda cluster: cluster.close())
-
-
-def _start_without_sigint(start: Callable[[], _T], close: Callable[[_T], object]) -> _T:
-    """``start()`` run on a new thread that blocks SIGINT (threads and processes it starts
-    inherit the block), waited for in this thread, where a ``KeyboardInterrupt`` still comes
-    at once: it then waits for ``start()`` to end, ``close``s what it made (further Ctrl-C
-    ignored meanwhile) and raises.
-
-    Multiprocessing's resource tracker is started here first: its first start unblocks
-    SIGINT and SIGTERM in the calling thread (CPython 3.11's ``ensure_running`` blocks them
-    around its spawn, then unblocks instead of restoring the mask), which in the starting
-    thread would undo the block before the workers are spawned."""
-    resource_tracker.ensure_running()
-    made: list[_T] = []
-    failed: list[BaseException] = []
-
-    def run() -> None:
-        try:
-            made.append(start())
-        except BaseException as err:  # noqa: BLE001 - handed to the waiting thread
-            failed.append(err)
-
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        thread = threading.Thread(target=run, name="tensegrity-cluster-start", daemon=True)
-        thread.start()
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
-    try:
-        while thread.is_alive():
-            thread.join(0.1)
-    except KeyboardInterrupt:
-        with _sigint_ignored():        # the start cannot be cut short; what it made is closed
-            thread.join()
-            for thing in made:
-                close(thing)
-        raise
-    if failed:
-        raise failed[0]
-    return made[0]
-
-
-@contextlib.contextmanager
-def _sigint_ignored() -> Generator[None, None, None]:
-    """SIGINT ignored in the block (when this is the main thread, which alone may set
-    handlers; elsewhere a Ctrl-C does not reach this code as an exception anyway)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
+    return start_without_sigint(start, lambda cluster: cluster.close())
 
 
 def columns_of(sweep: Sweep, plan: Plan) -> tuple[list[TableColumn], list[str]]:
@@ -319,31 +264,34 @@ class _DaskEngine:
             self.client, self._owns_client = self.address, False
             self._seen(_check_workers(self.client, "the given Dask client's cluster"))
             return self
-        if self.address is None:
-            try:
-                self.cluster = start_local_cluster(self.workers)
-                self.client = Client(self.cluster, timeout=self.timeout)
-            except Exception as err:  # noqa: BLE001 - any start-up failure: say so, clean up
-                self._close()
-                raise SweepError(f"cannot start the local Dask cluster: {err}") from None
-            except BaseException:     # interrupted: what has started is closed before the interrupt goes on
-                self._close()
-                raise
-            return self
-        client = client_of(self.address, self.timeout)
-        self.client = client
         try:
-            client.wait_for_workers(1, timeout=self.timeout)
-        except (TimeoutError, OSError) as err:
-            self._close()
-            raise SweepError(f"the Dask scheduler at {self.address!r} has no workers "
-                             f"(waited {self.timeout:g} s): {err}") from None
-        try:
-            self._seen(_check_workers(client, f"the Dask scheduler at {self.address!r}"))
-        except SweepError:
+            if self.address is None:
+                self._start_embedded()
+            else:
+                self._connect(self.address)
+        except BaseException:     # failed or interrupted: what has started is closed first
             self._close()
             raise
         return self
+
+    def _start_embedded(self) -> None:
+        from distributed import Client
+
+        try:
+            self.cluster = start_local_cluster(self.workers)
+            with sigint_deferred():
+                self.client = Client(self.cluster, timeout=self.timeout)
+        except Exception as err:  # noqa: BLE001 - any start-up failure: say so
+            raise SweepError(f"cannot start the local Dask cluster: {err}") from None
+
+    def _connect(self, address: str) -> None:
+        self.client = client = client_of(address, self.timeout)
+        try:
+            _wait_for_a_worker(client, self.timeout)
+        except (TimeoutError, OSError) as err:
+            raise SweepError(f"the Dask scheduler at {address!r} has no workers "
+                             f"(waited {self.timeout:g} s): {err}") from None
+        self._seen(_check_workers(client, f"the Dask scheduler at {address!r}"))
 
     def __exit__(self, *exc: object) -> Literal[False]:
         self._close()
@@ -353,7 +301,7 @@ class _DaskEngine:
         """Close the client and the embedded cluster, with Ctrl-C ignored meanwhile: a close
         cut short leaves nannies running, which Dask's exit handler then fails to close
         (``AssertionError: Status.running``, after waiting up to 10 s)."""
-        with _sigint_ignored():
+        with sigint_ignored():
             if self.client is not None and self._owns_client:
                 self.client.close()
             self.client = None
@@ -367,8 +315,10 @@ class _DaskEngine:
         client = self.client
         if client is None:
             raise SweepError("the Dask engine runs inside its with block (connected)")
-        plan_ref = plan if len(pickle.dumps(plan)) < INLINE_PLAN_BYTES else client.scatter(
-            plan, broadcast=True, hash=False)
+        plan_ref: Any = plan
+        if len(pickle.dumps(plan)) >= INLINE_PLAN_BYTES:
+            with sigint_deferred():
+                plan_ref = client.scatter(plan, broadcast=True, hash=False)
         pending = deque(spread_order(points))
         planner = BatchPlanner(batch)
         batches: dict[Hashable, tuple[list[Point], str, InFlight]] = {}   # task -> points, worker, flight
@@ -422,7 +372,8 @@ class _DaskEngine:
     def _workers(self, client: Client) -> dict[str, int]:
         """Threads of each worker of the cluster (asked again every few seconds: workers may come and go)."""
         if self._threads_of is None or time.monotonic() - self._asked > THREADS_REFRESH:
-            return self._seen(client.nthreads())
+            with sigint_deferred():
+                return self._seen(client.nthreads())
         return self._threads_of
 
     def _seen(self, nthreads: dict[str, int]) -> dict[str, int]:
@@ -445,13 +396,15 @@ def _check_workers(client: Client, cluster: str) -> dict[str, int]:
     trip of a few milliseconds); workers that join during a sweep are not asked. Returns
     the cluster's workers and their threads, as asked for this check."""
     able = _ABLE.setdefault(client, set())
-    nthreads = dict(client.nthreads())
+    with sigint_deferred():
+        nthreads = dict(client.nthreads())
     new = sorted(set(nthreads) - able)
     if not new:
         return nthreads
     # ``exec`` pickles by reference to the builtins, so even a worker without this package
     # can run the question and answer with its ImportError
-    answers = client.run(exec, f"import {run_batch.__module__}", {}, workers=new, on_error="return")
+    with sigint_deferred():
+        answers = client.run(exec, f"import {run_batch.__module__}", {}, workers=new, on_error="return")
     bad = {worker: err for worker, err in answers.items() if isinstance(err, BaseException)}
     if bad:
         worker, err = min(bad.items())
@@ -462,6 +415,20 @@ def _check_workers(client: Client, cluster: str) -> dict[str, int]:
     return nthreads
 
 
+def _wait_for_a_worker(client: Client, timeout: float) -> None:
+    """Return once the cluster has a worker, or raise ``TimeoutError`` after ``timeout``
+    seconds. Asked every :data:`WORKER_POLL_S` in short calls (not one ``wait_for_workers``
+    call) so that a Ctrl-C, held back only during a call, is answered within a poll."""
+    deadline = time.monotonic() + timeout
+    while True:
+        with sigint_deferred():
+            if client.nthreads():
+                return
+        if time.monotonic() >= deadline:
+            raise TimeoutError(f"no worker joined within {timeout:g} s")
+        time.sleep(WORKER_POLL_S)
+
+
 def _abandon(client: Client, seq: Any) -> None:
     """Cancel the tasks still queued or running and stop collecting their results, so that
     closing the client does not cut a result's transfer short (Dask would log that as an
@@ -469,7 +436,8 @@ def _abandon(client: Client, seq: Any) -> None:
     futures = list(seq.futures)
     seq.clear()
     try:
-        client.cancel(futures)
+        with sigint_ignored():
+            client.cancel(futures)
     except Exception:  # noqa: BLE001 - the cluster is already gone: nothing left to stop
         pass
 
@@ -477,7 +445,8 @@ def _abandon(client: Client, seq: Any) -> None:
 def _lost(plan: Plan, point: Point, future: Future[list[Row]]) -> Row:
     """The row of a point whose batch the engine could not get run."""
     try:
-        err = future.exception()
+        with sigint_deferred():
+            err = future.exception()
         reason = f"{type(err).__name__}: {err}"
     except Exception as exc:  # noqa: BLE001 - the future itself is gone
         reason = f"{type(exc).__name__}: {exc}"

@@ -76,6 +76,25 @@ def test_an_unreachable_scheduler_is_one_error_line_naming_it_and_nothing_is_wri
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.yaml"]
 
 
+def test_a_scheduler_without_workers_is_one_error_line_after_the_connect_timeout(tmp_path, capsys):
+    """A scheduler that answers but has no worker: one line naming it and the wait, exit 1,
+    nothing written. The scheduler runs in this process (no worker processes to start)."""
+    from distributed import LocalCluster
+
+    sweep = tmp_path / "s.yaml"
+    sweep.write_text(json.dumps(fold_sweep()))
+    with LocalCluster(n_workers=0, processes=False, protocol="tcp", host="127.0.0.1",
+                      dashboard_address=None) as cluster:
+        code = main(["sweep", str(sweep), "-o", str(tmp_path / "r.parquet"), "--scheduler",
+                     cluster.scheduler_address, "--connect-timeout", "0.5"])
+    err = capsys.readouterr().err
+    assert code == 1, err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert lines == [f"error: the Dask scheduler at {cluster.scheduler_address!r} has no workers (waited 0.5 s): "
+                     "no worker joined within 0.5 s"], err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.yaml"]
+
+
 def test_a_cluster_whose_workers_lack_the_package_is_refused_before_any_task(tmp_path, capsys):
     """An existing cluster (``dask scheduler`` and ``dask worker``) whose worker cannot import
     this package: one error line naming the scheduler, the worker and its ImportError, exit
@@ -319,6 +338,53 @@ def test_a_sweep_stopped_early_cancels_its_tasks_and_leaves_a_kept_client_free(c
         assert set(run_sweep(fold_sweep(), scheduler=client, progress=False)["status"]) == {"ok"}
         assert kept.tb is not None
     assert not [r.getMessage() for r in caplog.records if r.levelno >= logging.ERROR]
+
+
+def test_ctrl_c_inside_a_blocking_dask_call_stops_the_sweep_when_the_call_returns(monkeypatch, shared_cluster):
+    """A Ctrl-C that lands while the sweep waits in one of distributed's blocking calls before
+    the client's event loop has started that call's coroutine (here: asking the cluster for
+    its workers while the loop is busy) is held until the call returns, then stops the sweep
+    with ``KeyboardInterrupt``; nothing is logged. Delivered at once, it made distributed's
+    clean-up of the call fail on the loop (``NameError``) and log that traceback on the
+    terminal, below the sweep's one line."""
+    import logging
+    import threading
+
+    from distributed import Client
+
+    from tensegrity_core.sweep import engine
+
+    monkeypatch.setattr(engine, "THREADS_REFRESH", 0.0)    # the workers asked before every submission
+    logged: list[str] = []
+
+    class Keep(logging.Handler):
+        def emit(self, record):
+            logged.append(record.getMessage())
+
+    # distributed's logging set-up stops these two at their own handlers (they do not propagate)
+    loggers = [logging.getLogger(name) for name in ("tornado.application", "distributed")]
+    keep = Keep(logging.ERROR)
+    for logger in loggers:
+        logger.addHandler(keep)
+    # after the first point 39 are left (~1.4 s on each worker), far more than the 0.1 s before the Ctrl-C
+    slow = fold_sweep(vary={"inputs.f1.gain": {"grid": {"from": 6.0, "to": 14.0, "num": 40}}}, compute="simulate")
+    with Client(shared_cluster) as client:
+
+        def stop(done, failed, total):
+            if done == 1:   # the loop busy for 0.5 s: the next call's coroutine waits behind it
+                client.loop.add_callback(time.sleep, 0.5)
+                # a real SIGINT to this thread: it wakes the wait (``interrupt_main`` would not)
+                threading.Timer(0.1, signal.pthread_kill, (threading.get_ident(), signal.SIGINT)).start()
+
+        try:
+            with pytest.raises(KeyboardInterrupt):
+                run_sweep(slow, scheduler=client, progress=stop)
+            time.sleep(0.6)                      # a failing clean-up runs once the loop is free
+        finally:
+            for logger in loggers:
+                logger.removeHandler(keep)
+        assert set(run_sweep(fold_sweep(), scheduler=client, progress=False)["status"]) == {"ok"}
+    assert logged == []
 
 
 def test_a_killed_workers_points_run_elsewhere_and_every_point_is_in_the_output_once(tmp_path, shared_cluster):
