@@ -218,6 +218,10 @@ class Store:
                 df.to_csv(tmp, index=False)
             os.replace(tmp, output)
         except OSError as err:
+            tmp.unlink(missing_ok=True)
             raise SweepError(f"cannot write {str(output)!r}: {err.strerror}") from None
+        except BaseException:          # interrupted while writing: no half-written file is left
+            tmp.unlink(missing_ok=True)
+            raise
         journal.unlink(missing_ok=True)
         return df

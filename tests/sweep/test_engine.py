@@ -220,6 +220,26 @@ def test_resume_drops_a_line_cut_short_and_refuses_another_sweeps_output(tmp_pat
     assert more.attrs == {"ran": 1, "kept": 4}
 
 
+def test_a_ctrl_c_while_the_table_is_written_leaves_the_journal_and_no_half_written_file(tmp_path, monkeypatch):
+    """The table is written to a temporary file and renamed: interrupted while writing, no
+    output and no temporary file are left, and the journal still holds every point."""
+    import pandas as pd
+
+    out = tmp_path / "r.parquet"
+    sweep = fold_sweep(vary={"inputs.f1.gain": [8.0, 9.0]})
+    real = pd.DataFrame.to_parquet
+
+    def cut_short(self, path, *args, **kwargs):
+        Path(path).write_bytes(b"PAR1")              # a start of the file, then the Ctrl-C
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(pd.DataFrame, "to_parquet", cut_short)
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(sweep, output=out, workers=0, progress=False)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.parquet.partial.jsonl"]
+    monkeypatch.setattr(pd.DataFrame, "to_parquet", real)
+    assert run_sweep(sweep, output=out, resume=True, workers=0, progress=False).attrs == {"ran": 0, "kept": 2}
+
 
 @pytest.fixture(scope="module")
 def shared_cluster():
