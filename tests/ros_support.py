@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 
 import pytest
 
-from tests.process_groups import exited, kill_group, wait_group
+from tests.process_groups import exited, kill_group, wait_exited, wait_group
 
 if TYPE_CHECKING:
     from rclpy.context import Context
@@ -29,6 +29,8 @@ if TYPE_CHECKING:
     from rclpy.node import Node
 
 TENSEGRITY = str(Path(sys.executable).with_name("tensegrity"))
+#: Seconds a test's process is given to end on SIGINT at the test's end before it is killed.
+END_GRACE_S = 15.0
 
 
 @pytest.fixture
@@ -245,7 +247,24 @@ def cli(tmp_path):
         return proc
 
     yield start
+    end_all(procs)
+
+
+def end_all(procs: list[Proc]) -> None:
+    """End a test's processes as a user does, with SIGINT (sent to all, then waited for), and
+    kill what is left after :data:`END_GRACE_S`. A node that ends so destroys its DDS
+    participant, which tells the domain at once; a SIGKILLed one stays in the graph for its
+    participant's lease (~20 s), and the module's next test, in the same domain, met it: a
+    new ``ActionClient`` found the dead simulator's action server ready, its goal went to
+    the dead server alone, and no answer came in 30 s."""
     for p in procs:
+        if not exited(p.popen):
+            p.popen.send_signal(signal.SIGINT)
+    for p in procs:
+        try:
+            wait_exited(p.popen, END_GRACE_S)
+        except subprocess.TimeoutExpired:
+            pass
         p.kill()
 
 

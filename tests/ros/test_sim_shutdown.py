@@ -90,3 +90,32 @@ def test_every_state_published_before_sigint_is_delivered(cli, ros_context):
     node.destroy_node()
     got = delivered()
     assert got == published, {k: (got[k], published[k]) for k in published if got[k] != published[k]}
+
+
+def test_a_test_ends_its_simulator_so_that_it_leaves_the_graph_at_once(cli, ros_context):
+    """What the suite's ``cli`` fixture does at a test's end (:func:`tests.ros_support.end_all`,
+    SIGINT) takes the simulator out of the ROS graph at once: a client made after it does not
+    find its action server, well within the participant's lease (~20 s), for which a SIGKILLed
+    simulator stays in the graph, its action server ready to every new client of the domain
+    (the module's next test sent its goal to a dead server and waited in vain)."""
+    import rclpy
+    from rclpy.action import ActionClient
+    from simulation_interfaces.action import SimulateSteps
+
+    from tensegrity_ros.rclpy_utils.matching import wait_for_action_server
+    from tests.ros_support import end_all
+
+    namespace = f"/sim_leaves_{os.getpid()}"
+    sim = cli("node", "sim", "--ros-args", "-p", "initial_state:=paused", "-r", f"__ns:={namespace}", log_name="sim")
+    sim.wait_for("publishing at")
+    node = rclpy.create_node("graph_watch", namespace=namespace, context=ros_context)
+    assert wait_for_action_server(node, ActionClient(node, SimulateSteps, "simulate_steps"), 60)
+    end_all([sim])
+    assert sim.popen.returncode == 0, sim.stderr()
+    deadline = time.monotonic() + 10            # half the lease: a killed simulator is still there then
+    while node.get_publishers_info_by_topic(f"{namespace}/simulate_steps/_action/status"):
+        assert time.monotonic() < deadline, "the ended simulator is still in the graph after 10 s"
+        time.sleep(0.05)
+    fresh = ActionClient(node, SimulateSteps, "simulate_steps")
+    time.sleep(0.5)                             # what discovery still had to say has been said
+    assert not fresh.server_is_ready()
