@@ -48,3 +48,18 @@ class ConvergenceError(TensegrityError, RuntimeError):
     def __init__(self, message: str, *, result: object = None):
         super().__init__(message)
         self.result = result
+
+
+def interrupted(err: BaseException | None) -> bool:
+    """Whether a Ctrl-C (``KeyboardInterrupt``) is in the chain of ``err`` (its causes, or
+    else its contexts): an interrupt that a library turned into an error of its own, which
+    must end the work as the Ctrl-C it was, not be reported as a failure. pybind11 modules
+    (matplotlib's, MuJoCo's) raise ``ImportError("initialization failed")`` from the
+    ``KeyboardInterrupt`` of a Ctrl-C that lands while they are imported."""
+    seen: set[int] = set()
+    while err is not None and id(err) not in seen:
+        if isinstance(err, KeyboardInterrupt):
+            return True
+        seen.add(id(err))
+        err = err.__cause__ or err.__context__
+    return False

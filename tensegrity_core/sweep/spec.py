@@ -37,7 +37,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Final, cast
 
-from tensegrity_core.errors import TensegrityError
+from tensegrity_core.errors import TensegrityError, interrupted
 from tensegrity_core.schema import (
     KeyPath,
     KeyPathError,
@@ -167,6 +167,8 @@ def prepare(sweep: Sweep) -> Plan:
             try:
                 probes[full] = comp.probe(sweep.base.document, sweep.options, full=full)
             except Exception as err:  # noqa: BLE001 - the base itself cannot be computed; say why
+                if interrupted(err):
+                    raise KeyboardInterrupt from err
                 raise SweepError(f"the base {sweep.base.kind} {sweep.base.source!r} cannot be computed "
                                  f"(needed for the results' columns or reference): {err}",
                                  key=("base",), file=sweep.source and Path(sweep.source).name) from None

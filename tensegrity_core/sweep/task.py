@@ -29,7 +29,7 @@ from collections.abc import Sequence
 from enum import StrEnum
 from typing import TYPE_CHECKING, Any
 
-from tensegrity_core.errors import TensegrityError
+from tensegrity_core.errors import TensegrityError, interrupted
 from tensegrity_core.sweep.computations import COMPUTATIONS
 from tensegrity_core.sweep.points import Point, apply
 
@@ -108,6 +108,8 @@ def run_point(plan: Plan, point: Point) -> Row:
     except TensegrityError as err:
         status, message = RowStatus.FAILED, str(err)
     except Exception as err:  # noqa: BLE001 - a point's failure is its row, never the sweep's end
+        if interrupted(err):
+            raise KeyboardInterrupt from err
         status, message = RowStatus.ERROR, f"{type(err).__name__}: {err}"
     row.update(values)
     row.update(status=status, message=message, run_time=time.perf_counter() - t0)
@@ -122,8 +124,9 @@ def load_modules(plan: Plan) -> None:
     for name in COMPUTATIONS[plan.computation].modules:
         try:
             importlib.import_module(name)
-        except Exception:  # noqa: BLE001 - reported by every point's row, not here
-            pass
+        except Exception as err:  # noqa: BLE001 - reported by every point's row, not here
+            if interrupted(err):
+                raise KeyboardInterrupt from err
 
 
 def run_batch(plan: Plan, points: Sequence[Point]) -> list[Row]:

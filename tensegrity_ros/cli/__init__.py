@@ -32,6 +32,7 @@ from collections.abc import Iterable
 from types import ModuleType
 from typing import Any
 
+from tensegrity_core.errors import interrupted
 from tensegrity_ros.cli._common import CliError, fail
 from tensegrity_ros.rclpy_utils import stop_signals
 
@@ -157,6 +158,8 @@ def _run(args: argparse.Namespace) -> int:
             check_ros_args(args.ros_args)
         return int(args.func(args) or 0)
     except CliError as err:
+        if interrupted(err):           # a Ctrl-C that a library turned into an error
+            return 130
         return fail(str(err), err.code)
     except RosUnavailableError as err:
         return fail(str(err), 3)

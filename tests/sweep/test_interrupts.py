@@ -1,6 +1,7 @@
 """Ctrl-C held back around a blocking call: delivered once the block ends, to the handler
 that was in place, and only in the main thread. Real signals to this thread (``pthread_kill``),
-as a terminal's Ctrl-C is."""
+as a terminal's Ctrl-C is. And a Ctrl-C that a library turned into an error of its own is
+still a Ctrl-C: it ends the sweep, it is never a failure or a row."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import threading
 
 import pytest
 
+from tensegrity_core.errors import interrupted
 from tensegrity_core.sweep.interrupts import sigint_deferred
 
 pytestmark = pytest.mark.skipif(threading.current_thread() is not threading.main_thread(),
@@ -71,3 +73,75 @@ def test_outside_the_main_thread_nothing_changes():
     thread.start()
     thread.join()
     assert seen == [signal.default_int_handler]
+
+
+def pybind11_import_interrupted(*_args, **_kwargs):
+    """What a pybind11 module (matplotlib's, MuJoCo's) raises when a Ctrl-C lands while it is
+    imported: ``ImportError("initialization failed")`` from the ``KeyboardInterrupt``
+    (pybind11's ``PYBIND11_MODULE``; seen as a sweep's "base cannot be computed" error)."""
+    try:
+        raise KeyboardInterrupt
+    except KeyboardInterrupt as ctrl_c:
+        raise ImportError("initialization failed") from ctrl_c
+
+
+def test_a_ctrl_c_is_found_through_causes_and_contexts():
+    with pytest.raises(ImportError) as caught:
+        pybind11_import_interrupted()
+    assert interrupted(caught.value)
+    try:
+        try:
+            pybind11_import_interrupted()
+        except ImportError:
+            raise ValueError("reworded") from None     # cause suppressed: the context still holds it
+    except ValueError as err:
+        assert interrupted(err)
+    assert not interrupted(ValueError("a plain failure")) and not interrupted(None)
+    assert interrupted(KeyboardInterrupt())
+
+
+@pytest.mark.parametrize("where", ["probe", "run"])
+def test_a_ctrl_c_turned_into_an_import_error_ends_the_sweep_as_a_ctrl_c(tmp_path, monkeypatch, capsys, where):
+    """While the base is computed (``probe``) the command ends with exit code 130 and its one
+    interrupted line, not a "base cannot be computed" error; while a point runs in this
+    process (``--workers 0``) the sweep ends there, and the point is not an error row."""
+    import json
+
+    from tensegrity_core.sweep import run_sweep
+    from tensegrity_core.sweep.computations.simulate import Simulate
+    from tensegrity_ros.cli import main
+    from tests.sweep.conftest import fold_sweep
+
+    sweep = tmp_path / "s.json"
+    sweep.write_text(json.dumps(fold_sweep()))
+    monkeypatch.setattr(Simulate, where, pybind11_import_interrupted)
+    if where == "run":
+        with pytest.raises(KeyboardInterrupt):
+            run_sweep(str(sweep), workers=0, progress=False)
+    code = main(["sweep", str(sweep), "-o", str(tmp_path / "r.parquet"), "--workers", "0", "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 130, err
+    assert err.strip().splitlines() == ["interrupted before the first point finished: nothing written"]
+
+
+def test_any_command_whose_error_comes_from_a_ctrl_c_exits_as_interrupted(capsys):
+    """The command line's net for every command: an error whose chain holds a Ctrl-C ends
+    with exit code 130 and says nothing more (the error's text would blame the input)."""
+    import argparse
+
+    from tensegrity_ros.cli import _run
+    from tensegrity_ros.cli._common import CliError
+
+    def command(_args):
+        try:
+            pybind11_import_interrupted()
+        except ImportError as err:
+            raise CliError(f"cannot load the plugin: {err}") from None
+
+    def failing(_args):
+        raise CliError("cannot load the plugin: no such file")
+
+    assert _run(argparse.Namespace(func=command, ros_args=[])) == 130
+    assert capsys.readouterr().err == ""
+    assert _run(argparse.Namespace(func=failing, ros_args=[])) == 2
+    assert capsys.readouterr().err.strip() == "error: cannot load the plugin: no such file"
