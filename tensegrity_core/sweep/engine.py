@@ -39,9 +39,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Final, Literal
 
 from tensegrity_core.excerpt import LIBRARY_MESSAGE, clip
+from tensegrity_core.interrupts import sigint_deferred, sigint_ignored, start_without_sigint
 from tensegrity_core.sweep.connect import client_of
 from tensegrity_core.sweep.errors import SweepError, require
-from tensegrity_core.sweep.interrupts import sigint_deferred, sigint_ignored, start_without_sigint
 from tensegrity_core.sweep.points import Point
 from tensegrity_core.sweep.scheduling import BatchPlanner, InFlight, spread_order
 from tensegrity_core.sweep.spec import Plan, Sweep, SweepSource, load_sweep, prepare
@@ -103,7 +103,7 @@ def start_local_cluster(workers: int) -> LocalCluster:
     to reuse one cluster for several sweeps.
 
     It is started from a thread of its own that blocks SIGINT
-    (:func:`~tensegrity_core.sweep.interrupts.start_without_sigint`):
+    (:func:`~tensegrity_core.interrupts.start_without_sigint`):
     the cluster's threads and worker processes inherit the block. Ctrl-C in a terminal signals
     the whole foreground process group: a worker still importing Dask (before its preload
     ignores SIGINT) printed a ``KeyboardInterrupt`` traceback, and the ``KeyboardInterrupt``

@@ -392,7 +392,12 @@ def _echo(args: argparse.Namespace) -> int:
 
         from rclpy.qos import qos_profile_sensor_data
 
-        node.create_subscription(cls, topic, show, qos_profile_sensor_data)
+        from tensegrity_core.interrupts import sigint_deferred
+
+        # not interrupted half-way: rclpy lists the subscription and then its event handlers,
+        # and destroy_node below fails on a subscription listed without them
+        with sigint_deferred(sigterm=True):
+            node.create_subscription(cls, topic, show, qos_profile_sensor_data)
         while not args.count or len(received) < args.count:
             if time.monotonic() > deadline:
                 break

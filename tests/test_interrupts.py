@@ -1,7 +1,7 @@
-"""Ctrl-C held back around a blocking call: delivered once the block ends, to the handler
+"""Ctrl-C held back around a library call: delivered once the block ends, to the handler
 that was in place, and only in the main thread. Real signals to this thread (``pthread_kill``),
 as a terminal's Ctrl-C is. And a Ctrl-C that a library turned into an error of its own is
-still a Ctrl-C: it ends the sweep, it is never a failure or a row."""
+still found, so that it ends the work as a Ctrl-C."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import threading
 import pytest
 
 from tensegrity_core.errors import interrupted
-from tensegrity_core.sweep.interrupts import sigint_deferred
+from tensegrity_core.interrupts import sigint_deferred
 
 pytestmark = pytest.mark.skipif(threading.current_thread() is not threading.main_thread(),
                                 reason="signal handlers are set from the main thread only")
@@ -100,30 +100,6 @@ def test_a_ctrl_c_is_found_through_causes_and_contexts():
     assert interrupted(KeyboardInterrupt())
 
 
-@pytest.mark.parametrize("where", ["probe", "run"])
-def test_a_ctrl_c_turned_into_an_import_error_ends_the_sweep_as_a_ctrl_c(tmp_path, monkeypatch, capsys, where):
-    """While the base is computed (``probe``) the command ends with exit code 130 and its one
-    interrupted line, not a "base cannot be computed" error; while a point runs in this
-    process (``--workers 0``) the sweep ends there, and the point is not an error row."""
-    import json
-
-    from tensegrity_core.sweep import run_sweep
-    from tensegrity_core.sweep.computations.simulate import Simulate
-    from tensegrity_ros.cli import main
-    from tests.sweep.conftest import fold_sweep
-
-    sweep = tmp_path / "s.json"
-    sweep.write_text(json.dumps(fold_sweep()))
-    monkeypatch.setattr(Simulate, where, pybind11_import_interrupted)
-    if where == "run":
-        with pytest.raises(KeyboardInterrupt):
-            run_sweep(str(sweep), workers=0, progress=False)
-    code = main(["sweep", str(sweep), "-o", str(tmp_path / "r.parquet"), "--workers", "0", "--quiet"])
-    err = capsys.readouterr().err
-    assert code == 130, err
-    assert err.strip().splitlines() == ["interrupted before the first point finished: nothing written"]
-
-
 def test_any_command_whose_error_comes_from_a_ctrl_c_exits_as_interrupted(capsys):
     """The command line's net for every command: an error whose chain holds a Ctrl-C ends
     with exit code 130 and says nothing more (the error's text would blame the input)."""
@@ -145,3 +121,19 @@ def test_any_command_whose_error_comes_from_a_ctrl_c_exits_as_interrupted(capsys
     assert capsys.readouterr().err == ""
     assert _run(argparse.Namespace(func=failing, ros_args=[])) == 2
     assert capsys.readouterr().err.strip() == "error: cannot load the plugin: no such file"
+
+
+def test_with_sigterm_a_sigterm_taken_as_ctrl_c_is_held_too():
+    """The ROS client commands take SIGTERM as Ctrl-C (``KeyboardInterrupt``)."""
+    previous = signal.signal(signal.SIGTERM, signal.default_int_handler)
+    try:
+        reached = []
+        with pytest.raises(KeyboardInterrupt):
+            with sigint_deferred(sigterm=True):
+                signal.pthread_kill(threading.get_ident(), signal.SIGTERM)
+                reached.append("after the signal")
+        assert reached == ["after the signal"]
+        assert signal.getsignal(signal.SIGTERM) is signal.default_int_handler
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGTERM, previous)

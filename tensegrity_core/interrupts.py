@@ -1,15 +1,19 @@
-"""Ctrl-C (SIGINT) around Dask: where it may interrupt, where it waits, where it is ignored.
+"""Ctrl-C (SIGINT) around library calls: where it may interrupt, where it waits, where it
+is ignored.
 
-A sweep stops on Ctrl-C with one line, whatever it is doing at that moment. Three places
-need care, each for a reason in distributed itself:
+A ``KeyboardInterrupt`` is raised wherever the main thread happens to be, and some library
+code does not survive one in its middle:
 
-- a cluster being started (:func:`start_without_sigint`): an interrupt inside the start
-  leaves it half started, which Dask's exit handler then fails to close;
+- a Dask cluster being started (:func:`start_without_sigint`): an interrupt inside the
+  start leaves it half started, which Dask's exit handler then fails to close;
 - a blocking call of a ``distributed.Client`` (:func:`sigint_deferred`): ``Client.sync``
   waits for a coroutine on the client's event loop, and a ``KeyboardInterrupt`` that lands in
   that wait before the loop has started the coroutine makes its clean-up fail on the loop
   (distributed 2026.11: ``NameError: cannot access free variable 'future'``, logged on the
-  terminal with its traceback). The interrupt is held until the call returns, then raised;
+  terminal with its traceback);
+- rclpy's ``Node.create_subscription`` (:func:`sigint_deferred`): it lists the subscription,
+  then its event handlers; interrupted in between, ``destroy_node`` then fails (``ValueError:
+  list.remove(x): x not in list``, rclpy 7.1), a traceback where a command ends;
 - closing a client or a cluster (:func:`sigint_ignored`): a close cut short leaves nannies
   running, which Dask's exit handler then fails to close.
 
@@ -47,22 +51,26 @@ def sigint_ignored() -> Generator[None, None, None]:
 
 
 @contextlib.contextmanager
-def sigint_deferred() -> Generator[None, None, None]:
-    """A SIGINT that arrives in the block is held until the block ends, then delivered to the
-    handler that was in place (Python's: ``KeyboardInterrupt`` raised where the block ends).
-    For blocking calls that finish in a round trip or two; a long wait would make Ctrl-C wait
-    with it. Nothing changes where SIGINT is ignored or outside the main thread."""
-    if not _in_main_thread() or signal.getsignal(signal.SIGINT) in (signal.SIG_IGN, None):
+def sigint_deferred(*, sigterm: bool = False) -> Generator[None, None, None]:
+    """A SIGINT (and with ``sigterm`` a SIGTERM, where a command takes it as Ctrl-C) that
+    arrives in the block is held until the block ends, then delivered to the handler that
+    was in place (Python's: ``KeyboardInterrupt`` raised where the block ends). For calls
+    that finish in a round trip or two; a long wait would make Ctrl-C wait with it. A signal
+    ignored, or handled outside Python, is left alone; outside the main thread nothing changes."""
+    signums = (signal.SIGINT, signal.SIGTERM) if sigterm else (signal.SIGINT,)
+    held = [s for s in signums if signal.getsignal(s) not in (signal.SIG_IGN, signal.SIG_DFL, None)]
+    if not _in_main_thread() or not held:
         yield
         return
     arrived: list[int] = []
-    previous = signal.signal(signal.SIGINT, lambda signum, _frame: arrived.append(signum))
+    previous = {s: signal.signal(s, lambda signum, _frame: arrived.append(signum)) for s in held}
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for s, handler in previous.items():
+            signal.signal(s, handler)
         if arrived:
-            signal.raise_signal(signal.SIGINT)   # the restored handler runs now, in this thread
+            signal.raise_signal(arrived[0])   # the restored handler runs now, in this thread
 
 
 def start_without_sigint(start: Callable[[], _T], close: Callable[[_T], object]) -> _T:
