@@ -126,10 +126,14 @@ class RunWatcher:
         from sensor_msgs.msg import JointState
         from tensegrity_msgs.msg import CapContacts, RigidBodyStates
 
+        from tensegrity_core.interrupts import sigint_deferred
+
         qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1000)   # a loaded client falls behind, loses nothing
-        self.samples = [self.node.create_subscription(RigidBodyStates, "body_states", self._on_bodies, qos),
-                        self.node.create_subscription(CapContacts, "contacts", self._on_contacts, qos),
-                        self.node.create_subscription(JointState, "joint_states", self._on_joints, qos)]
+        # never interrupted half-way (see tensegrity_core.interrupts: rclpy's create_subscription)
+        with sigint_deferred(sigterm=True):
+            self.samples = [self.node.create_subscription(RigidBodyStates, "body_states", self._on_bodies, qos),
+                            self.node.create_subscription(CapContacts, "contacts", self._on_contacts, qos),
+                            self.node.create_subscription(JointState, "joint_states", self._on_joints, qos)]
         return self.samples
 
     @staticmethod

@@ -394,8 +394,7 @@ def _echo(args: argparse.Namespace) -> int:
 
         from tensegrity_core.interrupts import sigint_deferred
 
-        # not interrupted half-way: rclpy lists the subscription and then its event handlers,
-        # and destroy_node below fails on a subscription listed without them
+        # never interrupted half-way (see tensegrity_core.interrupts: rclpy's create_subscription)
         with sigint_deferred(sigterm=True):
             node.create_subscription(cls, topic, show, qos_profile_sensor_data)
         while not args.count or len(received) < args.count:

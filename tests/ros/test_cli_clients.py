@@ -153,6 +153,36 @@ def test_echo_says_what_it_waits_for_and_stops_cleanly_on_a_signal(tmp_path, ros
     assert "Traceback" not in log.read_text() and proc.stdout.read() == b""
 
 
+def test_echo_interrupted_while_it_subscribes_ends_cleanly(ros_context, monkeypatch):
+    """A Ctrl-C that lands inside rclpy's ``create_subscription``, after the subscription is
+    listed and before its event handlers are (rclpy wakes the executors in between: the
+    signal is sent from there), ends echo with exit code 0 and no traceback. Delivered at
+    once, it left the node's lists apart and ``destroy_node`` raised ``ValueError`` (exit
+    code 1; 1 of 45 loaded runs of the signal test above)."""
+    import threading
+
+    from rclpy.node import Node
+    from std_msgs.msg import String
+
+    peer = rclpy_node(ros_context, "echo_interrupt_peer")
+    peer.create_publisher(String, "interrupted_topic", 10)
+    wake = Node._wake_executor
+    sent = []
+
+    def wake_and_interrupt(self):
+        if not sent and self.get_name() == "tensegrity_echo" and any(
+                sub.topic_name == "/interrupted_topic" for sub in self.subscriptions):
+            sent.append(1)
+            signal.pthread_kill(threading.get_ident(), signal.SIGINT)
+        return wake(self)
+
+    monkeypatch.setattr(Node, "_wake_executor", wake_and_interrupt)
+    out = run_cli_here("echo", "interrupted_topic", "--timeout", "60")
+    assert sent, "echo never subscribed"
+    assert out.returncode == 0 and out.stdout == "", out.stderr
+    peer.destroy_node()
+
+
 def test_send_forces_at_a_rate_stops_cleanly_on_sigterm(tmp_path, ros_context):
     from rclpy.qos import QoSProfile
     from tensegrity_msgs.msg import ActuatorForces
