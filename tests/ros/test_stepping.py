@@ -306,9 +306,21 @@ def test_cancelling_simulate_steps_stops_at_a_step_boundary(stepping, ros_contex
     assert wait_for_action_server(node, action, 30)
     assert wait_until_server_heard(node, "simulate_steps", lambda f, t: spin_until_done(ex, f, t), 30)
     feedback = []
-    goal_future = action.send_goal_async(SimulateSteps.Goal(steps=1_000_000),
-                                         feedback_callback=lambda m: feedback.append(m.feedback))
-    assert spin_until_done(ex, goal_future, 30), proc.stderr()
+
+    def send_goal():
+        return action.send_goal_async(SimulateSteps.Goal(steps=1_000_000),
+                                      feedback_callback=lambda m: feedback.append(m.feedback))
+
+    goal_future = send_goal()
+    if not spin_until_done(ex, goal_future, 15):
+        # Seen twice in 7 loaded fresh-clone runs, always this first case after the lockstep
+        # rejection test, cause not found: no answer although the server was proven to have
+        # heard this client. A simulator that took the goal runs it and its steps come on
+        # /clock; none came, so the request never reached it, and it is sent once more.
+        spin(0.5)
+        assert not clock, f"the simulator runs the goal but its answer never came; its log:\n{proc.stderr()}"
+        goal_future = send_goal()
+        assert spin_until_done(ex, goal_future, 30), proc.stderr()
     handle = goal_future.result()
     assert handle.accepted
     deadline = time.monotonic() + 60
